@@ -1,0 +1,43 @@
+// Request schemas: JSON (from HTTP bodies and the CLI's --weights) to core inputs.
+// Parsing never throws; every error names the offending field as a JSON Pointer.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "facespace/core/blend.h"
+#include "facespace/core/io.h"
+#include "facespace/core/status.h"
+#include "facespace/core/weights.h"
+
+namespace facespace::api {
+
+// Parses a weight vector given as JSON text: a dense array in shape order ([0.5, 0, 1]) or a
+// map by shape name or index ({"jawOpen": 0.5, "3": 1}). `pointer` prefixes field pointers.
+Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const std::string& pointer = "");
+
+struct MeshRequest {
+  std::vector<WeightEntry> weights;
+  BlendOptions options;
+  std::optional<MeshFormat> format;  // Absent: decided by Accept, else JSON.
+  bool strict = false;               // Warnings become a 422.
+  bool keep_targets = false;         // glb: the rig with these weights as defaults.
+};
+
+// Body of POST /v1/rigs/{id}/mesh and /check:
+// {"weights": {...}|[...], "mode": "relative"|"absolute", "normals": "blend"|"recompute",
+//  "format": "glb"|"obj"|"json"|"f32", "strict": bool, "keep_targets": bool}
+// Malformed JSON is InvalidArgument with pointer "" and message starting "malformed JSON";
+// schema errors name their field.
+Result<MeshRequest> ParseMeshRequest(std::string_view body);
+
+// True when a Status from ParseMeshRequest means the body was not JSON at all (HTTP 400),
+// rather than JSON that breaks the schema (HTTP 422).
+bool IsMalformedJson(const Status& status);
+
+bool ParseBlendMode(std::string_view s, BlendMode* mode);
+bool ParseNormalMode(std::string_view s, NormalMode* mode);
+
+}  // namespace facespace::api

@@ -1,0 +1,87 @@
+// Blending: base + sum_j w_j * d_j over sparse targets, and the whole-rig evaluation that
+// also keeps normals and tangents fresh.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace {
+
+// Which attribute of a SparseTarget a BlendShapeJob reads.
+enum class TargetChannel { kPosition, kNormal, kTangent };
+
+// Writes base + sum_t weights[t] * target[t].delta into out (xyz per vertex).
+// Owns no buffer, never allocates. Targets with weight exactly 0 cost nothing.
+struct BlendShapeJob {
+  bool Validate() const;  // False if a span is too short, weights.size() != targets.size(),
+                          // a target lacks the channel while its weight is non-zero, or a
+                          // target index is beyond the vertex count.
+  bool Run() const;       // Calls Validate(); on false, out is left untouched.
+
+  std::span<const float> base;             // 3 floats per vertex.
+  std::span<const float> weights;          // One per target. Any finite value; not clamped.
+  std::span<const SparseTarget> targets;   // Finalized (runs built).
+  TargetChannel channel = TargetChannel::kPosition;
+  size_t stride = 3;                       // Floats between vertices in base and out (3 or 4).
+  std::span<float> out;                    // Same size as base. May alias base.
+};
+
+enum class BlendMode {
+  kRelative,  // p = base + sum w_j (S_j - base): the glTF convention.
+  kAbsolute,  // p = (1 - sum w) base + sum w_j S_j: weights are barycentric and should sum to 1.
+};
+
+enum class NormalMode {
+  kBlend,      // Blend the shapes' normal deltas and renormalise. A primitive where an active
+               // target has no normal deltas is recomputed instead: never stale.
+  kRecompute,  // Recompute from the blended positions over the faces the active shapes touch.
+};
+
+struct BlendOptions {
+  BlendMode mode = BlendMode::kRelative;
+  NormalMode normals = NormalMode::kBlend;
+};
+
+struct BlendedPrimitive {
+  std::vector<float> positions;  // xyz per vertex, mesh space.
+  std::vector<float> normals;    // xyz per vertex, unit length.
+  std::vector<float> tangents;   // xyzw per vertex, or empty when the rig has none.
+};
+
+struct BlendedRig {
+  std::vector<BlendedPrimitive> primitives;  // Same order as Rig::primitives.
+};
+
+// Per-evaluation scratch, owned by the caller and reused between calls so that steady-state
+// evaluation does not allocate.
+struct BlendContext {
+  std::vector<float> target_weights;  // Per target of the current mesh.
+  std::vector<uint8_t> vertex_mark;   // Per vertex of the largest primitive.
+  std::vector<uint32_t> moved;        // Vertices moved by the active targets.
+  std::vector<uint32_t> affected;     // Vertices whose normals are recomputed.
+};
+
+// Evaluates the rig at `weights` (one per shape, Rig::shapes order). The weights must have
+// been checked (finite, right count): returns InvalidArgument otherwise and writes nothing.
+// In absolute mode the point is (1 - sum w) base + sum w_j S_j, which is the same vector
+// as the relative formula; only the warnings differ (see CheckWeights).
+Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOptions& options,
+                   BlendedRig& out, BlendContext& context);
+
+// Recomputes normals of the vertices around `moved` (vertex indices) from `positions`:
+// n = normalize(n_base + N(positions) - N(base positions)) where N is the area-weighted
+// smooth normal, so unmoved regions keep their authored normals exactly.
+void RecomputeNormalsAround(const Primitive& primitive, std::span<const float> positions,
+                            std::span<const uint32_t> moved, std::span<float> out_normals,
+                            BlendContext& context);
+
+// Smooth area-weighted vertex normals of a triangle list (unit length; +Z for isolated
+// vertices). out has 3 floats per vertex.
+void ComputeSmoothNormals(std::span<const float> positions, std::span<const uint32_t> triangles,
+                          std::span<float> out);
+
+}  // namespace facespace

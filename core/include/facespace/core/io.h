@@ -1,0 +1,73 @@
+// Reading rigs (glTF 2.0, OBJ sequences, manifests) and writing blended meshes
+// (glb, OBJ, JSON, raw float32). glTF and JSON libraries stay inside the .cpp files.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/core/blend.h"
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace {
+
+struct LoadOptions {
+  // Let a .gltf read external buffers and images beside it. Off for uploaded bytes, so a
+  // request can never make us read our own disk.
+  bool allow_external_files = true;
+  // Apply "<stem>.manifest.json" found beside a file (see README "Manifest").
+  bool read_manifest = true;
+};
+
+// Loads a .glb or .gltf file (format from the content, not the name).
+Result<Rig> LoadGltfFile(const std::string& path, const LoadOptions& options = {});
+
+// Loads glb bytes, or glTF JSON with embedded (data URI) buffers. `base_dir` is used for
+// external references only when options.allow_external_files is set.
+Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::string& base_dir,
+                           const LoadOptions& options);
+
+// A sequence of OBJ files as absolute shapes: the first is the base, each other one a shape
+// named after its file stem. Connectivity must be identical; the first differing face is
+// reported. Shapes are stored relative (S_j - base), exact zeros elided.
+Result<Rig> LoadObjSequence(std::span<const std::string> paths);
+
+// Loads a rig from a path: .glb/.gltf, or .obj (a single OBJ is a rig without shapes).
+Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
+
+// Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
+Status ApplyManifest(Rig& rig, const std::string& json_text);
+
+enum class MeshFormat { kGlb, kObj, kJson, kF32 };
+
+// "glb", "obj", "json", "f32" -> format; false when unknown.
+bool ParseMeshFormat(const std::string& name, MeshFormat* format);
+const char* MeshFormatName(MeshFormat format);
+const char* MeshFormatMimeType(MeshFormat format);
+
+struct ExportOptions {
+  // glb only: write the rig itself (base shape and sparse targets) with the weights as the
+  // mesh's default `weights`, instead of the blended mesh, for clients that morph on the GPU.
+  bool keep_targets = false;
+  // Extra key/values for glb's asset.extras (e.g. {"warnings": [...]}) as JSON text; "" none.
+  std::string asset_extras_json;
+};
+
+// Writes the evaluated rig. `weights` and `warnings` are recorded where the format has room
+// (JSON body, glb asset.extras / mesh weights). Deterministic: same input, same bytes.
+//   JSON: {"primitives": [{"mesh", "primitive", "name", "positions", "normals"}], "warnings"}
+//         positions in each mesh's own space, primitives in glTF mesh/primitive order.
+//   OBJ:  one object per primitive, placed by its node's world transform, with vt/vn.
+//   f32:  little-endian float32: every primitive's world-space positions (xyz), then every
+//         primitive's normals (xyz), primitives in the JSON order.
+//   glb:  the node hierarchy, materials and textures, with the blended mesh (or the rig).
+Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended,
+                               std::span<const float> weights,
+                               std::span<const Warning> warnings, MeshFormat format,
+                               const ExportOptions& options = {});
+
+// JSON text of one warning list: [{"code", "message", "shape"?, "value"?}, ...].
+std::string WarningsToJson(std::span<const Warning> warnings);
+
+}  // namespace facespace

@@ -1,0 +1,153 @@
+// The rig: a base mesh (one or more primitives) and N named shapes stored as sparse
+// per-vertex displacements, plus what renders and exports need (nodes, materials, images).
+//
+// Layout (chosen with tests/bench/blend_bench.cpp, see README "Blend layout"): by shape.
+// Each shape keeps, per primitive it moves, the sorted indices of the vertices it moves and
+// their xyz deltas, plus the same indices grouped in runs of consecutive vertices, so the
+// blend kernel does one fused multiply-add stream per run. Exact zero deltas are elided.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "facespace/core/status.h"
+
+namespace facespace {
+
+// One shape's displacement of one primitive. Indices ascending and unique.
+struct SparseTarget {
+  std::vector<uint32_t> indices;         // Vertices moved, ascending.
+  std::vector<float> position_deltas;    // 3 per index: dx, dy, dz (mesh units).
+  std::vector<float> normal_deltas;      // 3 per index, or empty when the source has none.
+  std::vector<float> tangent_deltas;     // 3 per index, or empty when the source has none.
+  // Runs of consecutive indices: run r covers vertices [runs[2r], runs[2r] + runs[2r+1]),
+  // whose deltas follow each other in the arrays above. Built by FinalizeTarget().
+  std::vector<uint32_t> runs;
+};
+
+// Builds `runs` from `indices`. Call after filling a target.
+void FinalizeTarget(SparseTarget& target);
+
+enum class PrimitiveMode : int { kPoints = 0, kLines = 1, kTriangles = 4 };
+
+struct Primitive {
+  int mesh = 0;                    // Index of the glTF mesh this primitive belongs to.
+  int index_in_mesh = 0;           // Its index among that mesh's primitives.
+  PrimitiveMode mode = PrimitiveMode::kTriangles;
+  std::vector<float> positions;    // xyz per vertex, mesh space.
+  std::vector<float> normals;      // xyz per vertex (computed on load when the source has none).
+  bool source_has_normals = false;
+  std::vector<float> tangents;     // xyzw per vertex, or empty.
+  std::vector<float> texcoords;    // uv per vertex, or empty.
+  std::vector<float> colors;       // rgba per vertex, or empty.
+  std::vector<uint32_t> indices;   // Triangle list (3 per face) for kTriangles; else as mode.
+  int material = -1;               // Index into Rig::materials, or -1.
+  std::vector<SparseTarget> targets;  // One per morph target of the mesh, in glTF order.
+
+  // Derived on load (FinalizePrimitive): vertex -> incident faces (CSR), and the smooth
+  // area-weighted normals of the base positions (used by normal recomputation).
+  std::vector<uint32_t> vertex_face_offsets;  // vertex_count + 1 entries.
+  std::vector<uint32_t> vertex_faces;
+  std::vector<float> base_smooth_normals;
+
+  size_t vertex_count() const { return positions.size() / 3; }
+  size_t triangle_count() const {
+    return mode == PrimitiveMode::kTriangles ? indices.size() / 3 : 0;
+  }
+};
+
+// Fills the derived members of a primitive (adjacency, smooth normals, normals if missing,
+// target runs). Call once after import.
+void FinalizePrimitive(Primitive& primitive);
+
+struct Mesh {
+  std::string name;
+  std::vector<int> primitives;          // Indices into Rig::primitives.
+  std::vector<uint32_t> target_shapes;  // Morph target t of this mesh drives shape target_shapes[t].
+};
+
+struct Shape {
+  std::string name;
+  std::string group = "default";        // "identity", "expression", ... from the manifest.
+  float min = 0.0f;                     // Authored range; weights outside it warn.
+  float max = 1.0f;
+  float default_weight = 0.0f;          // From glTF mesh.weights or the manifest.
+  int partner = -1;                     // Symmetric (left/right) partner shape, or -1.
+  std::vector<std::string> aliases;     // Other names that address this shape.
+  size_t vertices_moved = 0;            // Over all primitives.
+};
+
+struct Node {
+  std::string name;
+  int parent = -1;
+  std::vector<int> children;
+  int mesh = -1;                        // Index into Rig::meshes, or -1.
+  bool has_matrix = false;
+  std::array<float, 16> matrix{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // Column-major.
+  std::array<float, 3> translation{0, 0, 0};
+  std::array<float, 4> rotation{0, 0, 0, 1};  // x, y, z, w.
+  std::array<float, 3> scale{1, 1, 1};
+};
+
+struct Image {
+  std::string name;
+  std::string mime_type;               // "image/png" or "image/jpeg": only these are kept.
+  std::vector<unsigned char> bytes;    // Encoded file contents.
+};
+
+struct Material {
+  std::string name;
+  std::array<float, 4> base_color_factor{1, 1, 1, 1};
+  int base_color_image = -1;           // Index into Rig::images, or -1.
+  int base_color_texcoord = 0;
+  float metallic_factor = 1.0f;
+  float roughness_factor = 1.0f;
+  bool double_sided = false;
+  std::string alpha_mode = "OPAQUE";
+  float alpha_cutoff = 0.5f;
+};
+
+struct Rig {
+  std::string name;
+  std::vector<Primitive> primitives;   // In glTF mesh order, then primitive order.
+  std::vector<Mesh> meshes;
+  std::vector<Shape> shapes;           // Named across the file; order of first appearance.
+  std::vector<Node> nodes;
+  std::vector<int> scene_roots;        // Root nodes of the default scene.
+  std::vector<Material> materials;
+  std::vector<Image> images;
+  std::vector<Warning> load_warnings;  // What the importer had to drop or fix.
+  size_t skin_count = 0;               // Skeletons present in the source (not yet evaluated).
+  size_t joint_count = 0;
+
+  size_t vertex_count() const;
+  size_t triangle_count() const;
+};
+
+// Index of the shape called `name` (or with that alias), or -1.
+int FindShape(const Rig& rig, const std::string& name);
+
+// The shape name closest to `name` by edit distance (case-insensitive), or "" for none.
+std::string ClosestShapeName(const Rig& rig, const std::string& name);
+
+// Pairs shapes whose names differ only by a left/right marker (_L/_R, Left/Right, .L/.R,
+// l-/r-, ...) as symmetric partners, unless a partner is already set.
+void DetectSymmetricPartners(Rig& rig);
+
+// Recounts Shape::vertices_moved from the targets.
+void CountMovedVertices(Rig& rig);
+
+// Column-major 4x4 world matrix of each node (parent before child).
+std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig);
+
+// For each primitive, the world matrix of the first node (in node order) that shows its
+// mesh; identity when no node does. Used by flat exports (OBJ, f32).
+std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig);
+
+// Checks internal consistency (index ranges, array sizes). Importers call it last, so a rig
+// that passes is safe to evaluate without further checks.
+Status ValidateRig(const Rig& rig);
+
+}  // namespace facespace

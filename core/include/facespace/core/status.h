@@ -1,0 +1,76 @@
+// Status and Result: the error type of every fallible operation in core.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace facespace {
+
+// Codes follow abseil's canonical set. Only api/ maps them to HTTP statuses.
+enum class StatusCode {
+  kOk,
+  kInvalidArgument,     // The caller's input is wrong (bad weight, unknown name, broken file).
+  kNotFound,            // A named thing does not exist (file, rig).
+  kFailedPrecondition,  // The input is well formed but cannot be used here.
+  kResourceExhausted,   // A configured limit was exceeded.
+  kDataLoss,            // A stored file is truncated or corrupt.
+  kInternal,            // A bug on our side.
+};
+
+const char* StatusCodeName(StatusCode code);
+
+// Points at one offending field of an input: a JSON Pointer ("/weights/jawOpen") or a
+// command-line flag ("--set"), with what is wrong with it.
+struct FieldError {
+  std::string pointer;
+  std::string message;
+};
+
+struct Status {
+  StatusCode code = StatusCode::kOk;
+  std::string message;            // One line, meant for people. Empty when ok.
+  std::vector<FieldError> fields;  // Offending fields, when the input is structured.
+
+  bool ok() const { return code == StatusCode::kOk; }
+  static Status Ok() { return {}; }
+};
+
+Status InvalidArgument(std::string message);
+Status NotFound(std::string message);
+Status DataLoss(std::string message);
+Status FailedPrecondition(std::string message);
+Status ResourceExhausted(std::string message);
+
+// A value or the Status that says why there is none.
+template <typename T>
+class Result {
+ public:
+  Result(T value) : value_(std::move(value)) {}  // NOLINT: implicit by design.
+  Result(Status status) : status_(std::move(status)) {}  // NOLINT: implicit by design.
+
+  bool ok() const { return value_.has_value(); }
+  const Status& status() const { return status_; }
+  T& value() & { return *value_; }
+  const T& value() const& { return *value_; }
+  T&& value() && { return std::move(*value_); }
+  T* operator->() { return &*value_; }
+  const T* operator->() const { return &*value_; }
+
+ private:
+  std::optional<T> value_;
+  Status status_;
+};
+
+// Structured warning: the result was computed, but a person should know this.
+// Codes are stable strings (snake_case) that clients may switch on.
+struct Warning {
+  std::string code;     // "extrapolation", "out_of_range", "negative_weight", "absolute_sum", ...
+  std::string message;  // One line for people.
+  std::string shape;    // The shape (or other named item) concerned; empty when none.
+  double value = 0.0;   // The number the warning is about (sum, weight); see has_value.
+  bool has_value = false;
+};
+
+}  // namespace facespace

@@ -1,0 +1,43 @@
+// Weight vectors: resolving names and indices, and the warnings about leaving the
+// authored part of shape space.
+#pragma once
+
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/core/blend.h"
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace {
+
+// One weight as a client gave it: by shape name (or alias) or by index.
+struct WeightEntry {
+  std::string name;     // Empty when given by index.
+  long long index = -1; // Used when name is empty.
+  double value = 0.0;
+  std::string pointer;  // Where it came from, for errors: "/weights/jawOpen", "--set", ...
+};
+
+// Dense weights in shape order; shapes not named are 0. Errors (nothing computed): unknown
+// name (the message lists valid names and suggests the closest), index out of range,
+// NaN or infinite value, a shape given twice. All errors are collected in Status::fields.
+Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const WeightEntry> entries);
+
+struct WeightReport {
+  double sum = 0.0;
+  std::vector<Warning> warnings;
+};
+
+// Warnings (the result is still computed):
+//   extrapolation   sum of weights > 1 (value = the sum)
+//   out_of_range    a weight outside its shape's [min, max] (shape and value)
+//   negative_weight a weight < 0 that its range allows (shape and value)
+//   absolute_sum    absolute mode and |sum - 1| > 1e-4 (value = the sum)
+WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendMode mode);
+
+// "1.7" rather than "1.70000005": the shortest text that reads back as the same float.
+std::string FormatNumber(double value);
+
+}  // namespace facespace

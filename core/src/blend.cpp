@@ -1,0 +1,259 @@
+#include "facespace/core/blend.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace facespace {
+
+namespace {
+
+const std::vector<float>& Deltas(const SparseTarget& t, TargetChannel c) {
+  switch (c) {
+    case TargetChannel::kNormal: return t.normal_deltas;
+    case TargetChannel::kTangent: return t.tangent_deltas;
+    case TargetChannel::kPosition: break;
+  }
+  return t.position_deltas;
+}
+
+inline void Normalize3(float* v) {
+  const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  if (len > 1e-30f) {
+    const float inv = 1.0f / len;
+    v[0] *= inv;
+    v[1] *= inv;
+    v[2] *= inv;
+  }
+}
+
+}  // namespace
+
+bool BlendShapeJob::Validate() const {
+  if (stride < 3 || base.size() != out.size() || base.size() % stride != 0) return false;
+  if (weights.size() != targets.size()) return false;
+  const size_t n = base.size() / stride;
+  for (size_t t = 0; t < targets.size(); ++t) {
+    if (weights[t] == 0.0f) continue;
+    const SparseTarget& st = targets[t];
+    if (Deltas(st, channel).size() != 3 * st.indices.size()) return false;
+    if (st.runs.size() % 2 != 0) return false;
+    size_t covered = 0;
+    for (size_t r = 0; r < st.runs.size(); r += 2) {
+      if (static_cast<size_t>(st.runs[r]) + st.runs[r + 1] > n) return false;
+      covered += st.runs[r + 1];
+    }
+    if (covered != st.indices.size()) return false;
+  }
+  return true;
+}
+
+bool BlendShapeJob::Run() const {
+  if (!Validate()) return false;
+  if (out.data() != base.data()) std::memcpy(out.data(), base.data(), base.size() * sizeof(float));
+  for (size_t t = 0; t < targets.size(); ++t) {
+    const float w = weights[t];
+    if (w == 0.0f) continue;
+    const SparseTarget& st = targets[t];
+    const float* d = Deltas(st, channel).data();
+    const uint32_t* run = st.runs.data();
+    const uint32_t* const run_end = run + st.runs.size();
+    if (stride == 3) {
+      // A run of consecutive vertices is one contiguous xyz stream: a plain axpy.
+      for (; run != run_end; run += 2) {
+        float* o = out.data() + 3 * static_cast<size_t>(run[0]);
+        const size_t m = 3 * static_cast<size_t>(run[1]);
+        for (size_t k = 0; k < m; ++k) o[k] += w * d[k];
+        d += m;
+      }
+    } else {
+      for (; run != run_end; run += 2) {
+        float* o = out.data() + stride * static_cast<size_t>(run[0]);
+        for (uint32_t k = 0; k < run[1]; ++k, o += stride, d += 3) {
+          o[0] += w * d[0];
+          o[1] += w * d[1];
+          o[2] += w * d[2];
+        }
+      }
+    }
+  }
+  return true;
+}
+
+void ComputeSmoothNormals(std::span<const float> positions, std::span<const uint32_t> triangles,
+                          std::span<float> out) {
+  std::fill(out.begin(), out.end(), 0.0f);
+  const size_t n = positions.size() / 3;
+  for (size_t f = 0; f + 2 < triangles.size(); f += 3) {
+    const uint32_t a = triangles[f], b = triangles[f + 1], c = triangles[f + 2];
+    if (a >= n || b >= n || c >= n) continue;
+    const float* pa = &positions[3 * a];
+    const float* pb = &positions[3 * b];
+    const float* pc = &positions[3 * c];
+    const float e1[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+    const float e2[3] = {pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]};
+    const float nx = e1[1] * e2[2] - e1[2] * e2[1];
+    const float ny = e1[2] * e2[0] - e1[0] * e2[2];
+    const float nz = e1[0] * e2[1] - e1[1] * e2[0];
+    for (uint32_t v : {a, b, c}) {
+      out[3 * v] += nx;
+      out[3 * v + 1] += ny;
+      out[3 * v + 2] += nz;
+    }
+  }
+  for (size_t v = 0; v < n; ++v) {
+    float* o = &out[3 * v];
+    const float len2 = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
+    if (len2 > 0.0f && std::isfinite(len2)) {
+      Normalize3(o);
+    } else {
+      o[0] = 0.0f;
+      o[1] = 0.0f;
+      o[2] = 1.0f;
+    }
+  }
+}
+
+namespace {
+
+// Area-weighted smooth normal of vertex v from the faces around it (unnormalised).
+void VertexNormalSum(const Primitive& p, std::span<const float> pos, uint32_t v, float* n) {
+  n[0] = n[1] = n[2] = 0.0f;
+  for (uint32_t k = p.vertex_face_offsets[v]; k < p.vertex_face_offsets[v + 1]; ++k) {
+    const uint32_t* f = &p.indices[3 * static_cast<size_t>(p.vertex_faces[k])];
+    const float* pa = &pos[3 * static_cast<size_t>(f[0])];
+    const float* pb = &pos[3 * static_cast<size_t>(f[1])];
+    const float* pc = &pos[3 * static_cast<size_t>(f[2])];
+    const float e1[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+    const float e2[3] = {pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]};
+    n[0] += e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] += e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] += e1[0] * e2[1] - e1[1] * e2[0];
+  }
+}
+
+}  // namespace
+
+void RecomputeNormalsAround(const Primitive& p, std::span<const float> positions,
+                            std::span<const uint32_t> moved, std::span<float> out_normals,
+                            BlendContext& ctx) {
+  if (p.mode != PrimitiveMode::kTriangles) return;
+  const size_t n = p.vertex_count();
+  if (ctx.vertex_mark.size() < n) ctx.vertex_mark.resize(n, 0);
+  ctx.affected.clear();
+  // Every vertex of every face touching a moved vertex may change its normal.
+  for (uint32_t v : moved) {
+    for (uint32_t k = p.vertex_face_offsets[v]; k < p.vertex_face_offsets[v + 1]; ++k) {
+      const uint32_t* f = &p.indices[3 * static_cast<size_t>(p.vertex_faces[k])];
+      for (int c = 0; c < 3; ++c) {
+        if (!ctx.vertex_mark[f[c]]) {
+          ctx.vertex_mark[f[c]] = 1;
+          ctx.affected.push_back(f[c]);
+        }
+      }
+    }
+  }
+  for (uint32_t v : ctx.affected) {
+    ctx.vertex_mark[v] = 0;
+    float sum[3];
+    VertexNormalSum(p, positions, v, sum);
+    float* o = &out_normals[3 * static_cast<size_t>(v)];
+    const float len = std::sqrt(sum[0] * sum[0] + sum[1] * sum[1] + sum[2] * sum[2]);
+    if (!(len > 1e-30f) || !std::isfinite(len)) continue;  // Degenerate now: keep what is there.
+    const float* nb = &p.normals[3 * static_cast<size_t>(v)];
+    const float* sb = &p.base_smooth_normals[3 * static_cast<size_t>(v)];
+    for (int c = 0; c < 3; ++c) o[c] = nb[c] + sum[c] / len - sb[c];
+    Normalize3(o);
+  }
+}
+
+namespace {
+
+bool HasChannel(const SparseTarget& t, TargetChannel c) {
+  return t.indices.empty() || Deltas(t, c).size() == 3 * t.indices.size();
+}
+
+}  // namespace
+
+Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOptions& options,
+                   BlendedRig& out, BlendContext& ctx) {
+  if (weights.size() != rig.shapes.size()) {
+    return InvalidArgument("expected " + std::to_string(rig.shapes.size()) + " weights, got " +
+                           std::to_string(weights.size()));
+  }
+  for (float w : weights) {
+    if (!std::isfinite(w)) return InvalidArgument("weights must be finite");
+  }
+  out.primitives.resize(rig.primitives.size());
+  for (const Mesh& mesh : rig.meshes) {
+    ctx.target_weights.resize(mesh.target_shapes.size());
+    bool any_active = false;
+    for (size_t t = 0; t < mesh.target_shapes.size(); ++t) {
+      ctx.target_weights[t] = weights[mesh.target_shapes[t]];
+      any_active |= ctx.target_weights[t] != 0.0f;
+    }
+    const std::span<const float> tw(ctx.target_weights);
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      BlendedPrimitive& bp = out.primitives[pi];
+      bp.positions.resize(p.positions.size());
+      bp.normals.resize(p.normals.size());
+      bp.tangents.resize(p.tangents.size());
+      BlendShapeJob job{.base = p.positions, .weights = tw, .targets = p.targets,
+                        .channel = TargetChannel::kPosition, .stride = 3, .out = bp.positions};
+      if (!job.Run()) return InvalidArgument("primitive " + std::to_string(pi) + " cannot be blended");
+      std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
+      std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
+      if (!any_active) continue;
+
+      // Union of the vertices the active targets move.
+      const size_t n = p.vertex_count();
+      if (ctx.vertex_mark.size() < n) ctx.vertex_mark.resize(n, 0);
+      ctx.moved.clear();
+      bool can_blend_normals = options.normals == NormalMode::kBlend;
+      bool can_blend_tangents = !p.tangents.empty();
+      for (size_t t = 0; t < p.targets.size(); ++t) {
+        if (tw[t] == 0.0f) continue;
+        can_blend_normals &= HasChannel(p.targets[t], TargetChannel::kNormal);
+        can_blend_tangents &= HasChannel(p.targets[t], TargetChannel::kTangent);
+        for (uint32_t v : p.targets[t].indices) {
+          if (!ctx.vertex_mark[v]) {
+            ctx.vertex_mark[v] = 1;
+            ctx.moved.push_back(v);
+          }
+        }
+      }
+      for (uint32_t v : ctx.moved) ctx.vertex_mark[v] = 0;
+
+      std::span<const uint32_t> changed = ctx.moved;  // Vertices whose normal may differ.
+      if (can_blend_normals) {
+        BlendShapeJob nj{.base = p.normals, .weights = tw, .targets = p.targets,
+                         .channel = TargetChannel::kNormal, .stride = 3, .out = bp.normals};
+        nj.Run();
+        for (uint32_t v : ctx.moved) Normalize3(&bp.normals[3 * static_cast<size_t>(v)]);
+      } else {
+        RecomputeNormalsAround(p, bp.positions, ctx.moved, bp.normals, ctx);
+        changed = ctx.affected;
+      }
+      if (p.tangents.empty()) continue;
+      if (can_blend_tangents) {
+        BlendShapeJob tj{.base = p.tangents, .weights = tw, .targets = p.targets,
+                         .channel = TargetChannel::kTangent, .stride = 4, .out = bp.tangents};
+        tj.Run();
+      }
+      // Keep the tangents of changed vertices orthogonal to their normals (Gram-Schmidt);
+      // w (handedness) is kept.
+      for (uint32_t v : changed) {
+        float* t4 = &bp.tangents[4 * static_cast<size_t>(v)];
+        const float* nn = &bp.normals[3 * static_cast<size_t>(v)];
+        const float dot = t4[0] * nn[0] + t4[1] * nn[1] + t4[2] * nn[2];
+        t4[0] -= dot * nn[0];
+        t4[1] -= dot * nn[1];
+        t4[2] -= dot * nn[2];
+        Normalize3(t4);
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace facespace

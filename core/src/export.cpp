@@ -1,0 +1,448 @@
+// Writers for the evaluated rig: glb (tinygltf), OBJ, JSON and raw float32.
+#include <tiny_gltf.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "facespace/core/io.h"
+#include "facespace/core/weights.h"
+
+namespace facespace {
+
+bool ParseMeshFormat(const std::string& name, MeshFormat* format) {
+  if (name == "glb") *format = MeshFormat::kGlb;
+  else if (name == "obj") *format = MeshFormat::kObj;
+  else if (name == "json") *format = MeshFormat::kJson;
+  else if (name == "f32") *format = MeshFormat::kF32;
+  else return false;
+  return true;
+}
+
+const char* MeshFormatName(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::kGlb: return "glb";
+    case MeshFormat::kObj: return "obj";
+    case MeshFormat::kJson: return "json";
+    case MeshFormat::kF32: return "f32";
+  }
+  return "?";
+}
+
+const char* MeshFormatMimeType(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::kGlb: return "model/gltf-binary";
+    case MeshFormat::kObj: return "model/obj";
+    case MeshFormat::kJson: return "application/json";
+    case MeshFormat::kF32: return "application/octet-stream";
+  }
+  return "application/octet-stream";
+}
+
+namespace {
+
+// Shortest text that reads back as the same float; JSON has no NaN so those become 0
+// (weights are checked finite before evaluation, so this never happens in practice).
+void AppendFloat(std::string& out, float f) {
+  if (!std::isfinite(f)) f = 0.0f;
+  char buf[32];
+  auto r = std::to_chars(buf, buf + sizeof buf, f);
+  out.append(buf, r.ptr);
+}
+
+void AppendFloats(std::string& out, std::span<const float> values) {
+  out += '[';
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (i) out += ',';
+    AppendFloat(out, values[i]);
+  }
+  out += ']';
+}
+
+std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(); }
+
+std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
+  std::string out = "{\"primitives\":[";
+  for (size_t i = 0; i < rig.primitives.size(); ++i) {
+    const Primitive& p = rig.primitives[i];
+    const BlendedPrimitive& b = blended.primitives[i];
+    if (i) out += ',';
+    out += "{\"mesh\":" + std::to_string(p.mesh) + ",\"primitive\":" + std::to_string(p.index_in_mesh) +
+           ",\"name\":" + JsonString(rig.meshes[p.mesh].name) + ",\"positions\":";
+    AppendFloats(out, b.positions);
+    out += ",\"normals\":";
+    AppendFloats(out, b.normals);
+    out += '}';
+  }
+  out += "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
+  return out;
+}
+
+void Transform(const std::array<float, 16>& m, const float* p, float w, float* out) {
+  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
+}
+
+// Normal matrix applied to n: inverse-transpose of the upper 3x3, then normalised.
+void TransformNormal(const std::array<float, 16>& m, const float* n, float* out) {
+  const float a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], k = m[10];
+  // Cofactor matrix = det * inverse-transpose; the scale drops out on normalising.
+  const float cof[9] = {e * k - f * h, -(d * k - f * g), d * h - e * g,
+                        -(b * k - c * h), a * k - c * g, -(a * h - b * g),
+                        b * f - c * e, -(a * f - c * d), a * e - b * d};
+  const float det = a * cof[0] + b * cof[1] + c * cof[2];
+  const float sgn = det < 0 ? -1.0f : 1.0f;
+  for (int r = 0; r < 3; ++r) out[r] = sgn * (cof[3 * r] * n[0] + cof[3 * r + 1] * n[1] + cof[3 * r + 2] * n[2]);
+  const float len = std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
+  if (len > 0) for (int r = 0; r < 3; ++r) out[r] /= len;
+}
+
+std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
+  std::string out = "# facespace blended mesh\n";
+  for (const Warning& w : warnings) out += "# warning: " + w.message + "\n";
+  const auto world = PrimitiveWorldMatrices(rig);
+  size_t base_v = 1;
+  for (size_t i = 0; i < rig.primitives.size(); ++i) {
+    const Primitive& p = rig.primitives[i];
+    const BlendedPrimitive& b = blended.primitives[i];
+    const size_t n = p.vertex_count();
+    std::string name = rig.meshes[p.mesh].name.empty() ? "mesh" + std::to_string(p.mesh) : rig.meshes[p.mesh].name;
+    for (char& c : name) if (c == ' ' || c == '\n' || c == '\r') c = '_';
+    out += "o " + name + "_" + std::to_string(p.index_in_mesh) + "\n";
+    for (size_t v = 0; v < n; ++v) {
+      float q[3];
+      Transform(world[i], &b.positions[3 * v], 1.0f, q);
+      out += "v ";
+      AppendFloat(out, q[0]);
+      out += ' ';
+      AppendFloat(out, q[1]);
+      out += ' ';
+      AppendFloat(out, q[2]);
+      out += '\n';
+    }
+    const bool uv = !p.texcoords.empty();
+    for (size_t v = 0; uv && v < n; ++v) {
+      out += "vt ";
+      AppendFloat(out, p.texcoords[2 * v]);
+      out += ' ';
+      AppendFloat(out, 1.0f - p.texcoords[2 * v + 1]);
+      out += '\n';
+    }
+    for (size_t v = 0; v < n; ++v) {
+      float q[3];
+      TransformNormal(world[i], &b.normals[3 * v], q);
+      out += "vn ";
+      AppendFloat(out, q[0]);
+      out += ' ';
+      AppendFloat(out, q[1]);
+      out += ' ';
+      AppendFloat(out, q[2]);
+      out += '\n';
+    }
+    if (p.mode == PrimitiveMode::kTriangles) {
+      for (size_t f = 0; f + 2 < p.indices.size(); f += 3) {
+        out += 'f';
+        for (int c = 0; c < 3; ++c) {
+          const std::string idx = std::to_string(base_v + p.indices[f + c]);
+          out += ' ' + idx + '/' + (uv ? idx : "") + '/' + idx;
+        }
+        out += '\n';
+      }
+    } else if (p.mode == PrimitiveMode::kLines) {
+      for (size_t f = 0; f + 1 < p.indices.size(); f += 2) {
+        out += "l " + std::to_string(base_v + p.indices[f]) + ' ' + std::to_string(base_v + p.indices[f + 1]) + '\n';
+      }
+    }
+    base_v += n;
+  }
+  return out;
+}
+
+std::string ExportF32(const Rig& rig, const BlendedRig& blended) {
+  const auto world = PrimitiveWorldMatrices(rig);
+  std::vector<float> data;
+  data.reserve(rig.vertex_count() * 6);
+  for (size_t i = 0; i < rig.primitives.size(); ++i) {
+    const auto& pos = blended.primitives[i].positions;
+    for (size_t v = 0; v < pos.size(); v += 3) {
+      float q[3];
+      Transform(world[i], &pos[v], 1.0f, q);
+      data.insert(data.end(), q, q + 3);
+    }
+  }
+  for (size_t i = 0; i < rig.primitives.size(); ++i) {
+    const auto& nrm = blended.primitives[i].normals;
+    for (size_t v = 0; v < nrm.size(); v += 3) {
+      float q[3];
+      TransformNormal(world[i], &nrm[v], q);
+      data.insert(data.end(), q, q + 3);
+    }
+  }
+  std::string out(data.size() * 4, '\0');
+  std::memcpy(out.data(), data.data(), out.size());  // x86-64 and ARM64 are little-endian.
+  return out;
+}
+
+// ---- glb ----------------------------------------------------------------------------------
+
+tinygltf::Value ToValue(const nlohmann::json& j) {
+  switch (j.type()) {
+    case nlohmann::json::value_t::boolean: return tinygltf::Value(j.get<bool>());
+    case nlohmann::json::value_t::number_integer:
+    case nlohmann::json::value_t::number_unsigned: return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
+    case nlohmann::json::value_t::number_float: return tinygltf::Value(j.get<double>());
+    case nlohmann::json::value_t::string: return tinygltf::Value(j.get<std::string>());
+    case nlohmann::json::value_t::array: {
+      tinygltf::Value::Array a;
+      for (const auto& e : j) a.push_back(ToValue(e));
+      return tinygltf::Value(std::move(a));
+    }
+    case nlohmann::json::value_t::object: {
+      tinygltf::Value::Object o;
+      for (auto it = j.begin(); it != j.end(); ++it) o[it.key()] = ToValue(it.value());
+      return tinygltf::Value(std::move(o));
+    }
+    default: return tinygltf::Value();
+  }
+}
+
+class GlbBuilder {
+ public:
+  explicit GlbBuilder(tinygltf::Model& m) : m_(m) { m_.buffers.resize(1); }
+
+  int View(const void* data, size_t bytes, int target) {
+    auto& buf = m_.buffers[0].data;
+    while (buf.size() % 4) buf.push_back(0);
+    tinygltf::BufferView v;
+    v.buffer = 0;
+    v.byteOffset = buf.size();
+    v.byteLength = bytes;
+    v.target = target;
+    const auto* p = static_cast<const unsigned char*>(data);
+    buf.insert(buf.end(), p, p + bytes);
+    m_.bufferViews.push_back(v);
+    return static_cast<int>(m_.bufferViews.size() - 1);
+  }
+
+  // A float accessor of `comps` components; min/max when asked (POSITION needs them).
+  int Floats(std::span<const float> values, int comps, bool minmax) {
+    tinygltf::Accessor a;
+    a.bufferView = View(values.data(), values.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = values.size() / comps;
+    a.type = TypeOf(comps);
+    if (minmax) MinMax(values, comps, a.count, a);
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  int Indices(std::span<const uint32_t> idx, size_t vertex_count) {
+    tinygltf::Accessor a;
+    if (vertex_count <= 65535) {
+      std::vector<uint16_t> small(idx.begin(), idx.end());
+      a.bufferView = View(small.data(), small.size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    } else {
+      a.bufferView = View(idx.data(), idx.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    }
+    a.count = idx.size();
+    a.type = TINYGLTF_TYPE_SCALAR;
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  // A sparse VEC3 delta accessor over `count` vertices. Empty targets become an accessor
+  // without bufferView, which glTF defines as all zeros.
+  int SparseDeltas(std::span<const uint32_t> indices, std::span<const float> deltas, size_t count) {
+    tinygltf::Accessor a;
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = count;
+    a.type = TINYGLTF_TYPE_VEC3;
+    std::vector<float> mm(deltas.begin(), deltas.end());
+    if (indices.size() < count) mm.insert(mm.end(), {0.0f, 0.0f, 0.0f});  // Implicit zeros.
+    MinMax(mm, 3, mm.size() / 3, a);
+    if (!indices.empty()) {
+      a.sparse.isSparse = true;
+      a.sparse.count = static_cast<int>(indices.size());
+      a.sparse.indices.bufferView = View(indices.data(), indices.size() * 4, 0);
+      a.sparse.indices.byteOffset = 0;
+      a.sparse.indices.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+      a.sparse.values.bufferView = View(deltas.data(), deltas.size() * 4, 0);
+      a.sparse.values.byteOffset = 0;
+    }
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+ private:
+  static int TypeOf(int comps) {
+    return comps == 1 ? TINYGLTF_TYPE_SCALAR : comps == 2 ? TINYGLTF_TYPE_VEC2 : comps == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
+  }
+  static void MinMax(std::span<const float> values, int comps, size_t count, tinygltf::Accessor& a) {
+    a.minValues.assign(comps, 0.0);
+    a.maxValues.assign(comps, 0.0);
+    for (size_t e = 0; e < count; ++e) {
+      for (int c = 0; c < comps; ++c) {
+        const double v = values[e * comps + c];
+        if (e == 0 || v < a.minValues[c]) a.minValues[c] = v;
+        if (e == 0 || v > a.maxValues[c]) a.maxValues[c] = v;
+      }
+    }
+  }
+  tinygltf::Model& m_;
+};
+
+Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
+                              std::span<const Warning> warnings, const ExportOptions& options) {
+  tinygltf::Model m;
+  GlbBuilder b(m);
+  m.asset.version = "2.0";
+  m.asset.generator = "facespace";
+  nlohmann::json extras = nlohmann::json::object();
+  if (!options.asset_extras_json.empty()) {
+    extras = nlohmann::json::parse(options.asset_extras_json, nullptr, false);
+    if (extras.is_discarded() || !extras.is_object()) return InvalidArgument("asset extras must be a JSON object");
+  }
+  extras["warnings"] = nlohmann::json::parse(WarningsToJson(warnings));
+  nlohmann::json wmap = nlohmann::json::object();
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
+  }
+  extras["weights"] = wmap;
+  m.asset.extras = ToValue(extras);
+
+  for (const Image& im : rig.images) {
+    tinygltf::Image gi;
+    gi.name = im.name;
+    gi.mimeType = im.mime_type;
+    gi.bufferView = b.View(im.bytes.data(), im.bytes.size(), 0);
+    m.images.push_back(gi);
+    tinygltf::Texture t;
+    t.source = static_cast<int>(m.images.size() - 1);
+    m.textures.push_back(t);
+  }
+  for (const Material& mat : rig.materials) {
+    tinygltf::Material gm;
+    gm.name = mat.name;
+    gm.pbrMetallicRoughness.baseColorFactor.assign(mat.base_color_factor.begin(), mat.base_color_factor.end());
+    if (mat.base_color_image >= 0) {
+      gm.pbrMetallicRoughness.baseColorTexture.index = mat.base_color_image;
+      gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
+    }
+    gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;
+    gm.pbrMetallicRoughness.roughnessFactor = mat.roughness_factor;
+    gm.doubleSided = mat.double_sided;
+    gm.alphaMode = mat.alpha_mode;
+    gm.alphaCutoff = mat.alpha_cutoff;
+    m.materials.push_back(gm);
+  }
+  for (const Mesh& mesh : rig.meshes) {
+    tinygltf::Mesh gm;
+    gm.name = mesh.name;
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      const BlendedPrimitive& bp = blended.primitives[pi];
+      const bool targets = options.keep_targets && !p.targets.empty();
+      tinygltf::Primitive gp;
+      gp.attributes["POSITION"] = b.Floats(targets ? std::span<const float>(p.positions) : bp.positions, 3, true);
+      gp.attributes["NORMAL"] = b.Floats(targets ? std::span<const float>(p.normals) : bp.normals, 3, false);
+      if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(targets ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
+      if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(p.texcoords, 2, false);
+      if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
+      if (!p.indices.empty()) gp.indices = b.Indices(p.indices, p.vertex_count());
+      gp.mode = static_cast<int>(p.mode);
+      gp.material = p.material;
+      if (targets) {
+        // Targets without normal deltas get zero ones so every target has the same attributes.
+        bool any_normals = false, all_tangents = !p.tangents.empty();
+        for (const SparseTarget& t : p.targets) {
+          any_normals |= !t.normal_deltas.empty();
+          all_tangents &= t.indices.empty() || !t.tangent_deltas.empty();
+        }
+        for (const SparseTarget& t : p.targets) {
+          std::map<std::string, int> gt;
+          gt["POSITION"] = b.SparseDeltas(t.indices, t.position_deltas, p.vertex_count());
+          if (any_normals) {
+            std::vector<float> zeros;
+            if (t.normal_deltas.empty()) zeros.assign(t.position_deltas.size(), 0.0f);
+            gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas, p.vertex_count());
+          }
+          if (all_tangents) gt["TANGENT"] = b.SparseDeltas(t.indices, t.tangent_deltas, p.vertex_count());
+          gp.targets.push_back(gt);
+        }
+      }
+      gm.primitives.push_back(gp);
+    }
+    if (options.keep_targets && !mesh.target_shapes.empty()) {
+      tinygltf::Value::Array names;
+      for (uint32_t s : mesh.target_shapes) {
+        names.push_back(tinygltf::Value(rig.shapes[s].name));
+        gm.weights.push_back(s < weights.size() ? weights[s] : 0.0);
+      }
+      tinygltf::Value::Object ex;
+      ex["targetNames"] = tinygltf::Value(std::move(names));
+      gm.extras = tinygltf::Value(std::move(ex));
+    }
+    m.meshes.push_back(gm);
+  }
+  for (const Node& n : rig.nodes) {
+    tinygltf::Node gn;
+    gn.name = n.name;
+    gn.mesh = n.mesh;
+    gn.children = n.children;
+    if (n.has_matrix) {
+      gn.matrix.assign(n.matrix.begin(), n.matrix.end());
+    } else {
+      if (n.translation != std::array<float, 3>{0, 0, 0}) gn.translation.assign(n.translation.begin(), n.translation.end());
+      if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
+      if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
+    }
+    m.nodes.push_back(gn);
+  }
+  tinygltf::Scene scene;
+  scene.nodes = rig.scene_roots;
+  m.scenes.push_back(scene);
+  m.defaultScene = 0;
+  m.buffers[0].data.resize((m.buffers[0].data.size() + 3) & ~size_t{3}, 0);
+  if (m.buffers[0].data.empty()) m.buffers.clear();
+
+  std::ostringstream os;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&m, os, false, true)) return InvalidArgument("glb writer failed");
+  return os.str();
+}
+
+}  // namespace
+
+std::string WarningsToJson(std::span<const Warning> warnings) {
+  std::string out = "[";
+  for (size_t i = 0; i < warnings.size(); ++i) {
+    const Warning& w = warnings[i];
+    if (i) out += ',';
+    out += "{\"code\":" + JsonString(w.code) + ",\"message\":" + JsonString(w.message);
+    if (!w.shape.empty()) out += ",\"shape\":" + JsonString(w.shape);
+    if (w.has_value) {
+      out += ",\"value\":";
+      out += std::isfinite(w.value) ? FormatNumber(w.value) : "null";
+    }
+    out += '}';
+  }
+  return out + "]";
+}
+
+Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
+                               std::span<const Warning> warnings, MeshFormat format,
+                               const ExportOptions& options) {
+  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
+  switch (format) {
+    case MeshFormat::kJson: return ExportJson(rig, blended, warnings);
+    case MeshFormat::kObj: return ExportObj(rig, blended, warnings);
+    case MeshFormat::kF32: return ExportF32(rig, blended);
+    case MeshFormat::kGlb: return ExportGlb(rig, blended, weights, warnings, options);
+  }
+  return InvalidArgument("unknown format");
+}
+
+}  // namespace facespace

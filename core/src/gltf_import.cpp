@@ -1,0 +1,847 @@
+// glTF 2.0 import: tinygltf parses, we convert once into core types, range-checking every
+// index and byte offset on the way. EXT_meshopt_compression is decoded (meshoptimizer)
+// before tinygltf sees the file, since tinygltf 2.7 does not know it.
+#include <tiny_gltf.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <meshoptimizer.h>
+#include <nlohmann/json.hpp>
+
+#include "facespace/core/io.h"
+#include "gltf_common.h"
+
+namespace facespace {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr size_t kMaxElements = size_t{1} << 28;  // Per accessor; far beyond any real rig.
+
+uint32_t ReadU32(const unsigned char* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+// ---- EXT_meshopt_compression --------------------------------------------------------------
+
+// Decodes one compressed bufferView into `out`.
+Status DecodeMeshoptView(const json& ext, std::span<const unsigned char> bin,
+                         std::vector<unsigned char>& out) {
+  if (!ext.is_object()) return InvalidArgument("EXT_meshopt_compression: not an object");
+  const auto num = [&](const char* key, size_t def, bool required) -> long long {
+    auto it = ext.find(key);
+    if (it == ext.end()) return required ? -1 : static_cast<long long>(def);
+    if (!it->is_number_unsigned()) return -1;
+    return static_cast<long long>(it->get<uint64_t>() > (uint64_t{1} << 40) ? (uint64_t{1} << 40) : it->get<uint64_t>());
+  };
+  const long long buffer = num("buffer", 0, true), offset = num("byteOffset", 0, false),
+                  length = num("byteLength", 0, true), stride = num("byteStride", 0, true),
+                  count = num("count", 0, true);
+  if (buffer < 0 || offset < 0 || length < 0 || stride <= 0 || count < 0) {
+    return InvalidArgument("EXT_meshopt_compression: missing or invalid buffer/byteLength/byteStride/count");
+  }
+  if (buffer != 0) return InvalidArgument("EXT_meshopt_compression: only the GLB binary chunk is supported as source");
+  if (static_cast<unsigned long long>(offset) + static_cast<unsigned long long>(length) > bin.size()) {
+    return InvalidArgument("EXT_meshopt_compression: compressed data beyond the binary chunk");
+  }
+  if (static_cast<size_t>(count) > kMaxElements || static_cast<size_t>(count) * stride > (size_t{1} << 31)) {
+    return InvalidArgument("EXT_meshopt_compression: decoded size too large");
+  }
+  const std::string mode = ext.value("mode", std::string());
+  const std::string filter = ext.contains("filter") && ext["filter"].is_string() ? ext["filter"].get<std::string>() : "NONE";
+  out.assign(static_cast<size_t>(count) * stride, 0);
+  const unsigned char* src = bin.data() + offset;
+  int rc = -1;
+  if (mode == "ATTRIBUTES") {
+    if (stride % 4 != 0 || stride > 256) return InvalidArgument("EXT_meshopt_compression: bad attribute byteStride");
+    rc = meshopt_decodeVertexBuffer(out.data(), count, stride, src, length);
+  } else if (mode == "TRIANGLES") {
+    if ((stride != 2 && stride != 4) || count % 3 != 0) return InvalidArgument("EXT_meshopt_compression: bad triangle index layout");
+    rc = meshopt_decodeIndexBuffer(out.data(), count, stride, src, length);
+  } else if (mode == "INDICES") {
+    if (stride != 2 && stride != 4) return InvalidArgument("EXT_meshopt_compression: bad index byteStride");
+    rc = meshopt_decodeIndexSequence(out.data(), count, stride, src, length);
+  } else {
+    return InvalidArgument("EXT_meshopt_compression: unknown mode '" + mode + "'");
+  }
+  if (rc != 0) return InvalidArgument("EXT_meshopt_compression: corrupt compressed data");
+  if (filter == "OCTAHEDRAL") {
+    if (mode != "ATTRIBUTES" || (stride != 4 && stride != 8)) return InvalidArgument("EXT_meshopt_compression: bad OCTAHEDRAL stride");
+    meshopt_decodeFilterOct(out.data(), count, stride);
+  } else if (filter == "QUATERNION") {
+    if (mode != "ATTRIBUTES" || stride != 8) return InvalidArgument("EXT_meshopt_compression: bad QUATERNION stride");
+    meshopt_decodeFilterQuat(out.data(), count, stride);
+  } else if (filter == "EXPONENTIAL") {
+    if (mode != "ATTRIBUTES" || stride % 4 != 0) return InvalidArgument("EXT_meshopt_compression: bad EXPONENTIAL stride");
+    meshopt_decodeFilterExp(out.data(), count, stride);
+  } else if (filter != "NONE") {
+    return InvalidArgument("EXT_meshopt_compression: unknown filter '" + filter + "'");
+  }
+  return Status::Ok();
+}
+
+bool ListHas(const json& j, const char* key, const std::string& value) {
+  auto it = j.find(key);
+  if (it == j.end() || !it->is_array()) return false;
+  for (const json& e : *it) {
+    if (e.is_string() && e.get<std::string>() == value) return true;
+  }
+  return false;
+}
+
+void ListRemove(json& j, const char* key, const std::string& value) {
+  auto it = j.find(key);
+  if (it == j.end() || !it->is_array()) return;
+  json kept = json::array();
+  for (const json& e : *it) {
+    if (!(e.is_string() && e.get<std::string>() == value)) kept.push_back(e);
+  }
+  if (kept.empty()) {
+    j.erase(key);
+  } else {
+    *it = kept;
+  }
+}
+
+// Splits a GLB into its JSON text and binary chunk, checking every length.
+Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
+                std::span<const unsigned char>& bin) {
+  if (bytes.size() < 20) return InvalidArgument("truncated glb: shorter than its header");
+  if (ReadU32(&bytes[4]) != 2) return InvalidArgument("unsupported glb version " + std::to_string(ReadU32(&bytes[4])));
+  const uint32_t total = ReadU32(&bytes[8]);
+  if (total > bytes.size()) {
+    return InvalidArgument("truncated glb: header says " + std::to_string(total) + " bytes, file has " +
+                           std::to_string(bytes.size()));
+  }
+  const uint32_t json_len = ReadU32(&bytes[12]);
+  if (ReadU32(&bytes[16]) != 0x4E4F534Au) return InvalidArgument("glb: first chunk is not JSON");
+  if (json_len > total - 20) return InvalidArgument("truncated glb: JSON chunk beyond the file");
+  json_text.assign(reinterpret_cast<const char*>(&bytes[20]), json_len);
+  bin = {};
+  size_t pos = 20 + static_cast<size_t>(json_len);
+  pos = (pos + 3) & ~size_t{3};
+  if (pos + 8 <= total) {
+    const uint32_t bin_len = ReadU32(&bytes[pos]);
+    if (ReadU32(&bytes[pos + 4]) == 0x004E4942u) {
+      if (bin_len > total - pos - 8) return InvalidArgument("truncated glb: BIN chunk beyond the file");
+      bin = bytes.subspan(pos + 8, bin_len);
+    }
+  }
+  return Status::Ok();
+}
+
+std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin) {
+  std::string j = json_text;
+  while (j.size() % 4) j.push_back(' ');
+  const size_t bin_padded = (bin.size() + 3) & ~size_t{3};
+  const size_t total = 12 + 8 + j.size() + (bin.empty() ? 0 : 8 + bin_padded);
+  std::vector<unsigned char> out;
+  out.reserve(total);
+  auto u32 = [&](uint32_t v) {
+    unsigned char b[4];
+    std::memcpy(b, &v, 4);
+    out.insert(out.end(), b, b + 4);
+  };
+  u32(0x46546C67u);
+  u32(2);
+  u32(static_cast<uint32_t>(total));
+  u32(static_cast<uint32_t>(j.size()));
+  u32(0x4E4F534Au);
+  out.insert(out.end(), j.begin(), j.end());
+  if (!bin.empty()) {
+    u32(static_cast<uint32_t>(bin_padded));
+    u32(0x004E4942u);
+    out.insert(out.end(), bin.begin(), bin.end());
+    out.resize(total, 0);
+  }
+  return out;
+}
+
+// Rewrites a GLB that uses EXT_meshopt_compression into a plain one: decoded views are
+// appended to the binary chunk and the fallback buffers are removed. Other files are
+// returned unchanged (out empty).
+Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsigned char>& out,
+                        std::vector<Warning>& warnings) {
+  out.clear();
+  std::string text;
+  std::span<const unsigned char> bin;
+  if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
+  if (!ListHas(j, "extensionsUsed", "EXT_meshopt_compression")) return Status::Ok();
+  std::vector<unsigned char> newbin(bin.begin(), bin.end());
+  json& views = j["bufferViews"];
+  json& buffers = j["buffers"];
+  if (!views.is_array() || !buffers.is_array() || buffers.empty()) return InvalidArgument("glb: bufferViews/buffers missing");
+  for (json& view : views) {
+    if (!view.is_object() || !view.contains("extensions") || !view["extensions"].is_object()) continue;
+    json& exts = view["extensions"];
+    if (!exts.contains("EXT_meshopt_compression")) continue;
+    std::vector<unsigned char> decoded;
+    if (Status s = DecodeMeshoptView(exts["EXT_meshopt_compression"], bin, decoded); !s.ok()) return s;
+    while (newbin.size() % 4) newbin.push_back(0);
+    view["buffer"] = 0;
+    view["byteOffset"] = newbin.size();
+    view["byteLength"] = decoded.size();
+    newbin.insert(newbin.end(), decoded.begin(), decoded.end());
+    exts.erase("EXT_meshopt_compression");
+    if (exts.empty()) view.erase("extensions");
+  }
+  // Drop the fallback buffers; renumber the views' buffer references.
+  std::vector<int> remap(buffers.size(), -1);
+  json kept = json::array();
+  for (size_t b = 0; b < buffers.size(); ++b) {
+    const json& buf = buffers[b];
+    const bool fallback = buf.is_object() && buf.contains("extensions") && buf["extensions"].is_object() &&
+                          buf["extensions"].contains("EXT_meshopt_compression");
+    if (fallback && b != 0) continue;
+    remap[b] = static_cast<int>(kept.size());
+    kept.push_back(buf);
+  }
+  for (json& view : views) {
+    if (!view.is_object() || !view.contains("buffer") || !view["buffer"].is_number_unsigned()) continue;
+    const uint64_t b = view["buffer"].get<uint64_t>();
+    if (b >= remap.size() || remap[b] < 0) {
+      return InvalidArgument("glb: a bufferView reads a meshopt fallback buffer that holds no data");
+    }
+    view["buffer"] = remap[b];
+  }
+  kept[0]["byteLength"] = newbin.size();
+  if (kept[0].is_object() && kept[0].contains("extensions")) kept[0].erase("extensions");
+  buffers = kept;
+  ListRemove(j, "extensionsUsed", "EXT_meshopt_compression");
+  ListRemove(j, "extensionsRequired", "EXT_meshopt_compression");
+  out = MakeGlb(j.dump(), newbin);
+  (void)warnings;
+  return Status::Ok();
+}
+
+// ---- tinygltf callbacks -------------------------------------------------------------------
+
+bool KeepImageBytes(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                    const unsigned char* bytes, int size, void*) {
+  image->image.assign(bytes, bytes + std::max(size, 0));
+  image->as_is = true;
+  return true;
+}
+
+bool NoFileExists(const std::string&, void*) { return false; }
+std::string NoExpand(const std::string& path, void*) { return path; }
+bool NoRead(std::vector<unsigned char>*, std::string* err, const std::string& path, void*) {
+  if (err) *err += "external file '" + path + "' refused: uploads must embed their buffers\n";
+  return false;
+}
+bool NoWrite(std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; }
+
+// ---- accessors ----------------------------------------------------------------------------
+
+int ComponentCount(int type) {
+  switch (type) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    default: return 0;
+  }
+}
+
+int ComponentSize(int component_type) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+  }
+}
+
+float ConvertComponent(const unsigned char* p, int component_type, bool normalized) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+      float f;
+      std::memcpy(&f, p, 4);
+      return f;
+    }
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+      const int8_t v = static_cast<int8_t>(p[0]);
+      return normalized ? std::max(v / 127.0f, -1.0f) : static_cast<float>(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return normalized ? p[0] / 255.0f : static_cast<float>(p[0]);
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+      int16_t v;
+      std::memcpy(&v, p, 2);
+      return normalized ? std::max(v / 32767.0f, -1.0f) : static_cast<float>(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+      uint16_t v;
+      std::memcpy(&v, p, 2);
+      return normalized ? v / 65535.0f : static_cast<float>(v);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+      uint32_t v;
+      std::memcpy(&v, p, 4);
+      return normalized ? static_cast<float>(v / 4294967295.0) : static_cast<float>(v);
+    }
+  }
+  return 0.0f;
+}
+
+// Bytes [offset, offset + length) of a bufferView, checked against its buffer.
+Status ViewBytes(const tinygltf::Model& m, int view_index, std::span<const unsigned char>& out,
+                 size_t& stride) {
+  if (view_index < 0 || static_cast<size_t>(view_index) >= m.bufferViews.size()) {
+    return InvalidArgument("bufferView " + std::to_string(view_index) + " does not exist");
+  }
+  const tinygltf::BufferView& v = m.bufferViews[view_index];
+  if (v.buffer < 0 || static_cast<size_t>(v.buffer) >= m.buffers.size()) {
+    return InvalidArgument("bufferView " + std::to_string(view_index) + " names a missing buffer");
+  }
+  const std::vector<unsigned char>& data = m.buffers[v.buffer].data;
+  if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset) {
+    return InvalidArgument("bufferView " + std::to_string(view_index) + " lies beyond its buffer (" +
+                           std::to_string(v.byteOffset) + "+" + std::to_string(v.byteLength) + " > " +
+                           std::to_string(data.size()) + " bytes)");
+  }
+  out = std::span<const unsigned char>(data.data() + v.byteOffset, v.byteLength);
+  stride = v.byteStride;
+  return Status::Ok();
+}
+
+// Element e of a strided array inside `bytes`, or nullptr when it would lie outside.
+const unsigned char* Element(std::span<const unsigned char> bytes, size_t offset, size_t stride,
+                             size_t e, size_t element_size) {
+  const size_t start = offset + stride * e;
+  if (start < offset || start > bytes.size() || element_size > bytes.size() - start) return nullptr;
+  return bytes.data() + start;
+}
+
+}  // namespace
+
+Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out, int& components,
+                    const std::string& what) {
+  if (index < 0 || static_cast<size_t>(index) >= m.accessors.size()) {
+    return InvalidArgument(what + ": accessor " + std::to_string(index) + " does not exist");
+  }
+  const tinygltf::Accessor& a = m.accessors[index];
+  const std::string where = what + " (accessor " + std::to_string(index) + ")";
+  components = ComponentCount(a.type);
+  const int csize = ComponentSize(a.componentType);
+  if (components == 0 || csize == 0) return InvalidArgument(where + ": unsupported type or componentType");
+  if (a.count > kMaxElements) return InvalidArgument(where + ": count too large");
+  const size_t esize = static_cast<size_t>(components) * csize;
+  out.assign(a.count * components, 0.0f);
+  if (a.bufferView >= 0) {
+    std::span<const unsigned char> bytes;
+    size_t stride = 0;
+    if (Status s = ViewBytes(m, a.bufferView, bytes, stride); !s.ok()) return InvalidArgument(where + ": " + s.message);
+    if (stride == 0) stride = esize;
+    if (stride < esize) return InvalidArgument(where + ": byteStride smaller than an element");
+    if (a.count > 0 && !Element(bytes, a.byteOffset, stride, a.count - 1, esize)) {
+      return InvalidArgument(where + ": data lies beyond its bufferView");
+    }
+    for (size_t e = 0; e < a.count; ++e) {
+      const unsigned char* p = bytes.data() + a.byteOffset + stride * e;
+      for (int c = 0; c < components; ++c) {
+        out[e * components + c] = ConvertComponent(p + c * csize, a.componentType, a.normalized);
+      }
+    }
+  }
+  if (a.sparse.isSparse) {
+    const size_t count = a.sparse.count < 0 ? kMaxElements + 1 : static_cast<size_t>(a.sparse.count);
+    if (count > a.count) return InvalidArgument(where + ": sparse count exceeds accessor count");
+    const int isize = ComponentSize(a.sparse.indices.componentType);
+    if (isize == 0 || a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
+        a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_SHORT ||
+        a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+      return InvalidArgument(where + ": sparse indices must be unsigned integers");
+    }
+    if (a.sparse.indices.byteOffset < 0 || a.sparse.values.byteOffset < 0) {
+      return InvalidArgument(where + ": negative sparse byteOffset");
+    }
+    std::span<const unsigned char> ibytes, vbytes;
+    size_t istride = 0, vstride = 0;
+    if (Status s = ViewBytes(m, a.sparse.indices.bufferView, ibytes, istride); !s.ok()) {
+      return InvalidArgument(where + ": sparse indices: " + s.message);
+    }
+    if (Status s = ViewBytes(m, a.sparse.values.bufferView, vbytes, vstride); !s.ok()) {
+      return InvalidArgument(where + ": sparse values: " + s.message);
+    }
+    if (count > 0 && (!Element(ibytes, a.sparse.indices.byteOffset, isize, count - 1, isize) ||
+                      !Element(vbytes, a.sparse.values.byteOffset, esize, count - 1, esize))) {
+      return InvalidArgument(where + ": sparse data lies beyond its bufferView");
+    }
+    for (size_t k = 0; k < count; ++k) {
+      const unsigned char* ip = ibytes.data() + a.sparse.indices.byteOffset + isize * k;
+      const uint32_t target = static_cast<uint32_t>(ConvertComponent(ip, a.sparse.indices.componentType, false));
+      if (target >= a.count) return InvalidArgument(where + ": sparse index " + std::to_string(target) + " beyond count");
+      const unsigned char* vp = vbytes.data() + a.sparse.values.byteOffset + esize * k;
+      for (int c = 0; c < components; ++c) {
+        out[target * components + c] = ConvertComponent(vp + c * csize, a.componentType, a.normalized);
+      }
+    }
+  }
+  for (float f : out) {
+    if (!std::isfinite(f)) return InvalidArgument(where + ": contains NaN or infinity");
+  }
+  return Status::Ok();
+}
+
+Status ReadIndices(const tinygltf::Model& m, int index, std::vector<uint32_t>& out, const std::string& what) {
+  if (index < 0 || static_cast<size_t>(index) >= m.accessors.size()) {
+    return InvalidArgument(what + ": accessor " + std::to_string(index) + " does not exist");
+  }
+  const tinygltf::Accessor& a = m.accessors[index];
+  if (a.type != TINYGLTF_TYPE_SCALAR ||
+      (a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+       a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+       a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)) {
+    return InvalidArgument(what + ": indices must be unsigned integer scalars");
+  }
+  std::vector<float> tmp;
+  int comps = 0;
+  // Unsigned 32-bit values above 2^24 do not survive a float; read them directly.
+  if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT && !a.sparse.isSparse) {
+    std::span<const unsigned char> bytes;
+    size_t stride = 0;
+    if (Status s = ViewBytes(m, a.bufferView, bytes, stride); !s.ok()) return InvalidArgument(what + ": " + s.message);
+    if (stride == 0) stride = 4;
+    if (a.count > kMaxElements) return InvalidArgument(what + ": count too large");
+    if (a.count > 0 && !Element(bytes, a.byteOffset, stride, a.count - 1, 4)) {
+      return InvalidArgument(what + ": data lies beyond its bufferView");
+    }
+    out.resize(a.count);
+    for (size_t e = 0; e < a.count; ++e) out[e] = ReadU32(bytes.data() + a.byteOffset + stride * e);
+    return Status::Ok();
+  }
+  if (Status s = ReadAccessor(m, index, tmp, comps, what); !s.ok()) return s;
+  out.resize(tmp.size());
+  for (size_t i = 0; i < tmp.size(); ++i) out[i] = static_cast<uint32_t>(tmp[i]);
+  return Status::Ok();
+}
+
+namespace {
+
+// ---- model -> rig -------------------------------------------------------------------------
+
+std::vector<std::string> TargetNames(const tinygltf::Value& extras) {
+  std::vector<std::string> names;
+  if (!extras.IsObject() || !extras.Has("targetNames")) return names;
+  const tinygltf::Value& list = extras.Get("targetNames");
+  if (!list.IsArray()) return names;
+  for (size_t i = 0; i < list.ArrayLen(); ++i) {
+    names.push_back(list.Get(static_cast<int>(i)).IsString() ? list.Get(static_cast<int>(i)).Get<std::string>() : "");
+  }
+  return names;
+}
+
+bool IsPng(const std::vector<unsigned char>& b) {
+  return b.size() > 8 && b[0] == 0x89 && b[1] == 'P' && b[2] == 'N' && b[3] == 'G';
+}
+bool IsJpeg(const std::vector<unsigned char>& b) {
+  return b.size() > 3 && b[0] == 0xFF && b[1] == 0xD8 && b[2] == 0xFF;
+}
+
+// KHR_texture_transform of a textureInfo as an affine uv map, if any.
+bool TextureTransform(const tinygltf::ExtensionMap& ext, float m[6]) {
+  auto it = ext.find("KHR_texture_transform");
+  if (it == ext.end() || !it->second.IsObject()) return false;
+  const tinygltf::Value& v = it->second;
+  float off[2] = {0, 0}, scale[2] = {1, 1}, rot = 0;
+  auto read = [&](const char* key, float* dst, int n) {
+    if (!v.Has(key)) return;
+    const tinygltf::Value& a = v.Get(key);
+    if (n == 1 && a.IsNumber()) dst[0] = static_cast<float>(a.GetNumberAsDouble());
+    if (n > 1 && a.IsArray() && a.ArrayLen() == static_cast<size_t>(n)) {
+      for (int i = 0; i < n; ++i) {
+        if (a.Get(i).IsNumber()) dst[i] = static_cast<float>(a.Get(i).GetNumberAsDouble());
+      }
+    }
+  };
+  read("offset", off, 2);
+  read("scale", scale, 2);
+  read("rotation", &rot, 1);
+  const float c = std::cos(rot), s = std::sin(rot);
+  // uv' = T * R * S * uv, with R = [[c, s], [-s, c]] as the extension defines it.
+  m[0] = c * scale[0];
+  m[1] = s * scale[1];
+  m[2] = off[0];
+  m[3] = -s * scale[0];
+  m[4] = c * scale[1];
+  m[5] = off[1];
+  return true;
+}
+
+Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& src, int mesh_index,
+                        int prim_index, Primitive& p, std::vector<Warning>& warnings) {
+  const std::string what = "mesh " + std::to_string(mesh_index) + " primitive " + std::to_string(prim_index);
+  p.mesh = mesh_index;
+  p.index_in_mesh = prim_index;
+  auto attr = [&](const char* name) {
+    auto it = src.attributes.find(name);
+    return it == src.attributes.end() ? -1 : it->second;
+  };
+  int comps = 0;
+  const int pos = attr("POSITION");
+  if (pos < 0) return InvalidArgument(what + ": has no POSITION");
+  if (Status s = ReadAccessor(model, pos, p.positions, comps, what + " POSITION"); !s.ok()) return s;
+  if (comps != 3) return InvalidArgument(what + ": POSITION must be VEC3");
+  const size_t n = p.vertex_count();
+  auto read_attr = [&](const char* name, std::vector<float>& dst, int want_min, int want_max) -> Status {
+    const int a = attr(name);
+    if (a < 0) return Status::Ok();
+    int c = 0;
+    if (Status s = ReadAccessor(model, a, dst, c, what + " " + name); !s.ok()) return s;
+    if (c < want_min || c > want_max) return InvalidArgument(what + ": " + name + " has the wrong type");
+    if (dst.size() != n * c) {
+      return InvalidArgument(what + ": " + name + " has " + std::to_string(dst.size() / c) +
+                             " elements but POSITION has " + std::to_string(n));
+    }
+    if (c == 3 && want_max == 4) {  // COLOR_0 as VEC3: add alpha 1.
+      std::vector<float> rgba(n * 4, 1.0f);
+      for (size_t v = 0; v < n; ++v) std::copy_n(&dst[3 * v], 3, &rgba[4 * v]);
+      dst.swap(rgba);
+    }
+    return Status::Ok();
+  };
+  if (Status s = read_attr("NORMAL", p.normals, 3, 3); !s.ok()) return s;
+  if (Status s = read_attr("TANGENT", p.tangents, 4, 4); !s.ok()) return s;
+  if (Status s = read_attr("TEXCOORD_0", p.texcoords, 2, 2); !s.ok()) return s;
+  if (Status s = read_attr("COLOR_0", p.colors, 3, 4); !s.ok()) return s;
+  p.source_has_normals = !p.normals.empty();
+  for (size_t v = 0; v < p.normals.size(); v += 3) {  // Quantized normals are not unit length.
+    float* nn = &p.normals[v];
+    const float len = std::sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+    if (len > 0.0f && std::fabs(len - 1.0f) > 1e-6f) {
+      nn[0] /= len;
+      nn[1] /= len;
+      nn[2] /= len;
+    }
+  }
+
+  std::vector<uint32_t> indices;
+  if (src.indices >= 0) {
+    if (Status s = ReadIndices(model, src.indices, indices, what + " indices"); !s.ok()) return s;
+  } else {
+    indices.resize(n);
+    for (size_t i = 0; i < n; ++i) indices[i] = static_cast<uint32_t>(i);
+  }
+  for (uint32_t i : indices) {
+    if (i >= n) {
+      return InvalidArgument(what + ": index " + std::to_string(i) + " beyond vertex count " + std::to_string(n));
+    }
+  }
+  switch (src.mode) {
+    case TINYGLTF_MODE_TRIANGLES:
+    case -1:
+      if (indices.size() % 3) return InvalidArgument(what + ": triangle index count not a multiple of 3");
+      p.indices = std::move(indices);
+      break;
+    case TINYGLTF_MODE_TRIANGLE_STRIP:
+      for (size_t i = 2; i < indices.size(); ++i) {
+        const bool odd = i % 2;
+        p.indices.insert(p.indices.end(), {indices[i - 2], indices[odd ? i : i - 1], indices[odd ? i - 1 : i]});
+      }
+      break;
+    case TINYGLTF_MODE_TRIANGLE_FAN:
+      for (size_t i = 2; i < indices.size(); ++i) p.indices.insert(p.indices.end(), {indices[i - 1], indices[i], indices[0]});
+      break;
+    case TINYGLTF_MODE_POINTS:
+      p.mode = PrimitiveMode::kPoints;
+      p.indices = std::move(indices);
+      break;
+    case TINYGLTF_MODE_LINE:
+      p.mode = PrimitiveMode::kLines;
+      if (indices.size() % 2) indices.pop_back();
+      p.indices = std::move(indices);
+      break;
+    case TINYGLTF_MODE_LINE_LOOP:
+    case TINYGLTF_MODE_LINE_STRIP:
+      p.mode = PrimitiveMode::kLines;
+      for (size_t i = 1; i < indices.size(); ++i) p.indices.insert(p.indices.end(), {indices[i - 1], indices[i]});
+      if (src.mode == TINYGLTF_MODE_LINE_LOOP && indices.size() > 2) p.indices.insert(p.indices.end(), {indices.back(), indices[0]});
+      break;
+    default:
+      return InvalidArgument(what + ": unknown mode " + std::to_string(src.mode));
+  }
+  if (src.material >= static_cast<int>(model.materials.size())) return InvalidArgument(what + ": material out of range");
+  p.material = src.material;
+
+  // Morph targets, made sparse: a vertex is kept when any of its deltas is non-zero.
+  p.targets.resize(src.targets.size());
+  for (size_t t = 0; t < src.targets.size(); ++t) {
+    const std::string twhat = what + " target " + std::to_string(t);
+    std::vector<float> dp, dn, dt;
+    for (const auto& [name, acc] : src.targets[t]) {
+      std::vector<float>* dst = name == "POSITION" ? &dp : name == "NORMAL" ? &dn : name == "TANGENT" ? &dt : nullptr;
+      if (!dst) continue;
+      if (Status s = ReadAccessor(model, acc, *dst, comps, twhat + " " + name); !s.ok()) return s;
+      if (comps != 3) return InvalidArgument(twhat + ": " + name + " deltas must be VEC3");
+      if (dst->size() != 3 * n) {
+        return InvalidArgument(twhat + ": " + name + " has " + std::to_string(dst->size() / 3) +
+                               " vertices, the base has " + std::to_string(n));
+      }
+    }
+    if (!p.tangents.empty() && dt.empty() && !dp.empty()) {
+      // glTF allows targets without tangent deltas; the blend then orthogonalises.
+    }
+    SparseTarget& st = p.targets[t];
+    for (size_t v = 0; v < n; ++v) {
+      bool moved = false;
+      for (int c = 0; c < 3; ++c) {
+        moved |= (!dp.empty() && dp[3 * v + c] != 0.0f) || (!dn.empty() && dn[3 * v + c] != 0.0f) ||
+                 (!dt.empty() && dt[3 * v + c] != 0.0f);
+      }
+      if (!moved) continue;
+      st.indices.push_back(static_cast<uint32_t>(v));
+      for (int c = 0; c < 3; ++c) {
+        st.position_deltas.push_back(dp.empty() ? 0.0f : dp[3 * v + c]);
+        if (!dn.empty()) st.normal_deltas.push_back(dn[3 * v + c]);
+        if (!dt.empty() && !p.tangents.empty()) st.tangent_deltas.push_back(dt[3 * v + c]);
+      }
+    }
+  }
+  (void)warnings;
+  return Status::Ok();
+}
+
+Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
+  // Images: keep PNG and JPEG bytes; others cannot be decoded here and are dropped.
+  std::vector<int> image_map(model.images.size(), -1);
+  for (size_t i = 0; i < model.images.size(); ++i) {
+    const tinygltf::Image& im = model.images[i];
+    if (IsPng(im.image) || IsJpeg(im.image)) {
+      image_map[i] = static_cast<int>(rig.images.size());
+      rig.images.push_back({im.name, IsPng(im.image) ? "image/png" : "image/jpeg", im.image});
+    } else {
+      const std::string kind = !im.mimeType.empty() ? im.mimeType : "unknown format";
+      rig.load_warnings.push_back({"texture_dropped",
+                                   "image " + std::to_string(i) + " (" + kind +
+                                       ") cannot be decoded here and was dropped; the geometry is kept",
+                                   im.name, 0.0, false});
+    }
+  }
+  std::vector<std::pair<int, std::array<float, 6>>> material_uv_transform(model.materials.size(), {-1, {}});
+  for (size_t i = 0; i < model.materials.size(); ++i) {
+    const tinygltf::Material& sm = model.materials[i];
+    Material m;
+    m.name = sm.name;
+    const auto& pbr = sm.pbrMetallicRoughness;
+    for (size_t c = 0; c < 4 && c < pbr.baseColorFactor.size(); ++c) m.base_color_factor[c] = static_cast<float>(pbr.baseColorFactor[c]);
+    m.metallic_factor = static_cast<float>(pbr.metallicFactor);
+    m.roughness_factor = static_cast<float>(pbr.roughnessFactor);
+    m.double_sided = sm.doubleSided;
+    m.alpha_mode = sm.alphaMode.empty() ? "OPAQUE" : sm.alphaMode;
+    m.alpha_cutoff = static_cast<float>(sm.alphaCutoff);
+    const int tex = pbr.baseColorTexture.index;
+    if (tex >= 0 && static_cast<size_t>(tex) < model.textures.size()) {
+      const int src = model.textures[tex].source;
+      if (src >= 0 && static_cast<size_t>(src) < image_map.size()) m.base_color_image = image_map[src];
+      m.base_color_texcoord = pbr.baseColorTexture.texCoord;
+      std::array<float, 6> xf;
+      if (TextureTransform(pbr.baseColorTexture.extensions, xf.data())) {
+        material_uv_transform[i] = {pbr.baseColorTexture.texCoord, xf};
+      }
+    }
+    rig.materials.push_back(m);
+  }
+
+  // Meshes, primitives and shapes named across the file.
+  std::map<std::string, uint32_t> shape_by_name;
+  for (size_t mi = 0; mi < model.meshes.size(); ++mi) {
+    const tinygltf::Mesh& sm = model.meshes[mi];
+    Mesh mesh;
+    mesh.name = sm.name;
+    size_t target_count = sm.primitives.empty() ? 0 : sm.primitives[0].targets.size();
+    std::vector<std::string> names = TargetNames(sm.extras);
+    for (const auto& prim : sm.primitives) {
+      if (prim.targets.size() != target_count) {
+        return InvalidArgument("mesh " + std::to_string(mi) + ": primitives have different morph target counts");
+      }
+      if (names.empty()) names = TargetNames(prim.extras);
+    }
+    std::vector<std::string> used;
+    for (size_t t = 0; t < target_count; ++t) {
+      std::string name = t < names.size() ? names[t] : "";
+      if (name.empty()) {
+        auto it = sm.primitives[0].targets[t].find("POSITION");
+        if (it != sm.primitives[0].targets[t].end() && it->second >= 0 &&
+            static_cast<size_t>(it->second) < model.accessors.size()) {
+          name = model.accessors[it->second].name;
+        }
+      }
+      if (name.empty()) name = "target_" + std::to_string(t);
+      if (std::find(used.begin(), used.end(), name) != used.end()) {
+        const std::string unique = name + "#" + std::to_string(t);
+        rig.load_warnings.push_back({"duplicate_target_name",
+                                     "mesh " + std::to_string(mi) + " names two targets '" + name +
+                                         "'; target " + std::to_string(t) + " is called '" + unique + "'",
+                                     unique, 0.0, false});
+        name = unique;
+      }
+      used.push_back(name);
+      auto [it, inserted] = shape_by_name.emplace(name, static_cast<uint32_t>(rig.shapes.size()));
+      if (inserted) {
+        Shape s;
+        s.name = name;
+        if (t < sm.weights.size() && std::isfinite(sm.weights[t])) s.default_weight = static_cast<float>(sm.weights[t]);
+        rig.shapes.push_back(s);
+      }
+      mesh.target_shapes.push_back(it->second);
+    }
+    for (size_t pi = 0; pi < sm.primitives.size(); ++pi) {
+      Primitive p;
+      if (Status s = ConvertPrimitive(model, sm.primitives[pi], static_cast<int>(mi), static_cast<int>(pi), p,
+                                      rig.load_warnings);
+          !s.ok()) {
+        return s;
+      }
+      if (p.material >= 0 && material_uv_transform[p.material].first == 0 && !p.texcoords.empty()) {
+        const auto& xf = material_uv_transform[p.material].second;
+        for (size_t v = 0; v < p.texcoords.size(); v += 2) {
+          const float u = p.texcoords[v], w = p.texcoords[v + 1];
+          p.texcoords[v] = xf[0] * u + xf[1] * w + xf[2];
+          p.texcoords[v + 1] = xf[3] * u + xf[4] * w + xf[5];
+        }
+      }
+      FinalizePrimitive(p);
+      mesh.primitives.push_back(static_cast<int>(rig.primitives.size()));
+      rig.primitives.push_back(std::move(p));
+    }
+    rig.meshes.push_back(std::move(mesh));
+  }
+
+  // Nodes.
+  rig.nodes.resize(model.nodes.size());
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    const tinygltf::Node& sn = model.nodes[i];
+    Node& n = rig.nodes[i];
+    n.name = sn.name;
+    n.mesh = sn.mesh;
+    if (n.mesh >= static_cast<int>(rig.meshes.size())) return InvalidArgument("node " + std::to_string(i) + ": mesh out of range");
+    if (sn.matrix.size() == 16) {
+      n.has_matrix = true;
+      for (int k = 0; k < 16; ++k) n.matrix[k] = static_cast<float>(sn.matrix[k]);
+    }
+    if (sn.translation.size() == 3) for (int k = 0; k < 3; ++k) n.translation[k] = static_cast<float>(sn.translation[k]);
+    if (sn.rotation.size() == 4) for (int k = 0; k < 4; ++k) n.rotation[k] = static_cast<float>(sn.rotation[k]);
+    if (sn.scale.size() == 3) for (int k = 0; k < 3; ++k) n.scale[k] = static_cast<float>(sn.scale[k]);
+    for (float f : n.matrix) if (!std::isfinite(f)) return InvalidArgument("node " + std::to_string(i) + ": non-finite matrix");
+    for (float f : n.translation) if (!std::isfinite(f)) return InvalidArgument("node " + std::to_string(i) + ": non-finite translation");
+    for (float f : n.rotation) if (!std::isfinite(f)) return InvalidArgument("node " + std::to_string(i) + ": non-finite rotation");
+    for (float f : n.scale) if (!std::isfinite(f)) return InvalidArgument("node " + std::to_string(i) + ": non-finite scale");
+  }
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    for (int c : model.nodes[i].children) {
+      if (c < 0 || static_cast<size_t>(c) >= rig.nodes.size() || rig.nodes[c].parent >= 0 || c == static_cast<int>(i)) {
+        return InvalidArgument("node " + std::to_string(i) + ": child " + std::to_string(c) + " is invalid or has two parents");
+      }
+      rig.nodes[c].parent = static_cast<int>(i);
+      rig.nodes[i].children.push_back(c);
+    }
+  }
+  // A cycle leaves nodes that no root reaches; glTF forbids it.
+  {
+    std::vector<int> stack;
+    std::vector<uint8_t> seen(rig.nodes.size(), 0);
+    for (size_t i = 0; i < rig.nodes.size(); ++i) if (rig.nodes[i].parent < 0) stack.push_back(static_cast<int>(i));
+    size_t reached = 0;
+    while (!stack.empty()) {
+      const int i = stack.back();
+      stack.pop_back();
+      if (seen[i]) continue;
+      seen[i] = 1;
+      ++reached;
+      for (int c : rig.nodes[i].children) stack.push_back(c);
+    }
+    if (reached != rig.nodes.size()) return InvalidArgument("the node hierarchy has a cycle");
+  }
+  const int scene = model.defaultScene >= 0 ? model.defaultScene : 0;
+  if (static_cast<size_t>(scene) < model.scenes.size()) {
+    for (int r : model.scenes[scene].nodes) {
+      if (r < 0 || static_cast<size_t>(r) >= rig.nodes.size() || rig.nodes[r].parent >= 0) {
+        return InvalidArgument("scene " + std::to_string(scene) + ": invalid root node " + std::to_string(r));
+      }
+      rig.scene_roots.push_back(r);
+    }
+  } else {
+    for (size_t i = 0; i < rig.nodes.size(); ++i) if (rig.nodes[i].parent < 0) rig.scene_roots.push_back(static_cast<int>(i));
+  }
+  rig.skin_count = model.skins.size();
+  for (const auto& skin : model.skins) rig.joint_count += skin.joints.size();
+  DetectSymmetricPartners(rig);
+  CountMovedVertices(rig);
+  return ValidateRig(rig);
+}
+
+const char* kSupportedRequired[] = {"KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_texture_basisu",
+                                    "KHR_texture_transform", "KHR_materials_unlit", "EXT_texture_webp",
+                                    "KHR_materials_emissive_strength"};
+
+}  // namespace
+
+Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::string& base_dir,
+                           const LoadOptions& options) {
+  if (bytes.size() > 0xFFFFFFF0u) return InvalidArgument("file too large for glTF");
+  const bool is_glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
+  std::vector<Warning> warnings;
+  std::vector<unsigned char> decoded;
+  if (is_glb) {
+    if (Status s = DecodeMeshoptGlb(bytes, decoded, warnings); !s.ok()) return s;
+    if (!decoded.empty()) bytes = decoded;
+  } else {
+    json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return InvalidArgument("not a glTF file: neither glb nor valid JSON");
+    if (ListHas(j, "extensionsUsed", "EXT_meshopt_compression")) {
+      return InvalidArgument("EXT_meshopt_compression is read from .glb files only; pack this file as .glb");
+    }
+  }
+
+  tinygltf::TinyGLTF loader;
+  loader.SetImageLoader(KeepImageBytes, nullptr);
+  if (!options.allow_external_files) {
+    tinygltf::FsCallbacks fs{NoFileExists, NoExpand, NoRead, NoWrite, nullptr};
+    loader.SetFsCallbacks(fs);
+  }
+  tinygltf::Model model;
+  std::string err, warn;
+  const bool ok = is_glb ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes.data(),
+                                                       static_cast<unsigned int>(bytes.size()), base_dir)
+                         : loader.LoadASCIIFromString(&model, &err, &warn,
+                                                      reinterpret_cast<const char*>(bytes.data()),
+                                                      static_cast<unsigned int>(bytes.size()), base_dir);
+  if (!ok) {
+    while (!err.empty() && (err.back() == '\n' || err.back() == ' ')) err.pop_back();
+    for (char& c : err) if (c == '\n') c = ';';
+    return InvalidArgument("invalid glTF: " + (err.empty() ? std::string("parse failed") : err));
+  }
+  for (const std::string& ext : model.extensionsRequired) {
+    if (std::find(std::begin(kSupportedRequired), std::end(kSupportedRequired), ext) == std::end(kSupportedRequired)) {
+      return FailedPrecondition("the file requires the glTF extension " + ext + ", which is not supported");
+    }
+  }
+  Rig rig;
+  rig.load_warnings = std::move(warnings);
+  if (Status s = ConvertModel(model, rig); !s.ok()) return s;
+  return rig;
+}
+
+Result<Rig> LoadGltfFile(const std::string& path, const LoadOptions& options) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return NotFound("cannot open '" + path + "'");
+  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/'));
+  Result<Rig> rig = LoadGltfMemory(bytes, dir, options);
+  if (!rig.ok()) return Status{rig.status().code, path + ": " + rig.status().message, rig.status().fields};
+  return rig;
+}
+
+}  // namespace facespace

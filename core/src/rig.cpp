@@ -1,0 +1,324 @@
+#include "facespace/core/rig.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cctype>
+
+#include "facespace/core/blend.h"
+
+namespace facespace {
+
+void FinalizeTarget(SparseTarget& target) {
+  target.runs.clear();
+  const std::vector<uint32_t>& idx = target.indices;
+  for (size_t k = 0; k < idx.size();) {
+    size_t end = k + 1;
+    while (end < idx.size() && idx[end] == idx[end - 1] + 1) ++end;
+    target.runs.push_back(idx[k]);
+    target.runs.push_back(static_cast<uint32_t>(end - k));
+    k = end;
+  }
+}
+
+void FinalizePrimitive(Primitive& p) {
+  const size_t n = p.vertex_count();
+  const size_t faces = p.triangle_count();
+  // Vertex -> face adjacency, CSR.
+  p.vertex_face_offsets.assign(n + 1, 0);
+  for (size_t f = 0; f < faces * 3; ++f) p.vertex_face_offsets[p.indices[f] + 1]++;
+  for (size_t v = 0; v < n; ++v) p.vertex_face_offsets[v + 1] += p.vertex_face_offsets[v];
+  p.vertex_faces.assign(p.vertex_face_offsets[n], 0);
+  std::vector<uint32_t> fill(p.vertex_face_offsets.begin(), p.vertex_face_offsets.end() - 1);
+  for (size_t f = 0; f < faces; ++f) {
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t v = p.indices[3 * f + c];
+      // A degenerate face naming a vertex twice is listed once for it.
+      const uint32_t first = p.vertex_face_offsets[v];
+      if (fill[v] > first && p.vertex_faces[fill[v] - 1] == f) continue;
+      p.vertex_faces[fill[v]++] = static_cast<uint32_t>(f);
+    }
+  }
+  // Trim the slots that degenerate faces left unused by compacting per vertex.
+  {
+    std::vector<uint32_t> offsets(n + 1, 0);
+    size_t w = 0;
+    for (size_t v = 0; v < n; ++v) {
+      offsets[v] = static_cast<uint32_t>(w);
+      for (uint32_t k = p.vertex_face_offsets[v]; k < fill[v]; ++k) {
+        p.vertex_faces[w++] = p.vertex_faces[k];
+      }
+    }
+    offsets[n] = static_cast<uint32_t>(w);
+    p.vertex_faces.resize(w);
+    p.vertex_face_offsets = std::move(offsets);
+  }
+  p.base_smooth_normals.assign(n * 3, 0.0f);
+  if (p.mode == PrimitiveMode::kTriangles) {
+    std::span<const uint32_t> tris(p.indices.data(), faces * 3);
+    ComputeSmoothNormals(p.positions, tris, p.base_smooth_normals);
+  }
+  if (p.normals.size() != n * 3) {
+    p.normals = p.base_smooth_normals;
+    p.source_has_normals = false;
+  }
+  for (SparseTarget& t : p.targets) FinalizeTarget(t);
+}
+
+size_t Rig::vertex_count() const {
+  size_t n = 0;
+  for (const Primitive& p : primitives) n += p.vertex_count();
+  return n;
+}
+
+size_t Rig::triangle_count() const {
+  size_t n = 0;
+  for (const Primitive& p : primitives) n += p.triangle_count();
+  return n;
+}
+
+int FindShape(const Rig& rig, const std::string& name) {
+  for (size_t i = 0; i < rig.shapes.size(); ++i) {
+    if (rig.shapes[i].name == name) return static_cast<int>(i);
+  }
+  for (size_t i = 0; i < rig.shapes.size(); ++i) {
+    const auto& a = rig.shapes[i].aliases;
+    if (std::find(a.begin(), a.end(), name) != a.end()) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+namespace {
+
+std::string Lower(const std::string& s) {
+  std::string r = s;
+  for (char& c : r) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return r;
+}
+
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// The name with its left/right marker replaced by a placeholder, and which side it was;
+// side 0 when the name has no marker.
+struct Sided {
+  std::string key;
+  int side = 0;  // -1 left, +1 right.
+};
+
+Sided SideOf(const std::string& name) {
+  struct Marker {
+    const char* left;
+    const char* right;
+    bool suffix;
+  };
+  static const Marker kMarkers[] = {
+      {"_L", "_R", true},   {"_l", "_r", true},       {".L", ".R", true},  {".l", ".r", true},
+      {"Left", "Right", true}, {"_left", "_right", true}, {"l-", "r-", false}, {"L_", "R_", false},
+      {"left", "right", true},
+  };
+  auto ends = [](const std::string& s, const std::string& t) {
+    return s.size() > t.size() && s.compare(s.size() - t.size(), t.size(), t) == 0;
+  };
+  auto starts = [](const std::string& s, const std::string& t) {
+    return s.size() > t.size() && s.compare(0, t.size(), t) == 0;
+  };
+  for (const Marker& m : kMarkers) {
+    for (int side : {-1, 1}) {
+      const std::string tag = side < 0 ? m.left : m.right;
+      if (m.suffix && ends(name, tag)) return {name.substr(0, name.size() - tag.size()) + "\x01" + m.left, side};
+      if (!m.suffix && starts(name, tag)) return {std::string(m.left) + "\x01" + name.substr(tag.size()), side};
+    }
+  }
+  // MakeHuman-style: "l-" / "r-" after a group prefix ("eyes/r-eye-move-in").
+  const size_t slash = name.rfind('/');
+  if (slash != std::string::npos && slash + 3 < name.size() &&
+      (name.compare(slash + 1, 2, "l-") == 0 || name.compare(slash + 1, 2, "r-") == 0)) {
+    const int side = name[slash + 1] == 'l' ? -1 : 1;
+    return {name.substr(0, slash + 1) + "\x01" + name.substr(slash + 3), side};
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string ClosestShapeName(const Rig& rig, const std::string& name) {
+  std::string best;
+  size_t best_d = static_cast<size_t>(-1);
+  const std::string lname = Lower(name);
+  for (const Shape& s : rig.shapes) {
+    const size_t d = EditDistance(lname, Lower(s.name));
+    if (d < best_d) {
+      best_d = d;
+      best = s.name;
+    }
+  }
+  // Suggest only when it is plausibly a typo: at most a third of the name differs.
+  if (best_d > std::max<size_t>(2, name.size() / 3)) return "";
+  return best;
+}
+
+void DetectSymmetricPartners(Rig& rig) {
+  std::vector<Sided> sided(rig.shapes.size());
+  for (size_t i = 0; i < rig.shapes.size(); ++i) sided[i] = SideOf(rig.shapes[i].name);
+  for (size_t i = 0; i < rig.shapes.size(); ++i) {
+    if (sided[i].side != -1 || rig.shapes[i].partner >= 0) continue;
+    for (size_t j = 0; j < rig.shapes.size(); ++j) {
+      if (sided[j].side == 1 && sided[j].key == sided[i].key && rig.shapes[j].partner < 0) {
+        rig.shapes[i].partner = static_cast<int>(j);
+        rig.shapes[j].partner = static_cast<int>(i);
+        break;
+      }
+    }
+  }
+}
+
+void CountMovedVertices(Rig& rig) {
+  for (Shape& s : rig.shapes) s.vertices_moved = 0;
+  for (const Mesh& m : rig.meshes) {
+    for (int pi : m.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      for (size_t t = 0; t < p.targets.size() && t < m.target_shapes.size(); ++t) {
+        rig.shapes[m.target_shapes[t]].vertices_moved += p.targets[t].indices.size();
+      }
+    }
+  }
+}
+
+namespace {
+
+Eigen::Matrix4f LocalMatrix(const Node& n) {
+  if (n.has_matrix) return Eigen::Map<const Eigen::Matrix4f>(n.matrix.data());
+  Eigen::Affine3f t = Eigen::Affine3f::Identity();
+  t.translate(Eigen::Vector3f(n.translation[0], n.translation[1], n.translation[2]));
+  t.rotate(Eigen::Quaternionf(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2])
+               .normalized());
+  t.scale(Eigen::Vector3f(n.scale[0], n.scale[1], n.scale[2]));
+  return t.matrix();
+}
+
+}  // namespace
+
+std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig) {
+  const size_t n = rig.nodes.size();
+  std::vector<Eigen::Matrix4f> world(n);
+  std::vector<uint8_t> done(n, 0);
+  // Roots first, then children: a breadth-first walk visits every parent before its children.
+  std::vector<int> queue;
+  for (size_t i = 0; i < n; ++i) {
+    if (rig.nodes[i].parent < 0) queue.push_back(static_cast<int>(i));
+  }
+  for (size_t q = 0; q < queue.size(); ++q) {
+    const int i = queue[q];
+    const Node& node = rig.nodes[i];
+    world[i] = node.parent < 0 ? LocalMatrix(node) : Eigen::Matrix4f(world[node.parent] * LocalMatrix(node));
+    done[i] = 1;
+    for (int c : node.children) {
+      if (c >= 0 && static_cast<size_t>(c) < n && !done[c]) queue.push_back(c);
+    }
+  }
+  std::vector<std::array<float, 16>> out(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Matrix4f m = done[i] ? world[i] : Eigen::Matrix4f::Identity();
+    std::copy(m.data(), m.data() + 16, out[i].begin());
+  }
+  return out;
+}
+
+std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig) {
+  const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  std::vector<std::array<float, 16>> out(rig.primitives.size(), identity);
+  const auto world = NodeWorldMatrices(rig);
+  std::vector<uint8_t> placed(rig.meshes.size(), 0);
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    const int m = rig.nodes[i].mesh;
+    if (m < 0 || placed[m]) continue;
+    placed[m] = 1;
+    for (int p : rig.meshes[m].primitives) out[p] = world[i];
+  }
+  return out;
+}
+
+Status ValidateRig(const Rig& rig) {
+  const size_t shapes = rig.shapes.size();
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    const Primitive& p = rig.primitives[pi];
+    const size_t n = p.vertex_count();
+    const std::string where = "primitive " + std::to_string(pi) + ": ";
+    if (p.positions.size() % 3 != 0) return InvalidArgument(where + "positions not xyz");
+    if (p.mesh < 0 || static_cast<size_t>(p.mesh) >= rig.meshes.size()) {
+      return InvalidArgument(where + "mesh index out of range");
+    }
+    if (p.normals.size() != 3 * n) return InvalidArgument(where + "normal count differs from vertex count");
+    if (!p.tangents.empty() && p.tangents.size() != 4 * n) return InvalidArgument(where + "tangent count differs from vertex count");
+    if (!p.texcoords.empty() && p.texcoords.size() != 2 * n) return InvalidArgument(where + "texcoord count differs from vertex count");
+    if (!p.colors.empty() && p.colors.size() != 4 * n) return InvalidArgument(where + "color count differs from vertex count");
+    for (uint32_t i : p.indices) {
+      if (i >= n) {
+        return InvalidArgument(where + "index " + std::to_string(i) + " beyond vertex count " + std::to_string(n));
+      }
+    }
+    if (p.mode == PrimitiveMode::kTriangles && p.indices.size() % 3 != 0) {
+      return InvalidArgument(where + "triangle index count not a multiple of 3");
+    }
+    if (p.material >= static_cast<int>(rig.materials.size())) return InvalidArgument(where + "material out of range");
+    if (p.targets.size() != rig.meshes[p.mesh].target_shapes.size()) {
+      return InvalidArgument(where + "target count differs from its mesh's");
+    }
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      const SparseTarget& st = p.targets[t];
+      const size_t k = st.indices.size();
+      if (st.position_deltas.size() != 3 * k ||
+          (!st.normal_deltas.empty() && st.normal_deltas.size() != 3 * k) ||
+          (!st.tangent_deltas.empty() && st.tangent_deltas.size() != 3 * k)) {
+        return InvalidArgument(where + "target " + std::to_string(t) + " delta count mismatch");
+      }
+      for (size_t j = 0; j < k; ++j) {
+        if (st.indices[j] >= n || (j > 0 && st.indices[j] <= st.indices[j - 1])) {
+          return InvalidArgument(where + "target " + std::to_string(t) + " has a bad vertex index");
+        }
+      }
+    }
+  }
+  for (const Mesh& m : rig.meshes) {
+    for (uint32_t s : m.target_shapes) {
+      if (s >= shapes) return InvalidArgument("mesh target maps to a missing shape");
+    }
+    for (int p : m.primitives) {
+      if (p < 0 || static_cast<size_t>(p) >= rig.primitives.size()) return InvalidArgument("mesh primitive out of range");
+    }
+  }
+  for (const Shape& s : rig.shapes) {
+    if (s.partner >= static_cast<int>(shapes)) return InvalidArgument("shape partner out of range");
+  }
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    const Node& node = rig.nodes[i];
+    if (node.mesh >= static_cast<int>(rig.meshes.size())) return InvalidArgument("node mesh out of range");
+    if (node.parent >= static_cast<int>(rig.nodes.size())) return InvalidArgument("node parent out of range");
+    for (int c : node.children) {
+      if (c < 0 || static_cast<size_t>(c) >= rig.nodes.size() || rig.nodes[c].parent != static_cast<int>(i)) {
+        return InvalidArgument("node " + std::to_string(i) + " has an invalid child");
+      }
+    }
+  }
+  for (int r : rig.scene_roots) {
+    if (r < 0 || static_cast<size_t>(r) >= rig.nodes.size()) return InvalidArgument("scene root out of range");
+  }
+  for (const Material& m : rig.materials) {
+    if (m.base_color_image >= static_cast<int>(rig.images.size())) return InvalidArgument("material image out of range");
+  }
+  return Status::Ok();
+}
+
+}  // namespace facespace

@@ -1,0 +1,30 @@
+#include "facespace/core/status.h"
+
+namespace facespace {
+
+const char* StatusCodeName(StatusCode code) {
+  switch (code) {
+    case StatusCode::kOk: return "ok";
+    case StatusCode::kInvalidArgument: return "invalid_argument";
+    case StatusCode::kNotFound: return "not_found";
+    case StatusCode::kFailedPrecondition: return "failed_precondition";
+    case StatusCode::kResourceExhausted: return "resource_exhausted";
+    case StatusCode::kDataLoss: return "data_loss";
+    case StatusCode::kInternal: return "internal";
+  }
+  return "unknown";
+}
+
+Status InvalidArgument(std::string message) {
+  return {StatusCode::kInvalidArgument, std::move(message), {}};
+}
+Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}}; }
+Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message), {}}; }
+Status FailedPrecondition(std::string message) {
+  return {StatusCode::kFailedPrecondition, std::move(message), {}};
+}
+Status ResourceExhausted(std::string message) {
+  return {StatusCode::kResourceExhausted, std::move(message), {}};
+}
+
+}  // namespace facespace

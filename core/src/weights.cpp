@@ -1,0 +1,126 @@
+#include "facespace/core/weights.h"
+
+#include <charconv>
+#include <cmath>
+
+namespace facespace {
+
+std::string FormatNumber(double value) {
+  char buf[32];
+  const float f = static_cast<float>(value);
+  if (std::isfinite(value) && !std::isfinite(f)) {  // Beyond float range: say it as a double.
+    auto r = std::to_chars(buf, buf + sizeof buf, value);
+    return std::string(buf, r.ptr);
+  }
+  auto r = std::to_chars(buf, buf + sizeof buf, f);
+  return std::string(buf, r.ptr);
+}
+
+namespace {
+
+std::string ValidNames(const Rig& rig) {
+  std::string s;
+  const size_t shown = std::min<size_t>(rig.shapes.size(), 60);
+  for (size_t i = 0; i < shown; ++i) {
+    if (i) s += ", ";
+    s += rig.shapes[i].name;
+  }
+  if (shown < rig.shapes.size()) s += ", ... (" + std::to_string(rig.shapes.size()) + " in all)";
+  return s.empty() ? "(none: this rig has no shapes)" : s;
+}
+
+}  // namespace
+
+Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const WeightEntry> entries) {
+  std::vector<float> weights(rig.shapes.size(), 0.0f);
+  std::vector<uint8_t> seen(rig.shapes.size(), 0);
+  Status status = InvalidArgument("");
+  for (const WeightEntry& e : entries) {
+    long long index = e.index;
+    std::string label = e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'";
+    if (!e.name.empty()) {
+      index = FindShape(rig, e.name);
+      // A map key of digits that names no shape is an index: {"3": 0.5}.
+      if (index < 0 && e.name.size() < 10 &&
+          e.name.find_first_not_of("0123456789") == std::string::npos) {
+        index = std::stoll(e.name);
+        if (static_cast<size_t>(index) >= rig.shapes.size()) {
+          status.fields.push_back({e.pointer, "shape index " + e.name + " out of range: this rig has " +
+                                                  std::to_string(rig.shapes.size()) + " shapes"});
+          continue;
+        }
+      }
+      if (index < 0) {
+        std::string msg = "unknown shape '" + e.name + "'";
+        const std::string close = ClosestShapeName(rig, e.name);
+        if (!close.empty()) msg += " (did you mean '" + close + "'?)";
+        msg += "; valid shapes: " + ValidNames(rig);
+        status.fields.push_back({e.pointer, msg});
+        continue;
+      }
+    } else if (index < 0 || static_cast<size_t>(index) >= rig.shapes.size()) {
+      status.fields.push_back({e.pointer, "shape index " + std::to_string(index) +
+                                              " out of range: this rig has " +
+                                              std::to_string(rig.shapes.size()) + " shapes (0.." +
+                                              std::to_string(static_cast<long long>(rig.shapes.size()) - 1) + ")"});
+      continue;
+    }
+    if (!std::isfinite(e.value)) {
+      status.fields.push_back({e.pointer, "weight of " + label + " must be a finite number"});
+      continue;
+    }
+    if (std::fabs(e.value) > 3.0e38) {
+      status.fields.push_back({e.pointer, "weight of " + label + " is too large"});
+      continue;
+    }
+    if (seen[index]) {
+      status.fields.push_back({e.pointer, "shape '" + rig.shapes[index].name + "' is given twice"});
+      continue;
+    }
+    seen[index] = 1;
+    weights[index] = static_cast<float>(e.value);
+  }
+  if (!status.fields.empty()) {
+    status.message = status.fields.front().message;
+    if (status.fields.size() > 1) {
+      status.message += " (and " + std::to_string(status.fields.size() - 1) + " more)";
+    }
+    return status;
+  }
+  return weights;
+}
+
+WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendMode mode) {
+  WeightReport r;
+  for (size_t i = 0; i < weights.size() && i < rig.shapes.size(); ++i) {
+    const Shape& s = rig.shapes[i];
+    const float w = weights[i];
+    r.sum += w;
+    if (w < s.min || w > s.max) {
+      r.warnings.push_back({"out_of_range",
+                            "weight " + FormatNumber(w) + " of '" + s.name + "' is outside its range [" +
+                                FormatNumber(s.min) + ", " + FormatNumber(s.max) + "]",
+                            s.name, w, true});
+    } else if (w < 0.0f) {
+      r.warnings.push_back({"negative_weight",
+                            "negative weight " + FormatNumber(w) + " of '" + s.name +
+                                "' subtracts the shape",
+                            s.name, w, true});
+    }
+  }
+  if (r.sum > 1.0 + 1e-6) {
+    r.warnings.insert(r.warnings.begin(),
+                      {"extrapolation",
+                       "extrapolation: sum of weights " + FormatNumber(r.sum) + " exceeds 1", "",
+                       r.sum, true});
+  }
+  if (mode == BlendMode::kAbsolute && std::fabs(r.sum - 1.0) > 1e-4) {
+    r.warnings.push_back({"absolute_sum",
+                          "absolute mode: sum of weights " + FormatNumber(r.sum) +
+                              " is not 1; the base takes weight " + FormatNumber(1.0 - r.sum),
+                          "", r.sum, true});
+  }
+  return r;
+}
+
+}  // namespace facespace

@@ -1,0 +1,291 @@
+#include "cli.h"
+
+#include <unistd.h>
+
+#include <charconv>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+
+#include "facespace/api/request.h"
+#include "facespace/core/blend.h"
+#include "facespace/core/io.h"
+#include "facespace/core/weights.h"
+
+namespace facespace::cli {
+
+namespace {
+
+bool EndsWith(const std::string& s, const char* t) {
+  const size_t n = std::strlen(t);
+  return s.size() >= n && s.compare(s.size() - n, n, t) == 0;
+}
+
+void PrintStatus(const Status& s) {
+  if (s.fields.size() <= 1) {
+    std::fprintf(stderr, "error: %s\n", s.message.c_str());
+    return;
+  }
+  std::fprintf(stderr, "error: %zu problems\n", s.fields.size());
+  for (const FieldError& f : s.fields) std::fprintf(stderr, "error: %s: %s\n", f.pointer.c_str(), f.message.c_str());
+}
+
+void PrintWarnings(const std::vector<Warning>& warnings) {
+  for (const Warning& w : warnings) {
+    // The message of an extrapolation warning already starts with its code.
+    if (w.message.rfind(w.code, 0) == 0) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+    else std::fprintf(stderr, "warning: %s: %s\n", w.code.c_str(), w.message.c_str());
+  }
+}
+
+// The rig named by the positional arguments: one glTF file, or an OBJ sequence.
+Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
+  if (paths.empty()) return InvalidArgument("no rig given");
+  if (paths.size() > 1 || EndsWith(paths[0], ".obj") || EndsWith(paths[0], ".OBJ")) {
+    for (const std::string& p : paths) {
+      if (!EndsWith(p, ".obj") && !EndsWith(p, ".OBJ")) {
+        return InvalidArgument("several rig files given, but '" + p + "' is not an .obj (only OBJ sequences take several)");
+      }
+    }
+    if (paths.size() == 1) return LoadRigFile(paths[0]);
+    return LoadObjSequence(paths);
+  }
+  return LoadRigFile(paths[0]);
+}
+
+bool ReadFile(const std::string& path, std::string& out) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return false;
+  out.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return true;
+}
+
+// Writes atomically: a temporary file beside the target, then rename.
+bool WriteOutput(const std::string& path, const std::string& data) {
+  if (path == "-") return std::fwrite(data.data(), 1, data.size(), stdout) == data.size() && std::fflush(stdout) == 0;
+  const std::string tmp = path + ".tmp" + std::to_string(getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f || !f.write(data.data(), static_cast<std::streamsize>(data.size())) || !f.flush()) {
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    return false;
+  }
+  return true;
+}
+
+std::string Usage() {
+  return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
+         "       [--normals blend|recompute] [--keep-targets] [--format glb|obj|json|f32] -o OUT\n";
+}
+
+}  // namespace
+
+int Info(const std::vector<std::string>& args) {
+  std::vector<std::string> paths;
+  bool as_json = false;
+  for (const std::string& a : args) {
+    if (a == "--json") as_json = true;
+    else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "error: unknown option '%s'\nusage: facespace info RIG [SHAPE.obj ...] [--json]\n", a.c_str());
+      return 2;
+    } else {
+      paths.push_back(a);
+    }
+  }
+  if (paths.empty()) {
+    std::fputs("usage: facespace info RIG [SHAPE.obj ...] [--json]\n", stderr);
+    return 2;
+  }
+  Result<Rig> loaded = LoadFromArgs(paths);
+  if (!loaded.ok()) {
+    PrintStatus(loaded.status());
+    return 1;
+  }
+  const Rig& rig = loaded.value();
+  PrintWarnings(rig.load_warnings);
+  if (as_json) {
+    nlohmann::json j;
+    j["name"] = rig.name;
+    j["vertices"] = rig.vertex_count();
+    j["triangles"] = rig.triangle_count();
+    j["primitives"] = rig.primitives.size();
+    j["meshes"] = rig.meshes.size();
+    j["skins"] = rig.skin_count;
+    j["joints"] = rig.joint_count;
+    j["shapes"] = nlohmann::json::array();
+    for (size_t i = 0; i < rig.shapes.size(); ++i) {
+      const Shape& s = rig.shapes[i];
+      nlohmann::json o = {{"index", i}, {"name", s.name}, {"group", s.group}, {"min", s.min}, {"max", s.max},
+                          {"default", s.default_weight}, {"vertices_moved", s.vertices_moved}};
+      if (s.partner >= 0) o["partner"] = rig.shapes[s.partner].name;
+      if (!s.aliases.empty()) o["aliases"] = s.aliases;
+      j["shapes"].push_back(o);
+    }
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  std::printf("rig        %s\n", rig.name.c_str());
+  std::printf("vertices   %zu\ntriangles  %zu\nmeshes     %zu (%zu primitives)\n", rig.vertex_count(),
+              rig.triangle_count(), rig.meshes.size(), rig.primitives.size());
+  if (rig.skin_count) std::printf("skeleton   %zu skin(s), %zu joints\n", rig.skin_count, rig.joint_count);
+  else std::printf("skeleton   none\n");
+  for (size_t m = 0; m < rig.meshes.size(); ++m) {
+    const Mesh& mesh = rig.meshes[m];
+    size_t v = 0;
+    for (int p : mesh.primitives) v += rig.primitives[p].vertex_count();
+    std::printf("mesh %-3zu   %-20s %zu primitive(s), %zu vertices, %zu targets\n", m,
+                mesh.name.empty() ? "(unnamed)" : mesh.name.c_str(), mesh.primitives.size(), v, mesh.target_shapes.size());
+  }
+  std::printf("shapes     %zu\n", rig.shapes.size());
+  if (!rig.shapes.empty()) {
+    std::printf("  %5s  %-28s %-12s %-14s %8s %7s  %s\n", "index", "name", "group", "range", "default", "moved", "partner");
+  }
+  for (size_t i = 0; i < rig.shapes.size(); ++i) {
+    const Shape& s = rig.shapes[i];
+    const std::string range = "[" + FormatNumber(s.min) + ", " + FormatNumber(s.max) + "]";
+    std::printf("  %5zu  %-28s %-12s %-14s %8s %7zu  %s\n", i, s.name.c_str(), s.group.c_str(), range.c_str(),
+                FormatNumber(s.default_weight).c_str(), s.vertices_moved,
+                s.partner >= 0 ? rig.shapes[s.partner].name.c_str() : "-");
+  }
+  return 0;
+}
+
+int Blend(const std::vector<std::string>& args) {
+  std::vector<std::string> paths;
+  std::vector<WeightEntry> entries;
+  BlendOptions options;
+  std::string out_path, format_name;
+  ExportOptions export_options;
+  bool weights_given = false;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    auto value = [&](std::string& dst) {
+      if (i + 1 >= args.size()) {
+        std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), Usage().c_str());
+        return false;
+      }
+      dst = args[++i];
+      return true;
+    };
+    std::string v;
+    if (a == "--weights") {
+      if (!value(v)) return 2;
+      if (weights_given) {
+        std::fprintf(stderr, "error: --weights given twice\n");
+        return 2;
+      }
+      weights_given = true;
+      std::string text = v;
+      if (!v.empty() && v[0] == '@') {
+        if (!ReadFile(v.substr(1), text)) {
+          std::fprintf(stderr, "error: --weights: cannot read '%s'\n", v.substr(1).c_str());
+          return 1;
+        }
+      }
+      auto parsed = api::ParseWeightsJson(text, "--weights");
+      if (!parsed.ok()) {
+        PrintStatus(parsed.status());
+        return 1;
+      }
+      entries.insert(entries.end(), parsed->begin(), parsed->end());
+    } else if (a == "--set") {
+      if (!value(v)) return 2;
+      const size_t eq = v.rfind('=');
+      if (eq == std::string::npos || eq == 0) {
+        std::fprintf(stderr, "error: --set takes NAME=W, got '%s'\n", v.c_str());
+        return 2;
+      }
+      WeightEntry e;
+      e.name = v.substr(0, eq);
+      e.pointer = "--set " + e.name;
+      const std::string num = v.substr(eq + 1);
+      auto r = std::from_chars(num.data(), num.data() + num.size(), e.value);
+      if (r.ec != std::errc() || r.ptr != num.data() + num.size()) {
+        std::fprintf(stderr, "error: --set %s: '%s' is not a number\n", e.name.c_str(), num.c_str());
+        return 1;
+      }
+      entries.push_back(e);
+    } else if (a == "--mode") {
+      if (!value(v)) return 2;
+      if (!api::ParseBlendMode(v, &options.mode)) {
+        std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str());
+        return 2;
+      }
+    } else if (a == "--normals") {
+      if (!value(v)) return 2;
+      if (!api::ParseNormalMode(v, &options.normals)) {
+        std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str());
+        return 2;
+      }
+    } else if (a == "--format") {
+      if (!value(format_name)) return 2;
+    } else if (a == "-o" || a == "--output") {
+      if (!value(out_path)) return 2;
+    } else if (a == "--keep-targets") {
+      export_options.keep_targets = true;
+    } else if (a.size() > 1 && a[0] == '-') {
+      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), Usage().c_str());
+      return 2;
+    } else {
+      paths.push_back(a);
+    }
+  }
+  if (paths.empty() || out_path.empty()) {
+    std::fprintf(stderr, "error: %s\n%s", paths.empty() ? "no rig given" : "no output given (-o OUT or -o -)", Usage().c_str());
+    return 2;
+  }
+  MeshFormat format = MeshFormat::kJson;
+  if (!format_name.empty()) {
+    if (!ParseMeshFormat(format_name, &format)) {
+      std::fprintf(stderr, "error: --format must be glb, obj, json or f32, not '%s'\n", format_name.c_str());
+      return 2;
+    }
+  } else if (out_path != "-") {
+    const size_t dot = out_path.rfind('.');
+    const std::string ext = dot == std::string::npos ? "" : out_path.substr(dot + 1);
+    if (!ParseMeshFormat(ext, &format)) {
+      std::fprintf(stderr, "error: cannot tell the format from '%s': use .glb, .obj, .json, .f32 or --format\n",
+                   out_path.c_str());
+      return 2;
+    }
+  }
+
+  Result<Rig> loaded = LoadFromArgs(paths);
+  if (!loaded.ok()) {
+    PrintStatus(loaded.status());
+    return 1;
+  }
+  const Rig& rig = loaded.value();
+  PrintWarnings(rig.load_warnings);
+  Result<std::vector<float>> weights = ResolveWeights(rig, entries);
+  if (!weights.ok()) {
+    PrintStatus(weights.status());
+    return 1;
+  }
+  WeightReport report = CheckWeights(rig, weights.value(), options.mode);
+  PrintWarnings(report.warnings);
+  BlendedRig blended;
+  BlendContext context;
+  if (Status s = EvaluateRig(rig, weights.value(), options, blended, context); !s.ok()) {
+    PrintStatus(s);
+    return 1;
+  }
+  Result<std::string> bytes = ExportMesh(rig, blended, weights.value(), report.warnings, format, export_options);
+  if (!bytes.ok()) {
+    PrintStatus(bytes.status());
+    return 1;
+  }
+  if (!WriteOutput(out_path, bytes.value())) {
+    std::fprintf(stderr, "error: cannot write '%s'\n", out_path.c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace facespace::cli

@@ -1,0 +1,13 @@
+// The facespace command line: info, blend (and serve, in server.cpp).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace facespace::cli {
+
+// Each returns the process exit code: 0 success, 1 failure (message on stderr), 2 bad usage.
+int Info(const std::vector<std::string>& args);
+int Blend(const std::vector<std::string>& args);
+
+}  // namespace facespace::cli

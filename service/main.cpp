@@ -1,0 +1,46 @@
+// facespace: blend-shape rigs from the command line, and the HTTP service.
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "cli.h"
+
+namespace {
+
+const char kUsage[] =
+    "usage: facespace COMMAND [ARGS]\n"
+    "\n"
+    "commands:\n"
+    "  info RIG [SHAPE.obj ...] [--json]\n"
+    "      shapes (names, groups, ranges, vertices moved), meshes, skeleton\n"
+    "  blend RIG [SHAPE.obj ...] [--weights JSON | --weights @FILE | --set NAME=W ...]\n"
+    "        [--mode relative|absolute] [--normals blend|recompute] [--keep-targets]\n"
+    "        [--format glb|obj|json|f32] -o OUT\n"
+    "      the blended mesh; format from OUT's extension or --format; -o - writes to stdout\n"
+    "\n"
+    "RIG is a .glb or .gltf file, or a .obj file followed by more .obj files (an OBJ\n"
+    "sequence: the first is the base, each other one a shape named after its file).\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fputs(kUsage, stderr);
+    return 2;
+  }
+  const std::string command = argv[1];
+  std::vector<std::string> args(argv + 2, argv + argc);
+  if (command == "-h" || command == "--help" || command == "help") {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  if (command == "--version") {
+    std::puts("facespace 0.1.0");
+    return 0;
+  }
+  if (command == "info") return facespace::cli::Info(args);
+  if (command == "blend") return facespace::cli::Blend(args);
+  std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
+  return 2;
+}
