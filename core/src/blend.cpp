@@ -36,6 +36,11 @@ bool BlendShapeJob::Validate() const {
     if (weights[t] == 0.0f) continue;
     const SparseTarget& st = targets[t];
     if (Deltas(st, channel).size() != 3 * st.indices.size()) return false;
+    if (st.runs.empty()) {
+      // Indices are ascending (SparseTarget's contract): the last one bounds them all.
+      if (!st.indices.empty() && st.indices.back() >= n) return false;
+      continue;
+    }
     if (st.runs.size() % 2 != 0) return false;
     size_t covered = 0;
     for (size_t r = 0; r < st.runs.size(); r += 2) {
@@ -57,7 +62,16 @@ bool BlendShapeJob::Run() const {
     const float* d = Deltas(st, channel).data();
     const uint32_t* run = st.runs.data();
     const uint32_t* const run_end = run + st.runs.size();
-    if (stride == 3) {
+    if (st.runs.empty()) {
+      // Scattered target: one vertex at a time.
+      for (uint32_t v : st.indices) {
+        float* o = out.data() + stride * static_cast<size_t>(v);
+        o[0] += w * d[0];
+        o[1] += w * d[1];
+        o[2] += w * d[2];
+        d += 3;
+      }
+    } else if (stride == 3) {
       // A run of consecutive vertices is one contiguous xyz stream: a plain axpy.
       for (; run != run_end; run += 2) {
         float* o = out.data() + 3 * static_cast<size_t>(run[0]);
@@ -249,6 +263,14 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
         t4[0] -= dot * nn[0];
         t4[1] -= dot * nn[1];
         t4[2] -= dot * nn[2];
+        if (t4[0] * t4[0] + t4[1] * t4[1] + t4[2] * t4[2] < 1e-12f) {
+          // The deltas cancelled the tangent: any unit vector orthogonal to the normal.
+          const float ax = std::fabs(nn[0]) < 0.9f ? 1.0f : 0.0f;
+          const float ay = 1.0f - ax;
+          t4[0] = ay * nn[2];
+          t4[1] = -ax * nn[2];
+          t4[2] = ax * nn[1] - ay * nn[0];
+        }
         Normalize3(t4);
       }
     }

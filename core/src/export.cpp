@@ -399,6 +399,11 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
       if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
     }
+    // tinygltf writes a node with no properties as null, which glTF forbids: name it.
+    if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() && gn.translation.empty() &&
+        gn.rotation.empty() && gn.scale.empty()) {
+      gn.name = "node_" + std::to_string(m.nodes.size());
+    }
     m.nodes.push_back(gn);
   }
   tinygltf::Scene scene;

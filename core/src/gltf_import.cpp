@@ -775,6 +775,17 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
   } else {
     for (size_t i = 0; i < rig.nodes.size(); ++i) if (rig.nodes[i].parent < 0) rig.scene_roots.push_back(static_cast<int>(i));
   }
+  // Unnamed meshes take the name of the nearest named node above the first node that shows
+  // them ("head", "teeth" in FaceCap).
+  for (const Node& n : rig.nodes) {
+    if (n.mesh < 0 || !rig.meshes[n.mesh].name.empty()) continue;
+    for (const Node* up = &n; up; up = up->parent >= 0 ? &rig.nodes[up->parent] : nullptr) {
+      if (!up->name.empty()) {
+        rig.meshes[n.mesh].name = up->name;
+        break;
+      }
+    }
+  }
   rig.skin_count = model.skins.size();
   for (const auto& skin : model.skins) rig.joint_count += skin.joints.size();
   DetectSymmetricPartners(rig);
@@ -785,6 +796,24 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
 const char* kSupportedRequired[] = {"KHR_mesh_quantization", "EXT_meshopt_compression", "KHR_texture_basisu",
                                     "KHR_texture_transform", "KHR_materials_unlit", "EXT_texture_webp",
                                     "KHR_materials_emissive_strength"};
+
+// Refuses buffers and images that point outside the file (anything but a data: URI).
+Status CheckEmbedded(const json& j) {
+  for (const char* list : {"buffers", "images"}) {
+    auto it = j.find(list);
+    if (it == j.end() || !it->is_array()) continue;
+    for (const json& e : *it) {
+      if (!e.is_object() || !e.contains("uri")) continue;
+      if (!e["uri"].is_string()) return InvalidArgument(std::string(list) + ": uri must be a string");
+      const std::string uri = e["uri"].get<std::string>();
+      if (uri.rfind("data:", 0) != 0) {
+        return InvalidArgument("external file '" + uri.substr(0, 200) +
+                               "' refused: uploaded glTF must embed its buffers and images (.glb or data: URIs)");
+      }
+    }
+  }
+  return Status::Ok();
+}
 
 }  // namespace
 
@@ -797,9 +826,20 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
   if (is_glb) {
     if (Status s = DecodeMeshoptGlb(bytes, decoded, warnings); !s.ok()) return s;
     if (!decoded.empty()) bytes = decoded;
+    if (!options.allow_external_files) {
+      std::string text;
+      std::span<const unsigned char> bin;
+      if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+      json j = json::parse(text, nullptr, false);
+      if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
+      if (Status s = CheckEmbedded(j); !s.ok()) return s;
+    }
   } else {
     json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
     if (j.is_discarded() || !j.is_object()) return InvalidArgument("not a glTF file: neither glb nor valid JSON");
+    if (!options.allow_external_files) {
+      if (Status s = CheckEmbedded(j); !s.ok()) return s;
+    }
     if (ListHas(j, "extensionsUsed", "EXT_meshopt_compression")) {
       return InvalidArgument("EXT_meshopt_compression is read from .glb files only; pack this file as .glb");
     }

@@ -4,7 +4,8 @@
 // Layout (chosen with tests/bench/blend_bench.cpp, see README "Blend layout"): by shape.
 // Each shape keeps, per primitive it moves, the sorted indices of the vertices it moves and
 // their xyz deltas, plus the same indices grouped in runs of consecutive vertices, so the
-// blend kernel does one fused multiply-add stream per run. Exact zero deltas are elided.
+// blend kernel does one multiply-add stream per run (real face shapes move contiguous
+// regions: FaceCap's average run is 11 vertices). Exact zero deltas are elided.
 #pragma once
 
 #include <array>
@@ -23,7 +24,8 @@ struct SparseTarget {
   std::vector<float> normal_deltas;      // 3 per index, or empty when the source has none.
   std::vector<float> tangent_deltas;     // 3 per index, or empty when the source has none.
   // Runs of consecutive indices: run r covers vertices [runs[2r], runs[2r] + runs[2r+1]),
-  // whose deltas follow each other in the arrays above. Built by FinalizeTarget().
+  // whose deltas follow each other in the arrays above. Built by FinalizeTarget(); empty
+  // when the target is scattered (average run shorter than 4), which blends by index.
   std::vector<uint32_t> runs;
 };
 

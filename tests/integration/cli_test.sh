@@ -1,0 +1,104 @@
+#!/usr/bin/env bash
+# End-to-end tests of the facespace command line on real assets.
+# usage: cli_test.sh FACESPACE_BINARY SHARED_ASSETS_DIR SOURCE_DIR [NODE_MODULES_DIR]
+set -u
+bin=$1; A=$2/real; M=$2/more; src=$3; node_modules=${4:-}
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+pass=0; fail=0
+ok() { pass=$((pass + 1)); echo "ok   $*"; }
+no() { fail=$((fail + 1)); echo "FAIL $*"; }
+check() { local what=$1; shift; if "$@"; then ok "$what"; else no "$what"; fi; }
+py() { python3 -c "$1" "${@:2}"; }
+
+rig=$src/assets/facecap/facecap.glb
+stress=$A/MorphStressTest/MorphStressTest.gltf
+
+# info
+"$bin" info "$rig" >"$tmp/info" 2>"$tmp/err"
+check "info: exit 0 on the bundled rig" test $? -eq 0
+check "info: lists jawOpen in group expression with its partner column" grep -Eq '^ +24 +jawOpen +expression' "$tmp/info"
+check "info: reports the dropped KTX2 texture as a warning" grep -q 'warning: texture_dropped' "$tmp/err"
+"$bin" info --json "$rig" 2>/dev/null >"$tmp/info.json"
+check "info --json: 52 shapes, mouthSmile_L paired with mouthSmile_R, ARKit alias" \
+  py 'import json,sys; d=json.load(open(sys.argv[1])); s={x["name"]:x for x in d["shapes"]}; sys.exit(not(len(d["shapes"])==52 and s["mouthSmile_L"]["partner"]=="mouthSmile_R" and s["mouthSmile_L"]["aliases"]==["mouthSmileLeft"] and d["vertices"]==4368))' "$tmp/info.json"
+
+# blend: weights in every form give the same mesh
+"$bin" blend "$stress" --weights '[0.5,0,0,0,0,0,0,0.25]' -o "$tmp/a.json" 2>/dev/null
+"$bin" blend "$stress" --weights '{"Key 1":0.5,"Key 8":0.25}' -o "$tmp/b.json" 2>/dev/null
+"$bin" blend "$stress" --set 'Key 1=0.5' --set 7=0.25 -o "$tmp/c.json" 2>/dev/null
+echo '{"Key 1":0.5,"Key 8":0.25}' >"$tmp/w.json"
+"$bin" blend "$stress" --weights @"$tmp/w.json" -o "$tmp/d.json" 2>/dev/null
+check "blend: dense array, name map, --set (name and index) and @FILE agree byte for byte" \
+  sh -c "cmp -s '$tmp/a.json' '$tmp/b.json' && cmp -s '$tmp/a.json' '$tmp/c.json' && cmp -s '$tmp/a.json' '$tmp/d.json'"
+"$bin" blend "$stress" --weights '[0.5,0,0,0,0,0,0,0.25]' -o "$tmp/a2.json" 2>/dev/null
+check "blend: deterministic output" cmp -s "$tmp/a.json" "$tmp/a2.json"
+check "blend: JSON has 2 primitives of 24 and 1504 vertices with normals" \
+  py 'import json,sys; d=json.load(open(sys.argv[1])); p=d["primitives"]; sys.exit(not(len(p)==2 and len(p[0]["positions"])==72 and len(p[1]["positions"])==4512 and len(p[1]["normals"])==4512 and p[1]["primitive"]==1 and d["warnings"]==[]))' "$tmp/a.json"
+
+# warnings
+"$bin" blend "$stress" --weights '{"Key 1":0.9,"Key 2":0.8}' -o "$tmp/e.json" 2>"$tmp/err"; rc=$?
+check "blend: extrapolation warns with the sum and exits 0" sh -c "[ $rc -eq 0 ] && grep -q 'warning: extrapolation: sum of weights 1.7 exceeds 1' '$tmp/err'"
+check "blend: the JSON body carries the warning too" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not(d["warnings"][0]["code"]=="extrapolation" and d["warnings"][0]["value"]==1.7))' "$tmp/e.json"
+"$bin" blend "$stress" --set 'Key 3=-0.5' --mode absolute -o "$tmp/f.json" 2>"$tmp/err"
+check "blend: out-of-range weight named; absolute mode sum warning" sh -c "grep -q \"out_of_range: weight -0.5 of 'Key 3'\" '$tmp/err' && grep -q 'absolute_sum' '$tmp/err'"
+
+# errors: clear message, non-zero exit below 128 (never a signal)
+err_case() {  # name, expected-substring, args...
+  local name=$1 needle=$2; shift 2
+  "$bin" "$@" >"$tmp/out" 2>"$tmp/err"; local rc=$?
+  if [ $rc -ne 0 ] && [ $rc -lt 128 ] && grep -q -- "$needle" "$tmp/err"; then ok "error: $name"; else no "error: $name (exit $rc: $(head -c 300 "$tmp/err"))"; fi
+}
+err_case "unknown shape suggests the closest and lists valid ones" "did you mean 'Key 1'" blend "$stress" --weights '{"Key1":1}' -o "$tmp/x.json"
+err_case "unknown shape lists valid ones" "valid shapes: Key 1, Key 2" blend "$stress" --weights '{"nope":1}' -o "$tmp/x.json"
+err_case "index out of range" "out of range" blend "$stress" --weights '[0,0,0,0,0,0,0,0,1]' -o "$tmp/x.json"
+err_case "NaN weight" "finite" blend "$stress" --set 'Key 1=nan' -o "$tmp/x.json"
+err_case "infinite weight" "finite" blend "$stress" --set 'Key 1=inf' -o "$tmp/x.json"
+err_case "wrong type" "must be a number" blend "$stress" --weights '{"Key 1":"half"}' -o "$tmp/x.json"
+err_case "malformed JSON" "malformed JSON" blend "$stress" --weights '{"Key 1":' -o "$tmp/x.json"
+err_case "unknown format" "format" blend "$stress" -o "$tmp/x.png"
+err_case "missing rig file" "cannot open" blend "$tmp/none.glb" -o "$tmp/x.json"
+head -c 100000 "$A/FaceCap/facecap.glb" >"$tmp/trunc.glb"
+err_case "truncated glb" "truncated glb" info "$tmp/trunc.glb"
+printf 'glTF\002\000\000\000\377\377\377\377' >"$tmp/hdr.glb"
+err_case "glb header lying about its length" "truncated" info "$tmp/hdr.glb"
+head -c 3000 /dev/urandom >"$tmp/noise.gltf"
+err_case "random bytes" "error:" info "$tmp/noise.gltf"
+check "error: nothing written on failure" test ! -e "$tmp/x.json"
+
+# formats
+for fmt in glb obj f32; do
+  "$bin" blend "$rig" --set jawOpen=0.7 -o "$tmp/out.$fmt" 2>/dev/null
+  check "blend: -o .$fmt is written" test -s "$tmp/out.$fmt"
+done
+check "blend: f32 holds positions and normals of 4368 vertices" test "$(stat -c %s "$tmp/out.f32")" -eq $((4368 * 6 * 4))
+check "blend: OBJ has 4368 v, 4368 vn and 8042 faces" sh -c "[ \$(grep -c '^v ' '$tmp/out.obj') -eq 4368 ] && [ \$(grep -c '^vn ' '$tmp/out.obj') -eq 4368 ] && [ \$(grep -c '^f ' '$tmp/out.obj') -eq 8042 ]"
+"$bin" blend "$rig" --set jawOpen=0.7 --format json -o - 2>/dev/null >"$tmp/stdout.json"
+check "blend: -o - writes JSON to stdout" py 'import json,sys; json.load(open(sys.argv[1]))' "$tmp/stdout.json"
+"$bin" blend "$rig" --set jawOpen=0.7 --keep-targets -o "$tmp/rig.glb" 2>/dev/null
+"$bin" info "$tmp/rig.glb" >"$tmp/rinfo" 2>/dev/null
+check "blend --keep-targets: the glb is a rig again, jawOpen defaulting to 0.7" grep -Eq '^ +24 +jawOpen +default +\[0, 1\] +0.7 ' "$tmp/rinfo"
+
+# the blended glb, with and without targets, is valid for the Khronos validator
+if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
+  "$bin" blend "$stress" --set 'Key 2=0.5' -o "$tmp/stress.glb" 2>/dev/null
+  "$bin" blend "$stress" --set 'Key 2=0.5' --keep-targets -o "$tmp/stress_rig.glb" 2>/dev/null
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/out.glb" "$tmp/rig.glb" "$tmp/stress.glb" "$tmp/stress_rig.glb" >"$tmp/val" 2>&1
+  rc=$?; cat "$tmp/val"
+  check "glTF validator: 0 errors on blended and rig exports" test $rc -eq 0
+else
+  no "glTF validator not installed (run .ci/dev test, which installs gltf-validator from npm)"
+fi
+
+# OBJ sequence: the ICT FaceKit frames as a rig
+ict=$M/OBJ/ICT-FaceKit_subset
+"$bin" info "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" >"$tmp/ict" 2>&1
+check "OBJ sequence: 26719 vertices, shapes named after their files" sh -c "grep -q 'vertices   26719' '$tmp/ict' && grep -q ' jawOpen ' '$tmp/ict' && grep -q ' eyeBlink_L ' '$tmp/ict'"
+"$bin" blend "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" --set jawOpen=1 -o "$tmp/ict.obj" 2>/dev/null
+check "OBJ sequence: jawOpen at 1 reproduces jawOpen.obj's vertices" \
+  py 'import sys
+a=[list(map(float,l.split()[1:4])) for l in open(sys.argv[1]) if l.startswith("v ")]
+b=[list(map(float,l.split()[1:4])) for l in open(sys.argv[2]) if l.startswith("v ")]
+sys.exit(not(len(a)==len(b)==26719 and max(abs(x-y) for p,q in zip(a,b) for x,y in zip(p,q))<1e-4))' "$tmp/ict.obj" "$ict/jawOpen.obj"
+
+echo "$pass passed, $fail failed"
+[ $fail -eq 0 ]
