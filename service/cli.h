@@ -9,5 +9,6 @@ namespace facespace::cli {
 // Each returns the process exit code: 0 success, 1 failure (message on stderr), 2 bad usage.
 int Info(const std::vector<std::string>& args);
 int Blend(const std::vector<std::string>& args);
+int Serve(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

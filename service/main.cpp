@@ -18,6 +18,9 @@ const char kUsage[] =
     "        [--mode relative|absolute] [--normals blend|recompute] [--keep-targets]\n"
     "        [--format glb|obj|json|f32] -o OUT\n"
     "      the blended mesh; format from OUT's extension or --format; -o - writes to stdout\n"
+    "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
+    "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
+    "      the HTTP service (serve --help for more)\n"
     "\n"
     "RIG is a .glb or .gltf file, or a .obj file followed by more .obj files (an OBJ\n"
     "sequence: the first is the base, each other one a shape named after its file).\n";
@@ -41,6 +44,7 @@ int main(int argc, char** argv) {
   }
   if (command == "info") return facespace::cli::Info(args);
   if (command == "blend") return facespace::cli::Blend(args);
+  if (command == "serve") return facespace::cli::Serve(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

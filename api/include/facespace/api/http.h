@@ -1,0 +1,44 @@
+// The HTTP API (v1) on cpp-httplib: routes, problem+json errors, warnings as headers,
+// ETags and a response cache, CORS, metrics, OpenAPI.
+#pragma once
+
+#include <httplib.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "facespace/api/store.h"
+
+namespace facespace::api {
+
+struct ApiOptions {
+  std::string api_key;                      // Empty: uploads and deletes are refused.
+  std::vector<std::string> cors_origins;    // Allowed browser origins; "*" allows any.
+  size_t max_body = size_t{64} << 20;       // Request bodies above this get 413.
+  size_t cache_bytes = size_t{64} << 20;    // Memory cap of the encoded-response cache.
+  bool log_requests = true;                 // One access-log line per request on stderr.
+};
+
+class Api {
+ public:
+  Api(RigStore& store, ApiOptions options);
+  ~Api();
+  Api(const Api&) = delete;
+  Api& operator=(const Api&) = delete;
+
+  // Installs every route and hook on `server`.
+  void Register(httplib::Server& server);
+
+  // Prometheus text of the counters (also served at /metrics).
+  std::string MetricsText() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The OpenAPI 3.1 document of the routes (served at /openapi.json).
+const std::string& OpenApiJson();
+
+}  // namespace facespace::api

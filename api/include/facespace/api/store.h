@@ -1,0 +1,39 @@
+// What the HTTP routes need from a rig store. The service implements it (service/rig_store).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace::api {
+
+// A loaded rig, immutable once published, shared between requests.
+struct StoredRig {
+  std::string id;        // File stem: [a-z0-9][a-z0-9_-]{0,63}.
+  Rig rig;
+  std::string version;   // Changes whenever the stored file changes (content hash).
+};
+
+class RigStore {
+ public:
+  virtual ~RigStore() = default;
+  // nullptr when absent.
+  virtual std::shared_ptr<const StoredRig> Get(const std::string& id) const = 0;
+  // Every rig, sorted by id.
+  virtual std::vector<std::shared_ptr<const StoredRig>> List() const = 0;
+  // Validates fully, then stores durably (temp file, fsync, rename) and publishes atomically.
+  // `created` tells whether the id was new. InvalidArgument for a bad rig or id.
+  virtual Status Put(const std::string& id, std::span<const unsigned char> bytes, bool binary,
+                     bool* created) = 0;
+  // NotFound when absent.
+  virtual Status Delete(const std::string& id) = 0;
+};
+
+// True when `id` matches [a-z0-9][a-z0-9_-]{0,63}: never a path.
+bool IsValidRigId(const std::string& id);
+
+}  // namespace facespace::api

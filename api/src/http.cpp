@@ -1,0 +1,774 @@
+#include "facespace/api/http.h"
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstring>
+#include <list>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+
+#include "facespace/api/request.h"
+#include "facespace/core/blend.h"
+#include "facespace/core/io.h"
+#include "facespace/core/weights.h"
+
+namespace facespace::api {
+
+namespace {
+
+using nlohmann::json;
+using httplib::Request;
+using httplib::Response;
+
+// ---- routes and metrics -------------------------------------------------------------------
+
+enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kOther, kRouteCount };
+const char* const kRouteNames[kRouteCount] = {"/healthz", "/readyz", "/metrics", "/openapi.json", "/v1/rigs",
+                                              "/v1/rigs/{id}", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/check", "other"};
+const int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 406, 413, 415, 422, 429, 500, 503};
+constexpr int kStatusCount = sizeof(kStatuses) / sizeof(kStatuses[0]);
+const double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5};
+constexpr int kBucketCount = sizeof(kBuckets) / sizeof(kBuckets[0]);
+const char* const kWarningCodes[] = {"extrapolation", "out_of_range", "negative_weight", "absolute_sum"};
+constexpr int kWarningCount = 4;
+
+struct Metrics {
+  std::atomic<uint64_t> requests[kRouteCount][kStatusCount + 1] = {};  // Last column: other statuses.
+  std::atomic<uint64_t> latency_buckets[kRouteCount][kBucketCount + 1] = {};
+  std::atomic<uint64_t> latency_count[kRouteCount] = {};
+  std::atomic<uint64_t> latency_sum_us[kRouteCount] = {};
+  std::atomic<uint64_t> blends{0};
+  std::atomic<uint64_t> cache_hits{0};
+  std::atomic<uint64_t> cache_misses{0};
+  std::atomic<uint64_t> warnings[kWarningCount] = {};
+
+  void Observe(int route, int status, double seconds) {
+    int s = kStatusCount;
+    for (int i = 0; i < kStatusCount; ++i) {
+      if (kStatuses[i] == status) s = i;
+    }
+    requests[route][s].fetch_add(1, std::memory_order_relaxed);
+    int b = kBucketCount;
+    for (int i = 0; i < kBucketCount; ++i) {
+      if (seconds <= kBuckets[i]) {
+        b = i;
+        break;
+      }
+    }
+    latency_buckets[route][b].fetch_add(1, std::memory_order_relaxed);
+    latency_count[route].fetch_add(1, std::memory_order_relaxed);
+    latency_sum_us[route].fetch_add(static_cast<uint64_t>(seconds * 1e6), std::memory_order_relaxed);
+  }
+};
+
+// Per-request state that hooks share on the worker thread serving the request.
+struct RequestState {
+  std::chrono::steady_clock::time_point start;
+  int route = kOther;
+};
+thread_local RequestState t_request;
+
+// ---- encoded-response cache ----------------------------------------------------------------
+
+struct Encoded {
+  std::string body;
+  std::string content_type;
+};
+
+// An LRU cache of encoded responses, sharded so concurrent requests rarely share a lock.
+class ResponseCache {
+ public:
+  explicit ResponseCache(size_t cap_bytes) : shard_cap_(cap_bytes / kShards) {}
+
+  std::shared_ptr<const Encoded> Get(const std::string& key) {
+    Shard& s = ShardOf(key);
+    std::lock_guard<std::mutex> lock(s.mu);
+    auto it = s.map.find(key);
+    if (it == s.map.end()) return nullptr;
+    s.lru.splice(s.lru.begin(), s.lru, it->second);
+    return it->second->second;
+  }
+
+  void Put(const std::string& key, std::shared_ptr<const Encoded> value) {
+    const size_t size = value->body.size() + key.size();
+    if (size > shard_cap_) return;
+    Shard& s = ShardOf(key);
+    std::lock_guard<std::mutex> lock(s.mu);
+    if (s.map.count(key)) return;
+    s.lru.emplace_front(key, std::move(value));
+    s.map[key] = s.lru.begin();
+    s.bytes += size;
+    while (s.bytes > shard_cap_ && !s.lru.empty()) {
+      auto& last = s.lru.back();
+      s.bytes -= last.second->body.size() + last.first.size();
+      s.map.erase(last.first);
+      s.lru.pop_back();
+    }
+  }
+
+ private:
+  static constexpr size_t kShards = 16;
+  using Entry = std::pair<std::string, std::shared_ptr<const Encoded>>;
+  struct Shard {
+    std::mutex mu;
+    std::list<Entry> lru;
+    std::unordered_map<std::string, std::list<Entry>::iterator> map;
+    size_t bytes = 0;
+  };
+  Shard& ShardOf(const std::string& key) { return shards_[std::hash<std::string>()(key) % kShards]; }
+  size_t shard_cap_;
+  std::array<Shard, kShards> shards_;
+};
+
+// ---- helpers -------------------------------------------------------------------------------
+
+uint64_t Fnv1a(std::string_view s, uint64_t h = 1469598103934665603ull) {
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::string Hex64(uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016" PRIx64, v);
+  return buf;
+}
+
+const char* ReasonPhrase(int status) {
+  switch (status) {
+    case 400: return "Bad Request";
+    case 401: return "Unauthorized";
+    case 403: return "Forbidden";
+    case 404: return "Not Found";
+    case 405: return "Method Not Allowed";
+    case 406: return "Not Acceptable";
+    case 413: return "Content Too Large";
+    case 415: return "Unsupported Media Type";
+    case 422: return "Unprocessable Content";
+    case 429: return "Too Many Requests";
+    case 500: return "Internal Server Error";
+    case 503: return "Service Unavailable";
+  }
+  return "Error";
+}
+
+// RFC 9457 problem details. Field errors whose pointer starts with '?' name a query
+// parameter ({"parameter": ...}); the others are JSON Pointers into the body.
+void SendProblem(const Request& req, Response& res, int status, const std::string& slug, const std::string& detail,
+                 const std::vector<FieldError>& fields = {}, const std::string& warnings_json = "") {
+  json p = {{"type", "urn:facespace:problem:" + slug},
+            {"title", ReasonPhrase(status)},
+            {"status", status},
+            {"detail", detail},
+            {"instance", req.path}};
+  if (!fields.empty()) {
+    json errors = json::array();
+    for (const FieldError& f : fields) {
+      if (!f.pointer.empty() && f.pointer[0] == '?') errors.push_back({{"parameter", f.pointer.substr(1)}, {"detail", f.message}});
+      else errors.push_back({{"pointer", f.pointer}, {"detail", f.message}});
+    }
+    p["errors"] = errors;
+  }
+  if (!warnings_json.empty()) p["warnings"] = json::parse(warnings_json);
+  res.status = status;
+  res.set_content(p.dump(), "application/problem+json");
+}
+
+void SendJson(Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump(), "application/json");
+}
+
+// sf-string (RFC 9651): printable ASCII, with \ and " escaped; other bytes become '?'.
+std::string SfString(const std::string& s) {
+  std::string out = "\"";
+  for (unsigned char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += static_cast<char>(c);
+    } else if (c < 0x20 || c > 0x7e) {
+      out += '?';
+    } else {
+      out += static_cast<char>(c);
+    }
+  }
+  return out + "\"";
+}
+
+// sf-decimal: at most 12 integer and 3 fractional digits.
+std::string SfDecimal(double v) {
+  if (!std::isfinite(v)) v = 0;
+  v = std::max(-999999999999.0, std::min(999999999999.0, v));
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.3f", v);
+  std::string s = buf;
+  while (s.size() > 1 && s.back() == '0' && s[s.size() - 2] != '.') s.pop_back();
+  return s;
+}
+
+// Facespace-Warnings: a structured-field list, e.g.
+//   extrapolation;value=1.7, out_of_range;shape="jawOpen";value=1.5
+std::string WarningsHeader(const std::vector<Warning>& warnings) {
+  std::string h;
+  for (const Warning& w : warnings) {
+    if (!h.empty()) h += ", ";
+    h += w.code;
+    if (!w.shape.empty()) h += ";shape=" + SfString(w.shape);
+    if (w.has_value) h += ";value=" + SfDecimal(w.value);
+  }
+  return h;
+}
+
+bool ConstantTimeEquals(const std::string& a, const std::string& b) {
+  unsigned char diff = a.size() == b.size() ? 0 : 1;
+  const size_t n = std::max(a.size(), b.size());
+  for (size_t i = 0; i < n; ++i) {
+    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
+    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
+    diff |= static_cast<unsigned char>(x ^ y);
+  }
+  return diff == 0;
+}
+
+std::string MediaType(const std::string& header) {
+  std::string t = header.substr(0, header.find(';'));
+  while (!t.empty() && t.back() == ' ') t.pop_back();
+  for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return t;
+}
+
+// The format an Accept header asks for; false when it names only types we cannot produce.
+bool FormatFromAccept(const std::string& accept, MeshFormat* format) {
+  if (accept.empty()) {
+    *format = MeshFormat::kJson;
+    return true;
+  }
+  size_t start = 0;
+  while (start <= accept.size()) {
+    size_t end = accept.find(',', start);
+    if (end == std::string::npos) end = accept.size();
+    std::string item = accept.substr(start, end - start);
+    while (!item.empty() && item.front() == ' ') item.erase(0, 1);
+    const std::string t = MediaType(item);
+    const bool q0 = item.find("q=0") != std::string::npos && item.find("q=0.") == std::string::npos;
+    if (!q0) {
+      if (t == "model/gltf-binary") { *format = MeshFormat::kGlb; return true; }
+      if (t == "model/obj") { *format = MeshFormat::kObj; return true; }
+      if (t == "application/json") { *format = MeshFormat::kJson; return true; }
+      if (t == "application/octet-stream") { *format = MeshFormat::kF32; return true; }
+      if (t == "*/*" || t == "model/*" || t == "application/*") { *format = MeshFormat::kJson; return true; }
+    }
+    start = end + 1;
+  }
+  return false;
+}
+
+std::string WeightsCanonical(std::span<const float> w) {
+  std::string s;
+  s.reserve(w.size() * 8);
+  for (float f : w) {
+    uint32_t bits;
+    std::memcpy(&bits, &f, 4);
+    if (f == 0.0f) bits = 0;  // -0 and 0 are the same weight.
+    char buf[9];
+    std::snprintf(buf, sizeof buf, "%08x", bits);
+    s += buf;
+  }
+  return s;
+}
+
+json RigSummary(const StoredRig& s) {
+  const Rig& r = s.rig;
+  return {{"id", s.id},           {"name", r.name},
+          {"vertices", r.vertex_count()}, {"triangles", r.triangle_count()},
+          {"shapes", r.shapes.size()},    {"primitives", r.primitives.size()},
+          {"has_skeleton", r.skin_count > 0}, {"version", s.version}};
+}
+
+json RigDetail(const StoredRig& s) {
+  const Rig& r = s.rig;
+  json j = RigSummary(s);
+  json shapes = json::array();
+  for (size_t i = 0; i < r.shapes.size(); ++i) {
+    const Shape& sh = r.shapes[i];
+    json o = {{"index", i}, {"name", sh.name}, {"group", sh.group}, {"min", sh.min}, {"max", sh.max},
+              {"default", sh.default_weight}, {"vertices_moved", sh.vertices_moved}};
+    o["partner"] = sh.partner >= 0 ? json(r.shapes[sh.partner].name) : json(nullptr);
+    o["aliases"] = sh.aliases;
+    shapes.push_back(o);
+  }
+  j["shapes"] = shapes;
+  // Bounding box of the base mesh as shown (world space, every primitive).
+  const auto world = PrimitiveWorldMatrices(r);
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  json prims = json::array();
+  for (size_t p = 0; p < r.primitives.size(); ++p) {
+    const Primitive& pr = r.primitives[p];
+    const auto& m = world[p];
+    for (size_t v = 0; v < pr.positions.size(); v += 3) {
+      for (int c = 0; c < 3; ++c) {
+        const float x = m[c] * pr.positions[v] + m[4 + c] * pr.positions[v + 1] + m[8 + c] * pr.positions[v + 2] + m[12 + c];
+        lo[c] = std::min(lo[c], x);
+        hi[c] = std::max(hi[c], x);
+      }
+    }
+    prims.push_back({{"mesh", pr.mesh}, {"primitive", pr.index_in_mesh}, {"name", r.meshes[pr.mesh].name},
+                     {"vertices", pr.vertex_count()}, {"triangles", pr.triangle_count()}, {"material", pr.material},
+                     {"has_normals", pr.source_has_normals}, {"has_tangents", !pr.tangents.empty()}});
+  }
+  j["primitives"] = prims;
+  j["bounding_box"] = r.primitives.empty() ? json(nullptr)
+                                            : json({{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}});
+  j["skeleton"] = r.skin_count ? json({{"skins", r.skin_count}, {"joints", r.joint_count}}) : json(nullptr);
+  j["animations"] = json::array();
+  j["load_warnings"] = json::parse(WarningsToJson(r.load_warnings));
+  return j;
+}
+
+bool ParseNumber(const std::string& s, double* out) {
+  if (s.empty() || s.size() > 64) return false;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end != s.c_str() + s.size() || errno == ERANGE) return false;
+  *out = v;
+  return true;
+}
+
+bool ParseBool(const std::string& s, bool* out) {
+  if (s == "true" || s == "1") *out = true;
+  else if (s == "false" || s == "0") *out = false;
+  else return false;
+  return true;
+}
+
+}  // namespace
+
+// ---- the API -------------------------------------------------------------------------------
+
+struct Api::Impl {
+  RigStore& store;
+  ApiOptions options;
+  Metrics metrics;
+  ResponseCache cache;
+
+  Impl(RigStore& s, ApiOptions o) : store(s), options(std::move(o)), cache(options.cache_bytes) {}
+
+  bool OriginAllowed(const std::string& origin) const {
+    for (const std::string& o : options.cors_origins) {
+      if (o == "*" || o == origin) return true;
+    }
+    return false;
+  }
+
+  // True when the request carries the API key; otherwise sends 401/403.
+  bool Authorized(const Request& req, Response& res) {
+    if (options.api_key.empty()) {
+      SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads and deletes are disabled");
+      return false;
+    }
+    const std::string auth = req.get_header_value("Authorization");
+    if (auth.empty()) {
+      res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
+      SendProblem(req, res, 401, "unauthorized", "this route needs the API key: Authorization: Bearer KEY");
+      return false;
+    }
+    const std::string prefix = "Bearer ";
+    if (auth.size() < prefix.size() || !std::equal(prefix.begin(), prefix.end(), auth.begin(), [](char a, char b) {
+          return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
+        })) {
+      res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
+      SendProblem(req, res, 401, "unauthorized", "the Authorization header must use the Bearer scheme");
+      return false;
+    }
+    if (!ConstantTimeEquals(auth.substr(prefix.size()), options.api_key)) {
+      SendProblem(req, res, 403, "forbidden", "wrong API key");
+      return false;
+    }
+    return true;
+  }
+
+  std::shared_ptr<const StoredRig> FindRig(const Request& req, Response& res, const std::string& id) {
+    auto rig = IsValidRigId(id) ? store.Get(id) : nullptr;
+    if (!rig) SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+    return rig;
+  }
+
+  // The mesh request from a POST body or GET query; false when an error was sent.
+  bool ReadMeshRequest(const Request& req, Response& res, MeshRequest& mr) {
+    if (req.method == "POST") {
+      const std::string ct = MediaType(req.get_header_value("Content-Type"));
+      if (!ct.empty() && ct != "application/json") {
+        SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+        return false;
+      }
+      auto parsed = ParseMeshRequest(req.body);
+      if (!parsed.ok()) {
+        const bool malformed = IsMalformedJson(parsed.status());
+        SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request",
+                    parsed.status().message, parsed.status().fields);
+        return false;
+      }
+      mr = std::move(parsed.value());
+      return true;
+    }
+    std::vector<FieldError> errors;
+    for (const auto& [key, value] : req.params) {
+      const std::string where = "?" + key;
+      if (key.rfind("w.", 0) == 0) {
+        WeightEntry e;
+        e.name = key.substr(2);
+        e.pointer = where;
+        if (e.name.empty()) errors.push_back({where, "w. needs a shape name: w.NAME=0.5"});
+        else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
+        else mr.weights.push_back(e);
+      } else if (key == "format") {
+        MeshFormat f;
+        if (ParseMeshFormat(value, &f)) mr.format = f;
+        else errors.push_back({where, "must be one of glb, obj, json, f32"});
+      } else if (key == "mode") {
+        if (!ParseBlendMode(value, &mr.options.mode)) errors.push_back({where, "must be relative or absolute"});
+      } else if (key == "normals") {
+        if (!ParseNormalMode(value, &mr.options.normals)) errors.push_back({where, "must be blend or recompute"});
+      } else if (key == "strict" || key == "keep_targets") {
+        if (!ParseBool(value, key == "strict" ? &mr.strict : &mr.keep_targets)) errors.push_back({where, "must be true or false"});
+      } else {
+        errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
+      }
+    }
+    if (!errors.empty()) {
+      SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
+      return false;
+    }
+    return true;
+  }
+
+  // Resolves and checks the weights; sets the warning headers. False when an error was sent.
+  bool Weigh(const Request& req, Response& res, const StoredRig& rig, const MeshRequest& mr, std::vector<float>& w,
+             WeightReport& report) {
+    auto resolved = ResolveWeights(rig.rig, mr.weights);
+    if (!resolved.ok()) {
+      SendProblem(req, res, 422, "invalid-weights", resolved.status().message, resolved.status().fields);
+      return false;
+    }
+    w = std::move(resolved.value());
+    report = CheckWeights(rig.rig, w, mr.options.mode);
+    res.set_header("Facespace-Weight-Sum", FormatNumber(report.sum));
+    if (!report.warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(report.warnings));
+    for (const Warning& warning : report.warnings) {
+      for (int i = 0; i < kWarningCount; ++i) {
+        if (warning.code == kWarningCodes[i]) metrics.warnings[i].fetch_add(1, std::memory_order_relaxed);
+      }
+    }
+    if (mr.strict && !report.warnings.empty()) {
+      SendProblem(req, res, 422, "weights-leave-authored-space",
+                  report.warnings[0].message + (report.warnings.size() > 1 ? " (and more)" : ""), {},
+                  WarningsToJson(report.warnings));
+      return false;
+    }
+    return true;
+  }
+
+  void Mesh(const Request& req, Response& res) {
+    t_request.route = kMesh;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    MeshRequest mr;
+    if (!ReadMeshRequest(req, res, mr)) return;
+    MeshFormat format;
+    if (mr.format) {
+      format = *mr.format;
+    } else if (!FormatFromAccept(req.get_header_value("Accept"), &format)) {
+      SendProblem(req, res, 406, "not-acceptable",
+                  "cannot produce " + req.get_header_value("Accept").substr(0, 100) +
+                      "; available: model/gltf-binary, model/obj, application/json, application/octet-stream");
+      return;
+    }
+    std::vector<float> w;
+    WeightReport report;
+    if (!Weigh(req, res, *rig, mr, w, report)) return;
+
+    const std::string canonical = std::string(MeshFormatName(format)) + "|" +
+                                  (mr.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
+                                  (mr.options.normals == NormalMode::kRecompute ? "rec" : "bl") + "|" +
+                                  (mr.keep_targets ? "t" : "-") + "|" + WeightsCanonical(w);
+    const std::string key = rig->id + "|" + rig->version + "|" + canonical;
+    const std::string etag = "\"" + Hex64(Fnv1a(key)) + "\"";
+    res.set_header("ETag", etag);
+    res.set_header("Cache-Control", req.method == "GET" ? "public, no-cache" : "no-store");
+    res.set_header("Vary", "Accept");
+    const std::string inm = req.get_header_value("If-None-Match");
+    if (!inm.empty() && (inm == etag || inm == "*" || inm.find(etag) != std::string::npos)) {
+      res.status = 304;
+      return;
+    }
+    std::shared_ptr<const Encoded> enc = cache.Get(key);
+    if (enc) {
+      metrics.cache_hits.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      metrics.cache_misses.fetch_add(1, std::memory_order_relaxed);
+      thread_local BlendContext context;
+      thread_local BlendedRig blended;
+      if (Status s = EvaluateRig(rig->rig, w, mr.options, blended, context); !s.ok()) {
+        SendProblem(req, res, 500, "internal", "the blend failed");
+        return;
+      }
+      metrics.blends.fetch_add(1, std::memory_order_relaxed);
+      ExportOptions export_options;
+      export_options.keep_targets = mr.keep_targets;
+      auto bytes = ExportMesh(rig->rig, blended, w, report.warnings, format, export_options);
+      if (!bytes.ok()) {
+        SendProblem(req, res, 500, "internal", "the export failed");
+        return;
+      }
+      auto e = std::make_shared<Encoded>();
+      e->body = std::move(bytes.value());
+      e->content_type = MeshFormatMimeType(format);
+      enc = e;
+      cache.Put(key, enc);
+    }
+    res.status = 200;
+    res.set_content(enc->body, enc->content_type.c_str());
+  }
+
+  void Check(const Request& req, Response& res) {
+    t_request.route = kCheck;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    MeshRequest mr;
+    if (!ReadMeshRequest(req, res, mr)) return;
+    std::vector<float> w;
+    WeightReport report;
+    if (!Weigh(req, res, *rig, mr, w, report)) return;
+    json weights = json::object();
+    for (size_t i = 0; i < w.size(); ++i) {
+      if (w[i] != 0.0f) weights[rig->rig.shapes[i].name] = w[i];
+    }
+    res.status = 200;
+    res.set_content("{\"sum\":" + FormatNumber(report.sum) + ",\"weights\":" + weights.dump() +
+                        ",\"warnings\":" + WarningsToJson(report.warnings) + "}",
+                    "application/json");
+  }
+
+  void PutRig(const Request& req, Response& res) {
+    t_request.route = kRig;
+    if (!Authorized(req, res)) return;
+    const std::string id = req.matches[1];
+    if (!IsValidRigId(id)) {
+      SendProblem(req, res, 422, "invalid-id", "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
+                  {{"?id", "invalid rig id"}});
+      return;
+    }
+    const std::string ct = MediaType(req.get_header_value("Content-Type"));
+    if (ct != "model/gltf-binary" && ct != "model/gltf+json") {
+      SendProblem(req, res, 415, "unsupported-media-type",
+                  "upload a rig as model/gltf-binary (.glb) or model/gltf+json (.gltf with embedded buffers)" +
+                      (ct.empty() ? std::string() : ", not " + ct));
+      return;
+    }
+    if (req.body.empty()) {
+      SendProblem(req, res, 422, "invalid-rig", "the body is empty");
+      return;
+    }
+    bool created = false;
+    const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
+    Status s = store.Put(id, std::span<const unsigned char>(data, req.body.size()), ct == "model/gltf-binary", &created);
+    if (!s.ok()) {
+      const int status = s.code == StatusCode::kResourceExhausted ? 413 : s.code == StatusCode::kInternal ? 500 : 422;
+      SendProblem(req, res, status, status == 500 ? "storage-failed" : "invalid-rig", s.message, s.fields);
+      return;
+    }
+    auto stored = store.Get(id);
+    res.set_header("Location", "/v1/rigs/" + id);
+    SendJson(res, created ? 201 : 200, stored ? RigSummary(*stored) : json{{"id", id}});
+  }
+
+  void DeleteRig(const Request& req, Response& res) {
+    t_request.route = kRig;
+    if (!Authorized(req, res)) return;
+    const std::string id = req.matches[1];
+    Status s = IsValidRigId(id) ? store.Delete(id) : NotFound("");
+    if (s.code == StatusCode::kNotFound) {
+      SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+    } else if (!s.ok()) {
+      SendProblem(req, res, 500, "storage-failed", s.message);
+    } else {
+      res.status = 204;
+    }
+  }
+};
+
+Api::Api(RigStore& store, ApiOptions options) : impl_(std::make_unique<Impl>(store, std::move(options))) {}
+Api::~Api() = default;
+
+std::string Api::MetricsText() const {
+  const Metrics& m = impl_->metrics;
+  std::string out;
+  out += "# HELP facespace_http_requests_total HTTP requests by route and status.\n";
+  out += "# TYPE facespace_http_requests_total counter\n";
+  for (int r = 0; r < kRouteCount; ++r) {
+    for (int s = 0; s <= kStatusCount; ++s) {
+      const uint64_t v = m.requests[r][s].load(std::memory_order_relaxed);
+      if (!v) continue;
+      out += "facespace_http_requests_total{route=\"" + std::string(kRouteNames[r]) + "\",status=\"" +
+             (s < kStatusCount ? std::to_string(kStatuses[s]) : std::string("other")) + "\"} " + std::to_string(v) + "\n";
+    }
+  }
+  out += "# HELP facespace_http_request_duration_seconds Request latency by route.\n";
+  out += "# TYPE facespace_http_request_duration_seconds histogram\n";
+  for (int r = 0; r < kRouteCount; ++r) {
+    const uint64_t count = m.latency_count[r].load(std::memory_order_relaxed);
+    if (!count) continue;
+    const std::string label = "route=\"" + std::string(kRouteNames[r]) + "\"";
+    uint64_t cum = 0;
+    for (int b = 0; b <= kBucketCount; ++b) {
+      cum += m.latency_buckets[r][b].load(std::memory_order_relaxed);
+      char le[32];
+      if (b < kBucketCount) std::snprintf(le, sizeof le, "%g", kBuckets[b]);
+      else std::snprintf(le, sizeof le, "+Inf");
+      out += "facespace_http_request_duration_seconds_bucket{" + label + ",le=\"" + le + "\"} " + std::to_string(cum) + "\n";
+    }
+    char sum[32];
+    std::snprintf(sum, sizeof sum, "%.6f", m.latency_sum_us[r].load(std::memory_order_relaxed) / 1e6);
+    out += "facespace_http_request_duration_seconds_sum{" + label + "} " + sum + "\n";
+    out += "facespace_http_request_duration_seconds_count{" + label + "} " + std::to_string(count) + "\n";
+  }
+  out += "# HELP facespace_blends_total Rig evaluations (cache misses of the mesh route).\n";
+  out += "# TYPE facespace_blends_total counter\nfacespace_blends_total " + std::to_string(m.blends.load()) + "\n";
+  out += "# HELP facespace_cache_requests_total Encoded-response cache lookups.\n";
+  out += "# TYPE facespace_cache_requests_total counter\n";
+  out += "facespace_cache_requests_total{result=\"hit\"} " + std::to_string(m.cache_hits.load()) + "\n";
+  out += "facespace_cache_requests_total{result=\"miss\"} " + std::to_string(m.cache_misses.load()) + "\n";
+  out += "# HELP facespace_weight_warnings_total Warnings about leaving the authored space, by code.\n";
+  out += "# TYPE facespace_weight_warnings_total counter\n";
+  for (int i = 0; i < kWarningCount; ++i) {
+    out += "facespace_weight_warnings_total{code=\"" + std::string(kWarningCodes[i]) + "\"} " +
+           std::to_string(m.warnings[i].load()) + "\n";
+  }
+  out += "# HELP facespace_rigs_loaded Rigs in the store.\n# TYPE facespace_rigs_loaded gauge\n";
+  out += "facespace_rigs_loaded " + std::to_string(impl_->store.List().size()) + "\n";
+  return out;
+}
+
+void Api::Register(httplib::Server& server) {
+  Impl& I = *impl_;
+  server.set_payload_max_length(I.options.max_body);
+
+  server.set_pre_routing_handler([&I](const Request& req, Response& res) {
+    t_request.start = std::chrono::steady_clock::now();
+    t_request.route = kOther;
+    const std::string origin = req.get_header_value("Origin");
+    if (!origin.empty() && I.OriginAllowed(origin)) {
+      res.set_header("Access-Control-Allow-Origin", origin);
+      res.set_header("Vary", "Origin");
+      res.set_header("Access-Control-Expose-Headers", "Facespace-Weight-Sum, Facespace-Warnings, ETag, Location");
+      if (req.method == "OPTIONS") {
+        res.set_header("Access-Control-Allow-Methods", "GET, POST, PUT, DELETE, OPTIONS");
+        res.set_header("Access-Control-Allow-Headers", "Content-Type, Authorization, If-None-Match, Accept");
+        res.set_header("Access-Control-Max-Age", "600");
+      }
+    }
+    if (req.method == "OPTIONS") {  // Preflight (or a plain OPTIONS): no body.
+      res.status = 204;
+      res.set_header("Allow", "GET, POST, PUT, DELETE, OPTIONS");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+
+  server.set_error_handler(httplib::Server::HandlerWithResponse([](const Request& req, Response& res) {
+    if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+    switch (res.status) {
+      case 404: SendProblem(req, res, 404, "not-found", "no route " + req.path.substr(0, 200)); break;
+      case 413: SendProblem(req, res, 413, "body-too-large", "the request body is over the server's limit"); break;
+      case 400: SendProblem(req, res, 400, "bad-request", "the request could not be parsed"); break;
+      default:
+        if (res.status >= 400) SendProblem(req, res, res.status, "error", ReasonPhrase(res.status));
+        else return httplib::Server::HandlerResponse::Unhandled;
+    }
+    return httplib::Server::HandlerResponse::Handled;
+  }));
+
+  server.set_exception_handler([](const Request& req, Response& res, std::exception_ptr) {
+    SendProblem(req, res, 500, "internal", "internal error");
+  });
+
+  server.set_logger([&I](const Request& req, const Response& res) {
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_request.start).count();
+    I.metrics.Observe(t_request.route, res.status, seconds);
+    if (I.options.log_requests) {
+      std::fprintf(stderr, "%s %s %d %zu %.3fms\n", req.method.c_str(), req.path.c_str(), res.status, res.body.size(),
+                   seconds * 1e3);
+    }
+  });
+
+  // 405 with Allow for a known path under another method.
+  auto not_allowed = [](const char* allow) {
+    return [allow](const Request& req, Response& res) {
+      res.set_header("Allow", allow);
+      SendProblem(req, res, 405, "method-not-allowed", req.method + " is not allowed here; allowed: " + allow);
+    };
+  };
+  auto all_methods = [&server](const std::string& pattern, const httplib::Server::Handler& h, bool get, bool post,
+                               bool put, bool del) {
+    if (!get) server.Get(pattern, h);
+    if (!post) server.Post(pattern, h);
+    if (!put) server.Put(pattern, h);
+    if (!del) server.Delete(pattern, h);
+    server.Patch(pattern, h);
+  };
+
+  server.Get("/healthz", [](const Request&, Response& res) {
+    t_request.route = kHealthz;
+    res.set_content("{\"status\":\"ok\"}", "application/json");
+  });
+  server.Get("/readyz", [&I](const Request&, Response& res) {
+    t_request.route = kReadyz;
+    res.set_content("{\"status\":\"ready\",\"rigs\":" + std::to_string(I.store.List().size()) + "}", "application/json");
+  });
+  server.Get("/metrics", [this](const Request&, Response& res) {
+    t_request.route = kMetrics;
+    res.set_content(MetricsText(), "text/plain; version=0.0.4");
+  });
+  server.Get("/openapi.json", [](const Request&, Response& res) {
+    t_request.route = kOpenApi;
+    res.set_header("Cache-Control", "public, max-age=3600");
+    res.set_content(OpenApiJson(), "application/json");
+  });
+  for (const char* p : {"/healthz", "/readyz", "/metrics", "/openapi.json"}) all_methods(p, not_allowed("GET"), true, false, false, false);
+
+  server.Get("/v1/rigs", [&I](const Request&, Response& res) {
+    t_request.route = kRigs;
+    json list = json::array();
+    for (const auto& r : I.store.List()) list.push_back(RigSummary(*r));
+    SendJson(res, 200, {{"rigs", list}});
+  });
+  all_methods("/v1/rigs", not_allowed("GET"), true, false, false, false);
+
+  const std::string rig = R"(/v1/rigs/([^/]+))";
+  server.Get(rig, [&I](const Request& req, Response& res) {
+    t_request.route = kRig;
+    if (auto r = I.FindRig(req, res, req.matches[1])) {
+      res.set_header("ETag", "\"" + r->version + "\"");
+      SendJson(res, 200, RigDetail(*r));
+    }
+  });
+  server.Put(rig, [&I](const Request& req, Response& res) { I.PutRig(req, res); });
+  server.Delete(rig, [&I](const Request& req, Response& res) { I.DeleteRig(req, res); });
+  all_methods(rig, not_allowed("GET, PUT, DELETE"), true, false, true, true);
+
+  server.Post(rig + "/mesh", [&I](const Request& req, Response& res) { I.Mesh(req, res); });
+  server.Get(rig + "/mesh", [&I](const Request& req, Response& res) { I.Mesh(req, res); });
+  all_methods(rig + "/mesh", not_allowed("GET, POST"), true, true, false, false);
+  server.Post(rig + "/check", [&I](const Request& req, Response& res) { I.Check(req, res); });
+  all_methods(rig + "/check", not_allowed("POST"), false, true, false, false);
+}
+
+}  // namespace facespace::api

@@ -1,0 +1,164 @@
+// The OpenAPI 3.1 description of every route. tests/integration checks that it is valid and
+// that it names exactly the routes the server answers.
+#include <nlohmann/json.hpp>
+
+#include "facespace/api/http.h"
+
+namespace facespace::api {
+
+namespace {
+
+using nlohmann::json;
+
+json Problem(const std::string& description) {
+  return {{"description", description},
+          {"content", {{"application/problem+json", {{"schema", {{"$ref", "#/components/schemas/Problem"}}}}}}}};
+}
+
+json MeshResponses() {
+  json headers = {
+      {"Facespace-Weight-Sum", {{"description", "Sum of the weights"}, {"schema", {{"type", "string"}}}}},
+      {"Facespace-Warnings",
+       {{"description", "Structured-field list (RFC 9651) of warnings, e.g. extrapolation;value=1.7"},
+        {"schema", {{"type", "string"}}}}},
+      {"ETag", {{"description", "Strong validator of rig version + canonical request"}, {"schema", {{"type", "string"}}}}}};
+  return {{"200",
+           {{"description", "The blended mesh (warnings, if any, in headers and in the body where the format has room)"},
+            {"headers", headers},
+            {"content",
+             {{"application/json", {{"schema", {{"$ref", "#/components/schemas/MeshJson"}}}}},
+              {"model/gltf-binary", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}},
+              {"model/obj", {{"schema", {{"type", "string"}}}}},
+              {"application/octet-stream",
+               {{"schema", {{"type", "string"}, {"contentEncoding", "binary"},
+                            {"description", "float32 LE: world-space positions of every primitive, then normals"}}}}}}}}},
+          {"304", {{"description", "Not modified (If-None-Match matched the ETag)"}}},
+          {"400", Problem("Malformed JSON")},
+          {"404", Problem("Unknown rig")},
+          {"406", Problem("Unsupported Accept")},
+          {"413", Problem("Body over the limit")},
+          {"415", Problem("Unsupported Content-Type")},
+          {"422", Problem("Invalid weights or options; or warnings with strict=true")}};
+}
+
+json IdParam() {
+  return {{"name", "id"}, {"in", "path"}, {"required", true},
+          {"schema", {{"type", "string"}, {"pattern", "^[a-z0-9][a-z0-9_-]{0,63}$"}}}};
+}
+
+json MeshQueryParams() {
+  return json::array({
+      IdParam(),
+      {{"name", "w"}, {"in", "query"}, {"style", "form"}, {"explode", true},
+       {"description", "Weights as w.NAME=VALUE (by shape name, alias or index); shapes not named are 0"},
+       {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
+      {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"glb", "obj", "json", "f32"}}}}},
+      {{"name", "mode"}, {"in", "query"}, {"schema", {{"enum", {"relative", "absolute"}}}}},
+      {{"name", "normals"}, {"in", "query"}, {"schema", {{"enum", {"blend", "recompute"}}}}},
+      {{"name", "strict"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
+      {{"name", "keep_targets"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
+  });
+}
+
+json Build() {
+  json weights = {{"oneOf", json::array({json{{"type", "array"}, {"items", {{"type", "number"}}},
+                                                {"description", "Dense, in shape order"}},
+                                           json{{"type", "object"}, {"additionalProperties", {{"type", "number"}}},
+                                                {"description", "By shape name, alias or index"}}})}};
+  json mesh_request = {{"type", "object"},
+                       {"properties",
+                        {{"weights", weights},
+                         {"mode", {{"enum", {"relative", "absolute"}}, {"default", "relative"}}},
+                         {"normals", {{"enum", {"blend", "recompute"}}, {"default", "blend"}}},
+                         {"format", {{"enum", {"glb", "obj", "json", "f32"}}}},
+                         {"strict", {{"type", "boolean"}, {"default", false}}},
+                         {"keep_targets", {{"type", "boolean"}, {"default", false}}}}}};
+  json warning = {{"type", "object"},
+                  {"required", {"code", "message"}},
+                  {"properties",
+                   {{"code", {{"type", "string"}}},
+                    {"message", {{"type", "string"}}},
+                    {"shape", {{"type", "string"}}},
+                    {"value", {{"type", "number"}}}}}};
+  json problem = {{"type", "object"},
+                  {"required", {"type", "title", "status", "detail"}},
+                  {"properties",
+                   {{"type", {{"type", "string"}}},
+                    {"title", {{"type", "string"}}},
+                    {"status", {{"type", "integer"}}},
+                    {"detail", {{"type", "string"}}},
+                    {"instance", {{"type", "string"}}},
+                    {"errors",
+                     {{"type", "array"},
+                      {"items", {{"type", "object"},
+                                 {"properties", {{"pointer", {{"type", "string"}}},
+                                                 {"parameter", {{"type", "string"}}},
+                                                 {"detail", {{"type", "string"}}}}}}}}},
+                    {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
+  json mesh_json = {{"type", "object"},
+                    {"properties",
+                     {{"primitives",
+                       {{"type", "array"},
+                        {"items", {{"type", "object"},
+                                   {"properties", {{"mesh", {{"type", "integer"}}},
+                                                   {"primitive", {{"type", "integer"}}},
+                                                   {"name", {{"type", "string"}}},
+                                                   {"positions", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+                                                   {"normals", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}}}}},
+                      {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
+  json ok_json = {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
+  json auth = json::array({{{"bearer", json::array()}}});
+  json paths = {
+      {"/healthz", {{"get", {{"summary", "Liveness"}, {"operationId", "healthz"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/readyz", {{"get", {{"summary", "Readiness (rigs loaded)"}, {"operationId", "readyz"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/metrics",
+       {{"get", {{"summary", "Prometheus metrics"}, {"operationId", "metrics"},
+                 {"responses", {{"200", {{"description", "Prometheus text"}, {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}}}}}}}}},
+      {"/openapi.json", {{"get", {{"summary", "This document"}, {"operationId", "openapi"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/v1/rigs", {{"get", {{"summary", "List rigs"}, {"operationId", "listRigs"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/v1/rigs/{id}",
+       {{"parameters", json::array({IdParam()})},
+        {"get", {{"summary", "A rig: shapes, bounding box, primitives, skeleton"}, {"operationId", "getRig"},
+                 {"responses", {{"200", ok_json}, {"404", Problem("Unknown rig")}}}}},
+        {"put", {{"summary", "Upload or replace a rig (validated fully, stored atomically)"}, {"operationId", "putRig"},
+                 {"security", auth},
+                 {"requestBody", {{"required", true},
+                                  {"content", {{"model/gltf-binary", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}},
+                                               {"model/gltf+json", {{"schema", {{"type", "object"}}}}}}}}},
+                 {"responses", {{"200", ok_json}, {"201", ok_json}, {"401", Problem("No API key")}, {"403", Problem("Wrong API key")},
+                                {"413", Problem("Body over the limit")}, {"415", Problem("Not a glTF media type")},
+                                {"422", Problem("Invalid rig or id")}}}}},
+        {"delete", {{"summary", "Delete a rig"}, {"operationId", "deleteRig"}, {"security", auth},
+                    {"responses", {{"204", {{"description", "Deleted"}}}, {"401", Problem("No API key")},
+                                   {"403", Problem("Wrong API key")}, {"404", Problem("Unknown rig")}}}}}}},
+      {"/v1/rigs/{id}/mesh",
+       {{"get", {{"summary", "Blended mesh from query weights (w.NAME=VALUE)"}, {"operationId", "getMesh"},
+                 {"parameters", MeshQueryParams()}, {"responses", MeshResponses()}}},
+        {"post", {{"summary", "Blended mesh"}, {"operationId", "postMesh"}, {"parameters", json::array({IdParam()})},
+                  {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/MeshRequest"}}}}}}}}},
+                  {"responses", MeshResponses()}}}}},
+      {"/v1/rigs/{id}/check",
+       {{"post", {{"summary", "Validate weights only: sum and warnings"}, {"operationId", "checkWeights"},
+                  {"parameters", json::array({IdParam()})},
+                  {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/MeshRequest"}}}}}}}}},
+                  {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
+                                 {"422", Problem("Invalid weights")}}}}}}},
+  };
+  return {{"openapi", "3.1.0"},
+          {"info", {{"title", "facespace"}, {"version", "1.0.0"},
+                    {"description", "Blend-shape rigs over HTTP: blended meshes with warnings when a point leaves the authored space. "
+                                    "Errors are RFC 9457 problem details."}}},
+          {"paths", paths},
+          {"components",
+           {{"schemas", {{"MeshRequest", mesh_request}, {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}}},
+            {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
+}
+
+}  // namespace
+
+const std::string& OpenApiJson() {
+  static const std::string doc = Build().dump(1);
+  return doc;
+}
+
+}  // namespace facespace::api

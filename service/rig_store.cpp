@@ -1,0 +1,180 @@
+#include "rig_store.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cinttypes>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "facespace/core/io.h"
+
+namespace facespace {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string Version(std::span<const unsigned char> bytes) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016" PRIx64, h);
+  return buf;
+}
+
+bool IsRigFile(const fs::path& p) {
+  const std::string ext = p.extension().string();
+  return ext == ".glb" || ext == ".gltf";
+}
+
+Status WriteDurably(const std::string& dir, const std::string& tmp, const std::string& final_path,
+                    std::span<const unsigned char> bytes) {
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) return Status{StatusCode::kInternal, std::string("cannot create a file in the store: ") + std::strerror(errno), {}};
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int e = errno;
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      return Status{StatusCode::kInternal, std::string("cannot write the rig: ") + std::strerror(e), {}};
+    }
+    done += static_cast<size_t>(n);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const int e = errno;
+    ::unlink(tmp.c_str());
+    return Status{StatusCode::kInternal, std::string("cannot flush the rig to disk: ") + std::strerror(e), {}};
+  }
+  if (::rename(tmp.c_str(), final_path.c_str()) != 0) {
+    const int e = errno;
+    ::unlink(tmp.c_str());
+    return Status{StatusCode::kInternal, std::string("cannot publish the rig: ") + std::strerror(e), {}};
+  }
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+FileRigStore::FileRigStore(std::string dir) : dir_(std::move(dir)) {}
+
+Result<size_t> FileRigStore::LoadAll() {
+  std::error_code ec;
+  if (!fs::is_directory(dir_, ec)) return NotFound("rig store '" + dir_ + "' is not a readable directory");
+  // Candidates: files in dir_ first, then in its immediate subfolders; the first id wins.
+  std::vector<fs::path> top, nested;
+  for (const auto& e : fs::directory_iterator(dir_, ec)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && name.size() > 4 && name[0] == '.' && name.find(".tmp") != std::string::npos) {
+      fs::remove(e.path(), ec);  // Left by an upload that crashed: never published.
+      continue;
+    }
+    if (e.is_regular_file() && IsRigFile(e.path())) top.push_back(e.path());
+    if (e.is_directory() && name[0] != '.') {
+      for (const auto& f : fs::directory_iterator(e.path(), ec)) {
+        if (f.is_regular_file() && IsRigFile(f.path())) nested.push_back(f.path());
+      }
+    }
+  }
+  if (ec) return NotFound("cannot read rig store '" + dir_ + "': " + ec.message());
+  std::sort(top.begin(), top.end());
+  std::sort(nested.begin(), nested.end());
+  top.insert(top.end(), nested.begin(), nested.end());
+  std::map<std::string, Entry> loaded;
+  for (const fs::path& p : top) {
+    const std::string id = p.stem().string();
+    if (!api::IsValidRigId(id)) {
+      std::fprintf(stderr, "facespace: skipping %s: '%s' is not a valid rig id ([a-z0-9][a-z0-9_-]{0,63})\n", p.c_str(), id.c_str());
+      continue;
+    }
+    if (loaded.count(id)) continue;
+    std::ifstream f(p, std::ios::binary);
+    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    auto rig = LoadRigFile(p.string());
+    if (!rig.ok()) {
+      std::fprintf(stderr, "facespace: skipping broken rig %s: %s\n", p.c_str(), rig.status().message.c_str());
+      continue;
+    }
+    auto stored = std::make_shared<api::StoredRig>();
+    stored->id = id;
+    stored->rig = std::move(rig.value());
+    stored->version = Version(bytes);
+    loaded[id] = {std::move(stored), p.string()};
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  map_ = std::move(loaded);
+  return map_.size();
+}
+
+std::shared_ptr<const api::StoredRig> FileRigStore::Get(const std::string& id) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = map_.find(id);
+  return it == map_.end() ? nullptr : it->second.rig;
+}
+
+std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::vector<std::shared_ptr<const api::StoredRig>> out;
+  for (const auto& [id, e] : map_) out.push_back(e.rig);
+  return out;
+}
+
+Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, bool binary, bool* created) {
+  if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
+  // Validate fully before anything touches the disk.
+  auto rig = LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false});
+  if (!rig.ok()) return rig.status();
+  rig->name = id;
+  auto stored = std::make_shared<api::StoredRig>();
+  stored->id = id;
+  stored->rig = std::move(rig.value());
+  stored->version = Version(bytes);
+
+  std::lock_guard<std::mutex> write_lock(write_mu_);
+  static std::atomic<uint64_t> counter{0};
+  const std::string final_path = dir_ + "/" + id + (binary ? ".glb" : ".gltf");
+  const std::string tmp = dir_ + "/." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
+  if (Status s = WriteDurably(dir_, tmp, final_path, bytes); !s.ok()) return s;
+  // The other extension, if any, must not shadow the new file after a restart.
+  std::error_code ec;
+  fs::remove(dir_ + "/" + id + (binary ? ".gltf" : ".glb"), ec);
+  std::lock_guard<std::mutex> lock(mu_);
+  *created = !map_.count(id);
+  map_[id] = {std::move(stored), final_path};
+  return Status::Ok();
+}
+
+Status FileRigStore::Delete(const std::string& id) {
+  std::lock_guard<std::mutex> write_lock(write_mu_);
+  std::string path;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = map_.find(id);
+    if (it == map_.end()) return NotFound("no rig '" + id + "'");
+    path = it->second.path;
+  }
+  if (::unlink(path.c_str()) != 0 && errno != ENOENT) {
+    return Status{StatusCode::kInternal, std::string("cannot delete the rig file: ") + std::strerror(errno), {}};
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  map_.erase(id);
+  return Status::Ok();
+}
+
+}  // namespace facespace

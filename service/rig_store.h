@@ -1,0 +1,39 @@
+// The rig store: a directory of .glb/.gltf files, loaded once, served as immutable
+// shared_ptr<const StoredRig>, replaced atomically on upload.
+#pragma once
+
+#include <map>
+#include <mutex>
+#include <string>
+
+#include "facespace/api/store.h"
+
+namespace facespace {
+
+class FileRigStore : public api::RigStore {
+ public:
+  // `dir` holds the rigs: files directly in it, and in its immediate subfolders (a file in
+  // the folder itself wins over one of the same id in a subfolder). Uploads go to `dir`.
+  explicit FileRigStore(std::string dir);
+
+  // Loads every rig; a broken file is reported on stderr and skipped. Returns the number
+  // loaded. Fails only when the directory cannot be read.
+  Result<size_t> LoadAll();
+
+  std::shared_ptr<const api::StoredRig> Get(const std::string& id) const override;
+  std::vector<std::shared_ptr<const api::StoredRig>> List() const override;
+  Status Put(const std::string& id, std::span<const unsigned char> bytes, bool binary, bool* created) override;
+  Status Delete(const std::string& id) override;
+
+ private:
+  struct Entry {
+    std::shared_ptr<const api::StoredRig> rig;
+    std::string path;
+  };
+  std::string dir_;
+  mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).
+  std::mutex write_mu_;       // Serialises uploads and deletes.
+  std::map<std::string, Entry> map_;
+};
+
+}  // namespace facespace

@@ -1,0 +1,194 @@
+// facespace serve: configuration (flags, then environment, then defaults), the rig store,
+// the HTTP server and graceful shutdown.
+#include <pthread.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include "cli.h"
+#include "facespace/api/http.h"
+#include "rig_store.h"
+
+namespace facespace::cli {
+
+namespace {
+
+struct ServeConfig {
+  std::string rigs = FACESPACE_DEFAULT_RIGS;
+  std::string host = "127.0.0.1";
+  int port = 8080;
+  int threads = 96;
+  std::string api_key_file;
+  size_t max_body = size_t{64} << 20;
+  size_t cache_mb = 64;
+  std::vector<std::string> cors_origins;
+  bool quiet = false;
+};
+
+const char kServeUsage[] =
+    "usage: facespace serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N]\n"
+    "                       [--api-key-file FILE] [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
+    "                       [--cache-mb MB] [--quiet]\n"
+    "environment: FACESPACE_RIGS, FACESPACE_HOST, FACESPACE_PORT, FACESPACE_THREADS,\n"
+    "             FACESPACE_API_KEY_FILE, FACESPACE_MAX_BODY, FACESPACE_CORS_ORIGINS (comma-separated),\n"
+    "             FACESPACE_CACHE_MB; flags win over the environment.\n";
+
+bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
+  if (s.empty() || s.size() > 18 || s.find_first_not_of("0123456789") != std::string::npos) return false;
+  const long long v = std::stoll(s);
+  if (v < lo || v > hi) return false;
+  *out = v;
+  return true;
+}
+
+void SplitOrigins(const std::string& s, std::vector<std::string>& out) {
+  size_t start = 0;
+  while (start <= s.size()) {
+    size_t end = s.find(',', start);
+    if (end == std::string::npos) end = s.size();
+    std::string o = s.substr(start, end - start);
+    while (!o.empty() && o.front() == ' ') o.erase(0, 1);
+    while (!o.empty() && (o.back() == ' ' || o.back() == '/')) o.pop_back();
+    if (!o.empty()) out.push_back(o);
+    start = end + 1;
+  }
+}
+
+// Applies one setting; returns an error line or "".
+std::string Apply(ServeConfig& c, const std::string& key, const std::string& value) {
+  long long n = 0;
+  if (key == "rigs") c.rigs = value;
+  else if (key == "host") c.host = value;
+  else if (key == "port") {
+    if (!ParseSize(value, 0, 65535, &n)) return "port must be 0..65535, not '" + value + "'";
+    c.port = static_cast<int>(n);
+  } else if (key == "threads") {
+    if (!ParseSize(value, 1, 4096, &n)) return "threads must be 1..4096, not '" + value + "'";
+    c.threads = static_cast<int>(n);
+  } else if (key == "api-key-file") c.api_key_file = value;
+  else if (key == "max-body") {
+    if (!ParseSize(value, 1024, 1ll << 34, &n)) return "max-body must be 1024..17179869184 bytes, not '" + value + "'";
+    c.max_body = static_cast<size_t>(n);
+  } else if (key == "cache-mb") {
+    if (!ParseSize(value, 0, 1 << 20, &n)) return "cache-mb must be 0..1048576, not '" + value + "'";
+    c.cache_mb = static_cast<size_t>(n);
+  } else if (key == "cors-origin") SplitOrigins(value, c.cors_origins);
+  else return "unknown option --" + key;
+  return "";
+}
+
+}  // namespace
+
+int Serve(const std::vector<std::string>& args) {
+  ServeConfig c;
+  const std::pair<const char*, const char*> env[] = {
+      {"FACESPACE_RIGS", "rigs"},          {"FACESPACE_HOST", "host"},         {"FACESPACE_PORT", "port"},
+      {"FACESPACE_THREADS", "threads"},    {"FACESPACE_API_KEY_FILE", "api-key-file"},
+      {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"}};
+  for (const auto& [var, key] : env) {
+    if (const char* v = std::getenv(var); v && *v) {
+      if (std::string e = Apply(c, key, v); !e.empty()) {
+        std::fprintf(stderr, "facespace: %s: %s\n", var, e.c_str());
+        return 2;
+      }
+    }
+  }
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--quiet") {
+      c.quiet = true;
+      continue;
+    }
+    if (a == "-h" || a == "--help") {
+      std::fputs(kServeUsage, stdout);
+      return 0;
+    }
+    if (a.rfind("--", 0) != 0 || i + 1 >= args.size()) {
+      std::fprintf(stderr, "facespace: %s\n%s",
+                   a.rfind("--", 0) == 0 ? (a + " needs a value").c_str() : ("unexpected argument '" + a + "'").c_str(), kServeUsage);
+      return 2;
+    }
+    if (std::string e = Apply(c, a.substr(2), args[++i]); !e.empty()) {
+      std::fprintf(stderr, "facespace: %s\n%s", e.c_str(), kServeUsage);
+      return 2;
+    }
+  }
+
+  api::ApiOptions options;
+  if (!c.api_key_file.empty()) {
+    std::ifstream f(c.api_key_file, std::ios::binary);
+    if (!f) {
+      std::fprintf(stderr, "facespace: cannot read the API key file '%s'\n", c.api_key_file.c_str());
+      return 1;
+    }
+    std::string key((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    while (!key.empty() && (key.back() == '\n' || key.back() == '\r' || key.back() == ' ')) key.pop_back();
+    if (key.size() < 3) {
+      std::fprintf(stderr, "facespace: the API key in '%s' is empty or too short\n", c.api_key_file.c_str());
+      return 1;
+    }
+    options.api_key = key;
+  }
+  options.cors_origins = c.cors_origins;
+  options.max_body = c.max_body;
+  options.cache_bytes = c.cache_mb << 20;
+  options.log_requests = !c.quiet;
+
+  FileRigStore store(c.rigs);
+  auto loaded = store.LoadAll();
+  if (!loaded.ok()) {
+    std::fprintf(stderr, "facespace: %s\n", loaded.status().message.c_str());
+    return 1;
+  }
+
+  // SIGINT/SIGTERM are taken by one thread with sigwait: block them before any other thread
+  // starts, so every worker inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+
+  httplib::Server server;
+  const int threads = c.threads;
+  server.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+  server.set_tcp_nodelay(true);
+  server.set_keep_alive_max_count(10000);
+  server.set_keep_alive_timeout(5);
+  server.set_read_timeout(10, 0);
+  server.set_write_timeout(10, 0);
+  api::Api api(store, options);
+  api.Register(server);
+
+  const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);
+  if (port < 0) {
+    std::fprintf(stderr, "facespace: cannot listen on %s:%d (in use, or not an address of this machine)\n", c.host.c_str(), c.port);
+    return 1;
+  }
+  std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(),
+               c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
+  std::fflush(stderr);
+
+  std::thread waiter([&server, signals] {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    std::fprintf(stderr, "facespace: %s received, finishing requests in flight\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    server.stop();
+  });
+  const bool ok = server.listen_after_bind();
+  if (waiter.joinable()) {
+    // listen_after_bind returned on its own (not through a signal): wake the waiter.
+    if (server.is_running()) server.stop();
+    pthread_kill(waiter.native_handle(), SIGTERM);
+    waiter.join();
+  }
+  std::fprintf(stderr, "facespace: stopped\n");
+  return ok ? 0 : 0;
+}
+
+}  // namespace facespace::cli
