@@ -21,7 +21,7 @@ struct ServeConfig {
   std::string rigs = FACESPACE_DEFAULT_RIGS;
   std::string host = "127.0.0.1";
   int port = 8080;
-  int threads = 96;
+  int threads = 256;  // cpp-httplib holds a thread per keep-alive connection.
   std::string api_key_file;
   size_t max_body = size_t{64} << 20;
   size_t cache_mb = 64;

@@ -1,0 +1,164 @@
+#!/usr/bin/env bash
+# End-to-end tests of `facespace serve`: the real server on an ephemeral loopback port with a
+# temporary store, driven with curl.
+# usage: service_test.sh FACESPACE_BINARY SHARED_ASSETS_DIR SOURCE_DIR NODE_MODULES_DIR
+set -u
+bin=$1; A=$2/real; src=$3; node_modules=${4:-}
+tmp=$(mktemp -d); pid=
+cleanup() { [ -n "$pid" ] && kill "$pid" 2>/dev/null; rm -rf "$tmp"; }
+trap cleanup EXIT
+pass=0; fail=0
+ok() { pass=$((pass + 1)); echo "ok   $*"; }
+no() { fail=$((fail + 1)); echo "FAIL $*"; }
+check() { local what=$1; shift; if "$@"; then ok "$what"; else no "$what"; fi; }
+py() { python3 -c "$1" "${@:2}"; }
+
+store=$tmp/store; mkdir -p "$store/stress"
+cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" "$store/"
+cp "$A/MorphStressTest/"* "$store/stress/"; mv "$store/stress/MorphStressTest.gltf" "$store/stress/stress.gltf"
+head -c 5000 "$A/Fox/Fox.glb" >"$store/broken.glb"
+cp "$A/SimpleMorph/SimpleMorph.gltf" "$store/Bad_Id.gltf"
+printf 'k3y-for-tests' >"$tmp/key"
+port=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])')
+U=http://127.0.0.1:$port
+
+start() {
+  "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --max-body 2000000 \
+    --cors-origin http://front.test "$@" >>"$tmp/log" 2>&1 &
+  pid=$!
+  for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && return 0; sleep 0.1; done
+  echo "server did not start:"; cat "$tmp/log"; exit 1
+}
+# c ARGS...: status code; body in $tmp/body, headers in $tmp/hdr.
+c() { curl -s -o "$tmp/body" -D "$tmp/hdr" -w '%{http_code}' "$@"; }
+hdr() { grep -i "^$1:" "$tmp/hdr" | head -1 | cut -d' ' -f2- | tr -d '\r'; }
+jq_() { py "import json,sys; d=json.load(open(sys.argv[1])); sys.exit(0 if ($1) else 1)" "$tmp/body"; }
+problem() {  # status code, then a Python condition on the problem body
+  [ "$1" = "$2" ] && grep -qi '^content-type: application/problem+json' "$tmp/hdr" && \
+    jq_ "d['status']==$2 and d['type'].startswith('urn:facespace:problem:') and d['title'] and d['detail'] and ($3)"
+}
+
+start
+check "startup: a broken rig and a bad id are reported and skipped" \
+  sh -c "grep -q 'skipping broken rig.*broken.glb' '$tmp/log' && grep -q \"'Bad_Id' is not a valid rig id\" '$tmp/log'"
+
+# read routes
+check "GET /healthz" test "$(c "$U/healthz")" = 200
+check "GET /readyz counts 2 rigs" sh -c "[ \$(curl -s -o '$tmp/body' -w '%{http_code}' '$U/readyz') = 200 ] && grep -q '\"rigs\":2' '$tmp/body'"
+code=$(c "$U/v1/rigs")
+check "GET /v1/rigs lists facecap and stress with counts" sh -c "[ $code = 200 ]" && jq_ "[r['id'] for r in d['rigs']]==['facecap','stress'] and d['rigs'][0]['shapes']==52 and d['rigs'][0]['vertices']==4368 and d['rigs'][0]['has_skeleton']==False"
+code=$(c "$U/v1/rigs/facecap")
+check "GET /v1/rigs/facecap: shapes with index, group, range, default, moved, partner; bounding box; primitives" \
+  sh -c "[ $code = 200 ]"
+check "  ... whose fields hold the right values" jq_ "d['shapes'][24]['name']=='jawOpen' and d['shapes'][24]['group']=='expression' and d['shapes'][24]['min']==0 and d['shapes'][24]['max']==1 and d['shapes'][24]['vertices_moved']>1000 and d['shapes'][37]['partner']=='mouthSmile_R' and len(d['primitives'])==4 and all(d['bounding_box']['min'][i] < d['bounding_box']['max'][i] for i in range(3)) and d['load_warnings'][0]['code']=='texture_dropped'"
+check "GET unknown rig: 404 problem" sh -c "true" && problem "$(c "$U/v1/rigs/nobody")" 404 "'nobody' in d['detail']" && ok "  ... names the id" || no "  ... 404 problem for an unknown rig"
+
+# mesh: same bytes as the CLI
+W='{"jawOpen":0.9,"mouthSmile_L":0.8}'
+code=$(c -X POST -H 'Content-Type: application/json' -d "{\"weights\":$W,\"format\":\"json\"}" "$U/v1/rigs/facecap/mesh")
+"$bin" blend "$store/facecap.glb" --weights "$W" -o "$tmp/cli.json" 2>/dev/null
+check "POST mesh (json): 200, byte-identical to the CLI's output" sh -c "[ $code = 200 ] && cmp -s '$tmp/body' '$tmp/cli.json'"
+check "  ... Facespace-Weight-Sum: 1.7" test "$(hdr Facespace-Weight-Sum)" = 1.7
+check "  ... Facespace-Warnings: extrapolation;value=1.7" test "$(hdr Facespace-Warnings)" = "extrapolation;value=1.7"
+check "  ... JSON warnings list" jq_ "d['warnings'][0]['code']=='extrapolation' and d['warnings'][0]['value']==1.7"
+etag=$(hdr ETag)
+check "  ... a strong ETag" sh -c "echo '$etag' | grep -Eq '^\"[0-9a-f]{16}\"$'"
+check "  ... If-None-Match: 304" test "$(c -X POST -H 'Content-Type: application/json' -H "If-None-Match: $etag" -d "{\"weights\":$W,\"format\":\"json\"}" "$U/v1/rigs/facecap/mesh")" = 304
+code=$(c "$U/v1/rigs/facecap/mesh?w.jawOpen=0.5&format=obj")
+"$bin" blend "$store/facecap.glb" --set jawOpen=0.5 -o "$tmp/cli.obj" 2>/dev/null
+check "GET mesh ?w.jawOpen=0.5&format=obj: model/obj, same as the CLI" sh -c "[ $code = 200 ] && cmp -s '$tmp/body' '$tmp/cli.obj'" && \
+  check "  ... Content-Type model/obj, Cache-Control for GET" sh -c "grep -qi '^content-type: model/obj' '$tmp/hdr' && grep -qi '^cache-control: public' '$tmp/hdr'"
+code=$(c -H 'Accept: model/gltf-binary' "$U/v1/rigs/facecap/mesh?w.jawOpen=0.5")
+check "Accept: model/gltf-binary gives a glb" sh -c "[ $code = 200 ] && head -c 4 '$tmp/body' | grep -q glTF && grep -qi '^content-type: model/gltf-binary' '$tmp/hdr'"
+code=$(c -H 'Accept: application/octet-stream' "$U/v1/rigs/facecap/mesh?w.jawOpen=0.5")
+check "Accept: application/octet-stream gives float32 positions + normals" sh -c "[ $code = 200 ] && [ \$(stat -c %s '$tmp/body') -eq $((4368 * 24)) ]"
+check "Accept: image/png on the mesh route: 406" problem "$(c -H 'Accept: image/png' "$U/v1/rigs/facecap/mesh?w.jawOpen=0.5")" 406 "True"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":1.5},"strict":true}' "$U/v1/rigs/facecap/mesh")
+check "strict=true with warnings: 422 with the warnings" problem "$code" 422 "[w['code'] for w in d['warnings']]==['extrapolation','out_of_range'] and d['warnings'][1]['shape']=='jawOpen'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '[0.5, 0, 0.25]' "$U/v1/rigs/stress/check")
+check "POST check needs an object body: 422" problem "$code" 422 "True"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":[0.5,0,0,0,0,0,0.4,0.3]}' "$U/v1/rigs/stress/check")
+check "POST check: sum and warnings, no mesh" sh -c "[ $code = 200 ]" && jq_ "abs(d['sum']-1.2)<1e-6 and d['warnings'][0]['code']=='extrapolation' and 'primitives' not in d" && ok "  ... values" || no "  ... check values"
+
+# errors
+check "malformed JSON: 400 problem" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":' "$U/v1/rigs/facecap/mesh")" 400 "'malformed' in d['detail']"
+check "unknown shape: 422 naming it, with a suggestion" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpn":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpn' and \"did you mean 'jawOpen'\" in d['errors'][0]['detail']"
+check "wrong type: 422 at its pointer" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":"NaN"}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpen'"
+check "NaN in the query: 422 naming the parameter" problem "$(c "$U/v1/rigs/facecap/mesh?w.jawOpen=nan")" 422 "d['errors'][0]['parameter']=='w.jawOpen' and 'finite' in d['errors'][0]['detail']"
+check "index out of range: 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"99":1}}' "$U/v1/rigs/facecap/mesh")" 422 "'out of range' in d['detail']"
+check "bad mode: 422 at /mode" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"mode":"sideways"}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/mode'"
+check "unknown query parameter: 422" problem "$(c "$U/v1/rigs/facecap/mesh?jawOpen=1")" 422 "d['errors'][0]['parameter']=='jawOpen'"
+check "text/plain body: 415" problem "$(c -X POST -H 'Content-Type: text/plain' -d '{}' "$U/v1/rigs/facecap/mesh")" 415 "True"
+head -c 3000000 /dev/zero >"$tmp/big"
+check "body over --max-body: 413 problem" problem "$(c -X POST -H 'Content-Type: application/json' --data-binary @"$tmp/big" "$U/v1/rigs/facecap/mesh")" 413 "True"
+check "DELETE on the mesh route: 405 with Allow" sh -c "true" && problem "$(c -X DELETE "$U/v1/rigs/facecap/mesh")" 405 "True" && check "  ... Allow: GET, POST" test "$(hdr Allow)" = "GET, POST"
+check "unknown route: 404 problem" problem "$(c "$U/v2/nothing")" 404 "True"
+
+# uploads
+fox=$A/Fox/Fox.glb
+check "PUT without key: 401 + WWW-Authenticate" sh -c "true" && problem "$(c -X PUT -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 401 "True" && check "  ... WWW-Authenticate: Bearer" sh -c "grep -qi '^www-authenticate: bearer' '$tmp/hdr'"
+check "PUT with a wrong key: 403" problem "$(c -X PUT -H 'Authorization: Bearer nope' -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 403 "True"
+check "PUT with the key in another header: 401" problem "$(c -X PUT -H 'X-Api-Key: k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 401 "True"
+K=(-H 'Authorization: Bearer k3y-for-tests')
+check "PUT with the key: 201 + Location" sh -c "[ \$(curl -s -o /dev/null -D '$tmp/hdr' -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @'$fox' '$U/v1/rigs/fox') = 201 ] && grep -qi '^location: /v1/rigs/fox' '$tmp/hdr'"
+check "PUT again: 200 replaced" test "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" = 200
+check "PUT a .gltf with embedded buffers (CesiumMan): 201" test "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf+json' --data-binary @"$A/CesiumMan/CesiumMan.gltf" "$U/v1/rigs/cesium-man")" = 201
+check "PUT a .gltf pointing at external files: 422, refused" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf+json' --data-binary @"$A/SimpleMorph/SimpleMorph.gltf" "$U/v1/rigs/simple")" 422 "'refused' in d['detail']"
+check "PUT with a wrong Content-Type: 415" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/octet-stream' --data-binary @"$fox" "$U/v1/rigs/fox2")" 415 "True"
+check "PUT to a path-trick id: 404/422, nothing written outside the store" sh -c "c1=\$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @'$fox' '$U/v1/rigs/..%2Fescape'); [ \"\$c1\" = 422 ] || [ \"\$c1\" = 404 ]; [ ! -e '$tmp/escape.glb' ]"
+check "PUT to an upper-case id: 422" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/Fox")" 422 "True"
+c "$U/v1/rigs/facecap" >/dev/null; v1=$(py 'import json,sys; print(json.load(open(sys.argv[1]))["version"])' "$tmp/body")
+head -c 100000 "$store/facecap.glb" >"$tmp/trunc.glb"
+check "a bad upload over an existing rig: 422" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$tmp/trunc.glb" "$U/v1/rigs/facecap")" 422 "'truncated' in d['detail']"
+c "$U/v1/rigs/facecap" >/dev/null; v2=$(py 'import json,sys; print(json.load(open(sys.argv[1]))["version"])' "$tmp/body")
+check "  ... the old rig keeps serving, unchanged on disk, no temp file left" sh -c "[ '$v1' = '$v2' ] && cmp -s '$store/facecap.glb' '$src/assets/facecap/facecap.glb' && [ -z \"\$(ls -A '$store' | grep tmp)\" ]"
+check "uploaded rig serves meshes" test "$(c "$U/v1/rigs/fox/mesh?format=f32")" = 200
+check "DELETE without key: 401" problem "$(c -X DELETE "$U/v1/rigs/cesium-man")" 401 "True"
+check "DELETE with key: 204, then 404" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/cesium-man') = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/cesium-man') = 404 ] && [ ! -e '$store/cesium-man.gltf' ]"
+
+# CORS
+code=$(c -X OPTIONS -H 'Origin: http://front.test' -H 'Access-Control-Request-Method: POST' -H 'Access-Control-Request-Headers: content-type' "$U/v1/rigs/facecap/mesh")
+check "CORS preflight from an allowed origin: 204 with allow-origin, methods, headers" sh -c "[ $code = 204 ] && grep -qi '^access-control-allow-origin: http://front.test' '$tmp/hdr' && grep -qi '^access-control-allow-methods:.*POST' '$tmp/hdr' && grep -qi '^access-control-allow-headers:.*content-type' '$tmp/hdr'"
+c -H 'Origin: http://front.test' "$U/v1/rigs/facecap/mesh?w.jawOpen=0.5" >/dev/null
+check "CORS: warning headers and ETag exposed" sh -c "grep -qi '^access-control-expose-headers:.*Facespace-Warnings.*ETag' '$tmp/hdr'"
+c -H 'Origin: http://evil.test' "$U/v1/rigs/facecap/mesh?w.jawOpen=0.5" >/dev/null
+check "CORS: other origins get no allow-origin" sh -c "! grep -qi '^access-control-allow-origin' '$tmp/hdr'"
+
+# 32 concurrent clients
+seq 1 320 | xargs -P 32 -I{} sh -c "curl -s -o /dev/null -w '%{http_code}\n' '$U/v1/rigs/facecap/mesh?w.jawOpen=0.{}&format=f32'" >"$tmp/codes"
+check "32 concurrent clients, 320 requests: all 200" sh -c "[ \$(grep -c '^200$' '$tmp/codes') -eq 320 ]"
+
+# metrics and OpenAPI
+c "$U/metrics" >/dev/null
+check "metrics: requests by route and status, latency histogram, blends, warnings, rigs loaded" sh -c "grep -q 'facespace_http_requests_total{route=\"/v1/rigs/{id}/mesh\",status=\"200\"}' '$tmp/body' && grep -q 'facespace_http_request_duration_seconds_bucket{route=\"/v1/rigs/{id}/mesh\",le=\"+Inf\"}' '$tmp/body' && grep -Eq '^facespace_blends_total [1-9]' '$tmp/body' && grep -Eq '^facespace_weight_warnings_total\{code=\"extrapolation\"\} [1-9]' '$tmp/body' && grep -q '^facespace_rigs_loaded 3' '$tmp/body'"
+c "$U/openapi.json" >/dev/null; cp "$tmp/body" "$tmp/openapi.json"
+check "OpenAPI: 3.1 and every route the server answers is described" py '
+import json,sys
+d=json.load(open(sys.argv[1]))
+want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"get"},"/v1/rigs":{"get"},
+      "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"}}
+got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
+sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
+if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-validator" ]; then
+  cp "$src/tests/integration/validate_openapi.mjs" "$node_modules/../validate_openapi.mjs"
+  check "OpenAPI: valid under the OpenAPI 3.1 schema" node "$node_modules/../validate_openapi.mjs" "$tmp/openapi.json"
+else
+  no "OpenAPI validator not installed (run .ci/dev test)"
+fi
+check "access log: one line per request with method, path, status, bytes, duration" grep -Eq '^GET /v1/rigs/facecap 200 [0-9]+ [0-9.]+ms$' "$tmp/log"
+
+# graceful shutdown and restart
+kill -TERM "$pid"; wait "$pid"; rc=$?; pid=
+check "SIGTERM: exits 0" test $rc -eq 0
+start
+check "restart keeps uploaded rigs" test "$(c "$U/v1/rigs/fox")" = 200
+check "restart: the deleted rig stays deleted" test "$(c "$U/v1/rigs/cesium-man")" = 404
+
+# startup errors
+"$bin" serve --port notaport >"$tmp/o" 2>&1; rc=$?
+check "startup: a bad flag exits non-zero with one clear line" sh -c "[ $rc -ne 0 ] && grep -q 'port must be' '$tmp/o'"
+"$bin" serve --rigs "$tmp/nowhere" --port 0 >"$tmp/o" 2>&1; rc=$?
+check "startup: an unreadable store exits non-zero" sh -c "[ $rc -ne 0 ] && grep -q 'not a readable directory' '$tmp/o'"
+
+echo "$pass passed, $fail failed"
+[ $fail -eq 0 ]
