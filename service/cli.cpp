@@ -142,6 +142,11 @@ int Info(const std::vector<std::string>& args) {
     std::printf("mesh %-3zu   %-20s %zu primitive(s), %zu vertices, %zu targets\n", m,
                 mesh.name.empty() ? "(unnamed)" : mesh.name.c_str(), mesh.primitives.size(), v, mesh.target_shapes.size());
   }
+  for (size_t a = 0; a < rig.animations.size(); ++a) {
+    const AnimationInfo& an = rig.animations[a];
+    std::printf("animation %-2zu %-20s %.3f s, %zu channel(s)%s\n", a, an.name.empty() ? "(unnamed)" : an.name.c_str(),
+                an.duration, an.channels, an.has_weights ? ", morph weights" : "");
+  }
   std::printf("shapes     %zu\n", rig.shapes.size());
   if (!rig.shapes.empty()) {
     std::printf("  %5s  %-28s %-12s %-14s %8s %7s  %s\n", "index", "name", "group", "range", "default", "moved", "partner");

@@ -325,8 +325,24 @@ json RigDetail(const StoredRig& s) {
   j["primitives"] = prims;
   j["bounding_box"] = r.primitives.empty() ? json(nullptr)
                                             : json({{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}});
-  j["skeleton"] = r.skin_count ? json({{"skins", r.skin_count}, {"joints", r.joint_count}}) : json(nullptr);
-  j["animations"] = json::array();
+  if (r.skins.empty()) {
+    j["skeleton"] = nullptr;
+  } else {
+    json skins = json::array();
+    for (const Skin& sk : r.skins) {
+      json joints = json::array();
+      for (int n : sk.joints) joints.push_back({{"node", n}, {"name", r.nodes[n].name}, {"parent", r.nodes[n].parent}});
+      skins.push_back({{"name", sk.name}, {"joints", joints}});
+    }
+    j["skeleton"] = {{"skins", skins}, {"joints", r.joint_count}};
+  }
+  json anims = json::array();
+  for (size_t a = 0; a < r.animations.size(); ++a) {
+    const AnimationInfo& an = r.animations[a];
+    anims.push_back({{"index", a}, {"name", an.name}, {"duration", an.duration}, {"channels", an.channels},
+                     {"morph_weights", an.has_weights}});
+  }
+  j["animations"] = anims;
   j["load_warnings"] = json::parse(WarningsToJson(r.load_warnings));
   return j;
 }

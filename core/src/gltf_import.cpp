@@ -787,7 +787,30 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
     }
   }
   rig.skin_count = model.skins.size();
-  for (const auto& skin : model.skins) rig.joint_count += skin.joints.size();
+  for (const auto& skin : model.skins) {
+    rig.joint_count += skin.joints.size();
+    Skin s{skin.name, {}};
+    for (int j : skin.joints) {
+      if (j < 0 || static_cast<size_t>(j) >= rig.nodes.size()) return InvalidArgument("skin '" + skin.name + "': joint out of range");
+      s.joints.push_back(j);
+    }
+    rig.skins.push_back(std::move(s));
+  }
+  for (const auto& anim : model.animations) {
+    AnimationInfo info;
+    info.name = anim.name;
+    info.channels = anim.channels.size();
+    for (const auto& ch : anim.channels) {
+      info.has_weights |= ch.target_path == "weights";
+      if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= anim.samplers.size()) continue;
+      const int input = anim.samplers[ch.sampler].input;
+      if (input >= 0 && static_cast<size_t>(input) < model.accessors.size() &&
+          model.accessors[input].maxValues.size() == 1 && std::isfinite(model.accessors[input].maxValues[0])) {
+        info.duration = std::max(info.duration, static_cast<float>(model.accessors[input].maxValues[0]));
+      }
+    }
+    rig.animations.push_back(info);
+  }
   DetectSymmetricPartners(rig);
   CountMovedVertices(rig);
   return ValidateRig(rig);

@@ -112,6 +112,8 @@ head -c 100000 "$store/facecap.glb" >"$tmp/trunc.glb"
 check "a bad upload over an existing rig: 422" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$tmp/trunc.glb" "$U/v1/rigs/facecap")" 422 "'truncated' in d['detail']"
 c "$U/v1/rigs/facecap" >/dev/null; v2=$(py 'import json,sys; print(json.load(open(sys.argv[1]))["version"])' "$tmp/body")
 check "  ... the old rig keeps serving, unchanged on disk, no temp file left" sh -c "[ '$v1' = '$v2' ] && cmp -s '$store/facecap.glb' '$src/assets/facecap/facecap.glb' && [ -z \"\$(ls -A '$store' | grep tmp)\" ]"
+c "$U/v1/rigs/fox" >/dev/null
+check "GET an uploaded skinned rig: joints and animations with durations" jq_ "len(d['skeleton']['skins'][0]['joints'])==24 and d['has_skeleton'] and [a['name'] for a in d['animations']]==['Survey','Walk','Run'] and abs(d['animations'][0]['duration']-3.4166)<0.01"
 check "uploaded rig serves meshes" test "$(c "$U/v1/rigs/fox/mesh?format=f32")" = 200
 check "DELETE without key: 401" problem "$(c -X DELETE "$U/v1/rigs/cesium-man")" 401 "True"
 check "DELETE with key: 204, then 404" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/cesium-man') = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/cesium-man') = 404 ] && [ ! -e '$store/cesium-man.gltf' ]"

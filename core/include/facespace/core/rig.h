@@ -111,6 +111,20 @@ struct Material {
   float alpha_cutoff = 0.5f;
 };
 
+// A skeleton as the source declares it (evaluated by the skinning issue).
+struct Skin {
+  std::string name;
+  std::vector<int> joints;              // Node indices.
+};
+
+// An animation clip as the source declares it: what the rig's route lists.
+struct AnimationInfo {
+  std::string name;
+  float duration = 0.0f;                // Seconds: the latest keyframe time of any channel.
+  size_t channels = 0;
+  bool has_weights = false;             // Drives morph weights.
+};
+
 struct Rig {
   std::string name;
   std::vector<Primitive> primitives;   // In glTF mesh order, then primitive order.
@@ -123,6 +137,8 @@ struct Rig {
   std::vector<Warning> load_warnings;  // What the importer had to drop or fix.
   size_t skin_count = 0;               // Skeletons present in the source (not yet evaluated).
   size_t joint_count = 0;
+  std::vector<Skin> skins;
+  std::vector<AnimationInfo> animations;
 
   size_t vertex_count() const;
   size_t triangle_count() const;
