@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cstdio>
 #include <fstream>
 #include <iterator>
@@ -174,21 +175,20 @@ int Serve(const std::vector<std::string>& args) {
                c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
   std::fflush(stderr);
 
-  std::thread waiter([&server, signals] {
+  std::atomic<bool> signalled{false};
+  std::thread waiter([&server, &signalled, signals] {
     int sig = 0;
     sigwait(&signals, &sig);
-    std::fprintf(stderr, "facespace: %s received, finishing requests in flight\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    if (!signalled.exchange(true)) {
+      std::fprintf(stderr, "facespace: %s received, finishing requests in flight\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+    }
     server.stop();
   });
   const bool ok = server.listen_after_bind();
-  if (waiter.joinable()) {
-    // listen_after_bind returned on its own (not through a signal): wake the waiter.
-    if (server.is_running()) server.stop();
-    pthread_kill(waiter.native_handle(), SIGTERM);
-    waiter.join();
-  }
+  if (!signalled.exchange(true)) pthread_kill(waiter.native_handle(), SIGTERM);  // Wake the waiter.
+  waiter.join();
   std::fprintf(stderr, "facespace: stopped\n");
-  return ok ? 0 : 0;
+  return ok ? 0 : 1;
 }
 
 }  // namespace facespace::cli

@@ -166,8 +166,7 @@ std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const
 // Rewrites a GLB that uses EXT_meshopt_compression into a plain one: decoded views are
 // appended to the binary chunk and the fallback buffers are removed. Other files are
 // returned unchanged (out empty).
-Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsigned char>& out,
-                        std::vector<Warning>& warnings) {
+Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsigned char>& out) {
   out.clear();
   std::string text;
   std::span<const unsigned char> bin;
@@ -218,7 +217,6 @@ Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsign
   ListRemove(j, "extensionsUsed", "EXT_meshopt_compression");
   ListRemove(j, "extensionsRequired", "EXT_meshopt_compression");
   out = MakeGlb(j.dump(), newbin);
-  (void)warnings;
   return Status::Ok();
 }
 
@@ -481,7 +479,7 @@ bool TextureTransform(const tinygltf::ExtensionMap& ext, float m[6]) {
 }
 
 Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& src, int mesh_index,
-                        int prim_index, Primitive& p, std::vector<Warning>& warnings) {
+                        int prim_index, Primitive& p) {
   const std::string what = "mesh " + std::to_string(mesh_index) + " primitive " + std::to_string(prim_index);
   p.mesh = mesh_index;
   p.index_in_mesh = prim_index;
@@ -590,9 +588,6 @@ Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive&
                                " vertices, the base has " + std::to_string(n));
       }
     }
-    if (!p.tangents.empty() && dt.empty() && !dp.empty()) {
-      // glTF allows targets without tangent deltas; the blend then orthogonalises.
-    }
     SparseTarget& st = p.targets[t];
     for (size_t v = 0; v < n; ++v) {
       bool moved = false;
@@ -609,7 +604,6 @@ Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive&
       }
     }
   }
-  (void)warnings;
   return Status::Ok();
 }
 
@@ -699,8 +693,7 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
     }
     for (size_t pi = 0; pi < sm.primitives.size(); ++pi) {
       Primitive p;
-      if (Status s = ConvertPrimitive(model, sm.primitives[pi], static_cast<int>(mi), static_cast<int>(pi), p,
-                                      rig.load_warnings);
+      if (Status s = ConvertPrimitive(model, sm.primitives[pi], static_cast<int>(mi), static_cast<int>(pi), p);
           !s.ok()) {
         return s;
       }
@@ -844,10 +837,9 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
                            const LoadOptions& options) {
   if (bytes.size() > 0xFFFFFFF0u) return InvalidArgument("file too large for glTF");
   const bool is_glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
-  std::vector<Warning> warnings;
   std::vector<unsigned char> decoded;
   if (is_glb) {
-    if (Status s = DecodeMeshoptGlb(bytes, decoded, warnings); !s.ok()) return s;
+    if (Status s = DecodeMeshoptGlb(bytes, decoded); !s.ok()) return s;
     if (!decoded.empty()) bytes = decoded;
     if (!options.allow_external_files) {
       std::string text;
@@ -892,7 +884,13 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
     }
   }
   Rig rig;
-  rig.load_warnings = std::move(warnings);
+  // tinygltf's own warnings (unknown members and such) are passed on, a few at most.
+  for (size_t start = 0, n = 0; start < warn.size() && n < 5; ++n) {
+    size_t end = warn.find('\n', start);
+    if (end == std::string::npos) end = warn.size();
+    if (end > start) rig.load_warnings.push_back({"gltf_warning", warn.substr(start, std::min<size_t>(end - start, 300)), "", 0.0, false});
+    start = end + 1;
+  }
   if (Status s = ConvertModel(model, rig); !s.ok()) return s;
   return rig;
 }
