@@ -12,6 +12,7 @@
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
 #include "facespace/core/weights.h"
+#include "facespace/render/render.h"
 
 namespace facespace::cli {
 
@@ -161,6 +162,96 @@ int Info(const std::vector<std::string>& args) {
   return 0;
 }
 
+namespace {
+
+// The flags blend, render and sheet share: --weights, --set, --mode, --normals.
+// Returns 0 when args[i] is not one of them, -1 when it was consumed (i advanced), or an
+// exit code.
+int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<WeightEntry>& entries, BlendOptions& options,
+               bool& weights_given) {
+  const std::string& a = args[i];
+  if (a != "--weights" && a != "--set" && a != "--mode" && a != "--normals") return 0;
+  if (i + 1 >= args.size()) {
+    std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
+    return 2;
+  }
+  const std::string v = args[++i];
+  if (a == "--weights") {
+    if (weights_given) {
+      std::fprintf(stderr, "error: --weights given twice\n");
+      return 2;
+    }
+    weights_given = true;
+    std::string text = v;
+    if (!v.empty() && v[0] == '@' && !ReadFile(v.substr(1), text)) {
+      std::fprintf(stderr, "error: --weights: cannot read '%s'\n", v.substr(1).c_str());
+      return 1;
+    }
+    auto parsed = api::ParseWeightsJson(text, "--weights");
+    if (!parsed.ok()) {
+      PrintStatus(parsed.status());
+      return 1;
+    }
+    entries.insert(entries.end(), parsed->begin(), parsed->end());
+  } else if (a == "--set") {
+    const size_t eq = v.rfind('=');
+    if (eq == std::string::npos || eq == 0) {
+      std::fprintf(stderr, "error: --set takes NAME=W, got '%s'\n", v.c_str());
+      return 2;
+    }
+    WeightEntry e;
+    e.name = v.substr(0, eq);
+    e.pointer = "--set " + e.name;
+    const std::string num = v.substr(eq + 1);
+    auto r = std::from_chars(num.data(), num.data() + num.size(), e.value);
+    if (r.ec != std::errc() || r.ptr != num.data() + num.size()) {
+      std::fprintf(stderr, "error: --set %s: '%s' is not a number\n", e.name.c_str(), num.c_str());
+      return 1;
+    }
+    entries.push_back(e);
+  } else if (a == "--mode") {
+    if (!api::ParseBlendMode(v, &options.mode)) {
+      std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str());
+      return 2;
+    }
+  } else if (!api::ParseNormalMode(v, &options.normals)) {
+    std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str());
+    return 2;
+  }
+  return -1;
+}
+
+// Resolves, checks (warnings to stderr) and evaluates. Returns an exit code (0 on success).
+int EvaluateForCli(const Rig& rig, std::span<const WeightEntry> entries, const BlendOptions& options,
+                   std::vector<float>& weights, WeightReport& report, BlendedRig& blended, BlendContext& context) {
+  Result<std::vector<float>> resolved = ResolveWeights(rig, entries);
+  if (!resolved.ok()) {
+    PrintStatus(resolved.status());
+    return 1;
+  }
+  weights = std::move(resolved.value());
+  report = CheckWeights(rig, weights, options.mode);
+  PrintWarnings(report.warnings);
+  if (Status s = EvaluateRig(rig, weights, options, blended, context); !s.ok()) {
+    PrintStatus(s);
+    return 1;
+  }
+  return 0;
+}
+
+// The image format from --format or the output's extension (PNG for stdout).
+bool ImageFormatFor(const std::string& out_path, const std::string& format_name, render::ImageFormat* format) {
+  if (!format_name.empty()) return render::ParseImageFormat(format_name, format);
+  if (out_path == "-") {
+    *format = render::ImageFormat::kPng;
+    return true;
+  }
+  const size_t dot = out_path.rfind('.');
+  return dot != std::string::npos && render::ParseImageFormat(out_path.substr(dot + 1), format);
+}
+
+}  // namespace
+
 int Blend(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   std::vector<WeightEntry> entries;
@@ -170,6 +261,10 @@ int Blend(const std::vector<std::string>& args) {
   bool weights_given = false;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
+    if (int rc = WeightFlag(args, i, entries, options, weights_given); rc != 0) {
+      if (rc > 0) return rc;
+      continue;
+    }
     auto value = [&](std::string& dst) {
       if (i + 1 >= args.size()) {
         std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), Usage().c_str());
@@ -178,57 +273,7 @@ int Blend(const std::vector<std::string>& args) {
       dst = args[++i];
       return true;
     };
-    std::string v;
-    if (a == "--weights") {
-      if (!value(v)) return 2;
-      if (weights_given) {
-        std::fprintf(stderr, "error: --weights given twice\n");
-        return 2;
-      }
-      weights_given = true;
-      std::string text = v;
-      if (!v.empty() && v[0] == '@') {
-        if (!ReadFile(v.substr(1), text)) {
-          std::fprintf(stderr, "error: --weights: cannot read '%s'\n", v.substr(1).c_str());
-          return 1;
-        }
-      }
-      auto parsed = api::ParseWeightsJson(text, "--weights");
-      if (!parsed.ok()) {
-        PrintStatus(parsed.status());
-        return 1;
-      }
-      entries.insert(entries.end(), parsed->begin(), parsed->end());
-    } else if (a == "--set") {
-      if (!value(v)) return 2;
-      const size_t eq = v.rfind('=');
-      if (eq == std::string::npos || eq == 0) {
-        std::fprintf(stderr, "error: --set takes NAME=W, got '%s'\n", v.c_str());
-        return 2;
-      }
-      WeightEntry e;
-      e.name = v.substr(0, eq);
-      e.pointer = "--set " + e.name;
-      const std::string num = v.substr(eq + 1);
-      auto r = std::from_chars(num.data(), num.data() + num.size(), e.value);
-      if (r.ec != std::errc() || r.ptr != num.data() + num.size()) {
-        std::fprintf(stderr, "error: --set %s: '%s' is not a number\n", e.name.c_str(), num.c_str());
-        return 1;
-      }
-      entries.push_back(e);
-    } else if (a == "--mode") {
-      if (!value(v)) return 2;
-      if (!api::ParseBlendMode(v, &options.mode)) {
-        std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str());
-        return 2;
-      }
-    } else if (a == "--normals") {
-      if (!value(v)) return 2;
-      if (!api::ParseNormalMode(v, &options.normals)) {
-        std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str());
-        return 2;
-      }
-    } else if (a == "--format") {
+    if (a == "--format") {
       if (!value(format_name)) return 2;
     } else if (a == "-o" || a == "--output") {
       if (!value(out_path)) return 2;
@@ -268,20 +313,175 @@ int Blend(const std::vector<std::string>& args) {
   }
   const Rig& rig = loaded.value();
   PrintWarnings(rig.load_warnings);
-  Result<std::vector<float>> weights = ResolveWeights(rig, entries);
-  if (!weights.ok()) {
-    PrintStatus(weights.status());
-    return 1;
-  }
-  WeightReport report = CheckWeights(rig, weights.value(), options.mode);
-  PrintWarnings(report.warnings);
+  std::vector<float> weights;
+  WeightReport report;
   BlendedRig blended;
   BlendContext context;
-  if (Status s = EvaluateRig(rig, weights.value(), options, blended, context); !s.ok()) {
-    PrintStatus(s);
+  if (int rc = EvaluateForCli(rig, entries, options, weights, report, blended, context)) return rc;
+  Result<std::string> bytes = ExportMesh(rig, blended, weights, report.warnings, format, export_options);
+  if (!bytes.ok()) {
+    PrintStatus(bytes.status());
     return 1;
   }
-  Result<std::string> bytes = ExportMesh(rig, blended, weights.value(), report.warnings, format, export_options);
+  if (!WriteOutput(out_path, bytes.value())) {
+    std::fprintf(stderr, "error: cannot write '%s'\n", out_path.c_str());
+    return 1;
+  }
+  return 0;
+}
+
+namespace {
+
+const char kRenderUsage[] =
+    "usage: facespace render RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode M] [--normals N]\n"
+    "         [--view shaded|wireframe|heatmap|normals] [--width W] [--height H] [--camera JSON]\n"
+    "         [--yaw DEG] [--pitch DEG] [--zoom Z] [--distance D] [--fov DEG] [--background #rrggbb|transparent]\n"
+    "         [--supersample 1-4] [--format png|jpeg|exr|tiff] [--quality 1-100] -o OUT\n"
+    "       facespace sheet RIG --cells JSON|@FILE [--columns N] [the render flags] -o OUT\n"
+    "         (cells: a JSON array or JSON lines of {\"weights\": ..., \"label\": \"...\"})\n";
+
+// Shared by render and sheet: everything but the weights/cells. Returns an exit code or -1.
+int RenderFlags(const std::vector<std::string>& args, size_t& i, api::RenderRequest& r, std::string& out_path,
+                std::string& format_name) {
+  const std::string& a = args[i];
+  if (a.rfind("--", 0) != 0 && a != "-o") return 0;
+  if (i + 1 >= args.size()) {
+    std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kRenderUsage);
+    return 2;
+  }
+  if (a == "-o" || a == "--output") {
+    out_path = args[++i];
+    return -1;
+  }
+  if (a == "--format") {
+    format_name = args[++i];
+    return -1;
+  }
+  bool known = false;
+  const std::string err = api::ApplyRenderSetting(a.substr(2), args[i + 1], r, &known);
+  if (!known) return 0;
+  ++i;
+  if (!err.empty()) {
+    std::fprintf(stderr, "error: %s: %s\n", a.c_str(), err.c_str());
+    return 2;
+  }
+  return -1;
+}
+
+}  // namespace
+
+int Render(const std::vector<std::string>& args, bool sheet) {
+  std::vector<std::string> paths;
+  std::vector<WeightEntry> entries;
+  api::RenderRequest r;
+  std::string out_path, format_name, cells_text;
+  int columns = 4;
+  bool weights_given = false;
+  if (sheet) r.render.width = r.render.height = 256;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (int rc = WeightFlag(args, i, entries, r.mesh.options, weights_given); rc != 0) {
+      if (rc > 0) return rc;
+      continue;
+    }
+    if (sheet && (a == "--cells" || a == "--columns")) {
+      if (i + 1 >= args.size()) {
+        std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
+        return 2;
+      }
+      const std::string v = args[++i];
+      if (a == "--columns") {
+        long long n = 0;
+        auto res = std::from_chars(v.data(), v.data() + v.size(), n);
+        if (res.ec != std::errc() || n < 1 || n > 64) {
+          std::fprintf(stderr, "error: --columns must be 1..64\n");
+          return 2;
+        }
+        columns = static_cast<int>(n);
+      } else if (!v.empty() && v[0] == '@') {
+        if (!ReadFile(v.substr(1), cells_text)) {
+          std::fprintf(stderr, "error: --cells: cannot read '%s'\n", v.substr(1).c_str());
+          return 1;
+        }
+      } else {
+        cells_text = v;
+      }
+      continue;
+    }
+    if (int rc = RenderFlags(args, i, r, out_path, format_name); rc != 0) {
+      if (rc > 0) return rc;
+      continue;
+    }
+    if (a.size() > 1 && a[0] == '-') {
+      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kRenderUsage);
+      return 2;
+    }
+    paths.push_back(a);
+  }
+  render::ImageFormat format;
+  if (paths.empty() || out_path.empty() || (sheet && cells_text.empty())) {
+    std::fprintf(stderr, "error: %s\n%s", paths.empty() ? "no rig given" : out_path.empty() ? "no output given (-o OUT)" : "no --cells given", kRenderUsage);
+    return 2;
+  }
+  if (!ImageFormatFor(out_path, format_name, &format)) {
+    std::fprintf(stderr, "error: cannot tell the image format from '%s': use .png, .jpg, .exr, .tif or --format\n", out_path.c_str());
+    return 2;
+  }
+  Result<Rig> loaded = LoadFromArgs(paths);
+  if (!loaded.ok()) {
+    PrintStatus(loaded.status());
+    return 1;
+  }
+  const Rig& rig = loaded.value();
+  PrintWarnings(rig.load_warnings);
+  std::vector<float> weights;
+  WeightReport report;
+  BlendedRig blended;
+  BlendContext context;
+  render::Image image;
+  if (!sheet) {
+    if (int rc = EvaluateForCli(rig, entries, r.mesh.options, weights, report, blended, context)) return rc;
+    if (Status s = render::Render(rig, blended, r.render, image); !s.ok()) {
+      PrintStatus(s);
+      return 1;
+    }
+  } else {
+    // Cells: a JSON array, or one JSON object per line.
+    nlohmann::json cells = nlohmann::json::parse(cells_text, nullptr, false);
+    if (cells.is_discarded()) {
+      cells = nlohmann::json::array();
+      size_t start = 0;
+      while (start < cells_text.size()) {
+        size_t end = cells_text.find('\n', start);
+        if (end == std::string::npos) end = cells_text.size();
+        const std::string line = cells_text.substr(start, end - start);
+        if (line.find_first_not_of(" \t\r") != std::string::npos) {
+          nlohmann::json cell = nlohmann::json::parse(line, nullptr, false);
+          if (cell.is_discarded()) {
+            std::fprintf(stderr, "error: --cells: line %zu is not JSON\n", cells.size() + 1);
+            return 1;
+          }
+          cells.push_back(cell);
+        }
+        start = end + 1;
+      }
+    }
+    auto parsed = api::ParseSheetRequest(nlohmann::json{{"cells", cells}, {"columns", columns}}.dump());
+    if (!parsed.ok()) {
+      PrintStatus(parsed.status());
+      return 1;
+    }
+    std::vector<render::Image> images(parsed->cells.size());
+    for (size_t c = 0; c < parsed->cells.size(); ++c) {
+      if (int rc = EvaluateForCli(rig, parsed->cells[c], r.mesh.options, weights, report, blended, context)) return rc;
+      if (Status s = render::Render(rig, blended, r.render, images[c]); !s.ok()) {
+        PrintStatus(s);
+        return 1;
+      }
+    }
+    image = render::ContactSheet(images, parsed->labels, parsed->columns, r.render.background);
+  }
+  auto bytes = render::Encode(image, format, r.quality);
   if (!bytes.ok()) {
     PrintStatus(bytes.status());
     return 1;

@@ -10,5 +10,7 @@ namespace facespace::cli {
 int Info(const std::vector<std::string>& args);
 int Blend(const std::vector<std::string>& args);
 int Serve(const std::vector<std::string>& args);
+// render, or sheet (a contact sheet of several weight vectors) when `sheet` is set.
+int Render(const std::vector<std::string>& args, bool sheet);
 
 }  // namespace facespace::cli

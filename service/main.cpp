@@ -18,6 +18,11 @@ const char kUsage[] =
     "        [--mode relative|absolute] [--normals blend|recompute] [--keep-targets]\n"
     "        [--format glb|obj|json|f32] -o OUT\n"
     "      the blended mesh; format from OUT's extension or --format; -o - writes to stdout\n"
+    "  render RIG [weights flags] [--view shaded|wireframe|heatmap|normals] [--width W --height H]\n"
+    "        [--camera JSON | --yaw D --pitch D --zoom Z] [--background C] [--supersample N] -o OUT.png\n"
+    "      an offscreen render (PNG, JPEG, EXR, TIFF; see render --help)\n"
+    "  sheet RIG --cells JSON|@FILE [--columns N] [render flags] -o OUT.png\n"
+    "      a labelled contact sheet of several weight vectors\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -45,6 +50,8 @@ int main(int argc, char** argv) {
   if (command == "info") return facespace::cli::Info(args);
   if (command == "blend") return facespace::cli::Blend(args);
   if (command == "serve") return facespace::cli::Serve(args);
+  if (command == "render") return facespace::cli::Render(args, false);
+  if (command == "sheet") return facespace::cli::Render(args, true);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "facespace/api/http.h"
+#include "facespace/render/render.h"
 #include "rig_store.h"
 
 namespace facespace::cli {
@@ -26,6 +27,7 @@ struct ServeConfig {
   std::string api_key_file;
   size_t max_body = size_t{64} << 20;
   size_t cache_mb = 64;
+  int max_render = 2048;
   std::vector<std::string> cors_origins;
   bool quiet = false;
 };
@@ -33,10 +35,10 @@ struct ServeConfig {
 const char kServeUsage[] =
     "usage: facespace serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N]\n"
     "                       [--api-key-file FILE] [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
-    "                       [--cache-mb MB] [--quiet]\n"
+    "                       [--cache-mb MB] [--max-render PIXELS] [--quiet]\n"
     "environment: FACESPACE_RIGS, FACESPACE_HOST, FACESPACE_PORT, FACESPACE_THREADS,\n"
     "             FACESPACE_API_KEY_FILE, FACESPACE_MAX_BODY, FACESPACE_CORS_ORIGINS (comma-separated),\n"
-    "             FACESPACE_CACHE_MB; flags win over the environment.\n";
+    "             FACESPACE_CACHE_MB, FACESPACE_MAX_RENDER; flags win over the environment.\n";
 
 bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
   if (s.empty() || s.size() > 18 || s.find_first_not_of("0123456789") != std::string::npos) return false;
@@ -77,6 +79,9 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   } else if (key == "cache-mb") {
     if (!ParseSize(value, 0, 1 << 20, &n)) return "cache-mb must be 0..1048576, not '" + value + "'";
     c.cache_mb = static_cast<size_t>(n);
+  } else if (key == "max-render") {
+    if (!ParseSize(value, 16, 8192, &n)) return "max-render must be 16..8192 pixels, not '" + value + "'";
+    c.max_render = static_cast<int>(n);
   } else if (key == "cors-origin") SplitOrigins(value, c.cors_origins);
   else return "unknown option --" + key;
   return "";
@@ -89,7 +94,8 @@ int Serve(const std::vector<std::string>& args) {
   const std::pair<const char*, const char*> env[] = {
       {"FACESPACE_RIGS", "rigs"},          {"FACESPACE_HOST", "host"},         {"FACESPACE_PORT", "port"},
       {"FACESPACE_THREADS", "threads"},    {"FACESPACE_API_KEY_FILE", "api-key-file"},
-      {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"}};
+      {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"},
+      {"FACESPACE_MAX_RENDER", "max-render"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -138,6 +144,7 @@ int Serve(const std::vector<std::string>& args) {
   options.max_body = c.max_body;
   options.cache_bytes = c.cache_mb << 20;
   options.log_requests = !c.quiet;
+  options.max_render_size = c.max_render;
 
   FileRigStore store(c.rigs);
   auto loaded = store.LoadAll();
@@ -173,6 +180,7 @@ int Serve(const std::vector<std::string>& args) {
   }
   std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(),
                c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
+  std::fprintf(stderr, "facespace: renderer: %s\n", render::RendererInfo().c_str());
   std::fflush(stderr);
 
   std::atomic<bool> signalled{false};

@@ -15,6 +15,7 @@
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
 #include "facespace/core/weights.h"
+#include "facespace/render/render.h"
 
 namespace facespace::api {
 
@@ -26,9 +27,10 @@ using httplib::Response;
 
 // ---- routes and metrics -------------------------------------------------------------------
 
-enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kOther, kRouteCount };
+enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kOther, kRouteCount };
 const char* const kRouteNames[kRouteCount] = {"/healthz", "/readyz", "/metrics", "/openapi.json", "/v1/rigs",
-                                              "/v1/rigs/{id}", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/check", "other"};
+                                              "/v1/rigs/{id}", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/check",
+                                              "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "other"};
 const int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 406, 413, 415, 422, 429, 500, 503};
 constexpr int kStatusCount = sizeof(kStatuses) / sizeof(kStatuses[0]);
 const double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5};
@@ -267,6 +269,50 @@ bool FormatFromAccept(const std::string& accept, MeshFormat* format) {
     start = end + 1;
   }
   return false;
+}
+
+// The image format an Accept header asks for; false when it names none we produce.
+bool ImageFormatFromAccept(const std::string& accept, render::ImageFormat* format) {
+  if (accept.empty()) {
+    *format = render::ImageFormat::kPng;
+    return true;
+  }
+  size_t start = 0;
+  while (start <= accept.size()) {
+    size_t end = accept.find(',', start);
+    if (end == std::string::npos) end = accept.size();
+    std::string item = accept.substr(start, end - start);
+    while (!item.empty() && item.front() == ' ') item.erase(0, 1);
+    const std::string t = MediaType(item);
+    if (t == "image/png" || t == "image/*" || t == "*/*") { *format = render::ImageFormat::kPng; return true; }
+    if (t == "image/jpeg") { *format = render::ImageFormat::kJpeg; return true; }
+    if (t == "image/x-exr" || t == "image/aces") { *format = render::ImageFormat::kExr; return true; }
+    if (t == "image/tiff") { *format = render::ImageFormat::kTiff; return true; }
+    start = end + 1;
+  }
+  return false;
+}
+
+std::string FloatsCanonical(std::span<const float> v) {
+  std::string s;
+  for (float f : v) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "%a,", static_cast<double>(f));
+    s += buf;
+  }
+  return s;
+}
+
+std::string RenderCanonical(const api::RenderRequest& r, render::ImageFormat format) {
+  const render::RenderOptions& o = r.render;
+  const render::Camera& c = o.camera;
+  return std::string(render::ImageFormatExtension(format)) + "|q" + std::to_string(r.quality) + "|" +
+         std::to_string(o.width) + "x" + std::to_string(o.height) + "|" + render::ViewName(o.view) + "|ss" +
+         std::to_string(o.supersample) + "|" + FloatsCanonical(o.background) + "|" +
+         FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) + (c.look_at ? "L" : "O") +
+         (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|" +
+         (r.mesh.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
+         (r.mesh.options.normals == NormalMode::kRecompute ? "rec" : "bl");
 }
 
 std::string WeightsCanonical(std::span<const float> w) {
@@ -515,15 +561,7 @@ struct Api::Impl {
                                   (mr.options.normals == NormalMode::kRecompute ? "rec" : "bl") + "|" +
                                   (mr.keep_targets ? "t" : "-") + "|" + WeightsCanonical(w);
     const std::string key = rig->id + "|" + rig->version + "|" + canonical;
-    const std::string etag = "\"" + Hex64(Fnv1a(key)) + "\"";
-    res.set_header("ETag", etag);
-    res.set_header("Cache-Control", req.method == "GET" ? "public, no-cache" : "no-store");
-    res.set_header("Vary", "Accept");
-    const std::string inm = req.get_header_value("If-None-Match");
-    if (!inm.empty() && (inm == etag || inm == "*" || inm.find(etag) != std::string::npos)) {
-      res.status = 304;
-      return;
-    }
+    if (NotModified(req, res, key)) return;
     std::shared_ptr<const Encoded> enc = cache.Get(key);
     if (enc) {
       metrics.cache_hits.fetch_add(1, std::memory_order_relaxed);
@@ -546,6 +584,211 @@ struct Api::Impl {
       auto e = std::make_shared<Encoded>();
       e->body = std::move(bytes.value());
       e->content_type = MeshFormatMimeType(format);
+      enc = e;
+      cache.Put(key, enc);
+    }
+    res.status = 200;
+    res.set_content(enc->body, enc->content_type.c_str());
+  }
+
+  // The render request from a POST body or GET query; false when an error was sent.
+  bool ReadRenderRequest(const Request& req, Response& res, RenderRequest& rr) {
+    if (req.method == "POST") {
+      const std::string ct = MediaType(req.get_header_value("Content-Type"));
+      if (!ct.empty() && ct != "application/json") {
+        SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+        return false;
+      }
+      auto parsed = ParseRenderRequest(req.body);
+      if (!parsed.ok()) {
+        const bool malformed = IsMalformedJson(parsed.status());
+        SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request",
+                    parsed.status().message, parsed.status().fields);
+        return false;
+      }
+      rr = std::move(parsed.value());
+      return true;
+    }
+    std::vector<FieldError> errors;
+    for (const auto& [key, value] : req.params) {
+      const std::string where = "?" + key;
+      bool known = false;
+      if (key.rfind("w.", 0) == 0) {
+        WeightEntry e;
+        e.name = key.substr(2);
+        e.pointer = where;
+        if (e.name.empty()) errors.push_back({where, "w. needs a shape name: w.NAME=0.5"});
+        else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
+        else rr.mesh.weights.push_back(e);
+      } else if (key == "mode") {
+        if (!ParseBlendMode(value, &rr.mesh.options.mode)) errors.push_back({where, "must be relative or absolute"});
+      } else if (key == "normals") {
+        if (!ParseNormalMode(value, &rr.mesh.options.normals)) errors.push_back({where, "must be blend or recompute"});
+      } else if (key == "strict") {
+        if (!ParseBool(value, &rr.mesh.strict)) errors.push_back({where, "must be true or false"});
+      } else if (std::string e = ApplyRenderSetting(key, value, rr, &known); known) {
+        if (!e.empty()) errors.push_back({where, e});
+      } else {
+        errors.push_back({where, "unknown parameter"});
+      }
+    }
+    if (!errors.empty()) {
+      SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
+      return false;
+    }
+    return true;
+  }
+
+  bool CheckSize(const Request& req, Response& res, const render::RenderOptions& o) {
+    if (o.width > options.max_render_size || o.height > options.max_render_size) {
+      SendProblem(req, res, 422, "image-too-large",
+                  "width and height are limited to " + std::to_string(options.max_render_size) + " pixels",
+                  {{std::string(req.method == "GET" ? "?" : "/") + (o.width > options.max_render_size ? "width" : "height"),
+                    "at most " + std::to_string(options.max_render_size)}});
+      return false;
+    }
+    return true;
+  }
+
+  // Picks the image format (explicit, else Accept); false when a 406 was sent.
+  bool PickImageFormat(const Request& req, Response& res, const RenderRequest& rr, render::ImageFormat* format) {
+    if (rr.format) {
+      *format = *rr.format;
+      return true;
+    }
+    if (ImageFormatFromAccept(req.get_header_value("Accept"), format)) return true;
+    SendProblem(req, res, 406, "not-acceptable",
+                "cannot produce " + req.get_header_value("Accept").substr(0, 100) +
+                    "; available: image/png, image/jpeg, image/x-exr, image/tiff");
+    return false;
+  }
+
+  // ETag + If-None-Match; true when a 304 was sent.
+  bool NotModified(const Request& req, Response& res, const std::string& key) {
+    const std::string etag = "\"" + Hex64(Fnv1a(key)) + "\"";
+    res.set_header("ETag", etag);
+    res.set_header("Cache-Control", req.method == "GET" ? "public, no-cache" : "no-store");
+    res.set_header("Vary", "Accept");
+    const std::string inm = req.get_header_value("If-None-Match");
+    if (!inm.empty() && (inm == etag || inm == "*" || inm.find(etag) != std::string::npos)) {
+      res.status = 304;
+      return true;
+    }
+    return false;
+  }
+
+  void Render(const Request& req, Response& res) {
+    t_request.route = kRender;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    RenderRequest rr;
+    render::ImageFormat format;
+    if (!ReadRenderRequest(req, res, rr) || !CheckSize(req, res, rr.render) || !PickImageFormat(req, res, rr, &format)) return;
+    std::vector<float> w;
+    WeightReport report;
+    if (!Weigh(req, res, *rig, rr.mesh, w, report)) return;
+    const std::string key = rig->id + "|" + rig->version + "|render|" + RenderCanonical(rr, format) + "|" + WeightsCanonical(w);
+    if (NotModified(req, res, key)) return;
+    std::shared_ptr<const Encoded> enc = cache.Get(key);
+    if (!enc) {
+      thread_local BlendContext context;
+      thread_local BlendedRig blended;
+      render::Image image;
+      if (!EvaluateRig(rig->rig, w, rr.mesh.options, blended, context).ok() ||
+          !render::Render(rig->rig, blended, rr.render, image).ok()) {
+        SendProblem(req, res, 500, "internal", "the render failed");
+        return;
+      }
+      metrics.blends.fetch_add(1, std::memory_order_relaxed);
+      auto bytes = render::Encode(image, format, rr.quality);
+      if (!bytes.ok()) {
+        SendProblem(req, res, 500, "internal", "the image encoding failed");
+        return;
+      }
+      auto e = std::make_shared<Encoded>();
+      e->body = std::move(bytes.value());
+      e->content_type = render::ImageFormatMimeType(format);
+      enc = e;
+      cache.Put(key, enc);
+    }
+    res.status = 200;
+    res.set_content(enc->body, enc->content_type.c_str());
+  }
+
+  void Sheet(const Request& req, Response& res) {
+    t_request.route = kSheet;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    const std::string ct = MediaType(req.get_header_value("Content-Type"));
+    if (!ct.empty() && ct != "application/json") {
+      SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+      return;
+    }
+    auto parsed = ParseSheetRequest(req.body);
+    if (!parsed.ok()) {
+      const bool malformed = IsMalformedJson(parsed.status());
+      SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", parsed.status().message,
+                  parsed.status().fields);
+      return;
+    }
+    SheetRequest& sr = parsed.value();
+    render::ImageFormat format;
+    if (!CheckSize(req, res, sr.base.render) || !PickImageFormat(req, res, sr.base, &format)) return;
+    if (sr.cells.size() > static_cast<size_t>(options.max_sheet_cells)) {
+      SendProblem(req, res, 422, "too-many-cells", "a sheet has at most " + std::to_string(options.max_sheet_cells) + " cells",
+                  {{"/cells", "at most " + std::to_string(options.max_sheet_cells)}});
+      return;
+    }
+    // Every cell's weights first, so nothing is rendered when one of them is wrong.
+    std::vector<std::vector<float>> weights(sr.cells.size());
+    std::vector<Warning> all_warnings;
+    double max_sum = 0.0;
+    std::string key = rig->id + "|" + rig->version + "|sheet|" + std::to_string(sr.columns) + "|" + RenderCanonical(sr.base, format);
+    for (size_t c = 0; c < sr.cells.size(); ++c) {
+      auto resolved = ResolveWeights(rig->rig, sr.cells[c]);
+      if (!resolved.ok()) {
+        SendProblem(req, res, 422, "invalid-weights", "cell " + std::to_string(c) + ": " + resolved.status().message,
+                    resolved.status().fields);
+        return;
+      }
+      weights[c] = std::move(resolved.value());
+      WeightReport report = CheckWeights(rig->rig, weights[c], sr.base.mesh.options.mode);
+      max_sum = std::max(max_sum, report.sum);
+      for (Warning& wn : report.warnings) {
+        wn.message = "cell " + std::to_string(c) + ": " + wn.message;
+        all_warnings.push_back(std::move(wn));
+      }
+      key += "|" + WeightsCanonical(weights[c]) + "#" + sr.labels[c];
+    }
+    res.set_header("Facespace-Weight-Sum", FormatNumber(max_sum));
+    if (!all_warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(all_warnings));
+    if (sr.base.mesh.strict && !all_warnings.empty()) {
+      SendProblem(req, res, 422, "weights-leave-authored-space", all_warnings[0].message, {}, WarningsToJson(all_warnings));
+      return;
+    }
+    if (NotModified(req, res, key)) return;
+    std::shared_ptr<const Encoded> enc = cache.Get(key);
+    if (!enc) {
+      thread_local BlendContext context;
+      thread_local BlendedRig blended;
+      std::vector<render::Image> images(sr.cells.size());
+      for (size_t c = 0; c < sr.cells.size(); ++c) {
+        if (!EvaluateRig(rig->rig, weights[c], sr.base.mesh.options, blended, context).ok() ||
+            !render::Render(rig->rig, blended, sr.base.render, images[c]).ok()) {
+          SendProblem(req, res, 500, "internal", "the render failed");
+          return;
+        }
+        metrics.blends.fetch_add(1, std::memory_order_relaxed);
+      }
+      auto bytes = render::Encode(render::ContactSheet(images, sr.labels, sr.columns, sr.base.render.background), format,
+                                  sr.base.quality);
+      if (!bytes.ok()) {
+        SendProblem(req, res, 500, "internal", "the image encoding failed");
+        return;
+      }
+      auto e = std::make_shared<Encoded>();
+      e->body = std::move(bytes.value());
+      e->content_type = render::ImageFormatMimeType(format);
       enc = e;
       cache.Put(key, enc);
     }
@@ -785,6 +1028,11 @@ void Api::Register(httplib::Server& server) {
   all_methods(rig + "/mesh", not_allowed("GET, POST"), true, true, false, false);
   server.Post(rig + "/check", [&I](const Request& req, Response& res) { I.Check(req, res); });
   all_methods(rig + "/check", not_allowed("POST"), false, true, false, false);
+  server.Post(rig + "/render", [&I](const Request& req, Response& res) { I.Render(req, res); });
+  server.Get(rig + "/render", [&I](const Request& req, Response& res) { I.Render(req, res); });
+  all_methods(rig + "/render", not_allowed("GET, POST"), true, true, false, false);
+  server.Post(rig + "/sheet", [&I](const Request& req, Response& res) { I.Sheet(req, res); });
+  all_methods(rig + "/sheet", not_allowed("POST"), false, true, false, false);
 }
 
 }  // namespace facespace::api

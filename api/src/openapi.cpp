@@ -41,6 +41,22 @@ json MeshResponses() {
           {"422", Problem("Invalid weights or options; or warnings with strict=true")}};
 }
 
+json RenderResponses() {
+  json headers = {
+      {"Facespace-Weight-Sum", {{"description", "Sum of the weights (sheet: the largest over its cells)"}, {"schema", {{"type", "string"}}}}},
+      {"Facespace-Warnings", {{"description", "Structured-field list (RFC 9651) of warnings"}, {"schema", {{"type", "string"}}}}},
+      {"ETag", {{"description", "Strong validator"}, {"schema", {{"type", "string"}}}}}};
+  json bin = {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}};
+  return {{"200", {{"description", "The image"}, {"headers", headers},
+                   {"content", {{"image/png", bin}, {"image/jpeg", bin}, {"image/x-exr", bin}, {"image/tiff", bin}}}}},
+          {"304", {{"description", "Not modified"}}},
+          {"400", Problem("Malformed JSON")},
+          {"404", Problem("Unknown rig")},
+          {"406", Problem("Unsupported Accept")},
+          {"415", Problem("Unsupported Content-Type")},
+          {"422", Problem("Invalid weights or settings, image over the size limit, too many cells; or warnings with strict=true")}};
+}
+
 json IdParam() {
   return {{"name", "id"}, {"in", "path"}, {"required", true},
           {"schema", {{"type", "string"}, {"pattern", "^[a-z0-9][a-z0-9_-]{0,63}$"}}}};
@@ -95,6 +111,31 @@ json Build() {
                                                  {"parameter", {{"type", "string"}}},
                                                  {"detail", {{"type", "string"}}}}}}}}},
                     {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
+  json camera = {{"type", "object"},
+                 {"properties", {{"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}, {"distance", {{"type", "number"}}},
+                                 {"zoom", {{"type", "number"}}}, {"fov", {{"type", "number"}}},
+                                 {"eye", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+                                 {"target", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+                                 {"up", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}};
+  json render_props = {{"weights", weights},
+                       {"mode", {{"enum", {"relative", "absolute"}}}},
+                       {"normals", {{"enum", {"blend", "recompute"}}}},
+                       {"strict", {{"type", "boolean"}}},
+                       {"camera", camera},
+                       {"width", {{"type", "integer"}, {"minimum", 1}, {"default", 512}}},
+                       {"height", {{"type", "integer"}, {"minimum", 1}, {"default", 512}}},
+                       {"view", {{"enum", {"shaded", "wireframe", "heatmap", "normals"}}, {"default", "shaded"}}},
+                       {"background", {{"oneOf", json::array({json{{"type", "string"}}, json{{"type", "array"}, {"items", {{"type", "number"}}}}})}}},
+                       {"supersample", {{"type", "integer"}, {"minimum", 1}, {"maximum", 4}}},
+                       {"format", {{"enum", {"png", "jpeg", "exr", "tiff"}}}},
+                       {"quality", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}}};
+  json render_request = {{"type", "object"}, {"properties", render_props}};
+  json sheet_props = render_props;
+  sheet_props.erase("weights");
+  sheet_props["columns"] = {{"type", "integer"}, {"minimum", 1}, {"maximum", 64}};
+  sheet_props["cells"] = {{"type", "array"},
+                          {"items", {{"type", "object"}, {"properties", {{"weights", weights}, {"label", {{"type", "string"}}}}}}}};
+  json sheet_request = {{"type", "object"}, {"required", {"cells"}}, {"properties", sheet_props}};
   json mesh_json = {{"type", "object"},
                     {"properties",
                      {{"primitives",
@@ -137,6 +178,29 @@ json Build() {
         {"post", {{"summary", "Blended mesh"}, {"operationId", "postMesh"}, {"parameters", json::array({IdParam()})},
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/MeshRequest"}}}}}}}}},
                   {"responses", MeshResponses()}}}}},
+      {"/v1/rigs/{id}/render",
+       {{"get", {{"summary", "Offscreen render from query settings (w.NAME=VALUE, width, height, view, yaw, pitch, zoom, ...)"},
+                 {"operationId", "getRender"},
+                 {"parameters", json::array({IdParam(),
+                                             {{"name", "w"}, {"in", "query"}, {"style", "form"}, {"explode", true},
+                                              {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
+                                             {{"name", "width"}, {"in", "query"}, {"schema", {{"type", "integer"}}}},
+                                             {{"name", "height"}, {"in", "query"}, {"schema", {{"type", "integer"}}}},
+                                             {{"name", "view"}, {"in", "query"}, {"schema", {{"enum", {"shaded", "wireframe", "heatmap", "normals"}}}}},
+                                             {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"png", "jpeg", "exr", "tiff"}}}}},
+                                             {{"name", "yaw"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
+                                             {{"name", "pitch"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
+                                             {{"name", "zoom"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
+                                             {{"name", "background"}, {"in", "query"}, {"schema", {{"type", "string"}}}}})},
+                 {"responses", RenderResponses()}}},
+        {"post", {{"summary", "Offscreen render"}, {"operationId", "postRender"}, {"parameters", json::array({IdParam()})},
+                  {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/RenderRequest"}}}}}}}}},
+                  {"responses", RenderResponses()}}}}},
+      {"/v1/rigs/{id}/sheet",
+       {{"post", {{"summary", "Contact sheet: several weight vectors rendered into one labelled grid"}, {"operationId", "postSheet"},
+                  {"parameters", json::array({IdParam()})},
+                  {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/SheetRequest"}}}}}}}}},
+                  {"responses", RenderResponses()}}}}},
       {"/v1/rigs/{id}/check",
        {{"post", {{"summary", "Validate weights only: sum and warnings"}, {"operationId", "checkWeights"},
                   {"parameters", json::array({IdParam()})},
@@ -150,7 +214,7 @@ json Build() {
                                     "Errors are RFC 9457 problem details."}}},
           {"paths", paths},
           {"components",
-           {{"schemas", {{"MeshRequest", mesh_request}, {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}}},
+           {{"schemas", {{"MeshRequest", mesh_request}, {"RenderRequest", render_request}, {"SheetRequest", sheet_request}, {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}}},
             {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
 }
 

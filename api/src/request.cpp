@@ -1,5 +1,6 @@
 #include "facespace/api/request.h"
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 
 namespace facespace::api {
@@ -89,48 +90,263 @@ Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const s
   return WeightsFromJson(j, pointer);
 }
 
-Result<MeshRequest> ParseMeshRequest(std::string_view body) {
+namespace {
+
+// Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
+// the key is not one of them.
+bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
+  const std::string ptr = "/" + Escape(key);
+  auto string_field = [&](auto parse, auto* dst, const char* allowed) {
+    if (!v.is_string() || !parse(v.get<std::string>(), dst)) errors.fields.push_back({ptr, std::string("must be one of ") + allowed});
+  };
+  if (key == "weights") {
+    auto w = WeightsFromJson(v, "/weights");
+    if (w.ok()) r.weights = std::move(w.value());
+    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+  } else if (key == "mode") {
+    string_field(ParseBlendMode, &r.options.mode, "\"relative\", \"absolute\"");
+  } else if (key == "normals") {
+    string_field(ParseNormalMode, &r.options.normals, "\"blend\", \"recompute\"");
+  } else if (key == "format" && mesh_format) {
+    MeshFormat f;
+    if (!v.is_string() || !ParseMeshFormat(v.get<std::string>(), &f)) {
+      errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\""});
+    } else {
+      r.format = f;
+    }
+  } else if (key == "strict" || (key == "keep_targets" && mesh_format)) {
+    if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+    else (key == "strict" ? r.strict : r.keep_targets) = v.get<bool>();
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Status Finish(Status errors) {
+  errors.message = errors.fields[0].pointer + ": " + errors.fields[0].message;
+  return errors;
+}
+
+bool ParseBackground(const json& v, std::array<float, 4>& out) {
+  if (v.is_array()) {
+    if (v.size() < 3 || v.size() > 4) return false;
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_number()) return false;
+      const double c = v[i].get<double>();
+      if (!(c >= 0.0 && c <= 1.0)) return false;
+      out[i] = static_cast<float>(c);
+    }
+    if (v.size() == 3) out[3] = 1.0f;
+    return true;
+  }
+  if (!v.is_string()) return false;
+  const std::string s = v.get<std::string>();
+  if (s == "transparent") {
+    out = {1, 1, 1, 0};
+    return true;
+  }
+  if (s.size() != 7 && s.size() != 9) return false;
+  if (s[0] != '#' || s.find_first_not_of("0123456789abcdefABCDEF", 1) != std::string::npos) return false;
+  for (size_t i = 0; i < 4; ++i) {
+    out[i] = 2 * i + 1 < s.size() ? static_cast<float>(std::stoi(s.substr(2 * i + 1, 2), nullptr, 16)) / 255.0f : 1.0f;
+  }
+  return true;
+}
+
+bool ParseVec3(const json& v, std::array<float, 3>& out) {
+  if (!v.is_array() || v.size() != 3) return false;
+  for (size_t i = 0; i < 3; ++i) {
+    if (!v[i].is_number() || !std::isfinite(v[i].get<double>())) return false;
+    out[i] = v[i].get<float>();
+  }
+  return true;
+}
+
+// Range-checked number members of the camera and image.
+bool Number(const json& v, double lo, double hi, double* out) {
+  if (!v.is_number()) return false;
+  const double d = v.get<double>();
+  if (!(d >= lo && d <= hi)) return false;
+  *out = d;
+  return true;
+}
+
+void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
+  if (!c.is_object()) {
+    errors.fields.push_back({"/camera", "must be an object"});
+    return;
+  }
+  for (auto it = c.begin(); it != c.end(); ++it) {
+    const std::string ptr = "/camera/" + Escape(it.key());
+    double d = 0;
+    const std::string& k = it.key();
+    if (k == "yaw" || k == "pitch") {
+      if (!Number(*it, -3600, 3600, &d)) errors.fields.push_back({ptr, "must be a number of degrees"});
+      else (k == "yaw" ? cam.yaw : cam.pitch) = static_cast<float>(d);
+    } else if (k == "distance") {
+      if (!Number(*it, 0, 1e9, &d)) errors.fields.push_back({ptr, "must be a number >= 0 (0: auto)"});
+      else cam.distance = static_cast<float>(d);
+    } else if (k == "zoom") {
+      if (!Number(*it, 0.01, 100, &d)) errors.fields.push_back({ptr, "must be a number in [0.01, 100]"});
+      else cam.zoom = static_cast<float>(d);
+    } else if (k == "fov") {
+      if (!Number(*it, 1, 170, &d)) errors.fields.push_back({ptr, "must be degrees in [1, 170]"});
+      else cam.fov = static_cast<float>(d);
+    } else if (k == "eye" || k == "target" || k == "up") {
+      std::array<float, 3>& dst = k == "eye" ? cam.eye : k == "target" ? cam.target : cam.up;
+      if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
+      else if (k != "up") cam.look_at = true;
+    } else {
+      errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, eye, target, up)"});
+    }
+  }
+  if (cam.look_at && !(c.contains("eye") && c.contains("target"))) {
+    errors.fields.push_back({"/camera", "a look-at camera needs both eye and target"});
+  }
+}
+
+// A render member; false when the key is not one.
+bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Status& errors) {
+  const std::string ptr = "/" + Escape(key);
+  double d = 0;
+  if (key == "width" || key == "height") {
+    if (!v.is_number_integer() || !Number(v, 1, 1 << 20, &d)) errors.fields.push_back({ptr, "must be a positive integer"});
+    else (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
+  } else if (key == "view") {
+    if (!v.is_string() || !render::ParseView(v.get<std::string>(), &r.render.view)) {
+      errors.fields.push_back({ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\""});
+    }
+  } else if (key == "background") {
+    if (!ParseBackground(v, r.render.background)) {
+      errors.fields.push_back({ptr, "must be \"#rrggbb\", \"#rrggbbaa\", \"transparent\" or [r, g, b, a] in 0..1"});
+    }
+  } else if (key == "supersample") {
+    if (!v.is_number_integer() || !Number(v, 1, 4, &d)) errors.fields.push_back({ptr, "must be 1, 2, 3 or 4"});
+    else r.render.supersample = static_cast<int>(d);
+  } else if (key == "format") {
+    render::ImageFormat f;
+    if (!v.is_string() || !render::ParseImageFormat(v.get<std::string>(), &f)) {
+      errors.fields.push_back({ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\""});
+    } else {
+      r.format = f;
+    }
+  } else if (key == "quality") {
+    if (!v.is_number_integer() || !Number(v, 1, 100, &d)) errors.fields.push_back({ptr, "must be an integer in 1..100"});
+    else r.quality = static_cast<int>(d);
+  } else if (key == "camera") {
+    CameraFromJson(v, r.render.camera, errors);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Result<json> ParseObject(std::string_view body) {
   json j = json::parse(body, nullptr, false);
   if (j.is_discarded()) return InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON");
   if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
+  return j;
+}
+
+}  // namespace
+
+Result<MeshRequest> ParseMeshRequest(std::string_view body) {
+  auto j = ParseObject(body);
+  if (!j.ok()) return j.status();
   MeshRequest r;
   Status errors = InvalidArgument("");
-  auto add = [&](const Status& s) { errors.fields.insert(errors.fields.end(), s.fields.begin(), s.fields.end()); };
-  for (auto it = j.begin(); it != j.end(); ++it) {
+  // Other members are left for the routes that extend this body (render, pose, ...).
+  for (auto it = j->begin(); it != j->end(); ++it) MeshMember(it.key(), it.value(), r, true, errors);
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+Result<RenderRequest> ParseRenderRequest(std::string_view body) {
+  auto j = ParseObject(body);
+  if (!j.ok()) return j.status();
+  RenderRequest r;
+  Status errors = InvalidArgument("");
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    if (!MeshMember(it.key(), it.value(), r.mesh, false, errors)) RenderMember(it.key(), it.value(), r, errors);
+  }
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+Result<SheetRequest> ParseSheetRequest(std::string_view body) {
+  auto j = ParseObject(body);
+  if (!j.ok()) return j.status();
+  SheetRequest r;
+  r.base.render.width = r.base.render.height = 256;
+  Status errors = InvalidArgument("");
+  for (auto it = j->begin(); it != j->end(); ++it) {
     const std::string& key = it.key();
     const json& v = it.value();
-    const std::string ptr = "/" + Escape(key);
-    auto string_field = [&](auto parse, auto* dst, const char* allowed) {
-      if (!v.is_string() || !parse(v.get<std::string>(), dst)) {
-        errors.fields.push_back({ptr, std::string("must be one of ") + allowed});
+    if (key == "cells") {
+      if (!v.is_array() || v.empty()) {
+        errors.fields.push_back({"/cells", "must be a non-empty array of {\"weights\", \"label\"}"});
+        continue;
       }
-    };
-    if (key == "weights") {
-      auto w = WeightsFromJson(v, "/weights");
-      if (w.ok()) r.weights = std::move(w.value());
-      else add(w.status());
-    } else if (key == "mode") {
-      string_field(ParseBlendMode, &r.options.mode, "\"relative\", \"absolute\"");
-    } else if (key == "normals") {
-      string_field(ParseNormalMode, &r.options.normals, "\"blend\", \"recompute\"");
-    } else if (key == "format") {
-      MeshFormat f;
-      if (!v.is_string() || !ParseMeshFormat(v.get<std::string>(), &f)) {
-        errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\""});
-      } else {
-        r.format = f;
+      for (size_t i = 0; i < v.size(); ++i) {
+        const std::string ptr = "/cells/" + std::to_string(i);
+        if (!v[i].is_object()) {
+          errors.fields.push_back({ptr, "must be an object"});
+          continue;
+        }
+        std::vector<WeightEntry> w;
+        if (v[i].contains("weights")) {
+          auto parsed = WeightsFromJson(v[i]["weights"], ptr + "/weights");
+          if (parsed.ok()) w = std::move(parsed.value());
+          else errors.fields.insert(errors.fields.end(), parsed.status().fields.begin(), parsed.status().fields.end());
+        }
+        std::string label;
+        if (v[i].contains("label")) {
+          if (!v[i]["label"].is_string()) errors.fields.push_back({ptr + "/label", "must be a string"});
+          else label = v[i]["label"].get<std::string>().substr(0, 80);
+        }
+        r.cells.push_back(std::move(w));
+        r.labels.push_back(label);
       }
-    } else if (key == "strict" || key == "keep_targets") {
-      if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
-      else (key == "strict" ? r.strict : r.keep_targets) = v.get<bool>();
+    } else if (key == "columns") {
+      double d = 0;
+      if (!v.is_number_integer() || !Number(v, 1, 64, &d)) errors.fields.push_back({"/columns", "must be an integer in 1..64"});
+      else r.columns = static_cast<int>(d);
+    } else if (!MeshMember(key, v, r.base.mesh, false, errors)) {
+      RenderMember(key, v, r.base, errors);
     }
-    // Other members are left for the routes that extend this body (render, pose, ...).
   }
-  if (!errors.fields.empty()) {
-    errors.message = errors.fields[0].pointer + ": " + errors.fields[0].message;
-    return errors;
-  }
+  if (errors.fields.empty() && r.cells.empty()) errors.fields.push_back({"/cells", "is required"});
+  if (!errors.fields.empty()) return Finish(errors);
   return r;
+}
+
+std::string ApplyRenderSetting(const std::string& key, const std::string& value, RenderRequest& r, bool* known) {
+  *known = true;
+  if (key == "camera") {
+    json c = json::parse(value, nullptr, false);
+    if (c.is_discarded()) return "must be a JSON object";
+    Status errors = InvalidArgument("");
+    CameraFromJson(c, r.render.camera, errors);
+    return errors.fields.empty() ? "" : errors.fields[0].pointer + ": " + errors.fields[0].message;
+  }
+  const bool camera_key = key == "yaw" || key == "pitch" || key == "distance" || key == "zoom" || key == "fov";
+  const bool string_key = key == "view" || key == "format" || key == "background";
+  if (!camera_key && !string_key && key != "width" && key != "height" && key != "supersample" && key != "quality") {
+    *known = false;
+    return "";
+  }
+  json v;
+  if (string_key && !(key == "background" && !value.empty() && value[0] == '[')) {
+    v = value;
+  } else {
+    v = json::parse(value, nullptr, false);
+    if (v.is_discarded() || v.is_string()) return "'" + value.substr(0, 40) + "' is not a number";
+  }
+  Status errors = InvalidArgument("");
+  if (camera_key) CameraFromJson(json{{key, v}}, r.render.camera, errors);
+  else RenderMember(key, v, r, errors);
+  return errors.fields.empty() ? "" : errors.fields[0].message;
 }
 
 }  // namespace facespace::api

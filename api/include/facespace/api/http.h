@@ -18,6 +18,8 @@ struct ApiOptions {
   size_t max_body = size_t{64} << 20;       // Request bodies above this get 413.
   size_t cache_bytes = size_t{64} << 20;    // Memory cap of the encoded-response cache.
   bool log_requests = true;                 // One access-log line per request on stderr.
+  int max_render_size = 2048;               // Largest render width or height (after supersampling: x4).
+  int max_sheet_cells = 64;                 // Largest contact sheet.
 };
 
 class Api {

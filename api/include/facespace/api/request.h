@@ -11,6 +11,7 @@
 #include "facespace/core/io.h"
 #include "facespace/core/status.h"
 #include "facespace/core/weights.h"
+#include "facespace/render/render.h"
 
 namespace facespace::api {
 
@@ -36,6 +37,34 @@ Result<MeshRequest> ParseMeshRequest(std::string_view body);
 // True when a Status from ParseMeshRequest means the body was not JSON at all (HTTP 400),
 // rather than JSON that breaks the schema (HTTP 422).
 bool IsMalformedJson(const Status& status);
+
+// Body of POST /v1/rigs/{id}/render: the mesh body's weights, mode, normals and strict, plus
+// {"camera": {"yaw", "pitch", "distance", "zoom", "fov"} | {"eye", "target", "up", "fov"},
+//  "width", "height", "view": "shaded"|"wireframe"|"heatmap"|"normals",
+//  "background": "#rrggbb"|"#rrggbbaa"|"transparent"|[r, g, b, a?], "supersample": 1..4,
+//  "format": "png"|"jpeg"|"exr"|"tiff", "quality": 1..100}
+struct RenderRequest {
+  MeshRequest mesh;
+  render::RenderOptions render;
+  std::optional<render::ImageFormat> format;  // Absent: decided by Accept, else PNG.
+  int quality = 90;
+};
+Result<RenderRequest> ParseRenderRequest(std::string_view body);
+
+// One render setting given as text (a query parameter or a CLI flag): width, height, view,
+// background, supersample, format, quality, yaw, pitch, distance, zoom, fov, camera (JSON).
+// Returns "" or what is wrong with the value; `known` tells whether the key is a render key.
+std::string ApplyRenderSetting(const std::string& key, const std::string& value, RenderRequest& r, bool* known);
+
+// Body of POST /v1/rigs/{id}/sheet: the render body's settings (one per cell) and
+// {"cells": [{"weights": ..., "label": "..."}, ...], "columns": N}.
+struct SheetRequest {
+  RenderRequest base;
+  std::vector<std::vector<WeightEntry>> cells;
+  std::vector<std::string> labels;
+  int columns = 4;
+};
+Result<SheetRequest> ParseSheetRequest(std::string_view body);
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode);
 bool ParseNormalMode(std::string_view s, NormalMode* mode);

@@ -1,0 +1,220 @@
+// Images: encoding and decoding (OpenImageIO), text, legends and contact sheets.
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "facespace/render/render.h"
+#include "internal.h"
+
+namespace facespace::render {
+
+namespace {
+
+float LinearToSrgb(float c) {
+  c = std::clamp(c, 0.0f, 1.0f);
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+// Same polynomial as the heatmap shader (viridis), sRGB.
+std::array<float, 3> Viridis(float t) {
+  static const float c[7][3] = {{0.2777273272234177f, 0.005407344544966578f, 0.3340998053353061f},
+                                {0.1050930431085774f, 1.404613529898575f, 1.384590162594685f},
+                                {-0.3308618287255563f, 0.214847559468213f, 0.09509516302823659f},
+                                {-4.634230498983486f, -5.799100973351585f, -19.33244095627987f},
+                                {6.228269936347081f, 14.17993336680509f, 56.69055260068105f},
+                                {4.776384997670288f, -13.74514537774601f, -65.35303263337234f},
+                                {-5.435455855934631f, 4.645852612178535f, 26.3124352495832f}};
+  t = std::clamp(t, 0.0f, 1.0f);
+  std::array<float, 3> out{};
+  for (int ch = 0; ch < 3; ++ch) {
+    float v = c[6][ch];
+    for (int k = 5; k >= 0; --k) v = c[k][ch] + t * v;
+    out[ch] = v;
+  }
+  return out;
+}
+
+std::string FontPath() {
+  for (const char* p : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"}) {
+    if (std::filesystem::exists(p)) return p;
+  }
+  return "";
+}
+
+void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> linear) {
+  for (int y = std::max(0, y0); y < std::min(im.height, y1); ++y) {
+    for (int x = std::max(0, x0); x < std::min(im.width, x1); ++x) {
+      std::memcpy(&im.rgba[(static_cast<size_t>(y) * im.width + x) * 4], linear.data(), 16);
+    }
+  }
+}
+
+}  // namespace
+
+bool ParseImageFormat(const std::string& name, ImageFormat* format) {
+  if (name == "png") *format = ImageFormat::kPng;
+  else if (name == "jpeg" || name == "jpg") *format = ImageFormat::kJpeg;
+  else if (name == "exr") *format = ImageFormat::kExr;
+  else if (name == "tiff" || name == "tif") *format = ImageFormat::kTiff;
+  else return false;
+  return true;
+}
+
+const char* ImageFormatMimeType(ImageFormat format) {
+  switch (format) {
+    case ImageFormat::kPng: return "image/png";
+    case ImageFormat::kJpeg: return "image/jpeg";
+    case ImageFormat::kExr: return "image/x-exr";
+    case ImageFormat::kTiff: return "image/tiff";
+  }
+  return "application/octet-stream";
+}
+
+const char* ImageFormatExtension(ImageFormat format) {
+  switch (format) {
+    case ImageFormat::kPng: return "png";
+    case ImageFormat::kJpeg: return "jpg";
+    case ImageFormat::kExr: return "exr";
+    case ImageFormat::kTiff: return "tif";
+  }
+  return "bin";
+}
+
+Result<std::string> Encode(const Image& image, ImageFormat format, int quality) {
+  if (image.width < 1 || image.height < 1 || image.rgba.size() != static_cast<size_t>(image.width) * image.height * 4) {
+    return InvalidArgument("empty image");
+  }
+  std::vector<unsigned char> bytes;
+  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  const std::string name = std::string("image.") + ImageFormatExtension(format);
+  auto out = OIIO::ImageOutput::create(name, &proxy);
+  if (!out) return Status{StatusCode::kInternal, "no OpenImageIO writer for " + name, {}};
+  const bool alpha = format != ImageFormat::kJpeg;
+  const int channels = alpha ? 4 : 3;
+  if (format == ImageFormat::kExr) {
+    OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::HALF);
+    spec.attribute("compression", "zip");
+    if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.rgba.data()) || !out->close()) {
+      return Status{StatusCode::kInternal, "EXR encoding failed: " + out->geterror(), {}};
+    }
+    return std::string(bytes.begin(), bytes.end());
+  }
+  // 8-bit sRGB. JPEG has no alpha: composite over white.
+  std::vector<unsigned char> px(static_cast<size_t>(image.width) * image.height * channels);
+  for (size_t i = 0, n = static_cast<size_t>(image.width) * image.height; i < n; ++i) {
+    const float* s = &image.rgba[4 * i];
+    for (int c = 0; c < 3; ++c) {
+      const float v = alpha ? s[c] : s[c] * s[3] + (1.0f - s[3]);
+      px[i * channels + c] = static_cast<unsigned char>(std::lround(LinearToSrgb(v) * 255.0f));
+    }
+    if (alpha) px[i * channels + 3] = static_cast<unsigned char>(std::lround(std::clamp(s[3], 0.0f, 1.0f) * 255.0f));
+  }
+  OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", "sRGB");
+  if (format == ImageFormat::kPng) spec.attribute("png:compressionLevel", 3);
+  if (format == ImageFormat::kJpeg) spec.attribute("CompressionQuality", std::clamp(quality, 1, 100));
+  if (format == ImageFormat::kTiff) spec.attribute("compression", "zip");
+  if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close()) {
+    return Status{StatusCode::kInternal, "image encoding failed: " + out->geterror(), {}};
+  }
+  return std::string(bytes.begin(), bytes.end());
+}
+
+Result<Image> Decode(std::span<const unsigned char> bytes) {
+  const char* name = nullptr;
+  if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P') name = "image.png";
+  else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) name = "image.jpg";
+  else if (bytes.size() > 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 && bytes[3] == 0x01) name = "image.exr";
+  else if (bytes.size() > 4 && ((bytes[0] == 'I' && bytes[1] == 'I') || (bytes[0] == 'M' && bytes[1] == 'M'))) name = "image.tif";
+  if (!name) return InvalidArgument("not a PNG, JPEG, EXR or TIFF image");
+  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
+  auto in = OIIO::ImageInput::open(name, nullptr, &proxy);
+  if (!in) return InvalidArgument(std::string("cannot decode the image: ") + OIIO::geterror());
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.width < 1 || spec.height < 1 || spec.width > 16384 || spec.height > 16384 || spec.nchannels < 1) {
+    return InvalidArgument("image size out of range");
+  }
+  std::vector<float> px(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data())) {
+    return InvalidArgument("cannot decode the image: " + in->geterror());
+  }
+  const bool linear = std::strcmp(name, "image.exr") == 0;
+  Image im;
+  im.width = spec.width;
+  im.height = spec.height;
+  im.rgba.resize(static_cast<size_t>(im.width) * im.height * 4);
+  const int nc = spec.nchannels;
+  for (size_t i = 0, n = static_cast<size_t>(im.width) * im.height; i < n; ++i) {
+    const float* s = &px[i * nc];
+    float rgba[4] = {s[0], nc >= 3 ? s[1] : s[0], nc >= 3 ? s[2] : s[0], nc == 4 ? s[3] : nc == 2 ? s[1] : 1.0f};
+    for (int c = 0; c < 3; ++c) im.rgba[4 * i + c] = linear ? rgba[c] : SrgbToLinear(rgba[c]);
+    im.rgba[4 * i + 3] = rgba[3];
+  }
+  return im;
+}
+
+bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb) {
+  static const std::string font = FontPath();
+  if (font.empty() || text.empty()) return false;
+  OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::FLOAT);
+  OIIO::ImageBuf buf(spec, image.rgba.data());
+  const float color[4] = {SrgbToLinear(srgb[0]), SrgbToLinear(srgb[1]), SrgbToLinear(srgb[2]), 1.0f};
+  return OIIO::ImageBufAlgo::render_text(buf, x, y, text, size, font, OIIO::cspan<float>(color, 4));
+}
+
+void DrawHeatLegend(Image& im, float max_value) {
+  const int bar_w = std::max(8, im.width / 40), bar_h = im.height * 3 / 5;
+  const int x0 = im.width - bar_w - std::max(40, im.width / 8), y0 = (im.height - bar_h) / 2;
+  const int font = std::max(10, im.height / 36);
+  for (int y = 0; y < bar_h; ++y) {
+    const auto c = Viridis(1.0f - static_cast<float>(y) / static_cast<float>(std::max(1, bar_h - 1)));
+    FillRect(im, x0, y0 + y, x0 + bar_w, y0 + y + 1, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
+  }
+  char top[32];
+  std::snprintf(top, sizeof top, "%.3g", static_cast<double>(max_value));
+  const std::array<float, 3> ink{0.1f, 0.1f, 0.1f};
+  DrawText(im, x0 + bar_w + 4, y0 + font / 2, top, font, ink);
+  DrawText(im, x0 + bar_w + 4, y0 + bar_h, "0", font, ink);
+  // The title ends at the image's right margin.
+  static const std::string font_path = FontPath();
+  const OIIO::ROI size = font_path.empty() ? OIIO::ROI() : OIIO::ImageBufAlgo::text_size("displacement", font, font_path);
+  const int title_w = size.defined() ? size.width() : font * 7;
+  DrawText(im, std::min(x0, im.width - title_w - 6), y0 - font, "displacement", font, ink);
+}
+
+Image ContactSheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
+                   std::array<float, 4> background) {
+  Image sheet;
+  if (cells.empty()) return sheet;
+  columns = std::clamp(columns, 1, static_cast<int>(cells.size()));
+  int cw = 0, ch = 0;
+  for (const Image& c : cells) {
+    cw = std::max(cw, c.width);
+    ch = std::max(ch, c.height);
+  }
+  const int label_h = std::max(18, ch / 12), pad = 4;
+  const int rows = (static_cast<int>(cells.size()) + columns - 1) / columns;
+  sheet.width = columns * (cw + pad) + pad;
+  sheet.height = rows * (ch + label_h + pad) + pad;
+  const std::array<float, 4> bg{SrgbToLinear(background[0]), SrgbToLinear(background[1]), SrgbToLinear(background[2]), background[3]};
+  sheet.rgba.resize(static_cast<size_t>(sheet.width) * sheet.height * 4);
+  FillRect(sheet, 0, 0, sheet.width, sheet.height, bg);
+  for (size_t i = 0; i < cells.size(); ++i) {
+    const Image& c = cells[i];
+    const int x0 = pad + static_cast<int>(i % columns) * (cw + pad), y0 = pad + static_cast<int>(i / columns) * (ch + label_h + pad);
+    for (int y = 0; y < c.height; ++y) {
+      std::memcpy(&sheet.rgba[(static_cast<size_t>(y0 + y) * sheet.width + x0) * 4], &c.rgba[static_cast<size_t>(y) * c.width * 4],
+                  static_cast<size_t>(c.width) * 16);
+    }
+    if (i < labels.size()) DrawText(sheet, x0 + 4, y0 + ch + label_h * 3 / 4, labels[i], label_h * 2 / 3, {0.1f, 0.1f, 0.1f});
+  }
+  return sheet;
+}
+
+}  // namespace facespace::render

@@ -1,0 +1,450 @@
+// OSMesa (llvmpipe) renderer: one GL 3.3 core context per thread, an offscreen float
+// framebuffer, Blinn-Phong in linear light.
+#define GL_GLEXT_PROTOTYPES 1
+#include "facespace/render/render.h"
+#include "internal.h"
+
+#include <GL/osmesa.h>
+#include <GL/gl.h>
+#include <GL/glext.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdlib>
+#include <list>
+#include <mutex>
+
+namespace facespace::render {
+
+namespace {
+
+const char* kVertexShader = R"(#version 330 core
+layout(location = 0) in vec3 a_pos;
+layout(location = 1) in vec3 a_normal;
+layout(location = 2) in vec2 a_uv;
+layout(location = 3) in vec4 a_color;
+layout(location = 4) in float a_scalar;
+uniform mat4 u_view;
+uniform mat4 u_proj;
+out vec3 v_pos;      // View space.
+out vec3 v_normal;   // View space.
+out vec3 v_world_normal;
+out vec2 v_uv;
+out vec4 v_color;
+out float v_scalar;
+void main() {
+  vec4 p = u_view * vec4(a_pos, 1.0);
+  v_pos = p.xyz;
+  v_normal = mat3(u_view) * a_normal;
+  v_world_normal = a_normal;
+  v_uv = a_uv;
+  v_color = a_color;
+  v_scalar = a_scalar;
+  gl_Position = u_proj * p;
+}
+)";
+
+const char* kFragmentShader = R"(#version 330 core
+in vec3 v_pos;
+in vec3 v_normal;
+in vec3 v_world_normal;
+in vec2 v_uv;
+in vec4 v_color;
+in float v_scalar;
+uniform int u_mode;          // 0 shaded, 1 flat colour, 2 heatmap, 3 normals
+uniform vec4 u_base_color;   // Linear.
+uniform int u_has_texture;
+uniform sampler2D u_texture; // sRGB texture: sampled as linear.
+uniform float u_heat_max;
+out vec4 frag;
+vec3 viridis(float t) {
+  // Polynomial fit of matplotlib's viridis (perceptually uniform), sRGB output.
+  const vec3 c0 = vec3(0.2777273272234177, 0.005407344544966578, 0.3340998053353061);
+  const vec3 c1 = vec3(0.1050930431085774, 1.404613529898575, 1.384590162594685);
+  const vec3 c2 = vec3(-0.3308618287255563, 0.214847559468213, 0.09509516302823659);
+  const vec3 c3 = vec3(-4.634230498983486, -5.799100973351585, -19.33244095627987);
+  const vec3 c4 = vec3(6.228269936347081, 14.17993336680509, 56.69055260068105);
+  const vec3 c5 = vec3(4.776384997670288, -13.74514537774601, -65.35303263337234);
+  const vec3 c6 = vec3(-5.435455855934631, 4.645852612178535, 26.3124352495832);
+  t = clamp(t, 0.0, 1.0);
+  return c0 + t * (c1 + t * (c2 + t * (c3 + t * (c4 + t * (c5 + t * c6)))));
+}
+vec3 srgb_to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
+void main() {
+  vec3 n = normalize(v_normal);
+  if (!gl_FrontFacing) n = -n;
+  if (u_mode == 1) { frag = vec4(0.02, 0.02, 0.03, 1.0); return; }
+  if (u_mode == 3) { frag = vec4(srgb_to_linear(normalize(v_world_normal) * 0.5 + 0.5), 1.0); return; }
+  vec4 base = u_base_color * v_color;
+  if (u_has_texture == 1) base *= texture(u_texture, v_uv);
+  if (u_mode == 2) base = vec4(srgb_to_linear(viridis(u_heat_max > 0.0 ? v_scalar / u_heat_max : 0.0)), 1.0);
+  vec3 view_dir = normalize(-v_pos);
+  vec3 lights[2] = vec3[2](normalize(vec3(-0.45, 0.6, 0.9)), normalize(vec3(0.7, 0.15, 0.6)));
+  float power[2] = float[2](0.85, 0.35);
+  vec3 color = 0.18 * base.rgb;
+  for (int i = 0; i < 2; ++i) {
+    float diff = max(dot(n, lights[i]), 0.0);
+    vec3 h = normalize(lights[i] + view_dir);
+    float spec = diff > 0.0 ? pow(max(dot(n, h), 0.0), 48.0) : 0.0;
+    color += power[i] * (diff * base.rgb + (u_mode == 2 ? 0.05 : 0.18) * spec);
+  }
+  frag = vec4(color, base.a);
+}
+)";
+
+struct Texture {
+  uint64_t key;
+  GLuint id;
+};
+
+// Everything GL of one thread.
+struct Context {
+  OSMesaContext ctx = nullptr;
+  std::vector<unsigned char> dummy = std::vector<unsigned char>(16 * 16 * 4);
+  GLuint program = 0, vao = 0, vbo = 0, ibo = 0;
+  GLuint fbo = 0, color = 0, depth = 0;
+  int fb_w = 0, fb_h = 0;
+  std::list<Texture> textures;  // Most recent first; a few kept.
+  std::string error;
+  std::string info;
+
+  ~Context() {
+    if (ctx) OSMesaDestroyContext(ctx);
+  }
+
+  bool Init() {
+    if (ctx) return error.empty();
+    // llvmpipe renders in the calling thread: parallelism comes from requests.
+    setenv("LP_NUM_THREADS", "0", 0);
+    const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                           OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
+    ctx = OSMesaCreateContextAttribs(attribs, nullptr);
+    if (!ctx) {
+      error = "OSMesa could not create a GL 3.3 core context";
+      return false;
+    }
+    if (!OSMesaMakeCurrent(ctx, dummy.data(), GL_UNSIGNED_BYTE, 16, 16)) {
+      error = "OSMesaMakeCurrent failed";
+      return false;
+    }
+    info = std::string(reinterpret_cast<const char*>(glGetString(GL_RENDERER))) + ", OpenGL " +
+           reinterpret_cast<const char*>(glGetString(GL_VERSION));
+    program = Link();
+    if (!program) return false;
+    glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glGenBuffers(1, &ibo);
+    return true;
+  }
+
+  GLuint Compile(GLenum type, const char* src) {
+    const GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, nullptr);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+      char log[2048];
+      glGetShaderInfoLog(s, sizeof log, nullptr, log);
+      error = std::string("shader: ") + log;
+      return 0;
+    }
+    return s;
+  }
+
+  GLuint Link() {
+    const GLuint vs = Compile(GL_VERTEX_SHADER, kVertexShader), fs = Compile(GL_FRAGMENT_SHADER, kFragmentShader);
+    if (!vs || !fs) return 0;
+    const GLuint p = glCreateProgram();
+    glAttachShader(p, vs);
+    glAttachShader(p, fs);
+    glLinkProgram(p);
+    GLint ok = 0;
+    glGetProgramiv(p, GL_LINK_STATUS, &ok);
+    if (!ok) {
+      error = "shader program failed to link";
+      return 0;
+    }
+    return p;
+  }
+
+  void Framebuffer(int w, int h) {
+    if (w == fb_w && h == fb_h && fbo) return;
+    if (fbo) {
+      glDeleteFramebuffers(1, &fbo);
+      glDeleteRenderbuffers(1, &color);
+      glDeleteRenderbuffers(1, &depth);
+    }
+    glGenFramebuffers(1, &fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glGenRenderbuffers(1, &color);
+    glBindRenderbuffer(GL_RENDERBUFFER, color);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA32F, w, h);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color);
+    glGenRenderbuffers(1, &depth);
+    glBindRenderbuffer(GL_RENDERBUFFER, depth);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
+    fb_w = w;
+    fb_h = h;
+  }
+
+  // The GL texture of an encoded image, decoded once per thread (a few kept).
+  GLuint TextureFor(const facespace::Image& image) {
+    uint64_t key = 1469598103934665603ull ^ image.bytes.size();
+    for (size_t i = 0; i < image.bytes.size(); i += 61) key = (key ^ image.bytes[i]) * 1099511628211ull;
+    for (auto it = textures.begin(); it != textures.end(); ++it) {
+      if (it->key == key) {
+        textures.splice(textures.begin(), textures, it);
+        return it->id;
+      }
+    }
+    auto decoded = Decode(image.bytes);
+    if (!decoded.ok()) return 0;
+    const render::Image& im = decoded.value();
+    std::vector<unsigned char> srgb(im.rgba.size());
+    for (size_t i = 0; i < im.rgba.size(); ++i) {
+      const float c = im.rgba[i];
+      const float e = (i % 4 == 3) ? c : (c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1 / 2.4f) - 0.055f);
+      srgb[i] = static_cast<unsigned char>(std::lround(std::clamp(e, 0.0f, 1.0f) * 255.0f));
+    }
+    GLuint id = 0;
+    glGenTextures(1, &id);
+    glBindTexture(GL_TEXTURE_2D, id);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8_ALPHA8, im.width, im.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, srgb.data());
+    glGenerateMipmap(GL_TEXTURE_2D);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    textures.push_front({key, id});
+    if (textures.size() > 16) {
+      glDeleteTextures(1, &textures.back().id);
+      textures.pop_back();
+    }
+    return id;
+  }
+};
+
+thread_local Context t_gl;
+
+float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+// Column-major 4x4 transform of a point.
+void Apply(const std::array<float, 16>& m, const float* p, float* out) {
+  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+}
+
+}  // namespace
+
+bool ParseView(const std::string& name, View* view) {
+  if (name == "shaded") *view = View::kShaded;
+  else if (name == "wireframe") *view = View::kWireframe;
+  else if (name == "heatmap") *view = View::kHeatmap;
+  else if (name == "normals") *view = View::kNormals;
+  else return false;
+  return true;
+}
+
+const char* ViewName(View view) {
+  switch (view) {
+    case View::kShaded: return "shaded";
+    case View::kWireframe: return "wireframe";
+    case View::kHeatmap: return "heatmap";
+    case View::kNormals: return "normals";
+  }
+  return "?";
+}
+
+std::string RendererInfo() {
+  if (!t_gl.Init()) return "unavailable: " + t_gl.error;
+  return t_gl.info;
+}
+
+
+
+Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) {
+  if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192) return InvalidArgument("image size out of range");
+  if (o.supersample < 1 || o.supersample > 4) return InvalidArgument("supersample must be 1..4");
+  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
+  if (!t_gl.Init()) return Status{StatusCode::kInternal, "renderer unavailable: " + t_gl.error, {}};
+  Context& gl = t_gl;
+  const int w = o.width * o.supersample, h = o.height * o.supersample;
+
+  // World-space vertices: pos, normal, uv, colour, displacement (13 floats).
+  const auto world = PrimitiveWorldMatrices(rig);
+  struct Draw {
+    size_t first_vertex, first_index, index_count;
+    PrimitiveMode mode;
+    int material;
+  };
+  std::vector<float> verts;
+  std::vector<uint32_t> indices;
+  std::vector<Draw> draws;
+  Eigen::AlignedBox3f box;
+  float heat_max = 0.0f;
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    const Primitive& p = rig.primitives[pi];
+    const BlendedPrimitive& b = blended.primitives[pi];
+    const auto& m = world[pi];
+    Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
+    const size_t first = verts.size() / 13;
+    for (size_t v = 0; v < p.vertex_count(); ++v) {
+      float q[3], q0[3];
+      Apply(m, &b.positions[3 * v], q);
+      Apply(m, &p.positions[3 * v], q0);
+      Eigen::Vector3f n = (nm * Eigen::Map<const Eigen::Vector3f>(&b.normals[3 * v])).normalized();
+      if (!n.allFinite()) n = Eigen::Vector3f::UnitZ();
+      const float d = std::sqrt((q[0] - q0[0]) * (q[0] - q0[0]) + (q[1] - q0[1]) * (q[1] - q0[1]) + (q[2] - q0[2]) * (q[2] - q0[2]));
+      heat_max = std::max(heat_max, d);
+      box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
+      const float uv[2] = {p.texcoords.empty() ? 0.0f : p.texcoords[2 * v], p.texcoords.empty() ? 0.0f : p.texcoords[2 * v + 1]};
+      verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
+      if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
+      else verts.insert(verts.end(), p.colors.begin() + 4 * v, p.colors.begin() + 4 * v + 4);
+      verts.push_back(d);
+    }
+    draws.push_back({first, indices.size(), p.indices.size(), p.mode, p.material});
+    for (uint32_t i : p.indices) indices.push_back(static_cast<uint32_t>(first + i));
+  }
+
+  // Camera.
+  const Camera& c = o.camera;
+  const Eigen::Vector3f center = box.isEmpty() ? Eigen::Vector3f(Eigen::Vector3f::Zero()) : Eigen::Vector3f(box.center());
+  const float radius = box.isEmpty() ? 1.0f : std::max(0.5f * box.diagonal().norm(), 1e-6f);
+  const float fov = std::clamp(c.fov, 1.0f, 170.0f) * static_cast<float>(M_PI) / 180.0f;
+  const float aspect = static_cast<float>(o.width) / static_cast<float>(o.height);
+  Eigen::Vector3f eye, target, up;
+  if (c.look_at) {
+    eye = Eigen::Vector3f(c.eye[0], c.eye[1], c.eye[2]);
+    target = Eigen::Vector3f(c.target[0], c.target[1], c.target[2]);
+    up = Eigen::Vector3f(c.up[0], c.up[1], c.up[2]);
+  } else {
+    // Far enough that the bounding sphere fits both the vertical and horizontal field of view.
+    const float fit = radius / std::sin(0.5f * std::min(fov, 2.0f * std::atan(std::tan(0.5f * fov) * aspect)));
+    const float dist = (c.distance > 0 ? c.distance : fit) / std::max(c.zoom, 1e-3f);
+    const float yaw = c.yaw * static_cast<float>(M_PI) / 180.0f, pitch = c.pitch * static_cast<float>(M_PI) / 180.0f;
+    eye = center + dist * Eigen::Vector3f(std::cos(pitch) * std::sin(yaw), std::sin(pitch), std::cos(pitch) * std::cos(yaw));
+    target = center;
+    up = Eigen::Vector3f::UnitY();
+  }
+  Eigen::Vector3f fwd = (target - eye);
+  if (fwd.norm() < 1e-12f) return InvalidArgument("camera eye and target coincide");
+  fwd.normalize();
+  Eigen::Vector3f right = fwd.cross(up);
+  if (right.norm() < 1e-6f) right = fwd.cross(Eigen::Vector3f::UnitZ());
+  right.normalize();
+  const Eigen::Vector3f cam_up = right.cross(fwd);
+  Eigen::Matrix4f view = Eigen::Matrix4f::Identity();
+  view.block<1, 3>(0, 0) = right.transpose();
+  view.block<1, 3>(1, 0) = cam_up.transpose();
+  view.block<1, 3>(2, 0) = -fwd.transpose();
+  view(0, 3) = -right.dot(eye);
+  view(1, 3) = -cam_up.dot(eye);
+  view(2, 3) = fwd.dot(eye);
+  const float center_dist = (center - eye).dot(fwd);
+  const float znear = std::max(center_dist - 2.0f * radius, center_dist * 1e-3f > 0 ? center_dist * 1e-3f : radius * 1e-3f);
+  const float zfar = std::max(center_dist + 2.0f * radius, znear * 2.0f);
+  const float f = 1.0f / std::tan(0.5f * fov);
+  Eigen::Matrix4f proj = Eigen::Matrix4f::Zero();
+  proj(0, 0) = f / aspect;
+  proj(1, 1) = f;
+  proj(2, 2) = (zfar + znear) / (znear - zfar);
+  proj(2, 3) = 2.0f * zfar * znear / (znear - zfar);
+  proj(3, 2) = -1.0f;
+
+  gl.Framebuffer(w, h);
+  glBindFramebuffer(GL_FRAMEBUFFER, gl.fbo);
+  glViewport(0, 0, w, h);
+  const auto& bg = o.background;
+  glClearColor(SrgbToLinear(bg[0]), SrgbToLinear(bg[1]), SrgbToLinear(bg[2]), bg[3]);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glEnable(GL_DEPTH_TEST);
+  glDisable(GL_CULL_FACE);
+  glUseProgram(gl.program);
+  glUniformMatrix4fv(glGetUniformLocation(gl.program, "u_view"), 1, GL_FALSE, view.data());
+  glUniformMatrix4fv(glGetUniformLocation(gl.program, "u_proj"), 1, GL_FALSE, proj.data());
+  glUniform1f(glGetUniformLocation(gl.program, "u_heat_max"), heat_max);
+  glUniform1i(glGetUniformLocation(gl.program, "u_texture"), 0);
+  glBindVertexArray(gl.vao);
+  glBindBuffer(GL_ARRAY_BUFFER, gl.vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(verts.size() * 4), verts.data(), GL_STREAM_DRAW);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.ibo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * 4), indices.data(), GL_STREAM_DRAW);
+  const GLsizei stride = 13 * 4;
+  const int sizes[5] = {3, 3, 2, 4, 1}, offsets[5] = {0, 3, 6, 8, 12};
+  for (int a = 0; a < 5; ++a) {
+    glEnableVertexAttribArray(a);
+    glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(static_cast<uintptr_t>(offsets[a] * 4)));
+  }
+  const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : 0;
+  auto draw_all = [&](int shader_mode) {
+    glUniform1i(glGetUniformLocation(gl.program, "u_mode"), shader_mode);
+    for (const Draw& d : draws) {
+      std::array<float, 4> base{1, 1, 1, 1};
+      GLuint tex = 0;
+      bool blend = false;
+      if (d.material >= 0) {
+        const Material& mat = rig.materials[d.material];
+        base = mat.base_color_factor;
+        if (mat.base_color_image >= 0) tex = gl.TextureFor(rig.images[mat.base_color_image]);
+        blend = mat.alpha_mode == "BLEND";
+      }
+      glUniform4f(glGetUniformLocation(gl.program, "u_base_color"), base[0], base[1], base[2], base[3]);
+      glUniform1i(glGetUniformLocation(gl.program, "u_has_texture"), tex ? 1 : 0);
+      glActiveTexture(GL_TEXTURE0);
+      glBindTexture(GL_TEXTURE_2D, tex);
+      if (blend && shader_mode == 0) {
+        glEnable(GL_BLEND);
+        glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+      } else {
+        glDisable(GL_BLEND);
+      }
+      const GLenum prim = d.mode == PrimitiveMode::kTriangles ? GL_TRIANGLES : d.mode == PrimitiveMode::kLines ? GL_LINES : GL_POINTS;
+      glDrawElements(prim, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
+                     reinterpret_cast<void*>(static_cast<uintptr_t>(d.first_index * 4)));
+    }
+  };
+  if (o.view == View::kWireframe) {
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.0f, 1.0f);
+  }
+  draw_all(mode);
+  glDisable(GL_POLYGON_OFFSET_FILL);
+  if (o.view == View::kWireframe) {
+    glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
+    glDepthFunc(GL_LEQUAL);
+    draw_all(1);
+    glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
+    glDepthFunc(GL_LESS);
+  }
+  std::vector<float> pixels(static_cast<size_t>(w) * h * 4);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pixels.data());
+  if (const GLenum err = glGetError(); err != GL_NO_ERROR) {
+    return Status{StatusCode::kInternal, "GL error " + std::to_string(err), {}};
+  }
+  // Box-filter the supersamples (in linear light) and flip to top-row-first.
+  const int ss = o.supersample;
+  out.width = o.width;
+  out.height = o.height;
+  out.rgba.assign(static_cast<size_t>(o.width) * o.height * 4, 0.0f);
+  const float inv = 1.0f / static_cast<float>(ss * ss);
+  for (int y = 0; y < o.height; ++y) {
+    for (int x = 0; x < o.width; ++x) {
+      float* dst = &out.rgba[(static_cast<size_t>(y) * o.width + x) * 4];
+      for (int sy = 0; sy < ss; ++sy) {
+        const int gy = h - 1 - (y * ss + sy);
+        for (int sx = 0; sx < ss; ++sx) {
+          const float* src = &pixels[(static_cast<size_t>(gy) * w + x * ss + sx) * 4];
+          for (int ch = 0; ch < 4; ++ch) dst[ch] += src[ch] * inv;
+        }
+      }
+    }
+  }
+  if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
+  return Status::Ok();
+}
+
+}  // namespace facespace::render
