@@ -24,6 +24,10 @@ bool EndsWith(const std::string& s, const char* t) {
 }
 
 void PrintStatus(const Status& s) {
+  if (s.fields.size() == 1 && !s.fields[0].pointer.empty() && s.message.rfind(s.fields[0].pointer, 0) != 0) {
+    std::fprintf(stderr, "error: %s: %s\n", s.fields[0].pointer.c_str(), s.fields[0].message.c_str());
+    return;
+  }
   if (s.fields.size() <= 1) {
     std::fprintf(stderr, "error: %s\n", s.message.c_str());
     return;

@@ -100,5 +100,22 @@ a=[list(map(float,l.split()[1:4])) for l in open(sys.argv[1]) if l.startswith("v
 b=[list(map(float,l.split()[1:4])) for l in open(sys.argv[2]) if l.startswith("v ")]
 sys.exit(not(len(a)==len(b)==26719 and max(abs(x-y) for p,q in zip(a,b) for x,y in zip(p,q))<1e-4))' "$tmp/ict.obj" "$ict/jawOpen.obj"
 
+# renders
+"$bin" render "$rig" --set jawOpen=0.6 --width 200 --height 150 --yaw 20 -o "$tmp/r.png" 2>"$tmp/err"
+check "render: a 200x150 PNG" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); sys.exit(not(d[:8]==b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", d[16:24])==(200,150)))' "$tmp/r.png"
+for fmt in jpg exr tif; do
+  "$bin" render "$rig" --width 64 --height 64 --view normals -o "$tmp/r.$fmt" 2>/dev/null
+  check "render: -o .$fmt decodes as a 64x64 image" sh -c "iinfo '$tmp/r.$fmt' 2>/dev/null | grep -q '64 x   64'"
+done
+"$bin" render "$rig" --set jawOpen=0.9 --set mouthSmile_L=0.8 --view heatmap -o "$tmp/h.png" 2>"$tmp/err"
+check "render: extrapolation warning on stderr" grep -q 'warning: extrapolation: sum of weights 1.7 exceeds 1' "$tmp/err"
+err_case "render: unknown view" "--view" render "$rig" --view xray -o "$tmp/x.png"
+err_case "render: bad camera JSON" "camera" render "$rig" --camera '{"yaw":"left"}' -o "$tmp/x.png"
+err_case "render: unknown image format" "image format" render "$rig" -o "$tmp/x.bmp"
+printf '{"label":"neutral"}\n{"weights":{"jawOpen":1},"label":"jawOpen"}\n{"weights":{"eyeBlink_L":1},"label":"blink"}\n' >"$tmp/cells.jsonl"
+"$bin" sheet "$rig" --cells @"$tmp/cells.jsonl" --columns 3 --width 128 --height 128 -o "$tmp/sheet.png" 2>/dev/null
+check "sheet: three labelled 128x128 cells in a row" sh -c "iinfo '$tmp/sheet.png' | grep -Eq ' 400 x +1[5-9][0-9]'"
+err_case "sheet: a cell with an unknown shape" "cells/1/weights/nope" sheet "$rig" --cells '[{},{"weights":{"nope":1}}]' -o "$tmp/x.png"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -80,6 +80,29 @@ check "POST check needs an object body: 422" problem "$code" 422 "True"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":[0.5,0,0,0,0,0,0.4,0.3]}' "$U/v1/rigs/stress/check")
 check "POST check: sum and warnings, no mesh" sh -c "[ $code = 200 ]" && jq_ "abs(d['sum']-1.2)<1e-6 and d['warnings'][0]['code']=='extrapolation' and 'primitives' not in d" && ok "  ... values" || no "  ... check values"
 
+# renders
+pngsize() { py 'import sys,struct; d=open(sys.argv[1],"rb").read(); print("%dx%d" % struct.unpack(">II", d[16:24]) if d[:4]==b"\x89PNG" else "not-png")' "$tmp/body"; }
+code=$(c "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")
+check "GET render: 200, a 256x192 PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr' && [ '$(pngsize)' = 256x192 ]"
+check "  ... with the extrapolation warning headers" test "$(hdr Facespace-Warnings)" = "extrapolation;value=1.7"
+etag=$(hdr ETag)
+check "  ... ETag, and If-None-Match gives 304" test "$(c -H "If-None-Match: $etag" "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")" = 304
+code=$(c -X POST -H 'Content-Type: application/json' -H 'Accept: image/jpeg' -d '{"weights":{"jawOpen":0.5},"width":128,"height":128,"view":"wireframe","camera":{"yaw":30,"pitch":10}}' "$U/v1/rigs/facecap/render")
+check "POST render with Accept: image/jpeg" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/jpeg' '$tmp/hdr' && head -c 3 '$tmp/body' | od -An -tx1 | grep -q 'ff d8 ff'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"format":"exr","width":64,"height":64,"background":"transparent"}' "$U/v1/rigs/facecap/render")
+check "POST render format exr: image/x-exr" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/x-exr' '$tmp/hdr' && head -c 4 '$tmp/body' | od -An -tx1 | grep -q '76 2f 31 01'"
+check "render: Accept image/gif is 406" problem "$(c -H 'Accept: image/gif' "$U/v1/rigs/facecap/render?width=64&height=64")" 406 "True"
+check "render: a size over the limit is 422 naming width" problem "$(c "$U/v1/rigs/facecap/render?width=4000")" 422 "d['errors'][0]['parameter']=='width'"
+check "render: an unknown view is 422 at /view" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"view":"xray"}' "$U/v1/rigs/facecap/render")" 422 "d['errors'][0]['pointer']=='/view'"
+check "render: a look-at camera without target is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"camera":{"eye":[0,0,1]}}' "$U/v1/rigs/facecap/render")" 422 "d['errors'][0]['pointer']=='/camera'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"cells":[{"label":"neutral"},{"weights":{"jawOpen":1},"label":"jaw"},{"weights":{"eyeBlink_L":1,"eyeBlink_R":1},"label":"blink"}],"columns":3,"width":96,"height":96}' "$U/v1/rigs/facecap/sheet")
+check "POST sheet: a PNG of 3 labelled cells" sh -c "[ $code = 200 ] && [ '$(pngsize | cut -dx -f1)' = 304 ]"
+check "sheet: a bad cell is 422 at its pointer, nothing rendered" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"cells":[{},{"weights":{"nope":1}}]}' "$U/v1/rigs/facecap/sheet")" 422 "d['errors'][0]['pointer']=='/cells/1/weights/nope'"
+cells=$(py 'import json; print(json.dumps({"cells":[{}]*65}))')
+check "sheet: more cells than the limit is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d "$cells" "$U/v1/rigs/facecap/sheet")" 422 "d['errors'][0]['pointer']=='/cells'"
+seq 1 32 | xargs -P 16 -I{} sh -c "curl -s -o /dev/null -w '%{http_code}\n' '$U/v1/rigs/facecap/render?w.jawOpen=0.{}&width=128&height=128'" >"$tmp/rcodes"
+check "16 concurrent render clients, 32 renders: all 200" sh -c "[ \$(grep -c '^200$' '$tmp/rcodes') -eq 32 ]"
+
 # errors
 check "malformed JSON: 400 problem" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":' "$U/v1/rigs/facecap/mesh")" 400 "'malformed' in d['detail']"
 check "unknown shape: 422 naming it, with a suggestion" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpn":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpn' and \"did you mean 'jawOpen'\" in d['errors'][0]['detail']"

@@ -1,0 +1,305 @@
+// Renders: analytic checks on built meshes, and goldens of the real assets compared with
+// OpenImageIO's image comparison. FACESPACE_UPDATE_GOLDENS=1 rewrites the goldens (look at
+// every one before committing it).
+#include <gtest/gtest.h>
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <cmath>
+#include <cstdlib>
+
+#include "facespace/core/io.h"
+#include "facespace/render/render.h"
+#include "test_util.h"
+
+namespace facespace {
+namespace {
+
+using render::Image;
+using render::RenderOptions;
+
+// A rig from one triangle-list primitive (and its shapes).
+Rig OnePrimitive(std::vector<float> positions, std::vector<uint32_t> indices, std::vector<SparseTarget> targets = {}) {
+  Rig rig;
+  Primitive p;
+  p.positions = std::move(positions);
+  p.indices = std::move(indices);
+  p.targets = std::move(targets);
+  FinalizePrimitive(p);
+  Mesh m;
+  m.name = "m";
+  m.primitives = {0};
+  for (size_t t = 0; t < p.targets.size(); ++t) {
+    m.target_shapes.push_back(static_cast<uint32_t>(t));
+    rig.shapes.push_back(Shape{.name = "s" + std::to_string(t)});
+  }
+  rig.primitives.push_back(std::move(p));
+  rig.meshes.push_back(m);
+  rig.nodes.push_back(Node{.name = "n", .mesh = 0});
+  rig.scene_roots = {0};
+  EXPECT_TRUE(ValidateRig(rig).ok());
+  return rig;
+}
+
+Rig UnitCube() {
+  std::vector<float> pos;
+  std::vector<uint32_t> idx;
+  // Six faces with their own vertices (flat normals).
+  const int faces[6][4][3] = {{{-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}},     {{1, -1, -1}, {-1, -1, -1}, {-1, 1, -1}, {1, 1, -1}},
+                              {{1, -1, 1}, {1, -1, -1}, {1, 1, -1}, {1, 1, 1}},     {{-1, -1, -1}, {-1, -1, 1}, {-1, 1, 1}, {-1, 1, -1}},
+                              {{-1, 1, 1}, {1, 1, 1}, {1, 1, -1}, {-1, 1, -1}},     {{-1, -1, -1}, {1, -1, -1}, {1, -1, 1}, {-1, -1, 1}}};
+  for (const auto& f : faces) {
+    const uint32_t base = static_cast<uint32_t>(pos.size() / 3);
+    for (const auto& v : f) pos.insert(pos.end(), {0.5f * v[0], 0.5f * v[1], 0.5f * v[2]});
+    idx.insert(idx.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
+  }
+  return OnePrimitive(pos, idx);
+}
+
+BlendedRig Evaluate(const Rig& rig, std::vector<float> w = {}) {
+  w.resize(rig.shapes.size(), 0.0f);
+  BlendedRig out;
+  BlendContext ctx;
+  EXPECT_TRUE(EvaluateRig(rig, w, {}, out, ctx).ok());
+  return out;
+}
+
+bool IsBackground(const Image& im, int x, int y, const std::array<float, 4>& bg_linear) {
+  const float* p = &im.rgba[(static_cast<size_t>(y) * im.width + x) * 4];
+  for (int c = 0; c < 4; ++c) {
+    if (std::fabs(p[c] - bg_linear[c]) > 1e-4f) return false;
+  }
+  return true;
+}
+
+float Linear(float s) { return s <= 0.04045f ? s / 12.92f : std::pow((s + 0.055f) / 1.055f, 2.4f); }
+float Srgb(float c) {
+  c = std::clamp(c, 0.0f, 1.0f);
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+RenderOptions HeadOn(int size) {
+  RenderOptions o;
+  o.width = o.height = size;
+  o.background = {0.2f, 0.4f, 0.6f, 1.0f};
+  o.camera.look_at = true;
+  o.camera.eye = {0, 0, 3};
+  o.camera.target = {0, 0, 0};
+  o.camera.fov = 30;
+  return o;
+}
+
+TEST(Render, ReportsLlvmpipe) {
+  const std::string info = render::RendererInfo();
+  EXPECT_NE(info.find("llvmpipe"), std::string::npos) << info;
+  EXPECT_EQ(info.find("softpipe"), std::string::npos) << info;
+}
+
+TEST(Render, EmptyBackgroundStaysBackground) {
+  Rig cube = UnitCube();
+  RenderOptions o = HeadOn(64);
+  o.camera.target = {0, 0, 6};  // Looking away from the cube.
+  Image im;
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, im).ok());
+  const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
+  for (int y = 0; y < im.height; ++y) {
+    for (int x = 0; x < im.width; ++x) ASSERT_TRUE(IsBackground(im, x, y, bg)) << x << "," << y;
+  }
+  // Transparent background: alpha 0 everywhere the mesh is not.
+  o.background = {1, 1, 1, 0};
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, im).ok());
+  for (size_t i = 3; i < im.rgba.size(); i += 4) ASSERT_EQ(im.rgba[i], 0.0f);
+}
+
+TEST(Render, UnitCubeHeadOnCoversExpectedArea) {
+  Rig cube = UnitCube();
+  const int size = 256;
+  Image im;
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), HeadOn(size), im).ok());
+  const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
+  int covered = 0, min_x = size, max_x = -1;
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      if (!IsBackground(im, x, y, bg)) {
+        ++covered;
+        min_x = std::min(min_x, x);
+        max_x = std::max(max_x, x);
+      }
+    }
+  }
+  // The front face (z = 0.5) seen from 2.5 away with a 30 degree field of view.
+  const double side = 0.5 / 2.5 / std::tan(15.0 * M_PI / 180.0) * size;
+  EXPECT_NEAR(covered, side * side, 0.02 * side * side);
+  EXPECT_NEAR(max_x - min_x + 1, side, 2.0);
+  EXPECT_NEAR(0.5 * (min_x + max_x), 0.5 * (size - 1), 1.0) << "centred";
+}
+
+TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
+  // A 20x20 grid in z = 0 spanning [-1, 1]^2; the shape pushes the vertices with x > 0.5
+  // towards the camera.
+  const int g = 21;
+  std::vector<float> pos;
+  std::vector<uint32_t> idx;
+  for (int y = 0; y < g; ++y) {
+    for (int x = 0; x < g; ++x) pos.insert(pos.end(), {-1.0f + 2.0f * x / (g - 1), -1.0f + 2.0f * y / (g - 1), 0.0f});
+  }
+  for (int y = 0; y + 1 < g; ++y) {
+    for (int x = 0; x + 1 < g; ++x) {
+      const uint32_t a = y * g + x;
+      idx.insert(idx.end(), {a, a + 1, a + g + 1, a, a + g + 1, a + g});
+    }
+  }
+  SparseTarget push;
+  for (uint32_t v = 0; v < static_cast<uint32_t>(g * g); ++v) {
+    if (pos[3 * v] > 0.5f) {
+      push.indices.push_back(v);
+      push.position_deltas.insert(push.position_deltas.end(), {0.0f, 0.0f, 0.3f * (pos[3 * v] - 0.5f)});
+    }
+  }
+  Rig rig = OnePrimitive(pos, idx, {push});
+  RenderOptions o = HeadOn(200);
+  o.camera.eye = {0, 0, 5};
+  Image base, moved;
+  ASSERT_TRUE(render::Render(rig, Evaluate(rig, {0.0f}), o, base).ok());
+  ASSERT_TRUE(render::Render(rig, Evaluate(rig, {1.0f}), o, moved).ok());
+  // Faces touching a moved vertex span x >= 0.4 (the grid step is 0.1); with the camera 5
+  // away (4.85 for the raised ones) and tan(15 deg), x = 0.4 is column 100 + 0.4 / (4.85 * 0.2679) * 100.
+  const int first_col = static_cast<int>(std::floor(100.0 + 0.4 / (4.85 * std::tan(15.0 * M_PI / 180.0)) * 100.0)) - 1;
+  int changed = 0;
+  for (int y = 0; y < 200; ++y) {
+    for (int x = 0; x < 200; ++x) {
+      const size_t i = (static_cast<size_t>(y) * 200 + x) * 4;
+      bool differs = false;
+      for (int c = 0; c < 3; ++c) differs |= std::fabs(base.rgba[i + c] - moved.rgba[i + c]) > 1e-5f;
+      if (differs) {
+        ++changed;
+        EXPECT_GE(x, first_col) << "pixel (" << x << "," << y << ") changed left of the moved region";
+      }
+    }
+  }
+  EXPECT_GT(changed, 1000) << "the shape changes the picture";
+}
+
+TEST(Render, SupersamplingSmoothsEdges) {
+  Rig cube = UnitCube();
+  RenderOptions o = HeadOn(64);
+  o.camera.yaw = 0;
+  o.camera.eye = {1.2f, 0.9f, 2.5f};
+  Image hard, soft;
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, hard).ok());
+  o.supersample = 4;
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, soft).ok());
+  // Count partially covered pixels: values strictly between background and surface.
+  auto partial = [](const Image& im) {
+    int n = 0;
+    for (size_t i = 0; i < im.rgba.size(); i += 4) {
+      const float b = im.rgba[i + 2];
+      if (b > 0.02f && std::fabs(b - Linear(0.6f)) > 0.02f && std::fabs(im.rgba[i] - im.rgba[i + 2]) > 0.01f) ++n;
+    }
+    return n;
+  };
+  EXPECT_EQ(soft.width, 64);
+  EXPECT_GT(partial(soft), partial(hard));
+}
+
+TEST(Render, EncodeDecodeRoundTrip) {
+  Rig cube = UnitCube();
+  Image im;
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), HeadOn(32), im).ok());
+  for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr, render::ImageFormat::kJpeg}) {
+    auto bytes = render::Encode(im, f, 95);
+    ASSERT_TRUE(bytes.ok()) << render::ImageFormatExtension(f);
+    std::vector<unsigned char> b(bytes->begin(), bytes->end());
+    auto back = render::Decode(b);
+    ASSERT_TRUE(back.ok()) << render::ImageFormatExtension(f) << ": " << back.status().message;
+    EXPECT_EQ(back->width, 32);
+    // Errors in sRGB units: 8-bit formats round to 1/255; JPEG is lossy; EXR keeps halfs.
+    // JPEG is lossy: its mean error is bounded, not its max.
+    const bool jpeg = f == render::ImageFormat::kJpeg;
+    const float tol = f == render::ImageFormat::kExr ? 2e-3f : jpeg ? 0.01f : 0.6f / 255.0f;
+    float max_err = 0, sum_err = 0;
+    for (size_t i = 0; i < im.rgba.size(); i += 4) {
+      for (int c = 0; c < 3; ++c) {
+        const float e = std::fabs(Srgb(back->rgba[i + c]) - Srgb(im.rgba[i + c]));
+        max_err = std::max(max_err, e);
+        sum_err += e;
+      }
+    }
+    EXPECT_LT(jpeg ? sum_err / (im.rgba.size() / 4 * 3) : max_err, tol) << render::ImageFormatExtension(f);
+  }
+  EXPECT_FALSE(render::Decode(std::vector<unsigned char>{1, 2, 3, 4, 5, 6, 7, 8, 9}).ok());
+}
+
+// ---- goldens of real assets ---------------------------------------------------------------
+
+struct GoldenCase {
+  const char* name;
+  const char* asset;
+  std::vector<std::pair<std::string, float>> weights;
+  render::View view;
+  float yaw, pitch;
+};
+
+void PrintTo(const GoldenCase& c, std::ostream* os) { *os << c.name; }
+
+class Golden : public ::testing::TestWithParam<GoldenCase> {};
+
+TEST_P(Golden, MatchesCommittedImage) {
+  const GoldenCase& c = GetParam();
+  auto rig = LoadRigFile(c.asset[0] == '@' ? test::Bundled(c.asset + 1) : test::RealAsset(c.asset));
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  std::vector<float> w(rig->shapes.size(), 0.0f);
+  for (const auto& [name, value] : c.weights) {
+    const int s = FindShape(rig.value(), name);
+    ASSERT_GE(s, 0) << name;
+    w[s] = value;
+  }
+  RenderOptions o;
+  o.width = o.height = 256;
+  o.view = c.view;
+  o.camera.yaw = c.yaw;
+  o.camera.pitch = c.pitch;
+  o.supersample = 2;
+  Image im;
+  ASSERT_TRUE(render::Render(rig.value(), Evaluate(rig.value(), w), o, im).ok());
+  auto png = render::Encode(im, render::ImageFormat::kPng);
+  ASSERT_TRUE(png.ok());
+  const std::string golden = std::string(FACESPACE_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
+  const char* update = std::getenv("FACESPACE_UPDATE_GOLDENS");
+  if (update && *update == '1') {
+    test::WriteBytes(golden, png.value());
+    GTEST_SKIP() << "golden rewritten: look at " << golden;
+  }
+  // Keep what we rendered beside the build for a person to look at when this fails.
+  test::WriteBytes(std::string(c.name) + ".actual.png", png.value());
+  OIIO::ImageBuf expected(golden);
+  ASSERT_TRUE(expected.read()) << "missing golden " << golden;
+  std::vector<unsigned char> bytes(png->begin(), png->end());
+  OIIO::ImageBuf actual(std::string(c.name) + ".actual.png");
+  ASSERT_TRUE(actual.read());
+  // OIIO's comparison: a pixel fails when a channel differs by more than 6/255; allow 0.5%
+  // of the pixels to (rasterisation on another CPU may move an edge by a pixel).
+  const auto cmp = OIIO::ImageBufAlgo::compare(actual, expected, 6.0f / 255.0f, 2.0f / 255.0f);
+  const double npix = 256.0 * 256.0;
+  EXPECT_LE(static_cast<double>(cmp.nfail), 0.005 * npix) << "mean " << cmp.meanerror << " max " << cmp.maxerror;
+  EXPECT_LT(cmp.meanerror, 1.0 / 255.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    RealAssets, Golden,
+    ::testing::Values(GoldenCase{"facecap_neutral", "@facecap/facecap.glb", {}, render::View::kShaded, 0, 0},
+                      GoldenCase{"facecap_jaw_smile", "@facecap/facecap.glb", {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}},
+                                 render::View::kShaded, 25, 10},
+                      GoldenCase{"facecap_heatmap", "@facecap/facecap.glb", {{"jawOpen", 0.6f}, {"eyeBlink_L", 1.0f}}, render::View::kHeatmap, 0, 0},
+                      GoldenCase{"facecap_wireframe", "@facecap/facecap.glb", {{"browInnerUp", 1.0f}}, render::View::kWireframe, -30, 0},
+                      GoldenCase{"stress_textured", "MorphStressTest/MorphStressTest.gltf", {{"Key 3", 1.0f}, {"Key 6", 0.5f}},
+                                 render::View::kShaded, 30, 20},
+                      GoldenCase{"sphere_normals", "AnimatedMorphSphere/AnimatedMorphSphere.gltf", {{"Blob", 0.8f}},
+                                 render::View::kNormals, 0, 0},
+                      GoldenCase{"primitives_jpeg_texture", "MorphPrimitivesTest/MorphPrimitivesTest.gltf", {{"target_0", 1.0f}},
+                                 render::View::kShaded, 20, 30}),
+    [](const auto& param_info) { return std::string(param_info.param.name); });
+
+}  // namespace
+}  // namespace facespace
