@@ -1,5 +1,7 @@
 #include "facespace/core/blend.h"
 
+#include "facespace/core/skeleton.h"
+
 #include <cmath>
 #include <cstring>
 
@@ -188,6 +190,80 @@ bool HasChannel(const SparseTarget& t, TargetChannel c) {
 
 }  // namespace
 
+namespace {
+
+// Morphs one primitive into `bp`: positions, then fresh normals and tangents.
+bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_active, const BlendOptions& options,
+                    BlendedPrimitive& bp, BlendContext& ctx) {
+  bp.positions.resize(p.positions.size());
+  bp.normals.resize(p.normals.size());
+  bp.tangents.resize(p.tangents.size());
+  BlendShapeJob job{.base = p.positions, .weights = tw, .targets = p.targets,
+                    .channel = TargetChannel::kPosition, .stride = 3, .out = bp.positions};
+  if (!job.Run()) return false;
+  std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
+  std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
+  if (!any_active) return true;
+
+  // Union of the vertices the active targets move.
+  const size_t n = p.vertex_count();
+  if (ctx.vertex_mark.size() < n) ctx.vertex_mark.resize(n, 0);
+  ctx.moved.clear();
+  bool can_blend_normals = options.normals == NormalMode::kBlend;
+  bool can_blend_tangents = !p.tangents.empty();
+  for (size_t t = 0; t < p.targets.size(); ++t) {
+    if (tw[t] == 0.0f) continue;
+    can_blend_normals &= HasChannel(p.targets[t], TargetChannel::kNormal);
+    can_blend_tangents &= HasChannel(p.targets[t], TargetChannel::kTangent);
+    for (uint32_t v : p.targets[t].indices) {
+      if (!ctx.vertex_mark[v]) {
+        ctx.vertex_mark[v] = 1;
+        ctx.moved.push_back(v);
+      }
+    }
+  }
+  for (uint32_t v : ctx.moved) ctx.vertex_mark[v] = 0;
+
+  std::span<const uint32_t> changed = ctx.moved;  // Vertices whose normal may differ.
+  if (can_blend_normals) {
+    BlendShapeJob nj{.base = p.normals, .weights = tw, .targets = p.targets,
+                     .channel = TargetChannel::kNormal, .stride = 3, .out = bp.normals};
+    nj.Run();
+    for (uint32_t v : ctx.moved) Normalize3(&bp.normals[3 * static_cast<size_t>(v)]);
+  } else {
+    RecomputeNormalsAround(p, bp.positions, ctx.moved, bp.normals, ctx);
+    changed = ctx.affected;
+  }
+  if (p.tangents.empty()) return true;
+  if (can_blend_tangents) {
+    BlendShapeJob tj{.base = p.tangents, .weights = tw, .targets = p.targets,
+                     .channel = TargetChannel::kTangent, .stride = 4, .out = bp.tangents};
+    tj.Run();
+  }
+  // Keep the tangents of changed vertices orthogonal to their normals (Gram-Schmidt);
+  // w (handedness) is kept.
+  for (uint32_t v : changed) {
+    float* t4 = &bp.tangents[4 * static_cast<size_t>(v)];
+    const float* nn = &bp.normals[3 * static_cast<size_t>(v)];
+    const float dot = t4[0] * nn[0] + t4[1] * nn[1] + t4[2] * nn[2];
+    t4[0] -= dot * nn[0];
+    t4[1] -= dot * nn[1];
+    t4[2] -= dot * nn[2];
+    if (t4[0] * t4[0] + t4[1] * t4[1] + t4[2] * t4[2] < 1e-12f) {
+      // The deltas cancelled the tangent: any unit vector orthogonal to the normal.
+      const float ax = std::fabs(nn[0]) < 0.9f ? 1.0f : 0.0f;
+      const float ay = 1.0f - ax;
+      t4[0] = ay * nn[2];
+      t4[1] = -ax * nn[2];
+      t4[2] = ax * nn[1] - ay * nn[0];
+    }
+    Normalize3(t4);
+  }
+  return true;
+}
+
+}  // namespace
+
 Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOptions& options,
                    BlendedRig& out, BlendContext& ctx) {
   if (weights.size() != rig.shapes.size()) {
@@ -197,8 +273,17 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
   for (float w : weights) {
     if (!std::isfinite(w)) return InvalidArgument("weights must be finite");
   }
+  if (options.pose && options.pose->local.size() != rig.nodes.size()) return InvalidArgument("the pose does not match the rig");
+  out.node_world = options.pose ? WorldMatrices(rig, *options.pose) : NodeWorldMatrices(rig);
   out.primitives.resize(rig.primitives.size());
-  for (const Mesh& mesh : rig.meshes) {
+  // Each mesh is placed by the first node that shows it.
+  std::vector<int> mesh_node(rig.meshes.size(), -1);
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    if (rig.nodes[i].mesh >= 0 && mesh_node[rig.nodes[i].mesh] < 0) mesh_node[rig.nodes[i].mesh] = static_cast<int>(i);
+  }
+  const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
+    const Mesh& mesh = rig.meshes[mi];
     ctx.target_weights.resize(mesh.target_shapes.size());
     bool any_active = false;
     for (size_t t = 0; t < mesh.target_shapes.size(); ++t) {
@@ -206,73 +291,30 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
       any_active |= ctx.target_weights[t] != 0.0f;
     }
     const std::span<const float> tw(ctx.target_weights);
+    const bool skinned = mesh.skin >= 0 && static_cast<size_t>(mesh.skin) < rig.skins.size();
+    if (skinned) JointMatrices(rig, mesh.skin, out.node_world, ctx.joint_matrices);
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];
       BlendedPrimitive& bp = out.primitives[pi];
-      bp.positions.resize(p.positions.size());
-      bp.normals.resize(p.normals.size());
-      bp.tangents.resize(p.tangents.size());
-      BlendShapeJob job{.base = p.positions, .weights = tw, .targets = p.targets,
-                        .channel = TargetChannel::kPosition, .stride = 3, .out = bp.positions};
-      if (!job.Run()) return InvalidArgument("primitive " + std::to_string(pi) + " cannot be blended");
-      std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
-      std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
-      if (!any_active) continue;
-
-      // Union of the vertices the active targets move.
-      const size_t n = p.vertex_count();
-      if (ctx.vertex_mark.size() < n) ctx.vertex_mark.resize(n, 0);
-      ctx.moved.clear();
-      bool can_blend_normals = options.normals == NormalMode::kBlend;
-      bool can_blend_tangents = !p.tangents.empty();
-      for (size_t t = 0; t < p.targets.size(); ++t) {
-        if (tw[t] == 0.0f) continue;
-        can_blend_normals &= HasChannel(p.targets[t], TargetChannel::kNormal);
-        can_blend_tangents &= HasChannel(p.targets[t], TargetChannel::kTangent);
-        for (uint32_t v : p.targets[t].indices) {
-          if (!ctx.vertex_mark[v]) {
-            ctx.vertex_mark[v] = 1;
-            ctx.moved.push_back(v);
-          }
-        }
+      const bool skin_this = skinned && p.influences > 0;
+      // Morph first, then skin (glTF's order).
+      BlendedPrimitive& morphed = skin_this ? ctx.unskinned : bp;
+      if (!MorphPrimitive(p, tw, any_active, options, morphed, ctx)) {
+        return InvalidArgument("primitive " + std::to_string(pi) + " cannot be blended");
       }
-      for (uint32_t v : ctx.moved) ctx.vertex_mark[v] = 0;
-
-      std::span<const uint32_t> changed = ctx.moved;  // Vertices whose normal may differ.
-      if (can_blend_normals) {
-        BlendShapeJob nj{.base = p.normals, .weights = tw, .targets = p.targets,
-                         .channel = TargetChannel::kNormal, .stride = 3, .out = bp.normals};
-        nj.Run();
-        for (uint32_t v : ctx.moved) Normalize3(&bp.normals[3 * static_cast<size_t>(v)]);
-      } else {
-        RecomputeNormalsAround(p, bp.positions, ctx.moved, bp.normals, ctx);
-        changed = ctx.affected;
-      }
-      if (p.tangents.empty()) continue;
-      if (can_blend_tangents) {
-        BlendShapeJob tj{.base = p.tangents, .weights = tw, .targets = p.targets,
-                         .channel = TargetChannel::kTangent, .stride = 4, .out = bp.tangents};
-        tj.Run();
-      }
-      // Keep the tangents of changed vertices orthogonal to their normals (Gram-Schmidt);
-      // w (handedness) is kept.
-      for (uint32_t v : changed) {
-        float* t4 = &bp.tangents[4 * static_cast<size_t>(v)];
-        const float* nn = &bp.normals[3 * static_cast<size_t>(v)];
-        const float dot = t4[0] * nn[0] + t4[1] * nn[1] + t4[2] * nn[2];
-        t4[0] -= dot * nn[0];
-        t4[1] -= dot * nn[1];
-        t4[2] -= dot * nn[2];
-        if (t4[0] * t4[0] + t4[1] * t4[1] + t4[2] * t4[2] < 1e-12f) {
-          // The deltas cancelled the tangent: any unit vector orthogonal to the normal.
-          const float ax = std::fabs(nn[0]) < 0.9f ? 1.0f : 0.0f;
-          const float ay = 1.0f - ax;
-          t4[0] = ay * nn[2];
-          t4[1] = -ax * nn[2];
-          t4[2] = ax * nn[1] - ay * nn[0];
-        }
-        Normalize3(t4);
-      }
+      bp.skinned = skin_this;
+      if (!skin_this) bp.morphed_positions.clear();
+      bp.world = skin_this || mesh_node[mi] < 0 ? identity : out.node_world[mesh_node[mi]];
+      if (!skin_this) continue;
+      bp.positions.resize(morphed.positions.size());
+      bp.normals.resize(morphed.normals.size());
+      bp.tangents.resize(morphed.tangents.size());
+      SkinningJob skin{.joint_matrices = ctx.joint_matrices, .influences = p.influences, .joints = p.joints,
+                       .weights = p.joint_weights, .in_positions = morphed.positions, .in_normals = morphed.normals,
+                       .in_tangents = morphed.tangents, .out_positions = bp.positions, .out_normals = bp.normals,
+                       .out_tangents = bp.tangents};
+      if (!skin.Run()) return InvalidArgument("primitive " + std::to_string(pi) + " cannot be skinned");
+      bp.morphed_positions.assign(morphed.positions.begin(), morphed.positions.end());
     }
   }
   return Status::Ok();

@@ -101,7 +101,6 @@ void TransformNormal(const std::array<float, 16>& m, const float* n, float* out)
 std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
   std::string out = "# facespace blended mesh\n";
   for (const Warning& w : warnings) out += "# warning: " + w.message + "\n";
-  const auto world = PrimitiveWorldMatrices(rig);
   size_t base_v = 1;
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     const Primitive& p = rig.primitives[i];
@@ -112,7 +111,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     out += "o " + name + "_" + std::to_string(p.index_in_mesh) + "\n";
     for (size_t v = 0; v < n; ++v) {
       float q[3];
-      Transform(world[i], &b.positions[3 * v], 1.0f, q);
+      Transform(b.world, &b.positions[3 * v], 1.0f, q);
       out += "v ";
       AppendFloat(out, q[0]);
       out += ' ';
@@ -131,7 +130,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     }
     for (size_t v = 0; v < n; ++v) {
       float q[3];
-      TransformNormal(world[i], &b.normals[3 * v], q);
+      TransformNormal(b.world, &b.normals[3 * v], q);
       out += "vn ";
       AppendFloat(out, q[0]);
       out += ' ';
@@ -160,14 +159,13 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
 }
 
 std::string ExportF32(const Rig& rig, const BlendedRig& blended) {
-  const auto world = PrimitiveWorldMatrices(rig);
   std::vector<float> data;
   data.reserve(rig.vertex_count() * 6);
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     const auto& pos = blended.primitives[i].positions;
     for (size_t v = 0; v < pos.size(); v += 3) {
       float q[3];
-      Transform(world[i], &pos[v], 1.0f, q);
+      Transform(blended.primitives[i].world, &pos[v], 1.0f, q);
       data.insert(data.end(), q, q + 3);
     }
   }
@@ -175,7 +173,7 @@ std::string ExportF32(const Rig& rig, const BlendedRig& blended) {
     const auto& nrm = blended.primitives[i].normals;
     for (size_t v = 0; v < nrm.size(); v += 3) {
       float q[3];
-      TransformNormal(world[i], &nrm[v], q);
+      TransformNormal(blended.primitives[i].world, &nrm[v], q);
       data.insert(data.end(), q, q + 3);
     }
   }

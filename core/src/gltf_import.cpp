@@ -245,6 +245,7 @@ int ComponentCount(int type) {
     case TINYGLTF_TYPE_VEC2: return 2;
     case TINYGLTF_TYPE_VEC3: return 3;
     case TINYGLTF_TYPE_VEC4: return 4;
+    case TINYGLTF_TYPE_MAT4: return 16;
     default: return 0;
   }
 }
@@ -479,7 +480,7 @@ bool TextureTransform(const tinygltf::ExtensionMap& ext, float m[6]) {
 }
 
 Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive& src, int mesh_index,
-                        int prim_index, Primitive& p) {
+                        int prim_index, Primitive& p, std::vector<Warning>& warnings) {
   const std::string what = "mesh " + std::to_string(mesh_index) + " primitive " + std::to_string(prim_index);
   p.mesh = mesh_index;
   p.index_in_mesh = prim_index;
@@ -523,6 +524,60 @@ Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive&
       nn[1] /= len;
       nn[2] /= len;
     }
+  }
+
+  // Skinning influences from every JOINTS_n/WEIGHTS_n pair, normalised per vertex.
+  for (int set = 0;; ++set) {
+    const std::string jn = "JOINTS_" + std::to_string(set), wn = "WEIGHTS_" + std::to_string(set);
+    const int ja = attr(jn.c_str()), wa = attr(wn.c_str());
+    if (ja < 0 && wa < 0) break;
+    if (ja < 0 || wa < 0) return InvalidArgument(what + ": " + (ja < 0 ? jn : wn) + " is missing its pair");
+    std::vector<float> j, w;
+    int jc = 0, wc = 0;
+    if (Status s = ReadAccessor(model, ja, j, jc, what + " " + jn); !s.ok()) return s;
+    if (Status s = ReadAccessor(model, wa, w, wc, what + " " + wn); !s.ok()) return s;
+    if (jc != 4 || wc != 4 || j.size() != 4 * n || w.size() != 4 * n) {
+      return InvalidArgument(what + ": " + jn + "/" + wn + " must be VEC4 with one element per vertex");
+    }
+    if (set > 15) return InvalidArgument(what + ": too many JOINTS_n sets");
+    p.joints.resize((set + 1) * 4 * n);
+    p.joint_weights.resize((set + 1) * 4 * n);
+    // Re-lay out as `influences` consecutive entries per vertex.
+    std::vector<uint16_t> joints(p.joints.size());
+    std::vector<float> weights(p.joint_weights.size());
+    const size_t k_old = 4 * static_cast<size_t>(set), k_new = k_old + 4;
+    for (size_t v = 0; v < n; ++v) {
+      for (size_t k = 0; k < k_old; ++k) {
+        joints[v * k_new + k] = p.joints[v * k_old + k];
+        weights[v * k_new + k] = p.joint_weights[v * k_old + k];
+      }
+      for (size_t k = 0; k < 4; ++k) {
+        const float jf = j[4 * v + k];
+        if (jf < 0.0f || jf > 65535.0f) return InvalidArgument(what + ": " + jn + " has an invalid joint index");
+        joints[v * k_new + k_old + k] = static_cast<uint16_t>(jf);
+        weights[v * k_new + k_old + k] = std::max(w[4 * v + k], 0.0f);
+      }
+    }
+    p.joints.swap(joints);
+    p.joint_weights.swap(weights);
+    p.influences = k_new;
+  }
+  size_t renormalised = 0;
+  for (size_t v = 0; v < n && p.influences; ++v) {
+    float sum = 0.0f;
+    for (size_t k = 0; k < p.influences; ++k) sum += p.joint_weights[v * p.influences + k];
+    if (std::fabs(sum - 1.0f) > 2e-3f) ++renormalised;
+    if (sum <= 0.0f) {
+      p.joint_weights[v * p.influences] = 1.0f;  // No influence at all: follow the first joint.
+      continue;
+    }
+    for (size_t k = 0; k < p.influences; ++k) p.joint_weights[v * p.influences + k] /= sum;
+  }
+  if (renormalised) {
+    warnings.push_back({"weights_normalised",
+                        what + ": the skin weights of " + std::to_string(renormalised) + " of " + std::to_string(n) +
+                            " vertices did not sum to 1 and were normalised",
+                        "", static_cast<double>(renormalised), true});
   }
 
   std::vector<uint32_t> indices;
@@ -693,7 +748,7 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
     }
     for (size_t pi = 0; pi < sm.primitives.size(); ++pi) {
       Primitive p;
-      if (Status s = ConvertPrimitive(model, sm.primitives[pi], static_cast<int>(mi), static_cast<int>(pi), p);
+      if (Status s = ConvertPrimitive(model, sm.primitives[pi], static_cast<int>(mi), static_cast<int>(pi), p, rig.load_warnings);
           !s.ok()) {
         return s;
       }
@@ -780,29 +835,94 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
     }
   }
   rig.skin_count = model.skins.size();
-  for (const auto& skin : model.skins) {
+  for (size_t si = 0; si < model.skins.size(); ++si) {
+    const auto& skin = model.skins[si];
     rig.joint_count += skin.joints.size();
-    Skin s{skin.name, {}};
+    Skin s{skin.name, {}, {}};
     for (int j : skin.joints) {
       if (j < 0 || static_cast<size_t>(j) >= rig.nodes.size()) return InvalidArgument("skin '" + skin.name + "': joint out of range");
       s.joints.push_back(j);
     }
+    if (skin.inverseBindMatrices >= 0) {
+      int comps = 0;
+      if (Status st = ReadAccessor(model, skin.inverseBindMatrices, s.inverse_bind, comps, "skin " + std::to_string(si) + " inverseBindMatrices");
+          !st.ok()) {
+        return st;
+      }
+      if (comps != 16 || s.inverse_bind.size() != 16 * s.joints.size()) {
+        return InvalidArgument("skin " + std::to_string(si) + ": needs one MAT4 inverse bind matrix per joint");
+      }
+    } else {
+      for (size_t j = 0; j < s.joints.size(); ++j) s.inverse_bind.insert(s.inverse_bind.end(), {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1});
+    }
     rig.skins.push_back(std::move(s));
   }
-  for (const auto& anim : model.animations) {
-    AnimationInfo info;
-    info.name = anim.name;
-    info.channels = anim.channels.size();
-    for (const auto& ch : anim.channels) {
-      info.has_weights |= ch.target_path == "weights";
-      if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= anim.samplers.size()) continue;
-      const int input = anim.samplers[ch.sampler].input;
-      if (input >= 0 && static_cast<size_t>(input) < model.accessors.size() &&
-          model.accessors[input].maxValues.size() == 1 && std::isfinite(model.accessors[input].maxValues[0])) {
-        info.duration = std::max(info.duration, static_cast<float>(model.accessors[input].maxValues[0]));
+  // A mesh is skinned by the skin of the first node that shows it with one.
+  for (size_t i = 0; i < model.nodes.size(); ++i) {
+    const int m = model.nodes[i].mesh, sk = model.nodes[i].skin;
+    if (m < 0 || sk < 0) continue;
+    if (static_cast<size_t>(sk) >= rig.skins.size()) return InvalidArgument("node " + std::to_string(i) + ": skin out of range");
+    if (rig.meshes[m].skin < 0) rig.meshes[m].skin = sk;
+  }
+  for (const Mesh& mesh : rig.meshes) {
+    if (mesh.skin < 0) continue;
+    const size_t joints = rig.skins[mesh.skin].joints.size();
+    for (int pi : mesh.primitives) {
+      for (uint16_t j : rig.primitives[pi].joints) {
+        if (j >= joints) return InvalidArgument("mesh '" + mesh.name + "': joint index " + std::to_string(j) + " beyond its skin's " + std::to_string(joints) + " joints");
       }
     }
-    rig.animations.push_back(info);
+  }
+  for (size_t ai = 0; ai < model.animations.size(); ++ai) {
+    const auto& anim = model.animations[ai];
+    const std::string where = "animation " + std::to_string(ai);
+    AnimationInfo info;
+    info.name = anim.name.empty() ? "animation_" + std::to_string(ai) : anim.name;
+    info.channels = anim.channels.size();
+    for (size_t si = 0; si < anim.samplers.size(); ++si) {
+      const auto& src = anim.samplers[si];
+      AnimationSampler smp;
+      int comps = 0;
+      if (Status st = ReadAccessor(model, src.input, smp.times, comps, where + " input"); !st.ok()) return st;
+      if (comps != 1 || smp.times.empty()) return InvalidArgument(where + ": sampler input must be non-empty scalars");
+      for (size_t k = 1; k < smp.times.size(); ++k) {
+        if (!(smp.times[k] > smp.times[k - 1])) return InvalidArgument(where + ": keyframe times must increase");
+      }
+      if (Status st = ReadAccessor(model, src.output, smp.values, comps, where + " output"); !st.ok()) return st;
+      smp.interpolation = src.interpolation == "STEP" ? Interpolation::kStep
+                          : src.interpolation == "CUBICSPLINE" ? Interpolation::kCubicSpline : Interpolation::kLinear;
+      const size_t per_key = smp.values.size() / smp.times.size() / (smp.interpolation == Interpolation::kCubicSpline ? 3 : 1);
+      if (per_key == 0 || per_key * smp.times.size() * (smp.interpolation == Interpolation::kCubicSpline ? 3 : 1) != smp.values.size()) {
+        return InvalidArgument(where + ": sampler output does not match its input");
+      }
+      smp.components = per_key;
+      info.duration = std::max(info.duration, smp.times.back());
+      info.sampler_data.push_back(std::move(smp));
+    }
+    for (const auto& ch : anim.channels) {
+      if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= info.sampler_data.size() || ch.target_node < 0 ||
+          static_cast<size_t>(ch.target_node) >= rig.nodes.size()) {
+        return InvalidArgument(where + ": channel with an invalid sampler or node");
+      }
+      AnimationChannel c{ch.sampler, ch.target_node, ChannelPath::kTranslation};
+      const size_t comps = info.sampler_data[ch.sampler].components;
+      size_t want = 0;
+      if (ch.target_path == "translation") { c.path = ChannelPath::kTranslation; want = 3; }
+      else if (ch.target_path == "rotation") { c.path = ChannelPath::kRotation; want = 4; }
+      else if (ch.target_path == "scale") { c.path = ChannelPath::kScale; want = 3; }
+      else if (ch.target_path == "weights") {
+        c.path = ChannelPath::kWeights;
+        info.has_weights = true;
+        const int m = rig.nodes[ch.target_node].mesh;
+        if (m < 0) return InvalidArgument(where + ": a weights channel targets a node without a mesh");
+        want = rig.meshes[m].target_shapes.size();
+      } else {
+        continue;  // "pointer" and others: not ours to animate.
+      }
+      if (comps != want) return InvalidArgument(where + ": channel " + ch.target_path + " has " + std::to_string(comps) + " values per key, expected " + std::to_string(want));
+      info.channel_data.push_back(c);
+    }
+    rig.animations.push_back(std::move(info));
   }
   DetectSymmetricPartners(rig);
   CountMovedVertices(rig);

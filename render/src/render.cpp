@@ -273,7 +273,6 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
   const int w = o.width * o.supersample, h = o.height * o.supersample;
 
   // World-space vertices: pos, normal, uv, colour, displacement (13 floats).
-  const auto world = PrimitiveWorldMatrices(rig);
   struct Draw {
     size_t first_vertex, first_index, index_count;
     PrimitiveMode mode;
@@ -287,16 +286,23 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
     const BlendedPrimitive& b = blended.primitives[pi];
-    const auto& m = world[pi];
+    const auto& m = b.world;
     Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
     const size_t first = verts.size() / 13;
     for (size_t v = 0; v < p.vertex_count(); ++v) {
       float q[3], q0[3];
       Apply(m, &b.positions[3 * v], q);
-      Apply(m, &p.positions[3 * v], q0);
+      // Displacement by the shapes: world space, or for skinned primitives the morph in
+      // mesh space (the skeleton's motion is not the shapes').
+      if (b.skinned) {
+        for (int c = 0; c < 3; ++c) q0[c] = b.morphed_positions[3 * v + c] - p.positions[3 * v + c];
+      } else {
+        Apply(m, &p.positions[3 * v], q0);
+        for (int c = 0; c < 3; ++c) q0[c] = q[c] - q0[c];
+      }
       Eigen::Vector3f n = (nm * Eigen::Map<const Eigen::Vector3f>(&b.normals[3 * v])).normalized();
       if (!n.allFinite()) n = Eigen::Vector3f::UnitZ();
-      const float d = std::sqrt((q[0] - q0[0]) * (q[0] - q0[0]) + (q[1] - q0[1]) * (q[1] - q0[1]) + (q[2] - q0[2]) * (q[2] - q0[2]));
+      const float d = std::sqrt(q0[0] * q0[0] + q0[1] * q0[1] + q0[2] * q0[2]);
       heat_max = std::max(heat_max, d);
       box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
       const float uv[2] = {p.texcoords.empty() ? 0.0f : p.texcoords[2 * v], p.texcoords.empty() ? 0.0f : p.texcoords[2 * v + 1]};

@@ -2,6 +2,7 @@
 // also keeps normals and tangents fresh.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -41,19 +42,28 @@ enum class NormalMode {
   kRecompute,  // Recompute from the blended positions over the faces the active shapes touch.
 };
 
+struct Pose;
+
 struct BlendOptions {
   BlendMode mode = BlendMode::kRelative;
   NormalMode normals = NormalMode::kBlend;
+  const Pose* pose = nullptr;  // Skeleton pose (skeleton.h); nullptr: the rest pose.
 };
 
 struct BlendedPrimitive {
-  std::vector<float> positions;  // xyz per vertex, mesh space.
+  std::vector<float> positions;  // xyz per vertex: mesh space, or scene space when skinned.
   std::vector<float> normals;    // xyz per vertex, unit length.
   std::vector<float> tangents;   // xyzw per vertex, or empty when the rig has none.
+  bool skinned = false;          // Positions are in scene space (glTF ignores the node's transform).
+  std::vector<float> morphed_positions;  // Skinned only: the positions after morphing, before
+                                         // skinning (mesh space), for displacement views.
+  std::array<float, 16> world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // Places the
+                                 // positions in the scene (identity when skinned), under the pose.
 };
 
 struct BlendedRig {
   std::vector<BlendedPrimitive> primitives;  // Same order as Rig::primitives.
+  std::vector<std::array<float, 16>> node_world;  // World matrix of every node under the pose.
 };
 
 // Per-evaluation scratch, owned by the caller and reused between calls so that steady-state
@@ -62,6 +72,8 @@ struct BlendContext {
   std::vector<float> target_weights;  // Per target of the current mesh.
   std::vector<uint8_t> vertex_mark;   // Per vertex of the largest primitive.
   std::vector<uint32_t> moved;        // Vertices moved by the active targets.
+  std::vector<float> joint_matrices;  // Skinning: 16 floats per joint of the current skin.
+  BlendedPrimitive unskinned;         // Skinning: the morphed primitive before skinning.
   std::vector<uint32_t> affected;     // Vertices whose normals are recomputed.
 };
 

@@ -47,6 +47,11 @@ struct Primitive {
   std::vector<uint32_t> indices;   // Triangle list (3 per face) for kTriangles; else as mode.
   int material = -1;               // Index into Rig::materials, or -1.
   std::vector<SparseTarget> targets;  // One per morph target of the mesh, in glTF order.
+  // Skinning influences (JOINTS_n/WEIGHTS_n, every set): `influences` per vertex, joint
+  // indices into the skin's joint list, weights normalised to sum 1. Empty when unskinned.
+  size_t influences = 0;
+  std::vector<uint16_t> joints;
+  std::vector<float> joint_weights;
 
   // Derived on load (FinalizePrimitive): vertex -> incident faces (CSR), and the smooth
   // area-weighted normals of the base positions (used by normal recomputation).
@@ -68,6 +73,7 @@ struct Mesh {
   std::string name;
   std::vector<int> primitives;          // Indices into Rig::primitives.
   std::vector<uint32_t> target_shapes;  // Morph target t of this mesh drives shape target_shapes[t].
+  int skin = -1;                        // Skin of the first node showing this mesh, or -1.
 };
 
 struct Shape {
@@ -111,18 +117,37 @@ struct Material {
   float alpha_cutoff = 0.5f;
 };
 
-// A skeleton as the source declares it (evaluated by the skinning issue).
 struct Skin {
   std::string name;
   std::vector<int> joints;              // Node indices.
+  std::vector<float> inverse_bind;      // 16 floats (column-major) per joint.
 };
 
-// An animation clip as the source declares it: what the rig's route lists.
+enum class Interpolation { kStep, kLinear, kCubicSpline };
+enum class ChannelPath { kTranslation, kRotation, kScale, kWeights };
+
+struct AnimationSampler {
+  std::vector<float> times;             // Ascending, seconds.
+  std::vector<float> values;            // Per key: `components` floats (x3 for CUBICSPLINE:
+                                        // in-tangent, value, out-tangent).
+  size_t components = 0;
+  Interpolation interpolation = Interpolation::kLinear;
+};
+
+struct AnimationChannel {
+  int sampler = 0;
+  int node = 0;
+  ChannelPath path = ChannelPath::kTranslation;
+};
+
+// An animation clip.
 struct AnimationInfo {
   std::string name;
   float duration = 0.0f;                // Seconds: the latest keyframe time of any channel.
   size_t channels = 0;
   bool has_weights = false;             // Drives morph weights.
+  std::vector<AnimationSampler> sampler_data;
+  std::vector<AnimationChannel> channel_data;
 };
 
 struct Rig {
