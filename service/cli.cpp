@@ -11,6 +11,7 @@
 #include "facespace/api/request.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
 
@@ -86,7 +87,8 @@ bool WriteOutput(const std::string& path, const std::string& data) {
 
 std::string Usage() {
   return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
-         "       [--normals blend|recompute] [--keep-targets] [--format glb|obj|json|f32] -o OUT\n";
+         "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
+         "       [--blend JSON|@FILE] [--keep-targets] [--format glb|obj|json|f32] -o OUT\n";
 }
 
 }  // namespace
@@ -172,8 +174,30 @@ namespace {
 // Returns 0 when args[i] is not one of them, -1 when it was consumed (i advanced), or an
 // exit code.
 int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<WeightEntry>& entries, BlendOptions& options,
-               bool& weights_given) {
+               bool& weights_given, api::MeshRequest& skeleton) {
   const std::string& a = args[i];
+  if (a == "--loop") {
+    bool known = false;
+    api::ApplyPoseSetting("loop", "true", skeleton, &known);
+    return -1;
+  }
+  if (a == "--pose" || a == "--animation" || a == "--time" || a == "--blend") {
+    if (i + 1 >= args.size()) {
+      std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
+      return 2;
+    }
+    std::string v = args[++i];
+    if ((a == "--pose" || a == "--blend") && !v.empty() && v[0] == '@' && !ReadFile(v.substr(1), v)) {
+      std::fprintf(stderr, "error: %s: cannot read '%s'\n", a.c_str(), args[i].substr(1).c_str());
+      return 1;
+    }
+    bool known = false;
+    if (std::string e = api::ApplyPoseSetting(a.substr(2), v, skeleton, &known); !e.empty()) {
+      std::fprintf(stderr, "error: %s: %s\n", a.c_str(), e.c_str());
+      return 2;
+    }
+    return -1;
+  }
   if (a != "--weights" && a != "--set" && a != "--mode" && a != "--normals") return 0;
   if (i + 1 >= args.size()) {
     std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
@@ -226,16 +250,20 @@ int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<Weig
 }
 
 // Resolves, checks (warnings to stderr) and evaluates. Returns an exit code (0 on success).
-int EvaluateForCli(const Rig& rig, std::span<const WeightEntry> entries, const BlendOptions& options,
-                   std::vector<float>& weights, WeightReport& report, BlendedRig& blended, BlendContext& context) {
-  Result<std::vector<float>> resolved = ResolveWeights(rig, entries);
-  if (!resolved.ok()) {
-    PrintStatus(resolved.status());
+int EvaluateForCli(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& pose_request,
+                   BlendOptions options, std::vector<float>& weights, WeightReport& report, BlendedRig& blended,
+                   BlendContext& context) {
+  Pose pose;
+  bool posed = false;
+  std::vector<Warning> pose_warnings;
+  if (Status s = ResolvePoseAndWeights(rig, entries, pose_request, weights, pose, posed, pose_warnings); !s.ok()) {
+    PrintStatus(s);
     return 1;
   }
-  weights = std::move(resolved.value());
   report = CheckWeights(rig, weights, options.mode);
+  report.warnings.insert(report.warnings.end(), pose_warnings.begin(), pose_warnings.end());
   PrintWarnings(report.warnings);
+  options.pose = posed ? &pose : nullptr;
   if (Status s = EvaluateRig(rig, weights, options, blended, context); !s.ok()) {
     PrintStatus(s);
     return 1;
@@ -263,9 +291,10 @@ int Blend(const std::vector<std::string>& args) {
   std::string out_path, format_name;
   ExportOptions export_options;
   bool weights_given = false;
+  api::MeshRequest skeleton;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (int rc = WeightFlag(args, i, entries, options, weights_given); rc != 0) {
+    if (int rc = WeightFlag(args, i, entries, options, weights_given, skeleton); rc != 0) {
       if (rc > 0) return rc;
       continue;
     }
@@ -321,7 +350,11 @@ int Blend(const std::vector<std::string>& args) {
   WeightReport report;
   BlendedRig blended;
   BlendContext context;
-  if (int rc = EvaluateForCli(rig, entries, options, weights, report, blended, context)) return rc;
+  if (std::string e = api::FinishPoseSettings(skeleton); !e.empty()) {
+    std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
+    return 2;
+  }
+  if (int rc = EvaluateForCli(rig, entries, skeleton.pose, options, weights, report, blended, context)) return rc;
   Result<std::string> bytes = ExportMesh(rig, blended, weights, report.warnings, format, export_options);
   if (!bytes.ok()) {
     PrintStatus(bytes.status());
@@ -384,7 +417,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   if (sheet) r.render.width = r.render.height = 256;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (int rc = WeightFlag(args, i, entries, r.mesh.options, weights_given); rc != 0) {
+    if (int rc = WeightFlag(args, i, entries, r.mesh.options, weights_given, r.mesh); rc != 0) {
       if (rc > 0) return rc;
       continue;
     }
@@ -443,8 +476,12 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   BlendedRig blended;
   BlendContext context;
   render::Image image;
+  if (std::string e = api::FinishPoseSettings(r.mesh); !e.empty()) {
+    std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
+    return 2;
+  }
   if (!sheet) {
-    if (int rc = EvaluateForCli(rig, entries, r.mesh.options, weights, report, blended, context)) return rc;
+    if (int rc = EvaluateForCli(rig, entries, r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
     if (Status s = render::Render(rig, blended, r.render, image); !s.ok()) {
       PrintStatus(s);
       return 1;
@@ -477,7 +514,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     }
     std::vector<render::Image> images(parsed->cells.size());
     for (size_t c = 0; c < parsed->cells.size(); ++c) {
-      if (int rc = EvaluateForCli(rig, parsed->cells[c], r.mesh.options, weights, report, blended, context)) return rc;
+      if (int rc = EvaluateForCli(rig, parsed->cells[c], r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
       if (Status s = render::Render(rig, blended, r.render, images[c]); !s.ok()) {
         PrintStatus(s);
         return 1;

@@ -14,6 +14,7 @@
 #include "facespace/api/request.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
 
@@ -315,6 +316,21 @@ std::string RenderCanonical(const api::RenderRequest& r, render::ImageFormat for
          (r.mesh.options.normals == NormalMode::kRecompute ? "rec" : "bl");
 }
 
+// The evaluated pose, bit for bit ("" for the rest pose).
+std::string PoseCanonical(const Pose& pose, bool posed) {
+  if (!posed) return "";
+  std::string s = "|pose:";
+  for (size_t i = 0; i < pose.local.size(); ++i) {
+    if (pose.from_matrix[i]) {
+      s += "m,";
+      continue;
+    }
+    const Transform& t = pose.local[i];
+    s += FloatsCanonical(t.translation) + FloatsCanonical(t.rotation) + FloatsCanonical(t.scale);
+  }
+  return s;
+}
+
 std::string WeightsCanonical(std::span<const float> w) {
   std::string s;
   s.reserve(w.size() * 8);
@@ -501,9 +517,13 @@ struct Api::Impl {
       } else if (key == "strict" || key == "keep_targets") {
         if (!ParseBool(value, key == "strict" ? &mr.strict : &mr.keep_targets)) errors.push_back({where, "must be true or false"});
       } else {
-        errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
+        bool known = false;
+        const std::string e = ApplyPoseSetting(key, value, mr, &known);
+        if (!known) errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
+        else if (!e.empty()) errors.push_back({where, e});
       }
     }
+    if (std::string e = FinishPoseSettings(mr); !e.empty()) errors.push_back({"?animation", e});
     if (!errors.empty()) {
       SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
       return false;
@@ -513,14 +533,14 @@ struct Api::Impl {
 
   // Resolves and checks the weights; sets the warning headers. False when an error was sent.
   bool Weigh(const Request& req, Response& res, const StoredRig& rig, const MeshRequest& mr, std::vector<float>& w,
-             WeightReport& report) {
-    auto resolved = ResolveWeights(rig.rig, mr.weights);
-    if (!resolved.ok()) {
-      SendProblem(req, res, 422, "invalid-weights", resolved.status().message, resolved.status().fields);
+             WeightReport& report, Pose& pose, bool& posed) {
+    std::vector<Warning> pose_warnings;
+    if (Status s = ResolvePoseAndWeights(rig.rig, mr.weights, mr.pose, w, pose, posed, pose_warnings); !s.ok()) {
+      SendProblem(req, res, 422, "invalid-weights", s.message, s.fields);
       return false;
     }
-    w = std::move(resolved.value());
     report = CheckWeights(rig.rig, w, mr.options.mode);
+    report.warnings.insert(report.warnings.end(), pose_warnings.begin(), pose_warnings.end());
     res.set_header("Facespace-Weight-Sum", FormatNumber(report.sum));
     if (!report.warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(report.warnings));
     for (const Warning& warning : report.warnings) {
@@ -554,9 +574,12 @@ struct Api::Impl {
     }
     std::vector<float> w;
     WeightReport report;
-    if (!Weigh(req, res, *rig, mr, w, report)) return;
+    Pose pose;
+    bool posed = false;
+    if (!Weigh(req, res, *rig, mr, w, report, pose, posed)) return;
+    mr.options.pose = posed ? &pose : nullptr;
 
-    const std::string canonical = std::string(MeshFormatName(format)) + "|" +
+    const std::string canonical = PoseCanonical(pose, posed) + std::string(MeshFormatName(format)) + "|" +
                                   (mr.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
                                   (mr.options.normals == NormalMode::kRecompute ? "rec" : "bl") + "|" +
                                   (mr.keep_targets ? "t" : "-") + "|" + WeightsCanonical(w);
@@ -628,10 +651,13 @@ struct Api::Impl {
         if (!ParseBool(value, &rr.mesh.strict)) errors.push_back({where, "must be true or false"});
       } else if (std::string e = ApplyRenderSetting(key, value, rr, &known); known) {
         if (!e.empty()) errors.push_back({where, e});
+      } else if (std::string pe = ApplyPoseSetting(key, value, rr.mesh, &known); known) {
+        if (!pe.empty()) errors.push_back({where, pe});
       } else {
         errors.push_back({where, "unknown parameter"});
       }
     }
+    if (std::string e = FinishPoseSettings(rr.mesh); !e.empty()) errors.push_back({"?animation", e});
     if (!errors.empty()) {
       SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
       return false;
@@ -686,8 +712,12 @@ struct Api::Impl {
     if (!ReadRenderRequest(req, res, rr) || !CheckSize(req, res, rr.render) || !PickImageFormat(req, res, rr, &format)) return;
     std::vector<float> w;
     WeightReport report;
-    if (!Weigh(req, res, *rig, rr.mesh, w, report)) return;
-    const std::string key = rig->id + "|" + rig->version + "|render|" + RenderCanonical(rr, format) + "|" + WeightsCanonical(w);
+    Pose pose;
+    bool posed = false;
+    if (!Weigh(req, res, *rig, rr.mesh, w, report, pose, posed)) return;
+    rr.mesh.options.pose = posed ? &pose : nullptr;
+    const std::string key = rig->id + "|" + rig->version + "|render|" + RenderCanonical(rr, format) + "|" + WeightsCanonical(w) +
+                            PoseCanonical(pose, posed);
     if (NotModified(req, res, key)) return;
     std::shared_ptr<const Encoded> enc = cache.Get(key);
     if (!enc) {
@@ -742,17 +772,19 @@ struct Api::Impl {
     // Every cell's weights first, so nothing is rendered when one of them is wrong.
     std::vector<std::vector<float>> weights(sr.cells.size());
     std::vector<Warning> all_warnings;
+    Pose pose;
+    bool posed = false;
     double max_sum = 0.0;
     std::string key = rig->id + "|" + rig->version + "|sheet|" + std::to_string(sr.columns) + "|" + RenderCanonical(sr.base, format);
     for (size_t c = 0; c < sr.cells.size(); ++c) {
-      auto resolved = ResolveWeights(rig->rig, sr.cells[c]);
-      if (!resolved.ok()) {
-        SendProblem(req, res, 422, "invalid-weights", "cell " + std::to_string(c) + ": " + resolved.status().message,
-                    resolved.status().fields);
+      std::vector<Warning> pose_warnings;
+      if (Status st = ResolvePoseAndWeights(rig->rig, sr.cells[c], sr.base.mesh.pose, weights[c], pose, posed, pose_warnings);
+          !st.ok()) {
+        SendProblem(req, res, 422, "invalid-weights", "cell " + std::to_string(c) + ": " + st.message, st.fields);
         return;
       }
-      weights[c] = std::move(resolved.value());
       WeightReport report = CheckWeights(rig->rig, weights[c], sr.base.mesh.options.mode);
+      if (c == 0) report.warnings.insert(report.warnings.end(), pose_warnings.begin(), pose_warnings.end());
       max_sum = std::max(max_sum, report.sum);
       for (Warning& wn : report.warnings) {
         wn.message = "cell " + std::to_string(c) + ": " + wn.message;
@@ -760,6 +792,8 @@ struct Api::Impl {
       }
       key += "|" + WeightsCanonical(weights[c]) + "#" + sr.labels[c];
     }
+    key += PoseCanonical(pose, posed);
+    sr.base.mesh.options.pose = posed ? &pose : nullptr;
     res.set_header("Facespace-Weight-Sum", FormatNumber(max_sum));
     if (!all_warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(all_warnings));
     if (sr.base.mesh.strict && !all_warnings.empty()) {
@@ -804,7 +838,9 @@ struct Api::Impl {
     if (!ReadMeshRequest(req, res, mr)) return;
     std::vector<float> w;
     WeightReport report;
-    if (!Weigh(req, res, *rig, mr, w, report)) return;
+    Pose pose;
+    bool posed = false;
+    if (!Weigh(req, res, *rig, mr, w, report, pose, posed)) return;
     json weights = json::object();
     for (size_t i = 0; i < w.size(); ++i) {
       if (w[i] != 0.0f) weights[rig->rig.shapes[i].name] = w[i];

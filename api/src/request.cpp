@@ -92,10 +92,130 @@ Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const s
 
 namespace {
 
+bool FloatArray(const json& v, float* out, size_t n) {
+  if (!v.is_array() || v.size() != n) return false;
+  for (size_t i = 0; i < n; ++i) {
+    if (!v[i].is_number() || !std::isfinite(v[i].get<double>())) return false;
+    out[i] = v[i].get<float>();
+  }
+  return true;
+}
+
+// A clip reference: a name or an index.
+bool ClipRef(const json& v, ClipRequest& c) {
+  if (v.is_string()) {
+    c.name = v.get<std::string>();
+    return !c.name.empty();
+  }
+  if (v.is_number_integer() && v.get<long long>() >= 0) {
+    c.index = v.get<long long>();
+    return true;
+  }
+  return false;
+}
+
+void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
+  if (!v.is_object()) {
+    errors.fields.push_back({"/pose", "must be an object of joint name -> {rotation|euler, translation, scale}"});
+    return;
+  }
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    JointOverride j;
+    j.joint = it.key();
+    j.pointer = "/pose/" + Escape(it.key());
+    if (!it->is_object()) {
+      errors.fields.push_back({j.pointer, "must be an object"});
+      continue;
+    }
+    for (auto p = it->begin(); p != it->end(); ++p) {
+      const std::string ptr = j.pointer + "/" + Escape(p.key());
+      bool ok = true;
+      if (p.key() == "rotation") ok = j.has_rotation = FloatArray(*p, j.rotation.data(), 4);
+      else if (p.key() == "euler") ok = j.has_euler = FloatArray(*p, j.euler.data(), 3);
+      else if (p.key() == "translation") ok = j.has_translation = FloatArray(*p, j.translation.data(), 3);
+      else if (p.key() == "scale") ok = j.has_scale = FloatArray(*p, j.scale.data(), 3);
+      else errors.fields.push_back({ptr, "unknown member (rotation, euler, translation, scale)"});
+      if (!ok) {
+        errors.fields.push_back({ptr, p.key() == "rotation" ? "must be [x, y, z, w] of finite numbers" : "must be [x, y, z] of finite numbers"});
+      }
+    }
+    pose.joints.push_back(std::move(j));
+  }
+}
+
+void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
+  if (!v.is_array() || v.empty()) {
+    errors.fields.push_back({"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});
+    return;
+  }
+  for (size_t i = 0; i < v.size(); ++i) {
+    ClipRequest c;
+    c.pointer = "/blend/" + std::to_string(i);
+    const json& e = v[i];
+    if (!e.is_object() || !e.contains("animation") || !ClipRef(e["animation"], c)) {
+      errors.fields.push_back({c.pointer + "/animation", "needs an animation name or index"});
+      continue;
+    }
+    for (auto p = e.begin(); p != e.end(); ++p) {
+      const std::string ptr = c.pointer + "/" + Escape(p.key());
+      if (p.key() == "animation") continue;
+      if (p.key() == "time" || p.key() == "weight") {
+        if (!p->is_number() || !std::isfinite(p->get<double>())) errors.fields.push_back({ptr, "must be a finite number"});
+        else (p.key() == "time" ? c.time : c.weight) = p->get<float>();
+      } else if (p.key() == "loop") {
+        if (!p->is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+        else c.loop = p->get<bool>();
+      } else if (p.key() == "mask") {
+        if (!p->is_array()) {
+          errors.fields.push_back({ptr, "must be an array of joint names"});
+          continue;
+        }
+        for (const json& m : *p) {
+          if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
+          else c.mask.push_back(m.get<std::string>());
+        }
+      } else {
+        errors.fields.push_back({ptr, "unknown member (animation, time, weight, loop, mask)"});
+      }
+    }
+    if (c.weight < 0.0f) errors.fields.push_back({c.pointer + "/weight", "must be >= 0"});
+    pose.clips.push_back(std::move(c));
+  }
+}
+
 // Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
 // the key is not one of them.
 bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
   const std::string ptr = "/" + Escape(key);
+  if (key == "pose") {
+    PoseFromJson(v, r.pose, errors);
+    return true;
+  }
+  if (key == "blend") {
+    BlendFromJson(v, r.pose, errors);
+    return true;
+  }
+  if (key == "animation" || key == "time" || key == "loop") {
+    // Gathered into one clip at the front of pose.clips by FinishPose.
+    if (r.pose.clips.empty() || r.pose.clips.front().pointer != "/animation") {
+      ClipRequest c;
+      c.pointer = "/animation";
+      c.index = -2;  // Marks "no animation named yet".
+      r.pose.clips.insert(r.pose.clips.begin(), c);
+    }
+    ClipRequest& c = r.pose.clips.front();
+    if (key == "animation") {
+      if (!ClipRef(v, c)) errors.fields.push_back({ptr, "must be an animation name or index"});
+    } else if (key == "time") {
+      if (!v.is_number() || !std::isfinite(v.get<double>())) errors.fields.push_back({ptr, "must be a finite number of seconds"});
+      else c.time = v.get<float>();
+    } else if (!v.is_boolean()) {
+      errors.fields.push_back({ptr, "must be true or false"});
+    } else {
+      c.loop = v.get<bool>();
+    }
+    return true;
+  }
   auto string_field = [&](auto parse, auto* dst, const char* allowed) {
     if (!v.is_string() || !parse(v.get<std::string>(), dst)) errors.fields.push_back({ptr, std::string("must be one of ") + allowed});
   };
@@ -121,6 +241,17 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     return false;
   }
   return true;
+}
+
+// "time" or "loop" without "animation" is an error; "animation" with "blend" too.
+void FinishPose(PoseRequest& pose, Status& errors) {
+  if (pose.clips.empty() || pose.clips.front().pointer != "/animation") return;
+  const ClipRequest& c = pose.clips.front();
+  if (c.name.empty() && c.index == -2) {
+    errors.fields.push_back({"/animation", "time and loop need an animation"});
+  } else if (pose.clips.size() > 1) {
+    errors.fields.push_back({"/animation", "give animation + time, or blend, not both"});
+  }
 }
 
 Status Finish(Status errors) {
@@ -258,6 +389,7 @@ Result<MeshRequest> ParseMeshRequest(std::string_view body) {
   Status errors = InvalidArgument("");
   // Other members are left for the routes that extend this body (render, pose, ...).
   for (auto it = j->begin(); it != j->end(); ++it) MeshMember(it.key(), it.value(), r, true, errors);
+  FinishPose(r.pose, errors);
   if (!errors.fields.empty()) return Finish(errors);
   return r;
 }
@@ -270,6 +402,7 @@ Result<RenderRequest> ParseRenderRequest(std::string_view body) {
   for (auto it = j->begin(); it != j->end(); ++it) {
     if (!MeshMember(it.key(), it.value(), r.mesh, false, errors)) RenderMember(it.key(), it.value(), r, errors);
   }
+  FinishPose(r.mesh.pose, errors);
   if (!errors.fields.empty()) return Finish(errors);
   return r;
 }
@@ -316,6 +449,7 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
       RenderMember(key, v, r.base, errors);
     }
   }
+  FinishPose(r.base.mesh.pose, errors);
   if (errors.fields.empty() && r.cells.empty()) errors.fields.push_back({"/cells", "is required"});
   if (!errors.fields.empty()) return Finish(errors);
   return r;
@@ -346,6 +480,32 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
   Status errors = InvalidArgument("");
   if (camera_key) CameraFromJson(json{{key, v}}, r.render.camera, errors);
   else RenderMember(key, v, r, errors);
+  return errors.fields.empty() ? "" : errors.fields[0].message;
+}
+
+std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
+  *known = key == "animation" || key == "time" || key == "loop" || key == "pose" || key == "blend";
+  if (!*known) return "";
+  json v;
+  if (key == "animation") {
+    const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos && value.size() < 10;
+    v = digits ? json(std::stoll(value)) : json(value);
+  } else if (key == "loop") {
+    if (value == "true" || value == "1") v = true;
+    else if (value == "false" || value == "0") v = false;
+    else return "must be true or false";
+  } else {
+    v = json::parse(value, nullptr, false);
+    if (v.is_discarded()) return key == "time" ? "must be a number of seconds" : "must be JSON";
+  }
+  Status errors = InvalidArgument("");
+  MeshMember(key, v, r, false, errors);
+  return errors.fields.empty() ? "" : errors.fields[0].message;
+}
+
+std::string FinishPoseSettings(MeshRequest& r) {
+  Status errors = InvalidArgument("");
+  FinishPose(r.pose, errors);
   return errors.fields.empty() ? "" : errors.fields[0].message;
 }
 

@@ -415,4 +415,27 @@ Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::ve
   return Status::Ok();
 }
 
+Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
+                             std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings) {
+  auto resolved = ResolveWeights(rig, entries);
+  if (!resolved.ok()) return resolved.status();
+  weights = std::move(resolved.value());
+  posed = !request.empty();
+  if (!posed) return Status::Ok();
+  std::vector<float> animated;
+  std::vector<uint8_t> animated_set;
+  if (Status s = BuildPose(rig, request, pose, animated, animated_set, warnings); !s.ok()) return s;
+  // Shapes the request names keep their explicit weight; the others take the animated one.
+  std::vector<uint8_t> given(rig.shapes.size(), 0);
+  for (const WeightEntry& e : entries) {
+    long long i = e.name.empty() ? e.index : FindShape(rig, e.name);
+    if (i < 0 && !e.name.empty() && e.name.find_first_not_of("0123456789") == std::string::npos && e.name.size() < 10) i = std::stoll(e.name);
+    if (i >= 0 && static_cast<size_t>(i) < given.size()) given[i] = 1;
+  }
+  for (size_t s = 0; s < weights.size(); ++s) {
+    if (animated_set[s] && !given[s]) weights[s] = animated[s];
+  }
+  return Status::Ok();
+}
+
 }  // namespace facespace

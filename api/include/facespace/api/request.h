@@ -9,6 +9,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/skeleton.h"
 #include "facespace/core/status.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
@@ -21,6 +22,7 @@ Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const s
 
 struct MeshRequest {
   std::vector<WeightEntry> weights;
+  PoseRequest pose;                  // "pose", "animation" + "time" (+ "loop"), "blend".
   BlendOptions options;
   std::optional<MeshFormat> format;  // Absent: decided by Accept, else JSON.
   bool strict = false;               // Warnings become a 422.
@@ -29,7 +31,10 @@ struct MeshRequest {
 
 // Body of POST /v1/rigs/{id}/mesh and /check:
 // {"weights": {...}|[...], "mode": "relative"|"absolute", "normals": "blend"|"recompute",
-//  "format": "glb"|"obj"|"json"|"f32", "strict": bool, "keep_targets": bool}
+//  "format": "glb"|"obj"|"json"|"f32", "strict": bool, "keep_targets": bool,
+//  "pose": {"JOINT": {"rotation": [x, y, z, w] | "euler": [x, y, z], "translation", "scale"}},
+//  "animation": NAME|INDEX, "time": SECONDS, "loop": bool,
+//  "blend": [{"animation": NAME|INDEX, "time", "weight", "loop", "mask": [JOINT, ...]}]}
 // Malformed JSON is InvalidArgument with pointer "" and message starting "malformed JSON";
 // schema errors name their field.
 Result<MeshRequest> ParseMeshRequest(std::string_view body);
@@ -65,6 +70,13 @@ struct SheetRequest {
   int columns = 4;
 };
 Result<SheetRequest> ParseSheetRequest(std::string_view body);
+
+// A skeleton setting given as text (query parameter or CLI flag): animation, time, loop,
+// pose (JSON), blend (JSON). Returns "" or what is wrong; `known` tells whether the key is one.
+std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known);
+
+// Checks the skeleton settings gathered by ApplyPoseSetting (time without animation, ...).
+std::string FinishPoseSettings(MeshRequest& r);
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode);
 bool ParseNormalMode(std::string_view s, NormalMode* mode);

@@ -9,6 +9,7 @@
 
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
+#include "facespace/core/weights.h"
 
 namespace facespace {
 
@@ -111,6 +112,13 @@ struct PoseRequest {
 // non-unit quaternions are normalised with a `quaternion_normalised` warning.
 Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::vector<float>& animated_weights,
                  std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings);
+
+// A request's weights and pose together, in glTF's order of application: rest pose, then the
+// clips (their weight channels set shape weights), then the explicit joints, then the
+// explicit weights, which override animated ones. `posed` is false when the request asks
+// nothing of the skeleton (the rest pose applies).
+Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
+                             std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings);
 
 // Quaternion helpers (x, y, z, w).
 std::array<float, 4> Slerp(const std::array<float, 4>& a, const std::array<float, 4>& b, float t);
