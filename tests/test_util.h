@@ -112,11 +112,28 @@ class RawGltf {
     return out;
   }
 
+  // Unsigned 16-bit accessor (JOINTS_n), no sparse.
+  std::vector<uint16_t> U16(int index) const {
+    const auto& a = json["accessors"][index];
+    EXPECT_EQ(a["componentType"].get<int>(), 5123) << "test reader handles uint16 only here";
+    const int comps = Components(a["type"]);
+    const size_t count = a["count"];
+    const auto& bv = json["bufferViews"][a["bufferView"].get<int>()];
+    const size_t stride = bv.value("byteStride", comps * 2);
+    const size_t off = bv.value("byteOffset", 0) + a.value("byteOffset", 0);
+    const auto& buf = buffers[bv["buffer"].get<int>()];
+    std::vector<uint16_t> out(count * comps);
+    for (size_t e = 0; e < count; ++e) std::memcpy(&out[e * comps], &buf[off + e * stride], comps * 2);
+    return out;
+  }
+
   nlohmann::json json;
   std::vector<std::vector<unsigned char>> buffers;
 
  private:
-  static int Components(const std::string& t) { return t == "SCALAR" ? 1 : t == "VEC2" ? 2 : t == "VEC3" ? 3 : 4; }
+  static int Components(const std::string& t) {
+    return t == "SCALAR" ? 1 : t == "VEC2" ? 2 : t == "VEC3" ? 3 : t == "VEC4" ? 4 : t == "MAT4" ? 16 : 0;
+  }
   static std::vector<unsigned char> Base64(const std::string& s) {
     std::vector<unsigned char> out;
     int val = 0, bits = -8;
