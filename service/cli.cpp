@@ -88,7 +88,8 @@ bool WriteOutput(const std::string& path, const std::string& data) {
 std::string Usage() {
   return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
          "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
-         "       [--blend JSON|@FILE] [--keep-targets] [--format glb|obj|json|f32] -o OUT\n";
+         "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets]\n"
+         "       [--format glb|obj|json|f32] -o OUT\n";
 }
 
 }  // namespace
@@ -181,7 +182,7 @@ int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<Weig
     api::ApplyPoseSetting("loop", "true", skeleton, &known);
     return -1;
   }
-  if (a == "--pose" || a == "--animation" || a == "--time" || a == "--blend") {
+  if (a == "--pose" || a == "--animation" || a == "--time" || a == "--blend" || a == "--skinning") {
     if (i + 1 >= args.size()) {
       std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
       return 2;
@@ -354,6 +355,7 @@ int Blend(const std::vector<std::string>& args) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
+  options.dual_quaternion = skeleton.options.dual_quaternion;
   if (int rc = EvaluateForCli(rig, entries, skeleton.pose, options, weights, report, blended, context)) return rc;
   Result<std::string> bytes = ExportMesh(rig, blended, weights, report.warnings, format, export_options);
   if (!bytes.ok()) {

@@ -313,7 +313,7 @@ std::string RenderCanonical(const api::RenderRequest& r, render::ImageFormat for
          FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) + (c.look_at ? "L" : "O") +
          (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|" +
          (r.mesh.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
-         (r.mesh.options.normals == NormalMode::kRecompute ? "rec" : "bl");
+         (r.mesh.options.normals == NormalMode::kRecompute ? "rec" : "bl") + (r.mesh.options.dual_quaternion ? "|dq" : "");
 }
 
 // The evaluated pose, bit for bit ("" for the rest pose).
@@ -582,7 +582,7 @@ struct Api::Impl {
     const std::string canonical = PoseCanonical(pose, posed) + std::string(MeshFormatName(format)) + "|" +
                                   (mr.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
                                   (mr.options.normals == NormalMode::kRecompute ? "rec" : "bl") + "|" +
-                                  (mr.keep_targets ? "t" : "-") + "|" + WeightsCanonical(w);
+                                  (mr.keep_targets ? "t" : "-") + (mr.options.dual_quaternion ? "|dq|" : "|") + WeightsCanonical(w);
     const std::string key = rig->id + "|" + rig->version + "|" + canonical;
     if (NotModified(req, res, key)) return;
     std::shared_ptr<const Encoded> enc = cache.Get(key);

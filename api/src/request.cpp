@@ -227,6 +227,12 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     string_field(ParseBlendMode, &r.options.mode, "\"relative\", \"absolute\"");
   } else if (key == "normals") {
     string_field(ParseNormalMode, &r.options.normals, "\"blend\", \"recompute\"");
+  } else if (key == "skinning") {
+    if (!v.is_string() || (v != "linear" && v != "dual_quaternion")) {
+      errors.fields.push_back({ptr, "must be one of \"linear\", \"dual_quaternion\""});
+    } else {
+      r.options.dual_quaternion = v == "dual_quaternion";
+    }
   } else if (key == "format" && mesh_format) {
     MeshFormat f;
     if (!v.is_string() || !ParseMeshFormat(v.get<std::string>(), &f)) {
@@ -484,10 +490,12 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
 }
 
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
-  *known = key == "animation" || key == "time" || key == "loop" || key == "pose" || key == "blend";
+  *known = key == "animation" || key == "time" || key == "loop" || key == "pose" || key == "blend" || key == "skinning";
   if (!*known) return "";
   json v;
-  if (key == "animation") {
+  if (key == "skinning") {
+    v = value;
+  } else if (key == "animation") {
     const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos && value.size() < 10;
     v = digits ? json(std::stoll(value)) : json(value);
   } else if (key == "loop") {

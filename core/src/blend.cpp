@@ -275,6 +275,7 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
   }
   if (options.pose && options.pose->local.size() != rig.nodes.size()) return InvalidArgument("the pose does not match the rig");
   out.node_world = options.pose ? WorldMatrices(rig, *options.pose) : NodeWorldMatrices(rig);
+  out.posed = options.pose != nullptr;
   out.primitives.resize(rig.primitives.size());
   // Each mesh is placed by the first node that shows it.
   std::vector<int> mesh_node(rig.meshes.size(), -1);
@@ -292,7 +293,10 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
     }
     const std::span<const float> tw(ctx.target_weights);
     const bool skinned = mesh.skin >= 0 && static_cast<size_t>(mesh.skin) < rig.skins.size();
-    if (skinned) JointMatrices(rig, mesh.skin, out.node_world, ctx.joint_matrices);
+    if (skinned) {
+      JointMatrices(rig, mesh.skin, out.node_world, ctx.joint_matrices);
+      if (options.dual_quaternion) DualQuaternions(ctx.joint_matrices, ctx.joint_dual_quaternions);
+    }
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];
       BlendedPrimitive& bp = out.primitives[pi];
@@ -312,7 +316,9 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
       SkinningJob skin{.joint_matrices = ctx.joint_matrices, .influences = p.influences, .joints = p.joints,
                        .weights = p.joint_weights, .in_positions = morphed.positions, .in_normals = morphed.normals,
                        .in_tangents = morphed.tangents, .out_positions = bp.positions, .out_normals = bp.normals,
-                       .out_tangents = bp.tangents};
+                       .out_tangents = bp.tangents,
+                       .joint_dual_quaternions = options.dual_quaternion ? std::span<const float>(ctx.joint_dual_quaternions)
+                                                                         : std::span<const float>()};
       if (!skin.Run()) return InvalidArgument("primitive " + std::to_string(pi) + " cannot be skinned");
       bp.morphed_positions.assign(morphed.positions.begin(), morphed.positions.end());
     }

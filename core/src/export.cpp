@@ -1,6 +1,7 @@
 // Writers for the evaluated rig: glb (tinygltf), OBJ, JSON and raw float32.
 #include <tiny_gltf.h>
 
+#include <Eigen/Dense>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -385,12 +386,25 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     }
     m.meshes.push_back(gm);
   }
-  for (const Node& n : rig.nodes) {
+  // Meshes whose primitives were skinned are already in scene space: they hang from a root
+  // node of their own (glTF ignores a skinned mesh node's transform; without the skin, a
+  // viewer would not).
+  std::vector<uint8_t> skinned_mesh(rig.meshes.size(), 0);
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    if (blended.primitives[pi].skinned && !options.keep_targets) skinned_mesh[rig.primitives[pi].mesh] = 1;
+  }
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    const Node& n = rig.nodes[i];
     tinygltf::Node gn;
     gn.name = n.name;
-    gn.mesh = n.mesh;
+    gn.mesh = n.mesh >= 0 && skinned_mesh[n.mesh] ? -1 : n.mesh;
     gn.children = n.children;
-    if (n.has_matrix) {
+    if (blended.posed && blended.node_world.size() == rig.nodes.size()) {
+      // The evaluated pose, as each node's local matrix.
+      Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
+      if (n.parent >= 0) world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[n.parent].data()).inverse() * world;
+      gn.matrix.assign(world.data(), world.data() + 16);
+    } else if (n.has_matrix) {
       gn.matrix.assign(n.matrix.begin(), n.matrix.end());
     } else {
       if (n.translation != std::array<float, 3>{0, 0, 0}) gn.translation.assign(n.translation.begin(), n.translation.end());
@@ -406,6 +420,14 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   }
   tinygltf::Scene scene;
   scene.nodes = rig.scene_roots;
+  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
+    if (!skinned_mesh[mi]) continue;
+    tinygltf::Node gn;
+    gn.name = (rig.meshes[mi].name.empty() ? "mesh" + std::to_string(mi) : rig.meshes[mi].name) + " (skinned)";
+    gn.mesh = static_cast<int>(mi);
+    scene.nodes.push_back(static_cast<int>(m.nodes.size()));
+    m.nodes.push_back(gn);
+  }
   m.scenes.push_back(scene);
   m.defaultScene = 0;
   m.buffers[0].data.resize((m.buffers[0].data.size() + 3) & ~size_t{3}, 0);

@@ -83,6 +83,60 @@ TEST(JobResult, RestPoseGivesTheBindMesh) {
   EXPECT_EQ(out.primitives[0].positions, rig.primitives[0].positions);
 }
 
+TEST(JobResult, DualQuaternionKeepsVolumeOnTwist) {
+  // A tube along x (rings of radius 1 at x = 0, 0.5, 1, 1.5, 2), bones at x = 0 and x = 1;
+  // the ring at x = 1 follows both half and half. Twisting the tip 90 degrees about x
+  // collapses that ring to cos(45) with linear blending (the candy wrapper) and keeps its
+  // radius with dual quaternions.
+  Rig rig = TwoBones();
+  rig.nodes[1].translation = {1, 0, 0};
+  rig.skins[0].inverse_bind[16 + 12] = -1.0f;  // Inverse of translate(1, 0, 0).
+  rig.skins[0].inverse_bind[16 + 13] = 0.0f;
+  Primitive& p = rig.primitives[0];
+  p.positions.clear();
+  p.joints.clear();
+  p.joint_weights.clear();
+  p.indices.clear();
+  for (int ring = 0; ring < 5; ++ring) {
+    const float x = 0.5f * ring, w1 = x < 1.0f ? 0.0f : x > 1.0f ? 1.0f : 0.5f;
+    for (int k = 0; k < 8; ++k) {
+      const float a = static_cast<float>(k) * static_cast<float>(M_PI) / 4.0f;
+      p.positions.insert(p.positions.end(), {x, std::cos(a), std::sin(a)});
+      p.joints.insert(p.joints.end(), {0, 1});
+      p.joint_weights.insert(p.joint_weights.end(), {1.0f - w1, w1});
+      p.indices.push_back(static_cast<uint32_t>(p.indices.size()));
+    }
+  }
+  FinalizePrimitive(p);
+  ASSERT_TRUE(ValidateRig(rig).ok());
+  Pose pose = RestPose(rig);
+  pose.local[1].rotation = EulerToQuaternion(90, 0, 0);
+  auto middle_radius = [&](bool dq) {
+    BlendedRig out;
+    BlendContext ctx;
+    BlendOptions o;
+    o.pose = &pose;
+    o.dual_quaternion = dq;
+    EXPECT_TRUE(EvaluateRig(rig, {}, o, out, ctx).ok());
+    const auto& q = out.primitives[0].positions;
+    float r = 0;
+    for (int k = 0; k < 8; ++k) r += std::hypot(q[3 * (16 + k) + 1], q[3 * (16 + k) + 2]) / 8.0f;
+    return r;
+  };
+  EXPECT_NEAR(middle_radius(false), std::sqrt(0.5f), 1e-5f);
+  EXPECT_NEAR(middle_radius(true), 1.0f, 1e-5f);
+  // Both agree where a single bone rules (the tip ring turned 90 degrees: y -> z).
+  BlendedRig lin, dq;
+  BlendContext ctx;
+  BlendOptions o;
+  o.pose = &pose;
+  ASSERT_TRUE(EvaluateRig(rig, {}, o, lin, ctx).ok());
+  o.dual_quaternion = true;
+  ASSERT_TRUE(EvaluateRig(rig, {}, o, dq, ctx).ok());
+  for (int i = 3 * 32; i < 3 * 40; ++i) EXPECT_NEAR(lin.primitives[0].positions[i], dq.primitives[0].positions[i], 1e-5f);
+  EXPECT_NEAR(lin.primitives[0].positions[3 * 32 + 2], 1.0f, 1e-5f);
+}
+
 TEST(JobValidity, SkinningJob) {
   Rig rig = TwoBones();
   const Primitive& p = rig.primitives[0];

@@ -34,7 +34,8 @@ struct MeshRequest {
 //  "format": "glb"|"obj"|"json"|"f32", "strict": bool, "keep_targets": bool,
 //  "pose": {"JOINT": {"rotation": [x, y, z, w] | "euler": [x, y, z], "translation", "scale"}},
 //  "animation": NAME|INDEX, "time": SECONDS, "loop": bool,
-//  "blend": [{"animation": NAME|INDEX, "time", "weight", "loop", "mask": [JOINT, ...]}]}
+//  "blend": [{"animation": NAME|INDEX, "time", "weight", "loop", "mask": [JOINT, ...]}],
+//  "skinning": "linear"|"dual_quaternion"}
 // Malformed JSON is InvalidArgument with pointer "" and message starting "malformed JSON";
 // schema errors name their field.
 Result<MeshRequest> ParseMeshRequest(std::string_view body);
@@ -72,7 +73,7 @@ struct SheetRequest {
 Result<SheetRequest> ParseSheetRequest(std::string_view body);
 
 // A skeleton setting given as text (query parameter or CLI flag): animation, time, loop,
-// pose (JSON), blend (JSON). Returns "" or what is wrong; `known` tells whether the key is one.
+// pose (JSON), blend (JSON), skinning (linear|dual_quaternion). Returns "" or what is wrong; `known` tells whether the key is one.
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known);
 
 // Checks the skeleton settings gathered by ApplyPoseSetting (time without animation, ...).

@@ -48,6 +48,7 @@ struct BlendOptions {
   BlendMode mode = BlendMode::kRelative;
   NormalMode normals = NormalMode::kBlend;
   const Pose* pose = nullptr;  // Skeleton pose (skeleton.h); nullptr: the rest pose.
+  bool dual_quaternion = false;  // Dual-quaternion skinning (keeps volume on twists) instead of linear.
 };
 
 struct BlendedPrimitive {
@@ -64,6 +65,7 @@ struct BlendedPrimitive {
 struct BlendedRig {
   std::vector<BlendedPrimitive> primitives;  // Same order as Rig::primitives.
   std::vector<std::array<float, 16>> node_world;  // World matrix of every node under the pose.
+  bool posed = false;                             // A pose other than the rest pose was given.
 };
 
 // Per-evaluation scratch, owned by the caller and reused between calls so that steady-state
@@ -73,6 +75,7 @@ struct BlendContext {
   std::vector<uint8_t> vertex_mark;   // Per vertex of the largest primitive.
   std::vector<uint32_t> moved;        // Vertices moved by the active targets.
   std::vector<float> joint_matrices;  // Skinning: 16 floats per joint of the current skin.
+  std::vector<float> joint_dual_quaternions;  // Skinning: 8 floats per joint, when asked.
   BlendedPrimitive unskinned;         // Skinning: the morphed primitive before skinning.
   std::vector<uint32_t> affected;     // Vertices whose normals are recomputed.
 };

@@ -53,7 +53,13 @@ struct SkinningJob {
   std::span<float> out_positions;         // Same sizes as the inputs; must not alias them.
   std::span<float> out_normals;
   std::span<float> out_tangents;
+  // Dual-quaternion skinning instead of linear: 8 floats per joint (real xyzw, dual xyzw)
+  // from DualQuaternions(); keeps volume on twisted joints. Scale in the joints is ignored.
+  std::span<const float> joint_dual_quaternions;
 };
+
+// The rigid part of each joint matrix as a unit dual quaternion (8 floats per joint).
+void DualQuaternions(std::span<const float> joint_matrices, std::vector<float>& out);
 
 enum class ClipWrap { kClamp, kLoop };
 
