@@ -73,6 +73,12 @@ json MeshQueryParams() {
       {{"name", "normals"}, {"in", "query"}, {"schema", {{"enum", {"blend", "recompute"}}}}},
       {{"name", "strict"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
       {{"name", "keep_targets"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
+      {{"name", "animation"}, {"in", "query"}, {"schema", {{"type", "string"}}}},
+      {{"name", "time"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
+      {{"name", "loop"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
+      {{"name", "pose"}, {"in", "query"}, {"description", "The body's pose object as JSON"}, {"schema", {{"type", "string"}}}},
+      {{"name", "blend"}, {"in", "query"}, {"description", "The body's blend array as JSON"}, {"schema", {{"type", "string"}}}},
+      {{"name", "skinning"}, {"in", "query"}, {"schema", {{"enum", {"linear", "dual_quaternion"}}}}},
   });
 }
 
@@ -81,6 +87,27 @@ json Build() {
                                                 {"description", "Dense, in shape order"}},
                                            json{{"type", "object"}, {"additionalProperties", {{"type", "number"}}},
                                                 {"description", "By shape name, alias or index"}}})}};
+  json pose = {{"type", "object"},
+               {"description", "Joint name -> local transform parts that replace the rest values"},
+               {"additionalProperties",
+                {{"type", "object"},
+                 {"properties", {{"rotation", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 4}, {"maxItems", 4}}},
+                                 {"euler", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}}},
+                                 {"translation", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}}},
+                                 {"scale", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}}}}}}}};
+  json clip_ref = {{"oneOf", json::array({json{{"type", "string"}}, json{{"type", "integer"}, {"minimum", 0}}})}};
+  json blend = {{"type", "array"},
+                {"items", {{"type", "object"},
+                           {"required", {"animation"}},
+                           {"properties", {{"animation", clip_ref}, {"time", {{"type", "number"}}}, {"weight", {{"type", "number"}}},
+                                           {"loop", {{"type", "boolean"}}},
+                                           {"mask", {{"type", "array"}, {"items", {{"type", "string"}}}}}}}}}};
+  json skeleton_props = {{"pose", pose},
+                         {"animation", clip_ref},
+                         {"time", {{"type", "number"}, {"description", "Seconds into the animation"}}},
+                         {"loop", {{"type", "boolean"}, {"default", false}}},
+                         {"blend", blend},
+                         {"skinning", {{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}}}};
   json mesh_request = {{"type", "object"},
                        {"properties",
                         {{"weights", weights},
@@ -129,6 +156,10 @@ json Build() {
                        {"supersample", {{"type", "integer"}, {"minimum", 1}, {"maximum", 4}}},
                        {"format", {{"enum", {"png", "jpeg", "exr", "tiff"}}}},
                        {"quality", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}}};
+  for (auto it = skeleton_props.begin(); it != skeleton_props.end(); ++it) {
+    mesh_request["properties"][it.key()] = it.value();
+    render_props[it.key()] = it.value();
+  }
   json render_request = {{"type", "object"}, {"properties", render_props}};
   json sheet_props = render_props;
   sheet_props.erase("weights");

@@ -117,5 +117,23 @@ printf '{"label":"neutral"}\n{"weights":{"jawOpen":1},"label":"jawOpen"}\n{"weig
 check "sheet: three labelled 128x128 cells in a row" sh -c "iinfo '$tmp/sheet.png' | grep -Eq ' 400 x +1[5-9][0-9]'"
 err_case "sheet: a cell with an unknown shape" "cells/1/weights/nope" sheet "$rig" --cells '[{},{"weights":{"nope":1}}]' -o "$tmp/x.png"
 
+# skeletons
+fox=$A/Fox/Fox.glb
+"$bin" blend "$fox" -o "$tmp/fox0.json" 2>/dev/null
+"$bin" blend "$fox" --animation Walk --time 0.3 -o "$tmp/fox1.json" 2>/dev/null
+"$bin" blend "$fox" --animation 1 --time 0.3 --loop -o "$tmp/fox2.json" 2>/dev/null
+"$bin" blend "$fox" --animation Walk --time 5 -o "$tmp/fox_clamp.json" 2>/dev/null
+"$bin" blend "$fox" --animation Walk --time 0.71 -o "$tmp/fox_end.json" 2>/dev/null
+"$bin" blend "$fox" --animation Walk --time 5 --loop -o "$tmp/fox_loop.json" 2>/dev/null
+check "blend --animation NAME|INDEX --time: the pose moves the mesh" sh -c "! cmp -s '$tmp/fox0.json' '$tmp/fox1.json' && cmp -s '$tmp/fox1.json' '$tmp/fox2.json'"
+check "blend: time past the clip clamps to its end, --loop wraps instead" sh -c "cmp -s '$tmp/fox_clamp.json' '$tmp/fox_end.json' && ! cmp -s '$tmp/fox_clamp.json' '$tmp/fox_loop.json'"
+"$bin" blend "$fox" --pose '{"b_Head_05":{"euler":[0,40,0]}}' --skinning dual_quaternion -o "$tmp/fox3.glb" 2>/dev/null
+check "blend --pose --skinning dual_quaternion writes a glb" test -s "$tmp/fox3.glb"
+err_case "blend: unknown joint" "unknown joint 'nose'" blend "$fox" --pose '{"nose":{"euler":[0,0,1]}}' -o "$tmp/x.json"
+err_case "blend: --time without --animation" "need an animation" blend "$fox" --time 1 -o "$tmp/x.json"
+err_case "blend: bad --skinning" "skinning" blend "$fox" --skinning cubic -o "$tmp/x.json"
+"$bin" info "$fox" >"$tmp/foxinfo" 2>&1
+check "info lists the skeleton and the clips with durations" sh -c "grep -q 'skeleton   1 skin(s), 24 joints' '$tmp/foxinfo' && grep -q 'Walk  *0.708 s' '$tmp/foxinfo'"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -137,6 +137,21 @@ c "$U/v1/rigs/facecap" >/dev/null; v2=$(py 'import json,sys; print(json.load(ope
 check "  ... the old rig keeps serving, unchanged on disk, no temp file left" sh -c "[ '$v1' = '$v2' ] && cmp -s '$store/facecap.glb' '$src/assets/facecap/facecap.glb' && [ -z \"\$(ls -A '$store' | grep tmp)\" ]"
 c "$U/v1/rigs/fox" >/dev/null
 check "GET an uploaded skinned rig: joints and animations with durations" jq_ "len(d['skeleton']['skins'][0]['joints'])==24 and d['has_skeleton'] and [a['name'] for a in d['animations']]==['Survey','Walk','Run'] and abs(d['animations'][0]['duration']-3.4166)<0.01"
+# skeletons (the uploaded Fox)
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"format":"json"}' "$U/v1/rigs/fox/mesh"); cp "$tmp/body" "$tmp/fox_rest.json"
+code2=$(c -X POST -H 'Content-Type: application/json' -d '{"format":"json","animation":"Run","time":0.4}' "$U/v1/rigs/fox/mesh"); cp "$tmp/body" "$tmp/fox_run.json"
+"$bin" blend "$A/Fox/Fox.glb" --animation Run --time 0.4 -o "$tmp/fox_cli.json" 2>/dev/null
+check "POST mesh with animation + time: the pose moves the fox, same bytes as the CLI" sh -c "[ $code = 200 ] && [ $code2 = 200 ] && ! cmp -s '$tmp/fox_rest.json' '$tmp/fox_run.json' && cmp -s '$tmp/fox_run.json' '$tmp/fox_cli.json'"
+code=$(c "$U/v1/rigs/fox/mesh?format=json&animation=Run&time=0.4")
+check "GET mesh ?animation=Run&time=0.4: the same mesh" sh -c "[ $code = 200 ] && cmp -s '$tmp/body' '$tmp/fox_cli.json'"
+check "pose naming an unknown joint: 422 at its pointer" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"pose":{"tail":{"euler":[0,0,30]}}}' "$U/v1/rigs/fox/mesh")" 422 "d['errors'][0]['pointer']=='/pose/tail' and 'unknown joint' in d['errors'][0]['detail']"
+check "a zero quaternion: 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"pose":{"b_Head_05":{"rotation":[0,0,0,0]}}}' "$U/v1/rigs/fox/mesh")" 422 "d['errors'][0]['pointer']=='/pose/b_Head_05/rotation'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"format":"json","pose":{"b_Head_05":{"rotation":[0,0,0.5,1]}}}' "$U/v1/rigs/fox/mesh")
+check "a non-unit quaternion is normalised with a warning" sh -c "[ $code = 200 ] && grep -qi '^facespace-warnings: quaternion_normalised' '$tmp/hdr'"
+check "an unknown animation: 422 listing the clips" problem "$(c "$U/v1/rigs/fox/mesh?animation=Dance&time=1")" 422 "'Survey, Walk, Run' in d['detail']"
+check "time without animation: 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"time":1}' "$U/v1/rigs/fox/mesh")" 422 "d['errors'][0]['pointer']=='/animation'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"blend":[{"animation":"Walk","time":0.3,"weight":0.7},{"animation":"Run","time":0.3,"weight":0.3,"mask":["b_Spine01_02"]}],"width":128,"height":128,"camera":{"yaw":90}}' "$U/v1/rigs/fox/render")
+check "POST render with a blend of clips and a mask" sh -c "[ $code = 200 ] && [ '$(pngsize)' = 128x128 ]"
 check "uploaded rig serves meshes" test "$(c "$U/v1/rigs/fox/mesh?format=f32")" = 200
 check "DELETE without key: 401" problem "$(c -X DELETE "$U/v1/rigs/cesium-man")" 401 "True"
 check "DELETE with key: 204, then 404" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/cesium-man') = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/cesium-man') = 404 ] && [ ! -e '$store/cesium-man.gltf' ]"
