@@ -10,6 +10,7 @@
 #include <cstdlib>
 
 #include "facespace/core/io.h"
+#include "facespace/core/skeleton.h"
 #include "facespace/render/render.h"
 #include "test_util.h"
 
@@ -239,6 +240,8 @@ struct GoldenCase {
   std::vector<std::pair<std::string, float>> weights;
   render::View view;
   float yaw, pitch;
+  const char* animation = nullptr;  // Skinned assets: a clip and a time.
+  float time = 0.0f;
 };
 
 void PrintTo(const GoldenCase& c, std::ostream* os) { *os << c.name; }
@@ -255,6 +258,20 @@ TEST_P(Golden, MatchesCommittedImage) {
     ASSERT_GE(s, 0) << name;
     w[s] = value;
   }
+  BlendedRig blended = Evaluate(rig.value(), w);
+  if (c.animation) {
+    PoseRequest req;
+    req.clips.push_back(ClipRequest{.name = c.animation, .time = c.time, .pointer = "/animation"});
+    Pose pose;
+    bool posed = false;
+    std::vector<Warning> warnings;
+    std::vector<WeightEntry> none;
+    ASSERT_TRUE(ResolvePoseAndWeights(rig.value(), none, req, w, pose, posed, warnings).ok());
+    BlendContext ctx;
+    BlendOptions bo;
+    bo.pose = &pose;
+    ASSERT_TRUE(EvaluateRig(rig.value(), w, bo, blended, ctx).ok());
+  }
   RenderOptions o;
   o.width = o.height = 256;
   o.view = c.view;
@@ -262,7 +279,7 @@ TEST_P(Golden, MatchesCommittedImage) {
   o.camera.pitch = c.pitch;
   o.supersample = 2;
   Image im;
-  ASSERT_TRUE(render::Render(rig.value(), Evaluate(rig.value(), w), o, im).ok());
+  ASSERT_TRUE(render::Render(rig.value(), blended, o, im).ok());
   auto png = render::Encode(im, render::ImageFormat::kPng);
   ASSERT_TRUE(png.ok());
   const std::string golden = std::string(FACESPACE_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
@@ -298,7 +315,11 @@ INSTANTIATE_TEST_SUITE_P(
                       GoldenCase{"sphere_normals", "AnimatedMorphSphere/AnimatedMorphSphere.gltf", {{"Blob", 0.8f}},
                                  render::View::kNormals, 0, 0},
                       GoldenCase{"primitives_jpeg_texture", "MorphPrimitivesTest/MorphPrimitivesTest.gltf", {{"target_0", 1.0f}},
-                                 render::View::kShaded, 20, 30}),
+                                 render::View::kShaded, 20, 30},
+                      GoldenCase{"fox_run", "Fox/Fox.glb", {}, render::View::kShaded, 90, 10, "Run", 0.4f},
+                      GoldenCase{"cesium_man_walk", "CesiumMan/CesiumMan.gltf", {}, render::View::kShaded, 60, 0, "animation_0", 0.9f},
+                      GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {}, render::View::kWireframe, 0, 0,
+                                 "animation_0", 0.6f}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
 
 }  // namespace
