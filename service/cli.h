@@ -12,5 +12,7 @@ int Blend(const std::vector<std::string>& args);
 int Serve(const std::vector<std::string>& args);
 // render, or sheet (a contact sheet of several weight vectors) when `sheet` is set.
 int Render(const std::vector<std::string>& args, bool sheet);
+// Keyframe sequences: sample, bake, reduce.
+int Sequence(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

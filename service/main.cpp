@@ -23,6 +23,9 @@ const char kUsage[] =
     "      an offscreen render (PNG, JPEG, EXR, TIFF; see render --help)\n"
     "  sheet RIG --cells JSON|@FILE [--columns N] [render flags] -o OUT.png\n"
     "      a labelled contact sheet of several weight vectors\n"
+    "  sequence RIG (--keys JSON|@FILE | --from-animation CLIP | --obj-times T,...) [--transition T]\n"
+    "        (--times JSON | --fps N | --reduce TOL | --bake T) [--format json|obj|glb|f32] -o OUT|DIR\n"
+    "      keyframe sequences: in-betweens, baking, keyframe reduction\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -52,6 +55,7 @@ int main(int argc, char** argv) {
   if (command == "serve") return facespace::cli::Serve(args);
   if (command == "render") return facespace::cli::Render(args, false);
   if (command == "sheet") return facespace::cli::Render(args, true);
+  if (command == "sequence") return facespace::cli::Sequence(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

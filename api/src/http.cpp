@@ -14,6 +14,7 @@
 #include "facespace/api/request.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
@@ -28,10 +29,10 @@ using httplib::Response;
 
 // ---- routes and metrics -------------------------------------------------------------------
 
-enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kOther, kRouteCount };
+enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kSequence, kOther, kRouteCount };
 const char* const kRouteNames[kRouteCount] = {"/healthz", "/readyz", "/metrics", "/openapi.json", "/v1/rigs",
                                               "/v1/rigs/{id}", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/check",
-                                              "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "other"};
+                                              "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "/v1/rigs/{id}/sequence/*", "other"};
 const int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 406, 413, 415, 422, 429, 500, 503};
 constexpr int kStatusCount = sizeof(kStatuses) / sizeof(kStatuses[0]);
 const double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5};
@@ -830,6 +831,136 @@ struct Api::Impl {
     res.set_content(enc->body, enc->content_type.c_str());
   }
 
+  // The sequence body resolved against the rig; false when an error was sent.
+  bool ReadSequence(const Request& req, Response& res, const StoredRig& rig, SequenceRequest& sr, Sequence& seq) {
+    const std::string ct = MediaType(req.get_header_value("Content-Type"));
+    if (!ct.empty() && ct != "application/json") {
+      SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+      return false;
+    }
+    auto parsed = ParseSequenceRequest(req.body);
+    if (!parsed.ok()) {
+      const bool malformed = IsMalformedJson(parsed.status());
+      SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", parsed.status().message,
+                  parsed.status().fields);
+      return false;
+    }
+    sr = std::move(parsed.value());
+    auto resolved = ResolveSequence(rig.rig, sr);
+    if (!resolved.ok()) {
+      SendProblem(req, res, 422, "invalid-sequence", resolved.status().message, resolved.status().fields);
+      return false;
+    }
+    seq = std::move(resolved.value());
+    return true;
+  }
+
+  void SequenceSample(const Request& req, Response& res) {
+    t_request.route = kSequence;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    SequenceRequest sr;
+    Sequence seq;
+    if (!ReadSequence(req, res, *rig, sr, seq)) return;
+    if (sr.times.empty()) {
+      SendProblem(req, res, 422, "invalid-request", "/times: is required (the times to sample)", {{"/times", "is required"}});
+      return;
+    }
+    std::vector<Warning> warnings;
+    auto body = SampleSequenceJson(rig->rig, seq, sr.times, sr.options, warnings);
+    if (!body.ok()) {
+      SendProblem(req, res, 500, "internal", "the blend failed");
+      return;
+    }
+    metrics.blends.fetch_add(sr.times.size(), std::memory_order_relaxed);
+    if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
+    res.status = 200;
+    res.set_content(body.value(), "application/json");
+  }
+
+  void SequenceStream(const Request& req, Response& res) {
+    t_request.route = kSequence;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    auto sr = std::make_shared<SequenceRequest>();
+    auto seq = std::make_shared<Sequence>();
+    if (!ReadSequence(req, res, *rig, *sr, *seq)) return;
+    const std::string format = sr->format.empty() ? "ndjson" : sr->format;
+    if (format != "ndjson" && format != "f32") {
+      SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson or f32", {{"/format", "must be ndjson or f32"}});
+      return;
+    }
+    const double duration = seq->keys.back().time - seq->keys.front().time;
+    const size_t frames = static_cast<size_t>(std::floor(duration * sr->fps + 1e-6)) + 1;
+    if (frames > 100000) {
+      SendProblem(req, res, 422, "too-many-frames", "at most 100000 frames a stream (duration x fps)", {{"/fps", "too many frames"}});
+      return;
+    }
+    res.set_header("Facespace-Frames", std::to_string(frames));
+    res.set_header("Cache-Control", "no-store");
+    const bool f32 = format == "f32";
+    // One frame per call, computed as the client reads: a client that closes stops the work.
+    auto next = std::make_shared<size_t>(0);
+    res.set_chunked_content_provider(
+        f32 ? "application/octet-stream" : "application/x-ndjson",
+        [this, rig, sr, seq, next, frames, f32](size_t, httplib::DataSink& sink) {
+          if (*next >= frames) {
+            sink.done();
+            return true;
+          }
+          const float t = seq->keys.front().time + static_cast<float>(*next) / sr->fps;
+          std::vector<float> w(rig->rig.shapes.size());
+          float f = 0.0f;
+          SampleSequence(*seq, t, w, &f);
+          std::string chunk;
+          if (f32) {
+            thread_local BlendContext context;
+            thread_local BlendedRig blended;
+            if (!EvaluateRig(rig->rig, w, sr->options, blended, context).ok()) return false;
+            metrics.blends.fetch_add(1, std::memory_order_relaxed);
+            std::vector<float> pos;
+            WorldPositions(blended, pos);
+            const uint32_t bytes = static_cast<uint32_t>(pos.size() * 4);
+            chunk.resize(4 + bytes);
+            std::memcpy(chunk.data(), &bytes, 4);
+            std::memcpy(chunk.data() + 4, pos.data(), bytes);
+          } else {
+            std::vector<Warning> warnings;
+            SequenceFrameWarnings(rig->rig, t, f, w, sr->options.mode, warnings);
+            chunk = "{\"frame\":" + std::to_string(*next) + ",\"time\":" + FormatNumber(t) + ",\"weights\":" + WeightsMapJson(rig->rig, w) +
+                    ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
+          }
+          ++*next;
+          return sink.write(chunk.data(), chunk.size());
+        });
+    res.status = 200;
+  }
+
+  void SequenceReduce(const Request& req, Response& res) {
+    t_request.route = kSequence;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    SequenceRequest sr;
+    Sequence seq;
+    if (!ReadSequence(req, res, *rig, sr, seq)) return;
+    if (!sr.has_tolerance) {
+      SendProblem(req, res, 422, "invalid-request", "/tolerance: is required (largest vertex error allowed, mesh units)",
+                  {{"/tolerance", "is required"}});
+      return;
+    }
+    auto reduced = ReduceSequence(rig->rig, seq, sr.tolerance);
+    if (!reduced.ok()) {
+      SendProblem(req, res, 422, "invalid-sequence", reduced.status().message, reduced.status().fields);
+      return;
+    }
+    res.status = 200;
+    res.set_content("{\"keys\":" + SequenceKeysJson(rig->rig, reduced->sequence) + ",\"transition\":" +
+                        json(TransitionName(seq.transition)).dump() + ",\"kept\":" + std::to_string(reduced->sequence.keys.size()) +
+                        ",\"removed\":" + std::to_string(reduced->removed) + ",\"max_error\":" + FormatNumber(reduced->max_error) +
+                        ",\"tolerance\":" + FormatNumber(sr.tolerance) + "}\n",
+                    "application/json");
+  }
+
   void Check(const Request& req, Response& res) {
     t_request.route = kCheck;
     auto rig = FindRig(req, res, req.matches[1]);
@@ -841,12 +972,8 @@ struct Api::Impl {
     Pose pose;
     bool posed = false;
     if (!Weigh(req, res, *rig, mr, w, report, pose, posed)) return;
-    json weights = json::object();
-    for (size_t i = 0; i < w.size(); ++i) {
-      if (w[i] != 0.0f) weights[rig->rig.shapes[i].name] = w[i];
-    }
     res.status = 200;
-    res.set_content("{\"sum\":" + FormatNumber(report.sum) + ",\"weights\":" + weights.dump() +
+    res.set_content("{\"sum\":" + FormatNumber(report.sum) + ",\"weights\":" + WeightsMapJson(rig->rig, w) +
                         ",\"warnings\":" + WarningsToJson(report.warnings) + "}",
                     "application/json");
   }
@@ -1069,6 +1196,10 @@ void Api::Register(httplib::Server& server) {
   all_methods(rig + "/render", not_allowed("GET, POST"), true, true, false, false);
   server.Post(rig + "/sheet", [&I](const Request& req, Response& res) { I.Sheet(req, res); });
   all_methods(rig + "/sheet", not_allowed("POST"), false, true, false, false);
+  server.Post(rig + "/sequence/sample", [&I](const Request& req, Response& res) { I.SequenceSample(req, res); });
+  server.Post(rig + "/sequence/stream", [&I](const Request& req, Response& res) { I.SequenceStream(req, res); });
+  server.Post(rig + "/sequence/reduce", [&I](const Request& req, Response& res) { I.SequenceReduce(req, res); });
+  all_methods(rig + "/sequence/(sample|stream|reduce)", not_allowed("POST"), false, true, false, false);
 }
 
 }  // namespace facespace::api

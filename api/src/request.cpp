@@ -517,4 +517,188 @@ std::string FinishPoseSettings(MeshRequest& r) {
   return errors.fields.empty() ? "" : errors.fields[0].message;
 }
 
+Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
+  auto j = ParseObject(body);
+  if (!j.ok()) return j.status();
+  SequenceRequest r;
+  Status errors = InvalidArgument("");
+  auto number = [&](const json& v, const std::string& ptr, float* out, double lo, double hi) {
+    double d = 0;
+    if (!Number(v, lo, hi, &d)) errors.fields.push_back({ptr, "must be a number in [" + FormatNumber(lo) + ", " + FormatNumber(hi) + "]"});
+    else *out = static_cast<float>(d);
+  };
+  auto transition = [&](const json& v, const std::string& ptr, Transition* out) {
+    if (!v.is_string() || !ParseTransition(v.get<std::string>(), out)) {
+      errors.fields.push_back({ptr, "must be step, linear, smoothstep, smootherstep, ease-in, ease-out, ease-in-out or "
+                                    "cubic-bezier(x1, y1, x2, y2) with x1, x2 in [0, 1]"});
+    }
+  };
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    const std::string& key = it.key();
+    const json& v = it.value();
+    const std::string ptr = "/" + Escape(key);
+    if (key == "keys") {
+      if (!v.is_array() || v.empty()) {
+        errors.fields.push_back({ptr, "must be a non-empty array of {time, weights | shape}"});
+        continue;
+      }
+      if (v.size() > 100000) {
+        errors.fields.push_back({ptr, "at most 100000 keys"});
+        continue;
+      }
+      for (size_t k = 0; k < v.size(); ++k) {
+        SequenceRequest::Key key_out;
+        key_out.pointer = "/keys/" + std::to_string(k);
+        const json& e = v[k];
+        if (!e.is_object() || !e.contains("time")) {
+          errors.fields.push_back({key_out.pointer, "needs a time"});
+          continue;
+        }
+        for (auto m = e.begin(); m != e.end(); ++m) {
+          const std::string mp = key_out.pointer + "/" + Escape(m.key());
+          if (m.key() == "time") {
+            number(*m, mp, &key_out.time, -1e9, 1e9);
+          } else if (m.key() == "weights") {
+            auto w = WeightsFromJson(*m, mp);
+            if (w.ok()) key_out.weights = std::move(w.value());
+            else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+          } else if (m.key() == "shape") {
+            if (!m->is_string()) errors.fields.push_back({mp, "must be a shape name"});
+            else key_out.shape = m->get<std::string>();
+          } else if (m.key() == "transition") {
+            Transition t;
+            transition(*m, mp, &t);
+            key_out.transition = t;
+          } else {
+            errors.fields.push_back({mp, "unknown member (time, weights, shape, transition)"});
+          }
+        }
+        if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
+        r.keys.push_back(std::move(key_out));
+      }
+    } else if (key == "transition") {
+      transition(v, ptr, &r.transition);
+    } else if (key == "smooth") {
+      if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+      else r.smooth = v.get<bool>();
+    } else if (key == "times") {
+      if (!v.is_array() || v.empty() || v.size() > 10000) {
+        errors.fields.push_back({ptr, "must be an array of 1 to 10000 times"});
+        continue;
+      }
+      for (size_t i = 0; i < v.size(); ++i) {
+        float t = 0;
+        number(v[i], ptr + "/" + std::to_string(i), &t, -1e9, 1e9);
+        r.times.push_back(t);
+      }
+    } else if (key == "fps") {
+      number(v, ptr, &r.fps, 0.1, 1000);
+    } else if (key == "format") {
+      if (!v.is_string() || (v != "json" && v != "ndjson" && v != "f32")) errors.fields.push_back({ptr, "must be json, ndjson or f32"});
+      else r.format = v.get<std::string>();
+    } else if (key == "tolerance") {
+      number(v, ptr, &r.tolerance, 0, 1e9);
+      r.has_tolerance = true;
+    } else if (key == "mode") {
+      if (!v.is_string() || !ParseBlendMode(v.get<std::string>(), &r.options.mode)) errors.fields.push_back({ptr, "must be relative or absolute"});
+    } else if (key == "normals") {
+      if (!v.is_string() || !ParseNormalMode(v.get<std::string>(), &r.options.normals)) errors.fields.push_back({ptr, "must be blend or recompute"});
+    } else {
+      errors.fields.push_back({ptr, "unknown member"});
+    }
+  }
+  if (errors.fields.empty() && r.keys.empty()) errors.fields.push_back({"/keys", "is required"});
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
+  Sequence s;
+  s.transition = request.transition;
+  s.smooth = request.smooth;
+  Status errors = InvalidArgument("");
+  for (const SequenceRequest::Key& k : request.keys) {
+    Keyframe key;
+    key.time = k.time;
+    key.transition = k.transition;
+    if (!k.shape.empty()) {
+      const int shape = FindShape(rig, k.shape);
+      if (shape < 0) {
+        errors.fields.push_back({k.pointer + "/shape", "unknown shape '" + k.shape + "'"});
+        continue;
+      }
+      key.weights.assign(rig.shapes.size(), 0.0f);
+      key.weights[shape] = 1.0f;
+    } else {
+      auto w = ResolveWeights(rig, k.weights);
+      if (!w.ok()) {
+        errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+        continue;
+      }
+      key.weights = std::move(w.value());
+    }
+    s.keys.push_back(std::move(key));
+  }
+  if (!errors.fields.empty()) return Finish(errors);
+  if (Status st = ValidateSequence(s, rig.shapes.size()); !st.ok()) return st;
+  return s;
+}
+
+std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
+  std::string out = "[";
+  for (size_t i = 0; i < sequence.keys.size(); ++i) {
+    const Keyframe& k = sequence.keys[i];
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) + ",\"weights\":{";
+    bool first = true;
+    for (size_t s = 0; s < k.weights.size(); ++s) {
+      if (k.weights[s] == 0.0f) continue;
+      out += std::string(first ? "" : ",") + json(rig.shapes[s].name).dump() + ":" + FormatNumber(k.weights[s]);
+      first = false;
+    }
+    out += "}";
+    if (k.transition) out += ",\"transition\":" + json(TransitionName(*k.transition)).dump();
+    out += "}";
+  }
+  return out + "]";
+}
+
+void SequenceFrameWarnings(const Rig& rig, float time, float f, std::span<const float> weights, BlendMode mode,
+                           std::vector<Warning>& out) {
+  const std::string at = "t=" + FormatNumber(time) + ": ";
+  if (f < 0.0f || f > 1.0f) {
+    out.push_back({"transition_extrapolation", at + "the transition gives " + FormatNumber(f) + ", outside [0, 1]", "", f, true});
+  }
+  for (Warning& w : CheckWeights(rig, weights, mode).warnings) {
+    w.message = at + w.message;
+    out.push_back(std::move(w));
+  }
+}
+
+std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
+  std::string out = "{";
+  for (size_t k = 0; k < w.size(); ++k) {
+    if (w[k] == 0.0f) continue;
+    if (out.size() > 1) out += ',';
+    out += json(rig.shapes[k].name).dump() + ":" + FormatNumber(w[k]);
+  }
+  return out + "}";
+}
+
+Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
+                                       const BlendOptions& options, std::vector<Warning>& warnings) {
+  std::vector<float> w(rig.shapes.size());
+  BlendContext context;
+  BlendedRig blended;
+  std::string out = "{\"frames\":[";
+  for (size_t i = 0; i < times.size(); ++i) {
+    float f = 0.0f;
+    SampleSequence(sequence, times[i], w, &f);
+    SequenceFrameWarnings(rig, times[i], f, w, options.mode, warnings);
+    if (Status s = EvaluateRig(rig, w, options, blended, context); !s.ok()) return s;
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, w) +
+           ",\"primitives\":" + PrimitivesJson(rig, blended) + "}";
+  }
+  return out + "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
+}
+
 }  // namespace facespace::api

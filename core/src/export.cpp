@@ -65,7 +65,13 @@ void AppendFloats(std::string& out, std::span<const float> values) {
 std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(); }
 
 std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
-  std::string out = "{\"primitives\":[";
+  return "{\"primitives\":" + PrimitivesJson(rig, blended) + ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
+}
+
+}  // namespace
+
+std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended) {
+  std::string out = "[";
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     const Primitive& p = rig.primitives[i];
     const BlendedPrimitive& b = blended.primitives[i];
@@ -77,9 +83,10 @@ std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<cons
     AppendFloats(out, b.normals);
     out += '}';
   }
-  out += "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
-  return out;
+  return out + "]";
 }
+
+namespace {
 
 void Transform(const std::array<float, 16>& m, const float* p, float w, float* out) {
   for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
@@ -162,14 +169,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
 std::string ExportF32(const Rig& rig, const BlendedRig& blended) {
   std::vector<float> data;
   data.reserve(rig.vertex_count() * 6);
-  for (size_t i = 0; i < rig.primitives.size(); ++i) {
-    const auto& pos = blended.primitives[i].positions;
-    for (size_t v = 0; v < pos.size(); v += 3) {
-      float q[3];
-      Transform(blended.primitives[i].world, &pos[v], 1.0f, q);
-      data.insert(data.end(), q, q + 3);
-    }
-  }
+  WorldPositions(blended, data);
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     const auto& nrm = blended.primitives[i].normals;
     for (size_t v = 0; v < nrm.size(); v += 3) {
@@ -440,6 +440,17 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
 }
 
 }  // namespace
+
+void WorldPositions(const BlendedRig& blended, std::vector<float>& out) {
+  out.clear();
+  for (const BlendedPrimitive& b : blended.primitives) {
+    for (size_t v = 0; v < b.positions.size(); v += 3) {
+      float q[3];
+      Transform(b.world, &b.positions[v], 1.0f, q);
+      out.insert(out.end(), q, q + 3);
+    }
+  }
+}
 
 std::string WarningsToJson(std::span<const Warning> warnings) {
   std::string out = "[";

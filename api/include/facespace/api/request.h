@@ -9,6 +9,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/status.h"
 #include "facespace/core/weights.h"
@@ -78,6 +79,50 @@ std::string ApplyPoseSetting(const std::string& key, const std::string& value, M
 
 // Checks the skeleton settings gathered by ApplyPoseSetting (time without animation, ...).
 std::string FinishPoseSettings(MeshRequest& r);
+
+// Bodies of POST /v1/rigs/{id}/sequence/{sample,stream,reduce}:
+// {"keys": [{"time": 0, "weights": {...}|[...]} | {"time": 1, "shape": "jawOpen"}, ...],
+//  "transition": "smoothstep"|..., "smooth": bool (Catmull-Rom), per key "transition" too,
+//  sample: "times": [...], "format": "json"; stream: "fps", "format": "ndjson"|"f32";
+//  reduce: "tolerance"; and "mode", "normals" as on the mesh route.}
+struct SequenceRequest {
+  struct Key {
+    float time = 0.0f;
+    std::vector<WeightEntry> weights;
+    std::string shape;                      // A shape key (one-hot), instead of weights.
+    std::optional<Transition> transition;
+    std::string pointer;
+  };
+  std::vector<Key> keys;
+  Transition transition;
+  bool smooth = false;
+  std::vector<float> times;
+  float fps = 30.0f;
+  std::string format;
+  float tolerance = 0.0f;
+  bool has_tolerance = false;
+  BlendOptions options;
+};
+Result<SequenceRequest> ParseSequenceRequest(std::string_view body);
+
+// The keys resolved against a rig (names, aliases, indices, shape keys), validated.
+Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request);
+
+// JSON of a sequence's keys, weights by name (zeros left out), as a request takes them.
+std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence);
+
+// Warnings of one sampled frame: the transition leaving [0, 1] (transition_extrapolation),
+// then the weights' own (CheckWeights), each prefixed with "t=TIME: ".
+void SequenceFrameWarnings(const Rig& rig, float time, float f, std::span<const float> weights, BlendMode mode,
+                           std::vector<Warning>& out);
+
+// {"name": w, ...} of the non-zero weights, floats as their shortest text.
+std::string WeightsMapJson(const Rig& rig, std::span<const float> weights);
+
+// The sample route's body: {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}.
+// `warnings` receives the warnings too (for headers).
+Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
+                                       const BlendOptions& options, std::vector<Warning>& warnings);
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode);
 bool ParseNormalMode(std::string_view s, NormalMode* mode);

@@ -67,6 +67,12 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended,
                                std::span<const Warning> warnings, MeshFormat format,
                                const ExportOptions& options = {});
 
+// The JSON export's primitives array: [{"mesh", "primitive", "name", "positions", "normals"}].
+std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended);
+
+// World-space float32 positions of every primitive, in order (the f32 export without normals).
+void WorldPositions(const BlendedRig& blended, std::vector<float>& out);
+
 // JSON text of one warning list: [{"code", "message", "shape"?, "value"?}, ...].
 std::string WarningsToJson(std::span<const Warning> warnings);
 

@@ -1,0 +1,72 @@
+// Shapes over time: keyframe sequences of weight vectors, in-betweened by a transition
+// function, with baking and keyframe reduction.
+#pragma once
+
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/core/blend.h"
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace {
+
+enum class TransitionKind { kStep, kLinear, kSmoothstep, kSmootherstep, kEaseIn, kEaseOut, kEaseInOut, kBezier };
+
+// f: [0, 1] -> R with f(0) = 0 and f(1) = 1 (except step, which holds until 1). A cubic
+// Bezier is CSS's cubic-bezier(x1, y1, x2, y2): x1, x2 in [0, 1], y free, so it may leave
+// [0, 1] and extrapolate.
+struct Transition {
+  TransitionKind kind = TransitionKind::kLinear;
+  float x1 = 0.0f, y1 = 0.0f, x2 = 1.0f, y2 = 1.0f;  // kBezier only.
+};
+
+// "step", "linear", "smoothstep", "smootherstep", "ease-in", "ease-out", "ease-in-out",
+// "cubic-bezier(x1, y1, x2, y2)". False when unknown or out of range.
+bool ParseTransition(const std::string& text, Transition* out);
+std::string TransitionName(const Transition& t);
+
+// f(u) for u in [0, 1].
+float ApplyTransition(const Transition& t, float u);
+
+struct Keyframe {
+  float time = 0.0f;                      // Seconds; any spacing.
+  std::vector<float> weights;             // One per shape (a shape key is a one-hot vector).
+  std::optional<Transition> transition;   // Towards the next key; else the sequence's.
+};
+
+struct Sequence {
+  std::vector<Keyframe> keys;             // Strictly increasing times.
+  Transition transition;
+  bool smooth = false;                    // Catmull-Rom through the weight vectors instead.
+};
+
+// Times finite and strictly increasing, every key with one weight per shape, finite.
+Status ValidateSequence(const Sequence& sequence, size_t shape_count);
+
+// Weights at time t (clamped to the first and last key): keys B, C around t,
+// w_C = f((t - t_B) / (t_C - t_B)), w_B = 1 - w_C. `f_out` receives f (for warnings).
+void SampleSequence(const Sequence& sequence, float t, std::span<float> out, float* f_out = nullptr);
+
+// The sequence with a key baked at t (the sampled weights, keeping the transition); a key
+// already at t is replaced by its own value (no change).
+Sequence BakeKey(const Sequence& sequence, float t);
+
+struct ReduceResult {
+  Sequence sequence;
+  double max_error = 0.0;    // Largest vertex distance between the two, over the check times.
+  size_t removed = 0;
+};
+
+// Removes keys (never the first or last) while the largest vertex distance between the
+// original and the reduced sequence, over every original key time and the midpoints
+// between them, stays at most `tolerance` (mesh units).
+Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& sequence, float tolerance);
+
+// A sequence from a glTF animation's morph-weight channel (its first one): keys at the
+// sampler's times; STEP and LINEAR map to step and linear, CUBICSPLINE to smooth.
+Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation);
+
+}  // namespace facespace

@@ -1,0 +1,255 @@
+#include "facespace/core/sequence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace facespace {
+
+namespace {
+
+// x(s) and y(s) of CSS's cubic Bezier from (0, 0) to (1, 1).
+float Bez(float s, float a, float b) {
+  const float r = 1.0f - s;
+  return 3.0f * r * r * s * a + 3.0f * r * s * s * b + s * s * s;
+}
+
+}  // namespace
+
+float ApplyTransition(const Transition& t, float u) {
+  switch (t.kind) {
+    case TransitionKind::kStep: return u >= 1.0f ? 1.0f : 0.0f;
+    case TransitionKind::kLinear: return u;
+    case TransitionKind::kSmoothstep: return u * u * (3.0f - 2.0f * u);
+    case TransitionKind::kSmootherstep: return u * u * u * (u * (6.0f * u - 15.0f) + 10.0f);
+    case TransitionKind::kEaseIn: return u * u * u;
+    case TransitionKind::kEaseOut: {
+      const float v = 1.0f - u;
+      return 1.0f - v * v * v;
+    }
+    case TransitionKind::kEaseInOut:
+      return u < 0.5f ? 4.0f * u * u * u : 1.0f - std::pow(-2.0f * u + 2.0f, 3.0f) / 2.0f;
+    case TransitionKind::kBezier: {
+      if (u <= 0.0f) return 0.0f;
+      if (u >= 1.0f) return 1.0f;
+      // x(s) is monotonic for x1, x2 in [0, 1]: solve x(s) = u by bisection (exact to float).
+      float lo = 0.0f, hi = 1.0f;
+      for (int i = 0; i < 40; ++i) {
+        const float mid = 0.5f * (lo + hi);
+        (Bez(mid, t.x1, t.x2) < u ? lo : hi) = mid;
+      }
+      return Bez(0.5f * (lo + hi), t.y1, t.y2);
+    }
+  }
+  return u;
+}
+
+bool ParseTransition(const std::string& text, Transition* out) {
+  static const std::pair<const char*, TransitionKind> kNames[] = {
+      {"step", TransitionKind::kStep},           {"linear", TransitionKind::kLinear},
+      {"smoothstep", TransitionKind::kSmoothstep}, {"smootherstep", TransitionKind::kSmootherstep},
+      {"ease-in", TransitionKind::kEaseIn},      {"ease-out", TransitionKind::kEaseOut},
+      {"ease-in-out", TransitionKind::kEaseInOut}};
+  for (const auto& [name, kind] : kNames) {
+    if (text == name) {
+      *out = Transition{kind};
+      return true;
+    }
+  }
+  Transition t{TransitionKind::kBezier};
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "cubic-bezier(%f ,%f ,%f ,%f %c", &t.x1, &t.y1, &t.x2, &t.y2, &tail) == 5 && tail == ')' &&
+      t.x1 >= 0.0f && t.x1 <= 1.0f && t.x2 >= 0.0f && t.x2 <= 1.0f && std::isfinite(t.y1) && std::isfinite(t.y2)) {
+    *out = t;
+    return true;
+  }
+  return false;
+}
+
+std::string TransitionName(const Transition& t) {
+  switch (t.kind) {
+    case TransitionKind::kStep: return "step";
+    case TransitionKind::kLinear: return "linear";
+    case TransitionKind::kSmoothstep: return "smoothstep";
+    case TransitionKind::kSmootherstep: return "smootherstep";
+    case TransitionKind::kEaseIn: return "ease-in";
+    case TransitionKind::kEaseOut: return "ease-out";
+    case TransitionKind::kEaseInOut: return "ease-in-out";
+    case TransitionKind::kBezier: {
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "cubic-bezier(%g, %g, %g, %g)", t.x1, t.y1, t.x2, t.y2);
+      return buf;
+    }
+  }
+  return "linear";
+}
+
+Status ValidateSequence(const Sequence& s, size_t shape_count) {
+  if (s.keys.empty()) return InvalidArgument("a sequence needs at least one key");
+  for (size_t k = 0; k < s.keys.size(); ++k) {
+    const Keyframe& key = s.keys[k];
+    const std::string where = "/keys/" + std::to_string(k);
+    Status bad = InvalidArgument("");
+    if (!std::isfinite(key.time)) bad.fields.push_back({where + "/time", "must be a finite number of seconds"});
+    else if (k > 0 && !(key.time > s.keys[k - 1].time)) bad.fields.push_back({where + "/time", "key times must increase"});
+    if (key.weights.size() != shape_count) bad.fields.push_back({where + "/weights", "needs one weight per shape"});
+    for (float w : key.weights) {
+      if (!std::isfinite(w)) {
+        bad.fields.push_back({where + "/weights", "weights must be finite"});
+        break;
+      }
+    }
+    if (!bad.fields.empty()) {
+      bad.message = bad.fields[0].pointer + ": " + bad.fields[0].message;
+      return bad;
+    }
+  }
+  return Status::Ok();
+}
+
+void SampleSequence(const Sequence& s, float t, std::span<float> out, float* f_out) {
+  const auto& keys = s.keys;
+  if (f_out) *f_out = 0.0f;
+  if (keys.size() == 1 || t <= keys.front().time) {
+    std::copy(keys.front().weights.begin(), keys.front().weights.end(), out.begin());
+    return;
+  }
+  if (t >= keys.back().time) {
+    std::copy(keys.back().weights.begin(), keys.back().weights.end(), out.begin());
+    if (f_out) *f_out = 1.0f;
+    return;
+  }
+  const size_t c = static_cast<size_t>(std::upper_bound(keys.begin(), keys.end(), t, [](float v, const Keyframe& k) { return v < k.time; }) -
+                                       keys.begin());
+  const size_t b = c - 1;
+  const float u = (t - keys[b].time) / (keys[c].time - keys[b].time);
+  const float f = ApplyTransition(keys[b].transition.value_or(s.transition), u);
+  if (f_out) *f_out = f;
+  const auto& wb = keys[b].weights;
+  const auto& wc = keys[c].weights;
+  if (!s.smooth) {
+    for (size_t i = 0; i < out.size(); ++i) out[i] = (1.0f - f) * wb[i] + f * wc[i];
+    return;
+  }
+  // Catmull-Rom through the neighbouring keys (ends repeated), parameterised by f.
+  const auto& wa = keys[b > 0 ? b - 1 : b].weights;
+  const auto& wd = keys[c + 1 < keys.size() ? c + 1 : c].weights;
+  const float f2 = f * f, f3 = f2 * f;
+  for (size_t i = 0; i < out.size(); ++i) {
+    out[i] = 0.5f * (2.0f * wb[i] + (wc[i] - wa[i]) * f + (2.0f * wa[i] - 5.0f * wb[i] + 4.0f * wc[i] - wd[i]) * f2 +
+                     (3.0f * wb[i] - wa[i] - 3.0f * wc[i] + wd[i]) * f3);
+  }
+}
+
+Sequence BakeKey(const Sequence& s, float t) {
+  Sequence out = s;
+  Keyframe key;
+  key.time = t;
+  key.weights.resize(s.keys.front().weights.size());
+  SampleSequence(s, t, key.weights);
+  auto it = std::lower_bound(out.keys.begin(), out.keys.end(), t, [](const Keyframe& k, float v) { return k.time < v; });
+  if (it != out.keys.end() && it->time == t) return out;
+  if (it != out.keys.begin()) key.transition = std::prev(it)->transition;
+  out.keys.insert(it, key);
+  return out;
+}
+
+namespace {
+
+// Largest vertex distance between the rig at weights a and at weights b:
+// max_v |sum_j (a_j - b_j) d_j(v)|, computed with the blend kernel on a zero base.
+double MaxVertexDistance(const Rig& rig, std::span<const float> a, std::span<const float> b, std::vector<float>& diff,
+                         std::vector<float>& scratch) {
+  diff.resize(a.size());
+  for (size_t i = 0; i < a.size(); ++i) diff[i] = a[i] - b[i];
+  double worst = 0.0;
+  std::vector<float> tw;
+  for (const Mesh& mesh : rig.meshes) {
+    tw.resize(mesh.target_shapes.size());
+    bool any = false;
+    for (size_t t = 0; t < tw.size(); ++t) any |= (tw[t] = diff[mesh.target_shapes[t]]) != 0.0f;
+    if (!any) continue;
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      scratch.assign(p.positions.size(), 0.0f);
+      BlendShapeJob job{.base = scratch, .weights = tw, .targets = p.targets, .out = scratch};
+      job.Run();
+      for (size_t v = 0; v < scratch.size(); v += 3) {
+        worst = std::max(worst, std::sqrt(static_cast<double>(scratch[v]) * scratch[v] + static_cast<double>(scratch[v + 1]) * scratch[v + 1] +
+                                          static_cast<double>(scratch[v + 2]) * scratch[v + 2]));
+      }
+    }
+  }
+  return worst;
+}
+
+}  // namespace
+
+Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& s, float tolerance) {
+  if (Status st = ValidateSequence(s, rig.shapes.size()); !st.ok()) return st;
+  if (!(tolerance >= 0.0f) || !std::isfinite(tolerance)) return InvalidArgument("tolerance must be a finite number >= 0");
+  std::vector<float> times;
+  for (size_t k = 0; k < s.keys.size(); ++k) {
+    times.push_back(s.keys[k].time);
+    if (k + 1 < s.keys.size()) {
+      for (int q = 1; q < 4; ++q) times.push_back(s.keys[k].time + 0.25f * q * (s.keys[k + 1].time - s.keys[k].time));
+    }
+  }
+  const size_t n = rig.shapes.size();
+  std::vector<std::vector<float>> reference(times.size(), std::vector<float>(n));
+  for (size_t i = 0; i < times.size(); ++i) SampleSequence(s, times[i], reference[i]);
+  std::vector<float> w(n), diff, scratch;
+  auto error_of = [&](const Sequence& candidate) {
+    double worst = 0.0;
+    for (size_t i = 0; i < times.size(); ++i) {
+      SampleSequence(candidate, times[i], w);
+      worst = std::max(worst, MaxVertexDistance(rig, reference[i], w, diff, scratch));
+    }
+    return worst;
+  };
+  ReduceResult r{s, 0.0, 0};
+  // Greedy: repeatedly drop the interior key whose removal costs least, while it fits.
+  while (r.sequence.keys.size() > 2) {
+    double best = INFINITY;
+    size_t best_k = 0;
+    for (size_t k = 1; k + 1 < r.sequence.keys.size(); ++k) {
+      Sequence c = r.sequence;
+      c.keys.erase(c.keys.begin() + static_cast<long>(k));
+      const double e = error_of(c);
+      if (e < best) {
+        best = e;
+        best_k = k;
+      }
+    }
+    if (best > tolerance) break;
+    r.sequence.keys.erase(r.sequence.keys.begin() + static_cast<long>(best_k));
+    r.max_error = best;
+    ++r.removed;
+  }
+  return r;
+}
+
+Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation) {
+  if (animation < 0 || static_cast<size_t>(animation) >= rig.animations.size()) return InvalidArgument("no such animation");
+  const AnimationInfo& a = rig.animations[animation];
+  for (const AnimationChannel& ch : a.channel_data) {
+    if (ch.path != ChannelPath::kWeights) continue;
+    const AnimationSampler& smp = a.sampler_data[ch.sampler];
+    const Mesh& mesh = rig.meshes[rig.nodes[ch.node].mesh];
+    Sequence s;
+    s.transition.kind = smp.interpolation == Interpolation::kStep ? TransitionKind::kStep : TransitionKind::kLinear;
+    s.smooth = smp.interpolation == Interpolation::kCubicSpline;
+    const size_t c = smp.components, stride = s.smooth ? 3 * c : c, offset = s.smooth ? c : 0;
+    for (size_t k = 0; k < smp.times.size(); ++k) {
+      Keyframe key;
+      key.time = smp.times[k];
+      key.weights.assign(rig.shapes.size(), 0.0f);
+      for (size_t t = 0; t < c && t < mesh.target_shapes.size(); ++t) key.weights[mesh.target_shapes[t]] = smp.values[k * stride + offset + t];
+      s.keys.push_back(std::move(key));
+    }
+    return s;
+  }
+  return InvalidArgument("animation '" + a.name + "' has no morph-weight channel");
+}
+
+}  // namespace facespace

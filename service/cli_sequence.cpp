@@ -1,0 +1,300 @@
+// facespace sequence: keyframe sequences from the command line.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+
+#include "cli.h"
+#include "facespace/api/request.h"
+#include "facespace/core/io.h"
+#include "facespace/core/sequence.h"
+
+namespace facespace::cli {
+
+namespace {
+
+const char kSequenceUsage[] =
+    "usage: facespace sequence RIG [SHAPE.obj ...]\n"
+    "         (--keys JSON|@FILE | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
+    "         [--transition linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)']\n"
+    "         [--smooth] [--mode relative|absolute] [--normals blend|recompute]\n"
+    "         (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
+    "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
+    "       facespace sequence RIG ... --bake TIME -o OUT.json\n"
+    "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
+    "frame_00000.EXT for obj, glb and f32, or into one JSON file.\n";
+
+bool Slurp(const std::string& path, std::string& out) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return false;
+  out.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return true;
+}
+
+bool Spit(const std::string& path, const std::string& data) {
+  if (path == "-") return std::fwrite(data.data(), 1, data.size(), stdout) == data.size();
+  const std::string tmp = path + ".tmp" + std::to_string(getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f || !f.write(data.data(), static_cast<std::streamsize>(data.size())) || !f.flush()) {
+      std::remove(tmp.c_str());
+      return false;
+    }
+  }
+  return std::rename(tmp.c_str(), path.c_str()) == 0;
+}
+
+// A progress bar on a terminal, a line every 10% otherwise.
+class Progress {
+ public:
+  explicit Progress(size_t total) : total_(total), tty_(isatty(2)), start_(std::chrono::steady_clock::now()) {}
+  void Step(size_t done) {
+    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+    const double rate = secs > 0 ? done / secs : 0.0;
+    if (tty_) {
+      const int width = 30, filled = static_cast<int>(width * done / std::max<size_t>(total_, 1));
+      std::fprintf(stderr, "\r[%s%s] %zu/%zu frames, %.1f frames/s ", std::string(filled, '#').c_str(),
+                   std::string(width - filled, ' ').c_str(), done, total_, rate);
+      if (done == total_) std::fputc('\n', stderr);
+    } else if (done == total_ || done * 10 / total_ != (done - 1) * 10 / total_) {
+      std::fprintf(stderr, "frames: %zu/%zu (%.1f frames/s)\n", done, total_, rate);
+    }
+  }
+
+ private:
+  size_t total_;
+  bool tty_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace
+
+int Sequence(const std::vector<std::string>& args) {
+  std::vector<std::string> paths;
+  std::string keys_text, from_animation, obj_times, transition, times_text, format = "json", out;
+  bool smooth = false, has_fps = false, has_reduce = false, has_bake = false;
+  float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
+  BlendOptions options;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--smooth") {
+      smooth = true;
+      continue;
+    }
+    if (a.rfind("--", 0) == 0 || a == "-o") {
+      if (i + 1 >= args.size()) {
+        std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kSequenceUsage);
+        return 2;
+      }
+      const std::string v = args[++i];
+      auto number = [&](float* dst) {
+        char* end = nullptr;
+        *dst = std::strtof(v.c_str(), &end);
+        if (v.empty() || *end || !std::isfinite(*dst)) {
+          std::fprintf(stderr, "error: %s: '%s' is not a number\n", a.c_str(), v.c_str());
+          return false;
+        }
+        return true;
+      };
+      if (a == "--keys") keys_text = v;
+      else if (a == "--from-animation") from_animation = v;
+      else if (a == "--obj-times") obj_times = v;
+      else if (a == "--transition") transition = v;
+      else if (a == "--times") times_text = v;
+      else if (a == "--format") format = v;
+      else if (a == "-o" || a == "--output") out = v;
+      else if (a == "--fps") {
+        if (!number(&fps) || fps <= 0) return 2;
+        has_fps = true;
+      } else if (a == "--reduce") {
+        if (!number(&tolerance) || tolerance < 0) return 2;
+        has_reduce = true;
+      } else if (a == "--bake") {
+        if (!number(&bake)) return 2;
+        has_bake = true;
+      } else if (a == "--mode") {
+        if (!api::ParseBlendMode(v, &options.mode)) return std::fprintf(stderr, "error: --mode must be relative or absolute\n"), 2;
+      } else if (a == "--normals") {
+        if (!api::ParseNormalMode(v, &options.normals)) return std::fprintf(stderr, "error: --normals must be blend or recompute\n"), 2;
+      } else {
+        std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kSequenceUsage);
+        return 2;
+      }
+      continue;
+    }
+    paths.push_back(a);
+  }
+  const int sources = !keys_text.empty() + !from_animation.empty() + !obj_times.empty();
+  if (paths.empty() || out.empty() || sources != 1) {
+    std::fprintf(stderr, "error: %s\n%s",
+                 paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)" : "give exactly one of --keys, --from-animation, --obj-times",
+                 kSequenceUsage);
+    return 2;
+  }
+  if (format != "json" && format != "obj" && format != "glb" && format != "f32") {
+    std::fprintf(stderr, "error: --format must be json, obj, glb or f32\n");
+    return 2;
+  }
+  Result<Rig> loaded = paths.size() > 1 ? LoadObjSequence(paths) : LoadRigFile(paths[0]);
+  if (!loaded.ok()) {
+    std::fprintf(stderr, "error: %s\n", loaded.status().message.c_str());
+    return 1;
+  }
+  const Rig& rig = loaded.value();
+
+  // The sequence.
+  facespace::Sequence seq;
+  if (!keys_text.empty()) {
+    if (keys_text[0] == '@' && !Slurp(keys_text.substr(1), keys_text)) {
+      std::fprintf(stderr, "error: --keys: cannot read '%s'\n", keys_text.substr(1).c_str());
+      return 1;
+    }
+    nlohmann::json keys = nlohmann::json::parse(keys_text, nullptr, false);
+    if (keys.is_discarded()) {
+      std::fprintf(stderr, "error: --keys: malformed JSON\n");
+      return 1;
+    }
+    nlohmann::json body = {{"keys", keys}, {"smooth", smooth}};
+    if (!transition.empty()) body["transition"] = transition;
+    auto parsed = api::ParseSequenceRequest(body.dump());
+    if (!parsed.ok()) {
+      std::fprintf(stderr, "error: %s\n", parsed.status().message.c_str());
+      return 1;
+    }
+    auto resolved = api::ResolveSequence(rig, parsed.value());
+    if (!resolved.ok()) {
+      std::fprintf(stderr, "error: %s\n", resolved.status().message.c_str());
+      return 1;
+    }
+    seq = std::move(resolved.value());
+  } else {
+    if (!from_animation.empty()) {
+      int clip = -1;
+      for (size_t c = 0; c < rig.animations.size(); ++c) {
+        if (rig.animations[c].name == from_animation) clip = static_cast<int>(c);
+      }
+      if (clip < 0 && from_animation.find_first_not_of("0123456789") == std::string::npos && from_animation.size() < 9) {
+        clip = std::stoi(from_animation);
+      }
+      auto s = SequenceFromAnimation(rig, clip);
+      if (!s.ok()) {
+        std::fprintf(stderr, "error: --from-animation: %s\n", s.status().message.c_str());
+        return 1;
+      }
+      seq = std::move(s.value());
+    } else {
+      // One key per OBJ file: the base at the first time, then each frame as its shape.
+      std::vector<float> times;
+      size_t start = 0;
+      while (start <= obj_times.size()) {
+        size_t end = obj_times.find(',', start);
+        if (end == std::string::npos) end = obj_times.size();
+        char* stop = nullptr;
+        const std::string tok = obj_times.substr(start, end - start);
+        times.push_back(std::strtof(tok.c_str(), &stop));
+        if (tok.empty() || *stop) {
+          std::fprintf(stderr, "error: --obj-times: '%s' is not a number\n", tok.c_str());
+          return 2;
+        }
+        start = end + 1;
+      }
+      if (times.size() != paths.size()) {
+        std::fprintf(stderr, "error: --obj-times gives %zu times for %zu OBJ files\n", times.size(), paths.size());
+        return 2;
+      }
+      for (size_t k = 0; k < times.size(); ++k) {
+        Keyframe key;
+        key.time = times[k];
+        key.weights.assign(rig.shapes.size(), 0.0f);
+        if (k > 0) key.weights[k - 1] = 1.0f;
+        seq.keys.push_back(std::move(key));
+      }
+    }
+    if (!transition.empty() && !ParseTransition(transition, &seq.transition)) {
+      std::fprintf(stderr, "error: --transition: unknown '%s'\n", transition.c_str());
+      return 2;
+    }
+    seq.smooth |= smooth;
+    if (Status st = ValidateSequence(seq, rig.shapes.size()); !st.ok()) {
+      std::fprintf(stderr, "error: %s\n", st.message.c_str());
+      return 1;
+    }
+  }
+
+  if (has_reduce) {
+    auto r = ReduceSequence(rig, seq, tolerance);
+    if (!r.ok()) {
+      std::fprintf(stderr, "error: %s\n", r.status().message.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "kept %zu of %zu keys, max vertex error %s (tolerance %s)\n", r->sequence.keys.size(), seq.keys.size(),
+                 FormatNumber(r->max_error).c_str(), FormatNumber(tolerance).c_str());
+    const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, r->sequence) + ",\"transition\":\"" + TransitionName(seq.transition) +
+                             "\",\"kept\":" + std::to_string(r->sequence.keys.size()) + ",\"removed\":" + std::to_string(r->removed) +
+                             ",\"max_error\":" + FormatNumber(r->max_error) + "}\n";
+    return Spit(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+  }
+  if (has_bake) {
+    const facespace::Sequence baked = BakeKey(seq, bake);
+    const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, baked) + ",\"transition\":\"" + TransitionName(seq.transition) + "\"}\n";
+    return Spit(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+  }
+
+  // Sampling.
+  std::vector<float> times;
+  if (!times_text.empty()) {
+    nlohmann::json t = nlohmann::json::parse(times_text, nullptr, false);
+    if (t.is_discarded() || !t.is_array() || t.empty()) {
+      std::fprintf(stderr, "error: --times must be a JSON array of seconds\n");
+      return 2;
+    }
+    for (const auto& v : t) {
+      if (!v.is_number()) return std::fprintf(stderr, "error: --times must hold numbers\n"), 2;
+      times.push_back(v.get<float>());
+    }
+  } else {
+    if (!has_fps) fps = 30.0f;
+    const double duration = seq.keys.back().time - seq.keys.front().time;
+    const size_t frames = static_cast<size_t>(std::floor(duration * fps + 1e-6)) + 1;
+    if (frames > 1000000) return std::fprintf(stderr, "error: too many frames\n"), 2;
+    for (size_t k = 0; k < frames; ++k) times.push_back(seq.keys.front().time + static_cast<float>(k) / fps);
+  }
+  std::vector<Warning> warnings;
+  if (format == "json") {
+    auto body = api::SampleSequenceJson(rig, seq, times, options, warnings);
+    for (const Warning& w : warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+    if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
+    return Spit(out, body.value()) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) return std::fprintf(stderr, "error: cannot create '%s': %s\n", out.c_str(), ec.message().c_str()), 1;
+  MeshFormat mf;
+  ParseMeshFormat(format, &mf);
+  std::vector<float> w(rig.shapes.size());
+  BlendContext context;
+  BlendedRig blended;
+  Progress progress(times.size());
+  for (size_t k = 0; k < times.size(); ++k) {
+    float f = 0.0f;
+    SampleSequence(seq, times[k], w, &f);
+    std::vector<Warning> fw;
+    api::SequenceFrameWarnings(rig, times[k], f, w, options.mode, fw);
+    for (const Warning& wn : fw) std::fprintf(stderr, "%swarning: %s\n", isatty(2) ? "\n" : "", wn.message.c_str());
+    if (Status s = EvaluateRig(rig, w, options, blended, context); !s.ok()) return std::fprintf(stderr, "error: %s\n", s.message.c_str()), 1;
+    auto bytes = ExportMesh(rig, blended, w, fw, mf);
+    if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
+    char name[64];
+    std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, format.c_str());
+    if (!Spit(out + name, bytes.value())) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
+    progress.Step(k + 1);
+  }
+  return 0;
+}
+
+}  // namespace facespace::cli
