@@ -199,30 +199,47 @@ Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& s, float tol
   std::vector<std::vector<float>> reference(times.size(), std::vector<float>(n));
   for (size_t i = 0; i < times.size(); ++i) SampleSequence(s, times[i], reference[i]);
   std::vector<float> w(n), diff, scratch;
-  auto error_of = [&](const Sequence& candidate) {
-    double worst = 0.0;
-    for (size_t i = 0; i < times.size(); ++i) {
-      SampleSequence(candidate, times[i], w);
-      worst = std::max(worst, MaxVertexDistance(rig, reference[i], w, diff, scratch));
-    }
-    return worst;
+  // Error of `candidate` at check time i.
+  auto error_at = [&](const Sequence& candidate, size_t i) {
+    SampleSequence(candidate, times[i], w);
+    return MaxVertexDistance(rig, reference[i], w, diff, scratch);
   };
   ReduceResult r{s, 0.0, 0};
+  std::vector<double> errors(times.size(), 0.0);  // Of the current reduced sequence.
   // Greedy: repeatedly drop the interior key whose removal costs least, while it fits.
+  // Removing a key changes the sequence only between its neighbours (two on each side for
+  // the smooth spline), so only check times there are evaluated again.
   while (r.sequence.keys.size() > 2) {
     double best = INFINITY;
     size_t best_k = 0;
+    std::vector<double> best_local;
     for (size_t k = 1; k + 1 < r.sequence.keys.size(); ++k) {
+      const size_t reach = s.smooth ? 2 : 1;
+      const float lo = r.sequence.keys[k > reach ? k - reach : 0].time;
+      const float hi = r.sequence.keys[std::min(k + reach, r.sequence.keys.size() - 1)].time;
       Sequence c = r.sequence;
       c.keys.erase(c.keys.begin() + static_cast<long>(k));
-      const double e = error_of(c);
+      double e = 0.0;
+      std::vector<double> local(times.size(), -1.0);
+      for (size_t i = 0; i < times.size() && e <= best; ++i) {
+        if (times[i] > lo && times[i] < hi) {
+          local[i] = error_at(c, i);
+          e = std::max(e, local[i]);
+        } else {
+          e = std::max(e, errors[i]);
+        }
+      }
       if (e < best) {
         best = e;
         best_k = k;
+        best_local = std::move(local);
       }
     }
     if (best > tolerance) break;
     r.sequence.keys.erase(r.sequence.keys.begin() + static_cast<long>(best_k));
+    for (size_t i = 0; i < times.size(); ++i) {
+      if (best_local[i] >= 0.0) errors[i] = best_local[i];
+    }
     r.max_error = best;
     ++r.removed;
   }

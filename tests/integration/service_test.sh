@@ -103,6 +103,35 @@ check "sheet: more cells than the limit is 422" problem "$(c -X POST -H 'Content
 seq 1 32 | xargs -P 16 -I{} sh -c "curl -s -o /dev/null -w '%{http_code}\n' '$U/v1/rigs/facecap/render?w.jawOpen=0.{}&width=128&height=128'" >"$tmp/rcodes"
 check "16 concurrent render clients, 32 renders: all 200" sh -c "[ \$(grep -c '^200$' '$tmp/rcodes') -eq 32 ]"
 
+# sequences
+SEQ='"keys":[{"time":0,"weights":{}},{"time":1,"shape":"jawOpen"},{"time":2,"weights":{"mouthSmile_L":1}}],"transition":"smoothstep"'
+code=$(c -X POST -H 'Content-Type: application/json' -d "{$SEQ,\"times\":[0.25,1.5]}" "$U/v1/rigs/facecap/sequence/sample")
+check "sequence/sample: frames with time, weights and the mesh route's primitives" sh -c "[ $code = 200 ]" && \
+  check "  ... w_C = smoothstep(u): 0.15625 at t=0.25; half and half at t=1.5" jq_ "len(d['frames'])==2 and d['frames'][0]['weights']=={'jawOpen':0.15625} and d['frames'][1]['weights']=={'jawOpen':0.5,'mouthSmile_L':0.5} and len(d['frames'][0]['primitives'])==4 and d['warnings']==[]"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0},{"time":1,"shape":"jawOpen"}],"transition":"cubic-bezier(0.3,-0.5,0.7,1.5)","times":[0.1]}' "$U/v1/rigs/facecap/sequence/sample")
+check "sequence/sample: a transition leaving [0, 1] warns (and the negative weight too)" sh -c "[ $code = 200 ]" && jq_ "[w['code'] for w in d['warnings']][:1]==['transition_extrapolation']" && ok "  ... transition_extrapolation" || no "  ... transition_extrapolation warning"
+check "sequence: decreasing key times are 422 at the key" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":1},{"time":0}],"times":[0]}' "$U/v1/rigs/facecap/sequence/sample")" 422 "d['errors'][0]['pointer']=='/keys/1/time'"
+check "sequence: an unknown transition is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0}],"transition":"bounce","times":[0]}' "$U/v1/rigs/facecap/sequence/sample")" 422 "d['errors'][0]['pointer']=='/transition'"
+check "sequence: an unknown shape key is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0,"shape":"nose"}],"times":[0]}' "$U/v1/rigs/facecap/sequence/sample")" 422 "d['errors'][0]['pointer']=='/keys/0/shape'"
+curl -sN -X POST -H 'Content-Type: application/json' -d "{$SEQ,\"fps\":10,\"format\":\"ndjson\"}" "$U/v1/rigs/facecap/sequence/stream" >"$tmp/stream.ndjson"
+check "sequence/stream ndjson: 21 frames at 10 fps over 2 s, one JSON line each" py 'import json,sys
+lines=[json.loads(l) for l in open(sys.argv[1])]
+sys.exit(not(len(lines)==21 and lines[10]["time"]==1 and lines[10]["weights"]=={"jawOpen":1} and lines[5]["frame"]==5))' "$tmp/stream.ndjson"
+curl -s -o "$tmp/stream.f32" -w '%{time_starttransfer} %{time_total}' -X POST -H 'Content-Type: application/json' -d "{$SEQ,\"fps\":400,\"format\":\"f32\"}" "$U/v1/rigs/facecap/sequence/stream" >"$tmp/timing"
+check "sequence/stream f32: 801 length-prefixed frames of 4368 positions" py 'import sys,struct
+d=open(sys.argv[1],"rb").read(); n=0; o=0
+while o < len(d):
+  L=struct.unpack("<I", d[o:o+4])[0]; assert L==4368*12; o+=4+L; n+=1
+sys.exit(not(n==801 and o==len(d)))' "$tmp/stream.f32"
+check "sequence/stream: the first frame arrives long before the last ($(cat "$tmp/timing"))" py 'import sys; a,b=map(float,open(sys.argv[1]).read().split()); sys.exit(not(a < b/3))' "$tmp/timing"
+before=$(curl -s "$U/metrics" | awk '/^facespace_blends_total/ {print $2}')
+curl -s -N -X POST -H 'Content-Type: application/json' -d "{$SEQ,\"fps\":10000,\"format\":\"f32\"}" "$U/v1/rigs/facecap/sequence/stream" | head -c 1000000 >/dev/null
+sleep 1
+after=$(curl -s "$U/metrics" | awk '/^facespace_blends_total/ {print $2}')
+check "sequence/stream: a client that closes stops the work (20001 frames asked, $((after - before)) computed)" test $((after - before)) -lt 2000
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0},{"time":1,"weights":{"jawOpen":0.5}},{"time":2,"weights":{"jawOpen":1}},{"time":3,"weights":{"jawOpen":0.2}}],"tolerance":0.0001}' "$U/v1/rigs/facecap/sequence/reduce")
+check "sequence/reduce: the collinear middle key goes, the turning one stays" sh -c "[ $code = 200 ]" && jq_ "d['kept']==3 and d['removed']==1 and [k['time'] for k in d['keys']]==[0,2,3] and d['max_error']<=0.0001" && ok "  ... keys 0, 2, 3 kept" || no "  ... reduce result"
+
 # errors
 check "malformed JSON: 400 problem" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":' "$U/v1/rigs/facecap/mesh")" 400 "'malformed' in d['detail']"
 check "unknown shape: 422 naming it, with a suggestion" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpn":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpn' and \"did you mean 'jawOpen'\" in d['errors'][0]['detail']"
@@ -177,7 +206,8 @@ import json,sys
 d=json.load(open(sys.argv[1]))
 want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"get"},"/v1/rigs":{"get"},
       "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
-      "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"}}
+      "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
+      "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
 sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-validator" ]; then
