@@ -135,5 +135,22 @@ err_case "blend: bad --skinning" "skinning" blend "$fox" --skinning cubic -o "$t
 "$bin" info "$fox" >"$tmp/foxinfo" 2>&1
 check "info lists the skeleton and the clips with durations" sh -c "grep -q 'skeleton   1 skin(s), 24 joints' '$tmp/foxinfo' && grep -q 'Walk  *0.708 s' '$tmp/foxinfo'"
 
+# sequences
+K='[{"time":0},{"time":1,"shape":"jawOpen"},{"time":2,"weights":{"mouthSmile_L":1}}]'
+"$bin" sequence "$rig" --keys "$K" --transition smoothstep --times '[0.25,1.5]' -o "$tmp/seq.json" 2>/dev/null
+check "sequence --times: frames with smoothstep in-betweens" py 'import json,sys; d=json.load(open(sys.argv[1])); f=d["frames"]; sys.exit(not(f[0]["weights"]=={"jawOpen":0.15625} and f[1]["weights"]=={"jawOpen":0.5,"mouthSmile_L":0.5} and len(f[0]["primitives"])==4))' "$tmp/seq.json"
+"$bin" sequence "$rig" --keys "$K" --fps 5 --format obj -o "$tmp/frames" 2>"$tmp/err"
+check "sequence --fps 5 --format obj: 11 frame files and a progress report" sh -c "[ \$(ls '$tmp/frames' | grep -c '^frame_000[01][0-9].obj$') -eq 11 ] && grep -q 'frames: 11/11' '$tmp/err'"
+"$bin" sequence "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --from-animation 0 --reduce 0.001 -o "$tmp/red.json" 2>"$tmp/err"
+check "sequence --from-animation --reduce: fewer keys within the tolerance" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not(d["kept"] < 20 and d["removed"] > 100 and d["max_error"] <= 0.001))' "$tmp/red.json"
+"$bin" sequence "$rig" --keys "$K" --bake 0.5 -o "$tmp/baked.json" 2>/dev/null
+check "sequence --bake 0.5: a new key with the in-between weights" py 'import json,sys; k=json.load(open(sys.argv[1]))["keys"]; sys.exit(not(len(k)==4 and k[1]=={"time":0.5,"weights":{"jawOpen":0.5}}))' "$tmp/baked.json"
+ict=$M/OBJ/ICT-FaceKit_subset
+"$bin" sequence "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" --obj-times 0,0.5,1.5 --times '[0.25,1.0]' -o "$tmp/ictseq.json" 2>/dev/null
+check "sequence of OBJ frames with times: one shape per frame" py 'import json,sys; f=json.load(open(sys.argv[1]))["frames"]; sys.exit(not(f[0]["weights"]=={"jawOpen":0.5} and f[1]["weights"]=={"jawOpen":0.5,"eyeBlink_L":0.5}))' "$tmp/ictseq.json"
+err_case "sequence: decreasing times" "keys/1/time" sequence "$rig" --keys '[{"time":1},{"time":0}]' --times '[0]' -o "$tmp/x.json"
+err_case "sequence: unknown transition" "transition" sequence "$rig" --keys "$K" --transition bounce --times '[0]' -o "$tmp/x.json"
+err_case "sequence: --obj-times count" "2 times for 3 OBJ files" sequence "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" --obj-times 0,1 --times '[0]' -o "$tmp/x.json"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

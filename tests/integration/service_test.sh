@@ -125,10 +125,12 @@ while o < len(d):
 sys.exit(not(n==801 and o==len(d)))' "$tmp/stream.f32"
 check "sequence/stream: the first frame arrives long before the last ($(cat "$tmp/timing"))" py 'import sys; a,b=map(float,open(sys.argv[1]).read().split()); sys.exit(not(a < b/3))' "$tmp/timing"
 before=$(curl -s "$U/metrics" | awk '/^facespace_blends_total/ {print $2}')
-curl -s -N -X POST -H 'Content-Type: application/json' -d "{$SEQ,\"fps\":10000,\"format\":\"f32\"}" "$U/v1/rigs/facecap/sequence/stream" | head -c 1000000 >/dev/null
+LONG='"keys":[{"time":0,"weights":{}},{"time":30,"shape":"jawOpen"}],"fps":1000,"format":"f32"'
+curl -s -N -D "$tmp/lhdr" -X POST -H 'Content-Type: application/json' -d "{$LONG}" "$U/v1/rigs/facecap/sequence/stream" | head -c 1000000 | wc -c >"$tmp/got"
 sleep 1
 after=$(curl -s "$U/metrics" | awk '/^facespace_blends_total/ {print $2}')
-check "sequence/stream: a client that closes stops the work (20001 frames asked, $((after - before)) computed)" test $((after - before)) -lt 2000
+check "sequence/stream: a client that closes stops the work (30001 frames of 52 KB asked, 1 MB read, $((after - before)) computed)" \
+  sh -c "grep -q '^HTTP/1.1 200' '$tmp/lhdr' && grep -qi '^facespace-frames: 30001' '$tmp/lhdr' && [ \$(cat '$tmp/got') -eq 1000000 ] && [ $((after - before)) -gt 10 ] && [ $((after - before)) -lt 2000 ]"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0},{"time":1,"weights":{"jawOpen":0.5}},{"time":2,"weights":{"jawOpen":1}},{"time":3,"weights":{"jawOpen":0.2}}],"tolerance":0.0001}' "$U/v1/rigs/facecap/sequence/reduce")
 check "sequence/reduce: the collinear middle key goes, the turning one stays" sh -c "[ $code = 200 ]" && jq_ "d['kept']==3 and d['removed']==1 and [k['time'] for k in d['keys']]==[0,2,3] and d['max_error']<=0.0001" && ok "  ... keys 0, 2, 3 kept" || no "  ... reduce result"
 
