@@ -60,6 +60,15 @@ Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
   return LoadRigFile(paths[0]);
 }
 
+std::string Usage() {
+  return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
+         "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
+         "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets]\n"
+         "       [--format glb|obj|json|f32] -o OUT\n";
+}
+
+}  // namespace
+
 bool ReadFile(const std::string& path, std::string& out) {
   std::ifstream f(path, std::ios::binary);
   if (!f) return false;
@@ -84,15 +93,6 @@ bool WriteOutput(const std::string& path, const std::string& data) {
   }
   return true;
 }
-
-std::string Usage() {
-  return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
-         "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
-         "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets]\n"
-         "       [--format glb|obj|json|f32] -o OUT\n";
-}
-
-}  // namespace
 
 int Info(const std::vector<std::string>& args) {
   std::vector<std::string> paths;

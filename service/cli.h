@@ -6,6 +6,11 @@
 
 namespace facespace::cli {
 
+// Reads a whole file; false when it cannot.
+bool ReadFile(const std::string& path, std::string& out);
+// Writes `data` to `path` atomically (a temporary file beside it, then rename), or to stdout for "-".
+bool WriteOutput(const std::string& path, const std::string& data);
+
 // Each returns the process exit code: 0 success, 1 failure (message on stderr), 2 bad usage.
 int Info(const std::vector<std::string>& args);
 int Blend(const std::vector<std::string>& args);

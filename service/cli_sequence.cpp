@@ -29,26 +29,6 @@ const char kSequenceUsage[] =
     "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
     "frame_00000.EXT for obj, glb and f32, or into one JSON file.\n";
 
-bool Slurp(const std::string& path, std::string& out) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return false;
-  out.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  return true;
-}
-
-bool Spit(const std::string& path, const std::string& data) {
-  if (path == "-") return std::fwrite(data.data(), 1, data.size(), stdout) == data.size();
-  const std::string tmp = path + ".tmp" + std::to_string(getpid());
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f || !f.write(data.data(), static_cast<std::streamsize>(data.size())) || !f.flush()) {
-      std::remove(tmp.c_str());
-      return false;
-    }
-  }
-  return std::rename(tmp.c_str(), path.c_str()) == 0;
-}
-
 // A progress bar on a terminal, a line every 10% otherwise.
 class Progress {
  public:
@@ -150,7 +130,7 @@ int Sequence(const std::vector<std::string>& args) {
   // The sequence.
   facespace::Sequence seq;
   if (!keys_text.empty()) {
-    if (keys_text[0] == '@' && !Slurp(keys_text.substr(1), keys_text)) {
+    if (keys_text[0] == '@' && !ReadFile(keys_text.substr(1), keys_text)) {
       std::fprintf(stderr, "error: --keys: cannot read '%s'\n", keys_text.substr(1).c_str());
       return 1;
     }
@@ -237,12 +217,12 @@ int Sequence(const std::vector<std::string>& args) {
     const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, r->sequence) + ",\"transition\":\"" + TransitionName(seq.transition) +
                              "\",\"kept\":" + std::to_string(r->sequence.keys.size()) + ",\"removed\":" + std::to_string(r->removed) +
                              ",\"max_error\":" + FormatNumber(r->max_error) + "}\n";
-    return Spit(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+    return WriteOutput(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
   }
   if (has_bake) {
     const facespace::Sequence baked = BakeKey(seq, bake);
     const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, baked) + ",\"transition\":\"" + TransitionName(seq.transition) + "\"}\n";
-    return Spit(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+    return WriteOutput(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
   }
 
   // Sampling.
@@ -269,7 +249,7 @@ int Sequence(const std::vector<std::string>& args) {
     auto body = api::SampleSequenceJson(rig, seq, times, options, warnings);
     for (const Warning& w : warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
     if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
-    return Spit(out, body.value()) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+    return WriteOutput(out, body.value()) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
   }
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
@@ -291,7 +271,7 @@ int Sequence(const std::vector<std::string>& args) {
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
     char name[64];
     std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, format.c_str());
-    if (!Spit(out + name, bytes.value())) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
+    if (!WriteOutput(out + name, bytes.value())) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
     progress.Step(k + 1);
   }
   return 0;

@@ -480,56 +480,77 @@ struct Api::Impl {
   }
 
   // The mesh request from a POST body or GET query; false when an error was sent.
-  bool ReadMeshRequest(const Request& req, Response& res, MeshRequest& mr) {
-    if (req.method == "POST") {
-      const std::string ct = MediaType(req.get_header_value("Content-Type"));
-      if (!ct.empty() && ct != "application/json") {
-        SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
-        return false;
-      }
-      auto parsed = ParseMeshRequest(req.body);
-      if (!parsed.ok()) {
-        const bool malformed = IsMalformedJson(parsed.status());
-        SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request",
-                    parsed.status().message, parsed.status().fields);
-        return false;
-      }
-      mr = std::move(parsed.value());
-      return true;
+  // A JSON body (Content-Type application/json or none) parsed by `parse`; false when an
+  // error was sent (415, 400 malformed, 422 schema).
+  template <typename T, typename Parse>
+  bool ReadJsonBody(const Request& req, Response& res, Parse parse, T& out) {
+    const std::string ct = MediaType(req.get_header_value("Content-Type"));
+    if (!ct.empty() && ct != "application/json") {
+      SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+      return false;
     }
+    auto parsed = parse(req.body);
+    if (!parsed.ok()) {
+      const bool malformed = IsMalformedJson(parsed.status());
+      SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", parsed.status().message,
+                  parsed.status().fields);
+      return false;
+    }
+    out = std::move(parsed.value());
+    return true;
+  }
+
+  // A query parameter shared by the mesh and render routes: w.NAME, mode, normals, strict,
+  // and the skeleton settings. False when the key is none of them.
+  static bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& mr, std::vector<FieldError>& errors) {
+    const std::string where = "?" + key;
+    if (key.rfind("w.", 0) == 0) {
+      WeightEntry e;
+      e.name = key.substr(2);
+      e.pointer = where;
+      if (e.name.empty()) errors.push_back({where, "w. needs a shape name: w.NAME=0.5"});
+      else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
+      else mr.weights.push_back(e);
+    } else if (key == "mode") {
+      if (!ParseBlendMode(value, &mr.options.mode)) errors.push_back({where, "must be relative or absolute"});
+    } else if (key == "normals") {
+      if (!ParseNormalMode(value, &mr.options.normals)) errors.push_back({where, "must be blend or recompute"});
+    } else if (key == "strict") {
+      if (!ParseBool(value, &mr.strict)) errors.push_back({where, "must be true or false"});
+    } else {
+      bool known = false;
+      const std::string e = ApplyPoseSetting(key, value, mr, &known);
+      if (!known) return false;
+      if (!e.empty()) errors.push_back({where, e});
+    }
+    return true;
+  }
+
+  // Ends query parsing: the skeleton settings' cross-checks, then a 422 for any error.
+  static bool FinishQuery(const Request& req, Response& res, MeshRequest& mr, std::vector<FieldError>& errors) {
+    if (std::string e = FinishPoseSettings(mr); !e.empty()) errors.push_back({"?animation", e});
+    if (errors.empty()) return true;
+    SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
+    return false;
+  }
+
+  // The mesh request from a POST body or GET query; false when an error was sent.
+  bool ReadMeshRequest(const Request& req, Response& res, MeshRequest& mr) {
+    if (req.method == "POST") return ReadJsonBody(req, res, ParseMeshRequest, mr);
     std::vector<FieldError> errors;
     for (const auto& [key, value] : req.params) {
       const std::string where = "?" + key;
-      if (key.rfind("w.", 0) == 0) {
-        WeightEntry e;
-        e.name = key.substr(2);
-        e.pointer = where;
-        if (e.name.empty()) errors.push_back({where, "w. needs a shape name: w.NAME=0.5"});
-        else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
-        else mr.weights.push_back(e);
-      } else if (key == "format") {
+      if (key == "format") {
         MeshFormat f;
         if (ParseMeshFormat(value, &f)) mr.format = f;
         else errors.push_back({where, "must be one of glb, obj, json, f32"});
-      } else if (key == "mode") {
-        if (!ParseBlendMode(value, &mr.options.mode)) errors.push_back({where, "must be relative or absolute"});
-      } else if (key == "normals") {
-        if (!ParseNormalMode(value, &mr.options.normals)) errors.push_back({where, "must be blend or recompute"});
-      } else if (key == "strict" || key == "keep_targets") {
-        if (!ParseBool(value, key == "strict" ? &mr.strict : &mr.keep_targets)) errors.push_back({where, "must be true or false"});
-      } else {
-        bool known = false;
-        const std::string e = ApplyPoseSetting(key, value, mr, &known);
-        if (!known) errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
-        else if (!e.empty()) errors.push_back({where, e});
+      } else if (key == "keep_targets") {
+        if (!ParseBool(value, &mr.keep_targets)) errors.push_back({where, "must be true or false"});
+      } else if (!MeshQueryParam(key, value, mr, errors)) {
+        errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
       }
     }
-    if (std::string e = FinishPoseSettings(mr); !e.empty()) errors.push_back({"?animation", e});
-    if (!errors.empty()) {
-      SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
-      return false;
-    }
-    return true;
+    return FinishQuery(req, res, mr, errors);
   }
 
   // Resolves and checks the weights; sets the warning headers. False when an error was sent.
@@ -617,53 +638,17 @@ struct Api::Impl {
 
   // The render request from a POST body or GET query; false when an error was sent.
   bool ReadRenderRequest(const Request& req, Response& res, RenderRequest& rr) {
-    if (req.method == "POST") {
-      const std::string ct = MediaType(req.get_header_value("Content-Type"));
-      if (!ct.empty() && ct != "application/json") {
-        SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
-        return false;
-      }
-      auto parsed = ParseRenderRequest(req.body);
-      if (!parsed.ok()) {
-        const bool malformed = IsMalformedJson(parsed.status());
-        SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request",
-                    parsed.status().message, parsed.status().fields);
-        return false;
-      }
-      rr = std::move(parsed.value());
-      return true;
-    }
+    if (req.method == "POST") return ReadJsonBody(req, res, ParseRenderRequest, rr);
     std::vector<FieldError> errors;
     for (const auto& [key, value] : req.params) {
-      const std::string where = "?" + key;
       bool known = false;
-      if (key.rfind("w.", 0) == 0) {
-        WeightEntry e;
-        e.name = key.substr(2);
-        e.pointer = where;
-        if (e.name.empty()) errors.push_back({where, "w. needs a shape name: w.NAME=0.5"});
-        else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
-        else rr.mesh.weights.push_back(e);
-      } else if (key == "mode") {
-        if (!ParseBlendMode(value, &rr.mesh.options.mode)) errors.push_back({where, "must be relative or absolute"});
-      } else if (key == "normals") {
-        if (!ParseNormalMode(value, &rr.mesh.options.normals)) errors.push_back({where, "must be blend or recompute"});
-      } else if (key == "strict") {
-        if (!ParseBool(value, &rr.mesh.strict)) errors.push_back({where, "must be true or false"});
-      } else if (std::string e = ApplyRenderSetting(key, value, rr, &known); known) {
-        if (!e.empty()) errors.push_back({where, e});
-      } else if (std::string pe = ApplyPoseSetting(key, value, rr.mesh, &known); known) {
-        if (!pe.empty()) errors.push_back({where, pe});
-      } else {
-        errors.push_back({where, "unknown parameter"});
+      if (std::string e = ApplyRenderSetting(key, value, rr, &known); known) {
+        if (!e.empty()) errors.push_back({"?" + key, e});
+      } else if (!MeshQueryParam(key, value, rr.mesh, errors)) {
+        errors.push_back({"?" + key, "unknown parameter"});
       }
     }
-    if (std::string e = FinishPoseSettings(rr.mesh); !e.empty()) errors.push_back({"?animation", e});
-    if (!errors.empty()) {
-      SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
-      return false;
-    }
-    return true;
+    return FinishQuery(req, res, rr.mesh, errors);
   }
 
   bool CheckSize(const Request& req, Response& res, const render::RenderOptions& o) {
@@ -750,19 +735,9 @@ struct Api::Impl {
     t_request.route = kSheet;
     auto rig = FindRig(req, res, req.matches[1]);
     if (!rig) return;
-    const std::string ct = MediaType(req.get_header_value("Content-Type"));
-    if (!ct.empty() && ct != "application/json") {
-      SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
-      return;
-    }
-    auto parsed = ParseSheetRequest(req.body);
-    if (!parsed.ok()) {
-      const bool malformed = IsMalformedJson(parsed.status());
-      SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", parsed.status().message,
-                  parsed.status().fields);
-      return;
-    }
-    SheetRequest& sr = parsed.value();
+    SheetRequest parsed_sheet;
+    if (!ReadJsonBody(req, res, ParseSheetRequest, parsed_sheet)) return;
+    SheetRequest& sr = parsed_sheet;
     render::ImageFormat format;
     if (!CheckSize(req, res, sr.base.render) || !PickImageFormat(req, res, sr.base, &format)) return;
     if (sr.cells.size() > static_cast<size_t>(options.max_sheet_cells)) {
@@ -833,19 +808,7 @@ struct Api::Impl {
 
   // The sequence body resolved against the rig; false when an error was sent.
   bool ReadSequence(const Request& req, Response& res, const StoredRig& rig, SequenceRequest& sr, Sequence& seq) {
-    const std::string ct = MediaType(req.get_header_value("Content-Type"));
-    if (!ct.empty() && ct != "application/json") {
-      SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
-      return false;
-    }
-    auto parsed = ParseSequenceRequest(req.body);
-    if (!parsed.ok()) {
-      const bool malformed = IsMalformedJson(parsed.status());
-      SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", parsed.status().message,
-                  parsed.status().fields);
-      return false;
-    }
-    sr = std::move(parsed.value());
+    if (!ReadJsonBody(req, res, ParseSequenceRequest, sr)) return false;
     auto resolved = ResolveSequence(rig.rig, sr);
     if (!resolved.ok()) {
       SendProblem(req, res, 422, "invalid-sequence", resolved.status().message, resolved.status().fields);

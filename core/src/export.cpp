@@ -10,6 +10,7 @@
 
 #include "facespace/core/io.h"
 #include "facespace/core/weights.h"
+#include "normal_matrix.h"
 
 namespace facespace {
 
@@ -92,19 +93,7 @@ void Transform(const std::array<float, 16>& m, const float* p, float w, float* o
   for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
 }
 
-// Normal matrix applied to n: inverse-transpose of the upper 3x3, then normalised.
-void TransformNormal(const std::array<float, 16>& m, const float* n, float* out) {
-  const float a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], k = m[10];
-  // Cofactor matrix = det * inverse-transpose; the scale drops out on normalising.
-  const float cof[9] = {e * k - f * h, -(d * k - f * g), d * h - e * g,
-                        -(b * k - c * h), a * k - c * g, -(a * h - b * g),
-                        b * f - c * e, -(a * f - c * d), a * e - b * d};
-  const float det = a * cof[0] + b * cof[1] + c * cof[2];
-  const float sgn = det < 0 ? -1.0f : 1.0f;
-  for (int r = 0; r < 3; ++r) out[r] = sgn * (cof[3 * r] * n[0] + cof[3 * r + 1] * n[1] + cof[3 * r + 2] * n[2]);
-  const float len = std::sqrt(out[0] * out[0] + out[1] * out[1] + out[2] * out[2]);
-  if (len > 0) for (int r = 0; r < 3; ++r) out[r] /= len;
-}
+void NormalToWorld(const std::array<float, 16>& m, const float* n, float* out) { TransformNormal(m.data(), 4, n, out); }
 
 std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
   std::string out = "# facespace blended mesh\n";
@@ -138,7 +127,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     }
     for (size_t v = 0; v < n; ++v) {
       float q[3];
-      TransformNormal(b.world, &b.normals[3 * v], q);
+      NormalToWorld(b.world, &b.normals[3 * v], q);
       out += "vn ";
       AppendFloat(out, q[0]);
       out += ' ';
@@ -174,7 +163,7 @@ std::string ExportF32(const Rig& rig, const BlendedRig& blended) {
     const auto& nrm = blended.primitives[i].normals;
     for (size_t v = 0; v < nrm.size(); v += 3) {
       float q[3];
-      TransformNormal(blended.primitives[i].world, &nrm[v], q);
+      NormalToWorld(blended.primitives[i].world, &nrm[v], q);
       data.insert(data.end(), q, q + 3);
     }
   }

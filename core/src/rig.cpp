@@ -5,6 +5,7 @@
 #include <cctype>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/skeleton.h"
 
 namespace facespace {
 
@@ -199,45 +200,7 @@ void CountMovedVertices(Rig& rig) {
   }
 }
 
-namespace {
-
-Eigen::Matrix4f LocalMatrix(const Node& n) {
-  if (n.has_matrix) return Eigen::Map<const Eigen::Matrix4f>(n.matrix.data());
-  Eigen::Affine3f t = Eigen::Affine3f::Identity();
-  t.translate(Eigen::Vector3f(n.translation[0], n.translation[1], n.translation[2]));
-  t.rotate(Eigen::Quaternionf(n.rotation[3], n.rotation[0], n.rotation[1], n.rotation[2])
-               .normalized());
-  t.scale(Eigen::Vector3f(n.scale[0], n.scale[1], n.scale[2]));
-  return t.matrix();
-}
-
-}  // namespace
-
-std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig) {
-  const size_t n = rig.nodes.size();
-  std::vector<Eigen::Matrix4f> world(n);
-  std::vector<uint8_t> done(n, 0);
-  // Roots first, then children: a breadth-first walk visits every parent before its children.
-  std::vector<int> queue;
-  for (size_t i = 0; i < n; ++i) {
-    if (rig.nodes[i].parent < 0) queue.push_back(static_cast<int>(i));
-  }
-  for (size_t q = 0; q < queue.size(); ++q) {
-    const int i = queue[q];
-    const Node& node = rig.nodes[i];
-    world[i] = node.parent < 0 ? LocalMatrix(node) : Eigen::Matrix4f(world[node.parent] * LocalMatrix(node));
-    done[i] = 1;
-    for (int c : node.children) {
-      if (c >= 0 && static_cast<size_t>(c) < n && !done[c]) queue.push_back(c);
-    }
-  }
-  std::vector<std::array<float, 16>> out(n);
-  for (size_t i = 0; i < n; ++i) {
-    const Eigen::Matrix4f m = done[i] ? world[i] : Eigen::Matrix4f::Identity();
-    std::copy(m.data(), m.data() + 16, out[i].begin());
-  }
-  return out;
-}
+std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig) { return WorldMatrices(rig, RestPose(rig)); }
 
 std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig) {
   const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};

@@ -1,6 +1,8 @@
 #include "facespace/core/skeleton.h"
 
 #include <Eigen/Geometry>
+
+#include "normal_matrix.h"
 #include <algorithm>
 #include <cmath>
 
@@ -210,21 +212,7 @@ bool SkinningJob::Run() const {
     }
     const float* p = &in_positions[3 * v];
     for (int r = 0; r < 3; ++r) out_positions[3 * v + r] = m[r] * p[0] + m[3 + r] * p[1] + m[6 + r] * p[2] + m[9 + r];
-    if (!in_normals.empty()) {
-      // Inverse-transpose via the cofactor matrix (the determinant's scale drops out on
-      // normalising; its sign keeps the normal outward under mirroring).
-      const float a = m[0], b = m[3], c = m[6], d = m[1], e = m[4], f = m[7], g = m[2], h = m[5], i = m[8];
-      const float cof[9] = {e * i - f * h, -(d * i - f * g), d * h - e * g,
-                            -(b * i - c * h), a * i - c * g, -(a * h - b * g),
-                            b * f - c * e, -(a * f - c * d), a * e - b * d};
-      const float det = a * cof[0] + b * cof[1] + c * cof[2];
-      const float sgn = det < 0.0f ? -1.0f : 1.0f;
-      const float* nn = &in_normals[3 * v];
-      float o[3];
-      for (int r = 0; r < 3; ++r) o[r] = sgn * (cof[3 * r] * nn[0] + cof[3 * r + 1] * nn[1] + cof[3 * r + 2] * nn[2]);
-      const float len = std::sqrt(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
-      for (int r = 0; r < 3; ++r) out_normals[3 * v + r] = len > 0.0f ? o[r] / len : nn[r];
-    }
+    if (!in_normals.empty()) TransformNormal(m, 3, &in_normals[3 * v], &out_normals[3 * v]);
     if (!in_tangents.empty()) {
       const float* t = &in_tangents[4 * v];
       float o[3];
