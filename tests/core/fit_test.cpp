@@ -1,0 +1,107 @@
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "facespace/core/blend.h"
+#include "facespace/core/fit.h"
+#include "facespace/core/io.h"
+#include "test_util.h"
+
+namespace facespace {
+namespace {
+
+std::vector<std::vector<float>> Blend(const Rig& rig, const std::vector<float>& w) {
+  BlendedRig out;
+  BlendContext ctx;
+  EXPECT_TRUE(EvaluateRig(rig, w, {}, out, ctx).ok());
+  std::vector<std::vector<float>> t;
+  for (const auto& p : out.primitives) t.push_back(p.positions);
+  return t;
+}
+
+TEST(Fit, RecoversKnownWeightsOnFaceCap) {
+  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  ASSERT_TRUE(rig.ok());
+  std::vector<float> w(rig->shapes.size(), 0.0f);
+  w[FindShape(rig.value(), "jawOpen")] = 0.6f;
+  w[FindShape(rig.value(), "mouthSmile_L")] = 0.3f;
+  w[FindShape(rig.value(), "eyeBlink_R")] = 0.8f;
+  auto fit = FitWeights(rig.value(), Blend(rig.value(), w), {});
+  ASSERT_TRUE(fit.ok()) << fit.status().message;
+  for (size_t s = 0; s < w.size(); ++s) {
+    if (rig->shapes[s].vertices_moved == 0) continue;  // tongueOut moves nothing: unobservable.
+    EXPECT_NEAR(fit->weights[s], w[s], 2e-3f) << rig->shapes[s].name;
+  }
+  EXPECT_LT(fit->max_error, 1e-2);
+}
+
+TEST(Fit, NoiseAndBounds) {
+  auto rig = LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  ASSERT_TRUE(rig.ok());
+  std::vector<float> w = {0.5f, 0, 0.25f, 0, 0, 0.75f, 0, 0};
+  auto target = Blend(rig.value(), w);
+  std::mt19937 rng(5);
+  std::normal_distribution<float> noise(0.0f, 1e-3f);
+  for (auto& p : target) for (float& f : p) f += noise(rng);
+  auto fit = FitWeights(rig.value(), target, {});
+  ASSERT_TRUE(fit.ok());
+  for (size_t s = 0; s < w.size(); ++s) EXPECT_NEAR(fit->weights[s], w[s], 0.02f) << s;
+  EXPECT_GT(fit->rms_error, 5e-4);  // The noise is left in the residual.
+  EXPECT_LT(fit->rms_error, 3e-3);
+
+  // Beyond the range: unbounded fits 1.6; bounded stops at the range's end.
+  std::vector<float> over = {1.6f, 0, 0, 0, 0, 0, 0, 0};
+  auto free_fit = FitWeights(rig.value(), Blend(rig.value(), over), {});
+  auto bounded = FitWeights(rig.value(), Blend(rig.value(), over), {.bounded = true});
+  ASSERT_TRUE(free_fit.ok() && bounded.ok());
+  EXPECT_NEAR(free_fit->weights[0], 1.6f, 1e-3f);
+  EXPECT_EQ(free_fit->warnings[0].code, "extrapolation");
+  EXPECT_NEAR(bounded->weights[0], 1.0f, 1e-4f);
+  EXPECT_GT(bounded->max_error, free_fit->max_error);
+  // Sum at most one: two shapes at 0.8 each come back summing to 1.
+  std::vector<float> two = {0.8f, 0.8f, 0, 0, 0, 0, 0, 0};
+  auto capped = FitWeights(rig.value(), Blend(rig.value(), two), {.bounded = true, .sum_at_most_one = true});
+  ASSERT_TRUE(capped.ok());
+  float sum = 0;
+  for (float f : capped->weights) sum += f;
+  EXPECT_NEAR(sum, 1.0f, 1e-4f);
+  for (float f : capped->weights) EXPECT_GE(f, -1e-6f);
+  EXPECT_TRUE(capped->warnings.empty());
+}
+
+TEST(Fit, RigidAlignmentFirst) {
+  auto rig = LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  ASSERT_TRUE(rig.ok());
+  std::vector<float> w = {0, 0.4f, 0, 0, 0.7f, 0, 0, 0};
+  auto target = Blend(rig.value(), w);
+  // Rotate the target 30 degrees about y and move it.
+  const float c = std::cos(0.5236f), s = std::sin(0.5236f);
+  for (auto& p : target) {
+    for (size_t v = 0; v < p.size(); v += 3) {
+      const float x = p[v], z = p[v + 2];
+      p[v] = c * x + s * z + 2.0f;
+      p[v + 2] = -s * x + c * z - 1.0f;
+    }
+  }
+  auto plain = FitWeights(rig.value(), target, {});
+  auto aligned = FitWeights(rig.value(), target, {.rigid_align = true});
+  ASSERT_TRUE(plain.ok() && aligned.ok());
+  for (size_t k = 0; k < w.size(); ++k) EXPECT_NEAR(aligned->weights[k], w[k], 0.02f) << k;
+  EXPECT_LT(aligned->rms_error, plain->rms_error / 10);
+}
+
+TEST(Fit, Errors) {
+  auto rig = LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  ASSERT_TRUE(rig.ok());
+  std::vector<std::vector<float>> one = {std::vector<float>(9, 0.0f)};
+  EXPECT_FALSE(FitWeights(rig.value(), one, {}).ok());
+  auto target = Blend(rig.value(), std::vector<float>(8, 0.0f));
+  target[1].pop_back();
+  EXPECT_FALSE(FitWeights(rig.value(), target, {}).ok());
+  target = Blend(rig.value(), std::vector<float>(8, 0.0f));
+  target[0][0] = NAN;
+  EXPECT_FALSE(FitWeights(rig.value(), target, {}).ok());
+}
+
+}  // namespace
+}  // namespace facespace
