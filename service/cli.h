@@ -19,5 +19,7 @@ int Serve(const std::vector<std::string>& args);
 int Render(const std::vector<std::string>& args, bool sheet);
 // Keyframe sequences: sample, bake, reduce.
 int Sequence(const std::vector<std::string>& args);
+// Projection of a target mesh onto the face space.
+int FitCommand(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

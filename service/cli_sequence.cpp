@@ -12,7 +12,10 @@
 #include "cli.h"
 #include "facespace/api/request.h"
 #include "facespace/core/io.h"
+#include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"
+
+#include <Eigen/Dense>
 
 namespace facespace::cli {
 
@@ -273,6 +276,82 @@ int Sequence(const std::vector<std::string>& args) {
     std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, format.c_str());
     if (!WriteOutput(out + name, bytes.value())) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
     progress.Step(k + 1);
+  }
+  return 0;
+}
+
+namespace {
+
+const char kFitUsage[] =
+    "usage: facespace fit RIG TARGET.(json|glb|gltf|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n"
+    "  TARGET: the JSON that `facespace blend` writes (mesh space), a glTF with the rig's primitives, or an OBJ\n"
+    "  with the rig's vertices in its primitive order (world space, as `blend -o x.obj` writes it).\n";
+
+}  // namespace
+
+int FitCommand(const std::vector<std::string>& args) {
+  std::vector<std::string> paths;
+  std::string out;
+  FitOptions options;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "--bounded") options.bounded = true;
+    else if (a == "--sum-at-most-one") options.sum_at_most_one = true;
+    else if (a == "--align") options.rigid_align = true;
+    else if (a == "-o" || a == "--output") {
+      if (i + 1 >= args.size()) return std::fprintf(stderr, "error: -o needs a value\n%s", kFitUsage), 2;
+      out = args[++i];
+    } else if (a.size() > 1 && a[0] == '-') {
+      return std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kFitUsage), 2;
+    } else {
+      paths.push_back(a);
+    }
+  }
+  if (paths.size() != 2 || out.empty()) return std::fprintf(stderr, "%s", kFitUsage), 2;
+  auto rig = LoadRigFile(paths[0]);
+  if (!rig.ok()) return std::fprintf(stderr, "error: %s\n", rig.status().message.c_str()), 1;
+  const std::string& tp = paths[1];
+  const std::string ext = tp.substr(tp.rfind('.') + 1);
+  std::vector<std::vector<float>> target;
+  if (ext == "json") {
+    std::string text;
+    if (!ReadFile(tp, text)) return std::fprintf(stderr, "error: cannot read '%s'\n", tp.c_str()), 1;
+    auto t = api::ParseTargetJson(text);
+    if (!t.ok()) return std::fprintf(stderr, "error: %s: %s\n", tp.c_str(), t.status().message.c_str()), 1;
+    target = std::move(t.value());
+  } else {
+    auto other = LoadRigFile(tp, {.allow_external_files = true, .read_manifest = false});
+    if (!other.ok()) return std::fprintf(stderr, "error: %s\n", other.status().message.c_str()), 1;
+    if (ext == "obj") {
+      // One OBJ with every primitive's vertices in order, world space: back to mesh space.
+      const std::vector<float>& all = other->primitives[0].positions;
+      const auto world = PrimitiveWorldMatrices(rig.value());
+      size_t at = 0;
+      for (size_t p = 0; p < rig->primitives.size(); ++p) {
+        const size_t n = rig->primitives[p].positions.size();
+        if (at + n > all.size()) return std::fprintf(stderr, "error: %s has fewer vertices than the rig\n", tp.c_str()), 1;
+        const Eigen::Matrix4f inv = Eigen::Map<const Eigen::Matrix4f>(world[p].data()).inverse();
+        std::vector<float> local(n);
+        for (size_t v = 0; v < n; v += 3) {
+          const Eigen::Vector4f q = inv * Eigen::Vector4f(all[at + v], all[at + v + 1], all[at + v + 2], 1.0f);
+          local[v] = q.x();
+          local[v + 1] = q.y();
+          local[v + 2] = q.z();
+        }
+        target.push_back(std::move(local));
+        at += n;
+      }
+      if (at != all.size()) return std::fprintf(stderr, "error: %s has more vertices than the rig\n", tp.c_str()), 1;
+    } else {
+      for (const Primitive& p : other->primitives) target.push_back(p.positions);
+    }
+  }
+  auto fit = FitWeights(rig.value(), target, options);
+  if (!fit.ok()) return std::fprintf(stderr, "error: %s\n", fit.status().message.c_str()), 1;
+  for (const Warning& w : fit->warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+  std::fprintf(stderr, "residual: rms %s, max %s\n", FormatNumber(fit->rms_error).c_str(), FormatNumber(fit->max_error).c_str());
+  if (!WriteOutput(out, api::FitResultJson(rig.value(), fit.value(), options.rigid_align))) {
+    return std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1;
   }
   return 0;
 }

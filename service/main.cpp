@@ -26,6 +26,8 @@ const char kUsage[] =
     "  sequence RIG (--keys JSON|@FILE | --from-animation CLIP | --obj-times T,...) [--transition T]\n"
     "        (--times JSON | --fps N | --reduce TOL | --bake T) [--format json|obj|glb|f32] -o OUT|DIR\n"
     "      keyframe sequences: in-betweens, baking, keyframe reduction\n"
+    "  fit RIG TARGET.(json|glb|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n"
+    "      the weights that best reproduce TARGET (least squares over the shapes)\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -56,6 +58,7 @@ int main(int argc, char** argv) {
   if (command == "render") return facespace::cli::Render(args, false);
   if (command == "sheet") return facespace::cli::Render(args, true);
   if (command == "sequence") return facespace::cli::Sequence(args);
+  if (command == "fit") return facespace::cli::FitCommand(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -13,6 +13,7 @@
 
 #include "facespace/api/request.h"
 #include "facespace/core/blend.h"
+#include "facespace/core/fit.h"
 #include "facespace/core/io.h"
 #include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
@@ -29,10 +30,11 @@ using httplib::Response;
 
 // ---- routes and metrics -------------------------------------------------------------------
 
-enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kSequence, kOther, kRouteCount };
+enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kSequence, kFit, kOther, kRouteCount };
 const char* const kRouteNames[kRouteCount] = {"/healthz", "/readyz", "/metrics", "/openapi.json", "/v1/rigs",
                                               "/v1/rigs/{id}", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/check",
-                                              "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "/v1/rigs/{id}/sequence/*", "other"};
+                                              "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "/v1/rigs/{id}/sequence/*",
+                                              "/v1/rigs/{id}/fit", "other"};
 const int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 406, 413, 415, 422, 429, 500, 503};
 constexpr int kStatusCount = sizeof(kStatuses) / sizeof(kStatuses[0]);
 const double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5};
@@ -924,6 +926,22 @@ struct Api::Impl {
                     "application/json");
   }
 
+  void Fit(const Request& req, Response& res) {
+    t_request.route = kFit;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    FitRequest fr;
+    if (!ReadJsonBody(req, res, ParseFitRequest, fr)) return;
+    auto fit = FitWeights(rig->rig, fr.target, fr.options);
+    if (!fit.ok()) {
+      SendProblem(req, res, 422, "invalid-target", fit.status().message, {{"/target", fit.status().message}});
+      return;
+    }
+    if (!fit->warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(fit->warnings));
+    res.status = 200;
+    res.set_content(FitResultJson(rig->rig, fit.value(), fr.options.rigid_align), "application/json");
+  }
+
   void Check(const Request& req, Response& res) {
     t_request.route = kCheck;
     auto rig = FindRig(req, res, req.matches[1]);
@@ -1163,6 +1181,8 @@ void Api::Register(httplib::Server& server) {
   server.Post(rig + "/sequence/stream", [&I](const Request& req, Response& res) { I.SequenceStream(req, res); });
   server.Post(rig + "/sequence/reduce", [&I](const Request& req, Response& res) { I.SequenceReduce(req, res); });
   all_methods(rig + "/sequence/(sample|stream|reduce)", not_allowed("POST"), false, true, false, false);
+  server.Post(rig + "/fit", [&I](const Request& req, Response& res) { I.Fit(req, res); });
+  all_methods(rig + "/fit", not_allowed("POST"), false, true, false, false);
 }
 
 }  // namespace facespace::api

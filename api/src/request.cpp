@@ -701,4 +701,79 @@ Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence,
   return out + "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
 }
 
+namespace {
+
+Result<std::vector<std::vector<float>>> TargetFromJson(const json& j, const std::string& ptr) {
+  if (!j.is_object() || !j.contains("primitives") || !j["primitives"].is_array()) {
+    return FieldStatus(ptr, "must be {\"primitives\": [{\"positions\": [...]}, ...]} as the mesh route returns");
+  }
+  std::vector<std::vector<float>> out;
+  for (size_t p = 0; p < j["primitives"].size(); ++p) {
+    const json& prim = j["primitives"][p];
+    const std::string pp = ptr + "/primitives/" + std::to_string(p) + "/positions";
+    if (!prim.is_object() || !prim.contains("positions") || !prim["positions"].is_array() || prim["positions"].size() % 3) {
+      return FieldStatus(pp, "must be an array of x, y, z numbers");
+    }
+    std::vector<float> pos;
+    pos.reserve(prim["positions"].size());
+    for (const json& v : prim["positions"]) {
+      if (!v.is_number() || !std::isfinite(v.get<double>())) return FieldStatus(pp, "must hold finite numbers");
+      pos.push_back(v.get<float>());
+    }
+    out.push_back(std::move(pos));
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded()) return InvalidArgument(std::string(kMalformed) + ": the target is not valid JSON");
+  return TargetFromJson(j, "");
+}
+
+Result<FitRequest> ParseFitRequest(std::string_view body) {
+  auto j = ParseObject(body);
+  if (!j.ok()) return j.status();
+  FitRequest r;
+  Status errors = InvalidArgument("");
+  bool has_target = false;
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    const std::string ptr = "/" + Escape(it.key());
+    if (it.key() == "target") {
+      auto t = TargetFromJson(it.value(), "/target");
+      if (!t.ok()) errors.fields.insert(errors.fields.end(), t.status().fields.begin(), t.status().fields.end());
+      else r.target = std::move(t.value());
+      has_target = true;
+    } else if (it.key() == "bounded" || it.key() == "sum_at_most_one" || it.key() == "rigid_align") {
+      if (!it->is_boolean()) {
+        errors.fields.push_back({ptr, "must be true or false"});
+        continue;
+      }
+      bool& dst = it.key() == "bounded" ? r.options.bounded : it.key() == "sum_at_most_one" ? r.options.sum_at_most_one : r.options.rigid_align;
+      dst = it->get<bool>();
+    } else {
+      errors.fields.push_back({ptr, "unknown member (target, bounded, sum_at_most_one, rigid_align)"});
+    }
+  }
+  if (!has_target && errors.fields.empty()) errors.fields.push_back({"/target", "is required"});
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
+  std::string out = "{\"weights\":{";
+  for (size_t s = 0; s < rig.shapes.size(); ++s) {
+    out += std::string(s ? "," : "") + json(rig.shapes[s].name).dump() + ":" + FormatNumber(fit.weights[s]);
+  }
+  out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) + ",\"max\":" + FormatNumber(fit.max_error) + "}";
+  if (aligned) {
+    out += ",\"alignment\":[";
+    for (int i = 0; i < 16; ++i) out += std::string(i ? "," : "") + FormatNumber(fit.alignment[i]);
+    out += "]";
+  }
+  return out + ",\"warnings\":" + WarningsToJson(fit.warnings) + "}\n";
+}
+
 }  // namespace facespace::api

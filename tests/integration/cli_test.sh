@@ -152,5 +152,14 @@ err_case "sequence: decreasing times" "keys/1/time" sequence "$rig" --keys '[{"t
 err_case "sequence: unknown transition" "transition" sequence "$rig" --keys "$K" --transition bounce --times '[0]' -o "$tmp/x.json"
 err_case "sequence: --obj-times count" "2 times for 3 OBJ files" sequence "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" --obj-times 0,1 --times '[0]' -o "$tmp/x.json"
 
+# fitting
+"$bin" blend "$rig" --set jawOpen=0.6 --set mouthSmile_L=0.3 -o "$tmp/t.json" 2>/dev/null
+"$bin" fit "$rig" "$tmp/t.json" -o "$tmp/fit.json" 2>"$tmp/err"
+check "fit TARGET.json: recovers the weights blend used" py 'import json,sys; w=json.load(open(sys.argv[1]))["weights"]; sys.exit(not(abs(w["jawOpen"]-0.6)<2e-3 and abs(w["mouthSmile_L"]-0.3)<2e-3 and abs(w["cheekPuff"])<2e-3))' "$tmp/fit.json"
+"$bin" blend "$rig" --set jawOpen=0.6 --set mouthSmile_L=0.3 -o "$tmp/t.obj" 2>/dev/null
+"$bin" fit "$rig" "$tmp/t.obj" --bounded -o "$tmp/fit2.json" 2>/dev/null
+check "fit TARGET.obj (world space, as blend writes it): the same weights" py 'import json,sys; w=json.load(open(sys.argv[1]))["weights"]; sys.exit(not(abs(w["jawOpen"]-0.6)<2e-3 and abs(w["mouthSmile_L"]-0.3)<2e-3))' "$tmp/fit2.json"
+err_case "fit: a target of another rig" "the target has 1 primitives, the rig 4" fit "$rig" "$A/Fox/Fox.glb" -o "$tmp/x.json"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

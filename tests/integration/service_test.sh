@@ -134,6 +134,13 @@ check "sequence/stream: a client that closes stops the work (30001 frames of 52 
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0},{"time":1,"weights":{"jawOpen":0.5}},{"time":2,"weights":{"jawOpen":1}},{"time":3,"weights":{"jawOpen":0.2}}],"tolerance":0.0001}' "$U/v1/rigs/facecap/sequence/reduce")
 check "sequence/reduce: the collinear middle key goes, the turning one stays" sh -c "[ $code = 200 ]" && jq_ "d['kept']==3 and d['removed']==1 and [k['time'] for k in d['keys']]==[0,2,3] and d['max_error']<=0.0001" && ok "  ... keys 0, 2, 3 kept" || no "  ... reduce result"
 
+# fitting
+"$bin" blend "$store/facecap.glb" --set jawOpen=0.6 --set eyeBlink_L=0.8 -o "$tmp/target.json" 2>/dev/null
+py 'import json,sys; t=json.load(open(sys.argv[1])); json.dump({"target": t, "bounded": True}, open(sys.argv[2], "w"))' "$tmp/target.json" "$tmp/fitbody.json"
+code=$(c -X POST -H 'Content-Type: application/json' --data-binary @"$tmp/fitbody.json" "$U/v1/rigs/facecap/fit")
+check "POST fit: recovers jawOpen 0.6 and eyeBlink_L 0.8 with a tiny residual" sh -c "[ $code = 200 ]" && jq_ "abs(d['weights']['jawOpen']-0.6)<2e-3 and abs(d['weights']['eyeBlink_L']-0.8)<2e-3 and d['residual']['max']<0.01" && ok "  ... values" || no "  ... fit values"
+check "POST fit with a target of another size: 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"target":{"primitives":[{"positions":[0,0,0]}]}}' "$U/v1/rigs/facecap/fit")" 422 "d['errors'][0]['pointer']=='/target'"
+
 # errors
 check "malformed JSON: 400 problem" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":' "$U/v1/rigs/facecap/mesh")" 400 "'malformed' in d['detail']"
 check "unknown shape: 422 naming it, with a suggestion" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpn":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpn' and \"did you mean 'jawOpen'\" in d['errors'][0]['detail']"
@@ -209,7 +216,7 @@ d=json.load(open(sys.argv[1]))
 want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"get"},"/v1/rigs":{"get"},
       "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
       "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
-      "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"}}
+      "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
 sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-validator" ]; then

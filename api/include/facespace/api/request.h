@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/fit.h"
 #include "facespace/core/io.h"
 #include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
@@ -123,6 +124,20 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> weights);
 // `warnings` receives the warnings too (for headers).
 Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
                                        const BlendOptions& options, std::vector<Warning>& warnings);
+
+// Body of POST /v1/rigs/{id}/fit: {"target": {"primitives": [{"positions": [...]}, ...]}
+// (the mesh route's JSON), "bounded": bool, "sum_at_most_one": bool, "rigid_align": bool}.
+struct FitRequest {
+  std::vector<std::vector<float>> target;  // Per primitive, xyz in mesh space.
+  FitOptions options;
+};
+Result<FitRequest> ParseFitRequest(std::string_view body);
+
+// Target positions from the mesh JSON ({"primitives": [{"positions": [...]}]}).
+Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text);
+
+// {"weights": {name: w, every shape}, "residual": {"rms", "max"}, "warnings": [...]}
+std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned);
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode);
 bool ParseNormalMode(std::string_view s, NormalMode* mode);
