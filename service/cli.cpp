@@ -67,6 +67,15 @@ std::string Usage() {
          "       [--format glb|obj|json|f32] -o OUT\n";
 }
 
+
+// LoadFromArgs, with its error or load warnings on stderr.
+Result<Rig> LoadAndReport(const std::vector<std::string>& paths) {
+  Result<Rig> loaded = LoadFromArgs(paths);
+  if (!loaded.ok()) PrintStatus(loaded.status());
+  else PrintWarnings(loaded->load_warnings);
+  return loaded;
+}
+
 }  // namespace
 
 bool ReadFile(const std::string& path, std::string& out) {
@@ -110,13 +119,9 @@ int Info(const std::vector<std::string>& args) {
     std::fputs("usage: facespace info RIG [SHAPE.obj ...] [--json]\n", stderr);
     return 2;
   }
-  Result<Rig> loaded = LoadFromArgs(paths);
-  if (!loaded.ok()) {
-    PrintStatus(loaded.status());
-    return 1;
-  }
+  Result<Rig> loaded = LoadAndReport(paths);
+  if (!loaded.ok()) return 1;
   const Rig& rig = loaded.value();
-  PrintWarnings(rig.load_warnings);
   if (as_json) {
     nlohmann::json j;
     j["name"] = rig.name;
@@ -340,13 +345,9 @@ int Blend(const std::vector<std::string>& args) {
     }
   }
 
-  Result<Rig> loaded = LoadFromArgs(paths);
-  if (!loaded.ok()) {
-    PrintStatus(loaded.status());
-    return 1;
-  }
+  Result<Rig> loaded = LoadAndReport(paths);
+  if (!loaded.ok()) return 1;
   const Rig& rig = loaded.value();
-  PrintWarnings(rig.load_warnings);
   std::vector<float> weights;
   WeightReport report;
   BlendedRig blended;
@@ -466,13 +467,9 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     std::fprintf(stderr, "error: cannot tell the image format from '%s': use .png, .jpg, .exr, .tif or --format\n", out_path.c_str());
     return 2;
   }
-  Result<Rig> loaded = LoadFromArgs(paths);
-  if (!loaded.ok()) {
-    PrintStatus(loaded.status());
-    return 1;
-  }
+  Result<Rig> loaded = LoadAndReport(paths);
+  if (!loaded.ok()) return 1;
   const Rig& rig = loaded.value();
-  PrintWarnings(rig.load_warnings);
   std::vector<float> weights;
   WeightReport report;
   BlendedRig blended;

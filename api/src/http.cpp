@@ -581,6 +581,28 @@ struct Api::Impl {
     return true;
   }
 
+  // Answers from the response cache, or with `produce()` (the encoded body) which is then
+  // cached under `key`. A failed `produce` is a 500 with its message as the detail.
+  template <typename Produce>
+  void SendCached(const Request& req, Response& res, const std::string& key, const char* content_type, Produce produce) {
+    std::shared_ptr<const Encoded> enc = cache.Get(key);
+    (enc ? metrics.cache_hits : metrics.cache_misses).fetch_add(1, std::memory_order_relaxed);
+    if (!enc) {
+      Result<std::string> bytes = produce();
+      if (!bytes.ok()) {
+        SendProblem(req, res, 500, "internal", bytes.status().message);
+        return;
+      }
+      auto e = std::make_shared<Encoded>();
+      e->body = std::move(bytes.value());
+      e->content_type = content_type;
+      enc = e;
+      cache.Put(key, enc);
+    }
+    res.status = 200;
+    res.set_content(enc->body, enc->content_type.c_str());
+  }
+
   void Mesh(const Request& req, Response& res) {
     t_request.route = kMesh;
     auto rig = FindRig(req, res, req.matches[1]);
@@ -609,33 +631,17 @@ struct Api::Impl {
                                   (mr.keep_targets ? "t" : "-") + (mr.options.dual_quaternion ? "|dq|" : "|") + WeightsCanonical(w);
     const std::string key = rig->id + "|" + rig->version + "|" + canonical;
     if (NotModified(req, res, key)) return;
-    std::shared_ptr<const Encoded> enc = cache.Get(key);
-    if (enc) {
-      metrics.cache_hits.fetch_add(1, std::memory_order_relaxed);
-    } else {
-      metrics.cache_misses.fetch_add(1, std::memory_order_relaxed);
+    SendCached(req, res, key, MeshFormatMimeType(format), [&]() -> Result<std::string> {
       thread_local BlendContext context;
       thread_local BlendedRig blended;
-      if (Status s = EvaluateRig(rig->rig, w, mr.options, blended, context); !s.ok()) {
-        SendProblem(req, res, 500, "internal", "the blend failed");
-        return;
-      }
+      if (!EvaluateRig(rig->rig, w, mr.options, blended, context).ok()) return Status{StatusCode::kInternal, "the blend failed", {}};
       metrics.blends.fetch_add(1, std::memory_order_relaxed);
       ExportOptions export_options;
       export_options.keep_targets = mr.keep_targets;
       auto bytes = ExportMesh(rig->rig, blended, w, report.warnings, format, export_options);
-      if (!bytes.ok()) {
-        SendProblem(req, res, 500, "internal", "the export failed");
-        return;
-      }
-      auto e = std::make_shared<Encoded>();
-      e->body = std::move(bytes.value());
-      e->content_type = MeshFormatMimeType(format);
-      enc = e;
-      cache.Put(key, enc);
-    }
-    res.status = 200;
-    res.set_content(enc->body, enc->content_type.c_str());
+      if (!bytes.ok()) return Status{StatusCode::kInternal, "the export failed", {}};
+      return bytes;
+    });
   }
 
   // The render request from a POST body or GET query; false when an error was sent.
@@ -707,39 +713,27 @@ struct Api::Impl {
     const std::string key = rig->id + "|" + rig->version + "|render|" + RenderCanonical(rr, format) + "|" + WeightsCanonical(w) +
                             PoseCanonical(pose, posed);
     if (NotModified(req, res, key)) return;
-    std::shared_ptr<const Encoded> enc = cache.Get(key);
-    if (!enc) {
+    SendCached(req, res, key, render::ImageFormatMimeType(format), [&]() -> Result<std::string> {
       thread_local BlendContext context;
       thread_local BlendedRig blended;
       render::Image image;
       if (!EvaluateRig(rig->rig, w, rr.mesh.options, blended, context).ok() ||
           !render::Render(rig->rig, blended, rr.render, image).ok()) {
-        SendProblem(req, res, 500, "internal", "the render failed");
-        return;
+        return Status{StatusCode::kInternal, "the render failed", {}};
       }
       metrics.blends.fetch_add(1, std::memory_order_relaxed);
       auto bytes = render::Encode(image, format, rr.quality);
-      if (!bytes.ok()) {
-        SendProblem(req, res, 500, "internal", "the image encoding failed");
-        return;
-      }
-      auto e = std::make_shared<Encoded>();
-      e->body = std::move(bytes.value());
-      e->content_type = render::ImageFormatMimeType(format);
-      enc = e;
-      cache.Put(key, enc);
-    }
-    res.status = 200;
-    res.set_content(enc->body, enc->content_type.c_str());
+      if (!bytes.ok()) return Status{StatusCode::kInternal, "the image encoding failed", {}};
+      return bytes;
+    });
   }
 
   void Sheet(const Request& req, Response& res) {
     t_request.route = kSheet;
     auto rig = FindRig(req, res, req.matches[1]);
     if (!rig) return;
-    SheetRequest parsed_sheet;
-    if (!ReadJsonBody(req, res, ParseSheetRequest, parsed_sheet)) return;
-    SheetRequest& sr = parsed_sheet;
+    SheetRequest sr;
+    if (!ReadJsonBody(req, res, ParseSheetRequest, sr)) return;
     render::ImageFormat format;
     if (!CheckSize(req, res, sr.base.render) || !PickImageFormat(req, res, sr.base, &format)) return;
     if (sr.cells.size() > static_cast<size_t>(options.max_sheet_cells)) {
@@ -779,33 +773,22 @@ struct Api::Impl {
       return;
     }
     if (NotModified(req, res, key)) return;
-    std::shared_ptr<const Encoded> enc = cache.Get(key);
-    if (!enc) {
+    SendCached(req, res, key, render::ImageFormatMimeType(format), [&]() -> Result<std::string> {
       thread_local BlendContext context;
       thread_local BlendedRig blended;
       std::vector<render::Image> images(sr.cells.size());
       for (size_t c = 0; c < sr.cells.size(); ++c) {
         if (!EvaluateRig(rig->rig, weights[c], sr.base.mesh.options, blended, context).ok() ||
             !render::Render(rig->rig, blended, sr.base.render, images[c]).ok()) {
-          SendProblem(req, res, 500, "internal", "the render failed");
-          return;
+          return Status{StatusCode::kInternal, "the render failed", {}};
         }
         metrics.blends.fetch_add(1, std::memory_order_relaxed);
       }
       auto bytes = render::Encode(render::ContactSheet(images, sr.labels, sr.columns, sr.base.render.background), format,
                                   sr.base.quality);
-      if (!bytes.ok()) {
-        SendProblem(req, res, 500, "internal", "the image encoding failed");
-        return;
-      }
-      auto e = std::make_shared<Encoded>();
-      e->body = std::move(bytes.value());
-      e->content_type = render::ImageFormatMimeType(format);
-      enc = e;
-      cache.Put(key, enc);
-    }
-    res.status = 200;
-    res.set_content(enc->body, enc->content_type.c_str());
+      if (!bytes.ok()) return Status{StatusCode::kInternal, "the image encoding failed", {}};
+      return bytes;
+    });
   }
 
   // The sequence body resolved against the rig; false when an error was sent.
