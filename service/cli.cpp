@@ -24,27 +24,6 @@ bool EndsWith(const std::string& s, const char* t) {
   return s.size() >= n && s.compare(s.size() - n, n, t) == 0;
 }
 
-void PrintStatus(const Status& s) {
-  if (s.fields.size() == 1 && !s.fields[0].pointer.empty() && s.message.rfind(s.fields[0].pointer, 0) != 0) {
-    std::fprintf(stderr, "error: %s: %s\n", s.fields[0].pointer.c_str(), s.fields[0].message.c_str());
-    return;
-  }
-  if (s.fields.size() <= 1) {
-    std::fprintf(stderr, "error: %s\n", s.message.c_str());
-    return;
-  }
-  std::fprintf(stderr, "error: %zu problems\n", s.fields.size());
-  for (const FieldError& f : s.fields) std::fprintf(stderr, "error: %s: %s\n", f.pointer.c_str(), f.message.c_str());
-}
-
-void PrintWarnings(const std::vector<Warning>& warnings) {
-  for (const Warning& w : warnings) {
-    // The message of an extrapolation warning already starts with its code.
-    if (w.message.rfind(w.code, 0) == 0) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
-    else std::fprintf(stderr, "warning: %s: %s\n", w.code.c_str(), w.message.c_str());
-  }
-}
-
 // The rig named by the positional arguments: one glTF file, or an OBJ sequence.
 Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
   if (paths.empty()) return InvalidArgument("no rig given");
@@ -68,6 +47,29 @@ std::string Usage() {
 }
 
 
+}  // namespace
+
+void PrintStatus(const Status& s) {
+  if (s.fields.size() == 1 && !s.fields[0].pointer.empty() && s.message.rfind(s.fields[0].pointer, 0) != 0) {
+    std::fprintf(stderr, "error: %s: %s\n", s.fields[0].pointer.c_str(), s.fields[0].message.c_str());
+    return;
+  }
+  if (s.fields.size() <= 1) {
+    std::fprintf(stderr, "error: %s\n", s.message.c_str());
+    return;
+  }
+  std::fprintf(stderr, "error: %zu problems\n", s.fields.size());
+  for (const FieldError& f : s.fields) std::fprintf(stderr, "error: %s: %s\n", f.pointer.c_str(), f.message.c_str());
+}
+
+void PrintWarnings(const std::vector<Warning>& warnings) {
+  for (const Warning& w : warnings) {
+    // The message of an extrapolation warning already starts with its code.
+    if (w.message.rfind(w.code, 0) == 0) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+    else std::fprintf(stderr, "warning: %s: %s\n", w.code.c_str(), w.message.c_str());
+  }
+}
+
 // LoadFromArgs, with its error or load warnings on stderr.
 Result<Rig> LoadAndReport(const std::vector<std::string>& paths) {
   Result<Rig> loaded = LoadFromArgs(paths);
@@ -75,8 +77,6 @@ Result<Rig> LoadAndReport(const std::vector<std::string>& paths) {
   else PrintWarnings(loaded->load_warnings);
   return loaded;
 }
-
-}  // namespace
 
 bool ReadFile(const std::string& path, std::string& out) {
   std::ifstream f(path, std::ios::binary);

@@ -4,12 +4,23 @@
 #include <string>
 #include <vector>
 
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
 namespace facespace::cli {
 
 // Reads a whole file; false when it cannot.
 bool ReadFile(const std::string& path, std::string& out);
 // Writes `data` to `path` atomically (a temporary file beside it, then rename), or to stdout for "-".
 bool WriteOutput(const std::string& path, const std::string& data);
+
+// A Status on stderr ("error: ..."), one line per offending field.
+void PrintStatus(const Status& s);
+// Warnings on stderr ("warning: code: ...").
+void PrintWarnings(const std::vector<Warning>& warnings);
+// The rig named by positional arguments (a glTF file, or an OBJ sequence), with its error
+// or its load warnings on stderr.
+Result<Rig> LoadAndReport(const std::vector<std::string>& paths);
 
 // Each returns the process exit code: 0 success, 1 failure (message on stderr), 2 bad usage.
 int Info(const std::vector<std::string>& args);
@@ -21,5 +32,7 @@ int Render(const std::vector<std::string>& args, bool sheet);
 int Sequence(const std::vector<std::string>& args);
 // Projection of a target mesh onto the face space.
 int FitCommand(const std::vector<std::string>& args);
+// Batch variant generation.
+int Batch(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

@@ -28,6 +28,9 @@ const char kUsage[] =
     "      keyframe sequences: in-betweens, baking, keyframe reduction\n"
     "  fit RIG TARGET.(json|glb|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n"
     "      the weights that best reproduce TARGET (least squares over the shapes)\n"
+    "  batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
+    "        --out DIR [--format glb|obj|json|f32|png] [--jobs N] [--shard I/N]\n"
+    "      many variants as files with a manifest; resumable (batch --help for more)\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -59,6 +62,7 @@ int main(int argc, char** argv) {
   if (command == "sheet") return facespace::cli::Render(args, true);
   if (command == "sequence") return facespace::cli::Sequence(args);
   if (command == "fit") return facespace::cli::FitCommand(args);
+  if (command == "batch") return facespace::cli::Batch(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -161,5 +161,62 @@ check "fit TARGET.json: recovers the weights blend used" py 'import json,sys; w=
 check "fit TARGET.obj (world space, as blend writes it): the same weights" py 'import json,sys; w=json.load(open(sys.argv[1]))["weights"]; sys.exit(not(abs(w["jawOpen"]-0.6)<2e-3 and abs(w["mouthSmile_L"]-0.3)<2e-3))' "$tmp/fit2.json"
 err_case "fit: a target of another rig" "the target has 1 primitives, the rig 4" fit "$rig" "$A/Fox/Fox.glb" -o "$tmp/x.json"
 
+# batch variant generation
+B="$tmp/batch"
+"$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/a" 2>"$tmp/err"; rc=$?
+check "batch --sample uniform: exit 0, 40 glb files, manifest, batch.json and a contact sheet" sh -c "[ $rc -eq 0 ] && [ \$(ls '$B/a' | grep -c '^v0000[0-3][0-9].glb$') -eq 40 ] && [ \$(wc -l <'$B/a/manifest.jsonl') -eq 40 ] && [ -s '$B/a/batch.json' ] && [ -s '$B/a/sheet.png' ]"
+check "batch: a progress report with the rate, and a summary" sh -c "grep -q 'variants: 40/40' '$tmp/err' && grep -q 'variants/s' '$tmp/err'"
+check "batch manifest: id, file, size and sha256 of every file; 6 shapes moved in range; warnings recorded" py '
+import json,sys,hashlib,os
+d=sys.argv[1]; lines=[json.loads(l) for l in open(d+"/manifest.jsonl")]
+ok=[l["index"] for l in lines]==list(range(40))
+for l in lines:
+    b=open(os.path.join(d,l["file"]),"rb").read()
+    ok &= l["id"]=="v%06d"%l["index"] and l["bytes"]==len(b) and l["sha256"]==hashlib.sha256(b).hexdigest()
+    ok &= len(l["weights"])==6 and all(0<=w<=1 for w in l["weights"].values())
+    ok &= any(w["code"]=="extrapolation" for w in l["warnings"]) == (sum(l["weights"].values())>1)
+sys.exit(not ok)' "$B/a"
+check "batch variant file: the blend of its manifest weights (same bytes as facespace blend)" sh -c "
+  w=\$(python3 -c 'import json,sys; print(json.dumps(json.loads(open(sys.argv[1]).readlines()[7])[\"weights\"]))' '$B/a/manifest.jsonl')
+  '$bin' blend '$rig' --weights \"\$w\" -o '$tmp/b7.glb' 2>/dev/null && cmp -s '$tmp/b7.glb' '$B/a/v000007.glb'"
+"$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/b" --jobs 1 --quiet 2>/dev/null
+check "batch: the same seed gives byte-identical files (1 job vs all cores)" diff -r "$B/a" "$B/b"
+"$bin" batch "$rig" --sample uniform --count 40 --seed 6 --active 6 --format glb --out "$B/c" --quiet --no-sheet 2>/dev/null
+check "batch: another seed gives other variants" sh -c "! cmp -s '$B/a/v000000.glb' '$B/c/v000000.glb'"
+rm "$B/b/v000011.glb"; printf '{"index":39,"id":"v0000' >>"$B/b/manifest.jsonl"; : >"$B/b/.fs-tmp-v000012.glb"
+"$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/b" 2>"$tmp/err"
+check "batch resume: only the missing variant is redone; torn manifest line and temp file cleaned" sh -c "grep -q '(1 generated, 39 already there)' '$tmp/err' && diff -r '$B/a' '$B/b'"
+err_case "batch: a folder of another batch is refused" "holds another batch" batch "$rig" --sample uniform --count 40 --seed 9 --format glb --out "$B/a"
+"$bin" batch "$rig" --sample convex --count 300 --seed 2 --format obj --out "$B/i" --jobs 2 --no-sheet 2>/dev/null & pid=$!
+until [ -s "$B/i/manifest.jsonl" ] || ! kill -0 $pid 2>/dev/null; do sleep 0.05; done; kill -INT $pid; wait $pid; rc=$?
+n=$(ls "$B/i" | grep -c '\.obj$')
+check "batch interrupted (SIGINT): exit 130, no temporary or half-written file ($n of 300 done)" sh -c "[ $rc -eq 130 ] && [ $n -lt 300 ] && ! ls -a '$B/i' | grep -q tmp && [ \$(wc -l <'$B/i/manifest.jsonl') -eq $n ]"
+"$bin" batch "$rig" --sample convex --count 300 --seed 2 --format obj --out "$B/i" --jobs 2 --no-sheet 2>/dev/null & pid=$!
+n0=$(wc -l <"$B/i/manifest.jsonl"); until [ "$(wc -l <"$B/i/manifest.jsonl")" -gt "$n0" ] || ! kill -0 $pid 2>/dev/null; do sleep 0.05; done; kill -9 $pid; wait $pid 2>/dev/null
+"$bin" batch "$rig" --sample convex --count 300 --seed 2 --format obj --out "$B/i" --no-sheet 2>/dev/null
+"$bin" batch "$rig" --sample convex --count 300 --seed 2 --format obj --out "$B/j" --no-sheet --quiet 2>/dev/null
+check "batch after SIGINT and kill -9: resuming gives exactly the uninterrupted result" diff -r "$B/i" "$B/j"
+check "batch --sample convex: no variant extrapolates (sum <= 1, no warnings)" py 'import json,sys; L=[json.loads(l) for l in open(sys.argv[1])]; sys.exit(not(len(L)==300 and all(sum(l["weights"].values())<=1+1e-6 and l["warnings"]==[] for l in L)))' "$B/j/manifest.jsonl"
+for i in 1 2 3; do "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/s$i" --shard $i/3 --quiet --no-sheet 2>/dev/null; done
+check "batch --shard 1/3..3/3: disjoint, together byte-identical to the whole" sh -c "[ \$(cat '$B'/s?/manifest.jsonl | wc -l) -eq 40 ] && for f in '$B'/s?/*.glb; do cmp -s \"\$f\" '$B/a/'\$(basename \"\$f\") || exit 1; done"
+"$bin" batch "$rig" --sample grid --shapes jawOpen,mouthSmile_L --count 9 --format json --out "$B/g" --no-sheet 2>/dev/null
+check "batch --sample grid over two shapes: 3 x 3 steps over their ranges" py 'import json,sys; L=[json.loads(l)["weights"] for l in open(sys.argv[1])]; sys.exit(not(len(L)==9 and L[0]=={} and L[4]=={"jawOpen":0.5,"mouthSmile_L":0.5} and L[8]=={"jawOpen":1,"mouthSmile_L":1}))' "$B/g/manifest.jsonl"
+"$bin" batch "$rig" --sample gaussian --count 200 --seed 3 --spread 0.1 --center '{"jawOpen":0.5}' --shapes jawOpen,mouthSmile_L,mouthSmile_R --symmetric --fix eyeBlink_L=1 --format json --out "$B/n" --no-sheet 2>/dev/null
+check "batch --sample gaussian: mean near the centre, spread near 0.1, symmetric pair equal, fixed weight held" py '
+import json,sys,statistics as st
+L=[json.loads(l)["weights"] for l in open(sys.argv[1])]
+j=[l.get("jawOpen",0) for l in L]
+ok=len(L)==200 and abs(st.mean(j)-0.5)<0.03 and abs(st.pstdev(j)-0.1)<0.02
+ok&=all(l.get("mouthSmile_L",0)==l.get("mouthSmile_R",0) and l["eyeBlink_L"]==1 for l in L)
+sys.exit(not ok)' "$B/n/manifest.jsonl"
+printf '{"id":"smile","weights":{"mouthSmile_L":1,"mouthSmile_R":1}}\n\n{"jawOpen":0.5}\n' >"$tmp/variants.jsonl"
+"$bin" batch "$rig" --variants "$tmp/variants.jsonl" --format png --width 128 --height 128 --out "$B/e" 2>/dev/null
+check "batch --variants FILE.jsonl --format png: named and numbered variants, 128x128 PNG" sh -c "[ -s '$B/e/smile.png' ] && [ -s '$B/e/v000001.png' ] && [ \$(oiiotool --info '$B/e/smile.png' | grep -c '128 x  128') -eq 1 ]"
+err_case "batch: unknown shape in --fix" "did you mean 'jawOpen'" batch "$rig" --sample uniform --count 3 --fix jawopn=1 --out "$B/x"
+err_case "batch: unknown method" "/sample/method" batch "$rig" --sample random --count 3 --out "$B/x"
+err_case "batch: --variants and --sample together" "one of them" batch "$rig" --sample uniform --variants "$tmp/variants.jsonl" --out "$B/x"
+printf '{"id":"../evil","weights":{}}\n' >"$tmp/evil.jsonl"
+err_case "batch: a path trick in a variant id" "/variants/0/id" batch "$rig" --variants "$tmp/evil.jsonl" --out "$B/x"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

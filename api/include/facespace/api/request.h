@@ -13,6 +13,7 @@
 #include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/status.h"
+#include "facespace/core/variants.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
 
@@ -138,6 +139,44 @@ Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text);
 
 // {"weights": {name: w, every shape}, "residual": {"rms", "max"}, "warnings": [...]}
 std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned);
+
+// Body of POST /v1/rigs/{id}/batch, and the batch.json that `facespace batch` keeps in its
+// output folder:
+// {"variants": [{"id": "a", "weights": {...}|[...]}, ...]            an explicit list, or
+//  "sample": {"method": "uniform"|"gaussian"|"grid"|"convex", "count": N, "seed": S,
+//             "shapes": [NAME, ...], "fixed": {NAME: w}, "center": {NAME: w}, "spread": s,
+//             "points": [{...}, {...}], "active": K, "symmetric": bool, "sum_at_most_one": bool},
+//  "format": "glb"|"obj"|"json"|"f32"|"png"|"jpeg"|"exr"|"tiff",
+//  "mode", "normals", "skinning" as on the mesh route; the render route's settings for images}
+struct BatchRequest {
+  struct Variant {
+    std::string id;                    // "" = "v" + the index, zero-padded.
+    std::vector<WeightEntry> weights;
+  };
+  std::vector<Variant> variants;
+  bool sampled = false;
+  SampleMethod method = SampleMethod::kUniform;
+  uint64_t seed = 0;
+  size_t count = 0;
+  std::vector<std::string> shapes;
+  std::vector<WeightEntry> fixed, center;
+  float spread = 0.1f;
+  std::vector<std::vector<WeightEntry>> points;
+  size_t active = 0;
+  bool symmetric = false, sum_at_most_one = false;
+  std::string format = "glb";          // File format of every variant.
+  bool image = false;                  // format is an image format (rendered).
+  MeshFormat mesh_format = MeshFormat::kGlb;
+  render::ImageFormat image_format = render::ImageFormat::kPng;
+  RenderRequest render;                // Render settings and the mesh options (mode, normals, skinning).
+};
+Result<BatchRequest> ParseBatchRequest(std::string_view body);
+
+// The sampling part resolved against a rig (names to indices). Errors name the field.
+Result<SampleSpec> ResolveSampleSpec(const Rig& rig, const BatchRequest& request);
+
+// True for a variant id usable as a file name: [A-Za-z0-9][A-Za-z0-9_.-]{0,63}, no "..".
+bool IsValidVariantId(const std::string& id);
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode);
 bool ParseNormalMode(std::string_view s, NormalMode* mode);
