@@ -13,6 +13,7 @@
 #include "cli.h"
 #include "facespace/api/http.h"
 #include "facespace/render/render.h"
+#include "jobs.h"
 #include "rig_store.h"
 
 namespace facespace::cli {
@@ -30,15 +31,26 @@ struct ServeConfig {
   int max_render = 2048;
   std::vector<std::string> cors_origins;
   bool quiet = false;
+  std::string jobs_dir;      // Default: $XDG_STATE_HOME/facespace/jobs or ~/.local/state/facespace/jobs.
+  JobLimits job_limits;
 };
+
+std::string DefaultJobsDir() {
+  if (const char* x = std::getenv("XDG_STATE_HOME"); x && *x == '/') return std::string(x) + "/facespace/jobs";
+  if (const char* h = std::getenv("HOME"); h && *h == '/') return std::string(h) + "/.local/state/facespace/jobs";
+  return "/tmp/facespace-jobs-" + std::to_string(getuid());
+}
 
 const char kServeUsage[] =
     "usage: facespace serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N]\n"
     "                       [--api-key-file FILE] [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "                       [--cache-mb MB] [--max-render PIXELS] [--quiet]\n"
+    "                       [--jobs-dir DIR] [--max-jobs N] [--max-batch N] [--batch-threads N]\n"
     "environment: FACESPACE_RIGS, FACESPACE_HOST, FACESPACE_PORT, FACESPACE_THREADS,\n"
     "             FACESPACE_API_KEY_FILE, FACESPACE_MAX_BODY, FACESPACE_CORS_ORIGINS (comma-separated),\n"
-    "             FACESPACE_CACHE_MB, FACESPACE_MAX_RENDER; flags win over the environment.\n";
+    "             FACESPACE_CACHE_MB, FACESPACE_MAX_RENDER, FACESPACE_JOBS_DIR, FACESPACE_MAX_JOBS,\n"
+    "             FACESPACE_MAX_BATCH, FACESPACE_BATCH_THREADS; flags win over the environment.\n"
+    "batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n";
 
 bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
   if (s.empty() || s.size() > 18 || s.find_first_not_of("0123456789") != std::string::npos) return false;
@@ -83,6 +95,17 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
     if (!ParseSize(value, 16, 8192, &n)) return "max-render must be 16..8192 pixels, not '" + value + "'";
     c.max_render = static_cast<int>(n);
   } else if (key == "cors-origin") SplitOrigins(value, c.cors_origins);
+  else if (key == "jobs-dir") c.jobs_dir = value;
+  else if (key == "max-jobs") {
+    if (!ParseSize(value, 1, 1000, &n)) return "max-jobs must be 1..1000, not '" + value + "'";
+    c.job_limits.max_jobs = static_cast<size_t>(n);
+  } else if (key == "max-batch") {
+    if (!ParseSize(value, 1, 65000, &n)) return "max-batch must be 1..65000 variants, not '" + value + "'";
+    c.job_limits.max_batch = static_cast<size_t>(n);
+  } else if (key == "batch-threads") {
+    if (!ParseSize(value, 0, 1024, &n)) return "batch-threads must be 0..1024 (0: every core), not '" + value + "'";
+    c.job_limits.threads = static_cast<int>(n);
+  }
   else return "unknown option --" + key;
   return "";
 }
@@ -95,7 +118,8 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_RIGS", "rigs"},          {"FACESPACE_HOST", "host"},         {"FACESPACE_PORT", "port"},
       {"FACESPACE_THREADS", "threads"},    {"FACESPACE_API_KEY_FILE", "api-key-file"},
       {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"},
-      {"FACESPACE_MAX_RENDER", "max-render"}};
+      {"FACESPACE_MAX_RENDER", "max-render"}, {"FACESPACE_JOBS_DIR", "jobs-dir"}, {"FACESPACE_MAX_JOBS", "max-jobs"},
+      {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -162,6 +186,15 @@ int Serve(const std::vector<std::string>& args) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   ::signal(SIGPIPE, SIG_IGN);
 
+  if (c.jobs_dir.empty()) c.jobs_dir = DefaultJobsDir();
+  FileJobQueue jobs(c.jobs_dir, store, c.job_limits);
+  auto resumed = jobs.Start();
+  if (!resumed.ok()) {
+    std::fprintf(stderr, "facespace: %s\n", resumed.status().message.c_str());
+    return 1;
+  }
+  if (resumed.value() > 0) std::fprintf(stderr, "facespace: resuming %zu unfinished batch job(s) from %s\n", resumed.value(), c.jobs_dir.c_str());
+
   httplib::Server server;
   const int threads = c.threads;
   server.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
@@ -170,7 +203,7 @@ int Serve(const std::vector<std::string>& args) {
   server.set_keep_alive_timeout(5);
   server.set_read_timeout(10, 0);
   server.set_write_timeout(10, 0);
-  api::Api api(store, options);
+  api::Api api(store, options, &jobs);
   api.Register(server);
 
   const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);

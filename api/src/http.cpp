@@ -6,6 +6,8 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <list>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -19,6 +21,7 @@
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
+#include "zip.h"
 
 namespace facespace::api {
 
@@ -30,12 +33,13 @@ using httplib::Response;
 
 // ---- routes and metrics -------------------------------------------------------------------
 
-enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kSequence, kFit, kOther, kRouteCount };
+enum Route : int { kHealthz, kReadyz, kMetrics, kOpenApi, kRigs, kRig, kMesh, kCheck, kRender, kSheet, kSequence, kFit, kBatch, kJobs, kJob, kJobFiles, kOther, kRouteCount };
 const char* const kRouteNames[kRouteCount] = {"/healthz", "/readyz", "/metrics", "/openapi.json", "/v1/rigs",
                                               "/v1/rigs/{id}", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/check",
                                               "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "/v1/rigs/{id}/sequence/*",
-                                              "/v1/rigs/{id}/fit", "other"};
-const int kStatuses[] = {200, 201, 204, 304, 400, 401, 403, 404, 405, 406, 413, 415, 422, 429, 500, 503};
+                                              "/v1/rigs/{id}/fit", "/v1/rigs/{id}/batch", "/v1/jobs", "/v1/jobs/{job}",
+                                              "/v1/jobs/{job}/*", "other"};
+const int kStatuses[] = {200, 201, 202, 204, 304, 400, 401, 403, 404, 405, 406, 409, 413, 415, 422, 429, 500, 503};
 constexpr int kStatusCount = sizeof(kStatuses) / sizeof(kStatuses[0]);
 const double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5};
 constexpr int kBucketCount = sizeof(kBuckets) / sizeof(kBuckets[0]);
@@ -154,6 +158,7 @@ const char* ReasonPhrase(int status) {
     case 404: return "Not Found";
     case 405: return "Method Not Allowed";
     case 406: return "Not Acceptable";
+    case 409: return "Conflict";
     case 413: return "Content Too Large";
     case 415: return "Unsupported Media Type";
     case 422: return "Unprocessable Content";
@@ -436,10 +441,11 @@ bool ParseBool(const std::string& s, bool* out) {
 struct Api::Impl {
   RigStore& store;
   ApiOptions options;
+  JobQueue* jobs;
   Metrics metrics;
   ResponseCache cache;
 
-  Impl(RigStore& s, ApiOptions o) : store(s), options(std::move(o)), cache(options.cache_bytes) {}
+  Impl(RigStore& s, ApiOptions o, JobQueue* j) : store(s), options(std::move(o)), jobs(j), cache(options.cache_bytes) {}
 
   bool OriginAllowed(const std::string& origin) const {
     for (const std::string& o : options.cors_origins) {
@@ -942,6 +948,136 @@ struct Api::Impl {
                     "application/json");
   }
 
+  // ---- batch jobs ----
+
+  static json JobJson(const JobInfo& j) {
+    const std::string self = "/v1/jobs/" + j.id;
+    json o = {{"id", j.id},       {"rig", j.rig},         {"state", j.state}, {"format", j.format},
+              {"created", j.created}, {"total", j.total}, {"done", j.done},
+              {"progress", j.total ? static_cast<double>(j.done) / static_cast<double>(j.total) : 1.0},
+              {"rate", std::round(j.rate * 10.0) / 10.0}};
+    if (j.state == "running" && j.rate > 0) o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
+    if (!j.error.empty()) o["error"] = j.error;
+    o["links"] = {{"self", self}, {"manifest", self + "/manifest.jsonl"}, {"files", self + "/files/"}, {"sheet", self + "/files/sheet.png"}};
+    if (j.state == "done") o["links"]["results"] = self + "/results.zip";
+    return o;
+  }
+
+  bool JobsEnabled(const Request& req, Response& res) {
+    if (jobs) return true;
+    SendProblem(req, res, 503, "jobs-disabled", "this server runs no batch jobs");
+    return false;
+  }
+
+  std::optional<JobInfo> FindJob(const Request& req, Response& res, const std::string& id) {
+    std::optional<JobInfo> j = IsValidJobId(id) ? jobs->Get(id) : std::nullopt;
+    if (!j) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
+    return j;
+  }
+
+  void Batch(const Request& req, Response& res) {
+    t_request.route = kBatch;
+    if (!JobsEnabled(req, res)) return;
+    auto rig = FindRig(req, res, req.matches[1]);
+    if (!rig) return;
+    const std::string ct = MediaType(req.get_header_value("Content-Type"));
+    if (!ct.empty() && ct != "application/json") {
+      SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+      return;
+    }
+    int retry_after = 0;
+    auto job = jobs->Submit(rig, req.body, &retry_after);
+    if (!job.ok()) {
+      const Status& s = job.status();
+      if (s.code == StatusCode::kResourceExhausted) {
+        res.set_header("Retry-After", std::to_string(retry_after));
+        SendProblem(req, res, 429, "job-queue-full", s.message);
+      } else if (s.code == StatusCode::kInvalidArgument) {
+        const bool malformed = IsMalformedJson(s);
+        SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", s.message, s.fields);
+      } else {
+        SendProblem(req, res, 500, "storage-failed", s.message);
+      }
+      return;
+    }
+    res.set_header("Location", "/v1/jobs/" + job->id);
+    SendJson(res, 202, JobJson(job.value()));
+  }
+
+  static const char* FileType(const std::string& name) {
+    const std::string ext = name.substr(name.rfind('.') + 1);
+    if (ext == "glb") return "model/gltf-binary";
+    if (ext == "obj") return "model/obj";
+    if (ext == "json") return "application/json";
+    if (ext == "jsonl") return "application/x-ndjson";
+    if (ext == "png") return "image/png";
+    if (ext == "jpg" || ext == "jpeg") return "image/jpeg";
+    if (ext == "exr") return "image/x-exr";
+    if (ext == "tif" || ext == "tiff") return "image/tiff";
+    return "application/octet-stream";
+  }
+
+  void JobFile(const Request& req, Response& res, const std::string& name) {
+    t_request.route = kJobFiles;
+    if (!JobsEnabled(req, res)) return;
+    auto job = FindJob(req, res, req.matches[1]);
+    if (!job) return;
+    std::string bytes;
+    const std::filesystem::path path = std::filesystem::path(jobs->Folder(job->id)) / name;
+    std::ifstream f(path, std::ios::binary);
+    if (!IsValidVariantId(name) || !f) {
+      SendProblem(req, res, 404, "file-not-found", "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
+                                                       (job->state == "done" ? "" : " (yet: the job is " + job->state + ")"));
+      return;
+    }
+    bytes.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    res.set_header("Cache-Control", name == "manifest.jsonl" ? "no-cache" : "private, max-age=86400");
+    res.set_content(std::move(bytes), FileType(name));
+  }
+
+  void Results(const Request& req, Response& res) {
+    t_request.route = kJobFiles;
+    if (!JobsEnabled(req, res)) return;
+    auto job = FindJob(req, res, req.matches[1]);
+    if (!job) return;
+    if (job->state != "done") {
+      SendProblem(req, res, 409, "job-not-done", "job " + job->id + " is " + job->state + " (" + std::to_string(job->done) +
+                                                    " of " + std::to_string(job->total) +
+                                                    " variants): its archive exists once it is done; finished files are at " +
+                                                    "/v1/jobs/" + job->id + "/files/NAME");
+      return;
+    }
+    // Entries: the manifest, batch.json, the sheet, then every variant in manifest order.
+    const std::filesystem::path dir = jobs->Folder(job->id);
+    auto names = std::make_shared<std::vector<std::string>>();
+    for (const char* n : {"manifest.jsonl", "batch.json", "sheet.png"}) {
+      if (std::filesystem::exists(dir / n)) names->push_back(n);
+    }
+    std::ifstream manifest(dir / "manifest.jsonl");
+    for (std::string line; std::getline(manifest, line);) {
+      json l = json::parse(line, nullptr, false);
+      if (!l.is_discarded() && l.is_object() && l.contains("file") && l["file"].is_string()) names->push_back(l["file"]);
+    }
+    auto zip = std::make_shared<ZipStream>();
+    auto next = std::make_shared<size_t>(0);
+    res.set_header("Content-Disposition", "attachment; filename=\"facespace-batch-" + job->id + ".zip\"");
+    res.set_chunked_content_provider("application/zip", [dir, names, zip, next](size_t, httplib::DataSink& sink) {
+      if (*next == names->size()) {
+        const std::string end = zip->Finish();
+        sink.write(end.data(), end.size());
+        sink.done();
+        return true;
+      }
+      const std::string& name = (*names)[(*next)++];
+      std::ifstream f(dir / name, std::ios::binary);
+      const std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+      const std::string ext = name.substr(name.rfind('.') + 1);
+      const std::string entry = zip->Entry(name, data, ext == "obj" || ext == "json" || ext == "jsonl");
+      if (!f || zip->failed()) return false;  // A file vanished (job deleted) or the archive would pass 4 GiB.
+      return sink.write(entry.data(), entry.size());
+    });
+  }
+
   void PutRig(const Request& req, Response& res) {
     t_request.route = kRig;
     if (!Authorized(req, res)) return;
@@ -990,7 +1126,8 @@ struct Api::Impl {
   }
 };
 
-Api::Api(RigStore& store, ApiOptions options) : impl_(std::make_unique<Impl>(store, std::move(options))) {}
+Api::Api(RigStore& store, ApiOptions options, JobQueue* jobs)
+    : impl_(std::make_unique<Impl>(store, std::move(options), jobs)) {}
 Api::~Api() = default;
 
 std::string Api::MetricsText() const {
@@ -1166,6 +1303,39 @@ void Api::Register(httplib::Server& server) {
   all_methods(rig + "/sequence/(sample|stream|reduce)", not_allowed("POST"), false, true, false, false);
   server.Post(rig + "/fit", [&I](const Request& req, Response& res) { I.Fit(req, res); });
   all_methods(rig + "/fit", not_allowed("POST"), false, true, false, false);
+  server.Post(rig + "/batch", [&I](const Request& req, Response& res) { I.Batch(req, res); });
+  all_methods(rig + "/batch", not_allowed("POST"), false, true, false, false);
+  server.Get("/v1/jobs", [&I](const Request& req, Response& res) {
+    t_request.route = kJobs;
+    if (!I.JobsEnabled(req, res)) return;
+    json list = json::array();
+    for (const JobInfo& j : I.jobs->List()) list.push_back(Impl::JobJson(j));
+    SendJson(res, 200, {{"jobs", list}});
+  });
+  all_methods("/v1/jobs", not_allowed("GET"), true, false, false, false);
+  const std::string job = R"(/v1/jobs/([^/]+))";
+  server.Get(job, [&I](const Request& req, Response& res) {
+    t_request.route = kJob;
+    if (!I.JobsEnabled(req, res)) return;
+    if (auto j = I.FindJob(req, res, req.matches[1])) {
+      res.set_header("Cache-Control", "no-cache");
+      SendJson(res, 200, Impl::JobJson(*j));
+    }
+  });
+  server.Delete(job, [&I](const Request& req, Response& res) {
+    t_request.route = kJob;
+    if (!I.JobsEnabled(req, res)) return;
+    const std::string id = req.matches[1];
+    Status s = IsValidJobId(id) ? I.jobs->Remove(id) : NotFound("");
+    if (!s.ok()) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
+    else res.status = 204;
+  });
+  all_methods(job, not_allowed("GET, DELETE"), true, false, false, true);
+  server.Get(job + "/manifest.jsonl", [&I](const Request& req, Response& res) { I.JobFile(req, res, "manifest.jsonl"); });
+  server.Get(job + "/files/([^/]+)", [&I](const Request& req, Response& res) { I.JobFile(req, res, req.matches[2]); });
+  server.Get(job + "/results.zip", [&I](const Request& req, Response& res) { I.Results(req, res); });
+  all_methods(job + "/(manifest.jsonl|files/[^/]+|results.zip)", not_allowed("GET"), true, false, false, false);
 }
+
 
 }  // namespace facespace::api

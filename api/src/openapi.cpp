@@ -62,6 +62,10 @@ json IdParam() {
           {"schema", {{"type", "string"}, {"pattern", "^[a-z0-9][a-z0-9_-]{0,63}$"}}}};
 }
 
+json JobParam() {
+  return {{"name", "job"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "string"}, {"pattern", "^[0-9a-f]{32}$"}}}};
+}
+
 json MeshQueryParams() {
   return json::array({
       IdParam(),
@@ -195,6 +199,38 @@ json Build() {
                                                    {"positions", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                                    {"normals", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}}}}},
                       {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
+  json weights_object = {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}};
+  json variant_item = {{"type", "object"},
+                       {"required", {"weights"}},
+                       {"properties", {{"id", {{"type", "string"}, {"pattern", "^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$"}}},
+                                       {"weights", {{"oneOf", {weights_object, {{"type", "array"}, {"items", {{"type", "number"}}}}}}}}}}};
+  json sample = {{"type", "object"},
+                 {"required", {"method"}},
+                 {"properties", {{"method", {{"enum", {"uniform", "gaussian", "grid", "convex"}}}},
+                                 {"count", {{"type", "integer"}, {"minimum", 1}}},
+                                 {"seed", {{"type", "integer"}, {"minimum", 0}}},
+                                 {"shapes", {{"type", "array"}, {"items", {{"type", "string"}}}}},
+                                 {"fixed", weights_object},
+                                 {"center", weights_object},
+                                 {"spread", {{"type", "number"}, {"minimum", 0}}},
+                                 {"points", {{"type", "array"}, {"items", weights_object}, {"minItems", 2}, {"maxItems", 3}}},
+                                 {"active", {{"type", "integer"}, {"minimum", 0}}},
+                                 {"symmetric", {{"type", "boolean"}}},
+                                 {"sum_at_most_one", {{"type", "boolean"}}}}}};
+  json batch_request = {
+      {"type", "object"},
+      {"description", "Exactly one of variants or sample. Also takes mode, normals, skinning, pose, animation/time, and the "
+                      "render settings (width, height, view, camera, background, supersample, quality) for image formats."},
+      {"properties", {{"variants", {{"type", "array"}, {"items", variant_item}}},
+                      {"sample", sample},
+                      {"format", {{"enum", {"glb", "obj", "json", "f32", "png", "jpeg", "exr", "tiff"}}}}}}};
+  json job = {{"type", "object"},
+              {"properties", {{"id", {{"type", "string"}}}, {"rig", {{"type", "string"}}},
+                              {"state", {{"enum", {"queued", "running", "done", "failed", "cancelled", "lost"}}}},
+                              {"format", {{"type", "string"}}}, {"created", {{"type", "string"}, {"format", "date-time"}}},
+                              {"total", {{"type", "integer"}}}, {"done", {{"type", "integer"}}}, {"progress", {{"type", "number"}}},
+                              {"rate", {{"type", "number"}}}, {"eta_seconds", {{"type", "number"}}}, {"error", {{"type", "string"}}},
+                              {"links", {{"type", "object"}}}}}};
   json ok_json = {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
   json auth = json::array({{{"bearer", json::array()}}});
   json paths = {
@@ -285,6 +321,43 @@ json Build() {
                                                                               {"rigid_align", {{"type", "boolean"}}}}}}}}}}}}},
                   {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("A target that does not match the rig")}}}}}}},
+      {"/v1/rigs/{id}/batch",
+       {{"post", {{"summary", "Start a batch job: many variants (listed, or sampled uniform/gaussian/grid/convex with a seed) as files"},
+                  {"operationId", "startBatch"},
+                  {"parameters", json::array({IdParam()})},
+                  {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/BatchRequest"}}}}}}}}},
+                  {"responses", {{"202", {{"description", "Accepted; Location names the job"},
+                                          {"headers", {{"Location", {{"schema", {{"type", "string"}}}}}}},
+                                          {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Job"}}}}}}}}},
+                                 {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
+                                 {"415", Problem("Not JSON")},
+                                 {"422", Problem("Invalid request, or more variants than the server allows")},
+                                 {"429", Problem("The job queue is full; see Retry-After")}}}}}}},
+      {"/v1/jobs", {{"get", {{"summary", "List batch jobs, newest first"}, {"operationId", "listJobs"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/v1/jobs/{job}",
+       {{"get", {{"summary", "A job's state and progress (queued, running, done, failed, cancelled, lost)"}, {"operationId", "getJob"},
+                 {"parameters", json::array({JobParam()})},
+                 {"responses", {{"200", {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Job"}}}}}}}}},
+                                {"404", Problem("Unknown job")}}}}},
+        {"delete", {{"summary", "Cancel a job and delete its files"}, {"operationId", "deleteJob"},
+                    {"parameters", json::array({JobParam()})},
+                    {"responses", {{"204", {{"description", "Deleted"}}}, {"404", Problem("Unknown job")}}}}}}},
+      {"/v1/jobs/{job}/manifest.jsonl",
+       {{"get", {{"summary", "The manifest so far: one JSON line per complete variant (index, id, file, bytes, sha256, weights, warnings)"},
+                 {"operationId", "getJobManifest"},
+                 {"parameters", json::array({JobParam()})},
+                 {"responses", {{"200", {{"description", "JSON lines"}, {"content", {{"application/x-ndjson", {{"schema", {{"type", "string"}}}}}}}}},
+                                {"404", Problem("Unknown job")}}}}}}},
+      {"/v1/jobs/{job}/files/{name}",
+       {{"get", {{"summary", "One file of a job: a variant (as named in the manifest), sheet.png, batch.json"},
+                 {"operationId", "getJobFile"},
+                 {"parameters", json::array({JobParam(), {{"name", "name"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "string"}}}}})},
+                 {"responses", {{"200", {{"description", "The file"}}}, {"404", Problem("Unknown job or file")}}}}}}},
+      {"/v1/jobs/{job}/results.zip",
+       {{"get", {{"summary", "Every file of a finished job as one zip archive (streamed)"}, {"operationId", "getJobResults"},
+                 {"parameters", json::array({JobParam()})},
+                 {"responses", {{"200", {{"description", "Zip archive"}, {"content", {{"application/zip", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}}}}}},
+                                {"404", Problem("Unknown job")}, {"409", Problem("The job is not done")}}}}}}},
       {"/v1/rigs/{id}/check",
        {{"post", {{"summary", "Validate weights only: sum and warnings"}, {"operationId", "checkWeights"},
                   {"parameters", json::array({IdParam()})},
@@ -299,7 +372,8 @@ json Build() {
           {"paths", paths},
           {"components",
            {{"schemas", {{"MeshRequest", mesh_request}, {"RenderRequest", render_request}, {"SheetRequest", sheet_request},
-                        {"SequenceRequest", sequence_request}, {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}}},
+                        {"SequenceRequest", sequence_request}, {"BatchRequest", batch_request}, {"Job", job},
+                        {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}}},
             {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
 }
 

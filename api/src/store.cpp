@@ -1,3 +1,4 @@
+#include "facespace/api/jobs.h"
 #include "facespace/api/store.h"
 
 namespace facespace::api {
@@ -8,6 +9,14 @@ bool IsValidRigId(const std::string& id) {
   if (!lower_digit(id[0])) return false;
   for (char c : id) {
     if (!lower_digit(c) && c != '_' && c != '-') return false;
+  }
+  return true;
+}
+
+bool IsValidJobId(const std::string& id) {
+  if (id.size() != 32) return false;
+  for (char c : id) {
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
   }
   return true;
 }

@@ -24,7 +24,7 @@ U=http://127.0.0.1:$port
 
 start() {
   "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --max-body 2000000 \
-    --cors-origin http://front.test "$@" >>"$tmp/log" 2>&1 &
+    --cors-origin http://front.test --jobs-dir "$tmp/jobs" "$@" >>"$tmp/log" 2>&1 &
   pid=$!
   for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && return 0; sleep 0.1; done
   echo "server did not start:"; cat "$tmp/log"; exit 1
@@ -216,7 +216,9 @@ d=json.load(open(sys.argv[1]))
 want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"get"},"/v1/rigs":{"get"},
       "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
       "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
-      "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"}}
+      "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"},
+      "/v1/rigs/{id}/batch":{"post"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
+      "/v1/jobs/{job}/files/{name}":{"get"},"/v1/jobs/{job}/results.zip":{"get"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
 sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-validator" ]; then
@@ -239,6 +241,60 @@ check "restart: the deleted rig stays deleted" test "$(c "$U/v1/rigs/cesium-man"
 check "startup: a bad flag exits non-zero with one clear line" sh -c "[ $rc -ne 0 ] && grep -q 'port must be' '$tmp/o'"
 "$bin" serve --rigs "$tmp/nowhere" --port 0 >"$tmp/o" 2>&1; rc=$?
 check "startup: an unreadable store exits non-zero" sh -c "[ $rc -ne 0 ] && grep -q 'not a readable directory' '$tmp/o'"
+
+# batch jobs
+restart() { kill -TERM "$pid"; wait "$pid"; pid=; start "$@"; }
+restart --max-batch 1000 --batch-threads 2
+wait_job() { for _ in $(seq 1 1200); do c "$U/v1/jobs/$1" >/dev/null; jq_ "d['state'] in ('done','failed','cancelled','lost')" && return 0; sleep 0.1; done; return 1; }
+BODY='{"sample":{"method":"uniform","count":24,"seed":5,"active":6},"format":"glb"}'
+code=$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch"); loc=$(hdr Location); job=${loc##*/}
+check "POST batch: 202 with Location /v1/jobs/{id} and the job's state" sh -c "[ $code = 202 ] && echo '$loc' | grep -Eq '^/v1/jobs/[0-9a-f]{32}$'" && jq_ "d['state'] in ('queued','running') and d['total']==24 and d['links']['self']=='$loc'"
+wait_job "$job"
+check "GET job: done, 24 of 24, progress 1, links to results.zip and the sheet" jq_ "d['state']=='done' and d['done']==24 and d['progress']==1 and d['links']['results']=='$loc/results.zip' and d['links']['sheet']=='$loc/files/sheet.png'"
+code=$(c "$U$loc/results.zip")
+check "results.zip: 200 application/zip, a valid archive of the manifest, batch.json, sheet and 24 glb whose sha256 match" sh -c "[ $code = 200 ] && [ \"\$(grep -i '^content-type:' '$tmp/hdr' | tr -d '\r')\" = 'Content-Type: application/zip' ]" && py '
+import zipfile,json,hashlib,sys
+z=zipfile.ZipFile(sys.argv[1]); n=z.namelist()
+m=[json.loads(l) for l in z.read("manifest.jsonl").decode().splitlines()]
+ok=z.testzip() is None and n[:3]==["manifest.jsonl","batch.json","sheet.png"] and len(n)==27 and len(m)==24
+ok&=all(hashlib.sha256(z.read(l["file"])).hexdigest()==l["sha256"] and len(z.read(l["file"]))==l["bytes"] for l in m)
+sys.exit(not ok)' "$tmp/body" && cp "$tmp/body" "$tmp/results.zip"
+"$bin" batch "$store/facecap.glb" --sample uniform --count 24 --seed 5 --active 6 --format glb --out "$tmp/clibatch" --quiet 2>/dev/null
+mkdir -p "$tmp/unz" && (cd "$tmp/unz" && python3 -c 'import zipfile,sys; zipfile.ZipFile(sys.argv[1]).extractall()' "$tmp/results.zip")
+check "the job's variants are byte-identical to facespace batch's for the same request" sh -c "for f in '$tmp/clibatch'/v*.glb; do cmp -s \"\$f\" '$tmp/unz/'\$(basename \"\$f\") || exit 1; done && cmp -s '$tmp/clibatch/manifest.jsonl' '$tmp/unz/manifest.jsonl'"
+code=$(c "$U$loc/files/v000003.glb")
+check "GET files/v000003.glb: the variant on its own URL" sh -c "[ $code = 200 ] && cmp -s '$tmp/body' '$tmp/unz/v000003.glb' && grep -qi '^content-type: model/gltf-binary' '$tmp/hdr'"
+problem "$(c "$U$loc/files/..%2Fjob.json")" 404 "True" && ok "files/..%2Fjob.json: 404, nothing outside the job's output" || no "files path trick"
+code=$(c "$U/v1/jobs")
+check "GET /v1/jobs lists the job" sh -c "[ $code = 200 ]" && jq_ "d['jobs'][0]['id']=='$job'"
+problem "$(c "$U/v1/jobs/0123456789abcdef0123456789abcdef")" 404 "d['type'].endswith('job-not-found')" && ok "unknown job: 404 problem" || no "unknown job"
+problem "$(c "$U/v1/jobs/..%2F..%2Fetc")" 404 "True" && ok "job id path trick: 404" || no "job id path trick"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":3,"fixed":{"jawopn":1}}}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/sample/fixed/jawopn' and 'jawOpen' in d['detail']" && ok "batch: unknown shape is 422 naming /sample/fixed/jawopn" || no "batch unknown shape"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":5000}}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/sample/count' and '1000' in d['detail']" && ok "batch over --max-batch: 422 naming /sample/count" || no "batch size limit"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"sample":' "$U/v1/rigs/facecap/batch")" 400 "True" && ok "batch: malformed JSON is 400" || no "batch malformed"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"variants":[{"id":"../x","weights":{}}]}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/variants/0/id'" && ok "batch: a path in a variant id is 422" || no "batch variant id"
+problem "$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/nobody/batch")" 404 "True" && ok "batch of an unknown rig: 404" || no "batch unknown rig"
+code=$(c -X DELETE "$U$loc")
+check "DELETE job: 204, then 404, its files gone" sh -c "[ $code = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U$loc') = 404 ] && [ ! -e '$tmp/jobs/$job' ]"
+
+# queue bound, restart and loss
+restart --max-jobs 2 --batch-threads 1
+BIG='{"sample":{"method":"convex","count":1000,"seed":1},"format":"png","width":32,"height":32}'
+c -X POST -H 'Content-Type: application/json' -d "$BIG" "$U/v1/rigs/facecap/batch" >/dev/null; big=$(hdr Location)
+c -X POST -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":10},"format":"f32"}' "$U/v1/rigs/stress/batch" >/dev/null; small=$(hdr Location)
+code=$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch")
+check "a third job past --max-jobs 2: 429 with Retry-After" sh -c "[ $code = 429 ] && [ \"\$(grep -i '^retry-after:' '$tmp/hdr' | tr -dc 0-9)\" -ge 1 ] && grep -q 'job-queue-full' '$tmp/body'"
+for _ in $(seq 1 600); do c "$U$big" >/dev/null; jq_ "d['done'] >= 5" && break; sleep 0.05; done
+kill -TERM "$pid"; wait "$pid"; pid=
+done_before=$(wc -l <"$tmp/jobs/${big##*/}/out/manifest.jsonl")
+mv "$store/stress" "$tmp/stress-away"
+start --max-jobs 2 --batch-threads 2
+check "restart: the unfinished job resumes (logged), after $done_before variants" sh -c "grep -q 'resuming 1 unfinished batch job' '$tmp/log' && [ $done_before -lt 1000 ]"
+c "$U$small" >/dev/null
+check "restart: a job whose rig was removed is reported lost, with the reason" jq_ "d['state']=='lost' and \"rig 'stress' was removed\" in d['error']"
+wait_job "${big##*/}"
+check "the resumed job completes: 1000 of 1000, every file once in the manifest" jq_ "d['state']=='done' and d['done']==1000" && \
+  py 'import json,sys,os; L=[json.loads(l) for l in open(sys.argv[1]+"/manifest.jsonl")]; sys.exit(not(sorted(l["index"] for l in L)==list(range(1000)) and len([f for f in os.listdir(sys.argv[1]) if f.endswith(".png") and f!="sheet.png"])==1000 and not [f for f in os.listdir(sys.argv[1]) if "tmp" in f]))' "$tmp/jobs/${big##*/}/out" && ok "  ... manifest and files complete, no temporary file" || no "  ... resumed job's files"
 
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "facespace/api/jobs.h"
 #include "facespace/api/store.h"
 
 namespace facespace::api {
@@ -24,7 +25,8 @@ struct ApiOptions {
 
 class Api {
  public:
-  Api(RigStore& store, ApiOptions options);
+  // `jobs` may be null: the batch and job routes then answer 503.
+  Api(RigStore& store, ApiOptions options, JobQueue* jobs = nullptr);
   ~Api();
   Api(const Api&) = delete;
   Api& operator=(const Api&) = delete;

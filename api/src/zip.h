@@ -1,0 +1,32 @@
+// A zip archive written as a stream, entry by entry (no Zip64: each entry and the whole
+// archive under 4 GiB). Deterministic: fixed timestamps, entries in the order added.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace facespace::api {
+
+class ZipStream {
+ public:
+  // The local header and data of one entry, deflated when `compress` (and smaller), else stored.
+  // Returns "" and sets failed() when the archive would pass 4 GiB.
+  std::string Entry(const std::string& name, std::string_view data, bool compress);
+  // The central directory and its end record: the last bytes of the archive.
+  std::string Finish();
+  bool failed() const { return failed_; }
+
+ private:
+  struct Central {
+    std::string name;
+    uint32_t crc = 0, compressed = 0, size = 0, offset = 0;
+    uint16_t method = 0;
+  };
+  std::vector<Central> entries_;
+  uint64_t offset_ = 0;
+  bool failed_ = false;
+};
+
+}  // namespace facespace::api
