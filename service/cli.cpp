@@ -11,6 +11,7 @@
 #include "facespace/api/request.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/lod.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
@@ -42,7 +43,7 @@ Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
 std::string Usage() {
   return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
          "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
-         "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets]\n"
+         "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets] [--lod 0-4]\n"
          "       [--format glb|obj|json|f32] -o OUT\n";
 }
 
@@ -187,7 +188,7 @@ int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<Weig
     api::ApplyPoseSetting("loop", "true", skeleton, &known);
     return -1;
   }
-  if (a == "--pose" || a == "--animation" || a == "--time" || a == "--blend" || a == "--skinning") {
+  if (a == "--pose" || a == "--animation" || a == "--time" || a == "--blend" || a == "--skinning" || a == "--lod") {
     if (i + 1 >= args.size()) {
       std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
       return 2;
@@ -253,6 +254,21 @@ int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<Weig
     return 2;
   }
   return -1;
+}
+
+// Replaces the rig by its level of detail `lod` (0: unchanged); false (reported) on failure.
+bool ApplyLod(Result<Rig>& rig, int lod) {
+  if (lod == 0) return true;
+  LodReport report;
+  auto made = MakeLod(rig.value(), lod, &report);
+  if (!made.ok()) {
+    PrintStatus(made.status());
+    return false;
+  }
+  std::fprintf(stderr, "lod %d: %zu of %zu triangles, %zu of %zu vertices\n", lod, report.triangles_after, report.triangles_before,
+               report.vertices_after, report.vertices_before);
+  rig = std::move(made.value());
+  return true;
 }
 
 // Resolves, checks (warnings to stderr) and evaluates. Returns an exit code (0 on success).
@@ -346,7 +362,7 @@ int Blend(const std::vector<std::string>& args) {
   }
 
   Result<Rig> loaded = LoadAndReport(paths);
-  if (!loaded.ok()) return 1;
+  if (!loaded.ok() || !ApplyLod(loaded, skeleton.lod)) return 1;
   const Rig& rig = loaded.value();
   std::vector<float> weights;
   WeightReport report;
@@ -468,7 +484,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     return 2;
   }
   Result<Rig> loaded = LoadAndReport(paths);
-  if (!loaded.ok()) return 1;
+  if (!loaded.ok() || !ApplyLod(loaded, r.mesh.lod)) return 1;
   const Rig& rig = loaded.value();
   std::vector<float> weights;
   WeightReport report;

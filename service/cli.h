@@ -34,5 +34,9 @@ int Sequence(const std::vector<std::string>& args);
 int FitCommand(const std::vector<std::string>& args);
 // Batch variant generation.
 int Batch(const std::vector<std::string>& args);
+// Mirror a shape into its left/right counterpart.
+int Mirror(const std::vector<std::string>& args);
+// Shape-basis compression and quantisation report.
+int Compress(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

@@ -31,6 +31,10 @@ const char kUsage[] =
     "  batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
     "        --out DIR [--format glb|obj|json|f32|png] [--jobs N] [--shard I/N]\n"
     "      many variants as files with a manifest; resumable (batch --help for more)\n"
+    "  mirror RIG SHAPE [--as NAME] [--axis x|y|z] -o OUT.glb\n"
+    "      adds the left/right mirror image of a shape and writes the rig\n"
+    "  compress RIG [--error E] [--bits 8..16] [--json]\n"
+    "      orthogonal (PCA) basis of the shapes within an error bound, and quantised displacements: sizes and errors\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -63,6 +67,8 @@ int main(int argc, char** argv) {
   if (command == "sequence") return facespace::cli::Sequence(args);
   if (command == "fit") return facespace::cli::FitCommand(args);
   if (command == "batch") return facespace::cli::Batch(args);
+  if (command == "mirror") return facespace::cli::Mirror(args);
+  if (command == "compress") return facespace::cli::Compress(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

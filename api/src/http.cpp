@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <list>
+#include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <unordered_map>
@@ -17,6 +18,7 @@
 #include "facespace/core/blend.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/io.h"
+#include "facespace/core/lod.h"
 #include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
@@ -481,6 +483,28 @@ struct Api::Impl {
     return true;
   }
 
+  // The rig at a level of detail, built once per rig version and level and kept.
+  std::mutex lod_mu;
+  std::map<std::string, std::shared_ptr<const Rig>> lods;
+  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
+    if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
+    const std::string prefix = stored->id + "|";
+    const std::string key = prefix + stored->version + "|" + std::to_string(lod);
+    {
+      std::lock_guard<std::mutex> lock(lod_mu);
+      if (auto it = lods.find(key); it != lods.end()) return it->second;
+    }
+    auto made = MakeLod(stored->rig, lod);
+    if (!made.ok()) return nullptr;
+    auto rig = std::make_shared<const Rig>(std::move(made.value()));
+    std::lock_guard<std::mutex> lock(lod_mu);
+    // Levels of older versions of this rig go.
+    for (auto it = lods.lower_bound(prefix); it != lods.end() && it->first.rfind(prefix, 0) == 0;) {
+      it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : lods.erase(it);
+    }
+    return lods.emplace(key, rig).first->second;
+  }
+
   std::shared_ptr<const StoredRig> FindRig(const Request& req, Response& res, const std::string& id) {
     auto rig = IsValidRigId(id) ? store.Get(id) : nullptr;
     if (!rig) SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
@@ -634,17 +658,19 @@ struct Api::Impl {
     const std::string canonical = PoseCanonical(pose, posed) + std::string(MeshFormatName(format)) + "|" +
                                   (mr.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
                                   (mr.options.normals == NormalMode::kRecompute ? "rec" : "bl") + "|" +
-                                  (mr.keep_targets ? "t" : "-") + (mr.options.dual_quaternion ? "|dq|" : "|") + WeightsCanonical(w);
+                                  (mr.keep_targets ? "t" : "-") + (mr.options.dual_quaternion ? "|dq|" : "|") + "lod" +
+                                  std::to_string(mr.lod) + "|" + WeightsCanonical(w);
     const std::string key = rig->id + "|" + rig->version + "|" + canonical;
     if (NotModified(req, res, key)) return;
     SendCached(req, res, key, MeshFormatMimeType(format), [&]() -> Result<std::string> {
       thread_local BlendContext context;
       thread_local BlendedRig blended;
-      if (!EvaluateRig(rig->rig, w, mr.options, blended, context).ok()) return Status{StatusCode::kInternal, "the blend failed", {}};
+      const auto at = RigAt(rig, mr.lod);
+      if (!at || !EvaluateRig(*at, w, mr.options, blended, context).ok()) return Status{StatusCode::kInternal, "the blend failed", {}};
       metrics.blends.fetch_add(1, std::memory_order_relaxed);
       ExportOptions export_options;
       export_options.keep_targets = mr.keep_targets;
-      auto bytes = ExportMesh(rig->rig, blended, w, report.warnings, format, export_options);
+      auto bytes = ExportMesh(*at, blended, w, report.warnings, format, export_options);
       if (!bytes.ok()) return Status{StatusCode::kInternal, "the export failed", {}};
       return bytes;
     });
@@ -716,15 +742,15 @@ struct Api::Impl {
     bool posed = false;
     if (!Weigh(req, res, *rig, rr.mesh, w, report, pose, posed)) return;
     rr.mesh.options.pose = posed ? &pose : nullptr;
-    const std::string key = rig->id + "|" + rig->version + "|render|" + RenderCanonical(rr, format) + "|" + WeightsCanonical(w) +
-                            PoseCanonical(pose, posed);
+    const std::string key = rig->id + "|" + rig->version + "|render|" + RenderCanonical(rr, format) + "|lod" +
+                            std::to_string(rr.mesh.lod) + "|" + WeightsCanonical(w) + PoseCanonical(pose, posed);
     if (NotModified(req, res, key)) return;
     SendCached(req, res, key, render::ImageFormatMimeType(format), [&]() -> Result<std::string> {
       thread_local BlendContext context;
       thread_local BlendedRig blended;
       render::Image image;
-      if (!EvaluateRig(rig->rig, w, rr.mesh.options, blended, context).ok() ||
-          !render::Render(rig->rig, blended, rr.render, image).ok()) {
+      const auto at = RigAt(rig, rr.mesh.lod);
+      if (!at || !EvaluateRig(*at, w, rr.mesh.options, blended, context).ok() || !render::Render(*at, blended, rr.render, image).ok()) {
         return Status{StatusCode::kInternal, "the render failed", {}};
       }
       metrics.blends.fetch_add(1, std::memory_order_relaxed);

@@ -1,5 +1,7 @@
 #include "facespace/api/request.h"
 
+#include "facespace/core/lod.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -241,6 +243,12 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
       errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\""});
     } else {
       r.format = f;
+    }
+  } else if (key == "lod") {
+    if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > kMaxLod) {
+      errors.fields.push_back({ptr, "must be an integer level of detail 0.." + std::to_string(kMaxLod) + " (0: full)"});
+    } else {
+      r.lod = v.get<int>();
     }
   } else if (key == "strict" || (key == "keep_targets" && mesh_format)) {
     if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
@@ -492,7 +500,8 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
 }
 
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
-  *known = key == "animation" || key == "time" || key == "loop" || key == "pose" || key == "blend" || key == "skinning";
+  *known = key == "animation" || key == "time" || key == "loop" || key == "pose" || key == "blend" || key == "skinning" ||
+           key == "lod";
   if (!*known) return "";
   json v;
   if (key == "skinning") {
@@ -500,6 +509,9 @@ std::string ApplyPoseSetting(const std::string& key, const std::string& value, M
   } else if (key == "animation") {
     const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos && value.size() < 10;
     v = digits ? json(std::stoll(value)) : json(value);
+  } else if (key == "lod") {
+    if (value.size() != 1 || value[0] < '0' || value[0] > '9') return "must be an integer level of detail 0.." + std::to_string(kMaxLod);
+    v = value[0] - '0';
   } else if (key == "loop") {
     if (value == "true" || value == "1") v = true;
     else if (value == "false" || value == "0") v = false;

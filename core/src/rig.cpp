@@ -1,5 +1,7 @@
 #include "facespace/core/rig.h"
 
+#include <cstring>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
@@ -156,6 +158,23 @@ Sided SideOf(const std::string& name) {
 }
 
 }  // namespace
+
+std::string CounterpartName(const std::string& name) {
+  static const std::pair<const char*, const char*> kSuffixes[] = {
+      {"_L", "_R"}, {"_l", "_r"}, {".L", ".R"}, {".l", ".r"}, {"_left", "_right"}, {"Left", "Right"}, {"left", "right"}};
+  auto ends = [&](const std::string& t) { return name.size() > t.size() && name.compare(name.size() - t.size(), t.size(), t) == 0; };
+  for (const auto& [l, r] : kSuffixes) {
+    if (ends(l)) return name.substr(0, name.size() - std::strlen(l)) + r;
+    if (ends(r)) return name.substr(0, name.size() - std::strlen(r)) + l;
+  }
+  const size_t slash = name.rfind('/');
+  const size_t at = slash == std::string::npos ? 0 : slash + 1;
+  for (const auto& [l, r] : {std::pair<const char*, const char*>{"l-", "r-"}, {"L_", "R_"}}) {
+    if (name.compare(at, 2, l) == 0 && name.size() > at + 2) return name.substr(0, at) + r + name.substr(at + 2);
+    if (name.compare(at, 2, r) == 0 && name.size() > at + 2) return name.substr(0, at) + l + name.substr(at + 2);
+  }
+  return "";
+}
 
 std::string ClosestShapeName(const Rig& rig, const std::string& name) {
   std::string best;

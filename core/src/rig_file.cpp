@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/core/io.h"
+#include "facespace/core/shape_tools.h"
 
 namespace facespace {
 
@@ -43,6 +44,58 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
   if (j.contains("name")) {
     if (!j["name"].is_string()) return bad("/name", "must be a string");
     rig.name = j["name"].get<std::string>();
+  }
+  if (j.contains("derived")) {
+    // New shapes first, so that the rest of the manifest can describe them too.
+    if (!j["derived"].is_object()) return bad("/derived", "must be an object of new shape -> {\"from\", \"mirror\", \"mask\"}");
+    for (auto it = j["derived"].begin(); it != j["derived"].end(); ++it) {
+      const std::string ptr = "/derived/" + JsonPointerEscape(it.key());
+      const json& o = *it;
+      if (!o.is_object() || !o.contains("from") || !o["from"].is_string()) return bad(ptr, "must be an object with \"from\": a shape name");
+      DeriveOptions d;
+      auto axis_of = [](const std::string& a) { return a == "x" ? 0 : a == "y" ? 1 : a == "z" ? 2 : -1; };
+      if (o.contains("mirror")) {
+        if (!o["mirror"].is_string() || axis_of(o["mirror"].get<std::string>()) < 0) return bad(ptr + "/mirror", "must be \"x\", \"y\" or \"z\" (the axis across which to reflect)");
+        d.mirror = true;
+        d.axis = axis_of(o["mirror"].get<std::string>());
+      }
+      if (o.contains("tolerance")) {
+        if (!o["tolerance"].is_number() || o["tolerance"].get<double>() <= 0) return bad(ptr + "/tolerance", "must be a positive number");
+        d.tolerance = o["tolerance"].get<float>();
+      }
+      if (o.contains("mask")) {
+        const json& m = o["mask"];
+        if (!m.is_object()) return bad(ptr + "/mask", "must be an object {\"side\", \"falloff\", \"vertices\"}");
+        d.masked = true;
+        if (m.contains("side")) {
+          const std::string side = m["side"].is_string() ? m["side"].get<std::string>() : "";
+          if (side.size() != 2 || (side[0] != '+' && side[0] != '-') || axis_of(side.substr(1)) < 0) {
+            return bad(ptr + "/mask/side", "must be \"+x\", \"-x\", \"+y\", \"-y\", \"+z\" or \"-z\"");
+          }
+          d.mask.side = side[0] == '+' ? 1 : -1;
+          d.mask.axis = axis_of(side.substr(1));
+        }
+        if (m.contains("falloff")) {
+          if (!m["falloff"].is_number() || m["falloff"].get<double>() < 0) return bad(ptr + "/mask/falloff", "must be a number >= 0 (mesh units)");
+          d.mask.falloff = m["falloff"].get<float>();
+        }
+        if (m.contains("vertices")) {
+          if (!m["vertices"].is_array()) return bad(ptr + "/mask/vertices", "must be an array of vertex indices");
+          for (const json& v : m["vertices"]) {
+            if (!v.is_number_unsigned()) return bad(ptr + "/mask/vertices", "must be an array of vertex indices");
+            d.mask.vertices.push_back(v.get<uint32_t>());
+          }
+        }
+      }
+      if (!d.mirror && !d.masked) return bad(ptr, "needs \"mirror\" or \"mask\" (or both)");
+      auto r = DeriveShape(rig, it.key(), o["from"].get<std::string>(), d);
+      if (!r.ok()) return bad(ptr, r.status().message);
+      if (r->unmatched > 0) {
+        rig.load_warnings.push_back({"mirror_unmatched", std::to_string(r->unmatched) + " moved vertices of '" + o["from"].get<std::string>() +
+                                                             "' have no mirror image; '" + it.key() + "' leaves them still",
+                                     it.key(), static_cast<double>(r->unmatched), true});
+      }
+    }
   }
   if (j.contains("groups")) {
     if (!j["groups"].is_object()) return bad("/groups", "must be an object of group -> [shape names]");

@@ -132,3 +132,207 @@ TEST(Variants, GridAlongALineAndOverRanges) {
 
 }  // namespace
 }  // namespace facespace
+
+#include "facespace/core/shape_tools.h"
+
+namespace facespace {
+namespace {
+
+// Mean vertex distance between two shapes' displacements, over every vertex either moves.
+double ShapeDifference(const Rig& rig, int a, int b, double* magnitude) {
+  double diff = 0, mag = 0;
+  size_t count = 0;
+  for (const Mesh& m : rig.meshes) {
+    for (int pi : m.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      std::vector<float> da(p.positions.size(), 0.0f), db(p.positions.size(), 0.0f);
+      for (size_t t = 0; t < m.target_shapes.size(); ++t) {
+        std::vector<float>* dst = m.target_shapes[t] == static_cast<uint32_t>(a) ? &da : m.target_shapes[t] == static_cast<uint32_t>(b) ? &db : nullptr;
+        if (!dst) continue;
+        const SparseTarget& st = p.targets[t];
+        for (size_t k = 0; k < st.indices.size(); ++k) {
+          for (int c = 0; c < 3; ++c) (*dst)[3 * st.indices[k] + c] = st.position_deltas[3 * k + c];
+        }
+      }
+      for (size_t v = 0; v < p.vertex_count(); ++v) {
+        const double ea = std::hypot(da[3 * v], da[3 * v + 1], da[3 * v + 2]);
+        const double eb = std::hypot(db[3 * v], db[3 * v + 1], db[3 * v + 2]);
+        if (ea == 0 && eb == 0) continue;
+        diff += std::hypot(da[3 * v] - db[3 * v], da[3 * v + 1] - db[3 * v + 1], da[3 * v + 2] - db[3 * v + 2]);
+        mag += eb;
+        ++count;
+      }
+    }
+  }
+  *magnitude = mag / count;
+  return diff / count;
+}
+
+TEST(ShapeTools, MirrorOfALeftShapeIsItsRightOnFaceCap) {
+  Rig rig = FaceCap();
+  const int right = FindShape(rig, "mouthSmile_R");
+  auto r = DeriveShape(rig, "mirroredSmile", "mouthSmile_L", {.mirror = true, .axis = 0, .tolerance = 1e-3f});
+  ASSERT_TRUE(r.ok()) << r.status().message;
+  double magnitude = 0;
+  const double diff = ShapeDifference(rig, r->shape, right, &magnitude);
+  std::printf("mirror(mouthSmile_L) vs mouthSmile_R: mean difference %.5f, mean displacement %.5f, unmatched %zu\n", diff,
+              magnitude, r->unmatched);
+  EXPECT_LT(diff, 0.01 * magnitude);  // The authored right smile, within 1% (0.08% measured).
+  EXPECT_EQ(r->unmatched, 0u);
+  EXPECT_EQ(rig.shapes.back().name, "mirroredSmile");
+  EXPECT_EQ(rig.shapes.back().group, rig.shapes[right].group);
+  EXPECT_TRUE(ValidateRig(rig).ok());
+}
+
+TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
+  Rig rig = FaceCap();
+  const int jaw = FindShape(rig, "jawOpen");
+  auto r = DeriveShape(rig, "jawOpen_left", "jawOpen", {.masked = true, .mask = {.side = 1, .axis = 0, .falloff = 0.0f}});
+  ASSERT_TRUE(r.ok()) << r.status().message;
+  // Every kept vertex is right of the middle plane, with the source delta unchanged.
+  size_t kept = 0, source_pos = 0, source_all = 0;
+  for (const Mesh& m : rig.meshes) {
+    const auto t_new = std::find(m.target_shapes.begin(), m.target_shapes.end(), static_cast<uint32_t>(r->shape)) - m.target_shapes.begin();
+    const auto t_src = std::find(m.target_shapes.begin(), m.target_shapes.end(), static_cast<uint32_t>(jaw)) - m.target_shapes.begin();
+    if (static_cast<size_t>(t_src) >= m.target_shapes.size()) continue;
+    float lo = 1e30f, hi = -1e30f;
+    for (int pi : m.primitives) {
+      for (size_t i = 0; i < rig.primitives[pi].positions.size(); i += 3) {
+        lo = std::min(lo, rig.primitives[pi].positions[i]);
+        hi = std::max(hi, rig.primitives[pi].positions[i]);
+      }
+    }
+    const float mid = 0.5f * (lo + hi);
+    for (int pi : m.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      const SparseTarget& a = p.targets[t_new];
+      const SparseTarget& s = p.targets[t_src];
+      for (size_t k = 0; k < s.indices.size(); ++k) source_pos += p.positions[3 * s.indices[k]] > mid;
+      source_all += s.indices.size();
+      for (size_t k = 0; k < a.indices.size(); ++k) {
+        const uint32_t v = a.indices[k];
+        ASSERT_GT(p.positions[3 * v], mid);
+        const size_t ks = std::lower_bound(s.indices.begin(), s.indices.end(), v) - s.indices.begin();
+        EXPECT_EQ(a.position_deltas[3 * k + 1], s.position_deltas[3 * ks + 1]);
+        ++kept;
+      }
+    }
+  }
+  EXPECT_EQ(kept, source_pos);
+  EXPECT_GT(kept, source_all / 3);  // About half of the jaw.
+  EXPECT_LT(kept, 2 * source_all / 3);
+  EXPECT_FALSE(DeriveShape(rig, "x", "nope", {.mirror = true}).ok());
+  EXPECT_FALSE(DeriveShape(rig, "jawOpen", "jawOpen", {.mirror = true}).ok());  // Name taken.
+}
+
+}  // namespace
+}  // namespace facespace
+
+#include "facespace/core/basis.h"
+#include "facespace/core/blend.h"
+#include "facespace/core/lod.h"
+
+namespace facespace {
+namespace {
+
+TEST(Lod, EveryLodVertexBlendsToTheFullRigsPosition) {
+  const Rig rig = FaceCap();
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  for (size_t s = 0; s < w.size(); s += 3) w[s] = 0.1f + 0.8f * static_cast<float>(s % 7) / 7.0f;
+  BlendedRig full, lod;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(rig, w, {}, full, ctx).ok());
+  for (int level = 1; level <= 3; ++level) {
+    LodReport report;
+    auto simplified = MakeLod(rig, level, &report);
+    ASSERT_TRUE(simplified.ok()) << simplified.status().message;
+    EXPECT_LT(report.triangles_after, report.triangles_before * 0.6 / (1 << (level - 1)));
+    EXPECT_GT(report.triangles_after, report.triangles_before * 0.4 / (1 << (level - 1)));
+    EXPECT_LT(report.vertices_after, report.vertices_before);
+    ASSERT_TRUE(EvaluateRig(simplified.value(), w, {}, lod, ctx).ok());
+    for (size_t p = 0; p < lod.primitives.size(); ++p) {
+      const auto& src = report.source_vertex[p];
+      ASSERT_EQ(src.size() * 3, lod.primitives[p].positions.size());
+      for (size_t v = 0; v < src.size(); ++v) {
+        for (int c = 0; c < 3; ++c) {
+          ASSERT_EQ(lod.primitives[p].positions[3 * v + c], full.primitives[p].positions[3 * src[v] + c]) << "level " << level;
+        }
+      }
+    }
+  }
+  EXPECT_FALSE(MakeLod(rig, 9).ok());
+}
+
+TEST(Basis, ReconstructionStaysWithinTheBound) {
+  const Rig rig = FaceCap();
+  BasisReport loose, tight, exact;
+  auto a = CompressShapes(rig, 50.0, &loose);
+  auto b = CompressShapes(rig, 5.0, &tight);
+  auto c = CompressShapes(rig, 0.0, &exact);
+  ASSERT_TRUE(a.ok() && b.ok() && c.ok());
+  EXPECT_LT(loose.components, tight.components);
+  EXPECT_LE(tight.components, exact.components);
+  EXPECT_LE(exact.components, rig.shapes.size());
+  // Check the bound independently: rebuild every shape from the basis and compare with the targets.
+  std::vector<size_t> first(rig.primitives.size() + 1, 0);
+  for (size_t p = 0; p < rig.primitives.size(); ++p) first[p + 1] = first[p] + rig.primitives[p].vertex_count();
+  std::vector<int> row(first.back(), -1);
+  for (size_t r = 0; r < a->vertices.size(); ++r) row[a->vertices[r]] = static_cast<int>(r);
+  const Eigen::MatrixXf rebuilt = a->components * a->coefficients;
+  double worst = 0;
+  for (const Mesh& m : rig.meshes) {
+    for (int pi : m.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      for (size_t t = 0; t < p.targets.size(); ++t) {
+        const SparseTarget& st = p.targets[t];
+        for (size_t k = 0; k < st.indices.size(); ++k) {
+          const int r = row[first[pi] + st.indices[k]];
+          ASSERT_GE(r, 0);
+          Eigen::Vector3d d(st.position_deltas[3 * k], st.position_deltas[3 * k + 1], st.position_deltas[3 * k + 2]);
+          worst = std::max(worst, (d - rebuilt.block<3, 1>(3 * r, m.target_shapes[t]).cast<double>()).norm());
+        }
+      }
+    }
+  }
+  EXPECT_LE(worst, 50.0 * 1.001);
+  EXPECT_NEAR(worst, loose.max_error, 1e-2 * loose.max_error + 1e-3);
+  // Orthonormal components.
+  EXPECT_TRUE((a->components.transpose() * a->components).isIdentity(1e-3f));
+}
+
+TEST(Basis, QuantisationErrorIsHalfAStep) {
+  const Rig rig = FaceCap();
+  Rig dequantized;
+  const QuantizeReport q16 = QuantizeDisplacements(rig, 16, &dequantized);
+  const QuantizeReport q8 = QuantizeDisplacements(rig, 8, nullptr);
+  EXPECT_GT(q8.max_error, 100 * q16.max_error);  // 256x coarser steps.
+  double largest = 0;
+  for (const Primitive& p : rig.primitives) {
+    for (const SparseTarget& t : p.targets) {
+      for (float d : t.position_deltas) largest = std::max(largest, static_cast<double>(std::fabs(d)));
+    }
+  }
+  EXPECT_LE(q16.max_error, std::sqrt(3.0) * 0.5 * largest / 32767 * 1.0001);
+  EXPECT_GT(q16.max_error, 0.0);
+  // The dequantised rig blends within sum(w) x the error of the original, and not exactly.
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  w[FindShape(rig, "jawOpen")] = 1.0f;
+  w[FindShape(rig, "mouthSmile_L")] = 0.5f;
+  BlendedRig a, b;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(rig, w, {}, a, ctx).ok());
+  ASSERT_TRUE(EvaluateRig(dequantized, w, {}, b, ctx).ok());
+  double diff = 0;
+  for (size_t p = 0; p < a.primitives.size(); ++p) {
+    for (size_t i = 0; i < a.primitives[p].positions.size(); i += 3) {
+      diff = std::max<double>(diff, std::hypot(a.primitives[p].positions[i] - b.primitives[p].positions[i],
+                                       a.primitives[p].positions[i + 1] - b.primitives[p].positions[i + 1],
+                                       a.primitives[p].positions[i + 2] - b.primitives[p].positions[i + 2]));
+    }
+  }
+  EXPECT_GT(diff, 0.0);
+  EXPECT_LE(diff, 1.5 * q16.max_error + 1e-3);
+}
+
+}  // namespace
+}  // namespace facespace

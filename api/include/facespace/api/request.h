@@ -30,6 +30,7 @@ struct MeshRequest {
   std::optional<MeshFormat> format;  // Absent: decided by Accept, else JSON.
   bool strict = false;               // Warnings become a 422.
   bool keep_targets = false;         // glb: the rig with these weights as defaults.
+  int lod = 0;                       // Level of detail: 0 full, L ~ 1/2^L of the triangles (core/lod.h).
 };
 
 // Body of POST /v1/rigs/{id}/mesh and /check:
@@ -38,7 +39,7 @@ struct MeshRequest {
 //  "pose": {"JOINT": {"rotation": [x, y, z, w] | "euler": [x, y, z], "translation", "scale"}},
 //  "animation": NAME|INDEX, "time": SECONDS, "loop": bool,
 //  "blend": [{"animation": NAME|INDEX, "time", "weight", "loop", "mask": [JOINT, ...]}],
-//  "skinning": "linear"|"dual_quaternion"}
+//  "skinning": "linear"|"dual_quaternion", "lod": 0..4}
 // Malformed JSON is InvalidArgument with pointer "" and message starting "malformed JSON";
 // schema errors name their field.
 Result<MeshRequest> ParseMeshRequest(std::string_view body);
@@ -76,7 +77,7 @@ struct SheetRequest {
 Result<SheetRequest> ParseSheetRequest(std::string_view body);
 
 // A skeleton setting given as text (query parameter or CLI flag): animation, time, loop,
-// pose (JSON), blend (JSON), skinning (linear|dual_quaternion). Returns "" or what is wrong; `known` tells whether the key is one.
+// pose (JSON), blend (JSON), skinning (linear|dual_quaternion), lod (0..4). Returns "" or what is wrong; `known` tells whether the key is one.
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known);
 
 // Checks the skeleton settings gathered by ApplyPoseSetting (time without animation, ...).

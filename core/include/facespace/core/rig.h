@@ -175,6 +175,10 @@ int FindShape(const Rig& rig, const std::string& name);
 // The shape name closest to `name` by edit distance (case-insensitive), or "" for none.
 std::string ClosestShapeName(const Rig& rig, const std::string& name);
 
+// The left/right counterpart of a shape name ("mouthSmile_L" -> "mouthSmile_R", "l-eye" ->
+// "r-eye"), or "" when the name carries no side marker.
+std::string CounterpartName(const std::string& name);
+
 // Pairs shapes whose names differ only by a left/right marker (_L/_R, Left/Right, .L/.R,
 // l-/r-, ...) as symmetric partners, unless a partner is already set.
 void DetectSymmetricPartners(Rig& rig);

@@ -1,0 +1,163 @@
+#include "facespace/core/shape_tools.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace facespace {
+
+namespace {
+
+float Diagonal(const Rig& rig) {
+  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
+  for (const Primitive& p : rig.primitives) {
+    for (size_t i = 0; i < p.positions.size(); ++i) {
+      lo[i % 3] = std::min(lo[i % 3], p.positions[i]);
+      hi[i % 3] = std::max(hi[i % 3], p.positions[i]);
+    }
+  }
+  if (lo[0] > hi[0]) return 1.0f;
+  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
+// Smooth 0..1 weight of a mask at position p (vertex `global` over all primitives).
+float MaskWeight(const ShapeMask& m, float center, const float* p) {
+  if (m.side == 0) return 1.0f;
+  const float x = (p[m.axis] - center) * static_cast<float>(m.side);
+  if (m.falloff <= 0.0f) return x > 0.0f ? 1.0f : 0.0f;
+  const float t = std::clamp(x / m.falloff + 0.5f, 0.0f, 1.0f);
+  return t * t * (3.0f - 2.0f * t);  // Smoothstep across [-falloff/2, +falloff/2].
+}
+
+// The middle of a mesh's bounding box along an axis (mesh space).
+float MidPlane(const Rig& rig, const Mesh& mesh, int axis) {
+  float lo = 1e30f, hi = -1e30f;
+  for (int pi : mesh.primitives) {
+    const std::vector<float>& pos = rig.primitives[pi].positions;
+    for (size_t i = static_cast<size_t>(axis); i < pos.size(); i += 3) {
+      lo = std::min(lo, pos[i]);
+      hi = std::max(hi, pos[i]);
+    }
+  }
+  return lo <= hi ? 0.5f * (lo + hi) : 0.0f;
+}
+
+}  // namespace
+
+std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float center, float tolerance) {
+  const size_t n = primitive.vertex_count();
+  std::vector<int32_t> map(n, -1);
+  const float cell = std::max(tolerance, 1e-12f) * 2.0f;
+  auto key = [cell](float x, float y, float z) {
+    const auto q = [cell](float v) { return static_cast<int64_t>(std::floor(v / cell)); };
+    return (static_cast<uint64_t>(q(x)) * 73856093u) ^ (static_cast<uint64_t>(q(y)) * 19349663u) ^ (static_cast<uint64_t>(q(z)) * 83492791u);
+  };
+  std::unordered_multimap<uint64_t, uint32_t> grid;
+  grid.reserve(n);
+  const float* pos = primitive.positions.data();
+  for (uint32_t v = 0; v < n; ++v) grid.emplace(key(pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]), v);
+  for (uint32_t v = 0; v < n; ++v) {
+    float r[3] = {pos[3 * v], pos[3 * v + 1], pos[3 * v + 2]};
+    r[axis] = 2.0f * center - r[axis];
+    float best = tolerance * tolerance;
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          auto range = grid.equal_range(key(r[0] + dx * cell, r[1] + dy * cell, r[2] + dz * cell));
+          for (auto it = range.first; it != range.second; ++it) {
+            const float* q = pos + 3 * it->second;
+            const float d = (q[0] - r[0]) * (q[0] - r[0]) + (q[1] - r[1]) * (q[1] - r[1]) + (q[2] - r[2]) * (q[2] - r[2]);
+            if (d <= best) {
+              best = d;
+              map[v] = static_cast<int32_t>(it->second);
+            }
+          }
+        }
+      }
+    }
+  }
+  return map;
+}
+
+Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options) {
+  const int source = FindShape(rig, from);
+  if (source < 0) return InvalidArgument("unknown shape '" + from + "'");
+  if (name.empty() || FindShape(rig, name) >= 0) return InvalidArgument("shape name '" + name + "' is empty or taken");
+  if (options.axis < 0 || options.axis > 2 || options.mask.axis < 0 || options.mask.axis > 2) return InvalidArgument("axis must be x, y or z");
+  std::vector<uint8_t> keep;
+  if (options.masked && !options.mask.vertices.empty()) {
+    keep.assign(rig.vertex_count(), 0);
+    for (uint32_t v : options.mask.vertices) {
+      if (v >= keep.size()) return InvalidArgument("mask vertex " + std::to_string(v) + " is beyond the rig's " + std::to_string(keep.size()) + " vertices");
+      keep[v] = 1;
+    }
+  }
+  // First vertex of each primitive in the global numbering.
+  std::vector<size_t> first(rig.primitives.size() + 1, 0);
+  for (size_t p = 0; p < rig.primitives.size(); ++p) first[p + 1] = first[p] + rig.primitives[p].vertex_count();
+
+  DeriveReport report;
+  report.shape = static_cast<int>(rig.shapes.size());
+  const float tolerance = options.tolerance * Diagonal(rig);
+  for (Mesh& mesh : rig.meshes) {
+    const auto it = std::find(mesh.target_shapes.begin(), mesh.target_shapes.end(), static_cast<uint32_t>(source));
+    if (it == mesh.target_shapes.end()) continue;
+    const float center = options.auto_center ? MidPlane(rig, mesh, options.axis) : options.center;
+    const float mask_center = options.mask.auto_center ? MidPlane(rig, mesh, options.mask.axis) : options.mask.center;
+    const size_t t = static_cast<size_t>(it - mesh.target_shapes.begin());
+    for (int pi : mesh.primitives) {
+      Primitive& prim = rig.primitives[pi];
+      const SparseTarget& src = prim.targets[t];
+      SparseTarget out;
+      const size_t n = prim.vertex_count();
+      // Dense view of the source deltas by vertex (position, normal, tangent).
+      std::vector<int32_t> slot(n, -1);
+      for (size_t k = 0; k < src.indices.size(); ++k) slot[src.indices[k]] = static_cast<int32_t>(k);
+      std::vector<int32_t> mirror;
+      if (options.mirror) {
+        mirror = MirrorMap(prim, options.axis, center, tolerance);
+        for (uint32_t v : src.indices) report.unmatched += mirror[v] < 0;
+      }
+      const bool has_n = !src.normal_deltas.empty(), has_t = !src.tangent_deltas.empty();
+      for (uint32_t v = 0; v < n; ++v) {
+        const int32_t from_v = options.mirror ? mirror[v] : static_cast<int32_t>(v);
+        if (from_v < 0 || slot[from_v] < 0) continue;
+        float w = 1.0f;
+        if (options.masked) {
+          if (!keep.empty() && !keep[first[pi] + v]) continue;
+          w = MaskWeight(options.mask, mask_center, &prim.positions[3 * v]);
+          if (w == 0.0f) continue;
+        }
+        const size_t k = static_cast<size_t>(slot[from_v]);
+        auto push = [&](const std::vector<float>& in, std::vector<float>& dst) {
+          for (int c = 0; c < 3; ++c) {
+            float d = in[3 * k + c] * w;
+            if (options.mirror && c == options.axis) d = -d;
+            dst.push_back(d);
+          }
+        };
+        out.indices.push_back(v);
+        push(src.position_deltas, out.position_deltas);
+        if (has_n) push(src.normal_deltas, out.normal_deltas);
+        if (has_t) push(src.tangent_deltas, out.tangent_deltas);
+      }
+      FinalizeTarget(out);
+      report.vertices_moved += out.indices.size();
+      prim.targets.push_back(std::move(out));
+    }
+    mesh.target_shapes.push_back(static_cast<uint32_t>(report.shape));
+  }
+  Shape shape = rig.shapes[source];
+  shape.name = name;
+  shape.aliases.clear();
+  shape.partner = -1;
+  rig.shapes.push_back(std::move(shape));
+  CountMovedVertices(rig);
+  if (options.mirror && rig.shapes[source].partner < 0) {
+    rig.shapes[source].partner = report.shape;
+    rig.shapes[report.shape].partner = source;
+  }
+  return report;
+}
+
+}  // namespace facespace
