@@ -83,6 +83,8 @@ json MeshQueryParams() {
       {{"name", "pose"}, {"in", "query"}, {"description", "The body's pose object as JSON"}, {"schema", {{"type", "string"}}}},
       {{"name", "blend"}, {"in", "query"}, {"description", "The body's blend array as JSON"}, {"schema", {{"type", "string"}}}},
       {{"name", "skinning"}, {"in", "query"}, {"schema", {{"enum", {"linear", "dual_quaternion"}}}}},
+      {{"name", "lod"}, {"in", "query"}, {"description", "Level of detail: 0 full, L about 1/2^L of the triangles"},
+       {"schema", {{"type", "integer"}, {"minimum", 0}, {"maximum", 4}}}},
   });
 }
 
@@ -111,7 +113,9 @@ json Build() {
                          {"time", {{"type", "number"}, {"description", "Seconds into the animation"}}},
                          {"loop", {{"type", "boolean"}, {"default", false}}},
                          {"blend", blend},
-                         {"skinning", {{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}}}};
+                         {"skinning", {{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}}},
+                         {"lod", {{"type", "integer"}, {"minimum", 0}, {"maximum", 4}, {"default", 0},
+                                  {"description", "Level of detail: 0 full, L about 1/2^L of the triangles (a subset of the vertices)"}}}};
   json mesh_request = {{"type", "object"},
                        {"properties",
                         {{"weights", weights},

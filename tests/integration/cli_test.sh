@@ -161,6 +161,27 @@ check "fit TARGET.json: recovers the weights blend used" py 'import json,sys; w=
 check "fit TARGET.obj (world space, as blend writes it): the same weights" py 'import json,sys; w=json.load(open(sys.argv[1]))["weights"]; sys.exit(not(abs(w["jawOpen"]-0.6)<2e-3 and abs(w["mouthSmile_L"]-0.3)<2e-3))' "$tmp/fit2.json"
 err_case "fit: a target of another rig" "the target has 1 primitives, the rig 4" fit "$rig" "$A/Fox/Fox.glb" -o "$tmp/x.json"
 
+# keeping the space small: mirror, compress, lod
+"$bin" mirror "$rig" mouthSmile_L --as smileMirror -o "$tmp/mirrored.glb" 2>"$tmp/err"; rc=$?
+check "mirror: exit 0, reports the new shape" sh -c "[ $rc -eq 0 ] && grep -q \"mirror: 'mouthSmile_L' -> 'smileMirror'\" '$tmp/err'"
+"$bin" blend "$tmp/mirrored.glb" --set smileMirror=1 -o "$tmp/m1.json" 2>/dev/null
+"$bin" blend "$rig" --set mouthSmile_R=1 -o "$tmp/m2.json" 2>/dev/null
+"$bin" blend "$rig" -o "$tmp/m0.json" 2>/dev/null
+check "mirror: the written rig's new shape reproduces the authored right smile (mean error < 1% of its displacement)" py '
+import json,sys,math
+a,b,z=[json.load(open(f))["primitives"] for f in sys.argv[1:4]]
+err=dis=0; n=0
+for pa,pb,pz in zip(a,b,z):
+    for i in range(0,len(pa["positions"]),3):
+        d=math.dist(pb["positions"][i:i+3],pz["positions"][i:i+3])
+        if d>0: err+=math.dist(pa["positions"][i:i+3],pb["positions"][i:i+3]); dis+=d; n+=1
+sys.exit(not(n>100 and err<0.01*dis))' "$tmp/m1.json" "$tmp/m2.json" "$tmp/m0.json"
+"$bin" compress "$rig" --json >"$tmp/comp.json" 2>/dev/null
+check "compress --json: components, errors within the bound, sizes" py 'import json,sys; d=json.load(open(sys.argv[1])); p=d["pca"]; q=d["quantized"]; sys.exit(not(d["shapes"]==52 and 0<p["components"]<=52 and p["max_error"]<=p["error_bound"] and q["bits"]==16 and q["bytes"]<d["sparse_bytes"] and q["max_error"]<1e-5*d["diagonal"]))' "$tmp/comp.json"
+"$bin" blend "$rig" --set jawOpen=1 --lod 2 -o "$tmp/lod.json" 2>"$tmp/err"
+check "blend --lod 2: about a quarter of the triangles, fewer vertices, reported" sh -c "grep -Eq 'lod 2: 20[0-9][0-9] of 8042 triangles' '$tmp/err'" && py 'import json,sys; p=json.load(open(sys.argv[1]))["primitives"]; sys.exit(not(sum(len(x["positions"]) for x in p)//3 < 2000))' "$tmp/lod.json"
+err_case "blend --lod 7 is refused" "level of detail" blend "$rig" --lod 7 -o "$tmp/x.json"
+
 # batch variant generation
 B="$tmp/batch"
 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/a" 2>"$tmp/err"; rc=$?

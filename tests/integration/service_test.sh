@@ -242,6 +242,13 @@ check "startup: a bad flag exits non-zero with one clear line" sh -c "[ $rc -ne 
 "$bin" serve --rigs "$tmp/nowhere" --port 0 >"$tmp/o" 2>&1; rc=$?
 check "startup: an unreadable store exits non-zero" sh -c "[ $rc -ne 0 ] && grep -q 'not a readable directory' '$tmp/o'"
 
+# level of detail
+code=$(c "$U/v1/rigs/facecap/mesh?w.jawOpen=1&lod=2&format=json")
+check "GET mesh ?lod=2: fewer vertices than the full mesh" sh -c "[ $code = 200 ]" && jq_ "sum(len(p['positions']) for p in d['primitives'])//3 < 2000"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":1},"lod":1,"width":128,"height":128}' "$U/v1/rigs/facecap/render")
+check "POST render with lod 1: a PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr'"
+problem "$(c "$U/v1/rigs/facecap/mesh?lod=9")" 422 "d['errors'][0]['parameter']=='lod'" && ok "lod=9: 422 naming the parameter" || no "lod out of range"
+
 # batch jobs
 restart() { kill -TERM "$pid"; wait "$pid"; pid=; start "$@"; }
 restart --max-batch 1000 --batch-threads 2
