@@ -139,6 +139,7 @@ int Info(const std::vector<std::string>& args) {
                           {"default", s.default_weight}, {"vertices_moved", s.vertices_moved}};
       if (s.partner >= 0) o["partner"] = rig.shapes[s.partner].name;
       if (!s.aliases.empty()) o["aliases"] = s.aliases;
+      if (s.driven) o["driven"] = true;
       j["shapes"].push_back(o);
     }
     std::printf("%s\n", j.dump(2).c_str());

@@ -373,9 +373,26 @@ json RigDetail(const StoredRig& s) {
               {"default", sh.default_weight}, {"vertices_moved", sh.vertices_moved}};
     o["partner"] = sh.partner >= 0 ? json(r.shapes[sh.partner].name) : json(nullptr);
     o["aliases"] = sh.aliases;
+    o["driven"] = sh.driven;
     shapes.push_back(o);
   }
   j["shapes"] = shapes;
+  // What the manifest says beyond the shapes: in-betweens, correctives, statistics.
+  json inbetweens = json::array();
+  for (const InBetweens& ib : r.inbetweens) {
+    json keys = json::array();
+    for (const auto& [w, shape] : ib.keys) keys.push_back({{"shape", r.shapes[shape].name}, {"weight", w}});
+    inbetweens.push_back({{"slider", r.shapes[ib.slider].name}, {"keys", keys}});
+  }
+  j["inbetweens"] = inbetweens;
+  json correctives = json::array();
+  for (const Corrective& c : r.correctives) {
+    json drivers = json::array();
+    for (uint32_t d : c.drivers) drivers.push_back(r.shapes[d].name);
+    correctives.push_back({{"shape", r.shapes[c.shape].name}, {"drivers", drivers}, {"mode", c.use_min ? "min" : "product"}});
+  }
+  j["correctives"] = correctives;
+  j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()}, {"bound", r.statistics.bound}} : json(nullptr);
   // Bounding box of the base mesh as shown (world space, every primitive).
   const auto world = PrimitiveWorldMatrices(r);
   float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -970,6 +987,7 @@ struct Api::Impl {
     if (!Weigh(req, res, *rig, mr, w, report, pose, posed)) return;
     res.status = 200;
     res.set_content("{\"sum\":" + FormatNumber(report.sum) + ",\"weights\":" + WeightsMapJson(rig->rig, w) +
+                        (report.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(report.mahalanobis) : std::string()) +
                         ",\"warnings\":" + WarningsToJson(report.warnings) + "}",
                     "application/json");
   }

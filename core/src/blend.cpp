@@ -2,7 +2,9 @@
 
 #include "facespace/core/skeleton.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstring>
 
 namespace facespace {
@@ -264,14 +266,45 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
 
 }  // namespace
 
-Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOptions& options,
-                   BlendedRig& out, BlendContext& ctx) {
-  if (weights.size() != rig.shapes.size()) {
-    return InvalidArgument("expected " + std::to_string(rig.shapes.size()) + " weights, got " +
-                           std::to_string(weights.size()));
+void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<float> out) {
+  std::copy(weights.begin(), weights.end(), out.begin());
+  for (size_t s = 0; s < rig.shapes.size(); ++s) {
+    if (rig.shapes[s].driven) out[s] = 0.0f;
   }
-  for (float w : weights) {
+  for (const InBetweens& ib : rig.inbetweens) {
+    const float v = weights[ib.slider];
+    out[ib.slider] = 0.0f;
+    // Points: (0, base), the keys, (1, slider). Segment i joins point i and i + 1.
+    const size_t points = ib.keys.size() + 2;
+    auto at = [&](size_t i) { return i == 0 ? 0.0f : i == points - 1 ? 1.0f : ib.keys[i - 1].first; };
+    auto shape = [&](size_t i) -> int { return i == 0 ? -1 : i == points - 1 ? static_cast<int>(ib.slider) : static_cast<int>(ib.keys[i - 1].second); };
+    size_t seg = 0;
+    while (seg + 2 < points && v > at(seg + 1)) ++seg;
+    const float t = (v - at(seg)) / (at(seg + 1) - at(seg));
+    if (shape(seg) >= 0) out[shape(seg)] += 1.0f - t;
+    out[shape(seg + 1)] += t;
+  }
+  for (const Corrective& c : rig.correctives) {
+    float w = c.use_min ? std::numeric_limits<float>::infinity() : 1.0f;
+    for (uint32_t d : c.drivers) w = c.use_min ? std::min(w, weights[d]) : w * weights[d];
+    out[c.shape] = c.drivers.empty() ? 0.0f : w;
+  }
+}
+
+Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOptions& options,
+                   BlendedRig& out, BlendContext& ctx) {
+  if (given.size() != rig.shapes.size()) {
+    return InvalidArgument("expected " + std::to_string(rig.shapes.size()) + " weights, got " +
+                           std::to_string(given.size()));
+  }
+  for (float w : given) {
     if (!std::isfinite(w)) return InvalidArgument("weights must be finite");
+  }
+  std::span<const float> weights = given;
+  if (!rig.inbetweens.empty() || !rig.correctives.empty()) {
+    ctx.effective.resize(given.size());
+    EffectiveWeights(rig, given, ctx.effective);
+    weights = ctx.effective;
   }
   if (options.pose && options.pose->local.size() != rig.nodes.size()) return InvalidArgument("the pose does not match the rig");
   out.node_world = options.pose ? WorldMatrices(rig, *options.pose) : NodeWorldMatrices(rig);

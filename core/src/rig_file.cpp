@@ -1,4 +1,6 @@
 // Rig files: picking the importer, and the manifest that carries what glTF drops.
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
@@ -28,6 +30,138 @@ std::string JsonPointerEscape(const std::string& s) {
     else r += c;
   }
   return r;
+}
+
+// In-betweens, correctives and statistics: what makes shapes more than a sum.
+template <typename Bad>
+Status ApplySemantics(Rig& rig, const json& j, Bad bad) {
+  auto shape_at = [&](const json& v, const std::string& ptr, uint32_t* out) -> Status {
+    if (!v.is_string()) return bad(ptr, "must be a shape name");
+    const int s = FindShape(rig, v.get<std::string>());
+    if (s < 0) return bad(ptr, "unknown shape '" + v.get<std::string>() + "'");
+    *out = static_cast<uint32_t>(s);
+    return Status::Ok();
+  };
+  auto drive = [&](uint32_t s, const std::string& ptr) -> Status {
+    if (rig.shapes[s].driven) return bad(ptr, "'" + rig.shapes[s].name + "' is already driven");
+    rig.shapes[s].driven = true;
+    return Status::Ok();
+  };
+  if (j.contains("inbetweens")) {
+    if (!j["inbetweens"].is_object()) return bad("/inbetweens", "must be an object of slider shape -> [{\"shape\", \"weight\"}]");
+    for (auto it = j["inbetweens"].begin(); it != j["inbetweens"].end(); ++it) {
+      const std::string ptr = "/inbetweens/" + JsonPointerEscape(it.key());
+      InBetweens ib;
+      if (Status s = shape_at(json(it.key()), ptr, &ib.slider); !s.ok()) return s;
+      if (!it->is_array() || it->empty()) return bad(ptr, "must be a non-empty array of {\"shape\", \"weight\"}");
+      for (size_t k = 0; k < it->size(); ++k) {
+        const json& e = (*it)[k];
+        const std::string kp = ptr + "/" + std::to_string(k);
+        if (!e.is_object() || !e.contains("shape") || !e.contains("weight") || !e["weight"].is_number()) {
+          return bad(kp, "must be {\"shape\": NAME, \"weight\": W} with 0 < W < 1");
+        }
+        uint32_t shape = 0;
+        if (Status s = shape_at(e["shape"], kp + "/shape", &shape); !s.ok()) return s;
+        const float w = e["weight"].get<float>();
+        if (!(w > 0.0f && w < 1.0f)) return bad(kp + "/weight", "must be strictly between 0 and 1 (the slider shape itself is at 1)");
+        if (shape == ib.slider) return bad(kp + "/shape", "is the slider itself");
+        if (Status s = drive(shape, kp + "/shape"); !s.ok()) return s;
+        ib.keys.emplace_back(w, shape);
+      }
+      std::sort(ib.keys.begin(), ib.keys.end());
+      for (size_t k = 1; k < ib.keys.size(); ++k) {
+        if (ib.keys[k].first == ib.keys[k - 1].first) return bad(ptr, "two in-betweens at the same weight");
+      }
+      rig.inbetweens.push_back(std::move(ib));
+    }
+  }
+  if (j.contains("correctives")) {
+    if (!j["correctives"].is_object()) return bad("/correctives", "must be an object of shape -> {\"drivers\": [...], \"mode\"}");
+    for (auto it = j["correctives"].begin(); it != j["correctives"].end(); ++it) {
+      const std::string ptr = "/correctives/" + JsonPointerEscape(it.key());
+      Corrective c;
+      if (Status s = shape_at(json(it.key()), ptr, &c.shape); !s.ok()) return s;
+      if (!it->is_object() || !it->contains("drivers") || !(*it)["drivers"].is_array() || (*it)["drivers"].size() < 2) {
+        return bad(ptr + "/drivers", "must be an array of at least two shape names");
+      }
+      for (size_t k = 0; k < (*it)["drivers"].size(); ++k) {
+        uint32_t d = 0;
+        if (Status s = shape_at((*it)["drivers"][k], ptr + "/drivers/" + std::to_string(k), &d); !s.ok()) return s;
+        if (d == c.shape || rig.shapes[d].driven) return bad(ptr + "/drivers/" + std::to_string(k), "a driver must be a slider, not a driven shape");
+        c.drivers.push_back(d);
+      }
+      if (it->contains("mode")) {
+        const json& m = (*it)["mode"];
+        if (m != "product" && m != "min") return bad(ptr + "/mode", "must be \"product\" or \"min\"");
+        c.use_min = m == "min";
+      }
+      if (Status s = drive(c.shape, ptr); !s.ok()) return s;
+      rig.correctives.push_back(std::move(c));
+    }
+  }
+  if (j.contains("statistics")) {
+    const json& st = j["statistics"];
+    if (!st.is_object()) return bad("/statistics", "must be an object {\"mean\", \"stddev\" | \"components\", \"bound\"}");
+    ShapeStatistics stats;
+    stats.present = true;
+    const size_t n = rig.shapes.size();
+    stats.mean.assign(n, 0.0f);
+    auto weight_map = [&](const json& m, const std::string& ptr, std::vector<float>& out) -> Status {
+      if (!m.is_object()) return bad(ptr, "must be an object of shape name -> number");
+      out.assign(n, 0.0f);
+      for (auto e = m.begin(); e != m.end(); ++e) {
+        uint32_t s = 0;
+        if (Status r = shape_at(json(e.key()), ptr + "/" + JsonPointerEscape(e.key()), &s); !r.ok()) return r;
+        if (!e->is_number()) return bad(ptr + "/" + JsonPointerEscape(e.key()), "must be a number");
+        out[s] = e->get<float>();
+      }
+      return Status::Ok();
+    };
+    if (st.contains("mean")) {
+      if (Status r = weight_map(st["mean"], "/statistics/mean", stats.mean); !r.ok()) return r;
+    }
+    if (st.contains("stddev")) {  // Diagonal: each shape its own component.
+      std::vector<float> sd;
+      if (Status r = weight_map(st["stddev"], "/statistics/stddev", sd); !r.ok()) return r;
+      for (size_t s = 0; s < n; ++s) {
+        if (sd[s] == 0.0f) continue;
+        if (!(sd[s] > 0.0f)) return bad("/statistics/stddev/" + JsonPointerEscape(rig.shapes[s].name), "must be > 0");
+        stats.components.emplace_back(n, 0.0f);
+        stats.components.back()[s] = 1.0f;
+        stats.stddev.push_back(sd[s]);
+      }
+    }
+    if (st.contains("components")) {
+      if (!st["components"].is_array()) return bad("/statistics/components", "must be an array of {\"weights\", \"stddev\"}");
+      for (size_t k = 0; k < st["components"].size(); ++k) {
+        const json& c = st["components"][k];
+        const std::string ptr = "/statistics/components/" + std::to_string(k);
+        if (!c.is_object() || !c.contains("weights") || !c.contains("stddev") || !c["stddev"].is_number() || !(c["stddev"].get<double>() > 0)) {
+          return bad(ptr, "must be {\"weights\": {NAME: x}, \"stddev\": s > 0}");
+        }
+        std::vector<float> dir;
+        if (Status r = weight_map(c["weights"], ptr + "/weights", dir); !r.ok()) return r;
+        double norm = 0;
+        for (float x : dir) norm += static_cast<double>(x) * x;
+        if (norm == 0) return bad(ptr + "/weights", "must not be zero");
+        for (float& x : dir) x = static_cast<float>(x / std::sqrt(norm));
+        for (const auto& other : stats.components) {
+          double dot = 0;
+          for (size_t s = 0; s < n; ++s) dot += static_cast<double>(dir[s]) * other[s];
+          if (std::fabs(dot) > 1e-3) return bad(ptr + "/weights", "must be orthogonal to the other components");
+        }
+        stats.components.push_back(std::move(dir));
+        stats.stddev.push_back(c["stddev"].get<float>());
+      }
+    }
+    if (st.contains("bound")) {
+      if (!st["bound"].is_number() || !(st["bound"].get<double>() > 0)) return bad("/statistics/bound", "must be a number > 0 (in standard deviations)");
+      stats.bound = st["bound"].get<float>();
+    }
+    if (stats.components.empty()) return bad("/statistics", "needs \"stddev\" or \"components\"");
+    rig.statistics = std::move(stats);
+  }
+  return Status::Ok();
 }
 
 }  // namespace
@@ -162,6 +296,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
       }
     }
   }
+  if (Status st = ApplySemantics(rig, j, bad); !st.ok()) return st;
   return Status::Ok();
 }
 

@@ -90,6 +90,18 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   return weights;
 }
 
+double MahalanobisDistance(const Rig& rig, std::span<const float> weights) {
+  const ShapeStatistics& st = rig.statistics;
+  if (!st.present) return 0.0;
+  double d2 = 0;
+  for (size_t k = 0; k < st.components.size(); ++k) {
+    double proj = 0;
+    for (size_t s = 0; s < weights.size() && s < st.mean.size(); ++s) proj += (static_cast<double>(weights[s]) - st.mean[s]) * st.components[k][s];
+    d2 += (proj / st.stddev[k]) * (proj / st.stddev[k]);
+  }
+  return std::sqrt(d2);
+}
+
 WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendMode mode) {
   WeightReport r;
   for (size_t i = 0; i < weights.size() && i < rig.shapes.size(); ++i) {
@@ -106,6 +118,24 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
                             "negative weight " + FormatNumber(w) + " of '" + s.name +
                                 "' subtracts the shape",
                             s.name, w, true});
+    }
+  }
+  for (size_t i = 0; i < weights.size() && i < rig.shapes.size(); ++i) {
+    if (rig.shapes[i].driven && weights[i] != 0.0f) {
+      r.warnings.push_back({"driven_shape",
+                            "'" + rig.shapes[i].name + "' is driven by other shapes (an in-between or a corrective): the weight " +
+                                FormatNumber(weights[i]) + " given for it is ignored",
+                            rig.shapes[i].name, weights[i], true});
+    }
+  }
+  if (rig.statistics.present) {
+    const double d = MahalanobisDistance(rig, weights);
+    r.mahalanobis = d;
+    if (d > rig.statistics.bound) {
+      r.warnings.push_back({"implausible",
+                            "implausible: the point is " + FormatNumber(d) + " standard deviations from the mean (Mahalanobis), beyond " +
+                                FormatNumber(rig.statistics.bound),
+                            "", d, true});
     }
   }
   if (r.sum > 1.0 + 1e-6) {

@@ -336,3 +336,107 @@ TEST(Basis, QuantisationErrorIsHalfAStep) {
 
 }  // namespace
 }  // namespace facespace
+
+#include "facespace/core/weights.h"
+
+namespace facespace {
+namespace {
+
+std::vector<float> Effective(const Rig& rig, std::vector<std::pair<const char*, float>> given) {
+  std::vector<float> w(rig.shapes.size(), 0.0f), out(rig.shapes.size(), 0.0f);
+  for (auto& [n, v] : given) w[FindShape(rig, n)] = v;
+  EffectiveWeights(rig, w, out);
+  return out;
+}
+
+TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
+  Rig rig = FaceCap();
+  ASSERT_TRUE(ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 0.5}, {"shape": "mouthPucker", "weight": 0.25}]}})").ok());
+  const int jaw = FindShape(rig, "jawOpen"), half = FindShape(rig, "mouthFunnel"), quarter = FindShape(rig, "mouthPucker");
+  EXPECT_TRUE(rig.shapes[half].driven && rig.shapes[quarter].driven && !rig.shapes[jaw].driven);
+  auto e = Effective(rig, {{"jawOpen", 0.125f}});  // Base -> quarter key.
+  EXPECT_FLOAT_EQ(e[quarter], 0.5f);
+  EXPECT_FLOAT_EQ(e[half], 0.0f);
+  EXPECT_FLOAT_EQ(e[jaw], 0.0f);
+  e = Effective(rig, {{"jawOpen", 0.375f}});  // Quarter -> half.
+  EXPECT_FLOAT_EQ(e[quarter], 0.5f);
+  EXPECT_FLOAT_EQ(e[half], 0.5f);
+  e = Effective(rig, {{"jawOpen", 0.75f}});  // Half -> the slider's own shape.
+  EXPECT_FLOAT_EQ(e[half], 0.5f);
+  EXPECT_FLOAT_EQ(e[jaw], 0.5f);
+  EXPECT_FLOAT_EQ(e[quarter], 0.0f);
+  e = Effective(rig, {{"jawOpen", 1.5f}});  // Past 1: the last segment extended.
+  EXPECT_FLOAT_EQ(e[jaw], 2.0f);
+  EXPECT_FLOAT_EQ(e[half], -1.0f);
+  // The blend uses the effective weights: the same mesh as a rig without in-betweens given them.
+  const Rig plain = FaceCap();
+  std::vector<float> slider(rig.shapes.size(), 0.0f);
+  slider[jaw] = 0.75f;
+  const auto eff = Effective(rig, {{"jawOpen", 0.75f}});
+  BlendedRig a, b;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(rig, slider, {}, a, ctx).ok());
+  ASSERT_TRUE(EvaluateRig(plain, eff, {}, b, ctx).ok());
+  for (size_t p = 0; p < a.primitives.size(); ++p) EXPECT_EQ(a.primitives[p].positions, b.primitives[p].positions);
+  // A weight given for a driven shape is ignored, with a warning.
+  slider[half] = 0.3f;
+  const WeightReport r = CheckWeights(rig, slider, BlendMode::kRelative);
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_EQ(r.warnings.back().code, "driven_shape");
+  EXPECT_FLOAT_EQ(Effective(rig, {{"jawOpen", 0.75f}, {"mouthFunnel", 0.3f}})[half], 0.5f);
+}
+
+TEST(Semantics, CorrectivesFollowProductOrMinimum) {
+  Rig rig = FaceCap();
+  ASSERT_TRUE(ApplyManifest(rig, R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L", "eyeBlink_L"]},
+                                                      "cheekSquint_L": {"drivers": ["mouthSmile_L", "eyeBlink_L"], "mode": "min"}}})").ok());
+  const auto e = Effective(rig, {{"mouthSmile_L", 0.5f}, {"eyeBlink_L", 0.8f}});
+  EXPECT_FLOAT_EQ(e[FindShape(rig, "cheekPuff")], 0.4f);
+  EXPECT_FLOAT_EQ(e[FindShape(rig, "cheekSquint_L")], 0.5f);
+  EXPECT_FLOAT_EQ(Effective(rig, {{"mouthSmile_L", 1.0f}})[FindShape(rig, "cheekPuff")], 0.0f);  // One driver alone: no fix.
+}
+
+TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
+  Rig rig = FaceCap();
+  ASSERT_TRUE(ApplyManifest(rig, R"({"statistics": {"mean": {"jawOpen": 0.1}, "stddev": {"jawOpen": 0.2, "mouthSmile_L": 0.5}}})").ok());
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  w[FindShape(rig, "jawOpen")] = 0.5f;  // (0.5 - 0.1) / 0.2 = 2 sigma.
+  WeightReport r = CheckWeights(rig, w, BlendMode::kRelative);
+  EXPECT_NEAR(r.mahalanobis, 2.0, 1e-5);
+  EXPECT_TRUE(r.warnings.empty());
+  w[FindShape(rig, "mouthSmile_L")] = 1.5f;  // sqrt(2^2 + 3^2) = 3.6 sigma.
+  r = CheckWeights(rig, w, BlendMode::kRelative);
+  EXPECT_NEAR(r.mahalanobis, std::sqrt(13.0), 1e-5);
+  bool implausible = false;
+  for (const Warning& x : r.warnings) implausible |= x.code == "implausible" && std::fabs(x.value - std::sqrt(13.0)) < 1e-5;
+  EXPECT_TRUE(implausible);
+  // A rotated component: distance along (1, 1)/sqrt(2).
+  Rig other = FaceCap();
+  ASSERT_TRUE(ApplyManifest(other, R"({"statistics": {"components": [{"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 0.5}], "bound": 2}})").ok());
+  std::vector<float> v(other.shapes.size(), 0.0f);
+  v[FindShape(other, "jawOpen")] = 1.0f;
+  v[FindShape(other, "mouthSmile_L")] = 1.0f;
+  EXPECT_NEAR(MahalanobisDistance(other, v), std::sqrt(2.0) / 0.5, 1e-5);
+}
+
+TEST(Semantics, ManifestErrorsNameTheField) {
+  Rig rig = FaceCap();
+  Status s = ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 1}]}})");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.fields[0].pointer, "/inbetweens/jawOpen/0/weight");
+  rig = FaceCap();
+  s = ApplyManifest(rig, R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L"]}}})");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.fields[0].pointer, "/correctives/cheekPuff/drivers");
+  rig = FaceCap();
+  s = ApplyManifest(rig, R"({"statistics": {"components": [{"weights": {"jawOpen": 1}, "stddev": 1}, {"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 1}]}})");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.fields[0].pointer, "/statistics/components/1/weights");
+  rig = FaceCap();
+  s = ApplyManifest(rig, R"({"derived": {"x": {"from": "nope", "mirror": "x"}}})");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.fields[0].pointer, "/derived/x");
+}
+
+}  // namespace
+}  // namespace facespace

@@ -303,5 +303,30 @@ wait_job "${big##*/}"
 check "the resumed job completes: 1000 of 1000, every file once in the manifest" jq_ "d['state']=='done' and d['done']==1000" && \
   py 'import json,sys,os; L=[json.loads(l) for l in open(sys.argv[1]+"/manifest.jsonl")]; sys.exit(not(sorted(l["index"] for l in L)==list(range(1000)) and len([f for f in os.listdir(sys.argv[1]) if f.endswith(".png") and f!="sheet.png"])==1000 and not [f for f in os.listdir(sys.argv[1]) if "tmp" in f]))' "$tmp/jobs/${big##*/}/out" && ok "  ... manifest and files complete, no temporary file" || no "  ... resumed job's files"
 
+# shape semantics from the manifest: derived (mask, mirror), in-betweens, correctives, statistics
+cp "$src/assets/facecap/facecap.glb" "$store/semantic.glb"
+cat >"$store/semantic.manifest.json" <<'JSON'
+{"derived": {"jawOpen_left": {"from": "jawOpen", "mask": {"side": "+x", "falloff": 500}},
+             "smileMirror": {"from": "mouthSmile_L", "mirror": "x"}},
+ "inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 0.5}]},
+ "correctives": {"cheekPuff": {"drivers": ["mouthSmile_L", "eyeBlink_L"], "mode": "product"}},
+ "statistics": {"stddev": {"jawOpen": 0.2}, "bound": 3}}
+JSON
+restart
+code=$(c "$U/v1/rigs/semantic")
+check "GET a rig with manifest semantics: derived shapes, driven flags, in-betweens, correctives, statistics" sh -c "[ $code = 200 ]" && jq_ "
+  [x['name'] for x in d['shapes']][-2:]==['jawOpen_left','smileMirror'] and
+  [x['name'] for x in d['shapes'] if x['driven']]==['cheekPuff','mouthFunnel'] and
+  d['inbetweens']==[{'slider':'jawOpen','keys':[{'shape':'mouthFunnel','weight':0.5}]}] and
+  d['correctives'][0]=={'shape':'cheekPuff','drivers':['mouthSmile_L','eyeBlink_L'],'mode':'product'} and d['statistics']['components']==1"
+c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":0.75},"format":"json"}' "$U/v1/rigs/semantic/mesh" >/dev/null; cp "$tmp/body" "$tmp/sem.json"
+"$bin" blend "$store/facecap.glb" --weights '{"jawOpen":0.5,"mouthFunnel":0.5}' -o "$tmp/plain.json" 2>/dev/null
+check "in-between: jawOpen 0.75 blends halfway between its 0.5 key and its own shape" py 'import json,sys; a,b=[json.load(open(f))["primitives"] for f in sys.argv[1:3]]; sys.exit(not(all(x["positions"]==y["positions"] for x,y in zip(a,b))))' "$tmp/sem.json" "$tmp/plain.json"
+c -X POST -H 'Content-Type: application/json' -d '{"weights":{"mouthSmile_L":0.5,"eyeBlink_L":0.8},"format":"json"}' "$U/v1/rigs/semantic/mesh" >/dev/null; cp "$tmp/body" "$tmp/sem2.json"
+"$bin" blend "$store/facecap.glb" --weights '{"mouthSmile_L":0.5,"eyeBlink_L":0.8,"cheekPuff":0.4}' -o "$tmp/plain2.json" 2>/dev/null
+check "corrective: cheekPuff follows mouthSmile_L x eyeBlink_L" py 'import json,sys; a,b=[json.load(open(f))["primitives"] for f in sys.argv[1:3]]; sys.exit(not(all(max(abs(p-q) for p,q in zip(x["positions"],y["positions"]))<1e-3 for x,y in zip(a,b))))' "$tmp/sem2.json" "$tmp/plain2.json"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":0.8,"cheekPuff":0.3}}' "$U/v1/rigs/semantic/check")
+check "check: Mahalanobis 4 sigma warns implausible; a weight on a driven shape warns driven_shape" sh -c "[ $code = 200 ] && grep -qi '^facespace-warnings:.*implausible' '$tmp/hdr' && grep -qi '^facespace-warnings:.*driven_shape' '$tmp/hdr'" && jq_ "abs(d['mahalanobis']-4)<1e-5"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -78,9 +78,16 @@ struct BlendContext {
   std::vector<float> joint_dual_quaternions;  // Skinning: 8 floats per joint, when asked.
   BlendedPrimitive unskinned;         // Skinning: the morphed primitive before skinning.
   std::vector<uint32_t> affected;     // Vertices whose normals are recomputed.
+  std::vector<float> effective;       // Shape weights after in-betweens and correctives.
 };
 
-// Evaluates the rig at `weights` (one per shape, Rig::shapes order). The weights must have
+// The weights the shapes are blended with: the given (slider) weights, with in-between
+// sliders spread over their keys and driven shapes computed (Rig::inbetweens, correctives).
+// `out` has one per shape. Without drivers, a copy.
+void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<float> out);
+
+// Evaluates the rig at `weights` (one per shape, Rig::shapes order; in-betweens and
+// correctives applied by EffectiveWeights). The weights must have
 // been checked (finite, right count): returns InvalidArgument otherwise and writes nothing.
 // In absolute mode the point is (1 - sum w) base + sum w_j S_j, which is the same vector
 // as the relative formula; only the warnings differ (see CheckWeights).

@@ -85,6 +85,36 @@ struct Shape {
   int partner = -1;                     // Symmetric (left/right) partner shape, or -1.
   std::vector<std::string> aliases;     // Other names that address this shape.
   size_t vertices_moved = 0;            // Over all primitives.
+  bool driven = false;                  // Its weight is computed (an in-between or a corrective); a
+                                        // weight given for it is ignored with a warning.
+};
+
+// In-between shapes on one slider (Maya's blendShape in-betweens): the slider shape's own
+// target is its value at weight 1; `keys` are the shapes reached at weights strictly
+// between 0 and 1, ascending. A slider value v interpolates linearly between the two
+// neighbouring keys (the base at 0, the slider shape at 1) and extrapolates the end segments.
+struct InBetweens {
+  uint32_t slider = 0;
+  std::vector<std::pair<float, uint32_t>> keys;  // (weight, shape)
+};
+
+// A corrective (combination) shape driven by other shapes' weights: their product, or their
+// minimum, so that e.g. smile + blink can fix what the two shapes do together.
+struct Corrective {
+  uint32_t shape = 0;
+  std::vector<uint32_t> drivers;
+  bool use_min = false;
+};
+
+// A statistical model of the weights (e.g. a PCA face space): components (orthonormal
+// directions in weight space, one weight per shape) with their standard deviations, around a
+// mean. The Mahalanobis distance of a point beyond `bound` warns (implausible).
+struct ShapeStatistics {
+  bool present = false;
+  std::vector<float> mean;                     // One per shape.
+  std::vector<std::vector<float>> components;  // Each one per shape.
+  std::vector<float> stddev;                   // One per component, > 0.
+  float bound = 3.0f;
 };
 
 struct Node {
@@ -164,6 +194,9 @@ struct Rig {
   size_t joint_count = 0;
   std::vector<Skin> skins;
   std::vector<AnimationInfo> animations;
+  std::vector<InBetweens> inbetweens;  // From the manifest: weights computed before blending.
+  std::vector<Corrective> correctives;
+  ShapeStatistics statistics;
 
   size_t vertex_count() const;
   size_t triangle_count() const;

@@ -28,13 +28,20 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
 struct WeightReport {
   double sum = 0.0;
   std::vector<Warning> warnings;
+  double mahalanobis = -1.0;  // Distance from the mean in standard deviations; -1 without statistics.
 };
+
+// Mahalanobis distance of a point from the rig's statistical model (Rig::statistics):
+// sqrt(sum_k (((w - mean) . c_k) / stddev_k)^2); 0 when the rig has none.
+double MahalanobisDistance(const Rig& rig, std::span<const float> weights);
 
 // Warnings (the result is still computed):
 //   extrapolation   sum of weights > 1 (value = the sum)
 //   out_of_range    a weight outside its shape's [min, max] (shape and value)
 //   negative_weight a weight < 0 that its range allows (shape and value)
 //   absolute_sum    absolute mode and |sum - 1| > 1e-4 (value = the sum)
+//   driven_shape    a weight given for an in-between or corrective shape (ignored)
+//   implausible     Mahalanobis distance beyond the statistics' bound (value = the distance)
 WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendMode mode);
 
 // "1.7" rather than "1.70000005": the shortest text that reads back as the same float.
