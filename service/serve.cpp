@@ -15,6 +15,7 @@
 #include "facespace/render/render.h"
 #include "jobs.h"
 #include "rig_store.h"
+#include "web_assets.h"
 
 namespace facespace::cli {
 
@@ -205,6 +206,23 @@ int Serve(const std::vector<std::string>& args) {
   server.set_write_timeout(10, 0);
   api::Api api(store, options, &jobs);
   api.Register(server);
+  // The character-creator page at /.
+  for (size_t i = 0; i < web::kAssetCount; ++i) {
+    const web::Asset& asset = web::kAssets[i];
+    const std::string path = asset.path;
+    const char* type = path.ends_with(".html") ? "text/html; charset=utf-8"
+                       : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
+                       : path.ends_with(".css") ? "text/css; charset=utf-8"
+                                                : "image/svg+xml";
+    auto handler = [&asset, type](const httplib::Request&, httplib::Response& res) {
+      res.set_header("Cache-Control", "no-cache");
+      res.set_header("Content-Security-Policy",
+                     "default-src 'self'; img-src 'self' blob: data:; connect-src *; style-src 'self'; script-src 'self'");
+      res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
+    };
+    server.Get(path, handler);
+    if (path == "/index.html") server.Get("/", handler);
+  }
 
   const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);
   if (port < 0) {

@@ -1347,6 +1347,45 @@ void Api::Register(httplib::Server& server) {
   all_methods(rig + "/sequence/(sample|stream|reduce)", not_allowed("POST"), false, true, false, false);
   server.Post(rig + "/fit", [&I](const Request& req, Response& res) { I.Fit(req, res); });
   all_methods(rig + "/fit", not_allowed("POST"), false, true, false, false);
+  server.Get(rig + "/topology", [&I](const Request& req, Response& res) {
+    t_request.route = kRig;
+    auto stored = I.FindRig(req, res, req.matches[1]);
+    if (!stored) return;
+    int lod = 0;
+    if (req.has_param("lod")) {
+      const std::string v = req.get_param_value("lod");
+      if (v.size() != 1 || v[0] < '0' || v[0] - '0' > kMaxLod) {
+        SendProblem(req, res, 422, "invalid-request", "lod: must be an integer level of detail 0.." + std::to_string(kMaxLod),
+                    {{"?lod", "must be 0.." + std::to_string(kMaxLod)}});
+        return;
+      }
+      lod = v[0] - '0';
+    }
+    const auto at = I.RigAt(stored, lod);
+    if (!at) {
+      SendProblem(req, res, 500, "internal", "the level of detail failed");
+      return;
+    }
+    // Triangle lists per primitive, in the order of the f32 and JSON mesh outputs.
+    std::string out = "{\"primitives\":[";
+    for (size_t p = 0; p < at->primitives.size(); ++p) {
+      const Primitive& pr = at->primitives[p];
+      if (p) out += ',';
+      out += "{\"mesh\":" + std::to_string(pr.mesh) + ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
+             ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode)) +
+             ",\"indices\":[";
+      for (size_t i = 0; i < pr.indices.size(); ++i) {
+        if (i) out += ',';
+        out += std::to_string(pr.indices[i]);
+      }
+      out += "]}";
+    }
+    out += "]}";
+    res.set_header("ETag", "\"" + stored->version + "-" + std::to_string(lod) + "\"");
+    res.set_header("Cache-Control", "no-cache");
+    res.set_content(std::move(out), "application/json");
+  });
+  all_methods(rig + "/topology", not_allowed("GET"), true, false, false, false);
   server.Post(rig + "/batch", [&I](const Request& req, Response& res) { I.Batch(req, res); });
   all_methods(rig + "/batch", not_allowed("POST"), false, true, false, false);
   server.Get("/v1/jobs", [&I](const Request& req, Response& res) {

@@ -1,0 +1,394 @@
+// facespace character creator: sliders over a rig's shapes, a live render from the service,
+// and a WebGL2 view of the float32 mesh. Plain JavaScript, no build step, no CDN.
+'use strict';
+
+const params = new URLSearchParams(location.search);
+const API = (params.get('api') || '').replace(/\/$/, '');  // Another origin, or '' for this one.
+const $ = (id) => document.getElementById(id);
+
+const state = { rig: null, detail: null, weights: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null, generation: 0 };
+let inflight = null;   // AbortController of the requests for the current weights.
+let timer = 0;
+
+// ---- service calls -------------------------------------------------------------------------
+
+async function call(path, options = {}) {
+  const res = await fetch(API + path, options);
+  if (!res.ok) {
+    let detail = res.status + ' ' + res.statusText;
+    try {
+      const p = await res.json();
+      if (p.detail) detail = p.detail;
+    } catch (e) { /* not problem+json */ }
+    const err = new Error(detail);
+    err.status = res.status;
+    throw err;
+  }
+  return res;
+}
+
+const post = (path, body, signal) =>
+  call(path, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body), signal });
+
+function showError(e) {
+  if (e && e.name === 'AbortError') return;
+  $('error').textContent = e ? 'Error: ' + e.message : '';
+  $('error').hidden = !e;
+}
+
+// ---- weights and sliders -------------------------------------------------------------------
+
+function nonZero() {
+  const w = {};
+  for (const [k, v] of Object.entries(state.weights)) if (v !== 0) w[k] = v;
+  return w;
+}
+
+function shapeByName(name) { return state.detail.shapes.find((s) => s.name === name); }
+
+function setWeight(name, value, fromPartner) {
+  const s = shapeByName(name);
+  if (!s || s.driven || !Number.isFinite(value)) return;
+  state.weights[name] = value;
+  const row = document.querySelector(`.shape[data-name="${CSS.escape(name)}"]`);
+  if (row) {
+    row.querySelector('input[type=range]').value = value;
+    row.querySelector('input[type=number]').value = +value.toFixed(3);
+  }
+  if (!fromPartner && $('mirror').checked && s.partner) setWeight(s.partner, value, true);
+}
+
+function groupOrder(g) { return g === 'identity' ? 0 : g === 'expression' ? 1 : 2; }
+
+function buildControls() {
+  const box = $('controls');
+  box.textContent = '';
+  const groups = new Map();
+  for (const s of state.detail.shapes) {
+    if (s.driven) continue;  // In-betweens and correctives follow their sliders.
+    if (!groups.has(s.group)) groups.set(s.group, []);
+    groups.get(s.group).push(s);
+  }
+  const names = [...groups.keys()].sort((a, b) => groupOrder(a) - groupOrder(b) || a.localeCompare(b));
+  for (const g of names) {
+    const h = document.createElement('h2');
+    h.textContent = g === 'default' ? 'other' : g;
+    box.appendChild(h);
+    for (const s of groups.get(g)) {
+      const row = document.createElement('div');
+      row.className = 'shape';
+      row.dataset.name = s.name;
+      const label = document.createElement('label');
+      label.textContent = s.name;
+      label.title = `${s.name} [${s.min}, ${s.max}]` + (s.partner ? ` (partner ${s.partner})` : '');
+      const range = document.createElement('input');
+      Object.assign(range, { type: 'range', min: s.min, max: s.max, step: 0.01, value: state.weights[s.name] || 0 });
+      range.setAttribute('aria-label', s.name);
+      const num = document.createElement('input');
+      Object.assign(num, { type: 'number', step: 0.05, value: state.weights[s.name] || 0 });
+      num.setAttribute('aria-label', s.name + ' value');
+      range.addEventListener('input', () => { setWeight(s.name, parseFloat(range.value)); schedule(); });
+      num.addEventListener('change', () => { setWeight(s.name, parseFloat(num.value)); schedule(); });
+      row.append(label, range, num);
+      box.appendChild(row);
+    }
+  }
+}
+
+// Seeded (mulberry32): the same seed gives the same face.
+function rng(seed) {
+  let a = seed >>> 0;
+  return () => {
+    a = (a + 0x6D2B79F5) >>> 0;
+    let t = a;
+    t = Math.imul(t ^ (t >>> 15), t | 1);
+    t ^= t + Math.imul(t ^ (t >>> 7), t | 61);
+    return ((t ^ (t >>> 14)) >>> 0) / 4294967296;
+  };
+}
+
+function randomise() {
+  const r = rng(parseInt($('seed').value, 10) || 0);
+  const free = state.detail.shapes.filter((s) => !s.driven);
+  for (const s of free) setWeight(s.name, 0, true);
+  // A handful of shapes, each uniform within its range: a plausible face rather than every slider at once.
+  const count = Math.min(6, free.length);
+  const pool = free.slice();
+  for (let i = 0; i < count; ++i) {
+    const s = pool.splice(Math.floor(r() * pool.length), 1)[0];
+    setWeight(s.name, +(s.min + (s.max - s.min) * r()).toFixed(3));
+  }
+  $('seed').value = (parseInt($('seed').value, 10) || 0) + 1;
+  schedule();
+}
+
+function reset() {
+  for (const s of state.detail.shapes) if (!s.driven) setWeight(s.name, s.default || 0, true);
+  state.yaw = 0;
+  state.pitch = 0;
+  schedule();
+}
+
+// ---- refresh: check, render and mesh, newest request wins -----------------------------------
+
+function schedule() {
+  let sum = 0;
+  for (const v of Object.values(state.weights)) sum += v;
+  $('sum').textContent = +sum.toFixed(4);
+  writeHash();
+  clearTimeout(timer);
+  timer = setTimeout(refresh, 60);
+}
+
+async function refresh() {
+  if (inflight) inflight.abort();  // Stale requests are cancelled, never shown.
+  inflight = new AbortController();
+  const signal = inflight.signal;
+  const generation = ++state.generation;
+  const rig = encodeURIComponent(state.rig);
+  const weights = nonZero();
+  showError(null);
+  try {
+    const [check, png, mesh] = await Promise.all([
+      post(`/v1/rigs/${rig}/check`, { weights }, signal).then((r) => r.json()),
+      post(`/v1/rigs/${rig}/render`, { weights, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch } }, signal)
+        .then((r) => r.blob()),
+      post(`/v1/rigs/${rig}/mesh`, { weights, format: 'f32' }, signal).then((r) => r.arrayBuffer()),
+    ]);
+    if (generation !== state.generation) return;
+    $('sum').textContent = +check.sum.toFixed(4);
+    showWarnings(check.warnings);
+    if (state.lastPng) URL.revokeObjectURL(state.lastPng.url);
+    state.lastPng = { blob: png, url: URL.createObjectURL(png) };
+    $('preview').src = state.lastPng.url;
+    gl.update(new Float32Array(mesh));
+  } catch (e) {
+    showError(e);
+  }
+}
+
+function showWarnings(warnings) {
+  const out = new Set(warnings.filter((w) => w.code === 'out_of_range').map((w) => w.shape));
+  for (const row of document.querySelectorAll('.shape')) row.classList.toggle('out', out.has(row.dataset.name));
+  const el = $('warning');
+  if (!warnings.length) {
+    el.hidden = true;
+    el.textContent = '';
+    return;
+  }
+  const extrapolation = warnings.find((w) => w.code === 'extrapolation');
+  const parts = [];
+  if (extrapolation) parts.push('Extrapolation: ' + extrapolation.message);
+  if (out.size) parts.push('out of range: ' + [...out].join(', '));
+  for (const w of warnings) if (w.code !== 'extrapolation' && w.code !== 'out_of_range') parts.push(w.message);
+  el.textContent = '\u26a0 ' + parts.join(' \u00b7 ');
+  el.hidden = false;
+}
+
+// ---- URL: rig and weights in the hash, so a link reproduces the face ------------------------
+
+function writeHash() {
+  const w = Object.entries(nonZero()).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
+  history.replaceState(null, '', '#rig=' + encodeURIComponent(state.rig) + '&w=' + w +
+                                 (state.view !== 'shaded' ? '&view=' + state.view : ''));
+}
+
+function readHash() {
+  const h = new URLSearchParams(location.hash.slice(1));
+  const weights = {};
+  for (const pair of (h.get('w') || '').split(',').filter(Boolean)) {
+    const i = pair.lastIndexOf(':');
+    weights[decodeURIComponent(pair.slice(0, i))] = parseFloat(pair.slice(i + 1));
+  }
+  // A link's weights are the whole vector: shapes it does not name are 0, not their defaults.
+  return { rig: h.get('rig'), weights: h.has('w') ? weights : null, view: h.get('view') };
+}
+
+// ---- downloads -----------------------------------------------------------------------------
+
+function save(blob, name) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = name;
+  document.body.appendChild(a);
+  a.click();
+  setTimeout(() => { URL.revokeObjectURL(a.href); a.remove(); }, 1000);
+}
+
+async function download(format) {
+  try {
+    const r = await post(`/v1/rigs/${encodeURIComponent(state.rig)}/mesh`, { weights: nonZero(), format });
+    save(await r.blob(), `${state.rig}.${format}`);
+  } catch (e) { showError(e); }
+}
+
+// ---- WebGL2 view ---------------------------------------------------------------------------
+
+const gl = (() => {
+  const canvas = $('gl');
+  const c = canvas.getContext('webgl2', { antialias: true });
+  const view = { yaw: 0, pitch: 0, zoom: 1, center: [0, 0, 0], radius: 1, count: 0, vertices: 0 };
+  if (!c) return { update() {}, setTopology() {}, view, coverage: () => -1 };
+  const vs = `#version 300 es
+    in vec3 p; in vec3 n; uniform mat4 mvp; out vec3 vn;
+    void main() { vn = n; gl_Position = mvp * vec4(p, 1.0); }`;
+  const fs = `#version 300 es
+    precision highp float; in vec3 vn; uniform vec3 light; out vec4 color;
+    void main() { vec3 N = normalize(vn); float d = max(dot(N, light), 0.0);
+      vec3 h = normalize(light + vec3(0, 0, 1)); float s = pow(max(dot(N, h), 0.0), 40.0);
+      color = vec4(pow(vec3(0.08) + vec3(0.78, 0.72, 0.68) * d + vec3(0.25) * s, vec3(1.0 / 2.2)), 1.0); }`;
+  const shader = (type, src) => { const s = c.createShader(type); c.shaderSource(s, src); c.compileShader(s); return s; };
+  const prog = c.createProgram();
+  c.attachShader(prog, shader(c.VERTEX_SHADER, vs));
+  c.attachShader(prog, shader(c.FRAGMENT_SHADER, fs));
+  c.linkProgram(prog);
+  const vao = c.createVertexArray();
+  const pbuf = c.createBuffer(), nbuf = c.createBuffer(), ibuf = c.createBuffer();
+  c.bindVertexArray(vao);
+  for (const [buf, name] of [[pbuf, 'p'], [nbuf, 'n']]) {
+    const loc = c.getAttribLocation(prog, name);
+    c.bindBuffer(c.ARRAY_BUFFER, buf);
+    c.enableVertexAttribArray(loc);
+    c.vertexAttribPointer(loc, 3, c.FLOAT, false, 0, 0);
+  }
+  let framed = false;
+
+  function setTopology(topology) {
+    const tris = [];
+    let base = 0;
+    for (const p of topology.primitives) {
+      if (p.mode === 4) for (const i of p.indices) tris.push(i + base);
+      base += p.vertices;
+    }
+    view.vertices = base;
+    view.count = tris.length;
+    c.bindVertexArray(vao);
+    c.bindBuffer(c.ELEMENT_ARRAY_BUFFER, ibuf);
+    c.bufferData(c.ELEMENT_ARRAY_BUFFER, new Uint32Array(tris), c.STATIC_DRAW);
+    framed = false;
+  }
+
+  function update(f32) {
+    const n = view.vertices * 3;
+    if (f32.length !== 2 * n) return;  // Positions then normals, every primitive in order.
+    const pos = f32.subarray(0, n);
+    if (!framed) {
+      const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+      for (let i = 0; i < n; ++i) { lo[i % 3] = Math.min(lo[i % 3], pos[i]); hi[i % 3] = Math.max(hi[i % 3], pos[i]); }
+      view.center = lo.map((l, i) => (l + hi[i]) / 2);
+      view.radius = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2 || 1;
+      framed = true;
+    }
+    c.bindBuffer(c.ARRAY_BUFFER, pbuf);
+    c.bufferData(c.ARRAY_BUFFER, pos, c.DYNAMIC_DRAW);
+    c.bindBuffer(c.ARRAY_BUFFER, nbuf);
+    c.bufferData(c.ARRAY_BUFFER, f32.subarray(n), c.DYNAMIC_DRAW);
+    draw();
+  }
+
+  function mul(a, b) {
+    const r = new Float32Array(16);
+    for (let i = 0; i < 4; ++i) for (let j = 0; j < 4; ++j) {
+      let s = 0;
+      for (let k = 0; k < 4; ++k) s += a[k * 4 + j] * b[i * 4 + k];
+      r[i * 4 + j] = s;
+    }
+    return r;
+  }
+
+  function draw() {
+    const dist = view.radius / Math.tan(Math.PI / 12) / view.zoom;
+    const near = dist / 100, far = dist + 4 * view.radius, f = 1 / Math.tan(Math.PI / 12);
+    const proj = new Float32Array([f, 0, 0, 0, 0, f, 0, 0, 0, 0, (far + near) / (near - far), -1, 0, 0, 2 * far * near / (near - far), 0]);
+    const cy = Math.cos(view.yaw), sy = Math.sin(view.yaw), cp = Math.cos(view.pitch), sp = Math.sin(view.pitch);
+    const rot = new Float32Array([cy, sp * sy, -cp * sy, 0, 0, cp, sp, 0, sy, -sp * cy, cp * cy, 0, 0, 0, 0, 1]);
+    const [x, y, z] = view.center;
+    const move = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -x, -y, -z, 1]);
+    const back = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, -dist, 1]);
+    const mvp = mul(proj, mul(back, mul(rot, move)));
+    c.viewport(0, 0, canvas.width, canvas.height);
+    c.clearColor(0.86, 0.87, 0.89, 1);
+    c.clear(c.COLOR_BUFFER_BIT | c.DEPTH_BUFFER_BIT);
+    c.enable(c.DEPTH_TEST);
+    c.useProgram(prog);
+    c.uniformMatrix4fv(c.getUniformLocation(prog, 'mvp'), false, mvp);
+    // Light from the viewer's upper left, in model space (the inverse rotation of the view).
+    const l = [-0.4, 0.5, 0.77];
+    c.uniform3f(c.getUniformLocation(prog, 'light'), rot[0] * l[0] + rot[1] * l[1] + rot[2] * l[2],
+                rot[4] * l[0] + rot[5] * l[1] + rot[6] * l[2], rot[8] * l[0] + rot[9] * l[1] + rot[10] * l[2]);
+    c.bindVertexArray(vao);
+    if (view.count) c.drawElements(c.TRIANGLES, view.count, c.UNSIGNED_INT, 0);
+  }
+
+  drag(canvas, (dx, dy) => { view.yaw += dx * 0.01; view.pitch = Math.max(-1.5, Math.min(1.5, view.pitch + dy * 0.01)); draw(); });
+  canvas.addEventListener('wheel', (e) => { e.preventDefault(); view.zoom = Math.max(0.3, Math.min(8, view.zoom * Math.exp(-e.deltaY * 0.001))); draw(); });
+  // Pixels that are not background, read right after a draw (for tests and a quick health check).
+  function coverage() {
+    draw();
+    const px = new Uint8Array(canvas.width * canvas.height * 4);
+    c.readPixels(0, 0, canvas.width, canvas.height, c.RGBA, c.UNSIGNED_BYTE, px);
+    let n = 0;
+    for (let i = 0; i < px.length; i += 4) n += Math.abs(px[i] - 219) + Math.abs(px[i + 2] - 227) > 12 ? 1 : 0;
+    return n / (canvas.width * canvas.height);
+  }
+  return { update, setTopology, view, coverage };
+})();
+
+function drag(el, move, end) {
+  let last = null;
+  el.addEventListener('pointerdown', (e) => { last = [e.clientX, e.clientY]; el.setPointerCapture(e.pointerId); });
+  el.addEventListener('pointermove', (e) => {
+    if (!last) return;
+    move(e.clientX - last[0], e.clientY - last[1]);
+    last = [e.clientX, e.clientY];
+  });
+  el.addEventListener('pointerup', () => { last = null; if (end) end(); });
+}
+
+// ---- start ---------------------------------------------------------------------------------
+
+async function loadRig(id, weights) {
+  state.rig = id;
+  state.detail = await (await call(`/v1/rigs/${encodeURIComponent(id)}`)).json();
+  state.weights = {};
+  for (const s of state.detail.shapes) if (!s.driven) state.weights[s.name] = weights ? 0 : s.default || 0;
+  buildControls();
+  for (const [k, v] of Object.entries(weights || {})) if (shapeByName(k)) setWeight(k, v, true);
+  gl.setTopology(await (await call(`/v1/rigs/${encodeURIComponent(id)}/topology`)).json());
+  schedule();
+}
+
+async function start() {
+  const fromHash = readHash();
+  if (['shaded', 'heatmap', 'wireframe'].includes(fromHash.view)) state.view = $('view').value = fromHash.view;
+  try {
+    const { rigs } = await (await call('/v1/rigs')).json();
+    for (const r of rigs) {
+      const o = document.createElement('option');
+      o.value = r.id;
+      o.textContent = `${r.id} (${r.shapes} shapes)`;
+      $('rig').appendChild(o);
+    }
+    if (!rigs.length) throw new Error('the service has no rigs');
+    const first = rigs.some((r) => r.id === fromHash.rig) ? fromHash.rig : rigs[0].id;
+    $('rig').value = first;
+    await loadRig(first, fromHash.weights);
+  } catch (e) {
+    showError(e);
+  }
+}
+
+$('rig').addEventListener('change', () => loadRig($('rig').value).catch(showError));
+$('view').addEventListener('change', () => { state.view = $('view').value; schedule(); });
+$('reset').addEventListener('click', reset);
+$('randomise').addEventListener('click', randomise);
+$('dl-glb').addEventListener('click', () => download('glb'));
+$('dl-obj').addEventListener('click', () => download('obj'));
+$('dl-png').addEventListener('click', () => state.lastPng && save(state.lastPng.blob, `${state.rig}.png`));
+$('dl-json').addEventListener('click', () =>
+  save(new Blob([JSON.stringify({ weights: nonZero() }, null, 2)], { type: 'application/json' }), `${state.rig}.weights.json`));
+$('share').addEventListener('click', () => { writeHash(); navigator.clipboard && navigator.clipboard.writeText(location.href).catch(() => {}); });
+drag($('preview'), (dx, dy) => { state.yaw += dx * 0.5; state.pitch = Math.max(-80, Math.min(80, state.pitch + dy * 0.5)); },
+     () => schedule());
+window.facespace = { state, gl, loadRig, refresh };  // For tests and the console.
+start();

@@ -1,0 +1,116 @@
+// The character-creator page in headless Chromium (Debian's), against the real service: loaded
+// from the service itself and from another origin (CORS). Prints ok/FAIL lines like the shell tests.
+// usage: node browser_test.mjs SERVICE_URL OTHER_ORIGIN_PAGE_URL OUT_DIR
+import { chromium } from 'playwright-core';
+import { createRequire } from 'node:module';
+import fs from 'node:fs';
+
+const [service, otherPage, outDir] = process.argv.slice(2);
+const require = createRequire(import.meta.url);
+let pass = 0, fail = 0;
+const check = (what, cond) => { if (cond) { pass++; console.log('ok   ' + what); } else { fail++; console.log('FAIL ' + what); } };
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+});
+
+// A digest of the preview's pixels, drawn into a canvas in the page.
+const previewDigest = (page) => page.evaluate(() => {
+  const img = document.getElementById('preview');
+  if (!img.complete || !img.naturalWidth) return null;
+  const c = document.createElement('canvas');
+  c.width = img.naturalWidth; c.height = img.naturalHeight;
+  const x = c.getContext('2d');
+  x.drawImage(img, 0, 0);
+  const d = x.getImageData(0, 0, c.width, c.height).data;
+  let h = 0;
+  for (let i = 0; i < d.length; i += 7) h = (h * 31 + d[i]) >>> 0;
+  return h;
+});
+
+async function run(label, url, shot) {
+  const context = await browser.newContext({ acceptDownloads: true, viewport: { width: 1500, height: 1000 } });
+  const page = await context.newPage();
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  await page.goto(url);
+  await page.waitForFunction(() => document.querySelectorAll('.shape').length > 0, null, { timeout: 30000 });
+  await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512, null, { timeout: 30000 });
+  check(`${label}: the page loads the rig list and one slider per shape (52)`,
+    (await page.locator('#rig option').count()) >= 1 && (await page.locator('.shape').count()) === 52);
+  check(`${label}: sliders are grouped, expression first`, (await page.locator('#controls h2').first().textContent()) === 'expression');
+  const before = await previewDigest(page);
+  check(`${label}: the first preview is a render`, before !== null);
+
+  await page.locator('input[aria-label="jawOpen"]').fill('0.9');
+  await page.waitForFunction((b) => {
+    const img = document.getElementById('preview');
+    return img.complete && window.facespace.state.generation > 0 && img.src && img.dataset.seen !== img.src;
+  }, before, { timeout: 1000 }).catch(() => {});
+  let after = before;
+  for (let i = 0; i < 100 && after === before; ++i) { await page.waitForTimeout(100); after = await previewDigest(page); }
+  check(`${label}: moving a slider changes the preview`, after !== null && after !== before);
+  check(`${label}: the sum is shown (0.9)`, (await page.locator('#sum').textContent()) === '0.9');
+  check(`${label}: no warning while the sum is within 1`, await page.locator('#warning').isHidden());
+
+  await page.locator('input[aria-label="mouthSmile_L"]').fill('0.8');
+  await page.waitForSelector('#warning:not([hidden])', { timeout: 15000 }).catch(() => {});
+  const warning = await page.locator('#warning').textContent();
+  check(`${label}: the symmetric partner moves with it (mouthSmile_R = 0.8)`,
+    (await page.locator('input[aria-label="mouthSmile_R"]').inputValue()) === '0.8');
+  check(`${label}: the sum above 1 shows the extrapolation warning (${warning.trim().slice(0, 60)}...)`,
+    (await page.locator('#warning').isVisible()) && /Extrapolation: extrapolation: sum of weights 2\.5 exceeds 1/.test(warning));
+  await page.locator('input[aria-label="eyeBlink_L value"]').fill('1.5');
+  await page.locator('input[aria-label="eyeBlink_L value"]').press('Enter');
+  await page.waitForFunction(() => /out of range: .*eyeBlink_L/.test(document.getElementById('warning').textContent), null, { timeout: 15000 }).catch(() => {});
+  check(`${label}: a weight outside its range is named, and its row marked`,
+    /out of range: .*eyeBlink_L/.test(await page.locator('#warning').textContent()) &&
+    (await page.locator('.shape.out').count()) >= 1);
+
+  const coverage = await page.evaluate(() => window.facespace.gl.coverage());
+  check(`${label}: the WebGL2 view draws the float32 mesh (${(coverage * 100).toFixed(1)}% of pixels)`, coverage > 0.05);
+
+  const hash = await page.evaluate(() => location.hash);
+  check(`${label}: the URL holds the weights (${hash.slice(0, 50)}...)`, /rig=facecap&w=.*jawOpen:0.9/.test(hash));
+
+  const [download] = await Promise.all([page.waitForEvent('download'), page.locator('#dl-glb').click()]);
+  const glb = `${outDir}/${label}.glb`;
+  await download.saveAs(glb);
+  const validator = require('gltf-validator');
+  const report = await validator.validateBytes(new Uint8Array(fs.readFileSync(glb)));
+  check(`${label}: the downloaded glb is valid glTF (${report.issues.numErrors} errors, ${fs.statSync(glb).size} bytes)`,
+    report.issues.numErrors === 0 && fs.statSync(glb).size > 10000);
+  const [wdl] = await Promise.all([page.waitForEvent('download'), page.locator('#dl-json').click()]);
+  const weights = JSON.parse(fs.readFileSync(await wdl.path(), 'utf8')).weights;
+  check(`${label}: the weights download is the vector shown`, weights.jawOpen === 0.9 && weights.mouthSmile_R === 0.8 && weights.eyeBlink_L === 1.5);
+
+  await page.evaluate(() => window.facespace.loadRig('nobody').catch(() => {}));
+  await page.evaluate(() => window.facespace.loadRig('nobody').catch((e) => { document.getElementById('error').textContent = 'Error: ' + e.message; document.getElementById('error').hidden = false; }));
+  check(`${label}: a service error shows its problem detail`, /no rig with id 'nobody'/.test(await page.locator('#error').textContent()));
+
+  // A shared link reproduces the face.
+  const shared = await context.newPage();
+  await shared.goto(url.split('#')[0] + hash);
+  await shared.reload();
+  await shared.waitForFunction(() => document.querySelectorAll('.shape').length > 0, null, { timeout: 30000 });
+  check(`${label}: opening the shared link restores the sliders`,
+    (await shared.locator('input[aria-label="jawOpen"]').inputValue()) === '0.9' &&
+    (await shared.locator('input[aria-label="eyeBlink_L value"]').inputValue()) === '1.5');
+  if (shot) {
+    await shared.waitForFunction(() => document.getElementById('preview').naturalWidth === 512, null, { timeout: 30000 });
+    await shared.waitForTimeout(500);
+    await shared.screenshot({ path: shot });
+    console.log('screenshot: ' + shot);
+  }
+  check(`${label}: no script errors in the page (${errors.slice(0, 2).join('; ')})`, errors.filter((e) => !/404|nobody/.test(e)).length === 0);
+  await context.close();
+}
+
+// '#rig=facecap&w=' starts from all weights 0 (FaceCap's file has non-zero defaults).
+await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
+await run('cross-origin', otherPage + '?api=' + encodeURIComponent(service) + '#rig=facecap&w=');
+await browser.close();
+console.log(`${pass} passed, ${fail} failed`);
+process.exit(fail ? 1 : 0);
