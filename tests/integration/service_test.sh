@@ -217,7 +217,7 @@ want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"
       "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
       "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
       "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"},
-      "/v1/rigs/{id}/batch":{"post"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
+      "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
       "/v1/jobs/{job}/files/{name}":{"get"},"/v1/jobs/{job}/results.zip":{"get"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
 sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
@@ -247,6 +247,8 @@ code=$(c "$U/v1/rigs/facecap/mesh?w.jawOpen=1&lod=2&format=json")
 check "GET mesh ?lod=2: fewer vertices than the full mesh" sh -c "[ $code = 200 ]" && jq_ "sum(len(p['positions']) for p in d['primitives'])//3 < 2000"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":1},"lod":1,"width":128,"height":128}' "$U/v1/rigs/facecap/render")
 check "POST render with lod 1: a PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr'"
+code=$(c "$U/v1/rigs/facecap/topology?lod=1")
+check "GET topology: triangle lists per primitive, indices within each primitive's vertices" sh -c "[ $code = 200 ]" && jq_ "len(d['primitives'])==4 and all(max(p['indices'])<p['vertices'] and len(p['indices'])%3==0 for p in d['primitives'] if p['indices'])"
 problem "$(c "$U/v1/rigs/facecap/mesh?lod=9")" 422 "d['errors'][0]['parameter']=='lod'" && ok "lod=9: 422 naming the parameter" || no "lod out of range"
 
 # batch jobs
