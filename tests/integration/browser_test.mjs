@@ -82,6 +82,41 @@ async function run(label, url, shot) {
   const weights = JSON.parse(fs.readFileSync(await wdl.path(), 'utf8')).weights;
   check(`${label}: the weights download is the vector shown`, weights.jawOpen === 0.9 && weights.mouthSmile_R === 0.8 && weights.eyeBlink_L === 1.5);
 
+  // View switch and camera drag change the preview.
+  const waitChange = async (from) => {
+    let d = from;
+    for (let i = 0; i < 150 && d === from; ++i) { await page.waitForTimeout(100); d = await previewDigest(page); }
+    return d;
+  };
+  let d0 = await previewDigest(page);
+  await page.locator('#view').selectOption('heatmap');
+  let d1 = await waitChange(d0);
+  check(`${label}: switching to the heatmap view changes the preview`, d1 !== d0 && /view=heatmap/.test(await page.evaluate(() => location.hash)));
+  const box = await page.locator('#preview').boundingBox();
+  await page.mouse.move(box.x + 200, box.y + 200);
+  await page.mouse.down();
+  await page.mouse.move(box.x + 280, box.y + 210, { steps: 5 });
+  await page.mouse.up();
+  const d2 = await waitChange(d1);
+  check(`${label}: dragging the preview turns the camera (yaw ${await page.evaluate(() => window.facespace.state.yaw)})`,
+    d2 !== d1 && (await page.evaluate(() => window.facespace.state.yaw)) === 40);
+  // Randomise is seeded: the same seed gives the same face.
+  await page.locator('#seed').fill('7');
+  await page.locator('#randomise').click();
+  const first = await page.evaluate(() => location.hash);
+  await page.locator('#seed').fill('7');
+  await page.locator('#randomise').click();
+  const again = await page.evaluate(() => location.hash);
+  await page.locator('#randomise').click();
+  const third = await page.evaluate(() => location.hash);
+  check(`${label}: Randomise with seed 7 twice gives the same weights, the next seed others`, first === again && first !== third && /w=.+/.test(first));
+  await page.locator('#reset').click();
+  await page.waitForTimeout(200);
+  // FaceCap's file gives defaults (jawOpen 0.1371, browInnerUp 0.12167); eyeBlink_L was 1.5.
+  check(`${label}: Reset returns to the rig's defaults`, (await page.locator('input[aria-label="jawOpen value"]').inputValue()) === '0.137' &&
+    (await page.locator('input[aria-label="browInnerUp value"]').inputValue()) === '0.122' &&
+    (await page.locator('input[aria-label="eyeBlink_L value"]').inputValue()) === '0.062');
+
   await page.evaluate(() => window.facespace.loadRig('nobody').catch((e) => { document.getElementById('error').textContent = 'Error: ' + e.message; document.getElementById('error').hidden = false; }));
   check(`${label}: a service error shows its problem detail`, /no rig with id 'nobody'/.test(await page.locator('#error').textContent()));
 
