@@ -44,6 +44,7 @@ std::string Usage() {
   return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
          "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
          "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets] [--lod 0-4]\n"
+         "       [--controls JSON|@FILE]\n"
          "       [--format glb|obj|json|f32] -o OUT\n";
 }
 
@@ -206,6 +207,24 @@ int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<Weig
     }
     return -1;
   }
+  if (a == "--controls") {
+    if (i + 1 >= args.size()) {
+      std::fprintf(stderr, "error: --controls needs a value\n");
+      return 2;
+    }
+    std::string text = args[++i];
+    if (!text.empty() && text[0] == '@' && !ReadFile(text.substr(1), text)) {
+      std::fprintf(stderr, "error: --controls: cannot read '%s'\n", args[i].substr(1).c_str());
+      return 1;
+    }
+    auto parsed = api::ParseWeightsJson(text, "--controls");
+    if (!parsed.ok()) {
+      PrintStatus(parsed.status());
+      return 1;
+    }
+    skeleton.controls.insert(skeleton.controls.end(), parsed->begin(), parsed->end());
+    return -1;
+  }
   if (a != "--weights" && a != "--set" && a != "--mode" && a != "--normals") return 0;
   if (i + 1 >= args.size()) {
     std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
@@ -273,13 +292,19 @@ bool ApplyLod(Result<Rig>& rig, int lod) {
 }
 
 // Resolves, checks (warnings to stderr) and evaluates. Returns an exit code (0 on success).
-int EvaluateForCli(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& pose_request,
+int EvaluateForCli(const Rig& rig, std::span<const WeightEntry> entries, std::span<const WeightEntry> controls,
+                   const PoseRequest& pose_request,
                    BlendOptions options, std::vector<float>& weights, WeightReport& report, BlendedRig& blended,
                    BlendContext& context) {
   Pose pose;
   bool posed = false;
   std::vector<Warning> pose_warnings;
-  if (Status s = ResolvePoseAndWeights(rig, entries, pose_request, weights, pose, posed, pose_warnings); !s.ok()) {
+  std::vector<WeightEntry> all = {entries.begin(), entries.end()};
+  if (Status s = ApplyControls(rig, controls, all, pose_warnings); !s.ok()) {
+    PrintStatus(s);
+    return 1;
+  }
+  if (Status s = ResolvePoseAndWeights(rig, all, pose_request, weights, pose, posed, pose_warnings); !s.ok()) {
     PrintStatus(s);
     return 1;
   }
@@ -374,7 +399,7 @@ int Blend(const std::vector<std::string>& args) {
     return 2;
   }
   options.dual_quaternion = skeleton.options.dual_quaternion;
-  if (int rc = EvaluateForCli(rig, entries, skeleton.pose, options, weights, report, blended, context)) return rc;
+  if (int rc = EvaluateForCli(rig, entries, skeleton.controls, skeleton.pose, options, weights, report, blended, context)) return rc;
   Result<std::string> bytes = ExportMesh(rig, blended, weights, report.warnings, format, export_options);
   if (!bytes.ok()) {
     PrintStatus(bytes.status());
@@ -497,7 +522,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     return 2;
   }
   if (!sheet) {
-    if (int rc = EvaluateForCli(rig, entries, r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
+    if (int rc = EvaluateForCli(rig, entries, r.mesh.controls, r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
     if (Status s = render::Render(rig, blended, r.render, image); !s.ok()) {
       PrintStatus(s);
       return 1;
@@ -530,7 +555,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     }
     std::vector<render::Image> images(parsed->cells.size());
     for (size_t c = 0; c < parsed->cells.size(); ++c) {
-      if (int rc = EvaluateForCli(rig, parsed->cells[c], r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
+      if (int rc = EvaluateForCli(rig, parsed->cells[c], {}, r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
       if (Status s = render::Render(rig, blended, r.render, images[c]); !s.ok()) {
         PrintStatus(s);
         return 1;

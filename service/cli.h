@@ -38,5 +38,7 @@ int Batch(const std::vector<std::string>& args);
 int Mirror(const std::vector<std::string>& args);
 // Shape-basis compression and quantisation report.
 int Compress(const std::vector<std::string>& args);
+// Any rig (glTF, OBJ sequence, MakeHuman folder) to a .glb with sparse targets and its manifest.
+int Convert(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

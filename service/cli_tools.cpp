@@ -178,3 +178,93 @@ int Compress(const std::vector<std::string>& args) {
 }
 
 }  // namespace facespace::cli
+
+namespace facespace::cli {
+
+int Convert(const std::vector<std::string>& args) {
+  static const char kUsage[] =
+      "usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR [--modifiers modeling_modifiers.json]\n"
+      "         [--groups body,helper-...|*] [--metres]] -o OUT.glb\n"
+      "  writes any rig we read (glTF, an OBJ sequence, a MakeHuman base.obj with --targets) as a .glb with\n"
+      "  sparse morph targets, and OUT.manifest.json beside it (groups, ranges, partners, controls).\n";
+  std::vector<std::string> paths;
+  std::string targets, out;
+  MakeHumanOptions mh;
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (a == "-h" || a == "--help") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    if (a == "--metres" || a == "--meters") {
+      mh.metres = true;
+      continue;
+    }
+    if (a.rfind("--", 0) != 0 && a != "-o") {
+      paths.push_back(a);
+      continue;
+    }
+    if (i + 1 >= args.size()) {
+      std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+    const std::string v = args[++i];
+    if (a == "--targets") targets = v;
+    else if (a == "--modifiers") mh.modifiers = v;
+    else if (a == "--groups") {
+      mh.groups.clear();
+      size_t start = 0;
+      while (start <= v.size()) {
+        size_t end = v.find(',', start);
+        if (end == std::string::npos) end = v.size();
+        if (end > start) mh.groups.push_back(v.substr(start, end - start));
+        start = end + 1;
+      }
+    } else if (a == "-o" || a == "--output") out = v;
+    else {
+      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+  }
+  if (paths.empty() || out.empty() || (!mh.modifiers.empty() && targets.empty())) {
+    std::fprintf(stderr, "error: %s\n%s", paths.empty() ? "no rig given" : out.empty() ? "no output given (-o OUT.glb)" : "--modifiers needs --targets", kUsage);
+    return 2;
+  }
+  Result<Rig> rig = targets.empty() ? LoadAndReport(paths) : LoadMakeHuman(paths[0], targets, mh);
+  if (!rig.ok()) {
+    if (!targets.empty()) PrintStatus(rig.status());
+    return 1;
+  }
+  if (!targets.empty()) PrintWarnings(rig->load_warnings);
+  const size_t slash = out.find_last_of('/');
+  const std::string stem = out.substr(slash == std::string::npos ? 0 : slash + 1, out.rfind('.') - (slash == std::string::npos ? 0 : slash + 1));
+  if (rig->name.empty() || !targets.empty()) rig->name = stem;
+  std::vector<float> weights(rig->shapes.size(), 0.0f);
+  for (size_t s = 0; s < weights.size(); ++s) weights[s] = rig->shapes[s].default_weight;
+  BlendedRig blended;
+  BlendContext context;
+  if (Status s = EvaluateRig(rig.value(), weights, {}, blended, context); !s.ok()) {
+    PrintStatus(s);
+    return 1;
+  }
+  ExportOptions eo;
+  eo.keep_targets = true;
+  auto bytes = ExportMesh(rig.value(), blended, weights, {}, MeshFormat::kGlb, eo);
+  if (!bytes.ok()) {
+    PrintStatus(bytes.status());
+    return 1;
+  }
+  const std::string manifest_path = out.substr(0, out.rfind('.')) + ".manifest.json";
+  if (!WriteOutput(out, bytes.value()) || !WriteOutput(manifest_path, ManifestJson(rig.value()))) {
+    std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str());
+    return 1;
+  }
+  size_t moved = 0;
+  for (const Shape& s : rig->shapes) moved += s.vertices_moved;
+  std::fprintf(stderr, "convert: %zu vertices, %zu triangles, %zu shapes (%zu moved vertices), %zu controls -> %s (%zu bytes), %s\n",
+               rig->vertex_count(), rig->triangle_count(), rig->shapes.size(), moved, rig->controls.size(), out.c_str(),
+               bytes->size(), manifest_path.c_str());
+  return 0;
+}
+
+}  // namespace facespace::cli

@@ -35,6 +35,8 @@ const char kUsage[] =
     "      adds the left/right mirror image of a shape and writes the rig\n"
     "  compress RIG [--error E] [--bits 8..16] [--json]\n"
     "      orthogonal (PCA) basis of the shapes within an error bound, and quantised displacements: sizes and errors\n"
+    "  convert RIG [--targets DIR --modifiers FILE [--groups G,...] [--metres]] -o OUT.glb\n"
+    "      any rig (glTF, OBJ sequence, MakeHuman base.obj + .target folder) as a .glb with sparse targets + manifest\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -69,6 +71,7 @@ int main(int argc, char** argv) {
   if (command == "batch") return facespace::cli::Batch(args);
   if (command == "mirror") return facespace::cli::Mirror(args);
   if (command == "compress") return facespace::cli::Compress(args);
+  if (command == "convert") return facespace::cli::Convert(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

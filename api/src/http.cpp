@@ -321,6 +321,7 @@ std::string RenderCanonical(const api::RenderRequest& r, render::ImageFormat for
          std::to_string(o.width) + "x" + std::to_string(o.height) + "|" + render::ViewName(o.view) + "|ss" +
          std::to_string(o.supersample) + "|" + FloatsCanonical(o.background) + "|" +
          FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) + (c.look_at ? "L" : "O") +
+         (c.frame_shapes ? "S" : "A") +
          (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|" +
          (r.mesh.options.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" +
          (r.mesh.options.normals == NormalMode::kRecompute ? "rec" : "bl") + (r.mesh.options.dual_quaternion ? "|dq" : "");
@@ -392,6 +393,14 @@ json RigDetail(const StoredRig& s) {
     correctives.push_back({{"shape", r.shapes[c.shape].name}, {"drivers", drivers}, {"mode", c.use_min ? "min" : "product"}});
   }
   j["correctives"] = correctives;
+  json controls = json::array();
+  for (const Control& c : r.controls) {
+    controls.push_back({{"name", c.name}, {"group", c.group}, {"min", c.min}, {"max", c.max},
+                        {"negative", c.negative >= 0 ? json(r.shapes[c.negative].name) : json(nullptr)},
+                        {"positive", r.shapes[c.positive].name},
+                        {"partner", c.partner >= 0 ? json(r.controls[c.partner].name) : json(nullptr)}});
+  }
+  j["controls"] = controls;
   j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()}, {"bound", r.statistics.bound}} : json(nullptr);
   // Bounding box of the base mesh as shown (world space, every primitive).
   const auto world = PrimitiveWorldMatrices(r);
@@ -553,13 +562,13 @@ struct Api::Impl {
   // and the skeleton settings. False when the key is none of them.
   static bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& mr, std::vector<FieldError>& errors) {
     const std::string where = "?" + key;
-    if (key.rfind("w.", 0) == 0) {
+    if (key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0) {  // A shape weight, or a control value.
       WeightEntry e;
       e.name = key.substr(2);
       e.pointer = where;
-      if (e.name.empty()) errors.push_back({where, "w. needs a shape name: w.NAME=0.5"});
+      if (e.name.empty()) errors.push_back({where, key.substr(0, 2) + " needs a name: w.SHAPE=0.5 or c.CONTROL=-0.4"});
       else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
-      else mr.weights.push_back(e);
+      else (key[0] == 'w' ? mr.weights : mr.controls).push_back(e);
     } else if (key == "mode") {
       if (!ParseBlendMode(value, &mr.options.mode)) errors.push_back({where, "must be relative or absolute"});
     } else if (key == "normals") {
@@ -606,7 +615,12 @@ struct Api::Impl {
   bool Weigh(const Request& req, Response& res, const StoredRig& rig, const MeshRequest& mr, std::vector<float>& w,
              WeightReport& report, Pose& pose, bool& posed) {
     std::vector<Warning> pose_warnings;
-    if (Status s = ResolvePoseAndWeights(rig.rig, mr.weights, mr.pose, w, pose, posed, pose_warnings); !s.ok()) {
+    std::vector<WeightEntry> entries = mr.weights;
+    if (Status s = ApplyControls(rig.rig, mr.controls, entries, pose_warnings); !s.ok()) {
+      SendProblem(req, res, 422, "invalid-controls", s.message, s.fields);
+      return false;
+    }
+    if (Status s = ResolvePoseAndWeights(rig.rig, entries, mr.pose, w, pose, posed, pose_warnings); !s.ok()) {
       SendProblem(req, res, 422, "invalid-weights", s.message, s.fields);
       return false;
     }

@@ -227,6 +227,14 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     auto w = WeightsFromJson(v, "/weights");
     if (w.ok()) r.weights = std::move(w.value());
     else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+  } else if (key == "controls") {
+    if (!v.is_object()) {
+      errors.fields.push_back({ptr, "must be an object of control name -> value"});
+      return true;
+    }
+    auto w = WeightsFromJson(v, "/controls");
+    if (w.ok()) r.controls = std::move(w.value());
+    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
   } else if (key == "mode") {
     string_field(ParseBlendMode, &r.options.mode, "\"relative\", \"absolute\"");
   } else if (key == "normals") {
@@ -344,8 +352,11 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
       std::array<float, 3>& dst = k == "eye" ? cam.eye : k == "target" ? cam.target : cam.up;
       if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
       else if (k != "up") cam.look_at = true;
+    } else if (k == "frame") {
+      if (!it->is_string() || (*it != "all" && *it != "shapes")) errors.fields.push_back({ptr, "must be \"all\" or \"shapes\""});
+      else cam.frame_shapes = *it == "shapes";
     } else {
-      errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, eye, target, up)"});
+      errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, frame, eye, target, up)"});
     }
   }
   if (cam.look_at && !(c.contains("eye") && c.contains("target"))) {
@@ -479,6 +490,11 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
     Status errors = InvalidArgument("");
     CameraFromJson(c, r.render.camera, errors);
     return errors.fields.empty() ? "" : errors.fields[0].pointer + ": " + errors.fields[0].message;
+  }
+  if (key == "frame") {
+    if (value != "all" && value != "shapes") return "must be all or shapes";
+    r.render.camera.frame_shapes = value == "shapes";
+    return "";
   }
   const bool camera_key = key == "yaw" || key == "pitch" || key == "distance" || key == "zoom" || key == "fov";
   const bool string_key = key == "view" || key == "format" || key == "background";

@@ -1,6 +1,10 @@
 // OBJ import: a single mesh, or a sequence of OBJ files as absolute shapes. Vertices are the
 // file's `v` lines in order, so frames of one mesh correspond vertex by vertex.
+#include <algorithm>
+#include <array>
 #include <charconv>
+#include <filesystem>
+#include <iterator>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -17,6 +21,8 @@ struct ObjMesh {
   std::vector<std::vector<uint32_t>> faces;       // v indices (0-based) per polygon.
   std::vector<std::vector<int64_t>> face_uvs;     // vt indices per corner (-1 none).
   std::vector<size_t> face_lines;         // Source line of each face.
+  std::vector<uint32_t> face_groups;      // Index into `groups` of each face's "g" group.
+  std::vector<std::string> groups = {""};
 };
 
 bool ParseFloat(std::string_view s, float& out) {
@@ -85,6 +91,11 @@ Status ParseObj(const std::string& path, ObjMesh& mesh) {
       mesh.faces.push_back(std::move(face));
       mesh.face_uvs.push_back(std::move(fuv));
       mesh.face_lines.push_back(line_no);
+      mesh.face_groups.push_back(static_cast<uint32_t>(mesh.groups.size() - 1));
+    } else if (tag == "g") {
+      std::string name;
+      in >> name;
+      mesh.groups.push_back(name);
     }
     // vn, o, g, s, usemtl, mtllib, comments: not needed (normals are recomputed).
   }
@@ -197,6 +208,138 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
   rig.scene_roots.push_back(0);
   DetectSymmetricPartners(rig);
   CountMovedVertices(rig);
+  if (Status s = ValidateRig(rig); !s.ok()) return s;
+  return rig;
+}
+
+namespace {
+
+// Reads one .target file: "index dx dy dz" per line, '#' comments. Sorted by index.
+Status ReadTarget(const std::string& path, size_t vertex_count, float scale, SparseTarget& out) {
+  std::ifstream f(path);
+  if (!f) return NotFound("cannot open '" + path + "'");
+  std::vector<std::pair<uint32_t, std::array<float, 3>>> rows;
+  std::vector<uint32_t> seen_line(vertex_count, 0);
+  std::string line;
+  uint32_t line_no = 0;
+  while (std::getline(f, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const size_t start = line.find_first_not_of(" \t");
+    if (start == std::string::npos || line[start] == '#') continue;
+    std::istringstream in(line);
+    std::string tok[5];
+    int n = 0;
+    while (n < 5 && in >> tok[n]) ++n;
+    const std::string where = path + ":" + std::to_string(line_no) + ": ";
+    long long index = -1;
+    auto r = std::from_chars(tok[0].data(), tok[0].data() + tok[0].size(), index);
+    float d[3];
+    if (n != 4 || r.ec != std::errc() || r.ptr != tok[0].data() + tok[0].size() || !ParseFloat(tok[1], d[0]) ||
+        !ParseFloat(tok[2], d[1]) || !ParseFloat(tok[3], d[2])) {
+      return InvalidArgument(where + "malformed line '" + line.substr(0, 80) + "' (want: vertex-index dx dy dz)");
+    }
+    if (index < 0 || static_cast<size_t>(index) >= vertex_count) {
+      return InvalidArgument(where + "vertex index " + std::to_string(index) + " is beyond the mesh's " + std::to_string(vertex_count) +
+                             " vertices");
+    }
+    if (seen_line[index]) {
+      return InvalidArgument(where + "vertex " + std::to_string(index) + " is given twice (first on line " +
+                             std::to_string(seen_line[index]) + ")");
+    }
+    seen_line[index] = line_no;
+    rows.push_back({static_cast<uint32_t>(index), {d[0] * scale, d[1] * scale, d[2] * scale}});
+  }
+  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [i, d] : rows) {
+    if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f) continue;
+    out.indices.push_back(i);
+    out.position_deltas.insert(out.position_deltas.end(), d.begin(), d.end());
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<Rig> LoadMakeHuman(const std::string& obj_path, const std::string& targets_dir, const MakeHumanOptions& options) {
+  namespace fs = std::filesystem;
+  ObjMesh obj;
+  if (Status s = ParseObj(obj_path, obj); !s.ok()) return s;
+  const size_t obj_vertices = obj.positions.size() / 3;
+  const float scale = options.metres ? 0.1f : 1.0f;
+  // The kept faces, and the vertices they use, in OBJ order.
+  const bool all = std::find(options.groups.begin(), options.groups.end(), "*") != options.groups.end();
+  std::vector<uint8_t> keep_group(obj.groups.size(), 0);
+  for (size_t g = 0; g < obj.groups.size(); ++g) {
+    keep_group[g] = all || std::find(options.groups.begin(), options.groups.end(), obj.groups[g]) != options.groups.end();
+  }
+  std::vector<int32_t> remap(obj_vertices, -1);
+  ObjMesh kept;
+  for (size_t f = 0; f < obj.faces.size(); ++f) {
+    if (!keep_group[obj.face_groups[f]]) continue;
+    for (uint32_t v : obj.faces[f]) remap[v] = 0;
+    kept.faces.push_back(obj.faces[f]);
+    kept.face_uvs.push_back(obj.face_uvs[f]);
+  }
+  if (kept.faces.empty()) return InvalidArgument(obj_path + ": no face in the groups asked for");
+  int32_t next = 0;
+  for (size_t v = 0; v < obj_vertices; ++v) {
+    if (remap[v] < 0) continue;
+    remap[v] = next++;
+    for (int c = 0; c < 3; ++c) kept.positions.push_back(obj.positions[3 * v + c] * scale);
+  }
+  for (auto& face : kept.faces) {
+    for (uint32_t& v : face) v = static_cast<uint32_t>(remap[v]);
+  }
+  kept.uvs = obj.uvs;
+  Rig rig;
+  rig.name = "makehuman";
+  Primitive p = BasePrimitive(kept, rig.load_warnings, obj_path);
+  // Targets: every .target under targets_dir, sorted by path (deterministic).
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(targets_dir, ec); !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (it->is_regular_file() && it->path().extension() == ".target") files.push_back(it->path());
+  }
+  if (ec) return NotFound("cannot read the targets folder '" + targets_dir + "'");
+  std::sort(files.begin(), files.end());
+  Mesh mesh;
+  mesh.name = rig.name;
+  for (const fs::path& file : files) {
+    SparseTarget full, t;
+    if (Status s = ReadTarget(file.string(), obj_vertices, scale, full); !s.ok()) return s;
+    for (size_t k = 0; k < full.indices.size(); ++k) {
+      const int32_t v = remap[full.indices[k]];
+      if (v < 0) continue;  // A vertex of geometry not kept.
+      t.indices.push_back(static_cast<uint32_t>(v));
+      t.position_deltas.insert(t.position_deltas.end(), full.position_deltas.begin() + 3 * k, full.position_deltas.begin() + 3 * k + 3);
+    }
+    Shape shape;
+    shape.name = file.stem().string();
+    const fs::path parent = file.parent_path().lexically_relative(targets_dir);
+    shape.group = parent.empty() || parent == "." ? "default" : parent.begin()->string();
+    if (FindShape(rig, shape.name) >= 0) shape.name = parent.string() + "/" + shape.name;
+    mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
+    rig.shapes.push_back(std::move(shape));
+    p.targets.push_back(std::move(t));
+  }
+  FinalizePrimitive(p);
+  mesh.primitives.push_back(0);
+  rig.primitives.push_back(std::move(p));
+  rig.meshes.push_back(std::move(mesh));
+  Node node;
+  node.name = rig.name;
+  node.mesh = 0;
+  rig.nodes.push_back(node);
+  rig.scene_roots.push_back(0);
+  DetectSymmetricPartners(rig);
+  CountMovedVertices(rig);
+  if (!options.modifiers.empty()) {
+    std::ifstream f(options.modifiers, std::ios::binary);
+    if (!f) return NotFound("cannot open '" + options.modifiers + "'");
+    const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    if (Status s = ApplyMakeHumanModifiers(rig, text); !s.ok()) return Status{s.code, options.modifiers + ": " + s.message, s.fields};
+  }
   if (Status s = ValidateRig(rig); !s.ok()) return s;
   return rig;
 }

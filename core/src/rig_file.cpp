@@ -7,6 +7,7 @@
 
 #include "facespace/core/io.h"
 #include "facespace/core/shape_tools.h"
+#include "facespace/core/weights.h"
 
 namespace facespace {
 
@@ -32,7 +33,22 @@ std::string JsonPointerEscape(const std::string& s) {
   return r;
 }
 
-// In-betweens, correctives and statistics: what makes shapes more than a sum.
+// Left/right controls ("eyes/l-eye-bag-decr|incr" and "eyes/r-...") as partners.
+void PairControls(Rig& rig) {
+  for (size_t i = 0; i < rig.controls.size(); ++i) {
+    if (rig.controls[i].partner >= 0) continue;
+    const std::string other = CounterpartName(rig.controls[i].name);
+    if (other.empty()) continue;
+    for (size_t k = 0; k < rig.controls.size(); ++k) {
+      if (k != i && rig.controls[k].name == other) {
+        rig.controls[i].partner = static_cast<int>(k);
+        rig.controls[k].partner = static_cast<int>(i);
+      }
+    }
+  }
+}
+
+// Controls, in-betweens, correctives and statistics: what makes shapes more than a sum.
 template <typename Bad>
 Status ApplySemantics(Rig& rig, const json& j, Bad bad) {
   auto shape_at = [&](const json& v, const std::string& ptr, uint32_t* out) -> Status {
@@ -47,6 +63,29 @@ Status ApplySemantics(Rig& rig, const json& j, Bad bad) {
     rig.shapes[s].driven = true;
     return Status::Ok();
   };
+  if (j.contains("controls")) {
+    if (!j["controls"].is_object()) return bad("/controls", "must be an object of control name -> {\"group\", \"negative\", \"positive\"}");
+    for (auto it = j["controls"].begin(); it != j["controls"].end(); ++it) {
+      const std::string ptr = "/controls/" + JsonPointerEscape(it.key());
+      if (!it->is_object()) return bad(ptr, "must be an object");
+      Control c;
+      c.name = it.key();
+      for (const char* side : {"negative", "positive"}) {
+        if (!it->contains(side)) continue;
+        uint32_t shape = 0;
+        if (Status st = shape_at((*it)[side], ptr + "/" + side, &shape); !st.ok()) return st;
+        (std::string(side) == "negative" ? c.negative : c.positive) = static_cast<int>(shape);
+      }
+      if (c.positive < 0) return bad(ptr + "/positive", "is required (the shape driven by values above 0)");
+      if (it->contains("group")) {
+        if (!(*it)["group"].is_string()) return bad(ptr + "/group", "must be a string");
+        c.group = (*it)["group"].get<std::string>();
+      }
+      c.min = c.negative >= 0 ? -1.0f : 0.0f;
+      rig.controls.push_back(std::move(c));
+    }
+    PairControls(rig);
+  }
   if (j.contains("inbetweens")) {
     if (!j["inbetweens"].is_object()) return bad("/inbetweens", "must be an object of slider shape -> [{\"shape\", \"weight\"}]");
     for (auto it = j["inbetweens"].begin(); it != j["inbetweens"].end(); ++it) {
@@ -298,6 +337,110 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
   }
   if (Status st = ApplySemantics(rig, j, bad); !st.ok()) return st;
   return Status::Ok();
+}
+
+Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_array()) return InvalidArgument("not a modifiers file: want a JSON array of {\"group\", \"modifiers\"}");
+  for (size_t g = 0; g < j.size(); ++g) {
+    const json& group = j[g];
+    if (!group.is_object() || !group.contains("group") || !group["group"].is_string() || !group.contains("modifiers") ||
+        !group["modifiers"].is_array()) {
+      return InvalidArgument("/" + std::to_string(g) + ": want {\"group\": NAME, \"modifiers\": [...]}");
+    }
+    const std::string gname = group["group"].get<std::string>();
+    for (const json& m : group["modifiers"]) {
+      if (!m.is_object() || !m.contains("target") || !m["target"].is_string()) continue;  // Macro modifiers: no target.
+      const std::string target = m["target"].get<std::string>();
+      Control c;
+      c.group = gname;
+      if (m.contains("min") && m.contains("max") && m["min"].is_string() && m["max"].is_string()) {
+        const std::string lo = m["min"].get<std::string>(), hi = m["max"].get<std::string>();
+        c.name = gname + "/" + target + "-" + lo + "|" + hi;
+        c.negative = FindShape(rig, target + "-" + lo);
+        c.positive = FindShape(rig, target + "-" + hi);
+        if (c.negative < 0 || c.positive < 0) continue;
+        c.min = -1.0f;
+      } else {
+        c.name = gname + "/" + target;
+        c.positive = FindShape(rig, target);
+        if (c.positive < 0) continue;
+      }
+      for (int s : {c.negative, c.positive}) {
+        if (s >= 0) rig.shapes[s].group = gname;
+      }
+      rig.controls.push_back(std::move(c));
+    }
+  }
+  PairControls(rig);
+  return Status::Ok();
+}
+
+std::string ManifestJson(const Rig& rig) {
+  json m = json::object();
+  m["name"] = rig.name;
+  json shapes = json::object();
+  for (const Shape& s : rig.shapes) {
+    json o = {{"group", s.group}, {"min", s.min}, {"max", s.max}, {"default", s.default_weight}};
+    if (s.partner >= 0) o["partner"] = rig.shapes[s.partner].name;
+    if (!s.aliases.empty()) o["aliases"] = s.aliases;
+    shapes[s.name] = o;
+  }
+  m["shapes"] = shapes;
+  if (!rig.controls.empty()) {
+    json controls = json::object();
+    for (const Control& c : rig.controls) {
+      json o = {{"group", c.group}, {"positive", rig.shapes[c.positive].name}};
+      if (c.negative >= 0) o["negative"] = rig.shapes[c.negative].name;
+      controls[c.name] = o;
+    }
+    m["controls"] = controls;
+  }
+  return m.dump(1) + "\n";
+}
+
+Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,
+                     std::vector<Warning>& warnings) {
+  Status status = InvalidArgument("");
+  for (const WeightEntry& e : controls) {
+    const Control* c = nullptr;
+    for (const Control& k : rig.controls) {
+      if (k.name == e.name) c = &k;
+    }
+    if (!c) {
+      std::string msg = "unknown control '" + e.name + "'";
+      if (rig.controls.empty()) msg += ": this rig has no controls";
+      else {
+        size_t shown = 0;
+        msg += "; controls: ";
+        for (const Control& k : rig.controls) {
+          if (shown++ == 20) {
+            msg += ", ... (" + std::to_string(rig.controls.size()) + " in all)";
+            break;
+          }
+          msg += (shown > 1 ? ", " : "") + k.name;
+        }
+      }
+      status.fields.push_back({e.pointer, msg});
+      continue;
+    }
+    if (!std::isfinite(e.value)) {
+      status.fields.push_back({e.pointer, "control '" + e.name + "' must be a finite number"});
+      continue;
+    }
+    if (e.value < c->min || e.value > c->max) {
+      warnings.push_back({"control_out_of_range",
+                          "control '" + c->name + "' = " + FormatNumber(e.value) + " is outside its range [" + FormatNumber(c->min) +
+                              ", " + FormatNumber(c->max) + "]",
+                          c->name, e.value, true});
+    }
+    WeightEntry pos{rig.shapes[c->positive].name, -1, c->negative >= 0 ? std::max(e.value, 0.0) : e.value, e.pointer};
+    weights.push_back(pos);
+    if (c->negative >= 0) weights.push_back({rig.shapes[c->negative].name, -1, std::max(-e.value, 0.0), e.pointer});
+  }
+  if (status.fields.empty()) return Status::Ok();
+  status.message = status.fields[0].pointer + ": " + status.fields[0].message;
+  return status;
 }
 
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {

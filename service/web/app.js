@@ -151,7 +151,7 @@ async function refresh() {
   try {
     const [check, png, mesh] = await Promise.all([
       post(`/v1/rigs/${rig}/check`, { weights }, signal).then((r) => r.json()),
-      post(`/v1/rigs/${rig}/render`, { weights, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch } }, signal)
+      post(`/v1/rigs/${rig}/render`, { weights, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch, frame: 'shapes' } }, signal)
         .then((r) => r.blob()),
       post(`/v1/rigs/${rig}/mesh`, { weights, format: 'f32' }, signal).then((r) => r.arrayBuffer()),
     ]);

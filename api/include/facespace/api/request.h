@@ -25,6 +25,7 @@ Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const s
 
 struct MeshRequest {
   std::vector<WeightEntry> weights;
+  std::vector<WeightEntry> controls;  // {"controls": {"nose/nose-trans-down|up": -0.4}}: see ApplyControls.
   PoseRequest pose;                  // "pose", "animation" + "time" (+ "loop"), "blend".
   BlendOptions options;
   std::optional<MeshFormat> format;  // Absent: decided by Accept, else JSON.
@@ -39,7 +40,7 @@ struct MeshRequest {
 //  "pose": {"JOINT": {"rotation": [x, y, z, w] | "euler": [x, y, z], "translation", "scale"}},
 //  "animation": NAME|INDEX, "time": SECONDS, "loop": bool,
 //  "blend": [{"animation": NAME|INDEX, "time", "weight", "loop", "mask": [JOINT, ...]}],
-//  "skinning": "linear"|"dual_quaternion", "lod": 0..4}
+//  "skinning": "linear"|"dual_quaternion", "lod": 0..4, "controls": {NAME: value}}
 // Malformed JSON is InvalidArgument with pointer "" and message starting "malformed JSON";
 // schema errors name their field.
 Result<MeshRequest> ParseMeshRequest(std::string_view body);

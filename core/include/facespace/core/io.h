@@ -9,6 +9,7 @@
 #include "facespace/core/blend.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
+#include "facespace/core/weights.h"
 
 namespace facespace {
 
@@ -32,6 +33,33 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
 // named after its file stem. Connectivity must be identical; the first differing face is
 // reported. Shapes are stored relative (S_j - base), exact zeros elided.
 Result<Rig> LoadObjSequence(std::span<const std::string> paths);
+
+// A MakeHuman rig: base.obj (hm08) and a folder of .target files ("index dx dy dz" lines,
+// '#' comments), the OBJ's vertex order kept so target indices stay valid.
+struct MakeHumanOptions {
+  std::vector<std::string> groups = {"body"};  // OBJ groups ("g") whose faces are kept; "*" = all.
+  bool metres = false;                         // Scale decimetres to metres.
+  std::string modifiers;                       // modeling_modifiers.json: controls; "" = none.
+};
+// Shapes are named after their files (stem), grouped by their folder; errors in a target file
+// name the file and line (malformed line, index beyond the mesh, duplicate index). Vertices no
+// kept face uses are dropped, order preserved (hm08's body is vertices 0-13379: unchanged).
+Result<Rig> LoadMakeHuman(const std::string& obj_path, const std::string& targets_dir, const MakeHumanOptions& options);
+
+// Controls from MakeHuman's modeling_modifiers.json: [{"group", "modifiers": [{"target",
+// "min", "max"}]}]. A modifier with min/max is a two-sided control "group/target-min|max" in
+// [-1, 1]; one without, a one-sided "group/target" in [0, 1]. Modifiers whose targets the rig
+// lacks are skipped; l-/r- controls become partners.
+Status ApplyMakeHumanModifiers(Rig& rig, const std::string& json_text);
+
+// The manifest (JSON text) that carries a rig's groups, ranges, partners, aliases and controls.
+std::string ManifestJson(const Rig& rig);
+
+// Turns control values into shape weights (two-sided: the negative shape gets -v below 0, the
+// positive shape v above). Unknown controls are errors naming their pointer; a value outside
+// the control's range warns control_out_of_range.
+Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,
+                     std::vector<Warning>& warnings);
 
 // Loads a rig from a path: .glb/.gltf, or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});

@@ -106,6 +106,18 @@ struct Corrective {
   bool use_min = false;
 };
 
+// A control a character creator shows instead of raw shapes (MakeHuman's modifiers): a
+// two-sided control in [-1, 1] drives `negative` with -v below 0 and `positive` with v above;
+// a one-sided control in [0, 1] drives `positive` only.
+struct Control {
+  std::string name;                     // "nose/nose-trans-down|up", "head/head-oval".
+  std::string group = "default";
+  float min = 0.0f, max = 1.0f;
+  int negative = -1;                    // Shape index, or -1 (one-sided).
+  int positive = -1;
+  int partner = -1;                     // Mirrored left/right control, or -1.
+};
+
 // A statistical model of the weights (e.g. a PCA face space): components (orthonormal
 // directions in weight space, one weight per shape) with their standard deviations, around a
 // mean. The Mahalanobis distance of a point beyond `bound` warns (implausible).
@@ -194,6 +206,7 @@ struct Rig {
   size_t joint_count = 0;
   std::vector<Skin> skins;
   std::vector<AnimationInfo> animations;
+  std::vector<Control> controls;       // From the manifest (or a MakeHuman modifiers file).
   std::vector<InBetweens> inbetweens;  // From the manifest: weights computed before blending.
   std::vector<Corrective> correctives;
   ShapeStatistics statistics;
