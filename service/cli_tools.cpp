@@ -183,12 +183,13 @@ namespace facespace::cli {
 
 int Convert(const std::vector<std::string>& args) {
   static const char kUsage[] =
-      "usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR [--modifiers modeling_modifiers.json]\n"
+      "usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR ... [--modifiers modeling_modifiers.json]\n"
       "         [--groups body,helper-...|*] [--metres]] -o OUT.glb\n"
       "  writes any rig we read (glTF, an OBJ sequence, a MakeHuman base.obj with --targets) as a .glb with\n"
       "  sparse morph targets, and OUT.manifest.json beside it (groups, ranges, partners, controls).\n";
   std::vector<std::string> paths;
-  std::string targets, out;
+  std::vector<std::string> targets;
+  std::string out;
   MakeHumanOptions mh;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -209,7 +210,7 @@ int Convert(const std::vector<std::string>& args) {
       return 2;
     }
     const std::string v = args[++i];
-    if (a == "--targets") targets = v;
+    if (a == "--targets") targets.push_back(v);
     else if (a == "--modifiers") mh.modifiers = v;
     else if (a == "--groups") {
       mh.groups.clear();

@@ -261,7 +261,7 @@ Status ReadTarget(const std::string& path, size_t vertex_count, float scale, Spa
 
 }  // namespace
 
-Result<Rig> LoadMakeHuman(const std::string& obj_path, const std::string& targets_dir, const MakeHumanOptions& options) {
+Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs, const MakeHumanOptions& options) {
   namespace fs = std::filesystem;
   ObjMesh obj;
   if (Status s = ParseObj(obj_path, obj); !s.ok()) return s;
@@ -295,17 +295,26 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, const std::string& target
   Rig rig;
   rig.name = "makehuman";
   Primitive p = BasePrimitive(kept, rig.load_warnings, obj_path);
-  // Targets: every .target under targets_dir, sorted by path (deterministic).
-  std::vector<fs::path> files;
-  std::error_code ec;
-  for (auto it = fs::recursive_directory_iterator(targets_dir, ec); !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (it->is_regular_file() && it->path().extension() == ".target") files.push_back(it->path());
+  // Targets: every .target under each folder, sorted by path (deterministic).
+  std::vector<std::pair<fs::path, std::string>> files;  // (file, group)
+  for (const std::string& dir : target_dirs) {
+    std::vector<fs::path> found;
+    std::error_code ec;
+    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (it->is_regular_file() && it->path().extension() == ".target") found.push_back(it->path());
+    }
+    if (ec || !fs::is_directory(dir)) return NotFound("cannot read the targets folder '" + dir + "'");
+    std::sort(found.begin(), found.end());
+    const std::string own = fs::path(dir).lexically_normal().filename().empty() ? fs::path(dir).lexically_normal().parent_path().filename().string()
+                                                                                 : fs::path(dir).lexically_normal().filename().string();
+    for (const fs::path& f : found) {
+      const fs::path rel = f.parent_path().lexically_relative(dir);
+      files.emplace_back(f, rel.empty() || rel == "." ? own : rel.begin()->string());
+    }
   }
-  if (ec) return NotFound("cannot read the targets folder '" + targets_dir + "'");
-  std::sort(files.begin(), files.end());
   Mesh mesh;
   mesh.name = rig.name;
-  for (const fs::path& file : files) {
+  for (const auto& [file, group] : files) {
     SparseTarget full, t;
     if (Status s = ReadTarget(file.string(), obj_vertices, scale, full); !s.ok()) return s;
     for (size_t k = 0; k < full.indices.size(); ++k) {
@@ -316,9 +325,8 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, const std::string& target
     }
     Shape shape;
     shape.name = file.stem().string();
-    const fs::path parent = file.parent_path().lexically_relative(targets_dir);
-    shape.group = parent.empty() || parent == "." ? "default" : parent.begin()->string();
-    if (FindShape(rig, shape.name) >= 0) shape.name = parent.string() + "/" + shape.name;
+    shape.group = group.empty() ? "default" : group;
+    if (FindShape(rig, shape.name) >= 0) shape.name = group + "/" + shape.name;
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(std::move(shape));
     p.targets.push_back(std::move(t));

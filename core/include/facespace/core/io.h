@@ -44,7 +44,9 @@ struct MakeHumanOptions {
 // Shapes are named after their files (stem), grouped by their folder; errors in a target file
 // name the file and line (malformed line, index beyond the mesh, duplicate index). Vertices no
 // kept face uses are dropped, order preserved (hm08's body is vertices 0-13379: unchanged).
-Result<Rig> LoadMakeHuman(const std::string& obj_path, const std::string& targets_dir, const MakeHumanOptions& options);
+// Each of `target_dirs` is read recursively, files sorted by path; a shape's group is its
+// sub-folder, or the folder's own name for files directly in it.
+Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs, const MakeHumanOptions& options);
 
 // Controls from MakeHuman's modeling_modifiers.json: [{"group", "modifiers": [{"target",
 // "min", "max"}]}]. A modifier with min/max is a two-sided control "group/target-min|max" in
