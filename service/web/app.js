@@ -6,7 +6,9 @@ const params = new URLSearchParams(location.search);
 const API = (params.get('api') || '').replace(/\/$/, '');  // Another origin, or '' for this one.
 const $ = (id) => document.getElementById(id);
 
-const state = { rig: null, detail: null, weights: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null, generation: 0 };
+// `weights` by shape, or `controls` by control when the rig has controls (MakeHuman modifiers):
+// the sliders show one or the other.
+const state = { rig: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null, generation: 0 };
 let inflight = null;   // AbortController of the requests for the current weights.
 let timer = 0;
 
@@ -38,18 +40,27 @@ function showError(e) {
 
 // ---- weights and sliders -------------------------------------------------------------------
 
-function nonZero() {
+function nonZeroOf(map) {
   const w = {};
-  for (const [k, v] of Object.entries(state.weights)) if (v !== 0) w[k] = v;
+  for (const [k, v] of Object.entries(map)) if (v !== 0) w[k] = v;
   return w;
 }
+const usesControls = () => state.detail && state.detail.controls && state.detail.controls.length > 0;
+const values = () => (usesControls() ? state.controls : state.weights);
+const nonZero = () => nonZeroOf(values());
+// The request members for the current point: {"weights": ...} or {"controls": ...}.
+const point = () => (usesControls() ? { controls: nonZero() } : { weights: nonZero() });
 
-function shapeByName(name) { return state.detail.shapes.find((s) => s.name === name); }
+// The sliders' items: shapes (not driven ones), or controls.
+function items() {
+  return usesControls() ? state.detail.controls : state.detail.shapes.filter((s) => !s.driven);
+}
+function shapeByName(name) { return items().find((s) => s.name === name); }
 
 function setWeight(name, value, fromPartner) {
   const s = shapeByName(name);
-  if (!s || s.driven || !Number.isFinite(value)) return;
-  state.weights[name] = value;
+  if (!s || !Number.isFinite(value)) return;
+  values()[name] = value;
   const row = document.querySelector(`.shape[data-name="${CSS.escape(name)}"]`);
   if (row) {
     row.querySelector('input[type=range]').value = value;
@@ -64,8 +75,7 @@ function buildControls() {
   const box = $('controls');
   box.textContent = '';
   const groups = new Map();
-  for (const s of state.detail.shapes) {
-    if (s.driven) continue;  // In-betweens and correctives follow their sliders.
+  for (const s of items()) {  // Driven shapes (in-betweens, correctives) follow their sliders: not shown.
     if (!groups.has(s.group)) groups.set(s.group, []);
     groups.get(s.group).push(s);
   }
@@ -79,13 +89,14 @@ function buildControls() {
       row.className = 'shape';
       row.dataset.name = s.name;
       const label = document.createElement('label');
-      label.textContent = s.name;
-      label.title = `${s.name} [${s.min}, ${s.max}]` + (s.partner ? ` (partner ${s.partner})` : '');
+      label.textContent = s.name.includes('/') ? s.name.slice(s.name.indexOf('/') + 1) : s.name;  // Controls: group/name.
+      label.title = `${s.name} [${s.min}, ${s.max}]` + (s.partner ? ` (partner ${s.partner})` : '') +
+                    (s.negative ? ` (${s.negative} below 0, ${s.positive} above)` : '');
       const range = document.createElement('input');
-      Object.assign(range, { type: 'range', min: s.min, max: s.max, step: 0.01, value: state.weights[s.name] || 0 });
+      Object.assign(range, { type: 'range', min: s.min, max: s.max, step: 0.01, value: values()[s.name] || 0 });
       range.setAttribute('aria-label', s.name);
       const num = document.createElement('input');
-      Object.assign(num, { type: 'number', step: 0.05, value: state.weights[s.name] || 0 });
+      Object.assign(num, { type: 'number', step: 0.05, value: values()[s.name] || 0 });
       num.setAttribute('aria-label', s.name + ' value');
       range.addEventListener('input', () => { setWeight(s.name, parseFloat(range.value)); schedule(); });
       num.addEventListener('change', () => { setWeight(s.name, parseFloat(num.value)); schedule(); });
@@ -109,7 +120,7 @@ function rng(seed) {
 
 function randomise() {
   const r = rng(parseInt($('seed').value, 10) || 0);
-  const free = state.detail.shapes.filter((s) => !s.driven);
+  const free = items();
   for (const s of free) setWeight(s.name, 0, true);
   // A handful of shapes, each uniform within its range: a plausible face rather than every slider at once.
   const count = Math.min(6, free.length);
@@ -123,7 +134,7 @@ function randomise() {
 }
 
 function reset() {
-  for (const s of state.detail.shapes) if (!s.driven) setWeight(s.name, s.default || 0, true);
+  for (const s of items()) setWeight(s.name, s.default || 0, true);
   state.yaw = 0;
   state.pitch = 0;
   schedule();
@@ -132,9 +143,11 @@ function reset() {
 // ---- refresh: check, render and mesh, newest request wins -----------------------------------
 
 function schedule() {
-  let sum = 0;
-  for (const v of Object.values(state.weights)) sum += v;
-  $('sum').textContent = +sum.toFixed(4);
+  if (!usesControls()) {  // With controls the service's check says the sum of the shapes they drive.
+    let sum = 0;
+    for (const v of Object.values(state.weights)) sum += v;
+    $('sum').textContent = +sum.toFixed(4);
+  }
   writeHash();
   clearTimeout(timer);
   timer = setTimeout(refresh, 60);
@@ -146,14 +159,14 @@ async function refresh() {
   const signal = inflight.signal;
   const generation = ++state.generation;
   const rig = encodeURIComponent(state.rig);
-  const weights = nonZero();
+  const at = point();
   showError(null);
   try {
     const [check, png, mesh] = await Promise.all([
-      post(`/v1/rigs/${rig}/check`, { weights }, signal).then((r) => r.json()),
-      post(`/v1/rigs/${rig}/render`, { weights, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch, frame: 'shapes' } }, signal)
+      post(`/v1/rigs/${rig}/check`, at, signal).then((r) => r.json()),
+      post(`/v1/rigs/${rig}/render`, { ...at, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch, frame: 'shapes' } }, signal)
         .then((r) => r.blob()),
-      post(`/v1/rigs/${rig}/mesh`, { weights, format: 'f32' }, signal).then((r) => r.arrayBuffer()),
+      post(`/v1/rigs/${rig}/mesh`, { ...at, format: 'f32' }, signal).then((r) => r.arrayBuffer()),
     ]);
     if (generation !== state.generation) return;
     $('sum').textContent = +check.sum.toFixed(4);
@@ -168,7 +181,7 @@ async function refresh() {
 }
 
 function showWarnings(warnings) {
-  const out = new Set(warnings.filter((w) => w.code === 'out_of_range').map((w) => w.shape));
+  const out = new Set(warnings.filter((w) => w.code === (usesControls() ? 'control_out_of_range' : 'out_of_range')).map((w) => w.shape));
   for (const row of document.querySelectorAll('.shape')) row.classList.toggle('out', out.has(row.dataset.name));
   const el = $('warning');
   if (!warnings.length) {
@@ -180,7 +193,9 @@ function showWarnings(warnings) {
   const parts = [];
   if (extrapolation) parts.push('Extrapolation: ' + extrapolation.message);
   if (out.size) parts.push('out of range: ' + [...out].join(', '));
-  for (const w of warnings) if (w.code !== 'extrapolation' && w.code !== 'out_of_range') parts.push(w.message);
+  for (const w of warnings) {
+    if (!['extrapolation', 'out_of_range', 'control_out_of_range'].includes(w.code)) parts.push(w.message);
+  }
   el.textContent = '\u26a0 ' + parts.join(' \u00b7 ');
   el.hidden = false;
 }
@@ -189,19 +204,20 @@ function showWarnings(warnings) {
 
 function writeHash() {
   const w = Object.entries(nonZero()).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
-  history.replaceState(null, '', '#rig=' + encodeURIComponent(state.rig) + '&w=' + w +
+  history.replaceState(null, '', '#rig=' + encodeURIComponent(state.rig) + (usesControls() ? '&c=' : '&w=') + w +
                                  (state.view !== 'shaded' ? '&view=' + state.view : ''));
 }
 
 function readHash() {
   const h = new URLSearchParams(location.hash.slice(1));
   const weights = {};
-  for (const pair of (h.get('w') || '').split(',').filter(Boolean)) {
+  const key = h.has('c') ? 'c' : 'w';
+  for (const pair of (h.get(key) || '').split(',').filter(Boolean)) {
     const i = pair.lastIndexOf(':');
     weights[decodeURIComponent(pair.slice(0, i))] = parseFloat(pair.slice(i + 1));
   }
   // A link's weights are the whole vector: shapes it does not name are 0, not their defaults.
-  return { rig: h.get('rig'), weights: h.has('w') ? weights : null, view: h.get('view') };
+  return { rig: h.get('rig'), weights: h.has(key) ? weights : null, view: h.get('view') };
 }
 
 // ---- downloads -----------------------------------------------------------------------------
@@ -217,7 +233,7 @@ function save(blob, name) {
 
 async function download(format) {
   try {
-    const r = await post(`/v1/rigs/${encodeURIComponent(state.rig)}/mesh`, { weights: nonZero(), format });
+    const r = await post(`/v1/rigs/${encodeURIComponent(state.rig)}/mesh`, { ...point(), format });
     save(await r.blob(), `${state.rig}.${format}`);
   } catch (e) { showError(e); }
 }
@@ -351,7 +367,8 @@ async function loadRig(id, weights) {
   state.rig = id;
   state.detail = await (await call(`/v1/rigs/${encodeURIComponent(id)}`)).json();
   state.weights = {};
-  for (const s of state.detail.shapes) if (!s.driven) state.weights[s.name] = weights ? 0 : s.default || 0;
+  state.controls = {};
+  for (const s of items()) values()[s.name] = weights ? 0 : s.default || 0;
   buildControls();
   for (const [k, v] of Object.entries(weights || {})) if (shapeByName(k)) setWeight(k, v, true);
   gl.setTopology(await (await call(`/v1/rigs/${encodeURIComponent(id)}/topology`)).json());
@@ -386,7 +403,7 @@ $('dl-glb').addEventListener('click', () => download('glb'));
 $('dl-obj').addEventListener('click', () => download('obj'));
 $('dl-png').addEventListener('click', () => state.lastPng && save(state.lastPng.blob, `${state.rig}.png`));
 $('dl-json').addEventListener('click', () =>
-  save(new Blob([JSON.stringify({ weights: nonZero() }, null, 2)], { type: 'application/json' }), `${state.rig}.weights.json`));
+  save(new Blob([JSON.stringify(point(), null, 2)], { type: 'application/json' }), `${state.rig}.weights.json`));
 $('share').addEventListener('click', () => { writeHash(); navigator.clipboard && navigator.clipboard.writeText(location.href).catch(() => {}); });
 drag($('preview'), (dx, dy) => { state.yaw += dx * 0.5; state.pitch = Math.max(-80, Math.min(80, state.pitch + dy * 0.5)); },
      () => schedule());

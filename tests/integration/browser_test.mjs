@@ -138,8 +138,35 @@ async function run(label, url, shot) {
   await context.close();
 }
 
+// A rig with controls (the MakeHuman face): grouped control sliders, two-sided, mirrored pairs.
+async function controls(url, shot) {
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  await page.goto(url);
+  await page.waitForFunction(() => document.querySelectorAll('.shape').length > 100, null, { timeout: 60000 });
+  await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512, null, { timeout: 60000 });
+  const groups = await page.locator('#controls h2').allTextContents();
+  check(`controls: the MakeHuman rig shows its 146 controls grouped (${groups.join(', ')})`,
+    (await page.locator('.shape').count()) === 146 && groups.includes('nose') && groups.includes('eyes'));
+  const before = await previewDigest(page);
+  await page.locator('input[aria-label="nose/nose-trans-down|up"]').fill('-0.4');
+  await page.locator('input[aria-label="eyes/l-eye-bag-decr|incr"]').fill('0.7');
+  let after = before;
+  for (let i = 0; i < 150 && after === before; ++i) { await page.waitForTimeout(100); after = await previewDigest(page); }
+  await page.waitForFunction(() => document.getElementById('sum').textContent === '1.8', null, { timeout: 15000 }).catch(() => {});
+  check('controls: a two-sided control below 0 changes the face; the sum counts the shapes it drives (0.4 + 0.7 + 0.7)',
+    after !== before && (await page.locator('#sum').textContent()) === '1.8');
+  check('controls: the left eye-bag control moves the right one',
+    (await page.locator('input[aria-label="eyes/r-eye-bag-decr|incr"]').inputValue()) === '0.7');
+  const hash = await page.evaluate(() => location.hash);
+  check(`controls: the URL holds control values (${hash.slice(0, 60)})`, /#rig=makehuman&c=.*nose%2Fnose-trans-down%7Cup:-0.4/.test(hash));
+  await page.screenshot({ path: shot });
+  console.log('screenshot: ' + shot);
+  await page.close();
+}
+
 // '#rig=facecap&w=' starts from all weights 0 (FaceCap's file has non-zero defaults).
 await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
+await controls(service + '/#rig=makehuman&c=', `${outDir}/page-makehuman.png`);
 await run('cross-origin', otherPage + '?api=' + encodeURIComponent(service) + '#rig=facecap&w=');
 await browser.close();
 console.log(`${pass} passed, ${fail} failed`);

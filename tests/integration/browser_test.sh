@@ -13,7 +13,8 @@ if [ ! -x /usr/bin/chromium ] || [ ! -d "$node_modules/playwright-core" ]; then
 fi
 free_port() { python3 -c 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])'; }
 port=$(free_port); web=$(free_port)
-mkdir -p "$tmp/store" && cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" "$tmp/store/"
+mkdir -p "$tmp/store" && cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" \
+  "$src/assets/makehuman/makehuman.glb" "$src/assets/makehuman/makehuman.manifest.json" "$tmp/store/"
 "$bin" serve --port "$port" --rigs "$tmp/store" --jobs-dir "$tmp/jobs" --cors-origin "http://127.0.0.1:$web" --quiet >"$tmp/log" 2>&1 &
 pids+=($!)
 python3 -m http.server "$web" --bind 127.0.0.1 --directory "$src/service/web" >/dev/null 2>&1 &
