@@ -182,6 +182,36 @@ check "compress --json: components, errors within the bound, sizes" py 'import j
 check "blend --lod 2: about a quarter of the triangles, fewer vertices, reported" sh -c "grep -Eq 'lod 2: 20[0-9][0-9] of 8042 triangles' '$tmp/err'" && py 'import json,sys; p=json.load(open(sys.argv[1]))["primitives"]; sys.exit(not(sum(len(x["positions"]) for x in p)//3 < 2000))' "$tmp/lod.json"
 err_case "blend --lod 7 is refused" "level of detail" blend "$rig" --lod 7 -o "$tmp/x.json"
 
+# MakeHuman: convert, controls
+MH=$M/MakeHumanFace
+mkdir -p "$tmp/mh"
+"$bin" convert "$MH/base.obj" --targets "$MH/targets/nose" --targets "$MH/targets/eyes" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh/mh.glb" 2>"$tmp/err"; rc=$?
+check "convert MakeHuman (nose, eyes): 13380 vertices, shapes and controls, glb and manifest" sh -c "[ $rc -eq 0 ] && grep -Eq 'convert: 13380 vertices, 26756 triangles, [0-9]+ shapes .*, [0-9]+ controls' '$tmp/err' && [ -s '$tmp/mh/mh.glb' ] && [ -s '$tmp/mh/mh.manifest.json' ]"
+mkdir -p "$tmp/mh2"
+"$bin" convert "$MH/base.obj" --targets "$MH/targets/nose" --targets "$MH/targets/eyes" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh2/mh.glb" 2>/dev/null
+check "convert is deterministic (glb and manifest byte-identical)" sh -c "cmp -s '$tmp/mh/mh.glb' '$tmp/mh2/mh.glb' && cmp -s '$tmp/mh/mh.manifest.json' '$tmp/mh2/mh.manifest.json'"
+check "convert: the manifest holds two-sided controls, groups and l/r partners" py 'import json,sys; m=json.load(open(sys.argv[1])); c=m["controls"]; s=m["shapes"]; sys.exit(not(c["nose/nose-trans-down|up"]=={"group":"nose","negative":"nose-trans-down","positive":"nose-trans-up"} and s["l-eye-bag-decr"]["partner"]=="r-eye-bag-decr" and s["nose-trans-up"]["group"]=="nose"))' "$tmp/mh/mh.manifest.json"
+if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/mh/mh.glb" "$src/assets/makehuman/makehuman.glb" >"$tmp/val" 2>&1
+  check "convert: the converted glb and the bundled MakeHuman glb pass the Khronos validator ($(tr '\n' ' ' <"$tmp/val"))" test $? -eq 0
+fi
+"$bin" blend "$tmp/mh/mh.glb" --controls '{"nose/nose-trans-down|up": -0.4}' -o "$tmp/mc1.json" 2>/dev/null
+"$bin" blend "$tmp/mh/mh.glb" --weights '{"nose-trans-down": 0.4}' -o "$tmp/mc2.json" 2>/dev/null
+"$bin" blend "$tmp/mh/mh.glb" --controls '{"nose/nose-trans-down|up": 0.4}' -o "$tmp/mc3.json" 2>/dev/null
+"$bin" blend "$tmp/mh/mh.glb" --weights '{"nose-trans-up": 0.4}' -o "$tmp/mc4.json" 2>/dev/null
+check "controls both ways: -0.4 drives nose-trans-down 0.4, +0.4 nose-trans-up 0.4" sh -c "cmp -s '$tmp/mc1.json' '$tmp/mc2.json' && cmp -s '$tmp/mc3.json' '$tmp/mc4.json' && ! cmp -s '$tmp/mc1.json' '$tmp/mc3.json'"
+"$bin" blend "$tmp/mh/mh.glb" --controls '{"nose/nose-trans-down|up": -1.5}' -o "$tmp/x.json" 2>"$tmp/err"
+check "a control outside its range warns with its name" grep -q "warning: control_out_of_range: control 'nose/nose-trans-down|up' = -1.5 is outside its range \[-1, 1\]" "$tmp/err"
+err_case "an unknown control lists the controls" "unknown control 'nose/nose-up'; controls: " blend "$tmp/mh/mh.glb" --controls '{"nose/nose-up": 1}' -o "$tmp/x.json"
+mkdir -p "$tmp/badt/t" && printf '# a target\n10 0 0 0.1\n10 0.1 0 0\n' >"$tmp/badt/t/dup.target"
+err_case "convert: a duplicate index in a target file names file and line" "dup.target:3: vertex 10 is given twice (first on line 2)" convert "$MH/base.obj" --targets "$tmp/badt/t" -o "$tmp/x.glb"
+printf '99999 0 0 1\n' >"$tmp/badt/t/dup.target"
+err_case "convert: an index beyond the mesh names file and line" "dup.target:1: vertex index 99999 is beyond the mesh" convert "$MH/base.obj" --targets "$tmp/badt/t" -o "$tmp/x.glb"
+ict=$M/OBJ/ICT-FaceKit_subset
+"$bin" convert "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" -o "$tmp/ict.glb" 2>/dev/null
+"$bin" info --json "$tmp/ict.glb" >"$tmp/ict.json" 2>/dev/null
+check "convert an OBJ sequence: the glb holds its two shapes" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not([s["name"] for s in d["shapes"]]==["jawOpen","eyeBlink_L"]))' "$tmp/ict.json"
+
 # batch variant generation
 B="$tmp/batch"
 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/a" 2>"$tmp/err"; rc=$?

@@ -330,5 +330,23 @@ check "corrective: cheekPuff follows mouthSmile_L x eyeBlink_L" py 'import json,
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":0.8,"cheekPuff":0.3}}' "$U/v1/rigs/semantic/check")
 check "check: Mahalanobis 4 sigma warns implausible; a weight on a driven shape warns driven_shape" sh -c "[ $code = 200 ] && grep -qi '^facespace-warnings:.*implausible' '$tmp/hdr' && grep -qi '^facespace-warnings:.*driven_shape' '$tmp/hdr'" && jq_ "abs(d['mahalanobis']-4)<1e-5"
 
+# controls (the bundled MakeHuman face)
+cp "$src/assets/makehuman/makehuman.glb" "$src/assets/makehuman/makehuman.manifest.json" "$store/"
+restart
+code=$(c "$U/v1/rigs/makehuman")
+check "GET the MakeHuman rig: 286 shapes and 146 controls with groups, ranges, shapes and partners" sh -c "[ $code = 200 ]" && jq_ "
+  len(d['shapes'])==286 and len(d['controls'])==146 and
+  {'name':'nose/nose-trans-down|up','group':'nose','min':-1,'max':1,'negative':'nose-trans-down','positive':'nose-trans-up','partner':None} in d['controls'] and
+  [c['partner'] for c in d['controls'] if c['name']=='eyes/l-eye-bag-decr|incr']==['eyes/r-eye-bag-decr|incr']"
+c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nose-trans-down|up":-0.4},"format":"f32"}' "$U/v1/rigs/makehuman/mesh" >/dev/null; cp "$tmp/body" "$tmp/ctl1"
+c -X POST -H 'Content-Type: application/json' -d '{"weights":{"nose-trans-down":0.4},"format":"f32"}' "$U/v1/rigs/makehuman/mesh" >/dev/null; cp "$tmp/body" "$tmp/ctl2"
+c "$U/v1/rigs/makehuman/mesh?c.nose%2Fnose-trans-down%7Cup=-0.4&format=f32" >/dev/null; cp "$tmp/body" "$tmp/ctl3"
+check "controls in the body and as c.NAME query parameters give the shapes' mesh" sh -c "cmp -s '$tmp/ctl1' '$tmp/ctl2' && cmp -s '$tmp/ctl1' '$tmp/ctl3' && [ \$(stat -c %s '$tmp/ctl1') -eq $((13380 * 24)) ]"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nose-trans-down|up":1.5,"head/head-oval":0.5}}' "$U/v1/rigs/makehuman/check")
+check "check: a control past its range is named in the warnings" sh -c "[ $code = 200 ] && grep -qi '^facespace-warnings:.*control_out_of_range' '$tmp/hdr'" && jq_ "d['weights']=={'head-oval':0.5,'nose-trans-up':1.5} and any(w['code']=='control_out_of_range' and w['shape']=='nose/nose-trans-down|up' for w in d['warnings'])"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nope":1}}' "$U/v1/rigs/makehuman/mesh")" 422 "d['errors'][0]['pointer']=='/controls/nose~1nope'" && ok "an unknown control: 422 naming /controls/nose~1nope" || no "unknown control"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nose-trans-down|up":1},"width":256,"height":256,"camera":{"frame":"shapes"}}' "$U/v1/rigs/makehuman/render")
+check "render of the MakeHuman face with a control, framed on the shapes: a PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr'"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]

@@ -1,5 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <array>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
 #include <cmath>
 #include <numeric>
 
@@ -436,6 +442,124 @@ TEST(Semantics, ManifestErrorsNameTheField) {
   s = ApplyManifest(rig, R"({"derived": {"x": {"from": "nope", "mirror": "x"}}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/derived/x");
+}
+
+}  // namespace
+}  // namespace facespace
+
+namespace facespace {
+namespace {
+
+const std::string kMakeHuman = std::string(FACESPACE_SHARED_ASSETS) + "/more/MakeHumanFace";
+
+// The .target file itself, read here independently: vertex -> displacement.
+std::map<uint32_t, std::array<float, 3>> ReadTargetFile(const std::string& path) {
+  std::map<uint32_t, std::array<float, 3>> out;
+  std::ifstream f(path);
+  std::string line;
+  while (std::getline(f, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    uint32_t i;
+    std::array<float, 3> d;
+    if (in >> i >> d[0] >> d[1] >> d[2]) out[i] = d;
+  }
+  return out;
+}
+
+TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
+  const std::vector<std::string> dirs = {kMakeHuman + "/targets/nose", kMakeHuman + "/targets/eyes"};
+  MakeHumanOptions options;
+  options.modifiers = kMakeHuman + "/modifiers/modeling_modifiers.json";
+  auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", dirs, options);
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  EXPECT_EQ(rig->vertex_count(), 13380u);  // The skin: OBJ group "body".
+  ASSERT_EQ(rig->primitives.size(), 1u);
+  const Primitive& p = rig->primitives[0];
+  size_t files = 0;
+  for (const std::string& dir : dirs) {
+    for (const auto& e : std::filesystem::directory_iterator(dir)) {
+      if (e.path().extension() != ".target") continue;
+      ++files;
+      const int s = FindShape(rig.value(), e.path().stem().string());
+      ASSERT_GE(s, 0) << e.path();
+      EXPECT_EQ(rig->shapes[s].group, e.path().parent_path().filename().string());
+      const auto target = ReadTargetFile(e.path().string());
+      std::vector<float> w(rig->shapes.size(), 0.0f);
+      w[s] = 0.7f;
+      BlendedRig out;
+      BlendContext ctx;
+      ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
+      for (size_t v = 0; v < p.vertex_count(); ++v) {
+        auto it = target.find(static_cast<uint32_t>(v));
+        for (int c = 0; c < 3; ++c) {
+          const float want = p.positions[3 * v + c] + (it == target.end() ? 0.0f : 0.7f * it->second[c]);
+          ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want, 1e-6f) << e.path() << " vertex " << v;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(files, rig->shapes.size());
+  // Controls: nose-trans is two-sided; l-/r- eye controls are partners.
+  const auto control = [&](const std::string& name) -> const Control* {
+    for (const Control& c : rig->controls) if (c.name == name) return &c;
+    return nullptr;
+  };
+  const Control* nose = control("nose/nose-trans-down|up");
+  ASSERT_NE(nose, nullptr);
+  EXPECT_EQ(rig->shapes[nose->negative].name, "nose-trans-down");
+  EXPECT_EQ(rig->shapes[nose->positive].name, "nose-trans-up");
+  EXPECT_EQ(nose->min, -1.0f);
+  const Control* left = control("eyes/l-eye-bag-decr|incr");
+  ASSERT_NE(left, nullptr);
+  ASSERT_GE(left->partner, 0);
+  EXPECT_EQ(rig->controls[left->partner].name, "eyes/r-eye-bag-decr|incr");
+  // Both ways through ApplyControls.
+  std::vector<WeightEntry> entries;
+  std::vector<Warning> warnings;
+  std::vector<WeightEntry> given = {{"nose/nose-trans-down|up", -1, -0.4, "/controls/x"}};
+  ASSERT_TRUE(ApplyControls(rig.value(), given, entries, warnings).ok());
+  auto w = ResolveWeights(rig.value(), entries);
+  ASSERT_TRUE(w.ok());
+  EXPECT_FLOAT_EQ(w.value()[nose->negative], 0.4f);
+  EXPECT_FLOAT_EQ(w.value()[nose->positive], 0.0f);
+  entries.clear();
+  given[0].value = 1.5;
+  ASSERT_TRUE(ApplyControls(rig.value(), given, entries, warnings).ok());
+  w = ResolveWeights(rig.value(), entries);
+  EXPECT_FLOAT_EQ(w.value()[nose->positive], 1.5f);
+  EXPECT_FLOAT_EQ(w.value()[nose->negative], 0.0f);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].code, "control_out_of_range");
+  given[0].name = "nose/nope";
+  EXPECT_FALSE(ApplyControls(rig.value(), given, entries, warnings).ok());
+}
+
+TEST(MakeHuman, BadTargetFilesNameFileAndLine) {
+  const std::string dir = ::testing::TempDir() + "/mh_bad";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir + "/t");
+  struct Case {
+    const char* text;
+    const char* want;
+  } cases[] = {
+      {"# ok\n1 0 0 0.1\n2 0 0.1\n", "x.target:3: malformed line"},
+      {"5 0 0 0.1\n13380 0 0 1\n", ""},  // The body ends at 13379, but 13380 is a vertex of the OBJ (helpers): fine.
+      {"19158 0 0 1\n", "x.target:1: vertex index 19158 is beyond the mesh's 19158 vertices"},
+      {"7 0 0 1\n# c\n7 1 0 0\n", "x.target:3: vertex 7 is given twice (first on line 1)"},
+      {"7 0 zero 1\n", "x.target:1: malformed line"},
+  };
+  for (const Case& c : cases) {
+    std::ofstream(dir + "/t/x.target") << c.text;
+    const std::vector<std::string> dirs = {dir + "/t"};
+    auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", dirs, {});
+    if (!*c.want) {
+      EXPECT_TRUE(rig.ok()) << rig.status().message;
+      continue;
+    }
+    ASSERT_FALSE(rig.ok()) << c.text;
+    EXPECT_NE(rig.status().message.find(c.want), std::string::npos) << rig.status().message;
+  }
 }
 
 }  // namespace
