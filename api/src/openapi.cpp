@@ -72,6 +72,9 @@ json MeshQueryParams() {
       {{"name", "w"}, {"in", "query"}, {"style", "form"}, {"explode", true},
        {"description", "Weights as w.NAME=VALUE (by shape name, alias or index); shapes not named are 0"},
        {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
+      {{"name", "c"}, {"in", "query"}, {"style", "form"}, {"explode", true},
+       {"description", "Control values as c.NAME=VALUE (rigs with controls, e.g. c.nose/nose-trans-down|up=-0.4)"},
+       {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
       {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"glb", "obj", "json", "f32"}}}}},
       {{"name", "mode"}, {"in", "query"}, {"schema", {{"enum", {"relative", "absolute"}}}}},
       {{"name", "normals"}, {"in", "query"}, {"schema", {{"enum", {"blend", "recompute"}}}}},
@@ -116,9 +119,13 @@ json Build() {
                          {"skinning", {{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}}},
                          {"lod", {{"type", "integer"}, {"minimum", 0}, {"maximum", 4}, {"default", 0},
                                   {"description", "Level of detail: 0 full, L about 1/2^L of the triangles (a subset of the vertices)"}}}};
+  json controls_schema = {{"type", "object"}, {"additionalProperties", {{"type", "number"}}},
+                          {"description", "Control values by name (the rig route lists controls): a two-sided control v < 0 "
+                                          "drives its negative shape with -v, v > 0 its positive shape"}};
   json mesh_request = {{"type", "object"},
                        {"properties",
                         {{"weights", weights},
+                         {"controls", controls_schema},
                          {"mode", {{"enum", {"relative", "absolute"}}, {"default", "relative"}}},
                          {"normals", {{"enum", {"blend", "recompute"}}, {"default", "blend"}}},
                          {"format", {{"enum", {"glb", "obj", "json", "f32"}}}},
@@ -149,10 +156,12 @@ json Build() {
   json camera = {{"type", "object"},
                  {"properties", {{"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}, {"distance", {{"type", "number"}}},
                                  {"zoom", {{"type", "number"}}}, {"fov", {{"type", "number"}}},
+                                 {"frame", {{"enum", {"all", "shapes"}}, {"description", "Orbit around every vertex, or around those the shapes move"}}},
                                  {"eye", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                  {"target", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                  {"up", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}};
   json render_props = {{"weights", weights},
+                       {"controls", controls_schema},
                        {"mode", {{"enum", {"relative", "absolute"}}}},
                        {"normals", {{"enum", {"blend", "recompute"}}}},
                        {"strict", {{"type", "boolean"}}},
