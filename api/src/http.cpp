@@ -20,6 +20,7 @@
 #include "facespace/core/io.h"
 #include "facespace/core/lod.h"
 #include "facespace/core/sequence.h"
+#include "facespace/core/shape_tools.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 #include "facespace/render/render.h"
@@ -1394,7 +1395,13 @@ void Api::Register(httplib::Server& server) {
       }
       out += "]}";
     }
-    out += "]}";
+    out += "]";
+    std::array<float, 3> lo, hi;
+    if (ShapeFocusBox(*at, lo, hi)) {  // Where the shapes act, for clients that frame a view.
+      out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," + FormatNumber(lo[2]) + "],\"max\":[" +
+             FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) + "," + FormatNumber(hi[2]) + "]}";
+    }
+    out += "}";
     res.set_header("ETag", "\"" + stored->version + "-" + std::to_string(lod) + "\"");
     res.set_header("Cache-Control", "no-cache");
     res.set_content(std::move(out), "application/json");

@@ -79,6 +79,45 @@ std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float cente
   return map;
 }
 
+bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3>& hi) {
+  const auto world = PrimitiveWorldMatrices(rig);
+  std::vector<float> points;
+  std::vector<uint8_t> moved;
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    const Primitive& p = rig.primitives[pi];
+    moved.assign(p.vertex_count(), 0);
+    for (const SparseTarget& t : p.targets) {
+      float largest = 0.0f;
+      for (size_t k = 0; k < t.indices.size(); ++k) {
+        const float* d = &t.position_deltas[3 * k];
+        largest = std::max(largest, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      }
+      for (size_t k = 0; k < t.indices.size(); ++k) {
+        const float* d = &t.position_deltas[3 * k];
+        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0.0025f * largest) moved[t.indices[k]] = 1;
+      }
+    }
+    const auto& m = world[pi];
+    for (size_t v = 0; v < moved.size(); ++v) {
+      if (!moved[v]) continue;
+      const float* q = &p.positions[3 * v];
+      for (int r = 0; r < 3; ++r) points.push_back(m[r] * q[0] + m[4 + r] * q[1] + m[8 + r] * q[2] + m[12 + r]);
+    }
+  }
+  const size_t n = points.size() / 3;
+  if (n == 0) return false;
+  std::vector<float> axis(n);
+  for (int a = 0; a < 3; ++a) {
+    for (size_t i = 0; i < n; ++i) axis[i] = points[3 * i + a];
+    const size_t i_lo = n / 100, i_hi = n - 1 - n / 100;
+    std::nth_element(axis.begin(), axis.begin() + i_lo, axis.end());
+    lo[a] = axis[i_lo];
+    std::nth_element(axis.begin(), axis.begin() + i_hi, axis.end());
+    hi[a] = axis[i_hi];
+  }
+  return true;
+}
+
 Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options) {
   const int source = FindShape(rig, from);
   if (source < 0) return InvalidArgument("unknown shape '" + from + "'");

@@ -2,6 +2,8 @@
 // framebuffer, Blinn-Phong in linear light.
 #define GL_GLEXT_PROTOTYPES 1
 #include "facespace/render/render.h"
+
+#include "facespace/core/shape_tools.h"
 #include "internal.h"
 
 #include <GL/osmesa.h>
@@ -283,28 +285,11 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
   std::vector<Draw> draws;
   Eigen::AlignedBox3f box, shape_box;
   float heat_max = 0.0f;
-  std::vector<uint8_t> moved;
-  std::vector<float> moved_points;  // xyz of the vertices the shapes move, when framing them.
+
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
     const BlendedPrimitive& b = blended.primitives[pi];
-    moved.clear();
-    if (o.camera.frame_shapes) {
-      moved.assign(p.vertex_count(), 0);
-      // The vertices a shape moves noticeably (over 5% of its largest move): a target's faint
-      // tails (MakeHuman's head targets touch the hands by micrometres) must not widen the view.
-      for (const SparseTarget& t : p.targets) {
-        float largest = 0.0f;
-        for (size_t k = 0; k < t.indices.size(); ++k) {
-          const float* d = &t.position_deltas[3 * k];
-          largest = std::max(largest, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        }
-        for (size_t k = 0; k < t.indices.size(); ++k) {
-          const float* d = &t.position_deltas[3 * k];
-          if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0.0025f * largest) moved[t.indices[k]] = 1;
-        }
-      }
-    }
+
     const auto& m = b.world;
     Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
     const size_t first = verts.size() / 13;
@@ -324,7 +309,6 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
       const float d = std::sqrt(q0[0] * q0[0] + q0[1] * q0[1] + q0[2] * q0[2]);
       heat_max = std::max(heat_max, d);
       box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
-      if (!moved.empty() && moved[v]) moved_points.insert(moved_points.end(), {q[0], q[1], q[2]});
       const float uv[2] = {p.texcoords.empty() ? 0.0f : p.texcoords[2 * v], p.texcoords.empty() ? 0.0f : p.texcoords[2 * v + 1]};
       verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
       if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
@@ -335,20 +319,10 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
     for (uint32_t i : p.indices) indices.push_back(static_cast<uint32_t>(first + i));
   }
 
-  // The moved vertices' box, 1st to 99th percentile per axis: a stray vertex that one target
-  // moves far from the rest (MakeHuman's mouth targets touch one vertex at the hips) is ignored.
-  if (const size_t n = moved_points.size() / 3; n > 0) {
-    std::vector<float> axis(n);
-    Eigen::Vector3f lo, hi;
-    for (int a = 0; a < 3; ++a) {
-      for (size_t i = 0; i < n; ++i) axis[i] = moved_points[3 * i + a];
-      const size_t i_lo = n / 100, i_hi = n - 1 - n / 100;
-      std::nth_element(axis.begin(), axis.begin() + i_lo, axis.end());
-      lo[a] = axis[i_lo];
-      std::nth_element(axis.begin(), axis.begin() + i_hi, axis.end());
-      hi[a] = axis[i_hi];
-    }
-    shape_box = Eigen::AlignedBox3f(lo, hi);
+  // Framing the shapes: the rest-pose box of what they move (stable while sliders move).
+  if (o.camera.frame_shapes) {
+    std::array<float, 3> lo, hi;
+    if (ShapeFocusBox(rig, lo, hi)) shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
   }
 
   // Camera.

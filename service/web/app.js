@@ -269,7 +269,9 @@ const gl = (() => {
   }
   let framed = false;
 
+  let focus = null;  // The box where the shapes act (a face on a whole body), from the topology route.
   function setTopology(topology) {
+    focus = topology.focus || null;
     const tris = [];
     let base = 0;
     for (const p of topology.primitives) {
@@ -289,8 +291,9 @@ const gl = (() => {
     if (f32.length !== 2 * n) return;  // Positions then normals, every primitive in order.
     const pos = f32.subarray(0, n);
     if (!framed) {
-      const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-      for (let i = 0; i < n; ++i) { lo[i % 3] = Math.min(lo[i % 3], pos[i]); hi[i % 3] = Math.max(hi[i % 3], pos[i]); }
+      let lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+      if (focus) [lo, hi] = [focus.min, focus.max];
+      else for (let i = 0; i < n; ++i) { lo[i % 3] = Math.min(lo[i % 3], pos[i]); hi[i % 3] = Math.max(hi[i % 3], pos[i]); }
       view.center = lo.map((l, i) => (l + hi[i]) / 2);
       view.radius = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2 || 1;
       framed = true;

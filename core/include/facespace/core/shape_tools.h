@@ -2,6 +2,7 @@
 // shape limited to a region (mask). Both add a shape to the rig, sparse like the others.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,12 @@ struct DeriveReport {
 // Adds shape `name` derived from shape `from` (by name or alias). Errors: unknown `from`,
 // `name` already taken, bad axis or vertex index. Group, range and default are copied.
 Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options);
+
+// The box of the vertices the shapes move noticeably (over 5% of a shape's largest move), in
+// scene space at rest, 1st to 99th percentile per axis so a stray vertex does not widen it:
+// where a camera should look on a whole body whose shapes are a face. False when no shape
+// moves anything.
+bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3>& hi);
 
 // For each vertex of `primitive`, its mirror image across the plane coordinate `axis` =
 // `center` (the closest vertex within `tolerance` mesh units of the reflected position), or -1.

@@ -30,7 +30,7 @@ struct Camera {
   float zoom = 1.0f;      // Divides the distance.
   float fov = 30.0f;      // Vertical field of view, degrees.
   bool look_at = false;   // Use eye/target/up instead of the orbit above.
-  bool frame_shapes = false;  // Orbit around the vertices the rig's shapes move (a face on a whole body), not all.
+  bool frame_shapes = false;  // Orbit around the vertices the rig's shapes move (ShapeFocusBox: a face on a whole body).
   std::array<float, 3> eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
 };
 
