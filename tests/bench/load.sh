@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # HTTP load: wrk beside `facespace serve` on loopback, 64 keep-alive connections.
 #   1. the mesh route on the bundled rig, a new random weight vector per request, float32 out
-#   2. /healthz, for comparison
+#   2. the same on the MakeHuman face with random controls, and its render route
+#   3. /healthz, for comparison
 # usage: load.sh FACESPACE_BINARY [SECONDS]   (bounded: each run stops after SECONDS, default 15)
 set -euo pipefail
 bin=$1; secs=${2:-15}
@@ -15,6 +16,10 @@ rss() { awk '/VmRSS/ {print $2 " kB"}' /proc/$pid/status; }
 echo "server RSS before: $(rss)"
 echo "== mesh route, random weights per request, f32 (64 connections, ${secs}s)"
 wrk -t1 -c64 -d"${secs}s" --timeout 5s --latency -s "$here/random_weights.lua" "http://127.0.0.1:$port/"
+echo "== mesh route on the MakeHuman face (13,380 vertices, 286 shapes), 4 random controls per request, f32"
+wrk -t1 -c64 -d"${secs}s" --timeout 5s --latency -s "$here/random_controls.lua" "http://127.0.0.1:$port/"
+echo "== render route on the MakeHuman face, 512x512 PNG framed on the shapes, random controls (${secs}s)"
+wrk -t1 -c8 -d"${secs}s" --timeout 10s --latency -s "$here/random_controls.lua" "http://127.0.0.1:$port/" -- render
 echo "== /healthz (64 connections, ${secs}s)"
 wrk -t1 -c64 -d"${secs}s" --timeout 5s --latency "http://127.0.0.1:$port/healthz"
 echo "server RSS after: $(rss)"

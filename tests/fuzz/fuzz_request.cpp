@@ -1,0 +1,80 @@
+// libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling, resolved
+// against real rigs (FaceCap; a skinned CesiumMan). The first byte picks the schema.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "facespace/api/request.h"
+#include "facespace/core/io.h"
+#include "facespace/core/skeleton.h"
+#include "facespace/core/weights.h"
+
+namespace {
+
+const facespace::Rig& Rig(bool skinned) {
+  static const facespace::Rig face = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+  static const facespace::Rig man = [] {
+    auto r = facespace::LoadRigFile(FACESPACE_SHARED_ASSETS "/real/CesiumMan/CesiumMan.glb");
+    return r.ok() ? std::move(r.value()) : facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+  }();
+  return skinned ? man : face;
+}
+
+void Weigh(const facespace::Rig& rig, const facespace::api::MeshRequest& m) {
+  std::vector<facespace::WeightEntry> entries = m.weights;
+  std::vector<facespace::Warning> warnings;
+  if (!facespace::ApplyControls(rig, m.controls, entries, warnings).ok()) return;
+  std::vector<float> w;
+  facespace::Pose pose;
+  bool posed = false;
+  if (!facespace::ResolvePoseAndWeights(rig, entries, m.pose, w, pose, posed, warnings).ok()) return;
+  facespace::CheckWeights(rig, w, m.options.mode);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size < 1) return 0;
+  const std::string_view body(reinterpret_cast<const char*>(data + 1), size - 1);
+  const facespace::Rig& rig = Rig(data[0] & 0x10);
+  using namespace facespace::api;
+  switch (data[0] % 6) {
+    case 0:
+      if (auto m = ParseMeshRequest(body); m.ok()) Weigh(rig, m.value());
+      break;
+    case 1:
+      if (auto r = ParseRenderRequest(body); r.ok()) Weigh(rig, r->mesh);
+      break;
+    case 2:
+      if (auto s = ParseSheetRequest(body); s.ok()) {
+        for (const auto& cell : s->cells) {
+          facespace::api::MeshRequest m = s->base.mesh;
+          m.weights = cell;
+          Weigh(rig, m);
+        }
+      }
+      break;
+    case 3:
+      if (auto s = ParseSequenceRequest(body); s.ok()) {
+        if (auto seq = ResolveSequence(rig, s.value()); seq.ok()) {
+          std::vector<float> w(rig.shapes.size());
+          for (float t : s->times) facespace::SampleSequence(seq.value(), t, w);
+        }
+      }
+      break;
+    case 4:
+      if (auto b = ParseBatchRequest(body); b.ok() && b->sampled) {
+        if (auto spec = ResolveSampleSpec(rig, b.value()); spec.ok()) {
+          std::vector<float> w(rig.shapes.size());
+          const size_t n = std::min<size_t>(facespace::SampleCount(spec.value(), rig.shapes.size()), 3);
+          for (size_t k = 0; k < n; ++k) facespace::SampleVariant(rig, spec.value(), k, w);
+        }
+      }
+      break;
+    case 5:
+      if (auto f = ParseFitRequest(body); f.ok()) facespace::FitWeights(rig, f->target, f->options);
+      break;
+  }
+  return 0;
+}

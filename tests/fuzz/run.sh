@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer target for SECONDS each on seed corpora from the real assets and the test
+# requests, then replays the committed regression inputs. Prints executions and coverage per target.
+# usage: run.sh FUZZ_BUILD_DIR SECONDS [SHARED_ASSETS]
+set -u
+build=$1; seconds=$2
+src=$(cd "$(dirname "$0")/../.." && pwd)
+shared=${3:-$src/../shared/assets}
+corpus=$build/corpus
+mkdir -p "$corpus"/{fuzz_gltf,fuzz_obj,fuzz_request,fuzz_http}
+# Seeds: every real glb/gltf we have (small ones whole), OBJ files and targets, the test requests.
+for f in "$src"/assets/*/*.glb "$shared"/real/*/*.glb "$shared"/real/*/*.gltf; do
+  [ -f "$f" ] && [ "$(stat -c %s "$f")" -lt 3000000 ] && cp "$f" "$corpus/fuzz_gltf/$(basename "$f")"
+done
+for f in "$shared"/more/OBJ/ICT-FaceKit_subset/*.obj; do [ -f "$f" ] && { printf '\0'; head -c 200000 "$f"; } >"$corpus/fuzz_obj/$(basename "$f")"; done
+for f in "$shared"/more/MakeHumanFace/targets/nose/*.target; do [ -f "$f" ] && { printf '\1'; cat "$f"; } >"$corpus/fuzz_obj/$(basename "$f")"; done
+python3 - "$corpus" <<'PY'
+import json, os, sys
+c = sys.argv[1]
+req = [
+  (0, {"weights": {"jawOpen": 0.5, "mouthSmile_L": 1.2}, "mode": "absolute", "normals": "recompute", "format": "glb", "lod": 1}),
+  (0, {"weights": [0.1, 0.2], "pose": {"Hips": {"euler": [0, 30, 0]}}, "animation": 0, "time": 0.5, "loop": True}),
+  (0, {"controls": {"nose/nose-trans-down|up": -0.4}, "blend": [{"animation": 0, "time": 1, "weight": 0.5, "mask": ["Hips"]}]}),
+  (1, {"weights": {"jawOpen": 1}, "view": "heatmap", "width": 64, "height": 64, "camera": {"yaw": 20, "frame": "shapes"}, "background": "#ff000080"}),
+  (2, {"cells": [{"weights": {"jawOpen": 1}, "label": "a"}, {"weights": {"eyeBlink_L": 1}}], "columns": 2}),
+  (3, {"keys": [{"time": 0}, {"time": 1, "shape": "jawOpen"}, {"time": 2, "weights": {"eyeBlink_L": 1}, "transition": "cubic-bezier(0.1,0.7,1,0.1)"}], "times": [0.5, 1.5], "smooth": True}),
+  (4, {"sample": {"method": "gaussian", "count": 5, "seed": 3, "center": {"jawOpen": 0.5}, "spread": 0.2, "symmetric": True, "active": 3}, "format": "png"}),
+  (4, {"sample": {"method": "grid", "shapes": ["jawOpen", "mouthSmile_L"], "count": 9}}),
+  (5, {"target": {"primitives": [{"positions": [0, 0, 0]}]}, "bounded": True, "rigid_align": True}),
+]
+for i, (k, body) in enumerate(req):
+    with open(os.path.join(c, "fuzz_request", f"seed{i}"), "wb") as f:
+        f.write(bytes([k]) + json.dumps(body).encode())
+http = [
+  "GET /v1/rigs/facecap/mesh?w.jawOpen=0.5&format=obj&lod=1 HTTP/1.1\r\nHost: x\r\n\r\n",
+  "GET /v1/rigs HTTP/1.1\r\nHost: x\r\nOrigin: http://front.test\r\n\r\n",
+  "OPTIONS /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nOrigin: http://front.test\r\nAccess-Control-Request-Method: POST\r\n\r\n",
+  "GET /v1/rigs/facecap/render?w.jawOpen=1&width=16&height=16 HTTP/1.1\r\nHost: x\r\nIf-None-Match: \"x\"\r\n\r\n",
+  "GET /v1/rigs/facecap/topology HTTP/1.1\r\nHost: x\r\n\r\n",
+  "DELETE /v1/rigs/x HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer fuzz-key\r\n\r\n",
+]
+bodies = [
+  ("POST", "/v1/rigs/facecap/mesh", {"weights": {"jawOpen": 0.5}, "format": "f32"}),
+  ("POST", "/v1/rigs/facecap/check", {"weights": {"jawOpen": 2}, "strict": True}),
+  ("POST", "/v1/rigs/facecap/sequence/sample", {"keys": [{"time": 0}, {"time": 1, "shape": "jawOpen"}], "times": [0.5]}),
+  ("POST", "/v1/rigs/facecap/sequence/stream", {"keys": [{"time": 0}, {"time": 1, "shape": "jawOpen"}], "fps": 4, "format": "ndjson"}),
+  ("POST", "/v1/rigs/facecap/batch", {"sample": {"method": "uniform", "count": 2}}),
+  ("POST", "/v1/rigs/facecap/sheet", {"cells": [{"weights": {}}], "width": 16, "height": 16}),
+]
+for m, p, b in bodies:
+    t = json.dumps(b)
+    http.append(f"{m} {p} HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: {len(t)}\r\n\r\n{t}")
+small = open(os.path.join(os.path.dirname(c), "..", "..", "shared", "assets", "real", "SimpleMorph", "SimpleMorph.gltf"), "rb").read() if False else b""
+for i, h in enumerate(http):
+    with open(os.path.join(c, "fuzz_http", f"seed{i}"), "wb") as f:
+        f.write(h.encode())
+PY
+f="$shared/real/TriangleWithoutIndices/TriangleWithoutIndices.gltf"
+[ -f "$shared/real/SimpleMorph/SimpleMorph.gltf" ] && f="$shared/real/SimpleMorph/SimpleMorph.gltf"
+if [ -f "$f" ]; then
+  { printf 'PUT /v1/rigs/up HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer fuzz-key\r\nContent-Type: model/gltf+json\r\nContent-Length: %s\r\n\r\n' "$(stat -c %s "$f")"; cat "$f"; } >"$corpus/fuzz_http/put"
+fi
+export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
+fail=0
+printf '%-14s %12s %10s %8s %6s\n' target executions exec/s cov crashes
+for t in fuzz_gltf fuzz_obj fuzz_request fuzz_http; do
+  mkdir -p "$build/artifacts/$t"
+  # Regressions first: every input once; then the timed run.
+  if [ -d "$src/tests/fuzz/regressions/$t" ] && ls "$src/tests/fuzz/regressions/$t"/* >/dev/null 2>&1; then
+    "$build/tests/fuzz/$t" "$src/tests/fuzz/regressions/$t"/* >"$build/$t.regress.log" 2>&1 || { echo "FAIL $t regression inputs"; tail -30 "$build/$t.regress.log"; fail=1; }
+  fi
+  "$build/tests/fuzz/$t" "$corpus/$t" -max_total_time="$seconds" -rss_limit_mb=4096 -max_len=1048576 -timeout=30 \
+    -print_final_stats=1 -artifact_prefix="$build/artifacts/$t/" >"$build/$t.log" 2>&1
+  rc=$?
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$build/$t.log" | grep -o '[0-9]*$')
+  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$build/$t.log" | grep -o '[0-9]*$')
+  cov=$(grep -o 'cov: [0-9]*' "$build/$t.log" | tail -1 | grep -o '[0-9]*')
+  crashes=$(ls "$build/artifacts/$t" | wc -l)
+  printf '%-14s %12s %10s %8s %6s\n' "$t" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$crashes"
+  if [ $rc -ne 0 ] || [ "$crashes" -ne 0 ]; then echo "FAIL $t (exit $rc): see $build/$t.log"; grep -A25 'ERROR\|==ERROR\|runtime error\|deadly signal' "$build/$t.log" | head -40; fail=1; fi
+done
+exit $fail
