@@ -140,6 +140,14 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   // Validate fully before anything touches the disk.
   auto rig = LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false});
   if (!rig.ok()) return rig.status();
+  if (rig->vertex_count() > max_vertices_) {
+    return ResourceExhausted("the rig has " + std::to_string(rig->vertex_count()) + " vertices; this server takes at most " +
+                             std::to_string(max_vertices_) + " (--max-vertices)");
+  }
+  if (rig->shapes.size() > max_shapes_) {
+    return ResourceExhausted("the rig has " + std::to_string(rig->shapes.size()) + " shapes; this server takes at most " +
+                             std::to_string(max_shapes_) + " (--max-shapes)");
+  }
   rig->name = id;
   auto stored = std::make_shared<api::StoredRig>();
   stored->id = id;

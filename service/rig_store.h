@@ -16,6 +16,12 @@ class FileRigStore : public api::RigStore {
   // the folder itself wins over one of the same id in a subfolder). Uploads go to `dir`.
   explicit FileRigStore(std::string dir);
 
+  // Uploads beyond these are refused (ResourceExhausted: HTTP 413) before anything is stored.
+  void SetUploadLimits(size_t max_vertices, size_t max_shapes) {
+    max_vertices_ = max_vertices;
+    max_shapes_ = max_shapes;
+  }
+
   // Loads every rig; a broken file is reported on stderr and skipped. Returns the number
   // loaded. Fails only when the directory cannot be read.
   Result<size_t> LoadAll();
@@ -34,6 +40,8 @@ class FileRigStore : public api::RigStore {
   mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).
   std::mutex write_mu_;       // Serialises uploads and deletes.
   std::map<std::string, Entry> map_;
+  size_t max_vertices_ = 1000000;
+  size_t max_shapes_ = 1024;
 };
 
 }  // namespace facespace

@@ -32,6 +32,9 @@ struct ServeConfig {
   int max_render = 2048;
   std::vector<std::string> cors_origins;
   bool quiet = false;
+  size_t max_vertices = 1000000;  // Per uploaded rig.
+  size_t max_shapes = 1024;
+  int read_timeout = 10;     // Seconds a client may take to send a request (slow clients are cut off).
   std::string jobs_dir;      // Default: $XDG_STATE_HOME/facespace/jobs or ~/.local/state/facespace/jobs.
   JobLimits job_limits;
 };
@@ -47,10 +50,12 @@ const char kServeUsage[] =
     "                       [--api-key-file FILE] [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "                       [--cache-mb MB] [--max-render PIXELS] [--quiet]\n"
     "                       [--jobs-dir DIR] [--max-jobs N] [--max-batch N] [--batch-threads N]\n"
+    "                       [--max-vertices N] [--max-shapes N] [--read-timeout SECONDS]\n"
     "environment: FACESPACE_RIGS, FACESPACE_HOST, FACESPACE_PORT, FACESPACE_THREADS,\n"
     "             FACESPACE_API_KEY_FILE, FACESPACE_MAX_BODY, FACESPACE_CORS_ORIGINS (comma-separated),\n"
     "             FACESPACE_CACHE_MB, FACESPACE_MAX_RENDER, FACESPACE_JOBS_DIR, FACESPACE_MAX_JOBS,\n"
-    "             FACESPACE_MAX_BATCH, FACESPACE_BATCH_THREADS; flags win over the environment.\n"
+    "             FACESPACE_MAX_BATCH, FACESPACE_BATCH_THREADS, FACESPACE_MAX_VERTICES, FACESPACE_MAX_SHAPES,\n"
+    "             FACESPACE_READ_TIMEOUT; flags win over the environment.\n"
     "batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n";
 
 bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
@@ -97,6 +102,16 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
     c.max_render = static_cast<int>(n);
   } else if (key == "cors-origin") SplitOrigins(value, c.cors_origins);
   else if (key == "jobs-dir") c.jobs_dir = value;
+  else if (key == "max-vertices") {
+    if (!ParseSize(value, 3, 100000000, &n)) return "max-vertices must be 3..100000000, not '" + value + "'";
+    c.max_vertices = static_cast<size_t>(n);
+  } else if (key == "max-shapes") {
+    if (!ParseSize(value, 0, 100000, &n)) return "max-shapes must be 0..100000, not '" + value + "'";
+    c.max_shapes = static_cast<size_t>(n);
+  } else if (key == "read-timeout") {
+    if (!ParseSize(value, 1, 3600, &n)) return "read-timeout must be 1..3600 seconds, not '" + value + "'";
+    c.read_timeout = static_cast<int>(n);
+  }
   else if (key == "max-jobs") {
     if (!ParseSize(value, 1, 1000, &n)) return "max-jobs must be 1..1000, not '" + value + "'";
     c.job_limits.max_jobs = static_cast<size_t>(n);
@@ -120,7 +135,8 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_THREADS", "threads"},    {"FACESPACE_API_KEY_FILE", "api-key-file"},
       {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"},
       {"FACESPACE_MAX_RENDER", "max-render"}, {"FACESPACE_JOBS_DIR", "jobs-dir"}, {"FACESPACE_MAX_JOBS", "max-jobs"},
-      {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"}};
+      {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"},
+      {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -172,6 +188,7 @@ int Serve(const std::vector<std::string>& args) {
   options.max_render_size = c.max_render;
 
   FileRigStore store(c.rigs);
+  store.SetUploadLimits(c.max_vertices, c.max_shapes);
   auto loaded = store.LoadAll();
   if (!loaded.ok()) {
     std::fprintf(stderr, "facespace: %s\n", loaded.status().message.c_str());
@@ -202,7 +219,7 @@ int Serve(const std::vector<std::string>& args) {
   server.set_tcp_nodelay(true);
   server.set_keep_alive_max_count(10000);
   server.set_keep_alive_timeout(5);
-  server.set_read_timeout(10, 0);
+  server.set_read_timeout(c.read_timeout, 0);
   server.set_write_timeout(10, 0);
   api::Api api(store, options, &jobs);
   api.Register(server);

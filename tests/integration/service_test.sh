@@ -348,5 +348,38 @@ problem "$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nose-trans-down|up":1},"width":256,"height":256,"camera":{"frame":"shapes"}}' "$U/v1/rigs/makehuman/render")
 check "render of the MakeHuman face with a control, framed on the shapes: a PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr'"
 
+# hardening: upload limits, slow and broken clients, keys never logged
+restart --max-vertices 1000 --max-shapes 1 --read-timeout 2
+code=$(c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "$U/v1/rigs/bigfox")
+check "upload over --max-vertices: 413 naming the limit, nothing stored" sh -c "[ $code = 413 ] && grep -q 'at most 1000 (--max-vertices)' '$tmp/body' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/bigfox') = 404 ] && [ ! -e '$store/bigfox.glb' ]"
+"$bin" blend "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --keep-targets -o "$tmp/twoshapes.glb" 2>/dev/null
+code=$(c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$tmp/twoshapes.glb" "$U/v1/rigs/twoshapes")
+check "upload over --max-shapes: 413 naming the limit" sh -c "[ $code = 413 ] && grep -q 'at most 1 (--max-shapes)' '$tmp/body'"
+py '
+import socket, sys, time, urllib.request
+host, port = "127.0.0.1", int(sys.argv[1])
+# 40 slowloris clients: each sends part of a request, then a byte now and then, never finishing.
+slow = []
+for _ in range(40):
+    s = socket.create_connection((host, port)); s.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\nX-Slow: "); slow.append(s)
+t = time.time(); body = urllib.request.urlopen(f"http://{host}:{port}/healthz", timeout=3).read(); fast = time.time() - t
+# The server cuts them off after its read timeout (2 s here).
+deadline = time.time() + 6; closed = 0
+for s in slow:
+    s.settimeout(max(0.1, deadline - time.time()))
+    try:
+        closed += s.recv(100) == b"" or True
+    except (socket.timeout, ConnectionResetError):
+        pass
+# A body announced far over the limit is refused from its headers, before it is sent.
+b = socket.create_connection((host, port)); b.settimeout(3)
+b.sendall(b"POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 10000000000\r\n\r\n{")
+head = b.recv(200)
+ok = body == b"{\"status\":\"ok\"}" and fast < 1.0 and closed == 40 and head.startswith(b"HTTP/1.1 413")
+print(f"healthz with 40 slow clients in {fast*1000:.0f} ms; {closed}/40 slow clients cut off; oversized body: {head[:12]!r}")
+sys.exit(not ok)' "$port" >"$tmp/slow" 2>&1
+check "slow clients: 40 partial requests do not starve others and are cut off after --read-timeout; a 10 GB Content-Length gets 413 from its headers ($(cat "$tmp/slow" | tail -1))" test $? -eq 0
+check "the API key never appears in the log" sh -c "! grep -q 'k3y-for-tests' '$tmp/log'"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
