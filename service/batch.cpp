@@ -125,7 +125,7 @@ Result<Plan> MakePlan(const Rig& rig, const std::string& rig_version, std::strin
   std::vector<Warning> warnings;
   if (Status s = ResolvePoseAndWeights(rig, {}, plan.request.render.mesh.pose, weights, pose, posed, warnings); !s.ok()) return s;
   json spec = {{"request", json::parse(request_json, nullptr, false)}, {"rig", rig.name}, {"rig_version", rig_version}};
-  plan.spec_json = spec.dump(2) + "\n";
+  plan.spec_json = spec.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   return plan;
 }
 
@@ -241,8 +241,8 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
       }
       warnings.insert(warnings.end(), pose_warnings.begin(), pose_warnings.end());
       const std::string& b = bytes.value();
-      std::string line = "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump() +
-                         ",\"file\":" + json(file).dump() + ",\"bytes\":" + std::to_string(b.size()) + ",\"sha256\":\"" +
+      std::string line = "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
+                         ",\"file\":" + json(file).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ",\"bytes\":" + std::to_string(b.size()) + ",\"sha256\":\"" +
                          Sha256Hex({reinterpret_cast<const unsigned char*>(b.data()), b.size()}) +
                          "\",\"weights\":" + api::WeightsMapJson(*plan.rig, w.weights) +
                          ",\"warnings\":" + WarningsToJson(warnings) + "}";

@@ -143,7 +143,7 @@ int Info(const std::vector<std::string>& args) {
       if (s.driven) o["driven"] = true;
       j["shapes"].push_back(o);
     }
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return 0;
   }
   std::printf("rig        %s\n", rig.name.c_str());
@@ -548,7 +548,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
         start = end + 1;
       }
     }
-    auto parsed = api::ParseSheetRequest(nlohmann::json{{"cells", cells}, {"columns", columns}}.dump());
+    auto parsed = api::ParseSheetRequest(nlohmann::json{{"cells", cells}, {"columns", columns}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     if (!parsed.ok()) {
       PrintStatus(parsed.status());
       return 1;

@@ -248,7 +248,7 @@ int Batch(const std::vector<std::string>& args) {
   std::string bytes;
   ReadFile(paths[0], bytes);
   const std::string version = batch::Sha256Hex({reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()});
-  auto plan = batch::MakePlan(rig.value(), version, request.dump());
+  auto plan = batch::MakePlan(rig.value(), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return plan.status().code == StatusCode::kInvalidArgument ? 2 : 1;

@@ -144,7 +144,7 @@ int Sequence(const std::vector<std::string>& args) {
     }
     nlohmann::json body = {{"keys", keys}, {"smooth", smooth}};
     if (!transition.empty()) body["transition"] = transition;
-    auto parsed = api::ParseSequenceRequest(body.dump());
+    auto parsed = api::ParseSequenceRequest(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     if (!parsed.ok()) {
       std::fprintf(stderr, "error: %s\n", parsed.status().message.c_str());
       return 1;

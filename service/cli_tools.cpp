@@ -163,7 +163,7 @@ int Compress(const std::vector<std::string>& args) {
                         {"sparse_bytes", b.sparse_bytes},
                         {"dense_bytes", b.dense_bytes},
                         {"quantized", {{"bits", q.bits}, {"max_error", q.max_error}, {"bytes", q.bytes}}}};
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return 0;
   }
   std::printf("shapes          %zu over %zu moved vertices (bounding-box diagonal %.6g)\n", b.shapes, b.moved_vertices, b.diagonal);

@@ -105,7 +105,7 @@ Result<size_t> FileJobQueue::Start() {
     job->info.created = j.value("created", "");
     job->info.total = j.value("total", size_t{0});
     job->info.format = j["request"].value("format", "glb");
-    job->body = j["request"].dump();
+    job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     job->info.done = ManifestLines(e.path() / "out" / "manifest.jsonl");
     json st = json::parse(ReadText(e.path() / "state.json"), nullptr, false);
     if (!st.is_discarded() && st.is_object()) {
@@ -118,7 +118,7 @@ Result<size_t> FileJobQueue::Start() {
         job->info.error = "rig '" + job->info.rig + "' was " + (rig ? "replaced" : "removed") +
                           " while the job was unfinished; " + std::to_string(job->info.done) + " of " +
                           std::to_string(job->info.total) + " variants were done";
-        WriteAtomically(e.path() / "state.json", json{{"state", job->info.state}, {"error", job->info.error}}.dump() + "\n");
+        WriteAtomically(e.path() / "state.json", json{{"state", job->info.state}, {"error", job->info.error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
       } else {
         job->rig = rig;
         job->info.state = "queued";
@@ -179,7 +179,7 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
   fs::create_directories(folder, ec);
   json j = {{"id", job->info.id},          {"rig", rig->id},         {"rig_version", rig->version},
             {"created", job->info.created}, {"total", plan->total}, {"request", json::parse(body, nullptr, false)}};
-  if (ec || !WriteAtomically(folder / "job.json", j.dump(2) + "\n")) {
+  if (ec || !WriteAtomically(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n")) {
     fs::remove_all(folder, ec);
     return Status{StatusCode::kInternal, "cannot store the job (disk full?)", {}};
   }
@@ -226,7 +226,7 @@ Status FileJobQueue::Remove(const std::string& id) {
 std::string FileJobQueue::Folder(const std::string& id) const { return (fs::path(dir_) / id / "out").string(); }
 
 void FileJobQueue::Finish(Job& job, const std::string& state, const std::string& error) {
-  WriteAtomically(fs::path(dir_) / job.info.id / "state.json", json{{"state", state}, {"error", error}}.dump() + "\n");
+  WriteAtomically(fs::path(dir_) / job.info.id / "state.json", json{{"state", state}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   std::lock_guard<std::mutex> lock(mu_);
   job.info.state = state;
   job.info.error = error;

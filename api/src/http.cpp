@@ -191,12 +191,12 @@ void SendProblem(const Request& req, Response& res, int status, const std::strin
   }
   if (!warnings_json.empty()) p["warnings"] = json::parse(warnings_json);
   res.status = status;
-  res.set_content(p.dump(), "application/problem+json");
+  res.set_content(p.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), "application/problem+json");
 }
 
 void SendJson(Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump(), "application/json");
+  res.set_content(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), "application/json");
 }
 
 // sf-string (RFC 9651): printable ASCII, with \ and " escaped; other bytes become '?'.
@@ -967,7 +967,7 @@ struct Api::Impl {
     }
     res.status = 200;
     res.set_content("{\"keys\":" + SequenceKeysJson(rig->rig, reduced->sequence) + ",\"transition\":" +
-                        json(TransitionName(seq.transition)).dump() + ",\"kept\":" + std::to_string(reduced->sequence.keys.size()) +
+                        json(TransitionName(seq.transition)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ",\"kept\":" + std::to_string(reduced->sequence.keys.size()) +
                         ",\"removed\":" + std::to_string(reduced->removed) + ",\"max_error\":" + FormatNumber(reduced->max_error) +
                         ",\"tolerance\":" + FormatNumber(sr.tolerance) + "}\n",
                     "application/json");

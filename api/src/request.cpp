@@ -682,11 +682,11 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
     bool first = true;
     for (size_t s = 0; s < k.weights.size(); ++s) {
       if (k.weights[s] == 0.0f) continue;
-      out += std::string(first ? "" : ",") + json(rig.shapes[s].name).dump() + ":" + FormatNumber(k.weights[s]);
+      out += std::string(first ? "" : ",") + json(rig.shapes[s].name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ":" + FormatNumber(k.weights[s]);
       first = false;
     }
     out += "}";
-    if (k.transition) out += ",\"transition\":" + json(TransitionName(*k.transition)).dump();
+    if (k.transition) out += ",\"transition\":" + json(TransitionName(*k.transition)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
     out += "}";
   }
   return out + "]";
@@ -709,7 +709,7 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
   for (size_t k = 0; k < w.size(); ++k) {
     if (w[k] == 0.0f) continue;
     if (out.size() > 1) out += ',';
-    out += json(rig.shapes[k].name).dump() + ":" + FormatNumber(w[k]);
+    out += json(rig.shapes[k].name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ":" + FormatNumber(w[k]);
   }
   return out + "}";
 }
@@ -795,7 +795,7 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
 std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
   std::string out = "{\"weights\":{";
   for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    out += std::string(s ? "," : "") + json(rig.shapes[s].name).dump() + ":" + FormatNumber(fit.weights[s]);
+    out += std::string(s ? "," : "") + json(rig.shapes[s].name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ":" + FormatNumber(fit.weights[s]);
   }
   out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) + ",\"max\":" + FormatNumber(fit.max_error) + "}";
   if (aligned) {

@@ -63,7 +63,7 @@ void AppendFloats(std::string& out, std::span<const float> values) {
   out += ']';
 }
 
-std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(); }
+std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
 std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
   return "{\"primitives\":" + PrimitivesJson(rig, blended) + ",\"warnings\":" + WarningsToJson(warnings) + "}\n";

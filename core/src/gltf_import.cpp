@@ -216,7 +216,7 @@ Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsign
   buffers = kept;
   ListRemove(j, "extensionsUsed", "EXT_meshopt_compression");
   ListRemove(j, "extensionsRequired", "EXT_meshopt_compression");
-  out = MakeGlb(j.dump(), newbin);
+  out = MakeGlb(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), newbin);
   return Status::Ok();
 }
 

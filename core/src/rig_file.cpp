@@ -396,7 +396,7 @@ std::string ManifestJson(const Rig& rig) {
     }
     m["controls"] = controls;
   }
-  return m.dump(1) + "\n";
+  return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,

@@ -379,6 +379,12 @@ ok = body == b"{\"status\":\"ok\"}" and fast < 1.0 and closed == 40 and head.sta
 print(f"healthz with 40 slow clients in {fast*1000:.0f} ms; {closed}/40 slow clients cut off; oversized body: {head[:12]!r}")
 sys.exit(not ok)' "$port" >"$tmp/slow" 2>&1
 check "slow clients: 40 partial requests do not starve others and are cut off after --read-timeout; a 10 GB Content-Length gets 413 from its headers ($(cat "$tmp/slow" | tail -1))" test $? -eq 0
+py '
+import socket, sys
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1]))); s.settimeout(3)
+s.sendall(b"GET /v1/\x8e\x96gs/x%ff HTTP/1.1\r\nHost: x\r\n\r\n")
+sys.exit(not s.recv(200).startswith(b"HTTP/1.1 404"))' "$port"
+check "a path of invalid UTF-8 (found by fuzz_http; it used to kill the server): 404 problem, and the server stays up" sh -c "[ $? -eq 0 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/healthz') = 200 ]"
 check "the API key never appears in the log" sh -c "! grep -q 'k3y-for-tests' '$tmp/log'"
 
 echo "$pass passed, $fail failed"
