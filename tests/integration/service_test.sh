@@ -387,5 +387,32 @@ sys.exit(not s.recv(200).startswith(b"HTTP/1.1 404"))' "$port"
 check "a path of invalid UTF-8 (found by fuzz_http; it used to kill the server): 404 problem, and the server stays up" sh -c "[ $? -eq 0 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/healthz') = 200 ]"
 check "the API key never appears in the log" sh -c "! grep -q 'k3y-for-tests' '$tmp/log'"
 
+# storage faults: kill -9 while an upload is arriving, a full disk, a corrupt file
+restart
+good=$(ls "$store" | sort | tr '\n' ' ')
+py '
+import socket, sys, time
+body = open(sys.argv[2], "rb").read()
+s = socket.create_connection(("127.0.0.1", int(sys.argv[1])))
+s.sendall(b"PUT /v1/rigs/killed HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer k3y-for-tests\r\nContent-Type: model/gltf-binary\r\nContent-Length: %d\r\n\r\n" % len(body))
+s.sendall(body[: len(body) // 2]); time.sleep(30)' "$port" "$A/Fox/Fox.glb" & slowpid=$!
+sleep 0.5; kill -9 "$pid"; wait "$pid" 2>/dev/null; pid=; kill "$slowpid" 2>/dev/null
+start
+check "kill -9 while an upload arrives: after restart the rig is absent, no temporary file, every earlier rig served" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/killed') = 404 ] && [ \"\$(ls '$store' | sort | tr '\n' ' ')\" = '$good' ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/facecap') = 200 ]"
+# A full disk: the server may write at most 64 KiB per file (RLIMIT_FSIZE, SIGXFSZ ignored: writes fail with EFBIG, as on ENOSPC).
+kill -TERM "$pid"; wait "$pid"; pid=
+(trap '' XFSZ; ulimit -f 64; exec "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --jobs-dir "$tmp/jobs" --quiet >>"$tmp/log2" 2>&1) & pid=$!
+for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+cp "$store/facecap.glb" "$tmp/facecap.before"
+code=$(c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "$U/v1/rigs/facecap")
+check "disk full during an upload: 500 storage-failed, the old rig still served and unchanged on disk, no temporary file" sh -c "[ $code = 500 ] && grep -q 'storage-failed' '$tmp/body' && cmp -s '$store/facecap.glb' '$tmp/facecap.before' && ! ls -a '$store' | grep -q tmp && [ \$(curl -s '$U/v1/rigs/facecap' | python3 -c 'import json,sys; print(json.load(sys.stdin)[\"shapes\"].__len__())') = 52 ]"
+kill -TERM "$pid"; wait "$pid"; pid=
+# A corrupt file on disk (bytes flipped in the middle of a rig): reported and skipped at start, the others served.
+cp "$store/facecap.glb" "$store/corrupt.glb"
+python3 -c 'import sys; p=sys.argv[1]; b=bytearray(open(p,"rb").read()); b[20:4000]=b"\xff"*3980; open(p,"wb").write(b)' "$store/corrupt.glb"
+: >"$tmp/log"
+start
+check "a corrupt rig file: reported at start and skipped; every other rig served" sh -c "grep -q 'skipping broken rig.*corrupt.glb' '$tmp/log' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/corrupt') = 404 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/facecap') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/makehuman') = 200 ]"
+
 echo "$pass passed, $fail failed"
 [ $fail -eq 0 ]
