@@ -296,7 +296,12 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   rig.name = "makehuman";
   Primitive p = BasePrimitive(kept, rig.load_warnings, obj_path);
   // Targets: every .target under each folder, sorted by path (deterministic).
-  std::vector<std::pair<fs::path, std::string>> files;  // (file, group)
+  struct TargetFile {
+    fs::path path;
+    std::string group;   // First sub-folder, or the folder's own name.
+    std::string folder;  // Sub-folder path relative to the folder given ("expression/units/asian").
+  };
+  std::vector<TargetFile> files;
   for (const std::string& dir : target_dirs) {
     std::vector<fs::path> found;
     std::error_code ec;
@@ -309,12 +314,13 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
                                                                                  : fs::path(dir).lexically_normal().filename().string();
     for (const fs::path& f : found) {
       const fs::path rel = f.parent_path().lexically_relative(dir);
-      files.emplace_back(f, rel.empty() || rel == "." ? own : rel.begin()->string());
+      const bool top = rel.empty() || rel == ".";
+      files.push_back({f, top ? own : rel.begin()->string(), top ? own : rel.generic_string()});
     }
   }
   Mesh mesh;
   mesh.name = rig.name;
-  for (const auto& [file, group] : files) {
+  for (const auto& [file, group, folder] : files) {
     SparseTarget full, t;
     if (Status s = ReadTarget(file.string(), obj_vertices, scale, full); !s.ok()) return s;
     for (size_t k = 0; k < full.indices.size(); ++k) {
@@ -326,7 +332,9 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     Shape shape;
     shape.name = file.stem().string();
     shape.group = group.empty() ? "default" : group;
-    if (FindShape(rig, shape.name) >= 0) shape.name = group + "/" + shape.name;
+    // Same stem in two folders (MakeHuman's expression units per ethnicity): the folder path says which.
+    if (FindShape(rig, shape.name) >= 0) shape.name = folder + "/" + shape.name;
+    for (int n = 2; FindShape(rig, shape.name) >= 0; ++n) shape.name = folder + "/" + file.stem().string() + "#" + std::to_string(n);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(std::move(shape));
     p.targets.push_back(std::move(t));

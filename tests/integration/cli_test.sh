@@ -207,6 +207,9 @@ mkdir -p "$tmp/badt/t" && printf '# a target\n10 0 0 0.1\n10 0.1 0 0\n' >"$tmp/b
 err_case "convert: a duplicate index in a target file names file and line" "dup.target:3: vertex 10 is given twice (first on line 2)" convert "$MH/base.obj" --targets "$tmp/badt/t" -o "$tmp/x.glb"
 printf '99999 0 0 1\n' >"$tmp/badt/t/dup.target"
 err_case "convert: an index beyond the mesh names file and line" "dup.target:1: vertex index 99999 is beyond the mesh" convert "$MH/base.obj" --targets "$tmp/badt/t" -o "$tmp/x.glb"
+"$bin" convert "$MH/base.obj" --targets "$MH/targets" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh/all.glb" 2>/dev/null
+"$bin" info --json "$tmp/mh/all.glb" >"$tmp/all.json" 2>/dev/null
+check "convert the whole targets/ folder (the issue's command): every target once, same stems in two folders told apart by folder" py 'import json,sys; n=[s["name"] for s in json.load(open(sys.argv[1]))["shapes"]]; sys.exit(not(len(n)==470 and len(set(n))==470 and "expression/units/asian/eye-left-slit" in n and "nose-trans-up" in n))' "$tmp/all.json"
 ict=$M/OBJ/ICT-FaceKit_subset
 "$bin" convert "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" -o "$tmp/ict.glb" 2>/dev/null
 "$bin" info --json "$tmp/ict.glb" >"$tmp/ict.json" 2>/dev/null
