@@ -1036,7 +1036,7 @@ struct Api::Impl {
 
   void Batch(const Request& req, Response& res) {
     t_request.route = kBatch;
-    if (!JobsEnabled(req, res)) return;
+    if (!JobsEnabled(req, res) || !Authorized(req, res)) return;  // It writes to the disk: a mutating route.
     auto rig = FindRig(req, res, req.matches[1]);
     if (!rig) return;
     const std::string ct = MediaType(req.get_header_value("Content-Type"));
@@ -1428,7 +1428,7 @@ void Api::Register(httplib::Server& server) {
   });
   server.Delete(job, [&I](const Request& req, Response& res) {
     t_request.route = kJob;
-    if (!I.JobsEnabled(req, res)) return;
+    if (!I.JobsEnabled(req, res) || !I.Authorized(req, res)) return;
     const std::string id = req.matches[1];
     Status s = IsValidJobId(id) ? I.jobs->Remove(id) : NotFound("");
     if (!s.ok()) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");

@@ -256,7 +256,7 @@ restart() { kill -TERM "$pid"; wait "$pid"; pid=; start "$@"; }
 restart --max-batch 1000 --batch-threads 2
 wait_job() { for _ in $(seq 1 1200); do c "$U/v1/jobs/$1" >/dev/null; jq_ "d['state'] in ('done','failed','cancelled','lost')" && return 0; sleep 0.1; done; return 1; }
 BODY='{"sample":{"method":"uniform","count":24,"seed":5,"active":6},"format":"glb"}'
-code=$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch"); loc=$(hdr Location); job=${loc##*/}
+code=$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch"); loc=$(hdr Location); job=${loc##*/}
 check "POST batch: 202 with Location /v1/jobs/{id} and the job's state" sh -c "[ $code = 202 ] && echo '$loc' | grep -Eq '^/v1/jobs/[0-9a-f]{32}$'" && jq_ "d['state'] in ('queued','running') and d['total']==24 and d['links']['self']=='$loc'"
 wait_job "$job"
 check "GET job: done, 24 of 24, progress 1, links to results.zip and the sheet" jq_ "d['state']=='done' and d['done']==24 and d['progress']==1 and d['links']['results']=='$loc/results.zip' and d['links']['sheet']=='$loc/files/sheet.png'"
@@ -278,20 +278,21 @@ code=$(c "$U/v1/jobs")
 check "GET /v1/jobs lists the job" sh -c "[ $code = 200 ]" && jq_ "d['jobs'][0]['id']=='$job'"
 problem "$(c "$U/v1/jobs/0123456789abcdef0123456789abcdef")" 404 "d['type'].endswith('job-not-found')" && ok "unknown job: 404 problem" || no "unknown job"
 problem "$(c "$U/v1/jobs/..%2F..%2Fetc")" 404 "True" && ok "job id path trick: 404" || no "job id path trick"
-problem "$(c -X POST -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":3,"fixed":{"jawopn":1}}}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/sample/fixed/jawopn' and 'jawOpen' in d['detail']" && ok "batch: unknown shape is 422 naming /sample/fixed/jawopn" || no "batch unknown shape"
-problem "$(c -X POST -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":5000}}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/sample/count' and '1000' in d['detail']" && ok "batch over --max-batch: 422 naming /sample/count" || no "batch size limit"
-problem "$(c -X POST -H 'Content-Type: application/json' -d '{"sample":' "$U/v1/rigs/facecap/batch")" 400 "True" && ok "batch: malformed JSON is 400" || no "batch malformed"
-problem "$(c -X POST -H 'Content-Type: application/json' -d '{"variants":[{"id":"../x","weights":{}}]}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/variants/0/id'" && ok "batch: a path in a variant id is 422" || no "batch variant id"
-problem "$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/nobody/batch")" 404 "True" && ok "batch of an unknown rig: 404" || no "batch unknown rig"
-code=$(c -X DELETE "$U$loc")
+problem "$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":3,"fixed":{"jawopn":1}}}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/sample/fixed/jawopn' and 'jawOpen' in d['detail']" && ok "batch: unknown shape is 422 naming /sample/fixed/jawopn" || no "batch unknown shape"
+problem "$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":5000}}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/sample/count' and '1000' in d['detail']" && ok "batch over --max-batch: 422 naming /sample/count" || no "batch size limit"
+problem "$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d '{"sample":' "$U/v1/rigs/facecap/batch")" 400 "True" && ok "batch: malformed JSON is 400" || no "batch malformed"
+problem "$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d '{"variants":[{"id":"../x","weights":{}}]}' "$U/v1/rigs/facecap/batch")" 422 "d['errors'][0]['pointer']=='/variants/0/id'" && ok "batch: a path in a variant id is 422" || no "batch variant id"
+problem "$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/nobody/batch")" 404 "True" && ok "batch of an unknown rig: 404" || no "batch unknown rig"
+problem "$(c -X DELETE "$U$loc")" 401 "True" && problem "$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch")" 401 "True" && ok "batch routes mutate the disk: POST batch and DELETE job need the key (401 without)" || no "batch auth"
+code=$(c -X DELETE "${K[@]}" "$U$loc")
 check "DELETE job: 204, then 404, its files gone" sh -c "[ $code = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U$loc') = 404 ] && [ ! -e '$tmp/jobs/$job' ]"
 
 # queue bound, restart and loss
 restart --max-jobs 2 --batch-threads 1
 BIG='{"sample":{"method":"convex","count":1000,"seed":1},"format":"png","width":32,"height":32}'
-c -X POST -H 'Content-Type: application/json' -d "$BIG" "$U/v1/rigs/facecap/batch" >/dev/null; big=$(hdr Location)
-c -X POST -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":10},"format":"f32"}' "$U/v1/rigs/stress/batch" >/dev/null; small=$(hdr Location)
-code=$(c -X POST -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch")
+c -X POST "${K[@]}" -H 'Content-Type: application/json' -d "$BIG" "$U/v1/rigs/facecap/batch" >/dev/null; big=$(hdr Location)
+c -X POST "${K[@]}" -H 'Content-Type: application/json' -d '{"sample":{"method":"uniform","count":10},"format":"f32"}' "$U/v1/rigs/stress/batch" >/dev/null; small=$(hdr Location)
+code=$(c -X POST "${K[@]}" -H 'Content-Type: application/json' -d "$BODY" "$U/v1/rigs/facecap/batch")
 check "a third job past --max-jobs 2: 429 with Retry-After" sh -c "[ $code = 429 ] && [ \"\$(grep -i '^retry-after:' '$tmp/hdr' | tr -dc 0-9)\" -ge 1 ] && grep -q 'job-queue-full' '$tmp/body'"
 for _ in $(seq 1 600); do c "$U$big" >/dev/null; jq_ "d['done'] >= 5" && break; sleep 0.05; done
 kill -TERM "$pid"; wait "$pid"; pid=
