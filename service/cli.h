@@ -14,6 +14,9 @@ bool ReadFile(const std::string& path, std::string& out);
 // Writes `data` to `path` atomically (a temporary file beside it, then rename), or to stdout for "-".
 bool WriteOutput(const std::string& path, const std::string& data);
 
+// "a,b,,c" -> {"a", "b", "c"}: the items of a comma-separated flag value, empty ones skipped.
+std::vector<std::string> SplitList(const std::string& value);
+
 // A Status on stderr ("error: ..."), one line per offending field.
 void PrintStatus(const Status& s);
 // Warnings on stderr ("warning: code: ...").

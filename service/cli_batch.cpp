@@ -138,13 +138,7 @@ int Batch(const std::vector<std::string>& args) {
       if (!number(&d)) return 2;
       sample["spread"] = d;
     } else if (a == "--shapes") {
-      size_t start = 0;
-      while (start <= v.size()) {
-        size_t end = v.find(',', start);
-        if (end == std::string::npos) end = v.size();
-        if (end > start) sample["shapes"].push_back(v.substr(start, end - start));
-        start = end + 1;
-      }
+      for (const std::string& name : SplitList(v)) sample["shapes"].push_back(name);
     } else if (a == "--fix") {
       const size_t eq = v.rfind('=');
       if (eq == std::string::npos || eq == 0) {

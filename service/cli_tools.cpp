@@ -212,16 +212,7 @@ int Convert(const std::vector<std::string>& args) {
     const std::string v = args[++i];
     if (a == "--targets") targets.push_back(v);
     else if (a == "--modifiers") mh.modifiers = v;
-    else if (a == "--groups") {
-      mh.groups.clear();
-      size_t start = 0;
-      while (start <= v.size()) {
-        size_t end = v.find(',', start);
-        if (end == std::string::npos) end = v.size();
-        if (end > start) mh.groups.push_back(v.substr(start, end - start));
-        start = end + 1;
-      }
-    } else if (a == "-o" || a == "--output") out = v;
+    else if (a == "--groups") mh.groups = SplitList(v); else if (a == "-o" || a == "--output") out = v;
     else {
       std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kUsage);
       return 2;

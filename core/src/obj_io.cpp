@@ -149,6 +149,21 @@ Primitive BasePrimitive(const ObjMesh& m, std::vector<Warning>& warnings, const 
   return p;
 }
 
+// Makes `p` the rig's only primitive, in `mesh`, shown by one root node; then the derived data.
+void FinishSingleMeshRig(Rig& rig, Primitive p, Mesh mesh) {
+  FinalizePrimitive(p);
+  mesh.primitives.push_back(0);
+  rig.primitives.push_back(std::move(p));
+  rig.meshes.push_back(std::move(mesh));
+  Node node;
+  node.name = rig.name;
+  node.mesh = 0;
+  rig.nodes.push_back(node);
+  rig.scene_roots.push_back(0);
+  DetectSymmetricPartners(rig);
+  CountMovedVertices(rig);
+}
+
 }  // namespace
 
 Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
@@ -197,17 +212,7 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
     rig.shapes.push_back(s);
     p.targets.push_back(std::move(t));
   }
-  FinalizePrimitive(p);
-  mesh.primitives.push_back(0);
-  rig.primitives.push_back(std::move(p));
-  rig.meshes.push_back(std::move(mesh));
-  Node node;
-  node.name = rig.name;
-  node.mesh = 0;
-  rig.nodes.push_back(node);
-  rig.scene_roots.push_back(0);
-  DetectSymmetricPartners(rig);
-  CountMovedVertices(rig);
+  FinishSingleMeshRig(rig, std::move(p), std::move(mesh));
   if (Status s = ValidateRig(rig); !s.ok()) return s;
   return rig;
 }
@@ -339,17 +344,7 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     rig.shapes.push_back(std::move(shape));
     p.targets.push_back(std::move(t));
   }
-  FinalizePrimitive(p);
-  mesh.primitives.push_back(0);
-  rig.primitives.push_back(std::move(p));
-  rig.meshes.push_back(std::move(mesh));
-  Node node;
-  node.name = rig.name;
-  node.mesh = 0;
-  rig.nodes.push_back(node);
-  rig.scene_roots.push_back(0);
-  DetectSymmetricPartners(rig);
-  CountMovedVertices(rig);
+  FinishSingleMeshRig(rig, std::move(p), std::move(mesh));
   if (!options.modifiers.empty()) {
     std::ifstream f(options.modifiers, std::ios::binary);
     if (!f) return NotFound("cannot open '" + options.modifiers + "'");
