@@ -1,4 +1,5 @@
 #include "batch.h"
+#include "durable.h"
 
 #include <fcntl.h>
 #include <openssl/evp.h>
@@ -30,32 +31,9 @@ namespace {
 
 constexpr char kTmpPrefix[] = ".fs-tmp-";
 
-// Writes bytes to dir/name durably: a temporary name, fsync, rename.
-bool WriteDurably(const fs::path& dir, const std::string& name, std::string_view data) {
-  const fs::path tmp = dir / (kTmpPrefix + name);
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return false;
-  size_t off = 0;
-  while (off < data.size()) {
-    const ssize_t n = ::write(fd, data.data() + off, data.size() - off);
-    if (n <= 0) break;
-    off += static_cast<size_t>(n);
-  }
-  const bool ok = off == data.size() && ::fsync(fd) == 0;
-  ::close(fd);
-  if (!ok || std::rename(tmp.c_str(), (dir / name).c_str()) != 0) {
-    fs::remove(tmp);
-    return false;
-  }
-  return true;
-}
-
-void SyncDir(const fs::path& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
+// dir/name, durably; the folder itself is synced once at the end of the run.
+Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data) {
+  return WriteFileDurably(dir, name, data, kTmpPrefix + name, "'" + name + "'", false);
 }
 
 // One worker's reusable state.
@@ -161,8 +139,8 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
       return FailedPrecondition("'" + options.dir + "' holds another batch (its batch.json differs from this request or rig): "
                                 "use another output folder, or empty this one");
     }
-  } else if (!WriteDurably(dir, "batch.json", plan.spec_json)) {
-    return FailedPrecondition("cannot write in '" + options.dir + "'");
+  } else if (Status s = WriteInBatch(dir, "batch.json", plan.spec_json); !s.ok()) {
+    return s;
   }
   // Leftovers of a run that was killed: temporary files are never complete.
   for (const auto& e : fs::directory_iterator(dir, ec)) {
@@ -190,9 +168,9 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
   auto write_manifest = [&] {
     std::string text;
     for (const auto& [index, line] : lines) text += line + "\n";
-    return WriteDurably(dir, "manifest.jsonl", text);
+    return WriteInBatch(dir, "manifest.jsonl", text);
   };
-  if (!write_manifest()) return FailedPrecondition("cannot write the manifest in '" + options.dir + "'");
+  if (Status s = write_manifest(); !s.ok()) return s;
 
   std::vector<size_t> pending;
   Summary summary;
@@ -233,7 +211,9 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
       std::vector<Warning> warnings;
       auto bytes = Produce(plan, k, w, warnings, render_options);
       const std::string file = VariantFile(plan, k);
-      if (bytes.ok() && !WriteDurably(dir, file, bytes.value())) bytes = FailedPrecondition("cannot write '" + file + "' (disk full?)");
+      if (bytes.ok()) {
+        if (Status s = WriteInBatch(dir, file, bytes.value()); !s.ok()) bytes = s;
+      }
       std::lock_guard<std::mutex> lock(mu);
       if (!bytes.ok()) {
         if (failure.ok()) failure = Status{bytes.status().code, VariantId(plan, k) + ": " + bytes.status().message, bytes.status().fields};
@@ -279,8 +259,9 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
   manifest.close();
   summary.cancelled = cancelled();
   report();
-  if (!write_manifest()) return FailedPrecondition("cannot write the manifest in '" + options.dir + "'");
+  const Status written = write_manifest();
   if (!failure.ok()) return failure;
+  if (!written.ok()) return written;
 
   // The contact sheet of this shard's first variants, once they all exist.
   if (!summary.cancelled && options.sheet_cells > 0 && summary.total > 0 && !fs::exists(dir / "sheet.png")) {
@@ -307,7 +288,7 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
     const int columns = images.size() >= 16 ? 4 : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(images.size()))));
     auto png = render::Encode(render::ContactSheet(images, labels, columns, cell.background), render::ImageFormat::kPng);
     if (!png.ok()) return png.status();
-    if (!WriteDurably(dir, "sheet.png", png.value())) return FailedPrecondition("cannot write sheet.png");
+    if (Status s = WriteInBatch(dir, "sheet.png", png.value()); !s.ok()) return s;
   }
   SyncDir(dir);
   summary.seconds = elapsed();

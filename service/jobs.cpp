@@ -1,5 +1,7 @@
 #include "jobs.h"
 
+#include "durable.h"
+
 #include <openssl/rand.h>
 
 #include <chrono>
@@ -42,19 +44,10 @@ std::string NowRfc3339() {
   return buf;
 }
 
-bool WriteAtomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.parent_path() / (".tmp-" + path.filename().string());
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f || !f.write(text.data(), static_cast<std::streamsize>(text.size())) || !f.flush()) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      return false;
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  return !ec;
+// path, durably (temporary name, fsync, rename, folder fsync).
+Status WriteJobFile(const fs::path& path, const std::string& text) {
+  const std::string name = path.filename().string();
+  return WriteFileDurably(path.parent_path(), name, text, ".tmp-" + name, "'" + name + "'");
 }
 
 std::string ReadText(const fs::path& path) {
@@ -118,7 +111,7 @@ Result<size_t> FileJobQueue::Start() {
         job->info.error = "rig '" + job->info.rig + "' was " + (rig ? "replaced" : "removed") +
                           " while the job was unfinished; " + std::to_string(job->info.done) + " of " +
                           std::to_string(job->info.total) + " variants were done";
-        WriteAtomically(e.path() / "state.json", json{{"state", job->info.state}, {"error", job->info.error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+        WriteJobFile(e.path() / "state.json", json{{"state", job->info.state}, {"error", job->info.error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
       } else {
         job->rig = rig;
         job->info.state = "queued";
@@ -179,9 +172,11 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
   fs::create_directories(folder, ec);
   json j = {{"id", job->info.id},          {"rig", rig->id},         {"rig_version", rig->version},
             {"created", job->info.created}, {"total", plan->total}, {"request", json::parse(body, nullptr, false)}};
-  if (ec || !WriteAtomically(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n")) {
+  Status written = ec ? Status{StatusCode::kInternal, "cannot create the job's folder: " + ec.message(), {}}
+                      : WriteJobFile(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  if (!written.ok()) {
     fs::remove_all(folder, ec);
-    return Status{StatusCode::kInternal, "cannot store the job (disk full?)", {}};
+    return Status{written.code, "cannot store the job: " + written.message, {}};
   }
   lock.lock();
   jobs_[job->info.id] = job;
@@ -226,7 +221,7 @@ Status FileJobQueue::Remove(const std::string& id) {
 std::string FileJobQueue::Folder(const std::string& id) const { return (fs::path(dir_) / id / "out").string(); }
 
 void FileJobQueue::Finish(Job& job, const std::string& state, const std::string& error) {
-  WriteAtomically(fs::path(dir_) / job.info.id / "state.json", json{{"state", state}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteJobFile(fs::path(dir_) / job.info.id / "state.json", json{{"state", state}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   std::lock_guard<std::mutex> lock(mu_);
   job.info.state = state;
   job.info.error = error;

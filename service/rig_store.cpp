@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "durable.h"
 #include "facespace/core/io.h"
 
 namespace facespace {
@@ -34,40 +35,6 @@ std::string Version(std::span<const unsigned char> bytes) {
 bool IsRigFile(const fs::path& p) {
   const std::string ext = p.extension().string();
   return ext == ".glb" || ext == ".gltf";
-}
-
-Status WriteDurably(const std::string& dir, const std::string& tmp, const std::string& final_path,
-                    std::span<const unsigned char> bytes) {
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  if (fd < 0) return Status{StatusCode::kInternal, std::string("cannot create a file in the store: ") + std::strerror(errno), {}};
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const int e = errno;
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      return Status{StatusCode::kInternal, std::string("cannot write the rig: ") + std::strerror(e), {}};
-    }
-    done += static_cast<size_t>(n);
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    const int e = errno;
-    ::unlink(tmp.c_str());
-    return Status{StatusCode::kInternal, std::string("cannot flush the rig to disk: ") + std::strerror(e), {}};
-  }
-  if (::rename(tmp.c_str(), final_path.c_str()) != 0) {
-    const int e = errno;
-    ::unlink(tmp.c_str());
-    return Status{StatusCode::kInternal, std::string("cannot publish the rig: ") + std::strerror(e), {}};
-  }
-  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
-  }
-  return Status::Ok();
 }
 
 }  // namespace
@@ -156,9 +123,11 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
 
   std::lock_guard<std::mutex> write_lock(write_mu_);
   static std::atomic<uint64_t> counter{0};
-  const std::string final_path = dir_ + "/" + id + (binary ? ".glb" : ".gltf");
-  const std::string tmp = dir_ + "/." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
-  if (Status s = WriteDurably(dir_, tmp, final_path, bytes); !s.ok()) return s;
+  const std::string file = id + (binary ? ".glb" : ".gltf");
+  const std::string final_path = dir_ + "/" + file;
+  const std::string tmp = "." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
+  const std::string_view data(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  if (Status s = WriteFileDurably(dir_, file, data, tmp, "the rig"); !s.ok()) return s;
   // The other extension, if any, must not shadow the new file after a restart.
   std::error_code ec;
   fs::remove(dir_ + "/" + id + (binary ? ".gltf" : ".glb"), ec);

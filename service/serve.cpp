@@ -1,5 +1,6 @@
 // facespace serve: configuration (flags, then environment, then defaults), the rig store,
 // the HTTP server and graceful shutdown.
+#include <malloc.h>
 #include <pthread.h>
 #include <signal.h>
 #include <unistd.h>
@@ -8,6 +9,8 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <condition_variable>
+#include <mutex>
 #include <thread>
 
 #include "cli.h"
@@ -34,6 +37,7 @@ struct ServeConfig {
   bool quiet = false;
   size_t max_vertices = 1000000;  // Per uploaded rig.
   size_t max_shapes = 1024;
+  int render_threads = 0;    // GL contexts, i.e. renders drawing at once; 0: one per core.
   int read_timeout = 10;     // Seconds a client may take to send a request (slow clients are cut off).
   std::string jobs_dir;      // Default: $XDG_STATE_HOME/facespace/jobs or ~/.local/state/facespace/jobs.
   JobLimits job_limits;
@@ -51,11 +55,12 @@ const char kServeUsage[] =
     "                       [--cache-mb MB] [--max-render PIXELS] [--quiet]\n"
     "                       [--jobs-dir DIR] [--max-jobs N] [--max-batch N] [--batch-threads N]\n"
     "                       [--max-vertices N] [--max-shapes N] [--read-timeout SECONDS]\n"
+    "                       [--render-threads N]\n"
     "environment: FACESPACE_RIGS, FACESPACE_HOST, FACESPACE_PORT, FACESPACE_THREADS,\n"
     "             FACESPACE_API_KEY_FILE, FACESPACE_MAX_BODY, FACESPACE_CORS_ORIGINS (comma-separated),\n"
     "             FACESPACE_CACHE_MB, FACESPACE_MAX_RENDER, FACESPACE_JOBS_DIR, FACESPACE_MAX_JOBS,\n"
     "             FACESPACE_MAX_BATCH, FACESPACE_BATCH_THREADS, FACESPACE_MAX_VERTICES, FACESPACE_MAX_SHAPES,\n"
-    "             FACESPACE_READ_TIMEOUT; flags win over the environment.\n"
+    "             FACESPACE_READ_TIMEOUT, FACESPACE_RENDER_THREADS; flags win over the environment.\n"
     "batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n";
 
 bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
@@ -108,6 +113,9 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   } else if (key == "max-shapes") {
     if (!ParseSize(value, 0, 100000, &n)) return "max-shapes must be 0..100000, not '" + value + "'";
     c.max_shapes = static_cast<size_t>(n);
+  } else if (key == "render-threads") {
+    if (!ParseSize(value, 0, 256, &n)) return "render-threads must be 0..256 (0: one per core), not '" + value + "'";
+    c.render_threads = static_cast<int>(n);
   } else if (key == "read-timeout") {
     if (!ParseSize(value, 1, 3600, &n)) return "read-timeout must be 1..3600 seconds, not '" + value + "'";
     c.read_timeout = static_cast<int>(n);
@@ -136,7 +144,8 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"},
       {"FACESPACE_MAX_RENDER", "max-render"}, {"FACESPACE_JOBS_DIR", "jobs-dir"}, {"FACESPACE_MAX_JOBS", "max-jobs"},
       {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"},
-      {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"}};
+      {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"},
+      {"FACESPACE_RENDER_THREADS", "render-threads"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -248,7 +257,8 @@ int Serve(const std::vector<std::string>& args) {
   }
   std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(),
                c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
-  std::fprintf(stderr, "facespace: renderer: %s\n", render::RendererInfo().c_str());
+  render::SetMaxContexts(c.render_threads);
+  std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", render::RendererInfo().c_str(), render::MaxContexts());
   std::fflush(stderr);
 
   std::atomic<bool> signalled{false};
@@ -260,9 +270,25 @@ int Serve(const std::vector<std::string>& args) {
     }
     server.stop();
   });
+  // Hand freed heap pages back to the system now and then: glibc keeps what a burst of large
+  // responses freed in each of its per-thread arenas, so RSS would otherwise stay at the
+  // highest burst seen rather than follow the load.
+  std::mutex trim_mu;
+  std::condition_variable trim_cv;
+  bool trim_stop = false;
+  std::thread trimmer([&] {
+    std::unique_lock lock(trim_mu);
+    while (!trim_cv.wait_for(lock, std::chrono::seconds(10), [&] { return trim_stop; })) malloc_trim(0);
+  });
   const bool ok = server.listen_after_bind();
   if (!signalled.exchange(true)) pthread_kill(waiter.native_handle(), SIGTERM);  // Wake the waiter.
   waiter.join();
+  {
+    std::lock_guard lock(trim_mu);
+    trim_stop = true;
+  }
+  trim_cv.notify_one();
+  trimmer.join();
   std::fprintf(stderr, "facespace: stopped\n");
   return ok ? 0 : 1;
 }

@@ -1,5 +1,6 @@
 #include "facespace/api/http.h"
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -11,7 +12,9 @@
 #include <list>
 #include <map>
 #include <mutex>
+#include <memory>
 #include <nlohmann/json.hpp>
+#include <thread>
 #include <unordered_map>
 
 #include "facespace/api/request.h"
@@ -42,7 +45,7 @@ const char* const kRouteNames[kRouteCount] = {"/healthz", "/readyz", "/metrics",
                                               "/v1/rigs/{id}/render", "/v1/rigs/{id}/sheet", "/v1/rigs/{id}/sequence/*",
                                               "/v1/rigs/{id}/fit", "/v1/rigs/{id}/batch", "/v1/jobs", "/v1/jobs/{job}",
                                               "/v1/jobs/{job}/*", "other"};
-const int kStatuses[] = {200, 201, 202, 204, 304, 400, 401, 403, 404, 405, 406, 409, 413, 415, 422, 429, 500, 503};
+const int kStatuses[] = {200, 201, 202, 204, 304, 400, 401, 403, 404, 405, 406, 409, 413, 415, 422, 429, 500, 503, 507};
 constexpr int kStatusCount = sizeof(kStatuses) / sizeof(kStatuses[0]);
 const double kBuckets[] = {0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5};
 constexpr int kBucketCount = sizeof(kBuckets) / sizeof(kBuckets[0]);
@@ -84,6 +87,51 @@ struct RequestState {
   int route = kOther;
 };
 thread_local RequestState t_request;
+
+// ---- blend scratch ------------------------------------------------------------------------
+
+// What a blend writes into: the evaluated rig and the kernel's scratch, reused across requests
+// (no allocation per request once warm). A free list rather than thread_local: with a thread
+// per keep-alive connection, per-thread buffers would grow with every thread that ever blended
+// (half a megabyte each on the MakeHuman face); here the idle ones are capped.
+struct Scratch {
+  BlendContext context;
+  BlendedRig blended;
+};
+
+struct ScratchPool {
+  std::mutex mu;
+  std::vector<std::unique_ptr<Scratch>> idle;
+};
+
+ScratchPool& Scratches() {
+  static ScratchPool pool;
+  return pool;
+}
+
+struct ReturnScratch {
+  void operator()(Scratch* s) const {
+    const size_t keep = 2 * std::max(2u, std::thread::hardware_concurrency());
+    std::unique_ptr<Scratch> owned(s);
+    ScratchPool& pool = Scratches();
+    std::lock_guard lock(pool.mu);
+    if (pool.idle.size() < keep) pool.idle.push_back(std::move(owned));
+  }
+};
+using ScratchLease = std::unique_ptr<Scratch, ReturnScratch>;
+
+ScratchLease LeaseScratch() {
+  ScratchPool& pool = Scratches();
+  {
+    std::lock_guard lock(pool.mu);
+    if (!pool.idle.empty()) {
+      ScratchLease s(pool.idle.back().release());
+      pool.idle.pop_back();
+      return s;
+    }
+  }
+  return ScratchLease(new Scratch);
+}
 
 // ---- encoded-response cache ----------------------------------------------------------------
 
@@ -695,8 +743,9 @@ struct Api::Impl {
     const std::string key = rig->id + "|" + rig->version + "|" + canonical;
     if (NotModified(req, res, key)) return;
     SendCached(req, res, key, MeshFormatMimeType(format), [&]() -> Result<std::string> {
-      thread_local BlendContext context;
-      thread_local BlendedRig blended;
+      const ScratchLease scratch = LeaseScratch();
+      BlendContext& context = scratch->context;
+      BlendedRig& blended = scratch->blended;
       const auto at = RigAt(rig, mr.lod);
       if (!at || !EvaluateRig(*at, w, mr.options, blended, context).ok()) return Status{StatusCode::kInternal, "the blend failed", {}};
       metrics.blends.fetch_add(1, std::memory_order_relaxed);
@@ -778,8 +827,9 @@ struct Api::Impl {
                             std::to_string(rr.mesh.lod) + "|" + WeightsCanonical(w) + PoseCanonical(pose, posed);
     if (NotModified(req, res, key)) return;
     SendCached(req, res, key, render::ImageFormatMimeType(format), [&]() -> Result<std::string> {
-      thread_local BlendContext context;
-      thread_local BlendedRig blended;
+      const ScratchLease scratch = LeaseScratch();
+      BlendContext& context = scratch->context;
+      BlendedRig& blended = scratch->blended;
       render::Image image;
       const auto at = RigAt(rig, rr.mesh.lod);
       if (!at || !EvaluateRig(*at, w, rr.mesh.options, blended, context).ok() || !render::Render(*at, blended, rr.render, image).ok()) {
@@ -838,8 +888,9 @@ struct Api::Impl {
     }
     if (NotModified(req, res, key)) return;
     SendCached(req, res, key, render::ImageFormatMimeType(format), [&]() -> Result<std::string> {
-      thread_local BlendContext context;
-      thread_local BlendedRig blended;
+      const ScratchLease scratch = LeaseScratch();
+      BlendContext& context = scratch->context;
+      BlendedRig& blended = scratch->blended;
       std::vector<render::Image> images(sr.cells.size());
       for (size_t c = 0; c < sr.cells.size(); ++c) {
         if (!EvaluateRig(rig->rig, weights[c], sr.base.mesh.options, blended, context).ok() ||
@@ -926,8 +977,9 @@ struct Api::Impl {
           SampleSequence(*seq, t, w, &f);
           std::string chunk;
           if (f32) {
-            thread_local BlendContext context;
-            thread_local BlendedRig blended;
+            const ScratchLease scratch = LeaseScratch();
+            BlendContext& context = scratch->context;
+            BlendedRig& blended = scratch->blended;
             if (!EvaluateRig(rig->rig, w, sr->options, blended, context).ok()) return false;
             metrics.blends.fetch_add(1, std::memory_order_relaxed);
             std::vector<float> pos;
@@ -1054,6 +1106,8 @@ struct Api::Impl {
       } else if (s.code == StatusCode::kInvalidArgument) {
         const bool malformed = IsMalformedJson(s);
         SendProblem(req, res, malformed ? 400 : 422, malformed ? "malformed-json" : "invalid-request", s.message, s.fields);
+      } else if (s.code == StatusCode::kStorageFull) {
+        SendProblem(req, res, 507, "storage-full", s.message);
       } else {
         SendProblem(req, res, 500, "storage-failed", s.message);
       }
@@ -1161,8 +1215,11 @@ struct Api::Impl {
     const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
     Status s = store.Put(id, std::span<const unsigned char>(data, req.body.size()), ct == "model/gltf-binary", &created);
     if (!s.ok()) {
-      const int status = s.code == StatusCode::kResourceExhausted ? 413 : s.code == StatusCode::kInternal ? 500 : 422;
-      SendProblem(req, res, status, status == 500 ? "storage-failed" : "invalid-rig", s.message, s.fields);
+      const int status = s.code == StatusCode::kResourceExhausted ? 413
+                         : s.code == StatusCode::kStorageFull ? 507
+                         : s.code == StatusCode::kInternal    ? 500
+                                                              : 422;
+      SendProblem(req, res, status, status == 507 ? "storage-full" : status == 500 ? "storage-failed" : "invalid-rig", s.message, s.fields);
       return;
     }
     auto stored = store.Get(id);

@@ -10,6 +10,7 @@ const char* StatusCodeName(StatusCode code) {
     case StatusCode::kFailedPrecondition: return "failed_precondition";
     case StatusCode::kResourceExhausted: return "resource_exhausted";
     case StatusCode::kDataLoss: return "data_loss";
+    case StatusCode::kStorageFull: return "storage_full";
     case StatusCode::kInternal: return "internal";
   }
   return "unknown";

@@ -1,5 +1,5 @@
-// OSMesa (llvmpipe) renderer: one GL 3.3 core context per thread, an offscreen float
-// framebuffer, Blinn-Phong in linear light.
+// OSMesa (llvmpipe) renderer: a bounded pool of GL 3.3 core contexts shared by every thread,
+// an offscreen float framebuffer, Blinn-Phong in linear light.
 #define GL_GLEXT_PROTOTYPES 1
 #include "facespace/render/render.h"
 
@@ -12,9 +12,13 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <algorithm>
+#include <condition_variable>
 #include <cstdlib>
 #include <list>
+#include <memory>
 #include <mutex>
+#include <thread>
 
 namespace facespace::render {
 
@@ -99,7 +103,7 @@ struct Texture {
   GLuint id;
 };
 
-// Everything GL of one thread.
+// Everything GL of one context. Current on one thread at a time: the thread that leased it.
 struct Context {
   OSMesaContext ctx = nullptr;
   std::vector<unsigned char> dummy = std::vector<unsigned char>(16 * 16 * 4);
@@ -114,10 +118,8 @@ struct Context {
     if (ctx) OSMesaDestroyContext(ctx);
   }
 
+  // Creates the context and makes it current on the calling thread.
   bool Init() {
-    if (ctx) return error.empty();
-    // llvmpipe renders in the calling thread: parallelism comes from requests.
-    setenv("LP_NUM_THREADS", "0", 0);
     const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                            OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
     ctx = OSMesaCreateContextAttribs(attribs, nullptr);
@@ -125,10 +127,7 @@ struct Context {
       error = "OSMesa could not create a GL 3.3 core context";
       return false;
     }
-    if (!OSMesaMakeCurrent(ctx, dummy.data(), GL_UNSIGNED_BYTE, 16, 16)) {
-      error = "OSMesaMakeCurrent failed";
-      return false;
-    }
+    if (!MakeCurrent()) return false;
     info = std::string(reinterpret_cast<const char*>(glGetString(GL_RENDERER))) + ", OpenGL " +
            reinterpret_cast<const char*>(glGetString(GL_VERSION));
     program = Link();
@@ -137,6 +136,12 @@ struct Context {
     glGenBuffers(1, &vbo);
     glGenBuffers(1, &ibo);
     return true;
+  }
+
+  bool MakeCurrent() {
+    if (OSMesaMakeCurrent(ctx, dummy.data(), GL_UNSIGNED_BYTE, 16, 16)) return true;
+    error = "OSMesaMakeCurrent failed";
+    return false;
   }
 
   GLuint Compile(GLenum type, const char* src) {
@@ -229,7 +234,104 @@ struct Context {
   }
 };
 
-thread_local Context t_gl;
+// The GL contexts every thread shares. A render leases one for its GL part only (upload,
+// draw, read-back), so at most `limit` renders hold GL memory at once, about 20 MB each at
+// 1024 x 1024 samples, however many threads serve requests; the rest wait their turn. With
+// llvmpipe drawing on the calling thread, more contexts than cores would not draw faster.
+class ContextPool {
+ public:
+  class Lease {
+   public:
+    Lease(ContextPool* pool, std::unique_ptr<Context> context) : pool_(pool), context_(std::move(context)) {}
+    Lease(Lease&&) = default;
+    ~Lease() {
+      if (context_) pool_->Release(std::move(context_));
+    }
+    Context* get() const { return context_.get(); }
+
+   private:
+    ContextPool* pool_;
+    std::unique_ptr<Context> context_;
+  };
+
+  // A context current on this thread, or the reason there is none.
+  Result<Lease> Acquire() {
+    std::unique_ptr<Context> context;
+    {
+      // First come, first served: a ticket each, so no render waits behind later ones.
+      std::unique_lock lock(mu_);
+      const uint64_t ticket = next_ticket_++;
+      cv_.wait(lock, [this, ticket] { return ticket == serving_ && (!idle_.empty() || live_ < Limit()); });
+      ++serving_;
+      cv_.notify_all();  // The next ticket may go too if another context is free.
+      if (!idle_.empty()) {
+        context = std::move(idle_.back());
+        idle_.pop_back();
+      } else {
+        ++live_;
+      }
+    }
+    if (context) {
+      if (context->MakeCurrent()) return Lease(this, std::move(context));
+      Discard();
+      return Status{StatusCode::kInternal, "renderer unavailable: " + context->error, {}};
+    }
+    std::call_once(env_once_, [] { setenv("LP_NUM_THREADS", "0", 0); });  // llvmpipe draws on the calling thread.
+    context = std::make_unique<Context>();
+    if (context->Init()) return Lease(this, std::move(context));
+    const std::string error = context->error;
+    context.reset();
+    Discard();
+    return Status{StatusCode::kInternal, "renderer unavailable: " + error, {}};
+  }
+
+  void SetLimit(int n) {
+    std::lock_guard lock(mu_);
+    limit_ = n;
+    while (live_ > Limit() && !idle_.empty()) {
+      idle_.pop_back();
+      --live_;
+    }
+    cv_.notify_all();
+  }
+
+  int Limit() const {
+    if (limit_ > 0) return limit_;
+    return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  }
+
+ private:
+  void Release(std::unique_ptr<Context> context) {
+    OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);  // Free to be made current on another thread.
+    std::lock_guard lock(mu_);
+    if (live_ > Limit()) {
+      context.reset();
+      --live_;
+    } else {
+      idle_.push_back(std::move(context));
+    }
+    cv_.notify_all();
+  }
+
+  void Discard() {
+    std::lock_guard lock(mu_);
+    --live_;
+    cv_.notify_all();
+  }
+
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::vector<std::unique_ptr<Context>> idle_;
+  int live_ = 0;    // Contexts created and not destroyed: idle or leased.
+  int limit_ = 0;   // 0: one per core.
+  uint64_t next_ticket_ = 0, serving_ = 0;
+  std::once_flag env_once_;
+};
+
+ContextPool& Pool() {
+  static ContextPool pool;
+  return pool;
+}
 
 float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
@@ -260,18 +362,25 @@ const char* ViewName(View view) {
 }
 
 std::string RendererInfo() {
-  if (!t_gl.Init()) return "unavailable: " + t_gl.error;
-  return t_gl.info;
+  auto lease = Pool().Acquire();
+  if (!lease.ok()) return "unavailable: " + lease.status().message;
+  return lease.value().get()->info;
 }
 
+void SetMaxContexts(int n) { Pool().SetLimit(n); }
+
+int MaxContexts() { return Pool().Limit(); }
 
 
 Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) {
   if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192) return InvalidArgument("image size out of range");
   if (o.supersample < 1 || o.supersample > 4) return InvalidArgument("supersample must be 1..4");
   if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
-  if (!t_gl.Init()) return Status{StatusCode::kInternal, "renderer unavailable: " + t_gl.error, {}};
-  Context& gl = t_gl;
+  // A context from the pool for the whole render: the vertex arrays and the read-back below
+  // then exist for at most MaxContexts() renders at once, however many requests wait.
+  auto lease = Pool().Acquire();
+  if (!lease.ok()) return lease.status();
+  Context& gl = *lease.value().get();
   const int w = o.width * o.supersample, h = o.height * o.supersample;
 
   // World-space vertices: pos, normal, uv, colour, displacement (13 floats).

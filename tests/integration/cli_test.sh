@@ -8,6 +8,7 @@ pass=0; fail=0
 ok() { pass=$((pass + 1)); echo "ok   $*"; }
 no() { fail=$((fail + 1)); echo "FAIL $*"; }
 check() { local what=$1; shift; if "$@"; then ok "$what"; else no "$what"; fi; }
+both() { sh -c "$1" && "${@:2}"; }  # check "what" both "SHELL CONDITION" COMMAND...: both must hold.
 py() { python3 -c "$1" "${@:2}"; }
 
 rig=$src/assets/facecap/facecap.glb
@@ -179,7 +180,7 @@ sys.exit(not(n>100 and err<0.01*dis))' "$tmp/m1.json" "$tmp/m2.json" "$tmp/m0.js
 "$bin" compress "$rig" --json >"$tmp/comp.json" 2>/dev/null
 check "compress --json: components, errors within the bound, sizes" py 'import json,sys; d=json.load(open(sys.argv[1])); p=d["pca"]; q=d["quantized"]; sys.exit(not(d["shapes"]==52 and 0<p["components"]<=52 and p["max_error"]<=p["error_bound"] and q["bits"]==16 and q["bytes"]<d["sparse_bytes"] and q["max_error"]<1e-5*d["diagonal"]))' "$tmp/comp.json"
 "$bin" blend "$rig" --set jawOpen=1 --lod 2 -o "$tmp/lod.json" 2>"$tmp/err"
-check "blend --lod 2: about a quarter of the triangles, fewer vertices, reported" sh -c "grep -Eq 'lod 2: 20[0-9][0-9] of 8042 triangles' '$tmp/err'" && py 'import json,sys; p=json.load(open(sys.argv[1]))["primitives"]; sys.exit(not(sum(len(x["positions"]) for x in p)//3 < 2000))' "$tmp/lod.json"
+check "blend --lod 2: about a quarter of the triangles, fewer vertices, reported" both "grep -Eq 'lod 2: 20[0-9][0-9] of 8042 triangles' '$tmp/err'" py 'import json,sys; p=json.load(open(sys.argv[1]))["primitives"]; sys.exit(not(sum(len(x["positions"]) for x in p)//3 < 2000))' "$tmp/lod.json"
 err_case "blend --lod 7 is refused" "level of detail" blend "$rig" --lod 7 -o "$tmp/x.json"
 
 # MakeHuman: convert, controls

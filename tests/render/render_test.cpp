@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <thread>
 
 #include "facespace/core/io.h"
 #include "facespace/core/skeleton.h"
@@ -180,6 +181,38 @@ TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
     }
   }
   EXPECT_GT(changed, 1000) << "the shape changes the picture";
+}
+
+TEST(Render, ThreadsShareABoundedSetOfContexts) {
+  // Renders from several threads, more than the contexts allowed, at two sizes (a shared
+  // context resizes its framebuffer) give exactly the pictures rendered one at a time.
+  Rig cube = UnitCube();
+  RenderOptions small = HeadOn(48), large = HeadOn(96);
+  large.camera.yaw = 30;
+  Image want_small, want_large;
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), small, want_small).ok());
+  ASSERT_TRUE(render::Render(cube, Evaluate(cube), large, want_large).ok());
+  render::SetMaxContexts(1);
+  EXPECT_EQ(render::MaxContexts(), 1);
+  const BlendedRig blended = Evaluate(cube);
+  std::vector<int> mismatches(6, 0);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 6; ++t) {
+    threads.emplace_back([&, t] {
+      for (int i = 0; i < 8; ++i) {
+        const bool big = (t + i) % 2 == 1;
+        Image im;
+        if (!render::Render(cube, blended, big ? large : small, im).ok() || im.rgba != (big ? want_large : want_small).rgba) {
+          ++mismatches[t];
+        }
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 6; ++t) EXPECT_EQ(mismatches[t], 0) << "thread " << t;
+  render::SetMaxContexts(0);
+  EXPECT_EQ(render::MaxContexts(), std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
+  EXPECT_NE(render::RendererInfo().find("llvmpipe"), std::string::npos);
 }
 
 TEST(Render, SupersamplingSmoothsEdges) {

@@ -16,6 +16,7 @@ enum class StatusCode {
   kFailedPrecondition,  // The input is well formed but cannot be used here.
   kResourceExhausted,   // A configured limit was exceeded.
   kDataLoss,            // A stored file is truncated or corrupt.
+  kStorageFull,         // The disk (or a quota) is full: retry when space is freed.
   kInternal,            // A bug on our side.
 };
 

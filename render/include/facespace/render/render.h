@@ -51,10 +51,16 @@ struct Image {
 };
 
 // Renders `blended` (the rig evaluated at some weights) with the rig's node transforms and
-// materials. Each calling thread gets its own GL context, so renders run in parallel.
+// materials. Thread-safe: the GL part leases one of a bounded set of contexts (SetMaxContexts),
+// so renders run in parallel up to that many and wait beyond it.
 Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& options, Image& out);
 
-// "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6" for this thread's context.
+// How many GL contexts may exist at once (each holds its framebuffer: about 20 MB at
+// 1024 x 1024 samples). 0, the default: one per core.
+void SetMaxContexts(int n);
+int MaxContexts();
+
+// "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6".
 std::string RendererInfo();
 
 enum class ImageFormat { kPng, kJpeg, kExr, kTiff };
