@@ -222,6 +222,10 @@ int Serve(const std::vector<std::string>& args) {
   }
   if (resumed.value() > 0) std::fprintf(stderr, "facespace: resuming %zu unfinished batch job(s) from %s\n", resumed.value(), c.jobs_dir.c_str());
 
+  // Large buffers (response bodies of big meshes, images, render read-backs) straight from and
+  // back to the system: glibc's default raises this threshold to the largest block freed so far,
+  // after which such buffers come from the per-thread arenas and stay there, fragmented.
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
   httplib::Server server;
   const int threads = c.threads;
   server.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
@@ -270,25 +274,9 @@ int Serve(const std::vector<std::string>& args) {
     }
     server.stop();
   });
-  // Hand freed heap pages back to the system now and then: glibc keeps what a burst of large
-  // responses freed in each of its per-thread arenas, so RSS would otherwise stay at the
-  // highest burst seen rather than follow the load.
-  std::mutex trim_mu;
-  std::condition_variable trim_cv;
-  bool trim_stop = false;
-  std::thread trimmer([&] {
-    std::unique_lock lock(trim_mu);
-    while (!trim_cv.wait_for(lock, std::chrono::seconds(10), [&] { return trim_stop; })) malloc_trim(0);
-  });
   const bool ok = server.listen_after_bind();
   if (!signalled.exchange(true)) pthread_kill(waiter.native_handle(), SIGTERM);  // Wake the waiter.
   waiter.join();
-  {
-    std::lock_guard lock(trim_mu);
-    trim_stop = true;
-  }
-  trim_cv.notify_one();
-  trimmer.join();
   std::fprintf(stderr, "facespace: stopped\n");
   return ok ? 0 : 1;
 }

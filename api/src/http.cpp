@@ -558,26 +558,55 @@ struct Api::Impl {
     return true;
   }
 
-  // The rig at a level of detail, built once per rig version and level and kept.
-  std::mutex lod_mu;
-  std::map<std::string, std::shared_ptr<const Rig>> lods;
-  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
-    if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
+  // What the service derives from a stored rig, per level of detail: the simplified rig and
+  // the box its shapes act in. Made once per rig version and level and kept; a new version of
+  // a rig drops its older entries.
+  struct Derived {
+    std::shared_ptr<const Rig> rig;
+    bool has_focus = false;
+    std::array<float, 3> focus_min{}, focus_max{};
+  };
+  std::mutex derived_mu;
+  std::map<std::string, std::shared_ptr<const Derived>> derived;
+
+  std::shared_ptr<const Derived> DerivedAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
     const std::string prefix = stored->id + "|";
     const std::string key = prefix + stored->version + "|" + std::to_string(lod);
     {
-      std::lock_guard<std::mutex> lock(lod_mu);
-      if (auto it = lods.find(key); it != lods.end()) return it->second;
+      std::lock_guard<std::mutex> lock(derived_mu);
+      if (auto it = derived.find(key); it != derived.end()) return it->second;
     }
-    auto made = MakeLod(stored->rig, lod);
-    if (!made.ok()) return nullptr;
-    auto rig = std::make_shared<const Rig>(std::move(made.value()));
-    std::lock_guard<std::mutex> lock(lod_mu);
-    // Levels of older versions of this rig go.
-    for (auto it = lods.lower_bound(prefix); it != lods.end() && it->first.rfind(prefix, 0) == 0;) {
-      it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : lods.erase(it);
+    auto d = std::make_shared<Derived>();
+    if (lod == 0) {
+      d->rig = std::shared_ptr<const Rig>(stored, &stored->rig);
+    } else {
+      auto made = MakeLod(stored->rig, lod);
+      if (!made.ok()) return nullptr;
+      d->rig = std::make_shared<const Rig>(std::move(made.value()));
     }
-    return lods.emplace(key, rig).first->second;
+    d->has_focus = ShapeFocusBox(*d->rig, d->focus_min, d->focus_max);
+    std::lock_guard<std::mutex> lock(derived_mu);
+    for (auto it = derived.lower_bound(prefix); it != derived.end() && it->first.rfind(prefix, 0) == 0;) {
+      it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : derived.erase(it);
+    }
+    return derived.emplace(key, std::move(d)).first->second;
+  }
+
+  // The rig at a level of detail (0: the stored rig itself).
+  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
+    if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
+    auto d = DerivedAt(stored, lod);
+    return d ? d->rig : nullptr;
+  }
+
+  // Framing on the shapes: the render's camera gets the kept box instead of a per-render one.
+  void SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera) {
+    if (!camera.frame_shapes) return;
+    if (auto d = DerivedAt(stored, lod); d && d->has_focus) {
+      camera.has_focus = true;
+      camera.focus_min = d->focus_min;
+      camera.focus_max = d->focus_max;
+    }
   }
 
   std::shared_ptr<const StoredRig> FindRig(const Request& req, Response& res, const std::string& id) {
@@ -832,7 +861,9 @@ struct Api::Impl {
       BlendedRig& blended = scratch->blended;
       render::Image image;
       const auto at = RigAt(rig, rr.mesh.lod);
-      if (!at || !EvaluateRig(*at, w, rr.mesh.options, blended, context).ok() || !render::Render(*at, blended, rr.render, image).ok()) {
+      render::RenderOptions framed = rr.render;
+      SetFocus(rig, rr.mesh.lod, framed.camera);
+      if (!at || !EvaluateRig(*at, w, rr.mesh.options, blended, context).ok() || !render::Render(*at, blended, framed, image).ok()) {
         return Status{StatusCode::kInternal, "the render failed", {}};
       }
       metrics.blends.fetch_add(1, std::memory_order_relaxed);
@@ -891,10 +922,12 @@ struct Api::Impl {
       const ScratchLease scratch = LeaseScratch();
       BlendContext& context = scratch->context;
       BlendedRig& blended = scratch->blended;
+      render::RenderOptions framed = sr.base.render;
+      SetFocus(rig, 0, framed.camera);
       std::vector<render::Image> images(sr.cells.size());
       for (size_t c = 0; c < sr.cells.size(); ++c) {
         if (!EvaluateRig(rig->rig, weights[c], sr.base.mesh.options, blended, context).ok() ||
-            !render::Render(rig->rig, blended, sr.base.render, images[c]).ok()) {
+            !render::Render(rig->rig, blended, framed, images[c]).ok()) {
           return Status{StatusCode::kInternal, "the render failed", {}};
         }
         metrics.blends.fetch_add(1, std::memory_order_relaxed);
@@ -1433,7 +1466,8 @@ void Api::Register(httplib::Server& server) {
       }
       lod = v[0] - '0';
     }
-    const auto at = I.RigAt(stored, lod);
+    const auto derived = I.DerivedAt(stored, lod);
+    const Rig* at = derived ? derived->rig.get() : nullptr;
     if (!at) {
       SendProblem(req, res, 500, "internal", "the level of detail failed");
       return;
@@ -1453,8 +1487,9 @@ void Api::Register(httplib::Server& server) {
       out += "]}";
     }
     out += "]";
-    std::array<float, 3> lo, hi;
-    if (ShapeFocusBox(*at, lo, hi)) {  // Where the shapes act, for clients that frame a view.
+    if (derived->has_focus) {  // Where the shapes act, for clients that frame a view.
+      const auto& lo = derived->focus_min;
+      const auto& hi = derived->focus_max;
       out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," + FormatNumber(lo[2]) + "],\"max\":[" +
              FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) + "," + FormatNumber(hi[2]) + "]}";
     }

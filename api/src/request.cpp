@@ -839,22 +839,22 @@ void SampleFromJson(const json& s, BatchRequest& r, Status& errors) {
     double d = 0;
     if (key == "method") {
       has_method = true;
-      if (!v.is_string() || !ParseSampleMethod(v.get<std::string>(), &r.method)) {
+      if (!v.is_string() || !ParseSampleMethod(v.get<std::string>(), &r.sample.method)) {
         errors.fields.push_back({ptr, "must be one of \"uniform\", \"gaussian\", \"grid\", \"convex\""});
       }
     } else if (key == "count" || key == "active") {
       if (!v.is_number_integer() || !Number(v, key == "count" ? 1 : 0, 1e9, &d)) {
         errors.fields.push_back({ptr, key == "count" ? "must be a positive integer" : "must be an integer >= 0"});
       } else {
-        (key == "count" ? r.count : r.active) = static_cast<size_t>(d);
+        (key == "count" ? r.sample.count : r.sample.active) = static_cast<size_t>(d);
       }
     } else if (key == "seed") {
-      if (v.is_number_unsigned()) r.seed = v.get<uint64_t>();
-      else if (v.is_number_integer() && v.get<long long>() >= 0) r.seed = static_cast<uint64_t>(v.get<long long>());
+      if (v.is_number_unsigned()) r.sample.seed = v.get<uint64_t>();
+      else if (v.is_number_integer() && v.get<long long>() >= 0) r.sample.seed = static_cast<uint64_t>(v.get<long long>());
       else errors.fields.push_back({ptr, "must be an integer in 0..2^64-1"});
     } else if (key == "spread") {
       if (!Number(v, 0, 1e6, &d)) errors.fields.push_back({ptr, "must be a number >= 0"});
-      else r.spread = static_cast<float>(d);
+      else r.sample.spread = static_cast<float>(d);
     } else if (key == "shapes") {
       if (!v.is_array()) {
         errors.fields.push_back({ptr, "must be an array of shape names"});
@@ -877,7 +877,7 @@ void SampleFromJson(const json& s, BatchRequest& r, Status& errors) {
       }
     } else if (key == "symmetric" || key == "sum_at_most_one") {
       if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
-      else (key == "symmetric" ? r.symmetric : r.sum_at_most_one) = v.get<bool>();
+      else (key == "symmetric" ? r.sample.symmetric : r.sample.sum_at_most_one) = v.get<bool>();
     } else {
       errors.fields.push_back({ptr, "unknown member (method, count, seed, shapes, fixed, center, spread, points, "
                                     "active, symmetric, sum_at_most_one)"});
@@ -961,14 +961,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
 }
 
 Result<SampleSpec> ResolveSampleSpec(const Rig& rig, const BatchRequest& r) {
-  SampleSpec spec;
-  spec.method = r.method;
-  spec.seed = r.seed;
-  spec.count = r.count;
-  spec.spread = r.spread;
-  spec.active = r.active;
-  spec.symmetric = r.symmetric;
-  spec.sum_at_most_one = r.sum_at_most_one;
+  SampleSpec spec = r.sample;
   Status errors = InvalidArgument("");
   auto merge = [&](const Status& s) { errors.fields.insert(errors.fields.end(), s.fields.begin(), s.fields.end()); };
   for (size_t i = 0; i < r.shapes.size(); ++i) {

@@ -20,22 +20,6 @@ std::vector<T> Compact(const std::vector<T>& in, const std::vector<int32_t>& rem
   return out;
 }
 
-SparseTarget CompactTarget(const SparseTarget& t, const std::vector<int32_t>& remap) {
-  SparseTarget out;
-  for (size_t k = 0; k < t.indices.size(); ++k) {
-    const int32_t v = remap[t.indices[k]];
-    if (v < 0) continue;  // remap keeps the order, so indices stay ascending.
-    out.indices.push_back(static_cast<uint32_t>(v));
-    for (int c = 0; c < 3; ++c) {
-      out.position_deltas.push_back(t.position_deltas[3 * k + c]);
-      if (!t.normal_deltas.empty()) out.normal_deltas.push_back(t.normal_deltas[3 * k + c]);
-      if (!t.tangent_deltas.empty()) out.tangent_deltas.push_back(t.tangent_deltas[3 * k + c]);
-    }
-  }
-  FinalizeTarget(out);
-  return out;
-}
-
 }  // namespace
 
 Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
@@ -64,10 +48,7 @@ Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
       // Keep the used vertices in their original order.
       std::vector<int32_t> remap(p.vertex_count(), -1);
       for (uint32_t v : simplified) remap[v] = 0;
-      size_t kept = 0;
-      for (int32_t& m : remap) {
-        if (m == 0) m = static_cast<int32_t>(kept++);
-      }
+      const size_t kept = RankKeptVertices(remap);
       for (uint32_t& v : simplified) v = static_cast<uint32_t>(remap[v]);
       r.source_vertex[pi].resize(kept);
       for (uint32_t v = 0; v < remap.size(); ++v) {
@@ -88,7 +69,7 @@ Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
       q.joints = Compact(p.joints, remap, p.influences, kept);
       q.joint_weights = Compact(p.joint_weights, remap, p.influences, kept);
       q.indices = std::move(simplified);
-      for (const SparseTarget& t : p.targets) q.targets.push_back(CompactTarget(t, remap));
+      for (const SparseTarget& t : p.targets) q.targets.push_back(RemapTarget(t, remap));
       FinalizePrimitive(q);
       p = std::move(q);
     }

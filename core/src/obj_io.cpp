@@ -287,10 +287,9 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     kept.face_uvs.push_back(obj.face_uvs[f]);
   }
   if (kept.faces.empty()) return InvalidArgument(obj_path + ": no face in the groups asked for");
-  int32_t next = 0;
+  RankKeptVertices(remap);
   for (size_t v = 0; v < obj_vertices; ++v) {
     if (remap[v] < 0) continue;
-    remap[v] = next++;
     for (int c = 0; c < 3; ++c) kept.positions.push_back(obj.positions[3 * v + c] * scale);
   }
   for (auto& face : kept.faces) {
@@ -326,14 +325,9 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   Mesh mesh;
   mesh.name = rig.name;
   for (const auto& [file, group, folder] : files) {
-    SparseTarget full, t;
+    SparseTarget full;
     if (Status s = ReadTarget(file.string(), obj_vertices, scale, full); !s.ok()) return s;
-    for (size_t k = 0; k < full.indices.size(); ++k) {
-      const int32_t v = remap[full.indices[k]];
-      if (v < 0) continue;  // A vertex of geometry not kept.
-      t.indices.push_back(static_cast<uint32_t>(v));
-      t.position_deltas.insert(t.position_deltas.end(), full.position_deltas.begin() + 3 * k, full.position_deltas.begin() + 3 * k + 3);
-    }
+    SparseTarget t = RemapTarget(full, remap);  // Vertices of geometry not kept drop out.
     Shape shape;
     shape.name = file.stem().string();
     shape.group = group.empty() ? "default" : group;

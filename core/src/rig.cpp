@@ -26,6 +26,30 @@ void FinalizeTarget(SparseTarget& target) {
   if (target.runs.size() / 2 * 4 > idx.size()) target.runs.clear();
 }
 
+size_t RankKeptVertices(std::span<int32_t> remap) {
+  size_t kept = 0;
+  for (int32_t& m : remap) {
+    if (m >= 0) m = static_cast<int32_t>(kept++);
+  }
+  return kept;
+}
+
+SparseTarget RemapTarget(const SparseTarget& t, std::span<const int32_t> remap) {
+  SparseTarget out;
+  for (size_t k = 0; k < t.indices.size(); ++k) {
+    const int32_t v = remap[t.indices[k]];
+    if (v < 0) continue;  // Ranks keep the order, so indices stay ascending.
+    out.indices.push_back(static_cast<uint32_t>(v));
+    for (int c = 0; c < 3; ++c) {
+      out.position_deltas.push_back(t.position_deltas[3 * k + c]);
+      if (!t.normal_deltas.empty()) out.normal_deltas.push_back(t.normal_deltas[3 * k + c]);
+      if (!t.tangent_deltas.empty()) out.tangent_deltas.push_back(t.tangent_deltas[3 * k + c]);
+    }
+  }
+  FinalizeTarget(out);
+  return out;
+}
+
 void FinalizePrimitive(Primitive& p) {
   const size_t n = p.vertex_count();
   const size_t faces = p.triangle_count();

@@ -430,8 +430,8 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
 
   // Framing the shapes: the rest-pose box of what they move (stable while sliders move).
   if (o.camera.frame_shapes) {
-    std::array<float, 3> lo, hi;
-    if (ShapeFocusBox(rig, lo, hi)) shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
+    std::array<float, 3> lo = o.camera.focus_min, hi = o.camera.focus_max;
+    if (o.camera.has_focus || ShapeFocusBox(rig, lo, hi)) shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
   }
 
   // Camera.

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "facespace/core/io.h"
+#include "facespace/core/shape_tools.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/render/render.h"
 #include "test_util.h"
@@ -213,6 +214,36 @@ TEST(Render, ThreadsShareABoundedSetOfContexts) {
   render::SetMaxContexts(0);
   EXPECT_EQ(render::MaxContexts(), std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
   EXPECT_NE(render::RendererInfo().find("llvmpipe"), std::string::npos);
+}
+
+TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
+  // A cube whose shape pushes out one face's corner: framing on the shapes looks at that corner.
+  Rig cube = UnitCube();
+  SparseTarget push;
+  push.indices = {2};  // (0.5, 0.5, 0.5) of the front face.
+  push.position_deltas = {0.1f, 0.1f, 0.1f};
+  cube.primitives[0].targets = {push};
+  cube.meshes[0].target_shapes = {0};
+  cube.shapes = {Shape{.name = "corner"}};
+  FinalizePrimitive(cube.primitives[0]);
+  ASSERT_TRUE(ValidateRig(cube).ok());
+  RenderOptions o;
+  o.width = o.height = 64;
+  o.camera.frame_shapes = true;
+  const BlendedRig blended = Evaluate(cube, {1.0f});
+  Image computed, given, elsewhere;
+  ASSERT_TRUE(render::Render(cube, blended, o, computed).ok());
+  std::array<float, 3> lo, hi;
+  ASSERT_TRUE(ShapeFocusBox(cube, lo, hi));
+  o.camera.has_focus = true;
+  o.camera.focus_min = lo;
+  o.camera.focus_max = hi;
+  ASSERT_TRUE(render::Render(cube, blended, o, given).ok());
+  EXPECT_EQ(given.rgba, computed.rgba) << "the box the caller keeps is the one a render would compute";
+  o.camera.focus_min = {-0.5f, -0.5f, -0.5f};
+  o.camera.focus_max = {-0.4f, -0.4f, -0.4f};
+  ASSERT_TRUE(render::Render(cube, blended, o, elsewhere).ok());
+  EXPECT_NE(elsewhere.rgba, computed.rgba) << "a given box is honoured";
 }
 
 TEST(Render, SupersamplingSmoothsEdges) {

@@ -157,15 +157,13 @@ struct BatchRequest {
   };
   std::vector<Variant> variants;
   bool sampled = false;
-  SampleMethod method = SampleMethod::kUniform;
-  uint64_t seed = 0;
-  size_t count = 0;
+  // "sample": its plain members (method, seed, count, spread, active, symmetric,
+  // sum_at_most_one) here; the members that name shapes below, resolved into `sample` by
+  // ResolveSampleSpec once the rig is known.
+  SampleSpec sample;
   std::vector<std::string> shapes;
   std::vector<WeightEntry> fixed, center;
-  float spread = 0.1f;
   std::vector<std::vector<WeightEntry>> points;
-  size_t active = 0;
-  bool symmetric = false, sum_at_most_one = false;
   std::string format = "glb";          // File format of every variant.
   bool image = false;                  // format is an image format (rendered).
   MeshFormat mesh_format = MeshFormat::kGlb;

@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,15 @@ struct SparseTarget {
 
 // Builds `runs` from `indices`. Call after filling a target.
 void FinalizeTarget(SparseTarget& target);
+
+// Order-preserving vertex compaction (LOD, keeping some groups of an OBJ). `remap` holds per
+// vertex -1 (dropped) or 0 (kept); RankKeptVertices turns each kept entry into the vertex's new
+// index, its rank among the kept ones, so kept vertices keep their order. Returns how many.
+size_t RankKeptVertices(std::span<int32_t> remap);
+
+// `target` over the kept vertices of a ranked `remap`: dropped vertices' deltas go, indices
+// stay ascending, runs rebuilt.
+SparseTarget RemapTarget(const SparseTarget& target, std::span<const int32_t> remap);
 
 enum class PrimitiveMode : int { kPoints = 0, kLines = 1, kTriangles = 4 };
 

@@ -31,6 +31,10 @@ struct Camera {
   float fov = 30.0f;      // Vertical field of view, degrees.
   bool look_at = false;   // Use eye/target/up instead of the orbit above.
   bool frame_shapes = false;  // Orbit around the vertices the rig's shapes move (ShapeFocusBox: a face on a whole body).
+  // The box frame_shapes orbits, when the caller has it already (ShapeFocusBox of the rig,
+  // kept by a caller that renders one rig many times); computed per render otherwise.
+  bool has_focus = false;
+  std::array<float, 3> focus_min{0, 0, 0}, focus_max{0, 0, 0};
   std::array<float, 3> eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
 };
 
