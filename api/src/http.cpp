@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <list>
+#include <malloc.h>
 #include <map>
 #include <mutex>
 #include <memory>
@@ -171,6 +172,16 @@ class ResponseCache {
     }
   }
 
+  // Bytes held (bodies and keys), for /metrics.
+  size_t Bytes() {
+    size_t total = 0;
+    for (Shard& s : shards_) {
+      std::lock_guard<std::mutex> lock(s.mu);
+      total += s.bytes;
+    }
+    return total;
+  }
+
  private:
   static constexpr size_t kShards = 16;
   using Entry = std::pair<std::string, std::shared_ptr<const Encoded>>;
@@ -216,6 +227,7 @@ const char* ReasonPhrase(int status) {
     case 429: return "Too Many Requests";
     case 500: return "Internal Server Error";
     case 503: return "Service Unavailable";
+    case 507: return "Insufficient Storage";
   }
   return "Error";
 }
@@ -1325,6 +1337,15 @@ std::string Api::MetricsText() const {
   }
   out += "# HELP facespace_rigs_loaded Rigs in the store.\n# TYPE facespace_rigs_loaded gauge\n";
   out += "facespace_rigs_loaded " + std::to_string(impl_->store.List().size()) + "\n";
+  out += "# HELP facespace_cache_bytes Bytes of encoded responses held by the response cache.\n";
+  out += "# TYPE facespace_cache_bytes gauge\nfacespace_cache_bytes " + std::to_string(impl_->cache.Bytes()) + "\n";
+  // The allocator's view (glibc): what is allocated and not freed, and what was freed but kept.
+  // Heap in use flat while RSS moves is fragmentation; heap in use growing is a leak.
+  const struct mallinfo2 mi = mallinfo2();
+  out += "# HELP facespace_heap_in_use_bytes Heap bytes allocated and not yet freed (malloc arenas and mmapped blocks).\n";
+  out += "# TYPE facespace_heap_in_use_bytes gauge\nfacespace_heap_in_use_bytes " + std::to_string(mi.uordblks + mi.hblkhd) + "\n";
+  out += "# HELP facespace_heap_free_bytes Heap bytes freed but kept by the allocator for reuse.\n";
+  out += "# TYPE facespace_heap_free_bytes gauge\nfacespace_heap_free_bytes " + std::to_string(mi.fordblks) + "\n";
   return out;
 }
 
