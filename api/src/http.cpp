@@ -112,7 +112,7 @@ ScratchPool& Scratches() {
 
 struct ReturnScratch {
   void operator()(Scratch* s) const {
-    const size_t keep = 2 * std::max(2u, std::thread::hardware_concurrency());
+    static const size_t keep = 2 * std::max(2u, std::thread::hardware_concurrency());  // Asked once: a syscall.
     std::unique_ptr<Scratch> owned(s);
     ScratchPool& pool = Scratches();
     std::lock_guard lock(pool.mu);

@@ -234,8 +234,8 @@ struct Context {
   }
 };
 
-// The GL contexts every thread shares. A render leases one for its GL part only (upload,
-// draw, read-back), so at most `limit` renders hold GL memory at once, about 20 MB each at
+// The GL contexts every thread shares. A render leases one for its whole run (vertex arrays,
+// draw, read-back), so at most `limit` renders hold that memory at once, about 20 MB each at
 // 1024 x 1024 samples, however many threads serve requests; the rest wait their turn. With
 // llvmpipe drawing on the calling thread, more contexts than cores would not draw faster.
 class ContextPool {
@@ -295,10 +295,7 @@ class ContextPool {
     cv_.notify_all();
   }
 
-  int Limit() const {
-    if (limit_ > 0) return limit_;
-    return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  }
+  int Limit() const { return limit_ > 0 ? limit_ : cores_; }
 
  private:
   void Release(std::unique_ptr<Context> context) {
@@ -324,6 +321,7 @@ class ContextPool {
   std::vector<std::unique_ptr<Context>> idle_;
   int live_ = 0;    // Contexts created and not destroyed: idle or leased.
   int limit_ = 0;   // 0: one per core.
+  const int cores_ = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));  // Asked once: a syscall.
   uint64_t next_ticket_ = 0, serving_ = 0;
   std::once_flag env_once_;
 };
