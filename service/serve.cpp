@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <pthread.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -259,10 +260,27 @@ int Serve(const std::vector<std::string>& args) {
     if (path == "/index.html") server.Get("/", handler);
   }
 
+  // cpp-httplib's own socket options set SO_REUSEPORT, with which a second server on the same
+  // port starts without a word and takes half the connections. SO_REUSEADDR alone still lets a
+  // restart bind over connections in TIME_WAIT.
+  int listening = -1;
+  server.set_socket_options([&listening](int fd) {
+    const int yes = 1;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    listening = fd;  // The last socket tried is the one bound.
+  });
   const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);
   if (port < 0) {
     std::fprintf(stderr, "facespace: cannot listen on %s:%d (in use, or not an address of this machine)\n", c.host.c_str(), c.port);
     return 1;
+  }
+  // cpp-httplib listens with a backlog of 5. When 64 clients connect at once while the cores are
+  // busy (renders in flight), the kernel drops the SYNs beyond it and the clients wait for their
+  // retransmission, 1 s and then 3 s later: that was the load test's latency tail and its
+  // time-outs. Listening again on a bound socket only changes the backlog (capped by
+  // net.core.somaxconn).
+  if (listening < 0 || ::listen(listening, SOMAXCONN) != 0) {
+    std::fprintf(stderr, "facespace: warning: cannot raise the listen backlog; bursts of connections may wait\n");
   }
   std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(),
                c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");

@@ -193,8 +193,8 @@ mkdir -p "$tmp/mh2"
 check "convert is deterministic (glb and manifest byte-identical)" sh -c "cmp -s '$tmp/mh/mh.glb' '$tmp/mh2/mh.glb' && cmp -s '$tmp/mh/mh.manifest.json' '$tmp/mh2/mh.manifest.json'"
 check "convert: the manifest holds two-sided controls, groups and l/r partners" py 'import json,sys; m=json.load(open(sys.argv[1])); c=m["controls"]; s=m["shapes"]; sys.exit(not(c["nose/nose-trans-down|up"]=={"group":"nose","negative":"nose-trans-down","positive":"nose-trans-up"} and s["l-eye-bag-decr"]["partner"]=="r-eye-bag-decr" and s["nose-trans-up"]["group"]=="nose"))' "$tmp/mh/mh.manifest.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
-  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/mh/mh.glb" "$src/assets/makehuman/makehuman.glb" >"$tmp/val" 2>&1
-  check "convert: the converted glb and the bundled MakeHuman glb pass the Khronos validator ($(tr '\n' ' ' <"$tmp/val"))" test $? -eq 0
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/mh/mh.glb" "$src/assets/makehuman/makehuman.glb" >"$tmp/val" 2>&1; rc=$?
+  check "convert: the converted glb and the bundled MakeHuman glb pass the Khronos validator ($(tr '\n' ' ' <"$tmp/val"))" test $rc -eq 0
 fi
 "$bin" blend "$tmp/mh/mh.glb" --controls '{"nose/nose-trans-down|up": -0.4}' -o "$tmp/mc1.json" 2>/dev/null
 "$bin" blend "$tmp/mh/mh.glb" --weights '{"nose-trans-down": 0.4}' -o "$tmp/mc2.json" 2>/dev/null

@@ -379,8 +379,39 @@ b.sendall(b"POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: appl
 head = b.recv(200)
 ok = body == b"{\"status\":\"ok\"}" and fast < 1.0 and closed == 40 and head.startswith(b"HTTP/1.1 413")
 print(f"healthz with 40 slow clients in {fast*1000:.0f} ms; {closed}/40 slow clients cut off; oversized body: {head[:12]!r}")
-sys.exit(not ok)' "$port" >"$tmp/slow" 2>&1
-check "slow clients: 40 partial requests do not starve others and are cut off after --read-timeout; a 10 GB Content-Length gets 413 from its headers ($(cat "$tmp/slow" | tail -1))" test $? -eq 0
+sys.exit(not ok)' "$port" >"$tmp/slow" 2>&1; rc=$?
+check "slow clients: 40 partial requests do not starve others and are cut off after --read-timeout; a 10 GB Content-Length gets 413 from its headers ($(cat "$tmp/slow" | tail -1))" test $rc -eq 0
+py '
+import os, select, signal, socket, sys, time
+port, pid = int(sys.argv[1]), int(sys.argv[2])
+# 64 clients connect at once while the server is paused (as when its cores are busy): the kernel
+# completes each handshake only if the listen backlog has room; beyond it, the SYN is dropped and
+# the client retries 1 s later.
+os.kill(pid, signal.SIGSTOP)
+try:
+    socks = []
+    for _ in range(64):
+        s = socket.socket(); s.setblocking(False); s.connect_ex(("127.0.0.1", port)); socks.append(s)
+    pending, deadline = set(socks), time.time() + 0.5
+    while pending and time.time() < deadline:
+        _, done, _ = select.select([], list(pending), [], max(0.0, deadline - time.time()))
+        pending -= {s for s in done if s.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR) == 0}
+    connected = 64 - len(pending)
+finally:
+    os.kill(pid, signal.SIGCONT)
+answered = 0
+for s in socks:
+    s.setblocking(True); s.settimeout(5)
+    try:
+        s.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+        answered += s.recv(12) == b"HTTP/1.1 200"
+    except OSError:
+        pass
+print(f"{connected}/64 connected within 0.5 s while the server was paused, {answered}/64 answered 200")
+sys.exit(not (connected == 64 and answered == 64))' "$port" "$pid" >"$tmp/burst" 2>&1; rc=$?
+check "a burst of 64 connections while the server is busy: all accepted at once (listen backlog), none waits for a SYN retry ($(tail -1 "$tmp/burst"))" test $rc -eq 0
+timeout 20 "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" >"$tmp/second" 2>&1
+check "a second server on the same port refuses to start (no silent SO_REUSEPORT sharing)" sh -c "[ $? = 1 ] && grep -q 'cannot listen on 127.0.0.1:$port' '$tmp/second' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/healthz') = 200 ]"
 py '
 import socket, sys
 s = socket.create_connection(("127.0.0.1", int(sys.argv[1]))); s.settimeout(3)
