@@ -1,9 +1,7 @@
 #include "batch.h"
 #include "durable.h"
 
-#include <fcntl.h>
 #include <openssl/evp.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>

@@ -68,7 +68,7 @@ if len(half) >= 2:
 EOF
 if command -v gnuplot >/dev/null; then
   gnuplot -e "set terminal png size 900,400; set output '$out/rss.png'; set title 'facespace serve RSS under the soak load'; \
-    set xlabel 'seconds'; set ylabel 'MB'; set yrange [0:*]; set grid; \
+    set xlabel 'seconds'; set ylabel 'MB'; set yrange [0:*]; set grid; set key outside bottom center horizontal; \
     plot '$out/rss.tsv' using 1:(\$2/1024) skip 1 with lines lw 2 title 'RSS', \
          '' using 1:(\$4/1024) skip 1 with lines lw 2 title 'heap in use', '' using 1:(\$5/1024) skip 1 with lines lw 2 title 'response cache'"
   echo "plot: $out/rss.png"
