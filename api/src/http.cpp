@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <charconv>
 #include <chrono>
 #include <cinttypes>
 #include <cmath>
@@ -317,52 +318,87 @@ std::string MediaType(const std::string& header) {
   return t;
 }
 
-// The format an Accept header asks for; false when it names only types we cannot produce.
-bool FormatFromAccept(const std::string& accept, MeshFormat* format) {
-  if (accept.empty()) {
-    *format = MeshFormat::kJson;
-    return true;
-  }
+std::string_view TrimSpaces(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
+// The media types an Accept header lists, lowercased, most preferred first: by quality (q), then
+// in the order given. Types with q=0 ("not acceptable", RFC 9110 12.5.1) are left out; a q that
+// is not a number counts as 1.
+std::vector<std::string> AcceptedTypes(std::string_view accept) {
+  struct Item {
+    std::string type;
+    double q;
+  };
+  std::vector<Item> items;
   size_t start = 0;
   while (start <= accept.size()) {
     size_t end = accept.find(',', start);
-    if (end == std::string::npos) end = accept.size();
-    std::string item = accept.substr(start, end - start);
-    while (!item.empty() && item.front() == ' ') item.erase(0, 1);
-    const std::string t = MediaType(item);
-    const bool q0 = item.find("q=0") != std::string::npos && item.find("q=0.") == std::string::npos;
-    if (!q0) {
-      if (t == "model/gltf-binary") { *format = MeshFormat::kGlb; return true; }
-      if (t == "model/obj") { *format = MeshFormat::kObj; return true; }
-      if (t == "application/json") { *format = MeshFormat::kJson; return true; }
-      if (t == "application/octet-stream") { *format = MeshFormat::kF32; return true; }
-      if (t == "*/*" || t == "model/*" || t == "application/*") { *format = MeshFormat::kJson; return true; }
-    }
+    if (end == std::string_view::npos) end = accept.size();
+    const std::string_view item = accept.substr(start, end - start);
     start = end + 1;
+    size_t semi = item.find(';');
+    std::string type(TrimSpaces(item.substr(0, semi)));
+    for (char& c : type) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    double q = 1;
+    while (semi != std::string_view::npos) {
+      const size_t next = item.find(';', semi + 1);
+      const std::string_view param = TrimSpaces(item.substr(semi + 1, next == std::string_view::npos ? next : next - semi - 1));
+      if (param.size() > 2 && (param[0] == 'q' || param[0] == 'Q') && param[1] == '=') {
+        double v = 1;
+        const auto r = std::from_chars(param.data() + 2, param.data() + param.size(), v);
+        q = r.ec == std::errc() ? v : 1;
+      }
+      semi = next;
+    }
+    if (!type.empty() && q > 0) items.push_back({std::move(type), q});
+  }
+  std::stable_sort(items.begin(), items.end(), [](const Item& a, const Item& b) { return a.q > b.q; });
+  std::vector<std::string> types;
+  types.reserve(items.size());
+  for (Item& i : items) types.push_back(std::move(i.type));
+  return types;
+}
+
+// The value of the most preferred type in `accept` that `produced` lists; `fallback` for no Accept
+// header; false when it names only types we cannot produce.
+template <typename T, size_t N>
+bool PickFromAccept(const std::string& accept, const std::pair<std::string_view, T> (&produced)[N], T fallback, T* out) {
+  if (accept.empty()) {
+    *out = fallback;
+    return true;
+  }
+  for (const std::string& type : AcceptedTypes(accept)) {
+    for (const auto& [name, value] : produced) {
+      if (type == name) {
+        *out = value;
+        return true;
+      }
+    }
   }
   return false;
 }
 
-// The image format an Accept header asks for; false when it names none we produce.
+// The mesh format an Accept header asks for.
+bool FormatFromAccept(const std::string& accept, MeshFormat* format) {
+  static constexpr std::pair<std::string_view, MeshFormat> kProduced[] = {
+      {"model/gltf-binary", MeshFormat::kGlb}, {"model/obj", MeshFormat::kObj},
+      {"application/json", MeshFormat::kJson}, {"application/octet-stream", MeshFormat::kF32},
+      {"*/*", MeshFormat::kJson},              {"model/*", MeshFormat::kJson},
+      {"application/*", MeshFormat::kJson}};
+  return PickFromAccept(accept, kProduced, MeshFormat::kJson, format);
+}
+
+// The image format an Accept header asks for.
 bool ImageFormatFromAccept(const std::string& accept, render::ImageFormat* format) {
-  if (accept.empty()) {
-    *format = render::ImageFormat::kPng;
-    return true;
-  }
-  size_t start = 0;
-  while (start <= accept.size()) {
-    size_t end = accept.find(',', start);
-    if (end == std::string::npos) end = accept.size();
-    std::string item = accept.substr(start, end - start);
-    while (!item.empty() && item.front() == ' ') item.erase(0, 1);
-    const std::string t = MediaType(item);
-    if (t == "image/png" || t == "image/*" || t == "*/*") { *format = render::ImageFormat::kPng; return true; }
-    if (t == "image/jpeg") { *format = render::ImageFormat::kJpeg; return true; }
-    if (t == "image/x-exr" || t == "image/aces") { *format = render::ImageFormat::kExr; return true; }
-    if (t == "image/tiff") { *format = render::ImageFormat::kTiff; return true; }
-    start = end + 1;
-  }
-  return false;
+  using render::ImageFormat;
+  static constexpr std::pair<std::string_view, ImageFormat> kProduced[] = {
+      {"image/png", ImageFormat::kPng},   {"image/*", ImageFormat::kPng},    {"*/*", ImageFormat::kPng},
+      {"image/jpeg", ImageFormat::kJpeg}, {"image/x-exr", ImageFormat::kExr}, {"image/aces", ImageFormat::kExr},
+      {"image/tiff", ImageFormat::kTiff}};
+  return PickFromAccept(accept, kProduced, ImageFormat::kPng, format);
 }
 
 std::string FloatsCanonical(std::span<const float> v) {

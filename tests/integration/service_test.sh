@@ -93,6 +93,12 @@ check "POST render with Accept: image/jpeg" sh -c "[ $code = 200 ] && grep -qi '
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"format":"exr","width":64,"height":64,"background":"transparent"}' "$U/v1/rigs/facecap/render")
 check "POST render format exr: image/x-exr" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/x-exr' '$tmp/hdr' && head -c 4 '$tmp/body' | od -An -tx1 | grep -q '76 2f 31 01'"
 check "render: Accept image/gif is 406" problem "$(c -H 'Accept: image/gif' "$U/v1/rigs/facecap/render?width=64&height=64")" 406 "True"
+ct() { curl -s -o /dev/null -w '%{http_code} %{content_type}' -H "Accept: $1" "$U/v1/rigs/facecap/$2"; }
+check "Accept with q: image/png;q=0, image/jpeg gives a JPEG (q=0 is 'not acceptable')" test "$(ct 'image/png;q=0, image/jpeg' 'render?width=32&height=32')" = "200 image/jpeg"
+check "Accept with q: image/png;q=0.5, image/tiff gives TIFF (the higher q wins, not the first listed)" test "$(ct 'image/png;q=0.5, image/tiff' 'render?width=32&height=32')" = "200 image/tiff"
+check "Accept with q: application/json;q=0.0, model/obj;q=0.1 on the mesh route gives OBJ" test "$(ct 'application/json;q=0.0, model/obj;q=0.1' 'mesh?w.jawOpen=0.5')" = "200 model/obj"
+check "Accept with q: model/gltf-binary;q=0 alone is 406" test "$(ct 'model/gltf-binary;q=0' 'mesh?w.jawOpen=0.5' | cut -d' ' -f1)" = 406
+check "Accept: a browser's default (text/html,...,*/*;q=0.8) gives JSON" test "$(ct 'text/html,application/xhtml+xml,application/xml;q=0.9,*/*;q=0.8' 'mesh?w.jawOpen=0.5')" = "200 application/json"
 check "render: a size over the limit is 422 naming width" problem "$(c "$U/v1/rigs/facecap/render?width=4000")" 422 "d['errors'][0]['parameter']=='width'"
 check "render: an unknown view is 422 at /view" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"view":"xray"}' "$U/v1/rigs/facecap/render")" 422 "d['errors'][0]['pointer']=='/view'"
 check "render: a look-at camera without target is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"camera":{"eye":[0,0,1]}}' "$U/v1/rigs/facecap/render")" 422 "d['errors'][0]['pointer']=='/camera'"
