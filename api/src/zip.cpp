@@ -35,6 +35,21 @@ std::string Deflate(std::string_view data) {
 
 }  // namespace
 
+// The fields a local file header and its central directory entry share, from "version needed"
+// to "extra field length".
+void ZipStream::PutSharedFields(std::string& out, const Central& c) {
+  Put16(out, 20);  // Version needed: 2.0 (deflate).
+  Put16(out, kUtf8Names);
+  Put16(out, c.method);
+  Put16(out, 0);  // Time 00:00.
+  Put16(out, kDosDate);
+  Put32(out, c.crc);
+  Put32(out, c.compressed);
+  Put32(out, c.size);
+  Put16(out, static_cast<uint32_t>(c.name.size()));
+  Put16(out, 0);  // No extra field.
+}
+
 std::string ZipStream::Entry(const std::string& name, std::string_view data, bool compress) {
   if (failed_ || data.size() >= 0xffffffffull || entries_.size() >= 0xffff) {
     failed_ = true;
@@ -57,16 +72,7 @@ std::string ZipStream::Entry(const std::string& name, std::string_view data, boo
   std::string out;
   out.reserve(30 + name.size() + body.size());
   Put32(out, 0x04034b50);
-  Put16(out, 20);
-  Put16(out, kUtf8Names);
-  Put16(out, c.method);
-  Put16(out, 0);
-  Put16(out, kDosDate);
-  Put32(out, c.crc);
-  Put32(out, c.compressed);
-  Put32(out, c.size);
-  Put16(out, static_cast<uint32_t>(name.size()));
-  Put16(out, 0);
+  PutSharedFields(out, c);
   out += name;
   out.append(body.data(), body.size());
   offset_ += out.size();
@@ -79,16 +85,7 @@ std::string ZipStream::Finish() {
   for (const Central& c : entries_) {
     Put32(out, 0x02014b50);
     Put16(out, (3 << 8) | 20);  // Made by Unix, zip 2.0.
-    Put16(out, 20);
-    Put16(out, kUtf8Names);
-    Put16(out, c.method);
-    Put16(out, 0);
-    Put16(out, kDosDate);
-    Put32(out, c.crc);
-    Put32(out, c.compressed);
-    Put32(out, c.size);
-    Put16(out, static_cast<uint32_t>(c.name.size()));
-    Put16(out, 0);
+    PutSharedFields(out, c);
     Put16(out, 0);
     Put16(out, 0);
     Put16(out, 0);

@@ -24,6 +24,7 @@ class ZipStream {
     uint32_t crc = 0, compressed = 0, size = 0, offset = 0;
     uint16_t method = 0;
   };
+  static void PutSharedFields(std::string& out, const Central& c);
   std::vector<Central> entries_;
   uint64_t offset_ = 0;
   bool failed_ = false;
