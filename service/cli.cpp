@@ -117,6 +117,18 @@ bool WriteOutput(const std::string& path, const std::string& data) {
   return true;
 }
 
+int WriteResult(const std::string& path, const Result<std::string>& bytes) {
+  if (!bytes.ok()) {
+    PrintStatus(bytes.status());
+    return 1;
+  }
+  if (!WriteOutput(path, bytes.value())) {
+    std::fprintf(stderr, "error: cannot write '%s'\n", path.c_str());
+    return 1;
+  }
+  return 0;
+}
+
 int Info(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   bool as_json = false;
@@ -412,16 +424,7 @@ int Blend(const std::vector<std::string>& args) {
   }
   options.dual_quaternion = skeleton.options.dual_quaternion;
   if (int rc = EvaluateForCli(rig, entries, skeleton.controls, skeleton.pose, options, weights, report, blended, context)) return rc;
-  Result<std::string> bytes = ExportMesh(rig, blended, weights, report.warnings, format, export_options);
-  if (!bytes.ok()) {
-    PrintStatus(bytes.status());
-    return 1;
-  }
-  if (!WriteOutput(out_path, bytes.value())) {
-    std::fprintf(stderr, "error: cannot write '%s'\n", out_path.c_str());
-    return 1;
-  }
-  return 0;
+  return WriteResult(out_path, ExportMesh(rig, blended, weights, report.warnings, format, export_options));
 }
 
 namespace {
@@ -575,16 +578,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     }
     image = render::ContactSheet(images, parsed->labels, parsed->columns, r.render.background);
   }
-  auto bytes = render::Encode(image, format, r.quality);
-  if (!bytes.ok()) {
-    PrintStatus(bytes.status());
-    return 1;
-  }
-  if (!WriteOutput(out_path, bytes.value())) {
-    std::fprintf(stderr, "error: cannot write '%s'\n", out_path.c_str());
-    return 1;
-  }
-  return 0;
+  return WriteResult(out_path, render::Encode(image, format, r.quality));
 }
 
 }  // namespace facespace::cli

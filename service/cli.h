@@ -13,6 +13,9 @@ namespace facespace::cli {
 bool ReadFile(const std::string& path, std::string& out);
 // Writes `data` to `path` atomically (a temporary file beside it, then rename), or to stdout for "-".
 bool WriteOutput(const std::string& path, const std::string& data);
+// The exit code of writing an export's result to `path`: 1 with the error on stderr when the
+// export failed or the file cannot be written, else 0.
+int WriteResult(const std::string& path, const Result<std::string>& bytes);
 
 // "a,b,,c" -> {"a", "b", "c"}: the items of a comma-separated flag value, empty ones skipped.
 std::vector<std::string> SplitList(const std::string& value);

@@ -88,15 +88,7 @@ int Mirror(const std::vector<std::string>& args) {
   }
   ExportOptions eo;
   eo.keep_targets = true;
-  auto bytes = ExportMesh(result, blended, weights, {}, MeshFormat::kGlb, eo);
-  if (!bytes.ok()) {
-    PrintStatus(bytes.status());
-    return 1;
-  }
-  if (!WriteOutput(out, bytes.value())) {
-    std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str());
-    return 1;
-  }
+  if (int rc = WriteResult(out, ExportMesh(result, blended, weights, {}, MeshFormat::kGlb, eo))) return rc;
   std::fprintf(stderr, "mirror: '%s' -> '%s' (%zu vertices moved, %zu unmatched), %zu shapes in %s\n", shape.c_str(), as.c_str(),
                r->vertices_moved, r->unmatched, result.shapes.size(), out.c_str());
   return 0;

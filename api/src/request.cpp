@@ -15,16 +15,6 @@ using nlohmann::json;
 
 constexpr char kMalformed[] = "malformed JSON";
 
-std::string Escape(const std::string& s) {
-  std::string r;
-  for (char c : s) {
-    if (c == '~') r += "~0";
-    else if (c == '/') r += "~1";
-    else r += c;
-  }
-  return r;
-}
-
 Status FieldStatus(const std::string& pointer, const std::string& message) {
   Status s = InvalidArgument(pointer.empty() ? message : pointer + ": " + message);
   s.fields.push_back({pointer, message});
@@ -53,7 +43,7 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
     for (auto it = j.begin(); it != j.end(); ++it) {
       WeightEntry e;
       e.name = it.key();
-      e.pointer = pointer + "/" + Escape(it.key());
+      e.pointer = pointer + "/" + JsonPointerEscape(it.key());
       if (e.name.empty()) {
         errors.fields.push_back({e.pointer, "empty shape name"});
         continue;
@@ -126,13 +116,13 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
   for (auto it = v.begin(); it != v.end(); ++it) {
     JointOverride j;
     j.joint = it.key();
-    j.pointer = "/pose/" + Escape(it.key());
+    j.pointer = "/pose/" + JsonPointerEscape(it.key());
     if (!it->is_object()) {
       errors.fields.push_back({j.pointer, "must be an object"});
       continue;
     }
     for (auto p = it->begin(); p != it->end(); ++p) {
-      const std::string ptr = j.pointer + "/" + Escape(p.key());
+      const std::string ptr = j.pointer + "/" + JsonPointerEscape(p.key());
       bool ok = true;
       if (p.key() == "rotation") ok = j.has_rotation = FloatArray(*p, j.rotation.data(), 4);
       else if (p.key() == "euler") ok = j.has_euler = FloatArray(*p, j.euler.data(), 3);
@@ -161,7 +151,7 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
       continue;
     }
     for (auto p = e.begin(); p != e.end(); ++p) {
-      const std::string ptr = c.pointer + "/" + Escape(p.key());
+      const std::string ptr = c.pointer + "/" + JsonPointerEscape(p.key());
       if (p.key() == "animation") continue;
       if (p.key() == "time" || p.key() == "weight") {
         if (!p->is_number() || !std::isfinite(p->get<double>())) errors.fields.push_back({ptr, "must be a finite number"});
@@ -190,7 +180,7 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
 // Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
 // the key is not one of them.
 bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
-  const std::string ptr = "/" + Escape(key);
+  const std::string ptr = "/" + JsonPointerEscape(key);
   if (key == "pose") {
     PoseFromJson(v, r.pose, errors);
     return true;
@@ -333,7 +323,7 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
     return;
   }
   for (auto it = c.begin(); it != c.end(); ++it) {
-    const std::string ptr = "/camera/" + Escape(it.key());
+    const std::string ptr = "/camera/" + JsonPointerEscape(it.key());
     double d = 0;
     const std::string& k = it.key();
     if (k == "yaw" || k == "pitch") {
@@ -366,7 +356,7 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
 
 // A render member; false when the key is not one.
 bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Status& errors) {
-  const std::string ptr = "/" + Escape(key);
+  const std::string ptr = "/" + JsonPointerEscape(key);
   double d = 0;
   if (key == "width" || key == "height") {
     if (!v.is_number_integer() || !Number(v, 1, 1 << 20, &d)) errors.fields.push_back({ptr, "must be a positive integer"});
@@ -566,7 +556,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
   for (auto it = j->begin(); it != j->end(); ++it) {
     const std::string& key = it.key();
     const json& v = it.value();
-    const std::string ptr = "/" + Escape(key);
+    const std::string ptr = "/" + JsonPointerEscape(key);
     if (key == "keys") {
       if (!v.is_array() || v.empty()) {
         errors.fields.push_back({ptr, "must be a non-empty array of {time, weights | shape}"});
@@ -585,7 +575,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
           continue;
         }
         for (auto m = e.begin(); m != e.end(); ++m) {
-          const std::string mp = key_out.pointer + "/" + Escape(m.key());
+          const std::string mp = key_out.pointer + "/" + JsonPointerEscape(m.key());
           if (m.key() == "time") {
             number(*m, mp, &key_out.time, -1e9, 1e9);
           } else if (m.key() == "weights") {
@@ -770,7 +760,7 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
   Status errors = InvalidArgument("");
   bool has_target = false;
   for (auto it = j->begin(); it != j->end(); ++it) {
-    const std::string ptr = "/" + Escape(it.key());
+    const std::string ptr = "/" + JsonPointerEscape(it.key());
     if (it.key() == "target") {
       auto t = TargetFromJson(it.value(), "/target");
       if (!t.ok()) errors.fields.insert(errors.fields.end(), t.status().fields.begin(), t.status().fields.end());
@@ -835,7 +825,7 @@ void SampleFromJson(const json& s, BatchRequest& r, Status& errors) {
   for (auto it = s.begin(); it != s.end(); ++it) {
     const std::string& key = it.key();
     const json& v = it.value();
-    const std::string ptr = "/sample/" + Escape(key);
+    const std::string ptr = "/sample/" + JsonPointerEscape(key);
     double d = 0;
     if (key == "method") {
       has_method = true;
@@ -939,7 +929,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
     } else if (key == "weights" || key == "strict" || key == "keep_targets") {
       errors.fields.push_back({"/" + key, "is not a batch member: give \"variants\" or \"sample\""});
     } else if (!MeshMember(key, v, r.render.mesh, false, errors) && !RenderMember(key, v, r.render, errors)) {
-      errors.fields.push_back({"/" + Escape(key), "unknown member"});
+      errors.fields.push_back({"/" + JsonPointerEscape(key), "unknown member"});
     }
   }
   FinishPose(r.render.mesh.pose, errors);

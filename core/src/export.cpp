@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -52,6 +53,16 @@ void AppendFloat(std::string& out, float f) {
   char buf[32];
   auto r = std::to_chars(buf, buf + sizeof buf, f);
   out.append(buf, r.ptr);
+}
+
+// One OBJ line: "v x y z", "vt u v", "vn x y z".
+void AppendObjLine(std::string& out, const char* tag, std::initializer_list<float> values) {
+  out += tag;
+  for (float f : values) {
+    out += ' ';
+    AppendFloat(out, f);
+  }
+  out += '\n';
 }
 
 void AppendFloats(std::string& out, std::span<const float> values) {
@@ -109,32 +120,16 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     for (size_t v = 0; v < n; ++v) {
       float q[3];
       Transform(b.world, &b.positions[3 * v], 1.0f, q);
-      out += "v ";
-      AppendFloat(out, q[0]);
-      out += ' ';
-      AppendFloat(out, q[1]);
-      out += ' ';
-      AppendFloat(out, q[2]);
-      out += '\n';
+      AppendObjLine(out, "v", {q[0], q[1], q[2]});
     }
     const bool uv = !p.texcoords.empty();
     for (size_t v = 0; uv && v < n; ++v) {
-      out += "vt ";
-      AppendFloat(out, p.texcoords[2 * v]);
-      out += ' ';
-      AppendFloat(out, 1.0f - p.texcoords[2 * v + 1]);
-      out += '\n';
+      AppendObjLine(out, "vt", {p.texcoords[2 * v], 1.0f - p.texcoords[2 * v + 1]});
     }
     for (size_t v = 0; v < n; ++v) {
       float q[3];
       NormalToWorld(b.world, &b.normals[3 * v], q);
-      out += "vn ";
-      AppendFloat(out, q[0]);
-      out += ' ';
-      AppendFloat(out, q[1]);
-      out += ' ';
-      AppendFloat(out, q[2]);
-      out += '\n';
+      AppendObjLine(out, "vn", {q[0], q[1], q[2]});
     }
     if (p.mode == PrimitiveMode::kTriangles) {
       for (size_t f = 0; f + 2 < p.indices.size(); f += 3) {

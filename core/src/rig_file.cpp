@@ -23,16 +23,6 @@ bool EndsWith(const std::string& s, const std::string& t) {
   return true;
 }
 
-std::string JsonPointerEscape(const std::string& s) {
-  std::string r;
-  for (char c : s) {
-    if (c == '~') r += "~0";
-    else if (c == '/') r += "~1";
-    else r += c;
-  }
-  return r;
-}
-
 // Left/right controls ("eyes/l-eye-bag-decr|incr" and "eyes/r-...") as partners.
 void PairControls(Rig& rig) {
   for (size_t i = 0; i < rig.controls.size(); ++i) {

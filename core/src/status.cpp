@@ -28,4 +28,14 @@ Status ResourceExhausted(std::string message) {
   return {StatusCode::kResourceExhausted, std::move(message), {}};
 }
 
+std::string JsonPointerEscape(const std::string& key) {
+  std::string r;
+  for (char c : key) {
+    if (c == '~') r += "~0";
+    else if (c == '/') r += "~1";
+    else r += c;
+  }
+  return r;
+}
+
 }  // namespace facespace

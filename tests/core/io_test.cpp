@@ -108,6 +108,13 @@ TEST(Manifest, AppliesAndRejects) {
   EXPECT_FALSE(ApplyManifest(rig.value(), R"({"shapes": {"Key 1": {"min": 2, "max": 1}}})").ok());
 }
 
+TEST(JsonPointer, KeysAreEscapedAsOneReferenceToken) {
+  EXPECT_EQ(JsonPointerEscape("jawOpen"), "jawOpen");
+  EXPECT_EQ(JsonPointerEscape("nose/nose-trans-down|up"), "nose~1nose-trans-down|up");
+  EXPECT_EQ(JsonPointerEscape("~/"), "~0~1");  // "~" first, so "/" never turns into "~01".
+  EXPECT_EQ(JsonPointerEscape(""), "");
+}
+
 TEST(Manifest, BundledFaceCap) {
   auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;

@@ -29,6 +29,9 @@ struct FieldError {
   std::string message;
 };
 
+// A key as one reference token of a JSON Pointer (RFC 6901): "~" becomes "~0", "/" becomes "~1".
+std::string JsonPointerEscape(const std::string& key);
+
 struct Status {
   StatusCode code = StatusCode::kOk;
   std::string message;            // One line, meant for people. Empty when ok.
