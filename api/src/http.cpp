@@ -311,17 +311,17 @@ bool ConstantTimeEquals(const std::string& a, const std::string& b) {
   return diff == 0;
 }
 
-std::string MediaType(const std::string& header) {
-  std::string t = header.substr(0, header.find(';'));
-  while (!t.empty() && t.back() == ' ') t.pop_back();
-  for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return t;
-}
-
 std::string_view TrimSpaces(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
   return s;
+}
+
+// The media type of a Content-Type value or of one Accept item, lowercased, without parameters.
+std::string MediaType(std::string_view header) {
+  std::string t(TrimSpaces(header.substr(0, header.find(';'))));
+  for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return t;
 }
 
 // The media types an Accept header lists, lowercased, most preferred first: by quality (q), then
@@ -339,9 +339,8 @@ std::vector<std::string> AcceptedTypes(std::string_view accept) {
     if (end == std::string_view::npos) end = accept.size();
     const std::string_view item = accept.substr(start, end - start);
     start = end + 1;
+    std::string type = MediaType(item);
     size_t semi = item.find(';');
-    std::string type(TrimSpaces(item.substr(0, semi)));
-    for (char& c : type) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     double q = 1;
     while (semi != std::string_view::npos) {
       const size_t next = item.find(';', semi + 1);
