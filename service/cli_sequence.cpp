@@ -220,12 +220,12 @@ int Sequence(const std::vector<std::string>& args) {
     const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, r->sequence) + ",\"transition\":\"" + TransitionName(seq.transition) +
                              "\",\"kept\":" + std::to_string(r->sequence.keys.size()) + ",\"removed\":" + std::to_string(r->removed) +
                              ",\"max_error\":" + FormatNumber(r->max_error) + "}\n";
-    return WriteOutput(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+    return WriteResult(out, body);
   }
   if (has_bake) {
     const facespace::Sequence baked = BakeKey(seq, bake);
     const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, baked) + ",\"transition\":\"" + TransitionName(seq.transition) + "\"}\n";
-    return WriteOutput(out, body) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+    return WriteResult(out, body);
   }
 
   // Sampling.
@@ -252,7 +252,7 @@ int Sequence(const std::vector<std::string>& args) {
     auto body = api::SampleSequenceJson(rig, seq, times, options, warnings);
     for (const Warning& w : warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
     if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
-    return WriteOutput(out, body.value()) ? 0 : (std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1);
+    return WriteResult(out, body);
   }
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
@@ -350,10 +350,7 @@ int FitCommand(const std::vector<std::string>& args) {
   if (!fit.ok()) return std::fprintf(stderr, "error: %s\n", fit.status().message.c_str()), 1;
   for (const Warning& w : fit->warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
   std::fprintf(stderr, "residual: rms %s, max %s\n", FormatNumber(fit->rms_error).c_str(), FormatNumber(fit->max_error).c_str());
-  if (!WriteOutput(out, api::FitResultJson(rig.value(), fit.value(), options.rigid_align))) {
-    return std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str()), 1;
-  }
-  return 0;
+  return WriteResult(out, api::FitResultJson(rig.value(), fit.value(), options.rigid_align));
 }
 
 }  // namespace facespace::cli
