@@ -34,32 +34,6 @@ Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_vi
   return WriteFileDurably(dir, name, data, kTmpPrefix + name, "'" + name + "'", false);
 }
 
-// One worker's reusable state.
-struct Worker {
-  BlendContext context;
-  BlendedRig blended;
-  std::vector<float> weights;
-  Pose pose;
-  bool posed = false;
-  render::Image image;
-};
-
-// Evaluates variant `index` and encodes it in the plan's format.
-Result<std::string> Produce(const Plan& plan, size_t index, Worker& w, std::vector<Warning>& warnings,
-                            const render::RenderOptions& render_options) {
-  const Rig& rig = *plan.rig;
-  const api::BatchRequest& r = plan.request;
-  w.weights.resize(rig.shapes.size());
-  VariantWeights(plan, index, w.weights);
-  BlendOptions options = r.render.mesh.options;
-  options.pose = w.posed ? &w.pose : nullptr;
-  warnings = CheckWeights(rig, w.weights, options.mode).warnings;
-  if (Status s = EvaluateRig(rig, w.weights, options, w.blended, w.context); !s.ok()) return s;
-  if (!r.image) return ExportMesh(rig, w.blended, w.weights, warnings, r.mesh_format);
-  if (Status s = render::Render(rig, w.blended, render_options, w.image); !s.ok()) return s;
-  return render::Encode(w.image, r.image_format, r.render.quality);
-}
-
 }  // namespace
 
 std::string Sha256Hex(std::span<const unsigned char> bytes) {
@@ -75,51 +49,10 @@ std::string Sha256Hex(std::span<const unsigned char> bytes) {
   return out;
 }
 
-Result<Plan> MakePlan(const Rig& rig, const std::string& rig_version, std::string_view request_json) {
-  auto request = api::ParseBatchRequest(request_json);
-  if (!request.ok()) return request.status();
-  Plan plan;
-  plan.rig = &rig;
-  plan.request = std::move(request.value());
-  if (plan.request.sampled) {
-    auto spec = api::ResolveSampleSpec(rig, plan.request);
-    if (!spec.ok()) return spec.status();
-    plan.sample = std::move(spec.value());
-    plan.total = SampleCount(plan.sample, rig.shapes.size());
-  } else {
-    for (const auto& v : plan.request.variants) {
-      auto w = ResolveWeights(rig, v.weights);
-      if (!w.ok()) return w.status();
-      plan.weights.push_back(std::move(w.value()));
-    }
-    plan.total = plan.weights.size();
-  }
-  // Whatever the pose asks must resolve too.
-  std::vector<float> weights;
-  Pose pose;
-  bool posed = false;
-  std::vector<Warning> warnings;
-  if (Status s = ResolvePoseAndWeights(rig, {}, plan.request.render.mesh.pose, weights, pose, posed, warnings); !s.ok()) return s;
-  json spec = {{"request", json::parse(request_json, nullptr, false)}, {"rig", rig.name}, {"rig_version", rig_version}};
-  plan.spec_json = spec.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-  return plan;
-}
+using api::VariantFile;
+using api::VariantId;
 
-std::string VariantId(const Plan& plan, size_t index) {
-  if (!plan.request.sampled && !plan.request.variants[index].id.empty()) return plan.request.variants[index].id;
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "v%06zu", index);
-  return buf;
-}
-
-std::string VariantFile(const Plan& plan, size_t index) { return VariantId(plan, index) + "." + plan.request.format; }
-
-void VariantWeights(const Plan& plan, size_t index, std::span<float> out) {
-  if (plan.request.sampled) SampleVariant(*plan.rig, plan.sample, index, out);
-  else std::copy(plan.weights[index].begin(), plan.weights[index].end(), out.begin());
-}
-
-Result<Summary> Run(const Plan& plan, const RunOptions& options) {
+Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   const fs::path dir = options.dir;
@@ -127,6 +60,8 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) return FailedPrecondition("cannot create the output folder '" + options.dir + "'");
   if (options.shards == 0 || options.shard >= options.shards) return InvalidArgument("bad shard");
+  if (!options.renderer) return InvalidArgument("no renderer");
+  const render::Renderer& renderer = *options.renderer;
 
   // The folder belongs to one batch: the same request against the same rig.
   const fs::path spec_path = dir / "batch.json";
@@ -178,7 +113,6 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
     else pending.push_back(k);
   }
 
-  render::RenderOptions render_options = plan.request.render.render;
   std::ofstream manifest(dir / "manifest.jsonl", std::ios::app | std::ios::binary);
   std::mutex mu;
   std::condition_variable cv;
@@ -190,14 +124,8 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
   auto cancelled = [&] { return options.cancel && options.cancel->load(); };
 
   auto work = [&] {
-    Worker w;
-    std::vector<Warning> pose_warnings;
-    std::vector<float> ignored;
-    if (Status s = ResolvePoseAndWeights(*plan.rig, {}, plan.request.render.mesh.pose, ignored, w.pose, w.posed, pose_warnings); !s.ok()) {
-      std::lock_guard<std::mutex> lock(mu);
-      failure = s;
-      return;
-    }
+    api::Workspace ws;
+    api::Point point;
     for (;;) {
       {
         std::lock_guard<std::mutex> lock(mu);
@@ -206,24 +134,23 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
       const size_t slot = next.fetch_add(1);
       if (slot >= pending.size()) break;
       const size_t k = pending[slot];
-      std::vector<Warning> warnings;
-      auto bytes = Produce(plan, k, w, warnings, render_options);
+      api::VariantPoint(plan, k, point);
+      auto bytes = api::EncodeVariant(plan, point, renderer, ws);
       const std::string file = VariantFile(plan, k);
       if (bytes.ok()) {
         if (Status s = WriteInBatch(dir, file, bytes.value()); !s.ok()) bytes = s;
       }
       std::lock_guard<std::mutex> lock(mu);
       if (!bytes.ok()) {
-        if (failure.ok()) failure = Status{bytes.status().code, VariantId(plan, k) + ": " + bytes.status().message, bytes.status().fields};
+        if (failure.ok()) failure = Prefixed(bytes.status(), VariantId(plan, k) + ": ");
         break;
       }
-      warnings.insert(warnings.end(), pose_warnings.begin(), pose_warnings.end());
       const std::string& b = bytes.value();
       std::string line = "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
                          ",\"file\":" + json(file).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ",\"bytes\":" + std::to_string(b.size()) + ",\"sha256\":\"" +
                          Sha256Hex({reinterpret_cast<const unsigned char*>(b.data()), b.size()}) +
-                         "\",\"weights\":" + api::WeightsMapJson(*plan.rig, w.weights) +
-                         ",\"warnings\":" + WarningsToJson(warnings) + "}";
+                         "\",\"weights\":" + api::WeightsMapJson(*plan.rig, point.weights) +
+                         ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}";
       manifest << line << '\n' << std::flush;
       lines[k] = std::move(line);
       ++summary.generated;
@@ -263,28 +190,10 @@ Result<Summary> Run(const Plan& plan, const RunOptions& options) {
 
   // The contact sheet of this shard's first variants, once they all exist.
   if (!summary.cancelled && options.sheet_cells > 0 && summary.total > 0 && !fs::exists(dir / "sheet.png")) {
-    Worker w;
-    std::vector<Warning> ignored_warnings;
-    std::vector<float> ignored;
-    ResolvePoseAndWeights(*plan.rig, {}, plan.request.render.mesh.pose, ignored, w.pose, w.posed, ignored_warnings);
-    render::RenderOptions cell = plan.request.render.render;
-    cell.width = cell.height = 256;
-    cell.supersample = std::min(cell.supersample, 2);
-    std::vector<render::Image> images;
-    std::vector<std::string> labels;
-    for (size_t k = options.shard; k < plan.total && images.size() < options.sheet_cells; k += options.shards) {
-      const Rig& rig = *plan.rig;
-      w.weights.resize(rig.shapes.size());
-      VariantWeights(plan, k, w.weights);
-      BlendOptions o = plan.request.render.mesh.options;
-      o.pose = w.posed ? &w.pose : nullptr;
-      if (Status s = EvaluateRig(rig, w.weights, o, w.blended, w.context); !s.ok()) return s;
-      images.emplace_back();
-      if (Status s = render::Render(rig, w.blended, cell, images.back()); !s.ok()) return s;
-      labels.push_back(VariantId(plan, k));
-    }
-    const int columns = images.size() >= 16 ? 4 : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(images.size()))));
-    auto png = render::Encode(render::ContactSheet(images, labels, columns, cell.background), render::ImageFormat::kPng);
+    std::vector<size_t> first;
+    for (size_t k = options.shard; k < plan.total && first.size() < options.sheet_cells; k += options.shards) first.push_back(k);
+    api::Workspace ws;
+    auto png = api::VariantSheet(plan, first, renderer, ws);
     if (!png.ok()) return png.status();
     if (Status s = WriteInBatch(dir, "sheet.png", png.value()); !s.ok()) return s;
   }

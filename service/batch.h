@@ -18,28 +18,11 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/api/request.h"
+#include "facespace/api/pipeline.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/variants.h"
 
 namespace facespace::batch {
-
-struct Plan {
-  const Rig* rig = nullptr;
-  api::BatchRequest request;
-  SampleSpec sample;                          // When request.sampled.
-  std::vector<std::vector<float>> weights;    // Explicit variants, resolved.
-  size_t total = 0;
-  std::string spec_json;                      // batch.json: {"request": ..., "rig": ..., "rig_version": ...}
-};
-
-// Parses and resolves a batch request (the POST body schema) against a rig. `rig_version`
-// identifies the rig's content, so a rerun against another rig is refused.
-Result<Plan> MakePlan(const Rig& rig, const std::string& rig_version, std::string_view request_json);
-
-std::string VariantId(const Plan& plan, size_t index);
-std::string VariantFile(const Plan& plan, size_t index);  // id + "." + format extension.
-void VariantWeights(const Plan& plan, size_t index, std::span<float> out);
 
 struct Progress {
   size_t done = 0;      // Variants of this shard complete, including those skipped.
@@ -50,6 +33,7 @@ struct Progress {
 
 struct RunOptions {
   std::string dir;
+  const render::Renderer* renderer = nullptr;  // For image formats and the contact sheet; required.
   int jobs = 0;                      // Worker threads; 0 = every core.
   size_t shard = 0, shards = 1;      // Variant k belongs to shard k % shards.
   size_t sheet_cells = 16;           // Contact sheet of the first variants; 0 = none.
@@ -63,7 +47,8 @@ struct Summary {
   bool cancelled = false;
 };
 
-Result<Summary> Run(const Plan& plan, const RunOptions& options);
+// Writes the variants of `plan` (api::MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
+Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options);
 
 // Lowercase hex SHA-256 of bytes.
 std::string Sha256Hex(std::span<const unsigned char> bytes);

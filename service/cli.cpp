@@ -8,7 +8,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
-#include "facespace/api/request.h"
+#include "facespace/api/pipeline.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
 #include "facespace/core/lod.h"
@@ -315,32 +315,13 @@ bool ApplyLod(Result<Rig>& rig, int lod) {
   return true;
 }
 
-// Resolves, checks (warnings to stderr) and evaluates. Returns an exit code (0 on success).
-int EvaluateForCli(const Rig& rig, std::span<const WeightEntry> entries, std::span<const WeightEntry> controls,
-                   const PoseRequest& pose_request,
-                   BlendOptions options, std::vector<float>& weights, WeightReport& report, BlendedRig& blended,
-                   BlendContext& context) {
-  Pose pose;
-  bool posed = false;
-  std::vector<Warning> pose_warnings;
-  std::vector<WeightEntry> all = {entries.begin(), entries.end()};
-  if (Status s = ApplyControls(rig, controls, all, pose_warnings); !s.ok()) {
-    PrintStatus(s);
-    return 1;
-  }
-  if (Status s = ResolvePoseAndWeights(rig, all, pose_request, weights, pose, posed, pose_warnings); !s.ok()) {
-    PrintStatus(s);
-    return 1;
-  }
-  report = CheckWeights(rig, weights, options.mode);
-  report.warnings.insert(report.warnings.end(), pose_warnings.begin(), pose_warnings.end());
-  PrintWarnings(report.warnings);
-  options.pose = posed ? &pose : nullptr;
-  if (Status s = EvaluateRig(rig, weights, options, blended, context); !s.ok()) {
-    PrintStatus(s);
-    return 1;
-  }
-  return 0;
+// The pipeline's first step, its warnings or its error on stderr. Returns an exit code.
+int ResolveForCli(const Rig& rig, const api::MeshRequest& request, api::Point& point) {
+  const Status s = api::ResolvePoint(rig, request, point);
+  PrintWarnings(point.report.warnings);
+  if (s.ok()) return 0;
+  PrintStatus(s);
+  return 1;
 }
 
 // The image format from --format or the output's extension (PNG for stdout).
@@ -358,15 +339,12 @@ bool ImageFormatFor(const std::string& out_path, const std::string& format_name,
 
 int Blend(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
-  std::vector<WeightEntry> entries;
-  BlendOptions options;
   std::string out_path, format_name;
-  ExportOptions export_options;
   bool weights_given = false;
-  api::MeshRequest skeleton;
+  api::MeshRequest request;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (int rc = WeightFlag(args, i, entries, options, weights_given, skeleton); rc != 0) {
+    if (int rc = WeightFlag(args, i, request.weights, request.options, weights_given, request); rc != 0) {
       if (rc > 0) return rc;
       continue;
     }
@@ -383,7 +361,7 @@ int Blend(const std::vector<std::string>& args) {
     } else if (a == "-o" || a == "--output") {
       if (!value(out_path)) return 2;
     } else if (a == "--keep-targets") {
-      export_options.keep_targets = true;
+      request.keep_targets = true;
     } else if (a.size() > 1 && a[0] == '-') {
       std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), Usage().c_str());
       return 2;
@@ -412,19 +390,16 @@ int Blend(const std::vector<std::string>& args) {
   }
 
   Result<Rig> loaded = LoadAndReport(paths);
-  if (!loaded.ok() || !ApplyLod(loaded, skeleton.lod)) return 1;
+  if (!loaded.ok() || !ApplyLod(loaded, request.lod)) return 1;
   const Rig& rig = loaded.value();
-  std::vector<float> weights;
-  WeightReport report;
-  BlendedRig blended;
-  BlendContext context;
-  if (std::string e = api::FinishPoseSettings(skeleton); !e.empty()) {
+  if (std::string e = api::FinishPoseSettings(request); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
-  options.dual_quaternion = skeleton.options.dual_quaternion;
-  if (int rc = EvaluateForCli(rig, entries, skeleton.controls, skeleton.pose, options, weights, report, blended, context)) return rc;
-  return WriteResult(out_path, ExportMesh(rig, blended, weights, report.warnings, format, export_options));
+  api::Point point;
+  api::Workspace ws;
+  if (int rc = ResolveForCli(rig, request, point)) return rc;
+  return WriteResult(out_path, api::EncodeMesh(rig, point, request, format, ws));
 }
 
 namespace {
@@ -469,7 +444,6 @@ int RenderFlags(const std::vector<std::string>& args, size_t& i, api::RenderRequ
 
 int Render(const std::vector<std::string>& args, bool sheet) {
   std::vector<std::string> paths;
-  std::vector<WeightEntry> entries;
   api::RenderRequest r;
   std::string out_path, format_name, cells_text;
   int columns = 4;
@@ -477,7 +451,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   if (sheet) r.render.width = r.render.height = 256;
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
-    if (int rc = WeightFlag(args, i, entries, r.mesh.options, weights_given, r.mesh); rc != 0) {
+    if (int rc = WeightFlag(args, i, r.mesh.weights, r.mesh.options, weights_given, r.mesh); rc != 0) {
       if (rc > 0) return rc;
       continue;
     }
@@ -527,21 +501,16 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok() || !ApplyLod(loaded, r.mesh.lod)) return 1;
   const Rig& rig = loaded.value();
-  std::vector<float> weights;
-  WeightReport report;
-  BlendedRig blended;
-  BlendContext context;
-  render::Image image;
   if (std::string e = api::FinishPoseSettings(r.mesh); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
+  const render::OsMesaRenderer renderer(1);
+  api::Workspace ws;
   if (!sheet) {
-    if (int rc = EvaluateForCli(rig, entries, r.mesh.controls, r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
-    if (Status s = render::Render(rig, blended, r.render, image); !s.ok()) {
-      PrintStatus(s);
-      return 1;
-    }
+    api::Point point;
+    if (int rc = ResolveForCli(rig, r.mesh, point)) return rc;
+    return WriteResult(out_path, api::EncodeImage(rig, point, r, format, renderer, ws));
   } else {
     // Cells: a JSON array, or one JSON object per line.
     nlohmann::json cells = nlohmann::json::parse(cells_text, nullptr, false);
@@ -568,17 +537,17 @@ int Render(const std::vector<std::string>& args, bool sheet) {
       PrintStatus(parsed.status());
       return 1;
     }
-    std::vector<render::Image> images(parsed->cells.size());
-    for (size_t c = 0; c < parsed->cells.size(); ++c) {
-      if (int rc = EvaluateForCli(rig, parsed->cells[c], {}, r.mesh.pose, r.mesh.options, weights, report, blended, context)) return rc;
-      if (Status s = render::Render(rig, blended, r.render, images[c]); !s.ok()) {
-        PrintStatus(s);
-        return 1;
-      }
+    api::SheetRequest& request = parsed.value();
+    request.base = r;  // The render settings, blend options and pose of the flags; the cells' weights.
+    api::SheetPoints points;
+    const Status s = api::ResolveSheet(rig, request, points);
+    PrintWarnings(points.warnings);
+    if (!s.ok()) {
+      PrintStatus(s);
+      return 1;
     }
-    image = render::ContactSheet(images, parsed->labels, parsed->columns, r.render.background);
+    return WriteResult(out_path, api::EncodeSheet(rig, points, request, format, renderer, ws));
   }
-  return WriteResult(out_path, render::Encode(image, format, r.quality));
 }
 
 }  // namespace facespace::cli

@@ -242,7 +242,7 @@ int Batch(const std::vector<std::string>& args) {
   std::string bytes;
   ReadFile(paths[0], bytes);
   const std::string version = batch::Sha256Hex({reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()});
-  auto plan = batch::MakePlan(rig.value(), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  auto plan = api::MakeBatchPlan(rig.value(), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return plan.status().code == StatusCode::kInvalidArgument ? 2 : 1;
@@ -252,7 +252,9 @@ int Batch(const std::vector<std::string>& args) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   ProgressBar bar;
+  const render::OsMesaRenderer renderer(run.jobs);
   run.dir = out_dir;
+  run.renderer = &renderer;
   run.cancel = &g_interrupted;
   if (!quiet) run.progress = [&bar](const batch::Progress& p) { bar(p); };
   auto summary = batch::Run(plan.value(), run);

@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
-#include "facespace/api/request.h"
+#include "facespace/api/pipeline.h"
 #include "facespace/core/io.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"
@@ -217,10 +217,7 @@ int Sequence(const std::vector<std::string>& args) {
     }
     std::fprintf(stderr, "kept %zu of %zu keys, max vertex error %s (tolerance %s)\n", r->sequence.keys.size(), seq.keys.size(),
                  FormatNumber(r->max_error).c_str(), FormatNumber(tolerance).c_str());
-    const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, r->sequence) + ",\"transition\":\"" + TransitionName(seq.transition) +
-                             "\",\"kept\":" + std::to_string(r->sequence.keys.size()) + ",\"removed\":" + std::to_string(r->removed) +
-                             ",\"max_error\":" + FormatNumber(r->max_error) + "}\n";
-    return WriteResult(out, body);
+    return WriteResult(out, api::ReducedSequenceJson(rig, seq, r.value(), tolerance));
   }
   if (has_bake) {
     const facespace::Sequence baked = BakeKey(seq, bake);
@@ -248,8 +245,9 @@ int Sequence(const std::vector<std::string>& args) {
     for (size_t k = 0; k < frames; ++k) times.push_back(seq.keys.front().time + static_cast<float>(k) / fps);
   }
   std::vector<Warning> warnings;
+  api::Workspace ws;
   if (format == "json") {
-    auto body = api::SampleSequenceJson(rig, seq, times, options, warnings);
+    auto body = api::SampleSequenceJson(rig, seq, times, options, warnings, ws);
     for (const Warning& w : warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
     if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
     return WriteResult(out, body);
@@ -259,18 +257,14 @@ int Sequence(const std::vector<std::string>& args) {
   if (ec) return std::fprintf(stderr, "error: cannot create '%s': %s\n", out.c_str(), ec.message().c_str()), 1;
   MeshFormat mf;
   ParseMeshFormat(format, &mf);
-  std::vector<float> w(rig.shapes.size());
-  BlendContext context;
-  BlendedRig blended;
+  api::MeshRequest frame;
+  frame.options = options;
+  api::Point point;
   Progress progress(times.size());
   for (size_t k = 0; k < times.size(); ++k) {
-    float f = 0.0f;
-    SampleSequence(seq, times[k], w, &f);
-    std::vector<Warning> fw;
-    api::SequenceFrameWarnings(rig, times[k], f, w, options.mode, fw);
-    for (const Warning& wn : fw) std::fprintf(stderr, "%swarning: %s\n", isatty(2) ? "\n" : "", wn.message.c_str());
-    if (Status s = EvaluateRig(rig, w, options, blended, context); !s.ok()) return std::fprintf(stderr, "error: %s\n", s.message.c_str()), 1;
-    auto bytes = ExportMesh(rig, blended, w, fw, mf);
+    api::SequencePoint(rig, seq, times[k], options.mode, point);
+    for (const Warning& wn : point.report.warnings) std::fprintf(stderr, "%swarning: %s\n", isatty(2) ? "\n" : "", wn.message.c_str());
+    auto bytes = api::EncodeMesh(rig, point, frame, mf, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
     char name[64];
     std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, format.c_str());

@@ -12,7 +12,7 @@ namespace {
 
 Status WriteError(const std::string& doing, int e) {
   const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
-  return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}};
+  return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}, {}};
 }
 
 }  // namespace

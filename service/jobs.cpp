@@ -66,8 +66,8 @@ size_t ManifestLines(const fs::path& path) {
 }  // namespace
 
 
-FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, JobLimits limits)
-    : dir_(std::move(dir)), store_(store), limits_(limits) {}
+FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const render::Renderer& renderer, JobLimits limits)
+    : dir_(std::move(dir)), store_(store), renderer_(renderer), limits_(limits) {}
 
 FileJobQueue::~FileJobQueue() {
   {
@@ -135,9 +135,8 @@ Result<size_t> FileJobQueue::Start() {
   return resumed;
 }
 
-Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> rig, std::string_view body, int* retry_after) {
-  auto plan = batch::MakePlan(rig->rig, rig->version, body);
-  if (!plan.ok()) return plan.status();
+Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> rig, std::shared_ptr<const api::BatchPlan> plan,
+                                          std::string_view body, int* retry_after) {
   if (plan->total > limits_.max_batch) {
     const std::string ptr = plan->request.sampled ? "/sample/count" : "/variants";
     Status s = InvalidArgument(ptr + ": a batch has at most " + std::to_string(limits_.max_batch) + " variants; this one has " +
@@ -153,6 +152,7 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
   job->info.created = NowRfc3339();
   job->info.total = plan->total;
   job->rig = rig;
+  job->plan = plan;
   job->body = std::string(body);
   std::unique_lock<std::mutex> lock(mu_);
   const size_t active = queue_.size() + (running_ ? 1 : 0);
@@ -163,8 +163,8 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
     // Until the running job ends, if its rate is known; else a guess.
     const double wait = rate > 0 && running_ ? (running_->info.total - running_->info.done) / rate : 10.0;
     *retry_after = static_cast<int>(std::clamp(wait, 1.0, 3600.0));
-    return ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " + std::to_string(limits_.max_jobs) +
-                             " jobs queued or running, " + std::to_string(remaining) + " variants to go)");
+    return WithReason(ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " + std::to_string(limits_.max_jobs) +
+                             " jobs queued or running, " + std::to_string(remaining) + " variants to go)"), api::kJobQueueFull);
   }
   lock.unlock();
   const fs::path folder = fs::path(dir_) / job->info.id;
@@ -172,11 +172,11 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
   fs::create_directories(folder, ec);
   json j = {{"id", job->info.id},          {"rig", rig->id},         {"rig_version", rig->version},
             {"created", job->info.created}, {"total", plan->total}, {"request", json::parse(body, nullptr, false)}};
-  Status written = ec ? Status{StatusCode::kInternal, "cannot create the job's folder: " + ec.message(), {}}
+  Status written = ec ? Internal("cannot create the job's folder: " + ec.message())
                       : WriteJobFile(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   if (!written.ok()) {
     fs::remove_all(folder, ec);
-    return Status{written.code, "cannot store the job: " + written.message, {}};
+    return Prefixed(written, "cannot store the job: ");
   }
   lock.lock();
   jobs_[job->info.id] = job;
@@ -239,12 +239,18 @@ void FileJobQueue::RunLoop() {
       running_ = job;
       job->info.state = "running";
     }
-    auto plan = batch::MakePlan(job->rig->rig, job->rig->version, job->body);
+    Result<std::shared_ptr<const api::BatchPlan>> plan = job->plan;
+    if (!job->plan) {  // Resumed at start: plan the stored request again.
+      auto made = api::MakeBatchPlan(job->rig->rig, job->rig->version, job->body);
+      plan = made.ok() ? Result<std::shared_ptr<const api::BatchPlan>>(std::make_shared<const api::BatchPlan>(std::move(made.value())))
+                       : Result<std::shared_ptr<const api::BatchPlan>>(made.status());
+    }
     if (!plan.ok()) {
       Finish(*job, "failed", plan.status().message);
     } else {
       batch::RunOptions options;
       options.dir = Folder(job->info.id);
+      options.renderer = &renderer_;
       options.jobs = limits_.threads;
       options.cancel = &job->cancel;
       options.progress = [this, &job](const batch::Progress& p) {
@@ -253,7 +259,7 @@ void FileJobQueue::RunLoop() {
         job->info.seconds = p.seconds;
         job->info.rate = p.seconds > 0 ? (p.done - p.skipped) / p.seconds : 0.0;
       };
-      auto summary = batch::Run(plan.value(), options);
+      auto summary = batch::Run(*plan.value(), options);
       bool removed = false, stopping = false;
       {
         std::lock_guard<std::mutex> lock(mu_);

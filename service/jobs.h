@@ -28,13 +28,14 @@ struct JobLimits {
 
 class FileJobQueue : public api::JobQueue {
  public:
-  FileJobQueue(std::string dir, api::RigStore& store, JobLimits limits);
+  FileJobQueue(std::string dir, api::RigStore& store, const render::Renderer& renderer, JobLimits limits);
   ~FileJobQueue() override;  // Stops: the running job halts between variants and resumes at the next start.
 
   // Reads the jobs of an earlier run and starts the runner. Returns the jobs resumed.
   Result<size_t> Start();
 
-  Result<api::JobInfo> Submit(std::shared_ptr<const api::StoredRig> rig, std::string_view body, int* retry_after) override;
+  Result<api::JobInfo> Submit(std::shared_ptr<const api::StoredRig> rig, std::shared_ptr<const api::BatchPlan> plan,
+                              std::string_view body, int* retry_after) override;
   std::optional<api::JobInfo> Get(const std::string& id) const override;
   std::vector<api::JobInfo> List() const override;
   Status Remove(const std::string& id) override;
@@ -44,6 +45,7 @@ class FileJobQueue : public api::JobQueue {
   struct Job {
     api::JobInfo info;
     std::shared_ptr<const api::StoredRig> rig;
+    std::shared_ptr<const api::BatchPlan> plan;  // Null for a job resumed at start: planned again from `body`.
     std::string body;
     std::atomic<bool> cancel{false};
     bool removed = false;
@@ -53,6 +55,7 @@ class FileJobQueue : public api::JobQueue {
 
   std::string dir_;
   api::RigStore& store_;
+  const render::Renderer& renderer_;
   JobLimits limits_;
   mutable std::mutex mu_;
   std::condition_variable cv_;

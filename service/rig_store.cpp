@@ -147,7 +147,7 @@ Status FileRigStore::Delete(const std::string& id) {
     path = it->second.path;
   }
   if (::unlink(path.c_str()) != 0 && errno != ENOENT) {
-    return Status{StatusCode::kInternal, std::string("cannot delete the rig file: ") + std::strerror(errno), {}};
+    return Internal(std::string("cannot delete the rig file: ") + std::strerror(errno));
   }
   std::lock_guard<std::mutex> lock(mu_);
   map_.erase(id);

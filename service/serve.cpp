@@ -216,7 +216,9 @@ int Serve(const std::vector<std::string>& args) {
   ::signal(SIGPIPE, SIG_IGN);
 
   if (c.jobs_dir.empty()) c.jobs_dir = DefaultJobsDir();
-  FileJobQueue jobs(c.jobs_dir, store, c.job_limits);
+  // One renderer for every thread: its GL contexts are a bounded pool (--render-threads).
+  render::OsMesaRenderer renderer(c.render_threads);
+  FileJobQueue jobs(c.jobs_dir, store, renderer, c.job_limits);
   auto resumed = jobs.Start();
   if (!resumed.ok()) {
     std::fprintf(stderr, "facespace: %s\n", resumed.status().message.c_str());
@@ -240,7 +242,7 @@ int Serve(const std::vector<std::string>& args) {
   server.set_keep_alive_timeout(5);
   server.set_read_timeout(c.read_timeout, 0);
   server.set_write_timeout(10, 0);
-  api::Api api(store, options, &jobs);
+  api::Api api(store, renderer, options, &jobs);
   api.Register(server);
   // The character-creator page at /.
   for (size_t i = 0; i < web::kAssetCount; ++i) {
@@ -284,8 +286,7 @@ int Serve(const std::vector<std::string>& args) {
   }
   std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(),
                c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
-  render::SetMaxContexts(c.render_threads);
-  std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", render::RendererInfo().c_str(), render::MaxContexts());
+  std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", renderer.Info().c_str(), renderer.Concurrency());
   std::fflush(stderr);
 
   std::atomic<bool> signalled{false};

@@ -1,8 +1,13 @@
-// The OpenAPI 3.1 description of every route. tests/integration checks that it is valid and
-// that it names exactly the routes the server answers.
+// The OpenAPI 3.1 description of every route of the route table (http/route_table.cpp): the
+// operations below are looked up by path and method for each route the table lists, so the
+// document names exactly the routes the server answers; a route without an operation here stops
+// the server at its first request for the document (every service test would fail).
+#include <cstdio>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 
 #include "facespace/api/http.h"
+#include "http/route_table.h"
 
 namespace facespace::api {
 
@@ -55,6 +60,25 @@ json RenderResponses() {
           {"406", Problem("Unsupported Accept")},
           {"415", Problem("Unsupported Content-Type")},
           {"422", Problem("Invalid weights or settings, image over the size limit, too many cells; or warnings with strict=true")}};
+}
+
+// The document's paths: one operation per route of the table, taken from `operations`; path-level
+// parameters are copied into each operation.
+json PathsOfRoutes(const json& operations) {
+  json paths = json::object();
+  for (const http::Route& route : http::Routes()) {
+    std::string method = route.method;
+    for (char& c : method) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const auto item = operations.find(route.path);
+    if (item == operations.end() || !item->contains(method)) {
+      std::fprintf(stderr, "facespace: the OpenAPI document has no operation for %s %s\n", route.method, route.path);
+      std::abort();
+    }
+    json op = (*item)[method];
+    if (item->contains("parameters") && !op.contains("parameters")) op["parameters"] = (*item)["parameters"];
+    paths[route.path][method] = op;
+  }
+  return paths;
 }
 
 json IdParam() {
@@ -246,7 +270,7 @@ json Build() {
                               {"links", {{"type", "object"}}}}}};
   json ok_json = {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
   json auth = json::array({{{"bearer", json::array()}}});
-  json paths = {
+  json operations = {
       {"/healthz", {{"get", {{"summary", "Liveness"}, {"operationId", "healthz"}, {"responses", {{"200", ok_json}}}}}}},
       {"/readyz", {{"get", {{"summary", "Readiness (rigs loaded)"}, {"operationId", "readyz"}, {"responses", {{"200", ok_json}}}}}}},
       {"/metrics",
@@ -389,7 +413,7 @@ json Build() {
           {"info", {{"title", "facespace"}, {"version", "1.0.0"},
                     {"description", "Blend-shape rigs over HTTP: blended meshes with warnings when a point leaves the authored space. "
                                     "Errors are RFC 9457 problem details."}}},
-          {"paths", paths},
+          {"paths", PathsOfRoutes(operations)},
           {"components",
            {{"schemas", {{"MeshRequest", mesh_request}, {"RenderRequest", render_request}, {"SheetRequest", sheet_request},
                         {"SequenceRequest", sequence_request}, {"BatchRequest", batch_request}, {"Job", job},

@@ -62,7 +62,7 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
 
 }  // namespace
 
-bool IsMalformedJson(const Status& status) { return status.message.rfind(kMalformed, 0) == 0; }
+bool IsMalformedJson(const Status& status) { return status.reason == kMalformedJson; }
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode) {
   if (s == "relative") *mode = BlendMode::kRelative;
@@ -80,7 +80,7 @@ bool ParseNormalMode(std::string_view s, NormalMode* mode) {
 
 Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const std::string& pointer) {
   json j = json::parse(text, nullptr, false);
-  if (j.is_discarded()) return InvalidArgument(std::string(kMalformed) + ": weights are not valid JSON");
+  if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": weights are not valid JSON"), kMalformedJson);
   return WeightsFromJson(j, pointer);
 }
 
@@ -392,7 +392,7 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
 
 Result<json> ParseObject(std::string_view body) {
   json j = json::parse(body, nullptr, false);
-  if (j.is_discarded()) return InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON");
+  if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON"), kMalformedJson);
   if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
   return j;
 }
@@ -664,63 +664,6 @@ Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request)
   return s;
 }
 
-std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
-  std::string out = "[";
-  for (size_t i = 0; i < sequence.keys.size(); ++i) {
-    const Keyframe& k = sequence.keys[i];
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) + ",\"weights\":{";
-    bool first = true;
-    for (size_t s = 0; s < k.weights.size(); ++s) {
-      if (k.weights[s] == 0.0f) continue;
-      out += std::string(first ? "" : ",") + json(rig.shapes[s].name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ":" + FormatNumber(k.weights[s]);
-      first = false;
-    }
-    out += "}";
-    if (k.transition) out += ",\"transition\":" + json(TransitionName(*k.transition)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    out += "}";
-  }
-  return out + "]";
-}
-
-void SequenceFrameWarnings(const Rig& rig, float time, float f, std::span<const float> weights, BlendMode mode,
-                           std::vector<Warning>& out) {
-  const std::string at = "t=" + FormatNumber(time) + ": ";
-  if (f < 0.0f || f > 1.0f) {
-    out.push_back({"transition_extrapolation", at + "the transition gives " + FormatNumber(f) + ", outside [0, 1]", "", f, true});
-  }
-  for (Warning& w : CheckWeights(rig, weights, mode).warnings) {
-    w.message = at + w.message;
-    out.push_back(std::move(w));
-  }
-}
-
-std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
-  std::string out = "{";
-  for (size_t k = 0; k < w.size(); ++k) {
-    if (w[k] == 0.0f) continue;
-    if (out.size() > 1) out += ',';
-    out += json(rig.shapes[k].name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ":" + FormatNumber(w[k]);
-  }
-  return out + "}";
-}
-
-Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
-                                       const BlendOptions& options, std::vector<Warning>& warnings) {
-  std::vector<float> w(rig.shapes.size());
-  BlendContext context;
-  BlendedRig blended;
-  std::string out = "{\"frames\":[";
-  for (size_t i = 0; i < times.size(); ++i) {
-    float f = 0.0f;
-    SampleSequence(sequence, times[i], w, &f);
-    SequenceFrameWarnings(rig, times[i], f, w, options.mode, warnings);
-    if (Status s = EvaluateRig(rig, w, options, blended, context); !s.ok()) return s;
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, w) +
-           ",\"primitives\":" + PrimitivesJson(rig, blended) + "}";
-  }
-  return out + "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
-}
-
 namespace {
 
 Result<std::vector<std::vector<float>>> TargetFromJson(const json& j, const std::string& ptr) {
@@ -749,7 +692,7 @@ Result<std::vector<std::vector<float>>> TargetFromJson(const json& j, const std:
 
 Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text) {
   json j = json::parse(text, nullptr, false);
-  if (j.is_discarded()) return InvalidArgument(std::string(kMalformed) + ": the target is not valid JSON");
+  if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the target is not valid JSON"), kMalformedJson);
   return TargetFromJson(j, "");
 }
 
@@ -780,20 +723,6 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
   if (!has_target && errors.fields.empty()) errors.fields.push_back({"/target", "is required"});
   if (!errors.fields.empty()) return Finish(errors);
   return r;
-}
-
-std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
-  std::string out = "{\"weights\":{";
-  for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    out += std::string(s ? "," : "") + json(rig.shapes[s].name).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ":" + FormatNumber(fit.weights[s]);
-  }
-  out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) + ",\"max\":" + FormatNumber(fit.max_error) + "}";
-  if (aligned) {
-    out += ",\"alignment\":[";
-    for (int i = 0; i < 16; ++i) out += std::string(i ? "," : "") + FormatNumber(fit.alignment[i]);
-    out += "]";
-  }
-  return out + ",\"warnings\":" + WarningsToJson(fit.warnings) + "}\n";
 }
 
 }  // namespace facespace::api

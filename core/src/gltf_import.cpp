@@ -1021,7 +1021,7 @@ Result<Rig> LoadGltfFile(const std::string& path, const LoadOptions& options) {
   std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/'));
   Result<Rig> rig = LoadGltfMemory(bytes, dir, options);
-  if (!rig.ok()) return Status{rig.status().code, path + ": " + rig.status().message, rig.status().fields};
+  if (!rig.ok()) return Prefixed(rig.status(), path + ": ");
   return rig;
 }
 

@@ -77,7 +77,7 @@ Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
   }
   r.triangles_after = out.triangle_count();
   r.vertices_after = out.vertex_count();
-  if (Status s = ValidateRig(out); !s.ok()) return Status{StatusCode::kInternal, "lod: " + s.message, {}};
+  if (Status s = ValidateRig(out); !s.ok()) return Internal("lod: " + s.message);
   if (report) *report = std::move(r);
   return out;
 }

@@ -343,7 +343,7 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     std::ifstream f(options.modifiers, std::ios::binary);
     if (!f) return NotFound("cannot open '" + options.modifiers + "'");
     const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (Status s = ApplyMakeHumanModifiers(rig, text); !s.ok()) return Status{s.code, options.modifiers + ": " + s.message, s.fields};
+    if (Status s = ApplyMakeHumanModifiers(rig, text); !s.ok()) return Prefixed(s, options.modifiers + ": ");
   }
   if (Status s = ValidateRig(rig); !s.ok()) return s;
   return rig;

@@ -449,7 +449,7 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
     if (f) {
       std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
       if (Status s = ApplyManifest(rig.value(), text); !s.ok()) {
-        return Status{s.code, manifest + ": " + s.message, s.fields};
+        return Prefixed(s, manifest + ": ");
       }
     }
   }

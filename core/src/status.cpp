@@ -17,15 +17,27 @@ const char* StatusCodeName(StatusCode code) {
 }
 
 Status InvalidArgument(std::string message) {
-  return {StatusCode::kInvalidArgument, std::move(message), {}};
+  return {StatusCode::kInvalidArgument, std::move(message), {}, {}};
 }
-Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}}; }
-Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message), {}}; }
+Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}, {}}; }
+Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message), {}, {}}; }
 Status FailedPrecondition(std::string message) {
-  return {StatusCode::kFailedPrecondition, std::move(message), {}};
+  return {StatusCode::kFailedPrecondition, std::move(message), {}, {}};
 }
 Status ResourceExhausted(std::string message) {
-  return {StatusCode::kResourceExhausted, std::move(message), {}};
+  return {StatusCode::kResourceExhausted, std::move(message), {}, {}};
+}
+
+Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message), {}, {}}; }
+
+Status Prefixed(Status status, const std::string& prefix) {
+  status.message = prefix + status.message;
+  return status;
+}
+
+Status WithReason(Status status, std::string reason) {
+  status.reason = std::move(reason);
+  return status;
 }
 
 std::string JsonPointerEscape(const std::string& key) {

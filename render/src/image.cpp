@@ -104,7 +104,7 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
   if (via_file) {
     char tmpl[] = "/tmp/facespace_XXXXXX.tif";
     const int fd = mkstemps(tmpl, 4);
-    if (fd < 0) return Status{StatusCode::kInternal, "cannot create a temporary file for TIFF", {}};
+    if (fd < 0) return Internal("cannot create a temporary file for TIFF");
     close(fd);
     name = tmpl;
   }
@@ -116,14 +116,14 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
     }
   } unlink_tmp{name, via_file};
   auto out = OIIO::ImageOutput::create(name, via_file ? nullptr : &proxy);
-  if (!out) return Status{StatusCode::kInternal, "no OpenImageIO writer for " + name, {}};
+  if (!out) return Internal("no OpenImageIO writer for " + name);
   const bool alpha = format != ImageFormat::kJpeg;
   const int channels = alpha ? 4 : 3;
   if (format == ImageFormat::kExr) {
     OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::HALF);
     spec.attribute("compression", "zip");
     if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, image.rgba.data()) || !out->close()) {
-      return Status{StatusCode::kInternal, "EXR encoding failed: " + out->geterror(), {}};
+      return Internal("EXR encoding failed: " + out->geterror());
     }
     return std::string(bytes.begin(), bytes.end());
   }
@@ -149,7 +149,7 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
   if (format == ImageFormat::kJpeg) spec.attribute("CompressionQuality", std::clamp(quality, 1, 100));
   if (format == ImageFormat::kTiff) spec.attribute("compression", "zip");
   if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close()) {
-    return Status{StatusCode::kInternal, "image encoding failed: " + out->geterror(), {}};
+    return Internal("image encoding failed: " + out->geterror());
   }
   if (via_file) {
     std::ifstream f(name, std::ios::binary);

@@ -234,11 +234,20 @@ struct Context {
   }
 };
 
-// The GL contexts every thread shares. A render leases one for its whole run (vertex arrays,
+float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+// Column-major 4x4 transform of a point.
+void Apply(const std::array<float, 16>& m, const float* p, float* out) {
+  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+}
+
+}  // namespace
+
+// The GL contexts of one renderer, shared by every thread that draws with it. A render leases one for its whole run (vertex arrays,
 // draw, read-back), so at most `limit` renders hold that memory at once, about 20 MB each at
 // 1024 x 1024 samples, however many threads serve requests; the rest wait their turn. With
 // llvmpipe drawing on the calling thread, more contexts than cores would not draw faster.
-class ContextPool {
+class OsMesaRenderer::ContextPool {
  public:
   class Lease {
    public:
@@ -274,7 +283,7 @@ class ContextPool {
     if (context) {
       if (context->MakeCurrent()) return Lease(this, std::move(context));
       Discard();
-      return Status{StatusCode::kInternal, "renderer unavailable: " + context->error, {}};
+      return Internal("renderer unavailable: " + context->error);
     }
     std::call_once(env_once_, [] { setenv("LP_NUM_THREADS", "0", 0); });  // llvmpipe draws on the calling thread.
     context = std::make_unique<Context>();
@@ -282,7 +291,7 @@ class ContextPool {
     const std::string error = context->error;
     context.reset();
     Discard();
-    return Status{StatusCode::kInternal, "renderer unavailable: " + error, {}};
+    return Internal("renderer unavailable: " + error);
   }
 
   void SetLimit(int n) {
@@ -326,19 +335,6 @@ class ContextPool {
   std::once_flag env_once_;
 };
 
-ContextPool& Pool() {
-  static ContextPool pool;
-  return pool;
-}
-
-float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
-
-// Column-major 4x4 transform of a point.
-void Apply(const std::array<float, 16>& m, const float* p, float* out) {
-  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
-}
-
-}  // namespace
 
 bool ParseView(const std::string& name, View* view) {
   if (name == "shaded") *view = View::kShaded;
@@ -359,24 +355,43 @@ const char* ViewName(View view) {
   return "?";
 }
 
-std::string RendererInfo() {
-  auto lease = Pool().Acquire();
+OsMesaRenderer::OsMesaRenderer(int max_contexts) : pool_(std::make_unique<ContextPool>()) { pool_->SetLimit(max_contexts); }
+OsMesaRenderer::~OsMesaRenderer() = default;
+
+std::string OsMesaRenderer::Info() const {
+  auto lease = pool_->Acquire();
   if (!lease.ok()) return "unavailable: " + lease.status().message;
   return lease.value().get()->info;
 }
 
-void SetMaxContexts(int n) { Pool().SetLimit(n); }
+void OsMesaRenderer::SetMaxContexts(int n) { pool_->SetLimit(n); }
 
-int MaxContexts() { return Pool().Limit(); }
+int OsMesaRenderer::Concurrency() const { return pool_->Limit(); }
 
-
-Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) {
+Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOptions& o) {
   if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192) return InvalidArgument("image size out of range");
   if (o.supersample < 1 || o.supersample > 4) return InvalidArgument("supersample must be 1..4");
   if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
+  return Status::Ok();
+}
+
+Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) const {
+  if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
+  out.width = o.width;
+  out.height = o.height;
+  out.rgba.resize(static_cast<size_t>(o.width) * o.height * 4);
+  for (size_t i = 0; i < out.rgba.size(); i += 4) {
+    for (int c = 0; c < 3; ++c) out.rgba[i + c] = SrgbToLinear(o.background[c]);
+    out.rgba[i + 3] = o.background[3];
+  }
+  return Status::Ok();
+}
+
+Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) const {
+  if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
   // A context from the pool for the whole render: the vertex arrays and the read-back below
-  // then exist for at most MaxContexts() renders at once, however many requests wait.
-  auto lease = Pool().Acquire();
+  // then exist for at most Concurrency() renders at once, however many requests wait.
+  auto lease = pool_->Acquire();
   if (!lease.ok()) return lease.status();
   Context& gl = *lease.value().get();
   const int w = o.width * o.supersample, h = o.height * o.supersample;
@@ -547,7 +562,7 @@ Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pixels.data());
   if (const GLenum err = glGetError(); err != GL_NO_ERROR) {
-    return Status{StatusCode::kInternal, "GL error " + std::to_string(err), {}};
+    return Internal("GL error " + std::to_string(err));
   }
   // Box-filter the supersamples (in linear light) and flip to top-row-first.
   const int ss = o.supersample;

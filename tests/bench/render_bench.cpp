@@ -55,9 +55,10 @@ void BM_Render(benchmark::State& state) {
   render::RenderOptions o;
   o.width = o.height = size;
   render::Image image;
+  static const render::OsMesaRenderer renderer;
   size_t bytes = 0;
   for (auto _ : state) {
-    if (!render::Render(rig, blended, o, image).ok()) state.SkipWithError("render failed");
+    if (!renderer.Draw(rig, blended, o, image).ok()) state.SkipWithError("render failed");
     if (png) bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
     benchmark::DoNotOptimize(image.rgba.data());
   }

@@ -22,6 +22,12 @@ namespace {
 using render::Image;
 using render::RenderOptions;
 
+// One renderer for the tests, as the service keeps one for all its threads.
+const render::OsMesaRenderer& Gl() {
+  static const render::OsMesaRenderer renderer;
+  return renderer;
+}
+
 // A rig from one triangle-list primitive (and its shapes).
 Rig OnePrimitive(std::vector<float> positions, std::vector<uint32_t> indices, std::vector<SparseTarget> targets = {}) {
   Rig rig;
@@ -94,7 +100,7 @@ RenderOptions HeadOn(int size) {
 }
 
 TEST(Render, ReportsLlvmpipe) {
-  const std::string info = render::RendererInfo();
+  const std::string info = Gl().Info();
   EXPECT_NE(info.find("llvmpipe"), std::string::npos) << info;
   EXPECT_EQ(info.find("softpipe"), std::string::npos) << info;
 }
@@ -104,14 +110,14 @@ TEST(Render, EmptyBackgroundStaysBackground) {
   RenderOptions o = HeadOn(64);
   o.camera.target = {0, 0, 6};  // Looking away from the cube.
   Image im;
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, im).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
   const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
   for (int y = 0; y < im.height; ++y) {
     for (int x = 0; x < im.width; ++x) ASSERT_TRUE(IsBackground(im, x, y, bg)) << x << "," << y;
   }
   // Transparent background: alpha 0 everywhere the mesh is not.
   o.background = {1, 1, 1, 0};
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, im).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
   for (size_t i = 3; i < im.rgba.size(); i += 4) ASSERT_EQ(im.rgba[i], 0.0f);
 }
 
@@ -119,7 +125,7 @@ TEST(Render, UnitCubeHeadOnCoversExpectedArea) {
   Rig cube = UnitCube();
   const int size = 256;
   Image im;
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), HeadOn(size), im).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), HeadOn(size), im).ok());
   const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
   int covered = 0, min_x = size, max_x = -1;
   for (int y = 0; y < size; ++y) {
@@ -164,8 +170,8 @@ TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
   RenderOptions o = HeadOn(200);
   o.camera.eye = {0, 0, 5};
   Image base, moved;
-  ASSERT_TRUE(render::Render(rig, Evaluate(rig, {0.0f}), o, base).ok());
-  ASSERT_TRUE(render::Render(rig, Evaluate(rig, {1.0f}), o, moved).ok());
+  ASSERT_TRUE(Gl().Draw(rig, Evaluate(rig, {0.0f}), o, base).ok());
+  ASSERT_TRUE(Gl().Draw(rig, Evaluate(rig, {1.0f}), o, moved).ok());
   // Faces touching a moved vertex span x >= 0.4 (the grid step is 0.1); with the camera 5
   // away (4.85 for the raised ones) and tan(15 deg), x = 0.4 is column 100 + 0.4 / (4.85 * 0.2679) * 100.
   const int first_col = static_cast<int>(std::floor(100.0 + 0.4 / (4.85 * std::tan(15.0 * M_PI / 180.0)) * 100.0)) - 1;
@@ -191,10 +197,10 @@ TEST(Render, ThreadsShareABoundedSetOfContexts) {
   RenderOptions small = HeadOn(48), large = HeadOn(96);
   large.camera.yaw = 30;
   Image want_small, want_large;
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), small, want_small).ok());
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), large, want_large).ok());
-  render::SetMaxContexts(1);
-  EXPECT_EQ(render::MaxContexts(), 1);
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), small, want_small).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), large, want_large).ok());
+  render::OsMesaRenderer one(1);
+  EXPECT_EQ(one.Concurrency(), 1);
   const BlendedRig blended = Evaluate(cube);
   std::vector<int> mismatches(6, 0);
   std::vector<std::thread> threads;
@@ -203,7 +209,7 @@ TEST(Render, ThreadsShareABoundedSetOfContexts) {
       for (int i = 0; i < 8; ++i) {
         const bool big = (t + i) % 2 == 1;
         Image im;
-        if (!render::Render(cube, blended, big ? large : small, im).ok() || im.rgba != (big ? want_large : want_small).rgba) {
+        if (!one.Draw(cube, blended, big ? large : small, im).ok() || im.rgba != (big ? want_large : want_small).rgba) {
           ++mismatches[t];
         }
       }
@@ -211,9 +217,9 @@ TEST(Render, ThreadsShareABoundedSetOfContexts) {
   }
   for (auto& th : threads) th.join();
   for (int t = 0; t < 6; ++t) EXPECT_EQ(mismatches[t], 0) << "thread " << t;
-  render::SetMaxContexts(0);
-  EXPECT_EQ(render::MaxContexts(), std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
-  EXPECT_NE(render::RendererInfo().find("llvmpipe"), std::string::npos);
+  one.SetMaxContexts(0);
+  EXPECT_EQ(one.Concurrency(), std::max(1, static_cast<int>(std::thread::hardware_concurrency())));
+  EXPECT_NE(one.Info().find("llvmpipe"), std::string::npos);
 }
 
 TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
@@ -232,17 +238,17 @@ TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
   o.camera.frame_shapes = true;
   const BlendedRig blended = Evaluate(cube, {1.0f});
   Image computed, given, elsewhere;
-  ASSERT_TRUE(render::Render(cube, blended, o, computed).ok());
+  ASSERT_TRUE(Gl().Draw(cube, blended, o, computed).ok());
   std::array<float, 3> lo, hi;
   ASSERT_TRUE(ShapeFocusBox(cube, lo, hi));
   o.camera.has_focus = true;
   o.camera.focus_min = lo;
   o.camera.focus_max = hi;
-  ASSERT_TRUE(render::Render(cube, blended, o, given).ok());
+  ASSERT_TRUE(Gl().Draw(cube, blended, o, given).ok());
   EXPECT_EQ(given.rgba, computed.rgba) << "the box the caller keeps is the one a render would compute";
   o.camera.focus_min = {-0.5f, -0.5f, -0.5f};
   o.camera.focus_max = {-0.4f, -0.4f, -0.4f};
-  ASSERT_TRUE(render::Render(cube, blended, o, elsewhere).ok());
+  ASSERT_TRUE(Gl().Draw(cube, blended, o, elsewhere).ok());
   EXPECT_NE(elsewhere.rgba, computed.rgba) << "a given box is honoured";
 }
 
@@ -252,9 +258,9 @@ TEST(Render, SupersamplingSmoothsEdges) {
   o.camera.yaw = 0;
   o.camera.eye = {1.2f, 0.9f, 2.5f};
   Image hard, soft;
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, hard).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, hard).ok());
   o.supersample = 4;
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), o, soft).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, soft).ok());
   // Count partially covered pixels: values strictly between background and surface.
   auto partial = [](const Image& im) {
     int n = 0;
@@ -271,7 +277,7 @@ TEST(Render, SupersamplingSmoothsEdges) {
 TEST(Render, EncodeDecodeRoundTrip) {
   Rig cube = UnitCube();
   Image im;
-  ASSERT_TRUE(render::Render(cube, Evaluate(cube), HeadOn(32), im).ok());
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), HeadOn(32), im).ok());
   for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr, render::ImageFormat::kJpeg}) {
     auto bytes = render::Encode(im, f, 95);
     ASSERT_TRUE(bytes.ok()) << render::ImageFormatExtension(f);
@@ -343,7 +349,7 @@ TEST_P(Golden, MatchesCommittedImage) {
   o.camera.pitch = c.pitch;
   o.supersample = 2;
   Image im;
-  ASSERT_TRUE(render::Render(rig.value(), blended, o, im).ok());
+  ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, im).ok());
   auto png = render::Encode(im, render::ImageFormat::kPng);
   ASSERT_TRUE(png.ok());
   const std::string golden = std::string(FACESPACE_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
@@ -385,6 +391,29 @@ INSTANTIATE_TEST_SUITE_P(
                       GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {}, render::View::kWireframe, 0, 0,
                                  "animation_0", 0.6f}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
+
+}  // namespace
+}  // namespace facespace
+
+namespace facespace {
+namespace {
+
+TEST(NullRenderer, FillsTheBackgroundAndChecksItsInputsAsGlDoes) {
+  const Rig cube = UnitCube();
+  const render::NullRenderer null;
+  RenderOptions o = HeadOn(8);
+  o.background = {1.0f, 0.5f, 0.0f, 1.0f};
+  Image im;
+  ASSERT_TRUE(null.Draw(cube, Evaluate(cube), o, im).ok());
+  ASSERT_EQ(im.width, 8);
+  ASSERT_EQ(im.rgba.size(), 8u * 8u * 4u);
+  EXPECT_FLOAT_EQ(im.rgba[0], 1.0f);
+  EXPECT_NEAR(im.rgba[1], 0.2140f, 1e-4);  // sRGB 0.5 in linear light.
+  EXPECT_FLOAT_EQ(im.rgba[2], 0.0f);
+  o.supersample = 5;
+  EXPECT_EQ(null.Draw(cube, Evaluate(cube), o, im).code, StatusCode::kInvalidArgument);
+  EXPECT_EQ(Gl().Draw(cube, Evaluate(cube), o, im).code, StatusCode::kInvalidArgument);
+}
 
 }  // namespace
 }  // namespace facespace

@@ -1,5 +1,6 @@
 // The HTTP API (v1) on cpp-httplib: routes, problem+json errors, warnings as headers,
-// ETags and a response cache, CORS, metrics, OpenAPI.
+// ETags and a response cache, CORS, metrics, OpenAPI. The code is in api/src/http (plumbing)
+// and api/src/routes (one file per resource).
 #pragma once
 
 #include <httplib.h>
@@ -10,6 +11,7 @@
 
 #include "facespace/api/jobs.h"
 #include "facespace/api/store.h"
+#include "facespace/render/render.h"
 
 namespace facespace::api {
 
@@ -23,10 +25,12 @@ struct ApiOptions {
   int max_sheet_cells = 64;                 // Largest contact sheet.
 };
 
+// The routes (api/src/http/route_table.cpp) over a store, a renderer and a job queue that the
+// caller owns and keeps alive while the server runs.
 class Api {
  public:
   // `jobs` may be null: the batch and job routes then answer 503.
-  Api(RigStore& store, ApiOptions options, JobQueue* jobs = nullptr);
+  Api(RigStore& store, const render::Renderer& renderer, ApiOptions options, JobQueue* jobs = nullptr);
   ~Api();
   Api(const Api&) = delete;
   Api& operator=(const Api&) = delete;

@@ -7,6 +7,7 @@
 #include <string_view>
 #include <vector>
 
+#include "facespace/api/pipeline.h"
 #include "facespace/api/store.h"
 #include "facespace/core/status.h"
 
@@ -25,13 +26,18 @@ struct JobInfo {
   double rate = 0;         // Variants per second while running.
 };
 
+// Status::reason of a refusal because the queue is full (HTTP 429 with Retry-After).
+inline constexpr char kJobQueueFull[] = "job-queue-full";
+
 class JobQueue {
  public:
   virtual ~JobQueue() = default;
-  // Validates a batch body (api::ParseBatchRequest schema) against `rig` and queues it.
-  // InvalidArgument (with field errors) for a bad request or one over the size limit;
-  // ResourceExhausted when the queue is full, with *retry_after the seconds to wait.
-  virtual Result<JobInfo> Submit(std::shared_ptr<const StoredRig> rig, std::string_view body, int* retry_after) = 0;
+  // Queues a batch planned against `rig` (MakeBatchPlan of `body`; the body is kept so that a
+  // restart plans it again). InvalidArgument (with a field error) for more variants than the
+  // server allows; ResourceExhausted with reason job-queue-full when the queue is full, with
+  // *retry_after the seconds to wait.
+  virtual Result<JobInfo> Submit(std::shared_ptr<const StoredRig> rig, std::shared_ptr<const BatchPlan> plan,
+                                 std::string_view body, int* retry_after) = 0;
   virtual std::optional<JobInfo> Get(const std::string& id) const = 0;
   virtual std::vector<JobInfo> List() const = 0;  // Newest first.
   // Cancels a job (variants in flight finish) and deletes its files. NotFound when absent.

@@ -45,8 +45,9 @@ struct MeshRequest {
 // schema errors name their field.
 Result<MeshRequest> ParseMeshRequest(std::string_view body);
 
-// True when a Status from ParseMeshRequest means the body was not JSON at all (HTTP 400),
-// rather than JSON that breaks the schema (HTTP 422).
+// Status::reason of a body (or --weights text) that is not JSON at all, rather than JSON that
+// breaks the schema.
+inline constexpr char kMalformedJson[] = "malformed-json";
 bool IsMalformedJson(const Status& status);
 
 // Body of POST /v1/rigs/{id}/render: the mesh body's weights, mode, normals and strict, plus
@@ -112,22 +113,6 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body);
 // The keys resolved against a rig (names, aliases, indices, shape keys), validated.
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request);
 
-// JSON of a sequence's keys, weights by name (zeros left out), as a request takes them.
-std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence);
-
-// Warnings of one sampled frame: the transition leaving [0, 1] (transition_extrapolation),
-// then the weights' own (CheckWeights), each prefixed with "t=TIME: ".
-void SequenceFrameWarnings(const Rig& rig, float time, float f, std::span<const float> weights, BlendMode mode,
-                           std::vector<Warning>& out);
-
-// {"name": w, ...} of the non-zero weights, floats as their shortest text.
-std::string WeightsMapJson(const Rig& rig, std::span<const float> weights);
-
-// The sample route's body: {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}.
-// `warnings` receives the warnings too (for headers).
-Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
-                                       const BlendOptions& options, std::vector<Warning>& warnings);
-
 // Body of POST /v1/rigs/{id}/fit: {"target": {"primitives": [{"positions": [...]}, ...]}
 // (the mesh route's JSON), "bounded": bool, "sum_at_most_one": bool, "rigid_align": bool}.
 struct FitRequest {
@@ -138,9 +123,6 @@ Result<FitRequest> ParseFitRequest(std::string_view body);
 
 // Target positions from the mesh JSON ({"primitives": [{"positions": [...]}]}).
 Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text);
-
-// {"weights": {name: w, every shape}, "residual": {"rms", "max"}, "warnings": [...]}
-std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned);
 
 // Body of POST /v1/rigs/{id}/batch, and the batch.json that `facespace batch` keeps in its
 // output folder:

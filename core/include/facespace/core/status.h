@@ -36,6 +36,8 @@ struct Status {
   StatusCode code = StatusCode::kOk;
   std::string message;            // One line, meant for people. Empty when ok.
   std::vector<FieldError> fields;  // Offending fields, when the input is structured.
+  std::string reason;             // A stable slug naming the kind of problem ("invalid-weights"), for
+                                  // clients to switch on; empty: the code says enough.
 
   bool ok() const { return code == StatusCode::kOk; }
   static Status Ok() { return {}; }
@@ -46,6 +48,11 @@ Status NotFound(std::string message);
 Status DataLoss(std::string message);
 Status FailedPrecondition(std::string message);
 Status ResourceExhausted(std::string message);
+Status Internal(std::string message);
+// The same status with `prefix` before its message ("shapes.json: ..."): code, fields and reason kept.
+Status Prefixed(Status status, const std::string& prefix);
+// The same status with its reason set.
+Status WithReason(Status status, std::string reason);
 
 // A value or the Status that says why there is none.
 template <typename T>

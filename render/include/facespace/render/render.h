@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -54,18 +55,52 @@ struct Image {
   std::vector<float> rgba;
 };
 
-// Renders `blended` (the rig evaluated at some weights) with the rig's node transforms and
-// materials. Thread-safe: the GL part leases one of a bounded set of contexts (SetMaxContexts),
-// so renders run in parallel up to that many and wait beyond it.
-Status Render(const Rig& rig, const BlendedRig& blended, const RenderOptions& options, Image& out);
+// Draws a blended rig (the rig evaluated at some weights) with the rig's node transforms and
+// materials into a linear-light image. Implementations are thread-safe; callers own them and
+// pass them down (the service owns one for all its threads).
+class Renderer {
+ public:
+  virtual ~Renderer() = default;
+  virtual Status Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& options, Image& out) const = 0;
+  // What draws, for logs: "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6".
+  virtual std::string Info() const = 0;
+  // How many draws run at once; more wait their turn.
+  virtual int Concurrency() const = 0;
+};
 
-// How many GL contexts may exist at once (each holds its framebuffer: about 20 MB at
-// 1024 x 1024 samples). 0, the default: one per core.
-void SetMaxContexts(int n);
-int MaxContexts();
+// The inputs every renderer refuses: an image size outside 1..8192, supersample outside 1..4,
+// a blended rig that does not match the rig.
+Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOptions& options);
 
-// "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6".
-std::string RendererInfo();
+// OSMesa (llvmpipe): draws on the calling thread with a GL context leased from a bounded pool
+// this object owns, so draws run in parallel up to that many and wait beyond it (first come,
+// first served). Each context holds its framebuffer: about 20 MB at 1024 x 1024 samples.
+class OsMesaRenderer final : public Renderer {
+ public:
+  explicit OsMesaRenderer(int max_contexts = 0);  // 0: one per core.
+  ~OsMesaRenderer() override;
+  OsMesaRenderer(const OsMesaRenderer&) = delete;
+  OsMesaRenderer& operator=(const OsMesaRenderer&) = delete;
+
+  Status Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& options, Image& out) const override;
+  std::string Info() const override;
+  int Concurrency() const override;
+  void SetMaxContexts(int n);  // 0: one per core. Contexts beyond the new limit are freed when idle.
+
+  class ContextPool;
+
+ private:
+  std::unique_ptr<ContextPool> pool_;
+};
+
+// Draws no geometry: checks its inputs as every renderer does and fills the image with the
+// background. For tests of the layers above render (tests/api) without GL.
+class NullRenderer final : public Renderer {
+ public:
+  Status Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& options, Image& out) const override;
+  std::string Info() const override { return "null renderer (no GL)"; }
+  int Concurrency() const override { return 1 << 20; }
+};
 
 enum class ImageFormat { kPng, kJpeg, kExr, kTiff };
 bool ParseImageFormat(const std::string& name, ImageFormat* format);

@@ -1,0 +1,129 @@
+#include "cache.h"
+
+#include <cinttypes>
+#include <cstdio>
+#include <cstring>
+
+namespace facespace::api::http {
+
+std::shared_ptr<const Encoded> ResponseCache::Get(const std::string& key) {
+  Shard& s = ShardOf(key);
+  std::lock_guard<std::mutex> lock(s.mu);
+  auto it = s.map.find(key);
+  if (it == s.map.end()) return nullptr;
+  s.lru.splice(s.lru.begin(), s.lru, it->second);
+  return it->second->second;
+}
+
+void ResponseCache::Put(const std::string& key, std::shared_ptr<const Encoded> value) {
+  const size_t size = value->body.size() + key.size();
+  if (size > shard_cap_) return;
+  Shard& s = ShardOf(key);
+  std::lock_guard<std::mutex> lock(s.mu);
+  if (s.map.count(key)) return;
+  s.lru.emplace_front(key, std::move(value));
+  s.map[key] = s.lru.begin();
+  s.bytes += size;
+  while (s.bytes > shard_cap_ && !s.lru.empty()) {
+    auto& last = s.lru.back();
+    s.bytes -= last.second->body.size() + last.first.size();
+    s.map.erase(last.first);
+    s.lru.pop_back();
+  }
+}
+
+size_t ResponseCache::Bytes() {
+  size_t total = 0;
+  for (Shard& s : shards_) {
+    std::lock_guard<std::mutex> lock(s.mu);
+    total += s.bytes;
+  }
+  return total;
+}
+
+namespace {
+
+uint64_t Fnv1a(std::string_view s, uint64_t h = 1469598103934665603ull) {
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::string FloatsCanonical(std::span<const float> v) {
+  std::string s;
+  for (float f : v) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "%a,", static_cast<double>(f));
+    s += buf;
+  }
+  return s;
+}
+
+std::string OptionsCanonical(const BlendOptions& o) {
+  return std::string(o.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" + (o.normals == NormalMode::kRecompute ? "rec" : "bl");
+}
+
+}  // namespace
+
+std::string WeightsCanonical(std::span<const float> w) {
+  std::string s;
+  s.reserve(w.size() * 8);
+  for (float f : w) {
+    uint32_t bits;
+    std::memcpy(&bits, &f, 4);
+    if (f == 0.0f) bits = 0;  // -0 and 0 are the same weight.
+    char buf[9];
+    std::snprintf(buf, sizeof buf, "%08x", bits);
+    s += buf;
+  }
+  return s;
+}
+
+std::string PoseCanonical(const Point& point) {
+  if (!point.posed) return "";
+  const Pose& pose = point.pose;
+  std::string s = "|pose:";
+  for (size_t i = 0; i < pose.local.size(); ++i) {
+    if (pose.from_matrix[i]) {
+      s += "m,";
+      continue;
+    }
+    const Transform& t = pose.local[i];
+    s += FloatsCanonical(t.translation) + FloatsCanonical(t.rotation) + FloatsCanonical(t.scale);
+  }
+  return s;
+}
+
+std::string MeshCanonical(const MeshRequest& r, MeshFormat format, const Point& point) {
+  return PoseCanonical(point) + MeshFormatName(format) + "|" + OptionsCanonical(r.options) + "|" + (r.keep_targets ? "t" : "-") +
+         (r.options.dual_quaternion ? "|dq|" : "|") + "lod" + std::to_string(r.lod) + "|" + WeightsCanonical(point.weights);
+}
+
+std::string RenderCanonical(const RenderRequest& r, render::ImageFormat format) {
+  const render::RenderOptions& o = r.render;
+  const render::Camera& c = o.camera;
+  return std::string(render::ImageFormatExtension(format)) + "|q" + std::to_string(r.quality) + "|" + std::to_string(o.width) +
+         "x" + std::to_string(o.height) + "|" + render::ViewName(o.view) + "|ss" + std::to_string(o.supersample) + "|" +
+         FloatsCanonical(o.background) + "|" + FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) +
+         (c.look_at ? "L" : "O") + (c.frame_shapes ? "S" : "A") +
+         (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|" +
+         OptionsCanonical(r.mesh.options) + (r.mesh.options.dual_quaternion ? "|dq" : "");
+}
+
+bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key) {
+  char etag[24];
+  std::snprintf(etag, sizeof etag, "\"%016" PRIx64 "\"", Fnv1a(key));
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", req.method == "GET" ? "public, no-cache" : "no-store");
+  res.set_header("Vary", "Accept");
+  const std::string inm = req.get_header_value("If-None-Match");
+  if (!inm.empty() && (inm == etag || inm == "*" || inm.find(etag) != std::string::npos)) {
+    res.status = 304;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace facespace::api::http

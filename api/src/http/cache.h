@@ -1,0 +1,54 @@
+// The encoded-response cache, its keys (a rig version and a canonical request, bit for bit), and
+// ETags from those keys.
+#pragma once
+
+#include <httplib.h>
+
+#include <array>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <unordered_map>
+
+#include "facespace/api/pipeline.h"
+
+namespace facespace::api::http {
+
+struct Encoded {
+  std::string body;
+  std::string content_type;
+};
+
+// An LRU cache of encoded responses, sharded so concurrent requests rarely share a lock.
+class ResponseCache {
+ public:
+  explicit ResponseCache(size_t cap_bytes) : shard_cap_(cap_bytes / kShards) {}
+  std::shared_ptr<const Encoded> Get(const std::string& key);
+  void Put(const std::string& key, std::shared_ptr<const Encoded> value);
+  size_t Bytes();  // Bodies and keys held, for /metrics.
+
+ private:
+  static constexpr size_t kShards = 16;
+  using Entry = std::pair<std::string, std::shared_ptr<const Encoded>>;
+  struct Shard {
+    std::mutex mu;
+    std::list<Entry> lru;
+    std::unordered_map<std::string, std::list<Entry>::iterator> map;
+    size_t bytes = 0;
+  };
+  Shard& ShardOf(const std::string& key) { return shards_[std::hash<std::string>()(key) % kShards]; }
+  size_t shard_cap_;
+  std::array<Shard, kShards> shards_;
+};
+
+// Canonical text of what a response depends on besides the rig version.
+std::string WeightsCanonical(std::span<const float> weights);  // Bits of each weight; -0 is 0.
+std::string PoseCanonical(const Point& point);                 // "" for the rest pose.
+std::string MeshCanonical(const MeshRequest& request, MeshFormat format, const Point& point);
+std::string RenderCanonical(const RenderRequest& request, render::ImageFormat format);
+
+// ETag from the key, Cache-Control and Vary; true when If-None-Match matched and a 304 was set.
+bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key);
+
+}  // namespace facespace::api::http

@@ -1,0 +1,96 @@
+#include "context.h"
+
+#include <algorithm>
+#include <thread>
+
+#include "facespace/core/lod.h"
+#include "facespace/core/shape_tools.h"
+#include "negotiate.h"
+#include "problem.h"
+
+namespace facespace::api::http {
+
+void WorkspacePool::Return::operator()(Workspace* ws) const {
+  std::unique_ptr<Workspace> owned(ws);
+  std::lock_guard lock(pool->mu_);
+  if (pool->idle_.size() < pool->keep_) pool->idle_.push_back(std::move(owned));
+}
+
+WorkspacePool::Lease WorkspacePool::Acquire() {
+  {
+    std::lock_guard lock(mu_);
+    if (!idle_.empty()) {
+      Lease ws(idle_.back().release(), Return{this});
+      idle_.pop_back();
+      return ws;
+    }
+  }
+  return Lease(new Workspace, Return{this});
+}
+
+std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored, int lod) {
+  const std::string prefix = stored->id + "|";
+  const std::string key = prefix + stored->version + "|" + std::to_string(lod);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (auto it = derived_.find(key); it != derived_.end()) return it->second;
+  }
+  auto d = std::make_shared<DerivedRig>();
+  if (lod == 0) {
+    d->rig = std::shared_ptr<const Rig>(stored, &stored->rig);
+  } else {
+    auto made = MakeLod(stored->rig, lod);
+    if (!made.ok()) return nullptr;
+    d->rig = std::make_shared<const Rig>(std::move(made.value()));
+  }
+  d->has_focus = ShapeFocusBox(*d->rig, d->focus_min, d->focus_max);
+  std::lock_guard<std::mutex> lock(mu_);
+  for (auto it = derived_.lower_bound(prefix); it != derived_.end() && it->first.rfind(prefix, 0) == 0;) {
+    it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : derived_.erase(it);
+  }
+  return derived_.emplace(key, std::move(d)).first->second;
+}
+
+std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
+  if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
+  auto d = At(stored, lod);
+  return d ? d->rig : nullptr;
+}
+
+void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera) {
+  if (!camera.frame_shapes) return;
+  if (auto d = At(stored, lod); d && d->has_focus) {
+    camera.has_focus = true;
+    camera.focus_min = d->focus_min;
+    camera.focus_max = d->focus_max;
+  }
+}
+
+Context::Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels)
+    : store(s),
+      jobs(j),
+      renderer(r),
+      options(std::move(o)),
+      metrics(std::move(route_labels)),
+      cache(options.cache_bytes),
+      workspaces(2 * std::max(2u, std::thread::hardware_concurrency())) {}
+
+std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
+  auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
+  if (!rig) SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+  return rig;
+}
+
+bool AnswerPoint(Context& ctx, const httplib::Request& req, httplib::Response& res, const Status& s, double sum,
+                 std::span<const Warning> warnings) {
+  const bool refused = s.reason == kLeavesAuthoredSpace;
+  if (s.ok() || refused) {
+    SetWeightHeaders(res, sum, warnings);
+    ctx.metrics.CountWarnings(warnings);
+  }
+  if (s.ok()) return true;
+  SendStatus(req, res, s, refused ? warnings : std::span<const Warning>());
+  return false;
+}
+
+}  // namespace facespace::api::http

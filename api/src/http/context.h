@@ -1,0 +1,104 @@
+// What every route handler gets: the server's parts, owned by api::Api and passed down.
+#pragma once
+
+#include <httplib.h>
+
+#include <array>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "cache.h"
+#include "facespace/api/http.h"
+#include "facespace/api/pipeline.h"
+#include "metrics.h"
+
+namespace facespace::api::http {
+
+// Workspaces for the pipeline, reused across requests (no allocation per request once warm). A
+// free list rather than thread_local: with a thread per keep-alive connection, per-thread
+// buffers would grow with every thread that ever blended (half a megabyte each on the MakeHuman
+// face); here the idle ones are capped.
+class WorkspacePool {
+ public:
+  explicit WorkspacePool(size_t keep) : keep_(keep) {}
+  struct Return {
+    WorkspacePool* pool;
+    void operator()(Workspace* ws) const;
+  };
+  using Lease = std::unique_ptr<Workspace, Return>;
+  Lease Acquire();
+
+ private:
+  size_t keep_;
+  std::mutex mu_;
+  std::vector<std::unique_ptr<Workspace>> idle_;
+};
+
+// What the service derives from a stored rig, per level of detail: the simplified rig and the box
+// its shapes act in. Made once per rig version and level and kept; a new version of a rig drops
+// its older entries.
+struct DerivedRig {
+  std::shared_ptr<const Rig> rig;
+  bool has_focus = false;
+  std::array<float, 3> focus_min{}, focus_max{};
+};
+
+class DerivedRigs {
+ public:
+  // nullptr when the level of detail cannot be made.
+  std::shared_ptr<const DerivedRig> At(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // The rig at a level of detail: the stored rig itself at 0 (no lookup), else At(...)->rig.
+  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // Framing on the shapes: the camera gets the kept box instead of a per-render one.
+  void SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera);
+
+ private:
+  std::mutex mu_;
+  std::map<std::string, std::shared_ptr<const DerivedRig>> derived_;
+};
+
+struct Context {
+  Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels);
+
+  RigStore& store;
+  JobQueue* jobs;                   // Null: the batch and job routes answer 503.
+  const render::Renderer& renderer;
+  const ApiOptions options;
+  Metrics metrics;
+  ResponseCache cache;
+  WorkspacePool workspaces;
+  DerivedRigs derived;
+};
+
+// ---- helpers the routes share ----
+
+// The stored rig named by the path, or nullptr with a 404 sent.
+std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& req, httplib::Response& res,
+                                         const std::string& id);
+
+// A JSON body parsed by `parse`; false when an error was sent (415, 400 malformed, 422 schema).
+template <typename T, typename Parse>
+bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse parse, T& out);
+
+// Answers from the response cache, or with `produce()` (the encoded body), which is then cached
+// under `key`. A failed `produce` is sent as its Status.
+template <typename Produce>
+void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
+                const char* content_type, Produce produce);
+
+// After the pipeline's first step: Facespace-Weight-Sum and Facespace-Warnings set, warnings
+// counted; false when `status` is an error, which was sent (a strict refusal with its warnings).
+bool AnswerPoint(Context& ctx, const httplib::Request& req, httplib::Response& res, const Status& status, double sum,
+                 std::span<const Warning> warnings);
+
+// True when the request carries the API key; otherwise sends 401 or 403.
+bool Authorized(const Context& ctx, const httplib::Request& req, httplib::Response& res);
+
+// The CORS headers for an allowed Origin, and the answer to OPTIONS; true when it was answered.
+bool PreRoute(const Context& ctx, const httplib::Request& req, httplib::Response& res);
+
+}  // namespace facespace::api::http
+
+#include "context_inl.h"

@@ -1,0 +1,88 @@
+#include "problem.h"
+
+#include "facespace/api/jobs.h"
+#include "facespace/api/request.h"
+#include "facespace/core/io.h"
+
+namespace facespace::api::http {
+
+using nlohmann::json;
+
+int HttpStatus(const Status& s) {
+  if (s.reason == kMalformedJson) return 400;
+  if (s.reason == kJobQueueFull) return 429;
+  switch (s.code) {
+    case StatusCode::kOk: return 200;
+    case StatusCode::kInvalidArgument:
+    case StatusCode::kFailedPrecondition: return 422;
+    case StatusCode::kNotFound: return 404;
+    case StatusCode::kResourceExhausted: return 413;
+    case StatusCode::kStorageFull: return 507;
+    case StatusCode::kDataLoss:
+    case StatusCode::kInternal: return 500;
+  }
+  return 500;
+}
+
+const char* ReasonPhrase(int status) {
+  switch (status) {
+    case 400: return "Bad Request";
+    case 401: return "Unauthorized";
+    case 403: return "Forbidden";
+    case 404: return "Not Found";
+    case 405: return "Method Not Allowed";
+    case 406: return "Not Acceptable";
+    case 409: return "Conflict";
+    case 413: return "Content Too Large";
+    case 415: return "Unsupported Media Type";
+    case 422: return "Unprocessable Content";
+    case 429: return "Too Many Requests";
+    case 500: return "Internal Server Error";
+    case 503: return "Service Unavailable";
+    case 507: return "Insufficient Storage";
+  }
+  return "Error";
+}
+
+std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
+
+void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,
+                 const std::string& detail, const std::vector<FieldError>& fields, std::span<const Warning> warnings) {
+  json p = {{"type", "urn:facespace:problem:" + type},
+            {"title", ReasonPhrase(status)},
+            {"status", status},
+            {"detail", detail},
+            {"instance", req.path}};
+  if (!fields.empty()) {
+    json errors = json::array();
+    for (const FieldError& f : fields) {
+      if (!f.pointer.empty() && f.pointer[0] == '?') errors.push_back({{"parameter", f.pointer.substr(1)}, {"detail", f.message}});
+      else errors.push_back({{"pointer", f.pointer}, {"detail", f.message}});
+    }
+    p["errors"] = errors;
+  }
+  if (!warnings.empty()) p["warnings"] = json::parse(WarningsToJson(warnings));
+  res.status = status;
+  res.set_content(Dump(p), "application/problem+json");
+}
+
+void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& s, std::span<const Warning> warnings) {
+  std::string type = s.reason;
+  if (type.empty()) {
+    switch (s.code) {
+      case StatusCode::kInvalidArgument: type = "invalid-request"; break;
+      case StatusCode::kNotFound: type = "not-found"; break;
+      case StatusCode::kResourceExhausted: type = "too-large"; break;
+      case StatusCode::kStorageFull: type = "storage-full"; break;
+      default: type = "internal";
+    }
+  }
+  SendProblem(req, res, HttpStatus(s), type, s.message, s.fields, warnings);
+}
+
+void SendJson(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(Dump(body), "application/json");
+}
+
+}  // namespace facespace::api::http

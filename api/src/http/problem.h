@@ -1,0 +1,36 @@
+// RFC 9457 problem details, and the one map from a Status to an HTTP status code.
+#pragma once
+
+#include <httplib.h>
+
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/core/status.h"
+
+namespace facespace::api::http {
+
+// The HTTP status of a Status: malformed JSON 400, invalid 422, not found 404, a full job queue
+// 429, another limit 413, a full disk 507, anything else 500.
+int HttpStatus(const Status& status);
+
+const char* ReasonPhrase(int status);
+
+// A problem document. Field errors whose pointer starts with '?' name a query parameter
+// ({"parameter": ...}); the others are JSON Pointers into the body ({"pointer": ...}).
+void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,
+                 const std::string& detail, const std::vector<FieldError>& fields = {},
+                 std::span<const Warning> warnings = {});
+
+// The problem for a Status: HttpStatus, the type from its reason (or its code), its message and fields.
+void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& status,
+                std::span<const Warning> warnings = {});
+
+void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
+
+// JSON text that never throws: invalid UTF-8 is replaced.
+std::string Dump(const nlohmann::json& j);
+
+}  // namespace facespace::api::http

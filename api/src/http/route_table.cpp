@@ -1,0 +1,70 @@
+#include "route_table.h"
+
+#include <algorithm>
+
+namespace facespace::api::http {
+
+namespace {
+
+constexpr char kRig[] = "/v1/rigs/{id}";
+constexpr char kSequence[] = "/v1/rigs/{id}/sequence/*";
+constexpr char kJobFiles[] = "/v1/jobs/{job}/*";
+
+constexpr Route kRoutes[] = {
+    {"GET", "/healthz", "/healthz", GetHealth},
+    {"GET", "/readyz", "/readyz", GetReady},
+    {"GET", "/metrics", "/metrics", GetMetrics},
+    {"GET", "/openapi.json", "/openapi.json", GetOpenApi},
+    {"GET", "/v1/rigs", "/v1/rigs", ListRigs},
+    {"GET", "/v1/rigs/{id}", kRig, GetRig},
+    {"PUT", "/v1/rigs/{id}", kRig, PutRig},
+    {"DELETE", "/v1/rigs/{id}", kRig, DeleteRig},
+    {"GET", "/v1/rigs/{id}/topology", kRig, GetTopology},
+    {"GET", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/mesh", GetOrPostMesh},
+    {"POST", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/mesh", GetOrPostMesh},
+    {"POST", "/v1/rigs/{id}/check", "/v1/rigs/{id}/check", PostCheck},
+    {"GET", "/v1/rigs/{id}/render", "/v1/rigs/{id}/render", GetOrPostRender},
+    {"POST", "/v1/rigs/{id}/render", "/v1/rigs/{id}/render", GetOrPostRender},
+    {"POST", "/v1/rigs/{id}/sheet", "/v1/rigs/{id}/sheet", PostSheet},
+    {"POST", "/v1/rigs/{id}/sequence/sample", kSequence, PostSequenceSample},
+    {"POST", "/v1/rigs/{id}/sequence/stream", kSequence, PostSequenceStream},
+    {"POST", "/v1/rigs/{id}/sequence/reduce", kSequence, PostSequenceReduce},
+    {"POST", "/v1/rigs/{id}/fit", "/v1/rigs/{id}/fit", PostFit},
+    {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch},
+    {"GET", "/v1/jobs", "/v1/jobs", ListJobs},
+    {"GET", "/v1/jobs/{job}", "/v1/jobs/{job}", GetJob},
+    {"DELETE", "/v1/jobs/{job}", "/v1/jobs/{job}", DeleteJob},
+    {"GET", "/v1/jobs/{job}/manifest.jsonl", kJobFiles, GetJobManifest},
+    {"GET", "/v1/jobs/{job}/files/{name}", kJobFiles, GetJobFile},
+    {"GET", "/v1/jobs/{job}/results.zip", kJobFiles, GetJobResults},
+};
+
+}  // namespace
+
+std::span<const Route> Routes() { return kRoutes; }
+
+std::string PathPattern(std::string_view path) {
+  std::string out;
+  for (size_t i = 0; i < path.size(); ++i) {
+    const char c = path[i];
+    if (c == '{') {
+      i = path.find('}', i);
+      out += "([^/]+)";
+    } else if (c == '.') {
+      out += "\\.";
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+std::vector<std::string> MetricLabels() {
+  std::vector<std::string> labels;
+  for (const Route& r : kRoutes) {
+    if (std::find(labels.begin(), labels.end(), r.metric) == labels.end()) labels.push_back(r.metric);
+  }
+  return labels;
+}
+
+}  // namespace facespace::api::http

@@ -1,0 +1,158 @@
+// /v1/rigs/{id}/batch and /v1/jobs/...: batch jobs of variants, their files and archives.
+#include <filesystem>
+#include <fstream>
+
+#include "../zip.h"
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+using nlohmann::json;
+
+json JobJson(const JobInfo& j) {
+  const std::string self = "/v1/jobs/" + j.id;
+  json o = {{"id", j.id},           {"rig", j.rig},     {"state", j.state}, {"format", j.format},
+            {"created", j.created}, {"total", j.total}, {"done", j.done},
+            {"progress", j.total ? static_cast<double>(j.done) / static_cast<double>(j.total) : 1.0},
+            {"rate", std::round(j.rate * 10.0) / 10.0}};
+  if (j.state == "running" && j.rate > 0) o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
+  if (!j.error.empty()) o["error"] = j.error;
+  o["links"] = {{"self", self}, {"manifest", self + "/manifest.jsonl"}, {"files", self + "/files/"}, {"sheet", self + "/files/sheet.png"}};
+  if (j.state == "done") o["links"]["results"] = self + "/results.zip";
+  return o;
+}
+
+bool JobsEnabled(const Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (ctx.jobs) return true;
+  SendProblem(req, res, 503, "jobs-disabled", "this server runs no batch jobs");
+  return false;
+}
+
+// The job named by the path, or nullopt with 503 or 404 sent.
+std::optional<JobInfo> FindJob(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (!JobsEnabled(ctx, req, res)) return std::nullopt;
+  const std::string id = req.matches[1];
+  std::optional<JobInfo> j = IsValidJobId(id) ? ctx.jobs->Get(id) : std::nullopt;
+  if (!j) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
+  return j;
+}
+
+const char* FileType(const std::string& name) {
+  const std::string ext = name.substr(name.rfind('.') + 1);
+  if (ext == "glb") return "model/gltf-binary";
+  if (ext == "obj") return "model/obj";
+  if (ext == "json") return "application/json";
+  if (ext == "jsonl") return "application/x-ndjson";
+  if (ext == "png") return "image/png";
+  if (ext == "jpg" || ext == "jpeg") return "image/jpeg";
+  if (ext == "exr") return "image/x-exr";
+  if (ext == "tif" || ext == "tiff") return "image/tiff";
+  return "application/octet-stream";
+}
+
+void SendJobFile(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& name) {
+  auto job = FindJob(ctx, req, res);
+  if (!job) return;
+  const std::filesystem::path path = std::filesystem::path(ctx.jobs->Folder(job->id)) / name;
+  std::ifstream f(path, std::ios::binary);
+  if (!IsValidVariantId(name) || !f) {
+    SendProblem(req, res, 404, "file-not-found", "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
+                                                     (job->state == "done" ? "" : " (yet: the job is " + job->state + ")"));
+    return;
+  }
+  std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  res.set_header("Cache-Control", name == "manifest.jsonl" ? "no-cache" : "private, max-age=86400");
+  res.set_content(std::move(bytes), FileType(name));
+}
+
+}  // namespace
+
+void PostBatch(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  // It writes to the disk: a mutating route.
+  if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  if (!stored || !AcceptsJsonBody(req, res)) return;
+  auto plan = MakeBatchPlan(stored->rig, stored->version, req.body);
+  if (!plan.ok()) return SendStatus(req, res, plan.status());
+  int retry_after = 0;
+  auto job = ctx.jobs->Submit(stored, std::make_shared<const BatchPlan>(std::move(plan.value())), req.body, &retry_after);
+  if (!job.ok()) {
+    Status s = job.status();
+    if (s.reason == kJobQueueFull) res.set_header("Retry-After", std::to_string(retry_after));
+    else if (s.reason.empty() && s.code != StatusCode::kInvalidArgument) s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : "storage-failed";
+    return SendStatus(req, res, s);
+  }
+  res.set_header("Location", "/v1/jobs/" + job->id);
+  SendJson(res, 202, JobJson(job.value()));
+}
+
+void ListJobs(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (!JobsEnabled(ctx, req, res)) return;
+  json list = json::array();
+  for (const JobInfo& j : ctx.jobs->List()) list.push_back(JobJson(j));
+  SendJson(res, 200, {{"jobs", list}});
+}
+
+void GetJob(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (auto j = FindJob(ctx, req, res)) {
+    res.set_header("Cache-Control", "no-cache");
+    SendJson(res, 200, JobJson(*j));
+  }
+}
+
+void DeleteJob(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
+  const std::string id = req.matches[1];
+  Status s = IsValidJobId(id) ? ctx.jobs->Remove(id) : NotFound("");
+  if (!s.ok()) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
+  else res.status = 204;
+}
+
+void GetJobManifest(Context& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, "manifest.jsonl"); }
+
+void GetJobFile(Context& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, req.matches[2]); }
+
+void GetJobResults(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto job = FindJob(ctx, req, res);
+  if (!job) return;
+  if (job->state != "done") {
+    SendProblem(req, res, 409, "job-not-done", "job " + job->id + " is " + job->state + " (" + std::to_string(job->done) + " of " +
+                                                   std::to_string(job->total) +
+                                                   " variants): its archive exists once it is done; finished files are at " +
+                                                   "/v1/jobs/" + job->id + "/files/NAME");
+    return;
+  }
+  // Entries: the manifest, batch.json, the sheet, then every variant in manifest order.
+  const std::filesystem::path dir = ctx.jobs->Folder(job->id);
+  auto names = std::make_shared<std::vector<std::string>>();
+  for (const char* n : {"manifest.jsonl", "batch.json", "sheet.png"}) {
+    if (std::filesystem::exists(dir / n)) names->push_back(n);
+  }
+  std::ifstream manifest(dir / "manifest.jsonl");
+  for (std::string line; std::getline(manifest, line);) {
+    json l = json::parse(line, nullptr, false);
+    if (!l.is_discarded() && l.is_object() && l.contains("file") && l["file"].is_string()) names->push_back(l["file"]);
+  }
+  auto zip = std::make_shared<ZipStream>();
+  auto next = std::make_shared<size_t>(0);
+  res.set_header("Content-Disposition", "attachment; filename=\"facespace-batch-" + job->id + ".zip\"");
+  res.set_chunked_content_provider("application/zip", [dir, names, zip, next](size_t, httplib::DataSink& sink) {
+    if (*next == names->size()) {
+      const std::string end = zip->Finish();
+      sink.write(end.data(), end.size());
+      sink.done();
+      return true;
+    }
+    const std::string& name = (*names)[(*next)++];
+    std::ifstream f(dir / name, std::ios::binary);
+    const std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const std::string ext = name.substr(name.rfind('.') + 1);
+    const std::string entry = zip->Entry(name, data, ext == "obj" || ext == "json" || ext == "jsonl");
+    if (!f || zip->failed()) return false;  // A file vanished (job deleted) or the archive would pass 4 GiB.
+    return sink.write(entry.data(), entry.size());
+  });
+}
+
+}  // namespace facespace::api::http

@@ -1,0 +1,119 @@
+// /v1/rigs/{id}/mesh, /check and /fit: a point of face space as a mesh, its checks, and the point
+// that best reproduces a mesh.
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+bool ParseNumber(const std::string& s, double* out) {
+  if (s.empty() || s.size() > 64) return false;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end != s.c_str() + s.size() || errno == ERANGE) return false;
+  *out = v;
+  return true;
+}
+
+bool ParseBool(const std::string& s, bool* out) {
+  if (s == "true" || s == "1") *out = true;
+  else if (s == "false" || s == "0") *out = false;
+  else return false;
+  return true;
+}
+
+// The mesh request from a POST body or GET query; false when an error was sent.
+bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRequest& r) {
+  if (req.method == "POST") return ReadJsonBody(req, res, ParseMeshRequest, r);
+  std::vector<FieldError> errors;
+  for (const auto& [key, value] : req.params) {
+    const std::string where = "?" + key;
+    if (key == "format") {
+      MeshFormat f;
+      if (ParseMeshFormat(value, &f)) r.format = f;
+      else errors.push_back({where, "must be one of glb, obj, json, f32"});
+    } else if (key == "keep_targets") {
+      if (!ParseBool(value, &r.keep_targets)) errors.push_back({where, "must be true or false"});
+    } else if (!MeshQueryParam(key, value, r, errors)) {
+      errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
+    }
+  }
+  return FinishQuery(req, res, r, errors);
+}
+
+}  // namespace
+
+bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r, std::vector<FieldError>& errors) {
+  const std::string where = "?" + key;
+  if (key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0) {  // A shape weight, or a control value.
+    WeightEntry e;
+    e.name = key.substr(2);
+    e.pointer = where;
+    if (e.name.empty()) errors.push_back({where, key.substr(0, 2) + " needs a name: w.SHAPE=0.5 or c.CONTROL=-0.4"});
+    else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
+    else (key[0] == 'w' ? r.weights : r.controls).push_back(e);
+  } else if (key == "mode") {
+    if (!ParseBlendMode(value, &r.options.mode)) errors.push_back({where, "must be relative or absolute"});
+  } else if (key == "normals") {
+    if (!ParseNormalMode(value, &r.options.normals)) errors.push_back({where, "must be blend or recompute"});
+  } else if (key == "strict") {
+    if (!ParseBool(value, &r.strict)) errors.push_back({where, "must be true or false"});
+  } else {
+    bool known = false;
+    const std::string e = ApplyPoseSetting(key, value, r, &known);
+    if (!known) return false;
+    if (!e.empty()) errors.push_back({where, e});
+  }
+  return true;
+}
+
+bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r, std::vector<FieldError>& errors) {
+  if (std::string e = FinishPoseSettings(r); !e.empty()) errors.push_back({"?animation", e});
+  if (errors.empty()) return true;
+  SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
+  return false;
+}
+
+void GetOrPostMesh(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  MeshRequest r;
+  if (!stored || !ReadMeshRequest(req, res, r)) return;
+  const auto format = NegotiateMesh(req, res, r.format);
+  if (!format) return;
+  Point point;
+  const Status s = ResolvePoint(stored->rig, r, point);
+  if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
+  const std::string key = stored->id + "|" + stored->version + "|" + MeshCanonical(r, *format, point);
+  if (NotModified(req, res, key)) return;
+  SendCached(ctx, req, res, key, MeshFormatMimeType(*format), [&](Workspace& ws) -> Result<std::string> {
+    const auto at = ctx.derived.RigAt(stored, r.lod);
+    if (!at) return Internal("the level of detail failed");
+    ctx.metrics.CountBlends(1);
+    return EncodeMesh(*at, point, r, *format, ws);
+  });
+}
+
+void PostCheck(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  MeshRequest r;
+  if (!stored || !ReadMeshRequest(req, res, r)) return;
+  Point point;
+  const Status s = ResolvePoint(stored->rig, r, point);
+  if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
+  res.status = 200;
+  res.set_content(CheckJson(stored->rig, point), "application/json");
+}
+
+void PostFit(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  FitRequest r;
+  if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r)) return;
+  auto out = ProduceFit(stored->rig, r);
+  if (!out.ok()) return SendStatus(req, res, out.status());
+  if (!out->warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(out->warnings));
+  res.status = 200;
+  res.set_content(std::move(out->bytes), out->content_type);
+}
+
+}  // namespace facespace::api::http

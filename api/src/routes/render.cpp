@@ -1,0 +1,81 @@
+// /v1/rigs/{id}/render and /sheet: offscreen renders of points of face space.
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+// The render request from a POST body or GET query; false when an error was sent.
+bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, RenderRequest& r) {
+  if (req.method == "POST") return ReadJsonBody(req, res, ParseRenderRequest, r);
+  std::vector<FieldError> errors;
+  for (const auto& [key, value] : req.params) {
+    bool known = false;
+    if (std::string e = ApplyRenderSetting(key, value, r, &known); known) {
+      if (!e.empty()) errors.push_back({"?" + key, e});
+    } else if (!MeshQueryParam(key, value, r.mesh, errors)) {
+      errors.push_back({"?" + key, "unknown parameter"});
+    }
+  }
+  return FinishQuery(req, res, r.mesh, errors);
+}
+
+// The server's size limit; false with a 422 sent.
+bool CheckSize(const Context& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o) {
+  const int max = ctx.options.max_render_size;
+  if (o.width <= max && o.height <= max) return true;
+  SendProblem(req, res, 422, "image-too-large", "width and height are limited to " + std::to_string(max) + " pixels",
+              {{std::string(req.method == "GET" ? "?" : "/") + (o.width > max ? "width" : "height"), "at most " + std::to_string(max)}});
+  return false;
+}
+
+}  // namespace
+
+void GetOrPostRender(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  RenderRequest r;
+  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render)) return;
+  const auto format = NegotiateImage(req, res, r.format);
+  if (!format) return;
+  Point point;
+  const Status s = ResolvePoint(stored->rig, r.mesh, point);
+  if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
+  const std::string key = stored->id + "|" + stored->version + "|render|" + RenderCanonical(r, *format) + "|lod" +
+                          std::to_string(r.mesh.lod) + "|" + WeightsCanonical(point.weights) + PoseCanonical(point);
+  if (NotModified(req, res, key)) return;
+  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), [&](Workspace& ws) -> Result<std::string> {
+    const auto at = ctx.derived.RigAt(stored, r.mesh.lod);
+    if (!at) return Internal("the level of detail failed");
+    ctx.derived.SetFocus(stored, r.mesh.lod, r.render.camera);
+    ctx.metrics.CountBlends(1);
+    return EncodeImage(*at, point, r, *format, ctx.renderer, ws);
+  });
+}
+
+void PostSheet(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  SheetRequest r;
+  if (!stored || !ReadJsonBody(req, res, ParseSheetRequest, r) || !CheckSize(ctx, req, res, r.base.render)) return;
+  const auto format = NegotiateImage(req, res, r.base.format);
+  if (!format) return;
+  const size_t max_cells = static_cast<size_t>(ctx.options.max_sheet_cells);
+  if (r.cells.size() > max_cells) {
+    SendProblem(req, res, 422, "too-many-cells", "a sheet has at most " + std::to_string(max_cells) + " cells",
+                {{"/cells", "at most " + std::to_string(max_cells)}});
+    return;
+  }
+  SheetPoints points;
+  const Status s = ResolveSheet(stored->rig, r, points);
+  if (!AnswerPoint(ctx, req, res, s, points.max_sum, points.warnings)) return;
+  std::string key = stored->id + "|" + stored->version + "|sheet|" + std::to_string(r.columns) + "|" + RenderCanonical(r.base, *format);
+  for (size_t c = 0; c < points.cells.size(); ++c) key += "|" + WeightsCanonical(points.cells[c].weights) + "#" + r.labels[c];
+  if (!points.cells.empty()) key += PoseCanonical(points.cells[0]);
+  if (NotModified(req, res, key)) return;
+  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), [&](Workspace& ws) -> Result<std::string> {
+    ctx.derived.SetFocus(stored, 0, r.base.render.camera);
+    ctx.metrics.CountBlends(points.cells.size());
+    return EncodeSheet(stored->rig, points, r, *format, ctx.renderer, ws);
+  });
+}
+
+}  // namespace facespace::api::http

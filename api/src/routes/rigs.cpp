@@ -1,0 +1,208 @@
+// /v1/rigs, /v1/rigs/{id}, /v1/rigs/{id}/topology: the rigs in the store.
+#include <cmath>
+
+#include "facespace/core/lod.h"
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+using nlohmann::json;
+
+json RigSummary(const StoredRig& s) {
+  const Rig& r = s.rig;
+  return {{"id", s.id},           {"name", r.name},
+          {"vertices", r.vertex_count()}, {"triangles", r.triangle_count()},
+          {"shapes", r.shapes.size()},    {"primitives", r.primitives.size()},
+          {"has_skeleton", r.skin_count > 0}, {"version", s.version}};
+}
+
+json RigDetail(const StoredRig& s) {
+  const Rig& r = s.rig;
+  json j = RigSummary(s);
+  json shapes = json::array();
+  for (size_t i = 0; i < r.shapes.size(); ++i) {
+    const Shape& sh = r.shapes[i];
+    json o = {{"index", i}, {"name", sh.name}, {"group", sh.group}, {"min", sh.min}, {"max", sh.max},
+              {"default", sh.default_weight}, {"vertices_moved", sh.vertices_moved}};
+    o["partner"] = sh.partner >= 0 ? json(r.shapes[sh.partner].name) : json(nullptr);
+    o["aliases"] = sh.aliases;
+    o["driven"] = sh.driven;
+    shapes.push_back(o);
+  }
+  j["shapes"] = shapes;
+  // What the manifest says beyond the shapes: in-betweens, correctives, statistics.
+  json inbetweens = json::array();
+  for (const InBetweens& ib : r.inbetweens) {
+    json keys = json::array();
+    for (const auto& [w, shape] : ib.keys) keys.push_back({{"shape", r.shapes[shape].name}, {"weight", w}});
+    inbetweens.push_back({{"slider", r.shapes[ib.slider].name}, {"keys", keys}});
+  }
+  j["inbetweens"] = inbetweens;
+  json correctives = json::array();
+  for (const Corrective& c : r.correctives) {
+    json drivers = json::array();
+    for (uint32_t d : c.drivers) drivers.push_back(r.shapes[d].name);
+    correctives.push_back({{"shape", r.shapes[c.shape].name}, {"drivers", drivers}, {"mode", c.use_min ? "min" : "product"}});
+  }
+  j["correctives"] = correctives;
+  json controls = json::array();
+  for (const Control& c : r.controls) {
+    controls.push_back({{"name", c.name}, {"group", c.group}, {"min", c.min}, {"max", c.max},
+                        {"negative", c.negative >= 0 ? json(r.shapes[c.negative].name) : json(nullptr)},
+                        {"positive", r.shapes[c.positive].name},
+                        {"partner", c.partner >= 0 ? json(r.controls[c.partner].name) : json(nullptr)}});
+  }
+  j["controls"] = controls;
+  j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()}, {"bound", r.statistics.bound}} : json(nullptr);
+  // Bounding box of the base mesh as shown (world space, every primitive).
+  const auto world = PrimitiveWorldMatrices(r);
+  float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  json prims = json::array();
+  for (size_t p = 0; p < r.primitives.size(); ++p) {
+    const Primitive& pr = r.primitives[p];
+    const auto& m = world[p];
+    for (size_t v = 0; v < pr.positions.size(); v += 3) {
+      for (int c = 0; c < 3; ++c) {
+        const float x = m[c] * pr.positions[v] + m[4 + c] * pr.positions[v + 1] + m[8 + c] * pr.positions[v + 2] + m[12 + c];
+        lo[c] = std::min(lo[c], x);
+        hi[c] = std::max(hi[c], x);
+      }
+    }
+    prims.push_back({{"mesh", pr.mesh}, {"primitive", pr.index_in_mesh}, {"name", r.meshes[pr.mesh].name},
+                     {"vertices", pr.vertex_count()}, {"triangles", pr.triangle_count()}, {"material", pr.material},
+                     {"has_normals", pr.source_has_normals}, {"has_tangents", !pr.tangents.empty()}});
+  }
+  j["primitives"] = prims;
+  j["bounding_box"] = r.primitives.empty() ? json(nullptr)
+                                            : json({{"min", {lo[0], lo[1], lo[2]}}, {"max", {hi[0], hi[1], hi[2]}}});
+  if (r.skins.empty()) {
+    j["skeleton"] = nullptr;
+  } else {
+    json skins = json::array();
+    for (const Skin& sk : r.skins) {
+      json joints = json::array();
+      for (int n : sk.joints) joints.push_back({{"node", n}, {"name", r.nodes[n].name}, {"parent", r.nodes[n].parent}});
+      skins.push_back({{"name", sk.name}, {"joints", joints}});
+    }
+    j["skeleton"] = {{"skins", skins}, {"joints", r.joint_count}};
+  }
+  json anims = json::array();
+  for (size_t a = 0; a < r.animations.size(); ++a) {
+    const AnimationInfo& an = r.animations[a];
+    anims.push_back({{"index", a}, {"name", an.name}, {"duration", an.duration}, {"channels", an.channels},
+                     {"morph_weights", an.has_weights}});
+  }
+  j["animations"] = anims;
+  j["load_warnings"] = json::parse(WarningsToJson(r.load_warnings));
+  return j;
+}
+
+}  // namespace
+
+void ListRigs(Context& ctx, const httplib::Request&, httplib::Response& res) {
+  json list = json::array();
+  for (const auto& r : ctx.store.List()) list.push_back(RigSummary(*r));
+  SendJson(res, 200, {{"rigs", list}});
+}
+
+void GetRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (auto r = FindRig(ctx, req, res, req.matches[1])) {
+    res.set_header("ETag", "\"" + r->version + "\"");
+    SendJson(res, 200, RigDetail(*r));
+  }
+}
+
+void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (!Authorized(ctx, req, res)) return;
+  const std::string id = req.matches[1];
+  if (!IsValidRigId(id)) {
+    SendProblem(req, res, 422, "invalid-id", "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
+                {{"?id", "invalid rig id"}});
+    return;
+  }
+  const std::string ct = MediaType(req.get_header_value("Content-Type"));
+  if (ct != "model/gltf-binary" && ct != "model/gltf+json") {
+    SendProblem(req, res, 415, "unsupported-media-type",
+                "upload a rig as model/gltf-binary (.glb) or model/gltf+json (.gltf with embedded buffers)" +
+                    (ct.empty() ? std::string() : ", not " + ct));
+    return;
+  }
+  if (req.body.empty()) {
+    SendProblem(req, res, 422, "invalid-rig", "the body is empty");
+    return;
+  }
+  bool created = false;
+  const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
+  Status s = ctx.store.Put(id, std::span<const unsigned char>(data, req.body.size()), ct == "model/gltf-binary", &created);
+  if (!s.ok()) {
+    if (s.reason.empty()) s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : "invalid-rig";
+    SendStatus(req, res, s);
+    return;
+  }
+  auto stored = ctx.store.Get(id);
+  res.set_header("Location", "/v1/rigs/" + id);
+  SendJson(res, created ? 201 : 200, stored ? RigSummary(*stored) : json{{"id", id}});
+}
+
+void DeleteRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (!Authorized(ctx, req, res)) return;
+  const std::string id = req.matches[1];
+  Status s = IsValidRigId(id) ? ctx.store.Delete(id) : NotFound("");
+  if (s.code == StatusCode::kNotFound) {
+    SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+  } else if (!s.ok()) {
+    SendStatus(req, res, WithReason(s, "storage-failed"));
+  } else {
+    res.status = 204;
+  }
+}
+
+void GetTopology(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  if (!stored) return;
+  int lod = 0;
+  if (req.has_param("lod")) {
+    const std::string v = req.get_param_value("lod");
+    if (v.size() != 1 || v[0] < '0' || v[0] - '0' > kMaxLod) {
+      SendProblem(req, res, 422, "invalid-request", "lod: must be an integer level of detail 0.." + std::to_string(kMaxLod),
+                  {{"?lod", "must be 0.." + std::to_string(kMaxLod)}});
+      return;
+    }
+    lod = v[0] - '0';
+  }
+  const auto derived = ctx.derived.At(stored, lod);
+  if (!derived) {
+    SendProblem(req, res, 500, "internal", "the level of detail failed");
+    return;
+  }
+  // Triangle lists per primitive, in the order of the f32 and JSON mesh outputs.
+  const Rig& at = *derived->rig;
+  std::string out = "{\"primitives\":[";
+  for (size_t p = 0; p < at.primitives.size(); ++p) {
+    const Primitive& pr = at.primitives[p];
+    if (p) out += ',';
+    out += "{\"mesh\":" + std::to_string(pr.mesh) + ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
+           ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode)) +
+           ",\"indices\":[";
+    for (size_t i = 0; i < pr.indices.size(); ++i) {
+      if (i) out += ',';
+      out += std::to_string(pr.indices[i]);
+    }
+    out += "]}";
+  }
+  out += "]";
+  if (derived->has_focus) {  // Where the shapes act, for clients that frame a view.
+    const auto& lo = derived->focus_min;
+    const auto& hi = derived->focus_max;
+    out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," + FormatNumber(lo[2]) + "],\"max\":[" +
+           FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) + "," + FormatNumber(hi[2]) + "]}";
+  }
+  out += "}";
+  res.set_header("ETag", "\"" + stored->version + "-" + std::to_string(lod) + "\"");
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(std::move(out), "application/json");
+}
+
+}  // namespace facespace::api::http

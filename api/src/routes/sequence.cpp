@@ -1,0 +1,89 @@
+// /v1/rigs/{id}/sequence/{sample,stream,reduce}: keyframe sequences.
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+// The sequence body resolved against the rig; false when an error was sent.
+bool ReadSequence(const httplib::Request& req, httplib::Response& res, const Rig& rig, SequenceRequest& r, Sequence& seq) {
+  if (!ReadJsonBody(req, res, ParseSequenceRequest, r)) return false;
+  auto resolved = ResolveSequence(rig, r);
+  if (!resolved.ok()) {
+    SendStatus(req, res, WithReason(resolved.status(), kInvalidSequence));
+    return false;
+  }
+  seq = std::move(resolved.value());
+  return true;
+}
+
+void Required(const httplib::Request& req, httplib::Response& res, const std::string& member, const std::string& what) {
+  SendProblem(req, res, 422, "invalid-request", "/" + member + ": is required (" + what + ")", {{"/" + member, "is required"}});
+}
+
+}  // namespace
+
+void PostSequenceSample(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  SequenceRequest r;
+  Sequence seq;
+  if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
+  if (r.times.empty()) return Required(req, res, "times", "the times to sample");
+  std::vector<Warning> warnings;
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
+  auto body = SampleSequenceJson(stored->rig, seq, r.times, r.options, warnings, *ws);
+  if (!body.ok()) return SendStatus(req, res, body.status());
+  ctx.metrics.CountBlends(r.times.size());
+  if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
+  res.status = 200;
+  res.set_content(std::move(body.value()), "application/json");
+}
+
+void PostSequenceStream(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  auto r = std::make_shared<SequenceRequest>();
+  auto seq = std::make_shared<Sequence>();
+  if (!stored || !ReadSequence(req, res, stored->rig, *r, *seq)) return;
+  const std::string format = r->format.empty() ? "ndjson" : r->format;
+  if (format != "ndjson" && format != "f32") {
+    SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson or f32", {{"/format", "must be ndjson or f32"}});
+    return;
+  }
+  const size_t frames = FrameCount(*seq, r->fps);
+  if (frames > 100000) {
+    SendProblem(req, res, 422, "too-many-frames", "at most 100000 frames a stream (duration x fps)", {{"/fps", "too many frames"}});
+    return;
+  }
+  res.set_header("Facespace-Frames", std::to_string(frames));
+  res.set_header("Cache-Control", "no-store");
+  const bool f32 = format == "f32";
+  // One frame per call, computed as the client reads: a client that closes stops the work.
+  auto next = std::make_shared<size_t>(0);
+  res.set_chunked_content_provider(f32 ? "application/octet-stream" : "application/x-ndjson",
+                                   [&ctx, stored, r, seq, next, frames, f32](size_t, httplib::DataSink& sink) {
+                                     if (*next >= frames) {
+                                       sink.done();
+                                       return true;
+                                     }
+                                     const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
+                                     auto chunk = StreamFrame(stored->rig, *seq, (*next)++, r->fps, f32, r->options, *ws);
+                                     if (!chunk.ok()) return false;
+                                     if (f32) ctx.metrics.CountBlends(1);
+                                     return sink.write(chunk->data(), chunk->size());
+                                   });
+  res.status = 200;
+}
+
+void PostSequenceReduce(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  SequenceRequest r;
+  Sequence seq;
+  if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
+  if (!r.has_tolerance) return Required(req, res, "tolerance", "largest vertex error allowed, mesh units");
+  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance);
+  if (!reduced.ok()) return SendStatus(req, res, WithReason(reduced.status(), kInvalidSequence));
+  res.status = 200;
+  res.set_content(ReducedSequenceJson(stored->rig, seq, reduced.value(), r.tolerance), "application/json");
+}
+
+}  // namespace facespace::api::http
