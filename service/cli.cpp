@@ -1,4 +1,5 @@
 #include "cli.h"
+#include "flags.h"
 
 #include <unistd.h>
 
@@ -39,15 +40,6 @@ Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
   }
   return LoadRigFile(paths[0]);
 }
-
-std::string Usage() {
-  return "usage: facespace blend RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode relative|absolute]\n"
-         "       [--normals blend|recompute] [--pose JSON|@FILE] [--animation NAME|INDEX --time SECONDS [--loop]]\n"
-         "       [--blend JSON|@FILE] [--skinning linear|dual_quaternion] [--keep-targets] [--lod 0-4]\n"
-         "       [--controls JSON|@FILE]\n"
-         "       [--format glb|obj|json|f32] -o OUT\n";
-}
-
 
 }  // namespace
 
@@ -132,19 +124,11 @@ int WriteResult(const std::string& path, const Result<std::string>& bytes) {
 int Info(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   bool as_json = false;
-  for (const std::string& a : args) {
-    if (a == "--json") as_json = true;
-    else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "error: unknown option '%s'\nusage: facespace info RIG [SHAPE.obj ...] [--json]\n", a.c_str());
-      return 2;
-    } else {
-      paths.push_back(a);
-    }
-  }
-  if (paths.empty()) {
-    std::fputs("usage: facespace info RIG [SHAPE.obj ...] [--json]\n", stderr);
-    return 2;
-  }
+  Flags flags("usage: facespace info RIG [SHAPE.obj ...] [--json]\n",
+              "Shapes (names, groups, ranges, vertices moved, partners), meshes, skeleton and animations of a rig.\n");
+  flags.Switch("--json", "machine-readable output", [&] { as_json = true; });
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  if (paths.empty()) return flags.UsageError("no rig given");
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok()) return 1;
   const Rig& rig = loaded.value();
@@ -203,101 +187,75 @@ int Info(const std::vector<std::string>& args) {
 
 namespace {
 
-// The flags blend, render and sheet share: --weights, --set, --mode, --normals.
-// Returns 0 when args[i] is not one of them, -1 when it was consumed (i advanced), or an
-// exit code.
-int WeightFlag(const std::vector<std::string>& args, size_t& i, std::vector<WeightEntry>& entries, BlendOptions& options,
-               bool& weights_given, api::MeshRequest& skeleton) {
-  const std::string& a = args[i];
-  if (a == "--loop") {
-    bool known = false;
-    api::ApplyPoseSetting("loop", "true", skeleton, &known);
-    return -1;
-  }
-  if (a == "--pose" || a == "--animation" || a == "--time" || a == "--blend" || a == "--skinning" || a == "--lod") {
-    if (i + 1 >= args.size()) {
-      std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
-      return 2;
-    }
-    std::string v = args[++i];
-    if ((a == "--pose" || a == "--blend") && !v.empty() && v[0] == '@' && !ReadFile(v.substr(1), v)) {
-      std::fprintf(stderr, "error: %s: cannot read '%s'\n", a.c_str(), args[i].substr(1).c_str());
-      return 1;
-    }
-    bool known = false;
-    if (std::string e = api::ApplyPoseSetting(a.substr(2), v, skeleton, &known); !e.empty()) {
-      std::fprintf(stderr, "error: %s: %s\n", a.c_str(), e.c_str());
-      return 2;
-    }
-    return -1;
-  }
-  if (a == "--controls") {
-    if (i + 1 >= args.size()) {
-      std::fprintf(stderr, "error: --controls needs a value\n");
-      return 2;
-    }
-    std::string text = args[++i];
-    if (!text.empty() && text[0] == '@' && !ReadFile(text.substr(1), text)) {
-      std::fprintf(stderr, "error: --controls: cannot read '%s'\n", args[i].substr(1).c_str());
-      return 1;
-    }
-    auto parsed = api::ParseWeightsJson(text, "--controls");
-    if (!parsed.ok()) {
-      PrintStatus(parsed.status());
-      return 1;
-    }
-    skeleton.controls.insert(skeleton.controls.end(), parsed->begin(), parsed->end());
-    return -1;
-  }
-  if (a != "--weights" && a != "--set" && a != "--mode" && a != "--normals") return 0;
-  if (i + 1 >= args.size()) {
-    std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
-    return 2;
-  }
-  const std::string v = args[++i];
-  if (a == "--weights") {
-    if (weights_given) {
-      std::fprintf(stderr, "error: --weights given twice\n");
-      return 2;
-    }
-    weights_given = true;
-    std::string text = v;
-    if (!v.empty() && v[0] == '@' && !ReadFile(v.substr(1), text)) {
-      std::fprintf(stderr, "error: --weights: cannot read '%s'\n", v.substr(1).c_str());
-      return 1;
-    }
-    auto parsed = api::ParseWeightsJson(text, "--weights");
-    if (!parsed.ok()) {
-      PrintStatus(parsed.status());
-      return 1;
-    }
-    entries.insert(entries.end(), parsed->begin(), parsed->end());
-  } else if (a == "--set") {
+// The flags blend, render and sheet share: weights, controls, blend options and the skeleton.
+void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
+  auto pose_setting = [&r](const std::string& flag) {
+    return [&r, flag](const std::string& value) {
+      std::string v;
+      if ((flag == "--pose" || flag == "--blend") && !ReadAtFile(flag, value, v)) return 1;
+      if (flag != "--pose" && flag != "--blend") v = value;
+      bool known = false;
+      if (std::string e = api::ApplyPoseSetting(flag.substr(2), v, r, &known); !e.empty()) {
+        std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
+        return 2;
+      }
+      return 0;
+    };
+  };
+  auto weights_json = [](const std::string& flag, std::vector<WeightEntry>& into) {
+    return [flag, &into](const std::string& value) {
+      std::string text;
+      if (!ReadAtFile(flag, value, text)) return 1;
+      auto parsed = api::ParseWeightsJson(text, flag);
+      if (!parsed.ok()) {
+        PrintStatus(parsed.status());
+        return 1;
+      }
+      into.insert(into.end(), parsed->begin(), parsed->end());
+      return 0;
+    };
+  };
+  auto weights = weights_json("--weights", r.weights);
+  flags.Value("--weights", "JSON|@FILE", "weights: [0.5, 0, 1] in shape order, or {\"jawOpen\": 0.5}",
+              [&weights_given, weights](const std::string& value) {
+                if (weights_given) return std::fprintf(stderr, "error: --weights given twice\n"), 2;
+                weights_given = true;
+                return weights(value);
+              });
+  flags.Value("--set", "NAME=W", "one weight, by shape name, alias or index (repeatable)", [&r](const std::string& v) {
     const size_t eq = v.rfind('=');
-    if (eq == std::string::npos || eq == 0) {
-      std::fprintf(stderr, "error: --set takes NAME=W, got '%s'\n", v.c_str());
-      return 2;
-    }
+    if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: --set takes NAME=W, got '%s'\n", v.c_str()), 2;
     WeightEntry e;
     e.name = v.substr(0, eq);
     e.pointer = "--set " + e.name;
     const std::string num = v.substr(eq + 1);
-    auto r = std::from_chars(num.data(), num.data() + num.size(), e.value);
-    if (r.ec != std::errc() || r.ptr != num.data() + num.size()) {
-      std::fprintf(stderr, "error: --set %s: '%s' is not a number\n", e.name.c_str(), num.c_str());
-      return 1;
+    auto res = std::from_chars(num.data(), num.data() + num.size(), e.value);
+    if (res.ec != std::errc() || res.ptr != num.data() + num.size()) {
+      return std::fprintf(stderr, "error: --set %s: '%s' is not a number\n", e.name.c_str(), num.c_str()), 1;
     }
-    entries.push_back(e);
-  } else if (a == "--mode") {
-    if (!api::ParseBlendMode(v, &options.mode)) {
-      std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str());
-      return 2;
-    }
-  } else if (!api::ParseNormalMode(v, &options.normals)) {
-    std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str());
-    return 2;
-  }
-  return -1;
+    r.weights.push_back(e);
+    return 0;
+  });
+  flags.Value("--controls", "JSON|@FILE", "control values, {\"nose/nose-trans-down|up\": -0.4} (rigs with controls)",
+              weights_json("--controls", r.controls));
+  flags.Value("--mode", "relative|absolute", "how weights combine (default relative)", [&r](const std::string& v) {
+    if (api::ParseBlendMode(v, &r.options.mode)) return 0;
+    return std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str()), 2;
+  });
+  flags.Value("--normals", "blend|recompute", "blend the shapes' normals, or recompute them (default blend)", [&r](const std::string& v) {
+    if (api::ParseNormalMode(v, &r.options.normals)) return 0;
+    return std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str()), 2;
+  });
+  flags.Value("--pose", "JSON|@FILE", "joint rotations, translations, scales: {\"JOINT\": {\"euler\": [x, y, z]}}", pose_setting("--pose"));
+  flags.Value("--animation", "NAME|INDEX", "a clip of the rig, sampled at --time", pose_setting("--animation"));
+  flags.Value("--time", "SECONDS", "the time in --animation", pose_setting("--time"));
+  flags.Switch("--loop", "wrap --time around the clip", [&r] {
+    bool known = false;
+    api::ApplyPoseSetting("loop", "true", r, &known);
+  });
+  flags.Value("--blend", "JSON|@FILE", "several clips blended: [{\"animation\", \"time\", \"weight\", \"mask\"}]", pose_setting("--blend"));
+  flags.Value("--skinning", "linear|dual_quaternion", "skinning method (default linear)", pose_setting("--skinning"));
+  flags.Value("--lod", "0-4", "level of detail: about 1/2^L of the triangles", pose_setting("--lod"));
 }
 
 // Replaces the rig by its level of detail `lod` (0: unchanged); false (reported) on failure.
@@ -342,37 +300,16 @@ int Blend(const std::vector<std::string>& args) {
   std::string out_path, format_name;
   bool weights_given = false;
   api::MeshRequest request;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (int rc = WeightFlag(args, i, request.weights, request.options, weights_given, request); rc != 0) {
-      if (rc > 0) return rc;
-      continue;
-    }
-    auto value = [&](std::string& dst) {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), Usage().c_str());
-        return false;
-      }
-      dst = args[++i];
-      return true;
-    };
-    if (a == "--format") {
-      if (!value(format_name)) return 2;
-    } else if (a == "-o" || a == "--output") {
-      if (!value(out_path)) return 2;
-    } else if (a == "--keep-targets") {
-      request.keep_targets = true;
-    } else if (a.size() > 1 && a[0] == '-') {
-      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), Usage().c_str());
-      return 2;
-    } else {
-      paths.push_back(a);
-    }
-  }
-  if (paths.empty() || out_path.empty()) {
-    std::fprintf(stderr, "error: %s\n%s", paths.empty() ? "no rig given" : "no output given (-o OUT or -o -)", Usage().c_str());
-    return 2;
-  }
+  Flags flags("usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format glb|obj|json|f32] -o OUT\n",
+              "The blended mesh. The format comes from OUT's extension or --format; -o - writes to stdout.\n"
+              "RIG is a .glb or .gltf file, or a .obj file followed by more .obj files (an OBJ sequence: the\n"
+              "first is the base, each other one a shape named after its file).\n");
+  AddMeshFlags(flags, request, weights_given);
+  flags.Switch("--keep-targets", "glb: keep the rig's morph targets, with these weights as defaults", [&] { request.keep_targets = true; });
+  flags.Text("--format", "glb|obj|json|f32", "output format (default: from OUT's extension)", &format_name);
+  flags.Text("-o, --output", "OUT", "output file, or - for stdout", &out_path);
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  if (paths.empty() || out_path.empty()) return flags.UsageError(paths.empty() ? "no rig given" : "no output given (-o OUT or -o -)");
   MeshFormat format = MeshFormat::kJson;
   if (!format_name.empty()) {
     if (!ParseMeshFormat(format_name, &format)) {
@@ -404,40 +341,24 @@ int Blend(const std::vector<std::string>& args) {
 
 namespace {
 
-const char kRenderUsage[] =
-    "usage: facespace render RIG [--weights JSON|@FILE] [--set NAME=W ...] [--mode M] [--normals N]\n"
-    "         [--view shaded|wireframe|heatmap|normals] [--width W] [--height H] [--camera JSON]\n"
-    "         [--yaw DEG] [--pitch DEG] [--zoom Z] [--distance D] [--fov DEG] [--background #rrggbb|transparent]\n"
-    "         [--supersample 1-4] [--format png|jpeg|exr|tiff] [--quality 1-100] -o OUT\n"
-    "       facespace sheet RIG --cells JSON|@FILE [--columns N] [the render flags] -o OUT\n"
-    "         (cells: a JSON array or JSON lines of {\"weights\": ..., \"label\": \"...\"})\n";
-
-// Shared by render and sheet: everything but the weights/cells. Returns an exit code or -1.
-int RenderFlags(const std::vector<std::string>& args, size_t& i, api::RenderRequest& r, std::string& out_path,
-                std::string& format_name) {
-  const std::string& a = args[i];
-  if (a.rfind("--", 0) != 0 && a != "-o") return 0;
-  if (i + 1 >= args.size()) {
-    std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kRenderUsage);
-    return 2;
+// The render settings (api::ApplyRenderSetting) as flags.
+void AddRenderFlags(Flags& flags, api::RenderRequest& r) {
+  static const std::pair<const char*, const char*> kSettings[] = {
+      {"view", "shaded|wireframe|heatmap|normals"}, {"width", "PIXELS"},   {"height", "PIXELS"},
+      {"camera", "JSON"},                           {"yaw", "DEGREES"},    {"pitch", "DEGREES"},
+      {"zoom", "Z"},                                {"distance", "D"},     {"fov", "DEGREES"},
+      {"background", "#rrggbb|transparent"},        {"supersample", "1-4"}, {"quality", "1-100"}};
+  for (const auto& [key, metavar] : kSettings) {
+    const std::string flag = std::string("--") + key;
+    flags.Value(flag, metavar, std::string("render ") + key, [&r, key = std::string(key), flag](const std::string& v) {
+      bool known = false;
+      if (std::string e = api::ApplyRenderSetting(key, v, r, &known); !e.empty()) {
+        std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
+        return 2;
+      }
+      return 0;
+    });
   }
-  if (a == "-o" || a == "--output") {
-    out_path = args[++i];
-    return -1;
-  }
-  if (a == "--format") {
-    format_name = args[++i];
-    return -1;
-  }
-  bool known = false;
-  const std::string err = api::ApplyRenderSetting(a.substr(2), args[i + 1], r, &known);
-  if (!known) return 0;
-  ++i;
-  if (!err.empty()) {
-    std::fprintf(stderr, "error: %s: %s\n", a.c_str(), err.c_str());
-    return 2;
-  }
-  return -1;
 }
 
 }  // namespace
@@ -449,50 +370,28 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   int columns = 4;
   bool weights_given = false;
   if (sheet) r.render.width = r.render.height = 256;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (int rc = WeightFlag(args, i, r.mesh.weights, r.mesh.options, weights_given, r.mesh); rc != 0) {
-      if (rc > 0) return rc;
-      continue;
-    }
-    if (sheet && (a == "--cells" || a == "--columns")) {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "error: %s needs a value\n", a.c_str());
-        return 2;
-      }
-      const std::string v = args[++i];
-      if (a == "--columns") {
-        long long n = 0;
-        auto res = std::from_chars(v.data(), v.data() + v.size(), n);
-        if (res.ec != std::errc() || n < 1 || n > 64) {
-          std::fprintf(stderr, "error: --columns must be 1..64\n");
-          return 2;
-        }
-        columns = static_cast<int>(n);
-      } else if (!v.empty() && v[0] == '@') {
-        if (!ReadFile(v.substr(1), cells_text)) {
-          std::fprintf(stderr, "error: --cells: cannot read '%s'\n", v.substr(1).c_str());
-          return 1;
-        }
-      } else {
-        cells_text = v;
-      }
-      continue;
-    }
-    if (int rc = RenderFlags(args, i, r, out_path, format_name); rc != 0) {
-      if (rc > 0) return rc;
-      continue;
-    }
-    if (a.size() > 1 && a[0] == '-') {
-      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kRenderUsage);
-      return 2;
-    }
-    paths.push_back(a);
+  Flags flags(sheet ? "usage: facespace sheet RIG --cells JSON|@FILE [--columns N] [render flags] -o OUT\n"
+                    : "usage: facespace render RIG [weights, pose and render flags] [--format png|jpeg|exr|tiff] -o OUT\n",
+              sheet ? "A labelled contact sheet: one render per cell. Cells: a JSON array, or JSON lines, of\n"
+                      "{\"weights\": ..., \"label\": \"...\"}.\n"
+                    : "An offscreen render (OSMesa). The format comes from OUT's extension or --format.\n");
+  AddMeshFlags(flags, r.mesh, weights_given);
+  AddRenderFlags(flags, r);
+  if (sheet) {
+    flags.Value("--cells", "JSON|@FILE", "the cells", [&cells_text](const std::string& v) { return ReadAtFile("--cells", v, cells_text) ? 0 : 1; });
+    flags.Value("--columns", "N", "cells per row (default 4)", [&columns](const std::string& v) {
+      long long n = 0;
+      if (!IntIn("--columns", v, 1, 64, &n)) return 2;
+      columns = static_cast<int>(n);
+      return 0;
+    });
   }
+  flags.Text("--format", "png|jpeg|exr|tiff", "image format (default: from OUT's extension)", &format_name);
+  flags.Text("-o, --output", "OUT", "output file, or - for stdout (PNG)", &out_path);
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   render::ImageFormat format;
   if (paths.empty() || out_path.empty() || (sheet && cells_text.empty())) {
-    std::fprintf(stderr, "error: %s\n%s", paths.empty() ? "no rig given" : out_path.empty() ? "no output given (-o OUT)" : "no --cells given", kRenderUsage);
-    return 2;
+    return flags.UsageError(paths.empty() ? "no rig given" : out_path.empty() ? "no output given (-o OUT)" : "no --cells given");
   }
   if (!ImageFormatFor(out_path, format_name, &format)) {
     std::fprintf(stderr, "error: cannot tell the image format from '%s': use .png, .jpg, .exr, .tif or --format\n", out_path.c_str());

@@ -9,6 +9,7 @@
 
 #include "batch.h"
 #include "cli.h"
+#include "flags.h"
 
 namespace facespace::cli {
 
@@ -16,38 +17,18 @@ namespace {
 
 using nlohmann::json;
 
-const char kBatchUsage[] =
-    "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
-    "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff] [--jobs N] [--shard I/N] [--no-sheet]\n"
-    "         [--shapes A,B,...] [--fix NAME=W ...] [--center JSON|@FILE] [--spread S] [--points JSON|@FILE]\n"
-    "         [--active K] [--symmetric] [--sum-at-most-one] [--mode M] [--normals N] [--skinning S]\n"
-    "         [--pose JSON|@FILE] [--animation CLIP --time T] [render flags: --width --height --view --yaw ...]\n"
-    "  one file per variant in DIR, manifest.jsonl, batch.json and sheet.png (the first 16 variants);\n"
-    "  rerun the same command to resume; --shard I/N (1-based) runs every N-th variant from the I-th.\n"
-    "  --variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n";
-
 std::atomic<bool> g_interrupted{false};
 
 void OnInterrupt(int) { g_interrupted.store(true); }
 
-bool ParseCount(const std::string& s, unsigned long long lo, unsigned long long hi, unsigned long long* out) {
-  auto r = std::from_chars(s.data(), s.data() + s.size(), *out);
-  return r.ec == std::errc() && r.ptr == s.data() + s.size() && *out >= lo && *out <= hi;
-}
-
-// A JSON value from a flag: inline JSON, or @FILE.
-bool JsonFlag(const std::string& flag, const std::string& v, json* out) {
-  std::string text = v;
-  if (!v.empty() && v[0] == '@' && !ReadFile(v.substr(1), text)) {
-    std::fprintf(stderr, "error: %s: cannot read '%s'\n", flag.c_str(), v.substr(1).c_str());
-    return false;
-  }
+// A JSON value from a flag: inline JSON, or @FILE. Returns 0 or the exit code.
+int JsonFlag(const std::string& flag, const std::string& v, json* out) {
+  std::string text;
+  if (!ReadAtFile(flag, v, text)) return 1;
   *out = json::parse(text, nullptr, false);
-  if (out->is_discarded()) {
-    std::fprintf(stderr, "error: %s: not valid JSON\n", flag.c_str());
-    return false;
-  }
-  return true;
+  if (!out->is_discarded()) return 0;
+  std::fprintf(stderr, "error: %s: not valid JSON\n", flag.c_str());
+  return 2;
 }
 
 class ProgressBar {
@@ -85,123 +66,114 @@ int Batch(const std::vector<std::string>& args) {
   std::string variants_path, out_dir;
   batch::RunOptions run;
   bool quiet = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      std::fputs(kBatchUsage, stdout);
+  Flags flags(
+      "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
+      "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff] [--jobs N] [--shard I/N] [sampling, pose, render flags]\n",
+      "One file per variant in DIR, manifest.jsonl, batch.json and sheet.png (the first 16 variants); rerun the\n"
+      "same command to resume; --shard I/N (1-based) runs every N-th variant from the I-th.\n"
+      "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n");
+  // Flags that set a member of the request (or of its "sample", or of its "camera") from an integer, number, JSON or text.
+  auto integer = [](json& into, const std::string& key, long long lo, long long hi) {
+    return [&into, key, lo, hi](const std::string& v) {
+      long long n = 0;
+      if (!IntIn("--" + key, v, lo, hi, &n)) return 2;
+      into[key] = n;
       return 0;
-    }
-    if (a == "--symmetric" || a == "--sum-at-most-one") {
-      sample[a == "--symmetric" ? "symmetric" : "sum_at_most_one"] = true;
-      continue;
-    }
-    if (a == "--no-sheet" || a == "--quiet") {
-      if (a == "--quiet") quiet = true;
-      else run.sheet_cells = 0;
-      continue;
-    }
-    if (a.rfind("--", 0) != 0 && a != "-o") {
-      paths.push_back(a);
-      continue;
-    }
-    if (i + 1 >= args.size()) {
-      std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kBatchUsage);
-      return 2;
-    }
-    const std::string v = args[++i];
-    unsigned long long n = 0;
-    double d = 0;
-    auto number = [&](double* dst) {
-      auto r = std::from_chars(v.data(), v.data() + v.size(), *dst);
-      if (r.ec != std::errc() || r.ptr != v.data() + v.size()) {
-        std::fprintf(stderr, "error: %s: '%s' is not a number\n", a.c_str(), v.c_str());
-        return false;
-      }
-      return true;
     };
-    json parsed;
-    if (a == "--variants") variants_path = v;
-    else if (a == "--sample") sample["method"] = v;
-    else if (a == "--count" || a == "--active") {
-      if (!ParseCount(v, a == "--count" ? 1 : 0, 100000000, &n)) {
-        std::fprintf(stderr, "error: %s must be an integer%s, not '%s'\n", a.c_str(), a == "--count" ? " >= 1" : " >= 0", v.c_str());
-        return 2;
-      }
-      sample[a.substr(2)] = n;
-    } else if (a == "--seed") {
-      if (!ParseCount(v, 0, ~0ull, &n)) {
-        std::fprintf(stderr, "error: --seed must be an integer in 0..2^64-1, not '%s'\n", v.c_str());
-        return 2;
-      }
-      sample["seed"] = n;
-    } else if (a == "--spread") {
-      if (!number(&d)) return 2;
-      sample["spread"] = d;
-    } else if (a == "--shapes") {
-      for (const std::string& name : SplitList(v)) sample["shapes"].push_back(name);
-    } else if (a == "--fix") {
-      const size_t eq = v.rfind('=');
-      if (eq == std::string::npos || eq == 0) {
-        std::fprintf(stderr, "error: --fix takes NAME=W, got '%s'\n", v.c_str());
-        return 2;
-      }
-      auto r = std::from_chars(v.data() + eq + 1, v.data() + v.size(), d);
-      if (r.ec != std::errc() || r.ptr != v.data() + v.size()) {
-        std::fprintf(stderr, "error: --fix %s: '%s' is not a number\n", v.substr(0, eq).c_str(), v.substr(eq + 1).c_str());
-        return 2;
-      }
-      sample["fixed"][v.substr(0, eq)] = d;
-    } else if (a == "--center" || a == "--points") {
-      if (!JsonFlag(a, v, &parsed)) return 2;
-      sample[a.substr(2)] = parsed;
-    } else if (a == "--out" || a == "-o") out_dir = v;
-    else if (a == "--format") request["format"] = v;
-    else if (a == "--jobs") {
-      if (!ParseCount(v, 1, 1024, &n)) {
-        std::fprintf(stderr, "error: --jobs must be 1..1024, not '%s'\n", v.c_str());
-        return 2;
-      }
-      run.jobs = static_cast<int>(n);
-    } else if (a == "--shard") {
-      const size_t slash = v.find('/');
-      unsigned long long count = 0;
-      if (slash == std::string::npos || !ParseCount(v.substr(0, slash), 1, 1000000, &n) ||
-          !ParseCount(v.substr(slash + 1), 1, 1000000, &count) || n > count) {
-        std::fprintf(stderr, "error: --shard takes I/N with 1 <= I <= N, got '%s'\n", v.c_str());
-        return 2;
-      }
-      run.shard = n - 1;
-      run.shards = count;
-    } else if (a == "--pose" || a == "--camera" || a == "--blend") {
-      if (!JsonFlag(a, v, &parsed)) return 2;
-      request[a.substr(2)] = parsed;
-    } else if (a == "--width" || a == "--height" || a == "--supersample" || a == "--quality") {
-      if (!ParseCount(v, 1, 1 << 20, &n)) {
-        std::fprintf(stderr, "error: %s must be a positive integer, not '%s'\n", a.c_str(), v.c_str());
-        return 2;
-      }
-      request[a.substr(2)] = n;
-    } else if (a == "--yaw" || a == "--pitch" || a == "--zoom" || a == "--distance" || a == "--fov") {
-      if (!number(&d)) return 2;
-      request["camera"][a.substr(2)] = d;
-    } else if (a == "--time") {
-      if (!number(&d)) return 2;
-      request["time"] = d;
-    } else if (a == "--animation") {
-      ParseCount(v, 0, 1u << 30, &n) ? request["animation"] = n : request["animation"] = v;
-    } else if (a == "--mode" || a == "--normals" || a == "--skinning" || a == "--view" || a == "--background") {
-      request[a.substr(2)] = v;
-    } else {
-      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kBatchUsage);
-      return 2;
+  };
+  auto number = [](json& into, const std::string& key) {
+    return [&into, key](const std::string& v) {
+      double d = 0;
+      if (!NumberIn("--" + key, v, -1e300, 1e300, &d)) return 2;
+      into[key] = d;
+      return 0;
+    };
+  };
+  auto json_value = [](json& into, const std::string& key) {
+    return [&into, key](const std::string& v) { return JsonFlag("--" + key, v, &into[key]); };
+  };
+  auto as_text = [](json& into, const std::string& key) {
+    return [&into, key](const std::string& v) {
+      into[key] = v;
+      return 0;
+    };
+  };
+  flags.Text("--variants", "FILE.jsonl", "the variants, one JSON line each", &variants_path);
+  flags.Value("--sample", "METHOD", "sample the face space: uniform, gaussian, grid or convex", as_text(sample, "method"));
+  flags.Value("--count", "N", "variants to sample", integer(sample, "count", 1, 100000000));
+  flags.Value("--seed", "S", "random seed (0..2^64-1); the same seed gives the same variants", [&sample](const std::string& v) {
+    unsigned long long n = 0;
+    const auto r = std::from_chars(v.data(), v.data() + v.size(), n);
+    if (r.ec != std::errc() || r.ptr != v.data() + v.size()) {
+      return std::fprintf(stderr, "error: --seed must be an integer in 0..2^64-1, not '%s'\n", v.c_str()), 2;
     }
+    sample["seed"] = n;
+    return 0;
+  });
+  flags.Value("--shapes", "A,B,...", "the shapes varied (default: all)", [&sample](const std::string& v) {
+    for (const std::string& name : SplitList(v)) sample["shapes"].push_back(name);
+    return 0;
+  });
+  flags.Value("--fix", "NAME=W", "hold a shape at a weight (repeatable)", [&sample](const std::string& v) {
+    const size_t eq = v.rfind('=');
+    double d = 0;
+    if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: --fix takes NAME=W, got '%s'\n", v.c_str()), 2;
+    if (!NumberIn("--fix " + v.substr(0, eq), v.substr(eq + 1), -1e300, 1e300, &d)) return 2;
+    sample["fixed"][v.substr(0, eq)] = d;
+    return 0;
+  });
+  flags.Value("--center", "JSON|@FILE", "gaussian: the mean weights", json_value(sample, "center"));
+  flags.Value("--spread", "S", "gaussian: standard deviation", number(sample, "spread"));
+  flags.Value("--points", "JSON|@FILE", "grid: 2 or 3 weight vectors spanning a line or plane", json_value(sample, "points"));
+  flags.Value("--active", "K", "only K of the varied shapes move in each variant", integer(sample, "active", 0, 100000000));
+  flags.Switch("--symmetric", "a shape's left/right partner takes its weight", [&] { sample["symmetric"] = true; });
+  flags.Switch("--sum-at-most-one", "scale each variant so its weights sum to at most 1", [&] { sample["sum_at_most_one"] = true; });
+  flags.Text("--out, -o", "DIR", "the output folder", &out_dir);
+  flags.Value("--format", "FORMAT", "glb (default), obj, json, f32, or an image: png, jpeg, exr, tiff", as_text(request, "format"));
+  flags.Value("--jobs", "N", "worker threads (default: every core)", [&run](const std::string& v) {
+    long long n = 0;
+    if (!IntIn("--jobs", v, 1, 1024, &n)) return 2;
+    run.jobs = static_cast<int>(n);
+    return 0;
+  });
+  flags.Value("--shard", "I/N", "run the I-th of N shards (1-based)", [&run](const std::string& v) {
+    const size_t slash = v.find('/');
+    long long n = 0, count = 0;
+    if (slash == std::string::npos || !IntIn("--shard I", v.substr(0, slash), 1, 1000000, &n) ||
+        !IntIn("--shard N", v.substr(slash + 1), 1, 1000000, &count) || n > count) {
+      return std::fprintf(stderr, "error: --shard takes I/N with 1 <= I <= N, got '%s'\n", v.c_str()), 2;
+    }
+    run.shard = static_cast<size_t>(n - 1);
+    run.shards = static_cast<size_t>(count);
+    return 0;
+  });
+  flags.Switch("--no-sheet", "no contact sheet", [&] { run.sheet_cells = 0; });
+  flags.Switch("--quiet", "no progress", [&] { quiet = true; });
+  for (const char* key : {"mode", "normals", "skinning", "view", "background"}) {
+    flags.Value(std::string("--") + key, "VALUE", std::string("as the mesh and render routes' \"") + key + "\"", as_text(request, key));
   }
+  flags.Value("--pose", "JSON|@FILE", "the pose of every variant", json_value(request, "pose"));
+  flags.Value("--blend", "JSON|@FILE", "clips blended, for every variant", json_value(request, "blend"));
+  flags.Value("--animation", "NAME|INDEX", "a clip, sampled at --time", [&request](const std::string& v) {
+    long long n = 0;
+    const bool index = !v.empty() && v.find_first_not_of("0123456789") == std::string::npos && v.size() < 10;
+    if (index) n = std::stoll(v);
+    index ? request["animation"] = n : request["animation"] = v;
+    return 0;
+  });
+  flags.Value("--time", "SECONDS", "the time in --animation", number(request, "time"));
+  flags.Value("--camera", "JSON|@FILE", "render camera", json_value(request, "camera"));
+  for (const char* key : {"width", "height", "supersample", "quality"}) {
+    flags.Value(std::string("--") + key, "N", std::string("render ") + key, integer(request, key, 1, 1 << 20));
+  }
+  for (const char* key : {"yaw", "pitch", "zoom", "distance", "fov"}) {
+    flags.Value(std::string("--") + key, "X", std::string("render camera ") + key, number(request["camera"], key));
+  }
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  if (request.contains("camera") && request["camera"].is_null()) request.erase("camera");
   if (paths.empty() || out_dir.empty() || variants_path.empty() == sample.empty()) {
-    std::fprintf(stderr, "error: %s\n%s",
-                 paths.empty() ? "no rig given" : out_dir.empty() ? "no output folder given (--out DIR)"
-                                                                   : "give --variants FILE.jsonl or --sample METHOD (one of them)",
-                 kBatchUsage);
-    return 2;
+    return flags.UsageError(paths.empty() ? "no rig given" : out_dir.empty() ? "no output folder given (--out DIR)"
+                                                                           : "give --variants FILE.jsonl or --sample METHOD (one of them)");
   }
   if (!sample.empty()) {
     if (!sample.contains("method")) {

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
+#include "flags.h"
 #include "facespace/api/pipeline.h"
 #include "facespace/core/io.h"
 #include "facespace/core/fit.h"
@@ -20,17 +21,6 @@
 namespace facespace::cli {
 
 namespace {
-
-const char kSequenceUsage[] =
-    "usage: facespace sequence RIG [SHAPE.obj ...]\n"
-    "         (--keys JSON|@FILE | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
-    "         [--transition linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)']\n"
-    "         [--smooth] [--mode relative|absolute] [--normals blend|recompute]\n"
-    "         (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
-    "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
-    "       facespace sequence RIG ... --bake TIME -o OUT.json\n"
-    "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
-    "frame_00000.EXT for obj, glb and f32, or into one JSON file.\n";
 
 // A progress bar on a terminal, a line every 10% otherwise.
 class Progress {
@@ -63,61 +53,44 @@ int Sequence(const std::vector<std::string>& args) {
   bool smooth = false, has_fps = false, has_reduce = false, has_bake = false;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--smooth") {
-      smooth = true;
-      continue;
-    }
-    if (a.rfind("--", 0) == 0 || a == "-o") {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kSequenceUsage);
-        return 2;
-      }
-      const std::string v = args[++i];
-      auto number = [&](float* dst) {
-        char* end = nullptr;
-        *dst = std::strtof(v.c_str(), &end);
-        if (v.empty() || *end || !std::isfinite(*dst)) {
-          std::fprintf(stderr, "error: %s: '%s' is not a number\n", a.c_str(), v.c_str());
-          return false;
-        }
-        return true;
-      };
-      if (a == "--keys") keys_text = v;
-      else if (a == "--from-animation") from_animation = v;
-      else if (a == "--obj-times") obj_times = v;
-      else if (a == "--transition") transition = v;
-      else if (a == "--times") times_text = v;
-      else if (a == "--format") format = v;
-      else if (a == "-o" || a == "--output") out = v;
-      else if (a == "--fps") {
-        if (!number(&fps) || fps <= 0) return 2;
-        has_fps = true;
-      } else if (a == "--reduce") {
-        if (!number(&tolerance) || tolerance < 0) return 2;
-        has_reduce = true;
-      } else if (a == "--bake") {
-        if (!number(&bake)) return 2;
-        has_bake = true;
-      } else if (a == "--mode") {
-        if (!api::ParseBlendMode(v, &options.mode)) return std::fprintf(stderr, "error: --mode must be relative or absolute\n"), 2;
-      } else if (a == "--normals") {
-        if (!api::ParseNormalMode(v, &options.normals)) return std::fprintf(stderr, "error: --normals must be blend or recompute\n"), 2;
-      } else {
-        std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kSequenceUsage);
-        return 2;
-      }
-      continue;
-    }
-    paths.push_back(a);
-  }
+  Flags flags(
+      "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
+      "         [--transition T] [--smooth] (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
+      "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
+      "       facespace sequence RIG ... --bake TIME -o OUT.json\n",
+      "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
+      "frame_00000.EXT for obj, glb and f32, or into one JSON file.\n");
+  auto number = [](const char* flag, float lo, float* dst, bool* given) {
+    return [flag, lo, dst, given](const std::string& v) {
+      double d = 0;
+      if (!NumberIn(flag, v, lo, 1e9, &d)) return 2;
+      *dst = static_cast<float>(d);
+      *given = true;
+      return 0;
+    };
+  };
+  flags.Value("--keys", "JSON|@FILE", "the keyframes", [&keys_text](const std::string& v) { return ReadAtFile("--keys", v, keys_text) ? 0 : 1; });
+  flags.Text("--from-animation", "NAME|INDEX", "the keys of a clip's morph-weight channel", &from_animation);
+  flags.Text("--obj-times", "T0,T1,...", "OBJ sequence: one key per file at these times", &obj_times);
+  flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &transition);
+  flags.Switch("--smooth", "Catmull-Rom through the keys", [&] { smooth = true; });
+  flags.Text("--times", "JSON", "sample at these times: [0, 0.5, 1]", &times_text);
+  flags.Value("--fps", "N", "sample every 1/N s from the first key to the last (default 30)", number("--fps", 1e-3f, &fps, &has_fps));
+  flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
+  flags.Value("--bake", "TIME", "add a key at TIME with the in-between weights", number("--bake", -1e9f, &bake, &has_bake));
+  flags.Value("--mode", "relative|absolute", "how weights combine (default relative)", [&options](const std::string& v) {
+    return api::ParseBlendMode(v, &options.mode) ? 0 : (std::fprintf(stderr, "error: --mode must be relative or absolute\n"), 2);
+  });
+  flags.Value("--normals", "blend|recompute", "normals of the frames (default blend)", [&options](const std::string& v) {
+    return api::ParseNormalMode(v, &options.normals) ? 0 : (std::fprintf(stderr, "error: --normals must be blend or recompute\n"), 2);
+  });
+  flags.Text("--format", "json|obj|glb|f32", "one JSON file of frames (default), or a file per frame in DIR", &format);
+  flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   const int sources = !keys_text.empty() + !from_animation.empty() + !obj_times.empty();
   if (paths.empty() || out.empty() || sources != 1) {
-    std::fprintf(stderr, "error: %s\n%s",
-                 paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)" : "give exactly one of --keys, --from-animation, --obj-times",
-                 kSequenceUsage);
-    return 2;
+    return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)"
+                                                                       : "give exactly one of --keys, --from-animation, --obj-times");
   }
   if (format != "json" && format != "obj" && format != "glb" && format != "f32") {
     std::fprintf(stderr, "error: --format must be json, obj, glb or f32\n");
@@ -133,10 +106,6 @@ int Sequence(const std::vector<std::string>& args) {
   // The sequence.
   facespace::Sequence seq;
   if (!keys_text.empty()) {
-    if (keys_text[0] == '@' && !ReadFile(keys_text.substr(1), keys_text)) {
-      std::fprintf(stderr, "error: --keys: cannot read '%s'\n", keys_text.substr(1).c_str());
-      return 1;
-    }
     nlohmann::json keys = nlohmann::json::parse(keys_text, nullptr, false);
     if (keys.is_discarded()) {
       std::fprintf(stderr, "error: --keys: malformed JSON\n");
@@ -276,32 +245,22 @@ int Sequence(const std::vector<std::string>& args) {
 
 namespace {
 
-const char kFitUsage[] =
-    "usage: facespace fit RIG TARGET.(json|glb|gltf|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n"
-    "  TARGET: the JSON that `facespace blend` writes (mesh space), a glTF with the rig's primitives, or an OBJ\n"
-    "  with the rig's vertices in its primitive order (world space, as `blend -o x.obj` writes it).\n";
-
 }  // namespace
 
 int FitCommand(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   std::string out;
   FitOptions options;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--bounded") options.bounded = true;
-    else if (a == "--sum-at-most-one") options.sum_at_most_one = true;
-    else if (a == "--align") options.rigid_align = true;
-    else if (a == "-o" || a == "--output") {
-      if (i + 1 >= args.size()) return std::fprintf(stderr, "error: -o needs a value\n%s", kFitUsage), 2;
-      out = args[++i];
-    } else if (a.size() > 1 && a[0] == '-') {
-      return std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kFitUsage), 2;
-    } else {
-      paths.push_back(a);
-    }
-  }
-  if (paths.size() != 2 || out.empty()) return std::fprintf(stderr, "%s", kFitUsage), 2;
+  Flags flags("usage: facespace fit RIG TARGET.(json|glb|gltf|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n",
+              "The weights that best reproduce TARGET (least squares over the shapes). TARGET: the JSON that\n"
+              "`facespace blend` writes (mesh space), a glTF with the rig's primitives, or an OBJ with the rig's\n"
+              "vertices in its primitive order (world space, as `blend -o x.obj` writes it).\n");
+  flags.Switch("--bounded", "keep each weight in its shape's range", [&] { options.bounded = true; });
+  flags.Switch("--sum-at-most-one", "keep the sum of the weights at most 1", [&] { options.sum_at_most_one = true; });
+  flags.Switch("--align", "fit a rigid transform of the target first", [&] { options.rigid_align = true; });
+  flags.Text("-o, --output", "FIT.json", "output", &out);
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  if (paths.size() != 2 || out.empty()) return flags.UsageError(out.empty() ? "no output given (-o FIT.json)" : "give RIG and TARGET");
   auto rig = LoadRigFile(paths[0]);
   if (!rig.ok()) return std::fprintf(stderr, "error: %s\n", rig.status().message.c_str()), 1;
   const std::string& tp = paths[1];

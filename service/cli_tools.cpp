@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
+#include "flags.h"
 #include "facespace/core/basis.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
@@ -12,12 +13,6 @@
 namespace facespace::cli {
 
 namespace {
-
-const char kMirrorUsage[] =
-    "usage: facespace mirror RIG SHAPE [--as NAME] [--axis x|y|z] [--tolerance T] -o OUT.glb\n"
-    "  adds the mirror image of SHAPE (reflected across the middle plane of its mesh) as NAME\n"
-    "  (default: SHAPE's left/right counterpart name, e.g. mouthSmile_L -> mouthSmile_R) and\n"
-    "  writes the rig, every shape kept as a sparse morph target.\n";
 
 int AxisOf(const std::string& a) { return a == "x" ? 0 : a == "y" ? 1 : a == "z" ? 2 : -1; }
 
@@ -28,44 +23,25 @@ int Mirror(const std::vector<std::string>& args) {
   std::string as, out;
   DeriveOptions d;
   d.mirror = true;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      std::fputs(kMirrorUsage, stdout);
-      return 0;
-    }
-    if (a.rfind("--", 0) != 0 && a != "-o") {
-      positional.push_back(a);
-      continue;
-    }
-    if (i + 1 >= args.size()) {
-      std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kMirrorUsage);
-      return 2;
-    }
-    const std::string v = args[++i];
-    if (a == "--as") as = v;
-    else if (a == "-o" || a == "--output") out = v;
-    else if (a == "--axis") {
-      d.axis = AxisOf(v);
-      if (d.axis < 0) {
-        std::fprintf(stderr, "error: --axis must be x, y or z\n");
-        return 2;
-      }
-    } else if (a == "--tolerance") {
-      auto r = std::from_chars(v.data(), v.data() + v.size(), d.tolerance);
-      if (r.ec != std::errc() || d.tolerance <= 0) {
-        std::fprintf(stderr, "error: --tolerance must be a positive number (relative to the bounding-box diagonal)\n");
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kMirrorUsage);
-      return 2;
-    }
-  }
-  if (positional.size() != 2 || out.empty()) {
-    std::fprintf(stderr, "error: %s\n%s", out.empty() ? "no output given (-o OUT.glb)" : "give RIG and SHAPE", kMirrorUsage);
-    return 2;
-  }
+  Flags flags("usage: facespace mirror RIG SHAPE [--as NAME] [--axis x|y|z] [--tolerance T] -o OUT.glb\n",
+              "Adds the mirror image of SHAPE (reflected across the middle plane of its mesh) as NAME (default:\n"
+              "SHAPE's left/right counterpart name, e.g. mouthSmile_L -> mouthSmile_R) and writes the rig, every\n"
+              "shape kept as a sparse morph target.\n");
+  flags.Text("--as", "NAME", "the new shape's name", &as);
+  flags.Value("--axis", "x|y|z", "the axis across which to mirror (default x)", [&d](const std::string& v) {
+    d.axis = AxisOf(v);
+    return d.axis >= 0 ? 0 : (std::fprintf(stderr, "error: --axis must be x, y or z\n"), 2);
+  });
+  flags.Value("--tolerance", "T", "how far a mirrored vertex may be from its match, relative to the bounding-box diagonal",
+              [&d](const std::string& v) {
+                double t = 0;
+                if (!NumberIn("--tolerance", v, 1e-12, 1, &t)) return 2;
+                d.tolerance = static_cast<float>(t);
+                return 0;
+              });
+  flags.Text("-o, --output", "OUT.glb", "output", &out);
+  if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
+  if (positional.size() != 2 || out.empty()) return flags.UsageError(out.empty() ? "no output given (-o OUT.glb)" : "give RIG and SHAPE");
   Result<Rig> rig = LoadAndReport({positional[0]});
   if (!rig.ok()) return 1;
   const std::string& shape = positional[1];
@@ -99,42 +75,24 @@ int Mirror(const std::vector<std::string>& args) {
 namespace facespace::cli {
 
 int Compress(const std::vector<std::string>& args) {
-  static const char kUsage[] =
-      "usage: facespace compress RIG [--error E] [--bits 8..16] [--json]\n"
-      "  E: the largest vertex error allowed, relative to the bounding-box diagonal (default 0.001)\n";
   std::vector<std::string> paths;
   double error = 1e-3;
   int bits = 16;
   bool as_json = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--json") {
-      as_json = true;
-    } else if (a == "--error" || a == "--bits") {
-      if (i + 1 >= args.size()) {
-        std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kUsage);
-        return 2;
-      }
-      const std::string v = args[++i];
-      double d = 0;
-      auto r = std::from_chars(v.data(), v.data() + v.size(), d);
-      if (r.ec != std::errc() || r.ptr != v.data() + v.size() || (a == "--error" ? !(d >= 0 && d < 1) : !(d >= 8 && d <= 16))) {
-        std::fprintf(stderr, "error: %s must be %s, not '%s'\n", a.c_str(), a == "--error" ? "in [0, 1)" : "8..16", v.c_str());
-        return 2;
-      }
-      if (a == "--error") error = d;
-      else bits = static_cast<int>(d);
-    } else if (a.rfind("-", 0) == 0) {
-      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kUsage);
-      return 2;
-    } else {
-      paths.push_back(a);
-    }
-  }
-  if (paths.empty()) {
-    std::fputs(kUsage, stderr);
-    return 2;
-  }
+  Flags flags("usage: facespace compress RIG [--error E] [--bits 8..16] [--json]\n",
+              "An orthogonal (PCA) basis of the shapes within an error bound, and quantised displacements: sizes\n"
+              "and errors.\n");
+  flags.Value("--error", "E", "the largest vertex error allowed, relative to the bounding-box diagonal (default 0.001)",
+              [&error](const std::string& v) { return NumberIn("--error", v, 0, 0.999999, &error) ? 0 : 2; });
+  flags.Value("--bits", "8..16", "bits per quantised displacement (default 16)", [&bits](const std::string& v) {
+    long long n = 0;
+    if (!IntIn("--bits", v, 8, 16, &n)) return 2;
+    bits = static_cast<int>(n);
+    return 0;
+  });
+  flags.Switch("--json", "machine-readable output", [&] { as_json = true; });
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  if (paths.empty()) return flags.UsageError("no rig given");
   Result<Rig> rig = LoadAndReport(paths);
   if (!rig.ok()) return 1;
   BasisReport b;
@@ -174,45 +132,28 @@ int Compress(const std::vector<std::string>& args) {
 namespace facespace::cli {
 
 int Convert(const std::vector<std::string>& args) {
-  static const char kUsage[] =
-      "usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR ... [--modifiers modeling_modifiers.json]\n"
-      "         [--groups body,helper-...|*] [--metres]] -o OUT.glb\n"
-      "  writes any rig we read (glTF, an OBJ sequence, a MakeHuman base.obj with --targets) as a .glb with\n"
-      "  sparse morph targets, and OUT.manifest.json beside it (groups, ranges, partners, controls).\n";
   std::vector<std::string> paths;
   std::vector<std::string> targets;
   std::string out;
   MakeHumanOptions mh;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
-    if (a == "--metres" || a == "--meters") {
-      mh.metres = true;
-      continue;
-    }
-    if (a.rfind("--", 0) != 0 && a != "-o") {
-      paths.push_back(a);
-      continue;
-    }
-    if (i + 1 >= args.size()) {
-      std::fprintf(stderr, "error: %s needs a value\n%s", a.c_str(), kUsage);
-      return 2;
-    }
-    const std::string v = args[++i];
-    if (a == "--targets") targets.push_back(v);
-    else if (a == "--modifiers") mh.modifiers = v;
-    else if (a == "--groups") mh.groups = SplitList(v); else if (a == "-o" || a == "--output") out = v;
-    else {
-      std::fprintf(stderr, "error: unknown option '%s'\n%s", a.c_str(), kUsage);
-      return 2;
-    }
-  }
+  Flags flags("usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR ... [--modifiers modeling_modifiers.json]\n"
+              "         [--groups body,helper-...|*] [--metres]] -o OUT.glb\n",
+              "Writes any rig we read (glTF, an OBJ sequence, a MakeHuman base.obj with --targets) as a .glb with\n"
+              "sparse morph targets, and OUT.manifest.json beside it (groups, ranges, partners, controls).\n");
+  flags.Value("--targets", "DIR", "a folder of MakeHuman .target files (repeatable)", [&targets](const std::string& v) {
+    targets.push_back(v);
+    return 0;
+  });
+  flags.Text("--modifiers", "FILE", "MakeHuman's modeling_modifiers.json: controls, groups, ranges", &mh.modifiers);
+  flags.Value("--groups", "G,...", "the MakeHuman groups of the base mesh to keep", [&mh](const std::string& v) {
+    mh.groups = SplitList(v);
+    return 0;
+  });
+  flags.Switch("--metres, --meters", "scale MakeHuman's decimetres to metres", [&] { mh.metres = true; });
+  flags.Text("-o, --output", "OUT.glb", "output", &out);
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   if (paths.empty() || out.empty() || (!mh.modifiers.empty() && targets.empty())) {
-    std::fprintf(stderr, "error: %s\n%s", paths.empty() ? "no rig given" : out.empty() ? "no output given (-o OUT.glb)" : "--modifiers needs --targets", kUsage);
-    return 2;
+    return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o OUT.glb)" : "--modifiers needs --targets");
   }
   Result<Rig> rig = targets.empty() ? LoadAndReport(paths) : LoadMakeHuman(paths[0], targets, mh);
   if (!rig.ok()) {

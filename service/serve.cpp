@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "cli.h"
+#include "flags.h"
 #include "facespace/api/http.h"
 #include "facespace/render/render.h"
 #include "jobs.h"
@@ -50,20 +51,6 @@ std::string DefaultJobsDir() {
   if (const char* h = std::getenv("HOME"); h && *h == '/') return std::string(h) + "/.local/state/facespace/jobs";
   return "/tmp/facespace-jobs-" + std::to_string(getuid());
 }
-
-const char kServeUsage[] =
-    "usage: facespace serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N]\n"
-    "                       [--api-key-file FILE] [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
-    "                       [--cache-mb MB] [--max-render PIXELS] [--quiet]\n"
-    "                       [--jobs-dir DIR] [--max-jobs N] [--max-batch N] [--batch-threads N]\n"
-    "                       [--max-vertices N] [--max-shapes N] [--read-timeout SECONDS]\n"
-    "                       [--render-threads N]\n"
-    "environment: FACESPACE_RIGS, FACESPACE_HOST, FACESPACE_PORT, FACESPACE_THREADS,\n"
-    "             FACESPACE_API_KEY_FILE, FACESPACE_MAX_BODY, FACESPACE_CORS_ORIGINS (comma-separated),\n"
-    "             FACESPACE_CACHE_MB, FACESPACE_MAX_RENDER, FACESPACE_JOBS_DIR, FACESPACE_MAX_JOBS,\n"
-    "             FACESPACE_MAX_BATCH, FACESPACE_BATCH_THREADS, FACESPACE_MAX_VERTICES, FACESPACE_MAX_SHAPES,\n"
-    "             FACESPACE_READ_TIMEOUT, FACESPACE_RENDER_THREADS; flags win over the environment.\n"
-    "batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n";
 
 bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
   if (s.empty() || s.size() > 18 || s.find_first_not_of("0123456789") != std::string::npos) return false;
@@ -156,26 +143,33 @@ int Serve(const std::vector<std::string>& args) {
       }
     }
   }
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    if (a == "--quiet") {
-      c.quiet = true;
-      continue;
-    }
-    if (a == "-h" || a == "--help") {
-      std::fputs(kServeUsage, stdout);
+  Flags flags("usage: facespace serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--api-key-file FILE] [more flags]\n",
+              "The HTTP service on the rigs of --rigs (default: the bundled ones); the character-creator page at /.\n"
+              "Every flag has an environment variable: FACESPACE_ and the flag in capitals with _ for - (FACESPACE_PORT,\n"
+              "FACESPACE_CORS_ORIGINS comma-separated); flags win over the environment.\n"
+              "Batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n");
+  const std::pair<const char*, const char*> settings[] = {
+      {"rigs", "DIR: the rig store (.glb/.gltf files and folders)"}, {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
+      {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads (default 256)"},
+      {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
+      {"max-body", "BYTES: largest request body (default 64 MiB)"}, {"cors-origin", "ORIGIN: a browser origin allowed, or * (repeatable)"},
+      {"cache-mb", "MB: response cache (default 64)"}, {"max-render", "PIXELS: largest render width or height (default 2048)"},
+      {"jobs-dir", "DIR: where batch jobs live"}, {"max-jobs", "N: batch jobs queued or running (default 4)"},
+      {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
+      {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
+      {"read-timeout", "SECONDS: a client may take to send a request (default 10)"},
+      {"render-threads", "N: renders drawing at once (0: one per core)"}};
+  for (const auto& [key, help] : settings) {
+    const std::string h = help;
+    flags.Value(std::string("--") + key, h.substr(0, h.find(':')), h.substr(h.find(':') + 2), [&c, key = std::string(key)](const std::string& v) {
+      if (std::string e = Apply(c, key, v); !e.empty()) return std::fprintf(stderr, "error: --%s\n", e.c_str()), 2;
       return 0;
-    }
-    if (a.rfind("--", 0) != 0 || i + 1 >= args.size()) {
-      std::fprintf(stderr, "facespace: %s\n%s",
-                   a.rfind("--", 0) == 0 ? (a + " needs a value").c_str() : ("unexpected argument '" + a + "'").c_str(), kServeUsage);
-      return 2;
-    }
-    if (std::string e = Apply(c, a.substr(2), args[++i]); !e.empty()) {
-      std::fprintf(stderr, "facespace: %s\n%s", e.c_str(), kServeUsage);
-      return 2;
-    }
+    });
   }
+  flags.Switch("--quiet", "no access log", [&c] { c.quiet = true; });
+  std::vector<std::string> positional;
+  if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
+  if (!positional.empty()) return flags.UsageError("unexpected argument '" + positional[0] + "'");
 
   api::ApiOptions options;
   if (!c.api_key_file.empty()) {

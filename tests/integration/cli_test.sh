@@ -23,6 +23,20 @@ check "info: reports the dropped KTX2 texture as a warning" grep -q 'warning: te
 check "info --json: 52 shapes, mouthSmile_L paired with mouthSmile_R, ARKit alias" \
   py 'import json,sys; d=json.load(open(sys.argv[1])); s={x["name"]:x for x in d["shapes"]}; sys.exit(not(len(d["shapes"])==52 and s["mouthSmile_L"]["partner"]=="mouthSmile_R" and s["mouthSmile_L"]["aliases"]==["mouthSmileLeft"] and d["vertices"]==4368))' "$tmp/info.json"
 
+# every command: --help prints its usage and exits 0; an unknown flag and a bad value are usage errors (exit 2) with a message
+for cmd in info blend render sheet sequence fit batch mirror compress convert serve; do
+  "$bin" $cmd --help >"$tmp/help" 2>"$tmp/err"; rc=$?
+  check "$cmd --help: usage on stdout, exit 0" sh -c "[ $rc -eq 0 ] && head -1 '$tmp/help' | grep -q '^usage: facespace $cmd' && grep -q -- '--help' '$tmp/help' && [ ! -s '$tmp/err' ]"
+  "$bin" $cmd --bogus >"$tmp/out" 2>"$tmp/err"; rc=$?
+  check "$cmd --bogus: exit 2 naming the option, with the usage" sh -c "[ $rc -eq 2 ] && grep -q \"unknown option '--bogus'\" '$tmp/err' && grep -q '^usage: facespace $cmd' '$tmp/err'"
+done
+for bad in "--fps 0" "--fps -3" "--reduce -1"; do
+  "$bin" sequence "$rig" --keys '[{"time":0},{"time":1}]' $bad -o "$tmp/x.json" >"$tmp/out" 2>"$tmp/err"; rc=$?
+  check "sequence $bad: exit 2 with a message naming the flag" sh -c "[ $rc -eq 2 ] && grep -q -- '${bad%% *}' '$tmp/err'"
+done
+"$bin" blend "$rig" --output="$tmp/eq.json" --set=jawOpen=0.5 2>/dev/null
+check "flags take --flag=VALUE too" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not len(d["primitives"]))' "$tmp/eq.json"
+
 # blend: weights in every form give the same mesh
 "$bin" blend "$stress" --weights '[0.5,0,0,0,0,0,0,0.25]' -o "$tmp/a.json" 2>/dev/null
 "$bin" blend "$stress" --weights '{"Key 1":0.5,"Key 8":0.25}' -o "$tmp/b.json" 2>/dev/null
