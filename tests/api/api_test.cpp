@@ -1,0 +1,243 @@
+// The routes in process: the real cpp-httplib server on a loopback port, a memory store, the null
+// renderer. Status codes, headers and bodies, checked against core evaluated in the test.
+#include <gtest/gtest.h>
+#include <httplib.h>
+
+#include <cstring>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "facespace/api/http.h"
+#include "facespace/api/pipeline.h"
+#include "memory_store.h"
+#include "test_util.h"
+
+namespace facespace {
+namespace {
+
+using nlohmann::json;
+
+class ApiTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    store_ = new test::MemoryStore;
+    store_->Seed();
+    api::ApiOptions o;
+    o.api_key = "test-key";
+    o.log_requests = false;
+    o.max_render_size = 256;
+    o.max_sheet_cells = 3;
+    api_ = new api::Api(*store_, null_, o);
+    server_ = new httplib::Server;
+    api_->Register(*server_);
+    port_ = server_->bind_to_any_port("127.0.0.1");
+    thread_ = new std::thread([] { server_->listen_after_bind(); });
+    while (!server_->is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  static void TearDownTestSuite() {
+    server_->stop();
+    thread_->join();
+    delete thread_;
+    delete server_;
+    delete api_;
+    delete store_;
+  }
+  static httplib::Client Client() { return httplib::Client("127.0.0.1", port_); }
+  static json Body(const httplib::Result& r) { return json::parse(r->body, nullptr, false); }
+
+  static inline test::MemoryStore* store_ = nullptr;
+  static inline render::NullRenderer null_;
+  static inline api::Api* api_ = nullptr;
+  static inline httplib::Server* server_ = nullptr;
+  static inline std::thread* thread_ = nullptr;
+  static inline int port_ = 0;
+};
+
+TEST_F(ApiTest, MeshF32IsTheBlendInWorldSpaceWithItsHeaders) {
+  auto r = Client().Get("/v1/rigs/facecap/mesh?w.jawOpen=0.6&w.cheekPuff=0.7&format=f32");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/octet-stream");
+  EXPECT_EQ(r->get_header_value("Facespace-Weight-Sum"), "1.3");
+  EXPECT_EQ(r->get_header_value("Facespace-Warnings"), "extrapolation;value=1.3");
+  const Rig& rig = store_->Get("facecap")->rig;
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  for (size_t i = 0; i < w.size(); ++i) {
+    if (rig.shapes[i].name == "jawOpen") w[i] = 0.6f;
+    if (rig.shapes[i].name == "cheekPuff") w[i] = 0.7f;
+  }
+  BlendedRig blended;
+  BlendContext context;
+  ASSERT_TRUE(EvaluateRig(rig, w, {}, blended, context).ok());
+  std::vector<float> want;
+  WorldPositions(blended, want);
+  ASSERT_GE(r->body.size(), want.size() * 4);
+  std::vector<float> got(want.size());
+  std::memcpy(got.data(), r->body.data(), want.size() * 4);
+  for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(got[i], want[i]) << i;
+  // The same request again: the ETag matches, 304.
+  auto again = Client().Get("/v1/rigs/facecap/mesh?w.jawOpen=0.6&w.cheekPuff=0.7&format=f32",
+                            {{"If-None-Match", r->get_header_value("ETag")}});
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 304);
+}
+
+TEST_F(ApiTest, ErrorsAreProblemDetailsNamingTheField) {
+  auto r = Client().Post("/v1/rigs/facecap/mesh", R"({"weights": {"jawOpn": 1}})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json");
+  json p = Body(r);
+  EXPECT_EQ(p["type"], "urn:facespace:problem:invalid-weights");
+  EXPECT_EQ(p["errors"][0]["pointer"], "/weights/jawOpn");
+
+  r = Client().Post("/v1/rigs/facecap/mesh", R"({"weights": )", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:malformed-json");
+
+  r = Client().Post("/v1/rigs/facecap/mesh", R"({"weights": {"jawOpen": 0.9, "cheekPuff": 0.8}, "strict": true})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:weights-leave-authored-space");
+  EXPECT_EQ(Body(r)["warnings"][0]["code"], "extrapolation");
+  EXPECT_EQ(r->get_header_value("Facespace-Weight-Sum"), "1.7");
+
+  r = Client().Get("/v1/rigs/nope/mesh");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+  EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:rig-not-found");
+}
+
+TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {
+  auto r = Client().Get("/v1/rigs/facecap/render?w.jawOpen=1&width=40&height=30&background=%23ff0000");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(r->get_header_value("Content-Type"), "image/png");
+  EXPECT_EQ(r->get_header_value("Facespace-Weight-Sum"), "1");
+  auto image = render::Decode({reinterpret_cast<const unsigned char*>(r->body.data()), r->body.size()});
+  ASSERT_TRUE(image.ok());
+  EXPECT_EQ(image->width, 40);
+  EXPECT_EQ(image->height, 30);
+  EXPECT_NEAR(image->rgba[0], 1.0f, 1e-3);
+  EXPECT_NEAR(image->rgba[1], 0.0f, 1e-3);
+
+  r = Client().Get("/v1/rigs/facecap/render?width=300");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["parameter"], "width");
+
+  r = Client().Get("/v1/rigs/facecap/render?width=64&height=64", {{"Accept", "image/png;q=0, image/jpeg"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "image/jpeg");
+  r = Client().Get("/v1/rigs/facecap/render?width=64&height=64", {{"Accept", "text/html"}});
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 406);
+}
+
+TEST_F(ApiTest, SheetRefusesMoreCellsThanConfigured) {
+  auto r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{}, {}, {}, {}], "width": 16, "height": 16})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:too-many-cells");
+  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{"weights": {"jawOpen": 1}, "label": "open"}, {}], "width": 16, "height": 16})",
+                    "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "image/png");
+}
+
+TEST_F(ApiTest, CheckAndSequenceAndFit) {
+  auto r = Client().Post("/v1/rigs/facecap/check", R"({"weights": {"jawOpen": 1.5}})", "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  json c = Body(r);
+  EXPECT_EQ(c["sum"], 1.5);
+  EXPECT_EQ(c["weights"]["jawOpen"], 1.5);
+  EXPECT_EQ(c["warnings"][0]["code"], "extrapolation");
+
+  r = Client().Post("/v1/rigs/facecap/sequence/sample",
+                    R"({"keys": [{"time": 0, "weights": {}}, {"time": 1, "shape": "jawOpen"}], "times": [0.5], "transition": "linear"})",
+                    "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Body(r)["frames"][0]["weights"]["jawOpen"], 0.5);
+
+  r = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"keys": [{"time": 0}, {"time": 1}]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/tolerance");
+
+  // Fit the mesh JSON of a point: the same point back.
+  auto mesh = Client().Get("/v1/rigs/facecap/mesh?w.jawOpen=0.4&format=json");
+  ASSERT_TRUE(mesh);
+  json m = Body(mesh);
+  r = Client().Post("/v1/rigs/facecap/fit", json{{"target", m}}.dump(), "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body.substr(0, 300);
+  EXPECT_NEAR(Body(r)["weights"]["jawOpen"].get<double>(), 0.4, 1e-3);
+}
+
+TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
+  auto r = Client().Delete("/v1/rigs/facecap/mesh");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 405);
+  EXPECT_EQ(r->get_header_value("Allow"), "GET, POST");
+  r = Client().Post("/v1/rigs/facecap", "{}", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 405);
+  EXPECT_EQ(r->get_header_value("Allow"), "GET, PUT, DELETE");
+
+  r = Client().Get("/openapi.json");
+  ASSERT_TRUE(r);
+  json doc = Body(r);
+  // Every documented operation answers something other than 404/405 here, and the count is the table's.
+  size_t operations = 0;
+  for (auto& [path, item] : doc["paths"].items()) {
+    for (auto& [method, op] : item.items()) {
+      ++operations;
+      EXPECT_TRUE(op.contains("operationId")) << method << " " << path;
+    }
+  }
+  EXPECT_EQ(operations, 26u);
+  EXPECT_TRUE(doc["paths"]["/v1/rigs/{id}"]["get"]["parameters"].is_array());
+
+  r = Client().Get("/metrics");
+  ASSERT_TRUE(r);
+  // Route labels from the table: /topology is counted under its rig's label, as before.
+  ASSERT_TRUE(Client().Get("/v1/rigs/facecap/topology"));
+  r = Client().Get("/metrics");
+  ASSERT_TRUE(r);
+  EXPECT_NE(r->body.find("facespace_http_requests_total{route=\"/v1/rigs/{id}\",status=\"200\"} 1"), std::string::npos) << r->body;
+}
+
+TEST_F(ApiTest, BatchAndJobsWithoutAQueueAre503AfterAuth) {
+  auto r = Client().Post("/v1/rigs/facecap/batch", R"({"sample": {"method": "uniform", "count": 2}})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 503);
+  r = Client().Get("/v1/jobs");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 503);
+}
+
+TEST_F(ApiTest, UploadsNeedTheKey) {
+  const std::vector<unsigned char> fox = test::ReadBytes(test::RealAsset("Fox/Fox.glb"));
+  const std::string body(fox.begin(), fox.end());
+  auto r = Client().Put("/v1/rigs/fox", body, "model/gltf-binary");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 401);
+  httplib::Headers auth = {{"Authorization", "Bearer test-key"}};
+  r = Client().Put("/v1/rigs/fox", auth, body, "model/gltf-binary");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 201) << r->body;
+  r = Client().Put("/v1/rigs/fox", auth, "not a glb", "model/gltf-binary");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:invalid-rig");
+  r = Client().Delete("/v1/rigs/fox", auth);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 204);
+}
+
+}  // namespace
+}  // namespace facespace

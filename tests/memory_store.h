@@ -1,0 +1,64 @@
+// An in-memory rig store for the tests and fuzzers of the HTTP layer: FaceCap seeded, uploads
+// of glTF accepted (bounded), deletes of anything but FaceCap.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/api/store.h"
+#include "facespace/core/io.h"
+
+namespace facespace::test {
+
+class MemoryStore : public facespace::api::RigStore {
+ public:
+  std::shared_ptr<const facespace::api::StoredRig> Get(const std::string& id) const override {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = rigs_.find(id);
+    return it == rigs_.end() ? nullptr : it->second;
+  }
+  std::vector<std::shared_ptr<const facespace::api::StoredRig>> List() const override {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::vector<std::shared_ptr<const facespace::api::StoredRig>> out;
+    for (const auto& [id, r] : rigs_) out.push_back(r);
+    return out;
+  }
+  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes, bool, bool* created) override {
+    facespace::LoadOptions o;
+    o.allow_external_files = false;
+    o.read_manifest = false;
+    auto rig = facespace::LoadGltfMemory(bytes, "", o);
+    if (!rig.ok()) return rig.status();
+    auto stored = std::make_shared<facespace::api::StoredRig>();
+    stored->id = id;
+    stored->rig = std::move(rig.value());
+    stored->version = std::to_string(bytes.size());
+    std::lock_guard<std::mutex> lock(mu_);
+    *created = !rigs_.count(id);
+    if (rigs_.size() < 4 || !*created) rigs_[id] = stored;  // Bounded, so a long run does not grow.
+    return facespace::Status::Ok();
+  }
+  facespace::Status Delete(const std::string& id) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (id == "facecap" || !rigs_.erase(id)) return facespace::NotFound("no rig");
+    return facespace::Status::Ok();
+  }
+  void Seed() {
+    auto rig = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb");
+    auto stored = std::make_shared<facespace::api::StoredRig>();
+    stored->id = "facecap";
+    stored->rig = std::move(rig.value());
+    stored->version = "1";
+    rigs_["facecap"] = stored;
+  }
+
+ private:
+  mutable std::mutex mu_;
+  std::map<std::string, std::shared_ptr<const facespace::api::StoredRig>> rigs_;
+};
+
+}  // namespace facespace::test
