@@ -1,4 +1,5 @@
 #include "facespace/api/request.h"
+#include "facespace/core/enum_table.h"
 
 #include "facespace/core/lod.h"
 
@@ -64,19 +65,13 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
 
 bool IsMalformedJson(const Status& status) { return status.reason == kMalformedJson; }
 
-bool ParseBlendMode(std::string_view s, BlendMode* mode) {
-  if (s == "relative") *mode = BlendMode::kRelative;
-  else if (s == "absolute") *mode = BlendMode::kAbsolute;
-  else return false;
-  return true;
-}
+namespace {
+constexpr EnumName<BlendMode> kBlendModes[] = {{BlendMode::kRelative, "relative"}, {BlendMode::kAbsolute, "absolute"}};
+constexpr EnumName<NormalMode> kNormalModes[] = {{NormalMode::kBlend, "blend"}, {NormalMode::kRecompute, "recompute"}};
+}  // namespace
 
-bool ParseNormalMode(std::string_view s, NormalMode* mode) {
-  if (s == "blend") *mode = NormalMode::kBlend;
-  else if (s == "recompute") *mode = NormalMode::kRecompute;
-  else return false;
-  return true;
-}
+bool ParseBlendMode(std::string_view s, BlendMode* mode) { return ParseEnum(kBlendModes, s, mode); }
+bool ParseNormalMode(std::string_view s, NormalMode* mode) { return ParseEnum(kNormalModes, s, mode); }
 
 Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const std::string& pointer) {
   json j = json::parse(text, nullptr, false);

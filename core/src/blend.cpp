@@ -307,11 +307,12 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
     weights = ctx.effective;
   }
   if (options.pose && options.pose->local.size() != rig.nodes.size()) return InvalidArgument("the pose does not match the rig");
-  out.node_world = options.pose ? WorldMatrices(rig, *options.pose) : NodeWorldMatrices(rig);
+  WorldMatricesInto(rig, options.pose, out.node_world, ctx.node_order);
   out.posed = options.pose != nullptr;
   out.primitives.resize(rig.primitives.size());
   // Each mesh is placed by the first node that shows it.
-  std::vector<int> mesh_node(rig.meshes.size(), -1);
+  std::vector<int>& mesh_node = ctx.mesh_node;
+  mesh_node.assign(rig.meshes.size(), -1);
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
     if (rig.nodes[i].mesh >= 0 && mesh_node[rig.nodes[i].mesh] < 0) mesh_node[rig.nodes[i].mesh] = static_cast<int>(i);
   }

@@ -1,5 +1,7 @@
 // Writers for the evaluated rig: glb (tinygltf), OBJ, JSON and raw float32.
 #include <tiny_gltf.h>
+#include "facespace/core/enum_table.h"
+#include "facespace/core/transform.h"
 
 #include <Eigen/Dense>
 #include <charconv>
@@ -15,34 +17,17 @@
 
 namespace facespace {
 
-bool ParseMeshFormat(const std::string& name, MeshFormat* format) {
-  if (name == "glb") *format = MeshFormat::kGlb;
-  else if (name == "obj") *format = MeshFormat::kObj;
-  else if (name == "json") *format = MeshFormat::kJson;
-  else if (name == "f32") *format = MeshFormat::kF32;
-  else return false;
-  return true;
-}
+namespace {
+constexpr EnumName<MeshFormat> kMeshFormats[] = {
+    {MeshFormat::kGlb, "glb", nullptr, "model/gltf-binary", "glb"},
+    {MeshFormat::kObj, "obj", nullptr, "model/obj", "obj"},
+    {MeshFormat::kJson, "json", nullptr, "application/json", "json"},
+    {MeshFormat::kF32, "f32", nullptr, "application/octet-stream", "f32"}};
+}  // namespace
 
-const char* MeshFormatName(MeshFormat format) {
-  switch (format) {
-    case MeshFormat::kGlb: return "glb";
-    case MeshFormat::kObj: return "obj";
-    case MeshFormat::kJson: return "json";
-    case MeshFormat::kF32: return "f32";
-  }
-  return "?";
-}
-
-const char* MeshFormatMimeType(MeshFormat format) {
-  switch (format) {
-    case MeshFormat::kGlb: return "model/gltf-binary";
-    case MeshFormat::kObj: return "model/obj";
-    case MeshFormat::kJson: return "application/json";
-    case MeshFormat::kF32: return "application/octet-stream";
-  }
-  return "application/octet-stream";
-}
+bool ParseMeshFormat(const std::string& name, MeshFormat* format) { return ParseEnum(kMeshFormats, name, format); }
+const char* MeshFormatName(MeshFormat format) { return EnumEntry(kMeshFormats, format).name; }
+const char* MeshFormatMimeType(MeshFormat format) { return EnumEntry(kMeshFormats, format).media_type; }
 
 namespace {
 
@@ -100,10 +85,6 @@ std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended) {
 
 namespace {
 
-void Transform(const std::array<float, 16>& m, const float* p, float w, float* out) {
-  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
-}
-
 void NormalToWorld(const std::array<float, 16>& m, const float* n, float* out) { TransformNormal(m.data(), 4, n, out); }
 
 std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
@@ -119,7 +100,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     out += "o " + name + "_" + std::to_string(p.index_in_mesh) + "\n";
     for (size_t v = 0; v < n; ++v) {
       float q[3];
-      Transform(b.world, &b.positions[3 * v], 1.0f, q);
+      TransformPoint(b.world, &b.positions[3 * v], q, 1.0f);
       AppendObjLine(out, "v", {q[0], q[1], q[2]});
     }
     const bool uv = !p.texcoords.empty();
@@ -430,7 +411,7 @@ void WorldPositions(const BlendedRig& blended, std::vector<float>& out) {
   for (const BlendedPrimitive& b : blended.primitives) {
     for (size_t v = 0; v < b.positions.size(); v += 3) {
       float q[3];
-      Transform(b.world, &b.positions[v], 1.0f, q);
+      TransformPoint(b.world, &b.positions[v], q, 1.0f);
       out.insert(out.end(), q, q + 3);
     }
   }

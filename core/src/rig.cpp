@@ -243,7 +243,12 @@ void CountMovedVertices(Rig& rig) {
   }
 }
 
-std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig) { return WorldMatrices(rig, RestPose(rig)); }
+std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig) {
+  std::vector<std::array<float, 16>> world;
+  std::vector<int> order;
+  WorldMatricesInto(rig, nullptr, world, order);
+  return world;
+}
 
 std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig) {
   const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};

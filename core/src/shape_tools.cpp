@@ -1,4 +1,5 @@
 #include "facespace/core/shape_tools.h"
+#include "facespace/core/transform.h"
 
 #include <algorithm>
 #include <cmath>
@@ -100,8 +101,9 @@ bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3
     const auto& m = world[pi];
     for (size_t v = 0; v < moved.size(); ++v) {
       if (!moved[v]) continue;
-      const float* q = &p.positions[3 * v];
-      for (int r = 0; r < 3; ++r) points.push_back(m[r] * q[0] + m[4 + r] * q[1] + m[8 + r] * q[2] + m[12 + r]);
+      float q[3];
+      TransformPoint(m, &p.positions[3 * v], q);
+      points.insert(points.end(), q, q + 3);
     }
   }
   const size_t n = points.size() / 3;

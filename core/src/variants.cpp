@@ -1,4 +1,5 @@
 #include "facespace/core/variants.h"
+#include "facespace/core/enum_table.h"
 
 #include <algorithm>
 #include <cmath>
@@ -62,24 +63,15 @@ size_t GridSteps(const SampleSpec& spec, size_t dims) {
 
 }  // namespace
 
-bool ParseSampleMethod(const std::string& name, SampleMethod* method) {
-  if (name == "uniform") *method = SampleMethod::kUniform;
-  else if (name == "gaussian") *method = SampleMethod::kGaussian;
-  else if (name == "grid" || name == "line") *method = SampleMethod::kGrid;
-  else if (name == "convex") *method = SampleMethod::kConvex;
-  else return false;
-  return true;
-}
+namespace {
+constexpr EnumName<SampleMethod> kSampleMethods[] = {{SampleMethod::kUniform, "uniform"},
+                                                     {SampleMethod::kGaussian, "gaussian"},
+                                                     {SampleMethod::kGrid, "grid", "line"},
+                                                     {SampleMethod::kConvex, "convex"}};
+}  // namespace
 
-const char* SampleMethodName(SampleMethod method) {
-  switch (method) {
-    case SampleMethod::kUniform: return "uniform";
-    case SampleMethod::kGaussian: return "gaussian";
-    case SampleMethod::kGrid: return "grid";
-    case SampleMethod::kConvex: return "convex";
-  }
-  return "uniform";
-}
+bool ParseSampleMethod(const std::string& name, SampleMethod* method) { return ParseEnum(kSampleMethods, name, method); }
+const char* SampleMethodName(SampleMethod method) { return EnumEntry(kSampleMethods, method).name; }
 
 Status ValidateSampleSpec(const Rig& rig, const SampleSpec& spec) {
   Status st = InvalidArgument("");

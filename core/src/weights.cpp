@@ -1,5 +1,6 @@
 #include "facespace/core/weights.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -151,6 +152,50 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
                           "", r.sum, true});
   }
   return r;
+}
+
+Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,
+                     std::vector<Warning>& warnings) {
+  Status status = InvalidArgument("");
+  for (const WeightEntry& e : controls) {
+    const Control* c = nullptr;
+    for (const Control& k : rig.controls) {
+      if (k.name == e.name) c = &k;
+    }
+    if (!c) {
+      std::string msg = "unknown control '" + e.name + "'";
+      if (rig.controls.empty()) msg += ": this rig has no controls";
+      else {
+        size_t shown = 0;
+        msg += "; controls: ";
+        for (const Control& k : rig.controls) {
+          if (shown++ == 20) {
+            msg += ", ... (" + std::to_string(rig.controls.size()) + " in all)";
+            break;
+          }
+          msg += (shown > 1 ? ", " : "") + k.name;
+        }
+      }
+      status.fields.push_back({e.pointer, msg});
+      continue;
+    }
+    if (!std::isfinite(e.value)) {
+      status.fields.push_back({e.pointer, "control '" + e.name + "' must be a finite number"});
+      continue;
+    }
+    if (e.value < c->min || e.value > c->max) {
+      warnings.push_back({"control_out_of_range",
+                          "control '" + c->name + "' = " + FormatNumber(e.value) + " is outside its range [" + FormatNumber(c->min) +
+                              ", " + FormatNumber(c->max) + "]",
+                          c->name, e.value, true});
+    }
+    WeightEntry pos{rig.shapes[c->positive].name, -1, c->negative >= 0 ? std::max(e.value, 0.0) : e.value, e.pointer};
+    weights.push_back(pos);
+    if (c->negative >= 0) weights.push_back({rig.shapes[c->negative].name, -1, std::max(-e.value, 0.0), e.pointer});
+  }
+  if (status.fields.empty()) return Status::Ok();
+  status.message = status.fields[0].pointer + ": " + status.fields[0].message;
+  return status;
 }
 
 }  // namespace facespace

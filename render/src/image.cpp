@@ -1,5 +1,6 @@
 // Images: encoding and decoding (OpenImageIO), text, legends and contact sheets.
 #include <OpenImageIO/filesystem.h>
+#include "facespace/core/enum_table.h"
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
@@ -62,34 +63,17 @@ void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> li
 
 }  // namespace
 
-bool ParseImageFormat(const std::string& name, ImageFormat* format) {
-  if (name == "png") *format = ImageFormat::kPng;
-  else if (name == "jpeg" || name == "jpg") *format = ImageFormat::kJpeg;
-  else if (name == "exr") *format = ImageFormat::kExr;
-  else if (name == "tiff" || name == "tif") *format = ImageFormat::kTiff;
-  else return false;
-  return true;
-}
+namespace {
+constexpr EnumName<ImageFormat> kImageFormats[] = {
+    {ImageFormat::kPng, "png", nullptr, "image/png", "png"},
+    {ImageFormat::kJpeg, "jpeg", "jpg", "image/jpeg", "jpg"},
+    {ImageFormat::kExr, "exr", nullptr, "image/x-exr", "exr"},
+    {ImageFormat::kTiff, "tiff", "tif", "image/tiff", "tif"}};
+}  // namespace
 
-const char* ImageFormatMimeType(ImageFormat format) {
-  switch (format) {
-    case ImageFormat::kPng: return "image/png";
-    case ImageFormat::kJpeg: return "image/jpeg";
-    case ImageFormat::kExr: return "image/x-exr";
-    case ImageFormat::kTiff: return "image/tiff";
-  }
-  return "application/octet-stream";
-}
-
-const char* ImageFormatExtension(ImageFormat format) {
-  switch (format) {
-    case ImageFormat::kPng: return "png";
-    case ImageFormat::kJpeg: return "jpg";
-    case ImageFormat::kExr: return "exr";
-    case ImageFormat::kTiff: return "tif";
-  }
-  return "bin";
-}
+bool ParseImageFormat(const std::string& name, ImageFormat* format) { return ParseEnum(kImageFormats, name, format); }
+const char* ImageFormatMimeType(ImageFormat format) { return EnumEntry(kImageFormats, format).media_type; }
+const char* ImageFormatExtension(ImageFormat format) { return EnumEntry(kImageFormats, format).extension; }
 
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality) {
   if (image.width < 1 || image.height < 1 || image.rgba.size() != static_cast<size_t>(image.width) * image.height * 4) {

@@ -2,8 +2,10 @@
 // an offscreen float framebuffer, Blinn-Phong in linear light.
 #define GL_GLEXT_PROTOTYPES 1
 #include "facespace/render/render.h"
+#include "facespace/core/enum_table.h"
 
 #include "facespace/core/shape_tools.h"
+#include "facespace/core/transform.h"
 #include "internal.h"
 
 #include <GL/osmesa.h>
@@ -236,10 +238,6 @@ struct Context {
 
 float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
-// Column-major 4x4 transform of a point.
-void Apply(const std::array<float, 16>& m, const float* p, float* out) {
-  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
-}
 
 }  // namespace
 
@@ -336,24 +334,13 @@ class OsMesaRenderer::ContextPool {
 };
 
 
-bool ParseView(const std::string& name, View* view) {
-  if (name == "shaded") *view = View::kShaded;
-  else if (name == "wireframe") *view = View::kWireframe;
-  else if (name == "heatmap") *view = View::kHeatmap;
-  else if (name == "normals") *view = View::kNormals;
-  else return false;
-  return true;
-}
+namespace {
+constexpr EnumName<View> kViews[] = {
+    {View::kShaded, "shaded"}, {View::kWireframe, "wireframe"}, {View::kHeatmap, "heatmap"}, {View::kNormals, "normals"}};
+}  // namespace
 
-const char* ViewName(View view) {
-  switch (view) {
-    case View::kShaded: return "shaded";
-    case View::kWireframe: return "wireframe";
-    case View::kHeatmap: return "heatmap";
-    case View::kNormals: return "normals";
-  }
-  return "?";
-}
+bool ParseView(const std::string& name, View* view) { return ParseEnum(kViews, name, view); }
+const char* ViewName(View view) { return EnumEntry(kViews, view).name; }
 
 OsMesaRenderer::OsMesaRenderer(int max_contexts) : pool_(std::make_unique<ContextPool>()) { pool_->SetLimit(max_contexts); }
 OsMesaRenderer::~OsMesaRenderer() = default;
@@ -417,13 +404,13 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     const size_t first = verts.size() / 13;
     for (size_t v = 0; v < p.vertex_count(); ++v) {
       float q[3], q0[3];
-      Apply(m, &b.positions[3 * v], q);
+      TransformPoint(m, &b.positions[3 * v], q);
       // Displacement by the shapes: world space, or for skinned primitives the morph in
       // mesh space (the skeleton's motion is not the shapes').
       if (b.skinned) {
         for (int c = 0; c < 3; ++c) q0[c] = b.morphed_positions[3 * v + c] - p.positions[3 * v + c];
       } else {
-        Apply(m, &p.positions[3 * v], q0);
+        TransformPoint(m, &p.positions[3 * v], q0);
         for (int c = 0; c < 3; ++c) q0[c] = q[c] - q0[c];
       }
       Eigen::Vector3f n = (nm * Eigen::Map<const Eigen::Vector3f>(&b.normals[3 * v])).normalized();

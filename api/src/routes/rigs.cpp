@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "facespace/core/lod.h"
+#include "facespace/core/transform.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -64,10 +65,11 @@ json RigDetail(const StoredRig& s) {
     const Primitive& pr = r.primitives[p];
     const auto& m = world[p];
     for (size_t v = 0; v < pr.positions.size(); v += 3) {
+      float x[3];
+      TransformPoint(m, &pr.positions[v], x);
       for (int c = 0; c < 3; ++c) {
-        const float x = m[c] * pr.positions[v] + m[4 + c] * pr.positions[v + 1] + m[8 + c] * pr.positions[v + 2] + m[12 + c];
-        lo[c] = std::min(lo[c], x);
-        hi[c] = std::max(hi[c], x);
+        lo[c] = std::min(lo[c], x[c]);
+        hi[c] = std::max(hi[c], x[c]);
       }
     }
     prims.push_back({{"mesh", pr.mesh}, {"primitive", pr.index_in_mesh}, {"name", r.meshes[pr.mesh].name},

@@ -69,8 +69,11 @@ struct BlendedRig {
 };
 
 // Per-evaluation scratch, owned by the caller and reused between calls so that steady-state
-// evaluation does not allocate.
+// evaluation does not allocate (as ozz's jobs take their context): once its vectors have grown
+// to a rig's sizes, EvaluateRig allocates nothing.
 struct BlendContext {
+  std::vector<int> node_order;        // World matrices: nodes, parents before children.
+  std::vector<int> mesh_node;         // Per mesh: the first node that shows it.
   std::vector<float> target_weights;  // Per target of the current mesh.
   std::vector<uint8_t> vertex_mark;   // Per vertex of the largest primitive.
   std::vector<uint32_t> moved;        // Vertices moved by the active targets.

@@ -57,12 +57,6 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& json_text);
 // The manifest (JSON text) that carries a rig's groups, ranges, partners, aliases and controls.
 std::string ManifestJson(const Rig& rig);
 
-// Turns control values into shape weights (two-sided: the negative shape gets -v below 0, the
-// positive shape v above). Unknown controls are errors naming their pointer; a value outside
-// the control's range warns control_out_of_range.
-Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,
-                     std::vector<Warning>& warnings);
-
 // Loads a rig from a path: .glb/.gltf, or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
 

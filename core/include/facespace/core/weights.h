@@ -25,6 +25,12 @@ struct WeightEntry {
 // NaN or infinite value, a shape given twice. All errors are collected in Status::fields.
 Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const WeightEntry> entries);
 
+// Turns control values into shape weights (two-sided: the negative shape gets -v below 0, the
+// positive shape v above). Unknown controls are errors naming their pointer; a value outside
+// the control's range warns control_out_of_range.
+Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,
+                     std::vector<Warning>& warnings);
+
 struct WeightReport {
   double sum = 0.0;
   std::vector<Warning> warnings;

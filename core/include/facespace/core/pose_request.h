@@ -1,0 +1,56 @@
+// What a request asks of the skeleton, as plain data (api/ parses it from JSON), and the pose
+// and weights it comes to.
+#pragma once
+
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+#include "facespace/core/animation.h"
+#include "facespace/core/hierarchy.h"
+#include "facespace/core/status.h"
+#include "facespace/core/weights.h"
+
+namespace facespace {
+
+struct JointOverride {
+  std::string joint;                      // Node name.
+  std::string pointer;                    // Where it came from, for errors.
+  bool has_rotation = false, has_euler = false, has_translation = false, has_scale = false;
+  std::array<float, 4> rotation{0, 0, 0, 1};  // x, y, z, w.
+  std::array<float, 3> euler{0, 0, 0};        // Degrees, R = Rz * Ry * Rx.
+  std::array<float, 3> translation{0, 0, 0};
+  std::array<float, 3> scale{1, 1, 1};
+};
+
+struct ClipRequest {
+  std::string name;        // Clip name, or empty to use `index`.
+  long long index = -1;
+  float time = 0.0f;
+  float weight = 1.0f;
+  bool loop = false;
+  std::vector<std::string> mask;  // Joint names whose subtrees the clip affects.
+  std::string pointer;
+};
+
+struct PoseRequest {
+  std::vector<ClipRequest> clips;          // One (animation + time) or several (blend).
+  std::vector<JointOverride> joints;       // Explicit pose, applied after the clips.
+  bool empty() const { return clips.empty() && joints.empty(); }
+};
+
+// Builds the pose: rest, then the clips (their weight channels fill `animated_weights` and
+// `animated_set`), then the explicit joints (each given property replaces the joint's local
+// value). Unknown joints or clips and invalid quaternions are errors naming their pointer;
+// non-unit quaternions are normalised with a `quaternion_normalised` warning.
+Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::vector<float>& animated_weights,
+                 std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings);
+
+// A request's weights and pose together, in glTF's order of application: rest pose, then the
+// clips (their weight channels set shape weights), then the explicit joints, then the
+// explicit weights, which override animated ones. `posed` is false when the request asks
+// nothing of the skeleton (the rest pose applies).
+Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
+                             std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings);
+
+}  // namespace facespace

@@ -1,0 +1,169 @@
+// Animation clips: sampling and blending.
+#include "facespace/core/animation.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+namespace facespace {
+
+namespace {
+
+// The keys around `time` and the fraction between them.
+void Locate(const std::vector<float>& times, float time, size_t& k0, size_t& k1, float& u, float& dt) {
+  if (times.size() == 1 || time <= times.front()) {
+    k0 = k1 = 0;
+    u = 0.0f;
+    dt = 0.0f;
+    return;
+  }
+  if (time >= times.back()) {
+    k0 = k1 = times.size() - 1;
+    u = 0.0f;
+    dt = 0.0f;
+    return;
+  }
+  k1 = static_cast<size_t>(std::upper_bound(times.begin(), times.end(), time) - times.begin());
+  k0 = k1 - 1;
+  dt = times[k1] - times[k0];
+  u = dt > 0.0f ? (time - times[k0]) / dt : 0.0f;
+}
+
+// Samples a sampler into `out` (components floats).
+void Sample(const AnimationSampler& s, float time, bool rotation, float* out) {
+  size_t k0, k1;
+  float u, dt;
+  Locate(s.times, time, k0, k1, u, dt);
+  const size_t c = s.components;
+  const bool cubic = s.interpolation == Interpolation::kCubicSpline;
+  const size_t stride = cubic ? 3 * c : c;
+  const float* v0 = &s.values[k0 * stride + (cubic ? c : 0)];
+  const float* v1 = &s.values[k1 * stride + (cubic ? c : 0)];
+  if (s.interpolation == Interpolation::kStep || k0 == k1) {
+    std::copy(v0, v0 + c, out);
+  } else if (!cubic) {
+    if (rotation) {
+      const std::array<float, 4> q = Slerp({v0[0], v0[1], v0[2], v0[3]}, {v1[0], v1[1], v1[2], v1[3]}, u);
+      std::copy(q.begin(), q.end(), out);
+      return;
+    }
+    for (size_t i = 0; i < c; ++i) out[i] = v0[i] + u * (v1[i] - v0[i]);
+  } else {
+    // Hermite with the out-tangent of k0 and the in-tangent of k1, scaled by the key gap.
+    const float* b0 = &s.values[k0 * stride + 2 * c];
+    const float* a1 = &s.values[k1 * stride];
+    const float u2 = u * u, u3 = u2 * u;
+    const float h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
+    for (size_t i = 0; i < c; ++i) out[i] = h00 * v0[i] + h10 * dt * b0[i] + h01 * v1[i] + h11 * dt * a1[i];
+  }
+  if (rotation) {
+    const std::array<float, 4> q = NormalizedQuaternion({out[0], out[1], out[2], out[3]});
+    std::copy(q.begin(), q.end(), out);
+  }
+}
+
+}  // namespace
+
+Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose, std::vector<float>& shape_weights,
+                  std::vector<uint8_t>& shape_set) {
+  if (clip < 0 || static_cast<size_t>(clip) >= rig.animations.size()) return InvalidArgument("no animation " + std::to_string(clip));
+  if (!std::isfinite(time)) return InvalidArgument("time must be finite");
+  const AnimationInfo& a = rig.animations[clip];
+  if (wrap == ClipWrap::kLoop && a.duration > 0.0f) {
+    time = std::fmod(time, a.duration);
+    if (time < 0.0f) time += a.duration;
+  }
+  shape_weights.resize(rig.shapes.size(), 0.0f);
+  shape_set.resize(rig.shapes.size(), 0);
+  std::vector<float> value;
+  for (const AnimationChannel& ch : a.channel_data) {
+    const AnimationSampler& s = a.sampler_data[ch.sampler];
+    value.resize(s.components);
+    Sample(s, time, ch.path == ChannelPath::kRotation, value.data());
+    Transform& t = pose.local[ch.node];
+    switch (ch.path) {
+      case ChannelPath::kTranslation: std::copy_n(value.begin(), 3, t.translation.begin()); break;
+      case ChannelPath::kRotation: std::copy_n(value.begin(), 4, t.rotation.begin()); break;
+      case ChannelPath::kScale: std::copy_n(value.begin(), 3, t.scale.begin()); break;
+      case ChannelPath::kWeights: {
+        const Mesh& mesh = rig.meshes[rig.nodes[ch.node].mesh];
+        for (size_t k = 0; k < mesh.target_shapes.size() && k < value.size(); ++k) {
+          shape_weights[mesh.target_shapes[k]] = value[k];
+          shape_set[mesh.target_shapes[k]] = 1;
+        }
+        break;
+      }
+    }
+    if (ch.path != ChannelPath::kWeights) pose.from_matrix[ch.node] = 0;
+  }
+  return Status::Ok();
+}
+
+Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose, std::vector<float>& shape_weights,
+                  std::vector<uint8_t>& shape_set) {
+  const size_t n = rig.nodes.size();
+  const Pose rest = RestPose(rig);
+  std::vector<float> total(n, 0.0f);
+  std::vector<Transform> acc(n);
+  for (Transform& t : acc) t = {{0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0}};
+  std::vector<float> wsum(rig.shapes.size(), 0.0f), wtotal(rig.shapes.size(), 0.0f);
+  for (const ClipLayer& layer : layers) {
+    if (!(layer.weight >= 0.0f) || !std::isfinite(layer.weight)) return InvalidArgument("blend weights must be finite and >= 0");
+    Pose sampled = rest;
+    std::vector<float> sw;
+    std::vector<uint8_t> ss;
+    if (Status s = SampleClip(rig, layer.clip, layer.time, layer.wrap, sampled, sw, ss); !s.ok()) return s;
+    // Nodes in the mask's subtrees (every node when there is no mask).
+    std::vector<uint8_t> in(n, layer.mask.empty() ? 1 : 0);
+    for (int root : layer.mask) {
+      std::vector<int> stack = {root};
+      while (!stack.empty()) {
+        const int i = stack.back();
+        stack.pop_back();
+        in[i] = 1;
+        for (int c : rig.nodes[i].children) stack.push_back(c);
+      }
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (!in[i] || layer.weight == 0.0f) continue;
+      const Transform& t = sampled.local[i];
+      Transform& a = acc[i];
+      // Align the quaternion with the first one accumulated (same hemisphere).
+      const float dot = a.rotation[0] * t.rotation[0] + a.rotation[1] * t.rotation[1] + a.rotation[2] * t.rotation[2] +
+                        a.rotation[3] * t.rotation[3];
+      const float sign = dot < 0.0f ? -1.0f : 1.0f;
+      for (int c = 0; c < 3; ++c) {
+        a.translation[c] += layer.weight * t.translation[c];
+        a.scale[c] += layer.weight * t.scale[c];
+      }
+      for (int c = 0; c < 4; ++c) a.rotation[c] += sign * layer.weight * t.rotation[c];
+      total[i] += layer.weight;
+      if (sampled.from_matrix[i] == 0) pose.from_matrix[i] = 0;
+    }
+    for (size_t s = 0; s < ss.size(); ++s) {
+      if (!ss[s]) continue;
+      wsum[s] += layer.weight * sw[s];
+      wtotal[s] += layer.weight;
+    }
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (total[i] <= 0.0f) continue;
+    Transform& t = pose.local[i];
+    for (int c = 0; c < 3; ++c) {
+      t.translation[c] = acc[i].translation[c] / total[i];
+      t.scale[c] = acc[i].scale[c] / total[i];
+    }
+    t.rotation = NormalizedQuaternion(acc[i].rotation);
+  }
+  shape_weights.resize(rig.shapes.size(), 0.0f);
+  shape_set.resize(rig.shapes.size(), 0);
+  for (size_t s = 0; s < wsum.size(); ++s) {
+    if (wtotal[s] > 0.0f) {
+      shape_weights[s] = wsum[s] / wtotal[s];
+      shape_set[s] = 1;
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace facespace

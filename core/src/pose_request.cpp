@@ -1,0 +1,125 @@
+// Pose requests: clips, then explicit joints, then explicit weights.
+#include "facespace/core/pose_request.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+namespace facespace {
+
+namespace {
+
+int FindClip(const Rig& rig, const ClipRequest& c) {
+  if (c.name.empty()) return c.index >= 0 && static_cast<size_t>(c.index) < rig.animations.size() ? static_cast<int>(c.index) : -1;
+  for (size_t i = 0; i < rig.animations.size(); ++i) {
+    if (rig.animations[i].name == c.name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+std::string ClipNames(const Rig& rig) {
+  std::string s;
+  for (size_t i = 0; i < rig.animations.size() && i < 30; ++i) s += (i ? ", " : "") + rig.animations[i].name;
+  return s.empty() ? "(none: this rig has no animations)" : s;
+}
+
+}  // namespace
+
+Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::vector<float>& animated_weights,
+                 std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings) {
+  pose = RestPose(rig);
+  animated_weights.assign(rig.shapes.size(), 0.0f);
+  animated_set.assign(rig.shapes.size(), 0);
+  Status errors = InvalidArgument("");
+  std::vector<ClipLayer> layers;
+  for (const ClipRequest& c : request.clips) {
+    ClipLayer layer;
+    layer.clip = FindClip(rig, c);
+    if (layer.clip < 0) {
+      errors.fields.push_back({c.pointer, "unknown animation '" + (c.name.empty() ? std::to_string(c.index) : c.name) +
+                                              "'; animations: " + ClipNames(rig)});
+      continue;
+    }
+    if (!std::isfinite(c.time)) errors.fields.push_back({c.pointer, "time must be a finite number of seconds"});
+    if (!(c.weight >= 0.0f) || !std::isfinite(c.weight)) errors.fields.push_back({c.pointer, "weight must be a finite number >= 0"});
+    layer.time = c.time;
+    layer.weight = c.weight;
+    layer.wrap = c.loop ? ClipWrap::kLoop : ClipWrap::kClamp;
+    for (const std::string& j : c.mask) {
+      const int node = FindNode(rig, j);
+      if (node < 0) errors.fields.push_back({c.pointer + "/mask", "unknown joint '" + j + "'"});
+      else layer.mask.push_back(node);
+    }
+    layers.push_back(std::move(layer));
+  }
+  for (const JointOverride& j : request.joints) {
+    if (FindNode(rig, j.joint) < 0) errors.fields.push_back({j.pointer, "unknown joint '" + j.joint + "'"});
+    if (j.has_rotation && j.has_euler) errors.fields.push_back({j.pointer, "give rotation or euler, not both"});
+    if (j.has_rotation) {
+      const auto& q = j.rotation;
+      const float len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (!std::isfinite(len) || len < 1e-6f) errors.fields.push_back({j.pointer + "/rotation", "not a rotation: zero length or not finite"});
+    }
+  }
+  if (!errors.fields.empty()) {
+    errors.message = errors.fields[0].pointer + ": " + errors.fields[0].message;
+    return errors;
+  }
+  if (!layers.empty()) {
+    if (Status s = BlendClips(rig, layers, pose, animated_weights, animated_set); !s.ok()) return s;
+  }
+  for (const JointOverride& j : request.joints) {
+    const int node = FindNode(rig, j.joint);
+    Transform& t = pose.local[node];
+    if (pose.from_matrix[node]) {
+      // A matrix node overridden in part: start from its decomposition.
+      const Eigen::Matrix4f m = Eigen::Map<const Eigen::Matrix4f>(rig.nodes[node].matrix.data());
+      Eigen::Matrix3f rot, scale;
+      Eigen::Affine3f(m).computeRotationScaling(&rot, &scale);
+      const Eigen::Quaternionf q(rot);
+      t.translation = {m(0, 3), m(1, 3), m(2, 3)};
+      t.rotation = {q.x(), q.y(), q.z(), q.w()};
+      t.scale = {scale(0, 0), scale(1, 1), scale(2, 2)};
+      pose.from_matrix[node] = 0;
+    }
+    if (j.has_translation) t.translation = j.translation;
+    if (j.has_scale) t.scale = j.scale;
+    if (j.has_euler) t.rotation = EulerToQuaternion(j.euler[0], j.euler[1], j.euler[2]);
+    if (j.has_rotation) {
+      const auto& q = j.rotation;
+      const float len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (std::fabs(len - 1.0f) > 1e-3f) {
+        warnings.push_back({"quaternion_normalised",
+                            "rotation of '" + j.joint + "' had length " + std::to_string(len) + " and was normalised", j.joint,
+                            len, true});
+      }
+      t.rotation = NormalizedQuaternion(q);
+    }
+  }
+  return Status::Ok();
+}
+
+Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
+                             std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings) {
+  auto resolved = ResolveWeights(rig, entries);
+  if (!resolved.ok()) return resolved.status();
+  weights = std::move(resolved.value());
+  posed = !request.empty();
+  if (!posed) return Status::Ok();
+  std::vector<float> animated;
+  std::vector<uint8_t> animated_set;
+  if (Status s = BuildPose(rig, request, pose, animated, animated_set, warnings); !s.ok()) return s;
+  // Shapes the request names keep their explicit weight; the others take the animated one.
+  std::vector<uint8_t> given(rig.shapes.size(), 0);
+  for (const WeightEntry& e : entries) {
+    long long i = e.name.empty() ? e.index : FindShape(rig, e.name);
+    if (i < 0 && !e.name.empty() && e.name.find_first_not_of("0123456789") == std::string::npos && e.name.size() < 10) i = std::stoll(e.name);
+    if (i >= 0 && static_cast<size_t>(i) < given.size()) given[i] = 1;
+  }
+  for (size_t s = 0; s < weights.size(); ++s) {
+    if (animated_set[s] && !given[s]) weights[s] = animated[s];
+  }
+  return Status::Ok();
+}
+
+}  // namespace facespace
