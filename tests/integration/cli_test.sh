@@ -4,12 +4,7 @@
 set -u
 bin=$1; A=$2/real; M=$2/more; src=$3; node_modules=${4:-}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-pass=0; fail=0
-ok() { pass=$((pass + 1)); echo "ok   $*"; }
-no() { fail=$((fail + 1)); echo "FAIL $*"; }
-check() { local what=$1; shift; if "$@"; then ok "$what"; else no "$what"; fi; }
-both() { sh -c "$1" && "${@:2}"; }  # check "what" both "SHELL CONDITION" COMMAND...: both must hold.
-py() { python3 -c "$1" "${@:2}"; }
+. "$(dirname "$0")/testlib.sh"
 
 rig=$src/assets/facecap/facecap.glb
 stress=$A/MorphStressTest/MorphStressTest.gltf
@@ -287,5 +282,4 @@ err_case "batch: --variants and --sample together" "one of them" batch "$rig" --
 printf '{"id":"../evil","weights":{}}\n' >"$tmp/evil.jsonl"
 err_case "batch: a path trick in a variant id" "/variants/0/id" batch "$rig" --variants "$tmp/evil.jsonl" --out "$B/x"
 
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

@@ -7,12 +7,7 @@ bin=$1; A=$2/real; src=$3; node_modules=${4:-}
 tmp=$(mktemp -d); pid=
 cleanup() { [ -n "$pid" ] && kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; umount "$tmp/full" 2>/dev/null; rm -rf "$tmp"; }
 trap cleanup EXIT
-pass=0; fail=0
-ok() { pass=$((pass + 1)); echo "ok   $*"; }
-no() { fail=$((fail + 1)); echo "FAIL $*"; }
-check() { local what=$1; shift; if "$@"; then ok "$what"; else no "$what"; fi; }
-both() { sh -c "$1" && "${@:2}"; }  # check "what" both "SHELL CONDITION" COMMAND...: both must hold.
-py() { python3 -c "$1" "${@:2}"; }
+. "$(dirname "$0")/testlib.sh"
 
 store=$tmp/store; mkdir -p "$store/stress"
 cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" "$store/"
@@ -486,5 +481,4 @@ python3 -c 'import sys; p=sys.argv[1]; b=bytearray(open(p,"rb").read()); b[20:40
 start
 check "a corrupt rig file: reported at start and skipped; every other rig served" sh -c "grep -q 'skipping broken rig.*corrupt.glb' '$tmp/log' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/corrupt') = 404 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/facecap') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/makehuman') = 200 ]"
 
-echo "$pass passed, $fail failed"
-[ $fail -eq 0 ]
+finish

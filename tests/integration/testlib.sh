@@ -1,0 +1,9 @@
+# Shared by the shell test suites: counters, checks, the closing line. Source it, then call
+# `check "what" COMMAND...` for each check and `finish` at the end.
+pass=0; fail=0
+ok() { pass=$((pass + 1)); echo "ok   $*"; }
+no() { fail=$((fail + 1)); echo "FAIL $*"; }
+check() { local what=$1; shift; if "$@"; then ok "$what"; else no "$what"; fi; }
+both() { sh -c "$1" && "${@:2}"; }  # check "what" both "SHELL CONDITION" COMMAND...: both must hold.
+py() { python3 -c "$1" "${@:2}"; }
+finish() { echo "$pass passed, $fail failed"; [ $fail -eq 0 ]; }
