@@ -5,7 +5,7 @@
 #include <string>
 #include <string_view>
 
-#include "facespace/api/request.h"
+#include "facespace/api/pipeline.h"
 #include "facespace/core/io.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
@@ -21,15 +21,10 @@ const facespace::Rig& Rig(bool skinned) {
   return skinned ? man : face;
 }
 
+// The pipeline's first step (controls, pose, weights, checks), as every route takes it.
 void Weigh(const facespace::Rig& rig, const facespace::api::MeshRequest& m) {
-  std::vector<facespace::WeightEntry> entries = m.weights;
-  std::vector<facespace::Warning> warnings;
-  if (!facespace::ApplyControls(rig, m.controls, entries, warnings).ok()) return;
-  std::vector<float> w;
-  facespace::Pose pose;
-  bool posed = false;
-  if (!facespace::ResolvePoseAndWeights(rig, entries, m.pose, w, pose, posed, warnings).ok()) return;
-  facespace::CheckWeights(rig, w, m.options.mode);
+  facespace::api::Point point;
+  facespace::api::ResolvePoint(rig, m, point);
 }
 
 }  // namespace

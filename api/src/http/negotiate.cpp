@@ -20,8 +20,8 @@ std::string_view TrimSpaces(std::string_view s) {
 
 // The value of the most preferred type in `accept` that `produced` lists; `fallback` for no Accept
 // header; nullopt when it names only types we cannot produce.
-template <typename T, size_t N>
-std::optional<T> PickFromAccept(const std::string& accept, const std::pair<std::string_view, T> (&produced)[N], T fallback) {
+template <typename T>
+std::optional<T> PickFromAccept(const std::string& accept, const std::vector<std::pair<std::string_view, T>>& produced, T fallback) {
   if (accept.empty()) return fallback;
   for (const std::string& type : AcceptedTypes(accept)) {
     for (const auto& [name, value] : produced) {
@@ -31,9 +31,9 @@ std::optional<T> PickFromAccept(const std::string& accept, const std::pair<std::
   return std::nullopt;
 }
 
-template <typename T, size_t N>
+template <typename T>
 std::optional<T> Negotiate(const httplib::Request& req, httplib::Response& res, std::optional<T> given,
-                           const std::pair<std::string_view, T> (&produced)[N], T fallback, const char* available) {
+                           const std::vector<std::pair<std::string_view, T>>& produced, T fallback, const char* available) {
   if (given) return given;
   const std::string accept = req.get_header_value("Accept");
   if (auto picked = PickFromAccept(accept, produced, fallback)) return picked;
@@ -110,24 +110,46 @@ std::vector<std::string> AcceptedTypes(std::string_view accept) {
   return types;
 }
 
+namespace {
+
+// What Accept may name for each value of a format enum: its media type (from the enum's one table),
+// then the ranges that pick the default.
+template <typename T, size_t N, size_t W>
+std::vector<std::pair<std::string_view, T>> Produced(const T (&values)[N], const char* (*media_type)(T),
+                                                     const std::pair<std::string_view, T> (&ranges)[W]) {
+  std::vector<std::pair<std::string_view, T>> out;
+  for (T v : values) out.emplace_back(media_type(v), v);
+  out.insert(out.end(), std::begin(ranges), std::end(ranges));
+  return out;
+}
+
+template <typename T, size_t N>
+std::string Available(const T (&values)[N], const char* (*media_type)(T)) {
+  std::string s;
+  for (T v : values) s += std::string(s.empty() ? "" : ", ") + media_type(v);
+  return s;
+}
+
+}  // namespace
+
 std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res, std::optional<MeshFormat> given) {
-  static constexpr std::pair<std::string_view, MeshFormat> kProduced[] = {
-      {"model/gltf-binary", MeshFormat::kGlb}, {"model/obj", MeshFormat::kObj},
-      {"application/json", MeshFormat::kJson}, {"application/octet-stream", MeshFormat::kF32},
-      {"*/*", MeshFormat::kJson},              {"model/*", MeshFormat::kJson},
-      {"application/*", MeshFormat::kJson}};
-  return Negotiate(req, res, given, kProduced, MeshFormat::kJson,
-                   "model/gltf-binary, model/obj, application/json, application/octet-stream");
+  static constexpr MeshFormat kFormats[] = {MeshFormat::kGlb, MeshFormat::kObj, MeshFormat::kJson, MeshFormat::kF32};
+  static constexpr std::pair<std::string_view, MeshFormat> kRanges[] = {
+      {"*/*", MeshFormat::kJson}, {"model/*", MeshFormat::kJson}, {"application/*", MeshFormat::kJson}};
+  static const auto produced = Produced(kFormats, MeshFormatMimeType, kRanges);
+  static const std::string available = Available(kFormats, MeshFormatMimeType);
+  return Negotiate(req, res, given, produced, MeshFormat::kJson, available.c_str());
 }
 
 std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req, httplib::Response& res,
                                                   std::optional<render::ImageFormat> given) {
   using render::ImageFormat;
-  static constexpr std::pair<std::string_view, ImageFormat> kProduced[] = {
-      {"image/png", ImageFormat::kPng},   {"image/*", ImageFormat::kPng},    {"*/*", ImageFormat::kPng},
-      {"image/jpeg", ImageFormat::kJpeg}, {"image/x-exr", ImageFormat::kExr}, {"image/aces", ImageFormat::kExr},
-      {"image/tiff", ImageFormat::kTiff}};
-  return Negotiate(req, res, given, kProduced, ImageFormat::kPng, "image/png, image/jpeg, image/x-exr, image/tiff");
+  static constexpr ImageFormat kFormats[] = {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kExr, ImageFormat::kTiff};
+  static constexpr std::pair<std::string_view, ImageFormat> kRanges[] = {
+      {"image/*", ImageFormat::kPng}, {"*/*", ImageFormat::kPng}, {"image/aces", ImageFormat::kExr}};
+  static const auto produced = Produced(kFormats, render::ImageFormatMimeType, kRanges);
+  static const std::string available = Available(kFormats, render::ImageFormatMimeType);
+  return Negotiate(req, res, given, produced, ImageFormat::kPng, available.c_str());
 }
 
 bool AcceptsJsonBody(const httplib::Request& req, httplib::Response& res) {
