@@ -34,7 +34,7 @@ std::string Version(std::span<const unsigned char> bytes) {
 
 bool IsRigFile(const fs::path& p) {
   const std::string ext = p.extension().string();
-  return ext == ".glb" || ext == ".gltf";
+  return ext == ".glb" || ext == ".gltf" || ext == ".md5mesh";
 }
 
 }  // namespace

@@ -390,8 +390,9 @@ std::string ManifestJson(const Rig& rig) {
 }
 
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
-  Result<Rig> rig = EndsWith(path, ".obj") ? LoadObjSequence(std::span<const std::string>(&path, 1))
-                                           : LoadGltfFile(path, options);
+  Result<Rig> rig = EndsWith(path, ".obj")       ? LoadObjSequence(std::span<const std::string>(&path, 1))
+                   : EndsWith(path, ".md5mesh") ? LoadMd5File(path)
+                                                : LoadGltfFile(path, options);
   if (!rig.ok()) return rig;
   if (rig->name.empty()) {
     const size_t slash = path.find_last_of('/');

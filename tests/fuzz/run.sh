@@ -7,13 +7,19 @@ build=$1; seconds=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-mkdir -p "$corpus"/{fuzz_gltf,fuzz_obj,fuzz_request,fuzz_http}
+mkdir -p "$corpus"/{fuzz_gltf,fuzz_obj,fuzz_md5,fuzz_request,fuzz_http}
 # Seeds: every real glb/gltf we have (small ones whole), OBJ files and targets, the test requests.
 for f in "$src"/assets/*/*.glb "$shared"/real/*/*.glb "$shared"/real/*/*.gltf; do
   [ -f "$f" ] && [ "$(stat -c %s "$f")" -lt 3000000 ] && cp "$f" "$corpus/fuzz_gltf/$(basename "$f")"
 done
 for f in "$shared"/more/OBJ/ICT-FaceKit_subset/*.obj; do [ -f "$f" ] && { printf '\0'; head -c 200000 "$f"; } >"$corpus/fuzz_obj/$(basename "$f")"; done
 for f in "$shared"/more/MakeHumanFace/targets/nose/*.target; do [ -f "$f" ] && { printf '\1'; cat "$f"; } >"$corpus/fuzz_obj/$(basename "$f")"; done
+md5=$shared/more/MD5/Bob
+if [ -f "$md5/Bob.md5mesh" ]; then
+  { printf '\0'; cat "$md5/Bob.md5mesh"; } >"$corpus/fuzz_md5/bob"
+  { printf '\1'; cat "$md5/Bob.md5mesh"; printf '\0'; head -c 60000 "$md5/Bob.md5anim"; } >"$corpus/fuzz_md5/bob_anim_cut"
+  { printf '\1'; cat "$md5/Bob.md5mesh"; printf '\0'; cat "$md5/Bob.md5anim"; } >"$corpus/fuzz_md5/bob_anim"
+fi
 python3 - "$corpus" <<'PY'
 import json, os, sys
 c = sys.argv[1]
@@ -63,7 +69,7 @@ fi
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
 fail=0
 printf '%-14s %12s %10s %8s %6s\n' target executions exec/s cov crashes
-for t in fuzz_gltf fuzz_obj fuzz_request fuzz_http; do
+for t in fuzz_gltf fuzz_obj fuzz_md5 fuzz_request fuzz_http; do
   mkdir -p "$build/artifacts/$t"
   # Regressions first: every input once; then the timed run.
   if [ -d "$src/tests/fuzz/regressions/$t" ] && ls "$src/tests/fuzz/regressions/$t"/* >/dev/null 2>&1; then

@@ -282,4 +282,11 @@ err_case "batch: --variants and --sample together" "one of them" batch "$rig" --
 printf '{"id":"../evil","weights":{}}\n' >"$tmp/evil.jsonl"
 err_case "batch: a path trick in a variant id" "/variants/0/id" batch "$rig" --variants "$tmp/evil.jsonl" --out "$B/x"
 
+
+# MD5 (Bob): info names the skeleton and the clip; a render at a clip time is a picture
+"$bin" info "$M/MD5/Bob/Bob.md5mesh" >"$tmp/bob.info" 2>"$tmp/err"; rc=$?
+check "info Bob.md5mesh: 33 joints, 6 meshes, 1027 triangles, the clip Bob, texture warnings" sh -c "[ $rc -eq 0 ] && grep -q 'skeleton   1 skin(s), 33 joints' '$tmp/bob.info' && grep -q 'triangles  1027' '$tmp/bob.info' && grep -Eq '^animation 0 +Bob +5.792 s' '$tmp/bob.info' && grep -q 'warning: texture_not_loaded' '$tmp/err'"
+"$bin" render "$M/MD5/Bob/Bob.md5mesh" --animation Bob --time 1.5 --width 96 --height 96 -o "$tmp/bob.png" 2>/dev/null
+check "render Bob.md5mesh at t=1.5: a 96x96 PNG" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); sys.exit(not(d[:8]==b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", d[16:24])==(96,96)))' "$tmp/bob.png"
+
 finish

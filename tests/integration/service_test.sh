@@ -481,4 +481,21 @@ python3 -c 'import sys; p=sys.argv[1]; b=bytearray(open(p,"rb").read()); b[20:40
 start
 check "a corrupt rig file: reported at start and skipped; every other rig served" sh -c "grep -q 'skipping broken rig.*corrupt.glb' '$tmp/log' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/corrupt') = 404 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/facecap') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/makehuman') = 200 ]"
 
+
+# An MD5 rig (Bob: .md5mesh + .md5anim) in a folder of another store: served with its skeleton and
+# clip; the mesh at a clip time differs from the rest pose; a render of it is a PNG.
+mkdir -p "$tmp/md5store/bob"
+cp "$2/more/MD5/Bob/Bob.md5mesh" "$tmp/md5store/bob/bob.md5mesh"; cp "$2/more/MD5/Bob/Bob.md5anim" "$tmp/md5store/bob/"
+port2=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])')
+"$bin" serve --host 127.0.0.1 --port "$port2" --rigs "$tmp/md5store" --quiet >>"$tmp/log2" 2>&1 & pid2=$!
+for _ in $(seq 1 100); do curl -fs "http://127.0.0.1:$port2/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+c "http://127.0.0.1:$port2/v1/rigs/bob" >/dev/null
+check "MD5 in the store: 33 joints, the clip 'Bob' of 139/24 s" jq_ "d['skeleton']['joints']==33 and d['animations'][0]['name']=='Bob' and abs(d['animations'][0]['duration']-139/24)<1e-4 and d['triangles']==1027"
+curl -s -o "$tmp/bob_rest.f32" "http://127.0.0.1:$port2/v1/rigs/bob/mesh?format=f32"
+curl -s -o "$tmp/bob_anim.f32" "http://127.0.0.1:$port2/v1/rigs/bob/mesh?format=f32&animation=Bob&time=1.5"
+check "MD5: the mesh at t=1.5 s of the clip is not the rest pose (same size)" sh -c "[ \$(stat -c %s '$tmp/bob_rest.f32') -eq \$(stat -c %s '$tmp/bob_anim.f32') ] && ! cmp -s '$tmp/bob_rest.f32' '$tmp/bob_anim.f32'"
+code=$(curl -s -o "$tmp/bob.png" -w '%{http_code}' "http://127.0.0.1:$port2/v1/rigs/bob/render?animation=Bob&time=1.5&width=128&height=128")
+check "MD5: a render at t=1.5 s is a 128x128 PNG" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); sys.exit(not(sys.argv[2]=="200" and d[:8]==b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", d[16:24])==(128,128)))' "$tmp/bob.png" "$code"
+kill $pid2; wait $pid2 2>/dev/null
+
 finish

@@ -4,6 +4,8 @@
 
 #include <span>
 #include <string>
+#include <utility>
+#include <string_view>
 #include <vector>
 
 #include "facespace/core/blend.h"
@@ -57,7 +59,17 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& json_text);
 // The manifest (JSON text) that carries a rig's groups, ranges, partners, aliases and controls.
 std::string ManifestJson(const Rig& rig);
 
-// Loads a rig from a path: .glb/.gltf, or .obj (a single OBJ is a rig without shapes).
+// Doom 3 MD5: a .md5mesh (joints, meshes whose vertices are weighted joint-space positions) as a
+// skinned rig, each .md5anim a clip (hierarchy flags over a base frame, a key per frame, linear).
+// MD5 is Z-up: a root node ("md5_root", -90 degrees about X) makes it Y-up; units are kept.
+// `anims`: (clip name, .md5anim text); one whose joints differ from the mesh's is skipped with an
+// animation_skipped warning. Errors name the file and line.
+Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_name,
+                          std::span<const std::pair<std::string, std::string>> anims);
+// A .md5mesh file, with every .md5anim in its folder as a clip (named by file stem).
+Result<Rig> LoadMd5File(const std::string& path);
+
+// Loads a rig from a path: .glb/.gltf, .md5mesh, or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
 
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
