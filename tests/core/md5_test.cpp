@@ -299,6 +299,7 @@ TEST(Md5Hostile, ClearErrorsNamingTheLine) {
       {"MD5Version 10\ncommandline \"\"\nnumJoints 2\nnumMeshes 0\njoints {\n\"a\" 1 ( 0 0 0 ) ( 0 0 0 )\n", "parent"},  // A cycle.
       {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 nan ) 0 1\n", "not a finite number"},
       {"MD5Version 10\ncommandline \"unterminated", "unterminated string"},
+      {head + "mesh {\nshader \"s\"\nnumverts 2\nvert 1 ( 0 0 ) 0 1\n", "the vertex index 1 where 0 was due"},  // Out of order.
   };
   for (const Case& c : cases) {
     const Status s = Load(c.text);
