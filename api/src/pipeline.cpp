@@ -30,7 +30,10 @@ Status Refused(const std::vector<Warning>& warnings) {
 
 // ---- step 1 -------------------------------------------------------------------------------
 
-void CheckPoint(const Rig& rig, BlendMode mode, Point& point) { point.report = CheckWeights(rig, point.weights, mode); }
+void CheckPoint(const Rig& rig, BlendMode mode, Point& point) {
+  point.report = CheckWeights(rig, point.weights, mode);
+  point.weight_warnings = point.report.warnings.size();
+}
 
 Status ResolvePoint(const Rig& rig, const MeshRequest& r, Point& point) {
   std::vector<Warning> pose_warnings;
@@ -79,9 +82,8 @@ Status ResolveSheet(const Rig& rig, const SheetRequest& request, SheetPoints& po
     if (Status s = ResolvePoint(rig, cell, point); !s.ok()) return Prefixed(std::move(s), "cell " + std::to_string(c) + ": ");
     points.max_sum = std::max(points.max_sum, point.report.sum);
     // The pose's warnings (after the weights') are the same for every cell: reported once.
-    const size_t own = CheckWeights(rig, point.weights, cell.options.mode).warnings.size();
-    for (size_t i = 0; i < point.report.warnings.size(); ++i) {
-      if (c > 0 && i >= own) break;
+    const size_t shown = c == 0 ? point.report.warnings.size() : point.weight_warnings;
+    for (size_t i = 0; i < shown; ++i) {
       Warning w = point.report.warnings[i];
       w.message = "cell " + std::to_string(c) + ": " + w.message;
       points.warnings.push_back(std::move(w));

@@ -42,6 +42,7 @@ struct Point {
   Pose pose;
   bool posed = false;          // False: the rest pose.
   WeightReport report;         // Sum, warnings (the weights', then the pose's and controls'), Mahalanobis.
+  size_t weight_warnings = 0;  // How many warnings CheckPoint found (ResolvePoint keeps them first).
   const Pose* pose_or_null() const { return posed ? &pose : nullptr; }
 };
 
