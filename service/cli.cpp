@@ -70,8 +70,9 @@ void PrintStatus(const Status& s) {
 
 void PrintWarnings(const std::vector<Warning>& warnings) {
   for (const Warning& w : warnings) {
-    // The message of an extrapolation warning already starts with its code.
-    if (w.message.rfind(w.code, 0) == 0) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+    // The message of an extrapolation warning already names its code (after a "cell N: " or
+    // "t=T: " prefix when it has one).
+    if (w.message.find(w.code + ": ") != std::string::npos) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
     else std::fprintf(stderr, "warning: %s: %s\n", w.code.c_str(), w.message.c_str());
   }
 }
@@ -187,13 +188,27 @@ int Info(const std::vector<std::string>& args) {
 
 namespace {
 
+}  // namespace
+
+void AddBlendOptionFlags(Flags& flags, BlendOptions& options) {
+  flags.Value("--mode", "relative|absolute", "how weights combine (default relative)", [&options](const std::string& v) {
+    if (api::ParseBlendMode(v, &options.mode)) return 0;
+    return std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str()), 2;
+  });
+  flags.Value("--normals", "blend|recompute", "blend the shapes' normals, or recompute them (default blend)", [&options](const std::string& v) {
+    if (api::ParseNormalMode(v, &options.normals)) return 0;
+    return std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str()), 2;
+  });
+}
+
+namespace {
+
 // The flags blend, render and sheet share: weights, controls, blend options and the skeleton.
 void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   auto pose_setting = [&r](const std::string& flag) {
     return [&r, flag](const std::string& value) {
-      std::string v;
+      std::string v = value;
       if ((flag == "--pose" || flag == "--blend") && !ReadAtFile(flag, value, v)) return 1;
-      if (flag != "--pose" && flag != "--blend") v = value;
       bool known = false;
       if (std::string e = api::ApplyPoseSetting(flag.substr(2), v, r, &known); !e.empty()) {
         std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
@@ -238,14 +253,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   });
   flags.Value("--controls", "JSON|@FILE", "control values, {\"nose/nose-trans-down|up\": -0.4} (rigs with controls)",
               weights_json("--controls", r.controls));
-  flags.Value("--mode", "relative|absolute", "how weights combine (default relative)", [&r](const std::string& v) {
-    if (api::ParseBlendMode(v, &r.options.mode)) return 0;
-    return std::fprintf(stderr, "error: --mode must be relative or absolute, not '%s'\n", v.c_str()), 2;
-  });
-  flags.Value("--normals", "blend|recompute", "blend the shapes' normals, or recompute them (default blend)", [&r](const std::string& v) {
-    if (api::ParseNormalMode(v, &r.options.normals)) return 0;
-    return std::fprintf(stderr, "error: --normals must be blend or recompute, not '%s'\n", v.c_str()), 2;
-  });
+  AddBlendOptionFlags(flags, r.options);
   flags.Value("--pose", "JSON|@FILE", "joint rotations, translations, scales: {\"JOINT\": {\"euler\": [x, y, z]}}", pose_setting("--pose"));
   flags.Value("--animation", "NAME|INDEX", "a clip of the rig, sampled at --time", pose_setting("--animation"));
   flags.Value("--time", "SECONDS", "the time in --animation", pose_setting("--time"));
@@ -273,13 +281,11 @@ bool ApplyLod(Result<Rig>& rig, int lod) {
   return true;
 }
 
-// The pipeline's first step, its warnings or its error on stderr. Returns an exit code.
-int ResolveForCli(const Rig& rig, const api::MeshRequest& request, api::Point& point) {
-  const Status s = api::ResolvePoint(rig, request, point);
-  PrintWarnings(point.report.warnings);
-  if (s.ok()) return 0;
-  PrintStatus(s);
-  return 1;
+// A pipeline result: its warnings on stderr, then its bytes to `path` (WriteResult's exit code).
+int WriteProduced(const std::string& path, Result<api::Output> out) {
+  if (!out.ok()) return WriteResult(path, out.status());
+  PrintWarnings(out->warnings);
+  return WriteResult(path, std::move(out->bytes));
 }
 
 // The image format from --format or the output's extension (PNG for stdout).
@@ -333,10 +339,8 @@ int Blend(const std::vector<std::string>& args) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
-  api::Point point;
   api::Workspace ws;
-  if (int rc = ResolveForCli(rig, request, point)) return rc;
-  return WriteResult(out_path, api::EncodeMesh(rig, point, request, format, ws));
+  return WriteProduced(out_path, api::ProduceMesh(rig, request, format, ws));
 }
 
 namespace {
@@ -407,9 +411,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   const render::OsMesaRenderer renderer(1);
   api::Workspace ws;
   if (!sheet) {
-    api::Point point;
-    if (int rc = ResolveForCli(rig, r.mesh, point)) return rc;
-    return WriteResult(out_path, api::EncodeImage(rig, point, r, format, renderer, ws));
+    return WriteProduced(out_path, api::ProduceImage(rig, r, format, renderer, ws));
   } else {
     // Cells: a JSON array, or one JSON object per line.
     nlohmann::json cells = nlohmann::json::parse(cells_text, nullptr, false);
@@ -438,14 +440,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     }
     api::SheetRequest& request = parsed.value();
     request.base = r;  // The render settings, blend options and pose of the flags; the cells' weights.
-    api::SheetPoints points;
-    const Status s = api::ResolveSheet(rig, request, points);
-    PrintWarnings(points.warnings);
-    if (!s.ok()) {
-      PrintStatus(s);
-      return 1;
-    }
-    return WriteResult(out_path, api::EncodeSheet(rig, points, request, format, renderer, ws));
+    return WriteProduced(out_path, api::ProduceSheet(rig, request, format, renderer, ws));
   }
 }
 

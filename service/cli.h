@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "facespace/core/blend.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
 
@@ -19,6 +20,10 @@ int WriteResult(const std::string& path, const Result<std::string>& bytes);
 
 // "a,b,,c" -> {"a", "b", "c"}: the items of a comma-separated flag value, empty ones skipped.
 std::vector<std::string> SplitList(const std::string& value);
+
+class Flags;
+// --mode and --normals (flags.h), for every command that blends.
+void AddBlendOptionFlags(Flags& flags, BlendOptions& options);
 
 // A Status on stderr ("error: ..."), one line per offending field.
 void PrintStatus(const Status& s);

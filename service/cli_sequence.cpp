@@ -78,12 +78,7 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Value("--fps", "N", "sample every 1/N s from the first key to the last (default 30)", number("--fps", 1e-3f, &fps, &has_fps));
   flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
   flags.Value("--bake", "TIME", "add a key at TIME with the in-between weights", number("--bake", -1e9f, &bake, &has_bake));
-  flags.Value("--mode", "relative|absolute", "how weights combine (default relative)", [&options](const std::string& v) {
-    return api::ParseBlendMode(v, &options.mode) ? 0 : (std::fprintf(stderr, "error: --mode must be relative or absolute\n"), 2);
-  });
-  flags.Value("--normals", "blend|recompute", "normals of the frames (default blend)", [&options](const std::string& v) {
-    return api::ParseNormalMode(v, &options.normals) ? 0 : (std::fprintf(stderr, "error: --normals must be blend or recompute\n"), 2);
-  });
+  AddBlendOptionFlags(flags, options);
   flags.Text("--format", "json|obj|glb|f32", "one JSON file of frames (default), or a file per frame in DIR", &format);
   flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;

@@ -63,7 +63,6 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
 
 }  // namespace
 
-bool IsMalformedJson(const Status& status) { return status.reason == kMalformedJson; }
 
 namespace {
 constexpr EnumName<BlendMode> kBlendModes[] = {{BlendMode::kRelative, "relative"}, {BlendMode::kAbsolute, "absolute"}};

@@ -48,7 +48,6 @@ Result<MeshRequest> ParseMeshRequest(std::string_view body);
 // Status::reason of a body (or --weights text) that is not JSON at all, rather than JSON that
 // breaks the schema.
 inline constexpr char kMalformedJson[] = "malformed-json";
-bool IsMalformedJson(const Status& status);
 
 // Body of POST /v1/rigs/{id}/render: the mesh body's weights, mode, normals and strict, plus
 // {"camera": {"yaw", "pitch", "distance", "zoom", "fov"} | {"eye", "target", "up", "fov"},
