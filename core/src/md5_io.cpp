@@ -167,7 +167,6 @@ class Reader {
     return true;
   }
 
-  bool Keyword(const char* key) { return Expect(key); }
 
  private:
   static std::string Describe(const Token& t) {
@@ -201,10 +200,10 @@ struct Joint {
 
 bool ReadHeader(Reader& r) {
   long long version = 0;
-  if (!r.Keyword("MD5Version") || !r.Int(0, 1 << 20, &version, "the version")) return false;
+  if (!r.Expect("MD5Version") || !r.Int(0, 1 << 20, &version, "the version")) return false;
   if (version != 10) return r.Fail(Token{}, "MD5Version " + std::to_string(version) + " is not supported (only 10)");
   std::string command;
-  return r.Keyword("commandline") && r.String(&command, "the command line");
+  return r.Expect("commandline") && r.String(&command, "the command line");
 }
 
 struct Md5Weight {
@@ -233,12 +232,12 @@ bool InOrder(Reader& r, size_t n, size_t count, const char* what) {
 
 bool ReadMesh(Reader& r, size_t joints, Md5Mesh& m) {
   size_t nverts = 0, ntris = 0, nweights = 0;
-  if (!r.Expect("{") || !r.Keyword("shader") || !r.String(&m.shader, "the shader")) return false;
-  if (!r.Keyword("numverts") || !r.Count(kMaxVerts, &nverts, "numverts")) return false;
+  if (!r.Expect("{") || !r.Expect("shader") || !r.String(&m.shader, "the shader")) return false;
+  if (!r.Expect("numverts") || !r.Count(kMaxVerts, &nverts, "numverts")) return false;
   for (size_t k = 0; k < nverts; ++k) {
     long long start = 0, n = 0;
     float uv[2];
-    if (!r.Keyword("vert") || !InOrder(r, k, nverts, "the vertex index") || !r.Floats(uv, 2, "a texture coordinate")) return false;
+    if (!r.Expect("vert") || !InOrder(r, k, nverts, "the vertex index") || !r.Floats(uv, 2, "a texture coordinate")) return false;
     if (!r.Int(0, static_cast<long long>(kMaxWeights), &start, "the first weight") ||
         !r.Int(1, static_cast<long long>(kMaxInfluences), &n, "the weight count")) {
       return false;
@@ -247,21 +246,21 @@ bool ReadMesh(Reader& r, size_t joints, Md5Mesh& m) {
     m.first.push_back(static_cast<uint32_t>(start));
     m.count.push_back(static_cast<uint32_t>(n));
   }
-  if (!r.Keyword("numtris") || !r.Count(kMaxTris, &ntris, "numtris")) return false;
+  if (!r.Expect("numtris") || !r.Count(kMaxTris, &ntris, "numtris")) return false;
   for (size_t k = 0; k < ntris; ++k) {
     long long v[3] = {0, 0, 0};
-    if (!r.Keyword("tri") || !InOrder(r, k, ntris, "the triangle index")) return false;
+    if (!r.Expect("tri") || !InOrder(r, k, ntris, "the triangle index")) return false;
     for (long long& x : v) {
       if (!r.Int(0, static_cast<long long>(nverts) - 1, &x, "a triangle's vertex")) return false;
       m.tris.push_back(static_cast<uint32_t>(x));
     }
   }
-  if (!r.Keyword("numweights") || !r.Count(kMaxWeights, &nweights, "numweights")) return false;
+  if (!r.Expect("numweights") || !r.Count(kMaxWeights, &nweights, "numweights")) return false;
   for (size_t k = 0; k < nweights; ++k) {
     long long j = 0;
     Md5Weight w;
     float p[3];
-    if (!r.Keyword("weight") || !InOrder(r, k, nweights, "the weight index") ||
+    if (!r.Expect("weight") || !InOrder(r, k, nweights, "the weight index") ||
         !r.Int(0, static_cast<long long>(joints) - 1, &j, "the weight's joint") || !r.Float(&w.bias, "the weight's bias") ||
         !r.Floats(p, 3, "a weight position")) {
       return false;
@@ -298,9 +297,9 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
   Reader r(text, file);
   size_t frames = 0, njoints = 0, ncomponents = 0;
   long long rate = 0;
-  if (!ReadHeader(r) || !r.Keyword("numFrames") || !r.Count(kMaxFrames, &frames, "numFrames") || !r.Keyword("numJoints") ||
-      !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Keyword("frameRate") || !r.Int(1, 1000, &rate, "frameRate") ||
-      !r.Keyword("numAnimatedComponents") || !r.Count(6 * kMaxJoints, &ncomponents, "numAnimatedComponents")) {
+  if (!ReadHeader(r) || !r.Expect("numFrames") || !r.Count(kMaxFrames, &frames, "numFrames") || !r.Expect("numJoints") ||
+      !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Expect("frameRate") || !r.Int(1, 1000, &rate, "frameRate") ||
+      !r.Expect("numAnimatedComponents") || !r.Count(6 * kMaxJoints, &ncomponents, "numAnimatedComponents")) {
     return r.status();
   }
   if (frames == 0) return InvalidArgument(file + ": the clip has no frame");
@@ -312,7 +311,7 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
     return InvalidArgument(file + ": " + std::to_string(njoints) + " joints, the mesh has " + std::to_string(joints.size()));
   }
   std::vector<int> flags(njoints), start(njoints);
-  if (!r.Keyword("hierarchy") || !r.Expect("{")) return r.status();
+  if (!r.Expect("hierarchy") || !r.Expect("{")) return r.status();
   for (size_t j = 0; j < njoints; ++j) {
     std::string jname;
     long long parent = 0, f = 0, s = 0;
@@ -330,13 +329,13 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
     flags[j] = static_cast<int>(f);
     start[j] = static_cast<int>(s);
   }
-  if (!r.Expect("}") || !r.Keyword("bounds") || !r.Expect("{")) return r.status();
+  if (!r.Expect("}") || !r.Expect("bounds") || !r.Expect("{")) return r.status();
   for (size_t f = 0; f < frames; ++f) {
     float b[3];
     if (!r.Floats(b, 3, "a bound") || !r.Floats(b, 3, "a bound")) return r.status();
   }
   std::vector<float> base(6 * njoints);
-  if (!r.Expect("}") || !r.Keyword("baseframe") || !r.Expect("{")) return r.status();
+  if (!r.Expect("}") || !r.Expect("baseframe") || !r.Expect("{")) return r.status();
   for (size_t j = 0; j < njoints; ++j) {
     if (!r.Floats(&base[6 * j], 3, "a base position") || !r.Floats(&base[6 * j + 3], 3, "a base orientation")) return r.status();
   }
@@ -357,7 +356,7 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
   }
   std::vector<float> comp(ncomponents);
   for (size_t f = 0; f < frames; ++f) {
-    if (!r.Keyword("frame") || !InOrder(r, f, frames, "the frame index") || !r.Expect("{")) return r.status();
+    if (!r.Expect("frame") || !InOrder(r, f, frames, "the frame index") || !r.Expect("{")) return r.status();
     for (float& c : comp) {
       if (!r.Float(&c, "a component")) return r.status();
     }
@@ -403,8 +402,8 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
                           std::span<const std::pair<std::string, std::string>> anims) {
   Reader r(mesh_text, mesh_name);
   size_t njoints = 0, nmeshes = 0;
-  if (!ReadHeader(r) || !r.Keyword("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Keyword("numMeshes") ||
-      !r.Count(kMaxMeshes, &nmeshes, "numMeshes") || !r.Keyword("joints") || !r.Expect("{")) {
+  if (!ReadHeader(r) || !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Expect("numMeshes") ||
+      !r.Count(kMaxMeshes, &nmeshes, "numMeshes") || !r.Expect("joints") || !r.Expect("{")) {
     return r.status();
   }
   if (njoints == 0) return InvalidArgument(mesh_name + ": the mesh has no joint");
@@ -424,7 +423,7 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
   if (!r.Expect("}")) return r.status();
   std::vector<Md5Mesh> meshes(nmeshes);
   for (Md5Mesh& m : meshes) {
-    if (!r.Keyword("mesh") || !ReadMesh(r, njoints, m)) return r.status();
+    if (!r.Expect("mesh") || !ReadMesh(r, njoints, m)) return r.status();
   }
 
   Rig rig;

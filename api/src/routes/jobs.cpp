@@ -39,16 +39,14 @@ std::optional<JobInfo> FindJob(Context& ctx, const httplib::Request& req, httpli
   return j;
 }
 
+// The media type of a job's file: the formats' own tables, and JSON lines for the manifest.
 const char* FileType(const std::string& name) {
   const std::string ext = name.substr(name.rfind('.') + 1);
-  if (ext == "glb") return "model/gltf-binary";
-  if (ext == "obj") return "model/obj";
-  if (ext == "json") return "application/json";
+  MeshFormat mesh;
+  render::ImageFormat image;
   if (ext == "jsonl") return "application/x-ndjson";
-  if (ext == "png") return "image/png";
-  if (ext == "jpg" || ext == "jpeg") return "image/jpeg";
-  if (ext == "exr") return "image/x-exr";
-  if (ext == "tif" || ext == "tiff") return "image/tiff";
+  if (ParseMeshFormat(ext, &mesh)) return MeshFormatMimeType(mesh);
+  if (render::ParseImageFormat(ext, &image)) return render::ImageFormatMimeType(image);
   return "application/octet-stream";
 }
 

@@ -1,5 +1,4 @@
 // The service's own routes: liveness, readiness, metrics, the OpenAPI document.
-#include "../http/route_table.h"
 #include "routes.h"
 
 namespace facespace::api::http {
