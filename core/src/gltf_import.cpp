@@ -115,6 +115,7 @@ Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
   if (bytes.size() < 20) return InvalidArgument("truncated glb: shorter than its header");
   if (ReadU32(&bytes[4]) != 2) return InvalidArgument("unsupported glb version " + std::to_string(ReadU32(&bytes[4])));
   const uint32_t total = ReadU32(&bytes[8]);
+  if (total < 20) return InvalidArgument("truncated glb: header says " + std::to_string(total) + " bytes, less than the header");
   if (total > bytes.size()) {
     return InvalidArgument("truncated glb: header says " + std::to_string(total) + " bytes, file has " +
                            std::to_string(bytes.size()));
