@@ -34,7 +34,8 @@ std::string Version(std::span<const unsigned char> bytes) {
 
 bool IsRigFile(const fs::path& p) {
   const std::string ext = p.extension().string();
-  return ext == ".glb" || ext == ".gltf" || ext == ".md5mesh";
+  RigFormat format;
+  return RigFormatFromPath(p.filename().string(), &format);
 }
 
 }  // namespace
@@ -102,10 +103,10 @@ std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
   return out;
 }
 
-Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, bool binary, bool* created) {
+Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format, bool* created) {
   if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
   // Validate fully before anything touches the disk.
-  auto rig = LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false});
+  auto rig = LoadRigMemory(bytes, format, id);
   if (!rig.ok()) return rig.status();
   if (rig->vertex_count() > max_vertices_) {
     return ResourceExhausted("the rig has " + std::to_string(rig->vertex_count()) + " vertices; this server takes at most " +
@@ -123,14 +124,16 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
 
   std::lock_guard<std::mutex> write_lock(write_mu_);
   static std::atomic<uint64_t> counter{0};
-  const std::string file = id + (binary ? ".glb" : ".gltf");
+  const std::string file = id + RigFormatExtension(format);
   const std::string final_path = dir_ + "/" + file;
   const std::string tmp = "." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
   const std::string_view data(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   if (Status s = WriteFileDurably(dir_, file, data, tmp, "the rig"); !s.ok()) return s;
-  // The other extension, if any, must not shadow the new file after a restart.
+  // Other extensions, if any, must not shadow the new file after a restart.
   std::error_code ec;
-  fs::remove(dir_ + "/" + id + (binary ? ".gltf" : ".glb"), ec);
+  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5}) {
+    if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
+  }
   std::lock_guard<std::mutex> lock(mu_);
   *created = !map_.count(id);
   map_[id] = {std::move(stored), final_path};

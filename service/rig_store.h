@@ -28,7 +28,7 @@ class FileRigStore : public api::RigStore {
 
   std::shared_ptr<const api::StoredRig> Get(const std::string& id) const override;
   std::vector<std::shared_ptr<const api::StoredRig>> List() const override;
-  Status Put(const std::string& id, std::span<const unsigned char> bytes, bool binary, bool* created) override;
+  Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format, bool* created) override;
   Status Delete(const std::string& id) override;
 
  private:

@@ -27,11 +27,8 @@ class MemoryStore : public facespace::api::RigStore {
     for (const auto& [id, r] : rigs_) out.push_back(r);
     return out;
   }
-  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes, bool, bool* created) override {
-    facespace::LoadOptions o;
-    o.allow_external_files = false;
-    o.read_manifest = false;
-    auto rig = facespace::LoadGltfMemory(bytes, "", o);
+  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes, facespace::RigFormat format, bool* created) override {
+    auto rig = facespace::LoadRigMemory(bytes, format, id);
     if (!rig.ok()) return rig.status();
     auto stored = std::make_shared<facespace::api::StoredRig>();
     stored->id = id;

@@ -274,15 +274,25 @@ void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<
   for (const InBetweens& ib : rig.inbetweens) {
     const float v = weights[ib.slider];
     out[ib.slider] = 0.0f;
-    // Points: (0, base), the keys, (1, slider). Segment i joins point i and i + 1.
+    // Walk the points in weight order, merging the keys with the base (at 0, shape -1) and the
+    // slider (at full), until the segment [p0, p1] holds v or is the last one.
+    std::pair<float, int> extra[2] = {{0.0f, -1}, {ib.full, static_cast<int>(ib.slider)}};
+    if (extra[1].first < extra[0].first) std::swap(extra[0], extra[1]);
+    size_t k = 0, e = 0;
+    auto next = [&]() -> std::pair<float, int> {
+      if (e < 2 && (k >= ib.keys.size() || extra[e].first <= ib.keys[k].first)) return extra[e++];
+      const auto& key = ib.keys[k++];
+      return {key.first, static_cast<int>(key.second)};
+    };
     const size_t points = ib.keys.size() + 2;
-    auto at = [&](size_t i) { return i == 0 ? 0.0f : i == points - 1 ? 1.0f : ib.keys[i - 1].first; };
-    auto shape = [&](size_t i) -> int { return i == 0 ? -1 : i == points - 1 ? static_cast<int>(ib.slider) : static_cast<int>(ib.keys[i - 1].second); };
-    size_t seg = 0;
-    while (seg + 2 < points && v > at(seg + 1)) ++seg;
-    const float t = (v - at(seg)) / (at(seg + 1) - at(seg));
-    if (shape(seg) >= 0) out[shape(seg)] += 1.0f - t;
-    out[shape(seg + 1)] += t;
+    std::pair<float, int> p0 = next(), p1 = next();
+    for (size_t taken = 2; taken < points && v > p1.first; ++taken) {
+      p0 = p1;
+      p1 = next();
+    }
+    const float t = (v - p0.first) / (p1.first - p0.first);
+    if (p0.second >= 0) out[p0.second] += 1.0f - t;
+    if (p1.second >= 0) out[p1.second] += t;
   }
   for (const Corrective& c : rig.correctives) {
     float w = c.use_min ? std::numeric_limits<float>::infinity() : 1.0f;

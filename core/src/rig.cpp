@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 
 #include "facespace/core/blend.h"
@@ -266,6 +267,15 @@ std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig) {
 
 Status ValidateRig(const Rig& rig) {
   const size_t shapes = rig.shapes.size();
+  for (const InBetweens& ib : rig.inbetweens) {
+    if (ib.slider >= shapes || !std::isfinite(ib.full) || ib.full == 0.0f) return InvalidArgument("in-betweens: bad slider");
+    for (size_t k = 0; k < ib.keys.size(); ++k) {
+      const auto& [w, s] = ib.keys[k];
+      if (s >= shapes || !std::isfinite(w) || w == 0.0f || w == ib.full || (k && !(w > ib.keys[k - 1].first))) {
+        return InvalidArgument("in-betweens of '" + rig.shapes[ib.slider].name + "': keys must be distinct non-zero weights, ascending");
+      }
+    }
+  }
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
     const size_t n = p.vertex_count();

@@ -1,5 +1,6 @@
 // Rig files: picking the importer, and the manifest that carries what glTF drops.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <iterator>
@@ -81,21 +82,29 @@ Status ApplySemantics(Rig& rig, const json& j, Bad bad) {
     for (auto it = j["inbetweens"].begin(); it != j["inbetweens"].end(); ++it) {
       const std::string ptr = "/inbetweens/" + JsonPointerEscape(it.key());
       InBetweens ib;
+      std::vector<std::string> key_ptr;  // Each key's pointer, by weight once sorted.
       if (Status s = shape_at(json(it.key()), ptr, &ib.slider); !s.ok()) return s;
       if (!it->is_array() || it->empty()) return bad(ptr, "must be a non-empty array of {\"shape\", \"weight\"}");
       for (size_t k = 0; k < it->size(); ++k) {
         const json& e = (*it)[k];
         const std::string kp = ptr + "/" + std::to_string(k);
         if (!e.is_object() || !e.contains("shape") || !e.contains("weight") || !e["weight"].is_number()) {
-          return bad(kp, "must be {\"shape\": NAME, \"weight\": W} with 0 < W < 1");
+          return bad(kp, "must be {\"shape\": NAME, \"weight\": W} with W a non-zero number");
         }
         uint32_t shape = 0;
         if (Status s = shape_at(e["shape"], kp + "/shape", &shape); !s.ok()) return s;
         const float w = e["weight"].get<float>();
-        if (!(w > 0.0f && w < 1.0f)) return bad(kp + "/weight", "must be strictly between 0 and 1 (the slider shape itself is at 1)");
-        if (shape == ib.slider) return bad(kp + "/shape", "is the slider itself");
+        if (!std::isfinite(w) || w == 0.0f) return bad(kp + "/weight", "must be a finite non-zero number (the base is at 0)");
+        if (shape == ib.slider) {  // Where the slider's own shape is reached: 1 unless given.
+          ib.full = w;
+          continue;
+        }
         if (Status s = drive(shape, kp + "/shape"); !s.ok()) return s;
         ib.keys.emplace_back(w, shape);
+        key_ptr.push_back(kp + "/weight");
+      }
+      for (size_t k = 0; k < ib.keys.size(); ++k) {
+        if (ib.keys[k].first == ib.full) return bad(key_ptr[k], "is where the slider reaches its own shape (" + std::to_string(ib.full) + "); an in-between needs another weight");
       }
       std::sort(ib.keys.begin(), ib.keys.end());
       for (size_t k = 1; k < ib.keys.size(); ++k) {
@@ -377,6 +386,16 @@ std::string ManifestJson(const Rig& rig) {
     shapes[s.name] = o;
   }
   m["shapes"] = shapes;
+  if (!rig.inbetweens.empty()) {
+    json inbetweens = json::object();
+    for (const InBetweens& ib : rig.inbetweens) {
+      json keys = json::array();
+      for (const auto& [w, shape] : ib.keys) keys.push_back({{"shape", rig.shapes[shape].name}, {"weight", w}});
+      if (ib.full != 1.0f) keys.push_back({{"shape", rig.shapes[ib.slider].name}, {"weight", ib.full}});
+      inbetweens[rig.shapes[ib.slider].name] = keys;
+    }
+    m["inbetweens"] = inbetweens;
+  }
   if (!rig.controls.empty()) {
     json controls = json::object();
     for (const Control& c : rig.controls) {
@@ -389,10 +408,76 @@ std::string ManifestJson(const Rig& rig) {
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
+bool RigFormatFromPath(const std::string& path, RigFormat* format) {
+  std::string lower = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const RigFormat formats[] = {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5};
+  for (RigFormat f : formats) {
+    if (EndsWith(lower, RigFormatExtension(f))) {
+      *format = f;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format) {
+  const std::string_view head(reinterpret_cast<const char*>(bytes.data()), std::min<size_t>(bytes.size(), 4096));
+  if (head.substr(0, 4) == "glTF") {
+    *format = RigFormat::kGlb;
+  } else if (head.substr(0, 18) == "Kaydara FBX Binary" || head.find("; FBX ") == 0 || head.find("FBXHeaderExtension:") != std::string_view::npos) {
+    *format = RigFormat::kFbx;
+  } else if (head.find("<COLLADA") != std::string_view::npos) {
+    *format = RigFormat::kCollada;
+  } else if (head.find("MD5Version") != std::string_view::npos) {
+    *format = RigFormat::kMd5;
+  } else if (head.find("\"asset\"") != std::string_view::npos && head.find('{') != std::string_view::npos) {
+    *format = RigFormat::kGltf;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+const char* RigFormatExtension(RigFormat format) {
+  switch (format) {
+    case RigFormat::kGlb: return ".glb";
+    case RigFormat::kGltf: return ".gltf";
+    case RigFormat::kFbx: return ".fbx";
+    case RigFormat::kCollada: return ".dae";
+    case RigFormat::kMd5: return ".md5mesh";
+  }
+  return "";
+}
+
+Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name) {
+  Result<Rig> rig = Internal("unknown rig format");
+  switch (format) {
+    case RigFormat::kGlb:
+    case RigFormat::kGltf: rig = LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false}); break;
+    case RigFormat::kFbx: rig = LoadFbxMemory(bytes, name); break;
+    case RigFormat::kCollada: rig = LoadColladaMemory(bytes, name); break;
+    case RigFormat::kMd5: rig = LoadMd5Memory(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), name + ".md5mesh", {}); break;
+  }
+  if (rig.ok()) rig->name = name;
+  return rig;
+}
+
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
-  Result<Rig> rig = EndsWith(path, ".obj")       ? LoadObjSequence(std::span<const std::string>(&path, 1))
-                   : EndsWith(path, ".md5mesh") ? LoadMd5File(path)
-                                                : LoadGltfFile(path, options);
+  RigFormat format = RigFormat::kGltf;
+  const bool known = RigFormatFromPath(path, &format);
+  Result<Rig> rig = Internal("unread");
+  if (known && (format == RigFormat::kFbx || format == RigFormat::kCollada)) {
+    std::ifstream f(path, std::ios::binary);
+    if (!f) return NotFound("cannot open '" + path + "'");
+    const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    const std::string file = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
+    rig = LoadRigMemory(bytes, format, file.substr(0, file.rfind('.')));
+  } else {
+    rig = EndsWith(path, ".obj")                 ? LoadObjSequence(std::span<const std::string>(&path, 1))
+          : known && format == RigFormat::kMd5 ? LoadMd5File(path)
+                                               : LoadGltfFile(path, options);
+  }
   if (!rig.ok()) return rig;
   if (rig->name.empty()) {
     const size_t slash = path.find_last_of('/');

@@ -226,6 +226,44 @@ TEST_F(ApiTest, BatchAndJobsWithoutAQueueAre503AfterAuth) {
   EXPECT_EQ(r->status, 503);
 }
 
+TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {
+  httplib::Headers auth = {{"Authorization", "Bearer test-key"}};
+  const std::vector<unsigned char> fbx = test::ReadBytes(test::SharedAssets() + "/more/FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx");
+  const std::vector<unsigned char> dae = test::ReadBytes(test::SharedAssets() + "/more/Collada/CTS_morph_two_targets/morph_two_targets.dae");
+  const std::string fbx_body(fbx.begin(), fbx.end()), dae_body(dae.begin(), dae.end());
+  // An octet stream with a file name.
+  httplib::Headers named = auth;
+  named.emplace("Content-Disposition", "attachment; filename=\"cube.fbx\"");
+  auto r = Client().Put("/v1/rigs/cube", named, fbx_body, "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 201) << r->body;
+  r = Client().Get("/v1/rigs/cube");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(Body(r)["shapes"].size(), 5u) << r->body;  // LiftTop, MoveToSide and their 3 in-betweens.
+  // The slider at 0.5 is the in-between alone: its mesh differs from the rest's.
+  r = Client().Get("/v1/rigs/cube/mesh?w.LiftTop=0.5&format=json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
+  // Without a name: told by the magic. COLLADA by its media type.
+  r = Client().Put("/v1/rigs/cube2", auth, fbx_body, "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 201) << r->body;
+  r = Client().Put("/v1/rigs/pyramid", auth, dae_body, "model/vnd.collada+xml");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 201) << r->body;
+  EXPECT_EQ(Body(Client().Get("/v1/rigs/pyramid"))["shapes"].size(), 2u);
+  // A truncated FBX is an invalid rig, named; an unknown octet stream is 415; the store keeps serving.
+  r = Client().Put("/v1/rigs/cube", named, fbx_body.substr(0, 5000), "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422) << r->body;
+  EXPECT_NE(Body(r)["detail"].get<std::string>().find("FBX"), std::string::npos) << r->body;
+  r = Client().Put("/v1/rigs/cube", auth, "just bytes", "application/octet-stream");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 415);
+  EXPECT_EQ(Body(Client().Get("/v1/rigs/cube"))["shapes"].size(), 5u);
+  for (const char* id : {"cube", "cube2", "pyramid"}) Client().Delete(std::string("/v1/rigs/") + id, auth);
+}
+
 TEST_F(ApiTest, UploadsNeedTheKey) {
   const std::vector<unsigned char> fox = test::ReadBytes(test::RealAsset("Fox/Fox.glb"));
   const std::string body(fox.begin(), fox.end());

@@ -7,9 +7,8 @@
 #include <utility>
 #include <vector>
 
-#include "facespace/core/blend.h"
 #include "facespace/core/io.h"
-#include "facespace/core/skeleton.h"
+#include "evaluate.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
@@ -24,19 +23,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
   }
   auto rig = facespace::LoadMd5Memory(mesh, "fuzz.md5mesh", anims);
-  if (!rig.ok()) return 0;
-  facespace::BlendedRig blended;
-  facespace::BlendContext context;
-  facespace::EvaluateRig(rig.value(), {}, {}, blended, context);
-  if (!rig->animations.empty()) {
-    facespace::Pose pose = facespace::RestPose(rig.value());
-    std::vector<float> w;
-    std::vector<uint8_t> set;
-    if (facespace::SampleClip(rig.value(), 0, 0.37f, facespace::ClipWrap::kLoop, pose, w, set).ok()) {
-      facespace::BlendOptions options;
-      options.pose = &pose;
-      facespace::EvaluateRig(rig.value(), {}, options, blended, context);
-    }
-  }
+  if (rig.ok()) EvaluateLoadedRig(rig.value(), 0.0f);
   return 0;
 }

@@ -7,7 +7,8 @@ build=$1; seconds=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-mkdir -p "$corpus"/{fuzz_gltf,fuzz_obj,fuzz_md5,fuzz_request,fuzz_http}
+targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_request fuzz_http"
+for t in $targets; do mkdir -p "$corpus/$t"; done
 # Seeds: every real glb/gltf we have (small ones whole), OBJ files and targets, the test requests.
 for f in "$src"/assets/*/*.glb "$shared"/real/*/*.glb "$shared"/real/*/*.gltf; do
   [ -f "$f" ] && [ "$(stat -c %s "$f")" -lt 3000000 ] && cp "$f" "$corpus/fuzz_gltf/$(basename "$f")"
@@ -20,6 +21,8 @@ if [ -f "$md5/Bob.md5mesh" ]; then
   { printf '\1'; cat "$md5/Bob.md5mesh"; printf '\0'; head -c 60000 "$md5/Bob.md5anim"; } >"$corpus/fuzz_md5/bob_anim_cut"
   { printf '\1'; cat "$md5/Bob.md5mesh"; printf '\0'; cat "$md5/Bob.md5anim"; } >"$corpus/fuzz_md5/bob_anim"
 fi
+for f in "$shared"/more/FBX/*/*.fbx; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_fbx/$(basename "$f")"; done
+for f in "$shared"/more/Collada/*/*.dae; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_dae/$(basename "$f")"; done
 python3 - "$corpus" <<'PY'
 import json, os, sys
 c = sys.argv[1]
@@ -69,7 +72,7 @@ fi
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
 fail=0
 printf '%-14s %12s %10s %8s %6s\n' target executions exec/s cov crashes
-for t in fuzz_gltf fuzz_obj fuzz_md5 fuzz_request fuzz_http; do
+for t in $targets; do
   mkdir -p "$build/artifacts/$t"
   # Regressions first: every input once; then the timed run.
   if [ -d "$src/tests/fuzz/regressions/$t" ] && ls "$src/tests/fuzz/regressions/$t"/* >/dev/null 2>&1; then

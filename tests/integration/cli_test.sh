@@ -289,4 +289,29 @@ check "info Bob.md5mesh: 33 joints, 6 meshes, 1027 triangles, the clip Bob, text
 "$bin" render "$M/MD5/Bob/Bob.md5mesh" --animation Bob --time 1.5 --width 96 --height 96 -o "$tmp/bob.png" 2>/dev/null
 check "render Bob.md5mesh at t=1.5: a 96x96 PNG" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); sys.exit(not(d[:8]==b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", d[16:24])==(96,96)))' "$tmp/bob.png"
 
+# FBX and COLLADA: info, a blend at in-between weights equals the converted glb's (its manifest
+# carries the in-betweens), the glb is valid, a render of an animated skin is a picture
+inb="$M/FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx"
+"$bin" info "$inb" >"$tmp/inb.info" 2>/dev/null; rc=$?
+check "info maya_blend_inbetween.fbx: 5 shapes, 3 of them in-betweens (1 of LiftTop, 2 of MoveToSide)" sh -c "[ $rc -eq 0 ] && grep -q 'shapes     5' '$tmp/inb.info' && [ \$(grep -c ' inbetween ' '$tmp/inb.info') -eq 3 ]"
+"$bin" convert "$inb" -o "$tmp/inb.glb" >/dev/null 2>&1
+"$bin" blend "$inb" --set LiftTop=0.5 --set MoveToSide=-0.3 -o "$tmp/inb_src.json" 2>/dev/null
+"$bin" blend "$tmp/inb.glb" --set LiftTop=0.5 --set MoveToSide=-0.3 -o "$tmp/inb_glb.json" 2>/dev/null
+check "convert .fbx -> .glb: the blend at in-between weights is the source's" py 'import json,sys
+a=json.load(open(sys.argv[1]))["primitives"]; b=json.load(open(sys.argv[2]))["primitives"]
+sys.exit(not(len(a)==len(b)==1 and max(abs(x-y) for x,y in zip(a[0]["positions"],b[0]["positions"]))<1e-6 and len(a[0]["positions"])==96*3))' "$tmp/inb_src.json" "$tmp/inb_glb.json"
+"$bin" convert "$M/Collada/CTS_morph_two_targets/morph_two_targets.dae" -o "$tmp/dae.glb" >/dev/null 2>&1
+if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/inb.glb" "$tmp/dae.glb" >"$tmp/val" 2>&1
+  rc=$?; cat "$tmp/val"
+  check "glTF validator: 0 errors on glbs converted from FBX and COLLADA" test $rc -eq 0
+fi
+"$bin" render "$M/FBX/ufbx_maya_axes_anim/maya_axes_anim_7700_ascii.fbx" --animation 0 --time 0.3 --width 96 --height 96 -o "$tmp/axes.png" 2>/dev/null
+check "render maya_axes_anim.fbx (skin + blend shape + node animation) at t=0.3: a 96x96 PNG" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); sys.exit(not(d[:8]==b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", d[16:24])==(96,96)))' "$tmp/axes.png"
+"$bin" info "$M/Collada/CTS_skin_on_morph/skin_on_morph.dae" >"$tmp/som.info" 2>/dev/null
+check "info skin_on_morph.dae: a skin of 2 joints over a morph of 1 shape" sh -c "grep -q 'skeleton   1 skin(s), 2 joints' '$tmp/som.info' && grep -q 'shapes     1' '$tmp/som.info'"
+printf 'Kaydara FBX Binary  \0\032\0\114\035\0\0\200\0\0\0\0' >"$tmp/cut.fbx"
+"$bin" info "$tmp/cut.fbx" >/dev/null 2>"$tmp/err"; rc=$?
+check "info on a truncated FBX: exit 1 and the byte offset named" sh -c "[ $rc -eq 1 ] && grep -q 'FBX byte' '$tmp/err'"
+
 finish

@@ -3,7 +3,7 @@
 # temporary store, driven with curl.
 # usage: service_test.sh FACESPACE_BINARY SHARED_ASSETS_DIR SOURCE_DIR NODE_MODULES_DIR
 set -u
-bin=$1; A=$2/real; src=$3; node_modules=${4:-}
+bin=$1; A=$2/real; M=$2/more; src=$3; node_modules=${4:-}
 tmp=$(mktemp -d); pid=
 cleanup() { [ -n "$pid" ] && kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; umount "$tmp/full" 2>/dev/null; rm -rf "$tmp"; }
 trap cleanup EXIT
@@ -169,7 +169,15 @@ check "PUT with the key: 201 + Location" sh -c "[ \$(curl -s -o /dev/null -D '$t
 check "PUT again: 200 replaced" test "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" = 200
 check "PUT a .gltf with embedded buffers (CesiumMan): 201" test "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf+json' --data-binary @"$A/CesiumMan/CesiumMan.gltf" "$U/v1/rigs/cesium-man")" = 201
 check "PUT a .gltf pointing at external files: 422, refused" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf+json' --data-binary @"$A/SimpleMorph/SimpleMorph.gltf" "$U/v1/rigs/simple")" 422 "'refused' in d['detail']"
-check "PUT with a wrong Content-Type: 415" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/octet-stream' --data-binary @"$fox" "$U/v1/rigs/fox2")" 415 "True"
+check "PUT with a wrong Content-Type: 415" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: text/plain' --data-binary @"$fox" "$U/v1/rigs/fox2")" 415 "True"
+check "PUT an octet stream of no rig format: 415 naming the accepted types" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/octet-stream' --data-binary 'just bytes' "$U/v1/rigs/fox2")" 415 "'model/vnd.collada+xml' in d['detail']"
+fbx="$M/FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx"
+check "PUT an FBX as an octet stream with its file name: 201, stored as .fbx" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: application/octet-stream' -H 'Content-Disposition: attachment; filename=\"cube.fbx\"' --data-binary @'$fbx' '$U/v1/rigs/inbetween') = 201 ] && [ -f '$store/inbetween.fbx' ]"
+check "the uploaded FBX blends: LiftTop at its in-between weight" test "$(c "$U/v1/rigs/inbetween/mesh?w.LiftTop=0.5&format=obj")" = 200
+check "PUT a COLLADA file as model/vnd.collada+xml: 201" test "$(c -X PUT "${K[@]}" -H 'Content-Type: model/vnd.collada+xml' --data-binary @"$M/Collada/CTS_skin_on_morph/skin_on_morph.dae" "$U/v1/rigs/skin-on-morph")" = 201
+head -c 4000 "$fbx" >"$tmp/cut.fbx"
+check "PUT a truncated FBX: 422 naming FBX, the stored one kept" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/octet-stream' -H 'Content-Disposition: attachment; filename=cube.fbx' --data-binary @"$tmp/cut.fbx" "$U/v1/rigs/inbetween")" 422 "'FBX' in d['detail']"
+check "DELETE the uploaded FBX and COLLADA rigs: 204, the file gone" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/inbetween') = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/skin-on-morph') = 204 ] && [ ! -f '$store/inbetween.fbx' ]"
 check "PUT to a path-trick id: 404/422, nothing written outside the store" sh -c "c1=\$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @'$fox' '$U/v1/rigs/..%2Fescape'); [ \"\$c1\" = 422 ] || [ \"\$c1\" = 404 ]; [ ! -e '$tmp/escape.glb' ]"
 check "PUT to an upper-case id: 422" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/Fox")" 422 "True"
 c "$U/v1/rigs/facecap" >/dev/null; v1=$(py 'import json,sys; print(json.load(open(sys.argv[1]))["version"])' "$tmp/body")
@@ -324,7 +332,7 @@ code=$(c "$U/v1/rigs/semantic")
 check "GET a rig with manifest semantics: derived shapes, driven flags, in-betweens, correctives, statistics" both "[ $code = 200 ]" jq_ "
   [x['name'] for x in d['shapes']][-2:]==['jawOpen_left','smileMirror'] and
   [x['name'] for x in d['shapes'] if x['driven']]==['cheekPuff','mouthFunnel'] and
-  d['inbetweens']==[{'slider':'jawOpen','keys':[{'shape':'mouthFunnel','weight':0.5}]}] and
+  d['inbetweens']==[{'slider':'jawOpen','full':1.0,'keys':[{'shape':'mouthFunnel','weight':0.5}]}] and
   d['correctives'][0]=={'shape':'cheekPuff','drivers':['mouthSmile_L','eyeBlink_L'],'mode':'product'} and d['statistics']['components']==1"
 c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":0.75},"format":"json"}' "$U/v1/rigs/semantic/mesh" >/dev/null; cp "$tmp/body" "$tmp/sem.json"
 "$bin" blend "$store/facecap.glb" --weights '{"jawOpen":0.5,"mouthFunnel":0.5}' -o "$tmp/plain.json" 2>/dev/null

@@ -38,7 +38,7 @@ json RigDetail(const StoredRig& s) {
   for (const InBetweens& ib : r.inbetweens) {
     json keys = json::array();
     for (const auto& [w, shape] : ib.keys) keys.push_back({{"shape", r.shapes[shape].name}, {"weight", w}});
-    inbetweens.push_back({{"slider", r.shapes[ib.slider].name}, {"keys", keys}});
+    inbetweens.push_back({{"slider", r.shapes[ib.slider].name}, {"full", ib.full}, {"keys", keys}});
   }
   j["inbetweens"] = inbetweens;
   json correctives = json::array();
@@ -116,6 +116,39 @@ void GetRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   }
 }
 
+// The rig format of an upload: from its media type, or for application/octet-stream from the file
+// name it carries (Content-Disposition's filename, or ?filename=), else from the bytes' magic.
+Status UploadFormat(const httplib::Request& req, RigFormat* format) {
+  const std::string ct = MediaType(req.get_header_value("Content-Type"));
+  static const std::pair<const char*, RigFormat> kTypes[] = {
+      {"model/gltf-binary", RigFormat::kGlb},        {"model/gltf+json", RigFormat::kGltf},
+      {"model/vnd.collada+xml", RigFormat::kCollada}, {"model/x-fbx", RigFormat::kFbx},
+      {"application/vnd.autodesk.fbx", RigFormat::kFbx}};
+  for (const auto& [type, f] : kTypes) {
+    if (ct == type) {
+      *format = f;
+      return Status::Ok();
+    }
+  }
+  const char* kAccepted =
+      "upload a rig as model/gltf-binary (.glb), model/gltf+json (.gltf with embedded buffers), model/vnd.collada+xml (.dae), "
+      "or application/octet-stream with a file name (Content-Disposition: attachment; filename=\"face.fbx\") for .fbx, .dae, .glb or .gltf";
+  if (ct != "application/octet-stream") return InvalidArgument(std::string(kAccepted) + (ct.empty() ? "" : ", not " + ct));
+  std::string name = req.has_param("filename") ? req.get_param_value("filename") : "";
+  const std::string disposition = req.get_header_value("Content-Disposition");
+  if (const size_t at = disposition.find("filename="); name.empty() && at != std::string::npos) {
+    name = disposition.substr(at + 9);
+    if (!name.empty() && name[0] == '"') name = name.substr(1, name.find('"', 1) == std::string::npos ? std::string::npos : name.find('"', 1) - 1);
+    name = name.substr(0, name.find(';'));
+  }
+  if (!name.empty() && RigFormatFromPath(name, format) && *format != RigFormat::kMd5) return Status::Ok();
+  const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
+  if (name.empty() && SniffRigFormat(std::span<const unsigned char>(data, req.body.size()), format) && *format != RigFormat::kMd5) {
+    return Status::Ok();
+  }
+  return InvalidArgument(std::string(kAccepted) + (name.empty() ? "; the bytes are none of these" : "; '" + name.substr(0, 80) + "' is none of these"));
+}
+
 void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
@@ -124,11 +157,9 @@ void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
                 {{"?id", "invalid rig id"}});
     return;
   }
-  const std::string ct = MediaType(req.get_header_value("Content-Type"));
-  if (ct != "model/gltf-binary" && ct != "model/gltf+json") {
-    SendProblem(req, res, 415, "unsupported-media-type",
-                "upload a rig as model/gltf-binary (.glb) or model/gltf+json (.gltf with embedded buffers)" +
-                    (ct.empty() ? std::string() : ", not " + ct));
+  RigFormat format;
+  if (Status s = UploadFormat(req, &format); !s.ok()) {
+    SendProblem(req, res, 415, "unsupported-media-type", s.message);
     return;
   }
   if (req.body.empty()) {
@@ -137,7 +168,7 @@ void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   }
   bool created = false;
   const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
-  Status s = ctx.store.Put(id, std::span<const unsigned char>(data, req.body.size()), ct == "model/gltf-binary", &created);
+  Status s = ctx.store.Put(id, std::span<const unsigned char>(data, req.body.size()), format, &created);
   if (!s.ok()) {
     if (s.reason.empty()) s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : "invalid-rig";
     SendStatus(req, res, s);

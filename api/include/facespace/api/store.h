@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "facespace/core/io.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
 
@@ -25,9 +26,10 @@ class RigStore {
   virtual std::shared_ptr<const StoredRig> Get(const std::string& id) const = 0;
   // Every rig, sorted by id.
   virtual std::vector<std::shared_ptr<const StoredRig>> List() const = 0;
-  // Validates fully, then stores durably (temp file, fsync, rename) and publishes atomically.
-  // `created` tells whether the id was new. InvalidArgument for a bad rig or id.
-  virtual Status Put(const std::string& id, std::span<const unsigned char> bytes, bool binary,
+  // Validates fully (`bytes` in `format`), then stores durably (temp file, fsync, rename) as
+  // id + the format's extension and publishes atomically. `created` tells whether the id was new.
+  // InvalidArgument for a bad rig or id.
+  virtual Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
                      bool* created) = 0;
   // NotFound when absent.
   virtual Status Delete(const std::string& id) = 0;

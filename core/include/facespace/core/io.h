@@ -69,7 +69,26 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
 // A .md5mesh file, with every .md5anim in its folder as a clip (named by file stem).
 Result<Rig> LoadMd5File(const std::string& path);
 
-// Loads a rig from a path: .glb/.gltf, .md5mesh, or .obj (a single OBJ is a rig without shapes).
+// FBX 7.x, binary or ASCII (see core/README.md "FBX" for what is read and what is reported as
+// skipped). `name` names the rig and prefixes errors. Units and handedness are the file's; a root
+// node ("fbx_root") turns a Z-up (or other) file Y-up.
+Result<Rig> LoadFbxMemory(std::span<const unsigned char> bytes, const std::string& name);
+
+// COLLADA (.dae): geometry, nodes, morph and skin controllers (a skin over a morph too), base
+// colours, animated morph weights (see core/README.md "COLLADA"). Units are the file's; a root node
+// ("collada_root") turns a Z-up or X-up file Y-up.
+Result<Rig> LoadColladaMemory(std::span<const unsigned char> bytes, const std::string& name);
+
+// The formats a rig comes in, and how to tell them: by file extension, or by the bytes' magic.
+enum class RigFormat { kGlb, kGltf, kFbx, kCollada, kMd5 };
+bool RigFormatFromPath(const std::string& path, RigFormat* format);
+bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format);
+const char* RigFormatExtension(RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh"
+// A rig from bytes of a known format (never reads other files: no external buffers, manifests or
+// .md5anim clips). `name` names the rig.
+Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name);
+
+// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
 
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.

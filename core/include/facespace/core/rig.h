@@ -100,11 +100,13 @@ struct Shape {
 };
 
 // In-between shapes on one slider (Maya's blendShape in-betweens): the slider shape's own
-// target is its value at weight 1; `keys` are the shapes reached at weights strictly
-// between 0 and 1, ascending. A slider value v interpolates linearly between the two
-// neighbouring keys (the base at 0, the slider shape at 1) and extrapolates the end segments.
+// target is its value at weight `full` (1 unless the source says otherwise); `keys` are the
+// shapes reached at other weights (never 0, the base), ascending, on either side of 0 or beyond
+// `full` (FBX's FullWeights may be negative). A slider value v interpolates linearly between the
+// two neighbouring points of {(0, base), keys, (full, slider)} and extrapolates the end segments.
 struct InBetweens {
   uint32_t slider = 0;
+  float full = 1.0f;
   std::vector<std::pair<float, uint32_t>> keys;  // (weight, shape)
 };
 

@@ -1,0 +1,1199 @@
+// FBX 7.x (binary and ASCII) scenes as a Rig: meshes, the node hierarchy with FBX's transform
+// stack, blend shapes with in-betweens, skins, materials and animation (sampled per frame).
+//
+// The objects (Model, Geometry, Deformer, AnimationCurve, ...) live in a flat list with ids;
+// "Connections" link them (OO: object to object, OP: object to a property). What links to what:
+//   Model -> Model (parent)             Geometry(Mesh) -> Model          Material -> Model
+//   Deformer(Skin) -> Geometry          SubDeformer(Cluster) -> Skin      Model(bone) -> Cluster
+//   Deformer(BlendShape) -> Geometry    SubDeformer(BlendShapeChannel) -> BlendShape
+//   Geometry(Shape) -> BlendShapeChannel
+//   AnimationLayer -> AnimationStack    AnimationCurveNode -> AnimationLayer
+//   AnimationCurveNode -OP-> Model ("Lcl Translation" ...) or BlendShapeChannel ("DeformPercent")
+//   AnimationCurve -OP-> AnimationCurveNode ("d|X", "d|Y", "d|Z", "d|DeformPercent")
+// Every index read from the file is checked before use; errors name the object.
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <deque>
+#include <iterator>
+#include <map>
+#include <set>
+#include <unordered_map>
+
+#include "facespace/core/io.h"
+#include "fbx_tree.h"
+
+namespace facespace {
+
+namespace {
+
+using fbx::Prop;
+using FNode = fbx::Node;
+using Mat4 = Eigen::Matrix4d;
+using Vec3 = Eigen::Vector3d;
+
+constexpr double kTicksPerSecond = 46186158000.0;
+constexpr size_t kMaxControlPoints = 4'000'000;
+constexpr size_t kMaxCorners = 16'000'000;
+constexpr size_t kMaxPolygonCorners = 4096;
+constexpr size_t kMaxJoints = 65535;       // Joint indices are uint16 in a Primitive.
+constexpr size_t kMaxFrames = 100'000;     // Samples of one clip.
+constexpr size_t kMaxClipValues = 32'000'000;
+
+struct Object {
+  int64_t id = 0;
+  const FNode* node = nullptr;
+  std::string cls;   // "Model", "Geometry", "Deformer", ...
+  std::string name;  // Without its class prefix.
+  std::string sub;   // "Mesh", "Shape", "LimbNode", "Skin", "Cluster", "BlendShapeChannel", ...
+  std::string Describe() const { return cls + " '" + name + "'" + (sub.empty() ? "" : " (" + sub + ")"); }
+};
+
+struct Link {
+  int64_t other = 0;
+  std::string prop;  // For OP links: the property name; "" for OO.
+};
+
+std::vector<double> Numbers(const Prop& p) {
+  if (p.kind == Prop::kNumbers) return p.numbers;
+  if (p.kind == Prop::kInts) return std::vector<double>(p.ints.begin(), p.ints.end());
+  return {};
+}
+
+std::vector<int64_t> Ints(const Prop& p) {
+  if (p.kind == Prop::kInts) return p.ints;
+  std::vector<int64_t> out;
+  if (p.kind == Prop::kNumbers) {
+    out.reserve(p.numbers.size());
+    for (double d : p.numbers) out.push_back(std::isfinite(d) && std::fabs(d) < 9e18 ? static_cast<int64_t>(d) : 0);
+  }
+  return out;
+}
+
+// `v` as an int when it is one in [lo, hi], else `fallback` (file numbers may be anything).
+int IntIn(double v, int lo, int hi, int fallback) { return v >= lo && v <= hi && v == std::floor(v) ? static_cast<int>(v) : fallback; }
+
+// The array property of child `name` of `n`, or nullptr.
+const Prop* ArrayOf(const FNode& n, std::string_view name) {
+  const FNode* c = n.Find(name);
+  if (!c || c->props.empty() || !c->props[0].IsArray()) return nullptr;
+  return &c->props[0];
+}
+
+class Scene {
+ public:
+  Status Index(const fbx::Document& doc) {
+    if (const FNode* defs = doc.Find("Definitions")) {
+      for (const FNode& t : defs->children) {
+        if (t.name != "ObjectType" || t.props.empty()) continue;
+        if (const FNode* tpl = t.Find("PropertyTemplate")) {
+          if (const FNode* p70 = tpl->Find("Properties70")) templates_[t.props[0].s] = p70;
+        }
+      }
+    }
+    if (const FNode* settings = doc.Find("GlobalSettings")) settings_ = settings->Find("Properties70");
+    const FNode* objects = doc.Find("Objects");
+    if (!objects) return InvalidArgument("FBX: no Objects section");
+    for (const FNode& n : objects->children) {
+      if (n.props.size() < 2 || !n.props[0].IsScalarNumber() || n.props[1].kind != Prop::kString) continue;
+      Object o;
+      o.id = n.props[0].AsInt();
+      o.node = &n;
+      o.cls = n.name;
+      o.name = fbx::ObjectName(n.props[1].s);
+      if (n.props.size() > 2 && n.props[2].kind == Prop::kString) o.sub = n.props[2].s;
+      if (o.id == 0) return InvalidArgument("FBX: " + o.Describe() + " has id 0, the scene root's");
+      if (!objects_.emplace(o.id, o).second) return InvalidArgument("FBX: two objects have id " + std::to_string(o.id));
+      order_.push_back(o.id);
+    }
+    if (const FNode* conns = doc.Find("Connections")) {
+      for (const FNode& c : conns->children) {
+        if (c.name != "C" || c.props.size() < 3 || c.props[0].kind != Prop::kString) continue;
+        const int64_t child = c.props[1].AsInt(), parent = c.props[2].AsInt();
+        const std::string prop = c.props[0].s == "OP" && c.props.size() > 3 ? c.props[3].s : "";
+        sources_[parent].push_back({child, prop});
+        targets_[child].push_back({parent, prop});
+      }
+    }
+    return Status::Ok();
+  }
+
+  const Object* Get(int64_t id) const {
+    auto it = objects_.find(id);
+    return it == objects_.end() ? nullptr : &it->second;
+  }
+  const std::vector<int64_t>& order() const { return order_; }
+
+  // Objects of class `cls` (and subclass `sub` unless empty) linked into `id`, in file order.
+  std::vector<std::pair<const Object*, std::string>> Sources(int64_t id, std::string_view cls, std::string_view sub = {}) const {
+    return Filter(sources_, id, cls, sub);
+  }
+  // Objects of class `cls` that `id` links into.
+  std::vector<std::pair<const Object*, std::string>> Targets(int64_t id, std::string_view cls, std::string_view sub = {}) const {
+    return Filter(targets_, id, cls, sub);
+  }
+  bool LinkedToRoot(int64_t id) const {
+    auto it = targets_.find(id);
+    if (it == targets_.end()) return false;
+    return std::any_of(it->second.begin(), it->second.end(), [](const Link& l) { return l.other == 0; });
+  }
+
+  // The values of property `name`: the object's own, else its class's template; nullptr if neither.
+  const FNode* Property(const Object& o, std::string_view name) const {
+    if (const FNode* p70 = o.node->Find("Properties70")) {
+      if (const FNode* p = FindP(*p70, name)) return p;
+    }
+    auto it = templates_.find(o.cls);
+    return it == templates_.end() ? nullptr : FindP(*it->second, name);
+  }
+  double Number(const Object& o, std::string_view name, double fallback) const {
+    const FNode* p = Property(o, name);
+    return p && p->props.size() > 4 && p->props[4].IsScalarNumber() ? p->props[4].AsNumber() : fallback;
+  }
+  Vec3 Vector(const Object& o, std::string_view name, const Vec3& fallback) const {
+    const FNode* p = Property(o, name);
+    if (!p || p->props.size() < 7) return fallback;
+    Vec3 v;
+    for (int c = 0; c < 3; ++c) {
+      if (!p->props[4 + c].IsScalarNumber() || !std::isfinite(p->props[4 + c].AsNumber())) return fallback;
+      v[c] = p->props[4 + c].AsNumber();
+    }
+    return v;
+  }
+  double Setting(std::string_view name, double fallback) const {
+    const FNode* p = settings_ ? FindP(*settings_, name) : nullptr;
+    return p && p->props.size() > 4 && p->props[4].IsScalarNumber() ? p->props[4].AsNumber() : fallback;
+  }
+
+ private:
+  static const FNode* FindP(const FNode& p70, std::string_view name) {
+    for (const FNode& p : p70.children) {
+      if (p.name == "P" && !p.props.empty() && p.props[0].kind == Prop::kString && p.props[0].s == name) return &p;
+    }
+    return nullptr;
+  }
+
+  std::vector<std::pair<const Object*, std::string>> Filter(const std::unordered_map<int64_t, std::vector<Link>>& links, int64_t id,
+                                                           std::string_view cls, std::string_view sub) const {
+    std::vector<std::pair<const Object*, std::string>> out;
+    auto it = links.find(id);
+    if (it == links.end()) return out;
+    for (const Link& l : it->second) {
+      const Object* o = Get(l.other);
+      if (o && o->cls == cls && (sub.empty() || o->sub == sub)) out.emplace_back(o, l.prop);
+    }
+    return out;
+  }
+
+  std::unordered_map<int64_t, Object> objects_;
+  std::vector<int64_t> order_;
+  std::unordered_map<int64_t, std::vector<Link>> sources_, targets_;
+  std::map<std::string, const FNode*, std::less<>> templates_;
+  const FNode* settings_ = nullptr;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Transforms
+
+Mat4 Translation(const Vec3& t) {
+  Mat4 m = Mat4::Identity();
+  m.block<3, 1>(0, 3) = t;
+  return m;
+}
+
+Mat4 Scaling(const Vec3& s) {
+  Mat4 m = Mat4::Identity();
+  m(0, 0) = s.x();
+  m(1, 1) = s.y();
+  m(2, 2) = s.z();
+  return m;
+}
+
+// Euler angles in degrees applied in `order` (FBX's enum: 0 XYZ, 1 XZY, 2 YZX, 3 YXZ, 4 ZXY,
+// 5 ZYX, 6 spheric XYZ): XYZ rotates about X first, i.e. the matrix Rz * Ry * Rx.
+Mat4 Rotation(const Vec3& deg, int order) {
+  constexpr double kRad = M_PI / 180.0;
+  const Eigen::Matrix3d x = Eigen::AngleAxisd(deg.x() * kRad, Vec3::UnitX()).toRotationMatrix();
+  const Eigen::Matrix3d y = Eigen::AngleAxisd(deg.y() * kRad, Vec3::UnitY()).toRotationMatrix();
+  const Eigen::Matrix3d z = Eigen::AngleAxisd(deg.z() * kRad, Vec3::UnitZ()).toRotationMatrix();
+  Eigen::Matrix3d r;
+  switch (order) {
+    case 1: r = y * z * x; break;
+    case 2: r = x * z * y; break;
+    case 3: r = z * x * y; break;
+    case 4: r = y * x * z; break;
+    case 5: r = x * y * z; break;
+    default: r = z * y * x; break;
+  }
+  Mat4 m = Mat4::Identity();
+  m.block<3, 3>(0, 0) = r;
+  return m;
+}
+
+// The static parts of a Model's transform stack: everything but T, R and S themselves.
+struct TransformStack {
+  Vec3 t{0, 0, 0}, r{0, 0, 0}, s{1, 1, 1};
+  Vec3 rotation_offset{0, 0, 0}, rotation_pivot{0, 0, 0}, scaling_offset{0, 0, 0}, scaling_pivot{0, 0, 0};
+  Mat4 pre = Mat4::Identity(), post_inverse = Mat4::Identity();
+  int order = 0;
+  Mat4 geometric = Mat4::Identity();
+
+  // T * Roff * Rp * Rpre * R * Rpost^-1 * Rp^-1 * Soff * Sp * S * Sp^-1 (FBX SDK's local matrix).
+  Mat4 Local(const Vec3& tt, const Vec3& rr, const Vec3& ss) const {
+    return Translation(tt) * Translation(rotation_offset) * Translation(rotation_pivot) * pre * Rotation(rr, order) * post_inverse *
+           Translation(-rotation_pivot) * Translation(scaling_offset) * Translation(scaling_pivot) * Scaling(ss) *
+           Translation(-scaling_pivot);
+  }
+  Mat4 Local() const { return Local(t, r, s); }
+};
+
+TransformStack ReadStack(const Scene& scene, const Object& m) {
+  TransformStack st;
+  st.t = scene.Vector(m, "Lcl Translation", st.t);
+  st.r = scene.Vector(m, "Lcl Rotation", st.r);
+  st.s = scene.Vector(m, "Lcl Scaling", st.s);
+  st.rotation_offset = scene.Vector(m, "RotationOffset", st.rotation_offset);
+  st.rotation_pivot = scene.Vector(m, "RotationPivot", st.rotation_pivot);
+  st.scaling_offset = scene.Vector(m, "ScalingOffset", st.scaling_offset);
+  st.scaling_pivot = scene.Vector(m, "ScalingPivot", st.scaling_pivot);
+  st.pre = Rotation(scene.Vector(m, "PreRotation", Vec3::Zero()), 0);
+  st.post_inverse = Rotation(scene.Vector(m, "PostRotation", Vec3::Zero()), 0).transpose();
+  const double order = scene.Number(m, "RotationOrder", 0);
+  st.order = order >= 0 && order <= 6 ? static_cast<int>(order) : 0;
+  st.geometric = Translation(scene.Vector(m, "GeometricTranslation", Vec3::Zero())) *
+                 Rotation(scene.Vector(m, "GeometricRotation", Vec3::Zero()), 0) *
+                 Scaling(scene.Vector(m, "GeometricScaling", Vec3(1, 1, 1)));
+  return st;
+}
+
+// TRS of a matrix; false when it shears (no TRS gives it).
+bool Decompose(const Mat4& m, std::array<float, 3>& t, std::array<float, 4>& q, std::array<float, 3>& s) {
+  Eigen::Matrix3d a = m.block<3, 3>(0, 0);
+  Vec3 scale(a.col(0).norm(), a.col(1).norm(), a.col(2).norm());
+  if (a.determinant() < 0) scale.x() = -scale.x();
+  for (int c = 0; c < 3; ++c) {
+    if (!(std::fabs(scale[c]) > 1e-12)) return false;
+    a.col(c) /= scale[c];
+  }
+  const bool orthonormal = (a.transpose() * a - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-5;
+  Eigen::Quaterniond r(a);
+  r.normalize();
+  for (int c = 0; c < 3; ++c) {
+    t[c] = static_cast<float>(m(c, 3));
+    s[c] = static_cast<float>(scale[c]);
+  }
+  q = {static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()), static_cast<float>(r.w())};
+  return orthonormal;
+}
+
+void SetLocal(Node& node, const Mat4& m) {
+  if (!Decompose(m, node.translation, node.rotation, node.scale)) {
+    node.has_matrix = true;
+    for (int k = 0; k < 16; ++k) node.matrix[k] = static_cast<float>(m(k % 4, k / 4));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Meshes
+
+// A per-corner attribute (normals, UVs, colours): which value each corner reads.
+struct Element {
+  std::vector<double> values;
+  std::vector<int64_t> index;  // IndexToDirect, else empty.
+  enum Map { kCorner, kPoint, kPolygon, kAll } map = kCorner;
+  int stride = 3;
+  bool present = false;
+
+  // The value slot for a corner, or -1 when the file's arrays do not reach.
+  int64_t Slot(size_t corner, size_t point, size_t polygon) const {
+    size_t k = map == kCorner ? corner : map == kPoint ? point : map == kPolygon ? polygon : 0;
+    int64_t v = static_cast<int64_t>(k);
+    if (!index.empty()) {
+      if (k >= index.size()) return -1;
+      v = index[k];
+    }
+    if (v < 0 || static_cast<uint64_t>(v) >= values.size() / stride) return -1;
+    return v;
+  }
+};
+
+Status ReadElement(const FNode& geom, const Object& o, std::string_view element, std::string_view values_name,
+                   std::string_view index_name, int stride, Element& out) {
+  const FNode* e = geom.Find(element);
+  if (!e) return Status::Ok();
+  const Prop* values = ArrayOf(*e, values_name);
+  if (!values) return Status::Ok();
+  std::string mapping, reference;
+  if (const FNode* m = e->Find("MappingInformationType"); m && !m->props.empty()) mapping = m->props[0].s;
+  if (const FNode* r = e->Find("ReferenceInformationType"); r && !r->props.empty()) reference = r->props[0].s;
+  if (mapping == "ByPolygonVertex") {
+    out.map = Element::kCorner;
+  } else if (mapping == "ByVertice" || mapping == "ByVertex" || mapping == "ByControlPoint") {
+    out.map = Element::kPoint;
+  } else if (mapping == "ByPolygon") {
+    out.map = Element::kPolygon;
+  } else if (mapping == "AllSame") {
+    out.map = Element::kAll;
+  } else {
+    return InvalidArgument("FBX: " + o.Describe() + ": " + std::string(element) + " has mapping '" + mapping.substr(0, 40) + "'");
+  }
+  out.values = Numbers(*values);
+  out.stride = stride;
+  if ((reference == "IndexToDirect" || reference == "Index") && !index_name.empty()) {
+    const Prop* index = ArrayOf(*e, index_name);
+    if (!index) return InvalidArgument("FBX: " + o.Describe() + ": " + std::string(element) + " is IndexToDirect without " + std::string(index_name));
+    out.index = Ints(*index);
+  }
+  for (double v : out.values) {
+    if (!std::isfinite(v)) return InvalidArgument("FBX: " + o.Describe() + ": " + std::string(element) + " holds a non-finite value");
+  }
+  out.present = true;
+  return Status::Ok();
+}
+
+// One Geometry split into primitives (one per material slot used), each vertex remembering
+// the control point it came from, so shapes and skin weights follow.
+struct SplitMesh {
+  std::vector<Primitive> primitives;
+  std::vector<std::vector<uint32_t>> point_of_vertex;  // Per primitive.
+  std::vector<int> material_slot;                      // Per primitive.
+  size_t point_count = 0;
+  std::vector<double> points;                          // xyz per control point.
+};
+
+struct VertexKey {
+  int64_t point, normal, uv, color;
+  bool operator==(const VertexKey& o) const { return point == o.point && normal == o.normal && uv == o.uv && color == o.color; }
+};
+struct VertexKeyHash {
+  size_t operator()(const VertexKey& k) const {
+    uint64_t h = static_cast<uint64_t>(k.point) * 0x9E3779B97F4A7C15ull;
+    h ^= static_cast<uint64_t>(k.normal) + 0x7F4A7C159E3779B9ull + (h << 6) + (h >> 2);
+    h ^= static_cast<uint64_t>(k.uv) + 0x94D049BB133111EBull + (h << 6) + (h >> 2);
+    h ^= static_cast<uint64_t>(k.color) + 0xBF58476D1CE4E5B9ull + (h << 6) + (h >> 2);
+    return static_cast<size_t>(h);
+  }
+};
+
+Status SplitGeometry(const Object& o, const Mat4& geometric, std::vector<Warning>& warnings, SplitMesh& out) {
+  const FNode& g = *o.node;
+  const Prop* vp = ArrayOf(g, "Vertices");
+  const Prop* ip = ArrayOf(g, "PolygonVertexIndex");
+  if (!vp || !ip) return InvalidArgument("FBX: " + o.Describe() + " has no Vertices or PolygonVertexIndex");
+  out.points = Numbers(*vp);
+  if (out.points.size() % 3 != 0) return InvalidArgument("FBX: " + o.Describe() + ": Vertices holds " + std::to_string(out.points.size()) + " numbers, not xyz triples");
+  out.point_count = out.points.size() / 3;
+  if (out.point_count > kMaxControlPoints) return InvalidArgument("FBX: " + o.Describe() + ": more than " + std::to_string(kMaxControlPoints) + " control points");
+  for (double v : out.points) {
+    if (!std::isfinite(v)) return InvalidArgument("FBX: " + o.Describe() + ": a vertex is not finite");
+  }
+  const std::vector<int64_t> corners = Ints(*ip);
+  if (corners.size() > kMaxCorners) return InvalidArgument("FBX: " + o.Describe() + ": more than " + std::to_string(kMaxCorners) + " polygon corners");
+  Element normals, uvs, colors, materials;
+  if (Status s = ReadElement(g, o, "LayerElementNormal", "Normals", "NormalsIndex", 3, normals); !s.ok()) return s;
+  if (normals.present && normals.index.empty()) {
+    if (const FNode* e = g.Find("LayerElementNormal"); e && ArrayOf(*e, "NormalIndex")) normals.index = Ints(*ArrayOf(*e, "NormalIndex"));
+  }
+  if (Status s = ReadElement(g, o, "LayerElementUV", "UV", "UVIndex", 2, uvs); !s.ok()) return s;
+  if (Status s = ReadElement(g, o, "LayerElementColor", "Colors", "ColorIndex", 4, colors); !s.ok()) return s;
+  if (Status s = ReadElement(g, o, "LayerElementMaterial", "Materials", "", 1, materials); !s.ok()) return s;
+  materials.index.clear();  // Materials are slot numbers themselves.
+
+  const Eigen::Matrix3d normal_matrix = geometric.block<3, 3>(0, 0).inverse().transpose();
+  std::map<int, size_t> prim_of_slot;
+  std::vector<std::unordered_map<VertexKey, uint32_t, VertexKeyHash>> maps;
+  size_t bad_corners = 0, degenerate = 0, polygon = 0;
+  std::vector<uint32_t> poly;
+  for (size_t c = 0, first = 0; c < corners.size(); ++c) {
+    const bool last = corners[c] < 0;
+    if (!last && c + 1 == corners.size()) {
+      return InvalidArgument("FBX: " + o.Describe() + ": PolygonVertexIndex does not end a polygon (its last index is not negative)");
+    }
+    if (!last) continue;
+    // Polygon [first, c]: indices, the last one stored as ~index.
+    const size_t n = c + 1 - first;
+    if (n > kMaxPolygonCorners) return InvalidArgument("FBX: " + o.Describe() + ": polygon " + std::to_string(polygon) + " has " + std::to_string(n) + " corners");
+    int slot = 0;
+    if (materials.present) {
+      const int64_t m = materials.Slot(c, 0, polygon);
+      slot = m < 0 ? 0 : IntIn(materials.values[static_cast<size_t>(m)], 0, 1000000, 0);
+    }
+    auto [it, inserted] = prim_of_slot.emplace(slot, out.primitives.size());
+    if (inserted) {
+      out.primitives.emplace_back();
+      out.point_of_vertex.emplace_back();
+      out.material_slot.push_back(slot);
+      maps.emplace_back();
+    }
+    const size_t pi = it->second;
+    Primitive& p = out.primitives[pi];
+    poly.clear();
+    for (size_t k = first; k <= c; ++k) {
+      const int64_t raw = corners[k] < 0 ? ~corners[k] : corners[k];
+      if (raw < 0 || static_cast<uint64_t>(raw) >= out.point_count) {
+        return InvalidArgument("FBX: " + o.Describe() + ": polygon " + std::to_string(polygon) + " uses control point " + std::to_string(raw) + " of " +
+                               std::to_string(out.point_count));
+      }
+      const size_t point = static_cast<size_t>(raw);
+      VertexKey key{raw, normals.present ? normals.Slot(k, point, polygon) : -1, uvs.present ? uvs.Slot(k, point, polygon) : -1,
+                    colors.present ? colors.Slot(k, point, polygon) : -1};
+      if ((normals.present && key.normal < 0) || (uvs.present && key.uv < 0) || (colors.present && key.color < 0)) ++bad_corners;
+      auto [vit, fresh] = maps[pi].emplace(key, static_cast<uint32_t>(out.point_of_vertex[pi].size()));
+      if (fresh) {
+        out.point_of_vertex[pi].push_back(static_cast<uint32_t>(point));
+        const Eigen::Vector4d pos = geometric * Eigen::Vector4d(out.points[3 * point], out.points[3 * point + 1], out.points[3 * point + 2], 1.0);
+        for (int a = 0; a < 3; ++a) p.positions.push_back(static_cast<float>(pos[a]));
+        if (normals.present) {
+          Vec3 nrm = key.normal < 0 ? Vec3::Zero() : Vec3(&normals.values[3 * static_cast<size_t>(key.normal)]);
+          nrm = normal_matrix * nrm;
+          if (nrm.norm() > 0) nrm.normalize();
+          for (int a = 0; a < 3; ++a) p.normals.push_back(static_cast<float>(nrm[a]));
+        }
+        if (uvs.present) {
+          const double* uv = key.uv < 0 ? nullptr : &uvs.values[2 * static_cast<size_t>(key.uv)];
+          p.texcoords.push_back(uv ? static_cast<float>(uv[0]) : 0.0f);
+          p.texcoords.push_back(uv ? static_cast<float>(1.0 - uv[1]) : 0.0f);  // FBX's V points up, glTF's down.
+        }
+        if (colors.present) {
+          for (int a = 0; a < 4; ++a) p.colors.push_back(key.color < 0 ? 1.0f : static_cast<float>(colors.values[4 * static_cast<size_t>(key.color) + a]));
+        }
+      }
+      poly.push_back(vit->second);
+    }
+    if (n >= 3) {
+      for (size_t k = 1; k + 1 < n; ++k) {  // A fan: exact for the convex polygons DCC tools write.
+        p.indices.insert(p.indices.end(), {poly[0], poly[k], poly[k + 1]});
+      }
+    } else {
+      ++degenerate;
+    }
+    first = c + 1;
+    ++polygon;
+  }
+  if (bad_corners) {
+    warnings.push_back({"attribute_out_of_range", o.Describe() + ": " + std::to_string(bad_corners) +
+                                                      " polygon corners index normals, UVs or colours beyond their arrays (zero used)",
+                        o.name, static_cast<double>(bad_corners), true});
+  }
+  if (degenerate) {
+    warnings.push_back({"polygons_skipped", o.Describe() + ": " + std::to_string(degenerate) + " polygons with fewer than 3 corners (points, lines) skipped",
+                        o.name, static_cast<double>(degenerate), true});
+  }
+  for (Primitive& p : out.primitives) {
+    p.source_has_normals = normals.present;
+    if (!normals.present) p.normals.clear();
+  }
+  return Status::Ok();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Animation curves
+
+struct Curve {
+  std::vector<double> times;   // Seconds.
+  std::vector<double> values;
+  std::vector<uint32_t> flags;  // Per key.
+  std::vector<float> data;      // 4 per key: right slope, next left slope, packed weights, velocity.
+
+  double At(double t) const {
+    if (times.empty()) return 0.0;
+    if (t <= times.front()) return values.front();
+    if (t >= times.back()) return values.back();
+    const size_t k = static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+    const double t0 = times[k], t1 = times[k + 1], v0 = values[k], v1 = values[k + 1];
+    const double dt = t1 - t0;
+    if (!(dt > 0)) return v1;
+    const uint32_t f = flags[k];
+    if (f & 0x2) return (f & 0x100) ? v1 : v0;  // Constant (or "constant next").
+    const double u = (t - t0) / dt;
+    if (!(f & 0x8)) return v0 + (v1 - v0) * u;  // Linear.
+    // Cubic: a Bezier whose inner control points sit at (weight x dt) along the keys' tangents.
+    const float raw = data[4 * k + 2];  // Two 16-bit weights (x 9999) packed in one number.
+    const uint32_t packed = raw >= 0.0f && raw < 4294967296.0f ? static_cast<uint32_t>(raw) : 0;
+    const double w0 = (f & 0x1000000) ? (packed & 0xffff) / 9999.0 : 1.0 / 3.0;
+    const double w1 = (f & 0x2000000) ? (packed >> 16) / 9999.0 : 1.0 / 3.0;
+    const double s0 = data[4 * k], s1 = data[4 * k + 1];
+    const double x1 = w0, x2 = 1.0 - w1;  // Control points' times in [0, 1].
+    const double y0 = v0, y1 = v0 + s0 * w0 * dt, y2 = v1 - s1 * w1 * dt, y3 = v1;
+    auto bez = [](double a, double b, double c, double d, double s) {
+      const double r = 1.0 - s;
+      return r * r * r * a + 3 * r * r * s * b + 3 * r * s * s * c + s * s * s * d;
+    };
+    double s = u;
+    if (std::fabs(x1 - 1.0 / 3.0) > 1e-9 || std::fabs(x2 - 2.0 / 3.0) > 1e-9) {
+      double lo = 0.0, hi = 1.0;  // x(s) is monotonic for weights in [0, 1]: bisect.
+      for (int it = 0; it < 60; ++it) {
+        s = 0.5 * (lo + hi);
+        (bez(0.0, x1, x2, 1.0, s) < u ? lo : hi) = s;
+      }
+    }
+    return bez(y0, y1, y2, y3, s);
+  }
+};
+
+Status ReadCurve(const Object& o, Curve& c) {
+  const Prop* tp = ArrayOf(*o.node, "KeyTime");
+  const Prop* vp = ArrayOf(*o.node, "KeyValueFloat");
+  if (!tp || !vp) return InvalidArgument("FBX: " + o.Describe() + " has no KeyTime or KeyValueFloat");
+  const std::vector<int64_t> ticks = Ints(*tp);
+  c.values = Numbers(*vp);
+  if (ticks.size() != c.values.size()) {
+    return InvalidArgument("FBX: " + o.Describe() + ": " + std::to_string(ticks.size()) + " key times but " + std::to_string(c.values.size()) + " values");
+  }
+  c.times.resize(ticks.size());
+  for (size_t k = 0; k < ticks.size(); ++k) {
+    c.times[k] = static_cast<double>(ticks[k]) / kTicksPerSecond;
+    if (!std::isfinite(c.values[k])) return InvalidArgument("FBX: " + o.Describe() + ": key " + std::to_string(k) + " is not finite");
+    if (k && !(c.times[k] > c.times[k - 1])) return InvalidArgument("FBX: " + o.Describe() + ": key times are not ascending at key " + std::to_string(k));
+  }
+  // Attributes are run-length coded: attribute a covers KeyAttrRefCount[a] keys.
+  c.flags.assign(ticks.size(), 0x4);  // Linear unless told.
+  c.data.assign(4 * ticks.size(), 0.0f);
+  const Prop* fp = ArrayOf(*o.node, "KeyAttrFlags");
+  const Prop* dp = ArrayOf(*o.node, "KeyAttrDataFloat");
+  const Prop* rp = ArrayOf(*o.node, "KeyAttrRefCount");
+  if (fp && dp && rp) {
+    const std::vector<int64_t> flags = Ints(*fp), refs = Ints(*rp);
+    const std::vector<double> data = Numbers(*dp);
+    size_t key = 0;
+    for (size_t a = 0; a < refs.size() && a < flags.size() && 4 * a + 3 < data.size() && key < ticks.size(); ++a) {
+      if (refs[a] < 0) return InvalidArgument("FBX: " + o.Describe() + ": negative KeyAttrRefCount");
+      for (int64_t r = 0; r < refs[a] && key < ticks.size(); ++r, ++key) {
+        c.flags[key] = static_cast<uint32_t>(flags[a]);
+        for (int d = 0; d < 4; ++d) c.data[4 * key + d] = std::isfinite(data[4 * a + d]) ? static_cast<float>(data[4 * a + d]) : 0.0f;
+      }
+    }
+  }
+  return Status::Ok();
+}
+
+// An animated property: up to 3 curves (X, Y, Z or the one DeformPercent), each optional.
+struct AnimatedProperty {
+  const Curve* curves[3] = {nullptr, nullptr, nullptr};
+};
+
+// ---------------------------------------------------------------------------------------------
+
+double FrameRate(const Scene& scene) {
+  static constexpr double kRates[] = {24, 120, 100, 60, 50, 48, 30, 30, 29.97002997, 29.97002997, 25, 24, 1000, 23.976, 0, 96, 72, 59.94, 119.88};
+  const double mode = scene.Setting("TimeMode", 0);
+  double rate = 24;
+  if (mode == 14) {
+    rate = scene.Setting("CustomFrameRate", 24);
+  } else if (mode >= 0 && mode < static_cast<double>(std::size(kRates))) {
+    rate = kRates[static_cast<size_t>(mode)];
+  }
+  return std::isfinite(rate) && rate >= 1 && rate <= 1000 ? rate : 24;
+}
+
+class Importer {
+ public:
+  Importer(const Scene& scene, const std::string& name) : scene_(scene) { rig_.name = name; }
+
+  Result<Rig> Run() {
+    if (Status s = Nodes(); !s.ok()) return s;
+    if (Status s = Meshes(); !s.ok()) return s;
+    if (Status s = Animations(); !s.ok()) return s;
+    if (rig_.primitives.empty()) return InvalidArgument("FBX: the file has no mesh");
+    CountMovedVertices(rig_);
+    DetectSymmetricPartners(rig_);
+    return std::move(rig_);
+  }
+
+ private:
+  // The Model hierarchy as nodes, parents first. Node 0 turns the file's up axis into +Y when
+  // it is not already.
+  Status Nodes() {
+    std::vector<const Object*> models;
+    for (int64_t id : scene_.order()) {
+      const Object* o = scene_.Get(id);
+      if (o->cls == "Model") models.push_back(o);
+    }
+    std::unordered_map<int64_t, int64_t> parent;
+    std::unordered_map<int64_t, std::vector<int64_t>> children;
+    std::vector<int64_t> roots;
+    for (const Object* m : models) {
+      const auto up = scene_.Targets(m->id, "Model");
+      if (!up.empty() && up[0].second.empty()) {
+        parent[m->id] = up[0].first->id;
+        children[up[0].first->id].push_back(m->id);
+      } else {
+        roots.push_back(m->id);
+      }
+    }
+    const int up = IntIn(scene_.Setting("UpAxis", 1), 0, 2, 1), up_sign = scene_.Setting("UpAxisSign", 1) < 0 ? -1 : 1;
+    const int right = IntIn(scene_.Setting("CoordAxis", 0), 0, 2, 0), right_sign = scene_.Setting("CoordAxisSign", 1) < 0 ? -1 : 1;
+    int first = 0;
+    if ((up != 1 || up_sign != 1) && up >= 0 && up < 3 && right >= 0 && right < 3 && up != right) {
+      Vec3 u = Vec3::Zero(), r = Vec3::Zero();
+      u[up] = up_sign;
+      r[right] = right_sign;
+      Eigen::Matrix3d m;
+      m.row(0) = r;
+      m.row(1) = u;
+      m.row(2) = r.cross(u);
+      Node root;
+      root.name = "fbx_root";
+      const Eigen::Quaterniond q(m);
+      root.rotation = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), static_cast<float>(q.w())};
+      rig_.nodes.push_back(root);
+      rig_.scene_roots = {0};
+      first = 1;
+    }
+    // Depth first from the roots; a Model never reached sits on a cycle.
+    std::vector<std::pair<int64_t, int>> stack;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, first ? 0 : -1);
+    while (!stack.empty()) {
+      const auto [id, parent_node] = stack.back();
+      stack.pop_back();
+      const Object& m = *scene_.Get(id);
+      Node n;
+      n.name = m.name;
+      n.parent = parent_node;
+      const TransformStack st = ReadStack(scene_, m);
+      SetLocal(n, st.Local());
+      const int index = static_cast<int>(rig_.nodes.size());
+      if (parent_node >= 0) {
+        rig_.nodes[parent_node].children.push_back(index);
+      } else {
+        rig_.scene_roots.push_back(index);
+      }
+      node_of_[id] = index;
+      stacks_.push_back(st);
+      model_of_node_.push_back(&m);
+      rig_.nodes.push_back(std::move(n));
+      auto kids = children.find(id);
+      if (kids != children.end()) {
+        for (auto it = kids->second.rbegin(); it != kids->second.rend(); ++it) stack.emplace_back(*it, index);
+      }
+    }
+    for (const Object* m : models) {
+      if (!node_of_.count(m->id)) return InvalidArgument("FBX: the node graph has a cycle through Model '" + m->name + "'");
+    }
+    world_ = NodeWorldMatrices(rig_);
+    return Status::Ok();
+  }
+
+  const TransformStack& StackOf(int node) const { return stacks_[node - (rig_.nodes.size() - stacks_.size())]; }
+  const Object* ModelOf(int node) const {
+    const size_t offset = rig_.nodes.size() - model_of_node_.size();
+    return node < static_cast<int>(offset) ? nullptr : model_of_node_[node - offset];
+  }
+
+  Mat4 World(int node) const {
+    Mat4 m;
+    for (int k = 0; k < 16; ++k) m(k % 4, k / 4) = world_[node][k];
+    return m;
+  }
+
+  int MaterialFor(const Object& model, int slot) {
+    const auto mats = scene_.Sources(model.id, "Material");
+    if (slot < 0 || static_cast<size_t>(slot) >= mats.size()) return -1;
+    const Object& mat = *mats[slot].first;
+    auto it = material_of_.find(mat.id);
+    if (it != material_of_.end()) return it->second;
+    Material m;
+    m.name = mat.name;
+    const Vec3 diffuse = scene_.Vector(mat, "DiffuseColor", scene_.Vector(mat, "Diffuse", Vec3(0.8, 0.8, 0.8)));
+    const double factor = scene_.Number(mat, "DiffuseFactor", 1.0);
+    double opacity = scene_.Number(mat, "Opacity", 1.0);
+    if (const double tf = scene_.Number(mat, "TransparencyFactor", -1); tf >= 0 && tf <= 1 && !scene_.Property(mat, "Opacity")) opacity = 1.0 - tf;
+    for (int c = 0; c < 3; ++c) m.base_color_factor[c] = static_cast<float>(std::clamp(diffuse[c] * factor, 0.0, 1.0));
+    m.base_color_factor[3] = static_cast<float>(std::clamp(opacity, 0.0, 1.0));
+    if (m.base_color_factor[3] < 1.0f) m.alpha_mode = "BLEND";
+    m.metallic_factor = 0.0f;
+    m.roughness_factor = 0.8f;
+    // A diffuse texture embedded in the file (Video Content) becomes the base colour image.
+    for (const auto& [tex, prop] : scene_.Sources(mat.id, "Texture")) {
+      if (prop != "DiffuseColor" && prop != "Maya|baseColor" && prop != "base_color") continue;
+      for (const auto& [video, unused] : scene_.Sources(tex->id, "Video")) {
+        const FNode* content = video->node->Find("Content");
+        if (!content || content->props.empty() || content->props[0].kind != Prop::kString) continue;
+        const std::string& bytes = content->props[0].s;
+        std::string mime;
+        if (bytes.size() > 8 && std::memcmp(bytes.data(), "\x89PNG", 4) == 0) mime = "image/png";
+        if (bytes.size() > 3 && std::memcmp(bytes.data(), "\xff\xd8\xff", 3) == 0) mime = "image/jpeg";
+        if (mime.empty()) continue;
+        rig_.images.push_back({video->name, mime, std::vector<unsigned char>(bytes.begin(), bytes.end())});
+        m.base_color_image = static_cast<int>(rig_.images.size()) - 1;
+        break;
+      }
+      if (m.base_color_image < 0) {
+        rig_.load_warnings.push_back({"texture_not_loaded", "material '" + mat.name + "': its diffuse texture '" + tex->name +
+                                                                "' is not embedded in the file (or not PNG/JPEG) and is not read", mat.name, 0.0, false});
+      }
+    }
+    rig_.materials.push_back(m);
+    material_of_[mat.id] = static_cast<int>(rig_.materials.size()) - 1;
+    return material_of_[mat.id];
+  }
+
+  Status Meshes() {
+    std::unordered_map<int64_t, int> mesh_of_geometry;
+    for (size_t ni = 0; ni < rig_.nodes.size(); ++ni) {
+      const Object* model = ModelOf(static_cast<int>(ni));
+      if (!model) continue;
+      const auto geoms = scene_.Sources(model->id, "Geometry", "Mesh");
+      if (geoms.empty()) continue;
+      const Object& geom = *geoms[0].first;
+      if (auto it = mesh_of_geometry.find(geom.id); it != mesh_of_geometry.end()) {
+        rig_.nodes[ni].mesh = it->second;  // An instance of a mesh read already.
+        continue;
+      }
+      SplitMesh split;
+      const TransformStack& st = StackOf(static_cast<int>(ni));
+      if (Status s = SplitGeometry(geom, st.geometric, rig_.load_warnings, split); !s.ok()) return s;
+      if (split.primitives.empty()) continue;
+      Mesh mesh;
+      mesh.name = model->name;
+      const int mesh_index = static_cast<int>(rig_.meshes.size());
+      const size_t first_prim = rig_.primitives.size();
+      for (size_t p = 0; p < split.primitives.size(); ++p) {
+        split.primitives[p].mesh = mesh_index;
+        split.primitives[p].index_in_mesh = static_cast<int>(p);
+        split.primitives[p].material = MaterialFor(*model, split.material_slot[p]);
+        mesh.primitives.push_back(static_cast<int>(first_prim + p));
+      }
+      if (Status s = BlendShapes(geom, st.geometric, split, mesh); !s.ok()) return s;
+      if (Status s = Skin(geom, static_cast<int>(ni), split, mesh); !s.ok()) return s;
+      for (Primitive& p : split.primitives) {
+        FinalizePrimitive(p);
+        rig_.primitives.push_back(std::move(p));
+      }
+      rig_.meshes.push_back(std::move(mesh));
+      rig_.nodes[ni].mesh = mesh_index;
+      mesh_of_geometry[geom.id] = mesh_index;
+      mesh_node_[mesh_index] = static_cast<int>(ni);
+    }
+    return Status::Ok();
+  }
+
+  // Shape names must be unique across the rig: a clash gets the mesh's name in front.
+  std::string UniqueShapeName(const std::string& want, const std::string& mesh) {
+    std::string name = want.empty() ? "shape" : want;
+    if (FindShape(rig_, name) >= 0) name = mesh + "." + name;
+    for (int k = 2; FindShape(rig_, name) >= 0; ++k) name = mesh + "." + want + "_" + std::to_string(k);
+    return name;
+  }
+
+  // A Shape geometry's deltas on every primitive of the split mesh.
+  // `scale`: per entry of Indexes, a percentage its delta is scaled by; empty: 100.
+  Status AddTarget(const Object& shape, const Mat4& geometric, const std::vector<double>& scale, SplitMesh& split) {
+    const Prop* ip = ArrayOf(*shape.node, "Indexes");
+    const Prop* vp = ArrayOf(*shape.node, "Vertices");
+    if (!ip || !vp) return InvalidArgument("FBX: " + shape.Describe() + " has no Indexes or Vertices");
+    const std::vector<int64_t> index = Ints(*ip);
+    const std::vector<double> delta = Numbers(*vp);
+    std::vector<double> normal;
+    if (const Prop* np = ArrayOf(*shape.node, "Normals")) normal = Numbers(*np);
+    if (delta.size() != 3 * index.size()) {
+      return InvalidArgument("FBX: " + shape.Describe() + ": " + std::to_string(index.size()) + " Indexes but " + std::to_string(delta.size()) + " Vertices numbers");
+    }
+    if (!normal.empty() && normal.size() != delta.size()) normal.clear();
+    std::vector<int32_t> slot(split.point_count, -1);
+    for (size_t k = 0; k < index.size(); ++k) {
+      if (index[k] < 0 || static_cast<uint64_t>(index[k]) >= split.point_count) {
+        return InvalidArgument("FBX: " + shape.Describe() + ": Indexes[" + std::to_string(k) + "] = " + std::to_string(index[k]) + " is beyond the " +
+                               std::to_string(split.point_count) + " control points");
+      }
+      for (int c = 0; c < 3; ++c) {
+        if (!std::isfinite(delta[3 * k + c]) || (!normal.empty() && !std::isfinite(normal[3 * k + c]))) {
+          return InvalidArgument("FBX: " + shape.Describe() + ": a delta is not finite");
+        }
+      }
+      slot[static_cast<size_t>(index[k])] = static_cast<int32_t>(k);
+    }
+    const Eigen::Matrix3d linear = geometric.block<3, 3>(0, 0);
+    const Eigen::Matrix3d normal_matrix = linear.inverse().transpose();
+    for (size_t p = 0; p < split.primitives.size(); ++p) {
+      SparseTarget t;
+      const std::vector<uint32_t>& points = split.point_of_vertex[p];
+      for (size_t v = 0; v < points.size(); ++v) {
+        const int32_t k = slot[points[v]];
+        if (k < 0) continue;
+        const double f = scale.empty() ? 1.0 : (std::isfinite(scale[k]) ? scale[k] / 100.0 : 0.0);
+        const Vec3 d = f * (linear * Vec3(&delta[3 * k]));
+        const Vec3 n = normal.empty() ? Vec3::Zero() : Vec3(f * (normal_matrix * Vec3(&normal[3 * k])));
+        if (d.isZero(0) && n.isZero(0)) continue;
+        t.indices.push_back(static_cast<uint32_t>(v));
+        for (int c = 0; c < 3; ++c) t.position_deltas.push_back(static_cast<float>(d[c]));
+        if (!normal.empty() && split.primitives[p].source_has_normals) {
+          for (int c = 0; c < 3; ++c) t.normal_deltas.push_back(static_cast<float>(n[c]));
+        }
+      }
+      FinalizeTarget(t);
+      split.primitives[p].targets.push_back(std::move(t));
+    }
+    return Status::Ok();
+  }
+
+  // BlendShape deformers -> channels -> shapes. A channel is one slider (a Shape of the rig)
+  // reaching its last shape at its last FullWeight; the other shapes are its in-betweens.
+  Status BlendShapes(const Object& geom, const Mat4& geometric, SplitMesh& split, Mesh& mesh) {
+    for (const auto& [deformer, unused] : scene_.Sources(geom.id, "Deformer", "BlendShape")) {
+      for (const auto& [channel, unused2] : scene_.Sources(deformer->id, "Deformer", "BlendShapeChannel")) {
+        const auto shapes = scene_.Sources(channel->id, "Geometry", "Shape");
+        if (shapes.empty()) {
+          rig_.load_warnings.push_back({"shape_skipped", "blend shape channel '" + channel->name + "' has no shape", channel->name, 0.0, false});
+          continue;
+        }
+        std::vector<double> full;
+        if (const Prop* fw = ArrayOf(*channel->node, "FullWeights")) full = Numbers(*fw);
+        // Blender (4.4 on) writes a single shape's vertex-group weights as FullWeights, one percentage
+        // per entry of its Indexes: they scale that shape's deltas, and it is reached at 100.
+        std::vector<double> per_index;
+        if (shapes.size() == 1 && full.size() > 1) {
+          if (const Prop* ip = ArrayOf(*shapes[0].first->node, "Indexes"); ip && ip->ArraySize() == full.size()) {
+            per_index = std::move(full);
+            full = {100.0};
+          }
+        }
+        if (full.size() != shapes.size()) {
+          if (!full.empty()) {
+            rig_.load_warnings.push_back({"inbetweens_guessed", "channel '" + channel->name + "': " + std::to_string(full.size()) + " FullWeights for " +
+                                                                    std::to_string(shapes.size()) + " shapes; spaced evenly instead", channel->name, 0.0, false});
+          }
+          full.clear();
+          for (size_t k = 0; k < shapes.size(); ++k) full.push_back(100.0 * static_cast<double>(k + 1) / static_cast<double>(shapes.size()));
+        }
+        // The slider's own shape is the one at the largest full weight; the rest are keys.
+        std::vector<size_t> order(shapes.size());
+        for (size_t k = 0; k < order.size(); ++k) order[k] = k;
+        std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return full[a] < full[b]; });
+        bool valid = true;
+        for (size_t k = 0; k < order.size(); ++k) {
+          const double w = full[order[k]];
+          if (!std::isfinite(w) || w == 0.0 || (k && w == full[order[k - 1]])) valid = false;
+        }
+        if (!valid) {
+          return InvalidArgument("FBX: channel '" + channel->name + "': FullWeights must be finite, non-zero and distinct");
+        }
+        std::string name = channel->name;
+        if (name.rfind(deformer->name + ".", 0) == 0 && name.size() > deformer->name.size() + 1) name = name.substr(deformer->name.size() + 1);
+        const size_t slider_k = order.back();
+        Shape slider;
+        slider.name = UniqueShapeName(name, mesh.name);
+        if (slider.name != channel->name) slider.aliases.push_back(channel->name);
+        const double percent = scene_.Number(*channel, "DeformPercent", 0.0);
+        slider.default_weight = std::isfinite(percent) ? static_cast<float>(percent / 100.0) : 0.0f;
+        const float full_slider = static_cast<float>(full[slider_k] / 100.0);
+        slider.min = std::min({0.0f, static_cast<float>(full[order.front()] / 100.0), slider.default_weight});
+        slider.max = std::max({1.0f, full_slider, slider.default_weight});
+        const uint32_t slider_index = static_cast<uint32_t>(rig_.shapes.size());
+        rig_.shapes.push_back(slider);
+        if (Status s = AddTarget(*shapes[slider_k].first, geometric, per_index, split); !s.ok()) return s;
+        mesh.target_shapes.push_back(slider_index);
+        channel_shape_[channel->id] = slider_index;
+        if (shapes.size() > 1) {
+          InBetweens ib;
+          ib.slider = slider_index;
+          ib.full = full_slider;
+          for (size_t k : order) {
+            if (k == slider_k) continue;
+            Shape in;
+            in.name = UniqueShapeName(shapes[k].first->name.empty() ? name + "_" + std::to_string(k) : shapes[k].first->name, mesh.name);
+            in.driven = true;
+            in.group = "inbetween";
+            const uint32_t index = static_cast<uint32_t>(rig_.shapes.size());
+            rig_.shapes.push_back(in);
+            if (Status s = AddTarget(*shapes[k].first, geometric, {}, split); !s.ok()) return s;
+            mesh.target_shapes.push_back(index);
+            ib.keys.emplace_back(static_cast<float>(full[k] / 100.0), index);
+          }
+          rig_.inbetweens.push_back(std::move(ib));
+        }
+      }
+    }
+    return Status::Ok();
+  }
+
+  // Skin deformers: each Cluster is a joint (its linked Model), with control point weights.
+  Status Skin(const Object& geom, int mesh_node, SplitMesh& split, Mesh& mesh) {
+    for (const auto& [other, unused] : scene_.Sources(geom.id, "Deformer")) {
+      if (other->sub == "Skin" || other->sub == "BlendShape") continue;
+      rig_.load_warnings.push_back({"deformer_skipped", "mesh '" + mesh.name + "': deformer '" + other->name + "' (" + other->sub.substr(0, 40) +
+                                                            ") is not read; only skins and blend shapes are", mesh.name, 0.0, false});
+    }
+    const auto skins = scene_.Sources(geom.id, "Deformer", "Skin");
+    if (skins.empty()) return Status::Ok();
+    if (skins.size() > 1) {
+      rig_.load_warnings.push_back({"skin_skipped", "geometry of '" + mesh.name + "' has " + std::to_string(skins.size()) + " skins; only the first is used", mesh.name, 0.0, false});
+    }
+    facespace::Skin skin;
+    skin.name = skins[0].first->name;
+    std::vector<std::vector<std::pair<uint16_t, float>>> influences(split.point_count);
+    Mat4 mesh_bind = World(mesh_node);
+    bool have_mesh_bind = false;
+    for (const auto& source : scene_.Sources(skins[0].first->id, "Deformer", "Cluster")) {
+      const Object* cluster = source.first;
+      const auto bones = scene_.Sources(cluster->id, "Model");
+      if (bones.empty() || !node_of_.count(bones[0].first->id)) {
+        rig_.load_warnings.push_back({"cluster_skipped", "skin cluster '" + cluster->name + "' has no bone", cluster->name, 0.0, false});
+        continue;
+      }
+      if (skin.joints.size() >= kMaxJoints) return InvalidArgument("FBX: skin '" + skin.name + "' has more than " + std::to_string(kMaxJoints) + " clusters");
+      const int joint_node = node_of_.at(bones[0].first->id);
+      auto matrix = [&](const char* name, Mat4& out) {
+        const Prop* p = ArrayOf(*cluster->node, name);
+        if (!p) return false;
+        const std::vector<double> v = Numbers(*p);
+        if (v.size() != 16) return false;
+        for (int k = 0; k < 16; ++k) {
+          if (!std::isfinite(v[k])) return false;
+          out(k % 4, k / 4) = v[k];
+        }
+        return true;
+      };
+      // Transform maps the mesh node to the bone at bind time (what exporters write: the bone's bind
+      // world inverted, times the mesh's), TransformLink is the bone's bind world. So Transform is the
+      // inverse bind matrix itself; without it, the bone's and mesh's rest worlds give it.
+      Mat4 link = World(joint_node), inverse_bind = World(joint_node).inverse() * World(mesh_node);
+      const bool have_link = matrix("TransformLink", link);
+      if (!matrix("Transform", inverse_bind) && have_link) inverse_bind = link.inverse() * World(mesh_node);
+      if (!have_mesh_bind && have_link) {
+        mesh_bind = link * inverse_bind;
+        have_mesh_bind = true;
+      }
+      const uint16_t joint = static_cast<uint16_t>(skin.joints.size());
+      skin.joints.push_back(joint_node);
+      for (int k = 0; k < 16; ++k) skin.inverse_bind.push_back(static_cast<float>(inverse_bind(k % 4, k / 4)));
+      const Prop* ip = ArrayOf(*cluster->node, "Indexes");
+      const Prop* wp = ArrayOf(*cluster->node, "Weights");
+      if (!ip || !wp) continue;  // A bone that moves nothing.
+      const std::vector<int64_t> index = Ints(*ip);
+      const std::vector<double> weight = Numbers(*wp);
+      if (index.size() != weight.size()) {
+        return InvalidArgument("FBX: cluster '" + cluster->name + "': " + std::to_string(index.size()) + " Indexes but " + std::to_string(weight.size()) + " Weights");
+      }
+      for (size_t k = 0; k < index.size(); ++k) {
+        if (index[k] < 0 || static_cast<uint64_t>(index[k]) >= split.point_count) {
+          return InvalidArgument("FBX: cluster '" + cluster->name + "': Indexes[" + std::to_string(k) + "] = " + std::to_string(index[k]) +
+                                 " is beyond the " + std::to_string(split.point_count) + " control points");
+        }
+        if (!std::isfinite(weight[k])) return InvalidArgument("FBX: cluster '" + cluster->name + "': a weight is not finite");
+        if (weight[k] > 0) influences[static_cast<size_t>(index[k])].emplace_back(joint, static_cast<float>(weight[k]));
+      }
+    }
+    if (skin.joints.empty()) return Status::Ok();
+    // Control points no cluster weighs follow the mesh's own node, as in FBX.
+    size_t unweighted = 0;
+    for (const auto& inf : influences) unweighted += inf.empty();
+    if (unweighted) {
+      const uint16_t joint = static_cast<uint16_t>(skin.joints.size());
+      skin.joints.push_back(mesh_node);
+      // At rest the node's joint matrix, world x inverse bind, must place them where the clusters' bind does.
+      const Mat4 inverse_bind = World(mesh_node).inverse() * mesh_bind;
+      for (int k = 0; k < 16; ++k) skin.inverse_bind.push_back(static_cast<float>(inverse_bind(k % 4, k / 4)));
+      for (auto& inf : influences) {
+        if (inf.empty()) inf.emplace_back(joint, 1.0f);
+      }
+    }
+    size_t most = 1;
+    for (const auto& inf : influences) most = std::max(most, inf.size());
+    for (size_t p = 0; p < split.primitives.size(); ++p) {
+      Primitive& prim = split.primitives[p];
+      const std::vector<uint32_t>& points = split.point_of_vertex[p];
+      prim.influences = most;
+      prim.joints.assign(points.size() * most, 0);
+      prim.joint_weights.assign(points.size() * most, 0.0f);
+      for (size_t v = 0; v < points.size(); ++v) {
+        const auto& inf = influences[points[v]];
+        float total = 0.0f;
+        for (const auto& [j, w] : inf) total += w;
+        for (size_t i = 0; i < inf.size(); ++i) {
+          prim.joints[v * most + i] = inf[i].first;
+          prim.joint_weights[v * most + i] = inf[i].second / total;
+        }
+      }
+    }
+    mesh.skin = static_cast<int>(rig_.skins.size());
+    rig_.joint_count += skin.joints.size();
+    rig_.skins.push_back(std::move(skin));
+    rig_.skin_count = rig_.skins.size();
+    return Status::Ok();
+  }
+
+  // Each AnimationStack is a clip, its curves sampled at the scene's frame rate (and at its first
+  // and last key), linear between samples: exact at every frame, whatever the curves' kinds.
+  Status Animations() {
+    const double fps = FrameRate(scene_);
+    for (int64_t id : scene_.order()) {
+      const Object& stack = *scene_.Get(id);
+      if (stack.cls != "AnimationStack") continue;
+      const auto layers = scene_.Sources(stack.id, "AnimationLayer");
+      if (layers.empty()) continue;
+      if (layers.size() > 1) {
+        rig_.load_warnings.push_back({"animation_layers_skipped", "clip '" + stack.name + "': " + std::to_string(layers.size() - 1) +
+                                                                     " layers above the first are not blended in", stack.name, 0.0, false});
+      }
+      std::deque<Curve> curves;
+      std::map<int, AnimatedProperty> translation, rotation, scaling;  // By node.
+      std::map<uint32_t, AnimatedProperty> percent;                    // By slider shape.
+      double start = INFINITY, end = -INFINITY;
+      for (const auto& [curve_node, unused] : scene_.Sources(layers[0].first->id, "AnimationCurveNode")) {
+        for (const auto& [target, prop] : scene_.Targets(curve_node->id, "Model")) {
+          auto n = node_of_.find(target->id);
+          if (n == node_of_.end()) continue;
+          if (prop == "Lcl Translation") Bind(*curve_node, translation[n->second], curves, start, end);
+          if (prop == "Lcl Rotation") Bind(*curve_node, rotation[n->second], curves, start, end);
+          if (prop == "Lcl Scaling") Bind(*curve_node, scaling[n->second], curves, start, end);
+        }
+        for (const auto& [target, prop] : scene_.Targets(curve_node->id, "Deformer", "BlendShapeChannel")) {
+          auto s = channel_shape_.find(target->id);
+          if (s != channel_shape_.end() && prop == "DeformPercent") Bind(*curve_node, percent[s->second], curves, start, end);
+        }
+      }
+      if (!curve_error_.ok()) return curve_error_;
+      if (!(end >= start)) continue;  // No curve.
+      std::vector<float> times;
+      const double first_frame = std::ceil(start * fps - 1e-6), last_frame = std::floor(end * fps + 1e-6);
+      if (last_frame - first_frame + 3 > static_cast<double>(kMaxFrames)) {
+        return InvalidArgument("FBX: clip '" + stack.name + "' spans more than " + std::to_string(kMaxFrames) + " frames");
+      }
+      if (first_frame / fps > start + 1e-9) times.push_back(static_cast<float>(start));
+      for (double f = first_frame; f <= last_frame; ++f) times.push_back(static_cast<float>(f / fps));
+      if (times.empty() || times.back() < static_cast<float>(end) - 1e-6f) times.push_back(static_cast<float>(end));
+      const size_t channels = translation.size() + rotation.size() + scaling.size() + percent.size();
+      if (times.size() * channels * 4 > kMaxClipValues) return InvalidArgument("FBX: clip '" + stack.name + "' holds too many samples");
+      AnimationInfo clip;
+      clip.name = stack.name;
+      std::set<int> moved;
+      for (const auto& m : {&translation, &rotation, &scaling}) {
+        for (const auto& [node, unused] : *m) moved.insert(node);
+      }
+      for (int node : moved) NodeChannels(node, times, translation, rotation, scaling, clip);
+      WeightChannels(times, percent, clip);
+      clip.duration = times.back();
+      clip.channels = clip.channel_data.size();
+      rig_.animations.push_back(std::move(clip));
+    }
+    return Status::Ok();
+  }
+
+  void Bind(const Object& curve_node, AnimatedProperty& prop, std::deque<Curve>& curves, double& start, double& end) {
+    for (const auto& [curve, which] : scene_.Sources(curve_node.id, "AnimationCurve")) {
+      int c = -1;
+      if (which == "d|X" || which == "d|DeformPercent") c = 0;
+      if (which == "d|Y") c = 1;
+      if (which == "d|Z") c = 2;
+      if (c < 0) continue;
+      curves.emplace_back();
+      if (Status s = ReadCurve(*curve, curves.back()); !s.ok()) {
+        if (curve_error_.ok()) curve_error_ = s;
+        return;
+      }
+      if (curves.back().times.empty()) continue;
+      prop.curves[c] = &curves.back();
+      start = std::min(start, curves.back().times.front());
+      end = std::max(end, curves.back().times.back());
+    }
+  }
+
+  static Vec3 Sample(const AnimatedProperty* p, const Vec3& rest, double t) {
+    Vec3 v = rest;
+    if (p) {
+      for (int c = 0; c < 3; ++c) {
+        if (p->curves[c]) v[c] = p->curves[c]->At(t);
+      }
+    }
+    return v;
+  }
+
+  void NodeChannels(int node, const std::vector<float>& times, const std::map<int, AnimatedProperty>& translation,
+                    const std::map<int, AnimatedProperty>& rotation, const std::map<int, AnimatedProperty>& scaling, AnimationInfo& clip) {
+    auto find = [&](const std::map<int, AnimatedProperty>& m) { auto it = m.find(node); return it == m.end() ? nullptr : &it->second; };
+    const AnimatedProperty *t = find(translation), *r = find(rotation), *s = find(scaling);
+    const TransformStack& st = StackOf(node);
+    AnimationSampler ts, rs, ss;
+    ts.components = ss.components = 3;
+    rs.components = 4;
+    std::array<float, 4> previous{0, 0, 0, 1};
+    bool sheared = false;
+    for (size_t k = 0; k < times.size(); ++k) {
+      const double time = times[k];
+      std::array<float, 3> tt, sc;
+      std::array<float, 4> q;
+      sheared |= !Decompose(st.Local(Sample(t, st.t, time), Sample(r, st.r, time), Sample(s, st.s, time)), tt, q, sc);
+      if (k && q[0] * previous[0] + q[1] * previous[1] + q[2] * previous[2] + q[3] * previous[3] < 0) {
+        for (float& c : q) c = -c;  // The short way round from the previous key.
+      }
+      previous = q;
+      ts.values.insert(ts.values.end(), tt.begin(), tt.end());
+      rs.values.insert(rs.values.end(), q.begin(), q.end());
+      ss.values.insert(ss.values.end(), sc.begin(), sc.end());
+    }
+    if (sheared || rig_.nodes[node].has_matrix) {
+      rig_.load_warnings.push_back({"animation_sheared", "node '" + rig_.nodes[node].name +
+                                                             "': its animated transform shears (non-uniform scale under rotation); the clip keeps the nearest rotation and scale",
+                                    rig_.nodes[node].name, 0.0, false});
+      rig_.nodes[node].has_matrix = false;
+    }
+    const ChannelPath paths[3] = {ChannelPath::kTranslation, ChannelPath::kRotation, ChannelPath::kScale};
+    AnimationSampler* samplers[3] = {&ts, &rs, &ss};
+    for (int c = 0; c < 3; ++c) {
+      samplers[c]->times = times;
+      samplers[c]->interpolation = Interpolation::kLinear;
+      clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), node, paths[c]});
+      clip.sampler_data.push_back(std::move(*samplers[c]));
+    }
+  }
+
+  // One weights channel per mesh with an animated slider: every target's weight per sample
+  // (sliders from their DeformPercent / 100, in-betweens 0: the rig derives them).
+  void WeightChannels(const std::vector<float>& times, const std::map<uint32_t, AnimatedProperty>& percent, AnimationInfo& clip) {
+    for (size_t mi = 0; mi < rig_.meshes.size(); ++mi) {
+      const Mesh& mesh = rig_.meshes[mi];
+      bool animated = false;
+      for (uint32_t s : mesh.target_shapes) animated |= percent.count(s) > 0;
+      if (!animated || !mesh_node_.count(static_cast<int>(mi))) continue;
+      AnimationSampler ws;
+      ws.components = mesh.target_shapes.size();
+      ws.times = times;
+      ws.interpolation = Interpolation::kLinear;
+      for (double time : times) {
+        for (uint32_t s : mesh.target_shapes) {
+          const Shape& shape = rig_.shapes[s];
+          auto it = percent.find(s);
+          float w = shape.driven ? 0.0f : shape.default_weight;
+          if (it != percent.end() && it->second.curves[0]) w = static_cast<float>(it->second.curves[0]->At(time) / 100.0);
+          ws.values.push_back(w);
+        }
+      }
+      clip.has_weights = true;
+      clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), mesh_node_.at(static_cast<int>(mi)), ChannelPath::kWeights});
+      clip.sampler_data.push_back(std::move(ws));
+    }
+  }
+
+  const Scene& scene_;
+  Rig rig_;
+  std::unordered_map<int64_t, int> node_of_;       // Model id -> node.
+  std::vector<TransformStack> stacks_;             // Per Model node.
+  std::vector<const Object*> model_of_node_;       // Per Model node.
+  std::vector<std::array<float, 16>> world_;       // Rest world matrices.
+  std::unordered_map<int64_t, int> material_of_;   // Material id -> rig material.
+  std::unordered_map<int64_t, uint32_t> channel_shape_;  // BlendShapeChannel id -> slider shape.
+  std::unordered_map<int, int> mesh_node_;         // Mesh -> the node showing it.
+  Status curve_error_;
+};
+
+}  // namespace
+
+Result<Rig> LoadFbxMemory(std::span<const unsigned char> bytes, const std::string& name) {
+  Result<fbx::Document> doc = fbx::Parse(bytes);
+  if (!doc.ok()) return Prefixed(doc.status(), name + ": ");
+  if (doc->version && doc->version < 7000) {
+    return InvalidArgument(name + ": FBX version " + std::to_string(doc->version) + " is not supported (7.0 and later are)");
+  }
+  Scene scene;
+  if (Status s = scene.Index(doc.value()); !s.ok()) return Prefixed(s, name + ": ");
+  Importer importer(scene, name);
+  Result<Rig> rig = importer.Run();
+  if (!rig.ok()) return Prefixed(rig.status(), name + ": ");
+  if (Status s = ValidateRig(rig.value()); !s.ok()) return Prefixed(s, name + ": ");
+  return rig;
+}
+
+}  // namespace facespace

@@ -1,0 +1,242 @@
+// COLLADA (../shared/assets/more/Collada): the conformance files' morphs give the shapes the
+// spec's formulas give from the raw numbers (copied here from the file text), the skins sit at
+// their bind shape at rest, the animated weight passes through its keys; then hostile files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "facespace/core/animation.h"
+#include "facespace/core/blend.h"
+#include "facespace/core/io.h"
+#include "test_util.h"
+
+namespace facespace {
+namespace {
+
+std::string Dae(const std::string& rel) { return test::SharedAssets() + "/more/Collada/" + rel; }
+
+std::string Text(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+// The numbers of the element with id="`id`" in the file text.
+std::vector<double> ArrayById(const std::string& text, const std::string& id) {
+  const size_t at = text.find("id=\"" + id + "\"");
+  const size_t open = text.find('>', at) + 1, close = text.find('<', open);
+  std::istringstream s(text.substr(open, close - open));
+  std::vector<double> out;
+  for (double v; s >> v;) out.push_back(v);
+  return out;
+}
+
+Rig Load(const std::string& path) {
+  Result<Rig> rig = LoadRigFile(path);
+  EXPECT_TRUE(rig.ok()) << path << ": " << rig.status().message;
+  return rig.ok() ? std::move(rig.value()) : Rig{};
+}
+
+// World positions of every vertex, weights as given (default: the rig's defaults).
+std::vector<float> World(const Rig& rig, std::vector<float> w = {}, const Pose* pose = nullptr) {
+  if (w.empty()) {
+    for (const Shape& s : rig.shapes) w.push_back(s.default_weight);
+  }
+  BlendedRig blended;
+  BlendContext context;
+  BlendOptions options;
+  options.pose = pose;
+  EXPECT_TRUE(EvaluateRig(rig, w, options, blended, context).ok());
+  std::vector<float> out;
+  WorldPositions(blended, out);
+  return out;
+}
+
+// True when every point of `want` is within `tol` of a vertex of `got` (vertices split per corner).
+bool Covers(const std::vector<float>& got, const std::vector<std::array<double, 3>>& want, double tol) {
+  for (const auto& p : want) {
+    double best = 1e30;
+    for (size_t v = 0; v + 2 < got.size(); v += 3) best = std::min(best, std::hypot(got[v] - p[0], got[v + 1] - p[1], got[v + 2] - p[2]));
+    if (best > tol) return false;
+  }
+  return true;
+}
+
+TEST(Collada, NormalizedMorphIsTheWeightedSumOfTargetsAndBase) {
+  const std::string path = Dae("CTS_morph_two_targets/morph_two_targets.dae");
+  const Rig rig = Load(path);
+  ASSERT_EQ(rig.shapes.size(), 2u);
+  EXPECT_FLOAT_EQ(rig.shapes[0].default_weight, 0.5f);
+  EXPECT_FLOAT_EQ(rig.shapes[1].default_weight, 1.0f);
+  const std::string text = Text(path);
+  const auto base = ArrayById(text, "pCubeShape3-positions-array"), t1 = ArrayById(text, "pCubeShape1-positions-array"),
+             t2 = ArrayById(text, "pCubeShape2-positions-array");
+  ASSERT_EQ(base.size(), 15u);
+  // (1 - 0.5 - 1) base + 0.5 t1 + 1 t2, then the node: translate (0, -50, 0), scale 3.
+  std::vector<std::array<double, 3>> want;
+  for (size_t v = 0; v < 5; ++v) {
+    std::array<double, 3> p;
+    for (int c = 0; c < 3; ++c) p[c] = 3 * (-0.5 * base[3 * v + c] + 0.5 * t1[3 * v + c] + t2[3 * v + c]) + (c == 1 ? -50 : 0);
+    want.push_back(p);
+  }
+  EXPECT_TRUE(Covers(World(rig), want, 1e-3));
+  EXPECT_NEAR(want[4][1], 100.0, 1e-9);  // The apex: 0.5 x -100 + 100, scaled by 3, moved down 50.
+}
+
+TEST(Collada, RelativeMorphAddsWeightedTargetOffsets) {
+  const std::string path = Dae("CTS_morph_two_targets/morph_two_targets_relative.dae");
+  const Rig rig = Load(path);
+  ASSERT_EQ(rig.shapes.size(), 2u);
+  EXPECT_FLOAT_EQ(rig.shapes[1].default_weight, 0.25f);
+  const std::string text = Text(path);
+  const auto base = ArrayById(text, "pCubeShape3-positions-array"), t1 = ArrayById(text, "pCubeShape1-positions-array"),
+             t2 = ArrayById(text, "pCubeShape2-positions-array");
+  // base + 0.5 (t1 - base) + 0.25 (t2 - base), then translate (0, 20, 0), scale 2.
+  std::vector<std::array<double, 3>> want;
+  for (size_t v = 0; v < 5; ++v) {
+    std::array<double, 3> p;
+    for (int c = 0; c < 3; ++c) {
+      const double b = base[3 * v + c];
+      p[c] = 2 * (b + 0.5 * (t1[3 * v + c] - b) + 0.25 * (t2[3 * v + c] - b)) + (c == 1 ? 20 : 0);
+    }
+    want.push_back(p);
+  }
+  EXPECT_TRUE(Covers(World(rig), want, 1e-3));
+}
+
+TEST(Collada, SkinOverMorphBlendsThenSkins) {
+  const std::string path = Dae("CTS_skin_on_morph/skin_on_morph.dae");
+  const Rig rig = Load(path);
+  ASSERT_EQ(rig.shapes.size(), 1u);
+  ASSERT_EQ(rig.skins.size(), 1u);
+  EXPECT_EQ(rig.skins[0].joints.size(), 2u);
+  const std::string text = Text(path);
+  const auto g0 = ArrayById(text, "geometries_0-Pos-array"), g1 = ArrayById(text, "geometries_1-Pos-array");
+  ASSERT_EQ(g0.size(), 18u);
+  // From the file: bind shape matrix identity; joint "null" rests where its inverse bind binds it
+  // (z = -4), "null1" sits 4 further along x than its bind (world (4, 0, 4), bound at (0, 0, 4)),
+  // so each vertex moves by its null1 weight x (4, 0, 0). Weights of null1 per vertex, from <v>:
+  const double null1[6] = {0.003448, 0, 0.996552, 0.003448, 0, 0.996552};
+  for (float w : {0.0f, 0.5f, 1.0f}) {
+    std::vector<std::array<double, 3>> want;
+    for (size_t v = 0; v < 6; ++v) {
+      std::array<double, 3> p;
+      for (int c = 0; c < 3; ++c) p[c] = (1 - w) * g0[3 * v + c] + w * g1[3 * v + c] + (c == 0 ? 4 * null1[v] : 0.0);
+      want.push_back(p);
+    }
+    EXPECT_TRUE(Covers(World(rig, {w}), want, 1e-4)) << w;
+  }
+}
+
+TEST(Collada, FourInfluenceSkinKeepsEveryInfluence) {
+  const std::string path = Dae("CTS_skin_4_influence/skin_4_influence.dae");
+  const Rig rig = Load(path);
+  ASSERT_EQ(rig.skins.size(), 1u);
+  EXPECT_EQ(rig.skins[0].joints.size(), 4u);
+  ASSERT_EQ(rig.primitives.size(), 1u);
+  const Primitive& p = rig.primitives[0];
+  EXPECT_EQ(p.influences, 4u);
+  // Every vertex has 4 influences (<vcount> is all 4s) whose weights sum to 1.
+  size_t full = 0;
+  for (size_t v = 0; v < p.vertex_count(); ++v) {
+    float sum = 0;
+    int nonzero = 0;
+    for (size_t k = 0; k < 4; ++k) {
+      sum += p.joint_weights[4 * v + k];
+      nonzero += p.joint_weights[4 * v + k] > 0;
+    }
+    EXPECT_NEAR(sum, 1.0f, 1e-5);
+    full += nonzero == 4;
+  }
+  EXPECT_GT(full, p.vertex_count() / 2);
+  // The rest pose evaluates to finite positions.
+  for (float v : World(rig)) ASSERT_TRUE(std::isfinite(v));
+}
+
+TEST(Collada, AnimatedMorphWeightPassesThroughItsKeys) {
+  const Rig rig = Load(Dae("SCEA_animation_morph/animation_morph.dae"));
+  ASSERT_EQ(rig.animations.size(), 1u);
+  ASSERT_EQ(rig.shapes.size(), 1u);  // The IDREF array names a second, missing target: the accessor says 1.
+  // Keys from the file: times 0.041666, 0.416667, 0.833333; values 0, 1, -0.5 (BEZIER between).
+  const double times[] = {0.041666, 0.416667, 0.833333}, values[] = {0, 1, -0.5};
+  for (int k = 0; k < 3; ++k) {
+    Pose pose = RestPose(rig);
+    std::vector<float> w;
+    std::vector<uint8_t> set;
+    ASSERT_TRUE(SampleClip(rig, 0, static_cast<float>(times[k]), ClipWrap::kClamp, pose, w, set).ok());
+    EXPECT_NEAR(w[0], values[k], 2e-3) << k;
+  }
+}
+
+// ---- hostile ----
+
+std::string Doc(const std::string& geometry_body, const std::string& extra = "", const std::string& scene = "") {
+  return "<?xml version=\"1.0\"?><COLLADA version=\"1.4.1\"><library_geometries><geometry id=\"g\"><mesh>"
+         "<source id=\"p\"><float_array id=\"pa\" count=\"9\">0 0 0 1 0 0 0 1 0</float_array>"
+         "<technique_common><accessor source=\"#pa\" count=\"3\" stride=\"3\"/></technique_common></source>"
+         "<vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>" +
+         geometry_body + "</mesh></geometry></library_geometries>" + extra +
+         "<library_visual_scenes><visual_scene id=\"s\"><node id=\"n\"><instance_geometry url=\"#g\"/></node>" + scene +
+         "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>";
+}
+
+Result<Rig> LoadText(const std::string& text) {
+  return LoadColladaMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(text.data()), text.size()), "t");
+}
+
+void ExpectError(const std::string& text, const std::string& needle) {
+  const Result<Rig> rig = LoadText(text);
+  ASSERT_FALSE(rig.ok()) << needle;
+  EXPECT_NE(rig.status().message.find(needle), std::string::npos) << rig.status().message;
+}
+
+TEST(ColladaHostile, AWellFormedTriangleLoads) {
+  const Result<Rig> rig = LoadText(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>"));
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  EXPECT_EQ(rig->triangle_count(), 1u);
+}
+
+TEST(ColladaHostile, BrokenFilesNameWhatIsWrong) {
+  ExpectError("<COLLADA><library_geometries>", "not well-formed XML");
+  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 99</p></triangles>"),
+              "<geometry id=\"g\">: corner 2 uses vertex 99 of 3");
+  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1</p></triangles>"), "the polygons need");
+  ExpectError(Doc("<polylist count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><vcount>5</vcount><p>0 1 2</p></polylist>"),
+              "<p> holds 3 indices, the polygons need 5");
+  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 nan</p></triangles>"), "not a number");
+  std::string lying = Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>");
+  lying.replace(lying.find("count=\"3\""), 9, "count=\"30\"");
+  ExpectError(lying, "its accessor reads 30 x 3 values of 9");
+}
+
+TEST(ColladaHostile, InstanceNodeCyclesAndBadSkinsAreRefused) {
+  const std::string tri = "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>";
+  ExpectError(Doc(tri, "<library_nodes><node id=\"a\"><instance_node url=\"#b\"/></node><node id=\"b\"><instance_node url=\"#a\"/></node></library_nodes>",
+                  "<node id=\"c\"><instance_node url=\"#a\"/></node>"),
+              "nested deeper than 128");
+  const std::string skin =
+      "<library_controllers><controller id=\"k\"><skin source=\"#g\">"
+      "<source id=\"j\"><Name_array id=\"ja\" count=\"1\">n</Name_array><technique_common><accessor source=\"#ja\" count=\"1\"/></technique_common></source>"
+      "<source id=\"m\"><float_array id=\"ma\" count=\"16\">1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1</float_array><technique_common><accessor source=\"#ma\" count=\"1\" stride=\"16\"/></technique_common></source>"
+      "<source id=\"w\"><float_array id=\"wa\" count=\"1\">1</float_array><technique_common><accessor source=\"#wa\" count=\"1\"/></technique_common></source>"
+      "<joints><input semantic=\"JOINT\" source=\"#j\"/><input semantic=\"INV_BIND_MATRIX\" source=\"#m\"/></joints>"
+      "<vertex_weights count=\"3\"><input semantic=\"JOINT\" source=\"#j\" offset=\"0\"/><input semantic=\"WEIGHT\" source=\"#w\" offset=\"1\"/>"
+      "<vcount>1 1 1</vcount><v>0 0 0 0 JOINT</v></vertex_weights></skin></controller></library_controllers>";
+  std::string doc = Doc(tri, skin);
+  doc.replace(doc.find("<instance_geometry url=\"#g\"/>"), 29, "<instance_controller url=\"#k\"/>");
+  std::string fixed = doc;
+  fixed.replace(fixed.find("JOINT</v>"), 9, "5 0</v>");
+  ExpectError(fixed, "names joint 5 of 1");
+  fixed = doc;
+  fixed.replace(fixed.find("JOINT</v>"), 9, "0 0</v>");
+  fixed.replace(fixed.find(">n</Name_array>"), 15, ">q</Name_array>");
+  ExpectError(fixed, "joint 'q' is no node of the scene");
+  fixed.replace(fixed.find("<node id=\"n\">"), 13, "<node id=\"n\" sid=\"q\">");
+  const Result<Rig> rig = LoadText(fixed);
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  EXPECT_EQ(rig->skins.size(), 1u);
+}
+
+}  // namespace
+}  // namespace facespace
