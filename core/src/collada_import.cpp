@@ -20,6 +20,7 @@
 #include <unordered_map>
 
 #include "facespace/core/io.h"
+#include "split_mesh.h"
 
 namespace facespace {
 
@@ -359,7 +360,7 @@ class Reader {
     std::vector<std::string> joint_names;
     std::vector<Mat4> inverse_binds;
     bool names_are_ids = false;
-    std::vector<std::vector<std::pair<uint32_t, float>>> influences;  // Per position index.
+    std::vector<Influences> influences;  // Per position index.
   };
 
   Status ReadSkin(pugi::xml_node controller, pugi::xml_node skin, size_t points, SkinData& out) {
@@ -698,24 +699,7 @@ class Reader {
         }
         rig_.load_warnings.push_back({"unweighted_vertices", Describe(skin_controller) + ": vertices without joint weights follow node '" + rig_.nodes[node].name + "'", "", 0.0, false});
       }
-      size_t most = 1;
-      for (const auto& inf : sd.influences) most = std::max(most, inf.size());
-      for (size_t p = 0; p < split.primitives.size(); ++p) {
-        Primitive& prim = split.primitives[p];
-        const std::vector<uint32_t>& points = split.point_of_vertex[p];
-        prim.influences = most;
-        prim.joints.assign(points.size() * most, 0);
-        prim.joint_weights.assign(points.size() * most, 0.0f);
-        for (size_t v = 0; v < points.size(); ++v) {
-          const auto& inf = sd.influences[points[v]];
-          float total = 0;
-          for (const auto& [j, w] : inf) total += w;
-          for (size_t i = 0; i < inf.size(); ++i) {
-            prim.joints[v * most + i] = static_cast<uint16_t>(inf[i].first);
-            prim.joint_weights[v * most + i] = inf[i].second / total;
-          }
-        }
-      }
+      for (size_t p = 0; p < split.primitives.size(); ++p) SetInfluences(split.primitives[p], split.point_of_vertex[p], sd.influences);
       mesh.skin = static_cast<int>(rig_.skins.size());
       rig_.joint_count += out.joints.size();
       rig_.skins.push_back(std::move(out));

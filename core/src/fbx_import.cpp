@@ -23,6 +23,7 @@
 #include <unordered_map>
 
 #include "facespace/core/io.h"
+#include "split_mesh.h"
 #include "fbx_tree.h"
 
 namespace facespace {
@@ -923,7 +924,7 @@ class Importer {
     }
     facespace::Skin skin;
     skin.name = skins[0].first->name;
-    std::vector<std::vector<std::pair<uint16_t, float>>> influences(split.point_count);
+    std::vector<Influences> influences(split.point_count);
     Mat4 mesh_bind = World(mesh_node);
     bool have_mesh_bind = false;
     for (const auto& source : scene_.Sources(skins[0].first->id, "Deformer", "Cluster")) {
@@ -956,7 +957,7 @@ class Importer {
         mesh_bind = link * inverse_bind;
         have_mesh_bind = true;
       }
-      const uint16_t joint = static_cast<uint16_t>(skin.joints.size());
+      const uint32_t joint = static_cast<uint32_t>(skin.joints.size());
       skin.joints.push_back(joint_node);
       for (int k = 0; k < 16; ++k) skin.inverse_bind.push_back(static_cast<float>(inverse_bind(k % 4, k / 4)));
       const Prop* ip = ArrayOf(*cluster->node, "Indexes");
@@ -981,7 +982,7 @@ class Importer {
     size_t unweighted = 0;
     for (const auto& inf : influences) unweighted += inf.empty();
     if (unweighted) {
-      const uint16_t joint = static_cast<uint16_t>(skin.joints.size());
+      const uint32_t joint = static_cast<uint32_t>(skin.joints.size());
       skin.joints.push_back(mesh_node);
       // At rest the node's joint matrix, world x inverse bind, must place them where the clusters' bind does.
       const Mat4 inverse_bind = World(mesh_node).inverse() * mesh_bind;
@@ -990,24 +991,7 @@ class Importer {
         if (inf.empty()) inf.emplace_back(joint, 1.0f);
       }
     }
-    size_t most = 1;
-    for (const auto& inf : influences) most = std::max(most, inf.size());
-    for (size_t p = 0; p < split.primitives.size(); ++p) {
-      Primitive& prim = split.primitives[p];
-      const std::vector<uint32_t>& points = split.point_of_vertex[p];
-      prim.influences = most;
-      prim.joints.assign(points.size() * most, 0);
-      prim.joint_weights.assign(points.size() * most, 0.0f);
-      for (size_t v = 0; v < points.size(); ++v) {
-        const auto& inf = influences[points[v]];
-        float total = 0.0f;
-        for (const auto& [j, w] : inf) total += w;
-        for (size_t i = 0; i < inf.size(); ++i) {
-          prim.joints[v * most + i] = inf[i].first;
-          prim.joint_weights[v * most + i] = inf[i].second / total;
-        }
-      }
-    }
+    for (size_t p = 0; p < split.primitives.size(); ++p) SetInfluences(split.primitives[p], split.point_of_vertex[p], influences);
     mesh.skin = static_cast<int>(rig_.skins.size());
     rig_.joint_count += skin.joints.size();
     rig_.skins.push_back(std::move(skin));
