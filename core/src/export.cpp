@@ -201,6 +201,29 @@ class GlbBuilder {
     return static_cast<int>(m_.accessors.size() - 1);
   }
 
+  // An unsigned short VEC4 accessor (JOINTS_n).
+  int Joints(std::span<const uint16_t> values) {
+    tinygltf::Accessor a;
+    a.bufferView = View(values.data(), values.size() * 2, TINYGLTF_TARGET_ARRAY_BUFFER);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    a.count = values.size() / 4;
+    a.type = TINYGLTF_TYPE_VEC4;
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  // Floats outside any vertex buffer (inverse binds, animation keys): no buffer view target.
+  int Data(std::span<const float> values, int type, size_t count, bool minmax) {
+    tinygltf::Accessor a;
+    a.bufferView = View(values.data(), values.size() * 4, 0);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = count;
+    a.type = type;
+    if (minmax) MinMax(values, 1, count, a);
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
   int Indices(std::span<const uint32_t> idx, size_t vertex_count) {
     tinygltf::Accessor a;
     if (vertex_count <= 65535) {
@@ -308,14 +331,31 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];
       const BlendedPrimitive& bp = blended.primitives[pi];
-      const bool targets = options.keep_targets && !p.targets.empty();
+      const bool rig_data = options.keep_targets;  // The rig itself: base positions, its targets, its skin.
+      const bool targets = rig_data && !p.targets.empty();
       tinygltf::Primitive gp;
-      gp.attributes["POSITION"] = b.Floats(targets ? std::span<const float>(p.positions) : bp.positions, 3, true);
-      gp.attributes["NORMAL"] = b.Floats(targets ? std::span<const float>(p.normals) : bp.normals, 3, false);
-      if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(targets ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
+      gp.attributes["POSITION"] = b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
+      gp.attributes["NORMAL"] = b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
+      if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
       if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(p.texcoords, 2, false);
       if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
       if (!p.indices.empty()) gp.indices = b.Indices(p.indices, p.vertex_count());
+      if (options.keep_targets && p.influences > 0 && mesh.skin >= 0) {
+        // The skin itself (JOINTS_n / WEIGHTS_n, 4 influences per set), for clients that skin on the GPU.
+        const size_t sets = (p.influences + 3) / 4, n = p.vertex_count();
+        for (size_t set = 0; set < sets; ++set) {
+          std::vector<uint16_t> joints(4 * n, 0);
+          std::vector<float> jw(4 * n, 0.0f);
+          for (size_t v = 0; v < n; ++v) {
+            for (size_t k = 0; k < 4 && 4 * set + k < p.influences; ++k) {
+              joints[4 * v + k] = p.joints[v * p.influences + 4 * set + k];
+              jw[4 * v + k] = p.joint_weights[v * p.influences + 4 * set + k];
+            }
+          }
+          gp.attributes["JOINTS_" + std::to_string(set)] = b.Joints(joints);
+          gp.attributes["WEIGHTS_" + std::to_string(set)] = b.Floats(jw, 4, false);
+        }
+      }
       gp.mode = static_cast<int>(p.mode);
       gp.material = p.material;
       if (targets) {
@@ -376,6 +416,9 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
       if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
     }
+    if (options.keep_targets && n.mesh >= 0 && rig.meshes[n.mesh].skin >= 0 && static_cast<size_t>(rig.meshes[n.mesh].skin) < rig.skins.size()) {
+      gn.skin = rig.meshes[n.mesh].skin;
+    }
     // tinygltf writes a node with no properties as null, which glTF forbids: name it.
     if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() && gn.translation.empty() &&
         gn.rotation.empty() && gn.scale.empty()) {
@@ -395,6 +438,57 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   }
   m.scenes.push_back(scene);
   m.defaultScene = 0;
+  if (options.keep_targets) {
+    for (const Skin& skin : rig.skins) {
+      tinygltf::Skin gs;
+      gs.name = skin.name;
+      gs.joints = skin.joints;
+      gs.inverseBindMatrices = b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
+      m.skins.push_back(gs);
+    }
+    for (const AnimationInfo& clip : rig.animations) {
+      tinygltf::Animation ga;
+      ga.name = clip.name;
+      // A weights sampler needs one value per morph target of its node's mesh; a tool that appended
+      // shapes (mirror, derive) leaves the clip's keys short: the new targets get 0.
+      std::vector<size_t> targets(clip.sampler_data.size(), 0);
+      for (const AnimationChannel& c : clip.channel_data) {
+        if (c.path == ChannelPath::kWeights && rig.nodes[c.node].mesh >= 0) targets[c.sampler] = rig.meshes[rig.nodes[c.node].mesh].target_shapes.size();
+      }
+      std::vector<int> sampler_of(clip.sampler_data.size(), -1);
+      for (size_t si = 0; si < clip.sampler_data.size(); ++si) {
+        const AnimationSampler& s = clip.sampler_data[si];
+        const bool scalar = s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
+        std::vector<float> padded;
+        std::span<const float> values = s.values;
+        if (targets[si] && s.components != targets[si]) {
+          if (s.components > targets[si] || s.interpolation == Interpolation::kCubicSpline) continue;  // Cannot map: dropped.
+          for (size_t k = 0; k < s.times.size(); ++k) {
+            padded.insert(padded.end(), s.values.begin() + static_cast<std::ptrdiff_t>(k * s.components), s.values.begin() + static_cast<std::ptrdiff_t>((k + 1) * s.components));
+            padded.resize((k + 1) * targets[si], 0.0f);
+          }
+          values = padded;
+        }
+        tinygltf::AnimationSampler gs;
+        gs.input = b.Data(s.times, TINYGLTF_TYPE_SCALAR, s.times.size(), true);
+        const size_t per_key = s.interpolation == Interpolation::kCubicSpline ? 3 : 1;
+        gs.output = b.Data(values, scalar ? TINYGLTF_TYPE_SCALAR : s.components == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4,
+                           scalar ? values.size() : s.times.size() * per_key, false);
+        gs.interpolation = s.interpolation == Interpolation::kStep ? "STEP" : s.interpolation == Interpolation::kCubicSpline ? "CUBICSPLINE" : "LINEAR";
+        sampler_of[si] = static_cast<int>(ga.samplers.size());
+        ga.samplers.push_back(gs);
+      }
+      for (const AnimationChannel& c : clip.channel_data) {
+        if (sampler_of[c.sampler] < 0) continue;
+        tinygltf::AnimationChannel gc;
+        gc.sampler = sampler_of[c.sampler];
+        gc.target_node = c.node;
+        gc.target_path = c.path == ChannelPath::kTranslation ? "translation" : c.path == ChannelPath::kRotation ? "rotation" : c.path == ChannelPath::kScale ? "scale" : "weights";
+        ga.channels.push_back(gc);
+      }
+      if (!ga.channels.empty()) m.animations.push_back(ga);
+    }
+  }
   m.buffers[0].data.resize((m.buffers[0].data.size() + 3) & ~size_t{3}, 0);
   if (m.buffers[0].data.empty()) m.buffers.clear();
 

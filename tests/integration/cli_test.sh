@@ -306,7 +306,18 @@ if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
   rc=$?; cat "$tmp/val"
   check "glTF validator: 0 errors on glbs converted from FBX and COLLADA" test $rc -eq 0
 fi
-"$bin" render "$M/FBX/ufbx_maya_axes_anim/maya_axes_anim_7700_ascii.fbx" --animation 0 --time 0.3 --width 96 --height 96 -o "$tmp/axes.png" 2>/dev/null
+axes="$M/FBX/ufbx_maya_axes_anim/maya_axes_anim_7700_ascii.fbx"
+"$bin" convert "$axes" -o "$tmp/axes.glb" >/dev/null 2>&1
+"$bin" blend "$axes" --animation 0 --time 0.3 --set X1=0.4 -o "$tmp/axes_src.json" 2>/dev/null
+"$bin" blend "$tmp/axes.glb" --animation 0 --time 0.3 --set X1=0.4 -o "$tmp/axes_glb.json" 2>/dev/null
+check "convert maya_axes_anim.fbx -> .glb keeps the skin and the clip: the posed, skinned, morphed blend is the source's" py 'import json,sys
+a=json.load(open(sys.argv[1]))["primitives"]; b=json.load(open(sys.argv[2]))["primitives"]
+sys.exit(not(len(a)==len(b)==6 and max(abs(x-y) for p,q in zip(a,b) for x,y in zip(p["positions"],q["positions"]))<1e-5))' "$tmp/axes_src.json" "$tmp/axes_glb.json"
+if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/axes.glb" >"$tmp/val" 2>&1
+  check "glTF validator: 0 errors on the converted skinned, animated FBX" test $? -eq 0
+fi
+"$bin" render "$axes" --animation 0 --time 0.3 --width 96 --height 96 -o "$tmp/axes.png" 2>/dev/null
 check "render maya_axes_anim.fbx (skin + blend shape + node animation) at t=0.3: a 96x96 PNG" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); sys.exit(not(d[:8]==b"\x89PNG\r\n\x1a\n" and struct.unpack(">II", d[16:24])==(96,96)))' "$tmp/axes.png"
 "$bin" info "$M/Collada/CTS_skin_on_morph/skin_on_morph.dae" >"$tmp/som.info" 2>/dev/null
 check "info skin_on_morph.dae: a skin of 2 joints over a morph of 1 shape" sh -c "grep -q 'skeleton   1 skin(s), 2 joints' '$tmp/som.info' && grep -q 'shapes     1' '$tmp/som.info'"
