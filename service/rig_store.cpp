@@ -131,7 +131,7 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   if (Status s = WriteFileDurably(dir_, file, data, tmp, "the rig"); !s.ok()) return s;
   // Other extensions, if any, must not shadow the new file after a restart.
   std::error_code ec;
-  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5}) {
+  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx}) {
     if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
   }
   std::lock_guard<std::mutex> lock(mu_);

@@ -411,7 +411,7 @@ std::string ManifestJson(const Rig& rig) {
 bool RigFormatFromPath(const std::string& path, RigFormat* format) {
   std::string lower = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const RigFormat formats[] = {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5};
+  const RigFormat formats[] = {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx};
   for (RigFormat f : formats) {
     if (EndsWith(lower, RigFormatExtension(f))) {
       *format = f;
@@ -425,6 +425,8 @@ bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format) {
   const std::string_view head(reinterpret_cast<const char*>(bytes.data()), std::min<size_t>(bytes.size(), 4096));
   if (head.substr(0, 4) == "glTF") {
     *format = RigFormat::kGlb;
+  } else if (head.substr(0, 4) == "PMX ") {
+    *format = RigFormat::kPmx;
   } else if (head.substr(0, 18) == "Kaydara FBX Binary" || head.find("; FBX ") == 0 || head.find("FBXHeaderExtension:") != std::string_view::npos) {
     *format = RigFormat::kFbx;
   } else if (head.find("<COLLADA") != std::string_view::npos) {
@@ -446,6 +448,7 @@ const char* RigFormatExtension(RigFormat format) {
     case RigFormat::kFbx: return ".fbx";
     case RigFormat::kCollada: return ".dae";
     case RigFormat::kMd5: return ".md5mesh";
+    case RigFormat::kPmx: return ".pmx";
   }
   return "";
 }
@@ -457,6 +460,7 @@ Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format
     case RigFormat::kGltf: rig = LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false}); break;
     case RigFormat::kFbx: rig = LoadFbxMemory(bytes, name); break;
     case RigFormat::kCollada: rig = LoadColladaMemory(bytes, name); break;
+    case RigFormat::kPmx: rig = LoadPmxMemory(bytes, name); break;
     case RigFormat::kMd5: rig = LoadMd5Memory(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), name + ".md5mesh", {}); break;
   }
   if (rig.ok()) rig->name = name;
@@ -467,7 +471,7 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
   RigFormat format = RigFormat::kGltf;
   const bool known = RigFormatFromPath(path, &format);
   Result<Rig> rig = Internal("unread");
-  if (known && (format == RigFormat::kFbx || format == RigFormat::kCollada)) {
+  if (known && (format == RigFormat::kFbx || format == RigFormat::kCollada || format == RigFormat::kPmx)) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return NotFound("cannot open '" + path + "'");
     const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());

@@ -79,16 +79,21 @@ Result<Rig> LoadFbxMemory(std::span<const unsigned char> bytes, const std::strin
 // ("collada_root") turns a Z-up or X-up file Y-up.
 Result<Rig> LoadColladaMemory(std::span<const unsigned char> bytes, const std::string& name);
 
+// MikuMikuDance PMX 2.0/2.1 (see core/README.md "MMD"): vertices with BDEF1/2/4 skinning, faces per
+// material, bones and one skin, vertex morphs (and group morphs baked) as shapes named in Japanese with
+// the English names as aliases. Converted once to right-handed metres: (x, y, -z) x 0.08.
+Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::string& name);
+
 // The formats a rig comes in, and how to tell them: by file extension, or by the bytes' magic.
-enum class RigFormat { kGlb, kGltf, kFbx, kCollada, kMd5 };
+enum class RigFormat { kGlb, kGltf, kFbx, kCollada, kMd5, kPmx };
 bool RigFormatFromPath(const std::string& path, RigFormat* format);
 bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format);
-const char* RigFormatExtension(RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh"
+const char* RigFormatExtension(RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh", ".pmx"
 // A rig from bytes of a known format (never reads other files: no external buffers, manifests or
 // .md5anim clips). `name` names the rig.
 Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name);
 
-// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, or .obj (a single OBJ is a rig without shapes).
+// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, .pmx, or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
 
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
