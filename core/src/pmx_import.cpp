@@ -38,6 +38,7 @@ class Bytes {
 
   bool Raw(void* out, size_t n, const char* what) {
     if (n > left()) return Fail(std::string("truncated in ") + what);
+    if (n == 0) return true;  // An empty text: `out` may be null.
     std::memcpy(out, b_.data() + pos_, n);
     pos_ += n;
     return true;
