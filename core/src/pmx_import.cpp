@@ -435,61 +435,90 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
   Mesh mesh;
   mesh.name = model.empty() ? name : model;
   mesh.skin = nbones ? 0 : -1;
-  // Shapes: vertex morphs, and group morphs baked from their vertex-morph children (nested groups
-  // followed to a depth of 8). Other morphs are reported.
-  std::vector<int> shape_of(nmorphs, -1);
-  std::vector<std::vector<std::pair<int64_t, std::array<float, 3>>>> deltas;
+  // Shapes: vertex morphs, and group morphs baked from the vertex morphs they name. PMX 2.0 makes a
+  // group inside a group invalid (against recursion), so those entries are not followed, and reported.
+  // Each shape's offsets are summed per vertex and kept in vertex order.
+  constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
+  std::vector<std::array<float, 3>> acc(nverts, {0, 0, 0});
+  std::vector<char> hit(nverts, 0);
+  size_t baked = 0, nested = 0, other = 0;  // Group entries naming a group morph; naming a morph we do not apply.
+  std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> deltas;
   for (size_t mi = 0; mi < nmorphs; ++mi) {
     const Morph& m = morphs[mi];
     if (m.type != 0 && m.type != 1) continue;
-    std::map<int64_t, std::array<float, 3>> sum;
-    std::vector<std::pair<size_t, float>> stack{{mi, 1.0f}};
-    for (int depth = 0; !stack.empty() && depth < 8; ++depth) {
-      std::vector<std::pair<size_t, float>> next;
-      for (const auto& [k, f] : stack) {
-        for (const auto& [v, d] : morphs[k].vertex) {
-          auto& s = sum[v];
-          for (int c = 0; c < 3; ++c) s[c] += f * d[c];
-        }
-        for (const auto& [child, cf] : morphs[k].group) next.emplace_back(static_cast<size_t>(child), f * cf);
+    std::vector<uint32_t> touched;
+    auto add = [&](const Morph& src, float f) {
+      for (const auto& [v, d] : src.vertex) {
+        if (!hit[v]) touched.push_back(static_cast<uint32_t>(v));
+        hit[v] = 1;
+        for (int c = 0; c < 3; ++c) acc[v][c] += f * d[c];
       }
-      stack = std::move(next);
+    };
+    if (m.type == 1) add(m, 1.0f);
+    for (const auto& [child, f] : m.group) {
+      const Morph& c = morphs[child];
+      if (c.type != 1) {
+        ++(c.type == 0 ? nested : other);
+        continue;
+      }
+      baked += c.vertex.size();
+      if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": PMX: group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
+      add(c, f);
+    }
+    std::sort(touched.begin(), touched.end());
+    std::vector<std::pair<uint32_t, std::array<float, 3>>> d;
+    d.reserve(touched.size());
+    for (uint32_t v : touched) {
+      d.emplace_back(v, acc[v]);
+      acc[v] = {0, 0, 0};
+      hit[v] = 0;
     }
     Shape shape;
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
     if (!m.english.empty() && m.english != shape.name && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
     shape.group = PanelGroup(m.panel);
-    shape_of[mi] = static_cast<int>(rig.shapes.size());
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(shape);
-    deltas.emplace_back(sum.begin(), sum.end());
+    deltas.push_back(std::move(d));
   }
+  if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
+  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming bone, UV or material morphs");
   for (const auto& [type, count] : unapplied) {
     static const char* kNames[] = {"group", "vertex", "bone", "UV", "UV1", "UV2", "UV3", "UV4", "material", "flip", "impulse"};
     skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : ""));
   }
-  // One primitive per material, over the vertices its faces use (in their order).
+  // One primitive per material, over the vertices its faces use (in vertex order, so that each
+  // shape's offsets, in vertex order, land in ascending local indices).
+  size_t nonempty = 0;
+  for (const PmxMaterial& m : mats) nonempty += m.indices > 0;
+  constexpr size_t kMaxTargets = size_t{1} << 22;  // Materials x shapes: 50 x 500 in a big model.
+  if (nonempty * deltas.size() > kMaxTargets) {
+    return InvalidArgument(name + ": PMX: " + std::to_string(nonempty) + " materials x " + std::to_string(deltas.size()) + " morphs is beyond " + std::to_string(kMaxTargets) + " targets");
+  }
+  std::vector<int32_t> remap(nverts, -1);
+  std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the PMX vertices it holds.
   size_t first = 0;
   for (size_t mi = 0; mi < nmats; ++mi) {
     const PmxMaterial& m = mats[mi];
-    std::vector<int32_t> remap(nverts, -1);
+    const std::span<const uint32_t> faces(indices.data() + first, m.indices);
+    first += m.indices;
+    if (faces.empty()) continue;
     std::vector<uint32_t> used;
+    for (uint32_t v : faces) {
+      if (remap[v] < 0) used.push_back(v);
+      remap[v] = 0;
+    }
+    std::sort(used.begin(), used.end());
+    for (size_t k = 0; k < used.size(); ++k) remap[used[k]] = static_cast<int32_t>(k);
     Primitive p;
     p.mesh = 0;
     p.index_in_mesh = static_cast<int>(rig.primitives.size());
-    for (size_t i = first; i < first + m.indices; i += 3) {
-      const uint32_t tri[3] = {indices[i], indices[i + 2], indices[i + 1]};  // Left- to right-handed: swap two corners.
-      for (uint32_t v : tri) {
-        if (remap[v] < 0) {
-          remap[v] = static_cast<int32_t>(used.size());
-          used.push_back(v);
-        }
-        p.indices.push_back(static_cast<uint32_t>(remap[v]));
-      }
+    p.indices.reserve(faces.size());
+    for (size_t i = 0; i < faces.size(); i += 3) {
+      for (uint32_t v : {faces[i], faces[i + 2], faces[i + 1]}) p.indices.push_back(static_cast<uint32_t>(remap[v]));  // Left- to right-handed: swap two corners.
     }
-    first += m.indices;
-    if (used.empty()) continue;
+    for (uint32_t v : used) remap[v] = -1;
     size_t most = 1;
     for (uint32_t v : used) most = std::max<size_t>(most, static_cast<size_t>(verts[v].count));
     p.influences = nbones ? most : 0;
@@ -509,26 +538,7 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
       }
     }
     p.source_has_normals = true;
-    for (const auto& d : deltas) {
-      SparseTarget t;
-      for (const auto& [v, off] : d) {
-        if (remap[v] < 0 || (off[0] == 0 && off[1] == 0 && off[2] == 0)) continue;
-        t.indices.push_back(static_cast<uint32_t>(remap[v]));
-        t.position_deltas.insert(t.position_deltas.end(), {off[0] * kMetresPerUnit, off[1] * kMetresPerUnit, -off[2] * kMetresPerUnit});
-      }
-      // Indices must ascend: remapped order follows first use, not vertex order.
-      std::vector<size_t> perm(t.indices.size());
-      for (size_t k = 0; k < perm.size(); ++k) perm[k] = k;
-      std::sort(perm.begin(), perm.end(), [&](size_t a, size_t b) { return t.indices[a] < t.indices[b]; });
-      SparseTarget sorted;
-      for (size_t k : perm) {
-        sorted.indices.push_back(t.indices[k]);
-        sorted.position_deltas.insert(sorted.position_deltas.end(), t.position_deltas.begin() + static_cast<std::ptrdiff_t>(3 * k),
-                                      t.position_deltas.begin() + static_cast<std::ptrdiff_t>(3 * k + 3));
-      }
-      FinalizeTarget(sorted);
-      p.targets.push_back(std::move(sorted));
-    }
+    p.targets.resize(deltas.size());
     Material mat;
     mat.name = m.name;
     for (int c = 0; c < 4; ++c) mat.base_color_factor[c] = std::clamp(m.diffuse[c], 0.0f, 1.0f);
@@ -544,8 +554,35 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
     FinalizePrimitive(p);
     mesh.primitives.push_back(static_cast<int>(rig.primitives.size()));
     rig.primitives.push_back(std::move(p));
+    used_of.push_back(std::move(used));
   }
   if (rig.primitives.empty()) return InvalidArgument(name + ": PMX: no material covers any face");
+  // Each shape's offsets to the primitives holding their vertices: per PMX vertex, its (primitive,
+  // local index) slots (CSR), so the work is the offsets written, not materials x offsets.
+  std::vector<uint32_t> slot_start(nverts + 1, 0);
+  for (const auto& used : used_of) {
+    for (uint32_t v : used) ++slot_start[v + 1];
+  }
+  for (size_t v = 0; v < nverts; ++v) slot_start[v + 1] += slot_start[v];
+  std::vector<std::pair<uint32_t, uint32_t>> slots(slot_start[nverts]);
+  {
+    std::vector<uint32_t> fill(slot_start.begin(), slot_start.end() - 1);
+    for (size_t q = 0; q < used_of.size(); ++q) {
+      for (size_t k = 0; k < used_of[q].size(); ++k) slots[fill[used_of[q][k]]++] = {static_cast<uint32_t>(q), static_cast<uint32_t>(k)};
+    }
+  }
+  for (size_t s = 0; s < deltas.size(); ++s) {
+    for (const auto& [v, off] : deltas[s]) {
+      if (off[0] == 0 && off[1] == 0 && off[2] == 0) continue;
+      const std::array<float, 3> d = convert(off.data());
+      for (uint32_t k = slot_start[v]; k < slot_start[v + 1]; ++k) {
+        SparseTarget& t = rig.primitives[slots[k].first].targets[s];
+        t.indices.push_back(slots[k].second);
+        t.position_deltas.insert(t.position_deltas.end(), d.begin(), d.end());
+      }
+    }
+    for (Primitive& p : rig.primitives) FinalizeTarget(p.targets[s]);
+  }
   rig.meshes.push_back(std::move(mesh));
   Node mesh_node;
   mesh_node.name = rig.meshes[0].name + "_mesh";

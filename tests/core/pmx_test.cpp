@@ -133,5 +133,69 @@ TEST(PmxHostile, TruncationsAndBadHeadersAreErrors) {
   EXPECT_NE(rig.status().message.find("more than the file holds"), std::string::npos) << rig.status().message;
 }
 
+// A small PMX written here: one bone, one triangle over vertex 0, a vertex morph moving vertex 0 by
+// (1, 2, 3) units, and a group morph of `entries` entries alternating between that morph (factor 0.25)
+// and itself. Index sizes are 1 byte.
+std::vector<unsigned char> GroupFanOut(int entries) {
+  std::vector<unsigned char> b;
+  auto bytes = [&](const void* p, size_t n) { b.insert(b.end(), static_cast<const unsigned char*>(p), static_cast<const unsigned char*>(p) + n); };
+  auto i32 = [&](int32_t v) { bytes(&v, 4); };
+  auto f32 = [&](std::initializer_list<float> fs) { for (float f : fs) bytes(&f, 4); };
+  auto u8 = [&](int v) { b.push_back(static_cast<unsigned char>(v)); };
+  bytes("PMX ", 4);
+  f32({2.0f});
+  for (int g : {8, 1, 0, 1, 1, 1, 1, 1, 1}) u8(g);  // 8 globals: UTF-8, no extra UV, 1-byte indices.
+  for (int t = 0; t < 4; ++t) i32(0);                // Model names and comments.
+  i32(1);                                             // One vertex: position, normal, UV, BDEF1 on bone 0, edge.
+  f32({0, 0, 0, 0, 0, -1, 0, 0});
+  u8(0);
+  u8(0);
+  f32({1});
+  i32(3);  // One (degenerate) triangle.
+  u8(0), u8(0), u8(0);
+  i32(0);  // No textures.
+  i32(1);  // One material over the 3 indices.
+  i32(0), i32(0);
+  f32({1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0});
+  u8(0);
+  f32({0, 0, 0, 1, 1});
+  u8(0xff), u8(0xff), u8(0), u8(1), u8(0);
+  i32(0), i32(3);
+  i32(1);  // One bone at the origin, no parent.
+  i32(0), i32(0);
+  f32({0, 0, 0});
+  u8(0xff);
+  i32(0);
+  u8(0), u8(0);
+  f32({0, 1, 0});
+  i32(2);  // Two morphs.
+  i32(0), i32(0), u8(3), u8(1), i32(1), u8(0);
+  f32({1, 2, 3});
+  i32(0), i32(0), u8(3), u8(0), i32(entries);
+  for (int k = 0; k < entries; ++k) {
+    u8(k % 2);
+    f32({k % 2 ? 1.0f : 0.25f});
+  }
+  return b;
+}
+
+TEST(PmxHostile, AGroupNamingItselfIsNotFollowed) {
+  // Before, groups were followed to a depth of 8: 2000 entries naming the group itself were 1000^8
+  // paths (the fuzzer's out-of-memory). PMX 2.0 does not nest groups: only the vertex morphs count.
+  const std::vector<unsigned char> pmx = GroupFanOut(2000);
+  const Result<Rig> rig = LoadPmxMemory(pmx, "fanout");
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  ASSERT_EQ(rig->shapes.size(), 2u);
+  const SparseTarget& t = rig->primitives[0].targets[1];
+  ASSERT_EQ(t.indices.size(), 1u);
+  // 1000 entries x 0.25 x (1, 2, 3) units x 0.08 m, z negated.
+  EXPECT_NEAR(t.position_deltas[0], 250 * 1 * 0.08f, 1e-3f);
+  EXPECT_NEAR(t.position_deltas[1], 250 * 2 * 0.08f, 1e-3f);
+  EXPECT_NEAR(t.position_deltas[2], -250 * 3 * 0.08f, 1e-3f);
+  bool reported = false;
+  for (const auto& w : rig->load_warnings) reported |= w.code == "morphs_skipped" && w.message.find("1000 group-morph entries naming group morphs") != std::string::npos;
+  EXPECT_TRUE(reported);
+}
+
 }  // namespace
 }  // namespace facespace
