@@ -1,0 +1,341 @@
+// The MMD model (from PMX or PMD) as a Rig, and Shift-JIS text through iconv.
+#include <iconv.h>
+
+#include <cerrno>
+
+#include <algorithm>
+
+#include "facespace/core/rig.h"
+#include "mmd.h"
+
+namespace facespace::mmd {
+
+namespace {
+
+std::string Convert(const char* to, const char* from, const char* p, size_t n, bool skip_bad) {
+  iconv_t cd = iconv_open(to, from);
+  if (cd == reinterpret_cast<iconv_t>(-1)) return {};
+  std::string out;
+  char buf[256];
+  char* in = const_cast<char*>(p);
+  size_t in_left = n;
+  while (in_left > 0) {
+    char* o = buf;
+    size_t o_left = sizeof buf;
+    const size_t r = iconv(cd, &in, &in_left, &o, &o_left);
+    out.append(buf, static_cast<size_t>(o - buf));
+    if (r == static_cast<size_t>(-1) && errno != E2BIG) {
+      if (!skip_bad) {
+        out.clear();
+        break;
+      }
+      ++in;  // EILSEQ or EINVAL (a character cut short): drop the byte.
+      --in_left;
+    }
+  }
+  iconv_close(cd);
+  return out;
+}
+
+}  // namespace
+
+std::string SjisToUtf8(const unsigned char* p, size_t n) {
+  const size_t len = static_cast<size_t>(std::find(p, p + n, 0) - p);
+  return Convert("UTF-8", "CP932", reinterpret_cast<const char*>(p), len, true);
+}
+
+std::string Utf8ToSjis(const std::string& s) { return Convert("CP932", "UTF-8", s.data(), s.size(), false); }
+
+std::string Utf16ToUtf8(const unsigned char* p, size_t n) {
+  std::string out;
+  for (size_t i = 0; i + 1 < n; i += 2) {
+    uint32_t c = p[i] | (p[i + 1] << 8);
+    if (c >= 0xD800 && c < 0xDC00 && i + 3 < n) {
+      const uint32_t d = p[i + 2] | (p[i + 3] << 8);
+      if (d >= 0xDC00 && d < 0xE000) {
+        c = 0x10000 + ((c - 0xD800) << 10) + (d - 0xDC00);
+        i += 2;
+      } else {
+        c = 0xFFFD;
+      }
+    } else if (c >= 0xD800 && c < 0xE000) {
+      c = 0xFFFD;
+    }
+    if (c < 0x80) {
+      out += static_cast<char>(c);
+    } else if (c < 0x800) {
+      out += static_cast<char>(0xC0 | (c >> 6));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    } else if (c < 0x10000) {
+      out += static_cast<char>(0xE0 | (c >> 12));
+      out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    } else {
+      out += static_cast<char>(0xF0 | (c >> 18));
+      out += static_cast<char>(0x80 | ((c >> 12) & 0x3F));
+      out += static_cast<char>(0x80 | ((c >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (c & 0x3F));
+    }
+  }
+  return out;
+}
+
+const char* PanelGroup(int panel) {
+  switch (panel) {
+    case 1: return "eyebrow";
+    case 2: return "eye";
+    case 3: return "mouth";
+    case 4: return "other";
+    default: return "system";
+  }
+}
+
+Result<Rig> BuildRig(const Model& in, const std::string& name) {
+  const std::vector<Vertex>& verts = in.verts;
+  const std::vector<uint32_t>& indices = in.indices;
+  const std::vector<ModelMaterial>& mats = in.mats;
+  const std::vector<Bone>& bones = in.bones;
+  const std::vector<Morph>& morphs = in.morphs;
+  const std::vector<std::string>& textures = in.textures;
+  const size_t nverts = verts.size(), nbones = bones.size(), nmorphs = morphs.size(), nmats = mats.size();
+  const std::string& model = in.name;
+  const size_t sdef = in.sdef, qdef = in.qdef, ik = in.ik, grants = in.grants;
+  Rig rig;
+  rig.name = name;
+  std::vector<std::string> skipped;
+  for (size_t b = 0; b < nbones; ++b) {
+    if (bones[b].parent >= static_cast<int64_t>(nbones) || bones[b].parent < -1) {
+      return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[b].name + "' has parent " + std::to_string(bones[b].parent) + " of " + std::to_string(nbones));
+    }
+  }
+  for (size_t v = 0; v < nverts; ++v) {
+    for (int k = 0; k < verts[v].count; ++k) {
+      if (verts[v].bones[k] >= static_cast<int64_t>(nbones) || (verts[v].bones[k] < 0 && verts[v].weights[k] != 0)) {
+        return InvalidArgument(name + ": " + std::string(in.format) + ": vertex " + std::to_string(v) + " names bone " + std::to_string(verts[v].bones[k]) + " of " + std::to_string(nbones));
+      }
+    }
+  }
+  // The rig: nodes (a root, then the bones), one skin, one mesh with a primitive per material.
+  Node root;
+  root.name = model.empty() ? "pmx_root" : model;
+  rig.nodes.push_back(root);
+  rig.scene_roots = {0};
+  Skin skin;
+  skin.name = "pmx_skeleton";
+  const auto convert = ToGltf;
+  std::vector<int> order;  // Bones parents first (PMX does not promise it); a cycle is an error.
+  {
+    std::vector<int> state(nbones, 0);
+    for (size_t b = 0; b < nbones; ++b) {
+      std::vector<int> chain;
+      for (int64_t c = static_cast<int64_t>(b); c >= 0 && state[c] != 2; c = bones[c].parent) {
+        if (state[c] == 1) return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[c].name + "' is its own ancestor");
+        state[c] = 1;
+        chain.push_back(static_cast<int>(c));
+      }
+      for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+        state[*it] = 2;
+        order.push_back(*it);
+      }
+    }
+  }
+  std::vector<int> node_of(nbones, -1);
+  for (int b : order) {
+    const Bone& x = bones[b];
+    Node n;
+    n.name = x.name;
+    n.parent = x.parent < 0 ? 0 : node_of[x.parent];
+    const std::array<float, 3> p = convert(x.pos);
+    const std::array<float, 3> pp = x.parent < 0 ? std::array<float, 3>{0, 0, 0} : convert(bones[x.parent].pos);
+    n.translation = {p[0] - pp[0], p[1] - pp[1], p[2] - pp[2]};
+    node_of[b] = static_cast<int>(rig.nodes.size());
+    rig.nodes[n.parent].children.push_back(node_of[b]);
+    rig.nodes.push_back(n);
+  }
+  for (size_t b = 0; b < nbones; ++b) {
+    skin.joints.push_back(node_of[b]);
+    const std::array<float, 3> p = convert(bones[b].pos);
+    const float ib[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -p[0], -p[1], -p[2], 1};
+    skin.inverse_bind.insert(skin.inverse_bind.end(), ib, ib + 16);
+  }
+  Mesh mesh;
+  mesh.name = model.empty() ? name : model;
+  mesh.skin = nbones ? 0 : -1;
+  // Shapes: vertex morphs, and group morphs baked from the vertex morphs they name. PMX 2.0 makes a
+  // group inside a group invalid (against recursion), so those entries are not followed, and reported.
+  // Each shape's offsets are summed per vertex and kept in vertex order.
+  constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
+  std::vector<std::array<float, 3>> acc(nverts, {0, 0, 0});
+  std::vector<char> hit(nverts, 0);
+  size_t baked = 0, nested = 0, other = 0;  // Group entries naming a group morph; naming a morph we do not apply.
+  std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> deltas;
+  for (size_t mi = 0; mi < nmorphs; ++mi) {
+    const Morph& m = morphs[mi];
+    if (m.type != 0 && m.type != 1) continue;
+    std::vector<uint32_t> touched;
+    auto add = [&](const Morph& src, float f) {
+      for (const auto& [v, d] : src.vertex) {
+        if (!hit[v]) touched.push_back(static_cast<uint32_t>(v));
+        hit[v] = 1;
+        for (int c = 0; c < 3; ++c) acc[v][c] += f * d[c];
+      }
+    };
+    if (m.type == 1) add(m, 1.0f);
+    for (const auto& [child, f] : m.group) {
+      const Morph& c = morphs[child];
+      if (c.type != 1) {
+        ++(c.type == 0 ? nested : other);
+        continue;
+      }
+      baked += c.vertex.size();
+      if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
+      add(c, f);
+    }
+    std::sort(touched.begin(), touched.end());
+    std::vector<std::pair<uint32_t, std::array<float, 3>>> d;
+    d.reserve(touched.size());
+    for (uint32_t v : touched) {
+      d.emplace_back(v, acc[v]);
+      acc[v] = {0, 0, 0};
+      hit[v] = 0;
+    }
+    Shape shape;
+    shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
+    for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
+    if (!m.english.empty() && m.english != shape.name && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
+    shape.group = PanelGroup(m.panel);
+    mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
+    rig.shapes.push_back(shape);
+    deltas.push_back(std::move(d));
+  }
+  if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
+  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming bone, UV or material morphs");
+  for (const auto& [type, count] : in.unapplied) {
+    static const char* kNames[] = {"group", "vertex", "bone", "UV", "UV1", "UV2", "UV3", "UV4", "material", "flip", "impulse"};
+    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : ""));
+  }
+  // One primitive per material, over the vertices its faces use (in vertex order, so that each
+  // shape's offsets, in vertex order, land in ascending local indices).
+  size_t nonempty = 0;
+  for (const ModelMaterial& m : mats) nonempty += m.indices > 0;
+  constexpr size_t kMaxTargets = size_t{1} << 22;  // Materials x shapes: 50 x 500 in a big model.
+  if (nonempty * deltas.size() > kMaxTargets) {
+    return InvalidArgument(name + ": " + std::string(in.format) + ": " + std::to_string(nonempty) + " materials x " + std::to_string(deltas.size()) + " morphs is beyond " + std::to_string(kMaxTargets) + " targets");
+  }
+  std::vector<int32_t> remap(nverts, -1);
+  std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the PMX vertices it holds.
+  size_t first = 0;
+  for (size_t mi = 0; mi < nmats; ++mi) {
+    const ModelMaterial& m = mats[mi];
+    const std::span<const uint32_t> faces(indices.data() + first, m.indices);
+    first += m.indices;
+    if (faces.empty()) continue;
+    std::vector<uint32_t> used;
+    for (uint32_t v : faces) {
+      if (remap[v] < 0) used.push_back(v);
+      remap[v] = 0;
+    }
+    std::sort(used.begin(), used.end());
+    for (size_t k = 0; k < used.size(); ++k) remap[used[k]] = static_cast<int32_t>(k);
+    Primitive p;
+    p.mesh = 0;
+    p.index_in_mesh = static_cast<int>(rig.primitives.size());
+    p.indices.reserve(faces.size());
+    for (size_t i = 0; i < faces.size(); i += 3) {
+      for (uint32_t v : {faces[i], faces[i + 2], faces[i + 1]}) p.indices.push_back(static_cast<uint32_t>(remap[v]));  // Left- to right-handed: swap two corners.
+    }
+    for (uint32_t v : used) remap[v] = -1;
+    size_t most = 1;
+    for (uint32_t v : used) most = std::max<size_t>(most, static_cast<size_t>(verts[v].count));
+    p.influences = nbones ? most : 0;
+    for (uint32_t v : used) {
+      const Vertex& x = verts[v];
+      const auto pos = convert(x.pos);
+      p.positions.insert(p.positions.end(), pos.begin(), pos.end());
+      p.normals.insert(p.normals.end(), {x.normal[0], x.normal[1], -x.normal[2]});
+      p.texcoords.insert(p.texcoords.end(), {x.uv[0], x.uv[1]});
+      if (!nbones) continue;
+      float total = 0;
+      for (int k = 0; k < x.count; ++k) total += x.bones[k] >= 0 ? std::max(0.0f, x.weights[k]) : 0.0f;
+      for (size_t k = 0; k < most; ++k) {
+        const bool real = static_cast<int>(k) < x.count && x.bones[k] >= 0 && total > 0;
+        p.joints.push_back(real ? static_cast<uint16_t>(x.bones[k]) : 0);
+        p.joint_weights.push_back(real ? std::max(0.0f, x.weights[k]) / total : (k == 0 && total <= 0 ? 1.0f : 0.0f));
+      }
+    }
+    p.source_has_normals = true;
+    p.targets.resize(deltas.size());
+    Material mat;
+    mat.name = m.name;
+    for (int c = 0; c < 4; ++c) mat.base_color_factor[c] = std::clamp(m.diffuse[c], 0.0f, 1.0f);
+    if (mat.base_color_factor[3] < 1.0f) mat.alpha_mode = "BLEND";
+    mat.metallic_factor = 0.0f;
+    mat.roughness_factor = 0.9f;
+    mat.double_sided = true;  // MMD draws most materials two-sided.
+    if (m.texture >= 0 && static_cast<size_t>(m.texture) < textures.size()) {
+      rig.load_warnings.push_back({"texture_not_loaded", "material '" + m.name + "': texture '" + textures[m.texture] + "' is not read", m.name, 0.0, false});
+    }
+    p.material = static_cast<int>(rig.materials.size());
+    rig.materials.push_back(mat);
+    FinalizePrimitive(p);
+    mesh.primitives.push_back(static_cast<int>(rig.primitives.size()));
+    rig.primitives.push_back(std::move(p));
+    used_of.push_back(std::move(used));
+  }
+  if (rig.primitives.empty()) return InvalidArgument(name + ": " + std::string(in.format) + ": no material covers any face");
+  // Each shape's offsets to the primitives holding their vertices: per PMX vertex, its (primitive,
+  // local index) slots (CSR), so the work is the offsets written, not materials x offsets.
+  std::vector<uint32_t> slot_start(nverts + 1, 0);
+  for (const auto& used : used_of) {
+    for (uint32_t v : used) ++slot_start[v + 1];
+  }
+  for (size_t v = 0; v < nverts; ++v) slot_start[v + 1] += slot_start[v];
+  std::vector<std::pair<uint32_t, uint32_t>> slots(slot_start[nverts]);
+  {
+    std::vector<uint32_t> fill(slot_start.begin(), slot_start.end() - 1);
+    for (size_t q = 0; q < used_of.size(); ++q) {
+      for (size_t k = 0; k < used_of[q].size(); ++k) slots[fill[used_of[q][k]]++] = {static_cast<uint32_t>(q), static_cast<uint32_t>(k)};
+    }
+  }
+  for (size_t s = 0; s < deltas.size(); ++s) {
+    for (const auto& [v, off] : deltas[s]) {
+      if (off[0] == 0 && off[1] == 0 && off[2] == 0) continue;
+      const std::array<float, 3> d = convert(off.data());
+      for (uint32_t k = slot_start[v]; k < slot_start[v + 1]; ++k) {
+        SparseTarget& t = rig.primitives[slots[k].first].targets[s];
+        t.indices.push_back(slots[k].second);
+        t.position_deltas.insert(t.position_deltas.end(), d.begin(), d.end());
+      }
+    }
+    for (Primitive& p : rig.primitives) FinalizeTarget(p.targets[s]);
+  }
+  rig.meshes.push_back(std::move(mesh));
+  Node mesh_node;
+  mesh_node.name = rig.meshes[0].name + "_mesh";
+  mesh_node.parent = 0;
+  mesh_node.mesh = 0;
+  rig.nodes[0].children.push_back(static_cast<int>(rig.nodes.size()));
+  rig.nodes.push_back(mesh_node);
+  if (nbones) {
+    rig.skins.push_back(std::move(skin));
+    rig.skin_count = 1;
+    rig.joint_count = nbones;
+  }
+  if (sdef || qdef) {
+    rig.load_warnings.push_back({"skinning_approximated", std::to_string(sdef) + " SDEF vertices skinned as BDEF2, " + std::to_string(qdef) + " QDEF as BDEF4", "", static_cast<double>(sdef + qdef), true});
+  }
+  if (ik || grants) {
+    rig.load_warnings.push_back({"bone_constraints_skipped", std::to_string(ik) + " IK bones and " + std::to_string(grants) + " grant (inherit) bones are read but not applied", "", 0.0, false});
+  }
+  if (!skipped.empty()) {
+    std::string list;
+    for (const std::string& s : skipped) list += (list.empty() ? "" : ", ") + s;
+    rig.load_warnings.push_back({"morphs_skipped", "not applied: " + list, "", 0.0, false});
+  }
+  CountMovedVertices(rig);
+  DetectSymmetricPartners(rig);
+  if (Status s = ValidateRig(rig); !s.ok()) return Prefixed(s, name + ": ");
+  return rig;
+}
+
+}  // namespace facespace::mmd
