@@ -136,6 +136,7 @@ int Info(const std::vector<std::string>& args) {
   if (as_json) {
     nlohmann::json j;
     j["name"] = rig.name;
+    if (!rig.credit.empty()) j["credit"] = rig.credit;
     j["vertices"] = rig.vertex_count();
     j["triangles"] = rig.triangle_count();
     j["primitives"] = rig.primitives.size();
@@ -156,6 +157,7 @@ int Info(const std::vector<std::string>& args) {
     return 0;
   }
   std::printf("rig        %s\n", rig.name.c_str());
+  if (!rig.credit.empty()) std::printf("credit     %s\n", rig.credit.c_str());
   std::printf("vertices   %zu\ntriangles  %zu\nmeshes     %zu (%zu primitives)\n", rig.vertex_count(),
               rig.triangle_count(), rig.meshes.size(), rig.primitives.size());
   if (rig.skin_count) std::printf("skeleton   %zu skin(s), %zu joints\n", rig.skin_count, rig.joint_count);
@@ -257,6 +259,8 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   flags.Value("--pose", "JSON|@FILE", "joint rotations, translations, scales: {\"JOINT\": {\"euler\": [x, y, z]}}", pose_setting("--pose"));
   flags.Value("--animation", "NAME|INDEX", "a clip of the rig, sampled at --time", pose_setting("--animation"));
   flags.Value("--time", "SECONDS", "the time in --animation", pose_setting("--time"));
+  flags.Value("--motion", "NAME|INDEX", "a clip by its MMD word: a .vmd motion of a PMX/PMD rig (as --animation)", pose_setting("--motion"));
+  flags.Value("--frame", "N", "the time in MMD frames, 30 a second (instead of --time)", pose_setting("--frame"));
   flags.Switch("--loop", "wrap --time around the clip", [&r] {
     bool known = false;
     api::ApplyPoseSetting("loop", "true", r, &known);

@@ -162,6 +162,11 @@ int Batch(const std::vector<std::string>& args) {
     return 0;
   });
   flags.Value("--time", "SECONDS", "the time in --animation", number(request, "time"));
+  flags.Value("--motion", "NAME", "a .vmd motion of a PMX/PMD rig (as --animation)", [&request](const std::string& v) {
+    request["motion"] = v;
+    return 0;
+  });
+  flags.Value("--frame", "N", "the time in MMD frames, 30 a second", number(request, "frame"));
   flags.Value("--camera", "JSON|@FILE", "render camera", json_value(request, "camera"));
   for (const char* key : {"width", "height", "supersample", "quality"}) {
     flags.Value(std::string("--") + key, "N", std::string("render ") + key, integer(request, key, 1, 1 << 20));

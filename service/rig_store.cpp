@@ -65,8 +65,13 @@ Result<size_t> FileRigStore::LoadAll() {
   std::sort(nested.begin(), nested.end());
   top.insert(top.end(), nested.begin(), nested.end());
   std::map<std::string, Entry> loaded;
+  // A folder holding one rig file may name it: rigs/uka/MS_Uka.pmx is "uka" (its stem is no id).
+  std::map<fs::path, size_t> in_folder;
+  for (const fs::path& p : nested) ++in_folder[p.parent_path()];
   for (const fs::path& p : top) {
-    const std::string id = p.stem().string();
+    std::string id = p.stem().string();
+    const std::string folder = p.parent_path().filename().string();
+    if (!api::IsValidRigId(id) && in_folder.count(p.parent_path()) && in_folder[p.parent_path()] == 1 && api::IsValidRigId(folder)) id = folder;
     if (!api::IsValidRigId(id)) {
       std::fprintf(stderr, "facespace: skipping %s: '%s' is not a valid rig id ([a-z0-9][a-z0-9_-]{0,63})\n", p.c_str(), id.c_str());
       continue;
@@ -131,7 +136,7 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   if (Status s = WriteFileDurably(dir_, file, data, tmp, "the rig"); !s.ok()) return s;
   // Other extensions, if any, must not shadow the new file after a restart.
   std::error_code ec;
-  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx}) {
+  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd}) {
     if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
   }
   std::lock_guard<std::mutex> lock(mu_);

@@ -131,6 +131,9 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
   }
 }
 
+// The clip a request names with "animation" or "motion" (not one of "blend").
+bool IsRequestClip(const ClipRequest& c) { return c.pointer == "/animation" || c.pointer == "/motion"; }
+
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
   if (!v.is_array() || v.empty()) {
     errors.fields.push_back({"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});
@@ -183,20 +186,25 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     BlendFromJson(v, r.pose, errors);
     return true;
   }
-  if (key == "animation" || key == "time" || key == "loop") {
-    // Gathered into one clip at the front of pose.clips by FinishPose.
-    if (r.pose.clips.empty() || r.pose.clips.front().pointer != "/animation") {
+  if (key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop") {
+    // Gathered into one clip at the front of pose.clips by FinishPose. "motion" names a clip as
+    // "animation" does (MMD's word: a .vmd is a clip); "frame" is a time in MMD frames, 30 a second.
+    if (r.pose.clips.empty() || !IsRequestClip(r.pose.clips.front())) {
       ClipRequest c;
       c.pointer = "/animation";
       c.index = -2;  // Marks "no animation named yet".
       r.pose.clips.insert(r.pose.clips.begin(), c);
     }
     ClipRequest& c = r.pose.clips.front();
-    if (key == "animation") {
-      if (!ClipRef(v, c)) errors.fields.push_back({ptr, "must be an animation name or index"});
-    } else if (key == "time") {
-      if (!v.is_number() || !std::isfinite(v.get<double>())) errors.fields.push_back({ptr, "must be a finite number of seconds"});
-      else c.time = v.get<float>();
+    if (key == "animation" || key == "motion") {
+      if (!c.name.empty() || c.index != -2) errors.fields.push_back({ptr, "give animation or motion, not both"});
+      else if (!ClipRef(v, c)) errors.fields.push_back({ptr, "must be " + std::string(key == "motion" ? "a motion" : "an animation") + " name or index"});
+      c.pointer = ptr;
+    } else if (key == "time" || key == "frame") {
+      if (c.timed) errors.fields.push_back({ptr, "give time or frame, not both"});
+      else if (!v.is_number() || !std::isfinite(v.get<double>())) errors.fields.push_back({ptr, key == "time" ? "must be a finite number of seconds" : "must be a finite number of frames (30 a second)"});
+      else c.time = key == "time" ? v.get<float>() : static_cast<float>(v.get<double>() / 30.0);
+      c.timed = true;
     } else if (!v.is_boolean()) {
       errors.fields.push_back({ptr, "must be true or false"});
     } else {
@@ -251,14 +259,14 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
   return true;
 }
 
-// "time" or "loop" without "animation" is an error; "animation" with "blend" too.
+// "time", "frame" or "loop" without "animation" (or "motion") is an error; "animation" with "blend" too.
 void FinishPose(PoseRequest& pose, Status& errors) {
-  if (pose.clips.empty() || pose.clips.front().pointer != "/animation") return;
+  if (pose.clips.empty() || !IsRequestClip(pose.clips.front())) return;
   const ClipRequest& c = pose.clips.front();
   if (c.name.empty() && c.index == -2) {
-    errors.fields.push_back({"/animation", "time and loop need an animation"});
+    errors.fields.push_back({"/animation", "time, frame and loop need an animation (or motion)"});
   } else if (pose.clips.size() > 1) {
-    errors.fields.push_back({"/animation", "give animation + time, or blend, not both"});
+    errors.fields.push_back({c.pointer, "give animation + time, or blend, not both"});
   }
 }
 
@@ -500,13 +508,13 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
 }
 
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
-  *known = key == "animation" || key == "time" || key == "loop" || key == "pose" || key == "blend" || key == "skinning" ||
-           key == "lod";
+  *known = key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop" || key == "pose" || key == "blend" ||
+           key == "skinning" || key == "lod";
   if (!*known) return "";
   json v;
   if (key == "skinning") {
     v = value;
-  } else if (key == "animation") {
+  } else if (key == "animation" || key == "motion") {
     const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos && value.size() < 10;
     v = digits ? json(std::stoll(value)) : json(value);
   } else if (key == "lod") {
@@ -518,7 +526,7 @@ std::string ApplyPoseSetting(const std::string& key, const std::string& value, M
     else return "must be true or false";
   } else {
     v = json::parse(value, nullptr, false);
-    if (v.is_discarded()) return key == "time" ? "must be a number of seconds" : "must be JSON";
+    if (v.is_discarded()) return key == "time" ? "must be a number of seconds" : key == "frame" ? "must be a number of frames" : "must be JSON";
   }
   Status errors = InvalidArgument("");
   MeshMember(key, v, r, false, errors);

@@ -287,6 +287,7 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   GlbBuilder b(m);
   m.asset.version = "2.0";
   m.asset.generator = "facespace";
+  m.asset.copyright = rig.credit;
   nlohmann::json extras = nlohmann::json::object();
   if (!options.asset_extras_json.empty()) {
     extras = nlohmann::json::parse(options.asset_extras_json, nullptr, false);

@@ -1005,6 +1005,7 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
     }
   }
   Rig rig;
+  rig.credit = model.asset.copyright;
   // tinygltf's own warnings (unknown members and such) are passed on, a few at most.
   for (size_t start = 0, n = 0; start < warn.size() && n < 5; ++n) {
     size_t end = warn.find('\n', start);

@@ -217,6 +217,10 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     if (!j["name"].is_string()) return bad("/name", "must be a string");
     rig.name = j["name"].get<std::string>();
   }
+  if (j.contains("credit")) {
+    if (!j["credit"].is_string()) return bad("/credit", "must be a string");
+    rig.credit = j["credit"].get<std::string>();
+  }
   if (j.contains("derived")) {
     // New shapes first, so that the rest of the manifest can describe them too.
     if (!j["derived"].is_object()) return bad("/derived", "must be an object of new shape -> {\"from\", \"mirror\", \"mask\"}");
@@ -378,6 +382,7 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
 std::string ManifestJson(const Rig& rig) {
   json m = json::object();
   m["name"] = rig.name;
+  if (!rig.credit.empty()) m["credit"] = rig.credit;
   json shapes = json::object();
   for (const Shape& s : rig.shapes) {
     json o = {{"group", s.group}, {"min", s.min}, {"max", s.max}, {"default", s.default_weight}};
@@ -411,7 +416,7 @@ std::string ManifestJson(const Rig& rig) {
 bool RigFormatFromPath(const std::string& path, RigFormat* format) {
   std::string lower = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const RigFormat formats[] = {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx};
+  const RigFormat formats[] = {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd};
   for (RigFormat f : formats) {
     if (EndsWith(lower, RigFormatExtension(f))) {
       *format = f;
@@ -427,6 +432,8 @@ bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format) {
     *format = RigFormat::kGlb;
   } else if (head.substr(0, 4) == "PMX ") {
     *format = RigFormat::kPmx;
+  } else if (head.substr(0, 3) == "Pmd") {
+    *format = RigFormat::kPmd;
   } else if (head.substr(0, 18) == "Kaydara FBX Binary" || head.find("; FBX ") == 0 || head.find("FBXHeaderExtension:") != std::string_view::npos) {
     *format = RigFormat::kFbx;
   } else if (head.find("<COLLADA") != std::string_view::npos) {
@@ -449,6 +456,7 @@ const char* RigFormatExtension(RigFormat format) {
     case RigFormat::kCollada: return ".dae";
     case RigFormat::kMd5: return ".md5mesh";
     case RigFormat::kPmx: return ".pmx";
+    case RigFormat::kPmd: return ".pmd";
   }
   return "";
 }
@@ -461,6 +469,7 @@ Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format
     case RigFormat::kFbx: rig = LoadFbxMemory(bytes, name); break;
     case RigFormat::kCollada: rig = LoadColladaMemory(bytes, name); break;
     case RigFormat::kPmx: rig = LoadPmxMemory(bytes, name); break;
+    case RigFormat::kPmd: rig = LoadPmdMemory(bytes, name); break;
     case RigFormat::kMd5: rig = LoadMd5Memory(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), name + ".md5mesh", {}); break;
   }
   if (rig.ok()) rig->name = name;
@@ -471,12 +480,14 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
   RigFormat format = RigFormat::kGltf;
   const bool known = RigFormatFromPath(path, &format);
   Result<Rig> rig = Internal("unread");
-  if (known && (format == RigFormat::kFbx || format == RigFormat::kCollada || format == RigFormat::kPmx)) {
+  const bool mmd = known && (format == RigFormat::kPmx || format == RigFormat::kPmd);
+  if (known && (format == RigFormat::kFbx || format == RigFormat::kCollada || mmd)) {
     std::ifstream f(path, std::ios::binary);
     if (!f) return NotFound("cannot open '" + path + "'");
     const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     const std::string file = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
     rig = LoadRigMemory(bytes, format, file.substr(0, file.rfind('.')));
+    if (mmd && rig.ok()) AddVmdMotions(rig.value(), path);
   } else {
     rig = EndsWith(path, ".obj")                 ? LoadObjSequence(std::span<const std::string>(&path, 1))
           : known && format == RigFormat::kMd5 ? LoadMd5File(path)

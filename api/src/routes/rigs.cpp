@@ -13,10 +13,12 @@ using nlohmann::json;
 
 json RigSummary(const StoredRig& s) {
   const Rig& r = s.rig;
-  return {{"id", s.id},           {"name", r.name},
-          {"vertices", r.vertex_count()}, {"triangles", r.triangle_count()},
-          {"shapes", r.shapes.size()},    {"primitives", r.primitives.size()},
-          {"has_skeleton", r.skin_count > 0}, {"version", s.version}};
+  json o = {{"id", s.id},           {"name", r.name},
+            {"vertices", r.vertex_count()}, {"triangles", r.triangle_count()},
+            {"shapes", r.shapes.size()},    {"primitives", r.primitives.size()},
+            {"has_skeleton", r.skin_count > 0}, {"version", s.version}};
+  if (!r.credit.empty()) o["credit"] = r.credit;
+  return o;
 }
 
 json RigDetail(const StoredRig& s) {

@@ -83,17 +83,29 @@ Result<Rig> LoadColladaMemory(std::span<const unsigned char> bytes, const std::s
 // material, bones and one skin, vertex morphs (and group morphs baked) as shapes named in Japanese with
 // the English names as aliases. Converted once to right-handed metres: (x, y, -z) x 0.08.
 Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::string& name);
+// PMD, the MMD model format before PMX: the same rig (BDEF2 skinning; expressions from the base-skin layout,
+// Shift-JIS names, English names as aliases when the file has them).
+Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::string& name);
+// A VMD motion as a clip of `rig` (a PMX/PMD model or one converted from it): bone keys matched to nodes and
+// morph keys to shapes (or aliases) by Shift-JIS names cut to 15 bytes; bone keys sampled through their
+// Bezier curves at 60 a second, morph keys linear. Names matching nothing are a `motion_names_unmatched`
+// warning appended to `warnings`; a motion matching nothing is an error.
+Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings);
+// Every .vmd beside `model_path` and in its motion/ folder as a clip of `rig`, named by file stem (a name
+// already taken is kept); a motion that fails is an `animation_skipped` warning.
+void AddVmdMotions(Rig& rig, const std::string& model_path);
 
 // The formats a rig comes in, and how to tell them: by file extension, or by the bytes' magic.
-enum class RigFormat { kGlb, kGltf, kFbx, kCollada, kMd5, kPmx };
+enum class RigFormat { kGlb, kGltf, kFbx, kCollada, kMd5, kPmx, kPmd };
 bool RigFormatFromPath(const std::string& path, RigFormat* format);
 bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format);
-const char* RigFormatExtension(RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh", ".pmx"
+const char* RigFormatExtension(RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh", ".pmx", ".pmd"
 // A rig from bytes of a known format (never reads other files: no external buffers, manifests or
 // .md5anim clips). `name` names the rig.
 Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name);
 
-// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, .pmx, or .obj (a single OBJ is a rig without shapes).
+// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, .pmx/.pmd (with the .vmd motions beside it and in
+// its motion/ folder), or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
 
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.

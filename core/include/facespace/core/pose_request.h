@@ -27,6 +27,7 @@ struct ClipRequest {
   std::string name;        // Clip name, or empty to use `index`.
   long long index = -1;
   float time = 0.0f;
+  bool timed = false;      // A time was given (as seconds or frames).
   float weight = 1.0f;
   bool loop = false;
   std::vector<std::string> mask;  // Joint names whose subtrees the clip affects.

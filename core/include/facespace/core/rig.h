@@ -206,6 +206,7 @@ struct AnimationInfo {
 
 struct Rig {
   std::string name;
+  std::string credit;                  // The attribution its license asks for (manifest "credit"); shown and exported.
   std::vector<Primitive> primitives;   // In glTF mesh order, then primitive order.
   std::vector<Mesh> meshes;
   std::vector<Shape> shapes;           // Named across the file; order of first appearance.

@@ -1,0 +1,175 @@
+// MikuMikuDance PMD (the format before PMX) as a Rig, through the same Model as PMX (mmd.h):
+// fixed-size Shift-JIS names (iconv), BDEF2 vertices (a bone pair and a 0..100 weight), faces,
+// materials with their texture names, bones (IK chains and grants counted and reported), and the
+// "skins": one base listing the model vertices the expressions move, then each expression's offsets
+// by position in that list (the layout of the course assignment's PA2). The English names, when the
+// file has them, become aliases.
+//
+// A parser of untrusted bytes: every read is bounds-checked, counts capped by the bytes left, every
+// index checked; an error names the section and the item.
+#include <string>
+#include <vector>
+
+#include "facespace/core/io.h"
+#include "mmd.h"
+
+namespace facespace {
+
+namespace {
+
+using namespace mmd;
+
+bool Name(Bytes& r, size_t n, std::string& out, const char* what) {
+  unsigned char raw[256];
+  if (!r.Raw(raw, n, what)) return false;
+  out = SjisToUtf8(raw, n);
+  return true;
+}
+
+}  // namespace
+
+Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::string& name) {
+  auto fail = [&](const Bytes& r) { return InvalidArgument(name + ": PMD " + r.error()); };
+  Bytes r(bytes);
+  char magic[3];
+  float version = 0;
+  if (!r.Raw(magic, 3, "the header") || std::memcmp(magic, "Pmd", 3) != 0) return InvalidArgument(name + ": not a PMD file (no 'Pmd' magic)");
+  if (!r.Get(version, "the header")) return fail(r);
+  if (version != 1.0f) return InvalidArgument(name + ": PMD version " + std::to_string(version) + " is not 1.0");
+  Model model;
+  model.format = "PMD";
+  std::string comment;
+  if (!Name(r, 20, model.name, "the model name") || !Name(r, 256, comment, "the comment")) return fail(r);
+
+  size_t nverts = 0;
+  if (!r.CountOf<uint32_t>(38, nverts, "the vertex count")) return fail(r);
+  model.verts.resize(nverts);
+  for (Vertex& x : model.verts) {
+    uint16_t bone[2];
+    uint8_t weight, edge;
+    if (!r.Floats(x.pos, 3, "a vertex") || !r.Floats(x.normal, 3, "a vertex") || !r.Floats(x.uv, 2, "a vertex") || !r.Raw(bone, 4, "a vertex") ||
+        !r.Get(weight, "a vertex") || !r.Get(edge, "a vertex")) {
+      return fail(r);
+    }
+    if (weight > 100) {
+      r.Fail("a vertex weight of " + std::to_string(weight) + " (0..100)");
+      return fail(r);
+    }
+    x.bones[0] = bone[0], x.bones[1] = bone[1];
+    x.weights[0] = weight / 100.0f, x.weights[1] = 1.0f - weight / 100.0f;
+    x.count = 2;
+  }
+  size_t nindices = 0;
+  if (!r.CountOf<uint32_t>(2, nindices, "the face index count")) return fail(r);
+  if (nindices % 3) return InvalidArgument(name + ": PMD: " + std::to_string(nindices) + " face indices is not whole triangles");
+  model.indices.resize(nindices);
+  for (size_t i = 0; i < nindices; ++i) {
+    uint16_t v;
+    if (!r.Get(v, "a face")) return fail(r);
+    if (v >= nverts) return InvalidArgument(name + ": PMD: face index " + std::to_string(i) + " is vertex " + std::to_string(v) + " of " + std::to_string(nverts));
+    model.indices[i] = v;
+  }
+  // Materials: no names; the texture field may be "colour.png*sphere.sph" (a sphere map after '*').
+  size_t nmats = 0, covered = 0;
+  if (!r.CountOf<uint32_t>(70, nmats, "the material count")) return fail(r);
+  model.mats.resize(nmats);
+  for (size_t mi = 0; mi < nmats; ++mi) {
+    ModelMaterial& m = model.mats[mi];
+    float rest[7];
+    uint8_t toon, edge;
+    uint32_t count;
+    std::string texture;
+    if (!r.Floats(m.diffuse, 4, "a material") || !r.Floats(rest, 7, "a material") || !r.Get(toon, "a material") || !r.Get(edge, "a material") ||
+        !r.Get(count, "a material") || !Name(r, 20, texture, "a material")) {
+      return fail(r);
+    }
+    m.name = "material" + std::to_string(mi);
+    if (count > nindices - covered || count % 3) {
+      return InvalidArgument(name + ": PMD: material " + std::to_string(mi) + " covers " + std::to_string(count) + " face indices of the " + std::to_string(nindices - covered) + " left");
+    }
+    m.indices = count;
+    covered += count;
+    texture = texture.substr(0, texture.find('*'));
+    const bool sphere = texture.size() > 4 && (texture.ends_with(".sph") || texture.ends_with(".spa"));
+    if (!texture.empty() && !sphere) {
+      m.texture = static_cast<int64_t>(model.textures.size());
+      model.textures.push_back(texture);
+    }
+  }
+  // Bones: type 5 and 9 follow another bone's rotation (grants); IK chains are counted below.
+  size_t nbones = 0;
+  if (!r.CountOf<uint16_t>(39, nbones, "the bone count")) return fail(r);
+  if (nbones > 65534) return InvalidArgument(name + ": PMD: more than 65534 bones");
+  model.bones.resize(nbones);
+  for (Bone& b : model.bones) {
+    uint16_t parent, tail, ik_parent;
+    uint8_t type;
+    if (!Name(r, 20, b.name, "a bone") || !r.Get(parent, "a bone") || !r.Get(tail, "a bone") || !r.Get(type, "a bone") || !r.Get(ik_parent, "a bone") ||
+        !r.Floats(b.pos, 3, "a bone")) {
+      return fail(r);
+    }
+    b.parent = parent == 0xFFFF ? -1 : parent;
+    model.grants += type == 5 || type == 9;
+  }
+  size_t nik = 0;
+  if (!r.CountOf<uint16_t>(11, nik, "the IK count")) return fail(r);
+  for (size_t k = 0; k < nik; ++k) {
+    uint8_t chain;
+    if (!r.Skip(4, "an IK chain") || !r.Get(chain, "an IK chain") || !r.Skip(6 + 2 * static_cast<size_t>(chain), "an IK chain")) return fail(r);
+  }
+  model.ik = nik;
+  // Skins: the base (type 0) lists model vertices and their positions; each expression lists
+  // (position in the base list, offset).
+  size_t nskins = 0;
+  if (!r.CountOf<uint16_t>(25, nskins, "the skin (morph) count")) return fail(r);
+  std::vector<uint32_t> base;
+  for (size_t s = 0; s < nskins; ++s) {
+    std::string skin_name;
+    size_t n = 0;
+    uint8_t type;
+    if (!Name(r, 20, skin_name, "a skin") || !r.CountOf<uint32_t>(16, n, "a skin's vertex count") || !r.Get(type, "a skin")) return fail(r);
+    if ((s == 0) != (type == 0)) return InvalidArgument(name + ": PMD: skin '" + skin_name + "' is type " + std::to_string(type) + " at " + std::to_string(s) + " (the base, type 0, comes first and only there)");
+    if (type > 4) return InvalidArgument(name + ": PMD: skin '" + skin_name + "' has type " + std::to_string(type));
+    Morph m;
+    m.name = skin_name;
+    m.panel = type;
+    m.type = 1;
+    for (size_t k = 0; k < n; ++k) {
+      uint32_t idx;
+      std::array<float, 3> d;
+      if (!r.Get(idx, "a skin vertex") || !r.Floats(d.data(), 3, "a skin vertex")) return fail(r);
+      if (type == 0) {
+        if (idx >= nverts) return InvalidArgument(name + ": PMD: the base skin names vertex " + std::to_string(idx) + " of " + std::to_string(nverts));
+        base.push_back(idx);
+      } else if (idx >= base.size()) {
+        return InvalidArgument(name + ": PMD: skin '" + skin_name + "' names base entry " + std::to_string(idx) + " of " + std::to_string(base.size()));
+      } else {
+        m.vertex.emplace_back(base[idx], d);
+      }
+    }
+    if (type != 0) model.morphs.push_back(std::move(m));
+  }
+  // Display lists (skipped), then the optional English names.
+  size_t nlist = 0, nframes = 0, ndisp = 0;
+  if (!r.CountOf<uint8_t>(2, nlist, "the skin display list") || !r.Skip(2 * nlist, "the skin display list") ||
+      !r.CountOf<uint8_t>(50, nframes, "the bone display names") || !r.Skip(50 * nframes, "the bone display names") ||
+      !r.CountOf<uint32_t>(3, ndisp, "the bone display list") || !r.Skip(3 * ndisp, "the bone display list")) {
+    return fail(r);
+  }
+  uint8_t english = 0;
+  if (r.left() > 0 && !r.Get(english, "the English names")) return fail(r);
+  if (english == 1) {
+    std::string english_name, english_comment;
+    if (!Name(r, 20, english_name, "the English names") || !Name(r, 256, english_comment, "the English names")) return fail(r);
+    for (Bone& b : model.bones) {
+      if (!Name(r, 20, b.english, "the English bone names")) return fail(r);
+    }
+    for (Morph& m : model.morphs) {
+      if (!Name(r, 20, m.english, "the English skin names")) return fail(r);
+    }
+  }
+  // Toon textures and physics follow: not read.
+  return BuildRig(model, name);
+}
+
+}  // namespace facespace

@@ -1,0 +1,278 @@
+// MikuMikuDance VMD motions as clips of a rig. A VMD names bones and morphs by their Shift-JIS
+// names cut to 15 bytes; a motion applies to any model whose names match those bytes.
+//
+// Bone keys carry a position (an offset from the bone's rest place), a rotation and four cubic
+// Bezier curves (x, y, z, rotation) that shape the segment ending at that key. MMD plays at 30
+// frames a second and interpolates to 60: the clip is sampled at 60 a second from each bone's first
+// key to its last, exact there, linear between samples. Morph keys are linear: the clip keeps them
+// as they are (every key time of any morph, all of the mesh's targets at each).
+//
+// A parser of untrusted bytes: counts are capped by the bytes left, key frames by kMaxFrame.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "facespace/core/io.h"
+#include "mmd.h"
+
+namespace facespace {
+
+namespace {
+
+using namespace mmd;
+
+constexpr int kSamplesPerFrame = 2;
+constexpr uint32_t kMaxFrame = 30 * 60 * 60;  // An hour.
+
+struct BoneKey {
+  uint32_t frame = 0;
+  float pos[3];
+  float rot[4];  // x, y, z, w as MMD writes them.
+  uint8_t curve[64];
+};
+
+struct MorphKey {
+  uint32_t frame = 0;
+  float weight = 0;
+};
+
+// 15-byte name field: the bytes up to the first NUL.
+std::string NameBytes(const unsigned char* p) { return std::string(reinterpret_cast<const char*>(p), static_cast<size_t>(std::find(p, p + 15, 0) - p)); }
+
+// A model name as a VMD would store it: Shift-JIS, cut to 15 bytes.
+std::string VmdKey(const std::string& utf8) {
+  std::string s = Utf8ToSjis(utf8);
+  if (s.size() > 15) s.resize(15);
+  return s;
+}
+
+// The y of MMD's curve (0,0), (x1,y1), (x2,y2), (1,1) where its x is u.
+float VmdBezier(float x1, float y1, float x2, float y2, float u) {
+  if (u <= 0.0f) return 0.0f;
+  if (u >= 1.0f) return 1.0f;
+  // x(s) = 3(1-s)^2 s x1 + 3(1-s) s^2 x2 + s^3 rises from 0 to 1 (x1, x2 in [0, 1]): bisect for x(s) = u.
+  auto bez = [](double a, double b, double s) { return 3 * (1 - s) * (1 - s) * s * a + 3 * (1 - s) * s * s * b + s * s * s; };
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 40; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (bez(x1, x2, mid) < u ? lo : hi) = mid;
+  }
+  return static_cast<float>(bez(y1, y2, 0.5 * (lo + hi)));
+}
+
+Eigen::Quaternionf Slerp(const float* a, const float* b, float t) {
+  const Eigen::Quaternionf qa(a[3], a[0], a[1], a[2]), qb(b[3], b[0], b[1], b[2]);
+  return qa.slerp(t, qb);
+}
+
+// The value at `frame` of one bone's keys (sorted), converted to glTF's handedness and units.
+void BoneAt(const std::vector<BoneKey>& keys, float frame, std::array<float, 3>& pos, Eigen::Quaternionf& rot) {
+  size_t b = static_cast<size_t>(std::upper_bound(keys.begin(), keys.end(), frame, [](float f, const BoneKey& k) { return f < static_cast<float>(k.frame); }) - keys.begin());
+  float p[3];
+  if (b == 0 || b == keys.size()) {
+    const BoneKey& k = keys[b == 0 ? 0 : keys.size() - 1];
+    std::copy(k.pos, k.pos + 3, p);
+    rot = Eigen::Quaternionf(k.rot[3], k.rot[0], k.rot[1], k.rot[2]);
+  } else {
+    const BoneKey &ka = keys[b - 1], &kb = keys[b];
+    const float u = (frame - static_cast<float>(ka.frame)) / static_cast<float>(kb.frame - ka.frame);
+    for (int c = 0; c < 3; ++c) {
+      const float s = VmdBezier(kb.curve[c] / 127.0f, kb.curve[c + 4] / 127.0f, kb.curve[c + 8] / 127.0f, kb.curve[c + 12] / 127.0f, u);
+      p[c] = ka.pos[c] + (kb.pos[c] - ka.pos[c]) * s;
+    }
+    rot = Slerp(ka.rot, kb.rot, VmdBezier(kb.curve[3] / 127.0f, kb.curve[7] / 127.0f, kb.curve[11] / 127.0f, kb.curve[15] / 127.0f, u));
+  }
+  pos = ToGltf(p);
+  rot = Eigen::Quaternionf(rot.w(), -rot.x(), -rot.y(), rot.z()).normalized();
+}
+
+float MorphAt(const std::vector<MorphKey>& keys, uint32_t frame) {
+  const size_t b = static_cast<size_t>(std::upper_bound(keys.begin(), keys.end(), frame, [](uint32_t f, const MorphKey& k) { return f < k.frame; }) - keys.begin());
+  if (b == 0) return keys.front().weight;
+  if (b == keys.size()) return keys.back().weight;
+  const MorphKey &a = keys[b - 1], &c = keys[b];
+  return a.weight + (c.weight - a.weight) * static_cast<float>(frame - a.frame) / static_cast<float>(c.frame - a.frame);
+}
+
+// Sorted by frame; of keys on the same frame the last in the file wins.
+template <typename Key>
+void SortKeys(std::vector<Key>& keys) {
+  std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.frame < b.frame; });
+  std::vector<Key> out;
+  for (const Key& k : keys) {
+    if (!out.empty() && out.back().frame == k.frame) out.back() = k;
+    else out.push_back(k);
+  }
+  keys = std::move(out);
+}
+
+}  // namespace
+
+Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings) {
+  auto fail = [&](const Bytes& r) { return InvalidArgument(clip_name + ": VMD " + r.error()); };
+  Bytes r(bytes);
+  char header[30];
+  if (!r.Raw(header, 30, "the header")) return fail(r);
+  const std::string_view h(header, 30);
+  size_t model_bytes = 0;
+  if (h.substr(0, 25) == "Vocaloid Motion Data 0002") model_bytes = 20;
+  else if (h.substr(0, 25) == "Vocaloid Motion Data file") model_bytes = 10;
+  else return InvalidArgument(clip_name + ": not a VMD motion (no 'Vocaloid Motion Data' header)");
+  if (!r.Skip(model_bytes, "the model name")) return fail(r);
+
+  // Keys by name bytes.
+  std::map<std::string, std::vector<BoneKey>> bone_keys;
+  std::map<std::string, std::vector<MorphKey>> morph_keys;
+  size_t nbone = 0, nmorph = 0;
+  if (!r.CountOf<uint32_t>(111, nbone, "the bone key count")) return fail(r);
+  for (size_t k = 0; k < nbone; ++k) {
+    unsigned char name[15];
+    BoneKey key;
+    if (!r.Raw(name, 15, "a bone key") || !r.Get(key.frame, "a bone key") || !r.Floats(key.pos, 3, "a bone key") || !r.Floats(key.rot, 4, "a bone key") ||
+        !r.Raw(key.curve, 64, "a bone key")) {
+      return fail(r);
+    }
+    if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
+    const float n = std::sqrt(key.rot[0] * key.rot[0] + key.rot[1] * key.rot[1] + key.rot[2] * key.rot[2] + key.rot[3] * key.rot[3]);
+    if (!(n > 1e-6f)) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " has a zero rotation");
+    for (float& q : key.rot) q /= n;
+    bone_keys[NameBytes(name)].push_back(key);
+  }
+  if (!r.CountOf<uint32_t>(23, nmorph, "the morph key count")) return fail(r);
+  for (size_t k = 0; k < nmorph; ++k) {
+    unsigned char name[15];
+    MorphKey key;
+    if (!r.Raw(name, 15, "a morph key") || !r.Get(key.frame, "a morph key") || !r.Floats(&key.weight, 1, "a morph key")) return fail(r);
+    if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
+    morph_keys[NameBytes(name)].push_back(key);
+  }
+  // Camera, light, shadow and IK switches follow: not read.
+
+  // The rig's names as a VMD writes them (the first of equal keys wins, as in MMD).
+  std::map<std::string, int> node_of, shape_of;
+  for (size_t n = 0; n < rig.nodes.size(); ++n) node_of.emplace(VmdKey(rig.nodes[n].name), static_cast<int>(n));
+  for (size_t s = 0; s < rig.shapes.size(); ++s) {
+    shape_of.emplace(VmdKey(rig.shapes[s].name), static_cast<int>(s));
+    for (const std::string& a : rig.shapes[s].aliases) shape_of.emplace(VmdKey(a), static_cast<int>(s));
+  }
+  node_of.erase("");
+  shape_of.erase("");
+
+  AnimationInfo clip;
+  clip.name = clip_name;
+  std::vector<std::string> unmatched;
+  for (auto& [key, keys] : bone_keys) {
+    const auto it = node_of.find(key);
+    if (it == node_of.end()) {
+      unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
+      continue;
+    }
+    SortKeys(keys);
+    const Node& node = rig.nodes[it->second];
+    const Eigen::Quaternionf rest(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
+    AnimationSampler t, q;
+    t.components = 3, q.components = 4;
+    const uint32_t first = keys.front().frame * kSamplesPerFrame, last = keys.back().frame * kSamplesPerFrame;
+    for (uint32_t s = first; s <= last; ++s) {
+      const float frame = static_cast<float>(s) / kSamplesPerFrame;
+      std::array<float, 3> p;
+      Eigen::Quaternionf rot;
+      BoneAt(keys, frame, p, rot);
+      rot = (rest * rot).normalized();
+      const float time = frame / kFramesPerSecond;
+      t.times.push_back(time);
+      q.times.push_back(time);
+      for (int c = 0; c < 3; ++c) t.values.push_back(node.translation[c] + p[c]);
+      q.values.insert(q.values.end(), {rot.x(), rot.y(), rot.z(), rot.w()});
+    }
+    clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), it->second, ChannelPath::kTranslation});
+    clip.sampler_data.push_back(std::move(t));
+    clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), it->second, ChannelPath::kRotation});
+    clip.sampler_data.push_back(std::move(q));
+  }
+  // Morphs: per shape its keys; then per mesh with targets one weights channel over every key frame.
+  std::map<int, std::vector<MorphKey>> shape_keys;
+  std::vector<uint32_t> frames;
+  for (auto& [key, keys] : morph_keys) {
+    const auto it = shape_of.find(key);
+    if (it == shape_of.end()) {
+      unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
+      continue;
+    }
+    SortKeys(keys);
+    for (const MorphKey& k : keys) frames.push_back(k.frame);
+    std::vector<MorphKey>& to = shape_keys[it->second];
+    if (to.empty()) to = keys;  // A name and an alias both keyed: the first wins.
+  }
+  std::sort(frames.begin(), frames.end());
+  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+  for (size_t mi = 0; mi < rig.meshes.size() && !frames.empty(); ++mi) {
+    const Mesh& mesh = rig.meshes[mi];
+    int node = -1;
+    for (size_t n = 0; n < rig.nodes.size() && node < 0; ++n) {
+      if (rig.nodes[n].mesh == static_cast<int>(mi)) node = static_cast<int>(n);
+    }
+    if (node < 0 || mesh.target_shapes.empty()) continue;
+    AnimationSampler w;
+    w.components = mesh.target_shapes.size();
+    for (uint32_t f : frames) {
+      w.times.push_back(static_cast<float>(f) / kFramesPerSecond);
+      for (uint32_t s : mesh.target_shapes) {
+        const auto k = shape_keys.find(static_cast<int>(s));
+        w.values.push_back(k == shape_keys.end() ? 0.0f : MorphAt(k->second, f));
+      }
+    }
+    clip.has_weights = true;
+    clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), node, ChannelPath::kWeights});
+    clip.sampler_data.push_back(std::move(w));
+  }
+  for (const AnimationSampler& s : clip.sampler_data) clip.duration = std::max(clip.duration, s.times.back());
+  clip.channels = clip.channel_data.size();
+  if (!unmatched.empty() && warnings) {
+    std::string list;
+    for (size_t k = 0; k < unmatched.size() && k < 12; ++k) list += (k ? ", " : "") + unmatched[k];
+    if (unmatched.size() > 12) list += ", ...";
+    warnings->push_back({"motion_names_unmatched", "motion '" + clip_name + "': " + std::to_string(unmatched.size()) + " of " +
+                                                       std::to_string(bone_keys.size() + morph_keys.size()) + " bone and morph names match nothing in the model: " + list,
+                         clip_name, static_cast<double>(unmatched.size()), true});
+  }
+  if (clip.channel_data.empty()) return InvalidArgument(clip_name + ": VMD: no bone or morph name of the motion is in the model");
+  return clip;
+}
+
+void AddVmdMotions(Rig& rig, const std::string& model_path) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(model_path).parent_path().empty() ? fs::path(".") : fs::path(model_path).parent_path();
+  std::vector<fs::path> files;
+  for (const fs::path& d : {dir, dir / "motion"}) {
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(d, ec)) {
+      std::string ext = e.path().extension().string();
+      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (ext == ".vmd" && e.is_regular_file(ec)) files.push_back(e.path());
+    }
+  }
+  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) { return a.filename() < b.filename(); });
+  for (const fs::path& f : files) {
+    std::ifstream in(f, std::ios::binary);
+    const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string name = f.stem().string();
+    bool taken = false;
+    for (const AnimationInfo& a : rig.animations) taken |= a.name == name;
+    if (taken) continue;
+    Result<AnimationInfo> clip = LoadVmdMemory(bytes, rig, name, &rig.load_warnings);
+    if (!clip.ok()) {
+      rig.load_warnings.push_back({"animation_skipped", "motion '" + name + "' skipped: " + clip.status().message, name, 0.0, false});
+      continue;
+    }
+    rig.animations.push_back(std::move(clip.value()));
+  }
+}
+
+}  // namespace facespace
