@@ -1,14 +1,17 @@
-// libFuzzer: the PMX reader (the bytes are the .pmx file), then an evaluation at rest with every
-// shape at 0.7.
+// libFuzzer: the MMD model readers (the bytes are a .pmx file, or a .pmd when they start "Pmd"),
+// then an evaluation at rest with every shape at 0.7.
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <span>
 
 #include "facespace/core/io.h"
 #include "evaluate.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  auto rig = facespace::LoadPmxMemory(std::span<const unsigned char>(data, size), "fuzz");
+  const std::span<const unsigned char> bytes(data, size);
+  const bool pmd = size >= 3 && std::memcmp(data, "Pmd", 3) == 0;
+  auto rig = pmd ? facespace::LoadPmdMemory(bytes, "fuzz") : facespace::LoadPmxMemory(bytes, "fuzz");
   if (rig.ok()) EvaluateLoadedRig(rig.value(), 0.7f);
   return 0;
 }

@@ -7,7 +7,7 @@ build=$1; seconds=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_request fuzz_http"
+targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http"
 for t in $targets; do mkdir -p "$corpus/$t"; done
 # Seeds: every real glb/gltf we have (small ones whole), OBJ files and targets, the test requests.
 for f in "$src"/assets/*/*.glb "$shared"/real/*/*.glb "$shared"/real/*/*.gltf; do
@@ -24,6 +24,8 @@ fi
 for f in "$shared"/more/FBX/*/*.fbx; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_fbx/$(basename "$f")"; done
 for f in "$shared"/more/Collada/*/*.dae; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_dae/$(basename "$f")"; done
 [ -f "$shared/more/MMD/Uka/MS_Uka.pmx" ] && cp "$shared/more/MMD/Uka/MS_Uka.pmx" "$corpus/fuzz_pmx/uka.pmx"
+[ -f "$shared/more/MMD/Uka_PMD/MS_Uka.pmd" ] && cp "$shared/more/MMD/Uka_PMD/MS_Uka.pmd" "$corpus/fuzz_pmx/uka.pmd"
+for f in "$src"/assets/uka/motion/*.vmd; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_vmd/$(basename "$f")"; done
 python3 - "$corpus" <<'PY'
 import json, os, sys
 c = sys.argv[1]
