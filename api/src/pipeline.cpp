@@ -169,6 +169,19 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
   point.posed = false;
   float f = 0.0f;
   SampleSequence(sequence, time, point.weights, &f);
+  if (sequence.clip >= 0) {
+    // The clip's pose at this time (its weight channel is the sequence's keys).
+    PoseRequest request;
+    ClipRequest clip;
+    clip.index = sequence.clip;
+    clip.time = time;
+    clip.pointer = "/motion";
+    request.clips.push_back(clip);
+    std::vector<float> animated;
+    std::vector<uint8_t> set;
+    std::vector<Warning> warnings;
+    point.posed = BuildPose(rig, request, point.pose, animated, set, warnings).ok();
+  }
   CheckPoint(rig, mode, point);
   const std::string at = "t=" + FormatNumber(time) + ": ";
   for (Warning& w : point.report.warnings) w.message = at + w.message;

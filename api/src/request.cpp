@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -484,8 +485,15 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
     return errors.fields.empty() ? "" : errors.fields[0].pointer + ": " + errors.fields[0].message;
   }
   if (key == "frame") {
-    if (value != "all" && value != "shapes") return "must be all or shapes";
-    r.render.camera.frame_shapes = value == "shapes";
+    // The camera's framing (all, shapes), or else a time in MMD frames for the pose (ApplyPoseSetting).
+    if (value == "all" || value == "shapes") {
+      r.render.camera.frame_shapes = value == "shapes";
+      return "";
+    }
+    double d = 0;
+    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), d);
+    if (ec != std::errc() || end != value.data() + value.size()) return "must be all or shapes (the camera's framing) or a number of frames (30 a second)";
+    *known = false;
     return "";
   }
   const bool camera_key = key == "yaw" || key == "pitch" || key == "distance" || key == "zoom" || key == "fov";
@@ -559,7 +567,11 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     const std::string& key = it.key();
     const json& v = it.value();
     const std::string ptr = "/" + JsonPointerEscape(key);
-    if (key == "keys") {
+    if (key == "motion" || key == "animation") {
+      if (!r.clip.pointer.empty()) errors.fields.push_back({ptr, "give animation or motion, not both"});
+      else if (!ClipRef(v, r.clip)) errors.fields.push_back({ptr, "must be " + std::string(key == "motion" ? "a motion" : "an animation") + " name or index"});
+      r.clip.pointer = ptr;
+    } else if (key == "keys") {
       if (!v.is_array() || v.empty()) {
         errors.fields.push_back({ptr, "must be a non-empty array of {time, weights | shape}"});
         continue;
@@ -629,12 +641,46 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
       errors.fields.push_back({ptr, "unknown member"});
     }
   }
-  if (errors.fields.empty() && r.keys.empty()) errors.fields.push_back({"/keys", "is required"});
+  if (errors.fields.empty() && r.keys.empty() && r.clip.pointer.empty()) errors.fields.push_back({"/keys", "is required (or a motion: \"motion\" or \"animation\")"});
   if (!errors.fields.empty()) return Finish(errors);
   return r;
 }
 
+// A sequence played from a clip: the keys of its morph-weight channel (or none: the rest weights),
+// spanning the whole clip, and the clip for the pose at each time.
+Result<Sequence> ClipSequence(const Rig& rig, const SequenceRequest& request) {
+  const ClipRequest& c = request.clip;
+  Status errors = InvalidArgument("");
+  if (!request.keys.empty()) {
+    errors.fields.push_back({c.pointer, "give keys or " + c.pointer.substr(1) + ", not both"});
+    return Finish(errors);
+  }
+  int clip = -1;
+  for (size_t a = 0; a < rig.animations.size() && clip < 0; ++a) {
+    if (c.name.empty() ? static_cast<long long>(a) == c.index : rig.animations[a].name == c.name) clip = static_cast<int>(a);
+  }
+  if (clip < 0) {
+    std::string names;
+    for (const AnimationInfo& a : rig.animations) names += (names.empty() ? "" : ", ") + a.name;
+    errors.fields.push_back({c.pointer, "unknown animation '" + (c.name.empty() ? std::to_string(c.index) : c.name) + "'; animations: " + (names.empty() ? "none" : names)});
+    return Finish(errors);
+  }
+  const float duration = rig.animations[clip].duration;
+  Result<Sequence> s = SequenceFromAnimation(rig, clip);
+  if (!s.ok()) {
+    Sequence rest;
+    rest.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+    s = std::move(rest);
+  }
+  std::vector<Keyframe>& keys = s->keys;
+  if (keys.front().time > 0.0f) keys.insert(keys.begin(), Keyframe{0.0f, keys.front().weights, std::nullopt});
+  if (keys.back().time < duration) keys.push_back(Keyframe{duration, keys.back().weights, std::nullopt});
+  s->clip = clip;
+  return s;
+}
+
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
+  if (!request.clip.pointer.empty()) return ClipSequence(rig, request);
   Sequence s;
   s.transition = request.transition;
   s.smooth = request.smooth;

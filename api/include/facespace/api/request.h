@@ -105,6 +105,7 @@ struct SequenceRequest {
   std::string format;
   float tolerance = 0.0f;
   bool has_tolerance = false;
+  ClipRequest clip;                         // "motion" or "animation" instead of keys (pointer empty: none).
   BlendOptions options;
 };
 Result<SequenceRequest> ParseSequenceRequest(std::string_view body);

@@ -41,6 +41,7 @@ struct Sequence {
   std::vector<Keyframe> keys;             // Strictly increasing times.
   Transition transition;
   bool smooth = false;                    // Catmull-Rom through the weight vectors instead.
+  int clip = -1;                          // Played from this animation (a VMD motion...): its pose at each time too.
 };
 
 // Times finite and strictly increasing, every key with one weight per shape, finite.
