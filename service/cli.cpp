@@ -378,15 +378,15 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   int columns = 4;
   bool weights_given = false;
   if (sheet) r.render.width = r.render.height = 256;
-  Flags flags(sheet ? "usage: facespace sheet RIG --cells JSON|@FILE [--columns N] [render flags] -o OUT\n"
+  Flags flags(sheet ? "usage: facespace sheet RIG --cells JSON|@FILE|shapes[:GROUP] [--columns N] [render flags] -o OUT\n"
                     : "usage: facespace render RIG [weights, pose and render flags] [--format png|jpeg|exr|tiff] -o OUT\n",
               sheet ? "A labelled contact sheet: one render per cell. Cells: a JSON array, or JSON lines, of\n"
-                      "{\"weights\": ..., \"label\": \"...\"}.\n"
+                      "{\"weights\": ..., \"label\": \"...\"}; or \"shapes\" (one cell per shape at 1), \"shapes:GROUP\" (those of a group).\n"
                     : "An offscreen render (OSMesa). The format comes from OUT's extension or --format.\n");
   AddMeshFlags(flags, r.mesh, weights_given);
   AddRenderFlags(flags, r);
   if (sheet) {
-    flags.Value("--cells", "JSON|@FILE", "the cells", [&cells_text](const std::string& v) { return ReadAtFile("--cells", v, cells_text) ? 0 : 1; });
+    flags.Value("--cells", "JSON|@FILE|shapes[:GROUP]", "the cells; shapes: one per shape (of GROUP) at 1", [&cells_text](const std::string& v) { return ReadAtFile("--cells", v, cells_text) ? 0 : 1; });
     flags.Value("--columns", "N", "cells per row (default 4)", [&columns](const std::string& v) {
       long long n = 0;
       if (!IntIn("--columns", v, 1, 64, &n)) return 2;
@@ -418,7 +418,8 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     return WriteProduced(out_path, api::ProduceImage(rig, r, format, renderer, ws));
   } else {
     // Cells: a JSON array, or one JSON object per line.
-    nlohmann::json cells = nlohmann::json::parse(cells_text, nullptr, false);
+    const bool shape_cells = cells_text == "shapes" || cells_text.starts_with("shapes:");
+    nlohmann::json cells = shape_cells ? nlohmann::json(cells_text) : nlohmann::json::parse(cells_text, nullptr, false);
     if (cells.is_discarded()) {
       cells = nlohmann::json::array();
       size_t start = 0;
@@ -443,6 +444,10 @@ int Render(const std::vector<std::string>& args, bool sheet) {
       return 1;
     }
     api::SheetRequest& request = parsed.value();
+    if (Status s = api::ExpandShapeCells(rig, request); !s.ok()) {
+      PrintStatus(s);
+      return 1;
+    }
     request.base = r;  // The render settings, blend options and pose of the flags; the cells' weights.
     return WriteProduced(out_path, api::ProduceSheet(rig, request, format, renderer, ws));
   }

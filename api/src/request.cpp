@@ -7,6 +7,7 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <set>
 #include <nlohmann/json.hpp>
 
 namespace facespace::api {
@@ -437,8 +438,12 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
     const std::string& key = it.key();
     const json& v = it.value();
     if (key == "cells") {
+      if (v.is_string() && (v == "shapes" || v.get<std::string>().starts_with("shapes:"))) {
+        r.shape_cells = v.get<std::string>();
+        continue;
+      }
       if (!v.is_array() || v.empty()) {
-        errors.fields.push_back({"/cells", "must be a non-empty array of {\"weights\", \"label\"}"});
+        errors.fields.push_back({"/cells", "must be a non-empty array of {\"weights\", \"label\"}, or \"shapes\" or \"shapes:GROUP\""});
         continue;
       }
       for (size_t i = 0; i < v.size(); ++i) {
@@ -470,9 +475,39 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
     }
   }
   FinishPose(r.base.mesh.pose, errors);
-  if (errors.fields.empty() && r.cells.empty()) errors.fields.push_back({"/cells", "is required"});
+  if (errors.fields.empty() && r.cells.empty() && r.shape_cells.empty()) errors.fields.push_back({"/cells", "is required"});
   if (!errors.fields.empty()) return Finish(errors);
   return r;
+}
+
+Status ExpandShapeCells(const Rig& rig, SheetRequest& r) {
+  if (r.shape_cells.empty()) return Status::Ok();
+  const std::string group = r.shape_cells == "shapes" ? "" : r.shape_cells.substr(7);
+  std::set<std::string> groups;
+  for (const Shape& s : rig.shapes) {
+    groups.insert(s.group);
+    if (!group.empty() && s.group != group) continue;
+    WeightEntry e;
+    e.name = s.name;
+    e.value = 1.0f;
+    e.pointer = "/cells";
+    r.cells.push_back({e});
+    // Labels are drawn in ASCII: a name that is not takes its first ASCII alias, else its index.
+    auto ascii = [](const std::string& t) { return std::all_of(t.begin(), t.end(), [](char c) { return c >= 0x20 && c < 0x7f; }); };
+    std::string label = ascii(s.name) ? s.name : "";
+    for (size_t k = 0; k < s.aliases.size() && label.empty(); ++k) {
+      if (ascii(s.aliases[k])) label = s.aliases[k];
+    }
+    r.labels.push_back(label.empty() ? "shape " + std::to_string(&s - rig.shapes.data()) : label.substr(0, 80));
+  }
+  if (r.cells.empty()) {
+    std::string list;
+    for (const std::string& g : groups) list += (list.empty() ? "" : ", ") + g;
+    Status errors = InvalidArgument("");
+    errors.fields.push_back({"/cells", group.empty() ? "the rig has no shapes" : "no shape in group '" + group + "'; groups: " + list});
+    return Finish(errors);
+  }
+  return Status::Ok();
 }
 
 std::string ApplyRenderSetting(const std::string& key, const std::string& value, RenderRequest& r, bool* known) {

@@ -74,8 +74,12 @@ struct SheetRequest {
   std::vector<std::vector<WeightEntry>> cells;
   std::vector<std::string> labels;
   int columns = 4;
+  std::string shape_cells;  // "cells": "shapes" or "shapes:GROUP", expanded by ExpandShapeCells.
 };
 Result<SheetRequest> ParseSheetRequest(std::string_view body);
+// "cells": "shapes" (or "shapes:GROUP"): one cell per shape of the rig (of that group) at weight 1,
+// labelled with its name. An unknown group is an error naming /cells.
+Status ExpandShapeCells(const Rig& rig, SheetRequest& request);
 
 // A skeleton setting given as text (query parameter or CLI flag): animation, time, loop,
 // pose (JSON), blend (JSON), skinning (linear|dual_quaternion), lod (0..4). Returns "" or what is wrong; `known` tells whether the key is one.
