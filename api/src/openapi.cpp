@@ -106,6 +106,10 @@ json MeshQueryParams() {
       {{"name", "keep_targets"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
       {{"name", "animation"}, {"in", "query"}, {"schema", {{"type", "string"}}}},
       {{"name", "time"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
+      {{"name", "motion"}, {"in", "query"}, {"description", "A clip by MMD's word (a .vmd motion): as animation"}, {"schema", {{"type", "string"}}}},
+      {{"name", "frame"}, {"in", "query"},
+       {"description", "The time in MMD frames, 30 a second (render routes: all or shapes is the camera's framing)"},
+       {"schema", {{"oneOf", json::array({json{{"type", "number"}}, json{{"enum", {"all", "shapes"}}}})}}}},
       {{"name", "loop"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
       {{"name", "pose"}, {"in", "query"}, {"description", "The body's pose object as JSON"}, {"schema", {{"type", "string"}}}},
       {{"name", "blend"}, {"in", "query"}, {"description", "The body's blend array as JSON"}, {"schema", {{"type", "string"}}}},
@@ -138,6 +142,8 @@ json Build() {
   json skeleton_props = {{"pose", pose},
                          {"animation", clip_ref},
                          {"time", {{"type", "number"}, {"description", "Seconds into the animation"}}},
+                         {"motion", clip_ref},
+                         {"frame", {{"type", "number"}, {"description", "The time in MMD frames, 30 a second (instead of time)"}}},
                          {"loop", {{"type", "boolean"}, {"default", false}}},
                          {"blend", blend},
                          {"skinning", {{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}}},
@@ -205,14 +211,17 @@ json Build() {
   json sheet_props = render_props;
   sheet_props.erase("weights");
   sheet_props["columns"] = {{"type", "integer"}, {"minimum", 1}, {"maximum", 64}};
-  sheet_props["cells"] = {{"type", "array"},
-                          {"items", {{"type", "object"}, {"properties", {{"weights", weights}, {"label", {{"type", "string"}}}}}}}};
+  sheet_props["cells"] = {{"oneOf", json::array({json{{"type", "array"},
+                                                        {"items", {{"type", "object"}, {"properties", {{"weights", weights}, {"label", {{"type", "string"}}}}}}}},
+                                                   json{{"type", "string"}, {"pattern", "^shapes(:.+)?$"},
+                                                        {"description", "One cell per shape (of a group) at 1"}}})}};
   json sheet_request = {{"type", "object"}, {"required", {"cells"}}, {"properties", sheet_props}};
   json sequence_request = {
       {"type", "object"},
-      {"required", {"keys"}},
       {"properties",
-       {{"keys", {{"type", "array"},
+       {{"motion", clip_ref},
+        {"animation", clip_ref},
+        {"keys", {{"type", "array"},
                   {"items", {{"type", "object"},
                              {"required", {"time"}},
                              {"properties", {{"time", {{"type", "number"}}}, {"weights", weights}, {"shape", {{"type", "string"}}},

@@ -325,4 +325,37 @@ printf 'Kaydara FBX Binary  \0\032\0\114\035\0\0\200\0\0\0\0' >"$tmp/cut.fbx"
 "$bin" info "$tmp/cut.fbx" >/dev/null 2>"$tmp/err"; rc=$?
 check "info on a truncated FBX: exit 1 and the byte offset named" sh -c "[ $rc -eq 1 ] && grep -q 'FBX byte' '$tmp/err'"
 
+
+# MikuMikuDance: the bundled PMX with its motions, the PMD of the same model; convert keeps the skin,
+# the motions as glTF animations and the credit; the converted glb blends as the source at a motion
+# frame and is valid; a contact sheet of every shape.
+uka="$src/assets/uka/MS_Uka.pmx"
+"$bin" info "$uka" >"$tmp/uka.info" 2>"$tmp/uka.err"; rc=$?
+check "info MS_Uka.pmx: 49955 vertices, 202 shapes, 302 joints, 4 motions, the credit; unmatched motion names reported" sh -c "[ $rc -eq 0 ] && grep -q '^vertices   49955' '$tmp/uka.info' && grep -q '^shapes     202' '$tmp/uka.info' && grep -q '302 joints' '$tmp/uka.info' && [ \$(grep -c '^animation ' '$tmp/uka.info') -eq 4 ] && grep -q 'Nagoya Institute of Technology' '$tmp/uka.info' && grep -q 'motion_names_unmatched' '$tmp/uka.err'"
+"$bin" info "$M/MMD/Uka_PMD/MS_Uka.pmd" --json >"$tmp/pmd.json" 2>/dev/null
+check "info MS_Uka.pmd: 49955 vertices, 120 expressions (121 skins with the base), English aliases" py 'import json,sys
+d=json.load(open(sys.argv[1])); s=d["shapes"]
+sys.exit(not(d["vertices"]==49955 and len(s)==120 and any("mouth_a_geo_C" in x.get("aliases",[]) for x in s)))' "$tmp/pmd.json"
+"$bin" convert "$uka" -o "$tmp/uka.glb" >/dev/null 2>&1
+"$bin" blend "$uka" --motion 01_happy --frame 150 -o "$tmp/uka_src.json" 2>/dev/null
+"$bin" blend "$tmp/uka.glb" --motion 01_happy --frame 150 -o "$tmp/uka_glb.json" 2>/dev/null
+"$bin" blend "$uka" -o "$tmp/uka_rest.json" 2>/dev/null
+check "convert .pmx -> .glb: at frame 150 of 01_happy the blend is the source's (and not the rest)" py 'import json,sys
+a=json.load(open(sys.argv[1]))["primitives"]; b=json.load(open(sys.argv[2]))["primitives"]; r=json.load(open(sys.argv[3]))["primitives"]
+d=max(abs(x-y) for p,q in zip(a,b) for x,y in zip(p["positions"],q["positions"]))
+m=max(abs(x-y) for p,q in zip(a,r) for x,y in zip(p["positions"],q["positions"]))
+sys.exit(not(len(a)==len(b)==12 and d<1e-6 and m>1e-3))' "$tmp/uka_src.json" "$tmp/uka_glb.json" "$tmp/uka_rest.json"
+check "convert .pmx -> .glb: 4 animations, 302 joints, the credit as asset.copyright" py 'import json,struct,sys
+b=open(sys.argv[1],"rb").read(); n=struct.unpack_from("<I",b,12)[0]; j=json.loads(b[20:20+n])
+sys.exit(not(len(j["animations"])==4 and len(j["skins"][0]["joints"])==302 and "Nagoya Institute of Technology" in j["asset"]["copyright"]))' "$tmp/uka.glb"
+if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/uka.glb" >"$tmp/val" 2>&1
+  rc=$?; cat "$tmp/val"
+  check "glTF validator: 0 errors on the glb converted from PMX (skin, 202 targets, 4 motions)" test $rc -eq 0
+fi
+"$bin" sheet "$uka" --cells shapes:mouth --columns 8 --width 64 --height 64 -o "$tmp/uka_sheet.png" 2>/dev/null
+check "sheet --cells shapes:mouth: one 64-pixel cell per mouth shape (8 columns)" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); w,h=struct.unpack(">II", d[16:24]); sys.exit(not(d[:4]==b"\x89PNG" and w>=8*64 and h>=3*64))' "$tmp/uka_sheet.png"
+"$bin" sheet "$uka" --cells shapes:nosuch -o "$tmp/x.png" 2>"$tmp/err"; rc=$?
+check "sheet --cells shapes:nosuch: an error listing the groups" sh -c "[ $rc -ne 0 ] && grep -q 'groups:.*mouth' '$tmp/err'"
+
 finish
