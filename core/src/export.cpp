@@ -301,7 +301,13 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   extras["weights"] = wmap;
   m.asset.extras = ToValue(extras);
 
-  for (const Image& im : rig.images) {
+  // glTF carries PNG and JPEG: other images (an MMD model's BMP or TGA) and unread ones are left out,
+  // their materials keeping the base colour.
+  std::vector<int> texture_of(rig.images.size(), -1);
+  for (size_t ii = 0; ii < rig.images.size(); ++ii) {
+    const Image& im = rig.images[ii];
+    if (im.bytes.empty() || (im.mime_type != "image/png" && im.mime_type != "image/jpeg")) continue;
+    texture_of[ii] = static_cast<int>(m.textures.size());
     tinygltf::Image gi;
     gi.name = im.name;
     gi.mimeType = im.mime_type;
@@ -315,8 +321,8 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     tinygltf::Material gm;
     gm.name = mat.name;
     gm.pbrMetallicRoughness.baseColorFactor.assign(mat.base_color_factor.begin(), mat.base_color_factor.end());
-    if (mat.base_color_image >= 0) {
-      gm.pbrMetallicRoughness.baseColorTexture.index = mat.base_color_image;
+    if (mat.base_color_image >= 0 && texture_of[mat.base_color_image] >= 0) {
+      gm.pbrMetallicRoughness.baseColorTexture.index = texture_of[mat.base_color_image];
       gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
     }
     gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;

@@ -222,6 +222,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   if (nonempty * deltas.size() > kMaxTargets) {
     return InvalidArgument(name + ": " + std::string(in.format) + ": " + std::to_string(nonempty) + " materials x " + std::to_string(deltas.size()) + " morphs is beyond " + std::to_string(kMaxTargets) + " targets");
   }
+  std::vector<int> image_of(textures.size(), -1);
   std::vector<int32_t> remap(nverts, -1);
   std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the PMX vertices it holds.
   size_t first = 0;
@@ -273,7 +274,16 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     mat.roughness_factor = 0.9f;
     mat.double_sided = true;  // MMD draws most materials two-sided.
     if (m.texture >= 0 && static_cast<size_t>(m.texture) < textures.size()) {
-      rig.load_warnings.push_back({"texture_not_loaded", "material '" + m.name + "': texture '" + textures[m.texture] + "' is not read", m.name, 0.0, false});
+      // The image by its path in the model's folder, its bytes read by LoadImagesBeside (a file's
+      // loader): until then reported as not loaded.
+      if (image_of[m.texture] < 0) {
+        std::string path = textures[m.texture];
+        std::replace(path.begin(), path.end(), '\\', '/');
+        image_of[m.texture] = static_cast<int>(rig.images.size());
+        rig.images.push_back({path, "", {}});
+        rig.load_warnings.push_back({"texture_not_loaded", "texture '" + path + "' is not read (a model read from bytes has no folder)", path, 0.0, false});
+      }
+      mat.base_color_image = image_of[m.texture];
     }
     p.material = static_cast<int>(rig.materials.size());
     rig.materials.push_back(mat);

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
@@ -476,6 +477,80 @@ Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format
   return rig;
 }
 
+namespace {
+
+// `rel` (a path with '/') under `dir`, matching each component's letter case loosely; empty when
+// there is none, or when `rel` would leave `dir`.
+std::filesystem::path FindBeside(const std::filesystem::path& dir, const std::string& rel) {
+  namespace fs = std::filesystem;
+  if (rel.empty() || rel[0] == '/' || rel.find(':') != std::string::npos) return {};
+  fs::path at = dir;
+  size_t start = 0;
+  while (start <= rel.size()) {
+    size_t end = rel.find('/', start);
+    if (end == std::string::npos) end = rel.size();
+    const std::string part = rel.substr(start, end - start);
+    start = end + 1;
+    if (part.empty() || part == ".") continue;
+    if (part == "..") return {};
+    std::error_code ec;
+    if (fs::exists(at / part, ec)) {
+      at /= part;
+      continue;
+    }
+    auto lower = [](std::string t) {
+      for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      return t;
+    };
+    fs::path found;
+    for (const auto& e : fs::directory_iterator(at, ec)) {
+      if (lower(e.path().filename().string()) == lower(part)) found = e.path();
+    }
+    if (found.empty()) return {};
+    at = found;
+  }
+  return at;
+}
+
+}  // namespace
+
+void LoadImagesBeside(Rig& rig, const std::string& model_path) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(model_path).parent_path().empty() ? fs::path(".") : fs::path(model_path).parent_path();
+  constexpr std::uintmax_t kMaxImageBytes = std::uintmax_t{64} << 20;
+  std::vector<std::string> loaded;
+  for (Image& im : rig.images) {
+    if (!im.bytes.empty() || im.name.empty()) continue;
+    const fs::path file = FindBeside(dir, im.name);
+    std::error_code ec;
+    const std::uintmax_t size = file.empty() ? 0 : fs::file_size(file, ec);
+    std::string why;
+    if (file.empty() || ec || !fs::is_regular_file(file, ec)) why = "no such file in the model's folder";
+    else if (size == 0 || size > kMaxImageBytes) why = "empty or over 64 MiB";
+    std::vector<unsigned char> bytes;
+    if (why.empty()) {
+      std::ifstream f(file, std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+      std::string ext = file.extension().string();
+      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') im.mime_type = "image/png";
+      else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) im.mime_type = "image/jpeg";
+      else if (bytes.size() > 2 && bytes[0] == 'B' && bytes[1] == 'M') im.mime_type = "image/bmp";
+      else if (ext == ".tga") im.mime_type = "image/x-tga";
+      else why = "not a PNG, JPEG, BMP or TGA image";
+    }
+    for (Warning& w : rig.load_warnings) {
+      if (w.code == "texture_not_loaded" && w.shape == im.name) w.message = "texture '" + im.name + "' is not read: " + why;
+    }
+    if (!why.empty()) continue;
+    im.bytes = std::move(bytes);
+    loaded.push_back(im.name);
+  }
+  std::erase_if(rig.load_warnings, [&](const Warning& w) {
+    return w.code == "texture_not_loaded" && std::find(loaded.begin(), loaded.end(), w.shape) != loaded.end();
+  });
+}
+
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
   RigFormat format = RigFormat::kGltf;
   const bool known = RigFormatFromPath(path, &format);
@@ -487,7 +562,10 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
     const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     const std::string file = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
     rig = LoadRigMemory(bytes, format, file.substr(0, file.rfind('.')));
-    if (mmd && rig.ok()) AddVmdMotions(rig.value(), path);
+    if (mmd && rig.ok()) {
+      LoadImagesBeside(rig.value(), path);
+      AddVmdMotions(rig.value(), path);
+    }
   } else {
     rig = EndsWith(path, ".obj")                 ? LoadObjSequence(std::span<const std::string>(&path, 1))
           : known && format == RigFormat::kMd5 ? LoadMd5File(path)

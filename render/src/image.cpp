@@ -142,13 +142,15 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
   return std::string(bytes.begin(), bytes.end());
 }
 
-Result<Image> Decode(std::span<const unsigned char> bytes) {
+Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type) {
   const char* name = nullptr;
   if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P') name = "image.png";
   else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) name = "image.jpg";
   else if (bytes.size() > 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 && bytes[3] == 0x01) name = "image.exr";
   else if (bytes.size() > 4 && ((bytes[0] == 'I' && bytes[1] == 'I') || (bytes[0] == 'M' && bytes[1] == 'M'))) name = "image.tif";
-  if (!name) return InvalidArgument("not a PNG, JPEG, EXR or TIFF image");
+  else if (bytes.size() > 26 && bytes[0] == 'B' && bytes[1] == 'M') name = "image.bmp";
+  else if (bytes.size() > 18 && mime_type == "image/x-tga") name = "image.tga";  // TGA has no magic.
+  if (!name) return InvalidArgument("not a PNG, JPEG, EXR, TIFF, BMP or TGA image");
   OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
   auto in = OIIO::ImageInput::open(name, nullptr, &proxy);
   if (!in) return InvalidArgument(std::string("cannot decode the image: ") + OIIO::geterror());

@@ -208,7 +208,8 @@ struct Context {
         return it->id;
       }
     }
-    auto decoded = Decode(image.bytes);
+    if (image.bytes.empty()) return 0;
+    auto decoded = Decode(image.bytes, image.mime_type);
     if (!decoded.ok()) return 0;
     const render::Image& im = decoded.value();
     std::vector<unsigned char> srgb(im.rgba.size());

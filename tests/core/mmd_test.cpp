@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <map>
 
+#include <unistd.h>
+
 #include "facespace/core/blend.h"
 #include "facespace/core/hierarchy.h"
 #include "facespace/core/io.h"
@@ -394,6 +396,35 @@ TEST(MmdHostile, TruncatedAndLyingPmdAndVmdAreErrors) {
   ASSERT_FALSE(clip.ok());
   EXPECT_NE(clip.status().message.find("beyond an hour"), std::string::npos) << clip.status().message;
   EXPECT_FALSE(LoadVmdMemory(std::vector<unsigned char>(60, 'x'), rig.value(), "junk", nullptr).ok());
+}
+
+TEST(MmdTextures, ImagesAreReadFromTheModelsFolderOnly) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("facespace_tex_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir / "model" / "Tex");
+  const std::string png = std::string("\x89PNG\r\n\x1a\n") + std::string(20, 'x');
+  test::WriteBytes((dir / "model" / "Tex" / "Face.PNG").string(), png);
+  test::WriteBytes((dir / "model" / "hair.tga").string(), std::string(30, 'x'));
+  test::WriteBytes((dir / "model" / "notes.txt").string(), "hello");
+  test::WriteBytes((dir / "secret.png").string(), png);
+  Rig rig;
+  for (const char* name : {"tex/face.png", "hair.tga", "../secret.png", "/etc/passwd", "C:/x.png", "tex/../../secret.png", "notes.txt", "missing.bmp"}) {
+    rig.images.push_back({name, "", {}});
+    rig.load_warnings.push_back({"texture_not_loaded", "not read", name, 0.0, false});
+  }
+  LoadImagesBeside(rig, (dir / "model" / "m.pmx").string());
+  // Read: the PNG (its letter case forgiven) and the TGA (by extension); nothing outside the folder.
+  EXPECT_EQ(rig.images[0].mime_type, "image/png");
+  EXPECT_EQ(rig.images[0].bytes.size(), png.size());
+  EXPECT_EQ(rig.images[1].mime_type, "image/x-tga");
+  for (size_t k = 2; k < rig.images.size(); ++k) EXPECT_TRUE(rig.images[k].bytes.empty()) << rig.images[k].name;
+  // The warnings left are the images not read, each saying why.
+  ASSERT_EQ(rig.load_warnings.size(), 6u);
+  EXPECT_EQ(rig.load_warnings[0].shape, "../secret.png");
+  EXPECT_NE(rig.load_warnings[0].message.find("no such file in the model's folder"), std::string::npos);
+  EXPECT_NE(rig.load_warnings[4].message.find("not a PNG, JPEG, BMP or TGA image"), std::string::npos) << rig.load_warnings[4].message;
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -358,4 +358,41 @@ check "sheet --cells shapes:mouth: one 64-pixel cell per mouth shape (8 columns)
 "$bin" sheet "$uka" --cells shapes:nosuch -o "$tmp/x.png" 2>"$tmp/err"; rc=$?
 check "sheet --cells shapes:nosuch: an error listing the groups" sh -c "[ $rc -ne 0 ] && grep -q 'groups:.*mouth' '$tmp/err'"
 
+
+# MMD textures from the model's folder (Uka's own are not shipped: a red PNG for the face and a green
+# BMP, named .png as the model names it, for the body): the render shows both colours.
+mkdir -p "$tmp/ukatex/tex"; cp "$uka" "$tmp/ukatex/"
+py 'import struct,zlib,sys
+d=sys.argv[1]; w=h=4
+raw=b"".join(b"\0"+bytes((255,0,0))*w for _ in range(h))
+ch=lambda t,x: struct.pack(">I",len(x))+t+x+struct.pack(">I",zlib.crc32(t+x)&0xffffffff)
+open(d+"/face.png","wb").write(b"\x89PNG\r\n\x1a\n"+ch(b"IHDR",struct.pack(">IIBBBBB",w,h,8,2,0,0,0))+ch(b"IDAT",zlib.compress(raw))+ch(b"IEND",b""))
+px=bytes((0,255,0))*w*h
+open(d+"/body.png","wb").write(b"BM"+struct.pack("<IHHI",54+len(px),0,0,54)+struct.pack("<IiiHHIIiiII",40,w,h,1,24,0,len(px),2835,2835,0,0)+px)' "$tmp/ukatex/tex"
+"$bin" info "$tmp/ukatex/MS_Uka.pmx" 2>"$tmp/tex.err" >/dev/null
+"$bin" render "$tmp/ukatex/MS_Uka.pmx" --width 128 --height 192 --format png -o "$tmp/ukatex.png" 2>/dev/null
+check "MMD textures: face.png (PNG) and body.png (a BMP) read from tex/, the render shows red and green; the missing ones reported" sh -c "! grep -q \"texture 'tex/face.png'\" '$tmp/tex.err' && ! grep -q \"texture 'tex/body.png'\" '$tmp/tex.err' && grep -q \"texture 'tex/eye.png' is not read: no such file\" '$tmp/tex.err' && python3 -c '
+import sys,subprocess,struct,zlib
+d=open(sys.argv[1],\"rb\").read(); w,h=struct.unpack(\">II\",d[16:24]); bd,ct=d[24],d[25]
+at=8; idat=b\"\"
+while at<len(d):
+    n=struct.unpack(\">I\",d[at:at+4])[0]; t=d[at+4:at+8]
+    if t==b\"IDAT\": idat+=d[at+8:at+8+n]
+    at+=12+n
+raw=zlib.decompress(idat); bpp=4 if ct==6 else 3; stride=w*bpp; prev=bytearray(stride); red=green=0; i=0
+for y in range(h):
+    f=raw[i]; line=bytearray(raw[i+1:i+1+stride]); i+=1+stride
+    for x in range(stride):
+        a=line[x-bpp] if x>=bpp else 0; b=prev[x]; c=prev[x-bpp] if x>=bpp else 0
+        if f==1: line[x]=(line[x]+a)&255
+        elif f==2: line[x]=(line[x]+b)&255
+        elif f==3: line[x]=(line[x]+(a+b)//2)&255
+        elif f==4:
+            p=a+b-c; pa,pb,pc=abs(p-a),abs(p-b),abs(p-c); line[x]=(line[x]+(a if pa<=pb and pa<=pc else b if pb<=pc else c))&255
+    prev=line
+    for x in range(w):
+        r,g,b=line[x*bpp:x*bpp+3]
+        red+=r>120 and g<60 and b<60; green+=g>120 and r<60 and b<60
+sys.exit(not(red>20 and green>20))' '$tmp/ukatex.png'"
+
 finish

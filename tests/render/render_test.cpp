@@ -302,6 +302,28 @@ TEST(Render, EncodeDecodeRoundTrip) {
   EXPECT_FALSE(render::Decode(std::vector<unsigned char>{1, 2, 3, 4, 5, 6, 7, 8, 9}).ok());
 }
 
+// MMD textures come as BMP and TGA too: a 2x1 image (a red then a blue pixel) in each, written here
+// byte by byte, decodes to those colours (TGA only when told so: it has no magic).
+TEST(Image, DecodesBmpAndTgaTextures) {
+  std::vector<unsigned char> bmp = {'B', 'M', 62, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,  // File header.
+                                    40, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1, 0, 24, 0, 0, 0, 0, 0, 8, 0, 0, 0,
+                                    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // Info header.
+                                    0, 0, 255, 255, 0, 0, 0, 0};                     // BGR red, BGR blue, padding.
+  std::vector<unsigned char> tga = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 0, 24, 0,  // Uncompressed true colour.
+                                    0, 0, 255, 255, 0, 0};
+  for (const auto& [bytes, mime] : {std::pair{bmp, std::string("image/bmp")}, std::pair{tga, std::string("image/x-tga")}}) {
+    auto im = render::Decode(bytes, mime);
+    ASSERT_TRUE(im.ok()) << mime << ": " << im.status().message;
+    ASSERT_EQ(im->width, 2);
+    ASSERT_EQ(im->height, 1);
+    EXPECT_NEAR(im->rgba[0], 1.0f, 1e-3f) << mime;  // Red.
+    EXPECT_NEAR(im->rgba[2], 0.0f, 1e-3f) << mime;
+    EXPECT_NEAR(im->rgba[4], 0.0f, 1e-3f) << mime;  // Blue.
+    EXPECT_NEAR(im->rgba[6], 1.0f, 1e-3f) << mime;
+  }
+  EXPECT_FALSE(render::Decode(tga).ok());  // Without the hint: no magic.
+}
+
 // ---- goldens of real assets ---------------------------------------------------------------
 
 struct GoldenCase {

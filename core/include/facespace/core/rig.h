@@ -155,8 +155,8 @@ struct Node {
 
 struct Image {
   std::string name;
-  std::string mime_type;               // "image/png" or "image/jpeg": only these are kept.
-  std::vector<unsigned char> bytes;    // Encoded file contents.
+  std::string mime_type;               // "image/png", "image/jpeg"; MMD textures also "image/bmp", "image/x-tga".
+  std::vector<unsigned char> bytes;    // Encoded file contents; empty: not read (name is its path).
 };
 
 struct Material {

@@ -111,8 +111,9 @@ const char* ImageFormatExtension(ImageFormat format);
 // EXR as linear half floats. `quality` is JPEG's 1..100.
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality = 90);
 
-// Decodes PNG/JPEG/... bytes to linear RGBA (for tests and textures).
-Result<Image> Decode(std::span<const unsigned char> bytes);
+// Decodes PNG/JPEG/EXR/TIFF/BMP bytes (TGA, which has no magic, when mime_type is "image/x-tga") to
+// linear RGBA (for tests and textures).
+Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type = "");
 
 // Draws text (DejaVu Sans, sRGB colour) at pixel (x, y) = baseline start. False if no font.
 bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb);
