@@ -369,6 +369,9 @@ function drag(el, move, end) {
 async function loadRig(id, weights) {
   state.rig = id;
   state.detail = await (await call(`/v1/rigs/${encodeURIComponent(id)}`)).json();
+  // The credit the rig's license asks for, shown with it.
+  $('credit').textContent = state.detail.credit ? `Model: ${state.detail.credit}` : '';
+  $('credit').hidden = !state.detail.credit;
   state.weights = {};
   state.controls = {};
   for (const s of items()) values()[s.name] = weights ? 0 : s.default || 0;

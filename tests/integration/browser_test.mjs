@@ -167,6 +167,25 @@ async function controls(url, shot) {
 // '#rig=facecap&w=' starts from all weights 0 (FaceCap's file has non-zero defaults).
 await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
 await controls(service + '/#rig=makehuman&c=', `${outDir}/page-makehuman.png`);
+// A rig whose license asks for a credit (the MMD character): the page shows it under the views.
+{
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  await page.goto(service + '/#rig=uka&w=');
+  await page.waitForFunction(() => document.querySelectorAll('.shape').length > 100, null, { timeout: 60000 });
+  await page.waitForFunction(() => !document.getElementById('credit').hidden, null, { timeout: 15000 }).catch(() => {});
+  const credit = await page.locator('#credit').textContent();
+  check(`credit: the uka page shows its credit line (${credit.slice(0, 60)}...)`,
+    credit.includes('CG-CA Uka (c) 2023 by Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society'));
+  await page.locator('input[aria-label="あ"]').first().fill('1');
+  await page.waitForTimeout(1500);
+  await page.screenshot({ path: `${outDir}/page-uka.png` });
+  await page.close();
+  const other = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  await other.goto(service + '/#rig=facecap&w=');
+  await other.waitForFunction(() => document.querySelectorAll('.shape').length > 10, null, { timeout: 60000 });
+  check('credit: facecap (no credit in its manifest) shows none', await other.locator('#credit').isHidden());
+  await other.close();
+}
 await run('cross-origin', otherPage + '?api=' + encodeURIComponent(service) + '#rig=facecap&w=');
 await browser.close();
 console.log(`${pass} passed, ${fail} failed`);
