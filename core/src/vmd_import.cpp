@@ -3,8 +3,8 @@
 //
 // Bone keys carry a position (an offset from the bone's rest place), a rotation and four cubic
 // Bezier curves (x, y, z, rotation) that shape the segment ending at that key. MMD plays at 30
-// frames a second and interpolates to 60: the clip is sampled at 60 a second from each bone's first
-// key to its last, exact there, linear between samples. Morph keys are linear: the clip keeps them
+// frames a second and interpolates to 60: a curved segment is sampled at 60 a second (exact there,
+// linear between samples), a straight one (MMD's default curve) keeps its two keys, exact throughout. Morph keys are linear: the clip keeps them
 // as they are (every key time of any morph, all of the mesh's targets at each).
 //
 // A parser of untrusted bytes: counts are capped by the bytes left, key frames by kMaxFrame.
@@ -28,6 +28,7 @@ namespace {
 using namespace mmd;
 
 constexpr int kSamplesPerFrame = 2;
+constexpr size_t kMaxSamples = size_t{1} << 22;  // Bone samples in curved segments, all bones: ~112 MiB.
 constexpr uint32_t kMaxFrame = 30 * 60 * 60;  // An hour.
 
 struct BoneKey {
@@ -119,10 +120,10 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
   Bytes r(bytes);
   char header[30];
   if (!r.Raw(header, 30, "the header")) return fail(r);
-  const std::string_view h(header, 30);
+  const std::string_view magic(header, 25);
   size_t model_bytes = 0;
-  if (h.substr(0, 25) == "Vocaloid Motion Data 0002") model_bytes = 20;
-  else if (h.substr(0, 25) == "Vocaloid Motion Data file") model_bytes = 10;
+  if (magic == "Vocaloid Motion Data 0002") model_bytes = 20;
+  else if (magic == "Vocaloid Motion Data file") model_bytes = 10;
   else return InvalidArgument(clip_name + ": not a VMD motion (no 'Vocaloid Motion Data' header)");
   if (!r.Skip(model_bytes, "the model name")) return fail(r);
 
@@ -167,6 +168,7 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
   AnimationInfo clip;
   clip.name = clip_name;
   std::vector<std::string> unmatched;
+  size_t samples = 0;  // Bone samples between keys, against kMaxSamples.
   for (auto& [key, keys] : bone_keys) {
     const auto it = node_of.find(key);
     if (it == node_of.end()) {
@@ -178,9 +180,22 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
     const Eigen::Quaternionf rest(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
     AnimationSampler t, q;
     t.components = 3, q.components = 4;
-    const uint32_t first = keys.front().frame * kSamplesPerFrame, last = keys.back().frame * kSamplesPerFrame;
-    for (uint32_t s = first; s <= last; ++s) {
-      const float frame = static_cast<float>(s) / kSamplesPerFrame;
+    // Sample times (in half frames): every key, and within a curved segment every half frame between.
+    // A segment whose four curves are straight (MMD's default) is exact with its two keys alone.
+    std::vector<uint32_t> halves{keys.front().frame * kSamplesPerFrame};
+    for (size_t k = 1; k < keys.size(); ++k) {
+      const uint8_t* c = keys[k].curve;
+      bool straight = true;  // (x1, y1) and (x2, y2) on the diagonal, per channel.
+      for (int ch = 0; ch < 4; ++ch) straight &= c[ch] == c[ch + 4] && c[ch + 8] == c[ch + 12];
+      const uint32_t from = straight ? keys[k].frame * kSamplesPerFrame : keys[k - 1].frame * kSamplesPerFrame + 1;
+      if (samples + (keys[k].frame * kSamplesPerFrame - from + 1) > kMaxSamples) {
+        return InvalidArgument(clip_name + ": VMD: the motion's curved segments need more than " + std::to_string(kMaxSamples) + " samples");
+      }
+      for (uint32_t h = from; h <= keys[k].frame * kSamplesPerFrame; ++h) halves.push_back(h);
+      samples += keys[k].frame * kSamplesPerFrame - from + 1;
+    }
+    for (uint32_t h : halves) {
+      const float frame = static_cast<float>(h) / kSamplesPerFrame;
       std::array<float, 3> p;
       Eigen::Quaternionf rot;
       BoneAt(keys, frame, p, rot);

@@ -335,6 +335,19 @@ TEST(Vmd, ABezierKeyAtMidTimeGivesTheCurvesValue) {
   EXPECT_NEAR(clip->duration, 20.0f / 30.0f, 1e-6f);
 }
 
+TEST(Vmd, AStraightSegmentKeepsItsTwoKeys) {
+  // MMD's default curve (20, 20, 107, 107) is the diagonal: linear, so the keys alone are exact.
+  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  ASSERT_TRUE(rig.ok());
+  const Result<AnimationInfo> clip = LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "straight", nullptr);
+  ASSERT_TRUE(clip.ok()) << clip.status().message;
+  const AnimationSampler* rot = ChannelOf(clip.value(), FindNode(rig.value(), "頭"), ChannelPath::kRotation);
+  ASSERT_TRUE(rot);
+  ASSERT_EQ(rot->times.size(), 2u);
+  EXPECT_FLOAT_EQ(rot->times[1], 10.0f / 30.0f);
+  EXPECT_NEAR(rot->values[4 + 1], -std::sin(M_PI / 4), 1e-6);  // 90 degrees about Y, mirrored.
+}
+
 TEST(Vmd, TheMotionsBesideTheModelAreClipsWithTheirKeyCounts) {
   Raw r{test::ReadBytes(UkaDir() + "/motion/01_happy.vmd")};
   r.at = 50;

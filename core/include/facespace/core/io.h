@@ -88,7 +88,7 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
 Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::string& name);
 // A VMD motion as a clip of `rig` (a PMX/PMD model or one converted from it): bone keys matched to nodes and
 // morph keys to shapes (or aliases) by Shift-JIS names cut to 15 bytes; bone keys sampled through their
-// Bezier curves at 60 a second, morph keys linear. Names matching nothing are a `motion_names_unmatched`
+// Bezier curves at 60 a second (straight segments keep their keys), morph keys linear. Names matching nothing are a `motion_names_unmatched`
 // warning appended to `warnings`; a motion matching nothing is an error.
 Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings);
 // Reads the rig's images that have a path but no bytes (MMD textures) from the folder of `model_path`:
