@@ -20,6 +20,7 @@
 #include <unordered_map>
 
 #include "facespace/core/io.h"
+#include "bezier.h"
 #include "split_mesh.h"
 
 namespace facespace {
@@ -452,26 +453,6 @@ class Reader {
     return m;
   }
 
-  static void SetLocal(Node& n, const Mat4& m) {
-    Eigen::Matrix3d a = m.block<3, 3>(0, 0);
-    Vec3 s(a.col(0).norm(), a.col(1).norm(), a.col(2).norm());
-    if (a.determinant() < 0) s.x() = -s.x();
-    bool ok = s.cwiseAbs().minCoeff() > 1e-12;
-    if (ok) {
-      for (int c = 0; c < 3; ++c) a.col(c) /= s[c];
-      ok = (a.transpose() * a - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-5;
-    }
-    if (!ok) {
-      n.has_matrix = true;
-      for (int k = 0; k < 16; ++k) n.matrix[k] = static_cast<float>(m(k % 4, k / 4));
-      return;
-    }
-    const Eigen::Quaterniond q = Eigen::Quaterniond(a).normalized();
-    n.translation = {static_cast<float>(m(0, 3)), static_cast<float>(m(1, 3)), static_cast<float>(m(2, 3))};
-    n.rotation = {static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()), static_cast<float>(q.w())};
-    n.scale = {static_cast<float>(s.x()), static_cast<float>(s.y()), static_cast<float>(s.z())};
-  }
-
   Status Scene() {
     pugi::xml_node scene = ById(root_.child("scene").child("instance_visual_scene").attribute("url").value());
     if (!scene) scene = root_.child("library_visual_scenes").child("visual_scene");
@@ -503,7 +484,7 @@ class Reader {
       Node n;
       n.name = it.node.attribute("name").value()[0] ? it.node.attribute("name").value() : it.node.attribute("id").value();
       n.parent = it.parent;
-      SetLocal(n, LocalTransform(it.node));
+      SetNodeLocal(n, LocalTransform(it.node));
       const int index = static_cast<int>(rig_.nodes.size());
       if (it.parent >= 0) {
         rig_.nodes[it.parent].children.push_back(index);
@@ -743,16 +724,7 @@ class Reader {
         // Control points (t, v) of the segment; solve time(s) = x by bisection.
         const double x0 = t[k], x1 = out[2 * k], x2 = in[2 * (k + 1)], x3 = t[k + 1];
         const double y0 = v[k], y1 = out[2 * k + 1], y2 = in[2 * (k + 1) + 1], y3 = v[k + 1];
-        auto bez = [](double a, double b, double c, double d, double s) {
-          const double r = 1 - s;
-          return r * r * r * a + 3 * r * r * s * b + 3 * r * s * s * c + s * s * s * d;
-        };
-        double lo = 0, hi = 1, s = u;
-        for (int it = 0; it < 60; ++it) {
-          s = 0.5 * (lo + hi);
-          (bez(x0, x1, x2, x3, s) < x ? lo : hi) = s;
-        }
-        return bez(y0, y1, y2, y3, s);
+        return BezierYAtX(x0, x1, x2, x3, y0, y1, y2, y3, x);
       }
       return v[k] + (v[k + 1] - v[k]) * u;
     }

@@ -23,6 +23,7 @@
 #include <unordered_map>
 
 #include "facespace/core/io.h"
+#include "bezier.h"
 #include "split_mesh.h"
 #include "fbx_tree.h"
 
@@ -269,33 +270,6 @@ TransformStack ReadStack(const Scene& scene, const Object& m) {
   return st;
 }
 
-// TRS of a matrix; false when it shears (no TRS gives it).
-bool Decompose(const Mat4& m, std::array<float, 3>& t, std::array<float, 4>& q, std::array<float, 3>& s) {
-  Eigen::Matrix3d a = m.block<3, 3>(0, 0);
-  Vec3 scale(a.col(0).norm(), a.col(1).norm(), a.col(2).norm());
-  if (a.determinant() < 0) scale.x() = -scale.x();
-  for (int c = 0; c < 3; ++c) {
-    if (!(std::fabs(scale[c]) > 1e-12)) return false;
-    a.col(c) /= scale[c];
-  }
-  const bool orthonormal = (a.transpose() * a - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-5;
-  Eigen::Quaterniond r(a);
-  r.normalize();
-  for (int c = 0; c < 3; ++c) {
-    t[c] = static_cast<float>(m(c, 3));
-    s[c] = static_cast<float>(scale[c]);
-  }
-  q = {static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()), static_cast<float>(r.w())};
-  return orthonormal;
-}
-
-void SetLocal(Node& node, const Mat4& m) {
-  if (!Decompose(m, node.translation, node.rotation, node.scale)) {
-    node.has_matrix = true;
-    for (int k = 0; k < 16; ++k) node.matrix[k] = static_cast<float>(m(k % 4, k / 4));
-  }
-}
-
 // ---------------------------------------------------------------------------------------------
 // Meshes
 
@@ -518,19 +492,9 @@ struct Curve {
     const double s0 = data[4 * k], s1 = data[4 * k + 1];
     const double x1 = w0, x2 = 1.0 - w1;  // Control points' times in [0, 1].
     const double y0 = v0, y1 = v0 + s0 * w0 * dt, y2 = v1 - s1 * w1 * dt, y3 = v1;
-    auto bez = [](double a, double b, double c, double d, double s) {
-      const double r = 1.0 - s;
-      return r * r * r * a + 3 * r * r * s * b + 3 * r * s * s * c + s * s * s * d;
-    };
-    double s = u;
-    if (std::fabs(x1 - 1.0 / 3.0) > 1e-9 || std::fabs(x2 - 2.0 / 3.0) > 1e-9) {
-      double lo = 0.0, hi = 1.0;  // x(s) is monotonic for weights in [0, 1]: bisect.
-      for (int it = 0; it < 60; ++it) {
-        s = 0.5 * (lo + hi);
-        (bez(0.0, x1, x2, 1.0, s) < u ? lo : hi) = s;
-      }
-    }
-    return bez(y0, y1, y2, y3, s);
+    // Default weights (1/3, 2/3) make x(s) = s; else x(s) rises for weights in [0, 1]: solved.
+    if (std::fabs(x1 - 1.0 / 3.0) <= 1e-9 && std::fabs(x2 - 2.0 / 3.0) <= 1e-9) return CubicBezier(y0, y1, y2, y3, u);
+    return BezierYAtX(0.0, x1, x2, 1.0, y0, y1, y2, y3, u);
   }
 };
 
@@ -654,7 +618,7 @@ class Importer {
       n.name = m.name;
       n.parent = parent_node;
       const TransformStack st = ReadStack(scene_, m);
-      SetLocal(n, st.Local());
+      SetNodeLocal(n, st.Local());
       const int index = static_cast<int>(rig_.nodes.size());
       if (parent_node >= 0) {
         rig_.nodes[parent_node].children.push_back(index);
@@ -1099,7 +1063,7 @@ class Importer {
       const double time = times[k];
       std::array<float, 3> tt, sc;
       std::array<float, 4> q;
-      sheared |= !Decompose(st.Local(Sample(t, st.t, time), Sample(r, st.r, time), Sample(s, st.s, time)), tt, q, sc);
+      sheared |= !DecomposeTrs(st.Local(Sample(t, st.t, time), Sample(r, st.r, time), Sample(s, st.s, time)), tt, q, sc);
       if (k && q[0] * previous[0] + q[1] * previous[1] + q[2] * previous[2] + q[3] * previous[3] < 0) {
         for (float& c : q) c = -c;  // The short way round from the previous key.
       }

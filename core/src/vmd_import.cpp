@@ -19,6 +19,7 @@
 #include <Eigen/Geometry>
 
 #include "facespace/core/io.h"
+#include "bezier.h"
 #include "mmd.h"
 
 namespace facespace {
@@ -57,14 +58,7 @@ std::string VmdKey(const std::string& utf8) {
 float VmdBezier(float x1, float y1, float x2, float y2, float u) {
   if (u <= 0.0f) return 0.0f;
   if (u >= 1.0f) return 1.0f;
-  // x(s) = 3(1-s)^2 s x1 + 3(1-s) s^2 x2 + s^3 rises from 0 to 1 (x1, x2 in [0, 1]): bisect for x(s) = u.
-  auto bez = [](double a, double b, double s) { return 3 * (1 - s) * (1 - s) * s * a + 3 * (1 - s) * s * s * b + s * s * s; };
-  double lo = 0, hi = 1;
-  for (int i = 0; i < 40; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (bez(x1, x2, mid) < u ? lo : hi) = mid;
-  }
-  return static_cast<float>(bez(y1, y2, 0.5 * (lo + hi)));
+  return static_cast<float>(BezierYAtX(0.0, x1, x2, 1.0, 0.0, y1, y2, 1.0, u));  // x1, x2 in [0, 1]: x rises.
 }
 
 Eigen::Quaternionf Slerp(const float* a, const float* b, float t) {
