@@ -36,10 +36,14 @@ Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_vi
 
 }  // namespace
 
-std::string Sha256Hex(std::span<const unsigned char> bytes) {
+std::string Sha256Hex(std::span<const std::string_view> pieces) {
+  EVP_MD_CTX* ctx = EVP_MD_CTX_new();
+  EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
+  for (std::string_view p : pieces) EVP_DigestUpdate(ctx, p.data(), p.size());
   unsigned char md[EVP_MAX_MD_SIZE];
   unsigned int len = 0;
-  EVP_Digest(bytes.data(), bytes.size(), md, &len, EVP_sha256(), nullptr);
+  EVP_DigestFinal_ex(ctx, md, &len);
+  EVP_MD_CTX_free(ctx);
   static const char* hex = "0123456789abcdef";
   std::string out;
   for (unsigned int i = 0; i < len; ++i) {
@@ -123,9 +127,48 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
   jobs = static_cast<int>(std::min<size_t>(static_cast<size_t>(jobs), std::max<size_t>(1, pending.size())));
   auto cancelled = [&] { return options.cancel && options.cancel->load(); };
 
+  // Each worker writes its variants to temporary files and flushes them in groups: the files of a
+  // group are flushed and renamed, and only then do their manifest lines go in, so resume never
+  // trusts a file the manifest does not vouch for, and the disk is not waited on once per file.
+  struct Written {
+    size_t index;
+    int fd;
+    std::string file, line;
+  };
+  constexpr size_t kGroupFiles = 32;
+  constexpr auto kGroupAge = std::chrono::milliseconds(250);
   auto work = [&] {
-    api::Workspace ws;
+    api::VariantEncoder encoder;
     api::Point point;
+    std::vector<Written> group;
+    auto group_started = std::chrono::steady_clock::now();
+    // Publishes the group; the lines of the files published go into the manifest.
+    auto flush = [&]() -> Status {
+      Status failed;
+      size_t published = 0;
+      for (Written& w : group) {
+        if (!failed.ok()) {
+          Discard(w.fd, dir, kTmpPrefix + w.file);
+          continue;
+        }
+        failed = Publish(w.fd, dir, kTmpPrefix + w.file, w.file, "'" + w.file + "'");
+        if (failed.ok()) ++published;
+      }
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        for (size_t i = 0; i < published; ++i) {
+          manifest << group[i].line << '\n';
+          lines[group[i].index] = std::move(group[i].line);
+        }
+        manifest << std::flush;
+        summary.generated += published;
+      }
+      finished.fetch_add(published);
+      cv.notify_all();
+      group.clear();
+      return failed;
+    };
+    Status status;
     for (;;) {
       {
         std::lock_guard<std::mutex> lock(mu);
@@ -135,27 +178,29 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
       if (slot >= pending.size()) break;
       const size_t k = pending[slot];
       api::VariantPoint(plan, k, point);
-      auto bytes = api::EncodeVariant(plan, point, renderer, ws);
+      auto pieces = api::EncodeVariant(plan, point, renderer, encoder);
       const std::string file = VariantFile(plan, k);
-      if (bytes.ok()) {
-        if (Status s = WriteInBatch(dir, file, bytes.value()); !s.ok()) bytes = s;
-      }
-      std::lock_guard<std::mutex> lock(mu);
-      if (!bytes.ok()) {
-        if (failure.ok()) failure = Prefixed(bytes.status(), VariantId(plan, k) + ": ");
+      Result<int> fd = pieces.ok() ? WriteTemporary(dir, kTmpPrefix + file, pieces.value(), "'" + file + "'") : pieces.status();
+      if (!fd.ok()) {
+        status = Prefixed(fd.status(), VariantId(plan, k) + ": ");
         break;
       }
-      const std::string& b = bytes.value();
-      std::string line = "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) +
-                         ",\"file\":" + json(file).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + ",\"bytes\":" + std::to_string(b.size()) + ",\"sha256\":\"" +
-                         Sha256Hex({reinterpret_cast<const unsigned char*>(b.data()), b.size()}) +
-                         "\",\"weights\":" + api::WeightsMapJson(*plan.rig, point.weights) +
-                         ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}";
-      manifest << line << '\n' << std::flush;
-      lines[k] = std::move(line);
-      ++summary.generated;
-      finished.fetch_add(1);
-      cv.notify_all();
+      size_t bytes = 0;
+      for (std::string_view p : pieces.value()) bytes += p.size();
+      if (group.empty()) group_started = std::chrono::steady_clock::now();
+      group.push_back({k, fd.value(), file,
+                       "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, json::error_handler_t::replace) +
+                           ",\"file\":" + json(file).dump(-1, ' ', false, json::error_handler_t::replace) + ",\"bytes\":" + std::to_string(bytes) +
+                           ",\"sha256\":\"" + Sha256Hex(pieces.value()) + "\",\"weights\":" + api::WeightsMapJson(*plan.rig, point.weights) +
+                           ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}"});
+      if (group.size() >= kGroupFiles || std::chrono::steady_clock::now() - group_started >= kGroupAge) {
+        if (status = flush(); !status.ok()) break;
+      }
+    }
+    if (Status s = flush(); status.ok()) status = s;
+    if (!status.ok()) {
+      std::lock_guard<std::mutex> lock(mu);
+      if (failure.ok()) failure = status;
     }
   };
   auto run_worker = [&] {

@@ -50,7 +50,7 @@ struct Summary {
 // Writes the variants of `plan` (api::MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
 Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options);
 
-// Lowercase hex SHA-256 of bytes.
-std::string Sha256Hex(std::span<const unsigned char> bytes);
+// Lowercase hex SHA-256 of the pieces one after the other.
+std::string Sha256Hex(std::span<const std::string_view> pieces);
 
 }  // namespace facespace::batch

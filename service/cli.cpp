@@ -379,7 +379,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
   bool weights_given = false;
   if (sheet) r.render.width = r.render.height = 256;
   Flags flags(sheet ? "usage: facespace sheet RIG --cells JSON|@FILE|shapes[:GROUP] [--columns N] [render flags] -o OUT\n"
-                    : "usage: facespace render RIG [weights, pose and render flags] [--format png|jpeg|exr|tiff] -o OUT\n",
+                    : "usage: facespace render RIG [weights, pose and render flags] [--format png|jpeg|exr|tiff|webp] -o OUT\n",
               sheet ? "A labelled contact sheet: one render per cell. Cells: a JSON array, or JSON lines, of\n"
                       "{\"weights\": ..., \"label\": \"...\"}; or \"shapes\" (one cell per shape at 1), \"shapes:GROUP\" (those of a group).\n"
                     : "An offscreen render (OSMesa). The format comes from OUT's extension or --format.\n");
@@ -394,7 +394,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
       return 0;
     });
   }
-  flags.Text("--format", "png|jpeg|exr|tiff", "image format (default: from OUT's extension)", &format_name);
+  flags.Text("--format", "png|jpeg|exr|tiff|webp", "image format (default: from OUT's extension)", &format_name);
   flags.Text("-o, --output", "OUT", "output file, or - for stdout (PNG)", &out_path);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   render::ImageFormat format;

@@ -68,7 +68,7 @@ int Batch(const std::vector<std::string>& args) {
   bool quiet = false;
   Flags flags(
       "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
-      "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff] [--jobs N] [--shard I/N] [sampling, pose, render flags]\n",
+      "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N] [sampling, pose, render flags]\n",
       "One file per variant in DIR, manifest.jsonl, batch.json and sheet.png (the first 16 variants); rerun the\n"
       "same command to resume; --shard I/N (1-based) runs every N-th variant from the I-th.\n"
       "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n");
@@ -129,7 +129,7 @@ int Batch(const std::vector<std::string>& args) {
   flags.Switch("--symmetric", "a shape's left/right partner takes its weight", [&] { sample["symmetric"] = true; });
   flags.Switch("--sum-at-most-one", "scale each variant so its weights sum to at most 1", [&] { sample["sum_at_most_one"] = true; });
   flags.Text("--out, -o", "DIR", "the output folder", &out_dir);
-  flags.Value("--format", "FORMAT", "glb (default), obj, json, f32, or an image: png, jpeg, exr, tiff", as_text(request, "format"));
+  flags.Value("--format", "FORMAT", "glb (default), obj, json, f32, or an image: png, jpeg, exr, tiff, webp", as_text(request, "format"));
   flags.Value("--jobs", "N", "worker threads (default: every core)", [&run](const std::string& v) {
     long long n = 0;
     if (!IntIn("--jobs", v, 1, 1024, &n)) return 2;
@@ -218,7 +218,8 @@ int Batch(const std::vector<std::string>& args) {
   if (!rig.ok()) return 1;
   std::string bytes;
   ReadFile(paths[0], bytes);
-  const std::string version = batch::Sha256Hex({reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()});
+  const std::string_view whole[] = {bytes};
+  const std::string version = batch::Sha256Hex(whole);
   auto plan = api::MakeBatchPlan(rig.value(), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());

@@ -15,6 +15,13 @@ Status WriteError(const std::string& doing, int e) {
   return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}, {}};
 }
 
+// Closes and removes a temporary file after `e`, and says what failed.
+Status Abandon(int fd, const std::string& tmp, const std::string& doing, int e) {
+  if (fd >= 0) ::close(fd);
+  ::unlink(tmp.c_str());
+  return WriteError(doing, e);
+}
+
 }  // namespace
 
 void SyncDir(const std::filesystem::path& dir) {
@@ -25,40 +32,46 @@ void SyncDir(const std::filesystem::path& dir) {
   }
 }
 
-Status WriteFileDurably(const std::filesystem::path& dir, const std::string& name, std::string_view data,
-                        const std::string& tmp_name, const std::string& what, bool sync_dir) {
+Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& tmp_name,
+                           std::span<const std::string_view> pieces, const std::string& what) {
   const std::string tmp = (dir / tmp_name).string();
   ::unlink(tmp.c_str());  // A temporary file left by a crash.
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) return WriteError("cannot create " + what, errno);
-  size_t done = 0;
-  while (done < data.size()) {
-    const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int e = n < 0 ? errno : ENOSPC;
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      return WriteError("cannot write " + what, e);
+  for (std::string_view data : pieces) {
+    size_t done = 0;
+    while (done < data.size()) {
+      const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) return Abandon(fd, tmp, "cannot write " + what, n < 0 ? errno : ENOSPC);
+      done += static_cast<size_t>(n);
     }
-    done += static_cast<size_t>(n);
   }
-  if (::fsync(fd) != 0) {
-    const int e = errno;
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return WriteError("cannot flush " + what + " to disk", e);
-  }
-  if (::close(fd) != 0) {
-    const int e = errno;
-    ::unlink(tmp.c_str());
-    return WriteError("cannot flush " + what + " to disk", e);
-  }
-  if (::rename(tmp.c_str(), (dir / name).c_str()) != 0) {
-    const int e = errno;
-    ::unlink(tmp.c_str());
-    return WriteError("cannot publish " + what, e);
-  }
+  // Start the write-back now, so that the flush in Publish finds it done or under way.
+  ::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
+  return fd;
+}
+
+Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& name,
+               const std::string& what) {
+  const std::string tmp = (dir / tmp_name).string();
+  if (::fdatasync(fd) != 0) return Abandon(fd, tmp, "cannot flush " + what + " to disk", errno);
+  if (::close(fd) != 0) return Abandon(-1, tmp, "cannot flush " + what + " to disk", errno);
+  if (::rename(tmp.c_str(), (dir / name).c_str()) != 0) return Abandon(-1, tmp, "cannot publish " + what, errno);
+  return Status::Ok();
+}
+
+void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_name) {
+  ::close(fd);
+  ::unlink((dir / tmp_name).c_str());
+}
+
+Status WriteFileDurably(const std::filesystem::path& dir, const std::string& name, std::string_view data,
+                        const std::string& tmp_name, const std::string& what, bool sync_dir) {
+  const std::string_view pieces[] = {data};
+  auto fd = WriteTemporary(dir, tmp_name, pieces, what);
+  if (!fd.ok()) return fd.status();
+  if (Status s = Publish(fd.value(), dir, tmp_name, name, what); !s.ok()) return s;
   if (sync_dir) SyncDir(dir);
   return Status::Ok();
 }

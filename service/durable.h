@@ -2,6 +2,7 @@
 #pragma once
 
 #include <filesystem>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -18,6 +19,17 @@ namespace facespace {
 // Messages name `what` ("the rig", "'v0001.glb'") and the system's reason.
 Status WriteFileDurably(const std::filesystem::path& dir, const std::string& name, std::string_view data,
                         const std::string& tmp_name, const std::string& what, bool sync_dir = true);
+
+// The two halves of WriteFileDurably, for a writer of many files who flushes them in groups
+// (write many, then flush each: the disk sees one stream of writes instead of one wait per file).
+// WriteTemporary writes `pieces` one after the other to dir/tmp_name (replacing a stale one),
+// starts the write-back and returns the open file; Publish flushes it (fdatasync), closes it and
+// renames it over `name`; Discard closes and removes it. On failure nothing is left behind.
+Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& tmp_name,
+                           std::span<const std::string_view> pieces, const std::string& what);
+Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& name,
+               const std::string& what);
+void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_name);
 
 // fsync of a folder, so that renames and new names in it survive a crash.
 void SyncDir(const std::filesystem::path& dir);

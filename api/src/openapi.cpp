@@ -53,7 +53,7 @@ json RenderResponses() {
       {"ETag", {{"description", "Strong validator"}, {"schema", {{"type", "string"}}}}}};
   json bin = {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}};
   return {{"200", {{"description", "The image"}, {"headers", headers},
-                   {"content", {{"image/png", bin}, {"image/jpeg", bin}, {"image/x-exr", bin}, {"image/tiff", bin}}}}},
+                   {"content", {{"image/png", bin}, {"image/jpeg", bin}, {"image/x-exr", bin}, {"image/tiff", bin}, {"image/webp", bin}}}}},
           {"304", {{"description", "Not modified"}}},
           {"400", Problem("Malformed JSON")},
           {"404", Problem("Unknown rig")},
@@ -201,7 +201,7 @@ json Build() {
                        {"view", {{"enum", {"shaded", "wireframe", "heatmap", "normals"}}, {"default", "shaded"}}},
                        {"background", {{"oneOf", json::array({json{{"type", "string"}}, json{{"type", "array"}, {"items", {{"type", "number"}}}}})}}},
                        {"supersample", {{"type", "integer"}, {"minimum", 1}, {"maximum", 4}}},
-                       {"format", {{"enum", {"png", "jpeg", "exr", "tiff"}}}},
+                       {"format", {{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}}},
                        {"quality", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}}};
   for (auto it = skeleton_props.begin(); it != skeleton_props.end(); ++it) {
     mesh_request["properties"][it.key()] = it.value();
@@ -269,7 +269,7 @@ json Build() {
                       "render settings (width, height, view, camera, background, supersample, quality) for image formats."},
       {"properties", {{"variants", {{"type", "array"}, {"items", variant_item}}},
                       {"sample", sample},
-                      {"format", {{"enum", {"glb", "obj", "json", "f32", "png", "jpeg", "exr", "tiff"}}}}}}};
+                      {"format", {{"enum", {"glb", "obj", "json", "f32", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
   json job = {{"type", "object"},
               {"properties", {{"id", {{"type", "string"}}}, {"rig", {{"type", "string"}}},
                               {"state", {{"enum", {"queued", "running", "done", "failed", "cancelled", "lost"}}}},
@@ -322,7 +322,7 @@ json Build() {
                                              {{"name", "width"}, {"in", "query"}, {"schema", {{"type", "integer"}}}},
                                              {{"name", "height"}, {"in", "query"}, {"schema", {{"type", "integer"}}}},
                                              {{"name", "view"}, {"in", "query"}, {"schema", {{"enum", {"shaded", "wireframe", "heatmap", "normals"}}}}},
-                                             {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"png", "jpeg", "exr", "tiff"}}}}},
+                                             {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}}}},
                                              {{"name", "yaw"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
                                              {{"name", "pitch"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
                                              {{"name", "zoom"}, {"in", "query"}, {"schema", {{"type", "number"}}}},

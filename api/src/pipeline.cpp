@@ -1,6 +1,7 @@
 #include "facespace/api/pipeline.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -13,12 +14,21 @@ using nlohmann::json;
 
 std::string JsonString(const std::string& s) { return json(s).dump(-1, ' ', false, json::error_handler_t::replace); }
 
+// Adds the milliseconds since `start` to `total`, and restarts the clock.
+void Lap(std::chrono::steady_clock::time_point& start, double& total) {
+  const auto now = std::chrono::steady_clock::now();
+  total += std::chrono::duration<double, std::milli>(now - start).count();
+  start = now;
+}
+
 // The rig evaluated at `point` into ws.blended. The point was checked: a failure here is ours.
 Status Evaluate(const Rig& rig, const Point& point, BlendOptions options, Workspace& ws) {
+  auto start = std::chrono::steady_clock::now();
   options.pose = point.pose_or_null();
   if (Status s = EvaluateRig(rig, point.weights, options, ws.blended, ws.context); !s.ok()) {
     return Internal("the blend failed: " + s.message);
   }
+  Lap(start, ws.timing.blend);
   return Status::Ok();
 }
 
@@ -53,18 +63,24 @@ Status ResolvePoint(const Rig& rig, const MeshRequest& r, Point& point) {
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
                                Workspace& ws) {
   if (Status s = Evaluate(rig, point, request.options, ws); !s.ok()) return s;
+  auto start = std::chrono::steady_clock::now();
   ExportOptions options;
   options.keep_targets = request.keep_targets;
   auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, format, options);
   if (!bytes.ok()) return Prefixed(bytes.status(), "the export failed: ");
+  Lap(start, ws.timing.encode);
   return bytes;
 }
 
 Result<std::string> EncodeImage(const Rig& rig, const Point& point, const RenderRequest& request,
                                 render::ImageFormat format, const render::Renderer& renderer, Workspace& ws) {
   if (Status s = Evaluate(rig, point, request.mesh.options, ws); !s.ok()) return s;
+  auto start = std::chrono::steady_clock::now();
   if (Status s = renderer.Draw(rig, ws.blended, request.render, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
-  return render::Encode(ws.image, format, request.quality);
+  Lap(start, ws.timing.draw);
+  auto bytes = render::Encode(ws.image, format, request.quality);
+  Lap(start, ws.timing.encode);
+  return bytes;
 }
 
 // ---- sheets -------------------------------------------------------------------------------
@@ -99,9 +115,14 @@ Result<std::string> EncodeGrid(const Rig& rig, std::span<const Point> cells, std
   ws.cells.resize(cells.size());
   for (size_t c = 0; c < cells.size(); ++c) {
     if (Status s = Evaluate(rig, cells[c], blend, ws); !s.ok()) return s;
+    auto start = std::chrono::steady_clock::now();
     if (Status s = renderer.Draw(rig, ws.blended, options, ws.cells[c]); !s.ok()) return Prefixed(s, "the render failed: ");
+    Lap(start, ws.timing.draw);
   }
-  return render::Encode(render::ContactSheet(ws.cells, labels, columns, options.background), format, quality);
+  auto start = std::chrono::steady_clock::now();
+  auto bytes = render::Encode(render::ContactSheet(ws.cells, labels, columns, options.background), format, quality);
+  Lap(start, ws.timing.encode);
+  return bytes;
 }
 
 Result<std::string> EncodeSheet(const Rig& rig, const SheetPoints& points, const SheetRequest& request,
@@ -323,10 +344,22 @@ void VariantPoint(const BatchPlan& plan, size_t index, Point& point) {
   point.report.warnings.insert(point.report.warnings.end(), plan.pose_warnings.begin(), plan.pose_warnings.end());
 }
 
-Result<std::string> EncodeVariant(const BatchPlan& plan, const Point& point, const render::Renderer& renderer, Workspace& ws) {
+Result<std::array<std::string_view, 2>> EncodeVariant(const BatchPlan& plan, const Point& point,
+                                                      const render::Renderer& renderer, VariantEncoder& encoder) {
   const BatchRequest& r = plan.request;
-  if (!r.image) return EncodeMesh(*plan.rig, point, r.render.mesh, r.mesh_format, ws);
-  return EncodeImage(*plan.rig, point, r.render, r.image_format, renderer, ws);
+  if (!r.image && r.mesh_format == MeshFormat::kGlb) {
+    if (Status s = Evaluate(*plan.rig, point, r.render.mesh.options, encoder.ws); !s.ok()) return s;
+    ExportOptions options;
+    options.keep_targets = r.render.mesh.keep_targets;
+    auto pieces = encoder.glb.Write(*plan.rig, encoder.ws.blended, point.weights, point.report.warnings, options);
+    if (!pieces.ok()) return Prefixed(pieces.status(), "the export failed: ");
+    return std::array<std::string_view, 2>{pieces.value().head, pieces.value().bin};
+  }
+  auto bytes = r.image ? EncodeImage(*plan.rig, point, r.render, r.image_format, renderer, encoder.ws)
+                       : EncodeMesh(*plan.rig, point, r.render.mesh, r.mesh_format, encoder.ws);
+  if (!bytes.ok()) return bytes.status();
+  encoder.bytes = std::move(bytes.value());
+  return std::array<std::string_view, 2>{encoder.bytes, {}};
 }
 
 Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices, const render::Renderer& renderer,

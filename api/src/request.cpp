@@ -379,7 +379,7 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
   } else if (key == "format") {
     render::ImageFormat f;
     if (!v.is_string() || !render::ParseImageFormat(v.get<std::string>(), &f)) {
-      errors.fields.push_back({ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\""});
+      errors.fields.push_back({ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
     } else {
       r.format = f;
     }
@@ -936,7 +936,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
         r.image = true;
         r.format = render::ImageFormatExtension(imf);
       } else {
-        errors.fields.push_back({"/format", "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"png\", \"jpeg\", \"exr\", \"tiff\""});
+        errors.fields.push_back({"/format", "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
       }
     } else if (key == "weights" || key == "strict" || key == "keep_targets") {
       errors.fields.push_back({"/" + key, "is not a batch member: give \"variants\" or \"sample\""});

@@ -171,6 +171,72 @@ tinygltf::Value ToValue(const nlohmann::json& j) {
   }
 }
 
+// An accessor's min and max: per component, over `count` elements of `comps` floats.
+void FloatBounds(std::span<const float> values, int comps, size_t count, std::vector<double>& lo, std::vector<double>& hi) {
+  lo.assign(comps, 0.0);
+  hi.assign(comps, 0.0);
+  for (size_t e = 0; e < count; ++e) {
+    for (int c = 0; c < comps; ++c) {
+      const double v = values[e * comps + c];
+      if (e == 0 || v < lo[c]) lo[c] = v;
+      if (e == 0 || v > hi[c]) hi[c] = v;
+    }
+  }
+}
+
+// Node i's local matrix under the evaluated pose (its world matrix relative to its parent's).
+std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blended, size_t i) {
+  Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
+  const int parent = rig.nodes[i].parent;
+  if (parent >= 0) world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[parent].data()).inverse() * world;
+  std::array<double, 16> out;
+  std::copy(world.data(), world.data() + 16, out.begin());
+  return out;
+}
+
+// glb's asset.extras: the caller's extras, the warnings and the non-zero weights by shape name.
+Result<nlohmann::json> AssetExtras(const Rig& rig, std::span<const float> weights, std::span<const Warning> warnings,
+                                   const ExportOptions& options) {
+  nlohmann::json extras = nlohmann::json::object();
+  if (!options.asset_extras_json.empty()) {
+    extras = nlohmann::json::parse(options.asset_extras_json, nullptr, false);
+    if (extras.is_discarded() || !extras.is_object()) return InvalidArgument("asset extras must be a JSON object");
+  }
+  extras["warnings"] = nlohmann::json::parse(WarningsToJson(warnings));
+  nlohmann::json wmap = nlohmann::json::object();
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
+  }
+  extras["weights"] = wmap;
+  return extras;
+}
+
+// What tinygltf writes for JSON that went through ToValue: integers as int, empty arrays and
+// objects as null, nulls left out. False when nothing is written.
+bool AsTinygltfWrites(const nlohmann::json& j, nlohmann::json& out) {
+  out = nlohmann::json();
+  switch (j.type()) {
+    case nlohmann::json::value_t::boolean: out = j.get<bool>(); return true;
+    case nlohmann::json::value_t::number_integer:
+    case nlohmann::json::value_t::number_unsigned: out = static_cast<int>(j.get<int64_t>()); return true;
+    case nlohmann::json::value_t::number_float: out = j.get<double>(); return true;
+    case nlohmann::json::value_t::string: out = j; return true;
+    case nlohmann::json::value_t::array:
+      for (const auto& e : j) {
+        nlohmann::json v;
+        if (AsTinygltfWrites(e, v)) out.push_back(std::move(v));
+      }
+      return true;
+    case nlohmann::json::value_t::object:
+      for (auto it = j.begin(); it != j.end(); ++it) {
+        nlohmann::json v;
+        if (AsTinygltfWrites(it.value(), v)) out[it.key()] = std::move(v);
+      }
+      return true;
+    default: return false;
+  }
+}
+
 class GlbBuilder {
  public:
   explicit GlbBuilder(tinygltf::Model& m) : m_(m) { m_.buffers.resize(1); }
@@ -268,15 +334,7 @@ class GlbBuilder {
     return comps == 1 ? TINYGLTF_TYPE_SCALAR : comps == 2 ? TINYGLTF_TYPE_VEC2 : comps == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
   }
   static void MinMax(std::span<const float> values, int comps, size_t count, tinygltf::Accessor& a) {
-    a.minValues.assign(comps, 0.0);
-    a.maxValues.assign(comps, 0.0);
-    for (size_t e = 0; e < count; ++e) {
-      for (int c = 0; c < comps; ++c) {
-        const double v = values[e * comps + c];
-        if (e == 0 || v < a.minValues[c]) a.minValues[c] = v;
-        if (e == 0 || v > a.maxValues[c]) a.maxValues[c] = v;
-      }
-    }
+    FloatBounds(values, comps, count, a.minValues, a.maxValues);
   }
   tinygltf::Model& m_;
 };
@@ -288,18 +346,9 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   m.asset.version = "2.0";
   m.asset.generator = "facespace";
   m.asset.copyright = rig.credit;
-  nlohmann::json extras = nlohmann::json::object();
-  if (!options.asset_extras_json.empty()) {
-    extras = nlohmann::json::parse(options.asset_extras_json, nullptr, false);
-    if (extras.is_discarded() || !extras.is_object()) return InvalidArgument("asset extras must be a JSON object");
-  }
-  extras["warnings"] = nlohmann::json::parse(WarningsToJson(warnings));
-  nlohmann::json wmap = nlohmann::json::object();
-  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
-    if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
-  }
-  extras["weights"] = wmap;
-  m.asset.extras = ToValue(extras);
+  auto extras = AssetExtras(rig, weights, warnings, options);
+  if (!extras.ok()) return extras.status();
+  m.asset.extras = ToValue(extras.value());
 
   // glTF carries PNG and JPEG: other images (an MMD model's BMP or TGA) and unread ones are left out,
   // their materials keeping the base colour.
@@ -413,9 +462,8 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     gn.children = n.children;
     if (blended.posed && blended.node_world.size() == rig.nodes.size()) {
       // The evaluated pose, as each node's local matrix.
-      Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
-      if (n.parent >= 0) world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[n.parent].data()).inverse() * world;
-      gn.matrix.assign(world.data(), world.data() + 16);
+      const std::array<double, 16> local = PosedLocalMatrix(rig, blended, i);
+      gn.matrix.assign(local.begin(), local.end());
     } else if (n.has_matrix) {
       gn.matrix.assign(n.matrix.begin(), n.matrix.end());
     } else {
@@ -506,6 +554,147 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
 }
 
 }  // namespace
+
+// ---- glb of many variants ------------------------------------------------------------------
+
+struct GlbTemplate {
+  struct Attribute {
+    size_t primitive = 0;
+    int kind = 0;          // 0 positions, 1 normals, 2 tangents.
+    size_t offset = 0;     // In `bin`.
+    int accessor = -1;     // POSITION: its bounds are patched.
+  };
+  const Rig* rig = nullptr;
+  std::vector<size_t> shape;  // What the template was made for: posed, then per primitive skinned and sizes.
+  nlohmann::json json;        // The glb's JSON, patched for each variant.
+  std::string bin;            // The binary chunk, attributes overwritten for each variant.
+  std::vector<Attribute> attributes;
+  bool posed_nodes = false;
+  std::string head;
+  std::string whole;          // keep_targets: the whole glb.
+  std::vector<double> lo, hi;
+};
+
+namespace {
+
+std::vector<size_t> GlbShape(const Rig& rig, const BlendedRig& blended) {
+  std::vector<size_t> shape{blended.posed && blended.node_world.size() == rig.nodes.size()};
+  for (const BlendedPrimitive& bp : blended.primitives) {
+    shape.insert(shape.end(), {bp.skinned, bp.positions.size(), bp.normals.size(), bp.tangents.size()});
+  }
+  return shape;
+}
+
+uint32_t ReadU32(const std::string& s, size_t at) {
+  uint32_t v;
+  std::memcpy(&v, s.data() + at, 4);
+  return v;
+}
+
+void AppendU32(std::string& s, uint32_t v) { s.append(reinterpret_cast<const char*>(&v), 4); }
+
+// The template from one full export: its JSON, its binary chunk, and where each blended
+// attribute lies in the binary chunk (meshes and primitives in the order ExportGlb writes them).
+Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
+  if (glb.size() < 20 || glb.compare(0, 4, "glTF") != 0) return Internal("glb template: not a glb");
+  const size_t json_bytes = ReadU32(glb, 12);
+  if (20 + json_bytes > glb.size()) return Internal("glb template: JSON chunk");
+  t.json = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + static_cast<std::ptrdiff_t>(json_bytes), nullptr, false);
+  if (t.json.is_discarded()) return Internal("glb template: JSON");
+  t.bin = 28 + json_bytes <= glb.size() ? glb.substr(28 + json_bytes) : std::string();
+  t.attributes.clear();
+  const nlohmann::json& meshes = t.json["meshes"];
+  const nlohmann::json& accessors = t.json["accessors"];
+  const nlohmann::json& views = t.json["bufferViews"];
+  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
+    const std::vector<int>& prims = rig.meshes[mi].primitives;
+    for (size_t k = 0; k < prims.size(); ++k) {
+      const BlendedPrimitive& bp = blended.primitives[prims[k]];
+      const nlohmann::json& attributes = meshes.at(mi).at("primitives").at(k).at("attributes");
+      const char* names[] = {"POSITION", "NORMAL", "TANGENT"};
+      const size_t bytes[] = {bp.positions.size() * 4, bp.normals.size() * 4, bp.tangents.size() * 4};
+      for (int kind = 0; kind < 3; ++kind) {
+        if (!attributes.contains(names[kind])) continue;
+        const int a = attributes[names[kind]].get<int>();
+        const nlohmann::json& view = views.at(accessors.at(a).at("bufferView").get<size_t>());
+        const size_t offset = view.value("byteOffset", size_t{0});
+        if (view.at("byteLength").get<size_t>() != bytes[kind] || offset + bytes[kind] > t.bin.size()) {
+          return Internal("glb template: attribute sizes");
+        }
+        t.attributes.push_back({static_cast<size_t>(prims[k]), kind, offset, kind == 0 ? a : -1});
+      }
+    }
+  }
+  t.posed_nodes = blended.posed && blended.node_world.size() == rig.nodes.size();
+  return Status::Ok();
+}
+
+}  // namespace
+
+GlbVariantWriter::GlbVariantWriter() : t_(std::make_unique<GlbTemplate>()) {}
+GlbVariantWriter::~GlbVariantWriter() = default;
+GlbVariantWriter::GlbVariantWriter(GlbVariantWriter&&) noexcept = default;
+GlbVariantWriter& GlbVariantWriter::operator=(GlbVariantWriter&&) noexcept = default;
+
+Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const BlendedRig& blended,
+                                                         std::span<const float> weights,
+                                                         std::span<const Warning> warnings, const ExportOptions& options) {
+  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
+  GlbTemplate& t = *t_;
+  if (options.keep_targets) {
+    auto glb = ExportGlb(rig, blended, weights, warnings, options);
+    if (!glb.ok()) return glb.status();
+    t.whole = std::move(glb.value());
+    return Pieces{t.whole, {}};
+  }
+  std::vector<size_t> shape = GlbShape(rig, blended);
+  if (t.rig != &rig || t.shape != shape) {
+    // The first variant of this shape: exported whole, and kept as the template.
+    auto glb = ExportGlb(rig, blended, weights, warnings, options);
+    if (!glb.ok()) return glb.status();
+    t.rig = nullptr;
+    if (Status s = MakeTemplate(glb.value(), rig, blended, t); !s.ok()) return s;
+    t.rig = &rig;
+    t.shape = std::move(shape);
+    t.whole = std::move(glb.value());
+    return Pieces{t.whole, {}};
+  }
+  // Later variants: what the blend changes, patched into the template.
+  auto extras = AssetExtras(rig, weights, warnings, options);
+  if (!extras.ok()) return extras.status();
+  AsTinygltfWrites(extras.value(), t.json["asset"]["extras"]);
+  nlohmann::json& accessors = t.json["accessors"];
+  for (const GlbTemplate::Attribute& a : t.attributes) {
+    const BlendedPrimitive& bp = blended.primitives[a.primitive];
+    const std::vector<float>& values = a.kind == 0 ? bp.positions : a.kind == 1 ? bp.normals : bp.tangents;
+    std::memcpy(t.bin.data() + a.offset, values.data(), values.size() * 4);
+    if (a.accessor >= 0) {
+      FloatBounds(values, 3, values.size() / 3, t.lo, t.hi);
+      accessors[a.accessor]["min"] = t.lo;
+      accessors[a.accessor]["max"] = t.hi;
+    }
+  }
+  if (t.posed_nodes) {
+    nlohmann::json& nodes = t.json["nodes"];
+    for (size_t i = 0; i < rig.nodes.size(); ++i) nodes[i]["matrix"] = PosedLocalMatrix(rig, blended, i);
+  }
+  // The glb header and chunk headers as tinygltf writes them (JSON padded with spaces).
+  const std::string text = t.json.dump();
+  const size_t padded = (text.size() + 3) & ~size_t{3};
+  t.head.clear();
+  t.head += "glTF";
+  AppendU32(t.head, 2);
+  AppendU32(t.head, static_cast<uint32_t>(12 + 8 + padded + (t.bin.empty() ? 0 : 8 + t.bin.size())));
+  AppendU32(t.head, static_cast<uint32_t>(padded));
+  AppendU32(t.head, 0x4E4F534A);
+  t.head += text;
+  t.head.append(padded - text.size(), ' ');
+  if (!t.bin.empty()) {
+    AppendU32(t.head, static_cast<uint32_t>(t.bin.size()));
+    AppendU32(t.head, 0x004E4942);
+  }
+  return Pieces{t.head, t.bin};
+}
 
 void WorldPositions(const BlendedRig& blended, std::vector<float>& out) {
   out.clear();

@@ -102,10 +102,11 @@ TEST(Pipeline, BatchVariantsAreAPureFunctionOfThePlanAndIndex) {
   api::VariantPoint(plan.value(), 3, b);  // The same index again, after another: the same point.
   EXPECT_EQ(a.weights, b.weights);
   const render::NullRenderer null;
-  api::Workspace ws;
-  auto bytes = api::EncodeVariant(plan.value(), a, null, ws);
+  api::VariantEncoder encoder;
+  auto bytes = api::EncodeVariant(plan.value(), a, null, encoder);
   ASSERT_TRUE(bytes.ok());
-  EXPECT_EQ(bytes->front(), '{');
+  EXPECT_EQ(bytes.value()[0].front(), '{');
+  EXPECT_TRUE(bytes.value()[1].empty());
   // A bad plan names its field.
   auto bad = api::MakeBatchPlan(FaceCap(), "v1", R"({"sample": {"method": "random", "count": 5}})");
   ASSERT_FALSE(bad.ok());

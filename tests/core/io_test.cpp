@@ -5,6 +5,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
+#include "facespace/core/pose_request.h"
 #include "facespace/core/weights.h"
 #include "test_util.h"
 
@@ -226,6 +227,58 @@ TEST(Export, ObjAndF32InWorldSpace) {
   ASSERT_TRUE(back.ok()) << back.status().message;
   EXPECT_EQ(back->vertex_count(), e.rig.vertex_count());
   EXPECT_EQ(back->triangle_count(), e.rig.triangle_count());
+}
+
+// The batch's glb writer gives ExportMesh's bytes exactly, variant after variant: FaceCap with
+// and without warnings (extrapolation), CesiumMan posed by its clip at several times (skinned
+// positions, every node's matrix), then the same CesiumMan at rest (another shape: the template
+// is made again), and a rig's export with keep_targets.
+TEST(GlbVariantWriter, WritesExportMeshBytes) {
+  auto joined = [](const GlbVariantWriter::Pieces& p) { return std::string(p.head) + std::string(p.bin); };
+  GlbVariantWriter writer;
+  auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
+  ASSERT_TRUE(face.ok());
+  BlendedRig out;
+  BlendContext ctx;
+  size_t patched = 0;
+  for (int i = 0; i < 6; ++i) {
+    std::vector<float> w(face->shapes.size(), 0.0f);
+    for (size_t k = static_cast<size_t>(i); k < w.size(); k += 7) w[k] = 0.1f * static_cast<float>(i + k % 5);
+    const WeightReport report = CheckWeights(face.value(), w, BlendMode::kRelative);
+    ASSERT_TRUE(EvaluateRig(face.value(), w, {}, out, ctx).ok());
+    auto expected = ExportMesh(face.value(), out, w, report.warnings, MeshFormat::kGlb);
+    auto pieces = writer.Write(face.value(), out, w, report.warnings);
+    ASSERT_TRUE(expected.ok() && pieces.ok());
+    ASSERT_EQ(joined(pieces.value()), expected.value()) << "variant " << i << ", " << report.warnings.size() << " warnings";
+    patched += !pieces->bin.empty();
+  }
+  EXPECT_EQ(patched, 5u) << "the first variant makes the template, the others patch it";
+
+  auto man = LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
+  ASSERT_TRUE(man.ok());
+  std::vector<float> none;
+  for (float time : {0.0f, 0.8f, 1.7f, -1.0f}) {
+    Pose pose;
+    BlendOptions o;
+    if (time >= 0) {
+      PoseRequest req;
+      req.clips.push_back(ClipRequest{.index = 0, .time = time, .pointer = "/animation"});
+      std::vector<float> w;
+      bool posed = false;
+      std::vector<Warning> warnings;
+      std::vector<WeightEntry> entries;
+      ASSERT_TRUE(ResolvePoseAndWeights(man.value(), entries, req, w, pose, posed, warnings).ok());
+      o.pose = &pose;
+    }
+    ASSERT_TRUE(EvaluateRig(man.value(), none, o, out, ctx).ok());
+    auto expected = ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb);
+    auto pieces = writer.Write(man.value(), out, none, {});
+    ASSERT_TRUE(expected.ok() && pieces.ok());
+    ASSERT_EQ(joined(pieces.value()), expected.value()) << "CesiumMan at " << time;
+  }
+  auto rig_itself = writer.Write(man.value(), out, none, {}, {.keep_targets = true});
+  ASSERT_TRUE(rig_itself.ok());
+  EXPECT_EQ(joined(rig_itself.value()), ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb, {.keep_targets = true}).value());
 }
 
 }  // namespace

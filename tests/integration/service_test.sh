@@ -81,6 +81,15 @@ pngsize() { py 'import sys,struct; d=open(sys.argv[1],"rb").read(); print("%dx%d
 code=$(c "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")
 check "GET render: 200, a 256x192 PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr' && [ '$(pngsize)' = 256x192 ]"
 check "  ... with the extrapolation warning headers" test "$(hdr Facespace-Warnings)" = "extrapolation;value=1.7"
+check "  ... Server-Timing names the render's steps" sh -c "echo '$(hdr Server-Timing)' | grep -Eq '^blend;dur=[0-9.]+, draw;dur=[0-9.]+, encode;dur=[0-9.]+$'"
+cp "$tmp/body" "$tmp/whole.png"; head -c 100 "$tmp/whole.png" > "$tmp/first100"
+code=$(c -r 0-99 "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")
+check "  ... the same again: from the cache (Server-Timing: cache), and a Range request is 206 with those 100 bytes" \
+  sh -c "[ $code = 206 ] && [ '$(hdr Server-Timing)' = 'cache;desc=\"hit\"' ] && [ \$(wc -c < '$tmp/body') = 100 ] && cmp -s '$tmp/body' '$tmp/first100'"
+code=$(c "$U/v1/rigs/facecap/render?w.jawOpen=0.9&width=256&height=256&format=webp")
+check "GET render format=webp: image/webp (RIFF....WEBP), smaller than the PNG" \
+  sh -c "[ $code = 200 ] && grep -qi '^content-type: image/webp' '$tmp/hdr' && [ \"\$(head -c 4 '$tmp/body')\" = RIFF ] && [ \$(wc -c < '$tmp/body') -lt \$(wc -c < '$tmp/whole.png') ]"
+code=$(c "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")
 etag=$(hdr ETag)
 check "  ... ETag, and If-None-Match gives 304" test "$(c -H "If-None-Match: $etag" "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")" = 304
 code=$(c -X POST -H 'Content-Type: application/json' -H 'Accept: image/jpeg' -d '{"weights":{"jawOpen":0.5},"width":128,"height":128,"view":"wireframe","camera":{"yaw":30,"pitch":10}}' "$U/v1/rigs/facecap/render")

@@ -278,8 +278,10 @@ TEST(Render, EncodeDecodeRoundTrip) {
   Rig cube = UnitCube();
   Image im;
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), HeadOn(32), im).ok());
-  for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr, render::ImageFormat::kJpeg}) {
-    auto bytes = render::Encode(im, f, 95);
+  for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr, render::ImageFormat::kJpeg,
+                 render::ImageFormat::kWebp}) {
+    // WebP at 100 is lossless (8-bit exact, as PNG); JPEG at 95 is lossy.
+    auto bytes = render::Encode(im, f, f == render::ImageFormat::kWebp ? 100 : 95);
     ASSERT_TRUE(bytes.ok()) << render::ImageFormatExtension(f);
     std::vector<unsigned char> b(bytes->begin(), bytes->end());
     auto back = render::Decode(b);
@@ -304,6 +306,33 @@ TEST(Render, EncodeDecodeRoundTrip) {
 
 // MMD textures come as BMP and TGA too: a 2x1 image (a red then a blue pixel) in each, written here
 // byte by byte, decodes to those colours (TGA only when told so: it has no magic).
+// Lossy WebP (what a web page asks for): the picture within a small mean error, its alpha kept
+// (transparent background stays transparent), and a fraction of the PNG's bytes.
+TEST(Render, WebpIsLossySmallAndKeepsAlpha) {
+  Rig cube = UnitCube();
+  RenderOptions o = HeadOn(128);
+  o.background = {0, 0, 0, 0};
+  Image im;
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
+  auto webp = render::Encode(im, render::ImageFormat::kWebp, 90);
+  auto png = render::Encode(im, render::ImageFormat::kPng);
+  ASSERT_TRUE(webp.ok() && png.ok());
+  EXPECT_EQ(webp->substr(0, 4), "RIFF");
+  EXPECT_LT(webp->size() * 2, png->size());
+  auto back = render::Decode(std::vector<unsigned char>(webp->begin(), webp->end()));
+  ASSERT_TRUE(back.ok()) << back.status().message;
+  ASSERT_EQ(back->rgba.size(), im.rgba.size());
+  double sum_err = 0;
+  float alpha_err = 0;
+  for (size_t i = 0; i < im.rgba.size(); i += 4) {
+    for (int c = 0; c < 3; ++c) sum_err += std::fabs(Srgb(back->rgba[i + c] * back->rgba[i + 3]) - Srgb(im.rgba[i + c] * im.rgba[i + 3]));
+    alpha_err = std::max(alpha_err, std::fabs(back->rgba[i + 3] - im.rgba[i + 3]));
+  }
+  EXPECT_LT(sum_err / (im.rgba.size() / 4 * 3), 0.02);
+  EXPECT_LT(alpha_err, 1.5f / 255.0f);
+  EXPECT_EQ(back->rgba[3], 0.0f);  // The corner: background, transparent.
+}
+
 TEST(Image, DecodesBmpAndTgaTextures) {
   std::vector<unsigned char> bmp = {'B', 'M', 62, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,  // File header.
                                     40, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1, 0, 24, 0, 0, 0, 0, 0, 8, 0, 0, 0,

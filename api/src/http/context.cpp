@@ -1,3 +1,4 @@
+#include <cstdio>
 #include "context.h"
 
 #include <algorithm>
@@ -79,6 +80,28 @@ std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& r
   auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
   if (!rig) SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
   return rig;
+}
+
+std::string ServerTiming(const Workspace::Timing& timing) {
+  std::string out;
+  auto add = [&](const char* name, double ms) {
+    if (ms <= 0) return;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s%s;dur=%.2f", out.empty() ? "" : ", ", name, ms);
+    out += buf;
+  };
+  add("blend", timing.blend);
+  add("draw", timing.draw);
+  add("encode", timing.encode);
+  return out;
+}
+
+void SendShared(httplib::Response& res, std::shared_ptr<const Encoded> enc) {
+  const std::string* body = &enc->body;
+  res.set_content_provider(
+      body->size(), enc->content_type,
+      [body](size_t offset, size_t length, httplib::DataSink& sink) { return sink.write(body->data() + offset, length); },
+      [enc](bool) {});
 }
 
 bool AnswerPoint(Context& ctx, const httplib::Request& req, httplib::Response& res, const Status& s, double sum,

@@ -90,6 +90,13 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
 
 // After the pipeline's first step: Facespace-Weight-Sum and Facespace-Warnings set, warnings
 // counted; false when `status` is an error, which was sent (a strict refusal with its warnings).
+// "blend;dur=0.31, draw;dur=10.2, encode;dur=4.1": the steps that ran (Server-Timing header).
+std::string ServerTiming(const Workspace::Timing& timing);
+
+// The shared encoded bytes as the body, without a copy: the response holds the cache's entry
+// until it is written.
+void SendShared(httplib::Response& res, std::shared_ptr<const Encoded> enc);
+
 bool AnswerPoint(Context& ctx, const httplib::Request& req, httplib::Response& res, const Status& status, double sum,
                  std::span<const Warning> warnings);
 

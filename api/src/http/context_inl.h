@@ -24,9 +24,13 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
   std::shared_ptr<const Encoded> enc = ctx.cache.Get(key);
   ctx.metrics.CountCache(enc != nullptr);
   if (!enc) {
+    Workspace::Timing timing;
     Result<std::string> bytes = [&] {
       const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-      return produce(*ws);
+      ws->timing = {};
+      Result<std::string> made = produce(*ws);
+      timing = ws->timing;
+      return made;
     }();
     if (!bytes.ok()) {
       SendStatus(req, res, bytes.status());
@@ -37,9 +41,13 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
     e->content_type = content_type;
     enc = e;
     ctx.cache.Put(key, enc);
+    res.set_header("Server-Timing", ServerTiming(timing));
+  } else {
+    res.set_header("Server-Timing", "cache;desc=\"hit\"");
   }
-  res.status = 200;
-  res.set_content(enc->body, enc->content_type.c_str());
+  // A Range request gets its part as 206 (cpp-httplib cuts the body, and keeps a status set here).
+  res.status = req.ranges.empty() ? 200 : 206;
+  SendShared(res, enc);
 }
 
 }  // namespace facespace::api::http

@@ -144,7 +144,7 @@ std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Re
 std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req, httplib::Response& res,
                                                   std::optional<render::ImageFormat> given) {
   using render::ImageFormat;
-  static constexpr ImageFormat kFormats[] = {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kExr, ImageFormat::kTiff};
+  static constexpr ImageFormat kFormats[] = {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kExr, ImageFormat::kTiff, ImageFormat::kWebp};
   static constexpr std::pair<std::string_view, ImageFormat> kRanges[] = {
       {"image/*", ImageFormat::kPng}, {"*/*", ImageFormat::kPng}, {"image/aces", ImageFormat::kExr}};
   static const auto produced = Produced(kFormats, render::ImageFormatMimeType, kRanges);

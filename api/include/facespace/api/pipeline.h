@@ -11,6 +11,7 @@
 // api/src/http maps them to status codes in one place.
 #pragma once
 
+#include <array>
 #include <span>
 #include <string>
 #include <vector>
@@ -53,6 +54,11 @@ struct Workspace {
   BlendedRig blended;
   render::Image image;
   std::vector<render::Image> cells;
+  // What the last encode's steps took, in milliseconds (the service's Server-Timing header);
+  // the caller zeroes it before a call, the steps add to it.
+  struct Timing {
+    double blend = 0, draw = 0, encode = 0;
+  } timing;
 };
 
 // The result of one call: the bytes and what a client is told beside them.
@@ -184,8 +190,17 @@ void VariantPoint(const BatchPlan& plan, size_t index, Point& point);
 Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices, const render::Renderer& renderer,
                                  Workspace& ws);
 
-// The variant at `point` in the plan's format (a mesh, or a render).
-Result<std::string> EncodeVariant(const BatchPlan& plan, const Point& point, const render::Renderer& renderer,
-                                  Workspace& ws);
+// What a batch worker keeps between variants of one plan: the evaluation scratch, the glb writer
+// (core's GlbVariantWriter: the unchanged parts of the file are made once) and the other formats' bytes.
+struct VariantEncoder {
+  Workspace ws;
+  GlbVariantWriter glb;
+  std::string bytes;
+};
+
+// The variant at `point` in the plan's format (a mesh, or a render), as two pieces of one file to
+// be written one after the other; they stay valid until the encoder's next call.
+Result<std::array<std::string_view, 2>> EncodeVariant(const BatchPlan& plan, const Point& point,
+                                                      const render::Renderer& renderer, VariantEncoder& encoder);
 
 }  // namespace facespace::api

@@ -53,7 +53,7 @@ inline constexpr char kMalformedJson[] = "malformed-json";
 // {"camera": {"yaw", "pitch", "distance", "zoom", "fov"} | {"eye", "target", "up", "fov"},
 //  "width", "height", "view": "shaded"|"wireframe"|"heatmap"|"normals",
 //  "background": "#rrggbb"|"#rrggbbaa"|"transparent"|[r, g, b, a?], "supersample": 1..4,
-//  "format": "png"|"jpeg"|"exr"|"tiff", "quality": 1..100}
+//  "format": "png"|"jpeg"|"exr"|"tiff"|"webp", "quality": 1..100}
 struct RenderRequest {
   MeshRequest mesh;
   render::RenderOptions render;
@@ -134,7 +134,7 @@ Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text);
 //  "sample": {"method": "uniform"|"gaussian"|"grid"|"convex", "count": N, "seed": S,
 //             "shapes": [NAME, ...], "fixed": {NAME: w}, "center": {NAME: w}, "spread": s,
 //             "points": [{...}, {...}], "active": K, "symmetric": bool, "sum_at_most_one": bool},
-//  "format": "glb"|"obj"|"json"|"f32"|"png"|"jpeg"|"exr"|"tiff",
+//  "format": "glb"|"obj"|"json"|"f32"|"png"|"jpeg"|"exr"|"tiff"|"webp",
 //  "mode", "normals", "skinning" as on the mesh route; the render route's settings for images}
 struct BatchRequest {
   struct Variant {

@@ -102,13 +102,13 @@ class NullRenderer final : public Renderer {
   int Concurrency() const override { return 1 << 20; }
 };
 
-enum class ImageFormat { kPng, kJpeg, kExr, kTiff };
+enum class ImageFormat { kPng, kJpeg, kExr, kTiff, kWebp };
 bool ParseImageFormat(const std::string& name, ImageFormat* format);
 const char* ImageFormatMimeType(ImageFormat format);
 const char* ImageFormatExtension(ImageFormat format);
 
-// Encodes to file bytes: PNG/JPEG/TIFF as 8-bit sRGB (alpha kept where the format has it),
-// EXR as linear half floats. `quality` is JPEG's 1..100.
+// Encodes to file bytes: PNG/JPEG/TIFF/WebP as 8-bit sRGB (alpha kept where the format has it),
+// EXR as linear half floats. `quality` is JPEG's and WebP's 1..100 (WebP: 100 is lossless).
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality = 90);
 
 // Decodes PNG/JPEG/EXR/TIFF/BMP bytes (TGA, which has no magic, when mime_type is "image/x-tga") to
