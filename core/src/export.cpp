@@ -131,20 +131,30 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
   return out;
 }
 
-std::string ExportF32(const Rig& rig, const BlendedRig& blended) {
-  std::vector<float> data;
-  data.reserve(rig.vertex_count() * 6);
-  WorldPositions(blended, data);
-  for (size_t i = 0; i < rig.primitives.size(); ++i) {
-    const auto& nrm = blended.primitives[i].normals;
-    for (size_t v = 0; v < nrm.size(); v += 3) {
+std::string ExportF32(const BlendedRig& blended) {
+  size_t floats = 0;
+  for (const BlendedPrimitive& b : blended.primitives) floats += b.positions.size() + b.normals.size();
+  std::string out(floats * 4, '\0');  // Written in place, float by float: x86-64 and ARM64 are little-endian.
+  char* at = out.data();
+  auto put = [&at](const float* q) {
+    std::memcpy(at, q, 12);
+    at += 12;
+  };
+  for (const BlendedPrimitive& b : blended.primitives) {
+    for (size_t v = 0; v < b.positions.size(); v += 3) {
       float q[3];
-      NormalToWorld(blended.primitives[i].world, &nrm[v], q);
-      data.insert(data.end(), q, q + 3);
+      TransformPoint(b.world, &b.positions[v], q, 1.0f);
+      put(q);
     }
   }
-  std::string out(data.size() * 4, '\0');
-  std::memcpy(out.data(), data.data(), out.size());  // x86-64 and ARM64 are little-endian.
+  for (const BlendedPrimitive& b : blended.primitives) {
+    const NormalMatrix nm(b.world.data(), 4);
+    for (size_t v = 0; v < b.normals.size(); v += 3) {
+      float q[3];
+      nm.Apply(&b.normals[v], q);
+      put(q);
+    }
+  }
   return out;
 }
 
@@ -730,7 +740,7 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
   switch (format) {
     case MeshFormat::kJson: return ExportJson(rig, blended, warnings);
     case MeshFormat::kObj: return ExportObj(rig, blended, warnings);
-    case MeshFormat::kF32: return ExportF32(rig, blended);
+    case MeshFormat::kF32: return ExportF32(blended);
     case MeshFormat::kGlb: return ExportGlb(rig, blended, weights, warnings, options);
   }
   return InvalidArgument("unknown format");

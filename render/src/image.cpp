@@ -159,7 +159,7 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
   for (size_t i = 0, n = static_cast<size_t>(image.width) * image.height; i < n; ++i) {
     const float* s = &image.rgba[4 * i];
     for (int c = 0; c < 3; ++c) px[i * channels + c] = encode(alpha ? s[c] : s[c] * s[3] + (1.0f - s[3]));
-    if (alpha) px[i * channels + 3] = static_cast<unsigned char>(std::lround(std::clamp(s[3], 0.0f, 1.0f) * 255.0f));
+    if (alpha) px[i * channels + 3] = static_cast<unsigned char>(std::clamp(s[3], 0.0f, 1.0f) * 255.0f + 0.5f);
   }
   if (format == ImageFormat::kWebp) return EncodeWebp(px, image.width, image.height, quality);
   OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);

@@ -14,6 +14,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstring>
 #include <algorithm>
 #include <condition_variable>
 #include <cstdlib>
@@ -113,6 +114,10 @@ struct Context {
   GLuint fbo = 0, color = 0, depth = 0;
   int fb_w = 0, fb_h = 0;
   std::list<Texture> textures;  // Most recent first; a few kept.
+  // The last render's vertex arrays and read-back, kept so that a render of a size seen
+  // before allocates nothing (a 512x512 read-back is 4 MB of floats: new pages each time).
+  std::vector<float> verts, pixels;
+  std::vector<uint32_t> indices;
   std::string error;
   std::string info;
 
@@ -390,8 +395,10 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     PrimitiveMode mode;
     int material;
   };
-  std::vector<float> verts;
-  std::vector<uint32_t> indices;
+  std::vector<float>& verts = gl.verts;
+  std::vector<uint32_t>& indices = gl.indices;
+  verts.clear();
+  indices.clear();
   std::vector<Draw> draws;
   Eigen::AlignedBox3f box, shape_box;
   float heat_max = 0.0f;
@@ -546,7 +553,8 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glDepthFunc(GL_LESS);
   }
-  std::vector<float> pixels(static_cast<size_t>(w) * h * 4);
+  std::vector<float>& pixels = gl.pixels;
+  pixels.resize(static_cast<size_t>(w) * h * 4);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pixels.data());
   if (const GLenum err = glGetError(); err != GL_NO_ERROR) {
@@ -556,9 +564,12 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   const int ss = o.supersample;
   out.width = o.width;
   out.height = o.height;
-  out.rgba.assign(static_cast<size_t>(o.width) * o.height * 4, 0.0f);
+  out.rgba.assign(static_cast<size_t>(o.width) * o.height * 4, 0.0f);  // Zeros: the supersamples add up.
   const float inv = 1.0f / static_cast<float>(ss * ss);
-  for (int y = 0; y < o.height; ++y) {
+  for (int y = 0; ss == 1 && y < o.height; ++y) {  // No supersampling: rows flipped, as they are.
+    std::memcpy(&out.rgba[static_cast<size_t>(y) * o.width * 4], &pixels[static_cast<size_t>(h - 1 - y) * w * 4], static_cast<size_t>(w) * 16);
+  }
+  for (int y = 0; ss > 1 && y < o.height; ++y) {
     for (int x = 0; x < o.width; ++x) {
       float* dst = &out.rgba[(static_cast<size_t>(y) * o.width + x) * 4];
       for (int sy = 0; sy < ss; ++sy) {

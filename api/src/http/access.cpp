@@ -59,7 +59,8 @@ bool PreRoute(const Context& ctx, const httplib::Request& req, httplib::Response
   if (!origin.empty() && OriginAllowed(ctx.options, origin)) {
     res.set_header("Access-Control-Allow-Origin", origin);
     res.set_header("Vary", "Origin");
-    res.set_header("Access-Control-Expose-Headers", "Facespace-Weight-Sum, Facespace-Warnings, ETag, Location");
+    res.set_header("Access-Control-Expose-Headers", "Facespace-Weight-Sum, Facespace-Warnings, ETag, Location, Server-Timing");
+    res.set_header("Timing-Allow-Origin", origin);  // The browser's performance API sees Server-Timing too.
     if (req.method == "OPTIONS") {
       res.set_header("Access-Control-Allow-Methods", "GET, POST, PUT, DELETE, OPTIONS");
       res.set_header("Access-Control-Allow-Headers", "Content-Type, Authorization, If-None-Match, Accept");
