@@ -327,6 +327,34 @@ void BM_MakeHumanEvaluate(benchmark::State& state) {
   state.SetLabel(std::to_string(state.range(0)) + " of 286 shapes active, with normals");
 }
 
+// The mesh route's work in process, FaceCap with 4 shapes at 0.2: the blend, then the f32 body
+// (arg 0), the glb through ExportMesh (1), the glb through the batch's GlbVariantWriter (2), or nothing (3).
+void BM_FaceCapMeshEncode(benchmark::State& state) {
+  static const Rig rig = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  for (size_t k : {24, 37, 38, 9}) w[k] = 0.2f;
+  BlendedRig out;
+  BlendContext ctx;
+  facespace::GlbVariantWriter writer;
+  const int encode = static_cast<int>(state.range(0));
+  size_t bytes = 0;
+  for (auto _ : state) {
+    w[24] += 1e-6f;  // A new point each time, as the route sees.
+    facespace::EvaluateRig(rig, w, {}, out, ctx);
+    if (encode == 3) {
+      bytes = out.primitives[0].positions.size() * 4;
+    } else if (encode == 2) {
+      bytes = writer.Write(rig, out, w, {}).value().bin.size();
+    } else {
+      bytes = facespace::ExportMesh(rig, out, w, {}, encode == 0 ? facespace::MeshFormat::kF32 : facespace::MeshFormat::kGlb).value().size();
+    }
+    benchmark::DoNotOptimize(bytes);
+  }
+  state.SetLabel(encode == 0 ? "blend + f32" : encode == 1 ? "blend + glb (ExportMesh)" : encode == 2 ? "blend + glb (GlbVariantWriter)" : "blend");
+  state.counters["KB"] = bytes / 1024.0;
+}
+
+BENCHMARK(BM_FaceCapMeshEncode)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MakeHumanKernel)->Arg(20)->Arg(286)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MakeHumanEvaluate)->Arg(20)->Arg(286)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ByShapeRuns)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);

@@ -55,7 +55,8 @@ void Api::Register(httplib::Server& server) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - CurrentRequest().start).count();
     ctx.metrics.Observe(CurrentRequest().route, res.status, seconds);
     if (ctx.options.log_requests) {
-      std::fprintf(stderr, "%s %s %d %zu %.3fms\n", req.method.c_str(), req.path.c_str(), res.status, res.body.size(), seconds * 1e3);
+      const size_t bytes = res.body.empty() ? res.content_length_ : res.body.size();  // Cached bodies go out through a provider.
+      std::fprintf(stderr, "%s %s %d %zu %.3fms\n", req.method.c_str(), req.path.c_str(), res.status, bytes, seconds * 1e3);
     }
   });
 
