@@ -61,12 +61,19 @@ Status ResolvePoint(const Rig& rig, const MeshRequest& r, Point& point) {
 // ---- step 2 -------------------------------------------------------------------------------
 
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
-                               Workspace& ws) {
+                               Workspace& ws, GlbVariantWriter* glb) {
   if (Status s = Evaluate(rig, point, request.options, ws); !s.ok()) return s;
   auto start = std::chrono::steady_clock::now();
   ExportOptions options;
   options.keep_targets = request.keep_targets;
-  auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, format, options);
+  Result<std::string> bytes = std::string();
+  if (glb && format == MeshFormat::kGlb) {
+    auto pieces = glb->Write(rig, ws.blended, point.weights, point.report.warnings, options);
+    if (pieces.ok()) bytes.value().append(pieces->head).append(pieces->bin);
+    else bytes = pieces.status();
+  } else {
+    bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, format, options);
+  }
   if (!bytes.ok()) return Prefixed(bytes.status(), "the export failed: ");
   Lap(start, ws.timing.encode);
   return bytes;

@@ -264,6 +264,33 @@ TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {
   for (const char* id : {"cube", "cube2", "pyramid"}) Client().Delete(std::string("/v1/rigs/") + id, auth);
 }
 
+// glb bodies come from writers kept per rig: after a rig is replaced under the same id, its glb
+// is the new rig's (the same bytes as that rig under another id), never the old template patched.
+TEST_F(ApiTest, GlbAfterAReplacedRigIsTheNewRigs) {
+  httplib::Headers auth = {{"Authorization", "Bearer test-key"}};
+  auto bytes = [](const char* asset) {
+    const std::vector<unsigned char> b = test::ReadBytes(test::RealAsset(asset));
+    return std::string(b.begin(), b.end());
+  };
+  const std::string face = bytes("FaceCap/facecap_decoded.glb"), fox = bytes("Fox/Fox.glb");
+  ASSERT_EQ(Client().Put("/v1/rigs/swap", auth, face, "model/gltf-binary")->status, 201);
+  auto first = Client().Get("/v1/rigs/swap/mesh?format=glb");
+  auto second = Client().Get("/v1/rigs/swap/mesh?format=glb&w.jawOpen=0.5");  // Patched from the first's template.
+  ASSERT_TRUE(first && second);
+  EXPECT_EQ(second->status, 200);
+  EXPECT_NE(first->body, second->body);
+  ASSERT_EQ(Client().Put("/v1/rigs/swap", auth, fox, "model/gltf-binary")->status, 200);
+  ASSERT_EQ(Client().Put("/v1/rigs/fox2", auth, fox, "model/gltf-binary")->status, 201);
+  for (int i = 0; i < 2; ++i) {  // Twice: the second from a kept writer.
+    auto replaced = Client().Get("/v1/rigs/swap/mesh?format=glb&animation=0&time=" + std::to_string(0.3 * i));
+    auto other = Client().Get("/v1/rigs/fox2/mesh?format=glb&animation=0&time=" + std::to_string(0.3 * i));
+    ASSERT_TRUE(replaced && other);
+    EXPECT_EQ(replaced->status, 200) << replaced->body;
+    EXPECT_EQ(replaced->body, other->body);
+  }
+  for (const char* id : {"swap", "fox2"}) Client().Delete(std::string("/v1/rigs/") + id, auth);
+}
+
 TEST_F(ApiTest, UploadsNeedTheKey) {
   const std::vector<unsigned char> fox = test::ReadBytes(test::RealAsset("Fox/Fox.glb"));
   const std::string body(fox.begin(), fox.end());

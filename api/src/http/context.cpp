@@ -82,6 +82,32 @@ std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& r
   return rig;
 }
 
+GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
+  std::unique_ptr<GlbVariantWriter> writer;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = entries_.find(rig.get());
+    if (it != entries_.end() && it->second.rig.lock() != rig) {  // Another rig's, at the same address.
+      entries_.erase(it);
+      it = entries_.end();
+    }
+    if (it != entries_.end() && !it->second.free.empty()) {
+      writer = std::move(it->second.free.back());
+      it->second.free.pop_back();
+    }
+  }
+  if (!writer) writer = std::make_unique<GlbVariantWriter>();
+  return Lease(*this, rig, std::move(writer));
+}
+
+void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer) {
+  std::lock_guard<std::mutex> lock(mu_);
+  std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
+  Entry& e = entries_[rig.get()];
+  if (e.rig.lock() != rig) e = Entry{rig, {}};
+  if (e.free.size() < kKeptPerRig) e.free.push_back(std::move(writer));
+}
+
 std::string ServerTiming(const Workspace::Timing& timing) {
   std::string out;
   auto add = [&](const char* name, double ms) {

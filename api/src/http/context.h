@@ -59,6 +59,39 @@ class DerivedRigs {
   std::map<std::string, std::shared_ptr<const DerivedRig>> derived_;
 };
 
+// Glb writers kept per rig (a GlbVariantWriter holds one rig's exported template), leased one per
+// request. A writer is only handed out for the rig it was made for while that rig lives: entries
+// hold the rig weakly, and one whose rig died (a replaced or deleted rig, an evicted level of
+// detail) is dropped, so a new rig at the same address never meets an old template.
+class GlbWriters {
+ public:
+  class Lease {
+   public:
+    Lease(GlbWriters& pool, std::shared_ptr<const Rig> rig, std::unique_ptr<GlbVariantWriter> writer)
+        : pool_(pool), rig_(std::move(rig)), writer_(std::move(writer)) {}
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    ~Lease() { pool_.Release(rig_, std::move(writer_)); }
+    GlbVariantWriter* get() const { return writer_.get(); }
+
+   private:
+    GlbWriters& pool_;
+    std::shared_ptr<const Rig> rig_;
+    std::unique_ptr<GlbVariantWriter> writer_;
+  };
+  Lease Acquire(const std::shared_ptr<const Rig>& rig);
+
+ private:
+  static constexpr size_t kKeptPerRig = 4;
+  struct Entry {
+    std::weak_ptr<const Rig> rig;
+    std::vector<std::unique_ptr<GlbVariantWriter>> free;
+  };
+  void Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer);
+  std::mutex mu_;
+  std::map<const Rig*, Entry> entries_;
+};
+
 struct Context {
   Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels);
 
@@ -70,6 +103,7 @@ struct Context {
   ResponseCache cache;
   WorkspacePool workspaces;
   DerivedRigs derived;
+  GlbWriters glb_writers;
 };
 
 // ---- helpers the routes share ----

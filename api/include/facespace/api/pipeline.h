@@ -83,9 +83,11 @@ void CheckPoint(const Rig& rig, BlendMode mode, Point& point);
 
 // ---- step 2: evaluate and encode ------------------------------------------------------------
 
-// The mesh at `point` in `format` (glb keeps the rig's targets when request.keep_targets).
+// The mesh at `point` in `format` (glb keeps the rig's targets when request.keep_targets). With
+// `glb`, a writer that served this same rig before, a blended glb patches its template (the same
+// bytes, a third of the time).
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
-                               Workspace& ws);
+                               Workspace& ws, GlbVariantWriter* glb = nullptr);
 
 // A render of the rig at `point`. Framing on the shapes uses request.render.camera's focus box
 // when the caller set one (the service keeps it per rig), else the renderer computes it.
