@@ -605,6 +605,17 @@ void AppendU32(std::string& s, uint32_t v) { s.append(reinterpret_cast<const cha
 
 // The template from one full export: its JSON, its binary chunk, and where each blended
 // attribute lies in the binary chunk (meshes and primitives in the order ExportGlb writes them).
+Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t);
+
+// The same, with a JSON member of an unexpected type (nlohmann's exceptions) as a failure.
+Status MakeTemplateOrFail(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
+  try {
+    return MakeTemplate(glb, rig, blended, t);
+  } catch (const nlohmann::json::exception& e) {
+    return Internal(std::string("glb template: ") + e.what());
+  }
+}
+
 Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
   if (glb.size() < 20 || glb.compare(0, 4, "glTF") != 0) return Internal("glb template: not a glb");
   const size_t json_bytes = ReadU32(glb, 12);
@@ -659,14 +670,16 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
   }
   std::vector<size_t> shape = GlbShape(rig, blended);
   if (t.rig != &rig || t.shape != shape) {
-    // The first variant of this shape: exported whole, and kept as the template.
+    // The first variant of this shape: exported whole, and kept as the template (when its
+    // layout is the one expected; otherwise every call exports whole).
     auto glb = ExportGlb(rig, blended, weights, warnings, options);
     if (!glb.ok()) return glb.status();
     t.rig = nullptr;
-    if (Status s = MakeTemplate(glb.value(), rig, blended, t); !s.ok()) return s;
-    t.rig = &rig;
-    t.shape = std::move(shape);
     t.whole = std::move(glb.value());
+    if (MakeTemplateOrFail(t.whole, rig, blended, t).ok()) {
+      t.rig = &rig;
+      t.shape = std::move(shape);
+    }
     return Pieces{t.whole, {}};
   }
   // Later variants: what the blend changes, patched into the template.
