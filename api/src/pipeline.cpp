@@ -60,20 +60,32 @@ Status ResolvePoint(const Rig& rig, const MeshRequest& r, Point& point) {
 
 // ---- step 2 -------------------------------------------------------------------------------
 
-Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
-                               Workspace& ws, GlbVariantWriter* glb) {
+Result<GlbVariantWriter::Pieces> EncodeGlb(const Rig& rig, const Point& point, const MeshRequest& request, Workspace& ws,
+                                           GlbVariantWriter& glb) {
   if (Status s = Evaluate(rig, point, request.options, ws); !s.ok()) return s;
   auto start = std::chrono::steady_clock::now();
   ExportOptions options;
   options.keep_targets = request.keep_targets;
-  Result<std::string> bytes = std::string();
+  auto pieces = glb.Write(rig, ws.blended, point.weights, point.report.warnings, options);
+  if (!pieces.ok()) return Prefixed(pieces.status(), "the export failed: ");
+  Lap(start, ws.timing.encode);
+  return pieces;
+}
+
+Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
+                               Workspace& ws, GlbVariantWriter* glb) {
   if (glb && format == MeshFormat::kGlb) {
-    auto pieces = glb->Write(rig, ws.blended, point.weights, point.report.warnings, options);
-    if (pieces.ok()) bytes.value().append(pieces->head).append(pieces->bin);
-    else bytes = pieces.status();
-  } else {
-    bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, format, options);
+    auto pieces = EncodeGlb(rig, point, request, ws, *glb);
+    if (!pieces.ok()) return pieces.status();
+    std::string bytes;
+    bytes.reserve(pieces->head.size() + pieces->bin.size());
+    return bytes.append(pieces->head).append(pieces->bin);
   }
+  if (Status s = Evaluate(rig, point, request.options, ws); !s.ok()) return s;
+  auto start = std::chrono::steady_clock::now();
+  ExportOptions options;
+  options.keep_targets = request.keep_targets;
+  auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, format, options);
   if (!bytes.ok()) return Prefixed(bytes.status(), "the export failed: ");
   Lap(start, ws.timing.encode);
   return bytes;
@@ -355,12 +367,9 @@ Result<std::array<std::string_view, 2>> EncodeVariant(const BatchPlan& plan, con
                                                       const render::Renderer& renderer, VariantEncoder& encoder) {
   const BatchRequest& r = plan.request;
   if (!r.image && r.mesh_format == MeshFormat::kGlb) {
-    if (Status s = Evaluate(*plan.rig, point, r.render.mesh.options, encoder.ws); !s.ok()) return s;
-    ExportOptions options;
-    options.keep_targets = r.render.mesh.keep_targets;
-    auto pieces = encoder.glb.Write(*plan.rig, encoder.ws.blended, point.weights, point.report.warnings, options);
-    if (!pieces.ok()) return Prefixed(pieces.status(), "the export failed: ");
-    return std::array<std::string_view, 2>{pieces.value().head, pieces.value().bin};
+    auto pieces = EncodeGlb(*plan.rig, point, r.render.mesh, encoder.ws, encoder.glb);
+    if (!pieces.ok()) return pieces.status();
+    return std::array<std::string_view, 2>{pieces->head, pieces->bin};
   }
   auto bytes = r.image ? EncodeImage(*plan.rig, point, r.render, r.image_format, renderer, encoder.ws)
                        : EncodeMesh(*plan.rig, point, r.render.mesh, r.mesh_format, encoder.ws);

@@ -583,16 +583,17 @@ struct GlbTemplate {
   std::string head;
   std::string whole;          // keep_targets: the whole glb.
   std::vector<double> lo, hi;
+  std::vector<size_t> probe;  // The shape of the call at hand.
 };
 
 namespace {
 
-std::vector<size_t> GlbShape(const Rig& rig, const BlendedRig& blended) {
-  std::vector<size_t> shape{blended.posed && blended.node_world.size() == rig.nodes.size()};
+// What a template depends on besides the rig, into `shape` (kept: no allocation once warm).
+void GlbShape(const Rig& rig, const BlendedRig& blended, std::vector<size_t>& shape) {
+  shape.assign(1, blended.posed && blended.node_world.size() == rig.nodes.size());
   for (const BlendedPrimitive& bp : blended.primitives) {
     shape.insert(shape.end(), {bp.skinned, bp.positions.size(), bp.normals.size(), bp.tangents.size()});
   }
-  return shape;
 }
 
 uint32_t ReadU32(const std::string& s, size_t at) {
@@ -668,8 +669,8 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
     t.whole = std::move(glb.value());
     return Pieces{t.whole, {}};
   }
-  std::vector<size_t> shape = GlbShape(rig, blended);
-  if (t.rig != &rig || t.shape != shape) {
+  GlbShape(rig, blended, t.probe);
+  if (t.rig != &rig || t.shape != t.probe) {
     // The first variant of this shape: exported whole, and kept as the template (when its
     // layout is the one expected; otherwise every call exports whole).
     auto glb = ExportGlb(rig, blended, weights, warnings, options);
@@ -678,7 +679,7 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
     t.whole = std::move(glb.value());
     if (MakeTemplateOrFail(t.whole, rig, blended, t).ok()) {
       t.rig = &rig;
-      t.shape = std::move(shape);
+      t.shape = t.probe;
     }
     return Pieces{t.whole, {}};
   }

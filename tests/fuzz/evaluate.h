@@ -1,18 +1,34 @@
 // What every reader's fuzz target does with a rig that loaded: evaluate it at rest with every
-// shape at `weight` (in-betweens and correctives derive theirs), then posed by clip 0 at a time.
+// shape at `weight` (in-betweens and correctives derive theirs), then posed by clip 0 at a time;
+// each blend is written as glb by the batch's GlbVariantWriter, which must give ExportMesh's
+// bytes (the second write patches the first's template), else the target traps.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "facespace/core/animation.h"
 #include "facespace/core/blend.h"
+#include "facespace/core/io.h"
 #include "facespace/core/skeleton.h"
+
+inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace::Rig& rig, const facespace::BlendedRig& blended,
+                           const std::vector<float>& weights) {
+  auto expected = facespace::ExportMesh(rig, blended, weights, {}, facespace::MeshFormat::kGlb);
+  auto pieces = writer.Write(rig, blended, weights, {});
+  if (expected.ok() != pieces.ok()) __builtin_trap();
+  if (expected.ok() && expected.value() != std::string(pieces->head) + std::string(pieces->bin)) __builtin_trap();
+}
 
 inline void EvaluateLoadedRig(const facespace::Rig& rig, float weight) {
   facespace::BlendedRig blended;
   facespace::BlendContext context;
+  facespace::GlbVariantWriter writer;
   const std::vector<float> weights(rig.shapes.size(), weight);
-  facespace::EvaluateRig(rig, weights, {}, blended, context);
+  if (facespace::EvaluateRig(rig, weights, {}, blended, context).ok()) {
+    CheckGlbWriter(writer, rig, blended, weights);
+    CheckGlbWriter(writer, rig, blended, std::vector<float>(rig.shapes.size(), 0.5f * weight));
+  }
   if (rig.animations.empty()) return;
   facespace::Pose pose = facespace::RestPose(rig);
   std::vector<float> w;
@@ -20,5 +36,5 @@ inline void EvaluateLoadedRig(const facespace::Rig& rig, float weight) {
   if (!facespace::SampleClip(rig, 0, 0.37f, facespace::ClipWrap::kLoop, pose, w, set).ok()) return;
   facespace::BlendOptions options;
   options.pose = &pose;
-  facespace::EvaluateRig(rig, weights, options, blended, context);
+  if (facespace::EvaluateRig(rig, weights, options, blended, context).ok()) CheckGlbWriter(writer, rig, blended, weights);
 }

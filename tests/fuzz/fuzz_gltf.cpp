@@ -1,9 +1,10 @@
-// libFuzzer: glb / glTF JSON import from memory (uploads take this path), then one evaluation.
+// libFuzzer: glb / glTF JSON import from memory (uploads take this path), then the evaluations
+// every reader's target does (evaluate.h: at rest, posed, and the glb writer against ExportMesh).
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
-#include "facespace/core/blend.h"
+#include "evaluate.h"
 #include "facespace/core/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -13,9 +14,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto rig = facespace::LoadGltfMemory(std::span<const unsigned char>(data, size), "", options);
   if (!rig.ok()) return 0;
   // A rig that loads must evaluate without touching memory it does not own.
-  std::vector<float> w(rig->shapes.size(), 0.5f);
-  facespace::BlendedRig out;
-  facespace::BlendContext ctx;
-  facespace::EvaluateRig(rig.value(), w, {}, out, ctx);
+  EvaluateLoadedRig(rig.value(), 0.5f);
   return 0;
 }

@@ -102,9 +102,14 @@ GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
 
 void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer) {
   std::lock_guard<std::mutex> lock(mu_);
-  std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
-  Entry& e = entries_[rig.get()];
-  if (e.rig.lock() != rig) e = Entry{rig, {}};
+  auto it = entries_.find(rig.get());
+  if (it == entries_.end()) {  // A new entry: the time to drop those whose rig died.
+    std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
+    it = entries_.emplace(rig.get(), Entry{rig, {}}).first;
+  } else if (it->second.rig.lock() != rig) {
+    it->second = Entry{rig, {}};
+  }
+  Entry& e = it->second;
   if (e.free.size() < kKeptPerRig) e.free.push_back(std::move(writer));
 }
 

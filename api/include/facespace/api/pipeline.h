@@ -89,6 +89,11 @@ void CheckPoint(const Rig& rig, BlendMode mode, Point& point);
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
                                Workspace& ws, GlbVariantWriter* glb = nullptr);
 
+// The blended glb at `point` as the writer's two pieces (valid until its next call), for callers
+// that write them as they are (batch files) instead of joining them.
+Result<GlbVariantWriter::Pieces> EncodeGlb(const Rig& rig, const Point& point, const MeshRequest& request, Workspace& ws,
+                                           GlbVariantWriter& glb);
+
 // A render of the rig at `point`. Framing on the shapes uses request.render.camera's focus box
 // when the caller set one (the service keeps it per rig), else the renderer computes it.
 Result<std::string> EncodeImage(const Rig& rig, const Point& point, const RenderRequest& request,
