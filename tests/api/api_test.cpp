@@ -3,6 +3,12 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
 #include <cstring>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -43,6 +49,50 @@ class ApiTest : public ::testing::Test {
     delete store_;
   }
   static httplib::Client Client() { return httplib::Client("127.0.0.1", port_); }
+
+  // A raw exchange on one connection: `request` is sent as it is (headers only, or a partial
+  // body), then what the server answers within 3 s is read (a server that waits for a body that
+  // never comes answers nothing in that time). `then`, when set, is sent after the first answer.
+  static std::string Raw(const std::string& request, std::string* second = nullptr, const std::string& then = {}) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(port_));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    timeval timeout{3, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    std::string out;
+    if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 && send(fd, request.data(), request.size(), 0) > 0) {
+      out = ReadAnswer(fd);
+      if (second && send(fd, then.data(), then.size(), MSG_NOSIGNAL) > 0) *second = ReadAnswer(fd);
+    }
+    close(fd);
+    return out;
+  }
+  // One answer: through the blank line, then Content-Length bytes of body.
+  static std::string ReadAnswer(int fd) {
+    std::string out;
+    char buf[4096];
+    for (;;) {
+      const size_t end = out.find("\r\n\r\n");
+      if (end != std::string::npos) {
+        const size_t cl = out.find("Content-Length: ");
+        const size_t body = cl == std::string::npos || cl > end ? 0 : std::stoul(out.substr(cl + 16));
+        if (out.size() >= end + 4 + body) return out;
+      }
+      const ssize_t n = recv(fd, buf, sizeof buf, 0);
+      if (n <= 0) return out;
+      out.append(buf, static_cast<size_t>(n));
+    }
+  }
+  static std::string Status(const std::string& raw) { return raw.substr(0, raw.find("\r\n")); }
+  static std::string Header(const std::string& raw, const std::string& name) {
+    const size_t at = raw.find("\r\n" + name + ": ");
+    if (at == std::string::npos) return {};
+    const size_t from = at + name.size() + 4;
+    return raw.substr(from, raw.find("\r\n", from) - from);
+  }
+  static json RawBody(const std::string& raw) { return json::parse(raw.substr(std::min(raw.size(), raw.find("\r\n\r\n") + 4)), nullptr, false); }
   static json Body(const httplib::Result& r) { return json::parse(r->body, nullptr, false); }
 
   static inline test::MemoryStore* store_ = nullptr;
@@ -182,11 +232,23 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
   auto r = Client().Delete("/v1/rigs/facecap/mesh");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 405);
-  EXPECT_EQ(r->get_header_value("Allow"), "GET, POST");
+  EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, POST, OPTIONS");
   r = Client().Post("/v1/rigs/facecap", "{}", "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 405);
-  EXPECT_EQ(r->get_header_value("Allow"), "GET, PUT, DELETE");
+  EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, PUT, DELETE, OPTIONS");
+  r = Client().Get("/v1/rigs/facecap/check");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 405);
+  EXPECT_EQ(r->get_header_value("Allow"), "POST, OPTIONS");
+  // OPTIONS says what the 405 says.
+  r = Client().Options("/v1/rigs/facecap/mesh");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 204);
+  EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, POST, OPTIONS");
+  r = Client().Options("/v1/nowhere");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
 
   r = Client().Get("/openapi.json");
   ASSERT_TRUE(r);
@@ -218,7 +280,11 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
 }
 
 TEST_F(ApiTest, BatchAndJobsWithoutAQueueAre503AfterAuth) {
-  auto r = Client().Post("/v1/rigs/facecap/batch", R"({"sample": {"method": "uniform", "count": 2}})", "application/json");
+  const std::string body = R"({"sample": {"method": "uniform", "count": 2}})";
+  auto r = Client().Post("/v1/rigs/facecap/batch", body, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 401);  // The key is checked first, from the headers.
+  r = Client().Post("/v1/rigs/facecap/batch", {{"Authorization", "Bearer test-key"}}, body, "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 503);
   r = Client().Get("/v1/jobs");
@@ -308,6 +374,68 @@ TEST_F(ApiTest, UploadsNeedTheKey) {
   r = Client().Delete("/v1/rigs/fox", auth);
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 204);
+}
+
+// Requests refused from their request line and headers are answered at once, before any body
+// (the server used to wait out its read timeout for a body that never came, or invite it with 100).
+TEST_F(ApiTest, RefusalsComeFromTheHeadersBeforeTheBody) {
+  // A Content-Length over the limit, no body sent: 413 naming the limit.
+  std::string raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer test-key\r\nContent-Length: 900000000\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 413 Payload Too Large") << raw;
+  EXPECT_EQ(Header(raw, "Content-Type"), "application/problem+json");
+  EXPECT_NE(RawBody(raw).value("detail", "").find("--max-body"), std::string::npos) << raw;
+  EXPECT_EQ(Header(raw, "Connection"), "close");
+
+  // The same with Expect: 100-continue: the 413 is the answer, never a 100.
+  raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer test-key\r\nContent-Length: 900000000\r\nExpect: 100-continue\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 413 Payload Too Large") << raw;
+  EXPECT_EQ(RawBody(raw).value("status", 0), 413) << raw;
+  // An upload without the key: 401 before the body, not 100.
+  raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nContent-Length: 1000\r\nExpect: 100-continue\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 401 Unauthorized") << raw;
+  // A body that will be taken: 100, then the answer once it is sent.
+  const std::string body = R"({"weights": {"jawOpen": 0.5}, "format": "f32"})";
+  std::string answer;
+  raw = Raw("POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: " +
+                std::to_string(body.size()) + "\r\nExpect: 100-continue\r\n\r\n",
+            &answer, body);
+  EXPECT_EQ(Status(raw), "HTTP/1.1 100 Continue") << raw;
+  EXPECT_EQ(Status(answer), "HTTP/1.1 200 OK") << answer;
+
+  // POST of JSON with no length at all: 411 at once (it used to wait 10 s for the connection to close).
+  raw = Raw("POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 411 Length Required") << raw;
+  EXPECT_EQ(RawBody(raw).value("type", ""), "urn:facespace:problem:length-required");
+  // PATCH on a rig: 405 at once, with the Allow that OPTIONS gives.
+  raw = Raw("PATCH /v1/rigs/facecap HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 405 Method Not Allowed") << raw;
+  EXPECT_EQ(Header(raw, "Allow"), "GET, HEAD, PUT, DELETE, OPTIONS");
+  // An unknown path under a body method: 404 at once.
+  raw = Raw("POST /v1/nowhere HTTP/1.1\r\nHost: x\r\nContent-Length: 10\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 404 Not Found") << raw;
+}
+
+TEST_F(ApiTest, ParserRefusalsAreProblemDocuments) {
+  std::string raw = Raw("GET /v1/rigs/facecap/mesh?w.jawOpen=" + std::string(9000, '1') + " HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 414 URI Too Long") << raw.substr(0, 200);
+  EXPECT_EQ(Header(raw, "Content-Type"), "application/problem+json");
+  json problem = RawBody(raw);
+  EXPECT_EQ(problem.value("type", ""), "urn:facespace:problem:uri-too-long");
+  EXPECT_NE(problem.value("detail", "").find("8,192"), std::string::npos);
+  raw = Raw("GET\r\n\r\n");
+  EXPECT_EQ(Status(raw), "HTTP/1.1 400 Bad Request") << raw;
+  EXPECT_NE(RawBody(raw).value("detail", "").find("request line"), std::string::npos) << raw;
+}
+
+TEST_F(ApiTest, HeadCarriesGetsHeaders) {
+  auto get = Client().Get("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.25");
+  auto head = Client().Head("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.25");
+  ASSERT_TRUE(get && head);
+  EXPECT_EQ(head->status, 200);
+  for (const char* name : {"Cache-Control", "Content-Type", "ETag", "Content-Length"}) {
+    EXPECT_EQ(head->get_header_value(name), get->get_header_value(name)) << name;
+  }
+  EXPECT_EQ(get->get_header_value("Cache-Control"), "public, no-cache");
 }
 
 }  // namespace

@@ -114,7 +114,7 @@ bool NotModified(const httplib::Request& req, httplib::Response& res, const std:
   char etag[24];
   std::snprintf(etag, sizeof etag, "\"%016" PRIx64 "\"", Fnv1a(key));
   res.set_header("ETag", etag);
-  res.set_header("Cache-Control", req.method == "GET" ? "public, no-cache" : "no-store");
+  res.set_header("Cache-Control", req.method == "GET" || req.method == "HEAD" ? "public, no-cache" : "no-store");
   res.set_header("Vary", "Accept");
   const std::string inm = req.get_header_value("If-None-Match");
   if (!inm.empty() && (inm == etag || inm == "*" || inm.find(etag) != std::string::npos)) {

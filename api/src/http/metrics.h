@@ -40,6 +40,7 @@ class Metrics {
 // Per-request state the hooks share on the worker thread serving the request.
 struct RequestState {
   std::chrono::steady_clock::time_point start;
+  bool started = false;  // False for a request refused by the parser: its start is unknown.
   size_t route = 0;
 };
 RequestState& CurrentRequest();

@@ -17,8 +17,8 @@ constexpr Route kRoutes[] = {
     {"GET", "/openapi.json", "/openapi.json", GetOpenApi},
     {"GET", "/v1/rigs", "/v1/rigs", ListRigs},
     {"GET", "/v1/rigs/{id}", kRig, GetRig},
-    {"PUT", "/v1/rigs/{id}", kRig, PutRig},
-    {"DELETE", "/v1/rigs/{id}", kRig, DeleteRig},
+    {"PUT", "/v1/rigs/{id}", kRig, PutRig, true},
+    {"DELETE", "/v1/rigs/{id}", kRig, DeleteRig, true},
     {"GET", "/v1/rigs/{id}/topology", kRig, GetTopology},
     {"GET", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/mesh", GetOrPostMesh},
     {"POST", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/mesh", GetOrPostMesh},
@@ -30,10 +30,10 @@ constexpr Route kRoutes[] = {
     {"POST", "/v1/rigs/{id}/sequence/stream", kSequence, PostSequenceStream},
     {"POST", "/v1/rigs/{id}/sequence/reduce", kSequence, PostSequenceReduce},
     {"POST", "/v1/rigs/{id}/fit", "/v1/rigs/{id}/fit", PostFit},
-    {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch},
+    {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch, true},
     {"GET", "/v1/jobs", "/v1/jobs", ListJobs},
     {"GET", "/v1/jobs/{job}", "/v1/jobs/{job}", GetJob},
-    {"DELETE", "/v1/jobs/{job}", "/v1/jobs/{job}", DeleteJob},
+    {"DELETE", "/v1/jobs/{job}", "/v1/jobs/{job}", DeleteJob, true},
     {"GET", "/v1/jobs/{job}/manifest.jsonl", kJobFiles, GetJobManifest},
     {"GET", "/v1/jobs/{job}/files/{name}", kJobFiles, GetJobFile},
     {"GET", "/v1/jobs/{job}/results.zip", kJobFiles, GetJobResults},
@@ -42,6 +42,55 @@ constexpr Route kRoutes[] = {
 }  // namespace
 
 std::span<const Route> Routes() { return kRoutes; }
+
+namespace {
+
+bool PathMatches(std::string_view pattern, std::string_view path) {
+  size_t i = 0, j = 0;
+  while (i < pattern.size()) {
+    if (pattern[i] == '{') {
+      const size_t close = pattern.find('}', i);
+      const size_t end = std::min(path.find('/', j), path.size());
+      if (close == std::string_view::npos || end == j) return false;
+      i = close + 1;
+      j = end;
+    } else {
+      if (j >= path.size() || path[j] != pattern[i]) return false;
+      ++i;
+      ++j;
+    }
+  }
+  return j == path.size();
+}
+
+}  // namespace
+
+PathRoutes MatchPath(std::string_view path) {
+  for (const Route& r : kRoutes) {
+    if (PathMatches(r.path, path)) return PathRoutes{kRoutes, r.path};
+  }
+  return PathRoutes{kRoutes, nullptr};
+}
+
+const Route* PathRoutes::Find(std::string_view method) const {
+  if (!path) return nullptr;
+  for (const Route& r : all) {
+    if (std::string_view(r.path) == path && method == r.method) return &r;
+  }
+  return nullptr;
+}
+
+bool PathRoutes::Allows(std::string_view method) const { return Find(method) || (method == "HEAD" && Find("GET")); }
+
+std::string PathRoutes::Allow() const {
+  std::string allow;
+  if (!path) return allow;
+  for (const char* method : {"GET", "HEAD", "POST", "PUT", "DELETE", "OPTIONS"}) {
+    if (!Allows(method) && std::string_view(method) != "OPTIONS") continue;
+    allow += std::string(allow.empty() ? "" : ", ") + method;
+  }
+  return allow;
+}
 
 std::string PathPattern(std::string_view path) {
   std::string out;

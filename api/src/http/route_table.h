@@ -16,9 +16,22 @@ struct Route {
   const char* path;    // As the OpenAPI document writes it: /v1/rigs/{id}/mesh.
   const char* metric;  // Its label in /metrics (some routes share one).
   Handler handler;
+  bool key = false;    // Writes: needs the API key (checked from the headers, before the body).
 };
 
 std::span<const Route> Routes();
+
+// The routes of one path (in table order), or none when no route has that path; a path is matched
+// segment by segment, each {name} matching one non-empty segment. No allocation.
+struct PathRoutes {
+  std::span<const Route> all;  // The table, to be filtered by `path`.
+  const char* path = nullptr;  // The table's spelling of the path; null: unknown.
+  bool Allows(std::string_view method) const;
+  const Route* Find(std::string_view method) const;
+  // The Allow header of the path, the same for OPTIONS and 405: its methods, HEAD with GET, and OPTIONS.
+  std::string Allow() const;
+};
+PathRoutes MatchPath(std::string_view path);
 
 // The path as a regular expression for cpp-httplib: each {name} captures one segment, in order.
 std::string PathPattern(std::string_view path);

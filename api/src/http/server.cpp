@@ -10,6 +10,7 @@
 namespace facespace::api {
 
 using http::CurrentRequest;
+using http::RequestState;
 using httplib::Request;
 using httplib::Response;
 
@@ -28,9 +29,29 @@ void Api::Register(httplib::Server& server) {
   http::Context& ctx = impl_->ctx;
   server.set_payload_max_length(ctx.options.max_body);
 
-  server.set_pre_routing_handler([&ctx](const Request& req, Response& res) {
-    CurrentRequest().start = std::chrono::steady_clock::now();
-    CurrentRequest().route = ctx.metrics.other_route();
+  // The request's clock starts at its first hook: the Expect handler, else pre-routing. Requests
+  // cpp-httplib refuses while parsing (400, 414) reach none: their log line has no duration.
+  auto start = [&ctx](bool again) {
+    RequestState& r = CurrentRequest();
+    if (r.started && !again) return;
+    r.started = true;
+    r.start = std::chrono::steady_clock::now();
+    r.route = ctx.metrics.other_route();
+  };
+  server.set_expect_100_continue_handler([&ctx, start](const Request& req, Response& res) {
+    start(true);
+    // 100 invites the body: never for one that will be refused from the headers.
+    if (http::PreRoute(ctx, req, res)) {
+      // cpp-httplib writes this answer without applying the body's length: without it the client
+      // cannot tell where the answer ends, and sends the body after all.
+      res.set_header("Content-Length", std::to_string(res.body.size()));
+      return res.status;
+    }
+    res.headers.clear();  // Pre-routing runs again (and sets them again) once the body is in.
+    return 100;
+  });
+  server.set_pre_routing_handler([&ctx, start](const Request& req, Response& res) {
+    start(req.get_header_value("Expect") != "100-continue");  // Else the Expect handler started it.
     return http::PreRoute(ctx, req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
   });
 
@@ -39,7 +60,11 @@ void Api::Register(httplib::Server& server) {
     switch (res.status) {
       case 404: http::SendProblem(req, res, 404, "not-found", "no route " + req.path.substr(0, 200)); break;
       case 413: http::SendProblem(req, res, 413, "body-too-large", "the request body is over the server's limit"); break;
-      case 400: http::SendProblem(req, res, 400, "bad-request", "the request could not be parsed"); break;
+      case 414: http::SendProblem(req, res, 414, "uri-too-long", "the request line is over 8,192 bytes: send long weight lists as a POST body"); break;
+      case 400:
+        if (CurrentRequest().started) http::SendProblem(req, res, 400, "bad-request", "the request body could not be read");
+        else http::SendProblem(req, res, 400, "bad-request", "the request line or headers could not be parsed");
+        break;
       default:
         if (res.status >= 400) http::SendProblem(req, res, res.status, "error", http::ReasonPhrase(res.status));
         else return httplib::Server::HandlerResponse::Unhandled;
@@ -52,12 +77,18 @@ void Api::Register(httplib::Server& server) {
   });
 
   server.set_logger([&ctx](const Request& req, const Response& res) {
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - CurrentRequest().start).count();
-    ctx.metrics.Observe(CurrentRequest().route, res.status, seconds);
+    RequestState& r = CurrentRequest();
+    const double seconds = r.started ? std::chrono::duration<double>(std::chrono::steady_clock::now() - r.start).count() : 0.0;
+    ctx.metrics.Observe(r.started ? r.route : ctx.metrics.other_route(), res.status, seconds);
     if (ctx.options.log_requests) {
       const size_t bytes = res.body.empty() ? res.content_length_ : res.body.size();  // Cached bodies go out through a provider.
-      std::fprintf(stderr, "%s %s %d %zu %.3fms\n", req.method.c_str(), req.path.c_str(), res.status, bytes, seconds * 1e3);
+      // A request the parser refused has no method or path it could read.
+      const char* method = req.method.empty() ? "-" : req.method.c_str();
+      const std::string path = req.path.empty() ? (res.status == 414 ? "(request line over 8,192 bytes)" : "-") : req.path.substr(0, 200);
+      if (r.started) std::fprintf(stderr, "%s %s %d %zu %.3fms\n", method, path.c_str(), res.status, bytes, seconds * 1e3);
+      else std::fprintf(stderr, "%s %s %d %zu -\n", method, path.c_str(), res.status, bytes);
     }
+    r.started = false;
   });
 
   // Every route of the table, then 405 with Allow for its path under the other methods.
@@ -78,25 +109,14 @@ void Api::Register(httplib::Server& server) {
     if (std::find(paths.begin(), paths.end(), route.path) == paths.end()) paths.push_back(route.path);
   }
   for (const std::string& path : paths) {
-    std::string allow;
-    bool allowed[4] = {};
-    const char* const methods[4] = {"GET", "POST", "PUT", "DELETE"};
-    for (const http::Route& route : http::Routes()) {
-      for (int m = 0; m < 4; ++m) allowed[m] |= route.path == path && std::string(route.method) == methods[m];
-    }
-    for (int m = 0; m < 4; ++m) {
-      if (allowed[m]) allow += std::string(allow.empty() ? "" : ", ") + methods[m];
-    }
+    const std::string allow = http::MatchPath(path).Allow();
     auto not_allowed = [allow](const Request& req, Response& res) {
       res.set_header("Allow", allow);
       http::SendProblem(req, res, 405, "method-not-allowed", req.method + " is not allowed here; allowed: " + allow);
     };
-    const std::string pattern = http::PathPattern(path);
-    if (!allowed[0]) server.Get(pattern, not_allowed);
-    if (!allowed[1]) server.Post(pattern, not_allowed);
-    if (!allowed[2]) server.Put(pattern, not_allowed);
-    if (!allowed[3]) server.Delete(pattern, not_allowed);
-    server.Patch(pattern, not_allowed);
+    // Only GET reaches these: the methods with a body are answered by pre-routing, from the headers.
+    const http::PathRoutes routes = http::MatchPath(path);
+    if (!routes.Find("GET")) server.Get(http::PathPattern(path), not_allowed);
   }
 }
 
