@@ -8,6 +8,8 @@
 #include <charconv>
 #include <cmath>
 #include <set>
+#include <span>
+#include <unordered_set>
 #include <nlohmann/json.hpp>
 
 namespace facespace::api {
@@ -17,6 +19,30 @@ namespace {
 using nlohmann::json;
 
 constexpr char kMalformed[] = "malformed JSON";
+
+// The members each body takes, for "did you mean" when one is not.
+constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "mode", "normals", "skinning", "lod", "strict",
+                                             "keep_targets", "pose", "blend", "animation", "motion", "time", "frame", "loop"};
+constexpr std::string_view kRenderMembers[] = {"weights", "controls", "mode", "normals", "skinning", "lod", "strict", "pose",
+                                               "blend", "animation", "motion", "time", "frame", "loop", "width", "height",
+                                               "view", "background", "supersample", "format", "quality", "camera"};
+constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "mode", "normals", "skinning", "lod",
+                                              "strict", "pose", "blend", "animation", "motion", "time", "frame", "loop",
+                                              "width", "height", "view", "background", "supersample", "quality", "camera"};
+constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "transition", "smooth",
+                                                 "format", "tolerance", "mode", "normals"};
+constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "controls", "mode", "normals", "skinning", "lod",
+                                              "pose", "blend", "animation", "motion", "time", "frame", "loop", "width",
+                                              "height", "view", "background", "supersample", "quality", "camera"};
+
+void UnknownMember(const std::string& key, std::span<const std::string_view> members, Status& errors) {
+  std::string message = "unknown member" + DidYouMean(key, members);
+  if (message.size() == 14) {
+    message += "; the members are";
+    for (std::string_view m : members) message += std::string(m == members.front() ? " " : ", ") + std::string(m);
+  }
+  errors.fields.push_back({"/" + JsonPointerEscape(key), message});
+}
 
 Status FieldStatus(const std::string& pointer, const std::string& message) {
   Status s = InvalidArgument(pointer.empty() ? message : pointer + ": " + message);
@@ -394,10 +420,52 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
   return true;
 }
 
+// A JSON object, refusing a member given twice in any object (JSON parsers keep the last, or the
+// first: the client's intent is unknown), named by its JSON Pointer.
 Result<json> ParseObject(std::string_view body) {
-  json j = json::parse(body, nullptr, false);
+  if (body.find_first_not_of(" \t\r\n") == std::string_view::npos) {
+    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is empty; send a JSON object"), kMalformedJson);
+  }
+  struct Level {
+    bool array = false;
+    size_t index = 0;
+    std::string key;
+    std::unordered_set<std::string> keys;
+  };
+  std::vector<Level> levels;
+  std::string duplicate;
+  auto step = [&] {  // A value ended: the next one of its array.
+    if (!levels.empty() && levels.back().array) ++levels.back().index;
+  };
+  json::parser_callback_t check = [&](int, json::parse_event_t event, json& parsed) {
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start:
+        levels.emplace_back();
+        levels.back().array = event == json::parse_event_t::array_start;
+        break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!levels.empty()) levels.pop_back();
+        step();
+        break;
+      case json::parse_event_t::key:
+        if (!levels.empty()) {
+          Level& level = levels.back();
+          level.key = parsed.get<std::string>();
+          if (!level.keys.insert(level.key).second && duplicate.empty()) {
+            for (const Level& l : levels) duplicate += "/" + (l.array ? std::to_string(l.index) : JsonPointerEscape(l.key));
+          }
+        }
+        break;
+      case json::parse_event_t::value: step(); break;
+    }
+    return true;
+  };
+  json j = json::parse(body, check, false);
   if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON"), kMalformedJson);
   if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
+  if (!duplicate.empty()) return FieldStatus(duplicate, "is given more than once; give each member once");
   return j;
 }
 
@@ -408,8 +476,9 @@ Result<MeshRequest> ParseMeshRequest(std::string_view body) {
   if (!j.ok()) return j.status();
   MeshRequest r;
   Status errors = InvalidArgument("");
-  // Other members are left for the routes that extend this body (render, pose, ...).
-  for (auto it = j->begin(); it != j->end(); ++it) MeshMember(it.key(), it.value(), r, true, errors);
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    if (!MeshMember(it.key(), it.value(), r, true, errors)) UnknownMember(it.key(), kMeshMembers, errors);
+  }
   FinishPose(r.pose, errors);
   if (!errors.fields.empty()) return Finish(errors);
   return r;
@@ -421,7 +490,9 @@ Result<RenderRequest> ParseRenderRequest(std::string_view body) {
   RenderRequest r;
   Status errors = InvalidArgument("");
   for (auto it = j->begin(); it != j->end(); ++it) {
-    if (!MeshMember(it.key(), it.value(), r.mesh, false, errors)) RenderMember(it.key(), it.value(), r, errors);
+    if (!MeshMember(it.key(), it.value(), r.mesh, false, errors) && !RenderMember(it.key(), it.value(), r, errors)) {
+      UnknownMember(it.key(), kRenderMembers, errors);
+    }
   }
   FinishPose(r.mesh.pose, errors);
   if (!errors.fields.empty()) return Finish(errors);
@@ -470,8 +541,8 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
       double d = 0;
       if (!v.is_number_integer() || !Number(v, 1, 64, &d)) errors.fields.push_back({"/columns", "must be an integer in 1..64"});
       else r.columns = static_cast<int>(d);
-    } else if (!MeshMember(key, v, r.base.mesh, false, errors)) {
-      RenderMember(key, v, r.base, errors);
+    } else if (!MeshMember(key, v, r.base.mesh, false, errors) && !RenderMember(key, v, r.base, errors)) {
+      UnknownMember(key, kSheetMembers, errors);
     }
   }
   FinishPose(r.base.mesh.pose, errors);
@@ -673,7 +744,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     } else if (key == "normals") {
       if (!v.is_string() || !ParseNormalMode(v.get<std::string>(), &r.options.normals)) errors.fields.push_back({ptr, "must be blend or recompute"});
     } else {
-      errors.fields.push_back({ptr, "unknown member"});
+      UnknownMember(key, kSequenceMembers, errors);
     }
   }
   if (errors.fields.empty() && r.keys.empty() && r.clip.pointer.empty()) errors.fields.push_back({"/keys", "is required (or a motion: \"motion\" or \"animation\")"});
@@ -941,7 +1012,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
     } else if (key == "weights" || key == "strict" || key == "keep_targets") {
       errors.fields.push_back({"/" + key, "is not a batch member: give \"variants\" or \"sample\""});
     } else if (!MeshMember(key, v, r.render.mesh, false, errors) && !RenderMember(key, v, r.render, errors)) {
-      errors.fields.push_back({"/" + JsonPointerEscape(key), "unknown member"});
+      UnknownMember(key, kBatchMembers, errors);
     }
   }
   FinishPose(r.render.mesh.pose, errors);

@@ -201,20 +201,32 @@ std::string CounterpartName(const std::string& name) {
   return "";
 }
 
-std::string ClosestShapeName(const Rig& rig, const std::string& name) {
+std::string ClosestName(std::string_view name, std::span<const std::string_view> candidates) {
   std::string best;
   size_t best_d = static_cast<size_t>(-1);
-  const std::string lname = Lower(name);
-  for (const Shape& s : rig.shapes) {
-    const size_t d = EditDistance(lname, Lower(s.name));
+  const std::string lname = Lower(std::string(name));
+  for (std::string_view c : candidates) {
+    const size_t d = EditDistance(lname, Lower(std::string(c)));
     if (d < best_d) {
       best_d = d;
-      best = s.name;
+      best = c;
     }
   }
   // Suggest only when it is plausibly a typo: at most a third of the name differs.
   if (best_d > std::max<size_t>(2, name.size() / 3)) return "";
   return best;
+}
+
+std::string DidYouMean(std::string_view name, std::span<const std::string_view> candidates) {
+  const std::string c = ClosestName(name, candidates);
+  return c.empty() ? "" : " (did you mean '" + c + "'?)";
+}
+
+std::string ClosestShapeName(const Rig& rig, const std::string& name) {
+  std::vector<std::string_view> names;
+  names.reserve(rig.shapes.size());
+  for (const Shape& s : rig.shapes) names.push_back(s.name);
+  return ClosestName(name, names);
 }
 
 void DetectSymmetricPartners(Rig& rig) {

@@ -427,6 +427,70 @@ TEST_F(ApiTest, ParserRefusalsAreProblemDocuments) {
   EXPECT_NE(RawBody(raw).value("detail", "").find("request line"), std::string::npos) << raw;
 }
 
+// GET refused unknown parameters while POST ignored unknown members ({"wieghts": ...} gave the
+// neutral face): both refuse them now, naming the closest valid name, and a member or parameter
+// given twice.
+TEST_F(ApiTest, UnknownAndRepeatedMembersAreRefusedInBodiesAndQueries) {
+  auto r = Client().Post("/v1/rigs/facecap/mesh", R"({"wieghts": {"jawOpen": 1}, "format": "f32"})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  json problem = Body(r);
+  ASSERT_EQ(problem["errors"].size(), 1u) << r->body;
+  EXPECT_EQ(problem["errors"][0]["pointer"], "/wieghts");
+  EXPECT_NE(problem["errors"][0]["detail"].get<std::string>().find("did you mean 'weights'"), std::string::npos) << r->body;
+
+  r = Client().Post("/v1/rigs/facecap/render", R"({"widht": 64})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_NE(r->body.find("did you mean 'width'"), std::string::npos) << r->body;
+  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": "shapes", "colums": 2})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_NE(r->body.find("did you mean 'columns'"), std::string::npos) << r->body;
+  r = Client().Post("/v1/rigs/facecap/sequence/sample", R"({"keys": [{"time": 0, "weights": {}}], "time": [0]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_NE(r->body.find("did you mean 'times'"), std::string::npos) << r->body;
+
+  // A member given twice, at the top or deeper: 422 with its JSON Pointer.
+  r = Client().Post("/v1/rigs/facecap/mesh", R"({"format": "f32", "format": "glb"})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/format") << r->body;
+  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{"weights": {}}, {"weights": {"jawOpen": 1, "jawOpen": 0}}]})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/cells/1/weights/jawOpen") << r->body;
+  // A query parameter with a JSON body would be lost: refused.
+  r = Client().Post("/v1/rigs/facecap/mesh?format=f32", R"({"weights": {}})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["parameter"], "format") << r->body;
+  // An empty body says so.
+  r = Client().Post("/v1/rigs/facecap/mesh", "", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(Body(r).value("detail", "").find("empty"), std::string::npos) << r->body;
+
+  // The query: a parameter given twice, and the closest name for an unknown one.
+  r = Client().Get("/v1/rigs/facecap/mesh?format=f32&format=glb");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["parameter"], "format") << r->body;
+  EXPECT_NE(r->body.find("2 times"), std::string::npos) << r->body;
+  r = Client().Get("/v1/rigs/facecap/render?w.jawOpen=1&w.jawOpen=0");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  r = Client().Get("/v1/rigs/facecap/render?wdith=64");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_NE(r->body.find("did you mean 'width'"), std::string::npos) << r->body;
+  r = Client().Get("/v1/rigs/facecap/mesh?jawOpen=1");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_NE(r->body.find("w.NAME=VALUE"), std::string::npos) << r->body;
+}
+
 TEST_F(ApiTest, HeadCarriesGetsHeaders) {
   auto get = Client().Get("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.25");
   auto head = Client().Head("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.25");

@@ -23,12 +23,21 @@ bool ParseBool(const std::string& s, bool* out) {
   return true;
 }
 
+constexpr std::string_view kMeshParams[] = {"format", "keep_targets", "mode", "normals", "strict", "skinning", "lod", "pose",
+                                            "blend", "animation", "motion", "time", "frame", "loop"};
+constexpr std::string_view kRenderParams[] = {"format", "mode", "normals", "strict", "skinning", "lod", "pose", "blend",
+                                              "animation", "motion", "time", "frame", "loop", "width", "height", "view",
+                                              "background", "supersample", "quality", "camera", "yaw", "pitch",
+                                              "distance", "zoom", "fov"};
+
 // The mesh request from a POST body or GET query; false when an error was sent.
 bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRequest& r) {
   if (req.method == "POST") return ReadJsonBody(req, res, ParseMeshRequest, r);
   std::vector<FieldError> errors;
-  for (const auto& [key, value] : req.params) {
+  for (auto it = req.params.begin(); it != req.params.end(); ++it) {
+    const auto& [key, value] = *it;
     const std::string where = "?" + key;
+    if (Repeated(req, it, errors)) continue;
     if (key == "format") {
       MeshFormat f;
       if (ParseMeshFormat(value, &f)) r.format = f;
@@ -36,13 +45,26 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRe
     } else if (key == "keep_targets") {
       if (!ParseBool(value, &r.keep_targets)) errors.push_back({where, "must be true or false"});
     } else if (!MeshQueryParam(key, value, r, errors)) {
-      errors.push_back({where, "unknown parameter (weights are w.NAME=VALUE)"});
+      errors.push_back({where, UnknownParameter(key, false)});
     }
   }
   return FinishQuery(req, res, r, errors);
 }
 
 }  // namespace
+
+std::string UnknownParameter(const std::string& key, bool render) {
+  std::string hint = DidYouMean(key, render ? std::span<const std::string_view>(kRenderParams) : kMeshParams);
+  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE, controls c.NAME=VALUE)" : hint);
+}
+
+bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, std::vector<FieldError>& errors) {
+  if (it != req.params.begin() && std::prev(it)->first == it->first) return true;  // Said at its first.
+  const size_t n = req.params.count(it->first);
+  if (n < 2) return false;
+  errors.push_back({"?" + it->first, "is given " + std::to_string(n) + " times; give it once"});
+  return true;
+}
 
 bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r, std::vector<FieldError>& errors) {
   const std::string where = "?" + key;

@@ -9,12 +9,14 @@ namespace {
 bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, RenderRequest& r) {
   if (req.method == "POST") return ReadJsonBody(req, res, ParseRenderRequest, r);
   std::vector<FieldError> errors;
-  for (const auto& [key, value] : req.params) {
+  for (auto it = req.params.begin(); it != req.params.end(); ++it) {
+    const auto& [key, value] = *it;
+    if (Repeated(req, it, errors)) continue;
     bool known = false;
     if (std::string e = ApplyRenderSetting(key, value, r, &known); known) {
       if (!e.empty()) errors.push_back({"?" + key, e});
     } else if (!MeshQueryParam(key, value, r.mesh, errors)) {
-      errors.push_back({"?" + key, "unknown parameter"});
+      errors.push_back({"?" + key, UnknownParameter(key, true)});
     }
   }
   return FinishQuery(req, res, r.mesh, errors);

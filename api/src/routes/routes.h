@@ -44,6 +44,12 @@ void GetJobResults(Context&, const httplib::Request&, httplib::Response&);
 // Query parameters the mesh and render routes share (routes/mesh.cpp): w.NAME, c.NAME, mode,
 // normals, strict and the skeleton settings. False when `key` is none of them.
 bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r, std::vector<FieldError>& errors);
+
+// "unknown parameter" with the closest known one of the mesh (or render) query.
+std::string UnknownParameter(const std::string& key, bool render);
+
+// True when the query gives `it`'s parameter more than once (the error is added at its first).
+bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, std::vector<FieldError>& errors);
 // Ends query parsing: the skeleton settings' cross-checks; false with a 422 sent for any error.
 bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r, std::vector<FieldError>& errors);
 

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "facespace/core/status.h"
@@ -233,6 +234,13 @@ int FindShape(const Rig& rig, const std::string& name);
 
 // The shape name closest to `name` by edit distance (case-insensitive), or "" for none.
 std::string ClosestShapeName(const Rig& rig, const std::string& name);
+
+// Of `candidates`, the one closest to `name` by edit distance (case-insensitive) when it is
+// plausibly a typo of it (at most a third of the name differs), else "". For "did you mean".
+std::string ClosestName(std::string_view name, std::span<const std::string_view> candidates);
+
+// " (did you mean 'X'?)" for ClosestName's answer, or "" when there is none.
+std::string DidYouMean(std::string_view name, std::span<const std::string_view> candidates);
 
 // The left/right counterpart of a shape name ("mouthSmile_L" -> "mouthSmile_R", "l-eye" ->
 // "r-eye"), or "" when the name carries no side marker.
