@@ -36,6 +36,9 @@ struct ServeConfig {
   size_t max_body = size_t{64} << 20;
   size_t cache_mb = 64;
   int max_render = 2048;
+  int max_sheet_cells = 64;
+  size_t max_response = size_t{64} << 20;
+  size_t max_frames = 100000;
   std::vector<std::string> cors_origins;
   bool quiet = false;
   size_t max_vertices = 1000000;  // Per uploaded rig.
@@ -94,6 +97,15 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   } else if (key == "max-render") {
     if (!ParseSize(value, 16, 8192, &n)) return "max-render must be 16..8192 pixels, not '" + value + "'";
     c.max_render = static_cast<int>(n);
+  } else if (key == "max-sheet-cells") {
+    if (!ParseSize(value, 1, 4096, &n)) return "max-sheet-cells must be 1..4096, not '" + value + "'";
+    c.max_sheet_cells = static_cast<int>(n);
+  } else if (key == "max-response") {
+    if (!ParseSize(value, 1024, 1ll << 34, &n)) return "max-response must be 1024..17179869184 bytes, not '" + value + "'";
+    c.max_response = static_cast<size_t>(n);
+  } else if (key == "max-frames") {
+    if (!ParseSize(value, 1, 100000000, &n)) return "max-frames must be 1..100000000, not '" + value + "'";
+    c.max_frames = static_cast<size_t>(n);
   } else if (key == "cors-origin") SplitOrigins(value, c.cors_origins);
   else if (key == "jobs-dir") c.jobs_dir = value;
   else if (key == "max-vertices") {
@@ -134,7 +146,8 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_MAX_RENDER", "max-render"}, {"FACESPACE_JOBS_DIR", "jobs-dir"}, {"FACESPACE_MAX_JOBS", "max-jobs"},
       {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"},
       {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"},
-      {"FACESPACE_RENDER_THREADS", "render-threads"}};
+      {"FACESPACE_RENDER_THREADS", "render-threads"}, {"FACESPACE_MAX_SHEET_CELLS", "max-sheet-cells"},
+      {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -154,6 +167,9 @@ int Serve(const std::vector<std::string>& args) {
       {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
       {"max-body", "BYTES: largest request body (default 64 MiB)"}, {"cors-origin", "ORIGIN: a browser origin allowed, or * (repeatable)"},
       {"cache-mb", "MB: response cache (default 64)"}, {"max-render", "PIXELS: largest render width or height (default 2048)"},
+      {"max-sheet-cells", "N: cells of one contact sheet (default 64)"},
+      {"max-response", "BYTES: largest response built whole, sequence/sample (default 64 MiB)"},
+      {"max-frames", "N: frames of one sequence stream (default 100000)"},
       {"jobs-dir", "DIR: where batch jobs live"}, {"max-jobs", "N: batch jobs queued or running (default 4)"},
       {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
       {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
@@ -191,6 +207,9 @@ int Serve(const std::vector<std::string>& args) {
   options.cache_bytes = c.cache_mb << 20;
   options.log_requests = !c.quiet;
   options.max_render_size = c.max_render;
+  options.max_sheet_cells = c.max_sheet_cells;
+  options.max_response = c.max_response;
+  options.max_frames = c.max_frames;
 
   FileRigStore store(c.rigs);
   store.SetUploadLimits(c.max_vertices, c.max_shapes);

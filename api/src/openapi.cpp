@@ -436,9 +436,26 @@ json Build() {
 
 }  // namespace
 
-const std::string& OpenApiJson() {
-  static const std::string doc = Build().dump(1);
-  return doc;
+std::string OpenApiJson(const ApiOptions& limits) {
+  json doc = Build();
+  const std::string body = std::to_string(limits.max_body), response = std::to_string(limits.max_response);
+  const std::string render = std::to_string(limits.max_render_size), cells = std::to_string(limits.max_sheet_cells);
+  const std::string frames = std::to_string(limits.max_frames);
+  doc["info"]["description"] = doc["info"]["description"].get<std::string>() +
+                               "\n\nLimits of this server (its flags): request bodies up to " + body + " bytes (--max-body; over: 413), "
+                               "renders up to " + render + " pixels a side (--max-render; over: 422 image-too-large), contact sheets up to " +
+                               cells + " cells (--max-sheet-cells; 422), sequence/sample bodies up to " + response +
+                               " bytes (--max-response; over: 422 response-too-large, judged before the work), sequence streams up to " +
+                               frames + " frames (--max-frames; 422 too-many-frames).";
+  doc["info"]["x-facespace-limits"] = {{"max_body", limits.max_body}, {"max_render", limits.max_render_size},
+                                       {"max_sheet_cells", limits.max_sheet_cells}, {"max_response", limits.max_response},
+                                       {"max_frames", limits.max_frames}};
+  json& schemas = doc["components"]["schemas"];
+  for (const char* schema : {"RenderRequest", "SheetRequest"}) {
+    for (const char* side : {"width", "height"}) schemas[schema]["properties"][side]["maximum"] = limits.max_render_size;
+  }
+  schemas["SheetRequest"]["properties"]["cells"]["oneOf"][0]["maxItems"] = limits.max_sheet_cells;
+  return doc.dump(1);
 }
 
 }  // namespace facespace::api

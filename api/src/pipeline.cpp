@@ -232,7 +232,8 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
 }
 
 Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
-                                       const BlendOptions& options, std::vector<Warning>& warnings, Workspace& ws) {
+                                       const BlendOptions& options, std::vector<Warning>& warnings, Workspace& ws,
+                                       size_t max_bytes) {
   Point point;
   std::string out = "{\"frames\":[";
   for (size_t i = 0; i < times.size(); ++i) {
@@ -241,6 +242,15 @@ Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence,
     if (Status s = Evaluate(rig, point, options, ws); !s.ok()) return s;
     out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
            ",\"primitives\":" + PrimitivesJson(rig, ws.blended) + "}";
+    const double expected = i == 0 ? static_cast<double>(out.size()) * static_cast<double>(times.size()) : static_cast<double>(out.size());
+    if (expected > static_cast<double>(max_bytes)) {
+      const auto mb = [](double bytes) { return FormatNumber(std::round(bytes / 1e5) / 10); };
+      Status s = InvalidArgument("the response would be about " + mb(expected) + " MB (" + std::to_string(times.size()) +
+                                 " frames), over this server's limit of " + mb(static_cast<double>(max_bytes)) +
+                                 " MB (--max-response): ask for fewer times, or stream the frames (sequence/stream, ndjson or f32)");
+      s.fields.push_back({"/times", "at most about " + std::to_string(std::max<size_t>(1, static_cast<size_t>(static_cast<double>(max_bytes) / (expected / static_cast<double>(i == 0 ? times.size() : i + 1))))) + " times for this rig"});
+      return WithReason(std::move(s), kResponseTooLarge);
+    }
   }
   return out + "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
 }

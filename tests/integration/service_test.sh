@@ -19,7 +19,7 @@ port=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getso
 U=http://127.0.0.1:$port
 
 start() {
-  "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --max-body 2000000 \
+  "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --max-body 2000000 --max-response 1000000 --max-frames 40000 \
     --cors-origin http://front.test --jobs-dir "$tmp/jobs" "$@" >>"$tmp/log" 2>&1 &
   pid=$!
   for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && return 0; sleep 0.1; done
@@ -121,6 +121,14 @@ check "sequence/sample: frames with time, weights and the mesh route's primitive
   check "  ... w_C = smoothstep(u): 0.15625 at t=0.25; half and half at t=1.5" jq_ "len(d['frames'])==2 and d['frames'][0]['weights']=={'jawOpen':0.15625} and d['frames'][1]['weights']=={'jawOpen':0.5,'mouthSmile_L':0.5} and len(d['frames'][0]['primitives'])==4 and d['warnings']==[]"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0},{"time":1,"shape":"jawOpen"}],"transition":"cubic-bezier(0.3,-0.5,0.7,1.5)","times":[0.1]}' "$U/v1/rigs/facecap/sequence/sample")
 check "sequence/sample: a transition leaving [0, 1] warns (and the negative weight too)" sh -c "[ $code = 200 ]" && jq_ "[w['code'] for w in d['warnings']][:1]==['transition_extrapolation']" && ok "  ... transition_extrapolation" || no "  ... transition_extrapolation warning"
+times=$(py 'print(",".join(str(i / 10) for i in range(40)))')
+code=$(c -X POST -H 'Content-Type: application/json' -d "{$SEQ,\"times\":[$times]}" "$U/v1/rigs/facecap/sequence/sample")
+check "sequence/sample over --max-response (40 frames of FaceCap, ~8 MB, limit 1 MB): 422 response-too-large naming the limit and /times" \
+  problem "$code" 422 "d['type'].endswith('response-too-large') and '--max-response' in d['detail'] and d['errors'][0]['pointer']=='/times'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0},{"time":60,"shape":"jawOpen"}],"fps":1000}' "$U/v1/rigs/facecap/sequence/stream")
+check "sequence/stream over --max-frames (60001 frames, limit 40000): 422 naming the limit" problem "$code" 422 "'--max-frames' in d['detail']"
+code=$(c "$U/openapi.json")
+check "/openapi.json states this server's limits" jq_ "d['info']['x-facespace-limits']=={'max_body':2000000,'max_render':2048,'max_sheet_cells':64,'max_response':1000000,'max_frames':40000} and '--max-response' in d['info']['description'] and d['components']['schemas']['RenderRequest']['properties']['width']['maximum']==2048"
 check "sequence: decreasing key times are 422 at the key" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":1},{"time":0}],"times":[0]}' "$U/v1/rigs/facecap/sequence/sample")" 422 "d['errors'][0]['pointer']=='/keys/1/time'"
 check "sequence: an unknown transition is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0}],"transition":"bounce","times":[0]}' "$U/v1/rigs/facecap/sequence/sample")" 422 "d['errors'][0]['pointer']=='/transition'"
 check "sequence: an unknown shape key is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"keys":[{"time":0,"shape":"nose"}],"times":[0]}' "$U/v1/rigs/facecap/sequence/sample")" 422 "d['errors'][0]['pointer']=='/keys/0/shape'"

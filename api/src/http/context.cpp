@@ -74,7 +74,8 @@ Context::Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions
       options(std::move(o)),
       metrics(std::move(route_labels)),
       cache(options.cache_bytes),
-      workspaces(2 * std::max(2u, std::thread::hardware_concurrency())) {}
+      workspaces(2 * std::max(2u, std::thread::hardware_concurrency())),
+      openapi(OpenApiJson(options)) {}
 
 std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
   auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;

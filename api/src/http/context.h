@@ -104,6 +104,7 @@ struct Context {
   WorkspacePool workspaces;
   DerivedRigs derived;
   GlbWriters glb_writers;
+  const std::string openapi;  // The document, with this server's limits.
 };
 
 // ---- helpers the routes share ----

@@ -31,7 +31,7 @@ void PostSequenceSample(Context& ctx, const httplib::Request& req, httplib::Resp
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
   std::vector<Warning> warnings;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-  auto body = SampleSequenceJson(stored->rig, seq, r.times, r.options, warnings, *ws);
+  auto body = SampleSequenceJson(stored->rig, seq, r.times, r.options, warnings, *ws, ctx.options.max_response);
   if (!body.ok()) return SendStatus(req, res, body.status());
   ctx.metrics.CountBlends(r.times.size());
   if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
@@ -50,8 +50,11 @@ void PostSequenceStream(Context& ctx, const httplib::Request& req, httplib::Resp
     return;
   }
   const size_t frames = FrameCount(*seq, r->fps);
-  if (frames > 100000) {
-    SendProblem(req, res, 422, "too-many-frames", "at most 100000 frames a stream (duration x fps)", {{"/fps", "too many frames"}});
+  if (frames > ctx.options.max_frames) {
+    const std::string max = std::to_string(ctx.options.max_frames);
+    SendProblem(req, res, 422, "too-many-frames",
+                "the stream would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max + " (--max-frames)",
+                {{"/fps", "at most " + max + " frames over the keys' duration"}});
     return;
   }
   res.set_header("Facespace-Frames", std::to_string(frames));

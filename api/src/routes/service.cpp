@@ -15,9 +15,9 @@ void GetMetrics(Context& ctx, const httplib::Request&, httplib::Response& res) {
   res.set_content(ctx.metrics.Text(ctx.store.List().size(), ctx.cache.Bytes()), "text/plain; version=0.0.4");
 }
 
-void GetOpenApi(Context&, const httplib::Request&, httplib::Response& res) {
+void GetOpenApi(Context& ctx, const httplib::Request&, httplib::Response& res) {
   res.set_header("Cache-Control", "public, max-age=3600");
-  res.set_content(OpenApiJson(), "application/json");
+  res.set_content(ctx.openapi, "application/json");
 }
 
 }  // namespace facespace::api::http

@@ -23,6 +23,8 @@ struct ApiOptions {
   bool log_requests = true;                 // One access-log line per request on stderr.
   int max_render_size = 2048;               // Largest render width or height (after supersampling: x4).
   int max_sheet_cells = 64;                 // Largest contact sheet.
+  size_t max_response = size_t{64} << 20;   // Largest body built whole (sequence/sample): above, 422.
+  size_t max_frames = 100000;               // Frames of one sequence stream.
 };
 
 // The routes (api/src/http/route_table.cpp) over a store, a renderer and a job queue that the
@@ -46,7 +48,7 @@ class Api {
   std::unique_ptr<Impl> impl_;
 };
 
-// The OpenAPI 3.1 document of the routes (served at /openapi.json).
-const std::string& OpenApiJson();
+// The OpenAPI 3.1 document of the routes (served at /openapi.json), with the server's limits.
+std::string OpenApiJson(const ApiOptions& limits);
 
 }  // namespace facespace::api

@@ -34,6 +34,7 @@ inline constexpr char kInvalidControls[] = "invalid-controls";
 inline constexpr char kInvalidWeights[] = "invalid-weights";
 inline constexpr char kLeavesAuthoredSpace[] = "weights-leave-authored-space";  // strict requests
 inline constexpr char kInvalidSequence[] = "invalid-sequence";
+inline constexpr char kResponseTooLarge[] = "response-too-large";
 inline constexpr char kInvalidTarget[] = "invalid-target";
 
 // A point of face space resolved against one rig: what a request's weights, controls and pose
@@ -142,8 +143,11 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
 
 // {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}: the sample route's body and
 // `facespace sequence --format json`. `warnings` receives the frames' warnings too.
+// A body that would pass `max_bytes` (judged from its first frame, then checked as it grows) is
+// refused before the work: 422 response-too-large on /times, naming the limit.
 Result<std::string> SampleSequenceJson(const Rig& rig, const Sequence& sequence, std::span<const float> times,
-                                       const BlendOptions& options, std::vector<Warning>& warnings, Workspace& ws);
+                                       const BlendOptions& options, std::vector<Warning>& warnings, Workspace& ws,
+                                       size_t max_bytes = static_cast<size_t>(-1));
 
 // One frame of a stream: ndjson {"frame", "time", "weights", "warnings"} and a newline, or f32:
 // a uint32 byte count then the world-space positions.
