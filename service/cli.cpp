@@ -316,6 +316,11 @@ int Blend(const std::vector<std::string>& args) {
               "first is the base, each other one a shape named after its file).\n");
   AddMeshFlags(flags, request, weights_given);
   flags.Switch("--keep-targets", "glb: keep the rig's morph targets, with these weights as defaults", [&] { request.keep_targets = true; });
+  flags.Value("--space", "world|mesh", "json, obj, f32: world space (default) or each mesh's own, before its node", [&request](const std::string& v) {
+    if (v != "world" && v != "mesh") return std::fprintf(stderr, "error: --space must be world or mesh, not '%s'\n", v.c_str()), 2;
+    request.mesh_space = v == "mesh";
+    return 0;
+  });
   flags.Text("--format", "glb|obj|json|f32", "output format (default: from OUT's extension)", &format_name);
   flags.Text("-o, --output", "OUT", "output file, or - for stdout", &out_path);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;

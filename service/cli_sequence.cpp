@@ -248,8 +248,8 @@ int FitCommand(const std::vector<std::string>& args) {
   FitOptions options;
   Flags flags("usage: facespace fit RIG TARGET.(json|glb|gltf|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n",
               "The weights that best reproduce TARGET (least squares over the shapes). TARGET: the JSON that\n"
-              "`facespace blend` writes (mesh space), a glTF with the rig's primitives, or an OBJ with the rig's\n"
-              "vertices in its primitive order (world space, as `blend -o x.obj` writes it).\n");
+              "`facespace blend` writes (its \"space\" says world or mesh), a glTF with the rig's primitives, or an\n"
+              "OBJ with the rig's vertices in its primitive order (world space, as `blend -o x.obj` writes it).\n");
   flags.Switch("--bounded", "keep each weight in its shape's range", [&] { options.bounded = true; });
   flags.Switch("--sum-at-most-one", "keep the sum of the weights at most 1", [&] { options.sum_at_most_one = true; });
   flags.Switch("--align", "fit a rigid transform of the target first", [&] { options.rigid_align = true; });
@@ -266,29 +266,22 @@ int FitCommand(const std::vector<std::string>& args) {
     if (!ReadFile(tp, text)) return std::fprintf(stderr, "error: cannot read '%s'\n", tp.c_str()), 1;
     auto t = api::ParseTargetJson(text);
     if (!t.ok()) return std::fprintf(stderr, "error: %s: %s\n", tp.c_str(), t.status().message.c_str()), 1;
-    target = std::move(t.value());
+    target = std::move(t->positions);
+    if (!t->mesh_space) WorldToMeshSpace(rig.value(), target);
   } else {
     auto other = LoadRigFile(tp, {.allow_external_files = true, .read_manifest = false});
     if (!other.ok()) return std::fprintf(stderr, "error: %s\n", other.status().message.c_str()), 1;
     if (ext == "obj") {
       // One OBJ with every primitive's vertices in order, world space: back to mesh space.
       const std::vector<float>& all = other->primitives[0].positions;
-      const auto world = PrimitiveWorldMatrices(rig.value());
       size_t at = 0;
       for (size_t p = 0; p < rig->primitives.size(); ++p) {
         const size_t n = rig->primitives[p].positions.size();
         if (at + n > all.size()) return std::fprintf(stderr, "error: %s has fewer vertices than the rig\n", tp.c_str()), 1;
-        const Eigen::Matrix4f inv = Eigen::Map<const Eigen::Matrix4f>(world[p].data()).inverse();
-        std::vector<float> local(n);
-        for (size_t v = 0; v < n; v += 3) {
-          const Eigen::Vector4f q = inv * Eigen::Vector4f(all[at + v], all[at + v + 1], all[at + v + 2], 1.0f);
-          local[v] = q.x();
-          local[v + 1] = q.y();
-          local[v + 2] = q.z();
-        }
-        target.push_back(std::move(local));
+        target.emplace_back(all.begin() + static_cast<std::ptrdiff_t>(at), all.begin() + static_cast<std::ptrdiff_t>(at + n));
         at += n;
       }
+      WorldToMeshSpace(rig.value(), target);
       if (at != all.size()) return std::fprintf(stderr, "error: %s has more vertices than the rig\n", tp.c_str()), 1;
     } else {
       for (const Primitive& p : other->primitives) target.push_back(p.positions);

@@ -100,6 +100,9 @@ json MeshQueryParams() {
        {"description", "Control values as c.NAME=VALUE (rigs with controls, e.g. c.nose/nose-trans-down|up=-0.4)"},
        {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
       {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"glb", "obj", "json", "f32"}}}}},
+      {{"name", "space"}, {"in", "query"},
+       {"description", "json, obj, f32: world space (each primitive placed by its node, dequantized) or each mesh's own"},
+       {"schema", {{"enum", {"world", "mesh"}}, {"default", "world"}}}},
       {{"name", "mode"}, {"in", "query"}, {"schema", {{"enum", {"relative", "absolute"}}}}},
       {{"name", "normals"}, {"in", "query"}, {"schema", {{"enum", {"blend", "recompute"}}}}},
       {{"name", "strict"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
@@ -159,6 +162,7 @@ json Build() {
                          {"mode", {{"enum", {"relative", "absolute"}}, {"default", "relative"}}},
                          {"normals", {{"enum", {"blend", "recompute"}}, {"default", "blend"}}},
                          {"format", {{"enum", {"glb", "obj", "json", "f32"}}}},
+                         {"space", {{"enum", {"world", "mesh"}}, {"default", "world"}}},
                          {"strict", {{"type", "boolean"}, {"default", false}}},
                          {"keep_targets", {{"type", "boolean"}, {"default", false}}}}}};
   json warning = {{"type", "object"},
@@ -236,7 +240,8 @@ json Build() {
         {"normals", {{"enum", {"blend", "recompute"}}}}}}};
   json mesh_json = {{"type", "object"},
                     {"properties",
-                     {{"primitives",
+                     {{"space", {{"enum", {"world", "mesh"}}}},
+                      {"primitives",
                        {{"type", "array"},
                         {"items", {{"type", "object"},
                                    {"properties", {{"mesh", {{"type", "integer"}}},

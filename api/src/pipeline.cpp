@@ -85,6 +85,7 @@ Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshReq
   auto start = std::chrono::steady_clock::now();
   ExportOptions options;
   options.keep_targets = request.keep_targets;
+  options.mesh_space = request.mesh_space;
   auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, format, options);
   if (!bytes.ok()) return Prefixed(bytes.status(), "the export failed: ");
   Lap(start, ws.timing.encode);
@@ -313,7 +314,9 @@ std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
 }
 
 Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
-  auto fit = FitWeights(rig, request.target, request.options);
+  std::vector<std::vector<float>> target = request.target.positions;
+  if (!request.target.mesh_space) WorldToMeshSpace(rig, target);
+  auto fit = FitWeights(rig, target, request.options);
   if (!fit.ok()) {
     Status s = WithReason(fit.status(), kInvalidTarget);
     if (s.fields.empty()) s.fields.push_back({"/target", s.message});

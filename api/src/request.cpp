@@ -21,7 +21,7 @@ using nlohmann::json;
 constexpr char kMalformed[] = "malformed JSON";
 
 // The members each body takes, for "did you mean" when one is not.
-constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "mode", "normals", "skinning", "lod", "strict",
+constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "space", "mode", "normals", "skinning", "lod", "strict",
                                              "keep_targets", "pose", "blend", "animation", "motion", "time", "frame", "loop"};
 constexpr std::string_view kRenderMembers[] = {"weights", "controls", "mode", "normals", "skinning", "lod", "strict", "pose",
                                                "blend", "animation", "motion", "time", "frame", "loop", "width", "height",
@@ -31,7 +31,7 @@ constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "co
                                               "width", "height", "view", "background", "supersample", "quality", "camera"};
 constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "transition", "smooth",
                                                  "format", "tolerance", "mode", "normals"};
-constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "controls", "mode", "normals", "skinning", "lod",
+constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "mode", "normals", "skinning", "lod",
                                               "pose", "blend", "animation", "motion", "time", "frame", "loop", "width",
                                               "height", "view", "background", "supersample", "quality", "camera"};
 
@@ -278,6 +278,9 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     } else {
       r.lod = v.get<int>();
     }
+  } else if (key == "space" && mesh_format) {
+    if (!v.is_string() || (v != "world" && v != "mesh")) errors.fields.push_back({ptr, "must be \"world\" (the default) or \"mesh\""});
+    else r.mesh_space = v == "mesh";
   } else if (key == "strict" || (key == "keep_targets" && mesh_format)) {
     if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
     else (key == "strict" ? r.strict : r.keep_targets) = v.get<bool>();
@@ -820,11 +823,16 @@ Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request)
 
 namespace {
 
-Result<std::vector<std::vector<float>>> TargetFromJson(const json& j, const std::string& ptr) {
+Result<TargetMesh> TargetFromJson(const json& j, const std::string& ptr) {
   if (!j.is_object() || !j.contains("primitives") || !j["primitives"].is_array()) {
     return FieldStatus(ptr, "must be {\"primitives\": [{\"positions\": [...]}, ...]} as the mesh route returns");
   }
-  std::vector<std::vector<float>> out;
+  TargetMesh target;
+  if (j.contains("space")) {
+    if (j["space"] != "world" && j["space"] != "mesh") return FieldStatus(ptr + "/space", "must be \"world\" (the default) or \"mesh\"");
+    target.mesh_space = j["space"] == "mesh";
+  }
+  std::vector<std::vector<float>>& out = target.positions;
   for (size_t p = 0; p < j["primitives"].size(); ++p) {
     const json& prim = j["primitives"][p];
     const std::string pp = ptr + "/primitives/" + std::to_string(p) + "/positions";
@@ -839,12 +847,12 @@ Result<std::vector<std::vector<float>>> TargetFromJson(const json& j, const std:
     }
     out.push_back(std::move(pos));
   }
-  return out;
+  return target;
 }
 
 }  // namespace
 
-Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text) {
+Result<TargetMesh> ParseTargetJson(std::string_view text) {
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the target is not valid JSON"), kMalformedJson);
   return TargetFromJson(j, "");
@@ -1009,6 +1017,8 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
       } else {
         errors.fields.push_back({"/format", "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
       }
+    } else if (key == "space") {
+      MeshMember(key, v, r.render.mesh, true, errors);
     } else if (key == "weights" || key == "strict" || key == "keep_targets") {
       errors.fields.push_back({"/" + key, "is not a batch member: give \"variants\" or \"sample\""});
     } else if (!MeshMember(key, v, r.render.mesh, false, errors) && !RenderMember(key, v, r.render, errors)) {

@@ -61,13 +61,35 @@ void AppendFloats(std::string& out, std::span<const float> values) {
 
 std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
-std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
-  return "{\"primitives\":" + PrimitivesJson(rig, blended) + ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
+std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space) {
+  return std::string("{\"space\":") + (mesh_space ? "\"mesh\"" : "\"world\"") + ",\"primitives\":" + PrimitivesJson(rig, blended, mesh_space) +
+         ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
+}
+
+// A primitive's node transform, or the identity in mesh space.
+const std::array<float, 16>& Placement(const BlendedPrimitive& b, bool mesh_space) {
+  static const std::array<float, 16> kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  return mesh_space ? kIdentity : b.world;
+}
+
+// xyz triples as a JSON array, each through `place` (a point or a normal transform).
+template <typename Place>
+void AppendPlaced(std::string& out, std::span<const float> xyz, Place place) {
+  out += '[';
+  for (size_t v = 0; v + 2 < xyz.size(); v += 3) {
+    float q[3];
+    place(&xyz[v], q);
+    for (int c = 0; c < 3; ++c) {
+      if (v + c) out += ',';
+      AppendFloat(out, q[c]);
+    }
+  }
+  out += ']';
 }
 
 }  // namespace
 
-std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended) {
+std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended, bool mesh_space) {
   std::string out = "[";
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     const Primitive& p = rig.primitives[i];
@@ -75,9 +97,16 @@ std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended) {
     if (i) out += ',';
     out += "{\"mesh\":" + std::to_string(p.mesh) + ",\"primitive\":" + std::to_string(p.index_in_mesh) +
            ",\"name\":" + JsonString(rig.meshes[p.mesh].name) + ",\"positions\":";
-    AppendFloats(out, b.positions);
-    out += ",\"normals\":";
-    AppendFloats(out, b.normals);
+    if (mesh_space) {
+      AppendFloats(out, b.positions);
+      out += ",\"normals\":";
+      AppendFloats(out, b.normals);
+    } else {
+      AppendPlaced(out, b.positions, [&](const float* in, float* q) { TransformPoint(b.world, in, q, 1.0f); });
+      out += ",\"normals\":";
+      const NormalMatrix nm(b.world.data(), 4);
+      AppendPlaced(out, b.normals, [&](const float* in, float* q) { nm.Apply(in, q); });
+    }
     out += '}';
   }
   return out + "]";
@@ -87,7 +116,7 @@ namespace {
 
 void NormalToWorld(const std::array<float, 16>& m, const float* n, float* out) { TransformNormal(m.data(), 4, n, out); }
 
-std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings) {
+std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space) {
   std::string out = "# facespace blended mesh\n";
   for (const Warning& w : warnings) out += "# warning: " + w.message + "\n";
   size_t base_v = 1;
@@ -100,7 +129,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     out += "o " + name + "_" + std::to_string(p.index_in_mesh) + "\n";
     for (size_t v = 0; v < n; ++v) {
       float q[3];
-      TransformPoint(b.world, &b.positions[3 * v], q, 1.0f);
+      TransformPoint(Placement(b, mesh_space), &b.positions[3 * v], q, 1.0f);
       AppendObjLine(out, "v", {q[0], q[1], q[2]});
     }
     const bool uv = !p.texcoords.empty();
@@ -109,7 +138,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     }
     for (size_t v = 0; v < n; ++v) {
       float q[3];
-      NormalToWorld(b.world, &b.normals[3 * v], q);
+      NormalToWorld(Placement(b, mesh_space), &b.normals[3 * v], q);
       AppendObjLine(out, "vn", {q[0], q[1], q[2]});
     }
     if (p.mode == PrimitiveMode::kTriangles) {
@@ -131,7 +160,7 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
   return out;
 }
 
-std::string ExportF32(const BlendedRig& blended) {
+std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
   size_t floats = 0;
   for (const BlendedPrimitive& b : blended.primitives) floats += b.positions.size() + b.normals.size();
   std::string out(floats * 4, '\0');  // Written in place, float by float: x86-64 and ARM64 are little-endian.
@@ -143,12 +172,12 @@ std::string ExportF32(const BlendedRig& blended) {
   for (const BlendedPrimitive& b : blended.primitives) {
     for (size_t v = 0; v < b.positions.size(); v += 3) {
       float q[3];
-      TransformPoint(b.world, &b.positions[v], q, 1.0f);
+      TransformPoint(Placement(b, mesh_space), &b.positions[v], q, 1.0f);
       put(q);
     }
   }
   for (const BlendedPrimitive& b : blended.primitives) {
-    const NormalMatrix nm(b.world.data(), 4);
+    const NormalMatrix nm(Placement(b, mesh_space).data(), 4);
     for (size_t v = 0; v < b.normals.size(); v += 3) {
       float q[3];
       nm.Apply(&b.normals[v], q);
@@ -752,9 +781,9 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
                                const ExportOptions& options) {
   if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
   switch (format) {
-    case MeshFormat::kJson: return ExportJson(rig, blended, warnings);
-    case MeshFormat::kObj: return ExportObj(rig, blended, warnings);
-    case MeshFormat::kF32: return ExportF32(blended);
+    case MeshFormat::kJson: return ExportJson(rig, blended, warnings, options.mesh_space);
+    case MeshFormat::kObj: return ExportObj(rig, blended, warnings, options.mesh_space);
+    case MeshFormat::kF32: return ExportF32(blended, options.mesh_space);
     case MeshFormat::kGlb: return ExportGlb(rig, blended, weights, warnings, options);
   }
   return InvalidArgument("unknown format");

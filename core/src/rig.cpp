@@ -277,6 +277,18 @@ std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig) {
   return out;
 }
 
+void WorldToMeshSpace(const Rig& rig, std::span<std::vector<float>> positions) {
+  const auto world = PrimitiveWorldMatrices(rig);
+  for (size_t p = 0; p < std::min(positions.size(), world.size()); ++p) {
+    const Eigen::Matrix4d inv = Eigen::Map<const Eigen::Matrix4f>(world[p].data()).cast<double>().inverse();
+    std::vector<float>& xyz = positions[p];
+    for (size_t v = 0; v + 2 < xyz.size(); v += 3) {
+      const Eigen::Vector4d q = inv * Eigen::Vector4d(xyz[v], xyz[v + 1], xyz[v + 2], 1.0);
+      for (int c = 0; c < 3; ++c) xyz[v + c] = static_cast<float>(q[c]);
+    }
+  }
+}
+
 Status ValidateRig(const Rig& rig) {
   const size_t shapes = rig.shapes.size();
   for (const InBetweens& ib : rig.inbetweens) {

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cstring>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -489,6 +490,63 @@ TEST_F(ApiTest, UnknownAndRepeatedMembersAreRefusedInBodiesAndQueries) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_NE(r->body.find("w.NAME=VALUE"), std::string::npos) << r->body;
+}
+
+// FaceCap's positions are quantized (int16 with a scaling node): its JSON used to give those
+// integers while f32 and OBJ gave world space. Every flat format is in world space now (floats,
+// the node applied), or all in mesh space with space=mesh; the JSON says which.
+TEST_F(ApiTest, EveryFlatFormatIsInOneSpace) {
+  const std::string q = "/v1/rigs/facecap/mesh?w.jawOpen=0.6&w.cheekPuff=0.2";
+  auto f32 = Client().Get(q + "&format=f32");
+  auto js = Client().Get(q + "&format=json");
+  auto obj = Client().Get(q + "&format=obj");
+  ASSERT_TRUE(f32 && js && obj);
+  ASSERT_EQ(js->status, 200) << js->body;
+  json doc = Body(js);
+  EXPECT_EQ(doc["space"], "world");
+  std::vector<float> from_json, from_obj;
+  for (const json& p : doc["primitives"]) {
+    for (const json& v : p["positions"]) from_json.push_back(v.get<float>());
+  }
+  std::istringstream lines(obj->body);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("v ", 0) != 0) continue;
+    float x, y, z;
+    ASSERT_EQ(std::sscanf(line.c_str(), "v %f %f %f", &x, &y, &z), 3);
+    from_obj.insert(from_obj.end(), {x, y, z});
+  }
+  ASSERT_EQ(from_json.size(), from_obj.size());
+  ASSERT_GE(f32->body.size(), from_json.size() * 4);
+  float diagonal = 0;
+  for (size_t i = 0; i < from_json.size(); ++i) {
+    float world;
+    std::memcpy(&world, f32->body.data() + 4 * i, 4);
+    ASSERT_EQ(from_json[i], world) << i;  // The JSON's shortest text reads back to the same float.
+    ASSERT_NEAR(from_obj[i], world, 1e-6f * (1 + std::fabs(world))) << i;
+    diagonal = std::max(diagonal, std::fabs(world));
+  }
+  EXPECT_LT(diagonal, 10.0f);  // World space: a head a couple of units across, not int16 units in the thousands.
+
+  // space=mesh: the mesh's own units, in every flat format alike.
+  auto js_mesh = Client().Get(q + "&format=json&space=mesh");
+  auto f32_mesh = Client().Get(q + "&format=f32&space=mesh");
+  ASSERT_TRUE(js_mesh && f32_mesh);
+  json mesh_doc = Body(js_mesh);
+  EXPECT_EQ(mesh_doc["space"], "mesh");
+  const float first = mesh_doc["primitives"][0]["positions"][0].get<float>();
+  float first_f32;
+  std::memcpy(&first_f32, f32_mesh->body.data(), 4);
+  EXPECT_EQ(first, first_f32);
+  EXPECT_GT(std::fabs(first), 100.0f);  // Quantized units.
+  EXPECT_NE(js_mesh->get_header_value("ETag"), js->get_header_value("ETag"));
+
+  // Fit takes the JSON as the mesh route writes it, in either space.
+  for (const json* target : {&doc, &mesh_doc}) {
+    auto fit = Client().Post("/v1/rigs/facecap/fit", json{{"target", *target}}.dump(), "application/json");
+    ASSERT_TRUE(fit);
+    ASSERT_EQ(fit->status, 200) << fit->body;
+    EXPECT_NEAR(Body(fit)["weights"]["jawOpen"].get<double>(), 0.6, 1e-3) << (*target)["space"];
+  }
 }
 
 TEST_F(ApiTest, HeadCarriesGetsHeaders) {

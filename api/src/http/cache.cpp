@@ -95,7 +95,7 @@ std::string PoseCanonical(const Point& point) {
 }
 
 std::string MeshCanonical(const MeshRequest& r, MeshFormat format, const Point& point) {
-  return PoseCanonical(point) + MeshFormatName(format) + "|" + OptionsCanonical(r.options) + "|" + (r.keep_targets ? "t" : "-") +
+  return PoseCanonical(point) + MeshFormatName(format) + (r.mesh_space ? "|mesh|" : "|") + OptionsCanonical(r.options) + "|" + (r.keep_targets ? "t" : "-") +
          (r.options.dual_quaternion ? "|dq|" : "|") + "lod" + std::to_string(r.lod) + "|" + WeightsCanonical(point.weights);
 }
 

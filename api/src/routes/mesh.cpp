@@ -23,7 +23,7 @@ bool ParseBool(const std::string& s, bool* out) {
   return true;
 }
 
-constexpr std::string_view kMeshParams[] = {"format", "keep_targets", "mode", "normals", "strict", "skinning", "lod", "pose",
+constexpr std::string_view kMeshParams[] = {"format", "space", "keep_targets", "mode", "normals", "strict", "skinning", "lod", "pose",
                                             "blend", "animation", "motion", "time", "frame", "loop"};
 constexpr std::string_view kRenderParams[] = {"format", "mode", "normals", "strict", "skinning", "lod", "pose", "blend",
                                               "animation", "motion", "time", "frame", "loop", "width", "height", "view",
@@ -42,6 +42,9 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRe
       MeshFormat f;
       if (ParseMeshFormat(value, &f)) r.format = f;
       else errors.push_back({where, "must be one of glb, obj, json, f32"});
+    } else if (key == "space") {
+      if (value == "world" || value == "mesh") r.mesh_space = value == "mesh";
+      else errors.push_back({where, "must be world (the default) or mesh"});
     } else if (key == "keep_targets") {
       if (!ParseBool(value, &r.keep_targets)) errors.push_back({where, "must be true or false"});
     } else if (!MeshQueryParam(key, value, r, errors)) {

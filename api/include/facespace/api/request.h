@@ -32,6 +32,7 @@ struct MeshRequest {
   bool strict = false;               // Warnings become a 422.
   bool keep_targets = false;         // glb: the rig with these weights as defaults.
   int lod = 0;                       // Level of detail: 0 full, L ~ 1/2^L of the triangles (core/lod.h).
+  bool mesh_space = false;           // "space": "mesh": JSON, OBJ and f32 before the node transforms.
 };
 
 // Body of POST /v1/rigs/{id}/mesh and /check:
@@ -40,7 +41,8 @@ struct MeshRequest {
 //  "pose": {"JOINT": {"rotation": [x, y, z, w] | "euler": [x, y, z], "translation", "scale"}},
 //  "animation": NAME|INDEX, "time": SECONDS, "loop": bool,
 //  "blend": [{"animation": NAME|INDEX, "time", "weight", "loop", "mask": [JOINT, ...]}],
-//  "skinning": "linear"|"dual_quaternion", "lod": 0..4, "controls": {NAME: value}}
+//  "skinning": "linear"|"dual_quaternion", "lod": 0..4, "controls": {NAME: value},
+//  "space": "world"|"mesh"}
 // Malformed JSON is InvalidArgument with pointer "" and message starting "malformed JSON";
 // schema errors name their field.
 Result<MeshRequest> ParseMeshRequest(std::string_view body);
@@ -117,16 +119,23 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body);
 // The keys resolved against a rig (names, aliases, indices, shape keys), validated.
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request);
 
-// Body of POST /v1/rigs/{id}/fit: {"target": {"primitives": [{"positions": [...]}, ...]}
-// (the mesh route's JSON), "bounded": bool, "sum_at_most_one": bool, "rigid_align": bool}.
+// A mesh to fit, as the JSON export writes it: {"space": "world"|"mesh", "primitives":
+// [{"positions": [...]}, ...]}; without "space", world space (the export's default).
+struct TargetMesh {
+  std::vector<std::vector<float>> positions;  // Per primitive, xyz.
+  bool mesh_space = false;
+};
+
+// Body of POST /v1/rigs/{id}/fit: {"target": TargetMesh (the mesh route's JSON), "bounded": bool,
+// "sum_at_most_one": bool, "rigid_align": bool}.
 struct FitRequest {
-  std::vector<std::vector<float>> target;  // Per primitive, xyz in mesh space.
+  TargetMesh target;
   FitOptions options;
 };
 Result<FitRequest> ParseFitRequest(std::string_view body);
 
-// Target positions from the mesh JSON ({"primitives": [{"positions": [...]}]}).
-Result<std::vector<std::vector<float>>> ParseTargetJson(std::string_view text);
+// The target from the mesh JSON text.
+Result<TargetMesh> ParseTargetJson(std::string_view text);
 
 // Body of POST /v1/rigs/{id}/batch, and the batch.json that `facespace batch` keeps in its
 // output folder:

@@ -130,15 +130,21 @@ struct ExportOptions {
   bool keep_targets = false;
   // Extra key/values for glb's asset.extras (e.g. {"warnings": [...]}) as JSON text; "" none.
   std::string asset_extras_json;
+  // JSON, OBJ and f32: positions and normals as each mesh stores them (before its node's
+  // transform, still in a quantized mesh's units) instead of world space. glb carries its nodes
+  // and is the same either way.
+  bool mesh_space = false;
 };
 
 // Writes the evaluated rig. `weights` and `warnings` are recorded where the format has room
 // (JSON body, glb asset.extras / mesh weights). Deterministic: same input, same bytes.
-//   JSON: {"primitives": [{"mesh", "primitive", "name", "positions", "normals"}], "warnings"}
-//         positions in each mesh's own space, primitives in glTF mesh/primitive order.
-//   OBJ:  one object per primitive, placed by its node's world transform, with vt/vn.
-//   f32:  little-endian float32: every primitive's world-space positions (xyz), then every
-//         primitive's normals (xyz), primitives in the JSON order.
+// JSON, OBJ and f32 are in world space (each primitive placed by its node's world transform, a
+// quantized mesh's positions dequantized), or in mesh space with options.mesh_space.
+//   JSON: {"space": "world"|"mesh", "primitives": [{"mesh", "primitive", "name", "positions",
+//         "normals"}], "warnings"}, primitives in glTF mesh/primitive order.
+//   OBJ:  one object per primitive, with vt/vn.
+//   f32:  little-endian float32: every primitive's positions (xyz), then every primitive's
+//         normals (xyz), primitives in the JSON order.
 //   glb:  the node hierarchy, materials and textures, with the blended mesh (or the rig).
 Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended,
                                std::span<const float> weights,
@@ -173,8 +179,9 @@ class GlbVariantWriter {
   std::unique_ptr<GlbTemplate> t_;
 };
 
-// The JSON export's primitives array: [{"mesh", "primitive", "name", "positions", "normals"}].
-std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended);
+// The JSON export's primitives array: [{"mesh", "primitive", "name", "positions", "normals"}],
+// in world space (or each mesh's own with `mesh_space`).
+std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended, bool mesh_space = false);
 
 // World-space float32 positions of every primitive, in order (the f32 export without normals).
 void WorldPositions(const BlendedRig& blended, std::vector<float>& out);

@@ -260,6 +260,11 @@ std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig);
 // mesh; identity when no node does. Used by flat exports (OBJ, f32).
 std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig);
 
+// World-space positions (xyz per primitive, as the flat exports write them) back into each
+// primitive's mesh space: through the inverse of its PrimitiveWorldMatrices entry. Extra
+// primitives beyond the rig's are left as they are.
+void WorldToMeshSpace(const Rig& rig, std::span<std::vector<float>> positions);
+
 // Checks internal consistency (index ranges, array sizes). Importers call it last, so a rig
 // that passes is safe to evaluate without further checks.
 Status ValidateRig(const Rig& rig);
