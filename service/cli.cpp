@@ -9,6 +9,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "facespace/api/describe.h"
 #include "facespace/api/pipeline.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
@@ -133,27 +134,8 @@ int Info(const std::vector<std::string>& args) {
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok()) return 1;
   const Rig& rig = loaded.value();
-  if (as_json) {
-    nlohmann::json j;
-    j["name"] = rig.name;
-    if (!rig.credit.empty()) j["credit"] = rig.credit;
-    j["vertices"] = rig.vertex_count();
-    j["triangles"] = rig.triangle_count();
-    j["primitives"] = rig.primitives.size();
-    j["meshes"] = rig.meshes.size();
-    j["skins"] = rig.skin_count;
-    j["joints"] = rig.joint_count;
-    j["shapes"] = nlohmann::json::array();
-    for (size_t i = 0; i < rig.shapes.size(); ++i) {
-      const Shape& s = rig.shapes[i];
-      nlohmann::json o = {{"index", i}, {"name", s.name}, {"group", s.group}, {"min", s.min}, {"max", s.max},
-                          {"default", s.default_weight}, {"vertices_moved", s.vertices_moved}};
-      if (s.partner >= 0) o["partner"] = rig.shapes[s.partner].name;
-      if (!s.aliases.empty()) o["aliases"] = s.aliases;
-      if (s.driven) o["driven"] = true;
-      j["shapes"].push_back(o);
-    }
-    std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+  if (as_json) {  // The rig route's document (without the store's id and version).
+    std::printf("%s\n", api::DescribeRig(rig).dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return 0;
   }
   std::printf("rig        %s\n", rig.name.c_str());
@@ -185,12 +167,17 @@ int Info(const std::vector<std::string>& args) {
                 FormatNumber(s.default_weight).c_str(), s.vertices_moved,
                 s.partner >= 0 ? rig.shapes[s.partner].name.c_str() : "-");
   }
+  if (!rig.controls.empty()) {  // The rig's sliders (c.NAME=VALUE): each drives one or two shapes.
+    std::printf("controls   %zu\n  %-40s %-10s %-10s %s\n", rig.controls.size(), "name", "group", "range", "shapes (below 0 | above 0)");
+    for (const Control& c : rig.controls) {
+      const std::string range = "[" + FormatNumber(c.min) + ", " + FormatNumber(c.max) + "]";
+      const std::string shapes = (c.negative >= 0 ? rig.shapes[c.negative].name + " | " : "") + rig.shapes[c.positive].name;
+      std::printf("  %-40s %-10s %-10s %s\n", c.name.c_str(), c.group.c_str(), range.c_str(), shapes.c_str());
+    }
+  }
   return 0;
 }
 
-namespace {
-
-}  // namespace
 
 void AddBlendOptionFlags(Flags& flags, BlendOptions& options) {
   flags.Value("--mode", "relative|absolute", "how weights combine (default relative)", [&options](const std::string& v) {
@@ -331,6 +318,12 @@ int Blend(const std::vector<std::string>& args) {
       std::fprintf(stderr, "error: --format must be glb, obj, json or f32, not '%s'\n", format_name.c_str());
       return 2;
     }
+    const size_t dot = out_path.rfind('.');
+    if (MeshFormat named; out_path != "-" && dot != std::string::npos && ParseMeshFormat(out_path.substr(dot + 1), &named) && named != format) {
+      std::fprintf(stderr, "error: --format %s does not match the output name '%s': name it .%s, or drop --format\n", format_name.c_str(),
+                   out_path.c_str(), MeshFormatName(format));
+      return 2;
+    }
   } else if (out_path != "-") {
     const size_t dot = out_path.rfind('.');
     const std::string ext = dot == std::string::npos ? "" : out_path.substr(dot + 1);
@@ -407,7 +400,14 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     return flags.UsageError(paths.empty() ? "no rig given" : out_path.empty() ? "no output given (-o OUT)" : "no --cells given");
   }
   if (!ImageFormatFor(out_path, format_name, &format)) {
-    std::fprintf(stderr, "error: cannot tell the image format from '%s': use .png, .jpg, .exr, .tif or --format\n", out_path.c_str());
+    if (!format_name.empty()) std::fprintf(stderr, "error: --format must be png, jpeg, exr, tiff or webp, not '%s'\n", format_name.c_str());
+    else std::fprintf(stderr, "error: cannot tell the image format from '%s': use .png, .jpg, .exr, .tif, .webp or --format\n", out_path.c_str());
+    return 2;
+  }
+  // --format and a file name that says another format: the bytes would belie the name.
+  if (render::ImageFormat named; !format_name.empty() && ImageFormatFor(out_path, "", &named) && out_path != "-" && named != format) {
+    std::fprintf(stderr, "error: --format %s does not match the output name '%s': name it .%s, or drop --format\n", format_name.c_str(),
+                 out_path.c_str(), render::ImageFormatExtension(format));
     return 2;
   }
   Result<Rig> loaded = LoadAndReport(paths);

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -34,15 +35,46 @@ class Progress {
       std::fprintf(stderr, "\r[%s%s] %zu/%zu frames, %.1f frames/s ", std::string(filled, '#').c_str(),
                    std::string(width - filled, ' ').c_str(), done, total_, rate);
       if (done == total_) std::fputc('\n', stderr);
-    } else if (done == total_ || done * 10 / total_ != (done - 1) * 10 / total_) {
-      std::fprintf(stderr, "frames: %zu/%zu (%.1f frames/s)\n", done, total_, rate);
+    } else if (done == total_ || secs - last_ >= 10.0) {  // A log: a line every 10 s at most, and the summary.
+      std::fprintf(stderr, done == total_ ? "frames: %zu of %zu written in %.2f s (%.1f frames/s)\n" : "frames: %zu/%zu, %.0f s (%.1f frames/s)\n",
+                   done, total_, secs, rate);
+      last_ = secs;
     }
   }
 
  private:
   size_t total_;
   bool tty_;
+  double last_ = 0;
   std::chrono::steady_clock::time_point start_;
+};
+
+// Frames' warnings, once per code at the end ("in 37 of 100 frames, the first: ..."), instead of
+// a line per frame.
+class WarningSummary {
+ public:
+  void Add(std::span<const Warning> warnings) {
+    std::vector<std::string> seen;  // A code counts once per frame.
+    for (const Warning& w : warnings) {
+      if (std::find(seen.begin(), seen.end(), w.code) != seen.end()) continue;
+      seen.push_back(w.code);
+      auto it = std::find_if(codes_.begin(), codes_.end(), [&](const Entry& e) { return e.code == w.code; });
+      if (it == codes_.end()) codes_.push_back({w.code, w.message, 1});
+      else ++it->frames;
+    }
+  }
+  void Print(size_t frames) const {
+    for (const Entry& e : codes_) {
+      std::fprintf(stderr, "warning: %s in %zu of %zu frames, the first: %s\n", e.code.c_str(), e.frames, frames, e.first.c_str());
+    }
+  }
+
+ private:
+  struct Entry {
+    std::string code, first;
+    size_t frames = 0;
+  };
+  std::vector<Entry> codes_;
 };
 
 }  // namespace
@@ -121,12 +153,17 @@ int Sequence(const std::vector<std::string>& args) {
     seq = std::move(resolved.value());
   } else {
     if (!from_animation.empty()) {
-      int clip = -1;
-      for (size_t c = 0; c < rig.animations.size(); ++c) {
-        if (rig.animations[c].name == from_animation) clip = static_cast<int>(c);
-      }
+      ClipRequest named;
+      named.name = from_animation;
+      int clip = FindClip(rig, named);
       if (clip < 0 && from_animation.find_first_not_of("0123456789") == std::string::npos && from_animation.size() < 9) {
-        clip = std::stoi(from_animation);
+        named = ClipRequest{};
+        named.index = std::stoi(from_animation);
+        clip = FindClip(rig, named);
+      }
+      if (clip < 0) {
+        std::fprintf(stderr, "error: --from-animation: %s\n", UnknownClipMessage(rig, named).c_str());
+        return 2;
       }
       auto s = SequenceFromAnimation(rig, clip);
       if (!s.ok()) {
@@ -212,7 +249,9 @@ int Sequence(const std::vector<std::string>& args) {
   api::Workspace ws;
   if (format == "json") {
     auto body = api::SampleSequenceJson(rig, seq, times, options, warnings, ws);
-    for (const Warning& w : warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+    WarningSummary summary;  // Each warning of the list is one frame's (they are in the body, by frame).
+    for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
+    summary.Print(times.size());
     if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
     return WriteResult(out, body);
   }
@@ -225,9 +264,10 @@ int Sequence(const std::vector<std::string>& args) {
   frame.options = options;
   api::Point point;
   Progress progress(times.size());
+  WarningSummary summary;
   for (size_t k = 0; k < times.size(); ++k) {
     api::SequencePoint(rig, seq, times[k], options.mode, point);
-    for (const Warning& wn : point.report.warnings) std::fprintf(stderr, "%swarning: %s\n", isatty(2) ? "\n" : "", wn.message.c_str());
+    summary.Add(point.report.warnings);
     auto bytes = api::EncodeMesh(rig, point, frame, mf, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
     char name[64];
@@ -235,6 +275,7 @@ int Sequence(const std::vector<std::string>& args) {
     if (!WriteOutput(out + name, bytes.value())) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
     progress.Step(k + 1);
   }
+  summary.Print(times.size());
   return 0;
 }
 

@@ -764,14 +764,9 @@ Result<Sequence> ClipSequence(const Rig& rig, const SequenceRequest& request) {
     errors.fields.push_back({c.pointer, "give keys or " + c.pointer.substr(1) + ", not both"});
     return Finish(errors);
   }
-  int clip = -1;
-  for (size_t a = 0; a < rig.animations.size() && clip < 0; ++a) {
-    if (c.name.empty() ? static_cast<long long>(a) == c.index : rig.animations[a].name == c.name) clip = static_cast<int>(a);
-  }
+  const int clip = FindClip(rig, c);
   if (clip < 0) {
-    std::string names;
-    for (const AnimationInfo& a : rig.animations) names += (names.empty() ? "" : ", ") + a.name;
-    errors.fields.push_back({c.pointer, "unknown animation '" + (c.name.empty() ? std::to_string(c.index) : c.name) + "'; animations: " + (names.empty() ? "none" : names)});
+    errors.fields.push_back({c.pointer, UnknownClipMessage(rig, c)});
     return Finish(errors);
   }
   const float duration = rig.animations[clip].duration;

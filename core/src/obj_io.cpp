@@ -309,10 +309,16 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   for (const std::string& dir : target_dirs) {
     std::vector<fs::path> found;
     std::error_code ec;
-    for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    // Linked folders are followed (a targets tree assembled from links); a cycle of links stops
+    // at the depth limit.
+    constexpr int kMaxDepth = 12;
+    for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::follow_directory_symlink, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (it.depth() >= kMaxDepth) it.disable_recursion_pending();
       if (it->is_regular_file() && it->path().extension() == ".target") found.push_back(it->path());
     }
     if (ec || !fs::is_directory(dir)) return NotFound("cannot read the targets folder '" + dir + "'");
+    if (found.empty()) return NotFound("no .target files under '" + dir + "'");
     std::sort(found.begin(), found.end());
     const std::string own = fs::path(dir).lexically_normal().filename().empty() ? fs::path(dir).lexically_normal().parent_path().filename().string()
                                                                                  : fs::path(dir).lexically_normal().filename().string();

@@ -7,8 +7,6 @@
 
 namespace facespace {
 
-namespace {
-
 int FindClip(const Rig& rig, const ClipRequest& c) {
   if (c.name.empty()) return c.index >= 0 && static_cast<size_t>(c.index) < rig.animations.size() ? static_cast<int>(c.index) : -1;
   for (size_t i = 0; i < rig.animations.size(); ++i) {
@@ -17,13 +15,17 @@ int FindClip(const Rig& rig, const ClipRequest& c) {
   return -1;
 }
 
-std::string ClipNames(const Rig& rig) {
-  std::string s;
-  for (size_t i = 0; i < rig.animations.size() && i < 30; ++i) s += (i ? ", " : "") + rig.animations[i].name;
-  return s.empty() ? "(none: this rig has no animations)" : s;
+std::string UnknownClipMessage(const Rig& rig, const ClipRequest& c) {
+  std::string msg = "unknown animation '" + (c.name.empty() ? std::to_string(c.index) : c.name) + "'";
+  if (rig.animations.empty()) return msg + "; this rig has no animations";
+  std::vector<std::string_view> names;
+  for (const AnimationInfo& a : rig.animations) names.push_back(a.name);
+  if (!c.name.empty()) msg += DidYouMean(c.name, names);
+  msg += "; animations:";
+  for (size_t i = 0; i < names.size() && i < 30; ++i) msg += (i ? ", " : " ") + std::string(names[i]);
+  if (names.size() > 30) msg += ", ... (" + std::to_string(names.size()) + " in all)";
+  return msg;
 }
-
-}  // namespace
 
 Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::vector<float>& animated_weights,
                  std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings) {
@@ -36,8 +38,7 @@ Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::ve
     ClipLayer layer;
     layer.clip = FindClip(rig, c);
     if (layer.clip < 0) {
-      errors.fields.push_back({c.pointer, "unknown animation '" + (c.name.empty() ? std::to_string(c.index) : c.name) +
-                                              "'; animations: " + ClipNames(rig)});
+      errors.fields.push_back({c.pointer, UnknownClipMessage(rig, c)});
       continue;
     }
     if (!std::isfinite(c.time)) errors.fields.push_back({c.pointer, "time must be a finite number of seconds"});
@@ -104,6 +105,18 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   auto resolved = ResolveWeights(rig, entries);
   if (!resolved.ok()) return resolved.status();
   weights = std::move(resolved.value());
+  // A dense array (indices 0..n-1 in order, no names) shorter than the rig's shapes: likely an
+  // array made for another rig, or cut short. The missing weights are 0, and said so.
+  const bool dense = !entries.empty() && std::all_of(entries.begin(), entries.end(), [&](const WeightEntry& e) {
+    return e.name.empty() && e.index == &e - entries.data();
+  });
+  if (dense && entries.size() < rig.shapes.size()) {
+    warnings.push_back({"weights_short",
+                        "the weights array has " + std::to_string(entries.size()) + " values for the rig's " +
+                            std::to_string(rig.shapes.size()) + " shapes: the other " + std::to_string(rig.shapes.size() - entries.size()) +
+                            " are 0",
+                        "", static_cast<double>(entries.size()), true});
+  }
   posed = !request.empty();
   if (!posed) return Status::Ok();
   std::vector<float> animated;

@@ -346,6 +346,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
 Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_array()) return InvalidArgument("not a modifiers file: want a JSON array of {\"group\", \"modifiers\"}");
+  std::vector<std::string> missing;
   for (size_t g = 0; g < j.size(); ++g) {
     const json& group = j[g];
     if (!group.is_object() || !group.contains("group") || !group["group"].is_string() || !group.contains("modifiers") ||
@@ -354,6 +355,9 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
     }
     const std::string gname = group["group"].get<std::string>();
     for (const json& m : group["modifiers"]) {
+      auto missing_target = [&](const std::string& name) {
+        missing.push_back(gname + "/" + name);
+      };
       if (!m.is_object() || !m.contains("target") || !m["target"].is_string()) continue;  // Macro modifiers: no target.
       const std::string target = m["target"].get<std::string>();
       Control c;
@@ -363,12 +367,18 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
         c.name = gname + "/" + target + "-" + lo + "|" + hi;
         c.negative = FindShape(rig, target + "-" + lo);
         c.positive = FindShape(rig, target + "-" + hi);
-        if (c.negative < 0 || c.positive < 0) continue;
+        if (c.negative < 0 || c.positive < 0) {
+          missing_target(target + "-" + lo + "|" + hi);
+          continue;
+        }
         c.min = -1.0f;
       } else {
         c.name = gname + "/" + target;
         c.positive = FindShape(rig, target);
-        if (c.positive < 0) continue;
+        if (c.positive < 0) {
+          missing_target(target);
+          continue;
+        }
       }
       for (int s : {c.negative, c.positive}) {
         if (s >= 0) rig.shapes[s].group = gname;
@@ -377,6 +387,14 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
     }
   }
   PairControls(rig);
+  if (!missing.empty()) {  // One warning naming them (a folder left out gives dozens).
+    std::string names;
+    for (size_t i = 0; i < missing.size() && i < 12; ++i) names += (i ? ", " : "") + missing[i];
+    if (missing.size() > 12) names += ", ... (" + std::to_string(missing.size()) + " in all)";
+    rig.load_warnings.push_back({"modifier_targets_missing",
+                                 std::to_string(missing.size()) + " modifier(s) name targets that were not found, so they are no controls: " + names,
+                                 "", static_cast<double>(missing.size()), true});
+  }
   return Status::Ok();
 }
 

@@ -166,6 +166,9 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
       std::string msg = "unknown control '" + e.name + "'";
       if (rig.controls.empty()) msg += ": this rig has no controls";
       else {
+        std::vector<std::string_view> names;
+        for (const Control& k : rig.controls) names.push_back(k.name);
+        msg += DidYouMean(e.name, names);
         size_t shown = 0;
         msg += "; controls: ";
         for (const Control& k : rig.controls) {

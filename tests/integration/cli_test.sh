@@ -150,7 +150,7 @@ K='[{"time":0},{"time":1,"shape":"jawOpen"},{"time":2,"weights":{"mouthSmile_L":
 "$bin" sequence "$rig" --keys "$K" --transition smoothstep --times '[0.25,1.5]' -o "$tmp/seq.json" 2>/dev/null
 check "sequence --times: frames with smoothstep in-betweens" py 'import json,sys; d=json.load(open(sys.argv[1])); f=d["frames"]; sys.exit(not(f[0]["weights"]=={"jawOpen":0.15625} and f[1]["weights"]=={"jawOpen":0.5,"mouthSmile_L":0.5} and len(f[0]["primitives"])==4))' "$tmp/seq.json"
 "$bin" sequence "$rig" --keys "$K" --fps 5 --format obj -o "$tmp/frames" 2>"$tmp/err"
-check "sequence --fps 5 --format obj: 11 frame files and a progress report" sh -c "[ \$(ls '$tmp/frames' | grep -c '^frame_000[01][0-9].obj$') -eq 11 ] && grep -q 'frames: 11/11' '$tmp/err'"
+check "sequence --fps 5 --format obj: 11 frame files and a progress report" sh -c "[ \$(ls '$tmp/frames' | grep -c '^frame_000[01][0-9].obj$') -eq 11 ] && grep -q 'frames: 11 of 11 written' '$tmp/err'"
 "$bin" sequence "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --from-animation 0 --reduce 0.001 -o "$tmp/red.json" 2>"$tmp/err"
 check "sequence --from-animation --reduce: fewer keys within the tolerance" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not(d["kept"] < 20 and d["removed"] > 100 and d["max_error"] <= 0.001))' "$tmp/red.json"
 "$bin" sequence "$rig" --keys "$K" --bake 0.5 -o "$tmp/baked.json" 2>/dev/null
@@ -394,5 +394,31 @@ for y in range(h):
         r,g,b=line[x*bpp:x*bpp+3]
         red+=r>120 and g<60 and b<60; green+=g>120 and r<60 and b<60
 sys.exit(not(red>20 and green>20))' '$tmp/ukatex.png'"
+
+# What a new user met (issue 20): each of these failed on the build before.
+err_case "render --format jpeg -o x.png: the bytes would belie the name" "does not match the output name" render "$rig" --format jpeg -o "$tmp/x.png"
+err_case "blend --format glb -o x.json: likewise" "does not match the output name" blend "$rig" --format glb -o "$tmp/x.json"
+"$bin" blend "$rig" --weights '[0.1,0.2]' -o "$tmp/short.json" 2>"$tmp/err"
+check "blend with a dense array shorter than the shapes warns (weights_short: 2 values for 52 shapes)" grep -q "warning: weights_short: the weights array has 2 values for the rig's 52 shapes" "$tmp/err"
+"$bin" blend "$rig" --weights '{"jawOpen":0.3,"mouthSmile_L":0.5}' -o "$tmp/rt.json" 2>/dev/null
+"$bin" fit "$rig" "$tmp/rt.json" -o "$tmp/rt.fit.json" 2>"$tmp/err"
+check "fit on an exact round trip: no out-of-range warnings for round-off" both "! grep -q 'outside its range' '$tmp/err'" py 'import json,sys; w=json.load(open(sys.argv[1]))["weights"]; sys.exit(not(abs(w["jawOpen"]-0.3)<1e-3 and min(w.values())>=0))' "$tmp/rt.fit.json"
+"$bin" blend "$rig" --set jawOpen=0.5 --space mesh -o "$tmp/mesh.json" 2>/dev/null
+check "blend --space mesh: the JSON says mesh and holds FaceCap's quantized units; the default says world" both "grep -q '\"space\":\"mesh\"' '$tmp/mesh.json' && grep -q '\"space\":\"world\"' '$tmp/rt.json'" py 'import json,sys; p=json.load(open(sys.argv[1]))["primitives"][0]["positions"]; sys.exit(not(max(abs(x) for x in p) > 100))' "$tmp/mesh.json"
+"$bin" sequence "$rig" --keys '[{"time":0,"weights":{"jawOpen":0.9,"mouthSmile_L":0.9}},{"time":1,"weights":{}}]' --fps 20 --format obj -o "$tmp/seqw" 2>"$tmp/err"
+check "sequence to a log (stderr not a terminal): one summary line and each warning code once" sh -c "[ \$(grep -c '^frames:' '$tmp/err') = 1 ] && grep -q '^frames: 21 of 21 written' '$tmp/err' && [ \$(grep -c 'extrapolation' '$tmp/err') = 1 ] && grep -q 'extrapolation in 9 of 21 frames' '$tmp/err'"
+err_case "an unknown animation suggests the closest" "unknown animation 'Survay' (did you mean 'Survey'?)" sequence "$fox" --from-animation Survay --fps 10 -o "$tmp/x.json"
+err_case "an unknown control suggests the closest" "(did you mean 'nose/nose-trans-down|up'?)" blend "$tmp/mh/mh.glb" --controls '{"nose/nose-trans-down|upp": 1}' -o "$tmp/x.json"
+"$bin" info "$tmp/mh/mh.glb" >"$tmp/info.txt" 2>/dev/null
+check "info lists a rig's controls (MakeHuman)" sh -c "grep -q '^controls ' '$tmp/info.txt' && grep -Eq '^  nose/nose-trans-down\|up +nose +\[-1, 1\] +nose-trans-down \| nose-trans-up' '$tmp/info.txt'"
+"$bin" info --json "$fox" >"$tmp/fox.json" 2>/dev/null
+"$bin" info --json "$tmp/mh/mh.glb" >"$tmp/mhinfo.json" 2>/dev/null
+check "info --json is the rig route's document: animations and load warnings (Fox)" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not([a["name"] for a in d["animations"]]==["Survey","Walk","Run"] and "load_warnings" in d))' "$tmp/fox.json"
+check "  ... and controls (MakeHuman)" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not(any(c["name"]=="nose/nose-trans-down|up" for c in d["controls"])))' "$tmp/mhinfo.json"
+mkdir -p "$tmp/linked" && ln -s "$MH/targets/nose" "$tmp/linked/nose"
+"$bin" convert "$MH/base.obj" --targets "$tmp/linked" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh/linked.glb" 2>"$tmp/err"; rc=$?
+check "convert follows a linked targets folder; the modifiers whose targets are missing are one warning naming them" sh -c "[ $rc -eq 0 ] && grep -Eq 'convert: 13380 vertices, 26756 triangles, [1-9][0-9]* shapes' '$tmp/err' && grep -q 'warning: modifier_targets_missing: [0-9]* modifier(s) name targets that were not found' '$tmp/err' && grep -q 'head/head-age-decr|incr' '$tmp/err'"
+mkdir -p "$tmp/notargets"
+err_case "convert with a targets folder holding no .target files is an error" "no .target files under" convert "$MH/base.obj" --targets "$tmp/notargets" -o "$tmp/x.glb"
 
 finish

@@ -40,6 +40,11 @@ struct PoseRequest {
   bool empty() const { return clips.empty() && joints.empty(); }
 };
 
+// The rig's animation a clip names (by name, else by index), or -1.
+int FindClip(const Rig& rig, const ClipRequest& clip);
+// "unknown animation 'X' (did you mean 'Y'?); animations: ..." for a clip FindClip did not find.
+std::string UnknownClipMessage(const Rig& rig, const ClipRequest& clip);
+
 // Builds the pose: rest, then the clips (their weight channels fill `animated_weights` and
 // `animated_set`), then the explicit joints (each given property replaces the joint's local
 // value). Unknown joints or clips and invalid quaternions are errors naming their pointer;
