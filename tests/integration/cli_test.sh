@@ -421,4 +421,9 @@ check "convert follows a linked targets folder; the modifiers whose targets are 
 mkdir -p "$tmp/notargets"
 err_case "convert with a targets folder holding no .target files is an error" "no .target files under" convert "$MH/base.obj" --targets "$tmp/notargets" -o "$tmp/x.glb"
 
+check "project: a LICENSE, and the README's credits say FaceCap has no formal license and MakeHuman is CC0" \
+  sh -c "grep -q 'MIT License' '$src/LICENSE' && grep -q 'no formal' '$src/README.md' && grep -q 'CC0' '$src/README.md'"
+"$bin" info "$src/assets/makehuman/makehuman.glb" >/dev/null 2>"$tmp/err"
+check "the bundled MakeHuman loads without warnings, as its CREDITS say" sh -c "! grep -q warning '$tmp/err' && ! grep -q 'the load reports' '$src/assets/makehuman/CREDITS.md'"
+
 finish
