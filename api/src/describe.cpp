@@ -17,6 +17,7 @@ json DescribeRig(const Rig& r) {
             {"triangles", r.triangle_count()},
             {"has_skeleton", r.skin_count > 0}};
   if (!r.credit.empty()) j["credit"] = r.credit;
+  j["start"] = r.start_at_defaults ? "defaults" : "neutral";  // Where an editor starts and resets.
   json shapes = json::array();
   for (size_t i = 0; i < r.shapes.size(); ++i) {
     const Shape& sh = r.shapes[i];

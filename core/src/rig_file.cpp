@@ -222,6 +222,10 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     if (!j["credit"].is_string()) return bad("/credit", "must be a string");
     rig.credit = j["credit"].get<std::string>();
   }
+  if (j.contains("start")) {
+    if (j["start"] != "neutral" && j["start"] != "defaults") return bad("/start", "must be \"neutral\" (every weight 0) or \"defaults\"");
+    rig.start_at_defaults = j["start"] == "defaults";
+  }
   if (j.contains("derived")) {
     // New shapes first, so that the rest of the manifest can describe them too.
     if (!j["derived"].is_object()) return bad("/derived", "must be an object of new shape -> {\"from\", \"mirror\", \"mask\"}");
@@ -402,6 +406,7 @@ std::string ManifestJson(const Rig& rig) {
   json m = json::object();
   m["name"] = rig.name;
   if (!rig.credit.empty()) m["credit"] = rig.credit;
+  if (rig.start_at_defaults) m["start"] = "defaults";
   json shapes = json::object();
   for (const Shape& s : rig.shapes) {
     json o = {{"group", s.group}, {"min", s.min}, {"max", s.max}, {"default", s.default_weight}};

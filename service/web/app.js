@@ -133,8 +133,11 @@ function randomise() {
   schedule();
 }
 
+// Where the rig starts and resets: the neutral face, unless its manifest says its defaults.
+const startValue = (s) => (state.detail.start === 'defaults' ? s.default || 0 : 0);
+
 function reset() {
-  for (const s of items()) setWeight(s.name, s.default || 0, true);
+  for (const s of items()) setWeight(s.name, startValue(s), true);
   state.yaw = 0;
   state.pitch = 0;
   schedule();
@@ -191,7 +194,7 @@ function showWarnings(warnings) {
   }
   const extrapolation = warnings.find((w) => w.code === 'extrapolation');
   const parts = [];
-  if (extrapolation) parts.push('Extrapolation: ' + extrapolation.message);
+  if (extrapolation) parts.push(extrapolation.message);  // "extrapolation: sum of weights 1.7 exceeds 1": said once.
   if (out.size) parts.push('out of range: ' + [...out].join(', '));
   for (const w of warnings) {
     if (!['extrapolation', 'out_of_range', 'control_out_of_range'].includes(w.code)) parts.push(w.message);
@@ -374,7 +377,7 @@ async function loadRig(id, weights) {
   $('credit').hidden = !state.detail.credit;
   state.weights = {};
   state.controls = {};
-  for (const s of items()) values()[s.name] = weights ? 0 : s.default || 0;
+  for (const s of items()) values()[s.name] = weights ? 0 : startValue(s);
   buildControls();
   for (const [k, v] of Object.entries(weights || {})) if (shapeByName(k)) setWeight(k, v, true);
   gl.setTopology(await (await call(`/v1/rigs/${encodeURIComponent(id)}/topology`)).json());

@@ -57,7 +57,7 @@ async function run(label, url, shot) {
   check(`${label}: the symmetric partner moves with it (mouthSmile_R = 0.8)`,
     (await page.locator('input[aria-label="mouthSmile_R"]').inputValue()) === '0.8');
   check(`${label}: the sum above 1 shows the extrapolation warning (${warning.trim().slice(0, 60)}...)`,
-    (await page.locator('#warning').isVisible()) && /Extrapolation: extrapolation: sum of weights 2\.5 exceeds 1/.test(warning));
+    (await page.locator('#warning').isVisible()) && /extrapolation: sum of weights 2\.5 exceeds 1/.test(warning) && !/xtrapolation: extrapolation/.test(warning));
   await page.locator('input[aria-label="eyeBlink_L value"]').fill('1.5');
   await page.locator('input[aria-label="eyeBlink_L value"]').press('Enter');
   await page.waitForFunction(() => /out of range: .*eyeBlink_L/.test(document.getElementById('warning').textContent), null, { timeout: 15000 }).catch(() => {});
@@ -112,10 +112,11 @@ async function run(label, url, shot) {
   check(`${label}: Randomise with seed 7 twice gives the same weights, the next seed others`, first === again && first !== third && /w=.+/.test(first));
   await page.locator('#reset').click();
   await page.waitForTimeout(200);
-  // FaceCap's file gives defaults (jawOpen 0.1371, browInnerUp 0.12167); eyeBlink_L was 1.5.
-  check(`${label}: Reset returns to the rig's defaults`, (await page.locator('input[aria-label="jawOpen value"]').inputValue()) === '0.137' &&
-    (await page.locator('input[aria-label="browInnerUp value"]').inputValue()) === '0.122' &&
-    (await page.locator('input[aria-label="eyeBlink_L value"]').inputValue()) === '0.062');
+  // FaceCap's file has defaults (a capture frame: jawOpen 0.1371, ..., sum 4.57); its manifest does
+  // not ask to start there, so Reset is the neutral face; eyeBlink_L was 1.5.
+  check(`${label}: Reset returns to the neutral face`, (await page.locator('input[aria-label="jawOpen value"]').inputValue()) === '0' &&
+    (await page.locator('input[aria-label="browInnerUp value"]').inputValue()) === '0' &&
+    (await page.locator('input[aria-label="eyeBlink_L value"]').inputValue()) === '0');
 
   await page.evaluate(() => window.facespace.loadRig('nobody').catch((e) => { document.getElementById('error').textContent = 'Error: ' + e.message; document.getElementById('error').hidden = false; }));
   check(`${label}: a service error shows its problem detail`, /no rig with id 'nobody'/.test(await page.locator('#error').textContent()));
@@ -166,6 +167,17 @@ async function controls(url, shot) {
 
 // '#rig=facecap&w=' starts from all weights 0 (FaceCap's file has non-zero defaults).
 await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
+
+{  // A new user opening the page with no link: FaceCap at its neutral face, no warning.
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  await page.goto(service + '/');
+  await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512, null, { timeout: 30000 });
+  await page.waitForTimeout(300);
+  const sum = await page.locator('#sum').textContent();
+  check(`first visit: the page opens at the neutral face (sum ${sum}) with no warning`,
+    sum === '0' && await page.locator('#warning').isHidden());
+  await page.close();
+}
 await controls(service + '/#rig=makehuman&c=', `${outDir}/page-makehuman.png`);
 // A rig whose license asks for a credit (the MMD character): the page shows it under the views.
 {

@@ -208,6 +208,9 @@ struct AnimationInfo {
 struct Rig {
   std::string name;
   std::string credit;                  // The attribution its license asks for (manifest "credit"); shown and exported.
+  // Where an editor starts and resets (manifest "start"): the neutral face (every weight 0, the
+  // default) or the shapes' default weights (a glTF mesh's `weights`, FaceCap's capture frame).
+  bool start_at_defaults = false;
   std::vector<Primitive> primitives;   // In glTF mesh order, then primitive order.
   std::vector<Mesh> meshes;
   std::vector<Shape> shapes;           // Named across the file; order of first appearance.
