@@ -228,10 +228,50 @@ bool DrawText(Image& image, int x, int y, const std::string& text, int size, std
   return OIIO::ImageBufAlgo::render_text(buf, x, y, text, size, font, OIIO::cspan<float>(color, 4));
 }
 
+namespace {
+
+// The width `text` takes at `size` pixels, or an estimate without the font.
+int TextWidth(const std::string& text, int size) {
+  static const std::string font_path = FontPath();
+  const OIIO::ROI roi = font_path.empty() ? OIIO::ROI() : OIIO::ImageBufAlgo::text_size(text, size, font_path);
+  return roi.defined() ? roi.width() : size * static_cast<int>(text.size()) * 6 / 10;
+}
+
+// `text` cut to fit `width` pixels, ending in "..." when cut (whole UTF-8 characters only).
+std::string FitText(const std::string& text, int size, int width) {
+  if (TextWidth(text, size) <= width) return text;
+  std::string cut = text;
+  while (!cut.empty()) {
+    while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80) cut.pop_back();  // Continuation bytes,
+    if (!cut.empty()) cut.pop_back();  // then the lead byte (or an ASCII character).
+    if (TextWidth(cut + "...", size) <= width) return cut + "...";
+  }
+  return "";
+}
+
+// Lightens the rectangle towards white (linear `amount` of white): a backdrop that keeps text
+// readable over the mesh.
+void Veil(Image& im, int x0, int y0, int x1, int y1, float amount) {
+  for (int y = std::max(0, y0); y < std::min(im.height, y1); ++y) {
+    for (int x = std::max(0, x0); x < std::min(im.width, x1); ++x) {
+      float* px = &im.rgba[(static_cast<size_t>(y) * im.width + x) * 4];
+      for (int c = 0; c < 3; ++c) px[c] = px[c] * (1.0f - amount) + amount;
+      px[3] = std::max(px[3], amount);
+    }
+  }
+}
+
+}  // namespace
+
 void DrawHeatLegend(Image& im, float max_value) {
   const int bar_w = std::max(8, im.width / 40), bar_h = im.height * 3 / 5;
   const int x0 = im.width - bar_w - std::max(40, im.width / 8), y0 = (im.height - bar_h) / 2;
   const int font = std::max(10, im.height / 36);
+  // The title says what the colours measure and in which units: the distance each vertex moved,
+  // in the rig's own units (metres for most glTF rigs).
+  const std::string title = "displacement", units = "(rig units)";
+  const int title_x = std::max(2, std::min(x0, im.width - std::max(TextWidth(title, font), TextWidth(units, font)) - 6));
+  Veil(im, title_x - 3, y0 - 3 * font, im.width, y0 + bar_h + font, 0.75f);
   for (int y = 0; y < bar_h; ++y) {
     const auto c = Viridis(1.0f - static_cast<float>(y) / static_cast<float>(std::max(1, bar_h - 1)));
     FillRect(im, x0, y0 + y, x0 + bar_w, y0 + y + 1, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
@@ -241,11 +281,8 @@ void DrawHeatLegend(Image& im, float max_value) {
   const std::array<float, 3> ink{0.1f, 0.1f, 0.1f};
   DrawText(im, x0 + bar_w + 4, y0 + font / 2, top, font, ink);
   DrawText(im, x0 + bar_w + 4, y0 + bar_h, "0", font, ink);
-  // The title ends at the image's right margin.
-  static const std::string font_path = FontPath();
-  const OIIO::ROI size = font_path.empty() ? OIIO::ROI() : OIIO::ImageBufAlgo::text_size("displacement", font, font_path);
-  const int title_w = size.defined() ? size.width() : font * 7;
-  DrawText(im, std::min(x0, im.width - title_w - 6), y0 - font, "displacement", font, ink);
+  DrawText(im, title_x, y0 - 2 * font + font / 3, title, font, ink);  // Both end at the image's right margin.
+  DrawText(im, title_x, y0 - font / 2, units, font, ink);
 }
 
 Image ContactSheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
@@ -272,7 +309,10 @@ Image ContactSheet(std::span<const Image> cells, std::span<const std::string> la
       std::memcpy(&sheet.rgba[(static_cast<size_t>(y0 + y) * sheet.width + x0) * 4], &c.rgba[static_cast<size_t>(y) * c.width * 4],
                   static_cast<size_t>(c.width) * 16);
     }
-    if (i < labels.size()) DrawText(sheet, x0 + 4, y0 + ch + label_h * 3 / 4, labels[i], label_h * 2 / 3, {0.1f, 0.1f, 0.1f});
+    if (i < labels.size()) {  // Cut to the cell's width: a long label never runs into the next cell.
+      const int size = label_h * 2 / 3;
+      DrawText(sheet, x0 + 4, y0 + ch + label_h * 3 / 4, FitText(labels[i], size, cw - 8), size, {0.1f, 0.1f, 0.1f});
+    }
   }
   return sheet;
 }

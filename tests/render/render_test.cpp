@@ -333,6 +333,30 @@ TEST(Render, WebpIsLossySmallAndKeepsAlpha) {
   EXPECT_EQ(back->rgba[3], 0.0f);  // The corner: background, transparent.
 }
 
+// A label longer than its cell is cut to the cell (with "..."): no ink beyond the cell's right
+// edge in the label strip (it used to run into the next cell).
+TEST(Image, SheetLabelsStayInTheirCell) {
+  Image white;
+  white.width = white.height = 64;
+  white.rgba.assign(64 * 64 * 4, 1.0f);
+  const std::vector<Image> cells = {white, white};
+  const std::vector<std::string> labels = {"a-very-long-label-that-would-cross-into-the-next-cell", "b"};
+  const Image sheet = ContactSheet(cells, labels, 2, {1, 1, 1, 1});
+  ASSERT_GT(sheet.width, 128);
+  const int pad = 4, label_h = 18, x_edge = pad + 64;  // Cell 0 spans [pad, pad + 64).
+  size_t ink_in_cell = 0, ink_beyond = 0;
+  for (int y = pad + 64; y < pad + 64 + label_h; ++y) {
+    for (int x = pad; x < sheet.width; ++x) {
+      const float v = sheet.rgba[(static_cast<size_t>(y) * sheet.width + x) * 4];
+      const bool ink = v < 0.5f;
+      if (x < x_edge) ink_in_cell += ink;
+      else if (x < x_edge + pad + 4) ink_beyond += ink;  // The gap and the next cell's first pixels.
+    }
+  }
+  EXPECT_GT(ink_in_cell, 20u);  // The label is drawn (its cut start).
+  EXPECT_EQ(ink_beyond, 0u);
+}
+
 TEST(Image, DecodesBmpAndTgaTextures) {
   std::vector<unsigned char> bmp = {'B', 'M', 62, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,  // File header.
                                     40, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1, 0, 24, 0, 0, 0, 0, 0, 8, 0, 0, 0,
