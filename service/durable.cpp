@@ -61,6 +61,11 @@ Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_
   return Status::Ok();
 }
 
+Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& what) {
+  if (::fdatasync(fd) != 0) return Abandon(fd, (dir / tmp_name).string(), "cannot flush " + what + " to disk", errno);
+  return Status::Ok();
+}
+
 void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_name) {
   ::close(fd);
   ::unlink((dir / tmp_name).c_str());

@@ -30,6 +30,9 @@ Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& 
 Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& name,
                const std::string& what);
 void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_name);
+// Flushes a temporary file (fdatasync) without publishing it, so that a later Publish of it cannot
+// fail for space; on failure the temporary file is discarded.
+Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& what);
 
 // fsync of a folder, so that renames and new names in it survive a crash.
 void SyncDir(const std::filesystem::path& dir);

@@ -21,15 +21,15 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string Version(std::span<const unsigned char> bytes) {
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : bytes) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016" PRIx64, h);
-  return buf;
+// Where a rig file's manifest lives: "dir/fox.glb" -> "dir/fox.manifest.json".
+std::string ManifestPath(const std::string& rig_path) {
+  const fs::path p(rig_path);
+  return (p.parent_path() / (p.stem().string() + ".manifest.json")).string();
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
 bool IsRigFile(const fs::path& p) {
@@ -40,16 +40,28 @@ bool IsRigFile(const fs::path& p) {
 
 }  // namespace
 
-FileRigStore::FileRigStore(std::string dir) : dir_(std::move(dir)) {}
+FileRigStore::FileRigStore(std::string dir, std::vector<std::string> read_only)
+    : dir_(std::move(dir)), read_only_(std::move(read_only)) {}
 
 Result<size_t> FileRigStore::LoadAll() {
+  std::map<std::string, Entry> loaded;
+  if (Status s = LoadFolder(dir_, false, loaded); !s.ok()) return s;
+  for (const std::string& dir : read_only_) {
+    if (Status s = LoadFolder(dir, true, loaded); !s.ok()) return s;
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  map_ = std::move(loaded);
+  return map_.size();
+}
+
+Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, std::map<std::string, Entry>& loaded) const {
   std::error_code ec;
-  if (!fs::is_directory(dir_, ec)) return NotFound("rig store '" + dir_ + "' is not a readable directory");
-  // Candidates: files in dir_ first, then in its immediate subfolders; the first id wins.
+  if (!fs::is_directory(dir, ec)) return NotFound("rig store '" + dir + "' is not a readable directory");
+  // Candidates: files in dir first, then in its immediate subfolders; the first id wins.
   std::vector<fs::path> top, nested;
-  for (const auto& e : fs::directory_iterator(dir_, ec)) {
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (e.is_regular_file() && name.size() > 4 && name[0] == '.' && name.find(".tmp") != std::string::npos) {
+    if (!read_only && e.is_regular_file() && name.size() > 4 && name[0] == '.' && name.find(".tmp") != std::string::npos) {
       fs::remove(e.path(), ec);  // Left by an upload that crashed: never published.
       continue;
     }
@@ -60,11 +72,10 @@ Result<size_t> FileRigStore::LoadAll() {
       }
     }
   }
-  if (ec) return NotFound("cannot read rig store '" + dir_ + "': " + ec.message());
+  if (ec) return NotFound("cannot read rig store '" + dir + "': " + ec.message());
   std::sort(top.begin(), top.end());
   std::sort(nested.begin(), nested.end());
   top.insert(top.end(), nested.begin(), nested.end());
-  std::map<std::string, Entry> loaded;
   // A folder holding one rig file may name it: rigs/uka/MS_Uka.pmx is "uka" (its stem is no id).
   std::map<fs::path, size_t> in_folder;
   for (const fs::path& p : nested) ++in_folder[p.parent_path()];
@@ -87,13 +98,19 @@ Result<size_t> FileRigStore::LoadAll() {
     auto stored = std::make_shared<api::StoredRig>();
     stored->id = id;
     stored->rig = std::move(rig.value());
-    stored->version = Version(bytes);
-    loaded[id] = {std::move(stored), p.string()};
+    stored->version = api::RigVersion(bytes, ReadText(ManifestPath(p.string())));
+    loaded[id] = {std::move(stored), p.string(), read_only};
   }
-  std::lock_guard<std::mutex> lock(mu_);
-  map_ = std::move(loaded);
-  return map_.size();
+  return Status::Ok();
 }
+
+namespace {
+
+Status ReadOnly(const std::string& id) {
+  return WithReason(FailedPrecondition("rig '" + id + "' is bundled with the server and read-only; upload under another id"), "read-only");
+}
+
+}  // namespace
 
 std::shared_ptr<const api::StoredRig> FileRigStore::Get(const std::string& id) const {
   std::lock_guard<std::mutex> lock(mu_);
@@ -108,40 +125,113 @@ std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
   return out;
 }
 
-Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format, bool* created) {
-  if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
-  // Validate fully before anything touches the disk.
-  auto rig = LoadRigMemory(bytes, format, id);
-  if (!rig.ok()) return rig.status();
-  if (rig->vertex_count() > max_vertices_) {
-    return ResourceExhausted("the rig has " + std::to_string(rig->vertex_count()) + " vertices; this server takes at most " +
+Status FileRigStore::CheckLimits(const Rig& rig) const {
+  if (rig.vertex_count() > max_vertices_) {
+    return ResourceExhausted("the rig has " + std::to_string(rig.vertex_count()) + " vertices; this server takes at most " +
                              std::to_string(max_vertices_) + " (--max-vertices)");
   }
-  if (rig->shapes.size() > max_shapes_) {
-    return ResourceExhausted("the rig has " + std::to_string(rig->shapes.size()) + " shapes; this server takes at most " +
+  if (rig.shapes.size() > max_shapes_) {
+    return ResourceExhausted("the rig has " + std::to_string(rig.shapes.size()) + " shapes; this server takes at most " +
                              std::to_string(max_shapes_) + " (--max-shapes)");
   }
-  rig->name = id;
+  return Status::Ok();
+}
+
+Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
+                         const std::string& manifest, bool* created) {
+  if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
+  // Validate fully before anything touches the disk.
+  auto rig = api::LoadUpload(id, bytes, format, manifest);
+  if (!rig.ok()) return rig.status();
+  if (Status s = CheckLimits(rig.value()); !s.ok()) return s;
   auto stored = std::make_shared<api::StoredRig>();
   stored->id = id;
   stored->rig = std::move(rig.value());
-  stored->version = Version(bytes);
+  stored->version = api::RigVersion(bytes, manifest);
 
   std::lock_guard<std::mutex> write_lock(write_mu_);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (auto it = map_.find(id); it != map_.end() && it->second.read_only) return ReadOnly(id);
+  }
   static std::atomic<uint64_t> counter{0};
-  const std::string file = id + RigFormatExtension(format);
+  auto tmp_name = [&id] { return "." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp"; };
+  const std::string file = id + RigFormatExtension(format), manifest_file = id + ".manifest.json";
   const std::string final_path = dir_ + "/" + file;
-  const std::string tmp = "." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
-  const std::string_view data(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-  if (Status s = WriteFileDurably(dir_, file, data, tmp, "the rig"); !s.ok()) return s;
-  // Other extensions, if any, must not shadow the new file after a restart.
+  // Both files are written and flushed under temporary names before anything is replaced: a full
+  // disk leaves the old rig and its manifest as they were.
+  const std::string rig_tmp = tmp_name(), manifest_tmp = tmp_name();
+  const std::string_view rig_pieces[] = {std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())};
+  auto rig_fd = WriteTemporary(dir_, rig_tmp, rig_pieces, "the rig");
+  if (!rig_fd.ok()) return rig_fd.status();
+  if (Status s = Flush(rig_fd.value(), dir_, rig_tmp, "the rig"); !s.ok()) return s;
+  int manifest_fd = -1;
+  if (!manifest.empty()) {
+    const std::string_view manifest_pieces[] = {manifest};
+    auto fd = WriteTemporary(dir_, manifest_tmp, manifest_pieces, "the manifest");
+    Status s = fd.ok() ? Flush(fd.value(), dir_, manifest_tmp, "the manifest") : fd.status();
+    if (!s.ok()) {
+      Discard(rig_fd.value(), dir_, rig_tmp);
+      return s;
+    }
+    manifest_fd = fd.value();
+  }
+  // Then the old manifest goes first: a crash after it leaves a rig served plain, never the new
+  // rig under a manifest written for the old one (which might not apply, and would hide the rig).
   std::error_code ec;
+  fs::remove(dir_ + "/" + manifest_file, ec);
+  if (Status s = Publish(rig_fd.value(), dir_, rig_tmp, file, "the rig"); !s.ok()) {
+    if (manifest_fd >= 0) Discard(manifest_fd, dir_, manifest_tmp);
+    return s;
+  }
+  if (manifest_fd >= 0) {
+    if (Status s = Publish(manifest_fd, dir_, manifest_tmp, manifest_file, "the manifest"); !s.ok()) return s;
+  }
+  SyncDir(dir_);
+  // Other extensions, if any, must not shadow the new file after a restart.
   for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd}) {
     if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
   }
   std::lock_guard<std::mutex> lock(mu_);
   *created = !map_.count(id);
   map_[id] = {std::move(stored), final_path};
+  return Status::Ok();
+}
+
+Status FileRigStore::PutManifest(const std::string& id, const std::string& manifest) {
+  std::lock_guard<std::mutex> write_lock(write_mu_);
+  std::string path;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = map_.find(id);
+    if (it == map_.end()) return NotFound("no rig '" + id + "'");
+    if (it->second.read_only) return ReadOnly(id);
+    path = it->second.path;
+  }
+  // The rig as its file holds it, without the manifest it has now.
+  std::ifstream f(path, std::ios::binary);
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  auto rig = LoadRigFile(path, {.allow_external_files = true, .read_manifest = false});  // As LoadAll reads it.
+  if (!rig.ok()) return Internal("the stored rig no longer loads: " + rig.status().message);
+  rig->name = id;
+  if (!manifest.empty()) {
+    if (Status s = ApplyManifest(rig.value(), manifest); !s.ok()) {
+      for (FieldError& fe : s.fields) fe.pointer = "/manifest" + fe.pointer;
+      return WithReason(s, "invalid-manifest");
+    }
+  }
+  if (Status s = CheckLimits(rig.value()); !s.ok()) return s;  // Derived shapes count too.
+  auto stored = std::make_shared<api::StoredRig>();
+  stored->id = id;
+  stored->rig = std::move(rig.value());
+  stored->version = api::RigVersion(bytes, manifest);
+  const fs::path p(path);
+  const std::string manifest_file = p.stem().string() + ".manifest.json";
+  static std::atomic<uint64_t> counter{0};
+  const std::string tmp = "." + id + ".manifest." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
+  if (Status s = WriteFileDurably(p.parent_path(), manifest_file, manifest, tmp, "the manifest"); !s.ok()) return s;
+  std::lock_guard<std::mutex> lock(mu_);
+  map_[id].rig = std::move(stored);
   return Status::Ok();
 }
 
@@ -152,11 +242,13 @@ Status FileRigStore::Delete(const std::string& id) {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = map_.find(id);
     if (it == map_.end()) return NotFound("no rig '" + id + "'");
+    if (it->second.read_only) return ReadOnly(id);
     path = it->second.path;
   }
   if (::unlink(path.c_str()) != 0 && errno != ENOENT) {
     return Internal(std::string("cannot delete the rig file: ") + std::strerror(errno));
   }
+  ::unlink(ManifestPath(path).c_str());  // Its manifest, if any: never applied to a later upload.
   std::lock_guard<std::mutex> lock(mu_);
   map_.erase(id);
   return Status::Ok();

@@ -5,6 +5,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "facespace/api/store.h"
 
@@ -14,7 +15,9 @@ class FileRigStore : public api::RigStore {
  public:
   // `dir` holds the rigs: files directly in it, and in its immediate subfolders (a file in
   // the folder itself wins over one of the same id in a subfolder). Uploads go to `dir`.
-  explicit FileRigStore(std::string dir);
+  // `read_only` folders (the bundled rigs) are served too, after `dir`'s, but never written: a
+  // PUT or DELETE of one of their rigs is refused (reason "read-only", HTTP 409).
+  explicit FileRigStore(std::string dir, std::vector<std::string> read_only = {});
 
   // Uploads beyond these are refused (ResourceExhausted: HTTP 413) before anything is stored.
   void SetUploadLimits(size_t max_vertices, size_t max_shapes) {
@@ -28,15 +31,22 @@ class FileRigStore : public api::RigStore {
 
   std::shared_ptr<const api::StoredRig> Get(const std::string& id) const override;
   std::vector<std::shared_ptr<const api::StoredRig>> List() const override;
-  Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format, bool* created) override;
+  Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format, const std::string& manifest,
+             bool* created) override;
+  Status PutManifest(const std::string& id, const std::string& manifest) override;
   Status Delete(const std::string& id) override;
 
  private:
   struct Entry {
     std::shared_ptr<const api::StoredRig> rig;
     std::string path;
+    bool read_only = false;
   };
+  // The rigs of one folder (into `loaded`, ids already there kept); false when it cannot be read.
+  Status LoadFolder(const std::string& dir, bool read_only, std::map<std::string, Entry>& loaded) const;
+  Status CheckLimits(const Rig& rig) const;
   std::string dir_;
+  std::vector<std::string> read_only_;
   mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).
   std::mutex write_mu_;       // Serialises uploads and deletes.
   std::map<std::string, Entry> map_;

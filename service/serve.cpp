@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <condition_variable>
@@ -28,7 +29,8 @@ namespace facespace::cli {
 namespace {
 
 struct ServeConfig {
-  std::string rigs = FACESPACE_DEFAULT_RIGS;
+  std::string rigs;   // Empty: the bundled rigs, read-only, with uploads in `store`.
+  std::string store;  // Where uploads go; empty: --rigs when given, else DefaultStoreDir().
   std::string host = "127.0.0.1";
   int port = 8080;
   int threads = 256;  // cpp-httplib holds a thread per keep-alive connection.
@@ -49,11 +51,14 @@ struct ServeConfig {
   JobLimits job_limits;
 };
 
-std::string DefaultJobsDir() {
-  if (const char* x = std::getenv("XDG_STATE_HOME"); x && *x == '/') return std::string(x) + "/facespace/jobs";
-  if (const char* h = std::getenv("HOME"); h && *h == '/') return std::string(h) + "/.local/state/facespace/jobs";
-  return "/tmp/facespace-jobs-" + std::to_string(getuid());
+// $XDG_STATE_HOME/facespace/NAME, else ~/.local/state/facespace/NAME.
+std::string StateDir(const std::string& name) {
+  if (const char* x = std::getenv("XDG_STATE_HOME"); x && *x == '/') return std::string(x) + "/facespace/" + name;
+  if (const char* h = std::getenv("HOME"); h && *h == '/') return std::string(h) + "/.local/state/facespace/" + name;
+  return "/tmp/facespace-" + name + "-" + std::to_string(getuid());
 }
+
+std::string DefaultJobsDir() { return StateDir("jobs"); }
 
 bool ParseSize(const std::string& s, long long lo, long long hi, long long* out) {
   if (s.empty() || s.size() > 18 || s.find_first_not_of("0123456789") != std::string::npos) return false;
@@ -80,6 +85,7 @@ void SplitOrigins(const std::string& s, std::vector<std::string>& out) {
 std::string Apply(ServeConfig& c, const std::string& key, const std::string& value) {
   long long n = 0;
   if (key == "rigs") c.rigs = value;
+  else if (key == "store") c.store = value;
   else if (key == "host") c.host = value;
   else if (key == "port") {
     if (!ParseSize(value, 0, 65535, &n)) return "port must be 0..65535, not '" + value + "'";
@@ -140,7 +146,8 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
 int Serve(const std::vector<std::string>& args) {
   ServeConfig c;
   const std::pair<const char*, const char*> env[] = {
-      {"FACESPACE_RIGS", "rigs"},          {"FACESPACE_HOST", "host"},         {"FACESPACE_PORT", "port"},
+      {"FACESPACE_RIGS", "rigs"},          {"FACESPACE_STORE", "store"},       {"FACESPACE_HOST", "host"},
+      {"FACESPACE_PORT", "port"},
       {"FACESPACE_THREADS", "threads"},    {"FACESPACE_API_KEY_FILE", "api-key-file"},
       {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"},
       {"FACESPACE_MAX_RENDER", "max-render"}, {"FACESPACE_JOBS_DIR", "jobs-dir"}, {"FACESPACE_MAX_JOBS", "max-jobs"},
@@ -162,7 +169,9 @@ int Serve(const std::vector<std::string>& args) {
               "FACESPACE_CORS_ORIGINS comma-separated); flags win over the environment.\n"
               "Batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n");
   const std::pair<const char*, const char*> settings[] = {
-      {"rigs", "DIR: the rig store (.glb/.gltf files and folders)"}, {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
+      {"rigs", "DIR: rigs to serve (.glb/.gltf/... files and folders; default: the bundled ones, read-only)"},
+      {"store", "DIR: where uploads are written (default: --rigs when given, else ~/.local/state/facespace/rigs)"},
+      {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
       {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads (default 256)"},
       {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
       {"max-body", "BYTES: largest request body (default 64 MiB)"}, {"cors-origin", "ORIGIN: a browser origin allowed, or * (repeatable)"},
@@ -211,7 +220,24 @@ int Serve(const std::vector<std::string>& args) {
   options.max_response = c.max_response;
   options.max_frames = c.max_frames;
 
-  FileRigStore store(c.rigs);
+  // Where uploads go, and what is served read-only: a given --rigs is the store itself (unless a
+  // --store is given too); the bundled rigs are never written.
+  std::vector<std::string> read_only;
+  std::string store_dir = c.store;
+  if (c.rigs.empty()) {
+    read_only.push_back(FACESPACE_DEFAULT_RIGS);
+    if (store_dir.empty()) store_dir = StateDir("rigs");
+  } else if (store_dir.empty()) {
+    store_dir = c.rigs;
+  } else {
+    read_only.push_back(c.rigs);
+  }
+  // A --rigs folder that is not there is a typo (refused below); the store folder is created.
+  if (std::error_code ec; store_dir != c.rigs && !std::filesystem::create_directories(store_dir, ec) && ec) {
+    std::fprintf(stderr, "facespace: cannot create the store '%s': %s\n", store_dir.c_str(), ec.message().c_str());
+    return 1;
+  }
+  FileRigStore store(store_dir, read_only);
   store.SetUploadLimits(c.max_vertices, c.max_shapes);
   auto loaded = store.LoadAll();
   if (!loaded.ok()) {
@@ -297,8 +323,10 @@ int Serve(const std::vector<std::string>& args) {
   if (listening < 0 || ::listen(listening, SOMAXCONN) != 0) {
     std::fprintf(stderr, "facespace: warning: cannot raise the listen backlog; bursts of connections may wait\n");
   }
-  std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(),
-               c.rigs.c_str(), c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
+  std::string from = store_dir;
+  for (const std::string& r : read_only) from += " and " + r + " (read-only)";
+  std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(), from.c_str(),
+               c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
   std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", renderer.Info().c_str(), renderer.Concurrency());
   std::fflush(stderr);
 

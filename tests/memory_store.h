@@ -27,21 +27,39 @@ class MemoryStore : public facespace::api::RigStore {
     for (const auto& [id, r] : rigs_) out.push_back(r);
     return out;
   }
-  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes, facespace::RigFormat format, bool* created) override {
-    auto rig = facespace::LoadRigMemory(bytes, format, id);
+  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes, facespace::RigFormat format,
+                        const std::string& manifest, bool* created) override {
+    auto rig = facespace::api::LoadUpload(id, bytes, format, manifest);
     if (!rig.ok()) return rig.status();
     auto stored = std::make_shared<facespace::api::StoredRig>();
     stored->id = id;
     stored->rig = std::move(rig.value());
-    stored->version = std::to_string(bytes.size());
+    stored->version = facespace::api::RigVersion(bytes, manifest);
     std::lock_guard<std::mutex> lock(mu_);
     *created = !rigs_.count(id);
-    if (rigs_.size() < 4 || !*created) rigs_[id] = stored;  // Bounded, so a long run does not grow.
+    if (rigs_.size() < 4 || !*created) {  // Bounded, so a long run does not grow.
+      rigs_[id] = stored;
+      files_[id] = {std::vector<unsigned char>(bytes.begin(), bytes.end()), format};
+    }
+    return facespace::Status::Ok();
+  }
+  facespace::Status PutManifest(const std::string& id, const std::string& manifest) override {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = files_.find(id);
+    if (it == files_.end()) return facespace::NotFound("no uploaded rig '" + id + "'");
+    auto rig = facespace::api::LoadUpload(id, it->second.first, it->second.second, manifest);
+    if (!rig.ok()) return rig.status();
+    auto stored = std::make_shared<facespace::api::StoredRig>();
+    stored->id = id;
+    stored->rig = std::move(rig.value());
+    stored->version = facespace::api::RigVersion(it->second.first, manifest);
+    rigs_[id] = stored;
     return facespace::Status::Ok();
   }
   facespace::Status Delete(const std::string& id) override {
     std::lock_guard<std::mutex> lock(mu_);
     if (id == "facecap" || !rigs_.erase(id)) return facespace::NotFound("no rig");
+    files_.erase(id);
     return facespace::Status::Ok();
   }
   void Seed() {
@@ -56,6 +74,7 @@ class MemoryStore : public facespace::api::RigStore {
  private:
   mutable std::mutex mu_;
   std::map<std::string, std::shared_ptr<const facespace::api::StoredRig>> rigs_;
+  std::map<std::string, std::pair<std::vector<unsigned char>, facespace::RigFormat>> files_;  // Uploads.
 };
 
 }  // namespace facespace::test

@@ -214,6 +214,13 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     s.fields.push_back({pointer, msg});
     return s;
   };
+  static constexpr std::string_view kMembers[] = {"name", "credit", "start", "shapes", "groups", "controls",
+                                                  "derived", "inbetweens", "correctives", "statistics"};
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (std::find(std::begin(kMembers), std::end(kMembers), it.key()) == std::end(kMembers)) {
+      return bad("/" + JsonPointerEscape(it.key()), "unknown member" + DidYouMean(it.key(), kMembers));
+    }
+  }
   if (j.contains("name")) {
     if (!j["name"].is_string()) return bad("/name", "must be a string");
     rig.name = j["name"].get<std::string>();

@@ -233,8 +233,13 @@ namespace {
 // The width `text` takes at `size` pixels, or an estimate without the font.
 int TextWidth(const std::string& text, int size) {
   static const std::string font_path = FontPath();
+  if (text.empty()) return 0;
   const OIIO::ROI roi = font_path.empty() ? OIIO::ROI() : OIIO::ImageBufAlgo::text_size(text, size, font_path);
-  return roi.defined() ? roi.width() : size * static_cast<int>(text.size()) * 6 / 10;
+  if (!roi.defined()) return size * static_cast<int>(text.size()) * 6 / 10;
+  // Text with no ink (spaces only) comes back as an inverted box (xbegin INT_MAX, xend INT_MIN):
+  // width 0, computed without the overflow roi.width() would do.
+  const long long width = static_cast<long long>(roi.xend) - roi.xbegin;
+  return width > 0 ? static_cast<int>(width) : 0;
 }
 
 // `text` cut to fit `width` pixels, ending in "..." when cut (whole UTF-8 characters only).

@@ -262,7 +262,7 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
       EXPECT_TRUE(op.contains("operationId")) << method << " " << path;
     }
   }
-  EXPECT_EQ(operations, 26u);
+  EXPECT_EQ(operations, 28u);
   EXPECT_TRUE(doc["paths"]["/v1/rigs/{id}"]["get"]["parameters"].is_array());
 
   r = Client().Get("/metrics");

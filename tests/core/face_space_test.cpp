@@ -355,6 +355,16 @@ std::vector<float> Effective(const Rig& rig, std::vector<std::pair<const char*, 
   return out;
 }
 
+TEST(Semantics, AManifestMemberOutOfTheSchemaIsRefusedWithTheClosestName) {
+  Rig rig = FaceCap();
+  const Status s = ApplyManifest(rig, R"({"name": "x", "shapse": {"jawOpen": {"max": 2}}})");
+  ASSERT_FALSE(s.ok());
+  ASSERT_EQ(s.fields.size(), 1u);
+  EXPECT_EQ(s.fields[0].pointer, "/shapse");
+  EXPECT_NE(s.message.find("'shapes'"), std::string::npos) << s.message;
+  EXPECT_EQ(rig.shapes[FindShape(rig, "jawOpen")].max, 1.0f);  // Nothing applied.
+}
+
 TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
   Rig rig = FaceCap();
   ASSERT_TRUE(ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 0.5}, {"shape": "mouthPucker", "weight": 0.25}]}})").ok());

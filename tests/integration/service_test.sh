@@ -210,6 +210,33 @@ check "PUT a truncated FBX: 422 naming FBX, the stored one kept" problem "$(c -X
 check "DELETE the uploaded FBX and COLLADA rigs: 204, the file gone" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/inbetween') = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/skin-on-morph') = 204 ] && [ ! -f '$store/inbetween.fbx' ]"
 check "PUT to a path-trick id: 404/422, nothing written outside the store" sh -c "c1=\$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @'$fox' '$U/v1/rigs/..%2Fescape'); [ \"\$c1\" = 422 ] || [ \"\$c1\" = 404 ]; [ ! -e '$tmp/escape.glb' ]"
 check "PUT to an upper-case id: 422" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/Fox")" 422 "True"
+# A rig with its manifest: one multipart upload (rig + manifest parts), or a second PUT to
+# /manifest; kept across restarts (checked below), replaced by a plain PUT of the rig alone.
+printf '{"name": "Face two", "credit": "test credit", "shapes": {"jawOpen": {"group": "mouth", "max": 0.5}}}' >"$tmp/m1.json"
+code=$(c -X PUT "${K[@]}" -F "rig=@$store/facecap.glb;type=model/gltf-binary" -F "manifest=@$tmp/m1.json;type=application/json" "$U/v1/rigs/face2")
+check "PUT multipart rig + manifest: 201, the manifest's name and credit" both "[ $code = 201 ]" jq_ "d['name']=='Face two' and d['credit']=='test credit'"
+c "$U/v1/rigs/face2" >/dev/null
+check "  ... GET the rig: the manifest's group and range on jawOpen" jq_ "d['shapes'][24]['name']=='jawOpen' and d['shapes'][24]['group']=='mouth' and d['shapes'][24]['max']==0.5"
+check "  ... kept beside the rig file in the store" sh -c "[ -s '$store/face2.glb' ] && cmp -s '$store/face2.manifest.json' '$tmp/m1.json'"
+code=$(c "$U/v1/rigs/face2/manifest")
+check "  ... GET /manifest: the rig's manifest as JSON" both "[ $code = 200 ]" jq_ "d['name']=='Face two' and d['shapes']['jawOpen']['max']==0.5 and d['shapes']['jawOpen']['group']=='mouth'"
+check "  ... multipart with the rig part named by its file name (no type): 200" test "$(c -X PUT "${K[@]}" -F "rig=@$store/facecap.glb" -F "manifest=@$tmp/m1.json" "$U/v1/rigs/face2")" = 200
+check "  ... an unknown part: 422 naming it, did you mean" problem "$(c -X PUT "${K[@]}" -F "rig=@$store/facecap.glb" -F "manifets=@$tmp/m1.json" "$U/v1/rigs/face2")" 422 "d['errors'][0]['pointer']=='/manifets' and \"'manifest'\" in d['detail']"
+check "  ... no rig part: 422 naming /rig" problem "$(c -X PUT "${K[@]}" -F "manifest=@$tmp/m1.json" "$U/v1/rigs/face2")" 422 "d['errors'][0]['pointer']=='/rig'"
+printf '{"name": "Face two", "shapes": {"jawOpen": {"max": 0.5}}}' >"$tmp/mbad.json"
+check "  ... a manifest that does not apply: 422 at its pointer under /manifest, nothing replaced" problem "$(c -X PUT "${K[@]}" -F "rig=@$fox;type=model/gltf-binary" -F "manifest=@$tmp/mbad.json;type=application/json" "$U/v1/rigs/face2")" 422 "d['errors'][0]['pointer']=='/manifest/shapes/jawOpen' and 'jawOpen' in d['detail']"
+check "  ... (the stored rig and manifest unchanged)" sh -c "[ -s '$store/face2.glb' ] && [ ! -e '$store/face2.fbx' ] && cmp -s '$store/face2.manifest.json' '$tmp/m1.json'"
+v_before=$(curl -s "$U/v1/rigs/face2" | py 'import json,sys; print(json.load(sys.stdin)["version"])')
+code=$(c -X PUT "${K[@]}" -H 'Content-Type: application/json' -d '{"name": "Face three", "shapes": {"jawOpen": {"max": 2}}}' "$U/v1/rigs/face2/manifest")
+check "PUT /manifest: 200, the new name, a new version" both "[ $code = 200 ]" jq_ "d['name']=='Face three' and d['version']!='$v_before'"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":1.5}}' "$U/v1/rigs/face2/check")
+check "  ... its range applies: jawOpen 1.5 is inside [0, 2], no out_of_range" both "[ $code = 200 ]" jq_ "not [w for w in d['warnings'] if w['code']=='out_of_range']"
+check "  ... an unknown member: 422 naming it with the closest name" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/json' -d '{"shapse": {}}' "$U/v1/rigs/face2/manifest")" 422 "d['errors'][0]['pointer']=='/shapse' and \"'shapes'\" in d['detail']"
+problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/json' -d '{"shapes": {"jawOpen": {"partner": "nobody"}}}' "$U/v1/rigs/face2/manifest")" 422 "d['errors'][0]['pointer']=='/shapes/jawOpen/partner'" && \
+  curl -s "$U/v1/rigs/face2" | grep -q '"name":"Face three"' && ok "  ... an unknown shape: 422 at its pointer, the manifest kept" || no "  ... an unknown shape in a manifest"
+check "  ... malformed JSON: 400; without the key: 401; an unknown rig: 404" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: application/json' -d '{' '$U/v1/rigs/face2/manifest') = 400 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Content-Type: application/json' -d '{}' '$U/v1/rigs/face2/manifest') = 401 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: application/json' -d '{}' '$U/v1/rigs/nobody/manifest') = 404 ]"
+cp "$store/face2.manifest.json" "$tmp/m3.json"
+
 c "$U/v1/rigs/facecap" >/dev/null; v1=$(py 'import json,sys; print(json.load(open(sys.argv[1]))["version"])' "$tmp/body")
 head -c 100000 "$store/facecap.glb" >"$tmp/trunc.glb"
 check "a bad upload over an existing rig: 422" problem "$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$tmp/trunc.glb" "$U/v1/rigs/facecap")" 422 "'truncated' in d['detail']"
@@ -250,13 +277,13 @@ check "32 concurrent clients, 320 requests: all 200" sh -c "[ \$(grep -c '^200$'
 
 # metrics and OpenAPI
 c "$U/metrics" >/dev/null
-check "metrics: requests by route and status, latency histogram, blends, warnings, rigs loaded" sh -c "grep -q 'facespace_http_requests_total{route=\"/v1/rigs/{id}/mesh\",status=\"200\"}' '$tmp/body' && grep -q 'facespace_http_request_duration_seconds_bucket{route=\"/v1/rigs/{id}/mesh\",le=\"+Inf\"}' '$tmp/body' && grep -Eq '^facespace_blends_total [1-9]' '$tmp/body' && grep -Eq '^facespace_weight_warnings_total\{code=\"extrapolation\"\} [1-9]' '$tmp/body' && grep -q '^facespace_rigs_loaded 3' '$tmp/body'"
+check "metrics: requests by route and status, latency histogram, blends, warnings, rigs loaded" sh -c "grep -q 'facespace_http_requests_total{route=\"/v1/rigs/{id}/mesh\",status=\"200\"}' '$tmp/body' && grep -q 'facespace_http_request_duration_seconds_bucket{route=\"/v1/rigs/{id}/mesh\",le=\"+Inf\"}' '$tmp/body' && grep -Eq '^facespace_blends_total [1-9]' '$tmp/body' && grep -Eq '^facespace_weight_warnings_total\{code=\"extrapolation\"\} [1-9]' '$tmp/body' && grep -q '^facespace_rigs_loaded 4' '$tmp/body'"
 c "$U/openapi.json" >/dev/null; cp "$tmp/body" "$tmp/openapi.json"
 check "OpenAPI: 3.1 and every route the server answers is described" py '
 import json,sys
 d=json.load(open(sys.argv[1]))
 want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"get"},"/v1/rigs":{"get"},
-      "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
+      "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/manifest":{"get","put"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
       "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
       "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"},
       "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
@@ -277,6 +304,11 @@ check "SIGTERM: exits 0" test $rc -eq 0
 start
 check "restart keeps uploaded rigs" test "$(c "$U/v1/rigs/fox")" = 200
 check "restart: the deleted rig stays deleted" test "$(c "$U/v1/rigs/cesium-man")" = 404
+code=$(c "$U/v1/rigs/face2")
+check "restart: an uploaded rig keeps its manifest (name and range)" both "[ $code = 200 ]" jq_ "d['name']=='Face three' and d['shapes'][24]['max']==2"
+code=$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$store/facecap.glb" "$U/v1/rigs/face2")
+check "  ... a plain PUT of the rig alone replaces it without a manifest: named by its id, file gone" both "[ $code = 200 ] && [ ! -e '$store/face2.manifest.json' ]" jq_ "d['name']=='face2'"
+check "  ... DELETE removes the rig and its manifest" sh -c "curl -s -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: application/json' -d '{\"name\": \"x\"}' '$U/v1/rigs/face2/manifest' >/dev/null && [ -e '$store/face2.manifest.json' ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X DELETE -H 'Authorization: Bearer k3y-for-tests' '$U/v1/rigs/face2') = 204 ] && [ ! -e '$store/face2.manifest.json' ] && [ ! -e '$store/face2.glb' ]"
 
 # startup errors
 "$bin" serve --port notaport >"$tmp/o" 2>&1; rc=$?
@@ -519,6 +551,26 @@ python3 -c 'import sys; p=sys.argv[1]; b=bytearray(open(p,"rb").read()); b[20:40
 start
 check "a corrupt rig file: reported at start and skipped; every other rig served" sh -c "grep -q 'skipping broken rig.*corrupt.glb' '$tmp/log' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/corrupt') = 404 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/facecap') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/makehuman') = 200 ]"
 
+
+# With no --rigs (the README's command), the bundled rigs are served read-only and uploads go to
+# the state folder, never into the checkout's assets/. They used to land in assets/.
+ls -A "$src/assets" | sort >"$tmp/assets.before"
+port4=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])')
+XDG_STATE_HOME="$tmp/state" "$bin" serve --host 127.0.0.1 --port "$port4" --api-key-file "$tmp/key" --quiet >>"$tmp/log4" 2>&1 & pid4=$!
+for _ in $(seq 1 300); do curl -fs "http://127.0.0.1:$port4/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+K4=(-H 'Authorization: Bearer k3y-for-tests')
+code=$(c -X PUT "${K4[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "http://127.0.0.1:$port4/v1/rigs/fox")
+check "no --rigs: an upload lands in \$XDG_STATE_HOME/facespace/rigs, the checkout's assets/ untouched" \
+  sh -c "[ $code = 201 ] && [ -s '$tmp/state/facespace/rigs/fox.glb' ] && ls -A '$src/assets' | sort | cmp -s - '$tmp/assets.before'"
+check "  ... the bundled rig cannot be replaced: 409 read-only" problem "$(c -X PUT "${K4[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "http://127.0.0.1:$port4/v1/rigs/facecap")" 409 "d['type'].endswith('read-only')"
+problem "$(c -X DELETE "${K4[@]}" "http://127.0.0.1:$port4/v1/rigs/facecap")" 409 True && [ "$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:$port4/v1/rigs/facecap")" = 200 ] && \
+  ok "  ... nor deleted: 409, and still served" || no "  ... nor deleted: 409, and still served"
+check "  ... nor its manifest replaced: 409" problem "$(c -X PUT "${K4[@]}" -H 'Content-Type: application/json' -d '{"name": "mine"}' "http://127.0.0.1:$port4/v1/rigs/facecap/manifest")" 409 "d['type'].endswith('read-only')"
+kill $pid4; wait $pid4 2>/dev/null
+XDG_STATE_HOME="$tmp/state" "$bin" serve --host 127.0.0.1 --port "$port4" --quiet >>"$tmp/log4" 2>&1 & pid4=$!
+for _ in $(seq 1 300); do curl -fs "http://127.0.0.1:$port4/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+check "  ... and after a restart the upload is served beside the bundled rigs" sh -c "curl -s 'http://127.0.0.1:$port4/v1/rigs' | grep -q '\"id\":\"fox\"' && curl -s 'http://127.0.0.1:$port4/v1/rigs' | grep -q '\"id\":\"facecap\"'"
+kill $pid4; wait $pid4 2>/dev/null
 
 # An MD5 rig (Bob: .md5mesh + .md5anim) in a folder of another store: served with its skeleton and
 # clip; the mesh at a clip time differs from the rest pose; a render of it is a PNG.

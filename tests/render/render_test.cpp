@@ -357,6 +357,24 @@ TEST(Image, SheetLabelsStayInTheirCell) {
   EXPECT_EQ(ink_beyond, 0u);
 }
 
+// Cells narrower than "..." and labels with no ink (empty, spaces) draw no label and never
+// overflow (the font's box for blank text is inverted: checked under UBSan in CI).
+TEST(Image, SheetTakesTinyCellsAndBlankLabels) {
+  Image grey;
+  grey.width = grey.height = 16;
+  grey.rgba.assign(16 * 16 * 4, 0.5f);
+  const std::vector<Image> cells = {grey, grey, grey};
+  const std::vector<std::string> labels = {"open", "", "   "};
+  const Image sheet = ContactSheet(cells, labels, 3, {1, 1, 1, 1});
+  ASSERT_EQ(sheet.height > 16, true);
+  ASSERT_GE(sheet.width, 3 * 16);
+  size_t ink = 0;  // Label strip of the blank cells: background only.
+  for (int y = 4 + 16; y < sheet.height; ++y) {
+    for (int x = sheet.width / 3; x < sheet.width; ++x) ink += sheet.rgba[(static_cast<size_t>(y) * sheet.width + x) * 4] < 0.5f;
+  }
+  EXPECT_EQ(ink, 0u);
+}
+
 TEST(Image, DecodesBmpAndTgaTextures) {
   std::vector<unsigned char> bmp = {'B', 'M', 62, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,  // File header.
                                     40, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1, 0, 24, 0, 0, 0, 0, 0, 8, 0, 0, 0,

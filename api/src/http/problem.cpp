@@ -11,6 +11,7 @@ using nlohmann::json;
 int HttpStatus(const Status& s) {
   if (s.reason == kMalformedJson) return 400;
   if (s.reason == kJobQueueFull) return 429;
+  if (s.reason == "read-only") return 409;  // A bundled rig: PUT or DELETE conflicts with the server's set-up.
   switch (s.code) {
     case StatusCode::kOk: return 200;
     case StatusCode::kInvalidArgument:

@@ -19,6 +19,8 @@ constexpr Route kRoutes[] = {
     {"GET", "/v1/rigs/{id}", kRig, GetRig},
     {"PUT", "/v1/rigs/{id}", kRig, PutRig, true},
     {"DELETE", "/v1/rigs/{id}", kRig, DeleteRig, true},
+    {"GET", "/v1/rigs/{id}/manifest", "/v1/rigs/{id}/manifest", GetManifest},
+    {"PUT", "/v1/rigs/{id}/manifest", "/v1/rigs/{id}/manifest", PutManifest, true},
     {"GET", "/v1/rigs/{id}/topology", kRig, GetTopology},
     {"GET", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/mesh", GetOrPostMesh},
     {"POST", "/v1/rigs/{id}/mesh", "/v1/rigs/{id}/mesh", GetOrPostMesh},

@@ -43,10 +43,10 @@ void GetRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   }
 }
 
-// The rig format of an upload: from its media type, or for application/octet-stream from the file
-// name it carries (Content-Disposition's filename, or ?filename=), else from the bytes' magic.
-Status UploadFormat(const httplib::Request& req, RigFormat* format) {
-  const std::string ct = MediaType(req.get_header_value("Content-Type"));
+// The rig format of an upload: from its media type, or for application/octet-stream (or a
+// multipart part with no type) from the file name it carries, else from the bytes' magic.
+Status UploadFormat(const std::string& media_type, std::string name, std::string_view bytes, RigFormat* format) {
+  const std::string ct = MediaType(media_type);
   static const std::pair<const char*, RigFormat> kTypes[] = {
       {"model/gltf-binary", RigFormat::kGlb},        {"model/gltf+json", RigFormat::kGltf},
       {"model/vnd.collada+xml", RigFormat::kCollada}, {"model/x-fbx", RigFormat::kFbx},
@@ -59,22 +59,81 @@ Status UploadFormat(const httplib::Request& req, RigFormat* format) {
   }
   const char* kAccepted =
       "upload a rig as model/gltf-binary (.glb), model/gltf+json (.gltf with embedded buffers), model/vnd.collada+xml (.dae), "
-      "or application/octet-stream with a file name (Content-Disposition: attachment; filename=\"face.fbx\") for .fbx, .dae, .glb or .gltf";
-  if (ct != "application/octet-stream") return InvalidArgument(std::string(kAccepted) + (ct.empty() ? "" : ", not " + ct));
-  std::string name = req.has_param("filename") ? req.get_param_value("filename") : "";
-  const std::string disposition = req.get_header_value("Content-Disposition");
-  if (const size_t at = disposition.find("filename="); name.empty() && at != std::string::npos) {
-    name = disposition.substr(at + 9);
-    if (!name.empty() && name[0] == '"') name = name.substr(1, name.find('"', 1) == std::string::npos ? std::string::npos : name.find('"', 1) - 1);
-    name = name.substr(0, name.find(';'));
-  }
+      "or application/octet-stream with a file name (Content-Disposition: attachment; filename=\"face.fbx\") for .fbx, .dae, .glb or .gltf; "
+      "or multipart/form-data with a part \"rig\" (the file) and an optional part \"manifest\" (JSON)";
+  if (ct != "application/octet-stream" && !ct.empty()) return InvalidArgument(std::string(kAccepted) + ", not " + ct);
   if (!name.empty() && RigFormatFromPath(name, format) && *format != RigFormat::kMd5) return Status::Ok();
-  const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
-  if (name.empty() && SniffRigFormat(std::span<const unsigned char>(data, req.body.size()), format) && *format != RigFormat::kMd5) {
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  if (name.empty() && SniffRigFormat(std::span<const unsigned char>(data, bytes.size()), format) && *format != RigFormat::kMd5) {
     return Status::Ok();
   }
   return InvalidArgument(std::string(kAccepted) + (name.empty() ? "; the bytes are none of these" : "; '" + name.substr(0, 80) + "' is none of these"));
 }
+
+namespace {
+
+// The file name of a plain upload: ?filename=, else Content-Disposition's filename.
+std::string UploadName(const httplib::Request& req) {
+  if (req.has_param("filename")) return req.get_param_value("filename");
+  const std::string disposition = req.get_header_value("Content-Disposition");
+  std::string name;
+  if (const size_t at = disposition.find("filename="); at != std::string::npos) {
+    name = disposition.substr(at + 9);
+    if (!name.empty() && name[0] == '"') name = name.substr(1, name.find('"', 1) == std::string::npos ? std::string::npos : name.find('"', 1) - 1);
+    name = name.substr(0, name.find(';'));
+  }
+  return name;
+}
+
+// The parts of a multipart upload: "rig" (required, once) and "manifest" (optional, once); any
+// other part is refused naming it. On failure the problem is sent and false returned.
+bool UploadParts(const httplib::Request& req, httplib::Response& res, const httplib::MultipartFormData** rig,
+                 const httplib::MultipartFormData** manifest) {
+  static constexpr std::string_view kParts[] = {"rig", "manifest"};
+  for (const auto& [name, part] : req.files) {
+    if (name != "rig" && name != "manifest") {
+      SendProblem(req, res, 422, "invalid-request", "unknown part '" + name.substr(0, 80) + "'" + DidYouMean(name, kParts) + "; an upload has a part \"rig\" and an optional \"manifest\"",
+                  {{"/" + JsonPointerEscape(name.substr(0, 80)), "unknown part"}});
+      return false;
+    }
+    if (req.files.count(name) > 1) {
+      SendProblem(req, res, 422, "invalid-request", "the part '" + name + "' is given more than once", {{"/" + name, "given more than once"}});
+      return false;
+    }
+  }
+  auto it = req.files.find("rig");
+  if (it == req.files.end()) {
+    SendProblem(req, res, 422, "invalid-request", "a multipart upload needs a part \"rig\": the rig file", {{"/rig", "missing"}});
+    return false;
+  }
+  *rig = &it->second;
+  auto m = req.files.find("manifest");
+  *manifest = m == req.files.end() ? nullptr : &m->second;
+  return true;
+}
+
+// A manifest body must be a JSON object: its own problems are the core's, these are the HTTP ones.
+bool ManifestIsJsonObject(const httplib::Request& req, httplib::Response& res, const std::string& text, const std::string& pointer) {
+  const json j = json::parse(text, nullptr, false);
+  if (j.is_discarded()) {
+    SendStatus(req, res, WithReason(InvalidArgument((pointer == "/" ? std::string("the manifest") : pointer.substr(1)) + ": not valid JSON"), kMalformedJson));
+    return false;
+  }
+  if (!j.is_object()) {
+    SendProblem(req, res, 422, "invalid-manifest", pointer.substr(1) + ": must be a JSON object (README \"Manifest\")", {{pointer, "must be an object"}});
+    return false;
+  }
+  return true;
+}
+
+void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status s, const char* bad_input) {
+  if (s.reason.empty()) {
+    s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : bad_input;
+  }
+  SendStatus(req, res, s);
+}
+
+}  // namespace
 
 void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!Authorized(ctx, req, res)) return;
@@ -84,26 +143,73 @@ void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
                 {{"?id", "invalid rig id"}});
     return;
   }
+  // A plain body is the rig; multipart/form-data carries the rig and its manifest together.
+  std::string_view bytes = req.body;
+  std::string media_type = req.get_header_value("Content-Type"), name, manifest;
+  if (req.is_multipart_form_data()) {
+    const httplib::MultipartFormData *rig_part = nullptr, *manifest_part = nullptr;
+    if (!UploadParts(req, res, &rig_part, &manifest_part)) return;
+    bytes = rig_part->content;
+    media_type = rig_part->content_type;
+    name = rig_part->filename;
+    if (manifest_part) {
+      manifest = manifest_part->content;
+      if (!ManifestIsJsonObject(req, res, manifest, "/manifest")) return;
+    }
+  } else {
+    name = UploadName(req);
+    if (MediaType(media_type).empty()) media_type = "none";  // A plain upload says what it is.
+  }
   RigFormat format;
-  if (Status s = UploadFormat(req, &format); !s.ok()) {
+  if (Status s = UploadFormat(media_type, name, bytes, &format); !s.ok()) {
     SendProblem(req, res, 415, "unsupported-media-type", s.message);
     return;
   }
-  if (req.body.empty()) {
+  if (bytes.empty()) {
     SendProblem(req, res, 422, "invalid-rig", "the body is empty");
     return;
   }
   bool created = false;
-  const auto* data = reinterpret_cast<const unsigned char*>(req.body.data());
-  Status s = ctx.store.Put(id, std::span<const unsigned char>(data, req.body.size()), format, &created);
-  if (!s.ok()) {
-    if (s.reason.empty()) s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : "invalid-rig";
-    SendStatus(req, res, s);
+  const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  if (Status s = ctx.store.Put(id, std::span<const unsigned char>(data, bytes.size()), format, manifest, &created); !s.ok()) {
+    SendStoreStatus(req, res, s, "invalid-rig");
     return;
   }
   auto stored = ctx.store.Get(id);
   res.set_header("Location", "/v1/rigs/" + id);
   SendJson(res, created ? 201 : 200, stored ? RigSummary(*stored) : json{{"id", id}});
+}
+
+void GetManifest(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (auto r = FindRig(ctx, req, res, req.matches[1])) {
+    res.set_header("ETag", "\"" + r->version + "\"");
+    res.set_content(ManifestJson(r->rig), "application/json");
+  }
+}
+
+void PutManifest(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (!Authorized(ctx, req, res)) return;
+  const std::string id = req.matches[1];
+  if (MediaType(req.get_header_value("Content-Type")) != "application/json") {
+    SendProblem(req, res, 415, "unsupported-media-type", "a manifest is application/json (README \"Manifest\")");
+    return;
+  }
+  if (!ManifestIsJsonObject(req, res, req.body, "/")) return;
+  Status s = IsValidRigId(id) ? ctx.store.PutManifest(id, req.body) : NotFound("");
+  if (s.code == StatusCode::kNotFound) {
+    SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+    return;
+  }
+  if (!s.ok()) {
+    for (FieldError& f : s.fields) {  // The body is the manifest itself: pointers from its root.
+      if (f.pointer.rfind("/manifest", 0) == 0) f.pointer = f.pointer.substr(9).empty() ? "/" : f.pointer.substr(9);
+    }
+    SendStoreStatus(req, res, s, "invalid-manifest");
+    return;
+  }
+  auto stored = ctx.store.Get(id);
+  res.set_header("Location", "/v1/rigs/" + id + "/manifest");
+  SendJson(res, 200, stored ? RigSummary(*stored) : json{{"id", id}});
 }
 
 void DeleteRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
@@ -113,7 +219,7 @@ void DeleteRig(Context& ctx, const httplib::Request& req, httplib::Response& res
   if (s.code == StatusCode::kNotFound) {
     SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
   } else if (!s.ok()) {
-    SendStatus(req, res, WithReason(s, "storage-failed"));
+    SendStatus(req, res, s.reason.empty() ? WithReason(s, "storage-failed") : s);
   } else {
     res.status = 204;
   }

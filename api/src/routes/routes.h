@@ -20,6 +20,8 @@ void ListRigs(Context&, const httplib::Request&, httplib::Response&);
 void GetRig(Context&, const httplib::Request&, httplib::Response&);
 void PutRig(Context&, const httplib::Request&, httplib::Response&);
 void DeleteRig(Context&, const httplib::Request&, httplib::Response&);
+void GetManifest(Context&, const httplib::Request&, httplib::Response&);
+void PutManifest(Context&, const httplib::Request&, httplib::Response&);
 void GetTopology(Context&, const httplib::Request&, httplib::Response&);
 // routes/mesh.cpp
 void GetOrPostMesh(Context&, const httplib::Request&, httplib::Response&);
