@@ -111,8 +111,8 @@ json MeshQueryParams() {
       {{"name", "time"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
       {{"name", "motion"}, {"in", "query"}, {"description", "A clip by MMD's word (a .vmd motion): as animation"}, {"schema", {{"type", "string"}}}},
       {{"name", "frame"}, {"in", "query"},
-       {"description", "The time in MMD frames, 30 a second (render routes: all or shapes is the camera's framing)"},
-       {"schema", {{"oneOf", json::array({json{{"type", "number"}}, json{{"enum", {"all", "shapes"}}}})}}}},
+       {"description", "The time in MMD frames, 30 a second (render routes: all, shapes or auto is the camera's framing)"},
+       {"schema", {{"oneOf", json::array({json{{"type", "number"}}, json{{"enum", {"all", "shapes", "auto"}}}})}}}},
       {{"name", "loop"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
       {{"name", "pose"}, {"in", "query"}, {"description", "The body's pose object as JSON"}, {"schema", {{"type", "string"}}}},
       {{"name", "blend"}, {"in", "query"}, {"description", "The body's blend array as JSON"}, {"schema", {{"type", "string"}}}},
@@ -190,7 +190,9 @@ json Build() {
   json camera = {{"type", "object"},
                  {"properties", {{"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}, {"distance", {{"type", "number"}}},
                                  {"zoom", {{"type", "number"}}}, {"fov", {{"type", "number"}}},
-                                 {"frame", {{"enum", {"all", "shapes"}}, {"description", "Orbit around every vertex, or around those the shapes move"}}},
+                                 {"frame", {{"enum", {"all", "shapes", "auto"}}, {"default", "auto"},
+                                            {"description", "Orbit around every vertex, around those the shapes move, or (auto) around those when they "
+                                                            "are a small part of a rig without a skeleton (a face on a body), else every vertex"}}},
                                  {"eye", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                  {"target", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                  {"up", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}};

@@ -376,8 +376,11 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
       if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
       else if (k != "up") cam.look_at = true;
     } else if (k == "frame") {
-      if (!it->is_string() || (*it != "all" && *it != "shapes")) errors.fields.push_back({ptr, "must be \"all\" or \"shapes\""});
-      else cam.frame_shapes = *it == "shapes";
+      if (!it->is_string() || (*it != "all" && *it != "shapes" && *it != "auto")) {
+        errors.fields.push_back({ptr, "must be \"all\", \"shapes\" or \"auto\""});
+      } else {
+        cam.frame = *it == "shapes" ? render::Framing::kShapes : *it == "all" ? render::Framing::kAll : render::Framing::kAuto;
+      }
     } else {
       errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, frame, eye, target, up)"});
     }
@@ -594,9 +597,9 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
     return errors.fields.empty() ? "" : errors.fields[0].pointer + ": " + errors.fields[0].message;
   }
   if (key == "frame") {
-    // The camera's framing (all, shapes), or else a time in MMD frames for the pose (ApplyPoseSetting).
-    if (value == "all" || value == "shapes") {
-      r.render.camera.frame_shapes = value == "shapes";
+    // The camera's framing (all, shapes, auto), or else a time in MMD frames for the pose (ApplyPoseSetting).
+    if (value == "all" || value == "shapes" || value == "auto") {
+      r.render.camera.frame = value == "shapes" ? render::Framing::kShapes : value == "all" ? render::Framing::kAll : render::Framing::kAuto;
       return "";
     }
     double d = 0;

@@ -120,6 +120,29 @@ bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3
   return true;
 }
 
+bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const std::array<float, 3>& hi) {
+  if (rig.skin_count > 0) return false;
+  const auto world = PrimitiveWorldMatrices(rig);
+  std::array<float, 3> all_lo{INFINITY, INFINITY, INFINITY}, all_hi{-INFINITY, -INFINITY, -INFINITY};
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    const Primitive& p = rig.primitives[pi];
+    for (size_t v = 0; v < p.vertex_count(); ++v) {
+      float q[3];
+      TransformPoint(world[pi], &p.positions[3 * v], q);
+      for (int a = 0; a < 3; ++a) {
+        all_lo[a] = std::min(all_lo[a], q[a]);
+        all_hi[a] = std::max(all_hi[a], q[a]);
+      }
+    }
+  }
+  double focus = 0.0, whole = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    focus += static_cast<double>(hi[a] - lo[a]) * (hi[a] - lo[a]);
+    whole += static_cast<double>(all_hi[a] - all_lo[a]) * (all_hi[a] - all_lo[a]);
+  }
+  return whole > 0.0 && focus * 9.0 < whole;  // Diagonal under a third.
+}
+
 Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options) {
   const int source = FindShape(rig, from);
   if (source < 0) return InvalidArgument("unknown shape '" + from + "'");

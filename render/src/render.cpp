@@ -437,14 +437,20 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   }
 
   // Framing the shapes: the rest-pose box of what they move (stable while sliders move).
-  if (o.camera.frame_shapes) {
+  bool frame_shapes = false;
+  if (o.camera.frame != Framing::kAll) {
     std::array<float, 3> lo = o.camera.focus_min, hi = o.camera.focus_max;
-    if (o.camera.has_focus || ShapeFocusBox(rig, lo, hi)) shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
+    const bool found = o.camera.has_focus || ShapeFocusBox(rig, lo, hi);
+    const bool small = o.camera.has_focus ? o.camera.focus_small : found && FrameShapesByDefault(rig, lo, hi);
+    if (found) {
+      frame_shapes = o.camera.frame == Framing::kShapes || small;
+      shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
+    }
   }
 
   // Camera.
   const Camera& c = o.camera;
-  const Eigen::AlignedBox3f& framed = c.frame_shapes && !shape_box.isEmpty() ? shape_box : box;
+  const Eigen::AlignedBox3f& framed = frame_shapes && !shape_box.isEmpty() ? shape_box : box;
   const Eigen::Vector3f center = framed.isEmpty() ? Eigen::Vector3f(Eigen::Vector3f::Zero()) : Eigen::Vector3f(framed.center());
   const float radius = framed.isEmpty() ? 1.0f : std::max(0.5f * framed.diagonal().norm(), 1e-6f);
   const float fov = std::clamp(c.fov, 1.0f, 170.0f) * static_cast<float>(M_PI) / 180.0f;

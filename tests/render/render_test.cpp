@@ -235,7 +235,7 @@ TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
   ASSERT_TRUE(ValidateRig(cube).ok());
   RenderOptions o;
   o.width = o.height = 64;
-  o.camera.frame_shapes = true;
+  o.camera.frame = render::Framing::kShapes;
   const BlendedRig blended = Evaluate(cube, {1.0f});
   Image computed, given, elsewhere;
   ASSERT_TRUE(Gl().Draw(cube, blended, o, computed).ok());
@@ -250,6 +250,52 @@ TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
   o.camera.focus_max = {-0.4f, -0.4f, -0.4f};
   ASSERT_TRUE(Gl().Draw(cube, blended, o, elsewhere).ok());
   EXPECT_NE(elsewhere.rgba, computed.rgba) << "a given box is honoured";
+}
+
+// Rows holding anything but the background (transparent here): how tall the subject stands.
+int CoveredRows(const Image& im) {
+  int rows = 0;
+  for (int y = 0; y < im.height; ++y) {
+    for (int x = 0; x < im.width; ++x) {
+      if (im.rgba[(static_cast<size_t>(y) * im.width + x) * 4 + 3] > 0.5f) {
+        ++rows;
+        break;
+      }
+    }
+  }
+  return rows;
+}
+
+// MakeHuman's shapes act on the face of a whole body: by default a render frames the face (as
+// "shapes" does), where "all" shows a body with a head a tenth of the image tall. FaceCap (shapes
+// all over the head) and Uka (a skeleton: a pose would carry the face away) keep the whole mesh.
+TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
+  auto human = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
+  auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto uka = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
+  ASSERT_TRUE(human.ok() && face.ok() && uka.ok());
+  std::array<float, 3> lo, hi;
+  ASSERT_TRUE(ShapeFocusBox(human.value(), lo, hi));
+  EXPECT_TRUE(FrameShapesByDefault(human.value(), lo, hi));
+  ASSERT_TRUE(ShapeFocusBox(face.value(), lo, hi));
+  EXPECT_FALSE(FrameShapesByDefault(face.value(), lo, hi));
+  ASSERT_TRUE(ShapeFocusBox(uka.value(), lo, hi));
+  EXPECT_FALSE(FrameShapesByDefault(uka.value(), lo, hi));
+
+  RenderOptions o;
+  o.width = o.height = 128;
+  o.background = {1, 1, 1, 0};
+  const BlendedRig blended = Evaluate(human.value(), std::vector<float>(human->shapes.size(), 0.0f));
+  Image by_default, shapes, all;
+  ASSERT_TRUE(Gl().Draw(human.value(), blended, o, by_default).ok());
+  o.camera.frame = render::Framing::kShapes;
+  ASSERT_TRUE(Gl().Draw(human.value(), blended, o, shapes).ok());
+  o.camera.frame = render::Framing::kAll;
+  ASSERT_TRUE(Gl().Draw(human.value(), blended, o, all).ok());
+  EXPECT_EQ(by_default.rgba, shapes.rgba);
+  EXPECT_GT(CoveredRows(by_default), 100);  // The head fills the frame...
+  EXPECT_GT(CoveredRows(all), 100);         // ...where "all" shows the whole body, as tall,
+  EXPECT_NE(by_default.rgba, all.rgba);     // and so a different picture.
 }
 
 TEST(Render, SupersamplingSmoothsEdges) {

@@ -45,6 +45,7 @@ std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const St
     d->rig = std::make_shared<const Rig>(std::move(made.value()));
   }
   d->has_focus = ShapeFocusBox(*d->rig, d->focus_min, d->focus_max);
+  d->focus_small = d->has_focus && FrameShapesByDefault(*d->rig, d->focus_min, d->focus_max);
   std::lock_guard<std::mutex> lock(mu_);
   for (auto it = derived_.lower_bound(prefix); it != derived_.end() && it->first.rfind(prefix, 0) == 0;) {
     it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : derived_.erase(it);
@@ -59,9 +60,10 @@ std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const Stored
 }
 
 void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera) {
-  if (!camera.frame_shapes) return;
+  if (camera.frame == render::Framing::kAll) return;
   if (auto d = At(stored, lod); d && d->has_focus) {
     camera.has_focus = true;
+    camera.focus_small = d->focus_small;
     camera.focus_min = d->focus_min;
     camera.focus_max = d->focus_max;
   }

@@ -42,6 +42,7 @@ class WorkspacePool {
 struct DerivedRig {
   std::shared_ptr<const Rig> rig;
   bool has_focus = false;
+  bool focus_small = false;  // FrameShapesByDefault: renders frame the focus unless told "all".
   std::array<float, 3> focus_min{}, focus_max{};
 };
 

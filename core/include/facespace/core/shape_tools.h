@@ -46,6 +46,11 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
 // moves anything.
 bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3>& hi);
 
+// True when the shapes act on a small part of the rig (the focus box's diagonal under a third of
+// the whole rest-pose box's: a face on a body) and the rig has no skeleton (a pose would carry
+// the face out of a box taken at rest): where a render frames by default.
+bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const std::array<float, 3>& hi);
+
 // For each vertex of `primitive`, its mirror image across the plane coordinate `axis` =
 // `center` (the closest vertex within `tolerance` mesh units of the reflected position), or -1.
 std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float center, float tolerance);

@@ -24,6 +24,11 @@ enum class View {
 bool ParseView(const std::string& name, View* view);
 const char* ViewName(View view);
 
+// What the orbit camera frames: every vertex, the vertices the rig's shapes move (ShapeFocusBox:
+// a face on a whole body), or by default the shapes when they act on a small part of a rig with
+// no skeleton (FrameShapesByDefault), else everything.
+enum class Framing { kAuto, kAll, kShapes };
+
 struct Camera {
   float yaw = 0.0f;       // Degrees around the vertical axis; 0 looks at the model's front (+Z).
   float pitch = 0.0f;     // Degrees up (positive) or down.
@@ -31,10 +36,12 @@ struct Camera {
   float zoom = 1.0f;      // Divides the distance.
   float fov = 30.0f;      // Vertical field of view, degrees.
   bool look_at = false;   // Use eye/target/up instead of the orbit above.
-  bool frame_shapes = false;  // Orbit around the vertices the rig's shapes move (ShapeFocusBox: a face on a whole body).
-  // The box frame_shapes orbits, when the caller has it already (ShapeFocusBox of the rig,
-  // kept by a caller that renders one rig many times); computed per render otherwise.
+  Framing frame = Framing::kAuto;
+  // The box the shapes' framing orbits, when the caller has it already (ShapeFocusBox of the rig,
+  // kept by a caller that renders one rig many times, with FrameShapesByDefault in focus_small);
+  // computed per render otherwise.
   bool has_focus = false;
+  bool focus_small = false;
   std::array<float, 3> focus_min{0, 0, 0}, focus_max{0, 0, 0};
   std::array<float, 3> eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
 };
