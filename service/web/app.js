@@ -71,8 +71,12 @@ function setWeight(name, value, fromPartner) {
 
 function groupOrder(g) { return g === 'identity' ? 0 : g === 'expression' ? 1 : 2; }
 
+// The sliders, one <details> per group. A rig with many (MakeHuman's 146 controls, Uka's 200
+// expressions) opens with only its first group unfolded; the filter finds any slider by name.
+const kFoldAbove = 60;
+
 function buildControls() {
-  const box = $('controls');
+  const box = $('sliders');
   box.textContent = '';
   const groups = new Map();
   for (const s of items()) {  // Driven shapes (in-betweens, correctives) follow their sliders: not shown.
@@ -80,18 +84,30 @@ function buildControls() {
     groups.get(s.group).push(s);
   }
   const names = [...groups.keys()].sort((a, b) => groupOrder(a) - groupOrder(b) || a.localeCompare(b));
-  for (const g of names) {
+  const fold = items().length > kFoldAbove;
+  names.forEach((g, index) => {
+    const details = document.createElement('details');
+    details.open = !fold || index === 0;
+    details.dataset.open = details.open ? '1' : '';  // The user's choice, restored when a filter is cleared.
+    details.addEventListener('toggle', () => { if (!$('filter').value) details.dataset.open = details.open ? '1' : ''; });
+    const summary = document.createElement('summary');
     const h = document.createElement('h2');
     h.textContent = g === 'default' ? 'other' : g;
-    box.appendChild(h);
+    const count = document.createElement('span');
+    count.className = 'count';
+    count.textContent = groups.get(g).length;
+    summary.append(h, count);
+    details.appendChild(summary);
     for (const s of groups.get(g)) {
       const row = document.createElement('div');
       row.className = 'shape';
       row.dataset.name = s.name;
+      row.dataset.search = [s.name, ...(s.aliases || [])].join(' ').toLowerCase();
       const label = document.createElement('label');
       label.textContent = s.name.includes('/') ? s.name.slice(s.name.indexOf('/') + 1) : s.name;  // Controls: group/name.
       label.title = `${s.name} [${s.min}, ${s.max}]` + (s.partner ? ` (partner ${s.partner})` : '') +
-                    (s.negative ? ` (${s.negative} below 0, ${s.positive} above)` : '');
+                    (s.negative ? ` (${s.negative} below 0, ${s.positive} above)` : '') +
+                    (s.aliases && s.aliases.length ? ` (also ${s.aliases.join(', ')})` : '');
       const range = document.createElement('input');
       Object.assign(range, { type: 'range', min: s.min, max: s.max, step: 0.01, value: values()[s.name] || 0 });
       range.setAttribute('aria-label', s.name);
@@ -101,9 +117,32 @@ function buildControls() {
       range.addEventListener('input', () => { setWeight(s.name, parseFloat(range.value)); schedule(); });
       num.addEventListener('change', () => { setWeight(s.name, parseFloat(num.value)); schedule(); });
       row.append(label, range, num);
-      box.appendChild(row);
+      details.appendChild(row);
     }
+    box.appendChild(details);
+  });
+  $('filter').value = '';
+  filterControls();
+}
+
+// Shows the sliders whose name (or alias) holds every word typed, unfolding the groups that have
+// one; an empty filter shows all, folded as the user left them.
+function filterControls() {
+  const words = $('filter').value.toLowerCase().split(/\s+/).filter(Boolean);
+  let shown = 0, total = 0;
+  for (const details of document.querySelectorAll('#sliders details')) {
+    let inGroup = 0;
+    for (const row of details.querySelectorAll('.shape')) {
+      const match = words.every((w) => row.dataset.search.includes(w));
+      row.hidden = !match;
+      inGroup += match ? 1 : 0;
+      ++total;
+    }
+    shown += inGroup;
+    details.hidden = inGroup === 0;
+    details.open = words.length ? inGroup > 0 : details.dataset.open === '1';
   }
+  $('filter-count').textContent = words.length ? `${shown} of ${total}` : `${total}`;
 }
 
 // Seeded (mulberry32): the same seed gives the same face.
@@ -413,7 +452,27 @@ $('dl-obj').addEventListener('click', () => download('obj'));
 $('dl-png').addEventListener('click', () => state.lastPng && save(state.lastPng.blob, `${state.rig}.png`));
 $('dl-json').addEventListener('click', () =>
   save(new Blob([JSON.stringify(point(), null, 2)], { type: 'application/json' }), `${state.rig}.weights.json`));
-$('share').addEventListener('click', () => { writeHash(); navigator.clipboard && navigator.clipboard.writeText(location.href).catch(() => {}); });
+// A short-lived line in the status bar ("Link copied"), for actions with nothing else to show.
+let noticeTimer = 0;
+function notice(text) {
+  $('notice').textContent = text;
+  $('notice').hidden = false;
+  clearTimeout(noticeTimer);
+  noticeTimer = setTimeout(() => { $('notice').hidden = true; }, 4000);
+}
+
+async function share() {
+  writeHash();
+  try {
+    await navigator.clipboard.writeText(location.href);
+    notice('\u2713 Link copied: it opens this face');
+  } catch (e) {  // No clipboard (a page served over plain HTTP from another host): the address bar has it.
+    notice('Copy the link from the address bar: it opens this face');
+  }
+}
+
+$('share').addEventListener('click', share);
+$('filter').addEventListener('input', filterControls);
 drag($('preview'), (dx, dy) => { state.yaw += dx * 0.5; state.pitch = Math.max(-80, Math.min(80, state.pitch + dy * 0.5)); },
      () => schedule());
 window.facespace = { state, gl, loadRig, refresh };  // For tests and the console.

@@ -43,6 +43,23 @@ async function run(label, url, shot) {
   check(`${label}: sliders are grouped, expression first`, (await page.locator('#controls h2').first().textContent()) === 'expression');
   const before = await previewDigest(page);
   check(`${label}: the first preview is a render`, before !== null);
+  if (label === 'same-origin') {  // On a 1400 x 900 window: both views in sight, no number box cut.
+    await page.setViewportSize({ width: 1400, height: 900 });
+    await page.waitForTimeout(200);
+    const gl = await page.locator('#gl').boundingBox();
+    const panel = await page.locator('#controls').boundingBox();
+    const inner = await page.evaluate(() => document.getElementById('controls').clientWidth);
+    const num = await page.locator('input[aria-label="jawOpen value"]').boundingBox();
+    check(`${label}: at 1400 x 900 the WebGL view is beside the render, above the fold (${Math.round(gl.x)}, ${Math.round(gl.y)}, ${Math.round(gl.width)} px)`,
+      gl.y + gl.height <= 900 && gl.x + gl.width <= 1400 && gl.width >= 300);
+    check(`${label}: the number boxes sit inside the panel (right edge ${Math.round(num.x + num.width)} <= ${Math.round(panel.x + inner)})`,
+      num.x + num.width <= panel.x + inner && num.width >= 40);
+    await page.setViewportSize({ width: 1500, height: 1000 });
+    await page.locator('#share').click();
+    await page.waitForSelector('#notice:not([hidden])', { timeout: 5000 }).catch(() => {});
+    check(`${label}: Share says what it did (${(await page.locator('#notice').textContent()).slice(0, 40)})`,
+      (await page.locator('#notice').isVisible()) && /[Ll]ink/.test(await page.locator('#notice').textContent()));
+  }
 
   await page.locator('input[aria-label="jawOpen"]').fill('0.9');
   let after = before;
@@ -148,9 +165,19 @@ async function controls(url, shot) {
   const groups = await page.locator('#controls h2').allTextContents();
   check(`controls: the MakeHuman rig shows its 146 controls grouped (${groups.join(', ')})`,
     (await page.locator('.shape').count()) === 146 && groups.includes('nose') && groups.includes('eyes'));
+  const shownAtFirst = await page.locator('.shape:visible').count();
+  check(`controls: 146 controls open folded, only the first group unfolded (${shownAtFirst} rows shown)`, shownAtFirst > 0 && shownAtFirst < 60);
+  await page.locator('#filter').fill('eye bag');
+  const found = await page.locator('.shape:visible').evaluateAll((rows) => rows.map((r) => r.dataset.name));
+  check(`controls: the filter "eye bag" shows just the eye-bag controls, unfolded (${found.join(', ')}; ${await page.locator('#filter-count').textContent()})`,
+    found.length >= 2 && found.every((n) => /eye-bag/.test(n)) && found.includes('eyes/l-eye-bag-decr|incr') &&
+    (await page.locator('#filter-count').textContent()) === `${found.length} of 146`);
   const before = await previewDigest(page);
-  await page.locator('input[aria-label="nose/nose-trans-down|up"]').fill('-0.4');
   await page.locator('input[aria-label="eyes/l-eye-bag-decr|incr"]').fill('0.7');
+  await page.locator('#filter').fill('nose-trans-down');
+  await page.locator('input[aria-label="nose/nose-trans-down|up"]').fill('-0.4');
+  await page.locator('#filter').fill('');
+  check('controls: clearing the filter shows the groups folded as before', (await page.locator('.shape:visible').count()) === shownAtFirst);
   let after = before;
   for (let i = 0; i < 150 && after === before; ++i) { await page.waitForTimeout(100); after = await previewDigest(page); }
   await page.waitForFunction(() => document.getElementById('sum').textContent === '1.8', null, { timeout: 15000 }).catch(() => {});
@@ -188,6 +215,7 @@ await controls(service + '/#rig=makehuman&c=', `${outDir}/page-makehuman.png`);
   const credit = await page.locator('#credit').textContent();
   check(`credit: the uka page shows its credit line (${credit.slice(0, 60)}...)`,
     credit.includes('CG-CA Uka (c) 2023 by Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society'));
+  await page.locator('#filter').fill('あ');
   await page.locator('input[aria-label="あ"]').first().fill('1');
   await page.waitForTimeout(1500);
   await page.screenshot({ path: `${outDir}/page-uka.png` });
