@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/api/http.h"
+#include "http/query_params.h"
 #include "http/route_table.h"
 
 namespace facespace::api {
@@ -90,37 +91,77 @@ json JobParam() {
   return {{"name", "job"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "string"}, {"pattern", "^[0-9a-f]{32}$"}}}};
 }
 
-json MeshQueryParams() {
-  return json::array({
-      IdParam(),
-      {{"name", "w"}, {"in", "query"}, {"style", "form"}, {"explode", true},
-       {"description", "Weights as w.NAME=VALUE (by shape name, alias or index); shapes not named are 0"},
-       {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
-      {{"name", "c"}, {"in", "query"}, {"style", "form"}, {"explode", true},
-       {"description", "Control values as c.NAME=VALUE (rigs with controls, e.g. c.nose/nose-trans-down|up=-0.4)"},
-       {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
-      {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"glb", "obj", "json", "f32"}}}}},
-      {{"name", "space"}, {"in", "query"},
-       {"description", "json, obj, f32: world space (each primitive placed by its node, dequantized) or each mesh's own"},
-       {"schema", {{"enum", {"world", "mesh"}}, {"default", "world"}}}},
-      {{"name", "mode"}, {"in", "query"}, {"schema", {{"enum", {"relative", "absolute"}}}}},
-      {{"name", "normals"}, {"in", "query"}, {"schema", {{"enum", {"blend", "recompute"}}}}},
-      {{"name", "strict"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
-      {{"name", "keep_targets"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
-      {{"name", "animation"}, {"in", "query"}, {"schema", {{"type", "string"}}}},
-      {{"name", "time"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
-      {{"name", "motion"}, {"in", "query"}, {"description", "A clip by MMD's word (a .vmd motion): as animation"}, {"schema", {{"type", "string"}}}},
-      {{"name", "frame"}, {"in", "query"},
-       {"description", "The time in MMD frames, 30 a second (render routes: all, shapes or auto is the camera's framing)"},
-       {"schema", {{"oneOf", json::array({json{{"type", "number"}}, json{{"enum", {"all", "shapes", "auto"}}}})}}}},
-      {{"name", "loop"}, {"in", "query"}, {"schema", {{"type", "boolean"}}}},
-      {{"name", "pose"}, {"in", "query"}, {"description", "The body's pose object as JSON"}, {"schema", {{"type", "string"}}}},
-      {{"name", "blend"}, {"in", "query"}, {"description", "The body's blend array as JSON"}, {"schema", {{"type", "string"}}}},
-      {{"name", "skinning"}, {"in", "query"}, {"schema", {{"enum", {"linear", "dual_quaternion"}}}}},
-      {{"name", "lod"}, {"in", "query"}, {"description", "Level of detail: 0 full, L about 1/2^L of the triangles"},
-       {"schema", {{"type", "integer"}, {"minimum", 0}, {"maximum", 4}}}},
-  });
+// w[NAME]=VALUE or c[NAME]=VALUE: OpenAPI's deepObject style, which generated clients send; the
+// server also reads the shorter w.NAME=VALUE of curl lines.
+json MapParam(const char* name, const char* description) {
+  return {{"name", name}, {"in", "query"}, {"style", "deepObject"}, {"explode", true}, {"description", description},
+          {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}};
 }
+
+// One query parameter of GET mesh or render, by the name the route reads (http/query_params.h).
+json QueryParam(std::string_view name, bool render) {
+  auto param = [&](json schema, const char* description = nullptr) {
+    json p = {{"name", std::string(name)}, {"in", "query"}, {"schema", std::move(schema)}};
+    if (description) p["description"] = description;
+    return p;
+  };
+  const json number = {{"type", "number"}}, boolean = {{"type", "boolean"}};
+  if (name == "format") {
+    return render ? param({{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}, {"default", "png"}})
+                  : param({{"enum", {"glb", "obj", "json", "f32"}}, {"default", "glb"}});
+  }
+  if (name == "space") {
+    return param({{"enum", {"world", "mesh"}}, {"default", "world"}},
+                 "json, obj, f32: world space (each primitive placed by its node, dequantized) or each mesh's own");
+  }
+  if (name == "keep_targets") return param(boolean, "glb: keep the morph targets, with the blend as the mesh's weights");
+  if (name == "mode") return param({{"enum", {"relative", "absolute"}}, {"default", "relative"}});
+  if (name == "normals") return param({{"enum", {"blend", "recompute"}}, {"default", "blend"}});
+  if (name == "strict") return param(boolean, "Refuse (422) a point with warnings instead of answering with them");
+  if (name == "skinning") return param({{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}});
+  if (name == "lod") {
+    return param({{"type", "integer"}, {"minimum", 0}, {"maximum", 4}, {"default", 0}},
+                 "Level of detail: 0 full, L about 1/2^L of the triangles");
+  }
+  if (name == "pose") return param({{"type", "string"}}, "The body's pose object (joint -> rotation, euler, translation, scale) as JSON");
+  if (name == "blend") return param({{"type", "string"}}, "The body's blend array (several clips at their times and weights) as JSON");
+  if (name == "animation") return param({{"type", "string"}}, "A clip by name or index, posed at time");
+  if (name == "motion") return param({{"type", "string"}}, "A clip by MMD's word (a .vmd motion): as animation");
+  if (name == "time") return param(number, "Seconds into the animation");
+  if (name == "loop") return param(boolean, "Wrap time into the clip's length");
+  if (name == "frame") {
+    if (!render) return param(number, "The time in MMD frames, 30 a second");
+    return param({{"oneOf", json::array({number, json{{"enum", {"all", "shapes", "auto"}}}})}},
+                 "A time in MMD frames (30 a second), or the camera's framing: all, shapes, auto (the default: the shapes "
+                 "when they act on a small part of a rig without a skeleton)");
+  }
+  if (name == "width" || name == "height") return param({{"type", "integer"}, {"minimum", 1}, {"default", 512}});
+  if (name == "view") return param({{"enum", {"shaded", "wireframe", "heatmap", "normals"}}, {"default", "shaded"}});
+  if (name == "background") return param({{"type", "string"}}, "#rrggbb, #rrggbbaa or transparent");
+  if (name == "supersample") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 4}});
+  if (name == "quality") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}, "jpeg and webp");
+  if (name == "camera") return param({{"type", "string"}}, "The body's camera object as JSON");
+  if (name == "yaw" || name == "pitch") return param(number, "Degrees");
+  if (name == "distance" || name == "zoom") return param(number);
+  if (name == "fov") return param(number, "Vertical field of view, degrees (1 to 170)");
+  std::fprintf(stderr, "facespace: the OpenAPI document cannot describe the query parameter '%.*s'\n", static_cast<int>(name.size()), name.data());
+  std::abort();
+}
+
+// The parameters of GET mesh or render: the path's id, the weights and controls, and each name
+// of the route's list.
+json QueryParams(bool render) {
+  json params = json::array({IdParam(), MapParam("w", "Weights as w[NAME]=VALUE (or w.NAME=VALUE) by shape name, alias or index; "
+                                                       "shapes not named are 0"),
+                             MapParam("c", "Control values as c[NAME]=VALUE (or c.NAME=VALUE), for rigs with controls "
+                                           "(e.g. c[nose/nose-trans-down|up]=-0.4)")});
+  for (std::string_view name : render ? std::span<const std::string_view>(http::kRenderQuery) : http::kMeshQuery) {
+    params.push_back(QueryParam(name, render));
+  }
+  return params;
+}
+
+json WeightsObject() { return {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}; }
 
 json Build() {
   json weights = {{"oneOf", json::array({json{{"type", "array"}, {"items", {{"type", "number"}}},
@@ -277,6 +318,74 @@ json Build() {
       {"properties", {{"variants", {{"type", "array"}, {"items", variant_item}}},
                       {"sample", sample},
                       {"format", {{"enum", {"glb", "obj", "json", "f32", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
+  const json number = {{"type", "number"}}, integer = {{"type", "integer"}}, string = {{"type", "string"}}, boolean = {{"type", "boolean"}};
+  const json vec3 = {{"type", "array"}, {"items", number}, {"minItems", 3}, {"maxItems", 3}};
+  const json box = {{"type", "object"}, {"properties", {{"min", vec3}, {"max", vec3}}}};
+  auto array_of = [](json items) { return json{{"type", "array"}, {"items", std::move(items)}}; };
+  auto ref = [](const char* name) { return json{{"$ref", std::string("#/components/schemas/") + name}}; };
+  json rig_summary = {{"type", "object"},
+                      {"required", {"id", "name", "vertices", "triangles", "shapes", "primitives", "has_skeleton", "version"}},
+                      {"properties", {{"id", string}, {"name", string}, {"vertices", integer}, {"triangles", integer},
+                                      {"shapes", integer}, {"primitives", integer}, {"has_skeleton", boolean},
+                                      {"version", {{"type", "string"}, {"description", "Changes with the rig file or its manifest (the ETag)"}}},
+                                      {"credit", {{"type", "string"}, {"description", "The credit the rig's license asks for: show it with the rig"}}}}}};
+  json shape = {{"type", "object"},
+                {"properties", {{"index", integer}, {"name", string}, {"group", string}, {"min", number}, {"max", number},
+                                {"default", number}, {"vertices_moved", integer}, {"partner", {{"type", {"string", "null"}}}},
+                                {"aliases", array_of(string)}, {"driven", boolean}}}};
+  json rig = {{"type", "object"},
+              {"properties",
+               {{"id", string}, {"name", string}, {"version", string}, {"credit", string}, {"vertices", integer}, {"triangles", integer},
+                {"has_skeleton", boolean}, {"start", {{"enum", {"neutral", "defaults"}}}},
+                {"shapes", array_of(shape)},
+                {"bounding_box", box},
+                {"primitives", array_of({{"type", "object"},
+                                         {"properties", {{"mesh", integer}, {"primitive", integer}, {"name", string}, {"vertices", integer},
+                                                         {"triangles", integer}, {"material", integer}, {"has_normals", boolean},
+                                                         {"has_tangents", boolean}}}})},
+                {"skeleton", {{"type", {"object", "null"}}}},
+                {"animations", array_of({{"type", "object"},
+                                         {"properties", {{"index", integer}, {"name", string}, {"duration", number}, {"channels", integer},
+                                                         {"morph_weights", boolean}}}})},
+                {"controls", array_of({{"type", "object"}})},
+                {"inbetweens", array_of({{"type", "object"}})},
+                {"correctives", array_of({{"type", "object"}})},
+                {"statistics", {{"type", {"object", "null"}}}},
+                {"load_warnings", array_of(ref("Warning"))}}}};
+  json manifest = {{"type", "object"},
+                   {"additionalProperties", false},
+                   {"description", "What a rig file does not say (core/README.md, \"Manifest\"); an unknown member is refused"},
+                   {"properties", {{"name", string}, {"credit", string}, {"start", {{"enum", {"neutral", "defaults"}}}},
+                                   {"shapes", {{"type", "object"}, {"additionalProperties", {{"type", "object"}}}}},
+                                   {"groups", {{"type", "object"}, {"additionalProperties", array_of(string)}}},
+                                   {"controls", {{"type", "object"}}}, {"derived", {{"type", "object"}}},
+                                   {"inbetweens", {{"type", "object"}}}, {"correctives", {{"type", "object"}}},
+                                   {"statistics", {{"type", "object"}}}}}};
+  json check = {{"type", "object"},
+                {"required", {"sum", "weights", "warnings"}},
+                {"properties", {{"sum", number}, {"weights", WeightsObject()}, {"warnings", array_of(ref("Warning"))},
+                                {"mahalanobis", {{"type", "number"}, {"description", "With manifest statistics: distance from the mean in standard deviations"}}}}}};
+  json fit = {{"type", "object"},
+              {"required", {"weights", "residual", "warnings"}},
+              {"properties", {{"weights", WeightsObject()},
+                              {"residual", {{"type", "object"}, {"properties", {{"rms", number}, {"max", number}}}}},
+                              {"warnings", array_of(ref("Warning"))}}}};
+  json topology = {{"type", "object"},
+                   {"required", {"primitives"}},
+                   {"properties", {{"primitives", array_of({{"type", "object"},
+                                                            {"properties", {{"mesh", integer}, {"primitive", integer}, {"vertices", integer},
+                                                                            {"mode", integer}, {"indices", array_of(integer)}}}})},
+                                   {"focus", box}}}};
+  json frames = {{"type", "object"},
+                 {"required", {"frames"}},
+                 {"properties", {{"frames", array_of({{"type", "object"},
+                                                      {"properties", {{"time", number}, {"weights", WeightsObject()},
+                                                                      {"primitives", {{"type", "array"}}}}}})},
+                                 {"warnings", array_of(ref("Warning"))}}}};
+  json reduced = {{"type", "object"},
+                  {"properties", {{"keys", {{"type", "array"}}}, {"transition", string}, {"kept", integer}, {"removed", integer},
+                                  {"max_error", number}, {"tolerance", number}}}};
+  json health = {{"type", "object"}, {"required", {"status"}}, {"properties", {{"status", string}, {"rigs", integer}}}};
   json job = {{"type", "object"},
               {"properties", {{"id", {{"type", "string"}}}, {"rig", {{"type", "string"}}},
                               {"state", {{"enum", {"queued", "running", "done", "failed", "cancelled", "lost"}}}},
@@ -285,19 +394,24 @@ json Build() {
                               {"rate", {{"type", "number"}}}, {"eta_seconds", {{"type", "number"}}}, {"error", {{"type", "string"}}},
                               {"links", {{"type", "object"}}}}}};
   json ok_json = {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}};
+  // A 200 (or `code`) whose JSON body is the component `name`.
+  auto json_ok = [](const char* name, const char* description = "OK") {
+    return json{{"description", description},
+                {"content", {{"application/json", {{"schema", {{"$ref", std::string("#/components/schemas/") + name}}}}}}}};
+  };
   json auth = json::array({{{"bearer", json::array()}}});
   json operations = {
-      {"/healthz", {{"get", {{"summary", "Liveness"}, {"operationId", "healthz"}, {"responses", {{"200", ok_json}}}}}}},
-      {"/readyz", {{"get", {{"summary", "Readiness (rigs loaded)"}, {"operationId", "readyz"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/healthz", {{"get", {{"summary", "Liveness"}, {"operationId", "healthz"}, {"responses", {{"200", json_ok("Health")}}}}}}},
+      {"/readyz", {{"get", {{"summary", "Readiness (rigs loaded)"}, {"operationId", "readyz"}, {"responses", {{"200", json_ok("Health")}}}}}}},
       {"/metrics",
        {{"get", {{"summary", "Prometheus metrics"}, {"operationId", "metrics"},
                  {"responses", {{"200", {{"description", "Prometheus text"}, {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}}}}}}}}},
       {"/openapi.json", {{"get", {{"summary", "This document"}, {"operationId", "openapi"}, {"responses", {{"200", ok_json}}}}}}},
-      {"/v1/rigs", {{"get", {{"summary", "List rigs"}, {"operationId", "listRigs"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/v1/rigs", {{"get", {{"summary", "List rigs"}, {"operationId", "listRigs"}, {"responses", {{"200", json_ok("RigList")}}}}}}},
       {"/v1/rigs/{id}",
        {{"parameters", json::array({IdParam()})},
         {"get", {{"summary", "A rig: shapes, bounding box, primitives, skeleton"}, {"operationId", "getRig"},
-                 {"responses", {{"200", ok_json}, {"404", Problem("Unknown rig")}}}}},
+                 {"responses", {{"200", json_ok("Rig")}, {"404", Problem("Unknown rig")}}}}},
         {"put", {{"summary", "Upload or replace a rig (validated fully, stored atomically)"}, {"operationId", "putRig"},
                  {"security", auth},
                  {"requestBody", {{"required", true},
@@ -311,9 +425,9 @@ json Build() {
                                                 {{"schema", {{"type", "object"}, {"required", {"rig"}},
                                                              {"properties", {{"rig", {{"type", "string"}, {"contentEncoding", "binary"},
                                                                                       {"description", "The rig file (its part's file name or type says the format)"}}},
-                                                                             {"manifest", {{"type", "object"}, {"description", "Its manifest (README \"Manifest\"), kept with it"}}}}}}},
+                                                                             {"manifest", {{"$ref", "#/components/schemas/Manifest"}}}}}}},
                                                  {"encoding", {{"manifest", {{"contentType", "application/json"}}}}}}}}}}},
-                 {"responses", {{"200", ok_json}, {"201", ok_json}, {"401", Problem("No API key")}, {"403", Problem("Wrong API key")},
+                 {"responses", {{"200", json_ok("RigSummary", "Replaced")}, {"201", json_ok("RigSummary", "Created")}, {"401", Problem("No API key")}, {"403", Problem("Wrong API key")},
                                 {"413", Problem("Body over the limit")}, {"415", Problem("Not a rig media type (or an octet stream of no known rig format)")},
                                 {"409", Problem("A bundled rig: read-only")},
                                 {"422", Problem("Invalid rig, manifest or id")}, {"500", Problem("The store could not write the rig")},
@@ -326,35 +440,25 @@ json Build() {
        {{"parameters", json::array({IdParam()})},
         {"get", {{"summary", "A rig's manifest: name, credit, shape groups, ranges, partners, controls, in-betweens (README \"Manifest\")"},
                  {"operationId", "getManifest"},
-                 {"responses", {{"200", ok_json}, {"404", Problem("Unknown rig")}}}}},
+                 {"responses", {{"200", json_ok("Manifest")}, {"404", Problem("Unknown rig")}}}}},
         {"put", {{"summary", "Replace an uploaded rig's manifest (validated against the rig first; the rig file unchanged)"},
                  {"operationId", "putManifest"}, {"security", auth},
-                 {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}},
-                 {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"401", Problem("No API key")},
+                 {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Manifest"}}}}}}}}},
+                 {"responses", {{"200", json_ok("RigSummary")}, {"400", Problem("Malformed JSON")}, {"401", Problem("No API key")},
                                 {"403", Problem("Wrong API key")}, {"404", Problem("Unknown rig")},
                                 {"409", Problem("A bundled rig: read-only")}, {"415", Problem("Not application/json")},
                                 {"422", Problem("The manifest does not apply to the rig (names the member)")},
                                 {"507", Problem("The store's disk is full: nothing was written")}}}}}}},
       {"/v1/rigs/{id}/mesh",
-       {{"get", {{"summary", "Blended mesh from query weights (w.NAME=VALUE)"}, {"operationId", "getMesh"},
-                 {"parameters", MeshQueryParams()}, {"responses", MeshResponses()}}},
+       {{"get", {{"summary", "Blended mesh from query weights (w[NAME]=VALUE or w.NAME=VALUE)"}, {"operationId", "getMesh"},
+                 {"parameters", QueryParams(false)}, {"responses", MeshResponses()}}},
         {"post", {{"summary", "Blended mesh"}, {"operationId", "postMesh"}, {"parameters", json::array({IdParam()})},
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/MeshRequest"}}}}}}}}},
                   {"responses", MeshResponses()}}}}},
       {"/v1/rigs/{id}/render",
-       {{"get", {{"summary", "Offscreen render from query settings (w.NAME=VALUE, width, height, view, yaw, pitch, zoom, ...)"},
+       {{"get", {{"summary", "Offscreen render from query settings (w[NAME]=VALUE, width, height, view, yaw, pitch, zoom, ...)"},
                  {"operationId", "getRender"},
-                 {"parameters", json::array({IdParam(),
-                                             {{"name", "w"}, {"in", "query"}, {"style", "form"}, {"explode", true},
-                                              {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}},
-                                             {{"name", "width"}, {"in", "query"}, {"schema", {{"type", "integer"}}}},
-                                             {{"name", "height"}, {"in", "query"}, {"schema", {{"type", "integer"}}}},
-                                             {{"name", "view"}, {"in", "query"}, {"schema", {{"enum", {"shaded", "wireframe", "heatmap", "normals"}}}}},
-                                             {{"name", "format"}, {"in", "query"}, {"schema", {{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}}}},
-                                             {{"name", "yaw"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
-                                             {{"name", "pitch"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
-                                             {{"name", "zoom"}, {"in", "query"}, {"schema", {{"type", "number"}}}},
-                                             {{"name", "background"}, {"in", "query"}, {"schema", {{"type", "string"}}}}})},
+                 {"parameters", QueryParams(true)},
                  {"responses", RenderResponses()}}},
         {"post", {{"summary", "Offscreen render"}, {"operationId", "postRender"}, {"parameters", json::array({IdParam()})},
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/RenderRequest"}}}}}}}}},
@@ -368,7 +472,7 @@ json Build() {
        {{"post", {{"summary", "Sample a keyframe sequence at given times: weights and meshes"}, {"operationId", "sampleSequence"},
                   {"parameters", json::array({IdParam()})},
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/SequenceRequest"}}}}}}}}},
-                  {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
+                  {"responses", {{"200", json_ok("SequenceFrames")}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("Invalid keys, transition or times")}}}}}}},
       {"/v1/rigs/{id}/sequence/stream",
        {{"post", {{"summary", "Stream frames at fps as they are computed: ndjson of weights, or uint32-length-prefixed float32 positions"},
@@ -377,20 +481,14 @@ json Build() {
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/SequenceRequest"}}}}}}}}},
                   {"responses", {{"200", {{"description", "Chunked frames"},
                                           {"content", {{"application/x-ndjson", {{"schema", {{"type", "string"}}}}},
-                                                       {"application/octet-stream", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}},
-                                               {"multipart/form-data",
-                                                {{"schema", {{"type", "object"}, {"required", {"rig"}},
-                                                             {"properties", {{"rig", {{"type", "string"}, {"contentEncoding", "binary"},
-                                                                                      {"description", "The rig file (its part's file name or type says the format)"}}},
-                                                                             {"manifest", {{"type", "object"}, {"description", "Its manifest (README \"Manifest\"), kept with it"}}}}}}},
-                                                 {"encoding", {{"manifest", {{"contentType", "application/json"}}}}}}}}}}},
+                                                       {"application/octet-stream", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}}}}}},
                                  {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("Invalid keys, format or too many frames")}}}}}}},
       {"/v1/rigs/{id}/sequence/reduce",
        {{"post", {{"summary", "Remove keys while the largest vertex error stays under tolerance"}, {"operationId", "reduceSequence"},
                   {"parameters", json::array({IdParam()})},
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/SequenceRequest"}}}}}}}}},
-                  {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
+                  {"responses", {{"200", json_ok("Reduced")}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("Invalid keys or tolerance")}}}}}}},
       {"/v1/rigs/{id}/fit",
        {{"post", {{"summary", "Weights that best reproduce a target mesh (least squares), with residual and warnings"},
@@ -404,12 +502,12 @@ json Build() {
                                                                               {"bounded", {{"type", "boolean"}}},
                                                                               {"sum_at_most_one", {{"type", "boolean"}}},
                                                                               {"rigid_align", {{"type", "boolean"}}}}}}}}}}}}},
-                  {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
+                  {"responses", {{"200", json_ok("Fit")}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("A target that does not match the rig")}}}}}}},
       {"/v1/rigs/{id}/topology",
        {{"get", {{"summary", "Triangle lists per primitive (for clients that draw the f32 mesh)"}, {"operationId", "getTopology"},
                  {"parameters", json::array({IdParam(), {{"name", "lod"}, {"in", "query"}, {"schema", {{"type", "integer"}, {"minimum", 0}, {"maximum", 4}}}}})},
-                 {"responses", {{"200", ok_json}, {"404", Problem("Unknown rig")}, {"422", Problem("Bad lod")}}}}}}},
+                 {"responses", {{"200", json_ok("Topology")}, {"404", Problem("Unknown rig")}, {"422", Problem("Bad lod")}}}}}}},
       {"/v1/rigs/{id}/batch",
        {{"post", {{"summary", "Start a batch job: many variants (listed, or sampled uniform/gaussian/grid/convex with a seed) as files"},
                   {"operationId", "startBatch"},
@@ -419,12 +517,12 @@ json Build() {
                   {"responses", {{"202", {{"description", "Accepted; Location names the job"},
                                           {"headers", {{"Location", {{"schema", {{"type", "string"}}}}}}},
                                           {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Job"}}}}}}}}},
-                                 {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
-                                 {"415", Problem("Not JSON")},
+                                 {"400", Problem("Malformed JSON")}, {"401", Problem("No API key")}, {"403", Problem("Wrong API key")},
+                                 {"404", Problem("Unknown rig")}, {"415", Problem("Not JSON")},
                                  {"422", Problem("Invalid request, or more variants than the server allows")},
                                  {"429", Problem("The job queue is full; see Retry-After")},
                                  {"507", Problem("The jobs folder's disk is full: no job was created")}}}}}}},
-      {"/v1/jobs", {{"get", {{"summary", "List batch jobs, newest first"}, {"operationId", "listJobs"}, {"responses", {{"200", ok_json}}}}}}},
+      {"/v1/jobs", {{"get", {{"summary", "List batch jobs, newest first"}, {"operationId", "listJobs"}, {"responses", {{"200", json_ok("JobList")}}}}}}},
       {"/v1/jobs/{job}",
        {{"get", {{"summary", "A job's state and progress (queued, running, done, failed, cancelled, lost)"}, {"operationId", "getJob"},
                  {"parameters", json::array({JobParam()})},
@@ -432,7 +530,8 @@ json Build() {
                                 {"404", Problem("Unknown job")}}}}},
         {"delete", {{"summary", "Cancel a job and delete its files"}, {"operationId", "deleteJob"}, {"security", auth},
                     {"parameters", json::array({JobParam()})},
-                    {"responses", {{"204", {{"description", "Deleted"}}}, {"404", Problem("Unknown job")}}}}}}},
+                    {"responses", {{"204", {{"description", "Deleted"}}}, {"401", Problem("No API key")},
+                                   {"403", Problem("Wrong API key")}, {"404", Problem("Unknown job")}}}}}}},
       {"/v1/jobs/{job}/manifest.jsonl",
        {{"get", {{"summary", "The manifest so far: one JSON line per complete variant (index, id, file, bytes, sha256, weights, warnings)"},
                  {"operationId", "getJobManifest"},
@@ -453,7 +552,7 @@ json Build() {
        {{"post", {{"summary", "Validate weights only: sum and warnings"}, {"operationId", "checkWeights"},
                   {"parameters", json::array({IdParam()})},
                   {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/MeshRequest"}}}}}}}}},
-                  {"responses", {{"200", ok_json}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
+                  {"responses", {{"200", json_ok("Check")}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("Invalid weights")}}}}}}},
   };
   return {{"openapi", "3.1.0"},
@@ -464,7 +563,11 @@ json Build() {
           {"components",
            {{"schemas", {{"MeshRequest", mesh_request}, {"RenderRequest", render_request}, {"SheetRequest", sheet_request},
                         {"SequenceRequest", sequence_request}, {"BatchRequest", batch_request}, {"Job", job},
-                        {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}}},
+                        {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}, {"RigSummary", rig_summary},
+                        {"RigList", {{"type", "object"}, {"required", {"rigs"}}, {"properties", {{"rigs", array_of(ref("RigSummary"))}}}}},
+                        {"Rig", rig}, {"Manifest", manifest}, {"Check", check}, {"Fit", fit}, {"Topology", topology},
+                        {"SequenceFrames", frames}, {"Reduced", reduced}, {"Health", health},
+                        {"JobList", {{"type", "object"}, {"required", {"jobs"}}, {"properties", {{"jobs", array_of(ref("Job"))}}}}}}},
             {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
 }
 

@@ -264,6 +264,28 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
   }
   EXPECT_EQ(operations, 28u);
   EXPECT_TRUE(doc["paths"]["/v1/rigs/{id}"]["get"]["parameters"].is_array());
+  // The GET parameters the document declares are the ones the routes read: each, given a value
+  // no route takes, is refused for its value, never as an unknown parameter.
+  for (const char* path : {"/v1/rigs/{id}/mesh", "/v1/rigs/{id}/render"}) {
+    const json& params = doc["paths"][path]["get"]["parameters"];
+    ASSERT_GT(params.size(), 10u) << path;
+    for (const json& p : params) {
+      const std::string name = p["name"];
+      if (p["in"] != "query" || name == "w" || name == "c") continue;
+      std::string url = std::string(path).replace(std::string(path).find("{id}"), 4, "facecap") + "?" + name + "=%7Bnot-a-value";
+      r = Client().Get(url);
+      ASSERT_TRUE(r);
+      EXPECT_EQ(r->body.find("unknown parameter"), std::string::npos) << url << ": " << r->body.substr(0, 200);
+    }
+  }
+  // Weights as the document declares them (deepObject: w[NAME]) are the weights of w.NAME.
+  EXPECT_EQ(doc["paths"]["/v1/rigs/{id}/mesh"]["get"]["parameters"][1]["style"], "deepObject");
+  auto bracketed = Client().Get("/v1/rigs/facecap/mesh?w%5BjawOpen%5D=0.5&format=f32");
+  auto dotted = Client().Get("/v1/rigs/facecap/mesh?w.jawOpen=0.5&format=f32");
+  ASSERT_TRUE(bracketed && dotted);
+  EXPECT_EQ(bracketed->status, 200);
+  EXPECT_EQ(bracketed->get_header_value("Facespace-Weight-Sum"), "0.5");
+  EXPECT_EQ(bracketed->body, dotted->body);
 
   r = Client().Get("/metrics");
   ASSERT_TRUE(r);

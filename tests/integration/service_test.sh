@@ -293,6 +293,12 @@ sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-validator" ]; then
   cp "$src/tests/integration/validate_openapi.mjs" "$node_modules/../validate_openapi.mjs"
   check "OpenAPI: valid under the OpenAPI 3.1 schema" node "$node_modules/../validate_openapi.mjs" "$tmp/openapi.json"
+  # A client generated from the document itself calls every operation it lists (weights as the
+  # document declares them: w[NAME]=VALUE), each answer checked.
+  cp "$src/tests/integration/openapi_client_test.mjs" "$node_modules/../openapi_client_test.mjs"
+  node "$node_modules/../openapi_client_test.mjs" "$U" k3y-for-tests "$store/facecap.glb" >"$tmp/client.out" 2>&1; rc=$?
+  sed 's/^/     /' "$tmp/client.out"
+  check "OpenAPI: a client generated from the document (swagger-client) calls every operation, each answer checked" test $rc -eq 0
 else
   no "OpenAPI validator not installed (run .ci/dev test)"
 fi

@@ -1,5 +1,6 @@
 // /v1/rigs/{id}/mesh, /check and /fit: a point of face space as a mesh, its checks, and the point
 // that best reproduces a mesh.
+#include "http/query_params.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -22,13 +23,6 @@ bool ParseBool(const std::string& s, bool* out) {
   else return false;
   return true;
 }
-
-constexpr std::string_view kMeshParams[] = {"format", "space", "keep_targets", "mode", "normals", "strict", "skinning", "lod", "pose",
-                                            "blend", "animation", "motion", "time", "frame", "loop"};
-constexpr std::string_view kRenderParams[] = {"format", "mode", "normals", "strict", "skinning", "lod", "pose", "blend",
-                                              "animation", "motion", "time", "frame", "loop", "width", "height", "view",
-                                              "background", "supersample", "quality", "camera", "yaw", "pitch",
-                                              "distance", "zoom", "fov"};
 
 // The mesh request from a POST body or GET query; false when an error was sent.
 bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRequest& r) {
@@ -57,8 +51,8 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRe
 }  // namespace
 
 std::string UnknownParameter(const std::string& key, bool render) {
-  std::string hint = DidYouMean(key, render ? std::span<const std::string_view>(kRenderParams) : kMeshParams);
-  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE, controls c.NAME=VALUE)" : hint);
+  std::string hint = DidYouMean(key, render ? std::span<const std::string_view>(kRenderQuery) : kMeshQuery);
+  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE or w[NAME]=VALUE, controls c.NAME=VALUE)" : hint);
 }
 
 bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, std::vector<FieldError>& errors) {
@@ -71,9 +65,13 @@ bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, s
 
 bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r, std::vector<FieldError>& errors) {
   const std::string where = "?" + key;
-  if (key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0) {  // A shape weight, or a control value.
+  // A shape weight, or a control value: w.NAME, or w[NAME] (OpenAPI's deepObject style, what
+  // generated clients send).
+  const bool dotted = key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0;
+  const bool bracketed = (key.rfind("w[", 0) == 0 || key.rfind("c[", 0) == 0) && key.size() >= 3 && key.back() == ']';
+  if (dotted || bracketed) {
     WeightEntry e;
-    e.name = key.substr(2);
+    e.name = bracketed ? key.substr(2, key.size() - 3) : key.substr(2);
     e.pointer = where;
     if (e.name.empty()) errors.push_back({where, key.substr(0, 2) + " needs a name: w.SHAPE=0.5 or c.CONTROL=-0.4"});
     else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});

@@ -1,0 +1,129 @@
+// A client generated from the server's own /openapi.json (npm: swagger-client, which builds each
+// request from the document: paths, parameter styles, request bodies, security) calls every
+// operation the document lists, and each answer is checked: status and body. An operation of the
+// document with no case here fails the test, so a new route comes with its call.
+// usage: node openapi_client_test.mjs SERVICE_URL API_KEY RIG_GLB
+// Prints ok/FAIL lines like the shell tests; exit 1 on a failure.
+import SwaggerClient from 'swagger-client';
+import fs from 'node:fs';
+
+const [service, key, glbPath] = process.argv.slice(2);
+let pass = 0, fail = 0;
+const check = (what, cond) => { if (cond) { pass++; console.log('ok   ' + what); } else { fail++; console.log('FAIL ' + what); } };
+
+const spec = await (await fetch(service + '/openapi.json')).json();
+spec.servers = [{ url: service }];
+const client = await SwaggerClient({ spec, authorizations: { bearer: { value: key } } });
+const glb = fs.readFileSync(glbPath);
+const json = (r) => (typeof r.body === 'object' && r.body !== null && !(r.body instanceof ArrayBuffer) ? r.body : JSON.parse(r.text));
+
+// Calls an operation by its id with the generated client; failures (4xx, 5xx) come back as responses.
+async function call(operationId, parameters = {}, extra = {}) {
+  try {
+    const request = SwaggerClient.buildRequest({ spec, operationId, parameters, ...extra });
+    const response = await client.execute({ operationId, parameters, ...extra });
+    response.request = request;
+    return response;
+  } catch (e) {
+    if (e.response) return e.response;
+    throw e;
+  }
+}
+
+const job = {};
+const body = (b) => ({ requestBody: b, requestContentType: 'application/json' });
+// Each operation of the document: how to call it, and what its answer must hold.
+const cases = {
+  healthz: [() => call('healthz'), (r) => r.status === 200 && json(r).status === 'ok'],
+  readyz: [() => call('readyz'), (r) => r.status === 200 && json(r).rigs >= 1],
+  metrics: [() => call('metrics'), (r) => r.status === 200 && /facespace_http_requests_total/.test(r.text)],
+  openapi: [() => call('openapi'), (r) => r.status === 200 && json(r).openapi.startsWith('3.1')],
+  listRigs: [() => call('listRigs'), (r) => r.status === 200 && json(r).rigs.some((x) => x.id === 'facecap' && x.shapes === 52)],
+  getRig: [() => call('getRig', { id: 'facecap' }), (r) => r.status === 200 && json(r).shapes[24].name === 'jawOpen'],
+  putRig: [() => call('putRig', { id: 'client-upload' }, { requestBody: glb, requestContentType: 'model/gltf-binary' }),
+           (r) => r.status === 201 && json(r).id === 'client-upload' && json(r).shapes === 52],
+  getManifest: [() => call('getManifest', { id: 'client-upload' }), (r) => r.status === 200 && typeof json(r).shapes === 'object'],
+  putManifest: [() => call('putManifest', { id: 'client-upload' }, body({ name: 'From the client', shapes: { jawOpen: { max: 2 } } })),
+                (r) => r.status === 200 && json(r).name === 'From the client'],
+  getTopology: [() => call('getTopology', { id: 'facecap', lod: 1 }),
+                (r) => r.status === 200 && json(r).primitives.length === 4 && json(r).primitives.every((p) => p.indices.length % 3 === 0)],
+  // The weights as the document declares them (deepObject): w[jawOpen]=0.5 on the wire.
+  getMesh: [() => call('getMesh', { id: 'facecap', w: { jawOpen: 0.5 }, format: 'json' }),
+            (r) => r.status === 200 && /w%5BjawOpen%5D=0.5/.test(r.request.url) && r.headers['facespace-weight-sum'] === '0.5' &&
+                   json(r).primitives.length === 4],
+  postMesh: [() => call('postMesh', { id: 'facecap' }, body({ weights: { jawOpen: 1.5 }, format: 'json' })),
+             (r) => r.status === 200 && json(r).warnings.some((w) => w.code === 'extrapolation')],
+  checkWeights: [() => call('checkWeights', { id: 'facecap' }, body({ weights: { jawOpen: 0.4, mouthSmile_L: 0.2 } })),
+                 (r) => r.status === 200 && Math.abs(json(r).sum - 0.6) < 1e-6 && json(r).warnings.length === 0],
+  // An image route answers the type asked for (Accept); the client asks as its caller says.
+  getRender: [() => call('getRender', { id: 'facecap', w: { jawOpen: 1 }, width: 64, height: 64, frame: 'shapes', yaw: 20 },
+                         { responseContentType: 'image/png' }),
+              (r) => r.status === 200 && /image\/png/.test(r.headers['content-type']) && /w%5BjawOpen%5D=1/.test(r.request.url)],
+  postRender: [() => call('postRender', { id: 'facecap' }, body({ weights: { jawOpen: 1 }, width: 64, height: 64, format: 'webp' })),
+               (r) => r.status === 200 && /image\/webp/.test(r.headers['content-type'])],
+  postSheet: [() => call('postSheet', { id: 'facecap' }, { ...body({ cells: [{}, { weights: { jawOpen: 1 }, label: 'open' }], width: 32, height: 32 }),
+                                                            responseContentType: 'image/png' }),
+              (r) => r.status === 200 && /image\/png/.test(r.headers['content-type'])],
+  sampleSequence: [() => call('sampleSequence', { id: 'facecap' }, body({ keys: [{ time: 0 }, { time: 1, shape: 'jawOpen' }], times: [0.5] })),
+                   (r) => r.status === 200 && json(r).frames[0].weights.jawOpen === 0.5],
+  streamSequence: [() => call('streamSequence', { id: 'facecap' }, body({ keys: [{ time: 0 }, { time: 0.1, shape: 'jawOpen' }], fps: 1000, format: 'ndjson' })),
+                   (r) => r.status === 200 && r.text.trim().split('\n').length >= 100],
+  reduceSequence: [() => call('reduceSequence', { id: 'facecap' },
+                              body({ keys: [{ time: 0 }, { time: 0.5, weights: { jawOpen: 0.5 } }, { time: 1, shape: 'jawOpen' }], tolerance: 0.001 })),
+                   (r) => r.status === 200 && json(r).kept === 2 && json(r).removed === 1],
+  fit: [async () => {
+          const target = json(await call('getMesh', { id: 'facecap', w: { jawOpen: 0.5 }, format: 'json' }));
+          return call('fit', { id: 'facecap' }, body({ target }));
+        },
+        (r) => r.status === 200 && Math.abs(json(r).weights.jawOpen - 0.5) < 1e-3],
+  startBatch: [() => call('startBatch', { id: 'facecap' }, body({ sample: { method: 'uniform', count: 3, seed: 2 }, format: 'obj' })),
+               (r) => { job.id = r.status === 202 && json(r).links.self.split('/').pop(); return r.status === 202 && /^[0-9a-f]{32}$/.test(job.id); }],
+  listJobs: [() => call('listJobs'), (r) => r.status === 200 && json(r).jobs.some((j) => j.links.self.endsWith(job.id))],
+  getJob: [async () => {
+             let r;
+             for (let i = 0; i < 200; ++i) {
+               r = await call('getJob', { job: job.id });
+               if (r.status !== 200 || ['done', 'failed', 'cancelled', 'lost'].includes(json(r).state)) break;
+               await new Promise((ok) => setTimeout(ok, 100));
+             }
+             return r;
+           },
+           (r) => r.status === 200 && json(r).state === 'done' && json(r).done === 3],
+  getJobManifest: [() => call('getJobManifest', { job: job.id }), (r) => {
+                     const lines = r.status === 200 ? r.text.trim().split('\n').map((l) => JSON.parse(l)) : [];
+                     job.file = lines.length ? lines[0].file : '';
+                     return lines.length === 3 && /\.obj$/.test(job.file);
+                   }],
+  getJobFile: [() => call('getJobFile', { job: job.id, name: job.file }),
+               async (r) => r.status === 200 && /^v /m.test(r.data instanceof Blob ? await r.data.text() : r.text)],
+  getJobResults: [() => call('getJobResults', { job: job.id }), (r) => r.status === 200 && /application\/zip/.test(r.headers['content-type'])],
+  deleteJob: [() => call('deleteJob', { job: job.id }), (r) => r.status === 204],
+  deleteRig: [() => call('deleteRig', { id: 'client-upload' }), (r) => r.status === 204],
+};
+
+const operations = [];
+for (const [path, item] of Object.entries(spec.paths)) {
+  for (const [method, op] of Object.entries(item)) {
+    if (['get', 'put', 'post', 'delete', 'patch'].includes(method)) operations.push({ id: op.operationId, method, path });
+  }
+}
+const missing = operations.filter((o) => !cases[o.id]).map((o) => `${o.method.toUpperCase()} ${o.path} (${o.id})`);
+check(`every operation of the document has a call here (${operations.length}; missing: ${missing.join(', ') || 'none'})`, missing.length === 0);
+const stale = Object.keys(cases).filter((id) => !operations.some((o) => o.id === id));
+check(`every call here is an operation of the document (stale: ${stale.join(', ') || 'none'})`, stale.length === 0);
+
+// In the order of the cases: uploads before their manifest, the batch before its files, deletes last.
+for (const [id, [run, holds]] of Object.entries(cases)) {
+  const op = operations.find((o) => o.id === id);
+  if (!op) continue;
+  let r = null, error = '';
+  try { r = await run(); } catch (e) { error = e.message; }
+  let ok = false;
+  if (r !== null) {
+    try { ok = await holds(r); } catch (e) { error = e.message; }
+  }
+  check(`generated client: ${op.method.toUpperCase()} ${op.path} (${id}) -> ${r ? r.status : error}` +
+        (ok || !r ? '' : ` ${error} ${typeof r.text === 'string' ? r.text.slice(0, 160) : r.headers['content-type']}`), ok);
+}
+console.log(`${pass} passed, ${fail} failed`);
+process.exit(fail ? 1 : 0);
