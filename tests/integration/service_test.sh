@@ -236,6 +236,13 @@ problem "$(c -X PUT "${K[@]}" -H 'Content-Type: application/json' -d '{"shapes":
   curl -s "$U/v1/rigs/face2" | grep -q '"name":"Face three"' && ok "  ... an unknown shape: 422 at its pointer, the manifest kept" || no "  ... an unknown shape in a manifest"
 check "  ... malformed JSON: 400; without the key: 401; an unknown rig: 404" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: application/json' -d '{' '$U/v1/rigs/face2/manifest') = 400 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Content-Type: application/json' -d '{}' '$U/v1/rigs/face2/manifest') = 401 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: application/json' -d '{}' '$U/v1/rigs/nobody/manifest') = 404 ]"
 cp "$store/face2.manifest.json" "$tmp/m3.json"
+# The flow of a new user: convert a rig, upload it with the manifest convert wrote beside it.
+"$bin" convert "$M/FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx" -o "$tmp/inb.glb" >/dev/null 2>&1
+code=$(c -X PUT "${K[@]}" -F "rig=@$tmp/inb.glb" -F "manifest=@$tmp/inb.manifest.json" "$U/v1/rigs/converted")
+check "a converted rig uploaded with its manifest keeps its name" both "[ $code = 201 ]" jq_ "d['name']=='maya_blend_inbetween_7500_binary'"
+code=$(c "$U/v1/rigs/converted")
+check "  ... and its in-betweens" both "[ $code = 200 ]" jq_ "[i['slider'] for i in d['inbetweens']]==['LiftTop','MoveToSide']"
+test "$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "${K[@]}" "$U/v1/rigs/converted")" = 204 || no "  ... DELETE the converted rig"
 
 c "$U/v1/rigs/facecap" >/dev/null; v1=$(py 'import json,sys; print(json.load(open(sys.argv[1]))["version"])' "$tmp/body")
 head -c 100000 "$store/facecap.glb" >"$tmp/trunc.glb"
