@@ -1,6 +1,7 @@
 #include "durable.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -32,12 +33,24 @@ void SyncDir(const std::filesystem::path& dir) {
   }
 }
 
+bool RemoveAbandoned(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool abandoned = ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  if (abandoned) ::unlink(path.c_str());
+  ::close(fd);
+  return abandoned;
+}
+
 Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& tmp_name,
                            std::span<const std::string_view> pieces, const std::string& what) {
   const std::string tmp = (dir / tmp_name).string();
   ::unlink(tmp.c_str());  // A temporary file left by a crash.
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0) return WriteError("cannot create " + what, errno);
+  // Held until the file is published or dropped (the lock goes with the descriptor): another
+  // process sharing the folder tells a temporary being written from one left by a crash.
+  ::flock(fd, LOCK_EX | LOCK_NB);
   for (std::string_view data : pieces) {
     size_t done = 0;
     while (done < data.size()) {

@@ -37,4 +37,9 @@ Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_na
 // fsync of a folder, so that renames and new names in it survive a crash.
 void SyncDir(const std::filesystem::path& dir);
 
+// Removes a temporary file left by a crashed writer: one no process holds (WriteTemporary locks
+// its file until it is published), so a writer sharing the folder is never cut short. True when
+// it was removed.
+bool RemoveAbandoned(const std::filesystem::path& path);
+
 }  // namespace facespace

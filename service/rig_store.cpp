@@ -1,6 +1,7 @@
 #include "rig_store.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -41,32 +42,78 @@ bool IsRigFile(const fs::path& p) {
 }  // namespace
 
 FileRigStore::FileRigStore(std::string dir, std::vector<std::string> read_only)
-    : dir_(std::move(dir)), read_only_(std::move(read_only)) {}
+    : dir_(std::move(dir)), read_only_(std::move(read_only)) {
+  while (dir_.size() > 1 && dir_.back() == '/') dir_.pop_back();  // Paths compare equal to the scan's.
+}
+
+FileRigStore::Stamp FileRigStore::StampOf(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return {};
+  return {static_cast<long long>(st.st_size), static_cast<long long>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec,
+          static_cast<unsigned long long>(st.st_ino)};
+}
+
+Result<std::map<std::string, FileRigStore::Entry>> FileRigStore::Scan(const std::map<std::string, Entry>& previous) {
+  std::map<std::string, Entry> loaded;
+  if (Status s = LoadFolder(dir_, false, previous, loaded); !s.ok()) return s;
+  for (const std::string& dir : read_only_) {
+    if (Status s = LoadFolder(dir, true, previous, loaded); !s.ok()) return s;
+  }
+  return loaded;
+}
 
 Result<size_t> FileRigStore::LoadAll() {
-  std::map<std::string, Entry> loaded;
-  if (Status s = LoadFolder(dir_, false, loaded); !s.ok()) return s;
-  for (const std::string& dir : read_only_) {
-    if (Status s = LoadFolder(dir, true, loaded); !s.ok()) return s;
+  std::lock_guard<std::mutex> write_lock(write_mu_);
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir_, ec)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && name.size() > 4 && name[0] == '.' && name.find(".tmp") != std::string::npos) {
+      RemoveAbandoned(e.path());  // Left by an upload that crashed: never published.
+    }
   }
+  auto loaded = Scan({});
+  if (!loaded.ok()) return loaded.status();
   std::lock_guard<std::mutex> lock(mu_);
-  map_ = std::move(loaded);
+  map_ = std::move(loaded.value());
   return map_.size();
 }
 
-Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, std::map<std::string, Entry>& loaded) const {
+Result<FileRigStore::Changes> FileRigStore::Refresh() {
+  std::lock_guard<std::mutex> write_lock(write_mu_);
+  std::map<std::string, Entry> current;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    current = map_;
+  }
+  auto loaded = Scan(current);
+  if (!loaded.ok()) return loaded.status();
+  Changes changes;
+  for (const auto& [id, e] : loaded.value()) {
+    auto it = current.find(id);
+    if (it == current.end()) changes.added.push_back(id);
+    else if (it->second.rig != e.rig) changes.replaced.push_back(id);
+  }
+  for (const auto& [id, e] : current) {
+    if (!loaded->count(id)) changes.removed.push_back(id);
+  }
+  if (!changes.added.empty() || !changes.replaced.empty() || !changes.removed.empty()) {
+    std::lock_guard<std::mutex> lock(mu_);
+    map_ = std::move(loaded.value());
+  }
+  return changes;
+}
+
+Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, const std::map<std::string, Entry>& previous,
+                                std::map<std::string, Entry>& loaded) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return NotFound("rig store '" + dir + "' is not a readable directory");
   // Candidates: files in dir first, then in its immediate subfolders; the first id wins.
   std::vector<fs::path> top, nested;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (!read_only && e.is_regular_file() && name.size() > 4 && name[0] == '.' && name.find(".tmp") != std::string::npos) {
-      fs::remove(e.path(), ec);  // Left by an upload that crashed: never published.
-      continue;
-    }
+    if (name.empty() || name[0] == '.') continue;  // Temporary files, being written or abandoned.
     if (e.is_regular_file() && IsRigFile(e.path())) top.push_back(e.path());
-    if (e.is_directory() && name[0] != '.') {
+    if (e.is_directory()) {
       for (const auto& f : fs::directory_iterator(e.path(), ec)) {
         if (f.is_regular_file() && IsRigFile(f.path())) nested.push_back(f.path());
       }
@@ -88,18 +135,27 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, std::map
       continue;
     }
     if (loaded.count(id)) continue;
+    const Stamp file = StampOf(p.string()), manifest = StampOf(ManifestPath(p.string()));
+    if (auto it = previous.find(id); it != previous.end() && it->second.path == p.string() && it->second.file == file &&
+                                     it->second.manifest == manifest) {
+      loaded[id] = it->second;  // Unchanged: not read again.
+      continue;
+    }
+    if (auto it = reported_.find(p.string()); it != reported_.end() && it->second == std::pair(file, manifest)) continue;
     std::ifstream f(p, std::ios::binary);
     std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     auto rig = LoadRigFile(p.string());
     if (!rig.ok()) {
       std::fprintf(stderr, "facespace: skipping broken rig %s: %s\n", p.c_str(), rig.status().message.c_str());
+      reported_[p.string()] = {file, manifest};
       continue;
     }
+    reported_.erase(p.string());
     auto stored = std::make_shared<api::StoredRig>();
     stored->id = id;
     stored->rig = std::move(rig.value());
     stored->version = api::RigVersion(bytes, ReadText(ManifestPath(p.string())));
-    loaded[id] = {std::move(stored), p.string(), read_only};
+    loaded[id] = {std::move(stored), p.string(), read_only, file, manifest};
   }
   return Status::Ok();
 }
@@ -192,9 +248,10 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd}) {
     if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
   }
+  const Stamp file_stamp = StampOf(final_path), manifest_stamp = StampOf(ManifestPath(final_path));
   std::lock_guard<std::mutex> lock(mu_);
   *created = !map_.count(id);
-  map_[id] = {std::move(stored), final_path};
+  map_[id] = {std::move(stored), final_path, false, file_stamp, manifest_stamp};
   return Status::Ok();
 }
 
@@ -230,8 +287,10 @@ Status FileRigStore::PutManifest(const std::string& id, const std::string& manif
   static std::atomic<uint64_t> counter{0};
   const std::string tmp = "." + id + ".manifest." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
   if (Status s = WriteFileDurably(p.parent_path(), manifest_file, manifest, tmp, "the manifest"); !s.ok()) return s;
+  const Stamp manifest_stamp = StampOf(ManifestPath(path));
   std::lock_guard<std::mutex> lock(mu_);
   map_[id].rig = std::move(stored);
+  map_[id].manifest = manifest_stamp;
   return Status::Ok();
 }
 

@@ -26,8 +26,19 @@ class FileRigStore : public api::RigStore {
   }
 
   // Loads every rig; a broken file is reported on stderr and skipped. Returns the number
-  // loaded. Fails only when the directory cannot be read.
+  // loaded. Fails only when the directory cannot be read. Temporary files left by a crashed
+  // upload are removed (never one another process is writing: durable.h, RemoveAbandoned).
   Result<size_t> LoadAll();
+
+  // What a Refresh found changed on disk, by id.
+  struct Changes {
+    std::vector<std::string> added, replaced, removed;
+  };
+  // Looks at the folders again and publishes what other processes sharing them changed: a rig
+  // file or manifest added, replaced (renamed in: never half-written) or removed. Only files
+  // whose stamp (size, mtime, inode) moved are read, so a refresh of an unchanged store costs a
+  // stat per file; a broken file is reported once per version.
+  Result<Changes> Refresh();
 
   std::shared_ptr<const api::StoredRig> Get(const std::string& id) const override;
   std::vector<std::shared_ptr<const api::StoredRig>> List() const override;
@@ -37,18 +48,30 @@ class FileRigStore : public api::RigStore {
   Status Delete(const std::string& id) override;
 
  private:
+  // A file's identity on disk: what changes when it is replaced or rewritten. size -1: absent.
+  struct Stamp {
+    long long size = -1, mtime_ns = 0;
+    unsigned long long inode = 0;
+    bool operator==(const Stamp&) const = default;
+  };
   struct Entry {
     std::shared_ptr<const api::StoredRig> rig;
     std::string path;
     bool read_only = false;
+    Stamp file, manifest;  // Of the rig file and its manifest when read.
   };
-  // The rigs of one folder (into `loaded`, ids already there kept); false when it cannot be read.
-  Status LoadFolder(const std::string& dir, bool read_only, std::map<std::string, Entry>& loaded) const;
+  static Stamp StampOf(const std::string& path);
+  // The rigs of one folder (into `loaded`, ids already there kept), reusing those of `previous`
+  // whose files have not moved; false when the folder cannot be read.
+  Status LoadFolder(const std::string& dir, bool read_only, const std::map<std::string, Entry>& previous,
+                    std::map<std::string, Entry>& loaded);
+  Result<std::map<std::string, Entry>> Scan(const std::map<std::string, Entry>& previous);
   Status CheckLimits(const Rig& rig) const;
   std::string dir_;
   std::vector<std::string> read_only_;
   mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).
-  std::mutex write_mu_;       // Serialises uploads and deletes.
+  std::mutex write_mu_;       // Serialises uploads, deletes and refreshes.
+  std::map<std::string, std::pair<Stamp, Stamp>> reported_;  // Broken files said once (under write_mu_).
   std::map<std::string, Entry> map_;
   size_t max_vertices_ = 1000000;
   size_t max_shapes_ = 1024;

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -45,6 +46,7 @@ struct ServeConfig {
   bool quiet = false;
   size_t max_vertices = 1000000;  // Per uploaded rig.
   size_t max_shapes = 1024;
+  int store_poll_ms = 1000;  // How often the store's folders are looked at for other processes' changes; 0: never.
   int render_threads = 0;    // GL contexts, i.e. renders drawing at once; 0: one per core.
   int read_timeout = 10;     // Seconds a client may take to send a request (slow clients are cut off).
   std::string jobs_dir;      // Default: $XDG_STATE_HOME/facespace/jobs or ~/.local/state/facespace/jobs.
@@ -120,6 +122,11 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   } else if (key == "max-shapes") {
     if (!ParseSize(value, 0, 100000, &n)) return "max-shapes must be 0..100000, not '" + value + "'";
     c.max_shapes = static_cast<size_t>(n);
+  } else if (key == "store-poll") {
+    char* end = nullptr;
+    const double s = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end || !(s >= 0 && s <= 3600)) return "store-poll must be 0..3600 seconds (0: never), not '" + value + "'";
+    c.store_poll_ms = static_cast<int>(s * 1000);
   } else if (key == "render-threads") {
     if (!ParseSize(value, 0, 256, &n)) return "render-threads must be 0..256 (0: one per core), not '" + value + "'";
     c.render_threads = static_cast<int>(n);
@@ -154,7 +161,7 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"},
       {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"},
       {"FACESPACE_RENDER_THREADS", "render-threads"}, {"FACESPACE_MAX_SHEET_CELLS", "max-sheet-cells"},
-      {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}};
+      {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}, {"FACESPACE_STORE_POLL", "store-poll"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -171,6 +178,7 @@ int Serve(const std::vector<std::string>& args) {
   const std::pair<const char*, const char*> settings[] = {
       {"rigs", "DIR: rigs to serve (.glb/.gltf/... files and folders; default: the bundled ones, read-only)"},
       {"store", "DIR: where uploads are written (default: --rigs when given, else ~/.local/state/facespace/rigs)"},
+      {"store-poll", "SECONDS: how often to pick up rigs other instances sharing the store changed (default 1; 0: never)"},
       {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
       {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads (default 256)"},
       {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
@@ -330,6 +338,28 @@ int Serve(const std::vector<std::string>& args) {
   std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", renderer.Info().c_str(), renderer.Concurrency());
   std::fflush(stderr);
 
+  // Instances sharing a store (a shared filesystem behind a balancer) see each other's uploads,
+  // replacements and deletes within --store-poll: a stat per file per poll, a read only of what moved.
+  std::mutex poll_mu;
+  std::condition_variable poll_cv;
+  bool poll_stop = false;
+  std::thread poller([&] {
+    std::unique_lock<std::mutex> lock(poll_mu);
+    while (c.store_poll_ms > 0 && !poll_cv.wait_for(lock, std::chrono::milliseconds(c.store_poll_ms), [&] { return poll_stop; })) {
+      lock.unlock();
+      auto changes = store.Refresh();
+      if (!changes.ok()) {
+        std::fprintf(stderr, "facespace: store: %s\n", changes.status().message.c_str());
+      } else {
+        for (const auto& [what, ids] : {std::pair{"added", &changes->added}, std::pair{"replaced", &changes->replaced},
+                                        std::pair{"removed", &changes->removed}}) {
+          for (const std::string& id : *ids) std::fprintf(stderr, "facespace: store: rig '%s' %s on disk\n", id.c_str(), what);
+        }
+      }
+      lock.lock();
+    }
+  });
+
   std::atomic<bool> signalled{false};
   std::thread waiter([&server, &signalled, signals] {
     int sig = 0;
@@ -342,6 +372,12 @@ int Serve(const std::vector<std::string>& args) {
   const bool ok = server.listen_after_bind();
   if (!signalled.exchange(true)) pthread_kill(waiter.native_handle(), SIGTERM);  // Wake the waiter.
   waiter.join();
+  {
+    std::lock_guard<std::mutex> lock(poll_mu);
+    poll_stop = true;
+  }
+  poll_cv.notify_all();
+  poller.join();
   std::fprintf(stderr, "facespace: stopped\n");
   return ok ? 0 : 1;
 }

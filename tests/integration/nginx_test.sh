@@ -1,0 +1,128 @@
+#!/usr/bin/env bash
+# Three `facespace serve` instances sharing one store behind the real nginx (Debian's), started
+# with the documented config (service/deploy/nginx.conf) on loopback ports: requests spread, an
+# upload through one instance is served by the others, a SIGKILL of one instance under load loses
+# no GET (nginx retries it on another), and the rest keep serving.
+# usage: nginx_test.sh FACESPACE_BINARY SOURCE_DIR
+set -u
+bin=$1; src=$2
+nginx_bin=$(command -v nginx || echo /usr/sbin/nginx)
+if [ ! -x "$nginx_bin" ]; then
+  echo "SKIP nginx is not installed (apt-get install nginx-light; .ci/dev test installs it)"
+  exit 77
+fi
+tmp=$(mktemp -d); pids=(); npid=
+cleanup() {
+  [ -n "$npid" ] && kill "$npid" 2>/dev/null && wait "$npid" 2>/dev/null
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done
+  rm -rf "$tmp"
+}
+trap cleanup EXIT
+. "$(dirname "$0")/testlib.sh"
+py() { python3 -c "$@"; }
+free_port() { py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])'; }
+
+mkdir -p "$tmp/store" "$tmp/nginx"
+cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" "$tmp/store/"
+printf 'k3y-for-tests' >"$tmp/key"
+K=(-H 'Authorization: Bearer k3y-for-tests')
+ports=($(free_port) $(free_port) $(free_port)); front=$(free_port)
+for i in 0 1 2; do
+  "$bin" serve --host 127.0.0.1 --port "${ports[$i]}" --rigs "$tmp/store" --api-key-file "$tmp/key" --store-poll 0.2 \
+    --jobs-dir "$tmp/jobs$i" >"$tmp/log$i" 2>&1 & pids+=($!)
+done
+for i in 0 1 2; do
+  for _ in $(seq 1 100); do curl -fs "http://127.0.0.1:${ports[$i]}/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+done
+
+# The documented snippet, with this run's ports, inside a minimal main config of our own.
+sed -e "s/127.0.0.1:8081/127.0.0.1:${ports[0]}/; s/127.0.0.1:8082/127.0.0.1:${ports[1]}/; s/127.0.0.1:8083/127.0.0.1:${ports[2]}/" \
+    -e "s/listen 127.0.0.1:8080;/listen 127.0.0.1:$front;/" "$src/service/deploy/nginx.conf" >"$tmp/facespace.conf"
+check "the documented config names three instances and the front port" sh -c "grep -c '127.0.0.1:${ports[0]}\|127.0.0.1:${ports[1]}\|127.0.0.1:${ports[2]}' '$tmp/facespace.conf' | grep -qx 3 && grep -q 'listen 127.0.0.1:$front;' '$tmp/facespace.conf'"
+user_line=; [ "$(id -u)" -eq 0 ] && user_line="user root;"
+cat >"$tmp/nginx.conf" <<EOF
+$user_line
+pid $tmp/nginx.pid;
+error_log $tmp/nginx-error.log warn;
+worker_processes 2;
+events { worker_connections 1024; }
+http {
+  access_log $tmp/nginx-access.log;
+  client_body_temp_path $tmp/nginx/body;
+  proxy_temp_path $tmp/nginx/proxy;
+  fastcgi_temp_path $tmp/nginx/fastcgi;
+  uwsgi_temp_path $tmp/nginx/uwsgi;
+  scgi_temp_path $tmp/nginx/scgi;
+  include $tmp/facespace.conf;
+}
+EOF
+"$nginx_bin" -p "$tmp/nginx" -c "$tmp/nginx.conf" -e "$tmp/nginx-error.log" -g 'daemon off;' >"$tmp/nginx.out" 2>&1 & npid=$!
+F=http://127.0.0.1:$front
+for _ in $(seq 1 100); do curl -fs "$F/readyz" >/dev/null 2>&1 && break; sleep 0.1; done
+check "nginx ($("$nginx_bin" -v 2>&1 | sed 's/.*: //')) starts with the documented config: /readyz through it is 200" \
+  test "$(curl -s -o /dev/null -w '%{http_code}' "$F/readyz")" = 200 || { cat "$tmp/nginx-error.log" "$tmp/nginx.out"; exit 1; }
+
+# Requests spread over the instances.
+for n in $(seq 1 60); do curl -s -o /dev/null "$F/v1/rigs/facecap/mesh?w.jawOpen=0.$((n % 10))&format=f32"; done
+counts=$(for i in 0 1 2; do grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log$i"; done | tr '\n' ' ')
+check "60 GETs through nginx reach every instance (${counts% })" sh -c "for n in $counts; do [ \$n -ge 5 ] || exit 1; done"
+
+# An upload through one instance is served by the others (the shared store, --store-poll 0.2).
+code=$(curl -s -o /dev/null -w '%{http_code}' -X PUT "${K[@]}" -F "rig=@$src/assets/facecap/facecap.glb" \
+  -F "manifest=@$src/assets/facecap/facecap.manifest.json" "http://127.0.0.1:${ports[0]}/v1/rigs/shared")
+seen() {  # seen ID CODE: every instance answers CODE for the rig within 3 s.
+  for _ in $(seq 1 30); do
+    local all=1
+    for i in 0 1 2; do [ "$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:${ports[$i]}/v1/rigs/$1")" = "$2" ] || all=0; done
+    [ $all = 1 ] && return 0
+    sleep 0.1
+  done
+  return 1
+}
+[ "$code" = 201 ] && seen shared 200 && ok "an upload to instance 1 (201) is served by instances 2 and 3 within 3 s" ||
+  no "an upload to instance 1 ($code) is served by instances 2 and 3 within 3 s"
+grep -q "rig 'shared' added on disk" "$tmp/log1" && ok "  ... instance 2 logs the rig added on disk" || no "  ... instance 2 logs the addition"
+check "  ... and through nginx, whichever instance answers" sh -c "for n in 1 2 3 4 5 6; do [ \$(curl -s -o /dev/null -w '%{http_code}' '$F/v1/rigs/shared/mesh?w.jawOpen=1&format=f32') = 200 ] || exit 1; done"
+
+# Under load, a SIGKILL of one instance: nginx retries the GETs it had sent there on the others.
+cat >"$tmp/load.py" <<'EOF'
+import http.client, random, sys, threading, time
+host, port, n, conc = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
+codes, lock = {}, threading.Lock()
+def worker(k):
+    rnd = random.Random(k)
+    c = http.client.HTTPConnection(host, port, timeout=30)
+    for _ in range(n // conc):
+        path = "/v1/rigs/facecap/mesh?w.jawOpen=%.4f&w.mouthSmile_L=%.4f&format=f32" % (rnd.random(), rnd.random())
+        try:
+            c.request("GET", path); r = c.getresponse(); r.read(); code = r.status
+        except Exception:
+            c.close(); c = http.client.HTTPConnection(host, port, timeout=30); code = "error"
+        with lock: codes[code] = codes.get(code, 0) + 1
+t0 = time.time()
+ts = [threading.Thread(target=worker, args=(k,)) for k in range(conc)]
+for t in ts: t.start()
+for t in ts: t.join()
+print(" ".join("%s:%d" % kv for kv in sorted(codes.items(), key=str)), "%.0f req/s" % (n / (time.time() - t0)))
+EOF
+python3 "$tmp/load.py" 127.0.0.1 "$front" 6000 16 >"$tmp/load.out" & lpid=$!
+sleep 0.5
+before=$(grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log2")
+kill -0 $lpid 2>/dev/null && mid=1 || mid=0
+kill -9 "${pids[2]}"; wait "${pids[2]}" 2>/dev/null
+wait $lpid
+check "6000 GETs from 16 clients, instance 3 SIGKILLed mid-load (after serving $before): all 200 ($(cat "$tmp/load.out"))" \
+  sh -c "[ $mid = 1 ] && [ $before -gt 20 ] && grep -Eq '^200:6000 ' '$tmp/load.out'"
+check "  ... the other two keep serving, through nginx and directly" sh -c "for n in 1 2 3 4; do [ \$(curl -s -o /dev/null -w '%{http_code}' '$F/v1/rigs/facecap') = 200 ] || exit 1; done && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[0]}/healthz') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[1]}/healthz') = 200 ]"
+
+# A delete through nginx reaches the survivors.
+code=$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "${K[@]}" "$F/v1/rigs/shared")
+for _ in $(seq 1 30); do
+  [ "$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:${ports[0]}/v1/rigs/shared")" = 404 ] &&
+    [ "$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:${ports[1]}/v1/rigs/shared")" = 404 ] && break
+  sleep 0.1
+done
+check "a DELETE through nginx: 204, gone from both live instances within 3 s" sh -c "[ $code = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[0]}/v1/rigs/shared') = 404 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[1]}/v1/rigs/shared') = 404 ]"
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
