@@ -68,7 +68,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       break;
     case 5:
-      if (auto f = ParseFitRequest(body); f.ok()) facespace::FitWeights(rig, f->target, f->options);
+      if (auto f = ParseFitRequest(body); f.ok()) facespace::api::ProduceFit(rig, f.value());
       break;
   }
   return 0;
