@@ -1,9 +1,14 @@
 #include "batch.h"
 #include "durable.h"
 
+#include <fcntl.h>
 #include <openssl/evp.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cstdio>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -29,9 +34,126 @@ namespace {
 
 constexpr char kTmpPrefix[] = ".fs-tmp-";
 
-// dir/name, durably; the folder itself is synced once at the end of the run.
-Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data) {
-  return WriteFileDurably(dir, name, data, kTmpPrefix + name, "'" + name + "'", false);
+constexpr char kLockPrefix[] = ".fs-lock-";
+constexpr char kManifest[] = "manifest.jsonl";
+
+// dir/name, durably; the folder itself is synced once at the end of the run. `writer` keeps the
+// temporary names of processes writing the same file (shards writing batch.json) apart.
+Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data, const std::string& writer = "") {
+  return WriteFileDurably(dir, name, data, kTmpPrefix + name + writer, "'" + name + "'", false);
+}
+
+std::string ShardSuffix(size_t shard, size_t shards) {
+  return "shard-" + std::to_string(shard + 1) + "-of-" + std::to_string(shards);
+}
+std::string ManifestName(size_t shard, size_t shards) {
+  return shards > 1 ? "manifest." + ShardSuffix(shard, shards) + ".jsonl" : kManifest;
+}
+std::string RecordName(size_t shard, size_t shards) { return ShardSuffix(shard, shards) + ".json"; }
+
+// "shard-I-of-N" + suffix -> {I-1, N}.
+bool ParseShardName(std::string_view name, std::string_view prefix, std::string_view suffix, size_t* shard, size_t* shards) {
+  if (name.size() <= prefix.size() + suffix.size() || name.substr(0, prefix.size()) != prefix ||
+      name.substr(name.size() - suffix.size()) != suffix) {
+    return false;
+  }
+  name = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+  unsigned long i = 0, n = 0;
+  char tail = 0;
+  const std::string text(name);
+  if (std::sscanf(text.c_str(), "shard-%lu-of-%lu%c", &i, &n, &tail) != 2 || i < 1 || i > n) return false;
+  if (text != "shard-" + std::to_string(i) + "-of-" + std::to_string(n)) return false;
+  *shard = i - 1;
+  *shards = n;
+  return true;
+}
+
+// An exclusive lock held while a run writes its manifest: the same shard never runs twice at
+// once (two array tasks given the same index, a rerun while the first still runs).
+class RunLock {
+ public:
+  RunLock() = default;
+  RunLock(const RunLock&) = delete;
+  RunLock& operator=(const RunLock&) = delete;
+  ~RunLock() {
+    if (fd_ >= 0) {
+      ::unlink(path_.c_str());
+      ::close(fd_);
+    }
+  }
+  // False when another process holds it.
+  bool Take(const fs::path& path) {
+    path_ = path.string();
+    fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) return true;  // A read-only folder fails later, with a better message.
+    if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return true;
+    ::close(fd_);
+    fd_ = -1;
+    return false;
+  }
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+};
+
+// True when a process holds the lock at `path` (the file may be gone: nobody).
+bool Locked(const fs::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0;
+  ::close(fd);
+  return held;
+}
+
+// The manifest lines of `dir` (manifest.jsonl and every shard's) whose variant `keep(index)` and
+// whose file is there with its size, by index. A torn line (a kill mid-write) or a line for a
+// missing file is dropped.
+std::map<size_t, std::string> ReadManifests(const fs::path& dir, const api::BatchPlan& plan, const std::function<bool(size_t)>& keep) {
+  std::map<size_t, std::string> lines;
+  std::error_code ec;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    size_t shard = 0, shards = 0;
+    if (name == kManifest || ParseShardName(name, "manifest.", ".jsonl", &shard, &shards)) files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  for (const fs::path& path : files) {
+    std::ifstream f(path, std::ios::binary);
+    std::string line;
+    while (std::getline(f, line)) {
+      json j = json::parse(line, nullptr, false);
+      if (j.is_discarded() || !j.is_object() || !j.contains("index") || !j["index"].is_number_unsigned() ||
+          !j.contains("file") || !j["file"].is_string() || !j.contains("bytes") || !j["bytes"].is_number_unsigned()) {
+        continue;
+      }
+      const size_t index = j["index"].get<size_t>();
+      if (index >= plan.total || !keep(index) || lines.count(index) ||
+          j["file"].get<std::string>() != api::VariantFile(plan, index)) {
+        continue;
+      }
+      const fs::path file = dir / j["file"].get<std::string>();
+      if (fs::is_regular_file(file, ec) && fs::file_size(file, ec) == j["bytes"].get<uint64_t>()) lines[index] = line;
+    }
+  }
+  return lines;
+}
+
+std::string JoinLines(const std::map<size_t, std::string>& lines) {
+  std::string text;
+  for (const auto& [index, line] : lines) text += line + "\n";
+  return text;
+}
+
+// The contact sheet of the first `cells` variants, as a one-process run writes it.
+Status WriteSheet(const api::BatchPlan& plan, const fs::path& dir, size_t cells, const render::Renderer& renderer) {
+  std::vector<size_t> first;
+  for (size_t k = 0; k < plan.total && first.size() < cells; ++k) first.push_back(k);
+  api::Workspace ws;
+  auto png = api::VariantSheet(plan, first, renderer, ws);
+  if (!png.ok()) return png.status();
+  return WriteInBatch(dir, "sheet.png", png.value());
 }
 
 }  // namespace
@@ -66,6 +188,14 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
   if (options.shards == 0 || options.shard >= options.shards) return InvalidArgument("bad shard");
   if (!options.renderer) return InvalidArgument("no renderer");
   const render::Renderer& renderer = *options.renderer;
+  const bool sharded = options.shards > 1;
+  const std::string manifest_name = ManifestName(options.shard, options.shards);
+  const std::string shard_text = std::to_string(options.shard + 1) + "/" + std::to_string(options.shards);
+  RunLock run_lock;
+  if (!run_lock.Take(dir / (kLockPrefix + manifest_name))) {
+    return FailedPrecondition(std::string(sharded ? "shard " + shard_text + " of the batch" : "the batch") + " in '" + options.dir +
+                              "' is being written by another process; wait for it, or stop it first");
+  }
 
   // The folder belongs to one batch: the same request against the same rig.
   const fs::path spec_path = dir / "batch.json";
@@ -76,38 +206,23 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
       return FailedPrecondition("'" + options.dir + "' holds another batch (its batch.json differs from this request or rig): "
                                 "use another output folder, or empty this one");
     }
-  } else if (Status s = WriteInBatch(dir, "batch.json", plan.spec_json); !s.ok()) {
+  } else if (Status s = WriteInBatch(dir, "batch.json", plan.spec_json, "." + manifest_name); !s.ok()) {
     return s;
   }
-  // Leftovers of a run that was killed: temporary files are never complete.
+  // Leftovers of a run that was killed: temporary files are never complete. Those another
+  // process (another shard) is writing are locked, and stay.
   for (const auto& e : fs::directory_iterator(dir, ec)) {
-    if (e.path().filename().string().rfind(kTmpPrefix, 0) == 0) fs::remove(e.path(), ec);
+    if (e.path().filename().string().rfind(kTmpPrefix, 0) == 0) RemoveAbandoned(e.path());
   }
 
-  // Resume: a manifest line whose file is there with its size is done. A torn last line
-  // (killed mid-write) or a line for a missing file is dropped and its variant redone.
-  std::map<size_t, std::string> lines;
-  {
-    std::ifstream f(dir / "manifest.jsonl");
-    std::string line;
-    while (std::getline(f, line)) {
-      json j = json::parse(line, nullptr, false);
-      if (j.is_discarded() || !j.is_object() || !j.contains("index") || !j["index"].is_number_unsigned() ||
-          !j.contains("file") || !j["file"].is_string() || !j.contains("bytes") || !j["bytes"].is_number_unsigned()) {
-        continue;
-      }
-      const size_t index = j["index"].get<size_t>();
-      if (index >= plan.total || j["file"].get<std::string>() != VariantFile(plan, index)) continue;
-      const fs::path file = dir / j["file"].get<std::string>();
-      if (fs::is_regular_file(file, ec) && fs::file_size(file, ec) == j["bytes"].get<uint64_t>()) lines[index] = line;
-    }
-  }
-  auto write_manifest = [&] {
-    std::string text;
-    for (const auto& [index, line] : lines) text += line + "\n";
-    return WriteInBatch(dir, "manifest.jsonl", text);
-  };
+  // Resume: a manifest line (this run's, another shard count's, or a merged one) whose file is
+  // there with its size is done; the rest is redone.
+  const auto mine = [&](size_t k) { return k % options.shards == options.shard; };
+  std::map<size_t, std::string> lines = ReadManifests(dir, plan, mine);
+  auto write_manifest = [&] { return WriteInBatch(dir, manifest_name, JoinLines(lines)); };
   if (Status s = write_manifest(); !s.ok()) return s;
+  const fs::path record_path = dir / RecordName(options.shard, options.shards);
+  if (sharded) fs::remove(record_path, ec);  // Written again once every variant of the shard is there.
 
   std::vector<size_t> pending;
   Summary summary;
@@ -117,7 +232,7 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
     else pending.push_back(k);
   }
 
-  std::ofstream manifest(dir / "manifest.jsonl", std::ios::app | std::ios::binary);
+  std::ofstream manifest(dir / manifest_name, std::ios::app | std::ios::binary);
   std::mutex mu;
   std::condition_variable cv;
   std::atomic<size_t> next{0}, finished{0};
@@ -233,18 +348,209 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
   if (!failure.ok()) return failure;
   if (!written.ok()) return written;
 
-  // The contact sheet of this shard's first variants, once they all exist.
-  if (!summary.cancelled && options.sheet_cells > 0 && summary.total > 0 && !fs::exists(dir / "sheet.png")) {
-    std::vector<size_t> first;
-    for (size_t k = options.shard; k < plan.total && first.size() < options.sheet_cells; k += options.shards) first.push_back(k);
-    api::Workspace ws;
-    auto png = api::VariantSheet(plan, first, renderer, ws);
-    if (!png.ok()) return png.status();
-    if (Status s = WriteInBatch(dir, "sheet.png", png.value()); !s.ok()) return s;
+  if (summary.cancelled) {
+    SyncDir(dir);
+    summary.seconds = elapsed();
+    return summary;
+  }
+  if (sharded) {
+    // The shard's record: merge's proof that it finished, and where the rig is.
+    json record = {{"shard", options.shard + 1}, {"shards", options.shards}, {"variants", summary.total},
+                   {"sheet_cells", options.sheet_cells}, {"rig_files", options.rig_files}};
+    if (Status s = WriteInBatch(dir, RecordName(options.shard, options.shards),
+                                record.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
+        !s.ok()) {
+      return s;
+    }
+  } else if (options.sheet_cells > 0 && summary.total > 0 && !fs::exists(dir / "sheet.png")) {
+    // The contact sheet of the first variants, once they all exist.
+    if (Status s = WriteSheet(plan, dir, options.sheet_cells, renderer); !s.ok()) return s;
   }
   SyncDir(dir);
   summary.seconds = elapsed();
   return summary;
+}
+
+Result<ShardsFound> FindShards(const std::string& dir_name) {
+  const fs::path dir = dir_name;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return NotFound("no folder '" + dir_name + "'");
+  ShardsFound found;
+  std::map<size_t, ShardRecord> records;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    size_t shard = 0, shards = 0;
+    const bool record = ParseShardName(name, "", ".json", &shard, &shards);
+    if (!record && !ParseShardName(name, "manifest.", ".jsonl", &shard, &shards)) continue;
+    if (found.shards != 0 && shards != found.shards) {
+      return FailedPrecondition("'" + dir_name + "' holds shards of " + std::to_string(found.shards) + " and of " +
+                                std::to_string(shards) + ": runs with different shard counts cannot be merged; rerun with one count");
+    }
+    found.shards = shards;
+    if (!record) continue;
+    std::ifstream f(e.path(), std::ios::binary);
+    json j = json::parse(f, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) continue;  // Unreadable: the shard counts as unfinished.
+    ShardRecord r;
+    r.shard = shard;
+    r.shards = shards;
+    r.variants = j.value("variants", size_t{0});
+    r.sheet_cells = j.value("sheet_cells", size_t{16});
+    if (j.contains("rig_files") && j["rig_files"].is_array()) {
+      for (const json& p : j["rig_files"]) {
+        if (p.is_string()) r.rig_files.push_back(p.get<std::string>());
+      }
+    }
+    records[shard] = std::move(r);
+  }
+  if (found.shards == 0) return FailedPrecondition("'" + dir_name + "' holds no shards of a batch (no manifest.shard-I-of-N.jsonl)");
+  for (auto& [shard, r] : records) found.finished.push_back(std::move(r));
+  return found;
+}
+
+Result<MergeSummary> Merge(const api::BatchPlan& plan, const MergeOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const fs::path dir = options.dir;
+  if (!options.renderer) return InvalidArgument("no renderer");
+  {
+    std::ifstream f(dir / "batch.json", std::ios::binary);
+    const std::string spec((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    if (spec != plan.spec_json) return FailedPrecondition("'" + options.dir + "/batch.json' is not this batch's (another request or rig version)");
+  }
+  auto found = FindShards(options.dir);
+  if (!found.ok()) return found.status();
+  const size_t shards = found->shards;
+  std::vector<bool> finished(shards, false);
+  for (const ShardRecord& r : found->finished) finished[r.shard] = true;
+  std::string problems;
+  size_t unfinished = 0;
+  for (size_t i = 0; i < shards; ++i) {
+    const bool running = Locked(dir / (kLockPrefix + ManifestName(i, shards)));
+    if (finished[i] && !running) continue;
+    if (++unfinished <= 8) {
+      problems += std::string(problems.empty() ? "" : ", ") + std::to_string(i + 1) + "/" + std::to_string(shards) +
+                  (running ? " (running)" : "");
+    }
+  }
+  if (unfinished > 0) {
+    return FailedPrecondition(std::to_string(unfinished) + " of " + std::to_string(shards) + " shards of '" + options.dir +
+                              "' have not finished: " + problems + (unfinished > 8 ? ", ..." : "") +
+                              "; run them (again: each resumes where it stopped), then merge");
+  }
+
+  // Every variant, with its file, and (verify) the file's hash as its line says.
+  std::map<size_t, std::string> lines = ReadManifests(dir, plan, [](size_t) { return true; });
+  if (lines.size() != plan.total) {
+    std::string missing;
+    size_t count = 0;
+    for (size_t k = 0; k < plan.total; ++k) {
+      if (lines.count(k)) continue;
+      if (++count <= 5) missing += std::string(missing.empty() ? "" : ", ") + api::VariantId(plan, k);
+    }
+    return FailedPrecondition(std::to_string(count) + " variants are missing from '" + options.dir + "' (" + missing +
+                              (count > 5 ? ", ..." : "") + "): rerun their shards, then merge");
+  }
+  if (options.verify) {
+    std::string data;
+    for (const auto& [index, line] : lines) {
+      const json j = json::parse(line, nullptr, false);
+      const std::string file = j["file"].get<std::string>();
+      std::ifstream f(dir / file, std::ios::binary);
+      data.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+      const std::string_view whole[] = {data};
+      if (!j.contains("sha256") || j["sha256"] != Sha256Hex(whole)) {
+        return FailedPrecondition("'" + file + "' does not match its manifest line's sha256 (changed after it was written): "
+                                  "remove it and rerun its shard, then merge");
+      }
+    }
+  }
+  if (Status s = WriteInBatch(dir, kManifest, JoinLines(lines)); !s.ok()) return s;
+  if (options.sheet_cells > 0 && plan.total > 0) {
+    if (Status s = WriteSheet(plan, dir, options.sheet_cells, *options.renderer); !s.ok()) return s;
+  }
+  SyncDir(dir);
+  // manifest.jsonl vouches for every variant now: the shards' files go.
+  std::error_code ec;
+  for (size_t i = 0; i < shards; ++i) {
+    fs::remove(dir / ManifestName(i, shards), ec);
+    fs::remove(dir / RecordName(i, shards), ec);
+  }
+  SyncDir(dir);
+  MergeSummary summary;
+  summary.shards = shards;
+  summary.variants = plan.total;
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const char*)>& env, size_t count) {
+  auto number = [&](const char* name, size_t* out) -> Result<bool> {
+    const char* v = env(name);
+    if (!v || !*v) return false;
+    const std::string_view text(v);
+    unsigned long long n = 0;
+    const auto r = std::from_chars(text.data(), text.data() + text.size(), n);
+    if (r.ec != std::errc() || r.ptr != text.data() + text.size()) {
+      return InvalidArgument(std::string(name) + " is '" + v + "', not a whole number");
+    }
+    *out = static_cast<size_t>(n);
+    return true;
+  };
+  SchedulerShard out;
+  size_t id = 0, n = 0, lo = 0, hi = 0, step = 1;
+  auto has_id = number("SLURM_ARRAY_TASK_ID", &id);
+  if (!has_id.ok()) return has_id.status();
+  if (has_id.value()) {
+    auto has_count = number("SLURM_ARRAY_TASK_COUNT", &n);
+    auto has_lo = number("SLURM_ARRAY_TASK_MIN", &lo);
+    auto has_hi = number("SLURM_ARRAY_TASK_MAX", &hi);
+    auto has_step = number("SLURM_ARRAY_TASK_STEP", &step);
+    for (const auto* r : {&has_count, &has_lo, &has_hi, &has_step}) {
+      if (!r->ok()) return r->status();
+    }
+    if (count != 0) {
+      // With --shards, the array ids are the shards (0..N-1), so a part of the array can be
+      // submitted again (sbatch --array=2) and still be shard 3/N.
+      if (id >= count) {
+        return InvalidArgument("SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " is not below --shards " + std::to_string(count) +
+                               " (with --shards N the array ids are the shards: --array=0-" + std::to_string(count - 1) + ", or a part of it)");
+      }
+      out.shard = id;
+      out.shards = count;
+      out.source = "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " with --shards " + std::to_string(count);
+      return out;
+    }
+    if (!has_step.value() || step == 0) step = 1;
+    if (!has_lo.value()) lo = 0;
+    if (!has_count.value()) {
+      if (!has_hi.value()) return InvalidArgument("SLURM_ARRAY_TASK_ID is set but neither SLURM_ARRAY_TASK_COUNT nor _MAX: give --shards N");
+      n = hi < lo ? 0 : (hi - lo) / step + 1;
+    }
+    if (id < lo || (id - lo) % step != 0 || (id - lo) / step >= n) {
+      return InvalidArgument("SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " is not one of " + std::to_string(n) +
+                             " evenly spaced tasks from " + std::to_string(lo) +
+                             " (arrays like --array=0-3 or 1-8:1 shard; for others give --shard I/N)");
+    }
+    out.shard = (id - lo) / step;
+    out.shards = n;
+    out.source = "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " of " + std::to_string(n) + " tasks";
+  } else {
+    auto has_index = number("JOB_COMPLETION_INDEX", &id);
+    if (!has_index.ok()) return has_index.status();
+    if (!has_index.value()) {
+      return InvalidArgument("--shard auto: no scheduler's task index in the environment (SLURM_ARRAY_TASK_ID of a Slurm job array, "
+                             "JOB_COMPLETION_INDEX of a Kubernetes Indexed Job); give --shard I/N");
+    }
+    if (count == 0) return InvalidArgument("--shard auto with JOB_COMPLETION_INDEX needs --shards N (the Job's completions)");
+    if (id >= count) {
+      return InvalidArgument("JOB_COMPLETION_INDEX=" + std::to_string(id) + " is not below --shards " + std::to_string(count));
+    }
+    out.shard = id;
+    out.shards = count;
+    out.source = "JOB_COMPLETION_INDEX=" + std::to_string(id) + " of " + std::to_string(count);
+  }
+  if (out.shards == 0 || out.shards > 1000000) return InvalidArgument("the scheduler's task count " + std::to_string(out.shards) + " is out of range");
+  return out;
 }
 
 }  // namespace facespace::batch

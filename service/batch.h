@@ -9,6 +9,12 @@
 //                    "weights" (non-zero, by name), "warnings"}, sorted by index when a run ends
 //   sheet.png        a contact sheet of the first variants
 // Rerunning skips the variants whose file is in the manifest with its size: resume.
+//
+// Shards (a scheduler's array tasks) share one folder: variant k belongs to shard k % N, each
+// shard writes its own manifest.shard-I-of-N.jsonl (I 1-based) and, when all its variants are
+// there, shard-I-of-N.json; no sheet. Merge checks that every shard finished and writes
+// manifest.jsonl and sheet.png, byte-identical to a one-process run, and removes the shard files.
+// A run holds a lock on its manifest (.fs-lock-<manifest>), so the same shard never runs twice at once.
 #pragma once
 
 #include <atomic>
@@ -37,6 +43,7 @@ struct RunOptions {
   int jobs = 0;                      // Worker threads; 0 = every core.
   size_t shard = 0, shards = 1;      // Variant k belongs to shard k % shards.
   size_t sheet_cells = 16;           // Contact sheet of the first variants; 0 = none.
+  std::vector<std::string> rig_files;  // Recorded by a shard (absolute paths), so merge can find the rig.
   std::function<void(const Progress&)> progress;  // From the calling thread, ~5 times a second and at the end.
   const std::atomic<bool>* cancel = nullptr;      // Set to stop: variants in flight finish, none is half-written.
 };
@@ -49,6 +56,47 @@ struct Summary {
 
 // Writes the variants of `plan` (api::MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
 Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options);
+
+// What a shard recorded when it finished (shard-I-of-N.json).
+struct ShardRecord {
+  size_t shard = 0, shards = 1;  // 0-based shard.
+  size_t variants = 0;
+  size_t sheet_cells = 16;
+  std::vector<std::string> rig_files;
+};
+
+// The shards of a sharded run in `dir`: how many, and the records of those that finished. An error
+// when the folder holds no shard files or shards of different counts.
+struct ShardsFound {
+  size_t shards = 0;
+  std::vector<ShardRecord> finished;  // By shard.
+};
+Result<ShardsFound> FindShards(const std::string& dir);
+
+struct MergeOptions {
+  std::string dir;
+  const render::Renderer* renderer = nullptr;
+  size_t sheet_cells = 16;
+  bool verify = true;  // Hash every variant file against its manifest line.
+};
+struct MergeSummary {
+  size_t shards = 0, variants = 0;
+  double seconds = 0;
+};
+// Checks that every shard finished and every variant is there (its size, and its SHA-256 when
+// verify), then writes manifest.jsonl and sheet.png as a one-process run would and removes the
+// shard manifests and records. Nothing is removed when a check fails.
+Result<MergeSummary> Merge(const api::BatchPlan& plan, const MergeOptions& options);
+
+// The shard a scheduler gave this process: Slurm job arrays (SLURM_ARRAY_TASK_ID with
+// SLURM_ARRAY_TASK_COUNT, or _MIN/_MAX/_STEP; with `count`, the task id is the shard, so part of
+// an array can be submitted again), Kubernetes Indexed Jobs (JOB_COMPLETION_INDEX with `count`).
+// `env` is getenv or a test's.
+struct SchedulerShard {
+  size_t shard = 0, shards = 1;  // 0-based shard.
+  std::string source;            // "SLURM_ARRAY_TASK_ID=1 of SLURM_ARRAY_TASK_COUNT=4", for the log.
+};
+Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const char*)>& env, size_t count);
 
 // Lowercase hex SHA-256 of the pieces one after the other.
 std::string Sha256Hex(std::span<const std::string_view> pieces);

@@ -4,6 +4,8 @@
 
 #include <atomic>
 #include <charconv>
+#include <cstdlib>
+#include <filesystem>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -59,7 +61,91 @@ class ProgressBar {
 
 }  // namespace
 
+namespace {
+
+// facespace batch merge DIR: one manifest and sheet from the shards of a sharded run.
+int Merge(const std::vector<std::string>& args) {
+  std::vector<std::string> positional, rig_paths;
+  bool verify = true;
+  Flags flags("usage: facespace batch merge DIR [--rig RIG [FILES...]] [--no-verify]\n",
+              "Checks that every shard of the batch in DIR finished (manifest.shard-I-of-N.jsonl and shard-I-of-N.json\n"
+              "of `facespace batch ... --shard I/N|auto`) and every variant file is there with its hash, then writes\n"
+              "manifest.jsonl and sheet.png as one process would have, and removes the shard files.\n"
+              "The rig is the one the shards recorded, unless --rig names it (the same file: its hash is checked).\n");
+  flags.Value("--rig", "RIG", "the rig file, when it moved since the shards ran", [&rig_paths](const std::string& v) {
+    rig_paths.push_back(v);
+    return 0;
+  });
+  flags.Switch("--no-verify", "check sizes only, not each file's SHA-256", [&] { verify = false; });
+  if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
+  if (positional.empty()) return flags.UsageError("no folder given");
+  const std::string dir = positional[0];
+  if (!rig_paths.empty()) rig_paths.insert(rig_paths.end(), positional.begin() + 1, positional.end());
+  else if (positional.size() > 1) return flags.UsageError("one folder; the rig goes after --rig");
+  auto found = batch::FindShards(dir);
+  if (!found.ok()) {
+    PrintStatus(found.status());
+    return 1;
+  }
+  size_t sheet_cells = 16;
+  if (!found->finished.empty()) {
+    sheet_cells = found->finished.front().sheet_cells;
+    if (rig_paths.empty()) rig_paths = found->finished.front().rig_files;
+  }
+  if (rig_paths.empty()) {
+    std::fprintf(stderr, "error: none of the %zu shards of '%s' has finished (so none recorded its rig): run them, then merge\n",
+                 found->shards, dir.c_str());
+    return 1;
+  }
+  std::string spec_text;
+  if (!ReadFile(dir + "/batch.json", spec_text)) {
+    std::fprintf(stderr, "error: '%s' has no batch.json: not a batch folder\n", dir.c_str());
+    return 1;
+  }
+  const json spec = json::parse(spec_text, nullptr, false);
+  if (spec.is_discarded() || !spec.is_object() || !spec.contains("request") || !spec.contains("rig_version")) {
+    std::fprintf(stderr, "error: '%s/batch.json' is not a batch's\n", dir.c_str());
+    return 1;
+  }
+  std::string bytes;
+  if (!ReadFile(rig_paths[0], bytes)) {
+    std::fprintf(stderr, "error: cannot read the rig '%s' the shards ran on; give it with --rig\n", rig_paths[0].c_str());
+    return 1;
+  }
+  const std::string_view whole[] = {bytes};
+  if (batch::Sha256Hex(whole) != spec["rig_version"]) {
+    std::fprintf(stderr, "error: '%s' is not the rig the batch ran on (its hash differs from batch.json's rig_version)\n",
+                 rig_paths[0].c_str());
+    return 1;
+  }
+  Result<Rig> rig = LoadAndReport(rig_paths);
+  if (!rig.ok()) return 1;
+  auto plan = api::MakeBatchPlan(rig.value(), spec["rig_version"].get<std::string>(),
+                                 spec["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  if (!plan.ok()) {
+    PrintStatus(plan.status());
+    return 1;
+  }
+  const render::OsMesaRenderer renderer(0);
+  batch::MergeOptions options;
+  options.dir = dir;
+  options.renderer = &renderer;
+  options.sheet_cells = sheet_cells;
+  options.verify = verify;
+  auto merged = batch::Merge(plan.value(), options);
+  if (!merged.ok()) {
+    PrintStatus(merged.status());
+    return 1;
+  }
+  std::fprintf(stderr, "batch merge: %zu shards, %zu variants in %s (manifest.jsonl%s) in %.2f s\n", merged->shards,
+               merged->variants, dir.c_str(), sheet_cells > 0 ? ", sheet.png" : "", merged->seconds);
+  return 0;
+}
+
+}  // namespace
+
 int Batch(const std::vector<std::string>& args) {
+  if (!args.empty() && args[0] == "merge") return Merge({args.begin() + 1, args.end()});
   std::vector<std::string> paths;
   json request = json::object();
   json sample = json::object();
@@ -68,9 +154,14 @@ int Batch(const std::vector<std::string>& args) {
   bool quiet = false;
   Flags flags(
       "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
-      "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N] [sampling, pose, render flags]\n",
+      "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N|auto [--shards N]]\n"
+      "         [sampling, pose, render flags]\n"
+      "       facespace batch merge DIR\n",
       "One file per variant in DIR, manifest.jsonl, batch.json and sheet.png (the first 16 variants); rerun the\n"
-      "same command to resume; --shard I/N (1-based) runs every N-th variant from the I-th.\n"
+      "same command to resume; --shard I/N (1-based) runs every N-th variant from the I-th, and shards share DIR;\n"
+      "--shard auto takes I/N from a Slurm job array (SLURM_ARRAY_TASK_ID, _COUNT) or a Kubernetes Indexed Job\n"
+      "(JOB_COMPLETION_INDEX, with --shards N). When every shard is done, `facespace batch merge DIR` writes the\n"
+      "manifest and sheet a single run would have written (batch merge --help).\n"
       "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n");
   // Flags that set a member of the request (or of its "sample", or of its "camera") from an integer, number, JSON or text.
   auto integer = [](json& into, const std::string& key, long long lo, long long hi) {
@@ -136,7 +227,11 @@ int Batch(const std::vector<std::string>& args) {
     run.jobs = static_cast<int>(n);
     return 0;
   });
-  flags.Value("--shard", "I/N", "run the I-th of N shards (1-based)", [&run](const std::string& v) {
+  bool shard_auto = false;
+  size_t shard_count = 0;
+  flags.Value("--shard", "I/N|auto", "run the I-th of N shards (1-based); auto: the scheduler's (Slurm array, Kubernetes Indexed Job)",
+              [&run, &shard_auto](const std::string& v) {
+    if (v == "auto") return shard_auto = true, 0;
     const size_t slash = v.find('/');
     long long n = 0, count = 0;
     if (slash == std::string::npos || !IntIn("--shard I", v.substr(0, slash), 1, 1000000, &n) ||
@@ -145,6 +240,12 @@ int Batch(const std::vector<std::string>& args) {
     }
     run.shard = static_cast<size_t>(n - 1);
     run.shards = static_cast<size_t>(count);
+    return 0;
+  });
+  flags.Value("--shards", "N", "with --shard auto: the shard count (a Kubernetes Indexed Job's completions)", [&shard_count](const std::string& v) {
+    long long n = 0;
+    if (!IntIn("--shards", v, 1, 1000000, &n)) return 2;
+    shard_count = static_cast<size_t>(n);
     return 0;
   });
   flags.Switch("--no-sheet", "no contact sheet", [&] { run.sheet_cells = 0; });
@@ -213,6 +314,28 @@ int Batch(const std::vector<std::string>& args) {
     }
   }
   if (!request.contains("format")) request["format"] = "glb";
+  if (shard_count != 0 && !shard_auto) return flags.UsageError("--shards N goes with --shard auto");
+  if (shard_auto) {
+    auto shard = batch::ShardFromScheduler([](const char* name) { return std::getenv(name); }, shard_count);
+    if (!shard.ok()) {
+      std::fprintf(stderr, "error: %s\n", shard.status().message.c_str());
+      return 2;
+    }
+    // An array submitted again in part (sbatch --array=2) has fewer tasks than the folder's shards.
+    if (auto found = batch::FindShards(out_dir); shard_count == 0 && found.ok() && found->shards != shard->shards) {
+      std::fprintf(stderr, "error: '%s' holds shards of %zu but the scheduler gives %zu (%s): give --shards %zu\n", out_dir.c_str(),
+                   found->shards, shard->shards, shard->source.c_str(), found->shards);
+      return 2;
+    }
+    run.shard = shard->shard;
+    run.shards = shard->shards;
+    std::fprintf(stderr, "batch: shard %zu/%zu (%s)\n", run.shard + 1, run.shards, shard->source.c_str());
+  }
+  for (const std::string& path : paths) {
+    std::error_code ec;
+    const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
+    run.rig_files.push_back(ec ? path : absolute.lexically_normal().string());
+  }
 
   Result<Rig> rig = LoadAndReport(paths);
   if (!rig.ok()) return 1;
@@ -242,6 +365,12 @@ int Batch(const std::vector<std::string>& args) {
     return 1;
   }
   const batch::Summary& s = summary.value();
+  if (!s.cancelled && run.shards > 1) {
+    std::fprintf(stderr, "batch: shard %zu/%zu: %zu variants in %s (%zu generated, %zu already there) in %.2f s; "
+                 "once every shard is done: facespace batch merge %s\n",
+                 run.shard + 1, run.shards, s.total, out_dir.c_str(), s.generated, s.skipped, s.seconds, out_dir.c_str());
+    return 0;
+  }
   if (s.cancelled) {
     std::fprintf(stderr, "interrupted: %zu of %zu variants are complete in %s; run the same command again to resume\n",
                  s.skipped + s.generated, s.total, out_dir.c_str());

@@ -261,8 +261,26 @@ n0=$(wc -l <"$B/i/manifest.jsonl"); until [ "$(wc -l <"$B/i/manifest.jsonl")" -g
 "$bin" batch "$rig" --sample convex --count 300 --seed 2 --format obj --out "$B/j" --no-sheet --quiet 2>/dev/null
 check "batch after SIGINT and kill -9: resuming gives exactly the uninterrupted result" diff -r "$B/i" "$B/j"
 check "batch --sample convex: no variant extrapolates (sum <= 1, no warnings)" py 'import json,sys; L=[json.loads(l) for l in open(sys.argv[1])]; sys.exit(not(len(L)==300 and all(sum(l["weights"].values())<=1+1e-6 and l["warnings"]==[] for l in L)))' "$B/j/manifest.jsonl"
-for i in 1 2 3; do "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/s$i" --shard $i/3 --quiet --no-sheet 2>/dev/null; done
-check "batch --shard 1/3..3/3: disjoint, together byte-identical to the whole" sh -c "[ \$(cat '$B'/s?/manifest.jsonl | wc -l) -eq 40 ] && for f in '$B'/s?/*.glb; do cmp -s \"\$f\" '$B/a/'\$(basename \"\$f\") || exit 1; done"
+# Shards share one folder; merge makes it what one process writes.
+for i in 1 3; do "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/s" --shard $i/3 --quiet 2>/dev/null; done
+check "batch --shard I/3: each shard its own manifest and record, no sheet, disjoint variants" sh -c "[ \$(wc -l <'$B/s/manifest.shard-1-of-3.jsonl') -eq 14 ] && [ \$(wc -l <'$B/s/manifest.shard-3-of-3.jsonl') -eq 13 ] && [ -s '$B/s/shard-3-of-3.json' ] && [ ! -e '$B/s/sheet.png' ] && [ ! -e '$B/s/v000001.glb' ] && [ -e '$B/s/v000002.glb' ]"
+err_case "batch merge: a shard not run is named" "have not finished: 2/3" batch merge "$B/s"
+check "batch merge refused: nothing changed" sh -c "[ -e '$B/s/manifest.shard-1-of-3.jsonl' ] && [ ! -e '$B/s/manifest.jsonl' ]"
+SLURM_ARRAY_TASK_ID=11 SLURM_ARRAY_TASK_MIN=10 SLURM_ARRAY_TASK_MAX=12 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/s" --shard auto --quiet 2>"$tmp/err"
+check "batch --shard auto from a Slurm array (ids 10..12, task 11): shard 2/3" grep -q "shard 2/3 (SLURM_ARRAY_TASK_ID=11 of 3 tasks)" "$tmp/err"
+"$bin" batch merge "$B/s" 2>"$tmp/err"; rc=$?
+check "batch merge: exit 0; the folder is byte-identical to one process's (manifest, sheet, files; shard files gone)" both "[ $rc -eq 0 ] && grep -q '3 shards, 40 variants' '$tmp/err'" diff -r "$B/a" "$B/s"
+JOB_COMPLETION_INDEX=1 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/k" --shard auto --shards 2 --quiet 2>"$tmp/err"
+check "batch --shard auto --shards 2 from a Kubernetes Indexed Job (JOB_COMPLETION_INDEX=1): shard 2/2" sh -c "grep -q 'shard 2/2 (JOB_COMPLETION_INDEX=1 of 2)' '$tmp/err' && [ \$(wc -l <'$B/k/manifest.shard-2-of-2.jsonl') -eq 20 ]"
+printf 'x' | dd of="$B/k/v000003.glb" bs=1 seek=100 conv=notrunc 2>/dev/null
+JOB_COMPLETION_INDEX=0 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/k" --shard auto --shards 2 --quiet 2>/dev/null
+err_case "batch merge: a variant file changed after it was written" "v000003.glb' does not match its manifest line's sha256" batch merge "$B/k"
+err_case "batch --shard auto outside a scheduler" "no scheduler's task index" batch "$rig" --sample uniform --count 4 --out "$B/x" --shard auto
+JOB_COMPLETION_INDEX=0 err_case "batch --shard auto: a Kubernetes index needs the count" "needs --shards N" batch "$rig" --sample uniform --count 4 --out "$B/x" --shard auto
+SLURM_ARRAY_TASK_ID=3 SLURM_ARRAY_TASK_COUNT=4 err_case "batch --shard auto --shards 3: an array id past the shards" "is not below --shards 3" batch "$rig" --sample uniform --count 4 --out "$B/x" --shard auto --shards 3
+SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=1 SLURM_ARRAY_TASK_MIN=1 SLURM_ARRAY_TASK_MAX=1 err_case "batch --shard auto: part of an array again, without --shards, in a folder of 2 shards" "holds shards of 2 but the scheduler gives 1" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/k" --shard auto
+SLURM_ARRAY_TASK_ID=9 SLURM_ARRAY_TASK_COUNT=4 SLURM_ARRAY_TASK_MIN=0 err_case "batch --shard auto: an index outside the array" "is not one of 4" batch "$rig" --sample uniform --count 4 --out "$B/x" --shard auto
+err_case "batch merge: a folder without shards" "holds no shards" batch merge "$B/a"
 "$bin" batch "$rig" --sample grid --shapes jawOpen,mouthSmile_L --count 9 --format json --out "$B/g" --no-sheet 2>/dev/null
 check "batch --sample grid over two shapes: 3 x 3 steps over their ranges" py 'import json,sys; L=[json.loads(l)["weights"] for l in open(sys.argv[1])]; sys.exit(not(len(L)==9 and L[0]=={} and L[4]=={"jawOpen":0.5,"mouthSmile_L":0.5} and L[8]=={"jawOpen":1,"mouthSmile_L":1}))' "$B/g/manifest.jsonl"
 "$bin" batch "$rig" --sample gaussian --count 200 --seed 3 --spread 0.1 --center '{"jawOpen":0.5}' --shapes jawOpen,mouthSmile_L,mouthSmile_R --symmetric --fix eyeBlink_L=1 --format json --out "$B/n" --no-sheet 2>/dev/null
