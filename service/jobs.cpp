@@ -2,7 +2,10 @@
 
 #include "durable.h"
 
+#include <fcntl.h>
 #include <openssl/rand.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <ctime>
@@ -63,11 +66,60 @@ size_t ManifestLines(const fs::path& path) {
   return n;
 }
 
+constexpr char kClaim[] = ".claim";
+constexpr char kCancel[] = "cancel";
+
+// True when some process (this one included, through another open file) holds the job's claim.
+bool ClaimHeld(const fs::path& folder) {
+  const int fd = ::open((folder / kClaim).c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool held = ::flock(fd, LOCK_SH | LOCK_NB) != 0;
+  ::close(fd);
+  return held;
+}
+
+// The claim on a job: an exclusive lock on its .claim file, held until closed (or the process
+// dies). -1 when another process holds it or the folder is gone.
+int TakeClaim(const fs::path& folder, const std::string& instance) {
+  const int fd = ::open((folder / kClaim).c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return -1;
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  if (::ftruncate(fd, 0) == 0) {
+    const std::string text = instance + "\n";
+    [[maybe_unused]] ssize_t n = ::pwrite(fd, text.data(), text.size(), 0);
+  }
+  return fd;
+}
+
+std::string InstanceName() {
+  char host[256] = {0};
+  if (::gethostname(host, sizeof host - 1) != 0) std::snprintf(host, sizeof host, "localhost");
+  return std::string(host) + ":" + std::to_string(::getpid());
+}
+
+// Seconds since the file was last written (large when it is not there).
+double AgeSeconds(const fs::path& path) {
+  std::error_code ec;
+  const auto t = fs::last_write_time(path, ec);
+  if (ec) return 1e9;
+  return std::chrono::duration<double>(fs::file_time_type::clock::now() - t).count();
+}
+
 }  // namespace
 
 
-FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const render::Renderer& renderer, JobLimits limits)
-    : dir_(std::move(dir)), store_(store), renderer_(renderer), limits_(limits) {}
+FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const render::Renderer& renderer, JobLimits limits,
+                           double poll_seconds, std::function<void()> refresh_store)
+    : dir_(std::move(dir)),
+      store_(store),
+      renderer_(renderer),
+      limits_(limits),
+      poll_seconds_(poll_seconds),
+      refresh_store_(std::move(refresh_store)),
+      instance_(InstanceName()) {}
 
 FileJobQueue::~FileJobQueue() {
   {
@@ -79,60 +131,99 @@ FileJobQueue::~FileJobQueue() {
   if (runner_.joinable()) runner_.join();
 }
 
+std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) const {
+  if (!api::IsValidJobId(id)) return nullptr;
+  const fs::path folder = fs::path(dir_) / id;
+  json j = json::parse(ReadText(folder / "job.json"), nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("request") || !j.contains("rig")) return nullptr;
+  std::error_code ec;
+  if (fs::exists(folder / kCancel, ec)) return nullptr;  // Deleted; the instance running it removes it.
+  auto job = std::make_shared<Job>();
+  job->info.id = id;
+  job->info.rig = j.value("rig", "");
+  job->rig_version = j.value("rig_version", "");
+  job->info.created = j.value("created", "");
+  job->info.total = j.value("total", size_t{0});
+  job->info.format = j["request"].value("format", "glb");
+  job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  job->info.done = ManifestLines(folder / "out" / "manifest.jsonl");
+  json st = json::parse(ReadText(folder / "state.json"), nullptr, false);
+  if (!st.is_discarded() && st.is_object()) {
+    job->info.state = st.value("state", "failed");
+    job->info.error = st.value("error", "");
+  } else {
+    job->info.state = ClaimHeld(folder) ? "running" : "queued";
+  }
+  return job;
+}
+
+std::shared_ptr<FileJobQueue::Job> FileJobQueue::RunningHere(const std::string& id) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (running_ && running_->info.id == id && !running_->removed) {
+    auto copy = std::make_shared<Job>();
+    copy->info = running_->info;
+    return copy;
+  }
+  return nullptr;
+}
+
+std::vector<std::shared_ptr<FileJobQueue::Job>> FileJobQueue::Scan() const {
+  std::vector<std::shared_ptr<Job>> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir_, ec)) {
+    const std::string id = e.path().filename().string();
+    if (!api::IsValidJobId(id)) continue;
+    if (auto here = RunningHere(id)) {
+      out.push_back(here);
+      continue;
+    }
+    if (auto job = Load(id)) {
+      out.push_back(job);
+      continue;
+    }
+    // A folder that is no job: a deleted one whose runner is gone, or one whose job.json never
+    // reached the disk (an instance died in Submit; give a live one time to write it).
+    if ((fs::exists(e.path() / kCancel, ec) || AgeSeconds(e.path()) > 60) && !fs::exists(e.path() / ".tmp-job.json", ec)) {
+      const int fd = TakeClaim(e.path(), instance_);
+      if (fd >= 0) {
+        if (!fs::exists(e.path() / "job.json", ec) || fs::exists(e.path() / kCancel, ec)) fs::remove_all(e.path(), ec);
+        ::close(fd);
+      }
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a->info.created < b->info.created || (a->info.created == b->info.created && a->info.id < b->info.id);
+  });
+  return out;
+}
+
 Result<size_t> FileJobQueue::Start() {
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (!fs::is_directory(dir_)) return FailedPrecondition("cannot create the jobs folder '" + dir_ + "'");
-  std::vector<std::shared_ptr<Job>> found;
-  for (const auto& e : fs::directory_iterator(dir_, ec)) {
-    const std::string id = e.path().filename().string();
-    if (!api::IsValidJobId(id)) continue;
-    json j = json::parse(ReadText(e.path() / "job.json"), nullptr, false);
-    if (j.is_discarded() || !j.is_object() || !j.contains("request") || !j.contains("rig")) {
-      fs::remove_all(e.path(), ec);  // Never accepted: the request did not reach the disk whole.
+  // Jobs whose rig went while they were unfinished are lost; the rest resume, here or elsewhere.
+  size_t unfinished = 0;
+  for (const auto& job : Scan()) {
+    if (job->info.state == "queued" && !RigFor(*job, false)) {
+      const int fd = TakeClaim(fs::path(dir_) / job->info.id, instance_);
+      if (fd >= 0) {
+        if (auto again = Load(job->info.id); again && again->info.state == "running") MarkLost(*again);
+        ::close(fd);
+      }
       continue;
     }
-    auto job = std::make_shared<Job>();
-    job->info.id = id;
-    job->info.rig = j.value("rig", "");
-    job->info.created = j.value("created", "");
-    job->info.total = j.value("total", size_t{0});
-    job->info.format = j["request"].value("format", "glb");
-    job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-    job->info.done = ManifestLines(e.path() / "out" / "manifest.jsonl");
-    json st = json::parse(ReadText(e.path() / "state.json"), nullptr, false);
-    if (!st.is_discarded() && st.is_object()) {
-      job->info.state = st.value("state", "failed");
-      job->info.error = st.value("error", "");
-    } else {
-      auto rig = store_.Get(job->info.rig);
-      if (!rig || rig->version != j.value("rig_version", "")) {
-        job->info.state = "lost";
-        job->info.error = "rig '" + job->info.rig + "' was " + (rig ? "replaced" : "removed") +
-                          " while the job was unfinished; " + std::to_string(job->info.done) + " of " +
-                          std::to_string(job->info.total) + " variants were done";
-        WriteJobFile(e.path() / "state.json", json{{"state", job->info.state}, {"error", job->info.error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
-      } else {
-        job->rig = rig;
-        job->info.state = "queued";
-      }
-    }
-    found.push_back(job);
+    unfinished += job->info.state == "queued" || job->info.state == "running";
   }
-  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a->info.created < b->info.created; });
-  size_t resumed = 0;
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    for (auto& job : found) {
-      jobs_[job->info.id] = job;
-      if (job->info.state == "queued") {
-        queue_.push_back(job);
-        ++resumed;
-      }
+  runner_ = std::thread([this] {
+    for (;;) {
+      if (RunNext()) continue;
+      std::unique_lock<std::mutex> lock(mu_);
+      cv_.wait_for(lock, std::chrono::duration<double>(poll_seconds_), [this] { return stopping_ || wake_; });
+      if (stopping_) return;
+      wake_ = false;
     }
-  }
-  runner_ = std::thread([this] { RunLoop(); });
-  return resumed;
+  });
+  return unfinished;
 }
 
 Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> rig, std::shared_ptr<const api::BatchPlan> plan,
@@ -144,6 +235,25 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
     s.fields.push_back({ptr, "at most " + std::to_string(limits_.max_batch) + " variants"});
     return s;
   }
+  // The queue is the folder's: every instance's unfinished jobs count.
+  size_t active = 0, remaining = 0;
+  double rate = 0, wait = 0;
+  for (const auto& j : Scan()) {
+    if (j->info.state != "queued" && j->info.state != "running") continue;
+    ++active;
+    remaining += j->info.total - std::min(j->info.done, j->info.total);
+    if (j->info.rate > 0) {
+      rate = j->info.rate;
+      wait = (j->info.total - std::min(j->info.done, j->info.total)) / rate;
+    }
+  }
+  if (active >= limits_.max_jobs) {
+    // Until the job running here ends, if its rate is known; else a guess.
+    *retry_after = static_cast<int>(std::clamp(rate > 0 ? wait : 10.0, 1.0, 3600.0));
+    return WithReason(ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " + std::to_string(limits_.max_jobs) +
+                                        " jobs queued or running, " + std::to_string(remaining) + " variants to go)"),
+                      api::kJobQueueFull);
+  }
   auto job = std::make_shared<Job>();
   job->info.id = NewJobId();
   job->info.rig = rig->id;
@@ -151,22 +261,9 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
   job->info.format = plan->request.format;
   job->info.created = NowRfc3339();
   job->info.total = plan->total;
-  job->rig = rig;
+  job->rig_version = rig->version;
   job->plan = plan;
   job->body = std::string(body);
-  std::unique_lock<std::mutex> lock(mu_);
-  const size_t active = queue_.size() + (running_ ? 1 : 0);
-  if (active >= limits_.max_jobs) {
-    double rate = running_ && running_->info.rate > 0 ? running_->info.rate : 0.0;
-    size_t remaining = running_ ? running_->info.total - running_->info.done : 0;
-    for (const auto& q : queue_) remaining += q->info.total - q->info.done;
-    // Until the running job ends, if its rate is known; else a guess.
-    const double wait = rate > 0 && running_ ? (running_->info.total - running_->info.done) / rate : 10.0;
-    *retry_after = static_cast<int>(std::clamp(wait, 1.0, 3600.0));
-    return WithReason(ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " + std::to_string(limits_.max_jobs) +
-                             " jobs queued or running, " + std::to_string(remaining) + " variants to go)"), api::kJobQueueFull);
-  }
-  lock.unlock();
   const fs::path folder = fs::path(dir_) / job->info.id;
   std::error_code ec;
   fs::create_directories(folder, ec);
@@ -178,44 +275,51 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
     fs::remove_all(folder, ec);
     return Prefixed(written, "cannot store the job: ");
   }
-  lock.lock();
-  jobs_[job->info.id] = job;
-  queue_.push_back(job);
-  const api::JobInfo info = job->info;
-  lock.unlock();
+  {
+    // The runner here plans nothing again for a job submitted here.
+    std::lock_guard<std::mutex> lock(mu_);
+    submitted_[job->info.id] = plan;
+    wake_ = true;
+  }
   cv_.notify_all();
-  return info;
+  return job->info;
 }
 
 std::optional<api::JobInfo> FileJobQueue::Get(const std::string& id) const {
-  std::lock_guard<std::mutex> lock(mu_);
-  auto it = jobs_.find(id);
-  if (it == jobs_.end()) return std::nullopt;
-  return it->second->info;
+  if (auto here = RunningHere(id)) return here->info;
+  auto job = Load(id);
+  if (!job) return std::nullopt;
+  return job->info;
 }
 
 std::vector<api::JobInfo> FileJobQueue::List() const {
-  std::lock_guard<std::mutex> lock(mu_);
   std::vector<api::JobInfo> out;
-  for (const auto& [id, job] : jobs_) out.push_back(job->info);
+  for (const auto& job : Scan()) out.push_back(job->info);
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.created > b.created || (a.created == b.created && a.id < b.id); });
   return out;
 }
 
 Status FileJobQueue::Remove(const std::string& id) {
-  std::unique_lock<std::mutex> lock(mu_);
-  auto it = jobs_.find(id);
-  if (it == jobs_.end()) return NotFound("no job '" + id + "'");
-  std::shared_ptr<Job> job = it->second;
-  jobs_.erase(it);
-  queue_.erase(std::remove(queue_.begin(), queue_.end(), job), queue_.end());
-  job->removed = true;
-  job->cancel.store(true);
-  if (job == running_) return Status::Ok();  // The runner deletes the folder when the job stops.
-  lock.unlock();
+  if (!api::IsValidJobId(id) || !Load(id)) return NotFound("no job '" + id + "'");
+  const fs::path folder = fs::path(dir_) / id;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    submitted_.erase(id);
+    if (running_ && running_->info.id == id) {  // The runner deletes the folder when the job stops.
+      running_->removed = true;
+      running_->cancel.store(true);
+      return Status::Ok();
+    }
+  }
   std::error_code ec;
-  fs::remove_all(fs::path(dir_) / id, ec);
-  return Status::Ok();
+  const int fd = TakeClaim(folder, instance_);
+  if (fd >= 0) {  // Nobody runs it: gone at once.
+    fs::remove_all(folder, ec);
+    ::close(fd);
+    return Status::Ok();
+  }
+  // Another instance runs it: it sees the mark within a fraction of a second, stops and removes it.
+  return WriteJobFile(folder / kCancel, "{}\n");
 }
 
 std::string FileJobQueue::Folder(const std::string& id) const { return (fs::path(dir_) / id / "out").string(); }
@@ -227,59 +331,117 @@ void FileJobQueue::Finish(Job& job, const std::string& state, const std::string&
   job.info.error = error;
 }
 
-void FileJobQueue::RunLoop() {
-  for (;;) {
-    std::shared_ptr<Job> job;
+bool FileJobQueue::RunNext() {
+  for (const auto& candidate : Scan()) {
+    if (candidate->info.state != "queued") continue;
     {
-      std::unique_lock<std::mutex> lock(mu_);
-      cv_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-      if (stopping_) return;
-      job = queue_.front();
-      queue_.pop_front();
+      std::lock_guard<std::mutex> lock(mu_);
+      if (stopping_) return false;
+    }
+    const fs::path folder = fs::path(dir_) / candidate->info.id;
+    // A young job whose rig is not in this instance's store yet (uploaded through another, on a
+    // shared filesystem slow to show it) waits for it rather than being lost.
+    auto rig = RigFor(*candidate, true);
+    if (!rig && AgeSeconds(folder / "job.json") < 30) continue;
+    const int fd = TakeClaim(folder, instance_);
+    if (fd < 0) continue;  // Another instance took it.
+    auto job = Load(candidate->info.id);  // Again, now that it is ours: it may have ended or been deleted meanwhile.
+    if (!job || job->info.state != "running") {
+      ::close(fd);
+      continue;
+    }
+    job->info.state = "running";
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      auto it = submitted_.find(job->info.id);
+      if (it != submitted_.end()) {
+        job->plan = it->second;
+        submitted_.erase(it);
+      }
       running_ = job;
-      job->info.state = "running";
     }
-    Result<std::shared_ptr<const api::BatchPlan>> plan = job->plan;
-    if (!job->plan) {  // Resumed at start: plan the stored request again.
-      auto made = api::MakeBatchPlan(job->rig->rig, job->rig->version, job->body);
-      plan = made.ok() ? Result<std::shared_ptr<const api::BatchPlan>>(std::make_shared<const api::BatchPlan>(std::move(made.value())))
-                       : Result<std::shared_ptr<const api::BatchPlan>>(made.status());
-    }
-    if (!plan.ok()) {
-      Finish(*job, "failed", plan.status().message);
+    if (!rig) {
+      MarkLost(*job);
     } else {
-      batch::RunOptions options;
-      options.dir = Folder(job->info.id);
-      options.renderer = &renderer_;
-      options.jobs = limits_.threads;
-      options.cancel = &job->cancel;
-      options.progress = [this, &job](const batch::Progress& p) {
-        std::lock_guard<std::mutex> lock(mu_);
-        job->info.done = p.done;
-        job->info.seconds = p.seconds;
-        job->info.rate = p.seconds > 0 ? (p.done - p.skipped) / p.seconds : 0.0;
-      };
-      auto summary = batch::Run(*plan.value(), options);
-      bool removed = false, stopping = false;
-      {
-        std::lock_guard<std::mutex> lock(mu_);
-        removed = job->removed;
-        stopping = stopping_;
+      if (job->info.done > 0) {
+        std::fprintf(stderr, "jobs: resuming job %s (%zu of %zu variants were done)\n", job->info.id.c_str(), job->info.done,
+                     job->info.total);
       }
-      if (removed) {
-        std::error_code ec;
-        fs::remove_all(fs::path(dir_) / job->info.id, ec);
-      } else if (!summary.ok()) {
-        Finish(*job, "failed", summary.status().message);
-      } else if (summary->cancelled) {
-        if (!stopping) Finish(*job, "cancelled", "");
-        // Stopping: no state.json, so the next start resumes it.
-      } else {
-        Finish(*job, "done", "");
-      }
+      Run(job, rig);
     }
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      running_.reset();
+    }
+    ::close(fd);
+    return true;
+  }
+  return false;
+}
+
+std::shared_ptr<const api::StoredRig> FileJobQueue::RigFor(const Job& job, bool refresh) const {
+  auto rig = store_.Get(job.info.rig);
+  if ((!rig || rig->version != job.rig_version) && refresh && refresh_store_) {
+    refresh_store_();
+    rig = store_.Get(job.info.rig);
+  }
+  return rig && rig->version == job.rig_version ? rig : nullptr;
+}
+
+void FileJobQueue::MarkLost(Job& job) {
+  const bool replaced = store_.Get(job.info.rig) != nullptr;
+  Finish(job, "lost", "rig '" + job.info.rig + "' was " + (replaced ? "replaced" : "removed") + " while the job was unfinished; " +
+                          std::to_string(job.info.done) + " of " + std::to_string(job.info.total) + " variants were done");
+}
+
+void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig) {
+  const fs::path folder = fs::path(dir_) / job->info.id;
+  Result<std::shared_ptr<const api::BatchPlan>> plan = job->plan;
+  if (!job->plan) {  // Submitted elsewhere or before a restart: plan the stored request again.
+    auto made = api::MakeBatchPlan(rig->rig, rig->version, job->body);
+    plan = made.ok() ? Result<std::shared_ptr<const api::BatchPlan>>(std::make_shared<const api::BatchPlan>(std::move(made.value())))
+                     : Result<std::shared_ptr<const api::BatchPlan>>(made.status());
+  }
+  if (!plan.ok()) {
+    Finish(*job, "failed", plan.status().message);
+    return;
+  }
+  batch::RunOptions options;
+  options.dir = Folder(job->info.id);
+  options.renderer = &renderer_;
+  options.jobs = limits_.threads;
+  options.cancel = &job->cancel;
+  options.progress = [this, &job, &folder](const batch::Progress& p) {
+    std::error_code ec;
+    const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
     std::lock_guard<std::mutex> lock(mu_);
-    running_.reset();
+    job->info.done = p.done;
+    job->info.seconds = p.seconds;
+    job->info.rate = p.seconds > 0 ? (p.done - p.skipped) / p.seconds : 0.0;
+    if (deleted_elsewhere) {
+      job->removed = true;
+      job->cancel.store(true);
+    }
+  };
+  auto summary = batch::Run(*plan.value(), options);
+  bool removed = false, stopping = false;
+  {
+    std::error_code ec;
+    const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
+    std::lock_guard<std::mutex> lock(mu_);
+    removed = job->removed || deleted_elsewhere;
+    stopping = stopping_;
+  }
+  if (removed) {
+    std::error_code ec;
+    fs::remove_all(folder, ec);
+  } else if (!summary.ok()) {
+    Finish(*job, "failed", summary.status().message);
+  } else if (summary->cancelled) {
+    if (!stopping) Finish(*job, "cancelled", "");
+    // Stopping: no state.json, so this instance's next start, or another instance now, resumes it.
+  } else {
+    Finish(*job, "done", "");
   }
 }
 

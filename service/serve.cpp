@@ -265,7 +265,21 @@ int Serve(const std::vector<std::string>& args) {
   if (c.jobs_dir.empty()) c.jobs_dir = DefaultJobsDir();
   // One renderer for every thread: its GL contexts are a bounded pool (--render-threads).
   render::OsMesaRenderer renderer(c.render_threads);
-  FileJobQueue jobs(c.jobs_dir, store, renderer, c.job_limits);
+  // Instances sharing a store (a shared filesystem behind a balancer) see each other's uploads,
+  // replacements and deletes within --store-poll: a stat per file per poll, a read only of what
+  // moved. The job runner asks too, for the rig of a job another instance accepted.
+  auto refresh_store = [&store] {
+    auto changes = store.Refresh();
+    if (!changes.ok()) {
+      std::fprintf(stderr, "facespace: store: %s\n", changes.status().message.c_str());
+      return;
+    }
+    for (const auto& [what, ids] : {std::pair{"added", &changes->added}, std::pair{"replaced", &changes->replaced},
+                                    std::pair{"removed", &changes->removed}}) {
+      for (const std::string& id : *ids) std::fprintf(stderr, "facespace: store: rig '%s' %s on disk\n", id.c_str(), what);
+    }
+  };
+  FileJobQueue jobs(c.jobs_dir, store, renderer, c.job_limits, c.store_poll_ms > 0 ? c.store_poll_ms / 1000.0 : 1.0, refresh_store);
   auto resumed = jobs.Start();
   if (!resumed.ok()) {
     std::fprintf(stderr, "facespace: %s\n", resumed.status().message.c_str());
@@ -338,8 +352,6 @@ int Serve(const std::vector<std::string>& args) {
   std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", renderer.Info().c_str(), renderer.Concurrency());
   std::fflush(stderr);
 
-  // Instances sharing a store (a shared filesystem behind a balancer) see each other's uploads,
-  // replacements and deletes within --store-poll: a stat per file per poll, a read only of what moved.
   std::mutex poll_mu;
   std::condition_variable poll_cv;
   bool poll_stop = false;
@@ -347,15 +359,7 @@ int Serve(const std::vector<std::string>& args) {
     std::unique_lock<std::mutex> lock(poll_mu);
     while (c.store_poll_ms > 0 && !poll_cv.wait_for(lock, std::chrono::milliseconds(c.store_poll_ms), [&] { return poll_stop; })) {
       lock.unlock();
-      auto changes = store.Refresh();
-      if (!changes.ok()) {
-        std::fprintf(stderr, "facespace: store: %s\n", changes.status().message.c_str());
-      } else {
-        for (const auto& [what, ids] : {std::pair{"added", &changes->added}, std::pair{"replaced", &changes->replaced},
-                                        std::pair{"removed", &changes->removed}}) {
-          for (const std::string& id : *ids) std::fprintf(stderr, "facespace: store: rig '%s' %s on disk\n", id.c_str(), what);
-        }
-      }
+      refresh_store();
       lock.lock();
     }
   });

@@ -2,7 +2,9 @@
 # Three `facespace serve` instances sharing one store behind the real nginx (Debian's), started
 # with the documented config (service/deploy/nginx.conf) on loopback ports: requests spread, an
 # upload through one instance is served by the others, a SIGKILL of one instance under load loses
-# no GET (nginx retries it on another), and the rest keep serving.
+# no GET (nginx retries it on another), and the rest keep serving. Batch jobs share one folder: a
+# job is seen through every instance, runs on one, is resumed by another when that one is
+# SIGKILLed, and a delete through an instance that does not run it stops it.
 # usage: nginx_test.sh FACESPACE_BINARY SOURCE_DIR
 set -u
 bin=$1; src=$2
@@ -29,7 +31,7 @@ K=(-H 'Authorization: Bearer k3y-for-tests')
 ports=($(free_port) $(free_port) $(free_port)); front=$(free_port)
 for i in 0 1 2; do
   "$bin" serve --host 127.0.0.1 --port "${ports[$i]}" --rigs "$tmp/store" --api-key-file "$tmp/key" --store-poll 0.2 \
-    --jobs-dir "$tmp/jobs$i" >"$tmp/log$i" 2>&1 & pids+=($!)
+    --jobs-dir "$tmp/jobs" --batch-threads 1 >"$tmp/log$i" 2>&1 & pids+=($!)
 done
 for i in 0 1 2; do
   for _ in $(seq 1 100); do curl -fs "http://127.0.0.1:${ports[$i]}/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
@@ -123,6 +125,41 @@ for _ in $(seq 1 30); do
   sleep 0.1
 done
 check "a DELETE through nginx: 204, gone from both live instances within 3 s" sh -c "[ $code = 204 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[0]}/v1/rigs/shared') = 404 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[1]}/v1/rigs/shared') = 404 ]"
+
+# Batch jobs in the shared --jobs-dir, with instances 1 and 2 alive.
+u() { echo "http://127.0.0.1:${ports[$1]}"; }
+jget() {  # jget INSTANCE JOB PYTHON-EXPR: the expression over the job's JSON (d) through that instance
+  curl -s "$(u "$1")/v1/jobs/$2" | python3 -c "import json,sys; d=json.load(sys.stdin); print($3)" 2>/dev/null
+}
+submit() {  # submit INSTANCE BODY: the job id
+  curl -s -D "$tmp/hdr" -o /dev/null -X POST "${K[@]}" -H 'Content-Type: application/json' -d "$2" "$(u "$1")/v1/rigs/facecap/batch"
+  grep -i '^location:' "$tmp/hdr" | tr -d '\r' | sed 's|.*/||'
+}
+job=$(submit 0 '{"sample":{"method":"convex","count":1500,"seed":4},"format":"png","width":64,"height":64}')
+for _ in $(seq 1 100); do [ "$(jget 1 "$job" "d['done'] >= 40")" = True ] && break; sleep 0.1; done
+runner_pid=$(sed -n 's/.*:\([0-9]*\)$/\1/p' "$tmp/jobs/$job/.claim" 2>/dev/null)
+runner=-1; for i in 0 1; do [ "${pids[$i]}" = "$runner_pid" ] && runner=$i; done; other=$((1 - runner))
+state0=$(jget 0 "$job" "d['state']"); state1=$(jget 1 "$job" "d['state']")
+check "a job submitted through instance 1 runs on one instance (the claim names instance $((runner + 1))), running through both" \
+  sh -c "[ $runner -ge 0 ] && [ '$state0' = running ] && [ '$state1' = running ]"
+check "  ... listed by both instances" sh -c "curl -s '$(u 0)/v1/jobs' | grep -q '$job' && curl -s '$(u 1)/v1/jobs' | grep -q '$job'"
+job2=$(submit "$other" '{"sample":{"method":"uniform","count":3000,"seed":5},"format":"png","width":64,"height":64}')
+for _ in $(seq 1 100); do [ "$(jget "$other" "$job2" "d['state']")" = running ] && break; sleep 0.1; done
+code=$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "${K[@]}" "$(u "$runner")/v1/jobs/$job2")
+for _ in $(seq 1 50); do [ ! -e "$tmp/jobs/$job2" ] && break; sleep 0.1; done
+check "a second job runs on the other instance; DELETE through the one not running it: 204, stopped and gone within 5 s" \
+  sh -c "[ $code = 204 ] && [ ! -e '$tmp/jobs/$job2' ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$(u "$other")/v1/jobs/$job2') = 404 ]"
+done_before=$(jget "$other" "$job" "d['done']")
+kill -9 "${pids[$runner]}"; wait "${pids[$runner]}" 2>/dev/null
+for _ in $(seq 1 600); do [ "$(jget "$other" "$job" "d['state']")" = done ] && break; sleep 0.1; done
+final=$(jget "$other" "$job" "d['state'] + ' ' + str(d['done'])")
+check "instance $((runner + 1)) SIGKILLed after ${done_before:-?} of 1500 variants: instance $((other + 1)) resumes the job (logged) and finishes it ($final)" \
+  sh -c "grep -q 'resuming job $job (' '$tmp/log$other' && [ '$final' = 'done 1500' ]"
+check "  ... every variant once in the manifest, no temporary file left" py '
+import json, os, sys
+d = sys.argv[1]; L = [json.loads(l) for l in open(d + "/manifest.jsonl")]
+sys.exit(not (sorted(l["index"] for l in L) == list(range(1500)) and not [f for f in os.listdir(d) if "tmp" in f]))' "$tmp/jobs/$job/out"
+check "  ... one instance at a time: the other never ran it before the kill" sh -c "! grep -q 'resuming job $job' '$tmp/log$runner'"
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
