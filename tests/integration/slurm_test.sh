@@ -111,6 +111,14 @@ check "each of the 4 tasks ran its own shard (1/4..4/4, 100 variants each) and r
 check "batch merge: exit 0, 4 shards, 400 variants" both "[ $rc -eq 0 ] && grep -q '4 shards, 400 variants' '$w/merge.err'" true
 check "merged folder byte-identical to the single process's (400 files, manifest, sheet, batch.json)" diff -r "$w/single" "$w/sharded"
 
+# The documented job script (service/deploy/slurm-batch.sh: --array=0-3, --shards 4), as a user submits it.
+"$bin" batch "$rig" --sample uniform --count 80 --seed 7 --active 8 --format glb --out "$w/single_script" --quiet 2>/dev/null
+job=$(cd "$w" && sbatch --parsable --export=ALL,FACESPACE="$bin",RIG="$rig",OUT="$w/script",COUNT=80 "$src/service/deploy/slurm-batch.sh")
+wait_job "$job" 120
+"$bin" batch merge "$w/script" 2>/dev/null
+check "the documented job script (service/deploy/slurm-batch.sh), submitted as is: 4 tasks, merged byte-identical" \
+  sh -c "[ \$(ls '$w'/facespace-batch-${job}_*.log | wc -l) -eq 4 ] && diff -r '$w/single_script' '$w/script'"
+
 # A task killed mid-run (SIGKILL through Slurm), then submitted again on its own, resumes.
 args=(--sample uniform --count 600 --seed 3 --format png --width 256 --height 256)
 "$bin" batch "$rig" "${args[@]}" --out "$w/single_png" --quiet 2>/dev/null
