@@ -105,6 +105,7 @@ class Reader {
     if (Status s = Animations(); !s.ok()) return s;
     CountMovedVertices(rig_);
     DetectSymmetricPartners(rig_);
+    RepairNames(rig_);
     if (Status s = ValidateRig(rig_); !s.ok()) return s;
     return std::move(rig_);
   }

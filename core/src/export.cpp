@@ -654,9 +654,13 @@ Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& bl
   if (t.json.is_discarded()) return Internal("glb template: JSON");
   t.bin = 28 + json_bytes <= glb.size() ? glb.substr(28 + json_bytes) : std::string();
   t.attributes.clear();
-  const nlohmann::json& meshes = t.json["meshes"];
-  const nlohmann::json& accessors = t.json["accessors"];
-  const nlohmann::json& views = t.json["bufferViews"];
+  // Read through a const view: a member the glb lacks (a rig without meshes) must not be added.
+  const nlohmann::json& root = t.json;
+  static const nlohmann::json kNone = nlohmann::json::array();
+  auto member = [&root](const char* key) -> const nlohmann::json& { return root.contains(key) ? root.at(key) : kNone; };
+  const nlohmann::json& meshes = member("meshes");
+  const nlohmann::json& accessors = member("accessors");
+  const nlohmann::json& views = member("bufferViews");
   for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
     const std::vector<int>& prims = rig.meshes[mi].primitives;
     for (size_t k = 0; k < prims.size(); ++k) {
@@ -716,18 +720,18 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
   auto extras = AssetExtras(rig, weights, warnings, options);
   if (!extras.ok()) return extras.status();
   AsTinygltfWrites(extras.value(), t.json["asset"]["extras"]);
-  nlohmann::json& accessors = t.json["accessors"];
   for (const GlbTemplate::Attribute& a : t.attributes) {
     const BlendedPrimitive& bp = blended.primitives[a.primitive];
     const std::vector<float>& values = a.kind == 0 ? bp.positions : a.kind == 1 ? bp.normals : bp.tangents;
     std::memcpy(t.bin.data() + a.offset, values.data(), values.size() * 4);
-    if (a.accessor >= 0) {
+    if (a.accessor >= 0) {  // An attribute's accessor: the template has "accessors".
       FloatBounds(values, 3, values.size() / 3, t.lo, t.hi);
-      accessors[a.accessor]["min"] = t.lo;
-      accessors[a.accessor]["max"] = t.hi;
+      nlohmann::json& accessor = t.json["accessors"][a.accessor];
+      accessor["min"] = t.lo;
+      accessor["max"] = t.hi;
     }
   }
-  if (t.posed_nodes) {
+  if (t.posed_nodes && !rig.nodes.empty()) {
     nlohmann::json& nodes = t.json["nodes"];
     for (size_t i = 0; i < rig.nodes.size(); ++i) nodes[i]["matrix"] = PosedLocalMatrix(rig, blended, i);
   }

@@ -1140,6 +1140,7 @@ Result<Rig> LoadFbxMemory(std::span<const unsigned char> bytes, const std::strin
   Importer importer(scene, name);
   Result<Rig> rig = importer.Run();
   if (!rig.ok()) return Prefixed(rig.status(), name + ": ");
+  RepairNames(rig.value());
   if (Status s = ValidateRig(rig.value()); !s.ok()) return Prefixed(s, name + ": ");
   return rig;
 }

@@ -927,6 +927,7 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
   }
   DetectSymmetricPartners(rig);
   CountMovedVertices(rig);
+  RepairNames(rig);
   return ValidateRig(rig);
 }
 

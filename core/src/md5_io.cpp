@@ -532,6 +532,7 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
     }
     rig.animations.push_back(std::move(clip));
   }
+  RepairNames(rig);
   if (Status s = ValidateRig(rig); !s.ok()) return Prefixed(s, mesh_name + ": ");
   return rig;
 }

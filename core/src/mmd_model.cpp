@@ -344,6 +344,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   }
   CountMovedVertices(rig);
   DetectSymmetricPartners(rig);
+  RepairNames(rig);
   if (Status s = ValidateRig(rig); !s.ok()) return Prefixed(s, name + ": ");
   return rig;
 }

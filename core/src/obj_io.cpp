@@ -213,6 +213,7 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
     p.targets.push_back(std::move(t));
   }
   FinishSingleMeshRig(rig, std::move(p), std::move(mesh));
+  RepairNames(rig);
   if (Status s = ValidateRig(rig); !s.ok()) return s;
   return rig;
 }
@@ -351,6 +352,7 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     if (Status s = ApplyMakeHumanModifiers(rig, text); !s.ok()) return Prefixed(s, options.modifiers + ": ");
   }
+  RepairNames(rig);
   if (Status s = ValidateRig(rig); !s.ok()) return s;
   return rig;
 }

@@ -289,6 +289,88 @@ void WorldToMeshSpace(const Rig& rig, std::span<std::vector<float>> positions) {
   }
 }
 
+bool RepairUtf8(std::string& s) {
+  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
+  const size_t n = s.size();
+  // The length of the valid sequence at i, or 0.
+  auto valid = [&](size_t i) -> size_t {
+    const unsigned char c = p[i];
+    if (c < 0x80) return 1;
+    size_t len = 0;
+    uint32_t cp = 0;
+    if (c >= 0xC2 && c <= 0xDF) len = 2, cp = c & 0x1F;
+    else if (c >= 0xE0 && c <= 0xEF) len = 3, cp = c & 0x0F;
+    else if (c >= 0xF0 && c <= 0xF4) len = 4, cp = c & 0x07;
+    else return 0;
+    if (i + len > n) return 0;
+    for (size_t k = 1; k < len; ++k) {
+      if ((p[i + k] & 0xC0) != 0x80) return 0;
+      cp = (cp << 6) | (p[i + k] & 0x3F);
+    }
+    if ((len == 3 && (cp < 0x800 || (cp >= 0xD800 && cp <= 0xDFFF))) || (len == 4 && (cp < 0x10000 || cp > 0x10FFFF))) return 0;
+    return len;
+  };
+  size_t i = 0;
+  while (i < n) {
+    const size_t len = valid(i);
+    if (len == 0) break;
+    i += len;
+  }
+  if (i == n) return false;
+  std::string out(s, 0, i);
+  while (i < n) {
+    const size_t len = valid(i);
+    if (len == 0) {
+      out += "\xEF\xBF\xBD";
+      ++i;
+    } else {
+      out.append(s, i, len);
+      i += len;
+    }
+  }
+  s = std::move(out);
+  return true;
+}
+
+void RepairNames(Rig& rig) {
+  size_t repaired = 0;
+  auto fix = [&repaired](std::string& s) { repaired += RepairUtf8(s); };
+  fix(rig.name);
+  fix(rig.credit);
+  for (Mesh& m : rig.meshes) fix(m.name);
+  for (Shape& shape : rig.shapes) {
+    fix(shape.name);
+    fix(shape.group);
+    for (std::string& a : shape.aliases) fix(a);
+  }
+  for (Control& c : rig.controls) {
+    fix(c.name);
+    fix(c.group);
+  }
+  for (Node& node : rig.nodes) fix(node.name);
+  for (Material& m : rig.materials) {
+    fix(m.name);
+    fix(m.alpha_mode);
+  }
+  for (Image& image : rig.images) {
+    fix(image.name);
+    fix(image.mime_type);
+  }
+  for (Skin& skin : rig.skins) fix(skin.name);
+  for (AnimationInfo& a : rig.animations) fix(a.name);
+  for (Warning& w : rig.load_warnings) {
+    fix(w.code);
+    fix(w.message);
+    fix(w.shape);
+  }
+  if (repaired > 0) {
+    rig.load_warnings.push_back({"names_repaired",
+                                 std::to_string(repaired) + " name(s) in the file were not valid UTF-8; the bytes that were not "
+                                 "were replaced with U+FFFD",
+                                 "", static_cast<double>(repaired), true});
+  }
+}
+
 Status ValidateRig(const Rig& rig) {
   const size_t shapes = rig.shapes.size();
   for (const InBetweens& ib : rig.inbetweens) {

@@ -238,5 +238,47 @@ TEST(ColladaHostile, InstanceNodeCyclesAndBadSkinsAreRefused) {
   EXPECT_EQ(rig->skins.size(), 1u);
 }
 
+
+TEST(ColladaHostile, NamesThatAreNotUtf8AreRepairedAndExportable) {
+  // A node and a geometry named with stray bytes (Latin-1, a cut sequence): the glb writer's JSON
+  // took them as they were and threw (found by fuzz_dae).
+  std::string doc = Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>");
+  doc.replace(doc.find("<node id=\"n\">"), 13, "<node id=\"n\" name=\"caf\xE9 \xE2\x82\">");
+  doc.replace(doc.find("<geometry id=\"g\">"), 17, "<geometry id=\"g\" name=\"\xFFhead\">");
+  const Result<Rig> rig = LoadText(doc);
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  bool warned = false;
+  for (const Warning& w : rig->load_warnings) warned |= w.code == "names_repaired";
+  EXPECT_TRUE(warned);
+  for (const Node& node : rig->nodes) {
+    std::string copy = node.name;
+    EXPECT_FALSE(RepairUtf8(copy)) << node.name;
+  }
+  for (const Mesh& mesh : rig->meshes) {
+    std::string copy = mesh.name;
+    EXPECT_FALSE(RepairUtf8(copy)) << mesh.name;
+  }
+  BlendedRig blended;
+  BlendContext context;
+  ASSERT_TRUE(EvaluateRig(rig.value(), {}, {}, blended, context).ok());
+  const auto glb = ExportMesh(rig.value(), blended, {}, {}, MeshFormat::kGlb);
+  ASSERT_TRUE(glb.ok()) << glb.status().message;
+  EXPECT_NE(glb->find("\xEF\xBF\xBD"), std::string::npos);  // U+FFFD where the stray bytes were.
+}
+
+TEST(Utf8, RepairReplacesWhatIsNotUtf8AndKeepsWhatIs) {
+  auto repaired = [](std::string s) {
+    RepairUtf8(s);
+    return s;
+  };
+  std::string ok = "abc \xC3\xA9 \xE3\x81\x82 \xF0\x9F\x98\x80";  // a, é, あ, an emoji
+  EXPECT_FALSE(RepairUtf8(ok));
+  EXPECT_EQ(repaired("caf\xE9"), "caf\xEF\xBF\xBD");                       // Latin-1
+  EXPECT_EQ(repaired("\xE3\x81"), "\xEF\xBF\xBD\xEF\xBF\xBD");             // cut short
+  EXPECT_EQ(repaired("\xC0\xAF"), "\xEF\xBF\xBD\xEF\xBF\xBD");             // overlong '/'
+  EXPECT_EQ(repaired("\xED\xA0\x80x"), "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBDx");  // a UTF-16 surrogate
+  EXPECT_EQ(repaired("\xF4\x90\x80\x80"), std::string(4 * 3, ' ').replace(0, 12, "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD"));  // past U+10FFFF
+}
+
 }  // namespace
 }  // namespace facespace

@@ -272,4 +272,14 @@ void WorldToMeshSpace(const Rig& rig, std::span<std::vector<float>> positions);
 // that passes is safe to evaluate without further checks.
 Status ValidateRig(const Rig& rig);
 
+// Replaces what is not UTF-8 in `s` (stray bytes, overlong forms, surrogates, past U+10FFFF)
+// with U+FFFD. True when something was replaced.
+bool RepairUtf8(std::string& s);
+
+// Every name, group, alias and load warning of the rig as valid UTF-8 (names read from a file
+// are bytes: a Latin-1 FBX, a broken Collada, a PMX with a stray UTF-16 surrogate), so every
+// writer, JSON included, can take them. Importers call it before ValidateRig; a rig that needed
+// it gets a `names_repaired` load warning.
+void RepairNames(Rig& rig);
+
 }  // namespace facespace
