@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <ctime>
 #include <random>
 #include <filesystem>
@@ -78,6 +79,21 @@ bool ClaimHeld(const fs::path& folder) {
   return held;
 }
 
+// What a claim says: the instance running the job, then (once it runs) its rate, for the others
+// to show ("host:pid\nrate=12.5\n").
+void WriteClaim(int fd, const std::string& text) {
+  if (::ftruncate(fd, 0) == 0) {
+    [[maybe_unused]] ssize_t n = ::pwrite(fd, text.data(), text.size(), 0);
+  }
+}
+
+// The rate a claim says, or 0.
+double ClaimRate(const fs::path& folder) {
+  const std::string text = ReadText(folder / kClaim);
+  const size_t at = text.find("\nrate=");
+  return at == std::string::npos ? 0.0 : std::atof(text.c_str() + at + 6);
+}
+
 // The claim on a job: an exclusive lock on its .claim file, held until closed (or the process
 // dies). -1 when another process holds it or the folder is gone.
 int TakeClaim(const fs::path& folder, const std::string& instance) {
@@ -87,10 +103,7 @@ int TakeClaim(const fs::path& folder, const std::string& instance) {
     ::close(fd);
     return -1;
   }
-  if (::ftruncate(fd, 0) == 0) {
-    const std::string text = instance + "\n";
-    [[maybe_unused]] ssize_t n = ::pwrite(fd, text.data(), text.size(), 0);
-  }
+  WriteClaim(fd, instance + "\n");
   return fd;
 }
 
@@ -153,6 +166,7 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) con
     job->info.error = st.value("error", "");
   } else {
     job->info.state = ClaimHeld(folder) ? "running" : "queued";
+    if (job->info.state == "running") job->info.rate = ClaimRate(folder);
   }
   return job;
 }
@@ -367,7 +381,7 @@ bool FileJobQueue::RunNext() {
         std::fprintf(stderr, "jobs: resuming job %s (%zu of %zu variants were done)\n", job->info.id.c_str(), job->info.done,
                      job->info.total);
       }
-      Run(job, rig);
+      Run(job, rig, fd);
     }
     {
       std::lock_guard<std::mutex> lock(mu_);
@@ -394,7 +408,7 @@ void FileJobQueue::MarkLost(Job& job) {
                           std::to_string(job.info.done) + " of " + std::to_string(job.info.total) + " variants were done");
 }
 
-void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig) {
+void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig, int claim) {
   const fs::path folder = fs::path(dir_) / job->info.id;
   Result<std::shared_ptr<const api::BatchPlan>> plan = job->plan;
   if (!job->plan) {  // Submitted elsewhere or before a restart: plan the stored request again.
@@ -411,9 +425,16 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
   options.renderer = &renderer_;
   options.jobs = limits_.threads;
   options.cancel = &job->cancel;
-  options.progress = [this, &job, &folder](const batch::Progress& p) {
+  double said = -1.0;  // When the rate was last written in the claim, in the run's seconds.
+  options.progress = [this, &job, &folder, claim, &said](const batch::Progress& p) {
     std::error_code ec;
     const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
+    if (p.seconds - said >= 1.0 && p.seconds > 0) {  // The rate, for the instances that do not run the job.
+      said = p.seconds;
+      char text[64];
+      std::snprintf(text, sizeof text, "\nrate=%.1f\n", (p.done - p.skipped) / p.seconds);
+      WriteClaim(claim, instance_ + text);
+    }
     std::lock_guard<std::mutex> lock(mu_);
     job->info.done = p.done;
     job->info.seconds = p.seconds;

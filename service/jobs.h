@@ -4,8 +4,9 @@
 // DIR/<job>/job.json     the request, the rig id and version, the creation time (written
 //                        before the job is accepted)
 // DIR/<job>/.claim       locked (flock) by the instance running the job, for as long as it runs;
-//                        says which (host:pid). The lock goes with the process, so a job whose
-//                        instance died is claimed, and resumed, by another.
+//                        says which (host:pid) and, each second, its rate (for the others' ETA).
+//                        The lock goes with the process, so a job whose instance died is
+//                        claimed, and resumed, by another.
 // DIR/<job>/cancel       a delete through an instance that does not run the job: the one that
 //                        does stops it and removes the folder
 // DIR/<job>/state.json   written when the job ends: done, failed, cancelled or lost
@@ -68,7 +69,7 @@ class FileJobQueue : public api::JobQueue {
   std::shared_ptr<Job> RunningHere(const std::string& id) const;
   // Claims and runs the oldest job nobody runs, if any. True when one ran.
   bool RunNext();
-  void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig);
+  void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig, int claim);
   void Finish(Job& job, const std::string& state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
   std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;

@@ -108,8 +108,10 @@ for t in ts: t.join()
 print(" ".join("%s:%d" % kv for kv in sorted(codes.items(), key=str)), "%.0f req/s" % (n / (time.time() - t0)))
 EOF
 python3 "$tmp/load.py" 127.0.0.1 "$front" 6000 16 >"$tmp/load.out" & lpid=$!
-sleep 0.5
-before=$(grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log2")
+# Mid-load: once instance 3 has served 50 of this load's GETs (a busy machine is slower; wait for them, not a time).
+served=$(grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log2")
+for _ in $(seq 1 200); do [ "$(grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log2")" -ge $((served + 50)) ] && break; sleep 0.05; done
+before=$(( $(grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log2") - served ))
 kill -0 $lpid 2>/dev/null && mid=1 || mid=0
 kill -9 "${pids[2]}"; wait "${pids[2]}" 2>/dev/null
 wait $lpid
@@ -142,6 +144,9 @@ runner=-1; for i in 0 1; do [ "${pids[$i]}" = "$runner_pid" ] && runner=$i; done
 state0=$(jget 0 "$job" "d['state']"); state1=$(jget 1 "$job" "d['state']")
 check "a job submitted through instance 1 runs on one instance (the claim names instance $((runner + 1))), running through both" \
   sh -c "[ $runner -ge 0 ] && [ '$state0' = running ] && [ '$state1' = running ]"
+for _ in $(seq 1 20); do [ "$(jget "$other" "$job" "d['rate'] > 0 and 'eta_seconds' in d")" = True ] && break; sleep 0.1; done
+eta=$(jget "$other" "$job" "str(d['rate']) + ' variants/s, eta ' + str(d.get('eta_seconds'))")
+check "  ... the instance not running it shows the runner's rate and an ETA ($eta)" sh -c "echo '$eta' | grep -Eq '^[0-9.]+ variants/s, eta [0-9.]+$' && ! echo '$eta' | grep -q '^0.0 '"
 check "  ... listed by both instances" sh -c "curl -s '$(u 0)/v1/jobs' | grep -q '$job' && curl -s '$(u 1)/v1/jobs' | grep -q '$job'"
 job2=$(submit "$other" '{"sample":{"method":"uniform","count":3000,"seed":5},"format":"png","width":64,"height":64}')
 for _ in $(seq 1 100); do [ "$(jget "$other" "$job2" "d['state']")" = running ] && break; sleep 0.1; done
