@@ -1,6 +1,8 @@
 #include "durable.h"
 
 #include <fcntl.h>
+#include <ctime>
+#include <sys/stat.h>
 #include <sys/file.h>
 #include <unistd.h>
 
@@ -36,7 +38,12 @@ void SyncDir(const std::filesystem::path& dir) {
 bool RemoveAbandoned(const std::filesystem::path& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return false;
-  const bool abandoned = ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  // Unlocked, and untouched for a while: a writer locks its file just after creating it, so a
+  // fresh unlocked one may be a writer between the two (seen: a shard starting beside another
+  // removed the temporary the other had just created, and the other's rename then failed).
+  struct stat st {};
+  const bool stale = ::fstat(fd, &st) == 0 && std::time(nullptr) - st.st_mtime > 10;
+  const bool abandoned = stale && ::flock(fd, LOCK_EX | LOCK_NB) == 0;
   if (abandoned) ::unlink(path.c_str());
   ::close(fd);
   return abandoned;

@@ -38,8 +38,8 @@ Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_na
 void SyncDir(const std::filesystem::path& dir);
 
 // Removes a temporary file left by a crashed writer: one no process holds (WriteTemporary locks
-// its file until it is published), so a writer sharing the folder is never cut short. True when
-// it was removed.
+// its file until it is published) and nobody wrote for 10 s (a writer between creating its file
+// and locking it), so a writer sharing the folder is never cut short. True when it was removed.
 bool RemoveAbandoned(const std::filesystem::path& path);
 
 }  // namespace facespace

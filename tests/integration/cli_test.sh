@@ -247,7 +247,7 @@ check "batch variant file: the blend of its manifest weights (same bytes as face
 check "batch: the same seed gives byte-identical files (1 job vs all cores)" diff -r "$B/a" "$B/b"
 "$bin" batch "$rig" --sample uniform --count 40 --seed 6 --active 6 --format glb --out "$B/c" --quiet --no-sheet 2>/dev/null
 check "batch: another seed gives other variants" sh -c "! cmp -s '$B/a/v000000.glb' '$B/c/v000000.glb'"
-rm "$B/b/v000011.glb"; printf '{"index":39,"id":"v0000' >>"$B/b/manifest.jsonl"; : >"$B/b/.fs-tmp-v000012.glb"
+rm "$B/b/v000011.glb"; printf '{"index":39,"id":"v0000' >>"$B/b/manifest.jsonl"; : >"$B/b/.fs-tmp-v000012.glb"; touch -d "1 minute ago" "$B/b/.fs-tmp-v000012.glb"
 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/b" 2>"$tmp/err"
 check "batch resume: only the missing variant is redone; torn manifest line and temp file cleaned" sh -c "grep -q '(1 generated, 39 already there)' '$tmp/err' && diff -r '$B/a' '$B/b'"
 err_case "batch: a folder of another batch is refused" "holds another batch" batch "$rig" --sample uniform --count 40 --seed 9 --format glb --out "$B/a"

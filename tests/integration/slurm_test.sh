@@ -106,7 +106,7 @@ check "every task of the array ends (within 120 s)" wait_job "$job" 120
 check "each of the 4 tasks ran its own shard (1/4..4/4, 100 variants each) and recorded it" sh -c "
   for i in 1 2 3 4; do
     grep -q \"shard \$i/4: 100 variants\" '$w'/log/${job}_\$((i - 1)).out && [ -s '$w/sharded/shard-'\$i'-of-4.json' ] || exit 1
-  done" || tail -n 3 "$w"/log/${job}_*.out
+  done"
 "$bin" batch merge "$w/sharded" 2>"$w/merge.err"; rc=$?
 check "batch merge: exit 0, 4 shards, 400 variants" both "[ $rc -eq 0 ] && grep -q '4 shards, 400 variants' '$w/merge.err'" true
 check "merged folder byte-identical to the single process's (400 files, manifest, sheet, batch.json)" diff -r "$w/single" "$w/sharded"
@@ -138,4 +138,8 @@ check "it resumed: only the variants the kill cut are generated" sh -c "grep -Eq
 "$bin" batch merge "$w/killed" 2>/dev/null
 check "merged after the rerun: byte-identical to the single process's PNG batch" diff -r "$w/single_png" "$w/killed"
 grep -h "already there" "$w"/log/*.out | sed 's/^/  /'
+if [ $fail -gt 0 ]; then  # What the tasks and the daemons said, to tell a facespace failure from a Slurm one.
+  for f in "$w"/log/*.out "$w"/facespace-batch-*.log; do [ -e "$f" ] && { echo "== $f"; tail -n 5 "$f"; }; done
+  tail -n 15 "$w/slurmctld.log" "$w/slurmd.log"
+fi
 finish
