@@ -131,9 +131,10 @@ json QueryParam(std::string_view name, bool render) {
   if (name == "loop") return param(boolean, "Wrap time into the clip's length");
   if (name == "frame") {
     if (!render) return param(number, "The time in MMD frames, 30 a second");
-    return param({{"oneOf", json::array({number, json{{"enum", {"all", "shapes", "auto"}}}})}},
-                 "A time in MMD frames (30 a second), or the camera's framing: all, shapes, auto (the default: the shapes "
-                 "when they act on a small part of a rig without a skeleton)");
+    return param({{"oneOf", json::array({number, json{{"type", "string"}, {"pattern", "^(all|shapes|auto|joint:.+)$"}}})}},
+                 "A time in MMD frames (30 a second), or the camera's framing: all (the rest shape unless posed, so the camera "
+                 "stays still while weights change), shapes, joint:NAME (the vertices a joint carries, under the pose), auto (the "
+                 "default: the shapes when they act on a small part of a rig without a skeleton, else all)");
   }
   if (name == "width" || name == "height") return param({{"type", "integer"}, {"minimum", 1}, {"default", 512}});
   if (name == "view") return param({{"enum", {"shaded", "wireframe", "heatmap", "normals"}}, {"default", "shaded"}});
@@ -231,9 +232,11 @@ json Build() {
   json camera = {{"type", "object"},
                  {"properties", {{"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}, {"distance", {{"type", "number"}}},
                                  {"zoom", {{"type", "number"}}}, {"fov", {{"type", "number"}}},
-                                 {"frame", {{"enum", {"all", "shapes", "auto"}}, {"default", "auto"},
-                                            {"description", "Orbit around every vertex, around those the shapes move, or (auto) around those when they "
-                                                            "are a small part of a rig without a skeleton (a face on a body), else every vertex"}}},
+                                 {"frame", {{"type", "string"}, {"pattern", "^(all|shapes|auto|joint:.+)$"}, {"default", "auto"},
+                                            {"description", "Orbit around every vertex (of the rest shape unless posed: still while weights "
+                                                            "change), around those the shapes move, around those a joint carries "
+                                                            "(joint:NAME), or (auto) around the shapes' when they are a small part of a rig "
+                                                            "without a skeleton (a face on a body), else every vertex"}}},
                                  {"eye", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                  {"target", {{"type", "array"}, {"items", {{"type", "number"}}}}},
                                  {"up", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}};

@@ -350,6 +350,20 @@ bool Number(const json& v, double lo, double hi, double* out) {
   return true;
 }
 
+// The camera's framing: all, shapes, auto or joint:NAME. False for anything else.
+bool ParseFraming(const std::string& value, render::Camera& cam) {
+  if (value == "all" || value == "shapes" || value == "auto") {
+    cam.frame = value == "shapes" ? render::Framing::kShapes : value == "all" ? render::Framing::kAll : render::Framing::kAuto;
+    return true;
+  }
+  if (value.size() > 6 && value.compare(0, 6, "joint:") == 0) {
+    cam.frame = render::Framing::kJoint;
+    cam.frame_joint = value.substr(6);
+    return true;
+  }
+  return false;
+}
+
 void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
   if (!c.is_object()) {
     errors.fields.push_back({"/camera", "must be an object"});
@@ -376,10 +390,8 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
       if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
       else if (k != "up") cam.look_at = true;
     } else if (k == "frame") {
-      if (!it->is_string() || (*it != "all" && *it != "shapes" && *it != "auto")) {
-        errors.fields.push_back({ptr, "must be \"all\", \"shapes\" or \"auto\""});
-      } else {
-        cam.frame = *it == "shapes" ? render::Framing::kShapes : *it == "all" ? render::Framing::kAll : render::Framing::kAuto;
+      if (!it->is_string() || !ParseFraming(it->get<std::string>(), cam)) {
+        errors.fields.push_back({ptr, "must be \"all\", \"shapes\", \"auto\" or \"joint:NAME\""});
       }
     } else {
       errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, frame, eye, target, up)"});
@@ -598,13 +610,12 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
   }
   if (key == "frame") {
     // The camera's framing (all, shapes, auto), or else a time in MMD frames for the pose (ApplyPoseSetting).
-    if (value == "all" || value == "shapes" || value == "auto") {
-      r.render.camera.frame = value == "shapes" ? render::Framing::kShapes : value == "all" ? render::Framing::kAll : render::Framing::kAuto;
-      return "";
-    }
+    if (ParseFraming(std::string(value), r.render.camera)) return "";
     double d = 0;
     const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), d);
-    if (ec != std::errc() || end != value.data() + value.size()) return "must be all or shapes (the camera's framing) or a number of frames (30 a second)";
+    if (ec != std::errc() || end != value.data() + value.size()) {
+      return "must be all, shapes, auto or joint:NAME (the camera's framing) or a number of frames (30 a second)";
+    }
     *known = false;
     return "";
   }

@@ -400,12 +400,36 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   verts.clear();
   indices.clear();
   std::vector<Draw> draws;
-  Eigen::AlignedBox3f box, shape_box;
+  Eigen::AlignedBox3f box, shape_box, rest_box, joint_box;
   float heat_max = 0.0f;
+
+  // frame=joint:NAME: the node, and per skin its index among the skin's joints (-1: not in it).
+  int joint_node = -1;
+  std::vector<int> joint_in_skin(rig.skins.size(), -1);
+  if (o.camera.frame == Framing::kJoint) {
+    std::vector<std::string_view> names;
+    for (size_t n = 0; n < rig.nodes.size(); ++n) {
+      if (rig.nodes[n].name == o.camera.frame_joint) joint_node = static_cast<int>(n);
+    }
+    for (const Skin& skin : rig.skins) {
+      for (int j : skin.joints) names.push_back(rig.nodes[static_cast<size_t>(j)].name);
+    }
+    if (names.empty()) return InvalidArgument("frame: joint:" + o.camera.frame_joint + ": the rig has no skeleton");
+    if (joint_node < 0) {
+      return InvalidArgument("frame: no joint '" + o.camera.frame_joint + "' in the rig" + DidYouMean(o.camera.frame_joint, names));
+    }
+    for (size_t s = 0; s < rig.skins.size(); ++s) {
+      const auto& joints = rig.skins[s].joints;
+      const auto it = std::find(joints.begin(), joints.end(), joint_node);
+      if (it != joints.end()) joint_in_skin[s] = static_cast<int>(it - joints.begin());
+    }
+  }
 
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
     const BlendedPrimitive& b = blended.primitives[pi];
+    const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? rig.meshes[static_cast<size_t>(p.mesh)].skin : -1;
+    const int joint = skin >= 0 && static_cast<size_t>(skin) < joint_in_skin.size() ? joint_in_skin[static_cast<size_t>(skin)] : -1;
 
     const auto& m = b.world;
     Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
@@ -426,6 +450,27 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
       const float d = std::sqrt(q0[0] * q0[0] + q0[1] * q0[1] + q0[2] * q0[2]);
       heat_max = std::max(heat_max, d);
       box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
+      // The rest shape (unskinned primitives; a skinned one is in scene space already), for a
+      // camera that does not move with the weights.
+      if (!blended.posed) {
+        if (b.skinned) {
+          rest_box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
+        } else {
+          float r[3];
+          TransformPoint(m, &p.positions[3 * v], r);
+          rest_box.extend(Eigen::Vector3f(r[0], r[1], r[2]));
+        }
+      }
+      // The vertices the framed joint carries (a third of their weight or more), where the pose puts them.
+      if (joint >= 0 && p.influences > 0) {
+        for (size_t k = 0; k < p.influences; ++k) {
+          const size_t at = v * p.influences + k;
+          if (p.joints[at] == joint && p.joint_weights[at] >= 1.0f / 3.0f) {
+            joint_box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
+            break;
+          }
+        }
+      }
       const float uv[2] = {p.texcoords.empty() ? 0.0f : p.texcoords[2 * v], p.texcoords.empty() ? 0.0f : p.texcoords[2 * v + 1]};
       verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
       if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
@@ -438,7 +483,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
 
   // Framing the shapes: the rest-pose box of what they move (stable while sliders move).
   bool frame_shapes = false;
-  if (o.camera.frame != Framing::kAll) {
+  if (o.camera.frame == Framing::kAuto || o.camera.frame == Framing::kShapes) {
     std::array<float, 3> lo = o.camera.focus_min, hi = o.camera.focus_max;
     const bool found = o.camera.has_focus || ShapeFocusBox(rig, lo, hi);
     const bool small = o.camera.has_focus ? o.camera.focus_small : found && FrameShapesByDefault(rig, lo, hi);
@@ -448,9 +493,20 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     }
   }
 
+  // A joint no vertex follows (a root, an end site): its position, in a tenth of the whole.
+  if (joint_node >= 0 && joint_box.isEmpty()) {
+    const auto& world = static_cast<size_t>(joint_node) < blended.node_world.size() ? blended.node_world[static_cast<size_t>(joint_node)]
+                                                                                    : std::array<float, 16>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    const Eigen::Vector3f at(world[12], world[13], world[14]);
+    const float r = box.isEmpty() ? 0.1f : 0.05f * box.diagonal().norm();
+    joint_box.extend(at - Eigen::Vector3f::Constant(r));
+    joint_box.extend(at + Eigen::Vector3f::Constant(r));
+  }
+
   // Camera.
   const Camera& c = o.camera;
-  const Eigen::AlignedBox3f& framed = frame_shapes && !shape_box.isEmpty() ? shape_box : box;
+  const Eigen::AlignedBox3f& whole = !blended.posed && !rest_box.isEmpty() ? rest_box : box;
+  const Eigen::AlignedBox3f& framed = joint_node >= 0 ? joint_box : frame_shapes && !shape_box.isEmpty() ? shape_box : whole;
   const Eigen::Vector3f center = framed.isEmpty() ? Eigen::Vector3f(Eigen::Vector3f::Zero()) : Eigen::Vector3f(framed.center());
   const float radius = framed.isEmpty() ? 1.0f : std::max(0.5f * framed.diagonal().norm(), 1e-6f);
   const float fov = std::clamp(c.fov, 1.0f, 170.0f) * static_cast<float>(M_PI) / 180.0f;

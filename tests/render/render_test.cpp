@@ -298,6 +298,63 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
   EXPECT_NE(by_default.rgba, all.rgba);     // and so a different picture.
 }
 
+TEST(Render, TheCameraStaysStillWhileWeightsChange) {
+  // FaceCap frames every vertex; the jaw opening lowers the chin. The camera orbits the rest
+  // shape, so the forehead and eyes stay where they were (frames of a sequence line up).
+  auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  ASSERT_TRUE(face.ok());
+  const int jaw = FindShape(face.value(), "jawOpen");
+  ASSERT_GE(jaw, 0);
+  std::vector<float> open(face->shapes.size(), 0.0f);
+  open[static_cast<size_t>(jaw)] = 1.0f;
+  RenderOptions o;
+  o.width = o.height = 128;
+  o.background = {1, 1, 1, 0};
+  Image rest, opened;
+  ASSERT_TRUE(Gl().Draw(face.value(), Evaluate(face.value()), o, rest).ok());
+  ASSERT_TRUE(Gl().Draw(face.value(), Evaluate(face.value(), open), o, opened).ok());
+  size_t top_changed = 0, changed = 0;
+  const size_t top = static_cast<size_t>(0.4 * o.height) * o.width * 4;
+  for (size_t i = 0; i < rest.rgba.size(); ++i) {
+    const bool differs = std::fabs(rest.rgba[i] - opened.rgba[i]) > 1e-3f;
+    changed += differs;
+    if (i < top) top_changed += differs;
+  }
+  EXPECT_GT(changed, 200u);     // The jaw moved...
+  EXPECT_EQ(top_changed, 0u);   // ...and nothing above the eyes did.
+}
+
+TEST(Render, FramesAJointByName) {
+  auto fox = LoadRigFile(test::RealAsset("Fox/Fox.glb"));
+  ASSERT_TRUE(fox.ok());
+  RenderOptions o;
+  o.width = o.height = 128;
+  o.background = {1, 1, 1, 0};
+  o.camera.yaw = 90;  // From the side: the fox is long, its head small.
+  const BlendedRig blended = Evaluate(fox.value());
+  Image all, head;
+  o.camera.frame = render::Framing::kAll;
+  ASSERT_TRUE(Gl().Draw(fox.value(), blended, o, all).ok());
+  o.camera.frame = render::Framing::kJoint;
+  o.camera.frame_joint = "b_Head_05";
+  ASSERT_TRUE(Gl().Draw(fox.value(), blended, o, head).ok());
+  auto covered = [](const Image& im) {
+    size_t n = 0;
+    for (size_t i = 3; i < im.rgba.size(); i += 4) n += im.rgba[i] > 0.5f;
+    return n;
+  };
+  EXPECT_GT(CoveredRows(head), 100);              // The head fills the frame (its neck leaves it),
+  EXPECT_GT(covered(head), 2 * covered(all));     // where the whole fox, side on, covers a fraction.
+  o.camera.frame_joint = "b_head_5";
+  const Status unknown = Gl().Draw(fox.value(), blended, o, head);
+  EXPECT_FALSE(unknown.ok());
+  EXPECT_NE(unknown.message.find("did you mean 'b_Head_05'"), std::string::npos) << unknown.message;
+  auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  ASSERT_TRUE(face.ok());
+  const Status boneless = Gl().Draw(face.value(), Evaluate(face.value()), o, head);
+  EXPECT_NE(boneless.message.find("has no skeleton"), std::string::npos) << boneless.message;
+}
+
 TEST(Render, SupersamplingSmoothsEdges) {
   Rig cube = UnitCube();
   RenderOptions o = HeadOn(64);

@@ -25,9 +25,11 @@ bool ParseView(const std::string& name, View* view);
 const char* ViewName(View view);
 
 // What the orbit camera frames: every vertex, the vertices the rig's shapes move (ShapeFocusBox:
-// a face on a whole body), or by default the shapes when they act on a small part of a rig with
-// no skeleton (FrameShapesByDefault), else everything.
-enum class Framing { kAuto, kAll, kShapes };
+// a face on a whole body), the vertices a joint carries (Camera::frame_joint, under the pose), or
+// by default the shapes when they act on a small part of a rig with no skeleton
+// (FrameShapesByDefault), else everything. Every vertex means the rest shape's when the render is
+// not posed, so the camera stays still while weights change (frames of a sequence line up).
+enum class Framing { kAuto, kAll, kShapes, kJoint };
 
 struct Camera {
   float yaw = 0.0f;       // Degrees around the vertical axis; 0 looks at the model's front (+Z).
@@ -37,6 +39,7 @@ struct Camera {
   float fov = 30.0f;      // Vertical field of view, degrees.
   bool look_at = false;   // Use eye/target/up instead of the orbit above.
   Framing frame = Framing::kAuto;
+  std::string frame_joint;  // kJoint: the node's name.
   // The box the shapes' framing orbits, when the caller has it already (ShapeFocusBox of the rig,
   // kept by a caller that renders one rig many times, with FrameShapesByDefault in focus_small);
   // computed per render otherwise.
