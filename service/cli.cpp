@@ -350,10 +350,11 @@ namespace {
 // The render settings (api::ApplyRenderSetting) as flags.
 void AddRenderFlags(Flags& flags, api::RenderRequest& r) {
   static const std::pair<const char*, const char*> kSettings[] = {
-      {"view", "shaded|wireframe|heatmap|normals"}, {"width", "PIXELS"},   {"height", "PIXELS"},
+      {"view", "shaded|wireframe|heatmap|normals|clay"}, {"width", "PIXELS"},   {"height", "PIXELS"},
       {"camera", "JSON"},                           {"yaw", "DEGREES"},    {"pitch", "DEGREES"},
       {"zoom", "Z"},                                {"distance", "D"},     {"fov", "DEGREES"},
-      {"background", "#rrggbb|transparent"},        {"supersample", "1-4"}, {"quality", "1-100"}};
+      {"background", "#rrggbb|transparent"},        {"supersample", "1-4"}, {"quality", "1-100"},
+      {"exposure", "STOPS"}};
   for (const auto& [key, metavar] : kSettings) {
     const std::string flag = std::string("--") + key;
     flags.Value(flag, metavar, std::string("render ") + key, [&r, key = std::string(key), flag](const std::string& v) {

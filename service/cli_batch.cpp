@@ -272,6 +272,7 @@ int Batch(const std::vector<std::string>& args) {
   for (const char* key : {"width", "height", "supersample", "quality"}) {
     flags.Value(std::string("--") + key, "N", std::string("render ") + key, integer(request, key, 1, 1 << 20));
   }
+  flags.Value("--exposure", "STOPS", "render exposure", number(request, "exposure"));
   for (const char* key : {"yaw", "pitch", "zoom", "distance", "fov"}) {
     flags.Value(std::string("--") + key, "X", std::string("render camera ") + key, number(request["camera"], key));
   }

@@ -18,7 +18,7 @@ const char kUsage[] =
     "        [--mode relative|absolute] [--normals blend|recompute] [--keep-targets]\n"
     "        [--format glb|obj|json|f32] -o OUT\n"
     "      the blended mesh; format from OUT's extension or --format; -o - writes to stdout\n"
-    "  render RIG [weights flags] [--view shaded|wireframe|heatmap|normals] [--width W --height H]\n"
+    "  render RIG [weights flags] [--view shaded|wireframe|heatmap|normals|clay] [--width W --height H]\n"
     "        [--camera JSON | --yaw D --pitch D --zoom Z] [--background C] [--supersample N] -o OUT.png\n"
     "      an offscreen render (PNG, JPEG, EXR, TIFF; see render --help)\n"
     "  sheet RIG --cells JSON|@FILE [--columns N] [render flags] -o OUT.png\n"

@@ -137,9 +137,10 @@ json QueryParam(std::string_view name, bool render) {
                  "default: the shapes when they act on a small part of a rig without a skeleton, else all)");
   }
   if (name == "width" || name == "height") return param({{"type", "integer"}, {"minimum", 1}, {"default", 512}});
-  if (name == "view") return param({{"enum", {"shaded", "wireframe", "heatmap", "normals"}}, {"default", "shaded"}});
+  if (name == "view") return param({{"enum", {"shaded", "wireframe", "heatmap", "normals", "clay"}}, {"default", "shaded"}});
   if (name == "background") return param({{"type", "string"}}, "#rrggbb, #rrggbbaa or transparent");
   if (name == "supersample") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 4}});
+  if (name == "exposure") return param({{"type", "number"}, {"minimum", -10}, {"maximum", 10}, {"default", 0}}, "Stops of light before tone mapping (+1: twice the light)");
   if (name == "quality") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}, "jpeg and webp");
   if (name == "camera") return param({{"type", "string"}}, "The body's camera object as JSON");
   if (name == "yaw" || name == "pitch") return param(number, "Degrees");
@@ -248,11 +249,12 @@ json Build() {
                        {"camera", camera},
                        {"width", {{"type", "integer"}, {"minimum", 1}, {"default", 512}}},
                        {"height", {{"type", "integer"}, {"minimum", 1}, {"default", 512}}},
-                       {"view", {{"enum", {"shaded", "wireframe", "heatmap", "normals"}}, {"default", "shaded"}}},
+                       {"view", {{"enum", {"shaded", "wireframe", "heatmap", "normals", "clay"}}, {"default", "shaded"}}},
                        {"background", {{"oneOf", json::array({json{{"type", "string"}}, json{{"type", "array"}, {"items", {{"type", "number"}}}}})}}},
                        {"supersample", {{"type", "integer"}, {"minimum", 1}, {"maximum", 4}}},
                        {"format", {{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}}},
-                       {"quality", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}}};
+                       {"quality", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}},
+                       {"exposure", {{"type", "number"}, {"minimum", -10}, {"maximum", 10}, {"default", 0}}}};
   for (auto it = skeleton_props.begin(); it != skeleton_props.end(); ++it) {
     mesh_request["properties"][it.key()] = it.value();
     render_props[it.key()] = it.value();

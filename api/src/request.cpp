@@ -25,15 +25,15 @@ constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "s
                                              "keep_targets", "pose", "blend", "animation", "motion", "time", "frame", "loop"};
 constexpr std::string_view kRenderMembers[] = {"weights", "controls", "mode", "normals", "skinning", "lod", "strict", "pose",
                                                "blend", "animation", "motion", "time", "frame", "loop", "width", "height",
-                                               "view", "background", "supersample", "format", "quality", "camera"};
+                                               "view", "background", "supersample", "format", "quality", "camera", "exposure"};
 constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "mode", "normals", "skinning", "lod",
                                               "strict", "pose", "blend", "animation", "motion", "time", "frame", "loop",
-                                              "width", "height", "view", "background", "supersample", "quality", "camera"};
+                                              "width", "height", "view", "background", "supersample", "quality", "camera", "exposure"};
 constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "transition", "smooth",
                                                  "format", "tolerance", "mode", "normals"};
 constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "mode", "normals", "skinning", "lod",
                                               "pose", "blend", "animation", "motion", "time", "frame", "loop", "width",
-                                              "height", "view", "background", "supersample", "quality", "camera"};
+                                              "height", "view", "background", "supersample", "quality", "camera", "exposure"};
 
 void UnknownMember(const std::string& key, std::span<const std::string_view> members, Status& errors) {
   std::string message = "unknown member" + DidYouMean(key, members);
@@ -411,7 +411,7 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
     else (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
   } else if (key == "view") {
     if (!v.is_string() || !render::ParseView(v.get<std::string>(), &r.render.view)) {
-      errors.fields.push_back({ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\""});
+      errors.fields.push_back({ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\", \"clay\""});
     }
   } else if (key == "background") {
     if (!ParseBackground(v, r.render.background)) {
@@ -427,6 +427,9 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
     } else {
       r.format = f;
     }
+  } else if (key == "exposure") {
+    if (!v.is_number() || !Number(v, -10, 10, &d)) errors.fields.push_back({ptr, "must be a number of stops in -10..10"});
+    else r.render.exposure = static_cast<float>(d);
   } else if (key == "quality") {
     if (!v.is_number_integer() || !Number(v, 1, 100, &d)) errors.fields.push_back({ptr, "must be an integer in 1..100"});
     else r.quality = static_cast<int>(d);
@@ -621,7 +624,8 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
   }
   const bool camera_key = key == "yaw" || key == "pitch" || key == "distance" || key == "zoom" || key == "fov";
   const bool string_key = key == "view" || key == "format" || key == "background";
-  if (!camera_key && !string_key && key != "width" && key != "height" && key != "supersample" && key != "quality") {
+  if (!camera_key && !string_key && key != "width" && key != "height" && key != "supersample" && key != "quality" &&
+      key != "exposure") {
     *known = false;
     return "";
   }

@@ -413,6 +413,19 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       gm.pbrMetallicRoughness.baseColorTexture.index = texture_of[mat.base_color_image];
       gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
     }
+    if (mat.metallic_roughness_image >= 0 && texture_of[mat.metallic_roughness_image] >= 0) {
+      gm.pbrMetallicRoughness.metallicRoughnessTexture.index = texture_of[mat.metallic_roughness_image];
+    }
+    if (mat.normal_image >= 0 && texture_of[mat.normal_image] >= 0) {
+      gm.normalTexture.index = texture_of[mat.normal_image];
+      gm.normalTexture.scale = mat.normal_scale;
+    }
+    if (mat.occlusion_image >= 0 && texture_of[mat.occlusion_image] >= 0) {
+      gm.occlusionTexture.index = texture_of[mat.occlusion_image];
+      gm.occlusionTexture.strength = mat.occlusion_strength;
+    }
+    if (mat.emissive_image >= 0 && texture_of[mat.emissive_image] >= 0) gm.emissiveTexture.index = texture_of[mat.emissive_image];
+    gm.emissiveFactor.assign(mat.emissive_factor.begin(), mat.emissive_factor.end());
     gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;
     gm.pbrMetallicRoughness.roughnessFactor = mat.roughness_factor;
     gm.doubleSided = mat.double_sided;

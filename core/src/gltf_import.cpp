@@ -691,6 +691,32 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
     m.double_sided = sm.doubleSided;
     m.alpha_mode = sm.alphaMode.empty() ? "OPAQUE" : sm.alphaMode;
     m.alpha_cutoff = static_cast<float>(sm.alphaCutoff);
+    // The other maps: the rig's image of a texture index, or -1. Only maps on TEXCOORD_0 without a
+    // texture transform are kept (the base colour's transform is applied to the UVs); one left out
+    // is said in a warning.
+    const auto image_of = [&](const char* what, int texture, int texcoord, const tinygltf::ExtensionMap& extensions) {
+      if (texture < 0 || static_cast<size_t>(texture) >= model.textures.size()) return -1;
+      std::array<float, 6> ignored;
+      const bool transformed = TextureTransform(extensions, ignored.data());
+      if (texcoord != 0 || transformed) {
+        rig.load_warnings.push_back({"material_map_dropped",
+                                     "material '" + sm.name + "': its " + what + " map is " +
+                                         (transformed ? "under a texture transform" : "on TEXCOORD_" + std::to_string(texcoord)) +
+                                         ", which is not kept; it renders without it",
+                                     sm.name, 0.0, false});
+        return -1;
+      }
+      const int src = model.textures[static_cast<size_t>(texture)].source;
+      return src >= 0 && static_cast<size_t>(src) < image_map.size() ? image_map[static_cast<size_t>(src)] : -1;
+    };
+    const auto& mr = pbr.metallicRoughnessTexture;
+    m.metallic_roughness_image = image_of("metallic-roughness", mr.index, mr.texCoord, mr.extensions);
+    m.normal_image = image_of("normal", sm.normalTexture.index, sm.normalTexture.texCoord, sm.normalTexture.extensions);
+    m.normal_scale = static_cast<float>(sm.normalTexture.scale);
+    m.occlusion_image = image_of("occlusion", sm.occlusionTexture.index, sm.occlusionTexture.texCoord, sm.occlusionTexture.extensions);
+    m.occlusion_strength = static_cast<float>(std::clamp(sm.occlusionTexture.strength, 0.0, 1.0));
+    m.emissive_image = image_of("emissive", sm.emissiveTexture.index, sm.emissiveTexture.texCoord, sm.emissiveTexture.extensions);
+    for (size_t c = 0; c < 3 && c < sm.emissiveFactor.size(); ++c) m.emissive_factor[c] = static_cast<float>(sm.emissiveFactor[c]);
     const int tex = pbr.baseColorTexture.index;
     if (tex >= 0 && static_cast<size_t>(tex) < model.textures.size()) {
       const int src = model.textures[tex].source;

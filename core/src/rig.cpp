@@ -446,7 +446,9 @@ Status ValidateRig(const Rig& rig) {
     if (r < 0 || static_cast<size_t>(r) >= rig.nodes.size()) return InvalidArgument("scene root out of range");
   }
   for (const Material& m : rig.materials) {
-    if (m.base_color_image >= static_cast<int>(rig.images.size())) return InvalidArgument("material image out of range");
+    for (int image : {m.base_color_image, m.metallic_roughness_image, m.normal_image, m.occlusion_image, m.emissive_image}) {
+      if (image < -1 || image >= static_cast<int>(rig.images.size())) return InvalidArgument("material image out of range");
+    }
   }
   return Status::Ok();
 }

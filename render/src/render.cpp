@@ -1,5 +1,6 @@
 // OSMesa (llvmpipe) renderer: a bounded pool of GL 3.3 core contexts shared by every thread,
-// an offscreen float framebuffer, Blinn-Phong in linear light.
+// an offscreen float framebuffer, glTF metallic-roughness under a studio light in linear light,
+// tone mapped (Khronos PBR Neutral).
 #define GL_GLEXT_PROTOTYPES 1
 #include "facespace/render/render.h"
 #include "facespace/core/enum_table.h"
@@ -60,12 +61,28 @@ in vec3 v_world_normal;
 in vec2 v_uv;
 in vec4 v_color;
 in float v_scalar;
-uniform int u_mode;          // 0 shaded, 1 flat colour, 2 heatmap, 3 normals
+uniform int u_mode;          // 0 shaded (metallic-roughness), 1 flat colour, 2 heatmap, 3 normals, 4 clay
 uniform vec4 u_base_color;   // Linear.
 uniform int u_has_texture;
 uniform sampler2D u_texture; // sRGB texture: sampled as linear.
+uniform vec2 u_metal_rough;
+uniform int u_has_metal_rough;
+uniform sampler2D u_metal_rough_texture;  // Linear: roughness in G, metallic in B.
+uniform int u_has_normal_map;
+uniform float u_normal_scale;
+uniform sampler2D u_normal_texture;       // Linear, tangent space.
+uniform int u_has_occlusion;
+uniform float u_occlusion_strength;
+uniform sampler2D u_occlusion_texture;    // Linear, R.
+uniform vec3 u_emissive;
+uniform int u_has_emissive;
+uniform sampler2D u_emissive_texture;     // sRGB.
+uniform int u_alpha_mode;    // 0 opaque, 1 mask, 2 blend
+uniform float u_alpha_cutoff;
+uniform float u_exposure;    // Multiplies the light before tone mapping.
 uniform float u_heat_max;
 out vec4 frag;
+const float PI = 3.14159265;
 vec3 viridis(float t) {
   // Polynomial fit of matplotlib's viridis (perceptually uniform), sRGB output.
   const vec3 c0 = vec3(0.2777273272234177, 0.005407344544966578, 0.3340998053353061);
@@ -79,25 +96,114 @@ vec3 viridis(float t) {
   return c0 + t * (c1 + t * (c2 + t * (c3 + t * (c4 + t * (c5 + t * c6)))));
 }
 vec3 srgb_to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
+// Khronos PBR Neutral tone mapping: base colours come out as authored up to 0.8, highlights roll off.
+vec3 pbr_neutral(vec3 color) {
+  const float start = 0.8 - 0.04, desaturation = 0.15;
+  float x = min(color.r, min(color.g, color.b));
+  color -= x < 0.08 ? x - 6.25 * x * x : 0.04;
+  float peak = max(color.r, max(color.g, color.b));
+  if (peak < start) return color;
+  const float d = 1.0 - start;
+  float new_peak = 1.0 - d * d / (peak + d - start);
+  color *= new_peak / peak;
+  float g = 1.0 - 1.0 / (desaturation * (peak - new_peak) + 1.0);
+  return mix(color, vec3(new_peak), g);
+}
+// The normal map's normal in a frame built from screen-space derivatives of position and UV
+// (no tangents needed); glTF's green points up the image, toward smaller v.
+vec3 mapped_normal(vec3 n) {
+  vec3 dp1 = dFdx(v_pos), dp2 = dFdy(v_pos);
+  vec2 duv1 = dFdx(v_uv), duv2 = dFdy(v_uv);
+  vec3 dp2perp = cross(dp2, n), dp1perp = cross(n, dp1);
+  vec3 t = dp2perp * duv1.x + dp1perp * duv2.x;
+  vec3 b = dp2perp * duv1.y + dp1perp * duv2.y;
+  float len2 = max(dot(t, t), dot(b, b));
+  if (!(len2 > 1e-30)) return n;
+  float inv = inversesqrt(len2);
+  vec3 m = texture(u_normal_texture, v_uv).xyz * 2.0 - 1.0;
+  m.xy *= u_normal_scale;
+  vec3 r = mat3(t * inv, -b * inv, n) * m;
+  return dot(r, r) > 0.0 ? normalize(r) : n;
+}
+// Split-sum environment BRDF, analytic fit (Karis, "Physically Based Shading on Mobile").
+vec3 env_brdf(vec3 f0, float rough, float nv) {
+  const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+  const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+  vec4 r = rough * c0 + c1;
+  float a004 = min(r.x * r.x, exp2(-9.28 * nv)) * r.x + r.y;
+  vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
+  return f0 * ab.x + ab.y;
+}
+// A studio in view space (camera looks down -z): key light high on the left, fill low on the
+// right, rim behind; a sky-to-floor gradient for the ambient and reflections.
+vec3 studio(vec3 n, vec3 v, vec3 albedo, float metallic, float rough, float occlusion) {
+  const vec3 dirs[3] = vec3[3](vec3(-0.52, 0.58, 0.63), vec3(0.80, 0.05, 0.60), vec3(0.40, 0.55, -0.73));
+  const vec3 radiance[3] = vec3[3](vec3(2.2, 2.1, 2.0), vec3(0.55, 0.6, 0.68), vec3(1.4));
+  const vec3 sky = vec3(0.24, 0.25, 0.28), floor_ = vec3(0.07, 0.065, 0.06);
+  rough = clamp(rough, 0.045, 1.0);
+  float a2 = rough * rough * rough * rough;
+  vec3 f0 = mix(vec3(0.04), albedo, metallic);
+  vec3 diffuse = (1.0 - metallic) * albedo;
+  float nv = max(dot(n, v), 1e-4);
+  vec3 color = vec3(0.0);
+  for (int i = 0; i < 3; ++i) {
+    vec3 l = normalize(dirs[i]);
+    float nl = dot(n, l);
+    if (nl <= 0.0) continue;
+    vec3 h = normalize(l + v);
+    float nh = max(dot(n, h), 0.0), vh = max(dot(v, h), 0.0);
+    float q = nh * nh * (a2 - 1.0) + 1.0;
+    float D = a2 / (PI * q * q);
+    float V = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
+    vec3 F = f0 + (1.0 - f0) * pow(1.0 - vh, 5.0);
+    color += ((1.0 - F) * diffuse / PI + D * V * F) * radiance[i] * nl;
+  }
+  vec3 ambient = mix(floor_, sky, n.y * 0.5 + 0.5);
+  vec3 r = reflect(-v, n);
+  vec3 reflected = mix(floor_, sky, clamp(r.y * 0.5 + 0.5, 0.0, 1.0));
+  color += occlusion * (ambient * diffuse + reflected * env_brdf(f0, rough, nv));
+  return color;
+}
 void main() {
   vec3 n = normalize(v_normal);
   if (!gl_FrontFacing) n = -n;
   if (u_mode == 1) { frag = vec4(0.02, 0.02, 0.03, 1.0); return; }
   if (u_mode == 3) { frag = vec4(srgb_to_linear(normalize(v_world_normal) * 0.5 + 0.5), 1.0); return; }
+  vec3 view_dir = normalize(-v_pos);
+  if (u_mode == 2) {  // Heatmap: the colour map under a plain light, so colours read against the legend.
+    vec3 base = srgb_to_linear(viridis(u_heat_max > 0.0 ? v_scalar / u_heat_max : 0.0));
+    vec3 lights[2] = vec3[2](normalize(vec3(-0.45, 0.6, 0.9)), normalize(vec3(0.7, 0.15, 0.6)));
+    float power[2] = float[2](0.85, 0.35);
+    vec3 color = 0.18 * base;
+    for (int i = 0; i < 2; ++i) {
+      float diff = max(dot(n, lights[i]), 0.0);
+      vec3 h = normalize(lights[i] + view_dir);
+      float spec = diff > 0.0 ? pow(max(dot(n, h), 0.0), 48.0) : 0.0;
+      color += power[i] * (diff * base + 0.05 * spec);
+    }
+    frag = vec4(color, 1.0);
+    return;
+  }
+  if (u_mode == 4) {  // Clay: one neutral material for shape-only work.
+    frag = vec4(pbr_neutral(u_exposure * studio(n, view_dir, vec3(0.42), 0.0, 0.55, 1.0)), 1.0);
+    return;
+  }
   vec4 base = u_base_color * v_color;
   if (u_has_texture == 1) base *= texture(u_texture, v_uv);
-  if (u_mode == 2) base = vec4(srgb_to_linear(viridis(u_heat_max > 0.0 ? v_scalar / u_heat_max : 0.0)), 1.0);
-  vec3 view_dir = normalize(-v_pos);
-  vec3 lights[2] = vec3[2](normalize(vec3(-0.45, 0.6, 0.9)), normalize(vec3(0.7, 0.15, 0.6)));
-  float power[2] = float[2](0.85, 0.35);
-  vec3 color = 0.18 * base.rgb;
-  for (int i = 0; i < 2; ++i) {
-    float diff = max(dot(n, lights[i]), 0.0);
-    vec3 h = normalize(lights[i] + view_dir);
-    float spec = diff > 0.0 ? pow(max(dot(n, h), 0.0), 48.0) : 0.0;
-    color += power[i] * (diff * base.rgb + (u_mode == 2 ? 0.05 : 0.18) * spec);
+  if (u_alpha_mode == 1 && base.a < u_alpha_cutoff) discard;
+  float metallic = u_metal_rough.x, rough = u_metal_rough.y;
+  if (u_has_metal_rough == 1) {
+    vec4 mr = texture(u_metal_rough_texture, v_uv);
+    rough *= mr.g;
+    metallic *= mr.b;
   }
-  frag = vec4(color, base.a);
+  if (u_has_normal_map == 1) n = mapped_normal(n);
+  float occlusion = 1.0;
+  if (u_has_occlusion == 1) occlusion = 1.0 + u_occlusion_strength * (texture(u_occlusion_texture, v_uv).r - 1.0);
+  vec3 emissive = u_emissive;
+  if (u_has_emissive == 1) emissive *= texture(u_emissive_texture, v_uv).rgb;
+  vec3 color = studio(n, view_dir, base.rgb, clamp(metallic, 0.0, 1.0), rough, occlusion) + emissive;
+  frag = vec4(pbr_neutral(u_exposure * color), u_alpha_mode == 2 ? base.a : 1.0);
 }
 )";
 
@@ -204,8 +310,9 @@ struct Context {
   }
 
   // The GL texture of an encoded image, decoded once per thread (a few kept).
-  GLuint TextureFor(const facespace::Image& image) {
-    uint64_t key = 1469598103934665603ull ^ image.bytes.size();
+  // Colour maps are sRGB (sampled as linear), data maps (normals, roughness, occlusion) linear.
+  GLuint TextureFor(const facespace::Image& image, bool srgb_data) {
+    uint64_t key = (1469598103934665603ull ^ image.bytes.size()) + (srgb_data ? 0 : 0x9e3779b97f4a7c15ull);
     for (size_t i = 0; i < image.bytes.size(); i += 61) key = (key ^ image.bytes[i]) * 1099511628211ull;
     for (auto it = textures.begin(); it != textures.end(); ++it) {
       if (it->key == key) {
@@ -217,7 +324,7 @@ struct Context {
     auto decoded = Decode(image.bytes, image.mime_type);
     if (!decoded.ok()) return 0;
     const render::Image& im = decoded.value();
-    std::vector<unsigned char> srgb(im.rgba.size());
+    std::vector<unsigned char> srgb(im.rgba.size());  // The file's own 8-bit values (Decode made them linear).
     for (size_t i = 0; i < im.rgba.size(); ++i) {
       const float c = im.rgba[i];
       const float e = (i % 4 == 3) ? c : (c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1 / 2.4f) - 0.055f);
@@ -227,7 +334,7 @@ struct Context {
     glGenTextures(1, &id);
     glBindTexture(GL_TEXTURE_2D, id);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_SRGB8_ALPHA8, im.width, im.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, srgb.data());
+    glTexImage2D(GL_TEXTURE_2D, 0, srgb_data ? GL_SRGB8_ALPHA8 : GL_RGBA8, im.width, im.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, srgb.data());
     glGenerateMipmap(GL_TEXTURE_2D);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -342,7 +449,8 @@ class OsMesaRenderer::ContextPool {
 
 namespace {
 constexpr EnumName<View> kViews[] = {
-    {View::kShaded, "shaded"}, {View::kWireframe, "wireframe"}, {View::kHeatmap, "heatmap"}, {View::kNormals, "normals"}};
+    {View::kShaded, "shaded"}, {View::kWireframe, "wireframe"}, {View::kHeatmap, "heatmap"}, {View::kNormals, "normals"},
+    {View::kClay, "clay"}};
 }  // namespace
 
 bool ParseView(const std::string& name, View* view) { return ParseEnum(kViews, name, view); }
@@ -562,7 +670,6 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   glUniformMatrix4fv(glGetUniformLocation(gl.program, "u_view"), 1, GL_FALSE, view.data());
   glUniformMatrix4fv(glGetUniformLocation(gl.program, "u_proj"), 1, GL_FALSE, proj.data());
   glUniform1f(glGetUniformLocation(gl.program, "u_heat_max"), heat_max);
-  glUniform1i(glGetUniformLocation(gl.program, "u_texture"), 0);
   glBindVertexArray(gl.vao);
   glBindBuffer(GL_ARRAY_BUFFER, gl.vbo);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(verts.size() * 4), verts.data(), GL_STREAM_DRAW);
@@ -574,26 +681,46 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     glEnableVertexAttribArray(a);
     glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(static_cast<uintptr_t>(offsets[a] * 4)));
   }
-  const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : 0;
+  const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : o.view == View::kClay ? 4 : 0;
+  const GLint u_mode = glGetUniformLocation(gl.program, "u_mode");
+  glUniform1f(glGetUniformLocation(gl.program, "u_exposure"), std::exp2(std::clamp(o.exposure, -10.0f, 10.0f)));
+  const char* samplers[5] = {"u_texture", "u_metal_rough_texture", "u_normal_texture", "u_occlusion_texture", "u_emissive_texture"};
+  for (int unit = 0; unit < 5; ++unit) glUniform1i(glGetUniformLocation(gl.program, samplers[unit]), unit);
+  // A material's texture on `unit`, with its u_has_* flag; false when there is none.
+  auto bind = [&](int unit, const char* has, int image, bool srgb_data) {
+    const GLuint tex = image >= 0 ? gl.TextureFor(rig.images[static_cast<size_t>(image)], srgb_data) : 0;
+    glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
+    glBindTexture(GL_TEXTURE_2D, tex);
+    glUniform1i(glGetUniformLocation(gl.program, has), tex ? 1 : 0);
+  };
+  // A primitive with no material draws as light grey clay, not glTF's default (a rough metal, dark
+  // without a detailed environment), so material-less meshes (OBJ, MakeHuman) read as shapes.
+  Material none;
+  none.base_color_factor = {0.8f, 0.8f, 0.8f, 1.0f};
+  none.metallic_factor = 0.0f;
+  none.roughness_factor = 0.5f;
   auto draw_all = [&](int shader_mode) {
-    glUniform1i(glGetUniformLocation(gl.program, "u_mode"), shader_mode);
+    glUniform1i(u_mode, shader_mode);
     for (const Draw& d : draws) {
-      std::array<float, 4> base{1, 1, 1, 1};
-      GLuint tex = 0;
-      bool blend = false;
-      if (d.material >= 0) {
-        const Material& mat = rig.materials[d.material];
-        base = mat.base_color_factor;
-        if (mat.base_color_image >= 0) tex = gl.TextureFor(rig.images[mat.base_color_image]);
-        blend = mat.alpha_mode == "BLEND";
-      }
+      const Material& mat = d.material >= 0 ? rig.materials[static_cast<size_t>(d.material)] : none;
+      const auto& base = mat.base_color_factor;
+      const bool blend = mat.alpha_mode == "BLEND";
       glUniform4f(glGetUniformLocation(gl.program, "u_base_color"), base[0], base[1], base[2], base[3]);
-      glUniform1i(glGetUniformLocation(gl.program, "u_has_texture"), tex ? 1 : 0);
-      glActiveTexture(GL_TEXTURE0);
-      glBindTexture(GL_TEXTURE_2D, tex);
+      glUniform2f(glGetUniformLocation(gl.program, "u_metal_rough"), mat.metallic_factor, mat.roughness_factor);
+      glUniform1f(glGetUniformLocation(gl.program, "u_normal_scale"), mat.normal_scale);
+      glUniform1f(glGetUniformLocation(gl.program, "u_occlusion_strength"), mat.occlusion_strength);
+      glUniform3f(glGetUniformLocation(gl.program, "u_emissive"), mat.emissive_factor[0], mat.emissive_factor[1], mat.emissive_factor[2]);
+      glUniform1i(glGetUniformLocation(gl.program, "u_alpha_mode"), blend ? 2 : mat.alpha_mode == "MASK" ? 1 : 0);
+      glUniform1f(glGetUniformLocation(gl.program, "u_alpha_cutoff"), mat.alpha_cutoff);
+      const bool textured = shader_mode == 0;  // Clay, heatmap, normals and edges use none.
+      bind(0, "u_has_texture", textured ? mat.base_color_image : -1, true);
+      bind(1, "u_has_metal_rough", textured ? mat.metallic_roughness_image : -1, false);
+      bind(2, "u_has_normal_map", textured ? mat.normal_image : -1, false);
+      bind(3, "u_has_occlusion", textured ? mat.occlusion_image : -1, false);
+      bind(4, "u_has_emissive", textured ? mat.emissive_image : -1, true);
       if (blend && shader_mode == 0) {
         glEnable(GL_BLEND);
-        glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // "Over", alpha too.
       } else {
         glDisable(GL_BLEND);
       }

@@ -425,7 +425,7 @@ async function loadRig(id, weights) {
 
 async function start() {
   const fromHash = readHash();
-  if (['shaded', 'heatmap', 'wireframe'].includes(fromHash.view)) state.view = $('view').value = fromHash.view;
+  if (['shaded', 'heatmap', 'wireframe', 'clay'].includes(fromHash.view)) state.view = $('view').value = fromHash.view;
   try {
     const { rigs } = await (await call('/v1/rigs')).json();
     for (const r of rigs) {

@@ -179,6 +179,43 @@ TEST(Export, GlbRoundTripKeepsBlendHierarchyAndMaterials) {
   EXPECT_EQ(NodeWorldMatrices(back.value()), NodeWorldMatrices(e.rig));
 }
 
+// Every map of a metallic-roughness material is read and written back (MorphStressTest's
+// material with each map pointed at its base colour image).
+TEST(Export, GlbKeepsEveryMaterialMap) {
+  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"), std::vector<float>(8, 0.0f));
+  ASSERT_FALSE(e.rig.materials.empty());
+  Material& m = e.rig.materials[0];
+  // Its occlusion map is on TEXCOORD_1, which is not kept: said, not silent.
+  EXPECT_EQ(m.occlusion_image, -1);
+  const auto dropped = std::find_if(e.rig.load_warnings.begin(), e.rig.load_warnings.end(),
+                                    [](const Warning& w) { return w.code == "material_map_dropped"; });
+  ASSERT_NE(dropped, e.rig.load_warnings.end());
+  EXPECT_NE(dropped->message.find("occlusion map is on TEXCOORD_1"), std::string::npos) << dropped->message;
+  ASSERT_GE(m.base_color_image, 0);
+  m.normal_image = m.metallic_roughness_image = m.emissive_image = m.occlusion_image = m.base_color_image;
+  m.normal_scale = 0.75f;
+  m.occlusion_strength = 0.5f;
+  m.emissive_factor = {0.25f, 0.5f, 1.0f};
+  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kGlb);
+  ASSERT_TRUE(glb.ok()) << glb.status().message;
+  std::vector<unsigned char> bytes(glb->begin(), glb->end());
+  auto back = LoadGltfMemory(bytes, "", {.allow_external_files = false});
+  ASSERT_TRUE(back.ok()) << back.status().message;
+  const Material& b = back->materials[0];
+  ASSERT_GE(b.normal_image, 0);
+  EXPECT_EQ(back->images[static_cast<size_t>(b.normal_image)].bytes, e.rig.images[static_cast<size_t>(m.normal_image)].bytes);
+  EXPECT_EQ(b.metallic_roughness_image, b.normal_image);
+  EXPECT_EQ(b.emissive_image, b.normal_image);
+  EXPECT_EQ(b.occlusion_image, b.normal_image);
+  EXPECT_EQ(b.normal_scale, 0.75f);
+  EXPECT_EQ(b.occlusion_strength, 0.5f);
+  EXPECT_EQ(b.emissive_factor, m.emissive_factor);
+  EXPECT_EQ(b.base_color_image >= 0, m.base_color_image >= 0);
+  // A map naming an image that is not there is refused, as the base colour's is.
+  m.normal_image = static_cast<int>(e.rig.images.size());
+  EXPECT_FALSE(ValidateRig(e.rig).ok());
+}
+
 TEST(Export, GlbWithTargetsReblendsTheSame) {
   auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"), {0.5f, 0, 0.3f, 0, 0, 0, 0, 0.25f});
   auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kGlb, {.keep_targets = true});

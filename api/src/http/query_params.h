@@ -13,6 +13,6 @@ inline constexpr std::string_view kMeshQuery[] = {"format", "space", "keep_targe
 inline constexpr std::string_view kRenderQuery[] = {"format", "mode", "normals", "strict", "skinning", "lod", "pose", "blend",
                                                     "animation", "motion", "time", "frame", "loop", "width", "height", "view",
                                                     "background", "supersample", "quality", "camera", "yaw", "pitch",
-                                                    "distance", "zoom", "fov"};
+                                                    "distance", "zoom", "fov", "exposure"};
 
 }  // namespace facespace::api::http

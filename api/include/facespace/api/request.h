@@ -53,7 +53,7 @@ inline constexpr char kMalformedJson[] = "malformed-json";
 
 // Body of POST /v1/rigs/{id}/render: the mesh body's weights, mode, normals and strict, plus
 // {"camera": {"yaw", "pitch", "distance", "zoom", "fov"} | {"eye", "target", "up", "fov"},
-//  "width", "height", "view": "shaded"|"wireframe"|"heatmap"|"normals",
+//  "width", "height", "view": "shaded"|"wireframe"|"heatmap"|"normals"|"clay", "exposure": stops,
 //  "background": "#rrggbb"|"#rrggbbaa"|"transparent"|[r, g, b, a?], "supersample": 1..4,
 //  "format": "png"|"jpeg"|"exr"|"tiff"|"webp", "quality": 1..100}
 struct RenderRequest {

@@ -167,6 +167,13 @@ struct Material {
   int base_color_texcoord = 0;
   float metallic_factor = 1.0f;
   float roughness_factor = 1.0f;
+  int metallic_roughness_image = -1;   // glTF's: roughness in green, metallic in blue (linear).
+  int normal_image = -1;               // Tangent-space normal map (linear), TEXCOORD_0.
+  float normal_scale = 1.0f;
+  int occlusion_image = -1;            // Ambient occlusion in red (linear).
+  float occlusion_strength = 1.0f;
+  std::array<float, 3> emissive_factor{0, 0, 0};
+  int emissive_image = -1;             // sRGB.
   bool double_sided = false;
   std::string alpha_mode = "OPAQUE";
   float alpha_cutoff = 0.5f;

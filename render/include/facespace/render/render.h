@@ -15,10 +15,12 @@
 namespace facespace::render {
 
 enum class View {
-  kShaded,     // Blinn-Phong with the material's base colour factor and texture.
+  kShaded,     // The glTF metallic-roughness material (base colour, metallic, roughness, normal,
+               // occlusion and emissive maps, alpha modes) under a studio light, tone mapped.
   kWireframe,  // Shaded with the triangle edges drawn over it.
   kHeatmap,    // Per-vertex displacement from the base shape, viridis colour map, legend.
   kNormals,    // World-space normals as colours (n * 0.5 + 0.5).
+  kClay,       // One neutral grey material under the same light: shape only.
 };
 
 bool ParseView(const std::string& name, View* view);
@@ -56,6 +58,7 @@ struct RenderOptions {
   Camera camera;
   std::array<float, 4> background{0.86f, 0.87f, 0.89f, 1.0f};  // sRGB, alpha 0 = transparent.
   int supersample = 1;                           // 1..4: render at N x N the size, box-filter down.
+  float exposure = 0.0f;                         // Stops (EV) before tone mapping: +1 twice the light.
 };
 
 // Linear-light RGBA, top row first. Encoding converts to sRGB for 8-bit formats.
