@@ -409,22 +409,17 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     tinygltf::Material gm;
     gm.name = mat.name;
     gm.pbrMetallicRoughness.baseColorFactor.assign(mat.base_color_factor.begin(), mat.base_color_factor.end());
-    if (mat.base_color_image >= 0 && texture_of[mat.base_color_image] >= 0) {
-      gm.pbrMetallicRoughness.baseColorTexture.index = texture_of[mat.base_color_image];
-      gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
-    }
-    if (mat.metallic_roughness_image >= 0 && texture_of[mat.metallic_roughness_image] >= 0) {
-      gm.pbrMetallicRoughness.metallicRoughnessTexture.index = texture_of[mat.metallic_roughness_image];
-    }
-    if (mat.normal_image >= 0 && texture_of[mat.normal_image] >= 0) {
-      gm.normalTexture.index = texture_of[mat.normal_image];
-      gm.normalTexture.scale = mat.normal_scale;
-    }
-    if (mat.occlusion_image >= 0 && texture_of[mat.occlusion_image] >= 0) {
-      gm.occlusionTexture.index = texture_of[mat.occlusion_image];
-      gm.occlusionTexture.strength = mat.occlusion_strength;
-    }
-    if (mat.emissive_image >= 0 && texture_of[mat.emissive_image] >= 0) gm.emissiveTexture.index = texture_of[mat.emissive_image];
+    // Each map's glTF texture, or -1 (no image, or one glTF cannot carry): tinygltf writes a
+    // texture info only when its index is set.
+    const auto texture = [&texture_of](int image) { return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1; };
+    gm.pbrMetallicRoughness.baseColorTexture.index = texture(mat.base_color_image);
+    gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
+    gm.pbrMetallicRoughness.metallicRoughnessTexture.index = texture(mat.metallic_roughness_image);
+    gm.normalTexture.index = texture(mat.normal_image);
+    gm.normalTexture.scale = mat.normal_scale;
+    gm.occlusionTexture.index = texture(mat.occlusion_image);
+    gm.occlusionTexture.strength = mat.occlusion_strength;
+    gm.emissiveTexture.index = texture(mat.emissive_image);
     gm.emissiveFactor.assign(mat.emissive_factor.begin(), mat.emissive_factor.end());
     gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;
     gm.pbrMetallicRoughness.roughnessFactor = mat.roughness_factor;

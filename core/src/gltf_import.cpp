@@ -679,6 +679,12 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
                                    im.name, 0.0, false});
     }
   }
+  // The rig's image of a glTF texture index, or -1 (no such texture, or its image was dropped).
+  const auto image_of_texture = [&model, &image_map](int texture) {
+    if (texture < 0 || static_cast<size_t>(texture) >= model.textures.size()) return -1;
+    const int src = model.textures[static_cast<size_t>(texture)].source;
+    return src >= 0 && static_cast<size_t>(src) < image_map.size() ? image_map[static_cast<size_t>(src)] : -1;
+  };
   std::vector<std::pair<int, std::array<float, 6>>> material_uv_transform(model.materials.size(), {-1, {}});
   for (size_t i = 0; i < model.materials.size(); ++i) {
     const tinygltf::Material& sm = model.materials[i];
@@ -706,8 +712,7 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
                                      sm.name, 0.0, false});
         return -1;
       }
-      const int src = model.textures[static_cast<size_t>(texture)].source;
-      return src >= 0 && static_cast<size_t>(src) < image_map.size() ? image_map[static_cast<size_t>(src)] : -1;
+      return image_of_texture(texture);
     };
     const auto& mr = pbr.metallicRoughnessTexture;
     m.metallic_roughness_image = image_of("metallic-roughness", mr.index, mr.texCoord, mr.extensions);
@@ -719,8 +724,7 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
     for (size_t c = 0; c < 3 && c < sm.emissiveFactor.size(); ++c) m.emissive_factor[c] = static_cast<float>(sm.emissiveFactor[c]);
     const int tex = pbr.baseColorTexture.index;
     if (tex >= 0 && static_cast<size_t>(tex) < model.textures.size()) {
-      const int src = model.textures[tex].source;
-      if (src >= 0 && static_cast<size_t>(src) < image_map.size()) m.base_color_image = image_map[src];
+      m.base_color_image = image_of_texture(tex);
       m.base_color_texcoord = pbr.baseColorTexture.texCoord;
       std::array<float, 6> xf;
       if (TextureTransform(pbr.baseColorTexture.extensions, xf.data())) {

@@ -4,6 +4,7 @@
 #define GL_GLEXT_PROTOTYPES 1
 #include "facespace/render/render.h"
 #include "facespace/core/enum_table.h"
+#include "facespace/core/hierarchy.h"
 
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/transform.h"
@@ -515,10 +516,8 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   int joint_node = -1;
   std::vector<int> joint_in_skin(rig.skins.size(), -1);
   if (o.camera.frame == Framing::kJoint) {
+    joint_node = FindNode(rig, o.camera.frame_joint);
     std::vector<std::string_view> names;
-    for (size_t n = 0; n < rig.nodes.size(); ++n) {
-      if (rig.nodes[n].name == o.camera.frame_joint) joint_node = static_cast<int>(n);
-    }
     for (const Skin& skin : rig.skins) {
       for (int j : skin.joints) names.push_back(rig.nodes[static_cast<size_t>(j)].name);
     }
@@ -543,32 +542,21 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
     const size_t first = verts.size() / 13;
     for (size_t v = 0; v < p.vertex_count(); ++v) {
-      float q[3], q0[3];
+      float q[3], rest[3], moved[3];
       TransformPoint(m, &b.positions[3 * v], q);
+      // The rest shape, for a camera that does not move with the weights (a skinned primitive's
+      // positions are in scene space already).
+      if (b.skinned) std::copy(q, q + 3, rest);
+      else TransformPoint(m, &p.positions[3 * v], rest);
       // Displacement by the shapes: world space, or for skinned primitives the morph in
       // mesh space (the skeleton's motion is not the shapes').
-      if (b.skinned) {
-        for (int c = 0; c < 3; ++c) q0[c] = b.morphed_positions[3 * v + c] - p.positions[3 * v + c];
-      } else {
-        TransformPoint(m, &p.positions[3 * v], q0);
-        for (int c = 0; c < 3; ++c) q0[c] = q[c] - q0[c];
-      }
+      for (int c = 0; c < 3; ++c) moved[c] = b.skinned ? b.morphed_positions[3 * v + c] - p.positions[3 * v + c] : q[c] - rest[c];
       Eigen::Vector3f n = (nm * Eigen::Map<const Eigen::Vector3f>(&b.normals[3 * v])).normalized();
       if (!n.allFinite()) n = Eigen::Vector3f::UnitZ();
-      const float d = std::sqrt(q0[0] * q0[0] + q0[1] * q0[1] + q0[2] * q0[2]);
+      const float d = std::sqrt(moved[0] * moved[0] + moved[1] * moved[1] + moved[2] * moved[2]);
       heat_max = std::max(heat_max, d);
       box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
-      // The rest shape (unskinned primitives; a skinned one is in scene space already), for a
-      // camera that does not move with the weights.
-      if (!blended.posed) {
-        if (b.skinned) {
-          rest_box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
-        } else {
-          float r[3];
-          TransformPoint(m, &p.positions[3 * v], r);
-          rest_box.extend(Eigen::Vector3f(r[0], r[1], r[2]));
-        }
-      }
+      if (!blended.posed) rest_box.extend(Eigen::Vector3f(rest[0], rest[1], rest[2]));
       // The vertices the framed joint carries (a third of their weight or more), where the pose puts them.
       if (joint >= 0 && p.influences > 0) {
         for (size_t k = 0; k < p.influences; ++k) {
