@@ -63,7 +63,8 @@ async function run(label, url, shot) {
 
   await page.locator('input[aria-label="jawOpen"]').fill('0.9');
   let after = before;
-  for (let i = 0; i < 100 && after === before; ++i) { await page.waitForTimeout(100); after = await previewDigest(page); }
+  // null: a new image is still decoding; wait for it rather than judge it.
+  for (let i = 0; i < 100 && (after === before || after === null); ++i) { await page.waitForTimeout(100); after = await previewDigest(page); }
   check(`${label}: moving a slider changes the preview`, after !== null && after !== before);
   check(`${label}: the sum is shown (0.9)`, (await page.locator('#sum').textContent()) === '0.9');
   check(`${label}: no warning while the sum is within 1`, await page.locator('#warning').isHidden());
@@ -102,7 +103,7 @@ async function run(label, url, shot) {
   // View switch and camera drag change the preview.
   const waitChange = async (from) => {
     let d = from;
-    for (let i = 0; i < 150 && d === from; ++i) { await page.waitForTimeout(100); d = await previewDigest(page); }
+    for (let i = 0; i < 150 && (d === from || d === null); ++i) { await page.waitForTimeout(100); d = await previewDigest(page); }
     return d;
   };
   let d0 = await previewDigest(page);
