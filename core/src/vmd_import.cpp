@@ -31,6 +31,10 @@ using namespace mmd;
 constexpr int kSamplesPerFrame = 2;
 constexpr size_t kMaxSamples = size_t{1} << 22;  // Bone samples in curved segments, all bones: ~112 MiB.
 constexpr uint32_t kMaxFrame = 30 * 60 * 60;  // An hour.
+// Values no motion has (MMD's unit is 8 cm; morphs run 0..1): beyond them the interpolation between
+// two keys could overflow a float, so they are refused.
+constexpr float kMaxOffset = 1e6f;
+constexpr float kMaxMorphWeight = 1e3f;
 
 struct BoneKey {
   uint32_t frame = 0;
@@ -134,9 +138,14 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
       return fail(r);
     }
     if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
-    const float n = std::sqrt(key.rot[0] * key.rot[0] + key.rot[1] * key.rot[1] + key.rot[2] * key.rot[2] + key.rot[3] * key.rot[3]);
-    if (!(n > 1e-6f)) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " has a zero rotation");
-    for (float& q : key.rot) q /= n;
+    if (std::any_of(key.pos, key.pos + 3, [](float v) { return std::fabs(v) > kMaxOffset; })) {
+      return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " moves its bone beyond " + std::to_string(static_cast<int>(kMaxOffset)) + " units");
+    }
+    double n = 0;  // In double: a float's square can overflow.
+    for (float q : key.rot) n += static_cast<double>(q) * q;
+    n = std::sqrt(n);
+    if (!(n > 1e-6)) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " has a zero rotation");
+    for (float& q : key.rot) q = static_cast<float>(q / n);
     bone_keys[NameBytes(name)].push_back(key);
   }
   if (!r.CountOf<uint32_t>(23, nmorph, "the morph key count")) return fail(r);
@@ -145,6 +154,10 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
     MorphKey key;
     if (!r.Raw(name, 15, "a morph key") || !r.Get(key.frame, "a morph key") || !r.Floats(&key.weight, 1, "a morph key")) return fail(r);
     if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
+    if (std::fabs(key.weight) > kMaxMorphWeight) {
+      return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " has weight " + std::to_string(key.weight) + " (beyond +-" +
+                             std::to_string(static_cast<int>(kMaxMorphWeight)) + ")");
+    }
     morph_keys[NameBytes(name)].push_back(key);
   }
   // Camera, light, shadow and IK switches follow: not read.

@@ -411,6 +411,44 @@ TEST(MmdHostile, TruncatedAndLyingPmdAndVmdAreErrors) {
   EXPECT_FALSE(LoadVmdMemory(std::vector<unsigned char>(60, 'x'), rig.value(), "junk", nullptr).ok());
 }
 
+// Found by fuzz_vmd: finite keys whose interpolation overflows a float (a morph from -3e38 to 3e38
+// is infinite half-way) are refused, naming the key; so are offsets no bone has. A rotation whose
+// components square past a float's range is still a rotation (normalised in double).
+TEST(MmdHostile, VmdValuesWhoseInterpolationWouldOverflowAreRefused) {
+  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  ASSERT_TRUE(rig.ok());
+  const size_t morphs = 54 + 2 * 111 + 4;  // Header, bone keys, morph count.
+  std::vector<unsigned char> vmd = TestVmd(20, 20, 107, 107);
+  const float low = -3e38f, high = 3e38f;
+  std::memcpy(&vmd[morphs + 19], &low, 4);
+  std::memcpy(&vmd[morphs + 23 + 19], &high, 4);
+  const Result<AnimationInfo> morph = LoadVmdMemory(vmd, rig.value(), "wide", nullptr);
+  ASSERT_FALSE(morph.ok());
+  EXPECT_NE(morph.status().message.find("morph key 0 has weight"), std::string::npos) << morph.status().message;
+
+  vmd = TestVmd(20, 20, 107, 107);
+  const float far = 2e6f;
+  std::memcpy(&vmd[54 + 111 + 19], &far, 4);  // Bone key 1's x.
+  const Result<AnimationInfo> bone = LoadVmdMemory(vmd, rig.value(), "far", nullptr);
+  ASSERT_FALSE(bone.ok());
+  EXPECT_NE(bone.status().message.find("bone key 1 moves its bone beyond"), std::string::npos) << bone.status().message;
+
+  vmd = TestVmd(20, 20, 107, 107);
+  const float big[4] = {0, 2e38f, 0, 2e38f};  // 90 degrees about y, scaled.
+  std::memcpy(&vmd[54 + 111 + 19 + 12], big, 16);
+  const Result<AnimationInfo> scaled = LoadVmdMemory(vmd, rig.value(), "scaled", nullptr);
+  ASSERT_TRUE(scaled.ok()) << scaled.status().message;
+  const Result<AnimationInfo> plain = LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "plain", nullptr);
+  ASSERT_TRUE(plain.ok());
+  ASSERT_EQ(scaled->sampler_data.size(), plain->sampler_data.size());
+  for (size_t s = 0; s < plain->sampler_data.size(); ++s) {
+    ASSERT_EQ(scaled->sampler_data[s].values.size(), plain->sampler_data[s].values.size());
+    for (size_t i = 0; i < plain->sampler_data[s].values.size(); ++i) {
+      EXPECT_NEAR(scaled->sampler_data[s].values[i], plain->sampler_data[s].values[i], 1e-6) << s << " " << i;
+    }
+  }
+}
+
 TEST(MmdTextures, ImagesAreReadFromTheModelsFolderOnly) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("facespace_tex_" + std::to_string(::getpid()));

@@ -89,6 +89,12 @@ for t in $targets; do
   cov=$(grep -o 'cov: [0-9]*' "$build/$t.log" | tail -1 | grep -o '[0-9]*')
   crashes=$(ls "$build/artifacts/$t" | wc -l)
   printf '%-14s %12s %10s %8s %6s\n' "$t" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$crashes"
-  if [ $rc -ne 0 ] || [ "$crashes" -ne 0 ]; then echo "FAIL $t (exit $rc): see $build/$t.log"; grep -A25 'ERROR\|==ERROR\|runtime error\|deadly signal' "$build/$t.log" | head -40; fail=1; fi
+  if [ $rc -ne 0 ] || [ "$crashes" -ne 0 ]; then echo "FAIL $t (exit $rc): see $build/$t.log"; grep -A25 'ERROR\|==ERROR\|runtime error\|deadly signal' "$build/$t.log" | head -40
+    # The input itself, so a crash found on a CI machine can be replayed anywhere (base64 -d > file).
+    for a in "$build/artifacts/$t"/*; do
+      [ -f "$a" ] || continue
+      echo "input $(basename "$a") ($(stat -c %s "$a") bytes), base64 (first 16 KiB):"; head -c 16384 "$a" | base64 -w 120
+    done
+    fail=1; fi
 done
 exit $fail
