@@ -131,9 +131,6 @@ void ComputeSmoothNormals(std::span<const float> positions, std::span<const uint
   }
 }
 
-namespace {
-
-// Area-weighted smooth normal of vertex v from the faces around it (unnormalised).
 void VertexNormalSum(const Primitive& p, std::span<const float> pos, uint32_t v, float* n) {
   n[0] = n[1] = n[2] = 0.0f;
   for (uint32_t k = p.vertex_face_offsets[v]; k < p.vertex_face_offsets[v + 1]; ++k) {
@@ -148,8 +145,6 @@ void VertexNormalSum(const Primitive& p, std::span<const float> pos, uint32_t v,
     n[2] += e1[0] * e2[1] - e1[1] * e2[0];
   }
 }
-
-}  // namespace
 
 void RecomputeNormalsAround(const Primitive& p, std::span<const float> positions,
                             std::span<const uint32_t> moved, std::span<float> out_normals,

@@ -119,7 +119,7 @@ void NormalToWorld(const std::array<float, 16>& m, const float* n, float* out) {
 std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space) {
   std::string out = "# facespace blended mesh\n";
   for (const Warning& w : warnings) out += "# warning: " + w.message + "\n";
-  size_t base_v = 1;
+  size_t base_v = 1, base_vt = 1;  // vt and vn are numbered alike.
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     const Primitive& p = rig.primitives[i];
     const BlendedPrimitive& b = blended.primitives[i];
@@ -127,7 +127,19 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
     std::string name = rig.meshes[p.mesh].name.empty() ? "mesh" + std::to_string(p.mesh) : rig.meshes[p.mesh].name;
     for (char& c : name) if (c == ' ' || c == '\n' || c == '\r') c = '_';
     out += "o " + name + "_" + std::to_string(p.index_in_mesh) + "\n";
-    for (size_t v = 0; v < n; ++v) {
+    // A primitive split at UV seams is written welded again: one `v` per source vertex (the
+    // source's numbering, as MakeHuman's targets use it), `vt`/`vn` per copy. Only when every
+    // source number has a copy (a simplified LOD may have dropped some): else one `v` per vertex.
+    std::vector<uint32_t> first_of;  // Source -> its first copy.
+    const size_t sources = p.source_vertices.empty() ? 0 : *std::max_element(p.source_vertices.begin(), p.source_vertices.end()) + size_t{1};
+    if (sources > 0 && sources <= n) {  // More source numbers than vertices: some have no copy.
+      first_of.assign(sources, UINT32_MAX);
+      for (size_t v = n; v-- > 0;) first_of[p.source_vertices[v]] = static_cast<uint32_t>(v);
+      if (std::find(first_of.begin(), first_of.end(), UINT32_MAX) != first_of.end()) first_of.clear();
+    }
+    const bool welded = !first_of.empty();
+    for (size_t k = 0; k < (welded ? first_of.size() : n); ++k) {
+      const size_t v = welded ? first_of[k] : k;
       float q[3];
       TransformPoint(Placement(b, mesh_space), &b.positions[3 * v], q, 1.0f);
       AppendObjLine(out, "v", {q[0], q[1], q[2]});
@@ -145,17 +157,20 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
       for (size_t f = 0; f + 2 < p.indices.size(); f += 3) {
         out += 'f';
         for (int c = 0; c < 3; ++c) {
-          const std::string idx = std::to_string(base_v + p.indices[f + c]);
-          out += ' ' + idx + '/' + (uv ? idx : "") + '/' + idx;
+          const uint32_t v = p.indices[f + c];
+          const std::string idx = std::to_string(base_vt + v);
+          out += ' ' + std::to_string(base_v + (welded ? p.source_vertices[v] : v)) + '/' + (uv ? idx : "") + '/' + idx;
         }
         out += '\n';
       }
     } else if (p.mode == PrimitiveMode::kLines) {
       for (size_t f = 0; f + 1 < p.indices.size(); f += 2) {
-        out += "l " + std::to_string(base_v + p.indices[f]) + ' ' + std::to_string(base_v + p.indices[f + 1]) + '\n';
+        const uint32_t a = p.indices[f], c = p.indices[f + 1];
+        out += "l " + std::to_string(base_v + (welded ? p.source_vertices[a] : a)) + ' ' + std::to_string(base_v + (welded ? p.source_vertices[c] : c)) + '\n';
       }
     }
-    base_v += n;
+    base_v += welded ? first_of.size() : n;
+    base_vt += n;
   }
   return out;
 }
@@ -442,6 +457,11 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
       if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(p.texcoords, 2, false);
       if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
+      if (!p.source_vertices.empty()) {
+        // Floats: glTF allows no unsigned int in a vertex attribute; exact below 2^24 (ValidateRig).
+        const std::vector<float> source(p.source_vertices.begin(), p.source_vertices.end());
+        gp.attributes["_SOURCE_VERTEX"] = b.Floats(source, 1, false);
+      }
       if (!p.indices.empty()) gp.indices = b.Indices(p.indices, p.vertex_count());
       if (options.keep_targets && p.influences > 0 && mesh.skin >= 0) {
         // The skin itself (JOINTS_n / WEIGHTS_n, 4 influences per set), for clients that skin on the GPU.

@@ -516,6 +516,18 @@ Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive&
   if (Status s = read_attr("TANGENT", p.tangents, 4, 4); !s.ok()) return s;
   if (Status s = read_attr("TEXCOORD_0", p.texcoords, 2, 2); !s.ok()) return s;
   if (Status s = read_attr("COLOR_0", p.colors, 3, 4); !s.ok()) return s;
+  {
+    // Our own application attribute: the source vertex of each vertex (rig.h), whole numbers.
+    std::vector<float> source;
+    if (Status s = read_attr("_SOURCE_VERTEX", source, 1, 1); !s.ok()) return s;
+    p.source_vertices.reserve(source.size());
+    for (float f : source) {
+      if (!(f >= 0.0f && f < static_cast<float>(Primitive::kMaxSourceVertex)) || f != std::floor(f)) {
+        return InvalidArgument(what + ": _SOURCE_VERTEX holds " + std::to_string(f) + ", not a vertex number");
+      }
+      p.source_vertices.push_back(static_cast<uint32_t>(f));
+    }
+  }
   p.source_has_normals = !p.normals.empty();
   for (size_t v = 0; v < p.normals.size(); v += 3) {  // Quantized normals are not unit length.
     float* nn = &p.normals[v];

@@ -65,6 +65,7 @@ Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
       q.tangents = Compact(p.tangents, remap, 4, kept);
       q.texcoords = Compact(p.texcoords, remap, 2, kept);
       q.colors = Compact(p.colors, remap, 4, kept);
+      q.source_vertices = Compact(p.source_vertices, remap, 1, kept);
       q.influences = p.influences;
       q.joints = Compact(p.joints, remap, p.influences, kept);
       q.joint_weights = Compact(p.joint_weights, remap, p.influences, kept);

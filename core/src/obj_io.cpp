@@ -110,43 +110,82 @@ std::string Stem(const std::string& path) {
   return dot == std::string::npos || dot == 0 ? name : name.substr(0, dot);
 }
 
-// Builds the base primitive from the first OBJ.
-Primitive BasePrimitive(const ObjMesh& m, std::vector<Warning>& warnings, const std::string& path) {
-  Primitive p;
-  p.positions = m.positions;
-  const size_t n = p.vertex_count();
-  for (const auto& face : m.faces) {
-    for (size_t k = 1; k + 1 < face.size(); ++k) p.indices.insert(p.indices.end(), {face[0], face[k], face[k + 1]});
-  }
-  // UVs per vertex when every corner of a vertex uses the same vt; else dropped (splitting
-  // vertices would break the v order that shapes rely on).
-  if (!m.uvs.empty()) {
-    std::vector<int64_t> uv_of(n, -2);
-    bool consistent = true;
-    for (size_t f = 0; f < m.faces.size() && consistent; ++f) {
-      for (size_t k = 0; k < m.faces[f].size(); ++k) {
-        const int64_t t = m.face_uvs[f][k];
-        int64_t& slot = uv_of[m.faces[f][k]];
-        if (t < 0 || (slot != -2 && slot != t)) {
-          consistent = false;
-          break;
-        }
-        slot = t;
-      }
+// The base primitive of an OBJ. Its vertices are the `v` lines in order, except where a vertex's
+// face corners use different `vt` (a UV seam): there it has one copy per distinct `vt`, in the
+// order the faces first use them, as glTF needs; `source_vertices` says which `v` each is, and
+// `first_copy[v]` .. `first_copy[v + 1]` are the copies of v (ascending: targets stay sorted).
+struct BaseMesh {
+  Primitive primitive;
+  std::vector<uint32_t> first_copy;  // Empty when no vertex was split.
+};
+
+BaseMesh BasePrimitive(const ObjMesh& m) {
+  BaseMesh out;
+  Primitive& p = out.primitive;
+  const size_t n = m.positions.size() / 3;
+  // Each vertex's distinct vt (-1: a corner without one), in first use.
+  std::vector<std::vector<int64_t>> uvs_of(n);
+  bool split = false;
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    for (size_t k = 0; k < m.faces[f].size(); ++k) {
+      std::vector<int64_t>& l = uvs_of[m.faces[f][k]];
+      if (std::find(l.begin(), l.end(), m.face_uvs[f][k]) == l.end()) l.push_back(m.face_uvs[f][k]);
+      split |= l.size() > 1;
     }
-    if (consistent) {
+  }
+  const bool has_uvs = !m.uvs.empty();
+  auto uv_of_corner = [&](int64_t t, float* uv) {
+    uv[0] = t < 0 ? 0.0f : m.uvs[2 * static_cast<size_t>(t)];
+    uv[1] = t < 0 ? 0.0f : 1.0f - m.uvs[2 * static_cast<size_t>(t) + 1];  // OBJ v is up; glTF v is down.
+  };
+  if (!split || !has_uvs) {
+    p.positions = m.positions;
+    if (has_uvs) {
       p.texcoords.assign(2 * n, 0.0f);
       for (size_t v = 0; v < n; ++v) {
-        if (uv_of[v] >= 0) {
-          p.texcoords[2 * v] = m.uvs[2 * uv_of[v]];
-          p.texcoords[2 * v + 1] = 1.0f - m.uvs[2 * uv_of[v] + 1];  // OBJ v is up; glTF v is down.
-        }
+        if (!uvs_of[v].empty()) uv_of_corner(uvs_of[v][0], &p.texcoords[2 * v]);
       }
-    } else {
-      warnings.push_back({"uv_dropped", path + ": texture coordinates differ per face corner; they were dropped", "", 0.0, false});
+    }
+    for (const auto& face : m.faces) {
+      for (size_t k = 1; k + 1 < face.size(); ++k) p.indices.insert(p.indices.end(), {face[0], face[k], face[k + 1]});
+    }
+    return out;
+  }
+  out.first_copy.assign(n + 1, 0);
+  for (size_t v = 0; v < n; ++v) {
+    const size_t copies = std::max<size_t>(1, uvs_of[v].size());  // An unused vertex keeps one.
+    out.first_copy[v + 1] = out.first_copy[v] + static_cast<uint32_t>(copies);
+    for (size_t c = 0; c < copies; ++c) {
+      p.positions.insert(p.positions.end(), &m.positions[3 * v], &m.positions[3 * v] + 3);
+      float uv[2];
+      uv_of_corner(uvs_of[v].empty() ? -1 : uvs_of[v][c], uv);
+      p.texcoords.insert(p.texcoords.end(), uv, uv + 2);
+      p.source_vertices.push_back(static_cast<uint32_t>(v));
     }
   }
-  return p;
+  auto corner = [&](size_t f, size_t k) {
+    const uint32_t v = m.faces[f][k];
+    const std::vector<int64_t>& l = uvs_of[v];
+    return out.first_copy[v] + static_cast<uint32_t>(std::find(l.begin(), l.end(), m.face_uvs[f][k]) - l.begin());
+  };
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    for (size_t k = 1; k + 1 < m.faces[f].size(); ++k) p.indices.insert(p.indices.end(), {corner(f, 0), corner(f, k), corner(f, k + 1)});
+  }
+  return out;
+}
+
+// A target over the source's vertices as one over the split ones: each delta on every copy.
+SparseTarget SplitTarget(SparseTarget t, const std::vector<uint32_t>& first_copy) {
+  if (first_copy.empty()) return t;
+  SparseTarget out;
+  for (size_t k = 0; k < t.indices.size(); ++k) {
+    for (uint32_t c = first_copy[t.indices[k]]; c < first_copy[t.indices[k] + 1]; ++c) {
+      out.indices.push_back(c);
+      out.position_deltas.insert(out.position_deltas.end(), &t.position_deltas[3 * k], &t.position_deltas[3 * k] + 3);
+    }
+  }
+  FinalizeTarget(out);
+  return out;
 }
 
 // Makes `p` the rig's only primitive, in `mesh`, shown by one root node; then the derived data.
@@ -172,8 +211,9 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
   if (Status s = ParseObj(paths[0], base); !s.ok()) return s;
   Rig rig;
   rig.name = Stem(paths[0]);
-  Primitive p = BasePrimitive(base, rig.load_warnings, paths[0]);
-  const size_t n = p.vertex_count();
+  BaseMesh split = BasePrimitive(base);
+  Primitive& p = split.primitive;
+  const size_t n = base.positions.size() / 3;
   Mesh mesh;
   mesh.name = rig.name;
   for (size_t i = 1; i < paths.size(); ++i) {
@@ -210,7 +250,7 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
     s.name = name;
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(s);
-    p.targets.push_back(std::move(t));
+    p.targets.push_back(SplitTarget(std::move(t), split.first_copy));
   }
   FinishSingleMeshRig(rig, std::move(p), std::move(mesh));
   RepairNames(rig);
@@ -299,7 +339,17 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   kept.uvs = obj.uvs;
   Rig rig;
   rig.name = "makehuman";
-  Primitive p = BasePrimitive(kept, rig.load_warnings, obj_path);
+  BaseMesh split = BasePrimitive(kept);
+  Primitive& p = split.primitive;
+  // No CC0 MakeHuman skin texture is in our package sources: a skin-toned dielectric instead
+  // (sRGB #e3b5a1 as linear, a little glossy), which the renderer lights as it would a texture.
+  Material skin;
+  skin.name = "skin";
+  skin.base_color_factor = {0.77f, 0.47f, 0.36f, 1.0f};
+  skin.metallic_factor = 0.0f;
+  skin.roughness_factor = 0.5f;
+  rig.materials.push_back(skin);
+  p.material = 0;
   // Targets: every .target under each folder, sorted by path (deterministic).
   struct TargetFile {
     fs::path path;
@@ -334,7 +384,7 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   for (const auto& [file, group, folder] : files) {
     SparseTarget full;
     if (Status s = ReadTarget(file.string(), obj_vertices, scale, full); !s.ok()) return s;
-    SparseTarget t = RemapTarget(full, remap);  // Vertices of geometry not kept drop out.
+    SparseTarget t = SplitTarget(RemapTarget(full, remap), split.first_copy);  // Vertices of geometry not kept drop out.
     Shape shape;
     shape.name = file.stem().string();
     shape.group = group.empty() ? "default" : group;

@@ -51,9 +51,47 @@ SparseTarget RemapTarget(const SparseTarget& t, std::span<const int32_t> remap) 
   return out;
 }
 
+namespace {
+
+// Copies of one source vertex (Primitive::source_vertices) see every face of every copy, so their
+// recomputed normals agree and a UV seam does not show in the shading.
+void GroupAdjacencyBySource(Primitive& p) {
+  const size_t n = p.vertex_count();
+  // Each vertex's group: the rank of its source number among the distinct ones.
+  std::vector<uint32_t> order(n), group(n);
+  for (uint32_t v = 0; v < n; ++v) order[v] = v;
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return p.source_vertices[a] < p.source_vertices[b]; });
+  uint32_t groups = 0;
+  for (size_t k = 0; k < n; ++k) {
+    if (k > 0 && p.source_vertices[order[k]] != p.source_vertices[order[k - 1]]) ++groups;
+    group[order[k]] = groups;
+  }
+  // A group's faces: those of all its copies, each once.
+  std::vector<std::vector<uint32_t>> faces_of(n == 0 ? 0 : groups + 1);
+  for (uint32_t v = 0; v < n; ++v) {
+    std::vector<uint32_t>& f = faces_of[group[v]];
+    f.insert(f.end(), p.vertex_faces.begin() + p.vertex_face_offsets[v], p.vertex_faces.begin() + p.vertex_face_offsets[v + 1]);
+  }
+  for (std::vector<uint32_t>& f : faces_of) {
+    std::sort(f.begin(), f.end());
+    f.erase(std::unique(f.begin(), f.end()), f.end());
+  }
+  std::vector<uint32_t> offsets(n + 1, 0), faces;
+  for (uint32_t v = 0; v < n; ++v) {
+    offsets[v] = static_cast<uint32_t>(faces.size());
+    faces.insert(faces.end(), faces_of[group[v]].begin(), faces_of[group[v]].end());
+  }
+  offsets[n] = static_cast<uint32_t>(faces.size());
+  p.vertex_faces = std::move(faces);
+  p.vertex_face_offsets = std::move(offsets);
+}
+
+}  // namespace
+
 void FinalizePrimitive(Primitive& p) {
   const size_t n = p.vertex_count();
   const size_t faces = p.triangle_count();
+  const bool grouped = p.source_vertices.size() == n && n > 0 && p.mode == PrimitiveMode::kTriangles;
   // Vertex -> face adjacency, CSR.
   p.vertex_face_offsets.assign(n + 1, 0);
   for (size_t f = 0; f < faces * 3; ++f) p.vertex_face_offsets[p.indices[f] + 1]++;
@@ -83,8 +121,22 @@ void FinalizePrimitive(Primitive& p) {
     p.vertex_faces.resize(w);
     p.vertex_face_offsets = std::move(offsets);
   }
+  if (grouped) GroupAdjacencyBySource(p);
   p.base_smooth_normals.assign(n * 3, 0.0f);
-  if (p.mode == PrimitiveMode::kTriangles) {
+  if (grouped) {
+    // The same sum RecomputeNormalsAround makes, over each vertex's (grouped) faces.
+    for (uint32_t v = 0; v < n; ++v) {
+      float* o = &p.base_smooth_normals[3 * static_cast<size_t>(v)];
+      VertexNormalSum(p, p.positions, v, o);
+      const float len2 = o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
+      if (len2 > 0.0f && std::isfinite(len2)) {
+        const float inv = 1.0f / std::sqrt(len2);
+        for (int c = 0; c < 3; ++c) o[c] *= inv;
+      } else {
+        o[0] = o[1] = 0.0f, o[2] = 1.0f;
+      }
+    }
+  } else if (p.mode == PrimitiveMode::kTriangles) {
     std::span<const uint32_t> tris(p.indices.data(), faces * 3);
     ComputeSmoothNormals(p.positions, tris, p.base_smooth_normals);
   }
@@ -394,6 +446,10 @@ Status ValidateRig(const Rig& rig) {
     if (!p.tangents.empty() && p.tangents.size() != 4 * n) return InvalidArgument(where + "tangent count differs from vertex count");
     if (!p.texcoords.empty() && p.texcoords.size() != 2 * n) return InvalidArgument(where + "texcoord count differs from vertex count");
     if (!p.colors.empty() && p.colors.size() != 4 * n) return InvalidArgument(where + "color count differs from vertex count");
+    if (!p.source_vertices.empty() && p.source_vertices.size() != n) return InvalidArgument(where + "source vertex count (_SOURCE_VERTEX) differs from vertex count");
+    for (uint32_t s : p.source_vertices) {
+      if (s >= Primitive::kMaxSourceVertex) return InvalidArgument(where + "source vertex " + std::to_string(s) + " is beyond " + std::to_string(Primitive::kMaxSourceVertex));
+    }
     for (uint32_t i : p.indices) {
       if (i >= n) {
         return InvalidArgument(where + "index " + std::to_string(i) + " beyond vertex count " + std::to_string(n));

@@ -148,17 +148,22 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
   if (source < 0) return InvalidArgument("unknown shape '" + from + "'");
   if (name.empty() || FindShape(rig, name) >= 0) return InvalidArgument("shape name '" + name + "' is empty or taken");
   if (options.axis < 0 || options.axis > 2 || options.mask.axis < 0 || options.mask.axis > 2) return InvalidArgument("axis must be x, y or z");
+  // Mask vertices are numbered as the source numbers them (Primitive::source_vertices: one number
+  // for every copy of a vertex split at a UV seam), primitive after primitive.
+  std::vector<size_t> first(rig.primitives.size() + 1, 0);
+  for (size_t p = 0; p < rig.primitives.size(); ++p) {
+    const Primitive& prim = rig.primitives[p];
+    const size_t sources = prim.source_vertices.empty() ? prim.vertex_count() : *std::max_element(prim.source_vertices.begin(), prim.source_vertices.end()) + size_t{1};
+    first[p + 1] = first[p] + sources;
+  }
   std::vector<uint8_t> keep;
   if (options.masked && !options.mask.vertices.empty()) {
-    keep.assign(rig.vertex_count(), 0);
+    keep.assign(first.back(), 0);
     for (uint32_t v : options.mask.vertices) {
       if (v >= keep.size()) return InvalidArgument("mask vertex " + std::to_string(v) + " is beyond the rig's " + std::to_string(keep.size()) + " vertices");
       keep[v] = 1;
     }
   }
-  // First vertex of each primitive in the global numbering.
-  std::vector<size_t> first(rig.primitives.size() + 1, 0);
-  for (size_t p = 0; p < rig.primitives.size(); ++p) first[p + 1] = first[p] + rig.primitives[p].vertex_count();
 
   DeriveReport report;
   report.shape = static_cast<int>(rig.shapes.size());
@@ -188,7 +193,7 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
         if (from_v < 0 || slot[from_v] < 0) continue;
         float w = 1.0f;
         if (options.masked) {
-          if (!keep.empty() && !keep[first[pi] + v]) continue;
+          if (!keep.empty() && !keep[first[pi] + (prim.source_vertices.empty() ? v : prim.source_vertices[v])]) continue;
           w = MaskWeight(options.mask, mask_center, &prim.positions[3 * v]);
           if (w == 0.0f) continue;
         }

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <cmath>
@@ -483,9 +484,30 @@ TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
   options.modifiers = kMakeHuman + "/modifiers/modeling_modifiers.json";
   auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", dirs, options);
   ASSERT_TRUE(rig.ok()) << rig.status().message;
-  EXPECT_EQ(rig->vertex_count(), 13380u);  // The skin: OBJ group "body".
   ASSERT_EQ(rig->primitives.size(), 1u);
   const Primitive& p = rig->primitives[0];
+  // The skin (OBJ group "body"): 13,380 vertices, split where their UVs differ per face corner
+  // (glTF has one UV per vertex); each copy remembers its OBJ vertex.
+  ASSERT_EQ(p.source_vertices.size(), p.vertex_count());
+  ASSERT_EQ(p.texcoords.size(), 2 * p.vertex_count());
+  EXPECT_EQ(std::set<uint32_t>(p.source_vertices.begin(), p.source_vertices.end()).size(), 13380u);
+  EXPECT_GT(p.vertex_count(), 13380u);
+  for (const Warning& w : rig->load_warnings) EXPECT_EQ(w.message.find("texture coordinates"), std::string::npos) << w.message;
+  // Each face corner has its own UV: no triangle reaches across the atlas. Had each vertex one UV
+  // (its first corner's), triangles along the seams would join islands far apart.
+  std::map<uint32_t, uint32_t> first_copy;
+  for (uint32_t v = 0; v < p.vertex_count(); ++v) first_copy.emplace(p.source_vertices[v], v);
+  float longest = 0.0f, longest_unsplit = 0.0f;
+  for (size_t f = 0; f < p.indices.size(); f += 3) {
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t va = p.indices[f + e], vb = p.indices[f + (e + 1) % 3];
+      auto edge = [&](uint32_t a, uint32_t b) { return std::hypot(p.texcoords[2 * a] - p.texcoords[2 * b], p.texcoords[2 * a + 1] - p.texcoords[2 * b + 1]); };
+      longest = std::max(longest, edge(va, vb));
+      longest_unsplit = std::max(longest_unsplit, edge(first_copy[p.source_vertices[va]], first_copy[p.source_vertices[vb]]));
+    }
+  }
+  EXPECT_LT(longest, 0.07f);  // hm08: 0.062 of the atlas.
+  EXPECT_GT(longest_unsplit, 0.2f) << "the seams should matter";
   size_t files = 0;
   for (const std::string& dir : dirs) {
     for (const auto& e : std::filesystem::directory_iterator(dir)) {
@@ -501,7 +523,8 @@ TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
       BlendContext ctx;
       ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
       for (size_t v = 0; v < p.vertex_count(); ++v) {
-        auto it = target.find(static_cast<uint32_t>(v));
+        auto it = target.find(p.source_vertices[v]);  // Every copy moves as its OBJ vertex.
+
         for (int c = 0; c < 3; ++c) {
           const float want = p.positions[3 * v + c] + (it == target.end() ? 0.0f : 0.7f * it->second[c]);
           ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want, 1e-6f) << e.path() << " vertex " << v;

@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
 
 #include "facespace/core/blend.h"
 #include "facespace/core/io.h"
@@ -39,6 +42,80 @@ TEST(ObjSequence, ShapesAreRelativeAndSparse) {
   EXPECT_EQ(out.primitives[0].positions[8], 1.0f);
 }
 
+// Two quads folded along the edge v3-v4, whose corners have other UVs in each quad (a UV seam):
+// v3 and v4 are split in two; "lift" raises v3 and v4 by 1 in z.
+std::string Fold(float lift) {
+  return "v 0 0 0\nv 1 0 0\nv 1 1 " + std::to_string(lift) + "\nv 0 1 " + std::to_string(lift) + "\nv 1 2 1\nv 0 2 1\n" +
+         "vt 0 0\nvt 0.5 0\nvt 0.5 0.5\nvt 0 0.5\nvt 0.6 0.5\nvt 0.9 0.5\nvt 0.9 1\nvt 0.6 1\n"
+         "f 1/1 2/2 3/3 4/4\nf 4/5 3/6 5/7 6/8\n";
+}
+
+TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
+  TempDir dir;
+  test::WriteBytes(dir / "fold.obj", Fold(0));
+  test::WriteBytes(dir / "lift.obj", Fold(1));
+  std::vector<std::string> paths = {dir / "fold.obj", dir / "lift.obj"};
+  auto rig = LoadObjSequence(paths);
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  EXPECT_TRUE(rig->load_warnings.empty());
+  const Primitive& p = rig->primitives[0];
+  // v3 and v4 have two copies each, next to each other; the others one.
+  EXPECT_EQ(p.source_vertices, (std::vector<uint32_t>{0, 1, 2, 2, 3, 3, 4, 5}));
+  ASSERT_EQ(p.texcoords.size(), 16u);
+  EXPECT_FLOAT_EQ(p.texcoords[2 * 2], 0.5f);  // v3 in the first quad: vt 3 (0.5, 0.5), v flipped.
+  EXPECT_FLOAT_EQ(p.texcoords[2 * 2 + 1], 0.5f);
+  EXPECT_FLOAT_EQ(p.texcoords[2 * 3], 0.9f);  // v3 in the second quad: vt 6 (0.9, 0.5).
+  EXPECT_FLOAT_EQ(p.texcoords[2 * 5 + 1], 0.5f);  // v4 in the second: vt 5 (0.6, 0.5).
+  // The target moves both copies.
+  EXPECT_EQ(p.targets[0].indices, (std::vector<uint32_t>{2, 3, 4, 5}));
+  // Copies share one normal, the fold's average (neither quad's alone): no seam in the shading.
+  auto same_normal = [](std::span<const float> n, int a, int b) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(n[3 * a + c], n[3 * b + c], 1e-6f) << a << " " << b;
+  };
+  same_normal(p.normals, 2, 3);
+  same_normal(p.normals, 4, 5);
+  EXPECT_GT(std::fabs(p.normals[3 * 2 + 1]), 0.1f);  // Tilted towards -y by the second quad.
+  EXPECT_LT(p.normals[3 * 2 + 2], 0.99f);
+  // Blended with normals recomputed, and after a glb round trip.
+  std::vector<float> w = {0.5f};
+  BlendOptions options;
+  options.normals = NormalMode::kRecompute;
+  BlendedRig out;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(rig.value(), w, options, out, ctx).ok());
+  same_normal(out.primitives[0].normals, 2, 3);
+  same_normal(out.primitives[0].normals, 4, 5);
+  EXPECT_FLOAT_EQ(out.primitives[0].positions[3 * 3 + 2], 0.5f);
+  auto glb = ExportMesh(rig.value(), out, w, {}, MeshFormat::kGlb, {.keep_targets = true});
+  ASSERT_TRUE(glb.ok());
+  auto back = LoadGltfMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(glb->data()), glb->size()), "", {});
+  ASSERT_TRUE(back.ok()) << back.status().message;
+  EXPECT_EQ(back->primitives[0].source_vertices, p.source_vertices);
+  BlendedRig out2;
+  ASSERT_TRUE(EvaluateRig(back.value(), w, options, out2, ctx).ok());
+  for (size_t k = 0; k < out.primitives[0].normals.size(); ++k) EXPECT_NEAR(out2.primitives[0].normals[k], out.primitives[0].normals[k], 1e-6f) << k;
+  // OBJ out is welded again: the source's 6 `v`, 8 `vt`/`vn`, faces naming both.
+  auto obj = ExportMesh(rig.value(), out, w, {}, MeshFormat::kObj);
+  ASSERT_TRUE(obj.ok());
+  size_t vs = 0, vts = 0;
+  std::istringstream in(obj.value());
+  std::vector<std::string> faces;
+  for (std::string line; std::getline(in, line);) {
+    vs += line.rfind("v ", 0) == 0;
+    vts += line.rfind("vt ", 0) == 0;
+    if (line.rfind("f ", 0) == 0) faces.push_back(line);
+  }
+  EXPECT_EQ(vs, 6u);
+  EXPECT_EQ(vts, 8u);
+  ASSERT_EQ(faces.size(), 4u);
+  EXPECT_EQ(faces[2], "f 4/6/6 3/4/4 5/7/7");  // The second quad's first triangle: v4 and v3 by their second copies.
+  // A manifest's mask names vertices as the source numbers them: vertex 3 (v4) is both copies.
+  ASSERT_TRUE(ApplyManifest(rig.value(), R"({"derived": {"lift_v4": {"from": "lift", "mask": {"vertices": [3]}}}})").ok());
+  const int derived = FindShape(rig.value(), "lift_v4");
+  ASSERT_GE(derived, 0);
+  EXPECT_EQ(rig->primitives[0].targets[static_cast<size_t>(derived)].indices, (std::vector<uint32_t>{4, 5}));
+}
+
 TEST(ObjSequence, ReportsFirstDifferingFace) {
   TempDir dir;
   test::WriteBytes(dir / "base.obj", Quad(0));
@@ -72,15 +149,42 @@ TEST(ObjSequence, IctFaceKitFrames) {
   std::iter_swap(paths.begin(), neutral);
   auto rig = LoadObjSequence(paths);
   ASSERT_TRUE(rig.ok()) << rig.status().message;
-  EXPECT_EQ(rig->vertex_count(), 26719u);
+  // 26,719 OBJ vertices, split where a vertex's UVs differ per face corner.
+  ASSERT_EQ(rig->primitives.size(), 1u);
+  const Primitive& p = rig->primitives[0];
+  ASSERT_EQ(p.source_vertices.size(), p.vertex_count());
+  EXPECT_EQ(std::set<uint32_t>(p.source_vertices.begin(), p.source_vertices.end()).size(), 26719u);
+  EXPECT_EQ(p.texcoords.size(), 2 * p.vertex_count());
   EXPECT_EQ(rig->shapes.size(), paths.size() - 1);
+  // Each frame at weight 1 is that OBJ's `v` lines, every copy of a vertex included (read here
+  // independently of the importer).
+  for (size_t s = 0; s < rig->shapes.size(); ++s) {
+    std::ifstream f(paths[s + 1]);
+    std::vector<float> want;
+    for (std::string line; std::getline(f, line);) {
+      if (line.rfind("v ", 0) != 0) continue;
+      std::istringstream in(line.substr(2));
+      float x, y, z;
+      in >> x >> y >> z;
+      want.insert(want.end(), {x, y, z});
+    }
+    ASSERT_EQ(want.size(), 3 * 26719u);
+    std::vector<float> w(rig->shapes.size(), 0.0f);
+    w[s] = 1.0f;
+    BlendedRig out;
+    BlendContext ctx;
+    ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
+    for (size_t v = 0; v < p.vertex_count(); ++v) {
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want[3 * p.source_vertices[v] + c], 2e-6f) << s << " " << v;
+    }
+  }
   for (const Shape& s : rig->shapes) {
     EXPECT_GT(s.vertices_moved, 0u) << s.name;
     // Expressions move part of the head; the identity shape moves all of it. (These OBJs
     // are printed to 5 decimals, so many "unmoved" vertices differ by 1e-5: exact zeros
     // only are elided, and half the head counts as moved.)
     if (s.name.rfind("identity", 0) != 0) {
-      EXPECT_LT(s.vertices_moved, 26719u) << s.name << " should be sparse";
+      EXPECT_LT(s.vertices_moved, p.vertex_count()) << s.name << " should be sparse";
     }
   }
 }

@@ -102,7 +102,7 @@ fi
 # OBJ sequence: the ICT FaceKit frames as a rig
 ict=$M/OBJ/ICT-FaceKit_subset
 "$bin" info "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" "$ict/eyeBlink_L.obj" >"$tmp/ict" 2>&1
-check "OBJ sequence: 26719 vertices, shapes named after their files" sh -c "grep -q 'vertices   26719' '$tmp/ict' && grep -q ' jawOpen ' '$tmp/ict' && grep -q ' eyeBlink_L ' '$tmp/ict'"
+check "OBJ sequence: 28911 vertices (the 26719 OBJ vertices split at UV seams), shapes named after their files" sh -c "grep -q 'vertices   28911' '$tmp/ict' && grep -q ' jawOpen ' '$tmp/ict' && grep -q ' eyeBlink_L ' '$tmp/ict'"
 "$bin" blend "$ict/generic_neutral_mesh.obj" "$ict/jawOpen.obj" --set jawOpen=1 -o "$tmp/ict.obj" 2>/dev/null
 check "OBJ sequence: jawOpen at 1 reproduces jawOpen.obj's vertices" \
   py 'import sys
@@ -196,7 +196,7 @@ err_case "blend --lod 7 is refused" "level of detail" blend "$rig" --lod 7 -o "$
 MH=$M/MakeHumanFace
 mkdir -p "$tmp/mh"
 "$bin" convert "$MH/base.obj" --targets "$MH/targets/nose" --targets "$MH/targets/eyes" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh/mh.glb" 2>"$tmp/err"; rc=$?
-check "convert MakeHuman (nose, eyes): 13380 vertices, shapes and controls, glb and manifest" sh -c "[ $rc -eq 0 ] && grep -Eq 'convert: 13380 vertices, 26756 triangles, [0-9]+ shapes .*, [0-9]+ controls' '$tmp/err' && [ -s '$tmp/mh/mh.glb' ] && [ -s '$tmp/mh/mh.manifest.json' ]"
+check "convert MakeHuman (nose, eyes): 14517 vertices (13,380 split at UV seams), shapes and controls, glb and manifest" sh -c "[ $rc -eq 0 ] && grep -Eq 'convert: 14517 vertices, 26756 triangles, [0-9]+ shapes .*, [0-9]+ controls' '$tmp/err' && [ -s '$tmp/mh/mh.glb' ] && [ -s '$tmp/mh/mh.manifest.json' ]"
 mkdir -p "$tmp/mh2"
 "$bin" convert "$MH/base.obj" --targets "$MH/targets/nose" --targets "$MH/targets/eyes" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh2/mh.glb" 2>/dev/null
 check "convert is deterministic (glb and manifest byte-identical)" sh -c "cmp -s '$tmp/mh/mh.glb' '$tmp/mh2/mh.glb' && cmp -s '$tmp/mh/mh.manifest.json' '$tmp/mh2/mh.manifest.json'"
@@ -435,7 +435,7 @@ check "info --json is the rig route's document: animations and load warnings (Fo
 check "  ... and controls (MakeHuman)" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not(any(c["name"]=="nose/nose-trans-down|up" for c in d["controls"])))' "$tmp/mhinfo.json"
 mkdir -p "$tmp/linked" && ln -s "$MH/targets/nose" "$tmp/linked/nose"
 "$bin" convert "$MH/base.obj" --targets "$tmp/linked" --modifiers "$MH/modifiers/modeling_modifiers.json" -o "$tmp/mh/linked.glb" 2>"$tmp/err"; rc=$?
-check "convert follows a linked targets folder; the modifiers whose targets are missing are one warning naming them" sh -c "[ $rc -eq 0 ] && grep -Eq 'convert: 13380 vertices, 26756 triangles, [1-9][0-9]* shapes' '$tmp/err' && grep -q 'warning: modifier_targets_missing: [0-9]* modifier(s) name targets that were not found' '$tmp/err' && grep -q 'head/head-age-decr|incr' '$tmp/err'"
+check "convert follows a linked targets folder; the modifiers whose targets are missing are one warning naming them" sh -c "[ $rc -eq 0 ] && grep -Eq 'convert: 14517 vertices, 26756 triangles, [1-9][0-9]* shapes' '$tmp/err' && grep -q 'warning: modifier_targets_missing: [0-9]* modifier(s) name targets that were not found' '$tmp/err' && grep -q 'head/head-age-decr|incr' '$tmp/err'"
 mkdir -p "$tmp/notargets"
 err_case "convert with a targets folder holding no .target files is an error" "no .target files under" convert "$MH/base.obj" --targets "$tmp/notargets" -o "$tmp/x.glb"
 

@@ -715,7 +715,27 @@ struct GoldenCase {
   float yaw, pitch;
   const char* animation = nullptr;  // Skinned assets: a clip and a time.
   float time = 0.0f;
+  bool checker = false;  // Every material's base colour: a checker over the UVs (shows UV seams).
 };
+
+// A 512 x 512 checker of 16 x 16 squares, two colours, with a red cell at the atlas's (0, 0) corner
+// and a blue one at (1, 1) so an upside-down map shows.
+std::vector<unsigned char> CheckerPng() {
+  Image im;
+  im.width = im.height = 512;
+  for (int y = 0; y < 512; ++y) {
+    for (int x = 0; x < 512; ++x) {
+      const bool odd = ((x / 32) + (y / 32)) % 2;
+      std::array<float, 3> c = odd ? std::array<float, 3>{0.9f, 0.85f, 0.75f} : std::array<float, 3>{0.15f, 0.25f, 0.35f};
+      if (x < 32 && y < 32) c = {0.9f, 0.05f, 0.05f};
+      if (x >= 480 && y >= 480) c = {0.05f, 0.1f, 0.9f};
+      im.rgba.insert(im.rgba.end(), {c[0], c[1], c[2], 1.0f});
+    }
+  }
+  auto png = render::Encode(im, render::ImageFormat::kPng);
+  EXPECT_TRUE(png.ok());
+  return {png->begin(), png->end()};
+}
 
 void PrintTo(const GoldenCase& c, std::ostream* os) { *os << c.name; }
 
@@ -725,6 +745,13 @@ TEST_P(Golden, MatchesCommittedImage) {
   const GoldenCase& c = GetParam();
   auto rig = LoadRigFile(c.asset[0] == '@' ? test::Bundled(c.asset + 1) : test::RealAsset(c.asset));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
+  if (c.checker) {
+    rig->images.push_back({"checker", "image/png", CheckerPng()});
+    if (rig->materials.empty()) rig->materials.emplace_back();
+    for (Material& m : rig->materials) m.base_color_image = static_cast<int>(rig->images.size() - 1), m.base_color_factor = {1, 1, 1, 1};
+    for (Primitive& p : rig->primitives) p.material = p.material < 0 ? 0 : p.material;
+    ASSERT_TRUE(ValidateRig(rig.value()).ok());
+  }
   std::vector<float> w(rig->shapes.size(), 0.0f);
   for (const auto& [name, value] : c.weights) {
     const int s = FindShape(rig.value(), name);
@@ -791,6 +818,9 @@ INSTANTIATE_TEST_SUITE_P(
                                  render::View::kShaded, 20, 30},
                       GoldenCase{"fox_run", "Fox/Fox.glb", {}, render::View::kShaded, 90, 10, "Run", 0.4f},
                       GoldenCase{"cesium_man_walk", "CesiumMan/CesiumMan.gltf", {}, render::View::kShaded, 60, 0, "animation_0", 0.9f},
+                      GoldenCase{"makehuman_skin", "@makehuman/makehuman.glb", {{"nose-trans-down", 1.0f}, {"mouth-scale-horiz-incr", 0.6f}},
+                                 render::View::kShaded, 0, 0},
+                      GoldenCase{"makehuman_uv_checker", "@makehuman/makehuman.glb", {}, render::View::kShaded, 35, 5, nullptr, 0.0f, true},
                       GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {}, render::View::kWireframe, 0, 0,
                                  "animation_0", 0.6f}),
     [](const auto& param_info) { return std::string(param_info.param.name); });

@@ -97,6 +97,10 @@ void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<
 Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOptions& options,
                    BlendedRig& out, BlendContext& context);
 
+// Area-weighted normal of vertex v (unnormalised): the sum of the cross products of the faces
+// around it in `primitive`'s adjacency, over `positions`.
+void VertexNormalSum(const Primitive& primitive, std::span<const float> positions, uint32_t v, float* n);
+
 // Recomputes normals of the vertices around `moved` (vertex indices) from `positions`:
 // n = normalize(n_base + N(positions) - N(base positions)) where N is the area-weighted
 // smooth normal, so unmoved regions keep their authored normals exactly.

@@ -63,6 +63,13 @@ struct Primitive {
   size_t influences = 0;
   std::vector<uint16_t> joints;
   std::vector<float> joint_weights;
+  // The source's vertex of each vertex, or empty (each vertex is its own). A source that gives UVs
+  // per face corner (OBJ, MakeHuman) is split where a vertex's corners differ, as glTF needs:
+  // its copies share this number, every target moves them alike, normals are recomputed over all
+  // of their faces (no seam shows), and vertex numbers in a manifest mean these (the source's).
+  // Stored in glTF as the application attribute _SOURCE_VERTEX.
+  std::vector<uint32_t> source_vertices;
+  static constexpr uint32_t kMaxSourceVertex = 1u << 24;  // Exact in a float accessor.
 
   // Derived on load (FinalizePrimitive): vertex -> incident faces (CSR), and the smooth
   // area-weighted normals of the base positions (used by normal recomputation).
