@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cstring>
+#include <map>
 #include <sstream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -184,6 +185,25 @@ TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {
   r = Client().Get("/v1/rigs/facecap/render?width=64&height=64", {{"Accept", "text/html"}});
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 406);
+}
+
+// Every setting that changes the picture changes the cache key, so the ETag, and no render is
+// answered from the cache of another (an exposure of 2 was once answered with exposure 0's image).
+TEST_F(ApiTest, EveryRenderSettingHasItsOwnCacheEntry) {
+  const std::string base = "/v1/rigs/facecap/render?width=32&height=32";
+  std::map<std::string, std::string> seen;  // ETag -> the query that had it.
+  for (const std::string extra : {"", "&exposure=2", "&exposure=-1", "&view=clay", "&view=heatmap", "&frame=all", "&frame=shapes", "&yaw=10",
+                                  "&pitch=5", "&fov=40", "&zoom=2", "&background=%23ff0000", "&supersample=2", "&w.jawOpen=1", "&normals=recompute"}) {
+    auto r = Client().Get(base + extra);
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << extra << " " << r->body;
+    const std::string etag = r->get_header_value("ETag");
+    ASSERT_FALSE(etag.empty());
+    EXPECT_TRUE(seen.emplace(etag, extra).second) << "'" << extra << "' has the ETag of '" << seen[etag] << "'";
+    auto again = Client().Get(base + extra);
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->get_header_value("ETag"), etag) << extra;  // And the same request the same one.
+  }
 }
 
 TEST_F(ApiTest, SheetRefusesMoreCellsThanConfigured) {

@@ -105,9 +105,10 @@ std::string RenderCanonical(const RenderRequest& r, render::ImageFormat format) 
   return std::string(render::ImageFormatExtension(format)) + "|q" + std::to_string(r.quality) + "|" + std::to_string(o.width) +
          "x" + std::to_string(o.height) + "|" + render::ViewName(o.view) + "|ss" + std::to_string(o.supersample) + "|" +
          FloatsCanonical(o.background) + "|" + FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) +
-         (c.look_at ? "L" : "O") + (c.frame == render::Framing::kShapes ? "S" : c.frame == render::Framing::kAll ? "A" : "D") +
-         (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|" +
-         OptionsCanonical(r.mesh.options) + (r.mesh.options.dual_quaternion ? "|dq" : "");
+         (c.look_at ? "L" : "O") +
+         (c.frame == render::Framing::kShapes ? "S" : c.frame == render::Framing::kAll ? "A" : c.frame == render::Framing::kJoint ? "J" + c.frame_joint + "|" : "D") +
+         (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|ev" +
+         FloatsCanonical(std::array<float, 1>{o.exposure}) + "|" + OptionsCanonical(r.mesh.options) + (r.mesh.options.dual_quaternion ? "|dq" : "");
 }
 
 bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key) {
