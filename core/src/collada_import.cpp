@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -549,6 +550,58 @@ class Reader {
     return m;
   }
 
+  // The file a diffuse <texture texture="NAME"> shows: NAME is a sampler2D newparam whose <source>
+  // names a surface newparam whose <init_from> is an image (COLLADA 1.4), or a sampler2D with an
+  // <instance_image> (1.5), or, as some exporters write, the image's id itself. The image's URI is
+  // made a path relative to the model's folder ("file://" and %-escapes undone); an absolute path
+  // keeps its file name only (exporters write where the image was on the author's disk; tools then
+  // look beside the model). LoadImagesBeside reads it from the model's folder, never outside it.
+  std::string TextureFile(pugi::xml_node profile, const std::string& name) const {
+    auto param = [&](const std::string& sid) {
+      for (pugi::xml_node np : profile.children("newparam")) {
+        if (sid == np.attribute("sid").value()) return np;
+      }
+      return pugi::xml_node();
+    };
+    auto trim = [](std::string t) {
+      const size_t a = t.find_first_not_of(" \t\r\n"), b = t.find_last_not_of(" \t\r\n");
+      return a == std::string::npos ? std::string() : t.substr(a, b - a + 1);
+    };
+    std::string image_id = name;
+    if (pugi::xml_node sampler = param(name).child("sampler2D")) {
+      if (pugi::xml_node inst = sampler.child("instance_image")) image_id = std::string(Fragment(inst.attribute("url").value()));
+      else if (pugi::xml_node surface = param(trim(sampler.child_value("source"))).child("surface")) image_id = trim(surface.child_value("init_from"));
+    }
+    pugi::xml_node image = ById(image_id);
+    if (!image || std::strcmp(image.name(), "image") != 0) return "";
+    pugi::xml_node init = image.child("init_from");
+    std::string uri = trim(init.child("ref") ? init.child_value("ref") : init.child_value());
+    if (uri.rfind("file://", 0) == 0) uri.erase(0, 7);
+    std::string path;
+    for (size_t k = 0; k < uri.size(); ++k) {
+      const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) ? (std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (c | 0x20) - 'a' + 10) : -1; };
+      if (uri[k] == '%' && k + 2 < uri.size() && hex(uri[k + 1]) >= 0 && hex(uri[k + 2]) >= 0) {
+        path += static_cast<char>(hex(uri[k + 1]) * 16 + hex(uri[k + 2]));
+        k += 2;
+      } else {
+        path += uri[k] == '\\' ? '/' : uri[k];
+      }
+    }
+    if (!path.empty() && (path[0] == '/' || path.find(':') != std::string::npos)) path = path.substr(path.find_last_of("/:") + 1);
+    return path;
+  }
+
+  // The rig's image for a file beside the model (one per file), its bytes read later by the file's
+  // loader; until then reported as not loaded.
+  int ImageNamed(const std::string& file) {
+    for (size_t i = 0; i < rig_.images.size(); ++i) {
+      if (rig_.images[i].name == file) return static_cast<int>(i);
+    }
+    rig_.images.push_back({file, "", {}});
+    rig_.load_warnings.push_back({"texture_not_loaded", "texture '" + file + "' is not read (a model read from bytes has no folder)", file, 0.0, false});
+    return static_cast<int>(rig_.images.size()) - 1;
+  }
+
   int Material(pugi::xml_node inst, const std::string& symbol) {
     for (pugi::xml_node im : inst.child("bind_material").child("technique_common").children("instance_material")) {
       if (symbol != im.attribute("symbol").value()) continue;
@@ -566,8 +619,13 @@ class Reader {
         std::vector<double> c;
         if (diffuse.child("color") && ParseNumbers(diffuse.child_value("color"), c, 4) && c.size() >= 3) {
           for (size_t k = 0; k < 3; ++k) m.base_color_factor[k] = static_cast<float>(std::clamp(c[k], 0.0, 1.0));
-        } else if (diffuse.child("texture")) {
-          rig_.load_warnings.push_back({"texture_not_loaded", "material '" + m.name + "': its diffuse texture is not read", m.name, 0.0, false});
+        } else if (pugi::xml_node texture = diffuse.child("texture")) {
+          const std::string file = TextureFile(effect.child("profile_COMMON"), texture.attribute("texture").value());
+          if (file.empty()) {
+            rig_.load_warnings.push_back({"texture_not_loaded", "material '" + m.name + "': its diffuse texture names no image", m.name, 0.0, false});
+          } else {
+            m.base_color_image = ImageNamed(file);
+          }
         }
       }
       rig_.materials.push_back(m);

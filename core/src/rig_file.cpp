@@ -592,10 +592,8 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
     const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     const std::string file = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
     rig = LoadRigMemory(bytes, format, file.substr(0, file.rfind('.')));
-    if (mmd && rig.ok()) {
-      LoadImagesBeside(rig.value(), path);
-      AddVmdMotions(rig.value(), path);
-    }
+    if ((mmd || format == RigFormat::kCollada) && rig.ok()) LoadImagesBeside(rig.value(), path);
+    if (mmd && rig.ok()) AddVmdMotions(rig.value(), path);
   } else {
     rig = EndsWith(path, ".obj")                 ? LoadObjSequence(std::span<const std::string>(&path, 1))
           : known && format == RigFormat::kMd5 ? LoadMd5File(path)

@@ -280,5 +280,76 @@ TEST(Utf8, RepairReplacesWhatIsNotUtf8AndKeepsWhatIs) {
   EXPECT_EQ(repaired("\xF4\x90\x80\x80"), std::string(4 * 3, ' ').replace(0, 12, "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD"));  // past U+10FFFF
 }
 
+// A triangle with UVs and a textured material, its image given three ways (COLLADA 1.4's sampler and
+// surface params; 1.5's instance_image; an absolute path on the author's disk), read from the
+// model's folder; a path out of the folder is not read.
+std::string TexturedDoc(const std::string& image_uri, bool v15) {
+  const std::string sampler = v15 ? "<newparam sid=\"smp\"><sampler2D><instance_image url=\"#img\"/></sampler2D></newparam>"
+                                  : "<newparam sid=\"srf\"><surface type=\"2D\"><init_from>img</init_from></surface></newparam>"
+                                    "<newparam sid=\"smp\"><sampler2D><source>srf</source></sampler2D></newparam>";
+  const std::string extra =
+      "<library_images><image id=\"img\"><init_from>" + std::string(v15 ? "<ref>" : "") + image_uri + (v15 ? "</ref>" : "") +
+      "</init_from></image></library_images>"
+      "<library_effects><effect id=\"fx\"><profile_COMMON>" + sampler +
+      "<technique sid=\"t\"><lambert><diffuse><texture texture=\"smp\" texcoord=\"UV0\"/></diffuse></lambert></technique>"
+      "</profile_COMMON></effect></library_effects>"
+      "<library_materials><material id=\"mat\"><instance_effect url=\"#fx\"/></material></library_materials>";
+  std::string doc = Doc("<source id=\"t\"><float_array id=\"ta\" count=\"6\">0 0 1 0 0 1</float_array>"
+                        "<technique_common><accessor source=\"#ta\" count=\"3\" stride=\"2\"/></technique_common></source>"
+                        "<triangles count=\"1\" material=\"m\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/>"
+                        "<input semantic=\"TEXCOORD\" source=\"#t\" offset=\"0\"/><p>0 1 2</p></triangles>",
+                        extra);
+  const std::string plain = "<instance_geometry url=\"#g\"/>";
+  doc.replace(doc.find(plain), plain.size(),
+              "<instance_geometry url=\"#g\"><bind_material><technique_common><instance_material symbol=\"m\" target=\"#mat\"/>"
+              "</technique_common></bind_material></instance_geometry>");
+  return doc;
+}
+
+TEST(Collada, DiffuseTexturesAreReadFromTheModelsFolder) {
+  test::TempDir dir;
+  std::filesystem::create_directories(dir.path / "model" / "tex");
+  const std::string png = std::string("\x89PNG\r\n\x1a\n", 8) + std::string(32, 'x');
+  test::WriteBytes(dir / "model/tex/Checker.png", png);
+  test::WriteBytes(dir / "secret.png", png);
+  struct Case {
+    std::string uri;
+    bool v15;
+    bool read;
+  };
+  for (const Case& c : {Case{"tex/Checker.png", false, true}, Case{"./tex/checker.PNG", true, true}, Case{"tex/Checker%2Epng", false, true},
+                        Case{"file:///C:/Users/someone/art/Checker.png", false, false},  // Its file name, not beside the model.
+                        Case{"file:///home/someone/tex/Checker.png", true, false}, Case{"../secret.png", false, false},
+                        Case{"tex/../../secret.png", true, false}}) {
+    test::WriteBytes(dir / "model/m.dae", TexturedDoc(c.uri, c.v15));
+    const Result<Rig> rig = LoadRigFile(dir / "model/m.dae");
+    ASSERT_TRUE(rig.ok()) << c.uri << ": " << rig.status().message;
+    ASSERT_EQ(rig->materials.size(), 1u) << c.uri;
+    ASSERT_EQ(rig->materials[0].base_color_image, 0) << c.uri;
+    EXPECT_EQ(rig->primitives[0].texcoords.size(), 6u);
+    const bool read = !rig->images[0].bytes.empty();
+    EXPECT_EQ(read, c.read) << c.uri;
+    if (read) {
+      EXPECT_EQ(rig->images[0].mime_type, "image/png");
+      EXPECT_TRUE(rig->load_warnings.empty()) << rig->load_warnings[0].message;
+    } else {
+      ASSERT_FALSE(rig->load_warnings.empty()) << c.uri;
+      EXPECT_EQ(rig->load_warnings[0].code, "texture_not_loaded");
+      EXPECT_NE(rig->load_warnings[0].message.find("no such file in the model's folder"), std::string::npos) << rig->load_warnings[0].message;
+    }
+  }
+  // An absolute path on the author's disk: its file name, found beside the model.
+  test::WriteBytes(dir / "model/Checker.png", png);
+  test::WriteBytes(dir / "model/m.dae", TexturedDoc("file:///C:/Users/someone/art/Checker.png", false));
+  const Result<Rig> beside = LoadRigFile(dir / "model/m.dae");
+  ASSERT_TRUE(beside.ok());
+  EXPECT_FALSE(beside->images[0].bytes.empty());
+  // From bytes (an upload) there is no folder: said so.
+  const Result<Rig> bytes = LoadText(TexturedDoc("tex/Checker.png", false));
+  ASSERT_TRUE(bytes.ok());
+  ASSERT_FALSE(bytes->load_warnings.empty());
+  EXPECT_NE(bytes->load_warnings[0].message.find("has no folder"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace facespace
