@@ -743,7 +743,10 @@ class Golden : public ::testing::TestWithParam<GoldenCase> {};
 
 TEST_P(Golden, MatchesCommittedImage) {
   const GoldenCase& c = GetParam();
-  auto rig = LoadRigFile(c.asset[0] == '@' ? test::Bundled(c.asset + 1) : test::RealAsset(c.asset));
+  // '@': bundled in assets/; '+': the shared more/ data (FBX, COLLADA, MD5); else the shared real/ glTFs.
+  auto rig = LoadRigFile(c.asset[0] == '@'   ? test::Bundled(c.asset + 1)
+                         : c.asset[0] == '+' ? test::SharedAssets() + "/more/" + (c.asset + 1)
+                                             : test::RealAsset(c.asset));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   if (c.checker) {
     rig->images.push_back({"checker", "image/png", CheckerPng()});
@@ -821,6 +824,11 @@ INSTANTIATE_TEST_SUITE_P(
                       GoldenCase{"makehuman_skin", "@makehuman/makehuman.glb", {{"nose-trans-down", 1.0f}, {"mouth-scale-horiz-incr", 0.6f}},
                                  render::View::kShaded, 0, 0},
                       GoldenCase{"makehuman_uv_checker", "@makehuman/makehuman.glb", {}, render::View::kShaded, 35, 5, nullptr, 0.0f, true},
+                      GoldenCase{"uka_happy", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 15, 0, "01_happy", 1.5f},
+                      GoldenCase{"fbx_inbetween", "+FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx",
+                                 {{"LiftTop", 0.5f}, {"MoveToSide", 1.0f}}, render::View::kShaded, 30, 20},
+                      GoldenCase{"collada_skin_on_morph", "+Collada/CTS_skin_on_morph/skin_on_morph.dae", {}, render::View::kShaded, 30, 15},
+                      GoldenCase{"md5_bob", "+MD5/Bob/Bob.md5mesh", {}, render::View::kShaded, 20, 5},
                       GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {}, render::View::kWireframe, 0, 0,
                                  "animation_0", 0.6f}),
     [](const auto& param_info) { return std::string(param_info.param.name); });
