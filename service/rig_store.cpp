@@ -131,7 +131,11 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, const st
     const std::string folder = p.parent_path().filename().string();
     if (!api::IsValidRigId(id) && in_folder.count(p.parent_path()) && in_folder[p.parent_path()] == 1 && api::IsValidRigId(folder)) id = folder;
     if (!api::IsValidRigId(id)) {
-      std::fprintf(stderr, "facespace: skipping %s: '%s' is not a valid rig id ([a-z0-9][a-z0-9_-]{0,63})\n", p.c_str(), id.c_str());
+      // Said once, not at every look at the store (--store-poll).
+      if (misnamed_.insert(p.string()).second) {
+        std::fprintf(stderr, "facespace: skipping %s: '%s' is not a valid rig id ([a-z0-9][a-z0-9_-]{0,63}); rename it, or its folder\n",
+                     p.c_str(), id.c_str());
+      }
       continue;
     }
     if (loaded.count(id)) continue;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <map>
+#include <set>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -72,6 +73,7 @@ class FileRigStore : public api::RigStore {
   mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).
   std::mutex write_mu_;       // Serialises uploads, deletes and refreshes.
   std::map<std::string, std::pair<Stamp, Stamp>> reported_;  // Broken files said once (under write_mu_).
+  std::set<std::string> misnamed_;  // Files whose name is no rig id, said once (under write_mu_).
   std::map<std::string, Entry> map_;
   size_t max_vertices_ = 1000000;
   size_t max_shapes_ = 1024;

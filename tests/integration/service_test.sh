@@ -311,6 +311,8 @@ else
 fi
 check "access log: one line per request with method, path, status, bytes, duration" grep -Eq '^GET /v1/rigs/facecap 200 [0-9]+ [0-9.]+ms$' "$tmp/log"
 
+check "a file whose name is no rig id is said once, not at every look at the store (1 s)" test "$(grep -c "'Bad_Id' is not a valid rig id" "$tmp/log")" -eq 1
+
 # graceful shutdown and restart
 kill -TERM "$pid"; wait "$pid"; rc=$?; pid=
 check "SIGTERM: exits 0" test $rc -eq 0
