@@ -46,6 +46,14 @@ std::string Describe(const pugi::xml_node& n) {
 }
 
 // "#id" -> "id" (a bare id is taken as is).
+// A number read from the file, as it would be printed in a message: never cast to an integer
+// type first (a finite double such as 7e65 does not fit in one).
+std::string Number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.10g", v);
+  return text;
+}
+
 std::string_view Fragment(std::string_view url) { return !url.empty() && url[0] == '#' ? url.substr(1) : url; }
 
 // Whitespace separated numbers; false on a token that is not a finite number.
@@ -417,13 +425,13 @@ class Reader {
     out.influences.assign(points, {});
     size_t at = 0;
     for (size_t p = 0; p < points; ++p) {
-      if (vcount[p] < 0 || vcount[p] > 1024) return Bad(Describe(controller) + ": vertex " + std::to_string(p) + " has " + std::to_string(static_cast<long long>(vcount[p])) + " influences");
+      if (vcount[p] < 0 || vcount[p] > 1024) return Bad(Describe(controller) + ": vertex " + std::to_string(p) + " has " + Number(vcount[p]) + " influences");
       for (size_t k = 0; k < static_cast<size_t>(vcount[p]); ++k, ++at) {
         if ((at + 1) * stride > v.size()) return Bad(Describe(controller) + ": <v> ends before the influences <vcount> promises");
         const double j = v[at * stride + static_cast<size_t>(joint_off)], w = v[at * stride + static_cast<size_t>(weight_off)];
         if (w < 0 || w >= static_cast<double>(weights.count) || w != std::floor(w)) return Bad(Describe(controller) + ": a weight index is beyond its source");
         if (j == -1) continue;  // The bind shape itself: no joint.
-        if (j < 0 || j >= static_cast<double>(joints.count) || j != std::floor(j)) return Bad(Describe(controller) + ": vertex " + std::to_string(p) + " names joint " + std::to_string(static_cast<long long>(j)) + " of " + std::to_string(joints.count));
+        if (j < 0 || j >= static_cast<double>(joints.count) || j != std::floor(j)) return Bad(Describe(controller) + ": vertex " + std::to_string(p) + " names joint " + Number(j) + " of " + std::to_string(joints.count));
         const double weight = weights.At(static_cast<size_t>(w))[0];
         if (weight > 0) out.influences[p].emplace_back(static_cast<uint32_t>(j), static_cast<float>(weight));
       }
@@ -810,7 +818,7 @@ class Reader {
           ++skipped;
           continue;
         }
-        const long long index = std::atoll(target.c_str() + open + 1);
+        const long long index = std::strtoll(target.c_str() + open + 1, nullptr, 10);  // Saturates where atoll is undefined.
         if (index < 0 || static_cast<size_t>(index) >= morph_shapes_[src].size()) {
           ++skipped;
           continue;

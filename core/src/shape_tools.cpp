@@ -50,7 +50,10 @@ std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float cente
   std::vector<int32_t> map(n, -1);
   const float cell = std::max(tolerance, 1e-12f) * 2.0f;
   auto key = [cell](float x, float y, float z) {
-    const auto q = [cell](float v) { return static_cast<int64_t>(std::floor(v / cell)); };
+    const auto q = [cell](float v) {  // Clamped: a far vertex over a tiny cell would not fit in 64 bits.
+      const double c = std::floor(static_cast<double>(v) / static_cast<double>(cell));
+      return static_cast<int64_t>(std::isfinite(c) ? std::clamp(c, -9.0e18, 9.0e18) : 0.0);
+    };
     return (static_cast<uint64_t>(q(x)) * 73856093u) ^ (static_cast<uint64_t>(q(y)) * 19349663u) ^ (static_cast<uint64_t>(q(z)) * 83492791u);
   };
   std::unordered_multimap<uint64_t, uint32_t> grid;

@@ -228,6 +228,14 @@ TEST(ColladaHostile, InstanceNodeCyclesAndBadSkinsAreRefused) {
   std::string fixed = doc;
   fixed.replace(fixed.find("JOINT</v>"), 9, "5 0</v>");
   ExpectError(fixed, "names joint 5 of 1");
+  // Numbers too large for any integer are named as written, not cast (UBSan, found by fuzz_dae).
+  fixed = doc;
+  fixed.replace(fixed.find("JOINT</v>"), 9, "7.77778e+65 0</v>");
+  ExpectError(fixed, "names joint 7.77778e+65 of 1");
+  fixed = doc;
+  fixed.replace(fixed.find("JOINT</v>"), 9, "0 0</v>");
+  fixed.replace(fixed.find("<vcount>1 1 1</vcount>"), 22, "<vcount>1 1e30 1</vcount>");
+  ExpectError(fixed, "vertex 1 has 1e+30 influences");
   fixed = doc;
   fixed.replace(fixed.find("JOINT</v>"), 9, "0 0</v>");
   fixed.replace(fixed.find(">n</Name_array>"), 15, ">q</Name_array>");
