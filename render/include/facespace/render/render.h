@@ -85,7 +85,7 @@ class Renderer {
 // a blended rig that does not match the rig.
 Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOptions& options);
 
-// OSMesa (llvmpipe): draws on the calling thread with a GL context leased from a bounded pool
+// OSMesa (llvmpipe, rasterising on one thread per core): draws with a GL context leased from a bounded pool
 // this object owns, so draws run in parallel up to that many and wait beyond it (first come,
 // first served). Each context holds its framebuffer: about 20 MB at 1024 x 1024 samples.
 class OsMesaRenderer final : public Renderer {
