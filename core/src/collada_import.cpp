@@ -45,7 +45,6 @@ std::string Describe(const pugi::xml_node& n) {
   return s + ">";
 }
 
-// "#id" -> "id" (a bare id is taken as is).
 // A number read from the file, as it would be printed in a message: never cast to an integer
 // type first (a finite double such as 7e65 does not fit in one).
 std::string Number(double v) {
@@ -54,6 +53,7 @@ std::string Number(double v) {
   return text;
 }
 
+// "#id" -> "id" (a bare id is taken as is).
 std::string_view Fragment(std::string_view url) { return !url.empty() && url[0] == '#' ? url.substr(1) : url; }
 
 // Whitespace separated numbers; false on a token that is not a finite number.
@@ -585,9 +585,9 @@ class Reader {
     pugi::xml_node init = image.child("init_from");
     std::string uri = trim(init.child("ref") ? init.child_value("ref") : init.child_value());
     if (uri.rfind("file://", 0) == 0) uri.erase(0, 7);
+    const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) ? (std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (c | 0x20) - 'a' + 10) : -1; };
     std::string path;
     for (size_t k = 0; k < uri.size(); ++k) {
-      const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) ? (std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (c | 0x20) - 'a' + 10) : -1; };
       if (uri[k] == '%' && k + 2 < uri.size() && hex(uri[k + 1]) >= 0 && hex(uri[k + 2]) >= 0) {
         path += static_cast<char>(hex(uri[k + 1]) * 16 + hex(uri[k + 2]));
         k += 2;
@@ -599,15 +599,12 @@ class Reader {
     return path;
   }
 
-  // The rig's image for a file beside the model (one per file), its bytes read later by the file's
-  // loader; until then reported as not loaded.
+  // The rig's image for a file beside the model: one per file, however many materials show it.
   int ImageNamed(const std::string& file) {
     for (size_t i = 0; i < rig_.images.size(); ++i) {
       if (rig_.images[i].name == file) return static_cast<int>(i);
     }
-    rig_.images.push_back({file, "", {}});
-    rig_.load_warnings.push_back({"texture_not_loaded", "texture '" + file + "' is not read (a model read from bytes has no folder)", file, 0.0, false});
-    return static_cast<int>(rig_.images.size()) - 1;
+    return AddImageBeside(rig_, file);
   }
 
   int Material(pugi::xml_node inst, const std::string& symbol) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "facespace/core/io.h"
 #include "facespace/core/rig.h"
 #include "mmd.h"
 
@@ -279,9 +280,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       if (image_of[m.texture] < 0) {
         std::string path = textures[m.texture];
         std::replace(path.begin(), path.end(), '\\', '/');
-        image_of[m.texture] = static_cast<int>(rig.images.size());
-        rig.images.push_back({path, "", {}});
-        rig.load_warnings.push_back({"texture_not_loaded", "texture '" + path + "' is not read (a model read from bytes has no folder)", path, 0.0, false});
+        image_of[m.texture] = AddImageBeside(rig, path);
       }
       mat.base_color_image = image_of[m.texture];
     }

@@ -544,6 +544,12 @@ std::filesystem::path FindBeside(const std::filesystem::path& dir, const std::st
 
 }  // namespace
 
+int AddImageBeside(Rig& rig, const std::string& path) {
+  rig.images.push_back({path, "", {}});
+  rig.load_warnings.push_back({"texture_not_loaded", "texture '" + path + "' is not read (a model read from bytes has no folder)", path, 0.0, false});
+  return static_cast<int>(rig.images.size()) - 1;
+}
+
 void LoadImagesBeside(Rig& rig, const std::string& model_path) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(model_path).parent_path().empty() ? fs::path(".") : fs::path(model_path).parent_path();

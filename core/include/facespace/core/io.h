@@ -92,7 +92,10 @@ Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::strin
 // Bezier curves at 60 a second (straight segments keep their keys), morph keys linear. Names matching nothing are a `motion_names_unmatched`
 // warning appended to `warnings`; a motion matching nothing is an error.
 Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings);
-// Reads the rig's images that have a path but no bytes (MMD textures) from the folder of `model_path`:
+// A new image of `rig` for the file at `path` in a model's folder (no bytes yet), with its
+// `texture_not_loaded` warning until LoadImagesBeside reads it; returns its index.
+int AddImageBeside(Rig& rig, const std::string& path);
+// Reads the rig's images that have a path but no bytes (MMD and COLLADA textures) from the folder of `model_path`:
 // paths stay inside that folder (no absolute paths, no ".."; letter case forgiven, as Windows tools
 // write them), at most 64 MiB each, PNG, JPEG, BMP or TGA (mime type from the magic, TGA by its
 // extension). Each image read drops its `texture_not_loaded` warning; the others keep it, saying why.
