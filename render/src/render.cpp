@@ -402,9 +402,9 @@ class OsMesaRenderer::ContextPool {
       Discard();
       return Internal("renderer unavailable: " + context->error);
     }
-    // llvmpipe rasterises each draw on one thread per core (unless LP_NUM_THREADS says otherwise).
-    // Measured (tests/bench/README.md): the 512² FaceCap draw 28 -> 13 ms, and 8 concurrent
-    // MakeHuman renders 25 -> 42 a second, against drawing on the calling thread (LP_NUM_THREADS=0).
+    // llvmpipe rasterises each draw on one thread per core (unless LP_NUM_THREADS says otherwise):
+    // faster than drawing on the calling thread (LP_NUM_THREADS=0), alone and under load
+    // (figures in tests/bench/README.md).
     std::call_once(env_once_, [] { setenv("LP_NUM_THREADS", std::to_string(RasterThreads()).c_str(), 0); });
     context = std::make_unique<Context>();
     if (context->Init()) return Lease(this, std::move(context));
