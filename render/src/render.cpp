@@ -55,30 +55,27 @@ void main() {
 }
 )";
 
-const char* kFragmentShader = R"(#version 330 core
+// One program per variant (Context::Program): MODE (0 shaded with the material, 1 flat colour,
+// 2 heatmap, 3 normals, 4 clay), ALPHA_MODE (0 opaque, 1 mask, 2 blend) and HAS_* (the material's
+// textures) are defined before this text. llvmpipe runs both sides of every branch with masks,
+// so one program branching on uniforms paid for every mode and every texture on each fragment.
+const char* kFragmentShader = R"(
 in vec3 v_pos;
 in vec3 v_normal;
 in vec3 v_world_normal;
 in vec2 v_uv;
 in vec4 v_color;
 in float v_scalar;
-uniform int u_mode;          // 0 shaded (metallic-roughness), 1 flat colour, 2 heatmap, 3 normals, 4 clay
 uniform vec4 u_base_color;   // Linear.
-uniform int u_has_texture;
 uniform sampler2D u_texture; // sRGB texture: sampled as linear.
 uniform vec2 u_metal_rough;
-uniform int u_has_metal_rough;
 uniform sampler2D u_metal_rough_texture;  // Linear: roughness in G, metallic in B.
-uniform int u_has_normal_map;
 uniform float u_normal_scale;
 uniform sampler2D u_normal_texture;       // Linear, tangent space.
-uniform int u_has_occlusion;
 uniform float u_occlusion_strength;
 uniform sampler2D u_occlusion_texture;    // Linear, R.
 uniform vec3 u_emissive;
-uniform int u_has_emissive;
 uniform sampler2D u_emissive_texture;     // sRGB.
-uniform int u_alpha_mode;    // 0 opaque, 1 mask, 2 blend
 uniform float u_alpha_cutoff;
 uniform float u_exposure;    // Multiplies the light before tone mapping.
 uniform float u_heat_max;
@@ -171,43 +168,54 @@ vec3 studio(vec3 n, vec3 v, vec3 albedo, float metallic, float rough, float occl
 void main() {
   vec3 n = normalize(v_normal);
   if (!gl_FrontFacing) n = -n;
-  if (u_mode == 1) { frag = vec4(0.02, 0.02, 0.03, 1.0); return; }
-  if (u_mode == 3) { frag = vec4(srgb_to_linear(normalize(v_world_normal) * 0.5 + 0.5), 1.0); return; }
+#if MODE == 1
+  frag = vec4(0.02, 0.02, 0.03, 1.0);
+#elif MODE == 3
+  frag = vec4(srgb_to_linear(normalize(v_world_normal) * 0.5 + 0.5), 1.0);
+#elif MODE == 2  // Heatmap: the colour map under a plain light, so colours read against the legend.
   vec3 view_dir = normalize(-v_pos);
-  if (u_mode == 2) {  // Heatmap: the colour map under a plain light, so colours read against the legend.
-    vec3 base = srgb_to_linear(viridis(u_heat_max > 0.0 ? v_scalar / u_heat_max : 0.0));
-    vec3 lights[2] = vec3[2](normalize(vec3(-0.45, 0.6, 0.9)), normalize(vec3(0.7, 0.15, 0.6)));
-    float power[2] = float[2](0.85, 0.35);
-    vec3 color = 0.18 * base;
-    for (int i = 0; i < 2; ++i) {
-      float diff = max(dot(n, lights[i]), 0.0);
-      vec3 h = normalize(lights[i] + view_dir);
-      float spec = diff > 0.0 ? pow(max(dot(n, h), 0.0), 48.0) : 0.0;
-      color += power[i] * (diff * base + 0.05 * spec);
-    }
-    frag = vec4(color, 1.0);
-    return;
+  vec3 base = srgb_to_linear(viridis(u_heat_max > 0.0 ? v_scalar / u_heat_max : 0.0));
+  vec3 lights[2] = vec3[2](normalize(vec3(-0.45, 0.6, 0.9)), normalize(vec3(0.7, 0.15, 0.6)));
+  float power[2] = float[2](0.85, 0.35);
+  vec3 color = 0.18 * base;
+  for (int i = 0; i < 2; ++i) {
+    float diff = max(dot(n, lights[i]), 0.0);
+    vec3 h = normalize(lights[i] + view_dir);
+    float spec = diff > 0.0 ? pow(max(dot(n, h), 0.0), 48.0) : 0.0;
+    color += power[i] * (diff * base + 0.05 * spec);
   }
-  if (u_mode == 4) {  // Clay: one neutral material for shape-only work.
-    frag = vec4(pbr_neutral(u_exposure * studio(n, view_dir, vec3(0.42), 0.0, 0.55, 1.0)), 1.0);
-    return;
-  }
+  frag = vec4(color, 1.0);
+#elif MODE == 4  // Clay: one neutral material for shape-only work.
+  frag = vec4(pbr_neutral(u_exposure * studio(n, normalize(-v_pos), vec3(0.42), 0.0, 0.55, 1.0)), 1.0);
+#else
+  vec3 view_dir = normalize(-v_pos);
   vec4 base = u_base_color * v_color;
-  if (u_has_texture == 1) base *= texture(u_texture, v_uv);
-  if (u_alpha_mode == 1 && base.a < u_alpha_cutoff) discard;
+#if HAS_TEXTURE
+  base *= texture(u_texture, v_uv);
+#endif
+#if ALPHA_MODE == 1
+  if (base.a < u_alpha_cutoff) discard;
+#endif
   float metallic = u_metal_rough.x, rough = u_metal_rough.y;
-  if (u_has_metal_rough == 1) {
-    vec4 mr = texture(u_metal_rough_texture, v_uv);
-    rough *= mr.g;
-    metallic *= mr.b;
-  }
-  if (u_has_normal_map == 1) n = mapped_normal(n);
+#if HAS_METAL_ROUGH
+  vec4 mr = texture(u_metal_rough_texture, v_uv);
+  rough *= mr.g;
+  metallic *= mr.b;
+#endif
+#if HAS_NORMAL_MAP
+  n = mapped_normal(n);
+#endif
   float occlusion = 1.0;
-  if (u_has_occlusion == 1) occlusion = 1.0 + u_occlusion_strength * (texture(u_occlusion_texture, v_uv).r - 1.0);
+#if HAS_OCCLUSION
+  occlusion = 1.0 + u_occlusion_strength * (texture(u_occlusion_texture, v_uv).r - 1.0);
+#endif
   vec3 emissive = u_emissive;
-  if (u_has_emissive == 1) emissive *= texture(u_emissive_texture, v_uv).rgb;
+#if HAS_EMISSIVE
+  emissive *= texture(u_emissive_texture, v_uv).rgb;
+#endif
   vec3 color = studio(n, view_dir, base.rgb, clamp(metallic, 0.0, 1.0), rough, occlusion) + emissive;
-  frag = vec4(pbr_neutral(u_exposure * color), u_alpha_mode == 2 ? base.a : 1.0);
+  frag = vec4(pbr_neutral(u_exposure * color), ALPHA_MODE == 2 ? base.a : 1.0);
+#endif
 }
 )";
 
@@ -220,9 +228,11 @@ struct Texture {
 struct Context {
   OSMesaContext ctx = nullptr;
   std::vector<unsigned char> dummy = std::vector<unsigned char>(16 * 16 * 4);
-  GLuint program = 0, vao = 0, vbo = 0, ibo = 0;
+  GLuint vertex_shader = 0, vao = 0, vbo = 0, ibo = 0;
+  std::vector<std::pair<int, GLuint>> programs;  // By ShaderKey, linked on first use.
   GLuint fbo = 0, color = 0, depth = 0;
   int fb_w = 0, fb_h = 0;
+  bool pack_invert = false;  // GL_MESA_pack_invert: glReadPixels can give the rows top first.
   std::list<Texture> textures;  // Most recent first; a few kept.
   // The last render's vertex arrays and read-back, kept so that a render of a size seen
   // before allocates nothing (a 512x512 read-back is 4 MB of floats: new pages each time).
@@ -247,8 +257,13 @@ struct Context {
     if (!MakeCurrent()) return false;
     info = std::string(reinterpret_cast<const char*>(glGetString(GL_RENDERER))) + ", OpenGL " +
            reinterpret_cast<const char*>(glGetString(GL_VERSION));
-    program = Link();
-    if (!program) return false;
+    GLint extensions = 0;
+    glGetIntegerv(GL_NUM_EXTENSIONS, &extensions);
+    for (GLint i = 0; i < extensions; ++i) {
+      if (std::strcmp(reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))), "GL_MESA_pack_invert") == 0) pack_invert = true;
+    }
+    vertex_shader = Compile(GL_VERTEX_SHADER, kVertexShader);
+    if (!vertex_shader || !Program(0)) return false;  // The shaded, untextured variant: every render's first.
     glGenVertexArrays(1, &vao);
     glGenBuffers(1, &vbo);
     glGenBuffers(1, &ibo);
@@ -276,19 +291,32 @@ struct Context {
     return s;
   }
 
-  GLuint Link() {
-    const GLuint vs = Compile(GL_VERTEX_SHADER, kVertexShader), fs = Compile(GL_FRAGMENT_SHADER, kFragmentShader);
-    if (!vs || !fs) return 0;
+  // The fragment program of one variant (ShaderKey), compiled and linked on first use; 0 and
+  // `error` when it fails.
+  GLuint Program(int key) {
+    for (const auto& [k, p] : programs) {
+      if (k == key) return p;
+    }
+    const std::string defines = "#version 330 core\n#define MODE " + std::to_string(key & 7) + "\n#define ALPHA_MODE " +
+                                std::to_string((key >> 3) & 3) + "\n#define HAS_TEXTURE " + std::to_string((key >> 5) & 1) +
+                                "\n#define HAS_METAL_ROUGH " + std::to_string((key >> 6) & 1) + "\n#define HAS_NORMAL_MAP " +
+                                std::to_string((key >> 7) & 1) + "\n#define HAS_OCCLUSION " + std::to_string((key >> 8) & 1) +
+                                "\n#define HAS_EMISSIVE " + std::to_string((key >> 9) & 1) + "\n";
+    const GLuint fs = Compile(GL_FRAGMENT_SHADER, (defines + kFragmentShader).c_str());
+    if (!fs) return 0;
     const GLuint p = glCreateProgram();
-    glAttachShader(p, vs);
+    glAttachShader(p, vertex_shader);
     glAttachShader(p, fs);
     glLinkProgram(p);
+    glDeleteShader(fs);  // Freed with the program.
     GLint ok = 0;
     glGetProgramiv(p, GL_LINK_STATUS, &ok);
     if (!ok) {
+      glDeleteProgram(p);
       error = "shader program failed to link";
       return 0;
     }
+    programs.emplace_back(key, p);
     return p;
   }
 
@@ -316,8 +344,15 @@ struct Context {
   // The GL texture of an encoded image, decoded once per thread (a few kept).
   // Colour maps are sRGB (sampled as linear), data maps (normals, roughness, occlusion) linear.
   GLuint TextureFor(const facespace::Image& image, bool srgb_data) {
-    uint64_t key = (1469598103934665603ull ^ image.bytes.size()) + (srgb_data ? 0 : 0x9e3779b97f4a7c15ull);
-    for (size_t i = 0; i < image.bytes.size(); i += 61) key = (key ^ image.bytes[i]) * 1099511628211ull;
+    // The key: FNV-1a over the whole file up to 64 KB, else its first and last 32 KB (a PNG's
+    // ends with the checksums of all its pixels) and every 61st byte between. Sampling alone
+    // gave two small flat-colour PNGs of the same length the same key (the second drew with the first's colour).
+    const size_t size = image.bytes.size(), edge = size <= 65536 ? size : 32768;
+    uint64_t key = (1469598103934665603ull ^ size) + (srgb_data ? 0 : 0x9e3779b97f4a7c15ull);
+    auto mix = [&key](unsigned char b) { key = (key ^ b) * 1099511628211ull; };
+    for (size_t i = 0; i < edge; ++i) mix(image.bytes[i]);
+    for (size_t i = edge; i + edge < size; i += 61) mix(image.bytes[i]);
+    for (size_t i = std::max(edge, size - edge); i < size; ++i) mix(image.bytes[i]);
     for (auto it = textures.begin(); it != textures.end(); ++it) {
       if (it->key == key) {
         textures.splice(textures.begin(), textures, it);
@@ -354,6 +389,14 @@ struct Context {
 };
 
 float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+
+// A fragment program variant (Context::Program): the mode in bits 0-2, the alpha mode in 3-4,
+// then a bit per texture the material has (base colour, metal-rough, normal, occlusion, emissive).
+int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5]) {
+  int key = mode | alpha_mode << 3;
+  for (int unit = 0; unit < 5; ++unit) key |= textures[unit] ? 1 << (5 + unit) : 0;
+  return key;
+}
 
 // llvmpipe's rasteriser threads per context: one per core, at most 16 (llvmpipe's own limit).
 int RasterThreads() { return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 16u)); }
@@ -662,10 +705,6 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
-  glUseProgram(gl.program);
-  glUniformMatrix4fv(glGetUniformLocation(gl.program, "u_view"), 1, GL_FALSE, view.data());
-  glUniformMatrix4fv(glGetUniformLocation(gl.program, "u_proj"), 1, GL_FALSE, proj.data());
-  glUniform1f(glGetUniformLocation(gl.program, "u_heat_max"), heat_max);
   glBindVertexArray(gl.vao);
   glBindBuffer(GL_ARRAY_BUFFER, gl.vbo);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(verts.size() * 4), verts.data(), GL_STREAM_DRAW);
@@ -678,43 +717,49 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(static_cast<uintptr_t>(offsets[a] * 4)));
   }
   const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : o.view == View::kClay ? 4 : 0;
-  const GLint u_mode = glGetUniformLocation(gl.program, "u_mode");
-  glUniform1f(glGetUniformLocation(gl.program, "u_exposure"), std::exp2(std::clamp(o.exposure, -10.0f, 10.0f)));
+  const float exposure = std::exp2(std::clamp(o.exposure, -10.0f, 10.0f));
   const char* samplers[5] = {"u_texture", "u_metal_rough_texture", "u_normal_texture", "u_occlusion_texture", "u_emissive_texture"};
-  for (int unit = 0; unit < 5; ++unit) glUniform1i(glGetUniformLocation(gl.program, samplers[unit]), unit);
-  // A material's texture on `unit`, with its u_has_* flag; false when there is none.
-  auto bind = [&](int unit, const char* has, int image, bool srgb_data) {
-    const GLuint tex = image >= 0 ? gl.TextureFor(rig.images[static_cast<size_t>(image)], srgb_data) : 0;
-    glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
-    glBindTexture(GL_TEXTURE_2D, tex);
-    glUniform1i(glGetUniformLocation(gl.program, has), tex ? 1 : 0);
-  };
   // A primitive with no material draws as light grey clay, not glTF's default (a rough metal, dark
   // without a detailed environment), so material-less meshes (OBJ, MakeHuman) read as shapes.
   Material none;
   none.base_color_factor = {0.8f, 0.8f, 0.8f, 1.0f};
   none.metallic_factor = 0.0f;
   none.roughness_factor = 0.5f;
-  auto draw_all = [&](int shader_mode) {
-    glUniform1i(u_mode, shader_mode);
+  auto draw_all = [&](int shader_mode) -> Status {
     for (const Draw& d : draws) {
       const Material& mat = d.material >= 0 ? rig.materials[static_cast<size_t>(d.material)] : none;
       const auto& base = mat.base_color_factor;
       const bool blend = mat.alpha_mode == "BLEND";
-      glUniform4f(glGetUniformLocation(gl.program, "u_base_color"), base[0], base[1], base[2], base[3]);
-      glUniform2f(glGetUniformLocation(gl.program, "u_metal_rough"), mat.metallic_factor, mat.roughness_factor);
-      glUniform1f(glGetUniformLocation(gl.program, "u_normal_scale"), mat.normal_scale);
-      glUniform1f(glGetUniformLocation(gl.program, "u_occlusion_strength"), mat.occlusion_strength);
-      glUniform3f(glGetUniformLocation(gl.program, "u_emissive"), mat.emissive_factor[0], mat.emissive_factor[1], mat.emissive_factor[2]);
-      glUniform1i(glGetUniformLocation(gl.program, "u_alpha_mode"), blend ? 2 : mat.alpha_mode == "MASK" ? 1 : 0);
-      glUniform1f(glGetUniformLocation(gl.program, "u_alpha_cutoff"), mat.alpha_cutoff);
-      const bool textured = shader_mode == 0;  // Clay, heatmap, normals and edges use none.
-      bind(0, "u_has_texture", textured ? mat.base_color_image : -1, true);
-      bind(1, "u_has_metal_rough", textured ? mat.metallic_roughness_image : -1, false);
-      bind(2, "u_has_normal_map", textured ? mat.normal_image : -1, false);
-      bind(3, "u_has_occlusion", textured ? mat.occlusion_image : -1, false);
-      bind(4, "u_has_emissive", textured ? mat.emissive_image : -1, true);
-      if (blend && shader_mode == 0) {
+      // The material's textures (clay, heatmap, normals and edges use none), each decoded before
+      // any is bound: a decode binds on the active unit.
+      const bool textured = shader_mode == 0;
+      const int images[5] = {mat.base_color_image, mat.metallic_roughness_image, mat.normal_image, mat.occlusion_image, mat.emissive_image};
+      const bool srgb[5] = {true, false, false, false, true};
+      GLuint textures[5] = {};
+      for (int unit = 0; textured && unit < 5; ++unit) {
+        if (images[unit] >= 0) textures[unit] = gl.TextureFor(rig.images[static_cast<size_t>(images[unit])], srgb[unit]);
+      }
+      const int alpha_mode = !textured ? 0 : blend ? 2 : mat.alpha_mode == "MASK" ? 1 : 0;
+      const GLuint program = gl.Program(ShaderKey(shader_mode, alpha_mode, textures));
+      if (!program) return Internal("renderer: " + gl.error);
+      glUseProgram(program);
+      auto at = [program](const char* name) { return glGetUniformLocation(program, name); };
+      glUniformMatrix4fv(at("u_view"), 1, GL_FALSE, view.data());
+      glUniformMatrix4fv(at("u_proj"), 1, GL_FALSE, proj.data());
+      glUniform1f(at("u_heat_max"), heat_max);
+      glUniform1f(at("u_exposure"), exposure);
+      glUniform4f(at("u_base_color"), base[0], base[1], base[2], base[3]);
+      glUniform2f(at("u_metal_rough"), mat.metallic_factor, mat.roughness_factor);
+      glUniform1f(at("u_normal_scale"), mat.normal_scale);
+      glUniform1f(at("u_occlusion_strength"), mat.occlusion_strength);
+      glUniform3f(at("u_emissive"), mat.emissive_factor[0], mat.emissive_factor[1], mat.emissive_factor[2]);
+      glUniform1f(at("u_alpha_cutoff"), mat.alpha_cutoff);
+      for (int unit = 0; unit < 5; ++unit) {
+        glUniform1i(at(samplers[unit]), unit);
+        glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
+        glBindTexture(GL_TEXTURE_2D, textures[unit]);
+      }
+      if (alpha_mode == 2) {
         glEnable(GL_BLEND);
         glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // "Over", alpha too.
       } else {
@@ -724,32 +769,46 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
       glDrawElements(prim, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
                      reinterpret_cast<void*>(static_cast<uintptr_t>(d.first_index * 4)));
     }
+    return Status::Ok();
   };
   if (o.view == View::kWireframe) {
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.0f, 1.0f);
   }
-  draw_all(mode);
+  Status drawn = draw_all(mode);
   glDisable(GL_POLYGON_OFFSET_FILL);
-  if (o.view == View::kWireframe) {
+  if (o.view == View::kWireframe && drawn.ok()) {
     glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     glDepthFunc(GL_LEQUAL);
-    draw_all(1);
+    drawn = draw_all(1);
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glDepthFunc(GL_LESS);
   }
+  if (!drawn.ok()) return drawn;
+  const int ss = o.supersample;
+  out.width = o.width;
+  out.height = o.height;
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  if (ss == 1 && gl.pack_invert) {
+    // Straight into the image, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
+    out.rgba.resize(static_cast<size_t>(w) * h * 4);
+    glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
+    glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, out.rgba.data());
+    glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
+    if (const GLenum err = glGetError(); err != GL_NO_ERROR) return Internal("GL error " + std::to_string(err));
+    if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
+    return Status::Ok();
+  }
   std::vector<float>& pixels = gl.pixels;
   pixels.resize(static_cast<size_t>(w) * h * 4);
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pixels.data());
   if (const GLenum err = glGetError(); err != GL_NO_ERROR) {
     return Internal("GL error " + std::to_string(err));
   }
   // Box-filter the supersamples (in linear light) and flip to top-row-first.
-  const int ss = o.supersample;
-  out.width = o.width;
-  out.height = o.height;
-  out.rgba.assign(static_cast<size_t>(o.width) * o.height * 4, 0.0f);  // Zeros: the supersamples add up.
+  // Zeros where the supersamples add up; rows copied over whatever was there otherwise.
+  if (ss > 1) out.rgba.assign(static_cast<size_t>(o.width) * o.height * 4, 0.0f);
+  else out.rgba.resize(static_cast<size_t>(o.width) * o.height * 4);
   const float inv = 1.0f / static_cast<float>(ss * ss);
   for (int y = 0; ss == 1 && y < o.height; ++y) {  // No supersampling: rows flipped, as they are.
     std::memcpy(&out.rgba[static_cast<size_t>(y) * o.width * 4], &pixels[static_cast<size_t>(h - 1 - y) * w * 4], static_cast<size_t>(w) * 16);
