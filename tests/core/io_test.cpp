@@ -10,6 +10,8 @@
 #include "facespace/core/io.h"
 #include "facespace/core/pose_request.h"
 #include "facespace/core/weights.h"
+#include "facespace/core/transform.h"
+#include "../../core/src/normal_matrix.h"  // Core-internal: the per-vertex reference.
 #include "test_util.h"
 
 namespace facespace {
@@ -368,6 +370,43 @@ TEST(Export, ObjAndF32InWorldSpace) {
   ASSERT_TRUE(back.ok()) << back.status().message;
   EXPECT_EQ(back->vertex_count(), e.rig.vertex_count());
   EXPECT_EQ(back->triangle_count(), e.rig.triangle_count());
+}
+
+// f32 is written in blocks (positions and normals a block at a time, normals four at a time):
+// bit for bit the per-vertex TransformPoint and NormalMatrix::Apply, under a mirroring, rotating,
+// scaling, moving node, for counts that are no multiple of 4 or 64, a zero normal kept as it is.
+TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
+  for (size_t count : {1u, 5u, 67u, 130u}) {
+    Rig rig;
+    rig.primitives.resize(1);
+    BlendedRig blended;
+    blended.primitives.resize(1);
+    BlendedPrimitive& b = blended.primitives[0];
+    b.world = {0.0f, -2.5f, 0.0f, 0, 0.3f, 0.0f, 0.1f, 0, 0.0f, 0.2f, -1.7f, 0, 4.0f, -5.0f, 6.5f, 1};
+    uint32_t state = 7;
+    auto next = [&state] {
+      state = state * 1664525u + 1013904223u;
+      return static_cast<float>(state >> 8) / 8388608.0f - 1.0f;
+    };
+    for (size_t i = 0; i < 3 * count; ++i) {
+      b.positions.push_back(100.0f * next());
+      b.normals.push_back(next());
+    }
+    if (count > 3) std::fill(b.normals.begin() + 9, b.normals.begin() + 12, 0.0f);
+    auto f32 = ExportMesh(rig, blended, {}, {}, MeshFormat::kF32);
+    ASSERT_TRUE(f32.ok());
+    ASSERT_EQ(f32->size(), count * 24);
+    std::vector<float> expected(6 * count);
+    const NormalMatrix nm(b.world.data(), 4);
+    for (size_t v = 0; v < count; ++v) {
+      TransformPoint(b.world, &b.positions[3 * v], &expected[3 * v]);
+      nm.Apply(&b.normals[3 * v], &expected[3 * (count + v)]);
+    }
+    EXPECT_EQ(std::memcmp(f32->data(), expected.data(), f32->size()), 0) << count << " vertices";
+    if (count > 3) {
+      EXPECT_EQ(expected[3 * count + 9], 0.0f) << "a zero normal stays zero";
+    }
+  }
 }
 
 // The batch's glb writer gives ExportMesh's bytes exactly, variant after variant: FaceCap with
