@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "facespace/core/io.h"
+#include "facespace/core/shape_tools.h"
 #include "facespace/render/render.h"
 
 namespace {
@@ -58,6 +59,9 @@ void BM_Render(benchmark::State& state) {
   EvaluateRig(rig, w, {}, blended, ctx);
   render::RenderOptions o;
   o.width = o.height = size;
+  // The framing box of the shapes, found once per rig as the service keeps it (api's DerivedRig).
+  o.camera.has_focus = ShapeFocusBox(rig, o.camera.focus_min, o.camera.focus_max);
+  o.camera.focus_small = o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
   render::Image image;
   static const render::OsMesaRenderer renderer;
   size_t bytes = 0;
