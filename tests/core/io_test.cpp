@@ -461,5 +461,62 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
   EXPECT_EQ(joined(rig_itself.value()), ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb, {.keep_targets = true}).value());
 }
 
+// The f32 writer kept per rig gives ExportMesh's f32 bytes exactly, whatever the point: FaceCap
+// and MakeHuman with a few shapes and with many, extrapolated, absolute, normals recomputed (a
+// vertex's normal changes where no shape moves it), in world and mesh space; CesiumMan posed by
+// its clip (skinned: every vertex moved) and at rest; a node moved after the blend (placed
+// elsewhere: the whole primitive written again).
+TEST(F32VariantWriter, WritesExportMeshBytes) {
+  BlendedRig out;
+  BlendContext ctx;
+  for (const char* file : {"facecap/facecap.glb", "makehuman/makehuman.glb"}) {
+    auto rig = LoadRigFile(test::Bundled(file));
+    ASSERT_TRUE(rig.ok()) << file;
+    for (bool mesh_space : {false, true}) {
+      const F32VariantWriter writer(rig.value(), mesh_space);
+      uint32_t state = 11;
+      auto next = [&state] {
+        state = state * 1664525u + 1013904223u;
+        return static_cast<float>(state >> 8) / 16777216.0f;  // [0, 1)
+      };
+      for (int i = 0; i < 12; ++i) {
+        std::vector<float> w(rig->shapes.size(), 0.0f);
+        const size_t active = i == 0 ? 0 : i < 8 ? 4 : w.size() / 2;
+        for (size_t k = 0; k < active; ++k) w[static_cast<size_t>(next() * static_cast<float>(w.size()))] = 1.5f * next() - 0.25f;
+        BlendOptions o;
+        if (i == 5) o.mode = BlendMode::kAbsolute;
+        if (i == 6 || i == 9) o.normals = NormalMode::kRecompute;
+        ASSERT_TRUE(EvaluateRig(rig.value(), w, o, out, ctx).ok());
+        auto expected = ExportMesh(rig.value(), out, w, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+        ASSERT_TRUE(expected.ok());
+        ASSERT_TRUE(writer.Write(out) == expected.value()) << file << " point " << i << (mesh_space ? " in mesh space" : "");
+      }
+      out.primitives[0].world[13] += 0.25f;  // The node moved: placed elsewhere than at rest.
+      ASSERT_TRUE(writer.Write(out) == ExportMesh(rig.value(), out, {}, {}, MeshFormat::kF32, {.mesh_space = mesh_space}).value()) << file << ", the node moved";
+    }
+  }
+
+  auto man = LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
+  ASSERT_TRUE(man.ok());
+  const F32VariantWriter writer(man.value(), false);
+  std::vector<float> none;
+  for (float time : {0.8f, 1.7f, -1.0f}) {
+    Pose pose;
+    BlendOptions o;
+    if (time >= 0) {
+      PoseRequest req;
+      req.clips.push_back(ClipRequest{.index = 0, .time = time, .pointer = "/animation"});
+      std::vector<float> w;
+      bool posed = false;
+      std::vector<Warning> warnings;
+      std::vector<WeightEntry> entries;
+      ASSERT_TRUE(ResolvePoseAndWeights(man.value(), entries, req, w, pose, posed, warnings).ok());
+      o.pose = &pose;
+    }
+    ASSERT_TRUE(EvaluateRig(man.value(), none, o, out, ctx).ok());
+    ASSERT_TRUE(writer.Write(out) == ExportMesh(man.value(), out, none, {}, MeshFormat::kF32).value()) << "CesiumMan at " << time;
+  }
+}
+
 }  // namespace
 }  // namespace facespace
