@@ -73,7 +73,7 @@ Result<GlbVariantWriter::Pieces> EncodeGlb(const Rig& rig, const Point& point, c
 }
 
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
-                               Workspace& ws, GlbVariantWriter* glb, const F32VariantWriter* f32) {
+                               Workspace& ws, GlbVariantWriter* glb) {
   if (glb && format == MeshFormat::kGlb) {
     auto pieces = EncodeGlb(rig, point, request, ws, *glb);
     if (!pieces.ok()) return pieces.status();
@@ -83,11 +83,6 @@ Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshReq
   }
   if (Status s = Evaluate(rig, point, request.options, ws); !s.ok()) return s;
   auto start = std::chrono::steady_clock::now();
-  if (f32 && format == MeshFormat::kF32 && f32->mesh_space() == request.mesh_space) {
-    std::string bytes = f32->Write(ws.blended);
-    Lap(start, ws.timing.encode);
-    return bytes;
-  }
   ExportOptions options;
   options.keep_targets = request.keep_targets;
   options.mesh_space = request.mesh_space;
@@ -389,11 +384,8 @@ Result<std::array<std::string_view, 2>> EncodeVariant(const BatchPlan& plan, con
     if (!pieces.ok()) return pieces.status();
     return std::array<std::string_view, 2>{pieces->head, pieces->bin};
   }
-  if (!r.image && r.mesh_format == MeshFormat::kF32 && !encoder.f32) {
-    encoder.f32 = std::make_unique<F32VariantWriter>(*plan.rig, r.render.mesh.mesh_space);
-  }
   auto bytes = r.image ? EncodeImage(*plan.rig, point, r.render, r.image_format, renderer, encoder.ws)
-                       : EncodeMesh(*plan.rig, point, r.render.mesh, r.mesh_format, encoder.ws, nullptr, encoder.f32.get());
+                       : EncodeMesh(*plan.rig, point, r.render.mesh, r.mesh_format, encoder.ws);
   if (!bytes.ok()) return bytes.status();
   encoder.bytes = std::move(bytes.value());
   return std::array<std::string_view, 2>{encoder.bytes, {}};

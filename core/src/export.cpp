@@ -175,49 +175,33 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
   return out;
 }
 
-namespace {
-
-// xyz points [0, count) of `p` placed by `m` into `q`: the one expression every f32 position goes
-// through, so a vertex placed alone (F32VariantWriter) has the bits of one placed in a block.
-inline void PlacePoints(const std::array<float, 16>& m, const float* p, size_t floats, float* q) {
-  for (size_t i = 0; i + 2 < floats; i += 3) {
-    for (int r = 0; r < 3; ++r) q[i + r] = m[r] * p[i] + m[4 + r] * p[i + 1] + m[8 + r] * p[i + 2] + m[12 + r] * 1.0f;
-  }
-}
-
-size_t F32Floats(const BlendedRig& blended) {
+std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
   size_t floats = 0;
   for (const BlendedPrimitive& b : blended.primitives) floats += b.positions.size() + b.normals.size();
-  return floats;
-}
-
-// One primitive's positions into `at` (its place in the positions part), then its normals into
-// `nat`, every vertex.
-void WriteF32Primitive(const BlendedPrimitive& b, const std::array<float, 16>& m, char* at, char* nat) {
-  float q[3 * 64];  // 64 points at a time (vector instructions), then out.
-  for (size_t v = 0; v < b.positions.size(); v += std::size(q)) {
-    const size_t chunk = std::min(std::size(q), b.positions.size() - v);
-    PlacePoints(m, &b.positions[v], chunk, q);
-    std::memcpy(at + v * 4, q, chunk * 4);
-  }
-  const NormalMatrix nm(m.data(), 4);
-  for (size_t v = 0; v < b.normals.size(); v += std::size(q)) {
-    const size_t chunk = std::min(std::size(q), b.normals.size() - v);
-    nm.ApplyMany(&b.normals[v], chunk / 3, q);  // 64 normals at a time (SSE), then out.
-    std::memcpy(nat + v * 4, q, chunk * 4);
-  }
-}
-
-}  // namespace
-
-std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
-  std::string out(F32Floats(blended) * 4, '\0');  // Written in place: x86-64 and ARM64 are little-endian.
-  size_t at = 0, nat = 0;
-  for (const BlendedPrimitive& b : blended.primitives) nat += b.positions.size() * 4;
+  std::string out(floats * 4, '\0');  // Written in place, float by float: x86-64 and ARM64 are little-endian.
+  char* at = out.data();
   for (const BlendedPrimitive& b : blended.primitives) {
-    WriteF32Primitive(b, Placement(b, mesh_space), out.data() + at, out.data() + nat);
-    at += b.positions.size() * 4;
-    nat += b.normals.size() * 4;
+    const auto& m = Placement(b, mesh_space);
+    float q[3 * 64];  // 64 points at a time as TransformPoint does them (vector instructions), then out.
+    for (size_t v = 0; v < b.positions.size(); v += std::size(q)) {
+      const size_t chunk = std::min(std::size(q), b.positions.size() - v);
+      const float* p = &b.positions[v];
+      for (size_t i = 0; i + 2 < chunk; i += 3) {
+        for (int r = 0; r < 3; ++r) q[i + r] = m[r] * p[i] + m[4 + r] * p[i + 1] + m[8 + r] * p[i + 2] + m[12 + r] * 1.0f;
+      }
+      std::memcpy(at, q, chunk * 4);
+      at += chunk * 4;
+    }
+  }
+  for (const BlendedPrimitive& b : blended.primitives) {
+    const NormalMatrix nm(Placement(b, mesh_space).data(), 4);
+    float q[3 * 64];  // 64 normals at a time through ApplyMany, then into the string's bytes.
+    for (size_t v = 0; v < b.normals.size(); v += std::size(q)) {
+      const size_t chunk = std::min(std::size(q), b.normals.size() - v);
+      nm.ApplyMany(&b.normals[v], chunk / 3, q);
+      std::memcpy(at, q, chunk * 4);
+      at += chunk * 4;
+    }
   }
   return out;
 }
@@ -826,62 +810,6 @@ std::string WarningsToJson(std::span<const Warning> warnings) {
     out += '}';
   }
   return out + "]";
-}
-
-F32VariantWriter::F32VariantWriter(const Rig& rig, bool mesh_space) : mesh_space_(mesh_space) {
-  BlendContext ctx;
-  const std::vector<float> zero(rig.shapes.size(), 0.0f);
-  if (!EvaluateRig(rig, zero, {}, rest_, ctx).ok()) {
-    rest_ = {};
-    return;
-  }
-  bytes_ = ExportF32(rest_, mesh_space);
-  for (BlendedPrimitive& b : rest_.primitives) {  // Only positions, normals and placements are compared.
-    b.tangents = {};
-    b.morphed_positions = {};
-  }
-  rest_.node_world = {};
-}
-
-std::string F32VariantWriter::Write(const BlendedRig& blended) const {
-  bool same_shape = blended.primitives.size() == rest_.primitives.size() && !bytes_.empty();
-  for (size_t i = 0; same_shape && i < blended.primitives.size(); ++i) {
-    same_shape = blended.primitives[i].positions.size() == rest_.primitives[i].positions.size() &&
-                 blended.primitives[i].normals.size() == rest_.primitives[i].normals.size();
-  }
-  if (!same_shape) return ExportF32(blended, mesh_space_);
-  std::string out = bytes_;
-  size_t at = 0, nat = 0;
-  for (const BlendedPrimitive& b : blended.primitives) nat += b.positions.size() * 4;
-  for (size_t i = 0; i < blended.primitives.size(); ++i) {
-    const BlendedPrimitive& b = blended.primitives[i];
-    const BlendedPrimitive& r = rest_.primitives[i];
-    const auto& m = Placement(b, mesh_space_);
-    char* pos = out.data() + at;
-    char* nor = out.data() + nat;
-    at += b.positions.size() * 4;
-    nat += b.normals.size() * 4;
-    if (std::memcmp(m.data(), Placement(r, mesh_space_).data(), sizeof m) != 0) {  // Posed elsewhere: every vertex.
-      WriteF32Primitive(b, m, pos, nor);
-      continue;
-    }
-    // The rest's bytes stand for every vertex whose position and normal are the rest's, bit for
-    // bit (the same placement of the same floats); the others are placed again, one at a time.
-    for (size_t v = 0; v + 2 < b.positions.size(); v += 3) {
-      if (std::memcmp(&b.positions[v], &r.positions[v], 12) == 0) continue;
-      float q[3];
-      PlacePoints(m, &b.positions[v], 3, q);
-      std::memcpy(pos + v * 4, q, 12);
-    }
-    const NormalMatrix nm(m.data(), 4);
-    for (size_t v = 0; v + 2 < b.normals.size(); v += 3) {
-      if (std::memcmp(&b.normals[v], &r.normals[v], 12) == 0) continue;
-      float q[3];
-      nm.Apply(&b.normals[v], q);
-      std::memcpy(nor + v * 4, q, 12);
-    }
-  }
-  return out;
 }
 
 Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,

@@ -116,26 +116,6 @@ void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<
   if (e.free.size() < kKeptPerRig) e.free.push_back(std::move(writer));
 }
 
-std::shared_ptr<const F32VariantWriter> F32Writers::For(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    auto it = entries_.find(rig.get());
-    if (it != entries_.end() && it->second.rig.lock() == rig && it->second.writers[mesh_space]) return it->second.writers[mesh_space];
-  }
-  auto made = std::make_shared<const F32VariantWriter>(*rig, mesh_space);  // Outside the lock: a whole evaluation.
-  std::lock_guard<std::mutex> lock(mu_);
-  auto it = entries_.find(rig.get());
-  if (it == entries_.end()) {  // A new entry: the time to drop those whose rig died.
-    std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
-    it = entries_.emplace(rig.get(), Entry{rig, {}}).first;
-  } else if (it->second.rig.lock() != rig) {
-    it->second = Entry{rig, {}};
-  }
-  auto& kept = it->second.writers[mesh_space];
-  if (!kept) kept = std::move(made);  // Another request may have made it meanwhile: one is kept.
-  return kept;
-}
-
 std::string ServerTiming(const Workspace::Timing& timing) {
   std::string out;
   auto add = [&](const char* name, double ms) {

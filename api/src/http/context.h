@@ -93,22 +93,6 @@ class GlbWriters {
   std::map<const Rig*, Entry> entries_;
 };
 
-// f32 writers kept per rig and space (an F32VariantWriter holds one rig's rest-pose bytes),
-// shared by every request: a writer does not change once made. Entries hold the rig weakly, as
-// GlbWriters' do, so a new rig at the address of a dead one never meets its bytes.
-class F32Writers {
- public:
-  std::shared_ptr<const F32VariantWriter> For(const std::shared_ptr<const Rig>& rig, bool mesh_space);
-
- private:
-  struct Entry {
-    std::weak_ptr<const Rig> rig;
-    std::shared_ptr<const F32VariantWriter> writers[2];  // World space, mesh space.
-  };
-  std::mutex mu_;
-  std::map<const Rig*, Entry> entries_;
-};
-
 struct Context {
   Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels);
 
@@ -121,7 +105,6 @@ struct Context {
   WorkspacePool workspaces;
   DerivedRigs derived;
   GlbWriters glb_writers;
-  F32Writers f32_writers;
   const std::string openapi;  // The document, with this server's limits.
 };
 

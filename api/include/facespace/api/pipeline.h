@@ -86,10 +86,9 @@ void CheckPoint(const Rig& rig, BlendMode mode, Point& point);
 
 // The mesh at `point` in `format` (glb keeps the rig's targets when request.keep_targets). With
 // `glb`, a writer that served this same rig before, a blended glb patches its template (the same
-// bytes, a third of the time); with `f32`, this rig's f32 writer (made for the request's space),
-// f32 redoes only the vertices the point moves (the same bytes).
+// bytes, a third of the time).
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
-                               Workspace& ws, GlbVariantWriter* glb = nullptr, const F32VariantWriter* f32 = nullptr);
+                               Workspace& ws, GlbVariantWriter* glb = nullptr);
 
 // The blended glb at `point` as the writer's two pieces (valid until its next call), for callers
 // that write them as they are (batch files) instead of joining them.
@@ -207,7 +206,6 @@ Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> 
 struct VariantEncoder {
   Workspace ws;
   GlbVariantWriter glb;
-  std::unique_ptr<F32VariantWriter> f32;  // Made for the plan's rig on its first f32 variant.
   std::string bytes;
 };
 

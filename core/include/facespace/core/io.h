@@ -182,24 +182,6 @@ class GlbVariantWriter {
   std::unique_ptr<GlbTemplate> t_;
 };
 
-// The f32 bodies of many blended variants of one rig, byte for byte what ExportMesh(kF32) writes:
-// made once from the rig at rest (zero weights, rest pose), each Write copies the rest's bytes
-// and places again only the vertices whose blended position or normal differ from the rest's
-// (bit for bit), so a variant costs what its shapes move rather than the whole mesh. A
-// primitive placed elsewhere (a pose) is written whole. Write takes blends of the rig it was made
-// from; immutable after construction, so threads may share one.
-class F32VariantWriter {
- public:
-  F32VariantWriter(const Rig& rig, bool mesh_space);
-  bool mesh_space() const { return mesh_space_; }
-  std::string Write(const BlendedRig& blended) const;
-
- private:
-  bool mesh_space_;
-  BlendedRig rest_;
-  std::string bytes_;  // ExportF32 of rest_.
-};
-
 // The JSON export's primitives array: [{"mesh", "primitive", "name", "positions", "normals"}],
 // in world space (or each mesh's own with `mesh_space`).
 std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended, bool mesh_space = false);
