@@ -96,7 +96,9 @@ Result<std::string> EncodeImage(const Rig& rig, const Point& point, const Render
                                 render::ImageFormat format, const render::Renderer& renderer, Workspace& ws) {
   if (Status s = Evaluate(rig, point, request.mesh.options, ws); !s.ok()) return s;
   auto start = std::chrono::steady_clock::now();
-  if (Status s = renderer.Draw(rig, ws.blended, request.render, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
+  render::RenderOptions options = request.render;
+  options.srgb8 = format != render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
+  if (Status s = renderer.Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
   Lap(start, ws.timing.draw);
   auto bytes = render::Encode(ws.image, format, request.quality);
   Lap(start, ws.timing.encode);

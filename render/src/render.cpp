@@ -252,8 +252,13 @@ struct Context {
   std::vector<unsigned char> dummy = std::vector<unsigned char>(16 * 16 * 4);
   GLuint vertex_shader = 0, vao = 0, vbo = 0, ibo = 0;
   std::vector<std::pair<int, GLuint>> programs;  // By ShaderKey, linked on first use.
-  GLuint fbo = 0, color = 0, depth = 0;
-  int fb_w = 0, fb_h = 0;
+  // Two render targets, kept apart so that renders of either kind never rebuild the other's: linear
+  // floats (RGBA32F), and 8-bit sRGB (SRGB8_ALPHA8) for pictures that only go to 8-bit files.
+  struct Target {
+    GLuint fbo = 0, color = 0, depth = 0;
+    int w = 0, h = 0;
+  };
+  Target targets[2];
   bool pack_invert = false;  // GL_MESA_pack_invert: glReadPixels can give the rows top first.
   std::list<Texture> textures;  // Most recent first; a few kept.
   // The last render's vertex arrays and read-back, kept so that a render of a size seen
@@ -342,25 +347,32 @@ struct Context {
     return p;
   }
 
-  void Framebuffer(int w, int h) {
-    if (w == fb_w && h == fb_h && fbo) return;
-    if (fbo) {
-      glDeleteFramebuffers(1, &fbo);
-      glDeleteRenderbuffers(1, &color);
-      glDeleteRenderbuffers(1, &depth);
+  // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h.
+  void BindTarget(int w, int h, bool srgb8) {
+    Target& t = targets[srgb8 ? 1 : 0];
+    if (w != t.w || h != t.h || !t.fbo) {
+      if (t.fbo) {
+        glDeleteFramebuffers(1, &t.fbo);
+        glDeleteRenderbuffers(1, &t.color);
+        glDeleteRenderbuffers(1, &t.depth);
+      }
+      glGenFramebuffers(1, &t.fbo);
+      glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
+      glGenRenderbuffers(1, &t.color);
+      glBindRenderbuffer(GL_RENDERBUFFER, t.color);
+      glRenderbufferStorage(GL_RENDERBUFFER, srgb8 ? GL_SRGB8_ALPHA8 : GL_RGBA32F, w, h);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, t.color);
+      glGenRenderbuffers(1, &t.depth);
+      glBindRenderbuffer(GL_RENDERBUFFER, t.depth);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t.depth);
+      t.w = w;
+      t.h = h;
     }
-    glGenFramebuffers(1, &fbo);
-    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
-    glGenRenderbuffers(1, &color);
-    glBindRenderbuffer(GL_RENDERBUFFER, color);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA32F, w, h);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, color);
-    glGenRenderbuffers(1, &depth);
-    glBindRenderbuffer(GL_RENDERBUFFER, depth);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth);
-    fb_w = w;
-    fb_h = h;
+    glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
+    // Shader outputs are linear: GL converts them (and the clear colour, and blends) to sRGB at the store.
+    if (srgb8) glEnable(GL_FRAMEBUFFER_SRGB);
+    else glDisable(GL_FRAMEBUFFER_SRGB);
   }
 
   // The GL texture of an encoded image, decoded once per thread (a few kept).
@@ -546,6 +558,7 @@ Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Rende
   if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
   out.width = o.width;
   out.height = o.height;
+  out.srgb8.clear();
   out.rgba.resize(static_cast<size_t>(o.width) * o.height * 4);
   for (size_t i = 0; i < out.rgba.size(); i += 4) {
     for (int c = 0; c < 3; ++c) out.rgba[i + c] = SrgbToLinear(o.background[c]);
@@ -711,8 +724,10 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   proj(2, 3) = 2.0f * zfar * znear / (znear - zfar);
   proj(3, 2) = -1.0f;
 
-  gl.Framebuffer(w, h);
-  glBindFramebuffer(GL_FRAMEBUFFER, gl.fbo);
+  // Straight to 8 bits where asked and nothing after the draw needs floats (the box filter of
+  // supersamples, the heatmap's legend).
+  const bool srgb8 = o.srgb8 && o.supersample == 1 && o.view != View::kHeatmap && gl.pack_invert;
+  gl.BindTarget(w, h, srgb8);
   glViewport(0, 0, w, h);
   const auto& bg = o.background;
   glClearColor(SrgbToLinear(bg[0]), SrgbToLinear(bg[1]), SrgbToLinear(bg[2]), bg[3]);
@@ -803,6 +818,18 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   out.width = o.width;
   out.height = o.height;
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  if (srgb8) {
+    // The stored sRGB bytes as they are (no conversion on the way out), top row first.
+    glDisable(GL_FRAMEBUFFER_SRGB);
+    out.rgba.clear();
+    out.srgb8.resize(static_cast<size_t>(w) * h * 4);
+    glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
+    glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, out.srgb8.data());
+    glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
+    if (const GLenum err = glGetError(); err != GL_NO_ERROR) return Internal("GL error " + std::to_string(err));
+    return Status::Ok();
+  }
+  out.srgb8.clear();
   if (ss == 1 && gl.pack_invert) {
     // Straight into the image, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
     out.rgba.resize(static_cast<size_t>(w) * h * 4);

@@ -54,9 +54,9 @@ const render::OsMesaRenderer& Renderer() {
   return renderer;
 }
 
-// The 512x512 FaceCap render (jawOpen at 0.5) the encoder benchmarks encode, drawn once.
-const render::Image& FaceCapImage() {
-  static const render::Image image = [] {
+// The 512x512 FaceCap render (jawOpen at 0.5) the encoder benchmarks encode, drawn once as floats
+// and once straight into 8-bit sRGB (RenderOptions::srgb8, what the render route draws for 8-bit files).
+render::Image Draw512(bool srgb8) {
     const Rig& rig = Case(0);
     std::vector<float> w(rig.shapes.size(), 0.0f);
     w[24] = 0.5f;
@@ -65,17 +65,22 @@ const render::Image& FaceCapImage() {
     EvaluateRig(rig, w, {}, blended, ctx);
     render::RenderOptions o;
     o.width = o.height = 512;
+    o.srgb8 = srgb8;
     render::Image drawn;
     (void)Renderer().Draw(rig, blended, o, drawn);
     return drawn;
-  }();
-  return image;
+}
+
+const render::Image& FaceCapImage(bool srgb8 = false) {
+  static const render::Image floats = Draw512(false), bytes = Draw512(true);
+  return srgb8 ? bytes : floats;
 }
 
 void BM_Render(benchmark::State& state) {
   const Rig& rig = Case(static_cast<int>(state.range(0)));
   const int size = static_cast<int>(state.range(1));
   const bool png = state.range(2) != 0;
+  const bool srgb8 = state.range(3) != 0;
   std::vector<float> w(rig.shapes.size(), 0.0f);
   if (!w.empty()) w[24] = 0.5f;  // jawOpen on FaceCap.
   BlendedRig blended;
@@ -83,6 +88,7 @@ void BM_Render(benchmark::State& state) {
   EvaluateRig(rig, w, {}, blended, ctx);
   render::RenderOptions o;
   o.width = o.height = size;
+  o.srgb8 = srgb8;
   // The framing box of the shapes, found once per rig as the service keeps it (api's DerivedRig).
   o.camera.has_focus = ShapeFocusBox(rig, o.camera.focus_min, o.camera.focus_max);
   o.camera.focus_small = o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
@@ -93,14 +99,14 @@ void BM_Render(benchmark::State& state) {
     if (png) bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
     benchmark::DoNotOptimize(image.rgba.data());
   }
-  state.SetLabel(std::string(state.range(0) == 0 ? "facecap 8k tris" : "sheet 100k tris") + (png ? " + PNG" : ""));
+  state.SetLabel(std::string(state.range(0) == 0 ? "facecap 8k tris" : "sheet 100k tris") + (srgb8 ? ", 8-bit sRGB" : ", float") + (png ? " + PNG" : ""));
   state.counters["triangles"] = static_cast<double>(rig.triangle_count());
   if (png) state.counters["png_KB"] = bytes / 1024.0;
 }
 
 BENCHMARK(BM_Render)
-    ->ArgsProduct({{0, 1}, {512, 1024}, {0, 1}})
-    ->ArgNames({"mesh", "size", "png"})
+    ->ArgsProduct({{0, 1}, {512, 1024}, {0, 1}, {0, 1}})
+    ->ArgNames({"mesh", "size", "png", "srgb8"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()  // llvmpipe's threads do the drawing: the wall clock is what a client waits.
     ->MinTime(1.0);
@@ -143,19 +149,19 @@ void BM_Encode(benchmark::State& state) {
   state.counters["KB"] = bytes / 1024.0;
 }
 
-// Our PNG writer (render::Encode) on the same 512x512 FaceCap render, from the float image:
-// the sRGB conversion, UP filter and zlib level 1 in one pass, in parts on one thread per core.
+// Our PNG writer (render::Encode) on the same 512x512 FaceCap render, from the float image (the
+// sRGB conversion, UP filter and igzip level 1 in one pass) or from the 8-bit draw (UP and igzip).
 void BM_EncodeOurs(benchmark::State& state) {
-  const render::Image& image = FaceCapImage();
-  if (image.rgba.empty()) state.SkipWithError("render failed");
+  const render::Image& image = FaceCapImage(state.range(0) != 0);
+  if (image.rgba.empty() && image.srgb8.empty()) state.SkipWithError("render failed");
   size_t bytes = 0;
   for (auto _ : state) {
     bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
   }
-  state.SetLabel("png ours (float in, level 1, UP)");
+  state.SetLabel(state.range(0) ? "png ours (8-bit sRGB in, igzip level 1, UP)" : "png ours (float in, igzip level 1, UP)");
   state.counters["KB"] = bytes / 1024.0;
 }
-BENCHMARK(BM_EncodeOurs)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_EncodeOurs)->ArgName("srgb8")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
 
 // PNG_FILTER_NONE 0x08, SUB 0x10, UP 0x20, PAETH 0x80.
 BENCHMARK(BM_Encode)

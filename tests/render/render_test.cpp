@@ -123,6 +123,75 @@ TEST(Render, EmptyBackgroundStaysBackground) {
   for (size_t i = 3; i < im.rgba.size(); i += 4) ASSERT_EQ(im.rgba[i], 0.0f);
 }
 
+// A draw straight into 8-bit sRGB (what the render route asks for 8-bit files) gives the float
+// draw's picture: every channel of the textured FaceCap head within one 8-bit step of the float
+// draw's value rounded to 8-bit sRGB, alpha exact, over an opaque and a transparent background.
+// The heatmap (its legend is drawn on floats) and supersampling (box-filtered in floats) draw floats.
+TEST(Render, EightBitDrawIsTheFloatDrawToAStep) {
+  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  std::vector<float> w(rig->shapes.size(), 0.0f);
+  w[static_cast<size_t>(FindShape(rig.value(), "jawOpen"))] = 0.5f;
+  const BlendedRig blended = Evaluate(rig.value(), w);
+  for (const float alpha : {1.0f, 0.0f}) {
+    RenderOptions o;
+    o.width = 200;
+    o.height = 160;
+    o.background[3] = alpha;
+    Image floats, bytes;
+    ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, floats).ok());
+    o.srgb8 = true;
+    ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, bytes).ok());
+    ASSERT_TRUE(floats.srgb8.empty());
+    ASSERT_TRUE(bytes.rgba.empty());
+    ASSERT_EQ(bytes.srgb8.size(), floats.rgba.size());
+    size_t off_by_one = 0, wrong = 0, transparent = 0;
+    for (size_t i = 0; i < floats.rgba.size(); ++i) {
+      const float v = std::clamp(floats.rgba[i], 0.0f, 1.0f);
+      const int want = static_cast<int>(std::lround((i % 4 == 3 ? v : Srgb(v)) * 255.0f));
+      const int d = std::abs(bytes.srgb8[i] - want);
+      off_by_one += d == 1;
+      wrong += i % 4 == 3 ? d != 0 : d > 1;
+      transparent += i % 4 == 3 && bytes.srgb8[i] == 0;
+    }
+    EXPECT_EQ(wrong, 0u) << "alpha " << alpha;
+    EXPECT_LT(off_by_one, floats.rgba.size() / 20) << "alpha " << alpha;  // Rounding at a step's edge, not a shift.
+    if (alpha == 0.0f) EXPECT_GT(transparent, floats.rgba.size() / 4 / 10);  // The background around the head.
+    else EXPECT_EQ(transparent, 0u);
+  }
+  RenderOptions o;
+  o.width = o.height = 64;
+  o.srgb8 = true;
+  for (const bool heatmap : {true, false}) {
+    o.view = heatmap ? render::View::kHeatmap : render::View::kShaded;
+    o.supersample = heatmap ? 1 : 2;
+    Image im;
+    ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, im).ok());
+    EXPECT_TRUE(im.srgb8.empty());
+    EXPECT_EQ(im.rgba.size(), 64u * 64u * 4u);
+  }
+}
+
+// The heatmap's legend on images too small for it: drawn as far as it fits, never aborting the
+// process (OpenImageIO asserts on text wholly above the image, which a 64-pixel legend's title was).
+TEST(Render, HeatmapLegendOnSmallImages) {
+  Rig cube = UnitCube();
+  for (const int size : {1, 16, 40, 64, 100}) {
+    RenderOptions o = HeadOn(size);
+    o.view = render::View::kHeatmap;
+    Image im;
+    ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok()) << size;
+    EXPECT_EQ(im.rgba.size(), static_cast<size_t>(size) * size * 4);
+  }
+  Image im;
+  im.width = im.height = 64;
+  im.rgba.assign(64 * 64 * 4, 0.0f);
+  EXPECT_FALSE(render::DrawText(im, 2, -30, "displacement", 10, {1, 1, 1}));  // Wholly above: not drawn.
+  EXPECT_TRUE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
+  EXPECT_TRUE(render::DrawText(im, 2, 30, "displacement", 10, {1, 1, 1}));
+  EXPECT_FALSE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
+}
+
 TEST(Render, UnitCubeHeadOnCoversExpectedArea) {
   Rig cube = UnitCube();
   const int size = 256;
@@ -616,20 +685,27 @@ TEST(Render, EncodeDecodeRoundTrip) {
   EXPECT_FALSE(render::Decode(std::vector<unsigned char>{1, 2, 3, 4, 5, 6, 7, 8, 9}).ok());
 }
 
-// Our PNG writer: an image large enough to be deflated in parts on several threads (joined into one
-// zlib stream, as pigz does; rows split unevenly here) comes back from libpng byte for byte: every
-// channel to the nearest 8-bit sRGB step, alpha included, the rows in order. Also the smallest image.
-TEST(Render, PngInPartsDecodesExactly) {
-  for (auto [w, h] : {std::pair{523, 777}, std::pair{1, 1}}) {
+// Our PNG writer (igzip, batches of rows): images come back from libpng byte for byte, every colour
+// channel to the nearest 8-bit sRGB step and alpha exactly, the rows in order. An image whose alpha
+// is all 1 is written as RGB (3 channels), any other as RGBA. Noise in every byte (nothing to
+// compress: the output buffer has to grow), noise beside gradients, and the smallest image.
+TEST(Render, PngDecodesExactlyAsRgbWhenOpaqueElseRgba) {
+  struct Case {
+    int w, h;
+    bool opaque, all_noise;
+  };
+  for (const Case c : {Case{523, 777, false, false}, Case{523, 777, true, false}, Case{1500, 1100, true, true},
+                       Case{700, 300, false, true}, Case{1, 1, false, false}, Case{1, 1, true, false}}) {
     Image im;
-    im.width = w;
-    im.height = h;
-    im.rgba.resize(static_cast<size_t>(w) * h * 4);
+    im.width = c.w;
+    im.height = c.h;
+    im.rgba.resize(static_cast<size_t>(c.w) * c.h * 4);
     uint32_t state = 12345;
     for (size_t i = 0; i < im.rgba.size(); ++i) {
-      state = state * 1664525u + 1013904223u;  // Noise in half the channels, gradients in the rest.
+      state = state * 1664525u + 1013904223u;  // Noise in half the channels (or all), gradients in the rest.
       const size_t px = i / 4;
-      im.rgba[i] = (i % 2) ? static_cast<float>(state >> 8) / 16777216.0f : static_cast<float>((px % w + px / w) % 256) / 255.0f;
+      im.rgba[i] = (i % 2 || c.all_noise) ? static_cast<float>(state >> 8) / 16777216.0f : static_cast<float>((px % c.w + px / c.w) % 256) / 255.0f;
+      if (c.opaque && i % 4 == 3) im.rgba[i] = 1.0f;
     }
     auto png = render::Encode(im, render::ImageFormat::kPng);
     ASSERT_TRUE(png.ok());
@@ -638,18 +714,21 @@ TEST(Render, PngInPartsDecodesExactly) {
     config.attribute("oiio:UnassociatedAlpha", 1);  // The file's values: no premultiplying on read.
     auto in = OIIO::ImageInput::create("image.png", true, &config, &proxy);
     ASSERT_TRUE(in) << OIIO::geterror();
-    ASSERT_EQ(in->spec().width, w);
-    ASSERT_EQ(in->spec().height, h);
-    ASSERT_EQ(in->spec().nchannels, 4);
-    std::vector<unsigned char> px(im.rgba.size());
-    ASSERT_TRUE(in->read_image(0, 0, 0, 4, OIIO::TypeDesc::UINT8, px.data())) << in->geterror();
+    ASSERT_EQ(in->spec().width, c.w);
+    ASSERT_EQ(in->spec().height, c.h);
+    const int channels = c.opaque ? 3 : 4;
+    ASSERT_EQ(in->spec().nchannels, channels);
+    std::vector<unsigned char> px(static_cast<size_t>(c.w) * c.h * channels);
+    ASSERT_TRUE(in->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, px.data())) << in->geterror();
     size_t wrong = 0;
-    for (size_t i = 0; i < px.size(); ++i) {
-      const float v = std::clamp(im.rgba[i], 0.0f, 1.0f);
-      const int expected = static_cast<int>(std::lround((i % 4 == 3 ? v : Srgb(v)) * 255.0f));
-      wrong += std::abs(px[i] - expected) > (i % 4 == 3 ? 0 : 1);  // The sRGB table may round the other way at a step's edge.
+    for (size_t p = 0; p < static_cast<size_t>(c.w) * c.h; ++p) {
+      for (int ch = 0; ch < channels; ++ch) {
+        const float v = std::clamp(im.rgba[4 * p + ch], 0.0f, 1.0f);
+        const int expected = static_cast<int>(std::lround((ch == 3 ? v : Srgb(v)) * 255.0f));
+        wrong += std::abs(px[p * channels + ch] - expected) > (ch == 3 ? 0 : 1);  // The sRGB table may round the other way at a step's edge.
+      }
     }
-    EXPECT_EQ(wrong, 0u) << w << "x" << h;
+    EXPECT_EQ(wrong, 0u) << c.w << "x" << c.h;
   }
 }
 
@@ -780,6 +859,17 @@ void PrintTo(const GoldenCase& c, std::ostream* os) { *os << c.name; }
 
 class Golden : public ::testing::TestWithParam<GoldenCase> {};
 
+// The image as RGBA: an opaque render's PNG is RGB (alpha 1 added here), so it compares with
+// goldens written as RGBA. Uninitialized when the file cannot be read.
+OIIO::ImageBuf ReadWithAlpha(const std::string& path) {
+  OIIO::ImageBuf in(path);
+  if (!in.read()) return {};
+  if (in.nchannels() == 4) return in;
+  const int order[4] = {0, 1, 2, -1};
+  const float fill[4] = {0, 0, 0, 1};
+  return OIIO::ImageBufAlgo::channels(in, 4, order, fill);
+}
+
 TEST_P(Golden, MatchesCommittedImage) {
   const GoldenCase& c = GetParam();
   // '@': bundled in assets/; '+': the shared more/ data (FBX, COLLADA, MD5); else the shared real/ glTFs.
@@ -832,11 +922,10 @@ TEST_P(Golden, MatchesCommittedImage) {
   }
   // Keep what we rendered beside the build for a person to look at when this fails.
   test::WriteBytes(std::string(c.name) + ".actual.png", png.value());
-  OIIO::ImageBuf expected(golden);
-  ASSERT_TRUE(expected.read()) << "missing golden " << golden;
-  std::vector<unsigned char> bytes(png->begin(), png->end());
-  OIIO::ImageBuf actual(std::string(c.name) + ".actual.png");
-  ASSERT_TRUE(actual.read());
+  OIIO::ImageBuf expected = ReadWithAlpha(golden);
+  ASSERT_TRUE(expected.initialized()) << "missing golden " << golden;
+  OIIO::ImageBuf actual = ReadWithAlpha(std::string(c.name) + ".actual.png");
+  ASSERT_TRUE(actual.initialized());
   // OIIO's comparison: a pixel fails when a channel differs by more than 6/255; allow 0.5%
   // of the pixels to (rasterisation on another CPU may move an edge by a pixel).
   const auto cmp = OIIO::ImageBufAlgo::compare(actual, expected, 6.0f / 255.0f, 2.0f / 255.0f);

@@ -59,13 +59,20 @@ struct RenderOptions {
   std::array<float, 4> background{0.86f, 0.87f, 0.89f, 1.0f};  // sRGB, alpha 0 = transparent.
   int supersample = 1;                           // 1..4: render at N x N the size, box-filter down.
   float exposure = 0.0f;                         // Stops (EV) before tone mapping: +1 twice the light.
+  // Draw into 8-bit sRGB (Image::srgb8) rather than linear floats, for a picture that only goes to
+  // an 8-bit file: GL converts at its store, so there is no float frame to clear, read back and
+  // convert. Ignored (floats drawn) with supersampling and the heatmap, which work on floats after.
+  bool srgb8 = false;
 };
 
-// Linear-light RGBA, top row first. Encoding converts to sRGB for 8-bit formats.
+// Linear-light RGBA, top row first. Encoding converts to sRGB for 8-bit formats. A draw asked for
+// 8 bits (RenderOptions::srgb8) fills `srgb8` instead (8-bit sRGB RGBA, straight alpha, top row
+// first) and leaves `rgba` empty; Encode takes either.
 struct Image {
   int width = 0;
   int height = 0;
   std::vector<float> rgba;
+  std::vector<unsigned char> srgb8;
 };
 
 // Draws a blended rig (the rig evaluated at some weights) with the rig's node transforms and
