@@ -198,9 +198,11 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
   BlendShapeJob job{.base = p.positions, .weights = tw, .targets = p.targets,
                     .channel = TargetChannel::kPosition, .stride = 3, .out = bp.positions};
   if (!job.Run()) return false;
-  std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
-  std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
-  if (!any_active) return true;
+  if (!any_active) {
+    std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
+    std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
+    return true;
+  }
 
   // Union of the vertices the active targets move.
   const size_t n = p.vertex_count();
@@ -221,13 +223,15 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
   }
   for (uint32_t v : ctx.moved) ctx.vertex_mark[v] = 0;
 
+  // A blend job starts from a copy of its base: the base is copied here only where no job runs.
   std::span<const uint32_t> changed = ctx.moved;  // Vertices whose normal may differ.
   if (can_blend_normals) {
     BlendShapeJob nj{.base = p.normals, .weights = tw, .targets = p.targets,
                      .channel = TargetChannel::kNormal, .stride = 3, .out = bp.normals};
-    nj.Run();
+    if (!nj.Run()) std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
     for (uint32_t v : ctx.moved) Normalize3(&bp.normals[3 * static_cast<size_t>(v)]);
   } else {
+    std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
     RecomputeNormalsAround(p, bp.positions, ctx.moved, bp.normals, ctx);
     changed = ctx.affected;
   }
@@ -235,7 +239,9 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
   if (can_blend_tangents) {
     BlendShapeJob tj{.base = p.tangents, .weights = tw, .targets = p.targets,
                      .channel = TargetChannel::kTangent, .stride = 4, .out = bp.tangents};
-    tj.Run();
+    if (!tj.Run()) std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
+  } else {
+    std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
   }
   // Keep the tangents of changed vertices orthogonal to their normals (Gram-Schmidt);
   // w (handedness) is kept.

@@ -178,8 +178,10 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
 std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
   size_t floats = 0;
   for (const BlendedPrimitive& b : blended.primitives) floats += b.positions.size() + b.normals.size();
-  std::string out(floats * 4, '\0');  // Written in place, float by float: x86-64 and ARM64 are little-endian.
-  char* at = out.data();
+  // Appended in blocks from a small buffer, float by float as they are (x86-64 and ARM64 are
+  // little-endian), into reserved room: no zero fill of 100 KB first.
+  std::string out;
+  out.reserve(floats * 4);
   for (const BlendedPrimitive& b : blended.primitives) {
     const auto& m = Placement(b, mesh_space);
     float q[3 * 64];  // 64 points at a time as TransformPoint does them (vector instructions), then out.
@@ -189,8 +191,7 @@ std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
       for (size_t i = 0; i + 2 < chunk; i += 3) {
         for (int r = 0; r < 3; ++r) q[i + r] = m[r] * p[i] + m[4 + r] * p[i + 1] + m[8 + r] * p[i + 2] + m[12 + r] * 1.0f;
       }
-      std::memcpy(at, q, chunk * 4);
-      at += chunk * 4;
+      out.append(reinterpret_cast<const char*>(q), chunk * 4);
     }
   }
   for (const BlendedPrimitive& b : blended.primitives) {
@@ -199,8 +200,7 @@ std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
     for (size_t v = 0; v < b.normals.size(); v += std::size(q)) {
       const size_t chunk = std::min(std::size(q), b.normals.size() - v);
       nm.ApplyMany(&b.normals[v], chunk / 3, q);
-      std::memcpy(at, q, chunk * 4);
-      at += chunk * 4;
+      out.append(reinterpret_cast<const char*>(q), chunk * 4);
     }
   }
   return out;

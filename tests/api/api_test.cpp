@@ -206,6 +206,34 @@ TEST_F(ApiTest, EveryRenderSettingHasItsOwnCacheEntry) {
   }
 }
 
+// The response cache keeps a render at once and a mesh (cheap to make again) only when it is asked
+// for a second time: the third identical mesh request is the first hit, the second render is. Every
+// answer has the same bytes and ETag. A point asked for once is not kept.
+TEST_F(ApiTest, MeshesAreKeptOnTheirSecondRequestRendersOnTheirFirst) {
+  auto timing = [](const httplib::Result& r) { return r ? r->get_header_value("Server-Timing") : std::string("no answer"); };
+  const std::string hit = "cache;desc=\"hit\"";
+  const std::string mesh = "/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.123457&w.eyeBlink_L=0.3";
+  std::vector<httplib::Result> answers;
+  for (int i = 0; i < 3; ++i) answers.push_back(Client().Get(mesh));
+  for (const auto& r : answers) {
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    EXPECT_EQ(r->body, answers[0]->body);
+    EXPECT_EQ(r->get_header_value("ETag"), answers[0]->get_header_value("ETag"));
+  }
+  EXPECT_NE(timing(answers[0]), hit);
+  EXPECT_NE(timing(answers[1]), hit);  // Made again, and now kept.
+  EXPECT_EQ(timing(answers[2]), hit);
+  EXPECT_NE(timing(Client().Get("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.654321")), hit);  // Another point.
+
+  const std::string render = "/v1/rigs/facecap/render?width=24&height=24&w.jawOpen=0.123457";
+  auto first = Client().Get(render), second = Client().Get(render);
+  ASSERT_TRUE(first && second);
+  EXPECT_NE(timing(first), hit);
+  EXPECT_EQ(timing(second), hit);
+  EXPECT_EQ(first->body, second->body);
+}
+
 TEST_F(ApiTest, SheetRefusesMoreCellsThanConfigured) {
   auto r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{}, {}, {}, {}], "width": 16, "height": 16})", "application/json");
   ASSERT_TRUE(r);

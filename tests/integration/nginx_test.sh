@@ -98,8 +98,12 @@ def worker(k):
         path = "/v1/rigs/facecap/mesh?w.jawOpen=%.4f&w.mouthSmile_L=%.4f&format=f32" % (rnd.random(), rnd.random())
         try:
             c.request("GET", path); r = c.getresponse(); r.read(); code = r.status
-        except Exception:
-            c.close(); c = http.client.HTTPConnection(host, port, timeout=30); code = "error"
+        except http.client.IncompleteRead:
+            # Cut mid-body: nginx had begun relaying this response when its instance died, and no
+            # proxy can take back bytes it has sent. A client asks again (the GET is idempotent).
+            c.close(); c = http.client.HTTPConnection(host, port, timeout=30); code = "cut"
+        except Exception as e:
+            c.close(); c = http.client.HTTPConnection(host, port, timeout=30); code = "error-" + type(e).__name__
         with lock: codes[code] = codes.get(code, 0) + 1
 t0 = time.time()
 ts = [threading.Thread(target=worker, args=(k,)) for k in range(conc)]
@@ -115,8 +119,11 @@ before=$(( $(grep -c '^GET /v1/rigs/facecap/mesh' "$tmp/log2") - served ))
 kill -0 $lpid 2>/dev/null && mid=1 || mid=0
 kill -9 "${pids[2]}"; wait "${pids[2]}" 2>/dev/null
 wait $lpid
-check "6000 GETs from 16 clients, instance 3 SIGKILLed mid-load (after serving $before): all 200 ($(cat "$tmp/load.out"))" \
-  sh -c "[ $mid = 1 ] && [ $before -gt 20 ] && grep -Eq '^200:6000 ' '$tmp/load.out'"
+# Every GET is 200 but for the few (at most one per connection nginx had open to it) whose response
+# was cut mid-body by the kill: nginx retries what it had not begun to relay, and a client asks again
+# for what it had (seen once in a loaded ctest -j2 run: 200:5999 and one cut).
+check "6000 GETs from 16 clients, instance 3 SIGKILLed mid-load (after serving $before): all 200 but the few cut mid-body ($(cat "$tmp/load.out"))" \
+  sh -c "[ $mid = 1 ] && [ $before -gt 20 ] && ! grep -q error '$tmp/load.out' && python3 -c \"import re,sys; d=dict(kv.split(':') for kv in open(sys.argv[1]).read().split() if ':' in kv); sys.exit(0 if int(d['200'])+int(d.get('cut',0))==6000 and int(d.get('cut',0))<=4 else 1)\" '$tmp/load.out'"
 check "  ... the other two keep serving, through nginx and directly" sh -c "for n in 1 2 3 4; do [ \$(curl -s -o /dev/null -w '%{http_code}' '$F/v1/rigs/facecap') = 200 ] || exit 1; done && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[0]}/healthz') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[1]}/healthz') = 200 ]"
 
 # A delete through nginx reaches the survivors.

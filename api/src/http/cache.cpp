@@ -32,6 +32,23 @@ void ResponseCache::Put(const std::string& key, std::shared_ptr<const Encoded> v
   }
 }
 
+bool ResponseCache::SeenBefore(size_t hash) {
+  const uint64_t tag = static_cast<uint64_t>(hash) | 1;  // Never 0, an empty slot.
+  std::atomic<uint64_t>& slot = doorkeeper_[(hash >> 17) % kDoorkeeperSlots];  // Not the bits ShardOf uses.
+  if (slot.load(std::memory_order_relaxed) == tag) {
+    slot.store(0, std::memory_order_relaxed);
+    return true;
+  }
+  slot.store(tag, std::memory_order_relaxed);
+  return false;
+}
+
+bool ResponseCache::Offer(const std::string& key, std::shared_ptr<const Encoded> value, Admit admit) {
+  if (admit == Admit::kSecondRequest && !SeenBefore(std::hash<std::string>()(key))) return false;
+  Put(key, std::move(value));
+  return true;
+}
+
 size_t ResponseCache::Bytes() {
   size_t total = 0;
   for (Shard& s : shards_) {
@@ -112,8 +129,9 @@ std::string RenderCanonical(const RenderRequest& r, render::ImageFormat format) 
 }
 
 bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key) {
-  char etag[24];
-  std::snprintf(etag, sizeof etag, "\"%016" PRIx64 "\"", Fnv1a(key));
+  char etag[19] = "\"0000000000000000\"";  // "%016" PRIx64 in quotes, by table.
+  const uint64_t hash = Fnv1a(key);
+  for (int i = 0; i < 16; ++i) etag[1 + i] = "0123456789abcdef"[(hash >> (60 - 4 * i)) & 15];
   res.set_header("ETag", etag);
   res.set_header("Cache-Control", req.method == "GET" || req.method == "HEAD" ? "public, no-cache" : "no-store");
   res.set_header("Vary", "Accept");

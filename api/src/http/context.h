@@ -118,11 +118,11 @@ std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& r
 template <typename T, typename Parse>
 bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse parse, T& out);
 
-// Answers from the response cache, or with `produce()` (the encoded body), which is then cached
-// under `key`. A failed `produce` is sent as its Status.
+// Answers from the response cache, or with `produce()` (the encoded body), which is then offered
+// to the cache under `key` (kept as `admit` says). A failed `produce` is sent as its Status.
 template <typename Produce>
 void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
-                const char* content_type, Produce produce);
+                const char* content_type, Admit admit, Produce produce);
 
 // After the pipeline's first step: Facespace-Weight-Sum and Facespace-Warnings set, warnings
 // counted; false when `status` is an error, which was sent (a strict refusal with its warnings).

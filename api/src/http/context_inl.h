@@ -26,7 +26,7 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
 
 template <typename Produce>
 void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
-                const char* content_type, Produce produce) {
+                const char* content_type, Admit admit, Produce produce) {
   std::shared_ptr<const Encoded> enc = ctx.cache.Get(key);
   ctx.metrics.CountCache(enc != nullptr);
   if (!enc) {
@@ -46,7 +46,7 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
     e->body = std::move(bytes.value());
     e->content_type = content_type;
     enc = e;
-    ctx.cache.Put(key, enc);
+    ctx.cache.Offer(key, enc, admit);
     res.set_header("Server-Timing", ServerTiming(timing));
   } else {
     res.set_header("Server-Timing", "cache;desc=\"hit\"");

@@ -61,9 +61,8 @@ std::string SfString(const std::string& s) {
 std::string SfDecimal(double v) {
   if (!std::isfinite(v)) v = 0;
   v = std::max(-999999999999.0, std::min(999999999999.0, v));
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.3f", v);
-  std::string s = buf;
+  char buf[40];  // "%.3f" by std::to_chars (the same digits, without printf's parsing).
+  std::string s(buf, std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed, 3).ptr);
   while (s.size() > 1 && s.back() == '0' && s[s.size() - 2] != '.') s.pop_back();
   return s;
 }

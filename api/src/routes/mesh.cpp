@@ -109,7 +109,7 @@ void GetOrPostMesh(Context& ctx, const httplib::Request& req, httplib::Response&
   if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
   const std::string key = stored->id + "|" + stored->version + "|" + MeshCanonical(r, *format, point);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, MeshFormatMimeType(*format), [&](Workspace& ws) -> Result<std::string> {
+  SendCached(ctx, req, res, key, MeshFormatMimeType(*format), Admit::kSecondRequest, [&](Workspace& ws) -> Result<std::string> {
     const auto at = ctx.derived.RigAt(stored, r.lod);
     if (!at) return Internal("the level of detail failed");
     ctx.metrics.CountBlends(1);

@@ -45,7 +45,7 @@ void GetOrPostRender(Context& ctx, const httplib::Request& req, httplib::Respons
   const std::string key = stored->id + "|" + stored->version + "|render|" + RenderCanonical(r, *format) + "|lod" +
                           std::to_string(r.mesh.lod) + "|" + WeightsCanonical(point.weights) + PoseCanonical(point);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), [&](Workspace& ws) -> Result<std::string> {
+  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), Admit::kFirstRequest, [&](Workspace& ws) -> Result<std::string> {
     const auto at = ctx.derived.RigAt(stored, r.mesh.lod);
     if (!at) return Internal("the level of detail failed");
     ctx.derived.SetFocus(stored, r.mesh.lod, r.render.camera);
@@ -74,7 +74,7 @@ void PostSheet(Context& ctx, const httplib::Request& req, httplib::Response& res
   for (size_t c = 0; c < points.cells.size(); ++c) key += "|" + WeightsCanonical(points.cells[c].weights) + "#" + r.labels[c];
   if (!points.cells.empty()) key += PoseCanonical(points.cells[0]);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), [&](Workspace& ws) -> Result<std::string> {
+  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), Admit::kFirstRequest, [&](Workspace& ws) -> Result<std::string> {
     ctx.derived.SetFocus(stored, 0, r.base.render.camera);
     ctx.metrics.CountBlends(points.cells.size());
     return EncodeSheet(stored->rig, points, r, *format, ctx.renderer, ws);
