@@ -13,6 +13,8 @@
 #include <unistd.h>
 #include <memory>
 #include <mutex>
+#include <span>
+#include <thread>
 
 #include <cstdio>
 #include <filesystem>
@@ -26,10 +28,6 @@ namespace facespace::render {
 
 namespace {
 
-float LinearToSrgb(float c) {
-  c = std::clamp(c, 0.0f, 1.0f);
-  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
-}
 float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
 // Same polynomial as the heatmap shader (viridis), sRGB.
@@ -94,21 +92,58 @@ Result<std::string> EncodeWebp(const std::vector<unsigned char>& rgba, int width
   return bytes;
 }
 
-// 8-bit sRGB of linear values through a table (a pow per channel would cost more than the
-// render). The table is fine enough that the result matches the exact curve to the nearest 8-bit step.
-constexpr int kSrgbSteps = 1 << 16;
-const unsigned char* SrgbTable() {
-  static const std::vector<unsigned char> table = [] {
-    std::vector<unsigned char> t(kSrgbSteps + 1);
-    for (int i = 0; i <= kSrgbSteps; ++i) t[i] = static_cast<unsigned char>(std::lround(LinearToSrgb(static_cast<float>(i) / kSrgbSteps) * 255.0f));
-    return t;
-  }();
-  return table.data();
-}
+// 8-bit sRGB of linear values, exactly: the nearest 8-bit step of the sRGB curve worked out in
+// double precision (a pow per channel would cost more than the render). By the value's float bits:
+// the exponent and the top 8 bits of the mantissa pick one of 3,328 buckets over [2^-13, 1) (below
+// 2^-13 every value rounds to 0); a bucket keeps the step of its first value, and the low mantissa
+// bits where the next step begins inside it, if one does (no bucket holds two: the steps are at
+// least 0.0003 apart in linear light, the buckets at most 0.002 wide near 1 where the steps are
+// 0.009 apart). 10 KB that stay in L1, where the 64 KB table of 65,536 steps it replaced missed L1 on
+// most lookups: the PNG of the 512x512 FaceCap float image 3.3 -> 2.2 ms (render_bench).
+class SrgbEncoder {
+ public:
+  static const SrgbEncoder& Get() {
+    static const SrgbEncoder encoder;
+    return encoder;
+  }
+  unsigned char operator()(float v) const {
+    if (!(v >= kLow)) return 0;  // And NaN.
+    if (v >= 1.0f) return 255;
+    uint32_t bits;
+    std::memcpy(&bits, &v, 4);
+    const uint32_t b = (bits >> 15) - kFirst;
+    return static_cast<unsigned char>(base_[b] + ((bits & 0x7FFF) >= step_[b] ? 1 : 0));
+  }
+  static unsigned char Exact(float v) {
+    const double c = std::clamp(static_cast<double>(v), 0.0, 1.0);
+    return static_cast<unsigned char>(std::lround((c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055) * 255.0));
+  }
 
-unsigned char ToSrgb8(const unsigned char* table, float v) {
-  return table[static_cast<size_t>(std::clamp(v, 0.0f, 1.0f) * kSrgbSteps + 0.5f)];
-}
+ private:
+  static constexpr float kLow = 1.0f / 8192.0f;                      // 2^-13.
+  static constexpr uint32_t kFirst = (uint32_t{127 - 13} << 23) >> 15;  // Its bits' bucket.
+  static constexpr uint32_t kBuckets = 13 * 256;
+  SrgbEncoder() {
+    auto at = [](uint32_t bits) {
+      float v;
+      std::memcpy(&v, &bits, 4);
+      return Exact(v);
+    };
+    for (uint32_t b = 0; b < kBuckets; ++b) {
+      const uint32_t first = (kFirst + b) << 15;
+      base_[b] = at(first);
+      uint32_t lo = 0, hi = 0x8000;  // The first low-bits value whose step is above the base (0x8000: none).
+      while (lo < hi) {
+        const uint32_t mid = (lo + hi) / 2;
+        if (at(first | mid) > base_[b]) hi = mid;
+        else lo = mid + 1;
+      }
+      step_[b] = static_cast<uint16_t>(lo);
+    }
+  }
+  unsigned char base_[kBuckets];
+  uint16_t step_[kBuckets];
+};
 
 // Linear values of the 256 8-bit sRGB steps.
 const float* LinearOf8() {
@@ -124,20 +159,20 @@ const float* LinearOf8() {
 // (JPEG), from the image's floats, or from its 8-bit pixels when it has no floats.
 void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
   const size_t width = static_cast<size_t>(image.width), at = static_cast<size_t>(y) * width * 4;
-  const unsigned char* table = SrgbTable();
+  const SrgbEncoder& srgb = SrgbEncoder::Get();
   if (!image.rgba.empty()) {
     const float* linear = &image.rgba[at];
     if (alpha) {
       for (size_t x = 0; x < width; ++x, linear += 4, out += 4) {
-        out[0] = ToSrgb8(table, linear[0]);
-        out[1] = ToSrgb8(table, linear[1]);
-        out[2] = ToSrgb8(table, linear[2]);
+        out[0] = srgb(linear[0]);
+        out[1] = srgb(linear[1]);
+        out[2] = srgb(linear[2]);
         out[3] = static_cast<unsigned char>(std::clamp(linear[3], 0.0f, 1.0f) * 255.0f + 0.5f);
       }
       return;
     }
     for (size_t x = 0; x < width; ++x, linear += 4, out += 3) {
-      for (int c = 0; c < 3; ++c) out[c] = ToSrgb8(table, linear[c] * linear[3] + (1.0f - linear[3]));
+      for (int c = 0; c < 3; ++c) out[c] = srgb(linear[c] * linear[3] + (1.0f - linear[3]));
     }
     return;
   }
@@ -149,7 +184,7 @@ void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
   const float* linear_of = LinearOf8();
   for (size_t x = 0; x < width; ++x, in += 4, out += 3) {
     const float a = static_cast<float>(in[3]) / 255.0f;
-    for (int c = 0; c < 3; ++c) out[c] = in[3] == 255 ? in[c] : ToSrgb8(table, linear_of[in[c]] * a + (1.0f - a));
+    for (int c = 0; c < 3; ++c) out[c] = in[3] == 255 ? in[c] : srgb(linear_of[in[c]] * a + (1.0f - a));
   }
 }
 
@@ -184,22 +219,20 @@ void Chunk(std::string& out, const char* type, const std::string& data) {
   CloseChunk(out, start, type);
 }
 
-// True when every pixel's alpha is 255 once in 8 bits: the PNG can then be RGB (a quarter fewer
-// bytes to filter and deflate, and a smaller file).
-bool Opaque(const Image& image) {
-  for (size_t i = 3; i < image.rgba.size(); i += 4) {
-    if (!(image.rgba[i] * 255.0f + 0.5f >= 255.0f)) return false;  // NaN is not opaque either.
-  }
-  for (size_t i = 3; image.rgba.empty() && i < image.srgb8.size(); i += 4) {
-    if (image.srgb8[i] != 255) return false;
+// True when every alpha byte of the 8-bit RGBA pixels is 255: the PNG can then be RGB (a quarter
+// fewer bytes to filter and deflate, and a smaller file).
+bool Opaque(std::span<const unsigned char> rgba8) {
+  for (size_t i = 3; i < rgba8.size(); i += 4) {
+    if (rgba8[i] != 255) return false;
   }
   return true;
 }
 
-// An encoder's buffers: igzip's level buffer (about 300 KB) and the filtered rows.
+// An encoder's buffers: igzip's level buffer (about 300 KB), a float image converted to 8 bits,
+// the filtered rows of a batch, and a row of zeros (above the first).
 struct Deflater {
   std::vector<uint8_t> level_buf = std::vector<uint8_t>(ISAL_DEF_LVL1_DEFAULT);
-  std::vector<unsigned char> lines, rows;
+  std::vector<unsigned char> converted, lines, zeros;
 };
 
 // Deflaters reused across threads, most recently used first (its pages warm in cache), a few
@@ -231,22 +264,45 @@ class DeflaterPool {
   static inline std::vector<std::unique_ptr<Deflater>> idle_;
 };
 
-// PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: rows
-// converted from linear floats and UP-filtered in batches, each batch deflated as it is made by
-// ISA-L's igzip at level 1 with the zlib wrapper (its header and Adler-32), into one IDAT.
-// Measured on the 512x512 FaceCap render (tests/bench/README.md): igzip level 1 deflates the
-// filtered rows 6.8x faster than zlib level 1 (0.45 against 3.05 ms on one thread) and smaller
-// (79 against 84 KB), so one thread does what two parts on two threads did with zlib. The buffers
-// come from a pool (not allocated and faulted in again per image).
+// A float image as 8-bit sRGB RGBA into `out`: a large one (256K pixels or more) in parts on up
+// to one thread per core (4 at most), as the conversion costs more than igzip's deflate (512x512:
+// about 1.5 ms on one thread).
+void ConvertToSrgb8(const Image& image, std::vector<unsigned char>& out) {
+  static const int cores = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+  out.resize(static_cast<size_t>(image.width) * image.height * 4);
+  const int parts = static_cast<int>(std::clamp<long long>(static_cast<long long>(image.width) * image.height / (128 * 1024), 1, cores));
+  auto run = [&](int k) {
+    const int first = static_cast<int>(static_cast<long long>(image.height) * k / parts);
+    const int end = static_cast<int>(static_cast<long long>(image.height) * (k + 1) / parts);
+    for (int y = first; y < end; ++y) Row8(image, y, true, &out[static_cast<size_t>(y) * image.width * 4]);
+  };
+  std::vector<std::thread> helpers;
+  for (int k = 1; k < parts; ++k) helpers.emplace_back(run, k);
+  run(0);
+  for (std::thread& t : helpers) t.join();
+}
+
+// PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: the
+// 8-bit pixels (the draw's own, or a float image converted) UP-filtered in batches, each batch
+// deflated as it is made by ISA-L's igzip at level 1 with the zlib wrapper (its header and
+// Adler-32), into one IDAT. Measured on the 512x512 FaceCap render (tests/bench/README.md): igzip
+// level 1 deflates the filtered rows 6.8x faster than zlib level 1 (0.45 against 3.05 ms on one
+// thread) and smaller (79 against 84 KB), so one thread deflates what two parts on two threads did
+// with zlib. The buffers come from a pool (not allocated and faulted in again per image).
 Result<std::string> EncodePng(const Image& image) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
   Deflater& d = *lease;
-  const bool opaque = Opaque(image);
-  const int channels = opaque ? 3 : 4;
-  const size_t width = static_cast<size_t>(image.width), row_bytes = width * channels, line_bytes = row_bytes + 1;
+  const size_t width = static_cast<size_t>(image.width), stride = width * 4;
+  std::span<const unsigned char> px = image.srgb8;
+  if (!image.rgba.empty()) {
+    ConvertToSrgb8(image, d.converted);
+    px = d.converted;
+  }
+  const bool opaque = Opaque(px);
+  const size_t row_bytes = width * (opaque ? 3 : 4), line_bytes = row_bytes + 1;
   const size_t batch = std::max<size_t>(1, (64 * 1024) / line_bytes);  // Rows deflated per call.
   d.lines.resize(batch * line_bytes);
-  d.rows.assign(2 * width * 4, 0);  // This row and the one above, 8-bit RGBA.
+  d.zeros.assign(stride, 0);
 
   isal_zstream z;
   isal_deflate_init(&z);
@@ -272,24 +328,15 @@ Result<std::string> EncodePng(const Image& image) {
   const size_t idat = out.size();
   out.append(8, '\0');
   size_t written = out.size();  // The end of the deflated bytes so far.
-  // Room for the scanlines stored uncompressed and igzip's block headers; grown if ever short.
-  out.resize(written + line_bytes * static_cast<size_t>(image.height) + line_bytes * static_cast<size_t>(image.height) / 64 + 1024);
+  // Room for a quarter of the scanlines (renders deflate to a tenth or less), grown when short.
+  out.resize(written + line_bytes * static_cast<size_t>(image.height) / 4 + 65536);
 
-  const size_t stride = width * 4;
   for (int first = 0; first < image.height; first += static_cast<int>(batch)) {
     const int count = std::min(static_cast<int>(batch), image.height - first);
     for (int k = 0; k < count; ++k) {
       const int y = first + k;
-      // This row and the one above in 8 bits (zeros above the first): the image's own bytes, or
-      // converted from its floats into two rows kept in turn.
-      const unsigned char* cur = &d.rows[(y & 1) * stride];
-      const unsigned char* above = &d.rows[((y + 1) & 1) * stride];
-      if (image.rgba.empty()) {
-        cur = image.srgb8.data() + static_cast<size_t>(y) * stride;
-        if (y > 0) above = cur - stride;
-      } else {
-        Row8(image, y, true, &d.rows[(y & 1) * stride]);
-      }
+      const unsigned char* cur = px.data() + static_cast<size_t>(y) * stride;
+      const unsigned char* above = y > 0 ? cur - stride : d.zeros.data();
       unsigned char* line = &d.lines[static_cast<size_t>(k) * line_bytes];
       line[0] = 2;  // UP: every byte minus the byte above it.
       if (opaque) {
@@ -318,6 +365,7 @@ Result<std::string> EncodePng(const Image& image) {
   out.resize(written);
   CloseChunk(out, idat, "IDAT");
   Chunk(out, "IEND", "");
+  out.shrink_to_fit();  // The response cache counts size(), not the room left over.
   return out;
 }
 

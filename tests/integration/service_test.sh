@@ -92,6 +92,9 @@ check "GET render format=webp: image/webp (RIFF....WEBP), smaller than the PNG" 
 code=$(c "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")
 etag=$(hdr ETag)
 check "  ... ETag, and If-None-Match gives 304" test "$(c -H "If-None-Match: $etag" "$U/v1/rigs/facecap/render?w.jawOpen=0.9&w.mouthSmile_L=0.8&width=256&height=192&yaw=15")" = 304
+code=$(c "$U/v1/rigs/facecap/render?w.jawOpen=0.5&view=heatmap&width=64&height=64")
+check "GET a 64x64 heatmap (its legend's title above the image once aborted the server): 200, and the server serves on" \
+  sh -c "[ $code = 200 ] && [ '$(pngsize)' = 64x64 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/healthz') = 200 ]"
 code=$(c -X POST -H 'Content-Type: application/json' -H 'Accept: image/jpeg' -d '{"weights":{"jawOpen":0.5},"width":128,"height":128,"view":"wireframe","camera":{"yaw":30,"pitch":10}}' "$U/v1/rigs/facecap/render")
 check "POST render with Accept: image/jpeg" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/jpeg' '$tmp/hdr' && head -c 3 '$tmp/body' | od -An -tx1 | grep -q 'ff d8 ff'"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"format":"exr","width":64,"height":64,"background":"transparent"}' "$U/v1/rigs/facecap/render")

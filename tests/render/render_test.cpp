@@ -709,6 +709,8 @@ TEST(Render, PngDecodesExactlyAsRgbWhenOpaqueElseRgba) {
     }
     auto png = render::Encode(im, render::ImageFormat::kPng);
     ASSERT_TRUE(png.ok());
+    // No room left over from the writer's buffer: the response cache counts a body by its size.
+    EXPECT_LE(png->capacity(), png->size() + 64) << c.w << "x" << c.h;
     OIIO::Filesystem::IOMemReader proxy(png->data(), png->size());
     OIIO::ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);  // The file's values: no premultiplying on read.
@@ -730,6 +732,47 @@ TEST(Render, PngDecodesExactlyAsRgbWhenOpaqueElseRgba) {
     }
     EXPECT_EQ(wrong, 0u) << c.w << "x" << c.h;
   }
+}
+
+// Floats to 8-bit sRGB in the PNG writer are exact: the nearest step of the sRGB curve worked out in
+// double precision, for values a few ulps either side of each of the 255 points where the step
+// changes, every 65,536th of the range, random values, and out of range (negative, above 1, NaN).
+TEST(Render, PngSrgbStepsAreExact) {
+  auto exact = [](float v) {
+    const double c = std::isnan(v) ? 0.0 : std::clamp(static_cast<double>(v), 0.0, 1.0);
+    return static_cast<int>(std::lround((c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055) * 255.0));
+  };
+  std::vector<float> values = {-1.0f, -0.0f, 0.0f, 1.0f, 2.0f, 1e30f, std::numeric_limits<float>::quiet_NaN(), 1e-30f, 1.0f / 8192.0f};
+  for (int k = 1; k < 256; ++k) {
+    const double s = (k - 0.5) / 255.0;  // Where the step k begins, in sRGB; then in linear light.
+    float t = static_cast<float>(s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4));
+    for (int i = 0; i < 3; ++i) t = std::nextafter(t, 0.0f);
+    for (int i = 0; i < 7; ++i, t = std::nextafter(t, 1.0f)) values.push_back(t);
+  }
+  for (int i = 0; i <= 65536; ++i) values.push_back(static_cast<float>(i) / 65536.0f);
+  uint32_t state = 99;
+  for (int i = 0; i < 100000; ++i) {
+    state = state * 1664525u + 1013904223u;
+    values.push_back(static_cast<float>(state >> 8) / 16777216.0f);
+  }
+  Image im;
+  im.width = 1024;
+  im.height = static_cast<int>((values.size() + im.width - 1) / im.width);
+  im.rgba.assign(static_cast<size_t>(im.width) * im.height * 4, 1.0f);  // Opaque: an RGB file.
+  for (size_t i = 0; i < values.size(); ++i) im.rgba[4 * i] = values[i];
+  auto png = render::Encode(im, render::ImageFormat::kPng);
+  ASSERT_TRUE(png.ok());
+  OIIO::Filesystem::IOMemReader proxy(png->data(), png->size());
+  auto in = OIIO::ImageInput::open("image.png", nullptr, &proxy);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  ASSERT_EQ(in->spec().nchannels, 3);
+  std::vector<unsigned char> px(static_cast<size_t>(im.width) * im.height * 3);
+  ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
+  size_t wrong = 0;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (px[3 * i] != exact(values[i]) && wrong++ < 5) ADD_FAILURE() << values[i] << ": " << int(px[3 * i]) << " not " << exact(values[i]);
+  }
+  EXPECT_EQ(wrong, 0u) << "of " << values.size();
 }
 
 // MMD textures come as BMP and TGA too: a 2x1 image (a red then a blue pixel) in each, written here

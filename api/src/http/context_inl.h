@@ -44,6 +44,8 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
     }
     auto e = std::make_shared<Encoded>();
     e->body = std::move(bytes.value());
+    // The cache counts a body by its size: no large room left over from building it (text formats).
+    if (e->body.capacity() > e->body.size() + e->body.size() / 8) e->body.shrink_to_fit();
     e->content_type = content_type;
     enc = e;
     ctx.cache.Offer(key, enc, admit);
