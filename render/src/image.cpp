@@ -68,7 +68,7 @@ void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> li
 // with method 0 at `quality` (alpha kept, lossless), or lossless at quality 100. Measured on the
 // 512x512 FaceCap render: quality 90 4.7 ms for 5.8 KB (PNG: 4.0 ms for 36 KB); lossless 9.6 ms
 // for 33 KB (OpenImageIO's: 349 ms for 15 KB).
-Result<std::string> EncodeWebp(const std::vector<unsigned char>& rgba, int width, int height, int quality) {
+Result<std::string> EncodeWebp(std::span<const unsigned char> rgba, int width, int height, int quality) {
   WebPConfig config;
   if (!WebPConfigInit(&config)) return Internal("libwebp: bad version");
   config.method = 0;
@@ -114,12 +114,13 @@ class SrgbEncoder {
     const uint32_t b = (bits >> 15) - kFirst;
     return static_cast<unsigned char>(base_[b] + ((bits & 0x7FFF) >= step_[b] ? 1 : 0));
   }
+
+ private:
   static unsigned char Exact(float v) {
     const double c = std::clamp(static_cast<double>(v), 0.0, 1.0);
     return static_cast<unsigned char>(std::lround((c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055) * 255.0));
   }
 
- private:
   static constexpr float kLow = 1.0f / 8192.0f;                      // 2^-13.
   static constexpr uint32_t kFirst = (uint32_t{127 - 13} << 23) >> 15;  // Its bits' bucket.
   static constexpr uint32_t kBuckets = 13 * 256;
@@ -156,7 +157,8 @@ const float* LinearOf8() {
 }
 
 // Row y of the image as 8-bit sRGB RGBA (`alpha`) or RGB composited over white in linear light
-// (JPEG), from the image's floats, or from its 8-bit pixels when it has no floats.
+// (JPEG), from the image's floats, or (RGB only: Pixels8 takes 8-bit RGBA as it is) from its 8-bit
+// pixels when it has no floats.
 void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
   const size_t width = static_cast<size_t>(image.width), at = static_cast<size_t>(y) * width * 4;
   const SrgbEncoder& srgb = SrgbEncoder::Get();
@@ -177,10 +179,6 @@ void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
     return;
   }
   const unsigned char* in = &image.srgb8[at];
-  if (alpha) {
-    std::memcpy(out, in, width * 4);
-    return;
-  }
   const float* linear_of = LinearOf8();
   for (size_t x = 0; x < width; ++x, in += 4, out += 3) {
     const float a = static_cast<float>(in[3]) / 255.0f;
@@ -264,22 +262,26 @@ class DeflaterPool {
   static inline std::vector<std::unique_ptr<Deflater>> idle_;
 };
 
-// A float image as 8-bit sRGB RGBA into `out`: a large one (256K pixels or more) in parts on up
-// to one thread per core (4 at most), as the conversion costs more than igzip's deflate (512x512:
-// about 1.5 ms on one thread).
-void ConvertToSrgb8(const Image& image, std::vector<unsigned char>& out) {
+// The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG): an 8-bit
+// draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in parts on
+// up to one thread per core (4 at most), as the conversion costs more than igzip's deflate (512x512
+// from floats: about 1.5 ms on one thread).
+std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vector<unsigned char>& room) {
+  if (alpha && image.rgba.empty()) return image.srgb8;
   static const int cores = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
-  out.resize(static_cast<size_t>(image.width) * image.height * 4);
+  const size_t row = static_cast<size_t>(image.width) * (alpha ? 4 : 3);
+  room.resize(row * image.height);
   const int parts = static_cast<int>(std::clamp<long long>(static_cast<long long>(image.width) * image.height / (128 * 1024), 1, cores));
   auto run = [&](int k) {
     const int first = static_cast<int>(static_cast<long long>(image.height) * k / parts);
     const int end = static_cast<int>(static_cast<long long>(image.height) * (k + 1) / parts);
-    for (int y = first; y < end; ++y) Row8(image, y, true, &out[static_cast<size_t>(y) * image.width * 4]);
+    for (int y = first; y < end; ++y) Row8(image, y, alpha, &room[static_cast<size_t>(y) * row]);
   };
   std::vector<std::thread> helpers;
   for (int k = 1; k < parts; ++k) helpers.emplace_back(run, k);
   run(0);
   for (std::thread& t : helpers) t.join();
+  return room;
 }
 
 // PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: the
@@ -293,11 +295,7 @@ Result<std::string> EncodePng(const Image& image) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
   Deflater& d = *lease;
   const size_t width = static_cast<size_t>(image.width), stride = width * 4;
-  std::span<const unsigned char> px = image.srgb8;
-  if (!image.rgba.empty()) {
-    ConvertToSrgb8(image, d.converted);
-    px = d.converted;
-  }
+  const std::span<const unsigned char> px = Pixels8(image, true, d.converted);
   const bool opaque = Opaque(px);
   const size_t row_bytes = width * (opaque ? 3 : 4), line_bytes = row_bytes + 1;
   const size_t batch = std::max<size_t>(1, (64 * 1024) / line_bytes);  // Rows deflated per call.
@@ -426,11 +424,8 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
     }
     return std::string(bytes.begin(), bytes.end());
   }
-  // JPEG has no alpha: composite over white.
-  std::vector<unsigned char> px(static_cast<size_t>(image.width) * image.height * channels);
-  for (int y = 0; y < image.height; ++y) {
-    Row8(image, y, alpha, &px[static_cast<size_t>(y) * image.width * channels]);
-  }
+  std::vector<unsigned char> room;
+  const std::span<const unsigned char> px = Pixels8(image, alpha, room);  // JPEG has no alpha: composited over white.
   if (format == ImageFormat::kWebp) return EncodeWebp(px, image.width, image.height, quality);
   OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");

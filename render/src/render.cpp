@@ -818,25 +818,25 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   out.width = o.width;
   out.height = o.height;
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  // Straight into the image, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
+  auto read_top_first = [w, h](GLenum type, void* data) {
+    glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
+    glReadPixels(0, 0, w, h, GL_RGBA, type, data);
+    glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
+    const GLenum err = glGetError();
+    return err == GL_NO_ERROR ? Status::Ok() : Internal("GL error " + std::to_string(err));
+  };
   if (srgb8) {
-    // The stored sRGB bytes as they are (no conversion on the way out), top row first.
+    // The stored sRGB bytes as they are (no conversion on the way out).
     glDisable(GL_FRAMEBUFFER_SRGB);
     out.rgba.clear();
     out.srgb8.resize(static_cast<size_t>(w) * h * 4);
-    glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
-    glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, out.srgb8.data());
-    glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
-    if (const GLenum err = glGetError(); err != GL_NO_ERROR) return Internal("GL error " + std::to_string(err));
-    return Status::Ok();
+    return read_top_first(GL_UNSIGNED_BYTE, out.srgb8.data());
   }
   out.srgb8.clear();
   if (ss == 1 && gl.pack_invert) {
-    // Straight into the image, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
     out.rgba.resize(static_cast<size_t>(w) * h * 4);
-    glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
-    glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, out.rgba.data());
-    glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
-    if (const GLenum err = glGetError(); err != GL_NO_ERROR) return Internal("GL error " + std::to_string(err));
+    if (Status s = read_top_first(GL_FLOAT, out.rgba.data()); !s.ok()) return s;
     if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
     return Status::Ok();
   }
