@@ -57,18 +57,18 @@ const render::OsMesaRenderer& Renderer() {
 // The 512x512 FaceCap render (jawOpen at 0.5) the encoder benchmarks encode, drawn once as floats
 // and once straight into 8-bit sRGB (RenderOptions::srgb8, what the render route draws for 8-bit files).
 render::Image Draw512(bool srgb8) {
-    const Rig& rig = Case(0);
-    std::vector<float> w(rig.shapes.size(), 0.0f);
-    w[24] = 0.5f;
-    BlendedRig blended;
-    BlendContext ctx;
-    EvaluateRig(rig, w, {}, blended, ctx);
-    render::RenderOptions o;
-    o.width = o.height = 512;
-    o.srgb8 = srgb8;
-    render::Image drawn;
-    (void)Renderer().Draw(rig, blended, o, drawn);
-    return drawn;
+  const Rig& rig = Case(0);
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  w[24] = 0.5f;
+  BlendedRig blended;
+  BlendContext ctx;
+  EvaluateRig(rig, w, {}, blended, ctx);
+  render::RenderOptions o;
+  o.width = o.height = 512;
+  o.srgb8 = srgb8;
+  render::Image drawn;
+  (void)Renderer().Draw(rig, blended, o, drawn);
+  return drawn;
 }
 
 const render::Image& FaceCapImage(bool srgb8 = false) {
