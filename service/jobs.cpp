@@ -80,10 +80,12 @@ bool ClaimHeld(const fs::path& folder) {
 }
 
 // What a claim says: the instance running the job, then (once it runs) its rate, for the others
-// to show ("host:pid\nrate=12.5\n").
+// to show ("host:pid\nrate=12.5\n"). Written over the old text, then cut to its length, so a
+// reader never finds the file empty: at worst it sees the new text and the old one's tail, after
+// the rate's newline.
 void WriteClaim(int fd, const std::string& text) {
-  if (::ftruncate(fd, 0) == 0) {
-    [[maybe_unused]] ssize_t n = ::pwrite(fd, text.data(), text.size(), 0);
+  if (::pwrite(fd, text.data(), text.size(), 0) == static_cast<ssize_t>(text.size())) {
+    [[maybe_unused]] int r = ::ftruncate(fd, static_cast<off_t>(text.size()));
   }
 }
 
@@ -429,7 +431,8 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
   options.progress = [this, &job, &folder, claim, &said](const batch::Progress& p) {
     std::error_code ec;
     const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
-    if (p.seconds - said >= 1.0 && p.seconds > 0) {  // The rate, for the instances that do not run the job.
+    // The rate, for the instances that do not run the job: once a variant is made, then each second.
+    if (p.done > p.skipped && p.seconds > 0 && p.seconds - said >= 1.0) {
       said = p.seconds;
       char text[64];
       std::snprintf(text, sizeof text, "\nrate=%.1f\n", (p.done - p.skipped) / p.seconds);

@@ -151,7 +151,7 @@ runner=-1; for i in 0 1; do [ "${pids[$i]}" = "$runner_pid" ] && runner=$i; done
 state0=$(jget 0 "$job" "d['state']"); state1=$(jget 1 "$job" "d['state']")
 check "a job submitted through instance 1 runs on one instance (the claim names instance $((runner + 1))), running through both" \
   sh -c "[ $runner -ge 0 ] && [ '$state0' = running ] && [ '$state1' = running ]"
-for _ in $(seq 1 20); do [ "$(jget "$other" "$job" "d['rate'] > 0 and 'eta_seconds' in d")" = True ] && break; sleep 0.1; done
+for _ in $(seq 1 50); do [ "$(jget "$other" "$job" "d['rate'] > 0 and 'eta_seconds' in d")" = True ] && break; sleep 0.1; done
 eta=$(jget "$other" "$job" "str(d['rate']) + ' variants/s, eta ' + str(d.get('eta_seconds'))")
 check "  ... the instance not running it shows the runner's rate and an ETA ($eta)" sh -c "echo '$eta' | grep -Eq '^[0-9.]+ variants/s, eta [0-9.]+$' && ! echo '$eta' | grep -q '^0.0 '"
 check "  ... listed by both instances" sh -c "curl -s '$(u 0)/v1/jobs' | grep -q '$job' && curl -s '$(u 1)/v1/jobs' | grep -q '$job'"
