@@ -175,28 +175,52 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
   return out;
 }
 
+// A point placed by `m`: the one expression every f32 position goes through (inlined into
+// ExportF32's loop, where the compiler does several at once, and F32Blender's), so a vertex
+// placed alone has the bits of one placed in a block.
+inline void PlacePoint(const std::array<float, 16>& m, const float* p, float* q) {
+  for (int r = 0; r < 3; ++r) q[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * 1.0f;
+}
+
+// One primitive's placed positions into `at` and its placed normals into `normals_at`, 64
+// vertices at a time (vector instructions), through a small buffer.
+void WritePlaced(std::span<const float> positions, std::span<const float> normals, const std::array<float, 16>& m, char* at,
+                 char* normals_at) {
+  float q[3 * 64];
+  for (size_t v = 0; v < positions.size(); v += std::size(q)) {
+    const size_t chunk = std::min(std::size(q), positions.size() - v);
+    const float* p = &positions[v];
+    for (size_t i = 0; i + 2 < chunk; i += 3) PlacePoint(m, p + i, q + i);
+    std::memcpy(at + 4 * v, q, chunk * 4);
+  }
+  const NormalMatrix nm(m.data(), 4);
+  for (size_t v = 0; v < normals.size(); v += std::size(q)) {
+    const size_t chunk = std::min(std::size(q), normals.size() - v);
+    nm.ApplyMany(&normals[v], chunk / 3, q);
+    std::memcpy(normals_at + 4 * v, q, chunk * 4);
+  }
+}
+
 std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
   size_t floats = 0;
   for (const BlendedPrimitive& b : blended.primitives) floats += b.positions.size() + b.normals.size();
   // Appended in blocks from a small buffer, float by float as they are (x86-64 and ARM64 are
-  // little-endian), into reserved room: no zero fill of 100 KB first.
+  // little-endian), into reserved room: no zero fill of 100 KB first. The same placements as
+  // WritePlaced's.
   std::string out;
   out.reserve(floats * 4);
   for (const BlendedPrimitive& b : blended.primitives) {
     const auto& m = Placement(b, mesh_space);
-    float q[3 * 64];  // 64 points at a time as TransformPoint does them (vector instructions), then out.
+    float q[3 * 64];
     for (size_t v = 0; v < b.positions.size(); v += std::size(q)) {
       const size_t chunk = std::min(std::size(q), b.positions.size() - v);
-      const float* p = &b.positions[v];
-      for (size_t i = 0; i + 2 < chunk; i += 3) {
-        for (int r = 0; r < 3; ++r) q[i + r] = m[r] * p[i] + m[4 + r] * p[i + 1] + m[8 + r] * p[i + 2] + m[12 + r] * 1.0f;
-      }
+      for (size_t i = 0; i + 2 < chunk; i += 3) PlacePoint(m, &b.positions[v + i], q + i);
       out.append(reinterpret_cast<const char*>(q), chunk * 4);
     }
   }
   for (const BlendedPrimitive& b : blended.primitives) {
     const NormalMatrix nm(Placement(b, mesh_space).data(), 4);
-    float q[3 * 64];  // 64 normals at a time through ApplyMany, then into the string's bytes.
+    float q[3 * 64];
     for (size_t v = 0; v < b.normals.size(); v += std::size(q)) {
       const size_t chunk = std::min(std::size(q), b.normals.size() - v);
       nm.ApplyMany(&b.normals[v], chunk / 3, q);
@@ -823,6 +847,104 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
     case MeshFormat::kGlb: return ExportGlb(rig, blended, weights, warnings, options);
   }
   return InvalidArgument("unknown format");
+}
+
+
+// ---- f32 blended where it is written --------------------------------------------------------
+
+bool F32Blender::Serves(const Rig& rig, const BlendOptions& options) {
+  if (options.normals != NormalMode::kBlend || options.pose || !rig.inbetweens.empty() || !rig.correctives.empty()) return false;
+  for (const Mesh& m : rig.meshes) {
+    if (m.skin >= 0) return false;
+  }
+  return true;
+}
+
+F32Blender::F32Blender(const Rig& rig, bool mesh_space) : mesh_space_(mesh_space) {
+  if (!Serves(rig, {})) return;
+  BlendedRig rest;
+  BlendContext ctx;
+  if (!EvaluateRig(rig, std::vector<float>(rig.shapes.size(), 0.0f), {}, rest, ctx).ok()) return;
+  rest_ = ExportF32(rest, mesh_space);
+  // The body is every primitive's positions, in order, then every primitive's normals.
+  primitives_.resize(rig.primitives.size());
+  size_t at = 0, normals_at = 0;
+  for (const BlendedPrimitive& b : rest.primitives) normals_at += b.positions.size() * 4;
+  for (size_t pi = 0; pi < rest.primitives.size(); ++pi) {
+    const BlendedPrimitive& b = rest.primitives[pi];
+    const Primitive& p = rig.primitives[pi];
+    if (b.positions.size() != p.positions.size() || b.normals.size() != p.normals.size() || p.normals.size() != p.positions.size()) return;
+    primitives_[pi].placement = Placement(b, mesh_space);
+    primitives_[pi].at = at;
+    primitives_[pi].normals_at = normals_at;
+    at += b.positions.size() * 4;
+    normals_at += b.normals.size() * 4;
+  }
+  if (normals_at != rest_.size()) return;
+  for (const Mesh& mesh : rig.meshes) {
+    for (int pi : mesh.primitives) primitives_[pi].shapes = mesh.target_shapes;
+  }
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    if (primitives_[pi].shapes.size() != rig.primitives[pi].targets.size()) return;
+  }
+  shapes_ = rig.shapes.size();
+  ok_ = true;
+}
+
+bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& s, std::string& out) const {
+  if (!ok_ || weights.size() != shapes_ || rig.shapes.size() != shapes_ || rig.primitives.size() != primitives_.size()) return false;
+  for (float w : weights) {
+    if (!std::isfinite(w)) return false;
+  }
+  // Every active target needs its normal deltas (else the blend recomputes normals).
+  for (size_t pi = 0; pi < primitives_.size(); ++pi) {
+    const Primitive& p = rig.primitives[pi];
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      const uint32_t shape = primitives_[pi].shapes[t];
+      if (shape >= weights.size()) return false;
+      if (weights[shape] != 0.0f && p.targets[t].normal_deltas.size() != 3 * p.targets[t].indices.size()) return false;
+    }
+  }
+  out.assign(rest_);
+  for (size_t pi = 0; pi < primitives_.size(); ++pi) {
+    const Placed& placed = primitives_[pi];
+    const Primitive& p = rig.primitives[pi];
+    s.target_weights.resize(p.targets.size());
+    bool active = false;
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      s.target_weights[t] = weights[placed.shapes[t]];
+      active |= s.target_weights[t] != 0.0f;
+    }
+    if (!active) continue;  // The rest's bytes stand.
+    // Blended as EvaluateRig blends a primitive (positions and normals: the f32 body has no
+    // tangents), then placed whole as ExportF32 places it.
+    s.positions.resize(p.positions.size());
+    s.normals.resize(p.normals.size());
+    BlendShapeJob pj{.base = p.positions, .weights = s.target_weights, .targets = p.targets,
+                     .channel = TargetChannel::kPosition, .stride = 3, .out = s.positions};
+    BlendShapeJob nj{.base = p.normals, .weights = s.target_weights, .targets = p.targets,
+                     .channel = TargetChannel::kNormal, .stride = 3, .out = s.normals};
+    if (!pj.Run() || !nj.Run()) return false;
+    // The moved vertices' normals to unit length, as the blend leaves them.
+    const size_t n = p.vertex_count();
+    if (s.mark.size() < n) s.mark.resize(n, 0);
+    s.moved.clear();
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      if (s.target_weights[t] == 0.0f) continue;
+      for (uint32_t v : p.targets[t].indices) {
+        if (!s.mark[v]) {  // v < n: the blend job checked.
+          s.mark[v] = 1;
+          s.moved.push_back(v);
+        }
+      }
+    }
+    for (uint32_t v : s.moved) {
+      s.mark[v] = 0;
+      NormalizeMany(&s.normals[3 * size_t{v}], 1);
+    }
+    WritePlaced(s.positions, s.normals, placed.placement, out.data() + placed.at, out.data() + placed.normals_at);
+  }
+  return true;
 }
 
 }  // namespace facespace

@@ -409,6 +409,97 @@ TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
   }
 }
 
+// The mesh route's f32 writer gives EvaluateRig + ExportMesh(kF32)'s bytes exactly: FaceCap
+// (one morphed primitive of four, a moved and scaled node) and the morph test assets, at rest,
+// at random points of several shapes, with extrapolated and negative weights, in world and mesh
+// space; then what it must decline (a point whose shape has no normal deltas, a skinned rig).
+TEST(F32Blender, WritesExportMeshBytes) {
+  uint32_t state = 11;
+  auto next = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<float>(state >> 8) / 8388608.0f;  // [0, 2)
+  };
+  int points = 0, written = 0;
+  for (const char* asset : {"FaceCap/facecap_decoded.glb", "MorphStressTest/MorphStressTest.gltf",
+                            "MorphPrimitivesTest/MorphPrimitivesTest.gltf", "AnimatedMorphSphere/AnimatedMorphSphere.gltf"}) {
+    auto rig = LoadRigFile(test::RealAsset(asset));
+    ASSERT_TRUE(rig.ok()) << asset << ": " << rig.status().message;
+    ASSERT_TRUE(F32Blender::Serves(rig.value(), {})) << asset;
+    for (bool mesh_space : {false, true}) {
+      const F32Blender blender(rig.value(), mesh_space);
+      F32Blender::Scratch scratch;
+      BlendedRig blended;
+      BlendContext ctx;
+      std::string body;
+      std::vector<float> w(rig->shapes.size(), 0.0f);
+      for (int point = 0; point < 12; ++point) {
+        if (point > 0) {
+          std::fill(w.begin(), w.end(), 0.0f);
+          for (int k = 0; k < 1 + point % 5; ++k) w[static_cast<size_t>(next() * 1000) % w.size()] = point % 4 == 3 ? 1.0f - 2.0f * next() : 0.5f * next();
+        }
+        ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, blended, ctx).ok());
+        auto want = ExportMesh(rig.value(), blended, w, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+        ASSERT_TRUE(want.ok());
+        // Served unless an active target has no normal deltas (MorphPrimitivesTest's have none).
+        bool recomputed = false;
+        for (const Mesh& m : rig->meshes) {
+          for (int pi : m.primitives) {
+            const Primitive& p = rig->primitives[pi];
+            for (size_t t = 0; t < p.targets.size(); ++t) {
+              recomputed |= w[m.target_shapes[t]] != 0.0f && p.targets[t].normal_deltas.size() != 3 * p.targets[t].indices.size();
+            }
+          }
+        }
+        ++points;
+        if (!blender.Write(rig.value(), w, scratch, body)) {
+          EXPECT_TRUE(recomputed) << asset << " point " << point << " declined";
+          continue;
+        }
+        EXPECT_FALSE(recomputed) << asset << " point " << point;
+        ++written;
+        ASSERT_EQ(body.size(), want->size());
+        EXPECT_EQ(std::memcmp(body.data(), want->data(), body.size()), 0) << asset << " point " << point << (mesh_space ? " mesh" : " world");
+      }
+      EXPECT_FALSE(blender.Write(rig.value(), std::vector<float>(w.size() + 1, 0.0f), scratch, body)) << "weights of another rig";
+      std::vector<float> nan(w.size(), 0.0f);
+      nan[0] = std::nanf("");
+      EXPECT_FALSE(blender.Write(rig.value(), nan, scratch, body));
+    }
+  }
+  EXPECT_GT(written, points / 2) << written << " of " << points << " points written";
+  // A target without normal deltas: the blend recomputes normals there, so the writer declines
+  // when (only when) that target is active.
+  auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
+  ASSERT_TRUE(face.ok());
+  Rig rig = face.value();
+  size_t shape = SIZE_MAX;
+  for (Primitive& p : rig.primitives) {
+    for (size_t t = 0; t < p.targets.size() && shape == SIZE_MAX; ++t) {
+      p.targets[t].normal_deltas.clear();
+      for (const Mesh& m : rig.meshes) {
+        if (!m.target_shapes.empty() && &rig.primitives[m.primitives[0]] == &p) shape = m.target_shapes[t];
+      }
+    }
+  }
+  ASSERT_NE(shape, SIZE_MAX);
+  const F32Blender blender(rig, false);
+  F32Blender::Scratch scratch;
+  std::string body;
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  w[(shape + 1) % w.size()] = 0.5f;
+  EXPECT_TRUE(blender.Write(rig, w, scratch, body));
+  w[shape] = 0.5f;
+  EXPECT_FALSE(blender.Write(rig, w, scratch, body));
+  // Skinned, posed, recomputed normals: not served.
+  auto skinned = LoadRigFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
+  ASSERT_TRUE(skinned.ok());
+  EXPECT_FALSE(F32Blender::Serves(skinned.value(), {}));
+  EXPECT_FALSE(F32Blender(skinned.value(), false).Write(skinned.value(), std::vector<float>(skinned->shapes.size(), 0.0f), scratch, body));
+  Pose pose;
+  EXPECT_FALSE(F32Blender::Serves(face.value(), {.pose = &pose}));
+  EXPECT_FALSE(F32Blender::Serves(face.value(), {.normals = NormalMode::kRecompute}));
+}
+
 // The batch's glb writer gives ExportMesh's bytes exactly, variant after variant: FaceCap with
 // and without warnings (extrapolation), CesiumMan posed by its clip at several times (skinned
 // positions, every node's matrix), then the same CesiumMan at rest (another shape: the template

@@ -117,6 +117,25 @@ void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<
   if (e.free.size() < kKeptPerRig) e.free.push_back(std::move(writer));
 }
 
+std::shared_ptr<const F32Blender> F32Blenders::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = entries_.find(rig.get());
+    if (it != entries_.end() && it->second.rig.lock() == rig && it->second.blender[mesh_space]) return it->second.blender[mesh_space];
+  }
+  auto made = std::make_shared<const F32Blender>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = entries_.find(rig.get());
+  if (it == entries_.end()) {  // A new entry: the time to drop those whose rig died.
+    std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
+    it = entries_.emplace(rig.get(), Entry{rig, {}}).first;
+  } else if (it->second.rig.lock() != rig) {
+    it->second = Entry{rig, {}};
+  }
+  if (!it->second.blender[mesh_space]) it->second.blender[mesh_space] = made;
+  return it->second.blender[mesh_space];
+}
+
 std::string ServerTiming(const Workspace::Timing& timing) {
   std::string out;
   auto add = [&](const char* name, double ms) {

@@ -93,6 +93,22 @@ class GlbWriters {
   std::map<const Rig*, Entry> entries_;
 };
 
+// Core's F32Blender of each rig and space the mesh route served as f32 (the rest and the shapes'
+// deltas placed once), held while the rig lives, as GlbWriters' entries are: an entry whose rig
+// died is dropped, so a new rig at the same address never meets an old blender.
+class F32Blenders {
+ public:
+  std::shared_ptr<const F32Blender> Get(const std::shared_ptr<const Rig>& rig, bool mesh_space);
+
+ private:
+  struct Entry {
+    std::weak_ptr<const Rig> rig;
+    std::shared_ptr<const F32Blender> blender[2];  // World space, mesh space.
+  };
+  std::mutex mu_;
+  std::map<const Rig*, Entry> entries_;
+};
+
 struct Context {
   Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels);
 
@@ -105,6 +121,7 @@ struct Context {
   WorkspacePool workspaces;
   DerivedRigs derived;
   GlbWriters glb_writers;
+  F32Blenders f32_blenders;
   const std::string openapi;  // The document, with this server's limits.
 };
 

@@ -53,6 +53,7 @@ struct Point {
 struct Workspace {
   BlendContext context;
   BlendedRig blended;
+  F32Blender::Scratch f32;
   render::Image image;
   std::vector<render::Image> cells;
   // What the last encode's steps took, in milliseconds (the service's Server-Timing header);
@@ -86,9 +87,11 @@ void CheckPoint(const Rig& rig, BlendMode mode, Point& point);
 
 // The mesh at `point` in `format` (glb keeps the rig's targets when request.keep_targets). With
 // `glb`, a writer that served this same rig before, a blended glb patches its template (the same
-// bytes, a third of the time).
+// bytes, a third of the time). With `f32`, a blender made for this same rig, an f32 body is
+// blended where it is written when the blender serves the point (a copy of the rest and the
+// vertices the point moves), else evaluated and exported as the other formats are.
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
-                               Workspace& ws, GlbVariantWriter* glb = nullptr);
+                               Workspace& ws, GlbVariantWriter* glb = nullptr, const F32Blender* f32 = nullptr);
 
 // The blended glb at `point` as the writer's two pieces (valid until its next call), for callers
 // that write them as they are (batch files) instead of joining them.

@@ -182,6 +182,42 @@ class GlbVariantWriter {
   std::unique_ptr<GlbTemplate> t_;
 };
 
+// f32 bodies of many blended points of one rig, byte for byte what EvaluateRig + ExportMesh(kF32)
+// write, blended where they are written: the rig's rest (zero weights, rest pose) is exported
+// once, and a body is a copy of its bytes in which only the vertices the point's active shapes
+// move are blended and placed again (the same operations in the same order, so the same bits).
+// No blend of the whole mesh, no placement of every vertex: on FaceCap, a random 4-shape point
+// moves 40% of the vertices and one primitive of four.
+// It serves rigs without skins, in-betweens or correctives, unposed, with blended normals
+// (Serves); Write declines (false) other rigs and a point whose active shape has no normal
+// deltas. Write takes the rig it was made from. Immutable after construction: threads share one,
+// each with its own scratch.
+class F32Blender {
+ public:
+  struct Scratch {
+    std::vector<float> target_weights, positions, normals;
+    std::vector<uint8_t> mark;
+    std::vector<uint32_t> moved;
+  };
+  static bool Serves(const Rig& rig, const BlendOptions& options);
+  F32Blender(const Rig& rig, bool mesh_space);
+  bool mesh_space() const { return mesh_space_; }
+  // The body at `weights` (one per rig shape) into `out`; false: not served (see above).
+  bool Write(const Rig& rig, std::span<const float> weights, Scratch& scratch, std::string& out) const;
+
+ private:
+  struct Placed {
+    std::array<float, 16> placement{};  // Its node's transform at rest, or the identity in mesh space.
+    std::vector<uint32_t> shapes;       // The rig shape of each of its targets.
+    size_t at = 0, normals_at = 0;      // Byte offsets of its positions and its normals in a body.
+  };
+  bool mesh_space_;
+  bool ok_ = false;
+  size_t shapes_ = 0;
+  std::vector<Placed> primitives_;
+  std::string rest_;  // The body at rest.
+};
+
 // The JSON export's primitives array: [{"mesh", "primitive", "name", "positions", "normals"}],
 // in world space (or each mesh's own with `mesh_space`).
 std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended, bool mesh_space = false);
