@@ -74,9 +74,8 @@ Result<GlbVariantWriter::Pieces> EncodeGlb(const Rig& rig, const Point& point, c
 
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
                                Workspace& ws, GlbVariantWriter* glb, const F32Blender* f32) {
-  BlendOptions blend = request.options;
-  blend.pose = point.pose_or_null();
-  if (f32 && format == MeshFormat::kF32 && f32->mesh_space() == request.mesh_space && F32Blender::Serves(rig, blend)) {
+  if (f32 && format == MeshFormat::kF32 && f32->mesh_space() == request.mesh_space && !point.pose_or_null() &&
+      F32Blender::Serves(rig, request.options)) {
     auto start = std::chrono::steady_clock::now();
     std::string bytes;
     if (f32->Write(rig, point.weights, ws.f32, bytes)) {

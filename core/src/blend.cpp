@@ -1,6 +1,7 @@
 #include "facespace/core/blend.h"
 
 #include "facespace/core/skeleton.h"
+#include "normal_matrix.h"
 
 #include <algorithm>
 #include <cmath>
@@ -18,16 +19,6 @@ const std::vector<float>& Deltas(const SparseTarget& t, TargetChannel c) {
     case TargetChannel::kPosition: break;
   }
   return t.position_deltas;
-}
-
-inline void Normalize3(float* v) {
-  const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  if (len > 1e-30f) {
-    const float inv = 1.0f / len;
-    v[0] *= inv;
-    v[1] *= inv;
-    v[2] *= inv;
-  }
 }
 
 }  // namespace
@@ -95,6 +86,22 @@ bool BlendShapeJob::Run() const {
     }
   }
   return true;
+}
+
+void MovedVertices(std::span<const SparseTarget> targets, std::span<const float> weights, size_t vertex_count,
+                   std::vector<uint8_t>& mark, std::vector<uint32_t>& moved) {
+  if (mark.size() < vertex_count) mark.resize(vertex_count, 0);
+  moved.clear();
+  for (size_t t = 0; t < targets.size() && t < weights.size(); ++t) {
+    if (weights[t] == 0.0f) continue;
+    for (uint32_t v : targets[t].indices) {
+      if (!mark[v]) {
+        mark[v] = 1;
+        moved.push_back(v);
+      }
+    }
+  }
+  for (uint32_t v : moved) mark[v] = 0;
 }
 
 void ComputeSmoothNormals(std::span<const float> positions, std::span<const uint32_t> triangles,
@@ -204,24 +211,14 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
     return true;
   }
 
-  // Union of the vertices the active targets move.
-  const size_t n = p.vertex_count();
-  if (ctx.vertex_mark.size() < n) ctx.vertex_mark.resize(n, 0);
-  ctx.moved.clear();
   bool can_blend_normals = options.normals == NormalMode::kBlend;
   bool can_blend_tangents = !p.tangents.empty();
   for (size_t t = 0; t < p.targets.size(); ++t) {
     if (tw[t] == 0.0f) continue;
     can_blend_normals &= HasChannel(p.targets[t], TargetChannel::kNormal);
     can_blend_tangents &= HasChannel(p.targets[t], TargetChannel::kTangent);
-    for (uint32_t v : p.targets[t].indices) {
-      if (!ctx.vertex_mark[v]) {
-        ctx.vertex_mark[v] = 1;
-        ctx.moved.push_back(v);
-      }
-    }
   }
-  for (uint32_t v : ctx.moved) ctx.vertex_mark[v] = 0;
+  MovedVertices(p.targets, tw, p.vertex_count(), ctx.vertex_mark, ctx.moved);
 
   // A blend job starts from a copy of its base: the base is copied here only where no job runs.
   std::span<const uint32_t> changed = ctx.moved;  // Vertices whose normal may differ.

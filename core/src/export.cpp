@@ -175,15 +175,14 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
   return out;
 }
 
-// A point placed by `m`: the one expression every f32 position goes through (inlined into
-// ExportF32's loop, where the compiler does several at once, and F32Blender's), so a vertex
-// placed alone has the bits of one placed in a block.
+// A point placed by `m`: the one expression every f32 position goes through.
 inline void PlacePoint(const std::array<float, 16>& m, const float* p, float* q) {
   for (int r = 0; r < 3; ++r) q[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * 1.0f;
 }
 
 // One primitive's placed positions into `at` and its placed normals into `normals_at`, 64
-// vertices at a time (vector instructions), through a small buffer.
+// vertices at a time (vector instructions), through a small buffer: ExportF32's and F32Blender's
+// placement, so both write the same bits.
 void WritePlaced(std::span<const float> positions, std::span<const float> normals, const std::array<float, 16>& m, char* at,
                  char* normals_at) {
   float q[3 * 64];
@@ -202,30 +201,17 @@ void WritePlaced(std::span<const float> positions, std::span<const float> normal
 }
 
 std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
-  size_t floats = 0;
-  for (const BlendedPrimitive& b : blended.primitives) floats += b.positions.size() + b.normals.size();
-  // Appended in blocks from a small buffer, float by float as they are (x86-64 and ARM64 are
-  // little-endian), into reserved room: no zero fill of 100 KB first. The same placements as
-  // WritePlaced's.
-  std::string out;
-  out.reserve(floats * 4);
+  size_t floats = 0, normals_at = 0;
   for (const BlendedPrimitive& b : blended.primitives) {
-    const auto& m = Placement(b, mesh_space);
-    float q[3 * 64];
-    for (size_t v = 0; v < b.positions.size(); v += std::size(q)) {
-      const size_t chunk = std::min(std::size(q), b.positions.size() - v);
-      for (size_t i = 0; i + 2 < chunk; i += 3) PlacePoint(m, &b.positions[v + i], q + i);
-      out.append(reinterpret_cast<const char*>(q), chunk * 4);
-    }
+    floats += b.positions.size() + b.normals.size();
+    normals_at += b.positions.size() * 4;
   }
+  std::string out(floats * 4, '\0');  // Written in place, float by float: x86-64 and ARM64 are little-endian.
+  size_t at = 0;
   for (const BlendedPrimitive& b : blended.primitives) {
-    const NormalMatrix nm(Placement(b, mesh_space).data(), 4);
-    float q[3 * 64];
-    for (size_t v = 0; v < b.normals.size(); v += std::size(q)) {
-      const size_t chunk = std::min(std::size(q), b.normals.size() - v);
-      nm.ApplyMany(&b.normals[v], chunk / 3, q);
-      out.append(reinterpret_cast<const char*>(q), chunk * 4);
-    }
+    WritePlaced(b.positions, b.normals, Placement(b, mesh_space), out.data() + at, out.data() + normals_at);
+    at += b.positions.size() * 4;
+    normals_at += b.normals.size() * 4;
   }
   return out;
 }
@@ -896,15 +882,6 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
   for (float w : weights) {
     if (!std::isfinite(w)) return false;
   }
-  // Every active target needs its normal deltas (else the blend recomputes normals).
-  for (size_t pi = 0; pi < primitives_.size(); ++pi) {
-    const Primitive& p = rig.primitives[pi];
-    for (size_t t = 0; t < p.targets.size(); ++t) {
-      const uint32_t shape = primitives_[pi].shapes[t];
-      if (shape >= weights.size()) return false;
-      if (weights[shape] != 0.0f && p.targets[t].normal_deltas.size() != 3 * p.targets[t].indices.size()) return false;
-    }
-  }
   out.assign(rest_);
   for (size_t pi = 0; pi < primitives_.size(); ++pi) {
     const Placed& placed = primitives_[pi];
@@ -912,6 +889,7 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
     s.target_weights.resize(p.targets.size());
     bool active = false;
     for (size_t t = 0; t < p.targets.size(); ++t) {
+      if (placed.shapes[t] >= weights.size()) return false;
       s.target_weights[t] = weights[placed.shapes[t]];
       active |= s.target_weights[t] != 0.0f;
     }
@@ -924,24 +902,12 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
                      .channel = TargetChannel::kPosition, .stride = 3, .out = s.positions};
     BlendShapeJob nj{.base = p.normals, .weights = s.target_weights, .targets = p.targets,
                      .channel = TargetChannel::kNormal, .stride = 3, .out = s.normals};
+    // The normals' job declines an active target without normal deltas, as the blend does (it
+    // recomputes normals there): so does this writer.
     if (!pj.Run() || !nj.Run()) return false;
     // The moved vertices' normals to unit length, as the blend leaves them.
-    const size_t n = p.vertex_count();
-    if (s.mark.size() < n) s.mark.resize(n, 0);
-    s.moved.clear();
-    for (size_t t = 0; t < p.targets.size(); ++t) {
-      if (s.target_weights[t] == 0.0f) continue;
-      for (uint32_t v : p.targets[t].indices) {
-        if (!s.mark[v]) {  // v < n: the blend job checked.
-          s.mark[v] = 1;
-          s.moved.push_back(v);
-        }
-      }
-    }
-    for (uint32_t v : s.moved) {
-      s.mark[v] = 0;
-      NormalizeMany(&s.normals[3 * size_t{v}], 1);
-    }
+    MovedVertices(p.targets, s.target_weights, p.vertex_count(), s.mark, s.moved);
+    for (uint32_t v : s.moved) Normalize3(&s.normals[3 * size_t{v}]);
     WritePlaced(s.positions, s.normals, placed.placement, out.data() + placed.at, out.data() + placed.normals_at);
   }
   return true;

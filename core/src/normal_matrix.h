@@ -65,38 +65,15 @@ struct NormalMatrix {
   }
 };
 
-// `count` xyz vectors scaled to unit length in place, as a blend leaves a moved vertex's normal:
-// len = sqrt(x*x + y*y + z*z); above 1e-30 each is multiplied by 1 / len, else kept. Four at a time
-// in SSE registers where there are some, with the same operations in the same order as the
-// scalar tail, so the same bits.
-inline void NormalizeMany(float* v, size_t count) {
-  size_t i = 0;
-#if defined(__SSE2__)
-  const __m128 tiny = _mm_set1_ps(1e-30f), one = _mm_set1_ps(1.0f);
-  for (; i + 4 <= count; i += 4, v += 12) {
-    alignas(16) float in[3][4];
-    for (int k = 0; k < 4; ++k) {
-      for (int r = 0; r < 3; ++r) in[r][k] = v[3 * k + r];
-    }
-    const __m128 x = _mm_load_ps(in[0]), y = _mm_load_ps(in[1]), z = _mm_load_ps(in[2]);
-    const __m128 len = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(x, x), _mm_mul_ps(y, y)), _mm_mul_ps(z, z)));
-    const __m128 big = _mm_cmpgt_ps(len, tiny);
-    const __m128 inv = _mm_div_ps(one, len);
-    const __m128 c[3] = {x, y, z};
-    for (int r = 0; r < 3; ++r) _mm_store_ps(in[r], _mm_or_ps(_mm_and_ps(big, _mm_mul_ps(c[r], inv)), _mm_andnot_ps(big, c[r])));
-    for (int k = 0; k < 4; ++k) {
-      for (int r = 0; r < 3; ++r) v[3 * k + r] = in[r][k];
-    }
-  }
-#endif
-  for (; i < count; ++i, v += 3) {
-    const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (len > 1e-30f) {
-      const float inv = 1.0f / len;
-      v[0] *= inv;
-      v[1] *= inv;
-      v[2] *= inv;
-    }
+// A blended normal (or tangent) scaled to unit length in place, as EvaluateRig leaves a moved
+// vertex's: kept when its length is 1e-30 or less. F32Blender repeats the blend with it, bit for bit.
+inline void Normalize3(float* v) {
+  const float len = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  if (len > 1e-30f) {
+    const float inv = 1.0f / len;
+    v[0] *= inv;
+    v[1] *= inv;
+    v[2] *= inv;
   }
 }
 

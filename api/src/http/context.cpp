@@ -90,14 +90,9 @@ GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
   std::unique_ptr<GlbVariantWriter> writer;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    auto it = entries_.find(rig.get());
-    if (it != entries_.end() && it->second.rig.lock() != rig) {  // Another rig's, at the same address.
-      entries_.erase(it);
-      it = entries_.end();
-    }
-    if (it != entries_.end() && !it->second.free.empty()) {
-      writer = std::move(it->second.free.back());
-      it->second.free.pop_back();
+    if (auto* free = free_.Find(rig); free && !free->empty()) {
+      writer = std::move(free->back());
+      free->pop_back();
     }
   }
   if (!writer) writer = std::make_unique<GlbVariantWriter>();
@@ -106,34 +101,20 @@ GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
 
 void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer) {
   std::lock_guard<std::mutex> lock(mu_);
-  auto it = entries_.find(rig.get());
-  if (it == entries_.end()) {  // A new entry: the time to drop those whose rig died.
-    std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
-    it = entries_.emplace(rig.get(), Entry{rig, {}}).first;
-  } else if (it->second.rig.lock() != rig) {
-    it->second = Entry{rig, {}};
-  }
-  Entry& e = it->second;
-  if (e.free.size() < kKeptPerRig) e.free.push_back(std::move(writer));
+  auto& free = free_.At(rig);
+  if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
 }
 
 std::shared_ptr<const F32Blender> F32Blenders::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
   {
     std::lock_guard<std::mutex> lock(mu_);
-    auto it = entries_.find(rig.get());
-    if (it != entries_.end() && it->second.rig.lock() == rig && it->second.blender[mesh_space]) return it->second.blender[mesh_space];
+    if (auto* kept = blenders_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
   }
   auto made = std::make_shared<const F32Blender>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
   std::lock_guard<std::mutex> lock(mu_);
-  auto it = entries_.find(rig.get());
-  if (it == entries_.end()) {  // A new entry: the time to drop those whose rig died.
-    std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
-    it = entries_.emplace(rig.get(), Entry{rig, {}}).first;
-  } else if (it->second.rig.lock() != rig) {
-    it->second = Entry{rig, {}};
-  }
-  if (!it->second.blender[mesh_space]) it->second.blender[mesh_space] = made;
-  return it->second.blender[mesh_space];
+  auto& kept = blenders_.At(rig)[mesh_space];
+  if (!kept) kept = std::move(made);
+  return kept;
 }
 
 std::string ServerTiming(const Workspace::Timing& timing) {

@@ -60,10 +60,39 @@ class DerivedRigs {
   std::map<std::string, std::shared_ptr<const DerivedRig>> derived_;
 };
 
+// Values kept per rig while it lives: entries hold their rig weakly, and one whose rig died (a
+// replaced or deleted rig, an evicted level of detail) is dropped, so a new rig at the same address
+// never meets an old value. Not locked: its owner holds its own mutex around each call.
+template <typename Value>
+class PerRig {
+ public:
+  // The rig's value, or null when there is none (or only a dead rig's at its address).
+  Value* Find(const std::shared_ptr<const Rig>& rig) {
+    auto it = entries_.find(rig.get());
+    return it != entries_.end() && it->second.rig.lock() == rig ? &it->second.value : nullptr;
+  }
+  // The rig's value, made empty when there was none; a new entry is the time to drop dead ones.
+  Value& At(const std::shared_ptr<const Rig>& rig) {
+    auto it = entries_.find(rig.get());
+    if (it == entries_.end()) {
+      std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
+      it = entries_.emplace(rig.get(), Entry{rig, Value{}}).first;
+    } else if (it->second.rig.lock() != rig) {
+      it->second = Entry{rig, Value{}};
+    }
+    return it->second.value;
+  }
+
+ private:
+  struct Entry {
+    std::weak_ptr<const Rig> rig;
+    Value value;
+  };
+  std::map<const Rig*, Entry> entries_;
+};
+
 // Glb writers kept per rig (a GlbVariantWriter holds one rig's exported template), leased one per
-// request. A writer is only handed out for the rig it was made for while that rig lives: entries
-// hold the rig weakly, and one whose rig died (a replaced or deleted rig, an evicted level of
-// detail) is dropped, so a new rig at the same address never meets an old template.
+// request; a writer is only handed out for the rig it was made for while that rig lives (PerRig).
 class GlbWriters {
  public:
   class Lease {
@@ -84,29 +113,20 @@ class GlbWriters {
 
  private:
   static constexpr size_t kKeptPerRig = 4;
-  struct Entry {
-    std::weak_ptr<const Rig> rig;
-    std::vector<std::unique_ptr<GlbVariantWriter>> free;
-  };
   void Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer);
   std::mutex mu_;
-  std::map<const Rig*, Entry> entries_;
+  PerRig<std::vector<std::unique_ptr<GlbVariantWriter>>> free_;
 };
 
-// Core's F32Blender of each rig and space the mesh route served as f32 (the rest and the shapes'
-// deltas placed once), held while the rig lives, as GlbWriters' entries are: an entry whose rig
-// died is dropped, so a new rig at the same address never meets an old blender.
+// Core's F32Blender of each rig and space the mesh route served as f32 (the rest body made once),
+// held while the rig lives (PerRig).
 class F32Blenders {
  public:
   std::shared_ptr<const F32Blender> Get(const std::shared_ptr<const Rig>& rig, bool mesh_space);
 
  private:
-  struct Entry {
-    std::weak_ptr<const Rig> rig;
-    std::shared_ptr<const F32Blender> blender[2];  // World space, mesh space.
-  };
   std::mutex mu_;
-  std::map<const Rig*, Entry> entries_;
+  PerRig<std::array<std::shared_ptr<const F32Blender>, 2>> blenders_;  // World space, mesh space.
 };
 
 struct Context {
