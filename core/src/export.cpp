@@ -182,20 +182,35 @@ inline void PlacePoint(const std::array<float, 16>& m, const float* p, float* q)
 
 // One primitive's placed positions into `at` and its placed normals into `normals_at`, 64
 // vertices at a time (vector instructions), through a small buffer: ExportF32's and F32Blender's
-// placement, so both write the same bits.
+// placement, so both write the same bits. With `unit_first` (a bit per vertex, 64 to a word), the
+// marked normals are first scaled to unit length, as the blend scales a moved vertex's.
 void WritePlaced(std::span<const float> positions, std::span<const float> normals, const std::array<float, 16>& m, char* at,
-                 char* normals_at) {
+                 char* normals_at, const uint64_t* unit_first = nullptr) {
   float q[3 * 64];
   for (size_t v = 0; v < positions.size(); v += std::size(q)) {
     const size_t chunk = std::min(std::size(q), positions.size() - v);
     const float* p = &positions[v];
-    for (size_t i = 0; i + 2 < chunk; i += 3) PlacePoint(m, p + i, q + i);
+    size_t i = 0;
+#if defined(__SSE2__)
+    // Four points at a time: PlacePoint's products and sums in its order (m[12 + r] * 1 is m[12 + r]).
+    for (; i + 12 <= chunk; i += 12) {
+      __m128 x, y, z, o[3];
+      LoadXyz4(p + i, x, y, z);
+      for (int r = 0; r < 3; ++r) {
+        o[r] = _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(m[r]), x), _mm_mul_ps(_mm_set1_ps(m[4 + r]), y)),
+                                     _mm_mul_ps(_mm_set1_ps(m[8 + r]), z)),
+                          _mm_set1_ps(m[12 + r]));
+      }
+      StoreXyz4(o[0], o[1], o[2], q + i);
+    }
+#endif
+    for (; i + 2 < chunk; i += 3) PlacePoint(m, p + i, q + i);
     std::memcpy(at + 4 * v, q, chunk * 4);
   }
   const NormalMatrix nm(m.data(), 4);
   for (size_t v = 0; v < normals.size(); v += std::size(q)) {
     const size_t chunk = std::min(std::size(q), normals.size() - v);
-    nm.ApplyMany(&normals[v], chunk / 3, q);
+    nm.ApplyMany(&normals[v], chunk / 3, q, unit_first ? unit_first[v / std::size(q)] : 0);
     std::memcpy(normals_at + 4 * v, q, chunk * 4);
   }
 }
@@ -871,6 +886,17 @@ F32Blender::F32Blender(const Rig& rig, bool mesh_space) : mesh_space_(mesh_space
     for (int pi : mesh.primitives) primitives_[pi].shapes = mesh.target_shapes;
   }
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    const Primitive& p = rig.primitives[pi];
+    const size_t words = (p.vertex_count() + 63) / 64;
+    primitives_[pi].moved.assign(words * p.targets.size(), 0);
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      for (uint32_t v : p.targets[t].indices) {
+        if (v >= p.vertex_count()) return;
+        primitives_[pi].moved[t * words + v / 64] |= uint64_t{1} << (v % 64);
+      }
+    }
+  }
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     if (primitives_[pi].shapes.size() != rig.primitives[pi].targets.size()) return;
   }
   shapes_ = rig.shapes.size();
@@ -905,10 +931,16 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
     // The normals' job declines an active target without normal deltas, as the blend does (it
     // recomputes normals there): so does this writer.
     if (!pj.Run() || !nj.Run()) return false;
-    // The moved vertices' normals to unit length, as the blend leaves them.
-    MovedVertices(p.targets, s.target_weights, p.vertex_count(), s.mark, s.moved);
-    for (uint32_t v : s.moved) Normalize3(&s.normals[3 * size_t{v}]);
-    WritePlaced(s.positions, s.normals, placed.placement, out.data() + placed.at, out.data() + placed.normals_at);
+    // The moved vertices (any active target's) have their normals scaled to unit length, as the
+    // blend leaves them, while they are placed.
+    const size_t words = placed.moved.size() / p.targets.size();
+    s.moved.assign(words, 0);
+    for (size_t t = 0; t < p.targets.size(); ++t) {
+      if (s.target_weights[t] == 0.0f) continue;
+      const uint64_t* bits = &placed.moved[t * words];
+      for (size_t k = 0; k < words; ++k) s.moved[k] |= bits[k];
+    }
+    WritePlaced(s.positions, s.normals, placed.placement, out.data() + placed.at, out.data() + placed.normals_at, s.moved.data());
   }
   return true;
 }

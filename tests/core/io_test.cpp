@@ -3,6 +3,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -405,6 +406,48 @@ TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
     EXPECT_EQ(std::memcmp(f32->data(), expected.data(), f32->size()), 0) << count << " vertices";
     if (count > 3) {
       EXPECT_EQ(expected[3 * count + 9], 0.0f) << "a zero normal stays zero";
+    }
+  }
+}
+
+// ApplyMany with unit_first (F32Blender's pass: a moved vertex's blended normal scaled to unit
+// length, then placed): bit for bit Normalize3 then Apply for the marked normals and Apply alone
+// for the rest, four at a time and in the tail, with zero, tiny, huge and NaN normals among them.
+TEST(Export, UnitFirstNormalsAreNormalize3ThenApply) {
+  const float m[16] = {0.0f, -2.5f, 0.0f, 0, 0.3f, 0.0f, 0.1f, 0, 0.0f, 0.2f, -1.7f, 0, 4.0f, -5.0f, 6.5f, 1};
+  const NormalMatrix nm(m, 4);
+  uint32_t state = 3;
+  auto next = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return state;
+  };
+  for (size_t count : {1u, 7u, 61u, 64u}) {
+    std::vector<float> n(3 * count);
+    for (float& f : n) f = static_cast<float>(next() >> 8) / 4194304.0f - 2.0f;  // [-2, 2): rarely unit length.
+    if (count > 4) {
+      std::fill(n.begin() + 3, n.begin() + 6, 0.0f);                       // zero: kept
+      std::fill(n.begin() + 6, n.begin() + 9, 1e-31f);                     // length under 1e-30: kept
+      n[9] = std::numeric_limits<float>::quiet_NaN();                      // NaN: kept by both
+      std::fill(n.begin() + 12, n.begin() + 15, 3e18f);                    // huge
+    }
+    const uint64_t bits = (uint64_t{next()} << 32 | next()) | 0x1e;  // The odd normals are all marked.
+    std::vector<float> got(3 * count), want(3 * count);
+    nm.ApplyMany(n.data(), count, got.data(), bits);
+    int unit = 0;
+    for (size_t v = 0; v < count; ++v) {
+      float t[3] = {n[3 * v], n[3 * v + 1], n[3 * v + 2]};
+      if (bits >> v & 1) {
+        Normalize3(t);
+        ++unit;
+      }
+      nm.Apply(t, &want[3 * v]);
+    }
+    EXPECT_EQ(std::memcmp(got.data(), want.data(), got.size() * 4), 0) << count << " normals, " << unit << " marked";
+    // And the marks matter: without them the bits differ wherever a marked normal is not unit length.
+    std::vector<float> plain(3 * count);
+    nm.ApplyMany(n.data(), count, plain.data());
+    if (count > 4) {
+      EXPECT_NE(std::memcmp(plain.data(), want.data(), plain.size() * 4), 0) << count;
     }
   }
 }

@@ -196,8 +196,7 @@ class F32Blender {
  public:
   struct Scratch {
     std::vector<float> target_weights, positions, normals;
-    std::vector<uint8_t> mark;
-    std::vector<uint32_t> moved;
+    std::vector<uint64_t> moved;  // A bit per vertex: moved by an active target.
   };
   static bool Serves(const Rig& rig, const BlendOptions& options);
   F32Blender(const Rig& rig, bool mesh_space);
@@ -209,6 +208,7 @@ class F32Blender {
   struct Placed {
     std::array<float, 16> placement{};  // Its node's transform at rest, or the identity in mesh space.
     std::vector<uint32_t> shapes;       // The rig shape of each of its targets.
+    std::vector<uint64_t> moved;        // Per target, a bit per vertex it moves (64 to a word).
     size_t at = 0, normals_at = 0;      // Byte offsets of its positions and its normals in a body.
   };
   bool mesh_space_;
