@@ -77,11 +77,12 @@ Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshReq
   if (f32 && format == MeshFormat::kF32 && f32->mesh_space() == request.mesh_space && !point.pose_or_null() &&
       F32Blender::Serves(rig, request.options)) {
     auto start = std::chrono::steady_clock::now();
-    std::string bytes;
+    std::string bytes = std::move(ws.body);
     if (f32->Write(rig, point.weights, ws.f32, bytes)) {
       Lap(start, ws.timing.blend);
       return bytes;
     }
+    ws.body = std::move(bytes);
   }
   if (glb && format == MeshFormat::kGlb) {
     auto pieces = EncodeGlb(rig, point, request, ws, *glb);

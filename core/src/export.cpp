@@ -908,7 +908,9 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
   for (float w : weights) {
     if (!std::isfinite(w)) return false;
   }
-  out.assign(rest_);
+  // Every byte of `out` is written below, so a body of this size handed back (a response sent)
+  // is written over as it is: no allocation, and no copy of what the point's shapes move.
+  out.resize(rest_.size());
   for (size_t pi = 0; pi < primitives_.size(); ++pi) {
     const Placed& placed = primitives_[pi];
     const Primitive& p = rig.primitives[pi];
@@ -919,7 +921,12 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
       s.target_weights[t] = weights[placed.shapes[t]];
       active |= s.target_weights[t] != 0.0f;
     }
-    if (!active) continue;  // The rest's bytes stand.
+    if (!active) {  // The rest's bytes.
+      const size_t bytes = p.positions.size() * 4;
+      std::memcpy(out.data() + placed.at, rest_.data() + placed.at, bytes);
+      std::memcpy(out.data() + placed.normals_at, rest_.data() + placed.normals_at, bytes);
+      continue;
+    }
     // Blended as EvaluateRig blends a primitive (positions and normals: the f32 body has no
     // tangents), then placed whole as ExportF32 places it.
     s.positions.resize(p.positions.size());

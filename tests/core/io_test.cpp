@@ -503,6 +503,13 @@ TEST(F32Blender, WritesExportMeshBytes) {
         ASSERT_EQ(body.size(), want->size());
         EXPECT_EQ(std::memcmp(body.data(), want->data(), body.size()), 0) << asset << " point " << point << (mesh_space ? " mesh" : " world");
       }
+      // The body is written over whole: the rest again, into the last point's body, is the rest's bytes.
+      const std::vector<float> zero(w.size(), 0.0f);
+      ASSERT_TRUE(EvaluateRig(rig.value(), zero, {}, blended, ctx).ok());
+      auto rest = ExportMesh(rig.value(), blended, zero, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+      ASSERT_TRUE(rest.ok());
+      ASSERT_TRUE(blender.Write(rig.value(), zero, scratch, body));
+      EXPECT_TRUE(body == rest.value()) << asset << " at rest after a point";
       EXPECT_FALSE(blender.Write(rig.value(), std::vector<float>(w.size() + 1, 0.0f), scratch, body)) << "weights of another rig";
       std::vector<float> nan(w.size(), 0.0f);
       nan[0] = std::nanf("");

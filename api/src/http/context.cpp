@@ -105,6 +105,27 @@ void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<
   if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
 }
 
+std::string BodyPool::Take() {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (idle_.empty()) return {};
+  std::string body = std::move(idle_.back());
+  idle_.pop_back();
+  return body;
+}
+
+void BodyPool::Give(std::string body) {
+  if (body.capacity() < 4096 || body.capacity() > kLargest) return;
+  std::lock_guard<std::mutex> lock(mu_);
+  if (idle_.size() < kKept) idle_.push_back(std::move(body));
+}
+
+std::shared_ptr<Encoded> BodyPool::MakeEncoded(const std::shared_ptr<BodyPool>& pool) {
+  return std::shared_ptr<Encoded>(new Encoded, [weak = std::weak_ptr<BodyPool>(pool)](Encoded* e) {
+    if (auto p = weak.lock()) p->Give(std::move(e->body));
+    delete e;
+  });
+}
+
 std::shared_ptr<const F32Blender> F32Blenders::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
   {
     std::lock_guard<std::mutex> lock(mu_);

@@ -129,6 +129,22 @@ class F32Blenders {
   PerRig<std::array<std::shared_ptr<const F32Blender>, 2>> blenders_;  // World space, mesh space.
 };
 
+// Response bodies handed back when the last holder lets go (the response was sent, or the cache
+// dropped it), for the next f32 body to be written over: a FaceCap body is 100 KB, and a new one
+// per request cost an allocation and a copy of the whole rest body. A few of at most 1 MB are kept.
+class BodyPool {
+ public:
+  std::string Take();
+  void Give(std::string body);
+  // An Encoded whose body comes back here when it is freed (if the pool still exists).
+  static std::shared_ptr<Encoded> MakeEncoded(const std::shared_ptr<BodyPool>& pool);
+
+ private:
+  static constexpr size_t kKept = 8, kLargest = size_t{1} << 20;
+  std::mutex mu_;
+  std::vector<std::string> idle_;
+};
+
 struct Context {
   Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels);
 
@@ -142,6 +158,7 @@ struct Context {
   DerivedRigs derived;
   GlbWriters glb_writers;
   F32Blenders f32_blenders;
+  const std::shared_ptr<BodyPool> bodies = std::make_shared<BodyPool>();
   const std::string openapi;  // The document, with this server's limits.
 };
 

@@ -42,7 +42,7 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
       SendStatus(req, res, bytes.status());
       return;
     }
-    auto e = std::make_shared<Encoded>();
+    auto e = BodyPool::MakeEncoded(ctx.bodies);
     e->body = std::move(bytes.value());
     // The cache counts a body by its size: no large room left over from building it (text formats).
     if (e->body.capacity() > e->body.size() + e->body.size() / 8) e->body.shrink_to_fit();

@@ -113,7 +113,10 @@ void GetOrPostMesh(Context& ctx, const httplib::Request& req, httplib::Response&
     const auto at = ctx.derived.RigAt(stored, r.lod);
     if (!at) return Internal("the level of detail failed");
     ctx.metrics.CountBlends(1);
-    if (*format == MeshFormat::kF32) return EncodeMesh(*at, point, r, *format, ws, nullptr, ctx.f32_blenders.Get(at, r.mesh_space).get());
+    if (*format == MeshFormat::kF32) {
+      if (ws.body.capacity() == 0) ws.body = ctx.bodies->Take();
+      return EncodeMesh(*at, point, r, *format, ws, nullptr, ctx.f32_blenders.Get(at, r.mesh_space).get());
+    }
     if (*format != MeshFormat::kGlb || r.keep_targets) return EncodeMesh(*at, point, r, *format, ws);
     const GlbWriters::Lease glb = ctx.glb_writers.Acquire(at);
     return EncodeMesh(*at, point, r, *format, ws, glb.get());

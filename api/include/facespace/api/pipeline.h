@@ -54,6 +54,7 @@ struct Workspace {
   BlendContext context;
   BlendedRig blended;
   F32Blender::Scratch f32;
+  std::string body;  // A response body handed back once sent, for the next f32 body to be written over.
   render::Image image;
   std::vector<render::Image> cells;
   // What the last encode's steps took, in milliseconds (the service's Server-Timing header);
