@@ -21,6 +21,25 @@ const std::vector<float>& Deltas(const SparseTarget& t, TargetChannel c) {
   return t.position_deltas;
 }
 
+// The vertices the targets of non-zero weight move, each once, in the order first met, into
+// `moved`; `mark` is scratch of zeros, grown to `vertex_count` and left all zero. Indices must be
+// below vertex_count (a BlendShapeJob that ran over the same targets checked them).
+void MovedVertices(std::span<const SparseTarget> targets, std::span<const float> weights, size_t vertex_count,
+                   std::vector<uint8_t>& mark, std::vector<uint32_t>& moved) {
+  if (mark.size() < vertex_count) mark.resize(vertex_count, 0);
+  moved.clear();
+  for (size_t t = 0; t < targets.size() && t < weights.size(); ++t) {
+    if (weights[t] == 0.0f) continue;
+    for (uint32_t v : targets[t].indices) {
+      if (!mark[v]) {
+        mark[v] = 1;
+        moved.push_back(v);
+      }
+    }
+  }
+  for (uint32_t v : moved) mark[v] = 0;
+}
+
 }  // namespace
 
 bool BlendShapeJob::Validate() const {
@@ -86,22 +105,6 @@ bool BlendShapeJob::Run() const {
     }
   }
   return true;
-}
-
-void MovedVertices(std::span<const SparseTarget> targets, std::span<const float> weights, size_t vertex_count,
-                   std::vector<uint8_t>& mark, std::vector<uint32_t>& moved) {
-  if (mark.size() < vertex_count) mark.resize(vertex_count, 0);
-  moved.clear();
-  for (size_t t = 0; t < targets.size() && t < weights.size(); ++t) {
-    if (weights[t] == 0.0f) continue;
-    for (uint32_t v : targets[t].indices) {
-      if (!mark[v]) {
-        mark[v] = 1;
-        moved.push_back(v);
-      }
-    }
-  }
-  for (uint32_t v : moved) mark[v] = 0;
 }
 
 void ComputeSmoothNormals(std::span<const float> positions, std::span<const uint32_t> triangles,

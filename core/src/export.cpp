@@ -850,8 +850,14 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
   return InvalidArgument("unknown format");
 }
 
-
 // ---- f32 blended where it is written --------------------------------------------------------
+
+namespace {
+
+// 64-bit words of a bit per vertex of `p` (F32Blender's moved vertices).
+size_t MovedWords(const Primitive& p) { return (p.vertex_count() + 63) / 64; }
+
+}  // namespace
 
 bool F32Blender::Serves(const Rig& rig, const BlendOptions& options) {
   if (options.normals != NormalMode::kBlend || options.pose || !rig.inbetweens.empty() || !rig.correctives.empty()) return false;
@@ -885,19 +891,20 @@ F32Blender::F32Blender(const Rig& rig, bool mesh_space) : mesh_space_(mesh_space
   for (const Mesh& mesh : rig.meshes) {
     for (int pi : mesh.primitives) primitives_[pi].shapes = mesh.target_shapes;
   }
+  // Each target's rig shape and the vertices it moves, checked once here for every point.
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
-    const size_t words = (p.vertex_count() + 63) / 64;
-    primitives_[pi].moved.assign(words * p.targets.size(), 0);
+    Placed& placed = primitives_[pi];
+    if (placed.shapes.size() != p.targets.size()) return;
+    const size_t words = MovedWords(p);
+    placed.moved.assign(words * p.targets.size(), 0);
     for (size_t t = 0; t < p.targets.size(); ++t) {
+      if (placed.shapes[t] >= rig.shapes.size()) return;
       for (uint32_t v : p.targets[t].indices) {
         if (v >= p.vertex_count()) return;
-        primitives_[pi].moved[t * words + v / 64] |= uint64_t{1} << (v % 64);
+        placed.moved[t * words + v / 64] |= uint64_t{1} << (v % 64);
       }
     }
-  }
-  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
-    if (primitives_[pi].shapes.size() != rig.primitives[pi].targets.size()) return;
   }
   shapes_ = rig.shapes.size();
   ok_ = true;
@@ -917,7 +924,6 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
     s.target_weights.resize(p.targets.size());
     bool active = false;
     for (size_t t = 0; t < p.targets.size(); ++t) {
-      if (placed.shapes[t] >= weights.size()) return false;
       s.target_weights[t] = weights[placed.shapes[t]];
       active |= s.target_weights[t] != 0.0f;
     }
@@ -940,7 +946,7 @@ bool F32Blender::Write(const Rig& rig, std::span<const float> weights, Scratch& 
     if (!pj.Run() || !nj.Run()) return false;
     // The moved vertices (any active target's) have their normals scaled to unit length, as the
     // blend leaves them, while they are placed.
-    const size_t words = placed.moved.size() / p.targets.size();
+    const size_t words = MovedWords(p);
     s.moved.assign(words, 0);
     for (size_t t = 0; t < p.targets.size(); ++t) {
       if (s.target_weights[t] == 0.0f) continue;

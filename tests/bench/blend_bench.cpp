@@ -329,7 +329,8 @@ void BM_MakeHumanEvaluate(benchmark::State& state) {
 
 // The mesh route's work in process, FaceCap with 4 shapes at 0.2: the blend, then the f32 body
 // (arg 0), the glb through ExportMesh (1), the glb through the batch's GlbVariantWriter (2), or nothing (3);
-// or the f32 body through F32Blender, the route's way (4: no whole blend, the rest's bytes copied).
+// or the f32 body through F32Blender, the route's way (4: only the primitives the point moves
+// blended, written over the last body).
 void BM_FaceCapMeshEncode(benchmark::State& state) {
   static const Rig rig = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   std::vector<float> w(rig.shapes.size(), 0.0f);

@@ -89,8 +89,9 @@ void CheckPoint(const Rig& rig, BlendMode mode, Point& point);
 // The mesh at `point` in `format` (glb keeps the rig's targets when request.keep_targets). With
 // `glb`, a writer that served this same rig before, a blended glb patches its template (the same
 // bytes, a third of the time). With `f32`, a blender made for this same rig, an f32 body is
-// blended where it is written when the blender serves the point (a copy of the rest and the
-// vertices the point moves), else evaluated and exported as the other formats are.
+// blended where it is written when the blender serves the point (the rest's bytes, and the
+// primitives the point moves blended and placed), written over `ws.body` when that holds a used
+// body; else evaluated and exported as the other formats are.
 Result<std::string> EncodeMesh(const Rig& rig, const Point& point, const MeshRequest& request, MeshFormat format,
                                Workspace& ws, GlbVariantWriter* glb = nullptr, const F32Blender* f32 = nullptr);
 

@@ -31,12 +31,6 @@ struct BlendShapeJob {
   std::span<float> out;                    // Same size as base. May alias base.
 };
 
-// The vertices the targets of non-zero weight move, each once, in the order first met, into
-// `moved`; `mark` is scratch of zeros, grown to `vertex_count` and left all zero. Indices must be
-// below vertex_count (a BlendShapeJob that ran over the same targets checked them).
-void MovedVertices(std::span<const SparseTarget> targets, std::span<const float> weights, size_t vertex_count,
-                   std::vector<uint8_t>& mark, std::vector<uint32_t>& moved);
-
 enum class BlendMode {
   kRelative,  // p = base + sum w_j (S_j - base): the glTF convention.
   kAbsolute,  // p = (1 - sum w) base + sum w_j S_j: weights are barycentric and should sum to 1.

@@ -184,10 +184,10 @@ class GlbVariantWriter {
 
 // f32 bodies of many blended points of one rig, byte for byte what EvaluateRig + ExportMesh(kF32)
 // write, blended where they are written: the rig's rest (zero weights, rest pose) is exported
-// once, and a body is a copy of its bytes in which only the vertices the point's active shapes
-// move are blended and placed again (the same operations in the same order, so the same bits).
-// No blend of the whole mesh, no placement of every vertex: on FaceCap, a random 4-shape point
-// moves 40% of the vertices and one primitive of four.
+// once; a body takes the rest's bytes for the primitives the point's active shapes leave alone,
+// and only the primitives they move are blended (positions and normals, no tangents) and placed
+// again, with the same operations in the same order, so the same bits. On FaceCap a point moves
+// one primitive of four (the head, not the eyes and teeth).
 // It serves rigs without skins, in-betweens or correctives, unposed, with blended normals
 // (Serves); Write declines (false) other rigs and a point whose active shape has no normal
 // deltas. Write takes the rig it was made from. Immutable after construction: threads share one,
@@ -201,7 +201,8 @@ class F32Blender {
   static bool Serves(const Rig& rig, const BlendOptions& options);
   F32Blender(const Rig& rig, bool mesh_space);
   bool mesh_space() const { return mesh_space_; }
-  // The body at `weights` (one per rig shape) into `out`; false: not served (see above).
+  // The body at `weights` (one per rig shape) into `out`, every byte of it written: a used body of
+  // the same size is written over with no allocation. False: not served (see above).
   bool Write(const Rig& rig, std::span<const float> weights, Scratch& scratch, std::string& out) const;
 
  private:
