@@ -120,7 +120,7 @@ int Merge(const std::vector<std::string>& args) {
   }
   Result<Rig> rig = LoadAndReport(rig_paths);
   if (!rig.ok()) return 1;
-  auto plan = api::MakeBatchPlan(rig.value(), spec["rig_version"].get<std::string>(),
+  auto plan = api::MakeBatchPlan(api::UnownedRig(rig.value()), spec["rig_version"].get<std::string>(),
                                  spec["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
@@ -344,7 +344,7 @@ int Batch(const std::vector<std::string>& args) {
   ReadFile(paths[0], bytes);
   const std::string_view whole[] = {bytes};
   const std::string version = batch::Sha256Hex(whole);
-  auto plan = api::MakeBatchPlan(rig.value(), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  auto plan = api::MakeBatchPlan(api::UnownedRig(rig.value()), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return plan.status().code == StatusCode::kInvalidArgument ? 2 : 1;

@@ -15,7 +15,7 @@ namespace {
 
 Status WriteError(const std::string& doing, int e) {
   const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
-  return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}, {}};
+  return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}, {}, 0};
 }
 
 // Closes and removes a temporary file after `e`, and says what failed.

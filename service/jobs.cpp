@@ -1,3 +1,4 @@
+#include <sys/statvfs.h>
 #include "jobs.h"
 
 #include "durable.h"
@@ -242,6 +243,47 @@ Result<size_t> FileJobQueue::Start() {
   return unfinished;
 }
 
+// About the bytes of one variant's file: images by their pixels (what renders of faces compress
+// to, with room), meshes by their vertices.
+static size_t VariantBytes(const Rig& rig, const api::BatchPlan& plan) {
+  const api::BatchRequest& r = plan.request;
+  if (r.image) {
+    const double pixels = static_cast<double>(r.render.render.width) * r.render.render.height;
+    double per_pixel = 0.25;  // PNG of a render: 0.17-0.33 bytes a pixel.
+    switch (r.image_format) {
+      case render::ImageFormat::kJpeg:
+      case render::ImageFormat::kWebp: per_pixel = 0.1; break;
+      case render::ImageFormat::kTiff: per_pixel = 4; break;
+      case render::ImageFormat::kExr: per_pixel = 8; break;
+      default: break;
+    }
+    return static_cast<size_t>(pixels * per_pixel) + 4096;
+  }
+  const size_t vertices = rig.vertex_count();
+  switch (r.mesh_format) {
+    case MeshFormat::kF32: return vertices * 24 + 4096;
+    case MeshFormat::kGlb: return vertices * 40 + 65536;
+    default: return vertices * 80 + 4096;  // Text: OBJ, JSON.
+  }
+}
+
+Status FileJobQueue::CheckRoom(const api::StoredRig& rig, const api::BatchPlan& plan) const {
+  struct statvfs st {};
+  if (::statvfs(dir_.c_str(), &st) != 0) return Status::Ok();  // Unknown: the writes will say.
+  const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
+  const double keep = std::min(1024.0 * (1 << 20), 0.05 * static_cast<double>(st.f_blocks) * static_cast<double>(st.f_frsize));
+  const double need = static_cast<double>(VariantBytes(rig.rig, plan)) * static_cast<double>(plan.total);
+  if (need + keep <= free_bytes) return Status::Ok();
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "the batch would write about %.1f GB (%zu variants); the jobs folder has %.1f GB free, and %.1f GB is kept free",
+                need / 1e9, plan.total, free_bytes / 1e9, keep / 1e9);
+  Status s{StatusCode::kStorageFull, text, {}, "storage-full", 0};
+  const std::string ptr = plan.request.sampled ? "/sample/count" : "/variants";
+  s.fields.push_back({ptr, "fewer variants, or a smaller format"});
+  return s;
+}
+
 Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> rig, std::shared_ptr<const api::BatchPlan> plan,
                                           std::string_view body, int* retry_after) {
   if (plan->total > limits_.max_batch) {
@@ -251,6 +293,8 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
     s.fields.push_back({ptr, "at most " + std::to_string(limits_.max_batch) + " variants"});
     return s;
   }
+  // The disk: the variants' estimated bytes must fit in what the jobs folder has free, with room kept.
+  if (Status s = CheckRoom(*rig, *plan); !s.ok()) return s;
   // The queue is the folder's: every instance's unfinished jobs count.
   size_t active = 0, remaining = 0;
   double rate = 0, wait = 0;
@@ -414,7 +458,7 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
   const fs::path folder = fs::path(dir_) / job->info.id;
   Result<std::shared_ptr<const api::BatchPlan>> plan = job->plan;
   if (!job->plan) {  // Submitted elsewhere or before a restart: plan the stored request again.
-    auto made = api::MakeBatchPlan(rig->rig, rig->version, job->body);
+    auto made = api::MakeBatchPlan(std::shared_ptr<const Rig>(rig, &rig->rig), rig->version, job->body);
     plan = made.ok() ? Result<std::shared_ptr<const api::BatchPlan>>(std::make_shared<const api::BatchPlan>(std::move(made.value())))
                      : Result<std::shared_ptr<const api::BatchPlan>>(made.status());
   }

@@ -73,6 +73,7 @@ class FileJobQueue : public api::JobQueue {
   void Finish(Job& job, const std::string& state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
   std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;
+  Status CheckRoom(const api::StoredRig& rig, const api::BatchPlan& plan) const;
   void MarkLost(Job& job);
 
   std::string dir_;

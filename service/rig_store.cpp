@@ -13,6 +13,8 @@
 #include <fstream>
 #include <iterator>
 
+#include <nlohmann/json.hpp>
+
 #include "durable.h"
 #include "facespace/core/io.h"
 
@@ -62,15 +64,22 @@ Result<std::map<std::string, FileRigStore::Entry>> FileRigStore::Scan(const std:
   return loaded;
 }
 
-Result<size_t> FileRigStore::LoadAll() {
-  std::lock_guard<std::mutex> write_lock(write_mu_);
+void FileRigStore::RemoveTemporaries(int older_than_seconds) {
   std::error_code ec;
+  const auto now = fs::file_time_type::clock::now();
   for (const auto& e : fs::directory_iterator(dir_, ec)) {
     const std::string name = e.path().filename().string();
-    if (e.is_regular_file() && name.size() > 4 && name[0] == '.' && name.find(".tmp") != std::string::npos) {
-      RemoveAbandoned(e.path());  // Left by an upload that crashed: never published.
-    }
+    if (!e.is_regular_file() || name.size() <= 4 || name[0] != '.' || name.find(".tmp") == std::string::npos) continue;
+    std::error_code time_ec;
+    const auto written = fs::last_write_time(e.path(), time_ec);
+    if (older_than_seconds > 0 && (time_ec || now - written < std::chrono::seconds(older_than_seconds))) continue;
+    RemoveAbandoned(e.path());  // Left by an upload that crashed (here or in another instance): never published.
   }
+}
+
+Result<size_t> FileRigStore::LoadAll() {
+  std::lock_guard<std::mutex> write_lock(write_mu_);
+  RemoveTemporaries(0);
   auto loaded = Scan({});
   if (!loaded.ok()) return loaded.status();
   std::lock_guard<std::mutex> lock(mu_);
@@ -80,6 +89,9 @@ Result<size_t> FileRigStore::LoadAll() {
 
 Result<FileRigStore::Changes> FileRigStore::Refresh() {
   std::lock_guard<std::mutex> write_lock(write_mu_);
+  // Another instance's crashed upload: no upload here is in progress (the write lock), and one
+  // elsewhere writes its temporaries within seconds, so ten minutes old is abandoned.
+  RemoveTemporaries(kAbandonedSeconds);
   std::map<std::string, Entry> current;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -185,6 +197,52 @@ std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
   return out;
 }
 
+// A glTF's counts from its JSON alone (a linear parse), before any decoding: a file declaring
+// 100,000 morph targets was decoded for half a minute before --max-shapes refused it.
+Status FileRigStore::CheckDeclaredCounts(std::span<const unsigned char> bytes, RigFormat format) const {
+  std::string_view text;
+  if (format == RigFormat::kGlb) {
+    if (bytes.size() < 20) return Status::Ok();  // The reader says what is wrong with it.
+    uint32_t length = 0, type = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    std::memcpy(&type, bytes.data() + 16, 4);
+    if (type != 0x4E4F534Au || length > bytes.size() - 20) return Status::Ok();
+    text = std::string_view(reinterpret_cast<const char*>(bytes.data()) + 20, length);
+  } else if (format == RigFormat::kGltf) {
+    text = std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+  } else {
+    return Status::Ok();
+  }
+  const nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
+  if (!j.is_object()) return Status::Ok();
+  size_t targets = 0, vertices = 0;
+  const auto& accessors = j.value("accessors", nlohmann::json::array());
+  const auto& meshes = j.value("meshes", nlohmann::json::array());
+  for (const auto& mesh : meshes.is_array() ? meshes : nlohmann::json::array()) {
+    const auto& prims = mesh.is_object() ? mesh.value("primitives", nlohmann::json::array()) : nlohmann::json::array();
+    for (const auto& prim : prims.is_array() ? prims : nlohmann::json::array()) {
+      if (!prim.is_object()) continue;
+      if (const auto t = prim.find("targets"); t != prim.end() && t->is_array()) targets = std::max(targets, t->size());
+      const auto a = prim.find("attributes");
+      if (a == prim.end() || !a->is_object() || !a->contains("POSITION") || !(*a)["POSITION"].is_number_unsigned()) continue;
+      const size_t index = (*a)["POSITION"].get<size_t>();
+      if (accessors.is_array() && index < accessors.size() && accessors[index].is_object()) {
+        const auto count = accessors[index].find("count");
+        if (count != accessors[index].end() && count->is_number_unsigned()) vertices += count->get<size_t>();
+      }
+    }
+  }
+  if (targets > max_shapes_) {
+    return ResourceExhausted("the rig declares " + std::to_string(targets) + " morph targets on a primitive (shapes); this server takes at most " +
+                             std::to_string(max_shapes_) + " (--max-shapes)");
+  }
+  if (vertices > max_vertices_) {
+    return ResourceExhausted("the rig declares " + std::to_string(vertices) + " vertices; this server takes at most " +
+                             std::to_string(max_vertices_) + " (--max-vertices)");
+  }
+  return Status::Ok();
+}
+
 Status FileRigStore::CheckLimits(const Rig& rig) const {
   if (rig.vertex_count() > max_vertices_) {
     return ResourceExhausted("the rig has " + std::to_string(rig.vertex_count()) + " vertices; this server takes at most " +
@@ -200,7 +258,8 @@ Status FileRigStore::CheckLimits(const Rig& rig) const {
 Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
                          const std::string& manifest, bool* created) {
   if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
-  // Validate fully before anything touches the disk.
+  // Validate fully before anything touches the disk; what the file declares first.
+  if (Status s = CheckDeclaredCounts(bytes, format); !s.ok()) return s;
   auto rig = api::LoadUpload(id, bytes, format, manifest);
   if (!rig.ok()) return rig.status();
   if (Status s = CheckLimits(rig.value()); !s.ok()) return s;

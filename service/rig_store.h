@@ -68,6 +68,10 @@ class FileRigStore : public api::RigStore {
                     std::map<std::string, Entry>& loaded);
   Result<std::map<std::string, Entry>> Scan(const std::map<std::string, Entry>& previous);
   Status CheckLimits(const Rig& rig) const;
+  // Removes the store's upload temporaries written more than `older_than_seconds` ago (0: all).
+  void RemoveTemporaries(int older_than_seconds);
+  static constexpr int kAbandonedSeconds = 600;
+  Status CheckDeclaredCounts(std::span<const unsigned char> bytes, RigFormat format) const;
   std::string dir_;
   std::vector<std::string> read_only_;
   mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).

@@ -34,7 +34,12 @@ struct ServeConfig {
   std::string store;  // Where uploads go; empty: --rigs when given, else DefaultStoreDir().
   std::string host = "127.0.0.1";
   int port = 8080;
-  int threads = 256;  // cpp-httplib holds a thread per keep-alive connection.
+  int threads = 64;   // Workers running whole requests; connections wait in the front, not on a thread.
+  size_t max_connections = 4096;
+  size_t max_client_connections = 256;
+  size_t body_budget_mb = 1024;
+  size_t render_budget_mb = 1024;
+  size_t render_memory_mb = 2048;
   std::string api_key_file;
   size_t max_body = size_t{64} << 20;
   size_t cache_mb = 64;
@@ -134,6 +139,22 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
     if (!ParseSize(value, 1, 3600, &n)) return "read-timeout must be 1..3600 seconds, not '" + value + "'";
     c.read_timeout = static_cast<int>(n);
   }
+  else if (key == "max-connections") {
+    if (!ParseSize(value, 1, 1000000, &n)) return "max-connections must be 1..1000000, not '" + value + "'";
+    c.max_connections = static_cast<size_t>(n);
+  } else if (key == "max-client-connections") {
+    if (!ParseSize(value, 1, 1000000, &n)) return "max-client-connections must be 1..1000000, not '" + value + "'";
+    c.max_client_connections = static_cast<size_t>(n);
+  } else if (key == "render-budget-mb") {
+    if (!ParseSize(value, 16, 1 << 20, &n)) return "render-budget-mb must be 16..1048576, not '" + value + "'";
+    c.render_budget_mb = static_cast<size_t>(n);
+  } else if (key == "render-memory-mb") {
+    if (!ParseSize(value, 16, 1 << 20, &n)) return "render-memory-mb must be 16..1048576, not '" + value + "'";
+    c.render_memory_mb = static_cast<size_t>(n);
+  } else if (key == "body-budget-mb") {
+    if (!ParseSize(value, 1, 1 << 20, &n)) return "body-budget-mb must be 1..1048576, not '" + value + "'";
+    c.body_budget_mb = static_cast<size_t>(n);
+  }
   else if (key == "max-jobs") {
     if (!ParseSize(value, 1, 1000, &n)) return "max-jobs must be 1..1000, not '" + value + "'";
     c.job_limits.max_jobs = static_cast<size_t>(n);
@@ -161,7 +182,10 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"},
       {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"},
       {"FACESPACE_RENDER_THREADS", "render-threads"}, {"FACESPACE_MAX_SHEET_CELLS", "max-sheet-cells"},
-      {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}, {"FACESPACE_STORE_POLL", "store-poll"}};
+      {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}, {"FACESPACE_STORE_POLL", "store-poll"},
+      {"FACESPACE_MAX_CONNECTIONS", "max-connections"}, {"FACESPACE_MAX_CLIENT_CONNECTIONS", "max-client-connections"},
+      {"FACESPACE_BODY_BUDGET_MB", "body-budget-mb"}, {"FACESPACE_RENDER_BUDGET_MB", "render-budget-mb"},
+      {"FACESPACE_RENDER_MEMORY_MB", "render-memory-mb"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -180,7 +204,12 @@ int Serve(const std::vector<std::string>& args) {
       {"store", "DIR: where uploads are written (default: --rigs when given, else ~/.local/state/facespace/rigs)"},
       {"store-poll", "SECONDS: how often to pick up rigs other instances sharing the store changed (default 1; 0: never)"},
       {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
-      {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads (default 256)"},
+      {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads running whole requests (default 64)"},
+      {"max-connections", "N: connections open at once; more get 503 (default 4096)"},
+      {"max-client-connections", "N: connections open at once from one address; more get 503 (default 256)"},
+      {"render-budget-mb", "MB: estimated working memory of one render or sheet; above, 413 (default 1024)"},
+      {"render-memory-mb", "MB: working memory of the renders in flight together; past it they wait 2 s, then 503 (default 2048)"},
+      {"body-budget-mb", "MB: request bodies held in memory at once, all connections together; past it 503 (default 1024)"},
       {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
       {"max-body", "BYTES: largest request body (default 64 MiB)"}, {"cors-origin", "ORIGIN: a browser origin allowed, or * (repeatable)"},
       {"cache-mb", "MB: response cache (default 64)"}, {"max-render", "PIXELS: largest render width or height (default 2048)"},
@@ -190,7 +219,7 @@ int Serve(const std::vector<std::string>& args) {
       {"jobs-dir", "DIR: where batch jobs live"}, {"max-jobs", "N: batch jobs queued or running (default 4)"},
       {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
       {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
-      {"read-timeout", "SECONDS: a client may take to send a request (default 10)"},
+      {"read-timeout", "SECONDS: a client may take to send a whole request, head and body (default 10, plus 1 s per MiB of body)"},
       {"render-threads", "N: renders drawing at once (0: one per core)"}};
   for (const auto& [key, help] : settings) {
     const std::string h = help;
@@ -227,6 +256,8 @@ int Serve(const std::vector<std::string>& args) {
   options.max_sheet_cells = c.max_sheet_cells;
   options.max_response = c.max_response;
   options.max_frames = c.max_frames;
+  options.render_budget = c.render_budget_mb << 20;
+  options.render_memory = std::max(c.render_memory_mb, c.render_budget_mb) << 20;
 
   // Where uploads go, and what is served read-only: a given --rigs is the store itself (unless a
   // --store is given too); the bundled rigs are never written.
@@ -295,9 +326,23 @@ int Serve(const std::vector<std::string>& args) {
   // arena keeps its own free pieces, and RSS crept up (+6 MB/min after 10 min of soak, heap in
   // use flat) where 2 per core held it level (tests/bench/soak.sh).
   mallopt(M_ARENA_MAX, 2 * static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-  httplib::Server server;
+  // Connections wait in the front (one epoll thread, deadlines for whole requests, caps per client
+  // and in all, a budget for bodies in memory); only whole requests take one of the workers.
+  api::Api* api_for_front = nullptr;
+  api::FrontOptions front;
+  front.workers = c.threads;
+  front.request_timeout = c.read_timeout;
+  front.keep_alive_timeout = 5;
+  front.keep_alive_max = 10000;
+  front.write_timeout = 10;
+  front.max_body = c.max_body;
+  front.max_connections = c.max_connections;
+  front.max_per_client = c.max_client_connections;
+  front.body_budget = c.body_budget_mb << 20;
+  front.log_requests = !c.quiet;
+  front.head_check = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->CheckHead(head); };
   const int threads = c.threads;
-  server.new_task_queue = [threads] { return new httplib::ThreadPool(static_cast<size_t>(threads)); };
+  api::FrontServer server(front);
   server.set_tcp_nodelay(true);
   server.set_keep_alive_max_count(10000);
   server.set_keep_alive_timeout(5);
@@ -305,6 +350,7 @@ int Serve(const std::vector<std::string>& args) {
   server.set_write_timeout(10, 0);
   api::Api api(store, renderer, options, &jobs);
   api.Register(server);
+  api_for_front = &api;
   // The character-creator page at /.
   for (size_t i = 0; i < web::kAssetCount; ++i) {
     const web::Asset& asset = web::kAssets[i];

@@ -154,6 +154,10 @@ Result<std::string> EncodeGrid(const Rig& rig, std::span<const Point> cells, std
   auto start = std::chrono::steady_clock::now();
   auto bytes = render::Encode(render::ContactSheet(ws.cells, labels, columns, options.background), format, quality);
   Lap(start, ws.timing.encode);
+  // A workspace is kept for the next request: it keeps no large sheet's images.
+  size_t pixels = 0;
+  for (const render::Image& c : ws.cells) pixels += static_cast<size_t>(c.width) * static_cast<size_t>(c.height);
+  if (pixels > (size_t{1} << 20)) std::vector<render::Image>().swap(ws.cells);
   return bytes;
 }
 
@@ -339,11 +343,12 @@ Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
 
 // ---- batch variants -----------------------------------------------------------------------
 
-Result<BatchPlan> MakeBatchPlan(const Rig& rig, const std::string& rig_version, std::string_view request_json) {
+Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const Rig> owned, const std::string& rig_version, std::string_view request_json) {
   auto request = ParseBatchRequest(request_json);
   if (!request.ok()) return request.status();
+  const Rig& rig = *owned;
   BatchPlan plan;
-  plan.rig = &rig;
+  plan.rig = std::move(owned);
   plan.request = std::move(request.value());
   if (plan.request.sampled) {
     auto spec = ResolveSampleSpec(rig, plan.request);

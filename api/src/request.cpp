@@ -55,7 +55,7 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
   Status errors = InvalidArgument("");
   auto value_of = [&](const json& v, const std::string& ptr, WeightEntry& e) {
     if (!v.is_number()) {
-      errors.fields.push_back({ptr, std::string("must be a number, not ") + v.type_name()});
+      errors.AddField(ptr, std::string("must be a number, not ") + v.type_name());
       return false;
     }
     e.value = v.get<double>();
@@ -74,7 +74,7 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
       e.name = it.key();
       e.pointer = pointer + "/" + JsonPointerEscape(it.key());
       if (e.name.empty()) {
-        errors.fields.push_back({e.pointer, "empty shape name"});
+        errors.AddField(e.pointer, "empty shape name");
         continue;
       }
       if (value_of(it.value(), e.pointer, e)) entries.push_back(e);
@@ -441,59 +441,121 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
   return true;
 }
 
-// A JSON object, refusing a member given twice in any object (JSON parsers keep the last, or the
-// first: the client's intent is unknown), named by its JSON Pointer.
-Result<json> ParseObject(std::string_view body) {
-  if (body.find_first_not_of(" \t\r\n") == std::string_view::npos) {
-    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is empty; send a JSON object"), kMalformedJson);
+// What one body may hold, sized to its route: a limit on the values parsed (every number, string,
+// array and object counts one) bounds the memory and time of the parse before any work.
+struct BodyLimits {
+  size_t values;
+  size_t depth = 64;
+};
+constexpr BodyLimits kPointBody{100000};      // mesh, check, render: weights, controls, a pose.
+constexpr BodyLimits kSheetBody{400000};      // Up to --max-sheet-cells points.
+constexpr BodyLimits kSequenceBody{1000000};  // Keys and times.
+constexpr BodyLimits kFitBody{3100000};       // A target mesh: three numbers a vertex, a million vertices.
+constexpr BodyLimits kBatchBody{1000000};     // Explicit variants.
+
+// nlohmann's DOM builder under a SAX reader that tracks where it is (for JSON Pointers), refuses a
+// member given twice in any object (JSON parsers keep the last, or the first: the client's intent
+// is unknown), and stops at the body's limits. Linear in the body: the callback parser this
+// replaces scanned the parent again at every object's end, so 100,000 empty objects took seconds.
+class CheckedDom {
+ public:
+  CheckedDom(json& root, BodyLimits limits) : dom_(root, false), limits_(limits) {}
+
+  bool null() { return Value() && dom_.null(); }
+  bool boolean(bool v) { return Value() && dom_.boolean(v); }
+  bool number_integer(json::number_integer_t v) { return Value() && dom_.number_integer(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return Value() && dom_.number_unsigned(v); }
+  bool number_float(json::number_float_t v, const std::string& s) { return Value() && dom_.number_float(v, s); }
+  bool string(std::string& v) { return Value() && dom_.string(v); }
+  bool binary(json::binary_t& v) { return Value() && dom_.binary(v); }
+  bool start_object(size_t n) { return Open(false) && dom_.start_object(n); }
+  bool start_array(size_t n) { return Open(true) && dom_.start_array(n); }
+  bool end_object() { return Close() && dom_.end_object(); }
+  bool end_array() { return Close() && dom_.end_array(); }
+  bool key(std::string& k) {
+    Level& level = levels_.back();
+    level.key = k;
+    if (!level.keys.insert(k).second) {
+      duplicate_ = Pointer();
+      return false;
+    }
+    return dom_.key(k);
   }
+  bool parse_error(size_t position, const std::string& token, const nlohmann::detail::exception& e) {
+    malformed_ = true;
+    return dom_.parse_error(position, token, e);
+  }
+
+  bool malformed() const { return malformed_; }
+  const std::string& duplicate() const { return duplicate_; }
+  const std::string& over() const { return over_; }  // Which limit was passed, and where.
+
+ private:
   struct Level {
     bool array = false;
     size_t index = 0;
     std::string key;
     std::unordered_set<std::string> keys;
   };
-  std::vector<Level> levels;
-  std::string duplicate;
-  auto step = [&] {  // A value ended: the next one of its array.
-    if (!levels.empty() && levels.back().array) ++levels.back().index;
-  };
-  json::parser_callback_t check = [&](int, json::parse_event_t event, json& parsed) {
-    switch (event) {
-      case json::parse_event_t::object_start:
-      case json::parse_event_t::array_start:
-        levels.emplace_back();
-        levels.back().array = event == json::parse_event_t::array_start;
-        break;
-      case json::parse_event_t::object_end:
-      case json::parse_event_t::array_end:
-        if (!levels.empty()) levels.pop_back();
-        step();
-        break;
-      case json::parse_event_t::key:
-        if (!levels.empty()) {
-          Level& level = levels.back();
-          level.key = parsed.get<std::string>();
-          if (!level.keys.insert(level.key).second && duplicate.empty()) {
-            for (const Level& l : levels) duplicate += "/" + (l.array ? std::to_string(l.index) : JsonPointerEscape(l.key));
-          }
-        }
-        break;
-      case json::parse_event_t::value: step(); break;
-    }
+
+  std::string Pointer() const {
+    std::string p;
+    for (const Level& l : levels_) p += "/" + (l.array ? std::to_string(l.index) : JsonPointerEscape(l.key));
+    return p;
+  }
+  bool Count() {
+    if (++values_ <= limits_.values) return true;
+    over_ = "more than " + std::to_string(limits_.values) + " JSON values (numbers, strings, arrays, objects) at " +
+            (levels_.empty() ? "/" : Pointer()) + "; this route takes at most that many";
+    return false;
+  }
+  bool Value() {  // A scalar ended: the next one of its array.
+    if (!Count()) return false;
+    if (!levels_.empty() && levels_.back().array) ++levels_.back().index;
     return true;
-  };
-  json j = json::parse(body, check, false);
-  if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON"), kMalformedJson);
+  }
+  bool Open(bool array) {
+    if (!Count()) return false;
+    if (levels_.size() >= limits_.depth) {
+      over_ = "nested deeper than " + std::to_string(limits_.depth) + " levels at " + Pointer();
+      return false;
+    }
+    levels_.push_back({array, 0, {}, {}});
+    return true;
+  }
+  bool Close() {
+    levels_.pop_back();
+    if (!levels_.empty() && levels_.back().array) ++levels_.back().index;
+    return true;
+  }
+
+  nlohmann::detail::json_sax_dom_parser<json> dom_;
+  BodyLimits limits_;
+  std::vector<Level> levels_;
+  size_t values_ = 0;
+  bool malformed_ = false;
+  std::string duplicate_, over_;
+};
+
+// A JSON object within `limits`, named by JSON Pointers when it is not one.
+Result<json> ParseObject(std::string_view body, BodyLimits limits) {
+  if (body.find_first_not_of(" \t\r\n") == std::string_view::npos) {
+    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is empty; send a JSON object"), kMalformedJson);
+  }
+  json j;
+  CheckedDom sax(j, limits);
+  const bool parsed = json::sax_parse(body, &sax);
+  if (!sax.over().empty()) return WithReason(ResourceExhausted("the body has " + sax.over()), "body-too-complex");
+  if (!sax.duplicate().empty()) return FieldStatus(sax.duplicate(), "is given more than once; give each member once");
+  if (!parsed || sax.malformed()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON"), kMalformedJson);
   if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
-  if (!duplicate.empty()) return FieldStatus(duplicate, "is given more than once; give each member once");
   return j;
 }
 
 }  // namespace
 
 Result<MeshRequest> ParseMeshRequest(std::string_view body) {
-  auto j = ParseObject(body);
+  auto j = ParseObject(body, kPointBody);
   if (!j.ok()) return j.status();
   MeshRequest r;
   Status errors = InvalidArgument("");
@@ -506,7 +568,7 @@ Result<MeshRequest> ParseMeshRequest(std::string_view body) {
 }
 
 Result<RenderRequest> ParseRenderRequest(std::string_view body) {
-  auto j = ParseObject(body);
+  auto j = ParseObject(body, kPointBody);
   if (!j.ok()) return j.status();
   RenderRequest r;
   Status errors = InvalidArgument("");
@@ -521,7 +583,7 @@ Result<RenderRequest> ParseRenderRequest(std::string_view body) {
 }
 
 Result<SheetRequest> ParseSheetRequest(std::string_view body) {
-  auto j = ParseObject(body);
+  auto j = ParseObject(body, kSheetBody);
   if (!j.ok()) return j.status();
   SheetRequest r;
   r.base.render.width = r.base.render.height = 256;
@@ -675,7 +737,7 @@ std::string FinishPoseSettings(MeshRequest& r) {
 }
 
 Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
-  auto j = ParseObject(body);
+  auto j = ParseObject(body, kSequenceBody);
   if (!j.ok()) return j.status();
   SequenceRequest r;
   Status errors = InvalidArgument("");
@@ -872,7 +934,7 @@ Result<TargetMesh> ParseTargetJson(std::string_view text) {
 }
 
 Result<FitRequest> ParseFitRequest(std::string_view body) {
-  auto j = ParseObject(body);
+  auto j = ParseObject(body, kFitBody);
   if (!j.ok()) return j.status();
   FitRequest r;
   Status errors = InvalidArgument("");
@@ -983,7 +1045,7 @@ void SampleFromJson(const json& s, BatchRequest& r, Status& errors) {
 }  // namespace
 
 Result<BatchRequest> ParseBatchRequest(std::string_view body) {
-  auto j = ParseObject(body);
+  auto j = ParseObject(body, kBatchBody);
   if (!j.ok()) return j.status();
   BatchRequest r;
   Status errors = InvalidArgument("");

@@ -17,18 +17,18 @@ const char* StatusCodeName(StatusCode code) {
 }
 
 Status InvalidArgument(std::string message) {
-  return {StatusCode::kInvalidArgument, std::move(message), {}, {}};
+  return {StatusCode::kInvalidArgument, std::move(message), {}, {}, 0};
 }
-Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}, {}}; }
-Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message), {}, {}}; }
+Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}, {}, 0}; }
+Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message), {}, {}, 0}; }
 Status FailedPrecondition(std::string message) {
-  return {StatusCode::kFailedPrecondition, std::move(message), {}, {}};
+  return {StatusCode::kFailedPrecondition, std::move(message), {}, {}, 0};
 }
 Status ResourceExhausted(std::string message) {
-  return {StatusCode::kResourceExhausted, std::move(message), {}, {}};
+  return {StatusCode::kResourceExhausted, std::move(message), {}, {}, 0};
 }
 
-Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message), {}, {}}; }
+Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message), {}, {}, 0}; }
 
 Status Prefixed(Status status, const std::string& prefix) {
   status.message = prefix + status.message;

@@ -33,12 +33,28 @@ std::string ValidNames(const Rig& rig) {
 }  // namespace
 
 Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const WeightEntry> entries) {
+  Status status = InvalidArgument("");
+  // A dense array longer than the rig's shapes is refused whole: one error, not one per index.
+  size_t indexed = 0;
+  for (const WeightEntry& e : entries) indexed += e.name.empty();
+  if (indexed > rig.shapes.size()) {
+    const std::string& ptr = entries.front().pointer;
+    status.AddField(ptr.substr(0, ptr.rfind('/')), "has " + std::to_string(indexed) + " weights: indices from " +
+                                                         std::to_string(rig.shapes.size()) + " on are out of range; this rig has " +
+                                                         std::to_string(rig.shapes.size()) + " shapes");
+    status.message = status.fields.front().message;
+    return status;
+  }
   std::vector<float> weights(rig.shapes.size(), 0.0f);
   std::vector<uint8_t> seen(rig.shapes.size(), 0);
-  Status status = InvalidArgument("");
+  // Past kMaxFieldErrors an error is counted, its message (a closest-name search) never made.
+  auto fail = [&status](const std::string& pointer, auto&& message) {
+    if (status.full()) ++status.omitted;
+    else status.AddField(pointer, message());
+  };
   for (const WeightEntry& e : entries) {
     long long index = e.index;
-    std::string label = e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'";
+    auto label = [&e] { return e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'"; };
     if (!e.name.empty()) {
       index = FindShape(rig, e.name);
       // A map key of digits that names no shape is an index: {"3": 0.5}.
@@ -46,36 +62,38 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
           e.name.find_first_not_of("0123456789") == std::string::npos) {
         index = std::stoll(e.name);
         if (static_cast<size_t>(index) >= rig.shapes.size()) {
-          status.fields.push_back({e.pointer, "shape index " + e.name + " out of range: this rig has " +
-                                                  std::to_string(rig.shapes.size()) + " shapes"});
+          fail(e.pointer, [&] {
+            return "shape index " + e.name + " out of range: this rig has " + std::to_string(rig.shapes.size()) + " shapes";
+          });
           continue;
         }
       }
       if (index < 0) {
-        std::string msg = "unknown shape '" + e.name + "'";
-        const std::string close = ClosestShapeName(rig, e.name);
-        if (!close.empty()) msg += " (did you mean '" + close + "'?)";
-        msg += "; valid shapes: " + ValidNames(rig);
-        status.fields.push_back({e.pointer, msg});
+        fail(e.pointer, [&] {
+          std::string msg = "unknown shape '" + e.name + "'";
+          const std::string close = ClosestShapeName(rig, e.name);
+          if (!close.empty()) msg += " (did you mean '" + close + "'?)";
+          return msg + "; valid shapes: " + ValidNames(rig);
+        });
         continue;
       }
     } else if (index < 0 || static_cast<size_t>(index) >= rig.shapes.size()) {
-      status.fields.push_back({e.pointer, "shape index " + std::to_string(index) +
-                                              " out of range: this rig has " +
-                                              std::to_string(rig.shapes.size()) + " shapes (0.." +
-                                              std::to_string(static_cast<long long>(rig.shapes.size()) - 1) + ")"});
+      fail(e.pointer, [&] {
+        return "shape index " + std::to_string(index) + " out of range: this rig has " + std::to_string(rig.shapes.size()) +
+               " shapes (0.." + std::to_string(static_cast<long long>(rig.shapes.size()) - 1) + ")";
+      });
       continue;
     }
     if (!std::isfinite(e.value)) {
-      status.fields.push_back({e.pointer, "weight of " + label + " must be a finite number"});
+      fail(e.pointer, [&] { return "weight of " + label() + " must be a finite number"; });
       continue;
     }
     if (std::fabs(e.value) > 3.0e38) {
-      status.fields.push_back({e.pointer, "weight of " + label + " is too large"});
+      fail(e.pointer, [&] { return "weight of " + label() + " is too large"; });
       continue;
     }
     if (seen[index]) {
-      status.fields.push_back({e.pointer, "shape '" + rig.shapes[index].name + "' is given twice"});
+      fail(e.pointer, [&] { return "shape '" + rig.shapes[index].name + "' is given twice"; });
       continue;
     }
     seen[index] = 1;
@@ -83,9 +101,7 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   }
   if (!status.fields.empty()) {
     status.message = status.fields.front().message;
-    if (status.fields.size() > 1) {
-      status.message += " (and " + std::to_string(status.fields.size() - 1) + " more)";
-    }
+    if (status.field_count() > 1) status.message += " (and " + std::to_string(status.field_count() - 1) + " more)";
     return status;
   }
   return weights;
@@ -162,6 +178,10 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
     for (const Control& k : rig.controls) {
       if (k.name == e.name) c = &k;
     }
+    if (!c && status.full()) {
+      ++status.omitted;
+      continue;
+    }
     if (!c) {
       std::string msg = "unknown control '" + e.name + "'";
       if (rig.controls.empty()) msg += ": this rig has no controls";
@@ -179,11 +199,11 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
           msg += (shown > 1 ? ", " : "") + k.name;
         }
       }
-      status.fields.push_back({e.pointer, msg});
+      status.AddField(e.pointer, msg);
       continue;
     }
     if (!std::isfinite(e.value)) {
-      status.fields.push_back({e.pointer, "control '" + e.name + "' must be a finite number"});
+      status.AddField(e.pointer, "control '" + e.name + "' must be a finite number");
       continue;
     }
     if (e.value < c->min || e.value > c->max) {

@@ -347,6 +347,21 @@ struct Context {
     return p;
   }
 
+  // After a large render (over 2048 x 2048 samples) its targets and read-back are let go, so a
+  // context does not keep gigabytes for the next, likely smaller, render.
+  void TrimLarge() {
+    constexpr long long kKept = 2048LL * 2048;
+    for (Target& t : targets) {
+      if (t.fbo && static_cast<long long>(t.w) * t.h > kKept) {
+        glDeleteFramebuffers(1, &t.fbo);
+        glDeleteRenderbuffers(1, &t.color);
+        glDeleteRenderbuffers(1, &t.depth);
+        t = Target{};
+      }
+    }
+    if (pixels.capacity() > static_cast<size_t>(kKept) * 4) std::vector<float>().swap(pixels);
+  }
+
   // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h.
   void BindTarget(int w, int h, bool srgb8) {
     Target& t = targets[srgb8 ? 1 : 0];
@@ -575,6 +590,10 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   if (!lease.ok()) return lease.status();
   Context& gl = *lease.value().get();
   const int w = o.width * o.supersample, h = o.height * o.supersample;
+  struct Trim {  // Before the lease lets the context go: it is still current here.
+    Context& gl;
+    ~Trim() { gl.TrimLarge(); }
+  } trim{gl};
 
   // World-space vertices: pos, normal, uv, colour, displacement (13 floats).
   struct Draw {

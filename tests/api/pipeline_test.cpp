@@ -90,7 +90,7 @@ TEST(Pipeline, SheetResolvesEveryCellBeforeRendering) {
 }
 
 TEST(Pipeline, BatchVariantsAreAPureFunctionOfThePlanAndIndex) {
-  auto plan = api::MakeBatchPlan(FaceCap(), "v1",
+  auto plan = api::MakeBatchPlan(api::UnownedRig(FaceCap()), "v1",
                                  R"({"sample": {"method": "uniform", "count": 5, "seed": 7, "shapes": ["jawOpen", "cheekPuff"]},
                                      "format": "json"})");
   ASSERT_TRUE(plan.ok()) << plan.status().message;
@@ -108,7 +108,7 @@ TEST(Pipeline, BatchVariantsAreAPureFunctionOfThePlanAndIndex) {
   EXPECT_EQ(bytes.value()[0].front(), '{');
   EXPECT_TRUE(bytes.value()[1].empty());
   // A bad plan names its field.
-  auto bad = api::MakeBatchPlan(FaceCap(), "v1", R"({"sample": {"method": "random", "count": 5}})");
+  auto bad = api::MakeBatchPlan(api::UnownedRig(FaceCap()), "v1", R"({"sample": {"method": "random", "count": 5}})");
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.status().fields.at(0).pointer, "/sample/method");
 }

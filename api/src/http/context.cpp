@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
+#include <malloc.h>
+
 #include <thread>
 
 #include "facespace/core/lod.h"
@@ -70,6 +72,52 @@ void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int l
   }
 }
 
+size_t RenderBudget::Estimate(const render::RenderOptions& o, size_t cells) {
+  const size_t ss = static_cast<size_t>(std::max(1, o.supersample));
+  const size_t pixels = static_cast<size_t>(std::max(0, o.width)) * static_cast<size_t>(std::max(0, o.height));
+  return pixels * ss * ss * 36 + pixels * std::max<size_t>(cells, 1) * 36;
+}
+
+bool RenderBudget::Acquire(size_t bytes) {
+  std::unique_lock<std::mutex> lock(mu_);
+  // A request alone may use the whole budget: it waits until nothing else is in flight.
+  const size_t need = std::min(bytes, total_);
+  if (!cv_.wait_for(lock, std::chrono::seconds(2), [&] { return used_ + need <= total_; })) return false;
+  used_ += need;
+  return true;
+}
+
+void RenderBudget::Release(size_t bytes) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    used_ -= std::min(bytes, total_);
+  }
+  cv_.notify_all();
+}
+
+size_t RenderBudget::InFlight() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return used_;
+}
+
+void ReturnMemory() { malloc_trim(0); }
+
+bool CheckRenderBudget(Context& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o,
+                       size_t cells) {
+  const size_t bytes = RenderBudget::Estimate(o, cells);
+  if (bytes <= ctx.render_budget.per_request()) return true;
+  const char* p = req.method == "GET" ? "?" : "/";
+  std::vector<FieldError> fields = {{std::string(p) + "width", "lower width x height"}};
+  if (o.supersample > 1) fields.push_back({std::string(p) + "supersample", "lower the supersampling"});
+  if (cells > 1) fields.push_back({"/cells", "fewer cells"});
+  SendProblem(req, res, 413, "render-too-large",
+              "this render would need about " + std::to_string(bytes >> 20) + " MiB of working memory (width x height x supersample^2" +
+                  (cells > 1 ? std::string(", times ") + std::to_string(cells) + " cells" : std::string()) + "); this server allows " +
+                  std::to_string(ctx.render_budget.per_request() >> 20) + " MiB a request (--render-budget-mb)",
+              fields);
+  return false;
+}
+
 Context::Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels)
     : store(s),
       jobs(j),
@@ -78,6 +126,7 @@ Context::Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions
       metrics(std::move(route_labels)),
       cache(options.cache_bytes),
       workspaces(2 * std::max(2u, std::thread::hardware_concurrency())),
+      render_budget(options.render_budget, options.render_memory),
       openapi(OpenApiJson(options)) {}
 
 std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {

@@ -4,6 +4,7 @@
 #include <httplib.h>
 
 #include <array>
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -145,6 +146,29 @@ class BodyPool {
   std::vector<std::string> idle_;
 };
 
+// The working memory of renders. A request's estimate (RenderBytes) must fit `per_request`
+// (else 413); the renders in flight together must fit `total`: a render waits up to two seconds
+// for room, then is answered 503 with Retry-After. Large work gives its memory back after.
+class RenderBudget {
+ public:
+  RenderBudget(size_t per_request, size_t total) : per_request_(per_request), total_(total) {}
+  size_t per_request() const { return per_request_; }
+  // Bytes a render of `cells` images with these options may hold at once: per sample its float
+  // colour, depth and read-back (36 bytes); per output pixel and cell the float image, the sheet's
+  // copy and the 8-bit one (36 bytes).
+  static size_t Estimate(const render::RenderOptions& o, size_t cells);
+  // Room for `bytes`, or false after the wait; Release gives it back.
+  bool Acquire(size_t bytes);
+  void Release(size_t bytes);
+  size_t InFlight() const;
+
+ private:
+  size_t per_request_, total_;
+  mutable std::mutex mu_;
+  std::condition_variable cv_;
+  size_t used_ = 0;
+};
+
 struct Context {
   Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels);
 
@@ -159,6 +183,7 @@ struct Context {
   GlbWriters glb_writers;
   F32Blenders f32_blenders;
   const std::shared_ptr<BodyPool> bodies = std::make_shared<BodyPool>();
+  RenderBudget render_budget;
   const std::string openapi;  // The document, with this server's limits.
 };
 
@@ -177,6 +202,20 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
 template <typename Produce>
 void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
                 const char* content_type, Admit admit, Produce produce);
+
+// Work past this many bytes hands its freed memory back to the system (malloc_trim) when done.
+inline constexpr size_t kLargeWork = size_t{64} << 20;
+void ReturnMemory();
+
+// The render budget's check before a render of `cells` images: false with a 413 sent when the
+// request alone is over it (naming the fields to lower).
+bool CheckRenderBudget(Context& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o,
+                       size_t cells);
+
+// Runs `render` (which returns Result<std::string>) within the budget: a 503 status with reason
+// "busy" when no room was made in time; memory handed back to the system after large work.
+template <typename Render>
+Result<std::string> WithinRenderBudget(Context& ctx, size_t bytes, Render render);
 
 // After the pipeline's first step: Facespace-Weight-Sum and Facespace-Warnings set, warnings
 // counted; false when `status` is an error, which was sent (a strict refusal with its warnings).

@@ -24,6 +24,17 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
   return true;
 }
 
+template <typename Render>
+Result<std::string> WithinRenderBudget(Context& ctx, size_t bytes, Render render) {
+  if (!ctx.render_budget.Acquire(bytes)) {
+    return WithReason(ResourceExhausted("the server is rendering as much as its memory budget allows; retry shortly"), "busy");
+  }
+  Result<std::string> out = render();
+  ctx.render_budget.Release(bytes);
+  if (bytes >= kLargeWork) ReturnMemory();
+  return out;
+}
+
 template <typename Produce>
 void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
                 const char* content_type, Admit admit, Produce produce) {

@@ -11,6 +11,7 @@ using nlohmann::json;
 int HttpStatus(const Status& s) {
   if (s.reason == kMalformedJson) return 400;
   if (s.reason == kJobQueueFull) return 429;
+  if (s.reason == "busy") return 503;  // A budget of the server's is in use: retry shortly.
   if (s.reason == "read-only") return 409;  // A bundled rig: PUT or DELETE conflicts with the server's set-up.
   switch (s.code) {
     case StatusCode::kOk: return 200;
@@ -53,19 +54,22 @@ const char* ReasonPhrase(int status) {
 std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
 void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,
-                 const std::string& detail, const std::vector<FieldError>& fields, std::span<const Warning> warnings) {
+                 const std::string& detail, const std::vector<FieldError>& fields, std::span<const Warning> warnings, size_t omitted) {
   json p = {{"type", "urn:facespace:problem:" + type},
             {"title", ReasonPhrase(status)},
             {"status", status},
             {"detail", detail},
             {"instance", req.path}};
   if (!fields.empty()) {
+    // The first kMaxFieldErrors, and how many there were in all when that is more.
     json errors = json::array();
-    for (const FieldError& f : fields) {
+    for (size_t i = 0; i < fields.size() && i < kMaxFieldErrors; ++i) {
+      const FieldError& f = fields[i];
       if (!f.pointer.empty() && f.pointer[0] == '?') errors.push_back({{"parameter", f.pointer.substr(1)}, {"detail", f.message}});
       else errors.push_back({{"pointer", f.pointer}, {"detail", f.message}});
     }
     p["errors"] = errors;
+    if (fields.size() + omitted > errors.size()) p["errors_total"] = fields.size() + omitted;
   }
   if (!warnings.empty()) p["warnings"] = json::parse(WarningsToJson(warnings));
   res.status = status;
@@ -83,7 +87,8 @@ void SendStatus(const httplib::Request& req, httplib::Response& res, const Statu
       default: type = "internal";
     }
   }
-  SendProblem(req, res, HttpStatus(s), type, s.message, s.fields, warnings);
+  if (HttpStatus(s) == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "2");
+  SendProblem(req, res, HttpStatus(s), type, s.message, s.fields, warnings, s.omitted);
 }
 
 void SendJson(httplib::Response& res, int status, const json& body) {

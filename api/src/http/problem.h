@@ -19,10 +19,11 @@ int HttpStatus(const Status& status);
 const char* ReasonPhrase(int status);
 
 // A problem document. Field errors whose pointer starts with '?' name a query parameter
-// ({"parameter": ...}); the others are JSON Pointers into the body ({"pointer": ...}).
+// ({"parameter": ...}); the others are JSON Pointers into the body ({"pointer": ...}). At most
+// kMaxFieldErrors are listed; "errors_total" counts them all (with `omitted`) when more there were.
 void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,
                  const std::string& detail, const std::vector<FieldError>& fields = {},
-                 std::span<const Warning> warnings = {});
+                 std::span<const Warning> warnings = {}, size_t omitted = 0);
 
 // The problem for a Status: HttpStatus, the type from its reason (or its code), its message and fields.
 void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& status,

@@ -25,6 +25,24 @@ Api::~Api() = default;
 
 std::string Api::MetricsText() const { return impl_->ctx.metrics.Text(impl_->ctx.store.List().size(), impl_->ctx.cache.Bytes()); }
 
+std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
+  http::Context& ctx = impl_->ctx;
+  Request req;
+  req.method = head.method;
+  req.path = head.target.substr(0, head.target.find('?'));
+  for (const auto& [name, value] : head.headers) req.headers.emplace(name, value);
+  Response res;
+  if (!http::PreRoute(ctx, req, res)) return std::nullopt;
+  ctx.metrics.Observe(ctx.metrics.other_route(), res.status, 0.0);
+  if (ctx.options.log_requests) std::fprintf(stderr, "%s %s %d %zu -\n", req.method.c_str(), req.path.substr(0, 200).c_str(), res.status, res.body.size());
+  std::string out = "HTTP/1.1 " + std::to_string(res.status) + " " + http::ReasonPhrase(res.status) + "\r\n";
+  for (const auto& [name, value] : res.headers) {
+    if (name != "Content-Length" && name != "Connection") out += name + ": " + value + "\r\n";
+  }
+  out += "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: close\r\n\r\n" + res.body;
+  return out;
+}
+
 void Api::Register(httplib::Server& server) {
   http::Context& ctx = impl_->ctx;
   server.set_payload_max_length(ctx.options.max_body);

@@ -72,7 +72,7 @@ void PostBatch(Context& ctx, const httplib::Request& req, httplib::Response& res
   if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   if (!stored || !AcceptsJsonBody(req, res)) return;
-  auto plan = MakeBatchPlan(stored->rig, stored->version, req.body);
+  auto plan = MakeBatchPlan(std::shared_ptr<const Rig>(stored, &stored->rig), stored->version, req.body);
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   int retry_after = 0;
   auto job = ctx.jobs->Submit(stored, std::make_shared<const BatchPlan>(std::move(plan.value())), req.body, &retry_after);

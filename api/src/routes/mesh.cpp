@@ -1,18 +1,20 @@
 // /v1/rigs/{id}/mesh, /check and /fit: a point of face space as a mesh, its checks, and the point
 // that best reproduces a mesh.
 #include "http/query_params.h"
+#include <charconv>
+
 #include "routes.h"
 
 namespace facespace::api::http {
 
 namespace {
 
+// A decimal number as JSON writes one (from_chars: no hex "0x10", no leading space or '+').
 bool ParseNumber(const std::string& s, double* out) {
   if (s.empty() || s.size() > 64) return false;
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s.c_str(), &end);
-  if (end != s.c_str() + s.size() || errno == ERANGE) return false;
+  double v = 0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  if (ec != std::errc() || end != s.data() + s.size()) return false;
   *out = v;
   return true;
 }

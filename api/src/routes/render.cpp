@@ -36,7 +36,7 @@ bool CheckSize(const Context& ctx, const httplib::Request& req, httplib::Respons
 void GetOrPostRender(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   RenderRequest r;
-  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render)) return;
+  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1)) return;
   const auto format = NegotiateImage(req, res, r.format);
   if (!format) return;
   Point point;
@@ -50,7 +50,7 @@ void GetOrPostRender(Context& ctx, const httplib::Request& req, httplib::Respons
     if (!at) return Internal("the level of detail failed");
     ctx.derived.SetFocus(stored, r.mesh.lod, r.render.camera);
     ctx.metrics.CountBlends(1);
-    return EncodeImage(*at, point, r, *format, ctx.renderer, ws);
+    return WithinRenderBudget(ctx, RenderBudget::Estimate(r.render, 1), [&] { return EncodeImage(*at, point, r, *format, ctx.renderer, ws); });
   });
 }
 
@@ -67,6 +67,7 @@ void PostSheet(Context& ctx, const httplib::Request& req, httplib::Response& res
                 {{"/cells", "at most " + std::to_string(max_cells)}});
     return;
   }
+  if (!CheckRenderBudget(ctx, req, res, r.base.render, r.cells.size())) return;
   SheetPoints points;
   const Status s = ResolveSheet(stored->rig, r, points);
   if (!AnswerPoint(ctx, req, res, s, points.max_sum, points.warnings)) return;
@@ -77,7 +78,8 @@ void PostSheet(Context& ctx, const httplib::Request& req, httplib::Response& res
   SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), Admit::kFirstRequest, [&](Workspace& ws) -> Result<std::string> {
     ctx.derived.SetFocus(stored, 0, r.base.render.camera);
     ctx.metrics.CountBlends(points.cells.size());
-    return EncodeSheet(stored->rig, points, r, *format, ctx.renderer, ws);
+    return WithinRenderBudget(ctx, RenderBudget::Estimate(r.base.render, points.cells.size()),
+                              [&] { return EncodeSheet(stored->rig, points, r, *format, ctx.renderer, ws); });
   });
 }
 

@@ -6,9 +6,11 @@
 #include <httplib.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "facespace/api/front.h"
 #include "facespace/api/jobs.h"
 #include "facespace/api/store.h"
 #include "facespace/render/render.h"
@@ -25,6 +27,8 @@ struct ApiOptions {
   int max_sheet_cells = 64;                 // Largest contact sheet.
   size_t max_response = size_t{64} << 20;   // Largest body built whole (sequence/sample): above, 422.
   size_t max_frames = 100000;               // Frames of one sequence stream.
+  size_t render_budget = size_t{1} << 30;   // Estimated working memory of one render or sheet; above, 413.
+  size_t render_memory = size_t{2} << 30;   // ... of the renders in flight together; past it they wait, then 503.
 };
 
 // The routes (api/src/http/route_table.cpp) over a store, a renderer and a job queue that the
@@ -39,6 +43,10 @@ class Api {
 
   // Installs every route and hook on `server`.
   void Register(httplib::Server& server);
+
+  // The pre-routing of a request from its line and headers alone (FrontOptions::head_check): a
+  // whole response when it is refused before its body (404, 405, 411, 413, 401, 403), else nothing.
+  std::optional<std::string> CheckHead(const RequestHeadView& head);
 
   // Prometheus text of the counters (also served at /metrics).
   std::string MetricsText() const;

@@ -13,6 +13,7 @@
 
 #include <array>
 #include <span>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -181,7 +182,9 @@ Result<Output> ProduceFit(const Rig& rig, const FitRequest& request);
 // A batch request (ParseBatchRequest's schema) resolved against one rig: every variant's weights
 // are a pure function of the plan and the variant's index.
 struct BatchPlan {
-  const Rig* rig = nullptr;
+  // Held, not pointed at: a queued plan outlives the store's entry when the rig is uploaded again
+  // (even with the same bytes, so the same version) or deleted while the job waits.
+  std::shared_ptr<const Rig> rig;
   BatchRequest request;
   SampleSpec sample;                        // When request.sampled.
   std::vector<std::vector<float>> weights;  // Explicit variants, resolved.
@@ -193,8 +196,12 @@ struct BatchPlan {
 };
 
 // Parses and resolves a batch body against a rig (the pose must resolve too). `rig_version`
-// identifies the rig's content, so a rerun against another rig is refused.
-Result<BatchPlan> MakeBatchPlan(const Rig& rig, const std::string& rig_version, std::string_view request_json);
+// identifies the rig's content, so a rerun against another rig is refused. The plan keeps `rig`
+// alive (a caller whose rig outlives the plan may pass a non-owning pointer: UnownedRig).
+Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const Rig> rig, const std::string& rig_version, std::string_view request_json);
+
+// A pointer to `rig` that owns nothing, for a plan that cannot outlive it (a CLI run, a test).
+inline std::shared_ptr<const Rig> UnownedRig(const Rig& rig) { return std::shared_ptr<const Rig>(std::shared_ptr<const Rig>(), &rig); }
 
 std::string VariantId(const BatchPlan& plan, size_t index);    // The given id, else "v" + 6 digits.
 std::string VariantFile(const BatchPlan& plan, size_t index);  // id + "." + the format's extension.

@@ -32,15 +32,28 @@ struct FieldError {
 // A key as one reference token of a JSON Pointer (RFC 6901): "~" becomes "~0", "/" becomes "~1".
 std::string JsonPointerEscape(const std::string& key);
 
+// How many offending fields a Status lists; past that they are only counted (Status::omitted), so
+// an input with a million bad members costs a count, not a million messages.
+inline constexpr size_t kMaxFieldErrors = 20;
+
 struct Status {
   StatusCode code = StatusCode::kOk;
   std::string message;            // One line, meant for people. Empty when ok.
   std::vector<FieldError> fields;  // Offending fields, when the input is structured.
   std::string reason;             // A stable slug naming the kind of problem ("invalid-weights"), for
                                   // clients to switch on; empty: the code says enough.
+  size_t omitted = 0;             // Offending fields past kMaxFieldErrors, counted, not listed.
 
   bool ok() const { return code == StatusCode::kOk; }
   static Status Ok() { return {}; }
+  // Whether another field error would only be counted: check it before building a costly message.
+  bool full() const { return fields.size() >= kMaxFieldErrors; }
+  // Lists the field, or counts it once kMaxFieldErrors are listed.
+  void AddField(std::string pointer, std::string field_message) {
+    if (full()) ++omitted;
+    else fields.push_back({std::move(pointer), std::move(field_message)});
+  }
+  size_t field_count() const { return fields.size() + omitted; }
 };
 
 Status InvalidArgument(std::string message);

@@ -1,0 +1,76 @@
+// The connection front: what stands between clients and the request handlers.
+//
+// cpp-httplib 0.11.4 gives each connection a thread of its pool for as long as the connection
+// lives, reading the request with a timeout per read: 256 sockets sending a byte a second held
+// every thread (slowloris), and idle keep-alive sockets held threads too. Here one thread holds
+// every connection (epoll) while its request comes in: the whole head and body must arrive within
+// a deadline, the connections are capped in all and per client address, bodies in memory share
+// a budget, and the framing is checked strictly (RFC 9112: no chunk without its CRLF, no
+// Transfer-Encoding beside Content-Length, pipelined requests answered in order). Only a whole
+// request goes to a worker, which runs cpp-httplib's own request processing on it (routing,
+// handlers, response writing); the connection then comes back to the front for its next request.
+#pragma once
+
+#include <httplib.h>
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace facespace::api {
+
+// A request's line and headers as the front read them, for a check before its body is read.
+struct RequestHeadView {
+  std::string method;
+  std::string target;
+  std::vector<std::pair<std::string, std::string>> headers;
+};
+
+struct FrontOptions {
+  int workers = 64;                         // Threads running whole requests.
+  int request_timeout = 10;                 // Seconds for a whole head and body (plus 1 s per MiB of body).
+  int keep_alive_timeout = 5;               // Seconds an idle connection is kept.
+  size_t keep_alive_max = 10000;            // Requests on one connection.
+  int write_timeout = 10;                   // Seconds a response write may wait for the client.
+  size_t max_body = size_t{64} << 20;
+  size_t max_connections = 4096;            // Open at once, in all; more are answered 503 and closed.
+  size_t max_per_client = 256;              // Open at once from one address.
+  size_t body_budget = size_t{1} << 30;     // Bytes of requests held in memory at once, in all; past it 503.
+  bool log_requests = true;                 // An access-log line (stderr) for each request the front answers itself.
+  // Called for a request that declares a body, before the body is read: a whole HTTP response to
+  // send (then the connection is closed), or nothing to go on. (The API's pre-routing: 401, 404,
+  // 405, 411, 413 from the headers, so a refused body is never uploaded.)
+  std::function<std::optional<std::string>(const RequestHeadView&)> head_check;
+};
+
+// Counters of the front, for /metrics and the log.
+struct FrontStats {
+  std::atomic<size_t> open{0};               // Connections open now.
+  std::atomic<size_t> refused_total{0};      // Connections refused for the caps.
+  std::atomic<size_t> refused_client{0};     // ... of which for the per-client cap.
+  std::atomic<size_t> timed_out{0};          // Requests cut off at their deadline (408).
+  std::atomic<size_t> bad_framing{0};        // Requests refused for their framing (400, 414, 431, 501, 505).
+  std::atomic<size_t> over_budget{0};        // Bodies refused for the memory budget (503).
+  std::atomic<size_t> body_bytes{0};         // Request bytes held now.
+};
+
+// A cpp-httplib server whose connections go through the front. Use it as httplib::Server
+// (routes, hooks, bind_to_port, listen_after_bind, stop); new_task_queue is its own.
+class FrontServer : public httplib::Server {
+ public:
+  explicit FrontServer(FrontOptions options);
+  ~FrontServer() override;
+  const FrontStats& Stats() const;
+
+  class Front;  // The epoll loop and the workers (api/src/http/front.cpp).
+
+ private:
+  bool process_and_close_socket(socket_t sock) override;
+  bool Process(httplib::Stream& stream, bool close_connection, bool& connection_closed);
+  std::unique_ptr<Front> front_;
+};
+
+}  // namespace facespace::api

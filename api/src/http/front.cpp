@@ -1,0 +1,611 @@
+// The connection front (facespace/api/front.h): one epoll thread holds the connections while
+// their requests arrive, a fixed pool of workers runs whole requests through cpp-httplib.
+#include "facespace/api/front.h"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <malloc.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/epoll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <deque>
+#include <mutex>
+#include <thread>
+#include <unordered_map>
+
+#include "framing.h"
+#include "problem.h"
+
+namespace facespace::api {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using http::Framing;
+
+struct Conn {
+  enum class State { kIdle, kHead, kBody, kBusy, kLinger };
+  int fd = -1;
+  std::string ip, local_ip;
+  int port = 0, local_port = 0;
+  std::string buf;
+  State state = State::kIdle;
+  http::RequestHead head;
+  size_t head_scan = 0;
+  http::ChunkedState chunked;
+  size_t request_end = 0;
+  Clock::time_point deadline;
+  size_t served = 0;
+  size_t reserved = 0;       // Bytes counted in the body budget.
+  bool sent_continue = false;
+  bool close_after = false;  // Set by the worker.
+};
+
+void Address(int fd, bool peer, std::string& ip, int& port) {
+  sockaddr_storage addr{};
+  socklen_t len = sizeof addr;
+  if ((peer ? getpeername(fd, reinterpret_cast<sockaddr*>(&addr), &len) : getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len)) != 0) return;
+  char text[INET6_ADDRSTRLEN] = {};
+  if (addr.ss_family == AF_INET) {
+    const auto* a = reinterpret_cast<const sockaddr_in*>(&addr);
+    inet_ntop(AF_INET, &a->sin_addr, text, sizeof text);
+    port = ntohs(a->sin_port);
+  } else if (addr.ss_family == AF_INET6) {
+    const auto* a = reinterpret_cast<const sockaddr_in6*>(&addr);
+    inet_ntop(AF_INET6, &a->sin6_addr, text, sizeof text);
+    port = ntohs(a->sin6_port);
+  }
+  ip = text;
+}
+
+// A whole response for a request the front refuses itself: problem+json, then the connection closes.
+std::string Refusal(int status, const std::string& type, const std::string& detail, const std::string& extra_headers = "") {
+  std::string escaped;
+  for (char c : detail) {
+    if (c == '"' || c == '\\') escaped += '\\';
+    if (static_cast<unsigned char>(c) >= 0x20) escaped += c;
+  }
+  const std::string body = "{\"type\":\"urn:facespace:problem:" + type + "\",\"title\":\"" + http::ReasonPhrase(status) +
+                           "\",\"status\":" + std::to_string(status) + ",\"detail\":\"" + escaped + "\"}";
+  return "HTTP/1.1 " + std::to_string(status) + " " + http::ReasonPhrase(status) +
+         "\r\nContent-Type: application/problem+json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n" + extra_headers +
+         "Connection: close\r\n\r\n" + body;
+}
+
+// Writes what it can at once (the socket is non-blocking); the front never waits on a client.
+void SendNow(int fd, std::string_view bytes) {
+  while (!bytes.empty()) {
+    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n <= 0) return;
+    bytes.remove_prefix(static_cast<size_t>(n));
+  }
+}
+
+// One buffered request for cpp-httplib: reads come from the bytes the front collected, writes go
+// to the socket (waiting up to the write timeout for room).
+class RequestStream final : public httplib::Stream {
+ public:
+  RequestStream(const Conn& c, std::string_view request, int write_timeout_ms)
+      : c_(c), request_(request), write_timeout_ms_(write_timeout_ms), drop_continue_(c.sent_continue) {}
+
+  bool is_readable() const override { return pos_ < request_.size(); }
+  bool is_writable() const override {
+    pollfd p{c_.fd, POLLOUT, 0};
+    return ::poll(&p, 1, write_timeout_ms_) > 0 && !(p.revents & (POLLERR | POLLHUP));
+  }
+  ssize_t read(char* ptr, size_t size) override {
+    const size_t n = std::min(size, request_.size() - pos_);
+    std::copy_n(request_.data() + pos_, n, ptr);
+    pos_ += n;
+    return static_cast<ssize_t>(n);
+  }
+  ssize_t write(const char* ptr, size_t size) override {
+    const std::string_view bytes(ptr, size);
+    if (drop_continue_) {
+      drop_continue_ = false;
+      if (bytes == "HTTP/1.1 100 Continue\r\n\r\n") return static_cast<ssize_t>(size);  // The front sent it already.
+    }
+    if (!head_seen_) {  // The response's head: does it close the connection?
+      head_seen_ = true;
+      const size_t end = bytes.find("\r\n\r\n");
+      const std::string_view head = bytes.substr(0, end);
+      for (size_t at = head.find("\r\n"); at != std::string_view::npos; at = head.find("\r\n", at + 2)) {
+        const std::string_view line = head.substr(at + 2, head.find("\r\n", at + 2) - (at + 2));
+        if (http::EqualsIgnoreCase(line, "Connection: close")) closes_ = true;
+      }
+    }
+    size_t done = 0;
+    while (done < size) {
+      const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL);
+      if (n > 0) {
+        done += static_cast<size_t>(n);
+        continue;
+      }
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) {
+        pollfd p{c_.fd, POLLOUT, 0};
+        if (::poll(&p, 1, write_timeout_ms_) > 0) continue;
+      }
+      failed_ = true;
+      return -1;
+    }
+    return static_cast<ssize_t>(size);
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    ip = c_.ip;
+    port = c_.port;
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    ip = c_.local_ip;
+    port = c_.local_port;
+  }
+  socket_t socket() const override { return c_.fd; }
+
+  bool closes() const { return closes_ || failed_; }
+
+ private:
+  const Conn& c_;
+  std::string_view request_;
+  size_t pos_ = 0;
+  int write_timeout_ms_;
+  bool drop_continue_;
+  bool head_seen_ = false, closes_ = false, failed_ = false;
+};
+
+// cpp-httplib's accept loop hands every accepted socket to its task queue: this one gives it to
+// the front at once, on the accept thread.
+class AdoptQueue final : public httplib::TaskQueue {
+ public:
+  explicit AdoptQueue(std::function<void()> on_shutdown) : on_shutdown_(std::move(on_shutdown)) {}
+  void enqueue(std::function<void()> fn) override { fn(); }
+  void shutdown() override { on_shutdown_(); }
+
+ private:
+  std::function<void()> on_shutdown_;
+};
+
+}  // namespace
+
+class FrontServer::Front {
+ public:
+  Front(FrontServer& server, FrontOptions options) : server_(server), o_(std::move(options)) {}
+  ~Front() { Stop(); }
+
+  FrontStats stats;
+
+  void Start() {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (running_) return;
+    running_ = true;
+    stopping_ = false;
+    epoll_ = epoll_create1(EPOLL_CLOEXEC);
+    wake_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ev.data.fd = wake_;
+    epoll_ctl(epoll_, EPOLL_CTL_ADD, wake_, &ev);
+    loop_ = std::thread([this] { Loop(); });
+    for (int i = 0; i < std::max(1, o_.workers); ++i) workers_.emplace_back([this] { Work(); });
+  }
+
+  // From the accept thread.
+  void Adopt(int fd) {
+    Start();
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      adopted_.push_back(fd);
+    }
+    Wake();
+  }
+
+  // Stops taking connections, closes the idle ones, lets requests in flight finish, then returns.
+  void Stop() {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (!running_) return;
+      stopping_ = true;
+    }
+    Wake();
+    loop_.join();
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      workers_stop_ = true;
+    }
+    work_cv_.notify_all();
+    for (std::thread& t : workers_) t.join();
+    workers_.clear();
+    ::close(epoll_);
+    ::close(wake_);
+    std::lock_guard<std::mutex> lock(mu_);
+    running_ = false;
+    workers_stop_ = false;
+  }
+
+ private:
+  void Wake() {
+    const uint64_t one = 1;
+    [[maybe_unused]] ssize_t n = ::write(wake_, &one, sizeof one);
+  }
+
+  // ---- the front thread ----------------------------------------------------------------------
+
+  void Loop() {
+    std::vector<epoll_event> events(256);
+    Clock::time_point next_sweep = Clock::now(), next_log = Clock::now() + std::chrono::seconds(10);
+    size_t logged_refused = 0, logged_timed_out = 0, logged_framing = 0, logged_budget = 0;
+    while (true) {
+      const int n = epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), 100);
+      for (int i = 0; i < n; ++i) {
+        const int fd = events[static_cast<size_t>(i)].data.fd;
+        if (fd == wake_) {
+          uint64_t count;
+          [[maybe_unused]] ssize_t r = ::read(wake_, &count, sizeof count);
+          continue;
+        }
+        auto it = conns_.find(fd);
+        if (it != conns_.end()) OnReadable(*it->second);
+      }
+      TakeAdoptedAndReturned();
+      const Clock::time_point now = Clock::now();
+      if (now >= next_sweep) {
+        Sweep(now);
+        next_sweep = now + std::chrono::milliseconds(100);
+      }
+      if (now >= next_log) {  // What the caps turned away, once in ten seconds at most.
+        const size_t r = stats.refused_total, t = stats.timed_out, f = stats.bad_framing, b = stats.over_budget;
+        if (r != logged_refused || t != logged_timed_out || f != logged_framing || b != logged_budget) {
+          std::fprintf(stderr, "facespace: front: in the last 10 s %zu connections refused (caps), %zu requests timed out, %zu refused for their framing, %zu over the body budget; %zu open\n",
+                       r - logged_refused, t - logged_timed_out, f - logged_framing, b - logged_budget, stats.open.load());
+          logged_refused = r, logged_timed_out = t, logged_framing = f, logged_budget = b;
+        }
+        next_log = now + std::chrono::seconds(10);
+      }
+      bool stop;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        stop = stopping_;
+      }
+      if (stop) {
+        // Idle and half-read connections go now; busy ones when their worker gives them back.
+        std::vector<Conn*> open;
+        for (auto& [fd, c] : conns_) {
+          if (c->state != Conn::State::kBusy) open.push_back(c.get());
+        }
+        for (Conn* c : open) Close(*c);
+        if (conns_.empty()) break;
+      }
+    }
+  }
+
+  void TakeAdoptedAndReturned() {
+    std::vector<int> adopted;
+    std::vector<Conn*> returned;
+    bool stopping;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      adopted.swap(adopted_);
+      returned.swap(returned_);
+      stopping = stopping_;
+    }
+    for (int fd : adopted) {
+      if (stopping) {
+        ::close(fd);
+        continue;
+      }
+      Accept(fd);
+    }
+    for (Conn* c : returned) Returned(*c);
+  }
+
+  void Accept(int fd) {
+    const int flags = fcntl(fd, F_GETFL, 0);
+    fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+    const int yes = 1;
+    setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
+    auto c = std::make_unique<Conn>();
+    c->fd = fd;
+    Address(fd, true, c->ip, c->port);
+    Address(fd, false, c->local_ip, c->local_port);
+    size_t& from_client = per_client_[c->ip];
+    const char* refused = nullptr;
+    if (conns_.size() >= o_.max_connections) refused = "the server has as many connections open as it takes (--max-connections)";
+    else if (from_client >= o_.max_per_client) refused = "this address has as many connections open as one client may (--max-client-connections)";
+    if (refused) {
+      ++stats.refused_total;
+      if (from_client >= o_.max_per_client) ++stats.refused_client;
+      if (from_client == 0) per_client_.erase(c->ip);
+      SendNow(fd, Refusal(503, "too-many-connections", refused, "Retry-After: 1\r\n"));
+      ::shutdown(fd, SHUT_RDWR);
+      ::close(fd);
+      return;
+    }
+    ++from_client;
+    c->deadline = Clock::now() + std::chrono::seconds(o_.request_timeout);
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP;
+    ev.data.fd = fd;
+    if (epoll_ctl(epoll_, EPOLL_CTL_ADD, fd, &ev) != 0) {
+      if (--from_client == 0) per_client_.erase(c->ip);
+      ::close(fd);
+      return;
+    }
+    conns_[fd] = std::move(c);
+    stats.open = conns_.size();
+  }
+
+  void Close(Conn& c) {
+    if (c.state != Conn::State::kBusy) epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
+    ::shutdown(c.fd, SHUT_RDWR);
+    ::close(c.fd);
+    Release(c);
+    auto pc = per_client_.find(c.ip);
+    if (pc != per_client_.end() && --pc->second == 0) per_client_.erase(pc);
+    conns_.erase(c.fd);  // Destroys c.
+    stats.open = conns_.size();
+  }
+
+  // Answers a request the front refuses, then reads and drops what the client still sends for a
+  // moment (closing with unread bytes would reset the connection and could lose the answer).
+  void Refuse(Conn& c, int status, const std::string& type, const std::string& detail, const std::string& extra = "") {
+    const std::string response = Refusal(status, type, detail, extra);
+    SendNow(c.fd, response);
+    if (o_.log_requests) {
+      // As the access log writes a request, with no duration: the request never reached a handler.
+      const bool parsed = !c.head.method.empty();
+      const std::string path = parsed ? c.head.target.substr(0, c.head.target.find('?')).substr(0, 200)
+                                      : status == 414 ? "(request line over 8,192 bytes)" : "-";
+      std::fprintf(stderr, "%s %s %d %zu -\n", parsed ? c.head.method.substr(0, 20).c_str() : "-", path.c_str(), status,
+                   response.size() - response.find("\r\n\r\n") - 4);
+    }
+    Linger(c);
+  }
+  void RefuseRaw(Conn& c, const std::string& response) {
+    SendNow(c.fd, response);
+    Linger(c);
+  }
+  void Linger(Conn& c) {
+    ::shutdown(c.fd, SHUT_WR);
+    Release(c);
+    c.buf.clear();
+    c.buf.shrink_to_fit();
+    c.state = Conn::State::kLinger;
+    c.deadline = Clock::now() + std::chrono::seconds(2);
+  }
+
+  bool Reserve(Conn& c, size_t bytes) {
+    if (bytes <= c.reserved) return true;
+    const size_t more = bytes - c.reserved;
+    if (stats.body_bytes + more > o_.body_budget) return false;
+    stats.body_bytes += more;
+    c.reserved = bytes;
+    return true;
+  }
+  void Release(Conn& c) {
+    stats.body_bytes -= c.reserved;
+    c.reserved = 0;
+  }
+
+  void OnReadable(Conn& c) {
+    char chunk[65536];
+    while (true) {
+      const ssize_t n = ::recv(c.fd, chunk, sizeof chunk, 0);
+      if (n > 0) {
+        if (c.state == Conn::State::kLinger) continue;  // Dropped.
+        c.buf.append(chunk, static_cast<size_t>(n));
+        // Enough to find a head, or for the whole body: the rest stays in the socket until asked for.
+        if (c.state != Conn::State::kBody && c.buf.size() > (1u << 20)) break;
+        if (c.state == Conn::State::kBody && c.buf.size() >= c.head.end + (c.head.chunked ? o_.max_body + 4096 : c.head.content_length)) break;
+        continue;
+      }
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+      if (n < 0 && errno == EINTR) continue;
+      Close(c);  // The client closed (or reset) its side.
+      return;
+    }
+    if (c.state == Conn::State::kLinger) return;
+    Advance(c);
+  }
+
+  // Takes the connection's request as far as its bytes go; hands a whole one to a worker.
+  void Advance(Conn& c) {
+    if (c.buf.empty()) return;
+    const Clock::time_point now = Clock::now();
+    if (c.state == Conn::State::kIdle) {
+      // A new connection's first request is due within the timeout from the accept; a kept-alive
+      // one's from its first byte.
+      c.state = Conn::State::kHead;
+      c.head_scan = 0;
+      c.head = http::RequestHead{};
+      if (c.served > 0) c.deadline = now + std::chrono::seconds(o_.request_timeout);
+    }
+    http::FramingError error;
+    if (c.state == Conn::State::kHead) {
+      const Framing f = http::ParseHead(c.buf, c.head_scan, limits_, c.head, error);
+      if (f == Framing::kNeedMore) return;
+      if (f == Framing::kError) {
+        ++stats.bad_framing;
+        return Refuse(c, error.status, error.status == 414 ? "uri-too-long" : "bad-request", error.detail);
+      }
+      if (c.head.has_body()) {
+        if (o_.head_check) {
+          if (auto refusal = o_.head_check(View(c)); refusal) return RefuseRaw(c, *refusal);
+        }
+        if (c.head.content_length > o_.max_body) {
+          return Refuse(c, 413, "body-too-large",
+                        "the request body (Content-Length: " + std::to_string(c.head.content_length) + ") is over the server's limit of " +
+                            std::to_string(o_.max_body) + " bytes (--max-body)");
+        }
+        if (!Reserve(c, c.head.end + c.head.content_length)) {
+          ++stats.over_budget;
+          return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", "Retry-After: 1\r\n");
+        }
+        // A body of N MiB may take N more seconds.
+        c.deadline += std::chrono::seconds(c.head.content_length >> 20);
+        if (c.head.expect_continue && c.buf.size() == c.head.end) {
+          SendNow(c.fd, "HTTP/1.1 100 Continue\r\n\r\n");
+          c.sent_continue = true;
+        }
+      }
+      c.state = Conn::State::kBody;
+      c.chunked = http::ChunkedState{};
+      c.chunked.pos = c.head.end;
+    }
+    if (c.head.chunked) {
+      const Framing f = http::ParseChunked(c.buf, c.chunked, o_.max_body, error);
+      if (f == Framing::kError) {
+        ++stats.bad_framing;
+        return Refuse(c, error.status, error.status == 413 ? "body-too-large" : "bad-request", error.detail);
+      }
+      if (!Reserve(c, c.buf.size())) {
+        ++stats.over_budget;
+        return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", "Retry-After: 1\r\n");
+      }
+      if (f == Framing::kNeedMore) return;
+      c.request_end = c.chunked.pos;
+    } else {
+      if (c.buf.size() < c.head.end + c.head.content_length) return;
+      c.request_end = c.head.end + c.head.content_length;
+    }
+    Dispatch(c);
+  }
+
+  RequestHeadView View(const Conn& c) const {
+    RequestHeadView v;
+    v.method = c.head.method;
+    v.target = c.head.target;
+    const std::string_view head(c.buf.data() + c.head.start, c.head.end - c.head.start);
+    size_t pos = head.find("\r\n") + 2;
+    while (pos + 2 < head.size()) {
+      const size_t eol = head.find("\r\n", pos);
+      const std::string_view field = head.substr(pos, eol - pos);
+      const size_t colon = field.find(':');
+      std::string_view value = field.substr(colon + 1);
+      while (!value.empty() && (value.front() == ' ' || value.front() == '\t')) value.remove_prefix(1);
+      while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
+      v.headers.emplace_back(std::string(field.substr(0, colon)), std::string(value));
+      pos = eol + 2;
+    }
+    return v;
+  }
+
+  void Dispatch(Conn& c) {
+    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
+    c.state = Conn::State::kBusy;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      work_.push_back(&c);
+    }
+    work_cv_.notify_one();
+  }
+
+  void Returned(Conn& c) {
+    c.buf.erase(0, c.request_end);
+    Release(c);
+    ++c.served;
+    if (c.close_after) return Close(c);
+    c.state = Conn::State::kIdle;
+    c.request_end = 0;
+    c.sent_continue = false;
+    c.close_after = false;
+    c.deadline = Clock::now() + std::chrono::seconds(o_.keep_alive_timeout);
+    if (c.buf.capacity() > (1u << 20)) c.buf.shrink_to_fit();  // A large body's room goes back.
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP;
+    ev.data.fd = c.fd;
+    if (epoll_ctl(epoll_, EPOLL_CTL_ADD, c.fd, &ev) != 0) return Close(c);
+    Advance(c);  // A pipelined request may be whole already.
+  }
+
+  void Sweep(Clock::time_point now) {
+    std::vector<Conn*> late;
+    for (auto& [fd, c] : conns_) {
+      if (c->state != Conn::State::kBusy && now >= c->deadline) late.push_back(c.get());
+    }
+    for (Conn* c : late) {
+      if (c->state == Conn::State::kHead || c->state == Conn::State::kBody) {
+        ++stats.timed_out;
+        Refuse(*c, 408, "request-timeout",
+               "the request did not arrive whole within " + std::to_string(o_.request_timeout) + " s (--read-timeout)");
+        c->deadline = now + std::chrono::milliseconds(200);  // A short linger: the client was slow anyway.
+      } else {
+        Close(*c);  // Idle past the keep-alive time, or done lingering.
+      }
+    }
+  }
+
+  // ---- the workers ---------------------------------------------------------------------------
+
+  void Work() {
+    while (true) {
+      Conn* c = nullptr;
+      bool stopping;
+      {
+        std::unique_lock<std::mutex> lock(mu_);
+        work_cv_.wait(lock, [this] { return !work_.empty() || workers_stop_; });
+        if (work_.empty()) return;
+        c = work_.front();
+        work_.pop_front();
+        stopping = stopping_;
+      }
+      RequestStream stream(*c, std::string_view(c->buf.data(), c->request_end), o_.write_timeout * 1000);
+      const bool close = stopping || c->served + 1 >= o_.keep_alive_max;
+      bool closed_by_client = false;
+      bool ok = false;
+      try {
+        ok = server_.Process(stream, close, closed_by_client);
+      } catch (...) {
+        ok = false;
+      }
+      c->close_after = !ok || close || closed_by_client || stream.closes();
+      // A large body's parse leaves freed heap behind (a DOM of a million values): give it back.
+      if (c->request_end > (size_t{1} << 20)) malloc_trim(0);
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        returned_.push_back(c);
+      }
+      Wake();
+    }
+  }
+
+  FrontServer& server_;
+  FrontOptions o_;
+  http::HeadLimits limits_;
+  int epoll_ = -1, wake_ = -1;
+  std::thread loop_;
+  std::vector<std::thread> workers_;
+  std::unordered_map<int, std::unique_ptr<Conn>> conns_;  // The front thread's.
+  std::unordered_map<std::string, size_t> per_client_;    // The front thread's.
+
+  std::mutex mu_;
+  std::condition_variable work_cv_;
+  bool running_ = false, stopping_ = false, workers_stop_ = false;
+  std::vector<int> adopted_;
+  std::vector<Conn*> returned_;
+  std::deque<Conn*> work_;
+};
+
+FrontServer::FrontServer(FrontOptions options) : front_(std::make_unique<Front>(*this, std::move(options))) {
+  new_task_queue = [this] { return new AdoptQueue([this] { front_->Stop(); }); };
+}
+
+FrontServer::~FrontServer() { front_->Stop(); }
+
+const FrontStats& FrontServer::Stats() const { return front_->stats; }
+
+bool FrontServer::process_and_close_socket(socket_t sock) {
+  front_->Adopt(sock);
+  return true;
+}
+
+bool FrontServer::Process(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
+  return process_request(stream, close_connection, connection_closed, nullptr);
+}
+
+}  // namespace facespace::api

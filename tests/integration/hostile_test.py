@@ -1,0 +1,444 @@
+#!/usr/bin/env python3
+"""The hostile suite: the attacks of issue 33 against the real server on loopback.
+
+  hostile_test.py FACESPACE_BIN SHARED_ASSETS SOURCE_DIR FIGURES_OUT [sanitized]
+
+Each attack is answered with the right status within 2 s (10 s under sanitizers), the server's RSS
+grows by at most 200 MB and is back near idle after (not asserted under sanitizers, whose allocator
+keeps freed memory in quarantine), the server stays alive, and a probe client is answered within
+1 s (p99) while 1,000 slow sockets are open. The figures (attack, status, time, RSS before/after)
+go to FIGURES_OUT as a Markdown table (tests/bench/README.md shows them).
+"""
+import json
+import os
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.error
+import urllib.request
+
+BIN, SHARED, SRC, FIGURES = sys.argv[1:5]
+SANITIZED = len(sys.argv) > 5 and sys.argv[5] in ("1", "ON", "on", "sanitized")
+ANSWER_S = 10.0 if SANITIZED else 2.0
+RSS_GROWTH_MB = 200
+KEY = "k3y-hostile"
+
+passed = failed = 0
+figures = []
+
+
+def ok(what):
+    global passed
+    passed += 1
+    print("ok   " + what, flush=True)
+
+
+def no(what):
+    global failed
+    failed += 1
+    print("FAIL " + what, flush=True)
+
+
+def check(what, cond):
+    (ok if cond else no)(what)
+    return cond
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    p = s.getsockname()[1]
+    s.close()
+    return p
+
+
+class Server:
+    def __init__(self, tmp, *extra):
+        self.port = free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.log = open(os.path.join(tmp, f"server-{self.port}.log"), "w")
+        args = [BIN, "serve", "--host", "0.0.0.0", "--port", str(self.port), "--store", os.path.join(tmp, "store"),
+                "--jobs-dir", os.path.join(tmp, "jobs"), "--api-key-file", os.path.join(tmp, "key"), "--quiet", *extra]
+        env = dict(os.environ)
+        self.proc = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env)
+        for _ in range(300):
+            try:
+                urllib.request.urlopen(self.url + "/healthz", timeout=1).read()
+                break
+            except OSError:
+                time.sleep(0.1)
+        self.idle = self.rss()
+
+    def rss(self):
+        with open(f"/proc/{self.proc.pid}/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) / 1024.0
+        return 0.0
+
+    def alive(self):
+        if self.proc.poll() is not None:
+            return False
+        try:
+            return urllib.request.urlopen(self.url + "/healthz", timeout=5).status == 200
+        except OSError:
+            return False
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+        self.log.close()
+        return self.proc.returncode
+
+
+def request(url, method="GET", body=None, headers=None, timeout=60):
+    """(status, seconds, body bytes, headers) of one request; errors are answers too."""
+    h = {"Content-Type": "application/json"} if body is not None else {}
+    h.update(headers or {})
+    t = time.time()
+    req = urllib.request.Request(url, data=body, headers=h, method=method)
+    try:
+        r = urllib.request.urlopen(req, timeout=timeout)
+        return r.status, time.time() - t, r.read(), dict(r.headers)
+    except urllib.error.HTTPError as e:
+        return e.code, time.time() - t, e.read(), dict(e.headers)
+    except OSError as e:
+        return 0, time.time() - t, str(e).encode(), {}
+
+
+def raw(port, data, source="127.0.0.1", wait=5.0):
+    """Sends bytes as they are; returns all that comes back until the server closes or `wait` passes."""
+    s = socket.socket()
+    s.bind((source, 0))
+    s.settimeout(wait)
+    s.connect(("127.0.0.1", port))
+    s.sendall(data)
+    out = b""
+    end = time.time() + wait
+    try:
+        while time.time() < end:
+            d = s.recv(65536)
+            if not d:
+                break
+            out += d
+    except (socket.timeout, ConnectionResetError):
+        pass
+    s.close()
+    return out
+
+
+def attack(srv, name, expect, fn):
+    """Runs fn() -> (status, seconds, note); checks status, time, RSS growth and that the server lives."""
+    before = srv.rss()
+    status, seconds, note = fn()
+    after_peak = srv.rss()
+    time.sleep(0.3)
+    after = srv.rss()
+    alive = srv.alive()
+    growth = after - before
+    rss_ok = SANITIZED or growth <= RSS_GROWTH_MB
+    figures.append((name, status, seconds, before, after))
+    check(f"{name}: {status} in {seconds * 1000:.0f} ms (expected {expect} within {ANSWER_S:.0f} s), RSS {before:.0f} -> {after:.0f} MB"
+          f" (peak seen {after_peak:.0f}){', ' + note if note else ''}; server alive",
+          status == expect and seconds <= ANSWER_S and rss_ok and alive)
+
+
+def probe_p99(url, n=40):
+    times = []
+    for _ in range(n):
+        t = time.time()
+        try:
+            urllib.request.urlopen(url + "/healthz", timeout=5).read()
+            times.append(time.time() - t)
+        except OSError:
+            times.append(99.0)
+        time.sleep(0.02)
+    times.sort()
+    return times[min(len(times) - 1, int(0.99 * len(times)))], times[len(times) // 2]
+
+
+def slow_sockets(port, count, sources):
+    """Opens `count` sockets spread over `sources`, each sending the start of a request."""
+    socks = []
+    for i in range(count):
+        s = socket.socket()
+        s.bind((sources[i % len(sources)], 0))
+        s.setblocking(False)
+        try:
+            s.connect(("127.0.0.1", port))
+        except BlockingIOError:
+            pass
+        socks.append(s)
+    time.sleep(0.3)
+    for s in socks:
+        try:
+            s.send(b"GET /healthz HTTP/1.1\r\nHost: x\r\n")
+        except OSError:
+            pass
+    return socks
+
+
+def drip(socks, stop):
+    """One header byte a second on every socket, until `stop`."""
+    while not stop.is_set():
+        for s in socks:
+            try:
+                s.send(b"X")
+            except OSError:
+                pass
+        stop.wait(1.0)
+
+
+def closed_by_server(s):
+    try:
+        s.setblocking(True)
+        s.settimeout(0.2)
+        data = s.recv(4096)
+        return data == b"" or data.startswith(b"HTTP/1.1 408") or data.startswith(b"HTTP/1.1 503")
+    except socket.timeout:
+        return False
+    except OSError:
+        return True
+
+
+def status_of(data):
+    try:
+        return int(data.split(b" ", 2)[1])
+    except (IndexError, ValueError):
+        return 0
+
+
+def glb_with_targets(n):
+    """A glb of one triangle declaring n morph targets (all the same accessor)."""
+    positions = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(positions)}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": len(positions)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "targets": [{"POSITION": 0}] * n}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+    }
+    js = json.dumps(doc, separators=(",", ":")).encode()
+    js += b" " * (-len(js) % 4)
+    total = 12 + 8 + len(js) + 8 + len(positions)
+    return (struct.pack("<III", 0x46546C67, 2, total) + struct.pack("<II", len(js), 0x4E4F534A) + js +
+            struct.pack("<II", len(positions), 0x004E4942) + positions)
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="facespace-hostile-")
+    os.makedirs(os.path.join(tmp, "store"))
+    with open(os.path.join(tmp, "key"), "w") as f:
+        f.write(KEY + "\n")
+    auth = {"Authorization": "Bearer " + KEY}
+    srv = Server(tmp, "--read-timeout", "3", "--max-batch", "65000", "--store-poll", "0.5")
+    U = srv.url
+    print(f"server on {U}, idle RSS {srv.idle:.0f} MB{' (sanitized: RSS not asserted)' if SANITIZED else ''}", flush=True)
+
+    # ---- 1. a queued batch whose rig is uploaded again with identical bytes (use after free) ----
+    cube = os.path.join(tmp, "uaf.glb")
+    subprocess.run([BIN, "blend", os.path.join(SHARED, "real/AnimatedMorphCube/AnimatedMorphCube.gltf"), "--keep-targets", "-o", cube],
+                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cube_bytes = open(cube, "rb").read()
+    glb = {"Content-Type": "model/gltf-binary", **auth}
+    s1, _, _, _ = request(U + "/v1/rigs/uaf", "PUT", cube_bytes, glb)
+    s2, _, b2, _ = request(U + "/v1/rigs/facecap/batch", "POST",
+                           json.dumps({"sample": {"method": "uniform", "count": 3000}, "format": "png", "width": 64, "height": 64}).encode(), auth)
+    busy = json.loads(b2).get("id", "") if s2 == 202 else ""
+    s3, _, b3, _ = request(U + "/v1/rigs/uaf/batch", "POST", json.dumps({"sample": {"method": "uniform", "count": 200}, "format": "json"}).encode(), auth)
+    queued = json.loads(b3).get("id", "") if s3 == 202 else ""
+    s4, _, _, _ = request(U + "/v1/rigs/uaf", "PUT", cube_bytes, glb)
+    s5, _, _, _ = request(U + "/v1/jobs/" + busy, "DELETE", headers=auth)
+    state = ""
+    deadline = time.time() + (120 if SANITIZED else 30)
+    while time.time() < deadline and srv.proc.poll() is None:
+        st, _, body, _ = request(U + "/v1/jobs/" + queued)
+        state = json.loads(body).get("state", "") if st == 200 else f"HTTP {st}"
+        if state in ("done", "failed", "lost", "cancelled"):
+            break
+        time.sleep(0.3)
+    figures.append(("queued batch, its rig uploaded again (same bytes), the running job deleted", f"job {state}", 0, srv.idle, srv.rss()))
+    check(f"a queued batch whose rig is uploaded again with the same bytes while another job runs: the server lives and the job is "
+          f"{state} (PUT {s1}, batches {s2}/{s3}, PUT again {s4}, DELETE {s5})",
+          (s1, s2, s3, s4, s5) == (201, 202, 202, 200, 204) and state == "done" and srv.alive())
+
+    # ---- 2. error lists without a cap ----
+    check_url = U + "/v1/rigs/facecap/check"
+
+    def post(url, body):
+        def run():
+            st, sec, b, _ = request(url, "POST", body)
+            return st, sec, f"{len(b)} bytes answered"
+        return run
+
+    zeros6 = ('{"weights":[' + ",".join(["0"] * 10**6) + "]}").encode()
+    attack(srv, "/check with 10^6 zeros (2 MB)", 413, post(check_url, zeros6))
+    del zeros6
+    zeros7 = ('{"weights":[' + ",".join(["0"] * 10**7) + "]}").encode()
+    attack(srv, "/check with 10^7 zeros (20 MB)", 413, post(check_url, zeros7))
+    del zeros7
+    names6 = ('{"weights":{' + ",".join(f'"n{i}":0' for i in range(10**6)) + "}}").encode()
+    attack(srv, "/check with 10^6 unknown names (12 MB)", 413, post(check_url, names6))
+    del names6
+    names = ('{"weights":{' + ",".join(f'"n{i}":0' for i in range(90000)) + "}}").encode()
+    st, sec, b, _ = request(check_url, "POST", names)
+    doc = json.loads(b) if st == 422 else {}
+    figures.append(("/check with 90,000 unknown names (under the value cap)", st, sec, srv.rss(), srv.rss()))
+    check(f"/check with 90,000 unknown names: 422 in {sec * 1000:.0f} ms listing {len(doc.get('errors', []))} errors of "
+          f"errors_total {doc.get('errors_total')} ({len(b)} bytes)",
+          st == 422 and sec <= ANSWER_S and len(doc.get("errors", [])) == 20 and doc.get("errors_total") == 90000 and len(b) < 20000)
+    dense = ('{"weights":[' + ",".join(["0"] * 60000) + "]}").encode()
+    st, sec, b, _ = request(check_url, "POST", dense)
+    check(f"/check with 60,000 weights for 52 shapes: 422 at once with one error ({len(b)} bytes, {sec * 1000:.0f} ms)",
+          st == 422 and len(json.loads(b).get("errors", [])) == 1 and sec <= ANSWER_S)
+
+    # ---- 3. quadratic parsing ----
+    objs = ('{"weights":{},"x":[' + ",".join(["{}"] * 100000) + "]}").encode()
+    attack(srv, "/mesh with 100,000 empty objects (300 KB)", 413, post(U + "/v1/rigs/facecap/mesh", objs))
+    objs = ('{"weights":{},"x":[' + ",".join(["{}"] * 90000) + "]}").encode()
+    attack(srv, "/mesh with 90,000 empty objects (under the value cap)", 422, post(U + "/v1/rigs/facecap/mesh", objs))
+    keys = ('{"keys":[' + ",".join('{"time":%d}' % i for i in range(10**6)) + '],"times":[0.5]}').encode()
+    attack(srv, f"sequence/sample with 10^6 keys ({len(keys) >> 20} MB)", 413, post(U + "/v1/rigs/facecap/sequence/sample", keys))
+    del keys
+
+    # ---- 4. slow clients ----
+    stop = threading.Event()
+    before = srv.rss()
+    socks = slow_sockets(srv.port, 320, ["127.0.0.2", "127.0.0.3"])
+    dripper = threading.Thread(target=drip, args=(socks, stop))
+    dripper.start()
+    time.sleep(1.0)
+    p99, p50 = probe_p99(U, 20)
+    time.sleep(3.5)  # --read-timeout 3: every slow request is cut off by now.
+    cut = sum(closed_by_server(s) for s in socks)
+    stop.set()
+    dripper.join()
+    for s in socks:
+        s.close()
+    figures.append(("slowloris: 320 sockets, a header byte a second", f"{cut} cut off", p99, before, srv.rss()))
+    check(f"slowloris, 320 sockets sending a header byte a second: a probe answered in {p99 * 1000:.0f} ms (p99, median {p50 * 1000:.0f}),"
+          f" {cut}/320 cut off after --read-timeout (3 s)", p99 <= 1.0 and cut == 320 and srv.alive())
+
+    before = srv.rss()
+    socks = slow_sockets(srv.port, 1000, ["127.0.0.4", "127.0.0.5", "127.0.0.6", "127.0.0.7"])
+    stop = threading.Event()
+    dripper = threading.Thread(target=drip, args=(socks, stop))
+    dripper.start()
+    time.sleep(0.5)
+    p99, p50 = probe_p99(U, 40)
+    with open(f"/proc/{srv.proc.pid}/status") as f:
+        threads = next(int(l.split()[1]) for l in f if l.startswith("Threads:"))
+    stop.set()
+    dripper.join()
+    for s in socks:
+        s.close()
+    figures.append(("1,000 slow sockets open (4 addresses)", "probe 200", p99, before, srv.rss()))
+    check(f"1,000 slow sockets open from 4 addresses: a probe answered in {p99 * 1000:.0f} ms (p99 of 40, median {p50 * 1000:.0f});"
+          f" the server has {threads} threads", p99 <= 1.0 and srv.alive())
+
+    socks = slow_sockets(srv.port, 300, ["127.0.0.8"])
+    time.sleep(0.5)
+    refused = sum(status_of(s.recv(200)) == 503 if select_readable(s) else 0 for s in socks)
+    for s in socks:
+        s.close()
+    figures.append(("300 connections from one address", f"{refused} x 503", 0, srv.rss(), srv.rss()))
+    check(f"300 connections from one address: {refused} answered 503 with Retry-After (256 a client)", refused == 44 and srv.alive())
+
+    # ---- 5. renders that would take gigabytes ----
+    def get(url):
+        def run():
+            st, sec, b, _ = request(url)
+            return st, sec, f"{len(b)} bytes"
+        return run
+
+    sheet = json.dumps({"cells": [{"weights": {"jawOpen": i / 64}} for i in range(64)], "width": 2048, "height": 2048}).encode()
+    attack(srv, "sheet of 64 cells at 2048²", 413, post(U + "/v1/rigs/facecap/sheet", sheet))
+    attack(srv, "render 2048² with supersample 4", 413, get(U + "/v1/rigs/facecap/render?width=2048&height=2048&supersample=4"))
+    before = srv.rss()
+    st, sec, b, _ = request(U + "/v1/rigs/facecap/render?width=2048&height=2048&w.jawOpen=0.3")
+    time.sleep(0.5)
+    after = srv.rss()
+    figures.append(("render 2048² (allowed: about 300 MB of working memory)", st, sec, before, after))
+    check(f"a 2048² render (within the budget): {st} in {sec * 1000:.0f} ms, RSS {before:.0f} -> {after:.0f} MB: its memory given back",
+          st == 200 and (SANITIZED or after - before <= RSS_GROWTH_MB) and srv.alive())
+
+    # ---- 6. smaller ones ----
+    r = raw(srv.port, b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\nGET /readyz HTTP/1.1\r\nHost: x\r\n\r\n"
+                      b"GET /v1/rigs/nope HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+    answers = [status_of(b"HTTP/1.1" + part) for part in r.split(b"HTTP/1.1")[1:]]
+    check(f"three pipelined requests in one packet: answered in order {answers}", answers == [200, 200, 404])
+
+    def framing(name, data, expect):
+        def run():
+            t = time.time()
+            out = raw(srv.port, data, wait=ANSWER_S + 1)
+            return status_of(out), time.time() - t, ""
+        attack(srv, name, expect, run)
+
+    head = b"POST /v1/rigs/facecap/check HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n"
+    framing("a chunk without its trailing CRLF", head + b"Transfer-Encoding: chunked\r\n\r\n2\r\n{}XX0\r\n\r\n", 400)
+    framing("Transfer-Encoding and Content-Length together", head + b"Transfer-Encoding: chunked\r\nContent-Length: 2\r\n\r\n{}", 400)
+    framing("Content-Length: abc", head + b"Content-Length: abc\r\n\r\n{}", 400)
+    framing("Content-Length: -5", head + b"Content-Length: -5\r\n\r\n{}", 400)
+    framing("a path with %u0066", b"GET /v1/rigs/%u0066acecap HTTP/1.1\r\nHost: x\r\n\r\n", 400)
+    st, _, b, _ = request(U + "/v1/rigs/facecap/mesh?w.jawOpen=0x10&format=json")
+    check(f"w.jawOpen=0x10 is not a number: {st} naming the parameter", st == 422 and b"w.jawOpen" in b)
+
+    big = glb_with_targets(100000)
+    attack(srv, f"upload of a glb declaring 100,000 morph targets ({len(big) >> 20} MB)", 413,
+           lambda: (lambda st, sec, b, h: (st, sec, b[:0].decode() + ("names --max-shapes" if b"--max-shapes" in b else "")))(
+               *request(U + "/v1/rigs/manytargets", "PUT", big, glb)))
+
+    st, sec, b, _ = request(U + "/v1/rigs/facecap/batch", "POST",
+                            json.dumps({"sample": {"method": "uniform", "count": 65000}, "format": "exr", "width": 2048, "height": 2048}).encode(), auth)
+    figures.append(("batch of 65,000 2048² EXR variants (about 2 TB)", st, sec, srv.rss(), srv.rss()))
+    check(f"a batch that cannot fit on the disk (65,000 2048² EXR): {st} in {sec * 1000:.0f} ms "
+          f"({json.loads(b).get('detail', '')[:100] if b.startswith(b'{') else ''})", st == 507 and sec <= ANSWER_S)
+
+    store = os.path.join(tmp, "store")
+    old_tmp, new_tmp = os.path.join(store, ".gone.1.0.tmp"), os.path.join(store, ".kept.1.1.tmp")
+    for p in (old_tmp, new_tmp):
+        with open(p, "w") as f:
+            f.write("half an upload")
+    old = time.time() - 1200
+    os.utime(old_tmp, (old, old))
+    time.sleep(1.5)
+    check("an upload's temporary left 20 minutes ago by a killed instance is removed by the store poll; a fresh one is kept",
+          not os.path.exists(old_tmp) and os.path.exists(new_tmp))
+    os.remove(new_tmp)
+
+    idle_after = srv.rss()
+    check(f"after every attack: RSS {idle_after:.0f} MB against {srv.idle:.0f} MB idle at start (at most +{RSS_GROWTH_MB} MB)",
+          SANITIZED or idle_after - srv.idle <= RSS_GROWTH_MB)
+    rc = srv.stop()
+    check(f"the server stops cleanly on SIGTERM (exit {rc})", rc == 0)
+
+    with open(FIGURES, "w") as f:
+        f.write("| attack | answer | time | RSS before → after |\n|---|---|---|---|\n")
+        for name, status, sec, before, after in figures:
+            f.write(f"| {name} | {status} | {sec * 1000:.0f} ms | {before:.0f} → {after:.0f} MB |\n")
+    print(f"figures: {FIGURES}")
+    print(f"{passed} passed, {failed} failed")
+    return 1 if failed else 0
+
+
+def select_readable(s, wait=0.5):
+    import select
+    s.setblocking(True)
+    r, _, _ = select.select([s], [], [], wait)
+    return bool(r)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
