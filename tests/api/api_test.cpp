@@ -36,7 +36,13 @@ class ApiTest : public ::testing::Test {
     o.max_render_size = 256;
     o.max_sheet_cells = 3;
     api_ = new api::Api(*store_, null_, o);
-    server_ = new httplib::Server;
+    // The server as `facespace serve` runs it: connections through the front.
+    api::FrontOptions front;
+    front.workers = 8;
+    front.log_requests = false;
+    front.max_body = o.max_body;
+    front.head_check = [](const api::RequestHeadView& head) { return api_->CheckHead(head); };
+    server_ = new api::FrontServer(front);
     api_->Register(*server_);
     port_ = server_->bind_to_any_port("127.0.0.1");
     thread_ = new std::thread([] { server_->listen_after_bind(); });

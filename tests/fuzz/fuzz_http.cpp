@@ -1,15 +1,20 @@
-// libFuzzer: a whole HTTP request through the router (every route, the error handler, CORS,
-// caching) with no socket: the request is fed to cpp-httplib's request processing over an
-// in-memory stream. Rigs: FaceCap in a memory store that accepts uploads (key "fuzz-key").
+// libFuzzer: a whole HTTP request through the connection front's framing and then the router
+// (every route, the error handler, CORS, caching) with no socket: what the framing takes as one
+// whole request is fed to cpp-httplib's request processing over an in-memory stream, as the front
+// hands it to a worker. The framing found in two pieces must be the framing found at once. Rigs:
+// FaceCap in a memory store that accepts uploads (key "fuzz-key").
 #include <httplib.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <map>
 #include <mutex>
 #include <string>
+#include <string_view>
 
 #include "facespace/api/http.h"
+#include "http/framing.h"
 #include "memory_store.h"
 
 namespace {
@@ -45,8 +50,56 @@ struct Harness {
 
 }  // namespace
 
+namespace {
+
+using facespace::api::http::ChunkedState;
+using facespace::api::http::Framing;
+using facespace::api::http::FramingError;
+using facespace::api::http::HeadLimits;
+using facespace::api::http::RequestHead;
+
+// Where the first request in `bytes` ends as the front finds it, when it is whole: bytes given
+// `split` at a time (0: at once).
+Framing Frame(std::string_view bytes, size_t split, size_t& end) {
+  HeadLimits limits;
+  RequestHead head;
+  FramingError error;
+  ChunkedState chunked;
+  size_t scan = 0, have = split ? std::min(split, bytes.size()) : bytes.size();
+  bool in_body = false;
+  while (true) {
+    const std::string_view buf = bytes.substr(0, have);
+    Framing f = Framing::kNeedMore;
+    if (!in_body) {
+      f = facespace::api::http::ParseHead(buf, scan, limits, head, error);
+      if (f == Framing::kComplete) {
+        in_body = true;
+        chunked.pos = head.end;
+      }
+    }
+    if (in_body) {
+      if (head.chunked) {
+        f = facespace::api::http::ParseChunked(buf, chunked, 1 << 20, error);
+        end = chunked.pos;
+      } else {
+        f = buf.size() >= head.end + head.content_length ? Framing::kComplete : Framing::kNeedMore;
+        end = head.end + head.content_length;
+      }
+    }
+    if (f != Framing::kNeedMore || have == bytes.size()) return f;
+    have = std::min(bytes.size(), have + split);
+  }
+}
+
+}  // namespace
+
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static Harness h;
-  h.server.Process(data, size);
+  const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+  size_t end = 0, end_split = 0;
+  const Framing once = Frame(bytes, 0, end);
+  const Framing pieces = Frame(bytes, 1 + size % 7, end_split);
+  if (once != pieces || (once == Framing::kComplete && end != end_split)) __builtin_trap();
+  if (once == Framing::kComplete) h.server.Process(data, end);
   return 0;
 }

@@ -75,11 +75,14 @@ class Server:
         self.idle = self.rss()
 
     def rss(self):
-        with open(f"/proc/{self.proc.pid}/status") as f:
-            for line in f:
-                if line.startswith("VmRSS:"):
-                    return int(line.split()[1]) / 1024.0
-        return 0.0
+        try:
+            with open(f"/proc/{self.proc.pid}/status") as f:
+                for line in f:
+                    if line.startswith("VmRSS:"):
+                        return int(line.split()[1]) / 1024.0
+        except OSError:
+            pass
+        return 0.0  # Gone.
 
     def alive(self):
         if self.proc.poll() is not None:
@@ -272,6 +275,11 @@ def main():
     check(f"a queued batch whose rig is uploaded again with the same bytes while another job runs: the server lives and the job is "
           f"{state} (PUT {s1}, batches {s2}/{s3}, PUT again {s4}, DELETE {s5})",
           (s1, s2, s3, s4, s5) == (201, 202, 202, 200, 204) and state == "done" and srv.alive())
+    if srv.proc.poll() is not None:  # It died: what it said last, and no further attack.
+        srv.log.flush()
+        print("".join(open(srv.log.name).readlines()[-5:]))
+        print(f"{passed} passed, {failed + 1} failed")
+        return 1
 
     # ---- 2. error lists without a cap ----
     check_url = U + "/v1/rigs/facecap/check"

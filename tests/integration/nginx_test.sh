@@ -126,6 +126,35 @@ check "6000 GETs from 16 clients, instance 3 SIGKILLed mid-load (after serving $
   sh -c "[ $mid = 1 ] && [ $before -gt 20 ] && ! grep -q error '$tmp/load.out' && python3 -c \"import re,sys; d=dict(kv.split(':') for kv in open(sys.argv[1]).read().split() if ':' in kv); sys.exit(0 if int(d['200'])+int(d.get('cut',0))==6000 and int(d.get('cut',0))<=4 else 1)\" '$tmp/load.out'"
 check "  ... the other two keep serving, through nginx and directly" sh -c "for n in 1 2 3 4; do [ \$(curl -s -o /dev/null -w '%{http_code}' '$F/v1/rigs/facecap') = 200 ] || exit 1; done && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[0]}/healthz') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' 'http://127.0.0.1:${ports[1]}/healthz') = 200 ]"
 
+# Slowloris through the front: 320 sockets from two addresses each sending a header byte a second
+# hold none of the instances (nginx keeps them in its event loop); a probe through nginx is answered.
+py '
+import socket, sys, threading, time, urllib.request
+port = int(sys.argv[1])
+socks = []
+for i in range(320):
+    s = socket.socket(); s.bind(("127.0.0.%d" % (2 + i % 2), 0)); s.connect(("127.0.0.1", port))
+    s.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n"); socks.append(s)
+stop = threading.Event()
+def drip():
+    while not stop.is_set():
+        for s in socks:
+            try: s.send(b"X")
+            except OSError: pass
+        stop.wait(1.0)
+t = threading.Thread(target=drip); t.start()
+times = []
+for _ in range(20):
+    t0 = time.time()
+    try: urllib.request.urlopen(f"http://127.0.0.1:{port}/v1/rigs/facecap/mesh?w.jawOpen=0.3&format=f32", timeout=5).read(); times.append(time.time() - t0)
+    except OSError: times.append(99)
+    time.sleep(0.05)
+stop.set(); t.join()
+times.sort(); p99 = times[-1]
+print(f"320 slow sockets through nginx: probe p99 {p99 * 1000:.0f} ms, median {times[10] * 1000:.0f} ms")
+sys.exit(not p99 <= 1.0)' "$front" >"$tmp/slow" 2>&1; rc=$?
+check "slowloris through nginx: $(tail -1 "$tmp/slow")" test $rc -eq 0
+
 # A delete through nginx reaches the survivors.
 code=$(curl -s -o /dev/null -w '%{http_code}' -X DELETE "${K[@]}" "$F/v1/rigs/shared")
 for _ in $(seq 1 30); do

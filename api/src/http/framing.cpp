@@ -26,6 +26,13 @@ Framing Fail(FramingError& error, int status, std::string detail) {
   return Framing::kError;
 }
 
+// 8192 as "8,192", as the server's other messages write sizes.
+std::string Thousands(size_t n) {
+  std::string s = std::to_string(n);
+  for (size_t i = s.size(); i > 3; i -= 3) s.insert(i - 3, ",");
+  return s;
+}
+
 bool AllDigits(std::string_view s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
@@ -49,10 +56,10 @@ Framing ParseHead(std::string_view buf, size_t& scan, const HeadLimits& limits, 
     scan = buf.size();
     const size_t first_line = buf.find("\r\n", start);
     if ((first_line == std::string_view::npos ? buf.size() : first_line) - start > limits.max_line) {
-      return Fail(error, 414, "the request line is over " + std::to_string(limits.max_line) + " bytes: send long weight lists as a POST body");
+      return Fail(error, 414, "the request line is over " + Thousands(limits.max_line) + " bytes: send long weight lists as a POST body");
     }
     if (buf.size() - start > limits.max_head) {
-      return Fail(error, 431, "the request line and headers are over " + std::to_string(limits.max_head) + " bytes");
+      return Fail(error, 431, "the request line and headers are over " + Thousands(limits.max_head) + " bytes");
     }
     return Framing::kNeedMore;
   }
@@ -60,14 +67,14 @@ Framing ParseHead(std::string_view buf, size_t& scan, const HeadLimits& limits, 
   head.start = start;
   head.end = blank + 4;
   if (head.end - start > limits.max_head) {
-    return Fail(error, 431, "the request line and headers are over " + std::to_string(limits.max_head) + " bytes");
+    return Fail(error, 431, "the request line and headers are over " + Thousands(limits.max_head) + " bytes");
   }
 
   // The request line: method SP request-target SP HTTP-version.
   const size_t line_end = buf.find("\r\n", start);
   const std::string_view line = buf.substr(start, line_end - start);
   if (line.size() > limits.max_line) {
-    return Fail(error, 414, "the request line is over " + std::to_string(limits.max_line) + " bytes: send long weight lists as a POST body");
+    return Fail(error, 414, "the request line is over " + Thousands(limits.max_line) + " bytes: send long weight lists as a POST body");
   }
   const size_t sp1 = line.find(' ');
   const size_t sp2 = sp1 == std::string_view::npos ? sp1 : line.find(' ', sp1 + 1);

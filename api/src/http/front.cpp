@@ -37,7 +37,9 @@ struct Conn {
   std::string ip, local_ip;
   int port = 0, local_port = 0;
   std::string buf;
-  State state = State::kIdle;
+  // Busy: a worker owns the connection (the front touches nothing of it but this); the worker's
+  // writes before its store of another state are seen by the front's load of it.
+  std::atomic<State> state{State::kIdle};
   http::RequestHead head;
   size_t head_scan = 0;
   http::ChunkedState chunked;
@@ -75,7 +77,8 @@ std::string Refusal(int status, const std::string& type, const std::string& deta
   }
   const std::string body = "{\"type\":\"urn:facespace:problem:" + type + "\",\"title\":\"" + http::ReasonPhrase(status) +
                            "\",\"status\":" + std::to_string(status) + ",\"detail\":\"" + escaped + "\"}";
-  return "HTTP/1.1 " + std::to_string(status) + " " + http::ReasonPhrase(status) +
+  // The status line as cpp-httplib writes its own (the same phrase whoever answers).
+  return "HTTP/1.1 " + std::to_string(status) + " " + http::StatusLinePhrase(status) +
          "\r\nContent-Type: application/problem+json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n" + extra_headers +
          "Connection: close\r\n\r\n" + body;
 }
@@ -240,18 +243,28 @@ class FrontServer::Front {
     std::vector<epoll_event> events(256);
     Clock::time_point next_sweep = Clock::now(), next_log = Clock::now() + std::chrono::seconds(10);
     size_t logged_refused = 0, logged_timed_out = 0, logged_framing = 0, logged_budget = 0;
+    std::vector<int> recheck;
     while (true) {
-      const int n = epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), 100);
-      for (int i = 0; i < n; ++i) {
-        const int fd = events[static_cast<size_t>(i)].data.fd;
+      const int n = epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), recheck_.empty() ? 100 : 1);
+      recheck.swap(recheck_);
+      for (int i = 0; i < n; ++i) recheck.push_back(events[static_cast<size_t>(i)].data.fd);
+      for (int fd : recheck) {
         if (fd == wake_) {
           uint64_t count;
           [[maybe_unused]] ssize_t r = ::read(wake_, &count, sizeof count);
           continue;
         }
         auto it = conns_.find(fd);
-        if (it != conns_.end()) OnReadable(*it->second);
+        if (it == conns_.end()) continue;
+        // A worker armed the connection and has not yet said it is done with it: next time round.
+        if (it->second->state == Conn::State::kBusy) {
+          recheck_.push_back(fd);
+          continue;
+        }
+        OnReadable(*it->second);
+        Arm(fd);
       }
+      recheck.clear();
       TakeAdoptedAndReturned();
       const Clock::time_point now = Clock::now();
       if (now >= next_sweep) {
@@ -329,7 +342,7 @@ class FrontServer::Front {
     ++from_client;
     c->deadline = Clock::now() + std::chrono::seconds(o_.request_timeout);
     epoll_event ev{};
-    ev.events = EPOLLIN | EPOLLRDHUP;
+    ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
     ev.data.fd = fd;
     if (epoll_ctl(epoll_, EPOLL_CTL_ADD, fd, &ev) != 0) {
       if (--from_client == 0) per_client_.erase(c->ip);
@@ -340,8 +353,19 @@ class FrontServer::Front {
     stats.open = conns_.size();
   }
 
+  // Every connection is registered one-shot: an event disarms it, so the thread that handles the
+  // event owns the connection until it arms it again (the front here, or a worker when done).
+  void Arm(int fd) {
+    auto it = conns_.find(fd);
+    if (it == conns_.end() || it->second->state == Conn::State::kBusy) return;
+    epoll_event ev{};
+    ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
+    ev.data.fd = fd;
+    if (epoll_ctl(epoll_, EPOLL_CTL_MOD, fd, &ev) != 0) Close(*it->second);
+  }
+
   void Close(Conn& c) {
-    if (c.state != Conn::State::kBusy) epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
+    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
     ::shutdown(c.fd, SHUT_RDWR);
     ::close(c.fd);
     Release(c);
@@ -496,8 +520,7 @@ class FrontServer::Front {
   }
 
   void Dispatch(Conn& c) {
-    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
-    c.state = Conn::State::kBusy;
+    c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
     {
       std::lock_guard<std::mutex> lock(mu_);
       work_.push_back(&c);
@@ -516,11 +539,9 @@ class FrontServer::Front {
     c.close_after = false;
     c.deadline = Clock::now() + std::chrono::seconds(o_.keep_alive_timeout);
     if (c.buf.capacity() > (1u << 20)) c.buf.shrink_to_fit();  // A large body's room goes back.
-    epoll_event ev{};
-    ev.events = EPOLLIN | EPOLLRDHUP;
-    ev.data.fd = c.fd;
-    if (epoll_ctl(epoll_, EPOLL_CTL_ADD, c.fd, &ev) != 0) return Close(c);
+    const int fd = c.fd;
     Advance(c);  // A pipelined request may be whole already.
+    Arm(fd);
   }
 
   void Sweep(Clock::time_point now) {
@@ -566,6 +587,27 @@ class FrontServer::Front {
       c->close_after = !ok || close || closed_by_client || stream.closes();
       // A large body's parse leaves freed heap behind (a DOM of a million values): give it back.
       if (c->request_end > (size_t{1} << 20)) malloc_trim(0);
+      if (!c->close_after && c->buf.size() == c->request_end && c->buf.capacity() <= (size_t{1} << 20)) {
+        // Kept alive with nothing more sent yet (the usual case): made ready for its next request
+        // here and armed, without a round trip through the front. Armed first: the front waits
+        // for the state below before it touches the connection.
+        c->buf.clear();
+        stats.body_bytes -= c->reserved;
+        c->reserved = 0;
+        ++c->served;
+        c->request_end = 0;
+        c->sent_continue = false;
+        c->deadline = Clock::now() + std::chrono::seconds(o_.keep_alive_timeout);
+        epoll_event ev{};
+        ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
+        ev.data.fd = c->fd;
+        if (epoll_ctl(epoll_, EPOLL_CTL_MOD, c->fd, &ev) == 0) {
+          c->state = Conn::State::kIdle;
+          continue;
+        }
+        c->close_after = true;  // Cannot be armed: the front closes it.
+        --c->served;
+      }
       {
         std::lock_guard<std::mutex> lock(mu_);
         returned_.push_back(c);
@@ -582,6 +624,7 @@ class FrontServer::Front {
   std::vector<std::thread> workers_;
   std::unordered_map<int, std::unique_ptr<Conn>> conns_;  // The front thread's.
   std::unordered_map<std::string, size_t> per_client_;    // The front thread's.
+  std::vector<int> recheck_;                               // The front thread's: events to look at again.
 
   std::mutex mu_;
   std::condition_variable work_cv_;

@@ -51,6 +51,18 @@ const char* ReasonPhrase(int status) {
   return "Error";
 }
 
+const char* StatusLinePhrase(int status) {
+  switch (status) {
+    case 204: return "No Content";
+    case 413: return "Payload Too Large";
+    case 414: return "URI Too Long";
+    case 431: return "Request Header Fields Too Large";
+    case 501: return "Not Implemented";
+    case 505: return "HTTP Version Not Supported";
+    default: return ReasonPhrase(status);
+  }
+}
+
 std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
 void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,

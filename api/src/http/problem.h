@@ -17,6 +17,9 @@ namespace facespace::api::http {
 int HttpStatus(const Status& status);
 
 const char* ReasonPhrase(int status);
+// The phrase of a status line as cpp-httplib writes it ("413 Payload Too Large"), for the
+// answers written without it (the connection front's), so every status line reads the same.
+const char* StatusLinePhrase(int status);
 
 // A problem document. Field errors whose pointer starts with '?' name a query parameter
 // ({"parameter": ...}); the others are JSON Pointers into the body ({"pointer": ...}). At most
