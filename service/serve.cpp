@@ -343,6 +343,7 @@ int Serve(const std::vector<std::string>& args) {
   front.head_check = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->CheckHead(head); };
   const int threads = c.threads;
   api::FrontServer server(front);
+  options.front = &server.Stats();
   server.set_tcp_nodelay(true);
   server.set_keep_alive_max_count(10000);
   server.set_keep_alive_timeout(5);

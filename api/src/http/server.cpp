@@ -6,6 +6,7 @@
 #include "facespace/api/http.h"
 #include "problem.h"
 #include "route_table.h"
+#include "routes/routes.h"
 
 namespace facespace::api {
 
@@ -23,7 +24,7 @@ Api::Api(RigStore& store, const render::Renderer& renderer, ApiOptions options, 
     : impl_(std::make_unique<Impl>(store, jobs, renderer, std::move(options))) {}
 Api::~Api() = default;
 
-std::string Api::MetricsText() const { return impl_->ctx.metrics.Text(impl_->ctx.store.List().size(), impl_->ctx.cache.Bytes()); }
+std::string Api::MetricsText() const { return http::MetricsText(impl_->ctx); }
 
 std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
   http::Context& ctx = impl_->ctx;

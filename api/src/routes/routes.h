@@ -13,6 +13,8 @@ using Handler = void (*)(Context& ctx, const httplib::Request& req, httplib::Res
 // routes/service.cpp
 void GetHealth(Context&, const httplib::Request&, httplib::Response&);
 void GetReady(Context&, const httplib::Request&, httplib::Response&);
+// The Prometheus text of /metrics.
+std::string MetricsText(Context& ctx);
 void GetMetrics(Context&, const httplib::Request&, httplib::Response&);
 void GetOpenApi(Context&, const httplib::Request&, httplib::Response&);
 // routes/rigs.cpp

@@ -11,8 +11,27 @@ void GetReady(Context& ctx, const httplib::Request&, httplib::Response& res) {
   res.set_content("{\"status\":\"ready\",\"rigs\":" + std::to_string(ctx.store.List().size()) + "}", "application/json");
 }
 
+std::string MetricsText(Context& ctx) {
+  std::string out = ctx.metrics.Text(ctx.store.List().size(), ctx.cache.Bytes());
+  auto gauge = [&out](const char* name, const char* type, const char* help, size_t value) {
+    out += std::string("# HELP ") + name + " " + help + "\n# TYPE " + name + " " + type + "\n" + name + " " + std::to_string(value) + "\n";
+  };
+  gauge("facespace_render_memory_in_flight_bytes", "gauge", "Estimated working memory of the renders in flight (--render-memory-mb).",
+        ctx.render_budget.InFlight());
+  if (const FrontStats* f = ctx.options.front) {
+    gauge("facespace_connections_open", "gauge", "Connections open (--max-connections).", f->open);
+    gauge("facespace_connections_refused_total", "counter", "Connections refused with 503 for the caps.", f->refused_total);
+    gauge("facespace_connections_refused_client_total", "counter", "... of them for --max-client-connections.", f->refused_client);
+    gauge("facespace_requests_timed_out_total", "counter", "Requests not whole within --read-timeout (408).", f->timed_out);
+    gauge("facespace_requests_bad_framing_total", "counter", "Requests refused for their framing (400, 414, 431, 501, 505).", f->bad_framing);
+    gauge("facespace_requests_over_body_budget_total", "counter", "Bodies refused for --body-budget-mb (503).", f->over_budget);
+    gauge("facespace_request_body_bytes", "gauge", "Request bytes held by the front (--body-budget-mb).", f->body_bytes);
+  }
+  return out;
+}
+
 void GetMetrics(Context& ctx, const httplib::Request&, httplib::Response& res) {
-  res.set_content(ctx.metrics.Text(ctx.store.List().size(), ctx.cache.Bytes()), "text/plain; version=0.0.4");
+  res.set_content(MetricsText(ctx), "text/plain; version=0.0.4");
 }
 
 void GetOpenApi(Context& ctx, const httplib::Request&, httplib::Response& res) {

@@ -29,6 +29,7 @@ struct ApiOptions {
   size_t max_frames = 100000;               // Frames of one sequence stream.
   size_t render_budget = size_t{1} << 30;   // Estimated working memory of one render or sheet; above, 413.
   size_t render_memory = size_t{2} << 30;   // ... of the renders in flight together; past it they wait, then 503.
+  const FrontStats* front = nullptr;        // The connection front's counters, for /metrics (when there is one).
 };
 
 // The routes (api/src/http/route_table.cpp) over a store, a renderer and a job queue that the
