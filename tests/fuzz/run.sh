@@ -73,28 +73,44 @@ if [ -f "$f" ]; then
   { printf 'PUT /v1/rigs/up HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer fuzz-key\r\nContent-Type: model/gltf+json\r\nContent-Length: %s\r\n\r\n' "$(stat -c %s "$f")"; cat "$f"; } >"$corpus/fuzz_http/put"
 fi
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
+# One target: its regression inputs, then the timed run; what it found in $build/$t.summary, its
+# exit code in $build/$t.rc. Targets run as many at once as there are cores.
+run_target() {
+  local t=$1 failed=0 rc execs rate cov crashes
+  mkdir -p "$build/artifacts/$t"
+  {
+    # Regressions first: every input once; then the timed run.
+    if [ -d "$src/tests/fuzz/regressions/$t" ] && ls "$src/tests/fuzz/regressions/$t"/* >/dev/null 2>&1; then
+      "$build/tests/fuzz/$t" "$src/tests/fuzz/regressions/$t"/* >"$build/$t.regress.log" 2>&1 || { echo "FAIL $t regression inputs"; tail -30 "$build/$t.regress.log"; failed=1; }
+    fi
+    "$build/tests/fuzz/$t" "$corpus/$t" -max_total_time="$seconds" -rss_limit_mb=4096 -max_len=1048576 -timeout=30 \
+      -print_final_stats=1 -artifact_prefix="$build/artifacts/$t/" >"$build/$t.log" 2>&1
+    rc=$?
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$build/$t.log" | grep -o '[0-9]*$')
+    rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$build/$t.log" | grep -o '[0-9]*$')
+    cov=$(grep -o 'cov: [0-9]*' "$build/$t.log" | tail -1 | grep -o '[0-9]*')
+    crashes=$(ls "$build/artifacts/$t" | wc -l)
+    printf '%-14s %12s %10s %8s %6s\n' "$t" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$crashes"
+    if [ $rc -ne 0 ] || [ "$crashes" -ne 0 ]; then echo "FAIL $t (exit $rc): see $build/$t.log"; grep -A25 'ERROR\|==ERROR\|runtime error\|deadly signal' "$build/$t.log" | head -40
+      # The input itself, so a crash found on a CI machine can be replayed anywhere (base64 -d > file).
+      for a in "$build/artifacts/$t"/*; do
+        [ -f "$a" ] || continue
+        echo "input $(basename "$a") ($(stat -c %s "$a") bytes), base64 (first 16 KiB):"; head -c 16384 "$a" | base64 -w 120
+      done
+      failed=1; fi
+  } >"$build/$t.summary" 2>&1
+  echo $failed >"$build/$t.rc"
+}
 fail=0
+at_once=$(nproc)
+for t in $targets; do
+  while [ "$(jobs -rp | wc -l)" -ge "$at_once" ]; do wait -n; done
+  run_target "$t" &
+done
+wait
 printf '%-14s %12s %10s %8s %6s\n' target executions exec/s cov crashes
 for t in $targets; do
-  mkdir -p "$build/artifacts/$t"
-  # Regressions first: every input once; then the timed run.
-  if [ -d "$src/tests/fuzz/regressions/$t" ] && ls "$src/tests/fuzz/regressions/$t"/* >/dev/null 2>&1; then
-    "$build/tests/fuzz/$t" "$src/tests/fuzz/regressions/$t"/* >"$build/$t.regress.log" 2>&1 || { echo "FAIL $t regression inputs"; tail -30 "$build/$t.regress.log"; fail=1; }
-  fi
-  "$build/tests/fuzz/$t" "$corpus/$t" -max_total_time="$seconds" -rss_limit_mb=4096 -max_len=1048576 -timeout=30 \
-    -print_final_stats=1 -artifact_prefix="$build/artifacts/$t/" >"$build/$t.log" 2>&1
-  rc=$?
-  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$build/$t.log" | grep -o '[0-9]*$')
-  rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$build/$t.log" | grep -o '[0-9]*$')
-  cov=$(grep -o 'cov: [0-9]*' "$build/$t.log" | tail -1 | grep -o '[0-9]*')
-  crashes=$(ls "$build/artifacts/$t" | wc -l)
-  printf '%-14s %12s %10s %8s %6s\n' "$t" "${execs:-?}" "${rate:-?}" "${cov:-?}" "$crashes"
-  if [ $rc -ne 0 ] || [ "$crashes" -ne 0 ]; then echo "FAIL $t (exit $rc): see $build/$t.log"; grep -A25 'ERROR\|==ERROR\|runtime error\|deadly signal' "$build/$t.log" | head -40
-    # The input itself, so a crash found on a CI machine can be replayed anywhere (base64 -d > file).
-    for a in "$build/artifacts/$t"/*; do
-      [ -f "$a" ] || continue
-      echo "input $(basename "$a") ($(stat -c %s "$a") bytes), base64 (first 16 KiB):"; head -c 16384 "$a" | base64 -w 120
-    done
-    fail=1; fi
+  cat "$build/$t.summary"
+  [ "$(cat "$build/$t.rc" 2>/dev/null)" = 0 ] || fail=1
 done
 exit $fail
