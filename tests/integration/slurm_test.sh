@@ -108,7 +108,7 @@ check "each of the 4 tasks ran its own shard (1/4..4/4, 100 variants each) and r
     grep -q \"shard \$i/4: 100 variants\" '$w'/log/${job}_\$((i - 1)).out && [ -s '$w/sharded/shard-'\$i'-of-4.json' ] || exit 1
   done"
 "$bin" batch merge "$w/sharded" 2>"$w/merge.err"; rc=$?
-check "batch merge: exit 0, 4 shards, 400 variants" both "[ $rc -eq 0 ] && grep -q '4 shards, 400 variants' '$w/merge.err'" true
+check "batch merge: exit 0, 4 shards, 400 variants, a manifest line each" sh -c "[ $rc -eq 0 ] && grep -q '4 shards, 400 variants' '$w/merge.err' && [ \$(wc -l < '$w/sharded/manifest.jsonl') -eq 400 ]"
 check "merged folder byte-identical to the single process's (400 files, manifest, sheet, batch.json)" diff -r "$w/single" "$w/sharded"
 
 # The documented job script (service/deploy/slurm-batch.sh: --array=0-3, --shards 4), as a user submits it.
