@@ -347,10 +347,11 @@ struct Context {
     return p;
   }
 
-  // After a large render (over 2048 x 2048 samples) its targets and read-back are let go, so a
-  // context does not keep gigabytes for the next, likely smaller, render.
+  // After a large render (over 1024 x 1024 samples: 20 bytes a sample in the targets, 16 in the
+  // read-back) its targets and read-back are let go, so a context does not keep hundreds of
+  // megabytes, or gigabytes, for the next, likely smaller, render.
   void TrimLarge() {
-    constexpr long long kKept = 2048LL * 2048;
+    constexpr long long kKept = 1024LL * 1024;
     for (Target& t : targets) {
       if (t.fbo && static_cast<long long>(t.w) * t.h > kKept) {
         glDeleteFramebuffers(1, &t.fbo);
