@@ -50,6 +50,10 @@ http = [
   "GET /v1/rigs/facecap/render?w.jawOpen=1&width=16&height=16 HTTP/1.1\r\nHost: x\r\nIf-None-Match: \"x\"\r\n\r\n",
   "GET /v1/rigs/facecap/topology HTTP/1.1\r\nHost: x\r\n\r\n",
   "DELETE /v1/rigs/x HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer fuzz-key\r\n\r\n",
+  # The front's framing: chunks with an extension and a trailer, a request pipelined behind another.
+  "POST /v1/rigs/facecap/check HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n\r\n"
+  "5;x=1\r\n{\"wei\r\ne\r\nghts\":{\"0\":1}}\r\n0\r\nX-T: 1\r\n\r\n",
+  "\r\nGET /healthz HTTP/1.1\r\nHost: x\r\nExpect: 100-continue\r\nContent-Length: 0\r\n\r\nGET /readyz HTTP/1.1\r\n\r\n",
 ]
 bodies = [
   ("POST", "/v1/rigs/facecap/mesh", {"weights": {"jawOpen": 0.5}, "format": "f32"}),
