@@ -110,6 +110,9 @@ TEST(Framing, ChunkedBodiesEndAtTheLastChunkAndItsTrailers) {
   ASSERT_EQ(f, Framing::kComplete) << error.detail;
   EXPECT_EQ(st.pos, head.size() + body.size());
   EXPECT_EQ(st.total, 14u);
+  // Handed on whole: the same request with a Content-Length, the data joined, no trailer.
+  EXPECT_EQ(Dechunked(std::string_view(buf).substr(0, st.pos), p.head),
+            "POST /x HTTP/1.1\r\nContent-Length: 14\r\n\r\n{\"weights\":{}}");
 
   auto chunked = [&](const std::string& b, size_t max_body) {
     ChunkedState s;

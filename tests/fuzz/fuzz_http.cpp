@@ -1,7 +1,7 @@
 // libFuzzer: a whole HTTP request through the connection front's framing and then the router
 // (every route, the error handler, CORS, caching) with no socket: what the framing takes as one
-// whole request is fed to cpp-httplib's request processing over an in-memory stream, as the front
-// hands it to a worker. The framing found in two pieces must be the framing found at once. Rigs:
+// whole request (a chunked one made whole) is fed to cpp-httplib's request processing over an
+// in-memory stream, as the front hands it to a worker. The framing found in two pieces must be the framing found at once. Rigs:
 // FaceCap in a memory store that accepts uploads (key "fuzz-key").
 #include <httplib.h>
 
@@ -60,7 +60,7 @@ using facespace::api::http::RequestHead;
 
 // Where the first request in `bytes` ends as the front finds it, when it is whole: bytes given
 // `split` at a time (0: at once).
-Framing Frame(std::string_view bytes, size_t split, size_t& end) {
+Framing Frame(std::string_view bytes, size_t split, size_t& end, std::string& request) {
   HeadLimits limits;
   RequestHead head;
   FramingError error;
@@ -86,6 +86,9 @@ Framing Frame(std::string_view bytes, size_t split, size_t& end) {
         end = head.end + head.content_length;
       }
     }
+    if (f == Framing::kComplete) {  // As the front hands it on: a chunked body made whole.
+      request = head.chunked ? facespace::api::http::Dechunked(bytes.substr(0, end), head) : std::string(bytes.substr(0, end));
+    }
     if (f != Framing::kNeedMore || have == bytes.size()) return f;
     have = std::min(bytes.size(), have + split);
   }
@@ -97,9 +100,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static Harness h;
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   size_t end = 0, end_split = 0;
-  const Framing once = Frame(bytes, 0, end);
-  const Framing pieces = Frame(bytes, 1 + size % 7, end_split);
-  if (once != pieces || (once == Framing::kComplete && end != end_split)) __builtin_trap();
-  if (once == Framing::kComplete) h.server.Process(data, end);
+  std::string request, request_split;
+  const Framing once = Frame(bytes, 0, end, request);
+  const Framing pieces = Frame(bytes, 1 + size % 7, end_split, request_split);
+  if (once != pieces || (once == Framing::kComplete && (end != end_split || request != request_split))) __builtin_trap();
+  if (once == Framing::kComplete) h.server.Process(reinterpret_cast<const uint8_t*>(request.data()), request.size());
   return 0;
 }

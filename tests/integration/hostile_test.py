@@ -386,6 +386,12 @@ def main():
                       b"GET /v1/rigs/nope HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
     answers = [status_of(b"HTTP/1.1" + part) for part in r.split(b"HTTP/1.1")[1:]]
     check(f"three pipelined requests in one packet: answered in order {answers}", answers == [200, 200, 404])
+    r = raw(srv.port, b"POST /v1/rigs/facecap/check HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nTransfer-Encoding: chunked\r\n\r\n"
+                      b"5;x=1\r\n{\"wei\r\ne\r\nghts\":{\"0\":1}}\r\n0\r\nX-Trailer: 1\r\n\r\n"
+                      b"GET /readyz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+    answers = [status_of(b"HTTP/1.1" + part) for part in r.split(b"HTTP/1.1")[1:]]
+    check(f"a chunked body with a chunk extension and a trailer, a request pipelined behind it: {answers}, the weights read",
+          answers == [200, 200] and b'"browInnerUp":1' in r)
 
     def framing(name, data, expect):
         def run():

@@ -209,4 +209,27 @@ Framing ParseChunked(std::string_view buf, ChunkedState& s, size_t max_body, Fra
   }
 }
 
+std::string Dechunked(std::string_view request, const RequestHead& head) {
+  std::string body;
+  for (size_t pos = head.end;;) {  // The chunks are known good: their sizes, data and CRLFs.
+    const size_t eol = request.find("\r\n", pos);
+    const size_t size = std::stoull(std::string(request.substr(pos, eol - pos)), nullptr, 16);
+    if (size == 0) break;
+    body.append(request.substr(eol + 2, size));
+    pos = eol + 2 + size + 2;
+  }
+  const size_t line_end = request.find("\r\n", head.start);
+  std::string out(request.substr(head.start, line_end + 2 - head.start));
+  for (size_t pos = line_end + 2; pos < head.end - 2;) {
+    const size_t eol = request.find("\r\n", pos);
+    const std::string_view field = request.substr(pos, eol + 2 - pos);
+    const size_t colon = field.find(':');
+    if (!EqualsIgnoreCase(field.substr(0, colon), "Transfer-Encoding")) out += field;
+    pos = eol + 2;
+  }
+  out += "Content-Length: " + std::to_string(body.size()) + "\r\n\r\n";
+  out += body;
+  return out;
+}
+
 }  // namespace facespace::api::http

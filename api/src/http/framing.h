@@ -47,6 +47,11 @@ struct ChunkedState {
 };
 Framing ParseChunked(std::string_view buf, ChunkedState& state, size_t max_body, FramingError& error);
 
+// A whole chunked request (`request` up to the end ParseChunked found) as the same request with
+// its body whole: Transfer-Encoding dropped, Content-Length added, the chunks' data joined and the
+// trailer fields dropped (cpp-httplib 0.11.4 reads no trailer, and is lax about chunks).
+std::string Dechunked(std::string_view request, const RequestHead& head);
+
 // Case-insensitive ASCII comparison, for header names and tokens.
 bool EqualsIgnoreCase(std::string_view a, std::string_view b);
 

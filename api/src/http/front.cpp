@@ -492,7 +492,10 @@ class FrontServer::Front {
         return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", "Retry-After: 1\r\n");
       }
       if (f == Framing::kNeedMore) return;
-      c.request_end = c.chunked.pos;
+      // Handed on with its body whole (Content-Length), followed by what came after it.
+      std::string whole = http::Dechunked(std::string_view(c.buf).substr(0, c.chunked.pos), c.head);
+      c.request_end = whole.size();
+      c.buf = std::move(whole.append(c.buf, c.chunked.pos, std::string::npos));
     } else {
       if (c.buf.size() < c.head.end + c.head.content_length) return;
       c.request_end = c.head.end + c.head.content_length;
