@@ -449,9 +449,9 @@ struct BodyLimits {
 };
 constexpr BodyLimits kPointBody{100000};      // mesh, check, render: weights, controls, a pose.
 constexpr BodyLimits kSheetBody{400000};      // Up to --max-sheet-cells points.
-constexpr BodyLimits kSequenceBody{1000000};  // Keys and times.
+constexpr BodyLimits kSequenceBody{500000};   // Keys and times.
 constexpr BodyLimits kFitBody{3100000};       // A target mesh: three numbers a vertex, a million vertices.
-constexpr BodyLimits kBatchBody{1000000};     // Explicit variants.
+constexpr BodyLimits kBatchBody{500000};      // Explicit variants.
 
 // nlohmann's DOM builder under a SAX reader that tracks where it is (for JSON Pointers), refuses a
 // member given twice in any object (JSON parsers keep the last, or the first: the client's intent
