@@ -1,0 +1,515 @@
+// The JSON body readers shared by the request schemas (json_body.h).
+#include "json_body.h"
+
+#include "facespace/core/enum_table.h"
+
+#include "facespace/core/lod.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <set>
+#include <span>
+#include <unordered_set>
+#include <nlohmann/json.hpp>
+
+
+namespace facespace::api::body {
+
+
+
+
+void UnknownMember(const std::string& key, std::span<const std::string_view> members, Status& errors) {
+  std::string message = "unknown member" + DidYouMean(key, members);
+  if (message.size() == 14) {
+    message += "; the members are";
+    for (std::string_view m : members) message += std::string(m == members.front() ? " " : ", ") + std::string(m);
+  }
+  errors.fields.push_back({"/" + JsonPointerEscape(key), message});
+}
+
+Status FieldStatus(const std::string& pointer, const std::string& message) {
+  Status s = InvalidArgument(pointer.empty() ? message : pointer + ": " + message);
+  s.fields.push_back({pointer, message});
+  return s;
+}
+
+Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::string& pointer) {
+  std::vector<WeightEntry> entries;
+  Status errors = InvalidArgument("");
+  auto value_of = [&](const json& v, const std::string& ptr, WeightEntry& e) {
+    if (!v.is_number()) {
+      errors.AddField(ptr, std::string("must be a number, not ") + v.type_name());
+      return false;
+    }
+    e.value = v.get<double>();
+    return true;
+  };
+  if (j.is_array()) {
+    for (size_t i = 0; i < j.size(); ++i) {
+      WeightEntry e;
+      e.index = static_cast<long long>(i);
+      e.pointer = pointer + "/" + std::to_string(i);
+      if (value_of(j[i], e.pointer, e)) entries.push_back(e);
+    }
+  } else if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      WeightEntry e;
+      e.name = it.key();
+      e.pointer = pointer + "/" + JsonPointerEscape(it.key());
+      if (e.name.empty()) {
+        errors.AddField(e.pointer, "empty shape name");
+        continue;
+      }
+      if (value_of(it.value(), e.pointer, e)) entries.push_back(e);
+    }
+  } else {
+    return FieldStatus(pointer, std::string("weights must be an array or an object, not ") + j.type_name());
+  }
+  if (!errors.fields.empty()) {
+    errors.message = (errors.fields[0].pointer.empty() ? "" : errors.fields[0].pointer + ": ") + errors.fields[0].message;
+    return errors;
+  }
+  return entries;
+}
+
+
+bool FloatArray(const json& v, float* out, size_t n) {
+  if (!v.is_array() || v.size() != n) return false;
+  for (size_t i = 0; i < n; ++i) {
+    if (!v[i].is_number() || !std::isfinite(v[i].get<double>())) return false;
+    out[i] = v[i].get<float>();
+  }
+  return true;
+}
+
+// A clip reference: a name or an index.
+bool ClipRef(const json& v, ClipRequest& c) {
+  if (v.is_string()) {
+    c.name = v.get<std::string>();
+    return !c.name.empty();
+  }
+  if (v.is_number_integer() && v.get<long long>() >= 0) {
+    c.index = v.get<long long>();
+    return true;
+  }
+  return false;
+}
+
+void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
+  if (!v.is_object()) {
+    errors.fields.push_back({"/pose", "must be an object of joint name -> {rotation|euler, translation, scale}"});
+    return;
+  }
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    JointOverride j;
+    j.joint = it.key();
+    j.pointer = "/pose/" + JsonPointerEscape(it.key());
+    if (!it->is_object()) {
+      errors.fields.push_back({j.pointer, "must be an object"});
+      continue;
+    }
+    for (auto p = it->begin(); p != it->end(); ++p) {
+      const std::string ptr = j.pointer + "/" + JsonPointerEscape(p.key());
+      bool ok = true;
+      if (p.key() == "rotation") ok = j.has_rotation = FloatArray(*p, j.rotation.data(), 4);
+      else if (p.key() == "euler") ok = j.has_euler = FloatArray(*p, j.euler.data(), 3);
+      else if (p.key() == "translation") ok = j.has_translation = FloatArray(*p, j.translation.data(), 3);
+      else if (p.key() == "scale") ok = j.has_scale = FloatArray(*p, j.scale.data(), 3);
+      else errors.fields.push_back({ptr, "unknown member (rotation, euler, translation, scale)"});
+      if (!ok) {
+        errors.fields.push_back({ptr, p.key() == "rotation" ? "must be [x, y, z, w] of finite numbers" : "must be [x, y, z] of finite numbers"});
+      }
+    }
+    pose.joints.push_back(std::move(j));
+  }
+}
+
+// The clip a request names with "animation" or "motion" (not one of "blend").
+bool IsRequestClip(const ClipRequest& c) { return c.pointer == "/animation" || c.pointer == "/motion"; }
+
+void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
+  if (!v.is_array() || v.empty()) {
+    errors.fields.push_back({"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});
+    return;
+  }
+  for (size_t i = 0; i < v.size(); ++i) {
+    ClipRequest c;
+    c.pointer = "/blend/" + std::to_string(i);
+    const json& e = v[i];
+    if (!e.is_object() || !e.contains("animation") || !ClipRef(e["animation"], c)) {
+      errors.fields.push_back({c.pointer + "/animation", "needs an animation name or index"});
+      continue;
+    }
+    for (auto p = e.begin(); p != e.end(); ++p) {
+      const std::string ptr = c.pointer + "/" + JsonPointerEscape(p.key());
+      if (p.key() == "animation") continue;
+      if (p.key() == "time" || p.key() == "weight") {
+        if (!p->is_number() || !std::isfinite(p->get<double>())) errors.fields.push_back({ptr, "must be a finite number"});
+        else (p.key() == "time" ? c.time : c.weight) = p->get<float>();
+      } else if (p.key() == "loop") {
+        if (!p->is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+        else c.loop = p->get<bool>();
+      } else if (p.key() == "mask") {
+        if (!p->is_array()) {
+          errors.fields.push_back({ptr, "must be an array of joint names"});
+          continue;
+        }
+        for (const json& m : *p) {
+          if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
+          else c.mask.push_back(m.get<std::string>());
+        }
+      } else {
+        errors.fields.push_back({ptr, "unknown member (animation, time, weight, loop, mask)"});
+      }
+    }
+    if (c.weight < 0.0f) errors.fields.push_back({c.pointer + "/weight", "must be >= 0"});
+    pose.clips.push_back(std::move(c));
+  }
+}
+
+// Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
+// the key is not one of them.
+bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
+  const std::string ptr = "/" + JsonPointerEscape(key);
+  if (key == "pose") {
+    PoseFromJson(v, r.pose, errors);
+    return true;
+  }
+  if (key == "blend") {
+    BlendFromJson(v, r.pose, errors);
+    return true;
+  }
+  if (key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop") {
+    // Gathered into one clip at the front of pose.clips by FinishPose. "motion" names a clip as
+    // "animation" does (MMD's word: a .vmd is a clip); "frame" is a time in MMD frames, 30 a second.
+    if (r.pose.clips.empty() || !IsRequestClip(r.pose.clips.front())) {
+      ClipRequest c;
+      c.pointer = "/animation";
+      c.index = -2;  // Marks "no animation named yet".
+      r.pose.clips.insert(r.pose.clips.begin(), c);
+    }
+    ClipRequest& c = r.pose.clips.front();
+    if (key == "animation" || key == "motion") {
+      if (!c.name.empty() || c.index != -2) errors.fields.push_back({ptr, "give animation or motion, not both"});
+      else if (!ClipRef(v, c)) errors.fields.push_back({ptr, "must be " + std::string(key == "motion" ? "a motion" : "an animation") + " name or index"});
+      c.pointer = ptr;
+    } else if (key == "time" || key == "frame") {
+      if (c.timed) errors.fields.push_back({ptr, "give time or frame, not both"});
+      else if (!v.is_number() || !std::isfinite(v.get<double>())) errors.fields.push_back({ptr, key == "time" ? "must be a finite number of seconds" : "must be a finite number of frames (30 a second)"});
+      else c.time = key == "time" ? v.get<float>() : static_cast<float>(v.get<double>() / 30.0);
+      c.timed = true;
+    } else if (!v.is_boolean()) {
+      errors.fields.push_back({ptr, "must be true or false"});
+    } else {
+      c.loop = v.get<bool>();
+    }
+    return true;
+  }
+  auto string_field = [&](auto parse, auto* dst, const char* allowed) {
+    if (!v.is_string() || !parse(v.get<std::string>(), dst)) errors.fields.push_back({ptr, std::string("must be one of ") + allowed});
+  };
+  if (key == "weights") {
+    auto w = WeightsFromJson(v, "/weights");
+    if (w.ok()) r.weights = std::move(w.value());
+    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+  } else if (key == "controls") {
+    if (!v.is_object()) {
+      errors.fields.push_back({ptr, "must be an object of control name -> value"});
+      return true;
+    }
+    auto w = WeightsFromJson(v, "/controls");
+    if (w.ok()) r.controls = std::move(w.value());
+    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+  } else if (key == "mode") {
+    string_field(ParseBlendMode, &r.options.mode, "\"relative\", \"absolute\"");
+  } else if (key == "normals") {
+    string_field(ParseNormalMode, &r.options.normals, "\"blend\", \"recompute\"");
+  } else if (key == "skinning") {
+    if (!v.is_string() || (v != "linear" && v != "dual_quaternion")) {
+      errors.fields.push_back({ptr, "must be one of \"linear\", \"dual_quaternion\""});
+    } else {
+      r.options.dual_quaternion = v == "dual_quaternion";
+    }
+  } else if (key == "format" && mesh_format) {
+    MeshFormat f;
+    if (!v.is_string() || !ParseMeshFormat(v.get<std::string>(), &f)) {
+      errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\""});
+    } else {
+      r.format = f;
+    }
+  } else if (key == "lod") {
+    if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > kMaxLod) {
+      errors.fields.push_back({ptr, "must be an integer level of detail 0.." + std::to_string(kMaxLod) + " (0: full)"});
+    } else {
+      r.lod = v.get<int>();
+    }
+  } else if (key == "space" && mesh_format) {
+    if (!v.is_string() || (v != "world" && v != "mesh")) errors.fields.push_back({ptr, "must be \"world\" (the default) or \"mesh\""});
+    else r.mesh_space = v == "mesh";
+  } else if (key == "strict" || (key == "keep_targets" && mesh_format)) {
+    if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+    else (key == "strict" ? r.strict : r.keep_targets) = v.get<bool>();
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// "time", "frame" or "loop" without "animation" (or "motion") is an error; "animation" with "blend" too.
+void FinishPose(PoseRequest& pose, Status& errors) {
+  if (pose.clips.empty() || !IsRequestClip(pose.clips.front())) return;
+  const ClipRequest& c = pose.clips.front();
+  if (c.name.empty() && c.index == -2) {
+    errors.fields.push_back({"/animation", "time, frame and loop need an animation (or motion)"});
+  } else if (pose.clips.size() > 1) {
+    errors.fields.push_back({c.pointer, "give animation + time, or blend, not both"});
+  }
+}
+
+Status Finish(Status errors) {
+  errors.message = errors.fields[0].pointer + ": " + errors.fields[0].message;
+  return errors;
+}
+
+bool ParseBackground(const json& v, std::array<float, 4>& out) {
+  if (v.is_array()) {
+    if (v.size() < 3 || v.size() > 4) return false;
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (!v[i].is_number()) return false;
+      const double c = v[i].get<double>();
+      if (!(c >= 0.0 && c <= 1.0)) return false;
+      out[i] = static_cast<float>(c);
+    }
+    if (v.size() == 3) out[3] = 1.0f;
+    return true;
+  }
+  if (!v.is_string()) return false;
+  const std::string s = v.get<std::string>();
+  if (s == "transparent") {
+    out = {1, 1, 1, 0};
+    return true;
+  }
+  if (s.size() != 7 && s.size() != 9) return false;
+  if (s[0] != '#' || s.find_first_not_of("0123456789abcdefABCDEF", 1) != std::string::npos) return false;
+  for (size_t i = 0; i < 4; ++i) {
+    out[i] = 2 * i + 1 < s.size() ? static_cast<float>(std::stoi(s.substr(2 * i + 1, 2), nullptr, 16)) / 255.0f : 1.0f;
+  }
+  return true;
+}
+
+bool ParseVec3(const json& v, std::array<float, 3>& out) {
+  if (!v.is_array() || v.size() != 3) return false;
+  for (size_t i = 0; i < 3; ++i) {
+    if (!v[i].is_number() || !std::isfinite(v[i].get<double>())) return false;
+    out[i] = v[i].get<float>();
+  }
+  return true;
+}
+
+// Range-checked number members of the camera and image.
+bool Number(const json& v, double lo, double hi, double* out) {
+  if (!v.is_number()) return false;
+  const double d = v.get<double>();
+  if (!(d >= lo && d <= hi)) return false;
+  *out = d;
+  return true;
+}
+
+// The camera's framing: all, shapes, auto or joint:NAME. False for anything else.
+bool ParseFraming(const std::string& value, render::Camera& cam) {
+  if (value == "all" || value == "shapes" || value == "auto") {
+    cam.frame = value == "shapes" ? render::Framing::kShapes : value == "all" ? render::Framing::kAll : render::Framing::kAuto;
+    return true;
+  }
+  if (value.size() > 6 && value.compare(0, 6, "joint:") == 0) {
+    cam.frame = render::Framing::kJoint;
+    cam.frame_joint = value.substr(6);
+    return true;
+  }
+  return false;
+}
+
+void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
+  if (!c.is_object()) {
+    errors.fields.push_back({"/camera", "must be an object"});
+    return;
+  }
+  for (auto it = c.begin(); it != c.end(); ++it) {
+    const std::string ptr = "/camera/" + JsonPointerEscape(it.key());
+    double d = 0;
+    const std::string& k = it.key();
+    if (k == "yaw" || k == "pitch") {
+      if (!Number(*it, -3600, 3600, &d)) errors.fields.push_back({ptr, "must be a number of degrees"});
+      else (k == "yaw" ? cam.yaw : cam.pitch) = static_cast<float>(d);
+    } else if (k == "distance") {
+      if (!Number(*it, 0, 1e9, &d)) errors.fields.push_back({ptr, "must be a number >= 0 (0: auto)"});
+      else cam.distance = static_cast<float>(d);
+    } else if (k == "zoom") {
+      if (!Number(*it, 0.01, 100, &d)) errors.fields.push_back({ptr, "must be a number in [0.01, 100]"});
+      else cam.zoom = static_cast<float>(d);
+    } else if (k == "fov") {
+      if (!Number(*it, 1, 170, &d)) errors.fields.push_back({ptr, "must be degrees in [1, 170]"});
+      else cam.fov = static_cast<float>(d);
+    } else if (k == "eye" || k == "target" || k == "up") {
+      std::array<float, 3>& dst = k == "eye" ? cam.eye : k == "target" ? cam.target : cam.up;
+      if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
+      else if (k != "up") cam.look_at = true;
+    } else if (k == "frame") {
+      if (!it->is_string() || !ParseFraming(it->get<std::string>(), cam)) {
+        errors.fields.push_back({ptr, "must be \"all\", \"shapes\", \"auto\" or \"joint:NAME\""});
+      }
+    } else {
+      errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, frame, eye, target, up)"});
+    }
+  }
+  if (cam.look_at && !(c.contains("eye") && c.contains("target"))) {
+    errors.fields.push_back({"/camera", "a look-at camera needs both eye and target"});
+  }
+}
+
+// A render member; false when the key is not one.
+bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Status& errors) {
+  const std::string ptr = "/" + JsonPointerEscape(key);
+  double d = 0;
+  if (key == "width" || key == "height") {
+    if (!v.is_number_integer() || !Number(v, 1, 1 << 20, &d)) errors.fields.push_back({ptr, "must be a positive integer"});
+    else (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
+  } else if (key == "view") {
+    if (!v.is_string() || !render::ParseView(v.get<std::string>(), &r.render.view)) {
+      errors.fields.push_back({ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\", \"clay\""});
+    }
+  } else if (key == "background") {
+    if (!ParseBackground(v, r.render.background)) {
+      errors.fields.push_back({ptr, "must be \"#rrggbb\", \"#rrggbbaa\", \"transparent\" or [r, g, b, a] in 0..1"});
+    }
+  } else if (key == "supersample") {
+    if (!v.is_number_integer() || !Number(v, 1, 4, &d)) errors.fields.push_back({ptr, "must be 1, 2, 3 or 4"});
+    else r.render.supersample = static_cast<int>(d);
+  } else if (key == "format") {
+    render::ImageFormat f;
+    if (!v.is_string() || !render::ParseImageFormat(v.get<std::string>(), &f)) {
+      errors.fields.push_back({ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
+    } else {
+      r.format = f;
+    }
+  } else if (key == "exposure") {
+    if (!v.is_number() || !Number(v, -10, 10, &d)) errors.fields.push_back({ptr, "must be a number of stops in -10..10"});
+    else r.render.exposure = static_cast<float>(d);
+  } else if (key == "quality") {
+    if (!v.is_number_integer() || !Number(v, 1, 100, &d)) errors.fields.push_back({ptr, "must be an integer in 1..100"});
+    else r.quality = static_cast<int>(d);
+  } else if (key == "camera") {
+    CameraFromJson(v, r.render.camera, errors);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+
+// nlohmann's DOM builder under a SAX reader that tracks where it is (for JSON Pointers), refuses a
+// member given twice in any object (JSON parsers keep the last, or the first: the client's intent
+// is unknown), and stops at the body's limits. Linear in the body: the callback parser this
+// replaces scanned the parent again at every object's end, so 100,000 empty objects took seconds.
+namespace {
+
+class CheckedDom {
+ public:
+  CheckedDom(json& root, BodyLimits limits) : dom_(root, false), limits_(limits) {}
+
+  bool null() { return Value() && dom_.null(); }
+  bool boolean(bool v) { return Value() && dom_.boolean(v); }
+  bool number_integer(json::number_integer_t v) { return Value() && dom_.number_integer(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return Value() && dom_.number_unsigned(v); }
+  bool number_float(json::number_float_t v, const std::string& s) { return Value() && dom_.number_float(v, s); }
+  bool string(std::string& v) { return Value() && dom_.string(v); }
+  bool binary(json::binary_t& v) { return Value() && dom_.binary(v); }
+  bool start_object(size_t n) { return Open(false) && dom_.start_object(n); }
+  bool start_array(size_t n) { return Open(true) && dom_.start_array(n); }
+  bool end_object() { return Close() && dom_.end_object(); }
+  bool end_array() { return Close() && dom_.end_array(); }
+  bool key(std::string& k) {
+    Level& level = levels_.back();
+    level.key = k;
+    if (!level.keys.insert(k).second) {
+      duplicate_ = Pointer();
+      return false;
+    }
+    return dom_.key(k);
+  }
+  bool parse_error(size_t position, const std::string& token, const nlohmann::detail::exception& e) {
+    malformed_ = true;
+    return dom_.parse_error(position, token, e);
+  }
+
+  bool malformed() const { return malformed_; }
+  const std::string& duplicate() const { return duplicate_; }
+  const std::string& over() const { return over_; }  // Which limit was passed, and where.
+
+ private:
+  struct Level {
+    bool array = false;
+    size_t index = 0;
+    std::string key;
+    std::unordered_set<std::string> keys;
+  };
+
+  std::string Pointer() const {
+    std::string p;
+    for (const Level& l : levels_) p += "/" + (l.array ? std::to_string(l.index) : JsonPointerEscape(l.key));
+    return p;
+  }
+  bool Count() {
+    if (++values_ <= limits_.values) return true;
+    over_ = "more than " + std::to_string(limits_.values) + " JSON values (numbers, strings, arrays, objects) at " +
+            (levels_.empty() ? "/" : Pointer()) + "; this route takes at most that many";
+    return false;
+  }
+  bool Value() {  // A scalar ended: the next one of its array.
+    if (!Count()) return false;
+    if (!levels_.empty() && levels_.back().array) ++levels_.back().index;
+    return true;
+  }
+  bool Open(bool array) {
+    if (!Count()) return false;
+    if (levels_.size() >= limits_.depth) {
+      over_ = "nested deeper than " + std::to_string(limits_.depth) + " levels at " + Pointer();
+      return false;
+    }
+    levels_.push_back({array, 0, {}, {}});
+    return true;
+  }
+  bool Close() {
+    levels_.pop_back();
+    if (!levels_.empty() && levels_.back().array) ++levels_.back().index;
+    return true;
+  }
+
+  nlohmann::detail::json_sax_dom_parser<json> dom_;
+  BodyLimits limits_;
+  std::vector<Level> levels_;
+  size_t values_ = 0;
+  bool malformed_ = false;
+  std::string duplicate_, over_;
+};
+
+}  // namespace
+
+// A JSON object within `limits`, named by JSON Pointers when it is not one.
+Result<json> ParseObject(std::string_view body, BodyLimits limits) {
+  if (body.find_first_not_of(" \t\r\n") == std::string_view::npos) {
+    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is empty; send a JSON object"), kMalformedJson);
+  }
+  json j;
+  CheckedDom sax(j, limits);
+  const bool parsed = json::sax_parse(body, &sax);
+  if (!sax.over().empty()) return WithReason(ResourceExhausted("the body has " + sax.over()), "body-too-complex");
+  if (!sax.duplicate().empty()) return FieldStatus(sax.duplicate(), "is given more than once; give each member once");
+  if (!parsed || sax.malformed()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON"), kMalformedJson);
+  if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
+  return j;
+}
+
+}  // namespace facespace::api::body

@@ -1,0 +1,87 @@
+// The JSON body readers shared by the request schemas (api/src/request/): limits, members, the
+// checked parse, and the readers of the members several requests share (weights, pose, render).
+#pragma once
+
+#include <array>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "facespace/api/request.h"
+
+namespace facespace::api::body {
+
+using nlohmann::json;
+
+inline constexpr char kMalformed[] = "malformed JSON";
+// The members each body takes, for "did you mean" when one is not.
+inline constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "space", "mode", "normals", "skinning", "lod", "strict",
+                                                    "keep_targets", "pose", "blend", "animation", "motion", "time", "frame", "loop"};
+inline constexpr std::string_view kRenderMembers[] = {"weights", "controls", "mode", "normals", "skinning", "lod", "strict", "pose",
+                                                      "blend", "animation", "motion", "time", "frame", "loop", "width", "height",
+                                                      "view", "background", "supersample", "format", "quality", "camera", "exposure"};
+inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "mode", "normals", "skinning", "lod",
+                                                     "strict", "pose", "blend", "animation", "motion", "time", "frame", "loop",
+                                                     "width", "height", "view", "background", "supersample", "quality", "camera", "exposure"};
+inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "transition", "smooth",
+                                                        "format", "tolerance", "mode", "normals"};
+inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "mode", "normals", "skinning", "lod",
+                                                     "pose", "blend", "animation", "motion", "time", "frame", "loop", "width",
+                                                     "height", "view", "background", "supersample", "quality", "camera", "exposure"};
+// What one body may hold, sized to its route: a limit on the values parsed (every number, string,
+// array and object counts one) bounds the memory and time of the parse before any work.
+struct BodyLimits {
+  size_t values;
+  size_t depth = 64;
+};
+inline constexpr BodyLimits kPointBody{100000};      // mesh, check, render: weights, controls, a pose.
+inline constexpr BodyLimits kSheetBody{400000};      // Up to --max-sheet-cells points.
+inline constexpr BodyLimits kSequenceBody{500000};   // Keys and times.
+inline constexpr BodyLimits kFitBody{3100000};       // A target mesh: three numbers a vertex, a million vertices.
+inline constexpr BodyLimits kBatchBody{500000};      // Explicit variants.
+
+
+void UnknownMember(const std::string& key, std::span<const std::string_view> members, Status& errors);
+
+Status FieldStatus(const std::string& pointer, const std::string& message);
+
+Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::string& pointer);
+
+bool FloatArray(const json& v, float* out, size_t n);
+
+// A clip reference: a name or an index.
+bool ClipRef(const json& v, ClipRequest& c);
+
+void PoseFromJson(const json& v, PoseRequest& pose, Status& errors);
+
+void BlendFromJson(const json& v, PoseRequest& pose, Status& errors);
+
+// Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
+// the key is not one of them.
+bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors);
+
+// "time", "frame" or "loop" without "animation" (or "motion") is an error; "animation" with "blend" too.
+void FinishPose(PoseRequest& pose, Status& errors);
+
+Status Finish(Status errors);
+
+bool ParseBackground(const json& v, std::array<float, 4>& out);
+
+// Range-checked number members of the camera and image.
+bool Number(const json& v, double lo, double hi, double* out);
+
+// The camera's framing: all, shapes, auto or joint:NAME. False for anything else.
+bool ParseFraming(const std::string& value, render::Camera& cam);
+
+void CameraFromJson(const json& c, render::Camera& cam, Status& errors);
+
+// A render member; false when the key is not one.
+bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Status& errors);
+
+// A JSON object within `limits`, named by JSON Pointers when it is not one.
+Result<json> ParseObject(std::string_view body, BodyLimits limits);
+
+}  // namespace facespace::api::body

@@ -1,0 +1,220 @@
+// Request schemas of a point of face space: mesh, check, render, sheet (bodies and GET queries).
+#include "json_body.h"
+
+#include "facespace/core/enum_table.h"
+
+#include "facespace/core/lod.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <set>
+#include <span>
+#include <unordered_set>
+#include <nlohmann/json.hpp>
+
+
+namespace facespace::api {
+
+using namespace body;  // The shared readers of json_body.h.
+
+namespace {
+constexpr EnumName<BlendMode> kBlendModes[] = {{BlendMode::kRelative, "relative"}, {BlendMode::kAbsolute, "absolute"}};
+constexpr EnumName<NormalMode> kNormalModes[] = {{NormalMode::kBlend, "blend"}, {NormalMode::kRecompute, "recompute"}};
+}  // namespace
+
+bool ParseBlendMode(std::string_view s, BlendMode* mode) { return ParseEnum(kBlendModes, s, mode); }
+bool ParseNormalMode(std::string_view s, NormalMode* mode) { return ParseEnum(kNormalModes, s, mode); }
+
+Result<std::vector<WeightEntry>> ParseWeightsJson(std::string_view text, const std::string& pointer) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": weights are not valid JSON"), kMalformedJson);
+  return WeightsFromJson(j, pointer);
+}
+
+
+
+Result<MeshRequest> ParseMeshRequest(std::string_view body) {
+  auto j = ParseObject(body, kPointBody);
+  if (!j.ok()) return j.status();
+  MeshRequest r;
+  Status errors = InvalidArgument("");
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    if (!MeshMember(it.key(), it.value(), r, true, errors)) UnknownMember(it.key(), kMeshMembers, errors);
+  }
+  FinishPose(r.pose, errors);
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+Result<RenderRequest> ParseRenderRequest(std::string_view body) {
+  auto j = ParseObject(body, kPointBody);
+  if (!j.ok()) return j.status();
+  RenderRequest r;
+  Status errors = InvalidArgument("");
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    if (!MeshMember(it.key(), it.value(), r.mesh, false, errors) && !RenderMember(it.key(), it.value(), r, errors)) {
+      UnknownMember(it.key(), kRenderMembers, errors);
+    }
+  }
+  FinishPose(r.mesh.pose, errors);
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+Result<SheetRequest> ParseSheetRequest(std::string_view body) {
+  auto j = ParseObject(body, kSheetBody);
+  if (!j.ok()) return j.status();
+  SheetRequest r;
+  r.base.render.width = r.base.render.height = 256;
+  Status errors = InvalidArgument("");
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    const std::string& key = it.key();
+    const json& v = it.value();
+    if (key == "cells") {
+      if (v.is_string() && (v == "shapes" || v.get<std::string>().starts_with("shapes:"))) {
+        r.shape_cells = v.get<std::string>();
+        continue;
+      }
+      if (!v.is_array() || v.empty()) {
+        errors.fields.push_back({"/cells", "must be a non-empty array of {\"weights\", \"label\"}, or \"shapes\" or \"shapes:GROUP\""});
+        continue;
+      }
+      for (size_t i = 0; i < v.size(); ++i) {
+        const std::string ptr = "/cells/" + std::to_string(i);
+        if (!v[i].is_object()) {
+          errors.fields.push_back({ptr, "must be an object"});
+          continue;
+        }
+        std::vector<WeightEntry> w;
+        if (v[i].contains("weights")) {
+          auto parsed = WeightsFromJson(v[i]["weights"], ptr + "/weights");
+          if (parsed.ok()) w = std::move(parsed.value());
+          else errors.fields.insert(errors.fields.end(), parsed.status().fields.begin(), parsed.status().fields.end());
+        }
+        std::string label;
+        if (v[i].contains("label")) {
+          if (!v[i]["label"].is_string()) errors.fields.push_back({ptr + "/label", "must be a string"});
+          else label = v[i]["label"].get<std::string>().substr(0, 80);
+        }
+        r.cells.push_back(std::move(w));
+        r.labels.push_back(label);
+      }
+    } else if (key == "columns") {
+      double d = 0;
+      if (!v.is_number_integer() || !Number(v, 1, 64, &d)) errors.fields.push_back({"/columns", "must be an integer in 1..64"});
+      else r.columns = static_cast<int>(d);
+    } else if (!MeshMember(key, v, r.base.mesh, false, errors) && !RenderMember(key, v, r.base, errors)) {
+      UnknownMember(key, kSheetMembers, errors);
+    }
+  }
+  FinishPose(r.base.mesh.pose, errors);
+  if (errors.fields.empty() && r.cells.empty() && r.shape_cells.empty()) errors.fields.push_back({"/cells", "is required"});
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+Status ExpandShapeCells(const Rig& rig, SheetRequest& r) {
+  if (r.shape_cells.empty()) return Status::Ok();
+  const std::string group = r.shape_cells == "shapes" ? "" : r.shape_cells.substr(7);
+  std::set<std::string> groups;
+  for (const Shape& s : rig.shapes) {
+    groups.insert(s.group);
+    if (!group.empty() && s.group != group) continue;
+    WeightEntry e;
+    e.name = s.name;
+    e.value = 1.0f;
+    e.pointer = "/cells";
+    r.cells.push_back({e});
+    // Labels are drawn in ASCII: a name that is not takes its first ASCII alias, else its index.
+    auto ascii = [](const std::string& t) { return std::all_of(t.begin(), t.end(), [](char c) { return c >= 0x20 && c < 0x7f; }); };
+    std::string label = ascii(s.name) ? s.name : "";
+    for (size_t k = 0; k < s.aliases.size() && label.empty(); ++k) {
+      if (ascii(s.aliases[k])) label = s.aliases[k];
+    }
+    r.labels.push_back(label.empty() ? "shape " + std::to_string(&s - rig.shapes.data()) : label.substr(0, 80));
+  }
+  if (r.cells.empty()) {
+    std::string list;
+    for (const std::string& g : groups) list += (list.empty() ? "" : ", ") + g;
+    Status errors = InvalidArgument("");
+    errors.fields.push_back({"/cells", group.empty() ? "the rig has no shapes" : "no shape in group '" + group + "'; groups: " + list});
+    return Finish(errors);
+  }
+  return Status::Ok();
+}
+
+std::string ApplyRenderSetting(const std::string& key, const std::string& value, RenderRequest& r, bool* known) {
+  *known = true;
+  if (key == "camera") {
+    json c = json::parse(value, nullptr, false);
+    if (c.is_discarded()) return "must be a JSON object";
+    Status errors = InvalidArgument("");
+    CameraFromJson(c, r.render.camera, errors);
+    return errors.fields.empty() ? "" : errors.fields[0].pointer + ": " + errors.fields[0].message;
+  }
+  if (key == "frame") {
+    // The camera's framing (all, shapes, auto), or else a time in MMD frames for the pose (ApplyPoseSetting).
+    if (ParseFraming(std::string(value), r.render.camera)) return "";
+    double d = 0;
+    const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), d);
+    if (ec != std::errc() || end != value.data() + value.size()) {
+      return "must be all, shapes, auto or joint:NAME (the camera's framing) or a number of frames (30 a second)";
+    }
+    *known = false;
+    return "";
+  }
+  const bool camera_key = key == "yaw" || key == "pitch" || key == "distance" || key == "zoom" || key == "fov";
+  const bool string_key = key == "view" || key == "format" || key == "background";
+  if (!camera_key && !string_key && key != "width" && key != "height" && key != "supersample" && key != "quality" &&
+      key != "exposure") {
+    *known = false;
+    return "";
+  }
+  json v;
+  if (string_key && !(key == "background" && !value.empty() && value[0] == '[')) {
+    v = value;
+  } else {
+    v = json::parse(value, nullptr, false);
+    if (v.is_discarded() || v.is_string()) return "'" + value.substr(0, 40) + "' is not a number";
+  }
+  Status errors = InvalidArgument("");
+  if (camera_key) CameraFromJson(json{{key, v}}, r.render.camera, errors);
+  else RenderMember(key, v, r, errors);
+  return errors.fields.empty() ? "" : errors.fields[0].message;
+}
+
+std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
+  *known = key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop" || key == "pose" || key == "blend" ||
+           key == "skinning" || key == "lod";
+  if (!*known) return "";
+  json v;
+  if (key == "skinning") {
+    v = value;
+  } else if (key == "animation" || key == "motion") {
+    const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos && value.size() < 10;
+    v = digits ? json(std::stoll(value)) : json(value);
+  } else if (key == "lod") {
+    if (value.size() != 1 || value[0] < '0' || value[0] > '9') return "must be an integer level of detail 0.." + std::to_string(kMaxLod);
+    v = value[0] - '0';
+  } else if (key == "loop") {
+    if (value == "true" || value == "1") v = true;
+    else if (value == "false" || value == "0") v = false;
+    else return "must be true or false";
+  } else {
+    v = json::parse(value, nullptr, false);
+    if (v.is_discarded()) return key == "time" ? "must be a number of seconds" : key == "frame" ? "must be a number of frames" : "must be JSON";
+  }
+  Status errors = InvalidArgument("");
+  MeshMember(key, v, r, false, errors);
+  return errors.fields.empty() ? "" : errors.fields[0].message;
+}
+
+std::string FinishPoseSettings(MeshRequest& r) {
+  Status errors = InvalidArgument("");
+  FinishPose(r.pose, errors);
+  return errors.fields.empty() ? "" : errors.fields[0].message;
+}
+
+}  // namespace facespace::api

@@ -1,0 +1,248 @@
+// Request schemas of sequences and fitting.
+#include "json_body.h"
+
+#include "facespace/core/enum_table.h"
+
+#include "facespace/core/lod.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <set>
+#include <span>
+#include <unordered_set>
+#include <nlohmann/json.hpp>
+
+
+namespace facespace::api {
+
+using namespace body;  // The shared readers of json_body.h.
+
+Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
+  auto j = ParseObject(body, kSequenceBody);
+  if (!j.ok()) return j.status();
+  SequenceRequest r;
+  Status errors = InvalidArgument("");
+  auto number = [&](const json& v, const std::string& ptr, float* out, double lo, double hi) {
+    double d = 0;
+    if (!Number(v, lo, hi, &d)) errors.fields.push_back({ptr, "must be a number in [" + FormatNumber(lo) + ", " + FormatNumber(hi) + "]"});
+    else *out = static_cast<float>(d);
+  };
+  auto transition = [&](const json& v, const std::string& ptr, Transition* out) {
+    if (!v.is_string() || !ParseTransition(v.get<std::string>(), out)) {
+      errors.fields.push_back({ptr, "must be step, linear, smoothstep, smootherstep, ease-in, ease-out, ease-in-out or "
+                                    "cubic-bezier(x1, y1, x2, y2) with x1, x2 in [0, 1]"});
+    }
+  };
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    const std::string& key = it.key();
+    const json& v = it.value();
+    const std::string ptr = "/" + JsonPointerEscape(key);
+    if (key == "motion" || key == "animation") {
+      if (!r.clip.pointer.empty()) errors.fields.push_back({ptr, "give animation or motion, not both"});
+      else if (!ClipRef(v, r.clip)) errors.fields.push_back({ptr, "must be " + std::string(key == "motion" ? "a motion" : "an animation") + " name or index"});
+      r.clip.pointer = ptr;
+    } else if (key == "keys") {
+      if (!v.is_array() || v.empty()) {
+        errors.fields.push_back({ptr, "must be a non-empty array of {time, weights | shape}"});
+        continue;
+      }
+      if (v.size() > 100000) {
+        errors.fields.push_back({ptr, "at most 100000 keys"});
+        continue;
+      }
+      for (size_t k = 0; k < v.size(); ++k) {
+        SequenceRequest::Key key_out;
+        key_out.pointer = "/keys/" + std::to_string(k);
+        const json& e = v[k];
+        if (!e.is_object() || !e.contains("time")) {
+          errors.fields.push_back({key_out.pointer, "needs a time"});
+          continue;
+        }
+        for (auto m = e.begin(); m != e.end(); ++m) {
+          const std::string mp = key_out.pointer + "/" + JsonPointerEscape(m.key());
+          if (m.key() == "time") {
+            number(*m, mp, &key_out.time, -1e9, 1e9);
+          } else if (m.key() == "weights") {
+            auto w = WeightsFromJson(*m, mp);
+            if (w.ok()) key_out.weights = std::move(w.value());
+            else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+          } else if (m.key() == "shape") {
+            if (!m->is_string()) errors.fields.push_back({mp, "must be a shape name"});
+            else key_out.shape = m->get<std::string>();
+          } else if (m.key() == "transition") {
+            Transition t;
+            transition(*m, mp, &t);
+            key_out.transition = t;
+          } else {
+            errors.fields.push_back({mp, "unknown member (time, weights, shape, transition)"});
+          }
+        }
+        if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
+        r.keys.push_back(std::move(key_out));
+      }
+    } else if (key == "transition") {
+      transition(v, ptr, &r.transition);
+    } else if (key == "smooth") {
+      if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+      else r.smooth = v.get<bool>();
+    } else if (key == "times") {
+      if (!v.is_array() || v.empty() || v.size() > 10000) {
+        errors.fields.push_back({ptr, "must be an array of 1 to 10000 times"});
+        continue;
+      }
+      for (size_t i = 0; i < v.size(); ++i) {
+        float t = 0;
+        number(v[i], ptr + "/" + std::to_string(i), &t, -1e9, 1e9);
+        r.times.push_back(t);
+      }
+    } else if (key == "fps") {
+      number(v, ptr, &r.fps, 0.1, 1000);
+    } else if (key == "format") {
+      if (!v.is_string() || (v != "json" && v != "ndjson" && v != "f32")) errors.fields.push_back({ptr, "must be json, ndjson or f32"});
+      else r.format = v.get<std::string>();
+    } else if (key == "tolerance") {
+      number(v, ptr, &r.tolerance, 0, 1e9);
+      r.has_tolerance = true;
+    } else if (key == "mode") {
+      if (!v.is_string() || !ParseBlendMode(v.get<std::string>(), &r.options.mode)) errors.fields.push_back({ptr, "must be relative or absolute"});
+    } else if (key == "normals") {
+      if (!v.is_string() || !ParseNormalMode(v.get<std::string>(), &r.options.normals)) errors.fields.push_back({ptr, "must be blend or recompute"});
+    } else {
+      UnknownMember(key, kSequenceMembers, errors);
+    }
+  }
+  if (errors.fields.empty() && r.keys.empty() && r.clip.pointer.empty()) errors.fields.push_back({"/keys", "is required (or a motion: \"motion\" or \"animation\")"});
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+// A sequence played from a clip: the keys of its morph-weight channel (or none: the rest weights),
+// spanning the whole clip, and the clip for the pose at each time.
+Result<Sequence> ClipSequence(const Rig& rig, const SequenceRequest& request) {
+  const ClipRequest& c = request.clip;
+  Status errors = InvalidArgument("");
+  if (!request.keys.empty()) {
+    errors.fields.push_back({c.pointer, "give keys or " + c.pointer.substr(1) + ", not both"});
+    return Finish(errors);
+  }
+  const int clip = FindClip(rig, c);
+  if (clip < 0) {
+    errors.fields.push_back({c.pointer, UnknownClipMessage(rig, c)});
+    return Finish(errors);
+  }
+  const float duration = rig.animations[clip].duration;
+  Result<Sequence> s = SequenceFromAnimation(rig, clip);
+  if (!s.ok()) {
+    Sequence rest;
+    rest.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+    s = std::move(rest);
+  }
+  std::vector<Keyframe>& keys = s->keys;
+  if (keys.front().time > 0.0f) keys.insert(keys.begin(), Keyframe{0.0f, keys.front().weights, std::nullopt});
+  if (keys.back().time < duration) keys.push_back(Keyframe{duration, keys.back().weights, std::nullopt});
+  s->clip = clip;
+  return s;
+}
+
+Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
+  if (!request.clip.pointer.empty()) return ClipSequence(rig, request);
+  Sequence s;
+  s.transition = request.transition;
+  s.smooth = request.smooth;
+  Status errors = InvalidArgument("");
+  for (const SequenceRequest::Key& k : request.keys) {
+    Keyframe key;
+    key.time = k.time;
+    key.transition = k.transition;
+    if (!k.shape.empty()) {
+      const int shape = FindShape(rig, k.shape);
+      if (shape < 0) {
+        errors.fields.push_back({k.pointer + "/shape", "unknown shape '" + k.shape + "'"});
+        continue;
+      }
+      key.weights.assign(rig.shapes.size(), 0.0f);
+      key.weights[shape] = 1.0f;
+    } else {
+      auto w = ResolveWeights(rig, k.weights);
+      if (!w.ok()) {
+        errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+        continue;
+      }
+      key.weights = std::move(w.value());
+    }
+    s.keys.push_back(std::move(key));
+  }
+  if (!errors.fields.empty()) return Finish(errors);
+  if (Status st = ValidateSequence(s, rig.shapes.size()); !st.ok()) return st;
+  return s;
+}
+
+namespace {
+
+Result<TargetMesh> TargetFromJson(const json& j, const std::string& ptr) {
+  if (!j.is_object() || !j.contains("primitives") || !j["primitives"].is_array()) {
+    return FieldStatus(ptr, "must be {\"primitives\": [{\"positions\": [...]}, ...]} as the mesh route returns");
+  }
+  TargetMesh target;
+  if (j.contains("space")) {
+    if (j["space"] != "world" && j["space"] != "mesh") return FieldStatus(ptr + "/space", "must be \"world\" (the default) or \"mesh\"");
+    target.mesh_space = j["space"] == "mesh";
+  }
+  std::vector<std::vector<float>>& out = target.positions;
+  for (size_t p = 0; p < j["primitives"].size(); ++p) {
+    const json& prim = j["primitives"][p];
+    const std::string pp = ptr + "/primitives/" + std::to_string(p) + "/positions";
+    if (!prim.is_object() || !prim.contains("positions") || !prim["positions"].is_array() || prim["positions"].size() % 3) {
+      return FieldStatus(pp, "must be an array of x, y, z numbers");
+    }
+    std::vector<float> pos;
+    pos.reserve(prim["positions"].size());
+    for (const json& v : prim["positions"]) {
+      if (!v.is_number() || !std::isfinite(v.get<double>())) return FieldStatus(pp, "must hold finite numbers");
+      pos.push_back(v.get<float>());
+    }
+    out.push_back(std::move(pos));
+  }
+  return target;
+}
+
+}  // namespace
+
+Result<TargetMesh> ParseTargetJson(std::string_view text) {
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the target is not valid JSON"), kMalformedJson);
+  return TargetFromJson(j, "");
+}
+
+Result<FitRequest> ParseFitRequest(std::string_view body) {
+  auto j = ParseObject(body, kFitBody);
+  if (!j.ok()) return j.status();
+  FitRequest r;
+  Status errors = InvalidArgument("");
+  bool has_target = false;
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    const std::string ptr = "/" + JsonPointerEscape(it.key());
+    if (it.key() == "target") {
+      auto t = TargetFromJson(it.value(), "/target");
+      if (!t.ok()) errors.fields.insert(errors.fields.end(), t.status().fields.begin(), t.status().fields.end());
+      else r.target = std::move(t.value());
+      has_target = true;
+    } else if (it.key() == "bounded" || it.key() == "sum_at_most_one" || it.key() == "rigid_align") {
+      if (!it->is_boolean()) {
+        errors.fields.push_back({ptr, "must be true or false"});
+        continue;
+      }
+      bool& dst = it.key() == "bounded" ? r.options.bounded : it.key() == "sum_at_most_one" ? r.options.sum_at_most_one : r.options.rigid_align;
+      dst = it->get<bool>();
+    } else {
+      errors.fields.push_back({ptr, "unknown member (target, bounded, sum_at_most_one, rigid_align)"});
+    }
+  }
+  if (!has_target && errors.fields.empty()) errors.fields.push_back({"/target", "is required"});
+  if (!errors.fields.empty()) return Finish(errors);
+  return r;
+}
+
+}  // namespace facespace::api
