@@ -47,11 +47,6 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   }
   std::vector<float> weights(rig.shapes.size(), 0.0f);
   std::vector<uint8_t> seen(rig.shapes.size(), 0);
-  // Past kMaxFieldErrors an error is counted, its message (a closest-name search) never made.
-  auto fail = [&status](const std::string& pointer, auto&& message) {
-    if (status.full()) ++status.omitted;
-    else status.AddField(pointer, message());
-  };
   for (const WeightEntry& e : entries) {
     long long index = e.index;
     auto label = [&e] { return e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'"; };
@@ -62,14 +57,14 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
           e.name.find_first_not_of("0123456789") == std::string::npos) {
         index = std::stoll(e.name);
         if (static_cast<size_t>(index) >= rig.shapes.size()) {
-          fail(e.pointer, [&] {
+          status.AddField(e.pointer, [&] {
             return "shape index " + e.name + " out of range: this rig has " + std::to_string(rig.shapes.size()) + " shapes";
           });
           continue;
         }
       }
       if (index < 0) {
-        fail(e.pointer, [&] {
+        status.AddField(e.pointer, [&] {
           std::string msg = "unknown shape '" + e.name + "'";
           const std::string close = ClosestShapeName(rig, e.name);
           if (!close.empty()) msg += " (did you mean '" + close + "'?)";
@@ -78,22 +73,22 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
         continue;
       }
     } else if (index < 0 || static_cast<size_t>(index) >= rig.shapes.size()) {
-      fail(e.pointer, [&] {
+      status.AddField(e.pointer, [&] {
         return "shape index " + std::to_string(index) + " out of range: this rig has " + std::to_string(rig.shapes.size()) +
                " shapes (0.." + std::to_string(static_cast<long long>(rig.shapes.size()) - 1) + ")";
       });
       continue;
     }
     if (!std::isfinite(e.value)) {
-      fail(e.pointer, [&] { return "weight of " + label() + " must be a finite number"; });
+      status.AddField(e.pointer, [&] { return "weight of " + label() + " must be a finite number"; });
       continue;
     }
     if (std::fabs(e.value) > 3.0e38) {
-      fail(e.pointer, [&] { return "weight of " + label() + " is too large"; });
+      status.AddField(e.pointer, [&] { return "weight of " + label() + " is too large"; });
       continue;
     }
     if (seen[index]) {
-      fail(e.pointer, [&] { return "shape '" + rig.shapes[index].name + "' is given twice"; });
+      status.AddField(e.pointer, [&] { return "shape '" + rig.shapes[index].name + "' is given twice"; });
       continue;
     }
     seen[index] = 1;
@@ -178,14 +173,10 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
     for (const Control& k : rig.controls) {
       if (k.name == e.name) c = &k;
     }
-    if (!c && status.full()) {
-      ++status.omitted;
-      continue;
-    }
     if (!c) {
-      std::string msg = "unknown control '" + e.name + "'";
-      if (rig.controls.empty()) msg += ": this rig has no controls";
-      else {
+      status.AddField(e.pointer, [&] {
+        std::string msg = "unknown control '" + e.name + "'";
+        if (rig.controls.empty()) return msg + ": this rig has no controls";
         std::vector<std::string_view> names;
         for (const Control& k : rig.controls) names.push_back(k.name);
         msg += DidYouMean(e.name, names);
@@ -198,8 +189,8 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
           }
           msg += (shown > 1 ? ", " : "") + k.name;
         }
-      }
-      status.AddField(e.pointer, msg);
+        return msg;
+      });
       continue;
     }
     if (!std::isfinite(e.value)) {

@@ -68,19 +68,16 @@ void Address(int fd, bool peer, std::string& ip, int& port) {
   ip = text;
 }
 
-// A whole response for a request the front refuses itself: problem+json, then the connection closes.
-std::string Refusal(int status, const std::string& type, const std::string& detail, const std::string& extra_headers = "") {
-  std::string escaped;
-  for (char c : detail) {
-    if (c == '"' || c == '\\') escaped += '\\';
-    if (static_cast<unsigned char>(c) >= 0x20) escaped += c;
-  }
-  const std::string body = "{\"type\":\"urn:facespace:problem:" + type + "\",\"title\":\"" + http::ReasonPhrase(status) +
-                           "\",\"status\":" + std::to_string(status) + ",\"detail\":\"" + escaped + "\"}";
-  // The status line as cpp-httplib writes its own (the same phrase whoever answers).
-  return "HTTP/1.1 " + std::to_string(status) + " " + http::StatusLinePhrase(status) +
-         "\r\nContent-Type: application/problem+json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n" + extra_headers +
-         "Connection: close\r\n\r\n" + body;
+// A whole response for a request the front refuses itself: problem+json, as the routes write one
+// (SendProblem), then the connection closes.
+std::string Refusal(int status, const std::string& type, const std::string& detail, bool retry_after = false,
+                    const std::string& path = "") {
+  httplib::Request req;
+  req.path = path;
+  httplib::Response res;
+  if (retry_after) res.set_header("Retry-After", "1");
+  http::SendProblem(req, res, status, type, detail);
+  return http::ClosingResponse(res);
 }
 
 // Writes what it can at once (the socket is non-blocking); the front never waits on a client.
@@ -334,7 +331,7 @@ class FrontServer::Front {
       ++stats.refused_total;
       if (from_client >= o_.max_per_client) ++stats.refused_client;
       if (from_client == 0) per_client_.erase(c->ip);
-      SendNow(fd, Refusal(503, "too-many-connections", refused, "Retry-After: 1\r\n"));
+      SendNow(fd, Refusal(503, "too-many-connections", refused, true));
       ::shutdown(fd, SHUT_RDWR);
       ::close(fd);
       return;
@@ -377,15 +374,15 @@ class FrontServer::Front {
 
   // Answers a request the front refuses, then reads and drops what the client still sends for a
   // moment (closing with unread bytes would reset the connection and could lose the answer).
-  void Refuse(Conn& c, int status, const std::string& type, const std::string& detail, const std::string& extra = "") {
-    const std::string response = Refusal(status, type, detail, extra);
+  void Refuse(Conn& c, int status, const std::string& type, const std::string& detail, bool retry_after = false) {
+    const std::string path = c.head.target.substr(0, c.head.target.find('?')).substr(0, 200);
+    const std::string response = Refusal(status, type, detail, retry_after, path);
     SendNow(c.fd, response);
     if (o_.log_requests) {
       // As the access log writes a request, with no duration: the request never reached a handler.
       const bool parsed = !c.head.method.empty();
-      const std::string path = parsed ? c.head.target.substr(0, c.head.target.find('?')).substr(0, 200)
-                                      : status == 414 ? "(request line over 8,192 bytes)" : "-";
-      std::fprintf(stderr, "%s %s %d %zu -\n", parsed ? c.head.method.substr(0, 20).c_str() : "-", path.c_str(), status,
+      const std::string logged = parsed ? path : status == 414 ? "(request line over 8,192 bytes)" : "-";
+      std::fprintf(stderr, "%s %s %d %zu -\n", parsed ? c.head.method.substr(0, 20).c_str() : "-", logged.c_str(), status,
                    response.size() - response.find("\r\n\r\n") - 4);
     }
     Linger(c);
@@ -468,7 +465,7 @@ class FrontServer::Front {
         }
         if (!Reserve(c, c.head.end + c.head.content_length)) {
           ++stats.over_budget;
-          return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", "Retry-After: 1\r\n");
+          return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", true);
         }
         // A body of N MiB may take N more seconds. Its room is made once (no copies as it grows).
         c.deadline += std::chrono::seconds(c.head.content_length >> 20);
@@ -490,7 +487,7 @@ class FrontServer::Front {
       }
       if (!Reserve(c, c.buf.size())) {
         ++stats.over_budget;
-        return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", "Retry-After: 1\r\n");
+        return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", true);
       }
       if (f == Framing::kNeedMore) return;
       // Handed on with its body whole (Content-Length), followed by what came after it.
@@ -532,17 +529,22 @@ class FrontServer::Front {
     work_cv_.notify_one();
   }
 
-  void Returned(Conn& c) {
+  // A served request's bytes and budget let go, the connection waiting for its next request (not
+  // yet armed, and still busy for the front until its state is stored).
+  void ReadyForNext(Conn& c) {
     c.buf.erase(0, c.request_end);
     Release(c);
     ++c.served;
-    if (c.close_after) return Close(c);
-    c.state = Conn::State::kIdle;
     c.request_end = 0;
     c.sent_continue = false;
-    c.close_after = false;
     c.deadline = Clock::now() + std::chrono::seconds(o_.keep_alive_timeout);
     if (c.buf.capacity() > (1u << 20)) c.buf.shrink_to_fit();  // A large body's room goes back.
+  }
+
+  void Returned(Conn& c) {
+    if (c.close_after) return Close(c);
+    ReadyForNext(c);
+    c.state = Conn::State::kIdle;
     const int fd = c.fd;
     Advance(c);  // A pipelined request may be whole already.
     Arm(fd);
@@ -591,17 +593,11 @@ class FrontServer::Front {
       c->close_after = !ok || close || closed_by_client || stream.closes();
       // A large body's parse leaves freed heap behind (a DOM of a million values): give it back.
       if (c->request_end > (size_t{1} << 20)) malloc_trim(0);
-      if (!c->close_after && c->buf.size() == c->request_end && c->buf.capacity() <= (size_t{1} << 20)) {
+      if (!c->close_after && c->buf.size() == c->request_end) {
         // Kept alive with nothing more sent yet (the usual case): made ready for its next request
         // here and armed, without a round trip through the front. Armed first: the front waits
         // for the state below before it touches the connection.
-        c->buf.clear();
-        stats.body_bytes -= c->reserved;
-        c->reserved = 0;
-        ++c->served;
-        c->request_end = 0;
-        c->sent_continue = false;
-        c->deadline = Clock::now() + std::chrono::seconds(o_.keep_alive_timeout);
+        ReadyForNext(*c);
         epoll_event ev{};
         ev.events = EPOLLIN | EPOLLRDHUP | EPOLLONESHOT;
         ev.data.fd = c->fd;
@@ -610,7 +606,6 @@ class FrontServer::Front {
           continue;
         }
         c->close_after = true;  // Cannot be armed: the front closes it.
-        --c->served;
       }
       {
         std::lock_guard<std::mutex> lock(mu_);

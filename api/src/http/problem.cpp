@@ -63,6 +63,14 @@ const char* StatusLinePhrase(int status) {
   }
 }
 
+std::string ClosingResponse(const httplib::Response& res) {
+  std::string out = "HTTP/1.1 " + std::to_string(res.status) + " " + StatusLinePhrase(res.status) + "\r\n";
+  for (const auto& [name, value] : res.headers) {
+    if (name != "Content-Length" && name != "Connection") out += name + ": " + value + "\r\n";
+  }
+  return out + "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: close\r\n\r\n" + res.body;
+}
+
 std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
 void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,

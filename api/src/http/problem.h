@@ -28,6 +28,11 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, int status
                  const std::string& detail, const std::vector<FieldError>& fields = {},
                  std::span<const Warning> warnings = {}, size_t omitted = 0);
 
+// The whole HTTP/1.1 answer of `res` on a connection closed after it, for answers written without
+// cpp-httplib (the connection front's, and its pre-routing from the headers alone): the status line
+// as cpp-httplib writes its own, the headers, Content-Length, Connection: close, the body.
+std::string ClosingResponse(const httplib::Response& res);
+
 // The problem for a Status: HttpStatus, the type from its reason (or its code), its message and fields.
 void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& status,
                 std::span<const Warning> warnings = {});

@@ -36,12 +36,7 @@ std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
   if (!http::PreRoute(ctx, req, res)) return std::nullopt;
   ctx.metrics.Observe(ctx.metrics.other_route(), res.status, 0.0);
   if (ctx.options.log_requests) std::fprintf(stderr, "%s %s %d %zu -\n", req.method.c_str(), req.path.substr(0, 200).c_str(), res.status, res.body.size());
-  std::string out = "HTTP/1.1 " + std::to_string(res.status) + " " + http::StatusLinePhrase(res.status) + "\r\n";
-  for (const auto& [name, value] : res.headers) {
-    if (name != "Content-Length" && name != "Connection") out += name + ": " + value + "\r\n";
-  }
-  out += "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: close\r\n\r\n" + res.body;
-  return out;
+  return http::ClosingResponse(res);
 }
 
 void Api::Register(httplib::Server& server) {

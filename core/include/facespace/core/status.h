@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -52,6 +53,13 @@ struct Status {
   void AddField(std::string pointer, std::string field_message) {
     if (full()) ++omitted;
     else fields.push_back({std::move(pointer), std::move(field_message)});
+  }
+  // The same with the message made only when it is listed (a costly one: a closest-name search).
+  template <typename MakeMessage>
+    requires std::is_invocable_r_v<std::string, MakeMessage>
+  void AddField(std::string pointer, MakeMessage&& make_message) {
+    if (full()) ++omitted;
+    else fields.push_back({std::move(pointer), make_message()});
   }
   size_t field_count() const { return fields.size() + omitted; }
 };
