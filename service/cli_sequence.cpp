@@ -13,7 +13,7 @@
 #include "cli.h"
 #include "flags.h"
 #include "facespace/api/pipeline.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"
 

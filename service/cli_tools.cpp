@@ -7,7 +7,7 @@
 #include "flags.h"
 #include "facespace/core/basis.h"
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/shape_tools.h"
 
 namespace facespace::cli {

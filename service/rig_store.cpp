@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "durable.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace facespace {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "facespace/api/store.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::test {
 

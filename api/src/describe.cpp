@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/transform.h"
 
 namespace facespace::api {

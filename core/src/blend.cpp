@@ -1,7 +1,7 @@
 #include "facespace/core/blend.h"
 
 #include "facespace/core/skeleton.h"
-#include "normal_matrix.h"
+#include "facespace/core/normal_matrix.h"
 
 #include <algorithm>
 #include <cmath>

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "normal_matrix.h"
+#include "facespace/core/normal_matrix.h"
 
 namespace facespace {
 

@@ -1,13 +1,10 @@
-// Images: encoding and decoding (OpenImageIO), text, legends and contact sheets.
-#include <OpenImageIO/filesystem.h>
+// Images: encoding and decoding (OpenImageIO, through oiio_module.h), text, legends and contact sheets.
 #include "facespace/core/enum_table.h"
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
-#include <OpenImageIO/imageio.h>
 #include <webp/encode.h>
 #include <isa-l/igzip_lib.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <unistd.h>
@@ -23,6 +20,7 @@
 
 #include "facespace/render/render.h"
 #include "internal.h"
+#include "oiio_module.h"
 
 namespace facespace::render {
 
@@ -49,11 +47,14 @@ std::array<float, 3> Viridis(float t) {
   return out;
 }
 
-std::string FontPath() {
-  for (const char* p : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"}) {
-    if (std::filesystem::exists(p)) return p;
-  }
-  return "";
+const std::string& FontPath() {
+  static const std::string path = [] {
+    for (const char* p : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"}) {
+      if (std::filesystem::exists(p)) return std::string(p);
+    }
+    return std::string();
+  }();
+  return path;
 }
 
 void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> linear) {
@@ -388,13 +389,21 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
     return InvalidArgument("empty image");
   }
   if (format == ImageFormat::kPng) return EncodePng(image);
-  std::vector<unsigned char> bytes;
-  OIIO::Filesystem::IOVecOutput proxy(bytes);
+  std::vector<unsigned char> room;
+  const bool alpha = format != ImageFormat::kJpeg;
+  if (format == ImageFormat::kWebp) {
+    const std::span<const unsigned char> px = Pixels8(image, alpha, room);
+    return EncodeWebp(px, image.width, image.height, quality);
+  }
+  std::string error;
+  const oiio::Api* api = oiio::Load(&error);
+  if (!api) return Internal(error);
+  oiio::EncodeArgs args;
   std::string name = std::string("image.") + ImageFormatExtension(format);
   // OIIO 2.4's TIFF writer produces a broken file through an IOProxy (its directory is not
   // written back): TIFF goes through a private temporary file instead.
-  const bool via_file = format == ImageFormat::kTiff;
-  if (via_file) {
+  args.to_file = format == ImageFormat::kTiff;
+  if (args.to_file) {
     char tmpl[] = "/tmp/facespace_XXXXXX.tif";
     const int fd = mkstemps(tmpl, 4);
     if (fd < 0) return Internal("cannot create a temporary file for TIFF");
@@ -407,34 +416,25 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
     ~Unlink() {
       if (on) std::remove(path.c_str());
     }
-  } unlink_tmp{name, via_file};
-  std::unique_ptr<OIIO::ImageOutput> out;
-  if (format != ImageFormat::kWebp) {
-    out = OIIO::ImageOutput::create(name, via_file ? nullptr : &proxy);
-    if (!out) return Internal("no OpenImageIO writer for " + name);
-  }
-  const bool alpha = format != ImageFormat::kJpeg;
-  const int channels = alpha ? 4 : 3;
+  } unlink_tmp{name, args.to_file};
+  args.name = name.c_str();
+  args.width = image.width;
+  args.height = image.height;
+  args.zip = format == ImageFormat::kTiff || format == ImageFormat::kExr;
+  std::vector<float> linear;
   if (format == ImageFormat::kExr) {
-    OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::HALF);
-    spec.attribute("compression", "zip");
-    const std::vector<float> linear = LinearPixels(image);
-    if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::FLOAT, linear.data()) || !out->close()) {
-      return Internal("EXR encoding failed: " + out->geterror());
-    }
-    return std::string(bytes.begin(), bytes.end());
+    linear = LinearPixels(image);
+    args.linear = linear.data();
+  } else {
+    args.channels = alpha ? 4 : 3;
+    args.srgb8 = Pixels8(image, alpha, room).data();  // JPEG has no alpha: composited over white.
+    if (format == ImageFormat::kJpeg) args.quality = std::clamp(quality, 1, 100);
   }
-  std::vector<unsigned char> room;
-  const std::span<const unsigned char> px = Pixels8(image, alpha, room);  // JPEG has no alpha: composited over white.
-  if (format == ImageFormat::kWebp) return EncodeWebp(px, image.width, image.height, quality);
-  OIIO::ImageSpec spec(image.width, image.height, channels, OIIO::TypeDesc::UINT8);
-  spec.attribute("oiio:ColorSpace", "sRGB");
-  if (format == ImageFormat::kJpeg) spec.attribute("CompressionQuality", std::clamp(quality, 1, 100));
-  if (format == ImageFormat::kTiff) spec.attribute("compression", "zip");
-  if (!out->open(name, spec) || !out->write_image(OIIO::TypeDesc::UINT8, px.data()) || !out->close()) {
-    return Internal("image encoding failed: " + out->geterror());
+  std::vector<unsigned char> bytes;
+  if (!api->encode(args, &bytes, &error)) {
+    return Internal(std::string(format == ImageFormat::kExr ? "EXR" : "image") + " encoding failed: " + error);
   }
-  if (via_file) {
+  if (args.to_file) {
     std::ifstream f(name, std::ios::binary);
     return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   }
@@ -451,23 +451,20 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   else if (bytes.size() > 12 && std::memcmp(bytes.data(), "RIFF", 4) == 0 && std::memcmp(bytes.data() + 8, "WEBP", 4) == 0) name = "image.webp";
   else if (bytes.size() > 18 && mime_type == "image/x-tga") name = "image.tga";  // TGA has no magic.
   if (!name) return InvalidArgument("not a PNG, JPEG, EXR, TIFF, WebP, BMP or TGA image");
-  OIIO::Filesystem::IOMemReader proxy(bytes.data(), bytes.size());
-  auto in = OIIO::ImageInput::open(name, nullptr, &proxy);
-  if (!in) return InvalidArgument(std::string("cannot decode the image: ") + OIIO::geterror());
-  const OIIO::ImageSpec& spec = in->spec();
-  if (spec.width < 1 || spec.height < 1 || spec.width > 16384 || spec.height > 16384 || spec.nchannels < 1) {
-    return InvalidArgument("image size out of range");
+  std::string error;
+  const oiio::Api* api = oiio::Load(&error);
+  if (!api) return Internal(error);
+  oiio::Decoded decoded;
+  if (!api->decode(bytes.data(), bytes.size(), name, 16384, &decoded, &error)) {
+    return InvalidArgument(error == "image size out of range" ? error : "cannot decode the image: " + error);
   }
-  std::vector<float> px(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data())) {
-    return InvalidArgument("cannot decode the image: " + in->geterror());
-  }
+  const std::vector<float>& px = decoded.pixels;
   const bool linear = std::strcmp(name, "image.exr") == 0;
   Image im;
-  im.width = spec.width;
-  im.height = spec.height;
+  im.width = decoded.width;
+  im.height = decoded.height;
   im.rgba.resize(static_cast<size_t>(im.width) * im.height * 4);
-  const int nc = spec.nchannels;
+  const int nc = decoded.channels;
   for (size_t i = 0, n = static_cast<size_t>(im.width) * im.height; i < n; ++i) {
     const float* s = &px[i * nc];
     float rgba[4] = {s[0], nc >= 3 ? s[1] : s[0], nc >= 3 ? s[2] : s[0], nc == 4 ? s[3] : nc == 2 ? s[1] : 1.0f};
@@ -477,35 +474,38 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   return im;
 }
 
+namespace {
+
+// The box `text` of `size` pixels takes at the origin, {xbegin, ybegin, xend, yend}; false without the
+// font or the image module.
+bool TextBox(const std::string& text, int size, int box[4]) {
+  if (FontPath().empty() || text.empty()) return false;
+  const oiio::Api* api = oiio::Load(nullptr);
+  return api && api->text_box(text, size, FontPath(), box);
+}
+
+}  // namespace
+
 bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb) {
-  static const std::string font = FontPath();
-  if (font.empty() || text.empty()) return false;
   // OpenImageIO 2.4 aborts the process (an assertion) when the text lies wholly above the image:
   // text that would not show is not drawn.
-  OIIO::ROI box = OIIO::ImageBufAlgo::text_size(text, size, font);
-  if (!box.defined()) return false;
-  box.xbegin += x;
-  box.xend += x;
-  box.ybegin += y;
-  box.yend += y;
-  if (box.xend <= 0 || box.yend <= 0 || box.xbegin >= image.width || box.ybegin >= image.height) return false;
-  OIIO::ImageSpec spec(image.width, image.height, 4, OIIO::TypeDesc::FLOAT);
-  OIIO::ImageBuf buf(spec, image.rgba.data());
+  int box[4];
+  if (!TextBox(text, size, box)) return false;
+  if (box[2] + x <= 0 || box[3] + y <= 0 || box[0] + x >= image.width || box[1] + y >= image.height) return false;
   const float color[4] = {SrgbToLinear(srgb[0]), SrgbToLinear(srgb[1]), SrgbToLinear(srgb[2]), 1.0f};
-  return OIIO::ImageBufAlgo::render_text(buf, x, y, text, size, font, OIIO::cspan<float>(color, 4));
+  return oiio::Load(nullptr)->draw_text(image.rgba.data(), image.width, image.height, x, y, text, size, FontPath(), color);
 }
 
 namespace {
 
 // The width `text` takes at `size` pixels, or an estimate without the font.
 int TextWidth(const std::string& text, int size) {
-  static const std::string font_path = FontPath();
   if (text.empty()) return 0;
-  const OIIO::ROI roi = font_path.empty() ? OIIO::ROI() : OIIO::ImageBufAlgo::text_size(text, size, font_path);
-  if (!roi.defined()) return size * static_cast<int>(text.size()) * 6 / 10;
+  int box[4];
+  if (!TextBox(text, size, box)) return size * static_cast<int>(text.size()) * 6 / 10;
   // Text with no ink (spaces only) comes back as an inverted box (xbegin INT_MAX, xend INT_MIN):
-  // width 0, computed without the overflow roi.width() would do.
-  const long long width = static_cast<long long>(roi.xend) - roi.xbegin;
+  // width 0, computed without the overflow a plain subtraction would do.
+  const long long width = static_cast<long long>(box[2]) - box[0];
   return width > 0 ? static_cast<int>(width) : 0;
 }
 

@@ -16,7 +16,7 @@
 #include <random>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace {
 

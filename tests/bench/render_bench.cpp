@@ -9,7 +9,7 @@
 
 #include <cmath>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/shape_tools.h"
 #include "facespace/render/render.h"
 

@@ -10,7 +10,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/variants.h"
 #include "test_util.h"
 
@@ -237,7 +237,7 @@ TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
 
 #include "facespace/core/basis.h"
 #include "facespace/core/blend.h"
-#include "facespace/core/lod.h"
+#include "facespace/formats/lod.h"
 
 namespace facespace {
 namespace {

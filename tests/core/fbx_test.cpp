@@ -13,7 +13,7 @@
 
 #include "facespace/core/animation.h"
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {

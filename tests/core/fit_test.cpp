@@ -4,7 +4,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/fit.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {

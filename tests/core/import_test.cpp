@@ -2,7 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {

@@ -8,11 +8,11 @@
 #include <sstream>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/pose_request.h"
 #include "facespace/core/weights.h"
 #include "facespace/core/transform.h"
-#include "../../core/src/normal_matrix.h"  // Core-internal: the per-vertex reference.
+#include "facespace/core/normal_matrix.h"  // Core-internal: the per-vertex reference.
 #include "test_util.h"
 
 namespace facespace {

@@ -12,7 +12,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/hierarchy.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {

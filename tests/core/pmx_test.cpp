@@ -7,7 +7,7 @@
 #include <cstring>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {

@@ -3,7 +3,7 @@
 #include <random>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
 #include "test_util.h"

@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/skeleton.h"
 #include "test_util.h"
 

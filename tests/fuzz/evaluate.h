@@ -9,7 +9,7 @@
 
 #include "facespace/core/animation.h"
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/skeleton.h"
 
 inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace::Rig& rig, const facespace::BlendedRig& blended,

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <span>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "evaluate.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -5,7 +5,7 @@
 #include <span>
 
 #include "evaluate.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   facespace::LoadOptions options;

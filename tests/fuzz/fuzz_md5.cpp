@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "evaluate.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

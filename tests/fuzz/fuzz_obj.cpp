@@ -9,7 +9,7 @@
 #include <string>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <span>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "evaluate.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

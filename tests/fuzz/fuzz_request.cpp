@@ -6,7 +6,7 @@
 #include <string_view>
 
 #include "facespace/api/pipeline.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
 

@@ -6,7 +6,7 @@
 #include <span>
 
 #include "facespace/core/blend.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/pose_request.h"
 
 namespace {

@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
-# Runs every libFuzzer target for SECONDS each on seed corpora from the real assets and the test
-# requests, then replays the committed regression inputs. Prints executions and coverage per target.
-# usage: run.sh FUZZ_BUILD_DIR SECONDS [SHARED_ASSETS]
+# Replays the committed regression inputs of every libFuzzer target, then runs each on seed corpora
+# from the real assets and the test requests for its share of SECONDS (at least 10 s), as many at
+# once as there are cores. Prints executions and coverage per target.
+# usage: run.sh BUILD_DIR SECONDS [SHARED_ASSETS]
 set -u
-build=$1; seconds=$2
+build=$1; budget=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
 targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http"
 for t in $targets; do mkdir -p "$corpus/$t"; done
+set -- $targets
+seconds=$((budget / $#)); [ $seconds -ge 10 ] || seconds=10
 # Seeds: every real glb/gltf we have (small ones whole), OBJ files and targets, the test requests.
 for f in "$src"/assets/*/*.glb "$shared"/real/*/*.glb "$shared"/real/*/*.gltf; do
   [ -f "$f" ] && [ "$(stat -c %s "$f")" -lt 3000000 ] && cp "$f" "$corpus/fuzz_gltf/$(basename "$f")"

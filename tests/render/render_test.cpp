@@ -12,7 +12,7 @@
 #include <cstdlib>
 #include <thread>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/render/render.h"

@@ -7,7 +7,7 @@
 
 #include <thread>
 
-#include "facespace/core/lod.h"
+#include "facespace/formats/lod.h"
 #include "facespace/core/shape_tools.h"
 #include "negotiate.h"
 #include "problem.h"

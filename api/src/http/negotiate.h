@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/status.h"
 #include "facespace/render/render.h"
 

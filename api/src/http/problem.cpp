@@ -2,7 +2,7 @@
 
 #include "facespace/api/jobs.h"
 #include "facespace/api/request.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::api::http {
 

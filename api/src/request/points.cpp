@@ -3,7 +3,7 @@
 
 #include "facespace/core/enum_table.h"
 
-#include "facespace/core/lod.h"
+#include "facespace/formats/lod.h"
 
 #include <algorithm>
 #include <cctype>

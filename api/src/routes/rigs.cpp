@@ -2,7 +2,7 @@
 #include <cmath>
 
 #include "facespace/api/describe.h"
-#include "facespace/core/lod.h"
+#include "facespace/formats/lod.h"
 #include "facespace/core/transform.h"
 #include "routes.h"
 

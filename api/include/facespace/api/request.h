@@ -9,7 +9,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/fit.h"
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/sequence.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/status.h"

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
 

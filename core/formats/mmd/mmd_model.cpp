@@ -5,9 +5,9 @@
 
 #include <algorithm>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/rig.h"
-#include "mmd.h"
+#include "mmd/mmd.h"
 
 namespace facespace::mmd {
 

@@ -1,4 +1,5 @@
-// Rig files: picking the importer, and the manifest that carries what glTF drops.
+// The manifest: what glTF drops (groups, ranges, partners, aliases, controls, in-betweens,
+// correctives, statistics), as JSON beside a rig file; and MakeHuman's modifiers as controls.
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -7,7 +8,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/weights.h"
 
@@ -16,14 +17,6 @@ namespace facespace {
 namespace {
 
 using nlohmann::json;
-
-bool EndsWith(const std::string& s, const std::string& t) {
-  if (s.size() < t.size()) return false;
-  for (size_t i = 0; i < t.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(s[s.size() - t.size() + i])) != t[i]) return false;
-  }
-  return true;
-}
 
 // Left/right controls ("eyes/l-eye-bag-decr|incr" and "eyes/r-...") as partners.
 void PairControls(Rig& rig) {
@@ -442,187 +435,6 @@ std::string ManifestJson(const Rig& rig) {
     m["controls"] = controls;
   }
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
-}
-
-bool RigFormatFromPath(const std::string& path, RigFormat* format) {
-  std::string lower = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
-  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const RigFormat formats[] = {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd};
-  for (RigFormat f : formats) {
-    if (EndsWith(lower, RigFormatExtension(f))) {
-      *format = f;
-      return true;
-    }
-  }
-  return false;
-}
-
-bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format) {
-  const std::string_view head(reinterpret_cast<const char*>(bytes.data()), std::min<size_t>(bytes.size(), 4096));
-  if (head.substr(0, 4) == "glTF") {
-    *format = RigFormat::kGlb;
-  } else if (head.substr(0, 4) == "PMX ") {
-    *format = RigFormat::kPmx;
-  } else if (head.substr(0, 3) == "Pmd") {
-    *format = RigFormat::kPmd;
-  } else if (head.substr(0, 18) == "Kaydara FBX Binary" || head.find("; FBX ") == 0 || head.find("FBXHeaderExtension:") != std::string_view::npos) {
-    *format = RigFormat::kFbx;
-  } else if (head.find("<COLLADA") != std::string_view::npos) {
-    *format = RigFormat::kCollada;
-  } else if (head.find("MD5Version") != std::string_view::npos) {
-    *format = RigFormat::kMd5;
-  } else if (head.find("\"asset\"") != std::string_view::npos && head.find('{') != std::string_view::npos) {
-    *format = RigFormat::kGltf;
-  } else {
-    return false;
-  }
-  return true;
-}
-
-const char* RigFormatExtension(RigFormat format) {
-  switch (format) {
-    case RigFormat::kGlb: return ".glb";
-    case RigFormat::kGltf: return ".gltf";
-    case RigFormat::kFbx: return ".fbx";
-    case RigFormat::kCollada: return ".dae";
-    case RigFormat::kMd5: return ".md5mesh";
-    case RigFormat::kPmx: return ".pmx";
-    case RigFormat::kPmd: return ".pmd";
-  }
-  return "";
-}
-
-Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name) {
-  Result<Rig> rig = Internal("unknown rig format");
-  switch (format) {
-    case RigFormat::kGlb:
-    case RigFormat::kGltf: rig = LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false}); break;
-    case RigFormat::kFbx: rig = LoadFbxMemory(bytes, name); break;
-    case RigFormat::kCollada: rig = LoadColladaMemory(bytes, name); break;
-    case RigFormat::kPmx: rig = LoadPmxMemory(bytes, name); break;
-    case RigFormat::kPmd: rig = LoadPmdMemory(bytes, name); break;
-    case RigFormat::kMd5: rig = LoadMd5Memory(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), name + ".md5mesh", {}); break;
-  }
-  if (rig.ok()) rig->name = name;
-  return rig;
-}
-
-namespace {
-
-// `rel` (a path with '/') under `dir`, matching each component's letter case loosely; empty when
-// there is none, or when `rel` would leave `dir`.
-std::filesystem::path FindBeside(const std::filesystem::path& dir, const std::string& rel) {
-  namespace fs = std::filesystem;
-  if (rel.empty() || rel[0] == '/' || rel.find(':') != std::string::npos) return {};
-  fs::path at = dir;
-  size_t start = 0;
-  while (start <= rel.size()) {
-    size_t end = rel.find('/', start);
-    if (end == std::string::npos) end = rel.size();
-    const std::string part = rel.substr(start, end - start);
-    start = end + 1;
-    if (part.empty() || part == ".") continue;
-    if (part == "..") return {};
-    std::error_code ec;
-    if (fs::exists(at / part, ec)) {
-      at /= part;
-      continue;
-    }
-    auto lower = [](std::string t) {
-      for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      return t;
-    };
-    fs::path found;
-    for (const auto& e : fs::directory_iterator(at, ec)) {
-      if (lower(e.path().filename().string()) == lower(part)) found = e.path();
-    }
-    if (found.empty()) return {};
-    at = found;
-  }
-  return at;
-}
-
-}  // namespace
-
-int AddImageBeside(Rig& rig, const std::string& path) {
-  rig.images.push_back({path, "", {}});
-  rig.load_warnings.push_back({"texture_not_loaded", "texture '" + path + "' is not read (a model read from bytes has no folder)", path, 0.0, false});
-  return static_cast<int>(rig.images.size()) - 1;
-}
-
-void LoadImagesBeside(Rig& rig, const std::string& model_path) {
-  namespace fs = std::filesystem;
-  const fs::path dir = fs::path(model_path).parent_path().empty() ? fs::path(".") : fs::path(model_path).parent_path();
-  constexpr std::uintmax_t kMaxImageBytes = std::uintmax_t{64} << 20;
-  std::vector<std::string> loaded;
-  for (Image& im : rig.images) {
-    if (!im.bytes.empty() || im.name.empty()) continue;
-    const fs::path file = FindBeside(dir, im.name);
-    std::error_code ec;
-    const std::uintmax_t size = file.empty() ? 0 : fs::file_size(file, ec);
-    std::string why;
-    if (file.empty() || ec || !fs::is_regular_file(file, ec)) why = "no such file in the model's folder";
-    else if (size == 0 || size > kMaxImageBytes) why = "empty or over 64 MiB";
-    std::vector<unsigned char> bytes;
-    if (why.empty()) {
-      std::ifstream f(file, std::ios::binary);
-      bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-      std::string ext = file.extension().string();
-      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') im.mime_type = "image/png";
-      else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) im.mime_type = "image/jpeg";
-      else if (bytes.size() > 2 && bytes[0] == 'B' && bytes[1] == 'M') im.mime_type = "image/bmp";
-      else if (ext == ".tga") im.mime_type = "image/x-tga";
-      else why = "not a PNG, JPEG, BMP or TGA image";
-    }
-    for (Warning& w : rig.load_warnings) {
-      if (w.code == "texture_not_loaded" && w.shape == im.name) w.message = "texture '" + im.name + "' is not read: " + why;
-    }
-    if (!why.empty()) continue;
-    im.bytes = std::move(bytes);
-    loaded.push_back(im.name);
-  }
-  std::erase_if(rig.load_warnings, [&](const Warning& w) {
-    return w.code == "texture_not_loaded" && std::find(loaded.begin(), loaded.end(), w.shape) != loaded.end();
-  });
-}
-
-Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
-  RigFormat format = RigFormat::kGltf;
-  const bool known = RigFormatFromPath(path, &format);
-  Result<Rig> rig = Internal("unread");
-  const bool mmd = known && (format == RigFormat::kPmx || format == RigFormat::kPmd);
-  if (known && (format == RigFormat::kFbx || format == RigFormat::kCollada || mmd)) {
-    std::ifstream f(path, std::ios::binary);
-    if (!f) return NotFound("cannot open '" + path + "'");
-    const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    const std::string file = path.substr(path.find_last_of('/') == std::string::npos ? 0 : path.find_last_of('/') + 1);
-    rig = LoadRigMemory(bytes, format, file.substr(0, file.rfind('.')));
-    if ((mmd || format == RigFormat::kCollada) && rig.ok()) LoadImagesBeside(rig.value(), path);
-    if (mmd && rig.ok()) AddVmdMotions(rig.value(), path);
-  } else {
-    rig = EndsWith(path, ".obj")                 ? LoadObjSequence(std::span<const std::string>(&path, 1))
-          : known && format == RigFormat::kMd5 ? LoadMd5File(path)
-                                               : LoadGltfFile(path, options);
-  }
-  if (!rig.ok()) return rig;
-  if (rig->name.empty()) {
-    const size_t slash = path.find_last_of('/');
-    std::string stem = slash == std::string::npos ? path : path.substr(slash + 1);
-    rig->name = stem.substr(0, stem.rfind('.'));
-  }
-  if (options.read_manifest) {
-    const size_t dot = path.rfind('.');
-    const std::string manifest = (dot == std::string::npos ? path : path.substr(0, dot)) + ".manifest.json";
-    std::ifstream f(manifest, std::ios::binary);
-    if (f) {
-      std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-      if (Status s = ApplyManifest(rig.value(), text); !s.ok()) {
-        return Prefixed(s, manifest + ": ");
-      }
-    }
-  }
-  return rig;
 }
 
 }  // namespace facespace

@@ -22,10 +22,10 @@
 #include <set>
 #include <unordered_map>
 
-#include "facespace/core/io.h"
-#include "bezier.h"
-#include "split_mesh.h"
-#include "fbx_tree.h"
+#include "facespace/formats/io.h"
+#include "common/bezier.h"
+#include "common/split_mesh.h"
+#include "fbx/fbx_tree.h"
 
 namespace facespace {
 

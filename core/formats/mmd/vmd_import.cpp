@@ -18,9 +18,9 @@
 
 #include <Eigen/Geometry>
 
-#include "facespace/core/io.h"
-#include "bezier.h"
-#include "mmd.h"
+#include "facespace/formats/io.h"
+#include "common/bezier.h"
+#include "mmd/mmd.h"
 
 namespace facespace {
 

@@ -17,7 +17,7 @@
 #include <string>
 #include <string_view>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace facespace {
 

@@ -1,5 +1,5 @@
 // FBX node trees from binary and ASCII files. See fbx_tree.h.
-#include "fbx_tree.h"
+#include "fbx/fbx_tree.h"
 
 #include <zlib.h>
 

@@ -1,4 +1,4 @@
-#include "facespace/core/lod.h"
+#include "facespace/formats/lod.h"
 
 #include <meshoptimizer.h>
 

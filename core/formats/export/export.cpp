@@ -11,9 +11,9 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/weights.h"
-#include "normal_matrix.h"
+#include "facespace/core/normal_matrix.h"
 
 namespace facespace {
 

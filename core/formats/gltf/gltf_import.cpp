@@ -11,8 +11,8 @@
 #include <meshoptimizer.h>
 #include <nlohmann/json.hpp>
 
-#include "facespace/core/io.h"
-#include "gltf_common.h"
+#include "facespace/formats/io.h"
+#include "gltf/gltf_common.h"
 
 namespace facespace {
 

@@ -20,9 +20,9 @@
 #include <string_view>
 #include <unordered_map>
 
-#include "facespace/core/io.h"
-#include "bezier.h"
-#include "split_mesh.h"
+#include "facespace/formats/io.h"
+#include "common/bezier.h"
+#include "common/split_mesh.h"
 
 namespace facespace {
 

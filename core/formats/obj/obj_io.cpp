@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "facespace/core/io.h"
+#include "facespace/formats/io.h"
 
 namespace facespace {
 

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/io.h"
-#include "mmd.h"
+#include "facespace/formats/io.h"
+#include "mmd/mmd.h"
 
 namespace facespace {
 

@@ -1,0 +1,84 @@
+// The OpenImageIO module (see oiio_module.h): built as libfacespace_oiio.so, opened on first use.
+#include "oiio_module.h"
+
+#include <OpenImageIO/filesystem.h>
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+#include <OpenImageIO/imageio.h>
+
+#include <memory>
+
+namespace facespace::render::oiio {
+
+namespace {
+
+bool Encode(const EncodeArgs& a, std::vector<unsigned char>* out, std::string* error) {
+  OIIO::Filesystem::IOVecOutput proxy(*out);
+  std::unique_ptr<OIIO::ImageOutput> writer = OIIO::ImageOutput::create(a.name, a.to_file ? nullptr : &proxy);
+  if (!writer) {
+    *error = std::string("no OpenImageIO writer for ") + a.name;
+    return false;
+  }
+  bool ok;
+  if (a.linear) {
+    OIIO::ImageSpec spec(a.width, a.height, 4, OIIO::TypeDesc::HALF);
+    if (a.zip) spec.attribute("compression", "zip");
+    ok = writer->open(a.name, spec) && writer->write_image(OIIO::TypeDesc::FLOAT, a.linear) && writer->close();
+  } else {
+    OIIO::ImageSpec spec(a.width, a.height, a.channels, OIIO::TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    if (a.quality > 0) spec.attribute("CompressionQuality", a.quality);
+    if (a.zip) spec.attribute("compression", "zip");
+    ok = writer->open(a.name, spec) && writer->write_image(OIIO::TypeDesc::UINT8, a.srgb8) && writer->close();
+  }
+  if (!ok) *error = writer->geterror();
+  return ok;
+}
+
+bool Decode(const unsigned char* bytes, size_t size, const char* name, int max_side, Decoded* out, std::string* error) {
+  OIIO::Filesystem::IOMemReader proxy(bytes, size);
+  auto in = OIIO::ImageInput::open(name, nullptr, &proxy);
+  if (!in) {
+    *error = OIIO::geterror();
+    return false;
+  }
+  const OIIO::ImageSpec& spec = in->spec();
+  if (spec.width < 1 || spec.height < 1 || spec.width > max_side || spec.height > max_side || spec.nchannels < 1) {
+    *error = "image size out of range";
+    return false;
+  }
+  out->width = spec.width;
+  out->height = spec.height;
+  out->channels = spec.nchannels;
+  out->pixels.resize(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out->pixels.data())) {
+    *error = in->geterror();
+    return false;
+  }
+  return true;
+}
+
+bool TextBox(const std::string& text, int size, const std::string& font, int box[4]) {
+  const OIIO::ROI roi = OIIO::ImageBufAlgo::text_size(text, size, font);
+  if (!roi.defined()) return false;
+  box[0] = roi.xbegin;
+  box[1] = roi.ybegin;
+  box[2] = roi.xend;
+  box[3] = roi.yend;
+  return true;
+}
+
+bool DrawText(float* rgba, int width, int height, int x, int y, const std::string& text, int size, const std::string& font,
+              const float color[4]) {
+  OIIO::ImageSpec spec(width, height, 4, OIIO::TypeDesc::FLOAT);
+  OIIO::ImageBuf buf(spec, rgba);
+  return OIIO::ImageBufAlgo::render_text(buf, x, y, text, size, font, OIIO::cspan<float>(color, 4));
+}
+
+constexpr Api kApi{Encode, Decode, TextBox, DrawText};
+
+}  // namespace
+
+}  // namespace facespace::render::oiio
+
+extern "C" const facespace::render::oiio::Api* facespace_oiio_api() { return &facespace::render::oiio::kApi; }
