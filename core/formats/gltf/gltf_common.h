@@ -1,7 +1,11 @@
-// Accessor readers shared by the glTF importer and its tests. Private to core.
+// Shared by the glTF importer's files (and its tests). Private to formats.
 #pragma once
 
 #include <tiny_gltf.h>
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <span>
 
 #include <string>
 #include <vector>
@@ -9,6 +13,22 @@
 #include "facespace/core/status.h"
 
 namespace facespace {
+
+// Glb bytes (a file's) with what its JSON lists.
+uint32_t ReadU32(const unsigned char* p);
+constexpr size_t kMaxElements = size_t{1} << 28;  // Per accessor; far beyond any real rig.
+
+// Whether the JSON array `key` of `j` holds the string `value`.
+bool ListHas(const nlohmann::json& j, const char* key, const std::string& value);
+
+// Splits a GLB into its JSON text and binary chunk, checking every length.
+Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
+                std::span<const unsigned char>& bin);
+
+// Rewrites a GLB that uses EXT_meshopt_compression into a plain one (meshopt.cpp): decoded views are
+// appended to the binary chunk and the fallback buffers are removed. Other files are returned unchanged
+// (out empty).
+Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsigned char>& out);
 
 // Reads any accessor (float, normalized or plain integers, sparse or not) as floats,
 // `components` per element, checking every offset against its buffer.

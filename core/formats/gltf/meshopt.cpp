@@ -1,0 +1,217 @@
+// EXT_meshopt_compression, decoded with meshoptimizer before tinygltf (2.7, which does not know
+// the extension) sees the file.
+#include <meshoptimizer.h>
+
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "gltf/gltf_common.h"
+
+namespace facespace {
+
+using nlohmann::json;
+
+uint32_t ReadU32(const unsigned char* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+bool ListHas(const json& j, const char* key, const std::string& value) {
+  auto it = j.find(key);
+  if (it == j.end() || !it->is_array()) return false;
+  for (const json& e : *it) {
+    if (e.is_string() && e.get<std::string>() == value) return true;
+  }
+  return false;
+}
+
+// Splits a GLB into its JSON text and binary chunk, checking every length.
+Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
+                std::span<const unsigned char>& bin) {
+  if (bytes.size() < 20) return InvalidArgument("truncated glb: shorter than its header");
+  if (ReadU32(&bytes[4]) != 2) return InvalidArgument("unsupported glb version " + std::to_string(ReadU32(&bytes[4])));
+  const uint32_t total = ReadU32(&bytes[8]);
+  if (total < 20) return InvalidArgument("truncated glb: header says " + std::to_string(total) + " bytes, less than the header");
+  if (total > bytes.size()) {
+    return InvalidArgument("truncated glb: header says " + std::to_string(total) + " bytes, file has " +
+                           std::to_string(bytes.size()));
+  }
+  const uint32_t json_len = ReadU32(&bytes[12]);
+  if (ReadU32(&bytes[16]) != 0x4E4F534Au) return InvalidArgument("glb: first chunk is not JSON");
+  if (json_len > total - 20) return InvalidArgument("truncated glb: JSON chunk beyond the file");
+  json_text.assign(reinterpret_cast<const char*>(&bytes[20]), json_len);
+  bin = {};
+  size_t pos = 20 + static_cast<size_t>(json_len);
+  pos = (pos + 3) & ~size_t{3};
+  if (pos + 8 <= total) {
+    const uint32_t bin_len = ReadU32(&bytes[pos]);
+    if (ReadU32(&bytes[pos + 4]) == 0x004E4942u) {
+      if (bin_len > total - pos - 8) return InvalidArgument("truncated glb: BIN chunk beyond the file");
+      bin = bytes.subspan(pos + 8, bin_len);
+    }
+  }
+  return Status::Ok();
+}
+
+namespace {
+
+// ---- EXT_meshopt_compression --------------------------------------------------------------
+
+// Decodes one compressed bufferView into `out`.
+Status DecodeMeshoptView(const json& ext, std::span<const unsigned char> bin,
+                         std::vector<unsigned char>& out) {
+  if (!ext.is_object()) return InvalidArgument("EXT_meshopt_compression: not an object");
+  const auto num = [&](const char* key, size_t def, bool required) -> long long {
+    auto it = ext.find(key);
+    if (it == ext.end()) return required ? -1 : static_cast<long long>(def);
+    if (!it->is_number_unsigned()) return -1;
+    return static_cast<long long>(it->get<uint64_t>() > (uint64_t{1} << 40) ? (uint64_t{1} << 40) : it->get<uint64_t>());
+  };
+  const long long buffer = num("buffer", 0, true), offset = num("byteOffset", 0, false),
+                  length = num("byteLength", 0, true), stride = num("byteStride", 0, true),
+                  count = num("count", 0, true);
+  if (buffer < 0 || offset < 0 || length < 0 || stride <= 0 || count < 0) {
+    return InvalidArgument("EXT_meshopt_compression: missing or invalid buffer/byteLength/byteStride/count");
+  }
+  if (buffer != 0) return InvalidArgument("EXT_meshopt_compression: only the GLB binary chunk is supported as source");
+  if (static_cast<unsigned long long>(offset) + static_cast<unsigned long long>(length) > bin.size()) {
+    return InvalidArgument("EXT_meshopt_compression: compressed data beyond the binary chunk");
+  }
+  if (static_cast<size_t>(count) > kMaxElements || static_cast<size_t>(count) * stride > (size_t{1} << 31)) {
+    return InvalidArgument("EXT_meshopt_compression: decoded size too large");
+  }
+  const std::string mode = ext.value("mode", std::string());
+  const std::string filter = ext.contains("filter") && ext["filter"].is_string() ? ext["filter"].get<std::string>() : "NONE";
+  out.assign(static_cast<size_t>(count) * stride, 0);
+  const unsigned char* src = bin.data() + offset;
+  int rc = -1;
+  if (mode == "ATTRIBUTES") {
+    if (stride % 4 != 0 || stride > 256) return InvalidArgument("EXT_meshopt_compression: bad attribute byteStride");
+    rc = meshopt_decodeVertexBuffer(out.data(), count, stride, src, length);
+  } else if (mode == "TRIANGLES") {
+    if ((stride != 2 && stride != 4) || count % 3 != 0) return InvalidArgument("EXT_meshopt_compression: bad triangle index layout");
+    rc = meshopt_decodeIndexBuffer(out.data(), count, stride, src, length);
+  } else if (mode == "INDICES") {
+    if (stride != 2 && stride != 4) return InvalidArgument("EXT_meshopt_compression: bad index byteStride");
+    rc = meshopt_decodeIndexSequence(out.data(), count, stride, src, length);
+  } else {
+    return InvalidArgument("EXT_meshopt_compression: unknown mode '" + mode + "'");
+  }
+  if (rc != 0) return InvalidArgument("EXT_meshopt_compression: corrupt compressed data");
+  if (filter == "OCTAHEDRAL") {
+    if (mode != "ATTRIBUTES" || (stride != 4 && stride != 8)) return InvalidArgument("EXT_meshopt_compression: bad OCTAHEDRAL stride");
+    meshopt_decodeFilterOct(out.data(), count, stride);
+  } else if (filter == "QUATERNION") {
+    if (mode != "ATTRIBUTES" || stride != 8) return InvalidArgument("EXT_meshopt_compression: bad QUATERNION stride");
+    meshopt_decodeFilterQuat(out.data(), count, stride);
+  } else if (filter == "EXPONENTIAL") {
+    if (mode != "ATTRIBUTES" || stride % 4 != 0) return InvalidArgument("EXT_meshopt_compression: bad EXPONENTIAL stride");
+    meshopt_decodeFilterExp(out.data(), count, stride);
+  } else if (filter != "NONE") {
+    return InvalidArgument("EXT_meshopt_compression: unknown filter '" + filter + "'");
+  }
+  return Status::Ok();
+}
+
+void ListRemove(json& j, const char* key, const std::string& value) {
+  auto it = j.find(key);
+  if (it == j.end() || !it->is_array()) return;
+  json kept = json::array();
+  for (const json& e : *it) {
+    if (!(e.is_string() && e.get<std::string>() == value)) kept.push_back(e);
+  }
+  if (kept.empty()) {
+    j.erase(key);
+  } else {
+    *it = kept;
+  }
+}
+
+
+std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin) {
+  std::string j = json_text;
+  while (j.size() % 4) j.push_back(' ');
+  const size_t bin_padded = (bin.size() + 3) & ~size_t{3};
+  const size_t total = 12 + 8 + j.size() + (bin.empty() ? 0 : 8 + bin_padded);
+  std::vector<unsigned char> out;
+  out.reserve(total);
+  auto u32 = [&](uint32_t v) {
+    unsigned char b[4];
+    std::memcpy(b, &v, 4);
+    out.insert(out.end(), b, b + 4);
+  };
+  u32(0x46546C67u);
+  u32(2);
+  u32(static_cast<uint32_t>(total));
+  u32(static_cast<uint32_t>(j.size()));
+  u32(0x4E4F534Au);
+  out.insert(out.end(), j.begin(), j.end());
+  if (!bin.empty()) {
+    u32(static_cast<uint32_t>(bin_padded));
+    u32(0x004E4942u);
+    out.insert(out.end(), bin.begin(), bin.end());
+    out.resize(total, 0);
+  }
+  return out;
+}
+
+}  // namespace
+
+// Rewrites a GLB that uses EXT_meshopt_compression into a plain one: decoded views are
+// appended to the binary chunk and the fallback buffers are removed. Other files are
+// returned unchanged (out empty).
+Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsigned char>& out) {
+  out.clear();
+  std::string text;
+  std::span<const unsigned char> bin;
+  if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
+  if (!ListHas(j, "extensionsUsed", "EXT_meshopt_compression")) return Status::Ok();
+  std::vector<unsigned char> newbin(bin.begin(), bin.end());
+  json& views = j["bufferViews"];
+  json& buffers = j["buffers"];
+  if (!views.is_array() || !buffers.is_array() || buffers.empty()) return InvalidArgument("glb: bufferViews/buffers missing");
+  for (json& view : views) {
+    if (!view.is_object() || !view.contains("extensions") || !view["extensions"].is_object()) continue;
+    json& exts = view["extensions"];
+    if (!exts.contains("EXT_meshopt_compression")) continue;
+    std::vector<unsigned char> decoded;
+    if (Status s = DecodeMeshoptView(exts["EXT_meshopt_compression"], bin, decoded); !s.ok()) return s;
+    while (newbin.size() % 4) newbin.push_back(0);
+    view["buffer"] = 0;
+    view["byteOffset"] = newbin.size();
+    view["byteLength"] = decoded.size();
+    newbin.insert(newbin.end(), decoded.begin(), decoded.end());
+    exts.erase("EXT_meshopt_compression");
+    if (exts.empty()) view.erase("extensions");
+  }
+  // Drop the fallback buffers; renumber the views' buffer references.
+  std::vector<int> remap(buffers.size(), -1);
+  json kept = json::array();
+  for (size_t b = 0; b < buffers.size(); ++b) {
+    const json& buf = buffers[b];
+    const bool fallback = buf.is_object() && buf.contains("extensions") && buf["extensions"].is_object() &&
+                          buf["extensions"].contains("EXT_meshopt_compression");
+    if (fallback && b != 0) continue;
+    remap[b] = static_cast<int>(kept.size());
+    kept.push_back(buf);
+  }
+  for (json& view : views) {
+    if (!view.is_object() || !view.contains("buffer") || !view["buffer"].is_number_unsigned()) continue;
+    const uint64_t b = view["buffer"].get<uint64_t>();
+    if (b >= remap.size() || remap[b] < 0) {
+      return InvalidArgument("glb: a bufferView reads a meshopt fallback buffer that holds no data");
+    }
+    view["buffer"] = remap[b];
+  }
+  kept[0]["byteLength"] = newbin.size();
+  if (kept[0].is_object() && kept[0].contains("extensions")) kept[0].erase("extensions");
+  buffers = kept;
+  ListRemove(j, "extensionsUsed", "EXT_meshopt_compression");
+  ListRemove(j, "extensionsRequired", "EXT_meshopt_compression");
+  out = MakeGlb(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), newbin);
+  return Status::Ok();
+}
+}  // namespace facespace
