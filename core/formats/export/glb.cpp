@@ -1,0 +1,610 @@
+// The glb writer (tinygltf), and glb bodies of many variants written from a kept template.
+#include <tiny_gltf.h>
+#include "facespace/core/enum_table.h"
+#include "facespace/core/transform.h"
+
+#include <Eigen/Dense>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "facespace/formats/io.h"
+#include "facespace/core/weights.h"
+#include "facespace/core/normal_matrix.h"
+#include "export/writers.h"
+
+namespace facespace {
+
+using namespace writers;
+
+namespace {
+
+// ---- glb ----------------------------------------------------------------------------------
+
+tinygltf::Value ToValue(const nlohmann::json& j) {
+  switch (j.type()) {
+    case nlohmann::json::value_t::boolean: return tinygltf::Value(j.get<bool>());
+    case nlohmann::json::value_t::number_integer:
+    case nlohmann::json::value_t::number_unsigned: return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
+    case nlohmann::json::value_t::number_float: return tinygltf::Value(j.get<double>());
+    case nlohmann::json::value_t::string: return tinygltf::Value(j.get<std::string>());
+    case nlohmann::json::value_t::array: {
+      tinygltf::Value::Array a;
+      for (const auto& e : j) a.push_back(ToValue(e));
+      return tinygltf::Value(std::move(a));
+    }
+    case nlohmann::json::value_t::object: {
+      tinygltf::Value::Object o;
+      for (auto it = j.begin(); it != j.end(); ++it) o[it.key()] = ToValue(it.value());
+      return tinygltf::Value(std::move(o));
+    }
+    default: return tinygltf::Value();
+  }
+}
+
+// An accessor's min and max: per component, over `count` elements of `comps` floats.
+void FloatBounds(std::span<const float> values, int comps, size_t count, std::vector<double>& lo, std::vector<double>& hi) {
+  lo.assign(comps, 0.0);
+  hi.assign(comps, 0.0);
+  for (size_t e = 0; e < count; ++e) {
+    for (int c = 0; c < comps; ++c) {
+      const double v = values[e * comps + c];
+      if (e == 0 || v < lo[c]) lo[c] = v;
+      if (e == 0 || v > hi[c]) hi[c] = v;
+    }
+  }
+}
+
+// Node i's local matrix under the evaluated pose (its world matrix relative to its parent's).
+std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blended, size_t i) {
+  Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
+  const int parent = rig.nodes[i].parent;
+  if (parent >= 0) world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[parent].data()).inverse() * world;
+  std::array<double, 16> out;
+  std::copy(world.data(), world.data() + 16, out.begin());
+  return out;
+}
+
+// glb's asset.extras: the caller's extras, the warnings and the non-zero weights by shape name.
+Result<nlohmann::json> AssetExtras(const Rig& rig, std::span<const float> weights, std::span<const Warning> warnings,
+                                   const ExportOptions& options) {
+  nlohmann::json extras = nlohmann::json::object();
+  if (!options.asset_extras_json.empty()) {
+    extras = nlohmann::json::parse(options.asset_extras_json, nullptr, false);
+    if (extras.is_discarded() || !extras.is_object()) return InvalidArgument("asset extras must be a JSON object");
+  }
+  extras["warnings"] = nlohmann::json::parse(WarningsToJson(warnings));
+  nlohmann::json wmap = nlohmann::json::object();
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
+  }
+  extras["weights"] = wmap;
+  return extras;
+}
+
+// What tinygltf writes for JSON that went through ToValue: integers as int, empty arrays and
+// objects as null, nulls left out. False when nothing is written.
+bool AsTinygltfWrites(const nlohmann::json& j, nlohmann::json& out) {
+  out = nlohmann::json();
+  switch (j.type()) {
+    case nlohmann::json::value_t::boolean: out = j.get<bool>(); return true;
+    case nlohmann::json::value_t::number_integer:
+    case nlohmann::json::value_t::number_unsigned: out = static_cast<int>(j.get<int64_t>()); return true;
+    case nlohmann::json::value_t::number_float: out = j.get<double>(); return true;
+    case nlohmann::json::value_t::string: out = j; return true;
+    case nlohmann::json::value_t::array:
+      for (const auto& e : j) {
+        nlohmann::json v;
+        if (AsTinygltfWrites(e, v)) out.push_back(std::move(v));
+      }
+      return true;
+    case nlohmann::json::value_t::object:
+      for (auto it = j.begin(); it != j.end(); ++it) {
+        nlohmann::json v;
+        if (AsTinygltfWrites(it.value(), v)) out[it.key()] = std::move(v);
+      }
+      return true;
+    default: return false;
+  }
+}
+
+class GlbBuilder {
+ public:
+  explicit GlbBuilder(tinygltf::Model& m) : m_(m) { m_.buffers.resize(1); }
+
+  int View(const void* data, size_t bytes, int target) {
+    auto& buf = m_.buffers[0].data;
+    while (buf.size() % 4) buf.push_back(0);
+    tinygltf::BufferView v;
+    v.buffer = 0;
+    v.byteOffset = buf.size();
+    v.byteLength = bytes;
+    v.target = target;
+    const auto* p = static_cast<const unsigned char*>(data);
+    buf.insert(buf.end(), p, p + bytes);
+    m_.bufferViews.push_back(v);
+    return static_cast<int>(m_.bufferViews.size() - 1);
+  }
+
+  // A float accessor of `comps` components; min/max when asked (POSITION needs them).
+  int Floats(std::span<const float> values, int comps, bool minmax) {
+    tinygltf::Accessor a;
+    a.bufferView = View(values.data(), values.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = values.size() / comps;
+    a.type = TypeOf(comps);
+    if (minmax) MinMax(values, comps, a.count, a);
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  // An unsigned short VEC4 accessor (JOINTS_n).
+  int Joints(std::span<const uint16_t> values) {
+    tinygltf::Accessor a;
+    a.bufferView = View(values.data(), values.size() * 2, TINYGLTF_TARGET_ARRAY_BUFFER);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    a.count = values.size() / 4;
+    a.type = TINYGLTF_TYPE_VEC4;
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  // Floats outside any vertex buffer (inverse binds, animation keys): no buffer view target.
+  int Data(std::span<const float> values, int type, size_t count, bool minmax) {
+    tinygltf::Accessor a;
+    a.bufferView = View(values.data(), values.size() * 4, 0);
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = count;
+    a.type = type;
+    if (minmax) MinMax(values, 1, count, a);
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  int Indices(std::span<const uint32_t> idx, size_t vertex_count) {
+    tinygltf::Accessor a;
+    if (vertex_count <= 65535) {
+      std::vector<uint16_t> small(idx.begin(), idx.end());
+      a.bufferView = View(small.data(), small.size() * 2, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    } else {
+      a.bufferView = View(idx.data(), idx.size() * 4, TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+      a.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    }
+    a.count = idx.size();
+    a.type = TINYGLTF_TYPE_SCALAR;
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+  // A sparse VEC3 delta accessor over `count` vertices. Empty targets become an accessor
+  // without bufferView, which glTF defines as all zeros.
+  int SparseDeltas(std::span<const uint32_t> indices, std::span<const float> deltas, size_t count) {
+    tinygltf::Accessor a;
+    a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
+    a.count = count;
+    a.type = TINYGLTF_TYPE_VEC3;
+    std::vector<float> mm(deltas.begin(), deltas.end());
+    if (indices.size() < count) mm.insert(mm.end(), {0.0f, 0.0f, 0.0f});  // Implicit zeros.
+    MinMax(mm, 3, mm.size() / 3, a);
+    if (!indices.empty()) {
+      a.sparse.isSparse = true;
+      a.sparse.count = static_cast<int>(indices.size());
+      a.sparse.indices.bufferView = View(indices.data(), indices.size() * 4, 0);
+      a.sparse.indices.byteOffset = 0;
+      a.sparse.indices.componentType = TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+      a.sparse.values.bufferView = View(deltas.data(), deltas.size() * 4, 0);
+      a.sparse.values.byteOffset = 0;
+    }
+    m_.accessors.push_back(a);
+    return static_cast<int>(m_.accessors.size() - 1);
+  }
+
+ private:
+  static int TypeOf(int comps) {
+    return comps == 1 ? TINYGLTF_TYPE_SCALAR : comps == 2 ? TINYGLTF_TYPE_VEC2 : comps == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
+  }
+  static void MinMax(std::span<const float> values, int comps, size_t count, tinygltf::Accessor& a) {
+    FloatBounds(values, comps, count, a.minValues, a.maxValues);
+  }
+  tinygltf::Model& m_;
+};
+}  // namespace
+
+namespace writers {
+
+Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
+                              std::span<const Warning> warnings, const ExportOptions& options) {
+  tinygltf::Model m;
+  GlbBuilder b(m);
+  m.asset.version = "2.0";
+  m.asset.generator = "facespace";
+  m.asset.copyright = rig.credit;
+  auto extras = AssetExtras(rig, weights, warnings, options);
+  if (!extras.ok()) return extras.status();
+  m.asset.extras = ToValue(extras.value());
+
+  // glTF carries PNG and JPEG: other images (an MMD model's BMP or TGA) and unread ones are left out,
+  // their materials keeping the base colour.
+  std::vector<int> texture_of(rig.images.size(), -1);
+  for (size_t ii = 0; ii < rig.images.size(); ++ii) {
+    const Image& im = rig.images[ii];
+    if (im.bytes.empty() || (im.mime_type != "image/png" && im.mime_type != "image/jpeg")) continue;
+    texture_of[ii] = static_cast<int>(m.textures.size());
+    tinygltf::Image gi;
+    gi.name = im.name;
+    gi.mimeType = im.mime_type;
+    gi.bufferView = b.View(im.bytes.data(), im.bytes.size(), 0);
+    m.images.push_back(gi);
+    tinygltf::Texture t;
+    t.source = static_cast<int>(m.images.size() - 1);
+    m.textures.push_back(t);
+  }
+  for (const Material& mat : rig.materials) {
+    tinygltf::Material gm;
+    gm.name = mat.name;
+    gm.pbrMetallicRoughness.baseColorFactor.assign(mat.base_color_factor.begin(), mat.base_color_factor.end());
+    // Each map's glTF texture, or -1 (no image, or one glTF cannot carry): tinygltf writes a
+    // texture info only when its index is set.
+    const auto texture = [&texture_of](int image) { return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1; };
+    gm.pbrMetallicRoughness.baseColorTexture.index = texture(mat.base_color_image);
+    gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
+    gm.pbrMetallicRoughness.metallicRoughnessTexture.index = texture(mat.metallic_roughness_image);
+    gm.normalTexture.index = texture(mat.normal_image);
+    gm.normalTexture.scale = mat.normal_scale;
+    gm.occlusionTexture.index = texture(mat.occlusion_image);
+    gm.occlusionTexture.strength = mat.occlusion_strength;
+    gm.emissiveTexture.index = texture(mat.emissive_image);
+    gm.emissiveFactor.assign(mat.emissive_factor.begin(), mat.emissive_factor.end());
+    gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;
+    gm.pbrMetallicRoughness.roughnessFactor = mat.roughness_factor;
+    gm.doubleSided = mat.double_sided;
+    gm.alphaMode = mat.alpha_mode;
+    gm.alphaCutoff = mat.alpha_cutoff;
+    m.materials.push_back(gm);
+  }
+  for (const Mesh& mesh : rig.meshes) {
+    tinygltf::Mesh gm;
+    gm.name = mesh.name;
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      const BlendedPrimitive& bp = blended.primitives[pi];
+      const bool rig_data = options.keep_targets;  // The rig itself: base positions, its targets, its skin.
+      const bool targets = rig_data && !p.targets.empty();
+      tinygltf::Primitive gp;
+      gp.attributes["POSITION"] = b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
+      gp.attributes["NORMAL"] = b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
+      if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
+      if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(p.texcoords, 2, false);
+      if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
+      if (!p.source_vertices.empty()) {
+        // Floats: glTF allows no unsigned int in a vertex attribute; exact below 2^24 (ValidateRig).
+        const std::vector<float> source(p.source_vertices.begin(), p.source_vertices.end());
+        gp.attributes["_SOURCE_VERTEX"] = b.Floats(source, 1, false);
+      }
+      if (!p.indices.empty()) gp.indices = b.Indices(p.indices, p.vertex_count());
+      if (options.keep_targets && p.influences > 0 && mesh.skin >= 0) {
+        // The skin itself (JOINTS_n / WEIGHTS_n, 4 influences per set), for clients that skin on the GPU.
+        const size_t sets = (p.influences + 3) / 4, n = p.vertex_count();
+        for (size_t set = 0; set < sets; ++set) {
+          std::vector<uint16_t> joints(4 * n, 0);
+          std::vector<float> jw(4 * n, 0.0f);
+          for (size_t v = 0; v < n; ++v) {
+            for (size_t k = 0; k < 4 && 4 * set + k < p.influences; ++k) {
+              joints[4 * v + k] = p.joints[v * p.influences + 4 * set + k];
+              jw[4 * v + k] = p.joint_weights[v * p.influences + 4 * set + k];
+            }
+          }
+          gp.attributes["JOINTS_" + std::to_string(set)] = b.Joints(joints);
+          gp.attributes["WEIGHTS_" + std::to_string(set)] = b.Floats(jw, 4, false);
+        }
+      }
+      gp.mode = static_cast<int>(p.mode);
+      gp.material = p.material;
+      if (targets) {
+        // Targets without normal deltas get zero ones so every target has the same attributes.
+        bool any_normals = false, all_tangents = !p.tangents.empty();
+        for (const SparseTarget& t : p.targets) {
+          any_normals |= !t.normal_deltas.empty();
+          all_tangents &= t.indices.empty() || !t.tangent_deltas.empty();
+        }
+        for (const SparseTarget& t : p.targets) {
+          std::map<std::string, int> gt;
+          gt["POSITION"] = b.SparseDeltas(t.indices, t.position_deltas, p.vertex_count());
+          if (any_normals) {
+            std::vector<float> zeros;
+            if (t.normal_deltas.empty()) zeros.assign(t.position_deltas.size(), 0.0f);
+            gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas, p.vertex_count());
+          }
+          if (all_tangents) gt["TANGENT"] = b.SparseDeltas(t.indices, t.tangent_deltas, p.vertex_count());
+          gp.targets.push_back(gt);
+        }
+      }
+      gm.primitives.push_back(gp);
+    }
+    if (options.keep_targets && !mesh.target_shapes.empty()) {
+      tinygltf::Value::Array names;
+      for (uint32_t s : mesh.target_shapes) {
+        names.push_back(tinygltf::Value(rig.shapes[s].name));
+        gm.weights.push_back(s < weights.size() ? weights[s] : 0.0);
+      }
+      tinygltf::Value::Object ex;
+      ex["targetNames"] = tinygltf::Value(std::move(names));
+      gm.extras = tinygltf::Value(std::move(ex));
+    }
+    m.meshes.push_back(gm);
+  }
+  // Meshes whose primitives were skinned are already in scene space: they hang from a root
+  // node of their own (glTF ignores a skinned mesh node's transform; without the skin, a
+  // viewer would not).
+  std::vector<uint8_t> skinned_mesh(rig.meshes.size(), 0);
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    if (blended.primitives[pi].skinned && !options.keep_targets) skinned_mesh[rig.primitives[pi].mesh] = 1;
+  }
+  for (size_t i = 0; i < rig.nodes.size(); ++i) {
+    const Node& n = rig.nodes[i];
+    tinygltf::Node gn;
+    gn.name = n.name;
+    gn.mesh = n.mesh >= 0 && skinned_mesh[n.mesh] ? -1 : n.mesh;
+    gn.children = n.children;
+    if (blended.posed && blended.node_world.size() == rig.nodes.size()) {
+      // The evaluated pose, as each node's local matrix.
+      const std::array<double, 16> local = PosedLocalMatrix(rig, blended, i);
+      gn.matrix.assign(local.begin(), local.end());
+    } else if (n.has_matrix) {
+      gn.matrix.assign(n.matrix.begin(), n.matrix.end());
+    } else {
+      if (n.translation != std::array<float, 3>{0, 0, 0}) gn.translation.assign(n.translation.begin(), n.translation.end());
+      if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
+      if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
+    }
+    if (options.keep_targets && n.mesh >= 0 && rig.meshes[n.mesh].skin >= 0 && static_cast<size_t>(rig.meshes[n.mesh].skin) < rig.skins.size()) {
+      gn.skin = rig.meshes[n.mesh].skin;
+    }
+    // tinygltf writes a node with no properties as null, which glTF forbids: name it.
+    if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() && gn.translation.empty() &&
+        gn.rotation.empty() && gn.scale.empty()) {
+      gn.name = "node_" + std::to_string(m.nodes.size());
+    }
+    m.nodes.push_back(gn);
+  }
+  tinygltf::Scene scene;
+  scene.nodes = rig.scene_roots;
+  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
+    if (!skinned_mesh[mi]) continue;
+    tinygltf::Node gn;
+    gn.name = (rig.meshes[mi].name.empty() ? "mesh" + std::to_string(mi) : rig.meshes[mi].name) + " (skinned)";
+    gn.mesh = static_cast<int>(mi);
+    scene.nodes.push_back(static_cast<int>(m.nodes.size()));
+    m.nodes.push_back(gn);
+  }
+  m.scenes.push_back(scene);
+  m.defaultScene = 0;
+  if (options.keep_targets) {
+    for (const Skin& skin : rig.skins) {
+      tinygltf::Skin gs;
+      gs.name = skin.name;
+      gs.joints = skin.joints;
+      gs.inverseBindMatrices = b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
+      m.skins.push_back(gs);
+    }
+    for (const AnimationInfo& clip : rig.animations) {
+      tinygltf::Animation ga;
+      ga.name = clip.name;
+      // A weights sampler needs one value per morph target of its node's mesh; a tool that appended
+      // shapes (mirror, derive) leaves the clip's keys short: the new targets get 0.
+      std::vector<size_t> targets(clip.sampler_data.size(), 0);
+      for (const AnimationChannel& c : clip.channel_data) {
+        if (c.path == ChannelPath::kWeights && rig.nodes[c.node].mesh >= 0) targets[c.sampler] = rig.meshes[rig.nodes[c.node].mesh].target_shapes.size();
+      }
+      std::vector<int> sampler_of(clip.sampler_data.size(), -1);
+      for (size_t si = 0; si < clip.sampler_data.size(); ++si) {
+        const AnimationSampler& s = clip.sampler_data[si];
+        const bool scalar = s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
+        std::vector<float> padded;
+        std::span<const float> values = s.values;
+        if (targets[si] && s.components != targets[si]) {
+          if (s.components > targets[si] || s.interpolation == Interpolation::kCubicSpline) continue;  // Cannot map: dropped.
+          for (size_t k = 0; k < s.times.size(); ++k) {
+            padded.insert(padded.end(), s.values.begin() + static_cast<std::ptrdiff_t>(k * s.components), s.values.begin() + static_cast<std::ptrdiff_t>((k + 1) * s.components));
+            padded.resize((k + 1) * targets[si], 0.0f);
+          }
+          values = padded;
+        }
+        tinygltf::AnimationSampler gs;
+        gs.input = b.Data(s.times, TINYGLTF_TYPE_SCALAR, s.times.size(), true);
+        const size_t per_key = s.interpolation == Interpolation::kCubicSpline ? 3 : 1;
+        gs.output = b.Data(values, scalar ? TINYGLTF_TYPE_SCALAR : s.components == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4,
+                           scalar ? values.size() : s.times.size() * per_key, false);
+        gs.interpolation = s.interpolation == Interpolation::kStep ? "STEP" : s.interpolation == Interpolation::kCubicSpline ? "CUBICSPLINE" : "LINEAR";
+        sampler_of[si] = static_cast<int>(ga.samplers.size());
+        ga.samplers.push_back(gs);
+      }
+      for (const AnimationChannel& c : clip.channel_data) {
+        if (sampler_of[c.sampler] < 0) continue;
+        tinygltf::AnimationChannel gc;
+        gc.sampler = sampler_of[c.sampler];
+        gc.target_node = c.node;
+        gc.target_path = c.path == ChannelPath::kTranslation ? "translation" : c.path == ChannelPath::kRotation ? "rotation" : c.path == ChannelPath::kScale ? "scale" : "weights";
+        ga.channels.push_back(gc);
+      }
+      if (!ga.channels.empty()) m.animations.push_back(ga);
+    }
+  }
+  m.buffers[0].data.resize((m.buffers[0].data.size() + 3) & ~size_t{3}, 0);
+  if (m.buffers[0].data.empty()) m.buffers.clear();
+
+  std::ostringstream os;
+  tinygltf::TinyGLTF writer;
+  if (!writer.WriteGltfSceneToStream(&m, os, false, true)) return InvalidArgument("glb writer failed");
+  return os.str();
+}
+
+}  // namespace writers
+
+using writers::ExportGlb;
+
+// ---- glb of many variants ------------------------------------------------------------------
+
+struct GlbTemplate {
+  struct Attribute {
+    size_t primitive = 0;
+    int kind = 0;          // 0 positions, 1 normals, 2 tangents.
+    size_t offset = 0;     // In `bin`.
+    int accessor = -1;     // POSITION: its bounds are patched.
+  };
+  const Rig* rig = nullptr;
+  std::vector<size_t> shape;  // What the template was made for: posed, then per primitive skinned and sizes.
+  nlohmann::json json;        // The glb's JSON, patched for each variant.
+  std::string bin;            // The binary chunk, attributes overwritten for each variant.
+  std::vector<Attribute> attributes;
+  bool posed_nodes = false;
+  std::string head;
+  std::string whole;          // keep_targets: the whole glb.
+  std::vector<double> lo, hi;
+  std::vector<size_t> probe;  // The shape of the call at hand.
+};
+
+namespace {
+
+// What a template depends on besides the rig, into `shape` (kept: no allocation once warm).
+void GlbShape(const Rig& rig, const BlendedRig& blended, std::vector<size_t>& shape) {
+  shape.assign(1, blended.posed && blended.node_world.size() == rig.nodes.size());
+  for (const BlendedPrimitive& bp : blended.primitives) {
+    shape.insert(shape.end(), {bp.skinned, bp.positions.size(), bp.normals.size(), bp.tangents.size()});
+  }
+}
+
+uint32_t ReadU32(const std::string& s, size_t at) {
+  uint32_t v;
+  std::memcpy(&v, s.data() + at, 4);
+  return v;
+}
+
+void AppendU32(std::string& s, uint32_t v) { s.append(reinterpret_cast<const char*>(&v), 4); }
+
+// The template from one full export: its JSON, its binary chunk, and where each blended
+// attribute lies in the binary chunk (meshes and primitives in the order ExportGlb writes them).
+Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t);
+
+// The same, with a JSON member of an unexpected type (nlohmann's exceptions) as a failure.
+Status MakeTemplateOrFail(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
+  try {
+    return MakeTemplate(glb, rig, blended, t);
+  } catch (const nlohmann::json::exception& e) {
+    return Internal(std::string("glb template: ") + e.what());
+  }
+}
+
+Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
+  if (glb.size() < 20 || glb.compare(0, 4, "glTF") != 0) return Internal("glb template: not a glb");
+  const size_t json_bytes = ReadU32(glb, 12);
+  if (20 + json_bytes > glb.size()) return Internal("glb template: JSON chunk");
+  t.json = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + static_cast<std::ptrdiff_t>(json_bytes), nullptr, false);
+  if (t.json.is_discarded()) return Internal("glb template: JSON");
+  t.bin = 28 + json_bytes <= glb.size() ? glb.substr(28 + json_bytes) : std::string();
+  t.attributes.clear();
+  // Read through a const view: a member the glb lacks (a rig without meshes) must not be added.
+  const nlohmann::json& root = t.json;
+  static const nlohmann::json kNone = nlohmann::json::array();
+  auto member = [&root](const char* key) -> const nlohmann::json& { return root.contains(key) ? root.at(key) : kNone; };
+  const nlohmann::json& meshes = member("meshes");
+  const nlohmann::json& accessors = member("accessors");
+  const nlohmann::json& views = member("bufferViews");
+  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
+    const std::vector<int>& prims = rig.meshes[mi].primitives;
+    for (size_t k = 0; k < prims.size(); ++k) {
+      const BlendedPrimitive& bp = blended.primitives[prims[k]];
+      const nlohmann::json& attributes = meshes.at(mi).at("primitives").at(k).at("attributes");
+      const char* names[] = {"POSITION", "NORMAL", "TANGENT"};
+      const size_t bytes[] = {bp.positions.size() * 4, bp.normals.size() * 4, bp.tangents.size() * 4};
+      for (int kind = 0; kind < 3; ++kind) {
+        if (!attributes.contains(names[kind])) continue;
+        const int a = attributes[names[kind]].get<int>();
+        const nlohmann::json& view = views.at(accessors.at(a).at("bufferView").get<size_t>());
+        const size_t offset = view.value("byteOffset", size_t{0});
+        if (view.at("byteLength").get<size_t>() != bytes[kind] || offset + bytes[kind] > t.bin.size()) {
+          return Internal("glb template: attribute sizes");
+        }
+        t.attributes.push_back({static_cast<size_t>(prims[k]), kind, offset, kind == 0 ? a : -1});
+      }
+    }
+  }
+  t.posed_nodes = blended.posed && blended.node_world.size() == rig.nodes.size();
+  return Status::Ok();
+}
+
+}  // namespace
+
+GlbVariantWriter::GlbVariantWriter() : t_(std::make_unique<GlbTemplate>()) {}
+GlbVariantWriter::~GlbVariantWriter() = default;
+GlbVariantWriter::GlbVariantWriter(GlbVariantWriter&&) noexcept = default;
+GlbVariantWriter& GlbVariantWriter::operator=(GlbVariantWriter&&) noexcept = default;
+
+Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const BlendedRig& blended,
+                                                         std::span<const float> weights,
+                                                         std::span<const Warning> warnings, const ExportOptions& options) {
+  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
+  GlbTemplate& t = *t_;
+  if (options.keep_targets) {
+    auto glb = ExportGlb(rig, blended, weights, warnings, options);
+    if (!glb.ok()) return glb.status();
+    t.whole = std::move(glb.value());
+    return Pieces{t.whole, {}};
+  }
+  GlbShape(rig, blended, t.probe);
+  if (t.rig != &rig || t.shape != t.probe) {
+    // The first variant of this shape: exported whole, and kept as the template (when its
+    // layout is the one expected; otherwise every call exports whole).
+    auto glb = ExportGlb(rig, blended, weights, warnings, options);
+    if (!glb.ok()) return glb.status();
+    t.rig = nullptr;
+    t.whole = std::move(glb.value());
+    if (MakeTemplateOrFail(t.whole, rig, blended, t).ok()) {
+      t.rig = &rig;
+      t.shape = t.probe;
+    }
+    return Pieces{t.whole, {}};
+  }
+  // Later variants: what the blend changes, patched into the template.
+  auto extras = AssetExtras(rig, weights, warnings, options);
+  if (!extras.ok()) return extras.status();
+  AsTinygltfWrites(extras.value(), t.json["asset"]["extras"]);
+  for (const GlbTemplate::Attribute& a : t.attributes) {
+    const BlendedPrimitive& bp = blended.primitives[a.primitive];
+    const std::vector<float>& values = a.kind == 0 ? bp.positions : a.kind == 1 ? bp.normals : bp.tangents;
+    std::memcpy(t.bin.data() + a.offset, values.data(), values.size() * 4);
+    if (a.accessor >= 0) {  // An attribute's accessor: the template has "accessors".
+      FloatBounds(values, 3, values.size() / 3, t.lo, t.hi);
+      nlohmann::json& accessor = t.json["accessors"][a.accessor];
+      accessor["min"] = t.lo;
+      accessor["max"] = t.hi;
+    }
+  }
+  if (t.posed_nodes && !rig.nodes.empty()) {
+    nlohmann::json& nodes = t.json["nodes"];
+    for (size_t i = 0; i < rig.nodes.size(); ++i) nodes[i]["matrix"] = PosedLocalMatrix(rig, blended, i);
+  }
+  // The glb header and chunk headers as tinygltf writes them (JSON padded with spaces).
+  const std::string text = t.json.dump();
+  const size_t padded = (text.size() + 3) & ~size_t{3};
+  t.head.clear();
+  t.head += "glTF";
+  AppendU32(t.head, 2);
+  AppendU32(t.head, static_cast<uint32_t>(12 + 8 + padded + (t.bin.empty() ? 0 : 8 + t.bin.size())));
+  AppendU32(t.head, static_cast<uint32_t>(padded));
+  AppendU32(t.head, 0x4E4F534A);
+  t.head += text;
+  t.head.append(padded - text.size(), ' ');
+  if (!t.bin.empty()) {
+    AppendU32(t.head, static_cast<uint32_t>(t.bin.size()));
+    AppendU32(t.head, 0x004E4942);
+  }
+  return Pieces{t.head, t.bin};
+}
+
+
+}  // namespace facespace

@@ -1,0 +1,31 @@
+// Shared by the exporters' files (text.cpp, glb.cpp, export.cpp). Private to formats.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "facespace/formats/io.h"
+
+namespace facespace::writers {
+
+// `s` as a JSON string (invalid UTF-8 replaced).
+std::string JsonString(const std::string& s);
+
+// The whole JSON, OBJ and f32 bodies (ExportMesh's).
+std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space);
+std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space);
+std::string ExportF32(const BlendedRig& blended, bool mesh_space);
+Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
+                              std::span<const Warning> warnings, const ExportOptions& options);
+
+// A primitive's node transform, or the identity in mesh space.
+const std::array<float, 16>& Placement(const BlendedPrimitive& b, bool mesh_space);
+
+// One primitive's placed positions into `at` and its placed normals into `normals_at` (text.cpp says
+// more): ExportF32's and F32Blender's placement, so both write the same bits.
+void WritePlaced(std::span<const float> positions, std::span<const float> normals, const std::array<float, 16>& m, char* at,
+                 char* normals_at, const uint64_t* unit_first = nullptr);
+
+}  // namespace facespace::writers
