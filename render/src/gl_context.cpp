@@ -36,7 +36,7 @@ void main() {
 }
 )";
 
-// One program per variant (Context::Program): MODE (0 shaded with the material, 1 flat colour,
+// One program per variant (GlContext::Program): MODE (0 shaded with the material, 1 flat colour,
 // 2 heatmap, 3 normals, 4 clay), ALPHA_MODE (0 opaque, 1 mask, 2 blend) and HAS_* (the material's
 // textures) are defined before this text. llvmpipe runs both sides of every branch with masks,
 // so one program branching on uniforms paid for every mode and every texture on each fragment.
@@ -221,12 +221,12 @@ uint64_t TextureKey(std::span<const unsigned char> bytes, bool srgb_data) {
 }
 
 
-Context::~Context() {
+GlContext::~GlContext() {
   if (ctx) OSMesaDestroyContext(ctx);
 }
 
 // Creates the context and makes it current on the calling thread.
-bool Context::Init() {
+bool GlContext::Init() {
   const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                          OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
   ctx = OSMesaCreateContextAttribs(attribs, nullptr);
@@ -250,13 +250,13 @@ bool Context::Init() {
   return true;
 }
 
-bool Context::MakeCurrent() {
+bool GlContext::MakeCurrent() {
   if (OSMesaMakeCurrent(ctx, dummy.data(), GL_UNSIGNED_BYTE, 16, 16)) return true;
   error = "OSMesaMakeCurrent failed";
   return false;
 }
 
-GLuint Context::Compile(GLenum type, const char* src) {
+GLuint GlContext::Compile(GLenum type, const char* src) {
   const GLuint s = glCreateShader(type);
   glShaderSource(s, 1, &src, nullptr);
   glCompileShader(s);
@@ -273,7 +273,7 @@ GLuint Context::Compile(GLenum type, const char* src) {
 
 // The fragment program of one variant (ShaderKey), compiled and linked on first use; 0 and
 // `error` when it fails.
-GLuint Context::Program(int key) {
+GLuint GlContext::Program(int key) {
   for (const auto& [k, p] : programs) {
     if (k == key) return p;
   }
@@ -303,7 +303,7 @@ GLuint Context::Program(int key) {
 // After a large render (over 1024 x 1024 samples: 20 bytes a sample in the targets, 16 in the
 // read-back) its targets and read-back are let go, so a context does not keep hundreds of
 // megabytes, or gigabytes, for the next, likely smaller, render.
-void Context::TrimLarge() {
+void GlContext::TrimLarge() {
   constexpr long long kKept = 1024LL * 1024;
   for (Target& t : targets) {
     if (t.fbo && static_cast<long long>(t.w) * t.h > kKept) {
@@ -317,7 +317,7 @@ void Context::TrimLarge() {
 }
 
 // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h.
-void Context::BindTarget(int w, int h, bool srgb8) {
+void GlContext::BindTarget(int w, int h, bool srgb8) {
   Target& t = targets[srgb8 ? 1 : 0];
   if (w != t.w || h != t.h || !t.fbo) {
     if (t.fbo) {
@@ -346,7 +346,7 @@ void Context::BindTarget(int w, int h, bool srgb8) {
 
 // The GL texture of an encoded image, decoded once per thread (a few kept).
 // Colour maps are sRGB (sampled as linear), data maps (normals, roughness, occlusion) linear.
-GLuint Context::TextureFor(const facespace::Image& image, bool srgb_data) {
+GLuint GlContext::TextureFor(const facespace::Image& image, bool srgb_data) {
   const uint64_t key = TextureKey(image.bytes, srgb_data);
   for (auto it = textures.begin(); it != textures.end(); ++it) {
     if (it->key == key) {

@@ -34,7 +34,7 @@ struct Texture {
 };
 
 // Everything GL of one context. Current on one thread at a time: the thread that leased it.
-struct Context {
+struct GlContext {
   OSMesaContext ctx = nullptr;
   std::vector<unsigned char> dummy = std::vector<unsigned char>(16 * 16 * 4);
   GLuint vertex_shader = 0, vao = 0, vbo = 0, ibo = 0;
@@ -55,7 +55,7 @@ struct Context {
   std::string error;
   std::string info;
 
-  ~Context();
+  ~GlContext();
 
   // Creates the context and makes it current on the calling thread.
   bool Init();
@@ -81,7 +81,7 @@ struct Context {
   GLuint TextureFor(const facespace::Image& image, bool srgb_data);
 };
 
-// A fragment program variant (Context::Program): the mode in bits 0-2, the alpha mode in 3-4,
+// A fragment program variant (GlContext::Program): the mode in bits 0-2, the alpha mode in 3-4,
 // then a bit per texture the material has (base colour, metal-rough, normal, occlusion, emissive).
 int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5]);
 
@@ -97,21 +97,21 @@ class OsMesaRenderer::ContextPool {
  public:
   class Lease {
    public:
-    Lease(ContextPool* pool, std::unique_ptr<Context> context) : pool_(pool), context_(std::move(context)) {}
+    Lease(ContextPool* pool, std::unique_ptr<GlContext> context) : pool_(pool), context_(std::move(context)) {}
     Lease(Lease&&) = default;
     ~Lease() {
       if (context_) pool_->Release(std::move(context_));
     }
-    Context* get() const { return context_.get(); }
+    GlContext* get() const { return context_.get(); }
 
    private:
     ContextPool* pool_;
-    std::unique_ptr<Context> context_;
+    std::unique_ptr<GlContext> context_;
   };
 
   // A context current on this thread, or the reason there is none.
   Result<Lease> Acquire() {
-    std::unique_ptr<Context> context;
+    std::unique_ptr<GlContext> context;
     {
       // First come, first served: a ticket each, so no render waits behind later ones.
       std::unique_lock lock(mu_);
@@ -135,7 +135,7 @@ class OsMesaRenderer::ContextPool {
     // faster than drawing on the calling thread (LP_NUM_THREADS=0), alone and under load
     // (figures in tests/bench/README.md).
     std::call_once(env_once_, [] { setenv("LP_NUM_THREADS", std::to_string(RasterThreads()).c_str(), 0); });
-    context = std::make_unique<Context>();
+    context = std::make_unique<GlContext>();
     if (context->Init()) return Lease(this, std::move(context));
     const std::string error = context->error;
     context.reset();
@@ -156,7 +156,7 @@ class OsMesaRenderer::ContextPool {
   int Limit() const { return limit_ > 0 ? limit_ : cores_; }
 
  private:
-  void Release(std::unique_ptr<Context> context) {
+  void Release(std::unique_ptr<GlContext> context) {
     OSMesaMakeCurrent(nullptr, nullptr, 0, 0, 0);  // Free to be made current on another thread.
     std::lock_guard lock(mu_);
     if (live_ > Limit()) {
@@ -176,7 +176,7 @@ class OsMesaRenderer::ContextPool {
 
   std::mutex mu_;
   std::condition_variable cv_;
-  std::vector<std::unique_ptr<Context>> idle_;
+  std::vector<std::unique_ptr<GlContext>> idle_;
   int live_ = 0;    // Contexts created and not destroyed: idle or leased.
   int limit_ = 0;   // 0: one per core.
   const int cores_ = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));  // Asked once: a syscall.

@@ -82,10 +82,10 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   // then exist for at most Concurrency() renders at once, however many requests wait.
   auto lease = pool_->Acquire();
   if (!lease.ok()) return lease.status();
-  Context& gl = *lease.value().get();
+  GlContext& gl = *lease.value().get();
   const int w = o.width * o.supersample, h = o.height * o.supersample;
   struct Trim {  // Before the lease lets the context go: it is still current here.
-    Context& gl;
+    GlContext& gl;
     ~Trim() { gl.TrimLarge(); }
   } trim{gl};
 

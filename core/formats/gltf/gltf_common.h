@@ -4,6 +4,7 @@
 #include <tiny_gltf.h>
 
 #include <cstdint>
+#include <cstring>
 #include <nlohmann/json.hpp>
 #include <span>
 
@@ -14,8 +15,12 @@
 
 namespace facespace {
 
-// Glb bytes (a file's) with what its JSON lists.
-uint32_t ReadU32(const unsigned char* p);
+// A little-endian u32 (glb headers, index buffers).
+inline uint32_t ReadU32(const unsigned char* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
 constexpr size_t kMaxElements = size_t{1} << 28;  // Per accessor; far beyond any real rig.
 
 // Whether the JSON array `key` of `j` holds the string `value`.

@@ -11,12 +11,6 @@ namespace facespace {
 
 using nlohmann::json;
 
-uint32_t ReadU32(const unsigned char* p) {
-  uint32_t v;
-  std::memcpy(&v, p, 4);
-  return v;
-}
-
 bool ListHas(const json& j, const char* key, const std::string& value) {
   auto it = j.find(key);
   if (it == j.end() || !it->is_array()) return false;
