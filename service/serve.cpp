@@ -276,6 +276,10 @@ int Serve(const std::vector<std::string>& args) {
     std::fprintf(stderr, "facespace: cannot create the store '%s': %s\n", store_dir.c_str(), ec.message().c_str());
     return 1;
   }
+  if (const std::string problem = render::ImageModuleProblem(); !problem.empty()) {
+    std::fprintf(stderr, "facespace: warning: %s: renders draw without textures or labels, and only PNG and WebP are written\n",
+                 problem.c_str());
+  }
   FileRigStore store(store_dir, read_only);
   store.SetUploadLimits(c.max_vertices, c.max_shapes);
   auto loaded = store.LoadAll();

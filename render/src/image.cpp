@@ -441,6 +441,10 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
   return std::string(bytes.begin(), bytes.end());
 }
 
+std::string ImageModuleProblem() {
+  return oiio::Locate().empty() ? "the image module libfacespace_oiio.so is neither beside the executable nor in the build" : "";
+}
+
 Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type) {
   const char* name = nullptr;
   if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P') name = "image.png";

@@ -4,6 +4,7 @@
 
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "oiio_module.h"
 
@@ -20,7 +21,16 @@ std::string ModulePathBesideExecutable() {
   return path.substr(0, path.rfind('/') + 1) + "libfacespace_oiio.so";
 }
 
+std::vector<std::string> Candidates() { return {ModulePathBesideExecutable(), FACESPACE_OIIO_MODULE}; }
+
 }  // namespace
+
+std::string Locate() {
+  for (const std::string& path : Candidates()) {
+    if (!path.empty() && access(path.c_str(), R_OK) == 0) return path;
+  }
+  return "";
+}
 
 const Api* Load(std::string* error) {
   static std::once_flag once;
@@ -28,7 +38,7 @@ const Api* Load(std::string* error) {
   static std::string failure;
   std::call_once(once, [] {
     void* handle = nullptr;
-    for (const std::string& path : {ModulePathBesideExecutable(), std::string(FACESPACE_OIIO_MODULE)}) {
+    for (const std::string& path : Candidates()) {
       if (!path.empty() && (handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL))) break;
       if (const char* e = dlerror()) failure = e;
     }

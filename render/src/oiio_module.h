@@ -41,6 +41,10 @@ struct Api {
 // The module, loaded once (thread-safe); nullptr with the reason in `error` when it cannot be.
 const Api* Load(std::string* error);
 
+// Where Load will find the module, without loading it (OpenImageIO's start-up cost); empty when it is
+// in neither place.
+std::string Locate();
+
 }  // namespace facespace::render::oiio
 
 // The module's one entry point.

@@ -135,6 +135,11 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality =
 // linear RGBA (for tests and textures).
 Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type = "");
 
+// Empty when the image module (OpenImageIO: formats other than PNG and WebP, textures, text) is where
+// it is looked for, else what is missing. A server asks at start, so a missing module is said at once;
+// it is opened on first use.
+std::string ImageModuleProblem();
+
 // Draws text (DejaVu Sans, sRGB colour) at pixel (x, y) = baseline start. False if no font.
 bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb);
 
