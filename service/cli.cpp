@@ -44,18 +44,6 @@ Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
 
 }  // namespace
 
-std::vector<std::string> SplitList(const std::string& value) {
-  std::vector<std::string> items;
-  size_t start = 0;
-  while (start <= value.size()) {
-    size_t end = value.find(',', start);
-    if (end == std::string::npos) end = value.size();
-    if (end > start) items.push_back(value.substr(start, end - start));
-    start = end + 1;
-  }
-  return items;
-}
-
 void PrintStatus(const Status& s) {
   if (s.fields.size() == 1 && !s.fields[0].pointer.empty() && s.message.rfind(s.fields[0].pointer, 0) != 0) {
     std::fprintf(stderr, "error: %s: %s\n", s.fields[0].pointer.c_str(), s.fields[0].message.c_str());
@@ -84,13 +72,6 @@ Result<Rig> LoadAndReport(const std::vector<std::string>& paths) {
   if (!loaded.ok()) PrintStatus(loaded.status());
   else PrintWarnings(loaded->load_warnings);
   return loaded;
-}
-
-bool ReadFile(const std::string& path, std::string& out) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) return false;
-  out.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  return true;
 }
 
 // Writes atomically: a temporary file beside the target, then rename.

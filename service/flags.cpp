@@ -3,6 +3,8 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 
 #include "cli.h"
 
@@ -133,6 +135,26 @@ bool ReadAtFile(const std::string& flag, const std::string& value, std::string& 
   if (ReadFile(value.substr(1), text)) return true;
   std::fprintf(stderr, "error: %s: cannot read '%s'\n", flag.c_str(), value.substr(1).c_str());
   return false;
+}
+
+// The argument helpers cli.h declares that flags use too: kept here so the parser stands alone (tests/service).
+std::vector<std::string> SplitList(const std::string& value) {
+  std::vector<std::string> items;
+  size_t start = 0;
+  while (start <= value.size()) {
+    size_t end = value.find(',', start);
+    if (end == std::string::npos) end = value.size();
+    if (end > start) items.push_back(value.substr(start, end - start));
+    start = end + 1;
+  }
+  return items;
+}
+
+bool ReadFile(const std::string& path, std::string& out) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) return false;
+  out.assign((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return true;
 }
 
 }  // namespace facespace::cli
