@@ -460,7 +460,7 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   if (!api) return Internal(error);
   oiio::Decoded decoded;
   if (!api->decode(bytes.data(), bytes.size(), name, 16384, &decoded, &error)) {
-    return InvalidArgument(error == "image size out of range" ? error : "cannot decode the image: " + error);
+    return InvalidArgument(error);
   }
   const std::vector<float>& px = decoded.pixels;
   const bool linear = std::strcmp(name, "image.exr") == 0;

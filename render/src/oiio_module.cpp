@@ -39,7 +39,7 @@ bool Decode(const unsigned char* bytes, size_t size, const char* name, int max_s
   OIIO::Filesystem::IOMemReader proxy(bytes, size);
   auto in = OIIO::ImageInput::open(name, nullptr, &proxy);
   if (!in) {
-    *error = OIIO::geterror();
+    *error = "cannot decode the image: " + OIIO::geterror();
     return false;
   }
   const OIIO::ImageSpec& spec = in->spec();
@@ -52,7 +52,7 @@ bool Decode(const unsigned char* bytes, size_t size, const char* name, int max_s
   out->channels = spec.nchannels;
   out->pixels.resize(static_cast<size_t>(spec.width) * spec.height * spec.nchannels);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, out->pixels.data())) {
-    *error = in->geterror();
+    *error = "cannot decode the image: " + in->geterror();
     return false;
   }
   return true;

@@ -30,7 +30,8 @@ struct Decoded {
 
 struct Api {
   bool (*encode)(const EncodeArgs& args, std::vector<unsigned char>* out, std::string* error);
-  // Refuses (false, with the reason) an image with a side over `max_side` before reading its pixels.
+  // False with the message for the client ("image size out of range", "cannot decode the image: ...");
+  // an image with a side over `max_side` is refused before its pixels are read.
   bool (*decode)(const unsigned char* bytes, size_t size, const char* name, int max_side, Decoded* out, std::string* error);
   // The box text of `size` pixels at the origin takes, {xbegin, ybegin, xend, yend}; false when unknown.
   bool (*text_box)(const std::string& text, int size, const std::string& font, int box[4]);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <iterator>
+#include <unordered_map>
 
 #include "common/bezier.h"
 #include "common/split_mesh.h"
@@ -127,6 +128,25 @@ Status ReadElement(const FNode& geom, const Object& o, std::string_view element,
   out.present = true;
   return Status::Ok();
 }
+
+namespace {
+
+// A vertex of a split mesh: the control point and the attribute slots its corner reads.
+struct VertexKey {
+  int64_t point, normal, uv, color;
+  bool operator==(const VertexKey& o) const { return point == o.point && normal == o.normal && uv == o.uv && color == o.color; }
+};
+struct VertexKeyHash {
+  size_t operator()(const VertexKey& k) const {
+    uint64_t h = static_cast<uint64_t>(k.point) * 0x9E3779B97F4A7C15ull;
+    h ^= static_cast<uint64_t>(k.normal) + 0x7F4A7C159E3779B9ull + (h << 6) + (h >> 2);
+    h ^= static_cast<uint64_t>(k.uv) + 0x94D049BB133111EBull + (h << 6) + (h >> 2);
+    h ^= static_cast<uint64_t>(k.color) + 0xBF58476D1CE4E5B9ull + (h << 6) + (h >> 2);
+    return static_cast<size_t>(h);
+  }
+};
+
+}  // namespace
 
 Status SplitGeometry(const Object& o, const Mat4& geometric, std::vector<Warning>& warnings, SplitMesh& out) {
   const FNode& g = *o.node;
