@@ -9,7 +9,6 @@ namespace facespace::render {
 
 namespace {
 
-
 const char* kVertexShader = R"(#version 330 core
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
@@ -219,7 +218,6 @@ uint64_t TextureKey(std::span<const unsigned char> bytes, bool srgb_data) {
   for (size_t i = std::max(edge, size - edge); i < size; i += 8) mix(word_at(i));
   return key;
 }
-
 
 GlContext::~GlContext() {
   if (ctx) OSMesaDestroyContext(ctx);

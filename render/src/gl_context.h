@@ -85,7 +85,6 @@ struct GlContext {
 // then a bit per texture the material has (base colour, metal-rough, normal, occlusion, emissive).
 int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5]);
 
-
 // llvmpipe's rasteriser threads per context: one per core, at most 16 (llvmpipe's own limit).
 int RasterThreads();
 

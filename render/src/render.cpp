@@ -33,7 +33,6 @@ float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 
 
 }  // namespace
 
-
 namespace {
 constexpr EnumName<View> kViews[] = {
     {View::kShaded, "shaded"}, {View::kWireframe, "wireframe"}, {View::kHeatmap, "heatmap"}, {View::kNormals, "normals"},

@@ -55,7 +55,6 @@ struct Source {
 
 Mat4 RowMajor(const double* v);
 
-
 class Reader {
  public:
   explicit Reader(const pugi::xml_document& doc, std::string name) : doc_(doc) { rig_.name = std::move(name); }

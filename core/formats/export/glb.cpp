@@ -606,5 +606,4 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
   return Pieces{t.head, t.bin};
 }
 
-
 }  // namespace facespace

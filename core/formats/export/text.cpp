@@ -234,7 +234,6 @@ std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
   return out;
 }
 
-
 }  // namespace writers
 
 }  // namespace facespace

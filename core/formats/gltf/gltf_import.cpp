@@ -39,7 +39,6 @@ bool NoWrite(std::string*, const std::string&, const std::vector<unsigned char>&
 
 }  // namespace
 
-
 namespace {
 
 // ---- model -> rig -------------------------------------------------------------------------

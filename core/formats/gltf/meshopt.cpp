@@ -122,7 +122,6 @@ void ListRemove(json& j, const char* key, const std::string& value) {
   }
 }
 
-
 std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin) {
   std::string j = json_text;
   while (j.size() % 4) j.push_back(' ');
