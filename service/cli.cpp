@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/api/describe.h"
-#include "facespace/api/pipeline.h"
+#include "facespace/api/evaluator.h"
 #include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/lod.h"
@@ -238,18 +238,18 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   flags.Value("--lod", "0-4", "level of detail: about 1/2^L of the triangles", pose_setting("--lod"));
 }
 
-// Replaces the rig by its level of detail `lod` (0: unchanged); false (reported) on failure.
-bool ApplyLod(Result<Rig>& rig, int lod) {
+// Says what the level of detail `lod` of `rig` kept (0: nothing to say); false (reported) when it
+// cannot be made.
+bool ReportLod(const api::Evaluator& evaluator, const std::shared_ptr<const api::StoredRig>& rig, int lod) {
   if (lod == 0) return true;
-  LodReport report;
-  auto made = MakeLod(rig.value(), lod, &report);
-  if (!made.ok()) {
-    PrintStatus(made.status());
+  const auto derived = evaluator.Derived(rig, lod);
+  if (!derived) {
+    std::fprintf(stderr, "error: the level of detail %d cannot be made\n", lod);
     return false;
   }
-  std::fprintf(stderr, "lod %d: %zu of %zu triangles, %zu of %zu vertices\n", lod, report.triangles_after, report.triangles_before,
-               report.vertices_after, report.vertices_before);
-  rig = std::move(made.value());
+  const Rig& at = *derived->rig;
+  std::fprintf(stderr, "lod %d: %zu of %zu triangles, %zu of %zu vertices\n", lod, at.triangle_count(), rig->rig.triangle_count(),
+               at.vertex_count(), rig->rig.vertex_count());
   return true;
 }
 
@@ -316,14 +316,17 @@ int Blend(const std::vector<std::string>& args) {
   }
 
   Result<Rig> loaded = LoadAndReport(paths);
-  if (!loaded.ok() || !ApplyLod(loaded, request.lod)) return 1;
-  const Rig& rig = loaded.value();
+  if (!loaded.ok()) return 1;
+  const auto rig = api::Unstored(std::move(loaded.value()));
+  const render::NullRenderer renderer;
+  const api::Evaluator evaluator(renderer);
+  if (!ReportLod(evaluator, rig, request.lod)) return 1;
   if (std::string e = api::FinishPoseSettings(request); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
   api::Workspace ws;
-  return WriteProduced(out_path, api::ProduceMesh(rig, request, format, ws));
+  return WriteProduced(out_path, api::ProduceMesh(evaluator, rig, request, format, ws));
 }
 
 namespace {
@@ -393,16 +396,18 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     return 2;
   }
   Result<Rig> loaded = LoadAndReport(paths);
-  if (!loaded.ok() || !ApplyLod(loaded, r.mesh.lod)) return 1;
-  const Rig& rig = loaded.value();
+  if (!loaded.ok()) return 1;
+  const auto rig = api::Unstored(std::move(loaded.value()));
+  const render::OsMesaRenderer renderer(1);
+  const api::Evaluator evaluator(renderer);
+  if (!ReportLod(evaluator, rig, r.mesh.lod)) return 1;
   if (std::string e = api::FinishPoseSettings(r.mesh); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
-  const render::OsMesaRenderer renderer(1);
   api::Workspace ws;
   if (!sheet) {
-    return WriteProduced(out_path, api::ProduceImage(rig, r, format, renderer, ws));
+    return WriteProduced(out_path, api::ProduceImage(evaluator, rig, r, format, ws));
   } else {
     // Cells: a JSON array, or one JSON object per line.
     const bool shape_cells = cells_text == "shapes" || cells_text.starts_with("shapes:");
@@ -431,12 +436,12 @@ int Render(const std::vector<std::string>& args, bool sheet) {
       return 1;
     }
     api::SheetRequest& request = parsed.value();
-    if (Status s = api::ExpandShapeCells(rig, request); !s.ok()) {
+    if (Status s = api::ExpandShapeCells(rig->rig, request); !s.ok()) {
       PrintStatus(s);
       return 1;
     }
     request.base = r;  // The render settings, blend options and pose of the flags; the cells' weights.
-    return WriteProduced(out_path, api::ProduceSheet(rig, request, format, renderer, ws));
+    return WriteProduced(out_path, api::ProduceSheet(evaluator, rig, request, format, ws));
   }
 }
 

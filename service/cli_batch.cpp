@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-#include "batch.h"
+#include "facespace/batch/run.h"
 #include "cli.h"
 #include "flags.h"
 
@@ -120,16 +120,17 @@ int Merge(const std::vector<std::string>& args) {
   }
   Result<Rig> rig = LoadAndReport(rig_paths);
   if (!rig.ok()) return 1;
-  auto plan = api::MakeBatchPlan(api::UnownedRig(rig.value()), spec["rig_version"].get<std::string>(),
-                                 spec["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  auto plan = batch::MakeBatchPlan(api::Unstored(std::move(rig.value()), spec["rig_version"].get<std::string>()),
+                                   spec["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return 1;
   }
   const render::OsMesaRenderer renderer(0);
+  const api::Evaluator evaluator(renderer);
   batch::MergeOptions options;
   options.dir = dir;
-  options.renderer = &renderer;
+  options.evaluator = &evaluator;
   options.sheet_cells = sheet_cells;
   options.verify = verify;
   auto merged = batch::Merge(plan.value(), options);
@@ -344,7 +345,8 @@ int Batch(const std::vector<std::string>& args) {
   ReadFile(paths[0], bytes);
   const std::string_view whole[] = {bytes};
   const std::string version = batch::Sha256Hex(whole);
-  auto plan = api::MakeBatchPlan(api::UnownedRig(rig.value()), version, request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  auto plan = batch::MakeBatchPlan(api::Unstored(std::move(rig.value()), version),
+                                   request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return plan.status().code == StatusCode::kInvalidArgument ? 2 : 1;
@@ -355,8 +357,9 @@ int Batch(const std::vector<std::string>& args) {
   sigaction(SIGTERM, &sa, nullptr);
   ProgressBar bar;
   const render::OsMesaRenderer renderer(run.jobs);
+  const api::Evaluator evaluator(renderer);
   run.dir = out_dir;
-  run.renderer = &renderer;
+  run.evaluator = &evaluator;
   run.cancel = &g_interrupted;
   if (!quiet) run.progress = [&bar](const batch::Progress& p) { bar(p); };
   auto summary = batch::Run(plan.value(), run);

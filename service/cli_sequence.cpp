@@ -12,7 +12,7 @@
 
 #include "cli.h"
 #include "flags.h"
-#include "facespace/api/pipeline.h"
+#include "facespace/api/evaluator.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"
@@ -128,7 +128,8 @@ int Sequence(const std::vector<std::string>& args) {
     std::fprintf(stderr, "error: %s\n", loaded.status().message.c_str());
     return 1;
   }
-  const Rig& rig = loaded.value();
+  const auto stored = api::Unstored(std::move(loaded.value()));
+  const Rig& rig = stored->rig;
 
   // The sequence.
   facespace::Sequence seq;
@@ -246,9 +247,11 @@ int Sequence(const std::vector<std::string>& args) {
     for (size_t k = 0; k < frames; ++k) times.push_back(seq.keys.front().time + static_cast<float>(k) / fps);
   }
   std::vector<Warning> warnings;
+  const render::NullRenderer renderer;
+  const api::Evaluator evaluator(renderer);
   api::Workspace ws;
   if (format == "json") {
-    auto body = api::SampleSequenceJson(rig, seq, times, options, warnings, ws);
+    auto body = api::SampleSequenceJson(evaluator, stored, seq, times, options, warnings, ws);
     WarningSummary summary;  // Each warning of the list is one frame's (they are in the body, by frame).
     for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
     summary.Print(times.size());
@@ -262,26 +265,23 @@ int Sequence(const std::vector<std::string>& args) {
   ParseMeshFormat(format, &mf);
   api::MeshRequest frame;
   frame.options = options;
-  api::Point point;
+  const api::OutputSpec spec = api::OutputSpec::Mesh(frame, mf);
+  api::ResolvedPoint point;
   Progress progress(times.size());
   WarningSummary summary;
   for (size_t k = 0; k < times.size(); ++k) {
     api::SequencePoint(rig, seq, times[k], options.mode, point);
     summary.Add(point.report.warnings);
-    auto bytes = api::EncodeMesh(rig, point, frame, mf, ws);
+    auto bytes = evaluator.Run(stored, point, spec, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
     char name[64];
     std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, format.c_str());
-    if (!WriteOutput(out + name, bytes.value())) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
+    if (!WriteOutput(out + name, bytes->bytes)) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
     progress.Step(k + 1);
   }
   summary.Print(times.size());
   return 0;
 }
-
-namespace {
-
-}  // namespace
 
 int FitCommand(const std::vector<std::string>& args) {
   std::vector<std::string> paths;

@@ -5,8 +5,8 @@
 
 #include "cli.h"
 #include "flags.h"
+#include "facespace/api/evaluator.h"
 #include "facespace/core/basis.h"
-#include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/shape_tools.h"
 
@@ -15,6 +15,20 @@ namespace facespace::cli {
 namespace {
 
 int AxisOf(const std::string& a) { return a == "x" ? 0 : a == "y" ? 1 : a == "z" ? 2 : -1; }
+
+// The rig itself as glb (every shape a sparse morph target), its default weights as the mesh's.
+Result<std::string> RigAsGlb(const std::shared_ptr<const api::StoredRig>& rig) {
+  api::ResolvedPoint defaults;
+  for (const Shape& s : rig->rig.shapes) defaults.weights.push_back(s.default_weight);
+  api::OutputSpec spec;
+  spec.mesh_format = MeshFormat::kGlb;
+  spec.keep_targets = true;
+  const render::NullRenderer renderer;
+  api::Workspace ws;
+  auto glb = api::Evaluator(renderer).Run(rig, defaults, spec, ws);
+  if (!glb.ok()) return glb.status();
+  return std::move(glb->bytes);
+}
 
 }  // namespace
 
@@ -53,18 +67,14 @@ int Mirror(const std::vector<std::string>& args) {
     return 1;
   }
   if (r->unmatched) std::fprintf(stderr, "warning: mirror_unmatched: %zu moved vertices have no mirror image and stay still\n", r->unmatched);
-  const Rig& result = rig.value();
-  std::vector<float> weights(result.shapes.size(), 0.0f);
-  for (size_t s = 0; s < weights.size(); ++s) weights[s] = result.shapes[s].default_weight;
-  BlendedRig blended;
-  BlendContext context;
-  if (Status s = EvaluateRig(result, weights, {}, blended, context); !s.ok()) {
-    PrintStatus(s);
+  const auto stored = api::Unstored(std::move(rig.value()));
+  const Rig& result = stored->rig;
+  auto glb = RigAsGlb(stored);
+  if (!glb.ok()) {
+    PrintStatus(glb.status());
     return 1;
   }
-  ExportOptions eo;
-  eo.keep_targets = true;
-  if (int rc = WriteResult(out, ExportMesh(result, blended, weights, {}, MeshFormat::kGlb, eo))) return rc;
+  if (int rc = WriteResult(out, glb.value())) return rc;
   std::fprintf(stderr, "mirror: '%s' -> '%s' (%zu vertices moved, %zu unmatched), %zu shapes in %s\n", shape.c_str(), as.c_str(),
                r->vertices_moved, r->unmatched, result.shapes.size(), out.c_str());
   return 0;
@@ -164,30 +174,21 @@ int Convert(const std::vector<std::string>& args) {
   const size_t slash = out.find_last_of('/');
   const std::string stem = out.substr(slash == std::string::npos ? 0 : slash + 1, out.rfind('.') - (slash == std::string::npos ? 0 : slash + 1));
   if (rig->name.empty() || !targets.empty()) rig->name = stem;
-  std::vector<float> weights(rig->shapes.size(), 0.0f);
-  for (size_t s = 0; s < weights.size(); ++s) weights[s] = rig->shapes[s].default_weight;
-  BlendedRig blended;
-  BlendContext context;
-  if (Status s = EvaluateRig(rig.value(), weights, {}, blended, context); !s.ok()) {
-    PrintStatus(s);
-    return 1;
-  }
-  ExportOptions eo;
-  eo.keep_targets = true;
-  auto bytes = ExportMesh(rig.value(), blended, weights, {}, MeshFormat::kGlb, eo);
+  const auto stored = api::Unstored(std::move(rig.value()));
+  auto bytes = RigAsGlb(stored);
   if (!bytes.ok()) {
     PrintStatus(bytes.status());
     return 1;
   }
   const std::string manifest_path = out.substr(0, out.rfind('.')) + ".manifest.json";
-  if (!WriteOutput(out, bytes.value()) || !WriteOutput(manifest_path, ManifestJson(rig.value()))) {
+  if (!WriteOutput(out, bytes.value()) || !WriteOutput(manifest_path, ManifestJson(stored->rig))) {
     std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str());
     return 1;
   }
   size_t moved = 0;
-  for (const Shape& s : rig->shapes) moved += s.vertices_moved;
+  for (const Shape& s : stored->rig.shapes) moved += s.vertices_moved;
   std::fprintf(stderr, "convert: %zu vertices, %zu triangles, %zu shapes (%zu moved vertices), %zu controls -> %s (%zu bytes), %s\n",
-               rig->vertex_count(), rig->triangle_count(), rig->shapes.size(), moved, rig->controls.size(), out.c_str(),
+               stored->rig.vertex_count(), stored->rig.triangle_count(), stored->rig.shapes.size(), moved, stored->rig.controls.size(), out.c_str(),
                bytes->size(), manifest_path.c_str());
   return 0;
 }

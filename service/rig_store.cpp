@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "durable.h"
+#include "facespace/batch/durable.h"
 #include "facespace/formats/io.h"
 
 namespace facespace {

@@ -20,8 +20,8 @@
 #include "cli.h"
 #include "flags.h"
 #include "facespace/api/http.h"
+#include "facespace/batch/queue.h"
 #include "facespace/render/render.h"
-#include "jobs.h"
 #include "rig_store.h"
 #include "web_assets.h"
 
@@ -55,7 +55,7 @@ struct ServeConfig {
   int render_threads = 0;    // GL contexts, i.e. renders drawing at once; 0: one per core.
   int read_timeout = 10;     // Seconds a client may take to send a request (slow clients are cut off).
   std::string jobs_dir;      // Default: $XDG_STATE_HOME/facespace/jobs or ~/.local/state/facespace/jobs.
-  JobLimits job_limits;
+  batch::JobLimits job_limits;
 };
 
 // $XDG_STATE_HOME/facespace/NAME, else ~/.local/state/facespace/NAME.
@@ -300,6 +300,7 @@ int Serve(const std::vector<std::string>& args) {
   if (c.jobs_dir.empty()) c.jobs_dir = DefaultJobsDir();
   // One renderer for every thread: its GL contexts are a bounded pool (--render-threads).
   render::OsMesaRenderer renderer(c.render_threads);
+  const api::Evaluator evaluator(renderer);
   // Instances sharing a store (a shared filesystem behind a balancer) see each other's uploads,
   // replacements and deletes within --store-poll: a stat per file per poll, a read only of what
   // moved. The job runner asks too, for the rig of a job another instance accepted.
@@ -314,7 +315,7 @@ int Serve(const std::vector<std::string>& args) {
       for (const std::string& id : *ids) std::fprintf(stderr, "facespace: store: rig '%s' %s on disk\n", id.c_str(), what);
     }
   };
-  FileJobQueue jobs(c.jobs_dir, store, renderer, c.job_limits, c.store_poll_ms > 0 ? c.store_poll_ms / 1000.0 : 1.0, refresh_store);
+  batch::FileJobQueue jobs(c.jobs_dir, store, evaluator, c.job_limits, c.store_poll_ms > 0 ? c.store_poll_ms / 1000.0 : 1.0, refresh_store);
   auto resumed = jobs.Start();
   if (!resumed.ok()) {
     std::fprintf(stderr, "facespace: %s\n", resumed.status().message.c_str());
@@ -353,7 +354,7 @@ int Serve(const std::vector<std::string>& args) {
   server.set_keep_alive_timeout(5);
   server.set_read_timeout(c.read_timeout, 0);
   server.set_write_timeout(10, 0);
-  api::Api api(store, renderer, options, &jobs);
+  api::Api api(store, evaluator, options, &jobs);
   api.Register(server);
   api_for_front = &api;
   // The character-creator page at /.

@@ -16,7 +16,7 @@
 #include <thread>
 
 #include "facespace/api/http.h"
-#include "facespace/api/pipeline.h"
+#include "facespace/api/evaluator.h"
 #include "memory_store.h"
 #include "test_util.h"
 
@@ -35,7 +35,7 @@ class ApiTest : public ::testing::Test {
     o.log_requests = false;
     o.max_render_size = 256;
     o.max_sheet_cells = 3;
-    api_ = new api::Api(*store_, null_, o);
+    api_ = new api::Api(*store_, evaluator_, o);
     // The server as `facespace serve` runs it: connections through the front.
     api::FrontOptions front;
     front.workers = 8;
@@ -105,6 +105,7 @@ class ApiTest : public ::testing::Test {
 
   static inline test::MemoryStore* store_ = nullptr;
   static inline render::NullRenderer null_;
+  static inline api::Evaluator evaluator_{null_};
   static inline api::Api* api_ = nullptr;
   static inline httplib::Server* server_ = nullptr;
   static inline std::thread* thread_ = nullptr;

@@ -32,6 +32,7 @@ class FuzzServer : public httplib::Server {
 struct Harness {
   facespace::test::MemoryStore store;
   facespace::render::OsMesaRenderer renderer{1};
+  facespace::api::Evaluator evaluator{renderer};
   FuzzServer server;
   std::unique_ptr<facespace::api::Api> api;
   Harness() {
@@ -43,7 +44,7 @@ struct Harness {
     o.cache_bytes = 1 << 20;
     o.log_requests = false;
     o.max_render_size = 32;  // Renders stay tiny: the fuzzer is after the parsing.
-    api = std::make_unique<facespace::api::Api>(store, renderer, o);
+    api = std::make_unique<facespace::api::Api>(store, evaluator, o);
     api->Register(server);
   }
 };

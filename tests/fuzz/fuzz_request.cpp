@@ -5,7 +5,7 @@
 #include <string>
 #include <string_view>
 
-#include "facespace/api/pipeline.h"
+#include "facespace/api/evaluator.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
@@ -21,9 +21,9 @@ const facespace::Rig& Rig(bool skinned) {
   return skinned ? man : face;
 }
 
-// The pipeline's first step (controls, pose, weights, checks), as every route takes it.
+// The evaluator's first step (controls, pose, weights, checks), as every route takes it.
 void Weigh(const facespace::Rig& rig, const facespace::api::MeshRequest& m) {
-  facespace::api::Point point;
+  facespace::api::ResolvedPoint point;
   facespace::api::ResolvePoint(rig, m, point);
 }
 

@@ -29,7 +29,7 @@ bool OriginAllowed(const ApiOptions& options, const std::string& origin) {
 
 }  // namespace
 
-bool Authorized(const Context& ctx, const httplib::Request& req, httplib::Response& res) {
+bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (ctx.options.api_key.empty()) {
     SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads and deletes are disabled");
     return false;
@@ -66,7 +66,7 @@ bool RefuseBeforeBody(const httplib::Request& req, httplib::Response& res) {
 
 }  // namespace
 
-bool PreRoute(const Context& ctx, const httplib::Request& req, httplib::Response& res) {
+bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   const std::string origin = req.get_header_value("Origin");
   const bool cors = !origin.empty() && OriginAllowed(ctx.options, origin);
   if (cors) {

@@ -6,7 +6,7 @@
 
 namespace facespace::api::http {
 
-std::shared_ptr<const Encoded> ResponseCache::Get(const std::string& key) {
+std::shared_ptr<const CachedResponse> ResponseCache::Get(const std::string& key) {
   Shard& s = ShardOf(key);
   std::lock_guard<std::mutex> lock(s.mu);
   auto it = s.map.find(key);
@@ -15,7 +15,7 @@ std::shared_ptr<const Encoded> ResponseCache::Get(const std::string& key) {
   return it->second->second;
 }
 
-void ResponseCache::Put(const std::string& key, std::shared_ptr<const Encoded> value) {
+void ResponseCache::Put(const std::string& key, std::shared_ptr<const CachedResponse> value) {
   const size_t size = value->body.size() + key.size();
   if (size > shard_cap_) return;
   Shard& s = ShardOf(key);
@@ -43,7 +43,7 @@ bool ResponseCache::SeenBefore(size_t hash) {
   return false;
 }
 
-bool ResponseCache::Offer(const std::string& key, std::shared_ptr<const Encoded> value, Admit admit) {
+bool ResponseCache::Offer(const std::string& key, std::shared_ptr<const CachedResponse> value, Admit admit) {
   if (admit == Admit::kSecondRequest && !SeenBefore(std::hash<std::string>()(key))) return false;
   Put(key, std::move(value));
   return true;
@@ -68,65 +68,7 @@ uint64_t Fnv1a(std::string_view s, uint64_t h = 1469598103934665603ull) {
   return h;
 }
 
-std::string FloatsCanonical(std::span<const float> v) {
-  std::string s;
-  for (float f : v) {
-    char buf[16];
-    std::snprintf(buf, sizeof buf, "%a,", static_cast<double>(f));
-    s += buf;
-  }
-  return s;
-}
-
-std::string OptionsCanonical(const BlendOptions& o) {
-  return std::string(o.mode == BlendMode::kAbsolute ? "abs" : "rel") + "|" + (o.normals == NormalMode::kRecompute ? "rec" : "bl");
-}
-
 }  // namespace
-
-std::string WeightsCanonical(std::span<const float> w) {
-  std::string s;
-  s.reserve(w.size() * 8);
-  for (float f : w) {
-    uint32_t bits;
-    std::memcpy(&bits, &f, 4);
-    if (f == 0.0f) bits = 0;  // -0 and 0 are the same weight.
-    for (int shift = 28; shift >= 0; shift -= 4) s += "0123456789abcdef"[(bits >> shift) & 15];  // "%08x", without printf's cost.
-  }
-  return s;
-}
-
-std::string PoseCanonical(const Point& point) {
-  if (!point.posed) return "";
-  const Pose& pose = point.pose;
-  std::string s = "|pose:";
-  for (size_t i = 0; i < pose.local.size(); ++i) {
-    if (pose.from_matrix[i]) {
-      s += "m,";
-      continue;
-    }
-    const Transform& t = pose.local[i];
-    s += FloatsCanonical(t.translation) + FloatsCanonical(t.rotation) + FloatsCanonical(t.scale);
-  }
-  return s;
-}
-
-std::string MeshCanonical(const MeshRequest& r, MeshFormat format, const Point& point) {
-  return PoseCanonical(point) + MeshFormatName(format) + (r.mesh_space ? "|mesh|" : "|") + OptionsCanonical(r.options) + "|" + (r.keep_targets ? "t" : "-") +
-         (r.options.dual_quaternion ? "|dq|" : "|") + "lod" + std::to_string(r.lod) + "|" + WeightsCanonical(point.weights);
-}
-
-std::string RenderCanonical(const RenderRequest& r, render::ImageFormat format) {
-  const render::RenderOptions& o = r.render;
-  const render::Camera& c = o.camera;
-  return std::string(render::ImageFormatExtension(format)) + "|q" + std::to_string(r.quality) + "|" + std::to_string(o.width) +
-         "x" + std::to_string(o.height) + "|" + render::ViewName(o.view) + "|ss" + std::to_string(o.supersample) + "|" +
-         FloatsCanonical(o.background) + "|" + FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) +
-         (c.look_at ? "L" : "O") +
-         (c.frame == render::Framing::kShapes ? "S" : c.frame == render::Framing::kAll ? "A" : c.frame == render::Framing::kJoint ? "J" + c.frame_joint + "|" : "D") +
-         (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|ev" +
-         FloatsCanonical(std::array<float, 1>{o.exposure}) + "|" + OptionsCanonical(r.mesh.options) + (r.mesh.options.dual_quaternion ? "|dq" : "");
-}
 
 bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key) {
   char etag[19] = "\"0000000000000000\"";  // "%016" PRIx64 in quotes, by table.

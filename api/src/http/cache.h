@@ -1,5 +1,4 @@
-// The encoded-response cache, its keys (a rig version and a canonical request, bit for bit), and
-// ETags from those keys.
+// The encoded-response cache (keyed by the evaluator's CacheKey), and ETags from those keys.
 #pragma once
 
 #include <httplib.h>
@@ -12,11 +11,12 @@
 #include <string>
 #include <unordered_map>
 
-#include "facespace/api/pipeline.h"
+#include "facespace/api/evaluator.h"
 
 namespace facespace::api::http {
 
-struct Encoded {
+// A response body as the cache keeps it, shared with the responses sending it.
+struct CachedResponse {
   std::string body;
   std::string content_type;
 };
@@ -34,19 +34,19 @@ enum class Admit { kFirstRequest, kSecondRequest };
 class ResponseCache {
  public:
   explicit ResponseCache(size_t cap_bytes) : shard_cap_(cap_bytes / kShards) {}
-  std::shared_ptr<const Encoded> Get(const std::string& key);
+  std::shared_ptr<const CachedResponse> Get(const std::string& key);
   // Keeps `value` under `key` as `admit` says; true when kept.
-  bool Offer(const std::string& key, std::shared_ptr<const Encoded> value, Admit admit);
+  bool Offer(const std::string& key, std::shared_ptr<const CachedResponse> value, Admit admit);
   size_t Bytes();  // Bodies and keys held, for /metrics.
 
  private:
-  void Put(const std::string& key, std::shared_ptr<const Encoded> value);
+  void Put(const std::string& key, std::shared_ptr<const CachedResponse> value);
   // True when the key's hash was seen before (and is now forgotten); else remembers it.
   bool SeenBefore(size_t hash);
   static constexpr size_t kShards = 16;
   static constexpr size_t kDoorkeeperSlots = 1 << 14;  // Hashes, direct-mapped: 128 KB.
   std::unique_ptr<std::atomic<uint64_t>[]> doorkeeper_ = std::make_unique<std::atomic<uint64_t>[]>(kDoorkeeperSlots);
-  using Entry = std::pair<std::string, std::shared_ptr<const Encoded>>;
+  using Entry = std::pair<std::string, std::shared_ptr<const CachedResponse>>;
   struct Shard {
     std::mutex mu;
     std::list<Entry> lru;
@@ -57,12 +57,6 @@ class ResponseCache {
   size_t shard_cap_;
   std::array<Shard, kShards> shards_;
 };
-
-// Canonical text of what a response depends on besides the rig version.
-std::string WeightsCanonical(std::span<const float> weights);  // Bits of each weight; -0 is 0.
-std::string PoseCanonical(const Point& point);                 // "" for the rest pose.
-std::string MeshCanonical(const MeshRequest& request, MeshFormat format, const Point& point);
-std::string RenderCanonical(const RenderRequest& request, render::ImageFormat format);
 
 // ETag from the key, Cache-Control and Vary; true when If-None-Match matched and a 304 was set.
 bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key);

@@ -7,8 +7,6 @@
 
 #include <thread>
 
-#include "facespace/formats/lod.h"
-#include "facespace/core/shape_tools.h"
 #include "negotiate.h"
 #include "problem.h"
 
@@ -30,46 +28,6 @@ WorkspacePool::Lease WorkspacePool::Acquire() {
     }
   }
   return Lease(new Workspace, Return{this});
-}
-
-std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored, int lod) {
-  const std::string prefix = stored->id + "|";
-  const std::string key = prefix + stored->version + "|" + std::to_string(lod);
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    if (auto it = derived_.find(key); it != derived_.end()) return it->second;
-  }
-  auto d = std::make_shared<DerivedRig>();
-  if (lod == 0) {
-    d->rig = std::shared_ptr<const Rig>(stored, &stored->rig);
-  } else {
-    auto made = MakeLod(stored->rig, lod);
-    if (!made.ok()) return nullptr;
-    d->rig = std::make_shared<const Rig>(std::move(made.value()));
-  }
-  d->has_focus = ShapeFocusBox(*d->rig, d->focus_min, d->focus_max);
-  d->focus_small = d->has_focus && FrameShapesByDefault(*d->rig, d->focus_min, d->focus_max);
-  std::lock_guard<std::mutex> lock(mu_);
-  for (auto it = derived_.lower_bound(prefix); it != derived_.end() && it->first.rfind(prefix, 0) == 0;) {
-    it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : derived_.erase(it);
-  }
-  return derived_.emplace(key, std::move(d)).first->second;
-}
-
-std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
-  if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
-  auto d = At(stored, lod);
-  return d ? d->rig : nullptr;
-}
-
-void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera) {
-  if (camera.frame == render::Framing::kAll) return;
-  if (auto d = At(stored, lod); d && d->has_focus) {
-    camera.has_focus = true;
-    camera.focus_small = d->focus_small;
-    camera.focus_min = d->focus_min;
-    camera.focus_max = d->focus_max;
-  }
 }
 
 size_t RenderBudget::Estimate(const render::RenderOptions& o, size_t cells) {
@@ -102,7 +60,7 @@ size_t RenderBudget::InFlight() const {
 
 void ReturnMemory() { malloc_trim(0); }
 
-bool CheckRenderBudget(Context& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o,
+bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o,
                        size_t cells) {
   const size_t bytes = RenderBudget::Estimate(o, cells);
   if (bytes <= ctx.render_budget.per_request()) return true;
@@ -118,10 +76,10 @@ bool CheckRenderBudget(Context& ctx, const httplib::Request& req, httplib::Respo
   return false;
 }
 
-Context::Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o, std::vector<std::string> route_labels)
+ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o, std::vector<std::string> route_labels)
     : store(s),
       jobs(j),
-      renderer(r),
+      evaluator(e),
       options(std::move(o)),
       metrics(std::move(route_labels)),
       cache(options.cache_bytes),
@@ -129,29 +87,10 @@ Context::Context(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions
       render_budget(options.render_budget, options.render_memory),
       openapi(OpenApiJson(options)) {}
 
-std::shared_ptr<const StoredRig> FindRig(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
+std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
   auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
   if (!rig) SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
   return rig;
-}
-
-GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
-  std::unique_ptr<GlbVariantWriter> writer;
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    if (auto* free = free_.Find(rig); free && !free->empty()) {
-      writer = std::move(free->back());
-      free->pop_back();
-    }
-  }
-  if (!writer) writer = std::make_unique<GlbVariantWriter>();
-  return Lease(*this, rig, std::move(writer));
-}
-
-void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer) {
-  std::lock_guard<std::mutex> lock(mu_);
-  auto& free = free_.At(rig);
-  if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
 }
 
 std::string BodyPool::Take() {
@@ -168,23 +107,11 @@ void BodyPool::Give(std::string body) {
   if (idle_.size() < kKept) idle_.push_back(std::move(body));
 }
 
-std::shared_ptr<Encoded> BodyPool::MakeEncoded(const std::shared_ptr<BodyPool>& pool) {
-  return std::shared_ptr<Encoded>(new Encoded, [weak = std::weak_ptr<BodyPool>(pool)](Encoded* e) {
+std::shared_ptr<CachedResponse> BodyPool::MakeCached(const std::shared_ptr<BodyPool>& pool) {
+  return std::shared_ptr<CachedResponse>(new CachedResponse, [weak = std::weak_ptr<BodyPool>(pool)](CachedResponse* e) {
     if (auto p = weak.lock()) p->Give(std::move(e->body));
     delete e;
   });
-}
-
-std::shared_ptr<const F32Blender> F32Blenders::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    if (auto* kept = blenders_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
-  }
-  auto made = std::make_shared<const F32Blender>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
-  std::lock_guard<std::mutex> lock(mu_);
-  auto& kept = blenders_.At(rig)[mesh_space];
-  if (!kept) kept = std::move(made);
-  return kept;
 }
 
 std::string ServerTiming(const Workspace::Timing& timing) {
@@ -201,7 +128,7 @@ std::string ServerTiming(const Workspace::Timing& timing) {
   return out;
 }
 
-void SendShared(httplib::Response& res, std::shared_ptr<const Encoded> enc) {
+void SendShared(httplib::Response& res, std::shared_ptr<const CachedResponse> enc) {
   const std::string* body = &enc->body;
   res.set_content_provider(
       body->size(), enc->content_type,
@@ -209,7 +136,7 @@ void SendShared(httplib::Response& res, std::shared_ptr<const Encoded> enc) {
       [enc](bool) {});
 }
 
-bool AnswerPoint(Context& ctx, const httplib::Request& req, httplib::Response& res, const Status& s, double sum,
+bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Status& s, double sum,
                  std::span<const Warning> warnings) {
   const bool refused = s.reason == kLeavesAuthoredSpace;
   if (s.ok() || refused) {

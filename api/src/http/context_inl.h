@@ -25,27 +25,27 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
 }
 
 template <typename Render>
-Result<std::string> WithinRenderBudget(Context& ctx, size_t bytes, Render render) {
+Result<Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render) {
   if (!ctx.render_budget.Acquire(bytes)) {
     return WithReason(ResourceExhausted("the server is rendering as much as its memory budget allows; retry shortly"), "busy");
   }
-  Result<std::string> out = render();
+  Result<Encoded> out = render();
   ctx.render_budget.Release(bytes);
   if (bytes >= kLargeWork) ReturnMemory();
   return out;
 }
 
 template <typename Produce>
-void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
+void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
                 const char* content_type, Admit admit, Produce produce) {
-  std::shared_ptr<const Encoded> enc = ctx.cache.Get(key);
+  std::shared_ptr<const CachedResponse> enc = ctx.cache.Get(key);
   ctx.metrics.CountCache(enc != nullptr);
   if (!enc) {
     Workspace::Timing timing;
-    Result<std::string> bytes = [&] {
+    Result<Encoded> bytes = [&] {
       const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
       ws->timing = {};
-      Result<std::string> made = produce(*ws);
+      Result<Encoded> made = produce(*ws);
       timing = ws->timing;
       return made;
     }();
@@ -53,8 +53,8 @@ void SendCached(Context& ctx, const httplib::Request& req, httplib::Response& re
       SendStatus(req, res, bytes.status());
       return;
     }
-    auto e = BodyPool::MakeEncoded(ctx.bodies);
-    e->body = std::move(bytes.value());
+    auto e = BodyPool::MakeCached(ctx.bodies);
+    e->body = std::move(bytes->bytes);
     // The cache counts a body by its size: no large room left over from building it (text formats).
     if (e->body.capacity() > e->body.size() + e->body.size() / 8) e->body.shrink_to_fit();
     e->content_type = content_type;

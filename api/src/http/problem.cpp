@@ -1,6 +1,6 @@
 #include "problem.h"
 
-#include "facespace/api/jobs.h"
+#include "facespace/batch/queue.h"
 #include "facespace/api/request.h"
 #include "facespace/formats/io.h"
 
@@ -10,7 +10,7 @@ using nlohmann::json;
 
 int HttpStatus(const Status& s) {
   if (s.reason == kMalformedJson) return 400;
-  if (s.reason == kJobQueueFull) return 429;
+  if (s.reason == batch::kJobQueueFull) return 429;
   if (s.reason == "busy") return 503;  // A budget of the server's is in use: retry shortly.
   if (s.reason == "read-only") return 409;  // A bundled rig: PUT or DELETE conflicts with the server's set-up.
   switch (s.code) {

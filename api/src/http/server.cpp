@@ -16,18 +16,18 @@ using httplib::Request;
 using httplib::Response;
 
 struct Api::Impl {
-  http::Context ctx;
-  Impl(RigStore& s, JobQueue* j, const render::Renderer& r, ApiOptions o) : ctx(s, j, r, std::move(o), http::MetricLabels()) {}
+  http::ServerState ctx;
+  Impl(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o) : ctx(s, j, e, std::move(o), http::MetricLabels()) {}
 };
 
-Api::Api(RigStore& store, const render::Renderer& renderer, ApiOptions options, JobQueue* jobs)
-    : impl_(std::make_unique<Impl>(store, jobs, renderer, std::move(options))) {}
+Api::Api(RigStore& store, const Evaluator& evaluator, ApiOptions options, batch::JobQueue* jobs)
+    : impl_(std::make_unique<Impl>(store, jobs, evaluator, std::move(options))) {}
 Api::~Api() = default;
 
 std::string Api::MetricsText() const { return http::MetricsText(impl_->ctx); }
 
 std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
-  http::Context& ctx = impl_->ctx;
+  http::ServerState& ctx = impl_->ctx;
   Request req;
   req.method = head.method;
   req.path = head.target.substr(0, head.target.find('?'));
@@ -40,7 +40,7 @@ std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
 }
 
 void Api::Register(httplib::Server& server) {
-  http::Context& ctx = impl_->ctx;
+  http::ServerState& ctx = impl_->ctx;
   server.set_payload_max_length(ctx.options.max_body);
 
   // The request's clock starts at its first hook: the Expect handler, else pre-routing. Requests

@@ -100,43 +100,37 @@ bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshReques
   return false;
 }
 
-void GetOrPostMesh(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
   if (!stored || !ReadMeshRequest(req, res, r)) return;
   const auto format = NegotiateMesh(req, res, r.format);
   if (!format) return;
-  Point point;
+  ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
-  if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
-  const std::string key = stored->id + "|" + stored->version + "|" + MeshCanonical(r, *format, point);
+  if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
+  const OutputSpec spec = OutputSpec::Mesh(r, *format);
+  const std::string key = CacheKey(*stored, {&point, 1}, spec);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, MeshFormatMimeType(*format), Admit::kSecondRequest, [&](Workspace& ws) -> Result<std::string> {
-    const auto at = ctx.derived.RigAt(stored, r.lod);
-    if (!at) return Internal("the level of detail failed");
+  SendCached(ctx, req, res, key, spec.content_type(), Admit::kSecondRequest, [&](Workspace& ws) -> Result<Encoded> {
     ctx.metrics.CountBlends(1);
-    if (*format == MeshFormat::kF32) {
-      if (ws.body.capacity() == 0) ws.body = ctx.bodies->Take();
-      return EncodeMesh(*at, point, r, *format, ws, nullptr, ctx.f32_blenders.Get(at, r.mesh_space).get());
-    }
-    if (*format != MeshFormat::kGlb || r.keep_targets) return EncodeMesh(*at, point, r, *format, ws);
-    const GlbWriters::Lease glb = ctx.glb_writers.Acquire(at);
-    return EncodeMesh(*at, point, r, *format, ws, glb.get());
+    if (ws.body.capacity() == 0 && *format == MeshFormat::kF32) ws.body = ctx.bodies->Take();  // Written over, not allocated.
+    return ctx.evaluator.Run(stored, point, spec, ws);
   });
 }
 
-void PostCheck(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
   if (!stored || !ReadMeshRequest(req, res, r)) return;
-  Point point;
+  ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
-  if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
+  if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
   res.status = 200;
   res.set_content(CheckJson(stored->rig, point), "application/json");
 }
 
-void PostFit(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostFit(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   FitRequest r;
   if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r)) return;

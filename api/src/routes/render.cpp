@@ -23,7 +23,7 @@ bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, Rend
 }
 
 // The server's size limit; false with a 422 sent.
-bool CheckSize(const Context& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o) {
+bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o) {
   const int max = ctx.options.max_render_size;
   if (o.width <= max && o.height <= max) return true;
   SendProblem(req, res, 422, "image-too-large", "width and height are limited to " + std::to_string(max) + " pixels",
@@ -33,28 +33,25 @@ bool CheckSize(const Context& ctx, const httplib::Request& req, httplib::Respons
 
 }  // namespace
 
-void GetOrPostRender(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   RenderRequest r;
   if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1)) return;
   const auto format = NegotiateImage(req, res, r.format);
   if (!format) return;
-  Point point;
+  ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r.mesh, point);
-  if (!AnswerPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
-  const std::string key = stored->id + "|" + stored->version + "|render|" + RenderCanonical(r, *format) + "|lod" +
-                          std::to_string(r.mesh.lod) + "|" + WeightsCanonical(point.weights) + PoseCanonical(point);
+  if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
+  const OutputSpec spec = OutputSpec::Image(r, *format);
+  const std::string key = CacheKey(*stored, {&point, 1}, spec);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), Admit::kFirstRequest, [&](Workspace& ws) -> Result<std::string> {
-    const auto at = ctx.derived.RigAt(stored, r.mesh.lod);
-    if (!at) return Internal("the level of detail failed");
-    ctx.derived.SetFocus(stored, r.mesh.lod, r.render.camera);
+  SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest, [&](Workspace& ws) -> Result<Encoded> {
     ctx.metrics.CountBlends(1);
-    return WithinRenderBudget(ctx, RenderBudget::Estimate(r.render, 1), [&] { return EncodeImage(*at, point, r, *format, ctx.renderer, ws); });
+    return WithinRenderBudget(ctx, RenderBudget::Estimate(r.render, 1), [&] { return ctx.evaluator.Run(stored, point, spec, ws); });
   });
 }
 
-void PostSheet(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   SheetRequest r;
   if (!stored || !ReadJsonBody(req, res, ParseSheetRequest, r) || !CheckSize(ctx, req, res, r.base.render)) return;
@@ -70,16 +67,14 @@ void PostSheet(Context& ctx, const httplib::Request& req, httplib::Response& res
   if (!CheckRenderBudget(ctx, req, res, r.base.render, r.cells.size())) return;
   SheetPoints points;
   const Status s = ResolveSheet(stored->rig, r, points);
-  if (!AnswerPoint(ctx, req, res, s, points.max_sum, points.warnings)) return;
-  std::string key = stored->id + "|" + stored->version + "|sheet|" + std::to_string(r.columns) + "|" + RenderCanonical(r.base, *format);
-  for (size_t c = 0; c < points.cells.size(); ++c) key += "|" + WeightsCanonical(points.cells[c].weights) + "#" + r.labels[c];
-  if (!points.cells.empty()) key += PoseCanonical(points.cells[0]);
+  if (!ReportPoint(ctx, req, res, s, points.max_sum, points.warnings)) return;
+  const OutputSpec spec = OutputSpec::Sheet(r, *format);
+  const std::string key = CacheKey(*stored, points.cells, spec);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, render::ImageFormatMimeType(*format), Admit::kFirstRequest, [&](Workspace& ws) -> Result<std::string> {
-    ctx.derived.SetFocus(stored, 0, r.base.render.camera);
+  SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest, [&](Workspace& ws) -> Result<Encoded> {
     ctx.metrics.CountBlends(points.cells.size());
     return WithinRenderBudget(ctx, RenderBudget::Estimate(r.base.render, points.cells.size()),
-                              [&] { return EncodeSheet(stored->rig, points, r, *format, ctx.renderer, ws); });
+                              [&] { return ctx.evaluator.Run(stored, points.cells, spec, ws); });
   });
 }
 

@@ -30,13 +30,13 @@ json RigDetail(const StoredRig& s) {
 
 }  // namespace
 
-void ListRigs(Context& ctx, const httplib::Request&, httplib::Response& res) {
+void ListRigs(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
   json list = json::array();
   for (const auto& r : ctx.store.List()) list.push_back(RigSummary(*r));
   SendJson(res, 200, {{"rigs", list}});
 }
 
-void GetRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (auto r = FindRig(ctx, req, res, req.matches[1])) {
     res.set_header("ETag", "\"" + r->version + "\"");
     SendJson(res, 200, RigDetail(*r));
@@ -135,7 +135,7 @@ void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status
 
 }  // namespace
 
-void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
   if (!IsValidRigId(id)) {
@@ -180,14 +180,14 @@ void PutRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
   SendJson(res, created ? 201 : 200, stored ? RigSummary(*stored) : json{{"id", id}});
 }
 
-void GetManifest(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (auto r = FindRig(ctx, req, res, req.matches[1])) {
     res.set_header("ETag", "\"" + r->version + "\"");
     res.set_content(ManifestJson(r->rig), "application/json");
   }
 }
 
-void PutManifest(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
   if (MediaType(req.get_header_value("Content-Type")) != "application/json") {
@@ -212,7 +212,7 @@ void PutManifest(Context& ctx, const httplib::Request& req, httplib::Response& r
   SendJson(res, 200, stored ? RigSummary(*stored) : json{{"id", id}});
 }
 
-void DeleteRig(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void DeleteRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
   Status s = IsValidRigId(id) ? ctx.store.Delete(id) : NotFound("");
@@ -225,7 +225,7 @@ void DeleteRig(Context& ctx, const httplib::Request& req, httplib::Response& res
   }
 }
 
-void GetTopology(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   if (!stored) return;
   int lod = 0;
@@ -238,7 +238,7 @@ void GetTopology(Context& ctx, const httplib::Request& req, httplib::Response& r
     }
     lod = v[0] - '0';
   }
-  const auto derived = ctx.derived.At(stored, lod);
+  const auto derived = ctx.evaluator.Derived(stored, lod);
   if (!derived) {
     SendProblem(req, res, 500, "internal", "the level of detail failed");
     return;

@@ -1,5 +1,5 @@
 // The route handlers, one file per resource; each is a short function from the request to the
-// pipeline to the response. The table in http/route_table.cpp binds them to paths and methods.
+// evaluator to the response. The table in http/route_table.cpp binds them to paths and methods.
 #pragma once
 
 #include <httplib.h>
@@ -8,42 +8,42 @@
 
 namespace facespace::api::http {
 
-using Handler = void (*)(Context& ctx, const httplib::Request& req, httplib::Response& res);
+using Handler = void (*)(ServerState& ctx, const httplib::Request& req, httplib::Response& res);
 
 // routes/service.cpp
-void GetHealth(Context&, const httplib::Request&, httplib::Response&);
-void GetReady(Context&, const httplib::Request&, httplib::Response&);
+void GetHealth(ServerState&, const httplib::Request&, httplib::Response&);
+void GetReady(ServerState&, const httplib::Request&, httplib::Response&);
 // The Prometheus text of /metrics.
-std::string MetricsText(Context& ctx);
-void GetMetrics(Context&, const httplib::Request&, httplib::Response&);
-void GetOpenApi(Context&, const httplib::Request&, httplib::Response&);
+std::string MetricsText(ServerState& ctx);
+void GetMetrics(ServerState&, const httplib::Request&, httplib::Response&);
+void GetOpenApi(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/rigs.cpp
-void ListRigs(Context&, const httplib::Request&, httplib::Response&);
-void GetRig(Context&, const httplib::Request&, httplib::Response&);
-void PutRig(Context&, const httplib::Request&, httplib::Response&);
-void DeleteRig(Context&, const httplib::Request&, httplib::Response&);
-void GetManifest(Context&, const httplib::Request&, httplib::Response&);
-void PutManifest(Context&, const httplib::Request&, httplib::Response&);
-void GetTopology(Context&, const httplib::Request&, httplib::Response&);
+void ListRigs(ServerState&, const httplib::Request&, httplib::Response&);
+void GetRig(ServerState&, const httplib::Request&, httplib::Response&);
+void PutRig(ServerState&, const httplib::Request&, httplib::Response&);
+void DeleteRig(ServerState&, const httplib::Request&, httplib::Response&);
+void GetManifest(ServerState&, const httplib::Request&, httplib::Response&);
+void PutManifest(ServerState&, const httplib::Request&, httplib::Response&);
+void GetTopology(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/mesh.cpp
-void GetOrPostMesh(Context&, const httplib::Request&, httplib::Response&);
-void PostCheck(Context&, const httplib::Request&, httplib::Response&);
-void PostFit(Context&, const httplib::Request&, httplib::Response&);
+void GetOrPostMesh(ServerState&, const httplib::Request&, httplib::Response&);
+void PostCheck(ServerState&, const httplib::Request&, httplib::Response&);
+void PostFit(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/render.cpp
-void GetOrPostRender(Context&, const httplib::Request&, httplib::Response&);
-void PostSheet(Context&, const httplib::Request&, httplib::Response&);
+void GetOrPostRender(ServerState&, const httplib::Request&, httplib::Response&);
+void PostSheet(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/sequence.cpp
-void PostSequenceSample(Context&, const httplib::Request&, httplib::Response&);
-void PostSequenceStream(Context&, const httplib::Request&, httplib::Response&);
-void PostSequenceReduce(Context&, const httplib::Request&, httplib::Response&);
-// routes/jobs.cpp
-void PostBatch(Context&, const httplib::Request&, httplib::Response&);
-void ListJobs(Context&, const httplib::Request&, httplib::Response&);
-void GetJob(Context&, const httplib::Request&, httplib::Response&);
-void DeleteJob(Context&, const httplib::Request&, httplib::Response&);
-void GetJobManifest(Context&, const httplib::Request&, httplib::Response&);
-void GetJobFile(Context&, const httplib::Request&, httplib::Response&);
-void GetJobResults(Context&, const httplib::Request&, httplib::Response&);
+void PostSequenceSample(ServerState&, const httplib::Request&, httplib::Response&);
+void PostSequenceStream(ServerState&, const httplib::Request&, httplib::Response&);
+void PostSequenceReduce(ServerState&, const httplib::Request&, httplib::Response&);
+// routes/batch.cpp
+void PostBatch(ServerState&, const httplib::Request&, httplib::Response&);
+void ListJobs(ServerState&, const httplib::Request&, httplib::Response&);
+void GetJob(ServerState&, const httplib::Request&, httplib::Response&);
+void DeleteJob(ServerState&, const httplib::Request&, httplib::Response&);
+void GetJobManifest(ServerState&, const httplib::Request&, httplib::Response&);
+void GetJobFile(ServerState&, const httplib::Request&, httplib::Response&);
+void GetJobResults(ServerState&, const httplib::Request&, httplib::Response&);
 
 // Query parameters the mesh and render routes share (routes/mesh.cpp): w.NAME, c.NAME, mode,
 // normals, strict and the skeleton settings. False when `key` is none of them.

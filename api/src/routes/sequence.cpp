@@ -23,7 +23,7 @@ void Required(const httplib::Request& req, httplib::Response& res, const std::st
 
 }  // namespace
 
-void PostSequenceSample(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   SequenceRequest r;
   Sequence seq;
@@ -31,7 +31,7 @@ void PostSequenceSample(Context& ctx, const httplib::Request& req, httplib::Resp
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
   std::vector<Warning> warnings;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-  auto body = SampleSequenceJson(stored->rig, seq, r.times, r.options, warnings, *ws, ctx.options.max_response);
+  auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws, ctx.options.max_response);
   if (!body.ok()) return SendStatus(req, res, body.status());
   ctx.metrics.CountBlends(r.times.size());
   if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
@@ -39,7 +39,7 @@ void PostSequenceSample(Context& ctx, const httplib::Request& req, httplib::Resp
   res.set_content(std::move(body.value()), "application/json");
 }
 
-void PostSequenceStream(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   auto r = std::make_shared<SequenceRequest>();
   auto seq = std::make_shared<Sequence>();
@@ -69,7 +69,7 @@ void PostSequenceStream(Context& ctx, const httplib::Request& req, httplib::Resp
                                        return true;
                                      }
                                      const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-                                     auto chunk = StreamFrame(stored->rig, *seq, (*next)++, r->fps, f32, r->options, *ws);
+                                     auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, r->fps, f32, r->options, *ws);
                                      if (!chunk.ok()) return false;
                                      if (f32) ctx.metrics.CountBlends(1);
                                      return sink.write(chunk->data(), chunk->size());
@@ -77,7 +77,7 @@ void PostSequenceStream(Context& ctx, const httplib::Request& req, httplib::Resp
   res.status = 200;
 }
 
-void PostSequenceReduce(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   SequenceRequest r;
   Sequence seq;

@@ -3,15 +3,15 @@
 
 namespace facespace::api::http {
 
-void GetHealth(Context&, const httplib::Request&, httplib::Response& res) {
+void GetHealth(ServerState&, const httplib::Request&, httplib::Response& res) {
   res.set_content("{\"status\":\"ok\"}", "application/json");
 }
 
-void GetReady(Context& ctx, const httplib::Request&, httplib::Response& res) {
+void GetReady(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
   res.set_content("{\"status\":\"ready\",\"rigs\":" + std::to_string(ctx.store.List().size()) + "}", "application/json");
 }
 
-std::string MetricsText(Context& ctx) {
+std::string MetricsText(ServerState& ctx) {
   std::string out = ctx.metrics.Text(ctx.store.List().size(), ctx.cache.Bytes());
   auto gauge = [&out](const char* name, const char* type, const char* help, size_t value) {
     out += std::string("# HELP ") + name + " " + help + "\n# TYPE " + name + " " + type + "\n" + name + " " + std::to_string(value) + "\n";
@@ -30,11 +30,11 @@ std::string MetricsText(Context& ctx) {
   return out;
 }
 
-void GetMetrics(Context& ctx, const httplib::Request&, httplib::Response& res) {
+void GetMetrics(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
   res.set_content(MetricsText(ctx), "text/plain; version=0.0.4");
 }
 
-void GetOpenApi(Context& ctx, const httplib::Request&, httplib::Response& res) {
+void GetOpenApi(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
   res.set_header("Cache-Control", "public, max-age=3600");
   res.set_content(ctx.openapi, "application/json");
 }

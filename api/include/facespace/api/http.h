@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "facespace/api/front.h"
-#include "facespace/api/jobs.h"
+#include "facespace/api/evaluator.h"
 #include "facespace/api/store.h"
-#include "facespace/render/render.h"
+#include "facespace/batch/queue.h"
 
 namespace facespace::api {
 
@@ -32,12 +32,12 @@ struct ApiOptions {
   const FrontStats* front = nullptr;        // The connection front's counters, for /metrics (when there is one).
 };
 
-// The routes (api/src/http/route_table.cpp) over a store, a renderer and a job queue that the
+// The routes (api/src/http/route_table.cpp) over a store, an evaluator and a job queue that the
 // caller owns and keeps alive while the server runs.
 class Api {
  public:
   // `jobs` may be null: the batch and job routes then answer 503.
-  Api(RigStore& store, const render::Renderer& renderer, ApiOptions options, JobQueue* jobs = nullptr);
+  Api(RigStore& store, const Evaluator& evaluator, ApiOptions options, batch::JobQueue* jobs = nullptr);
   ~Api();
   Api(const Api&) = delete;
   Api& operator=(const Api&) = delete;

@@ -10,7 +10,7 @@
 // DIR/<job>/cancel       a delete through an instance that does not run the job: the one that
 //                        does stops it and removes the folder
 // DIR/<job>/state.json   written when the job ends: done, failed, cancelled or lost
-// DIR/<job>/out/         the batch folder (service/batch.h): variants, manifest, sheet
+// DIR/<job>/out/         the batch folder (run.h): variants, manifest, sheet
 // Each instance runs one job at a time: the oldest unclaimed one, looked for when a job is
 // submitted to it and every poll interval. A job resumes where it stopped (the batch runner skips
 // complete variants) if its rig is in the store with the same version; otherwise it is "lost",
@@ -23,9 +23,52 @@
 #include <mutex>
 #include <thread>
 
-#include "facespace/api/jobs.h"
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
 
-namespace facespace {
+#include "facespace/api/store.h"
+#include "facespace/batch/plan.h"
+
+namespace facespace::batch {
+
+// What the batch routes need from a job queue.
+struct JobInfo {
+  std::string id;          // 32 lowercase hex digits: unguessable, so knowing it is the access.
+  std::string rig;
+  std::string state;       // "queued", "running", "done", "failed", "cancelled", "lost"
+  std::string error;       // Why it failed or was lost.
+  std::string format;      // Of every variant file.
+  std::string created;     // RFC 3339, UTC.
+  size_t total = 0;        // Variants.
+  size_t done = 0;         // Variants whose file is complete.
+  double seconds = 0;      // Running time so far (this run of the service).
+  double rate = 0;         // Variants per second while running.
+};
+
+// Status::reason of a refusal because the queue is full (HTTP 429 with Retry-After).
+inline constexpr char kJobQueueFull[] = "job-queue-full";
+
+class JobQueue {
+ public:
+  virtual ~JobQueue() = default;
+  // Queues a batch planned against its rig (MakeBatchPlan of `body`; the body is kept so that a
+  // restart plans it again). InvalidArgument (with a field error) for more variants than the
+  // server allows; ResourceExhausted with reason job-queue-full when the queue is full, with
+  // *retry_after the seconds to wait.
+  virtual Result<JobInfo> Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body, int* retry_after) = 0;
+  virtual std::optional<JobInfo> Get(const std::string& id) const = 0;
+  virtual std::vector<JobInfo> List() const = 0;  // Newest first.
+  // Cancels a job (variants in flight finish) and deletes its files. NotFound when absent.
+  virtual Status Remove(const std::string& id) = 0;
+  // The folder holding the job's files (manifest.jsonl, variants, sheet.png).
+  virtual std::string Folder(const std::string& id) const = 0;
+};
+
+// True for a job id: 32 lowercase hex digits.
+bool IsValidJobId(const std::string& id);
+
 
 struct JobLimits {
   size_t max_jobs = 4;        // Queued + running; past it Submit says ResourceExhausted (429).
@@ -33,11 +76,11 @@ struct JobLimits {
   int threads = 0;            // Worker threads of the running job; 0 = every core.
 };
 
-class FileJobQueue : public api::JobQueue {
+class FileJobQueue : public JobQueue {
  public:
   // `poll_seconds`: how often the folder is looked at for jobs other instances submitted or left;
   // `refresh_store`: picks up the store's changes on disk (a rig another instance just uploaded).
-  FileJobQueue(std::string dir, api::RigStore& store, const render::Renderer& renderer, JobLimits limits,
+  FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator, JobLimits limits,
                double poll_seconds = 1.0, std::function<void()> refresh_store = {});
   ~FileJobQueue() override;  // Stops: the running job halts between variants; this or another instance resumes it.
 
@@ -45,18 +88,17 @@ class FileJobQueue : public api::JobQueue {
   // here or by another instance).
   Result<size_t> Start();
 
-  Result<api::JobInfo> Submit(std::shared_ptr<const api::StoredRig> rig, std::shared_ptr<const api::BatchPlan> plan,
-                              std::string_view body, int* retry_after) override;
-  std::optional<api::JobInfo> Get(const std::string& id) const override;
-  std::vector<api::JobInfo> List() const override;
+  Result<JobInfo> Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body, int* retry_after) override;
+  std::optional<JobInfo> Get(const std::string& id) const override;
+  std::vector<JobInfo> List() const override;
   Status Remove(const std::string& id) override;
   std::string Folder(const std::string& id) const override;
 
  private:
   struct Job {
-    api::JobInfo info;
+    JobInfo info;
     std::string rig_version;
-    std::shared_ptr<const api::BatchPlan> plan;  // Set when submitted here; else planned again from `body`.
+    std::shared_ptr<const BatchPlan> plan;  // Set when submitted here; else planned again from `body`.
     std::string body;
     std::atomic<bool> cancel{false};
     bool removed = false;
@@ -73,12 +115,12 @@ class FileJobQueue : public api::JobQueue {
   void Finish(Job& job, const std::string& state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
   std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;
-  Status CheckRoom(const api::StoredRig& rig, const api::BatchPlan& plan) const;
+  Status CheckRoom(const api::StoredRig& rig, const BatchPlan& plan) const;
   void MarkLost(Job& job);
 
   std::string dir_;
   api::RigStore& store_;
-  const render::Renderer& renderer_;
+  const api::Evaluator& evaluator_;
   JobLimits limits_;
   double poll_seconds_;
   std::function<void()> refresh_store_;
@@ -86,9 +128,9 @@ class FileJobQueue : public api::JobQueue {
   mutable std::mutex mu_;
   std::condition_variable cv_;
   std::shared_ptr<Job> running_;
-  std::map<std::string, std::shared_ptr<const api::BatchPlan>> submitted_;  // Plans of jobs submitted here, not yet run.
+  std::map<std::string, std::shared_ptr<const BatchPlan>> submitted_;  // Plans of jobs submitted here, not yet run.
   bool stopping_ = false, wake_ = false;
   std::thread runner_;
 };
 
-}  // namespace facespace
+}  // namespace facespace::batch

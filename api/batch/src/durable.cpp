@@ -1,4 +1,4 @@
-#include "durable.h"
+#include "facespace/batch/durable.h"
 
 #include <fcntl.h>
 #include <ctime>

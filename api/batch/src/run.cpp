@@ -1,5 +1,5 @@
-#include "batch.h"
-#include "durable.h"
+#include "facespace/batch/run.h"
+#include "facespace/batch/durable.h"
 
 #include <fcntl.h>
 #include <openssl/evp.h>
@@ -109,7 +109,7 @@ bool Locked(const fs::path& path) {
 // The manifest lines of `dir` (manifest.jsonl and every shard's) whose variant `keep(index)` and
 // whose file is there with its size, by index. A torn line (a kill mid-write) or a line for a
 // missing file is dropped.
-std::map<size_t, std::string> ReadManifests(const fs::path& dir, const api::BatchPlan& plan, const std::function<bool(size_t)>& keep) {
+std::map<size_t, std::string> ReadManifests(const fs::path& dir, const BatchPlan& plan, const std::function<bool(size_t)>& keep) {
   std::map<size_t, std::string> lines;
   std::error_code ec;
   std::vector<fs::path> files;
@@ -130,7 +130,7 @@ std::map<size_t, std::string> ReadManifests(const fs::path& dir, const api::Batc
       }
       const size_t index = j["index"].get<size_t>();
       if (index >= plan.total || !keep(index) || lines.count(index) ||
-          j["file"].get<std::string>() != api::VariantFile(plan, index)) {
+          j["file"].get<std::string>() != VariantFile(plan, index)) {
         continue;
       }
       const fs::path file = dir / j["file"].get<std::string>();
@@ -147,11 +147,11 @@ std::string JoinLines(const std::map<size_t, std::string>& lines) {
 }
 
 // The contact sheet of the first `cells` variants, as a one-process run writes it.
-Status WriteSheet(const api::BatchPlan& plan, const fs::path& dir, size_t cells, const render::Renderer& renderer) {
+Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells, const api::Evaluator& evaluator) {
   std::vector<size_t> first;
   for (size_t k = 0; k < plan.total && first.size() < cells; ++k) first.push_back(k);
   api::Workspace ws;
-  auto png = api::VariantSheet(plan, first, renderer, ws);
+  auto png = VariantSheet(plan, first, evaluator, ws);
   if (!png.ok()) return png.status();
   return WriteInBatch(dir, "sheet.png", png.value());
 }
@@ -175,10 +175,7 @@ std::string Sha256Hex(std::span<const std::string_view> pieces) {
   return out;
 }
 
-using api::VariantFile;
-using api::VariantId;
-
-Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
+Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
   const fs::path dir = options.dir;
@@ -186,8 +183,8 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
   fs::create_directories(dir, ec);
   if (!fs::is_directory(dir)) return FailedPrecondition("cannot create the output folder '" + options.dir + "'");
   if (options.shards == 0 || options.shard >= options.shards) return InvalidArgument("bad shard");
-  if (!options.renderer) return InvalidArgument("no renderer");
-  const render::Renderer& renderer = *options.renderer;
+  if (!options.evaluator) return InvalidArgument("no evaluator");
+  const api::Evaluator& evaluator = *options.evaluator;
   const bool sharded = options.shards > 1;
   const std::string manifest_name = ManifestName(options.shard, options.shards);
   const std::string shard_text = std::to_string(options.shard + 1) + "/" + std::to_string(options.shards);
@@ -253,8 +250,8 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
   constexpr size_t kGroupFiles = 32;
   constexpr auto kGroupAge = std::chrono::milliseconds(250);
   auto work = [&] {
-    api::VariantEncoder encoder;
-    api::Point point;
+    api::Workspace ws;
+    api::ResolvedPoint point;
     std::vector<Written> group;
     auto group_started = std::chrono::steady_clock::now();
     // Publishes the group; the lines of the files published go into the manifest.
@@ -292,8 +289,10 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
       const size_t slot = next.fetch_add(1);
       if (slot >= pending.size()) break;
       const size_t k = pending[slot];
-      api::VariantPoint(plan, k, point);
-      auto pieces = api::EncodeVariant(plan, point, renderer, encoder);
+      VariantPoint(plan, k, point);
+      auto encoded = evaluator.Run(plan.rig, point, plan.output, ws);
+      Result<std::array<std::string_view, 2>> pieces = encoded.ok() ? Result<std::array<std::string_view, 2>>(encoded->pieces)
+                                                                    : Result<std::array<std::string_view, 2>>(encoded.status());
       const std::string file = VariantFile(plan, k);
       Result<int> fd = pieces.ok() ? WriteTemporary(dir, kTmpPrefix + file, pieces.value(), "'" + file + "'") : pieces.status();
       if (!fd.ok()) {
@@ -306,7 +305,7 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
       group.push_back({k, fd.value(), file,
                        "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, json::error_handler_t::replace) +
                            ",\"file\":" + json(file).dump(-1, ' ', false, json::error_handler_t::replace) + ",\"bytes\":" + std::to_string(bytes) +
-                           ",\"sha256\":\"" + Sha256Hex(pieces.value()) + "\",\"weights\":" + api::WeightsMapJson(*plan.rig, point.weights) +
+                           ",\"sha256\":\"" + Sha256Hex(pieces.value()) + "\",\"weights\":" + api::WeightsMapJson(plan.rig->rig, point.weights) +
                            ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}"});
       if (group.size() >= kGroupFiles || std::chrono::steady_clock::now() - group_started >= kGroupAge) {
         if (status = flush(); !status.ok()) break;
@@ -364,7 +363,7 @@ Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options) {
     }
   } else if (options.sheet_cells > 0 && summary.total > 0 && !fs::exists(dir / "sheet.png")) {
     // The contact sheet of the first variants, once they all exist.
-    if (Status s = WriteSheet(plan, dir, options.sheet_cells, renderer); !s.ok()) return s;
+    if (Status s = WriteSheet(plan, dir, options.sheet_cells, evaluator); !s.ok()) return s;
   }
   SyncDir(dir);
   summary.seconds = elapsed();
@@ -408,10 +407,10 @@ Result<ShardsFound> FindShards(const std::string& dir_name) {
   return found;
 }
 
-Result<MergeSummary> Merge(const api::BatchPlan& plan, const MergeOptions& options) {
+Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const fs::path dir = options.dir;
-  if (!options.renderer) return InvalidArgument("no renderer");
+  if (!options.evaluator) return InvalidArgument("no evaluator");
   {
     std::ifstream f(dir / "batch.json", std::ios::binary);
     const std::string spec((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -445,7 +444,7 @@ Result<MergeSummary> Merge(const api::BatchPlan& plan, const MergeOptions& optio
     size_t count = 0;
     for (size_t k = 0; k < plan.total; ++k) {
       if (lines.count(k)) continue;
-      if (++count <= 5) missing += std::string(missing.empty() ? "" : ", ") + api::VariantId(plan, k);
+      if (++count <= 5) missing += std::string(missing.empty() ? "" : ", ") + VariantId(plan, k);
     }
     return FailedPrecondition(std::to_string(count) + " variants are missing from '" + options.dir + "' (" + missing +
                               (count > 5 ? ", ..." : "") + "): rerun their shards, then merge");
@@ -466,7 +465,7 @@ Result<MergeSummary> Merge(const api::BatchPlan& plan, const MergeOptions& optio
   }
   if (Status s = WriteInBatch(dir, kManifest, JoinLines(lines)); !s.ok()) return s;
   if (options.sheet_cells > 0 && plan.total > 0) {
-    if (Status s = WriteSheet(plan, dir, options.sheet_cells, *options.renderer); !s.ok()) return s;
+    if (Status s = WriteSheet(plan, dir, options.sheet_cells, *options.evaluator); !s.ok()) return s;
   }
   SyncDir(dir);
   // manifest.jsonl vouches for every variant now: the shards' files go.

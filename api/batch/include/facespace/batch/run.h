@@ -24,7 +24,7 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/api/pipeline.h"
+#include "facespace/batch/plan.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/variants.h"
 
@@ -39,7 +39,7 @@ struct Progress {
 
 struct RunOptions {
   std::string dir;
-  const render::Renderer* renderer = nullptr;  // For image formats and the contact sheet; required.
+  const api::Evaluator* evaluator = nullptr;  // Makes every file and the contact sheet; required.
   int jobs = 0;                      // Worker threads; 0 = every core.
   size_t shard = 0, shards = 1;      // Variant k belongs to shard k % shards.
   size_t sheet_cells = 16;           // Contact sheet of the first variants; 0 = none.
@@ -54,8 +54,8 @@ struct Summary {
   bool cancelled = false;
 };
 
-// Writes the variants of `plan` (api::MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
-Result<Summary> Run(const api::BatchPlan& plan, const RunOptions& options);
+// Writes the variants of `plan` (MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
+Result<Summary> Run(const BatchPlan& plan, const RunOptions& options);
 
 // What a shard recorded when it finished (shard-I-of-N.json).
 struct ShardRecord {
@@ -75,7 +75,7 @@ Result<ShardsFound> FindShards(const std::string& dir);
 
 struct MergeOptions {
   std::string dir;
-  const render::Renderer* renderer = nullptr;
+  const api::Evaluator* evaluator = nullptr;  // Required.
   size_t sheet_cells = 16;
   bool verify = true;  // Hash every variant file against its manifest line.
 };
@@ -86,7 +86,7 @@ struct MergeSummary {
 // Checks that every shard finished and every variant is there (its size, and its SHA-256 when
 // verify), then writes manifest.jsonl and sheet.png as a one-process run would and removes the
 // shard manifests and records. Nothing is removed when a check fails.
-Result<MergeSummary> Merge(const api::BatchPlan& plan, const MergeOptions& options);
+Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options);
 
 // The shard a scheduler gave this process: Slurm job arrays (SLURM_ARRAY_TASK_ID with
 // SLURM_ARRAY_TASK_COUNT, or _MIN/_MAX/_STEP; with `count`, the task id is the shard, so part of

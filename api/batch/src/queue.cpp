@@ -1,7 +1,7 @@
 #include <sys/statvfs.h>
-#include "jobs.h"
+#include "facespace/batch/queue.h"
 
-#include "durable.h"
+#include "facespace/batch/durable.h"
 
 #include <fcntl.h>
 #include <openssl/rand.h>
@@ -16,9 +16,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "batch.h"
+#include "facespace/batch/run.h"
 
-namespace facespace {
+namespace facespace::batch {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -126,12 +126,19 @@ double AgeSeconds(const fs::path& path) {
 
 }  // namespace
 
+bool IsValidJobId(const std::string& id) {
+  if (id.size() != 32) return false;
+  for (char c : id) {
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  }
+  return true;
+}
 
-FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const render::Renderer& renderer, JobLimits limits,
+FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator, JobLimits limits,
                            double poll_seconds, std::function<void()> refresh_store)
     : dir_(std::move(dir)),
       store_(store),
-      renderer_(renderer),
+      evaluator_(evaluator),
       limits_(limits),
       poll_seconds_(poll_seconds),
       refresh_store_(std::move(refresh_store)),
@@ -148,7 +155,7 @@ FileJobQueue::~FileJobQueue() {
 }
 
 std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) const {
-  if (!api::IsValidJobId(id)) return nullptr;
+  if (!IsValidJobId(id)) return nullptr;
   const fs::path folder = fs::path(dir_) / id;
   json j = json::parse(ReadText(folder / "job.json"), nullptr, false);
   if (j.is_discarded() || !j.is_object() || !j.contains("request") || !j.contains("rig")) return nullptr;
@@ -189,7 +196,7 @@ std::vector<std::shared_ptr<FileJobQueue::Job>> FileJobQueue::Scan() const {
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir_, ec)) {
     const std::string id = e.path().filename().string();
-    if (!api::IsValidJobId(id)) continue;
+    if (!IsValidJobId(id)) continue;
     if (auto here = RunningHere(id)) {
       out.push_back(here);
       continue;
@@ -245,7 +252,7 @@ Result<size_t> FileJobQueue::Start() {
 
 // About the bytes of one variant's file: images by their pixels (what renders of faces compress
 // to, with room), meshes by their vertices.
-static size_t VariantBytes(const Rig& rig, const api::BatchPlan& plan) {
+static size_t VariantBytes(const Rig& rig, const BatchPlan& plan) {
   const api::BatchRequest& r = plan.request;
   if (r.image) {
     const double pixels = static_cast<double>(r.render.render.width) * r.render.render.height;
@@ -267,7 +274,7 @@ static size_t VariantBytes(const Rig& rig, const api::BatchPlan& plan) {
   }
 }
 
-Status FileJobQueue::CheckRoom(const api::StoredRig& rig, const api::BatchPlan& plan) const {
+Status FileJobQueue::CheckRoom(const api::StoredRig& rig, const BatchPlan& plan) const {
   struct statvfs st {};
   if (::statvfs(dir_.c_str(), &st) != 0) return Status::Ok();  // Unknown: the writes will say.
   const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
@@ -284,8 +291,8 @@ Status FileJobQueue::CheckRoom(const api::StoredRig& rig, const api::BatchPlan& 
   return s;
 }
 
-Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> rig, std::shared_ptr<const api::BatchPlan> plan,
-                                          std::string_view body, int* retry_after) {
+Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body, int* retry_after) {
+  const std::shared_ptr<const api::StoredRig>& rig = plan->rig;
   if (plan->total > limits_.max_batch) {
     const std::string ptr = plan->request.sampled ? "/sample/count" : "/variants";
     Status s = InvalidArgument(ptr + ": a batch has at most " + std::to_string(limits_.max_batch) + " variants; this one has " +
@@ -312,7 +319,7 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
     *retry_after = static_cast<int>(std::clamp(rate > 0 ? wait : 10.0, 1.0, 3600.0));
     return WithReason(ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " + std::to_string(limits_.max_jobs) +
                                         " jobs queued or running, " + std::to_string(remaining) + " variants to go)"),
-                      api::kJobQueueFull);
+                      kJobQueueFull);
   }
   auto job = std::make_shared<Job>();
   job->info.id = NewJobId();
@@ -345,22 +352,22 @@ Result<api::JobInfo> FileJobQueue::Submit(std::shared_ptr<const api::StoredRig> 
   return job->info;
 }
 
-std::optional<api::JobInfo> FileJobQueue::Get(const std::string& id) const {
+std::optional<JobInfo> FileJobQueue::Get(const std::string& id) const {
   if (auto here = RunningHere(id)) return here->info;
   auto job = Load(id);
   if (!job) return std::nullopt;
   return job->info;
 }
 
-std::vector<api::JobInfo> FileJobQueue::List() const {
-  std::vector<api::JobInfo> out;
+std::vector<JobInfo> FileJobQueue::List() const {
+  std::vector<JobInfo> out;
   for (const auto& job : Scan()) out.push_back(job->info);
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.created > b.created || (a.created == b.created && a.id < b.id); });
   return out;
 }
 
 Status FileJobQueue::Remove(const std::string& id) {
-  if (!api::IsValidJobId(id) || !Load(id)) return NotFound("no job '" + id + "'");
+  if (!IsValidJobId(id) || !Load(id)) return NotFound("no job '" + id + "'");
   const fs::path folder = fs::path(dir_) / id;
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -456,23 +463,23 @@ void FileJobQueue::MarkLost(Job& job) {
 
 void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig, int claim) {
   const fs::path folder = fs::path(dir_) / job->info.id;
-  Result<std::shared_ptr<const api::BatchPlan>> plan = job->plan;
+  Result<std::shared_ptr<const BatchPlan>> plan = job->plan;
   if (!job->plan) {  // Submitted elsewhere or before a restart: plan the stored request again.
-    auto made = api::MakeBatchPlan(std::shared_ptr<const Rig>(rig, &rig->rig), rig->version, job->body);
-    plan = made.ok() ? Result<std::shared_ptr<const api::BatchPlan>>(std::make_shared<const api::BatchPlan>(std::move(made.value())))
-                     : Result<std::shared_ptr<const api::BatchPlan>>(made.status());
+    auto made = MakeBatchPlan(rig, job->body);
+    plan = made.ok() ? Result<std::shared_ptr<const BatchPlan>>(std::make_shared<const BatchPlan>(std::move(made.value())))
+                     : Result<std::shared_ptr<const BatchPlan>>(made.status());
   }
   if (!plan.ok()) {
     Finish(*job, "failed", plan.status().message);
     return;
   }
-  batch::RunOptions options;
+  RunOptions options;
   options.dir = Folder(job->info.id);
-  options.renderer = &renderer_;
+  options.evaluator = &evaluator_;
   options.jobs = limits_.threads;
   options.cancel = &job->cancel;
   double said = -1.0;  // When the rate was last written in the claim, in the run's seconds.
-  options.progress = [this, &job, &folder, claim, &said](const batch::Progress& p) {
+  options.progress = [this, &job, &folder, claim, &said](const Progress& p) {
     std::error_code ec;
     const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
     // The rate, for the instances that do not run the job: once a variant is made, then each second.
@@ -513,4 +520,4 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
   }
 }
 
-}  // namespace facespace
+}  // namespace facespace::batch

@@ -11,7 +11,7 @@ namespace {
 
 using nlohmann::json;
 
-json JobJson(const JobInfo& j) {
+json JobJson(const batch::JobInfo& j) {
   const std::string self = "/v1/jobs/" + j.id;
   json o = {{"id", j.id},           {"rig", j.rig},     {"state", j.state}, {"format", j.format},
             {"created", j.created}, {"total", j.total}, {"done", j.done},
@@ -24,17 +24,17 @@ json JobJson(const JobInfo& j) {
   return o;
 }
 
-bool JobsEnabled(const Context& ctx, const httplib::Request& req, httplib::Response& res) {
+bool JobsEnabled(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (ctx.jobs) return true;
   SendProblem(req, res, 503, "jobs-disabled", "this server runs no batch jobs");
   return false;
 }
 
 // The job named by the path, or nullopt with 503 or 404 sent.
-std::optional<JobInfo> FindJob(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+std::optional<batch::JobInfo> FindJob(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!JobsEnabled(ctx, req, res)) return std::nullopt;
   const std::string id = req.matches[1];
-  std::optional<JobInfo> j = IsValidJobId(id) ? ctx.jobs->Get(id) : std::nullopt;
+  std::optional<batch::JobInfo> j = batch::IsValidJobId(id) ? ctx.jobs->Get(id) : std::nullopt;
   if (!j) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
   return j;
 }
@@ -50,7 +50,7 @@ const char* FileType(const std::string& name) {
   return "application/octet-stream";
 }
 
-void SendJobFile(Context& ctx, const httplib::Request& req, httplib::Response& res, const std::string& name) {
+void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& name) {
   auto job = FindJob(ctx, req, res);
   if (!job) return;
   const std::filesystem::path path = std::filesystem::path(ctx.jobs->Folder(job->id)) / name;
@@ -67,18 +67,18 @@ void SendJobFile(Context& ctx, const httplib::Request& req, httplib::Response& r
 
 }  // namespace
 
-void PostBatch(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void PostBatch(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   // It writes to the disk: a mutating route.
   if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   if (!stored || !AcceptsJsonBody(req, res)) return;
-  auto plan = MakeBatchPlan(std::shared_ptr<const Rig>(stored, &stored->rig), stored->version, req.body);
+  auto plan = batch::MakeBatchPlan(stored, req.body);
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   int retry_after = 0;
-  auto job = ctx.jobs->Submit(stored, std::make_shared<const BatchPlan>(std::move(plan.value())), req.body, &retry_after);
+  auto job = ctx.jobs->Submit(std::make_shared<const batch::BatchPlan>(std::move(plan.value())), req.body, &retry_after);
   if (!job.ok()) {
     Status s = job.status();
-    if (s.reason == kJobQueueFull) res.set_header("Retry-After", std::to_string(retry_after));
+    if (s.reason == batch::kJobQueueFull) res.set_header("Retry-After", std::to_string(retry_after));
     else if (s.reason.empty() && s.code != StatusCode::kInvalidArgument) s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : "storage-failed";
     return SendStatus(req, res, s);
   }
@@ -86,33 +86,33 @@ void PostBatch(Context& ctx, const httplib::Request& req, httplib::Response& res
   SendJson(res, 202, JobJson(job.value()));
 }
 
-void ListJobs(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void ListJobs(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!JobsEnabled(ctx, req, res)) return;
   json list = json::array();
-  for (const JobInfo& j : ctx.jobs->List()) list.push_back(JobJson(j));
+  for (const batch::JobInfo& j : ctx.jobs->List()) list.push_back(JobJson(j));
   SendJson(res, 200, {{"jobs", list}});
 }
 
-void GetJob(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetJob(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (auto j = FindJob(ctx, req, res)) {
     res.set_header("Cache-Control", "no-cache");
     SendJson(res, 200, JobJson(*j));
   }
 }
 
-void DeleteJob(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void DeleteJob(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
-  Status s = IsValidJobId(id) ? ctx.jobs->Remove(id) : NotFound("");
+  Status s = batch::IsValidJobId(id) ? ctx.jobs->Remove(id) : NotFound("");
   if (!s.ok()) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
   else res.status = 204;
 }
 
-void GetJobManifest(Context& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, "manifest.jsonl"); }
+void GetJobManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, "manifest.jsonl"); }
 
-void GetJobFile(Context& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, req.matches[2]); }
+void GetJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, req.matches[2]); }
 
-void GetJobResults(Context& ctx, const httplib::Request& req, httplib::Response& res) {
+void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto job = FindJob(ctx, req, res);
   if (!job) return;
   if (job->state != "done") {

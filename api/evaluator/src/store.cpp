@@ -1,4 +1,3 @@
-#include "facespace/api/jobs.h"
 #include "facespace/api/store.h"
 
 #include <cinttypes>
@@ -55,14 +54,6 @@ std::string RigVersion(std::span<const unsigned char> bytes, const std::string& 
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016" PRIx64, h);
   return buf;
-}
-
-bool IsValidJobId(const std::string& id) {
-  if (id.size() != 32) return false;
-  for (char c : id) {
-    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
-  }
-  return true;
 }
 
 }  // namespace facespace::api

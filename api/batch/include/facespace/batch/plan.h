@@ -1,0 +1,47 @@
+// A batch request resolved against one rig: which variants there are, what each is called, and
+// each one's point. Every variant's weights are a pure function of the plan and its index, so a
+// run can stop, resume, or be split into shards that agree.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "facespace/api/evaluator.h"
+#include "facespace/api/request.h"
+#include "facespace/core/variants.h"
+
+namespace facespace::batch {
+
+struct BatchPlan {
+  // Held, not pointed at: a queued plan outlives the store's entry when the rig is uploaded again
+  // (even with the same bytes, so the same version) or deleted while the job waits.
+  std::shared_ptr<const api::StoredRig> rig;
+  api::BatchRequest request;
+  SampleSpec sample;                        // When request.sampled.
+  std::vector<std::vector<float>> weights;  // Explicit variants, resolved.
+  size_t total = 0;
+  std::string spec_json;                    // batch.json: {"request": ..., "rig": ..., "rig_version": ...}
+  Pose pose;                                // The request's pose, shared by every variant.
+  bool posed = false;
+  std::vector<Warning> pose_warnings;
+  api::OutputSpec output;                   // Every variant's file (a mesh in pieces, or a render).
+};
+
+// Parses and resolves a batch body (api::ParseBatchRequest's schema) against a rig (the pose must
+// resolve too). `rig->version` identifies the rig's content, so a rerun against another rig is refused.
+Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> rig, std::string_view request_json);
+
+std::string VariantId(const BatchPlan& plan, size_t index);    // The given id, else "v" + 6 digits.
+std::string VariantFile(const BatchPlan& plan, size_t index);  // id + "." + the format's extension.
+
+// Variant `index` as a point: its weights and the plan's pose, checked (the pose's warnings last).
+void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point);
+
+// The contact sheet of the variants `indices`, labelled with their ids: 256 x 256 cells, PNG.
+Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices, const api::Evaluator& evaluator,
+                                 api::Workspace& ws);
+
+}  // namespace facespace::batch

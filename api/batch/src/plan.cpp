@@ -1,0 +1,84 @@
+#include "facespace/batch/plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+namespace facespace::batch {
+
+using nlohmann::json;
+
+Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned, std::string_view request_json) {
+  auto request = api::ParseBatchRequest(request_json);
+  if (!request.ok()) return request.status();
+  const Rig& rig = owned->rig;
+  const std::string rig_version = owned->version;
+  BatchPlan plan;
+  plan.rig = std::move(owned);
+  plan.request = std::move(request.value());
+  if (plan.request.sampled) {
+    auto spec = api::ResolveSampleSpec(rig, plan.request);
+    if (!spec.ok()) return spec.status();
+    plan.sample = std::move(spec.value());
+    plan.total = SampleCount(plan.sample, rig.shapes.size());
+  } else {
+    for (const auto& v : plan.request.variants) {
+      auto w = ResolveWeights(rig, v.weights);
+      if (!w.ok()) return w.status();
+      plan.weights.push_back(std::move(w.value()));
+    }
+    plan.total = plan.weights.size();
+  }
+  std::vector<float> unused;
+  if (Status s = ResolvePoseAndWeights(rig, {}, plan.request.render.mesh.pose, unused, plan.pose, plan.posed, plan.pose_warnings);
+      !s.ok()) {
+    return s;
+  }
+  json spec = {{"request", json::parse(request_json, nullptr, false)}, {"rig", rig.name}, {"rig_version", rig_version}};
+  plan.spec_json = spec.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
+  const api::BatchRequest& r = plan.request;
+  plan.output = r.image ? api::OutputSpec::Image(r.render, r.image_format) : api::OutputSpec::Mesh(r.render.mesh, r.mesh_format);
+  plan.output.pieces = true;
+  return plan;
+}
+
+std::string VariantId(const BatchPlan& plan, size_t index) {
+  if (!plan.request.sampled && !plan.request.variants[index].id.empty()) return plan.request.variants[index].id;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "v%06zu", index);
+  return buf;
+}
+
+std::string VariantFile(const BatchPlan& plan, size_t index) { return VariantId(plan, index) + "." + plan.request.format; }
+
+void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point) {
+  const Rig& rig = plan.rig->rig;
+  point.weights.resize(rig.shapes.size());
+  if (plan.request.sampled) SampleVariant(rig, plan.sample, index, point.weights);
+  else std::copy(plan.weights[index].begin(), plan.weights[index].end(), point.weights.begin());
+  point.pose = plan.pose;  // Same sizes every time: no allocation once warm.
+  point.posed = plan.posed;
+  api::CheckPoint(rig, plan.request.render.mesh.options.mode, point);
+  point.report.warnings.insert(point.report.warnings.end(), plan.pose_warnings.begin(), plan.pose_warnings.end());
+}
+
+Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices, const api::Evaluator& evaluator,
+                                 api::Workspace& ws) {
+  std::vector<api::ResolvedPoint> cells(indices.size());
+  api::OutputSpec spec = api::OutputSpec::Image(plan.request.render, render::ImageFormat::kPng);
+  spec.kind = api::OutputSpec::Kind::kSheet;
+  spec.quality = 90;
+  for (size_t i = 0; i < indices.size(); ++i) {
+    VariantPoint(plan, indices[i], cells[i]);
+    spec.labels.push_back(VariantId(plan, indices[i]));
+  }
+  spec.render.width = spec.render.height = 256;
+  spec.render.supersample = std::min(spec.render.supersample, 2);
+  spec.columns = cells.size() >= 16 ? 4 : static_cast<int>(std::ceil(std::sqrt(static_cast<double>(cells.size()))));
+  auto png = evaluator.Run(plan.rig, cells, spec, ws);
+  if (!png.ok()) return png.status();
+  return std::move(png->bytes);
+}
+
+}  // namespace facespace::batch

@@ -1,0 +1,243 @@
+// The one path from a request to encoded bytes, for every surface: the HTTP routes, every CLI
+// command, batch variants and sequence frames call it, and none of them evaluates or encodes on
+// its own.
+//
+//   request ──ResolvePoint──> ResolvedPoint ──Evaluator::Run(point, OutputSpec, Workspace&)──> Encoded
+//             controls, pose,  (weights, pose,      the rig at its level of detail, evaluated,
+//             weights, checks   warnings, sum)      then exported or rendered and encoded
+//
+// The two steps are separate so the service can answer from its response cache between them: the
+// cache key is CacheKey(rig, points, spec), the one function that says what an output depends on.
+// The fast paths (f32 bodies blended where they are written, glb written over a kept template)
+// and what is kept per rig (levels of detail, the box its shapes act in) live in the Evaluator.
+// No HTTP here: errors are Status values whose `reason` names the problem ("invalid-weights");
+// api/src/http maps them to status codes in one place.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/api/request.h"
+#include "facespace/api/store.h"
+#include "facespace/core/blend.h"
+#include "facespace/core/fit.h"
+#include "facespace/core/sequence.h"
+#include "facespace/core/skeleton.h"
+#include "facespace/core/status.h"
+#include "facespace/core/weights.h"
+#include "facespace/formats/io.h"
+#include "facespace/render/render.h"
+
+namespace facespace::api {
+
+// Status::reason of the evaluator's errors.
+inline constexpr char kInvalidControls[] = "invalid-controls";
+inline constexpr char kInvalidWeights[] = "invalid-weights";
+inline constexpr char kLeavesAuthoredSpace[] = "weights-leave-authored-space";  // strict requests
+inline constexpr char kInvalidSequence[] = "invalid-sequence";
+inline constexpr char kResponseTooLarge[] = "response-too-large";
+inline constexpr char kInvalidTarget[] = "invalid-target";
+
+// A point of face space resolved against one rig: what a request's weights, controls and pose
+// come to, and what the checks say about it.
+struct ResolvedPoint {
+  std::vector<float> weights;  // One per shape.
+  Pose pose;
+  bool posed = false;          // False: the rest pose.
+  WeightReport report;         // Sum, warnings (the weights', then the pose's and controls'), Mahalanobis.
+  size_t weight_warnings = 0;  // How many warnings CheckPoint found (ResolvePoint keeps them first).
+  const Pose* pose_or_null() const { return posed ? &pose : nullptr; }
+};
+
+// ---- step 1: the point ----------------------------------------------------------------------
+
+// Controls, then the pose and the weights (core: ApplyControls, ResolvePoseAndWeights), then the
+// checks (CheckWeights). Fills `point` as far as it got, also when a strict request is refused, so
+// its warnings can still be reported. Errors: reason invalid-controls or invalid-weights (fields
+// name the entries); with `request.strict` and any warning, reason weights-leave-authored-space.
+Status ResolvePoint(const Rig& rig, const MeshRequest& request, ResolvedPoint& point);
+
+// The checks alone, for a point whose weights and pose are set already (batch variants,
+// sequence frames): point.report from CheckWeights.
+void CheckPoint(const Rig& rig, BlendMode mode, ResolvedPoint& point);
+
+// A sheet's cells as points, every one first, so nothing is rendered when one of them is wrong.
+struct SheetPoints {
+  std::vector<ResolvedPoint> cells;
+  std::vector<Warning> warnings;  // Every cell's, each message prefixed "cell N: "; the pose's once.
+  double max_sum = 0.0;
+};
+// Errors as ResolvePoint's, the message prefixed "cell N: "; strict refuses on any cell's warning.
+Status ResolveSheet(const Rig& rig, const SheetRequest& request, SheetPoints& points);
+
+// ---- step 2: what to make of the point --------------------------------------------------------
+
+struct OutputSpec {
+  enum class Kind {
+    kMesh,        // The mesh in mesh_format.
+    kImage,       // A render in image_format.
+    kSheet,       // A labelled grid of renders, one cell per point, `columns` wide.
+    kFrameJson,   // A sequence frame: the JSON export's primitives array (world space).
+    kFrameF32,    // A stream frame: a uint32 byte count, then the world-space positions.
+  };
+  Kind kind = Kind::kMesh;
+  BlendOptions blend;            // Mode, normals, skinning (the point's pose is the point's).
+  int lod = 0;                   // Level of detail of the rig (core/lod.h); sheets are drawn at 0.
+  // Meshes.
+  MeshFormat mesh_format = MeshFormat::kJson;
+  bool mesh_space = false;       // JSON, OBJ and f32 before the node transforms.
+  bool keep_targets = false;     // glb: the rig with the point's weights as defaults.
+  // glb: the bytes are left in the workspace as two pieces of one file (Encoded::pieces), for
+  // callers that write them as they are (batch files); the workspace keeps its own writer, so it
+  // must serve one rig (a batch worker's).
+  bool pieces = false;
+  // Images and sheets.
+  render::RenderOptions render;
+  render::ImageFormat image_format = render::ImageFormat::kPng;
+  int quality = 90;
+  int columns = 4;
+  std::vector<std::string> labels;  // One per cell.
+
+  static OutputSpec Mesh(const MeshRequest& request, MeshFormat format);
+  static OutputSpec Image(const RenderRequest& request, render::ImageFormat format);
+  static OutputSpec Sheet(const SheetRequest& request, render::ImageFormat format);
+  static OutputSpec Frame(const BlendOptions& blend, bool f32);
+  const char* content_type() const;
+};
+
+// What a call made: the bytes, and (OutputSpec::pieces) the two pieces they are in instead.
+struct Encoded {
+  std::string bytes;
+  // With OutputSpec::pieces: a glb's head and binary chunk, to be written one after the other,
+  // valid until the workspace's next call; `bytes` is then empty. Otherwise {bytes, ""}.
+  std::array<std::string_view, 2> pieces{};
+};
+
+// What a caller keeps between calls so that steady-state evaluation does not allocate: one per
+// thread (the service leases them from a pool it owns).
+struct Workspace {
+  BlendContext context;
+  BlendedRig blended;
+  F32Blender::Scratch f32;
+  // A response body handed back once sent, for the next f32 body to be written over.
+  std::string body;
+  GlbVariantWriter glb;  // OutputSpec::pieces' writer.
+  render::Image image;
+  std::vector<render::Image> cells;
+  // What the last call's steps took, in milliseconds (the service's Server-Timing header); the
+  // caller zeroes it before a call, the steps add to it.
+  struct Timing {
+    double blend = 0, draw = 0, encode = 0;
+  } timing;
+};
+
+// The text a response cache keys `spec` at `points` of `rig` by: the rig's id and version and,
+// bit for bit, everything the bytes depend on. Equal keys, equal bytes.
+std::string CacheKey(const StoredRig& rig, std::span<const ResolvedPoint> points, const OutputSpec& spec);
+
+// What is derived from a stored rig per level of detail: the simplified rig (the stored rig itself
+// at 0) and the box its shapes act in.
+struct DerivedRig {
+  std::shared_ptr<const Rig> rig;
+  bool has_focus = false;
+  bool focus_small = false;  // FrameShapesByDefault: renders frame the focus unless told "all".
+  std::array<float, 3> focus_min{}, focus_max{};
+};
+
+class Evaluator {
+ public:
+  // `renderer` draws images and sheets; it must outlive the evaluator.
+  explicit Evaluator(const render::Renderer& renderer);
+  ~Evaluator();
+  Evaluator(const Evaluator&) = delete;
+  Evaluator& operator=(const Evaluator&) = delete;
+
+  // `spec` at `points` of `rig` (one point, or a sheet's cells). The points were resolved against
+  // `rig` (ResolvePoint, CheckPoint): a failure to evaluate them is ours (Internal); a failure to
+  // draw or encode says so. Thread-safe: each thread brings its own workspace.
+  Result<Encoded> Run(const std::shared_ptr<const StoredRig>& rig, std::span<const ResolvedPoint> points, const OutputSpec& spec,
+                      Workspace& ws) const;
+  Result<Encoded> Run(const std::shared_ptr<const StoredRig>& rig, const ResolvedPoint& point, const OutputSpec& spec,
+                      Workspace& ws) const {
+    return Run(rig, std::span<const ResolvedPoint>(&point, 1), spec, ws);
+  }
+
+  // The rig at a level of detail and the box its shapes act in (kept); null when it cannot be made.
+  std::shared_ptr<const DerivedRig> Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const;
+
+ private:
+  struct Kept;
+  const render::Renderer& renderer_;
+  std::unique_ptr<Kept> kept_;
+};
+
+// A rig that is not in a store (a CLI run, a test) as the evaluator takes one: its id is the
+// rig's name; with no version, nothing keyed by it outlives the process.
+std::shared_ptr<const StoredRig> Unstored(Rig rig, std::string version = "");
+
+// ---- one call: step 1 then step 2 -------------------------------------------------------------
+
+// The bytes and what a client is told beside them.
+struct Output {
+  std::string bytes;
+  std::string content_type;
+  std::vector<Warning> warnings;
+  double weight_sum = 0.0;
+};
+
+Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const MeshRequest& request,
+                           MeshFormat format, Workspace& ws);
+Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const RenderRequest& request,
+                            render::ImageFormat format, Workspace& ws);
+Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const SheetRequest& request,
+                            render::ImageFormat format, Workspace& ws);
+
+// ---- weights only -----------------------------------------------------------------------------
+
+// {"sum", "weights" (non-zero, by name), "mahalanobis"?, "warnings"}: the check route's body.
+std::string CheckJson(const Rig& rig, const ResolvedPoint& point);
+
+// {"name": w, ...} of the non-zero weights, floats as their shortest text.
+std::string WeightsMapJson(const Rig& rig, std::span<const float> weights);
+
+// ---- keyframe sequences -----------------------------------------------------------------------
+
+// The sequence's frame at `time` as a point: sampled weights, the clip's pose (else the rest
+// pose), checked. Its warnings: the transition leaving [0, 1] (transition_extrapolation), then the
+// weights' own, each message prefixed with "t=TIME: ".
+void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point);
+
+// {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}: the sample route's body and
+// `facespace sequence --format json`. `warnings` receives the frames' warnings too.
+// A body that would pass `max_bytes` (judged from its first frame, then checked as it grows) is
+// refused before the work: 422 response-too-large on /times, naming the limit.
+Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                                       const Sequence& sequence, std::span<const float> times, const BlendOptions& options,
+                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes = static_cast<size_t>(-1));
+
+// One frame of a stream: ndjson {"frame", "time", "weights", "warnings"} and a newline, or f32:
+// a uint32 byte count then the world-space positions.
+Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const Sequence& sequence,
+                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws);
+
+// Frames from the first key to the last at `fps` (both ends included).
+size_t FrameCount(const Sequence& sequence, float fps);
+
+// JSON of a sequence's keys, weights by name (zeros left out), as a request takes them.
+std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence);
+
+// {"keys", "transition", "kept", "removed", "max_error", "tolerance"}: a reduced sequence.
+std::string ReducedSequenceJson(const Rig& rig, const Sequence& original, const ReduceResult& reduced, float tolerance);
+
+// ---- fitting ----------------------------------------------------------------------------------
+
+// {"weights": {name: w, every shape}, "residual": {"rms", "max"}, "alignment"?, "warnings": [...]}
+std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned);
+
+// FitWeights, then its JSON. Errors: reason invalid-target.
+Result<Output> ProduceFit(const Rig& rig, const FitRequest& request);
+
+}  // namespace facespace::api

@@ -1,0 +1,276 @@
+// Step 2: a resolved point to encoded bytes, with the fast paths and what is kept per rig.
+#include "facespace/api/evaluator.h"
+
+#include <chrono>
+#include <cstring>
+
+#include "kept.h"
+
+namespace facespace::api {
+
+struct Evaluator::Kept {
+  DerivedRigs derived;
+  GlbWriters glb_writers;
+  F32Blenders f32_blenders;
+};
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Adds the milliseconds since `start` to `total`, and restarts the clock.
+void Lap(Clock::time_point& start, double& total) {
+  const auto now = Clock::now();
+  total += std::chrono::duration<double, std::milli>(now - start).count();
+  start = now;
+}
+
+// The rig evaluated at `point` into ws.blended. The point was checked: a failure here is ours.
+Status Evaluate(const Rig& rig, const ResolvedPoint& point, BlendOptions options, Workspace& ws) {
+  auto start = Clock::now();
+  options.pose = point.pose_or_null();
+  if (Status s = EvaluateRig(rig, point.weights, options, ws.blended, ws.context); !s.ok()) {
+    return Internal("the blend failed: " + s.message);
+  }
+  Lap(start, ws.timing.blend);
+  return Status::Ok();
+}
+
+Encoded Whole(std::string bytes) {
+  Encoded e{std::move(bytes), {}};
+  e.pieces = {e.bytes, {}};
+  return e;
+}
+
+// The f32 body blended where it is written (F32Blender), over ws.body; false when the blender
+// does not serve this rig, point or spec.
+bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec, const F32Blender& f32, Workspace& ws,
+             std::string& out) {
+  if (f32.mesh_space() != spec.mesh_space || point.pose_or_null() || !F32Blender::Serves(rig, spec.blend)) return false;
+  auto start = Clock::now();
+  std::string bytes = std::move(ws.body);
+  if (!f32.Write(rig, point.weights, ws.f32, bytes)) {
+    ws.body = std::move(bytes);
+    return false;
+  }
+  Lap(start, ws.timing.blend);
+  out = std::move(bytes);
+  return true;
+}
+
+// The blended glb through a writer that keeps the rig's template: its two pieces.
+Result<GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec, Workspace& ws,
+                                           GlbVariantWriter& glb) {
+  if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
+  auto start = Clock::now();
+  ExportOptions options;
+  options.keep_targets = spec.keep_targets;
+  auto pieces = glb.Write(rig, ws.blended, point.weights, point.report.warnings, options);
+  if (!pieces.ok()) return Prefixed(pieces.status(), "the export failed: ");
+  Lap(start, ws.timing.encode);
+  return pieces;
+}
+
+// A labelled grid of renders of `cells` (each with its own pose).
+Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells, const OutputSpec& spec,
+                         const render::RenderOptions& options, const render::Renderer& renderer, Workspace& ws) {
+  ws.cells.resize(cells.size());
+  for (size_t c = 0; c < cells.size(); ++c) {
+    if (Status s = Evaluate(rig, cells[c], spec.blend, ws); !s.ok()) return s;
+    auto start = Clock::now();
+    if (Status s = renderer.Draw(rig, ws.blended, options, ws.cells[c]); !s.ok()) return Prefixed(s, "the render failed: ");
+    Lap(start, ws.timing.draw);
+  }
+  auto start = Clock::now();
+  auto bytes = render::Encode(render::ContactSheet(ws.cells, spec.labels, spec.columns, options.background), spec.image_format,
+                              spec.quality);
+  Lap(start, ws.timing.encode);
+  // A workspace is kept for the next request: it keeps no large sheet's images.
+  size_t pixels = 0;
+  for (const render::Image& c : ws.cells) pixels += static_cast<size_t>(c.width) * static_cast<size_t>(c.height);
+  if (pixels > (size_t{1} << 20)) std::vector<render::Image>().swap(ws.cells);
+  return bytes;
+}
+
+}  // namespace
+
+// ---- the spec -----------------------------------------------------------------------------------
+
+OutputSpec OutputSpec::Mesh(const MeshRequest& r, MeshFormat format) {
+  OutputSpec s;
+  s.kind = Kind::kMesh;
+  s.blend = r.options;
+  s.lod = r.lod;
+  s.mesh_format = format;
+  s.mesh_space = r.mesh_space;
+  s.keep_targets = r.keep_targets;
+  return s;
+}
+
+OutputSpec OutputSpec::Image(const RenderRequest& r, render::ImageFormat format) {
+  OutputSpec s;
+  s.kind = Kind::kImage;
+  s.blend = r.mesh.options;
+  s.lod = r.mesh.lod;
+  s.render = r.render;
+  s.image_format = format;
+  s.quality = r.quality;
+  return s;
+}
+
+OutputSpec OutputSpec::Sheet(const SheetRequest& r, render::ImageFormat format) {
+  OutputSpec s = Image(r.base, format);
+  s.kind = Kind::kSheet;
+  s.lod = 0;
+  s.columns = r.columns;
+  s.labels = r.labels;
+  return s;
+}
+
+OutputSpec OutputSpec::Frame(const BlendOptions& blend, bool f32) {
+  OutputSpec s;
+  s.kind = f32 ? Kind::kFrameF32 : Kind::kFrameJson;
+  s.blend = blend;
+  return s;
+}
+
+const char* OutputSpec::content_type() const {
+  switch (kind) {
+    case Kind::kMesh: return MeshFormatMimeType(mesh_format);
+    case Kind::kImage:
+    case Kind::kSheet: return render::ImageFormatMimeType(image_format);
+    case Kind::kFrameJson: return "application/json";
+    case Kind::kFrameF32: return "application/octet-stream";
+  }
+  return "application/octet-stream";
+}
+
+// ---- the evaluator ------------------------------------------------------------------------------
+
+Evaluator::Evaluator(const render::Renderer& renderer) : renderer_(renderer), kept_(std::make_unique<Kept>()) {}
+Evaluator::~Evaluator() = default;
+
+std::shared_ptr<const DerivedRig> Evaluator::Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const {
+  return kept_->derived.At(rig, lod);
+}
+
+Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, std::span<const ResolvedPoint> points,
+                               const OutputSpec& spec, Workspace& ws) const {
+  if (points.empty() || (spec.kind != OutputSpec::Kind::kSheet && points.size() != 1)) {
+    return Internal("an output of " + std::to_string(points.size()) + " points");
+  }
+  const std::shared_ptr<const Rig> at = kept_->derived.RigAt(stored, spec.lod);
+  if (!at) return Internal("the level of detail failed");
+  const Rig& rig = *at;
+  const ResolvedPoint& point = points[0];
+  switch (spec.kind) {
+    case OutputSpec::Kind::kMesh: {
+      if (spec.mesh_format == MeshFormat::kF32) {
+        std::string bytes;
+        if (F32Fast(rig, point, spec, *kept_->f32_blenders.Get(at, spec.mesh_space), ws, bytes)) return Whole(std::move(bytes));
+      }
+      if (spec.mesh_format == MeshFormat::kGlb && !spec.keep_targets) {
+        if (spec.pieces) {
+          auto pieces = GlbPieces(rig, point, spec, ws, ws.glb);
+          if (!pieces.ok()) return pieces.status();
+          return Encoded{{}, {pieces->head, pieces->bin}};
+        }
+        const GlbWriters::Lease glb = kept_->glb_writers.Acquire(at);
+        auto pieces = GlbPieces(rig, point, spec, ws, *glb);
+        if (!pieces.ok()) return pieces.status();
+        std::string bytes;
+        bytes.reserve(pieces->head.size() + pieces->bin.size());
+        return Whole(std::move(bytes.append(pieces->head).append(pieces->bin)));
+      }
+      if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
+      auto start = Clock::now();
+      ExportOptions options;
+      options.keep_targets = spec.keep_targets;
+      options.mesh_space = spec.mesh_space;
+      auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, spec.mesh_format, options);
+      if (!bytes.ok()) return Prefixed(bytes.status(), "the export failed: ");
+      Lap(start, ws.timing.encode);
+      return Whole(std::move(bytes.value()));
+    }
+    case OutputSpec::Kind::kImage: {
+      if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
+      auto start = Clock::now();
+      render::RenderOptions options = spec.render;
+      kept_->derived.SetFocus(stored, spec.lod, options.camera);
+      options.srgb8 = spec.image_format != render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
+      if (Status s = renderer_.Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
+      Lap(start, ws.timing.draw);
+      auto bytes = render::Encode(ws.image, spec.image_format, spec.quality);
+      Lap(start, ws.timing.encode);
+      if (!bytes.ok()) return bytes.status();
+      return Whole(std::move(bytes.value()));
+    }
+    case OutputSpec::Kind::kSheet: {
+      render::RenderOptions options = spec.render;
+      kept_->derived.SetFocus(stored, spec.lod, options.camera);
+      auto bytes = Grid(rig, points, spec, options, renderer_, ws);
+      if (!bytes.ok()) return bytes.status();
+      return Whole(std::move(bytes.value()));
+    }
+    case OutputSpec::Kind::kFrameJson: {
+      if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
+      return Whole(PrimitivesJson(rig, ws.blended));
+    }
+    case OutputSpec::Kind::kFrameF32: {
+      if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
+      std::vector<float> positions;
+      WorldPositions(ws.blended, positions);
+      const uint32_t size = static_cast<uint32_t>(positions.size() * 4);
+      std::string chunk(4 + size, '\0');
+      std::memcpy(chunk.data(), &size, 4);
+      std::memcpy(chunk.data() + 4, positions.data(), size);
+      return Whole(std::move(chunk));
+    }
+  }
+  return Internal("an unknown output");
+}
+
+std::shared_ptr<const StoredRig> Unstored(Rig rig, std::string version) {
+  auto stored = std::make_shared<StoredRig>();
+  stored->id = rig.name;
+  stored->rig = std::move(rig);
+  stored->version = std::move(version);
+  return stored;
+}
+
+// ---- one call -----------------------------------------------------------------------------------
+
+namespace {
+
+Result<Output> Finish(Result<Encoded> encoded, const OutputSpec& spec, std::vector<Warning> warnings, double sum) {
+  if (!encoded.ok()) return encoded.status();
+  return Output{std::move(encoded->bytes), spec.content_type(), std::move(warnings), sum};
+}
+
+}  // namespace
+
+Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const MeshRequest& request,
+                           MeshFormat format, Workspace& ws) {
+  ResolvedPoint point;
+  if (Status s = ResolvePoint(rig->rig, request, point); !s.ok()) return s;
+  const OutputSpec spec = OutputSpec::Mesh(request, format);
+  return Finish(evaluator.Run(rig, point, spec, ws), spec, point.report.warnings, point.report.sum);
+}
+
+Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const RenderRequest& request,
+                            render::ImageFormat format, Workspace& ws) {
+  ResolvedPoint point;
+  if (Status s = ResolvePoint(rig->rig, request.mesh, point); !s.ok()) return s;
+  const OutputSpec spec = OutputSpec::Image(request, format);
+  return Finish(evaluator.Run(rig, point, spec, ws), spec, point.report.warnings, point.report.sum);
+}
+
+Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const SheetRequest& request,
+                            render::ImageFormat format, Workspace& ws) {
+  SheetPoints points;
+  if (Status s = ResolveSheet(rig->rig, request, points); !s.ok()) return s;
+  const OutputSpec spec = OutputSpec::Sheet(request, format);
+  return Finish(evaluator.Run(rig, points.cells, spec, ws), spec, points.warnings, points.max_sum);
+}
+
+}  // namespace facespace::api

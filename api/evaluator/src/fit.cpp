@@ -1,0 +1,33 @@
+// Fitting: the weights that best reproduce a mesh, as JSON.
+#include "facespace/api/evaluator.h"
+#include "json_text.h"
+
+namespace facespace::api {
+
+std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
+  std::string out = "{\"weights\":{";
+  for (size_t s = 0; s < rig.shapes.size(); ++s) {
+    out += std::string(s ? "," : "") + JsonString(rig.shapes[s].name) + ":" + FormatNumber(fit.weights[s]);
+  }
+  out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) + ",\"max\":" + FormatNumber(fit.max_error) + "}";
+  if (aligned) {
+    out += ",\"alignment\":[";
+    for (int i = 0; i < 16; ++i) out += std::string(i ? "," : "") + FormatNumber(fit.alignment[i]);
+    out += "]";
+  }
+  return out + ",\"warnings\":" + WarningsToJson(fit.warnings) + "}\n";
+}
+
+Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
+  std::vector<std::vector<float>> target = request.target.positions;
+  if (!request.target.mesh_space) WorldToMeshSpace(rig, target);
+  auto fit = FitWeights(rig, target, request.options);
+  if (!fit.ok()) {
+    Status s = WithReason(fit.status(), kInvalidTarget);
+    if (s.fields.empty()) s.fields.push_back({"/target", s.message});
+    return s;
+  }
+  return Output{FitResultJson(rig, fit.value(), request.options.rigid_align), "application/json", fit->warnings, 0.0};
+}
+
+}  // namespace facespace::api

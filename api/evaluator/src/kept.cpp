@@ -1,0 +1,79 @@
+#include "kept.h"
+
+#include "facespace/core/shape_tools.h"
+#include "facespace/formats/lod.h"
+
+namespace facespace::api {
+
+std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored, int lod) {
+  const std::string prefix = stored->id + "|";
+  const std::string key = prefix + stored->version + "|" + std::to_string(lod);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (auto it = derived_.find(key); it != derived_.end()) return it->second;
+  }
+  auto d = std::make_shared<DerivedRig>();
+  if (lod == 0) {
+    d->rig = std::shared_ptr<const Rig>(stored, &stored->rig);
+  } else {
+    auto made = MakeLod(stored->rig, lod);
+    if (!made.ok()) return nullptr;
+    d->rig = std::make_shared<const Rig>(std::move(made.value()));
+  }
+  d->has_focus = ShapeFocusBox(*d->rig, d->focus_min, d->focus_max);
+  d->focus_small = d->has_focus && FrameShapesByDefault(*d->rig, d->focus_min, d->focus_max);
+  std::lock_guard<std::mutex> lock(mu_);
+  for (auto it = derived_.lower_bound(prefix); it != derived_.end() && it->first.rfind(prefix, 0) == 0;) {
+    it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : derived_.erase(it);
+  }
+  return derived_.emplace(key, std::move(d)).first->second;
+}
+
+std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
+  if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
+  auto d = At(stored, lod);
+  return d ? d->rig : nullptr;
+}
+
+void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera) {
+  if (camera.frame == render::Framing::kAll) return;
+  if (auto d = At(stored, lod); d && d->has_focus) {
+    camera.has_focus = true;
+    camera.focus_small = d->focus_small;
+    camera.focus_min = d->focus_min;
+    camera.focus_max = d->focus_max;
+  }
+}
+
+GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
+  std::unique_ptr<GlbVariantWriter> writer;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (auto* free = free_.Find(rig); free && !free->empty()) {
+      writer = std::move(free->back());
+      free->pop_back();
+    }
+  }
+  if (!writer) writer = std::make_unique<GlbVariantWriter>();
+  return Lease(*this, rig, std::move(writer));
+}
+
+void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer) {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto& free = free_.At(rig);
+  if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
+}
+
+std::shared_ptr<const F32Blender> F32Blenders::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (auto* kept = blenders_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
+  }
+  auto made = std::make_shared<const F32Blender>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
+  std::lock_guard<std::mutex> lock(mu_);
+  auto& kept = blenders_.At(rig)[mesh_space];
+  if (!kept) kept = std::move(made);
+  return kept;
+}
+
+}  // namespace facespace::api

@@ -1,0 +1,100 @@
+// What the evaluator keeps per rig between calls: the levels of detail and the box the shapes act
+// in, the glb writers holding a rig's exported template, and the f32 blenders holding its rest body.
+#pragma once
+
+#include <array>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "facespace/api/evaluator.h"
+
+namespace facespace::api {
+
+// DerivedRig made once per rig version and level and kept; a new version of a rig drops its older entries.
+class DerivedRigs {
+ public:
+  // nullptr when the level of detail cannot be made.
+  std::shared_ptr<const DerivedRig> At(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // The rig at a level of detail: the stored rig itself at 0 (no lookup), else At(...)->rig.
+  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // Framing on the shapes: the camera gets the kept box instead of a per-render one.
+  void SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera);
+
+ private:
+  std::mutex mu_;
+  std::map<std::string, std::shared_ptr<const DerivedRig>> derived_;
+};
+
+// Values kept per rig while it lives: entries hold their rig weakly, and one whose rig died (a
+// replaced or deleted rig, an evicted level of detail) is dropped, so a new rig at the same address
+// never meets an old value. Not locked: its owner holds its own mutex around each call.
+template <typename Value>
+class PerRig {
+ public:
+  // The rig's value, or null when there is none (or only a dead rig's at its address).
+  Value* Find(const std::shared_ptr<const Rig>& rig) {
+    auto it = entries_.find(rig.get());
+    return it != entries_.end() && it->second.rig.lock() == rig ? &it->second.value : nullptr;
+  }
+  // The rig's value, made empty when there was none; a new entry is the time to drop dead ones.
+  Value& At(const std::shared_ptr<const Rig>& rig) {
+    auto it = entries_.find(rig.get());
+    if (it == entries_.end()) {
+      std::erase_if(entries_, [](const auto& e) { return e.second.rig.expired(); });
+      it = entries_.emplace(rig.get(), Entry{rig, Value{}}).first;
+    } else if (it->second.rig.lock() != rig) {
+      it->second = Entry{rig, Value{}};
+    }
+    return it->second.value;
+  }
+
+ private:
+  struct Entry {
+    std::weak_ptr<const Rig> rig;
+    Value value;
+  };
+  std::map<const Rig*, Entry> entries_;
+};
+
+// Glb writers kept per rig (a GlbVariantWriter holds one rig's exported template), leased one per
+// call; a writer is only handed out for the rig it was made for while that rig lives (PerRig).
+class GlbWriters {
+ public:
+  class Lease {
+   public:
+    Lease(GlbWriters& pool, std::shared_ptr<const Rig> rig, std::unique_ptr<GlbVariantWriter> writer)
+        : pool_(pool), rig_(std::move(rig)), writer_(std::move(writer)) {}
+    Lease(const Lease&) = delete;
+    Lease& operator=(const Lease&) = delete;
+    ~Lease() { pool_.Release(rig_, std::move(writer_)); }
+    GlbVariantWriter& operator*() const { return *writer_; }
+
+   private:
+    GlbWriters& pool_;
+    std::shared_ptr<const Rig> rig_;
+    std::unique_ptr<GlbVariantWriter> writer_;
+  };
+  Lease Acquire(const std::shared_ptr<const Rig>& rig);
+
+ private:
+  static constexpr size_t kKeptPerRig = 4;
+  void Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer);
+  std::mutex mu_;
+  PerRig<std::vector<std::unique_ptr<GlbVariantWriter>>> free_;
+};
+
+// The F32Blender of each rig and space served as f32 (the rest body made once), held while the
+// rig lives (PerRig).
+class F32Blenders {
+ public:
+  std::shared_ptr<const F32Blender> Get(const std::shared_ptr<const Rig>& rig, bool mesh_space);
+
+ private:
+  std::mutex mu_;
+  PerRig<std::array<std::shared_ptr<const F32Blender>, 2>> blenders_;  // World space, mesh space.
+};
+
+}  // namespace facespace::api

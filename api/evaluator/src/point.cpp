@@ -1,0 +1,74 @@
+// Step 1: a request's point resolved against a rig, and checked.
+#include "facespace/api/evaluator.h"
+#include "json_text.h"
+
+namespace facespace::api {
+
+namespace {
+
+Status Refused(const std::vector<Warning>& warnings) {
+  return WithReason(FailedPrecondition(warnings[0].message + (warnings.size() > 1 ? " (and more)" : "")), kLeavesAuthoredSpace);
+}
+
+}  // namespace
+
+void CheckPoint(const Rig& rig, BlendMode mode, ResolvedPoint& point) {
+  point.report = CheckWeights(rig, point.weights, mode);
+  point.weight_warnings = point.report.warnings.size();
+}
+
+Status ResolvePoint(const Rig& rig, const MeshRequest& r, ResolvedPoint& point) {
+  std::vector<Warning> pose_warnings;
+  std::vector<WeightEntry> entries = r.weights;
+  if (Status s = ApplyControls(rig, r.controls, entries, pose_warnings); !s.ok()) return WithReason(std::move(s), kInvalidControls);
+  if (Status s = ResolvePoseAndWeights(rig, entries, r.pose, point.weights, point.pose, point.posed, pose_warnings); !s.ok()) {
+    return WithReason(std::move(s), kInvalidWeights);
+  }
+  CheckPoint(rig, r.options.mode, point);
+  point.report.warnings.insert(point.report.warnings.end(), pose_warnings.begin(), pose_warnings.end());
+  if (r.strict && !point.report.warnings.empty()) return Refused(point.report.warnings);
+  return Status::Ok();
+}
+
+Status ResolveSheet(const Rig& rig, const SheetRequest& request, SheetPoints& points) {
+  points.cells.resize(request.cells.size());
+  points.warnings.clear();
+  points.max_sum = 0.0;
+  MeshRequest cell = request.base.mesh;
+  cell.strict = false;
+  cell.controls.clear();
+  for (size_t c = 0; c < request.cells.size(); ++c) {
+    cell.weights = request.cells[c];
+    ResolvedPoint& point = points.cells[c];
+    if (Status s = ResolvePoint(rig, cell, point); !s.ok()) return Prefixed(std::move(s), "cell " + std::to_string(c) + ": ");
+    points.max_sum = std::max(points.max_sum, point.report.sum);
+    // The pose's warnings (after the weights') are the same for every cell: reported once.
+    const size_t shown = c == 0 ? point.report.warnings.size() : point.weight_warnings;
+    for (size_t i = 0; i < shown; ++i) {
+      Warning w = point.report.warnings[i];
+      w.message = "cell " + std::to_string(c) + ": " + w.message;
+      points.warnings.push_back(std::move(w));
+    }
+  }
+  if (request.base.mesh.strict && !points.warnings.empty()) return Refused(points.warnings);
+  return Status::Ok();
+}
+
+std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
+  std::string out = "{";
+  for (size_t k = 0; k < w.size(); ++k) {
+    if (w[k] == 0.0f) continue;
+    if (out.size() > 1) out += ',';
+    out += JsonString(rig.shapes[k].name) + ":" + FormatNumber(w[k]);
+  }
+  return out + "}";
+}
+
+std::string CheckJson(const Rig& rig, const ResolvedPoint& point) {
+  const WeightReport& r = point.report;
+  return "{\"sum\":" + FormatNumber(r.sum) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
+         (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) +
+         ",\"warnings\":" + WarningsToJson(r.warnings) + "}";
+}
+
+}  // namespace facespace::api

@@ -1,0 +1,99 @@
+// Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
+#include <cmath>
+#include "facespace/api/evaluator.h"
+#include "json_text.h"
+
+namespace facespace::api {
+
+void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point) {
+  point.weights.resize(rig.shapes.size());
+  point.posed = false;
+  float f = 0.0f;
+  SampleSequence(sequence, time, point.weights, &f);
+  if (sequence.clip >= 0) {
+    // The clip's pose at this time (its weight channel is the sequence's keys).
+    PoseRequest request;
+    ClipRequest clip;
+    clip.index = sequence.clip;
+    clip.time = time;
+    clip.pointer = "/motion";
+    request.clips.push_back(clip);
+    std::vector<float> animated;
+    std::vector<uint8_t> set;
+    std::vector<Warning> warnings;
+    point.posed = BuildPose(rig, request, point.pose, animated, set, warnings).ok();
+  }
+  CheckPoint(rig, mode, point);
+  const std::string at = "t=" + FormatNumber(time) + ": ";
+  for (Warning& w : point.report.warnings) w.message = at + w.message;
+  if (f < 0.0f || f > 1.0f) {
+    point.report.warnings.insert(point.report.warnings.begin(),
+                                 {"transition_extrapolation", at + "the transition gives " + FormatNumber(f) + ", outside [0, 1]", "", f, true});
+  }
+}
+
+Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored,
+                                       const Sequence& sequence, std::span<const float> times, const BlendOptions& options,
+                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes) {
+  const Rig& rig = stored->rig;
+  const OutputSpec spec = OutputSpec::Frame(options, false);
+  ResolvedPoint point;
+  std::string out = "{\"frames\":[";
+  for (size_t i = 0; i < times.size(); ++i) {
+    SequencePoint(rig, sequence, times[i], options.mode, point);
+    warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
+    auto primitives = evaluator.Run(stored, point, spec, ws);
+    if (!primitives.ok()) return primitives.status();
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
+           ",\"primitives\":" + primitives->bytes + "}";
+    const double expected = i == 0 ? static_cast<double>(out.size()) * static_cast<double>(times.size()) : static_cast<double>(out.size());
+    if (expected > static_cast<double>(max_bytes)) {
+      const auto mb = [](double bytes) { return FormatNumber(std::round(bytes / 1e5) / 10); };
+      Status s = InvalidArgument("the response would be about " + mb(expected) + " MB (" + std::to_string(times.size()) +
+                                 " frames), over this server's limit of " + mb(static_cast<double>(max_bytes)) +
+                                 " MB (--max-response): ask for fewer times, or stream the frames (sequence/stream, ndjson or f32)");
+      s.fields.push_back({"/times", "at most about " + std::to_string(std::max<size_t>(1, static_cast<size_t>(static_cast<double>(max_bytes) / (expected / static_cast<double>(i == 0 ? times.size() : i + 1))))) + " times for this rig"});
+      return WithReason(std::move(s), kResponseTooLarge);
+    }
+  }
+  return out + "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
+}
+
+size_t FrameCount(const Sequence& sequence, float fps) {
+  const double duration = sequence.keys.back().time - sequence.keys.front().time;
+  return static_cast<size_t>(std::floor(duration * fps + 1e-6)) + 1;
+}
+
+Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored, const Sequence& sequence,
+                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws) {
+  const Rig& rig = stored->rig;
+  const float t = sequence.keys.front().time + static_cast<float>(frame) / fps;
+  ResolvedPoint point;
+  SequencePoint(rig, sequence, t, options.mode, point);
+  if (!f32) {
+    return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
+           ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}\n";
+  }
+  auto chunk = evaluator.Run(stored, point, OutputSpec::Frame(options, true), ws);
+  if (!chunk.ok()) return chunk.status();
+  return std::move(chunk->bytes);
+}
+
+std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
+  std::string out = "[";
+  for (size_t i = 0; i < sequence.keys.size(); ++i) {
+    const Keyframe& k = sequence.keys[i];
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) + ",\"weights\":" + WeightsMapJson(rig, k.weights);
+    if (k.transition) out += ",\"transition\":" + JsonString(TransitionName(*k.transition));
+    out += "}";
+  }
+  return out + "]";
+}
+
+std::string ReducedSequenceJson(const Rig& rig, const Sequence& original, const ReduceResult& reduced, float tolerance) {
+  return "{\"keys\":" + SequenceKeysJson(rig, reduced.sequence) + ",\"transition\":" + JsonString(TransitionName(original.transition)) +
+         ",\"kept\":" + std::to_string(reduced.sequence.keys.size()) + ",\"removed\":" + std::to_string(reduced.removed) +
+         ",\"max_error\":" + FormatNumber(reduced.max_error) + ",\"tolerance\":" + FormatNumber(tolerance) + "}\n";
+}
+
+}  // namespace facespace::api

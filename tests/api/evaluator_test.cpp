@@ -1,0 +1,235 @@
+// The evaluator without HTTP: each output checked against core evaluated and exported directly,
+// its fast paths against the plain path, and its cache key against what the bytes depend on.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "facespace/api/evaluator.h"
+#include "facespace/formats/lod.h"
+#include "test_util.h"
+
+namespace facespace {
+namespace {
+
+const std::shared_ptr<const api::StoredRig>& FaceCapStored() {
+  static const auto rig = api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
+  return rig;
+}
+const Rig& FaceCap() { return FaceCapStored()->rig; }
+
+int Shape(const char* name) {
+  for (size_t i = 0; i < FaceCap().shapes.size(); ++i) {
+    if (FaceCap().shapes[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+// A point at the weights, checked as a route checks it.
+api::ResolvedPoint PointAt(std::initializer_list<std::pair<const char*, float>> weights) {
+  api::ResolvedPoint p;
+  p.weights.assign(FaceCap().shapes.size(), 0.0f);
+  for (const auto& [name, w] : weights) p.weights[Shape(name)] = w;
+  api::CheckPoint(FaceCap(), BlendMode::kRelative, p);
+  return p;
+}
+
+// Core's own answer: the rig evaluated at the point, then exported.
+std::string Exported(const Rig& rig, const api::ResolvedPoint& p, MeshFormat format, bool mesh_space = false) {
+  BlendedRig blended;
+  BlendContext context;
+  EXPECT_TRUE(EvaluateRig(rig, p.weights, {}, blended, context).ok());
+  ExportOptions options;
+  options.mesh_space = mesh_space;
+  return ExportMesh(rig, blended, p.weights, p.report.warnings, format, options).value();
+}
+
+const render::NullRenderer kNull;
+
+TEST(Evaluator, MeshIsCoreEvaluationEncoded) {
+  const api::Evaluator evaluator(kNull);
+  api::MeshRequest r;
+  r.weights = {{"jawOpen", -1, 0.6, "/weights/jawOpen"}, {"mouthSmile_L", -1, 0.3, "/weights/mouthSmile_L"}};
+  api::Workspace ws;
+  auto out = api::ProduceMesh(evaluator, FaceCapStored(), r, MeshFormat::kF32, ws);
+  ASSERT_TRUE(out.ok()) << out.status().message;
+  EXPECT_EQ(out->content_type, "application/octet-stream");
+  EXPECT_NEAR(out->weight_sum, 0.9, 1e-6);
+  EXPECT_TRUE(out->warnings.empty());
+  // Independently: core at the same weights, then the world positions.
+  std::vector<float> w(FaceCap().shapes.size(), 0.0f);
+  w[Shape("jawOpen")] = 0.6f;
+  w[Shape("mouthSmile_L")] = 0.3f;
+  BlendedRig blended;
+  BlendContext context;
+  ASSERT_TRUE(EvaluateRig(FaceCap(), w, {}, blended, context).ok());
+  std::vector<float> positions;
+  WorldPositions(blended, positions);
+  ASSERT_GE(out->bytes.size(), positions.size() * 4);
+  std::vector<float> got(positions.size());
+  std::memcpy(got.data(), out->bytes.data(), got.size() * 4);
+  for (size_t i = 0; i < got.size(); ++i) ASSERT_EQ(got[i], positions[i]) << i;
+}
+
+// The f32 body blended where it is written, the glb written over a kept template (leased, or the
+// workspace's own in pieces): each gives the exporter's bytes, call after call.
+TEST(Evaluator, FastPathsGiveTheExportersBytes) {
+  const api::Evaluator evaluator(kNull);
+  api::Workspace ws;
+  const api::ResolvedPoint points[] = {PointAt({{"jawOpen", 0.6f}}), PointAt({{"eyeBlink_L", 1.0f}, {"mouthSmile_R", 0.4f}}),
+                                       PointAt({}), PointAt({{"jawOpen", 0.2f}})};
+  for (const api::ResolvedPoint& p : points) {
+    for (bool mesh_space : {false, true}) {
+      api::OutputSpec f32;
+      f32.mesh_format = MeshFormat::kF32;
+      f32.mesh_space = mesh_space;
+      auto body = evaluator.Run(FaceCapStored(), p, f32, ws);
+      ASSERT_TRUE(body.ok());
+      EXPECT_TRUE(body->bytes == Exported(FaceCap(), p, MeshFormat::kF32, mesh_space)) << "f32, mesh space " << mesh_space;
+      ws.body = std::move(body->bytes);  // Handed back, as the service does once a response is sent: written over next.
+    }
+    api::OutputSpec glb;
+    glb.mesh_format = MeshFormat::kGlb;
+    const std::string expected = Exported(FaceCap(), p, MeshFormat::kGlb);
+    auto joined = evaluator.Run(FaceCapStored(), p, glb, ws);
+    ASSERT_TRUE(joined.ok());
+    EXPECT_TRUE(joined->bytes == expected) << "glb";
+    glb.pieces = true;
+    auto pieces = evaluator.Run(FaceCapStored(), p, glb, ws);
+    ASSERT_TRUE(pieces.ok());
+    EXPECT_TRUE(pieces->bytes.empty());
+    EXPECT_TRUE(std::string(pieces->pieces[0]) + std::string(pieces->pieces[1]) == expected) << "glb in pieces";
+  }
+}
+
+TEST(Evaluator, LevelOfDetailIsTheSimplifiedRigEvaluated) {
+  const api::Evaluator evaluator(kNull);
+  api::Workspace ws;
+  const api::ResolvedPoint p = PointAt({{"jawOpen", 0.7f}});
+  api::OutputSpec spec;
+  spec.mesh_format = MeshFormat::kObj;
+  spec.lod = 2;
+  auto obj = evaluator.Run(FaceCapStored(), p, spec, ws);
+  ASSERT_TRUE(obj.ok());
+  const Rig lod = MakeLod(FaceCap(), 2).value();
+  EXPECT_LT(lod.triangle_count(), FaceCap().triangle_count() / 2);
+  EXPECT_TRUE(obj->bytes == Exported(lod, p, MeshFormat::kObj));
+  EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2)->rig->triangle_count(), lod.triangle_count());
+  EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2), evaluator.Derived(FaceCapStored(), 2));  // Kept, not made again.
+}
+
+TEST(Evaluator, FramesAreTheSequenceEncodings) {
+  const api::Evaluator evaluator(kNull);
+  api::Workspace ws;
+  const api::ResolvedPoint p = PointAt({{"mouthFunnel", 0.5f}});
+  BlendedRig blended;
+  BlendContext context;
+  ASSERT_TRUE(EvaluateRig(FaceCap(), p.weights, {}, blended, context).ok());
+  auto json = evaluator.Run(FaceCapStored(), p, api::OutputSpec::Frame({}, false), ws);
+  ASSERT_TRUE(json.ok());
+  EXPECT_EQ(json->bytes, PrimitivesJson(FaceCap(), blended));
+  auto f32 = evaluator.Run(FaceCapStored(), p, api::OutputSpec::Frame({}, true), ws);
+  ASSERT_TRUE(f32.ok());
+  std::vector<float> positions;
+  WorldPositions(blended, positions);
+  uint32_t size = 0;
+  ASSERT_EQ(f32->bytes.size(), 4 + positions.size() * 4);
+  std::memcpy(&size, f32->bytes.data(), 4);
+  EXPECT_EQ(size, positions.size() * 4);
+  EXPECT_EQ(std::memcmp(f32->bytes.data() + 4, positions.data(), size), 0);
+}
+
+TEST(Evaluator, CacheKeyChangesWithWhatTheBytesDependOn) {
+  const api::StoredRig& rig = *FaceCapStored();
+  api::ResolvedPoint p = PointAt({{"jawOpen", 0.5f}});
+  api::OutputSpec mesh;
+  mesh.mesh_format = MeshFormat::kGlb;
+  const std::string key = api::CacheKey(rig, {&p, 1}, mesh);
+  EXPECT_EQ(key.rfind(rig.id + "|v1|", 0), 0u) << key;  // The rig's id and version first.
+  EXPECT_EQ(api::CacheKey(rig, {&p, 1}, mesh), key);
+  api::ResolvedPoint negative_zero = p;
+  negative_zero.weights[Shape("cheekPuff")] = -0.0f;  // The same weight as 0.
+  EXPECT_EQ(api::CacheKey(rig, {&negative_zero, 1}, mesh), key);
+
+  std::vector<std::string> others;
+  api::ResolvedPoint q = PointAt({{"jawOpen", 0.5000001f}});
+  others.push_back(api::CacheKey(rig, {&q, 1}, mesh));
+  for (int change = 0; change < 6; ++change) {
+    api::OutputSpec s = mesh;
+    if (change == 0) s.mesh_format = MeshFormat::kObj;
+    if (change == 1) s.mesh_space = true;
+    if (change == 2) s.keep_targets = true;
+    if (change == 3) s.lod = 1;
+    if (change == 4) s.blend.normals = NormalMode::kRecompute;
+    if (change == 5) s.blend.mode = BlendMode::kAbsolute;
+    others.push_back(api::CacheKey(rig, {&p, 1}, s));
+  }
+  api::StoredRig next = rig;
+  next.version = "v2";
+  others.push_back(api::CacheKey(next, {&p, 1}, mesh));
+  api::RenderRequest render;
+  const api::OutputSpec image = api::OutputSpec::Image(render, render::ImageFormat::kPng);
+  others.push_back(api::CacheKey(rig, {&p, 1}, image));
+  api::OutputSpec wider = image;
+  wider.render.width += 1;
+  others.push_back(api::CacheKey(rig, {&p, 1}, wider));
+  api::OutputSpec jpeg = image;
+  jpeg.image_format = render::ImageFormat::kJpeg;
+  others.push_back(api::CacheKey(rig, {&p, 1}, jpeg));
+  api::OutputSpec turned = image;
+  turned.render.camera.yaw = 10;
+  others.push_back(api::CacheKey(rig, {&p, 1}, turned));
+  for (size_t i = 0; i < others.size(); ++i) {
+    EXPECT_NE(others[i], key) << i;
+    for (size_t j = 0; j < i; ++j) EXPECT_NE(others[i], others[j]) << i << " " << j;
+  }
+}
+
+TEST(Evaluator, ErrorsCarryTheirReason) {
+  api::ResolvedPoint point;
+  api::MeshRequest r;
+  r.weights = {{"jawOpn", -1, 1.0, "/weights/jawOpn"}};
+  Status s = api::ResolvePoint(FaceCap(), r, point);
+  EXPECT_EQ(s.reason, api::kInvalidWeights);
+  ASSERT_EQ(s.fields.size(), 1u);
+  EXPECT_EQ(s.fields[0].pointer, "/weights/jawOpn");
+  EXPECT_NE(s.message.find("jawOpen"), std::string::npos) << s.message;  // The closest name is suggested.
+
+  r.weights = {{"jawOpen", -1, 0.9, ""}, {"cheekPuff", -1, 0.8, ""}};
+  r.strict = true;
+  s = api::ResolvePoint(FaceCap(), r, point);
+  EXPECT_EQ(s.reason, api::kLeavesAuthoredSpace);
+  ASSERT_FALSE(point.report.warnings.empty());  // Filled even when refused, for the headers.
+  EXPECT_EQ(point.report.warnings[0].code, "extrapolation");
+  EXPECT_NEAR(point.report.sum, 1.7, 1e-6);
+}
+
+TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
+  api::SheetRequest r;
+  r.base.render.width = r.base.render.height = 16;
+  r.cells = {{{"jawOpen", -1, 1.0, "/cells/0/weights/jawOpen"}}, {{"nope", -1, 1.0, "/cells/1/weights/nope"}}};
+  r.labels = {"a", "b"};
+  api::SheetPoints points;
+  const Status s = api::ResolveSheet(FaceCap(), r, points);
+  EXPECT_EQ(s.reason, api::kInvalidWeights);
+  EXPECT_EQ(s.message.rfind("cell 1: ", 0), 0u) << s.message;
+
+  r.cells[1] = {{"jawOpen", -1, 0.9, ""}, {"cheekPuff", -1, 0.8, ""}};
+  ASSERT_TRUE(api::ResolveSheet(FaceCap(), r, points).ok());
+  ASSERT_EQ(points.warnings.size(), 1u);
+  EXPECT_EQ(points.warnings[0].message.rfind("cell 1: ", 0), 0u);
+  EXPECT_NEAR(points.max_sum, 1.7, 1e-6);
+  const api::Evaluator evaluator(kNull);
+  api::Workspace ws;
+  auto png = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
+  ASSERT_TRUE(png.ok());
+  auto image = render::Decode({reinterpret_cast<const unsigned char*>(png->bytes.data()), png->bytes.size()});
+  ASSERT_TRUE(image.ok());
+  EXPECT_EQ(ws.cells.size(), 2u);
+  EXPECT_EQ(ws.cells[0].width, 16);
+  // One point for a mesh or an image; more is the caller's mistake, said as such.
+  auto two = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec{}, ws);
+  EXPECT_EQ(two.status().code, StatusCode::kInternal);
+}
+
+}  // namespace
+}  // namespace facespace
