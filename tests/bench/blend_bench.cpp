@@ -329,7 +329,7 @@ void BM_MakeHumanEvaluate(benchmark::State& state) {
 
 // The mesh route's work in process, FaceCap with 4 shapes at 0.2: the blend, then the f32 body
 // (arg 0), the glb through ExportMesh (1), the glb through the batch's GlbVariantWriter (2), or nothing (3);
-// or the f32 body through F32Blender, the route's way (4: only the primitives the point moves
+// or the f32 body through F32Writer, the route's way (4: only the primitives the point moves
 // blended, written over the last body).
 void BM_FaceCapMeshEncode(benchmark::State& state) {
   static const Rig rig = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
@@ -338,15 +338,15 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
   BlendedRig out;
   BlendContext ctx;
   facespace::GlbVariantWriter writer;
-  const facespace::F32Blender blender(rig, false);
-  facespace::F32Blender::Scratch scratch;
+  const facespace::F32Writer blender(rig, false);
+  facespace::F32Writer::Scratch scratch;
   std::string body;
   const int encode = static_cast<int>(state.range(0));
   size_t bytes = 0;
   for (auto _ : state) {
     w[24] += 1e-6f;  // A new point each time, as the route sees.
     if (encode == 4) {
-      if (!blender.Write(rig, w, scratch, body)) state.SkipWithError("F32Blender declined");
+      if (!blender.Write(rig, w, scratch, body)) state.SkipWithError("F32Writer declined");
       bytes = body.size();
       benchmark::DoNotOptimize(bytes);
       continue;
@@ -361,7 +361,7 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
     }
     benchmark::DoNotOptimize(bytes);
   }
-  state.SetLabel(encode == 4 ? "f32 (F32Blender)" : encode == 0 ? "blend + f32" : encode == 1 ? "blend + glb (ExportMesh)" : encode == 2 ? "blend + glb (GlbVariantWriter)" : "blend");
+  state.SetLabel(encode == 4 ? "f32 (F32Writer)" : encode == 0 ? "blend + f32" : encode == 1 ? "blend + glb (ExportMesh)" : encode == 2 ? "blend + glb (GlbVariantWriter)" : "blend");
   state.counters["KB"] = bytes / 1024.0;
 }
 

@@ -3,6 +3,8 @@
 #include <random>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/sparse_blend.h"
+#include "facespace/formats/io.h"
 #include "facespace/core/weights.h"
 #include "test_util.h"
 
@@ -306,6 +308,64 @@ TEST(Rig, SymmetricPartnersFromNames) {
   EXPECT_EQ(rig.shapes[2].partner, -1);
   EXPECT_EQ(rig.shapes[3].partner, 4);
   EXPECT_EQ(rig.shapes[5].partner, 6);
+}
+
+}  // namespace
+}  // namespace facespace
+
+namespace facespace {
+namespace {
+
+// SparseBlend gives EvaluateRig's bits for the primitives a point moves and says the rest stand:
+// FaceCap, where a point of the head's shapes moves the head and leaves the eyes and teeth.
+TEST(SparseBlend, BlendsWhatAPointMovesAsEvaluateRigDoes) {
+  auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
+  ASSERT_TRUE(face.ok());
+  const Rig& rig = face.value();
+  ASSERT_TRUE(SparseBlend::Serves(rig, {}));
+  BlendedRig rest;
+  const SparseBlend sparse(rig, &rest);
+  ASSERT_TRUE(sparse.ok());
+  ASSERT_EQ(rest.primitives.size(), rig.primitives.size());
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  w[FindShape(rig, "jawOpen")] = 0.7f;
+  w[FindShape(rig, "mouthSmile_L")] = -0.3f;  // Negative weights too.
+  ASSERT_TRUE(sparse.Accepts(rig, w));
+  BlendedRig full;
+  BlendContext context;
+  ASSERT_TRUE(EvaluateRig(rig, w, {}, full, context).ok());
+  SparseBlend::Scratch scratch;
+  size_t blended = 0;
+  for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
+    const SparseBlend::Outcome outcome = sparse.Blend(rig, w, pi, scratch);
+    ASSERT_NE(outcome, SparseBlend::Outcome::kDeclined);
+    if (outcome == SparseBlend::Outcome::kRest) {
+      EXPECT_EQ(full.primitives[pi].positions, rest.primitives[pi].positions) << pi;  // Nothing moved it.
+      continue;
+    }
+    ++blended;
+    EXPECT_EQ(scratch.positions, full.primitives[pi].positions) << pi;
+    // Normals: the blend's sums, which EvaluateRig then scales to unit length where a target moved a vertex.
+    size_t marked = 0;
+    for (size_t v = 0; v < rig.primitives[pi].vertex_count(); ++v) {
+      const bool moved = (scratch.moved[v / 64] >> (v % 64)) & 1;
+      marked += moved;
+      const float* n = &scratch.normals[3 * v];
+      const float* want = &full.primitives[pi].normals[3 * v];
+      if (!moved) {
+        ASSERT_EQ(n[0], want[0]) << v;
+        continue;
+      }
+      const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      for (int c = 0; c < 3; ++c) ASSERT_NEAR(n[c] / len, want[c], 1e-6f) << v;
+    }
+    EXPECT_GT(marked, 0u);
+  }
+  EXPECT_EQ(blended, 1u);  // The head only.
+  // Another rig's weights, and NaN, are not accepted.
+  EXPECT_FALSE(sparse.Accepts(rig, std::vector<float>(rig.shapes.size() + 1, 0.0f)));
+  w[0] = std::nanf("");
+  EXPECT_FALSE(sparse.Accepts(rig, w));
 }
 
 }  // namespace

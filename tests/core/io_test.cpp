@@ -410,7 +410,7 @@ TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
   }
 }
 
-// ApplyMany with unit_first (F32Blender's pass: a moved vertex's blended normal scaled to unit
+// ApplyMany with unit_first (F32Writer's pass: a moved vertex's blended normal scaled to unit
 // length, then placed): bit for bit Normalize3 then Apply for the marked normals and Apply alone
 // for the rest, four at a time and in the tail, with zero, tiny, huge and NaN normals among them.
 TEST(Export, UnitFirstNormalsAreNormalize3ThenApply) {
@@ -456,7 +456,7 @@ TEST(Export, UnitFirstNormalsAreNormalize3ThenApply) {
 // (one morphed primitive of four, a moved and scaled node) and the morph test assets, at rest,
 // at random points of several shapes, with extrapolated and negative weights, in world and mesh
 // space; then what it must decline (a point whose shape has no normal deltas, a skinned rig).
-TEST(F32Blender, WritesExportMeshBytes) {
+TEST(F32Writer, WritesExportMeshBytes) {
   uint32_t state = 11;
   auto next = [&state] {
     state = state * 1664525u + 1013904223u;
@@ -467,10 +467,10 @@ TEST(F32Blender, WritesExportMeshBytes) {
                             "MorphPrimitivesTest/MorphPrimitivesTest.gltf", "AnimatedMorphSphere/AnimatedMorphSphere.gltf"}) {
     auto rig = LoadRigFile(test::RealAsset(asset));
     ASSERT_TRUE(rig.ok()) << asset << ": " << rig.status().message;
-    ASSERT_TRUE(F32Blender::Serves(rig.value(), {})) << asset;
+    ASSERT_TRUE(SparseBlend::Serves(rig.value(), {})) << asset;
     for (bool mesh_space : {false, true}) {
-      const F32Blender blender(rig.value(), mesh_space);
-      F32Blender::Scratch scratch;
+      const F32Writer writer(rig.value(), mesh_space);
+      F32Writer::Scratch scratch;
       BlendedRig blended;
       BlendContext ctx;
       std::string body;
@@ -494,7 +494,7 @@ TEST(F32Blender, WritesExportMeshBytes) {
           }
         }
         ++points;
-        if (!blender.Write(rig.value(), w, scratch, body)) {
+        if (!writer.Write(rig.value(), w, scratch, body)) {
           EXPECT_TRUE(recomputed) << asset << " point " << point << " declined";
           continue;
         }
@@ -508,12 +508,12 @@ TEST(F32Blender, WritesExportMeshBytes) {
       ASSERT_TRUE(EvaluateRig(rig.value(), zero, {}, blended, ctx).ok());
       auto rest = ExportMesh(rig.value(), blended, zero, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
       ASSERT_TRUE(rest.ok());
-      ASSERT_TRUE(blender.Write(rig.value(), zero, scratch, body));
+      ASSERT_TRUE(writer.Write(rig.value(), zero, scratch, body));
       EXPECT_TRUE(body == rest.value()) << asset << " at rest after a point";
-      EXPECT_FALSE(blender.Write(rig.value(), std::vector<float>(w.size() + 1, 0.0f), scratch, body)) << "weights of another rig";
+      EXPECT_FALSE(writer.Write(rig.value(), std::vector<float>(w.size() + 1, 0.0f), scratch, body)) << "weights of another rig";
       std::vector<float> nan(w.size(), 0.0f);
       nan[0] = std::nanf("");
-      EXPECT_FALSE(blender.Write(rig.value(), nan, scratch, body));
+      EXPECT_FALSE(writer.Write(rig.value(), nan, scratch, body));
     }
   }
   EXPECT_GT(written, points / 2) << written << " of " << points << " points written";
@@ -532,22 +532,22 @@ TEST(F32Blender, WritesExportMeshBytes) {
     }
   }
   ASSERT_NE(shape, SIZE_MAX);
-  const F32Blender blender(rig, false);
-  F32Blender::Scratch scratch;
+  const F32Writer writer(rig, false);
+  F32Writer::Scratch scratch;
   std::string body;
   std::vector<float> w(rig.shapes.size(), 0.0f);
   w[(shape + 1) % w.size()] = 0.5f;
-  EXPECT_TRUE(blender.Write(rig, w, scratch, body));
+  EXPECT_TRUE(writer.Write(rig, w, scratch, body));
   w[shape] = 0.5f;
-  EXPECT_FALSE(blender.Write(rig, w, scratch, body));
+  EXPECT_FALSE(writer.Write(rig, w, scratch, body));
   // Skinned, posed, recomputed normals: not served.
   auto skinned = LoadRigFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
   ASSERT_TRUE(skinned.ok());
-  EXPECT_FALSE(F32Blender::Serves(skinned.value(), {}));
-  EXPECT_FALSE(F32Blender(skinned.value(), false).Write(skinned.value(), std::vector<float>(skinned->shapes.size(), 0.0f), scratch, body));
+  EXPECT_FALSE(SparseBlend::Serves(skinned.value(), {}));
+  EXPECT_FALSE(F32Writer(skinned.value(), false).Write(skinned.value(), std::vector<float>(skinned->shapes.size(), 0.0f), scratch, body));
   Pose pose;
-  EXPECT_FALSE(F32Blender::Serves(face.value(), {.pose = &pose}));
-  EXPECT_FALSE(F32Blender::Serves(face.value(), {.normals = NormalMode::kRecompute}));
+  EXPECT_FALSE(SparseBlend::Serves(face.value(), {.pose = &pose}));
+  EXPECT_FALSE(SparseBlend::Serves(face.value(), {.normals = NormalMode::kRecompute}));
 }
 
 // The batch's glb writer gives ExportMesh's bytes exactly, variant after variant: FaceCap with

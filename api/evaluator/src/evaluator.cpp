@@ -11,7 +11,7 @@ namespace facespace::api {
 struct Evaluator::Kept {
   DerivedRigs derived;
   GlbWriters glb_writers;
-  F32Blenders f32_blenders;
+  F32Writers f32_writers;
 };
 
 namespace {
@@ -42,11 +42,11 @@ Encoded Whole(std::string bytes) {
   return e;
 }
 
-// The f32 body blended where it is written (F32Blender), over ws.body; false when the blender
+// The f32 body written over the rest's bytes (F32Writer), over ws.body; false when the writer
 // does not serve this rig, point or spec.
-bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec, const F32Blender& f32, Workspace& ws,
+bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec, const F32Writer& f32, Workspace& ws,
              std::string& out) {
-  if (f32.mesh_space() != spec.mesh_space || point.pose_or_null() || !F32Blender::Serves(rig, spec.blend)) return false;
+  if (f32.mesh_space() != spec.mesh_space || point.pose_or_null() || !SparseBlend::Serves(rig, spec.blend)) return false;
   auto start = Clock::now();
   std::string bytes = std::move(ws.body);
   if (!f32.Write(rig, point.weights, ws.f32, bytes)) {
@@ -167,7 +167,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
     case OutputSpec::Kind::kMesh: {
       if (spec.mesh_format == MeshFormat::kF32) {
         std::string bytes;
-        if (F32Fast(rig, point, spec, *kept_->f32_blenders.Get(at, spec.mesh_space), ws, bytes)) return Whole(std::move(bytes));
+        if (F32Fast(rig, point, spec, *kept_->f32_writers.Get(at, spec.mesh_space), ws, bytes)) return Whole(std::move(bytes));
       }
       if (spec.mesh_format == MeshFormat::kGlb && !spec.keep_targets) {
         if (spec.pieces) {

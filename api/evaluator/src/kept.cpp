@@ -64,14 +64,14 @@ void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<
   if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
 }
 
-std::shared_ptr<const F32Blender> F32Blenders::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
+std::shared_ptr<const F32Writer> F32Writers::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (auto* kept = blenders_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
+    if (auto* kept = writers_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
   }
-  auto made = std::make_shared<const F32Blender>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
+  auto made = std::make_shared<const F32Writer>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
   std::lock_guard<std::mutex> lock(mu_);
-  auto& kept = blenders_.At(rig)[mesh_space];
+  auto& kept = writers_.At(rig)[mesh_space];
   if (!kept) kept = std::move(made);
   return kept;
 }

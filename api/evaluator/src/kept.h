@@ -86,15 +86,15 @@ class GlbWriters {
   PerRig<std::vector<std::unique_ptr<GlbVariantWriter>>> free_;
 };
 
-// The F32Blender of each rig and space served as f32 (the rest body made once), held while the
+// The F32Writer of each rig and space served as f32 (the rest body made once), held while the
 // rig lives (PerRig).
-class F32Blenders {
+class F32Writers {
  public:
-  std::shared_ptr<const F32Blender> Get(const std::shared_ptr<const Rig>& rig, bool mesh_space);
+  std::shared_ptr<const F32Writer> Get(const std::shared_ptr<const Rig>& rig, bool mesh_space);
 
  private:
   std::mutex mu_;
-  PerRig<std::array<std::shared_ptr<const F32Blender>, 2>> blenders_;  // World space, mesh space.
+  PerRig<std::array<std::shared_ptr<const F32Writer>, 2>> writers_;  // World space, mesh space.
 };
 
 }  // namespace facespace::api

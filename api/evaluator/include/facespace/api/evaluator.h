@@ -8,7 +8,7 @@
 //
 // The two steps are separate so the service can answer from its response cache between them: the
 // cache key is CacheKey(rig, points, spec), the one function that says what an output depends on.
-// The fast paths (f32 bodies blended where they are written, glb written over a kept template)
+// The fast paths (f32 bodies written over the rest's bytes, glb written over a kept template)
 // and what is kept per rig (levels of detail, the box its shapes act in) live in the Evaluator.
 // No HTTP here: errors are Status values whose `reason` names the problem ("invalid-weights");
 // api/src/http maps them to status codes in one place.
@@ -121,7 +121,7 @@ struct Encoded {
 struct Workspace {
   BlendContext context;
   BlendedRig blended;
-  F32Blender::Scratch f32;
+  F32Writer::Scratch f32;
   // A response body handed back once sent, for the next f32 body to be written over.
   std::string body;
   GlbVariantWriter glb;  // OutputSpec::pieces' writer.

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/sparse_blend.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
 #include "facespace/core/weights.h"
@@ -182,39 +183,30 @@ class GlbVariantWriter {
   std::unique_ptr<GlbTemplate> t_;
 };
 
-// f32 bodies of many blended points of one rig, byte for byte what EvaluateRig + ExportMesh(kF32)
-// write, blended where they are written: the rig's rest (zero weights, rest pose) is exported
-// once; a body takes the rest's bytes for the primitives the point's active shapes leave alone,
-// and only the primitives they move are blended (positions and normals, no tangents) and placed
-// again, with the same operations in the same order, so the same bits. On FaceCap a point moves
-// one primitive of four (the head, not the eyes and teeth).
-// It serves rigs without skins, in-betweens or correctives, unposed, with blended normals
-// (Serves); Write declines (false) other rigs and a point whose active shape has no normal
-// deltas. Write takes the rig it was made from. Immutable after construction: threads share one,
-// each with its own scratch.
-class F32Blender {
+// f32 bodies of many points of one rig, byte for byte what EvaluateRig + ExportMesh(kF32) write,
+// written over the rest's bytes: the rig's rest (zero weights, rest pose) is exported once; a body
+// takes the rest's bytes for the primitives a point leaves alone, and core's SparseBlend blends the
+// primitives it moves, which are placed as ExportF32 places them, so the same bits. It serves the
+// rigs and points SparseBlend serves (Write declines the others: false). Write takes the rig it
+// was made from. Immutable after construction: threads share one, each with its own scratch.
+class F32Writer {
  public:
-  struct Scratch {
-    std::vector<float> target_weights, positions, normals;
-    std::vector<uint64_t> moved;  // A bit per vertex: moved by an active target.
-  };
-  static bool Serves(const Rig& rig, const BlendOptions& options);
-  F32Blender(const Rig& rig, bool mesh_space);
+  using Scratch = SparseBlend::Scratch;
+  F32Writer(const Rig& rig, bool mesh_space);
   bool mesh_space() const { return mesh_space_; }
   // The body at `weights` (one per rig shape) into `out`, every byte of it written: a used body of
   // the same size is written over with no allocation. False: not served (see above).
   bool Write(const Rig& rig, std::span<const float> weights, Scratch& scratch, std::string& out) const;
 
  private:
+  F32Writer(const Rig& rig, bool mesh_space, BlendedRig&& rest);
   struct Placed {
     std::array<float, 16> placement{};  // Its node's transform at rest, or the identity in mesh space.
-    std::vector<uint32_t> shapes;       // The rig shape of each of its targets.
-    std::vector<uint64_t> moved;        // Per target, a bit per vertex it moves (64 to a word).
     size_t at = 0, normals_at = 0;      // Byte offsets of its positions and its normals in a body.
   };
   bool mesh_space_;
   bool ok_ = false;
-  size_t shapes_ = 0;
+  SparseBlend blend_;
   std::vector<Placed> primitives_;
   std::string rest_;  // The body at rest.
 };
