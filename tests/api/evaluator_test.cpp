@@ -117,6 +117,30 @@ TEST(Evaluator, LevelOfDetailIsTheSimplifiedRigEvaluated) {
   EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2), evaluator.Derived(FaceCapStored(), 2));  // Kept, not made again.
 }
 
+// What the evaluator keeps per rig (levels of detail, focus boxes, glb and f32 writers) never keeps
+// the rig alive: a rig deleted or replaced in the store is freed once no request holds it.
+TEST(Evaluator, KeepsNothingAliveOfARigGone) {
+  const api::Evaluator evaluator(kNull);
+  api::Workspace ws;
+  auto rig = api::Unstored(FaceCap(), "gone");
+  const std::weak_ptr<const api::StoredRig> weak = rig;
+  const api::ResolvedPoint p = PointAt({{"jawOpen", 0.3f}});
+  for (MeshFormat format : {MeshFormat::kF32, MeshFormat::kGlb}) {
+    api::OutputSpec mesh;
+    mesh.mesh_format = format;
+    ASSERT_TRUE(evaluator.Run(rig, p, mesh, ws).ok());
+  }
+  api::RenderRequest render;
+  render.render.width = render.render.height = 8;
+  for (int lod : {0, 1}) {
+    render.mesh.lod = lod;
+    ASSERT_TRUE(evaluator.Run(rig, p, api::OutputSpec::Image(render, render::ImageFormat::kPng), ws).ok());
+    ASSERT_NE(evaluator.Derived(rig, lod), nullptr);
+  }
+  rig.reset();
+  EXPECT_TRUE(weak.expired());
+}
+
 TEST(Evaluator, FramesAreTheSequenceEncodings) {
   const api::Evaluator evaluator(kNull);
   api::Workspace ws;
@@ -178,6 +202,14 @@ TEST(Evaluator, CacheKeyChangesWithWhatTheBytesDependOn) {
   api::OutputSpec turned = image;
   turned.render.camera.yaw = 10;
   others.push_back(api::CacheKey(rig, {&p, 1}, turned));
+  api::SheetRequest sheet_request;
+  sheet_request.labels = {"a"};
+  api::OutputSpec sheet = api::OutputSpec::Sheet(sheet_request, render::ImageFormat::kPng);
+  others.push_back(api::CacheKey(rig, {&p, 1}, sheet));
+  sheet.lod = 1;  // Sheets are drawn at the asked level of detail too.
+  others.push_back(api::CacheKey(rig, {&p, 1}, sheet));
+  sheet.labels = {"b"};
+  others.push_back(api::CacheKey(rig, {&p, 1}, sheet));
   for (size_t i = 0; i < others.size(); ++i) {
     EXPECT_NE(others[i], key) << i;
     for (size_t j = 0; j < i; ++j) EXPECT_NE(others[i], others[j]) << i << " " << j;

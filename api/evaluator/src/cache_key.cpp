@@ -81,7 +81,7 @@ std::string CacheKey(const StoredRig& rig, std::span<const ResolvedPoint> points
       key += "sheet|" + std::to_string(spec.columns) + "|" + RenderCanonical(spec);
       for (size_t c = 0; c < points.size(); ++c) key += "|" + WeightsCanonical(points[c].weights) + "#" + spec.labels[c];
       if (!points.empty()) key += PoseCanonical(points[0]);
-      return key;
+      return spec.lod == 0 ? key : key + "|lod" + std::to_string(spec.lod);
     case OutputSpec::Kind::kFrameJson:
     case OutputSpec::Kind::kFrameF32:
       return key + (spec.kind == OutputSpec::Kind::kFrameJson ? "frame-json|" : "frame-f32|") + OptionsCanonical(spec.blend) +

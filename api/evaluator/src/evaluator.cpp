@@ -121,7 +121,6 @@ OutputSpec OutputSpec::Image(const RenderRequest& r, render::ImageFormat format)
 OutputSpec OutputSpec::Sheet(const SheetRequest& r, render::ImageFormat format) {
   OutputSpec s = Image(r.base, format);
   s.kind = Kind::kSheet;
-  s.lod = 0;
   s.columns = r.columns;
   s.labels = r.labels;
   return s;

@@ -6,27 +6,32 @@
 namespace facespace::api {
 
 std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored, int lod) {
-  const std::string prefix = stored->id + "|";
-  const std::string key = prefix + stored->version + "|" + std::to_string(lod);
+  if (lod < 0 || lod > kMaxLod) return nullptr;
+  const std::shared_ptr<const Rig> own(stored, &stored->rig);
+  std::shared_ptr<const DerivedRig> kept;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (auto it = derived_.find(key); it != derived_.end()) return it->second;
+    if (auto* levels = derived_.Find(own)) kept = (*levels)[lod];
   }
-  auto d = std::make_shared<DerivedRig>();
-  if (lod == 0) {
-    d->rig = std::shared_ptr<const Rig>(stored, &stored->rig);
-  } else {
-    auto made = MakeLod(stored->rig, lod);
-    if (!made.ok()) return nullptr;
-    d->rig = std::make_shared<const Rig>(std::move(made.value()));
+  if (!kept) {  // Made outside the lock: a large rig takes a while.
+    auto d = std::make_shared<DerivedRig>();
+    std::shared_ptr<const Rig> rig = own;
+    if (lod > 0) {
+      auto made = MakeLod(stored->rig, lod);
+      if (!made.ok()) return nullptr;
+      rig = d->rig = std::make_shared<const Rig>(std::move(made.value()));
+    }
+    d->has_focus = ShapeFocusBox(*rig, d->focus_min, d->focus_max);
+    d->focus_small = d->has_focus && FrameShapesByDefault(*rig, d->focus_min, d->focus_max);
+    std::lock_guard<std::mutex> lock(mu_);
+    auto& slot = derived_.At(own)[lod];
+    if (!slot) slot = std::move(d);
+    kept = slot;
   }
-  d->has_focus = ShapeFocusBox(*d->rig, d->focus_min, d->focus_max);
-  d->focus_small = d->has_focus && FrameShapesByDefault(*d->rig, d->focus_min, d->focus_max);
-  std::lock_guard<std::mutex> lock(mu_);
-  for (auto it = derived_.lower_bound(prefix); it != derived_.end() && it->first.rfind(prefix, 0) == 0;) {
-    it = it->first.rfind(prefix + stored->version + "|", 0) == 0 ? std::next(it) : derived_.erase(it);
-  }
-  return derived_.emplace(key, std::move(d)).first->second;
+  if (lod > 0) return kept;
+  auto at_rest = std::make_shared<DerivedRig>(*kept);
+  at_rest->rig = own;
+  return at_rest;
 }
 
 std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {

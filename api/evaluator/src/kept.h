@@ -10,23 +10,9 @@
 #include <vector>
 
 #include "facespace/api/evaluator.h"
+#include "facespace/formats/lod.h"
 
 namespace facespace::api {
-
-// DerivedRig made once per rig version and level and kept; a new version of a rig drops its older entries.
-class DerivedRigs {
- public:
-  // nullptr when the level of detail cannot be made.
-  std::shared_ptr<const DerivedRig> At(const std::shared_ptr<const StoredRig>& stored, int lod);
-  // The rig at a level of detail: the stored rig itself at 0 (no lookup), else At(...)->rig.
-  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod);
-  // Framing on the shapes: the camera gets the kept box instead of a per-render one.
-  void SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera);
-
- private:
-  std::mutex mu_;
-  std::map<std::string, std::shared_ptr<const DerivedRig>> derived_;
-};
 
 // Values kept per rig while it lives: entries hold their rig weakly, and one whose rig died (a
 // replaced or deleted rig, an evicted level of detail) is dropped, so a new rig at the same address
@@ -57,6 +43,23 @@ class PerRig {
     Value value;
   };
   std::map<const Rig*, Entry> entries_;
+};
+
+// DerivedRig made once per stored rig and level and kept while the stored rig lives (PerRig, keyed
+// by the stored rig's own Rig): a replaced or deleted rig's entries go. Level 0's entry holds no rig
+// (At hands out the stored rig itself with its box), so no entry keeps its stored rig alive.
+class DerivedRigs {
+ public:
+  // nullptr when the level of detail cannot be made.
+  std::shared_ptr<const DerivedRig> At(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // The rig at a level of detail: the stored rig itself at 0 (no lookup), else At(...)->rig.
+  std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // Framing on the shapes: the camera gets the kept box instead of a per-render one.
+  void SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera);
+
+ private:
+  std::mutex mu_;
+  PerRig<std::array<std::shared_ptr<const DerivedRig>, kMaxLod + 1>> derived_;
 };
 
 // Glb writers kept per rig (a GlbVariantWriter holds one rig's exported template), leased one per

@@ -85,7 +85,7 @@ struct OutputSpec {
   };
   Kind kind = Kind::kMesh;
   BlendOptions blend;            // Mode, normals, skinning (the point's pose is the point's).
-  int lod = 0;                   // Level of detail of the rig (core/lod.h); sheets are drawn at 0.
+  int lod = 0;                   // Level of detail of the rig (core/lod.h).
   // Meshes.
   MeshFormat mesh_format = MeshFormat::kJson;
   bool mesh_space = false;       // JSON, OBJ and f32 before the node transforms.
@@ -174,8 +174,8 @@ class Evaluator {
   std::unique_ptr<Kept> kept_;
 };
 
-// A rig that is not in a store (a CLI run, a test) as the evaluator takes one: its id is the
-// rig's name; with no version, nothing keyed by it outlives the process.
+// A rig that is not in a store (a CLI run, a test), as the evaluator takes one: its id is the
+// rig's name, its version what the caller says identifies its content (batch.json records it).
 std::shared_ptr<const StoredRig> Unstored(Rig rig, std::string version = "");
 
 // ---- one call: step 1 then step 2 -------------------------------------------------------------
