@@ -97,7 +97,7 @@ TEST(Evaluator, FastPathsGiveTheExportersBytes) {
     auto pieces = evaluator.Run(FaceCapStored(), p, glb, ws);
     ASSERT_TRUE(pieces.ok());
     EXPECT_TRUE(pieces->bytes.empty());
-    EXPECT_TRUE(std::string(pieces->pieces[0]) + std::string(pieces->pieces[1]) == expected) << "glb in pieces";
+    EXPECT_TRUE(std::string(pieces->head) + std::string(pieces->bin) == expected) << "glb in pieces";
   }
 }
 

@@ -67,8 +67,8 @@ TEST(BatchPlan, VariantsAreAPureFunctionOfThePlanAndIndex) {
   api::Workspace ws;
   auto bytes = evaluator.Run(plan.rig, a, plan.output, ws);
   ASSERT_TRUE(bytes.ok());
-  EXPECT_EQ(bytes->pieces[0].front(), '{');
-  EXPECT_TRUE(bytes->pieces[1].empty());
+  EXPECT_EQ(bytes->pieces()[0].front(), '{');
+  EXPECT_TRUE(bytes->pieces()[1].empty());
   // A bad plan names its field.
   auto bad = batch::MakeBatchPlan(FaceCap(), R"({"sample": {"method": "random", "count": 5}})");
   ASSERT_FALSE(bad.ok());

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <random>
 
+#include "facespace/api/evaluator.h"
 #include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 
@@ -365,7 +366,40 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
   state.counters["KB"] = bytes / 1024.0;
 }
 
+// The mesh route's f32 through the evaluator, as the route calls it: Evaluator::Run alone (arg 0),
+// or with the request's first step and the cache key before it (1: ResolvePoint, CacheKey, Run).
+// Against BM_FaceCapMeshEncode/4 (the F32Writer alone), what the evaluator's layer adds.
+void BM_FaceCapEvaluatorF32(benchmark::State& state) {
+  static const auto rig = facespace::api::Unstored(facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value(), "1");
+  const facespace::render::NullRenderer renderer;
+  const facespace::api::Evaluator evaluator(renderer);
+  facespace::api::Workspace ws;
+  facespace::api::MeshRequest request;
+  for (const char* name : {"jawOpen", "mouthSmile_L", "mouthSmile_R", "cheekPuff"}) request.weights.push_back({name, -1, 0.2, ""});
+  const facespace::api::OutputSpec spec = facespace::api::OutputSpec::Mesh(request, facespace::MeshFormat::kF32);
+  facespace::api::ResolvedPoint point;
+  facespace::api::ResolvePoint(rig->rig, request, point);
+  const bool resolve = state.range(0) == 1;
+  size_t bytes = 0;
+  for (auto _ : state) {
+    request.weights[0].value += 1e-6;  // A new point each time, as the route sees.
+    if (resolve) {
+      facespace::api::ResolvePoint(rig->rig, request, point);
+      benchmark::DoNotOptimize(facespace::api::CacheKey(*rig, {&point, 1}, spec).size());
+    } else {
+      point.weights[0] += 1e-6f;
+    }
+    auto out = evaluator.Run(rig, point, spec, ws);
+    bytes = out->bytes.size();
+    ws.body = std::move(out->bytes);  // Handed back, as a sent response's body is.
+    benchmark::DoNotOptimize(bytes);
+  }
+  state.SetLabel(resolve ? "ResolvePoint + CacheKey + Run" : "Evaluator::Run");
+  state.counters["KB"] = bytes / 1024.0;
+}
+
 BENCHMARK(BM_FaceCapMeshEncode)->DenseRange(0, 4)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_FaceCapEvaluatorF32)->DenseRange(0, 1)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MakeHumanKernel)->Arg(20)->Arg(286)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MakeHumanEvaluate)->Arg(20)->Arg(286)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_ByShapeRuns)->DenseRange(0, 3)->Unit(benchmark::kMicrosecond);

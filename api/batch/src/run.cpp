@@ -291,7 +291,7 @@ Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
       const size_t k = pending[slot];
       VariantPoint(plan, k, point);
       auto encoded = evaluator.Run(plan.rig, point, plan.output, ws);
-      Result<std::array<std::string_view, 2>> pieces = encoded.ok() ? Result<std::array<std::string_view, 2>>(encoded->pieces)
+      Result<std::array<std::string_view, 2>> pieces = encoded.ok() ? Result<std::array<std::string_view, 2>>(encoded->pieces())
                                                                     : Result<std::array<std::string_view, 2>>(encoded.status());
       const std::string file = VariantFile(plan, k);
       Result<int> fd = pieces.ok() ? WriteTemporary(dir, kTmpPrefix + file, pieces.value(), "'" + file + "'") : pieces.status();

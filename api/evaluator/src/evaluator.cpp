@@ -36,11 +36,7 @@ Status Evaluate(const Rig& rig, const ResolvedPoint& point, BlendOptions options
   return Status::Ok();
 }
 
-Encoded Whole(std::string bytes) {
-  Encoded e{std::move(bytes), {}};
-  e.pieces = {e.bytes, {}};
-  return e;
-}
+Encoded Whole(std::string bytes) { return Encoded{std::move(bytes), {}, {}}; }
 
 // The f32 body written over the rest's bytes (F32Writer), over ws.body; false when the writer
 // does not serve this rig, point or spec.
@@ -172,7 +168,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
         if (spec.pieces) {
           auto pieces = GlbPieces(rig, point, spec, ws, ws.glb);
           if (!pieces.ok()) return pieces.status();
-          return Encoded{{}, {pieces->head, pieces->bin}};
+          return Encoded{{}, pieces->head, pieces->bin};
         }
         const GlbWriters::Lease glb = kept_->glb_writers.Acquire(at);
         auto pieces = GlbPieces(rig, point, spec, ws, *glb);

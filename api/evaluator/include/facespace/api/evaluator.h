@@ -108,12 +108,17 @@ struct OutputSpec {
   const char* content_type() const;
 };
 
-// What a call made: the bytes, and (OutputSpec::pieces) the two pieces they are in instead.
+// What a call made: the bytes, or (OutputSpec::pieces, glb) the two pieces they are in instead.
 struct Encoded {
   std::string bytes;
-  // With OutputSpec::pieces: a glb's head and binary chunk, to be written one after the other,
-  // valid until the workspace's next call; `bytes` is then empty. Otherwise {bytes, ""}.
-  std::array<std::string_view, 2> pieces{};
+  // With OutputSpec::pieces, a glb's head and binary chunk in the workspace, valid until its next
+  // call; `bytes` is then empty.
+  std::string_view head, bin;
+  // What to write, one after the other: {head, bin}, or {bytes, ""}.
+  std::array<std::string_view, 2> pieces() const {
+    if (head.empty() && bin.empty()) return {bytes, {}};
+    return {head, bin};
+  }
 };
 
 // What a caller keeps between calls so that steady-state evaluation does not allocate: one per
