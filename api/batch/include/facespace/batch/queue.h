@@ -17,15 +17,15 @@
 // with the reason. What Get and List say is read from the folder, so every instance says the same.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <functional>
 #include <map>
 #include <mutex>
-#include <thread>
-
 #include <optional>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 
 #include "facespace/api/store.h"
@@ -33,7 +33,7 @@
 
 namespace facespace::batch {
 
-// What the batch routes need from a job queue.
+// A job as the batch routes show it.
 struct JobInfo {
   std::string id;          // 32 lowercase hex digits: unguessable, so knowing it is the access.
   std::string rig;
@@ -50,6 +50,7 @@ struct JobInfo {
 // Status::reason of a refusal because the queue is full (HTTP 429 with Retry-After).
 inline constexpr char kJobQueueFull[] = "job-queue-full";
 
+// What the batch routes need from a job queue (FileJobQueue below; the API tests run without one).
 class JobQueue {
  public:
   virtual ~JobQueue() = default;
@@ -68,7 +69,6 @@ class JobQueue {
 
 // True for a job id: 32 lowercase hex digits.
 bool IsValidJobId(const std::string& id);
-
 
 struct JobLimits {
   size_t max_jobs = 4;        // Queued + running; past it Submit says ResourceExhausted (429).
