@@ -330,12 +330,7 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
   const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
     const Mesh& mesh = rig.meshes[mi];
-    ctx.target_weights.resize(mesh.target_shapes.size());
-    bool any_active = false;
-    for (size_t t = 0; t < mesh.target_shapes.size(); ++t) {
-      ctx.target_weights[t] = weights[mesh.target_shapes[t]];
-      any_active |= ctx.target_weights[t] != 0.0f;
-    }
+    const bool any_active = GatherTargetWeights(weights, mesh.target_shapes, ctx.target_weights);
     const std::span<const float> tw(ctx.target_weights);
     const bool skinned = mesh.skin >= 0 && static_cast<size_t>(mesh.skin) < rig.skins.size();
     if (skinned) {

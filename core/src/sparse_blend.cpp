@@ -63,13 +63,7 @@ bool SparseBlend::Accepts(const Rig& rig, std::span<const float> weights) const 
 SparseBlend::Outcome SparseBlend::Blend(const Rig& rig, std::span<const float> weights, size_t pi, Scratch& s) const {
   const Targets& t = primitives_[pi];
   const Primitive& p = rig.primitives[pi];
-  s.target_weights.resize(p.targets.size());
-  bool active = false;
-  for (size_t k = 0; k < p.targets.size(); ++k) {
-    s.target_weights[k] = weights[t.shapes[k]];
-    active |= s.target_weights[k] != 0.0f;
-  }
-  if (!active) return Outcome::kRest;
+  if (!GatherTargetWeights(weights, t.shapes, s.target_weights)) return Outcome::kRest;
   // Blended as EvaluateRig blends a primitive (positions and normals: no tangents).
   s.positions.resize(p.positions.size());
   s.normals.resize(p.normals.size());

@@ -34,13 +34,18 @@ std::shared_ptr<const batch::BatchPlan> Plan(const api::RigStore& store, const s
   return std::make_shared<const batch::BatchPlan>(std::move(plan.value()));
 }
 
-constexpr char kBody[] = R"({"sample": {"method": "uniform", "count": 6, "seed": 1, "shapes": ["jawOpen"]}, "format": "f32"})";
-
-TEST(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
+// A jobs folder, a store with FaceCap, and the evaluator the queues run jobs with.
+class JobQueue : public ::testing::Test {
+ protected:
+  JobQueue() { store.Seed(); }
   const test::TempDir dir;
   test::MemoryStore store;
-  store.Seed();
-  const api::Evaluator evaluator(kNull);
+  const api::Evaluator evaluator{kNull};
+};
+
+constexpr char kBody[] = R"({"sample": {"method": "uniform", "count": 6, "seed": 1, "shapes": ["jawOpen"]}, "format": "f32"})";
+
+TEST_F(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
   batch::JobLimits limits;
   limits.threads = 2;
   batch::FileJobQueue queue(dir.path.string(), store, evaluator, limits, 0.05);
@@ -76,11 +81,7 @@ TEST(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
   EXPECT_EQ(queue.Remove("../../etc").code, StatusCode::kNotFound);  // Never a path.
 }
 
-TEST(JobQueue, LimitsRefuseWithTheFieldOrAWait) {
-  const test::TempDir dir;
-  test::MemoryStore store;
-  store.Seed();
-  const api::Evaluator evaluator(kNull);
+TEST_F(JobQueue, LimitsRefuseWithTheFieldOrAWait) {
   batch::JobLimits limits;
   limits.max_jobs = 1;
   limits.max_batch = 5;
@@ -101,11 +102,7 @@ TEST(JobQueue, LimitsRefuseWithTheFieldOrAWait) {
   EXPECT_EQ(queue.List()[0].state, "queued");
 }
 
-TEST(JobQueue, AJobLeftUnfinishedResumesInTheNextInstance) {
-  const test::TempDir dir;
-  test::MemoryStore store;
-  store.Seed();
-  const api::Evaluator evaluator(kNull);
+TEST_F(JobQueue, AJobLeftUnfinishedResumesInTheNextInstance) {
   std::string id;
   {
     // Submitted to an instance that stops before running it (as a restart would).

@@ -15,6 +15,18 @@ namespace facespace {
 // Which attribute of a SparseTarget a BlendShapeJob reads.
 enum class TargetChannel { kPosition, kNormal, kTangent };
 
+// A mesh's target weights from the rig's shape weights (target t is shape shapes[t]) into `out`,
+// resized; true when any is non-zero. EvaluateRig's and SparseBlend's gather.
+inline bool GatherTargetWeights(std::span<const float> weights, std::span<const uint32_t> shapes, std::vector<float>& out) {
+  out.resize(shapes.size());
+  bool active = false;
+  for (size_t t = 0; t < shapes.size(); ++t) {
+    out[t] = weights[shapes[t]];
+    active |= out[t] != 0.0f;
+  }
+  return active;
+}
+
 // Writes base + sum_t weights[t] * target[t].delta into out (xyz per vertex).
 // Owns no buffer, never allocates. Targets with weight exactly 0 cost nothing.
 struct BlendShapeJob {
