@@ -102,7 +102,7 @@ int Sequence(const std::vector<std::string>& args) {
     };
   };
   flags.Value("--keys", "JSON|@FILE", "the keyframes", [&keys_text](const std::string& v) { return ReadAtFile("--keys", v, keys_text) ? 0 : 1; });
-  flags.Text("--from-animation", "NAME|INDEX", "the keys of a clip's morph-weight channel", &from_animation);
+  flags.Text("--from-animation", "NAME|INDEX", "play a clip or motion: its pose and weights (keys: its morph-weight channel)", &from_animation);
   flags.Text("--obj-times", "T0,T1,...", "OBJ sequence: one key per file at these times", &obj_times);
   flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &transition);
   flags.Switch("--smooth", "Catmull-Rom through the keys", [&] { smooth = true; });
@@ -166,7 +166,7 @@ int Sequence(const std::vector<std::string>& args) {
         std::fprintf(stderr, "error: --from-animation: %s\n", UnknownClipMessage(rig, named).c_str());
         return 2;
       }
-      auto s = SequenceFromAnimation(rig, clip);
+      auto s = SequenceOfClip(rig, clip);
       if (!s.ok()) {
         std::fprintf(stderr, "error: --from-animation: %s\n", s.status().message.c_str());
         return 1;

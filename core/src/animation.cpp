@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "facespace/core/bezier.h"
+
 namespace facespace {
 
 namespace {
@@ -36,11 +38,16 @@ void Sample(const AnimationSampler& s, float time, bool rotation, float* out) {
   Locate(s.times, time, k0, k1, u, dt);
   const size_t c = s.components;
   const bool cubic = s.interpolation == Interpolation::kCubicSpline;
-  const size_t stride = cubic ? 3 * c : c;
+  const size_t stride = cubic ? 3 * c : s.interpolation == Interpolation::kBezier ? 6 * c : c;
   const float* v0 = &s.values[k0 * stride + (cubic ? c : 0)];
   const float* v1 = &s.values[k1 * stride + (cubic ? c : 0)];
   if (s.interpolation == Interpolation::kStep || k0 == k1) {
     std::copy(v0, v0 + c, out);
+  } else if (s.interpolation == Interpolation::kBezier) {
+    const float* seg = &s.values[k0 * stride];
+    for (size_t i = 0; i < c; ++i) {
+      out[i] = static_cast<float>(BezierYAtX(0.0, seg[c + i], seg[3 * c + i], 1.0, v0[i], seg[2 * c + i], seg[4 * c + i], seg[5 * c + i], u));
+    }
   } else if (!cubic) {
     if (rotation) {
       const std::array<float, 4> q = Slerp({v0[0], v0[1], v0[2], v0[3]}, {v1[0], v1[1], v1[2], v1[3]}, u);
@@ -63,6 +70,24 @@ void Sample(const AnimationSampler& s, float time, bool rotation, float* out) {
 }
 
 }  // namespace
+
+AnimationSampler LinearSampler(const AnimationSampler& s, float per_second) {
+  if (s.interpolation != Interpolation::kBezier || s.times.empty()) return s;
+  AnimationSampler out;
+  out.components = s.components;
+  out.interpolation = Interpolation::kLinear;
+  std::vector<float> value(s.components);
+  for (size_t k = 0; k < s.times.size(); ++k) {
+    const size_t steps = k + 1 < s.times.size() ? std::max<size_t>(1, static_cast<size_t>(std::ceil((s.times[k + 1] - s.times[k]) * per_second))) : 1;
+    for (size_t i = 0; i < steps; ++i) {
+      const float t = i == 0 ? s.times[k] : s.times[k] + (s.times[k + 1] - s.times[k]) * static_cast<float>(i) / static_cast<float>(steps);
+      Sample(s, t, false, value.data());  // kBezier drives weights.
+      out.times.push_back(t);
+      out.values.insert(out.values.end(), value.begin(), value.end());
+    }
+  }
+  return out;
+}
 
 Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose, std::vector<float>& shape_weights,
                   std::vector<uint8_t>& shape_set) {

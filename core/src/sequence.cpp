@@ -4,17 +4,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "facespace/core/bezier.h"
+
 namespace facespace {
-
-namespace {
-
-// x(s) and y(s) of CSS's cubic Bezier from (0, 0) to (1, 1).
-float Bez(float s, float a, float b) {
-  const float r = 1.0f - s;
-  return 3.0f * r * r * s * a + 3.0f * r * s * s * b + s * s * s;
-}
-
-}  // namespace
 
 float ApplyTransition(const Transition& t, float u) {
   switch (t.kind) {
@@ -32,13 +24,8 @@ float ApplyTransition(const Transition& t, float u) {
     case TransitionKind::kBezier: {
       if (u <= 0.0f) return 0.0f;
       if (u >= 1.0f) return 1.0f;
-      // x(s) is monotonic for x1, x2 in [0, 1]: solve x(s) = u by bisection (exact to float).
-      float lo = 0.0f, hi = 1.0f;
-      for (int i = 0; i < 40; ++i) {
-        const float mid = 0.5f * (lo + hi);
-        (Bez(mid, t.x1, t.x2) < u ? lo : hi) = mid;
-      }
-      return Bez(0.5f * (lo + hi), t.y1, t.y2);
+      // From (0, 0) to (1, 1); x(s) rises for x1, x2 in [0, 1].
+      return static_cast<float>(BezierYAtX(0.0, t.x1, t.x2, 1.0, 0.0, t.y1, t.y2, 1.0, u));
     }
   }
   return u;
@@ -256,7 +243,8 @@ Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation) {
     Sequence s;
     s.transition.kind = smp.interpolation == Interpolation::kStep ? TransitionKind::kStep : TransitionKind::kLinear;
     s.smooth = smp.interpolation == Interpolation::kCubicSpline;
-    const size_t c = smp.components, stride = s.smooth ? 3 * c : c, offset = s.smooth ? c : 0;
+    // kBezier: the keys' values (the curve between them is the clip's, which a clip's sequence plays).
+    const size_t c = smp.components, stride = s.smooth ? 3 * c : smp.interpolation == Interpolation::kBezier ? 6 * c : c, offset = s.smooth ? c : 0;
     for (size_t k = 0; k < smp.times.size(); ++k) {
       Keyframe key;
       key.time = smp.times[k];
@@ -267,6 +255,22 @@ Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation) {
     return s;
   }
   return InvalidArgument("animation '" + a.name + "' has no morph-weight channel");
+}
+
+Result<Sequence> SequenceOfClip(const Rig& rig, int clip) {
+  if (clip < 0 || static_cast<size_t>(clip) >= rig.animations.size()) return InvalidArgument("no such animation");
+  const float duration = rig.animations[clip].duration;
+  Result<Sequence> s = SequenceFromAnimation(rig, clip);
+  if (!s.ok()) {
+    Sequence rest;
+    rest.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+    s = std::move(rest);
+  }
+  std::vector<Keyframe>& keys = s->keys;
+  if (keys.front().time > 0.0f) keys.insert(keys.begin(), Keyframe{0.0f, keys.front().weights, std::nullopt});
+  if (keys.back().time < duration) keys.push_back(Keyframe{duration, keys.back().weights, std::nullopt});
+  s->clip = clip;
+  return s;
 }
 
 }  // namespace facespace

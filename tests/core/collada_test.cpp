@@ -84,25 +84,28 @@ TEST(Collada, NormalizedMorphIsTheWeightedSumOfTargetsAndBase) {
   EXPECT_NEAR(want[4][1], 100.0, 1e-9);  // The apex: 0.5 x -100 + 100, scaled by 3, moved down 50.
 }
 
-TEST(Collada, RelativeMorphAddsWeightedTargetOffsets) {
+TEST(Collada, RelativeMorphAddsTheWeightedTargetsAsGiven) {
   const std::string path = Dae("CTS_morph_two_targets/morph_two_targets_relative.dae");
   const Rig rig = Load(path);
   ASSERT_EQ(rig.shapes.size(), 2u);
+  EXPECT_FLOAT_EQ(rig.shapes[0].default_weight, 0.5f);
   EXPECT_FLOAT_EQ(rig.shapes[1].default_weight, 0.25f);
   const std::string text = Text(path);
   const auto base = ArrayById(text, "pCubeShape3-positions-array"), t1 = ArrayById(text, "pCubeShape1-positions-array"),
              t2 = ArrayById(text, "pCubeShape2-positions-array");
-  // base + 0.5 (t1 - base) + 0.25 (t2 - base), then translate (0, 20, 0), scale 2.
-  std::vector<std::array<double, 3>> want;
-  for (size_t v = 0; v < 5; ++v) {
-    std::array<double, 3> p;
-    for (int c = 0; c < 3; ++c) {
-      const double b = base[3 * v + c];
-      p[c] = 2 * (b + 0.5 * (t1[3 * v + c] - b) + 0.25 * (t2[3 * v + c] - b)) + (c == 1 ? 20 : 0);
+  // COLLADA 1.4.1: RELATIVE is base + w1 t1 + w2 t2 (the targets as given); then the node's
+  // translate (0, 20, 0) and scale 2. At the file's weights the square grows by 1 + 0.5 + 0.25.
+  for (const std::array<float, 2> w : {std::array<float, 2>{0.5f, 0.25f}, {1.0f, 0.0f}, {0.0f, 1.0f}}) {
+    std::vector<std::array<double, 3>> want;
+    for (size_t v = 0; v < 5; ++v) {
+      std::array<double, 3> p;
+      for (int c = 0; c < 3; ++c) p[c] = 2 * (base[3 * v + c] + w[0] * t1[3 * v + c] + w[1] * t2[3 * v + c]) + (c == 1 ? 20 : 0);
+      want.push_back(p);
     }
-    want.push_back(p);
+    EXPECT_TRUE(Covers(World(rig, {w[0], w[1]}), want, 1e-3)) << w[0] << " " << w[1];
   }
-  EXPECT_TRUE(Covers(World(rig), want, 1e-3));
+  // A corner of the square: (-25, 0, 25) x 1.75, scaled 2, moved up 20.
+  EXPECT_TRUE(Covers(World(rig), {{2 * -25 * 1.75, 20, 2 * 25 * 1.75}}, 1e-3));
 }
 
 TEST(Collada, SkinOverMorphBlendsThenSkins) {
@@ -154,19 +157,48 @@ TEST(Collada, FourInfluenceSkinKeepsEveryInfluence) {
   for (float v : World(rig)) ASSERT_TRUE(std::isfinite(v));
 }
 
-TEST(Collada, AnimatedMorphWeightPassesThroughItsKeys) {
+// The weight curve of SCEA_animation_morph, evaluated here from the file's numbers: per segment the
+// cubic Bezier through (t_k, v_k), the key's out-tangent, the next key's in-tangent, (t_k+1, v_k+1),
+// time as the curve's x (its parameter found by bisection), then y.
+double FileCurve(double x) {
+  const double t[] = {0.041666, 0.416667, 0.833333}, v[] = {0, 1, -0.5};
+  const double in[] = {-0.291667, -0.888889, 0.291667, 1.07895, 0.694444, 0};
+  const double out[] = {0.166667, 0.333333, 0.555556, 0.912281, 1.16667, -1.7};
+  if (x <= t[0]) return v[0];
+  if (x >= t[2]) return v[2];
+  const int k = x < t[1] ? 0 : 1;
+  const auto at = [](double a, double b, double c, double d, double s) {
+    return (1 - s) * (1 - s) * (1 - s) * a + 3 * (1 - s) * (1 - s) * s * b + 3 * (1 - s) * s * s * c + s * s * s * d;
+  };
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 80; ++i) {
+    const double s = (lo + hi) / 2;
+    (at(t[k], out[2 * k], in[2 * k + 2], t[k + 1], s) < x ? lo : hi) = s;
+  }
+  return at(v[k], out[2 * k + 1], in[2 * k + 3], v[k + 1], (lo + hi) / 2);
+}
+
+TEST(Collada, AnimatedMorphWeightFollowsItsBezierCurve) {
   const Rig rig = Load(Dae("SCEA_animation_morph/animation_morph.dae"));
   ASSERT_EQ(rig.animations.size(), 1u);
   ASSERT_EQ(rig.shapes.size(), 1u);  // The IDREF array names a second, missing target: the accessor says 1.
-  // Keys from the file: times 0.041666, 0.416667, 0.833333; values 0, 1, -0.5 (BEZIER between).
-  const double times[] = {0.041666, 0.416667, 0.833333}, values[] = {0, 1, -0.5};
-  for (int k = 0; k < 3; ++k) {
+  const auto weight = [&](double time) {
     Pose pose = RestPose(rig);
     std::vector<float> w;
     std::vector<uint8_t> set;
-    ASSERT_TRUE(SampleClip(rig, 0, static_cast<float>(times[k]), ClipWrap::kClamp, pose, w, set).ok());
-    EXPECT_NEAR(w[0], values[k], 2e-3) << k;
-  }
+    EXPECT_TRUE(SampleClip(rig, 0, static_cast<float>(time), ClipWrap::kClamp, pose, w, set).ok());
+    return w.empty() ? NAN : w[0];
+  };
+  // At its keys, its values; between them, the curve (every 1/240 s, and mid-segment).
+  EXPECT_NEAR(weight(0.416667), 1.0, 1e-6);
+  EXPECT_NEAR(weight(0.041666), 0.0, 1e-6);
+  EXPECT_NEAR(weight(0.833333), -0.5, 1e-6);
+  double worst = 0;
+  for (double x = 0.0; x <= 0.9; x += 1.0 / 240) worst = std::max(worst, std::fabs(weight(x) - FileCurve(x)));
+  EXPECT_LT(worst, 1e-5);
+  EXPECT_NEAR(weight(0.229166), FileCurve(0.229166), 1e-5);
+  EXPECT_GT(FileCurve(0.4), 1.0);  // The curve overshoots its key, which no straight line between keys does.
+  EXPECT_NEAR(weight(0.4), FileCurve(0.4), 1e-5);
 }
 
 // ---- hostile ----

@@ -10,6 +10,7 @@
 
 #include <unistd.h>
 
+#include "facespace/core/animation.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/hierarchy.h"
 #include "facespace/formats/io.h"
@@ -382,6 +383,48 @@ TEST(Vmd, TheMotionsBesideTheModelAreClipsWithTheirKeyCounts) {
   size_t k = 0;
   while (k + 1 < w->times.size() && w->times[k + 1] <= 5.0f) ++k;
   EXPECT_EQ(w->values[k * w->components + t], 1.0f);
+}
+
+// MMD matches a motion's morph tracks to the model's morphs by their names, and every morph is its own
+// morph: 瞳小 and pupil_decrease_geo_ hold the same 834 offsets, and 08_surprise keys them apart.
+TEST(Vmd, EveryMorphIsItsOwnShapeAndATrackDrivesTheMorphOfItsName) {
+  // From the file: 瞳小's keys (Shift-JIS 93 B5 8F AC), frame -> weight.
+  Raw r{test::ReadBytes(UkaDir() + "/motion/08_surprise.vmd")};
+  r.at = 50;
+  r.at += 111 * static_cast<size_t>(r.Get<uint32_t>());
+  const uint32_t morph_keys = r.Get<uint32_t>();
+  std::map<uint32_t, float> pupil;
+  for (uint32_t k = 0; k < morph_keys; ++k) {
+    const std::string name(reinterpret_cast<const char*>(&r.b[r.at]), 4);
+    const bool ours = name == "\x93\xb5\x8f\xac" && r.b[r.at + 4] == 0;
+    r.at += 15;
+    const uint32_t frame = r.Get<uint32_t>();
+    const float weight = r.Get<float>();
+    if (ours) pupil[frame] = weight;
+  }
+  ASSERT_EQ(pupil.count(15), 1u);
+  EXPECT_FLOAT_EQ(pupil[15], 0.4f);
+
+  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  ASSERT_TRUE(rig.ok());
+  const int small = FindShape(rig.value(), "瞳小"), geo = FindShape(rig.value(), "pupil_decrease_geo_");
+  ASSERT_GE(small, 0);
+  ASSERT_GE(geo, 0);
+  EXPECT_NE(small, geo);
+  EXPECT_EQ(rig->shapes[geo].name, "pupil_decrease_geo_");  // Its own name, not an alias of 瞳小.
+  int clip = -1;
+  for (size_t a = 0; a < rig->animations.size(); ++a) {
+    if (rig->animations[a].name == "08_surprise") clip = static_cast<int>(a);
+  }
+  ASSERT_GE(clip, 0);
+  for (const auto& [frame, weight] : pupil) {
+    Pose pose = RestPose(rig.value());
+    std::vector<float> w;
+    std::vector<uint8_t> set;
+    ASSERT_TRUE(SampleClip(rig.value(), clip, static_cast<float>(frame) / 30.0f, ClipWrap::kClamp, pose, w, set).ok());
+    EXPECT_FLOAT_EQ(w[small], weight) << "frame " << frame;
+    EXPECT_FLOAT_EQ(w[geo], 0.0f) << "frame " << frame;  // Its own track: keyed 0.
+  }
 }
 
 TEST(MmdHostile, TruncatedAndLyingPmdAndVmdAreErrors) {

@@ -359,9 +359,10 @@ uka="$src/assets/uka/MS_Uka.pmx"
 "$bin" info "$uka" >"$tmp/uka.info" 2>"$tmp/uka.err"; rc=$?
 check "info MS_Uka.pmx: 49955 vertices, 202 shapes, 302 joints, 4 motions, the credit; unmatched motion names reported" sh -c "[ $rc -eq 0 ] && grep -q '^vertices   49955' '$tmp/uka.info' && grep -q '^shapes     202' '$tmp/uka.info' && grep -q '302 joints' '$tmp/uka.info' && [ \$(grep -c '^animation ' '$tmp/uka.info') -eq 4 ] && grep -q 'Nagoya Institute of Technology' '$tmp/uka.info' && grep -q 'motion_names_unmatched' '$tmp/uka.err'"
 "$bin" info "$M/MMD/Uka_PMD/MS_Uka.pmd" --json >"$tmp/pmd.json" 2>/dev/null
-check "info MS_Uka.pmd: 49955 vertices, 120 expressions (121 skins with the base), English aliases" py 'import json,sys
-d=json.load(open(sys.argv[1])); s=d["shapes"]
-sys.exit(not(d["vertices"]==49955 and len(s)==120 and any("mouth_a_geo_C" in x.get("aliases",[]) for x in s)))' "$tmp/pmd.json"
+check "info MS_Uka.pmd: 49955 vertices, 120 expressions (121 skins with the base), each its own shape under its own name (あ's English name mouth_a_geo_C is another morph's)" py 'import json,sys
+d=json.load(open(sys.argv[1])); s=d["shapes"]; names=[x["name"] for x in s]
+sys.exit(not(d["vertices"]==49955 and len(s)==120 and "mouth_a_geo_C" in names and "あ" in names and len(set(names))==120
+             and not any(n.endswith("_2") for n in names) and not any("mouth_a_geo_C" in x.get("aliases",[]) for x in s)))' "$tmp/pmd.json"
 "$bin" convert "$uka" -o "$tmp/uka.glb" >/dev/null 2>&1
 "$bin" blend "$uka" --motion 01_happy --frame 150 -o "$tmp/uka_src.json" 2>/dev/null
 "$bin" blend "$tmp/uka.glb" --motion 01_happy --frame 150 -o "$tmp/uka_glb.json" 2>/dev/null

@@ -11,7 +11,8 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
   float f = 0.0f;
   SampleSequence(sequence, time, point.weights, &f);
   if (sequence.clip >= 0) {
-    // The clip's pose at this time (its weight channel is the sequence's keys).
+    // The clip's pose and weights at this time: its curves as it draws them (the keys are its
+    // weight channel's keys; between them a curve need not be linear).
     PoseRequest request;
     ClipRequest clip;
     clip.index = sequence.clip;
@@ -22,6 +23,9 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
     std::vector<uint8_t> set;
     std::vector<Warning> warnings;
     point.posed = BuildPose(rig, request, point.pose, animated, set, warnings).ok();
+    for (size_t i = 0; point.posed && i < set.size(); ++i) {
+      if (set[i]) point.weights[i] = animated[i];
+    }
   }
   CheckPoint(rig, mode, point);
   const std::string at = "t=" + FormatNumber(time) + ": ";

@@ -374,7 +374,6 @@ Status Reader::Animations() {
   size_t skipped = 0;
   std::vector<pugi::xml_node> stack;
   for (pugi::xml_node a : root_.child("library_animations").children("animation")) stack.push_back(a);
-  double start = INFINITY, end = -INFINITY;
   while (!stack.empty()) {
     pugi::xml_node anim = stack.back();
     stack.pop_back();
@@ -413,8 +412,6 @@ Status Reader::Animations() {
       c.interp.assign(interp.names.begin(), interp.names.begin() + static_cast<std::ptrdiff_t>(std::min(interp.names.size(), in.count)));
       if (tin.stride == 2 && tin.count == in.count) c.in.assign(tin.numbers.begin(), tin.numbers.begin() + static_cast<std::ptrdiff_t>(2 * in.count));
       if (tout.stride == 2 && tout.count == in.count) c.out.assign(tout.numbers.begin(), tout.numbers.begin() + static_cast<std::ptrdiff_t>(2 * in.count));
-      start = std::min(start, c.t.front());
-      end = std::max(end, c.t.back());
       curves[src][static_cast<size_t>(index)] = std::move(c);
     }
   }
@@ -423,36 +420,44 @@ Status Reader::Animations() {
                                   static_cast<double>(skipped), true});
   }
   if (curves.empty()) return Status::Ok();
-  std::vector<float> times;
-  if ((end - start) * kSampleRate + 3 > static_cast<double>(kMaxSamples)) return Bad("the animation spans too long a time");
-  for (double x = start; x < end; x += 1.0 / kSampleRate) times.push_back(static_cast<float>(x));
-  times.push_back(static_cast<float>(end));
+  // One weights channel per morphed mesh, its keys every key of its curves, each segment the curves
+  // cut there (kBezier): the curves as drawn, not resampled.
   AnimationInfo clip;
   clip.name = "animation";
   for (const auto& [src, by_index] : curves) {
     const int node = morph_node_.count(src) ? morph_node_.at(src) : -1;
     if (node < 0 || rig_.nodes[node].mesh < 0) continue;
     const Mesh& mesh = rig_.meshes[rig_.nodes[node].mesh];
+    std::vector<double> times;
+    for (const auto& [index, c] : by_index) times.insert(times.end(), c.t.begin(), c.t.end());
+    std::sort(times.begin(), times.end());
+    times.erase(std::unique(times.begin(), times.end()), times.end());
+    const size_t n = mesh.target_shapes.size();
+    if (times.size() * n > kMaxSamples) return Bad("an animated morph has more than " + std::to_string(kMaxSamples) + " keys x targets");
     AnimationSampler s;
-    s.components = mesh.target_shapes.size();
-    s.times = times;
-    s.interpolation = Interpolation::kLinear;
+    s.components = n;
+    s.interpolation = Interpolation::kBezier;
+    s.values.assign(times.size() * 6 * n, 0.0f);
     const std::vector<uint32_t>& shapes = morph_shapes_.at(src);
-    for (float x : times) {
-      for (uint32_t shape : mesh.target_shapes) {
-        float w = rig_.shapes[shape].default_weight;
+    for (size_t k = 0; k < times.size(); ++k) {
+      s.times.push_back(static_cast<float>(times[k]));
+      const double a = times[k], b = k + 1 < times.size() ? times[k + 1] : times[k] + 1.0;
+      for (size_t j = 0; j < n; ++j) {
+        const uint32_t shape = mesh.target_shapes[j];
+        std::array<double, 6> part{rig_.shapes[shape].default_weight, 1.0 / 3, rig_.shapes[shape].default_weight, 2.0 / 3,
+                                   rig_.shapes[shape].default_weight, rig_.shapes[shape].default_weight};
         for (size_t i = 0; i < shapes.size(); ++i) {
-          if (shapes[i] == shape && by_index.count(i)) w = static_cast<float>(by_index.at(i).At(x));
+          if (shapes[i] == shape && by_index.count(i)) part = by_index.at(i).Part(a, b);
         }
-        s.values.push_back(w);
+        for (size_t f = 0; f < 6; ++f) s.values[k * 6 * n + f * n + j] = static_cast<float>(part[f]);
       }
     }
+    clip.duration = std::max(clip.duration, s.times.back());
     clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), node, ChannelPath::kWeights});
     clip.sampler_data.push_back(std::move(s));
   }
   if (clip.channel_data.empty()) return Status::Ok();
   clip.has_weights = true;
-  clip.duration = times.back();
   clip.channels = clip.channel_data.size();
   rig_.animations.push_back(std::move(clip));
   return Status::Ok();

@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "facespace/formats/io.h"
-#include "common/bezier.h"
+#include "facespace/core/bezier.h"
 #include "common/split_mesh.h"
 
 namespace facespace::collada {
@@ -27,7 +27,6 @@ constexpr size_t kMaxDepth = 128;          // Node nesting (instance_node includ
 constexpr size_t kMaxNodes = 100'000;
 constexpr size_t kMaxValues = 64'000'000;  // Numbers in one array.
 constexpr size_t kMaxSamples = 100'000;
-constexpr double kSampleRate = 60.0;       // Clips are sampled at 60 per second (and at every key).
 
 Status Bad(const std::string& what);
 
@@ -139,20 +138,29 @@ class Reader {
   struct Curve {
     std::vector<double> t, v, in, out;  // in/out: 2 per key when BEZIER.
     std::vector<std::string> interp;
-    double At(double x) const {
-      if (x <= t.front()) return v.front();
-      if (x >= t.back()) return v.back();
-      const size_t k = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), x) - t.begin()) - 1;
-      const double u = (x - t[k]) / (t[k + 1] - t[k]);
+    // The curve between times a < b that lie within one of its segments (or outside its keys), as
+    // one kBezier key: the value at a, handles (x1, y1), (x2, y2) with x as a fraction of b - a, and
+    // the value reached at b. The same curve, cut exactly (de Casteljau); STEP and LINEAR too.
+    std::array<double, 6> Part(double a, double b) const {
+      const auto flat = [](double y) { return std::array<double, 6>{y, 1.0 / 3, y, 2.0 / 3, y, y}; };
+      if (b <= t.front()) return flat(v.front());
+      if (a >= t.back()) return flat(v.back());
+      const size_t k = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), a) - t.begin()) - 1;
       const std::string& mode = k < interp.size() ? interp[k] : std::string("LINEAR");
-      if (mode == "STEP") return v[k];
+      if (mode == "STEP") return flat(v[k]);
+      const double gap = t[k + 1] - t[k];
       if (mode == "BEZIER" && out.size() >= 2 * (k + 1) && in.size() >= 2 * (k + 2)) {
-        // Control points (t, v) of the segment; solve time(s) = x by bisection.
-        const double x0 = t[k], x1 = out[2 * k], x2 = in[2 * (k + 1)], x3 = t[k + 1];
-        const double y0 = v[k], y1 = out[2 * k + 1], y2 = in[2 * (k + 1) + 1], y3 = v[k + 1];
-        return BezierYAtX(x0, x1, x2, x3, y0, y1, y2, y3, x);
+        const std::array<double, 4> x = {t[k], out[2 * k], in[2 * (k + 1)], t[k + 1]};
+        const std::array<double, 4> y = {v[k], out[2 * k + 1], in[2 * (k + 1) + 1], v[k + 1]};
+        const double s0 = a <= t[k] ? 0.0 : BezierParameterAtX(x[0], x[1], x[2], x[3], a);
+        const double s1 = b >= t[k + 1] ? 1.0 : BezierParameterAtX(x[0], x[1], x[2], x[3], b);
+        const std::array<double, 4> px = BezierPart(x, s0, s1), py = BezierPart(y, s0, s1);
+        // Handles outside their segment (x not rising) are clamped into it.
+        const auto frac = [&](double h) { return std::clamp((h - a) / (b - a), 0.0, 1.0); };
+        return {py[0], frac(px[1]), py[1], frac(px[2]), py[2], py[3]};
       }
-      return v[k] + (v[k + 1] - v[k]) * u;
+      const double ya = v[k] + (v[k + 1] - v[k]) * (a - t[k]) / gap, yb = v[k] + (v[k + 1] - v[k]) * (b - t[k]) / gap;
+      return {ya, 1.0 / 3, ya + (yb - ya) / 3, 2.0 / 3, ya + 2 * (yb - ya) / 3, yb};
     }
   };
 

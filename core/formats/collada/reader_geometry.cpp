@@ -282,9 +282,11 @@ Status Reader::ReadMorph(pugi::xml_node controller, pugi::xml_node morph, size_t
     if (pos.size() != 3 * points) {
       return Bad(Describe(controller) + ": target '" + id + "' has " + std::to_string(pos.size() / 3) + " positions, the base " + std::to_string(points));
     }
-    // Both methods store whole target positions; NORMALIZED is (1 - sum w) base + sum w target,
-    // RELATIVE base + sum w (target - base): the same deltas (README "COLLADA").
-    for (size_t k = 0; k < pos.size(); ++k) pos[k] -= base[k];
+    // COLLADA 1.4.1 (5-71): NORMALIZED is (1 - sum w) base + sum w target, so a shape's offset is
+    // target - base; RELATIVE is base + sum w target, the targets added as given: they are the offsets.
+    if (method != "RELATIVE") {
+      for (size_t k = 0; k < pos.size(); ++k) pos[k] -= base[k];
+    }
     out.names.push_back(g.attribute("name").value()[0] ? g.attribute("name").value() : id);
     out.targets.push_back(std::move(pos));
     out.weights.push_back(t < weights.count && weights.numbers.size() > t * weights.stride ? weights.At(t)[0] : 0.0);

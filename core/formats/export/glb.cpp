@@ -1,5 +1,6 @@
 // The glb writer (tinygltf), and glb bodies of many variants written from a kept template.
 #include <tiny_gltf.h>
+#include "facespace/core/animation.h"
 #include "facespace/core/enum_table.h"
 #include "facespace/core/transform.h"
 
@@ -402,7 +403,8 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       }
       std::vector<int> sampler_of(clip.sampler_data.size(), -1);
       for (size_t si = 0; si < clip.sampler_data.size(); ++si) {
-        const AnimationSampler& s = clip.sampler_data[si];
+        const AnimationSampler linear = LinearSampler(clip.sampler_data[si], 60.0f);  // glTF has no Bezier: sampled.
+        const AnimationSampler& s = linear;
         const bool scalar = s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
         std::vector<float> padded;
         std::span<const float> values = s.values;

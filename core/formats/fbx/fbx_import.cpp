@@ -23,7 +23,7 @@
 #include <unordered_map>
 
 #include "facespace/formats/io.h"
-#include "common/bezier.h"
+#include "facespace/core/bezier.h"
 #include "common/split_mesh.h"
 #include "fbx/fbx_scene.h"
 

@@ -7,7 +7,7 @@
 #include <iterator>
 #include <unordered_map>
 
-#include "common/bezier.h"
+#include "facespace/core/bezier.h"
 #include "common/split_mesh.h"
 
 namespace facespace::fbx_scene {

@@ -13,7 +13,7 @@
 
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
-#include "common/bezier.h"
+#include "facespace/core/bezier.h"
 #include "fbx/fbx_tree.h"
 
 namespace facespace::fbx_scene {

@@ -4,6 +4,7 @@
 #include <cerrno>
 
 #include <algorithm>
+#include <set>
 
 #include "facespace/formats/io.h"
 #include "facespace/core/rig.h"
@@ -170,6 +171,10 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   std::vector<char> hit(nverts, 0);
   size_t baked = 0, nested = 0, other = 0;  // Group entries naming a group morph; naming a morph we do not apply.
   std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> deltas;
+  // Every morph is its own shape, as in MMD, whose motions name morphs by their (Japanese) names:
+  // an English name becomes an alias only when no morph of the file is called so.
+  std::set<std::string> morph_names;
+  for (size_t mi = 0; mi < nmorphs; ++mi) morph_names.insert(morphs[mi].name);
   for (size_t mi = 0; mi < nmorphs; ++mi) {
     const Morph& m = morphs[mi];
     if (m.type != 0 && m.type != 1) continue;
@@ -203,7 +208,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     Shape shape;
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
-    if (!m.english.empty() && m.english != shape.name && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
+    if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
     shape.group = PanelGroup(m.panel);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(shape);

@@ -19,7 +19,7 @@
 #include <Eigen/Geometry>
 
 #include "facespace/formats/io.h"
-#include "common/bezier.h"
+#include "facespace/core/bezier.h"
 #include "mmd/mmd.h"
 
 namespace facespace {
@@ -162,11 +162,12 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
   }
   // Camera, light, shadow and IK switches follow: not read.
 
-  // The rig's names as a VMD writes them (the first of equal keys wins, as in MMD).
+  // The rig's names as a VMD writes them (the first of equal keys wins, as in MMD). Shapes by their
+  // names, as MMD matches morphs; then by aliases (a converted rig's English names) where no name is so.
   std::map<std::string, int> node_of, shape_of;
   for (size_t n = 0; n < rig.nodes.size(); ++n) node_of.emplace(VmdKey(rig.nodes[n].name), static_cast<int>(n));
+  for (size_t s = 0; s < rig.shapes.size(); ++s) shape_of.emplace(VmdKey(rig.shapes[s].name), static_cast<int>(s));
   for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    shape_of.emplace(VmdKey(rig.shapes[s].name), static_cast<int>(s));
     for (const std::string& a : rig.shapes[s].aliases) shape_of.emplace(VmdKey(a), static_cast<int>(s));
   }
   node_of.erase("");

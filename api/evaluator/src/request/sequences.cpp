@@ -132,18 +132,7 @@ Result<Sequence> ClipSequence(const Rig& rig, const SequenceRequest& request) {
     errors.fields.push_back({c.pointer, UnknownClipMessage(rig, c)});
     return Finish(errors);
   }
-  const float duration = rig.animations[clip].duration;
-  Result<Sequence> s = SequenceFromAnimation(rig, clip);
-  if (!s.ok()) {
-    Sequence rest;
-    rest.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
-    s = std::move(rest);
-  }
-  std::vector<Keyframe>& keys = s->keys;
-  if (keys.front().time > 0.0f) keys.insert(keys.begin(), Keyframe{0.0f, keys.front().weights, std::nullopt});
-  if (keys.back().time < duration) keys.push_back(Keyframe{duration, keys.back().weights, std::nullopt});
-  s->clip = clip;
-  return s;
+  return SequenceOfClip(rig, clip);
 }
 
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {

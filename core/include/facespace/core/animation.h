@@ -16,6 +16,10 @@ enum class ClipWrap { kClamp, kLoop };
 Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose, std::vector<float>& shape_weights,
                   std::vector<uint8_t>& shape_set);
 
+// A kBezier sampler as LINEAR keys for formats that cannot say it (glTF): every key, and between
+// keys `per_second` samples a second. Any other sampler is returned as it is.
+AnimationSampler LinearSampler(const AnimationSampler& sampler, float per_second);
+
 // One clip of a blend: sampled at `time`, weighted by `weight`, limited to the subtrees of
 // the joints named in `mask` (all nodes when empty).
 struct ClipLayer {

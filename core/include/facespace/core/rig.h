@@ -192,13 +192,17 @@ struct Skin {
   std::vector<float> inverse_bind;      // 16 floats (column-major) per joint.
 };
 
-enum class Interpolation { kStep, kLinear, kCubicSpline };
+// kBezier (COLLADA BEZIER curves, kept as the file draws them): per key and component six floats,
+// laid out per key as [values(c), x1(c), y1(c), x2(c), y2(c), ends(c)]: the curve from this key's
+// value to `end` at the next key, with handles (x1, y1) and (x2, y2), x as a fraction of the key gap
+// (in [0, 1], so x rises) and y as a value. `end` may differ from the next key's value (a step).
+enum class Interpolation { kStep, kLinear, kCubicSpline, kBezier };
 enum class ChannelPath { kTranslation, kRotation, kScale, kWeights };
 
 struct AnimationSampler {
   std::vector<float> times;             // Ascending, seconds.
   std::vector<float> values;            // Per key: `components` floats (x3 for CUBICSPLINE:
-                                        // in-tangent, value, out-tangent).
+                                        // in-tangent, value, out-tangent; x6 for kBezier).
   size_t components = 0;
   Interpolation interpolation = Interpolation::kLinear;
 };

@@ -70,4 +70,8 @@ Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& sequence, fl
 // sampler's times; STEP and LINEAR map to step and linear, CUBICSPLINE to smooth.
 Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation);
 
+// A clip played as a sequence: its pose and weights at each time (`clip` set), its weight channel's
+// keys (or the rest weights when it has none) spanning the whole clip, from 0 to its duration.
+Result<Sequence> SequenceOfClip(const Rig& rig, int clip);
+
 }  // namespace facespace
