@@ -178,7 +178,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   auto pose_setting = [&r](const std::string& flag) {
     return [&r, flag](const std::string& value) {
       std::string v = value;
-      if ((flag == "--pose" || flag == "--blend") && !ReadAtFile(flag, value, v)) return 1;
+      if ((flag == "--pose" || flag == "--blend" || flag == "--layers") && !ReadAtFile(flag, value, v)) return 1;
       bool known = false;
       if (std::string e = api::ApplyPoseSetting(flag.substr(2), v, r, &known); !e.empty()) {
         std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
@@ -234,6 +234,8 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
     api::ApplyPoseSetting("loop", "true", r, &known);
   });
   flags.Value("--blend", "JSON|@FILE", "several clips blended: [{\"animation\", \"time\", \"weight\", \"mask\"}]", pose_setting("--blend"));
+  flags.Value("--layers", "JSON|@FILE", "motions stacked: a base, then overlays replacing what they move: [{\"motion\", \"frame\", \"weight\", \"fade_in\"}]",
+              pose_setting("--layers"));
   flags.Value("--skinning", "linear|dual_quaternion", "skinning method (default linear)", pose_setting("--skinning"));
   flags.Value("--lod", "0-4", "level of detail: about 1/2^L of the triangles", pose_setting("--lod"));
 }

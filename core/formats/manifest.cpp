@@ -207,7 +207,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     s.fields.push_back({pointer, msg});
     return s;
   };
-  static constexpr std::string_view kMembers[] = {"name", "credit", "start", "shapes", "groups", "controls",
+  static constexpr std::string_view kMembers[] = {"name", "credit", "start", "base_motion", "shapes", "groups", "controls",
                                                   "derived", "inbetweens", "correctives", "statistics"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(std::begin(kMembers), std::end(kMembers), it.key()) == std::end(kMembers)) {
@@ -225,6 +225,17 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
   if (j.contains("start")) {
     if (j["start"] != "neutral" && j["start"] != "defaults") return bad("/start", "must be \"neutral\" (every weight 0) or \"defaults\"");
     rig.start_at_defaults = j["start"] == "defaults";
+  }
+  if (j.contains("base_motion")) {
+    const json& b = j["base_motion"];
+    if (!b.is_string()) return bad("/base_motion", "must be the name of one of the rig's motions (clips)");
+    const std::string name = b.get<std::string>();
+    std::vector<std::string_view> names;
+    for (const AnimationInfo& a : rig.animations) names.push_back(a.name);
+    if (std::find(names.begin(), names.end(), name) == names.end()) {
+      return bad("/base_motion", "names no motion of the rig: '" + name.substr(0, 60) + "'" + DidYouMean(name, names));
+    }
+    rig.base_motion = name;
   }
   if (j.contains("derived")) {
     // New shapes first, so that the rest of the manifest can describe them too.
@@ -407,6 +418,7 @@ std::string ManifestJson(const Rig& rig) {
   m["name"] = rig.name;
   if (!rig.credit.empty()) m["credit"] = rig.credit;
   if (rig.start_at_defaults) m["start"] = "defaults";
+  if (!rig.base_motion.empty()) m["base_motion"] = rig.base_motion;
   json shapes = json::object();
   for (const Shape& s : rig.shapes) {
     json o = {{"group", s.group}, {"min", s.min}, {"max", s.max}, {"default", s.default_weight}};

@@ -124,6 +124,118 @@ Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pos
   return Status::Ok();
 }
 
+float LayerWeight(const Rig& rig, const ClipLayer& layer) {
+  float w = layer.weight;
+  if (layer.clip < 0 || static_cast<size_t>(layer.clip) >= rig.animations.size()) return 0.0f;
+  const float t = layer.time, duration = rig.animations[layer.clip].duration;
+  if (layer.wrap == ClipWrap::kClamp && t < 0.0f) return 0.0f;  // Not started.
+  if (layer.fade_in > 0.0f) w *= std::clamp(t / layer.fade_in, 0.0f, 1.0f);
+  if (layer.wrap == ClipWrap::kClamp && layer.fade_out > 0.0f) w *= std::clamp((duration - t) / layer.fade_out, 0.0f, 1.0f);
+  return w;
+}
+
+namespace {
+
+// True when every key of the sampler's component `c` holds `rest` (a shape's weight at rest).
+bool ComponentAtRest(const AnimationSampler& s, size_t c, float rest) {
+  const size_t n = s.components;
+  const bool cubic = s.interpolation == Interpolation::kCubicSpline, bezier = s.interpolation == Interpolation::kBezier;
+  const size_t stride = cubic ? 3 * n : bezier ? 6 * n : n;
+  for (size_t k = 0; k < s.times.size(); ++k) {
+    const float* key = &s.values[k * stride];
+    if (key[(cubic ? n : 0) + c] != rest) return false;
+    if (bezier && (key[2 * n + c] != rest || key[4 * n + c] != rest || key[5 * n + c] != rest)) return false;
+  }
+  return true;
+}
+
+// True when every key of a TRS channel holds the node's rest value.
+bool ChannelAtRest(const AnimationSampler& s, const Transform& rest, ChannelPath path) {
+  const size_t n = s.components;
+  const float* want = path == ChannelPath::kTranslation ? rest.translation.data() : path == ChannelPath::kScale ? rest.scale.data() : rest.rotation.data();
+  const size_t stride = s.interpolation == Interpolation::kCubicSpline ? 3 * n : n, offset = s.interpolation == Interpolation::kCubicSpline ? n : 0;
+  if (s.interpolation == Interpolation::kBezier || (path == ChannelPath::kRotation) != (n == 4)) return false;
+  for (size_t k = 0; k < s.times.size(); ++k) {
+    const float* v = &s.values[k * stride + offset];
+    if (path == ChannelPath::kRotation) {
+      const float dot = v[0] * want[0] + v[1] * want[1] + v[2] * want[2] + v[3] * want[3];
+      if (std::fabs(dot) < 1.0f - 1e-6f) return false;
+    } else {
+      for (size_t c = 0; c < 3; ++c) {
+        if (std::fabs(v[c] - want[c]) > 1e-6f * std::max(1.0f, std::fabs(want[c]))) return false;
+      }
+    }
+  }
+  return true;
+}
+
+// The nodes in the subtrees of `mask` (every node when it is empty).
+std::vector<uint8_t> MaskedNodes(const Rig& rig, const std::vector<int>& mask) {
+  std::vector<uint8_t> in(rig.nodes.size(), mask.empty() ? 1 : 0);
+  std::vector<int> stack(mask.begin(), mask.end());
+  while (!stack.empty()) {
+    const int i = stack.back();
+    stack.pop_back();
+    in[i] = 1;
+    for (int c : rig.nodes[i].children) stack.push_back(c);
+  }
+  return in;
+}
+
+// Puts an overlay over `pose` and the weights: what its clip moves, towards the clip by its weight.
+Status Overlay(const Rig& rig, const Pose& rest, const ClipLayer& layer, Pose& pose, std::vector<float>& shape_weights,
+               std::vector<uint8_t>& shape_set) {
+  const float w = LayerWeight(rig, layer);
+  if (w <= 0.0f) return Status::Ok();
+  Pose sampled = rest;
+  std::vector<float> sw;
+  std::vector<uint8_t> ss;
+  if (Status s = SampleClip(rig, layer.clip, layer.time, layer.wrap, sampled, sw, ss); !s.ok()) return s;
+  const std::vector<uint8_t> in = MaskedNodes(rig, layer.mask);
+  const AnimationInfo& a = rig.animations[layer.clip];
+  for (const AnimationChannel& ch : a.channel_data) {
+    const AnimationSampler& smp = a.sampler_data[ch.sampler];
+    if (ch.path == ChannelPath::kWeights) {
+      const Mesh& mesh = rig.meshes[rig.nodes[ch.node].mesh];
+      for (size_t k = 0; k < mesh.target_shapes.size() && k < smp.components; ++k) {
+        const uint32_t shape = mesh.target_shapes[k];
+        if (ComponentAtRest(smp, k, 0.0f)) continue;
+        const float below = shape_set[shape] ? shape_weights[shape] : 0.0f;
+        shape_weights[shape] = below + w * (sw[shape] - below);
+        shape_set[shape] = 1;
+      }
+      continue;
+    }
+    if (!in[ch.node] || ChannelAtRest(smp, rest.local[ch.node], ch.path)) continue;
+    Transform& t = pose.local[ch.node];
+    const Transform& o = sampled.local[ch.node];
+    if (pose.from_matrix[ch.node]) t = rest.local[ch.node];
+    pose.from_matrix[ch.node] = 0;
+    switch (ch.path) {
+      case ChannelPath::kTranslation:
+        for (int c = 0; c < 3; ++c) t.translation[c] += w * (o.translation[c] - t.translation[c]);
+        break;
+      case ChannelPath::kScale:
+        for (int c = 0; c < 3; ++c) t.scale[c] += w * (o.scale[c] - t.scale[c]);
+        break;
+      case ChannelPath::kRotation: t.rotation = Slerp(t.rotation, o.rotation, w); break;
+      case ChannelPath::kWeights: break;
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+bool ClipMovesJoints(const Rig& rig, int clip) {
+  const AnimationInfo& a = rig.animations[clip];
+  const Pose rest = RestPose(rig);
+  for (const AnimationChannel& ch : a.channel_data) {
+    if (ch.path != ChannelPath::kWeights && !ChannelAtRest(a.sampler_data[ch.sampler], rest.local[ch.node], ch.path)) return true;
+  }
+  return false;
+}
+
 Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose, std::vector<float>& shape_weights,
                   std::vector<uint8_t>& shape_set) {
   const size_t n = rig.nodes.size();
@@ -134,21 +246,15 @@ Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
   std::vector<float> wsum(rig.shapes.size(), 0.0f), wtotal(rig.shapes.size(), 0.0f);
   for (const ClipLayer& layer : layers) {
     if (!(layer.weight >= 0.0f) || !std::isfinite(layer.weight)) return InvalidArgument("blend weights must be finite and >= 0");
+    if (!std::isfinite(layer.fade_in) || !std::isfinite(layer.fade_out) || layer.fade_in < 0.0f || layer.fade_out < 0.0f) {
+      return InvalidArgument("fades must be finite and >= 0");
+    }
+    if (layer.overlay) continue;
     Pose sampled = rest;
     std::vector<float> sw;
     std::vector<uint8_t> ss;
     if (Status s = SampleClip(rig, layer.clip, layer.time, layer.wrap, sampled, sw, ss); !s.ok()) return s;
-    // Nodes in the mask's subtrees (every node when there is no mask).
-    std::vector<uint8_t> in(n, layer.mask.empty() ? 1 : 0);
-    for (int root : layer.mask) {
-      std::vector<int> stack = {root};
-      while (!stack.empty()) {
-        const int i = stack.back();
-        stack.pop_back();
-        in[i] = 1;
-        for (int c : rig.nodes[i].children) stack.push_back(c);
-      }
-    }
+    const std::vector<uint8_t> in = MaskedNodes(rig, layer.mask);
     for (size_t i = 0; i < n; ++i) {
       if (!in[i] || layer.weight == 0.0f) continue;
       const Transform& t = sampled.local[i];
@@ -187,6 +293,10 @@ Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
       shape_weights[s] = wsum[s] / wtotal[s];
       shape_set[s] = 1;
     }
+  }
+  for (const ClipLayer& layer : layers) {
+    if (!layer.overlay) continue;
+    if (Status s = Overlay(rig, rest, layer, pose, shape_weights, shape_set); !s.ok()) return s;
   }
   return Status::Ok();
 }

@@ -1,6 +1,8 @@
 // Pose requests: clips, then explicit joints, then explicit weights.
 #include "facespace/core/pose_request.h"
 
+#include "facespace/core/constraints.h"
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -46,10 +48,29 @@ Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::ve
     layer.time = c.time;
     layer.weight = c.weight;
     layer.wrap = c.loop ? ClipWrap::kLoop : ClipWrap::kClamp;
+    layer.overlay = c.overlay;
+    layer.fade_in = c.fade_in;
+    layer.fade_out = c.fade_out;
+    if (!std::isfinite(c.fade_in) || c.fade_in < 0.0f) errors.fields.push_back({c.pointer + "/fade_in", "must be a finite number of seconds >= 0"});
+    if (!std::isfinite(c.fade_out) || c.fade_out < 0.0f) errors.fields.push_back({c.pointer + "/fade_out", "must be a finite number of seconds >= 0"});
     for (const std::string& j : c.mask) {
       const int node = FindNode(rig, j);
       if (node < 0) errors.fields.push_back({c.pointer + "/mask", "unknown joint '" + j + "'"});
       else layer.mask.push_back(node);
+    }
+    // A single motion over the rig's base layer (its own, looping at the same time), as MMD
+    // players put an expression over a standing body.
+    if (c.over_base && !rig.base_motion.empty() && rig.animations[layer.clip].name != rig.base_motion) {
+      ClipRequest base;
+      base.name = rig.base_motion;
+      ClipLayer under;
+      under.clip = FindClip(rig, base);
+      under.time = c.time;
+      under.wrap = ClipWrap::kLoop;
+      if (under.clip >= 0) {
+        layers.push_back(std::move(under));
+        layer.overlay = true;
+      }
     }
     layers.push_back(std::move(layer));
   }
@@ -97,6 +118,8 @@ Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::ve
       t.rotation = NormalizedQuaternion(q);
     }
   }
+  // MMD's grants and IK over what the clips and overrides animate.
+  if (!request.empty()) SolveBoneConstraints(rig, pose);
   return Status::Ok();
 }
 

@@ -18,6 +18,7 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
     clip.index = sequence.clip;
     clip.time = time;
     clip.pointer = "/motion";
+    clip.over_base = true;
     request.clips.push_back(clip);
     std::vector<float> animated;
     std::vector<uint8_t> set;

@@ -1,6 +1,7 @@
 // The glb writer (tinygltf), and glb bodies of many variants written from a kept template.
 #include <tiny_gltf.h>
 #include "facespace/core/animation.h"
+#include "facespace/core/constraints.h"
 #include "facespace/core/enum_table.h"
 #include "facespace/core/transform.h"
 
@@ -392,7 +393,10 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       gs.inverseBindMatrices = b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
       m.skins.push_back(gs);
     }
-    for (const AnimationInfo& clip : rig.animations) {
+    for (size_t ci = 0; ci < rig.animations.size(); ++ci) {
+      // MMD's grants and IK have no glTF form: solved into the clips.
+      const AnimationInfo solved = ClipWithConstraintsSolved(rig, static_cast<int>(ci), 30.0f);
+      const AnimationInfo& clip = solved;
       tinygltf::Animation ga;
       ga.name = clip.name;
       // A weights sampler needs one value per morph target of its node's mesh; a tool that appended

@@ -126,10 +126,28 @@ struct ModelMaterial {
   size_t indices = 0;
 };
 
+struct IkLinkData {
+  int64_t bone = -1;
+  bool limited = false;
+  float lower[3] = {0, 0, 0}, upper[3] = {0, 0, 0};  // Euler radians, MMD's axes.
+};
+
 struct Bone {
   std::string name, english;
   float pos[3];
   int64_t parent = -1;
+  int32_t layer = 0;                 // Deform layer: lower deforms first.
+  bool after_physics = false;
+  // Grant (PMX flags 0x100 rotation, 0x200 translation, 0x80 local); PMD's rotation-following bones.
+  int64_t grant = -1;
+  float grant_ratio = 0;
+  bool grant_rotation = false, grant_translation = false, grant_local = false;
+  // IK (PMX flag 0x20; PMD's IK list): the effector ("target"), loops, angle per step, links.
+  bool ik = false;
+  int64_t ik_effector = -1;
+  int32_t ik_loops = 0;
+  float ik_angle = 0;
+  std::vector<IkLinkData> ik_links;
 };
 
 struct Morph {

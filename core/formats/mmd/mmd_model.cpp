@@ -2,6 +2,7 @@
 #include <iconv.h>
 
 #include <cerrno>
+#include <cmath>
 
 #include <algorithm>
 #include <set>
@@ -90,6 +91,44 @@ const char* PanelGroup(int panel) {
     case 4: return "other";
     default: return "system";
   }
+}
+
+// The bones' grants and IK chains as the rig's constraints, in MMD's deform order (after-physics
+// bones last, then by layer, then by index). Limits turn with the axes: MMD's z is our -z, so
+// rotations about x and y change sign (their ranges swap ends) and about z keep it. What names no
+// bone (or itself) is dropped and counted in `dropped`.
+void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& node_of, Rig& rig, size_t& dropped) {
+  const int64_t n = static_cast<int64_t>(bones.size());
+  const auto bone = [&](int64_t b) { return b >= 0 && b < n; };
+  constexpr int32_t kMaxLoops = 256;  // MMD models use 40 at most; a hostile count is cut (the work per pose is capped).
+  std::vector<int> by_order(bones.size());
+  for (size_t b = 0; b < bones.size(); ++b) by_order[b] = static_cast<int>(b);
+  std::stable_sort(by_order.begin(), by_order.end(), [&](int a, int b) {
+    return std::pair(bones[a].after_physics, bones[a].layer) < std::pair(bones[b].after_physics, bones[b].layer);
+  });
+  BoneConstraints& c = rig.constraints;
+  for (int b : by_order) {
+    const Bone& x = bones[b];
+    const bool granted = x.grant_rotation || x.grant_translation;
+    if (granted && (!bone(x.grant) || x.grant == b || !std::isfinite(x.grant_ratio))) ++dropped;
+    else if (granted) c.grants.push_back({node_of[b], node_of[x.grant], x.grant_ratio, x.grant_rotation, x.grant_translation, x.grant_local});
+    if (x.ik) {
+      IkChain chain{node_of[b], bone(x.ik_effector) ? node_of[x.ik_effector] : -1, std::clamp(x.ik_loops, 0, kMaxLoops),
+                    std::isfinite(x.ik_angle) ? std::max(x.ik_angle, 0.0f) : 0.0f, {}};
+      bool ok = chain.effector >= 0 && x.ik_effector != b;
+      for (const IkLinkData& l : x.ik_links) {
+        ok &= bone(l.bone) && l.bone != b;
+        if (!ok) break;
+        IkLink link{node_of[l.bone], l.limited, {-l.upper[0], -l.upper[1], l.lower[2]}, {-l.lower[0], -l.lower[1], l.upper[2]}};
+        for (int a = 0; a < 3; ++a) ok &= std::isfinite(link.lower[a]) && std::isfinite(link.upper[a]);
+        chain.links.push_back(link);
+      }
+      if (ok) c.chains.push_back(std::move(chain));
+      else ++dropped;
+    }
+    if (granted || x.ik) c.order.push_back(node_of[b]);
+  }
+  if (c.empty()) c.order.clear();
 }
 
 Result<Rig> BuildRig(const Model& in, const std::string& name) {
@@ -338,8 +377,14 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   if (sdef || qdef) {
     rig.load_warnings.push_back({"skinning_approximated", std::to_string(sdef) + " SDEF vertices skinned as BDEF2, " + std::to_string(qdef) + " QDEF as BDEF4", "", static_cast<double>(sdef + qdef), true});
   }
-  if (ik || grants) {
-    rig.load_warnings.push_back({"bone_constraints_skipped", std::to_string(ik) + " IK bones and " + std::to_string(grants) + " grant (inherit) bones are read but not applied", "", 0.0, false});
+  size_t dropped = 0;
+  ReadConstraints(bones, node_of, rig, dropped);
+  const size_t unread = (ik + grants) - std::min(ik + grants, rig.constraints.grants.size() + rig.constraints.chains.size() + dropped);
+  if (dropped || unread) {
+    rig.load_warnings.push_back({"bone_constraints_skipped",
+                                 std::to_string(dropped + unread) + " of the " + std::to_string(ik) + " IK bones and " + std::to_string(grants) +
+                                     " grant (inherit) bones are not applied" + (dropped ? " (" + std::to_string(dropped) + " name no bone or themselves)" : ""),
+                                 "", static_cast<double>(dropped + unread), false});
   }
   if (!skipped.empty()) {
     std::string list;

@@ -111,11 +111,36 @@ Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::strin
     b.parent = parent == 0xFFFF ? -1 : parent;
     model.grants += type == 5 || type == 9;
   }
+  // IK chains: the IK bone, its effector, links, loops and the angle per step in units of 4 radians
+  // (as MMD reads PMD); a knee (a link named ひざ) turns about x alone, between -180 and -0.5 degrees.
   size_t nik = 0;
   if (!r.CountOf<uint16_t>(11, nik, "the IK count")) return fail(r);
   for (size_t k = 0; k < nik; ++k) {
+    uint16_t ik_bone, effector, loops;
     uint8_t chain;
-    if (!r.Skip(4, "an IK chain") || !r.Get(chain, "an IK chain") || !r.Skip(6 + 2 * static_cast<size_t>(chain), "an IK chain")) return fail(r);
+    float angle;
+    if (!r.Get(ik_bone, "an IK chain") || !r.Get(effector, "an IK chain") || !r.Get(chain, "an IK chain") || !r.Get(loops, "an IK chain") ||
+        !r.Floats(&angle, 1, "an IK chain")) {
+      return fail(r);
+    }
+    std::vector<IkLinkData> links(chain);
+    for (IkLinkData& l : links) {
+      uint16_t b;
+      if (!r.Get(b, "an IK chain")) return fail(r);
+      l.bone = b;
+      if (b < nbones && model.bones[b].name.find("ひざ") != std::string::npos) {
+        l.limited = true;
+        l.lower[0] = -3.14159265f;
+        l.upper[0] = -0.5f * 3.14159265f / 180.0f;
+      }
+    }
+    if (ik_bone >= nbones) continue;  // Counted, and reported as not applied.
+    Bone& b = model.bones[ik_bone];
+    b.ik = true;
+    b.ik_effector = effector;
+    b.ik_loops = loops;
+    b.ik_angle = angle * 4.0f;
+    b.ik_links = std::move(links);
   }
   model.ik = nik;
   // Skins: the base (type 0) lists model vertices and their positions; each expression lists

@@ -166,28 +166,35 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
         !r.Index(h.bone, false, x.parent, "a bone's parent") || !r.Get(layer, "a bone") || !r.Get(flags, "a bone")) {
       return fail(r);
     }
+    x.layer = layer;
+    x.after_physics = flags & 0x1000;
     int64_t idx;
     float f[6];
     if ((flags & 0x0001) ? !r.Index(h.bone, false, idx, "a bone's tail") : !r.Floats(f, 3, "a bone's tail")) return fail(r);
     if (flags & 0x0300) {
       ++model.grants;
-      if (!r.Index(h.bone, false, idx, "a bone's grant") || !r.Floats(f, 1, "a bone's grant")) return fail(r);
+      if (!r.Index(h.bone, false, x.grant, "a bone's grant") || !r.Floats(&x.grant_ratio, 1, "a bone's grant")) return fail(r);
+      x.grant_rotation = flags & 0x0100;
+      x.grant_translation = flags & 0x0200;
+      x.grant_local = flags & 0x0080;
     }
     if ((flags & 0x0400) && !r.Floats(f, 3, "a bone's fixed axis")) return fail(r);
     if ((flags & 0x0800) && !r.Floats(f, 6, "a bone's local axes")) return fail(r);
     if ((flags & 0x2000) && !r.Skip(4, "a bone's external parent")) return fail(r);
     if (flags & 0x0020) {
       ++model.ik;
-      int32_t loops;
+      x.ik = true;
       size_t links = 0;
-      if (!r.Index(h.bone, false, idx, "an IK target") || !r.Get(loops, "an IK bone") || !r.Floats(f, 1, "an IK bone") ||
+      if (!r.Index(h.bone, false, x.ik_effector, "an IK target") || !r.Get(x.ik_loops, "an IK bone") || !r.Floats(&x.ik_angle, 1, "an IK bone") ||
           !r.Count(static_cast<size_t>(h.bone) + 1, links, "the IK link count")) {
         return fail(r);
       }
-      for (size_t l = 0; l < links; ++l) {
+      x.ik_links.resize(links);
+      for (IkLinkData& l : x.ik_links) {
         uint8_t limited;
-        if (!r.Index(h.bone, false, idx, "an IK link") || !r.Get(limited, "an IK link")) return fail(r);
-        if (limited && !r.Floats(f, 6, "an IK link's limits")) return fail(r);
+        if (!r.Index(h.bone, false, l.bone, "an IK link") || !r.Get(limited, "an IK link")) return fail(r);
+        l.limited = limited;
+        if (limited && (!r.Floats(l.lower, 3, "an IK link's limits") || !r.Floats(l.upper, 3, "an IK link's limits"))) return fail(r);
       }
     }
   }

@@ -169,6 +169,61 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
   }
 }
 
+// "layers": motions stacked as MMD players stack them: the first is the base (the whole body), each
+// later one an overlay that replaces only what it moves, over what lies below, by its weight.
+void LayersFromJson(const json& v, PoseRequest& pose, Status& errors) {
+  if (!v.is_array() || v.empty() || v.size() > 16) {
+    errors.fields.push_back({"/layers", "must be an array of 1 to 16 {motion, time|frame, weight, loop, fade_in, fade_out, mask}: a base, then overlays"});
+    return;
+  }
+  for (size_t i = 0; i < v.size(); ++i) {
+    ClipRequest c;
+    c.pointer = "/layers/" + std::to_string(i);
+    c.overlay = i > 0;
+    const json& e = v[i];
+    const char* clip_key = e.is_object() && e.contains("motion") ? "motion" : "animation";
+    if (!e.is_object() || !e.contains(clip_key) || !ClipRef(e[clip_key], c)) {
+      errors.fields.push_back({c.pointer + "/motion", "needs a motion (or animation) name or index"});
+      continue;
+    }
+    if (e.contains("motion") && e.contains("animation")) errors.fields.push_back({c.pointer + "/motion", "give motion or animation, not both"});
+    if (e.contains("time") && e.contains("frame")) errors.fields.push_back({c.pointer + "/frame", "give time or frame, not both"});
+    for (auto p = e.begin(); p != e.end(); ++p) {
+      const std::string ptr = c.pointer + "/" + JsonPointerEscape(p.key());
+      const std::string& k = p.key();
+      if (k == "motion" || k == "animation") continue;
+      if (k == "time" || k == "frame" || k == "weight" || k == "fade_in" || k == "fade_out") {
+        if (!p->is_number() || !std::isfinite(p->get<double>())) {
+          errors.fields.push_back({ptr, "must be a finite number"});
+          continue;
+        }
+        const double x = p->get<double>();
+        if (k != "time" && k != "frame" && x < 0) errors.fields.push_back({ptr, "must be >= 0"});
+        if (k == "time") c.time = static_cast<float>(x);
+        if (k == "frame") c.time = static_cast<float>(x / 30.0);
+        if (k == "weight") c.weight = static_cast<float>(x);
+        if (k == "fade_in") c.fade_in = static_cast<float>(x);
+        if (k == "fade_out") c.fade_out = static_cast<float>(x);
+      } else if (k == "loop") {
+        if (!p->is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+        else c.loop = p->get<bool>();
+      } else if (k == "mask") {
+        if (!p->is_array()) {
+          errors.fields.push_back({ptr, "must be an array of joint names"});
+          continue;
+        }
+        for (const json& m : *p) {
+          if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
+          else c.mask.push_back(m.get<std::string>());
+        }
+      } else {
+        errors.fields.push_back({ptr, "unknown member (motion, animation, time, frame, weight, loop, fade_in, fade_out, mask)"});
+      }
+    }
+    pose.clips.push_back(std::move(c));
+  }
+}
+
 // Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
 // the key is not one of them.
 bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
@@ -177,8 +232,11 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     PoseFromJson(v, r.pose, errors);
     return true;
   }
-  if (key == "blend") {
-    BlendFromJson(v, r.pose, errors);
+  if (key == "blend" || key == "layers") {
+    const bool other = std::any_of(r.pose.clips.begin(), r.pose.clips.end(), [](const ClipRequest& c) { return !IsRequestClip(c); });
+    if (other) errors.fields.push_back({"/" + key, "give blend or layers, not both"});
+    else if (key == "blend") BlendFromJson(v, r.pose, errors);
+    else LayersFromJson(v, r.pose, errors);
     return true;
   }
   if (key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop") {
@@ -188,6 +246,7 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
       ClipRequest c;
       c.pointer = "/animation";
       c.index = -2;  // Marks "no animation named yet".
+      c.over_base = true;
       r.pose.clips.insert(r.pose.clips.begin(), c);
     }
     ClipRequest& c = r.pose.clips.front();
@@ -264,7 +323,7 @@ void FinishPose(PoseRequest& pose, Status& errors) {
   if (c.name.empty() && c.index == -2) {
     errors.fields.push_back({"/animation", "time, frame and loop need an animation (or motion)"});
   } else if (pose.clips.size() > 1) {
-    errors.fields.push_back({c.pointer, "give animation + time, or blend, not both"});
+    errors.fields.push_back({c.pointer, "give animation + time, or blend, or layers: one of them"});
   }
 }
 

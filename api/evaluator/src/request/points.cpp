@@ -187,7 +187,7 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
 
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
   *known = key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop" || key == "pose" || key == "blend" ||
-           key == "skinning" || key == "lod";
+           key == "layers" || key == "skinning" || key == "lod";
   if (!*known) return "";
   json v;
   if (key == "skinning") {

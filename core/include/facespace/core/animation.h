@@ -28,11 +28,27 @@ struct ClipLayer {
   float weight = 1.0f;
   ClipWrap wrap = ClipWrap::kClamp;
   std::vector<int> mask;  // Node indices whose subtrees the layer affects.
+  // An overlay (MMD players' partial motion) goes over the layers before it and replaces only what
+  // its clip moves: the joints and shapes whose tracks are not all at rest (a track keyed once at
+  // the rest pose, as an expression motion keys the body, is left to the layers below). Its weight
+  // ramps up over `fade_in` seconds from its start and, when it does not loop, down over the last
+  // `fade_out` seconds of its clip (after which it is gone; without a fade-out it holds its end).
+  bool overlay = false;
+  float fade_in = 0.0f, fade_out = 0.0f;
 };
 
-// Blends layers over the rest pose: per node, translations and scales are weighted averages
-// and rotations a weighted, sign-aligned, normalised quaternion sum (nlerp). Nodes no layer
-// reaches keep their rest transform. Morph weights blend the same way.
+// True when some TRS channel of the clip leaves its node's rest value (an MMD expression motion
+// keys the body at rest: false).
+bool ClipMovesJoints(const Rig& rig, int clip);
+
+// The weight an overlay has at its time: `weight` with its fades.
+float LayerWeight(const Rig& rig, const ClipLayer& layer);
+
+// Blends layers over the rest pose: the layers that are not overlays first, per node
+// translations and scales as weighted averages and rotations as a weighted, sign-aligned,
+// normalised quaternion sum (nlerp); nodes none of them reaches keep their rest transform; morph
+// weights the same way. Then each overlay in order: what it moves is interpolated from what lies
+// below towards it by its weight (lerp, rotations slerp).
 Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose, std::vector<float>& shape_weights,
                   std::vector<uint8_t>& shape_set);
 

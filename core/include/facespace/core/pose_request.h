@@ -31,6 +31,9 @@ struct ClipRequest {
   float weight = 1.0f;
   bool loop = false;
   std::vector<std::string> mask;  // Joint names whose subtrees the clip affects.
+  bool overlay = false;    // A layer over the clips before it (ClipLayer::overlay).
+  bool over_base = false;  // A single motion asked for: played over the rig's base_motion, if any.
+  float fade_in = 0.0f, fade_out = 0.0f;
   std::string pointer;
 };
 

@@ -161,6 +161,40 @@ struct Node {
   std::array<float, 3> scale{1, 1, 1};
 };
 
+// MMD's bone constraints (PMX, PMD), solved over a pose as MMD solves them (core/constraints.h).
+// A grant adds a share of another bone's animated rotation and/or translation to a bone's own.
+struct Grant {
+  int node = -1, source = -1;
+  float ratio = 1.0f;
+  bool rotation = false, translation = false;
+  bool local = false;                   // The source's own animation, not what it inherits itself.
+};
+
+// One bone of an IK chain; `limited`: Euler angles (x, y, z, radians, in the rig's axes) kept in
+// [lower, upper].
+struct IkLink {
+  int node = -1;
+  bool limited = false;
+  std::array<float, 3> lower{0, 0, 0}, upper{0, 0, 0};
+};
+
+// Cyclic coordinate descent: rotates the links (effector's parent first) so that the effector
+// bone reaches the IK bone, `loops` times at most, each link by at most `max_angle` a step.
+struct IkChain {
+  int node = -1;                        // The IK bone: where the effector is to be.
+  int effector = -1;                    // The bone brought there (PMX calls it the IK target).
+  int loops = 1;
+  float max_angle = 0.0f;               // Radians per link and iteration.
+  std::vector<IkLink> links;
+};
+
+struct BoneConstraints {
+  std::vector<int> order;               // Nodes in MMD's deform order (layer, then index; after-physics last).
+  std::vector<Grant> grants;
+  std::vector<IkChain> chains;
+  bool empty() const { return grants.empty() && chains.empty(); }
+};
+
 struct Image {
   std::string name;
   std::string mime_type;               // "image/png", "image/jpeg"; MMD textures also "image/bmp", "image/x-tga".
@@ -229,6 +263,9 @@ struct Rig {
   // Where an editor starts and resets (manifest "start"): the neutral face (every weight 0, the
   // default) or the shapes' default weights (a glTF mesh's `weights`, FaceCap's capture frame).
   bool start_at_defaults = false;
+  // A clip played looping as the base layer under every single motion asked for (manifest
+  // "base_motion"; MMD players' full-body layer, e.g. a standing pose under expressions).
+  std::string base_motion;
   std::vector<Primitive> primitives;   // In glTF mesh order, then primitive order.
   std::vector<Mesh> meshes;
   std::vector<Shape> shapes;           // Named across the file; order of first appearance.
@@ -244,6 +281,7 @@ struct Rig {
   std::vector<Control> controls;       // From the manifest (or a MakeHuman modifiers file).
   std::vector<InBetweens> inbetweens;  // From the manifest: weights computed before blending.
   std::vector<Corrective> correctives;
+  BoneConstraints constraints;         // MMD's grants and IK, applied to every pose.
   ShapeStatistics statistics;
 
   size_t vertex_count() const;

@@ -1,0 +1,197 @@
+// MMD's bone constraints (core/constraints.h): grants and IK on small skeletons whose answers
+// follow from geometry, then on Uka (shared/assets/more/MMD) with the motions she is played with.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "facespace/core/animation.h"
+#include "facespace/core/blend.h"
+#include "facespace/core/constraints.h"
+#include "facespace/core/pose_request.h"
+#include "facespace/formats/io.h"
+#include "test_util.h"
+
+namespace facespace {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+
+// A chain of nodes along +y from the origin, one unit apart: node 0 the root, then 1..n.
+Rig Chain(int n) {
+  Rig rig;
+  for (int i = 0; i <= n; ++i) {
+    Node node;
+    node.name = "b" + std::to_string(i);
+    node.parent = i - 1;
+    if (i > 0) {
+      node.translation = {0, 1, 0};
+      rig.nodes[i - 1].children.push_back(i);
+    }
+    rig.nodes.push_back(node);
+  }
+  rig.scene_roots = {0};
+  return rig;
+}
+
+Eigen::Vector3f WorldOf(const Rig& rig, const Pose& pose, int node) {
+  const auto world = WorldMatrices(rig, pose);
+  return {world[node][12], world[node][13], world[node][14]};
+}
+
+std::array<float, 4> AxisAngle(float x, float y, float z, float angle) {
+  const Eigen::Quaternionf q(Eigen::AngleAxisf(angle, Eigen::Vector3f(x, y, z).normalized()));
+  return {q.x(), q.y(), q.z(), q.w()};
+}
+
+// A two-bone arm (shoulder 1, elbow 2, hand 3) and an IK bone 4 under the root where the hand is
+// to be: any point closer to the shoulder than the arm's length is reached.
+Rig Arm(bool knee) {
+  Rig rig = Chain(3);
+  Node ik;
+  ik.name = "ik";
+  ik.parent = 0;
+  ik.translation = {0, 3, 0};  // The hand's rest position.
+  rig.nodes[0].children.push_back(4);
+  rig.nodes.push_back(ik);
+  IkChain c;
+  c.node = 4;
+  c.effector = 3;
+  c.loops = 40;
+  c.max_angle = 2.0f;
+  IkLink elbow{2, knee, {0, 0, 0}, {0, 0, 0}};
+  if (knee) elbow.lower[0] = 0.5f * kPi / 180, elbow.upper[0] = kPi;  // Bends one way only, about x.
+  c.links = {elbow, IkLink{1}};
+  rig.constraints.chains = {c};
+  rig.constraints.order = {4};
+  return rig;
+}
+
+TEST(Ik, TheEffectorReachesAReachableGoal) {
+  const Rig rig = Arm(false);
+  for (const Eigen::Vector3f& goal : {Eigen::Vector3f(1.0f, 2.0f, 0.3f), Eigen::Vector3f(0.0f, 1.2f, 1.0f), Eigen::Vector3f(-1.5f, 1.0f, -0.2f)}) {
+    Pose pose = RestPose(rig);
+    pose.local[4].translation = {goal.x(), goal.y(), goal.z()};
+    SolveBoneConstraints(rig, pose);
+    EXPECT_LT((WorldOf(rig, pose, 3) - goal).norm(), 1e-3f) << goal.transpose();
+    // The bones keep their lengths: rotations only.
+    EXPECT_NEAR((WorldOf(rig, pose, 2) - WorldOf(rig, pose, 1)).norm(), 1.0f, 1e-5f);
+  }
+}
+
+TEST(Ik, AGoalOutOfReachStretchesTheArmTowardsIt) {
+  const Rig rig = Arm(false);
+  Pose pose = RestPose(rig);
+  pose.local[4].translation = {5, 1, 0};
+  SolveBoneConstraints(rig, pose);
+  // Shoulder at (0, 1, 0), the arm 2 long: the hand lands on the line to the goal, 2 away.
+  const Eigen::Vector3f want = Eigen::Vector3f(0, 1, 0) + 2 * Eigen::Vector3f(5, 0, 0).normalized();
+  EXPECT_LT((WorldOf(rig, pose, 3) - want).norm(), 0.05f);
+}
+
+TEST(Ik, AKneeBendsOneWayAboutItsAxisWithinItsLimits) {
+  const Rig rig = Arm(true);
+  // A goal in the y-z plane, 1.2 from the shoulder: the knee must bend (about x) by the angle the
+  // triangle of sides 1, 1, 1.2 gives, and only the way its limits allow.
+  Pose pose = RestPose(rig);
+  pose.local[4].translation = {0, 1.0f + 0.6f, 1.2f * std::sqrt(1 - 0.25f)};
+  SolveBoneConstraints(rig, pose);
+  const Eigen::Quaternionf knee(pose.local[2].rotation[3], pose.local[2].rotation[0], pose.local[2].rotation[1], pose.local[2].rotation[2]);
+  const Eigen::AngleAxisf aa(knee);
+  EXPECT_NEAR(std::fabs(aa.axis().x()), 1.0f, 1e-4f);  // About x alone.
+  const float bend = aa.axis().x() > 0 ? aa.angle() : -aa.angle();
+  EXPECT_GT(bend, 0.5f * kPi / 180 - 1e-6f);
+  EXPECT_NEAR(bend, kPi - 2 * std::asin(0.6f), 2e-3f);  // The angle at the knee: pi - 2 asin(0.6).
+  EXPECT_LT((WorldOf(rig, pose, 3) - Eigen::Vector3f(0, 1.6f, 1.2f * std::sqrt(0.75f))).norm(), 2e-3f);
+}
+
+TEST(Grant, ABoneInheritsAShareOfAnothersRotationAndTranslation) {
+  Rig rig = Chain(3);
+  // b3 takes half of b1's rotation and translation (b1's animated values, not what b1 inherits).
+  rig.constraints.grants = {Grant{3, 1, 0.5f, true, true, false}};
+  rig.constraints.order = {3};
+  Pose pose = RestPose(rig);
+  pose.local[1].rotation = AxisAngle(0, 0, 1, 1.0f);
+  pose.local[1].translation = {0.4f, 1.0f, 0.0f};  // Moved 0.4 along x from its rest.
+  pose.local[3].rotation = AxisAngle(1, 0, 0, 0.3f);  // b3's own animation stays, the share after it.
+  SolveBoneConstraints(rig, pose);
+  const Eigen::Quaternionf want = Eigen::Quaternionf(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitX())) *
+                                  Eigen::Quaternionf(Eigen::AngleAxisf(0.5f, Eigen::Vector3f::UnitZ()));
+  const Eigen::Quaternionf got(pose.local[3].rotation[3], pose.local[3].rotation[0], pose.local[3].rotation[1], pose.local[3].rotation[2]);
+  EXPECT_NEAR(std::fabs(got.dot(want)), 1.0f, 1e-6f);
+  EXPECT_NEAR(pose.local[3].translation[0], 0.2f, 1e-6f);
+  EXPECT_NEAR(pose.local[3].translation[1], 1.0f, 1e-6f);
+}
+
+// ---- Uka, standing ----
+
+struct Uka {
+  Rig rig;
+  int stand = -1;
+};
+
+Uka LoadUka() {
+  Uka u;
+  Result<Rig> rig = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx");
+  EXPECT_TRUE(rig.ok());
+  if (!rig.ok()) return u;
+  u.rig = std::move(rig.value());
+  const auto bytes = test::ReadBytes(test::SharedAssets() + "/more/MMD/Uka_upstream/motion/stand.vmd");
+  std::vector<Warning> warnings;
+  Result<AnimationInfo> stand = LoadVmdMemory(bytes, u.rig, "stand", &warnings);
+  EXPECT_TRUE(stand.ok());
+  if (!stand.ok()) return u;
+  u.rig.animations.push_back(std::move(stand.value()));
+  u.stand = static_cast<int>(u.rig.animations.size()) - 1;
+  return u;
+}
+
+// Width (x) over height (y) of the posed mesh.
+float Aspect(const Rig& rig, const Pose& pose) {
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  BlendedRig blended;
+  BlendContext context;
+  BlendOptions options;
+  options.pose = &pose;
+  EXPECT_TRUE(EvaluateRig(rig, w, options, blended, context).ok());
+  std::vector<float> p;
+  WorldPositions(blended, p);
+  float lo[3] = {1e9f, 1e9f, 1e9f}, hi[3] = {-1e9f, -1e9f, -1e9f};
+  for (size_t k = 0; k < p.size(); ++k) {
+    lo[k % 3] = std::min(lo[k % 3], p[k]);
+    hi[k % 3] = std::max(hi[k % 3], p[k]);
+  }
+  return (hi[0] - lo[0]) / (hi[1] - lo[1]);
+}
+
+TEST(UkaConstraints, HerIkAndGrantBonesAreRead) {
+  const Uka u = LoadUka();
+  EXPECT_EQ(u.rig.constraints.chains.size(), 10u);
+  EXPECT_EQ(u.rig.constraints.grants.size(), 2u);
+  for (const Warning& w : u.rig.load_warnings) EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
+}
+
+TEST(UkaConstraints, StandingHerSleevesFollowHerArms) {
+  const Uka u = LoadUka();
+  ASSERT_GE(u.stand, 0);
+  PoseRequest request;
+  ClipRequest clip;
+  clip.index = u.stand;
+  clip.time = 1.0f;
+  request.clips.push_back(clip);
+  Pose pose;
+  std::vector<float> w;
+  std::vector<uint8_t> set;
+  std::vector<Warning> warnings;
+  ASSERT_TRUE(BuildPose(u.rig, request, pose, w, set, warnings).ok());
+  // Hands in front, sleeves around the arms: the mesh is narrow (T-pose 0.70, stand.vmd without IK 0.55).
+  EXPECT_LE(Aspect(u.rig, pose), 0.5f);
+  Rig unconstrained = u.rig;
+  unconstrained.constraints = {};
+  ASSERT_TRUE(BuildPose(unconstrained, request, pose, w, set, warnings).ok());
+  EXPECT_GT(Aspect(unconstrained, pose), 0.52f);
+  EXPECT_GT(Aspect(u.rig, RestPose(u.rig)), 0.65f);
+}
+
+}  // namespace
+}  // namespace facespace
