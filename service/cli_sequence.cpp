@@ -81,12 +81,13 @@ class WarningSummary {
 
 int Sequence(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
-  std::string keys_text, from_animation, obj_times, transition, times_text, format = "json", out;
+  std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format = "json", out;
   bool smooth = false, has_fps = false, has_reduce = false, has_bake = false;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
   Flags flags(
-      "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
+      "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --layers JSON|@FILE\n"
+      "         | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
       "         [--transition T] [--smooth] (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
       "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
       "       facespace sequence RIG ... --bake TIME -o OUT.json\n",
@@ -102,6 +103,8 @@ int Sequence(const std::vector<std::string>& args) {
     };
   };
   flags.Value("--keys", "JSON|@FILE", "the keyframes", [&keys_text](const std::string& v) { return ReadAtFile("--keys", v, keys_text) ? 0 : 1; });
+  flags.Value("--layers", "JSON|@FILE", "motions layered: a base, then overlays, each starting at its time: [{\"motion\", \"time\", \"loop\"}]",
+              [&layers_text](const std::string& v) { return ReadAtFile("--layers", v, layers_text) ? 0 : 1; });
   flags.Text("--from-animation", "NAME|INDEX", "play a clip or motion: its pose and weights (keys: its morph-weight channel)", &from_animation);
   flags.Text("--obj-times", "T0,T1,...", "OBJ sequence: one key per file at these times", &obj_times);
   flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &transition);
@@ -114,10 +117,10 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Text("--format", "json|obj|glb|f32", "one JSON file of frames (default), or a file per frame in DIR", &format);
   flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
-  const int sources = !keys_text.empty() + !from_animation.empty() + !obj_times.empty();
+  const int sources = !keys_text.empty() + !layers_text.empty() + !from_animation.empty() + !obj_times.empty();
   if (paths.empty() || out.empty() || sources != 1) {
     return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)"
-                                                                       : "give exactly one of --keys, --from-animation, --obj-times");
+                                                                       : "give exactly one of --keys, --layers, --from-animation, --obj-times");
   }
   if (format != "json" && format != "obj" && format != "glb" && format != "f32") {
     std::fprintf(stderr, "error: --format must be json, obj, glb or f32\n");
@@ -133,13 +136,14 @@ int Sequence(const std::vector<std::string>& args) {
 
   // The sequence.
   facespace::Sequence seq;
-  if (!keys_text.empty()) {
-    nlohmann::json keys = nlohmann::json::parse(keys_text, nullptr, false);
+  if (!keys_text.empty() || !layers_text.empty()) {
+    const bool layered = !layers_text.empty();
+    nlohmann::json keys = nlohmann::json::parse(layered ? layers_text : keys_text, nullptr, false);
     if (keys.is_discarded()) {
-      std::fprintf(stderr, "error: --keys: malformed JSON\n");
+      std::fprintf(stderr, "error: %s: malformed JSON\n", layered ? "--layers" : "--keys");
       return 1;
     }
-    nlohmann::json body = {{"keys", keys}, {"smooth", smooth}};
+    nlohmann::json body = {{layered ? "layers" : "keys", keys}, {"smooth", smooth}};
     if (!transition.empty()) body["transition"] = transition;
     auto parsed = api::ParseSequenceRequest(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     if (!parsed.ok()) {

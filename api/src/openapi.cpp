@@ -125,6 +125,7 @@ json QueryParam(std::string_view name, bool render) {
   }
   if (name == "pose") return param({{"type", "string"}}, "The body's pose object (joint -> rotation, euler, translation, scale) as JSON");
   if (name == "blend") return param({{"type", "string"}}, "The body's blend array (several clips at their times and weights) as JSON");
+  if (name == "layers") return param({{"type", "string"}}, "The body's layers array (a base motion, then overlays) as JSON");
   if (name == "animation") return param({{"type", "string"}}, "A clip by name or index, posed at time");
   if (name == "motion") return param({{"type", "string"}}, "A clip by MMD's word (a .vmd motion): as animation");
   if (name == "time") return param(number, "Seconds into the animation");
@@ -185,6 +186,17 @@ json Build() {
                            {"properties", {{"animation", clip_ref}, {"time", {{"type", "number"}}}, {"weight", {{"type", "number"}}},
                                            {"loop", {{"type", "boolean"}}},
                                            {"mask", {{"type", "array"}, {"items", {{"type", "string"}}}}}}}}}};
+  json layers = {{"type", "array"},
+                 {"minItems", 1},
+                 {"maxItems", 16},
+                 {"description", "Motions stacked: the first the base, each later one an overlay replacing, by its weight, only the "
+                                 "joints and shapes its clip moves"},
+                 {"items", {{"type", "object"},
+                            {"properties", {{"motion", clip_ref}, {"animation", clip_ref}, {"time", {{"type", "number"}}},
+                                            {"frame", {{"type", "number"}}}, {"weight", {{"type", "number"}, {"minimum", 0}}},
+                                            {"loop", {{"type", "boolean"}}}, {"fade_in", {{"type", "number"}, {"minimum", 0}}},
+                                            {"fade_out", {{"type", "number"}, {"minimum", 0}}},
+                                            {"mask", {{"type", "array"}, {"items", {{"type", "string"}}}}}}}}}};
   json skeleton_props = {{"pose", pose},
                          {"animation", clip_ref},
                          {"time", {{"type", "number"}, {"description", "Seconds into the animation"}}},
@@ -192,6 +204,7 @@ json Build() {
                          {"frame", {{"type", "number"}, {"description", "The time in MMD frames, 30 a second (instead of time)"}}},
                          {"loop", {{"type", "boolean"}, {"default", false}}},
                          {"blend", blend},
+                         {"layers", layers},
                          {"skinning", {{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}}},
                          {"lod", {{"type", "integer"}, {"minimum", 0}, {"maximum", 4}, {"default", 0},
                                   {"description", "Level of detail: 0 full, L about 1/2^L of the triangles (a subset of the vertices)"}}}};
@@ -383,7 +396,8 @@ json Build() {
                                    {"focus", box}}}};
   json frames = {{"type", "object"},
                  {"required", {"frames"}},
-                 {"properties", {{"frames", array_of({{"type", "object"},
+                 {"properties", {{"space", {{"enum", {"world"}}}},
+                                 {"frames", array_of({{"type", "object"},
                                                       {"properties", {{"time", number}, {"weights", WeightsObject()},
                                                                       {"primitives", {{"type", "array"}}}}}})},
                                  {"warnings", array_of(ref("Warning"))}}}};

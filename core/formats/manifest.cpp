@@ -207,7 +207,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     s.fields.push_back({pointer, msg});
     return s;
   };
-  static constexpr std::string_view kMembers[] = {"name", "credit", "start", "base_motion", "shapes", "groups", "controls",
+  static constexpr std::string_view kMembers[] = {"name", "credit", "start", "base_motion", "materials", "shapes", "groups", "controls",
                                                   "derived", "inbetweens", "correctives", "statistics"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(std::begin(kMembers), std::end(kMembers), it.key()) == std::end(kMembers)) {
@@ -236,6 +236,23 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
       return bad("/base_motion", "names no motion of the rig: '" + name.substr(0, 60) + "'" + DidYouMean(name, names));
     }
     rig.base_motion = name;
+  }
+  if (j.contains("materials")) {
+    // A material's base colour (RGBA) by name: for a rig whose textures are not at hand (an MMD
+    // model's blush is a red texture on a see-through material).
+    const json& m = j["materials"];
+    if (!m.is_object()) return bad("/materials", "must be an object of material name -> {\"base_color\": [r, g, b, a]}");
+    for (auto it = m.begin(); it != m.end(); ++it) {
+      const std::string ptr = "/materials/" + JsonPointerEscape(it.key());
+      auto found = std::find_if(rig.materials.begin(), rig.materials.end(), [&](const Material& x) { return x.name == it.key(); });
+      if (found == rig.materials.end()) return bad(ptr, "names no material of the rig");
+      const json& c = it.value().is_object() && it.value().contains("base_color") ? it.value()["base_color"] : json();
+      if (!it.value().is_object() || it.value().size() != 1 || !c.is_array() || c.size() != 4 ||
+          !std::all_of(c.begin(), c.end(), [](const json& x) { return x.is_number() && x.get<double>() >= 0 && x.get<double>() <= 1; })) {
+        return bad(ptr, "must be {\"base_color\": [r, g, b, a]}, each in [0, 1]");
+      }
+      for (int k = 0; k < 4; ++k) found->base_color_factor[k] = c[k].get<float>();
+    }
   }
   if (j.contains("derived")) {
     // New shapes first, so that the rest of the manifest can describe them too.

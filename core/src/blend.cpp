@@ -302,6 +302,39 @@ void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<
   }
 }
 
+void MorphedMaterialColors(const Rig& rig, std::span<const float> weights, std::vector<std::array<float, 4>>& out) {
+  out.clear();
+  bool any = false;
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size() && !any; ++s) any = weights[s] != 0.0f && !rig.shapes[s].material_morphs.empty();
+  if (!any) return;
+  // Per material: multiply and add factors of the diffuse colour and of the texture tint.
+  const size_t n = rig.materials.size();
+  std::vector<std::array<float, 4>> mul_d(n, {1, 1, 1, 1}), add_d(n, {0, 0, 0, 0}), mul_t(n, {1, 1, 1, 1}), add_t(n, {0, 0, 0, 0});
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    if (weights[s] == 0.0f) continue;
+    for (const MaterialMorph& m : rig.shapes[s].material_morphs) {
+      const float w = weights[s] * m.factor;
+      const size_t first = m.material < 0 ? 0 : static_cast<size_t>(m.material), last = m.material < 0 ? n : std::min(n, first + 1);
+      for (size_t i = first; i < last; ++i) {
+        for (int c = 0; c < 4; ++c) {
+          if (m.add) {
+            add_d[i][c] += w * m.diffuse[c];
+            add_t[i][c] += w * m.texture_tint[c];
+          } else {
+            mul_d[i][c] *= 1.0f + w * (m.diffuse[c] - 1.0f);
+            mul_t[i][c] *= 1.0f + w * (m.texture_tint[c] - 1.0f);
+          }
+        }
+      }
+    }
+  }
+  out.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& base = rig.materials[i].base_color_factor;
+    for (int c = 0; c < 4; ++c) out[i][c] = std::clamp((base[c] * mul_d[i][c] + add_d[i][c]) * (mul_t[i][c] + add_t[i][c]), 0.0f, 1.0f);
+  }
+}
+
 Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOptions& options,
                    BlendedRig& out, BlendContext& ctx) {
   if (given.size() != rig.shapes.size()) {
@@ -318,6 +351,7 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
     weights = ctx.effective;
   }
   if (options.pose && options.pose->local.size() != rig.nodes.size()) return InvalidArgument("the pose does not match the rig");
+  MorphedMaterialColors(rig, weights, out.material_colors);
   WorldMatricesInto(rig, options.pose, out.node_world, ctx.node_order);
   out.posed = options.pose != nullptr;
   out.primitives.resize(rig.primitives.size());

@@ -269,8 +269,10 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   auto draw_all = [&](int shader_mode) -> Status {
     for (const Draw& d : draws) {
       const Material& mat = d.material >= 0 ? rig.materials[static_cast<size_t>(d.material)] : none;
-      const auto& base = mat.base_color_factor;
-      const bool blend = mat.alpha_mode == "BLEND";
+      // The colour under the shapes' material morphs (MMD's blush, pallor), else the material's own.
+      const bool morphed = d.material >= 0 && static_cast<size_t>(d.material) < blended.material_colors.size();
+      const auto& base = morphed ? blended.material_colors[static_cast<size_t>(d.material)] : mat.base_color_factor;
+      const bool blend = mat.alpha_mode == "BLEND" || (morphed && base[3] < 1.0f);
       // The material's textures (clay, heatmap, normals and edges use none), each decoded before
       // any is bound: a decode binds on the active unit.
       const bool textured = shader_mode == 0;

@@ -268,6 +268,7 @@ TEST_F(ApiTest, CheckAndSequenceAndFit) {
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(Body(r)["frames"][0]["weights"]["jawOpen"], 0.5);
+  EXPECT_EQ(Body(r)["space"], "world");  // As blend's JSON: positions placed by their nodes.
 
   r = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"keys": [{"time": 0}, {"time": 1}]})", "application/json");
   ASSERT_TRUE(r);

@@ -123,6 +123,80 @@ TEST(Grant, ABoneInheritsAShareOfAnothersRotationAndTranslation) {
   EXPECT_NEAR(pose.local[3].translation[1], 1.0f, 1e-6f);
 }
 
+// ---- motion layers ----
+
+// A sampler of one key.
+AnimationSampler Key(std::vector<float> values, size_t components) {
+  AnimationSampler s;
+  s.times = {0.0f, 2.0f};
+  s.values = values;
+  s.values.insert(s.values.end(), values.begin(), values.end());
+  s.components = components;
+  return s;
+}
+
+// Nodes b1, b2 under b0 and a mesh of two shapes; clip 0 (the base) turns b1 by 1 rad and b2 by 0.5 about
+// z and sets shape 0 to 0.2; clip 1 keys b1 at rest, turns b2 by 1.0, keys shape 0 at 0 and shape 1 at 1.
+Rig Layered() {
+  Rig rig = Chain(2);
+  rig.shapes.resize(2);
+  rig.shapes[0].name = "s0";
+  rig.shapes[1].name = "s1";
+  Mesh mesh;
+  mesh.target_shapes = {0, 1};
+  rig.meshes.push_back(mesh);
+  rig.nodes[0].mesh = 0;
+  AnimationInfo base, over;
+  base.name = "base";
+  over.name = "over";
+  base.duration = over.duration = 2.0f;
+  base.sampler_data = {Key(std::vector<float>(std::begin(AxisAngle(0, 0, 1, 1.0f)), std::end(AxisAngle(0, 0, 1, 1.0f))), 4),
+                       Key(std::vector<float>(std::begin(AxisAngle(0, 0, 1, 0.5f)), std::end(AxisAngle(0, 0, 1, 0.5f))), 4), Key({0.2f, 0.0f}, 2)};
+  base.channel_data = {{0, 1, ChannelPath::kRotation}, {1, 2, ChannelPath::kRotation}, {2, 0, ChannelPath::kWeights}};
+  over.sampler_data = {Key({0, 0, 0, 1}, 4), Key(std::vector<float>(std::begin(AxisAngle(0, 0, 1, 1.0f)), std::end(AxisAngle(0, 0, 1, 1.0f))), 4),
+                       Key({0.0f, 1.0f}, 2)};
+  over.channel_data = {{0, 1, ChannelPath::kRotation}, {1, 2, ChannelPath::kRotation}, {2, 0, ChannelPath::kWeights}};
+  rig.animations = {base, over};
+  return rig;
+}
+
+float AngleZ(const Transform& t) { return 2.0f * std::atan2(t.rotation[2], t.rotation[3]); }
+
+TEST(Layers, AnOverlayReplacesOnlyWhatItMovesByItsWeight) {
+  const Rig rig = Layered();
+  Pose pose = RestPose(rig);
+  std::vector<float> w;
+  std::vector<uint8_t> set;
+  std::vector<ClipLayer> layers(2);
+  layers[0].clip = 0;
+  layers[1].clip = 1;
+  layers[1].overlay = true;
+  layers[1].weight = 0.5f;
+  layers[0].time = layers[1].time = 1.0f;
+  ASSERT_TRUE(BlendClips(rig, layers, pose, w, set).ok());
+  EXPECT_NEAR(AngleZ(pose.local[1]), 1.0f, 1e-5f);   // Keyed at rest by the overlay: the base's.
+  EXPECT_NEAR(AngleZ(pose.local[2]), 0.75f, 1e-5f);  // Halfway from 0.5 to 1.0.
+  EXPECT_NEAR(w[0], 0.2f, 1e-6f);                    // Keyed 0 by the overlay: the base's.
+  EXPECT_NEAR(w[1], 0.5f, 1e-6f);
+  // Fades: a quarter into a 1 s fade-in, and 0.5 s before the end of a 2 s fade-out.
+  layers[1].weight = 1.0f;
+  layers[1].fade_in = 1.0f;
+  layers[1].time = 0.25f;
+  ASSERT_TRUE(BlendClips(rig, layers, pose = RestPose(rig), w, set).ok());
+  EXPECT_NEAR(w[1], 0.25f, 1e-6f);
+  layers[1].fade_in = 0.0f;
+  layers[1].fade_out = 2.0f;
+  layers[1].time = 1.5f;
+  ASSERT_TRUE(BlendClips(rig, layers, pose = RestPose(rig), w, set).ok());
+  EXPECT_NEAR(w[1], 0.25f, 1e-6f);
+  // Not started (before its time 0) or over (past a fade-out): the base alone.
+  for (float t : {-0.5f, 2.5f}) {
+    layers[1].time = t;
+    ASSERT_TRUE(BlendClips(rig, layers, pose = RestPose(rig), w, set).ok());
+    EXPECT_NEAR(AngleZ(pose.local[2]), 0.5f, 1e-5f) << t;
+  }
+}
+
 // ---- Uka, standing ----
 
 struct Uka {
@@ -171,6 +245,26 @@ TEST(UkaConstraints, HerIkAndGrantBonesAreRead) {
   for (const Warning& w : u.rig.load_warnings) EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
 }
 
+TEST(UkaConstraints, ThePmdsIkListIsReadWithItsKneesLimited) {
+  const Result<Rig> rig = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
+  ASSERT_TRUE(rig.ok());
+  EXPECT_GE(rig->constraints.chains.size(), 4u);  // Legs and toes at least.
+  size_t knees = 0;
+  for (const IkChain& c : rig->constraints.chains) {
+    EXPECT_GT(c.loops, 0);
+    EXPECT_GT(c.max_angle, 0.0f);
+    for (const IkLink& l : c.links) {
+      if (rig->nodes[l.node].name.find("ひざ") == std::string::npos) continue;
+      ++knees;
+      EXPECT_TRUE(l.limited);
+      // MMD's x range [-180, -0.5] degrees, mirrored into our axes: [0.5, 180].
+      EXPECT_NEAR(l.lower[0], 0.5f * kPi / 180, 1e-6f);
+      EXPECT_NEAR(l.upper[0], kPi, 1e-6f);
+    }
+  }
+  EXPECT_EQ(knees, 2u);
+}
+
 TEST(UkaConstraints, StandingHerSleevesFollowHerArms) {
   const Uka u = LoadUka();
   ASSERT_GE(u.stand, 0);
@@ -191,6 +285,28 @@ TEST(UkaConstraints, StandingHerSleevesFollowHerArms) {
   ASSERT_TRUE(BuildPose(unconstrained, request, pose, w, set, warnings).ok());
   EXPECT_GT(Aspect(unconstrained, pose), 0.52f);
   EXPECT_GT(Aspect(u.rig, RestPose(u.rig)), 0.65f);
+}
+
+TEST(UkaConstraints, AMotionAloneStandsOnTheManifestsBaseMotion) {
+  Uka u = LoadUka();
+  ASSERT_GE(u.stand, 0);
+  u.rig.base_motion = "stand";
+  PoseRequest request;
+  ClipRequest happy;
+  happy.name = "01_happy";
+  happy.time = 5.0f;
+  happy.over_base = true;
+  request.clips.push_back(happy);
+  Pose pose;
+  std::vector<float> w;
+  std::vector<uint8_t> set;
+  std::vector<Warning> warnings;
+  ASSERT_TRUE(BuildPose(u.rig, request, pose, w, set, warnings).ok());
+  EXPECT_LE(Aspect(u.rig, pose), 0.5f);          // Standing, not in the bind T-pose.
+  EXPECT_FLOAT_EQ(w[FindShape(u.rig, "笑い")], 1.0f);  // And smiling: 笑い is 1 from frame 15 to 285.
+  request.clips[0].over_base = false;            // Alone: the T-pose.
+  ASSERT_TRUE(BuildPose(u.rig, request, pose, w, set, warnings).ok());
+  EXPECT_GT(Aspect(u.rig, pose), 0.65f);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // mid-time against the curve computed here another way, morph keys), hostile PMD and VMD bytes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -490,6 +491,88 @@ TEST(MmdHostile, VmdValuesWhoseInterpolationWouldOverflowAreRefused) {
       EXPECT_NEAR(scaled->sampler_data[s].values[i], plain->sampler_data[s].values[i], 1e-6) << s << " " << i;
     }
   }
+}
+
+// MMD's material morph formula: per material the product of lerp(1, m, w) over the multiplies, then
+// the sum of w * a over the adds, on the diffuse colour, times the texture tint (same rules).
+TEST(MaterialMorphs, MultipliesThenAddsByWeight) {
+  Rig rig;
+  rig.materials.resize(2);
+  rig.materials[0].base_color_factor = {0.5f, 0.5f, 0.5f, 1.0f};
+  rig.materials[1].base_color_factor = {1.0f, 1.0f, 1.0f, 0.0f};
+  rig.shapes.resize(3);
+  MaterialMorph darker;  // Every material's diffuse x (0.2, 1, 1, 1).
+  darker.diffuse = {0.2f, 1, 1, 1};
+  rig.shapes[0].material_morphs = {darker};
+  MaterialMorph show;  // Material 1: alpha + 1, red + 0.5 (the texture tint adds nothing).
+  show.material = 1;
+  show.add = true;
+  show.diffuse = {0.5f, 0, 0, 1};
+  show.texture_tint = {0, 0, 0, 0};
+  rig.shapes[1].material_morphs = {show};
+  std::vector<std::array<float, 4>> colors;
+  MorphedMaterialColors(rig, std::vector<float>{0, 0, 0.7f}, colors);
+  EXPECT_TRUE(colors.empty());  // No shape with material morphs has a weight.
+  MorphedMaterialColors(rig, std::vector<float>{0.5f, 0.4f, 0}, colors);
+  ASSERT_EQ(colors.size(), 2u);
+  EXPECT_NEAR(colors[0][0], 0.5f * (1 + 0.5f * (0.2f - 1)), 1e-6f);  // 0.5 x lerp(1, 0.2, 0.5) = 0.3.
+  EXPECT_NEAR(colors[0][1], 0.5f, 1e-6f);
+  EXPECT_NEAR(colors[1][0], std::min(1.0f, 1.0f * 0.6f + 0.4f * 0.5f), 1e-6f);  // x 0.6, + 0.2.
+  EXPECT_NEAR(colors[1][3], 0.4f, 1e-6f);                                     // Alpha 0 + 0.4.
+}
+
+// Uka's blush (赤み), pallor (青ざめ) and gloom (どんより) are material morphs: shapes a motion drives.
+TEST(MaterialMorphs, UkasBlushIsAShapeThatColoursHerMaterials) {
+  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  ASSERT_TRUE(rig.ok());
+  for (const char* name : {"赤み", "青ざめ", "どんより"}) {
+    const int s = FindShape(rig.value(), name);
+    ASSERT_GE(s, 0) << name;
+    EXPECT_FALSE(rig->shapes[s].material_morphs.empty()) << name;
+    std::vector<float> w(rig->shapes.size(), 0.0f);
+    w[s] = 1.0f;
+    std::vector<std::array<float, 4>> colors;
+    MorphedMaterialColors(rig.value(), w, colors);
+    ASSERT_EQ(colors.size(), rig->materials.size());
+    bool changed = false;
+    for (size_t m = 0; m < colors.size(); ++m) {
+      for (int c = 0; c < 4; ++c) changed |= std::fabs(colors[m][c] - rig->materials[m].base_color_factor[c]) > 1e-3f;
+    }
+    EXPECT_TRUE(changed) << name;
+  }
+  // The motions name them: no longer "matching nothing".
+  for (const Warning& warning : rig->load_warnings) {
+    if (warning.code == "motion_names_unmatched") {
+      EXPECT_EQ(warning.message.find("赤み"), std::string::npos) << warning.message;
+    }
+  }
+}
+
+// The manifest may colour a material (a model whose textures are not at hand) and name the base motion.
+TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
+  Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  ASSERT_TRUE(rig.ok());
+  ASSERT_TRUE(ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [0.9, 0.5, 0.5, 0]}}, "base_motion": "01_happy"})").ok());
+  const auto it = std::find_if(rig->materials.begin(), rig->materials.end(), [](const Material& m) { return m.name == "頬照り2"; });
+  ASSERT_NE(it, rig->materials.end());
+  EXPECT_FLOAT_EQ(it->base_color_factor[0], 0.9f);
+  EXPECT_FLOAT_EQ(it->base_color_factor[3], 0.0f);
+  EXPECT_EQ(rig->base_motion, "01_happy");
+  // The blush adds 1 to that material's alpha: at 1 it shows in the manifest's colour.
+  std::vector<float> w(rig->shapes.size(), 0.0f);
+  w[FindShape(rig.value(), "赤み")] = 1.0f;
+  std::vector<std::array<float, 4>> colors;
+  MorphedMaterialColors(rig.value(), w, colors);
+  const size_t m = static_cast<size_t>(it - rig->materials.begin());
+  EXPECT_FLOAT_EQ(colors[m][0], 0.9f);
+  EXPECT_FLOAT_EQ(colors[m][3], 1.0f);
+  // Names that are not there are refused, naming the member.
+  Status bad = ApplyManifest(rig.value(), R"({"materials": {"nope": {"base_color": [1, 1, 1, 1]}}})");
+  EXPECT_EQ(bad.fields.at(0).pointer, "/materials/nope");
+  bad = ApplyManifest(rig.value(), R"({"base_motion": "01_hapy"})");
+  EXPECT_NE(bad.message.find("did you mean '01_happy'"), std::string::npos) << bad.message;
+  bad = ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
+  EXPECT_FALSE(bad.ok());
 }
 
 TEST(MmdTextures, ImagesAreReadFromTheModelsFolderOnly) {

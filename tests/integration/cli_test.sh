@@ -357,7 +357,7 @@ check "info on a truncated FBX: exit 1 and the byte offset named" sh -c "[ $rc -
 # frame and is valid; a contact sheet of every shape.
 uka="$src/assets/uka/MS_Uka.pmx"
 "$bin" info "$uka" >"$tmp/uka.info" 2>"$tmp/uka.err"; rc=$?
-check "info MS_Uka.pmx: 49955 vertices, 202 shapes, 302 joints, 40 motions (stand and 39 expressions), the credit; unmatched motion names reported" sh -c "[ $rc -eq 0 ] && grep -q '^vertices   49955' '$tmp/uka.info' && grep -q '^shapes     202' '$tmp/uka.info' && grep -q '302 joints' '$tmp/uka.info' && [ \$(grep -c '^animation ' '$tmp/uka.info') -eq 40 ] && grep -q 'Nagoya Institute of Technology' '$tmp/uka.info' && grep -q 'motion_names_unmatched' '$tmp/uka.err'"
+check "info MS_Uka.pmx: 49955 vertices, 206 shapes (4 of them material morphs), 302 joints, 40 motions (stand and 39 expressions), the credit; unmatched motion names reported" sh -c "[ $rc -eq 0 ] && grep -q '^vertices   49955' '$tmp/uka.info' && grep -q '^shapes     206' '$tmp/uka.info' && grep -q '302 joints' '$tmp/uka.info' && [ \$(grep -c '^animation ' '$tmp/uka.info') -eq 40 ] && grep -q 'Nagoya Institute of Technology' '$tmp/uka.info' && grep -q 'motion_names_unmatched' '$tmp/uka.err'"
 "$bin" info "$M/MMD/Uka_PMD/MS_Uka.pmd" --json >"$tmp/pmd.json" 2>/dev/null
 check "info MS_Uka.pmd: 49955 vertices, 120 expressions (121 skins with the base), each its own shape under its own name (あ's English name mouth_a_geo_C is another morph's)" py 'import json,sys
 d=json.load(open(sys.argv[1])); s=d["shapes"]; names=[x["name"] for x in s]
@@ -378,15 +378,35 @@ sys.exit(not(len(j["animations"])==40 and len(j["skins"][0]["joints"])==302 and 
 if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
   NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/uka.glb" >"$tmp/val" 2>&1
   rc=$?; cat "$tmp/val"
-  check "glTF validator: 0 errors on the glb converted from PMX (skin, 202 targets, 40 motions)" test $rc -eq 0
+  check "glTF validator: 0 errors on the glb converted from PMX (skin, 206 targets, 40 motions)" test $rc -eq 0
 else
   no "glTF validator not installed: the glb converted from PMX is not validated (run .ci/dev test)"
 fi
 "$bin" sheet "$uka" --cells shapes:mouth --columns 8 --width 64 --height 64 -o "$tmp/uka_sheet.png" 2>/dev/null
 check "sheet --cells shapes:mouth: one 64-pixel cell per mouth shape (8 columns)" py 'import sys,struct; d=open(sys.argv[1],"rb").read(); w,h=struct.unpack(">II", d[16:24]); sys.exit(not(d[:4]==b"\x89PNG" and w>=8*64 and h>=3*64))' "$tmp/uka_sheet.png"
+# Motion layers: stand (the base, looping) and 08_surprise from t = 1 s; 08_surprise keys 瞳小 0.4 from
+# its frame 15 (0.5 s in). Before the overlay starts, 瞳小 is 0; after, 0.4; the body stands throughout.
+"$bin" sequence "$uka" --layers '[{"motion":"stand","loop":true},{"motion":"08_surprise","time":1}]' --times '[0.5,1.5]' -o "$tmp/layers.json" 2>/dev/null
+check "sequence --layers: an overlay starts at its time over the looping base (瞳小 0 then 0.4), frames in world space" py 'import json,sys
+d=json.load(open(sys.argv[1])); f=d["frames"]
+sys.exit(not(d["space"]=="world" and abs(f[0]["weights"].get("瞳小",0))<1e-6 and abs(f[1]["weights"]["瞳小"]-0.4)<1e-6))' "$tmp/layers.json"
+"$bin" blend "$uka" --layers '[{"motion":"stand"},{"motion":"nosuch"}]' -o "$tmp/x.json" 2>"$tmp/err"; rc=$?
+check "blend --layers with an unknown motion: an error naming the layer" sh -c "[ $rc -ne 0 ] && grep -q 'layers/1.*unknown animation' '$tmp/err'"
 "$bin" sheet "$uka" --cells shapes:nosuch -o "$tmp/x.png" 2>"$tmp/err"; rc=$?
 check "sheet --cells shapes:nosuch: an error listing the groups" sh -c "[ $rc -ne 0 ] && grep -q 'groups:.*mouth' '$tmp/err'"
 
+
+# A material morph: Uka's blush (赤み) shows the see-through cheek material, which her manifest colours
+# (her textures are not shipped): at 1, pink pixels on her face; at 0, none.
+for w in 0 1; do
+  "$bin" render "$uka" --set "赤み=$w" --camera '{"frame":"shapes"}' --width 192 --height 192 -o "$tmp/blush$w.png" 2>/dev/null
+  oiiotool "$tmp/blush$w.png" -ch R,G,B -o "$tmp/blush$w.ppm" 2>/dev/null
+done
+check "material morph 赤み: the render at 1 has a pink patch on each cheek, at 0 none" py 'import sys
+def pink(path):
+    d=open(path,"rb").read(); parts=d.split(b"\n",3); w,h=map(int,parts[1].split()); px=parts[3]
+    return sum(1 for i in range(0,3*w*h,3) if px[i]>px[i+1]+40)
+a,b=pink(sys.argv[1]),pink(sys.argv[2]); print("pink pixels", a, b); sys.exit(not(a==0 and b>200))' "$tmp/blush0.ppm" "$tmp/blush1.ppm"
 
 # MMD textures from the model's folder (Uka's own are not shipped: a red PNG for the face and a green
 # BMP, named .png as the model names it, for the body): the render shows both colours.

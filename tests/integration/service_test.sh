@@ -615,13 +615,13 @@ port3=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.gets
 for _ in $(seq 1 100); do curl -fs "http://127.0.0.1:$port3/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
 U3=http://127.0.0.1:$port3/v1/rigs/uka
 c "$U3" >/dev/null
-check "MMD in the store: uka, 302 joints, 202 shapes, the credit line, 4 motions (01_happy 10 s)" jq_ "d['skeleton']['joints']==302 and d['shapes'].__len__()==202 and 'Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society' in d['credit'] and [a['name'] for a in d['animations']]==['00_normal','01_happy','08_surprise','33_angry'] and abs(d['animations'][1]['duration']-10)<1e-6"
+check "MMD in the store: uka, 302 joints, 206 shapes, the credit line, 40 motions (01_happy 10 s, stand 4 s)" jq_ "d['skeleton']['joints']==302 and d['shapes'].__len__()==206 and 'Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society' in d['credit'] and len(d['animations'])==40 and d['animations'][1]['name']=='01_happy' and abs(d['animations'][1]['duration']-10)<1e-6 and d['animations'][-1]['name']=='stand' and abs(d['animations'][-1]['duration']-4)<1e-6"
 curl -s -o "$tmp/uka_rest.f32" "$U3/mesh?format=f32"
 curl -s -o "$tmp/uka_f150.f32" "$U3/mesh?format=f32&motion=01_happy&frame=150"
 curl -s -o "$tmp/uka_t5.f32" -X POST -H 'Content-Type: application/json' -d '{"animation":"01_happy","time":5,"format":"f32"}' "$U3/mesh"
 check "MMD: motion 01_happy at frame 150 is animation 01_happy at 5 s, and not the rest pose" sh -c "cmp -s '$tmp/uka_f150.f32' '$tmp/uka_t5.f32' && ! cmp -s '$tmp/uka_f150.f32' '$tmp/uka_rest.f32' && [ \$(stat -c %s '$tmp/uka_rest.f32') -eq 1198920 ]"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"motion":"01_happy","times":[0,5]}' "$U3/sequence/sample")
-check "MMD: sequence/sample plays a motion: at 5 s its morph keys (にこり, 笑い, ワ at 1), at 0 s the rest" sh -c "[ $code = 200 ] && python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); f=d[\"frames\"]; w={k:v for k,v in f[1][\"weights\"].items() if v}; sys.exit(not(w=={\"にこり\":1,\"笑い\":1,\"ワ\":1} and not any(f[0][\"weights\"].values())))' '$tmp/body'"
+check "MMD: sequence/sample plays a motion: at 5 s its morph keys (にこり, 笑い, ワ and the blush 赤み, a material morph, at 1), at 0 s the rest" sh -c "[ $code = 200 ] && python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); f=d[\"frames\"]; w={k:v for k,v in f[1][\"weights\"].items() if v}; sys.exit(not(w=={\"にこり\":1,\"笑い\":1,\"ワ\":1,\"赤み\":1} and not any(f[0][\"weights\"].values())))' '$tmp/body'"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"motion":"01_happy","fps":30}' "$U3/sequence/stream")
 check "MMD: sequence/stream plays a motion: 301 frames at 30 a second" sh -c "[ $code = 200 ] && [ \"\$(grep -i '^facespace-frames:' '$tmp/hdr' | tr -d '\r' | cut -d' ' -f2)\" = 301 ] && [ \$(wc -l <'$tmp/body') = 301 ]"
 check "MMD: an unknown motion is 422 naming /motion and listing the motions" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"motion":"nope","frame":1}' "$U3/mesh")" 422 "d['errors'][0]['pointer']=='/motion' and '01_happy' in d['errors'][0]['detail']"

@@ -325,8 +325,14 @@ Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
   };
 
   std::vector<std::thread> threads;
-  running = pending.empty() ? 0 : static_cast<size_t>(jobs);
-  for (size_t t = 0; t < running; ++t) threads.emplace_back(run_worker);
+  // The count is set, under the lock, before any worker can end and lower it (a cancelled worker
+  // ends at once): the loop does not read it.
+  const size_t workers = pending.empty() ? 0 : static_cast<size_t>(jobs);
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    running = workers;
+  }
+  for (size_t t = 0; t < workers; ++t) threads.emplace_back(run_worker);
   auto report = [&] {
     if (options.progress) options.progress({summary.skipped + finished.load(), summary.skipped, summary.total, elapsed()});
   };

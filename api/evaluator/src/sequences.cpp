@@ -10,16 +10,22 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
   point.posed = false;
   float f = 0.0f;
   SampleSequence(sequence, time, point.weights, &f);
-  if (sequence.clip >= 0) {
+  if (sequence.clip >= 0 || !sequence.layers.empty()) {
     // The clip's pose and weights at this time: its curves as it draws them (the keys are its
     // weight channel's keys; between them a curve need not be linear).
     PoseRequest request;
-    ClipRequest clip;
-    clip.index = sequence.clip;
-    clip.time = time;
-    clip.pointer = "/motion";
-    clip.over_base = true;
-    request.clips.push_back(clip);
+    if (sequence.clip >= 0) {
+      ClipRequest clip;
+      clip.index = sequence.clip;
+      clip.time = time;
+      clip.pointer = "/motion";
+      clip.over_base = true;
+      request.clips.push_back(clip);
+    }
+    for (const ClipRequest& layer : sequence.layers) {
+      request.clips.push_back(layer);
+      request.clips.back().time = time - layer.time;  // A layer's time is its start in the sequence.
+    }
     std::vector<float> animated;
     std::vector<uint8_t> set;
     std::vector<Warning> warnings;
@@ -43,7 +49,7 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::sh
   const Rig& rig = stored->rig;
   const OutputSpec spec = OutputSpec::Frame(options, false);
   ResolvedPoint point;
-  std::string out = "{\"frames\":[";
+  std::string out = "{\"space\":\"world\",\"frames\":[";  // Positions and normals placed by each primitive's node, as blend's JSON.
   for (size_t i = 0; i < times.size(); ++i) {
     SequencePoint(rig, sequence, times[i], options.mode, point);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());

@@ -9,9 +9,9 @@
 namespace facespace::api::http {
 
 inline constexpr std::string_view kMeshQuery[] = {"format", "space", "keep_targets", "mode", "normals", "strict", "skinning", "lod",
-                                                  "pose", "blend", "animation", "motion", "time", "frame", "loop"};
+                                                  "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop"};
 inline constexpr std::string_view kRenderQuery[] = {"format", "mode", "normals", "strict", "skinning", "lod", "pose", "blend",
-                                                    "animation", "motion", "time", "frame", "loop", "width", "height", "view",
+                                                    "layers", "animation", "motion", "time", "frame", "loop", "width", "height", "view",
                                                     "background", "supersample", "quality", "camera", "yaw", "pitch",
                                                     "distance", "zoom", "fov", "exposure"};
 

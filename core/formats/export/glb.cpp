@@ -225,7 +225,24 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   m.asset.version = "2.0";
   m.asset.generator = "facespace";
   m.asset.copyright = rig.credit;
-  auto extras = AssetExtras(rig, weights, warnings, options);
+  // glTF has no material morphs: the materials carry their colours at these weights, and a glb
+  // that keeps the targets says which shapes lost what they do to materials.
+  std::vector<Warning> all_warnings(warnings.begin(), warnings.end());
+  if (options.keep_targets) {
+    std::string names;
+    size_t count = 0;
+    for (const Shape& shape : rig.shapes) {
+      if (shape.material_morphs.empty()) continue;
+      if (++count <= 12) names += (names.empty() ? "" : ", ") + shape.name;
+    }
+    if (count) {
+      all_warnings.push_back({"material_morphs_not_exported",
+                              std::to_string(count) + " shapes change materials (MMD material morphs), which glTF cannot say: " + names +
+                                  (count > 12 ? ", ..." : "") + "; the materials hold their colours at the exported weights",
+                              "", static_cast<double>(count), false});
+    }
+  }
+  auto extras = AssetExtras(rig, weights, all_warnings, options);
   if (!extras.ok()) return extras.status();
   m.asset.extras = ToValue(extras.value());
 
@@ -245,10 +262,12 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     t.source = static_cast<int>(m.images.size() - 1);
     m.textures.push_back(t);
   }
-  for (const Material& mat : rig.materials) {
+  for (size_t mi = 0; mi < rig.materials.size(); ++mi) {
+    const Material& mat = rig.materials[mi];
     tinygltf::Material gm;
     gm.name = mat.name;
-    gm.pbrMetallicRoughness.baseColorFactor.assign(mat.base_color_factor.begin(), mat.base_color_factor.end());
+    const auto& base = mi < blended.material_colors.size() ? blended.material_colors[mi] : mat.base_color_factor;
+    gm.pbrMetallicRoughness.baseColorFactor.assign(base.begin(), base.end());
     // Each map's glTF texture, or -1 (no image, or one glTF cannot carry): tinygltf writes a
     // texture info only when its index is set.
     const auto texture = [&texture_of](int image) { return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1; };
@@ -264,7 +283,7 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;
     gm.pbrMetallicRoughness.roughnessFactor = mat.roughness_factor;
     gm.doubleSided = mat.double_sided;
-    gm.alphaMode = mat.alpha_mode;
+    gm.alphaMode = mat.alpha_mode == "OPAQUE" && base[3] < 1.0f ? "BLEND" : mat.alpha_mode;  // Made see-through by a material morph.
     gm.alphaCutoff = mat.alpha_cutoff;
     m.materials.push_back(gm);
   }

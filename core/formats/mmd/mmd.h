@@ -155,6 +155,7 @@ struct Morph {
   int panel = 0, type = 0;
   std::vector<std::pair<int64_t, std::array<float, 3>>> vertex;  // (vertex, offset)
   std::vector<std::pair<int64_t, float>> group;                  // (morph, factor)
+  std::vector<MaterialMorph> material;  // Type 8; `material` is the PMX material index (-1: all) until BuildRig.
 };
 
 // What a PMX or PMD file holds, in MMD's units and handedness.

@@ -106,6 +106,15 @@ void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& nod
   std::stable_sort(by_order.begin(), by_order.end(), [&](int a, int b) {
     return std::pair(bones[a].after_physics, bones[a].layer) < std::pair(bones[b].after_physics, bones[b].layer);
   });
+  // The work a pose costs is capped: per chain, loops x the nodes its links move (each link's
+  // subtree); chains past kMaxIkWork in all are dropped (a hostile file, not a model: Uka's ten need
+  // about 3,000).
+  constexpr size_t kMaxIkWork = 1'000'000;
+  std::vector<size_t> subtree(rig.nodes.size(), 1);
+  for (size_t i = rig.nodes.size(); i-- > 1;) {
+    if (rig.nodes[i].parent >= 0) subtree[rig.nodes[i].parent] += subtree[i];
+  }
+  size_t work = 0;
   BoneConstraints& c = rig.constraints;
   for (int b : by_order) {
     const Bone& x = bones[b];
@@ -123,8 +132,14 @@ void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& nod
         for (int a = 0; a < 3; ++a) ok &= std::isfinite(link.lower[a]) && std::isfinite(link.upper[a]);
         chain.links.push_back(link);
       }
-      if (ok) c.chains.push_back(std::move(chain));
-      else ++dropped;
+      size_t cost = 0;
+      for (const IkLink& l : chain.links) cost += static_cast<size_t>(chain.loops) * subtree[l.node];
+      if (ok && work + cost <= kMaxIkWork) {
+        work += cost;
+        c.chains.push_back(std::move(chain));
+      } else {
+        ++dropped;
+      }
     }
     if (granted || x.ik) c.order.push_back(node_of[b]);
   }
@@ -216,7 +231,8 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   for (size_t mi = 0; mi < nmorphs; ++mi) morph_names.insert(morphs[mi].name);
   for (size_t mi = 0; mi < nmorphs; ++mi) {
     const Morph& m = morphs[mi];
-    if (m.type != 0 && m.type != 1) continue;
+    if (m.type != 0 && m.type != 1 && m.type != 8) continue;
+    std::vector<MaterialMorph> material = m.material;  // A material morph's own, or a group's entries'.
     std::vector<uint32_t> touched;
     auto add = [&](const Morph& src, float f) {
       for (const auto& [v, d] : src.vertex) {
@@ -228,6 +244,13 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     if (m.type == 1) add(m, 1.0f);
     for (const auto& [child, f] : m.group) {
       const Morph& c = morphs[child];
+      if (c.type == 8) {
+        for (MaterialMorph mm : c.material) {
+          mm.factor *= f;
+          material.push_back(mm);
+        }
+        continue;
+      }
       if (c.type != 1) {
         ++(c.type == 0 ? nested : other);
         continue;
@@ -249,12 +272,13 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
     if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
     shape.group = PanelGroup(m.panel);
+    shape.material_morphs = std::move(material);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(shape);
     deltas.push_back(std::move(d));
   }
   if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
-  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming bone, UV or material morphs");
+  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming bone, UV, flip or impulse morphs");
   for (const auto& [type, count] : in.unapplied) {
     static const char* kNames[] = {"group", "vertex", "bone", "UV", "UV1", "UV2", "UV3", "UV4", "material", "flip", "impulse"};
     skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : ""));
@@ -271,6 +295,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   std::vector<int32_t> remap(nverts, -1);
   std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the PMX vertices it holds.
   size_t first = 0;
+  std::vector<int> material_of(nmats, -1);  // PMX material -> the rig's (none for one without faces).
   for (size_t mi = 0; mi < nmats; ++mi) {
     const ModelMaterial& m = mats[mi];
     const std::span<const uint32_t> faces(indices.data() + first, m.indices);
@@ -329,6 +354,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       mat.base_color_image = image_of[m.texture];
     }
     p.material = static_cast<int>(rig.materials.size());
+    material_of[mi] = p.material;
     rig.materials.push_back(mat);
     FinalizePrimitive(p);
     mesh.primitives.push_back(static_cast<int>(rig.primitives.size()));
@@ -336,6 +362,18 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     used_of.push_back(std::move(used));
   }
   if (rig.primitives.empty()) return InvalidArgument(name + ": " + std::string(in.format) + ": no material covers any face");
+  // Material morphs to the rig's materials (a PMX material that covers no face has none: dropped).
+  {
+    for (Shape& shape : rig.shapes) {
+      std::vector<MaterialMorph> kept;
+      for (MaterialMorph mm : shape.material_morphs) {
+        if (mm.material >= 0 && material_of[mm.material] < 0) continue;
+        if (mm.material >= 0) mm.material = material_of[mm.material];
+        kept.push_back(mm);
+      }
+      shape.material_morphs = std::move(kept);
+    }
+  }
   // Each shape's offsets to the primitives holding their vertices: per PMX vertex, its (primitive,
   // local index) slots (CSR), so the work is the offsets written, not materials x offsets.
   std::vector<uint32_t> slot_start(nverts + 1, 0);
@@ -383,7 +421,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   if (dropped || unread) {
     rig.load_warnings.push_back({"bone_constraints_skipped",
                                  std::to_string(dropped + unread) + " of the " + std::to_string(ik) + " IK bones and " + std::to_string(grants) +
-                                     " grant (inherit) bones are not applied" + (dropped ? " (" + std::to_string(dropped) + " name no bone or themselves)" : ""),
+                                     " grant (inherit) bones are not applied" + (dropped ? " (" + std::to_string(dropped) + " name no bone or themselves, or would take a pose past the work allowed)" : ""),
                                  "", static_cast<double>(dropped + unread), false});
   }
   if (!skipped.empty()) {

@@ -5,6 +5,8 @@
 //
 // A parser of untrusted bytes: every read is bounds-checked, every count capped by what the bytes
 // left could hold, every index checked; an error names the section and the item.
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -229,11 +231,35 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
         if (!r.Index(h.morph, false, idx, "a group morph") || !r.Floats(&f, 1, "a group morph")) return fail(r);
         if (idx < 0 || static_cast<size_t>(idx) >= nmorphs) return InvalidArgument(name + ": PMX: group morph '" + m.name + "' names morph " + std::to_string(idx) + " of " + std::to_string(nmorphs));
         m.group.emplace_back(idx, f);
+      } else if (type == 8) {
+        // Material: index, operation (0 multiply, 1 add), diffuse RGBA, specular RGB, specular power,
+        // ambient RGB, edge RGBA, edge size, texture, sphere and toon tints RGBA.
+        MaterialMorph mm;
+        uint8_t op;
+        float v[28];
+        if (!r.Index(h.material, false, idx, "a material morph") || !r.Get(op, "a material morph") || !r.Floats(v, 28, "a material morph")) return fail(r);
+        if (idx < -1 || idx >= static_cast<int64_t>(nmats)) return InvalidArgument(name + ": PMX: material morph '" + m.name + "' names material " + std::to_string(idx) + " of " + std::to_string(nmats));
+        if (op > 1) return InvalidArgument(name + ": PMX: material morph '" + m.name + "' has operation " + std::to_string(op) + " (0 multiply, 1 add)");
+        for (float x : v) {
+          if (!std::isfinite(x)) return InvalidArgument(name + ": PMX: material morph '" + m.name + "' holds a value that is not finite");
+        }
+        mm.material = static_cast<int>(idx);
+        mm.add = op == 1;
+        std::copy(v, v + 4, mm.diffuse.begin());
+        std::copy(v + 4, v + 7, mm.specular.begin());
+        mm.specular_power = v[7];
+        std::copy(v + 8, v + 11, mm.ambient.begin());
+        std::copy(v + 11, v + 15, mm.edge.begin());
+        mm.edge_size = v[15];
+        std::copy(v + 16, v + 20, mm.texture_tint.begin());
+        std::copy(v + 20, v + 24, mm.sphere_tint.begin());
+        std::copy(v + 24, v + 28, mm.toon_tint.begin());
+        m.material.push_back(mm);
       } else if (!r.Skip(item, "a morph")) {
         return fail(r);
       }
     }
-    if (type != 0 && type != 1) ++model.unapplied[type];
+    if (type != 0 && type != 1 && type != 8) ++model.unapplied[type];
   }
   // What follows (display frames, rigid bodies, joints) is physics and UI: not read.
   return BuildRig(model, name);

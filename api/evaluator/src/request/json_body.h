@@ -19,17 +19,17 @@ using nlohmann::json;
 inline constexpr char kMalformed[] = "malformed JSON";
 // The members each body takes, for "did you mean" when one is not.
 inline constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "space", "mode", "normals", "skinning", "lod", "strict",
-                                                    "keep_targets", "pose", "blend", "animation", "motion", "time", "frame", "loop"};
+                                                    "keep_targets", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop"};
 inline constexpr std::string_view kRenderMembers[] = {"weights", "controls", "mode", "normals", "skinning", "lod", "strict", "pose",
-                                                      "blend", "animation", "motion", "time", "frame", "loop", "width", "height",
+                                                      "blend", "layers", "animation", "motion", "time", "frame", "loop", "width", "height",
                                                       "view", "background", "supersample", "format", "quality", "camera", "exposure"};
 inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "mode", "normals", "skinning", "lod",
-                                                     "strict", "pose", "blend", "animation", "motion", "time", "frame", "loop",
+                                                     "strict", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop",
                                                      "width", "height", "view", "background", "supersample", "quality", "camera", "exposure"};
-inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "transition", "smooth",
+inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "layers", "transition", "smooth",
                                                         "format", "tolerance", "mode", "normals"};
 inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "mode", "normals", "skinning", "lod",
-                                                     "pose", "blend", "animation", "motion", "time", "frame", "loop", "width",
+                                                     "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop", "width",
                                                      "height", "view", "background", "supersample", "quality", "camera", "exposure"};
 // What one body may hold, sized to its route: a limit on the values parsed (every number, string,
 // array and object counts one) bounds the memory and time of the parse before any work.
@@ -58,6 +58,7 @@ bool ClipRef(const json& v, ClipRequest& c);
 void PoseFromJson(const json& v, PoseRequest& pose, Status& errors);
 
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors);
+void LayersFromJson(const json& v, PoseRequest& pose, Status& errors);
 
 // Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
 // the key is not one of them.

@@ -82,6 +82,10 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
         if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
         r.keys.push_back(std::move(key_out));
       }
+    } else if (key == "layers") {
+      PoseRequest pose;
+      LayersFromJson(v, pose, errors);
+      r.layers = std::move(pose.clips);
     } else if (key == "transition") {
       transition(v, ptr, &r.transition);
     } else if (key == "smooth") {
@@ -113,7 +117,10 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
       UnknownMember(key, kSequenceMembers, errors);
     }
   }
-  if (errors.fields.empty() && r.keys.empty() && r.clip.pointer.empty()) errors.fields.push_back({"/keys", "is required (or a motion: \"motion\" or \"animation\")"});
+  if (!r.layers.empty() && (!r.keys.empty() || !r.clip.pointer.empty())) errors.fields.push_back({"/layers", "give keys, a motion or layers: one of them"});
+  if (errors.fields.empty() && r.keys.empty() && r.clip.pointer.empty() && r.layers.empty()) {
+    errors.fields.push_back({"/keys", "is required (or a motion: \"motion\" or \"animation\", or \"layers\")"});
+  }
   if (!errors.fields.empty()) return Finish(errors);
   return r;
 }
@@ -135,8 +142,31 @@ Result<Sequence> ClipSequence(const Rig& rig, const SequenceRequest& request) {
   return SequenceOfClip(rig, clip);
 }
 
+// A sequence of layered motions: each layer starts at its time and plays its clip (the first the
+// base, the others overlays); the sequence spans from 0 to the end of the last layer that ends (or
+// of the longest looping one), its keys the rest weights (the layers give the weights).
+Result<Sequence> LayeredSequence(const Rig& rig, const SequenceRequest& request) {
+  Status errors = InvalidArgument("");
+  float end = 0.0f;
+  for (const ClipRequest& c : request.layers) {
+    const int clip = FindClip(rig, c);
+    if (clip < 0) {
+      errors.fields.push_back({c.pointer, UnknownClipMessage(rig, c)});
+      continue;
+    }
+    end = std::max(end, (c.loop ? 0.0f : c.time) + rig.animations[clip].duration);
+  }
+  if (!errors.fields.empty()) return Finish(errors);
+  Sequence s;
+  s.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+  s.keys.push_back({std::max(end, 1.0f / 30.0f), std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+  s.layers = request.layers;
+  return s;
+}
+
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
   if (!request.clip.pointer.empty()) return ClipSequence(rig, request);
+  if (!request.layers.empty()) return LayeredSequence(rig, request);
   Sequence s;
   s.transition = request.transition;
   s.smooth = request.smooth;

@@ -78,7 +78,15 @@ struct BlendedRig {
   std::vector<BlendedPrimitive> primitives;  // Same order as Rig::primitives.
   std::vector<std::array<float, 16>> node_world;  // World matrix of every node under the pose.
   bool posed = false;                             // A pose other than the rest pose was given.
+  // Per material, its base colour (RGBA) under the shapes' material morphs; empty when no shape
+  // with material morphs has a weight (the materials' own colours hold).
+  std::vector<std::array<float, 4>> material_colors;
 };
+
+// The materials' base colours under the material morphs of `weights` (MMD: diffuse times the texture
+// tint; exact for untextured materials, the tint's add approximated as a factor on a texture), into
+// `out` (one per material); `out` is left empty when no shape with material morphs has a weight.
+void MorphedMaterialColors(const Rig& rig, std::span<const float> weights, std::vector<std::array<float, 4>>& out);
 
 // Per-evaluation scratch, owned by the caller and reused between calls so that steady-state
 // evaluation does not allocate (as ozz's jobs take their context): once its vectors have grown

@@ -94,6 +94,22 @@ struct Mesh {
   int skin = -1;                        // Skin of the first node showing this mesh, or -1.
 };
 
+// An MMD material morph on one material (or on every one: material -1). At weight w (times
+// `factor`, a group morph's share), a multiply scales each value by lerp(1, value, w) and an add adds
+// w * value; per material, the product of the multiplies then the sum of the adds (as MMD).
+struct MaterialMorph {
+  int material = -1;
+  bool add = false;
+  float factor = 1.0f;
+  std::array<float, 4> diffuse{1, 1, 1, 1};  // RGBA: the base colour (and alpha).
+  std::array<float, 3> specular{1, 1, 1};
+  float specular_power = 1.0f;
+  std::array<float, 3> ambient{1, 1, 1};
+  std::array<float, 4> edge{1, 1, 1, 1};
+  float edge_size = 1.0f;
+  std::array<float, 4> texture_tint{1, 1, 1, 1}, sphere_tint{1, 1, 1, 1}, toon_tint{1, 1, 1, 1};
+};
+
 struct Shape {
   std::string name;
   std::string group = "default";        // "identity", "expression", ... from the manifest.
@@ -105,6 +121,7 @@ struct Shape {
   size_t vertices_moved = 0;            // Over all primitives.
   bool driven = false;                  // Its weight is computed (an in-between or a corrective); a
                                         // weight given for it is ignored with a warning.
+  std::vector<MaterialMorph> material_morphs;  // MMD: what the shape does to materials (most shapes: nothing).
 };
 
 // In-between shapes on one slider (Maya's blendShape in-betweens): the slider shape's own

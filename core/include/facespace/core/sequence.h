@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/pose_request.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
 
@@ -42,6 +43,7 @@ struct Sequence {
   Transition transition;
   bool smooth = false;                    // Catmull-Rom through the weight vectors instead.
   int clip = -1;                          // Played from this animation (a VMD motion...): its pose at each time too.
+  std::vector<ClipRequest> layers;        // Or motions layered (pose_request.h), each starting at its `time`.
 };
 
 // Times finite and strictly increasing, every key with one weight per shape, finite.

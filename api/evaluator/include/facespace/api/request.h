@@ -112,6 +112,7 @@ struct SequenceRequest {
   float tolerance = 0.0f;
   bool has_tolerance = false;
   ClipRequest clip;                         // "motion" or "animation" instead of keys (pointer empty: none).
+  std::vector<ClipRequest> layers;          // "layers" instead of keys: each layer's time is its start.
   BlendOptions options;
 };
 Result<SequenceRequest> ParseSequenceRequest(std::string_view body);
