@@ -232,10 +232,15 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     const std::string name = b.get<std::string>();
     std::vector<std::string_view> names;
     for (const AnimationInfo& a : rig.animations) names.push_back(a.name);
+    // A model copied without its motion folder still loads: the base is then a warning.
     if (std::find(names.begin(), names.end(), name) == names.end()) {
-      return bad("/base_motion", "names no motion of the rig: '" + name.substr(0, 60) + "'" + DidYouMean(name, names));
+      rig.load_warnings.push_back({"manifest_unknown_motion",
+                                   "manifest: /base_motion names no motion of the rig: '" + name.substr(0, 60) + "'" + DidYouMean(name, names) +
+                                       "; motions play without a base",
+                                   name.substr(0, 60), 0.0, false});
+    } else {
+      rig.base_motion = name;
     }
-    rig.base_motion = name;
   }
   if (j.contains("materials")) {
     // A material's base colour (RGBA) by name: for a rig whose textures are not at hand (an MMD
@@ -245,11 +250,14 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     for (auto it = m.begin(); it != m.end(); ++it) {
       const std::string ptr = "/materials/" + JsonPointerEscape(it.key());
       auto found = std::find_if(rig.materials.begin(), rig.materials.end(), [&](const Material& x) { return x.name == it.key(); });
-      if (found == rig.materials.end()) return bad(ptr, "names no material of the rig");
       const json& c = it.value().is_object() && it.value().contains("base_color") ? it.value()["base_color"] : json();
       if (!it.value().is_object() || it.value().size() != 1 || !c.is_array() || c.size() != 4 ||
           !std::all_of(c.begin(), c.end(), [](const json& x) { return x.is_number() && x.get<double>() >= 0 && x.get<double>() <= 1; })) {
         return bad(ptr, "must be {\"base_color\": [r, g, b, a]}, each in [0, 1]");
+      }
+      if (found == rig.materials.end()) {
+        rig.load_warnings.push_back({"manifest_unknown_material", "manifest: " + ptr + " names no material of the rig", it.key().substr(0, 60), 0.0, false});
+        continue;
       }
       for (int k = 0; k < 4; ++k) found->base_color_factor[k] = c[k].get<float>();
     }

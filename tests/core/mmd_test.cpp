@@ -566,13 +566,17 @@ TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
   const size_t m = static_cast<size_t>(it - rig->materials.begin());
   EXPECT_FLOAT_EQ(colors[m][0], 0.9f);
   EXPECT_FLOAT_EQ(colors[m][3], 1.0f);
-  // Names that are not there are refused, naming the member.
-  Status bad = ApplyManifest(rig.value(), R"({"materials": {"nope": {"base_color": [1, 1, 1, 1]}}})");
-  EXPECT_EQ(bad.fields.at(0).pointer, "/materials/nope");
-  bad = ApplyManifest(rig.value(), R"({"base_motion": "01_hapy"})");
-  EXPECT_NE(bad.message.find("did you mean '01_happy'"), std::string::npos) << bad.message;
-  bad = ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
-  EXPECT_FALSE(bad.ok());
+  // Names that are not there are load warnings (a model copied without its motions still loads); a
+  // colour out of range is refused, naming the member.
+  rig->load_warnings.clear();
+  ASSERT_TRUE(ApplyManifest(rig.value(), R"({"materials": {"nope": {"base_color": [1, 1, 1, 1]}}, "base_motion": "01_hapy"})").ok());
+  ASSERT_EQ(rig->load_warnings.size(), 2u);
+  EXPECT_EQ(rig->load_warnings[0].code, "manifest_unknown_motion");
+  EXPECT_NE(rig->load_warnings[0].message.find("did you mean '01_happy'"), std::string::npos) << rig->load_warnings[0].message;
+  EXPECT_EQ(rig->load_warnings[1].code, "manifest_unknown_material");
+  EXPECT_EQ(rig->base_motion, "01_happy");  // Unchanged.
+  const Status bad = ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
+  EXPECT_EQ(bad.fields.at(0).pointer, "/materials/頬照り2");
 }
 
 TEST(MmdTextures, ImagesAreReadFromTheModelsFolderOnly) {

@@ -30,6 +30,11 @@ Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> byt
   // A file on disk may name shapes its rig lacks (a load warning); an upload is a client's
   // request, refused at the first unknown name like any other.
   for (const Warning& w : rig->load_warnings) {
+    if (w.code == "manifest_unknown_material") {
+      Status s = InvalidArgument("manifest: /materials/" + JsonPointerEscape(w.shape) + ": the rig has no material '" + w.shape + "'");
+      s.fields.push_back({"/manifest/materials/" + JsonPointerEscape(w.shape), "unknown material '" + w.shape + "'"});
+      return WithReason(s, "invalid-manifest");
+    }
     if (w.code != "manifest_unknown_shape") continue;
     std::vector<std::string_view> names;
     for (const Shape& shape : rig->shapes) names.push_back(shape.name);
