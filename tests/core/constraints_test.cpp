@@ -125,6 +125,12 @@ TEST(Grant, ABoneInheritsAShareOfAnothersRotationAndTranslation) {
 
 // ---- motion layers ----
 
+// A turn about z as a sampler's four values.
+std::vector<float> TurnZ(float angle) {
+  const std::array<float, 4> q = AxisAngle(0, 0, 1, angle);
+  return {q.begin(), q.end()};
+}
+
 // A sampler of one key.
 AnimationSampler Key(std::vector<float> values, size_t components) {
   AnimationSampler s;
@@ -150,11 +156,9 @@ Rig Layered() {
   base.name = "base";
   over.name = "over";
   base.duration = over.duration = 2.0f;
-  base.sampler_data = {Key(std::vector<float>(std::begin(AxisAngle(0, 0, 1, 1.0f)), std::end(AxisAngle(0, 0, 1, 1.0f))), 4),
-                       Key(std::vector<float>(std::begin(AxisAngle(0, 0, 1, 0.5f)), std::end(AxisAngle(0, 0, 1, 0.5f))), 4), Key({0.2f, 0.0f}, 2)};
+  base.sampler_data = {Key(TurnZ(1.0f), 4), Key(TurnZ(0.5f), 4), Key({0.2f, 0.0f}, 2)};
   base.channel_data = {{0, 1, ChannelPath::kRotation}, {1, 2, ChannelPath::kRotation}, {2, 0, ChannelPath::kWeights}};
-  over.sampler_data = {Key({0, 0, 0, 1}, 4), Key(std::vector<float>(std::begin(AxisAngle(0, 0, 1, 1.0f)), std::end(AxisAngle(0, 0, 1, 1.0f))), 4),
-                       Key({0.0f, 1.0f}, 2)};
+  over.sampler_data = {Key({0, 0, 0, 1}, 4), Key(TurnZ(1.0f), 4), Key({0.0f, 1.0f}, 2)};
   over.channel_data = {{0, 1, ChannelPath::kRotation}, {1, 2, ChannelPath::kRotation}, {2, 0, ChannelPath::kWeights}};
   rig.animations = {base, over};
   return rig;

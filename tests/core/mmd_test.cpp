@@ -548,6 +548,26 @@ TEST(MaterialMorphs, UkasBlushIsAShapeThatColoursHerMaterials) {
   }
 }
 
+// A glb of Uka carries the materials' colours at its weights; the batch's template writer gives the
+// same bytes as a whole export for every variant (colours change from one to the next).
+TEST(MaterialMorphs, EveryGlbVariantCarriesItsColours) {
+  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  ASSERT_TRUE(rig.ok());
+  GlbVariantWriter writer;
+  BlendedRig blended;
+  BlendContext context;
+  for (float w : {0.0f, 0.7f, 0.35f}) {
+    std::vector<float> weights(rig->shapes.size(), 0.0f);
+    weights[FindShape(rig.value(), "赤み")] = w;
+    ASSERT_TRUE(EvaluateRig(rig.value(), weights, {}, blended, context).ok());
+    auto whole = ExportMesh(rig.value(), blended, weights, {}, MeshFormat::kGlb);
+    auto pieces = writer.Write(rig.value(), blended, weights, {});
+    ASSERT_TRUE(whole.ok() && pieces.ok());
+    EXPECT_EQ(whole.value(), std::string(pieces->head) + std::string(pieces->bin)) << w;
+    EXPECT_EQ(blended.material_colors.empty(), w == 0.0f);
+  }
+}
+
 // The manifest may colour a material (a model whose textures are not at hand) and name the base motion.
 TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
   Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");

@@ -6,6 +6,7 @@
 #include "facespace/core/transform.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -581,14 +582,17 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
     return Pieces{t.whole, {}};
   }
   GlbShape(rig, blended, t.probe);
-  if (t.rig != &rig || t.shape != t.probe) {
+  // Material morphs change the materials' colours from variant to variant: no template patches them,
+  // so such a rig's variants are exported whole.
+  const bool colours_move = std::any_of(rig.shapes.begin(), rig.shapes.end(), [](const Shape& s) { return !s.material_morphs.empty(); });
+  if (t.rig != &rig || t.shape != t.probe || colours_move) {
     // The first variant of this shape: exported whole, and kept as the template (when its
     // layout is the one expected; otherwise every call exports whole).
     auto glb = ExportGlb(rig, blended, weights, warnings, options);
     if (!glb.ok()) return glb.status();
     t.rig = nullptr;
     t.whole = std::move(glb.value());
-    if (MakeTemplateOrFail(t.whole, rig, blended, t).ok()) {
+    if (!colours_move && MakeTemplateOrFail(t.whole, rig, blended, t).ok()) {
       t.rig = &rig;
       t.shape = t.probe;
     }
