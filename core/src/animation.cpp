@@ -38,9 +38,9 @@ void Sample(const AnimationSampler& s, float time, bool rotation, float* out) {
   Locate(s.times, time, k0, k1, u, dt);
   const size_t c = s.components;
   const bool cubic = s.interpolation == Interpolation::kCubicSpline;
-  const size_t stride = cubic ? 3 * c : s.interpolation == Interpolation::kBezier ? 6 * c : c;
-  const float* v0 = &s.values[k0 * stride + (cubic ? c : 0)];
-  const float* v1 = &s.values[k1 * stride + (cubic ? c : 0)];
+  const size_t stride = s.key_stride();
+  const float* v0 = &s.values[k0 * stride + s.value_offset()];
+  const float* v1 = &s.values[k1 * stride + s.value_offset()];
   if (s.interpolation == Interpolation::kStep || k0 == k1) {
     std::copy(v0, v0 + c, out);
   } else if (s.interpolation == Interpolation::kBezier) {
@@ -139,11 +139,10 @@ namespace {
 // True when every key of the sampler's component `c` holds `rest` (a shape's weight at rest).
 bool ComponentAtRest(const AnimationSampler& s, size_t c, float rest) {
   const size_t n = s.components;
-  const bool cubic = s.interpolation == Interpolation::kCubicSpline, bezier = s.interpolation == Interpolation::kBezier;
-  const size_t stride = cubic ? 3 * n : bezier ? 6 * n : n;
+  const bool bezier = s.interpolation == Interpolation::kBezier;
   for (size_t k = 0; k < s.times.size(); ++k) {
-    const float* key = &s.values[k * stride];
-    if (key[(cubic ? n : 0) + c] != rest) return false;
+    const float* key = &s.values[k * s.key_stride()];
+    if (key[s.value_offset() + c] != rest) return false;
     if (bezier && (key[2 * n + c] != rest || key[4 * n + c] != rest || key[5 * n + c] != rest)) return false;
   }
   return true;
@@ -153,10 +152,9 @@ bool ComponentAtRest(const AnimationSampler& s, size_t c, float rest) {
 bool ChannelAtRest(const AnimationSampler& s, const Transform& rest, ChannelPath path) {
   const size_t n = s.components;
   const float* want = path == ChannelPath::kTranslation ? rest.translation.data() : path == ChannelPath::kScale ? rest.scale.data() : rest.rotation.data();
-  const size_t stride = s.interpolation == Interpolation::kCubicSpline ? 3 * n : n, offset = s.interpolation == Interpolation::kCubicSpline ? n : 0;
   if (s.interpolation == Interpolation::kBezier || (path == ChannelPath::kRotation) != (n == 4)) return false;
   for (size_t k = 0; k < s.times.size(); ++k) {
-    const float* v = &s.values[k * stride + offset];
+    const float* v = &s.values[k * s.key_stride() + s.value_offset()];
     if (path == ChannelPath::kRotation) {
       const float dot = v[0] * want[0] + v[1] * want[1] + v[2] * want[2] + v[3] * want[3];
       if (std::fabs(dot) < 1.0f - 1e-6f) return false;

@@ -244,7 +244,7 @@ Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation) {
     s.transition.kind = smp.interpolation == Interpolation::kStep ? TransitionKind::kStep : TransitionKind::kLinear;
     s.smooth = smp.interpolation == Interpolation::kCubicSpline;
     // kBezier: the keys' values (the curve between them is the clip's, which a clip's sequence plays).
-    const size_t c = smp.components, stride = s.smooth ? 3 * c : smp.interpolation == Interpolation::kBezier ? 6 * c : c, offset = s.smooth ? c : 0;
+    const size_t c = smp.components, stride = smp.key_stride(), offset = smp.value_offset();
     for (size_t k = 0; k < smp.times.size(); ++k) {
       Keyframe key;
       key.time = smp.times[k];

@@ -11,6 +11,7 @@
 #include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
+#include "world.h"
 
 namespace facespace {
 namespace {
@@ -43,14 +44,7 @@ std::vector<float> World(const Rig& rig, std::vector<float> w = {}, const Pose* 
   if (w.empty()) {
     for (const Shape& s : rig.shapes) w.push_back(s.default_weight);
   }
-  BlendedRig blended;
-  BlendContext context;
-  BlendOptions options;
-  options.pose = pose;
-  EXPECT_TRUE(EvaluateRig(rig, w, options, blended, context).ok());
-  std::vector<float> out;
-  WorldPositions(blended, out);
-  return out;
+  return test::WorldOf(rig, w, pose);
 }
 
 // True when every point of `want` is within `tol` of a vertex of `got` (vertices split per corner).

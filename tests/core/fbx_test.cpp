@@ -15,6 +15,7 @@
 #include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
+#include "world.h"
 
 namespace facespace {
 namespace {
@@ -92,13 +93,7 @@ std::map<std::string, Points> Evaluate(const Rig& rig, double time, const std::v
       if (set[s]) w[s] = sampled[s];
     }
   }
-  BlendedRig blended;
-  BlendContext context;
-  BlendOptions options;
-  options.pose = &pose;
-  EXPECT_TRUE(EvaluateRig(rig, w, options, blended, context).ok());
-  std::vector<float> world;
-  WorldPositions(blended, world);
+  const std::vector<float> world = test::WorldOf(rig, w, &pose);
   std::map<std::string, Points> out;
   size_t at = 0;
   for (const Primitive& p : rig.primitives) {

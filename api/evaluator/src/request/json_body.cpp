@@ -129,6 +129,29 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
 // The clip a request names with "animation" or "motion" (not one of "blend").
 bool IsRequestClip(const ClipRequest& c) { return c.pointer == "/animation" || c.pointer == "/motion"; }
 
+namespace {
+
+// A clip's "loop" or "mask" member, in a blend or a layer; false for any other key.
+bool LoopOrMask(const std::string& key, const json& v, const std::string& ptr, ClipRequest& c, Status& errors) {
+  if (key == "loop") {
+    if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+    else c.loop = v.get<bool>();
+    return true;
+  }
+  if (key != "mask") return false;
+  if (!v.is_array()) {
+    errors.fields.push_back({ptr, "must be an array of joint names"});
+    return true;
+  }
+  for (const json& m : v) {
+    if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
+    else c.mask.push_back(m.get<std::string>());
+  }
+  return true;
+}
+
+}  // namespace
+
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
   if (!v.is_array() || v.empty()) {
     errors.fields.push_back({"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});
@@ -148,19 +171,7 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
       if (p.key() == "time" || p.key() == "weight") {
         if (!p->is_number() || !std::isfinite(p->get<double>())) errors.fields.push_back({ptr, "must be a finite number"});
         else (p.key() == "time" ? c.time : c.weight) = p->get<float>();
-      } else if (p.key() == "loop") {
-        if (!p->is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
-        else c.loop = p->get<bool>();
-      } else if (p.key() == "mask") {
-        if (!p->is_array()) {
-          errors.fields.push_back({ptr, "must be an array of joint names"});
-          continue;
-        }
-        for (const json& m : *p) {
-          if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
-          else c.mask.push_back(m.get<std::string>());
-        }
-      } else {
+      } else if (!LoopOrMask(p.key(), *p, ptr, c, errors)) {
         errors.fields.push_back({ptr, "unknown member (animation, time, weight, loop, mask)"});
       }
     }
@@ -204,19 +215,7 @@ void LayersFromJson(const json& v, PoseRequest& pose, Status& errors) {
         if (k == "weight") c.weight = static_cast<float>(x);
         if (k == "fade_in") c.fade_in = static_cast<float>(x);
         if (k == "fade_out") c.fade_out = static_cast<float>(x);
-      } else if (k == "loop") {
-        if (!p->is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
-        else c.loop = p->get<bool>();
-      } else if (k == "mask") {
-        if (!p->is_array()) {
-          errors.fields.push_back({ptr, "must be an array of joint names"});
-          continue;
-        }
-        for (const json& m : *p) {
-          if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
-          else c.mask.push_back(m.get<std::string>());
-        }
-      } else {
+      } else if (!LoopOrMask(k, *p, ptr, c, errors)) {
         errors.fields.push_back({ptr, "unknown member (motion, animation, time, frame, weight, loop, fade_in, fade_out, mask)"});
       }
     }

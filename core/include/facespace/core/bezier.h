@@ -33,18 +33,13 @@ inline double BezierYAtX(double x0, double x1, double x2, double x3, double y0, 
 // Casteljau): the same curve, reparameterised over [0, 1].
 inline std::array<double, 4> BezierPart(const std::array<double, 4>& p, double s0, double s1) {
   // Split at s1, keep the left; split that at s0 / s1, keep the right.
-  const auto left = [](const std::array<double, 4>& q, double s) {
+  const auto split = [](const std::array<double, 4>& q, double s, bool keep_left) {
     const double a = q[0] + s * (q[1] - q[0]), b = q[1] + s * (q[2] - q[1]), c = q[2] + s * (q[3] - q[2]);
-    const double ab = a + s * (b - a), bc = b + s * (c - b);
-    return std::array<double, 4>{q[0], a, ab, ab + s * (bc - ab)};
+    const double ab = a + s * (b - a), bc = b + s * (c - b), at = ab + s * (bc - ab);
+    return keep_left ? std::array<double, 4>{q[0], a, ab, at} : std::array<double, 4>{at, bc, c, q[3]};
   };
-  const auto right = [](const std::array<double, 4>& q, double s) {
-    const double a = q[0] + s * (q[1] - q[0]), b = q[1] + s * (q[2] - q[1]), c = q[2] + s * (q[3] - q[2]);
-    const double ab = a + s * (b - a), bc = b + s * (c - b);
-    return std::array<double, 4>{ab + s * (bc - ab), bc, c, q[3]};
-  };
-  const std::array<double, 4> l = s1 < 1.0 ? left(p, s1) : p;
-  return s0 > 0.0 && s1 > 0.0 ? right(l, s0 / s1) : l;
+  const std::array<double, 4> l = s1 < 1.0 ? split(p, s1, true) : p;
+  return s0 > 0.0 && s1 > 0.0 ? split(l, s0 / s1, false) : l;
 }
 
 }  // namespace facespace

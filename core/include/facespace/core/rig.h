@@ -256,6 +256,11 @@ struct AnimationSampler {
                                         // in-tangent, value, out-tangent; x6 for kBezier).
   size_t components = 0;
   Interpolation interpolation = Interpolation::kLinear;
+  // Floats per key, and where a key's values start in them (CUBICSPLINE's in-tangents come first).
+  size_t key_stride() const {
+    return components * (interpolation == Interpolation::kCubicSpline ? 3 : interpolation == Interpolation::kBezier ? 6 : 1);
+  }
+  size_t value_offset() const { return interpolation == Interpolation::kCubicSpline ? components : 0; }
 };
 
 struct AnimationChannel {
