@@ -22,8 +22,8 @@ start() {
   "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --max-body 2000000 --max-response 1000000 --max-frames 40000 \
     --cors-origin http://front.test --jobs-dir "$tmp/jobs" "$@" >>"$tmp/log" 2>&1 &
   pid=$!
-  for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && return 0; sleep 0.1; done
-  echo "server did not start:"; cat "$tmp/log"; exit 1
+  for _ in $(seq 1 600); do curl -fs "$U/healthz" >/dev/null 2>&1 && return 0; sleep 0.1; done
+  no "the server did not answer /healthz within 60 s; its log ends:"; tail -30 "$tmp/log"; finish; exit 1
 }
 # c ARGS...: status code; body in $tmp/body, headers in $tmp/hdr.
 c() { curl -s -o "$tmp/body" -D "$tmp/hdr" -w '%{http_code}' "$@"; }
@@ -319,6 +319,7 @@ check "a file whose name is no rig id is said once, not at every look at the sto
 # graceful shutdown and restart
 kill -TERM "$pid"; wait "$pid"; rc=$?; pid=
 check "SIGTERM: exits 0" test $rc -eq 0
+[ $rc -eq 0 ] || { echo "     exit $rc; the log ends:"; tail -30 "$tmp/log" | sed 's/^/     /'; }
 start
 check "restart keeps uploaded rigs" test "$(c "$U/v1/rigs/fox")" = 200
 check "restart: the deleted rig stays deleted" test "$(c "$U/v1/rigs/cesium-man")" = 404
@@ -526,7 +527,7 @@ check "kill -9 while an upload arrives: after restart the rig is absent, no temp
 # A full disk: the server may write at most 64 KiB per file (RLIMIT_FSIZE, SIGXFSZ ignored: writes fail with EFBIG, as on ENOSPC).
 kill -TERM "$pid"; wait "$pid"; pid=
 (trap '' XFSZ; ulimit -f 64; exec "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$store" --api-key-file "$tmp/key" --jobs-dir "$tmp/jobs" --quiet >>"$tmp/log2" 2>&1) & pid=$!
-for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+for _ in $(seq 1 600); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
 cp "$store/facecap.glb" "$tmp/facecap.before"
 code=$(c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "$U/v1/rigs/facecap")
 check "file size limit during an upload (EFBIG): 507 storage-full, the old rig still served and unchanged on disk, no temporary file" sh -c "[ $code = 507 ] && grep -q 'storage-full' '$tmp/body' && cmp -s '$store/facecap.glb' '$tmp/facecap.before' && ! ls -a '$store' | grep -q tmp && [ \$(curl -s '$U/v1/rigs/facecap' | python3 -c 'import json,sys; print(json.load(sys.stdin)[\"shapes\"].__len__())') = 52 ]"
@@ -538,7 +539,7 @@ if mount -t tmpfs -o size=1m,mode=0755 tmpfs "$full" 2>"$tmp/mount.err"; then
   cp "$store/facecap.glb" "$store/facecap.manifest.json" "$full/store/"
   head -c 600000 /dev/zero >"$full/filler"   # about 80 KB left: no room for Fox (163 KB)
   "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$full/store" --api-key-file "$tmp/key" --jobs-dir "$full/jobs" --quiet >>"$tmp/log3" 2>&1 & pid=$!
-  for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+  for _ in $(seq 1 600); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
   code=$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "$U/v1/rigs/fox")
   check "tmpfs full (ENOSPC): a new rig is 507 storage-full naming the cause, nothing stored, no temporary file" sh -c "[ $code = 507 ] && grep -q 'No space left on device' '$tmp/body' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/fox') = 404 ] && [ \"\$(ls -A '$full/store' | sort | tr '\n' ' ')\" = 'facecap.glb facecap.manifest.json ' ]"
   code=$(c -X PUT "${K[@]}" -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "$U/v1/rigs/facecap")
@@ -554,7 +555,7 @@ if mount -t tmpfs -o size=1m,mode=0755 tmpfs "$full" 2>"$tmp/mount.err"; then
   check "tmpfs with space again: the same upload is 201" test "$code" = 201
   kill -TERM "$pid"; wait "$pid"; pid=
   "$bin" serve --host 127.0.0.1 --port "$port" --rigs "$full/store" --api-key-file "$tmp/key" --jobs-dir "$full/jobs" --quiet >>"$tmp/log3" 2>&1 & pid=$!
-  for _ in $(seq 1 100); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+  for _ in $(seq 1 600); do curl -fs "$U/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
   check "tmpfs: after a restart facecap and fox are served, nothing half-written in the store" sh -c "[ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/facecap') = 200 ] && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/fox') = 200 ] && [ \"\$(ls -A '$full/store' | sort | tr '\n' ' ')\" = 'facecap.glb facecap.manifest.json fox.glb ' ]"
   kill -TERM "$pid"; wait "$pid"; pid=
   umount "$full"
@@ -595,7 +596,7 @@ mkdir -p "$tmp/md5store/bob"
 cp "$2/more/MD5/Bob/Bob.md5mesh" "$tmp/md5store/bob/bob.md5mesh"; cp "$2/more/MD5/Bob/Bob.md5anim" "$tmp/md5store/bob/"
 port2=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])')
 "$bin" serve --host 127.0.0.1 --port "$port2" --rigs "$tmp/md5store" --quiet >>"$tmp/log2" 2>&1 & pid2=$!
-for _ in $(seq 1 100); do curl -fs "http://127.0.0.1:$port2/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+for _ in $(seq 1 600); do curl -fs "http://127.0.0.1:$port2/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
 c "http://127.0.0.1:$port2/v1/rigs/bob" >/dev/null
 check "MD5 in the store: 33 joints, the clip 'Bob' of 139/24 s" jq_ "d['skeleton']['joints']==33 and d['animations'][0]['name']=='Bob' and abs(d['animations'][0]['duration']-139/24)<1e-4 and d['triangles']==1027"
 curl -s -o "$tmp/bob_rest.f32" "http://127.0.0.1:$port2/v1/rigs/bob/mesh?format=f32"
@@ -612,7 +613,7 @@ mkdir -p "$tmp/mmdstore/uka"
 cp -r "$src/assets/uka/MS_Uka.pmx" "$src/assets/uka/MS_Uka.manifest.json" "$src/assets/uka/motion" "$tmp/mmdstore/uka/"
 port3=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.getsockname()[1])')
 "$bin" serve --host 127.0.0.1 --port "$port3" --rigs "$tmp/mmdstore" --quiet >>"$tmp/log3" 2>&1 & pid3=$!
-for _ in $(seq 1 100); do curl -fs "http://127.0.0.1:$port3/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
+for _ in $(seq 1 600); do curl -fs "http://127.0.0.1:$port3/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
 U3=http://127.0.0.1:$port3/v1/rigs/uka
 c "$U3" >/dev/null
 check "MMD in the store: uka, 302 joints, 206 shapes, the credit line, 40 motions (01_happy 10 s, stand 4 s)" jq_ "d['skeleton']['joints']==302 and d['shapes'].__len__()==206 and 'Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society' in d['credit'] and len(d['animations'])==40 and d['animations'][1]['name']=='01_happy' and abs(d['animations'][1]['duration']-10)<1e-6 and d['animations'][-1]['name']=='stand' and abs(d['animations'][-1]['duration']-4)<1e-6"
