@@ -82,13 +82,13 @@ class WarningSummary {
 int Sequence(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format = "json", out;
-  bool smooth = false, has_fps = false, has_reduce = false, has_bake = false;
+  bool smooth = false, has_fps = false, has_reduce = false, has_bake = false, physics = true;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
   Flags flags(
       "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --layers JSON|@FILE\n"
       "         | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
-      "         [--transition T] [--smooth] (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
+      "         [--transition T] [--smooth] [--no-physics] (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
       "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
       "       facespace sequence RIG ... --bake TIME -o OUT.json\n",
       "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
@@ -109,6 +109,7 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Text("--obj-times", "T0,T1,...", "OBJ sequence: one key per file at these times", &obj_times);
   flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &transition);
   flags.Switch("--smooth", "Catmull-Rom through the keys", [&] { smooth = true; });
+  flags.Switch("--no-physics", "no secondary motion: the rig's rigid bodies (MMD hair, skirts) follow their bones", [&] { physics = false; });
   flags.Text("--times", "JSON", "sample at these times: [0, 0.5, 1]", &times_text);
   flags.Value("--fps", "N", "sample every 1/N s from the first key to the last (default 30)", number("--fps", 1e-3f, &fps, &has_fps));
   flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
@@ -214,6 +215,7 @@ int Sequence(const std::vector<std::string>& args) {
       return 1;
     }
   }
+  seq.physics = physics;
 
   if (has_reduce) {
     auto r = ReduceSequence(rig, seq, tolerance);
@@ -271,10 +273,11 @@ int Sequence(const std::vector<std::string>& args) {
   frame.options = options;
   const api::OutputSpec spec = api::OutputSpec::Mesh(frame, mf);
   api::ResolvedPoint point;
+  api::SequencePhysics simulation(rig, seq);
   Progress progress(times.size());
   WarningSummary summary;
   for (size_t k = 0; k < times.size(); ++k) {
-    api::SequencePoint(rig, seq, times[k], options.mode, point);
+    api::SequencePoint(rig, seq, times[k], options.mode, point, &simulation);
     summary.Add(point.report.warnings);
     auto bytes = evaluator.Run(stored, point, spec, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;

@@ -1,7 +1,8 @@
 #!/bin/bash
 # The layers of README.md's "Layout of the code", checked against the includes: each folder's
 # sources include facespace headers only from their own layer and the layers below it.
-#   core <- core/formats <- api/evaluator <- api/batch <- api <- service, and render beside formats.
+#   core <- core/formats <- api/evaluator <- api/batch <- api <- service, render and core/physics
+#   beside formats.
 src=${1:-$(dirname "$0")/..}
 cd "$src" || exit 2
 fail=0
@@ -19,10 +20,11 @@ check() {
   fi
 }
 evaluator_headers='api/(request|store|evaluator)\.h'
-check core 'core/' '^core/formats/'
+check core 'core/' '^core/(formats|physics)/'
 check core/formats 'core/|formats/'
+check core/physics 'core/|physics/'
 check render 'core/|render/'
-check api/evaluator "core/|formats/|render/|$evaluator_headers"
+check api/evaluator "core/|formats/|render/|physics/|$evaluator_headers"
 check api/batch "core/|formats/|render/|$evaluator_headers|batch/"
 check api 'core/|formats/|render/|api/|batch/' '^api/(evaluator|batch)/'
 # httplib stays in the HTTP layer: the evaluator and batch never see it.

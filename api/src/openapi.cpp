@@ -293,6 +293,7 @@ json Build() {
                                              {"transition", {{"type", "string"}}}}}}}}},
         {"transition", {{"type", "string"}, {"description", "step, linear, smoothstep, smootherstep, ease-in, ease-out, ease-in-out, cubic-bezier(x1, y1, x2, y2)"}}},
         {"smooth", {{"type", "boolean"}, {"description", "Catmull-Rom through the keys"}}},
+        {"physics", {{"type", "boolean"}, {"default", true}, {"description", "simulate the rig's rigid bodies (MMD hair, ears, skirts) over a sequence that plays a motion or layers; false: they follow their bones"}}},
         {"times", {{"type", "array"}, {"items", {{"type", "number"}}}}},
         {"fps", {{"type", "number"}}},
         {"format", {{"enum", {"json", "ndjson", "f32"}}}},

@@ -1,40 +1,91 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
 #include "facespace/api/evaluator.h"
+#include "facespace/physics/physics.h"
 #include "json_text.h"
 
 namespace facespace::api {
 
-void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point) {
-  point.weights.resize(rig.shapes.size());
-  point.posed = false;
-  float f = 0.0f;
-  SampleSequence(sequence, time, point.weights, &f);
-  if (sequence.clip >= 0 || !sequence.layers.empty()) {
-    // The clip's pose and weights at this time: its curves as it draws them (the keys are its
-    // weight channel's keys; between them a curve need not be linear).
-    PoseRequest request;
-    if (sequence.clip >= 0) {
-      ClipRequest clip;
-      clip.index = sequence.clip;
-      clip.time = time;
-      clip.pointer = "/motion";
-      clip.over_base = true;
-      request.clips.push_back(clip);
-    }
-    for (const ClipRequest& layer : sequence.layers) {
-      request.clips.push_back(layer);
-      request.clips.back().time = time - layer.time;  // A layer's time is its start in the sequence.
-    }
-    std::vector<float> animated;
-    std::vector<uint8_t> set;
-    std::vector<Warning> warnings;
-    point.posed = BuildPose(rig, request, point.pose, animated, set, warnings).ok();
-    for (size_t i = 0; point.posed && i < set.size(); ++i) {
-      if (set[i]) point.weights[i] = animated[i];
+bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& animated,
+                  std::vector<uint8_t>& set) {
+  if (sequence.clip < 0 && sequence.layers.empty()) return false;
+  // The clip's pose and weights at this time: its curves as it draws them (the keys are its weight
+  // channel's keys; between them a curve need not be linear).
+  PoseRequest request;
+  if (sequence.clip >= 0) {
+    ClipRequest clip;
+    clip.index = sequence.clip;
+    clip.time = time;
+    clip.pointer = "/motion";
+    clip.over_base = true;
+    request.clips.push_back(clip);
+  }
+  for (const ClipRequest& layer : sequence.layers) {
+    request.clips.push_back(layer);
+    request.clips.back().time = time - layer.time;  // A layer's time is its start in the sequence.
+  }
+  std::vector<Warning> warnings;
+  return BuildPose(rig, request, pose, animated, set, warnings).ok();
+}
+
+SequencePhysics::SequencePhysics(const Rig& rig, const Sequence& sequence)
+    : rig_(rig), sequence_(sequence),
+      active_(sequence.physics && !rig.physics.empty() && (sequence.clip >= 0 || !sequence.layers.empty()) && !sequence.keys.empty()) {}
+
+SequencePhysics::~SequencePhysics() = default;
+
+void SequencePhysics::Apply(float time, Pose& pose, std::vector<Warning>& warnings) {
+  if (!active_) return;
+  const float start = sequence_.keys.front().time;
+  const double wanted = std::max(0.0, static_cast<double>(time) - start) * kStepsPerSecond;
+  const long long last = static_cast<long long>(kMaxSeconds * kStepsPerSecond);
+  long long step = std::llround(wanted);
+  if (step > last) {
+    warnings.push_back({"physics_limited", "physics is simulated for the first " + FormatNumber(kMaxSeconds) +
+                        " s of a sequence; later frames hold its last step", "", kMaxSeconds, true});
+    step = last;
+  }
+  if (step == 0) return;  // The first frame: the bodies start where their bones are.
+  if ((!sim_ || step < step_ ? step : step - step_) > budget_) {
+    warnings.push_back({"physics_limited", "this request's times go back and forth past the physics it may simulate (" +
+                        FormatNumber(kMaxSeconds) + " s in all): this frame is not simulated", "", kMaxSeconds, true});
+    return;
+  }
+  std::vector<float> animated;
+  std::vector<uint8_t> set;
+  if (!sim_ || step < step_) {
+    if (!SequencePose(rig_, sequence_, start, scratch_, animated, set)) return;
+    sim_ = physics::Simulation::Create(rig_, scratch_);
+    step_ = 0;
+    if (!sim_) {
+      active_ = false;
+      return;
     }
   }
+  for (; step_ < step; ++step_, --budget_) {
+    if (!SequencePose(rig_, sequence_, start + static_cast<float>(static_cast<double>(step_ + 1) / kStepsPerSecond), scratch_, animated, set)) return;
+    sim_->Step(scratch_, 1.0f / kStepsPerSecond);
+  }
+  sim_->Apply(pose);
+}
+
+void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point,
+                   SequencePhysics* physics) {
+  point.weights.resize(rig.shapes.size());
+  point.posed = false;
+  point.report.warnings.clear();
+  float f = 0.0f;
+  SampleSequence(sequence, time, point.weights, &f);
+  std::vector<float> animated;
+  std::vector<uint8_t> set;
+  point.posed = SequencePose(rig, sequence, time, point.pose, animated, set);
+  for (size_t i = 0; point.posed && i < set.size(); ++i) {
+    if (set[i]) point.weights[i] = animated[i];
+  }
+  std::vector<Warning> physics_warnings;
+  if (point.posed && physics) physics->Apply(time, point.pose, physics_warnings);
   CheckPoint(rig, mode, point);
+  point.report.warnings.insert(point.report.warnings.end(), physics_warnings.begin(), physics_warnings.end());
   const std::string at = "t=" + FormatNumber(time) + ": ";
   for (Warning& w : point.report.warnings) w.message = at + w.message;
   if (f < 0.0f || f > 1.0f) {
@@ -49,9 +100,10 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::sh
   const Rig& rig = stored->rig;
   const OutputSpec spec = OutputSpec::Frame(options, false);
   ResolvedPoint point;
+  SequencePhysics physics(rig, sequence);
   std::string out = "{\"space\":\"world\",\"frames\":[";  // Positions and normals placed by each primitive's node, as blend's JSON.
   for (size_t i = 0; i < times.size(); ++i) {
-    SequencePoint(rig, sequence, times[i], options.mode, point);
+    SequencePoint(rig, sequence, times[i], options.mode, point, &physics);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
     auto primitives = evaluator.Run(stored, point, spec, ws);
     if (!primitives.ok()) return primitives.status();
@@ -76,11 +128,12 @@ size_t FrameCount(const Sequence& sequence, float fps) {
 }
 
 Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored, const Sequence& sequence,
-                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws) {
+                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws,
+                                SequencePhysics* physics) {
   const Rig& rig = stored->rig;
   const float t = sequence.keys.front().time + static_cast<float>(frame) / fps;
   ResolvedPoint point;
-  SequencePoint(rig, sequence, t, options.mode, point);
+  SequencePoint(rig, sequence, t, options.mode, point, physics);
   if (!f32) {
     return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
            ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}\n";

@@ -62,14 +62,15 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   const bool f32 = format == "f32";
   // One frame per call, computed as the client reads: a client that closes stops the work.
   auto next = std::make_shared<size_t>(0);
+  auto physics = std::make_shared<SequencePhysics>(stored->rig, *seq);  // Carried from frame to frame.
   res.set_chunked_content_provider(f32 ? "application/octet-stream" : "application/x-ndjson",
-                                   [&ctx, stored, r, seq, next, frames, f32](size_t, httplib::DataSink& sink) {
+                                   [&ctx, stored, r, seq, next, frames, f32, physics](size_t, httplib::DataSink& sink) {
                                      if (*next >= frames) {
                                        sink.done();
                                        return true;
                                      }
                                      const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-                                     auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, r->fps, f32, r->options, *ws);
+                                     auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, r->fps, f32, r->options, *ws, physics.get());
                                      if (!chunk.ok()) return false;
                                      if (f32) ctx.metrics.CountBlends(1);
                                      return sink.write(chunk->data(), chunk->size());

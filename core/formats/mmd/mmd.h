@@ -158,6 +158,25 @@ struct Morph {
   std::vector<MaterialMorph> material;  // Type 8; `material` is the PMX material index (-1: all) until BuildRig.
 };
 
+// A rigid body and a joint as the file says them (PMD: the body's position is from its bone).
+struct RigidBodyData {
+  std::string name;
+  int64_t bone = -1;
+  uint8_t group = 0, shape = 0, mode = 0;
+  uint16_t mask = 0xffff;
+  float size[3], pos[3], rot[3];     // rot: Euler radians, applied y, x, z.
+  float mass, linear_damping, angular_damping, restitution, friction;
+};
+
+struct JointData {
+  std::string name;
+  int64_t a = -1, b = -1;
+  uint8_t type = 0;                  // 0: a spring joint (PMX 2.1 adds others).
+  float pos[3], rot[3];              // rot: Euler radians, applied z, y, x.
+  float linear_lower[3], linear_upper[3], angular_lower[3], angular_upper[3];
+  float linear_spring[3], angular_spring[3];
+};
+
 // What a PMX or PMD file holds, in MMD's units and handedness.
 struct Model {
   const char* format = "PMX";
@@ -168,6 +187,9 @@ struct Model {
   std::vector<ModelMaterial> mats;   // Their face index counts add up to indices.size().
   std::vector<Bone> bones;
   std::vector<Morph> morphs;         // Vertex and group entries checked against verts and morphs.
+  std::vector<RigidBodyData> bodies;
+  std::vector<JointData> joints;
+  bool body_positions_from_bone = false;  // PMD.
   size_t sdef = 0, qdef = 0, ik = 0, grants = 0;
   std::map<int, size_t> unapplied;   // PMX morph type -> count, for morphs not made shapes.
 };

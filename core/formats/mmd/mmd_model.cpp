@@ -146,6 +146,89 @@ void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& nod
   if (c.empty()) c.order.clear();
 }
 
+// Quaternion (x, y, z, w) products, and MMD's Euler angles applied in `order` (axes 0-2, first applied
+// first), turned into the rig's axes as positions are: (x, y, z, w) becomes (-x, -y, z, w).
+std::array<float, 4> QuatMul(const std::array<float, 4>& a, const std::array<float, 4>& b) {
+  return {a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1], a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0],
+          a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3], a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]};
+}
+std::array<float, 4> EulerToRig(const float* angles, std::array<int, 3> order) {
+  std::array<float, 4> q{0, 0, 0, 1};
+  for (int axis : order) {
+    std::array<float, 4> r{0, 0, 0, std::cos(angles[axis] / 2)};
+    r[axis] = std::sin(angles[axis] / 2);
+    q = QuatMul(r, q);
+  }
+  return {-q[0], -q[1], q[2], q[3]};
+}
+
+// The rigid bodies and joints as the rig's physics (rig.h), in its axes and metres; the masses,
+// springs and dampings hold at MMD's scale, where it is simulated. Bodies and joints that name
+// nothing, or of an unknown shape or mode, are dropped and counted.
+void ReadPhysics(const Model& in, const std::vector<int>& node_of, Rig& rig, size_t& dropped) {
+  constexpr size_t kMaxBodies = 1024, kMaxJoints = 2048;  // A model has hundreds; each costs every step.
+  Physics& ph = rig.physics;
+  ph.units_per_metre = 1.0f / kMetresPerUnit;
+  ph.gravity = 9.8f * 10.0f * kMetresPerUnit;  // MMD's 9.8 x 10 units a second squared.
+  const int64_t nbones = static_cast<int64_t>(in.bones.size());
+  std::vector<int> body_of(in.bodies.size(), -1);
+  for (size_t i = 0; i < in.bodies.size(); ++i) {
+    const RigidBodyData& b = in.bodies[i];
+    if (b.shape > 2 || b.mode > 2 || b.bone >= nbones || b.bone < -1 || b.group > 15 || ph.bodies.size() >= kMaxBodies) {
+      ++dropped;
+      continue;
+    }
+    RigidBody body;
+    body.name = b.name;
+    body.node = b.bone >= 0 ? node_of[b.bone] : -1;
+    body.shape = static_cast<RigidBody::Shape>(b.shape);
+    body.mode = static_cast<RigidBody::Mode>(b.mode);
+    for (int a = 0; a < 3; ++a) body.size[a] = std::clamp(b.size[a], 1e-3f, 1e4f) * kMetresPerUnit;
+    float pos[3] = {b.pos[0], b.pos[1], b.pos[2]};
+    if (in.body_positions_from_bone && nbones > 0) {  // PMD: from its bone (or the first bone).
+      const float* from = in.bones[b.bone >= 0 ? b.bone : 0].pos;
+      for (int a = 0; a < 3; ++a) pos[a] += from[a];
+    }
+    body.position = ToGltf(pos);
+    body.rotation = EulerToRig(b.rot, {2, 0, 1});  // R = Ry Rx Rz.
+    body.mass = std::clamp(b.mass, 0.0f, 1e6f);
+    body.linear_damping = std::clamp(b.linear_damping, 0.0f, 1.0f);
+    body.angular_damping = std::clamp(b.angular_damping, 0.0f, 1.0f);
+    body.restitution = std::clamp(b.restitution, 0.0f, 1.0f);
+    body.friction = std::clamp(b.friction, 0.0f, 1e3f);
+    body.group = b.group;
+    body.collides_with = b.mask;
+    body_of[i] = static_cast<int>(ph.bodies.size());
+    ph.bodies.push_back(std::move(body));
+  }
+  const int64_t nbodies = static_cast<int64_t>(in.bodies.size());
+  for (const JointData& j : in.joints) {
+    if (j.type != 0 || j.a < 0 || j.b < 0 || j.a >= nbodies || j.b >= nbodies || body_of[j.a] < 0 || body_of[j.b] < 0 || j.a == j.b ||
+        ph.joints.size() >= kMaxJoints) {
+      ++dropped;
+      continue;
+    }
+    PhysicsJoint joint;
+    joint.name = j.name;
+    joint.a = body_of[j.a];
+    joint.b = body_of[j.b];
+    joint.position = ToGltf(j.pos);
+    joint.rotation = EulerToRig(j.rot, {0, 1, 2});  // R = Rz Ry Rx.
+    for (int a = 0; a < 3; ++a) {
+      // The z axis turns over: translations along it and rotations about x and y change sign.
+      const bool flip_linear = a == 2, flip_angular = a != 2;
+      joint.linear_lower[a] = (flip_linear ? -j.linear_upper[a] : j.linear_lower[a]) * kMetresPerUnit;
+      joint.linear_upper[a] = (flip_linear ? -j.linear_lower[a] : j.linear_upper[a]) * kMetresPerUnit;
+      joint.angular_lower[a] = flip_angular ? -j.angular_upper[a] : j.angular_lower[a];
+      joint.angular_upper[a] = flip_angular ? -j.angular_lower[a] : j.angular_upper[a];
+      joint.linear_stiffness[a] = std::clamp(j.linear_spring[a], 0.0f, 1e6f);
+      joint.angular_stiffness[a] = std::clamp(j.angular_spring[a], 0.0f, 1e6f);
+    }
+    ph.joints.push_back(std::move(joint));
+  }
+  if (ph.bodies.empty()) ph = Physics{};
+}
+
 Result<Rig> BuildRig(const Model& in, const std::string& name) {
   const std::vector<Vertex>& verts = in.verts;
   const std::vector<uint32_t>& indices = in.indices;
@@ -423,6 +506,14 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
                                  std::to_string(dropped + unread) + " of the " + std::to_string(ik) + " IK bones and " + std::to_string(grants) +
                                      " grant (inherit) bones are not applied" + (dropped ? " (" + std::to_string(dropped) + " name no bone or themselves, or would take a pose past the work allowed)" : ""),
                                  "", static_cast<double>(dropped + unread), false});
+  }
+  size_t physics_dropped = 0;
+  ReadPhysics(in, node_of, rig, physics_dropped);
+  if (physics_dropped) {
+    rig.load_warnings.push_back({"physics_skipped",
+                                 std::to_string(physics_dropped) + " of the " + std::to_string(in.bodies.size()) + " rigid bodies and " +
+                                     std::to_string(in.joints.size()) + " joints name no bone or body, have an unknown shape, mode or joint type, or pass the counts allowed (1,024 bodies, 2,048 joints): not simulated",
+                                 "", static_cast<double>(physics_dropped), false});
   }
   if (!skipped.empty()) {
     std::string list;

@@ -192,8 +192,37 @@ Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::strin
     for (Morph& m : model.morphs) {
       if (!Name(r, 20, m.english, "the English skin names")) return fail(r);
     }
+    if (!r.Skip(50 * nframes, "the English bone display names")) return fail(r);
   }
-  // Toon textures and physics follow: not read.
+  // Toon texture names (skipped), then the rigid bodies and joints, when the file has them.
+  model.body_positions_from_bone = true;
+  if (r.left() < 1000 + 4) return BuildRig(model, name);
+  size_t nbodies = 0, njoints = 0;
+  if (!r.Skip(1000, "the toon textures") || !r.CountOf<uint32_t>(83, nbodies, "the rigid body count")) return fail(r);
+  model.bodies.resize(nbodies);
+  for (RigidBodyData& b : model.bodies) {
+    uint16_t bone;
+    if (!Name(r, 20, b.name, "a rigid body") || !r.Get(bone, "a rigid body") || !r.Get(b.group, "a rigid body") || !r.Get(b.mask, "a rigid body") ||
+        !r.Get(b.shape, "a rigid body") || !r.Floats(b.size, 3, "a rigid body") || !r.Floats(b.pos, 3, "a rigid body") ||
+        !r.Floats(b.rot, 3, "a rigid body") || !r.Floats(&b.mass, 1, "a rigid body") || !r.Floats(&b.linear_damping, 1, "a rigid body") ||
+        !r.Floats(&b.angular_damping, 1, "a rigid body") || !r.Floats(&b.restitution, 1, "a rigid body") ||
+        !r.Floats(&b.friction, 1, "a rigid body") || !r.Get(b.mode, "a rigid body")) {
+      return fail(r);
+    }
+    b.bone = bone == 0xffff ? -1 : bone;
+  }
+  if (!r.CountOf<uint32_t>(124, njoints, "the joint count")) return fail(r);
+  model.joints.resize(njoints);
+  for (JointData& j : model.joints) {
+    uint32_t a, b;
+    if (!Name(r, 20, j.name, "a joint") || !r.Get(a, "a joint") || !r.Get(b, "a joint") || !r.Floats(j.pos, 3, "a joint") ||
+        !r.Floats(j.rot, 3, "a joint") || !r.Floats(j.linear_lower, 3, "a joint") || !r.Floats(j.linear_upper, 3, "a joint") ||
+        !r.Floats(j.angular_lower, 3, "a joint") || !r.Floats(j.angular_upper, 3, "a joint") ||
+        !r.Floats(j.linear_spring, 3, "a joint") || !r.Floats(j.angular_spring, 3, "a joint")) {
+      return fail(r);
+    }
+    j.a = a, j.b = b;
+  }
   return BuildRig(model, name);
 }
 

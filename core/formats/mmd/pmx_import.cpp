@@ -261,7 +261,52 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
     }
     if (type != 0 && type != 1 && type != 8) ++model.unapplied[type];
   }
-  // What follows (display frames, rigid bodies, joints) is physics and UI: not read.
+  // Display frames (skipped), then the rigid bodies and joints. A file that ends before them
+  // (some tools stop after the morphs) has no physics.
+  if (r.left() == 0) return BuildRig(model, name);
+  size_t nframes = 0;
+  if (!r.Count(8 + 1 + 4, nframes, "the display frame count")) return fail(r);
+  for (size_t f = 0; f < nframes; ++f) {
+    std::string frame, frame_en;
+    uint8_t special;
+    size_t n = 0;
+    if (!Text(r, h, frame, "a display frame") || !Text(r, h, frame_en, "a display frame") || !r.Get(special, "a display frame") ||
+        !r.Count(1 + static_cast<size_t>(std::min(h.bone, h.morph)), n, "a display frame's entry count")) {
+      return fail(r);
+    }
+    for (size_t e = 0; e < n; ++e) {
+      uint8_t kind;
+      if (!r.Get(kind, "a display frame entry") || !r.Skip(static_cast<size_t>(kind == 0 ? h.bone : h.morph), "a display frame entry")) return fail(r);
+    }
+  }
+  size_t nbodies = 0;
+  if (!r.Count(8 + static_cast<size_t>(h.bone) + 4 + 9 * 4 + 5 * 4 + 1, nbodies, "the rigid body count")) return fail(r);
+  model.bodies.resize(nbodies);
+  for (RigidBodyData& b : model.bodies) {
+    std::string english;
+    if (!Text(r, h, b.name, "a rigid body") || !Text(r, h, english, "a rigid body") || !r.Index(h.bone, false, b.bone, "a rigid body's bone") ||
+        !r.Get(b.group, "a rigid body") || !r.Get(b.mask, "a rigid body") || !r.Get(b.shape, "a rigid body") ||
+        !r.Floats(b.size, 3, "a rigid body") || !r.Floats(b.pos, 3, "a rigid body") || !r.Floats(b.rot, 3, "a rigid body") ||
+        !r.Floats(&b.mass, 1, "a rigid body") || !r.Floats(&b.linear_damping, 1, "a rigid body") || !r.Floats(&b.angular_damping, 1, "a rigid body") ||
+        !r.Floats(&b.restitution, 1, "a rigid body") || !r.Floats(&b.friction, 1, "a rigid body") || !r.Get(b.mode, "a rigid body")) {
+      return fail(r);
+    }
+  }
+  size_t njoints = 0;
+  if (!r.Count(8 + 1 + 2 * static_cast<size_t>(h.rigid) + 24 * 4, njoints, "the joint count")) return fail(r);
+  model.joints.resize(njoints);
+  for (JointData& j : model.joints) {
+    std::string english;
+    uint8_t type;
+    if (!Text(r, h, j.name, "a joint") || !Text(r, h, english, "a joint") || !r.Get(type, "a joint") ||
+        !r.Index(h.rigid, false, j.a, "a joint's body") || !r.Index(h.rigid, false, j.b, "a joint's body") ||
+        !r.Floats(j.pos, 3, "a joint") || !r.Floats(j.rot, 3, "a joint") || !r.Floats(j.linear_lower, 3, "a joint") ||
+        !r.Floats(j.linear_upper, 3, "a joint") || !r.Floats(j.angular_lower, 3, "a joint") || !r.Floats(j.angular_upper, 3, "a joint") ||
+        !r.Floats(j.linear_spring, 3, "a joint") || !r.Floats(j.angular_spring, 3, "a joint")) {
+      return fail(r);
+    }
+    j.type = type;
+  }
   return BuildRig(model, name);
 }
 

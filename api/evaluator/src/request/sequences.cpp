@@ -91,6 +91,9 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     } else if (key == "smooth") {
       if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
       else r.smooth = v.get<bool>();
+    } else if (key == "physics") {
+      if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
+      else r.physics = v.get<bool>();
     } else if (key == "times") {
       if (!v.is_array() || v.empty() || v.size() > 10000) {
         errors.fields.push_back({ptr, "must be an array of 1 to 10000 times"});
@@ -165,8 +168,11 @@ Result<Sequence> LayeredSequence(const Rig& rig, const SequenceRequest& request)
 }
 
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
-  if (!request.clip.pointer.empty()) return ClipSequence(rig, request);
-  if (!request.layers.empty()) return LayeredSequence(rig, request);
+  if (!request.clip.pointer.empty() || !request.layers.empty()) {
+    Result<Sequence> posed = !request.clip.pointer.empty() ? ClipSequence(rig, request) : LayeredSequence(rig, request);
+    if (posed.ok()) posed->physics = request.physics;
+    return posed;
+  }
   Sequence s;
   s.transition = request.transition;
   s.smooth = request.smooth;

@@ -212,6 +212,46 @@ struct BoneConstraints {
   bool empty() const { return grants.empty() && chains.empty(); }
 };
 
+// Secondary motion (MMD's rigid bodies and joints): bodies on bones, joined by spring joints, in the
+// rig's space (metres, right-handed). core keeps the data; core/physics simulates it over time.
+struct RigidBody {
+  enum class Shape : uint8_t { kSphere, kBox, kCapsule };
+  // kFollowBone: moved by its bone (kinematic). kPhysics: moves its bone. kPhysicsKeepPosition:
+  // turns its bone, which keeps its place on its parent.
+  enum class Mode : uint8_t { kFollowBone, kPhysics, kPhysicsKeepPosition };
+  std::string name;
+  int node = -1;                        // Its bone; -1: none (follows the rig's root, drives nothing).
+  Shape shape = Shape::kSphere;
+  std::array<float, 3> size{0, 0, 0};   // Sphere: radius; box: half extents; capsule: radius, height (along y).
+  std::array<float, 3> position{0, 0, 0};
+  std::array<float, 4> rotation{0, 0, 0, 1};  // x, y, z, w; at rest.
+  float mass = 0.0f, linear_damping = 0.0f, angular_damping = 0.0f, restitution = 0.0f, friction = 0.0f;
+  uint8_t group = 0;                    // 0-15.
+  uint16_t collides_with = 0xffff;      // Bit i: collides with group i.
+  Mode mode = Mode::kFollowBone;
+};
+
+// A six-degree-of-freedom spring joint between two bodies, its frame at rest; limits and springs
+// along and about the frame's axes (angles: Euler x, y, z, radians; lower > upper: free).
+struct PhysicsJoint {
+  std::string name;
+  int a = -1, b = -1;                   // Bodies.
+  std::array<float, 3> position{0, 0, 0};
+  std::array<float, 4> rotation{0, 0, 0, 1};
+  std::array<float, 3> linear_lower{0, 0, 0}, linear_upper{0, 0, 0}, angular_lower{0, 0, 0}, angular_upper{0, 0, 0};
+  std::array<float, 3> linear_stiffness{0, 0, 0}, angular_stiffness{0, 0, 0};  // 0: no spring.
+};
+
+struct Physics {
+  std::vector<RigidBody> bodies;
+  std::vector<PhysicsJoint> joints;
+  // The scale it was authored at and is simulated at (MMD: 12.5 units a metre), where the masses,
+  // springs and dampings hold; gravity in metres a second squared, down -y.
+  float units_per_metre = 1.0f;
+  float gravity = 9.8f;
+  bool empty() const { return bodies.empty(); }
+};
+
 struct Image {
   std::string name;
   std::string mime_type;               // "image/png", "image/jpeg"; MMD textures also "image/bmp", "image/x-tga".
@@ -304,6 +344,7 @@ struct Rig {
   std::vector<InBetweens> inbetweens;  // From the manifest: weights computed before blending.
   std::vector<Corrective> correctives;
   BoneConstraints constraints;         // MMD's grants and IK, applied to every pose.
+  Physics physics;                      // Simulated over sequences (core/physics); stills ignore it.
   ShapeStatistics statistics;
 
   size_t vertex_count() const;

@@ -44,6 +44,7 @@ struct Sequence {
   bool smooth = false;                    // Catmull-Rom through the weight vectors instead.
   int clip = -1;                          // Played from this animation (a VMD motion...): its pose at each time too.
   std::vector<ClipRequest> layers;        // Or motions layered (pose_request.h), each starting at its `time`.
+  bool physics = true;                    // A posed sequence simulates the rig's physics (rig.h), if it has any.
 };
 
 // Times finite and strictly increasing, every key with one weight per shape, finite.

@@ -31,6 +31,10 @@
 #include "facespace/formats/io.h"
 #include "facespace/render/render.h"
 
+namespace facespace::physics {
+class Simulation;
+}
+
 namespace facespace::api {
 
 // Status::reason of the evaluator's errors.
@@ -210,10 +214,46 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> weights);
 
 // ---- keyframe sequences -----------------------------------------------------------------------
 
+// The rig's physics over a sequence (physics/physics.h): simulated 60 steps a second from the
+// sequence's first key, each step's followed bodies on the sequence's pose at its time, for at
+// most kMaxSeconds. Frames may come at any times in any order (an earlier time starts over); the
+// same times give the same bytes. The steps in all are capped at one run to kMaxSeconds: times that
+// go back and forth past it get their frames unsimulated, warned. Inert for a rig without physics,
+// a sequence that does not pose the skeleton (no clip, no layers), or `physics: false`.
+class SequencePhysics {
+ public:
+  static constexpr float kStepsPerSecond = 60.0f;
+  static constexpr float kMaxSeconds = 600.0f;
+  SequencePhysics(const Rig& rig, const Sequence& sequence);
+  ~SequencePhysics();
+  SequencePhysics(const SequencePhysics&) = delete;
+  SequencePhysics& operator=(const SequencePhysics&) = delete;
+  bool active() const { return active_; }
+  // The simulated bones into `pose`, the sequence's pose at `time`. The first frame is the pose as
+  // it is (bodies start where their bones are). Past kMaxSeconds: the last simulated step, warned.
+  void Apply(float time, Pose& pose, std::vector<Warning>& warnings);
+
+ private:
+  const Rig& rig_;
+  const Sequence& sequence_;
+  bool active_ = false;
+  std::unique_ptr<physics::Simulation> sim_;
+  long long step_ = 0;
+  long long budget_ = static_cast<long long>(kMaxSeconds * kStepsPerSecond);
+  Pose scratch_;
+};
+
+// The sequence's pose at `time` (its clip or layers over the rig's base motion) and the weights its
+// clips animate; false when it poses nothing or the pose cannot be built.
+bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& animated,
+                  std::vector<uint8_t>& set);
+
 // The sequence's frame at `time` as a point: sampled weights, the clip's pose (else the rest
-// pose), checked. Its warnings: the transition leaving [0, 1] (transition_extrapolation), then the
-// weights' own, each message prefixed with "t=TIME: ".
-void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point);
+// pose) with the bones `physics` simulates (when given), checked. Its warnings: the transition
+// leaving [0, 1] (transition_extrapolation), then the weights' own, each message prefixed with
+// "t=TIME: ".
+void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point,
+                   SequencePhysics* physics = nullptr);
 
 // {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}: the sample route's body and
 // `facespace sequence --format json`. `warnings` receives the frames' warnings too.
@@ -226,7 +266,8 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::sh
 // One frame of a stream: ndjson {"frame", "time", "weights", "warnings"} and a newline, or f32:
 // a uint32 byte count then the world-space positions.
 Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const Sequence& sequence,
-                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws);
+                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws,
+                                SequencePhysics* physics = nullptr);
 
 // Frames from the first key to the last at `fps` (both ends included).
 size_t FrameCount(const Sequence& sequence, float fps);

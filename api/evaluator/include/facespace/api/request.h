@@ -113,6 +113,7 @@ struct SequenceRequest {
   bool has_tolerance = false;
   ClipRequest clip;                         // "motion" or "animation" instead of keys (pointer empty: none).
   std::vector<ClipRequest> layers;          // "layers" instead of keys: each layer's time is its start.
+  bool physics = true;                      // "physics": false: no secondary motion (SequencePhysics).
   BlendOptions options;
 };
 Result<SequenceRequest> ParseSequenceRequest(std::string_view body);
