@@ -274,6 +274,25 @@ TEST(UkaConstraints, ThePmdsIkListIsReadWithItsKneesLimited) {
   EXPECT_EQ(knees, 2u);
 }
 
+TEST(UkaConstraints, ThePmdsRotationFollowingEyesAreTheGrantsHerPmxGives) {
+  // PMD bones 34 左目 and 36 右目 are type 9 (回転連動): tail 32 (両目), IK field 7, a ratio of 7/100.
+  const Result<Rig> pmd = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
+  const Uka u = LoadUka();
+  ASSERT_TRUE(pmd.ok());
+  ASSERT_EQ(pmd->constraints.grants.size(), 2u);
+  ASSERT_EQ(u.rig.constraints.grants.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const Grant &d = pmd->constraints.grants[i], &x = u.rig.constraints.grants[i];
+    EXPECT_EQ(pmd->nodes[d.node].name, u.rig.nodes[x.node].name);
+    EXPECT_EQ(pmd->nodes[d.source].name, "両目");
+    EXPECT_EQ(u.rig.nodes[x.source].name, "両目");
+    EXPECT_FLOAT_EQ(d.ratio, 0.07f);
+    EXPECT_FLOAT_EQ(x.ratio, d.ratio);
+    EXPECT_TRUE(d.rotation && !d.translation && !d.local);
+  }
+  for (const Warning& w : pmd->load_warnings) EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
+}
+
 TEST(UkaConstraints, StandingHerSleevesFollowHerArms) {
   const Uka u = LoadUka();
   ASSERT_GE(u.stand, 0);

@@ -96,7 +96,7 @@ Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::strin
       model.textures.push_back(texture);
     }
   }
-  // Bones: type 5 and 9 follow another bone's rotation (grants); IK chains are counted below.
+  // Bones: types 5 and 9 follow another bone's rotation (grants); IK chains are read below.
   size_t nbones = 0;
   if (!r.CountOf<uint16_t>(39, nbones, "the bone count")) return fail(r);
   if (nbones > 65534) return InvalidArgument(name + ": PMD: more than 65534 bones");
@@ -109,7 +109,15 @@ Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::strin
       return fail(r);
     }
     b.parent = parent == 0xFFFF ? -1 : parent;
-    model.grants += type == 5 || type == 9;
+    // Rotation grants, as PMX says them: type 9 (回転連動) turns with the bone its tail names, by its
+    // IK field / 100 (Uka's eyes: 両目 by 0.07, as her PMX); type 5 (回転影響下) with the bone its IK
+    // field names, whole.
+    if (type == 9 || type == 5) {
+      ++model.grants;
+      b.grant = type == 9 ? tail : ik_parent;
+      b.grant_ratio = type == 9 ? static_cast<float>(ik_parent) / 100.0f : 1.0f;
+      b.grant_rotation = true;
+    }
   }
   // IK chains: the IK bone, its effector, links, loops and the angle per step in units of 4 radians
   // (as MMD reads PMD); a knee (a link named ひざ) turns about x alone, between -180 and -0.5 degrees.
