@@ -30,7 +30,7 @@ std::string UnknownClipMessage(const Rig& rig, const ClipRequest& c) {
 }
 
 Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::vector<float>& animated_weights,
-                 std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings) {
+                 std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings, bool solve) {
   pose = RestPose(rig);
   animated_weights.assign(rig.shapes.size(), 0.0f);
   animated_set.assign(rig.shapes.size(), 0);
@@ -119,8 +119,35 @@ Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::ve
     }
   }
   // MMD's grants and IK over what the clips and overrides animate.
-  if (!request.empty()) SolveBoneConstraints(rig, pose);
+  if (solve && !request.empty()) SolveBoneConstraints(rig, pose);
   return Status::Ok();
+}
+
+bool BoneMorphsActive(const Rig& rig, std::span<const float> weights) {
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    if (weights[s] != 0.0f && !rig.shapes[s].bone_morphs.empty()) return true;
+  }
+  return false;
+}
+
+bool ApplyBoneMorphs(const Rig& rig, std::span<const float> weights, Pose& pose) {
+  bool any = false;
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    const float w = weights[s];
+    if (w == 0.0f || !std::isfinite(w)) continue;
+    for (const BoneMorph& m : rig.shapes[s].bone_morphs) {
+      if (m.node < 0 || static_cast<size_t>(m.node) >= pose.local.size()) continue;
+      Transform& t = pose.local[m.node];
+      for (int a = 0; a < 3; ++a) t.translation[a] += w * m.translation[a];
+      const std::array<float, 4> turn = Slerp({0, 0, 0, 1}, m.rotation, w);
+      const Eigen::Quaternionf q = Eigen::Quaternionf(t.rotation[3], t.rotation[0], t.rotation[1], t.rotation[2]) *
+                                   Eigen::Quaternionf(turn[3], turn[0], turn[1], turn[2]);
+      t.rotation = NormalizedQuaternion({q.x(), q.y(), q.z(), q.w()});
+      pose.from_matrix[m.node] = 0;
+      any = true;
+    }
+  }
+  return any;
 }
 
 Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
@@ -141,10 +168,18 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
                         "", static_cast<double>(entries.size()), true});
   }
   posed = !request.empty();
-  if (!posed) return Status::Ok();
+  if (!posed) {
+    // Weights alone: the rest pose, unless a bone morph moves it.
+    if (!BoneMorphsActive(rig, weights)) return Status::Ok();
+    pose = RestPose(rig);
+    posed = true;
+    ApplyBoneMorphs(rig, weights, pose);
+    SolveBoneConstraints(rig, pose);
+    return Status::Ok();
+  }
   std::vector<float> animated;
   std::vector<uint8_t> animated_set;
-  if (Status s = BuildPose(rig, request, pose, animated, animated_set, warnings); !s.ok()) return s;
+  if (Status s = BuildPose(rig, request, pose, animated, animated_set, warnings, false); !s.ok()) return s;
   // Shapes the request names keep their explicit weight; the others take the animated one.
   std::vector<uint8_t> given(rig.shapes.size(), 0);
   for (const WeightEntry& e : entries) {
@@ -155,6 +190,8 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   for (size_t s = 0; s < weights.size(); ++s) {
     if (animated_set[s] && !given[s]) weights[s] = animated[s];
   }
+  ApplyBoneMorphs(rig, weights, pose);
+  SolveBoneConstraints(rig, pose);
   return Status::Ok();
 }
 

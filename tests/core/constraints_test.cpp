@@ -274,6 +274,39 @@ TEST(UkaConstraints, ThePmdsIkListIsReadWithItsKneesLimited) {
   EXPECT_EQ(knees, 2u);
 }
 
+TEST(UkaMorphs, ABoneMorphTurnsHerEarsByItsRotationScaledByItsWeight) {
+  // 耳驚き (ears, surprised) is a PMX bone morph (type 2): 8 entries, each turning one ear bone by
+  // about 10 degrees about MMD's x (quaternion (-0.0872, 0, 0, 0.9962) in the file for 左耳1_1, which
+  // our axes read (0.0872, 0, 0, 0.9962)). At weight w a bone turns by w times that angle.
+  const Uka u = LoadUka();
+  const int shape = FindShape(u.rig, "耳驚き");
+  ASSERT_GE(shape, 0);
+  const std::vector<BoneMorph>& morphs = u.rig.shapes[shape].bone_morphs;
+  ASSERT_EQ(morphs.size(), 8u);
+  EXPECT_EQ(u.rig.nodes[morphs[0].node].name, "左耳1_1");
+  EXPECT_NEAR(morphs[0].rotation[0], 0.0872f, 2e-4f);
+  EXPECT_NEAR(morphs[0].rotation[3], 0.9962f, 2e-4f);
+  const float angle = 2 * std::acos(morphs[0].rotation[3]);
+  for (float w : {1.0f, 0.5f}) {
+    std::vector<float> weights;
+    Pose pose;
+    bool posed = false;
+    std::vector<Warning> warnings;
+    const WeightEntry entry{.name = "耳驚き", .value = w};
+    ASSERT_TRUE(ResolvePoseAndWeights(u.rig, std::span(&entry, 1), PoseRequest{}, weights, pose, posed, warnings).ok());
+    ASSERT_TRUE(posed) << "weights alone move bones when a bone morph has a weight";
+    const auto& q = pose.local[morphs[0].node].rotation;
+    EXPECT_NEAR(2 * std::acos(std::min(1.0f, q[3])), w * angle, 1e-4f) << "w=" << w;
+    EXPECT_NEAR(q[1], 0.0f, 1e-6f);
+    // Her left ear's vertices move; her face does not (the shape has no vertex offsets of its own).
+    const std::vector<float> rest = test::WorldOf(u.rig, std::vector<float>(u.rig.shapes.size(), 0.0f), nullptr);
+    const std::vector<float> moved = test::WorldOf(u.rig, weights, &pose);
+    float most = 0.0f;
+    for (size_t i = 0; i < rest.size(); ++i) most = std::max(most, std::abs(rest[i] - moved[i]));
+    EXPECT_GT(most, 0.005f * w) << "the ears move";
+  }
+}
+
 TEST(UkaConstraints, ThePmdsRotationFollowingEyesAreTheGrantsHerPmxGives) {
   // PMD bones 34 左目 and 36 右目 are type 9 (回転連動): tail 32 (両目), IK field 7, a ratio of 7/100.
   const Result<Rig> pmd = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");

@@ -616,7 +616,7 @@ port3=$(py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(s.gets
 for _ in $(seq 1 600); do curl -fs "http://127.0.0.1:$port3/healthz" >/dev/null 2>&1 && break; sleep 0.1; done
 U3=http://127.0.0.1:$port3/v1/rigs/uka
 c "$U3" >/dev/null
-check "MMD in the store: uka, 302 joints, 206 shapes, the credit line, 40 motions (01_happy 10 s, stand 4 s)" jq_ "d['skeleton']['joints']==302 and d['shapes'].__len__()==206 and 'Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society' in d['credit'] and len(d['animations'])==40 and d['animations'][1]['name']=='01_happy' and abs(d['animations'][1]['duration']-10)<1e-6 and d['animations'][-1]['name']=='stand' and abs(d['animations'][-1]['duration']-4)<1e-6"
+check "MMD in the store: uka, 302 joints, 213 shapes, the credit line, 40 motions (01_happy 10 s, stand 4 s)" jq_ "d['skeleton']['joints']==302 and d['shapes'].__len__()==213 and 'Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society' in d['credit'] and len(d['animations'])==40 and d['animations'][1]['name']=='01_happy' and abs(d['animations'][1]['duration']-10)<1e-6 and d['animations'][-1]['name']=='stand' and abs(d['animations'][-1]['duration']-4)<1e-6"
 curl -s -o "$tmp/uka_rest.f32" "$U3/mesh?format=f32"
 curl -s -o "$tmp/uka_f150.f32" "$U3/mesh?format=f32&motion=01_happy&frame=150"
 curl -s -o "$tmp/uka_t5.f32" -X POST -H 'Content-Type: application/json' -d '{"animation":"01_happy","time":5,"format":"f32"}' "$U3/mesh"

@@ -1,14 +1,21 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
 #include "facespace/api/evaluator.h"
+#include "facespace/core/constraints.h"
 #include "facespace/physics/physics.h"
 #include "json_text.h"
 
 namespace facespace::api {
 
-bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& animated,
-                  std::vector<uint8_t>& set) {
-  if (sequence.clip < 0 && sequence.layers.empty()) return false;
+bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& weights) {
+  if (sequence.clip < 0 && sequence.layers.empty()) {
+    // Keys alone: the rest pose, unless a bone morph moves it.
+    if (!BoneMorphsActive(rig, weights)) return false;
+    pose = RestPose(rig);
+    ApplyBoneMorphs(rig, weights, pose);
+    SolveBoneConstraints(rig, pose);
+    return true;
+  }
   // The clip's pose and weights at this time: its curves as it draws them (the keys are its weight
   // channel's keys; between them a curve need not be linear).
   PoseRequest request;
@@ -25,7 +32,15 @@ bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& po
     request.clips.back().time = time - layer.time;  // A layer's time is its start in the sequence.
   }
   std::vector<Warning> warnings;
-  return BuildPose(rig, request, pose, animated, set, warnings).ok();
+  std::vector<float> animated;
+  std::vector<uint8_t> set;
+  if (!BuildPose(rig, request, pose, animated, set, warnings, false).ok()) return false;
+  for (size_t i = 0; i < set.size() && i < weights.size(); ++i) {
+    if (set[i]) weights[i] = animated[i];
+  }
+  ApplyBoneMorphs(rig, weights, pose);
+  SolveBoneConstraints(rig, pose);
+  return true;
 }
 
 SequencePhysics::SequencePhysics(const Rig& rig, const Sequence& sequence)
@@ -51,10 +66,8 @@ void SequencePhysics::Apply(float time, Pose& pose, std::vector<Warning>& warnin
                         FormatNumber(kMaxSeconds) + " s in all): this frame is not simulated", "", kMaxSeconds, true});
     return;
   }
-  std::vector<float> animated;
-  std::vector<uint8_t> set;
   if (!sim_ || step < step_) {
-    if (!SequencePose(rig_, sequence_, start, scratch_, animated, set)) return;
+    if (!TickPose(start)) return;
     sim_ = physics::Simulation::Create(rig_, scratch_);
     step_ = 0;
     if (!sim_) {
@@ -63,10 +76,16 @@ void SequencePhysics::Apply(float time, Pose& pose, std::vector<Warning>& warnin
     }
   }
   for (; step_ < step; ++step_, --budget_) {
-    if (!SequencePose(rig_, sequence_, start + static_cast<float>(static_cast<double>(step_ + 1) / kStepsPerSecond), scratch_, animated, set)) return;
+    if (!TickPose(start + static_cast<float>(static_cast<double>(step_ + 1) / kStepsPerSecond))) return;
     sim_->Step(scratch_, 1.0f / kStepsPerSecond);
   }
   sim_->Apply(pose);
+}
+
+bool SequencePhysics::TickPose(float time) {
+  weights_.resize(rig_.shapes.size());
+  SampleSequence(sequence_, time, weights_);
+  return SequencePose(rig_, sequence_, time, scratch_, weights_);
 }
 
 void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point,
@@ -76,12 +95,7 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
   point.report.warnings.clear();
   float f = 0.0f;
   SampleSequence(sequence, time, point.weights, &f);
-  std::vector<float> animated;
-  std::vector<uint8_t> set;
-  point.posed = SequencePose(rig, sequence, time, point.pose, animated, set);
-  for (size_t i = 0; point.posed && i < set.size(); ++i) {
-    if (set[i]) point.weights[i] = animated[i];
-  }
+  point.posed = SequencePose(rig, sequence, time, point.pose, point.weights);
   std::vector<Warning> physics_warnings;
   if (point.posed && physics) physics->Apply(time, point.pose, physics_warnings);
   CheckPoint(rig, mode, point);

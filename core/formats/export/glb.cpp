@@ -242,6 +242,18 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
                                   (count > 12 ? ", ..." : "") + "; the materials hold their colours at the exported weights",
                               "", static_cast<double>(count), false});
     }
+    std::string moving;
+    size_t bones = 0;
+    for (const Shape& shape : rig.shapes) {
+      if (shape.bone_morphs.empty()) continue;
+      if (++bones <= 12) moving += (moving.empty() ? "" : ", ") + shape.name;
+    }
+    if (bones) {
+      all_warnings.push_back({"bone_morphs_not_exported",
+                              std::to_string(bones) + " shapes move bones (MMD bone morphs), which a glTF morph target cannot say: " + moving +
+                                  (bones > 12 ? ", ..." : "") + "; the mesh holds their pose at the exported weights",
+                              "", static_cast<double>(bones), false});
+    }
   }
   auto extras = AssetExtras(rig, weights, all_warnings, options);
   if (!extras.ok()) return extras.status();

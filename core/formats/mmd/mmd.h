@@ -156,6 +156,7 @@ struct Morph {
   std::vector<std::pair<int64_t, std::array<float, 3>>> vertex;  // (vertex, offset)
   std::vector<std::pair<int64_t, float>> group;                  // (morph, factor)
   std::vector<MaterialMorph> material;  // Type 8; `material` is the PMX material index (-1: all) until BuildRig.
+  std::vector<BoneMorph> bone;          // Type 2, in MMD's units and axes; `node` is the PMX bone index until BuildRig.
 };
 
 // A rigid body and a joint as the file says them (PMD: the body's position is from its bone).

@@ -9,6 +9,7 @@
 
 #include "facespace/formats/io.h"
 #include "facespace/core/rig.h"
+#include "facespace/core/transform.h"
 #include "mmd/mmd.h"
 
 namespace facespace::mmd {
@@ -314,8 +315,17 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   for (size_t mi = 0; mi < nmorphs; ++mi) morph_names.insert(morphs[mi].name);
   for (size_t mi = 0; mi < nmorphs; ++mi) {
     const Morph& m = morphs[mi];
-    if (m.type != 0 && m.type != 1 && m.type != 8) continue;
+    if (m.type != 0 && m.type != 1 && m.type != 2 && m.type != 8) continue;
     std::vector<MaterialMorph> material = m.material;  // A material morph's own, or a group's entries'.
+    std::vector<BoneMorph> bone;                       // A bone morph's own, or a group's entries' (by its factor).
+    auto add_bones = [&](const Morph& src, float f) {
+      for (const BoneMorph& b : src.bone) {
+        const std::array<float, 3> t = ToGltf(b.translation.data());
+        const std::array<float, 4> q = NormalizedQuaternion({-b.rotation[0], -b.rotation[1], b.rotation[2], b.rotation[3]});
+        bone.push_back({node_of[b.node], {f * t[0], f * t[1], f * t[2]}, Slerp({0, 0, 0, 1}, q, f)});
+      }
+    };
+    if (m.type == 2) add_bones(m, 1.0f);
     std::vector<uint32_t> touched;
     auto add = [&](const Morph& src, float f) {
       for (const auto& [v, d] : src.vertex) {
@@ -332,6 +342,10 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
           mm.factor *= f;
           material.push_back(mm);
         }
+        continue;
+      }
+      if (c.type == 2) {
+        add_bones(c, f);
         continue;
       }
       if (c.type != 1) {
@@ -356,12 +370,13 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
     shape.group = PanelGroup(m.panel);
     shape.material_morphs = std::move(material);
+    shape.bone_morphs = std::move(bone);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(shape);
     deltas.push_back(std::move(d));
   }
   if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
-  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming bone, UV, flip or impulse morphs");
+  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming UV, flip or impulse morphs");
   for (const auto& [type, count] : in.unapplied) {
     static const char* kNames[] = {"group", "vertex", "bone", "UV", "UV1", "UV2", "UV3", "UV4", "material", "flip", "impulse"};
     skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : ""));

@@ -231,6 +231,12 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
         if (!r.Index(h.morph, false, idx, "a group morph") || !r.Floats(&f, 1, "a group morph")) return fail(r);
         if (idx < 0 || static_cast<size_t>(idx) >= nmorphs) return InvalidArgument(name + ": PMX: group morph '" + m.name + "' names morph " + std::to_string(idx) + " of " + std::to_string(nmorphs));
         m.group.emplace_back(idx, f);
+      } else if (type == 2) {
+        BoneMorph b;
+        if (!r.Index(h.bone, false, idx, "a bone morph") || !r.Floats(b.translation.data(), 3, "a bone morph") || !r.Floats(b.rotation.data(), 4, "a bone morph")) return fail(r);
+        if (idx < 0 || static_cast<size_t>(idx) >= nbones) return InvalidArgument(name + ": PMX: bone morph '" + m.name + "' names bone " + std::to_string(idx) + " of " + std::to_string(nbones));
+        b.node = static_cast<int>(idx);
+        m.bone.push_back(b);
       } else if (type == 8) {
         // Material: index, operation (0 multiply, 1 add), diffuse RGBA, specular RGB, specular power,
         // ambient RGB, edge RGBA, edge size, texture, sphere and toon tints RGBA.
@@ -259,7 +265,7 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
         return fail(r);
       }
     }
-    if (type != 0 && type != 1 && type != 8) ++model.unapplied[type];
+    if (type != 0 && type != 1 && type != 2 && type != 8) ++model.unapplied[type];
   }
   // Display frames (skipped), then the rigid bodies and joints. A file that ends before them
   // (some tools stop after the morphs) has no physics.

@@ -52,8 +52,18 @@ std::string UnknownClipMessage(const Rig& rig, const ClipRequest& clip);
 // `animated_set`), then the explicit joints (each given property replaces the joint's local
 // value). Unknown joints or clips and invalid quaternions are errors naming their pointer;
 // non-unit quaternions are normalised with a `quaternion_normalised` warning.
+// MMD's bone constraints (constraints.h) are solved at the end unless `solve` is false (a caller
+// that applies bone morphs first, then solves).
 Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::vector<float>& animated_weights,
-                 std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings);
+                 std::vector<uint8_t>& animated_set, std::vector<Warning>& warnings, bool solve = true);
+
+// MMD's bone morphs (Shape::bone_morphs) at `weights` onto `pose`: each entry moves its bone by
+// weight x its translation and turns it by its rotation slerped from none by the weight, after what
+// the clips animate (animated x morph). False, and `pose` untouched, when no shape with bone morphs
+// has a weight.
+bool ApplyBoneMorphs(const Rig& rig, std::span<const float> weights, Pose& pose);
+// Whether ApplyBoneMorphs would move a bone.
+bool BoneMorphsActive(const Rig& rig, std::span<const float> weights);
 
 // A request's weights and pose together, in glTF's order of application: rest pose, then the
 // clips (their weight channels set shape weights), then the explicit joints, then the

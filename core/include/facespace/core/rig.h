@@ -94,6 +94,14 @@ struct Mesh {
   int skin = -1;                        // Skin of the first node showing this mesh, or -1.
 };
 
+// An MMD bone morph's entry: at weight w the bone moves by w x translation and turns by rotation
+// slerped from none by w, after what the clips animate (pose_request.h, ApplyBoneMorphs).
+struct BoneMorph {
+  int node = -1;
+  std::array<float, 3> translation{0, 0, 0};
+  std::array<float, 4> rotation{0, 0, 0, 1};  // x, y, z, w.
+};
+
 // An MMD material morph on one material (or on every one: material -1). At weight w (times
 // `factor`, a group morph's share), a multiply scales each value by lerp(1, value, w) and an add adds
 // w * value; per material, the product of the multiplies then the sum of the adds (as MMD).
@@ -122,6 +130,7 @@ struct Shape {
   bool driven = false;                  // Its weight is computed (an in-between or a corrective); a
                                         // weight given for it is ignored with a warning.
   std::vector<MaterialMorph> material_morphs;  // MMD: what the shape does to materials (most shapes: nothing).
+  std::vector<BoneMorph> bone_morphs;          // MMD: bones the shape moves and turns (most shapes: none).
 };
 
 // In-between shapes on one slider (Maya's blendShape in-betweens): the slider shape's own

@@ -241,12 +241,14 @@ class SequencePhysics {
   long long step_ = 0;
   long long budget_ = static_cast<long long>(kMaxSeconds * kStepsPerSecond);
   Pose scratch_;
+  std::vector<float> weights_;
+  bool TickPose(float time);  // The sequence's pose at a step's time into scratch_.
 };
 
-// The sequence's pose at `time` (its clip or layers over the rig's base motion) and the weights its
-// clips animate; false when it poses nothing or the pose cannot be built.
-bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& animated,
-                  std::vector<uint8_t>& set);
+// The sequence's pose at `time` (its clip or layers over the rig's base motion, the bone morphs of
+// `weights`, the constraints solved); `weights` (sampled from the keys) take what the clips
+// animate. False when it poses nothing (no clip, no layers, no bone morph) or the pose cannot be built.
+bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& weights);
 
 // The sequence's frame at `time` as a point: sampled weights, the clip's pose (else the rest
 // pose) with the bones `physics` simulates (when given), checked. Its warnings: the transition
