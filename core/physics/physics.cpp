@@ -79,6 +79,7 @@ struct Simulation::World {
   std::vector<std::unique_ptr<btGeneric6DofSpringConstraint>> joints;
   std::vector<Affine> offset, inverse_offset;  // Each body in its bone's frame (rest pose).
   std::vector<Affine> last;                    // Followed bodies: where the last pose put them (metres).
+  std::vector<Affine> target;                  // Step's scratch: where this pose puts them.
   std::vector<int> driver;                     // Per node: the simulated body that moves it, or -1.
   mutable std::vector<std::array<float, 16>> world_m, moved;
   mutable std::vector<int> order;
@@ -186,16 +187,16 @@ void Simulation::Step(const Pose& pose, float seconds) {
   if (!(seconds > 0.0f)) return;
   WorldMatricesInto(w.rig, &pose, w.world_m, w.order);
   const std::vector<RigidBody>& bodies = w.rig.physics.bodies;
-  std::vector<Affine> target(bodies.size());
+  std::vector<Affine>& target = w.target;
+  target.resize(bodies.size());
   for (size_t i = 0; i < bodies.size(); ++i) {
     if (!Simulated(bodies[i])) target[i] = w.Target(i);
   }
   const int steps = std::max(1, static_cast<int>(std::ceil(seconds / kStep - 1e-3f)));
   const float dt = seconds / static_cast<float>(steps);
-  size_t state = 0;
   for (int s = 1; s <= steps; ++s) {
     const float u = static_cast<float>(s) / static_cast<float>(steps);
-    state = 0;
+    size_t state = 0;
     for (size_t i = 0; i < bodies.size(); ++i) {
       if (Simulated(bodies[i])) continue;
       const Eigen::Quaternionf q0(w.last[i].linear()), q1(target[i].linear());

@@ -226,34 +226,25 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   m.asset.version = "2.0";
   m.asset.generator = "facespace";
   m.asset.copyright = rig.credit;
-  // glTF has no material morphs: the materials carry their colours at these weights, and a glb
-  // that keeps the targets says which shapes lost what they do to materials.
+  // glTF has no material or bone morphs: the materials carry their colours, and the mesh its pose,
+  // at these weights; a glb that keeps the targets says which shapes lost what they do.
   std::vector<Warning> all_warnings(warnings.begin(), warnings.end());
   if (options.keep_targets) {
-    std::string names;
-    size_t count = 0;
-    for (const Shape& shape : rig.shapes) {
-      if (shape.material_morphs.empty()) continue;
-      if (++count <= 12) names += (names.empty() ? "" : ", ") + shape.name;
-    }
-    if (count) {
-      all_warnings.push_back({"material_morphs_not_exported",
-                              std::to_string(count) + " shapes change materials (MMD material morphs), which glTF cannot say: " + names +
-                                  (count > 12 ? ", ..." : "") + "; the materials hold their colours at the exported weights",
-                              "", static_cast<double>(count), false});
-    }
-    std::string moving;
-    size_t bones = 0;
-    for (const Shape& shape : rig.shapes) {
-      if (shape.bone_morphs.empty()) continue;
-      if (++bones <= 12) moving += (moving.empty() ? "" : ", ") + shape.name;
-    }
-    if (bones) {
-      all_warnings.push_back({"bone_morphs_not_exported",
-                              std::to_string(bones) + " shapes move bones (MMD bone morphs), which a glTF morph target cannot say: " + moving +
-                                  (bones > 12 ? ", ..." : "") + "; the mesh holds their pose at the exported weights",
-                              "", static_cast<double>(bones), false});
-    }
+    const auto say = [&](bool (*does)(const Shape&), const char* code, const std::string& what, const std::string& kept) {
+      std::string names;
+      size_t count = 0;
+      for (const Shape& shape : rig.shapes) {
+        if (does(shape) && ++count <= 12) names += (names.empty() ? "" : ", ") + shape.name;
+      }
+      if (count) {
+        all_warnings.push_back({code, std::to_string(count) + " shapes " + what + ": " + names + (count > 12 ? ", ..." : "") + "; " + kept, "",
+                                static_cast<double>(count), false});
+      }
+    };
+    say([](const Shape& s) { return !s.material_morphs.empty(); }, "material_morphs_not_exported",
+        "change materials (MMD material morphs), which glTF cannot say", "the materials hold their colours at the exported weights");
+    say([](const Shape& s) { return !s.bone_morphs.empty(); }, "bone_morphs_not_exported",
+        "move bones (MMD bone morphs), which a glTF morph target cannot say", "the mesh holds their pose at the exported weights");
   }
   auto extras = AssetExtras(rig, weights, all_warnings, options);
   if (!extras.ok()) return extras.status();
