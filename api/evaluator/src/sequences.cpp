@@ -50,10 +50,10 @@ SequencePhysics::SequencePhysics(const Rig& rig, const Sequence& sequence)
 SequencePhysics::~SequencePhysics() = default;
 
 void SequencePhysics::Apply(float time, Pose& pose, std::vector<Warning>& warnings) {
-  if (!active_) return;
+  if (!active_ || !std::isfinite(time)) return;
   const float start = sequence_.keys.front().time;
-  const double wanted = std::max(0.0, static_cast<double>(time) - start) * kStepsPerSecond;
   const long long last = static_cast<long long>(kMaxSeconds * kStepsPerSecond);
+  const double wanted = std::min(std::max(0.0, static_cast<double>(time) - start) * kStepsPerSecond, static_cast<double>(last + 1));
   long long step = std::llround(wanted);
   if (step > last) {
     warnings.push_back({"physics_limited", "physics is simulated for the first " + FormatNumber(kMaxSeconds) +
