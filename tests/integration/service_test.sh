@@ -5,6 +5,12 @@
 set -u
 bin=$1; A=$2/real; M=$2/more; src=$3; node_modules=${4:-}
 tmp=$(mktemp -d); pid=
+# Under ASan (the `sanitized` label), the servers this suite starts and stops skip LeakSanitizer's
+# exit-time check: with some 80 threads (the front's, Mesa's), its tracer now and then crashes itself
+# at exit ("Tracer caught signal 11 ... LeakSanitizer has encountered a fatal error"), seen once in about
+# seven runs here (likely what failed the last CI run). AddressSanitizer and UBSan stay on; the routes' leaks are checked in
+# process by the API tests.
+[ -n "${ASAN_OPTIONS:-}" ] && export ASAN_OPTIONS="$ASAN_OPTIONS:detect_leaks=0"
 cleanup() { [ -n "$pid" ] && kill "$pid" 2>/dev/null && wait "$pid" 2>/dev/null; umount "$tmp/full" 2>/dev/null; rm -rf "$tmp"; }
 trap cleanup EXIT
 . "$(dirname "$0")/testlib.sh"
