@@ -150,6 +150,18 @@ bool ApplyBoneMorphs(const Rig& rig, std::span<const float> weights, Pose& pose)
   return any;
 }
 
+void FinishPose(const Rig& rig, std::span<const float> weights, Pose& pose) {
+  ApplyBoneMorphs(rig, weights, pose);
+  SolveBoneConstraints(rig, pose);
+}
+
+bool PoseOfWeightsAlone(const Rig& rig, std::span<const float> weights, Pose& pose) {
+  if (!BoneMorphsActive(rig, weights)) return false;
+  pose = RestPose(rig);
+  FinishPose(rig, weights, pose);
+  return true;
+}
+
 Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
                              std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings) {
   auto resolved = ResolveWeights(rig, entries);
@@ -167,16 +179,11 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
                             " are 0",
                         "", static_cast<double>(entries.size()), true});
   }
-  posed = !request.empty();
-  if (!posed) {
-    // Weights alone: the rest pose, unless a bone morph moves it.
-    if (!BoneMorphsActive(rig, weights)) return Status::Ok();
-    pose = RestPose(rig);
-    posed = true;
-    ApplyBoneMorphs(rig, weights, pose);
-    SolveBoneConstraints(rig, pose);
+  if (request.empty()) {
+    posed = PoseOfWeightsAlone(rig, weights, pose);
     return Status::Ok();
   }
+  posed = true;
   std::vector<float> animated;
   std::vector<uint8_t> animated_set;
   if (Status s = BuildPose(rig, request, pose, animated, animated_set, warnings, false); !s.ok()) return s;
@@ -190,8 +197,7 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   for (size_t s = 0; s < weights.size(); ++s) {
     if (animated_set[s] && !given[s]) weights[s] = animated[s];
   }
-  ApplyBoneMorphs(rig, weights, pose);
-  SolveBoneConstraints(rig, pose);
+  FinishPose(rig, weights, pose);
   return Status::Ok();
 }
 

@@ -1,21 +1,13 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
 #include "facespace/api/evaluator.h"
-#include "facespace/core/constraints.h"
 #include "facespace/physics/physics.h"
 #include "json_text.h"
 
 namespace facespace::api {
 
 bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& weights) {
-  if (sequence.clip < 0 && sequence.layers.empty()) {
-    // Keys alone: the rest pose, unless a bone morph moves it.
-    if (!BoneMorphsActive(rig, weights)) return false;
-    pose = RestPose(rig);
-    ApplyBoneMorphs(rig, weights, pose);
-    SolveBoneConstraints(rig, pose);
-    return true;
-  }
+  if (sequence.clip < 0 && sequence.layers.empty()) return PoseOfWeightsAlone(rig, weights, pose);
   // The clip's pose and weights at this time: its curves as it draws them (the keys are its weight
   // channel's keys; between them a curve need not be linear).
   PoseRequest request;
@@ -38,8 +30,7 @@ bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& po
   for (size_t i = 0; i < set.size() && i < weights.size(); ++i) {
     if (set[i]) weights[i] = animated[i];
   }
-  ApplyBoneMorphs(rig, weights, pose);
-  SolveBoneConstraints(rig, pose);
+  FinishPose(rig, weights, pose);
   return true;
 }
 

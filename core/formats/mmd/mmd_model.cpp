@@ -4,6 +4,8 @@
 #include <cerrno>
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <set>
 
@@ -147,20 +149,12 @@ void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& nod
   if (c.empty()) c.order.clear();
 }
 
-// Quaternion (x, y, z, w) products, and MMD's Euler angles applied in `order` (axes 0-2, first applied
-// first), turned into the rig's axes as positions are: (x, y, z, w) becomes (-x, -y, z, w).
-std::array<float, 4> QuatMul(const std::array<float, 4>& a, const std::array<float, 4>& b) {
-  return {a[3] * b[0] + a[0] * b[3] + a[1] * b[2] - a[2] * b[1], a[3] * b[1] - a[0] * b[2] + a[1] * b[3] + a[2] * b[0],
-          a[3] * b[2] + a[0] * b[1] - a[1] * b[0] + a[2] * b[3], a[3] * b[3] - a[0] * b[0] - a[1] * b[1] - a[2] * b[2]};
-}
+// MMD's Euler angles applied in `order` (axes 0-2, first applied first), turned into the rig's axes as
+// positions are: (x, y, z, w) becomes (-x, -y, z, w).
 std::array<float, 4> EulerToRig(const float* angles, std::array<int, 3> order) {
-  std::array<float, 4> q{0, 0, 0, 1};
-  for (int axis : order) {
-    std::array<float, 4> r{0, 0, 0, std::cos(angles[axis] / 2)};
-    r[axis] = std::sin(angles[axis] / 2);
-    q = QuatMul(r, q);
-  }
-  return {-q[0], -q[1], q[2], q[3]};
+  Eigen::Quaternionf q = Eigen::Quaternionf::Identity();
+  for (int axis : order) q = Eigen::AngleAxisf(angles[axis], Eigen::Vector3f::Unit(axis)) * q;
+  return {-q.x(), -q.y(), q.z(), q.w()};
 }
 
 // The rigid bodies and joints as the rig's physics (rig.h), in its axes and metres; the masses,

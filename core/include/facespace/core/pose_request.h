@@ -65,6 +65,14 @@ bool ApplyBoneMorphs(const Rig& rig, std::span<const float> weights, Pose& pose)
 // Whether ApplyBoneMorphs would move a bone.
 bool BoneMorphsActive(const Rig& rig, std::span<const float> weights);
 
+// A pose's last steps, after its clips and joint overrides: the bone morphs of `weights`, then MMD's
+// bone constraints.
+void FinishPose(const Rig& rig, std::span<const float> weights, Pose& pose);
+
+// Weights with no clip or joint: false, and `pose` untouched, unless a bone morph of `weights` moves a
+// bone; then the rest pose, finished with them.
+bool PoseOfWeightsAlone(const Rig& rig, std::span<const float> weights, Pose& pose);
+
 // A request's weights and pose together, in glTF's order of application: rest pose, then the
 // clips (their weight channels set shape weights), then the explicit joints, then the
 // explicit weights, which override animated ones. `posed` is false when the request asks
