@@ -208,6 +208,7 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
   BlendShapeJob job{.base = p.positions, .weights = tw, .targets = p.targets,
                     .channel = TargetChannel::kPosition, .stride = 3, .out = bp.positions};
   if (!job.Run()) return false;
+  BlendTexcoords(p.texcoords, tw, p.targets, bp.texcoords);
   if (!any_active) {
     std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
     std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
@@ -300,6 +301,31 @@ void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<
     for (uint32_t d : c.drivers) w = c.use_min ? std::min(w, weights[d]) : w * weights[d];
     out[c.shape] = c.drivers.empty() ? 0.0f : w;
   }
+  for (const Flip& f : rig.flips) {
+    const size_t n = f.entries.size();
+    const float w = std::clamp(weights[f.shape], 0.0f, 1.0f);
+    const size_t pick = std::min(static_cast<size_t>(static_cast<float>(n + 1) * w), n);  // 0: none.
+    if (pick > 0) out[f.entries[pick - 1].first] += f.entries[pick - 1].second;
+  }
+}
+
+void BlendTexcoords(std::span<const float> base, std::span<const float> weights, std::span<const SparseTarget> targets,
+                    std::vector<float>& out) {
+  out.clear();
+  bool any = false;
+  for (size_t t = 0; t < targets.size() && t < weights.size() && !any; ++t) any = weights[t] != 0.0f && !targets[t].texcoord_indices.empty();
+  if (!any || base.empty()) return;
+  out.assign(base.begin(), base.end());
+  for (size_t t = 0; t < targets.size() && t < weights.size(); ++t) {
+    const float w = weights[t];
+    if (w == 0.0f) continue;
+    const SparseTarget& st = targets[t];
+    for (size_t k = 0; k < st.texcoord_indices.size(); ++k) {
+      float* o = &out[2 * static_cast<size_t>(st.texcoord_indices[k])];
+      o[0] += w * st.texcoord_deltas[2 * k];
+      o[1] += w * st.texcoord_deltas[2 * k + 1];
+    }
+  }
 }
 
 void MorphedMaterialColors(const Rig& rig, std::span<const float> weights, std::vector<std::array<float, 4>>& out) {
@@ -345,7 +371,7 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
     if (!std::isfinite(w)) return InvalidArgument("weights must be finite");
   }
   std::span<const float> weights = given;
-  if (!rig.inbetweens.empty() || !rig.correctives.empty()) {
+  if (!rig.inbetweens.empty() || !rig.correctives.empty() || !rig.flips.empty()) {
     ctx.effective.resize(given.size());
     EffectiveWeights(rig, given, ctx.effective);
     weights = ctx.effective;
@@ -387,6 +413,7 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
       bp.positions.resize(morphed.positions.size());
       bp.normals.resize(morphed.normals.size());
       bp.tangents.resize(morphed.tangents.size());
+      bp.texcoords.swap(morphed.texcoords);  // UVs do not skin.
       SkinningJob skin{.joint_matrices = ctx.joint_matrices, .influences = p.influences, .joints = p.joints,
                        .weights = p.joint_weights, .in_positions = morphed.positions, .in_normals = morphed.normals,
                        .in_tangents = morphed.tangents, .out_positions = bp.positions, .out_normals = bp.normals,

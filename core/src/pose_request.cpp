@@ -1,6 +1,7 @@
 // Pose requests: clips, then explicit joints, then explicit weights.
 #include "facespace/core/pose_request.h"
 
+#include "facespace/core/blend.h"
 #include "facespace/core/constraints.h"
 
 #include <Eigen/Geometry>
@@ -123,14 +124,30 @@ Status BuildPose(const Rig& rig, const PoseRequest& request, Pose& pose, std::ve
   return Status::Ok();
 }
 
-bool BoneMorphsActive(const Rig& rig, std::span<const float> weights) {
+namespace {
+
+// The weights bone morphs act at: with MMD's flip morphs, their picks added (EffectiveWeights).
+std::span<const float> WithFlips(const Rig& rig, std::span<const float> weights, std::vector<float>& scratch) {
+  if (rig.flips.empty() || weights.size() != rig.shapes.size()) return weights;
+  scratch.resize(weights.size());
+  EffectiveWeights(rig, weights, scratch);
+  return scratch;
+}
+
+}  // namespace
+
+bool BoneMorphsActive(const Rig& rig, std::span<const float> given) {
+  std::vector<float> scratch;
+  const std::span<const float> weights = WithFlips(rig, given, scratch);
   for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
     if (weights[s] != 0.0f && !rig.shapes[s].bone_morphs.empty()) return true;
   }
   return false;
 }
 
-bool ApplyBoneMorphs(const Rig& rig, std::span<const float> weights, Pose& pose) {
+bool ApplyBoneMorphs(const Rig& rig, std::span<const float> given, Pose& pose) {
+  std::vector<float> scratch;
+  const std::span<const float> weights = WithFlips(rig, given, scratch);
   bool any = false;
   for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
     const float w = weights[s];

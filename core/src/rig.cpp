@@ -47,6 +47,12 @@ SparseTarget RemapTarget(const SparseTarget& t, std::span<const int32_t> remap) 
       if (!t.tangent_deltas.empty()) out.tangent_deltas.push_back(t.tangent_deltas[3 * k + c]);
     }
   }
+  for (size_t k = 0; k < t.texcoord_indices.size(); ++k) {
+    const int32_t v = remap[t.texcoord_indices[k]];
+    if (v < 0) continue;
+    out.texcoord_indices.push_back(static_cast<uint32_t>(v));
+    out.texcoord_deltas.insert(out.texcoord_deltas.end(), {t.texcoord_deltas[2 * k], t.texcoord_deltas[2 * k + 1]});
+  }
   FinalizeTarget(out);
   return out;
 }
@@ -302,7 +308,15 @@ void CountMovedVertices(Rig& rig) {
     for (int pi : m.primitives) {
       const Primitive& p = rig.primitives[pi];
       for (size_t t = 0; t < p.targets.size() && t < m.target_shapes.size(); ++t) {
-        rig.shapes[m.target_shapes[t]].vertices_moved += p.targets[t].indices.size();
+        // The vertices whose position or UV moves: both lists ascending, counted once.
+        const SparseTarget& st = p.targets[t];
+        size_t both = 0;
+        for (size_t a = 0, b = 0; a < st.indices.size() && b < st.texcoord_indices.size();) {
+          if (st.indices[a] == st.texcoord_indices[b]) ++both, ++a, ++b;
+          else if (st.indices[a] < st.texcoord_indices[b]) ++a;
+          else ++b;
+        }
+        rig.shapes[m.target_shapes[t]].vertices_moved += st.indices.size() + st.texcoord_indices.size() - both;
       }
     }
   }
@@ -434,6 +448,12 @@ Status ValidateRig(const Rig& rig) {
       }
     }
   }
+  for (const Flip& f : rig.flips) {
+    if (f.shape >= shapes) return InvalidArgument("flip morph: bad shape");
+    for (const auto& [s, w] : f.entries) {
+      if (s >= shapes || !std::isfinite(w)) return InvalidArgument("flip morph '" + rig.shapes[f.shape].name + "': an entry names no shape or has a weight that is not finite");
+    }
+  }
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
     const size_t n = p.vertex_count();
@@ -473,6 +493,15 @@ Status ValidateRig(const Rig& rig) {
       for (size_t j = 0; j < k; ++j) {
         if (st.indices[j] >= n || (j > 0 && st.indices[j] <= st.indices[j - 1])) {
           return InvalidArgument(where + "target " + std::to_string(t) + " has a bad vertex index");
+        }
+      }
+      const size_t u = st.texcoord_indices.size();
+      if (st.texcoord_deltas.size() != 2 * u || (u && p.texcoords.empty())) {
+        return InvalidArgument(where + "target " + std::to_string(t) + " has UV deltas that do not match its UVs");
+      }
+      for (size_t j = 0; j < u; ++j) {
+        if (st.texcoord_indices[j] >= n || (j > 0 && st.texcoord_indices[j] <= st.texcoord_indices[j - 1])) {
+          return InvalidArgument(where + "target " + std::to_string(t) + " has a bad UV vertex index");
         }
       }
     }

@@ -12,9 +12,14 @@ size_t MovedWords(const Primitive& p) { return (p.vertex_count() + 63) / 64; }
 }  // namespace
 
 bool SparseBlend::Serves(const Rig& rig, const BlendOptions& options) {
-  if (options.normals != NormalMode::kBlend || options.pose || !rig.inbetweens.empty() || !rig.correctives.empty()) return false;
+  if (options.normals != NormalMode::kBlend || options.pose || !rig.inbetweens.empty() || !rig.correctives.empty() || !rig.flips.empty()) return false;
   for (const Mesh& m : rig.meshes) {
     if (m.skin >= 0) return false;
+  }
+  for (const Primitive& p : rig.primitives) {
+    for (const SparseTarget& t : p.targets) {
+      if (!t.texcoord_indices.empty()) return false;  // A point's UVs: EvaluateRig.
+    }
   }
   return true;
 }

@@ -131,6 +131,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     const auto& m = b.world;
     Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
     const size_t first = verts.size() / 13;
+    const std::span<const float> texcoords = TexcoordsOf(p, b);  // UV morphs move them.
     for (size_t v = 0; v < p.vertex_count(); ++v) {
       float q[3], rest[3], moved[3];
       TransformPoint(m, &b.positions[3 * v], q);
@@ -157,7 +158,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
           }
         }
       }
-      const float uv[2] = {p.texcoords.empty() ? 0.0f : p.texcoords[2 * v], p.texcoords.empty() ? 0.0f : p.texcoords[2 * v + 1]};
+      const float uv[2] = {texcoords.empty() ? 0.0f : texcoords[2 * v], texcoords.empty() ? 0.0f : texcoords[2 * v + 1]};
       verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
       if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
       else verts.insert(verts.end(), p.colors.begin() + 4 * v, p.colors.begin() + 4 * v + 4);

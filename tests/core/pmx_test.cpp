@@ -198,5 +198,150 @@ TEST(PmxHostile, AGroupNamingItselfIsNotFollowed) {
   EXPECT_TRUE(reported);
 }
 
+// A small PMX written here with every other morph kind: three vertices (UVs (0,0), (1,0), (0,1)) on one
+// triangle, and the morphs
+//   0 "v"   vertex: vertex 1 by (0, 0, 1) units
+//   1 "uv"  UV: vertex 1's UV by (0.25, -0.5) (z and w, for effect shaders, 7 and 9)
+//   2 "g"   group: "uv" x 0.5, "v" x 1
+//   3 "f"   flip (PMX 2.1): entries "uv" at 1, "v" at 0.5
+//   4 "uv1" additional UV 1, 5 "imp" impulse (rigid body 0): read, not made shapes.
+std::vector<unsigned char> EveryMorphKind() {
+  std::vector<unsigned char> b;
+  auto bytes = [&](const void* p, size_t n) { b.insert(b.end(), static_cast<const unsigned char*>(p), static_cast<const unsigned char*>(p) + n); };
+  auto i32 = [&](int32_t v) { bytes(&v, 4); };
+  auto f32 = [&](std::initializer_list<float> fs) { for (float f : fs) bytes(&f, 4); };
+  auto u8 = [&](int v) { b.push_back(static_cast<unsigned char>(v)); };
+  auto text = [&](const std::string& t) { i32(static_cast<int32_t>(t.size())), bytes(t.data(), t.size()); };
+  bytes("PMX ", 4);
+  f32({2.1f});
+  for (int g : {8, 1, 0, 1, 1, 1, 1, 1, 1}) u8(g);  // UTF-8, no additional UV sets, 1-byte indices.
+  for (int t = 0; t < 4; ++t) i32(0);
+  i32(3);
+  const float uvs[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+  for (int v = 0; v < 3; ++v) {
+    f32({static_cast<float>(v == 1), static_cast<float>(v == 2), 0, 0, 0, -1, uvs[v][0], uvs[v][1]});
+    u8(0), u8(0), f32({1});  // BDEF1 on bone 0, edge scale.
+  }
+  i32(3), u8(0), u8(1), u8(2);
+  i32(0);  // No textures.
+  i32(1), i32(0), i32(0);
+  f32({1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0});
+  u8(0);
+  f32({0, 0, 0, 1, 1});
+  u8(0xff), u8(0xff), u8(0), u8(1), u8(0);
+  i32(0), i32(3);
+  i32(1), i32(0), i32(0);  // One bone.
+  f32({0, 0, 0});
+  u8(0xff), i32(0), u8(0), u8(0);
+  f32({0, 1, 0});
+  i32(6);
+  text("v"), i32(0), u8(4), u8(1), i32(1), u8(1), f32({0, 0, 1});
+  text("uv"), i32(0), u8(4), u8(3), i32(1), u8(1), f32({0.25f, -0.5f, 7, 9});
+  text("g"), i32(0), u8(4), u8(0), i32(2), u8(1), f32({0.5f}), u8(0), f32({1});
+  text("f"), i32(0), u8(4), u8(9), i32(2), u8(1), f32({1}), u8(0), f32({0.5f});
+  text("uv1"), i32(0), u8(4), u8(4), i32(1), u8(2), f32({1, 1, 1, 1});
+  text("imp"), i32(0), u8(4), u8(10), i32(1), u8(0), u8(0), f32({0, 1, 0, 0, 0, 0});
+  return b;
+}
+
+struct Evaluated {
+  std::array<float, 2> uv1;  // Vertex 1's UV.
+  float z1;                  // Vertex 1's z (metres).
+};
+
+Evaluated At(const Rig& rig, std::vector<std::pair<std::string, float>> named) {
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  for (const auto& [name, value] : named) w[FindShape(rig, name)] = value;
+  BlendedRig out;
+  BlendContext ctx;
+  EXPECT_TRUE(EvaluateRig(rig, w, {}, out, ctx).ok());
+  const std::span<const float> uv = TexcoordsOf(rig.primitives[0], out.primitives[0]);
+  // Skinned at rest: the morphed positions are the skinned ones.
+  return {{uv[2], uv[3]}, out.primitives[0].positions[5]};
+}
+
+TEST(PmxMorphs, UvGroupAndFlipMorphsActAsPmxDefinesThem) {
+  // The same bytes are tests/data/every_morph_kind.pmx, which the CLI suite exports and validates.
+  EXPECT_EQ(test::ReadBytes(std::string(FACESPACE_SOURCE_DIR) + "/tests/data/every_morph_kind.pmx"), EveryMorphKind());
+  const Result<Rig> loaded = LoadPmxMemory(EveryMorphKind(), "kinds");
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message;
+  const Rig& rig = loaded.value();
+  ASSERT_EQ(rig.shapes.size(), 4u);  // v, uv, g, f: additional-UV and impulse morphs are reported.
+  EXPECT_EQ(rig.shapes[FindShape(rig, "uv")].vertices_moved, 1u);
+  bool reported = false;
+  for (const auto& w : rig.load_warnings) {
+    reported |= w.code == "morphs_skipped" && w.message.find("1 additional-UV-1 morph") != std::string::npos &&
+                w.message.find("1 impulse morph") != std::string::npos;
+  }
+  EXPECT_TRUE(reported);
+  // A UV morph adds its offset's x and y to the UV, by its weight; positions stay.
+  Evaluated e = At(rig, {{"uv", 1.0f}});
+  EXPECT_FLOAT_EQ(e.uv1[0], 1.25f);
+  EXPECT_FLOAT_EQ(e.uv1[1], -0.5f);
+  EXPECT_FLOAT_EQ(e.z1, 0.0f);
+  e = At(rig, {{"uv", 0.5f}});
+  EXPECT_FLOAT_EQ(e.uv1[0], 1.125f);
+  // A group: its entries at their factors times its weight, UV and vertex alike.
+  e = At(rig, {{"g", 1.0f}});
+  EXPECT_FLOAT_EQ(e.uv1[0], 1.125f);
+  EXPECT_FLOAT_EQ(e.uv1[1], -0.25f);
+  EXPECT_NEAR(e.z1, -0.08f, 1e-7f);  // 1 unit x 0.08 m, z negated.
+  // A flip of 2 entries: weight w picks entry floor(3w) - 1 at the entry's own weight, not w's.
+  e = At(rig, {{"f", 0.2f}});
+  EXPECT_FLOAT_EQ(e.uv1[0], 1.0f);
+  EXPECT_FLOAT_EQ(e.z1, 0.0f);
+  e = At(rig, {{"f", 0.4f}});
+  EXPECT_FLOAT_EQ(e.uv1[0], 1.25f);  // "uv" at 1.
+  EXPECT_FLOAT_EQ(e.z1, 0.0f);
+  for (float w : {0.7f, 1.0f}) {
+    e = At(rig, {{"f", w}});
+    EXPECT_FLOAT_EQ(e.uv1[0], 1.0f);
+    EXPECT_NEAR(e.z1, -0.04f, 1e-7f) << w;  // "v" at 0.5.
+  }
+}
+
+// UV morphs leave as glTF TEXCOORD_0 targets (the rig) or as the blended UVs (a point), and come back.
+TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
+  const Result<Rig> loaded = LoadPmxMemory(EveryMorphKind(), "kinds");
+  ASSERT_TRUE(loaded.ok()) << loaded.status().message;
+  const Rig* rig = &loaded.value();
+  std::vector<float> w(rig->shapes.size(), 0.0f);
+  w[FindShape(*rig, "uv")] = 1.0f;
+  BlendedRig blended;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(*rig, w, {}, blended, ctx).ok());
+  for (bool keep : {true, false}) {
+    auto glb = ExportMesh(*rig, blended, w, {}, MeshFormat::kGlb, {.keep_targets = keep});
+    ASSERT_TRUE(glb.ok()) << glb.status().message;
+    const std::vector<unsigned char> bytes(glb->begin(), glb->end());
+    const Result<Rig> reloaded = LoadGltfMemory(bytes, "", {});
+    ASSERT_TRUE(reloaded.ok()) << reloaded.status().message;
+    const Rig* back = &reloaded.value();
+    if (keep) {
+      const SparseTarget& t = back->primitives[0].targets[static_cast<size_t>(FindShape(*back, "uv"))];
+      ASSERT_EQ(t.texcoord_indices, std::vector<uint32_t>{1});
+      EXPECT_EQ(t.texcoord_deltas, (std::vector<float>{0.25f, -0.5f}));
+      EXPECT_FLOAT_EQ(At(*back, {{"uv", 1.0f}}).uv1[0], 1.25f);
+    } else {
+      EXPECT_FLOAT_EQ(back->primitives[0].texcoords[2], 1.25f);
+      EXPECT_FLOAT_EQ(back->primitives[0].texcoords[3], -0.5f);
+    }
+  }
+  // The variant writer patches the UVs of later variants: the same bytes as a whole export.
+  GlbVariantWriter writer;
+  BlendedRig rest;
+  ASSERT_TRUE(EvaluateRig(*rig, std::vector<float>(w.size(), 0.0f), {}, rest, ctx).ok());
+  ASSERT_TRUE(writer.Write(*rig, rest, std::vector<float>(w.size(), 0.0f), {}).ok());
+  auto pieces = writer.Write(*rig, blended, w, {});
+  ASSERT_TRUE(pieces.ok());
+  auto whole = ExportMesh(*rig, blended, w, {}, MeshFormat::kGlb);
+  ASSERT_TRUE(whole.ok());
+  EXPECT_EQ(std::string(pieces->head) + std::string(pieces->bin), whole.value());
+  // OBJ: vt is (u, 1 - v).
+  auto obj = ExportMesh(*rig, blended, w, {}, MeshFormat::kObj);
+  ASSERT_TRUE(obj.ok());
+  EXPECT_NE(obj->find("vt 1.25 1.5\n"), std::string::npos) << obj.value();
+}
+
 }  // namespace
 }  // namespace facespace

@@ -28,6 +28,7 @@ for f in "$shared"/more/FBX/*/*.fbx; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_fbx
 for f in "$shared"/more/Collada/*/*.dae; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_dae/$(basename "$f")"; done
 [ -f "$shared/more/MMD/Uka/MS_Uka.pmx" ] && cp "$shared/more/MMD/Uka/MS_Uka.pmx" "$corpus/fuzz_pmx/uka.pmx"
 [ -f "$shared/more/MMD/Uka_PMD/MS_Uka.pmd" ] && cp "$shared/more/MMD/Uka_PMD/MS_Uka.pmd" "$corpus/fuzz_pmx/uka.pmd"
+cp "$src/tests/data/every_morph_kind.pmx" "$corpus/fuzz_pmx/every_morph_kind.pmx"  # UV, flip, impulse morphs: small.
 for f in "$src"/assets/uka/motion/*.vmd; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_vmd/$(basename "$f")"; done
 python3 - "$corpus" <<'PY'
 import json, os, sys

@@ -538,6 +538,46 @@ TEST(Materials, NormalMapTurnsTheSurfaceInTheMapsFrame) {
   EXPECT_NEAR(Luma(Middle(Quad(m, {FlatPng({51, 128, 230, 255})}))), plain, 0.01f);
 }
 
+// A UV morph (MMD's, glTF's TEXCOORD_0 targets) moves where the texture is read: a map red on its left
+// half and blue on its right, the quad's UVs on the left half; a shape moving every u by 0.5 shows blue.
+TEST(Materials, AUvMorphMovesWhereTheMapIsRead) {
+  Image map;
+  map.width = 4;
+  map.height = 1;
+  map.rgba = {1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 1};
+  auto png = render::Encode(map, render::ImageFormat::kPng);
+  ASSERT_TRUE(png.ok());
+  Material m = Dielectric({1, 1, 1, 1});
+  m.base_color_image = 0;
+  Rig rig = Quad(m, {{png->begin(), png->end()}});
+  for (size_t v = 0; v < 4; ++v) rig.primitives[0].texcoords[2 * v] = 0.125f + 0.25f * rig.primitives[0].texcoords[2 * v];  // u in [1/8, 3/8]: red texels alone.
+  SparseTarget shift;
+  shift.texcoord_indices = {0, 1, 2, 3};
+  shift.texcoord_deltas = {0.5f, 0, 0.5f, 0, 0.5f, 0, 0.5f, 0};  // u in [5/8, 7/8]: blue.
+  rig.primitives[0].targets = {shift};
+  rig.meshes[0].target_shapes = {0};
+  rig.shapes = {Shape{.name = "uv"}};
+  ASSERT_TRUE(ValidateRig(rig).ok());
+  auto colour = [&](float w) {
+    Image im;
+    EXPECT_TRUE(Gl().Draw(rig, Evaluate(rig, {w}), HeadOn(64), im).ok());
+    std::array<float, 3> sum{0, 0, 0};
+    for (int y = 24; y < 40; ++y) {
+      for (int x = 24; x < 40; ++x) {
+        for (int c = 0; c < 3; ++c) sum[c] += im.rgba[(static_cast<size_t>(y) * 64 + x) * 4 + c] / 256.0f;
+      }
+    }
+    return sum;
+  };
+  const auto rest = colour(0.0f), moved = colour(1.0f);
+  EXPECT_GT(rest[0], 5 * rest[2]);    // Red.
+  EXPECT_GT(moved[2], 5 * moved[0]);  // Blue.
+  const BlendedRig half = Evaluate(rig, {0.5f});
+  ASSERT_EQ(half.primitives[0].texcoords.size(), 8u);
+  EXPECT_FLOAT_EQ(half.primitives[0].texcoords[2], 0.375f + 0.25f);  // Vertex 1: u 3/8 + 0.5 x 0.5.
+  EXPECT_TRUE(Evaluate(rig, {0.0f}).primitives[0].texcoords.empty());  // At rest the primitive's own hold.
+}
+
 // The map multiplies the factors: roughness from green, metallic from blue.
 TEST(Materials, MetallicRoughnessMapMultipliesTheFactors) {
   Material m = Dielectric({0.9f, 0.1f, 0.1f, 1.0f});

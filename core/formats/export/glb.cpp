@@ -185,14 +185,14 @@ class GlbBuilder {
 
   // A sparse VEC3 delta accessor over `count` vertices. Empty targets become an accessor
   // without bufferView, which glTF defines as all zeros.
-  int SparseDeltas(std::span<const uint32_t> indices, std::span<const float> deltas, size_t count) {
+  int SparseDeltas(std::span<const uint32_t> indices, std::span<const float> deltas, size_t count, int comps = 3) {
     tinygltf::Accessor a;
     a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
     a.count = count;
-    a.type = TINYGLTF_TYPE_VEC3;
+    a.type = TypeOf(comps);
     std::vector<float> mm(deltas.begin(), deltas.end());
-    if (indices.size() < count) mm.insert(mm.end(), {0.0f, 0.0f, 0.0f});  // Implicit zeros.
-    MinMax(mm, 3, mm.size() / 3, a);
+    if (indices.size() < count) mm.insert(mm.end(), static_cast<size_t>(comps), 0.0f);  // Implicit zeros.
+    MinMax(mm, comps, mm.size() / static_cast<size_t>(comps), a);
     if (!indices.empty()) {
       a.sparse.isSparse = true;
       a.sparse.count = static_cast<int>(indices.size());
@@ -303,7 +303,7 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       gp.attributes["POSITION"] = b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
       gp.attributes["NORMAL"] = b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
       if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
-      if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(p.texcoords, 2, false);
+      if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(rig_data ? std::span<const float>(p.texcoords) : TexcoordsOf(p, bp), 2, false);
       if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
       if (!p.source_vertices.empty()) {
         // Floats: glTF allows no unsigned int in a vertex attribute; exact below 2^24 (ValidateRig).
@@ -331,10 +331,11 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       gp.material = p.material;
       if (targets) {
         // Targets without normal deltas get zero ones so every target has the same attributes.
-        bool any_normals = false, all_tangents = !p.tangents.empty();
+        bool any_normals = false, all_tangents = !p.tangents.empty(), any_uvs = false;
         for (const SparseTarget& t : p.targets) {
           any_normals |= !t.normal_deltas.empty();
           all_tangents &= t.indices.empty() || !t.tangent_deltas.empty();
+          any_uvs |= !t.texcoord_indices.empty();
         }
         for (const SparseTarget& t : p.targets) {
           std::map<std::string, int> gt;
@@ -345,6 +346,8 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
             gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas, p.vertex_count());
           }
           if (all_tangents) gt["TANGENT"] = b.SparseDeltas(t.indices, t.tangent_deltas, p.vertex_count());
+          // UV morphs as TEXCOORD_0 targets (glTF 2.0 lets a target morph TEXCOORD_n; clients MAY apply them).
+          if (any_uvs) gt["TEXCOORD_0"] = b.SparseDeltas(t.texcoord_indices, t.texcoord_deltas, p.vertex_count(), 2);
           gp.targets.push_back(gt);
         }
       }
@@ -481,7 +484,7 @@ using writers::ExportGlb;
 struct GlbTemplate {
   struct Attribute {
     size_t primitive = 0;
-    int kind = 0;          // 0 positions, 1 normals, 2 tangents.
+    int kind = 0;          // 0 positions, 1 normals, 2 tangents, 3 UVs (a rig with UV morphs).
     size_t offset = 0;     // In `bin`.
     int accessor = -1;     // POSITION: its bounds are patched.
   };
@@ -498,6 +501,13 @@ struct GlbTemplate {
 };
 
 namespace {
+
+// Whether some shape moves UVs (MMD's UV morphs): their variants' TEXCOORD_0 is patched too.
+bool MovesTexcoords(const Rig& rig) {
+  return std::any_of(rig.primitives.begin(), rig.primitives.end(), [](const Primitive& p) {
+    return std::any_of(p.targets.begin(), p.targets.end(), [](const SparseTarget& t) { return !t.texcoord_indices.empty(); });
+  });
+}
 
 // What a template depends on besides the rig, into `shape` (kept: no allocation once warm).
 void GlbShape(const Rig& rig, const BlendedRig& blended, std::vector<size_t>& shape) {
@@ -543,14 +553,15 @@ Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& bl
   const nlohmann::json& meshes = member("meshes");
   const nlohmann::json& accessors = member("accessors");
   const nlohmann::json& views = member("bufferViews");
+  const int kinds = MovesTexcoords(rig) ? 4 : 3;
   for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
     const std::vector<int>& prims = rig.meshes[mi].primitives;
     for (size_t k = 0; k < prims.size(); ++k) {
       const BlendedPrimitive& bp = blended.primitives[prims[k]];
       const nlohmann::json& attributes = meshes.at(mi).at("primitives").at(k).at("attributes");
-      const char* names[] = {"POSITION", "NORMAL", "TANGENT"};
-      const size_t bytes[] = {bp.positions.size() * 4, bp.normals.size() * 4, bp.tangents.size() * 4};
-      for (int kind = 0; kind < 3; ++kind) {
+      const char* names[] = {"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0"};
+      const size_t bytes[] = {bp.positions.size() * 4, bp.normals.size() * 4, bp.tangents.size() * 4, rig.primitives[prims[k]].texcoords.size() * 4};
+      for (int kind = 0; kind < kinds; ++kind) {
         if (!attributes.contains(names[kind])) continue;
         const int a = attributes[names[kind]].get<int>();
         const nlohmann::json& view = views.at(accessors.at(a).at("bufferView").get<size_t>());
@@ -607,7 +618,8 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
   AsTinygltfWrites(extras.value(), t.json["asset"]["extras"]);
   for (const GlbTemplate::Attribute& a : t.attributes) {
     const BlendedPrimitive& bp = blended.primitives[a.primitive];
-    const std::vector<float>& values = a.kind == 0 ? bp.positions : a.kind == 1 ? bp.normals : bp.tangents;
+    const std::span<const float> values = a.kind == 0 ? std::span<const float>(bp.positions) : a.kind == 1 ? std::span<const float>(bp.normals)
+                                          : a.kind == 2 ? std::span<const float>(bp.tangents) : TexcoordsOf(rig.primitives[a.primitive], bp);
     std::memcpy(t.bin.data() + a.offset, values.data(), values.size() * 4);
     if (a.accessor >= 0) {  // An attribute's accessor: the template has "accessors".
       FloatBounds(values, 3, values.size() / 3, t.lo, t.hi);

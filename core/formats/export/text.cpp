@@ -147,9 +147,10 @@ std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const
       TransformPoint(Placement(b, mesh_space), &b.positions[3 * v], q, 1.0f);
       AppendObjLine(out, "v", {q[0], q[1], q[2]});
     }
-    const bool uv = !p.texcoords.empty();
+    const std::span<const float> uvs = TexcoordsOf(p, b);  // UV morphs move them.
+    const bool uv = !uvs.empty();
     for (size_t v = 0; uv && v < n; ++v) {
-      AppendObjLine(out, "vt", {p.texcoords[2 * v], 1.0f - p.texcoords[2 * v + 1]});
+      AppendObjLine(out, "vt", {uvs[2 * v], 1.0f - uvs[2 * v + 1]});
     }
     for (size_t v = 0; v < n; ++v) {
       float q[3];

@@ -282,6 +282,16 @@ Status ConvertPrimitive(const tinygltf::Model& model, const tinygltf::Primitive&
         if (!dt.empty() && !p.tangents.empty()) st.tangent_deltas.push_back(dt[3 * v + c]);
       }
     }
+    // UV deltas (TEXCOORD_0 targets, which glTF 2.0 allows), apart: they move other vertices.
+    const auto uv = src.targets[t].find("TEXCOORD_0");
+    if (uv == src.targets[t].end() || p.texcoords.empty()) continue;
+    if (Status s = ReadAccessor(model, uv->second, dp, comps, twhat + " TEXCOORD_0"); !s.ok()) return s;
+    if (comps != 2 || dp.size() != 2 * n) return InvalidArgument(twhat + ": TEXCOORD_0 deltas must be VEC2, one per vertex");
+    for (size_t v = 0; v < n; ++v) {
+      if (dp[2 * v] == 0.0f && dp[2 * v + 1] == 0.0f) continue;
+      st.texcoord_indices.push_back(static_cast<uint32_t>(v));
+      st.texcoord_deltas.insert(st.texcoord_deltas.end(), {dp[2 * v], dp[2 * v + 1]});
+    }
   }
   return Status::Ok();
 }
@@ -408,11 +418,15 @@ Status ConvertModel(const tinygltf::Model& model, Rig& rig) {
       }
       if (p.material >= 0 && material_uv_transform[p.material].first == 0 && !p.texcoords.empty()) {
         const auto& xf = material_uv_transform[p.material].second;
-        for (size_t v = 0; v < p.texcoords.size(); v += 2) {
-          const float u = p.texcoords[v], w = p.texcoords[v + 1];
-          p.texcoords[v] = xf[0] * u + xf[1] * w + xf[2];
-          p.texcoords[v + 1] = xf[3] * u + xf[4] * w + xf[5];
-        }
+        const auto transform = [&xf](std::vector<float>& uv, float shift) {  // UV deltas: the linear part alone.
+          for (size_t v = 0; v < uv.size(); v += 2) {
+            const float u = uv[v], w = uv[v + 1];
+            uv[v] = xf[0] * u + xf[1] * w + shift * xf[2];
+            uv[v + 1] = xf[3] * u + xf[4] * w + shift * xf[5];
+          }
+        };
+        transform(p.texcoords, 1.0f);
+        for (SparseTarget& t : p.targets) transform(t.texcoord_deltas, 0.0f);
       }
       FinalizePrimitive(p);
       mesh.primitives.push_back(static_cast<int>(rig.primitives.size()));

@@ -150,11 +150,17 @@ struct Bone {
   std::vector<IkLinkData> ik_links;
 };
 
+// PMX morph types: 0 group, 1 vertex, 2 bone, 3 UV, 4-7 additional UV 1-4, 8 material, 9 flip,
+// 10 impulse. Which become shapes: all but the additional UVs (sets only MMD's effect shaders read,
+// which the rig does not carry) and impulses (a push on a rigid body, PMX 2.1; not simulated).
+inline bool MorphIsShape(int type) { return type <= 3 || type == 8 || type == 9; }
+
 struct Morph {
   std::string name, english;
   int panel = 0, type = 0;
   std::vector<std::pair<int64_t, std::array<float, 3>>> vertex;  // (vertex, offset)
-  std::vector<std::pair<int64_t, float>> group;                  // (morph, factor)
+  std::vector<std::pair<int64_t, float>> group;                  // (morph, factor); type 9 (flip): (morph, weight).
+  std::vector<std::pair<int64_t, std::array<float, 2>>> uv;      // Type 3: (vertex, UV offset).
   std::vector<MaterialMorph> material;  // Type 8; `material` is the PMX material index (-1: all) until BuildRig.
   std::vector<BoneMorph> bone;          // Type 2, in MMD's units and axes; `node` is the PMX bone index until BuildRig.
 };

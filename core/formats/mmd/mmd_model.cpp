@@ -295,7 +295,8 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   Mesh mesh;
   mesh.name = model.empty() ? name : model;
   mesh.skin = nbones ? 0 : -1;
-  // Shapes: vertex morphs, and group morphs baked from the vertex morphs they name. PMX 2.0 makes a
+  // Shapes: vertex and UV morphs, and group morphs baked from the vertex and UV morphs they name
+  // (bone and material morphs kept by the shape, flips picking shapes at weights). PMX 2.0 makes a
   // group inside a group invalid (against recursion), so those entries are not followed, and reported.
   // Each shape's offsets are summed per vertex and kept in vertex order.
   constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
@@ -303,13 +304,29 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   std::vector<char> hit(nverts, 0);
   size_t baked = 0, nested = 0, other = 0;  // Group entries naming a group morph; naming a morph we do not apply.
   std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> deltas;
+  std::vector<std::vector<std::pair<uint32_t, std::array<float, 2>>>> uv_deltas;  // Per shape: UV offsets.
+  std::vector<std::array<float, 2>> acc_uv(nverts, {0, 0});
+  std::vector<char> hit_uv(nverts, 0);
   // Every morph is its own shape, as in MMD, whose motions name morphs by their (Japanese) names:
   // an English name becomes an alias only when no morph of the file is called so.
   std::set<std::string> morph_names;
-  for (size_t mi = 0; mi < nmorphs; ++mi) morph_names.insert(morphs[mi].name);
+  std::vector<int64_t> shape_of(nmorphs, -1);  // A flip's entries name morphs: their shapes.
+  for (size_t mi = 0, next = 0; mi < nmorphs; ++mi) {
+    morph_names.insert(morphs[mi].name);
+    if (MorphIsShape(morphs[mi].type)) shape_of[mi] = static_cast<int64_t>(next++);
+  }
   for (size_t mi = 0; mi < nmorphs; ++mi) {
     const Morph& m = morphs[mi];
-    if (m.type != 0 && m.type != 1 && m.type != 2 && m.type != 8) continue;
+    if (!MorphIsShape(m.type)) continue;
+    if (m.type == 9) {
+      // A flip: a shape of its own that moves nothing, picking one of its entries' shapes (EffectiveWeights).
+      Flip flip{static_cast<uint32_t>(shape_of[mi]), {}};
+      for (const auto& [child, w] : m.group) {
+        if (shape_of[child] >= 0 && morphs[child].type != 9) flip.entries.emplace_back(static_cast<uint32_t>(shape_of[child]), w);
+        else ++other;
+      }
+      rig.flips.push_back(std::move(flip));
+    }
     std::vector<MaterialMorph> material = m.material;  // A material morph's own, or a group's entries'.
     std::vector<BoneMorph> bone;                       // A bone morph's own, or a group's entries' (by its factor).
     auto add_bones = [&](const Morph& src, float f) {
@@ -329,8 +346,24 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       }
     };
     if (m.type == 1) add(m, 1.0f);
-    for (const auto& [child, f] : m.group) {
+    std::vector<uint32_t> touched_uv;
+    auto add_uv = [&](const Morph& src, float f) {
+      for (const auto& [v, d] : src.uv) {
+        if (!hit_uv[v]) touched_uv.push_back(static_cast<uint32_t>(v));
+        hit_uv[v] = 1;
+        for (int c = 0; c < 2; ++c) acc_uv[v][c] += f * d[c];
+      }
+    };
+    if (m.type == 3) add_uv(m, 1.0f);
+    static const std::vector<std::pair<int64_t, float>> kNoEntries;  // A flip's entries are picked, not baked.
+    for (const auto& [child, f] : m.type == 9 ? kNoEntries : m.group) {
       const Morph& c = morphs[child];
+      if (c.type == 3) {
+        baked += c.uv.size();
+        if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
+        add_uv(c, f);
+        continue;
+      }
       if (c.type == 8) {
         for (MaterialMorph mm : c.material) {
           mm.factor *= f;
@@ -358,6 +391,15 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       acc[v] = {0, 0, 0};
       hit[v] = 0;
     }
+    std::sort(touched_uv.begin(), touched_uv.end());
+    std::vector<std::pair<uint32_t, std::array<float, 2>>> duv;
+    duv.reserve(touched_uv.size());
+    for (uint32_t v : touched_uv) {
+      duv.emplace_back(v, acc_uv[v]);
+      acc_uv[v] = {0, 0};
+      hit_uv[v] = 0;
+    }
+    uv_deltas.push_back(std::move(duv));
     Shape shape;
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
@@ -370,10 +412,11 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     deltas.push_back(std::move(d));
   }
   if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
-  if (other) skipped.push_back(std::to_string(other) + " group-morph entries naming UV, flip or impulse morphs");
+  if (other) skipped.push_back(std::to_string(other) + " group- or flip-morph entries naming additional-UV, flip or impulse morphs");
   for (const auto& [type, count] : in.unapplied) {
-    static const char* kNames[] = {"group", "vertex", "bone", "UV", "UV1", "UV2", "UV3", "UV4", "material", "flip", "impulse"};
-    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : ""));
+    static const char* kNames[] = {"group", "vertex", "bone", "UV", "additional-UV-1", "additional-UV-2", "additional-UV-3", "additional-UV-4", "material", "flip", "impulse"};
+    const char* why = type == 10 ? " (a push on a rigid body, PMX 2.1: not simulated)" : " (the model's additional UV sets, which only MMD effect shaders read, are not carried)";
+    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : "") + why);
   }
   // One primitive per material, over the vertices its faces use (in vertex order, so that each
   // shape's offsets, in vertex order, land in ascending local indices).
@@ -488,6 +531,14 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
         SparseTarget& t = rig.primitives[slots[k].first].targets[s];
         t.indices.push_back(slots[k].second);
         t.position_deltas.insert(t.position_deltas.end(), d.begin(), d.end());
+      }
+    }
+    for (const auto& [v, off] : uv_deltas[s]) {
+      if (off[0] == 0 && off[1] == 0) continue;
+      for (uint32_t k = slot_start[v]; k < slot_start[v + 1]; ++k) {
+        SparseTarget& t = rig.primitives[slots[k].first].targets[s];
+        t.texcoord_indices.push_back(slots[k].second);
+        t.texcoord_deltas.insert(t.texcoord_deltas.end(), off.begin(), off.end());
       }
     }
     for (Primitive& p : rig.primitives) FinalizeTarget(p.targets[s]);

@@ -226,11 +226,18 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
         if (!r.Index(h.vertex, true, idx, "a vertex morph") || !r.Floats(d.data(), 3, "a vertex morph")) return fail(r);
         if (idx < 0 || static_cast<size_t>(idx) >= nverts) return InvalidArgument(name + ": PMX: morph '" + m.name + "' moves vertex " + std::to_string(idx) + " of " + std::to_string(nverts));
         m.vertex.emplace_back(idx, d);
-      } else if (type == 0) {
+      } else if (type == 0 || type == 9) {
         float f;
-        if (!r.Index(h.morph, false, idx, "a group morph") || !r.Floats(&f, 1, "a group morph")) return fail(r);
-        if (idx < 0 || static_cast<size_t>(idx) >= nmorphs) return InvalidArgument(name + ": PMX: group morph '" + m.name + "' names morph " + std::to_string(idx) + " of " + std::to_string(nmorphs));
+        const char* what = type == 0 ? "a group morph" : "a flip morph";
+        if (!r.Index(h.morph, false, idx, what) || !r.Floats(&f, 1, what)) return fail(r);
+        if (idx < 0 || static_cast<size_t>(idx) >= nmorphs) return InvalidArgument(name + ": PMX: " + (type == 0 ? "group" : "flip") + " morph '" + m.name + "' names morph " + std::to_string(idx) + " of " + std::to_string(nmorphs));
         m.group.emplace_back(idx, f);
+      } else if (type == 3) {
+        // UV: the offset is 4 floats, of which the first UV set uses x and y.
+        float d[4];
+        if (!r.Index(h.vertex, true, idx, "a UV morph") || !r.Floats(d, 4, "a UV morph")) return fail(r);
+        if (idx < 0 || static_cast<size_t>(idx) >= nverts) return InvalidArgument(name + ": PMX: UV morph '" + m.name + "' moves vertex " + std::to_string(idx) + " of " + std::to_string(nverts));
+        m.uv.push_back({idx, {d[0], d[1]}});
       } else if (type == 2) {
         BoneMorph b;
         if (!r.Index(h.bone, false, idx, "a bone morph") || !r.Floats(b.translation.data(), 3, "a bone morph") || !r.Floats(b.rotation.data(), 4, "a bone morph")) return fail(r);
@@ -265,7 +272,7 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
         return fail(r);
       }
     }
-    if (type != 0 && type != 1 && type != 2 && type != 8) ++model.unapplied[type];
+    if (!MorphIsShape(type)) ++model.unapplied[type];
   }
   // Display frames (skipped), then the rigid bodies and joints. A file that ends before them
   // (some tools stop after the morphs) has no physics.

@@ -67,6 +67,8 @@ struct BlendedPrimitive {
   std::vector<float> positions;  // xyz per vertex: mesh space, or scene space when skinned.
   std::vector<float> normals;    // xyz per vertex, unit length.
   std::vector<float> tangents;   // xyzw per vertex, or empty when the rig has none.
+  std::vector<float> texcoords;  // uv per vertex when a shape moving UVs has a weight; else empty,
+                                 // and the primitive's own hold (TexcoordsOf).
   bool skinned = false;          // Positions are in scene space (glTF ignores the node's transform).
   std::vector<float> morphed_positions;  // Skinned only: the positions after morphing, before
                                          // skinning (mesh space), for displacement views.
@@ -82,6 +84,17 @@ struct BlendedRig {
   // with material morphs has a weight (the materials' own colours hold).
   std::vector<std::array<float, 4>> material_colors;
 };
+
+// The first UV set of `primitive` as blended: `blended`'s when a shape moved it, else its own.
+inline std::span<const float> TexcoordsOf(const Primitive& primitive, const BlendedPrimitive& blended) {
+  return blended.texcoords.empty() ? std::span<const float>(primitive.texcoords) : std::span<const float>(blended.texcoords);
+}
+
+// base + sum_t weights[t] * target[t]'s UV deltas (2 floats per vertex) into `out`; `out` is left
+// empty when no target of non-zero weight moves a UV (or `base` is empty). Indices must have been
+// checked against the vertex count (ValidateRig).
+void BlendTexcoords(std::span<const float> base, std::span<const float> weights, std::span<const SparseTarget> targets,
+                    std::vector<float>& out);
 
 // The materials' base colours under the material morphs of `weights` (MMD: diffuse times the texture
 // tint; exact for untextured materials, the tint's add approximated as a factor on a texture), into
@@ -105,7 +118,8 @@ struct BlendContext {
 };
 
 // The weights the shapes are blended with: the given (slider) weights, with in-between
-// sliders spread over their keys and driven shapes computed (Rig::inbetweens, correctives).
+// sliders spread over their keys, driven shapes computed (Rig::inbetweens, correctives) and flip
+// morphs' picks added (Rig::flips).
 // `out` has one per shape. Without drivers, a copy.
 void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<float> out);
 

@@ -29,6 +29,11 @@ struct SparseTarget {
   // whose deltas follow each other in the arrays above. Built by FinalizeTarget(); empty
   // when the target is scattered (average run shorter than 4), which blends by index.
   std::vector<uint32_t> runs;
+  // What the shape does to the first UV set (MMD's UV morphs, glTF's TEXCOORD_0 targets): the
+  // vertices whose UV moves, ascending, apart from the position indices (most shapes move no UV,
+  // a UV morph moves no position), and 2 floats (du, dv) per index.
+  std::vector<uint32_t> texcoord_indices;
+  std::vector<float> texcoord_deltas;
 };
 
 // Builds `runs` from `indices`. Call after filling a target.
@@ -131,6 +136,14 @@ struct Shape {
                                         // weight given for it is ignored with a warning.
   std::vector<MaterialMorph> material_morphs;  // MMD: what the shape does to materials (most shapes: nothing).
   std::vector<BoneMorph> bone_morphs;          // MMD: bones the shape moves and turns (most shapes: none).
+};
+
+// An MMD flip morph (PMX 2.1): its weight, clamped to [0, 1], picks one of its n entries, entry
+// floor((n + 1) w) - 1 (none below 1 / (n + 1), the last at 1), whose shape gets the entry's weight
+// whole, not scaled by w: a switch, not a blend (EffectiveWeights).
+struct Flip {
+  uint32_t shape = 0;
+  std::vector<std::pair<uint32_t, float>> entries;  // (shape, weight)
 };
 
 // In-between shapes on one slider (Maya's blendShape in-betweens): the slider shape's own
@@ -352,6 +365,7 @@ struct Rig {
   std::vector<Control> controls;       // From the manifest (or a MakeHuman modifiers file).
   std::vector<InBetweens> inbetweens;  // From the manifest: weights computed before blending.
   std::vector<Corrective> correctives;
+  std::vector<Flip> flips;             // MMD's flip morphs: shapes that switch others on.
   BoneConstraints constraints;         // MMD's grants and IK, applied to every pose.
   Physics physics;                      // Simulated over sequences (core/physics); stills ignore it.
   ShapeStatistics statistics;

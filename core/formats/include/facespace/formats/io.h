@@ -161,7 +161,7 @@ struct GlbTemplate;  // GlbVariantWriter's kept export (export.cpp).
 // fraction of its cost (as ozz's jobs keep their buffers between calls): the first call exports
 // through ExportMesh and keeps the result as a template; later calls patch only what a variant
 // changes (asset extras, the POSITION bounds, posed node matrices) and copy positions, normals and
-// tangents into the kept binary chunk, whose other bytes (indices, UVs, colours, images) are
+// tangents (and UVs, when UV morphs move them) into the kept binary chunk, whose other bytes (indices, UVs, colours, images) are
 // written once. A change of shape (another rig, posed or not, skinned or not) rebuilds the
 // template. With options.keep_targets nothing varies with the blend: each call is ExportMesh.
 class GlbVariantWriter {
