@@ -226,25 +226,28 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   m.asset.version = "2.0";
   m.asset.generator = "facespace";
   m.asset.copyright = rig.credit;
-  // glTF has no material or bone morphs: the materials carry their colours, and the mesh its pose,
+  // glTF has no material, bone or flip morphs: the materials carry their colours, and the mesh its pose,
   // at these weights; a glb that keeps the targets says which shapes lost what they do.
   std::vector<Warning> all_warnings(warnings.begin(), warnings.end());
   if (options.keep_targets) {
-    const auto say = [&](bool (*does)(const Shape&), const char* code, const std::string& what, const std::string& kept) {
+    const auto say = [&](auto does, const char* code, const std::string& what, const std::string& kept) {
       std::string names;
       size_t count = 0;
-      for (const Shape& shape : rig.shapes) {
-        if (does(shape) && ++count <= 12) names += (names.empty() ? "" : ", ") + shape.name;
+      for (size_t s = 0; s < rig.shapes.size(); ++s) {
+        if (does(s) && ++count <= 12) names += (names.empty() ? "" : ", ") + rig.shapes[s].name;
       }
       if (count) {
-        all_warnings.push_back({code, std::to_string(count) + " shapes " + what + ": " + names + (count > 12 ? ", ..." : "") + "; " + kept, "",
+        all_warnings.push_back({code, std::to_string(count) + (count == 1 ? " shape " : " shapes ") + what + ": " + names + (count > 12 ? ", ..." : "") + "; " + kept, "",
                                 static_cast<double>(count), false});
       }
     };
-    say([](const Shape& s) { return !s.material_morphs.empty(); }, "material_morphs_not_exported",
-        "change materials (MMD material morphs), which glTF cannot say", "the materials hold their colours at the exported weights");
-    say([](const Shape& s) { return !s.bone_morphs.empty(); }, "bone_morphs_not_exported",
-        "move bones (MMD bone morphs), which a glTF morph target cannot say", "the mesh holds their pose at the exported weights");
+    say([&](size_t s) { return !rig.shapes[s].material_morphs.empty(); }, "material_morphs_not_exported",
+        "with MMD material morphs (they change materials), which glTF cannot say", "the materials hold their colours at the exported weights");
+    say([&](size_t s) { return !rig.shapes[s].bone_morphs.empty(); }, "bone_morphs_not_exported",
+        "with MMD bone morphs (they move bones), which a glTF morph target cannot say", "the mesh holds their pose at the exported weights");
+    say([&](size_t s) { return std::any_of(rig.flips.begin(), rig.flips.end(), [s](const Flip& f) { return f.shape == s; }); },
+        "flip_morphs_not_exported", "as MMD flip morphs (they switch other shapes on), which glTF's linear weights cannot say",
+        "the mesh holds what they pick at the exported weights");
   }
   auto extras = AssetExtras(rig, weights, all_warnings, options);
   if (!extras.ok()) return extras.status();
