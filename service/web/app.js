@@ -8,9 +8,7 @@ const $ = (id) => document.getElementById(id);
 
 // `weights` by shape, or `controls` by control when the rig has controls (MakeHuman modifiers):
 // the sliders show one or the other.
-const state = { rig: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null, generation: 0 };
-let inflight = null;   // AbortController of the requests for the current weights.
-let timer = 0;
+const state = { rig: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null };
 
 // ---- service calls -------------------------------------------------------------------------
 
@@ -69,7 +67,9 @@ function setWeight(name, value, fromPartner) {
   if (!fromPartner && $('mirror').checked && s.partner) setWeight(s.partner, value, true);
 }
 
-function groupOrder(g) { return g === 'identity' ? 0 : g === 'expression' ? 1 : 2; }
+// Groups: identity, expression, then a face's regions from the top down (ARKit-named rigs), then the rest by name.
+const kRegions = ['brow', 'eye', 'cheek', 'nose', 'jaw', 'mouth', 'tongue'];
+function groupOrder(g) { return g === 'identity' ? 0 : g === 'expression' ? 1 : kRegions.includes(g) ? 2 + kRegions.indexOf(g) : 2 + kRegions.length; }
 
 // The sliders, one <details> per group. A rig with many (MakeHuman's 146 controls, Uka's 200
 // expressions) opens with only its first group unfolded; the filter finds any slider by name.
@@ -182,7 +182,10 @@ function reset() {
   schedule();
 }
 
-// ---- refresh: check, render and mesh, newest request wins -----------------------------------
+// ---- refresh: three lanes, the mesh, the check and the render, each at its own pace -------------
+// A lane has at most one request in flight; weights that change meanwhile are sent when it answers,
+// so a dragged slider moves the WebGL view at the service's pace (not after the drag) and the slower
+// render follows as it can. An answer for a rig no longer shown is dropped.
 
 function schedule() {
   if (!usesControls()) {  // With controls the service's check says the sum of the shapes they drive.
@@ -191,35 +194,58 @@ function schedule() {
     $('sum').textContent = +sum.toFixed(4);
   }
   writeHash();
-  clearTimeout(timer);
-  timer = setTimeout(refresh, 60);
+  for (const lane of Object.values(lanes)) kick(lane);
 }
 
-async function refresh() {
-  if (inflight) inflight.abort();  // Stale requests are cancelled, never shown.
-  inflight = new AbortController();
-  const signal = inflight.signal;
-  const generation = ++state.generation;
-  const rig = encodeURIComponent(state.rig);
-  const at = point();
-  showError(null);
-  try {
-    const [check, png, mesh] = await Promise.all([
-      post(`/v1/rigs/${rig}/check`, at, signal).then((r) => r.json()),
-      post(`/v1/rigs/${rig}/render`, { ...at, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch, frame: 'shapes' } }, signal)
-        .then((r) => r.blob()),
-      post(`/v1/rigs/${rig}/mesh`, { ...at, format: 'f32' }, signal).then((r) => r.arrayBuffer()),
-    ]);
-    if (generation !== state.generation) return;
-    $('sum').textContent = +check.sum.toFixed(4);
-    showWarnings(check.warnings);
-    if (state.lastPng) URL.revokeObjectURL(state.lastPng.url);
-    state.lastPng = { blob: png, url: URL.createObjectURL(png) };
-    $('preview').src = state.lastPng.url;
-    gl.update(new Float32Array(mesh));
-  } catch (e) {
-    showError(e);
+// `gap`: the least time between a lane's answer and its next request, so that renders (tens of ms of the
+// service's CPU each) leave room for the meshes a drag needs.
+const lanes = {
+  mesh: { busy: false, dirty: false, gap: 0, run: refreshMesh },
+  check: { busy: false, dirty: false, gap: 0, run: refreshCheck },
+  render: { busy: false, dirty: false, gap: 200, run: refreshRender },
+};
+
+function kick(lane) {
+  if (lane.busy) {
+    lane.dirty = true;
+    return;
   }
+  lane.busy = true;
+  lane.dirty = false;
+  lane.run().catch(showError).finally(() => setTimeout(() => {
+    lane.busy = false;
+    if (lane.dirty) kick(lane);
+  }, lane.gap));
+}
+
+async function refreshCheck() {
+  const id = state.rig;
+  const check = await post(`/v1/rigs/${encodeURIComponent(id)}/check`, point()).then((r) => r.json());
+  if (id !== state.rig) return;
+  $('sum').textContent = +check.sum.toFixed(4);
+  showWarnings(check.warnings);
+}
+
+async function refreshMesh() {
+  const id = state.rig;
+  const mesh = await post(`/v1/rigs/${encodeURIComponent(id)}/mesh`, { ...point(), format: 'f32' }).then((r) => r.arrayBuffer());
+  if (id !== state.rig) return;
+  showError(null);
+  gl.update(new Float32Array(mesh));
+  $('views').classList.remove('loading');
+  state.meshUpdates = (state.meshUpdates || 0) + 1;  // Counted for the browser test.
+}
+
+async function refreshRender() {
+  const id = state.rig;
+  const at = point();
+  const png = await post(`/v1/rigs/${encodeURIComponent(id)}/render`,
+                         { ...at, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch, frame: 'shapes' } })
+                    .then((r) => r.blob());
+  if (id !== state.rig) return;
+  if (state.lastPng) URL.revokeObjectURL(state.lastPng.url);
+  state.lastPng = { blob: png, url: URL.createObjectURL(png) };
+  $('preview').src = state.lastPng.url;
 }
 
 function showWarnings(warnings) {
@@ -410,7 +436,19 @@ function drag(el, move, end) {
 
 async function loadRig(id, weights) {
   state.rig = id;
-  state.detail = await (await call(`/v1/rigs/${encodeURIComponent(id)}`)).json();
+  // Until the new rig's face is drawn, the views say so instead of showing the last rig's.
+  $('views').classList.add('loading');
+  $('views').dataset.loading = `Loading ${id}\u2026`;
+  $('preview').removeAttribute('src');
+  const path = `/v1/rigs/${encodeURIComponent(id)}`;
+  let detail, topology;
+  try {
+    [detail, topology] = await Promise.all([call(path).then((r) => r.json()), call(`${path}/topology`).then((r) => r.json())]);
+  } finally {
+    if (state.rig === id && !detail) $('views').classList.remove('loading');  // Failed: the error says why.
+  }
+  if (state.rig !== id) return;  // Another rig was picked meanwhile.
+  state.detail = detail;
   // The credit the rig's license asks for, shown with it.
   $('credit').textContent = state.detail.credit ? `Model: ${state.detail.credit}` : '';
   $('credit').hidden = !state.detail.credit;
@@ -418,8 +456,14 @@ async function loadRig(id, weights) {
   state.controls = {};
   for (const s of items()) values()[s.name] = weights ? 0 : startValue(s);
   buildControls();
-  for (const [k, v] of Object.entries(weights || {})) if (shapeByName(k)) setWeight(k, v, true);
-  gl.setTopology(await (await call(`/v1/rigs/${encodeURIComponent(id)}/topology`)).json());
+  const unknown = [];
+  for (const [k, v] of Object.entries(weights || {})) {
+    if (shapeByName(k)) setWeight(k, v, true);
+    else unknown.push(k);
+  }
+  // A link's weights this rig does not have are said, not dropped silently.
+  if (unknown.length) notice(`Not in ${id}, left out: ${unknown.slice(0, 6).join(', ')}${unknown.length > 6 ? ', \u2026' : ''}`);
+  gl.setTopology(topology);
   schedule();
 }
 
@@ -435,9 +479,11 @@ async function start() {
       $('rig').appendChild(o);
     }
     if (!rigs.length) throw new Error('the service has no rigs');
-    const first = rigs.some((r) => r.id === fromHash.rig) ? fromHash.rig : rigs[0].id;
+    const known = rigs.some((r) => r.id === fromHash.rig);
+    const first = known ? fromHash.rig : rigs[0].id;
     $('rig').value = first;
     await loadRig(first, fromHash.weights);
+    if (fromHash.rig && !known) notice(`No rig \u201c${fromHash.rig}\u201d here: showing ${first}`);
   } catch (e) {
     showError(e);
   }
@@ -475,5 +521,5 @@ $('share').addEventListener('click', share);
 $('filter').addEventListener('input', filterControls);
 drag($('preview'), (dx, dy) => { state.yaw += dx * 0.5; state.pitch = Math.max(-80, Math.min(80, state.pitch + dy * 0.5)); },
      () => schedule());
-window.facespace = { state, gl, loadRig, refresh };  // For tests and the console.
+window.facespace = { state, gl, loadRig, schedule };  // For tests and the console.
 start();

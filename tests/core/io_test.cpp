@@ -226,7 +226,9 @@ TEST(JsonPointer, KeysAreEscapedAsOneReferenceToken) {
 TEST(Manifest, BundledFaceCap) {
   auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
-  EXPECT_EQ(rig->shapes[FindShape(rig.value(), "jawOpen")].group, "expression");
+  EXPECT_EQ(rig->shapes[FindShape(rig.value(), "jawOpen")].group, "jaw");  // Grouped by face region.
+  EXPECT_EQ(rig->shapes[FindShape(rig.value(), "browInnerUp")].group, "brow");
+  EXPECT_NE(rig->credit.find("Face Cap model by Bannaflak"), std::string::npos);
   EXPECT_EQ(FindShape(rig.value(), "mouthSmileLeft"), FindShape(rig.value(), "mouthSmile_L"));
   EXPECT_GE(FindShape(rig.value(), "mouthSmileLeft"), 0);
 }

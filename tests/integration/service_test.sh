@@ -52,7 +52,7 @@ check "GET /v1/rigs lists facecap and stress with counts" both "[ $code = 200 ]"
 code=$(c "$U/v1/rigs/facecap")
 check "GET /v1/rigs/facecap: shapes with index, group, range, default, moved, partner; bounding box; primitives" \
   sh -c "[ $code = 200 ]"
-check "  ... whose fields hold the right values" jq_ "d['shapes'][24]['name']=='jawOpen' and d['shapes'][24]['group']=='expression' and d['shapes'][24]['min']==0 and d['shapes'][24]['max']==1 and d['shapes'][24]['vertices_moved']>1000 and d['shapes'][37]['partner']=='mouthSmile_R' and len(d['primitives'])==4 and all(d['bounding_box']['min'][i] < d['bounding_box']['max'][i] for i in range(3)) and d['load_warnings']==[]"
+check "  ... whose fields hold the right values" jq_ "d['shapes'][24]['name']=='jawOpen' and d['shapes'][24]['group']=='jaw' and d['shapes'][24]['min']==0 and d['shapes'][24]['max']==1 and d['shapes'][24]['vertices_moved']>1000 and d['shapes'][37]['partner']=='mouthSmile_R' and len(d['primitives'])==4 and all(d['bounding_box']['min'][i] < d['bounding_box']['max'][i] for i in range(3)) and d['load_warnings']==[]"
 check "GET unknown rig: 404 problem" sh -c "true" && problem "$(c "$U/v1/rigs/nobody")" 404 "'nobody' in d['detail']" && ok "  ... names the id" || no "  ... 404 problem for an unknown rig"
 
 # mesh: same bytes as the CLI

@@ -2,6 +2,7 @@
 // through (CORS, errors as problem details, metrics, the access log).
 #include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include "facespace/api/http.h"
 #include "problem.h"
@@ -17,7 +18,17 @@ using httplib::Response;
 
 struct Api::Impl {
   http::ServerState ctx;
-  Impl(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o) : ctx(s, j, e, std::move(o), http::MetricLabels()) {}
+  // Encodes each rig's description and topology beside the first requests (routes/rigs.cpp, WarmRig);
+  // stopped and joined before `ctx` goes.
+  std::jthread warm;
+  Impl(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o) : ctx(s, j, e, std::move(o), http::MetricLabels()) {
+    warm = std::jthread([this](std::stop_token stop) {
+      for (const auto& rig : ctx.store.List()) {
+        if (stop.stop_requested()) return;
+        http::WarmRig(ctx, rig);
+      }
+    });
+  }
 };
 
 Api::Api(RigStore& store, const Evaluator& evaluator, ApiOptions options, batch::JobQueue* jobs)

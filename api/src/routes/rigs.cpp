@@ -4,6 +4,7 @@
 #include "facespace/api/describe.h"
 #include "facespace/formats/lod.h"
 #include "facespace/core/transform.h"
+#include "http/encoded.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -28,18 +29,59 @@ json RigDetail(const StoredRig& s) {
   return j;
 }
 
+// Triangle lists per primitive, in the order of the f32 and JSON mesh outputs, and where the shapes act.
+std::string TopologyJson(const Rig& at, const DerivedRig& derived) {
+  std::string out = "{\"primitives\":[";
+  for (size_t p = 0; p < at.primitives.size(); ++p) {
+    const Primitive& pr = at.primitives[p];
+    if (p) out += ',';
+    out += "{\"mesh\":" + std::to_string(pr.mesh) + ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
+           ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode)) + ",\"indices\":[";
+    for (size_t i = 0; i < pr.indices.size(); ++i) {
+      if (i) out += ',';
+      out += std::to_string(pr.indices[i]);
+    }
+    out += "]}";
+  }
+  out += "]";
+  if (derived.has_focus) {  // For clients that frame a view.
+    const auto& lo = derived.focus_min;
+    const auto& hi = derived.focus_max;
+    out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," + FormatNumber(lo[2]) + "],\"max\":[" +
+           FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) + "," + FormatNumber(hi[2]) + "]}";
+  }
+  return out + "}";
+}
+
+std::string TopologyKey(const StoredRig& s, int lod) { return "topology|" + s.id + "@" + s.version + "|" + std::to_string(lod); }
+std::string RigKey(const StoredRig& s) { return "rig|" + s.id + "@" + s.version; }
+
 }  // namespace
 
-void ListRigs(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
-  json list = json::array();
-  for (const auto& r : ctx.store.List()) list.push_back(RigSummary(*r));
-  SendJson(res, 200, {{"rigs", list}});
+void WarmRig(ServerState& ctx, const std::shared_ptr<const StoredRig>& stored) {
+  const auto derived = ctx.evaluator.Derived(stored, 0);
+  for (ContentCoding coding : {ContentCoding::kBrotli, ContentCoding::kGzip}) {
+    ContentCoding c = coding;
+    EncodedOnce(ctx, RigKey(*stored), c, "application/json", [&stored] { return RigDetail(*stored).dump(); });
+    c = coding;
+    if (derived) EncodedOnce(ctx, TopologyKey(*stored, 0), c, "application/json", [&] { return TopologyJson(*derived->rig, *derived); });
+  }
+}
+
+void ListRigs(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  const auto rigs = ctx.store.List();
+  std::string key = "rigs";  // The list changes with the rigs' ids and versions alone.
+  for (const auto& r : rigs) key += "|" + r->id + "@" + r->version;
+  SendEncodedOnce(ctx, req, res, key, "application/json", [&rigs] {
+    json list = json::array();
+    for (const auto& r : rigs) list.push_back(RigSummary(*r));
+    return json{{"rigs", list}}.dump();
+  });
 }
 
 void GetRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (auto r = FindRig(ctx, req, res, req.matches[1])) {
-    res.set_header("ETag", "\"" + r->version + "\"");
-    SendJson(res, 200, RigDetail(*r));
+    SendEncodedOnce(ctx, req, res, RigKey(*r), "application/json", [&r] { return RigDetail(*r).dump(); });
   }
 }
 
@@ -238,37 +280,41 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
     }
     lod = v[0] - '0';
   }
+  std::string format = req.has_param("format") ? req.get_param_value("format") : "json";
+  if (format != "json" && format != "u32") {
+    SendProblem(req, res, 422, "invalid-request", "format: must be json or u32 (the indices alone, little-endian)", {{"?format", "must be json or u32"}});
+    return;
+  }
   const auto derived = ctx.evaluator.Derived(stored, lod);
   if (!derived) {
     SendProblem(req, res, 500, "internal", "the level of detail failed");
     return;
   }
-  // Triangle lists per primitive, in the order of the f32 and JSON mesh outputs.
   const Rig& at = *derived->rig;
-  std::string out = "{\"primitives\":[";
-  for (size_t p = 0; p < at.primitives.size(); ++p) {
-    const Primitive& pr = at.primitives[p];
-    if (p) out += ',';
-    out += "{\"mesh\":" + std::to_string(pr.mesh) + ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
-           ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode)) +
-           ",\"indices\":[";
-    for (size_t i = 0; i < pr.indices.size(); ++i) {
-      if (i) out += ',';
-      out += std::to_string(pr.indices[i]);
+  if (format == "u32") {
+    // For WebGL clients: every primitive's triangle indices as little-endian uint32, one after the
+    // other, in the order of the f32 and JSON mesh outputs; the headers say how many each has.
+    std::string vertices, indices;
+    for (const Primitive& p : at.primitives) {
+      vertices += (vertices.empty() ? "" : ",") + std::to_string(p.vertex_count());
+      indices += (indices.empty() ? "" : ",") + std::to_string(p.indices.size());
     }
-    out += "]}";
+    res.set_header("Facespace-Vertex-Counts", vertices);
+    res.set_header("Facespace-Index-Counts", indices);
+    SendEncodedOnce(ctx, req, res, TopologyKey(*stored, lod) + "|u32", "application/octet-stream", [&at] {
+      std::string out;
+      for (const Primitive& p : at.primitives) {
+        for (uint32_t i : p.indices) {
+          const unsigned char le[4] = {static_cast<unsigned char>(i), static_cast<unsigned char>(i >> 8), static_cast<unsigned char>(i >> 16),
+                                       static_cast<unsigned char>(i >> 24)};
+          out.append(reinterpret_cast<const char*>(le), 4);
+        }
+      }
+      return out;
+    });
+    return;
   }
-  out += "]";
-  if (derived->has_focus) {  // Where the shapes act, for clients that frame a view.
-    const auto& lo = derived->focus_min;
-    const auto& hi = derived->focus_max;
-    out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," + FormatNumber(lo[2]) + "],\"max\":[" +
-           FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) + "," + FormatNumber(hi[2]) + "]}";
-  }
-  out += "}";
-  res.set_header("ETag", "\"" + stored->version + "-" + std::to_string(lod) + "\"");
-  res.set_header("Cache-Control", "no-cache");
-  res.set_content(std::move(out), "application/json");
+  SendEncodedOnce(ctx, req, res, TopologyKey(*stored, lod), "application/json", [&at, &derived] { return TopologyJson(at, *derived); });
 }
 
 }  // namespace facespace::api::http
