@@ -81,7 +81,7 @@ class WarningSummary {
 
 int Sequence(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
-  std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format = "json", out;
+  std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format, out;
   bool smooth = false, has_fps = false, has_reduce = false, has_bake = false, physics = true;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
@@ -115,13 +115,21 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
   flags.Value("--bake", "TIME", "add a key at TIME with the in-between weights", number("--bake", -1e9f, &bake, &has_bake));
   AddBlendOptionFlags(flags, options);
-  flags.Text("--format", "json|obj|glb|f32", "one JSON file of frames (default), or a file per frame in DIR", &format);
+  flags.Text("--format", "json|obj|glb|f32", "one JSON file of frames, or a file per frame in DIR (default: json, or glb when OUT is a folder: ends in / or exists)", &format);
   flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   const int sources = !keys_text.empty() + !layers_text.empty() + !from_animation.empty() + !obj_times.empty();
   if (paths.empty() || out.empty() || sources != 1) {
     return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)"
                                                                        : "give exactly one of --keys, --layers, --from-animation, --obj-times");
+  }
+  if (format.empty()) {  // `-o frames/` (or an existing folder): a glb per frame; else one JSON file.
+    std::error_code ec;
+    format = out.back() == '/' || std::filesystem::is_directory(out, ec) ? "glb" : "json";
+  }
+  if (format == "json" && out.back() == '/') {
+    std::fprintf(stderr, "error: --format json writes one file, and '%s' is a folder: give a file name, or --format obj|glb|f32 for a file per frame\n", out.c_str());
+    return 2;
   }
   if (format != "json" && format != "obj" && format != "glb" && format != "f32") {
     std::fprintf(stderr, "error: --format must be json, obj, glb or f32\n");

@@ -31,7 +31,7 @@ bool OriginAllowed(const ApiOptions& options, const std::string& origin) {
 
 bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (ctx.options.api_key.empty()) {
-    SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads and deletes are disabled");
+    SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads, deletes and batch jobs are disabled (start it with --api-key-file FILE, a file holding the key; bash .ci/dev start makes build/api-key)");
     return false;
   }
   const std::string auth = req.get_header_value("Authorization");

@@ -247,8 +247,20 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
   FitRequest r;
   Status errors = InvalidArgument("");
   bool has_target = false;
+  // The mesh route's own JSON ({"space", "primitives", "warnings"}) is a target as it is.
+  const json& doc = j.value();
+  const bool whole = doc.contains("primitives") && !doc.contains("target");
+  if (whole) {
+    json mesh{{"primitives", doc["primitives"]}};
+    if (doc.contains("space")) mesh["space"] = doc["space"];
+    auto t = TargetFromJson(mesh, "");
+    if (!t.ok()) errors.fields.insert(errors.fields.end(), t.status().fields.begin(), t.status().fields.end());
+    else r.target = std::move(t.value());
+    has_target = true;
+  }
   for (auto it = j->begin(); it != j->end(); ++it) {
     const std::string ptr = "/" + JsonPointerEscape(it.key());
+    if (whole && (it.key() == "primitives" || it.key() == "space" || it.key() == "warnings")) continue;
     if (it.key() == "target") {
       auto t = TargetFromJson(it.value(), "/target");
       if (!t.ok()) errors.fields.insert(errors.fields.end(), t.status().fields.begin(), t.status().fields.end());
@@ -262,7 +274,7 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
       bool& dst = it.key() == "bounded" ? r.options.bounded : it.key() == "sum_at_most_one" ? r.options.sum_at_most_one : r.options.rigid_align;
       dst = it->get<bool>();
     } else {
-      errors.fields.push_back({ptr, "unknown member (target, bounded, sum_at_most_one, rigid_align)"});
+      errors.fields.push_back({ptr, "unknown member (target, bounded, sum_at_most_one, rigid_align; or the mesh route's JSON as it is)"});
     }
   }
   if (!has_target && errors.fields.empty()) errors.fields.push_back({"/target", "is required"});
