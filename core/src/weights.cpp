@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 namespace facespace {
 
@@ -18,6 +20,16 @@ std::string FormatNumber(double value) {
 }
 
 namespace {
+
+float Norm3(const float* d) { return std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]); }
+
+// `value` to `digits` significant digits: a sum of float weights without its noise (1.9000001 is 1.9).
+double RoundSignificant(double value, int digits = 6) {
+  if (!std::isfinite(value) || value == 0.0) return value;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, value);
+  return std::strtod(buf, nullptr);
+}
 
 std::string ValidNames(const Rig& rig) {
   std::string s;
@@ -114,6 +126,50 @@ double MahalanobisDistance(const Rig& rig, std::span<const float> weights) {
   return std::sqrt(d2);
 }
 
+double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vector<uint32_t>& shapes) {
+  shapes.clear();
+  double best = 0.0;
+  size_t best_primitive = 0;
+  uint32_t best_vertex = 0;
+  std::vector<float> acc;
+  for (const Mesh& mesh : rig.meshes) {
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      bool any = false;
+      for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
+        const uint32_t s = mesh.target_shapes[t];
+        if (s >= weights.size() || !(weights[s] > 0.0f)) continue;
+        // Each vertex gets the weight times the share of the shape's largest move it moves there: a
+        // shape is "full" where it moves most (a left smile moves the middle of the lips half as much).
+        const SparseTarget& st = p.targets[t];
+        float most = 0.0f;
+        for (size_t k = 0; k < st.indices.size(); ++k) most = std::max(most, Norm3(&st.position_deltas[3 * k]));
+        if (!(most > 0.0f)) continue;
+        if (!any) acc.assign(p.vertex_count(), 0.0f);
+        any = true;
+        for (size_t k = 0; k < st.indices.size(); ++k) acc[st.indices[k]] += weights[s] * Norm3(&st.position_deltas[3 * k]) / most;
+      }
+      for (size_t v = 0; any && v < acc.size(); ++v) {
+        if (acc[v] > best) best = acc[v], best_primitive = static_cast<size_t>(pi), best_vertex = static_cast<uint32_t>(v);
+      }
+    }
+  }
+  if (best <= 0.0) return 0.0;
+  const Primitive& p = rig.primitives[best_primitive];
+  const Mesh& mesh = rig.meshes[static_cast<size_t>(p.mesh)];
+  for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
+    const uint32_t s = mesh.target_shapes[t];
+    const auto& idx = p.targets[t].indices;
+    const auto at = std::lower_bound(idx.begin(), idx.end(), best_vertex);
+    if (s < weights.size() && weights[s] > 0.0f && at != idx.end() && *at == best_vertex &&
+        Norm3(&p.targets[t].position_deltas[3 * static_cast<size_t>(at - idx.begin())]) > 0.0f) {
+      shapes.push_back(s);
+    }
+  }
+  std::sort(shapes.begin(), shapes.end());
+  return RoundSignificant(best, 3);  // A share of a move: three digits say it.
+}
+
 WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendMode mode) {
   WeightReport r;
   for (size_t i = 0; i < weights.size() && i < rig.shapes.size(); ++i) {
@@ -150,10 +206,22 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
                             "", d, true});
     }
   }
+  r.sum = RoundSignificant(r.sum);
   if (r.sum > 1.0 + 1e-6) {
+    // Where it matters: the most any one vertex takes, and which shapes stack there.
+    r.vertex_sum = LargestVertexSum(rig, weights, r.stacked_shapes);
+    std::string where;
+    if (r.vertex_sum <= 1.0 + 1e-6) {
+      where = "; but no vertex moves more than " + FormatNumber(r.vertex_sum) + " of a full shape's move (the shapes act on different vertices)";
+    } else {
+      std::string names;
+      for (size_t k = 0; k < r.stacked_shapes.size() && k < 6; ++k) names += (k ? " + " : "") + rig.shapes[r.stacked_shapes[k]].name;
+      if (r.stacked_shapes.size() > 6) names += " + ...";
+      where = "; on one vertex " + names + " stack to " + FormatNumber(r.vertex_sum) + " of a full shape's move";
+    }
     r.warnings.insert(r.warnings.begin(),
                       {"extrapolation",
-                       "extrapolation: sum of weights " + FormatNumber(r.sum) + " exceeds 1", "",
+                       "extrapolation: sum of weights " + FormatNumber(r.sum) + " exceeds 1" + where, "",
                        r.sum, true});
   }
   if (mode == BlendMode::kAbsolute && std::fabs(r.sum - 1.0) > 1e-4) {

@@ -276,7 +276,8 @@ TEST(Weights, Warnings) {
   EXPECT_NEAR(r.sum, 1.7, 1e-6);
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_EQ(r.warnings[0].code, "extrapolation");
-  EXPECT_EQ(r.warnings[0].message, "extrapolation: sum of weights 1.7 exceeds 1");
+  // The square's two shapes move different vertices: none takes more than 0.9 of a full move.
+  EXPECT_EQ(r.warnings[0].message, "extrapolation: sum of weights 1.7 exceeds 1; but no vertex moves more than 0.9 of a full shape's move (the shapes act on different vertices)");
 
   w = {1.5f, -0.5f};  // Sum 1: no extrapolation; lift out of range, slide negative in range.
   r = CheckWeights(rig, w, BlendMode::kRelative);

@@ -413,6 +413,57 @@ TEST(Semantics, CorrectivesFollowProductOrMinimum) {
   EXPECT_FLOAT_EQ(Effective(rig, {{"mouthSmile_L", 1.0f}})[FindShape(rig, "cheekPuff")], 0.0f);  // One driver alone: no fix.
 }
 
+// The extrapolation warning says where it matters: each vertex takes w_j |d_j(v)| / max |d_j| of every
+// shape moving it (1: one full shape), and the sum carries no float noise.
+TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
+  // Two vertices: A moves v0 by 2 and v1 by 1 (half its largest), B moves v1 by 4.
+  Rig two;
+  Primitive p;
+  p.mode = PrimitiveMode::kPoints;
+  p.positions = {0, 0, 0, 1, 0, 0};
+  SparseTarget a, b;
+  a.indices = {0, 1};
+  a.position_deltas = {0, 2, 0, 0, 1, 0};
+  b.indices = {1};
+  b.position_deltas = {0, 0, 4};
+  p.targets = {a, b};
+  two.primitives = {p};
+  two.meshes = {Mesh{.name = "m", .primitives = {0}, .target_shapes = {0, 1}}};
+  two.shapes = {Shape{.name = "A"}, Shape{.name = "B"}};
+  std::vector<uint32_t> stacked;
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.8f, 0.5f}, stacked), 0.9);  // v1: 0.8 x 0.5 + 0.5 x 1.
+  EXPECT_EQ(stacked, (std::vector<uint32_t>{0, 1}));
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{1.0f, 0.2f}, stacked), 1.0);  // v0: A whole.
+  EXPECT_EQ(stacked, (std::vector<uint32_t>{0}));
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.0f, -1.0f}, stacked), 0.0);  // Negative weights do not stack.
+
+  Rig rig = FaceCap();
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  auto set = [&](const char* name, float v) { w[FindShape(rig, name)] = v; };
+  set("jawOpen", 0.7f), set("mouthSmile_L", 0.6f), set("mouthSmile_R", 0.6f);
+  WeightReport r = CheckWeights(rig, w, BlendMode::kRelative);
+  EXPECT_EQ(r.sum, 1.9);  // Not 1.9000001.
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_EQ(r.warnings[0].message.rfind("extrapolation: sum of weights 1.9 exceeds 1", 0), 0u) << r.warnings[0].message;
+  // A symmetric smile sums to 2, but each half moves its own side: no vertex takes more than one full move.
+  std::fill(w.begin(), w.end(), 0.0f);
+  set("mouthSmile_L", 1.0f), set("mouthSmile_R", 1.0f);
+  r = CheckWeights(rig, w, BlendMode::kRelative);
+  EXPECT_EQ(r.sum, 2.0);
+  EXPECT_DOUBLE_EQ(r.vertex_sum, 1.0);
+  EXPECT_NE(r.warnings[0].message.find("no vertex moves more than 1 of a full shape's move"), std::string::npos) << r.warnings[0].message;
+  // jawOpen and mouthFunnel stack on the lips.
+  std::fill(w.begin(), w.end(), 0.0f);
+  set("jawOpen", 0.6f), set("mouthFunnel", 0.8f);
+  r = CheckWeights(rig, w, BlendMode::kRelative);
+  EXPECT_GT(r.vertex_sum, 1.2);
+  EXPECT_LE(r.vertex_sum, 1.4);
+  std::vector<std::string> names;
+  for (uint32_t s : r.stacked_shapes) names.push_back(rig.shapes[s].name);
+  EXPECT_EQ(names, (std::vector<std::string>{"jawOpen", "mouthFunnel"}));
+  EXPECT_NE(r.warnings[0].message.find("on one vertex jawOpen + mouthFunnel stack to"), std::string::npos) << r.warnings[0].message;
+}
+
 TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
   Rig rig = FaceCap();
   ASSERT_TRUE(ApplyManifest(rig, R"({"statistics": {"mean": {"jawOpen": 0.1}, "stddev": {"jawOpen": 0.2, "mouthSmile_L": 0.5}}})").ok());

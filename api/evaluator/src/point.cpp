@@ -64,10 +64,22 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
   return out + "}";
 }
 
+namespace {
+
+// Beside a sum above 1: "vertex_sum" (the most one vertex takes) and "stacked" (the shapes stacking there).
+std::string StackedJson(const Rig& rig, const WeightReport& r) {
+  if (r.vertex_sum <= 0.0) return {};
+  std::string out = ",\"vertex_sum\":" + FormatNumber(r.vertex_sum) + ",\"stacked\":[";
+  for (size_t k = 0; k < r.stacked_shapes.size(); ++k) out += (k ? "," : "") + JsonString(rig.shapes[r.stacked_shapes[k]].name);
+  return out + "]";
+}
+
+}  // namespace
+
 std::string CheckJson(const Rig& rig, const ResolvedPoint& point) {
   const WeightReport& r = point.report;
   return "{\"sum\":" + FormatNumber(r.sum) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
-         (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) +
+         (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) + StackedJson(rig, r) +
          ",\"warnings\":" + WarningsToJson(r.warnings) + "}";
 }
 

@@ -32,17 +32,28 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
                      std::vector<Warning>& warnings);
 
 struct WeightReport {
-  double sum = 0.0;
+  double sum = 0.0;           // Rounded to 6 significant digits: float weights' noise is not news.
   std::vector<Warning> warnings;
   double mahalanobis = -1.0;  // Distance from the mean in standard deviations; -1 without statistics.
+  // When the sum is above 1: LargestVertexSum, the most of full shape moves stacking on one vertex (a
+  // left and a right smile sum to 2, but no vertex moves more than one full smile's move; jawOpen and
+  // mouthFunnel stack on the lips), and those shapes; else 0 and none.
+  double vertex_sum = 0.0;
+  std::vector<uint32_t> stacked_shapes;
 };
+
+// Over the vertices, the largest sum of w_j |d_j(v)| / max_u |d_j(u)| of the shapes of positive weight
+// (each shape's move at the vertex as a share of its largest, times its weight: 1 is one full shape), and
+// the shapes moving that vertex (into `shapes`, in rig order); 0 when none moves a vertex.
+double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vector<uint32_t>& shapes);
 
 // Mahalanobis distance of a point from the rig's statistical model (Rig::statistics):
 // sqrt(sum_k (((w - mean) . c_k) / stddev_k)^2); 0 when the rig has none.
 double MahalanobisDistance(const Rig& rig, std::span<const float> weights);
 
 // Warnings (the result is still computed):
-//   extrapolation   sum of weights > 1 (value = the sum)
+//   extrapolation   sum of weights > 1 (value = the sum; the message adds the largest sum on one vertex
+//                   and the shapes stacking there, or that none sees more than 1)
 //   out_of_range    a weight outside its shape's [min, max] (shape and value)
 //   negative_weight a weight < 0 that its range allows (shape and value)
 //   absolute_sum    absolute mode and |sum - 1| > 1e-4 (value = the sum)
