@@ -198,6 +198,11 @@ TEST_F(ApiTest, ErrorsAreProblemDetailsNamingTheField) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400);
   EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:malformed-json");
+  // Where: the line and column the parser stopped at (the stray "}" of line 3).
+  r = Client().Post("/v1/rigs/facecap/mesh", "{\"weights\": {\n  \"jawOpen\": 0.5,\n  \"x\": }\n}", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 400);
+  EXPECT_NE(Body(r)["detail"].get<std::string>().find("at line 3, column 8"), std::string::npos) << r->body;
 
   r = Client().Post("/v1/rigs/facecap/mesh", R"({"weights": {"jawOpen": 0.9, "cheekPuff": 0.8}, "strict": true})", "application/json");
   ASSERT_TRUE(r);
@@ -210,6 +215,10 @@ TEST_F(ApiTest, ErrorsAreProblemDetailsNamingTheField) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 404);
   EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:rig-not-found");
+  r = Client().Get("/v1/rigs/facecpa/mesh");  // A typo of an id: the nearest is suggested.
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+  EXPECT_NE(Body(r)["detail"].get<std::string>().find("did you mean 'facecap'?"), std::string::npos) << r->body;
 }
 
 TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {

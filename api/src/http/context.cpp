@@ -89,7 +89,13 @@ ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, Ap
 
 std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
   auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
-  if (!rig) SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+  if (!rig) {
+    // The nearest id, for a typo ("facecpa"): the store's ids are few.
+    std::vector<std::string> ids;
+    for (const auto& r : ctx.store.List()) ids.push_back(r->id);
+    const std::vector<std::string_view> views(ids.begin(), ids.end());
+    SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'" + DidYouMean(id.substr(0, 80), views));
+  }
   return rig;
 }
 

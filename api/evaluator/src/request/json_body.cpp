@@ -499,10 +499,24 @@ class CheckedDom {
   }
   bool parse_error(size_t position, const std::string& token, const nlohmann::detail::exception& e) {
     malformed_ = true;
+    error_at_ = position;
+    error_token_ = token;
     return dom_.parse_error(position, token, e);
   }
 
   bool malformed() const { return malformed_; }
+  // Where the parser stopped, as "line L, column C" of `body` (1-based), and the text it stopped at.
+  std::string ErrorPlace(std::string_view body) const {
+    const size_t at = std::min(error_at_ ? error_at_ - 1 : 0, body.size());
+    size_t line = 1, column = 1;
+    for (size_t i = 0; i < at; ++i) {
+      if (body[i] == '\n') ++line, column = 1;
+      else ++column;
+    }
+    std::string near = error_token_.substr(0, 20);
+    for (char& c : near) if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+    return "line " + std::to_string(line) + ", column " + std::to_string(column) + (near.empty() ? "" : " (at '" + near + "')");
+  }
   const std::string& duplicate() const { return duplicate_; }
   const std::string& over() const { return over_; }  // Which limit was passed, and where.
 
@@ -550,6 +564,8 @@ class CheckedDom {
   std::vector<Level> levels_;
   size_t values_ = 0;
   bool malformed_ = false;
+  size_t error_at_ = 0;
+  std::string error_token_;
   std::string duplicate_, over_;
 };
 
@@ -565,7 +581,9 @@ Result<json> ParseObject(std::string_view body, BodyLimits limits) {
   const bool parsed = json::sax_parse(body, &sax);
   if (!sax.over().empty()) return WithReason(ResourceExhausted("the body has " + sax.over()), "body-too-complex");
   if (!sax.duplicate().empty()) return FieldStatus(sax.duplicate(), "is given more than once; give each member once");
-  if (!parsed || sax.malformed()) return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON"), kMalformedJson);
+  if (!parsed || sax.malformed()) {
+    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON at " + sax.ErrorPlace(body)), kMalformedJson);
+  }
   if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
   return j;
 }
