@@ -243,6 +243,24 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
     switched.loadingAtOnce && switched.ms <= 500 && switched.shapes > 100);
   await page.close();
 }
+{  // A phone (390 x 844): the face in the first screen, and still in view once the sliders are scrolled.
+  const page = await browser.newPage({ viewport: { width: 390, height: 844 }, isMobile: true, hasTouch: true });
+  await page.goto(service + '/#rig=facecap&w=');
+  await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512, null, { timeout: 30000 });
+  const inView = () => page.evaluate(() => ['preview', 'gl'].map((id) => {
+    const r = document.getElementById(id).getBoundingClientRect();
+    return r.top >= 0 && r.bottom <= innerHeight && r.width >= 150;
+  }));
+  const first = await inView();
+  await page.evaluate(() => window.scrollBy(0, 1500));
+  await page.waitForTimeout(200);
+  const scrolled = await inView();
+  const header = await page.locator('header').boundingBox();
+  check(`phone: at 390 x 844 the face (render and WebGL view) is in the first screen (${first}), the header one row (${Math.round(header.height)} px), and the face stays in view under scrolled sliders (${scrolled})`,
+    first.every(Boolean) && scrolled.every(Boolean) && header.height < 60);
+  await page.screenshot({ path: `${outDir}/page-phone.png` });
+  await page.close();
+}
 {  // A link naming a rig or shapes this service does not have says so.
   const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
   await page.goto(service + '/#rig=nope&w=jawOpen:0.5,noSuchShape:1');
