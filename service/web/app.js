@@ -8,7 +8,8 @@ const $ = (id) => document.getElementById(id);
 
 // `weights` by shape, or `controls` by control when the rig has controls (MakeHuman modifiers):
 // the sliders show one or the other.
-const state = { rig: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null };
+const state = { rig: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null,
+                motion: { name: '', duration: 0, time: 0, playing: false, last: 0 } };
 
 // ---- service calls -------------------------------------------------------------------------
 
@@ -46,8 +47,12 @@ function nonZeroOf(map) {
 const usesControls = () => state.detail && state.detail.controls && state.detail.controls.length > 0;
 const values = () => (usesControls() ? state.controls : state.weights);
 const nonZero = () => nonZeroOf(values());
-// The request members for the current point: {"weights": ...} or {"controls": ...}.
-const point = () => (usesControls() ? { controls: nonZero() } : { weights: nonZero() });
+// The request members for the current point: {"weights": ...} or {"controls": ...}, and the motion
+// playing (its clip and time: what it animates, the rest from the sliders).
+const point = () => ({
+  ...(usesControls() ? { controls: nonZero() } : { weights: nonZero() }),
+  ...(state.motion.name ? { animation: state.motion.name, time: +state.motion.time.toFixed(4) } : {}),
+});
 
 // The sliders' items: shapes (not driven ones), or controls.
 function items() {
@@ -188,14 +193,79 @@ function reset() {
 // render follows as it can. An answer for a rig no longer shown is dropped.
 
 function schedule() {
-  if (!usesControls()) {  // With controls the service's check says the sum of the shapes they drive.
+  if (!usesControls() && !state.motion.name) {  // Else the service's check says the sum of the shapes driven.
     let sum = 0;
     for (const v of Object.values(state.weights)) sum += v;
     $('sum').textContent = +sum.toFixed(4);
   }
   writeHash();
+  refreshViews();
+}
+
+function refreshViews() {
   for (const lane of Object.values(lanes)) kick(lane);
 }
+
+// ---- motions: a rig's clip (an MMD motion, a glTF animation) played, paused, scrubbed ------------
+
+function setupMotions() {
+  const anims = state.detail.animations || [];
+  const select = $('motion-name');
+  select.textContent = '';
+  const none = document.createElement('option');
+  none.value = '';
+  none.textContent = 'none: the sliders';
+  select.appendChild(none);
+  for (const a of anims) {
+    const o = document.createElement('option');
+    o.value = a.name;
+    o.textContent = `${a.name} (${a.duration.toFixed(1)} s)`;
+    select.appendChild(o);
+  }
+  $('motion').hidden = !anims.length;
+  pickMotion('');
+}
+
+function pickMotion(name) {
+  const a = (state.detail.animations || []).find((x) => x.name === name);
+  Object.assign(state.motion, { name: a ? a.name : '', duration: a ? a.duration : 0, time: 0, playing: false });
+  $('motion-name').value = state.motion.name;
+  $('motion-time').max = String(state.motion.duration || 1);
+  $('motion-play').disabled = $('motion-time').disabled = !a;
+  showMotion();
+}
+
+function showMotion() {
+  $('motion-time').value = String(state.motion.time);
+  $('motion-clock').textContent = `${state.motion.time.toFixed(2)} s`;
+  $('motion-play').innerHTML = state.motion.playing ? '&#10074;&#10074;' : '&#9654;';
+  $('motion-play').setAttribute('aria-label', state.motion.playing ? 'pause' : 'play');
+}
+
+// Playing: the clock runs in real time (looping), and each frame asks for the views at its time; the
+// lanes send what they can (the newest time when a lane frees).
+function tick(now) {
+  const m = state.motion;
+  if (!m.playing) return;
+  m.time = (m.time + (now - m.last) / 1000) % (m.duration || 1);
+  m.last = now;
+  showMotion();
+  refreshViews();
+  requestAnimationFrame(tick);
+}
+
+$('motion-name').addEventListener('change', () => { pickMotion($('motion-name').value); schedule(); });
+$('motion-play').addEventListener('click', () => {
+  state.motion.playing = !state.motion.playing;
+  state.motion.last = performance.now();
+  showMotion();
+  if (state.motion.playing) requestAnimationFrame(tick);
+});
+$('motion-time').addEventListener('input', () => {
+  state.motion.time = parseFloat($('motion-time').value);
+  showMotion();
+  refreshViews();
+});
 
 // `gap`: the least time between a lane's answer and its next request, so that renders (tens of ms of the
 // service's CPU each) leave room for the meshes a drag needs.
@@ -456,6 +526,7 @@ async function loadRig(id, weights) {
   state.controls = {};
   for (const s of items()) values()[s.name] = weights ? 0 : startValue(s);
   buildControls();
+  setupMotions();
   const unknown = [];
   for (const [k, v] of Object.entries(weights || {})) {
     if (shapeByName(k)) setWeight(k, v, true);

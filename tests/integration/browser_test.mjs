@@ -243,6 +243,29 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
     switched.loadingAtOnce && switched.ms <= 500 && switched.shapes > 100);
   await page.close();
 }
+{  // A motion plays, pauses and scrubs: FaceCap's recorded take (its morph-weight channel).
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  await page.goto(service + '/#rig=facecap&w=');
+  await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512 && !document.getElementById('motion').hidden, null, { timeout: 30000 });
+  const neutral = await previewDigest(page);
+  await page.selectOption('#motion-name', 'Key|Take 001|BaseLayer');
+  const updates0 = await page.evaluate(() => window.facespace.state.meshUpdates);
+  await page.click('#motion-play');
+  await page.waitForTimeout(1500);
+  await page.click('#motion-play');  // Pause.
+  const played = await page.evaluate(() => ({ t: window.facespace.state.motion.time, playing: window.facespace.state.motion.playing, updates: window.facespace.state.meshUpdates }));
+  await page.waitForTimeout(800);
+  const paused = await page.evaluate(() => window.facespace.state.motion.time);
+  await page.locator('#motion-time').fill('5');
+  await page.waitForFunction(() => document.getElementById('motion-clock').textContent === '5.00 s', null, { timeout: 5000 }).catch(() => {});
+  await page.waitForTimeout(1500);
+  const scrubbed = await previewDigest(page);
+  const sum = await page.locator('#sum').textContent();
+  check(`motion: the take plays (${played.t.toFixed(2)} s in 1.5 s, ${played.updates - updates0} mesh updates), pauses (still ${paused.toFixed(2)} s), and scrubbing to 5 s shows another face (sum ${sum})`,
+    played.t > 0.7 && played.t < 2.5 && !played.playing && paused === played.t && played.updates - updates0 >= 5 && scrubbed !== neutral && scrubbed !== null);
+  await page.screenshot({ path: `${outDir}/page-motion.png` });
+  await page.close();
+}
 {  // A phone (390 x 844): the face in the first screen, and still in view once the sliders are scrolled.
   const page = await browser.newPage({ viewport: { width: 390, height: 844 }, isMobile: true, hasTouch: true });
   await page.goto(service + '/#rig=facecap&w=');
