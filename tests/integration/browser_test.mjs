@@ -306,6 +306,20 @@ await controls(service + '/#rig=makehuman&c=', `${outDir}/page-makehuman.png`);
   const credit = await page.locator('#credit').textContent();
   check(`credit: the uka page shows its credit line (${credit.slice(0, 60)}...)`,
     credit.includes('CG-CA Uka (c) 2023 by Nagoya Institute of Technology, Moonshot R&D Goal 1 Avatar Symbiotic Society'));
+  // Japanese names draw as glyphs: with no CJK font, あ and い are the same empty box.
+  const glyphs = await page.evaluate(() => {
+    const c = document.createElement('canvas');
+    c.width = 64; c.height = 32;
+    const x = c.getContext('2d');
+    const font = getComputedStyle(document.querySelector('.shape label')).font;
+    const draw = (t) => { x.clearRect(0, 0, 64, 32); x.font = font; x.fillText(t, 2, 24); return Array.from(x.getImageData(0, 0, 64, 32).data).join(','); };
+    return { a: draw('あ'), i: draw('い') };
+  });
+  check('uka: Japanese shape names draw as glyphs (あ and い differ), not empty boxes', glyphs.a !== glyphs.i);
+  // English aliases of the standard MMD names: the filter finds まばたき by "blink".
+  await page.locator('#filter').fill('blink');
+  const blink = await page.locator('.shape:visible label').allTextContents();
+  check(`uka: the filter finds standard MMD morphs by their English alias ("blink": ${blink.slice(0, 4).join(', ')})`, blink.includes('まばたき'));
   await page.locator('#filter').fill('あ');
   await page.locator('input[aria-label="あ"]').first().fill('1');
   await page.waitForTimeout(1500);
