@@ -80,6 +80,22 @@ function groupOrder(g) { return g === 'identity' ? 0 : g === 'expression' ? 1 : 
 // expressions) opens with only its first group unfolded; the filter finds any slider by name.
 const kFoldAbove = 60;
 
+// A MakeHuman modifier's name as words that fit the row: "cheek/l-cheek-trans-down|up" reads
+// "cheek move L (down/up)", "chin/chin-width-decr|incr" "chin width"; the whole name stays in the tooltip.
+function readableControl(name) {
+  let n = name.slice(name.indexOf('/') + 1);
+  let side = '';
+  const sided = n.match(/^([lr])-(.*)$/);
+  if (sided) [side, n] = [sided[1] === 'l' ? ' L' : ' R', sided[2]];
+  let ends = '';
+  n = n.replace(/-([a-z]+)\|([a-z]+)$/, (all, low, high) => {
+    if (!(low === 'decr' && high === 'incr')) ends = ` (${low}/${high})`;
+    return '';
+  });
+  const words = n.split('-').map((w) => ({ trans: 'move', rot: 'turn', vert: 'vertical', horiz: 'horizontal' }[w] || w));
+  return words.join(' ') + side + ends;
+}
+
 function buildControls() {
   const box = $('sliders');
   box.textContent = '';
@@ -109,7 +125,7 @@ function buildControls() {
       row.dataset.name = s.name;
       row.dataset.search = [s.name, ...(s.aliases || [])].join(' ').toLowerCase();
       const label = document.createElement('label');
-      label.textContent = s.name.includes('/') ? s.name.slice(s.name.indexOf('/') + 1) : s.name;  // Controls: group/name.
+      label.textContent = s.name.includes('/') ? readableControl(s.name) : s.name;  // Controls: group/name.
       label.title = `${s.name} [${s.min}, ${s.max}]` + (s.partner ? ` (partner ${s.partner})` : '') +
                     (s.negative ? ` (${s.negative} below 0, ${s.positive} above)` : '') +
                     (s.aliases && s.aliases.length ? ` (also ${s.aliases.join(', ')})` : '');
