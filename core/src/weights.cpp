@@ -131,23 +131,31 @@ double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vec
   double best = 0.0;
   size_t best_primitive = 0;
   uint32_t best_vertex = 0;
-  std::vector<float> acc;
+  // Each vertex gets the weight times the share of the shape's largest move (over all its primitives)
+  // it moves there: a shape is "full" where it moves most (a left smile moves the middle of the lips half as much).
+  std::vector<float> most(rig.shapes.size(), 0.0f), acc;
+  for (const Mesh& mesh : rig.meshes) {
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
+        const uint32_t s = mesh.target_shapes[t];
+        if (s >= weights.size() || s >= most.size() || !(weights[s] > 0.0f)) continue;
+        const SparseTarget& st = p.targets[t];
+        for (size_t k = 0; k < st.indices.size(); ++k) most[s] = std::max(most[s], Norm3(&st.position_deltas[3 * k]));
+      }
+    }
+  }
   for (const Mesh& mesh : rig.meshes) {
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];
       bool any = false;
       for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
         const uint32_t s = mesh.target_shapes[t];
-        if (s >= weights.size() || !(weights[s] > 0.0f)) continue;
-        // Each vertex gets the weight times the share of the shape's largest move it moves there: a
-        // shape is "full" where it moves most (a left smile moves the middle of the lips half as much).
+        if (s >= weights.size() || s >= most.size() || !(weights[s] > 0.0f) || !(most[s] > 0.0f)) continue;
         const SparseTarget& st = p.targets[t];
-        float most = 0.0f;
-        for (size_t k = 0; k < st.indices.size(); ++k) most = std::max(most, Norm3(&st.position_deltas[3 * k]));
-        if (!(most > 0.0f)) continue;
         if (!any) acc.assign(p.vertex_count(), 0.0f);
         any = true;
-        for (size_t k = 0; k < st.indices.size(); ++k) acc[st.indices[k]] += weights[s] * Norm3(&st.position_deltas[3 * k]) / most;
+        for (size_t k = 0; k < st.indices.size(); ++k) acc[st.indices[k]] += weights[s] * Norm3(&st.position_deltas[3 * k]) / most[s];
       }
       for (size_t v = 0; any && v < acc.size(); ++v) {
         if (acc[v] > best) best = acc[v], best_primitive = static_cast<size_t>(pi), best_vertex = static_cast<uint32_t>(v);
