@@ -139,12 +139,14 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
   Eigen::VectorXd b(rows);
   for (size_t i = 0; i < rows / 3; ++i) b.segment<3>(3 * i) = tgt.col(static_cast<Eigen::Index>(i)) - base.col(static_cast<Eigen::Index>(i));
   // A weight past its range by round-off alone (an exact round trip gives -4.6e-08 for a shape at
-  // 0) is put on the bound: no warning for a point that is inside the authored space.
+  // 0) is put on the bound: no warning for a point that is inside the authored space. The residual
+  // below is of these weights.
   constexpr double kRoundOff = 1e-5;
   for (size_t s = 0; s < S; ++s) {
     const double lo_s = rig.shapes[s].min, hi_s = rig.shapes[s].max;
     if (w(s) < lo_s && w(s) > lo_s - kRoundOff) w(s) = lo_s;
     if (w(s) > hi_s && w(s) < hi_s + kRoundOff) w(s) = hi_s;
+    if (std::fabs(w(s)) < kRoundOff) w(s) = 0.0;  // A weight of round-off alone (1e-7) is none: the answer lists what acts.
   }
   r.weights.resize(S);
   for (size_t s = 0; s < S; ++s) r.weights[s] = static_cast<float>(w(s));
