@@ -143,6 +143,22 @@ int Merge(const std::vector<std::string>& args) {
   return 0;
 }
 
+// One line on what the generated variants warn of (each variant's manifest line has its own):
+// "warnings: extrapolation in 100 of 100 variants (sum of weights up to 3.2), out_of_range in 4".
+void PrintBatchWarnings(const batch::Summary& s) {
+  if (s.generated == 0) return;
+  if (s.warnings.empty()) {
+    std::fprintf(stderr, "warnings: none in the %zu variants generated\n", s.generated);
+    return;
+  }
+  std::string line;
+  for (const auto& [code, count] : s.warnings) {
+    line += (line.empty() ? "" : ", ") + code + " in " + std::to_string(count) + (line.empty() ? " of " + std::to_string(s.generated) + " variants" : "");
+    if (code == "extrapolation") line += " (sum of weights up to " + FormatNumber(s.max_sum) + ")";
+  }
+  std::fprintf(stderr, "warnings: %s (each variant's are in manifest.jsonl)\n", line.c_str());
+}
+
 }  // namespace
 
 int Batch(const std::vector<std::string>& args) {
@@ -369,6 +385,7 @@ int Batch(const std::vector<std::string>& args) {
     return 1;
   }
   const batch::Summary& s = summary.value();
+  if (!s.cancelled && run.shards > 1) PrintBatchWarnings(s);
   if (!s.cancelled && run.shards > 1) {
     std::fprintf(stderr, "batch: shard %zu/%zu: %zu variants in %s (%zu generated, %zu already there) in %.2f s; "
                  "once every shard is done: facespace batch merge %s\n",
@@ -382,6 +399,7 @@ int Batch(const std::vector<std::string>& args) {
   }
   std::fprintf(stderr, "batch: %zu variants in %s (%zu generated, %zu already there) in %.2f s, %.1f variants/s\n", s.total,
                out_dir.c_str(), s.generated, s.skipped, s.seconds, s.seconds > 0 ? s.generated / s.seconds : 0.0);
+  PrintBatchWarnings(s);
   return 0;
 }
 

@@ -8,7 +8,7 @@ const $ = (id) => document.getElementById(id);
 
 // `weights` by shape, or `controls` by control when the rig has controls (MakeHuman modifiers):
 // the sliders show one or the other.
-const state = { rig: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null,
+const state = { rig: null, ready: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null,
                 motion: { name: '', duration: 0, time: 0, playing: false, last: 0 } };
 
 // ---- service calls -------------------------------------------------------------------------
@@ -305,17 +305,19 @@ function kick(lane) {
 }
 
 async function refreshCheck() {
-  const id = state.rig;
+  const id = state.ready;  // The rig whose sliders and topology are set; none while one loads.
+  if (!id) return;
   const check = await post(`/v1/rigs/${encodeURIComponent(id)}/check`, point()).then((r) => r.json());
-  if (id !== state.rig) return;
+  if (id !== state.ready) return;
   $('sum').textContent = +check.sum.toFixed(4);
   showWarnings(check.warnings);
 }
 
 async function refreshMesh() {
-  const id = state.rig;
+  const id = state.ready;  // The rig whose sliders and topology are set; none while one loads.
+  if (!id) return;
   const mesh = await post(`/v1/rigs/${encodeURIComponent(id)}/mesh`, { ...point(), format: 'f32' }).then((r) => r.arrayBuffer());
-  if (id !== state.rig) return;
+  if (id !== state.ready) return;
   showError(null);
   gl.update(new Float32Array(mesh));
   $('views').classList.remove('loading');
@@ -323,12 +325,13 @@ async function refreshMesh() {
 }
 
 async function refreshRender() {
-  const id = state.rig;
+  const id = state.ready;  // The rig whose sliders and topology are set; none while one loads.
+  if (!id) return;
   const at = point();
   const png = await post(`/v1/rigs/${encodeURIComponent(id)}/render`,
                          { ...at, view: state.view, width: 512, height: 512, camera: { yaw: state.yaw, pitch: state.pitch, frame: 'shapes' } })
                     .then((r) => r.blob());
-  if (id !== state.rig) return;
+  if (id !== state.ready) return;
   if (state.lastPng) URL.revokeObjectURL(state.lastPng.url);
   state.lastPng = { blob: png, url: URL.createObjectURL(png) };
   $('preview').src = state.lastPng.url;
@@ -522,6 +525,7 @@ function drag(el, move, end) {
 
 async function loadRig(id, weights) {
   state.rig = id;
+  state.ready = null;  // Until its detail and topology are in, the lanes send nothing (the old rig's weights on the new rig).
   // Until the new rig's face is drawn, the views say so instead of showing the last rig's.
   $('views').classList.add('loading');
   $('views').dataset.loading = `Loading ${id}\u2026`;
@@ -551,6 +555,7 @@ async function loadRig(id, weights) {
   // A link's weights this rig does not have are said, not dropped silently.
   if (unknown.length) notice(`Not in ${id}, left out: ${unknown.slice(0, 6).join(', ')}${unknown.length > 6 ? ', \u2026' : ''}`);
   gl.setTopology(topology);
+  state.ready = id;
   schedule();
 }
 

@@ -234,6 +234,13 @@ B="$tmp/batch"
 "$bin" batch "$rig" --sample uniform --count 40 --seed 5 --active 6 --format glb --out "$B/a" 2>"$tmp/err"; rc=$?
 check "batch --sample uniform: exit 0, 40 glb files, manifest, batch.json and a contact sheet" sh -c "[ $rc -eq 0 ] && [ \$(ls '$B/a' | grep -c '^v0000[0-3][0-9].glb$') -eq 40 ] && [ \$(wc -l <'$B/a/manifest.jsonl') -eq 40 ] && [ -s '$B/a/batch.json' ] && [ -s '$B/a/sheet.png' ]"
 check "batch: a progress report with the rate, and a summary" sh -c "grep -q 'variants: 40/40' '$tmp/err' && grep -q 'variants/s' '$tmp/err'"
+check "batch: its warnings summarised in one line (the 40 variants' codes counted against the manifest's)" py '
+import json,sys,re
+lines=[json.loads(l) for l in open(sys.argv[1]+"/manifest.jsonl")]
+n=sum(1 for l in lines if any(w["code"]=="extrapolation" for w in l["warnings"]))
+err=open(sys.argv[2]).read()
+m=re.search(r"warnings: (none in the 40 variants generated|extrapolation in (\d+) of 40 variants)", err)
+sys.exit(not(m and (n==0 if m.group(1).startswith("none") else int(m.group(2))==n)))' "$B/a" "$tmp/err"
 check "batch manifest: id, file, size and sha256 of every file; 6 shapes moved in range; warnings recorded" py '
 import json,sys,hashlib,os
 d=sys.argv[1]; lines=[json.loads(l) for l in open(d+"/manifest.jsonl")]

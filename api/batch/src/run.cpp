@@ -253,6 +253,8 @@ Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
     api::Workspace ws;
     api::ResolvedPoint point;
     std::vector<Written> group;
+    std::map<std::string, size_t> warned;  // This worker's variants per warning code, merged at its end.
+    double max_sum = 0;
     auto group_started = std::chrono::steady_clock::now();
     // Publishes the group; the lines of the files published go into the manifest.
     auto flush = [&]() -> Status {
@@ -301,6 +303,13 @@ Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
       }
       size_t bytes = 0;
       for (std::string_view p : pieces.value()) bytes += p.size();
+      for (size_t w = 0; w < point.report.warnings.size(); ++w) {  // Each code once per variant.
+        const std::string& code = point.report.warnings[w].code;
+        bool first = true;
+        for (size_t v = 0; v < w && first; ++v) first = point.report.warnings[v].code != code;
+        if (first) ++warned[code];
+      }
+      max_sum = std::max(max_sum, point.report.sum);
       if (group.empty()) group_started = std::chrono::steady_clock::now();
       group.push_back({k, fd.value(), file,
                        "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, json::error_handler_t::replace) +
@@ -312,10 +321,10 @@ Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
       }
     }
     if (Status s = flush(); status.ok()) status = s;
-    if (!status.ok()) {
-      std::lock_guard<std::mutex> lock(mu);
-      if (failure.ok()) failure = status;
-    }
+    std::lock_guard<std::mutex> lock(mu);
+    if (!status.ok() && failure.ok()) failure = status;
+    for (const auto& [code, count] : warned) summary.warnings[code] += count;
+    summary.max_sum = std::max(summary.max_sum, max_sum);
   };
   auto run_worker = [&] {
     work();

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <atomic>
+#include <map>
 #include <functional>
 #include <span>
 #include <string>
@@ -52,6 +53,9 @@ struct Summary {
   size_t generated = 0, skipped = 0, total = 0;
   double seconds = 0;
   bool cancelled = false;
+  // Of the variants generated: how many carry each warning code, and the largest sum of weights.
+  std::map<std::string, size_t> warnings;
+  double max_sum = 0;
 };
 
 // Writes the variants of `plan` (MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
