@@ -7,6 +7,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <memory>
+#include <mutex>
 
 namespace facespace::render::oiio {
 
@@ -36,6 +37,11 @@ bool Encode(const EncodeArgs& a, std::vector<unsigned char>* out, std::string* e
 }
 
 bool Decode(const unsigned char* bytes, size_t size, const char* name, int max_side, Decoded* out, std::string* error) {
+  // One decode at a time: two render threads opening the same JPEG at once crashed inside OpenImageIO
+  // 2.4 (a SEGV in decode_icc_profile, a double free under ASan: batch workers resuming a job, each GL
+  // context decoding FaceCap's texture). A texture is decoded once per context, so this costs little.
+  static std::mutex one_at_a_time;
+  std::lock_guard<std::mutex> lock(one_at_a_time);
   OIIO::Filesystem::IOMemReader proxy(bytes, size);
   auto in = OIIO::ImageInput::open(name, nullptr, &proxy);
   if (!in) {

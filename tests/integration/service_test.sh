@@ -29,7 +29,10 @@ start() {
     --cors-origin http://front.test --jobs-dir "$tmp/jobs" "$@" >>"$tmp/log" 2>&1 &
   pid=$!
   for _ in $(seq 1 600); do curl -fs "$U/healthz" >/dev/null 2>&1 && return 0; sleep 0.1; done
-  no "the server did not answer /healthz within 60 s; its log ends:"; tail -30 "$tmp/log"; finish; exit 1
+  # A sanitizer's report from its first line (where it says what and where), else the log's end.
+  no "the server did not answer /healthz within 60 s; its log says:"
+  if grep -q "ERROR: AddressSanitizer\|runtime error:" "$tmp/log"; then grep -m1 -A45 "ERROR: AddressSanitizer\|runtime error:" "$tmp/log"; else tail -30 "$tmp/log"; fi
+  finish; exit 1
 }
 # c ARGS...: status code; body in $tmp/body, headers in $tmp/hdr.
 c() { curl -s -o "$tmp/body" -D "$tmp/hdr" -w '%{http_code}' "$@"; }
