@@ -215,6 +215,7 @@ function schedule() {
     $('sum').textContent = +sum.toFixed(4);
   }
   writeHash();
+  state.changed = performance.now();
   refreshViews();
 }
 
@@ -325,6 +326,9 @@ async function refreshMesh() {
 }
 
 async function refreshRender() {
+  // While a slider moves, the render waits for it to rest (150 ms): its draw and PNG would take the
+  // CPU the WebGL view's meshes need to follow the drag; a motion playing does not wait.
+  while (!state.motion.playing && performance.now() - (state.changed || 0) < 150) await new Promise((r) => setTimeout(r, 50));
   const id = state.ready;  // The rig whose sliders and topology are set; none while one loads.
   if (!id) return;
   const at = point();
