@@ -62,7 +62,7 @@ bool EncodeBody(std::string_view body, ContentCoding coding, std::string& out) {
     size_t size = BrotliEncoderMaxCompressedSize(body.size());
     if (size == 0) return false;
     out.resize(size);
-    // Quality 5: uka's 1.1 MB topology in tens of milliseconds, within a few percent of quality 11's size.
+    // Quality 5: uka's 1.1 MB topology in 71 ms (quality 11: 1.85 s), 285 KB where quality 11 gave 216 KB.
     if (!BrotliEncoderCompress(5, BROTLI_DEFAULT_WINDOW, BROTLI_MODE_GENERIC, body.size(), reinterpret_cast<const uint8_t*>(body.data()),
                                &size, reinterpret_cast<uint8_t*>(out.data()))) {
       return false;
