@@ -16,11 +16,6 @@ bool SparseBlend::Serves(const Rig& rig, const BlendOptions& options) {
   for (const Mesh& m : rig.meshes) {
     if (m.skin >= 0) return false;
   }
-  for (const Primitive& p : rig.primitives) {
-    for (const SparseTarget& t : p.targets) {
-      if (!t.texcoord_indices.empty()) return false;  // A point's UVs: EvaluateRig.
-    }
-  }
   return true;
 }
 

@@ -4,7 +4,8 @@
 // For writers that keep the rest's bytes and write over them only what moved (formats' F32Writer:
 // on FaceCap a point moves one primitive of four, the head, not the eyes and teeth).
 //
-// It serves rigs without skins, in-betweens or correctives, unposed, with blended normals
+// It serves rigs without skins, in-betweens, correctives or flips, unposed, with blended normals
+// (a shape's UV deltas do not matter: it blends positions and normals alone)
 // (Serves). Immutable after construction: threads share one, each with its own scratch.
 #pragma once
 
