@@ -18,10 +18,11 @@ void Put32(std::string& s, uint32_t v) {
 constexpr uint16_t kDosDate = (0 << 9) | (1 << 5) | 1;  // 1980-01-01: reproducible archives.
 constexpr uint16_t kUtf8Names = 0x0800;
 
-// Raw deflate (no zlib header), as zip wants it. Empty on failure.
-std::string Deflate(std::string_view data) {
+}  // namespace
+
+std::string Deflate(std::string_view data, int window_bits) {
   z_stream z{};
-  if (deflateInit2(&z, 6, Z_DEFLATED, -15, 8, Z_DEFAULT_STRATEGY) != Z_OK) return {};
+  if (deflateInit2(&z, 6, Z_DEFLATED, window_bits, 8, Z_DEFAULT_STRATEGY) != Z_OK) return {};
   std::string out(deflateBound(&z, static_cast<uLong>(data.size())), '\0');
   z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
   z.avail_in = static_cast<uInt>(data.size());
@@ -32,8 +33,6 @@ std::string Deflate(std::string_view data) {
   deflateEnd(&z);
   return rc == Z_STREAM_END ? out : std::string();
 }
-
-}  // namespace
 
 // The fields a local file header and its central directory entry share, from "version needed"
 // to "extra field length".
@@ -59,7 +58,7 @@ std::string ZipStream::Entry(const std::string& name, std::string_view data, boo
   c.name = name;
   c.size = static_cast<uint32_t>(data.size());
   c.crc = static_cast<uint32_t>(crc32(0L, reinterpret_cast<const Bytef*>(data.data()), static_cast<uInt>(data.size())));
-  std::string deflated = compress ? Deflate(data) : std::string();
+  std::string deflated = compress ? Deflate(data, -15) : std::string()  /* Raw, as zip wants. */;
   const bool deflate = compress && !deflated.empty() && deflated.size() < data.size();
   c.method = deflate ? 8 : 0;
   const std::string_view body = deflate ? std::string_view(deflated) : data;

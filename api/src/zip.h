@@ -9,6 +9,10 @@
 
 namespace facespace::api {
 
+// `data` deflated by zlib at level 6, in the wrapper `window_bits` names (-15: raw, as zip wants;
+// 15 + 16: gzip). Empty on failure: a deflated stream is never empty.
+std::string Deflate(std::string_view data, int window_bits);
+
 class ZipStream {
  public:
   // The local header and data of one entry, deflated when `compress` (and smaller), else stored.

@@ -1,12 +1,12 @@
 #include "encoded.h"
 
 #include <brotli/encode.h>
-#include <zlib.h>
 
 #include <cctype>
 #include <cstdlib>
 
 #include "cache.h"
+#include "zip.h"
 
 namespace facespace::api::http {
 
@@ -71,17 +71,8 @@ bool EncodeBody(std::string_view body, ContentCoding coding, std::string& out) {
     return true;
   }
   if (coding == ContentCoding::kGzip) {
-    z_stream z{};
-    if (deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) return false;  // 15 + 16: a gzip wrapper.
-    out.resize(deflateBound(&z, static_cast<uLong>(body.size())) + 32);
-    z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(body.data()));
-    z.avail_in = static_cast<uInt>(body.size());
-    z.next_out = reinterpret_cast<Bytef*>(out.data());
-    z.avail_out = static_cast<uInt>(out.size());
-    const int rc = deflate(&z, Z_FINISH);
-    out.resize(z.total_out);
-    deflateEnd(&z);
-    return rc == Z_STREAM_END;
+    out = Deflate(body, 15 + 16);  // 15 + 16: a gzip wrapper.
+    return !out.empty();
   }
   out.assign(body);
   return true;
