@@ -43,6 +43,39 @@ std::string Convert(const char* to, const char* from, const char* p, size_t n, b
   return out;
 }
 
+// One shape's offsets (N floats each: 3 for positions, 2 for UVs) summed per vertex, as a group
+// morph's entries add up, then taken in vertex order; the sum is left empty for the next shape.
+template <size_t N>
+class OffsetSum {
+ public:
+  using Offsets = std::vector<std::pair<uint32_t, std::array<float, N>>>;
+  explicit OffsetSum(size_t vertices) : acc_(vertices), hit_(vertices, 0) {}
+  void Add(const std::vector<std::pair<int64_t, std::array<float, N>>>& offsets, float f) {
+    for (const auto& [v, d] : offsets) {
+      if (!hit_[v]) touched_.push_back(static_cast<uint32_t>(v));
+      hit_[v] = 1;
+      for (size_t c = 0; c < N; ++c) acc_[v][c] += f * d[c];
+    }
+  }
+  Offsets Take() {
+    std::sort(touched_.begin(), touched_.end());
+    Offsets out;
+    out.reserve(touched_.size());
+    for (uint32_t v : touched_) {
+      out.emplace_back(v, acc_[v]);
+      acc_[v] = {};
+      hit_[v] = 0;
+    }
+    touched_.clear();
+    return out;
+  }
+
+ private:
+  std::vector<std::array<float, N>> acc_;
+  std::vector<char> hit_;
+  std::vector<uint32_t> touched_;
+};
+
 }  // namespace
 
 std::string SjisToUtf8(const unsigned char* p, size_t n) {
@@ -300,13 +333,11 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   // group inside a group invalid (against recursion), so those entries are not followed, and reported.
   // Each shape's offsets are summed per vertex and kept in vertex order.
   constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
-  std::vector<std::array<float, 3>> acc(nverts, {0, 0, 0});
-  std::vector<char> hit(nverts, 0);
+  OffsetSum<3> positions(nverts);
+  OffsetSum<2> uvs(nverts);
   size_t baked = 0, nested = 0, other = 0;  // Group entries naming a group morph; naming a morph we do not apply.
   std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> deltas;
   std::vector<std::vector<std::pair<uint32_t, std::array<float, 2>>>> uv_deltas;  // Per shape: UV offsets.
-  std::vector<std::array<float, 2>> acc_uv(nverts, {0, 0});
-  std::vector<char> hit_uv(nverts, 0);
   // Every morph is its own shape, as in MMD, whose motions name morphs by their (Japanese) names:
   // an English name becomes an alias only when no morph of the file is called so.
   std::set<std::string> morph_names;
@@ -337,31 +368,15 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       }
     };
     if (m.type == 2) add_bones(m, 1.0f);
-    std::vector<uint32_t> touched;
-    auto add = [&](const Morph& src, float f) {
-      for (const auto& [v, d] : src.vertex) {
-        if (!hit[v]) touched.push_back(static_cast<uint32_t>(v));
-        hit[v] = 1;
-        for (int c = 0; c < 3; ++c) acc[v][c] += f * d[c];
-      }
-    };
-    if (m.type == 1) add(m, 1.0f);
-    std::vector<uint32_t> touched_uv;
-    auto add_uv = [&](const Morph& src, float f) {
-      for (const auto& [v, d] : src.uv) {
-        if (!hit_uv[v]) touched_uv.push_back(static_cast<uint32_t>(v));
-        hit_uv[v] = 1;
-        for (int c = 0; c < 2; ++c) acc_uv[v][c] += f * d[c];
-      }
-    };
-    if (m.type == 3) add_uv(m, 1.0f);
+    if (m.type == 1) positions.Add(m.vertex, 1.0f);
+    if (m.type == 3) uvs.Add(m.uv, 1.0f);
     static const std::vector<std::pair<int64_t, float>> kNoEntries;  // A flip's entries are picked, not baked.
     for (const auto& [child, f] : m.type == 9 ? kNoEntries : m.group) {
       const Morph& c = morphs[child];
       if (c.type == 3) {
         baked += c.uv.size();
         if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
-        add_uv(c, f);
+        uvs.Add(c.uv, f);
         continue;
       }
       if (c.type == 8) {
@@ -381,25 +396,9 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       }
       baked += c.vertex.size();
       if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
-      add(c, f);
+      positions.Add(c.vertex, f);
     }
-    std::sort(touched.begin(), touched.end());
-    std::vector<std::pair<uint32_t, std::array<float, 3>>> d;
-    d.reserve(touched.size());
-    for (uint32_t v : touched) {
-      d.emplace_back(v, acc[v]);
-      acc[v] = {0, 0, 0};
-      hit[v] = 0;
-    }
-    std::sort(touched_uv.begin(), touched_uv.end());
-    std::vector<std::pair<uint32_t, std::array<float, 2>>> duv;
-    duv.reserve(touched_uv.size());
-    for (uint32_t v : touched_uv) {
-      duv.emplace_back(v, acc_uv[v]);
-      acc_uv[v] = {0, 0};
-      hit_uv[v] = 0;
-    }
-    uv_deltas.push_back(std::move(duv));
+    uv_deltas.push_back(uvs.Take());
     Shape shape;
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
@@ -409,7 +408,7 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     shape.bone_morphs = std::move(bone);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(shape);
-    deltas.push_back(std::move(d));
+    deltas.push_back(positions.Take());
   }
   if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
   if (other) skipped.push_back(std::to_string(other) + " group- or flip-morph entries naming additional-UV, flip or impulse morphs");
