@@ -83,24 +83,33 @@ std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float cente
   return map;
 }
 
+namespace {
+
+// The vertices of `p` some shape moves noticeably: over 5% of that shape's largest move.
+void MovedVertices(const Primitive& p, std::vector<uint8_t>& moved) {
+  moved.assign(p.vertex_count(), 0);
+  for (const SparseTarget& t : p.targets) {
+    float largest = 0.0f;
+    for (size_t k = 0; k < t.indices.size(); ++k) {
+      const float* d = &t.position_deltas[3 * k];
+      largest = std::max(largest, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    }
+    for (size_t k = 0; k < t.indices.size(); ++k) {
+      const float* d = &t.position_deltas[3 * k];
+      if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0.0025f * largest) moved[t.indices[k]] = 1;
+    }
+  }
+}
+
+}  // namespace
+
 bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3>& hi) {
   const auto world = PrimitiveWorldMatrices(rig);
   std::vector<float> points;
   std::vector<uint8_t> moved;
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
-    moved.assign(p.vertex_count(), 0);
-    for (const SparseTarget& t : p.targets) {
-      float largest = 0.0f;
-      for (size_t k = 0; k < t.indices.size(); ++k) {
-        const float* d = &t.position_deltas[3 * k];
-        largest = std::max(largest, d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-      }
-      for (size_t k = 0; k < t.indices.size(); ++k) {
-        const float* d = &t.position_deltas[3 * k];
-        if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] > 0.0025f * largest) moved[t.indices[k]] = 1;
-      }
-    }
+    MovedVertices(p, moved);
     const auto& m = world[pi];
     for (size_t v = 0; v < moved.size(); ++v) {
       if (!moved[v]) continue;
@@ -124,7 +133,6 @@ bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3
 }
 
 bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const std::array<float, 3>& hi) {
-  if (rig.skin_count > 0) return false;
   const auto world = PrimitiveWorldMatrices(rig);
   std::array<float, 3> all_lo{INFINITY, INFINITY, INFINITY}, all_hi{-INFINITY, -INFINITY, -INFINITY};
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
@@ -144,6 +152,27 @@ bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const 
     whole += static_cast<double>(all_hi[a] - all_lo[a]) * (all_hi[a] - all_lo[a]);
   }
   return whole > 0.0 && focus * 9.0 < whole;  // Diagonal under a third.
+}
+
+int ShapeFocusJoint(const Rig& rig) {
+  std::vector<double> carried(rig.nodes.size(), 0.0);
+  std::vector<uint8_t> moved;
+  for (const Primitive& p : rig.primitives) {
+    const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? rig.meshes[static_cast<size_t>(p.mesh)].skin : -1;
+    if (skin < 0 || static_cast<size_t>(skin) >= rig.skins.size() || p.influences == 0) continue;
+    const std::vector<int>& joints = rig.skins[static_cast<size_t>(skin)].joints;
+    MovedVertices(p, moved);
+    for (size_t v = 0; v < moved.size(); ++v) {
+      if (!moved[v]) continue;
+      for (size_t k = 0; k < p.influences; ++k) {
+        const size_t j = p.joints[v * p.influences + k];
+        const int node = j < joints.size() ? joints[j] : -1;
+        if (node >= 0 && static_cast<size_t>(node) < carried.size()) carried[static_cast<size_t>(node)] += p.joint_weights[v * p.influences + k];
+      }
+    }
+  }
+  const auto most = std::max_element(carried.begin(), carried.end());
+  return most == carried.end() || *most <= 0.0 ? -1 : static_cast<int>(most - carried.begin());
 }
 
 Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options) {

@@ -102,8 +102,24 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   Eigen::AlignedBox3f box, shape_box, rest_box, joint_box;
   float heat_max = 0.0f;
 
-  // frame=joint:NAME: the node, and per skin its index among the skin's joints (-1: not in it).
-  int joint_node = -1;
+  // Framing the shapes (auto or shapes): the rest-pose box of what they move (stable while sliders
+  // move); on a skinned rig, by default, the joint carrying them, which a pose carries along.
+  bool frame_shapes = false;
+  int focus_joint = -1;
+  if (o.camera.frame == Framing::kAuto || o.camera.frame == Framing::kShapes) {
+    std::array<float, 3> lo = o.camera.focus_min, hi = o.camera.focus_max;
+    const bool found = o.camera.has_focus || ShapeFocusBox(rig, lo, hi);
+    const bool small = o.camera.has_focus ? o.camera.focus_small : found && FrameShapesByDefault(rig, lo, hi);
+    if (found) {
+      frame_shapes = o.camera.frame == Framing::kShapes || small;
+      shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
+    }
+    if (o.camera.frame == Framing::kAuto && small) focus_joint = o.camera.has_focus ? o.camera.focus_joint : ShapeFocusJoint(rig);
+  }
+
+  // frame=joint:NAME (or the focus joint): the node, and per skin its index among the skin's
+  // joints (-1: not in it).
+  int joint_node = focus_joint;
   std::vector<int> joint_in_skin(rig.skins.size(), -1);
   if (o.camera.frame == Framing::kJoint) {
     joint_node = FindNode(rig, o.camera.frame_joint);
@@ -115,11 +131,11 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     if (joint_node < 0) {
       return InvalidArgument("frame: no joint '" + o.camera.frame_joint + "' in the rig" + DidYouMean(o.camera.frame_joint, names));
     }
-    for (size_t s = 0; s < rig.skins.size(); ++s) {
-      const auto& joints = rig.skins[s].joints;
-      const auto it = std::find(joints.begin(), joints.end(), joint_node);
-      if (it != joints.end()) joint_in_skin[s] = static_cast<int>(it - joints.begin());
-    }
+  }
+  for (size_t s = 0; joint_node >= 0 && s < rig.skins.size(); ++s) {
+    const auto& joints = rig.skins[s].joints;
+    const auto it = std::find(joints.begin(), joints.end(), joint_node);
+    if (it != joints.end()) joint_in_skin[s] = static_cast<int>(it - joints.begin());
   }
 
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
@@ -166,18 +182,6 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     }
     draws.push_back({first, indices.size(), p.indices.size(), p.mode, p.material});
     for (uint32_t i : p.indices) indices.push_back(static_cast<uint32_t>(first + i));
-  }
-
-  // Framing the shapes: the rest-pose box of what they move (stable while sliders move).
-  bool frame_shapes = false;
-  if (o.camera.frame == Framing::kAuto || o.camera.frame == Framing::kShapes) {
-    std::array<float, 3> lo = o.camera.focus_min, hi = o.camera.focus_max;
-    const bool found = o.camera.has_focus || ShapeFocusBox(rig, lo, hi);
-    const bool small = o.camera.has_focus ? o.camera.focus_small : found && FrameShapesByDefault(rig, lo, hi);
-    if (found) {
-      frame_shapes = o.camera.frame == Framing::kShapes || small;
-      shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
-    }
   }
 
   // A joint no vertex follows (a root, an end site): its position, in a tenth of the whole.

@@ -92,6 +92,7 @@ void BM_Render(benchmark::State& state) {
   // The framing box of the shapes, found once per rig as the service keeps it (api's DerivedRig).
   o.camera.has_focus = ShapeFocusBox(rig, o.camera.focus_min, o.camera.focus_max);
   o.camera.focus_small = o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
+  o.camera.focus_joint = o.camera.focus_small ? ShapeFocusJoint(rig) : -1;
   render::Image image;
   size_t bytes = 0;
   for (auto _ : state) {

@@ -339,7 +339,8 @@ int CoveredRows(const Image& im) {
 
 // MakeHuman's shapes act on the face of a whole body: by default a render frames the face (as
 // "shapes" does), where "all" shows a body with a head a tenth of the image tall. FaceCap (shapes
-// all over the head) and Uka (a skeleton: a pose would carry the face away) keep the whole mesh.
+// all over the head) keeps the whole mesh; Uka (a face on a skinned body) frames her head joint
+// (below).
 TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
   auto human = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
   auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
@@ -350,8 +351,9 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
   EXPECT_TRUE(FrameShapesByDefault(human.value(), lo, hi));
   ASSERT_TRUE(ShapeFocusBox(face.value(), lo, hi));
   EXPECT_FALSE(FrameShapesByDefault(face.value(), lo, hi));
+  EXPECT_EQ(ShapeFocusJoint(face.value()), -1);  // No skin: framed by the box.
   ASSERT_TRUE(ShapeFocusBox(uka.value(), lo, hi));
-  EXPECT_FALSE(FrameShapesByDefault(uka.value(), lo, hi));
+  EXPECT_TRUE(FrameShapesByDefault(uka.value(), lo, hi));
 
   RenderOptions o;
   o.width = o.height = 128;
@@ -367,6 +369,48 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
   EXPECT_GT(CoveredRows(by_default), 100);  // The head fills the frame...
   EXPECT_GT(CoveredRows(all), 100);         // ...where "all" shows the whole body, as tall,
   EXPECT_NE(by_default.rgba, all.rgba);     // and so a different picture.
+}
+
+// Uka's shapes are her face on a skinned body: by default a render frames the joint that carries
+// them (頭, her head), where a pose takes it, as frame=joint:頭 does; "all" shows her whole, small.
+TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
+  auto loaded = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
+  ASSERT_TRUE(loaded.ok());
+  const Rig& uka = loaded.value();
+  const int head = ShapeFocusJoint(uka);
+  ASSERT_GE(head, 0);
+  EXPECT_EQ(uka.nodes[static_cast<size_t>(head)].name, "頭");
+
+  RenderOptions o;
+  o.width = o.height = 96;
+  o.background = {1, 1, 1, 0};
+  for (const bool posed : {false, true}) {
+    BlendedRig blended = Evaluate(uka, std::vector<float>(uka.shapes.size(), 0.0f));
+    if (posed) {  // Her whole body 30 cm to her left and turned: the head with it.
+      Pose pose = RestPose(uka);
+      const int centre = FindNode(uka, "センター");
+      ASSERT_GE(centre, 0);
+      pose.local[static_cast<size_t>(centre)].translation[0] += 3.75f;
+      pose.local[static_cast<size_t>(centre)].rotation = EulerToQuaternion(0, 40, 0);
+      pose.from_matrix[static_cast<size_t>(centre)] = 0;
+      BlendContext ctx;
+      BlendOptions bo;
+      bo.pose = &pose;
+      const std::vector<float> w(uka.shapes.size(), 0.0f);
+      ASSERT_TRUE(EvaluateRig(uka, w, bo, blended, ctx).ok());
+    }
+    Image by_default, joint, all;
+    o.camera.frame = render::Framing::kAuto;
+    ASSERT_TRUE(Gl().Draw(uka, blended, o, by_default).ok());
+    o.camera.frame = render::Framing::kJoint;
+    o.camera.frame_joint = "頭";
+    ASSERT_TRUE(Gl().Draw(uka, blended, o, joint).ok());
+    o.camera.frame = render::Framing::kAll;
+    ASSERT_TRUE(Gl().Draw(uka, blended, o, all).ok());
+    EXPECT_EQ(by_default.rgba, joint.rgba) << (posed ? "posed" : "at rest");
+    EXPECT_GT(CoveredRows(by_default), 80) << (posed ? "posed" : "at rest");  // The head fills the frame,
+    EXPECT_LT(CoveredRows(all), 80) << (posed ? "posed" : "at rest");         // a whole body is thin.
+  }
 }
 
 // A nose 4 mm lower on MakeHuman (the bundled rig is in metres: nose-trans-down, whose largest move

@@ -23,6 +23,7 @@ std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const St
     }
     d->has_focus = ShapeFocusBox(*rig, d->focus_min, d->focus_max);
     d->focus_small = d->has_focus && FrameShapesByDefault(*rig, d->focus_min, d->focus_max);
+    d->focus_joint = d->focus_small ? ShapeFocusJoint(*rig) : -1;
     std::lock_guard<std::mutex> lock(mu_);
     auto& slot = derived_.At(own)[lod];
     if (!slot) slot = std::move(d);
@@ -47,6 +48,7 @@ void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int l
     camera.focus_small = d->focus_small;
     camera.focus_min = d->focus_min;
     camera.focus_max = d->focus_max;
+    camera.focus_joint = d->focus_joint;
   }
 }
 

@@ -47,9 +47,13 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
 bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3>& hi);
 
 // True when the shapes act on a small part of the rig (the focus box's diagonal under a third of
-// the whole rest-pose box's: a face on a body) and the rig has no skeleton (a pose would carry
-// the face out of a box taken at rest): where a render frames by default.
+// the whole rest-pose box's: a face on a body): where a render frames by default (a skinned rig
+// through ShapeFocusJoint, which a pose carries along, rather than the box taken at rest).
 bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const std::array<float, 3>& hi);
+
+// The joint (node index) that carries most of what the shapes move, by skin weight summed over
+// the vertices ShapeFocusBox counts (Uka's head, 頭); -1 for a rig without a skin.
+int ShapeFocusJoint(const Rig& rig);
 
 // For each vertex of `primitive`, its mirror image across the plane coordinate `axis` =
 // `center` (the closest vertex within `tolerance` mesh units of the reflected position), or -1.

@@ -28,8 +28,9 @@ const char* ViewName(View view);
 
 // What the orbit camera frames: every vertex, the vertices the rig's shapes move (ShapeFocusBox:
 // a face on a whole body), the vertices a joint carries (Camera::frame_joint, under the pose), or
-// by default the shapes when they act on a small part of a rig with no skeleton
-// (FrameShapesByDefault), else everything. Every vertex means the rest shape's when the render is
+// by default the shapes when they act on a small part of the rig (FrameShapesByDefault; on a
+// skinned rig the vertices of the joint carrying them, ShapeFocusJoint, so a pose does not carry
+// the face out of view), else everything. Every vertex means the rest shape's when the render is
 // not posed, so the camera stays still while weights change (frames of a sequence line up).
 enum class Framing { kAuto, kAll, kShapes, kJoint };
 
@@ -47,6 +48,7 @@ struct Camera {
   // computed per render otherwise.
   bool has_focus = false;
   bool focus_small = false;
+  int focus_joint = -1;  // ShapeFocusJoint, with has_focus: what a skinned rig's auto framing follows.
   std::array<float, 3> focus_min{0, 0, 0}, focus_max{0, 0, 0};
   std::array<float, 3> eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
 };

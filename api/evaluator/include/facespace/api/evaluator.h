@@ -154,6 +154,7 @@ struct DerivedRig {
   bool has_focus = false;
   bool focus_small = false;  // FrameShapesByDefault: renders frame the focus unless told "all".
   std::array<float, 3> focus_min{}, focus_max{};
+  int focus_joint = -1;  // ShapeFocusJoint when focus_small: a skinned rig's renders follow it.
 };
 
 class Evaluator {
