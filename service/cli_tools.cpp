@@ -147,7 +147,7 @@ int Convert(const std::vector<std::string>& args) {
   std::string out;
   MakeHumanOptions mh;
   Flags flags("usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR ... [--modifiers modeling_modifiers.json]\n"
-              "         [--groups body,helper-...|*] [--metres]] -o OUT.glb\n",
+              "         [--groups body,helper-...|*] [--metres] [--proxy FILE.mhclo ...]] -o OUT.glb\n",
               "Writes any rig we read (glTF, an OBJ sequence, a MakeHuman base.obj with --targets) as a .glb with\n"
               "sparse morph targets, and OUT.manifest.json beside it (groups, ranges, partners, controls).\n");
   flags.Value("--targets", "DIR", "a folder of MakeHuman .target files (repeatable)", [&targets](const std::string& v) {
@@ -160,10 +160,18 @@ int Convert(const std::vector<std::string>& args) {
     return 0;
   });
   flags.Switch("--metres, --meters", "scale MakeHuman's decimetres to metres", [&] { mh.metres = true; });
+  flags.Value("--proxy", "FILE.mhclo", "a MakeHuman proxy (eyes, teeth, ...) fitted to the base mesh and moved by every target (repeatable)",
+              [&mh](const std::string& v) {
+                mh.proxies.push_back(v);
+                return 0;
+              });
   flags.Text("-o, --output", "OUT.glb", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
-  if (paths.empty() || out.empty() || (!mh.modifiers.empty() && targets.empty())) {
-    return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o OUT.glb)" : "--modifiers needs --targets");
+  if (paths.empty() || out.empty() || ((!mh.modifiers.empty() || !mh.proxies.empty()) && targets.empty())) {
+    return flags.UsageError(paths.empty()                ? "no rig given"
+                            : out.empty()                ? "no output given (-o OUT.glb)"
+                            : !mh.modifiers.empty()      ? "--modifiers needs --targets"
+                                                         : "--proxy needs --targets");
   }
   Result<Rig> rig = targets.empty() ? LoadAndReport(paths) : LoadMakeHuman(paths[0], targets, mh);
   if (!rig.ok()) {

@@ -37,7 +37,7 @@ const char kUsage[] =
     "      adds the left/right mirror image of a shape and writes the rig\n"
     "  compress RIG [--error E] [--bits 8..16] [--json]\n"
     "      orthogonal (PCA) basis of the shapes within an error bound, and quantised displacements: sizes and errors\n"
-    "  convert RIG [--targets DIR --modifiers FILE [--groups G,...] [--metres]] -o OUT.glb\n"
+    "  convert RIG [--targets DIR --modifiers FILE [--groups G,...] [--metres] [--proxy FILE.mhclo]] -o OUT.glb\n"
     "      any rig (glTF, OBJ sequence, MakeHuman base.obj + .target folder) as a .glb with sparse targets + manifest\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"

@@ -529,6 +529,85 @@ std::map<uint32_t, std::array<float, 3>> ReadTargetFile(const std::string& path)
   return out;
 }
 
+// MakeHuman's CC0 eyes (a proxy: eyes/high-poly.mhclo places each of its 1,064 vertices on the
+// base mesh's helper eyeballs, vertices 14598-14741, by three weights and an offset): they sit on the
+// helper eyeballs and move exactly as they do. l-eye-trans-up lifts one helper eyeball by 0.061 dm
+// (every one of its 72 vertices): that eye's every vertex rises 6.1 mm at weight 1, the other stays.
+TEST(MakeHuman, TheEyeProxySitsOnTheHelperEyeballsAndMovesWithThem) {
+  MakeHumanOptions options;
+  options.metres = true;
+  options.proxies = {kMakeHuman + "/eyes/high-poly.mhclo"};
+  auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", std::vector<std::string>{kMakeHuman + "/targets/eyes"}, options);
+  ASSERT_TRUE(rig.ok()) << rig.status().message;
+  ASSERT_EQ(rig->primitives.size(), 2u);
+  const Primitive& eyes = rig->primitives[1];
+  EXPECT_EQ(std::set<uint32_t>(eyes.source_vertices.begin(), eyes.source_vertices.end()).size(), 1064u);
+  ASSERT_GE(eyes.material, 0);
+  const Material& m = rig->materials[static_cast<size_t>(eyes.material)];
+  EXPECT_EQ(m.name, "Eye_brown");
+  EXPECT_EQ(m.alpha_mode, "MASK");
+  ASSERT_GE(m.base_color_image, 0);
+  EXPECT_EQ(rig->images[static_cast<size_t>(m.base_color_image)].mime_type, "image/png");
+  EXPECT_EQ(rig->images[static_cast<size_t>(m.base_color_image)].bytes.size(), std::filesystem::file_size(kMakeHuman + "/eyes/brown_eye.png"));
+
+  // The helper eyeballs from base.obj, in metres.
+  std::vector<std::array<float, 3>> helpers;
+  {
+    std::ifstream f(kMakeHuman + "/base.obj");
+    std::string line;
+    for (size_t v = 0; std::getline(f, line);) {
+      if (line.rfind("v ", 0) != 0) continue;
+      std::istringstream in(line.substr(2));
+      std::array<float, 3> x;
+      in >> x[0] >> x[1] >> x[2];
+      if (v >= 14598 && v <= 14741) helpers.push_back({0.1f * x[0], 0.1f * x[1], 0.1f * x[2]});
+      ++v;
+    }
+  }
+  ASSERT_EQ(helpers.size(), 144u);
+  // Each eye, seen from the front, centred on its helper eyeball (the proxy is the eyeball's front
+  // with a cornea, a little larger: 29.6 mm wide where the helper is 27.6): box centres in x and y
+  // within 0.5 mm, widths within 3 mm.
+  for (const int side : {-1, 1}) {
+    std::array<float, 2> lo_a{INFINITY, INFINITY}, hi_a{-INFINITY, -INFINITY}, lo_b = lo_a, hi_b = hi_a;
+    for (size_t v = 0; v < eyes.vertex_count(); ++v) {
+      if ((eyes.positions[3 * v] > 0) != (side > 0)) continue;
+      for (int c = 0; c < 2; ++c) lo_a[c] = std::min(lo_a[c], eyes.positions[3 * v + c]), hi_a[c] = std::max(hi_a[c], eyes.positions[3 * v + c]);
+    }
+    for (const auto& x : helpers) {
+      if ((x[0] > 0) != (side > 0)) continue;
+      for (int c = 0; c < 2; ++c) lo_b[c] = std::min(lo_b[c], x[c]), hi_b[c] = std::max(hi_b[c], x[c]);
+    }
+    for (int c = 0; c < 2; ++c) {
+      EXPECT_NEAR(lo_a[c] + hi_a[c], lo_b[c] + hi_b[c], 0.001f) << "side " << side << " axis " << c;
+      EXPECT_NEAR(hi_a[c] - lo_a[c], hi_b[c] - lo_b[c], 0.003f) << "side " << side << " axis " << c;
+    }
+  }
+
+  const auto target = ReadTargetFile(kMakeHuman + "/targets/eyes/l-eye-trans-up.target");
+  int lifted_side = 0;
+  for (const auto& [i, d] : target) {
+    if (i < 14598 || i > 14741) continue;
+    EXPECT_FLOAT_EQ(d[1], 0.061f);
+    lifted_side = helpers[i - 14598][0] > 0 ? 1 : -1;
+  }
+  ASSERT_NE(lifted_side, 0);
+  const int s = FindShape(rig.value(), "l-eye-trans-up");
+  ASSERT_GE(s, 0);
+  std::vector<float> w(rig->shapes.size(), 0.0f);
+  w[static_cast<size_t>(s)] = 1.0f;
+  BlendedRig out;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
+  for (size_t v = 0; v < eyes.vertex_count(); ++v) {
+    const bool lifted = (eyes.positions[3 * v] > 0) == (lifted_side > 0);
+    for (int c = 0; c < 3; ++c) {
+      const float want = eyes.positions[3 * v + c] + (lifted && c == 1 ? 0.0061f : 0.0f);
+      ASSERT_NEAR(out.primitives[1].positions[3 * v + c], want, 2e-6f) << "vertex " << v << " axis " << c;
+    }
+  }
+}
+
 TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
   const std::vector<std::string> dirs = {kMakeHuman + "/targets/nose", kMakeHuman + "/targets/eyes"};
   MakeHumanOptions options;

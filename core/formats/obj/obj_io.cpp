@@ -188,11 +188,15 @@ SparseTarget SplitTarget(SparseTarget t, const std::vector<uint32_t>& first_copy
   return out;
 }
 
-// Makes `p` the rig's only primitive, in `mesh`, shown by one root node; then the derived data.
-void FinishSingleMeshRig(Rig& rig, Primitive p, Mesh mesh) {
-  FinalizePrimitive(p);
-  mesh.primitives.push_back(0);
-  rig.primitives.push_back(std::move(p));
+// Makes `primitives` the rig's, in `mesh`, shown by one root node; then the derived data.
+void FinishMeshRig(Rig& rig, std::vector<Primitive> primitives, Mesh mesh) {
+  for (Primitive& p : primitives) {
+    p.mesh = 0;
+    p.index_in_mesh = static_cast<int>(rig.primitives.size());
+    FinalizePrimitive(p);
+    mesh.primitives.push_back(p.index_in_mesh);
+    rig.primitives.push_back(std::move(p));
+  }
   rig.meshes.push_back(std::move(mesh));
   Node node;
   node.name = rig.name;
@@ -252,7 +256,9 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
     rig.shapes.push_back(s);
     p.targets.push_back(SplitTarget(std::move(t), split.first_copy));
   }
-  FinishSingleMeshRig(rig, std::move(p), std::move(mesh));
+  std::vector<Primitive> one;
+  one.push_back(std::move(p));
+  FinishMeshRig(rig, std::move(one), std::move(mesh));
   RepairNames(rig);
   if (Status s = ValidateRig(rig); !s.ok()) return s;
   return rig;
@@ -305,6 +311,207 @@ Status ReadTarget(const std::string& path, size_t vertex_count, float scale, Spa
   return Status::Ok();
 }
 
+// A MakeHuman proxy (.mhclo): its OBJ's vertices, each placed on the base mesh as MakeHuman's
+// proxy.py places it: three base vertices by weight, plus an offset scaled per axis by the base's
+// size there (|base[a][axis] - base[b][axis]| / s, from the x_scale/y_scale/z_scale lines).
+struct Mhclo {
+  std::string obj_file, material_file;
+  std::array<uint32_t, 3> scale_a{}, scale_b{};
+  std::array<float, 3> scale_by{0, 0, 0};  // 0: no scale line for the axis (the offset is taken as is).
+  std::vector<std::array<uint32_t, 3>> refs;
+  std::vector<std::array<float, 3>> weights, offsets;
+};
+
+Status ParseMhclo(const std::string& path, size_t base_vertices, Mhclo& out) {
+  std::ifstream f(path);
+  if (!f) return NotFound("cannot open '" + path + "'");
+  std::string line;
+  size_t line_no = 0;
+  bool in_verts = false;
+  constexpr size_t kMaxVerts = size_t{1} << 22;
+  auto bad = [&](const std::string& what) { return InvalidArgument(path + ":" + std::to_string(line_no) + ": " + what); };
+  auto index = [&](const std::string& s, uint32_t& v) {
+    size_t at = 0;
+    const auto r = std::from_chars(s.data(), s.data() + s.size(), at);
+    if (r.ec != std::errc() || r.ptr != s.data() + s.size() || at >= base_vertices) return false;
+    v = static_cast<uint32_t>(at);
+    return true;
+  };
+  while (std::getline(f, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream in(line);
+    std::vector<std::string> tok;
+    for (std::string s; in >> s && tok.size() < 10;) tok.push_back(s);
+    if (tok.empty() || tok[0][0] == '#') continue;
+    const bool numeric = std::isdigit(static_cast<unsigned char>(tok[0][0]));
+    if (in_verts && numeric) {
+      if (out.refs.size() >= kMaxVerts) return bad("more than " + std::to_string(kMaxVerts) + " vertices");
+      std::array<uint32_t, 3> r{};
+      std::array<float, 3> w{1, 0, 0}, o{0, 0, 0};
+      if (tok.size() == 1) {  // The base vertex itself.
+        if (!index(tok[0], r[0])) return bad("a base vertex index in 0.." + std::to_string(base_vertices - 1) + " expected");
+        r[1] = r[2] = r[0];
+      } else if (tok.size() == 9) {
+        for (int k = 0; k < 3; ++k) {
+          if (!index(tok[k], r[k])) return bad("a base vertex index in 0.." + std::to_string(base_vertices - 1) + " expected");
+          if (!ParseFloat(tok[3 + k], w[k]) || !ParseFloat(tok[6 + k], o[k]) || !std::isfinite(w[k]) || !std::isfinite(o[k])) {
+            return bad("three finite weights and an offset expected");
+          }
+        }
+      } else {
+        return bad("a vertex line is 'i' or 'i j k wi wj wk dx dy dz'");
+      }
+      out.refs.push_back(r);
+      out.weights.push_back(w);
+      out.offsets.push_back(o);
+      continue;
+    }
+    in_verts = false;
+    const std::string& key = tok[0];
+    if (key == "verts") {
+      in_verts = true;
+    } else if (key == "obj_file" && tok.size() >= 2) {
+      out.obj_file = line.substr(line.find(tok[1]));
+    } else if (key == "material" && tok.size() >= 2) {
+      out.material_file = line.substr(line.find(tok[1]));
+    } else if (key == "x_scale" || key == "y_scale" || key == "z_scale") {
+      const int axis = key[0] - 'x';
+      float by = 0;
+      if (tok.size() != 4 || !index(tok[1], out.scale_a[axis]) || !index(tok[2], out.scale_b[axis]) || !ParseFloat(tok[3], by) || !(by > 0) || !std::isfinite(by)) {
+        return bad(key + " takes two base vertex indices and a positive size");
+      }
+      out.scale_by[axis] = by;
+    }
+    // uuid, basemesh, name, tag, z_depth, delete_verts, ...: not needed to place the vertices.
+  }
+  if (out.obj_file.empty()) return InvalidArgument(path + ": no obj_file line");
+  if (out.refs.empty()) return InvalidArgument(path + ": no vertices (a 'verts 0' section)");
+  return Status::Ok();
+}
+
+// The proxy's vertices over base positions `base` (3 floats per base vertex).
+void PlaceProxy(const Mhclo& m, std::span<const float> base, std::vector<float>& out) {
+  std::array<float, 3> scale{1, 1, 1};
+  for (int a = 0; a < 3; ++a) {
+    if (m.scale_by[a] > 0) scale[a] = std::abs(base[3 * m.scale_a[a] + a] - base[3 * m.scale_b[a] + a]) / m.scale_by[a];
+  }
+  out.assign(3 * m.refs.size(), 0.0f);
+  for (size_t v = 0; v < m.refs.size(); ++v) {
+    for (int a = 0; a < 3; ++a) {
+      float x = m.offsets[v][a] * scale[a];
+      for (int k = 0; k < 3; ++k) x += m.weights[v][k] * base[3 * m.refs[v][k] + a];
+      out[3 * v + a] = x;
+    }
+  }
+}
+
+// A proxy as a primitive of the rig, with a target per base target (what the proxy's placement
+// gives at the target's full weight, minus the rest): MakeHuman's eyes follow every eye target.
+struct ProxyPrimitive {
+  BaseMesh split;
+  Mhclo fit;
+  std::vector<float> rest;  // Placed positions, per proxy OBJ vertex.
+};
+
+Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig, ProxyPrimitive& out) {
+  namespace fs = std::filesystem;
+  if (Status s = ParseMhclo(path, base.size() / 3, out.fit); !s.ok()) return s;
+  const fs::path dir = fs::path(path).parent_path();
+  ObjMesh obj;
+  if (Status s = ParseObj((dir / out.fit.obj_file).string(), obj); !s.ok()) return s;
+  if (obj.positions.size() / 3 != out.fit.refs.size()) {
+    return InvalidArgument(path + ": " + std::to_string(out.fit.refs.size()) + " vertices placed for the " + std::to_string(obj.positions.size() / 3) +
+                           " of " + out.fit.obj_file);
+  }
+  PlaceProxy(out.fit, base, out.rest);
+  obj.positions = out.rest;
+  out.split = BasePrimitive(obj);
+  // The material (.mhmat): its name, colour, texture and transparency. Its path is relative to
+  // the proxy (MakeHuman's tree: ../materials/); beside the proxy when not there.
+  Material mat;
+  mat.name = fs::path(path).stem().string();
+  mat.metallic_factor = 0.0f;
+  mat.roughness_factor = 0.35f;
+  auto beside = [&](const fs::path& from, const std::string& name) {
+    const fs::path p = from / name;
+    return fs::is_regular_file(p) ? p : dir / fs::path(name).filename();
+  };
+  if (!out.fit.material_file.empty()) {
+    const fs::path mhmat = beside(dir, out.fit.material_file);
+    std::ifstream mf(mhmat);
+    if (!mf) return NotFound(path + ": cannot open its material '" + out.fit.material_file + "'");
+    std::string line;
+    while (std::getline(mf, line)) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      std::istringstream in(line);
+      std::string key;
+      in >> key;
+      if (key == "name") {
+        in >> mat.name;
+      } else if (key == "diffuseColor") {
+        std::array<float, 3> c{};
+        if (in >> c[0] >> c[1] >> c[2]) {
+          for (int k = 0; k < 3; ++k) mat.base_color_factor[k] = std::clamp(c[k], 0.0f, 1.0f);
+        }
+      } else if (key == "transparent") {
+        std::string v;
+        in >> v;
+        if (v == "True") mat.alpha_mode = "MASK";  // MakeHuman draws it with alpha to coverage.
+      } else if (key == "backfaceCull") {
+        std::string v;
+        in >> v;
+        mat.double_sided = v == "False";
+      } else if (key == "diffuseTexture") {
+        std::string name;
+        std::getline(in >> std::ws, name);
+        const fs::path file = beside(mhmat.parent_path(), name);
+        constexpr uintmax_t kMaxTexture = uintmax_t{64} << 20;
+        std::error_code ec;
+        const uintmax_t size = fs::file_size(file, ec);
+        if (ec || size > kMaxTexture) return InvalidArgument(path + ": its texture '" + name + "' is missing or over 64 MiB");
+        std::ifstream tf(file, std::ios::binary);
+        Image image;
+        image.name = file.filename().string();
+        image.bytes.assign(std::istreambuf_iterator<char>(tf), std::istreambuf_iterator<char>());
+        const std::string ext = file.extension().string();
+        image.mime_type = ext == ".png" ? "image/png" : ext == ".jpg" || ext == ".jpeg" ? "image/jpeg" : "";
+        if (image.mime_type.empty()) return InvalidArgument(path + ": its texture '" + name + "' is not a PNG or JPEG");
+        mat.base_color_image = static_cast<int>(rig.images.size());
+        rig.images.push_back(std::move(image));
+      }
+    }
+  }
+  out.split.primitive.material = static_cast<int>(rig.materials.size());
+  rig.materials.push_back(std::move(mat));
+  return Status::Ok();
+}
+
+// The proxy's move under a base target (`dense`: the target's deltas over every base vertex,
+// zero elsewhere; `moved`: its vertices), exact at the target's full weight: the three weighted
+// vertices' moves and the offset's change of scale.
+SparseTarget ProxyTarget(const ProxyPrimitive& proxy, std::span<const float> base, std::span<const float> dense) {
+  const Mhclo& m = proxy.fit;
+  std::array<float, 3> rescale{0, 0, 0};
+  for (int a = 0; a < 3; ++a) {
+    if (!(m.scale_by[a] > 0)) continue;
+    const size_t i = 3 * m.scale_a[a] + a, j = 3 * m.scale_b[a] + a;
+    rescale[a] = (std::abs(base[i] + dense[i] - base[j] - dense[j]) - std::abs(base[i] - base[j])) / m.scale_by[a];
+  }
+  SparseTarget t;
+  for (size_t v = 0; v < m.refs.size(); ++v) {
+    float d[3];
+    for (int a = 0; a < 3; ++a) {
+      d[a] = m.offsets[v][a] * rescale[a];
+      for (int k = 0; k < 3; ++k) d[a] += m.weights[v][k] * dense[3 * m.refs[v][k] + a];
+    }
+    if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f) continue;
+    t.indices.push_back(static_cast<uint32_t>(v));
+    t.position_deltas.insert(t.position_deltas.end(), d, d + 3);
+  }
+  return SplitTarget(std::move(t), proxy.split.first_copy);
+}
+
 }  // namespace
 
 Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs, const MakeHumanOptions& options) {
@@ -339,6 +546,8 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   kept.uvs = obj.uvs;
   Rig rig;
   rig.name = "makehuman";
+  std::vector<float> base(obj.positions.size());  // Every OBJ vertex (helpers too), scaled: where proxies sit.
+  std::transform(obj.positions.begin(), obj.positions.end(), base.begin(), [scale](float x) { return x * scale; });
   BaseMesh split = BasePrimitive(kept);
   Primitive& p = split.primitive;
   // No CC0 MakeHuman skin texture is in our package sources: a skin-toned dielectric instead
@@ -350,6 +559,11 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   skin.roughness_factor = 0.5f;
   rig.materials.push_back(skin);
   p.material = 0;
+  std::vector<ProxyPrimitive> proxies(options.proxies.size());
+  for (size_t k = 0; k < proxies.size(); ++k) {
+    if (Status s = LoadProxy(options.proxies[k], base, rig, proxies[k]); !s.ok()) return s;
+  }
+  std::vector<float> dense(proxies.empty() ? 0 : base.size(), 0.0f);
   // Targets: every .target under each folder, sorted by path (deterministic).
   struct TargetFile {
     fs::path path;
@@ -394,8 +608,15 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(std::move(shape));
     p.targets.push_back(std::move(t));
+    if (proxies.empty()) continue;
+    for (size_t k = 0; k < full.indices.size(); ++k) std::copy_n(&full.position_deltas[3 * k], 3, &dense[3 * full.indices[k]]);
+    for (ProxyPrimitive& proxy : proxies) proxy.split.primitive.targets.push_back(ProxyTarget(proxy, base, dense));
+    for (uint32_t v : full.indices) std::fill_n(&dense[3 * v], 3, 0.0f);
   }
-  FinishSingleMeshRig(rig, std::move(p), std::move(mesh));
+  std::vector<Primitive> primitives;
+  primitives.push_back(std::move(p));
+  for (ProxyPrimitive& proxy : proxies) primitives.push_back(std::move(proxy.split.primitive));
+  FinishMeshRig(rig, std::move(primitives), std::move(mesh));
   if (!options.modifiers.empty()) {
     std::ifstream f(options.modifiers, std::ios::binary);
     if (!f) return NotFound("cannot open '" + options.modifiers + "'");

@@ -44,6 +44,10 @@ struct MakeHumanOptions {
   std::vector<std::string> groups = {"body"};  // OBJ groups ("g") whose faces are kept; "*" = all.
   bool metres = false;                         // Scale decimetres to metres.
   std::string modifiers;                       // modeling_modifiers.json: controls; "" = none.
+  // MakeHuman proxies (.mhclo: eyes, teeth, ...) added as primitives: each vertex placed on the
+  // base mesh (helper geometry included) as MakeHuman places it, and moved by every target as
+  // that placement moves (exact at each target's full weight); its .mhmat's texture embedded.
+  std::vector<std::string> proxies;
 };
 // Shapes are named after their files (stem), grouped by their folder; errors in a target file
 // name the file and line (malformed line, index beyond the mesh, duplicate index). Vertices no
