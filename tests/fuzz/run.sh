@@ -18,6 +18,9 @@ for f in "$src"/assets/*/*.glb "$shared"/real/*/*.glb "$shared"/real/*/*.gltf; d
 done
 for f in "$shared"/more/OBJ/ICT-FaceKit_subset/*.obj; do [ -f "$f" ] && { printf '\0'; head -c 200000 "$f"; } >"$corpus/fuzz_obj/$(basename "$f")"; done
 for f in "$shared"/more/MakeHumanFace/targets/nose/*.target; do [ -f "$f" ] && { printf '\1'; cat "$f"; } >"$corpus/fuzz_obj/$(basename "$f")"; done
+# A MakeHuman proxy fitted to the fuzzer's four-vertex base (and the real eyes, whose indices are beyond it).
+printf '\2obj_file p.obj\nx_scale 0 1 1.0\ny_scale 0 3 2.0\nverts 0\n0 1 2 0.5 0.3 0.2 0.01 0 0\n1\n3 2 1 0.2 0.2 0.6 0 0 0.1\n' >"$corpus/fuzz_obj/proxy.mhclo"
+[ -f "$shared/more/MakeHumanFace/eyes/high-poly.mhclo" ] && { printf '\2'; head -c 20000 "$shared/more/MakeHumanFace/eyes/high-poly.mhclo"; } >"$corpus/fuzz_obj/eyes.mhclo"
 md5=$shared/more/MD5/Bob
 if [ -f "$md5/Bob.md5mesh" ]; then
   { printf '\0'; cat "$md5/Bob.md5mesh"; } >"$corpus/fuzz_md5/bob"
