@@ -393,7 +393,9 @@ json Build() {
                    {"required", {"primitives"}},
                    {"properties", {{"primitives", array_of({{"type", "object"},
                                                             {"properties", {{"mesh", integer}, {"primitive", integer}, {"vertices", integer},
-                                                                            {"mode", integer}, {"indices", array_of(integer)}}}})},
+                                                                            {"mode", integer}, {"indices", array_of(integer)},
+                                                                            {"color", {{"type", "array"}, {"items", number}, {"minItems", 4}, {"maxItems", 4},
+                                                                                       {"description", "Linear RGBA a client drawing no textures shows: the material's base colour times its texture's mean; alpha 0 is see-through (a material morph shows it)"}}}}}})},
                                    {"focus", box}}}};
   json frames = {{"type", "object"},
                  {"required", {"frames"}},

@@ -539,26 +539,53 @@ void Veil(Image& im, int x0, int y0, int x1, int y1, float amount) {
 
 }  // namespace
 
+namespace {
+
+struct LegendLayout {
+  int bar_w, bar_h, x0, y0, font, title_x;
+};
+
+// Where the legend goes in a width x height image: the bar at the right, its title over it.
+LegendLayout HeatLegendLayout(int width, int height) {
+  LegendLayout l;
+  l.bar_w = std::max(8, width / 40);
+  l.bar_h = height * 3 / 5;
+  l.x0 = width - l.bar_w - std::max(40, width / 8);
+  l.y0 = (height - l.bar_h) / 2;
+  l.font = std::max(10, height / 36);
+  l.title_x = std::max(2, std::min(l.x0, width - std::max(TextWidth("displacement", l.font), TextWidth("(rig units)", l.font)) - 6));
+  return l;
+}
+
+}  // namespace
+
+int HeatLegendLeft(int width, int height) { return std::max(0, HeatLegendLayout(width, height).title_x - 3); }
+
 void DrawHeatLegend(Image& im, float max_value) {
-  const int bar_w = std::max(8, im.width / 40), bar_h = im.height * 3 / 5;
-  const int x0 = im.width - bar_w - std::max(40, im.width / 8), y0 = (im.height - bar_h) / 2;
-  const int font = std::max(10, im.height / 36);
+  const LegendLayout l = HeatLegendLayout(im.width, im.height);
+  const int font = l.font;
   // The title says what the colours measure and in which units: the distance each vertex moved,
   // in the rig's own units (metres for most glTF rigs).
   const std::string title = "displacement", units = "(rig units)";
-  const int title_x = std::max(2, std::min(x0, im.width - std::max(TextWidth(title, font), TextWidth(units, font)) - 6));
-  Veil(im, title_x - 3, y0 - 3 * font, im.width, y0 + bar_h + font, 0.75f);
-  for (int y = 0; y < bar_h; ++y) {
-    const auto c = Viridis(1.0f - static_cast<float>(y) / static_cast<float>(std::max(1, bar_h - 1)));
-    FillRect(im, x0, y0 + y, x0 + bar_w, y0 + y + 1, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
+  Veil(im, l.title_x - 3, l.y0 - 3 * font, im.width, l.y0 + l.bar_h + font, 0.75f);
+  const std::array<float, 3> ink{0.1f, 0.1f, 0.1f};
+  DrawText(im, l.title_x, l.y0 - 2 * font + font / 3, title, font, ink);  // Both end at the image's right margin.
+  DrawText(im, l.title_x, l.y0 - font / 2, units, font, ink);
+  if (!(max_value > 0.0f)) {  // Nothing moved: one swatch, said in words (not a scale from 0 to 0).
+    const auto c = Viridis(0.0f);
+    FillRect(im, l.x0, l.y0 + l.bar_h - l.bar_w, l.x0 + l.bar_w, l.y0 + l.bar_h, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
+    DrawText(im, l.x0 + l.bar_w + 4, l.y0 + l.bar_h, "0", font, ink);
+    DrawText(im, l.title_x, l.y0 + l.bar_h / 2, "none moved", font, ink);
+    return;
+  }
+  for (int y = 0; y < l.bar_h; ++y) {
+    const auto c = Viridis(1.0f - static_cast<float>(y) / static_cast<float>(std::max(1, l.bar_h - 1)));
+    FillRect(im, l.x0, l.y0 + y, l.x0 + l.bar_w, l.y0 + y + 1, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
   }
   char top[32];
   std::snprintf(top, sizeof top, "%.3g", static_cast<double>(max_value));
-  const std::array<float, 3> ink{0.1f, 0.1f, 0.1f};
-  DrawText(im, x0 + bar_w + 4, y0 + font / 2, top, font, ink);
-  DrawText(im, x0 + bar_w + 4, y0 + bar_h, "0", font, ink);
-  DrawText(im, title_x, y0 - 2 * font + font / 3, title, font, ink);  // Both end at the image's right margin.
-  DrawText(im, title_x, y0 - font / 2, units, font, ink);
+  DrawText(im, l.x0 + l.bar_w + 4, l.y0 + font / 2, top, font, ink);
+  DrawText(im, l.x0 + l.bar_w + 4, l.y0 + l.bar_h, "0", font, ink);
 }
 
 Image ContactSheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,

@@ -202,6 +202,9 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   const float radius = framed.isEmpty() ? 1.0f : std::max(0.5f * framed.diagonal().norm(), 1e-6f);
   const float fov = std::clamp(c.fov, 1.0f, 170.0f) * static_cast<float>(M_PI) / 180.0f;
   const float aspect = static_cast<float>(o.width) / static_cast<float>(o.height);
+  // A heatmap's legend takes the right of the image: the orbit frames the model left of it (the
+  // same scale both ways, the image centre shifted), so no ear runs under the legend.
+  const float used = o.view == View::kHeatmap && !c.look_at ? std::clamp(static_cast<float>(HeatLegendLeft(o.width, o.height)) / static_cast<float>(o.width), 0.5f, 1.0f) : 1.0f;
   Eigen::Vector3f eye, target, up;
   if (c.look_at) {
     eye = Eigen::Vector3f(c.eye[0], c.eye[1], c.eye[2]);
@@ -209,7 +212,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     up = Eigen::Vector3f(c.up[0], c.up[1], c.up[2]);
   } else {
     // Far enough that the bounding sphere fits both the vertical and horizontal field of view.
-    const float fit = radius / std::sin(0.5f * std::min(fov, 2.0f * std::atan(std::tan(0.5f * fov) * aspect)));
+    const float fit = radius / std::sin(0.5f * std::min(fov, 2.0f * std::atan(std::tan(0.5f * fov) * aspect * used)));
     const float dist = (c.distance > 0 ? c.distance : fit) / std::max(c.zoom, 1e-3f);
     const float yaw = c.yaw * static_cast<float>(M_PI) / 180.0f, pitch = c.pitch * static_cast<float>(M_PI) / 180.0f;
     eye = center + dist * Eigen::Vector3f(std::cos(pitch) * std::sin(yaw), std::sin(pitch), std::cos(pitch) * std::cos(yaw));
@@ -236,6 +239,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   const float f = 1.0f / std::tan(0.5f * fov);
   Eigen::Matrix4f proj = Eigen::Matrix4f::Zero();
   proj(0, 0) = f / aspect;
+  proj(0, 2) = 1.0f - used;  // NDC x shifted by used - 1: the centre of the part left of the legend.
   proj(1, 1) = f;
   proj(2, 2) = (zfar + znear) / (znear - zfar);
   proj(2, 3) = 2.0f * zfar * znear / (znear - zfar);

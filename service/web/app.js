@@ -409,11 +409,13 @@ const gl = (() => {
   const vs = `#version 300 es
     in vec3 p; in vec3 n; uniform mat4 mvp; out vec3 vn;
     void main() { vn = n; gl_Position = mvp * vec4(p, 1.0); }`;
+  // Each primitive in its material's flat colour (linear; the topology's `color`: base colour times
+  // its texture's mean), lit from the viewer's upper left, both sides.
   const fs = `#version 300 es
-    precision highp float; in vec3 vn; uniform vec3 light; out vec4 color;
-    void main() { vec3 N = normalize(vn); float d = max(dot(N, light), 0.0);
+    precision highp float; in vec3 vn; uniform vec3 light; uniform vec4 base; out vec4 color;
+    void main() { vec3 N = normalize(vn); if (!gl_FrontFacing) N = -N; float d = max(dot(N, light), 0.0);
       vec3 h = normalize(light + vec3(0, 0, 1)); float s = pow(max(dot(N, h), 0.0), 40.0);
-      color = vec4(pow(vec3(0.08) + vec3(0.78, 0.72, 0.68) * d + vec3(0.25) * s, vec3(1.0 / 2.2)), 1.0); }`;
+      color = vec4(pow(base.rgb * (0.22 + 0.85 * d) + vec3(0.18) * s, vec3(1.0 / 2.2)), base.a); }`;
   const shader = (type, src) => { const s = c.createShader(type); c.shaderSource(s, src); c.compileShader(s); return s; };
   const prog = c.createProgram();
   c.attachShader(prog, shader(c.VERTEX_SHADER, vs));
@@ -435,10 +437,16 @@ const gl = (() => {
     focus = topology.focus || null;
     const tris = [];
     let base = 0;
+    view.draws = [];
     for (const p of topology.primitives) {
+      const first = tris.length;
       if (p.mode === 4) for (const i of p.indices) tris.push(i + base);
       base += p.vertices;
+      // A see-through material (alpha 0: Uka's blush until its morph shows it) is not drawn.
+      const color = p.color || [0.78, 0.72, 0.68, 1];
+      if (tris.length > first && color[3] > 0.02) view.draws.push({ first, count: tris.length - first, color });
     }
+    view.draws.sort((a, b) => (b.color[3] >= 1) - (a.color[3] >= 1));  // Opaque first, then blended.
     view.vertices = base;
     view.count = tris.length;
     c.bindVertexArray(vao);
@@ -497,7 +505,14 @@ const gl = (() => {
     c.uniform3f(c.getUniformLocation(prog, 'light'), rot[0] * l[0] + rot[1] * l[1] + rot[2] * l[2],
                 rot[4] * l[0] + rot[5] * l[1] + rot[6] * l[2], rot[8] * l[0] + rot[9] * l[1] + rot[10] * l[2]);
     c.bindVertexArray(vao);
-    if (view.count) c.drawElements(c.TRIANGLES, view.count, c.UNSIGNED_INT, 0);
+    const base = c.getUniformLocation(prog, 'base');
+    for (const d of view.draws || []) {
+      const blend = d.color[3] < 1;
+      if (blend) { c.enable(c.BLEND); c.blendFunc(c.SRC_ALPHA, c.ONE_MINUS_SRC_ALPHA); c.depthMask(false); }
+      c.uniform4fv(base, d.color);
+      c.drawElements(c.TRIANGLES, d.count, c.UNSIGNED_INT, d.first * 4);
+      if (blend) { c.disable(c.BLEND); c.depthMask(true); }
+    }
   }
 
   drag(canvas, (dx, dy) => { view.yaw += dx * 0.01; view.pitch = Math.max(-1.5, Math.min(1.5, view.pitch + dy * 0.01)); draw(); });

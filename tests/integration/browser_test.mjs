@@ -323,6 +323,12 @@ await controls(service + '/#rig=makehuman&c=', `${outDir}/page-makehuman.png`);
   await page.locator('#filter').fill('あ');
   await page.locator('input[aria-label="あ"]').first().fill('1');
   await page.waitForTimeout(1500);
+  // The WebGL view draws each material in its colour and leaves out the see-through ones (her blush,
+  // pallor and irritation marks: alpha 0), which drew as an opaque grey square over her eye.
+  const draws = await page.evaluate(() => window.facespace.gl.view.draws.map((d) => d.color));
+  const hair = draws.find((c) => c[0] > 0.3 && c[0] < 0.45 && c[2] < 0.1);
+  check(`uka: the WebGL view draws her 9 visible materials in their colours, not the 3 see-through ones (${draws.length} drawn)`,
+    draws.length === 9 && draws.every((c) => c[3] > 0.02) && hair !== undefined);
   await page.screenshot({ path: `${outDir}/page-uka.png` });
   await page.close();
   const other = await browser.newPage({ viewport: { width: 1500, height: 1000 } });

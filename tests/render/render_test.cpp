@@ -192,6 +192,32 @@ TEST(Render, HeatmapLegendOnSmallImages) {
   EXPECT_FALSE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
 }
 
+// The heatmap's legend takes the right of the image: the orbit camera frames the model in the part
+// left of it, centred there, so no part of the model runs under the legend (FaceCap's ear did).
+TEST(Render, HeatmapFramesTheModelLeftOfItsLegend) {
+  Rig cube = UnitCube();
+  RenderOptions o;
+  o.width = o.height = 256;
+  o.background = {0.2f, 0.4f, 0.6f, 1.0f};
+  o.view = render::View::kHeatmap;
+  Image im;
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
+  const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
+  int model_lo = o.width, model_hi = -1, legend_lo = o.width;
+  for (int y = 0; y < o.height * 2 / 3; ++y) {  // Above the legend's swatch (nothing moved: one purple square at its foot).
+    for (int x = 0; x < o.width; ++x) {
+      if (IsBackground(im, x, y, bg)) continue;
+      const float* p = &im.rgba[(static_cast<size_t>(y) * o.width + x) * 4];
+      if (p[2] > 2.0f * p[1] + 0.02f) model_lo = std::min(model_lo, x), model_hi = std::max(model_hi, x);  // Viridis' purple.
+      else if (p[0] + p[1] + p[2] > 2.0f) legend_lo = std::min(legend_lo, x);  // The legend's veil.
+    }
+  }
+  ASSERT_GE(model_hi, 0);
+  ASSERT_LT(legend_lo, o.width);
+  EXPECT_LT(model_hi, legend_lo);
+  EXPECT_NEAR(0.5 * (model_lo + model_hi), 0.5 * legend_lo, 2.0) << "centred left of the legend";
+}
+
 TEST(Render, UnitCubeHeadOnCoversExpectedArea) {
   Rig cube = UnitCube();
   const int size = 256;

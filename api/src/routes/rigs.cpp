@@ -1,9 +1,12 @@
 // /v1/rigs, /v1/rigs/{id}, /v1/rigs/{id}/topology: the rigs in the store.
+#include <array>
 #include <cmath>
+#include <optional>
 
 #include "facespace/api/describe.h"
 #include "facespace/formats/lod.h"
 #include "facespace/core/transform.h"
+#include "facespace/render/render.h"
 #include "http/encoded.h"
 #include "routes.h"
 
@@ -29,14 +32,53 @@ json RigDetail(const StoredRig& s) {
   return j;
 }
 
-// Triangle lists per primitive, in the order of the f32 and JSON mesh outputs, and where the shapes act.
+// Per material, the one colour a client that draws no textures shows (linear RGBA): the base colour
+// factor times its texture's mean (FaceCap's skin map; MakeHuman's eyes). A texture that does not
+// decode (not read, or not an image) counts as white.
+std::vector<std::array<float, 4>> FlatColors(const Rig& rig) {
+  std::vector<std::array<float, 4>> out;
+  std::vector<std::optional<std::array<float, 4>>> mean(rig.images.size());
+  for (const Material& m : rig.materials) {
+    std::array<float, 4> c = m.base_color_factor;
+    if (m.base_color_image >= 0 && static_cast<size_t>(m.base_color_image) < rig.images.size()) {
+      auto& kept = mean[static_cast<size_t>(m.base_color_image)];
+      if (!kept) {
+        kept = std::array<float, 4>{1, 1, 1, 1};
+        const Image& image = rig.images[static_cast<size_t>(m.base_color_image)];
+        if (auto decoded = image.bytes.empty() ? Result<render::Image>(InvalidArgument("")) : render::Decode(image.bytes, image.mime_type); decoded.ok()) {
+          const std::vector<float>& px = decoded->rgba;
+          std::array<double, 4> sum{0, 0, 0, 0};
+          for (size_t i = 0; i + 3 < px.size(); i += 4) {
+            for (int k = 0; k < 4; ++k) sum[k] += px[i + k];
+          }
+          const double n = std::max<double>(1.0, static_cast<double>(px.size() / 4));
+          for (int k = 0; k < 4; ++k) (*kept)[k] = static_cast<float>(sum[k] / n);
+        }
+      }
+      for (int k = 0; k < 3; ++k) c[k] *= (*kept)[k];
+      if (m.alpha_mode == "BLEND") c[3] *= (*kept)[3];
+    }
+    if (m.alpha_mode == "OPAQUE" || m.alpha_mode == "MASK") c[3] = 1.0f;
+    out.push_back(c);
+  }
+  return out;
+}
+
+// Triangle lists per primitive, in the order of the f32 and JSON mesh outputs, its flat colour, and
+// where the shapes act.
 std::string TopologyJson(const Rig& at, const DerivedRig& derived) {
+  const std::vector<std::array<float, 4>> colors = FlatColors(at);
   std::string out = "{\"primitives\":[";
   for (size_t p = 0; p < at.primitives.size(); ++p) {
     const Primitive& pr = at.primitives[p];
     if (p) out += ',';
     out += "{\"mesh\":" + std::to_string(pr.mesh) + ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
-           ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode)) + ",\"indices\":[";
+           ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode));
+    if (pr.material >= 0 && static_cast<size_t>(pr.material) < colors.size()) {
+      const auto& c = colors[static_cast<size_t>(pr.material)];
+      out += ",\"color\":[" + FormatNumber(c[0]) + "," + FormatNumber(c[1]) + "," + FormatNumber(c[2]) + "," + FormatNumber(c[3]) + "]";
+    }
+    out += ",\"indices\":[";
     for (size_t i = 0; i < pr.indices.size(); ++i) {
       if (i) out += ',';
       out += std::to_string(pr.indices[i]);
