@@ -21,6 +21,7 @@
 #include "facespace/render/render.h"
 #include "internal.h"
 #include "oiio_module.h"
+#include "text.h"
 
 namespace facespace::render {
 
@@ -45,16 +46,6 @@ std::array<float, 3> Viridis(float t) {
     out[ch] = v;
   }
   return out;
-}
-
-const std::string& FontPath() {
-  static const std::string path = [] {
-    for (const char* p : {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"}) {
-      if (std::filesystem::exists(p)) return std::string(p);
-    }
-    return std::string();
-  }();
-  return path;
 }
 
 void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> linear) {
@@ -478,26 +469,9 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   return im;
 }
 
-namespace {
-
-// The box `text` of `size` pixels takes at the origin, {xbegin, ybegin, xend, yend}; false without the
-// font or the image module.
-bool TextBox(const std::string& text, int size, int box[4]) {
-  if (FontPath().empty() || text.empty()) return false;
-  const oiio::Api* api = oiio::Load(nullptr);
-  return api && api->text_box(text, size, FontPath(), box);
-}
-
-}  // namespace
-
 bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb) {
-  // OpenImageIO 2.4 aborts the process (an assertion) when the text lies wholly above the image:
-  // text that would not show is not drawn.
-  int box[4];
-  if (!TextBox(text, size, box)) return false;
-  if (box[2] + x <= 0 || box[3] + y <= 0 || box[0] + x >= image.width || box[1] + y >= image.height) return false;
-  const float color[4] = {SrgbToLinear(srgb[0]), SrgbToLinear(srgb[1]), SrgbToLinear(srgb[2]), 1.0f};
-  return oiio::Load(nullptr)->draw_text(image.rgba.data(), image.width, image.height, x, y, text, size, FontPath(), color);
+  const float color[3] = {SrgbToLinear(srgb[0]), SrgbToLinear(srgb[1]), SrgbToLinear(srgb[2])};
+  return DrawGlyphs(image.rgba.data(), image.width, image.height, x, y, text, size, color);
 }
 
 namespace {
@@ -505,12 +479,8 @@ namespace {
 // The width `text` takes at `size` pixels, or an estimate without the font.
 int TextWidth(const std::string& text, int size) {
   if (text.empty()) return 0;
-  int box[4];
-  if (!TextBox(text, size, box)) return size * static_cast<int>(text.size()) * 6 / 10;
-  // Text with no ink (spaces only) comes back as an inverted box (xbegin INT_MAX, xend INT_MIN):
-  // width 0, computed without the overflow a plain subtraction would do.
-  const long long width = static_cast<long long>(box[2]) - box[0];
-  return width > 0 ? static_cast<int>(width) : 0;
+  const int advance = TextAdvance(text, size);
+  return advance >= 0 ? advance : size * static_cast<int>(text.size()) * 6 / 10;
 }
 
 // `text` cut to fit `width` pixels, ending in "..." when cut (whole UTF-8 characters only).

@@ -64,24 +64,7 @@ bool Decode(const unsigned char* bytes, size_t size, const char* name, int max_s
   return true;
 }
 
-bool TextBox(const std::string& text, int size, const std::string& font, int box[4]) {
-  const OIIO::ROI roi = OIIO::ImageBufAlgo::text_size(text, size, font);
-  if (!roi.defined()) return false;
-  box[0] = roi.xbegin;
-  box[1] = roi.ybegin;
-  box[2] = roi.xend;
-  box[3] = roi.yend;
-  return true;
-}
-
-bool DrawText(float* rgba, int width, int height, int x, int y, const std::string& text, int size, const std::string& font,
-              const float color[4]) {
-  OIIO::ImageSpec spec(width, height, 4, OIIO::TypeDesc::FLOAT);
-  OIIO::ImageBuf buf(spec, rgba);
-  return OIIO::ImageBufAlgo::render_text(buf, x, y, text, size, font, OIIO::cspan<float>(color, 4));
-}
-
-constexpr Api kApi{Encode, Decode, TextBox, DrawText};
+constexpr Api kApi{Encode, Decode};
 
 }  // namespace
 

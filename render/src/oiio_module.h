@@ -33,10 +33,6 @@ struct Api {
   // False with the message for the client ("image size out of range", "cannot decode the image: ...");
   // an image with a side over `max_side` is refused before its pixels are read.
   bool (*decode)(const unsigned char* bytes, size_t size, const char* name, int max_side, Decoded* out, std::string* error);
-  // The box text of `size` pixels at the origin takes, {xbegin, ybegin, xend, yend}; false when unknown.
-  bool (*text_box)(const std::string& text, int size, const std::string& font, int box[4]);
-  bool (*draw_text)(float* rgba, int width, int height, int x, int y, const std::string& text, int size,
-                    const std::string& font, const float color[4]);
 };
 
 // The module, loaded once (thread-safe); nullptr with the reason in `error` when it cannot be.

@@ -192,6 +192,29 @@ TEST(Render, HeatmapLegendOnSmallImages) {
   EXPECT_FALSE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
 }
 
+// Labels in any script: Uka's Japanese shape names draw as their glyphs on a contact sheet (FreeType
+// with fonts-noto-cjk), where OpenImageIO 2.4's text drew ま as '>' and others as empty boxes.
+TEST(Render, JapaneseLabelsDrawAsGlyphs) {
+  ASSERT_TRUE(render::CanDrawText("まばたき (blink)")) << "fonts-noto-cjk is in .ci/dev's packages";
+  EXPECT_FALSE(render::CanDrawText("\xF0\x9F\x98")) << "a malformed sequence";
+  auto ink = [](const std::string& text) {
+    Image im;
+    im.width = 48;
+    im.height = 40;
+    im.rgba.assign(static_cast<size_t>(im.width) * im.height * 4, 0.0f);
+    EXPECT_TRUE(render::DrawText(im, 4, 30, text, 28, {1, 1, 1})) << text;
+    return im.rgba;
+  };
+  const auto ma = ink("ま"), ba = ink("ば"), gt = ink(">"), a = ink("あ");
+  EXPECT_NE(ma, ba);
+  EXPECT_NE(ma, gt);
+  EXPECT_NE(ma, a);
+  // A glyph, not a box: あ's ink is not a rectangle's outline (a box's pixels sit on 4 lines).
+  size_t inked = 0;
+  for (size_t i = 0; i < a.size(); i += 4) inked += a[i] > 0.5f;
+  EXPECT_GT(inked, 60u);
+}
+
 // The heatmap's legend takes the right of the image: the orbit camera frames the model in the part
 // left of it, centred there, so no part of the model runs under the legend (FaceCap's ear did).
 TEST(Render, HeatmapFramesTheModelLeftOfItsLegend) {

@@ -4,6 +4,7 @@
 #include "facespace/core/enum_table.h"
 
 #include "facespace/formats/lod.h"
+#include "facespace/render/render.h"
 
 #include <algorithm>
 #include <cctype>
@@ -127,13 +128,22 @@ Status ExpandShapeCells(const Rig& rig, SheetRequest& r) {
     e.value = 1.0f;
     e.pointer = "/cells";
     r.cells.push_back({e});
-    // Labels are drawn in ASCII: a name that is not takes its first ASCII alias, else its index.
+    // A label is the shape's name, with its first ASCII alias beside a name in another script
+    // ("まばたき (blink)"); a name the fonts cannot draw gives way to the alias, else the index.
     auto ascii = [](const std::string& t) { return std::all_of(t.begin(), t.end(), [](char c) { return c >= 0x20 && c < 0x7f; }); };
-    std::string label = ascii(s.name) ? s.name : "";
-    for (size_t k = 0; k < s.aliases.size() && label.empty(); ++k) {
-      if (ascii(s.aliases[k])) label = s.aliases[k];
+    std::string alias;
+    for (size_t k = 0; k < s.aliases.size() && alias.empty(); ++k) {
+      if (ascii(s.aliases[k])) alias = s.aliases[k];
     }
-    r.labels.push_back(label.empty() ? "shape " + std::to_string(&s - rig.shapes.data()) : label.substr(0, 80));
+    std::string label = ascii(s.name) ? s.name
+                        : render::CanDrawText(s.name) ? (alias.empty() ? s.name : s.name + " (" + alias + ")")
+                                                      : alias;
+    if (label.size() > 80) {  // Whole UTF-8 characters.
+      size_t cut = 80;
+      while (cut > 0 && (static_cast<unsigned char>(label[cut]) & 0xC0) == 0x80) --cut;
+      label.resize(cut);
+    }
+    r.labels.push_back(label.empty() ? "shape " + std::to_string(&s - rig.shapes.data()) : label);
   }
   if (r.cells.empty()) {
     std::string list;

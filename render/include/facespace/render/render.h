@@ -137,13 +137,18 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality =
 // linear RGBA (for tests and textures).
 Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type = "");
 
-// Empty when the image module (OpenImageIO: formats other than PNG and WebP, textures, text) is where
+// Empty when the image module (OpenImageIO: formats other than PNG and WebP, textures) is where
 // it is looked for, else what is missing. A server asks at start, so a missing module is said at once;
 // it is opened on first use.
 std::string ImageModuleProblem();
 
-// Draws text (DejaVu Sans, sRGB colour) at pixel (x, y) = baseline start. False if no font.
+// Draws UTF-8 text (DejaVu Sans; Noto Sans CJK for what DejaVu lacks; FreeType) in an sRGB colour
+// at pixel (x, y) = baseline start. False if no font, or nothing of it lands in the image.
 bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb);
+
+// Whether every character of UTF-8 `text` has a glyph in the fonts DrawText uses (Japanese needs
+// fonts-noto-cjk): a label that cannot draw is better said another way than as boxes.
+bool CanDrawText(const std::string& text);
 
 // A grid of cells, `columns` wide, each labelled under its picture.
 Image ContactSheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
