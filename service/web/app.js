@@ -632,5 +632,8 @@ $('share').addEventListener('click', share);
 $('filter').addEventListener('input', filterControls);
 drag($('preview'), (dx, dy) => { state.yaw += dx * 0.5; state.pitch = Math.max(-80, Math.min(80, state.pitch + dy * 0.5)); },
      () => schedule());
+// On a phone the status line sticks at the top and the views under it: they stick at its height.
+new ResizeObserver(() => document.documentElement.style.setProperty('--status-h', `${$('status').offsetHeight}px`)).observe($('status'));
+
 window.facespace = { state, gl, loadRig, schedule };  // For tests and the console.
 start();

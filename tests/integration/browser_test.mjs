@@ -266,20 +266,26 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   await page.screenshot({ path: `${outDir}/page-motion.png` });
   await page.close();
 }
-{  // A phone (390 x 844): the face in the first screen, and still in view once the sliders are scrolled.
+{  // A phone (390 x 844): the face in the first screen, and still in view once the sliders are scrolled,
+   // with the warning above it (a smile and an open jaw: the sum is over 1).
   const page = await browser.newPage({ viewport: { width: 390, height: 844 }, isMobile: true, hasTouch: true });
-  await page.goto(service + '/#rig=facecap&w=');
+  await page.goto(service + '/#rig=facecap&w=jawOpen:0.6,mouthSmile_L:0.5,mouthSmile_R:0.5');
   await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512, null, { timeout: 30000 });
-  const inView = () => page.evaluate(() => ['preview', 'gl'].map((id) => {
-    const r = document.getElementById(id).getBoundingClientRect();
-    return r.top >= 0 && r.bottom <= innerHeight && r.width >= 150;
-  }));
+  await page.waitForFunction(() => !document.getElementById('warning').hidden, null, { timeout: 30000 }).catch(() => {});
+  const inView = () => page.evaluate(() => {
+    const box = (id) => document.getElementById(id).getBoundingClientRect();
+    const warning = box('warning'), views = box('views');
+    return ['preview', 'gl'].map((id) => {
+      const r = box(id);
+      return r.top >= 0 && r.bottom <= innerHeight && r.width >= 150;
+    }).concat([warning.height > 0 && warning.top >= 0 && warning.bottom <= views.top + 1]);
+  });
   const first = await inView();
   await page.evaluate(() => window.scrollBy(0, 1500));
   await page.waitForTimeout(200);
   const scrolled = await inView();
   const header = await page.locator('header').boundingBox();
-  check(`phone: at 390 x 844 the face (render and WebGL view) is in the first screen (${first}), the header one row (${Math.round(header.height)} px), and the face stays in view under scrolled sliders (${scrolled})`,
+  check(`phone: at 390 x 844 the face (render and WebGL view) and the warning above it are in the first screen (${first}), the header one row (${Math.round(header.height)} px), and both stay in view under scrolled sliders (${scrolled})`,
     first.every(Boolean) && scrolled.every(Boolean) && header.height < 60);
   await page.screenshot({ path: `${outDir}/page-phone.png` });
   await page.close();
