@@ -250,6 +250,7 @@ function pickMotion(name) {
   $('motion-time').max = String(state.motion.duration || 1);
   $('motion-play').disabled = $('motion-time').disabled = !a;
   showMotion();
+  if (!a) showMotionWeights(null);
 }
 
 function showMotion() {
@@ -312,6 +313,17 @@ async function refreshCheck() {
   if (id !== state.ready) return;
   $('sum').textContent = +check.sum.toFixed(4);
   showWarnings(check.warnings);
+  if (state.motion.name && !usesControls()) showMotionWeights(check.weights);
+}
+
+// While a motion is picked, the sliders show the weights it plays at its time (the check's answer,
+// marked as driven); the user's own come back when the motion is set to none.
+function showMotionWeights(weights) {
+  for (const row of document.querySelectorAll('.shape')) {
+    const v = weights ? weights[row.dataset.name] || 0 : values()[row.dataset.name] || 0;
+    for (const input of row.querySelectorAll('input')) input.value = String(+v.toFixed(3));
+    row.classList.toggle('driven', !!weights);
+  }
 }
 
 async function refreshMesh() {

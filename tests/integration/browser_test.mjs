@@ -261,6 +261,17 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   await page.waitForTimeout(1500);
   const scrubbed = await previewDigest(page);
   const sum = await page.locator('#sum').textContent();
+  // The sliders show the take's weights at 5 s (as the service's check gives them), marked as driven.
+  const sliders = await page.evaluate(async () => {
+    const check = await fetch('/v1/rigs/facecap/check', { method: 'POST', headers: { 'content-type': 'application/json' },
+                                                          body: JSON.stringify({ animation: 'Key|Take 001|BaseLayer', time: 5 }) }).then((r) => r.json());
+    const rows = [...document.querySelectorAll('.shape')];
+    const wrong = rows.filter((r) => Math.abs(parseFloat(r.querySelector('input[type=number]').value) - (check.weights[r.dataset.name] || 0)) > 0.001);
+    return { rows: rows.length, wrong: wrong.map((r) => r.dataset.name), driven: rows.filter((r) => r.classList.contains('driven')).length,
+             moving: rows.filter((r) => parseFloat(r.querySelector('input[type=number]').value) > 0.01).length };
+  });
+  check(`motion: the sliders show the take's weights at 5 s (${sliders.moving} above 0.01, ${sliders.wrong.length} differing from /check: ${sliders.wrong.slice(0, 3).join(', ')}; ${sliders.driven} of ${sliders.rows} marked driven)`,
+    sliders.moving > 3 && sliders.wrong.length === 0 && sliders.driven === sliders.rows);
   check(`motion: the take plays (${played.t.toFixed(2)} s in 1.5 s, ${played.updates - updates0} mesh updates), pauses (still ${paused.toFixed(2)} s), and scrubbing to 5 s shows another face (sum ${sum})`,
     played.t > 0.7 && played.t < 2.5 && !played.playing && paused === played.t && played.updates - updates0 >= 5 && scrubbed !== neutral && scrubbed !== null);
   await page.screenshot({ path: `${outDir}/page-motion.png` });
