@@ -45,19 +45,23 @@ Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
 }  // namespace
 
 void PrintStatus(const Status& s) {
+  // What the message adds after its fields (the names a client may use, listed once): a line of its own.
+  const size_t valid = s.message.find("; valid ");
+  const std::string names = valid == std::string::npos ? "" : s.message.substr(valid + 2);
   if (s.fields.size() == 1 && !s.fields[0].pointer.empty() && s.message.rfind(s.fields[0].pointer, 0) != 0) {
     std::fprintf(stderr, "error: %s: %s\n", s.fields[0].pointer.c_str(), s.fields[0].message.c_str());
-    return;
-  }
-  if (s.fields.size() <= 1) {
+  } else if (s.fields.size() <= 1) {
     std::fprintf(stderr, "error: %s\n", s.message.c_str());
     return;
+  } else {
+    std::fprintf(stderr, "error: %zu problems\n", s.fields.size());
+    for (const FieldError& f : s.fields) std::fprintf(stderr, "error: %s: %s\n", f.pointer.c_str(), f.message.c_str());
   }
-  std::fprintf(stderr, "error: %zu problems\n", s.fields.size());
-  for (const FieldError& f : s.fields) std::fprintf(stderr, "error: %s: %s\n", f.pointer.c_str(), f.message.c_str());
+  if (!names.empty()) std::fprintf(stderr, "%s\n", names.c_str());
 }
 
 void PrintWarnings(const std::vector<Warning>& warnings) {
+  if (Quiet()) return;
   for (const Warning& w : warnings) {
     // The message of an extrapolation warning already names its code (after a "cell N: " or
     // "t=T: " prefix when it has one).
@@ -137,21 +141,27 @@ int Info(const std::vector<std::string>& args) {
     std::printf("animation %-2zu %-20s %.3f s, %zu channel(s)%s\n", a, an.name.empty() ? "(unnamed)" : an.name.c_str(),
                 an.duration, an.channels, an.has_weights ? ", morph weights" : "");
   }
+  // Numbers for reading (4 significant digits: a float's 0.32136002 reads 0.3214); --json has them whole.
+  auto brief = [](float v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.4g", static_cast<double>(v));
+    return std::string(b);
+  };
   std::printf("shapes     %zu\n", rig.shapes.size());
   if (!rig.shapes.empty()) {
     std::printf("  %5s  %-28s %-12s %-14s %8s %7s  %s\n", "index", "name", "group", "range", "default", "moved", "partner");
   }
   for (size_t i = 0; i < rig.shapes.size(); ++i) {
     const Shape& s = rig.shapes[i];
-    const std::string range = "[" + FormatNumber(s.min) + ", " + FormatNumber(s.max) + "]";
+    const std::string range = "[" + brief(s.min) + ", " + brief(s.max) + "]";
     std::printf("  %5zu  %-28s %-12s %-14s %8s %7zu  %s\n", i, s.name.c_str(), s.group.c_str(), range.c_str(),
-                FormatNumber(s.default_weight).c_str(), s.vertices_moved,
+                brief(s.default_weight).c_str(), s.vertices_moved,
                 s.partner >= 0 ? rig.shapes[s.partner].name.c_str() : "-");
   }
   if (!rig.controls.empty()) {  // The rig's sliders (c.NAME=VALUE): each drives one or two shapes.
     std::printf("controls   %zu\n  %-40s %-10s %-10s %s\n", rig.controls.size(), "name", "group", "range", "shapes (below 0 | above 0)");
     for (const Control& c : rig.controls) {
-      const std::string range = "[" + FormatNumber(c.min) + ", " + FormatNumber(c.max) + "]";
+      const std::string range = "[" + brief(c.min) + ", " + brief(c.max) + "]";
       const std::string shapes = (c.negative >= 0 ? rig.shapes[c.negative].name + " | " : "") + rig.shapes[c.positive].name;
       std::printf("  %-40s %-10s %-10s %s\n", c.name.c_str(), c.group.c_str(), range.c_str(), shapes.c_str());
     }
@@ -226,7 +236,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   AddBlendOptionFlags(flags, r.options);
   flags.Value("--pose", "JSON|@FILE", "joint rotations, translations, scales: {\"JOINT\": {\"euler\": [x, y, z]}}", pose_setting("--pose"));
   flags.Value("--animation", "NAME|INDEX", "a clip of the rig, sampled at --time", pose_setting("--animation"));
-  flags.Value("--time", "SECONDS", "the time in --animation", pose_setting("--time"));
+  flags.Value("--time", "SECONDS", "the time in --animation (default 0)", pose_setting("--time"));
   flags.Value("--motion", "NAME|INDEX", "a clip by its MMD word: a .vmd motion of a PMX/PMD rig (as --animation)", pose_setting("--motion"));
   flags.Value("--frame", "N", "the time in MMD frames, 30 a second (instead of --time)", pose_setting("--frame"));
   flags.Switch("--loop", "wrap --time around the clip", [&r] {
@@ -237,7 +247,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
   flags.Value("--layers", "JSON|@FILE", "motions stacked: a base, then overlays replacing what they move: [{\"motion\", \"frame\", \"weight\", \"fade_in\"}]",
               pose_setting("--layers"));
   flags.Value("--skinning", "linear|dual_quaternion", "skinning method (default linear)", pose_setting("--skinning"));
-  flags.Value("--lod", "0-4", "level of detail: about 1/2^L of the triangles", pose_setting("--lod"));
+  flags.Value("--lod", "0-4", "level of detail: about 1/2^L of the triangles (default 0: the whole mesh)", pose_setting("--lod"));
 }
 
 // Says what the level of detail `lod` of `rig` kept (0: nothing to say); false (reported) when it
@@ -282,8 +292,12 @@ int Blend(const std::vector<std::string>& args) {
   api::MeshRequest request;
   Flags flags("usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format glb|obj|json|f32] -o OUT\n",
               "The blended mesh. The format comes from OUT's extension or --format; -o - writes to stdout.\n"
-              "RIG is a .glb or .gltf file, or a .obj file followed by more .obj files (an OBJ sequence: the\n"
-              "first is the base, each other one a shape named after its file).\n");
+              "RIG is any rig we read, told by its bytes: glTF 2.0 (.glb, .gltf), FBX (.fbx, binary or ASCII),\n"
+              "COLLADA (.dae), Doom 3 MD5 (.md5mesh, with the .md5anim files beside it), MikuMikuDance (.pmx,\n"
+              ".pmd, with the .vmd motions beside it or in motion/), or an OBJ sequence: a .obj file\n"
+              "followed by more .obj files (the first is the base, each other one a shape named after its file).\n"
+              "A manifest (RIG's name with .manifest.json) beside it is read too. MakeHuman's base.obj and\n"
+              ".target folders become a rig with facespace convert.\n");
   AddMeshFlags(flags, request, weights_given);
   flags.Switch("--keep-targets", "glb: keep the rig's morph targets, with these weights as defaults", [&] { request.keep_targets = true; });
   flags.Value("--space", "world|mesh", "json, obj, f32: world space (default) or each mesh's own, before its node", [&request](const std::string& v) {
@@ -333,17 +347,28 @@ int Blend(const std::vector<std::string>& args) {
 
 namespace {
 
-// The render settings (api::ApplyRenderSetting) as flags.
-void AddRenderFlags(Flags& flags, api::RenderRequest& r) {
-  static const std::pair<const char*, const char*> kSettings[] = {
-      {"view", "shaded|wireframe|heatmap|normals|clay"}, {"width", "PIXELS"},   {"height", "PIXELS"},
-      {"camera", "JSON"},                           {"yaw", "DEGREES"},    {"pitch", "DEGREES"},
-      {"zoom", "Z"},                                {"distance", "D"},     {"fov", "DEGREES"},
-      {"background", "#rrggbb|transparent"},        {"supersample", "1-4"}, {"quality", "1-100"},
-      {"exposure", "STOPS"}};
-  for (const auto& [key, metavar] : kSettings) {
+// The render settings (api::ApplyRenderSetting) as flags, each with its values and default.
+void AddRenderFlags(Flags& flags, api::RenderRequest& r, bool sheet) {
+  const std::string size = sheet ? "a cell's " : "the image's ";
+  const std::string size_default = sheet ? " (default 256)" : " (default 512)";
+  const std::tuple<const char*, const char*, std::string> kSettings[] = {
+      {"view", "shaded|wireframe|heatmap|normals|clay", "what is drawn: the materials lit, edges over them, displacement as colour, normals, grey clay (default shaded)"},
+      {"width", "PIXELS", size + "width, 1-8192" + size_default},
+      {"height", "PIXELS", size + "height, 1-8192" + size_default},
+      {"camera", "JSON", "the camera as one object: {\"yaw\", \"pitch\", \"zoom\", \"distance\", \"fov\", \"frame\": \"auto|all|shapes|joint:NAME\"}, "
+                         "or a look-at {\"eye\": [x,y,z], \"target\": [x,y,z], \"up\": [x,y,z]}; frame auto (default) shows the face where the shapes act on a small part"},
+      {"yaw", "DEGREES", "turn around the vertical axis; 0 looks at the front (default 0)"},
+      {"pitch", "DEGREES", "look from above (positive) or below, in degrees (default 0)"},
+      {"zoom", "Z", "divides the distance, 0.01-100: 2 is twice as close (default 1)"},
+      {"distance", "D", "from the framed centre, in the rig's units (default: the framed part fills the image)"},
+      {"fov", "DEGREES", "vertical field of view, 1-170 (default 30)"},
+      {"background", "#rrggbb|transparent", "the colour behind the model (default #dbdee3)"},
+      {"supersample", "1-4", "render N x N larger and filter down, for smoother edges (default 1)"},
+      {"quality", "1-100", "JPEG and WebP quality; WebP 100 is lossless (default 90)"},
+      {"exposure", "STOPS", "brighter (positive) or darker, in stops (default 0)"}};
+  for (const auto& [key, metavar, help] : kSettings) {
     const std::string flag = std::string("--") + key;
-    flags.Value(flag, metavar, std::string("render ") + key, [&r, key = std::string(key), flag](const std::string& v) {
+    flags.Value(flag, metavar, help, [&r, key = std::string(key), flag](const std::string& v) {
       bool known = false;
       if (std::string e = api::ApplyRenderSetting(key, v, r, &known); !e.empty()) {
         std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
@@ -369,7 +394,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
                       "{\"weights\": ..., \"label\": \"...\"}; or \"shapes\" (one cell per shape at 1), \"shapes:GROUP\" (those of a group).\n"
                     : "An offscreen render (OSMesa). The format comes from OUT's extension or --format.\n");
   AddMeshFlags(flags, r.mesh, weights_given);
-  AddRenderFlags(flags, r);
+  AddRenderFlags(flags, r, sheet);
   if (sheet) {
     flags.Value("--cells", "JSON|@FILE|shapes[:GROUP]", "the cells; shapes: one per shape (of GROUP) at 1", [&cells_text](const std::string& v) { return ReadAtFile("--cells", v, cells_text) ? 0 : 1; });
     flags.Value("--columns", "N", "cells per row (default 4)", [&columns](const std::string& v) {

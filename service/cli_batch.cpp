@@ -266,7 +266,7 @@ int Batch(const std::vector<std::string>& args) {
     return 0;
   });
   flags.Switch("--no-sheet", "no contact sheet", [&] { run.sheet_cells = 0; });
-  flags.Switch("--quiet", "no progress", [&] { quiet = true; });
+  flags.Switch("-q, --quiet", "no progress bar, no warnings (errors and the closing line still)", [&] { quiet = Quiet() = true; });
   for (const char* key : {"mode", "normals", "skinning", "view", "background"}) {
     flags.Value(std::string("--") + key, "VALUE", std::string("as the mesh and render routes' \"") + key + "\"", as_text(request, key));
   }

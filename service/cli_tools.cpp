@@ -40,7 +40,7 @@ int Mirror(const std::vector<std::string>& args) {
   Flags flags("usage: facespace mirror RIG SHAPE [--as NAME] [--axis x|y|z] [--tolerance T] -o OUT.glb\n",
               "Adds the mirror image of SHAPE (reflected across the middle plane of its mesh) as NAME (default:\n"
               "SHAPE's left/right counterpart name, e.g. mouthSmile_L -> mouthSmile_R) and writes the rig, every\n"
-              "shape kept as a sparse morph target.\n");
+              "shape kept as a sparse morph target, with OUT.manifest.json beside it (name, credit, groups, ranges).\n");
   flags.Text("--as", "NAME", "the new shape's name", &as);
   flags.Value("--axis", "x|y|z", "the axis across which to mirror (default x)", [&d](const std::string& v) {
     d.axis = AxisOf(v);
@@ -75,14 +75,31 @@ int Mirror(const std::vector<std::string>& args) {
     return 1;
   }
   if (int rc = WriteResult(out, glb.value())) return rc;
-  std::fprintf(stderr, "mirror: '%s' -> '%s' (%zu vertices moved, %zu unmatched), %zu shapes in %s\n", shape.c_str(), as.c_str(),
-               r->vertices_moved, r->unmatched, result.shapes.size(), out.c_str());
+  // The manifest beside it, as convert writes one: the rig's name, credit, groups, ranges and
+  // partners (the new shape's group and range are its source's) come back with the glb.
+  const std::string manifest_path = out.substr(0, out.rfind('.')) + ".manifest.json";
+  if (int rc = WriteResult(manifest_path, ManifestJson(result))) return rc;
+  std::fprintf(stderr, "mirror: '%s' -> '%s' (%zu vertices moved, %zu unmatched), %zu shapes in %s (%zu bytes) and %s\n", shape.c_str(), as.c_str(),
+               r->vertices_moved, r->unmatched, result.shapes.size(), out.c_str(), glb->size(), manifest_path.c_str());
   return 0;
 }
 
 }  // namespace facespace::cli
 
 namespace facespace::cli {
+
+namespace {
+
+// "418 KB = 418320 bytes": a size people read at a glance, and exactly.
+std::string Bytes(size_t n) {
+  char s[64];
+  if (n < 10000) std::snprintf(s, sizeof s, "%zu bytes", n);
+  else if (n < 1000000) std::snprintf(s, sizeof s, "%.0f KB = %zu bytes", n / 1e3, n);
+  else std::snprintf(s, sizeof s, "%.2f MB = %zu bytes", n / 1e6, n);
+  return s;
+}
+
+}  // namespace
 
 int Compress(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
@@ -114,10 +131,22 @@ int Compress(const std::vector<std::string>& args) {
     return 1;
   }
   const QuantizeReport q = QuantizeDisplacements(rig.value(), bits, nullptr);
-  if (as_json) {
+  // Lengths as the scene shows them (glTF's metres): the shapes live in their meshes' own space,
+  // which a node may scale (FaceCap's head: 1e-5). The scale of the first mesh with shapes.
+  double to_scene = 1.0;
+  const auto world = PrimitiveWorldMatrices(rig.value());
+  for (size_t p = 0; p < rig->primitives.size(); ++p) {
+    if (rig->primitives[p].targets.empty()) continue;
+    const auto& m = world[p];
+    const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
+    if (std::isfinite(det) && det != 0.0) to_scene = std::cbrt(std::abs(det));
+    break;
+  }
+  if (as_json) {  // Lengths in the shapes' mesh space; scene_scale takes them to the scene's.
     nlohmann::json j = {{"shapes", b.shapes},
                         {"moved_vertices", b.moved_vertices},
                         {"diagonal", b.diagonal},
+                        {"scene_scale", to_scene},
                         {"pca", {{"error_bound", error * b.diagonal}, {"components", b.components}, {"max_error", b.max_error},
                                  {"rms_error", b.rms_error}, {"energy_kept", b.energy_kept}, {"bytes", b.basis_bytes}}},
                         {"sparse_bytes", b.sparse_bytes},
@@ -126,14 +155,22 @@ int Compress(const std::vector<std::string>& args) {
     std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return 0;
   }
-  std::printf("shapes          %zu over %zu moved vertices (bounding-box diagonal %.6g)\n", b.shapes, b.moved_vertices, b.diagonal);
-  std::printf("stored (sparse) %zu bytes; dense would be %zu bytes\n", b.sparse_bytes, b.dense_bytes);
-  std::printf("PCA basis       %zu of %zu components keep every vertex within %.3g (%.3g%% of the diagonal): max %.4g, rms %.4g,\n"
-              "                %.4f%% of the energy; %zu bytes (%.1f%% of sparse)\n",
-              b.components, b.shapes, error * b.diagonal, error * 100, b.max_error, b.rms_error, b.energy_kept * 100, b.basis_bytes,
-              100.0 * b.basis_bytes / std::max<size_t>(b.sparse_bytes, 1));
-  std::printf("quantised       %d-bit displacements: max error %.4g (%.3g%% of the diagonal), %zu bytes (%.1f%% of sparse)\n", q.bits,
-              q.max_error, 100.0 * q.max_error / std::max(b.diagonal, 1e-30), q.bytes, 100.0 * q.bytes / std::max<size_t>(b.sparse_bytes, 1));
+  const char* unit = "scene units (glTF's are metres)";
+  auto len = [&](double v) {
+    char s[32];
+    std::snprintf(s, sizeof s, "%.3g", v * to_scene);
+    return std::string(s);
+  };
+  std::printf("shapes          %zu over %zu moved vertices; bounding-box diagonal %s %s\n", b.shapes, b.moved_vertices, len(b.diagonal).c_str(), unit);
+  if (std::abs(to_scene - 1.0) > 1e-6) std::printf("                (the shapes' mesh is scaled by %.3g in the scene: lengths here are the scene's)\n", to_scene);
+  std::printf("stored (sparse) %s; dense would be %s\n", Bytes(b.sparse_bytes).c_str(), Bytes(b.dense_bytes).c_str());
+  std::printf("PCA basis       %zu of %zu components keep every vertex within %s (%.3g%% of the diagonal): max %s, rms %s,\n"
+              "                %.4f%% of the energy; %s, %.1f%% of sparse\n",
+              b.components, b.shapes, len(error * b.diagonal).c_str(), error * 100, len(b.max_error).c_str(), len(b.rms_error).c_str(),
+              b.energy_kept * 100, Bytes(b.basis_bytes).c_str(), 100.0 * b.basis_bytes / std::max<size_t>(b.sparse_bytes, 1));
+  std::printf("quantised       %d-bit displacements: max error %s (%.3g%% of the diagonal), %s, %.1f%% of sparse\n", q.bits,
+              len(q.max_error).c_str(), 100.0 * q.max_error / std::max(b.diagonal, 1e-30), Bytes(q.bytes).c_str(),
+              100.0 * q.bytes / std::max<size_t>(b.sparse_bytes, 1));
   return 0;
 }
 

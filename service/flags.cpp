@@ -58,6 +58,10 @@ int Flags::Parse(const std::vector<std::string>& args, std::vector<std::string>&
       std::fputs(Help().c_str(), stdout);
       return 0;
     }
+    if ((a == "--quiet" || a == "-q") && !Find(a)) {  // Every command's, unless it has its own.
+      Quiet() = true;
+      continue;
+    }
     if (a.size() < 2 || a[0] != '-') {  // "-" alone is a positional argument (stdout, stdin).
       positional.push_back(a);
       continue;
@@ -100,9 +104,15 @@ std::string Flags::Help() const {
     else left += "\n" + std::string(30, ' ');
     out += left + f.help + "\n";
   }
+  if (!Find("--quiet")) out += "  -q, --quiet                 no warnings on stderr (errors still)\n";
   out += "  -h, --help                  this text\n";
   if (!about_.empty()) out += "\n" + about_;
   return out;
+}
+
+bool& Quiet() {
+  static bool quiet = false;
+  return quiet;
 }
 
 bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi, long long* out) {

@@ -1,6 +1,6 @@
 // One flag parser for every command. A command declares its flags once, with their help; Parse
 // reads the arguments in order: positional ones, "--flag VALUE" or "--flag=VALUE", switches, and
-// --help / -h (the usage with every flag on stdout, exit 0). An unknown flag or a missing value
+// --help / -h (the usage with every flag on stdout, exit 0), and -q / --quiet (Quiet()). An unknown flag or a missing value
 // is a usage error (the message and the usage on stderr, exit 2).
 #pragma once
 
@@ -47,6 +47,10 @@ class Flags {
   std::string synopsis_, about_;
   std::vector<Flag> flags_;
 };
+
+// -q / --quiet, which every command's Parse takes (one that declares its own --quiet keeps it):
+// warnings are not printed (PrintWarnings), errors are.
+bool& Quiet();
 
 // Helpers for Flags::Value: parse a number in [lo, hi] or print "error: FLAG: ..." and return false.
 bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi, long long* out);

@@ -43,8 +43,12 @@ const char kUsage[] =
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
     "\n"
-    "RIG is a .glb or .gltf file, or a .obj file followed by more .obj files (an OBJ\n"
-    "sequence: the first is the base, each other one a shape named after its file).\n";
+    "RIG is any rig we read, told by its bytes: glTF 2.0 (.glb, .gltf), FBX, COLLADA (.dae), Doom 3\n"
+    "MD5 (.md5mesh), MikuMikuDance (.pmx, .pmd; .vmd motions beside it or in motion/), or a .obj file\n"
+    "followed by more .obj files (an OBJ sequence: the first is the base, each other one a shape named\n"
+    "after its file); with its manifest (NAME.manifest.json) when one is beside it.\n"
+    "Every command takes -q / --quiet (no warnings) and --help (its flags, with their defaults);\n"
+    "facespace --version says which this is.\n";
 
 }  // namespace
 
@@ -55,6 +59,10 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   std::vector<std::string> args(argv + 2, argv + argc);
+  if (command == "--version" || command == "version") {
+    std::printf("facespace %s\n", FACESPACE_VERSION);
+    return 0;
+  }
   if (command == "-h" || command == "--help" || command == "help") {
     std::fputs(kUsage, stdout);
     return 0;

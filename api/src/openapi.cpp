@@ -21,6 +21,14 @@ json Problem(const std::string& description) {
           {"content", {{"application/problem+json", {{"schema", {{"$ref", "#/components/schemas/Problem"}}}}}}}};
 }
 
+// The headers every answer of the mesh and image routes carries.
+json CommonHeaders() {
+  return {{"Cache-Control", {{"description", "GET: public, no-cache (revalidate with the ETag); POST: no-store"}, {"schema", {{"type", "string"}}}}},
+          {"Server-Timing", {{"description", "Where the time went: blend, draw and encode, in ms (e.g. blend;dur=0.08, draw;dur=21.7, encode;dur=0.34)"},
+                             {"schema", {{"type", "string"}}}}},
+          {"Vary", {{"description", "Accept (and Accept-Encoding where bodies are compressed)"}, {"schema", {{"type", "string"}}}}}};
+}
+
 json MeshResponses() {
   json headers = {
       {"Facespace-Weight-Sum", {{"description", "Sum of the weights"}, {"schema", {{"type", "string"}}}}},
@@ -28,6 +36,7 @@ json MeshResponses() {
        {{"description", "Structured-field list (RFC 9651) of warnings, e.g. extrapolation;value=1.7"},
         {"schema", {{"type", "string"}}}}},
       {"ETag", {{"description", "Strong validator of rig version + canonical request"}, {"schema", {{"type", "string"}}}}}};
+  headers.update(CommonHeaders());
   return {{"200",
            {{"description", "The blended mesh (warnings, if any, in headers and in the body where the format has room)"},
             {"headers", headers},
@@ -52,6 +61,7 @@ json RenderResponses() {
       {"Facespace-Weight-Sum", {{"description", "Sum of the weights (sheet: the largest over its cells)"}, {"schema", {{"type", "string"}}}}},
       {"Facespace-Warnings", {{"description", "Structured-field list (RFC 9651) of warnings"}, {"schema", {{"type", "string"}}}}},
       {"ETag", {{"description", "Strong validator"}, {"schema", {{"type", "string"}}}}}};
+  headers.update(CommonHeaders());
   json bin = {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}};
   return {{"200", {{"description", "The image"}, {"headers", headers},
                    {"content", {{"image/png", bin}, {"image/jpeg", bin}, {"image/x-exr", bin}, {"image/tiff", bin}, {"image/webp", bin}}}}},
@@ -59,8 +69,10 @@ json RenderResponses() {
           {"400", Problem("Malformed JSON")},
           {"404", Problem("Unknown rig")},
           {"406", Problem("Unsupported Accept")},
+          {"413", Problem("A body over the limit, or a render whose working memory is over the render budget")},
           {"415", Problem("Unsupported Content-Type")},
-          {"422", Problem("Invalid weights or settings, image over the size limit, too many cells; or warnings with strict=true")}};
+          {"422", Problem("Invalid weights or settings, image over the size limit, too many cells; or warnings with strict=true")},
+          {"503", Problem("The renders in flight use the render memory; see Retry-After")}};
 }
 
 // The document's paths: one operation per route of the table, taken from `operations`; path-level
@@ -77,6 +89,13 @@ json PathsOfRoutes(const json& operations) {
     }
     json op = (*item)[method];
     if (item->contains("parameters") && !op.contains("parameters")) op["parameters"] = (*item)["parameters"];
+    // Public operations say so (an empty requirement), beside the keyed ones' bearer.
+    if (!op.contains("security")) op["security"] = json::array();
+    // Every body is bounded (--max-body) and must be JSON unless the operation says otherwise.
+    if (op.contains("requestBody")) {
+      if (!op["responses"].contains("413")) op["responses"]["413"] = Problem("The body is over the server's limit (--max-body)");
+      if (!op["responses"].contains("415")) op["responses"]["415"] = Problem("The body is not of a type the operation takes");
+    }
     paths[route.path][method] = op;
   }
   return paths;
@@ -135,7 +154,7 @@ json QueryParam(std::string_view name, bool render) {
     return param({{"oneOf", json::array({number, json{{"type", "string"}, {"pattern", "^(all|shapes|auto|joint:.+)$"}}})}},
                  "A time in MMD frames (30 a second), or the camera's framing: all (the rest shape unless posed, so the camera "
                  "stays still while weights change), shapes, joint:NAME (the vertices a joint carries, under the pose), auto (the "
-                 "default: the shapes when they act on a small part of a rig without a skeleton, else all)");
+                 "default: the shapes when they act on a small part of the rig, through the joint carrying them on a skinned one, else all)");
   }
   if (name == "width" || name == "height") return param({{"type", "integer"}, {"minimum", 1}, {"default", 512}});
   if (name == "view") return param({{"enum", {"shaded", "wireframe", "heatmap", "normals", "clay"}}, {"default", "shaded"}});
@@ -143,7 +162,10 @@ json QueryParam(std::string_view name, bool render) {
   if (name == "supersample") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 4}});
   if (name == "exposure") return param({{"type", "number"}, {"minimum", -10}, {"maximum", 10}, {"default", 0}}, "Stops of light before tone mapping (+1: twice the light)");
   if (name == "quality") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}, "jpeg and webp");
-  if (name == "camera") return param({{"type", "string"}}, "The body's camera object as JSON");
+  if (name == "camera") {  // JSON in the query string: OpenAPI's content form, typed as the body's camera.
+    return {{"name", "camera"}, {"in", "query"}, {"description", "The body's camera object as JSON (yaw, pitch, zoom, distance, fov, frame, eye, target, up)"},
+            {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Camera"}}}}}}}};
+  }
   if (name == "yaw" || name == "pitch") return param(number, "Degrees");
   if (name == "distance" || name == "zoom") return param(number);
   if (name == "fov") return param(number, "Vertical field of view, degrees (1 to 170)");
@@ -244,22 +266,27 @@ json Build() {
                                                  {"detail", {{"type", "string"}}}}}}}}},
                     {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
   json camera = {{"type", "object"},
-                 {"properties", {{"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}, {"distance", {{"type", "number"}}},
-                                 {"zoom", {{"type", "number"}}}, {"fov", {{"type", "number"}}},
+                 {"additionalProperties", false},
+                 {"properties", {{"yaw", {{"type", "number"}, {"minimum", -3600}, {"maximum", 3600}, {"default", 0}, {"description", "Degrees around the vertical axis; 0 looks at the front"}}},
+                                 {"pitch", {{"type", "number"}, {"minimum", -3600}, {"maximum", 3600}, {"default", 0}, {"description", "Degrees up (positive) or down"}}},
+                                 {"distance", {{"type", "number"}, {"minimum", 0}, {"default", 0}, {"description", "From the framed centre, scene units; 0 fits the framed part"}}},
+                                 {"zoom", {{"type", "number"}, {"minimum", 0.01}, {"maximum", 100}, {"default", 1}, {"description", "Divides the distance"}}},
+                                 {"fov", {{"type", "number"}, {"minimum", 1}, {"maximum", 170}, {"default", 30}, {"description", "Vertical field of view, degrees"}}},
                                  {"frame", {{"type", "string"}, {"pattern", "^(all|shapes|auto|joint:.+)$"}, {"default", "auto"},
                                             {"description", "Orbit around every vertex (of the rest shape unless posed: still while weights "
                                                             "change), around those the shapes move, around those a joint carries "
-                                                            "(joint:NAME), or (auto) around the shapes' when they are a small part of a rig "
-                                                            "without a skeleton (a face on a body), else every vertex"}}},
-                                 {"eye", {{"type", "array"}, {"items", {{"type", "number"}}}}},
-                                 {"target", {{"type", "array"}, {"items", {{"type", "number"}}}}},
-                                 {"up", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}};
+                                                            "(joint:NAME), or (auto) around the shapes' when they are a small part of the rig "
+                                                            "(a face on a body; on a skinned body the joint carrying them, which a pose "
+                                                            "carries along), else every vertex"}}},
+                                 {"eye", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}, {"description", "Look-at camera: where it stands (with target)"}}},
+                                 {"target", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}, {"description", "Look-at camera: what it looks at"}}},
+                                 {"up", {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}, {"default", json::array({0, 1, 0})}}}}}};
   json render_props = {{"weights", weights},
                        {"controls", controls_schema},
                        {"mode", {{"enum", {"relative", "absolute"}}}},
                        {"normals", {{"enum", {"blend", "recompute"}}}},
                        {"strict", {{"type", "boolean"}}},
-                       {"camera", camera},
+                       {"camera", {{"$ref", "#/components/schemas/Camera"}}},
                        {"width", {{"type", "integer"}, {"minimum", 1}, {"default", 512}}},
                        {"height", {{"type", "integer"}, {"minimum", 1}, {"default", 512}}},
                        {"view", {{"enum", {"shaded", "wireframe", "heatmap", "normals", "clay"}}, {"default", "shaded"}}},
@@ -588,9 +615,10 @@ json Build() {
                                  {"422", Problem("Invalid weights")}}}}}}},
   };
   return {{"openapi", "3.1.0"},
-          {"info", {{"title", "facespace"}, {"version", "1.0.0"},
+          {"info", {{"title", "facespace"}, {"version", FACESPACE_VERSION},
                     {"description", "Blend-shape rigs over HTTP: blended meshes with warnings when a point leaves the authored space. "
-                                    "Errors are RFC 9457 problem details."}}},
+                                    "Errors are RFC 9457 problem details. A method a path does not list answers 405 with an Allow "
+                                    "header; too many connections (from one address or in all) answer 503 with Retry-After."}}},
           {"paths", PathsOfRoutes(operations)},
           {"components",
            {{"schemas", {{"MeshRequest", mesh_request}, {"RenderRequest", render_request}, {"SheetRequest", sheet_request},
@@ -598,7 +626,7 @@ json Build() {
                         {"Warning", warning}, {"Problem", problem}, {"MeshJson", mesh_json}, {"RigSummary", rig_summary},
                         {"RigList", {{"type", "object"}, {"required", {"rigs"}}, {"properties", {{"rigs", array_of(ref("RigSummary"))}}}}},
                         {"Rig", rig}, {"Manifest", manifest}, {"Check", check}, {"Fit", fit}, {"Topology", topology},
-                        {"SequenceFrames", frames}, {"Reduced", reduced}, {"Health", health},
+                        {"SequenceFrames", frames}, {"Reduced", reduced}, {"Health", health}, {"Camera", camera},
                         {"JobList", {{"type", "object"}, {"required", {"jobs"}}, {"properties", {{"jobs", array_of(ref("Job"))}}}}}}},
             {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
 }

@@ -59,6 +59,7 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   }
   std::vector<float> weights(rig.shapes.size(), 0.0f);
   std::vector<uint8_t> seen(rig.shapes.size(), 0);
+  bool unknown_name = false;
   for (const WeightEntry& e : entries) {
     long long index = e.index;
     auto label = [&e] { return e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'"; };
@@ -80,8 +81,9 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
           std::string msg = "unknown shape '" + e.name + "'";
           const std::string close = ClosestShapeName(rig, e.name);
           if (!close.empty()) msg += " (did you mean '" + close + "'?)";
-          return msg + "; valid shapes: " + ValidNames(rig);
+          return msg;
         });
+        unknown_name = true;
         continue;
       }
     } else if (index < 0 || static_cast<size_t>(index) >= rig.shapes.size()) {
@@ -109,6 +111,8 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   if (!status.fields.empty()) {
     status.message = status.fields.front().message;
     if (status.field_count() > 1) status.message += " (and " + std::to_string(status.field_count() - 1) + " more)";
+    // The names a client may use, once: in the message, not in every unknown name's field error.
+    if (unknown_name) status.message += "; valid shapes: " + ValidNames(rig);
     return status;
   }
   return weights;

@@ -259,7 +259,18 @@ TEST(Weights, Errors) {
     EXPECT_NE(r.status().fields[0].message.find(needle), std::string::npos) << r.status().fields[0].message;
   };
   check({{.name = "lfit", .value = 1, .pointer = "/weights/lfit"}}, "/weights/lfit", "did you mean 'lift'");
-  check({{.name = "zzzzzzzz", .value = 1, .pointer = "/w"}}, "/w", "valid shapes: lift, slide");
+  check({{.name = "zzzzzzzz", .value = 1, .pointer = "/w"}}, "/w", "unknown shape 'zzzzzzzz'");
+  // The valid names are listed once, in the message, however many names are unknown (not per field).
+  {
+    std::vector<WeightEntry> two = {{.name = "zzzz", .value = 1, .pointer = "/weights/zzzz"}, {.name = "lfit", .value = 1, .pointer = "/weights/lfit"}};
+    auto r = ResolveWeights(rig, two);
+    ASSERT_FALSE(r.ok());
+    ASSERT_EQ(r.status().fields.size(), 2u);
+    for (const auto& f : r.status().fields) EXPECT_EQ(f.message.find("valid shapes"), std::string::npos) << f.message;
+    const std::string& m = r.status().message;
+    EXPECT_NE(m.find("(and 1 more); valid shapes: lift, slide"), std::string::npos) << m;
+    EXPECT_EQ(m.find("valid shapes"), m.rfind("valid shapes")) << m;
+  }
   check({{.index = 2, .value = 1, .pointer = "/weights/2"}}, "/weights/2", "out of range");
   check({{.index = -1, .value = 1, .pointer = "/weights/-1"}}, "/weights/-1", "out of range");
   check({{.name = "lift", .value = std::nan(""), .pointer = "/a"}}, "/a", "finite");

@@ -176,6 +176,8 @@ err_case "fit: a target of another rig" "the target has 1 primitives, the rig 4"
 # keeping the space small: mirror, compress, lod
 "$bin" mirror "$rig" mouthSmile_L --as smileMirror -o "$tmp/mirrored.glb" 2>"$tmp/err"; rc=$?
 check "mirror: exit 0, reports the new shape" sh -c "[ $rc -eq 0 ] && grep -q \"mirror: 'mouthSmile_L' -> 'smileMirror'\" '$tmp/err'"
+"$bin" info "$tmp/mirrored.glb" -q >"$tmp/mirrored.txt"
+check "mirror: the written rig keeps its name, credit and groups (its manifest beside it); the new shape in its source's group" sh -c "grep -q '^rig  *FaceCap head (ARKit 52)' '$tmp/mirrored.txt' && grep -q '^credit  *Face Cap model' '$tmp/mirrored.txt' && grep -Eq 'jawOpen +jaw ' '$tmp/mirrored.txt' && grep -Eq 'smileMirror +mouth ' '$tmp/mirrored.txt' && [ -s '$tmp/mirrored.manifest.json' ]"
 "$bin" blend "$tmp/mirrored.glb" --set smileMirror=1 -o "$tmp/m1.json" 2>/dev/null
 "$bin" blend "$rig" --set mouthSmile_R=1 -o "$tmp/m2.json" 2>/dev/null
 "$bin" blend "$rig" -o "$tmp/m0.json" 2>/dev/null
