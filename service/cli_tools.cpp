@@ -1,6 +1,8 @@
 // facespace mirror and facespace compress: tools that keep a face space small and whole.
 #include <charconv>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
@@ -30,6 +32,39 @@ Result<std::string> RigAsGlb(const std::shared_ptr<const api::StoredRig>& rig) {
   return std::move(glb->bytes);
 }
 
+
+// Whether a rig file is a glb whose JSON names EXT_meshopt_compression (its JSON chunk only).
+bool UsesMeshopt(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  unsigned char head[20];
+  if (!f.read(reinterpret_cast<char*>(head), 20) || std::memcmp(head, "glTF", 4) != 0) return false;
+  uint32_t json_len = 0;
+  std::memcpy(&json_len, head + 12, 4);
+  std::string text(std::min<uint32_t>(json_len, 64u << 20), '\0');
+  f.read(text.data(), static_cast<std::streamsize>(text.size()));
+  return text.find("\"EXT_meshopt_compression\"") != std::string::npos;
+}
+
+// --compress meshopt|none, and the default: as the input had it.
+bool CompressFlag(Flags& flags, int& mode) {
+  flags.Value("--compress", "meshopt|none", "EXT_meshopt_compression (lossless) on the written glb (default: as the input glb has it)",
+              [&mode](const std::string& v) {
+                if (v != "meshopt" && v != "none") return std::fprintf(stderr, "error: --compress must be meshopt or none, not '%s'\n", v.c_str()), 2;
+                mode = v == "meshopt" ? 1 : 0;
+                return 0;
+              });
+  return true;
+}
+
+// The glb, compressed when `mode` says (-1: when `input` was).
+Result<std::string> MaybeCompress(Result<std::string> glb, int mode, const std::string& input) {
+  if (!glb.ok() || mode == 0 || (mode < 0 && !UsesMeshopt(input))) return glb;
+  const auto& s = glb.value();
+  auto packed = EncodeMeshoptGlb(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(s.data()), s.size()));
+  if (!packed.ok()) return packed.status();
+  return std::string(packed->begin(), packed->end());
+}
+
 }  // namespace
 
 int Mirror(const std::vector<std::string>& args) {
@@ -53,6 +88,8 @@ int Mirror(const std::vector<std::string>& args) {
                 d.tolerance = static_cast<float>(t);
                 return 0;
               });
+  int compress = -1;
+  CompressFlag(flags, compress);
   flags.Text("-o, --output", "OUT.glb", "output", &out);
   if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
   if (positional.size() != 2 || out.empty()) return flags.UsageError(out.empty() ? "no output given (-o OUT.glb)" : "give RIG and SHAPE");
@@ -69,7 +106,7 @@ int Mirror(const std::vector<std::string>& args) {
   if (r->unmatched) std::fprintf(stderr, "warning: mirror_unmatched: %zu moved vertices have no mirror image and stay still\n", r->unmatched);
   const auto stored = api::Unstored(std::move(rig.value()));
   const Rig& result = stored->rig;
-  auto glb = RigAsGlb(stored);
+  auto glb = MaybeCompress(RigAsGlb(stored), compress, positional[0]);
   if (!glb.ok()) {
     PrintStatus(glb.status());
     return 1;
@@ -202,6 +239,8 @@ int Convert(const std::vector<std::string>& args) {
                 mh.proxies.push_back(v);
                 return 0;
               });
+  int compress = -1;
+  CompressFlag(flags, compress);
   flags.Text("-o, --output", "OUT.glb", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   if (paths.empty() || out.empty() || ((!mh.modifiers.empty() || !mh.proxies.empty()) && targets.empty())) {
@@ -220,7 +259,7 @@ int Convert(const std::vector<std::string>& args) {
   const std::string stem = out.substr(slash == std::string::npos ? 0 : slash + 1, out.rfind('.') - (slash == std::string::npos ? 0 : slash + 1));
   if (rig->name.empty() || !targets.empty()) rig->name = stem;
   const auto stored = api::Unstored(std::move(rig.value()));
-  auto bytes = RigAsGlb(stored);
+  auto bytes = MaybeCompress(RigAsGlb(stored), compress, paths[0]);
   if (!bytes.ok()) {
     PrintStatus(bytes.status());
     return 1;

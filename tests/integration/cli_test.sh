@@ -176,6 +176,13 @@ err_case "fit: a target of another rig" "the target has 1 primitives, the rig 4"
 # keeping the space small: mirror, compress, lod
 "$bin" mirror "$rig" mouthSmile_L --as smileMirror -o "$tmp/mirrored.glb" 2>"$tmp/err"; rc=$?
 check "mirror: exit 0, reports the new shape" sh -c "[ $rc -eq 0 ] && grep -q \"mirror: 'mouthSmile_L' -> 'smileMirror'\" '$tmp/err'"
+"$bin" mirror "$rig" mouthSmile_L --as smileMirror --compress none -o "$tmp/mirrored_plain.glb" 2>/dev/null
+"$bin" blend "$tmp/mirrored.glb" --set smileMirror=0.7 --set jawOpen=0.3 -q -o "$tmp/mc.json"; "$bin" blend "$tmp/mirrored_plain.glb" --set smileMirror=0.7 --set jawOpen=0.3 -q -o "$tmp/mp.json"
+check "mirror: the input's EXT_meshopt_compression is kept (lossless: the same mesh), $(stat -c %s "$tmp/mirrored.glb") bytes against $(stat -c %s "$tmp/mirrored_plain.glb") with --compress none" sh -c "grep -q EXT_meshopt_compression '$tmp/mirrored.glb' && [ \$(stat -c %s '$tmp/mirrored.glb') -lt \$(( \$(stat -c %s '$tmp/mirrored_plain.glb') * 2 / 3 )) ] && cmp -s '$tmp/mc.json' '$tmp/mp.json'"
+if [ -n "$node_modules" ] && [ -d "$node_modules/gltf-validator" ]; then
+  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/mirrored.glb" >"$tmp/val" 2>&1; rc=$?
+  check "glTF validator: 0 errors on the meshopt-compressed mirror ($(tail -1 "$tmp/val"))" test $rc -eq 0
+fi
 "$bin" info "$tmp/mirrored.glb" -q >"$tmp/mirrored.txt"
 check "mirror: the written rig keeps its name, credit and groups (its manifest beside it); the new shape in its source's group" sh -c "grep -q '^rig  *FaceCap head (ARKit 52)' '$tmp/mirrored.txt' && grep -q '^credit  *Face Cap model' '$tmp/mirrored.txt' && grep -Eq 'jawOpen +jaw ' '$tmp/mirrored.txt' && grep -Eq 'smileMirror +mouth ' '$tmp/mirrored.txt' && [ -s '$tmp/mirrored.manifest.json' ]"
 "$bin" blend "$tmp/mirrored.glb" --set smileMirror=1 -o "$tmp/m1.json" 2>/dev/null

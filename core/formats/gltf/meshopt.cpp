@@ -5,6 +5,7 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "facespace/formats/io.h"
 #include "gltf/gltf_common.h"
 
 namespace facespace {
@@ -207,4 +208,127 @@ Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsign
   out = MakeGlb(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), newbin);
   return Status::Ok();
 }
+
+namespace {
+
+size_t ComponentBytes(int type) { return type == 5120 || type == 5121 ? 1 : type == 5122 || type == 5123 ? 2 : type == 5125 || type == 5126 ? 4 : 0; }
+
+size_t Components(const std::string& type) {
+  return type == "SCALAR" ? 1 : type == "VEC2" ? 2 : type == "VEC3" ? 3 : type == "VEC4" || type == "MAT2" ? 4 : type == "MAT3" ? 9 : type == "MAT4" ? 16 : 0;
+}
+
+// How one bufferView may be encoded: its elements' stride and count and the codec's mode, from
+// the one accessor (or sparse part) that reads it whole; "" when it is not to be encoded.
+struct ViewUse {
+  int users = 0;
+  std::string mode;  // ATTRIBUTES, TRIANGLES or INDICES.
+  size_t stride = 0, count = 0;
+};
+
+}  // namespace
+
+Result<std::vector<unsigned char>> EncodeMeshoptGlb(std::span<const unsigned char> bytes) {
+  std::string text;
+  std::span<const unsigned char> bin;
+  if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+  json j = json::parse(text, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
+  if (ListHas(j, "extensionsUsed", "EXT_meshopt_compression")) return std::vector<unsigned char>(bytes.begin(), bytes.end());
+  json& views = j["bufferViews"];
+  json& buffers = j["buffers"];
+  if (!views.is_array() || !buffers.is_array() || buffers.size() != 1) return std::vector<unsigned char>(bytes.begin(), bytes.end());
+  std::vector<ViewUse> use(views.size());
+  auto note = [&](const json& bv, const json& offset, const std::string& mode, size_t stride, size_t count) {
+    if (!bv.is_number_unsigned() || bv.get<size_t>() >= use.size()) return;
+    ViewUse& u = use[bv.get<size_t>()];
+    ++u.users;
+    const bool whole = !offset.is_number() || offset.get<double>() == 0;
+    u.mode = whole ? mode : "";
+    u.stride = stride;
+    u.count = count;
+  };
+  std::vector<uint8_t> is_index(j.contains("accessors") ? j["accessors"].size() : 0, 0);
+  for (const json& mesh : j.value("meshes", json::array())) {
+    for (const json& prim : mesh.value("primitives", json::array())) {
+      const json idx = prim.value("indices", json());
+      if (idx.is_number_unsigned() && idx.get<size_t>() < is_index.size() && prim.value("mode", 4) == 4) is_index[idx.get<size_t>()] = 1;
+    }
+  }
+  const json& accessors = j.value("accessors", json::array());
+  for (size_t a = 0; a < accessors.size(); ++a) {
+    const json& acc = accessors[a];
+    const size_t comp = ComponentBytes(acc.value("componentType", 0)), n = Components(acc.value("type", std::string())), count = acc.value("count", size_t{0});
+    if (acc.contains("bufferView")) {
+      const bool triangles = is_index[a] && acc.value("type", std::string()) == "SCALAR" && (comp == 2 || comp == 4) && count % 3 == 0;
+      note(acc["bufferView"], acc.value("byteOffset", json()), triangles ? "TRIANGLES" : "ATTRIBUTES", triangles ? comp : comp * n, count);
+    }
+    if (acc.contains("sparse") && acc["sparse"].is_object()) {
+      const json& sp = acc["sparse"];
+      const size_t scount = sp.value("count", size_t{0});
+      if (sp.contains("indices")) {
+        const size_t icomp = ComponentBytes(sp["indices"].value("componentType", 0));
+        note(sp["indices"].value("bufferView", json()), sp["indices"].value("byteOffset", json()), icomp == 2 || icomp == 4 ? "INDICES" : "", icomp, scount);
+      }
+      if (sp.contains("values")) note(sp["values"].value("bufferView", json()), sp["values"].value("byteOffset", json()), "ATTRIBUTES", comp * n, scount);
+    }
+  }
+  std::vector<unsigned char> packed, fallback_size_only;
+  size_t fallback = 0;
+  auto align = [](std::vector<unsigned char>& v) { while (v.size() % 4) v.push_back(0); };
+  meshopt_encodeVertexVersion(0);  // The versions EXT_meshopt_compression defines.
+  meshopt_encodeIndexVersion(1);
+  std::vector<unsigned int> indices;
+  for (size_t v = 0; v < views.size(); ++v) {
+    json& view = views[v];
+    const size_t offset = view.value("byteOffset", size_t{0}), length = view.value("byteLength", size_t{0});
+    if (offset > bin.size() || length > bin.size() - offset) return InvalidArgument("glb: bufferView " + std::to_string(v) + " beyond the binary chunk");
+    const unsigned char* data = bin.data() + offset;
+    const ViewUse& u = use[v];
+    std::vector<unsigned char> encoded;
+    const bool stride_ok = u.mode == "ATTRIBUTES" ? u.stride % 4 == 0 && u.stride <= 256 && u.stride > 0 : u.stride == 2 || u.stride == 4;
+    if (u.users == 1 && !u.mode.empty() && stride_ok && u.count > 0 && u.stride * u.count == length && !view.contains("byteStride")) {
+      if (u.mode == "ATTRIBUTES") {
+        encoded.resize(meshopt_encodeVertexBufferBound(u.count, u.stride));
+        encoded.resize(meshopt_encodeVertexBuffer(encoded.data(), encoded.size(), data, u.count, u.stride));
+      } else {
+        indices.resize(u.count);
+        for (size_t i = 0; i < u.count; ++i) {
+          if (u.stride == 2) {
+            uint16_t x;
+            std::memcpy(&x, data + 2 * i, 2);
+            indices[i] = x;
+          } else {
+            std::memcpy(&indices[i], data + 4 * i, 4);
+          }
+        }
+        const bool tri = u.mode == "TRIANGLES";
+        encoded.resize(tri ? meshopt_encodeIndexBufferBound(u.count, u.count) : meshopt_encodeIndexSequenceBound(u.count, u.count));
+        encoded.resize(tri ? meshopt_encodeIndexBuffer(encoded.data(), encoded.size(), indices.data(), u.count)
+                           : meshopt_encodeIndexSequence(encoded.data(), encoded.size(), indices.data(), u.count));
+      }
+    }
+    align(packed);
+    if (!encoded.empty() && encoded.size() < length) {
+      view["extensions"]["EXT_meshopt_compression"] = {{"buffer", 0}, {"byteOffset", packed.size()}, {"byteLength", encoded.size()},
+                                                       {"byteStride", u.stride}, {"count", u.count}, {"mode", u.mode}};
+      packed.insert(packed.end(), encoded.begin(), encoded.end());
+      fallback = (fallback + 3) & ~size_t{3};
+      view["buffer"] = 1;
+      view["byteOffset"] = fallback;
+      fallback += length;
+    } else {
+      view["byteOffset"] = packed.size();
+      packed.insert(packed.end(), data, data + length);
+    }
+  }
+  if (fallback == 0) return std::vector<unsigned char>(bytes.begin(), bytes.end());  // Nothing smaller.
+  buffers[0]["byteLength"] = packed.size();
+  buffers.push_back({{"byteLength", fallback}, {"extensions", {{"EXT_meshopt_compression", {{"fallback", true}}}}}});
+  for (const char* key : {"extensionsUsed", "extensionsRequired"}) {
+    if (!j.contains(key)) j[key] = json::array();
+    j[key].push_back("EXT_meshopt_compression");
+  }
+  return MakeGlb(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), packed);
+}
+
 }  // namespace facespace

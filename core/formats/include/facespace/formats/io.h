@@ -62,6 +62,12 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
 // lacks are skipped; l-/r- controls become partners.
 Status ApplyMakeHumanModifiers(Rig& rig, const std::string& json_text);
 
+// A glb with its vertex data, indices and sparse morph targets compressed (EXT_meshopt_compression,
+// lossless: meshoptimizer's codecs; a fallback buffer without data, so the extension is required).
+// Views that do not shrink, or that several accessors share, stay as they are; a glb that already
+// uses the extension, or that has several buffers, comes back unchanged.
+Result<std::vector<unsigned char>> EncodeMeshoptGlb(std::span<const unsigned char> glb);
+
 // The manifest (JSON text) that carries a rig's groups, ranges, partners, aliases and controls.
 std::string ManifestJson(const Rig& rig);
 
