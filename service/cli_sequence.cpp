@@ -64,6 +64,7 @@ class WarningSummary {
     }
   }
   void Print(size_t frames) const {
+    if (Quiet()) return;
     for (const Entry& e : codes_) {
       std::fprintf(stderr, "warning: %s in %zu of %zu frames, the first: %s\n", e.code.c_str(), e.frames, frames, e.first.c_str());
     }
@@ -88,7 +89,7 @@ int Sequence(const std::vector<std::string>& args) {
   Flags flags(
       "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --layers JSON|@FILE\n"
       "         | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
-      "         [--transition T] [--smooth] [--no-physics] (--times JSON | --fps N) [--format json|obj|glb|f32] -o OUT.json|DIR\n"
+      "         [--transition T] [--smooth] [--no-physics] (--times JSON | --fps N) [--format json|weights|obj|glb|f32] -o OUT.json|DIR\n"
       "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
       "       facespace sequence RIG ... --bake TIME -o OUT.json\n",
       "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
@@ -115,7 +116,7 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
   flags.Value("--bake", "TIME", "add a key at TIME with the in-between weights", number("--bake", -1e9f, &bake, &has_bake));
   AddBlendOptionFlags(flags, options);
-  flags.Text("--format", "json|obj|glb|f32", "one JSON file of frames, or a file per frame in DIR (default: json, or glb when OUT is a folder: ends in / or exists)", &format);
+  flags.Text("--format", "json|weights|obj|glb|f32", "one JSON file of frames (weights: their weights and pose, no meshes), or a file per frame in DIR (default: json, or glb when OUT is a folder: ends in / or exists)", &format);
   flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   const int sources = !keys_text.empty() + !layers_text.empty() + !from_animation.empty() + !obj_times.empty();
@@ -127,12 +128,12 @@ int Sequence(const std::vector<std::string>& args) {
     std::error_code ec;
     format = out.back() == '/' || std::filesystem::is_directory(out, ec) ? "glb" : "json";
   }
-  if (format == "json" && out.back() == '/') {
-    std::fprintf(stderr, "error: --format json writes one file, and '%s' is a folder: give a file name, or --format obj|glb|f32 for a file per frame\n", out.c_str());
+  if ((format == "json" || format == "weights") && out.back() == '/') {
+    std::fprintf(stderr, "error: --format %s writes one file, and '%s' is a folder: give a file name, or --format obj|glb|f32 for a file per frame\n", format.c_str(), out.c_str());
     return 2;
   }
-  if (format != "json" && format != "obj" && format != "glb" && format != "f32") {
-    std::fprintf(stderr, "error: --format must be json, obj, glb or f32\n");
+  if (format != "json" && format != "weights" && format != "obj" && format != "glb" && format != "f32") {
+    std::fprintf(stderr, "error: --format must be json, weights, obj, glb or f32\n");
     return 2;
   }
   Result<Rig> loaded = paths.size() > 1 ? LoadObjSequence(paths) : LoadRigFile(paths[0]);
@@ -264,8 +265,8 @@ int Sequence(const std::vector<std::string>& args) {
   const render::NullRenderer renderer;
   const api::Evaluator evaluator(renderer);
   api::Workspace ws;
-  if (format == "json") {
-    auto body = api::SampleSequenceJson(evaluator, stored, seq, times, options, warnings, ws);
+  if (format == "json" || format == "weights") {
+    auto body = api::SampleSequenceJson(evaluator, stored, seq, times, options, warnings, ws, static_cast<size_t>(-1), format == "weights");
     WarningSummary summary;  // Each warning of the list is one frame's (they are in the body, by frame).
     for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
     summary.Print(times.size());
@@ -345,7 +346,7 @@ int FitCommand(const std::vector<std::string>& args) {
   }
   auto fit = FitWeights(rig.value(), target, options);
   if (!fit.ok()) return std::fprintf(stderr, "error: %s\n", fit.status().message.c_str()), 1;
-  for (const Warning& w : fit->warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
+  if (!Quiet()) for (const Warning& w : fit->warnings) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
   std::fprintf(stderr, "residual: rms %s, max %s (vertex distances in the rig's units: metres for glTF)\n", FormatNumber(fit->rms_error).c_str(),
                FormatNumber(fit->max_error).c_str());
   return WriteResult(out, api::FitResultJson(rig.value(), fit.value(), options.rigid_align));

@@ -103,7 +103,7 @@ int Mirror(const std::vector<std::string>& args) {
     PrintStatus(r.status());
     return 1;
   }
-  if (r->unmatched) std::fprintf(stderr, "warning: mirror_unmatched: %zu moved vertices have no mirror image and stay still\n", r->unmatched);
+  if (r->unmatched && !Quiet()) std::fprintf(stderr, "warning: mirror_unmatched: %zu moved vertices have no mirror image and stay still\n", r->unmatched);
   const auto stored = api::Unstored(std::move(rig.value()));
   const Rig& result = stored->rig;
   auto glb = MaybeCompress(RigAsGlb(stored), compress, positional[0]);

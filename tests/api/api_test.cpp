@@ -323,6 +323,23 @@ TEST_F(ApiTest, CheckAndSequenceAndFit) {
   EXPECT_EQ(Body(r)["frames"][0]["weights"]["jawOpen"], 0.5);
   EXPECT_EQ(Body(r)["space"], "world");  // As blend's JSON: positions placed by their nodes.
 
+  // "format": "weights": each frame's time, weights and sum, no mesh (clients that blend on the GPU).
+  r = Client().Post("/v1/rigs/facecap/sequence/sample",
+                    R"({"keys": [{"time": 0}, {"time": 1, "weights": {"jawOpen": 1}}], "times": [0.25, 0.5], "format": "weights"})",
+                    "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  json w = Body(r);
+  ASSERT_EQ(w["frames"].size(), 2u);
+  EXPECT_EQ(w["frames"][1]["weights"]["jawOpen"], 0.5);
+  EXPECT_EQ(w["frames"][0]["sum"], 0.25);
+  EXPECT_FALSE(w["frames"][0].contains("primitives"));
+  EXPECT_FALSE(w["frames"][0].contains("pose"));  // Keys of weights pose nothing.
+  r = Client().Post("/v1/rigs/facecap/sequence/sample", R"({"keys": [{"time": 0}, {"time": 1}], "times": [0], "format": "f32"})", "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 422);
+  EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/format");
+
   r = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"keys": [{"time": 0}, {"time": 1}]})", "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);

@@ -50,6 +50,8 @@ check "blend: JSON has 2 primitives of 24 and 1504 vertices with normals" \
 # warnings
 "$bin" blend "$stress" --weights '{"Key 1":0.9,"Key 2":0.8}' -o "$tmp/e.json" 2>"$tmp/err"; rc=$?
 check "blend: extrapolation warns with the sum and exits 0" sh -c "[ $rc -eq 0 ] && grep -q 'warning: extrapolation: sum of weights 1.7 exceeds 1' '$tmp/err'"
+"$bin" blend "$rig" --set jawOpen=0.9 --set mouthSmile_L=0.8 -q -o "$tmp/q.json" 2>"$tmp/qerr"; rc=$?
+check "blend -q: the same extrapolating point writes its file and says nothing" sh -c "[ $rc -eq 0 ] && [ -s '$tmp/q.json' ] && [ ! -s '$tmp/qerr' ]"
 check "blend: the JSON body carries the warning too" py 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(not(d["warnings"][0]["code"]=="extrapolation" and d["warnings"][0]["value"]==1.7))' "$tmp/e.json"
 "$bin" blend "$stress" --set 'Key 3=-0.5' --mode absolute -o "$tmp/f.json" 2>"$tmp/err"
 check "blend: out-of-range weight named; absolute mode sum warning" sh -c "grep -q \"out_of_range: weight -0.5 of 'Key 3'\" '$tmp/err' && grep -q 'absolute_sum' '$tmp/err'"
@@ -420,6 +422,10 @@ check "sheet --cells shapes:mouth: one 64-pixel cell per mouth shape (8 columns)
 check "sequence --layers: an overlay starts at its time over the looping base (瞳小 0 then 0.4), frames in world space" py 'import json,sys
 d=json.load(open(sys.argv[1])); f=d["frames"]
 sys.exit(not(d["space"]=="world" and abs(f[0]["weights"].get("瞳小",0))<1e-6 and abs(f[1]["weights"]["瞳小"]-0.4)<1e-6))' "$tmp/layers.json"
+"$bin" sequence "$uka" --layers '[{"motion":"stand","loop":true},{"motion":"08_surprise","time":1}]' --times '[0.5,1.5]' --format weights -q -o "$tmp/layers_w.json"
+check "sequence --format weights: the same frames' weights with their pose (the bones the motion moves), no meshes" py 'import json,sys
+a=json.load(open(sys.argv[1]))["frames"]; b=json.load(open(sys.argv[2]))["frames"]
+sys.exit(not(len(a)==len(b)==2 and all(x["weights"]==y["weights"] and "primitives" not in y and len(y["pose"])>10 for x,y in zip(a,b))))' "$tmp/layers.json" "$tmp/layers_w.json"
 "$bin" blend "$uka" --layers '[{"motion":"stand"},{"motion":"nosuch"}]' -o "$tmp/x.json" 2>"$tmp/err"; rc=$?
 check "blend --layers with an unknown motion: an error naming the layer" sh -c "[ $rc -ne 0 ] && grep -q 'layers/1.*unknown animation' '$tmp/err'"
 "$bin" sheet "$uka" --cells shapes:nosuch -o "$tmp/x.png" 2>"$tmp/err"; rc=$?

@@ -1,6 +1,7 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
 #include "facespace/api/evaluator.h"
+#include "facespace/core/hierarchy.h"
 #include "facespace/physics/physics.h"
 #include "json_text.h"
 
@@ -99,21 +100,55 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
   }
 }
 
+namespace {
+
+// The nodes a pose moves from their rest (local translation, rotation x y z w, scale), by name:
+// what a client that blends and skins on the GPU needs besides the weights.
+std::string PoseJson(const Rig& rig, const Pose& pose, const Pose& rest) {
+  std::string out = "{";
+  bool first = true;
+  auto vec = [](const float* v, int n) {
+    std::string s = "[";
+    for (int k = 0; k < n; ++k) s += (k ? "," : "") + FormatNumber(v[k]);
+    return s + "]";
+  };
+  for (size_t n = 0; n < rig.nodes.size() && n < pose.local.size() && n < rest.local.size(); ++n) {
+    const Transform& a = pose.local[n];
+    const Transform& b = rest.local[n];
+    const bool moved = a.translation != b.translation || a.rotation != b.rotation || a.scale != b.scale ||
+                       (n < pose.from_matrix.size() && n < rest.from_matrix.size() && pose.from_matrix[n] != rest.from_matrix[n]);
+    if (!moved) continue;
+    out += std::string(first ? "" : ",") + JsonString(rig.nodes[n].name.empty() ? "node" + std::to_string(n) : rig.nodes[n].name) +
+           ":{\"translation\":" + vec(a.translation.data(), 3) + ",\"rotation\":" + vec(a.rotation.data(), 4) + ",\"scale\":" + vec(a.scale.data(), 3) + "}";
+    first = false;
+  }
+  return out + "}";
+}
+
+}  // namespace
+
 Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored,
                                        const Sequence& sequence, std::span<const float> times, const BlendOptions& options,
-                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes) {
+                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes, bool weights_only) {
   const Rig& rig = stored->rig;
   const OutputSpec spec = OutputSpec::Frame(options, false);
   ResolvedPoint point;
   SequencePhysics physics(rig, sequence);
-  std::string out = "{\"space\":\"world\",\"frames\":[";  // Positions and normals placed by each primitive's node, as blend's JSON.
+  const Pose rest = weights_only ? RestPose(rig) : Pose{};
+  // Positions and normals placed by each primitive's node, as blend's JSON; or the weights and pose alone.
+  std::string out = weights_only ? "{\"format\":\"weights\",\"frames\":[" : "{\"space\":\"world\",\"frames\":[";
   for (size_t i = 0; i < times.size(); ++i) {
     SequencePoint(rig, sequence, times[i], options.mode, point, &physics);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
-    auto primitives = evaluator.Run(stored, point, spec, ws);
-    if (!primitives.ok()) return primitives.status();
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
-           ",\"primitives\":" + primitives->bytes + "}";
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, point.weights);
+    if (weights_only) {
+      if (point.posed) out += ",\"pose\":" + PoseJson(rig, point.pose, rest);
+      out += ",\"sum\":" + FormatNumber(point.report.sum) + "}";
+    } else {
+      auto primitives = evaluator.Run(stored, point, spec, ws);
+      if (!primitives.ok()) return primitives.status();
+      out += ",\"primitives\":" + primitives->bytes + "}";
+    }
     const double expected = i == 0 ? static_cast<double>(out.size()) * static_cast<double>(times.size()) : static_cast<double>(out.size());
     if (expected > static_cast<double>(max_bytes)) {
       const auto mb = [](double bytes) { return FormatNumber(std::round(bytes / 1e5) / 10); };

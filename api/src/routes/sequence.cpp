@@ -31,7 +31,10 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
   std::vector<Warning> warnings;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-  auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws, ctx.options.max_response);
+  if (!r.format.empty() && r.format != "json" && r.format != "weights") {
+    return SendProblem(req, res, 422, "invalid-request", "/format: sample as json (meshes) or weights (no meshes)", {{"/format", "must be json or weights"}});
+  }
+  auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws, ctx.options.max_response, r.format == "weights");
   if (!body.ok()) return SendStatus(req, res, body.status());
   ctx.metrics.CountBlends(r.times.size());
   if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
@@ -45,8 +48,8 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   auto seq = std::make_shared<Sequence>();
   if (!stored || !ReadSequence(req, res, stored->rig, *r, *seq)) return;
   const std::string format = r->format.empty() ? "ndjson" : r->format;
-  if (format != "ndjson" && format != "f32") {
-    SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson or f32", {{"/format", "must be ndjson or f32"}});
+  if (format != "ndjson" && format != "f32" && format != "weights") {
+    SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson (weights, as \"weights\") or f32", {{"/format", "must be ndjson, weights or f32"}});
     return;
   }
   const size_t frames = FrameCount(*seq, r->fps);

@@ -107,7 +107,9 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     } else if (key == "fps") {
       number(v, ptr, &r.fps, 0.1, 1000);
     } else if (key == "format") {
-      if (!v.is_string() || (v != "json" && v != "ndjson" && v != "f32")) errors.fields.push_back({ptr, "must be json, ndjson or f32"});
+      if (!v.is_string() || (v != "json" && v != "weights" && v != "ndjson" && v != "f32")) {
+        errors.fields.push_back({ptr, "must be json or weights (sample), ndjson or f32 (stream)"});
+      }
       else r.format = v.get<std::string>();
     } else if (key == "tolerance") {
       number(v, ptr, &r.tolerance, 0, 1e9);

@@ -259,12 +259,15 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
                    SequencePhysics* physics = nullptr);
 
 // {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}: the sample route's body and
-// `facespace sequence --format json`. `warnings` receives the frames' warnings too.
+// `facespace sequence --format json`; with `weights_only` ("format": "weights"), each frame's time,
+// weights, sum and (when posed) "pose": the nodes moved from rest, {NAME: {translation, rotation,
+// scale}}, and no mesh. `warnings` receives the frames' warnings too.
 // A body that would pass `max_bytes` (judged from its first frame, then checked as it grows) is
 // refused before the work: 422 response-too-large on /times, naming the limit.
 Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
                                        const Sequence& sequence, std::span<const float> times, const BlendOptions& options,
-                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes = static_cast<size_t>(-1));
+                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes = static_cast<size_t>(-1),
+                                       bool weights_only = false);
 
 // One frame of a stream: ndjson {"frame", "time", "weights", "warnings"} and a newline, or f32:
 // a uint32 byte count then the world-space positions.
