@@ -357,6 +357,8 @@ int Batch(const std::vector<std::string>& args) {
 
   Result<Rig> rig = LoadAndReport(paths);
   if (!rig.ok()) return 1;
+  // A rig with textures opens the image module before the worker threads start (render.h says why).
+  if (!rig->images.empty()) render::OpenImageModule();
   std::string bytes;
   ReadFile(paths[0], bytes);
   const std::string_view whole[] = {bytes};

@@ -436,6 +436,11 @@ std::string ImageModuleProblem() {
   return oiio::Locate().empty() ? "the image module libfacespace_oiio.so is neither beside the executable nor in the build" : "";
 }
 
+std::string OpenImageModule() {
+  std::string error;
+  return oiio::Load(&error) ? "" : error;
+}
+
 Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type) {
   const char* name = nullptr;
   if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P') name = "image.png";

@@ -142,6 +142,12 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
 // it is opened on first use.
 std::string ImageModuleProblem();
 
+// Opens the image module now rather than at the first texture decode: a process that starts worker
+// threads should open it before them. (Opened on the main thread after workers had run, LeakSanitizer's
+// exit scan met a garbage dynamic-TLS entry and crashed: batch --jobs 2 with a contact sheet under ASan.)
+// Empty on success, else why it cannot be opened.
+std::string OpenImageModule();
+
 // Draws UTF-8 text (DejaVu Sans; Noto Sans CJK for what DejaVu lacks; FreeType) in an sRGB colour
 // at pixel (x, y) = baseline start. False if no font, or nothing of it lands in the image.
 bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb);
