@@ -46,14 +46,13 @@ bool UsesMeshopt(const std::string& path) {
 }
 
 // --compress meshopt|none, and the default: as the input had it.
-bool CompressFlag(Flags& flags, int& mode) {
+void CompressFlag(Flags& flags, int& mode) {
   flags.Value("--compress", "meshopt|none", "EXT_meshopt_compression (lossless) on the written glb (default: as the input glb has it)",
               [&mode](const std::string& v) {
                 if (v != "meshopt" && v != "none") return std::fprintf(stderr, "error: --compress must be meshopt or none, not '%s'\n", v.c_str()), 2;
                 mode = v == "meshopt" ? 1 : 0;
                 return 0;
               });
-  return true;
 }
 
 // The glb, compressed when `mode` says (-1: when `input` was).
@@ -103,7 +102,7 @@ int Mirror(const std::vector<std::string>& args) {
     PrintStatus(r.status());
     return 1;
   }
-  if (r->unmatched && !Quiet()) std::fprintf(stderr, "warning: mirror_unmatched: %zu moved vertices have no mirror image and stay still\n", r->unmatched);
+  if (r->unmatched) PrintWarnings({{"mirror_unmatched", std::to_string(r->unmatched) + " moved vertices have no mirror image and stay still", as, 0.0, false}});
   const auto stored = api::Unstored(std::move(rig.value()));
   const Rig& result = stored->rig;
   auto glb = MaybeCompress(RigAsGlb(stored), compress, positional[0]);

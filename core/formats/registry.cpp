@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "facespace/formats/io.h"
+#include "common/image_file.h"
 
 namespace facespace {
 
@@ -171,36 +172,40 @@ int AddImageBeside(Rig& rig, const std::string& path) {
   return static_cast<int>(rig.images.size()) - 1;
 }
 
+std::string ReadImageFile(const std::filesystem::path& file, Image& image) {
+  namespace fs = std::filesystem;
+  constexpr std::uintmax_t kMaxImageBytes = std::uintmax_t{64} << 20;
+  std::error_code ec;
+  const std::uintmax_t size = file.empty() ? 0 : fs::file_size(file, ec);
+  if (file.empty() || ec || !fs::is_regular_file(file, ec)) return "no such file";
+  if (size == 0 || size > kMaxImageBytes) return "empty or over 64 MiB";
+  std::ifstream f(file, std::ios::binary);
+  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::string ext = file.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  std::string mime;
+  if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') mime = "image/png";
+  else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) mime = "image/jpeg";
+  else if (bytes.size() > 2 && bytes[0] == 'B' && bytes[1] == 'M') mime = "image/bmp";
+  else if (ext == ".tga") mime = "image/x-tga";
+  else return "not a PNG, JPEG, BMP or TGA image";
+  image.bytes = std::move(bytes);
+  image.mime_type = std::move(mime);
+  return "";
+}
+
 void LoadImagesBeside(Rig& rig, const std::string& model_path) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(model_path).parent_path().empty() ? fs::path(".") : fs::path(model_path).parent_path();
-  constexpr std::uintmax_t kMaxImageBytes = std::uintmax_t{64} << 20;
   std::vector<std::string> loaded;
   for (Image& im : rig.images) {
     if (!im.bytes.empty() || im.name.empty()) continue;
-    const fs::path file = FindBeside(dir, im.name);
-    std::error_code ec;
-    const std::uintmax_t size = file.empty() ? 0 : fs::file_size(file, ec);
-    std::string why;
-    if (file.empty() || ec || !fs::is_regular_file(file, ec)) why = "no such file in the model's folder";
-    else if (size == 0 || size > kMaxImageBytes) why = "empty or over 64 MiB";
-    std::vector<unsigned char> bytes;
-    if (why.empty()) {
-      std::ifstream f(file, std::ios::binary);
-      bytes.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-      std::string ext = file.extension().string();
-      for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') im.mime_type = "image/png";
-      else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) im.mime_type = "image/jpeg";
-      else if (bytes.size() > 2 && bytes[0] == 'B' && bytes[1] == 'M') im.mime_type = "image/bmp";
-      else if (ext == ".tga") im.mime_type = "image/x-tga";
-      else why = "not a PNG, JPEG, BMP or TGA image";
-    }
+    std::string why = ReadImageFile(FindBeside(dir, im.name), im);
+    if (why == "no such file") why = "no such file in the model's folder";
     for (Warning& w : rig.load_warnings) {
       if (w.code == "texture_not_loaded" && w.shape == im.name) w.message = "texture '" + im.name + "' is not read: " + why;
     }
     if (!why.empty()) continue;
-    im.bytes = std::move(bytes);
     loaded.push_back(im.name);
   }
   std::erase_if(rig.load_warnings, [&](const Warning& w) {

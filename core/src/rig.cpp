@@ -9,6 +9,7 @@
 
 #include "facespace/core/blend.h"
 #include "facespace/core/skeleton.h"
+#include "facespace/core/utf8.h"
 
 namespace facespace {
 
@@ -356,25 +357,10 @@ void WorldToMeshSpace(const Rig& rig, std::span<std::vector<float>> positions) {
 }
 
 bool RepairUtf8(std::string& s) {
-  const auto* p = reinterpret_cast<const unsigned char*>(s.data());
   const size_t n = s.size();
-  // The length of the valid sequence at i, or 0.
-  auto valid = [&](size_t i) -> size_t {
-    const unsigned char c = p[i];
-    if (c < 0x80) return 1;
-    size_t len = 0;
-    uint32_t cp = 0;
-    if (c >= 0xC2 && c <= 0xDF) len = 2, cp = c & 0x1F;
-    else if (c >= 0xE0 && c <= 0xEF) len = 3, cp = c & 0x0F;
-    else if (c >= 0xF0 && c <= 0xF4) len = 4, cp = c & 0x07;
-    else return 0;
-    if (i + len > n) return 0;
-    for (size_t k = 1; k < len; ++k) {
-      if ((p[i + k] & 0xC0) != 0x80) return 0;
-      cp = (cp << 6) | (p[i + k] & 0x3F);
-    }
-    if ((len == 3 && (cp < 0x800 || (cp >= 0xD800 && cp <= 0xDFFF))) || (len == 4 && (cp < 0x10000 || cp > 0x10FFFF))) return 0;
-    return len;
+  auto valid = [&](size_t i) {
+    char32_t cp;
+    return DecodeUtf8(s, i, cp);
   };
   size_t i = 0;
   while (i < n) {

@@ -512,10 +512,6 @@ void Veil(Image& im, int x0, int y0, int x1, int y1, float amount) {
   }
 }
 
-}  // namespace
-
-namespace {
-
 struct LegendLayout {
   int bar_w, bar_h, x0, y0, font, title_x;
 };

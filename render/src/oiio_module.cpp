@@ -2,8 +2,6 @@
 #include "oiio_module.h"
 
 #include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imagebuf.h>
-#include <OpenImageIO/imagebufalgo.h>
 #include <OpenImageIO/imageio.h>
 
 #include <memory>

@@ -3,6 +3,8 @@
 // wrongly (ま drew as '>'), so labels are drawn here, glyph by glyph, over linear RGBA.
 #include "text.h"
 
+#include "facespace/core/utf8.h"
+
 #include <ft2build.h>
 #include FT_FREETYPE_H
 
@@ -15,26 +17,14 @@ namespace facespace::render {
 
 namespace {
 
-// Code points of UTF-8 text; a malformed byte is U+FFFD.
+// Code points of UTF-8 text; a byte that starts no well-formed sequence is U+FFFD.
 std::u32string Decode(std::string_view s) {
   std::u32string out;
   for (size_t i = 0; i < s.size();) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    const int n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
-    if (n == 0 || i + n > s.size()) {
-      out.push_back(0xFFFD);
-      ++i;
-      continue;
-    }
-    char32_t cp = n == 1 ? c : n == 2 ? (c & 0x1F) : n == 3 ? (c & 0x0F) : (c & 0x07);
-    bool ok = true;
-    for (int k = 1; k < n; ++k) {
-      const unsigned char d = static_cast<unsigned char>(s[i + k]);
-      ok &= (d & 0xC0) == 0x80;
-      cp = (cp << 6) | (d & 0x3F);
-    }
-    out.push_back(ok ? cp : 0xFFFD);
-    i += ok ? n : 1;
+    char32_t cp = 0;
+    const size_t n = DecodeUtf8(s, i, cp);
+    out.push_back(n ? cp : 0xFFFD);
+    i += n ? n : 1;
   }
   return out;
 }

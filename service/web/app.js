@@ -60,15 +60,18 @@ function items() {
 }
 function shapeByName(name) { return items().find((s) => s.name === name); }
 
+// A slider row showing `value`: the slider, and the number box to 3 decimals.
+function showValue(row, value) {
+  row.querySelector('input[type=range]').value = value;
+  row.querySelector('input[type=number]').value = +value.toFixed(3);
+}
+
 function setWeight(name, value, fromPartner) {
   const s = shapeByName(name);
   if (!s || !Number.isFinite(value)) return;
   values()[name] = value;
   const row = document.querySelector(`.shape[data-name="${CSS.escape(name)}"]`);
-  if (row) {
-    row.querySelector('input[type=range]').value = value;
-    row.querySelector('input[type=number]').value = +value.toFixed(3);
-  }
+  if (row) showValue(row, value);
   if (!fromPartner && $('mirror').checked && s.partner) setWeight(s.partner, value, true);
 }
 
@@ -320,8 +323,7 @@ async function refreshCheck() {
 // marked as driven); the user's own come back when the motion is set to none.
 function showMotionWeights(weights) {
   for (const row of document.querySelectorAll('.shape')) {
-    const v = weights ? weights[row.dataset.name] || 0 : values()[row.dataset.name] || 0;
-    for (const input of row.querySelectorAll('input')) input.value = String(+v.toFixed(3));
+    showValue(row, weights ? weights[row.dataset.name] || 0 : values()[row.dataset.name] || 0);
     row.classList.toggle('driven', !!weights);
   }
 }
@@ -416,7 +418,7 @@ async function download(format) {
 const gl = (() => {
   const canvas = $('gl');
   const c = canvas.getContext('webgl2', { antialias: true });
-  const view = { yaw: 0, pitch: 0, zoom: 1, center: [0, 0, 0], radius: 1, count: 0, vertices: 0 };
+  const view = { yaw: 0, pitch: 0, zoom: 1, center: [0, 0, 0], radius: 1, vertices: 0, draws: [] };
   if (!c) return { update() {}, setTopology() {}, view, coverage: () => -1 };
   const vs = `#version 300 es
     in vec3 p; in vec3 n; uniform mat4 mvp; out vec3 vn;
@@ -460,7 +462,6 @@ const gl = (() => {
     }
     view.draws.sort((a, b) => (b.color[3] >= 1) - (a.color[3] >= 1));  // Opaque first, then blended.
     view.vertices = base;
-    view.count = tris.length;
     c.bindVertexArray(vao);
     c.bindBuffer(c.ELEMENT_ARRAY_BUFFER, ibuf);
     c.bufferData(c.ELEMENT_ARRAY_BUFFER, new Uint32Array(tris), c.STATIC_DRAW);
@@ -518,7 +519,7 @@ const gl = (() => {
                 rot[4] * l[0] + rot[5] * l[1] + rot[6] * l[2], rot[8] * l[0] + rot[9] * l[1] + rot[10] * l[2]);
     c.bindVertexArray(vao);
     const base = c.getUniformLocation(prog, 'base');
-    for (const d of view.draws || []) {
+    for (const d of view.draws) {
       const blend = d.color[3] < 1;
       if (blend) { c.enable(c.BLEND); c.blendFunc(c.SRC_ALPHA, c.ONE_MINUS_SRC_ALPHA); c.depthMask(false); }
       c.uniform4fv(base, d.color);

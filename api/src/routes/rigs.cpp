@@ -45,7 +45,7 @@ std::vector<std::array<float, 4>> FlatColors(const Rig& rig) {
       if (!kept) {
         kept = std::array<float, 4>{1, 1, 1, 1};
         const Image& image = rig.images[static_cast<size_t>(m.base_color_image)];
-        if (auto decoded = image.bytes.empty() ? Result<render::Image>(InvalidArgument("")) : render::Decode(image.bytes, image.mime_type); decoded.ok()) {
+        if (auto decoded = render::Decode(image.bytes, image.mime_type); decoded.ok()) {  // Not read (no bytes): not an image.
           const std::vector<float>& px = decoded->rgba;
           std::array<double, 4> sum{0, 0, 0, 0};
           for (size_t i = 0; i + 3 < px.size(); i += 4) {

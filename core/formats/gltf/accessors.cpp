@@ -21,17 +21,6 @@ int ComponentCount(int type) {
   }
 }
 
-int ComponentSize(int component_type) {
-  switch (component_type) {
-    case TINYGLTF_COMPONENT_TYPE_BYTE:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
-    case TINYGLTF_COMPONENT_TYPE_SHORT:
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
-    default: return 0;
-  }
-}
 
 float ConvertComponent(const unsigned char* p, int component_type, bool normalized) {
   switch (component_type) {
@@ -95,6 +84,18 @@ const unsigned char* Element(std::span<const unsigned char> bytes, size_t offset
 }
 
 }  // namespace
+
+int ComponentSize(int component_type) {
+  switch (component_type) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+  }
+}
 
 Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out, int& components,
                     const std::string& what) {

@@ -35,6 +35,9 @@ Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
 // (out empty).
 Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsigned char>& out);
 
+// Bytes of one component of a glTF componentType (5120-5126), 0 for an unknown type.
+int ComponentSize(int component_type);
+
 // Reads any accessor (float, normalized or plain integers, sparse or not) as floats,
 // `components` per element, checking every offset against its buffer.
 Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out, int& components,

@@ -211,8 +211,6 @@ Status DecodeMeshoptGlb(std::span<const unsigned char> bytes, std::vector<unsign
 
 namespace {
 
-size_t ComponentBytes(int type) { return type == 5120 || type == 5121 ? 1 : type == 5122 || type == 5123 ? 2 : type == 5125 || type == 5126 ? 4 : 0; }
-
 size_t Components(const std::string& type) {
   return type == "SCALAR" ? 1 : type == "VEC2" ? 2 : type == "VEC3" ? 3 : type == "VEC4" || type == "MAT2" ? 4 : type == "MAT3" ? 9 : type == "MAT4" ? 16 : 0;
 }
@@ -257,7 +255,7 @@ Result<std::vector<unsigned char>> EncodeMeshoptGlb(std::span<const unsigned cha
   const json& accessors = j.value("accessors", json::array());
   for (size_t a = 0; a < accessors.size(); ++a) {
     const json& acc = accessors[a];
-    const size_t comp = ComponentBytes(acc.value("componentType", 0)), n = Components(acc.value("type", std::string())), count = acc.value("count", size_t{0});
+    const size_t comp = static_cast<size_t>(ComponentSize(acc.value("componentType", 0))), n = Components(acc.value("type", std::string())), count = acc.value("count", size_t{0});
     if (acc.contains("bufferView")) {
       const bool triangles = is_index[a] && acc.value("type", std::string()) == "SCALAR" && (comp == 2 || comp == 4) && count % 3 == 0;
       note(acc["bufferView"], acc.value("byteOffset", json()), triangles ? "TRIANGLES" : "ATTRIBUTES", triangles ? comp : comp * n, count);
@@ -266,7 +264,7 @@ Result<std::vector<unsigned char>> EncodeMeshoptGlb(std::span<const unsigned cha
       const json& sp = acc["sparse"];
       const size_t scount = sp.value("count", size_t{0});
       if (sp.contains("indices")) {
-        const size_t icomp = ComponentBytes(sp["indices"].value("componentType", 0));
+        const size_t icomp = static_cast<size_t>(ComponentSize(sp["indices"].value("componentType", 0)));
         note(sp["indices"].value("bufferView", json()), sp["indices"].value("byteOffset", json()), icomp == 2 || icomp == 4 ? "INDICES" : "", icomp, scount);
       }
       if (sp.contains("values")) note(sp["values"].value("bufferView", json()), sp["values"].value("byteOffset", json()), "ATTRIBUTES", comp * n, scount);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "facespace/formats/io.h"
+#include "common/image_file.h"
 
 namespace facespace {
 
@@ -411,7 +412,6 @@ void PlaceProxy(const Mhclo& m, std::span<const float> base, std::vector<float>&
 struct ProxyPrimitive {
   BaseMesh split;
   Mhclo fit;
-  std::vector<float> rest;  // Placed positions, per proxy OBJ vertex.
 };
 
 Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig, ProxyPrimitive& out) {
@@ -424,8 +424,7 @@ Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig,
     return InvalidArgument(path + ": " + std::to_string(out.fit.refs.size()) + " vertices placed for the " + std::to_string(obj.positions.size() / 3) +
                            " of " + out.fit.obj_file);
   }
-  PlaceProxy(out.fit, base, out.rest);
-  obj.positions = out.rest;
+  PlaceProxy(out.fit, base, obj.positions);  // The OBJ's own positions give way to where the proxy sits.
   out.split = BasePrimitive(obj);
   // The material (.mhmat): its name, colour, texture and transparency. Its path is relative to
   // the proxy (MakeHuman's tree: ../materials/); beside the proxy when not there.
@@ -466,17 +465,10 @@ Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig,
         std::string name;
         std::getline(in >> std::ws, name);
         const fs::path file = beside(mhmat.parent_path(), name);
-        constexpr uintmax_t kMaxTexture = uintmax_t{64} << 20;
-        std::error_code ec;
-        const uintmax_t size = fs::file_size(file, ec);
-        if (ec || size > kMaxTexture) return InvalidArgument(path + ": its texture '" + name + "' is missing or over 64 MiB");
-        std::ifstream tf(file, std::ios::binary);
         Image image;
         image.name = file.filename().string();
-        image.bytes.assign(std::istreambuf_iterator<char>(tf), std::istreambuf_iterator<char>());
-        const std::string ext = file.extension().string();
-        image.mime_type = ext == ".png" ? "image/png" : ext == ".jpg" || ext == ".jpeg" ? "image/jpeg" : "";
-        if (image.mime_type.empty()) return InvalidArgument(path + ": its texture '" + name + "' is not a PNG or JPEG");
+        if (const std::string why = ReadImageFile(file, image); !why.empty()) return InvalidArgument(path + ": its texture '" + name + "': " + why);
+        if (image.mime_type != "image/png" && image.mime_type != "image/jpeg") return InvalidArgument(path + ": its texture '" + name + "' is not a PNG or JPEG");
         mat.base_color_image = static_cast<int>(rig.images.size());
         rig.images.push_back(std::move(image));
       }
@@ -487,9 +479,9 @@ Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig,
   return Status::Ok();
 }
 
-// The proxy's move under a base target (`dense`: the target's deltas over every base vertex,
-// zero elsewhere; `moved`: its vertices), exact at the target's full weight: the three weighted
-// vertices' moves and the offset's change of scale.
+// The proxy's move under a base target (`dense`: the target's deltas over every base vertex, zero
+// elsewhere), exact at the target's full weight: the three weighted vertices' moves and the offset's
+// change of scale.
 SparseTarget ProxyTarget(const ProxyPrimitive& proxy, std::span<const float> base, std::span<const float> dense) {
   const Mhclo& m = proxy.fit;
   std::array<float, 3> rescale{0, 0, 0};
