@@ -52,6 +52,8 @@ json DescribeRig(const Rig& r) {
                         {"partner", c.partner >= 0 ? json(r.controls[c.partner].name) : json(nullptr)}});
   }
   j["controls"] = controls;
+  j["expressions"] = json::parse(ExpressionsJson(r));
+  j["gaze"] = json::parse(GazeJson(r));
   j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()}, {"bound", r.statistics.bound}} : json(nullptr);
   // Bounding box of the base mesh as shown (world space, every primitive).
   const auto world = PrimitiveWorldMatrices(r);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/formats/io.h"
+#include "facespace/core/face.h"
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/weights.h"
 
@@ -196,6 +197,148 @@ Status ApplySemantics(Rig& rig, const json& j, Bad bad) {
   return Status::Ok();
 }
 
+
+// "expressions" (VRM's vocabulary, or the rig's own names, to weights of its shapes) and "gaze" (how the
+// eyes follow: bones or shapes, range maps, the head's and neck's shares). Read after the shapes.
+template <typename Bad>
+Status ApplyFaceManifest(Rig& rig, const json& j, Bad bad) {
+  if (j.contains("expressions")) {
+    const json& ex = j["expressions"];
+    if (!ex.is_object()) return bad("/expressions", "must be an object of expression name -> {\"weights\": {SHAPE: w}, \"binary\", \"override_blink\", \"override_look_at\", \"override_mouth\"} (or null: none)");
+    for (auto it = ex.begin(); it != ex.end(); ++it) {
+      const std::string ptr = "/expressions/" + JsonPointerEscape(it.key());
+      if (it.key().empty() || it.key().size() > 64) return bad(ptr, "an expression's name must have 1 to 64 bytes");
+      Expression e;
+      e.name = it.key();
+      const json& o = *it;
+      if (!o.is_null()) {
+        if (!o.is_object()) return bad(ptr, "must be an object {\"weights\": {SHAPE: w}, ...} or null");
+        for (auto m = o.begin(); m != o.end(); ++m) {
+          static constexpr std::string_view kKeys[] = {"weights", "binary", "override_blink", "override_look_at", "override_mouth"};
+          if (std::find(std::begin(kKeys), std::end(kKeys), m.key()) == std::end(kKeys)) {
+            return bad(ptr + "/" + JsonPointerEscape(m.key()), "unknown member" + DidYouMean(m.key(), kKeys));
+          }
+        }
+        if (!o.contains("weights") || !o["weights"].is_object()) return bad(ptr + "/weights", "is required: an object of shape name -> weight at the expression's full value");
+        for (auto w = o["weights"].begin(); w != o["weights"].end(); ++w) {
+          const std::string wp = ptr + "/weights/" + JsonPointerEscape(w.key());
+          const int s = FindShape(rig, w.key());
+          if (s < 0) {
+            std::vector<std::string_view> names;
+            for (const Shape& sh : rig.shapes) names.push_back(sh.name);
+            return bad(wp, "unknown shape '" + w.key() + "'" + DidYouMean(w.key(), names));
+          }
+          if (!w->is_number() || !std::isfinite(w->get<double>())) return bad(wp, "must be a finite number");
+          e.binds.emplace_back(static_cast<uint32_t>(s), w->get<float>());
+        }
+        if (o.contains("binary")) {
+          if (!o["binary"].is_boolean()) return bad(ptr + "/binary", "must be true or false");
+          e.binary = o["binary"].get<bool>();
+        }
+        for (const auto& [key, field] : {std::pair{"override_blink", &e.blink}, std::pair{"override_look_at", &e.look_at}, std::pair{"override_mouth", &e.mouth}}) {
+          if (!o.contains(key)) continue;
+          const json& v = o[key];
+          if (v == "none") *field = ExpressionOverride::kNone;
+          else if (v == "block") *field = ExpressionOverride::kBlock;
+          else if (v == "blend") *field = ExpressionOverride::kBlend;
+          else return bad(ptr + "/" + key, "must be \"none\", \"block\" or \"blend\" (VRM's override rules)");
+        }
+      }
+      const int at = FindExpression(rig, e.name);
+      if (at >= 0) rig.expressions[at] = std::move(e);
+      else rig.expressions.push_back(std::move(e));
+    }
+  }
+  if (j.contains("gaze")) {
+    const json& g = j["gaze"];
+    if (!g.is_object()) return bad("/gaze", "must be an object {\"eyes\", \"head\", \"neck\", \"coefficient\", \"limits\", \"range_maps\", \"type\"}");
+    static constexpr std::string_view kKeys[] = {"type", "eyes", "head", "neck", "coefficient", "limits", "range_maps"};
+    for (auto m = g.begin(); m != g.end(); ++m) {
+      if (std::find(std::begin(kKeys), std::end(kKeys), m.key()) == std::end(kKeys)) return bad("/gaze/" + JsonPointerEscape(m.key()), "unknown member" + DidYouMean(m.key(), kKeys));
+    }
+    GazeSetup setup;
+    setup.from_manifest = true;
+    auto bone = [&](const json& v, const std::string& ptr, int* out) -> Status {
+      if (!v.is_string()) return bad(ptr, "must be a bone (node) name");
+      *out = FindNode(rig, v.get<std::string>());
+      if (*out < 0) return bad(ptr, "the rig has no bone '" + v.get<std::string>() + "'");
+      return Status::Ok();
+    };
+    if (g.contains("eyes")) {
+      const json& e = g["eyes"];
+      if (!e.is_object() || !e.contains("left") || !e.contains("right")) return bad("/gaze/eyes", "must be {\"left\": BONE, \"right\": BONE}");
+      if (Status s = bone(e["left"], "/gaze/eyes/left", &setup.eyes[0]); !s.ok()) return s;
+      if (Status s = bone(e["right"], "/gaze/eyes/right", &setup.eyes[1]); !s.ok()) return s;
+      setup.kind = GazeSetup::Kind::kBones;
+    }
+    for (const auto& [key, node, share] : {std::tuple{"head", &setup.head, &setup.head_share}, std::tuple{"neck", &setup.neck, &setup.neck_share}}) {
+      if (!g.contains(key)) continue;
+      const std::string ptr = std::string("/gaze/") + key;
+      const json& h = g[key];
+      if (!h.is_object() || !h.contains("bone")) return bad(ptr, "must be {\"bone\": NAME, \"share\": s} (s in [0, 1]: the part of the gaze's angles it turns)");
+      if (Status s = bone(h["bone"], ptr + "/bone", node); !s.ok()) return s;
+      if (h.contains("share")) {
+        if (!h["share"].is_number() || h["share"].get<double>() < 0 || h["share"].get<double>() > 1) return bad(ptr + "/share", "must be a number in [0, 1]");
+        *share = h["share"].get<float>();
+      }
+    }
+    if (setup.head_share + setup.neck_share > 1.0f) return bad("/gaze", "the head's and neck's shares add up to more than 1");
+    if (g.contains("type")) {
+      const json& t = g["type"];
+      if (t == "bones") {
+        if (setup.kind != GazeSetup::Kind::kBones) return bad("/gaze/type", "\"bones\" needs \"eyes\": {\"left\", \"right\"}");
+      } else if (t == "shapes" || t == "expressions" || t == "none") {
+        setup.kind = GazeSetup::Kind::kNone;  // "shapes", "expressions": found by DeriveGaze below.
+      } else {
+        return bad("/gaze/type", "must be \"bones\", \"shapes\", \"expressions\" or \"none\"");
+      }
+    }
+    // The kind and the default range maps (DeriveGaze), then the coefficient and limits (MMDAgent's
+    // EYE_ROTATION_COEF: eye turn = coefficient x angle, up to the limit), then explicit range maps.
+    const bool none = g.contains("type") && g["type"] == "none";
+    rig.gaze = setup;
+    if (!none) DeriveGaze(rig);
+    const bool bones = rig.gaze.kind == GazeSetup::Kind::kBones;
+    if (g.contains("coefficient") || g.contains("limits")) {
+      if (!bones) return bad(g.contains("coefficient") ? "/gaze/coefficient" : "/gaze/limits", "is for eye bones (\"eyes\"); eye shapes take \"range_maps\"");
+      float coef = 1.0f, horizontal = 30.0f, up = 20.0f, down = 20.0f;
+      if (g.contains("coefficient")) {
+        if (!g["coefficient"].is_number() || !(g["coefficient"].get<double>() > 0) || g["coefficient"].get<double>() > 1) return bad("/gaze/coefficient", "must be a number in (0, 1]");
+        coef = g["coefficient"].get<float>();
+      }
+      if (g.contains("limits")) {
+        const json& l = g["limits"];
+        if (!l.is_object()) return bad("/gaze/limits", "must be {\"horizontal\", \"up\", \"down\"} in degrees");
+        for (const auto& [key, out] : {std::pair{"horizontal", &horizontal}, std::pair{"up", &up}, std::pair{"down", &down}}) {
+          if (!l.contains(key)) continue;
+          const json& v = l[key];
+          if (!v.is_number() || !(v.get<double>() > 0) || v.get<double>() > 90) return bad(std::string("/gaze/limits/") + key, "must be degrees in (0, 90]");
+          *out = v.get<float>();
+        }
+      }
+      rig.gaze.horizontal_inner = rig.gaze.horizontal_outer = {horizontal / coef, horizontal};
+      rig.gaze.vertical_up = {up / coef, up};
+      rig.gaze.vertical_down = {down / coef, down};
+    }
+    if (g.contains("range_maps")) {
+      const json& r = g["range_maps"];
+      if (!r.is_object()) return bad("/gaze/range_maps", "must be {\"horizontal_inner\", \"horizontal_outer\", \"vertical_down\", \"vertical_up\"}");
+      for (const auto& [key, map] : {std::pair{"horizontal_inner", &rig.gaze.horizontal_inner}, std::pair{"horizontal_outer", &rig.gaze.horizontal_outer},
+                                     std::pair{"vertical_down", &rig.gaze.vertical_down}, std::pair{"vertical_up", &rig.gaze.vertical_up}}) {
+        if (!r.contains(key)) continue;
+        const json& m = r[key];
+        const std::string ptr = std::string("/gaze/range_maps/") + key;
+        if (!m.is_object() || !m.contains("input_max") || !m.contains("output_scale") || !m["input_max"].is_number() || !m["output_scale"].is_number() ||
+            !(m["input_max"].get<double>() > 0) || m["input_max"].get<double>() > 180 || !(m["output_scale"].get<double>() >= 0) || m["output_scale"].get<double>() > 180) {
+          return bad(ptr, "must be {\"input_max\": degrees in (0, 180], \"output_scale\": >= 0} (VRM's range map: degrees of a bone, or a shape's weight)");
+        }
+        *map = {m["input_max"].get<float>(), m["output_scale"].get<float>()};
+      }
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status ApplyManifest(Rig& rig, const std::string& text) {
@@ -208,7 +351,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     return s;
   };
   static constexpr std::string_view kMembers[] = {"name", "credit", "start", "base_motion", "materials", "shapes", "groups", "controls",
-                                                  "derived", "inbetweens", "correctives", "statistics"};
+                                                  "derived", "inbetweens", "correctives", "statistics", "expressions", "gaze"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(std::begin(kMembers), std::end(kMembers), it.key()) == std::end(kMembers)) {
       return bad("/" + JsonPointerEscape(it.key()), "unknown member" + DidYouMean(it.key(), kMembers));
@@ -380,7 +523,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     }
   }
   if (Status st = ApplySemantics(rig, j, bad); !st.ok()) return st;
-  return Status::Ok();
+  return ApplyFaceManifest(rig, j, bad);
 }
 
 Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
@@ -438,6 +581,55 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
   return Status::Ok();
 }
 
+namespace {
+
+// A float as the shortest decimal that reads back as it (0.4, not 0.4000000059604645).
+double Num(float x) { return std::stod(FormatNumber(x)); }
+
+const char* OverrideName(ExpressionOverride o) {
+  return o == ExpressionOverride::kBlock ? "block" : o == ExpressionOverride::kBlend ? "blend" : "none";
+}
+
+nlohmann::ordered_json ExpressionsObject(const Rig& rig, bool derived_too) {
+  nlohmann::ordered_json out = nlohmann::ordered_json::object();
+  for (const Expression& e : rig.expressions) {
+    if (e.derived && !derived_too) continue;
+    nlohmann::ordered_json weights = nlohmann::ordered_json::object();
+    for (const auto& [s, w] : e.binds) weights[rig.shapes[s].name] = Num(w);
+    nlohmann::ordered_json o = {{"weights", weights}, {"binary", e.binary}, {"override_blink", OverrideName(e.blink)},
+                                {"override_look_at", OverrideName(e.look_at)}, {"override_mouth", OverrideName(e.mouth)}};
+    if (derived_too) o["derived"] = e.derived;
+    out[e.name] = o;
+  }
+  return out;
+}
+
+nlohmann::ordered_json GazeObject(const Rig& rig, bool for_manifest) {
+  const GazeSetup& g = rig.gaze;
+  using K = GazeSetup::Kind;
+  nlohmann::ordered_json o;
+  o["type"] = g.kind == K::kBones ? "bones" : g.kind == K::kShapes ? "shapes" : g.kind == K::kExpressions ? "expressions" : "none";
+  if (g.kind == K::kBones) o["eyes"] = {{"left", rig.nodes[g.eyes[0]].name}, {"right", rig.nodes[g.eyes[1]].name}};
+  if (g.kind == K::kShapes && !for_manifest) {
+    auto pair = [&](const std::array<int, 2>& a) { return nlohmann::ordered_json::array({rig.shapes[a[0]].name, rig.shapes[a[1]].name}); };
+    o["shapes"] = {{"look_in", pair(g.look_in)}, {"look_out", pair(g.look_out)}, {"look_up", pair(g.look_up)}, {"look_down", pair(g.look_down)}};
+  }
+  if (g.head >= 0) o["head"] = {{"bone", rig.nodes[g.head].name}, {"share", Num(g.head_share)}};
+  if (g.neck >= 0) o["neck"] = {{"bone", rig.nodes[g.neck].name}, {"share", Num(g.neck_share)}};
+  auto map = [](const RangeMap& m) { return nlohmann::ordered_json{{"input_max", Num(m.input_max)}, {"output_scale", Num(m.output_scale)}}; };
+  if (g.kind != K::kNone) {
+    o["range_maps"] = {{"horizontal_inner", map(g.horizontal_inner)}, {"horizontal_outer", map(g.horizontal_outer)},
+                       {"vertical_down", map(g.vertical_down)}, {"vertical_up", map(g.vertical_up)}};
+  }
+  if (!for_manifest && g.kind != K::kNone) o["origin"] = {Num(g.origin[0]), Num(g.origin[1]), Num(g.origin[2])};
+  return o;
+}
+
+}  // namespace
+
+std::string ExpressionsJson(const Rig& rig) { return ExpressionsObject(rig, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
+std::string GazeJson(const Rig& rig) { return GazeObject(rig, false).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
+
 std::string ManifestJson(const Rig& rig) {
   json m = json::object();
   m["name"] = rig.name;
@@ -471,6 +663,9 @@ std::string ManifestJson(const Rig& rig) {
     }
     m["controls"] = controls;
   }
+  const nlohmann::ordered_json expressions = ExpressionsObject(rig, false);
+  if (!expressions.empty()) m["expressions"] = json::parse(expressions.dump());
+  if (rig.gaze.from_manifest) m["gaze"] = json::parse(GazeObject(rig, true).dump());
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 

@@ -9,6 +9,7 @@
 #include <string_view>
 
 #include "facespace/formats/io.h"
+#include "facespace/core/face.h"
 #include "common/image_file.h"
 
 namespace facespace {
@@ -125,7 +126,9 @@ const char* RigFormatExtension(RigFormat format) { return Entry(format).extensio
 
 Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name) {
   Result<Rig> rig = Entry(format).load_memory(bytes, name);
-  if (rig.ok()) rig->name = name;
+  if (!rig.ok()) return rig;
+  rig->name = name;
+  DeriveFace(rig.value());  // A manifest applied after replaces what it names.
   return rig;
 }
 
@@ -233,6 +236,7 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
       }
     }
   }
+  DeriveFace(rig.value());  // The presets the manifest left out, from the shapes' names.
   return rig;
 }
 

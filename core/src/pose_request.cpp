@@ -196,8 +196,17 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
                             " are 0",
                         "", static_cast<double>(entries.size()), true});
   }
+  FaceState face;
+  if (Status s = ResolveExpressions(rig, request.expressions, face.expressions, warnings); !s.ok()) return s;
+  face.gaze = request.gaze;
   if (request.empty()) {
-    posed = PoseOfWeightsAlone(rig, weights, pose);
+    posed = false;
+    if (request.has_face()) ApplyFace(rig, face, weights, pose, posed, warnings);
+    if (!posed) {
+      posed = PoseOfWeightsAlone(rig, weights, pose);
+      return Status::Ok();
+    }
+    FinishPose(rig, weights, pose);
     return Status::Ok();
   }
   posed = true;
@@ -214,6 +223,7 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   for (size_t s = 0; s < weights.size(); ++s) {
     if (animated_set[s] && !given[s]) weights[s] = animated[s];
   }
+  if (request.has_face()) ApplyFace(rig, face, weights, pose, posed, warnings);
   FinishPose(rig, weights, pose);
   return Status::Ok();
 }

@@ -80,6 +80,7 @@ Status ValidateSequence(const Sequence& s, size_t shape_count) {
     if (!std::isfinite(key.time)) bad.fields.push_back({where + "/time", "must be a finite number of seconds"});
     else if (k > 0 && !(key.time > s.keys[k - 1].time)) bad.fields.push_back({where + "/time", "key times must increase"});
     if (key.weights.size() != shape_count) bad.fields.push_back({where + "/weights", "needs one weight per shape"});
+    if (key.expressions.size() != s.keys.front().expressions.size()) bad.fields.push_back({where + "/expressions", "every key needs one value per expression, or none does"});
     for (float w : key.weights) {
       if (!std::isfinite(w)) {
         bad.fields.push_back({where + "/weights", "weights must be finite"});
@@ -94,15 +95,18 @@ Status ValidateSequence(const Sequence& s, size_t shape_count) {
   return Status::Ok();
 }
 
-void SampleSequence(const Sequence& s, float t, std::span<float> out, float* f_out) {
+namespace {
+
+// The keys' `member` (weights, or expressions) at time t, as SampleSequence describes.
+void SampleMember(const Sequence& s, std::vector<float> Keyframe::*member, float t, std::span<float> out, float* f_out) {
   const auto& keys = s.keys;
   if (f_out) *f_out = 0.0f;
   if (keys.size() == 1 || t <= keys.front().time) {
-    std::copy(keys.front().weights.begin(), keys.front().weights.end(), out.begin());
+    std::copy((keys.front().*member).begin(), (keys.front().*member).end(), out.begin());
     return;
   }
   if (t >= keys.back().time) {
-    std::copy(keys.back().weights.begin(), keys.back().weights.end(), out.begin());
+    std::copy((keys.back().*member).begin(), (keys.back().*member).end(), out.begin());
     if (f_out) *f_out = 1.0f;
     return;
   }
@@ -112,20 +116,48 @@ void SampleSequence(const Sequence& s, float t, std::span<float> out, float* f_o
   const float u = (t - keys[b].time) / (keys[c].time - keys[b].time);
   const float f = ApplyTransition(keys[b].transition.value_or(s.transition), u);
   if (f_out) *f_out = f;
-  const auto& wb = keys[b].weights;
-  const auto& wc = keys[c].weights;
+  const auto& wb = keys[b].*member;
+  const auto& wc = keys[c].*member;
   if (!s.smooth) {
     for (size_t i = 0; i < out.size(); ++i) out[i] = (1.0f - f) * wb[i] + f * wc[i];
     return;
   }
   // Catmull-Rom through the neighbouring keys (ends repeated), parameterised by f.
-  const auto& wa = keys[b > 0 ? b - 1 : b].weights;
-  const auto& wd = keys[c + 1 < keys.size() ? c + 1 : c].weights;
+  const auto& wa = keys[b > 0 ? b - 1 : b].*member;
+  const auto& wd = keys[c + 1 < keys.size() ? c + 1 : c].*member;
   const float f2 = f * f, f3 = f2 * f;
   for (size_t i = 0; i < out.size(); ++i) {
     out[i] = 0.5f * (2.0f * wb[i] + (wc[i] - wa[i]) * f + (2.0f * wa[i] - 5.0f * wb[i] + 4.0f * wc[i] - wd[i]) * f2 +
                      (3.0f * wb[i] - wa[i] - 3.0f * wc[i] + wd[i]) * f3);
   }
+}
+
+Gaze SampleGaze(std::span<const GazeKey> track, float t) {
+  if (t <= track.front().time) return track.front().gaze;
+  if (t >= track.back().time) return track.back().gaze;
+  const auto c = std::upper_bound(track.begin(), track.end(), t, [](float v, const GazeKey& k) { return v < k.time; });
+  const GazeKey& a = *std::prev(c);
+  const GazeKey& b = *c;
+  const float u = (t - a.time) / (b.time - a.time);
+  Gaze g = a.gaze;
+  for (int i = 0; i < 3; ++i) g.target[i] = (1.0f - u) * a.gaze.target[i] + u * b.gaze.target[i];
+  g.yaw = (1.0f - u) * a.gaze.yaw + u * b.gaze.yaw;
+  g.pitch = (1.0f - u) * a.gaze.pitch + u * b.gaze.pitch;
+  return g;
+}
+
+}  // namespace
+
+void SampleSequence(const Sequence& s, float t, std::span<float> out, float* f_out) { SampleMember(s, &Keyframe::weights, t, out, f_out); }
+
+bool SampleFace(const Sequence& s, float t, FaceState& face) {
+  const bool expressions = !s.keys.empty() && !s.keys.front().expressions.empty();
+  face.expressions.resize(expressions ? s.keys.front().expressions.size() : 0);
+  if (expressions) SampleMember(s, &Keyframe::expressions, t, face.expressions, nullptr);
+  face.gaze.reset();
+  if (!s.gaze.empty()) face.gaze = SampleGaze(s.gaze, t);
+  face.blink = BlinkValue(s.blinks, t);
+  return expressions || !s.gaze.empty() || !s.blinks.empty();
 }
 
 Sequence BakeKey(const Sequence& s, float t) {
@@ -134,6 +166,10 @@ Sequence BakeKey(const Sequence& s, float t) {
   key.time = t;
   key.weights.resize(s.keys.front().weights.size());
   SampleSequence(s, t, key.weights);
+  if (!s.keys.front().expressions.empty()) {
+    key.expressions.resize(s.keys.front().expressions.size());
+    SampleMember(s, &Keyframe::expressions, t, key.expressions, nullptr);
+  }
   auto it = std::lower_bound(out.keys.begin(), out.keys.end(), t, [](const Keyframe& k, float v) { return k.time < v; });
   if (it != out.keys.end() && it->time == t) return out;
   if (it != out.keys.begin()) key.transition = std::prev(it)->transition;
@@ -263,12 +299,12 @@ Result<Sequence> SequenceOfClip(const Rig& rig, int clip) {
   Result<Sequence> s = SequenceFromAnimation(rig, clip);
   if (!s.ok()) {
     Sequence rest;
-    rest.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+    rest.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt, {}});
     s = std::move(rest);
   }
   std::vector<Keyframe>& keys = s->keys;
-  if (keys.front().time > 0.0f) keys.insert(keys.begin(), Keyframe{0.0f, keys.front().weights, std::nullopt});
-  if (keys.back().time < duration) keys.push_back(Keyframe{duration, keys.back().weights, std::nullopt});
+  if (keys.front().time > 0.0f) keys.insert(keys.begin(), Keyframe{0.0f, keys.front().weights, std::nullopt, {}});
+  if (keys.back().time < duration) keys.push_back(Keyframe{duration, keys.back().weights, std::nullopt, {}});
   s->clip = clip;
   return s;
 }

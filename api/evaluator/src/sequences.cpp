@@ -8,7 +8,16 @@
 namespace facespace::api {
 
 bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& weights) {
-  if (sequence.clip < 0 && sequence.layers.empty()) return PoseOfWeightsAlone(rig, weights, pose);
+  FaceState face;
+  const bool has_face = SampleFace(sequence, time, face);
+  std::vector<Warning> warnings;  // A face the rig cannot show was said once, by ResolveSequence.
+  if (sequence.clip < 0 && sequence.layers.empty()) {
+    bool posed = false;
+    if (has_face) ApplyFace(rig, face, weights, pose, posed, warnings);
+    if (!posed) return PoseOfWeightsAlone(rig, weights, pose);
+    FinishPose(rig, weights, pose);
+    return true;
+  }
   // The clip's pose and weights at this time: its curves as it draws them (the keys are its weight
   // channel's keys; between them a curve need not be linear).
   PoseRequest request;
@@ -24,13 +33,14 @@ bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& po
     request.clips.push_back(layer);
     request.clips.back().time = time - layer.time;  // A layer's time is its start in the sequence.
   }
-  std::vector<Warning> warnings;
   std::vector<float> animated;
   std::vector<uint8_t> set;
   if (!BuildPose(rig, request, pose, animated, set, warnings, false).ok()) return false;
   for (size_t i = 0; i < set.size() && i < weights.size(); ++i) {
     if (set[i]) weights[i] = animated[i];
   }
+  bool posed = true;
+  if (has_face) ApplyFace(rig, face, weights, pose, posed, warnings);
   FinishPose(rig, weights, pose);
   return true;
 }
@@ -137,6 +147,7 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::sh
   const Pose rest = weights_only ? RestPose(rig) : Pose{};
   // Positions and normals placed by each primitive's node, as blend's JSON; or the weights and pose alone.
   std::string out = weights_only ? "{\"format\":\"weights\",\"frames\":[" : "{\"space\":\"world\",\"frames\":[";
+  warnings.insert(warnings.end(), sequence.warnings.begin(), sequence.warnings.end());
   for (size_t i = 0; i < times.size(); ++i) {
     SequencePoint(rig, sequence, times[i], options.mode, point, &physics);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
@@ -174,6 +185,7 @@ Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_pt
   const float t = sequence.keys.front().time + static_cast<float>(frame) / fps;
   ResolvedPoint point;
   SequencePoint(rig, sequence, t, options.mode, point, physics);
+  if (frame == 0) point.report.warnings.insert(point.report.warnings.begin(), sequence.warnings.begin(), sequence.warnings.end());
   if (!f32) {
     return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
            ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}\n";

@@ -223,6 +223,33 @@ void LayersFromJson(const json& v, PoseRequest& pose, Status& errors) {
   }
 }
 
+std::optional<Gaze> GazeFromJson(const json& v, const std::string& ptr, Status& errors) {
+  const size_t before = errors.fields.size();
+  Gaze g;
+  if (!v.is_object()) {
+    errors.fields.push_back({ptr, "must be {\"target\": [x, y, z]} (a point in the rig's world) or {\"yaw\": degrees, \"pitch\": degrees} (yaw > 0: to the character's left; pitch > 0: up)"});
+    return std::nullopt;
+  }
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const std::string p = ptr + "/" + JsonPointerEscape(it.key());
+    if (it.key() == "target") {
+      if (!FloatArray(*it, g.target.data(), 3)) errors.fields.push_back({p, "must be [x, y, z], three finite numbers (the rig's world units)"});
+      g.has_target = true;
+    } else if (it.key() == "yaw" || it.key() == "pitch") {
+      if (!it->is_number() || !std::isfinite(it->get<double>()) || std::fabs(it->get<double>()) > 180) {
+        errors.fields.push_back({p, "must be degrees in [-180, 180]"});
+        continue;
+      }
+      (it.key() == "yaw" ? g.yaw : g.pitch) = it->get<float>();
+    } else {
+      errors.fields.push_back({p, "unknown member (target, or yaw and pitch)"});
+    }
+  }
+  if (g.has_target && (v.contains("yaw") || v.contains("pitch"))) errors.fields.push_back({ptr, "give target, or yaw and pitch, not both"});
+  if (errors.fields.size() != before) return std::nullopt;
+  return g;
+}
+
 // Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
 // the key is not one of them.
 bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
@@ -272,6 +299,16 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     auto w = WeightsFromJson(v, "/weights");
     if (w.ok()) r.weights = std::move(w.value());
     else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+  } else if (key == "expressions") {
+    if (!v.is_object()) {
+      errors.fields.push_back({ptr, "must be an object of expression name -> value (VRM's presets: happy, aa, blink, lookLeft, ...; or the rig's own)"});
+      return true;
+    }
+    auto w = WeightsFromJson(v, "/expressions");
+    if (w.ok()) r.pose.expressions = std::move(w.value());
+    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+  } else if (key == "gaze") {
+    if (auto g = GazeFromJson(v, ptr, errors)) r.pose.gaze = *g;
   } else if (key == "controls") {
     if (!v.is_object()) {
       errors.fields.push_back({ptr, "must be an object of control name -> value"});

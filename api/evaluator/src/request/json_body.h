@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -18,15 +19,15 @@ using nlohmann::json;
 
 inline constexpr char kMalformed[] = "malformed JSON";
 // The members each body takes, for "did you mean" when one is not.
-inline constexpr std::string_view kMeshMembers[] = {"weights", "controls", "format", "space", "mode", "normals", "skinning", "lod", "strict",
+inline constexpr std::string_view kMeshMembers[] = {"weights", "controls", "expressions", "gaze", "format", "space", "mode", "normals", "skinning", "lod", "strict",
                                                     "keep_targets", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop"};
-inline constexpr std::string_view kRenderMembers[] = {"weights", "controls", "mode", "normals", "skinning", "lod", "strict", "pose",
+inline constexpr std::string_view kRenderMembers[] = {"weights", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod", "strict", "pose",
                                                       "blend", "layers", "animation", "motion", "time", "frame", "loop", "width", "height",
                                                       "view", "background", "supersample", "format", "quality", "camera", "exposure"};
-inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "mode", "normals", "skinning", "lod",
+inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod",
                                                      "strict", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop",
                                                      "width", "height", "view", "background", "supersample", "quality", "camera", "exposure"};
-inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "layers", "transition", "smooth",
+inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "layers", "transition", "smooth", "gaze", "blink", "physics",
                                                         "format", "tolerance", "mode", "normals"};
 inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "mode", "normals", "skinning", "lod",
                                                      "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop", "width",
@@ -56,6 +57,9 @@ bool FloatArray(const json& v, float* out, size_t n);
 bool ClipRef(const json& v, ClipRequest& c);
 
 void PoseFromJson(const json& v, PoseRequest& pose, Status& errors);
+
+// {"target": [x, y, z]} or {"yaw": deg, "pitch": deg}; nullopt (errors added) when malformed.
+std::optional<Gaze> GazeFromJson(const json& v, const std::string& ptr, Status& errors);
 
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors);
 void LayersFromJson(const json& v, PoseRequest& pose, Status& errors);

@@ -68,6 +68,14 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
             auto w = WeightsFromJson(*m, mp);
             if (w.ok()) key_out.weights = std::move(w.value());
             else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+          } else if (m.key() == "expressions") {
+            if (!m->is_object()) {
+              errors.fields.push_back({mp, "must be an object of expression name -> value"});
+              continue;
+            }
+            auto w = WeightsFromJson(*m, mp);
+            if (w.ok()) key_out.expressions = std::move(w.value());
+            else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
           } else if (m.key() == "shape") {
             if (!m->is_string()) errors.fields.push_back({mp, "must be a shape name"});
             else key_out.shape = m->get<std::string>();
@@ -76,7 +84,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
             transition(*m, mp, &t);
             key_out.transition = t;
           } else {
-            errors.fields.push_back({mp, "unknown member (time, weights, shape, transition)"});
+            errors.fields.push_back({mp, "unknown member (time, weights, shape, expressions, transition)"});
           }
         }
         if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
@@ -86,6 +94,49 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
       PoseRequest pose;
       LayersFromJson(v, pose, errors);
       r.layers = std::move(pose.clips);
+    } else if (key == "gaze") {
+      if (v.is_object() && v.contains("keys")) {
+        const json& ks = v["keys"];
+        if (v.size() != 1 || !ks.is_array() || ks.empty() || ks.size() > 10000) {
+          errors.fields.push_back({ptr + "/keys", "must be an array of 1 to 10000 {\"time\", \"target\": [x, y, z]} or {\"time\", \"yaw\", \"pitch\"}"});
+          continue;
+        }
+        for (size_t k = 0; k < ks.size(); ++k) {
+          const std::string kp = ptr + "/keys/" + std::to_string(k);
+          if (!ks[k].is_object() || !ks[k].contains("time")) {
+            errors.fields.push_back({kp, "needs a time"});
+            continue;
+          }
+          GazeKey g;
+          number(ks[k]["time"], kp + "/time", &g.time, -1e9, 1e9);
+          json rest = ks[k];
+          rest.erase("time");
+          if (auto gaze = GazeFromJson(rest, kp, errors)) g.gaze = *gaze;
+          if (!r.gaze.empty() && !(g.time > r.gaze.back().time)) errors.fields.push_back({kp + "/time", "gaze key times must increase"});
+          if (!r.gaze.empty() && g.gaze.has_target != r.gaze.front().gaze.has_target) errors.fields.push_back({kp, "every gaze key gives a target, or every one angles"});
+          r.gaze.push_back(g);
+        }
+      } else if (auto gaze = GazeFromJson(v, ptr, errors)) {
+        r.gaze.push_back({0.0f, *gaze});
+      }
+    } else if (key == "blink") {
+      r.blink = true;
+      if (!v.is_object()) {
+        errors.fields.push_back({ptr, "must be {\"per_minute\": n, \"seed\": s} (natural blinks; people blink 10 to 20 times a minute)"});
+        continue;
+      }
+      for (auto m = v.begin(); m != v.end(); ++m) {
+        const std::string mp = ptr + "/" + JsonPointerEscape(m.key());
+        if (m.key() == "per_minute") {
+          if (!m->is_number() || !(m->get<double>() > 0) || m->get<double>() > kMaxBlinksPerMinute) errors.fields.push_back({mp, "must be a number in (0, 60]"});
+          else r.blink_per_minute = m->get<float>();
+        } else if (m.key() == "seed") {
+          if (!m->is_number_unsigned()) errors.fields.push_back({mp, "must be an integer >= 0"});
+          else r.blink_seed = m->get<uint64_t>();
+        } else {
+          errors.fields.push_back({mp, "unknown member (per_minute, seed)"});
+        }
+      }
     } else if (key == "transition") {
       transition(v, ptr, &r.transition);
     } else if (key == "smooth") {
@@ -163,22 +214,52 @@ Result<Sequence> LayeredSequence(const Rig& rig, const SequenceRequest& request)
   }
   if (!errors.fields.empty()) return Finish(errors);
   Sequence s;
-  s.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
-  s.keys.push_back({std::max(end, 1.0f / 30.0f), std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt});
+  s.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt, {}});
+  s.keys.push_back({std::max(end, 1.0f / 30.0f), std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt, {}});
   s.layers = request.layers;
   return s;
 }
 
+namespace {
+
+// The request's gaze track and blinks onto a resolved sequence; what the rig cannot show warns once.
+void AttachFace(const Rig& rig, const SequenceRequest& request, Sequence& s) {
+  if (!request.gaze.empty()) {
+    if (rig.gaze.kind == GazeSetup::Kind::kNone) {
+      Pose unused;
+      bool posed = false;
+      ApplyGaze(rig, request.gaze.front().gaze, 1.0f, {}, unused, posed, s.warnings);  // Says why.
+    } else {
+      s.gaze = request.gaze;
+    }
+  }
+  if (request.blink) {
+    if (!CanBlink(rig)) {
+      s.warnings.push_back({"blink_unsupported",
+                            "this rig has no blink expression (no eyeBlink_L/R, まばたき, or \"blink\" in its manifest's expressions): no blinks", "", 0.0, false});
+    } else {
+      s.blinks = NaturalBlinks(s.keys.front().time, s.keys.back().time, request.blink_per_minute, request.blink_seed);
+    }
+  }
+}
+
+}  // namespace
+
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
   if (!request.clip.pointer.empty() || !request.layers.empty()) {
     Result<Sequence> posed = !request.clip.pointer.empty() ? ClipSequence(rig, request) : LayeredSequence(rig, request);
-    if (posed.ok()) posed->physics = request.physics;
+    if (posed.ok()) {
+      posed->physics = request.physics;
+      AttachFace(rig, request, posed.value());
+    }
     return posed;
   }
   Sequence s;
   s.transition = request.transition;
   s.smooth = request.smooth;
   Status errors = InvalidArgument("");
+  // Expressions on any key: every key gets one value per rig expression (0 where it names none).
+  const bool any_expressions = std::any_of(request.keys.begin(), request.keys.end(), [](const SequenceRequest::Key& k) { return !k.expressions.empty(); });
   for (const SequenceRequest::Key& k : request.keys) {
     Keyframe key;
     key.time = k.time;
@@ -199,10 +280,23 @@ Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request)
       }
       key.weights = std::move(w.value());
     }
+    if (any_expressions) {
+      std::vector<Warning> unmapped;
+      if (Status st = ResolveExpressions(rig, k.expressions, key.expressions, unmapped); !st.ok()) {
+        errors.fields.insert(errors.fields.end(), st.fields.begin(), st.fields.end());
+        continue;
+      }
+      for (Warning& w : unmapped) {
+        if (std::none_of(s.warnings.begin(), s.warnings.end(), [&](const Warning& x) { return x.code == w.code && x.shape == w.shape; })) {
+          s.warnings.push_back(std::move(w));
+        }
+      }
+    }
     s.keys.push_back(std::move(key));
   }
   if (!errors.fields.empty()) return Finish(errors);
   if (Status st = ValidateSequence(s, rig.shapes.size()); !st.ok()) return st;
+  AttachFace(rig, request, s);
   return s;
 }
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 #include "facespace/core/animation.h"
+#include "facespace/core/face.h"
 #include "facespace/core/hierarchy.h"
 #include "facespace/core/status.h"
 #include "facespace/core/weights.h"
@@ -40,7 +41,13 @@ struct ClipRequest {
 struct PoseRequest {
   std::vector<ClipRequest> clips;          // One (animation + time) or several (blend).
   std::vector<JointOverride> joints;       // Explicit pose, applied after the clips.
+  // The face by name (core/face.h): expressions added to the weights, then the gaze (eye bones after the
+  // joints, before MMD's constraints; or eye shapes, set).
+  std::vector<WeightEntry> expressions;
+  std::optional<Gaze> gaze;
+  // Whether it asks anything of the skeleton (a gaze may, on a rig with eye bones).
   bool empty() const { return clips.empty() && joints.empty(); }
+  bool has_face() const { return !expressions.empty() || gaze.has_value(); }
 };
 
 // The rig's animation a clip names (by name, else by index), or -1.
@@ -75,8 +82,8 @@ bool PoseOfWeightsAlone(const Rig& rig, std::span<const float> weights, Pose& po
 
 // A request's weights and pose together, in glTF's order of application: rest pose, then the
 // clips (their weight channels set shape weights), then the explicit joints, then the
-// explicit weights, which override animated ones. `posed` is false when the request asks
-// nothing of the skeleton (the rest pose applies).
+// explicit weights, which override animated ones, then the face (expressions and gaze, face.h), then
+// the bone morphs and MMD's constraints. `posed` is false when nothing moves a bone (the rest pose applies).
 Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
                              std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings);
 

@@ -14,6 +14,7 @@
 #include <string>
 #include <string_view>
 #include <vector>
+#include <utility>
 
 #include "facespace/core/status.h"
 
@@ -175,6 +176,41 @@ struct Control {
   int negative = -1;                    // Shape index, or -1 (one-sided).
   int positive = -1;
   int partner = -1;                     // Mirrored left/right control, or -1.
+};
+
+// A face expression by name (VRM 1.0's presets, or a rig's own): weights of the rig's shapes at
+// value 1, and how it overrides the blink, look-at and mouth expressions while it shows (VRM's
+// overrideBlink/overrideLookAt/overrideMouth: core/face.h, ExpressionMultipliers).
+enum class ExpressionOverride : uint8_t { kNone, kBlock, kBlend };
+struct Expression {
+  std::string name;
+  std::vector<std::pair<uint32_t, float>> binds;  // (shape, weight at value 1)
+  bool binary = false;                            // Values above 0.5 show it whole, others not at all.
+  ExpressionOverride blink = ExpressionOverride::kNone, look_at = ExpressionOverride::kNone, mouth = ExpressionOverride::kNone;
+  bool derived = false;                           // From the shapes' names (core/face.h), not the manifest.
+};
+
+// VRM lookAt's range map: an angle (degrees, >= 0) to an output, out = output_scale * min(angle / input_max, 1):
+// degrees of an eye bone's turn, or an eye shape's weight.
+struct RangeMap {
+  float input_max = 90.0f;
+  float output_scale = 1.0f;
+  float Map(float degrees) const;
+};
+
+// How the rig's eyes follow a gaze (core/face.h): eye bones, else per-eye shapes (ARKit's eyeLookIn/Out/
+// Up/Down), else the lookLeft/Right/Up/Down expressions; optionally the head and neck take a share.
+struct GazeSetup {
+  enum class Kind : uint8_t { kNone, kBones, kShapes, kExpressions };
+  Kind kind = Kind::kNone;
+  std::array<int, 2> eyes{-1, -1};                 // Bones (left, right), kBones.
+  // kShapes: per eye (left, right) the shapes turning it in (towards the nose), out, up, down.
+  std::array<int, 2> look_in{-1, -1}, look_out{-1, -1}, look_up{-1, -1}, look_down{-1, -1};
+  int head = -1, neck = -1;                        // Bones, or -1.
+  float head_share = 0.0f, neck_share = 0.0f;      // Of the gaze's angles, turned by the head and neck.
+  RangeMap horizontal_inner, horizontal_outer, vertical_down, vertical_up;
+  std::array<float, 3> origin{0, 0, 0};            // Between the eyes at rest (world), for targets.
+  bool from_manifest = false;
 };
 
 // A statistical model of the weights (e.g. a PCA face space): components (orthonormal
@@ -369,6 +405,8 @@ struct Rig {
   BoneConstraints constraints;         // MMD's grants and IK, applied to every pose.
   Physics physics;                      // Simulated over sequences (core/physics); stills ignore it.
   ShapeStatistics statistics;
+  std::vector<Expression> expressions;  // By name (core/face.h): the manifest's, then those derived from shape names.
+  GazeSetup gaze;
 
   size_t vertex_count() const;
   size_t triangle_count() const;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/face.h"
 #include "facespace/core/pose_request.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
@@ -36,6 +37,14 @@ struct Keyframe {
   float time = 0.0f;                      // Seconds; any spacing.
   std::vector<float> weights;             // One per shape (a shape key is a one-hot vector).
   std::optional<Transition> transition;   // Towards the next key; else the sequence's.
+  std::vector<float> expressions;         // One value per rig expression (face.h), or empty: none.
+};
+
+// A gaze at a time: a sequence's gaze track is linear between its keys (targets, or angles) and held
+// past its ends.
+struct GazeKey {
+  float time = 0.0f;
+  Gaze gaze;
 };
 
 struct Sequence {
@@ -45,6 +54,10 @@ struct Sequence {
   int clip = -1;                          // Played from this animation (a VMD motion...): its pose at each time too.
   std::vector<ClipRequest> layers;        // Or motions layered (pose_request.h), each starting at its `time`.
   bool physics = true;                    // A posed sequence simulates the rig's physics (rig.h), if it has any.
+  // The face over time (face.h): the keys' expressions, a gaze track, natural blinks.
+  std::vector<GazeKey> gaze;
+  std::vector<Blink> blinks;
+  std::vector<Warning> warnings;          // About the whole sequence (a face the rig cannot show), said once.
 };
 
 // Times finite and strictly increasing, every key with one weight per shape, finite.
@@ -53,6 +66,10 @@ Status ValidateSequence(const Sequence& sequence, size_t shape_count);
 // Weights at time t (clamped to the first and last key): keys B, C around t,
 // w_C = f((t - t_B) / (t_C - t_B)), w_B = 1 - w_C. `f_out` receives f (for warnings).
 void SampleSequence(const Sequence& sequence, float t, std::span<float> out, float* f_out = nullptr);
+
+// The face at time t: the keys' expressions (sampled as the weights are), the gaze track, the blinks.
+// False when the sequence asks nothing of the face.
+bool SampleFace(const Sequence& sequence, float t, FaceState& face);
 
 // The sequence with a key baked at t (the sampled weights, keeping the transition); a key
 // already at t is replaced by its own value (no change).

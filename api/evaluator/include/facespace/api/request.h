@@ -100,6 +100,7 @@ struct SequenceRequest {
     float time = 0.0f;
     std::vector<WeightEntry> weights;
     std::string shape;                      // A shape key (one-hot), instead of weights.
+    std::vector<WeightEntry> expressions;   // Expressions by name (core/face.h), added to the weights.
     std::optional<Transition> transition;
     std::string pointer;
   };
@@ -114,6 +115,12 @@ struct SequenceRequest {
   ClipRequest clip;                         // "motion" or "animation" instead of keys (pointer empty: none).
   std::vector<ClipRequest> layers;          // "layers" instead of keys: each layer's time is its start.
   bool physics = true;                      // "physics": false: no secondary motion (SequencePhysics).
+  // "gaze": one gaze held ({"target"} or {"yaw", "pitch"}) or a track {"keys": [{"time", "target" | "yaw", "pitch"}]}.
+  std::vector<GazeKey> gaze;
+  // "blink": {"per_minute": 15, "seed": 1}: natural blinks (core/face.h NaturalBlinks).
+  bool blink = false;
+  float blink_per_minute = 15.0f;
+  uint64_t blink_seed = 1;
   BlendOptions options;
 };
 Result<SequenceRequest> ParseSequenceRequest(std::string_view body);

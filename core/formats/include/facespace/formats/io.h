@@ -131,6 +131,12 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {}
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
 Status ApplyManifest(Rig& rig, const std::string& json_text);
 
+// The rig's expressions (name -> {weights, binary, override_blink, override_look_at, override_mouth,
+// derived}) and its gaze ({type, eyes | shapes, head, neck, range_maps, origin}), as JSON text: what
+// GET /v1/rigs/{id} shows, in the manifest's schema.
+std::string ExpressionsJson(const Rig& rig);
+std::string GazeJson(const Rig& rig);
+
 enum class MeshFormat { kGlb, kObj, kJson, kF32 };
 
 // "glb", "obj", "json", "f32" -> format; false when unknown.
