@@ -143,6 +143,10 @@ json QueryParam(std::string_view name, bool render) {
                  "Level of detail: 0 full, L about 1/2^L of the triangles");
   }
   if (name == "pose") return param({{"type", "string"}}, "The body's pose object (joint -> rotation, euler, translation, scale) as JSON");
+  if (name == "gaze") {
+    return param({{"type", "string"}}, "Where the eyes look: YAW,PITCH (degrees; yaw > 0 to the character's left, pitch > 0 up), X,Y,Z (a point of "
+                                       "the rig's world), or the body's gaze object as JSON");
+  }
   if (name == "blend") return param({{"type", "string"}}, "The body's blend array (several clips at their times and weights) as JSON");
   if (name == "layers") return param({{"type", "string"}}, "The body's layers array (a base motion, then overlays) as JSON");
   if (name == "animation") return param({{"type", "string"}}, "A clip by name or index, posed at time");
@@ -179,7 +183,8 @@ json QueryParams(bool render) {
   json params = json::array({IdParam(), MapParam("w", "Weights as w[NAME]=VALUE (or w.NAME=VALUE) by shape name, alias or index; "
                                                        "shapes not named are 0"),
                              MapParam("c", "Control values as c[NAME]=VALUE (or c.NAME=VALUE), for rigs with controls "
-                                           "(e.g. c[nose/nose-trans-down|up]=-0.4)")});
+                                           "(e.g. c[nose/nose-trans-down|up]=-0.4)"),
+                             MapParam("e", "Expressions as e[NAME]=VALUE (or e.NAME=VALUE): VRM's presets (happy, aa, blink, ...) or the rig's own")});
   for (std::string_view name : render ? std::span<const std::string_view>(http::kRenderQuery) : http::kMeshQuery) {
     params.push_back(QueryParam(name, render));
   }
@@ -219,7 +224,22 @@ json Build() {
                                             {"loop", {{"type", "boolean"}}}, {"fade_in", {{"type", "number"}, {"minimum", 0}}},
                                             {"fade_out", {{"type", "number"}, {"minimum", 0}}},
                                             {"mask", {{"type", "array"}, {"items", {{"type", "string"}}}}}}}}}};
+  json point3 = {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 3}, {"maxItems", 3}};
+  json gaze = {{"type", "object"},
+               {"description", "Where the eyes look (GET /v1/rigs/{id} says how: eye bones, eye shapes or look expressions): a target "
+                               "point of the rig's world, or angles from straight ahead. A rig with no eyes warns gaze_unsupported"},
+               {"properties", {{"target", point3},
+                               {"yaw", {{"type", "number"}, {"minimum", -180}, {"maximum", 180}, {"description", "Degrees, > 0 to the character's left"}}},
+                               {"pitch", {{"type", "number"}, {"minimum", -180}, {"maximum", 180}, {"description", "Degrees, > 0 up"}}}}}};
+  json expressions = {{"type", "object"},
+                      {"additionalProperties", {{"type", "number"}}},
+                      {"description", "Expressions by name: VRM 1.0's presets (happy, angry, sad, relaxed, surprised, aa, ih, ou, ee, oh, "
+                                      "blink, blinkLeft, blinkRight, lookUp, lookDown, lookLeft, lookRight, neutral) or the rig's own, "
+                                      "each a value in [0, 1] added to the weights of the shapes it maps (GET /v1/rigs/{id}, "
+                                      "\"expressions\"), with VRM's override rules; a preset the rig does not map warns expression_unmapped"}};
   json skeleton_props = {{"pose", pose},
+                         {"expressions", expressions},
+                         {"gaze", gaze},
                          {"animation", clip_ref},
                          {"time", {{"type", "number"}, {"description", "Seconds into the animation"}}},
                          {"motion", clip_ref},
@@ -317,7 +337,18 @@ json Build() {
                   {"items", {{"type", "object"},
                              {"required", {"time"}},
                              {"properties", {{"time", {{"type", "number"}}}, {"weights", weights}, {"shape", {{"type", "string"}}},
-                                             {"transition", {{"type", "string"}}}}}}}}},
+                                             {"expressions", expressions}, {"transition", {{"type", "string"}}}}}}}}},
+        {"gaze", {{"oneOf", json::array({gaze, json{{"type", "object"},
+                                                    {"required", {"keys"}},
+                                                    {"description", "A gaze track: linear between its keys, held past its ends"},
+                                                    {"properties", {{"keys", {{"type", "array"}, {"items", {{"type", "object"}, {"required", {"time"}},
+                                                                                                             {"properties", {{"time", {{"type", "number"}}}, {"target", point3},
+                                                                                                                             {"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}}}}}}}}}}})}}},
+        {"blink", {{"type", "object"},
+                   {"description", "Natural blinks through the rig's blink expression: one at a random moment of each 60 / per_minute "
+                                   "seconds, closing fast and opening slower; the same seed gives the same blinks"},
+                   {"properties", {{"per_minute", {{"type", "number"}, {"exclusiveMinimum", 0}, {"maximum", 60}, {"default", 15}}},
+                                   {"seed", {{"type", "integer"}, {"minimum", 0}, {"default", 1}}}}}}},
         {"transition", {{"type", "string"}, {"description", "step, linear, smoothstep, smootherstep, ease-in, ease-out, ease-in-out, cubic-bezier(x1, y1, x2, y2)"}}},
         {"smooth", {{"type", "boolean"}, {"description", "Catmull-Rom through the keys"}}},
         {"physics", {{"type", "boolean"}, {"default", true}, {"description", "simulate the rig's rigid bodies (MMD hair, ears, skirts) over a sequence that plays a motion or layers; false: they follow their bones"}}},
@@ -398,6 +429,18 @@ json Build() {
                 {"inbetweens", array_of({{"type", "object"}})},
                 {"correctives", array_of({{"type", "object"}})},
                 {"statistics", {{"type", {"object", "null"}}}},
+                {"expressions", {{"type", "object"},
+                                 {"description", "Name -> what it maps (the manifest's, else derived from ARKit or MMD shape names)"},
+                                 {"additionalProperties", {{"type", "object"},
+                                                           {"properties", {{"weights", WeightsObject()}, {"binary", boolean},
+                                                                           {"override_blink", {{"enum", {"none", "block", "blend"}}}},
+                                                                           {"override_look_at", {{"enum", {"none", "block", "blend"}}}},
+                                                                           {"override_mouth", {{"enum", {"none", "block", "blend"}}}},
+                                                                           {"derived", boolean}}}}}}},
+                {"gaze", {{"type", "object"},
+                          {"properties", {{"type", {{"enum", {"bones", "shapes", "expressions", "none"}}}}, {"eyes", {{"type", "object"}}},
+                                          {"shapes", {{"type", "object"}}}, {"head", {{"type", "object"}}}, {"neck", {{"type", "object"}}},
+                                          {"range_maps", {{"type", "object"}}}, {"origin", array_of(number)}}}}},
                 {"load_warnings", array_of(ref("Warning"))}}}};
   json manifest = {{"type", "object"},
                    {"additionalProperties", false},
@@ -407,7 +450,8 @@ json Build() {
                                    {"groups", {{"type", "object"}, {"additionalProperties", array_of(string)}}},
                                    {"controls", {{"type", "object"}}}, {"derived", {{"type", "object"}}},
                                    {"inbetweens", {{"type", "object"}}}, {"correctives", {{"type", "object"}}},
-                                   {"statistics", {{"type", "object"}}}}}};
+                                   {"statistics", {{"type", "object"}}}, {"expressions", {{"type", "object"}}}, {"gaze", {{"type", "object"}}},
+                                   {"base_motion", string}, {"materials", {{"type", "object"}}}}}};
   json check = {{"type", "object"},
                 {"required", {"sum", "weights", "warnings"}},
                 {"properties", {{"sum", number}, {"weights", WeightsObject()}, {"warnings", array_of(ref("Warning"))},

@@ -439,25 +439,28 @@ void ApplyGaze(const Rig& rig, const Gaze& gaze, float look_at, std::span<float>
 
 std::vector<Blink> NaturalBlinks(float start, float end, float per_minute, uint64_t seed) {
   std::vector<Blink> out;
-  if (!(per_minute > 0.0f) || !(end > start)) return out;
+  if (!(per_minute > 0.0f) || !(end > start) || !std::isfinite(end - start)) return out;
   per_minute = std::min(per_minute, kMaxBlinksPerMinute);
   std::mt19937_64 gen(seed);
   auto uniform = [&] { return static_cast<double>(gen() >> 11) * 0x1.0p-53; };  // [0, 1)
-  const double mean = 60.0 / per_minute;
-  double t = start;
-  bool first = true;
-  while (true) {
+  // The span cut into slots of 60 / per_minute seconds, one blink somewhere in each: the rate is the
+  // one asked for, the intervals irregular (from nearly back to back to two slots apart), and a blink
+  // ends kMinBlinkGap before its slot does, so none overlaps the next. A last, partial slot has its
+  // blink with the probability of its length.
+  const double slot = 60.0 / per_minute;
+  const double span = static_cast<double>(end) - start;
+  const size_t whole = static_cast<size_t>(std::min(span / slot, 1e5));
+  for (size_t k = 0; k <= whole; ++k) {
+    const double from = start + static_cast<double>(k) * slot;
+    const double length_here = std::min(slot, static_cast<double>(end) - from);
     const double close = 0.06 + 0.04 * uniform(), hold = 0.02 + 0.04 * uniform(), open = 0.12 + 0.1 * uniform();
     const double length = close + hold + open;
-    // Start to start: at least the blink and the gap, the rest exponential (people blink irregularly);
-    // the first one anywhere in its first interval.
-    const double fixed = length + kMinBlinkGap;
-    const double wait = first ? uniform() * mean : fixed + std::max(0.0, mean - fixed) * -std::log(1.0 - uniform());
-    first = false;
-    t = out.empty() ? start + wait : out.back().start + wait;
-    if (t + length > end) break;
+    const double u = uniform(), chance = uniform();
+    if (k == whole && chance >= length_here / slot) break;
+    const double room = length_here - length - kMinBlinkGap;
+    if (room <= 0.0) continue;
+    const double t = from + u * room;
     out.push_back({static_cast<float>(t), static_cast<float>(t + close), static_cast<float>(t + close + hold), static_cast<float>(t + length)});
-    if (out.size() > 100000) break;
   }
   return out;
 }

@@ -69,15 +69,15 @@ bool MeshQueryParam(const std::string& key, const std::string& value, MeshReques
   const std::string where = "?" + key;
   // A shape weight, or a control value: w.NAME, or w[NAME] (OpenAPI's deepObject style, what
   // generated clients send).
-  const bool dotted = key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0;
-  const bool bracketed = (key.rfind("w[", 0) == 0 || key.rfind("c[", 0) == 0) && key.size() >= 3 && key.back() == ']';
+  const bool dotted = key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0 || key.rfind("e.", 0) == 0;
+  const bool bracketed = (key.rfind("w[", 0) == 0 || key.rfind("c[", 0) == 0 || key.rfind("e[", 0) == 0) && key.size() >= 3 && key.back() == ']';
   if (dotted || bracketed) {
     WeightEntry e;
     e.name = bracketed ? key.substr(2, key.size() - 3) : key.substr(2);
     e.pointer = where;
-    if (e.name.empty()) errors.push_back({where, key.substr(0, 2) + " needs a name: w.SHAPE=0.5 or c.CONTROL=-0.4"});
+    if (e.name.empty()) errors.push_back({where, key.substr(0, 2) + " needs a name: w.SHAPE=0.5, c.CONTROL=-0.4 or e.EXPRESSION=1"});
     else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
-    else (key[0] == 'w' ? r.weights : r.controls).push_back(e);
+    else (key[0] == 'w' ? r.weights : key[0] == 'c' ? r.controls : r.pose.expressions).push_back(e);
   } else if (key == "mode") {
     if (!ParseBlendMode(value, &r.options.mode)) errors.push_back({where, "must be relative or absolute"});
   } else if (key == "normals") {

@@ -81,17 +81,17 @@ void GazeAngles(const Rig& rig, const Gaze& gaze, const std::vector<std::array<f
 void ApplyGaze(const Rig& rig, const Gaze& gaze, float look_at, std::span<float> weights, Pose& pose, bool& posed,
                std::vector<Warning>& warnings);
 
-// Natural blinks over [start, end): intervals drawn at random around 60 / per_minute seconds (never
-// closer than kMinBlinkGap between one's end and the next's start), each closing fast and opening
-// slower. The same seed gives the same blinks (a mt19937_64 and our own inverse CDF: no library
-// distribution, whose output differs between standard libraries).
+// Natural blinks over [start, end): per_minute of them on average, one at a random moment of each
+// 60 / per_minute seconds, each closing fast and opening slower, none within kMinBlinkGap of the next.
+// The same seed gives the same blinks (a mt19937_64 and our own draws: no library distribution, whose
+// output differs between standard libraries).
 struct Blink {
   float start = 0.0f;   // Begins to close.
   float closed = 0.0f;  // Fully closed.
   float opens = 0.0f;   // Begins to open.
   float end = 0.0f;     // Open again.
 };
-inline constexpr float kMinBlinkGap = 0.4f;
+inline constexpr float kMinBlinkGap = 0.3f;
 inline constexpr float kMaxBlinksPerMinute = 60.0f;
 std::vector<Blink> NaturalBlinks(float start, float end, float per_minute, uint64_t seed);
 
