@@ -397,7 +397,7 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
     ASSERT_GT(params.size(), 10u) << path;
     for (const json& p : params) {
       const std::string name = p["name"];
-      if (p["in"] != "query" || name == "w" || name == "c") continue;
+      if (p["in"] != "query" || name == "w" || name == "c" || name == "e") continue;  // Maps: w[NAME], c[NAME], e[NAME].
       std::string url = std::string(path).replace(std::string(path).find("{id}"), 4, "facecap") + "?" + name + "=%7Bnot-a-value";
       r = Client().Get(url);
       ASSERT_TRUE(r);
@@ -533,6 +533,73 @@ TEST_F(ApiTest, UploadsNeedTheKey) {
 
 // Requests refused from their request line and headers are answered at once, before any body
 // (the server used to wait out its read timeout for a body that never came, or invite it with 100).
+// The face by name over HTTP: an expression is the mesh of its mapped weights (body and query alike),
+// a gaze sets FaceCap's eye shapes through its range map, typos are 422 naming the member, and a
+// sequence's blinks and gaze track show in its frames.
+TEST_F(ApiTest, ExpressionsGazeAndBlinksByName) {
+  auto post = [](const std::string& path, const std::string& body) { return Client().Post(path, body, "application/json"); };
+  auto by_name = post("/v1/rigs/facecap/mesh", R"({"expressions": {"happy": 1}, "format": "f32"})");
+  auto by_weights = post("/v1/rigs/facecap/mesh", R"({"weights": {"mouthSmile_L": 1, "mouthSmile_R": 1, "cheekSquint_L": 0.5, "cheekSquint_R": 0.5,
+                                                                 "eyeSquint_L": 0.4, "eyeSquint_R": 0.4}, "format": "f32"})");
+  auto rest = post("/v1/rigs/facecap/mesh", R"({"format": "f32"})");
+  auto query = Client().Get("/v1/rigs/facecap/mesh?e.happy=1&format=f32");
+  ASSERT_TRUE(by_name && by_weights && rest && query);
+  ASSERT_EQ(by_name->status, 200) << by_name->body;
+  EXPECT_EQ(by_name->body, by_weights->body);
+  EXPECT_EQ(query->body, by_weights->body);
+  EXPECT_NE(by_name->body, rest->body);
+
+  auto rig = Client().Get("/v1/rigs/facecap");
+  ASSERT_TRUE(rig);
+  const json d = Body(rig);
+  EXPECT_EQ(d["expressions"]["happy"]["weights"]["mouthSmile_L"], 1);
+  EXPECT_EQ(d["gaze"]["type"], "shapes");
+
+  auto check = post("/v1/rigs/facecap/check", R"({"gaze": {"yaw": 20, "pitch": -5}})");
+  ASSERT_TRUE(check);
+  ASSERT_EQ(check->status, 200) << check->body;
+  const json w = Body(check)["weights"];
+  EXPECT_NEAR(w["eyeLookOut_L"].get<double>(), 20.0 / 30.0, 1e-6);
+  EXPECT_NEAR(w["eyeLookIn_R"].get<double>(), 20.0 / 30.0, 1e-6);
+  EXPECT_NEAR(w["eyeLookDown_L"].get<double>(), 5.0 / 25.0, 1e-6);
+  auto q = Client().Get("/v1/rigs/facecap/mesh?gaze=20,-5&format=f32");
+  auto b = post("/v1/rigs/facecap/mesh", R"({"gaze": {"yaw": 20, "pitch": -5}, "format": "f32"})");
+  ASSERT_TRUE(q && b);
+  EXPECT_EQ(q->body, b->body);
+
+  for (const auto& [body, pointer] : {std::pair{R"({"expressions": {"hapy": 1}})", "/expressions/hapy"},
+                                      std::pair{R"({"gaze": {"target": [0, 0, 1], "yaw": 3}})", "/gaze"},
+                                      std::pair{R"({"gaze": {"yaw": "left"}})", "/gaze/yaw"},
+                                      std::pair{R"({"expressions": [1]})", "/expressions"}}) {
+    auto r = post("/v1/rigs/facecap/mesh", body);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 422) << body;
+    EXPECT_EQ(Body(r)["errors"][0]["pointer"], pointer) << r->body;
+  }
+  // 60 s at 15 blinks a minute, sampled at 50 fps: 12 to 18 closings, the gaze track from left to right.
+  std::string times;
+  for (int i = 0; i <= 3000; ++i) times += (i ? "," : "") + FormatNumber(i * 0.02);
+  auto seq = post("/v1/rigs/facecap/sequence/sample",
+                  R"({"keys": [{"time": 0}, {"time": 60}], "blink": {"per_minute": 15, "seed": 4}, "format": "weights",
+                      "gaze": {"keys": [{"time": 0, "yaw": 30, "pitch": 0}, {"time": 60, "yaw": -30, "pitch": 0}]}, "times": [)" + times + "]}");
+  ASSERT_TRUE(seq) << httplib::to_string(seq.error());
+  ASSERT_EQ(seq->status, 200) << seq->body.substr(0, 300);
+  const json frames = Body(seq)["frames"];
+  ASSERT_EQ(frames.size(), 3001u);
+  int closings = 0;
+  bool closed = false;
+  for (const json& f : frames) {
+    const double blink = f["weights"].value("eyeBlink_L", 0.0);
+    if (blink > 0.9 && !closed) ++closings;
+    closed = blink > 0.9;
+  }
+  EXPECT_GE(closings, 12);
+  EXPECT_LE(closings, 18);
+  EXPECT_NEAR(frames[0]["weights"]["eyeLookOut_L"].get<double>(), 1.0, 1e-6);
+  EXPECT_NEAR(frames[750]["weights"]["eyeLookOut_L"].get<double>(), 0.5, 1e-3);  // t = 15: yaw 15.
+  EXPECT_NEAR(frames[3000]["weights"]["eyeLookOut_R"].get<double>(), 1.0, 1e-6);
+}
+
 TEST_F(ApiTest, RefusalsComeFromTheHeadersBeforeTheBody) {
   // A Content-Length over the limit, no body sent: 413 naming the limit.
   std::string raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer test-key\r\nContent-Length: 900000000\r\n\r\n");

@@ -159,13 +159,26 @@ bool AcceptsJsonBody(const httplib::Request& req, httplib::Response& res) {
 }
 
 std::string WarningsHeader(std::span<const Warning> warnings) {
+  // Each code and shape once (a sequence's frames repeat theirs: the body lists every one), and at most
+  // kMaxWarningsHeader bytes, then "more;count=N": clients and proxies cap a header's size.
+  constexpr size_t kMaxWarningsHeader = 4096;
   std::string h;
+  std::vector<std::pair<std::string_view, std::string_view>> said;
+  size_t more = 0;
   for (const Warning& w : warnings) {
+    if (std::find(said.begin(), said.end(), std::pair<std::string_view, std::string_view>(w.code, w.shape)) != said.end()) continue;
+    std::string item = w.code;
+    if (!w.shape.empty()) item += ";shape=" + SfString(w.shape);
+    if (w.has_value) item += ";value=" + SfDecimal(w.value);
+    if (h.size() + item.size() + 2 > kMaxWarningsHeader) {
+      ++more;
+      continue;
+    }
+    said.emplace_back(w.code, w.shape);
     if (!h.empty()) h += ", ";
-    h += w.code;
-    if (!w.shape.empty()) h += ";shape=" + SfString(w.shape);
-    if (w.has_value) h += ";value=" + SfDecimal(w.value);
+    h += item;
   }
+  if (more > 0) h += ", more;count=" + std::to_string(more);
   return h;
 }
 

@@ -35,6 +35,7 @@ bool AcceptsJsonBody(const httplib::Request& req, httplib::Response& res);
 
 // Facespace-Warnings: a structured-field list (RFC 9651), e.g.
 //   extrapolation;value=1.7, out_of_range;shape="jawOpen";value=1.5
+// Each code and shape once (the first), at most 4 KB, then "more;count=N".
 std::string WarningsHeader(std::span<const Warning> warnings);
 
 // Facespace-Weight-Sum, and Facespace-Warnings when there are any.

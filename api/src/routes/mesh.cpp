@@ -54,7 +54,7 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRe
 
 std::string UnknownParameter(const std::string& key, bool render) {
   std::string hint = DidYouMean(key, render ? std::span<const std::string_view>(kRenderQuery) : kMeshQuery);
-  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE or w[NAME]=VALUE, controls c.NAME=VALUE)" : hint);
+  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE or w[NAME]=VALUE, controls c.NAME=VALUE, expressions e.NAME=VALUE)" : hint);
 }
 
 bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, std::vector<FieldError>& errors) {
