@@ -1,6 +1,7 @@
 // facespace sequence: keyframe sequences from the command line.
 #include <unistd.h>
 
+#include <charconv>
 #include <chrono>
 #include <algorithm>
 #include <cmath>
@@ -22,6 +23,44 @@
 namespace facespace::cli {
 
 namespace {
+
+// --gaze (YAW,PITCH, X,Y,Z, or the body's JSON) and --blink (PER_MINUTE[,SEED]) as the body's members.
+Status FaceMembers(const std::string& gaze, const std::string& blink, nlohmann::json& body) {
+  auto numbers = [](const std::string& text, std::vector<double>& out) {
+    size_t from = 0;
+    while (from <= text.size()) {
+      const size_t comma = std::min(text.find(',', from), text.size());
+      double x = 0;
+      const auto r = std::from_chars(text.data() + from, text.data() + comma, x);
+      if (r.ec != std::errc() || r.ptr != text.data() + comma) return false;
+      out.push_back(x);
+      from = comma + 1;
+    }
+    return true;
+  };
+  if (!gaze.empty()) {
+    std::vector<double> n;
+    if (gaze[0] == '{') {
+      body["gaze"] = nlohmann::json::parse(gaze, nullptr, false);
+      if (body["gaze"].is_discarded()) return InvalidArgument("--gaze: malformed JSON");
+    } else if (numbers(gaze, n) && n.size() == 2) {
+      body["gaze"] = {{"yaw", n[0]}, {"pitch", n[1]}};
+    } else if (n.size() == 3) {
+      body["gaze"] = {{"target", n}};
+    } else {
+      return InvalidArgument("--gaze: want YAW,PITCH (degrees), X,Y,Z (a point) or JSON");
+    }
+  }
+  if (!blink.empty()) {
+    std::vector<double> n;
+    if (!numbers(blink, n) || n.empty() || n.size() > 2 || (n.size() == 2 && (n[1] < 0 || n[1] != std::floor(n[1])))) {
+      return InvalidArgument("--blink: want PER_MINUTE or PER_MINUTE,SEED (a whole number)");
+    }
+    body["blink"] = {{"per_minute", n[0]}};
+    if (n.size() == 2) body["blink"]["seed"] = static_cast<uint64_t>(n[1]);
+  }
+  return Status::Ok();
+}
 
 // A progress bar on a terminal, a line every 10% otherwise.
 class Progress {
@@ -82,7 +121,7 @@ class WarningSummary {
 
 int Sequence(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
-  std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format, out;
+  std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format, out, gaze_text, blink_text;
   bool smooth = false, has_fps = false, has_reduce = false, has_bake = false, physics = true;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
@@ -111,6 +150,9 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &transition);
   flags.Switch("--smooth", "Catmull-Rom through the keys", [&] { smooth = true; });
   flags.Switch("--no-physics", "no secondary motion: the rig's rigid bodies (MMD hair, skirts) follow their bones", [&] { physics = false; });
+  flags.Value("--gaze", "YAW,PITCH|X,Y,Z|JSON|@FILE", "where the eyes look: held (degrees, or a point), or a track {\"keys\": [{\"time\", \"target\" | \"yaw\", \"pitch\"}]}",
+              [&gaze_text](const std::string& v) { return ReadAtFile("--gaze", v, gaze_text) ? 0 : 1; });
+  flags.Text("--blink", "PER_MINUTE[,SEED]", "natural blinks through the rig's blink expression (e.g. 15, or 15,7 for another draw)", &blink_text);
   flags.Text("--times", "JSON", "sample at these times: [0, 0.5, 1]", &times_text);
   flags.Value("--fps", "N", "sample every 1/N s from the first key to the last (default 30)", number("--fps", 1e-3f, &fps, &has_fps));
   flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
@@ -120,6 +162,9 @@ int Sequence(const std::vector<std::string>& args) {
   flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   const int sources = !keys_text.empty() + !layers_text.empty() + !from_animation.empty() + !obj_times.empty();
+  if ((!gaze_text.empty() || !blink_text.empty()) && keys_text.empty() && layers_text.empty()) {
+    return flags.UsageError("--gaze and --blink go with --keys or --layers");
+  }
   if (paths.empty() || out.empty() || sources != 1) {
     return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)"
                                                                        : "give exactly one of --keys, --layers, --from-animation, --obj-times");
@@ -155,6 +200,12 @@ int Sequence(const std::vector<std::string>& args) {
     }
     nlohmann::json body = {{layered ? "layers" : "keys", keys}, {"smooth", smooth}};
     if (!transition.empty()) body["transition"] = transition;
+    if (!gaze_text.empty() || !blink_text.empty()) {
+      if (Status s = FaceMembers(gaze_text, blink_text, body); !s.ok()) {
+        std::fprintf(stderr, "error: %s\n", s.message.c_str());
+        return 2;
+      }
+    }
     auto parsed = api::ParseSequenceRequest(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
     if (!parsed.ok()) {
       std::fprintf(stderr, "error: %s\n", parsed.status().message.c_str());

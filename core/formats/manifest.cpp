@@ -350,7 +350,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     s.fields.push_back({pointer, msg});
     return s;
   };
-  static constexpr std::string_view kMembers[] = {"name", "credit", "start", "base_motion", "materials", "shapes", "groups", "controls",
+  static constexpr std::string_view kMembers[] = {"name", "credit", "license_url", "start", "base_motion", "materials", "shapes", "groups", "controls",
                                                   "derived", "inbetweens", "correctives", "statistics", "expressions", "gaze"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(std::begin(kMembers), std::end(kMembers), it.key()) == std::end(kMembers)) {
@@ -364,6 +364,10 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
   if (j.contains("credit")) {
     if (!j["credit"].is_string()) return bad("/credit", "must be a string");
     rig.credit = j["credit"].get<std::string>();
+  }
+  if (j.contains("license_url")) {
+    if (!j["license_url"].is_string() || j["license_url"].get<std::string>().empty()) return bad("/license_url", "must be the URL of the rig's licence");
+    rig.license_url = j["license_url"].get<std::string>();
   }
   if (j.contains("start")) {
     if (j["start"] != "neutral" && j["start"] != "defaults") return bad("/start", "must be \"neutral\" (every weight 0) or \"defaults\"");
@@ -634,6 +638,7 @@ std::string ManifestJson(const Rig& rig) {
   json m = json::object();
   m["name"] = rig.name;
   if (!rig.credit.empty()) m["credit"] = rig.credit;
+  if (!rig.license_url.empty()) m["license_url"] = rig.license_url;
   if (rig.start_at_defaults) m["start"] = "defaults";
   if (!rig.base_motion.empty()) m["base_motion"] = rig.base_motion;
   json shapes = json::object();

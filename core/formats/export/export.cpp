@@ -56,6 +56,7 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
     case MeshFormat::kObj: return ExportObj(rig, blended, warnings, options.mesh_space);
     case MeshFormat::kF32: return ExportF32(blended, options.mesh_space);
     case MeshFormat::kGlb: return ExportGlb(rig, blended, weights, warnings, options);
+    case MeshFormat::kVrm: return ExportVrm(rig, blended, weights, warnings);
   }
   return InvalidArgument("unknown format");
 }

@@ -422,7 +422,7 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       gs.inverseBindMatrices = b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
       m.skins.push_back(gs);
     }
-    for (size_t ci = 0; ci < rig.animations.size(); ++ci) {
+    for (size_t ci = 0; options.clips && ci < rig.animations.size(); ++ci) {
       // MMD's grants and IK have no glTF form: solved into the clips.
       const AnimationInfo solved = ClipWithConstraintsSolved(rig, static_cast<int>(ci), 30.0f);
       const AnimationInfo& clip = solved;

@@ -25,7 +25,8 @@ constexpr EnumName<MeshFormat> kMeshFormats[] = {
     {MeshFormat::kGlb, "glb", nullptr, "model/gltf-binary", "glb"},
     {MeshFormat::kObj, "obj", nullptr, "model/obj", "obj"},
     {MeshFormat::kJson, "json", nullptr, "application/json", "json"},
-    {MeshFormat::kF32, "f32", nullptr, "application/octet-stream", "f32"}};
+    {MeshFormat::kF32, "f32", nullptr, "application/octet-stream", "f32"},
+    {MeshFormat::kVrm, "vrm", nullptr, "model/gltf-binary", "vrm"}};
 }  // namespace
 
 bool ParseMeshFormat(const std::string& name, MeshFormat* format) { return ParseEnum(kMeshFormats, name, format); }

@@ -30,6 +30,9 @@ bool ListHas(const nlohmann::json& j, const char* key, const std::string& value)
 Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
                 std::span<const unsigned char>& bin);
 
+// A GLB of a JSON text and a binary chunk (none when empty), each padded to 4 bytes.
+std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin);
+
 // Rewrites a GLB that uses EXT_meshopt_compression into a plain one (meshopt.cpp): decoded views are
 // appended to the binary chunk and the fallback buffers are removed. Other files are returned unchanged
 // (out empty).

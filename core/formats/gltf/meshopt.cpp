@@ -123,6 +123,8 @@ void ListRemove(json& j, const char* key, const std::string& value) {
   }
 }
 
+}  // namespace
+
 std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin) {
   std::string j = json_text;
   while (j.size() % 4) j.push_back(' ');
@@ -149,8 +151,6 @@ std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const
   }
   return out;
 }
-
-}  // namespace
 
 // Rewrites a GLB that uses EXT_meshopt_compression into a plain one: decoded views are
 // appended to the binary chunk and the fallback buffers are removed. Other files are

@@ -380,6 +380,7 @@ struct AnimationInfo {
 struct Rig {
   std::string name;
   std::string credit;                  // The attribution its license asks for (manifest "credit"); shown and exported.
+  std::string license_url;             // Its licence (manifest "license_url"): a VRM's meta needs one.
   // Where an editor starts and resets (manifest "start"): the neutral face (every weight 0, the
   // default) or the shapes' default weights (a glTF mesh's `weights`, FaceCap's capture frame).
   bool start_at_defaults = false;

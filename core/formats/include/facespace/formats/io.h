@@ -137,9 +137,10 @@ Status ApplyManifest(Rig& rig, const std::string& json_text);
 std::string ExpressionsJson(const Rig& rig);
 std::string GazeJson(const Rig& rig);
 
-enum class MeshFormat { kGlb, kObj, kJson, kF32 };
+// kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp).
+enum class MeshFormat { kGlb, kObj, kJson, kF32, kVrm };
 
-// "glb", "obj", "json", "f32" -> format; false when unknown.
+// "glb", "obj", "json", "f32", "vrm" -> format; false when unknown.
 bool ParseMeshFormat(const std::string& name, MeshFormat* format);
 const char* MeshFormatName(MeshFormat format);
 const char* MeshFormatMimeType(MeshFormat format);
@@ -148,6 +149,7 @@ struct ExportOptions {
   // glb only: write the rig itself (base shape and sparse targets) with the weights as the
   // mesh's default `weights`, instead of the blended mesh, for clients that morph on the GPU.
   bool keep_targets = false;
+  bool clips = true;  // With keep_targets: the rig's clips too (a VRM leaves them out: apps bring their motions).
   // Extra key/values for glb's asset.extras (e.g. {"warnings": [...]}) as JSON text; "" none.
   std::string asset_extras_json;
   // JSON, OBJ and f32: positions and normals as each mesh stores them (before its node's
