@@ -307,7 +307,7 @@ int Blend(const std::vector<std::string>& args) {
   std::string out_path, format_name;
   bool weights_given = false;
   api::MeshRequest request;
-  Flags flags("usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format glb|obj|json|f32] -o OUT\n",
+  Flags flags("usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format glb|obj|json|f32|vrm] -o OUT\n",
               "The blended mesh. The format comes from OUT's extension or --format; -o - writes to stdout.\n"
               "RIG is any rig we read, told by its bytes: glTF 2.0 (.glb, .gltf), FBX (.fbx, binary or ASCII),\n"
               "COLLADA (.dae), Doom 3 MD5 (.md5mesh, with the .md5anim files beside it), MikuMikuDance (.pmx,\n"
@@ -322,7 +322,7 @@ int Blend(const std::vector<std::string>& args) {
     request.mesh_space = v == "mesh";
     return 0;
   });
-  flags.Text("--format", "glb|obj|json|f32", "output format (default: from OUT's extension)", &format_name);
+  flags.Text("--format", "glb|obj|json|f32|vrm", "output format (default: from OUT's extension; vrm: a VRM 1.0 avatar of a humanoid rig)", &format_name);
   flags.Text("-o, --output", "OUT", "output file, or - for stdout", &out_path);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   if (paths.empty() || out_path.empty()) return flags.UsageError(paths.empty() ? "no rig given" : "no output given (-o OUT or -o -)");

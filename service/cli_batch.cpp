@@ -171,7 +171,7 @@ int Batch(const std::vector<std::string>& args) {
   bool quiet = false;
   Flags flags(
       "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
-      "         --out DIR [--format glb|obj|json|f32|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N|auto [--shards N]]\n"
+      "         --out DIR [--format glb|obj|json|f32|vrm|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N|auto [--shards N]]\n"
       "         [sampling, pose, render flags]\n"
       "       facespace batch merge DIR\n",
       "One file per variant in DIR, manifest.jsonl, batch.json and sheet.png (the first 16 variants); rerun the\n"
@@ -271,6 +271,8 @@ int Batch(const std::vector<std::string>& args) {
     flags.Value(std::string("--") + key, "VALUE", std::string("as the mesh and render routes' \"") + key + "\"", as_text(request, key));
   }
   flags.Value("--pose", "JSON|@FILE", "the pose of every variant", json_value(request, "pose"));
+  flags.Value("--expressions", "JSON|@FILE", "expressions by name on every variant: {\"happy\": 0.5}", json_value(request, "expressions"));
+  flags.Value("--gaze", "JSON|@FILE", "where every variant looks: {\"yaw\": 10, \"pitch\": 0} or {\"target\": [x, y, z]}", json_value(request, "gaze"));
   flags.Value("--blend", "JSON|@FILE", "clips blended, for every variant", json_value(request, "blend"));
   flags.Value("--animation", "NAME|INDEX", "a clip, sampled at --time", [&request](const std::string& v) {
     long long n = 0;

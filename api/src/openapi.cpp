@@ -127,7 +127,7 @@ json QueryParam(std::string_view name, bool render) {
   const json number = {{"type", "number"}}, boolean = {{"type", "boolean"}};
   if (name == "format") {
     return render ? param({{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}, {"default", "png"}})
-                  : param({{"enum", {"glb", "obj", "json", "f32"}}, {"default", "glb"}});
+                  : param({{"enum", {"glb", "obj", "json", "f32", "vrm"}}, {"default", "glb"}});
   }
   if (name == "space") {
     return param({{"enum", {"world", "mesh"}}, {"default", "world"}},
@@ -259,7 +259,7 @@ json Build() {
                          {"controls", controls_schema},
                          {"mode", {{"enum", {"relative", "absolute"}}, {"default", "relative"}}},
                          {"normals", {{"enum", {"blend", "recompute"}}, {"default", "blend"}}},
-                         {"format", {{"enum", {"glb", "obj", "json", "f32"}}}},
+                         {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm"}}}},
                          {"space", {{"enum", {"world", "mesh"}}, {"default", "world"}}},
                          {"strict", {{"type", "boolean"}, {"default", false}}},
                          {"keep_targets", {{"type", "boolean"}, {"default", false}}}}}};
@@ -395,7 +395,7 @@ json Build() {
                       "render settings (width, height, view, camera, background, supersample, quality) for image formats."},
       {"properties", {{"variants", {{"type", "array"}, {"items", variant_item}}},
                       {"sample", sample},
-                      {"format", {{"enum", {"glb", "obj", "json", "f32", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
+                      {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
   const json number = {{"type", "number"}}, integer = {{"type", "integer"}}, string = {{"type", "string"}}, boolean = {{"type", "boolean"}};
   const json vec3 = {{"type", "array"}, {"items", number}, {"minItems", 3}, {"maxItems", 3}};
   const json box = {{"type", "object"}, {"properties", {{"min", vec3}, {"max", vec3}}}};

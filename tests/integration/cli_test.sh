@@ -519,6 +519,10 @@ check "the bundled MakeHuman loads without warnings, as its CREDITS say" sh -c "
 "$bin" blend "$src/assets/facecap/facecap.glb" --expression happy=1 --gaze 15,0 --format json -o "$tmp/face_a.json" -q
 "$bin" blend "$src/assets/facecap/facecap.glb" --weights '{"mouthSmile_L":1,"mouthSmile_R":1,"cheekSquint_L":0.5,"cheekSquint_R":0.5,"eyeSquint_L":0.4,"eyeSquint_R":0.4,"eyeLookOut_L":0.5,"eyeLookIn_R":0.5}' --format json -o "$tmp/face_b.json" -q
 check "blend --expression happy=1 --gaze 15,0: the same mesh as happy's weights and eyeLookOut_L, eyeLookIn_R at 15/30" cmp -s "$tmp/face_a.json" "$tmp/face_b.json"
+"$bin" batch "$src/assets/facecap/facecap.glb" --sample uniform --count 2 --shapes jawOpen --expressions '{"happy":1}' --gaze '{"yaw":15,"pitch":0}' --format f32 --out "$tmp/face_batch" -q
+check "batch --expressions --gaze: every variant has happy's weights and the gaze's on top of its sampled jawOpen" py 'import json,sys
+v=[json.loads(l)["weights"] for l in open(sys.argv[1])]
+sys.exit(not(len(v)==2 and all(w["mouthSmile_L"]==1 and w["eyeSquint_R"]==0.4 and w["eyeLookOut_L"]==0.5 and 0<w.get("jawOpen",0)<=1 for w in v)))' "$tmp/face_batch/manifest.jsonl"
 err_case "blend --expression with a typo: an error naming the closest expression" "did you mean 'happy'" blend "$src/assets/facecap/facecap.glb" --expression hapy=1 -o "$tmp/x.json"
 "$bin" sequence "$src/assets/facecap/facecap.glb" --keys '[{"time":0},{"time":60}]' --blink 15 --fps 50 --format weights -q -o "$tmp/blinks.json"
 check "sequence --blink 15: 12 to 18 closings of both eyes in 60 s, each over within half a second" py 'import json,sys

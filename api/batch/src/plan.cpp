@@ -30,11 +30,24 @@ Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned, std
     }
     plan.total = plan.weights.size();
   }
-  std::vector<float> unused;
-  if (Status s = ResolvePoseAndWeights(rig, {}, plan.request.render.mesh.pose, unused, plan.pose, plan.posed, plan.pose_warnings);
+  // The face's part of the weights: with it less without it (a clip's weight channels stay out, as ever).
+  if (plan.request.render.mesh.pose.has_face()) {
+    PoseRequest bare = plan.request.render.mesh.pose;
+    bare.expressions.clear();
+    bare.gaze.reset();
+    std::vector<float> without;
+    Pose unused_pose;
+    bool unused_posed = false;
+    std::vector<Warning> unused_warnings;
+    if (Status s = ResolvePoseAndWeights(rig, {}, bare, without, unused_pose, unused_posed, unused_warnings); !s.ok()) return s;
+    plan.face_weights = std::move(without);
+  }
+  std::vector<float> with;
+  if (Status s = ResolvePoseAndWeights(rig, {}, plan.request.render.mesh.pose, with, plan.pose, plan.posed, plan.pose_warnings);
       !s.ok()) {
     return s;
   }
+  for (size_t k = 0; k < plan.face_weights.size(); ++k) plan.face_weights[k] = with[k] - plan.face_weights[k];
   json spec = {{"request", json::parse(request_json, nullptr, false)}, {"rig", rig.name}, {"rig_version", rig_version}};
   plan.spec_json = spec.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
   const api::BatchRequest& r = plan.request;
@@ -57,6 +70,7 @@ void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point
   point.weights.resize(rig.shapes.size());
   if (plan.request.sampled) SampleVariant(rig, plan.sample, index, point.weights);
   else std::copy(plan.weights[index].begin(), plan.weights[index].end(), point.weights.begin());
+  for (size_t s = 0; s < plan.face_weights.size() && s < point.weights.size(); ++s) point.weights[s] += plan.face_weights[s];
   point.pose = plan.pose;  // Same sizes every time: no allocation once warm.
   point.posed = plan.posed;
   api::CheckPoint(rig, plan.request.render.mesh.options.mode, point);

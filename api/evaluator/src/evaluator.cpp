@@ -183,7 +183,9 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       options.keep_targets = spec.keep_targets;
       options.mesh_space = spec.mesh_space;
       auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, spec.mesh_format, options);
-      if (!bytes.ok()) return Prefixed(bytes.status(), "the export failed: ");
+      if (!bytes.ok()) {  // The request's fault (a VRM of a rig without a humanoid) as it is; else ours.
+        return bytes.status().code == StatusCode::kInvalidArgument ? bytes.status() : Prefixed(bytes.status(), "the export failed: ");
+      }
       Lap(start, ws.timing.encode);
       return Whole(std::move(bytes.value()));
     }

@@ -143,7 +143,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
         r.image = true;
         r.format = render::ImageFormatExtension(imf);
       } else {
-        errors.fields.push_back({"/format", "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
+        errors.fields.push_back({"/format", "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"vrm\", \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
       }
     } else if (key == "space") {
       MeshMember(key, v, r.render.mesh, true, errors);

@@ -330,7 +330,7 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
   } else if (key == "format" && mesh_format) {
     MeshFormat f;
     if (!v.is_string() || !ParseMeshFormat(v.get<std::string>(), &f)) {
-      errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\""});
+      errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"vrm\""});
     } else {
       r.format = f;
     }

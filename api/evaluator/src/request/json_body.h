@@ -29,7 +29,7 @@ inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weight
                                                      "width", "height", "view", "background", "supersample", "quality", "camera", "exposure"};
 inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "layers", "transition", "smooth", "gaze", "blink", "physics",
                                                         "format", "tolerance", "mode", "normals"};
-inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "mode", "normals", "skinning", "lod",
+inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod",
                                                      "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop", "width",
                                                      "height", "view", "background", "supersample", "quality", "camera", "exposure"};
 // What one body may hold, sized to its route: a limit on the values parsed (every number, string,

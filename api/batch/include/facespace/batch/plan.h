@@ -27,6 +27,8 @@ struct BatchPlan {
   Pose pose;                                // The request's pose, shared by every variant.
   bool posed = false;
   std::vector<Warning> pose_warnings;
+  // What the request's expressions (and a gaze through eye shapes) add to every variant's weights.
+  std::vector<float> face_weights;
   api::OutputSpec output;                   // Every variant's file (a mesh in pieces, or a render).
 };
 
