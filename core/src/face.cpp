@@ -164,6 +164,12 @@ void TurnNode(const Rig& rig, int node, const Eigen::Quaternionf& turn, const st
   pose.from_matrix[node] = 0;
 }
 
+// Where the face looks at rest: +z, or -z (a VRM 0.x), as a turn of +z.
+Eigen::Quaternionf Facing(const Rig& rig) {
+  return rig.gaze.faces_minus_z ? Eigen::Quaternionf(Eigen::AngleAxisf(static_cast<float>(M_PI), Eigen::Vector3f::UnitY()))
+                                : Eigen::Quaternionf::Identity();
+}
+
 // The head's turn from its rest (world), or none.
 Eigen::Quaternionf HeadTurn(const Rig& rig, const std::vector<std::array<float, 16>>& world, const std::vector<std::array<float, 16>>& rest) {
   const int h = rig.gaze.head;
@@ -357,7 +363,7 @@ void GazeAngles(const Rig& rig, const Gaze& gaze, const std::vector<std::array<f
     const Eigen::Quaternionf turn = HeadTurn(rig, world, rest);
     origin = turn * (origin - PositionOf(rest[g.head])) + PositionOf(world[g.head]);
   }
-  const Eigen::Vector3f d = HeadTurn(rig, world, rest).conjugate() * (Eigen::Vector3f(gaze.target[0], gaze.target[1], gaze.target[2]) - origin);
+  const Eigen::Vector3f d = (HeadTurn(rig, world, rest) * Facing(rig)).conjugate() * (Eigen::Vector3f(gaze.target[0], gaze.target[1], gaze.target[2]) - origin);
   constexpr float kDeg = static_cast<float>(180.0 / M_PI);
   *yaw = std::atan2(d.x(), d.z()) * kDeg;
   *pitch = std::atan2(d.y(), std::hypot(d.x(), d.z())) * kDeg;
@@ -399,7 +405,7 @@ void ApplyGaze(const Rig& rig, const Gaze& gaze, float look_at, std::span<float>
   bool turned = false;
   for (const auto& [node, part] : {std::pair{g.neck, g.neck_share}, std::pair{g.head, g.head_share}}) {
     if (node < 0 || part == 0.0f) continue;
-    TurnNode(rig, node, Turn(HeadTurn(rig, world, rest), yaw * part, pitch * part), world, pose);
+    TurnNode(rig, node, Turn(HeadTurn(rig, world, rest) * Facing(rig), yaw * part, pitch * part), world, pose);
     world = WorldMatrices(rig, pose);
     share += part;
     turned = true;
@@ -407,7 +413,7 @@ void ApplyGaze(const Rig& rig, const Gaze& gaze, float look_at, std::span<float>
   yaw *= 1.0f - share;
   pitch *= 1.0f - share;
   if (g.kind == GazeSetup::Kind::kBones) {
-    const Eigen::Quaternionf frame = HeadTurn(rig, world, rest);
+    const Eigen::Quaternionf frame = HeadTurn(rig, world, rest) * Facing(rig);
     for (int eye = 0; eye < 2; ++eye) {
       TurnNode(rig, g.eyes[eye], Turn(frame, Horizontal(g, eye, yaw), Vertical(g, pitch)), world, pose);
     }

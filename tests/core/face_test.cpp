@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <map>
 #include <numeric>
 
 #include "facespace/core/blend.h"
@@ -274,6 +276,104 @@ TEST(Face, SequencesBlinkAndFollowTheirGazeTrack) {
   EXPECT_FLOAT_EQ(weights[ShapeOf(rig, "eyeBlink_R")], 1.0f);
   EXPECT_NEAR(weights[ShapeOf(rig, "eyeLookOut_L")], std::min(1.0f, (30.0f - 6.0f * t) / 30.0f), 1e-4f);
   EXPECT_TRUE(warnings.empty());
+}
+
+}  // namespace
+}  // namespace facespace
+
+namespace facespace {
+namespace {
+
+std::pair<nlohmann::json, std::string> SplitGlbForTest(const std::string& glb) {
+  uint32_t json_len = 0;
+  std::memcpy(&json_len, glb.data() + 12, 4);
+  const std::string bin = glb.substr(20 + json_len + 8);
+  return {nlohmann::json::parse(glb.substr(20, json_len)), bin};
+}
+
+std::string JoinGlbForTest(const nlohmann::json& j, const std::string& bin) {
+  std::string text = j.dump();
+  while (text.size() % 4) text += ' ';
+  std::string out(12, '\0');
+  auto u32 = [](std::string& s, uint32_t v) { s.append(reinterpret_cast<const char*>(&v), 4); };
+  u32(out, static_cast<uint32_t>(text.size()));
+  out.resize(12);
+  std::string body;
+  u32(body, static_cast<uint32_t>(text.size()));
+  u32(body, 0x4E4F534Au);
+  body += text;
+  u32(body, static_cast<uint32_t>(bin.size()));
+  u32(body, 0x004E4942u);
+  body += bin;
+  std::string head;
+  u32(head, 0x46546C67u);
+  u32(head, 2);
+  u32(head, static_cast<uint32_t>(12 + body.size()));
+  return head + body;
+}
+
+// VRM in: Uka's VRM 1.0 read back has her expressions and eye bones; the same file rewritten as VRM 0.x
+// (blendShapeMaster, weights 0-100, preset names joy/sorrow/a/blink_l, firstPerson) reads as the same.
+TEST(Face, VrmExpressionsAndLookAtAreReadBack) {
+  const Rig& uka = Uka();
+  BlendedRig blended;
+  BlendContext context;
+  const std::vector<float> zero(uka.shapes.size(), 0.0f);
+  ASSERT_TRUE(EvaluateRig(uka, zero, {}, blended, context).ok());
+  auto vrm = ExportMesh(uka, blended, zero, {}, MeshFormat::kVrm);
+  ASSERT_TRUE(vrm.ok()) << vrm.status().message;
+  auto check = [&](const Rig& back, const char* what) {
+    for (const char* name : {"happy", "sad", "aa", "blinkLeft", "surprised"}) {
+      const int a = FindExpression(uka, name), b = FindExpression(back, name);
+      ASSERT_GE(b, 0) << what << " " << name;
+      ASSERT_EQ(back.expressions[b].binds.size(), uka.expressions[a].binds.size()) << what << " " << name;
+      for (size_t k = 0; k < back.expressions[b].binds.size(); ++k) {
+        EXPECT_EQ(back.shapes[back.expressions[b].binds[k].first].name, uka.shapes[uka.expressions[a].binds[k].first].name) << what;
+        EXPECT_NEAR(back.expressions[b].binds[k].second, uka.expressions[a].binds[k].second, 1e-6f) << what;
+      }
+      EXPECT_FALSE(back.expressions[b].derived);
+    }
+    EXPECT_EQ(back.gaze.kind, GazeSetup::Kind::kBones) << what;
+    EXPECT_EQ(back.nodes[back.gaze.eyes[0]].name, "左目") << what;
+    EXPECT_EQ(back.license_url, "https://creativecommons.org/licenses/by/4.0/") << what;
+  };
+  const std::span<const unsigned char> bytes(reinterpret_cast<const unsigned char*>(vrm->data()), vrm->size());
+  auto one = LoadRigMemory(bytes, RigFormat::kGltf, "uka_vrm1");
+  ASSERT_TRUE(one.ok()) << one.status().message;
+  check(one.value(), "VRM 1.0");
+  EXPECT_EQ(one->expressions[FindExpression(one.value(), "happy")].blink, ExpressionOverride::kBlock);
+  EXPECT_FALSE(one->gaze.faces_minus_z);
+  // The same as VRM 0.x.
+  auto [j, bin] = SplitGlbForTest(vrm.value());
+  const nlohmann::json v1 = j["extensions"]["VRMC_vrm"];
+  nlohmann::json groups = nlohmann::json::array();
+  const std::map<std::string, std::string> preset0 = {{"happy", "joy"}, {"sad", "sorrow"}, {"relaxed", "fun"}, {"aa", "a"}, {"ih", "i"},
+                                                       {"ou", "u"}, {"ee", "e"}, {"oh", "o"}, {"blinkLeft", "blink_l"}, {"blinkRight", "blink_r"}};
+  for (auto it = v1["expressions"]["preset"].begin(); it != v1["expressions"]["preset"].end(); ++it) {
+    nlohmann::json binds = nlohmann::json::array();
+    for (const auto& b : it.value()["morphTargetBinds"]) {
+      binds.push_back({{"mesh", j["nodes"][b["node"].get<int>()]["mesh"]}, {"index", b["index"]}, {"weight", b["weight"].get<double>() * 100}});
+    }
+    const std::string name = it.key();
+    groups.push_back({{"name", name}, {"presetName", preset0.count(name) ? preset0.at(name) : name}, {"binds", binds}});
+  }
+  nlohmann::json bones = nlohmann::json::array();
+  for (auto it = v1["humanoid"]["humanBones"].begin(); it != v1["humanoid"]["humanBones"].end(); ++it) bones.push_back({{"bone", it.key()}, {"node", it.value()["node"]}});
+  j["extensions"].erase("VRMC_vrm");
+  j["extensionsUsed"] = nlohmann::json::array({"VRM"});
+  j["extensions"]["VRM"] = {{"meta", {{"title", "Uka 0.x"}, {"author", "test"}, {"otherLicenseUrl", "https://creativecommons.org/licenses/by/4.0/"}}},
+                            {"humanoid", {{"humanBones", bones}}},
+                            {"blendShapeMaster", {{"blendShapeGroups", groups}}},
+                            {"firstPerson", {{"lookAtTypeName", "Bone"}, {"firstPersonBone", v1["humanoid"]["humanBones"]["head"]["node"]},
+                                             {"lookAtHorizontalOuter", {{"xRange", 60}, {"yRange", 10}}}}}};
+  const std::string v0 = JoinGlbForTest(j, bin);
+  auto zero_x = LoadRigMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(v0.data()), v0.size()), RigFormat::kGltf, "uka_vrm0");
+  ASSERT_TRUE(zero_x.ok()) << zero_x.status().message;
+  check(zero_x.value(), "VRM 0.x");
+  EXPECT_EQ(zero_x->name, "uka_vrm0");  // The id names a rig loaded from memory; the file's title does not.
+  EXPECT_TRUE(zero_x->gaze.faces_minus_z);
+  EXPECT_FLOAT_EQ(zero_x->gaze.horizontal_outer.input_max, 60.0f);
+  EXPECT_FLOAT_EQ(zero_x->gaze.horizontal_outer.output_scale, 10.0f);
 }
 
 }  // namespace

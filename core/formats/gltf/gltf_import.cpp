@@ -682,6 +682,7 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
     start = end + 1;
   }
   if (Status s = ConvertModel(model, rig); !s.ok()) return s;
+  ApplyVrm(model, rig);
   return rig;
 }
 

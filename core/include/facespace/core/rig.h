@@ -210,6 +210,7 @@ struct GazeSetup {
   float head_share = 0.0f, neck_share = 0.0f;      // Of the gaze's angles, turned by the head and neck.
   RangeMap horizontal_inner, horizontal_outer, vertical_down, vertical_up;
   std::array<float, 3> origin{0, 0, 0};            // Between the eyes at rest (world), for targets.
+  bool faces_minus_z = false;                      // The face looks along -z at rest (VRM 0.x), not glTF's +z.
   bool from_manifest = false;
 };
 
