@@ -278,6 +278,37 @@ TEST(Face, SequencesBlinkAndFollowTheirGazeTrack) {
   EXPECT_TRUE(warnings.empty());
 }
 
+// A gaze track of targets: the eyes follow a point moving from the character's left to her right,
+// 1 m in front of her eyes: eyeLookOut_L falls as the point passes, eyeLookOut_R rises, each frame's
+// weights those of the point's own angle.
+TEST(Face, AGazeTrackFollowsAMovingPoint) {
+  const Rig& rig = FaceCap();
+  const auto& o = rig.gaze.origin;
+  Sequence s;
+  s.keys.push_back({0.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt, {}});
+  s.keys.push_back({4.0f, std::vector<float>(rig.shapes.size(), 0.0f), std::nullopt, {}});
+  s.gaze = {{0.0f, Gaze{true, {o[0] + 0.4f, o[1], o[2] + 1.0f}}}, {4.0f, Gaze{true, {o[0] - 0.4f, o[1], o[2] + 1.0f}}}};
+  float last_out_l = 2.0f;
+  for (float t = 0.0f; t <= 4.0f; t += 0.5f) {
+    FaceState face;
+    ASSERT_TRUE(SampleFace(s, t, face));
+    std::vector<float> weights(rig.shapes.size(), 0.0f);
+    Pose pose;
+    bool posed = false;
+    std::vector<Warning> warnings;
+    ApplyFace(rig, face, weights, pose, posed, warnings);
+    const float x = 0.4f - 0.2f * t;  // The point's offset to her left.
+    const float degrees = std::atan2(x, 1.0f) * static_cast<float>(180.0 / M_PI);
+    const float expected = std::min(std::fabs(degrees) / 30.0f, 1.0f);
+    EXPECT_NEAR(weights[ShapeOf(rig, x >= 0 ? "eyeLookOut_L" : "eyeLookOut_R")], expected, 1e-4f) << t;
+    EXPECT_NEAR(weights[ShapeOf(rig, x >= 0 ? "eyeLookIn_R" : "eyeLookIn_L")], expected, 1e-4f) << t;
+    if (x >= 0) {
+      EXPECT_LT(weights[ShapeOf(rig, "eyeLookOut_L")], last_out_l) << t;
+      last_out_l = weights[ShapeOf(rig, "eyeLookOut_L")];
+    }
+  }
+}
+
 }  // namespace
 }  // namespace facespace
 
