@@ -590,18 +590,14 @@ namespace {
 // A float as the shortest decimal that reads back as it (0.4, not 0.4000000059604645).
 double Num(float x) { return std::stod(FormatNumber(x)); }
 
-const char* OverrideName(ExpressionOverride o) {
-  return o == ExpressionOverride::kBlock ? "block" : o == ExpressionOverride::kBlend ? "blend" : "none";
-}
-
 nlohmann::ordered_json ExpressionsObject(const Rig& rig, bool derived_too) {
   nlohmann::ordered_json out = nlohmann::ordered_json::object();
   for (const Expression& e : rig.expressions) {
     if (e.derived && !derived_too) continue;
     nlohmann::ordered_json weights = nlohmann::ordered_json::object();
     for (const auto& [s, w] : e.binds) weights[rig.shapes[s].name] = Num(w);
-    nlohmann::ordered_json o = {{"weights", weights}, {"binary", e.binary}, {"override_blink", OverrideName(e.blink)},
-                                {"override_look_at", OverrideName(e.look_at)}, {"override_mouth", OverrideName(e.mouth)}};
+    nlohmann::ordered_json o = {{"weights", weights}, {"binary", e.binary}, {"override_blink", ExpressionOverrideName(e.blink)},
+                                {"override_look_at", ExpressionOverrideName(e.look_at)}, {"override_mouth", ExpressionOverrideName(e.mouth)}};
     if (derived_too) o["derived"] = e.derived;
     out[e.name] = o;
   }

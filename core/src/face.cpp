@@ -16,6 +16,21 @@ bool IsExpressionPreset(std::string_view name) {
   return std::find(std::begin(kExpressionPresets), std::end(kExpressionPresets), name) != std::end(kExpressionPresets);
 }
 
+int FirstNodeOf(const Rig& rig, std::string_view candidates) {
+  size_t from = 0;
+  while (from <= candidates.size()) {
+    const size_t bar = std::min(candidates.find('|', from), candidates.size());
+    const int n = FindNode(rig, std::string(candidates.substr(from, bar - from)));
+    if (n >= 0) return n;
+    from = bar + 1;
+  }
+  return -1;
+}
+
+const char* ExpressionOverrideName(ExpressionOverride o) {
+  return o == ExpressionOverride::kBlock ? "block" : o == ExpressionOverride::kBlend ? "blend" : "none";
+}
+
 int FindExpression(const Rig& rig, std::string_view name) {
   for (size_t i = 0; i < rig.expressions.size(); ++i) {
     if (rig.expressions[i].name == name) return static_cast<int>(i);
@@ -34,17 +49,6 @@ int FirstShape(const Rig& rig, std::string_view candidates) {
     const size_t bar = std::min(candidates.find('|', from), candidates.size());
     const int s = FindShape(rig, std::string(candidates.substr(from, bar - from)));
     if (s >= 0) return s;
-    from = bar + 1;
-  }
-  return -1;
-}
-
-int FirstNode(const Rig& rig, std::string_view candidates) {
-  size_t from = 0;
-  while (from <= candidates.size()) {
-    const size_t bar = std::min(candidates.find('|', from), candidates.size());
-    const int n = FindNode(rig, std::string(candidates.substr(from, bar - from)));
-    if (n >= 0) return n;
     from = bar + 1;
   }
   return -1;
@@ -181,11 +185,11 @@ Eigen::Quaternionf HeadTurn(const Rig& rig, const std::vector<std::array<float, 
 
 void DeriveGaze(Rig& rig) {
   GazeSetup& g = rig.gaze;
-  if (g.head < 0) g.head = FirstNode(rig, "頭|head|Head|J_Bip_C_Head|mixamorig:Head|DEF-head");
-  if (g.neck < 0) g.neck = FirstNode(rig, "首|neck|Neck|J_Bip_C_Neck|mixamorig:Neck|DEF-neck");
+  if (g.head < 0) g.head = FirstNodeOf(rig, "頭|head|Head|J_Bip_C_Head|mixamorig:Head|DEF-head");
+  if (g.neck < 0) g.neck = FirstNodeOf(rig, "首|neck|Neck|J_Bip_C_Neck|mixamorig:Neck|DEF-neck");
   if (g.kind == GazeSetup::Kind::kNone) {
-    const int left = FirstNode(rig, "左目|leftEye|LeftEye|J_Adj_L_FaceEye|eye.L|Eye_L|mixamorig:LeftEye");
-    const int right = FirstNode(rig, "右目|rightEye|RightEye|J_Adj_R_FaceEye|eye.R|Eye_R|mixamorig:RightEye");
+    const int left = FirstNodeOf(rig, "左目|leftEye|LeftEye|J_Adj_L_FaceEye|eye.L|Eye_L|mixamorig:LeftEye");
+    const int right = FirstNodeOf(rig, "右目|rightEye|RightEye|J_Adj_R_FaceEye|eye.R|Eye_R|mixamorig:RightEye");
     if (left >= 0 && right >= 0) {
       g.kind = GazeSetup::Kind::kBones;
       g.eyes = {left, right};

@@ -69,17 +69,6 @@ std::string Mirrored(std::string s) {
   return s;
 }
 
-int FirstNodeOf(const Rig& rig, const std::string& candidates) {
-  size_t from = 0;
-  while (from <= candidates.size()) {
-    const size_t bar = std::min(candidates.find('|', from), candidates.size());
-    const int n = FindNode(rig, candidates.substr(from, bar - from));
-    if (n >= 0) return n;
-    from = bar + 1;
-  }
-  return -1;
-}
-
 // The humanoid's bones, or what is missing.
 Status HumanBones(const Rig& rig, ordered_json& out) {
   std::vector<std::string> missing;
@@ -107,10 +96,6 @@ Status HumanBones(const Rig& rig, ordered_json& out) {
 }
 
 double Num(float x) { return std::stod(FormatNumber(x)); }
-
-const char* OverrideName(ExpressionOverride o) {
-  return o == ExpressionOverride::kBlock ? "block" : o == ExpressionOverride::kBlend ? "blend" : "none";
-}
 
 // An expression's shapes as VRM's morph target binds: each target of each mesh that carries the shape,
 // on the first node showing that mesh.
@@ -189,8 +174,8 @@ Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::sp
   }
   ordered_json preset = ordered_json::object(), custom = ordered_json::object();
   for (const Expression& e : rig.expressions) {
-    ordered_json x = {{"morphTargetBinds", MorphTargetBinds(rig, e)}, {"isBinary", e.binary}, {"overrideBlink", OverrideName(e.blink)},
-                      {"overrideLookAt", OverrideName(e.look_at)}, {"overrideMouth", OverrideName(e.mouth)}};
+    ordered_json x = {{"morphTargetBinds", MorphTargetBinds(rig, e)}, {"isBinary", e.binary}, {"overrideBlink", ExpressionOverrideName(e.blink)},
+                      {"overrideLookAt", ExpressionOverrideName(e.look_at)}, {"overrideMouth", ExpressionOverrideName(e.mouth)}};
     (IsExpressionPreset(e.name) ? preset : custom)[e.name] = std::move(x);
   }
   ordered_json vrm = {{"specVersion", "1.0"}, {"meta", meta}, {"humanoid", {{"humanBones", humanoid}}}};

@@ -27,6 +27,12 @@ inline constexpr std::string_view kExpressionPresets[] = {
     "blink", "blinkLeft", "blinkRight", "lookUp", "lookDown", "lookLeft", "lookRight", "neutral"};
 bool IsExpressionPreset(std::string_view name);
 
+// The first node of `candidates` ("a|b|c") the rig has, or -1: bones by their names in several conventions.
+int FirstNodeOf(const Rig& rig, std::string_view candidates);
+
+// "none", "block", "blend": VRM's and the manifest's word for an override.
+const char* ExpressionOverrideName(ExpressionOverride o);
+
 // Index of the rig's expression called `name`, or -1.
 int FindExpression(const Rig& rig, std::string_view name);
 
