@@ -53,7 +53,7 @@ Status FaceMembers(const std::string& gaze, const std::string& blink, nlohmann::
   }
   if (!blink.empty()) {
     std::vector<double> n;
-    if (!numbers(blink, n) || n.empty() || n.size() > 2 || (n.size() == 2 && (n[1] < 0 || n[1] != std::floor(n[1])))) {
+    if (!numbers(blink, n) || n.empty() || n.size() > 2 || (n.size() == 2 && (n[1] < 0 || n[1] > 9007199254740992.0 || n[1] != std::floor(n[1])))) {
       return InvalidArgument("--blink: want PER_MINUTE or PER_MINUTE,SEED (a whole number)");
     }
     body["blink"] = {{"per_minute", n[0]}};
