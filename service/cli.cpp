@@ -217,37 +217,28 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
                 weights_given = true;
                 return weights(value);
               });
-  flags.Value("--set", "NAME=W", "one weight, by shape name, alias or index (repeatable)", [&r](const std::string& v) {
-    const size_t eq = v.rfind('=');
-    if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: --set takes NAME=W, got '%s'\n", v.c_str()), 2;
-    WeightEntry e;
-    e.name = v.substr(0, eq);
-    e.pointer = "--set " + e.name;
-    const std::string num = v.substr(eq + 1);
-    auto res = std::from_chars(num.data(), num.data() + num.size(), e.value);
-    if (res.ec != std::errc() || res.ptr != num.data() + num.size()) {
-      return std::fprintf(stderr, "error: --set %s: '%s' is not a number\n", e.name.c_str(), num.c_str()), 1;
-    }
-    r.weights.push_back(e);
-    return 0;
-  });
+  // NAME=VALUE, repeatable, into `into` (a shape's weight, an expression's value); `metavar` names it in errors.
+  auto name_value = [](const std::string& flag, const std::string& metavar, std::vector<WeightEntry>& into) {
+    return [flag, metavar, &into](const std::string& v) {
+      const size_t eq = v.rfind('=');
+      if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: %s takes %s, got '%s'\n", flag.c_str(), metavar.c_str(), v.c_str()), 2;
+      WeightEntry e;
+      e.name = v.substr(0, eq);
+      e.pointer = flag + " " + e.name;
+      const std::string num = v.substr(eq + 1);
+      auto res = std::from_chars(num.data(), num.data() + num.size(), e.value);
+      if (res.ec != std::errc() || res.ptr != num.data() + num.size()) {
+        return std::fprintf(stderr, "error: %s %s: '%s' is not a number\n", flag.c_str(), e.name.c_str(), num.c_str()), 1;
+      }
+      into.push_back(e);
+      return 0;
+    };
+  };
+  flags.Value("--set", "NAME=W", "one weight, by shape name, alias or index (repeatable)", name_value("--set", "NAME=W", r.weights));
   flags.Value("--controls", "JSON|@FILE", "control values, {\"nose/nose-trans-down|up\": -0.4} (rigs with controls)",
               weights_json("--controls", r.controls));
   flags.Value("--expression", "NAME=V", "an expression by name: VRM's happy, aa, blink, lookLeft, ... or the rig's own (repeatable; GET /v1/rigs/ID lists them)",
-              [&r](const std::string& v) {
-                const size_t eq = v.rfind('=');
-                if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: --expression takes NAME=V, got '%s'\n", v.c_str()), 2;
-                WeightEntry e;
-                e.name = v.substr(0, eq);
-                e.pointer = "--expression " + e.name;
-                const std::string num = v.substr(eq + 1);
-                auto res = std::from_chars(num.data(), num.data() + num.size(), e.value);
-                if (res.ec != std::errc() || res.ptr != num.data() + num.size()) {
-                  return std::fprintf(stderr, "error: --expression %s: '%s' is not a number\n", e.name.c_str(), num.c_str()), 1;
-                }
-                r.pose.expressions.push_back(e);
-                return 0;
-              });
+              name_value("--expression", "NAME=V", r.pose.expressions));
   flags.Value("--gaze", "YAW,PITCH|X,Y,Z|JSON",
               "where the eyes look: degrees (yaw > 0 to the character's left, pitch > 0 up), or a point of the rig's world", pose_setting("--gaze"));
   AddBlendOptionFlags(flags, r.options);

@@ -39,17 +39,10 @@ Status FaceMembers(const std::string& gaze, const std::string& blink, nlohmann::
     return true;
   };
   if (!gaze.empty()) {
-    std::vector<double> n;
-    if (gaze[0] == '{') {
-      body["gaze"] = nlohmann::json::parse(gaze, nullptr, false);
-      if (body["gaze"].is_discarded()) return InvalidArgument("--gaze: malformed JSON");
-    } else if (numbers(gaze, n) && n.size() == 2) {
-      body["gaze"] = {{"yaw", n[0]}, {"pitch", n[1]}};
-    } else if (n.size() == 3) {
-      body["gaze"] = {{"target", n}};
-    } else {
-      return InvalidArgument("--gaze: want YAW,PITCH (degrees), X,Y,Z (a point) or JSON");
-    }
+    const std::string text = gaze[0] == '{' ? gaze : api::GazeShortForm(gaze);
+    if (text.empty()) return InvalidArgument("--gaze: want YAW,PITCH (degrees), X,Y,Z (a point) or JSON");
+    body["gaze"] = nlohmann::json::parse(text, nullptr, false);
+    if (body["gaze"].is_discarded()) return InvalidArgument("--gaze: malformed JSON");
   }
   if (!blink.empty()) {
     std::vector<double> n;

@@ -590,13 +590,13 @@ namespace {
 // A float as the shortest decimal that reads back as it (0.4, not 0.4000000059604645).
 double Num(float x) { return std::stod(FormatNumber(x)); }
 
-nlohmann::ordered_json ExpressionsObject(const Rig& rig, bool derived_too) {
-  nlohmann::ordered_json out = nlohmann::ordered_json::object();
+json ExpressionsObject(const Rig& rig, bool derived_too) {
+  json out = json::object();
   for (const Expression& e : rig.expressions) {
     if (e.derived && !derived_too) continue;
-    nlohmann::ordered_json weights = nlohmann::ordered_json::object();
+    json weights = json::object();
     for (const auto& [s, w] : e.binds) weights[rig.shapes[s].name] = Num(w);
-    nlohmann::ordered_json o = {{"weights", weights}, {"binary", e.binary}, {"override_blink", ExpressionOverrideName(e.blink)},
+    json o = {{"weights", weights}, {"binary", e.binary}, {"override_blink", ExpressionOverrideName(e.blink)},
                                 {"override_look_at", ExpressionOverrideName(e.look_at)}, {"override_mouth", ExpressionOverrideName(e.mouth)}};
     if (derived_too) o["derived"] = e.derived;
     out[e.name] = o;
@@ -604,19 +604,19 @@ nlohmann::ordered_json ExpressionsObject(const Rig& rig, bool derived_too) {
   return out;
 }
 
-nlohmann::ordered_json GazeObject(const Rig& rig, bool for_manifest) {
+json GazeObject(const Rig& rig, bool for_manifest) {
   const GazeSetup& g = rig.gaze;
   using K = GazeSetup::Kind;
-  nlohmann::ordered_json o;
+  json o;
   o["type"] = g.kind == K::kBones ? "bones" : g.kind == K::kShapes ? "shapes" : g.kind == K::kExpressions ? "expressions" : "none";
   if (g.kind == K::kBones) o["eyes"] = {{"left", rig.nodes[g.eyes[0]].name}, {"right", rig.nodes[g.eyes[1]].name}};
   if (g.kind == K::kShapes && !for_manifest) {
-    auto pair = [&](const std::array<int, 2>& a) { return nlohmann::ordered_json::array({rig.shapes[a[0]].name, rig.shapes[a[1]].name}); };
+    auto pair = [&](const std::array<int, 2>& a) { return json::array({rig.shapes[a[0]].name, rig.shapes[a[1]].name}); };
     o["shapes"] = {{"look_in", pair(g.look_in)}, {"look_out", pair(g.look_out)}, {"look_up", pair(g.look_up)}, {"look_down", pair(g.look_down)}};
   }
   if (g.head >= 0) o["head"] = {{"bone", rig.nodes[g.head].name}, {"share", Num(g.head_share)}};
   if (g.neck >= 0) o["neck"] = {{"bone", rig.nodes[g.neck].name}, {"share", Num(g.neck_share)}};
-  auto map = [](const RangeMap& m) { return nlohmann::ordered_json{{"input_max", Num(m.input_max)}, {"output_scale", Num(m.output_scale)}}; };
+  auto map = [](const RangeMap& m) { return json{{"input_max", Num(m.input_max)}, {"output_scale", Num(m.output_scale)}}; };
   if (g.kind != K::kNone) {
     o["range_maps"] = {{"horizontal_inner", map(g.horizontal_inner)}, {"horizontal_outer", map(g.horizontal_outer)},
                        {"vertical_down", map(g.vertical_down)}, {"vertical_up", map(g.vertical_up)}};
@@ -664,9 +664,9 @@ std::string ManifestJson(const Rig& rig) {
     }
     m["controls"] = controls;
   }
-  const nlohmann::ordered_json expressions = ExpressionsObject(rig, false);
-  if (!expressions.empty()) m["expressions"] = json::parse(expressions.dump());
-  if (rig.gaze.from_manifest) m["gaze"] = json::parse(GazeObject(rig, true).dump());
+  json expressions = ExpressionsObject(rig, false);
+  if (!expressions.empty()) m["expressions"] = std::move(expressions);
+  if (rig.gaze.from_manifest) m["gaze"] = GazeObject(rig, true);
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 

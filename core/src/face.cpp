@@ -16,15 +16,25 @@ bool IsExpressionPreset(std::string_view name) {
   return std::find(std::begin(kExpressionPresets), std::end(kExpressionPresets), name) != std::end(kExpressionPresets);
 }
 
-int FirstNodeOf(const Rig& rig, std::string_view candidates) {
+namespace {
+
+// The first of `candidates` ("a|b|c") that `find` finds (>= 0), or -1.
+template <typename Find>
+int FirstFound(std::string_view candidates, Find find) {
   size_t from = 0;
   while (from <= candidates.size()) {
     const size_t bar = std::min(candidates.find('|', from), candidates.size());
-    const int n = FindNode(rig, std::string(candidates.substr(from, bar - from)));
-    if (n >= 0) return n;
+    const int i = find(std::string(candidates.substr(from, bar - from)));
+    if (i >= 0) return i;
     from = bar + 1;
   }
   return -1;
+}
+
+}  // namespace
+
+int FirstNodeOf(const Rig& rig, std::string_view candidates) {
+  return FirstFound(candidates, [&](const std::string& name) { return FindNode(rig, name); });
 }
 
 const char* ExpressionOverrideName(ExpressionOverride o) {
@@ -44,14 +54,7 @@ using Override = ExpressionOverride;
 
 // A shape by the first of `candidates` ("a|b|c") the rig has, or -1.
 int FirstShape(const Rig& rig, std::string_view candidates) {
-  size_t from = 0;
-  while (from <= candidates.size()) {
-    const size_t bar = std::min(candidates.find('|', from), candidates.size());
-    const int s = FindShape(rig, std::string(candidates.substr(from, bar - from)));
-    if (s >= 0) return s;
-    from = bar + 1;
-  }
-  return -1;
+  return FirstFound(candidates, [&](const std::string& name) { return FindShape(rig, name); });
 }
 
 struct Bind {
@@ -352,22 +355,22 @@ Status ResolveExpressions(const Rig& rig, std::span<const WeightEntry> entries, 
   return Status::Ok();
 }
 
-void GazeAngles(const Rig& rig, const Gaze& gaze, const std::vector<std::array<float, 16>>& world, float* yaw, float* pitch) {
+void GazeAngles(const Rig& rig, const Gaze& gaze, const std::vector<std::array<float, 16>>& world,
+                const std::vector<std::array<float, 16>>& rest, float* yaw, float* pitch) {
   if (!gaze.has_target) {
     *yaw = gaze.yaw;
     *pitch = gaze.pitch;
     return;
   }
   const GazeSetup& g = rig.gaze;
-  const std::vector<std::array<float, 16>> rest = NodeWorldMatrices(rig);
+  const Eigen::Quaternionf head = HeadTurn(rig, world, rest);
   Eigen::Vector3f origin(g.origin[0], g.origin[1], g.origin[2]);
   if (g.kind == GazeSetup::Kind::kBones) {
     origin = 0.5f * (PositionOf(world[g.eyes[0]]) + PositionOf(world[g.eyes[1]]));
   } else if (g.head >= 0) {  // The rest origin carried by the head's move.
-    const Eigen::Quaternionf turn = HeadTurn(rig, world, rest);
-    origin = turn * (origin - PositionOf(rest[g.head])) + PositionOf(world[g.head]);
+    origin = head * (origin - PositionOf(rest[g.head])) + PositionOf(world[g.head]);
   }
-  const Eigen::Vector3f d = (HeadTurn(rig, world, rest) * Facing(rig)).conjugate() * (Eigen::Vector3f(gaze.target[0], gaze.target[1], gaze.target[2]) - origin);
+  const Eigen::Vector3f d = (head * Facing(rig)).conjugate() * (Eigen::Vector3f(gaze.target[0], gaze.target[1], gaze.target[2]) - origin);
   constexpr float kDeg = static_cast<float>(180.0 / M_PI);
   *yaw = std::atan2(d.x(), d.z()) * kDeg;
   *pitch = std::atan2(d.y(), std::hypot(d.x(), d.z())) * kDeg;
@@ -387,14 +390,18 @@ float Vertical(const GazeSetup& g, float pitch) {
 
 }  // namespace
 
+Warning GazeUnsupported() {
+  return {"gaze_unsupported",
+          "this rig has no eye bones (左目/右目, leftEye/rightEye), no eye shapes (eyeLookIn/Out/Up/Down_L/R) and no look "
+          "expressions (lookLeft/lookRight in its manifest): the gaze is ignored",
+          "", 0.0, false};
+}
+
 void ApplyGaze(const Rig& rig, const Gaze& gaze, float look_at, std::span<float> weights, Pose& pose, bool& posed,
                std::vector<Warning>& warnings) {
   const GazeSetup& g = rig.gaze;
   if (g.kind == GazeSetup::Kind::kNone) {
-    warnings.push_back({"gaze_unsupported",
-                        "this rig has no eye bones (左目/右目, leftEye/rightEye), no eye shapes (eyeLookIn/Out/Up/Down_L/R) and no look "
-                        "expressions (lookLeft/lookRight in its manifest): the gaze is ignored",
-                        "", 0.0, false});
+    warnings.push_back(GazeUnsupported());
     return;
   }
   if (!posed) {
@@ -402,9 +409,9 @@ void ApplyGaze(const Rig& rig, const Gaze& gaze, float look_at, std::span<float>
   }
   std::vector<std::array<float, 16>> world = WorldMatrices(rig, pose);
   float yaw = 0.0f, pitch = 0.0f;
-  GazeAngles(rig, gaze, world, &yaw, &pitch);
-  if (!std::isfinite(yaw) || !std::isfinite(pitch)) return;
   const std::vector<std::array<float, 16>> rest = NodeWorldMatrices(rig);
+  GazeAngles(rig, gaze, world, rest, &yaw, &pitch);
+  if (!std::isfinite(yaw) || !std::isfinite(pitch)) return;
   float share = 0.0f;
   bool turned = false;
   for (const auto& [node, part] : {std::pair{g.neck, g.neck_share}, std::pair{g.head, g.head_share}}) {

@@ -179,6 +179,14 @@ bool PoseOfWeightsAlone(const Rig& rig, std::span<const float> weights, Pose& po
   return true;
 }
 
+bool PoseOfFaceAndWeights(const Rig& rig, const FaceState& face, std::span<float> weights, Pose& pose, std::vector<Warning>& warnings) {
+  bool posed = false;
+  ApplyFace(rig, face, weights, pose, posed, warnings);
+  if (!posed) return PoseOfWeightsAlone(rig, weights, pose);
+  FinishPose(rig, weights, pose);
+  return true;
+}
+
 Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
                              std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings) {
   auto resolved = ResolveWeights(rig, entries);
@@ -200,13 +208,7 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   if (Status s = ResolveExpressions(rig, request.expressions, face.expressions, warnings); !s.ok()) return s;
   face.gaze = request.gaze;
   if (request.empty()) {
-    posed = false;
-    if (request.has_face()) ApplyFace(rig, face, weights, pose, posed, warnings);
-    if (!posed) {
-      posed = PoseOfWeightsAlone(rig, weights, pose);
-      return Status::Ok();
-    }
-    FinishPose(rig, weights, pose);
+    posed = request.has_face() ? PoseOfFaceAndWeights(rig, face, weights, pose, warnings) : PoseOfWeightsAlone(rig, weights, pose);
     return Status::Ok();
   }
   posed = true;

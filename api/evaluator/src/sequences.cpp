@@ -12,11 +12,7 @@ bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& po
   const bool has_face = SampleFace(sequence, time, face);
   std::vector<Warning> warnings;  // A face the rig cannot show was said once, by ResolveSequence.
   if (sequence.clip < 0 && sequence.layers.empty()) {
-    bool posed = false;
-    if (has_face) ApplyFace(rig, face, weights, pose, posed, warnings);
-    if (!posed) return PoseOfWeightsAlone(rig, weights, pose);
-    FinishPose(rig, weights, pose);
-    return true;
+    return has_face ? PoseOfFaceAndWeights(rig, face, weights, pose, warnings) : PoseOfWeightsAlone(rig, weights, pose);
   }
   // The clip's pose and weights at this time: its curves as it draws them (the keys are its weight
   // channel's keys; between them a curve need not be linear).

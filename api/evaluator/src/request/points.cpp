@@ -195,26 +195,31 @@ std::string ApplyRenderSetting(const std::string& key, const std::string& value,
   return errors.fields.empty() ? "" : errors.fields[0].message;
 }
 
+std::string GazeShortForm(const std::string& value) {
+  std::vector<double> n;
+  size_t from = 0;
+  while (from <= value.size() && n.size() < 4) {
+    const size_t comma = std::min(value.find(',', from), value.size());
+    double x = 0;
+    const auto res = std::from_chars(value.data() + from, value.data() + comma, x);
+    if (res.ec != std::errc() || res.ptr != value.data() + comma) return "";
+    n.push_back(x);
+    from = comma + 1;
+  }
+  if (n.size() == 2) return json{{"yaw", n[0]}, {"pitch", n[1]}}.dump();
+  if (n.size() == 3) return json{{"target", n}}.dump();
+  return "";
+}
+
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known) {
   *known = key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop" || key == "pose" || key == "blend" ||
            key == "layers" || key == "skinning" || key == "lod" || key == "gaze" || key == "expressions";
   if (!*known) return "";
   json v;
   if (key == "gaze" && !value.empty() && value[0] != '{') {
-    // "YAW,PITCH" (degrees) or "X,Y,Z" (a target), the short form of the query and the CLI.
-    std::vector<double> n;
-    size_t from = 0;
-    while (from <= value.size() && n.size() < 4) {
-      const size_t comma = std::min(value.find(',', from), value.size());
-      double x = 0;
-      const auto res = std::from_chars(value.data() + from, value.data() + comma, x);
-      if (res.ec != std::errc() || res.ptr != value.data() + comma) return "must be YAW,PITCH (degrees), X,Y,Z (a target) or JSON";
-      n.push_back(x);
-      from = comma + 1;
-    }
-    if (n.size() == 2) v = {{"yaw", n[0]}, {"pitch", n[1]}};
-    else if (n.size() == 3) v = {{"target", n}};
-    else return "must be YAW,PITCH (degrees), X,Y,Z (a target) or JSON";
+    const std::string text = GazeShortForm(value);
+    if (text.empty()) return "must be YAW,PITCH (degrees), X,Y,Z (a target) or JSON";
+    v = json::parse(text);
   } else if (key == "skinning") {
     v = value;
   } else if (key == "animation" || key == "motion") {

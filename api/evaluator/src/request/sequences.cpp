@@ -226,9 +226,7 @@ namespace {
 void AttachFace(const Rig& rig, const SequenceRequest& request, Sequence& s) {
   if (!request.gaze.empty()) {
     if (rig.gaze.kind == GazeSetup::Kind::kNone) {
-      Pose unused;
-      bool posed = false;
-      ApplyGaze(rig, request.gaze.front().gaze, 1.0f, {}, unused, posed, s.warnings);  // Says why.
+      s.warnings.push_back(GazeUnsupported());
     } else {
       s.gaze = request.gaze;
     }

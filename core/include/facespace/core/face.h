@@ -77,8 +77,12 @@ struct Gaze {
 
 // The gaze's angles as the head sees them: straight ahead is +z of the head's rest frame, turned by
 // what `pose` does to the head bone (if any); from the eyes (between the eye bones under `pose`, or
-// GazeSetup::origin).
-void GazeAngles(const Rig& rig, const Gaze& gaze, const std::vector<std::array<float, 16>>& world, float* yaw, float* pitch);
+// GazeSetup::origin). `world`: the node matrices under the pose; `rest`: at rest (NodeWorldMatrices).
+void GazeAngles(const Rig& rig, const Gaze& gaze, const std::vector<std::array<float, 16>>& world,
+                const std::vector<std::array<float, 16>>& rest, float* yaw, float* pitch);
+
+// What a gaze asked of a rig whose GazeSetup::kind is kNone warns.
+Warning GazeUnsupported();
 
 // Applies a gaze: kBones turns the neck and head by their shares and the eye bones (in `pose`, before
 // MMD's constraints are solved) by the rest through the range maps; kShapes and kExpressions set the

@@ -80,6 +80,10 @@ void FinishPose(const Rig& rig, std::span<const float> weights, Pose& pose);
 // bone; then the rest pose, finished with them.
 bool PoseOfWeightsAlone(const Rig& rig, std::span<const float> weights, Pose& pose);
 
+// No clip or joint, with a face: the face (face.h) onto the weights, and onto the rest pose when its gaze
+// turns bones; then, as PoseOfWeightsAlone, false and `pose` untouched unless a bone moved.
+bool PoseOfFaceAndWeights(const Rig& rig, const FaceState& face, std::span<float> weights, Pose& pose, std::vector<Warning>& warnings);
+
 // A request's weights and pose together, in glTF's order of application: rest pose, then the
 // clips (their weight channels set shape weights), then the explicit joints, then the
 // explicit weights, which override animated ones, then the face (expressions and gaze, face.h), then

@@ -87,6 +87,10 @@ Status ExpandShapeCells(const Rig& rig, SheetRequest& request);
 // pose (JSON), blend (JSON), skinning (linear|dual_quaternion), lod (0..4). Returns "" or what is wrong; `known` tells whether the key is one.
 std::string ApplyPoseSetting(const std::string& key, const std::string& value, MeshRequest& r, bool* known);
 
+// The short form of a gaze (the query's and the CLI's): "YAW,PITCH" (degrees) or "X,Y,Z" (a target), as the
+// body's JSON text; "" when it is neither.
+std::string GazeShortForm(const std::string& value);
+
 // Checks the skeleton settings gathered by ApplyPoseSetting (time without animation, ...).
 std::string FinishPoseSettings(MeshRequest& r);
 
