@@ -54,6 +54,7 @@ json DescribeRig(const Rig& r) {
   j["controls"] = controls;
   j["expressions"] = json::parse(ExpressionsJson(r));
   j["gaze"] = json::parse(GazeJson(r));
+  j["visemes"] = json::parse(VisemesJson(r));
   j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()}, {"bound", r.statistics.bound}} : json(nullptr);
   // Bounding box of the base mesh as shown (world space, every primitive).
   const auto world = PrimitiveWorldMatrices(r);

@@ -11,6 +11,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/core/face.h"
 #include "facespace/core/shape_tools.h"
+#include "facespace/core/speech.h"
 #include "facespace/core/weights.h"
 
 namespace facespace {
@@ -198,6 +199,59 @@ Status ApplySemantics(Rig& rig, const json& j, Bad bad) {
 }
 
 
+// "visemes": viseme name (speech.h) -> {SHAPE: w} (or null: none), "nolip" and "jaw": lists of shapes.
+template <typename Bad>
+Status ApplyVisemesManifest(Rig& rig, const json& v, Bad bad) {
+  if (!v.is_object()) return bad("/visemes", "must be an object of viseme (sil PP FF TH DD kk CH SS nn RR aa E ih oh ou) -> {SHAPE: w}, and \"nolip\", \"jaw\": [SHAPE, ...]");
+  auto shape_of = [&](const std::string& name, const std::string& ptr, int* out) -> Status {
+    *out = FindShape(rig, name);
+    if (*out >= 0) return Status::Ok();
+    std::vector<std::string_view> names;
+    for (const Shape& sh : rig.shapes) names.push_back(sh.name);
+    return bad(ptr, "unknown shape '" + name + "'" + DidYouMean(name, names));
+  };
+  VisemeMap& m = rig.visemes;
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const std::string ptr = "/visemes/" + JsonPointerEscape(it.key());
+    if (it.key() == "nolip" || it.key() == "jaw") {
+      if (!it->is_array()) return bad(ptr, "must be a list of shape names");
+      std::vector<uint32_t>& list = it.key() == "nolip" ? m.nolip : m.jaw;
+      list.clear();
+      for (size_t k = 0; k < it->size(); ++k) {
+        const json& name = (*it)[k];
+        const std::string p = ptr + "/" + std::to_string(k);
+        if (!name.is_string()) return bad(p, "must be a shape name");
+        int s;
+        if (Status st = shape_of(name.get<std::string>(), p, &s); !st.ok()) return st;
+        list.push_back(static_cast<uint32_t>(s));
+      }
+      (it.key() == "nolip" ? m.nolip_named : m.jaw_named) = true;
+      continue;
+    }
+    const std::optional<Viseme> viseme = VisemeByName(it.key());
+    if (!viseme) {
+      std::vector<std::string_view> names(std::begin(kVisemeNames), std::end(kVisemeNames));
+      names.push_back("nolip");
+      names.push_back("jaw");
+      return bad(ptr, "unknown viseme" + DidYouMean(it.key(), names) + " (OpenXR's 15: sil PP FF TH DD kk CH SS nn RR aa E ih oh ou)");
+    }
+    auto& binds = m.binds[static_cast<size_t>(*viseme)];
+    binds.clear();
+    if (!it->is_null()) {
+      if (!it->is_object()) return bad(ptr, "must be an object of shape name -> weight (or null: no shape)");
+      for (auto w = it->begin(); w != it->end(); ++w) {
+        const std::string wp = ptr + "/" + JsonPointerEscape(w.key());
+        int s;
+        if (Status st = shape_of(w.key(), wp, &s); !st.ok()) return st;
+        if (!w->is_number() || !std::isfinite(w->get<double>())) return bad(wp, "must be a finite number");
+        binds.emplace_back(static_cast<uint32_t>(s), w->get<float>());
+      }
+    }
+    m.named |= static_cast<uint16_t>(1u << static_cast<unsigned>(*viseme));
+  }
+  return Status::Ok();
+}
+
 // "expressions" (VRM's vocabulary, or the rig's own names, to weights of its shapes) and "gaze" (how the
 // eyes follow: bones or shapes, range maps, the head's and neck's shares). Read after the shapes.
 template <typename Bad>
@@ -336,6 +390,9 @@ Status ApplyFaceManifest(Rig& rig, const json& j, Bad bad) {
       }
     }
   }
+  if (j.contains("visemes")) {
+    if (Status st = ApplyVisemesManifest(rig, j["visemes"], bad); !st.ok()) return st;
+  }
   return Status::Ok();
 }
 
@@ -351,7 +408,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
     return s;
   };
   static constexpr std::string_view kMembers[] = {"name", "credit", "license_url", "start", "base_motion", "materials", "shapes", "groups", "controls",
-                                                  "derived", "inbetweens", "correctives", "statistics", "expressions", "gaze"};
+                                                  "derived", "inbetweens", "correctives", "statistics", "expressions", "gaze", "visemes"};
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(std::begin(kMembers), std::end(kMembers), it.key()) == std::end(kMembers)) {
       return bad("/" + JsonPointerEscape(it.key()), "unknown member" + DidYouMean(it.key(), kMembers));
@@ -604,6 +661,25 @@ json ExpressionsObject(const Rig& rig, bool derived_too) {
   return out;
 }
 
+json VisemesObject(const Rig& rig, bool derived_too) {
+  const VisemeMap& m = rig.visemes;
+  json o = json::object();
+  for (size_t v = 0; v < kVisemeCount; ++v) {
+    if (!derived_too && !(m.named & (1u << v))) continue;
+    json binds = json::object();
+    for (const auto& [s, w] : m.binds[v]) binds[rig.shapes[s].name] = Num(w);
+    o[std::string(kVisemeNames[v])] = std::move(binds);
+  }
+  auto names = [&](const std::vector<uint32_t>& list) {
+    json a = json::array();
+    for (uint32_t s : list) a.push_back(rig.shapes[s].name);
+    return a;
+  };
+  if (derived_too || m.nolip_named) o["nolip"] = names(m.nolip);
+  if (derived_too || m.jaw_named) o["jaw"] = names(m.jaw);
+  return o;
+}
+
 json GazeObject(const Rig& rig, bool for_manifest) {
   const GazeSetup& g = rig.gaze;
   using K = GazeSetup::Kind;
@@ -629,6 +705,10 @@ json GazeObject(const Rig& rig, bool for_manifest) {
 
 std::string ExpressionsJson(const Rig& rig) { return ExpressionsObject(rig, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 std::string GazeJson(const Rig& rig) { return GazeObject(rig, false).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
+std::string VisemesJson(const Rig& rig) {
+  if (rig.visemes.empty()) return "null";
+  return VisemesObject(rig, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
 
 std::string ManifestJson(const Rig& rig) {
   json m = json::object();
@@ -667,6 +747,8 @@ std::string ManifestJson(const Rig& rig) {
   json expressions = ExpressionsObject(rig, false);
   if (!expressions.empty()) m["expressions"] = std::move(expressions);
   if (rig.gaze.from_manifest) m["gaze"] = GazeObject(rig, true);
+  json visemes = VisemesObject(rig, false);
+  if (!visemes.empty()) m["visemes"] = std::move(visemes);
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 

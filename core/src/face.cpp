@@ -1,5 +1,7 @@
 #include "facespace/core/face.h"
 
+#include "facespace/core/speech.h"
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -37,6 +39,10 @@ int FirstNodeOf(const Rig& rig, std::string_view candidates) {
   return FirstFound(candidates, [&](const std::string& name) { return FindNode(rig, name); });
 }
 
+int FirstShapeOf(const Rig& rig, std::string_view candidates) {
+  return FirstFound(candidates, [&](const std::string& name) { return FindShape(rig, name); });
+}
+
 const char* ExpressionOverrideName(ExpressionOverride o) {
   return o == ExpressionOverride::kBlock ? "block" : o == ExpressionOverride::kBlend ? "blend" : "none";
 }
@@ -51,11 +57,6 @@ int FindExpression(const Rig& rig, std::string_view name) {
 namespace {
 
 using Override = ExpressionOverride;
-
-// A shape by the first of `candidates` ("a|b|c") the rig has, or -1.
-int FirstShape(const Rig& rig, std::string_view candidates) {
-  return FirstFound(candidates, [&](const std::string& name) { return FindShape(rig, name); });
-}
 
 struct Bind {
   const char* shapes;  // Candidates, "a|b".
@@ -126,7 +127,7 @@ const std::vector<Default>& MmdDefaults() {
 size_t Matches(const Rig& rig, const std::vector<Default>& table) {
   size_t n = 0;
   for (const Default& d : table) {
-    for (const Bind& b : d.binds) n += FirstShape(rig, b.shapes) >= 0;
+    for (const Bind& b : d.binds) n += FirstShapeOf(rig, b.shapes) >= 0;
   }
   return n;
 }
@@ -197,10 +198,10 @@ void DeriveGaze(Rig& rig) {
       g.kind = GazeSetup::Kind::kBones;
       g.eyes = {left, right};
     } else {
-      g.look_in = {FirstShape(rig, "eyeLookIn_L|eyeLookInLeft"), FirstShape(rig, "eyeLookIn_R|eyeLookInRight")};
-      g.look_out = {FirstShape(rig, "eyeLookOut_L|eyeLookOutLeft"), FirstShape(rig, "eyeLookOut_R|eyeLookOutRight")};
-      g.look_up = {FirstShape(rig, "eyeLookUp_L|eyeLookUpLeft"), FirstShape(rig, "eyeLookUp_R|eyeLookUpRight")};
-      g.look_down = {FirstShape(rig, "eyeLookDown_L|eyeLookDownLeft"), FirstShape(rig, "eyeLookDown_R|eyeLookDownRight")};
+      g.look_in = {FirstShapeOf(rig, "eyeLookIn_L|eyeLookInLeft"), FirstShapeOf(rig, "eyeLookIn_R|eyeLookInRight")};
+      g.look_out = {FirstShapeOf(rig, "eyeLookOut_L|eyeLookOutLeft"), FirstShapeOf(rig, "eyeLookOut_R|eyeLookOutRight")};
+      g.look_up = {FirstShapeOf(rig, "eyeLookUp_L|eyeLookUpLeft"), FirstShapeOf(rig, "eyeLookUp_R|eyeLookUpRight")};
+      g.look_down = {FirstShapeOf(rig, "eyeLookDown_L|eyeLookDownLeft"), FirstShapeOf(rig, "eyeLookDown_R|eyeLookDownRight")};
       bool all = true;
       for (const auto* a : {&g.look_in, &g.look_out, &g.look_up, &g.look_down}) all = all && (*a)[0] >= 0 && (*a)[1] >= 0;
       if (all) g.kind = GazeSetup::Kind::kShapes;
@@ -263,7 +264,7 @@ void DeriveFace(Rig& rig) {
     Expression e;
     e.name = d.preset;
     for (const Bind& b : d.binds) {
-      const int s = FirstShape(rig, b.shapes);
+      const int s = FirstShapeOf(rig, b.shapes);
       if (s >= 0) e.binds.emplace_back(static_cast<uint32_t>(s), b.weight);
     }
     if (e.binds.empty()) continue;
@@ -280,6 +281,7 @@ void DeriveFace(Rig& rig) {
     rig.expressions.push_back(std::move(neutral));
   }
   if (!rig.gaze.from_manifest) DeriveGaze(rig);
+  DeriveVisemes(rig);
 }
 
 float ExpressionOutput(const Expression& e, float value) { return e.binary ? (value > 0.5f ? 1.0f : 0.0f) : value; }

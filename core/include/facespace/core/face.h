@@ -29,6 +29,8 @@ bool IsExpressionPreset(std::string_view name);
 
 // The first node of `candidates` ("a|b|c") the rig has, or -1: bones by their names in several conventions.
 int FirstNodeOf(const Rig& rig, std::string_view candidates);
+// The same for shapes (by name or alias).
+int FirstShapeOf(const Rig& rig, std::string_view candidates);
 
 // "none", "block", "blend": VRM's and the manifest's word for an override.
 const char* ExpressionOverrideName(ExpressionOverride o);
@@ -38,7 +40,7 @@ int FindExpression(const Rig& rig, std::string_view name);
 
 // Adds the presets the rig's shape names allow and the manifest did not set: ARKit names (FaceCap:
 // mouthSmile_L, eyeBlink_L, jawOpen, ...) and MMD's standard morphs (笑い, まばたき, あ い う え お, ...).
-// "neutral" (no shapes) is always there. Then picks the gaze (DeriveGaze) unless the manifest set it.
+// "neutral" (no shapes) is always there. Then picks the gaze (DeriveGaze) unless the manifest set it, and the viseme map (speech.h, DeriveVisemes).
 void DeriveFace(Rig& rig);
 
 // The gaze the rig allows: MMD's or VRM's eye bones (左目/右目, leftEye/rightEye, ...), else ARKit's

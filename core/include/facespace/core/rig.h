@@ -214,6 +214,23 @@ struct GazeSetup {
   bool from_manifest = false;
 };
 
+// How a rig's mouth speaks (core/speech.h): per viseme (the 15 of OpenXR/Oculus, in Viseme's order) the
+// weights of its shapes; `nolip`, shapes held at 0 while speaking (MMDAgent's shapemap NOLIP: other mouth
+// shapes that would fight the visemes); `jaw`, the shapes that open the jaw (kept from chattering).
+struct VisemeMap {
+  std::array<std::vector<std::pair<uint32_t, float>>, 15> binds;
+  std::vector<uint32_t> nolip;
+  std::vector<uint32_t> jaw;
+  uint16_t named = 0;                      // Bit v: viseme v came from the manifest ("visemes"); else derived.
+  bool nolip_named = false, jaw_named = false;  // The same for nolip and jaw.
+  bool empty() const {
+    for (const auto& b : binds) {
+      if (!b.empty()) return false;
+    }
+    return true;
+  }
+};
+
 // A statistical model of the weights (e.g. a PCA face space): components (orthonormal
 // directions in weight space, one weight per shape) with their standard deviations, around a
 // mean. The Mahalanobis distance of a point beyond `bound` warns (implausible).
@@ -409,6 +426,7 @@ struct Rig {
   ShapeStatistics statistics;
   std::vector<Expression> expressions;  // By name (core/face.h): the manifest's, then those derived from shape names.
   GazeSetup gaze;
+  VisemeMap visemes;                    // How it speaks (core/speech.h): the manifest's, then derived.
 
   size_t vertex_count() const;
   size_t triangle_count() const;

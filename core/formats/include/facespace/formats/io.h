@@ -136,6 +136,8 @@ Status ApplyManifest(Rig& rig, const std::string& json_text);
 // GET /v1/rigs/{id} shows, in the manifest's schema.
 std::string ExpressionsJson(const Rig& rig);
 std::string GazeJson(const Rig& rig);
+// The viseme map (speech.h): viseme -> {SHAPE: w} for all 15, "nolip", "jaw"; null when the rig cannot speak.
+std::string VisemesJson(const Rig& rig);
 
 // kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp).
 enum class MeshFormat { kGlb, kObj, kJson, kF32, kVrm };
