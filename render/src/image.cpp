@@ -254,7 +254,9 @@ class DeflaterPool {
   static inline std::vector<std::unique_ptr<Deflater>> idle_;
 };
 
-// The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG): an 8-bit
+}  // namespace
+
+// (internal.h) The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG): an 8-bit
 // draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in parts on
 // up to one thread per core (4 at most), as the conversion costs more than igzip's deflate (512x512
 // from floats: about 1.5 ms on one thread).
@@ -275,6 +277,9 @@ std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vect
   for (std::thread& t : helpers) t.join();
   return room;
 }
+
+namespace {
+
 
 // PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: the
 // 8-bit pixels (the draw's own, or a float image converted) UP-filtered in batches, each batch

@@ -1,6 +1,9 @@
 // Shared between render's .cpp files only.
 #pragma once
 
+#include <span>
+#include <vector>
+
 #include "facespace/render/render.h"
 
 namespace facespace::render {
@@ -10,5 +13,9 @@ void DrawHeatLegend(Image& image, float max_value);
 // The left edge of the legend DrawHeatLegend draws in a width x height image: a heatmap's camera
 // frames the model in the part left of it.
 int HeatLegendLeft(int width, int height);
+
+// The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white: an 8-bit draw's RGBA as
+// it is, else converted into `room`.
+std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vector<unsigned char>& room);
 
 }  // namespace facespace::render

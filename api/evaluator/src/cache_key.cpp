@@ -75,7 +75,8 @@ std::string CacheKey(const StoredRig& rig, std::span<const ResolvedPoint> points
   switch (spec.kind) {
     case OutputSpec::Kind::kMesh: return key + MeshCanonical(spec, points[0]);
     case OutputSpec::Kind::kImage:
-      return key + "render|" + RenderCanonical(spec) + "|lod" + std::to_string(spec.lod) + "|" + WeightsCanonical(points[0].weights) +
+    case OutputSpec::Kind::kPixels:
+      return key + (spec.kind == OutputSpec::Kind::kImage ? "render|" : "pixels|") + RenderCanonical(spec) + "|lod" + std::to_string(spec.lod) + "|" + WeightsCanonical(points[0].weights) +
              PoseCanonical(points[0]);
     case OutputSpec::Kind::kSheet:
       key += "sheet|" + std::to_string(spec.columns) + "|" + RenderCanonical(spec);

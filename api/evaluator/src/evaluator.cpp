@@ -122,6 +122,12 @@ OutputSpec OutputSpec::Sheet(const SheetRequest& r, render::ImageFormat format) 
   return s;
 }
 
+OutputSpec OutputSpec::Pixels(const RenderRequest& r) {
+  OutputSpec s = Image(r, render::ImageFormat::kPng);
+  s.kind = Kind::kPixels;
+  return s;
+}
+
 OutputSpec OutputSpec::Frame(const BlendOptions& blend, bool f32) {
   OutputSpec s;
   s.kind = f32 ? Kind::kFrameF32 : Kind::kFrameJson;
@@ -135,7 +141,8 @@ const char* OutputSpec::content_type() const {
     case Kind::kImage:
     case Kind::kSheet: return render::ImageFormatMimeType(image_format);
     case Kind::kFrameJson: return "application/json";
-    case Kind::kFrameF32: return "application/octet-stream";
+    case Kind::kFrameF32:
+    case Kind::kPixels: return "application/octet-stream";
   }
   return "application/octet-stream";
 }
@@ -189,7 +196,8 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       Lap(start, ws.timing.encode);
       return Whole(std::move(bytes.value()));
     }
-    case OutputSpec::Kind::kImage: {
+    case OutputSpec::Kind::kImage:
+    case OutputSpec::Kind::kPixels: {
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
       auto start = Clock::now();
       render::RenderOptions options = spec.render;
@@ -197,6 +205,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       options.srgb8 = spec.image_format != render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
       if (Status s = renderer_.Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
       Lap(start, ws.timing.draw);
+      if (spec.kind == OutputSpec::Kind::kPixels) return Encoded{};
       auto bytes = render::Encode(ws.image, spec.image_format, spec.quality);
       Lap(start, ws.timing.encode);
       if (!bytes.ok()) return bytes.status();

@@ -31,6 +31,8 @@ constexpr Route kRoutes[] = {
     {"POST", "/v1/rigs/{id}/sequence/sample", kSequence, PostSequenceSample},
     {"POST", "/v1/rigs/{id}/sequence/stream", kSequence, PostSequenceStream},
     {"POST", "/v1/rigs/{id}/sequence/reduce", kSequence, PostSequenceReduce},
+    {"POST", "/v1/rigs/{id}/speech", "/v1/rigs/{id}/speech", PostSpeech},
+    {"GET", "/v1/voices", "/v1/voices", GetVoices},
     {"POST", "/v1/rigs/{id}/fit", "/v1/rigs/{id}/fit", PostFit},
     {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch, true},
     {"GET", "/v1/jobs", "/v1/jobs", ListJobs},

@@ -42,17 +42,13 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   res.set_content(std::move(body.value()), "application/json");
 }
 
-void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  auto stored = FindRig(ctx, req, res, req.matches[1]);
-  auto r = std::make_shared<SequenceRequest>();
-  auto seq = std::make_shared<Sequence>();
-  if (!stored || !ReadSequence(req, res, stored->rig, *r, *seq)) return;
-  const std::string format = r->format.empty() ? "ndjson" : r->format;
+void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,
+                        std::shared_ptr<const Sequence> seq, float fps, const std::string& format, const BlendOptions& options) {
   if (format != "ndjson" && format != "f32" && format != "weights") {
     SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson (weights, as \"weights\") or f32", {{"/format", "must be ndjson, weights or f32"}});
     return;
   }
-  const size_t frames = FrameCount(*seq, r->fps);
+  const size_t frames = FrameCount(*seq, fps);
   if (frames > ctx.options.max_frames) {
     const std::string max = std::to_string(ctx.options.max_frames);
     SendProblem(req, res, 422, "too-many-frames",
@@ -67,18 +63,26 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   auto next = std::make_shared<size_t>(0);
   auto physics = std::make_shared<SequencePhysics>(stored->rig, *seq);  // Carried from frame to frame.
   res.set_chunked_content_provider(f32 ? "application/octet-stream" : "application/x-ndjson",
-                                   [&ctx, stored, r, seq, next, frames, f32, physics](size_t, httplib::DataSink& sink) {
+                                   [&ctx, stored, seq, next, frames, f32, physics, fps, options](size_t, httplib::DataSink& sink) {
                                      if (*next >= frames) {
                                        sink.done();
                                        return true;
                                      }
                                      const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
-                                     auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, r->fps, f32, r->options, *ws, physics.get());
+                                     auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, fps, f32, options, *ws, physics.get());
                                      if (!chunk.ok()) return false;
                                      if (f32) ctx.metrics.CountBlends(1);
                                      return sink.write(chunk->data(), chunk->size());
                                    });
   res.status = 200;
+}
+
+void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  SequenceRequest r;
+  auto seq = std::make_shared<Sequence>();
+  if (!stored || !ReadSequence(req, res, stored->rig, r, *seq)) return;
+  SendSequenceStream(ctx, req, res, stored, seq, r.fps, r.format.empty() ? "ndjson" : r.format, r.options);
 }
 
 void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {

@@ -152,6 +152,54 @@ bool LoopOrMask(const std::string& key, const json& v, const std::string& ptr, C
 
 }  // namespace
 
+void GazeTrackFromJson(const json& v, const std::string& ptr, std::vector<GazeKey>& track, Status& errors) {
+  if (!(v.is_object() && v.contains("keys"))) {
+    if (auto gaze = GazeFromJson(v, ptr, errors)) track.push_back({0.0f, *gaze});
+    return;
+  }
+  const json& ks = v["keys"];
+  if (v.size() != 1 || !ks.is_array() || ks.empty() || ks.size() > 10000) {
+    errors.fields.push_back({ptr + "/keys", "must be an array of 1 to 10000 {\"time\", \"target\": [x, y, z]} or {\"time\", \"yaw\", \"pitch\"}"});
+    return;
+  }
+  for (size_t k = 0; k < ks.size(); ++k) {
+    const std::string kp = ptr + "/keys/" + std::to_string(k);
+    if (!ks[k].is_object() || !ks[k].contains("time")) {
+      errors.fields.push_back({kp, "needs a time"});
+      continue;
+    }
+    GazeKey g;
+    double t = 0;
+    if (!Number(ks[k]["time"], -1e9, 1e9, &t)) errors.fields.push_back({kp + "/time", "must be a number in [-1e9, 1e9]"});
+    g.time = static_cast<float>(t);
+    json rest = ks[k];
+    rest.erase("time");
+    if (auto gaze = GazeFromJson(rest, kp, errors)) g.gaze = *gaze;
+    if (!track.empty() && !(g.time > track.back().time)) errors.fields.push_back({kp + "/time", "gaze key times must increase"});
+    if (!track.empty() && g.gaze.has_target != track.front().gaze.has_target) errors.fields.push_back({kp, "every gaze key gives a target, or every one angles"});
+    track.push_back(g);
+  }
+}
+
+void BlinkFromJson(const json& v, const std::string& ptr, float& per_minute, uint64_t& seed, Status& errors) {
+  if (!v.is_object()) {
+    errors.fields.push_back({ptr, "must be {\"per_minute\": n, \"seed\": s} (natural blinks; people blink 10 to 20 times a minute)"});
+    return;
+  }
+  for (auto m = v.begin(); m != v.end(); ++m) {
+    const std::string mp = ptr + "/" + JsonPointerEscape(m.key());
+    if (m.key() == "per_minute") {
+      if (!m->is_number() || !(m->get<double>() > 0) || m->get<double>() > kMaxBlinksPerMinute) errors.fields.push_back({mp, "must be a number in (0, 60]"});
+      else per_minute = m->get<float>();
+    } else if (m.key() == "seed") {
+      if (!m->is_number_unsigned()) errors.fields.push_back({mp, "must be an integer >= 0"});
+      else seed = m->get<uint64_t>();
+    } else {
+      errors.fields.push_back({mp, "unknown member (per_minute, seed)"});
+    }
+  }
+}
+
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
   if (!v.is_array() || v.empty()) {
     errors.fields.push_back({"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});

@@ -61,6 +61,11 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors);
 // {"target": [x, y, z]} or {"yaw": deg, "pitch": deg}; nullopt (errors added) when malformed.
 std::optional<Gaze> GazeFromJson(const json& v, const std::string& ptr, Status& errors);
 
+// A sequence's "gaze": one gaze held (at time 0) or {"keys": [{"time", "target" | "yaw", "pitch"}, ...]}.
+void GazeTrackFromJson(const json& v, const std::string& ptr, std::vector<GazeKey>& track, Status& errors);
+// "blink": {"per_minute", "seed"}.
+void BlinkFromJson(const json& v, const std::string& ptr, float& per_minute, uint64_t& seed, Status& errors);
+
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors);
 void LayersFromJson(const json& v, PoseRequest& pose, Status& errors);
 

@@ -95,48 +95,10 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
       LayersFromJson(v, pose, errors);
       r.layers = std::move(pose.clips);
     } else if (key == "gaze") {
-      if (v.is_object() && v.contains("keys")) {
-        const json& ks = v["keys"];
-        if (v.size() != 1 || !ks.is_array() || ks.empty() || ks.size() > 10000) {
-          errors.fields.push_back({ptr + "/keys", "must be an array of 1 to 10000 {\"time\", \"target\": [x, y, z]} or {\"time\", \"yaw\", \"pitch\"}"});
-          continue;
-        }
-        for (size_t k = 0; k < ks.size(); ++k) {
-          const std::string kp = ptr + "/keys/" + std::to_string(k);
-          if (!ks[k].is_object() || !ks[k].contains("time")) {
-            errors.fields.push_back({kp, "needs a time"});
-            continue;
-          }
-          GazeKey g;
-          number(ks[k]["time"], kp + "/time", &g.time, -1e9, 1e9);
-          json rest = ks[k];
-          rest.erase("time");
-          if (auto gaze = GazeFromJson(rest, kp, errors)) g.gaze = *gaze;
-          if (!r.gaze.empty() && !(g.time > r.gaze.back().time)) errors.fields.push_back({kp + "/time", "gaze key times must increase"});
-          if (!r.gaze.empty() && g.gaze.has_target != r.gaze.front().gaze.has_target) errors.fields.push_back({kp, "every gaze key gives a target, or every one angles"});
-          r.gaze.push_back(g);
-        }
-      } else if (auto gaze = GazeFromJson(v, ptr, errors)) {
-        r.gaze.push_back({0.0f, *gaze});
-      }
+      GazeTrackFromJson(v, ptr, r.gaze, errors);
     } else if (key == "blink") {
       r.blink = true;
-      if (!v.is_object()) {
-        errors.fields.push_back({ptr, "must be {\"per_minute\": n, \"seed\": s} (natural blinks; people blink 10 to 20 times a minute)"});
-        continue;
-      }
-      for (auto m = v.begin(); m != v.end(); ++m) {
-        const std::string mp = ptr + "/" + JsonPointerEscape(m.key());
-        if (m.key() == "per_minute") {
-          if (!m->is_number() || !(m->get<double>() > 0) || m->get<double>() > kMaxBlinksPerMinute) errors.fields.push_back({mp, "must be a number in (0, 60]"});
-          else r.blink_per_minute = m->get<float>();
-        } else if (m.key() == "seed") {
-          if (!m->is_number_unsigned()) errors.fields.push_back({mp, "must be an integer >= 0"});
-          else r.blink_seed = m->get<uint64_t>();
-        } else {
-          errors.fields.push_back({mp, "unknown member (per_minute, seed)"});
-        }
-      }
+      BlinkFromJson(v, ptr, r.blink_per_minute, r.blink_seed, errors);
     } else if (key == "transition") {
       transition(v, ptr, &r.transition);
     } else if (key == "smooth") {
@@ -220,35 +182,30 @@ Result<Sequence> LayeredSequence(const Rig& rig, const SequenceRequest& request)
   return s;
 }
 
-namespace {
-
-// The request's gaze track and blinks onto a resolved sequence; what the rig cannot show warns once.
-void AttachFace(const Rig& rig, const SequenceRequest& request, Sequence& s) {
-  if (!request.gaze.empty()) {
+void AttachFace(const Rig& rig, std::span<const GazeKey> gaze, bool blink, float per_minute, uint64_t seed, Sequence& s) {
+  if (!gaze.empty()) {
     if (rig.gaze.kind == GazeSetup::Kind::kNone) {
       s.warnings.push_back(GazeUnsupported());
     } else {
-      s.gaze = request.gaze;
+      s.gaze.assign(gaze.begin(), gaze.end());
     }
   }
-  if (request.blink) {
+  if (blink && !s.keys.empty()) {
     if (!CanBlink(rig)) {
       s.warnings.push_back({"blink_unsupported",
                             "this rig has no blink expression (no eyeBlink_L/R, まばたき, or \"blink\" in its manifest's expressions): no blinks", "", 0.0, false});
     } else {
-      s.blinks = NaturalBlinks(s.keys.front().time, s.keys.back().time, request.blink_per_minute, request.blink_seed);
+      s.blinks = NaturalBlinks(s.keys.front().time, s.keys.back().time, per_minute, seed);
     }
   }
 }
-
-}  // namespace
 
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request) {
   if (!request.clip.pointer.empty() || !request.layers.empty()) {
     Result<Sequence> posed = !request.clip.pointer.empty() ? ClipSequence(rig, request) : LayeredSequence(rig, request);
     if (posed.ok()) {
       posed->physics = request.physics;
-      AttachFace(rig, request, posed.value());
+      AttachFace(rig, request.gaze, request.blink, request.blink_per_minute, request.blink_seed, posed.value());
     }
     return posed;
   }
@@ -294,7 +251,7 @@ Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request)
   }
   if (!errors.fields.empty()) return Finish(errors);
   if (Status st = ValidateSequence(s, rig.shapes.size()); !st.ok()) return st;
-  AttachFace(rig, request, s);
+  AttachFace(rig, request.gaze, request.blink, request.blink_per_minute, request.blink_seed, s);
   return s;
 }
 

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -30,6 +31,7 @@
 #include "facespace/core/weights.h"
 #include "facespace/formats/io.h"
 #include "facespace/render/render.h"
+#include "facespace/speech/speech.h"
 
 namespace facespace::physics {
 class Simulation;
@@ -86,6 +88,7 @@ struct OutputSpec {
     kSheet,       // A labelled grid of renders, one cell per point, `columns` wide.
     kFrameJson,   // A sequence frame: the JSON export's primitives array (world space).
     kFrameF32,    // A stream frame: a uint32 byte count, then the world-space positions.
+    kPixels,      // A render left in the workspace's image (8-bit sRGB), no bytes: a video's frame.
   };
   Kind kind = Kind::kMesh;
   BlendOptions blend;            // Mode, normals, skinning (the point's pose is the point's).
@@ -109,6 +112,7 @@ struct OutputSpec {
   static OutputSpec Image(const RenderRequest& request, render::ImageFormat format);
   static OutputSpec Sheet(const SheetRequest& request, render::ImageFormat format);
   static OutputSpec Frame(const BlendOptions& blend, bool f32);
+  static OutputSpec Pixels(const RenderRequest& request);
   const char* content_type() const;
 };
 
@@ -283,6 +287,37 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence);
 
 // {"keys", "transition", "kept", "removed", "max_error", "tolerance"}: a reduced sequence.
 std::string ReducedSequenceJson(const Rig& rig, const Sequence& original, const ReduceResult& reduced, float tolerance);
+
+// ---- speech -----------------------------------------------------------------------------------
+
+// What a speech request comes to: the audio (spoken by espeak-ng, or the one sent), its phonemes and
+// visemes, and the sequence whose keys speak them over the face the request gives (its weights,
+// expressions and controls), with its gaze track and blinks.
+struct SpeechPlan {
+  speech::Audio audio;
+  std::vector<TimedPhoneme> phonemes;
+  std::vector<TimedViseme> visemes;
+  Sequence sequence;
+  std::vector<Warning> warnings;  // The face's and the recognizer's; the sequence's own are in sequence.warnings.
+  std::string voice;              // espeak-ng's voice, or "" for audio sent.
+  std::string source;             // "espeak-ng", "pocketsphinx" or "pocketsphinx-aligned".
+  float voiced_seconds = 0.0f;    // Audio sent: how much of it the voice detector took as speech.
+};
+// Errors: the rig cannot speak (FailedPrecondition, reason no-mouth); the text, voice, rate or audio
+// (InvalidArgument or ResourceExhausted naming the field); the face (as ResolvePoint's).
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request);
+
+// {"source", "voice", "duration", "fps", "frames", "phonemes": [{"name", "start", "end"}],
+//  "visemes": [{"viseme", "start", "end"}], "keys": [...] (as sequence requests take them),
+//  "transition", "warnings"}: the speech route's json body and `facespace speak -o X.json`.
+std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps);
+
+// The plan's sequence rendered at `fps` (request.render's size, camera and view) with its audio, as a
+// WebM file (VP9 + Opus, render/video.h): the frame at time i / fps shows the face the audio is saying
+// at that time. Frames are drawn one after the other in `ws`; `on_frame` (may be empty) hears each
+// one's number, for progress. Errors: the size (422 at /width or /height), the renderer's.
+Result<std::string> SpeechVideo(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const SpeechPlan& plan,
+                                const SpeechRequest& request, Workspace& ws, const std::function<void(size_t)>& on_frame = {});
 
 // ---- fitting ----------------------------------------------------------------------------------
 

@@ -2,7 +2,9 @@
 // Parsing never throws; every error names the offending field as a JSON Pointer.
 #pragma once
 
+#include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -131,6 +133,38 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body);
 
 // The keys resolved against a rig (names, aliases, indices, shape keys), validated.
 Result<Sequence> ResolveSequence(const Rig& rig, const SequenceRequest& request);
+
+// A gaze track and natural blinks (over the keys' span) onto a resolved sequence; what the rig cannot
+// show warns once in the sequence's warnings.
+void AttachFace(const Rig& rig, std::span<const GazeKey> gaze, bool blink, float per_minute, uint64_t seed, Sequence& s);
+
+// Body of POST /v1/rigs/{id}/speech (a JSON object, or a WAV file as the body itself):
+// {"text": "..." (espeak-ng speaks it) | "audio": BASE64 WAV (PocketSphinx hears it), "transcript": "...",
+//  "voice": "en-us", "rate": words a minute, "fps": 30, "strength": 0..1,
+//  "format": "json"|"ndjson"|"f32"|"weights"|"wav"|"webm",
+//  the face under the speech: "weights", "expressions", "controls", "mode", "normals";
+//  "gaze" (held or a track) and "blink" as on sequences; for webm the render route's "width", "height",
+//  "camera", "view", "background", "supersample", "exposure"}
+struct SpeechRequest {
+  std::string text;
+  std::string audio;               // WAV bytes (the base64 decoded, or the body).
+  bool has_audio = false;
+  std::string transcript;          // With audio: align to these words.
+  std::string voice = "en-us";
+  int rate = 175;
+  float fps = 30.0f;
+  float strength = 1.0f;
+  std::string format = "json";
+  RenderRequest render;            // The face under the speech, the video's camera and size.
+  std::vector<GazeKey> gaze;
+  bool blink = false;
+  float blink_per_minute = 15.0f;
+  uint64_t blink_seed = 1;
+};
+// Errors name their field; text and audio both, or neither, is an error at /text.
+Result<SpeechRequest> ParseSpeechRequest(std::string_view body);
+// The same from a WAV body and the query's settings (voice, transcript, fps, format, ...), each "" when absent.
+Result<SpeechRequest> SpeechRequestOfWav(std::string wav, const std::vector<std::pair<std::string, std::string>>& settings);
 
 // A mesh to fit, as the JSON export writes it: {"space": "world"|"mesh", "primitives":
 // [{"positions": [...]}, ...]}; without "space", world space (the export's default).

@@ -1,0 +1,148 @@
+// Request schema of speech (lip sync from text or audio).
+#include <cmath>
+
+#include "json_body.h"
+
+namespace facespace::api {
+
+using namespace body;
+
+namespace {
+
+constexpr std::string_view kSpeechMembers[] = {"text", "audio", "transcript", "voice", "rate", "fps", "strength", "format",
+                                               "weights", "expressions", "controls", "mode", "normals", "gaze", "blink",
+                                               "width", "height", "camera", "view", "background", "supersample", "exposure"};
+constexpr BodyLimits kSpeechBody{100000};
+
+constexpr std::string_view kFormats[] = {"json", "ndjson", "f32", "weights", "wav", "webm"};
+
+// RFC 4648 base64 (padding optional, whitespace skipped); false on any other byte.
+bool DecodeBase64(std::string_view in, std::string& out) {
+  out.clear();
+  out.reserve(in.size() / 4 * 3);
+  uint32_t acc = 0;
+  int bits = 0;
+  for (char c : in) {
+    int v;
+    if (c >= 'A' && c <= 'Z') v = c - 'A';
+    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9') v = c - '0' + 52;
+    else if (c == '+' || c == '-') v = 62;
+    else if (c == '/' || c == '_') v = 63;
+    else if (c == '=' || c == '\n' || c == '\r' || c == ' ') continue;
+    else return false;
+    acc = (acc << 6) | static_cast<uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out += static_cast<char>((acc >> bits) & 0xFF);
+    }
+  }
+  return true;
+}
+
+// A speech setting (a body member, or a query parameter's text as JSON-ish), into r.
+bool SpeechMember(const std::string& key, const json& v, SpeechRequest& r, Status& errors) {
+  const std::string ptr = "/" + JsonPointerEscape(key);
+  double d = 0;
+  if (key == "text" || key == "transcript" || key == "voice") {
+    if (!v.is_string()) errors.fields.push_back({ptr, "must be a string"});
+    else (key == "text" ? r.text : key == "transcript" ? r.transcript : r.voice) = v.get<std::string>();
+  } else if (key == "audio") {
+    r.has_audio = true;
+    if (!v.is_string() || !DecodeBase64(v.get<std::string>(), r.audio)) {
+      errors.fields.push_back({ptr, "must be a WAV file as base64 (or POST the WAV itself as the body, Content-Type audio/wav)"});
+    }
+  } else if (key == "rate") {
+    if (!v.is_number_integer() || !Number(v, 80, 450, &d)) errors.fields.push_back({ptr, "must be words a minute, an integer from 80 to 450"});
+    else r.rate = static_cast<int>(d);
+  } else if (key == "fps") {
+    if (!Number(v, 1, 120, &d)) errors.fields.push_back({ptr, "must be a number of frames a second in [1, 120]"});
+    else r.fps = static_cast<float>(d);
+  } else if (key == "strength") {
+    if (!Number(v, 0, 2, &d)) errors.fields.push_back({ptr, "must be a number in [0, 2] (1: the visemes as mapped)"});
+    else r.strength = static_cast<float>(d);
+  } else if (key == "format") {
+    if (!v.is_string() || std::find(std::begin(kFormats), std::end(kFormats), v.get<std::string>()) == std::end(kFormats)) {
+      errors.fields.push_back({ptr, "must be json, ndjson, f32, weights, wav or webm"});
+    } else {
+      r.format = v.get<std::string>();
+    }
+  } else if (key == "gaze") {
+    GazeTrackFromJson(v, ptr, r.gaze, errors);
+  } else if (key == "blink") {
+    r.blink = true;
+    BlinkFromJson(v, ptr, r.blink_per_minute, r.blink_seed, errors);
+  } else if (key == "weights" || key == "expressions" || key == "controls" || key == "mode" || key == "normals") {
+    MeshMember(key, v, r.render.mesh, false, errors);
+  } else if (key == "width" || key == "height" || key == "camera" || key == "view" || key == "background" || key == "supersample" ||
+             key == "exposure") {
+    RenderMember(key, v, r.render, errors);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+Status FinishSpeech(SpeechRequest& r, Status errors) {
+  if (errors.fields.empty()) {
+    if (r.has_audio == !r.text.empty()) {
+      errors.fields.push_back({"/text", r.has_audio ? "give text or audio, not both" : "is required: the words to say (or \"audio\": a WAV, as base64)"});
+    } else if (!r.transcript.empty() && !r.has_audio) {
+      errors.fields.push_back({"/transcript", "aligns audio to its words; with text, the text is what is said"});
+    }
+    if (r.format == "webm" && r.render.render.width * r.render.render.height > 1920 * 1080) {
+      errors.fields.push_back({"/width", "a video is at most 1920 x 1080 pixels"});
+    }
+  }
+  return errors.fields.empty() ? Status::Ok() : Finish(std::move(errors));
+}
+
+}  // namespace
+
+Result<SpeechRequest> ParseSpeechRequest(std::string_view text) {
+  // A base64 WAV of 60 s at 48 kHz stereo is 15 MB: one string value, so the value count stays small.
+  auto j = ParseObject(text, kSpeechBody);
+  if (!j.ok()) return j.status();
+  SpeechRequest r;
+  r.render.render.width = r.render.render.height = 512;
+  Status errors = InvalidArgument("");
+  for (auto it = j->begin(); it != j->end(); ++it) {
+    if (!SpeechMember(it.key(), it.value(), r, errors)) UnknownMember(it.key(), kSpeechMembers, errors);
+  }
+  if (Status s = FinishSpeech(r, std::move(errors)); !s.ok()) return s;
+  return r;
+}
+
+Result<SpeechRequest> SpeechRequestOfWav(std::string wav, const std::vector<std::pair<std::string, std::string>>& settings) {
+  SpeechRequest r;
+  r.render.render.width = r.render.render.height = 512;
+  r.audio = std::move(wav);
+  r.has_audio = true;
+  Status errors = InvalidArgument("");
+  for (const auto& [key, value] : settings) {
+    if (key == "text" || key == "audio") {
+      errors.fields.push_back({"/" + key, "the body is the audio; send text in a JSON body"});
+      continue;
+    }
+    // Numbers as numbers, the rest as strings; JSON-valued settings (camera, gaze, blink) as JSON.
+    json v = value;
+    if (key == "camera" || key == "gaze" || key == "blink" || key == "weights" || key == "expressions" || key == "controls" || key == "background") {
+      v = json::parse(value, nullptr, false);
+      if (v.is_discarded()) v = value;
+    } else if (key != "text" && key != "transcript" && key != "voice" && key != "format" && key != "mode" && key != "normals" && key != "view") {
+      double d;
+      const char* end = nullptr;
+      d = std::strtod(value.c_str(), const_cast<char**>(&end));
+      if (end && *end == '\0' && !value.empty()) {
+        if (d == std::floor(d) && std::fabs(d) < 1e15) v = static_cast<long long>(d);
+        else v = d;
+      }
+    }
+    if (!SpeechMember(key, v, r, errors)) UnknownMember(key, kSpeechMembers, errors);
+  }
+  if (Status s = FinishSpeech(r, std::move(errors)); !s.ok()) return s;
+  return r;
+}
+
+}  // namespace facespace::api

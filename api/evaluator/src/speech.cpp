@@ -1,0 +1,110 @@
+// Speech requests: text (espeak-ng) or audio (PocketSphinx) to phonemes, visemes and the keys that
+// speak them on a rig (core/speech.h), and their JSON.
+#include "facespace/api/evaluator.h"
+#include "facespace/core/speech.h"
+#include "facespace/formats/io.h"
+#include "facespace/render/video.h"
+#include "json_text.h"
+
+namespace facespace::api {
+
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
+  if (Status s = CanSpeak(rig); !s.ok()) return s;
+  SpeechPlan plan;
+  if (request.has_audio) {
+    auto audio = speech::ReadWav(request.audio);
+    if (!audio.ok()) return audio.status();
+    plan.audio = std::move(audio.value());
+    if (plan.audio.samples.empty()) return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
+    speech::RecognizeOptions options;
+    options.transcript = request.transcript;
+    auto heard = speech::Recognize(plan.audio, options);
+    if (!heard.ok()) return heard.status();
+    plan.phonemes = std::move(heard->phonemes);
+    plan.warnings = std::move(heard->warnings);
+    plan.voiced_seconds = heard->voiced_seconds;
+    const bool aligned = !request.transcript.empty() &&
+                         std::none_of(plan.warnings.begin(), plan.warnings.end(), [](const Warning& w) { return w.code == "transcript_not_aligned"; });
+    plan.source = aligned ? "pocketsphinx-aligned" : "pocketsphinx";
+  } else {
+    speech::SynthOptions options;
+    options.voice = request.voice;
+    options.rate = request.rate;
+    auto spoken = speech::Synthesize(request.text, options);
+    if (!spoken.ok()) return spoken.status();
+    plan.audio = std::move(spoken->audio);
+    plan.phonemes = std::move(spoken->phonemes);
+    plan.voice = std::move(spoken->voice);
+    plan.source = "espeak-ng";
+  }
+  plan.visemes = VisemesOfPhonemes(plan.phonemes);
+  const float end = plan.audio.seconds();
+  if (plan.visemes.empty()) plan.visemes.push_back({Viseme::kSil, 0.0f, end});
+  if (plan.visemes.front().start > 0.0f) plan.visemes.insert(plan.visemes.begin(), {Viseme::kSil, 0.0f, plan.visemes.front().start});
+  if (plan.visemes.back().end < end) {
+    if (plan.visemes.back().viseme == Viseme::kSil) plan.visemes.back().end = end;
+    else plan.visemes.push_back({Viseme::kSil, plan.visemes.back().end, end});
+  }
+  // The face under the speech.
+  ResolvedPoint base;
+  if (Status s = ResolvePoint(rig, request.render.mesh, base); !s.ok()) return s;
+  plan.warnings.insert(plan.warnings.end(), base.report.warnings.begin(), base.report.warnings.end());
+  SpeechOptions options;
+  options.min_hold = 1.0f / request.fps;
+  options.strength = request.strength;
+  plan.sequence = SpeechSequence(rig, plan.visemes, base.weights, options);
+  AttachFace(rig, request.gaze, request.blink, request.blink_per_minute, request.blink_seed, plan.sequence);
+  return plan;
+}
+
+std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps) {
+  std::string out = "{\"source\":" + JsonString(plan.source);
+  if (!plan.voice.empty()) out += ",\"voice\":" + JsonString(plan.voice);
+  out += ",\"duration\":" + FormatNumber(plan.audio.seconds()) + ",\"fps\":" + FormatNumber(fps) +
+         ",\"frames\":" + std::to_string(FrameCount(plan.sequence, fps));
+  if (plan.source != "espeak-ng") out += ",\"voiced_seconds\":" + FormatNumber(plan.voiced_seconds);
+  out += ",\"phonemes\":[";
+  for (size_t i = 0; i < plan.phonemes.size(); ++i) {
+    const TimedPhoneme& p = plan.phonemes[i];
+    out += std::string(i ? "," : "") + "{\"name\":" + JsonString(p.name) + ",\"start\":" + FormatNumber(p.start) + ",\"end\":" + FormatNumber(p.end) + "}";
+  }
+  out += "],\"visemes\":[";
+  for (size_t i = 0; i < plan.visemes.size(); ++i) {
+    const TimedViseme& v = plan.visemes[i];
+    out += std::string(i ? "," : "") + "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) + "\",\"start\":" + FormatNumber(v.start) +
+           ",\"end\":" + FormatNumber(v.end) + "}";
+  }
+  out += "],\"keys\":" + SequenceKeysJson(rig, plan.sequence) + ",\"transition\":" + JsonString(TransitionName(plan.sequence.transition));
+  std::vector<Warning> warnings = plan.warnings;
+  warnings.insert(warnings.end(), plan.sequence.warnings.begin(), plan.sequence.warnings.end());
+  out += ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
+  return out;
+}
+
+Result<std::string> SpeechVideo(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored, const SpeechPlan& plan,
+                                const SpeechRequest& request, Workspace& ws, const std::function<void(size_t)>& on_frame) {
+  render::VideoOptions video;
+  video.width = request.render.render.width;
+  video.height = request.render.render.height;
+  video.fps = request.fps;
+  auto encoder = render::WebmEncoder::Start(video, plan.audio.samples, plan.audio.rate);
+  if (!encoder.ok()) return encoder.status();
+  const Rig& rig = stored->rig;
+  const Sequence& seq = plan.sequence;
+  const OutputSpec spec = OutputSpec::Pixels(request.render);
+  SequencePhysics physics(rig, seq);
+  ResolvedPoint point;
+  const size_t frames = FrameCount(seq, request.fps);
+  const float start = seq.keys.empty() ? 0.0f : seq.keys.front().time;
+  for (size_t i = 0; i < frames; ++i) {
+    const float t = start + static_cast<float>(static_cast<double>(i) / request.fps);
+    SequencePoint(rig, seq, t, request.render.mesh.options.mode, point, &physics);
+    auto drawn = evaluator.Run(stored, point, spec, ws);
+    if (!drawn.ok()) return drawn.status();
+    if (Status s = encoder.value()->Add(ws.image); !s.ok()) return s;
+    if (on_frame) on_frame(i);
+  }
+  return encoder.value()->Finish();
+}
+
+}  // namespace facespace::api

@@ -1,0 +1,88 @@
+// /v1/rigs/{id}/speech: lip sync from text (espeak-ng) or recorded speech (PocketSphinx), as keys,
+// audio, a stream of frames or a video; /v1/voices: what text can be spoken with.
+#include "../http/problem.h"
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+bool IsAudioBody(const httplib::Request& req) {
+  const std::string type = req.get_header_value("Content-Type");
+  return type.rfind("audio/", 0) == 0 || speech::LooksLikeWav(req.body);
+}
+
+// The video: within the frame limit and the render budget (for the whole encode), drawn as it goes.
+void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::shared_ptr<const StoredRig>& stored,
+                     const SpeechPlan& plan, const SpeechRequest& r) {
+  const size_t frames = FrameCount(plan.sequence, r.fps);
+  if (frames > ctx.options.max_frames) {
+    const std::string max = std::to_string(ctx.options.max_frames);
+    return SendProblem(req, res, 422, "too-many-frames",
+                       "the video would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max + " (--max-frames)",
+                       {{"/fps", "at most " + max + " frames over the speech's duration"}});
+  }
+  if (!CheckRenderBudget(ctx, req, res, r.render.render, 1)) return;
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
+  std::string video;
+  auto encoded = WithinRenderBudget(ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<Encoded> {
+    auto bytes = SpeechVideo(ctx.evaluator, stored, plan, r, *ws);
+    if (!bytes.ok()) return bytes.status();
+    video = std::move(bytes.value());
+    return Encoded{};
+  });
+  if (!encoded.ok()) return SendStatus(req, res, encoded.status());
+  ctx.metrics.CountBlends(frames);
+  res.status = 200;
+  res.set_header("Facespace-Frames", std::to_string(frames));
+  res.set_content(std::move(video), "video/webm");
+}
+
+}  // namespace
+
+void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  if (!stored) return;
+  SpeechRequest r;
+  if (IsAudioBody(req)) {
+    std::vector<std::pair<std::string, std::string>> settings(req.params.begin(), req.params.end());
+    auto parsed = SpeechRequestOfWav(req.body, settings);
+    if (!parsed.ok()) return SendStatus(req, res, parsed.status());
+    r = std::move(parsed.value());
+  } else if (!ReadJsonBody(req, res, ParseSpeechRequest, r)) {
+    return;
+  }
+  auto plan = PlanSpeech(stored->rig, r);
+  if (!plan.ok()) return SendStatus(req, res, plan.status());
+  std::vector<Warning> warnings = plan->warnings;
+  warnings.insert(warnings.end(), plan->sequence.warnings.begin(), plan->sequence.warnings.end());
+  if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
+  res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
+  if (r.format == "json") {
+    res.status = 200;
+    res.set_content(SpeechJson(stored->rig, plan.value(), r.fps), "application/json");
+  } else if (r.format == "wav") {
+    res.status = 200;
+    res.set_content(speech::WriteWav(plan->audio), "audio/wav");
+  } else if (r.format == "webm") {
+    SendSpeechVideo(ctx, req, res, stored, plan.value(), r);
+  } else {
+    auto seq = std::make_shared<const Sequence>(std::move(plan->sequence));
+    SendSequenceStream(ctx, req, res, stored, seq, r.fps, r.format, r.render.mesh.options);
+  }
+}
+
+void GetVoices(ServerState&, const httplib::Request&, httplib::Response& res) {
+  std::string out = "{\"voices\":[";
+  bool first = true;
+  for (const speech::VoiceInfo& v : speech::Voices()) {
+    out += std::string(first ? "" : ",") + "{\"name\":" + nlohmann::json(v.name).dump() + ",\"language\":" + nlohmann::json(v.language).dump() + "}";
+    first = false;
+  }
+  out += "],\"default\":\"en-us\"}\n";
+  res.status = 200;
+  res.set_header("Cache-Control", "max-age=3600");
+  res.set_content(out, "application/json");
+}
+
+}  // namespace facespace::api::http

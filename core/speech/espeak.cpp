@@ -1,0 +1,144 @@
+// Text to speech with libespeak-ng, synchronous: the audio and its phoneme events come back through one
+// callback. espeak-ng keeps global state (voice, rate, callback), so one synthesis runs at a time.
+#include <espeak-ng/speak_lib.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <mutex>
+
+#include "facespace/core/rig.h"
+#include "facespace/core/utf8.h"
+#include "facespace/speech/speech.h"
+
+namespace facespace::speech {
+
+namespace {
+
+std::timed_mutex& Lock() {
+  static std::timed_mutex m;
+  return m;
+}
+
+// What one synthesis collects.
+struct Collect {
+  std::vector<int16_t> samples;
+  std::vector<std::pair<int, std::string>> events;  // (ms, IPA phoneme)
+  std::chrono::steady_clock::time_point deadline;
+  bool timed_out = false;
+};
+Collect* g_collect = nullptr;  // Under Lock().
+
+int OnSynth(short* wav, int count, espeak_EVENT* events) {
+  Collect* c = g_collect;
+  if (!c) return 1;
+  if (wav && count > 0) c->samples.insert(c->samples.end(), wav, wav + count);
+  for (espeak_EVENT* e = events; e && e->type != espeakEVENT_LIST_TERMINATED; ++e) {
+    if (e->type != espeakEVENT_PHONEME) continue;
+    const char* s = e->id.string;
+    c->events.emplace_back(e->audio_position, std::string(s, strnlen(s, sizeof(e->id.string))));
+  }
+  if (std::chrono::steady_clock::now() > c->deadline) {
+    c->timed_out = true;
+    return 1;  // Stops the synthesis.
+  }
+  return 0;
+}
+
+// Initialized once, under Lock(); the sample rate, or <= 0 when espeak-ng's data is missing.
+int Initialized() {
+  static int rate = [] {
+    const int r = espeak_Initialize(AUDIO_OUTPUT_SYNCHRONOUS, 200, nullptr,
+                                    espeakINITIALIZE_PHONEME_EVENTS | espeakINITIALIZE_PHONEME_IPA | espeakINITIALIZE_DONT_EXIT);
+    if (r > 0) espeak_SetSynthCallback(OnSynth);
+    return r;
+  }();
+  return rate;
+}
+
+std::vector<VoiceInfo> ListVoicesLocked() {
+  std::vector<VoiceInfo> out;
+  const espeak_VOICE** voices = espeak_ListVoices(nullptr);
+  for (size_t i = 0; voices && voices[i]; ++i) {
+    const espeak_VOICE* v = voices[i];
+    // `languages`: a priority byte, then a zero-terminated language, repeated; the first is the main one.
+    std::string lang = v->languages && v->languages[0] ? std::string(v->languages + 1) : "";
+    out.push_back({v->name ? v->name : "", lang});
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<VoiceInfo> Voices() {
+  std::lock_guard<std::timed_mutex> lock(Lock());
+  if (Initialized() <= 0) return {};
+  return ListVoicesLocked();
+}
+
+Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
+  size_t chars = 0;
+  bool blank = true;
+  for (size_t i = 0; i < text.size(); ++chars) {
+    char32_t cp;
+    const size_t len = DecodeUtf8(text, i, cp);
+    if (len == 0) return WithReason(InvalidArgument("/text: is not valid UTF-8 (at byte " + std::to_string(i) + ")"), "invalid-text");
+    blank = blank && (cp == ' ' || cp == '\t' || cp == '\n' || cp == '\r');
+    i += len;
+  }
+  if (blank) return WithReason(InvalidArgument("/text: is empty; send the words to say"), "invalid-text");
+  if (chars > kMaxTextChars) {
+    return WithReason(InvalidArgument("/text: " + std::to_string(chars) + " characters, over the limit of " + std::to_string(kMaxTextChars)),
+                      "text-too-long");
+  }
+  if (options.rate < 80 || options.rate > 450) {
+    return WithReason(InvalidArgument("/rate: " + std::to_string(options.rate) + " words a minute; from 80 to 450"), "invalid-rate");
+  }
+  std::unique_lock<std::timed_mutex> lock(Lock(), std::defer_lock);
+  if (!lock.try_lock_for(kBusyWait)) return Busy("espeak-ng");
+  const int rate = Initialized();
+  if (rate <= 0) return Internal("espeak-ng could not start (its data, espeak-ng-data, is missing)");
+  // A voice by name or by language: the first voice whose name or language equals it.
+  std::string voice;
+  const std::vector<VoiceInfo> voices = ListVoicesLocked();
+  for (const VoiceInfo& v : voices) {
+    if (v.language == options.voice || v.name == options.voice) {
+      voice = v.language.empty() ? v.name : v.language;
+      break;
+    }
+  }
+  if (voice.empty() || espeak_SetVoiceByName(voice.c_str()) != EE_OK) {
+    std::vector<std::string_view> names;
+    for (const VoiceInfo& v : voices) {
+      if (!v.language.empty()) names.push_back(v.language);
+    }
+    return WithReason(InvalidArgument("/voice: unknown voice '" + options.voice + "'" + DidYouMean(options.voice, names) + " (GET /v1/voices lists " +
+                                      std::to_string(voices.size()) + ")"),
+                      "unknown-voice");
+  }
+  espeak_SetParameter(espeakRATE, options.rate, 0);
+  Collect collect;
+  collect.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  g_collect = &collect;
+  const std::string z(text);
+  const espeak_ERROR err = espeak_Synth(z.c_str(), z.size() + 1, 0, POS_CHARACTER, 0, espeakCHARS_UTF8, nullptr, nullptr);
+  espeak_Synchronize();
+  g_collect = nullptr;
+  if (err != EE_OK) return Internal("espeak-ng failed to speak (error " + std::to_string(static_cast<int>(err)) + ")");
+  if (collect.timed_out) return WithReason(ResourceExhausted("/text: took espeak-ng over 20 s; say less at once"), "text-too-long");
+  Spoken out;
+  out.voice = voice;
+  out.audio.rate = rate;
+  out.audio.samples.resize(collect.samples.size());
+  for (size_t i = 0; i < collect.samples.size(); ++i) out.audio.samples[i] = collect.samples[i] / 32768.0f;
+  const float total = out.audio.seconds();
+  // Each phoneme from its event's time to the next one's (the last to the end of the audio).
+  for (size_t i = 0; i < collect.events.size(); ++i) {
+    const float start = std::min(total, collect.events[i].first / 1000.0f);
+    const float end = i + 1 < collect.events.size() ? std::min(total, collect.events[i + 1].first / 1000.0f) : total;
+    out.phonemes.push_back({collect.events[i].second, start, std::max(start, end)});
+  }
+  return out;
+}
+
+}  // namespace facespace::speech

@@ -1,0 +1,103 @@
+// Speech in and out, for lip sync (core/speech.h turns the phonemes into visemes and keys):
+//   - WAV bytes read (untrusted: bounded, every chunk checked) and written;
+//   - text spoken by Debian's libespeak-ng: the audio and its phoneme events (IPA, with their times);
+//   - speech recognized by Debian's PocketSphinx: phonemes with times, or a transcript aligned to the
+//     audio; where nobody speaks (silence, noise) it says silence.
+// Below the evaluator, beside the formats and physics; core itself stays Eigen alone.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "facespace/core/speech.h"
+#include "facespace/core/status.h"
+
+namespace facespace::speech {
+
+// Mono audio, samples in [-1, 1].
+struct Audio {
+  int rate = 0;  // Samples per second.
+  std::vector<float> samples;
+  float seconds() const { return rate > 0 ? static_cast<float>(samples.size()) / static_cast<float>(rate) : 0.0f; }
+};
+
+// Each engine serves one request at a time; another waits this long for it, then is told "busy"
+// (ResourceExhausted, reason "busy": the service answers 503, retry shortly) rather than holding its
+// thread for as long as the queue is.
+inline constexpr std::chrono::milliseconds kBusyWait{2000};
+inline Status Busy(const char* engine) {
+  return WithReason(ResourceExhausted(std::string(engine) + " is speaking for another request; retry shortly"), "busy");
+}
+
+// ---- WAV --------------------------------------------------------------------------------------
+
+inline constexpr float kMaxAudioSeconds = 60.0f;
+
+// A RIFF/WAVE file: PCM 8, 16, 24 or 32 bit, or IEEE float 32 (plain or WAVE_FORMAT_EXTENSIBLE), 1 to
+// 8 channels (averaged to mono), 8 to 192 kHz. Errors (InvalidArgument, reason "invalid-audio"):
+// not a WAV, a format it does not read, truncated headers; longer than `max_seconds`:
+// ResourceExhausted (reason "audio-too-long"). A data chunk cut short is read as far as it goes.
+Result<Audio> ReadWav(std::string_view bytes, float max_seconds = kMaxAudioSeconds);
+
+// 16-bit PCM mono WAV.
+std::string WriteWav(const Audio& audio);
+
+// Whether the bytes start as a RIFF/WAVE file.
+bool LooksLikeWav(std::string_view bytes);
+
+// The audio at another rate (band-limited: a windowed-sinc low-pass below both Nyquist rates).
+Audio Resample(const Audio& audio, int rate);
+
+// ---- text to speech (libespeak-ng) -------------------------------------------------------------
+
+inline constexpr size_t kMaxTextChars = 2000;
+
+struct SynthOptions {
+  std::string voice = "en-us";  // An espeak-ng voice name or language ("en-us", "en", "ja", "de", ...).
+  int rate = 175;               // Words per minute, 80 to 450.
+};
+
+struct Spoken {
+  Audio audio;
+  std::vector<TimedPhoneme> phonemes;  // IPA, as espeak-ng's phoneme events name them; pauses "_".
+  std::string voice;                   // The voice that spoke.
+};
+
+// Speaks `text` (UTF-8, 1 to kMaxTextChars characters). Errors name the field: empty or too long text
+// (/text), an unknown voice (/voice, with the closest names), a rate out of range (/rate). One
+// synthesis at a time (espeak-ng keeps global state): callers queue on a lock.
+Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options);
+
+// The voices espeak-ng has: {name, languages}.
+struct VoiceInfo {
+  std::string name, language;
+};
+std::vector<VoiceInfo> Voices();
+
+// ---- speech to phonemes (PocketSphinx) --------------------------------------------------------
+
+struct RecognizeOptions {
+  // Words said (Rhubarb's dialog option): the audio is aligned to them (their phonemes from CMU's
+  // dictionary); words the dictionary does not have are left out, named in a warning. Empty: phonemes
+  // are recognized as heard (PocketSphinx's all-phone search).
+  std::string transcript;
+};
+
+struct Recognized {
+  std::vector<TimedPhoneme> phonemes;  // ARPAbet ("HH", "AH", "SIL").
+  std::vector<Warning> warnings;
+  float voiced_seconds = 0.0f;         // How much of the audio the voice detector took as speech.
+};
+
+// US English, 16 kHz (other rates are resampled). Where the voice detector hears no voice (silence,
+// steady noise), phonemes are SIL whatever the decoder said. One decoder, used one request at a time.
+Result<Recognized> Recognize(const Audio& audio, const RecognizeOptions& options);
+
+// Per 10 ms frame of `audio`: whether a voice speaks there (energy above the floor and a pitch
+// period between 60 and 400 Hz near it, with a margin of 0.2 s around voiced stretches).
+std::vector<bool> VoiceActivity(const Audio& audio);
+
+}  // namespace facespace::speech

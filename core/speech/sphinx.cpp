@@ -1,0 +1,205 @@
+// Speech to phonemes with PocketSphinx (Debian's pocketsphinx and pocketsphinx-en-us): its all-phone
+// search, or a grammar of the transcript's words whose segments are then split into the words'
+// phonemes from CMU's dictionary. A voice detector of our own (VoiceActivity) silences what nobody said.
+#include <pocketsphinx.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <sstream>
+
+#include "facespace/speech/speech.h"
+
+#ifndef FACESPACE_SPHINX_MODEL
+#define FACESPACE_SPHINX_MODEL "/usr/share/pocketsphinx/model/en-us"
+#endif
+
+namespace facespace::speech {
+
+namespace {
+
+constexpr float kFrame = 0.01f;  // PocketSphinx's frames: 100 a second.
+
+struct Decoder {
+  std::timed_mutex lock;
+  ps_decoder_t* ps = nullptr;
+  bool tried = false;
+};
+
+Decoder& TheDecoder() {
+  static Decoder d;
+  return d;
+}
+
+// Under the decoder's lock: made once.
+ps_decoder_t* Make(Decoder& d) {
+  if (d.tried) return d.ps;
+  d.tried = true;
+  const std::string model = FACESPACE_SPHINX_MODEL;
+  cmd_ln_t* config = cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", (model + "/en-us").c_str(), "-dict", (model + "/cmudict-en-us.dict").c_str(),
+                                 "-allphone", (model + "/en-us-phone.lm.bin").c_str(), "-backtrace", "yes", "-beam", "1e-20", "-pbeam", "1e-20",
+                                 "-lw", "2.0", "-logfn", "/dev/null", nullptr);
+  if (!config) return nullptr;
+  d.ps = ps_init(config);
+  cmd_ln_free_r(config);
+  return d.ps;
+}
+
+bool IsArpabetVowel(std::string_view p) { return !p.empty() && std::strchr("AEIOU", p[0]) != nullptr; }
+
+// The transcript's words as the dictionary spells them: lower case, letters, digits and apostrophes.
+std::vector<std::string> Words(std::string_view text) {
+  std::vector<std::string> out;
+  std::string w;
+  for (char c : text) {
+    const unsigned char u = static_cast<unsigned char>(c);
+    if (std::isalnum(u) || c == '\'') {
+      w += static_cast<char>(std::tolower(u));
+    } else if (!w.empty()) {
+      out.push_back(std::move(w));
+      w.clear();
+    }
+  }
+  if (!w.empty()) out.push_back(std::move(w));
+  return out;
+}
+
+std::vector<std::string> Split(const std::string& s) {
+  std::istringstream in(s);
+  std::vector<std::string> out;
+  for (std::string t; in >> t;) out.push_back(t);
+  return out;
+}
+
+// Runs the active search over the samples; the segments as (name, start frame, end frame inclusive).
+struct Segment {
+  std::string name;
+  int sf, ef;
+};
+std::vector<Segment> Decode(ps_decoder_t* ps, const std::vector<int16_t>& pcm, bool* ok) {
+  std::vector<Segment> out;
+  *ok = ps_start_utt(ps) >= 0 && ps_process_raw(ps, pcm.data(), pcm.size(), FALSE, TRUE) >= 0 && ps_end_utt(ps) >= 0;
+  if (!*ok) return out;
+  int32 score;
+  *ok = ps_get_hyp(ps, &score) != nullptr;
+  for (ps_seg_t* seg = ps_seg_iter(ps); seg; seg = ps_seg_next(seg)) {
+    int sf, ef;
+    ps_seg_frames(seg, &sf, &ef);
+    out.push_back({ps_seg_word(seg), sf, ef});
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options) {
+  if (input.rate <= 0) return WithReason(InvalidArgument("/audio: has no sample rate"), "invalid-audio");
+  const Audio audio = Resample(input, 16000);
+  Recognized out;
+  const std::vector<bool> active = VoiceActivity(audio);
+  const size_t voiced = static_cast<size_t>(std::count(active.begin(), active.end(), true));
+  out.voiced_seconds = voiced * kFrame;
+  const float total = audio.seconds();
+  if (voiced == 0) {  // Nobody speaks: silence, without asking the decoder.
+    out.phonemes.push_back({"SIL", 0.0f, total});
+    return out;
+  }
+  std::vector<int16_t> pcm(audio.samples.size());
+  for (size_t i = 0; i < pcm.size(); ++i) pcm[i] = static_cast<int16_t>(std::lround(std::clamp(audio.samples[i], -1.0f, 1.0f) * 32767.0f));
+
+  Decoder& d = TheDecoder();
+  std::unique_lock<std::timed_mutex> lock(d.lock, std::defer_lock);
+  if (!lock.try_lock_for(kBusyWait)) return Busy("PocketSphinx");
+  ps_decoder_t* ps = Make(d);
+  if (!ps) return Internal("PocketSphinx could not start (its US English model, pocketsphinx-en-us, is missing)");
+
+  std::vector<Segment> segments;
+  bool aligned = false;
+  if (!options.transcript.empty()) {
+    std::string grammar = "#JSGF V1.0;\ngrammar align;\npublic <s> =";
+    std::vector<std::string> unknown;
+    size_t known = 0;
+    for (const std::string& w : Words(options.transcript)) {
+      char* phones = ps_lookup_word(ps, w.c_str());
+      if (!phones) {
+        unknown.push_back(w);
+        continue;
+      }
+      std::free(phones);
+      grammar += " " + w;
+      ++known;
+    }
+    grammar += ";\n";
+    if (!unknown.empty()) {
+      std::string names;
+      for (size_t i = 0; i < unknown.size() && i < 10; ++i) names += (i ? ", " : "") + unknown[i];
+      out.warnings.push_back({"transcript_words_unknown",
+                              std::to_string(unknown.size()) + " word(s) of the transcript are not in the dictionary and are left out: " + names,
+                              "", static_cast<double>(unknown.size()), true});
+    }
+    const std::string phones_search = ps_get_search(ps);  // The all-phone search, set back after.
+    if (known > 0 && ps_set_jsgf_string(ps, "align", grammar.c_str()) == 0 && ps_set_search(ps, "align") == 0) {
+      bool ok = false;
+      segments = Decode(ps, pcm, &ok);
+      aligned = ok;
+      ps_set_search(ps, phones_search.c_str());
+      ps_unset_search(ps, "align");
+      if (aligned) {
+        // Words into their phonemes: a vowel takes twice a consonant's share of its word.
+        std::vector<Segment> phones;
+        for (const Segment& s : segments) {
+          char* p = s.name[0] == '<' || s.name[0] == '[' ? nullptr : ps_lookup_word(ps, s.name.c_str());
+          if (!p) {
+            phones.push_back({"SIL", s.sf, s.ef});
+            continue;
+          }
+          const std::vector<std::string> list = Split(p);
+          std::free(p);
+          float units = 0.0f;
+          for (const std::string& ph : list) units += IsArpabetVowel(ph) ? 2.0f : 1.0f;
+          const float frames = static_cast<float>(s.ef - s.sf + 1);
+          float at = 0.0f;
+          for (const std::string& ph : list) {
+            const float share = frames * (IsArpabetVowel(ph) ? 2.0f : 1.0f) / units;
+            const int sf = s.sf + static_cast<int>(std::lround(at));
+            const int ef = s.sf + static_cast<int>(std::lround(at + share)) - 1;
+            if (ef >= sf) phones.push_back({ph, sf, ef});
+            at += share;
+          }
+        }
+        segments = std::move(phones);
+      }
+    }
+    if (!aligned) {
+      out.warnings.push_back({"transcript_not_aligned", "the audio could not be aligned to the transcript; its phonemes are recognized as heard instead", "", 0.0, false});
+    }
+  }
+  if (!aligned) {
+    bool ok = false;
+    segments = Decode(ps, pcm, &ok);
+  }
+  // Segments to phonemes; where the voice detector heard no voice over most of one, silence.
+  for (const Segment& s : segments) {
+    const size_t sf = static_cast<size_t>(std::max(0, s.sf)), ef = static_cast<size_t>(std::max(s.sf, s.ef));
+    size_t on = 0;
+    for (size_t f = sf; f <= ef && f < active.size(); ++f) on += active[f];
+    const bool heard = 2 * on > ef - sf + 1;
+    std::string name = s.name;
+    if (const size_t paren = name.find('('); paren != std::string::npos) name.resize(paren);
+    if (!heard || name == "<sil>" || name == "<s>" || name == "</s>" || name.front() == '+' || name.front() == '[') name = "SIL";
+    const float start = sf * kFrame, end = std::min(total, (ef + 1) * kFrame);
+    if (!out.phonemes.empty() && out.phonemes.back().name == "SIL" && name == "SIL") {
+      out.phonemes.back().end = end;
+      continue;
+    }
+    out.phonemes.push_back({name, start, std::max(start, end)});
+  }
+  if (out.phonemes.empty()) out.phonemes.push_back({"SIL", 0.0f, total});
+  return out;
+}
+
+}  // namespace facespace::speech
