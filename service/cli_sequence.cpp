@@ -397,3 +397,117 @@ int FitCommand(const std::vector<std::string>& args) {
 }
 
 }  // namespace facespace::cli
+
+namespace facespace::cli {
+
+int Speak(const std::vector<std::string>& args) {
+  std::vector<std::string> paths;
+  std::string text, audio_path, transcript, voice, format, out, gaze_text, blink_text, expressions_text, camera_text;
+  std::vector<std::pair<std::string, std::string>> numbers;  // rate, fps, strength, width, height: as given.
+  auto setting = [&numbers](const char* name) {
+    return [&numbers, name](const std::string& v) {
+      numbers.emplace_back(name, v);
+      return 0;
+    };
+  };
+  Flags flags(
+      "usage: facespace speak RIG (--text TEXT | --audio FILE.wav [--transcript TEXT]) [--voice V] [--rate WPM] [--fps N]\n"
+      "       [--expressions JSON] [--gaze YAW,PITCH|X,Y,Z|JSON] [--blink PER_MINUTE[,SEED]] [--width W --height H] [--camera JSON]\n"
+      "       -o OUT.json|OUT.wav|OUT.webm|OUT.ndjson\n",
+      "Lip sync: the words are spoken by espeak-ng (--text) or heard by PocketSphinx (--audio), their phonemes become visemes\n"
+      "and the visemes keys of the rig's mouth shapes (GET /v1/rigs/ID's \"visemes\"). OUT.json: phonemes, visemes and keys, as\n"
+      "POST /v1/rigs/ID/speech gives them; OUT.wav: the audio; OUT.webm: a video of the face speaking, with its audio; OUT.ndjson:\n"
+      "one line of weights per frame.");
+  flags.Text("--text", "TEXT", "words to say (espeak-ng; at most 2000 characters)", &text);
+  flags.Text("--audio", "FILE.wav", "speech to lip-sync (WAV, at most 60 s; PocketSphinx, US English)", &audio_path);
+  flags.Text("--transcript", "TEXT", "with --audio: the words said, to align to rather than recognize", &transcript);
+  flags.Text("--voice", "V", "espeak-ng's voice or language (default en-us; GET /v1/voices lists them)", &voice);
+  flags.Value("--rate", "WPM", "words a minute, 80 to 450 (default 175)", setting("rate"));
+  flags.Value("--fps", "N", "frames a second of the video and the frames (default 30)", setting("fps"));
+  flags.Value("--strength", "S", "how far the mouth moves, 0 to 2 (default 1)", setting("strength"));
+  flags.Text("--expressions", "JSON", "the face under the speech: {\"happy\": 0.5}", &expressions_text);
+  flags.Text("--gaze", "YAW,PITCH|X,Y,Z|JSON", "where the eyes look (held, or a track)", &gaze_text);
+  flags.Text("--blink", "PER_MINUTE[,SEED]", "natural blinks", &blink_text);
+  flags.Value("--width", "W", "the video's width (even; default 512)", setting("width"));
+  flags.Value("--height", "H", "the video's height (even; default 512)", setting("height"));
+  flags.Text("--camera", "JSON", "the video's camera, as the render route's", &camera_text);
+  flags.Text("--format", "json|wav|webm|ndjson", "what to write (default: from OUT's extension)", &format);
+  flags.Text("-o, --output", "OUT", "output", &out);
+  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  if (paths.size() != 1 || out.empty() || text.empty() == audio_path.empty()) {
+    return flags.UsageError(paths.size() != 1 ? "give one rig" : out.empty() ? "no output given (-o)" : "give --text or --audio");
+  }
+  if (format.empty()) {
+    const std::string ext = std::filesystem::path(out).extension().string();
+    format = ext == ".wav" ? "wav" : ext == ".webm" ? "webm" : ext == ".ndjson" ? "ndjson" : "json";
+  }
+  // One body, read by the route's own parser: the same checks and messages.
+  nlohmann::json body = nlohmann::json::object();
+  for (const auto& [name, value] : numbers) {
+    double d = 0;
+    if (!NumberIn("--" + name, value, -1e9, 1e9, &d)) return 2;
+    body[name] = d == std::floor(d) ? nlohmann::json(static_cast<long long>(d)) : nlohmann::json(d);
+  }
+  if (!voice.empty()) body["voice"] = voice;
+  if (!transcript.empty()) body["transcript"] = transcript;
+  body["format"] = format;
+  for (const auto& [name, value] : {std::pair{"expressions", &expressions_text}, std::pair{"camera", &camera_text}}) {
+    if (value->empty()) continue;
+    body[name] = nlohmann::json::parse(*value, nullptr, false);
+    if (body[name].is_discarded()) return flags.UsageError(std::string("--") + name + ": malformed JSON");
+  }
+  if (Status s = FaceMembers(gaze_text, blink_text, body); !s.ok()) return flags.UsageError(s.message);
+  Result<api::SpeechRequest> request = Status::Ok();
+  if (!audio_path.empty()) {
+    std::string wav;
+    if (!ReadFile(audio_path, wav)) {
+      std::fprintf(stderr, "error: --audio: cannot read '%s'\n", audio_path.c_str());
+      return 1;
+    }
+    std::vector<std::pair<std::string, std::string>> settings;
+    for (auto it = body.begin(); it != body.end(); ++it) settings.emplace_back(it.key(), it->is_string() ? it->get<std::string>() : it->dump());
+    request = api::SpeechRequestOfWav(std::move(wav), settings);
+  } else {
+    body["text"] = text;
+    request = api::ParseSpeechRequest(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  }
+  if (!request.ok()) {
+    PrintStatus(request.status());
+    return 2;
+  }
+  auto loaded = LoadAndReport({paths[0]});
+  if (!loaded.ok()) return 1;
+  const auto stored = api::Unstored(std::move(loaded.value()));
+  auto plan = api::PlanSpeech(stored->rig, request.value());
+  if (!plan.ok()) {
+    PrintStatus(plan.status());
+    return 1;
+  }
+  std::vector<Warning> warnings = plan->warnings;
+  warnings.insert(warnings.end(), plan->sequence.warnings.begin(), plan->sequence.warnings.end());
+  PrintWarnings(warnings);
+  const api::SpeechRequest& r = request.value();
+  if (format == "json") return WriteOutput(out, api::SpeechJson(stored->rig, plan.value(), r.fps)) ? 0 : 1;
+  if (format == "wav") return WriteOutput(out, speech::WriteWav(plan->audio)) ? 0 : 1;
+  const size_t frames = api::FrameCount(plan->sequence, r.fps);
+  Progress progress(frames);
+  render::OsMesaRenderer renderer;
+  api::Evaluator evaluator(renderer);
+  api::Workspace ws;
+  if (format == "webm") {
+    auto video = api::SpeechVideo(evaluator, stored, plan.value(), r, ws, [&progress](size_t i) { progress.Step(i + 1); });
+    return WriteResult(out, video);
+  }
+  std::string lines;
+  for (size_t i = 0; i < frames; ++i) {
+    auto line = api::StreamFrame(evaluator, stored, plan->sequence, i, r.fps, false, r.render.mesh.options, ws);
+    if (!line.ok()) {
+      PrintStatus(line.status());
+      return 1;
+    }
+    lines += line.value();
+  }
+  return WriteOutput(out, lines) ? 0 : 1;
+}
+
+}  // namespace facespace::cli

@@ -26,6 +26,8 @@ const char kUsage[] =
     "  sequence RIG (--keys JSON|@FILE | --from-animation CLIP | --obj-times T,...) [--transition T]\n"
     "        (--times JSON | --fps N | --reduce TOL | --bake T) [--format json|obj|glb|f32] -o OUT|DIR\n"
     "      keyframe sequences: in-betweens, baking, keyframe reduction\n"
+    "  speak RIG (--text TEXT | --audio FILE.wav [--transcript T]) [--voice V] [--fps N] -o OUT.json|wav|webm|ndjson\n"
+    "      lip sync: phonemes (espeak-ng or PocketSphinx) to visemes to keys; the audio; a video of the face speaking\n"
     "  fit RIG TARGET.(json|glb|obj) [--bounded] [--sum-at-most-one] [--align] -o FIT.json\n"
     "      the weights that best reproduce TARGET (least squares over the shapes)\n"
     "  batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
@@ -78,6 +80,7 @@ int main(int argc, char** argv) {
   if (command == "render") return facespace::cli::Render(args, false);
   if (command == "sheet") return facespace::cli::Render(args, true);
   if (command == "sequence") return facespace::cli::Sequence(args);
+  if (command == "speak") return facespace::cli::Speak(args);
   if (command == "fit") return facespace::cli::FitCommand(args);
   if (command == "batch") return facespace::cli::Batch(args);
   if (command == "mirror") return facespace::cli::Mirror(args);

@@ -6,6 +6,7 @@ extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
 #include <libavutil/channel_layout.h>
+#include <libavutil/log.h>
 #include <libavutil/opt.h>
 #include <libswresample/swresample.h>
 #include <libswscale/swscale.h>
@@ -114,6 +115,7 @@ Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, s
   if (o.width < 16 || o.width > 4096 || o.width % 2) return bad("/width", "a video's width is even, from 16 to 4096");
   if (o.height < 16 || o.height > 4096 || o.height % 2) return bad("/height", "a video's height is even, from 16 to 4096");
   if (!(o.fps >= 1.0 && o.fps <= 120.0)) return bad("/fps", "a video has 1 to 120 frames a second");
+  av_log_set_level(AV_LOG_ERROR);  // libvpx's banner and the muxer's notes are not ours to print.
   auto st = std::make_unique<State>();
   st->options = o;
   const AVCodec* vp9 = avcodec_find_encoder_by_name("libvpx-vp9");
