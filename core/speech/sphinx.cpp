@@ -10,6 +10,7 @@
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <sstream>
 
 #include "facespace/speech/speech.h"
@@ -42,7 +43,7 @@ ps_decoder_t* Make(Decoder& d) {
   const std::string model = FACESPACE_SPHINX_MODEL;
   cmd_ln_t* config = cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", (model + "/en-us").c_str(), "-dict", (model + "/cmudict-en-us.dict").c_str(),
                                  "-allphone", (model + "/en-us-phone.lm.bin").c_str(), "-backtrace", "yes", "-beam", "1e-20", "-pbeam", "1e-20",
-                                 "-lw", "2.0", "-logfn", "/dev/null", nullptr);
+                                 "-lw", "2.0", "-allphone_ci", "yes", "-logfn", "/dev/null", nullptr);
   if (!config) return nullptr;
   d.ps = ps_init(config);
   cmd_ln_free_r(config);
@@ -80,7 +81,8 @@ struct Segment {
   std::string name;
   int sf, ef;
 };
-std::vector<Segment> Decode(ps_decoder_t* ps, const std::vector<int16_t>& pcm, bool* ok) {
+// `first_frame`: where `pcm` starts in the audio, added to the segments' frames.
+std::vector<Segment> Decode(ps_decoder_t* ps, std::span<const int16_t> pcm, int first_frame, bool* ok) {
   std::vector<Segment> out;
   *ok = ps_start_utt(ps) >= 0 && ps_process_raw(ps, pcm.data(), pcm.size(), FALSE, TRUE) >= 0 && ps_end_utt(ps) >= 0;
   if (!*ok) return out;
@@ -89,9 +91,33 @@ std::vector<Segment> Decode(ps_decoder_t* ps, const std::vector<int16_t>& pcm, b
   for (ps_seg_t* seg = ps_seg_iter(ps); seg; seg = ps_seg_next(seg)) {
     int sf, ef;
     ps_seg_frames(seg, &sf, &ef);
-    out.push_back({ps_seg_word(seg), sf, ef});
+    out.push_back({ps_seg_word(seg), sf + first_frame, ef + first_frame});
   }
   return out;
+}
+
+// The frames (10 ms) from the first to the last one louder than the floor (-50 dBFS, and 35 dB under the
+// loudest), widened by 30 ms: a grammar's search puts its first word at the first frame it is given, so
+// it is given none of the silence before the speech.
+std::pair<int, int> Loud(std::span<const int16_t> pcm) {
+  constexpr size_t kHop = 160;
+  std::vector<double> energy(pcm.size() / kHop);
+  double loudest = 0.0;
+  for (size_t f = 0; f < energy.size(); ++f) {
+    double e = 0.0;
+    for (size_t i = f * kHop; i < (f + 1) * kHop; ++i) e += static_cast<double>(pcm[i]) * pcm[i];
+    energy[f] = e / kHop;
+    loudest = std::max(loudest, energy[f]);
+  }
+  const double floor = std::max(32768.0 * 32768.0 * 1e-5, loudest * std::pow(10.0, -3.5));
+  int first = -1, last = -1;
+  for (size_t f = 0; f < energy.size(); ++f) {
+    if (energy[f] < floor) continue;
+    if (first < 0) first = static_cast<int>(f);
+    last = static_cast<int>(f);
+  }
+  if (first < 0) return {0, static_cast<int>(energy.size())};
+  return {std::max(0, first - 3), std::min(static_cast<int>(energy.size()), last + 4)};
 }
 
 }  // namespace
@@ -144,7 +170,8 @@ Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options
     const std::string phones_search = ps_get_search(ps);  // The all-phone search, set back after.
     if (known > 0 && ps_set_jsgf_string(ps, "align", grammar.c_str()) == 0 && ps_set_search(ps, "align") == 0) {
       bool ok = false;
-      segments = Decode(ps, pcm, &ok);
+      const auto [from, to] = Loud(pcm);
+      segments = Decode(ps, std::span<const int16_t>(pcm).subspan(static_cast<size_t>(from) * 160, static_cast<size_t>(to - from) * 160), from, &ok);
       aligned = ok;
       ps_set_search(ps, phones_search.c_str());
       ps_unset_search(ps, "align");
@@ -180,7 +207,7 @@ Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options
   }
   if (!aligned) {
     bool ok = false;
-    segments = Decode(ps, pcm, &ok);
+    segments = Decode(ps, pcm, 0, &ok);
   }
   // Segments to phonemes; where the voice detector heard no voice over most of one, silence.
   for (const Segment& s : segments) {
