@@ -1,7 +1,7 @@
 #!/bin/bash
 # The layers of README.md's "Layout of the code", checked against the includes: each folder's
 # sources include facespace headers only from their own layer and the layers below it.
-#   core <- core/formats <- api/evaluator <- api/batch <- api <- service, render and core/physics
+#   core <- core/formats <- api/evaluator <- api/batch <- api <- service, render, core/physics and core/speech
 #   beside formats.
 src=${1:-$(dirname "$0")/..}
 cd "$src" || exit 2
@@ -20,13 +20,14 @@ check() {
   fi
 }
 evaluator_headers='api/(request|store|evaluator)\.h'
-check core 'core/' '^core/(formats|physics)/'
+check core 'core/' '^core/(formats|physics|speech)/'
 check core/formats 'core/|formats/'
 check core/physics 'core/|physics/'
+check core/speech 'core/|speech/'
 check render 'core/|render/'
-check api/evaluator "core/|formats/|render/|physics/|$evaluator_headers"
-check api/batch "core/|formats/|render/|$evaluator_headers|batch/"
-check api 'core/|formats/|render/|api/|batch/' '^api/(evaluator|batch)/'
+check api/evaluator "core/|formats/|render/|physics/|speech/|$evaluator_headers"
+check api/batch "core/|formats/|render/|speech/|$evaluator_headers|batch/"
+check api 'core/|formats/|render/|speech/|api/|batch/' '^api/(evaluator|batch)/'
 # httplib stays in the HTTP layer: the evaluator and batch never see it.
 if grep -rlq 'httplib' api/evaluator api/batch; then echo "FAIL httplib below the HTTP layer: $(grep -rl httplib api/evaluator api/batch)"; fail=1; else echo "ok   no httplib in api/evaluator, api/batch"; fi
 exit $fail

@@ -8,18 +8,31 @@
 
 namespace facespace::api {
 
+namespace {
+
+// A speech engine's error ("/voice: unknown voice ...") with its field listed, as the schema's errors are.
+Status Named(Status s) {
+  const size_t colon = s.message.find(": ");
+  if (s.fields.empty() && !s.message.empty() && s.message[0] == '/' && colon != std::string::npos) {
+    s.fields.push_back({s.message.substr(0, colon), s.message.substr(colon + 2)});
+  }
+  return s;
+}
+
+}  // namespace
+
 Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
   if (Status s = CanSpeak(rig); !s.ok()) return s;
   SpeechPlan plan;
   if (request.has_audio) {
     auto audio = speech::ReadWav(request.audio);
-    if (!audio.ok()) return audio.status();
+    if (!audio.ok()) return Named(audio.status());
     plan.audio = std::move(audio.value());
     if (plan.audio.samples.empty()) return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
     speech::RecognizeOptions options;
     options.transcript = request.transcript;
     auto heard = speech::Recognize(plan.audio, options);
-    if (!heard.ok()) return heard.status();
+    if (!heard.ok()) return Named(heard.status());
     plan.phonemes = std::move(heard->phonemes);
     plan.warnings = std::move(heard->warnings);
     plan.voiced_seconds = heard->voiced_seconds;
@@ -31,7 +44,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
     options.voice = request.voice;
     options.rate = request.rate;
     auto spoken = speech::Synthesize(request.text, options);
-    if (!spoken.ok()) return spoken.status();
+    if (!spoken.ok()) return Named(spoken.status());
     plan.audio = std::move(spoken->audio);
     plan.phonemes = std::move(spoken->phonemes);
     plan.voice = std::move(spoken->voice);
