@@ -71,6 +71,9 @@ const cases = {
   reduceSequence: [() => call('reduceSequence', { id: 'facecap' },
                               body({ keys: [{ time: 0 }, { time: 0.5, weights: { jawOpen: 0.5 } }, { time: 1, shape: 'jawOpen' }], tolerance: 0.001 })),
                    (r) => r.status === 200 && json(r).kept === 2 && json(r).removed === 1],
+  speak: [() => call('speak', { id: 'facecap' }, body({ text: 'Hello there.', format: 'json' })),
+          (r) => r.status === 200 && json(r).source === 'espeak-ng' && json(r).visemes.some((v) => v.viseme === 'aa') && json(r).keys.length > 2],
+  listVoices: [() => call('listVoices'), (r) => r.status === 200 && json(r).voices.some((v) => v.language === 'en-us')],
   fit: [async () => {
           const target = json(await call('getMesh', { id: 'facecap', w: { jawOpen: 0.5 }, format: 'json' }));
           return call('fit', { id: 'facecap' }, body({ target }));
