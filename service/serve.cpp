@@ -368,7 +368,7 @@ int Serve(const std::vector<std::string>& args) {
     auto handler = [&asset, type](const httplib::Request&, httplib::Response& res) {
       res.set_header("Cache-Control", "no-cache");
       res.set_header("Content-Security-Policy",
-                     "default-src 'self'; img-src 'self' blob: data:; connect-src *; style-src 'self'; script-src 'self'");
+                     "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; connect-src *; style-src 'self'; script-src 'self'");
       res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
     };
     server.Get(path, handler);

@@ -612,6 +612,7 @@ json Build() {
                     {"fps", {{"type", "number"}, {"minimum", 1}, {"maximum", 120}, {"default", 30}}},
                     {"strength", {{"type", "number"}, {"minimum", 0}, {"maximum", 2}, {"default", 1}}},
                     {"format", {{"type", "string"}, {"enum", {"json", "ndjson", "f32", "weights", "wav", "webm"}}, {"default", "json"}}},
+                    {"with_audio", {{"type", "boolean"}, {"description", "json: the audio too, as audio_wav (base64 WAV)"}}},
                     {"weights", {{"description", "The face under the speech, as on the mesh route"}}},
                     {"expressions", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}},
                     {"gaze", {{"type", "object"}}},

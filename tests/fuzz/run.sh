@@ -83,7 +83,7 @@ f="$shared/real/TriangleWithoutIndices/TriangleWithoutIndices.gltf"
 if [ -f "$f" ]; then
   { printf 'PUT /v1/rigs/up HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer fuzz-key\r\nContent-Type: model/gltf+json\r\nContent-Length: %s\r\n\r\n' "$(stat -c %s "$f")"; cat "$f"; } >"$corpus/fuzz_http/put"
 fi
-export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
+export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:intercept_tls_get_addr=0 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
 # One target: its regression inputs, then the timed run; what it found in $build/$t.summary, its
 # exit code in $build/$t.rc. Targets run as many at once as there are cores.
 run_target() {

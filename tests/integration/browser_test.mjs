@@ -208,6 +208,31 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
     sum === '0' && await page.locator('#warning').isHidden());
   await page.close();
 }
+{  // Say: the face speaks a typed line with its audio, the WebGL mouth following the audio's own clock;
+   // a rig with no mouth (MakeHuman's face space) has no Say bar.
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto(service + '/#rig=facecap&w=');
+  await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512 && !document.getElementById('views').classList.contains('loading'), null, { timeout: 30000 });
+  check('say: the Say bar shows for a rig with a mouth', await page.locator('#say').isVisible());
+  const before = await page.evaluate(() => window.facespace.state.meshUpdates || 0);
+  await page.locator('#say-text').fill('Hello, my name is Bob. Please pass the map.');
+  await page.locator('#say-go').click();
+  await page.waitForFunction(() => window.facespace.state.speech && window.facespace.state.speech.audio.currentTime > 1.0, null, { timeout: 20000 });
+  const during = await page.evaluate(() => ({ updates: window.facespace.state.meshUpdates, max: window.facespace.state.speechMax,
+                                              status: document.getElementById('say-state').textContent }));
+  await page.waitForFunction(() => !window.facespace.state.speech, null, { timeout: 20000 });
+  check(`say: the audio plays and the WebGL face follows it (${during.updates - before} meshes in its first second, largest weight ` +
+        `${during.max.toFixed(2)}; "${during.status}")`, during.updates - before >= 10 && during.max > 0.3 && /espeak-ng/.test(during.status));
+  check('say: when the line ends the face is the sliders\' again', await page.evaluate(() => !window.facespace.state.speech) &&
+        await page.locator('#say-stop').isHidden());
+  await page.locator('#rig').selectOption('makehuman');
+  await page.waitForFunction(() => window.facespace.state.ready === 'makehuman', null, { timeout: 30000 });
+  check('say: no Say bar for a rig without a mouth (MakeHuman)', await page.locator('#say').isHidden());
+  check(`say: no script errors (${errors.slice(0, 2).join('; ')})`, errors.length === 0);
+  await page.close();
+}
 {  // The WebGL view follows a dragged slider; a rig switch shows the new face soon, never the old one.
   const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
   await page.goto(service + '/#rig=facecap&w=');

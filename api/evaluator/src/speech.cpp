@@ -70,7 +70,24 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
   return plan;
 }
 
-std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps) {
+namespace {
+
+std::string Base64(std::string_view in) {
+  static constexpr char kDigits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((in.size() + 2) / 3 * 4);
+  for (size_t i = 0; i < in.size(); i += 3) {
+    const size_t n = std::min<size_t>(3, in.size() - i);
+    uint32_t v = 0;
+    for (size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? static_cast<unsigned char>(in[i + k]) : 0u);
+    for (size_t k = 0; k < 4; ++k) out += k <= n ? kDigits[(v >> (18 - 6 * k)) & 63] : '=';
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio) {
   std::string out = "{\"source\":" + JsonString(plan.source);
   if (!plan.voice.empty()) out += ",\"voice\":" + JsonString(plan.voice);
   out += ",\"duration\":" + FormatNumber(plan.audio.seconds()) + ",\"fps\":" + FormatNumber(fps) +
@@ -90,7 +107,9 @@ std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps) {
   out += "],\"keys\":" + SequenceKeysJson(rig, plan.sequence) + ",\"transition\":" + JsonString(TransitionName(plan.sequence.transition));
   std::vector<Warning> warnings = plan.warnings;
   warnings.insert(warnings.end(), plan.sequence.warnings.begin(), plan.sequence.warnings.end());
-  out += ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
+  out += ",\"warnings\":" + WarningsToJson(warnings);
+  if (with_audio) out += ",\"audio_wav\":\"" + Base64(speech::WriteWav(plan.audio)) + "\"";
+  out += "}\n";
   return out;
 }
 

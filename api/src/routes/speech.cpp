@@ -60,7 +60,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
   if (r.format == "json") {
     res.status = 200;
-    res.set_content(SpeechJson(stored->rig, plan.value(), r.fps), "application/json");
+    res.set_content(SpeechJson(stored->rig, plan.value(), r.fps, r.with_audio), "application/json");
   } else if (r.format == "wav") {
     res.status = 200;
     res.set_content(speech::WriteWav(plan->audio), "audio/wav");

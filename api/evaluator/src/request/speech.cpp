@@ -9,7 +9,7 @@ using namespace body;
 
 namespace {
 
-constexpr std::string_view kSpeechMembers[] = {"text", "audio", "transcript", "voice", "rate", "fps", "strength", "format",
+constexpr std::string_view kSpeechMembers[] = {"text", "audio", "transcript", "voice", "rate", "fps", "strength", "format", "with_audio",
                                                "weights", "expressions", "controls", "mode", "normals", "gaze", "blink",
                                                "width", "height", "camera", "view", "background", "supersample", "exposure"};
 constexpr BodyLimits kSpeechBody{100000};
@@ -68,6 +68,9 @@ bool SpeechMember(const std::string& key, const json& v, SpeechRequest& r, Statu
     } else {
       r.format = v.get<std::string>();
     }
+  } else if (key == "with_audio") {
+    if (!v.is_boolean() && !(v.is_string() && (v == "true" || v == "false"))) errors.fields.push_back({ptr, "must be true or false"});
+    else r.with_audio = v.is_boolean() ? v.get<bool>() : v == "true";
   } else if (key == "gaze") {
     GazeTrackFromJson(v, ptr, r.gaze, errors);
   } else if (key == "blink") {

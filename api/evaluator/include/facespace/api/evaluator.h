@@ -309,8 +309,9 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request);
 
 // {"source", "voice", "duration", "fps", "frames", "phonemes": [{"name", "start", "end"}],
 //  "visemes": [{"viseme", "start", "end"}], "keys": [...] (as sequence requests take them),
-//  "transition", "warnings"}: the speech route's json body and `facespace speak -o X.json`.
-std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps);
+//  "transition", "warnings", and with `with_audio` "audio_wav": the WAV as base64}: the speech route's json
+// body and `facespace speak -o X.json`.
+std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio = false);
 
 // The plan's sequence rendered at `fps` (request.render's size, camera and view) with its audio, as a
 // WebM file (VP9 + Opus, render/video.h): the frame at time i / fps shows the face the audio is saying

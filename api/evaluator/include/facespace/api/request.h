@@ -141,7 +141,7 @@ void AttachFace(const Rig& rig, std::span<const GazeKey> gaze, bool blink, float
 // Body of POST /v1/rigs/{id}/speech (a JSON object, or a WAV file as the body itself):
 // {"text": "..." (espeak-ng speaks it) | "audio": BASE64 WAV (PocketSphinx hears it), "transcript": "...",
 //  "voice": "en-us", "rate": words a minute, "fps": 30, "strength": 0..1,
-//  "format": "json"|"ndjson"|"f32"|"weights"|"wav"|"webm",
+//  "format": "json"|"ndjson"|"f32"|"weights"|"wav"|"webm", "with_audio": bool (json: the WAV in it, base64),
 //  the face under the speech: "weights", "expressions", "controls", "mode", "normals";
 //  "gaze" (held or a track) and "blink" as on sequences; for webm the render route's "width", "height",
 //  "camera", "view", "background", "supersample", "exposure"}
@@ -155,6 +155,7 @@ struct SpeechRequest {
   float fps = 30.0f;
   float strength = 1.0f;
   std::string format = "json";
+  bool with_audio = false;         // json: the audio too, as a base64 WAV ("audio_wav"), for a page to play in sync.
   RenderRequest render;            // The face under the speech, the video's camera and size.
   std::vector<GazeKey> gaze;
   bool blink = false;
