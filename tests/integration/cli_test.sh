@@ -556,4 +556,18 @@ else
   no "@pixiv/three-vrm not installed: the VRM is not loaded in three.js (run .ci/dev test)"
 fi
 
+# Lip sync (issue 38): text to keys, audio and a video; recorded speech back to visemes; a rig without a mouth.
+"$bin" speak "$src/assets/facecap/facecap.glb" --text "Please pass the map." -o "$tmp/speak.json" -q; rc=$?
+check "speak --text: phonemes with espeak-ng's times, visemes with closures, keys of FaceCap's mouth shapes" py 'import json,sys
+j=json.load(open(sys.argv[1])); v=j["visemes"]
+sys.exit(not(j["source"]=="espeak-ng" and len(j["phonemes"])>8 and sum(1 for x in v if x["viseme"]=="PP")>=2 and v[0]["start"]==0
+  and abs(v[-1]["end"]-j["duration"])<1e-6 and any("jawOpen" in k["weights"] for k in j["keys"])))' "$tmp/speak.json"
+"$bin" speak "$src/assets/facecap/facecap.glb" --text "Please pass the map." -o "$tmp/speak.wav" -q
+"$bin" speak "$src/assets/facecap/facecap.glb" --audio "$tmp/speak.wav" --transcript "Please pass the map." -o "$tmp/heard.json" -q
+check "speak --audio --transcript: its own WAV heard back, aligned, closures found" py 'import json,sys
+j=json.load(open(sys.argv[1])); sys.exit(not(j["source"]=="pocketsphinx-aligned" and sum(1 for x in j["visemes"] if x["viseme"]=="PP")>=2))' "$tmp/heard.json"
+"$bin" speak "$uka" --text "Good morning." --width 128 --height 128 --fps 25 -o "$tmp/speak.webm" -q; rc=$?
+check "speak -o X.webm: Uka speaking, VP9 + Opus as ffprobe reads them" sh -c "[ $rc -eq 0 ] && ffprobe -v error -show_entries stream=codec_name -of csv=p=0 '$tmp/speak.webm' | tr '\n' ' ' | grep -q 'vp9 opus'"
+err_case "speak on a rig without a mouth: says what it lacks" "has no mouth to speak with" speak "$src/assets/makehuman/makehuman.glb" --text "Hello" -o "$tmp/x.json"
+
 finish
