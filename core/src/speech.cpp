@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 #include "facespace/core/face.h"
@@ -342,7 +343,7 @@ Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes, st
   }
   if (seq.keys.size() == 1) {  // One instant: a sequence needs its ends.
     Keyframe end = seq.keys.front();
-    end.time += kMinGap * 2;
+    end.time = std::max(end.time + 2 * kMinGap, std::nextafter(end.time, std::numeric_limits<float>::infinity()));
     seq.keys.push_back(std::move(end));
   }
   return seq;

@@ -8,7 +8,7 @@ build=$1; budget=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http"
+targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech"
 for t in $targets; do mkdir -p "$corpus/$t"; done
 set -- $targets
 seconds=$((budget / $#)); [ $seconds -ge 10 ] || seconds=10
@@ -32,6 +32,13 @@ for f in "$shared"/more/Collada/*/*.dae; do [ -f "$f" ] && cp "$f" "$corpus/fuzz
 [ -f "$shared/more/MMD/Uka/MS_Uka.pmx" ] && cp "$shared/more/MMD/Uka/MS_Uka.pmx" "$corpus/fuzz_pmx/uka.pmx"
 [ -f "$shared/more/MMD/Uka_PMD/MS_Uka.pmd" ] && cp "$shared/more/MMD/Uka_PMD/MS_Uka.pmd" "$corpus/fuzz_pmx/uka.pmd"
 cp "$src/tests/data/every_morph_kind.pmx" "$corpus/fuzz_pmx/every_morph_kind.pmx"  # UV, flip, impulse morphs: small.
+# Speech: a WAV from flite (8 kHz) and a few from espeak's rates and sample formats; timed phonemes in IPA and ARPAbet.
+if command -v flite >/dev/null; then
+  flite -t "Please pass the map." -o "$corpus/fuzz_speech/flite.raw" && { printf '\0'; head -c 20000 "$corpus/fuzz_speech/flite.raw"; } >"$corpus/fuzz_speech/flite.wav"
+  rm -f "$corpus/fuzz_speech/flite.raw"
+fi
+printf '\1_ 0 0.1\nh 0.1 0.15\nə 0.15 0.2\nl 0.2 0.3\nˈəʊ 0.3 0.5\n_ 0.5 0.53\nm 0.53 0.6\n' >"$corpus/fuzz_speech/ipa"
+printf '\1SIL 0 0.2\nP 0.2 0.25\nAE1 0.25 0.4\nS 0.4 0.5\n+NSN+ 0.5 0.9\nM 0.9 0.92\nUW 0.92 1.3\n' >"$corpus/fuzz_speech/arpabet"
 for f in "$src"/assets/uka/motion/*.vmd; do [ -f "$f" ] && cp "$f" "$corpus/fuzz_vmd/$(basename "$f")"; done
 python3 - "$corpus" <<'PY'
 import json, os, sys
