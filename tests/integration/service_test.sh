@@ -120,6 +120,13 @@ check "render: an unknown view is 422 at /view" problem "$(c -X POST -H 'Content
 check "render: a look-at camera without target is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"camera":{"eye":[0,0,1]}}' "$U/v1/rigs/facecap/render")" 422 "d['errors'][0]['pointer']=='/camera'"
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"cells":[{"label":"neutral"},{"weights":{"jawOpen":1},"label":"jaw"},{"weights":{"eyeBlink_L":1,"eyeBlink_R":1},"label":"blink"}],"columns":3,"width":96,"height":96}' "$U/v1/rigs/facecap/sheet")
 check "POST sheet: a PNG of 3 labelled cells" sh -c "[ $code = 200 ] && [ '$(pngsize | cut -dx -f1)' = 304 ]"
+# Speech (issue 38): bad fields named; a rig without a mouth; a video over a minute refused before it is drawn.
+check "speech: empty text is 422 at /text" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"text":" "}' "$U/v1/rigs/facecap/speech")" 422 "d['errors'][0]['pointer']=='/text'"
+check "speech: an unknown voice is 422 at /voice" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"text":"hi","voice":"en-uss"}' "$U/v1/rigs/facecap/speech")" 422 "d['errors'][0]['pointer']=='/voice' and 'did you mean' in d['detail']"
+check "speech: a body that is not audio is 422 at /audio" problem "$(c -X POST -H 'Content-Type: audio/wav' --data-binary 'not a wav' "$U/v1/rigs/facecap/speech")" 422 "d['errors'][0]['pointer']=='/audio'"
+check "speech: a rig without a mouth (MorphStressTest) is 422 no-mouth" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"text":"hi"}' "$U/v1/rigs/stress/speech")" 422 "d['type'].endswith('no-mouth') and 'jawOpen' in d['detail']"
+long=$(py 'print(" ".join(["The quick brown fox jumps over the lazy dog."] * 20))')
+check "speech: a video of over a minute is 422 at /text, not drawn" problem "$(c -X POST -H 'Content-Type: application/json' -d "{\"text\":\"$long\",\"rate\":120,\"format\":\"webm\"}" "$U/v1/rigs/facecap/speech")" 422 "d['errors'][0]['pointer']=='/text' and d['type'].endswith('video-too-long')"
 check "sheet: a bad cell is 422 at its pointer, nothing rendered" problem "$(c -X POST -H 'Content-Type: application/json' -d '{"cells":[{},{"weights":{"nope":1}}]}' "$U/v1/rigs/facecap/sheet")" 422 "d['errors'][0]['pointer']=='/cells/1/weights/nope'"
 cells=$(py 'import json; print(json.dumps({"cells":[{}]*65}))')
 check "sheet: more cells than the limit is 422" problem "$(c -X POST -H 'Content-Type: application/json' -d "$cells" "$U/v1/rigs/facecap/sheet")" 422 "d['errors'][0]['pointer']=='/cells'"

@@ -7,6 +7,8 @@ namespace facespace::api::http {
 
 namespace {
 
+constexpr float kMaxVideoSeconds = 60.0f;
+
 bool IsAudioBody(const httplib::Request& req) {
   const std::string type = req.get_header_value("Content-Type");
   return type.rfind("audio/", 0) == 0 || speech::LooksLikeWav(req.body);
@@ -16,6 +18,14 @@ bool IsAudioBody(const httplib::Request& req) {
 void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::shared_ptr<const StoredRig>& stored,
                      const SpeechPlan& plan, const SpeechRequest& r) {
   const size_t frames = FrameCount(plan.sequence, r.fps);
+  // A video is drawn whole before it is sent, and a client that leaves does not stop it: at most a minute.
+  if (plan.audio.seconds() > kMaxVideoSeconds) {
+    const std::string field = r.has_audio ? "/audio" : "/text";
+    return SendProblem(req, res, 422, "video-too-long",
+                       field + ": a video is at most " + FormatNumber(kMaxVideoSeconds) + " s, and this speech is " + FormatNumber(plan.audio.seconds()) +
+                           " s; say less at once, or ask for json, wav or a stream of frames",
+                       {{field, "at most " + FormatNumber(kMaxVideoSeconds) + " s of speech as a video"}});
+  }
   if (frames > ctx.options.max_frames) {
     const std::string max = std::to_string(ctx.options.max_frames);
     return SendProblem(req, res, 422, "too-many-frames",
