@@ -71,9 +71,17 @@ std::vector<VoiceInfo> ListVoicesLocked() {
 }  // namespace
 
 std::vector<VoiceInfo> Voices() {
-  std::lock_guard<std::timed_mutex> lock(Lock());
-  if (Initialized() <= 0) return {};
-  return ListVoicesLocked();
+  // espeak-ng's voices do not change while it runs: listed once, then answered without its lock (a
+  // synthesis may hold it for seconds).
+  static std::mutex cache_lock;
+  static std::vector<VoiceInfo> cache;
+  std::lock_guard<std::mutex> cached(cache_lock);
+  if (cache.empty()) {
+    std::unique_lock<std::timed_mutex> lock(Lock(), std::defer_lock);
+    if (!lock.try_lock_for(kBusyWait) || Initialized() <= 0) return {};
+    cache = ListVoicesLocked();
+  }
+  return cache;
 }
 
 Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {

@@ -6,6 +6,7 @@
 #include <unordered_map>
 
 #include "facespace/core/face.h"
+#include "facespace/core/utf8.h"
 
 namespace facespace {
 
@@ -25,21 +26,15 @@ using V = Viseme;
 std::string Normalized(std::string_view p) {
   std::string out;
   for (size_t i = 0; i < p.size();) {
-    const unsigned char c = static_cast<unsigned char>(p[i]);
-    if (c < 0x80) {
-      if (!(c >= '0' && c <= '9') && c != '\'' && c != ',' && c != '%' && c != '=' && c != ':') {
-        out += static_cast<char>(c >= 'A' && c <= 'Z' ? c + 32 : c);
-      }
-      ++i;
-      continue;
+    char32_t cp = 0;
+    const size_t len = std::max<size_t>(DecodeUtf8(p, i, cp), 1);  // A broken byte is kept as it is.
+    const bool mark = cp == 0x2C8 || cp == 0x2CC || cp == 0x2D0 || cp == 0x2D1 || (cp >= 0x300 && cp <= 0x36F) ||
+                      (cp < 0x80 && ((cp >= '0' && cp <= '9') || cp == '\'' || cp == ',' || cp == '%' || cp == '=' || cp == ':'));
+    if (!mark) {
+      if (cp >= 'A' && cp <= 'Z') out += static_cast<char>(cp + 32);
+      else out += p.substr(i, len);
     }
-    const size_t len = (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 1;
-    const std::string_view cp = p.substr(i, len);
-    unsigned code = 0;
-    if (len == 2 && cp.size() == 2) code = ((c & 0x1F) << 6) | (static_cast<unsigned char>(cp[1]) & 0x3F);
-    const bool mark = code == 0x2C8 || code == 0x2CC || code == 0x2D0 || code == 0x2D1 || (code >= 0x300 && code <= 0x36F);
-    if (!mark) out += cp;
-    i += std::max<size_t>(len, 1);
+    i += len;
   }
   return out;
 }
@@ -102,8 +97,8 @@ std::optional<Viseme> VisemeOfPhoneme(std::string_view phoneme) {
   if (auto it = table.find(n); it != table.end()) return it->second;
   // A cluster the table does not list: its first symbol ("tʲ", "kʰ", "aɪə").
   if (!n.empty()) {
-    const unsigned char c = static_cast<unsigned char>(n[0]);
-    const size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : 4;
+    char32_t cp;
+    const size_t len = std::max<size_t>(DecodeUtf8(n, 0, cp), 1);
     if (auto it = table.find(n.substr(0, len)); it != table.end()) return it->second;
   }
   return V::kNN;

@@ -104,7 +104,6 @@ struct WebmEncoder::State {
 
 WebmEncoder::WebmEncoder(std::unique_ptr<State> state) : state_(std::move(state)) {}
 WebmEncoder::~WebmEncoder() = default;
-size_t WebmEncoder::frames() const { return static_cast<size_t>(state_->next_pts); }
 
 Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, std::span<const float> samples, int audio_rate) {
   auto bad = [](const char* field, const std::string& message) {

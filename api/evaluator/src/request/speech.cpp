@@ -1,4 +1,5 @@
 // Request schema of speech (lip sync from text or audio).
+#include <charconv>
 #include <cmath>
 
 #include "json_body.h"
@@ -134,10 +135,9 @@ Result<SpeechRequest> SpeechRequestOfWav(std::string wav, const std::vector<std:
       v = json::parse(value, nullptr, false);
       if (v.is_discarded()) v = value;
     } else if (key != "text" && key != "transcript" && key != "voice" && key != "format" && key != "mode" && key != "normals" && key != "view") {
-      double d;
-      const char* end = nullptr;
-      d = std::strtod(value.c_str(), const_cast<char**>(&end));
-      if (end && *end == '\0' && !value.empty()) {
+      double d = 0;
+      const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), d);
+      if (ec == std::errc() && end == value.data() + value.size() && !value.empty()) {
         if (d == std::floor(d) && std::fabs(d) < 1e15) v = static_cast<long long>(d);
         else v = d;
       }

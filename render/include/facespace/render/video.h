@@ -35,8 +35,6 @@ class WebmEncoder {
   // The file: every frame encoded, the streams closed.
   Result<std::string> Finish();
 
-  size_t frames() const;
-
  private:
   struct State;
   explicit WebmEncoder(std::unique_ptr<State> state);
