@@ -483,9 +483,7 @@ int Speak(const std::vector<std::string>& args) {
     PrintStatus(plan.status());
     return 1;
   }
-  std::vector<Warning> warnings = plan->warnings;
-  warnings.insert(warnings.end(), plan->sequence.warnings.begin(), plan->sequence.warnings.end());
-  PrintWarnings(warnings);
+  PrintWarnings(api::SpeechWarnings(plan.value()));
   const api::SpeechRequest& r = request.value();
   if (format == "json") return WriteOutput(out, api::SpeechJson(stored->rig, plan.value(), r.fps)) ? 0 : 1;
   if (format == "wav") return WriteOutput(out, speech::WriteWav(plan->audio)) ? 0 : 1;

@@ -90,17 +90,17 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
   for (size_t i = 0; i < text.size(); ++chars) {
     char32_t cp;
     const size_t len = DecodeUtf8(text, i, cp);
-    if (len == 0) return WithReason(InvalidArgument("/text: is not valid UTF-8 (at byte " + std::to_string(i) + ")"), "invalid-text");
+    if (len == 0) return WithReason(InvalidField("/text", "is not valid UTF-8 (at byte " + std::to_string(i) + ")"), "invalid-text");
     blank = blank && (cp == ' ' || cp == '\t' || cp == '\n' || cp == '\r');
     i += len;
   }
-  if (blank) return WithReason(InvalidArgument("/text: is empty; send the words to say"), "invalid-text");
+  if (blank) return WithReason(InvalidField("/text", "is empty; send the words to say"), "invalid-text");
   if (chars > kMaxTextChars) {
-    return WithReason(InvalidArgument("/text: " + std::to_string(chars) + " characters, over the limit of " + std::to_string(kMaxTextChars)),
+    return WithReason(InvalidField("/text", std::to_string(chars) + " characters, over the limit of " + std::to_string(kMaxTextChars)),
                       "text-too-long");
   }
   if (options.rate < 80 || options.rate > 450) {
-    return WithReason(InvalidArgument("/rate: " + std::to_string(options.rate) + " words a minute; from 80 to 450"), "invalid-rate");
+    return WithReason(InvalidField("/rate", std::to_string(options.rate) + " words a minute; from 80 to 450"), "invalid-rate");
   }
   std::unique_lock<std::timed_mutex> lock(Lock(), std::defer_lock);
   if (!lock.try_lock_for(kBusyWait)) return Busy("espeak-ng");
@@ -120,7 +120,7 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
     for (const VoiceInfo& v : voices) {
       if (!v.language.empty()) names.push_back(v.language);
     }
-    return WithReason(InvalidArgument("/voice: unknown voice '" + options.voice + "'" + DidYouMean(options.voice, names) + " (GET /v1/voices lists " +
+    return WithReason(InvalidField("/voice", "unknown voice '" + options.voice + "'" + DidYouMean(options.voice, names) + " (GET /v1/voices lists " +
                                       std::to_string(voices.size()) + ")"),
                       "unknown-voice");
   }
@@ -133,7 +133,7 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
   espeak_Synchronize();
   g_collect = nullptr;
   if (err != EE_OK) return Internal("espeak-ng failed to speak (error " + std::to_string(static_cast<int>(err)) + ")");
-  if (collect.timed_out) return WithReason(ResourceExhausted("/text: took espeak-ng over 20 s; say less at once"), "text-too-long");
+  if (collect.timed_out) return WithReason(InvalidField("/text", "took espeak-ng over 20 s; say less at once", StatusCode::kResourceExhausted), "text-too-long");
   Spoken out;
   out.voice = voice;
   out.audio.rate = rate;

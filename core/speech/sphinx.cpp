@@ -123,7 +123,7 @@ std::pair<int, int> Loud(std::span<const int16_t> pcm) {
 }  // namespace
 
 Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options) {
-  if (input.rate <= 0) return WithReason(InvalidArgument("/audio: has no sample rate"), "invalid-audio");
+  if (input.rate <= 0) return WithReason(InvalidField("/audio", "has no sample rate"), "invalid-audio");
   const Audio audio = Resample(input, 16000);
   Recognized out;
   const std::vector<bool> active = VoiceActivity(audio);

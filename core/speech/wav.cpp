@@ -17,7 +17,7 @@ uint16_t U16(std::string_view b, size_t at) {
   return static_cast<uint16_t>(static_cast<unsigned char>(b[at]) | static_cast<unsigned char>(b[at + 1]) << 8);
 }
 
-Status Invalid(std::string message) { return WithReason(InvalidArgument("/audio: " + std::move(message)), "invalid-audio"); }
+Status Invalid(const std::string& message) { return WithReason(InvalidField("/audio", message), "invalid-audio"); }
 
 void Put16(std::string& out, uint16_t v) {
   out += static_cast<char>(v & 0xFF);
@@ -65,8 +65,10 @@ Result<Audio> ReadWav(std::string_view b, float max_seconds) {
       const size_t available = std::min<size_t>(size, b.size() - body);  // Streamed WAVs say 0 or ~0: what is there.
       const size_t frames = (size == 0 || size == 0xFFFFFFFFu ? b.size() - body : available) / frame;
       if (static_cast<double>(frames) > static_cast<double>(max_seconds) * rate) {
-        return WithReason(ResourceExhausted("/audio: " + std::to_string(static_cast<double>(frames) / rate).substr(0, 6) +
-                                            " s of audio, over the limit of " + std::to_string(static_cast<int>(max_seconds)) + " s"),
+        return WithReason(InvalidField("/audio",
+                                       std::to_string(static_cast<double>(frames) / rate).substr(0, 6) + " s of audio, over the limit of " +
+                                           std::to_string(static_cast<int>(max_seconds)) + " s",
+                                       StatusCode::kResourceExhausted),
                           "audio-too-long");
       }
       Audio audio;

@@ -30,6 +30,11 @@ Status ResourceExhausted(std::string message) {
 
 Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message), {}, {}, 0}; }
 
+Status InvalidField(const std::string& pointer, const std::string& message, StatusCode code) {
+  Status s{code, pointer.empty() ? message : pointer + ": " + message, {{pointer, message}}, {}, 0};
+  return s;
+}
+
 Status Prefixed(Status status, const std::string& prefix) {
   status.message = prefix + status.message;
   return status;

@@ -106,14 +106,9 @@ WebmEncoder::WebmEncoder(std::unique_ptr<State> state) : state_(std::move(state)
 WebmEncoder::~WebmEncoder() = default;
 
 Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, std::span<const float> samples, int audio_rate) {
-  auto bad = [](const char* field, const std::string& message) {
-    Status s = InvalidArgument(std::string(field) + ": " + message);
-    s.fields.push_back({field, message});
-    return s;
-  };
-  if (o.width < 16 || o.width > 4096 || o.width % 2) return bad("/width", "a video's width is even, from 16 to 4096");
-  if (o.height < 16 || o.height > 4096 || o.height % 2) return bad("/height", "a video's height is even, from 16 to 4096");
-  if (!(o.fps >= 1.0 && o.fps <= 120.0)) return bad("/fps", "a video has 1 to 120 frames a second");
+  if (o.width < 16 || o.width > 4096 || o.width % 2) return InvalidField("/width", "a video's width is even, from 16 to 4096");
+  if (o.height < 16 || o.height > 4096 || o.height % 2) return InvalidField("/height", "a video's height is even, from 16 to 4096");
+  if (!(o.fps >= 1.0 && o.fps <= 120.0)) return InvalidField("/fps", "a video has 1 to 120 frames a second");
   av_log_set_level(AV_LOG_ERROR);  // libvpx's banner and the muxer's notes are not ours to print.
   auto st = std::make_unique<State>();
   st->options = o;

@@ -8,31 +8,18 @@
 
 namespace facespace::api {
 
-namespace {
-
-// A speech engine's error ("/voice: unknown voice ...") with its field listed, as the schema's errors are.
-Status Named(Status s) {
-  const size_t colon = s.message.find(": ");
-  if (s.fields.empty() && !s.message.empty() && s.message[0] == '/' && colon != std::string::npos) {
-    s.fields.push_back({s.message.substr(0, colon), s.message.substr(colon + 2)});
-  }
-  return s;
-}
-
-}  // namespace
-
 Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
   if (Status s = CanSpeak(rig); !s.ok()) return s;
   SpeechPlan plan;
   if (request.has_audio) {
     auto audio = speech::ReadWav(request.audio);
-    if (!audio.ok()) return Named(audio.status());
+    if (!audio.ok()) return audio.status();
     plan.audio = std::move(audio.value());
     if (plan.audio.samples.empty()) return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
     speech::RecognizeOptions options;
     options.transcript = request.transcript;
     auto heard = speech::Recognize(plan.audio, options);
-    if (!heard.ok()) return Named(heard.status());
+    if (!heard.ok()) return heard.status();
     plan.phonemes = std::move(heard->phonemes);
     plan.warnings = std::move(heard->warnings);
     plan.voiced_seconds = heard->voiced_seconds;
@@ -44,7 +31,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
     options.voice = request.voice;
     options.rate = request.rate;
     auto spoken = speech::Synthesize(request.text, options);
-    if (!spoken.ok()) return Named(spoken.status());
+    if (!spoken.ok()) return spoken.status();
     plan.audio = std::move(spoken->audio);
     plan.phonemes = std::move(spoken->phonemes);
     plan.voice = std::move(spoken->voice);
@@ -87,6 +74,12 @@ std::string Base64(std::string_view in) {
 
 }  // namespace
 
+std::vector<Warning> SpeechWarnings(const SpeechPlan& plan) {
+  std::vector<Warning> warnings = plan.warnings;
+  warnings.insert(warnings.end(), plan.sequence.warnings.begin(), plan.sequence.warnings.end());
+  return warnings;
+}
+
 std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio) {
   std::string out = "{\"source\":" + JsonString(plan.source);
   if (!plan.voice.empty()) out += ",\"voice\":" + JsonString(plan.voice);
@@ -105,9 +98,7 @@ std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool w
            ",\"end\":" + FormatNumber(v.end) + "}";
   }
   out += "],\"keys\":" + SequenceKeysJson(rig, plan.sequence) + ",\"transition\":" + JsonString(TransitionName(plan.sequence.transition));
-  std::vector<Warning> warnings = plan.warnings;
-  warnings.insert(warnings.end(), plan.sequence.warnings.begin(), plan.sequence.warnings.end());
-  out += ",\"warnings\":" + WarningsToJson(warnings);
+  out += ",\"warnings\":" + WarningsToJson(SpeechWarnings(plan));
   if (with_audio) out += ",\"audio_wav\":\"" + Base64(speech::WriteWav(plan.audio)) + "\"";
   out += "}\n";
   return out;

@@ -39,6 +39,10 @@ void PostSheet(ServerState&, const httplib::Request&, httplib::Response&);
 void PostSequenceSample(ServerState&, const httplib::Request&, httplib::Response&);
 void PostSequenceStream(ServerState&, const httplib::Request&, httplib::Response&);
 void PostSequenceReduce(ServerState&, const httplib::Request&, httplib::Response&);
+// False, with a 422 too-many-frames sent at /fps, for more frames than --max-frames: "the WHAT would be N
+// frames ...", "at most M frames over OVER duration".
+bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Response& res, size_t frames, const char* what,
+                      const char* over);
 // A sequence's frames streamed as the client reads them (ndjson, weights or f32); 422 for another format
 // or more frames than --max-frames.
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,

@@ -42,6 +42,17 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   res.set_content(std::move(body.value()), "application/json");
 }
 
+bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Response& res, size_t frames, const char* what,
+                      const char* over) {
+  if (frames <= ctx.options.max_frames) return true;
+  const std::string max = std::to_string(ctx.options.max_frames);
+  SendProblem(req, res, 422, "too-many-frames",
+              std::string("the ") + what + " would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max +
+                  " (--max-frames)",
+              {{"/fps", "at most " + max + " frames over " + over + " duration"}});
+  return false;
+}
+
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,
                         std::shared_ptr<const Sequence> seq, float fps, const std::string& format, const BlendOptions& options) {
   if (format != "ndjson" && format != "f32" && format != "weights") {
@@ -49,13 +60,7 @@ void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
     return;
   }
   const size_t frames = FrameCount(*seq, fps);
-  if (frames > ctx.options.max_frames) {
-    const std::string max = std::to_string(ctx.options.max_frames);
-    SendProblem(req, res, 422, "too-many-frames",
-                "the stream would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max + " (--max-frames)",
-                {{"/fps", "at most " + max + " frames over the keys' duration"}});
-    return;
-  }
+  if (!WithinFrameLimit(ctx, req, res, frames, "stream", "the keys'")) return;
   res.set_header("Facespace-Frames", std::to_string(frames));
   res.set_header("Cache-Control", "no-store");
   const bool f32 = format == "f32";

@@ -26,13 +26,7 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
                            " s; say less at once, or ask for json, wav or a stream of frames",
                        {{field, "at most " + FormatNumber(kMaxVideoSeconds) + " s of speech as a video"}});
   }
-  if (frames > ctx.options.max_frames) {
-    const std::string max = std::to_string(ctx.options.max_frames);
-    return SendProblem(req, res, 422, "too-many-frames",
-                       "the video would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max + " (--max-frames)",
-                       {{"/fps", "at most " + max + " frames over the speech's duration"}});
-  }
-  if (!CheckRenderBudget(ctx, req, res, r.render.render, 1)) return;
+  if (!WithinFrameLimit(ctx, req, res, frames, "video", "the speech's") || !CheckRenderBudget(ctx, req, res, r.render.render, 1)) return;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
   std::string video;
   auto encoded = WithinRenderBudget(ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<Encoded> {
@@ -64,9 +58,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   }
   auto plan = PlanSpeech(stored->rig, r);
   if (!plan.ok()) return SendStatus(req, res, plan.status());
-  std::vector<Warning> warnings = plan->warnings;
-  warnings.insert(warnings.end(), plan->sequence.warnings.begin(), plan->sequence.warnings.end());
-  if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
+  if (const std::vector<Warning> warnings = SpeechWarnings(plan.value()); !warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
   if (r.format == "json") {
     res.status = 200;

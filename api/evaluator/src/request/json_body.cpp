@@ -29,11 +29,7 @@ void UnknownMember(const std::string& key, std::span<const std::string_view> mem
   errors.fields.push_back({"/" + JsonPointerEscape(key), message});
 }
 
-Status FieldStatus(const std::string& pointer, const std::string& message) {
-  Status s = InvalidArgument(pointer.empty() ? message : pointer + ": " + message);
-  s.fields.push_back({pointer, message});
-  return s;
-}
+Status FieldStatus(const std::string& pointer, const std::string& message) { return InvalidField(pointer, message); }
 
 Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::string& pointer) {
   std::vector<WeightEntry> entries;

@@ -109,7 +109,6 @@ Result<SpeechRequest> ParseSpeechRequest(std::string_view text) {
   auto j = ParseObject(text, kSpeechBody);
   if (!j.ok()) return j.status();
   SpeechRequest r;
-  r.render.render.width = r.render.render.height = 512;
   Status errors = InvalidArgument("");
   for (auto it = j->begin(); it != j->end(); ++it) {
     if (!SpeechMember(it.key(), it.value(), r, errors)) UnknownMember(it.key(), kSpeechMembers, errors);
@@ -120,7 +119,6 @@ Result<SpeechRequest> ParseSpeechRequest(std::string_view text) {
 
 Result<SpeechRequest> SpeechRequestOfWav(std::string wav, const std::vector<std::pair<std::string, std::string>>& settings) {
   SpeechRequest r;
-  r.render.render.width = r.render.render.height = 512;
   r.audio = std::move(wav);
   r.has_audio = true;
   Status errors = InvalidArgument("");

@@ -70,6 +70,8 @@ Status DataLoss(std::string message);
 Status FailedPrecondition(std::string message);
 Status ResourceExhausted(std::string message);
 Status Internal(std::string message);
+// An error of one field: the message "POINTER: MESSAGE" (just MESSAGE for the empty pointer), the field listed.
+Status InvalidField(const std::string& pointer, const std::string& message, StatusCode code = StatusCode::kInvalidArgument);
 // The same status with `prefix` before its message ("shapes.json: ..."): code, fields and reason kept.
 Status Prefixed(Status status, const std::string& prefix);
 // The same status with its reason set.

@@ -307,6 +307,9 @@ struct SpeechPlan {
 // (InvalidArgument or ResourceExhausted naming the field); the face (as ResolvePoint's).
 Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request);
 
+// Everything the plan warns of: the face's and the recognizer's, then the sequence's (said once).
+std::vector<Warning> SpeechWarnings(const SpeechPlan& plan);
+
 // {"source", "voice", "duration", "fps", "frames", "phonemes": [{"name", "start", "end"}],
 //  "visemes": [{"viseme", "start", "end"}], "keys": [...] (as sequence requests take them),
 //  "transition", "warnings", and with `with_audio` "audio_wav": the WAV as base64}: the speech route's json
