@@ -56,6 +56,14 @@ struct ServeConfig {
   int read_timeout = 10;     // Seconds a client may take to send a request (slow clients are cut off).
   std::string jobs_dir;      // Default: $XDG_STATE_HOME/facespace/jobs or ~/.local/state/facespace/jobs.
   batch::JobLimits job_limits;
+  // What one request may cost (issue 48): estimated CPU-seconds before the work, wall time after.
+  double anonymous_cpu = 2.0;         // A request without the API key; over it: 422 over-budget.
+  double keyed_cpu = 600.0;           // ... with the key.
+  size_t max_client_requests = 16;    // Requests of one address running at once; its others wait.
+  int request_deadline = 120;         // Seconds a request's work and answer may take; then it is stopped.
+  int keyed_deadline = 1800;
+  size_t min_send_rate_kib = 32;      // KiB a second a client must read an answer at (after a 10 s grace).
+  double drain = 8.0;                 // Seconds after SIGTERM before the process exits whatever is left.
 };
 
 // $XDG_STATE_HOME/facespace/NAME, else ~/.local/state/facespace/NAME.
@@ -155,6 +163,21 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
     if (!ParseSize(value, 1, 1 << 20, &n)) return "body-budget-mb must be 1..1048576, not '" + value + "'";
     c.body_budget_mb = static_cast<size_t>(n);
   }
+  else if (key == "anonymous-cpu" || key == "keyed-cpu" || key == "drain") {
+    char* end = nullptr;
+    const double v = std::strtod(value.c_str(), &end);
+    if (value.empty() || *end || !(v > 0 && v <= 1e6)) return key + " must be a number of seconds above 0, not '" + value + "'";
+    (key == "drain" ? c.drain : key == "keyed-cpu" ? c.keyed_cpu : c.anonymous_cpu) = v;
+  } else if (key == "max-client-requests") {
+    if (!ParseSize(value, 1, 100000, &n)) return "max-client-requests must be 1..100000, not '" + value + "'";
+    c.max_client_requests = static_cast<size_t>(n);
+  } else if (key == "request-deadline" || key == "keyed-deadline") {
+    if (!ParseSize(value, 1, 86400, &n)) return key + " must be 1..86400 seconds, not '" + value + "'";
+    (key == "request-deadline" ? c.request_deadline : c.keyed_deadline) = static_cast<int>(n);
+  } else if (key == "min-send-rate") {
+    if (!ParseSize(value, 0, 1 << 20, &n)) return "min-send-rate must be 0..1048576 KiB/s (0: none), not '" + value + "'";
+    c.min_send_rate_kib = static_cast<size_t>(n);
+  }
   else if (key == "max-jobs") {
     if (!ParseSize(value, 1, 1000, &n)) return "max-jobs must be 1..1000, not '" + value + "'";
     c.job_limits.max_jobs = static_cast<size_t>(n);
@@ -185,7 +208,9 @@ int Serve(const std::vector<std::string>& args) {
       {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}, {"FACESPACE_STORE_POLL", "store-poll"},
       {"FACESPACE_MAX_CONNECTIONS", "max-connections"}, {"FACESPACE_MAX_CLIENT_CONNECTIONS", "max-client-connections"},
       {"FACESPACE_BODY_BUDGET_MB", "body-budget-mb"}, {"FACESPACE_RENDER_BUDGET_MB", "render-budget-mb"},
-      {"FACESPACE_RENDER_MEMORY_MB", "render-memory-mb"}};
+      {"FACESPACE_RENDER_MEMORY_MB", "render-memory-mb"}, {"FACESPACE_ANONYMOUS_CPU", "anonymous-cpu"}, {"FACESPACE_KEYED_CPU", "keyed-cpu"},
+      {"FACESPACE_MAX_CLIENT_REQUESTS", "max-client-requests"}, {"FACESPACE_REQUEST_DEADLINE", "request-deadline"},
+      {"FACESPACE_KEYED_DEADLINE", "keyed-deadline"}, {"FACESPACE_MIN_SEND_RATE", "min-send-rate"}, {"FACESPACE_DRAIN", "drain"}};
   for (const auto& [var, key] : env) {
     if (const char* v = std::getenv(var); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
@@ -220,7 +245,14 @@ int Serve(const std::vector<std::string>& args) {
       {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
       {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
       {"read-timeout", "SECONDS: a client may take to send a whole request, head and body (default 10, plus 1 s per MiB of body)"},
-      {"render-threads", "N: renders drawing at once (0: one per core)"}};
+      {"render-threads", "N: renders drawing at once (0: one per core)"},
+      {"anonymous-cpu", "SECONDS: estimated CPU one request without the API key may cost; more is 422 over-budget (default 2)"},
+      {"keyed-cpu", "SECONDS: ... one request with the key (default 600)"},
+      {"max-client-requests", "N: requests of one address running at once; its others wait their turn (default 16)"},
+      {"request-deadline", "SECONDS: a request's work and answer, then it is stopped (default 120)"},
+      {"keyed-deadline", "SECONDS: ... for a request with the key (default 1800)"},
+      {"min-send-rate", "KIB: a second a client must read an answer at, after a 10 s grace; slower ones are cut off (default 32)"},
+      {"drain", "SECONDS: after SIGTERM, work in flight is stopped and the process exits within this (default 8)"}};
   for (const auto& [key, help] : settings) {
     const std::string h = help;
     flags.Value(std::string("--") + key, h.substr(0, h.find(':')), h.substr(h.find(':') + 2), [&c, key = std::string(key)](const std::string& v) {
@@ -258,6 +290,8 @@ int Serve(const std::vector<std::string>& args) {
   options.max_frames = c.max_frames;
   options.render_budget = c.render_budget_mb << 20;
   options.render_memory = std::max(c.render_memory_mb, c.render_budget_mb) << 20;
+  options.anonymous_cpu = c.anonymous_cpu;
+  options.keyed_cpu = c.keyed_cpu;
 
   // Where uploads go, and what is served read-only: a given --rigs is the store itself (unless a
   // --store is given too); the bundled rigs are never written.
@@ -346,6 +380,11 @@ int Serve(const std::vector<std::string>& args) {
   front.body_budget = c.body_budget_mb << 20;
   front.log_requests = !c.quiet;
   front.head_check = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->CheckHead(head); };
+  front.max_client_requests = c.max_client_requests;
+  front.request_deadline = c.request_deadline;
+  front.keyed_deadline = c.keyed_deadline;
+  front.min_send_rate = c.min_send_rate_kib << 10;
+  front.keyed = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->Keyed(head); };
   const int threads = c.threads;
   api::FrontServer server(front);
   options.front = &server.Stats();
@@ -417,11 +456,19 @@ int Serve(const std::vector<std::string>& args) {
   });
 
   std::atomic<bool> signalled{false};
-  std::thread waiter([&server, &signalled, signals] {
+  std::thread waiter([&server, &signalled, signals, drain = c.drain] {
     int sig = 0;
     sigwait(&signals, &sig);
     if (!signalled.exchange(true)) {
-      std::fprintf(stderr, "facespace: %s received, finishing requests in flight\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+      std::fprintf(stderr, "facespace: %s received, stopping the requests in flight (at most %g s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM", drain);
+      // The drain is bounded: work that does not stop in time is left (files are written whole, so
+      // nothing is half-stored) and the process exits as a stopped one does.
+      std::thread([drain] {
+        std::this_thread::sleep_for(std::chrono::duration<double>(drain));
+        std::fprintf(stderr, "facespace: still draining after %g s (--drain): exiting\n", drain);
+        std::fflush(stderr);
+        std::_Exit(0);
+      }).detach();
     }
     server.stop();
   });

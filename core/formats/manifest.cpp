@@ -13,6 +13,7 @@
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/speech.h"
 #include "facespace/core/weights.h"
+#include "common/json_depth.h"
 
 namespace facespace {
 
@@ -399,6 +400,7 @@ Status ApplyFaceManifest(Rig& rig, const json& j, Bad bad) {
 }  // namespace
 
 Status ApplyManifest(Rig& rig, const std::string& text) {
+  if (Status s = CheckJsonDepth(text, "manifest"); !s.ok()) return s;
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded()) return InvalidArgument("manifest: not valid JSON");
   if (!j.is_object()) return InvalidArgument("manifest: must be a JSON object");
@@ -588,6 +590,7 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
 }
 
 Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
+  if (Status s = CheckJsonDepth(text, "modifiers"); !s.ok()) return s;
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded() || !j.is_array()) return InvalidArgument("not a modifiers file: want a JSON array of {\"group\", \"modifiers\"}");
   std::vector<std::string> missing;

@@ -25,7 +25,8 @@ struct Collect {
   std::vector<int16_t> samples;
   std::vector<std::pair<int, std::string>> events;  // (ms, IPA phoneme)
   std::chrono::steady_clock::time_point deadline;
-  bool timed_out = false;
+  std::stop_token stop;
+  bool timed_out = false, stopped = false;
 };
 Collect* g_collect = nullptr;  // Under Lock().
 
@@ -38,9 +39,13 @@ int OnSynth(short* wav, int count, espeak_EVENT* events) {
     const char* s = e->id.string;
     c->events.emplace_back(e->audio_position, std::string(s, strnlen(s, sizeof(e->id.string))));
   }
+  if (c->stop.stop_requested()) {
+    c->stopped = true;
+    return 1;  // Stops the synthesis.
+  }
   if (std::chrono::steady_clock::now() > c->deadline) {
     c->timed_out = true;
-    return 1;  // Stops the synthesis.
+    return 1;
   }
   return 0;
 }
@@ -127,11 +132,13 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
   espeak_SetParameter(espeakRATE, options.rate, 0);
   Collect collect;
   collect.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  collect.stop = options.stop;
   g_collect = &collect;
   const std::string z(text);
   const espeak_ERROR err = espeak_Synth(z.c_str(), z.size() + 1, 0, POS_CHARACTER, 0, espeakCHARS_UTF8, nullptr, nullptr);
   espeak_Synchronize();
   g_collect = nullptr;
+  if (collect.stopped) return Cancelled();
   if (err != EE_OK) return Internal("espeak-ng failed to speak (error " + std::to_string(static_cast<int>(err)) + ")");
   if (collect.timed_out) return WithReason(InvalidField("/text", "took espeak-ng over 20 s; say less at once", StatusCode::kResourceExhausted), "text-too-long");
   Spoken out;

@@ -27,86 +27,92 @@ void Put32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out += static_cast<char>((v >> (8 * i)) & 0xFF);
 }
 
+// One sample in [-1, 1]: PCM 8 (unsigned), 16, 24, 32, or float 32 (format 3; not finite: 0).
+float SampleAt(const unsigned char* s, uint16_t format, uint16_t bits) {
+  if (format == 3) {
+    float v;
+    std::memcpy(&v, s, 4);
+    return std::isfinite(v) ? std::clamp(v, -1.0f, 1.0f) : 0.0f;
+  }
+  if (bits == 8) return (static_cast<int>(s[0]) - 128) / 128.0f;
+  if (bits == 16) return static_cast<int16_t>(s[0] | s[1] << 8) / 32768.0f;
+  if (bits == 24) {
+    const int32_t x = static_cast<int32_t>(static_cast<uint32_t>(s[0]) << 8 | static_cast<uint32_t>(s[1]) << 16 | static_cast<uint32_t>(s[2]) << 24);
+    return static_cast<float>(x) / 2147483648.0f;
+  }
+  int32_t x;
+  std::memcpy(&x, s, 4);
+  return static_cast<float>(x) / 2147483648.0f;
+}
+
 }  // namespace
 
 bool LooksLikeWav(std::string_view bytes) {
   return bytes.size() >= 12 && bytes.substr(0, 4) == "RIFF" && bytes.substr(8, 4) == "WAVE";
 }
 
-Result<Audio> ReadWav(std::string_view b, float max_seconds) {
+Result<WavLayout> ReadWavLayout(std::string_view b) {
   if (!LooksLikeWav(b)) return Invalid("not a WAV file (no RIFF/WAVE header); send 16-bit PCM WAV");
   size_t at = 12;
   bool have_fmt = false;
-  uint16_t format = 0, channels = 0, bits = 0;
-  uint32_t rate = 0;
+  WavLayout w;
   while (at + 8 <= b.size()) {
     const std::string_view id = b.substr(at, 4);
     const uint32_t size = U32(b, at + 4);
     const size_t body = at + 8;
     if (id == "fmt ") {
       if (size < 16 || body + 16 > b.size()) return Invalid("its fmt chunk is cut short");
-      format = U16(b, body);
-      channels = U16(b, body + 2);
-      rate = U32(b, body + 4);
-      bits = U16(b, body + 14);
-      if (format == 0xFFFE) {  // WAVE_FORMAT_EXTENSIBLE: the sub-format's first two bytes.
+      w.format = U16(b, body);
+      w.channels = U16(b, body + 2);
+      w.rate = static_cast<int>(U32(b, body + 4) & 0x7FFFFFFF);
+      w.bits = U16(b, body + 14);
+      if (w.format == 0xFFFE) {  // WAVE_FORMAT_EXTENSIBLE: the sub-format's first two bytes.
         if (size < 40 || body + 40 > b.size()) return Invalid("its extensible fmt chunk is cut short");
-        format = U16(b, body + 24);
+        w.format = U16(b, body + 24);
       }
       have_fmt = true;
     } else if (id == "data") {
       if (!have_fmt) return Invalid("its data comes before its fmt chunk");
-      if (format != 1 && format != 3) return Invalid("format " + std::to_string(format) + " is not PCM or float (send 16-bit PCM WAV)");
-      if (format == 1 && bits != 8 && bits != 16 && bits != 24 && bits != 32) return Invalid(std::to_string(bits) + "-bit PCM is not read (8, 16, 24 or 32)");
-      if (format == 3 && bits != 32) return Invalid(std::to_string(bits) + "-bit float is not read (32)");
-      if (channels < 1 || channels > 8) return Invalid(std::to_string(channels) + " channels (1 to 8 are read)");
-      if (rate < 8000 || rate > 192000) return Invalid("a rate of " + std::to_string(rate) + " Hz (8 to 192 kHz are read)");
-      const size_t frame = static_cast<size_t>(channels) * (bits / 8);
+      if (w.format != 1 && w.format != 3) return Invalid("format " + std::to_string(w.format) + " is not PCM or float (send 16-bit PCM WAV)");
+      if (w.format == 1 && w.bits != 8 && w.bits != 16 && w.bits != 24 && w.bits != 32) return Invalid(std::to_string(w.bits) + "-bit PCM is not read (8, 16, 24 or 32)");
+      if (w.format == 3 && w.bits != 32) return Invalid(std::to_string(w.bits) + "-bit float is not read (32)");
+      if (w.channels < 1 || w.channels > 8) return Invalid(std::to_string(w.channels) + " channels (1 to 8 are read)");
+      if (w.rate < 8000 || w.rate > 192000) return Invalid("a rate of " + std::to_string(w.rate) + " Hz (8 to 192 kHz are read)");
+      const size_t frame = static_cast<size_t>(w.channels) * (w.bits / 8);
       const size_t available = std::min<size_t>(size, b.size() - body);  // Streamed WAVs say 0 or ~0: what is there.
-      const size_t frames = (size == 0 || size == 0xFFFFFFFFu ? b.size() - body : available) / frame;
-      if (static_cast<double>(frames) > static_cast<double>(max_seconds) * rate) {
-        return WithReason(InvalidField("/audio",
-                                       std::to_string(static_cast<double>(frames) / rate).substr(0, 6) + " s of audio, over the limit of " +
-                                           std::to_string(static_cast<int>(max_seconds)) + " s",
-                                       StatusCode::kResourceExhausted),
-                          "audio-too-long");
-      }
-      Audio audio;
-      audio.rate = static_cast<int>(rate);
-      audio.samples.resize(frames);
-      const unsigned char* p = reinterpret_cast<const unsigned char*>(b.data() + body);
-      const float scale = 1.0f / channels;
-      for (size_t i = 0; i < frames; ++i) {
-        float sum = 0.0f;
-        for (size_t c = 0; c < channels; ++c) {
-          const unsigned char* s = p + i * frame + c * (bits / 8);
-          float v = 0.0f;
-          if (format == 3) {
-            std::memcpy(&v, s, 4);
-            if (!std::isfinite(v)) v = 0.0f;
-            v = std::clamp(v, -1.0f, 1.0f);
-          } else if (bits == 8) {
-            v = (static_cast<int>(s[0]) - 128) / 128.0f;
-          } else if (bits == 16) {
-            v = static_cast<int16_t>(s[0] | s[1] << 8) / 32768.0f;
-          } else if (bits == 24) {
-            const int32_t x = static_cast<int32_t>(static_cast<uint32_t>(s[0]) << 8 | static_cast<uint32_t>(s[1]) << 16 | static_cast<uint32_t>(s[2]) << 24);
-            v = static_cast<float>(x) / 2147483648.0f;
-          } else {
-            int32_t x;
-            std::memcpy(&x, s, 4);
-            v = static_cast<float>(x) / 2147483648.0f;
-          }
-          sum += v;
-        }
-        audio.samples[i] = sum * scale;
-      }
-      return audio;
+      w.frames = (size == 0 || size == 0xFFFFFFFFu ? b.size() - body : available) / frame;
+      w.data = body;
+      return w;
     }
     if (size > b.size() - body) break;
     at = body + size + (size & 1);  // Chunks are padded to even sizes.
   }
   return Invalid(have_fmt ? "it has no data chunk" : "it has no fmt chunk");
+}
+
+Result<Audio> ReadWav(std::string_view b, float max_seconds) {
+  auto layout = ReadWavLayout(b);
+  if (!layout.ok()) return layout.status();
+  const WavLayout& w = layout.value();
+  if (w.seconds() > max_seconds) {
+    return WithReason(InvalidField("/audio",
+                                   std::to_string(w.seconds()).substr(0, 6) + " s of audio, over the limit of " +
+                                       std::to_string(static_cast<int>(max_seconds)) + " s",
+                                   StatusCode::kResourceExhausted),
+                      "audio-too-long");
+  }
+  const size_t channels = w.channels, bytes = w.bits / 8u, frame = channels * bytes;
+  Audio audio;
+  audio.rate = w.rate;
+  audio.samples.resize(w.frames);
+  const unsigned char* p = reinterpret_cast<const unsigned char*>(b.data() + w.data);
+  const float scale = 1.0f / static_cast<float>(channels);
+  for (size_t i = 0; i < w.frames; ++i) {
+    float sum = 0.0f;
+    for (size_t c = 0; c < channels; ++c) sum += SampleAt(p + i * frame + c * bytes, w.format, w.bits);
+    audio.samples[i] = sum * scale;
+  }
+  return audio;
 }
 
 std::string WriteWav(const Audio& audio) {

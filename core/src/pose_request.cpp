@@ -187,6 +187,19 @@ bool PoseOfFaceAndWeights(const Rig& rig, const FaceState& face, std::span<float
   return true;
 }
 
+namespace {
+
+// The weights the face made are numbers: expression values each finite (1e308) can still sum or
+// scale past a float's range, which is the request's fault, not the blend's.
+Status FiniteFace(std::span<const float> weights) {
+  for (float w : weights) {
+    if (!std::isfinite(w)) return InvalidField("/expressions", "the expressions' weights are not finite numbers (a value too large?)");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entries, const PoseRequest& request,
                              std::vector<float>& weights, Pose& pose, bool& posed, std::vector<Warning>& warnings) {
   auto resolved = ResolveWeights(rig, entries);
@@ -209,7 +222,7 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   face.gaze = request.gaze;
   if (request.empty()) {
     posed = request.has_face() ? PoseOfFaceAndWeights(rig, face, weights, pose, warnings) : PoseOfWeightsAlone(rig, weights, pose);
-    return Status::Ok();
+    return FiniteFace(weights);
   }
   posed = true;
   std::vector<float> animated;
@@ -227,7 +240,7 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   }
   if (request.has_face()) ApplyFace(rig, face, weights, pose, posed, warnings);
   FinishPose(rig, weights, pose);
-  return Status::Ok();
+  return FiniteFace(weights);
 }
 
 }  // namespace facespace

@@ -208,64 +208,105 @@ double MaxVertexDistance(const Rig& rig, std::span<const float> a, std::span<con
 
 }  // namespace
 
-Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& s, float tolerance) {
+namespace {
+
+// What ReduceSequence compares against: the original sampled at every key and at the quarter points
+// between keys (key k's check times are 4k .. 4k+3, the last key's 4(K-1)).
+struct ReduceChecks {
+  std::vector<float> times;
+  std::vector<std::vector<float>> reference;
+};
+
+ReduceChecks SampleChecks(const Sequence& s, size_t shapes) {
+  ReduceChecks c;
+  for (size_t k = 0; k < s.keys.size(); ++k) {
+    c.times.push_back(s.keys[k].time);
+    if (k + 1 < s.keys.size()) {
+      for (int q = 1; q < 4; ++q) c.times.push_back(s.keys[k].time + 0.25f * q * (s.keys[k + 1].time - s.keys[k].time));
+    }
+  }
+  c.reference.assign(c.times.size(), std::vector<float>(shapes));
+  for (size_t i = 0; i < c.times.size(); ++i) SampleSequence(s, c.times[i], c.reference[i]);
+  return c;
+}
+
+// Scratch of one reduction, made once.
+struct ReduceScratch {
+  Sequence window;  // The kept keys around a candidate segment.
+  std::vector<float> w, diff, blend;
+  std::vector<double> errors;
+};
+
+// Whether keys `from` .. `to` of `s` may lose every key between them: the sequence with only the kept
+// keys (`before`, the two kept before `from`; the original key after `to`) is sampled at the check
+// times the change can move (after the earlier kept key, before `to`) and each compared with the
+// original; true when none is over `tolerance`, the errors then in scratch.errors from index `lo`.
+bool SegmentFits(const Rig& rig, const Sequence& s, const ReduceChecks& c, std::span<const size_t> before, size_t from, size_t to,
+                 float tolerance, ReduceScratch& x, size_t& lo) {
+  x.window.keys.clear();
+  for (size_t k : before) x.window.keys.push_back(s.keys[k]);
+  x.window.keys.push_back(s.keys[from]);
+  x.window.keys.push_back(s.keys[to]);
+  if (to + 1 < s.keys.size()) x.window.keys.push_back(s.keys[to + 1]);
+  // Smooth keys move the segment before `from` too (its next neighbour changes).
+  const size_t first = s.smooth && !before.empty() ? before.back() : from;
+  lo = 4 * first + 1;
+  x.errors.clear();
+  for (size_t i = lo; i < 4 * to; ++i) {
+    SampleSequence(x.window, c.times[i], x.w);
+    const double e = MaxVertexDistance(rig, c.reference[i], x.w, x.diff, x.blend);
+    if (e > tolerance) return false;
+    x.errors.push_back(e);
+  }
+  return true;
+}
+
+}  // namespace
+
+// Greedy from the first key: each kept key reaches as far as it can (the farthest next key whose
+// segment fits, found by doubling the reach, then halving between the last fit and the first miss),
+// so the work is O(K log K) sequence samples rather than a search over every key at every step.
+Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& s, float tolerance, const std::stop_token& stop) {
   if (Status st = ValidateSequence(s, rig.shapes.size()); !st.ok()) return st;
   if (!(tolerance >= 0.0f) || !std::isfinite(tolerance)) return InvalidArgument("tolerance must be a finite number >= 0");
-  std::vector<float> times;
-  for (size_t k = 0; k < s.keys.size(); ++k) {
-    times.push_back(s.keys[k].time);
-    if (k + 1 < s.keys.size()) {
-      for (int q = 1; q < 4; ++q) times.push_back(s.keys[k].time + 0.25f * q * (s.keys[k + 1].time - s.keys[k].time));
-    }
-  }
-  const size_t n = rig.shapes.size();
-  std::vector<std::vector<float>> reference(times.size(), std::vector<float>(n));
-  for (size_t i = 0; i < times.size(); ++i) SampleSequence(s, times[i], reference[i]);
-  std::vector<float> w(n), diff, scratch;
-  // Error of `candidate` at check time i.
-  auto error_at = [&](const Sequence& candidate, size_t i) {
-    SampleSequence(candidate, times[i], w);
-    return MaxVertexDistance(rig, reference[i], w, diff, scratch);
-  };
-  ReduceResult r{s, 0.0, 0};
-  std::vector<double> errors(times.size(), 0.0);  // Of the current reduced sequence.
-  // Greedy: repeatedly drop the interior key whose removal costs least, while it fits.
-  // Removing a key changes the sequence only between its neighbours (two on each side for
-  // the smooth spline), so only check times there are evaluated again.
-  while (r.sequence.keys.size() > 2) {
-    double best = INFINITY;
-    size_t best_k = 0;
-    std::vector<double> best_local;
-    for (size_t k = 1; k + 1 < r.sequence.keys.size(); ++k) {
-      const size_t reach = s.smooth ? 2 : 1;
-      const float lo = r.sequence.keys[k > reach ? k - reach : 0].time;
-      const float hi = r.sequence.keys[std::min(k + reach, r.sequence.keys.size() - 1)].time;
-      Sequence c = r.sequence;
-      c.keys.erase(c.keys.begin() + static_cast<long>(k));
-      double e = 0.0;
-      std::vector<double> local(times.size(), -1.0);
-      for (size_t i = 0; i < times.size() && e <= best; ++i) {
-        if (times[i] > lo && times[i] < hi) {
-          local[i] = error_at(c, i);
-          e = std::max(e, local[i]);
-        } else {
-          e = std::max(e, errors[i]);
-        }
+  const ReduceChecks c = SampleChecks(s, rig.shapes.size());
+  ReduceScratch x;
+  x.window.transition = s.transition;
+  x.window.smooth = s.smooth;
+  x.w.resize(rig.shapes.size());
+  std::vector<double> errors(c.times.size(), 0.0);
+  std::vector<size_t> kept{0};
+  const size_t last = s.keys.size() - 1;
+  size_t lo = 0;
+  while (kept.back() < last) {
+    if (stop.stop_requested()) return Cancelled();
+    const size_t from = kept.back();
+    const size_t n_before = std::min<size_t>(2, kept.size() - 1);  // The kept keys before `from` a sample may need.
+    const std::span<const size_t> before(kept.data() + kept.size() - 1 - n_before, n_before);
+    auto fits = [&](size_t to) { return SegmentFits(rig, s, c, before, from, to, tolerance, x, lo); };
+    size_t good = from + 1, bad = last + 1;
+    for (size_t reach = 2; from + reach <= last; reach *= 2) {
+      if (!fits(from + reach)) {
+        bad = from + reach;
+        break;
       }
-      if (e < best) {
-        best = e;
-        best_k = k;
-        best_local = std::move(local);
-      }
+      good = from + reach;
     }
-    if (best > tolerance) break;
-    r.sequence.keys.erase(r.sequence.keys.begin() + static_cast<long>(best_k));
-    for (size_t i = 0; i < times.size(); ++i) {
-      if (best_local[i] >= 0.0) errors[i] = best_local[i];
+    if (bad == last + 1 && good < last && fits(last)) good = last;
+    else if (bad == last + 1) bad = last;
+    while (bad - good > 1) {
+      if (stop.stop_requested()) return Cancelled();
+      const size_t mid = good + (bad - good) / 2;
+      (fits(mid) ? good : bad) = mid;
     }
-    r.max_error = best;
-    ++r.removed;
+    fits(good);  // The chosen segment's errors (one fits always).
+    std::copy(x.errors.begin(), x.errors.end(), errors.begin() + static_cast<long>(lo));
+    kept.push_back(good);
   }
+  ReduceResult r{s, 0.0, s.keys.size() - kept.size()};
+  r.sequence.keys.clear();
+  for (size_t k : kept) r.sequence.keys.push_back(s.keys[k]);
+  for (double e : errors) r.max_error = std::max(r.max_error, e);
   return r;
 }
 

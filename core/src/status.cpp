@@ -11,6 +11,7 @@ const char* StatusCodeName(StatusCode code) {
     case StatusCode::kResourceExhausted: return "resource_exhausted";
     case StatusCode::kDataLoss: return "data_loss";
     case StatusCode::kStorageFull: return "storage_full";
+    case StatusCode::kCancelled: return "cancelled";
     case StatusCode::kInternal: return "internal";
   }
   return "unknown";
@@ -29,6 +30,7 @@ Status ResourceExhausted(std::string message) {
 }
 
 Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message), {}, {}, 0}; }
+Status Cancelled(std::string message) { return {StatusCode::kCancelled, std::move(message), {}, {}, 0}; }
 
 Status InvalidField(const std::string& pointer, const std::string& message, StatusCode code) {
   Status s{code, pointer.empty() ? message : pointer + ": " + message, {{pointer, message}}, {}, 0};

@@ -72,6 +72,7 @@ Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells, c
                          const render::RenderOptions& options, const render::Renderer& renderer, Workspace& ws) {
   ws.cells.resize(cells.size());
   for (size_t c = 0; c < cells.size(); ++c) {
+    if (ws.stop.stop_requested()) return Cancelled();
     if (Status s = Evaluate(rig, cells[c], spec.blend, ws); !s.ok()) return s;
     auto start = Clock::now();
     if (Status s = renderer.Draw(rig, ws.blended, options, ws.cells[c]); !s.ok()) return Prefixed(s, "the render failed: ");

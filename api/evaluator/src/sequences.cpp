@@ -145,6 +145,7 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::sh
   std::string out = weights_only ? "{\"format\":\"weights\",\"frames\":[" : "{\"space\":\"world\",\"frames\":[";
   warnings.insert(warnings.end(), sequence.warnings.begin(), sequence.warnings.end());
   for (size_t i = 0; i < times.size(); ++i) {
+    if (ws.stop.stop_requested()) return Cancelled();
     SequencePoint(rig, sequence, times[i], options.mode, point, &physics);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
     out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, point.weights);

@@ -8,7 +8,7 @@
 
 namespace facespace::api {
 
-Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, const std::stop_token& stop) {
   if (Status s = CanSpeak(rig); !s.ok()) return s;
   SpeechPlan plan;
   if (request.has_audio) {
@@ -18,6 +18,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
     if (plan.audio.samples.empty()) return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
     speech::RecognizeOptions options;
     options.transcript = request.transcript;
+    options.stop = stop;
     auto heard = speech::Recognize(plan.audio, options);
     if (!heard.ok()) return heard.status();
     plan.phonemes = std::move(heard->phonemes);
@@ -30,6 +31,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request) {
     speech::SynthOptions options;
     options.voice = request.voice;
     options.rate = request.rate;
+    options.stop = stop;
     auto spoken = speech::Synthesize(request.text, options);
     if (!spoken.ok()) return spoken.status();
     plan.audio = std::move(spoken->audio);
@@ -120,6 +122,7 @@ Result<std::string> SpeechVideo(const Evaluator& evaluator, const std::shared_pt
   const size_t frames = FrameCount(seq, request.fps);
   const float start = seq.keys.empty() ? 0.0f : seq.keys.front().time;
   for (size_t i = 0; i < frames; ++i) {
+    if (ws.stop.stop_requested()) return Cancelled();
     const float t = start + static_cast<float>(static_cast<double>(i) / request.fps);
     SequencePoint(rig, seq, t, request.render.mesh.options.mode, point, &physics);
     auto drawn = evaluator.Run(stored, point, spec, ws);

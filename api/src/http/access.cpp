@@ -3,6 +3,7 @@
 
 #include "context.h"
 #include "route_table.h"
+#include "framing.h"
 #include "problem.h"
 
 namespace facespace::api::http {
@@ -28,6 +29,14 @@ bool OriginAllowed(const ApiOptions& options, const std::string& origin) {
 }
 
 }  // namespace
+
+bool CarriesKey(const ServerState& ctx, const httplib::Request& req) {
+  if (ctx.options.api_key.empty()) return false;
+  const std::string auth = req.get_header_value("Authorization");
+  constexpr std::string_view kBearer = "Bearer ";
+  if (auth.size() <= kBearer.size() || !EqualsIgnoreCase(std::string_view(auth).substr(0, kBearer.size()), kBearer)) return false;
+  return ConstantTimeEquals(auth.substr(kBearer.size()), ctx.options.api_key);
+}
 
 bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (ctx.options.api_key.empty()) {

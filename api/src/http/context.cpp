@@ -18,16 +18,18 @@ void WorkspacePool::Return::operator()(Workspace* ws) const {
   if (pool->idle_.size() < pool->keep_) pool->idle_.push_back(std::move(owned));
 }
 
-WorkspacePool::Lease WorkspacePool::Acquire() {
+WorkspacePool::Lease WorkspacePool::Acquire(std::stop_token stop) {
+  Lease ws;
   {
     std::lock_guard lock(mu_);
     if (!idle_.empty()) {
-      Lease ws(idle_.back().release(), Return{this});
+      ws = Lease(idle_.back().release(), Return{this});
       idle_.pop_back();
-      return ws;
     }
   }
-  return Lease(new Workspace, Return{this});
+  if (!ws) ws = Lease(new Workspace, Return{this});
+  ws->stop = std::move(stop);
+  return ws;
 }
 
 size_t RenderBudget::Estimate(const render::RenderOptions& o, size_t cells) {

@@ -13,6 +13,7 @@
 #include "cache.h"
 #include "facespace/api/http.h"
 #include "facespace/api/evaluator.h"
+#include "facespace/api/front.h"
 #include "metrics.h"
 
 namespace facespace::api::http {
@@ -29,7 +30,8 @@ class WorkspacePool {
     void operator()(Workspace* ws) const;
   };
   using Lease = std::unique_ptr<Workspace, Return>;
-  Lease Acquire();
+  // A workspace for a request whose stop token is `stop` (CurrentStop() in a route).
+  Lease Acquire(std::stop_token stop);
 
  private:
   size_t keep_;
@@ -134,6 +136,9 @@ void SendShared(httplib::Response& res, std::shared_ptr<const CachedResponse> en
 // its warnings).
 bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Status& status, double sum,
                  std::span<const Warning> warnings);
+
+// Whether the request carries this server's API key (Authorization: Bearer KEY); sends nothing.
+bool CarriesKey(const ServerState& ctx, const httplib::Request& req);
 
 // True when the request carries the API key; otherwise sends 401 or 403.
 bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Response& res);

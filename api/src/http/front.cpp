@@ -20,6 +20,7 @@
 #include <mutex>
 #include <thread>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "framing.h"
 #include "problem.h"
@@ -49,6 +50,7 @@ struct Conn {
   size_t reserved = 0;       // Bytes counted in the body budget.
   bool sent_continue = false;
   bool close_after = false;  // Set by the worker.
+  bool keyed = false;        // The request carries the API key (its deadline is the keyed one).
 };
 
 void Address(int fd, bool peer, std::string& ip, int& port) {
@@ -89,18 +91,25 @@ void SendNow(int fd, std::string_view bytes) {
   }
 }
 
+// How a response is written: its stop token, the longest wait without progress, and the lowest rate.
+struct WriteBounds {
+  std::stop_token stop;
+  std::chrono::milliseconds stall;  // No byte taken for this long: the client is gone or not reading.
+  double min_rate = 0;               // Bytes a second, over the time spent waiting, past `stall`'s grace.
+};
+
 // One buffered request for cpp-httplib: reads come from the bytes the front collected, writes go
-// to the socket (waiting up to the write timeout for room).
+// to the socket. A write waits for room in slices of 100 ms and gives up when the request is
+// stopped (client gone, deadline, SIGTERM), when the client takes nothing for the stall time, or
+// when the time spent waiting on it passes the grace plus what the bytes sent allow at the lowest
+// rate: so a client that reads slowly, or never, holds a worker for seconds, not for ever.
 class RequestStream final : public httplib::Stream {
  public:
-  RequestStream(const Conn& c, std::string_view request, int write_timeout_ms)
-      : c_(c), request_(request), write_timeout_ms_(write_timeout_ms), drop_continue_(c.sent_continue) {}
+  RequestStream(const Conn& c, std::string_view request, WriteBounds bounds)
+      : c_(c), request_(request), b_(std::move(bounds)), drop_continue_(c.sent_continue) {}
 
   bool is_readable() const override { return pos_ < request_.size(); }
-  bool is_writable() const override {
-    pollfd p{c_.fd, POLLOUT, 0};
-    return ::poll(&p, 1, write_timeout_ms_) > 0 && !(p.revents & (POLLERR | POLLHUP));
-  }
+  bool is_writable() const override { return const_cast<RequestStream*>(this)->WaitWritable(); }
   ssize_t read(char* ptr, size_t size) override {
     const size_t n = std::min(size, request_.size() - pos_);
     std::copy_n(request_.data() + pos_, n, ptr);
@@ -124,19 +133,20 @@ class RequestStream final : public httplib::Stream {
     }
     size_t done = 0;
     while (done < size) {
-      const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL);
+      if (b_.stop.stop_requested()) break;
+      const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL | MSG_DONTWAIT);
       if (n > 0) {
         done += static_cast<size_t>(n);
+        sent_ += static_cast<size_t>(n);
         continue;
       }
-      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) {
-        pollfd p{c_.fd, POLLOUT, 0};
-        if (::poll(&p, 1, write_timeout_ms_) > 0) continue;
-      }
-      failed_ = true;
-      return -1;
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && WaitWritable()) continue;
+      break;
     }
-    return static_cast<ssize_t>(size);
+    if (done == size) return static_cast<ssize_t>(size);
+    failed_ = true;
+    return -1;
   }
   void get_remote_ip_and_port(std::string& ip, int& port) const override {
     ip = c_.ip;
@@ -149,15 +159,124 @@ class RequestStream final : public httplib::Stream {
   socket_t socket() const override { return c_.fd; }
 
   bool closes() const { return closes_ || failed_; }
+  bool too_slow() const { return too_slow_; }
 
  private:
+  // Room to write, or false: stopped, stalled, or below the lowest rate.
+  bool WaitWritable() {
+    const Clock::time_point start = Clock::now();
+    while (!b_.stop.stop_requested()) {
+      pollfd p{c_.fd, POLLOUT, 0};
+      const int r = ::poll(&p, 1, 100);
+      const Clock::time_point now = Clock::now();
+      if (r > 0) {
+        waited_ += now - start;
+        return !(p.revents & (POLLERR | POLLHUP)) && !BelowRate();
+      }
+      if (r < 0 && errno != EINTR) return false;
+      if (now - start >= b_.stall || (waited_ + (now - start) > b_.stall && BelowRate(now - start))) {
+        too_slow_ = true;
+        return false;
+      }
+    }
+    return false;
+  }
+  // Whether the time spent waiting on the client (with `more`) is past the grace and the rate.
+  bool BelowRate(Clock::duration more = {}) {
+    const double waited = std::chrono::duration<double>(waited_ + more).count();
+    const double allowed = std::chrono::duration<double>(b_.stall).count() + (b_.min_rate > 0 ? static_cast<double>(sent_) / b_.min_rate : 1e300);
+    if (waited <= allowed) return false;
+    too_slow_ = true;
+    return true;
+  }
+
   const Conn& c_;
   std::string_view request_;
   size_t pos_ = 0;
-  int write_timeout_ms_;
+  WriteBounds b_;
   bool drop_continue_;
-  bool head_seen_ = false, closes_ = false, failed_ = false;
+  bool head_seen_ = false, closes_ = false, failed_ = false, too_slow_ = false;
+  size_t sent_ = 0;
+  Clock::duration waited_{};
 };
+
+// The requests in flight, each with its stop source: a thread fires one when its client hangs up
+// (the socket's EPOLLRDHUP), at its deadline (looked at every 100 ms), and all of them when the
+// server stops. Entries are known by a serial number, so an event of a finished request stops none.
+class Watchdog {
+ public:
+  explicit Watchdog(FrontStats& stats) : stats_(stats) {
+    epoll_ = epoll_create1(EPOLL_CLOEXEC);
+    thread_ = std::jthread([this](std::stop_token stop) { Loop(stop); });
+  }
+  ~Watchdog() {
+    thread_.request_stop();
+    thread_.join();
+    ::close(epoll_);
+  }
+
+  struct Entry {
+    std::stop_source source;
+    Clock::time_point deadline;
+    int fd = -1;
+    uint64_t serial = 0;
+  };
+  void Watch(Entry& e) {
+    std::lock_guard<std::mutex> lock(mu_);
+    e.serial = ++serial_;
+    entries_[e.serial] = &e;
+    if (stopping_) e.source.request_stop();
+    epoll_event ev{};
+    ev.events = EPOLLRDHUP;
+    ev.data.u64 = e.serial;
+    epoll_ctl(epoll_, EPOLL_CTL_ADD, e.fd, &ev);
+  }
+  void Unwatch(Entry& e) {
+    std::lock_guard<std::mutex> lock(mu_);
+    epoll_ctl(epoll_, EPOLL_CTL_DEL, e.fd, nullptr);
+    entries_.erase(e.serial);
+  }
+  // Every request in flight is stopped, and every later one as it starts.
+  void StopAll() {
+    std::lock_guard<std::mutex> lock(mu_);
+    stopping_ = true;
+    for (auto& [serial, e] : entries_) e->source.request_stop();
+  }
+
+ private:
+  void Loop(const std::stop_token& stop) {
+    epoll_event events[64];
+    while (!stop.stop_requested()) {
+      const int n = epoll_wait(epoll_, events, 64, 100);
+      std::lock_guard<std::mutex> lock(mu_);
+      for (int i = 0; i < n; ++i) {
+        auto it = entries_.find(events[i].data.u64);
+        if (it == entries_.end() || it->second->source.stop_requested()) continue;
+        it->second->source.request_stop();
+        ++stats_.client_gone;
+        // Disarmed: a hung-up socket would report again at every wait.
+        epoll_event ev{};
+        epoll_ctl(epoll_, EPOLL_CTL_MOD, it->second->fd, &ev);
+      }
+      const Clock::time_point now = Clock::now();
+      for (auto& [serial, e] : entries_) {
+        if (now < e->deadline || e->source.stop_requested()) continue;
+        e->source.request_stop();
+        ++stats_.past_deadline;
+      }
+    }
+  }
+
+  FrontStats& stats_;
+  int epoll_ = -1;
+  std::mutex mu_;
+  uint64_t serial_ = 0;
+  bool stopping_ = false;
+  std::unordered_map<uint64_t, Entry*> entries_;
+  std::jthread thread_;
+};
+
+thread_local std::stop_token t_stop;
 
 // cpp-httplib's accept loop hands every accepted socket to its task queue: this one gives it to
 // the front at once, on the accept thread.
@@ -172,6 +291,8 @@ class AdoptQueue final : public httplib::TaskQueue {
 };
 
 }  // namespace
+
+std::stop_token CurrentStop() { return t_stop; }
 
 class FrontServer::Front {
  public:
@@ -212,6 +333,7 @@ class FrontServer::Front {
       if (!running_) return;
       stopping_ = true;
     }
+    watchdog_.StopAll();  // Work in flight stops at its next step; what waits its turn is stopped as it starts.
     Wake();
     loop_.join();
     {
@@ -520,13 +642,36 @@ class FrontServer::Front {
     return v;
   }
 
+  // A whole request to a worker, or, when its address has max_client_requests running, to the
+  // back of that address's line (so one address cannot hold every worker while others wait).
   void Dispatch(Conn& c) {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
+    c.keyed = o_.keyed && o_.keyed(View(c));
     {
       std::lock_guard<std::mutex> lock(mu_);
+      Turns& t = turns_[c.ip];
+      if (t.running >= std::max<size_t>(1, o_.max_client_requests)) {
+        t.waiting.push_back(&c);
+        ++stats.waited_turn;
+        return;
+      }
+      ++t.running;
       work_.push_back(&c);
     }
     work_cv_.notify_one();
+  }
+
+  // Under mu_: the address's next waiting request takes the finished one's turn.
+  void EndTurn(const std::string& ip) {
+    auto it = turns_.find(ip);
+    if (it == turns_.end()) return;
+    if (!it->second.waiting.empty()) {
+      work_.push_back(it->second.waiting.front());
+      it->second.waiting.pop_front();
+      work_cv_.notify_one();
+    } else if (--it->second.running == 0) {
+      turns_.erase(it);
+    }
   }
 
   // A served request's bytes and budget let go, the connection waiting for its next request (not
@@ -581,7 +726,14 @@ class FrontServer::Front {
         work_.pop_front();
         stopping = stopping_;
       }
-      RequestStream stream(*c, std::string_view(c->buf.data(), c->request_end), o_.write_timeout * 1000);
+      Watchdog::Entry watch;
+      watch.fd = c->fd;
+      watch.deadline = Clock::now() + std::chrono::seconds(c->keyed ? o_.keyed_deadline : o_.request_deadline);
+      watchdog_.Watch(watch);
+      t_stop = watch.source.get_token();
+      ++stats.in_flight;
+      RequestStream stream(*c, std::string_view(c->buf.data(), c->request_end),
+                           {t_stop, std::chrono::seconds(o_.write_timeout), static_cast<double>(o_.min_send_rate)});
       const bool close = stopping || c->served + 1 >= o_.keep_alive_max;
       bool closed_by_client = false;
       bool ok = false;
@@ -590,7 +742,15 @@ class FrontServer::Front {
       } catch (...) {
         ok = false;
       }
-      c->close_after = !ok || close || closed_by_client || stream.closes();
+      --stats.in_flight;
+      t_stop = {};
+      watchdog_.Unwatch(watch);
+      if (stream.too_slow()) ++stats.slow_readers;
+      {
+        std::lock_guard<std::mutex> lock(mu_);
+        EndTurn(c->ip);
+      }
+      c->close_after = !ok || close || closed_by_client || stream.closes() || watch.source.stop_requested();
       // A large body's parse leaves freed heap behind (a DOM of a million values): give it back.
       if (c->request_end > (size_t{1} << 20)) malloc_trim(0);
       if (!c->close_after && c->buf.size() == c->request_end) {
@@ -631,6 +791,12 @@ class FrontServer::Front {
   std::vector<int> adopted_;
   std::vector<Conn*> returned_;
   std::deque<Conn*> work_;
+  struct Turns {
+    size_t running = 0;
+    std::deque<Conn*> waiting;
+  };
+  std::unordered_map<std::string, Turns> turns_;  // Per client address, under mu_.
+  Watchdog watchdog_{stats};
 };
 
 FrontServer::FrontServer(FrontOptions options) : front_(std::make_unique<Front>(*this, std::move(options))) {

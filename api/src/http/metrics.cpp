@@ -97,6 +97,8 @@ std::string Metrics::Text(size_t rigs_loaded, size_t cache_bytes) const {
   }
   out += "# HELP facespace_blends_total Rig evaluations (cache misses of the mesh route).\n";
   out += "# TYPE facespace_blends_total counter\nfacespace_blends_total " + std::to_string(blends_.load()) + "\n";
+  out += "# HELP facespace_requests_over_budget_total Requests refused before their work for their estimated cost (422 over-budget).\n";
+  out += "# TYPE facespace_requests_over_budget_total counter\nfacespace_requests_over_budget_total " + std::to_string(over_budget_.load()) + "\n";
   out += "# HELP facespace_cache_requests_total Encoded-response cache lookups.\n";
   out += "# TYPE facespace_cache_requests_total counter\n";
   out += "facespace_cache_requests_total{result=\"hit\"} " + std::to_string(cache_hits_.load()) + "\n";

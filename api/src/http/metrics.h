@@ -24,6 +24,7 @@ class Metrics {
   void Observe(size_t route, int status, double seconds);
   void CountWarnings(std::span<const Warning> warnings);
   void CountBlends(uint64_t n) { blends_.fetch_add(n, std::memory_order_relaxed); }
+  void CountOverBudget() { over_budget_.fetch_add(1, std::memory_order_relaxed); }
   void CountCache(bool hit) { (hit ? cache_hits_ : cache_misses_).fetch_add(1, std::memory_order_relaxed); }
 
   // The Prometheus text of the counters; the gauges are the caller's.
@@ -33,7 +34,7 @@ class Metrics {
   struct RouteCounters;
   std::vector<std::string> labels_;
   std::unique_ptr<RouteCounters[]> routes_;
-  std::atomic<uint64_t> blends_{0}, cache_hits_{0}, cache_misses_{0};
+  std::atomic<uint64_t> blends_{0}, cache_hits_{0}, cache_misses_{0}, over_budget_{0};
   std::unique_ptr<std::atomic<uint64_t>[]> warnings_;
 };
 

@@ -20,6 +20,7 @@ int HttpStatus(const Status& s) {
     case StatusCode::kNotFound: return 404;
     case StatusCode::kResourceExhausted: return 413;
     case StatusCode::kStorageFull: return 507;
+    case StatusCode::kCancelled: return 503;  // Stopped: the client is gone, or the deadline or a SIGTERM came.
     case StatusCode::kDataLoss:
     case StatusCode::kInternal: return 500;
   }
@@ -104,6 +105,7 @@ void SendStatus(const httplib::Request& req, httplib::Response& res, const Statu
       case StatusCode::kNotFound: type = "not-found"; break;
       case StatusCode::kResourceExhausted: type = "too-large"; break;
       case StatusCode::kStorageFull: type = "storage-full"; break;
+      case StatusCode::kCancelled: type = "cancelled"; break;
       default: type = "internal";
     }
   }

@@ -5,6 +5,8 @@
 #include <thread>
 
 #include "facespace/api/http.h"
+#include "cost.h"
+#include "framing.h"
 #include "problem.h"
 #include "route_table.h"
 #include "routes/routes.h"
@@ -36,6 +38,14 @@ Api::Api(RigStore& store, const Evaluator& evaluator, ApiOptions options, batch:
 Api::~Api() = default;
 
 std::string Api::MetricsText() const { return http::MetricsText(impl_->ctx); }
+
+bool Api::Keyed(const RequestHeadView& head) const {
+  Request req;
+  for (const auto& [name, value] : head.headers) {
+    if (http::EqualsIgnoreCase(name, "Authorization")) req.headers.emplace(name, value);
+  }
+  return http::CarriesKey(impl_->ctx, req);
+}
 
 std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
   http::ServerState& ctx = impl_->ctx;
@@ -124,6 +134,9 @@ void Api::Register(httplib::Server& server) {
     const std::string pattern = http::PathPattern(route.path);
     auto handler = [&ctx, metric, h = route.handler](const Request& req, Response& res) {
       CurrentRequest().route = metric;
+      // Every route states its cost before it works: this constant for the routes whose work does not
+      // grow with the request, replaced by the estimate of those whose work does (cost.h, WithinBudget).
+      res.set_header("Facespace-Cost", http::kConstantCost);
       h(ctx, req, res);
     };
     const std::string method = route.method;

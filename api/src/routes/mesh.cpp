@@ -3,6 +3,7 @@
 #include "http/query_params.h"
 #include <charconv>
 
+#include "../http/cost.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -103,7 +104,7 @@ bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshReques
 void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r)) return;
+  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig))) return;
   const auto format = NegotiateMesh(req, res, r.format);
   if (!format) return;
   ResolvedPoint point;
@@ -122,7 +123,7 @@ void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Respo
 void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r)) return;
+  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig))) return;
   ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
@@ -133,7 +134,7 @@ void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response&
 void PostFit(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   FitRequest r;
-  if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r)) return;
+  if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r) || !WithinBudget(ctx, req, res, FitCost(stored->rig, r))) return;
   auto out = ProduceFit(stored->rig, r);
   if (!out.ok()) return SendStatus(req, res, out.status());
   if (!out->warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(out->warnings));

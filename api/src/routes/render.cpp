@@ -1,4 +1,5 @@
 // /v1/rigs/{id}/render and /sheet: offscreen renders of points of face space.
+#include "../http/cost.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -36,7 +37,10 @@ bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Res
 void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   RenderRequest r;
-  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1)) return;
+  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1) ||
+      !WithinBudget(ctx, req, res, RenderCost(stored->rig, r.render, req.method == "GET"))) {
+    return;
+  }
   const auto format = NegotiateImage(req, res, r.format);
   if (!format) return;
   ResolvedPoint point;
@@ -64,7 +68,10 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
                 {{"/cells", "at most " + std::to_string(max_cells)}});
     return;
   }
-  if (!CheckRenderBudget(ctx, req, res, r.base.render, r.cells.size())) return;
+  if (!CheckRenderBudget(ctx, req, res, r.base.render, r.cells.size()) ||
+      !WithinBudget(ctx, req, res, SheetCost(stored->rig, r.base.render, r.cells.size()))) {
+    return;
+  }
   SheetPoints points;
   const Status s = ResolveSheet(stored->rig, r, points);
   if (!ReportPoint(ctx, req, res, s, points.max_sum, points.warnings)) return;

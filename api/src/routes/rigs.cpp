@@ -8,6 +8,7 @@
 #include "facespace/core/transform.h"
 #include "facespace/render/render.h"
 #include "http/encoded.h"
+#include "../http/cost.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -220,7 +221,7 @@ void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status
 }  // namespace
 
 void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (!Authorized(ctx, req, res)) return;
+  if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size()))) return;
   const std::string id = req.matches[1];
   if (!IsValidRigId(id)) {
     SendProblem(req, res, 422, "invalid-id", "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
@@ -272,7 +273,7 @@ void GetManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
 }
 
 void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (!Authorized(ctx, req, res)) return;
+  if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size()))) return;
   const std::string id = req.matches[1];
   if (MediaType(req.get_header_value("Content-Type")) != "application/json") {
     SendProblem(req, res, 415, "unsupported-media-type", "a manifest is application/json (README \"Manifest\")");

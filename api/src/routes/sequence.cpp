@@ -1,4 +1,5 @@
 // /v1/rigs/{id}/sequence/{sample,stream,reduce}: keyframe sequences.
+#include "../http/cost.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -17,6 +18,8 @@ bool ReadSequence(const httplib::Request& req, httplib::Response& res, const Rig
   return true;
 }
 
+double Duration(const Sequence& seq) { return seq.keys.empty() ? 0.0 : static_cast<double>(seq.keys.back().time) - seq.keys.front().time; }
+
 void Required(const httplib::Request& req, httplib::Response& res, const std::string& member, const std::string& what) {
   SendProblem(req, res, 422, "invalid-request", "/" + member + ": is required (" + what + ")", {{"/" + member, "is required"}});
 }
@@ -29,8 +32,11 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   Sequence seq;
   if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
+  // Physics is simulated from the first key to the latest time asked for.
+  const double span = static_cast<double>(*std::max_element(r.times.begin(), r.times.end())) - seq.keys.front().time;
+  if (!WithinBudget(ctx, req, res, FramesCost(stored->rig, r.times.size(), span, r.format != "weights", "/times"))) return;
   std::vector<Warning> warnings;
-  const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
   if (!r.format.empty() && r.format != "json" && r.format != "weights") {
     return SendProblem(req, res, 422, "invalid-request", "/format: sample as json (meshes) or weights (no meshes)", {{"/format", "must be json or weights"}});
   }
@@ -73,7 +79,8 @@ void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
                                        sink.done();
                                        return true;
                                      }
-                                     const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
+                                     if (CurrentStop().stop_requested()) return false;  // Gone, late, or SIGTERM: the stream ends.
+                                     const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
                                      auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, fps, f32, options, *ws, physics.get());
                                      if (!chunk.ok()) return false;
                                      if (f32) ctx.metrics.CountBlends(1);
@@ -87,7 +94,10 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   SequenceRequest r;
   auto seq = std::make_shared<Sequence>();
   if (!stored || !ReadSequence(req, res, stored->rig, r, *seq)) return;
-  SendSequenceStream(ctx, req, res, stored, seq, r.fps, r.format.empty() ? "ndjson" : r.format, r.options);
+  const std::string format = r.format.empty() ? "ndjson" : r.format;
+  const Cost cost = FramesCost(stored->rig, FrameCount(*seq, r.fps), Duration(*seq), format == "f32", "/fps");
+  if (!WithinBudget(ctx, req, res, cost)) return;
+  SendSequenceStream(ctx, req, res, stored, seq, r.fps, format, r.options);
 }
 
 void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
@@ -96,7 +106,8 @@ void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::
   Sequence seq;
   if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
   if (!r.has_tolerance) return Required(req, res, "tolerance", "largest vertex error allowed, mesh units");
-  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance);
+  if (!WithinBudget(ctx, req, res, ReduceCost(stored->rig, seq.keys.size()))) return;
+  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance, CurrentStop());
   if (!reduced.ok()) return SendStatus(req, res, WithReason(reduced.status(), kInvalidSequence));
   res.status = 200;
   res.set_content(ReducedSequenceJson(stored->rig, seq, reduced.value(), r.tolerance), "application/json");

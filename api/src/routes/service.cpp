@@ -26,6 +26,11 @@ std::string MetricsText(ServerState& ctx) {
     gauge("facespace_requests_bad_framing_total", "counter", "Requests refused for their framing (400, 414, 431, 501, 505).", f->bad_framing);
     gauge("facespace_requests_over_body_budget_total", "counter", "Bodies refused for --body-budget-mb (503).", f->over_budget);
     gauge("facespace_request_body_bytes", "gauge", "Request bytes held by the front (--body-budget-mb).", f->body_bytes);
+    gauge("facespace_requests_in_flight", "gauge", "Requests running on workers now.", f->in_flight);
+    gauge("facespace_requests_waited_turn_total", "counter", "Requests that waited for their address's turn (--max-client-requests).", f->waited_turn);
+    gauge("facespace_requests_client_gone_total", "counter", "Requests stopped because their client hung up.", f->client_gone);
+    gauge("facespace_requests_past_deadline_total", "counter", "Requests stopped at their deadline (--request-deadline, --keyed-deadline).", f->past_deadline);
+    gauge("facespace_responses_slow_reader_total", "counter", "Answers ended for a client reading slower than --min-send-rate, or not at all.", f->slow_readers);
   }
   return out;
 }

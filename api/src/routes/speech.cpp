@@ -1,6 +1,7 @@
 // /v1/rigs/{id}/speech: lip sync from text (espeak-ng) or recorded speech (PocketSphinx), as keys,
 // audio, a stream of frames or a video; /v1/voices: what text can be spoken with.
 #include "../http/problem.h"
+#include "../http/cost.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -8,6 +9,30 @@ namespace facespace::api::http {
 namespace {
 
 constexpr float kMaxVideoSeconds = 60.0f;
+
+// The request's cost before any speech is made: the audio's seconds and rate from its chunks alone, or
+// the text's length in seconds at its rate (words, or characters / 6 for a script without spaces).
+bool SpeechWithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Rig& rig, const SpeechRequest& r) {
+  double seconds = 0.0;
+  int rate = 16000;
+  if (r.has_audio) {
+    auto layout = speech::ReadWavLayout(r.audio);
+    if (!layout.ok()) return SendStatus(req, res, layout.status()), false;
+    seconds = std::min(layout->seconds(), static_cast<double>(speech::kMaxAudioSeconds));
+    rate = layout->rate * std::max<int>(1, layout->channels);
+  } else {
+    size_t words = 0;
+    bool in_word = false;
+    for (char c : r.text) {
+      const bool space = c == ' ' || c == '\n' || c == '\t';
+      words += !space && !in_word;
+      in_word = !space;
+    }
+    const double units = std::max(static_cast<double>(words), static_cast<double>(r.text.size()) / 6.0);
+    seconds = 0.5 + units * 60.0 / std::max(80, r.rate);
+  }
+  return WithinBudget(ctx, req, res, SpeechCost(rig, r, seconds, rate));
+}
 
 bool IsAudioBody(const httplib::Request& req) {
   const std::string type = req.get_header_value("Content-Type");
@@ -27,7 +52,7 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
                        {{field, "at most " + FormatNumber(kMaxVideoSeconds) + " s of speech as a video"}});
   }
   if (!WithinFrameLimit(ctx, req, res, frames, "video", "the speech's") || !CheckRenderBudget(ctx, req, res, r.render.render, 1)) return;
-  const WorkspacePool::Lease ws = ctx.workspaces.Acquire();
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
   std::string video;
   auto encoded = WithinRenderBudget(ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<Encoded> {
     auto bytes = SpeechVideo(ctx.evaluator, stored, plan, r, *ws);
@@ -56,7 +81,8 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   } else if (!ReadJsonBody(req, res, ParseSpeechRequest, r)) {
     return;
   }
-  auto plan = PlanSpeech(stored->rig, r);
+  if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;
+  auto plan = PlanSpeech(stored->rig, r, CurrentStop());
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   if (const std::vector<Warning> warnings = SpeechWarnings(plan.value()); !warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));

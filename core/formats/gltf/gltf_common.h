@@ -33,7 +33,7 @@ Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
 
 // A VRM's (1.0 VRMC_vrm, or 0.x VRM) expressions, look-at and meta onto the rig (vrm_import.cpp); nothing
 // when the model has neither.
-void ApplyVrm(const tinygltf::Model& model, Rig& rig);
+Status ApplyVrm(const tinygltf::Model& model, Rig& rig);
 
 // A GLB of a JSON text and a binary chunk (none when empty), each padded to 4 bytes.
 std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin);

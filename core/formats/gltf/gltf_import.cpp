@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/formats/io.h"
+#include "common/json_depth.h"
 #include "gltf/gltf_common.h"
 
 namespace facespace {
@@ -628,17 +629,23 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
   const bool is_glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
   std::vector<unsigned char> decoded;
   if (is_glb) {
+    std::string text;
+    std::span<const unsigned char> bin;
+    if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+    if (Status s = CheckJsonDepth(text, "glb"); !s.ok()) return s;
     if (Status s = DecodeMeshoptGlb(bytes, decoded); !s.ok()) return s;
     if (!decoded.empty()) bytes = decoded;
     if (!options.allow_external_files) {
-      std::string text;
-      std::span<const unsigned char> bin;
-      if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+      if (!decoded.empty()) {  // Meshopt's decoding wrote a new JSON chunk.
+        if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
+      }
       json j = json::parse(text, nullptr, false);
       if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
       if (Status s = CheckEmbedded(j); !s.ok()) return s;
     }
   } else {
+    const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    if (Status s = CheckJsonDepth(text, "glTF"); !s.ok()) return s;
     json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
     if (j.is_discarded() || !j.is_object()) return InvalidArgument("not a glTF file: neither glb nor valid JSON");
     if (!options.allow_external_files) {
@@ -682,7 +689,7 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
     start = end + 1;
   }
   if (Status s = ConvertModel(model, rig); !s.ok()) return s;
-  ApplyVrm(model, rig);
+  if (Status s = ApplyVrm(model, rig); !s.ok()) return s;
   return rig;
 }
 

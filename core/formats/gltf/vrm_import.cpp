@@ -66,9 +66,8 @@ RangeMap MapOf(const json& m, const char* in, const char* out, RangeMap fallback
   return {static_cast<float>(input), static_cast<float>(output)};
 }
 
-}  // namespace
-
-void ApplyVrm(const tinygltf::Model& model, Rig& rig) {
+// ApplyVrm's work: members of the wrong type throw (nlohmann's value() and get()).
+void ApplyVrmMembers(const tinygltf::Model& model, Rig& rig) {
   const auto v1 = model.extensions.find("VRMC_vrm");
   const auto v0 = model.extensions.find("VRM");
   if (v1 == model.extensions.end() && v0 == model.extensions.end()) return;
@@ -200,6 +199,18 @@ void ApplyVrm(const tinygltf::Model& model, Rig& rig) {
                                  std::to_string(dropped) + " VRM expression binds are not applied: material colour and texture binds, or morph binds naming no target",
                                  "", static_cast<double>(dropped), true});
   }
+}
+
+}  // namespace
+
+Status ApplyVrm(const tinygltf::Model& model, Rig& rig) {
+  try {
+    ApplyVrmMembers(model, rig);
+  } catch (const json::exception& e) {
+    const char* where = model.extensions.count("VRMC_vrm") ? "/extensions/VRMC_vrm" : "/extensions/VRM";
+    return WithReason(InvalidField(where, std::string("a member has the wrong type (") + e.what() + ")"), "invalid-vrm");
+  }
+  return Status::Ok();
 }
 
 }  // namespace facespace

@@ -17,6 +17,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <stop_token>
 #include <string>
 #include <vector>
 
@@ -40,6 +41,12 @@ struct FrontOptions {
   size_t max_per_client = 256;              // Open at once from one address.
   size_t body_budget = size_t{1} << 30;     // Bytes of requests held in memory at once, in all; past it 503.
   bool log_requests = true;                 // An access-log line (stderr) for each request the front answers itself.
+  // Bounds on a request once it runs (its stop token fires at any of them; see CurrentStop):
+  size_t max_client_requests = 16;          // Requests of one address running at once; its others wait their turn.
+  int request_deadline = 120;               // Seconds from the start of its work to the end of its answer.
+  int keyed_deadline = 1800;                // ... for a request that `keyed` says carries the API key.
+  size_t min_send_rate = size_t{32} << 10;  // Bytes a second a client must read an answer at, past write_timeout's grace.
+  std::function<bool(const RequestHeadView&)> keyed;
   // Called for a request that declares a body, before the body is read: a whole HTTP response to
   // send (then the connection is closed), or nothing to go on. (The API's pre-routing: 401, 404,
   // 405, 411, 413 from the headers, so a refused body is never uploaded.)
@@ -55,7 +62,17 @@ struct FrontStats {
   std::atomic<size_t> bad_framing{0};        // Requests refused for their framing (400, 414, 431, 501, 505).
   std::atomic<size_t> over_budget{0};        // Bodies refused for the memory budget (503).
   std::atomic<size_t> body_bytes{0};         // Request bytes held now.
+  std::atomic<size_t> waited_turn{0};        // Requests that waited for their address's turn (max_client_requests).
+  std::atomic<size_t> client_gone{0};        // Requests stopped because their client hung up.
+  std::atomic<size_t> past_deadline{0};      // Requests stopped at their deadline.
+  std::atomic<size_t> slow_readers{0};       // Answers ended because their client read too slowly, or not at all.
+  std::atomic<size_t> in_flight{0};          // Requests running now.
 };
+
+// The stop token of the request the calling thread serves: it fires when the request's client
+// hangs up, at the request's deadline, and when the server stops (SIGTERM). Long work checks it
+// between its steps (frames, cells, keys, audio chunks). A token that never fires elsewhere.
+std::stop_token CurrentStop();
 
 // A cpp-httplib server whose connections go through the front. Use it as httplib::Server
 // (routes, hooks, bind_to_port, listen_after_bind, stop); new_task_queue is its own.

@@ -30,6 +30,8 @@ struct ApiOptions {
   size_t render_budget = size_t{1} << 30;   // Estimated working memory of one render or sheet; above, 413.
   size_t render_memory = size_t{2} << 30;   // ... of the renders in flight together; past it they wait, then 503.
   const FrontStats* front = nullptr;        // The connection front's counters, for /metrics (when there is one).
+  double anonymous_cpu = 2.0;               // Estimated CPU-seconds a request without the key may cost (else 422 over-budget).
+  double keyed_cpu = 600.0;                 // ... with the key.
 };
 
 // The routes (api/src/http/route_table.cpp) over a store, an evaluator and a job queue that the
@@ -48,6 +50,9 @@ class Api {
   // The pre-routing of a request from its line and headers alone (FrontOptions::head_check): a
   // whole response when it is refused before its body (404, 405, 411, 413, 401, 403), else nothing.
   std::optional<std::string> CheckHead(const RequestHeadView& head);
+
+  // Whether the request carries the API key (FrontOptions::keyed: its deadline is the keyed one).
+  bool Keyed(const RequestHeadView& head) const;
 
   // Prometheus text of the counters (also served at /metrics).
   std::string MetricsText() const;

@@ -5,6 +5,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <stop_token>
 #include <vector>
 
 #include "facespace/core/blend.h"
@@ -82,9 +83,10 @@ struct ReduceResult {
 };
 
 // Removes keys (never the first or last) while the largest vertex distance between the
-// original and the reduced sequence, over every original key time and the midpoints
-// between them, stays at most `tolerance` (mesh units).
-Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& sequence, float tolerance);
+// original and the reduced sequence, over every original key time and the quarter points
+// between them, stays at most `tolerance` (mesh units). O(K log K) samples of the sequence for K
+// keys, each one blend of the shapes that differ; Cancelled when `stop` fires.
+Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& sequence, float tolerance, const std::stop_token& stop = {});
 
 // A sequence from a glTF animation's morph-weight channel (its first one): keys at the
 // sampler's times; STEP and LINEAR map to step and linear, CUBICSPLINE to smooth.

@@ -18,6 +18,7 @@ enum class StatusCode {
   kResourceExhausted,   // A configured limit was exceeded.
   kDataLoss,            // A stored file is truncated or corrupt.
   kStorageFull,         // The disk (or a quota) is full: retry when space is freed.
+  kCancelled,           // The work was stopped: its client left, its deadline passed, or the server is stopping.
   kInternal,            // A bug on our side.
 };
 
@@ -70,6 +71,8 @@ Status DataLoss(std::string message);
 Status FailedPrecondition(std::string message);
 Status ResourceExhausted(std::string message);
 Status Internal(std::string message);
+// Work stopped part way (a std::stop_token fired): nothing half-made is kept or sent.
+Status Cancelled(std::string message = "stopped: the client left, the deadline passed or the server is stopping");
 // An error of one field: the message "POINTER: MESSAGE" (just MESSAGE for the empty pointer), the field listed.
 Status InvalidField(const std::string& pointer, const std::string& message, StatusCode code = StatusCode::kInvalidArgument);
 // The same status with `prefix` before its message ("shapes.json: ..."): code, fields and reason kept.

@@ -18,6 +18,7 @@
 #include <functional>
 #include <memory>
 #include <span>
+#include <stop_token>
 #include <string>
 #include <vector>
 
@@ -138,6 +139,9 @@ struct Workspace {
   // A response body handed back once sent, for the next f32 body to be written over.
   std::string body;
   GlbVariantWriter glb;  // OutputSpec::pieces' writer.
+  // The request's stop token (client gone, deadline, SIGTERM): the evaluator's loops over sheet cells,
+  // sequence frames and video frames check it between steps and end Cancelled.
+  std::stop_token stop;
   render::Image image;
   std::vector<render::Image> cells;
   // What the last call's steps took, in milliseconds (the service's Server-Timing header); the
@@ -305,7 +309,7 @@ struct SpeechPlan {
 };
 // Errors: the rig cannot speak (FailedPrecondition, reason no-mouth); the text, voice, rate or audio
 // (InvalidArgument or ResourceExhausted naming the field); the face (as ResolvePoint's).
-Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request);
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, const std::stop_token& stop = {});
 
 // Everything the plan warns of: the face's and the recognizer's, then the sequence's (said once).
 std::vector<Warning> SpeechWarnings(const SpeechPlan& plan);

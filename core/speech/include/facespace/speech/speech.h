@@ -6,9 +6,11 @@
 // Below the evaluator, beside the formats and physics; core itself stays Eigen alone.
 #pragma once
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <stop_token>
 #include <string_view>
 #include <vector>
 
@@ -36,6 +38,17 @@ inline Status Busy(const char* engine) {
 
 inline constexpr float kMaxAudioSeconds = 60.0f;
 
+// Where a WAV's samples are and what they are, read from its chunks alone (no sample decoded): what
+// an admission step needs to price the audio before the work.
+struct WavLayout {
+  uint16_t format = 0, channels = 0, bits = 0;
+  int rate = 0;
+  size_t frames = 0;  // Samples per channel.
+  size_t data = 0;    // Offset of the first sample.
+  double seconds() const { return rate > 0 ? static_cast<double>(frames) / rate : 0.0; }
+};
+Result<WavLayout> ReadWavLayout(std::string_view bytes);
+
 // A RIFF/WAVE file: PCM 8, 16, 24 or 32 bit, or IEEE float 32 (plain or WAVE_FORMAT_EXTENSIBLE), 1 to
 // 8 channels (averaged to mono), 8 to 192 kHz. Errors (InvalidArgument, reason "invalid-audio"):
 // not a WAV, a format it does not read, truncated headers; longer than `max_seconds`:
@@ -58,6 +71,7 @@ inline constexpr size_t kMaxTextChars = 2000;
 struct SynthOptions {
   std::string voice = "en-us";  // An espeak-ng voice name or language ("en-us", "en", "ja", "de", ...).
   int rate = 175;               // Words per minute, 80 to 450.
+  std::stop_token stop;         // Fired: the synthesis stops at espeak-ng's next callback, Cancelled.
 };
 
 struct Spoken {
@@ -79,11 +93,16 @@ std::vector<VoiceInfo> Voices();
 
 // ---- speech to phonemes (PocketSphinx) --------------------------------------------------------
 
+// A transcript has at most this many words a second of its audio, and 10 more (fast speech is 4-5).
+inline constexpr double kMaxWordsPerSecond = 8.0;
+inline size_t MaxTranscriptWords(double seconds) { return 10 + static_cast<size_t>(kMaxWordsPerSecond * std::max(0.0, seconds)); }
+
 struct RecognizeOptions {
   // Words said (Rhubarb's dialog option): the audio is aligned to them (their phonemes from CMU's
   // dictionary); words the dictionary does not have are left out, named in a warning. Empty: phonemes
   // are recognized as heard (PocketSphinx's all-phone search).
   std::string transcript;
+  std::stop_token stop;  // Fired: Cancelled between the steps (resampling, voice detection, decoding).
 };
 
 struct Recognized {

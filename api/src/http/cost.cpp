@@ -1,0 +1,140 @@
+#include "cost.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "problem.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+struct RigSize {
+  size_t vertices = 0, triangles = 0, skinned = 0;
+};
+
+RigSize SizeOf(const Rig& rig) {
+  RigSize s;
+  for (const Primitive& p : rig.primitives) {
+    const size_t v = p.positions.size() / 3;
+    s.vertices += v;
+    s.triangles += p.indices.size() / 3;
+    if (!p.joints.empty()) s.skinned += v;
+  }
+  return s;
+}
+
+// "1.2 M" and such: figures for people.
+std::string Amount(double v) {
+  char buf[32];
+  if (v >= 1e9) std::snprintf(buf, sizeof buf, "%.1f G", v / 1e9);
+  else if (v >= 1e6) std::snprintf(buf, sizeof buf, "%.1f M", v / 1e6);
+  else if (v >= 1e4) std::snprintf(buf, sizeof buf, "%.0f k", v / 1e3);
+  else std::snprintf(buf, sizeof buf, "%.0f", v);
+  return buf;
+}
+
+std::string Seconds(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, s < 0.01 ? "%.4f" : s < 10 ? "%.2f" : "%.0f", s);
+  return buf;
+}
+
+double Samples(const render::RenderOptions& o) {
+  const double ss = std::max(1, o.supersample);
+  return static_cast<double>(std::max(0, o.width)) * std::max(0, o.height) * ss * ss;
+}
+
+}  // namespace
+
+double FrameSeconds(const Rig& rig) {
+  const RigSize s = SizeOf(rig);
+  return 2e-5 + 8e-9 * static_cast<double>(s.vertices) + 1.5e-8 * static_cast<double>(s.skinned);
+}
+
+double ImageSeconds(const render::RenderOptions& o, const Rig& rig) {
+  return kPerImage + FrameSeconds(rig) + kPerSample * Samples(o) + 1e-7 * static_cast<double>(SizeOf(rig).triangles);
+}
+
+Cost MeshCost(const Rig& rig) { return {kPerRequest + FrameSeconds(rig), "/weights", "one blend"}; }
+
+Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query) {
+  return {kPerRequest + ImageSeconds(o, rig), query ? "?supersample" : "/supersample",
+          Amount(Samples(o)) + " samples (width x height x supersample squared)"};
+}
+
+Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells) {
+  return {kPerRequest + static_cast<double>(cells) * ImageSeconds(o, rig), "/cells",
+          std::to_string(cells) + " cells x " + Amount(Samples(o)) + " samples"};
+}
+
+Cost FramesCost(const Rig& rig, size_t frames, double seconds, bool meshes, const char* field) {
+  seconds = std::clamp(seconds, 0.0, static_cast<double>(SequencePhysics::kMaxSeconds));  // Steps past it are not simulated.
+  const double physics = rig.physics.bodies.empty() ? 0.0 : 60.0 * seconds * kPerPhysicsBody * static_cast<double>(rig.physics.bodies.size());
+  const double frame = meshes ? FrameSeconds(rig) : 2e-6 * static_cast<double>(rig.shapes.size() + 10);
+  return {kPerRequest + static_cast<double>(frames) * frame + physics, field,
+          Amount(static_cast<double>(frames)) + " frames" + (physics > 0 ? " and " + Amount(60.0 * seconds) + " physics steps" : "")};
+}
+
+Cost ReduceCost(const Rig& rig, size_t keys) {
+  // O(K log K) samples, each a blend of the shapes that differ (ReduceSequence).
+  const double k = static_cast<double>(std::max<size_t>(keys, 2));
+  const double samples = 8.0 * k * std::log2(k);
+  return {kPerRequest + samples * (FrameSeconds(rig) + 5e-9 * static_cast<double>(rig.shapes.size())), "/keys",
+          Amount(static_cast<double>(keys)) + " keys (about " + Amount(samples) + " samples)"};
+}
+
+Cost FitCost(const Rig& rig, const FitRequest& r) {
+  size_t v = 0;
+  for (const auto& p : r.target.positions) v += p.size() / 3;
+  const double n = static_cast<double>(rig.shapes.size());
+  return {kPerRequest + 3e-9 * static_cast<double>(v) * (n * n + 20.0), "/target", Amount(static_cast<double>(v)) + " vertices x " +
+                                                                                   std::to_string(rig.shapes.size()) + " shapes squared"};
+}
+
+Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate) {
+  Cost c;
+  if (r.has_audio) {
+    c.seconds = kDecodePerSecond * seconds + kPerInputSample * seconds * rate;
+    c.field = "/audio";
+    c.formula = Seconds(seconds) + " s of audio at " + std::to_string(rate) + " Hz";
+  } else {
+    c.seconds = kSynthPerSecond * seconds;
+    c.field = "/text";
+    c.formula = "about " + Seconds(seconds) + " s of speech";
+  }
+  const size_t frames = static_cast<size_t>(std::ceil(seconds * std::max(1.0f, r.fps))) + 1;
+  if (r.format == "webm") {
+    const double pixels = static_cast<double>(std::max(0, r.render.render.width)) * std::max(0, r.render.render.height);
+    c.seconds += static_cast<double>(frames) * (ImageSeconds(r.render.render, rig) + kPerVideoPixel * pixels);
+    c.field = r.render.render.supersample > 1 ? "/supersample" : "/fps";
+    c.formula += ", " + Amount(static_cast<double>(frames)) + " video frames x " + Amount(Samples(r.render.render)) + " samples";
+  } else if (r.format != "json" && r.format != "wav") {
+    c.seconds += FramesCost(rig, frames, seconds, r.format == "f32", "/fps").seconds;
+    c.formula += ", " + Amount(static_cast<double>(frames)) + " frames";
+  }
+  c.seconds += kPerRequest;
+  return c;
+}
+
+Cost UploadCost(size_t bytes) { return {kPerRequest + kPerUploadByte * static_cast<double>(bytes), "", Amount(static_cast<double>(bytes)) + " bytes"}; }
+
+bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Cost& cost) {
+  res.headers.erase("Facespace-Cost");  // The route table's constant, said before the handler ran.
+  res.set_header("Facespace-Cost", Seconds(cost.seconds));
+  const bool keyed = CarriesKey(ctx, req);
+  const double budget = keyed ? ctx.options.keyed_cpu : ctx.options.anonymous_cpu;
+  if (cost.seconds <= budget) return true;
+  ctx.metrics.CountOverBudget();
+  const std::string limit = keyed ? "the keyed budget of " + Seconds(budget) + " (--keyed-cpu)"
+                                  : "an anonymous request's budget of " + Seconds(budget) + " (--anonymous-cpu; with the API key, " +
+                                        Seconds(ctx.options.keyed_cpu) + ")";
+  SendProblem(req, res, 422, "over-budget",
+              "this request would cost about " + Seconds(cost.seconds) + " CPU-seconds (" + cost.formula + "), over " + limit +
+                  ": ask for less at once (fewer frames, cells, keys or samples, a smaller size), or split it",
+              {{cost.field, "about " + Seconds(cost.seconds) + " CPU-seconds, over " + Seconds(budget)}});
+  return false;
+}
+
+}  // namespace facespace::api::http
