@@ -384,7 +384,7 @@ int Serve(const std::vector<std::string>& args) {
   front.request_deadline = c.request_deadline;
   front.keyed_deadline = c.keyed_deadline;
   front.min_send_rate = c.min_send_rate_kib << 10;
-  front.keyed = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->Keyed(head); };
+  front.keyed = [&api_for_front](std::string_view authorization) { return api_for_front->Keyed(authorization); };
   const int threads = c.threads;
   api::FrontServer server(front);
   options.front = &server.Stats();

@@ -752,10 +752,13 @@ std::string OpenApiJson(const ApiOptions& limits) {
                                "renders up to " + render + " pixels a side (--max-render; over: 422 image-too-large), contact sheets up to " +
                                cells + " cells (--max-sheet-cells; 422), sequence/sample bodies up to " + response +
                                " bytes (--max-response; over: 422 response-too-large, judged before the work), sequence streams up to " +
-                               frames + " frames (--max-frames; 422 too-many-frames).";
+                               frames + " frames (--max-frames; 422 too-many-frames). Every answer states its estimated CPU-seconds in "
+                               "Facespace-Cost; work over --anonymous-cpu without the API key (--keyed-cpu with it) is 422 over-budget, "
+                               "before any of it is done.";
   doc["info"]["x-facespace-limits"] = {{"max_body", limits.max_body}, {"max_render", limits.max_render_size},
                                        {"max_sheet_cells", limits.max_sheet_cells}, {"max_response", limits.max_response},
-                                       {"max_frames", limits.max_frames}};
+                                       {"max_frames", limits.max_frames}, {"anonymous_cpu_seconds", limits.anonymous_cpu},
+                                       {"keyed_cpu_seconds", limits.keyed_cpu}};
   json& schemas = doc["components"]["schemas"];
   for (const char* schema : {"RenderRequest", "SheetRequest"}) {
     for (const char* side : {"width", "height"}) schemas[schema]["properties"][side]["maximum"] = limits.max_render_size;

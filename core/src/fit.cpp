@@ -99,6 +99,7 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
     if (options.bounded || options.sum_at_most_one) {
       Project(w, lo, hi, options.sum_at_most_one);
       for (int it = 0; it < 20000; ++it) {
+        if ((it & 255) == 0 && options.stop.stop_requested()) break;  // Told Cancelled below.
         Eigen::VectorXd next = w - (dtd * w - dtb) / lipschitz;
         Project(next, lo, hi, options.sum_at_most_one);
         const double step = (next - w).cwiseAbs().maxCoeff();
@@ -113,7 +114,7 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
   if (options.rigid_align && col > 2) {
     // Alternate: align the target onto the current fit (Kabsch), then fit again.
     Eigen::Matrix4d total = Eigen::Matrix4d::Identity();
-    for (int round = 0; round < 30; ++round) {
+    for (int round = 0; round < 30 && !options.stop.stop_requested(); ++round) {
       Eigen::Matrix3Xd fitted = base;
       const Eigen::VectorXd dw = dense * w;
       for (size_t i = 0; i < rows / 3; ++i) fitted.col(static_cast<Eigen::Index>(i)) += dw.segment<3>(3 * i);
@@ -136,6 +137,7 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
     const Eigen::Matrix4f a = total.cast<float>();
     std::copy(a.data(), a.data() + 16, r.alignment.begin());
   }
+  if (options.stop.stop_requested()) return Cancelled();
   Eigen::VectorXd b(rows);
   for (size_t i = 0; i < rows / 3; ++i) b.segment<3>(3 * i) = tgt.col(static_cast<Eigen::Index>(i)) - base.col(static_cast<Eigen::Index>(i));
   // A weight past its range by round-off alone (an exact round trip gives -4.6e-08 for a shape at

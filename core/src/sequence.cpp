@@ -238,21 +238,23 @@ struct ReduceScratch {
 };
 
 // Whether keys `from` .. `to` of `s` may lose every key between them: the sequence with only the kept
-// keys (`before`, the two kept before `from`; the original key after `to`) is sampled at the check
-// times the change can move (after the earlier kept key, before `to`) and each compared with the
-// original; true when none is over `tolerance`, the errors then in scratch.errors from index `lo`.
+// keys (`before`, the two kept before `from`; the original keys after `to`) is sampled at the check
+// times the change can move and each compared with the original; true when none is over `tolerance`,
+// the errors then in scratch.errors from index `lo`. Linear keys move only between `from` and `to`; a
+// smooth (Catmull-Rom) spline's tangents at `from` and `to` take the new neighbours, so the segments
+// on either side move too (the one after `to` is checked again, with its final neighbour, next round).
 bool SegmentFits(const Rig& rig, const Sequence& s, const ReduceChecks& c, std::span<const size_t> before, size_t from, size_t to,
                  float tolerance, ReduceScratch& x, size_t& lo) {
   x.window.keys.clear();
   for (size_t k : before) x.window.keys.push_back(s.keys[k]);
   x.window.keys.push_back(s.keys[from]);
   x.window.keys.push_back(s.keys[to]);
-  if (to + 1 < s.keys.size()) x.window.keys.push_back(s.keys[to + 1]);
-  // Smooth keys move the segment before `from` too (its next neighbour changes).
+  for (size_t k = to + 1; k < std::min(to + 3, s.keys.size()); ++k) x.window.keys.push_back(s.keys[k]);
   const size_t first = s.smooth && !before.empty() ? before.back() : from;
+  const size_t last = s.smooth ? std::min(to + 1, s.keys.size() - 1) : to;
   lo = 4 * first + 1;
   x.errors.clear();
-  for (size_t i = lo; i < 4 * to; ++i) {
+  for (size_t i = lo; i < 4 * last; ++i) {
     SampleSequence(x.window, c.times[i], x.w);
     const double e = MaxVertexDistance(rig, c.reference[i], x.w, x.diff, x.blend);
     if (e > tolerance) return false;
@@ -299,7 +301,7 @@ Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& s, float tol
       const size_t mid = good + (bad - good) / 2;
       (fits(mid) ? good : bad) = mid;
     }
-    fits(good);  // The chosen segment's errors (one fits always).
+    fits(good);  // The chosen segment's errors (from + 1 always fits).
     std::copy(x.errors.begin(), x.errors.end(), errors.begin() + static_cast<long>(lo));
     kept.push_back(good);
   }

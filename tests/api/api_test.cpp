@@ -156,6 +156,34 @@ TEST_F(ApiTest, TopologyAndDescriptionComeEncodedAsAskedAndAsU32) {
   EXPECT_NE(bad->body.find("format"), std::string::npos);
 }
 
+// Issue 48: every answer states its cost; work over an anonymous request's budget is refused before it
+// is done (422 over-budget naming the member that drives it), and the same work with the key is done.
+TEST_F(ApiTest, EveryAnswerStatesItsCostAndAnonymousWorkOverItsBudgetIsRefused) {
+  auto health = Client().Get("/healthz");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->get_header_value("Facespace-Cost"), "0.0001");
+  std::string keys = "{\"tolerance\":0,\"keys\":[";
+  for (int i = 0; i < 60000; ++i) keys += (i ? ",{\"time\":" : "{\"time\":") + std::to_string(i) + "}";
+  keys += "]}";
+  auto anonymous = Client().Post("/v1/rigs/facecap/sequence/reduce", keys, "application/json");
+  ASSERT_TRUE(anonymous);
+  EXPECT_EQ(anonymous->status, 422);
+  const json problem = json::parse(anonymous->body);
+  EXPECT_EQ(problem["type"], "urn:facespace:problem:over-budget");
+  EXPECT_EQ(problem["errors"][0]["pointer"], "/keys");
+  const double cost = std::stod(anonymous->get_header_value("Facespace-Cost"));
+  EXPECT_GT(cost, 2.0);
+  auto keyed = Client().Post("/v1/rigs/facecap/sequence/reduce", {{"Authorization", "Bearer test-key"}}, keys, "application/json");
+  ASSERT_TRUE(keyed);
+  EXPECT_EQ(keyed->status, 200);
+  EXPECT_EQ(json::parse(keyed->body)["kept"], 2);  // Sixty thousand keys of the rest pose: the ends stay.
+  EXPECT_EQ(std::stod(keyed->get_header_value("Facespace-Cost")), cost);
+  auto small = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"tolerance":0,"keys":[{"time":0},{"time":1}]})", "application/json");
+  ASSERT_TRUE(small);
+  EXPECT_EQ(small->status, 200);
+  EXPECT_LT(std::stod(small->get_header_value("Facespace-Cost")), 0.01);
+}
+
 TEST_F(ApiTest, MeshF32IsTheBlendInWorldSpaceWithItsHeaders) {
   auto r = Client().Get("/v1/rigs/facecap/mesh?w.jawOpen=0.6&w.cheekPuff=0.7&format=f32");
   ASSERT_TRUE(r);

@@ -235,6 +235,33 @@ TEST(Evaluator, ErrorsCarryTheirReason) {
   EXPECT_NEAR(point.report.sum, 1.7, 1e-6);
 }
 
+// Issue 48: the evaluator's loops end Cancelled at their next step once the request's token fires
+// (sheet cells, sequence frames), and nothing half-made comes out.
+TEST(Evaluator, AFiredStopTokenEndsSheetsAndSequencesCancelled) {
+  api::SheetRequest r;
+  r.base.render.width = r.base.render.height = 16;
+  r.cells = {{{"jawOpen", -1, 1.0, ""}}, {{"jawOpen", -1, 0.5, ""}}};
+  api::SheetPoints points;
+  ASSERT_TRUE(api::ResolveSheet(FaceCap(), r, points).ok());
+  const api::Evaluator evaluator(kNull);
+  api::Workspace ws;
+  std::stop_source stop;
+  ws.stop = stop.get_token();
+  ASSERT_TRUE(evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws).ok());
+  stop.request_stop();
+  auto sheet = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
+  ASSERT_FALSE(sheet.ok());
+  EXPECT_EQ(sheet.status().code, StatusCode::kCancelled);
+  Sequence seq;
+  seq.keys.push_back({0.0f, std::vector<float>(FaceCap().shapes.size(), 0.0f), std::nullopt, {}});
+  seq.keys.push_back({1.0f, std::vector<float>(FaceCap().shapes.size(), 0.5f), std::nullopt, {}});
+  std::vector<Warning> warnings;
+  const float times[] = {0.0f, 0.5f, 1.0f};
+  auto json = api::SampleSequenceJson(evaluator, FaceCapStored(), seq, times, {}, warnings, ws);
+  ASSERT_FALSE(json.ok());
+  EXPECT_EQ(json.status().code, StatusCode::kCancelled);
+}
+
 TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
   api::SheetRequest r;
   r.base.render.width = r.base.render.height = 16;

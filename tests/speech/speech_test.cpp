@@ -67,6 +67,48 @@ TEST(Wav, HostileFilesAreRefusedNamingTheField) {
   EXPECT_EQ(longer.status().code, StatusCode::kResourceExhausted);
 }
 
+// The layout an admission step prices audio by (issue 48): from the chunks alone, the same rate and length
+// as the samples read, for any channel count and width.
+TEST(Wav, LayoutIsWhatReadingFinds) {
+  Audio a;
+  a.rate = 44100;
+  a.samples.assign(44100 * 3 / 2, 0.1f);
+  const std::string wav = WriteWav(a);
+  auto layout = ReadWavLayout(wav);
+  ASSERT_TRUE(layout.ok()) << layout.status().message;
+  EXPECT_EQ(layout->rate, 44100);
+  EXPECT_EQ(layout->channels, 1);
+  EXPECT_EQ(layout->bits, 16);
+  EXPECT_EQ(layout->frames, a.samples.size());
+  EXPECT_NEAR(layout->seconds(), 1.5, 1e-9);
+  EXPECT_EQ(ReadWav(wav)->samples.size(), layout->frames);
+  EXPECT_EQ(ReadWavLayout("RIFF\x04\0\0\0WAVE").status().reason, "invalid-audio");
+}
+
+// A transcript longer than its audio can hold is refused before the decoder is asked (a 50,000-word one
+// for a minute held the one decoder for 58 s); a stop token that has fired stops both engines.
+TEST(Sphinx, ATranscriptIsWhatItsAudioCanHoldAndAStopEndsTheWork) {
+  Audio a;
+  a.rate = 16000;
+  for (int i = 0; i < 16000 * 2; ++i) a.samples.push_back(0.3f * std::sin(i * 0.09f + 2.0f * std::sin(i * 0.001f)));
+  RecognizeOptions options;
+  for (int i = 0; i < 50000; ++i) options.transcript += "morning ";
+  auto r = Recognize(a, options);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().reason, "transcript-too-long");
+  ASSERT_FALSE(r.status().fields.empty());
+  EXPECT_EQ(r.status().fields[0].pointer, "/transcript");
+  EXPECT_EQ(MaxTranscriptWords(2.0), 26u);
+  options.transcript = std::string("good morning ") + "to you ";  // 4 words: within.
+  std::stop_source stop;
+  stop.request_stop();
+  options.stop = stop.get_token();
+  EXPECT_EQ(Recognize(a, options).status().code, StatusCode::kCancelled);
+  SynthOptions say;
+  say.stop = stop.get_token();
+  EXPECT_EQ(Synthesize("Good morning. I am a face that speaks.", say).status().code, StatusCode::kCancelled);
+}
+
 TEST(Wav, ResamplingKeepsATone) {
   Audio a;
   a.rate = 44100;

@@ -22,6 +22,7 @@ Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
   std::vector<std::vector<float>> target = request.target.positions;
   if (!request.target.mesh_space) WorldToMeshSpace(rig, target);
   auto fit = FitWeights(rig, target, request.options);
+  if (!fit.ok() && fit.status().code == StatusCode::kCancelled) return fit.status();
   if (!fit.ok()) {
     Status s = WithReason(fit.status(), kInvalidTarget);
     if (s.fields.empty()) s.fields.push_back({"/target", s.message});

@@ -80,7 +80,7 @@ Cost FramesCost(const Rig& rig, size_t frames, double seconds, bool meshes, cons
 Cost ReduceCost(const Rig& rig, size_t keys) {
   // O(K log K) samples, each a blend of the shapes that differ (ReduceSequence).
   const double k = static_cast<double>(std::max<size_t>(keys, 2));
-  const double samples = 8.0 * k * std::log2(k);
+  const double samples = 2.0 * k * std::log2(k);  // Measured: 1,600 keys of all 52 FaceCap shapes ramping, 0.76 s.
   return {kPerRequest + samples * (FrameSeconds(rig) + 5e-9 * static_cast<double>(rig.shapes.size())), "/keys",
           Amount(static_cast<double>(keys)) + " keys (about " + Amount(samples) + " samples)"};
 }
@@ -89,7 +89,7 @@ Cost FitCost(const Rig& rig, const FitRequest& r) {
   size_t v = 0;
   for (const auto& p : r.target.positions) v += p.size() / 3;
   const double n = static_cast<double>(rig.shapes.size());
-  return {kPerRequest + 3e-9 * static_cast<double>(v) * (n * n + 20.0), "/target", Amount(static_cast<double>(v)) + " vertices x " +
+  return {kPerRequest + 6e-10 * static_cast<double>(v) * (n * n + 20.0), "/target", Amount(static_cast<double>(v)) + " vertices x " +
                                                                                    std::to_string(rig.shapes.size()) + " shapes squared"};
 }
 

@@ -576,6 +576,8 @@ class FrontServer::Front {
         ++stats.bad_framing;
         return Refuse(c, error.status, error.status == 414 ? "uri-too-long" : "bad-request", error.detail);
       }
+      // Read from the head as it came (a chunked body is rewritten before its request is handed on).
+      c.keyed = o_.keyed && o_.keyed(HeaderValue(c, "Authorization"));
       if (c.head.has_body()) {
         if (o_.head_check) {
           if (auto refusal = o_.head_check(View(c)); refusal) return RefuseRaw(c, *refusal);
@@ -623,6 +625,25 @@ class FrontServer::Front {
     Dispatch(c);
   }
 
+  // The value of the head's first field `name`, or empty; no allocation.
+  static std::string_view HeaderValue(const Conn& c, std::string_view name) {
+    const std::string_view head(c.buf.data() + c.head.start, c.head.end - c.head.start);
+    for (size_t pos = head.find("\r\n"); pos != std::string_view::npos && pos + 2 < head.size();) {
+      pos += 2;
+      const size_t eol = head.find("\r\n", pos);
+      const std::string_view field = head.substr(pos, eol == std::string_view::npos ? std::string_view::npos : eol - pos);
+      const size_t colon = field.find(':');
+      if (colon != std::string_view::npos && http::EqualsIgnoreCase(field.substr(0, colon), name)) {
+        std::string_view value = field.substr(colon + 1);
+        while (!value.empty() && (value.front() == ' ' || value.front() == '\t')) value.remove_prefix(1);
+        while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
+        return value;
+      }
+      pos = eol;
+    }
+    return {};
+  }
+
   RequestHeadView View(const Conn& c) const {
     RequestHeadView v;
     v.method = c.head.method;
@@ -631,6 +652,7 @@ class FrontServer::Front {
     size_t pos = head.find("\r\n") + 2;
     while (pos + 2 < head.size()) {
       const size_t eol = head.find("\r\n", pos);
+      if (eol == std::string_view::npos) break;
       const std::string_view field = head.substr(pos, eol - pos);
       const size_t colon = field.find(':');
       std::string_view value = field.substr(colon + 1);
@@ -646,7 +668,6 @@ class FrontServer::Front {
   // back of that address's line (so one address cannot hold every worker while others wait).
   void Dispatch(Conn& c) {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
-    c.keyed = o_.keyed && o_.keyed(View(c));
     {
       std::lock_guard<std::mutex> lock(mu_);
       Turns& t = turns_[c.ip];

@@ -39,11 +39,10 @@ Api::~Api() = default;
 
 std::string Api::MetricsText() const { return http::MetricsText(impl_->ctx); }
 
-bool Api::Keyed(const RequestHeadView& head) const {
+bool Api::Keyed(std::string_view authorization) const {
+  if (authorization.empty()) return false;
   Request req;
-  for (const auto& [name, value] : head.headers) {
-    if (http::EqualsIgnoreCase(name, "Authorization")) req.headers.emplace(name, value);
-  }
+  req.headers.emplace("Authorization", std::string(authorization));
   return http::CarriesKey(impl_->ctx, req);
 }
 

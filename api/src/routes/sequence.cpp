@@ -95,8 +95,11 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   auto seq = std::make_shared<Sequence>();
   if (!stored || !ReadSequence(req, res, stored->rig, r, *seq)) return;
   const std::string format = r.format.empty() ? "ndjson" : r.format;
-  const Cost cost = FramesCost(stored->rig, FrameCount(*seq, r.fps), Duration(*seq), format == "f32", "/fps");
-  if (!WithinBudget(ctx, req, res, cost)) return;
+  const size_t frames = FrameCount(*seq, r.fps);
+  if (!WithinFrameLimit(ctx, req, res, frames, "stream", "the keys'") ||
+      !WithinBudget(ctx, req, res, FramesCost(stored->rig, frames, Duration(*seq), format == "f32", "/fps"))) {
+    return;
+  }
   SendSequenceStream(ctx, req, res, stored, seq, r.fps, format, r.options);
 }
 

@@ -19,6 +19,7 @@
 #include <optional>
 #include <stop_token>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace facespace::api {
@@ -46,7 +47,7 @@ struct FrontOptions {
   int request_deadline = 120;               // Seconds from the start of its work to the end of its answer.
   int keyed_deadline = 1800;                // ... for a request that `keyed` says carries the API key.
   size_t min_send_rate = size_t{32} << 10;  // Bytes a second a client must read an answer at, past write_timeout's grace.
-  std::function<bool(const RequestHeadView&)> keyed;
+  std::function<bool(std::string_view authorization)> keyed;  // Whether a request's Authorization carries the key.
   // Called for a request that declares a body, before the body is read: a whole HTTP response to
   // send (then the connection is closed), or nothing to go on. (The API's pre-routing: 401, 404,
   // 405, 411, 413 from the headers, so a refused body is never uploaded.)

@@ -51,8 +51,9 @@ class Api {
   // whole response when it is refused before its body (404, 405, 411, 413, 401, 403), else nothing.
   std::optional<std::string> CheckHead(const RequestHeadView& head);
 
-  // Whether the request carries the API key (FrontOptions::keyed: its deadline is the keyed one).
-  bool Keyed(const RequestHeadView& head) const;
+  // Whether an Authorization header's value carries the API key (FrontOptions::keyed: the request's
+  // deadline is then the keyed one).
+  bool Keyed(std::string_view authorization) const;
 
   // Prometheus text of the counters (also served at /metrics).
   std::string MetricsText() const;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <span>
+#include <stop_token>
 #include <vector>
 
 #include "facespace/core/blend.h"
@@ -15,6 +16,7 @@ struct FitOptions {
   bool bounded = false;      // Keep every weight inside its shape's [min, max].
   bool sum_at_most_one = false;  // And their sum <= 1 (no extrapolation).
   bool rigid_align = false;  // First align the target rigidly (rotation + translation) to the base.
+  std::stop_token stop;      // Fired: Cancelled between iterations (the projected gradient's, the alignment's rounds).
 };
 
 struct FitResult {
