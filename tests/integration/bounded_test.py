@@ -27,8 +27,10 @@ import sys
 import tempfile
 import threading
 import time
-import urllib.error
 import urllib.request
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from suite import Server as ServeProcess, check, counts, no, request  # noqa: E402
 
 BIN, SRC, FIGURES = sys.argv[1:4]
 SANITIZED = len(sys.argv) > 4 and sys.argv[4] in ("1", "ON", "on", "sanitized")
@@ -37,101 +39,7 @@ KEY = "k3y-bounded"
 AUTH = {"Authorization": "Bearer " + KEY}
 ASSETS = os.path.join(SRC, "assets")
 
-passed = failed = 0
 figures = []
-
-
-def ok(what):
-    global passed
-    passed += 1
-    print("ok   " + what, flush=True)
-
-
-def no(what):
-    global failed
-    failed += 1
-    print("FAIL " + what, flush=True)
-
-
-def check(what, cond):
-    (ok if cond else no)(what)
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-class Server:
-    def __init__(self, tmp, *extra):
-        self.port = free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        self.log = open(os.path.join(tmp, f"server-{self.port}.log"), "w")
-        args = [BIN, "serve", "--host", "0.0.0.0", "--port", str(self.port), "--store", os.path.join(tmp, f"store-{self.port}"),
-                "--jobs-dir", os.path.join(tmp, f"jobs-{self.port}"), "--api-key-file", os.path.join(tmp, "key"), "--quiet", *extra]
-        env = dict(os.environ)
-        if env.get("ASAN_OPTIONS"):
-            env["ASAN_OPTIONS"] += ":detect_leaks=0"  # As hostile_test.py: no leak scan of ~80 threads at exit.
-        self.proc = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env)
-        for _ in range(600):
-            try:
-                urllib.request.urlopen(self.url + "/healthz", timeout=1).read()
-                break
-            except OSError:
-                time.sleep(0.1)
-
-    def cpu(self):
-        """The server's CPU-seconds so far (user + system, all threads)."""
-        try:
-            with open(f"/proc/{self.proc.pid}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-            return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-        except OSError:
-            return 0.0
-
-    def rss(self):
-        try:
-            with open(f"/proc/{self.proc.pid}/status") as f:
-                return next(int(l.split()[1]) / 1024.0 for l in f if l.startswith("VmRSS:"))
-        except (OSError, StopIteration):
-            return 0.0
-
-    def alive(self):
-        if self.proc.poll() is not None:
-            return False
-        try:
-            return urllib.request.urlopen(self.url + "/healthz", timeout=5).status == 200
-        except OSError:
-            return False
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-        self.log.close()
-        return self.proc.returncode
-
-
-def request(url, method="GET", body=None, headers=None, timeout=120):
-    """(status, seconds, body, headers) of one request; errors are answers too."""
-    h = {"Content-Type": "application/json"} if body is not None else {}
-    h.update(headers or {})
-    t = time.time()
-    req = urllib.request.Request(url, data=body, headers=h, method=method)
-    try:
-        r = urllib.request.urlopen(req, timeout=timeout)
-        return r.status, time.time() - t, r.read(), dict(r.headers)
-    except urllib.error.HTTPError as e:
-        return e.code, time.time() - t, e.read(), dict(e.headers)
-    except OSError as e:
-        return 0, time.time() - t, str(e).encode(), {}
 
 
 def js(obj):
@@ -238,6 +146,10 @@ def slow_reader(s, stop, got):
         except OSError:
             break
         stop.wait(0.2)
+
+
+def Server(tmp):
+    return ServeProcess(BIN, tmp)
 
 
 def main():
@@ -394,8 +306,8 @@ def main():
         for name, status, sec, cpu, *rss in figures:
             f.write(f"| {name} | {status} | {sec * 1000:.0f} ms | {cpu:.2f} s | {f'{rss[0]:.0f} MB' if rss and rss[0] else '-'} |\n")
     print(f"figures: {FIGURES}")
-    print(f"{passed} passed, {failed} failed")
-    return 1 if failed else 0
+    print(f"{counts['passed']} passed, {counts['failed']} failed")
+    return 1 if counts["failed"] else 0
 
 
 def wav_bytes(rate, seconds):

@@ -11,7 +11,6 @@ go to FIGURES_OUT as a Markdown table (tests/bench/README.md shows them).
 """
 import json
 import os
-import signal
 import socket
 import struct
 import subprocess
@@ -19,8 +18,10 @@ import sys
 import tempfile
 import threading
 import time
-import urllib.error
 import urllib.request
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from suite import Server as ServeProcess, check, counts, request  # noqa: E402
 
 BIN, SHARED, SRC, FIGURES = sys.argv[1:5]
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] in ("1", "ON", "on", "sanitized")
@@ -28,98 +29,11 @@ ANSWER_S = 10.0 if SANITIZED else 2.0
 RSS_GROWTH_MB = 200
 KEY = "k3y-hostile"
 
-passed = failed = 0
 figures = []
 
 
-def ok(what):
-    global passed
-    passed += 1
-    print("ok   " + what, flush=True)
-
-
-def no(what):
-    global failed
-    failed += 1
-    print("FAIL " + what, flush=True)
-
-
-def check(what, cond):
-    (ok if cond else no)(what)
-    return cond
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-class Server:
-    def __init__(self, tmp, *extra):
-        self.port = free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        self.log = open(os.path.join(tmp, f"server-{self.port}.log"), "w")
-        args = [BIN, "serve", "--host", "0.0.0.0", "--port", str(self.port), "--store", os.path.join(tmp, "store"),
-                "--jobs-dir", os.path.join(tmp, "jobs"), "--api-key-file", os.path.join(tmp, "key"), "--quiet", *extra]
-        env = dict(os.environ)
-        # Under ASan, no LeakSanitizer check at the server's exit: its tracer now and then crashes itself
-        # there with the server's ~80 threads (see service_test.sh). ASan and UBSan stay on.
-        if env.get("ASAN_OPTIONS"):
-            env["ASAN_OPTIONS"] += ":detect_leaks=0"
-        self.proc = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env)
-        for _ in range(300):
-            try:
-                urllib.request.urlopen(self.url + "/healthz", timeout=1).read()
-                break
-            except OSError:
-                time.sleep(0.1)
-        self.idle = self.rss()
-
-    def rss(self):
-        try:
-            with open(f"/proc/{self.proc.pid}/status") as f:
-                for line in f:
-                    if line.startswith("VmRSS:"):
-                        return int(line.split()[1]) / 1024.0
-        except OSError:
-            pass
-        return 0.0  # Gone.
-
-    def alive(self):
-        if self.proc.poll() is not None:
-            return False
-        try:
-            return urllib.request.urlopen(self.url + "/healthz", timeout=5).status == 200
-        except OSError:
-            return False
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-        self.log.close()
-        return self.proc.returncode
-
-
-def request(url, method="GET", body=None, headers=None, timeout=60):
-    """(status, seconds, body bytes, headers) of one request; errors are answers too."""
-    h = {"Content-Type": "application/json"} if body is not None else {}
-    h.update(headers or {})
-    t = time.time()
-    req = urllib.request.Request(url, data=body, headers=h, method=method)
-    try:
-        r = urllib.request.urlopen(req, timeout=timeout)
-        return r.status, time.time() - t, r.read(), dict(r.headers)
-    except urllib.error.HTTPError as e:
-        return e.code, time.time() - t, e.read(), dict(e.headers)
-    except OSError as e:
-        return 0, time.time() - t, str(e).encode(), {}
+def Server(tmp, *extra):
+    return ServeProcess(BIN, tmp, *extra, store=os.path.join(tmp, "store"), jobs=os.path.join(tmp, "jobs"))
 
 
 def raw(port, data, source="127.0.0.1", wait=5.0):
@@ -282,7 +196,7 @@ def main():
     if srv.proc.poll() is not None:  # It died: what it said last, and no further attack.
         srv.log.flush()
         print("".join(open(srv.log.name).readlines()[-5:]))
-        print(f"{passed} passed, {failed + 1} failed")
+        print(f"{counts['passed']} passed, {counts['failed'] + 1} failed")
         return 1
 
     # ---- 2. error lists without a cap ----
@@ -447,8 +361,8 @@ def main():
         for name, status, sec, before, after in figures:
             f.write(f"| {name} | {status} | {sec * 1000:.0f} ms | {before:.0f} → {after:.0f} MB |\n")
     print(f"figures: {FIGURES}")
-    print(f"{passed} passed, {failed} failed")
-    return 1 if failed else 0
+    print(f"{counts['passed']} passed, {counts['failed']} failed")
+    return 1 if counts["failed"] else 0
 
 
 def select_readable(s, wait=0.5):
