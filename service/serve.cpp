@@ -384,6 +384,9 @@ int Serve(const std::vector<std::string>& args) {
   front.request_deadline = c.request_deadline;
   front.keyed_deadline = c.keyed_deadline;
   front.min_send_rate = c.min_send_rate_kib << 10;
+  // The meter behind the estimates: a request whose worker spends twice its budget (and a second) is stopped.
+  front.cpu_limit = 2 * c.anonymous_cpu + 1;
+  front.keyed_cpu_limit = 2 * c.keyed_cpu + 1;
   front.keyed = [&api_for_front](std::string_view authorization) { return api_for_front->Keyed(authorization); };
   const int threads = c.threads;
   api::FrontServer server(front);

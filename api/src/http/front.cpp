@@ -8,12 +8,14 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <pthread.h>
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <ctime>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
@@ -100,7 +102,7 @@ struct WriteBounds {
 
 // One buffered request for cpp-httplib: reads come from the bytes the front collected, writes go
 // to the socket. A write waits for room in slices of 100 ms and gives up when the request is
-// stopped (client gone, deadline, SIGTERM), when the client takes nothing for the stall time, or
+// stopped (client gone, deadline, CPU, SIGTERM), when the client takes nothing for the stall time, or
 // when the time spent waiting on it passes the grace plus what the bytes sent allow at the lowest
 // rate: so a client that reads slowly, or never, holds a worker for seconds, not for ever.
 class RequestStream final : public httplib::Stream {
@@ -131,9 +133,10 @@ class RequestStream final : public httplib::Stream {
         if (http::EqualsIgnoreCase(line, "Connection: close")) closes_ = true;
       }
     }
+    // A stopped request's answer (a 503 problem, the end of a stream) goes out as far as the socket takes
+    // it at once; it never waits.
     size_t done = 0;
     while (done < size) {
-      if (b_.stop.stop_requested()) break;
       const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL | MSG_DONTWAIT);
       if (n > 0) {
         done += static_cast<size_t>(n);
@@ -220,7 +223,16 @@ class Watchdog {
     Clock::time_point deadline;
     int fd = -1;
     uint64_t serial = 0;
+    // The worker's CPU clock and what it read at the start; a limit of 0: none.
+    clockid_t cpu_clock{};
+    double cpu_start = 0, cpu_limit = 0;
   };
+  // The calling thread's CPU clock into `e`, for a limit of `limit` CPU-seconds from now.
+  static void MeterThisThread(Entry& e, double limit) {
+    if (limit <= 0 || pthread_getcpuclockid(pthread_self(), &e.cpu_clock) != 0) return;
+    e.cpu_start = Seconds(e.cpu_clock);
+    e.cpu_limit = limit;
+  }
   void Watch(Entry& e) {
     std::lock_guard<std::mutex> lock(mu_);
     e.serial = ++serial_;
@@ -260,11 +272,22 @@ class Watchdog {
       }
       const Clock::time_point now = Clock::now();
       for (auto& [serial, e] : entries_) {
-        if (now < e->deadline || e->source.stop_requested()) continue;
-        e->source.request_stop();
-        ++stats_.past_deadline;
+        if (e->source.stop_requested()) continue;
+        if (now >= e->deadline) {
+          e->source.request_stop();
+          ++stats_.past_deadline;
+        } else if (e->cpu_limit > 0 && Seconds(e->cpu_clock) - e->cpu_start > e->cpu_limit) {
+          e->source.request_stop();
+          ++stats_.over_cpu;
+        }
       }
     }
+  }
+
+  static double Seconds(clockid_t clock) {
+    timespec t{};
+    clock_gettime(clock, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
   }
 
   FrontStats& stats_;
@@ -750,6 +773,7 @@ class FrontServer::Front {
       Watchdog::Entry watch;
       watch.fd = c->fd;
       watch.deadline = Clock::now() + std::chrono::seconds(c->keyed ? o_.keyed_deadline : o_.request_deadline);
+      Watchdog::MeterThisThread(watch, c->keyed ? o_.keyed_cpu_limit : o_.cpu_limit);
       watchdog_.Watch(watch);
       t_stop = watch.source.get_token();
       ++stats.in_flight;

@@ -30,6 +30,7 @@ std::string MetricsText(ServerState& ctx) {
     gauge("facespace_requests_waited_turn_total", "counter", "Requests that waited for their address's turn (--max-client-requests).", f->waited_turn);
     gauge("facespace_requests_client_gone_total", "counter", "Requests stopped because their client hung up.", f->client_gone);
     gauge("facespace_requests_past_deadline_total", "counter", "Requests stopped at their deadline (--request-deadline, --keyed-deadline).", f->past_deadline);
+    gauge("facespace_requests_over_cpu_total", "counter", "Requests stopped for the CPU their worker spent (twice their budget and 1 s).", f->over_cpu);
     gauge("facespace_responses_slow_reader_total", "counter", "Answers ended for a client reading slower than --min-send-rate, or not at all.", f->slow_readers);
   }
   return out;

@@ -47,6 +47,8 @@ struct FrontOptions {
   int request_deadline = 120;               // Seconds from the start of its work to the end of its answer.
   int keyed_deadline = 1800;                // ... for a request that `keyed` says carries the API key.
   size_t min_send_rate = size_t{32} << 10;  // Bytes a second a client must read an answer at, past write_timeout's grace.
+  double cpu_limit = 0;                     // CPU-seconds a request's worker thread may spend (0: no limit): the meter
+  double keyed_cpu_limit = 0;               // behind the estimates (the API's budgets, with a margin); keyed requests.
   std::function<bool(std::string_view authorization)> keyed;  // Whether a request's Authorization carries the key.
   // Called for a request that declares a body, before the body is read: a whole HTTP response to
   // send (then the connection is closed), or nothing to go on. (The API's pre-routing: 401, 404,
@@ -67,6 +69,7 @@ struct FrontStats {
   std::atomic<size_t> client_gone{0};        // Requests stopped because their client hung up.
   std::atomic<size_t> past_deadline{0};      // Requests stopped at their deadline.
   std::atomic<size_t> slow_readers{0};       // Answers ended because their client read too slowly, or not at all.
+  std::atomic<size_t> over_cpu{0};           // Requests stopped for the CPU their worker spent (cpu_limit).
   std::atomic<size_t> in_flight{0};          // Requests running now.
 };
 

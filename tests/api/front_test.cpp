@@ -1,0 +1,138 @@
+// The connection front's bounds on a running request (issue 48), with handlers of the test's own that
+// spin until their stop token fires: the CPU meter, the deadline, a client that hangs up, and one
+// address's turns.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "facespace/api/front.h"
+
+namespace facespace::api {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+class Front {
+ public:
+  explicit Front(FrontOptions o) : server_(std::move(o)) {
+    // Spins (burning CPU) until its stop token fires, then says how long it ran.
+    server_.Post("/spin", [this](const httplib::Request&, httplib::Response& res) {
+      ++running_;
+      const auto start = Clock::now();
+      volatile double x = 0;
+      while (!CurrentStop().stop_requested()) {
+        for (int i = 0; i < 10000; ++i) x = x + 1.0;
+      }
+      --running_;
+      res.set_content(std::to_string(std::chrono::duration<double>(Clock::now() - start).count()), "text/plain");
+    });
+    // Waits without CPU until its token fires.
+    server_.Post("/wait", [this](const httplib::Request&, httplib::Response& res) {
+      ++running_;
+      peak_ = std::max(peak_.load(), running_.load());
+      while (!CurrentStop().stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      --running_;
+      res.set_content("stopped", "text/plain");
+    });
+    port_ = server_.bind_to_any_port("127.0.0.1");
+    thread_ = std::thread([this] { server_.listen_after_bind(); });
+    while (!server_.is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ~Front() {
+    server_.stop();
+    thread_.join();
+  }
+  // A socket with `path`'s POST sent.
+  int Send(const char* path) const {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(port_));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    timeval timeout{10, 0};
+    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return -1;
+    const std::string request = std::string("POST ") + path + " HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n";
+    send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    return fd;
+  }
+  static std::string Answer(int fd) {
+    std::string out;
+    char buf[4096];
+    for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) {
+      out.append(buf, static_cast<size_t>(n));
+      if (out.find("\r\n\r\n") != std::string::npos && out.size() > out.find("\r\n\r\n") + 4) break;
+    }
+    close(fd);
+    return out.substr(out.find("\r\n\r\n") == std::string::npos ? 0 : out.find("\r\n\r\n") + 4);
+  }
+  const FrontStats& stats() const { return server_.Stats(); }
+  std::atomic<int> running_{0}, peak_{0};
+
+ private:
+  FrontServer server_;
+  int port_ = 0;
+  std::thread thread_;
+};
+
+FrontOptions Options() {
+  FrontOptions o;
+  o.workers = 8;
+  o.log_requests = false;
+  return o;
+}
+
+TEST(Front, ARequestSpendingMoreCpuThanItMayIsStopped) {
+  FrontOptions o = Options();
+  o.cpu_limit = 0.3;
+  Front front(o);
+  const double ran = std::stod(Front::Answer(front.Send("/spin")));
+  EXPECT_GE(ran, 0.3);
+  EXPECT_LT(ran, 2.0);  // The meter looks every 100 ms.
+  EXPECT_EQ(front.stats().over_cpu.load(), 1u);
+}
+
+TEST(Front, ARequestIsStoppedAtItsDeadline) {
+  FrontOptions o = Options();
+  o.request_deadline = 1;
+  Front front(o);
+  const auto start = Clock::now();
+  EXPECT_EQ(Front::Answer(front.Send("/wait")), "stopped");
+  const double took = std::chrono::duration<double>(Clock::now() - start).count();
+  EXPECT_GE(took, 0.9);
+  EXPECT_LT(took, 3.0);
+  EXPECT_EQ(front.stats().past_deadline.load(), 1u);
+}
+
+TEST(Front, AClientThatHangsUpStopsItsRequest) {
+  Front front(Options());
+  const int fd = front.Send("/spin");
+  while (front.running_ == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  close(fd);
+  const auto start = Clock::now();
+  while (front.running_ > 0 && Clock::now() - start < std::chrono::seconds(5)) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(front.running_.load(), 0) << "the spinning handler was not stopped";
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 1.0);
+  EXPECT_EQ(front.stats().client_gone.load(), 1u);
+}
+
+TEST(Front, OneAddressRunsAtMostItsTurnsAndTheRestWait) {
+  FrontOptions o = Options();
+  o.max_client_requests = 2;
+  o.request_deadline = 1;  // Each waits its second, then the next of the line runs.
+  Front front(o);
+  int fds[5];
+  for (int& fd : fds) fd = front.Send("/wait");
+  for (int fd : fds) EXPECT_EQ(Front::Answer(fd), "stopped");
+  EXPECT_EQ(front.peak_.load(), 2);
+  EXPECT_EQ(front.stats().waited_turn.load(), 3u);
+}
+
+}  // namespace
+}  // namespace facespace::api
