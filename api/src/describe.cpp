@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "facespace/formats/io.h"
+#include "facespace/formats/rig_json.h"
 #include "facespace/core/transform.h"
 
 namespace facespace::api {
@@ -52,9 +53,9 @@ json DescribeRig(const Rig& r) {
                         {"partner", c.partner >= 0 ? json(r.controls[c.partner].name) : json(nullptr)}});
   }
   j["controls"] = controls;
-  j["expressions"] = json::parse(ExpressionsJson(r));
-  j["gaze"] = json::parse(GazeJson(r));
-  j["visemes"] = json::parse(VisemesJson(r));
+  j["expressions"] = ExpressionsValue(r);
+  j["gaze"] = GazeValue(r);
+  j["visemes"] = VisemesValue(r);
   j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()}, {"bound", r.statistics.bound}} : json(nullptr);
   // Bounding box of the base mesh as shown (world space, every primitive).
   const auto world = PrimitiveWorldMatrices(r);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/formats/io.h"
+#include "facespace/formats/rig_json.h"
 #include "facespace/core/face.h"
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/speech.h"
@@ -706,12 +707,9 @@ json GazeObject(const Rig& rig, bool for_manifest) {
 
 }  // namespace
 
-std::string ExpressionsJson(const Rig& rig) { return ExpressionsObject(rig, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
-std::string GazeJson(const Rig& rig) { return GazeObject(rig, false).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
-std::string VisemesJson(const Rig& rig) {
-  if (rig.visemes.empty()) return "null";
-  return VisemesObject(rig, true).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
+json ExpressionsValue(const Rig& rig) { return ExpressionsObject(rig, true); }
+json GazeValue(const Rig& rig) { return GazeObject(rig, false); }
+json VisemesValue(const Rig& rig) { return rig.visemes.empty() ? json() : VisemesObject(rig, true); }
 
 std::string ManifestJson(const Rig& rig) {
   json m = json::object();

@@ -11,6 +11,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/core/face.h"
 #include "common/image_file.h"
+#include "fbx/fbx_tree.h"
 
 namespace facespace {
 
@@ -80,9 +81,7 @@ constexpr FormatEntry kFormats[] = {
     {RigFormat::kPmd, ".pmd", [](std::string_view h) { return h.substr(0, 3) == "Pmd"; }, LoadPmdMemory,
      FromBytes<LoadPmdMemory, true, true>},
     {RigFormat::kFbx, ".fbx",
-     [](std::string_view h) {
-       return h.substr(0, 18) == "Kaydara FBX Binary" || h.find("; FBX ") == 0 || h.find("FBXHeaderExtension:") != std::string_view::npos;
-     },
+     [](std::string_view h) { return fbx::LooksLikeFbx({reinterpret_cast<const unsigned char*>(h.data()), h.size()}); },
      LoadFbxMemory, FromBytes<LoadFbxMemory, false, false>},
     {RigFormat::kCollada, ".dae", [](std::string_view h) { return h.find("<COLLADA") != std::string_view::npos; },
      LoadColladaMemory, FromBytes<LoadColladaMemory, true, false>},

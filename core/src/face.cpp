@@ -499,10 +499,6 @@ bool CanBlink(const Rig& rig) {
   return FindExpression(rig, "blink") >= 0 || (FindExpression(rig, "blinkLeft") >= 0 && FindExpression(rig, "blinkRight") >= 0);
 }
 
-bool FaceActive(const FaceState& face) {
-  return face.gaze.has_value() || face.blink != 0.0f || std::any_of(face.expressions.begin(), face.expressions.end(), [](float v) { return v != 0.0f; });
-}
-
 void ApplyFace(const Rig& rig, const FaceState& face, std::span<float> weights, Pose& pose, bool& posed, std::vector<Warning>& warnings) {
   std::vector<float> values = face.expressions;
   values.resize(rig.expressions.size(), 0.0f);

@@ -9,7 +9,6 @@ const char* StatusCodeName(StatusCode code) {
     case StatusCode::kNotFound: return "not_found";
     case StatusCode::kFailedPrecondition: return "failed_precondition";
     case StatusCode::kResourceExhausted: return "resource_exhausted";
-    case StatusCode::kDataLoss: return "data_loss";
     case StatusCode::kStorageFull: return "storage_full";
     case StatusCode::kCancelled: return "cancelled";
     case StatusCode::kInternal: return "internal";
@@ -21,7 +20,6 @@ Status InvalidArgument(std::string message) {
   return {StatusCode::kInvalidArgument, std::move(message), {}, {}, 0};
 }
 Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}, {}, 0}; }
-Status DataLoss(std::string message) { return {StatusCode::kDataLoss, std::move(message), {}, {}, 0}; }
 Status FailedPrecondition(std::string message) {
   return {StatusCode::kFailedPrecondition, std::move(message), {}, {}, 0};
 }

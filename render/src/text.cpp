@@ -92,11 +92,6 @@ int Walk(Fonts& fonts, const std::u32string& text, int size, bool render, F&& gl
 
 }  // namespace
 
-bool HasFont() {
-  Fonts& fonts = Fonts::Get();
-  return fonts.latin || fonts.cjk;
-}
-
 bool CanDrawText(const std::string& text) {
   Fonts& fonts = Fonts::Get();
   std::lock_guard<std::mutex> lock(fonts.mu);

@@ -5,9 +5,6 @@
 
 namespace facespace::render {
 
-// Whether a font was found (DejaVu Sans, Noto Sans CJK): without one, no text is drawn.
-bool HasFont();
-
 // The advance of UTF-8 `text` at `size` pixels (the pen's move), -1 without a font.
 int TextAdvance(const std::string& text, int size);
 

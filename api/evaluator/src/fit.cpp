@@ -1,6 +1,6 @@
 // Fitting: the weights that best reproduce a mesh, as JSON.
 #include "facespace/api/evaluator.h"
-#include "json_text.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::api {
 

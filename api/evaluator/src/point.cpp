@@ -1,6 +1,6 @@
 // Step 1: a request's point resolved against a rig, and checked.
 #include "facespace/api/evaluator.h"
-#include "json_text.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::api {
 

@@ -3,7 +3,7 @@
 #include "facespace/api/evaluator.h"
 #include "facespace/core/hierarchy.h"
 #include "facespace/physics/physics.h"
-#include "json_text.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::api {
 

@@ -4,7 +4,7 @@
 #include "facespace/core/speech.h"
 #include "facespace/formats/io.h"
 #include "facespace/render/video.h"
-#include "json_text.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::api {
 

@@ -21,7 +21,6 @@ int HttpStatus(const Status& s) {
     case StatusCode::kResourceExhausted: return 413;
     case StatusCode::kStorageFull: return 507;
     case StatusCode::kCancelled: return 503;  // Stopped: the client is gone, or the deadline or a SIGTERM came.
-    case StatusCode::kDataLoss:
     case StatusCode::kInternal: return 500;
   }
   return 500;

@@ -314,14 +314,9 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   if (!stored) return;
   int lod = 0;
-  if (req.has_param("lod")) {
-    const std::string v = req.get_param_value("lod");
-    if (v.size() != 1 || v[0] < '0' || v[0] - '0' > kMaxLod) {
-      SendProblem(req, res, 422, "invalid-request", "lod: must be an integer level of detail 0.." + std::to_string(kMaxLod),
-                  {{"?lod", "must be 0.." + std::to_string(kMaxLod)}});
-      return;
-    }
-    lod = v[0] - '0';
+  if (req.has_param("lod") && !ParseLod(req.get_param_value("lod"), &lod)) {
+    SendProblem(req, res, 422, "invalid-request", "lod: must be " + LodExpected(), {{"?lod", "must be " + LodExpected()}});
+    return;
   }
   std::string format = req.has_param("format") ? req.get_param_value("format") : "json";
   if (format != "json" && format != "u32") {

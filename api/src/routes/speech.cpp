@@ -8,8 +8,6 @@ namespace facespace::api::http {
 
 namespace {
 
-constexpr float kMaxVideoSeconds = 60.0f;
-
 // The request's cost before any speech is made: the audio's seconds and rate from its chunks alone, or
 // the text's length in seconds at its rate (words, or characters / 6 for a script without spaces).
 bool SpeechWithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Rig& rig, const SpeechRequest& r) {
@@ -43,13 +41,14 @@ bool IsAudioBody(const httplib::Request& req) {
 void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::shared_ptr<const StoredRig>& stored,
                      const SpeechPlan& plan, const SpeechRequest& r) {
   const size_t frames = FrameCount(plan.sequence, r.fps);
-  // A video is drawn whole before it is sent, and a client that leaves does not stop it: at most a minute.
-  if (plan.audio.seconds() > kMaxVideoSeconds) {
+  // A video is drawn whole before it is sent: at most --max-video-seconds (its cost was admitted already).
+  const float max_seconds = ctx.options.max_video_seconds;
+  if (plan.audio.seconds() > max_seconds) {
     const std::string field = r.has_audio ? "/audio" : "/text";
     return SendProblem(req, res, 422, "video-too-long",
-                       field + ": a video is at most " + FormatNumber(kMaxVideoSeconds) + " s, and this speech is " + FormatNumber(plan.audio.seconds()) +
+                       field + ": a video is at most " + FormatNumber(max_seconds) + " s, and this speech is " + FormatNumber(plan.audio.seconds()) +
                            " s; say less at once, or ask for json, wav or a stream of frames",
-                       {{field, "at most " + FormatNumber(kMaxVideoSeconds) + " s of speech as a video"}});
+                       {{field, "at most " + FormatNumber(max_seconds) + " s of speech as a video"}});
   }
   if (!WithinFrameLimit(ctx, req, res, frames, "video", "the speech's") || !CheckRenderBudget(ctx, req, res, r.render.render, 1)) return;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
@@ -81,6 +80,11 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   } else if (!ReadJsonBody(req, res, ParseSpeechRequest, r)) {
     return;
   }
+  const render::RenderOptions& size = r.render.render;
+  if (r.format == "webm" && static_cast<long long>(size.width) * size.height > ctx.options.max_video_pixels) {
+    return SendProblem(req, res, 422, "invalid-request", "/width: a video is at most " + std::to_string(ctx.options.max_video_pixels) + " pixels (1920 x 1080)",
+                       {{"/width", "width x height at most " + std::to_string(ctx.options.max_video_pixels)}});
+  }
   if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;
   auto plan = PlanSpeech(stored->rig, r, CurrentStop());
   if (!plan.ok()) return SendStatus(req, res, plan.status());
@@ -101,16 +105,10 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
 }
 
 void GetVoices(ServerState&, const httplib::Request&, httplib::Response& res) {
-  std::string out = "{\"voices\":[";
-  bool first = true;
-  for (const speech::VoiceInfo& v : speech::Voices()) {
-    out += std::string(first ? "" : ",") + "{\"name\":" + nlohmann::json(v.name).dump() + ",\"language\":" + nlohmann::json(v.language).dump() + "}";
-    first = false;
-  }
-  out += "],\"default\":\"en-us\"}\n";
-  res.status = 200;
+  nlohmann::json voices = nlohmann::json::array();
+  for (const speech::VoiceInfo& v : speech::Voices()) voices.push_back({{"name", v.name}, {"language", v.language}});
   res.set_header("Cache-Control", "max-age=3600");
-  res.set_content(out, "application/json");
+  SendJson(res, 200, {{"voices", std::move(voices)}, {"default", speech::kDefaultVoice}});
 }
 
 }  // namespace facespace::api::http

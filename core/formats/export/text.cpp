@@ -63,8 +63,6 @@ void AppendFloats(std::string& out, std::span<const float> values) {
   out += ']';
 }
 
-std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
-
 std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space) {
   return std::string("{\"space\":") + (mesh_space ? "\"mesh\"" : "\"world\"") + ",\"primitives\":" + PrimitivesJson(rig, blended, mesh_space) +
          ",\"warnings\":" + WarningsToJson(warnings) + "}\n";
@@ -92,6 +90,8 @@ void AppendPlaced(std::string& out, std::span<const float> xyz, Place place) {
 }
 
 }  // namespace writers
+
+std::string JsonString(const std::string& s) { return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace); }
 
 std::string PrimitivesJson(const Rig& rig, const BlendedRig& blended, bool mesh_space) {
   std::string out = "[";

@@ -10,9 +10,6 @@
 
 namespace facespace::writers {
 
-// `s` as a JSON string (invalid UTF-8 replaced).
-std::string JsonString(const std::string& s);
-
 // The whole JSON, OBJ and f32 bodies (ExportMesh's).
 std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space);
 std::string ExportObj(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings, bool mesh_space);

@@ -107,11 +107,6 @@ class Scene {
   std::vector<std::pair<const Object*, std::string>> Targets(int64_t id, std::string_view cls, std::string_view sub = {}) const {
     return Filter(targets_, id, cls, sub);
   }
-  bool LinkedToRoot(int64_t id) const {
-    auto it = targets_.find(id);
-    if (it == targets_.end()) return false;
-    return std::any_of(it->second.begin(), it->second.end(), [](const Link& l) { return l.other == 0; });
-  }
 
   // The values of property `name`: the object's own, else its class's template; nullptr if neither.
   const FNode* Property(const Object& o, std::string_view name) const {

@@ -419,7 +419,7 @@ bool LooksLikeFbx(std::span<const unsigned char> bytes) {
   size_t i = 0;
   while (i < head.size() && std::isspace(static_cast<unsigned char>(head[i]))) ++i;
   head.remove_prefix(i);
-  return head.substr(0, 5) == "; FBX" || head.substr(0, 20) == "FBXHeaderExtension:";
+  return head.substr(0, 5) == "; FBX" || head.find("FBXHeaderExtension:") != std::string_view::npos;
 }
 
 Result<Document> Parse(std::span<const unsigned char> bytes, const Limits& limits) {

@@ -58,8 +58,8 @@ struct Limits {
   size_t max_decoded_bytes = size_t{512} << 20;  // Sum over every array.
 };
 
-// True when the bytes start like a binary FBX ("Kaydara FBX Binary") or an ASCII one
-// ("; FBX" comment, or an FBXHeaderExtension node).
+// True when the bytes start like a binary FBX ("Kaydara FBX Binary") or an ASCII one (after white
+// space, the "; FBX" comment, or an FBXHeaderExtension node in the first kilobyte). The registry's test.
 bool LooksLikeFbx(std::span<const unsigned char> bytes);
 
 // Reads either kind (told apart by the magic). Errors name the byte offset (binary) or the

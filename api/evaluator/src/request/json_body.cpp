@@ -380,7 +380,7 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     }
   } else if (key == "lod") {
     if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > kMaxLod) {
-      errors.fields.push_back({ptr, "must be an integer level of detail 0.." + std::to_string(kMaxLod) + " (0: full)"});
+      errors.fields.push_back({ptr, "must be " + LodExpected()});
     } else {
       r.lod = v.get<int>();
     }

@@ -226,8 +226,9 @@ std::string ApplyPoseSetting(const std::string& key, const std::string& value, M
     const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos && value.size() < 10;
     v = digits ? json(std::stoll(value)) : json(value);
   } else if (key == "lod") {
-    if (value.size() != 1 || value[0] < '0' || value[0] > '9') return "must be an integer level of detail 0.." + std::to_string(kMaxLod);
-    v = value[0] - '0';
+    int lod = 0;
+    if (!ParseLod(value, &lod)) return "must be " + LodExpected();
+    v = lod;
   } else if (key == "loop") {
     if (value == "true" || value == "1") v = true;
     else if (value == "false" || value == "0") v = false;

@@ -95,9 +95,6 @@ Status FinishSpeech(SpeechRequest& r, Status errors) {
     } else if (!r.transcript.empty() && !r.has_audio) {
       errors.fields.push_back({"/transcript", "aligns audio to its words; with text, the text is what is said"});
     }
-    if (r.format == "webm" && r.render.render.width * r.render.render.height > 1920 * 1080) {
-      errors.fields.push_back({"/width", "a video is at most 1920 x 1080 pixels"});
-    }
   }
   return errors.fields.empty() ? Status::Ok() : Finish(std::move(errors));
 }

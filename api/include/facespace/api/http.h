@@ -30,6 +30,8 @@ struct ApiOptions {
   size_t render_budget = size_t{1} << 30;   // Estimated working memory of one render or sheet; above, 413.
   size_t render_memory = size_t{2} << 30;   // ... of the renders in flight together; past it they wait, then 503.
   const FrontStats* front = nullptr;        // The connection front's counters, for /metrics (when there is one).
+  float max_video_seconds = 60.0f;          // Speech as a WebM: longer is 422 video-too-long.
+  long long max_video_pixels = 1920 * 1080; // ... and larger frames 422.
   double anonymous_cpu = 2.0;               // Estimated CPU-seconds a request without the key may cost (else 422 over-budget).
   double keyed_cpu = 600.0;                 // ... with the key.
 };

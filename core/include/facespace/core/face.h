@@ -117,8 +117,6 @@ struct FaceState {
   float blink = 0.0f;              // An automatic blink (0..1), shown as the blink expression.
 };
 
-bool FaceActive(const FaceState& face);
-
 // Whether the rig has a blink expression ("blink", or both "blinkLeft" and "blinkRight") for blinks to show on.
 bool CanBlink(const Rig& rig);
 

@@ -16,7 +16,6 @@ enum class StatusCode {
   kNotFound,            // A named thing does not exist (file, rig).
   kFailedPrecondition,  // The input is well formed but cannot be used here.
   kResourceExhausted,   // A configured limit was exceeded.
-  kDataLoss,            // A stored file is truncated or corrupt.
   kStorageFull,         // The disk (or a quota) is full: retry when space is freed.
   kCancelled,           // The work was stopped: its client left, its deadline passed, or the server is stopping.
   kInternal,            // A bug on our side.
@@ -67,7 +66,6 @@ struct Status {
 
 Status InvalidArgument(std::string message);
 Status NotFound(std::string message);
-Status DataLoss(std::string message);
 Status FailedPrecondition(std::string message);
 Status ResourceExhausted(std::string message);
 Status Internal(std::string message);

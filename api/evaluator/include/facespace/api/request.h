@@ -13,6 +13,7 @@
 #include "facespace/core/fit.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/sequence.h"
+#include "facespace/speech/speech.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/status.h"
 #include "facespace/core/variants.h"
@@ -150,7 +151,7 @@ struct SpeechRequest {
   std::string audio;               // WAV bytes (the base64 decoded, or the body).
   bool has_audio = false;
   std::string transcript;          // With audio: align to these words.
-  std::string voice = "en-us";
+  std::string voice = speech::kDefaultVoice;
   int rate = 175;
   float fps = 30.0f;
   float strength = 1.0f;

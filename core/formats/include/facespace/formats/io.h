@@ -131,14 +131,6 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {}
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
 Status ApplyManifest(Rig& rig, const std::string& json_text);
 
-// The rig's expressions (name -> {weights, binary, override_blink, override_look_at, override_mouth,
-// derived}) and its gaze ({type, eyes | shapes, head, neck, range_maps, origin}), as JSON text: what
-// GET /v1/rigs/{id} shows, in the manifest's schema.
-std::string ExpressionsJson(const Rig& rig);
-std::string GazeJson(const Rig& rig);
-// The viseme map (speech.h): viseme -> {SHAPE: w} for all 15, "nolip", "jaw"; null when the rig cannot speak.
-std::string VisemesJson(const Rig& rig);
-
 // kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp).
 enum class MeshFormat { kGlb, kObj, kJson, kF32, kVrm };
 
@@ -240,5 +232,9 @@ void WorldPositions(const BlendedRig& blended, std::vector<float>& out);
 
 // JSON text of one warning list: [{"code", "message", "shape"?, "value"?}, ...].
 std::string WarningsToJson(std::span<const Warning> warnings);
+
+// `s` as a JSON string (invalid UTF-8 replaced), for the bodies written as text where nlohmann would
+// cost more than the body (per-frame JSON of sequences and meshes).
+std::string JsonString(const std::string& s);
 
 }  // namespace facespace

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "facespace/core/rig.h"
@@ -12,6 +14,16 @@
 namespace facespace {
 
 constexpr int kMaxLod = 4;
+
+// What a level of detail may be, said the same by every parser: "an integer level of detail 0..4 (0: full)".
+inline std::string LodExpected() { return "an integer level of detail 0.." + std::to_string(kMaxLod) + " (0: full)"; }
+
+// A level of detail as a query or a flag writes it ("0" .. "4"); false for anything else.
+inline bool ParseLod(std::string_view text, int* lod) {
+  if (text.size() != 1 || text[0] < '0' || text[0] - '0' > kMaxLod) return false;
+  *lod = text[0] - '0';
+  return true;
+}
 
 struct LodReport {
   size_t triangles_before = 0, triangles_after = 0;

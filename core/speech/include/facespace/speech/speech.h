@@ -68,8 +68,11 @@ Audio Resample(const Audio& audio, int rate);
 
 inline constexpr size_t kMaxTextChars = 2000;
 
+// The voice text is spoken with when a request names none (GET /v1/voices says it as "default").
+inline constexpr char kDefaultVoice[] = "en-us";
+
 struct SynthOptions {
-  std::string voice = "en-us";  // An espeak-ng voice name or language ("en-us", "en", "ja", "de", ...).
+  std::string voice = kDefaultVoice;  // An espeak-ng voice name or language ("en-us", "en", "ja", "de", ...).
   int rate = 175;               // Words per minute, 80 to 450.
   std::stop_token stop;         // Fired: the synthesis stops at espeak-ng's next callback, Cancelled.
 };
