@@ -23,7 +23,7 @@ batch::JobInfo WaitForEnd(const batch::JobQueue& queue, const std::string& id, d
   for (;;) {
     auto info = queue.Get(id);
     if (!info) return {};
-    if ((info->state != "queued" && info->state != "running") || std::chrono::steady_clock::now() > until) return *info;
+    if (!batch::Unfinished(info->state) || std::chrono::steady_clock::now() > until) return *info;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
 }
@@ -57,7 +57,7 @@ TEST_F(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
   EXPECT_EQ(job->rig, "facecap");
   EXPECT_EQ(job->total, 6u);
   const batch::JobInfo done = WaitForEnd(queue, job->id);
-  EXPECT_EQ(done.state, "done") << done.error;
+  EXPECT_EQ(done.state, batch::JobState::kDone) << done.error;
   EXPECT_EQ(done.done, 6u);
   const fs::path folder = queue.Folder(job->id);
   for (const char* name : {"manifest.jsonl", "v000000.f32", "v000005.f32", "sheet.png"}) EXPECT_TRUE(fs::exists(folder / name)) << name;
@@ -71,7 +71,7 @@ TEST_F(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
   EXPECT_EQ(started.value(), 0u);  // Nothing unfinished.
   auto seen = other.Get(job->id);
   ASSERT_TRUE(seen.has_value());
-  EXPECT_EQ(seen->state, "done");
+  EXPECT_EQ(seen->state, batch::JobState::kDone);
   ASSERT_EQ(other.List().size(), 1u);
 
   ASSERT_TRUE(other.Remove(job->id).ok());
@@ -99,7 +99,7 @@ TEST_F(JobQueue, LimitsRefuseWithTheFieldOrAWait) {
   EXPECT_EQ(full.status().reason, batch::kJobQueueFull);
   EXPECT_GE(retry_after, 1);
   ASSERT_EQ(queue.List().size(), 1u);
-  EXPECT_EQ(queue.List()[0].state, "queued");
+  EXPECT_EQ(queue.List()[0].state, batch::JobState::kQueued);
 }
 
 TEST_F(JobQueue, AJobLeftUnfinishedResumesInTheNextInstance) {
@@ -117,7 +117,7 @@ TEST_F(JobQueue, AJobLeftUnfinishedResumesInTheNextInstance) {
   ASSERT_TRUE(started.ok());
   EXPECT_EQ(started.value(), 1u);
   const batch::JobInfo done = WaitForEnd(next, id);  // Planned again from the stored request.
-  EXPECT_EQ(done.state, "done") << done.error;
+  EXPECT_EQ(done.state, batch::JobState::kDone) << done.error;
   EXPECT_EQ(done.done, 6u);
 }
 

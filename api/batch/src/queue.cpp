@@ -172,11 +172,12 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) con
   job->info.done = ManifestLines(folder / "out" / "manifest.jsonl");
   json st = json::parse(ReadText(folder / "state.json"), nullptr, false);
   if (!st.is_discarded() && st.is_object()) {
-    job->info.state = st.value("state", "failed");
+    job->info.state = JobState::kFailed;  // A state.json that says no known state: failed.
+    if (st.contains("state") && st["state"].is_string()) ParseEnum(kJobStates, st["state"].get<std::string>(), &job->info.state);
     job->info.error = st.value("error", "");
   } else {
-    job->info.state = ClaimHeld(folder) ? "running" : "queued";
-    if (job->info.state == "running") job->info.rate = ClaimRate(folder);
+    job->info.state = ClaimHeld(folder) ? JobState::kRunning : JobState::kQueued;
+    if (job->info.state == JobState::kRunning) job->info.rate = ClaimRate(folder);
   }
   return job;
 }
@@ -228,15 +229,15 @@ Result<size_t> FileJobQueue::Start() {
   // Jobs whose rig went while they were unfinished are lost; the rest resume, here or elsewhere.
   size_t unfinished = 0;
   for (const auto& job : Scan()) {
-    if (job->info.state == "queued" && !RigFor(*job, false)) {
+    if (job->info.state == JobState::kQueued && !RigFor(*job, false)) {
       const int fd = TakeClaim(fs::path(dir_) / job->info.id, instance_);
       if (fd >= 0) {
-        if (auto again = Load(job->info.id); again && again->info.state == "running") MarkLost(*again);
+        if (auto again = Load(job->info.id); again && again->info.state == JobState::kRunning) MarkLost(*again);
         ::close(fd);
       }
       continue;
     }
-    unfinished += job->info.state == "queued" || job->info.state == "running";
+    unfinished += Unfinished(job->info.state);
   }
   runner_ = std::thread([this] {
     for (;;) {
@@ -306,7 +307,7 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   size_t active = 0, remaining = 0;
   double rate = 0, wait = 0;
   for (const auto& j : Scan()) {
-    if (j->info.state != "queued" && j->info.state != "running") continue;
+    if (!Unfinished(j->info.state)) continue;
     ++active;
     remaining += j->info.total - std::min(j->info.done, j->info.total);
     if (j->info.rate > 0) {
@@ -324,7 +325,7 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   auto job = std::make_shared<Job>();
   job->info.id = NewJobId();
   job->info.rig = rig->id;
-  job->info.state = "queued";
+  job->info.state = JobState::kQueued;
   job->info.format = plan->request.format;
   job->info.created = NowRfc3339();
   job->info.total = plan->total;
@@ -391,8 +392,8 @@ Status FileJobQueue::Remove(const std::string& id) {
 
 std::string FileJobQueue::Folder(const std::string& id) const { return (fs::path(dir_) / id / "out").string(); }
 
-void FileJobQueue::Finish(Job& job, const std::string& state, const std::string& error) {
-  WriteJobFile(fs::path(dir_) / job.info.id / "state.json", json{{"state", state}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+void FileJobQueue::Finish(Job& job, JobState state, const std::string& error) {
+  WriteJobFile(fs::path(dir_) / job.info.id / "state.json", json{{"state", Name(state)}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   std::lock_guard<std::mutex> lock(mu_);
   job.info.state = state;
   job.info.error = error;
@@ -400,7 +401,7 @@ void FileJobQueue::Finish(Job& job, const std::string& state, const std::string&
 
 bool FileJobQueue::RunNext() {
   for (const auto& candidate : Scan()) {
-    if (candidate->info.state != "queued") continue;
+    if (candidate->info.state != JobState::kQueued) continue;
     {
       std::lock_guard<std::mutex> lock(mu_);
       if (stopping_) return false;
@@ -413,11 +414,11 @@ bool FileJobQueue::RunNext() {
     const int fd = TakeClaim(folder, instance_);
     if (fd < 0) continue;  // Another instance took it.
     auto job = Load(candidate->info.id);  // Again, now that it is ours: it may have ended or been deleted meanwhile.
-    if (!job || job->info.state != "running") {
+    if (!job || job->info.state != JobState::kRunning) {
       ::close(fd);
       continue;
     }
-    job->info.state = "running";
+    job->info.state = JobState::kRunning;
     {
       std::lock_guard<std::mutex> lock(mu_);
       auto it = submitted_.find(job->info.id);
@@ -457,7 +458,7 @@ std::shared_ptr<const api::StoredRig> FileJobQueue::RigFor(const Job& job, bool 
 
 void FileJobQueue::MarkLost(Job& job) {
   const bool replaced = store_.Get(job.info.rig) != nullptr;
-  Finish(job, "lost", "rig '" + job.info.rig + "' was " + (replaced ? "replaced" : "removed") + " while the job was unfinished; " +
+  Finish(job, JobState::kLost, "rig '" + job.info.rig + "' was " + (replaced ? "replaced" : "removed") + " while the job was unfinished; " +
                           std::to_string(job.info.done) + " of " + std::to_string(job.info.total) + " variants were done");
 }
 
@@ -470,7 +471,7 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
                      : Result<std::shared_ptr<const BatchPlan>>(made.status());
   }
   if (!plan.ok()) {
-    Finish(*job, "failed", plan.status().message);
+    Finish(*job, JobState::kFailed, plan.status().message);
     return;
   }
   RunOptions options;
@@ -511,12 +512,12 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
     std::error_code ec;
     fs::remove_all(folder, ec);
   } else if (!summary.ok()) {
-    Finish(*job, "failed", summary.status().message);
+    Finish(*job, JobState::kFailed, summary.status().message);
   } else if (summary->cancelled) {
-    if (!stopping) Finish(*job, "cancelled", "");
+    if (!stopping) Finish(*job, JobState::kCancelled, "");
     // Stopping: no state.json, so this instance's next start, or another instance now, resumes it.
   } else {
-    Finish(*job, "done", "");
+    Finish(*job, JobState::kDone, "");
   }
 }
 

@@ -10,17 +10,18 @@ namespace facespace::api::http {
 namespace {
 
 using nlohmann::json;
+using batch::JobState;
 
 json JobJson(const batch::JobInfo& j) {
   const std::string self = "/v1/jobs/" + j.id;
-  json o = {{"id", j.id},           {"rig", j.rig},     {"state", j.state}, {"format", j.format},
+  json o = {{"id", j.id},           {"rig", j.rig},     {"state", Name(j.state)}, {"format", j.format},
             {"created", j.created}, {"total", j.total}, {"done", j.done},
             {"progress", j.total ? static_cast<double>(j.done) / static_cast<double>(j.total) : 1.0},
             {"rate", std::round(j.rate * 10.0) / 10.0}};
-  if (j.state == "running" && j.rate > 0) o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
+  if (j.state == JobState::kRunning && j.rate > 0) o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
   if (!j.error.empty()) o["error"] = j.error;
   o["links"] = {{"self", self}, {"manifest", self + "/manifest.jsonl"}, {"files", self + "/files/"}, {"sheet", self + "/files/sheet.png"}};
-  if (j.state == "done") o["links"]["results"] = self + "/results.zip";
+  if (j.state == JobState::kDone) o["links"]["results"] = self + "/results.zip";
   return o;
 }
 
@@ -57,7 +58,7 @@ void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Respons
   std::ifstream f(path, std::ios::binary);
   if (!IsValidVariantId(name) || !f) {
     SendProblem(req, res, 404, "file-not-found", "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
-                                                     (job->state == "done" ? "" : " (yet: the job is " + job->state + ")"));
+                                                     (job->state == JobState::kDone ? "" : std::string(" (yet: the job is ") + Name(job->state) + ")"));
     return;
   }
   std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -115,8 +116,8 @@ void GetJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response
 void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto job = FindJob(ctx, req, res);
   if (!job) return;
-  if (job->state != "done") {
-    SendProblem(req, res, 409, "job-not-done", "job " + job->id + " is " + job->state + " (" + std::to_string(job->done) + " of " +
+  if (job->state != JobState::kDone) {
+    SendProblem(req, res, 409, "job-not-done", "job " + job->id + " is " + Name(job->state) + " (" + std::to_string(job->done) + " of " +
                                                    std::to_string(job->total) +
                                                    " variants): its archive exists once it is done; finished files are at " +
                                                    "/v1/jobs/" + job->id + "/files/NAME");

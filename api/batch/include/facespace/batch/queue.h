@@ -30,14 +30,23 @@
 
 #include "facespace/api/store.h"
 #include "facespace/batch/plan.h"
+#include "facespace/core/enum_table.h"
 
 namespace facespace::batch {
+
+// Where a job is: a closed set, named in one table (its JSON and state.json spellings).
+enum class JobState { kQueued, kRunning, kDone, kFailed, kCancelled, kLost };
+inline constexpr EnumName<JobState> kJobStates[] = {{JobState::kQueued, "queued"}, {JobState::kRunning, "running"}, {JobState::kDone, "done"},
+                                                    {JobState::kFailed, "failed"}, {JobState::kCancelled, "cancelled"}, {JobState::kLost, "lost"}};
+inline const char* Name(JobState s) { return EnumEntry(kJobStates, s).name; }
+// Queued or running: not finished.
+inline bool Unfinished(JobState s) { return s == JobState::kQueued || s == JobState::kRunning; }
 
 // A job as the batch routes show it.
 struct JobInfo {
   std::string id;          // 32 lowercase hex digits: unguessable, so knowing it is the access.
   std::string rig;
-  std::string state;       // "queued", "running", "done", "failed", "cancelled", "lost"
+  JobState state = JobState::kQueued;
   std::string error;       // Why it failed or was lost.
   std::string format;      // Of every variant file.
   std::string created;     // RFC 3339, UTC.
@@ -112,7 +121,7 @@ class FileJobQueue : public JobQueue {
   // Claims and runs the oldest job nobody runs, if any. True when one ran.
   bool RunNext();
   void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig, int claim);
-  void Finish(Job& job, const std::string& state, const std::string& error);
+  void Finish(Job& job, JobState state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
   std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;
   Status CheckRoom(const api::StoredRig& rig, const BatchPlan& plan) const;
