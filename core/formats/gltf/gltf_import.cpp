@@ -38,10 +38,6 @@ bool NoRead(std::vector<unsigned char>*, std::string* err, const std::string& pa
 }
 bool NoWrite(std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; }
 
-}  // namespace
-
-namespace {
-
 // ---- model -> rig -------------------------------------------------------------------------
 
 std::vector<std::string> TargetNames(const tinygltf::Value& extras) {
@@ -629,23 +625,20 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
   const bool is_glb = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
   std::vector<unsigned char> decoded;
   if (is_glb) {
-    std::string text;
+    std::string text;  // Its depth checked before any recursive reader sees it.
     std::span<const unsigned char> bin;
-    if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
-    if (Status s = CheckJsonDepth(text, "glb"); !s.ok()) return s;
+    if (Status s = SplitGlb(bytes, text, bin); !s.ok() || !(s = CheckJsonDepth(text, "glb")).ok()) return s;
     if (Status s = DecodeMeshoptGlb(bytes, decoded); !s.ok()) return s;
     if (!decoded.empty()) bytes = decoded;
     if (!options.allow_external_files) {
-      if (!decoded.empty()) {  // Meshopt's decoding wrote a new JSON chunk.
-        if (Status s = SplitGlb(bytes, text, bin); !s.ok()) return s;
-      }
+      // Meshopt's decoding wrote a new JSON chunk.
+      if (Status s = decoded.empty() ? Status::Ok() : SplitGlb(bytes, text, bin); !s.ok()) return s;
       json j = json::parse(text, nullptr, false);
       if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
       if (Status s = CheckEmbedded(j); !s.ok()) return s;
     }
   } else {
-    const std::string_view text(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-    if (Status s = CheckJsonDepth(text, "glTF"); !s.ok()) return s;
+    if (Status s = CheckJsonDepth({reinterpret_cast<const char*>(bytes.data()), bytes.size()}, "glTF"); !s.ok()) return s;
     json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
     if (j.is_discarded() || !j.is_object()) return InvalidArgument("not a glTF file: neither glb nor valid JSON");
     if (!options.allow_external_files) {
