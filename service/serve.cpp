@@ -192,29 +192,51 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   return "";
 }
 
-}  // namespace
+// Every setting: its flag (--KEY), its environment variable (FACESPACE_ and the key in capitals with _ for -;
+// cors-origin's is FACESPACE_CORS_ORIGINS), and its help ("WHAT: text").
+constexpr std::pair<const char*, const char*> kSettings[] = {
+    {"rigs", "DIR: rigs to serve (.glb/.gltf/... files and folders; default: the bundled ones, read-only)"},
+    {"store", "DIR: where uploads are written (default: --rigs when given, else ~/.local/state/facespace/rigs)"},
+    {"store-poll", "SECONDS: how often to pick up rigs other instances sharing the store changed (default 1; 0: never)"},
+    {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
+    {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads running whole requests (default 64)"},
+    {"max-connections", "N: connections open at once; more get 503 (default 4096)"},
+    {"max-client-connections", "N: connections open at once from one address; more get 503 (default 256)"},
+    {"render-budget-mb", "MB: estimated working memory of one render or sheet; above, 413 (default 1024)"},
+    {"render-memory-mb", "MB: working memory of the renders in flight together; past it they wait 2 s, then 503 (default 2048)"},
+    {"body-budget-mb", "MB: request bodies held in memory at once, all connections together; past it 503 (default 1024)"},
+    {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
+    {"max-body", "BYTES: largest request body (default 64 MiB)"}, {"cors-origin", "ORIGIN: a browser origin allowed, or * (repeatable)"},
+    {"cache-mb", "MB: response cache (default 64)"}, {"max-render", "PIXELS: largest render width or height (default 2048)"},
+    {"max-sheet-cells", "N: cells of one contact sheet (default 64)"},
+    {"max-response", "BYTES: largest response built whole, sequence/sample (default 64 MiB)"},
+    {"max-frames", "N: frames of one sequence stream (default 100000)"},
+    {"jobs-dir", "DIR: where batch jobs live"}, {"max-jobs", "N: batch jobs queued or running (default 4)"},
+    {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
+    {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
+    {"read-timeout", "SECONDS: a client may take to send a whole request, head and body (default 10, plus 1 s per MiB of body)"},
+    {"render-threads", "N: renders drawing at once (0: one per core)"},
+    {"anonymous-cpu", "SECONDS: estimated CPU one request without the API key may cost; more is 422 over-budget (default 2)"},
+    {"keyed-cpu", "SECONDS: ... one request with the key (default 600)"},
+    {"max-client-requests", "N: requests of one address running at once; its others wait their turn (default 16)"},
+    {"request-deadline", "SECONDS: a request's work and answer, then it is stopped (default 120)"},
+    {"keyed-deadline", "SECONDS: ... for a request with the key (default 1800)"},
+    {"min-send-rate", "KIB: a second a client must read an answer at, after a 10 s grace; slower ones are cut off (default 32)"},
+    {"drain", "SECONDS: after SIGTERM, work in flight is stopped and the process exits within this (default 8)"}};
 
-int Serve(const std::vector<std::string>& args) {
-  ServeConfig c;
-  const std::pair<const char*, const char*> env[] = {
-      {"FACESPACE_RIGS", "rigs"},          {"FACESPACE_STORE", "store"},       {"FACESPACE_HOST", "host"},
-      {"FACESPACE_PORT", "port"},
-      {"FACESPACE_THREADS", "threads"},    {"FACESPACE_API_KEY_FILE", "api-key-file"},
-      {"FACESPACE_MAX_BODY", "max-body"},  {"FACESPACE_CORS_ORIGINS", "cors-origin"}, {"FACESPACE_CACHE_MB", "cache-mb"},
-      {"FACESPACE_MAX_RENDER", "max-render"}, {"FACESPACE_JOBS_DIR", "jobs-dir"}, {"FACESPACE_MAX_JOBS", "max-jobs"},
-      {"FACESPACE_MAX_BATCH", "max-batch"}, {"FACESPACE_BATCH_THREADS", "batch-threads"},
-      {"FACESPACE_MAX_VERTICES", "max-vertices"}, {"FACESPACE_MAX_SHAPES", "max-shapes"}, {"FACESPACE_READ_TIMEOUT", "read-timeout"},
-      {"FACESPACE_RENDER_THREADS", "render-threads"}, {"FACESPACE_MAX_SHEET_CELLS", "max-sheet-cells"},
-      {"FACESPACE_MAX_RESPONSE", "max-response"}, {"FACESPACE_MAX_FRAMES", "max-frames"}, {"FACESPACE_STORE_POLL", "store-poll"},
-      {"FACESPACE_MAX_CONNECTIONS", "max-connections"}, {"FACESPACE_MAX_CLIENT_CONNECTIONS", "max-client-connections"},
-      {"FACESPACE_BODY_BUDGET_MB", "body-budget-mb"}, {"FACESPACE_RENDER_BUDGET_MB", "render-budget-mb"},
-      {"FACESPACE_RENDER_MEMORY_MB", "render-memory-mb"}, {"FACESPACE_ANONYMOUS_CPU", "anonymous-cpu"}, {"FACESPACE_KEYED_CPU", "keyed-cpu"},
-      {"FACESPACE_MAX_CLIENT_REQUESTS", "max-client-requests"}, {"FACESPACE_REQUEST_DEADLINE", "request-deadline"},
-      {"FACESPACE_KEYED_DEADLINE", "keyed-deadline"}, {"FACESPACE_MIN_SEND_RATE", "min-send-rate"}, {"FACESPACE_DRAIN", "drain"}};
-  for (const auto& [var, key] : env) {
-    if (const char* v = std::getenv(var); v && *v) {
+std::string EnvironmentName(std::string_view key) {
+  std::string name = "FACESPACE_";
+  for (char ch : key) name += ch == '-' ? '_' : static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  return key == "cors-origin" ? name + "S" : name;
+}
+
+// The configuration from the environment, then the flags (which win); -1 to go on, else the exit code.
+int ReadServeConfig(const std::vector<std::string>& args, ServeConfig& c) {
+  for (const auto& [key, help] : kSettings) {
+    const std::string var = EnvironmentName(key);
+    if (const char* v = std::getenv(var.c_str()); v && *v) {
       if (std::string e = Apply(c, key, v); !e.empty()) {
-        std::fprintf(stderr, "facespace: %s: %s\n", var, e.c_str());
+        std::fprintf(stderr, "facespace: %s: %s\n", var.c_str(), e.c_str());
         return 2;
       }
     }
@@ -224,36 +246,7 @@ int Serve(const std::vector<std::string>& args) {
               "Every flag has an environment variable: FACESPACE_ and the flag in capitals with _ for - (FACESPACE_PORT,\n"
               "FACESPACE_CORS_ORIGINS comma-separated); flags win over the environment.\n"
               "Batch jobs are kept in --jobs-dir (default ~/.local/state/facespace/jobs) and resume after a restart.\n");
-  const std::pair<const char*, const char*> settings[] = {
-      {"rigs", "DIR: rigs to serve (.glb/.gltf/... files and folders; default: the bundled ones, read-only)"},
-      {"store", "DIR: where uploads are written (default: --rigs when given, else ~/.local/state/facespace/rigs)"},
-      {"store-poll", "SECONDS: how often to pick up rigs other instances sharing the store changed (default 1; 0: never)"},
-      {"host", "ADDRESS: to listen on (default 127.0.0.1)"},
-      {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads running whole requests (default 64)"},
-      {"max-connections", "N: connections open at once; more get 503 (default 4096)"},
-      {"max-client-connections", "N: connections open at once from one address; more get 503 (default 256)"},
-      {"render-budget-mb", "MB: estimated working memory of one render or sheet; above, 413 (default 1024)"},
-      {"render-memory-mb", "MB: working memory of the renders in flight together; past it they wait 2 s, then 503 (default 2048)"},
-      {"body-budget-mb", "MB: request bodies held in memory at once, all connections together; past it 503 (default 1024)"},
-      {"api-key-file", "FILE: the key uploads, deletes and batch jobs need (none: they are refused)"},
-      {"max-body", "BYTES: largest request body (default 64 MiB)"}, {"cors-origin", "ORIGIN: a browser origin allowed, or * (repeatable)"},
-      {"cache-mb", "MB: response cache (default 64)"}, {"max-render", "PIXELS: largest render width or height (default 2048)"},
-      {"max-sheet-cells", "N: cells of one contact sheet (default 64)"},
-      {"max-response", "BYTES: largest response built whole, sequence/sample (default 64 MiB)"},
-      {"max-frames", "N: frames of one sequence stream (default 100000)"},
-      {"jobs-dir", "DIR: where batch jobs live"}, {"max-jobs", "N: batch jobs queued or running (default 4)"},
-      {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
-      {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
-      {"read-timeout", "SECONDS: a client may take to send a whole request, head and body (default 10, plus 1 s per MiB of body)"},
-      {"render-threads", "N: renders drawing at once (0: one per core)"},
-      {"anonymous-cpu", "SECONDS: estimated CPU one request without the API key may cost; more is 422 over-budget (default 2)"},
-      {"keyed-cpu", "SECONDS: ... one request with the key (default 600)"},
-      {"max-client-requests", "N: requests of one address running at once; its others wait their turn (default 16)"},
-      {"request-deadline", "SECONDS: a request's work and answer, then it is stopped (default 120)"},
-      {"keyed-deadline", "SECONDS: ... for a request with the key (default 1800)"},
-      {"min-send-rate", "KIB: a second a client must read an answer at, after a 10 s grace; slower ones are cut off (default 32)"},
-      {"drain", "SECONDS: after SIGTERM, work in flight is stopped and the process exits within this (default 8)"}};
-  for (const auto& [key, help] : settings) {
+  for (const auto& [key, help] : kSettings) {
     const std::string h = help;
     flags.Value(std::string("--") + key, h.substr(0, h.find(':')), h.substr(h.find(':') + 2), [&c, key = std::string(key)](const std::string& v) {
       if (std::string e = Apply(c, key, v); !e.empty()) return std::fprintf(stderr, "error: --%s\n", e.c_str()), 2;
@@ -264,19 +257,24 @@ int Serve(const std::vector<std::string>& args) {
   std::vector<std::string> positional;
   if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
   if (!positional.empty()) return flags.UsageError("unexpected argument '" + positional[0] + "'");
+  return -1;
 
-  api::ApiOptions options;
+}
+
+// The API's options from the configuration: the key read from its file (empty when none); false, said
+// on stderr, when the key file cannot be read or is too short.
+bool MakeApiOptions(const ServeConfig& c, api::ApiOptions& options) {
   if (!c.api_key_file.empty()) {
     std::ifstream f(c.api_key_file, std::ios::binary);
     if (!f) {
       std::fprintf(stderr, "facespace: cannot read the API key file '%s'\n", c.api_key_file.c_str());
-      return 1;
+      return false;
     }
     std::string key((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     while (!key.empty() && (key.back() == '\n' || key.back() == '\r' || key.back() == ' ')) key.pop_back();
     if (key.size() < 3) {
       std::fprintf(stderr, "facespace: the API key in '%s' is empty or too short\n", c.api_key_file.c_str());
-      return 1;
+      return false;
     }
     options.api_key = key;
   }
@@ -293,10 +291,60 @@ int Serve(const std::vector<std::string>& args) {
   options.anonymous_cpu = c.anonymous_cpu;
   options.keyed_cpu = c.keyed_cpu;
 
-  // Where uploads go, and what is served read-only: a given --rigs is the store itself (unless a
-  // --store is given too); the bundled rigs are never written.
-  std::vector<std::string> read_only;
-  std::string store_dir = c.store;
+  return true;
+}
+
+// The connection front's options from the configuration; `api` answers its head checks once it exists.
+api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api* const& api_for_front) {
+  api::FrontOptions front;
+  front.workers = c.threads;
+  front.request_timeout = c.read_timeout;
+  front.keep_alive_timeout = 5;
+  front.keep_alive_max = 10000;
+  front.write_timeout = 10;
+  front.max_body = c.max_body;
+  front.max_connections = c.max_connections;
+  front.max_per_client = c.max_client_connections;
+  front.body_budget = c.body_budget_mb << 20;
+  front.log_requests = !c.quiet;
+  front.head_check = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->CheckHead(head); };
+  front.max_client_requests = c.max_client_requests;
+  front.request_deadline = c.request_deadline;
+  front.keyed_deadline = c.keyed_deadline;
+  front.min_send_rate = c.min_send_rate_kib << 10;
+  // The meter behind the estimates: a request whose worker spends twice its budget (and a second) is stopped.
+  front.cpu_limit = 2 * c.anonymous_cpu + 1;
+  front.keyed_cpu_limit = 2 * c.keyed_cpu + 1;
+  front.keyed = [&api_for_front](std::string_view authorization) { return api_for_front->Keyed(authorization); };
+  return front;
+}
+
+// The character-creator page at / and its files.
+void ServePage(httplib::Server& server) {
+  for (size_t i = 0; i < web::kAssetCount; ++i) {
+    const web::Asset& asset = web::kAssets[i];
+    const std::string path = asset.path;
+    const char* type = path.ends_with(".html") ? "text/html; charset=utf-8"
+                       : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
+                       : path.ends_with(".css") ? "text/css; charset=utf-8"
+                                                : "image/svg+xml";
+    auto handler = [&asset, type](const httplib::Request&, httplib::Response& res) {
+      res.set_header("Cache-Control", "no-cache");
+      res.set_header("Content-Security-Policy",
+                     "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; connect-src *; style-src 'self'; script-src 'self'");
+      res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
+    };
+    server.Get(path, handler);
+    if (path == "/index.html") server.Get("/", handler);
+  }
+
+}
+
+// Where uploads go, and what is served read-only: a given --rigs is the store itself (unless a
+// --store is given too); the bundled rigs are never written. False, said on stderr, when the store
+// folder cannot be made (a --rigs folder that is not there is a typo, refused when it is read).
+bool StoreFolders(const ServeConfig& c, std::string& store_dir, std::vector<std::string>& read_only) {
+  store_dir = c.store;
   if (c.rigs.empty()) {
     read_only.push_back(FACESPACE_DEFAULT_RIGS);
     if (store_dir.empty()) store_dir = StateDir("rigs");
@@ -305,11 +353,77 @@ int Serve(const std::vector<std::string>& args) {
   } else {
     read_only.push_back(c.rigs);
   }
-  // A --rigs folder that is not there is a typo (refused below); the store folder is created.
   if (std::error_code ec; store_dir != c.rigs && !std::filesystem::create_directories(store_dir, ec) && ec) {
     std::fprintf(stderr, "facespace: cannot create the store '%s': %s\n", store_dir.c_str(), ec.message().c_str());
-    return 1;
+    return false;
   }
+  return true;
+}
+
+// Binds `server` to --host and --port (0: any free one) with the kernel's largest backlog; the port, or -1.
+int Bind(httplib::Server& server, const ServeConfig& c) {
+  // cpp-httplib's own socket options set SO_REUSEPORT, with which a second server on the same
+  // port starts without a word and takes half the connections. SO_REUSEADDR alone still lets a
+  // restart bind over connections in TIME_WAIT.
+  int listening = -1;
+  server.set_socket_options([&listening](int fd) {
+    const int yes = 1;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    listening = fd;  // The last socket tried is the one bound.
+  });
+  const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);
+  if (port < 0) {
+    std::fprintf(stderr, "facespace: cannot listen on %s:%d (in use, or not an address of this machine)\n", c.host.c_str(), c.port);
+    return -1;
+  }
+  // cpp-httplib listens with a backlog of 5. When 64 clients connect at once while the cores are
+  // busy (renders in flight), the kernel drops the SYNs beyond it and the clients wait for their
+  // retransmission, 1 s and then 3 s later: that was the load test's latency tail and its
+  // time-outs. Listening again on a bound socket only changes the backlog (capped by
+  // net.core.somaxconn).
+  if (listening < 0 || ::listen(listening, SOMAXCONN) != 0) {
+    std::fprintf(stderr, "facespace: warning: cannot raise the listen backlog; bursts of connections may wait\n");
+  }
+  return port;
+}
+
+// Serves until SIGINT or SIGTERM (taken by one thread with sigwait), then stops: the front stops the work
+// in flight, and the process exits within `drain` seconds whatever is left. False when listening failed.
+bool ListenUntilSignalled(httplib::Server& server, const sigset_t& signals, double drain_seconds) {
+  std::atomic<bool> signalled{false};
+  std::thread waiter([&server, &signalled, signals, drain = drain_seconds] {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    if (!signalled.exchange(true)) {
+      std::fprintf(stderr, "facespace: %s received, stopping the requests in flight (at most %g s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM", drain);
+      // The drain is bounded: work that does not stop in time is left (files are written whole, so
+      // nothing is half-stored) and the process exits as a stopped one does.
+      std::thread([drain] {
+        std::this_thread::sleep_for(std::chrono::duration<double>(drain));
+        std::fprintf(stderr, "facespace: still draining after %g s (--drain): exiting\n", drain);
+        std::fflush(stderr);
+        std::_Exit(0);
+      }).detach();
+    }
+    server.stop();
+  });
+  const bool ok = server.listen_after_bind();
+  if (!signalled.exchange(true)) pthread_kill(waiter.native_handle(), SIGTERM);  // Wake the waiter.
+  waiter.join();
+  return ok;
+}
+
+}  // namespace
+
+int Serve(const std::vector<std::string>& args) {
+  ServeConfig c;
+  if (int rc = ReadServeConfig(args, c); rc >= 0) return rc;
+
+  api::ApiOptions options;
+  if (!MakeApiOptions(c, options)) return 1;
+  std::vector<std::string> read_only;
+  std::string store_dir;
+  if (!StoreFolders(c, store_dir, read_only)) return 1;
   if (const std::string problem = render::ImageModuleProblem(); !problem.empty()) {
     std::fprintf(stderr, "facespace: warning: %s: renders draw without textures or labels, and only PNG and WebP are written\n",
                  problem.c_str());
@@ -368,26 +482,7 @@ int Serve(const std::vector<std::string>& args) {
   // Connections wait in the front (one epoll thread, deadlines for whole requests, caps per client
   // and in all, a budget for bodies in memory); only whole requests take one of the workers.
   api::Api* api_for_front = nullptr;
-  api::FrontOptions front;
-  front.workers = c.threads;
-  front.request_timeout = c.read_timeout;
-  front.keep_alive_timeout = 5;
-  front.keep_alive_max = 10000;
-  front.write_timeout = 10;
-  front.max_body = c.max_body;
-  front.max_connections = c.max_connections;
-  front.max_per_client = c.max_client_connections;
-  front.body_budget = c.body_budget_mb << 20;
-  front.log_requests = !c.quiet;
-  front.head_check = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->CheckHead(head); };
-  front.max_client_requests = c.max_client_requests;
-  front.request_deadline = c.request_deadline;
-  front.keyed_deadline = c.keyed_deadline;
-  front.min_send_rate = c.min_send_rate_kib << 10;
-  // The meter behind the estimates: a request whose worker spends twice its budget (and a second) is stopped.
-  front.cpu_limit = 2 * c.anonymous_cpu + 1;
-  front.keyed_cpu_limit = 2 * c.keyed_cpu + 1;
-  front.keyed = [&api_for_front](std::string_view authorization) { return api_for_front->Keyed(authorization); };
+  const api::FrontOptions front = MakeFrontOptions(c, api_for_front);
   const int threads = c.threads;
   api::FrontServer server(front);
   options.front = &server.Stats();
@@ -399,46 +494,10 @@ int Serve(const std::vector<std::string>& args) {
   api::Api api(store, evaluator, options, &jobs);
   api.Register(server);
   api_for_front = &api;
-  // The character-creator page at /.
-  for (size_t i = 0; i < web::kAssetCount; ++i) {
-    const web::Asset& asset = web::kAssets[i];
-    const std::string path = asset.path;
-    const char* type = path.ends_with(".html") ? "text/html; charset=utf-8"
-                       : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
-                       : path.ends_with(".css") ? "text/css; charset=utf-8"
-                                                : "image/svg+xml";
-    auto handler = [&asset, type](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Cache-Control", "no-cache");
-      res.set_header("Content-Security-Policy",
-                     "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; connect-src *; style-src 'self'; script-src 'self'");
-      res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
-    };
-    server.Get(path, handler);
-    if (path == "/index.html") server.Get("/", handler);
-  }
+  ServePage(server);
 
-  // cpp-httplib's own socket options set SO_REUSEPORT, with which a second server on the same
-  // port starts without a word and takes half the connections. SO_REUSEADDR alone still lets a
-  // restart bind over connections in TIME_WAIT.
-  int listening = -1;
-  server.set_socket_options([&listening](int fd) {
-    const int yes = 1;
-    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-    listening = fd;  // The last socket tried is the one bound.
-  });
-  const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);
-  if (port < 0) {
-    std::fprintf(stderr, "facespace: cannot listen on %s:%d (in use, or not an address of this machine)\n", c.host.c_str(), c.port);
-    return 1;
-  }
-  // cpp-httplib listens with a backlog of 5. When 64 clients connect at once while the cores are
-  // busy (renders in flight), the kernel drops the SYNs beyond it and the clients wait for their
-  // retransmission, 1 s and then 3 s later: that was the load test's latency tail and its
-  // time-outs. Listening again on a bound socket only changes the backlog (capped by
-  // net.core.somaxconn).
-  if (listening < 0 || ::listen(listening, SOMAXCONN) != 0) {
-    std::fprintf(stderr, "facespace: warning: cannot raise the listen backlog; bursts of connections may wait\n");
-  }
+  const int port = Bind(server, c);
+  if (port < 0) return 1;
   std::string from = store_dir;
   for (const std::string& r : read_only) from += " and " + r + " (read-only)";
   std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(), from.c_str(),
@@ -458,26 +517,7 @@ int Serve(const std::vector<std::string>& args) {
     }
   });
 
-  std::atomic<bool> signalled{false};
-  std::thread waiter([&server, &signalled, signals, drain = c.drain] {
-    int sig = 0;
-    sigwait(&signals, &sig);
-    if (!signalled.exchange(true)) {
-      std::fprintf(stderr, "facespace: %s received, stopping the requests in flight (at most %g s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM", drain);
-      // The drain is bounded: work that does not stop in time is left (files are written whole, so
-      // nothing is half-stored) and the process exits as a stopped one does.
-      std::thread([drain] {
-        std::this_thread::sleep_for(std::chrono::duration<double>(drain));
-        std::fprintf(stderr, "facespace: still draining after %g s (--drain): exiting\n", drain);
-        std::fflush(stderr);
-        std::_Exit(0);
-      }).detach();
-    }
-    server.stop();
-  });
-  const bool ok = server.listen_after_bind();
-  if (!signalled.exchange(true)) pthread_kill(waiter.native_handle(), SIGTERM);  // Wake the waiter.
-  waiter.join();
+  const bool ok = ListenUntilSignalled(server, signals, c.drain);
   {
     std::lock_guard<std::mutex> lock(poll_mu);
     poll_stop = true;

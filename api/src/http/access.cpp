@@ -81,7 +81,7 @@ bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Resp
   if (cors) {
     res.set_header("Access-Control-Allow-Origin", origin);
     res.set_header("Vary", "Origin");
-    res.set_header("Access-Control-Expose-Headers", "Facespace-Weight-Sum, Facespace-Warnings, ETag, Location, Server-Timing");
+    res.set_header("Access-Control-Expose-Headers", "Facespace-Weight-Sum, Facespace-Warnings, Facespace-Cost, ETag, Location, Server-Timing");
     res.set_header("Timing-Allow-Origin", origin);  // The browser's performance API sees Server-Timing too.
   }
   // GET and HEAD carry no body: cpp-httplib routes them (405 and 404 included) at no extra cost.
