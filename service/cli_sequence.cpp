@@ -485,14 +485,14 @@ int Speak(const std::vector<std::string>& args) {
   }
   PrintWarnings(api::SpeechWarnings(plan.value()));
   const api::SpeechRequest& r = request.value();
-  if (format == "json") return WriteOutput(out, api::SpeechJson(stored->rig, plan.value(), r.fps)) ? 0 : 1;
-  if (format == "wav") return WriteOutput(out, speech::WriteWav(plan->audio)) ? 0 : 1;
+  if (r.format == api::FrameFormat::kJson) return WriteOutput(out, api::SpeechJson(stored->rig, plan.value(), r.fps)) ? 0 : 1;
+  if (r.format == api::FrameFormat::kWav) return WriteOutput(out, speech::WriteWav(plan->audio)) ? 0 : 1;
   const size_t frames = api::FrameCount(plan->sequence, r.fps);
   Progress progress(frames);
   render::OsMesaRenderer renderer;
   api::Evaluator evaluator(renderer);
   api::Workspace ws;
-  if (format == "webm") {
+  if (r.format == api::FrameFormat::kWebm) {
     auto video = api::SpeechVideo(evaluator, stored, plan.value(), r, ws, [&progress](size_t i) { progress.Step(i + 1); });
     return WriteResult(out, video);
   }

@@ -105,13 +105,13 @@ Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate
     c.formula = "about " + Seconds(seconds) + " s of speech";
   }
   const size_t frames = static_cast<size_t>(std::ceil(seconds * std::max(1.0f, r.fps))) + 1;
-  if (r.format == "webm") {
+  if (r.format == FrameFormat::kWebm) {
     const double pixels = static_cast<double>(std::max(0, r.render.render.width)) * std::max(0, r.render.render.height);
     c.seconds += static_cast<double>(frames) * (ImageSeconds(r.render.render, rig) + kPerVideoPixel * pixels);
     c.field = r.render.render.supersample > 1 ? "/supersample" : "/fps";
     c.formula += ", " + Amount(static_cast<double>(frames)) + " video frames x " + Amount(Samples(r.render.render)) + " samples";
-  } else if (r.format != "json" && r.format != "wav") {
-    c.seconds += FramesCost(rig, frames, seconds, r.format == "f32", "/fps").seconds;
+  } else if (r.format != FrameFormat::kJson && r.format != FrameFormat::kWav) {
+    c.seconds += FramesCost(rig, frames, seconds, r.format == FrameFormat::kF32, "/fps").seconds;
     c.formula += ", " + Amount(static_cast<double>(frames)) + " frames";
   }
   c.seconds += kPerRequest;

@@ -46,7 +46,7 @@ bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Re
 // A sequence's frames streamed as the client reads them (ndjson, weights or f32); 422 for another format
 // or more frames than --max-frames.
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,
-                        std::shared_ptr<const Sequence> seq, float fps, const std::string& format, const BlendOptions& options);
+                        std::shared_ptr<const Sequence> seq, float fps, FrameFormat format, const BlendOptions& options);
 // routes/speech.cpp
 void PostSpeech(ServerState&, const httplib::Request&, httplib::Response&);
 void GetVoices(ServerState&, const httplib::Request&, httplib::Response&);

@@ -32,15 +32,16 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   Sequence seq;
   if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
-  // Physics is simulated from the first key to the latest time asked for.
-  const double span = static_cast<double>(*std::max_element(r.times.begin(), r.times.end())) - seq.keys.front().time;
-  if (!WithinBudget(ctx, req, res, FramesCost(stored->rig, r.times.size(), span, r.format != "weights", "/times"))) return;
-  std::vector<Warning> warnings;
-  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
-  if (!r.format.empty() && r.format != "json" && r.format != "weights") {
+  const FrameFormat format = r.format.value_or(FrameFormat::kJson);
+  if (format != FrameFormat::kJson && format != FrameFormat::kWeights) {
     return SendProblem(req, res, 422, "invalid-request", "/format: sample as json (meshes) or weights (no meshes)", {{"/format", "must be json or weights"}});
   }
-  auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws, ctx.options.max_response, r.format == "weights");
+  // Physics is simulated from the first key to the latest time asked for.
+  const double span = static_cast<double>(*std::max_element(r.times.begin(), r.times.end())) - seq.keys.front().time;
+  if (!WithinBudget(ctx, req, res, FramesCost(stored->rig, r.times.size(), span, format != FrameFormat::kWeights, "/times"))) return;
+  std::vector<Warning> warnings;
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
+  auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws, ctx.options.max_response, format == FrameFormat::kWeights);
   if (!body.ok()) return SendStatus(req, res, body.status());
   ctx.metrics.CountBlends(r.times.size());
   if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
@@ -60,8 +61,8 @@ bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Re
 }
 
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,
-                        std::shared_ptr<const Sequence> seq, float fps, const std::string& format, const BlendOptions& options) {
-  if (format != "ndjson" && format != "f32" && format != "weights") {
+                        std::shared_ptr<const Sequence> seq, float fps, FrameFormat format, const BlendOptions& options) {
+  if (format != FrameFormat::kNdjson && format != FrameFormat::kF32 && format != FrameFormat::kWeights) {
     SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson (weights, as \"weights\") or f32", {{"/format", "must be ndjson, weights or f32"}});
     return;
   }
@@ -69,7 +70,7 @@ void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   if (!WithinFrameLimit(ctx, req, res, frames, "stream", "the keys'")) return;
   res.set_header("Facespace-Frames", std::to_string(frames));
   res.set_header("Cache-Control", "no-store");
-  const bool f32 = format == "f32";
+  const bool f32 = format == FrameFormat::kF32;
   // One frame per call, computed as the client reads: a client that closes stops the work.
   auto next = std::make_shared<size_t>(0);
   auto physics = std::make_shared<SequencePhysics>(stored->rig, *seq);  // Carried from frame to frame.
@@ -94,10 +95,10 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   SequenceRequest r;
   auto seq = std::make_shared<Sequence>();
   if (!stored || !ReadSequence(req, res, stored->rig, r, *seq)) return;
-  const std::string format = r.format.empty() ? "ndjson" : r.format;
+  const FrameFormat format = r.format.value_or(FrameFormat::kNdjson);
   const size_t frames = FrameCount(*seq, r.fps);
   if (!WithinFrameLimit(ctx, req, res, frames, "stream", "the keys'") ||
-      !WithinBudget(ctx, req, res, FramesCost(stored->rig, frames, Duration(*seq), format == "f32", "/fps"))) {
+      !WithinBudget(ctx, req, res, FramesCost(stored->rig, frames, Duration(*seq), format == FrameFormat::kF32, "/fps"))) {
     return;
   }
   SendSequenceStream(ctx, req, res, stored, seq, r.fps, format, r.options);

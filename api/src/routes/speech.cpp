@@ -81,7 +81,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
     return;
   }
   const render::RenderOptions& size = r.render.render;
-  if (r.format == "webm" && static_cast<long long>(size.width) * size.height > ctx.options.max_video_pixels) {
+  if (r.format == FrameFormat::kWebm && static_cast<long long>(size.width) * size.height > ctx.options.max_video_pixels) {
     return SendProblem(req, res, 422, "invalid-request", "/width: a video is at most " + std::to_string(ctx.options.max_video_pixels) + " pixels (1920 x 1080)",
                        {{"/width", "width x height at most " + std::to_string(ctx.options.max_video_pixels)}});
   }
@@ -90,13 +90,13 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   if (const std::vector<Warning> warnings = SpeechWarnings(plan.value()); !warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
-  if (r.format == "json") {
+  if (r.format == FrameFormat::kJson) {
     res.status = 200;
     res.set_content(SpeechJson(stored->rig, plan.value(), r.fps, r.with_audio), "application/json");
-  } else if (r.format == "wav") {
+  } else if (r.format == FrameFormat::kWav) {
     res.status = 200;
     res.set_content(speech::WriteWav(plan->audio), "audio/wav");
-  } else if (r.format == "webm") {
+  } else if (r.format == FrameFormat::kWebm) {
     SendSpeechVideo(ctx, req, res, stored, plan.value(), r);
   } else {
     auto seq = std::make_shared<const Sequence>(std::move(plan->sequence));

@@ -120,10 +120,12 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     } else if (key == "fps") {
       number(v, ptr, &r.fps, 0.1, 1000);
     } else if (key == "format") {
-      if (!v.is_string() || (v != "json" && v != "weights" && v != "ndjson" && v != "f32")) {
+      FrameFormat f;
+      if (!v.is_string() || !ParseEnum(kFrameFormats, v.get<std::string>(), &f) || f == FrameFormat::kWav || f == FrameFormat::kWebm) {
         errors.fields.push_back({ptr, "must be json or weights (sample), ndjson or f32 (stream)"});
+      } else {
+        r.format = f;
       }
-      else r.format = v.get<std::string>();
     } else if (key == "tolerance") {
       number(v, ptr, &r.tolerance, 0, 1e9);
       r.has_tolerance = true;

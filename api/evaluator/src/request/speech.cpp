@@ -15,7 +15,6 @@ constexpr std::string_view kSpeechMembers[] = {"text", "audio", "transcript", "v
                                                "width", "height", "camera", "view", "background", "supersample", "exposure"};
 constexpr BodyLimits kSpeechBody{100000};
 
-constexpr std::string_view kFormats[] = {"json", "ndjson", "f32", "weights", "wav", "webm"};
 
 // RFC 4648 base64 (padding optional, whitespace skipped); false on any other byte.
 bool DecodeBase64(std::string_view in, std::string& out) {
@@ -64,10 +63,8 @@ bool SpeechMember(const std::string& key, const json& v, SpeechRequest& r, Statu
     if (!Number(v, 0, 2, &d)) errors.fields.push_back({ptr, "must be a number in [0, 2] (1: the visemes as mapped)"});
     else r.strength = static_cast<float>(d);
   } else if (key == "format") {
-    if (!v.is_string() || std::find(std::begin(kFormats), std::end(kFormats), v.get<std::string>()) == std::end(kFormats)) {
+    if (!v.is_string() || !ParseEnum(kFrameFormats, v.get<std::string>(), &r.format)) {
       errors.fields.push_back({ptr, "must be json, ndjson, f32, weights, wav or webm"});
-    } else {
-      r.format = v.get<std::string>();
     }
   } else if (key == "with_audio") {
     if (!v.is_boolean() && !(v.is_string() && (v == "true" || v == "false"))) errors.fields.push_back({ptr, "must be true or false"});

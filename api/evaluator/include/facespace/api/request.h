@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/enum_table.h"
 #include "facespace/core/fit.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/sequence.h"
@@ -97,6 +98,15 @@ std::string GazeShortForm(const std::string& value);
 // Checks the skeleton settings gathered by ApplyPoseSetting (time without animation, ...).
 std::string FinishPoseSettings(MeshRequest& r);
 
+// How a sequence's or a speech's frames are answered: a closed set, named in one table. Sample: json (meshes)
+// or weights; stream: ndjson, weights (ndjson without meshes) or f32; speech adds wav (the audio) and webm
+// (a video). Which a route takes, it says (FrameFormatsOf).
+enum class FrameFormat { kJson, kWeights, kNdjson, kF32, kWav, kWebm };
+inline constexpr EnumName<FrameFormat> kFrameFormats[] = {{FrameFormat::kJson, "json"},     {FrameFormat::kWeights, "weights"},
+                                                          {FrameFormat::kNdjson, "ndjson"}, {FrameFormat::kF32, "f32"},
+                                                          {FrameFormat::kWav, "wav"},       {FrameFormat::kWebm, "webm"}};
+inline const char* Name(FrameFormat f) { return EnumEntry(kFrameFormats, f).name; }
+
 // Bodies of POST /v1/rigs/{id}/sequence/{sample,stream,reduce}:
 // {"keys": [{"time": 0, "weights": {...}|[...]} | {"time": 1, "shape": "jawOpen"}, ...],
 //  "transition": "smoothstep"|..., "smooth": bool (Catmull-Rom), per key "transition" too,
@@ -116,7 +126,7 @@ struct SequenceRequest {
   bool smooth = false;
   std::vector<float> times;
   float fps = 30.0f;
-  std::string format;
+  std::optional<FrameFormat> format;          // None: the route's own (sample: json, stream: ndjson).
   float tolerance = 0.0f;
   bool has_tolerance = false;
   ClipRequest clip;                         // "motion" or "animation" instead of keys (pointer empty: none).
@@ -155,7 +165,7 @@ struct SpeechRequest {
   int rate = 175;
   float fps = 30.0f;
   float strength = 1.0f;
-  std::string format = "json";
+  FrameFormat format = FrameFormat::kJson;
   bool with_audio = false;         // json: the audio too, as a base64 WAV ("audio_wav"), for a page to play in sync.
   RenderRequest render;            // The face under the speech, the video's camera and size.
   std::vector<GazeKey> gaze;
