@@ -17,6 +17,7 @@
 
 #include "facespace/api/http.h"
 #include "facespace/api/evaluator.h"
+#include "loopback.h"
 #include "memory_store.h"
 #include "test_util.h"
 
@@ -62,15 +63,9 @@ class ApiTest : public ::testing::Test {
   // body), then what the server answers within 3 s is read (a server that waits for a body that
   // never comes answers nothing in that time). `then`, when set, is sent after the first answer.
   static std::string Raw(const std::string& request, std::string* second = nullptr, const std::string& then = {}) {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<uint16_t>(port_));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    timeval timeout{3, 0};
-    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    const int fd = test::ConnectLoopback(port_, 3);
     std::string out;
-    if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 && send(fd, request.data(), request.size(), 0) > 0) {
+    if (fd >= 0 && send(fd, request.data(), request.size(), 0) > 0) {
       out = ReadAnswer(fd);
       if (second && send(fd, then.data(), then.size(), MSG_NOSIGNAL) > 0) *second = ReadAnswer(fd);
     }

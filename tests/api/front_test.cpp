@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "facespace/api/front.h"
+#include "loopback.h"
 
 namespace facespace::api {
 namespace {
@@ -50,14 +51,8 @@ class Front {
   }
   // A socket with `path`'s POST sent.
   int Send(const char* path) const {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(static_cast<uint16_t>(port_));
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    timeval timeout{10, 0};
-    setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-    if (connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return -1;
+    const int fd = test::ConnectLoopback(port_, 10);
+    if (fd < 0) return -1;
     const std::string request = std::string("POST ") + path + " HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n";
     send(fd, request.data(), request.size(), MSG_NOSIGNAL);
     return fd;

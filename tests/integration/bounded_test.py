@@ -30,7 +30,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from suite import Server as ServeProcess, check, counts, no, request  # noqa: E402
+from suite import Server as ServeProcess, check, counts, no, probe_p99, request  # noqa: E402
 
 BIN, SRC, FIGURES = sys.argv[1:4]
 SANITIZED = len(sys.argv) > 4 and sys.argv[4] in ("1", "ON", "on", "sanitized")
@@ -59,20 +59,6 @@ def problem(body):
         return d.get("type", "").rsplit(":", 1)[-1], [e.get("pointer", e.get("parameter", "")) for e in d.get("errors", [])]
     except ValueError:
         return "", []
-
-
-def probe_p99(url, n=40):
-    times = []
-    for i in range(n):
-        t = time.time()
-        try:
-            urllib.request.urlopen(url + ("/healthz" if i % 2 else "/v1/rigs"), timeout=5).read()
-            times.append(time.time() - t)
-        except OSError:
-            times.append(99.0)
-        time.sleep(0.05)
-    times.sort()
-    return times[min(len(times) - 1, int(0.99 * len(times)))], times[len(times) // 2]
 
 
 def refused_at_once(srv, name, method, path, body, expect_type, field=None, headers=None, status=422):
@@ -174,11 +160,11 @@ def main():
         threads.append(t)
         socks.append(stream_socket(srv.port, "127.0.0.2", rcvbuf=4096))
     time.sleep(1.0)
-    p99, p50 = probe_p99(U)
+    p99, p50 = probe_p99(U, 40, ("/v1/rigs", "/healthz"), 0.05)
     metrics = request(U + "/metrics")[2].decode()
     waited = next((int(l.split()[1]) for l in metrics.splitlines() if l.startswith("facespace_requests_waited_turn_total ")), -1)
     time.sleep(11.0)  # The never-readers' stall time (10 s) passes: their answers are ended.
-    p99_late, _ = probe_p99(U, 20)
+    p99_late, _ = probe_p99(U, 20, ("/v1/rigs", "/healthz"), 0.05)
     metrics = request(U + "/metrics")[2].decode()
     slow = next((int(l.split()[1]) for l in metrics.splitlines() if l.startswith("facespace_responses_slow_reader_total ")), -1)
     stop.set()

@@ -21,7 +21,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from suite import Server as ServeProcess, check, counts, request  # noqa: E402
+from suite import Server as ServeProcess, check, counts, probe_p99, request  # noqa: E402
 
 BIN, SHARED, SRC, FIGURES = sys.argv[1:5]
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] in ("1", "ON", "on", "sanitized")
@@ -71,20 +71,6 @@ def attack(srv, name, expect, fn):
     check(f"{name}: {status} in {seconds * 1000:.0f} ms (expected {expect} within {ANSWER_S:.0f} s), RSS {before:.0f} -> {after:.0f} MB"
           f" (peak seen {after_peak:.0f}){', ' + note if note else ''}; server alive",
           status == expect and seconds <= ANSWER_S and rss_ok and alive)
-
-
-def probe_p99(url, n=40):
-    times = []
-    for _ in range(n):
-        t = time.time()
-        try:
-            urllib.request.urlopen(url + "/healthz", timeout=5).read()
-            times.append(time.time() - t)
-        except OSError:
-            times.append(99.0)
-        time.sleep(0.02)
-    times.sort()
-    return times[min(len(times) - 1, int(0.99 * len(times)))], times[len(times) // 2]
 
 
 def slow_sockets(port, count, sources):

@@ -16,10 +16,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, cons
     if (!audio.ok()) return audio.status();
     plan.audio = std::move(audio.value());
     if (plan.audio.samples.empty()) return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
-    speech::RecognizeOptions options;
-    options.transcript = request.transcript;
-    options.stop = stop;
-    auto heard = speech::Recognize(plan.audio, options);
+    auto heard = speech::Recognize(plan.audio, {.transcript = request.transcript, .stop = stop});
     if (!heard.ok()) return heard.status();
     plan.phonemes = std::move(heard->phonemes);
     plan.warnings = std::move(heard->warnings);
@@ -28,11 +25,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, cons
                          std::none_of(plan.warnings.begin(), plan.warnings.end(), [](const Warning& w) { return w.code == "transcript_not_aligned"; });
     plan.source = aligned ? "pocketsphinx-aligned" : "pocketsphinx";
   } else {
-    speech::SynthOptions options;
-    options.voice = request.voice;
-    options.rate = request.rate;
-    options.stop = stop;
-    auto spoken = speech::Synthesize(request.text, options);
+    auto spoken = speech::Synthesize(request.text, {.voice = request.voice, .rate = request.rate, .stop = stop});
     if (!spoken.ok()) return spoken.status();
     plan.audio = std::move(spoken->audio);
     plan.phonemes = std::move(spoken->phonemes);

@@ -1,4 +1,6 @@
 // The service's own routes: liveness, readiness, metrics, the OpenAPI document.
+#include <tuple>
+
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -23,19 +25,25 @@ std::string MetricsText(ServerState& ctx) {
   gauge("facespace_render_memory_in_flight_bytes", "gauge", "Estimated working memory of the renders in flight (--render-memory-mb).",
         ctx.render_budget.InFlight());
   if (const FrontStats* f = ctx.options.front) {
-    gauge("facespace_connections_open", "gauge", "Connections open (--max-connections).", f->open);
-    gauge("facespace_connections_refused_total", "counter", "Connections refused with 503 for the caps.", f->refused_total);
-    gauge("facespace_connections_refused_client_total", "counter", "... of them for --max-client-connections.", f->refused_client);
-    gauge("facespace_requests_timed_out_total", "counter", "Requests not whole within --read-timeout (408).", f->timed_out);
-    gauge("facespace_requests_bad_framing_total", "counter", "Requests refused for their framing (400, 414, 431, 501, 505).", f->bad_framing);
-    gauge("facespace_requests_over_body_budget_total", "counter", "Bodies refused for --body-budget-mb (503).", f->over_budget);
-    gauge("facespace_request_body_bytes", "gauge", "Request bytes held by the front (--body-budget-mb).", f->body_bytes);
-    gauge("facespace_requests_in_flight", "gauge", "Requests running on workers now.", f->in_flight);
-    gauge("facespace_requests_waited_turn_total", "counter", "Requests that waited for their address's turn (--max-client-requests).", f->waited_turn);
-    gauge("facespace_requests_client_gone_total", "counter", "Requests stopped because their client hung up.", f->client_gone);
-    gauge("facespace_requests_past_deadline_total", "counter", "Requests stopped at their deadline (--request-deadline, --keyed-deadline).", f->past_deadline);
-    gauge("facespace_requests_over_cpu_total", "counter", "Requests stopped for the CPU their worker spent (twice their budget and 1 s).", f->over_cpu);
-    gauge("facespace_responses_slow_reader_total", "counter", "Answers ended for a client reading slower than --min-send-rate, or not at all.", f->slow_readers);
+    const std::tuple<const char*, const char*, const char*, const std::atomic<size_t>&> front[] = {
+        // Connections and what the front refused from their heads.
+        {"facespace_connections_open", "gauge", "Connections open (--max-connections).", f->open},
+        {"facespace_connections_refused_total", "counter", "Connections refused with 503 for the caps.", f->refused_total},
+        {"facespace_connections_refused_client_total", "counter", "... of them for --max-client-connections.", f->refused_client},
+        // Requests that never reached a worker, and the bodies held meanwhile.
+        {"facespace_requests_timed_out_total", "counter", "Requests not whole within --read-timeout (408).", f->timed_out},
+        {"facespace_requests_bad_framing_total", "counter", "Requests refused for their framing (400, 414, 431, 501, 505).", f->bad_framing},
+        {"facespace_requests_over_body_budget_total", "counter", "Bodies refused for --body-budget-mb (503).", f->over_budget},
+        {"facespace_request_body_bytes", "gauge", "Request bytes held by the front (--body-budget-mb).", f->body_bytes},
+        // Requests on workers, and the turns of one address.
+        {"facespace_requests_in_flight", "gauge", "Requests running on workers now.", f->in_flight},
+        {"facespace_requests_waited_turn_total", "counter", "Requests that waited for their address's turn (--max-client-requests).", f->waited_turn},
+        // Work stopped before its end (issue 48): its client gone, its deadline, its CPU, a reader too slow.
+        {"facespace_requests_client_gone_total", "counter", "Requests stopped because their client hung up.", f->client_gone},
+        {"facespace_requests_past_deadline_total", "counter", "Requests stopped at their deadline (--request-deadline, --keyed-deadline).", f->past_deadline},
+        {"facespace_requests_over_cpu_total", "counter", "Requests stopped for the CPU their worker spent (twice their budget and 1 s).", f->over_cpu},
+        {"facespace_responses_slow_reader_total", "counter", "Answers ended for a client reading slower than --min-send-rate, or not at all.", f->slow_readers}};
+    for (const auto& [name, type, help, value] : front) gauge(name, type, help, value.load());
   }
   return out;
 }

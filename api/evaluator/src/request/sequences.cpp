@@ -120,12 +120,9 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     } else if (key == "fps") {
       number(v, ptr, &r.fps, 0.1, 1000);
     } else if (key == "format") {
-      FrameFormat f;
-      if (!v.is_string() || !ParseEnum(kFrameFormats, v.get<std::string>(), &f) || f == FrameFormat::kWav || f == FrameFormat::kWebm) {
-        errors.fields.push_back({ptr, "must be json or weights (sample), ndjson or f32 (stream)"});
-      } else {
-        r.format = f;
-      }
+      FrameFormat f;  // Not wav or webm: those are speech's.
+      if (v.is_string() && ParseEnum(kFrameFormats, v.get<std::string>(), &f) && f != FrameFormat::kWav && f != FrameFormat::kWebm) r.format = f;
+      else errors.fields.push_back({ptr, "must be json or weights (sample), ndjson or f32 (stream)"});
     } else if (key == "tolerance") {
       number(v, ptr, &r.tolerance, 0, 1e9);
       r.has_tolerance = true;
