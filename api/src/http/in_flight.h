@@ -203,7 +203,8 @@ class Watchdog {
       const int n = epoll_wait(epoll_, events, 64, 100);
       std::lock_guard<std::mutex> lock(mu_);
       for (int i = 0; i < n; ++i) {
-        auto it = entries_.find(events[i].data.u64);
+        const uint64_t serial = events[i].data.u64;  // A copy: epoll_event is packed, its u64 misaligned.
+        auto it = entries_.find(serial);
         if (it == entries_.end() || it->second->source.stop_requested()) continue;
         it->second->source.request_stop();
         ++stats_.client_gone;
