@@ -412,7 +412,7 @@ def walk_routes(srv, doc, rest):
         st, sec, b, h = request(url, method, body, AUTH)
         figures.append((f"{method} {path}, its largest request (work not cancelled: bounded)", st, sec, srv.cpu() - c0, srv.rss()))
         check(f"{method} {path}: its largest request is done in {sec * 1000:.0f} ms ({st}, Facespace-Cost {h.get('Facespace-Cost')}): "
-              f"nothing to cancel past a second", st == 200 and sec <= (10.0 if SANITIZED else 1.0))
+              f"nothing to cancel past a second", st == 200 and sec <= (30.0 if SANITIZED else 1.0))  # ASan: about 10x, and a test beside it
 
 
 if __name__ == "__main__":
