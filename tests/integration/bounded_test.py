@@ -307,9 +307,13 @@ def wav_bytes(rate, seconds):
         b"data" + struct.pack("<I", len(samples)) + samples
 
 
-def gone(srv):
+def metric(srv, name):
     metrics = request(srv.url + "/metrics")[2].decode()
-    return next((int(l.split()[1]) for l in metrics.splitlines() if l.startswith("facespace_requests_client_gone_total ")), -1)
+    return next((int(l.split()[1]) for l in metrics.splitlines() if l.startswith(name + " ")), -1)
+
+
+def gone(srv):
+    return metric(srv, "facespace_requests_client_gone_total")
 
 
 def leave(srv, name, path, body, after=0.1, method="POST", headers=None):
@@ -319,6 +323,12 @@ def leave(srv, name, path, body, after=0.1, method="POST", headers=None):
     s.connect(("127.0.0.1", srv.port))
     c0 = srv.cpu()
     s.sendall(http_bytes(srv.port, method, path, body, {"Content-Type": "application/json", **AUTH, **(headers or {})}))
+    # Left once it runs (on a loaded machine a request may wait for its body's parse or a worker): the
+    # /metrics probe itself is one request in flight, so more than one means ours.
+    end = time.time() + 20
+    while metric(srv, "facespace_requests_in_flight") < 2 and time.time() < end:
+        time.sleep(0.02)
+    running = time.time() < end
     time.sleep(after)
     working = srv.cpu() - c0
     s.close()
@@ -328,9 +338,9 @@ def leave(srv, name, path, body, after=0.1, method="POST", headers=None):
     idle = srv.cpu() - c1
     stopped = gone(srv) - before
     figures.append((name, f"CPU {idle:.2f} s in the second after", after, working, srv.rss()))
-    # It ran (its CPU, or the server saw its client go: a stream whose write failed first ends without the watchdog).
-    check(f"{name}: {working:.2f} s of CPU while it ran, {idle:.2f} s from 1 s to 2 s after the client left; stopped for it: {stopped}",
-          (stopped == 1 or working >= 0.02) and idle <= 0.15)
+    # It was running when left; the server saw its client go, or (a stream whose write failed first) it ended without the watchdog.
+    check(f"{name}: running when left, {working:.2f} s of CPU until then, {idle:.2f} s from 1 s to 2 s after the client left; "
+          f"stopped by the watchdog: {stopped}", running and idle <= 0.15)
     return idle
 
 
@@ -410,9 +420,11 @@ def walk_routes(srv, doc, rest):
         url = U + path.replace("{id}", "makehuman" if path.endswith("/fit") else "facecap")
         c0 = srv.cpu()
         st, sec, b, h = request(url, method, body, AUTH)
-        figures.append((f"{method} {path}, its largest request (work not cancelled: bounded)", st, sec, srv.cpu() - c0, srv.rss()))
-        check(f"{method} {path}: its largest request is done in {sec * 1000:.0f} ms ({st}, Facespace-Cost {h.get('Facespace-Cost')}): "
-              f"nothing to cancel past a second", st == 200 and sec <= (30.0 if SANITIZED else 1.0))  # ASan: about 10x, and a test beside it
+        cpu = srv.cpu() - c0
+        figures.append((f"{method} {path}, its largest request (work not cancelled: bounded)", st, sec, cpu, srv.rss()))
+        # Its CPU, not its time (a loaded machine stretches the time): at most a second of it, so nothing to stop.
+        check(f"{method} {path}: its largest request costs {cpu:.2f} s of CPU in {sec * 1000:.0f} ms ({st}, Facespace-Cost {h.get('Facespace-Cost')}): "
+              f"nothing to cancel past a second", st == 200 and cpu <= (15.0 if SANITIZED else 1.0))  # ASan: about 10x
 
 
 if __name__ == "__main__":
