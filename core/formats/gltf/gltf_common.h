@@ -27,6 +27,13 @@ constexpr size_t kMaxElements = size_t{1} << 28;  // Per accessor; far beyond an
 // Whether the JSON array `key` of `j` holds the string `value`.
 bool ListHas(const nlohmann::json& j, const char* key, const std::string& value);
 
+// Refuses buffers and images that point outside the file (anything but a data: URI).
+Status CheckEmbedded(const nlohmann::json& j);
+
+// Refuses an image whose bufferView runs past its buffer (tinygltf hands the image loader bytes
+// beyond the buffer's end for one: a heap overflow the fuzzer found).
+Status CheckImageViews(const nlohmann::json& j);
+
 // Splits a GLB into its JSON text and binary chunk, checking every length.
 Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
                 std::span<const unsigned char>& bin);

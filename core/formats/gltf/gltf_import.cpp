@@ -599,24 +599,6 @@ const char* kSupportedRequired[] = {"KHR_mesh_quantization", "EXT_meshopt_compre
                                     "KHR_texture_transform", "KHR_materials_unlit", "EXT_texture_webp",
                                     "KHR_materials_emissive_strength"};
 
-// Refuses buffers and images that point outside the file (anything but a data: URI).
-Status CheckEmbedded(const json& j) {
-  for (const char* list : {"buffers", "images"}) {
-    auto it = j.find(list);
-    if (it == j.end() || !it->is_array()) continue;
-    for (const json& e : *it) {
-      if (!e.is_object() || !e.contains("uri")) continue;
-      if (!e["uri"].is_string()) return InvalidArgument(std::string(list) + ": uri must be a string");
-      const std::string uri = e["uri"].get<std::string>();
-      if (uri.rfind("data:", 0) != 0) {
-        return InvalidArgument("external file '" + uri.substr(0, 200) +
-                               "' refused: uploaded glTF must embed its buffers and images (.glb or data: URIs)");
-      }
-    }
-  }
-  return Status::Ok();
-}
-
 }  // namespace
 
 Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::string& base_dir,
@@ -630,20 +612,16 @@ Result<Rig> LoadGltfMemory(std::span<const unsigned char> bytes, const std::stri
     if (Status s = SplitGlb(bytes, text, bin); !s.ok() || !(s = CheckJsonDepth(text, "glb")).ok()) return s;
     if (Status s = DecodeMeshoptGlb(bytes, decoded); !s.ok()) return s;
     if (!decoded.empty()) bytes = decoded;
-    if (!options.allow_external_files) {
-      // Meshopt's decoding wrote a new JSON chunk.
-      if (Status s = decoded.empty() ? Status::Ok() : SplitGlb(bytes, text, bin); !s.ok()) return s;
-      json j = json::parse(text, nullptr, false);
-      if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
-      if (Status s = CheckEmbedded(j); !s.ok()) return s;
-    }
+    // Meshopt's decoding wrote a new JSON chunk.
+    if (Status s = decoded.empty() ? Status::Ok() : SplitGlb(bytes, text, bin); !s.ok()) return s;
+    json j = json::parse(text, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) return InvalidArgument("glb: JSON chunk is not valid JSON");
+    if (Status s = options.allow_external_files ? Status::Ok() : CheckEmbedded(j); !s.ok() || !(s = CheckImageViews(j)).ok()) return s;
   } else {
     if (Status s = CheckJsonDepth({reinterpret_cast<const char*>(bytes.data()), bytes.size()}, "glTF"); !s.ok()) return s;
     json j = json::parse(bytes.begin(), bytes.end(), nullptr, false);
     if (j.is_discarded() || !j.is_object()) return InvalidArgument("not a glTF file: neither glb nor valid JSON");
-    if (!options.allow_external_files) {
-      if (Status s = CheckEmbedded(j); !s.ok()) return s;
-    }
+    if (Status s = options.allow_external_files ? Status::Ok() : CheckEmbedded(j); !s.ok() || !(s = CheckImageViews(j)).ok()) return s;
     if (ListHas(j, "extensionsUsed", "EXT_meshopt_compression")) {
       return InvalidArgument("EXT_meshopt_compression is read from .glb files only; pack this file as .glb");
     }
