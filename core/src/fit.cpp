@@ -29,9 +29,9 @@ void Project(Eigen::VectorXd& w, const Eigen::VectorXd& lo, const Eigen::VectorX
   w = clamp(b);
 }
 
-}  // namespace
-
-Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>> target, const FitOptions& options) {
+// The target fits the rig (its primitives and vertices, finite) and the rig can be fitted (no skin): its
+// coordinates' count, or the error.
+Result<size_t> CheckTarget(const Rig& rig, std::span<const std::vector<float>> target) {
   if (target.size() != rig.primitives.size()) {
     return InvalidArgument("the target has " + std::to_string(target.size()) + " primitives, the rig " +
                            std::to_string(rig.primitives.size()));
@@ -50,6 +50,33 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
   for (const Mesh& m : rig.meshes) {
     if (m.skin >= 0) return FailedPrecondition("fitting a skinned rig is not supported: give an unskinned rig");
   }
+  return rows;
+}
+
+// D: every primitive's sparse deltas stacked (3V x S).
+Eigen::MatrixXd StackedDeltas(const Rig& rig, size_t rows) {
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(rig.shapes.size()));
+  size_t row0 = 0;
+  for (const Primitive& prim : rig.primitives) {
+    const Mesh& mesh = rig.meshes[prim.mesh];
+    for (size_t t = 0; t < prim.targets.size(); ++t) {
+      const SparseTarget& st = prim.targets[t];
+      const uint32_t s = mesh.target_shapes[t];
+      for (size_t k = 0; k < st.indices.size(); ++k) {
+        for (int c = 0; c < 3; ++c) dense(row0 + 3 * st.indices[k] + c, s) += st.position_deltas[3 * k + c];
+      }
+    }
+    row0 += prim.positions.size();
+  }
+  return dense;
+}
+
+}  // namespace
+
+Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>> target, const FitOptions& options) {
+  const Result<size_t> checked = CheckTarget(rig, target);
+  if (!checked.ok()) return checked.status();
+  const size_t rows = checked.value();
   const size_t S = rig.shapes.size();
   FitResult r;
   // Stack base and target; optional rigid alignment of the target onto the base (Kabsch).
@@ -63,21 +90,7 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
       }
     }
   }
-  // D: the stacked sparse deltas (3V x S).
-  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(rows, S);
-  size_t row0 = 0;
-  for (size_t p = 0; p < rig.primitives.size(); ++p) {
-    const Primitive& prim = rig.primitives[p];
-    const Mesh& mesh = rig.meshes[prim.mesh];
-    for (size_t t = 0; t < prim.targets.size(); ++t) {
-      const SparseTarget& st = prim.targets[t];
-      const uint32_t s = mesh.target_shapes[t];
-      for (size_t k = 0; k < st.indices.size(); ++k) {
-        for (int c = 0; c < 3; ++c) dense(row0 + 3 * st.indices[k] + c, s) += st.position_deltas[3 * k + c];
-      }
-    }
-    row0 += prim.positions.size();
-  }
+  const Eigen::MatrixXd dense = StackedDeltas(rig, rows);
   Eigen::MatrixXd dtd = dense.transpose() * dense;
   for (size_t s = 0; s < S; ++s) {
     if (dtd(s, s) == 0.0) dtd(s, s) = 1.0;  // Shapes that move nothing get weight 0.
