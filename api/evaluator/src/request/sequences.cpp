@@ -19,22 +19,65 @@ namespace facespace::api {
 
 using namespace body;  // The shared readers of json_body.h.
 
+namespace {
+
+// A number of `v` in [lo, hi] into *out, or an error at `ptr`.
+void NumberMember(const json& v, const std::string& ptr, float* out, double lo, double hi, Status& errors) {
+  double d = 0;
+  if (!Number(v, lo, hi, &d)) errors.fields.push_back({ptr, "must be a number in [" + FormatNumber(lo) + ", " + FormatNumber(hi) + "]"});
+  else *out = static_cast<float>(d);
+}
+
+void TransitionMember(const json& v, const std::string& ptr, Transition* out, Status& errors) {
+  if (!v.is_string() || !ParseTransition(v.get<std::string>(), out)) {
+    errors.fields.push_back({ptr, "must be step, linear, smoothstep, smootherstep, ease-in, ease-out, ease-in-out or "
+                                  "cubic-bezier(x1, y1, x2, y2) with x1, x2 in [0, 1]"});
+  }
+}
+
+// Key k of "keys": {time, weights | shape, expressions, transition}; its errors added to `errors`.
+SequenceRequest::Key ParseKey(const json& e, size_t k, Status& errors) {
+  SequenceRequest::Key key_out;
+  key_out.pointer = "/keys/" + std::to_string(k);
+  if (!e.is_object() || !e.contains("time")) {
+    errors.fields.push_back({key_out.pointer, "needs a time"});
+    return key_out;
+  }
+  for (auto m = e.begin(); m != e.end(); ++m) {
+    const std::string mp = key_out.pointer + "/" + JsonPointerEscape(m.key());
+    if (m.key() == "time") {
+      NumberMember(*m, mp, &key_out.time, -1e9, 1e9, errors);
+    } else if (m.key() == "weights" || m.key() == "expressions") {
+      if (m.key() == "expressions" && !m->is_object()) {
+        errors.fields.push_back({mp, "must be an object of expression name -> value"});
+        continue;
+      }
+      auto w = WeightsFromJson(*m, mp);
+      if (w.ok()) (m.key() == "weights" ? key_out.weights : key_out.expressions) = std::move(w.value());
+      else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+    } else if (m.key() == "shape") {
+      if (!m->is_string()) errors.fields.push_back({mp, "must be a shape name"});
+      else key_out.shape = m->get<std::string>();
+    } else if (m.key() == "transition") {
+      Transition t;
+      TransitionMember(*m, mp, &t, errors);
+      key_out.transition = t;
+    } else {
+      errors.fields.push_back({mp, "unknown member (time, weights, shape, expressions, transition)"});
+    }
+  }
+  if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
+  return key_out;
+}
+
+}  // namespace
+
 Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
   auto j = ParseObject(body, kSequenceBody);
   if (!j.ok()) return j.status();
   SequenceRequest r;
   Status errors = InvalidArgument("");
-  auto number = [&](const json& v, const std::string& ptr, float* out, double lo, double hi) {
-    double d = 0;
-    if (!Number(v, lo, hi, &d)) errors.fields.push_back({ptr, "must be a number in [" + FormatNumber(lo) + ", " + FormatNumber(hi) + "]"});
-    else *out = static_cast<float>(d);
-  };
-  auto transition = [&](const json& v, const std::string& ptr, Transition* out) {
-    if (!v.is_string() || !ParseTransition(v.get<std::string>(), out)) {
-      errors.fields.push_back({ptr, "must be step, linear, smoothstep, smootherstep, ease-in, ease-out, ease-in-out or "
-                                    "cubic-bezier(x1, y1, x2, y2) with x1, x2 in [0, 1]"});
-    }
-  };
+  auto number = [&](const json& v, const std::string& ptr, float* out, double lo, double hi) { NumberMember(v, ptr, out, lo, hi, errors); };
   for (auto it = j->begin(); it != j->end(); ++it) {
     const std::string& key = it.key();
     const json& v = it.value();
@@ -52,44 +95,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
         errors.fields.push_back({ptr, "at most 100000 keys"});
         continue;
       }
-      for (size_t k = 0; k < v.size(); ++k) {
-        SequenceRequest::Key key_out;
-        key_out.pointer = "/keys/" + std::to_string(k);
-        const json& e = v[k];
-        if (!e.is_object() || !e.contains("time")) {
-          errors.fields.push_back({key_out.pointer, "needs a time"});
-          continue;
-        }
-        for (auto m = e.begin(); m != e.end(); ++m) {
-          const std::string mp = key_out.pointer + "/" + JsonPointerEscape(m.key());
-          if (m.key() == "time") {
-            number(*m, mp, &key_out.time, -1e9, 1e9);
-          } else if (m.key() == "weights") {
-            auto w = WeightsFromJson(*m, mp);
-            if (w.ok()) key_out.weights = std::move(w.value());
-            else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
-          } else if (m.key() == "expressions") {
-            if (!m->is_object()) {
-              errors.fields.push_back({mp, "must be an object of expression name -> value"});
-              continue;
-            }
-            auto w = WeightsFromJson(*m, mp);
-            if (w.ok()) key_out.expressions = std::move(w.value());
-            else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
-          } else if (m.key() == "shape") {
-            if (!m->is_string()) errors.fields.push_back({mp, "must be a shape name"});
-            else key_out.shape = m->get<std::string>();
-          } else if (m.key() == "transition") {
-            Transition t;
-            transition(*m, mp, &t);
-            key_out.transition = t;
-          } else {
-            errors.fields.push_back({mp, "unknown member (time, weights, shape, expressions, transition)"});
-          }
-        }
-        if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
-        r.keys.push_back(std::move(key_out));
-      }
+      for (size_t k = 0; k < v.size(); ++k) r.keys.push_back(ParseKey(v[k], k, errors));
     } else if (key == "layers") {
       PoseRequest pose;
       LayersFromJson(v, pose, errors);
@@ -100,7 +106,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
       r.blink = true;
       BlinkFromJson(v, ptr, r.blink_per_minute, r.blink_seed, errors);
     } else if (key == "transition") {
-      transition(v, ptr, &r.transition);
+      TransitionMember(v, ptr, &r.transition, errors);
     } else if (key == "smooth") {
       if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
       else r.smooth = v.get<bool>();
