@@ -69,17 +69,6 @@ std::vector<std::string> Words(std::string_view text) {
   return out;
 }
 
-size_t CountWords(std::string_view text) {
-  size_t n = 0;
-  bool in_word = false;
-  for (char c : text) {
-    const bool part = std::isalnum(static_cast<unsigned char>(c)) || c == '\'';
-    n += part && !in_word;
-    in_word = part;
-  }
-  return n;
-}
-
 std::vector<std::string> Split(const std::string& s) {
   std::istringstream in(s);
   std::vector<std::string> out;
@@ -132,6 +121,17 @@ std::pair<int, int> Loud(std::span<const int16_t> pcm) {
 }
 
 }  // namespace
+
+size_t CountWords(std::string_view text) {
+  size_t n = 0;
+  bool in_word = false;
+  for (char c : text) {
+    const bool part = std::isalnum(static_cast<unsigned char>(c)) || c == '\'';
+    n += part && !in_word;
+    in_word = part;
+  }
+  return n;
+}
 
 Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options) {
   if (input.rate <= 0) return WithReason(InvalidField("/audio", "has no sample rate"), "invalid-audio");

@@ -30,38 +30,37 @@ bool OriginAllowed(const ApiOptions& options, const std::string& origin) {
 
 }  // namespace
 
-bool CarriesKey(const ServerState& ctx, const httplib::Request& req) {
-  if (ctx.options.api_key.empty()) return false;
-  const std::string auth = req.get_header_value("Authorization");
+KeyCheck CheckKey(const ApiOptions& options, std::string_view authorization) {
+  if (options.api_key.empty()) return KeyCheck::kNoKeyConfigured;
+  if (authorization.empty()) return KeyCheck::kMissing;
   constexpr std::string_view kBearer = "Bearer ";
-  if (auth.size() <= kBearer.size() || !EqualsIgnoreCase(std::string_view(auth).substr(0, kBearer.size()), kBearer)) return false;
-  return ConstantTimeEquals(auth.substr(kBearer.size()), ctx.options.api_key);
+  if (authorization.size() < kBearer.size() || !EqualsIgnoreCase(authorization.substr(0, kBearer.size()), kBearer)) return KeyCheck::kNotBearer;
+  return ConstantTimeEquals(std::string(authorization.substr(kBearer.size())), options.api_key) ? KeyCheck::kRight : KeyCheck::kWrong;
+}
+
+bool CarriesKey(const ServerState& ctx, const httplib::Request& req) {
+  return CheckKey(ctx.options, req.get_header_value("Authorization")) == KeyCheck::kRight;
 }
 
 bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (ctx.options.api_key.empty()) {
-    SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads, deletes and batch jobs are disabled (start it with --api-key-file FILE, a file holding the key; bash .ci/dev start makes build/api-key)");
-    return false;
+  switch (CheckKey(ctx.options, req.get_header_value("Authorization"))) {
+    case KeyCheck::kRight: return true;
+    case KeyCheck::kNoKeyConfigured:
+      SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads, deletes and batch jobs are disabled (start it with --api-key-file FILE, a file holding the key; bash .ci/dev start makes build/api-key)");
+      return false;
+    case KeyCheck::kMissing:
+      res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
+      SendProblem(req, res, 401, "unauthorized", "this route needs the API key: Authorization: Bearer KEY");
+      return false;
+    case KeyCheck::kNotBearer:
+      res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
+      SendProblem(req, res, 401, "unauthorized", "the Authorization header must use the Bearer scheme");
+      return false;
+    case KeyCheck::kWrong:
+      SendProblem(req, res, 403, "forbidden", "wrong API key");
+      return false;
   }
-  const std::string auth = req.get_header_value("Authorization");
-  if (auth.empty()) {
-    res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
-    SendProblem(req, res, 401, "unauthorized", "this route needs the API key: Authorization: Bearer KEY");
-    return false;
-  }
-  const std::string prefix = "Bearer ";
-  if (auth.size() < prefix.size() || !std::equal(prefix.begin(), prefix.end(), auth.begin(), [](char a, char b) {
-        return std::tolower(static_cast<unsigned char>(a)) == std::tolower(static_cast<unsigned char>(b));
-      })) {
-    res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
-    SendProblem(req, res, 401, "unauthorized", "the Authorization header must use the Bearer scheme");
-    return false;
-  }
-  if (!ConstantTimeEquals(auth.substr(prefix.size()), ctx.options.api_key)) {
-    SendProblem(req, res, 403, "forbidden", "wrong API key");
-    return false;
-  }
-  return true;
+  return false;
 }
 
 namespace {

@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <string_view>
 #include <vector>
 
 #include "cache.h"
@@ -138,6 +139,11 @@ void SendShared(httplib::Response& res, std::shared_ptr<const CachedResponse> en
 // its warnings).
 bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Status& status, double sum,
                  std::span<const Warning> warnings);
+
+// What an Authorization header's value says of this server's API key: the one reading of
+// "Bearer KEY" for Authorized (which answers each refusal), CarriesKey and the front's deadline.
+enum class KeyCheck { kNoKeyConfigured, kMissing, kNotBearer, kWrong, kRight };
+KeyCheck CheckKey(const ApiOptions& options, std::string_view authorization);
 
 // Whether the request carries this server's API key (Authorization: Bearer KEY); sends nothing.
 bool CarriesKey(const ServerState& ctx, const httplib::Request& req);

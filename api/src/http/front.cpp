@@ -8,21 +8,18 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
-#include <pthread.h>
 #include <sys/epoll.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
-#include <ctime>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <mutex>
 #include <thread>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "framing.h"
 #include "in_flight.h"
@@ -442,42 +439,40 @@ class FrontServer::Front {
     Dispatch(c);
   }
 
-  // The value of the head's first field `name`, or empty; no allocation.
-  static std::string_view HeaderValue(const Conn& c, std::string_view name) {
+  // Calls fn(name, value) for each field of the head as it came (values without surrounding blanks)
+  // until fn returns true; no allocation.
+  template <typename Fn>
+  static void ForEachField(const Conn& c, Fn fn) {
     const std::string_view head(c.buf.data() + c.head.start, c.head.end - c.head.start);
     for (size_t pos = head.find("\r\n"); pos != std::string_view::npos && pos + 2 < head.size();) {
       pos += 2;
       const size_t eol = head.find("\r\n", pos);
       const std::string_view field = head.substr(pos, eol == std::string_view::npos ? std::string_view::npos : eol - pos);
-      const size_t colon = field.find(':');
-      if (colon != std::string_view::npos && http::EqualsIgnoreCase(field.substr(0, colon), name)) {
+      if (const size_t colon = field.find(':'); colon != std::string_view::npos) {
         std::string_view value = field.substr(colon + 1);
         while (!value.empty() && (value.front() == ' ' || value.front() == '\t')) value.remove_prefix(1);
         while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
-        return value;
+        if (fn(field.substr(0, colon), value)) return;
       }
       pos = eol;
     }
-    return {};
+  }
+
+  // The value of the head's first field `name`, or empty.
+  static std::string_view HeaderValue(const Conn& c, std::string_view name) {
+    std::string_view found;
+    ForEachField(c, [&](std::string_view field, std::string_view value) { return http::EqualsIgnoreCase(field, name) && (found = value, true); });
+    return found;
   }
 
   RequestHeadView View(const Conn& c) const {
     RequestHeadView v;
     v.method = c.head.method;
     v.target = c.head.target;
-    const std::string_view head(c.buf.data() + c.head.start, c.head.end - c.head.start);
-    size_t pos = head.find("\r\n") + 2;
-    while (pos + 2 < head.size()) {
-      const size_t eol = head.find("\r\n", pos);
-      if (eol == std::string_view::npos) break;
-      const std::string_view field = head.substr(pos, eol - pos);
-      const size_t colon = field.find(':');
-      std::string_view value = field.substr(colon + 1);
-      while (!value.empty() && (value.front() == ' ' || value.front() == '\t')) value.remove_prefix(1);
-      while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
-      v.headers.emplace_back(std::string(field.substr(0, colon)), std::string(value));
-      pos = eol + 2;
-    }
+    ForEachField(c, [&v](std::string_view field, std::string_view value) {
+      v.headers.emplace_back(std::string(field), std::string(value));
+      return false;
+    });
     return v;
   }
 

@@ -41,10 +41,7 @@ Api::~Api() = default;
 std::string Api::MetricsText() const { return http::MetricsText(impl_->ctx); }
 
 bool Api::Keyed(std::string_view authorization) const {
-  if (authorization.empty()) return false;
-  Request req;
-  req.headers.emplace("Authorization", std::string(authorization));
-  return http::CarriesKey(impl_->ctx, req);
+  return http::CheckKey(impl_->ctx.options, authorization) == http::KeyCheck::kRight;
 }
 
 std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {

@@ -9,7 +9,7 @@ namespace facespace::api::http {
 namespace {
 
 // The request's cost before any speech is made: the audio's seconds and rate from its chunks alone, or
-// the text's length in seconds at its rate (words, or characters / 6 for a script without spaces).
+// the text's length in seconds at its rate (its words, or characters / 6 for a script without spaces).
 bool SpeechWithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Rig& rig, const SpeechRequest& r) {
   double seconds = 0.0;
   int rate = 16000;
@@ -19,14 +19,7 @@ bool SpeechWithinBudget(ServerState& ctx, const httplib::Request& req, httplib::
     seconds = std::min(layout->seconds(), static_cast<double>(speech::kMaxAudioSeconds));
     rate = layout->rate * std::max<int>(1, layout->channels);
   } else {
-    size_t words = 0;
-    bool in_word = false;
-    for (char c : r.text) {
-      const bool space = c == ' ' || c == '\n' || c == '\t';
-      words += !space && !in_word;
-      in_word = !space;
-    }
-    const double units = std::max(static_cast<double>(words), static_cast<double>(r.text.size()) / 6.0);
+    const double units = std::max(static_cast<double>(speech::CountWords(r.text)), static_cast<double>(r.text.size()) / 6.0);
     seconds = 0.5 + units * 60.0 / std::max(80, r.rate);
   }
   return WithinBudget(ctx, req, res, SpeechCost(rig, r, seconds, rate));

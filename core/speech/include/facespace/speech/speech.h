@@ -96,6 +96,10 @@ std::vector<VoiceInfo> Voices();
 
 // ---- speech to phonemes (PocketSphinx) --------------------------------------------------------
 
+// Words of `text` as the dictionary spells them (runs of letters, digits and apostrophes), counted
+// without making them: the transcript's limit and the cost of text to speak.
+size_t CountWords(std::string_view text);
+
 // A transcript has at most this many words a second of its audio, and 10 more (fast speech is 4-5).
 inline constexpr double kMaxWordsPerSecond = 8.0;
 inline size_t MaxTranscriptWords(double seconds) { return 10 + static_cast<size_t>(kMaxWordsPerSecond * std::max(0.0, seconds)); }
