@@ -503,8 +503,7 @@ json Build() {
   json auth = json::array({{{"bearer", json::array()}}});
   json operations = {
       {"/healthz", {{"get", {{"summary", "Liveness"}, {"operationId", "healthz"}, {"responses", {{"200", json_ok("Health")}}}}}}},
-      {"/readyz", {{"get", {{"summary", "Readiness: the rigs loaded and encoded (503 while warming)"}, {"operationId", "readyz"},
-                            {"responses", {{"200", json_ok("Health")}, {"503", json_ok("Health", "Warming up")}}}}}}},
+      {"/readyz", {{"get", {{"summary", "Readiness (rigs loaded)"}, {"operationId", "readyz"}, {"responses", {{"200", json_ok("Health")}}}}}}},
       {"/metrics",
        {{"get", {{"summary", "Prometheus metrics"}, {"operationId", "metrics"},
                  {"responses", {{"200", {{"description", "Prometheus text"}, {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}}}}}}}}},

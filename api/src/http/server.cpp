@@ -29,7 +29,6 @@ struct Api::Impl {
         if (stop.stop_requested()) return;
         http::WarmRig(ctx, rig);
       }
-      ctx.warmed = true;
     });
   }
 };
