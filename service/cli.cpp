@@ -342,8 +342,7 @@ int Blend(const std::vector<std::string>& args) {
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok()) return 1;
   const auto rig = api::Unstored(std::move(loaded.value()));
-  const render::NullRenderer renderer;
-  const api::Evaluator evaluator(renderer);
+  const api::Evaluator evaluator;
   if (!ReportLod(evaluator, rig, request.lod)) return 1;
   if (std::string e = api::FinishPoseSettings(request); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
@@ -471,7 +470,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
       return 1;
     }
     api::SheetRequest& request = parsed.value();
-    if (Status s = api::ExpandShapeCells(rig->rig, request); !s.ok()) {
+    if (Status s = api::ExpandShapeCells(rig->rig, &renderer, request); !s.ok()) {
       PrintStatus(s);
       return 1;
     }

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "facespace/render/render.h"
 #include "facespace/batch/run.h"
 #include "cli.h"
 #include "flags.h"

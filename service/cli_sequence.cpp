@@ -11,9 +11,11 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
+#include "facespace/render/render.h"
 #include "cli.h"
 #include "flags.h"
 #include "facespace/api/evaluator.h"
+#include "facespace/lipsync/lipsync.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"
@@ -306,8 +308,7 @@ int Sequence(const std::vector<std::string>& args) {
     for (size_t k = 0; k < frames; ++k) times.push_back(seq.keys.front().time + static_cast<float>(k) / fps);
   }
   std::vector<Warning> warnings;
-  const render::NullRenderer renderer;
-  const api::Evaluator evaluator(renderer);
+  const api::Evaluator evaluator;
   api::Workspace ws;
   if (format == "json" || format == "weights") {
     auto body = api::SampleSequenceJson(evaluator, stored, seq, times, options, warnings, ws, static_cast<size_t>(-1), format == "weights");
@@ -478,14 +479,14 @@ int Speak(const std::vector<std::string>& args) {
   auto loaded = LoadAndReport({paths[0]});
   if (!loaded.ok()) return 1;
   const auto stored = api::Unstored(std::move(loaded.value()));
-  auto plan = api::PlanSpeech(stored->rig, request.value());
+  auto plan = lipsync::PlanSpeech(stored->rig, request.value());
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return 1;
   }
-  PrintWarnings(api::SpeechWarnings(plan.value()));
+  PrintWarnings(lipsync::SpeechWarnings(plan.value()));
   const api::SpeechRequest& r = request.value();
-  if (r.format == api::FrameFormat::kJson) return WriteOutput(out, api::SpeechJson(stored->rig, plan.value(), r.fps)) ? 0 : 1;
+  if (r.format == api::FrameFormat::kJson) return WriteOutput(out, lipsync::SpeechJson(stored->rig, plan.value(), r.fps)) ? 0 : 1;
   if (r.format == api::FrameFormat::kWav) return WriteOutput(out, speech::WriteWav(plan->audio)) ? 0 : 1;
   const size_t frames = api::FrameCount(plan->sequence, r.fps);
   Progress progress(frames);
@@ -493,7 +494,7 @@ int Speak(const std::vector<std::string>& args) {
   api::Evaluator evaluator(renderer);
   api::Workspace ws;
   if (r.format == api::FrameFormat::kWebm) {
-    auto video = api::SpeechVideo(evaluator, stored, plan.value(), r, ws, [&progress](size_t i) { progress.Step(i + 1); });
+    auto video = lipsync::SpeechVideo(evaluator, stored, plan.value(), r, ws, [&progress](size_t i) { progress.Step(i + 1); });
     return WriteResult(out, video);
   }
   std::string lines;

@@ -25,9 +25,8 @@ Result<std::string> RigAsGlb(const std::shared_ptr<const api::StoredRig>& rig) {
   api::OutputSpec spec;
   spec.mesh_format = MeshFormat::kGlb;
   spec.keep_targets = true;
-  const render::NullRenderer renderer;
   api::Workspace ws;
-  auto glb = api::Evaluator(renderer).Run(rig, defaults, spec, ws);
+  auto glb = api::Evaluator().Run(rig, defaults, spec, ws);
   if (!glb.ok()) return glb.status();
   return std::move(glb->bytes);
 }

@@ -1,8 +1,9 @@
 #!/bin/bash
 # The layers of README.md's "Layout of the code", checked against the includes: each folder's
 # sources include facespace headers only from their own layer and the layers below it.
-#   core <- core/formats <- api/evaluator <- api/batch <- api <- service, render, core/physics and core/speech
-#   beside formats.
+#   core <- core/formats <- api/evaluator <- api/batch <- api <- service; render/picture (what a picture
+#   is, the Renderer interface) under the evaluator, render (what draws) beside it; core/physics and
+#   core/speech beside formats; api/lipsync (speech plans, their video) over the evaluator, render and speech.
 src=${1:-$(dirname "$0")/..}
 cd "$src" || exit 2
 fail=0
@@ -24,10 +25,12 @@ check core 'core/' '^core/(formats|physics|speech)/'
 check core/formats 'core/|formats/'
 check core/physics 'core/|physics/'
 check core/speech 'core/|speech/'
-check render 'core/|render/'
-check api/evaluator "core/|formats/|render/|physics/|speech/|$evaluator_headers"
-check api/batch "core/|formats/|render/|speech/|$evaluator_headers|batch/"
-check api 'core/|formats/|render/|speech/|api/|batch/' '^api/(evaluator|batch)/'
+check render/picture 'core/|render/picture\.h'
+check render 'core/|render/' '^render/picture/'
+check api/evaluator "core/|formats/|render/picture\.h|physics/|$evaluator_headers"
+check api/lipsync "core/|formats/|render/|speech/|$evaluator_headers|lipsync/"
+check api/batch "core/|formats/|render/picture\.h|$evaluator_headers|batch/"
+check api 'core/|formats/|render/|speech/|api/|batch/|lipsync/' '^api/(evaluator|batch|lipsync)/'
 # httplib stays in the HTTP layer: the evaluator and batch never see it.
 if grep -rlq 'httplib' api/evaluator api/batch; then echo "FAIL httplib below the HTTP layer: $(grep -rl httplib api/evaluator api/batch)"; fail=1; else echo "ok   no httplib in api/evaluator, api/batch"; fi
 exit $fail

@@ -607,7 +607,7 @@ json Build() {
                    {{"text", {{"type", "string"}, {"maxLength", 2000}, {"description", "Words to say (espeak-ng); or audio"}}},
                     {"audio", {{"type", "string"}, {"contentEncoding", "base64"}, {"description", "A WAV file (at most 60 s) to lip-sync"}}},
                     {"transcript", {{"type", "string"}, {"description", "With audio: the words said, to align to"}}},
-                    {"voice", {{"type", "string"}, {"default", speech::kDefaultVoice}, {"description", "An espeak-ng voice (GET /v1/voices)"}}},
+                    {"voice", {{"type", "string"}, {"default", kDefaultVoice}, {"description", "An espeak-ng voice (GET /v1/voices)"}}},
                     {"rate", {{"type", "integer"}, {"minimum", 80}, {"maximum", 450}, {"default", 175}}},
                     {"fps", {{"type", "number"}, {"minimum", 1}, {"maximum", 120}, {"default", 30}}},
                     {"strength", {{"type", "number"}, {"minimum", 0}, {"maximum", 2}, {"default", 1}}},

@@ -1,5 +1,4 @@
 // Images: encoding and decoding (OpenImageIO, through oiio_module.h), text, legends and contact sheets.
-#include "facespace/core/enum_table.h"
 #include <webp/encode.h>
 #include <isa-l/igzip_lib.h>
 #include <zlib.h>
@@ -365,19 +364,6 @@ Result<std::string> EncodePng(const Image& image) {
 }
 
 }  // namespace
-
-namespace {
-constexpr EnumName<ImageFormat> kImageFormats[] = {
-    {ImageFormat::kPng, "png", nullptr, "image/png", "png"},
-    {ImageFormat::kJpeg, "jpeg", "jpg", "image/jpeg", "jpg"},
-    {ImageFormat::kExr, "exr", nullptr, "image/x-exr", "exr"},
-    {ImageFormat::kTiff, "tiff", "tif", "image/tiff", "tif"},
-    {ImageFormat::kWebp, "webp", nullptr, "image/webp", "webp"}};
-}  // namespace
-
-bool ParseImageFormat(const std::string& name, ImageFormat* format) { return ParseEnum(kImageFormats, name, format); }
-const char* ImageFormatMimeType(ImageFormat format) { return EnumEntry(kImageFormats, format).media_type; }
-const char* ImageFormatExtension(ImageFormat format) { return EnumEntry(kImageFormats, format).extension; }
 
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality) {
   const size_t values = image.width < 1 || image.height < 1 ? 0 : static_cast<size_t>(image.width) * image.height * 4;

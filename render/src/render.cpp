@@ -3,7 +3,6 @@
 // tone mapped (Khronos PBR Neutral).
 #include "gl_context.h"
 #include "facespace/render/render.h"
-#include "facespace/core/enum_table.h"
 #include "facespace/core/hierarchy.h"
 
 #include "facespace/core/shape_tools.h"
@@ -33,14 +32,16 @@ float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 
 
 }  // namespace
 
-namespace {
-constexpr EnumName<View> kViews[] = {
-    {View::kShaded, "shaded"}, {View::kWireframe, "wireframe"}, {View::kHeatmap, "heatmap"}, {View::kNormals, "normals"},
-    {View::kClay, "clay"}};
-}  // namespace
+Result<std::string> EncodingRenderer::Encode(const Image& image, ImageFormat format, int quality) const {
+  return render::Encode(image, format, quality);
+}
 
-bool ParseView(const std::string& name, View* view) { return ParseEnum(kViews, name, view); }
-const char* ViewName(View view) { return EnumEntry(kViews, view).name; }
+Image EncodingRenderer::Sheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
+                              std::array<float, 4> background) const {
+  return ContactSheet(cells, labels, columns, background);
+}
+
+bool EncodingRenderer::CanDrawText(const std::string& text) const { return render::CanDrawText(text); }
 
 OsMesaRenderer::OsMesaRenderer(int max_contexts) : pool_(std::make_unique<ContextPool>()) { pool_->SetLimit(max_contexts); }
 OsMesaRenderer::~OsMesaRenderer() = default;
@@ -54,13 +55,6 @@ std::string OsMesaRenderer::Info() const {
 void OsMesaRenderer::SetMaxContexts(int n) { pool_->SetLimit(n); }
 
 int OsMesaRenderer::Concurrency() const { return pool_->Limit(); }
-
-Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOptions& o) {
-  if (o.width < 1 || o.height < 1 || o.width > 8192 || o.height > 8192) return InvalidArgument("image size out of range");
-  if (o.supersample < 1 || o.supersample > 4) return InvalidArgument("supersample must be 1..4");
-  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
-  return Status::Ok();
-}
 
 Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) const {
   if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;

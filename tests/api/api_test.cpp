@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "facespace/render/render.h"
 #include "facespace/api/http.h"
 #include "facespace/api/evaluator.h"
 #include "loopback.h"

@@ -2,8 +2,10 @@
 // its fast paths against the plain path, and its cache key against what the bytes depend on.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 
+#include "facespace/render/render.h"
 #include "facespace/api/evaluator.h"
 #include "facespace/formats/lod.h"
 #include "test_util.h"
@@ -288,6 +290,73 @@ TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
   // One point for a mesh or an image; more is the caller's mistake, said as such.
   auto two = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec{}, ws);
   EXPECT_EQ(two.status().code, StatusCode::kInternal);
+}
+
+// Pictures come from the renderer handed in: without one the evaluator still makes meshes and frames,
+// and refuses pictures; with one, it draws and encodes through it, and a sheet's labels are what its
+// fonts can draw.
+class AsciiOnly final : public render::Renderer {
+ public:
+  Status Draw(const Rig& rig, const BlendedRig& b, const render::RenderOptions& o, render::Image& out) const override {
+    ++draws;
+    return null.Draw(rig, b, o, out);
+  }
+  std::string Info() const override { return "ascii only"; }
+  int Concurrency() const override { return 1; }
+  Result<std::string> Encode(const render::Image& image, render::ImageFormat, int) const override {
+    return std::to_string(image.width) + "x" + std::to_string(image.height);
+  }
+  render::Image Sheet(std::span<const render::Image> cells, std::span<const std::string>, int columns,
+                      std::array<float, 4>) const override {
+    return {static_cast<int>(columns), static_cast<int>((cells.size() + columns - 1) / columns), {}, {}};
+  }
+  bool CanDrawText(const std::string& text) const override {
+    return std::all_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) < 0x80; });
+  }
+  mutable int draws = 0;
+  render::NullRenderer null;
+};
+
+TEST(Evaluator, PicturesComeFromTheRendererHandedIn) {
+  api::RenderRequest request;
+  request.render.width = 40;
+  request.render.height = 30;
+  const api::ResolvedPoint point = PointAt({{"jawOpen", 0.5f}});
+  api::Workspace ws;
+  const api::Evaluator meshes;
+  EXPECT_EQ(meshes.renderer(), nullptr);
+  EXPECT_TRUE(meshes.Run(FaceCapStored(), point, api::OutputSpec::Mesh(request.mesh, MeshFormat::kObj), ws).ok());
+  auto refused = meshes.Run(FaceCapStored(), point, api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code, StatusCode::kFailedPrecondition);
+
+  const AsciiOnly renderer;
+  const api::Evaluator pictures(renderer);
+  auto drawn = pictures.Run(FaceCapStored(), point, api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
+  ASSERT_TRUE(drawn.ok()) << drawn.status().message;
+  EXPECT_EQ(drawn->bytes, "40x30");
+  EXPECT_EQ(renderer.draws, 1);
+  api::SheetRequest sheet;
+  sheet.base = request;
+  sheet.columns = 2;
+  const api::ResolvedPoint cells[] = {point, point, point};
+  auto grid = pictures.Run(FaceCapStored(), cells, api::OutputSpec::Sheet(sheet, render::ImageFormat::kPng), ws);
+  ASSERT_TRUE(grid.ok()) << grid.status().message;
+  EXPECT_EQ(grid->bytes, "2x2");  // Three cells two columns wide, laid out by the renderer's Sheet.
+  EXPECT_EQ(renderer.draws, 4);
+
+  // A shape named in a script the renderer's fonts lack is labelled by its ASCII alias.
+  Rig rig = FaceCap();
+  rig.shapes[0].name = "\xe3\x81\xbe\xe3\x81\xb0\xe3\x81\x9f\xe3\x81\x8d";  // まばたき
+  rig.shapes[0].aliases = {"blink"};
+  api::SheetRequest by_shape;
+  by_shape.shape_cells = "shapes";
+  ASSERT_TRUE(api::ExpandShapeCells(rig, &renderer, by_shape).ok());
+  EXPECT_EQ(by_shape.labels[0], "blink");
+  api::SheetRequest any_font;
+  any_font.shape_cells = "shapes";
+  ASSERT_TRUE(api::ExpandShapeCells(rig, nullptr, any_font).ok());
+  EXPECT_EQ(any_font.labels[0], rig.shapes[0].name + " (blink)");
 }
 
 }  // namespace

@@ -371,8 +371,7 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
 // Against BM_FaceCapMeshEncode/4 (the F32Writer alone), what the evaluator's layer adds.
 void BM_FaceCapEvaluatorF32(benchmark::State& state) {
   static const auto rig = facespace::api::Unstored(facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value(), "1");
-  const facespace::render::NullRenderer renderer;
-  const facespace::api::Evaluator evaluator(renderer);
+  const facespace::api::Evaluator evaluator;
   facespace::api::Workspace ws;
   facespace::api::MeshRequest request;
   for (const char* name : {"jawOpen", "mouthSmile_L", "mouthSmile_R", "cheekPuff"}) request.weights.push_back({name, -1, 0.2, ""});

@@ -3,6 +3,8 @@
 #include <benchmark/benchmark.h>
 
 #include "facespace/api/evaluator.h"
+#include "facespace/lipsync/lipsync.h"
+#include "facespace/render/render.h"
 #include "facespace/formats/io.h"
 
 namespace {
@@ -24,8 +26,8 @@ void BM_TextToJsonKeys(benchmark::State& state) {
   r.text = kLine;
   float seconds = 0;
   for (auto _ : state) {
-    auto plan = api::PlanSpeech(FaceCap()->rig, r);
-    benchmark::DoNotOptimize(api::SpeechJson(FaceCap()->rig, plan.value(), 30));
+    auto plan = lipsync::PlanSpeech(FaceCap()->rig, r);
+    benchmark::DoNotOptimize(lipsync::SpeechJson(FaceCap()->rig, plan.value(), 30));
     seconds = plan->audio.seconds();
   }
   state.counters["audio_s"] = seconds;
@@ -39,7 +41,7 @@ void BM_SpeechToVisemes(benchmark::State& state) {
   r.audio = wav;
   r.has_audio = true;
   r.transcript = state.range(0) ? kLine : "";
-  for (auto _ : state) benchmark::DoNotOptimize(api::PlanSpeech(FaceCap()->rig, r));
+  for (auto _ : state) benchmark::DoNotOptimize(lipsync::PlanSpeech(FaceCap()->rig, r));
   state.counters["audio_s"] = spoken->audio.seconds();
   state.SetLabel(state.range(0) ? "aligned to the transcript" : "recognized");
 }
@@ -49,12 +51,12 @@ void BM_Webm512At30(benchmark::State& state) {
   api::SpeechRequest r;
   r.text = kLine;
   r.render.render.width = r.render.render.height = 512;
-  auto plan = api::PlanSpeech(FaceCap()->rig, r);
+  auto plan = lipsync::PlanSpeech(FaceCap()->rig, r);
   render::OsMesaRenderer renderer(1);
   api::Evaluator evaluator(renderer);
   api::Workspace ws;
   size_t bytes = 0;
-  for (auto _ : state) bytes = api::SpeechVideo(evaluator, FaceCap(), plan.value(), r, ws)->size();
+  for (auto _ : state) bytes = lipsync::SpeechVideo(evaluator, FaceCap(), plan.value(), r, ws)->size();
   state.counters["audio_s"] = plan->audio.seconds();
   state.counters["frames"] = static_cast<double>(api::FrameCount(plan->sequence, 30));
   state.counters["KB"] = bytes / 1024.0;

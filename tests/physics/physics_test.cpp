@@ -126,8 +126,7 @@ Played PlayHappy(const std::shared_ptr<const api::StoredRig>& stored, bool physi
   auto seq = SequenceOfClip(rig, FindClip(rig, named));
   EXPECT_TRUE(seq.ok());
   seq->physics = physics;
-  const render::NullRenderer renderer;
-  const api::Evaluator evaluator(renderer);
+  const api::Evaluator evaluator;
   api::Workspace ws;
   api::SequencePhysics simulation(rig, seq.value());
   EXPECT_EQ(simulation.active(), physics);

@@ -17,6 +17,8 @@ extern "C" {
 #include <sstream>
 
 #include "facespace/api/evaluator.h"
+#include "facespace/lipsync/lipsync.h"
+#include "facespace/render/render.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::speech {
@@ -134,7 +136,7 @@ TEST(Espeak, KeysFollowEspeaksOwnPhonemeTimesExactly) {
   const auto rig = Rig("facecap/facecap.glb");
   api::SpeechRequest request;
   request.text = "Hello, my name is Bob. Please pass the map.";
-  auto plan = api::PlanSpeech(rig->rig, request);
+  auto plan = lipsync::PlanSpeech(rig->rig, request);
   ASSERT_TRUE(plan.ok()) << plan.status().message;
   // The same phonemes (espeak-ng's times may start a few tens of milliseconds apart from one synthesis to
   // the next: it carries a pause over; what counts is that the keys follow this synthesis's own events).
@@ -382,13 +384,13 @@ TEST(Video, AWebmOfTheFaceSpeakingWithItsAudioInSync) {
   request.text = "Please pass the map.";
   request.render.render.width = request.render.render.height = 128;
   request.fps = 25;
-  auto plan = api::PlanSpeech(rig->rig, request);
+  auto plan = lipsync::PlanSpeech(rig->rig, request);
   ASSERT_TRUE(plan.ok());
   render::OsMesaRenderer renderer(1);
   api::Evaluator evaluator(renderer);
   api::Workspace ws;
   size_t seen = 0;
-  auto video = api::SpeechVideo(evaluator, rig, plan.value(), request, ws, [&](size_t) { ++seen; });
+  auto video = lipsync::SpeechVideo(evaluator, rig, plan.value(), request, ws, [&](size_t) { ++seen; });
   ASSERT_TRUE(video.ok()) << video.status().message;
   const size_t frames = api::FrameCount(plan->sequence, 25);
   EXPECT_EQ(seen, frames);

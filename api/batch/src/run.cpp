@@ -23,7 +23,6 @@
 #include "facespace/formats/io.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"
-#include "facespace/render/render.h"
 
 namespace facespace::batch {
 

@@ -79,8 +79,8 @@ Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells, c
     Lap(start, ws.timing.draw);
   }
   auto start = Clock::now();
-  auto bytes = render::Encode(render::ContactSheet(ws.cells, spec.labels, spec.columns, options.background), spec.image_format,
-                              spec.quality);
+  auto bytes = renderer.Encode(renderer.Sheet(ws.cells, spec.labels, spec.columns, options.background), spec.image_format,
+                               spec.quality);
   Lap(start, ws.timing.encode);
   // A workspace is kept for the next request: it keeps no large sheet's images.
   size_t pixels = 0;
@@ -150,7 +150,8 @@ const char* OutputSpec::content_type() const {
 
 // ---- the evaluator ------------------------------------------------------------------------------
 
-Evaluator::Evaluator(const render::Renderer& renderer) : renderer_(renderer), kept_(std::make_unique<Kept>()) {}
+Evaluator::Evaluator() : kept_(std::make_unique<Kept>()) {}
+Evaluator::Evaluator(const render::Renderer& renderer) : renderer_(&renderer), kept_(std::make_unique<Kept>()) {}
 Evaluator::~Evaluator() = default;
 
 std::shared_ptr<const DerivedRig> Evaluator::Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const {
@@ -166,6 +167,8 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
   if (!at) return Internal("the level of detail failed");
   const Rig& rig = *at;
   const ResolvedPoint& point = points[0];
+  const bool picture = spec.kind == OutputSpec::Kind::kImage || spec.kind == OutputSpec::Kind::kPixels || spec.kind == OutputSpec::Kind::kSheet;
+  if (picture && !renderer_) return FailedPrecondition("this evaluator was handed no renderer: it makes meshes, not pictures");
   switch (spec.kind) {
     case OutputSpec::Kind::kMesh: {
       if (spec.mesh_format == MeshFormat::kF32) {
@@ -204,10 +207,10 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       render::RenderOptions options = spec.render;
       kept_->derived.SetFocus(stored, spec.lod, options.camera);
       options.srgb8 = spec.image_format != render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
-      if (Status s = renderer_.Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
+      if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
       Lap(start, ws.timing.draw);
       if (spec.kind == OutputSpec::Kind::kPixels) return Encoded{};
-      auto bytes = render::Encode(ws.image, spec.image_format, spec.quality);
+      auto bytes = renderer_->Encode(ws.image, spec.image_format, spec.quality);
       Lap(start, ws.timing.encode);
       if (!bytes.ok()) return bytes.status();
       return Whole(std::move(bytes.value()));
@@ -215,7 +218,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
     case OutputSpec::Kind::kSheet: {
       render::RenderOptions options = spec.render;
       kept_->derived.SetFocus(stored, spec.lod, options.camera);
-      auto bytes = Grid(rig, points, spec, options, renderer_, ws);
+      auto bytes = Grid(rig, points, spec, options, *renderer_, ws);
       if (!bytes.ok()) return bytes.status();
       return Whole(std::move(bytes.value()));
     }

@@ -59,7 +59,7 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   SheetRequest r;
   if (!stored || !ReadJsonBody(req, res, ParseSheetRequest, r) || !CheckSize(ctx, req, res, r.base.render)) return;
-  if (Status s = ExpandShapeCells(stored->rig, r); !s.ok()) return SendStatus(req, res, s);
+  if (Status s = ExpandShapeCells(stored->rig, ctx.evaluator.renderer(), r); !s.ok()) return SendStatus(req, res, s);
   const auto format = NegotiateImage(req, res, r.base.format);
   if (!format) return;
   const size_t max_cells = static_cast<size_t>(ctx.options.max_sheet_cells);

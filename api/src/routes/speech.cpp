@@ -3,6 +3,7 @@
 #include "../http/problem.h"
 #include "../http/cost.h"
 #include "routes.h"
+#include "facespace/lipsync/lipsync.h"
 
 namespace facespace::api::http {
 
@@ -32,7 +33,7 @@ bool IsAudioBody(const httplib::Request& req) {
 
 // The video: within the frame limit and the render budget (for the whole encode), drawn as it goes.
 void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::shared_ptr<const StoredRig>& stored,
-                     const SpeechPlan& plan, const SpeechRequest& r) {
+                     const lipsync::SpeechPlan& plan, const SpeechRequest& r) {
   const size_t frames = FrameCount(plan.sequence, r.fps);
   // A video is drawn whole before it is sent: at most --max-video-seconds (its cost was admitted already).
   const float max_seconds = ctx.options.max_video_seconds;
@@ -47,7 +48,7 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
   std::string video;
   auto encoded = WithinRenderBudget(ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<Encoded> {
-    auto bytes = SpeechVideo(ctx.evaluator, stored, plan, r, *ws);
+    auto bytes = lipsync::SpeechVideo(ctx.evaluator, stored, plan, r, *ws);
     if (!bytes.ok()) return bytes.status();
     video = std::move(bytes.value());
     return Encoded{};
@@ -79,13 +80,13 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
                        {{"/width", "width x height at most " + std::to_string(ctx.options.max_video_pixels)}});
   }
   if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;
-  auto plan = PlanSpeech(stored->rig, r, CurrentStop());
+  auto plan = lipsync::PlanSpeech(stored->rig, r, CurrentStop());
   if (!plan.ok()) return SendStatus(req, res, plan.status());
-  if (const std::vector<Warning> warnings = SpeechWarnings(plan.value()); !warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
+  if (const std::vector<Warning> warnings = lipsync::SpeechWarnings(plan.value()); !warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
   if (r.format == FrameFormat::kJson) {
     res.status = 200;
-    res.set_content(SpeechJson(stored->rig, plan.value(), r.fps, r.with_audio), "application/json");
+    res.set_content(lipsync::SpeechJson(stored->rig, plan.value(), r.fps, r.with_audio), "application/json");
   } else if (r.format == FrameFormat::kWav) {
     res.status = 200;
     res.set_content(speech::WriteWav(plan->audio), "audio/wav");
@@ -101,7 +102,7 @@ void GetVoices(ServerState&, const httplib::Request&, httplib::Response& res) {
   nlohmann::json voices = nlohmann::json::array();
   for (const speech::VoiceInfo& v : speech::Voices()) voices.push_back({{"name", v.name}, {"language", v.language}});
   res.set_header("Cache-Control", "max-age=3600");
-  SendJson(res, 200, {{"voices", std::move(voices)}, {"default", speech::kDefaultVoice}});
+  SendJson(res, 200, {{"voices", std::move(voices)}, {"default", kDefaultVoice}});
 }
 
 }  // namespace facespace::api::http

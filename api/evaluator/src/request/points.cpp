@@ -4,7 +4,7 @@
 #include "facespace/core/enum_table.h"
 
 #include "facespace/formats/lod.h"
-#include "facespace/render/render.h"
+#include "facespace/render/picture.h"
 
 #include <algorithm>
 #include <cctype>
@@ -116,7 +116,7 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
   return r;
 }
 
-Status ExpandShapeCells(const Rig& rig, SheetRequest& r) {
+Status ExpandShapeCells(const Rig& rig, const render::Renderer* renderer, SheetRequest& r) {
   if (r.shape_cells.empty()) return Status::Ok();
   const std::string group = r.shape_cells == "shapes" ? "" : r.shape_cells.substr(7);
   std::set<std::string> groups;
@@ -136,7 +136,7 @@ Status ExpandShapeCells(const Rig& rig, SheetRequest& r) {
       if (ascii(s.aliases[k])) alias = s.aliases[k];
     }
     std::string label = ascii(s.name) ? s.name
-                        : render::CanDrawText(s.name) ? (alias.empty() ? s.name : s.name + " (" + alias + ")")
+                        : !renderer || renderer->CanDrawText(s.name) ? (alias.empty() ? s.name : s.name + " (" + alias + ")")
                                                       : alias;
     if (label.size() > 80) {  // Whole UTF-8 characters.
       size_t cut = 80;

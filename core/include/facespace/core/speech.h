@@ -20,6 +20,10 @@
 
 namespace facespace {
 
+// The voice text is spoken with when a request names none (core/speech's synthesizer takes it by
+// default; GET /v1/voices says it as "default").
+inline constexpr char kDefaultVoice[] = "en-us";
+
 // OpenXR's (Oculus's) visemes, in their order.
 enum class Viseme : uint8_t { kSil, kPP, kFF, kTH, kDD, kKK, kCH, kSS, kNN, kRR, kAA, kE, kIH, kOH, kOU };
 inline constexpr size_t kVisemeCount = 15;

@@ -31,8 +31,7 @@
 #include "facespace/core/status.h"
 #include "facespace/core/weights.h"
 #include "facespace/formats/io.h"
-#include "facespace/render/render.h"
-#include "facespace/speech/speech.h"
+#include "facespace/render/picture.h"
 
 namespace facespace::physics {
 class Simulation;
@@ -167,7 +166,9 @@ struct DerivedRig {
 
 class Evaluator {
  public:
-  // `renderer` draws images and sheets; it must outlive the evaluator.
+  // An evaluator of meshes and frames: images, sheets and pixels are refused (FailedPrecondition).
+  Evaluator();
+  // One that also draws: `renderer` draws and encodes images and sheets; it must outlive the evaluator.
   explicit Evaluator(const render::Renderer& renderer);
   ~Evaluator();
   Evaluator(const Evaluator&) = delete;
@@ -183,12 +184,15 @@ class Evaluator {
     return Run(rig, std::span<const ResolvedPoint>(&point, 1), spec, ws);
   }
 
+  // What draws its pictures; null for an evaluator of meshes.
+  const render::Renderer* renderer() const { return renderer_; }
+
   // The rig at a level of detail and the box its shapes act in (kept); null when it cannot be made.
   std::shared_ptr<const DerivedRig> Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const;
 
  private:
   struct Kept;
-  const render::Renderer& renderer_;
+  const render::Renderer* renderer_ = nullptr;
   std::unique_ptr<Kept> kept_;
 };
 
@@ -291,41 +295,6 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence);
 
 // {"keys", "transition", "kept", "removed", "max_error", "tolerance"}: a reduced sequence.
 std::string ReducedSequenceJson(const Rig& rig, const Sequence& original, const ReduceResult& reduced, float tolerance);
-
-// ---- speech -----------------------------------------------------------------------------------
-
-// What a speech request comes to: the audio (spoken by espeak-ng, or the one sent), its phonemes and
-// visemes, and the sequence whose keys speak them over the face the request gives (its weights,
-// expressions and controls), with its gaze track and blinks.
-struct SpeechPlan {
-  speech::Audio audio;
-  std::vector<TimedPhoneme> phonemes;
-  std::vector<TimedViseme> visemes;
-  Sequence sequence;
-  std::vector<Warning> warnings;  // The face's and the recognizer's; the sequence's own are in sequence.warnings.
-  std::string voice;              // espeak-ng's voice, or "" for audio sent.
-  std::string source;             // "espeak-ng", "pocketsphinx" or "pocketsphinx-aligned".
-  float voiced_seconds = 0.0f;    // Audio sent: how much of it the voice detector took as speech.
-};
-// Errors: the rig cannot speak (FailedPrecondition, reason no-mouth); the text, voice, rate or audio
-// (InvalidArgument or ResourceExhausted naming the field); the face (as ResolvePoint's).
-Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, const std::stop_token& stop = {});
-
-// Everything the plan warns of: the face's and the recognizer's, then the sequence's (said once).
-std::vector<Warning> SpeechWarnings(const SpeechPlan& plan);
-
-// {"source", "voice", "duration", "fps", "frames", "phonemes": [{"name", "start", "end"}],
-//  "visemes": [{"viseme", "start", "end"}], "keys": [...] (as sequence requests take them),
-//  "transition", "warnings", and with `with_audio` "audio_wav": the WAV as base64}: the speech route's json
-// body and `facespace speak -o X.json`.
-std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio = false);
-
-// The plan's sequence rendered at `fps` (request.render's size, camera and view) with its audio, as a
-// WebM file (VP9 + Opus, render/video.h): the frame at time i / fps shows the face the audio is saying
-// at that time. Frames are drawn one after the other in `ws`; `on_frame` (may be empty) hears each
-// one's number, for progress. Errors: the size (422 at /width or /height), the renderer's.
-Result<std::string> SpeechVideo(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const SpeechPlan& plan,
-                                const SpeechRequest& request, Workspace& ws, const std::function<void(size_t)>& on_frame = {});
 
 // ---- fitting ----------------------------------------------------------------------------------
 

@@ -14,12 +14,12 @@
 #include "facespace/core/fit.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/sequence.h"
-#include "facespace/speech/speech.h"
+#include "facespace/core/speech.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/status.h"
 #include "facespace/core/variants.h"
 #include "facespace/core/weights.h"
-#include "facespace/render/render.h"
+#include "facespace/render/picture.h"
 
 namespace facespace::api {
 
@@ -84,8 +84,9 @@ struct SheetRequest {
 };
 Result<SheetRequest> ParseSheetRequest(std::string_view body);
 // "cells": "shapes" (or "shapes:GROUP"): one cell per shape of the rig (of that group) at weight 1,
-// labelled with its name. An unknown group is an error naming /cells.
-Status ExpandShapeCells(const Rig& rig, SheetRequest& request);
+// labelled with its name (or an alias where `renderer`, when given, has no glyphs for it). An unknown group is an
+// error naming /cells.
+Status ExpandShapeCells(const Rig& rig, const render::Renderer* renderer, SheetRequest& request);
 
 // A skeleton setting given as text (query parameter or CLI flag): animation, time, loop,
 // pose (JSON), blend (JSON), skinning (linear|dual_quaternion), lod (0..4). Returns "" or what is wrong; `known` tells whether the key is one.
@@ -161,7 +162,7 @@ struct SpeechRequest {
   std::string audio;               // WAV bytes (the base64 decoded, or the body).
   bool has_audio = false;
   std::string transcript;          // With audio: align to these words.
-  std::string voice = speech::kDefaultVoice;
+  std::string voice = kDefaultVoice;
   int rate = 175;
   float fps = 30.0f;
   float strength = 1.0f;

@@ -68,8 +68,7 @@ Audio Resample(const Audio& audio, int rate);
 
 inline constexpr size_t kMaxTextChars = 2000;
 
-// The voice text is spoken with when a request names none (GET /v1/voices says it as "default").
-inline constexpr char kDefaultVoice[] = "en-us";
+using facespace::kDefaultVoice;  // core/speech.h
 
 struct SynthOptions {
   std::string voice = kDefaultVoice;  // An espeak-ng voice name or language ("en-us", "en", "ja", "de", ...).

@@ -1,12 +1,13 @@
 // Speech requests: text (espeak-ng) or audio (PocketSphinx) to phonemes, visemes and the keys that
 // speak them on a rig (core/speech.h), and their JSON.
-#include "facespace/api/evaluator.h"
-#include "facespace/core/speech.h"
+#include "facespace/lipsync/lipsync.h"
+
 #include "facespace/formats/io.h"
 #include "facespace/render/video.h"
-#include "facespace/formats/io.h"
 
-namespace facespace::api {
+namespace facespace::lipsync {
+
+using namespace api;  // The evaluator's points, specs and sequences.
 
 Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, const std::stop_token& stop) {
   if (Status s = CanSpeak(rig); !s.ok()) return s;
@@ -126,4 +127,4 @@ Result<std::string> SpeechVideo(const Evaluator& evaluator, const std::shared_pt
   return encoder.value()->Finish();
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::lipsync

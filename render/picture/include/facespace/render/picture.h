@@ -1,0 +1,111 @@
+// What a picture of a blended rig is, without what draws it: the view, the camera, the options, the image,
+// the file formats, and the Renderer interface that draws and encodes (render/render.h has the OSMesa
+// renderer and the encoders). Plain data and an interface on core alone, so the evaluator takes a
+// renderer handed to it without linking GL, the image codecs or video.
+#pragma once
+
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "facespace/core/blend.h"
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace::render {
+
+enum class View {
+  kShaded,     // The glTF metallic-roughness material (base colour, metallic, roughness, normal,
+               // occlusion and emissive maps, alpha modes) under a studio light, tone mapped.
+  kWireframe,  // Shaded with the triangle edges drawn over it.
+  kHeatmap,    // Per-vertex displacement from the base shape, viridis colour map, legend.
+  kNormals,    // World-space normals as colours (n * 0.5 + 0.5).
+  kClay,       // One neutral grey material under the same light: shape only.
+};
+
+bool ParseView(const std::string& name, View* view);
+const char* ViewName(View view);
+
+// What the orbit camera frames: every vertex, the vertices the rig's shapes move (ShapeFocusBox:
+// a face on a whole body), the vertices a joint carries (Camera::frame_joint, under the pose), or
+// by default the shapes when they act on a small part of the rig (FrameShapesByDefault; on a
+// skinned rig the vertices of the joint carrying them, ShapeFocusJoint, so a pose does not carry
+// the face out of view), else everything. Every vertex means the rest shape's when the render is
+// not posed, so the camera stays still while weights change (frames of a sequence line up).
+enum class Framing { kAuto, kAll, kShapes, kJoint };
+
+struct Camera {
+  float yaw = 0.0f;       // Degrees around the vertical axis; 0 looks at the model's front (+Z).
+  float pitch = 0.0f;     // Degrees up (positive) or down.
+  float distance = 0.0f;  // From the framed centre; 0 frames the bounding sphere.
+  float zoom = 1.0f;      // Divides the distance.
+  float fov = 30.0f;      // Vertical field of view, degrees.
+  bool look_at = false;   // Use eye/target/up instead of the orbit above.
+  Framing frame = Framing::kAuto;
+  std::string frame_joint;  // kJoint: the node's name.
+  // The box the shapes' framing orbits, when the caller has it already (ShapeFocusBox of the rig,
+  // kept by a caller that renders one rig many times, with FrameShapesByDefault in focus_small);
+  // computed per render otherwise.
+  bool has_focus = false;
+  bool focus_small = false;
+  int focus_joint = -1;  // ShapeFocusJoint, with has_focus: what a skinned rig's auto framing follows.
+  std::array<float, 3> focus_min{0, 0, 0}, focus_max{0, 0, 0};
+  std::array<float, 3> eye{0, 0, 1}, target{0, 0, 0}, up{0, 1, 0};
+};
+
+struct RenderOptions {
+  int width = 512;
+  int height = 512;
+  View view = View::kShaded;
+  Camera camera;
+  std::array<float, 4> background{0.86f, 0.87f, 0.89f, 1.0f};  // sRGB, alpha 0 = transparent.
+  int supersample = 1;                           // 1..4: render at N x N the size, box-filter down.
+  float exposure = 0.0f;                         // Stops (EV) before tone mapping: +1 twice the light.
+  // Draw into 8-bit sRGB (Image::srgb8) rather than linear floats, for a picture that only goes to
+  // an 8-bit file: GL converts at its store, so there is no float frame to clear, read back and
+  // convert. Ignored (floats drawn) with supersampling and the heatmap, which work on floats after.
+  bool srgb8 = false;
+};
+
+// Linear-light RGBA, top row first. Encoding converts to sRGB for 8-bit formats. A draw asked for
+// 8 bits (RenderOptions::srgb8) fills `srgb8` instead (8-bit sRGB RGBA, straight alpha, top row
+// first) and leaves `rgba` empty; Encode takes either.
+struct Image {
+  int width = 0;
+  int height = 0;
+  std::vector<float> rgba;
+  std::vector<unsigned char> srgb8;
+};
+
+enum class ImageFormat { kPng, kJpeg, kExr, kTiff, kWebp };
+bool ParseImageFormat(const std::string& name, ImageFormat* format);
+const char* ImageFormatMimeType(ImageFormat format);
+const char* ImageFormatExtension(ImageFormat format);
+
+
+// Draws a blended rig (the rig evaluated at some weights) with the rig's node transforms and
+// materials into a linear-light image, and encodes images. Implementations are thread-safe; callers
+// own them and pass them down (the service owns one for all its threads).
+class Renderer {
+ public:
+  virtual ~Renderer() = default;
+  virtual Status Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& options, Image& out) const = 0;
+  // What draws, for logs: "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6".
+  virtual std::string Info() const = 0;
+  // How many draws run at once; more wait their turn.
+  virtual int Concurrency() const = 0;
+  // The file of an image (render/render.h's Encode) and a labelled grid of images (ContactSheet):
+  // the encoders live with what draws, so a caller handed a renderer needs nothing else for pictures.
+  virtual Result<std::string> Encode(const Image& image, ImageFormat format, int quality) const = 0;
+  virtual Image Sheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
+                      std::array<float, 4> background) const = 0;
+  // Whether every character of UTF-8 `text` has a glyph in the fonts the sheet's labels use.
+  virtual bool CanDrawText(const std::string& text) const = 0;
+};
+
+// The inputs every renderer refuses: an image size outside 1..8192, supersample outside 1..4,
+// a blended rig that does not match the rig.
+Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOptions& options);
+
+}  // namespace facespace::render
