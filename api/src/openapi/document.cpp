@@ -1,0 +1,82 @@
+// The OpenAPI 3.1 description of every route of the route table (http/route_table.cpp): the
+// operations (operations.cpp) are looked up by path and method for each route the table lists, so the
+// document names exactly the routes the server answers; a route without an operation here stops
+// the server at its first request for the document (every service test would fail).
+#include <cstdio>
+#include <cstdlib>
+
+#include "openapi.h"
+#include "facespace/api/http.h"
+#include "../http/route_table.h"
+
+namespace facespace::api {
+
+namespace {
+
+using openapi::json;
+using openapi::Problem;
+
+// The document's paths: one operation per route of the table, taken from `operations`; path-level
+// parameters are copied into each operation.
+json PathsOfRoutes(const json& operations) {
+  json paths = json::object();
+  for (const http::Route& route : http::Routes()) {
+    std::string method = route.method;
+    for (char& c : method) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const auto item = operations.find(route.path);
+    if (item == operations.end() || !item->contains(method)) {
+      std::fprintf(stderr, "facespace: the OpenAPI document has no operation for %s %s\n", route.method, route.path);
+      std::abort();
+    }
+    json op = (*item)[method];
+    if (item->contains("parameters") && !op.contains("parameters")) op["parameters"] = (*item)["parameters"];
+    // Public operations say so (an empty requirement), beside the keyed ones' bearer.
+    if (!op.contains("security")) op["security"] = json::array();
+    // Every body is bounded (--max-body) and must be JSON unless the operation says otherwise.
+    if (op.contains("requestBody")) {
+      if (!op["responses"].contains("413")) op["responses"]["413"] = Problem("The body is over the server's limit (--max-body)");
+      if (!op["responses"].contains("415")) op["responses"]["415"] = Problem("The body is not of a type the operation takes");
+    }
+    paths[route.path][method] = op;
+  }
+  return paths;
+}
+
+json Build() {
+  return {{"openapi", "3.1.0"},
+          {"info", {{"title", "facespace"}, {"version", FACESPACE_VERSION},
+                    {"description", "Blend-shape rigs over HTTP: blended meshes with warnings when a point leaves the authored space. "
+                                    "Errors are RFC 9457 problem details. A method a path does not list answers 405 with an Allow "
+                                    "header; too many connections (from one address or in all) answer 503 with Retry-After."}}},
+          {"paths", PathsOfRoutes(openapi::Operations())},
+          {"components", {{"schemas", openapi::Schemas()}, {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
+}
+
+}  // namespace
+
+std::string OpenApiJson(const ApiOptions& limits) {
+  json doc = Build();
+  const std::string body = std::to_string(limits.max_body), response = std::to_string(limits.max_response);
+  const std::string render = std::to_string(limits.max_render_size), cells = std::to_string(limits.max_sheet_cells);
+  const std::string frames = std::to_string(limits.max_frames);
+  doc["info"]["description"] = doc["info"]["description"].get<std::string>() +
+                               "\n\nLimits of this server (its flags): request bodies up to " + body + " bytes (--max-body; over: 413), "
+                               "renders up to " + render + " pixels a side (--max-render; over: 422 image-too-large), contact sheets up to " +
+                               cells + " cells (--max-sheet-cells; 422), sequence/sample bodies up to " + response +
+                               " bytes (--max-response; over: 422 response-too-large, judged before the work), sequence streams up to " +
+                               frames + " frames (--max-frames; 422 too-many-frames). Every answer states its estimated CPU-seconds in "
+                               "Facespace-Cost; work over --anonymous-cpu without the API key (--keyed-cpu with it) is 422 over-budget, "
+                               "before any of it is done.";
+  doc["info"]["x-facespace-limits"] = {{"max_body", limits.max_body}, {"max_render", limits.max_render_size},
+                                       {"max_sheet_cells", limits.max_sheet_cells}, {"max_response", limits.max_response},
+                                       {"max_frames", limits.max_frames}, {"anonymous_cpu_seconds", limits.anonymous_cpu},
+                                       {"keyed_cpu_seconds", limits.keyed_cpu}};
+  json& schemas = doc["components"]["schemas"];
+  for (const char* schema : {"RenderRequest", "SheetRequest"}) {
+    for (const char* side : {"width", "height"}) schemas[schema]["properties"][side]["maximum"] = limits.max_render_size;
+  }
+  schemas["SheetRequest"]["properties"]["cells"]["oneOf"][0]["maxItems"] = limits.max_sheet_cells;
+  return doc.dump(1);
+}
+
+}  // namespace facespace::api
