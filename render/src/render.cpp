@@ -69,129 +69,152 @@ Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Rende
   return Status::Ok();
 }
 
-Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) const {
-  if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
-  // A context from the pool for the whole render: the vertex arrays and the read-back below
-  // then exist for at most Concurrency() renders at once, however many requests wait.
-  auto lease = pool_->Acquire();
-  if (!lease.ok()) return lease.status();
-  GlContext& gl = *lease.value().get();
-  const int w = o.width * o.supersample, h = o.height * o.supersample;
-  struct Trim {  // Before the lease lets the context go: it is still current here.
-    GlContext& gl;
-    ~Trim() { gl.TrimLarge(); }
-  } trim{gl};
+namespace {
 
-  // World-space vertices: pos, normal, uv, colour, displacement (13 floats).
-  struct Draw {
-    size_t first_vertex, first_index, index_count;
-    PrimitiveMode mode;
-    int material;
-  };
-  std::vector<float>& verts = gl.verts;
-  std::vector<uint32_t>& indices = gl.indices;
-  verts.clear();
-  indices.clear();
-  std::vector<Draw> draws;
+// One primitive's draw call over the shared vertex and index arrays.
+struct DrawCall {
+  size_t first_vertex, first_index, index_count;
+  PrimitiveMode mode;
+  int material;
+};
+
+// What one render gathers before it draws: the world-space vertices (gl.verts: position, normal, uv,
+// colour, displacement: kFloatsPerVertex floats) and indices (gl.indices), a draw call per primitive,
+// and the boxes the camera may frame.
+constexpr size_t kFloatsPerVertex = 13;
+struct Scene {
+  std::vector<DrawCall> draws;
   Eigen::AlignedBox3f box, shape_box, rest_box, joint_box;
-  float heat_max = 0.0f;
-
-  // Framing the shapes (auto or shapes): the rest-pose box of what they move (stable while sliders
-  // move); on a skinned rig, by default, the joint carrying them, which a pose carries along.
   bool frame_shapes = false;
-  int focus_joint = -1;
-  if (o.camera.frame == Framing::kAuto || o.camera.frame == Framing::kShapes) {
-    std::array<float, 3> lo = o.camera.focus_min, hi = o.camera.focus_max;
-    const bool found = o.camera.has_focus || ShapeFocusBox(rig, lo, hi);
-    const bool small = o.camera.has_focus ? o.camera.focus_small : found && FrameShapesByDefault(rig, lo, hi);
-    if (found) {
-      frame_shapes = o.camera.frame == Framing::kShapes || small;
-      shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
-    }
-    if (o.camera.frame == Framing::kAuto && small) focus_joint = o.camera.has_focus ? o.camera.focus_joint : ShapeFocusJoint(rig);
-  }
+  int joint_node = -1;                // The joint the camera frames, or -1.
+  std::vector<int> joint_in_skin;     // Its index among each skin's joints (-1: not in it).
+  float heat_max = 0.0f;              // The largest displacement (the heatmap's scale).
+};
 
-  // frame=joint:NAME (or the focus joint): the node, and per skin its index among the skin's
-  // joints (-1: not in it).
-  int joint_node = focus_joint;
-  std::vector<int> joint_in_skin(rig.skins.size(), -1);
-  if (o.camera.frame == Framing::kJoint) {
-    joint_node = FindNode(rig, o.camera.frame_joint);
+// Framing the shapes (auto or shapes): the rest-pose box of what they move (stable while sliders
+// move); on a skinned rig, by default, the joint carrying them, which a pose carries along.
+// frame=joint:NAME: that joint, an error naming it when the rig has no such joint.
+Status ChooseFraming(const Rig& rig, const Camera& c, Scene& scene) {
+  if (c.frame == Framing::kAuto || c.frame == Framing::kShapes) {
+    std::array<float, 3> lo = c.focus_min, hi = c.focus_max;
+    const bool found = c.has_focus || ShapeFocusBox(rig, lo, hi);
+    const bool small = c.has_focus ? c.focus_small : found && FrameShapesByDefault(rig, lo, hi);
+    if (found) {
+      scene.frame_shapes = c.frame == Framing::kShapes || small;
+      scene.shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
+    }
+    if (c.frame == Framing::kAuto && small) scene.joint_node = c.has_focus ? c.focus_joint : ShapeFocusJoint(rig);
+  }
+  if (c.frame == Framing::kJoint) {
+    scene.joint_node = FindNode(rig, c.frame_joint);
     std::vector<std::string_view> names;
     for (const Skin& skin : rig.skins) {
       for (int j : skin.joints) names.push_back(rig.nodes[static_cast<size_t>(j)].name);
     }
-    if (names.empty()) return InvalidArgument("frame: joint:" + o.camera.frame_joint + ": the rig has no skeleton");
-    if (joint_node < 0) {
-      return InvalidArgument("frame: no joint '" + o.camera.frame_joint + "' in the rig" + DidYouMean(o.camera.frame_joint, names));
-    }
+    if (names.empty()) return InvalidArgument("frame: joint:" + c.frame_joint + ": the rig has no skeleton");
+    if (scene.joint_node < 0) return InvalidArgument("frame: no joint '" + c.frame_joint + "' in the rig" + DidYouMean(c.frame_joint, names));
   }
-  for (size_t s = 0; joint_node >= 0 && s < rig.skins.size(); ++s) {
+  scene.joint_in_skin.assign(rig.skins.size(), -1);
+  for (size_t s = 0; scene.joint_node >= 0 && s < rig.skins.size(); ++s) {
     const auto& joints = rig.skins[s].joints;
-    const auto it = std::find(joints.begin(), joints.end(), joint_node);
-    if (it != joints.end()) joint_in_skin[s] = static_cast<int>(it - joints.begin());
+    const auto it = std::find(joints.begin(), joints.end(), scene.joint_node);
+    if (it != joints.end()) scene.joint_in_skin[s] = static_cast<int>(it - joints.begin());
   }
+  return Status::Ok();
+}
 
+// Whether the framed joint carries vertex v of p (a third of its weight or more).
+bool CarriedBy(const Primitive& p, size_t v, int joint) {
+  for (size_t k = 0; joint >= 0 && k < p.influences; ++k) {
+    const size_t at = v * p.influences + k;
+    if (p.joints[at] == joint && p.joint_weights[at] >= 1.0f / 3.0f) return true;
+  }
+  return false;
+}
+
+// One primitive's vertices in world space into `verts`, the boxes extended.
+void GatherPrimitive(const Primitive& p, const BlendedPrimitive& b, bool posed, int joint, Scene& scene, std::vector<float>& verts) {
+  const auto& m = b.world;
+  const Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
+  const std::span<const float> texcoords = TexcoordsOf(p, b);  // UV morphs move them.
+  for (size_t v = 0; v < p.vertex_count(); ++v) {
+    float q[3], rest[3], moved[3];
+    TransformPoint(m, &b.positions[3 * v], q);
+    // The rest shape, for a camera that does not move with the weights (a skinned primitive's
+    // positions are in scene space already).
+    if (b.skinned) std::copy(q, q + 3, rest);
+    else TransformPoint(m, &p.positions[3 * v], rest);
+    // Displacement by the shapes: world space, or for skinned primitives the morph in
+    // mesh space (the skeleton's motion is not the shapes').
+    for (int c = 0; c < 3; ++c) moved[c] = b.skinned ? b.morphed_positions[3 * v + c] - p.positions[3 * v + c] : q[c] - rest[c];
+    Eigen::Vector3f n = (nm * Eigen::Map<const Eigen::Vector3f>(&b.normals[3 * v])).normalized();
+    if (!n.allFinite()) n = Eigen::Vector3f::UnitZ();
+    const float d = std::sqrt(moved[0] * moved[0] + moved[1] * moved[1] + moved[2] * moved[2]);
+    scene.heat_max = std::max(scene.heat_max, d);
+    scene.box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
+    if (!posed) scene.rest_box.extend(Eigen::Vector3f(rest[0], rest[1], rest[2]));
+    if (CarriedBy(p, v, joint)) scene.joint_box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
+    const float uv[2] = {texcoords.empty() ? 0.0f : texcoords[2 * v], texcoords.empty() ? 0.0f : texcoords[2 * v + 1]};
+    verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
+    if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
+    else verts.insert(verts.end(), p.colors.begin() + 4 * v, p.colors.begin() + 4 * v + 4);
+    verts.push_back(d);
+  }
+}
+
+// Every primitive's vertices and indices, and a draw call each. A framed joint no vertex follows (a
+// root, an end site) frames its position, in a tenth of the whole.
+void GatherScene(const Rig& rig, const BlendedRig& blended, Scene& scene, std::vector<float>& verts, std::vector<uint32_t>& indices) {
+  verts.clear();
+  indices.clear();
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
-    const BlendedPrimitive& b = blended.primitives[pi];
     const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? rig.meshes[static_cast<size_t>(p.mesh)].skin : -1;
-    const int joint = skin >= 0 && static_cast<size_t>(skin) < joint_in_skin.size() ? joint_in_skin[static_cast<size_t>(skin)] : -1;
-
-    const auto& m = b.world;
-    Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
-    const size_t first = verts.size() / 13;
-    const std::span<const float> texcoords = TexcoordsOf(p, b);  // UV morphs move them.
-    for (size_t v = 0; v < p.vertex_count(); ++v) {
-      float q[3], rest[3], moved[3];
-      TransformPoint(m, &b.positions[3 * v], q);
-      // The rest shape, for a camera that does not move with the weights (a skinned primitive's
-      // positions are in scene space already).
-      if (b.skinned) std::copy(q, q + 3, rest);
-      else TransformPoint(m, &p.positions[3 * v], rest);
-      // Displacement by the shapes: world space, or for skinned primitives the morph in
-      // mesh space (the skeleton's motion is not the shapes').
-      for (int c = 0; c < 3; ++c) moved[c] = b.skinned ? b.morphed_positions[3 * v + c] - p.positions[3 * v + c] : q[c] - rest[c];
-      Eigen::Vector3f n = (nm * Eigen::Map<const Eigen::Vector3f>(&b.normals[3 * v])).normalized();
-      if (!n.allFinite()) n = Eigen::Vector3f::UnitZ();
-      const float d = std::sqrt(moved[0] * moved[0] + moved[1] * moved[1] + moved[2] * moved[2]);
-      heat_max = std::max(heat_max, d);
-      box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
-      if (!blended.posed) rest_box.extend(Eigen::Vector3f(rest[0], rest[1], rest[2]));
-      // The vertices the framed joint carries (a third of their weight or more), where the pose puts them.
-      if (joint >= 0 && p.influences > 0) {
-        for (size_t k = 0; k < p.influences; ++k) {
-          const size_t at = v * p.influences + k;
-          if (p.joints[at] == joint && p.joint_weights[at] >= 1.0f / 3.0f) {
-            joint_box.extend(Eigen::Vector3f(q[0], q[1], q[2]));
-            break;
-          }
-        }
-      }
-      const float uv[2] = {texcoords.empty() ? 0.0f : texcoords[2 * v], texcoords.empty() ? 0.0f : texcoords[2 * v + 1]};
-      verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
-      if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
-      else verts.insert(verts.end(), p.colors.begin() + 4 * v, p.colors.begin() + 4 * v + 4);
-      verts.push_back(d);
-    }
-    draws.push_back({first, indices.size(), p.indices.size(), p.mode, p.material});
+    const int joint = skin >= 0 && static_cast<size_t>(skin) < scene.joint_in_skin.size() ? scene.joint_in_skin[static_cast<size_t>(skin)] : -1;
+    const size_t first = verts.size() / kFloatsPerVertex;
+    GatherPrimitive(p, blended.primitives[pi], blended.posed, p.influences > 0 ? joint : -1, scene, verts);
+    scene.draws.push_back({first, indices.size(), p.indices.size(), p.mode, p.material});
     for (uint32_t i : p.indices) indices.push_back(static_cast<uint32_t>(first + i));
   }
-
-  // A joint no vertex follows (a root, an end site): its position, in a tenth of the whole.
-  if (joint_node >= 0 && joint_box.isEmpty()) {
-    const auto& world = static_cast<size_t>(joint_node) < blended.node_world.size() ? blended.node_world[static_cast<size_t>(joint_node)]
-                                                                                    : std::array<float, 16>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  if (scene.joint_node >= 0 && scene.joint_box.isEmpty()) {
+    const size_t node = static_cast<size_t>(scene.joint_node);
+    const auto& world = node < blended.node_world.size() ? blended.node_world[node] : std::array<float, 16>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
     const Eigen::Vector3f at(world[12], world[13], world[14]);
-    const float r = box.isEmpty() ? 0.1f : 0.05f * box.diagonal().norm();
-    joint_box.extend(at - Eigen::Vector3f::Constant(r));
-    joint_box.extend(at + Eigen::Vector3f::Constant(r));
+    const float r = scene.box.isEmpty() ? 0.1f : 0.05f * scene.box.diagonal().norm();
+    scene.joint_box.extend(at - Eigen::Vector3f::Constant(r));
+    scene.joint_box.extend(at + Eigen::Vector3f::Constant(r));
   }
+}
 
-  // Camera.
+struct Matrices {
+  Eigen::Matrix4f view, proj;
+};
+
+// The eye: the look-at camera's, or the orbit's around the framed box, far enough that its bounding
+// sphere fits both the vertical and horizontal field of view (of the part of the image left of a
+// heatmap's legend: `used`).
+void PlaceEye(const Camera& c, const Eigen::Vector3f& center, float radius, float fov, float aspect, float used, Eigen::Vector3f& eye,
+              Eigen::Vector3f& target, Eigen::Vector3f& up) {
+  if (c.look_at) {
+    eye = Eigen::Vector3f(c.eye[0], c.eye[1], c.eye[2]);
+    target = Eigen::Vector3f(c.target[0], c.target[1], c.target[2]);
+    up = Eigen::Vector3f(c.up[0], c.up[1], c.up[2]);
+    return;
+  }
+  const float fit = radius / std::sin(0.5f * std::min(fov, 2.0f * std::atan(std::tan(0.5f * fov) * aspect * used)));
+  const float dist = (c.distance > 0 ? c.distance : fit) / std::max(c.zoom, 1e-3f);
+  const float yaw = c.yaw * static_cast<float>(M_PI) / 180.0f, pitch = c.pitch * static_cast<float>(M_PI) / 180.0f;
+  eye = center + dist * Eigen::Vector3f(std::cos(pitch) * std::sin(yaw), std::sin(pitch), std::cos(pitch) * std::cos(yaw));
+  target = center;
+  up = Eigen::Vector3f::UnitY();
+}
+
+// The view and projection of the camera over the framed box: the joint's, the shapes', else the
+// whole (the rest shape's when not posed, so the camera stays still while weights change).
+Result<Matrices> CameraMatrices(const RenderOptions& o, const Scene& scene, bool posed) {
   const Camera& c = o.camera;
-  const Eigen::AlignedBox3f& whole = !blended.posed && !rest_box.isEmpty() ? rest_box : box;
-  const Eigen::AlignedBox3f& framed = joint_node >= 0 ? joint_box : frame_shapes && !shape_box.isEmpty() ? shape_box : whole;
+  const Eigen::AlignedBox3f& whole = !posed && !scene.rest_box.isEmpty() ? scene.rest_box : scene.box;
+  const Eigen::AlignedBox3f& framed = scene.joint_node >= 0 ? scene.joint_box : scene.frame_shapes && !scene.shape_box.isEmpty() ? scene.shape_box : whole;
   const Eigen::Vector3f center = framed.isEmpty() ? Eigen::Vector3f(Eigen::Vector3f::Zero()) : Eigen::Vector3f(framed.center());
   const float radius = framed.isEmpty() ? 1.0f : std::max(0.5f * framed.diagonal().norm(), 1e-6f);
   const float fov = std::clamp(c.fov, 1.0f, 170.0f) * static_cast<float>(M_PI) / 180.0f;
@@ -200,19 +223,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   // same scale both ways, the image centre shifted), so no ear runs under the legend.
   const float used = o.view == View::kHeatmap && !c.look_at ? std::clamp(static_cast<float>(HeatLegendLeft(o.width, o.height)) / static_cast<float>(o.width), 0.5f, 1.0f) : 1.0f;
   Eigen::Vector3f eye, target, up;
-  if (c.look_at) {
-    eye = Eigen::Vector3f(c.eye[0], c.eye[1], c.eye[2]);
-    target = Eigen::Vector3f(c.target[0], c.target[1], c.target[2]);
-    up = Eigen::Vector3f(c.up[0], c.up[1], c.up[2]);
-  } else {
-    // Far enough that the bounding sphere fits both the vertical and horizontal field of view.
-    const float fit = radius / std::sin(0.5f * std::min(fov, 2.0f * std::atan(std::tan(0.5f * fov) * aspect * used)));
-    const float dist = (c.distance > 0 ? c.distance : fit) / std::max(c.zoom, 1e-3f);
-    const float yaw = c.yaw * static_cast<float>(M_PI) / 180.0f, pitch = c.pitch * static_cast<float>(M_PI) / 180.0f;
-    eye = center + dist * Eigen::Vector3f(std::cos(pitch) * std::sin(yaw), std::sin(pitch), std::cos(pitch) * std::cos(yaw));
-    target = center;
-    up = Eigen::Vector3f::UnitY();
-  }
+  PlaceEye(c, center, radius, fov, aspect, used, eye, target, up);
   Eigen::Vector3f fwd = (target - eye);
   if (fwd.norm() < 1e-12f) return InvalidArgument("camera eye and target coincide");
   fwd.normalize();
@@ -220,160 +231,159 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   if (right.norm() < 1e-6f) right = fwd.cross(Eigen::Vector3f::UnitZ());
   right.normalize();
   const Eigen::Vector3f cam_up = right.cross(fwd);
-  Eigen::Matrix4f view = Eigen::Matrix4f::Identity();
-  view.block<1, 3>(0, 0) = right.transpose();
-  view.block<1, 3>(1, 0) = cam_up.transpose();
-  view.block<1, 3>(2, 0) = -fwd.transpose();
-  view(0, 3) = -right.dot(eye);
-  view(1, 3) = -cam_up.dot(eye);
-  view(2, 3) = fwd.dot(eye);
+  Matrices m;
+  m.view = Eigen::Matrix4f::Identity();
+  m.view.block<1, 3>(0, 0) = right.transpose();
+  m.view.block<1, 3>(1, 0) = cam_up.transpose();
+  m.view.block<1, 3>(2, 0) = -fwd.transpose();
+  m.view(0, 3) = -right.dot(eye);
+  m.view(1, 3) = -cam_up.dot(eye);
+  m.view(2, 3) = fwd.dot(eye);
   const float center_dist = (center - eye).dot(fwd);
   const float znear = std::max(center_dist - 2.0f * radius, center_dist * 1e-3f > 0 ? center_dist * 1e-3f : radius * 1e-3f);
   const float zfar = std::max(center_dist + 2.0f * radius, znear * 2.0f);
   const float f = 1.0f / std::tan(0.5f * fov);
-  Eigen::Matrix4f proj = Eigen::Matrix4f::Zero();
-  proj(0, 0) = f / aspect;
-  proj(0, 2) = 1.0f - used;  // NDC x shifted by used - 1: the centre of the part left of the legend.
-  proj(1, 1) = f;
-  proj(2, 2) = (zfar + znear) / (znear - zfar);
-  proj(2, 3) = 2.0f * zfar * znear / (znear - zfar);
-  proj(3, 2) = -1.0f;
+  m.proj = Eigen::Matrix4f::Zero();
+  m.proj(0, 0) = f / aspect;
+  m.proj(0, 2) = 1.0f - used;  // NDC x shifted by used - 1: the centre of the part left of the legend.
+  m.proj(1, 1) = f;
+  m.proj(2, 2) = (zfar + znear) / (znear - zfar);
+  m.proj(2, 3) = 2.0f * zfar * znear / (znear - zfar);
+  m.proj(3, 2) = -1.0f;
+  return m;
+}
 
-  // Straight to 8 bits where asked and nothing after the draw needs floats (the box filter of
-  // supersamples, the heatmap's legend).
-  const bool srgb8 = o.srgb8 && o.supersample == 1 && o.view != View::kHeatmap && gl.pack_invert;
+// The target cleared to the background, the vertex and index arrays uploaded and laid out.
+void Upload(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>& bg) {
   gl.BindTarget(w, h, srgb8);
   glViewport(0, 0, w, h);
-  const auto& bg = o.background;
   glClearColor(SrgbToLinear(bg[0]), SrgbToLinear(bg[1]), SrgbToLinear(bg[2]), bg[3]);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
   glBindVertexArray(gl.vao);
   glBindBuffer(GL_ARRAY_BUFFER, gl.vbo);
-  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(verts.size() * 4), verts.data(), GL_STREAM_DRAW);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(gl.verts.size() * 4), gl.verts.data(), GL_STREAM_DRAW);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.ibo);
-  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * 4), indices.data(), GL_STREAM_DRAW);
-  const GLsizei stride = 13 * 4;
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(gl.indices.size() * 4), gl.indices.data(), GL_STREAM_DRAW);
+  const GLsizei stride = kFloatsPerVertex * 4;
   const int sizes[5] = {3, 3, 2, 4, 1}, offsets[5] = {0, 3, 6, 8, 12};
   for (int a = 0; a < 5; ++a) {
     glEnableVertexAttribArray(a);
     glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(static_cast<uintptr_t>(offsets[a] * 4)));
   }
-  const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : o.view == View::kClay ? 4 : 0;
-  const float exposure = std::exp2(std::clamp(o.exposure, -10.0f, 10.0f));
-  const char* samplers[5] = {"u_texture", "u_metal_rough_texture", "u_normal_texture", "u_occlusion_texture", "u_emissive_texture"};
-  // A primitive with no material draws as light grey clay, not glTF's default (a rough metal, dark
-  // without a detailed environment), so material-less meshes (OBJ, MakeHuman) read as shapes.
+}
+
+// What every draw call of one pass shares.
+struct Pass {
+  int shader_mode;  // 0 shaded, 1 edges, 2 heatmap, 3 normals, 4 clay.
+  Matrices matrices;
+  float heat_max, exposure;
+};
+
+// A material's uniforms and textures on `program`.
+void SetMaterial(GLuint program, const Pass& pass, const Material& mat, const std::array<float, 4>& base, const GLuint (&textures)[5]) {
+  static const char* const kSamplers[5] = {"u_texture", "u_metal_rough_texture", "u_normal_texture", "u_occlusion_texture", "u_emissive_texture"};
+  glUseProgram(program);
+  auto at = [program](const char* name) { return glGetUniformLocation(program, name); };
+  glUniformMatrix4fv(at("u_view"), 1, GL_FALSE, pass.matrices.view.data());
+  glUniformMatrix4fv(at("u_proj"), 1, GL_FALSE, pass.matrices.proj.data());
+  glUniform1f(at("u_heat_max"), pass.heat_max);
+  glUniform1f(at("u_exposure"), pass.exposure);
+  glUniform4f(at("u_base_color"), base[0], base[1], base[2], base[3]);
+  glUniform2f(at("u_metal_rough"), mat.metallic_factor, mat.roughness_factor);
+  glUniform1f(at("u_normal_scale"), mat.normal_scale);
+  glUniform1f(at("u_occlusion_strength"), mat.occlusion_strength);
+  glUniform3f(at("u_emissive"), mat.emissive_factor[0], mat.emissive_factor[1], mat.emissive_factor[2]);
+  glUniform1f(at("u_alpha_cutoff"), mat.alpha_cutoff);
+  for (int unit = 0; unit < 5; ++unit) {
+    glUniform1i(at(kSamplers[unit]), unit);
+    glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
+    glBindTexture(GL_TEXTURE_2D, textures[unit]);
+  }
+}
+
+// One pass over every draw call. A primitive with no material draws as light grey clay, not glTF's
+// default (a rough metal, dark without a detailed environment), so material-less meshes (OBJ,
+// MakeHuman) read as shapes.
+Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene, const Pass& pass) {
   Material none;
   none.base_color_factor = {0.8f, 0.8f, 0.8f, 1.0f};
   none.metallic_factor = 0.0f;
   none.roughness_factor = 0.5f;
-  auto draw_all = [&](int shader_mode) -> Status {
-    for (const Draw& d : draws) {
-      const Material& mat = d.material >= 0 ? rig.materials[static_cast<size_t>(d.material)] : none;
-      // The colour under the shapes' material morphs (MMD's blush, pallor), else the material's own.
-      const bool morphed = d.material >= 0 && static_cast<size_t>(d.material) < blended.material_colors.size();
-      const auto& base = morphed ? blended.material_colors[static_cast<size_t>(d.material)] : mat.base_color_factor;
-      const bool blend = mat.alpha_mode == "BLEND" || (morphed && base[3] < 1.0f);
-      // The material's textures (clay, heatmap, normals and edges use none), each decoded before
-      // any is bound: a decode binds on the active unit.
-      const bool textured = shader_mode == 0;
-      const int images[5] = {mat.base_color_image, mat.metallic_roughness_image, mat.normal_image, mat.occlusion_image, mat.emissive_image};
-      const bool srgb[5] = {true, false, false, false, true};
-      GLuint textures[5] = {};
-      for (int unit = 0; textured && unit < 5; ++unit) {
-        if (images[unit] >= 0) textures[unit] = gl.TextureFor(rig.images[static_cast<size_t>(images[unit])], srgb[unit]);
-      }
-      const int alpha_mode = !textured ? 0 : blend ? 2 : mat.alpha_mode == "MASK" ? 1 : 0;
-      const GLuint program = gl.Program(ShaderKey(shader_mode, alpha_mode, textures));
-      if (!program) return Internal("renderer: " + gl.error);
-      glUseProgram(program);
-      auto at = [program](const char* name) { return glGetUniformLocation(program, name); };
-      glUniformMatrix4fv(at("u_view"), 1, GL_FALSE, view.data());
-      glUniformMatrix4fv(at("u_proj"), 1, GL_FALSE, proj.data());
-      glUniform1f(at("u_heat_max"), heat_max);
-      glUniform1f(at("u_exposure"), exposure);
-      glUniform4f(at("u_base_color"), base[0], base[1], base[2], base[3]);
-      glUniform2f(at("u_metal_rough"), mat.metallic_factor, mat.roughness_factor);
-      glUniform1f(at("u_normal_scale"), mat.normal_scale);
-      glUniform1f(at("u_occlusion_strength"), mat.occlusion_strength);
-      glUniform3f(at("u_emissive"), mat.emissive_factor[0], mat.emissive_factor[1], mat.emissive_factor[2]);
-      glUniform1f(at("u_alpha_cutoff"), mat.alpha_cutoff);
-      for (int unit = 0; unit < 5; ++unit) {
-        glUniform1i(at(samplers[unit]), unit);
-        glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
-        glBindTexture(GL_TEXTURE_2D, textures[unit]);
-      }
-      if (alpha_mode == 2) {
-        glEnable(GL_BLEND);
-        glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // "Over", alpha too.
-      } else {
-        glDisable(GL_BLEND);
-      }
-      const GLenum prim = d.mode == PrimitiveMode::kTriangles ? GL_TRIANGLES : d.mode == PrimitiveMode::kLines ? GL_LINES : GL_POINTS;
-      glDrawElements(prim, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT,
-                     reinterpret_cast<void*>(static_cast<uintptr_t>(d.first_index * 4)));
+  for (const DrawCall& d : scene.draws) {
+    const Material& mat = d.material >= 0 ? rig.materials[static_cast<size_t>(d.material)] : none;
+    // The colour under the shapes' material morphs (MMD's blush, pallor), else the material's own.
+    const bool morphed = d.material >= 0 && static_cast<size_t>(d.material) < blended.material_colors.size();
+    const auto& base = morphed ? blended.material_colors[static_cast<size_t>(d.material)] : mat.base_color_factor;
+    const bool blend = mat.alpha_mode == "BLEND" || (morphed && base[3] < 1.0f);
+    // The material's textures (clay, heatmap, normals and edges use none), each decoded before
+    // any is bound: a decode binds on the active unit.
+    const bool textured = pass.shader_mode == 0;
+    const int images[5] = {mat.base_color_image, mat.metallic_roughness_image, mat.normal_image, mat.occlusion_image, mat.emissive_image};
+    const bool srgb[5] = {true, false, false, false, true};
+    GLuint textures[5] = {};
+    for (int unit = 0; textured && unit < 5; ++unit) {
+      if (images[unit] >= 0) textures[unit] = gl.TextureFor(rig.images[static_cast<size_t>(images[unit])], srgb[unit]);
     }
-    return Status::Ok();
-  };
+    const int alpha_mode = !textured ? 0 : blend ? 2 : mat.alpha_mode == "MASK" ? 1 : 0;
+    const GLuint program = gl.Program(ShaderKey(pass.shader_mode, alpha_mode, textures));
+    if (!program) return Internal("renderer: " + gl.error);
+    SetMaterial(program, pass, mat, base, textures);
+    if (alpha_mode == 2) {
+      glEnable(GL_BLEND);
+      glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // "Over", alpha too.
+    } else {
+      glDisable(GL_BLEND);
+    }
+    const GLenum prim = d.mode == PrimitiveMode::kTriangles ? GL_TRIANGLES : d.mode == PrimitiveMode::kLines ? GL_LINES : GL_POINTS;
+    glDrawElements(prim, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT, reinterpret_cast<void*>(static_cast<uintptr_t>(d.first_index * 4)));
+  }
+  return Status::Ok();
+}
+
+// The view's passes: one, or for the wireframe the shaded surface pushed back and its edges over it.
+Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene, const RenderOptions& o, const Matrices& m) {
+  const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : o.view == View::kClay ? 4 : 0;
+  Pass pass{mode, m, scene.heat_max, std::exp2(std::clamp(o.exposure, -10.0f, 10.0f))};
   if (o.view == View::kWireframe) {
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.0f, 1.0f);
   }
-  Status drawn = draw_all(mode);
+  Status drawn = DrawPass(gl, rig, blended, scene, pass);
   glDisable(GL_POLYGON_OFFSET_FILL);
   if (o.view == View::kWireframe && drawn.ok()) {
     glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     glDepthFunc(GL_LEQUAL);
-    drawn = draw_all(1);
+    pass.shader_mode = 1;
+    drawn = DrawPass(gl, rig, blended, scene, pass);
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glDepthFunc(GL_LESS);
   }
-  if (!drawn.ok()) return drawn;
-  const int ss = o.supersample;
-  out.width = o.width;
-  out.height = o.height;
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  // Straight into the image, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
-  auto read_top_first = [w, h](GLenum type, void* data) {
-    glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
-    glReadPixels(0, 0, w, h, GL_RGBA, type, data);
-    glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
-    const GLenum err = glGetError();
-    return err == GL_NO_ERROR ? Status::Ok() : Internal("GL error " + std::to_string(err));
-  };
-  if (srgb8) {
-    // The stored sRGB bytes as they are (no conversion on the way out).
-    glDisable(GL_FRAMEBUFFER_SRGB);
-    out.rgba.clear();
-    out.srgb8.resize(static_cast<size_t>(w) * h * 4);
-    return read_top_first(GL_UNSIGNED_BYTE, out.srgb8.data());
-  }
-  out.srgb8.clear();
-  if (ss == 1 && gl.pack_invert) {
-    out.rgba.resize(static_cast<size_t>(w) * h * 4);
-    if (Status s = read_top_first(GL_FLOAT, out.rgba.data()); !s.ok()) return s;
-    if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
-    return Status::Ok();
-  }
-  std::vector<float>& pixels = gl.pixels;
-  pixels.resize(static_cast<size_t>(w) * h * 4);
-  glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pixels.data());
-  if (const GLenum err = glGetError(); err != GL_NO_ERROR) {
-    return Internal("GL error " + std::to_string(err));
-  }
-  // Box-filter the supersamples (in linear light) and flip to top-row-first.
+  return drawn;
+}
+
+// The w x h target into `data`, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
+Status ReadTopFirst(int w, int h, GLenum type, void* data) {
+  glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
+  glReadPixels(0, 0, w, h, GL_RGBA, type, data);
+  glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
+  const GLenum err = glGetError();
+  return err == GL_NO_ERROR ? Status::Ok() : Internal("GL error " + std::to_string(err));
+}
+
+// Bottom-row-first supersampled floats box-filtered (in linear light) into `out`, top row first.
+void BoxFilter(std::span<const float> pixels, int w, int h, int ss, Image& out) {
   // Zeros where the supersamples add up; rows copied over whatever was there otherwise.
-  if (ss > 1) out.rgba.assign(static_cast<size_t>(o.width) * o.height * 4, 0.0f);
-  else out.rgba.resize(static_cast<size_t>(o.width) * o.height * 4);
+  if (ss > 1) out.rgba.assign(static_cast<size_t>(out.width) * out.height * 4, 0.0f);
+  else out.rgba.resize(static_cast<size_t>(out.width) * out.height * 4);
   const float inv = 1.0f / static_cast<float>(ss * ss);
-  for (int y = 0; ss == 1 && y < o.height; ++y) {  // No supersampling: rows flipped, as they are.
-    std::memcpy(&out.rgba[static_cast<size_t>(y) * o.width * 4], &pixels[static_cast<size_t>(h - 1 - y) * w * 4], static_cast<size_t>(w) * 16);
+  for (int y = 0; ss == 1 && y < out.height; ++y) {  // No supersampling: rows flipped, as they are.
+    std::memcpy(&out.rgba[static_cast<size_t>(y) * out.width * 4], &pixels[static_cast<size_t>(h - 1 - y) * w * 4], static_cast<size_t>(w) * 16);
   }
-  for (int y = 0; ss > 1 && y < o.height; ++y) {
-    for (int x = 0; x < o.width; ++x) {
-      float* dst = &out.rgba[(static_cast<size_t>(y) * o.width + x) * 4];
+  for (int y = 0; ss > 1 && y < out.height; ++y) {
+    for (int x = 0; x < out.width; ++x) {
+      float* dst = &out.rgba[(static_cast<size_t>(y) * out.width + x) * 4];
       for (int sy = 0; sy < ss; ++sy) {
         const int gy = h - 1 - (y * ss + sy);
         for (int sx = 0; sx < ss; ++sx) {
@@ -383,8 +393,62 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
       }
     }
   }
+}
+
+// The drawn target into `out`: the sRGB bytes as they are, or floats (box-filtered when supersampled),
+// with the heatmap's legend drawn over.
+Status ReadBack(GlContext& gl, const RenderOptions& o, bool srgb8, float heat_max, Image& out) {
+  const int ss = o.supersample, w = o.width * ss, h = o.height * ss;
+  out.width = o.width;
+  out.height = o.height;
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  if (srgb8) {
+    glDisable(GL_FRAMEBUFFER_SRGB);  // The stored sRGB bytes, no conversion on the way out.
+    out.rgba.clear();
+    out.srgb8.resize(static_cast<size_t>(w) * h * 4);
+    return ReadTopFirst(w, h, GL_UNSIGNED_BYTE, out.srgb8.data());
+  }
+  out.srgb8.clear();
+  if (ss == 1 && gl.pack_invert) {
+    out.rgba.resize(static_cast<size_t>(w) * h * 4);
+    if (Status s = ReadTopFirst(w, h, GL_FLOAT, out.rgba.data()); !s.ok()) return s;
+  } else {
+    std::vector<float>& pixels = gl.pixels;
+    pixels.resize(static_cast<size_t>(w) * h * 4);
+    glReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, pixels.data());
+    if (const GLenum err = glGetError(); err != GL_NO_ERROR) return Internal("GL error " + std::to_string(err));
+    BoxFilter(pixels, w, h, ss, out);
+  }
   if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
   return Status::Ok();
+}
+
+}  // namespace
+
+// The draw as its stages: framing, the scene gathered in world space, the camera, the upload, the
+// view's passes, the read-back.
+Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o, Image& out) const {
+  if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
+  Scene scene;
+  if (Status s = ChooseFraming(rig, o.camera, scene); !s.ok()) return s;
+  // A context from the pool for the whole render: the vertex arrays and the read-back below
+  // then exist for at most Concurrency() renders at once, however many requests wait.
+  auto lease = pool_->Acquire();
+  if (!lease.ok()) return lease.status();
+  GlContext& gl = *lease.value().get();
+  struct Trim {  // Before the lease lets the context go: it is still current here.
+    GlContext& gl;
+    ~Trim() { gl.TrimLarge(); }
+  } trim{gl};
+  GatherScene(rig, blended, scene, gl.verts, gl.indices);
+  auto matrices = CameraMatrices(o, scene, blended.posed);
+  if (!matrices.ok()) return matrices.status();
+  // Straight to 8 bits where asked and nothing after the draw needs floats (the box filter of
+  // supersamples, the heatmap's legend).
+  const bool srgb8 = o.srgb8 && o.supersample == 1 && o.view != View::kHeatmap && gl.pack_invert;
+  Upload(gl, o.width * o.supersample, o.height * o.supersample, srgb8, o.background);
+  if (Status s = DrawView(gl, rig, blended, scene, o, matrices.value()); !s.ok()) return s;
+  return ReadBack(gl, o, srgb8, scene.heat_max, out);
 }
 
 }  // namespace facespace::render
