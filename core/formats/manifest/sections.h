@@ -1,0 +1,42 @@
+// The manifest's sections, each read by its own function (manifest.cpp's table says in which order):
+// the shapes' own (shapes.cpp), what makes them more than a sum (semantics.cpp), the face's (face.cpp).
+// Each takes its member's value; errors name the member's JSON Pointer.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "facespace/core/rig.h"
+#include "facespace/core/status.h"
+
+namespace facespace::manifest {
+
+using nlohmann::json;
+
+// InvalidArgument "manifest: POINTER: MESSAGE", the field named.
+inline Status Bad(const std::string& pointer, const std::string& message) {
+  Status s = InvalidArgument("manifest: " + pointer + ": " + message);
+  s.fields.push_back({pointer, message});
+  return s;
+}
+
+// The shape `v` names (a string), or an error at `ptr`.
+Status ShapeAt(const Rig& rig, const json& v, const std::string& ptr, uint32_t* out);
+
+// Left/right controls ("eyes/l-eye-bag-decr|incr" and "eyes/r-...") as partners.
+void PairControls(Rig& rig);
+
+Status ApplyMaterials(Rig& rig, const json& v);
+Status ApplyDerived(Rig& rig, const json& v);
+Status ApplyGroups(Rig& rig, const json& v);
+Status ApplyShapes(Rig& rig, const json& v);
+Status ApplyControls(Rig& rig, const json& v);
+Status ApplyInBetweens(Rig& rig, const json& v);
+Status ApplyCorrectives(Rig& rig, const json& v);
+Status ApplyStatistics(Rig& rig, const json& v);
+Status ApplyExpressions(Rig& rig, const json& v);
+Status ApplyGaze(Rig& rig, const json& v);
+Status ApplyVisemes(Rig& rig, const json& v);
+
+}  // namespace facespace::manifest
