@@ -12,8 +12,7 @@
 namespace facespace::manifest {
 
 // "expressions": name -> {weights, binary, override_*} (or null: none).
-Status ApplyExpressions(Rig& rig, const json& section) {
-  const json& ex = section;
+Status ApplyExpressions(Rig& rig, const json& ex) {
   if (!ex.is_object()) return Bad("/expressions", "must be an object of expression name -> {\"weights\": {SHAPE: w}, \"binary\", \"override_blink\", \"override_look_at\", \"override_mouth\"} (or null: none)");
   for (auto it = ex.begin(); it != ex.end(); ++it) {
     const std::string ptr = "/expressions/" + JsonPointerEscape(it.key());
@@ -62,8 +61,7 @@ Status ApplyExpressions(Rig& rig, const json& section) {
 }
 
 // "gaze": {type, eyes, head, neck, coefficient, limits, range_maps}.
-Status ApplyGaze(Rig& rig, const json& section) {
-  const json& g = section;
+Status ApplyGaze(Rig& rig, const json& g) {
   if (!g.is_object()) return Bad("/gaze", "must be an object {\"eyes\", \"head\", \"neck\", \"coefficient\", \"limits\", \"range_maps\", \"type\"}");
   static constexpr std::string_view kKeys[] = {"type", "eyes", "head", "neck", "coefficient", "limits", "range_maps"};
   for (auto m = g.begin(); m != g.end(); ++m) {

@@ -135,8 +135,7 @@ Status ApplyCorrectives(Rig& rig, const json& section) {
 }
 
 // "statistics": {mean, stddev | components, bound}, the face space's distribution.
-Status ApplyStatistics(Rig& rig, const json& section) {
-  const json& st = section;
+Status ApplyStatistics(Rig& rig, const json& st) {
   if (!st.is_object()) return Bad("/statistics", "must be an object {\"mean\", \"stddev\" | \"components\", \"bound\"}");
   ShapeStatistics stats;
   stats.present = true;

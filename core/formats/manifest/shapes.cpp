@@ -10,10 +10,9 @@
 namespace facespace::manifest {
 
 // "materials": a material's base colour by name.
-Status ApplyMaterials(Rig& rig, const json& section) {
+Status ApplyMaterials(Rig& rig, const json& m) {
   // A material's base colour (RGBA) by name: for a rig whose textures are not at hand (an MMD
   // model's blush is a red texture on a see-through material).
-  const json& m = section;
   if (!m.is_object()) return Bad("/materials", "must be an object of material name -> {\"base_color\": [r, g, b, a]}");
   for (auto it = m.begin(); it != m.end(); ++it) {
     const std::string ptr = "/materials/" + JsonPointerEscape(it.key());
