@@ -14,6 +14,7 @@
 #include <string_view>
 
 #include "facespace/api/http.h"
+#include "facespace/render/render.h"
 #include "http/framing.h"
 #include "memory_store.h"
 
