@@ -257,183 +257,239 @@ void ReadPhysics(const Model& in, const std::vector<int>& node_of, Rig& rig, siz
   if (ph.bodies.empty()) ph = Physics{};
 }
 
-Result<Rig> BuildRig(const Model& in, const std::string& name) {
-  const std::vector<Vertex>& verts = in.verts;
-  const std::vector<uint32_t>& indices = in.indices;
-  const std::vector<ModelMaterial>& mats = in.mats;
-  const std::vector<Bone>& bones = in.bones;
-  const std::vector<Morph>& morphs = in.morphs;
-  const std::vector<std::string>& textures = in.textures;
-  const size_t nverts = verts.size(), nbones = bones.size(), nmorphs = morphs.size(), nmats = mats.size();
-  const std::string& model = in.name;
-  const size_t sdef = in.sdef, qdef = in.qdef, ik = in.ik, grants = in.grants;
-  Rig rig;
-  rig.name = name;
-  std::vector<std::string> skipped;
+namespace {
+
+// Bones that name a bone out of range, vertices that name a bone out of range: the file is broken.
+Status CheckBoneIndices(const Model& in, const std::string& name) {
+  const size_t nbones = in.bones.size();
   for (size_t b = 0; b < nbones; ++b) {
-    if (bones[b].parent >= static_cast<int64_t>(nbones) || bones[b].parent < -1) {
-      return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[b].name + "' has parent " + std::to_string(bones[b].parent) + " of " + std::to_string(nbones));
+    if (in.bones[b].parent >= static_cast<int64_t>(nbones) || in.bones[b].parent < -1) {
+      return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + in.bones[b].name + "' has parent " + std::to_string(in.bones[b].parent) + " of " + std::to_string(nbones));
     }
   }
-  for (size_t v = 0; v < nverts; ++v) {
-    for (int k = 0; k < verts[v].count; ++k) {
-      if (verts[v].bones[k] >= static_cast<int64_t>(nbones) || (verts[v].bones[k] < 0 && verts[v].weights[k] != 0)) {
-        return InvalidArgument(name + ": " + std::string(in.format) + ": vertex " + std::to_string(v) + " names bone " + std::to_string(verts[v].bones[k]) + " of " + std::to_string(nbones));
+  for (size_t v = 0; v < in.verts.size(); ++v) {
+    const Vertex& x = in.verts[v];
+    for (int k = 0; k < x.count; ++k) {
+      if (x.bones[k] >= static_cast<int64_t>(nbones) || (x.bones[k] < 0 && x.weights[k] != 0)) {
+        return InvalidArgument(name + ": " + std::string(in.format) + ": vertex " + std::to_string(v) + " names bone " + std::to_string(x.bones[k]) + " of " + std::to_string(nbones));
       }
     }
   }
-  // The rig: nodes (a root, then the bones), one skin, one mesh with a primitive per material.
+  return Status::Ok();
+}
+
+// The bones parents first (PMX does not promise it); a cycle is an error.
+Status BonesParentsFirst(const Model& in, const std::string& name, std::vector<int>& order) {
+  const std::vector<Bone>& bones = in.bones;
+  std::vector<int> state(bones.size(), 0);
+  for (size_t b = 0; b < bones.size(); ++b) {
+    std::vector<int> chain;
+    for (int64_t c = static_cast<int64_t>(b); c >= 0 && state[c] != 2; c = bones[c].parent) {
+      if (state[c] == 1) return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[c].name + "' is its own ancestor");
+      state[c] = 1;
+      chain.push_back(static_cast<int>(c));
+    }
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      state[*it] = 2;
+      order.push_back(*it);
+    }
+  }
+  return Status::Ok();
+}
+
+// The root node, then a node per bone (parents first) into `rig`, and the skin over them; the node of
+// each bone.
+std::vector<int> AddSkeleton(const Model& in, std::span<const int> order, Rig& rig, Skin& skin) {
+  const std::vector<Bone>& bones = in.bones;
   Node root;
-  root.name = model.empty() ? "pmx_root" : model;
+  root.name = in.name.empty() ? "pmx_root" : in.name;
   rig.nodes.push_back(root);
   rig.scene_roots = {0};
-  Skin skin;
   skin.name = "pmx_skeleton";
-  const auto convert = ToGltf;
-  std::vector<int> order;  // Bones parents first (PMX does not promise it); a cycle is an error.
-  {
-    std::vector<int> state(nbones, 0);
-    for (size_t b = 0; b < nbones; ++b) {
-      std::vector<int> chain;
-      for (int64_t c = static_cast<int64_t>(b); c >= 0 && state[c] != 2; c = bones[c].parent) {
-        if (state[c] == 1) return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[c].name + "' is its own ancestor");
-        state[c] = 1;
-        chain.push_back(static_cast<int>(c));
-      }
-      for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
-        state[*it] = 2;
-        order.push_back(*it);
-      }
-    }
-  }
-  std::vector<int> node_of(nbones, -1);
+  std::vector<int> node_of(bones.size(), -1);
   for (int b : order) {
     const Bone& x = bones[b];
     Node n;
     n.name = x.name;
     n.parent = x.parent < 0 ? 0 : node_of[x.parent];
-    const std::array<float, 3> p = convert(x.pos);
-    const std::array<float, 3> pp = x.parent < 0 ? std::array<float, 3>{0, 0, 0} : convert(bones[x.parent].pos);
+    const std::array<float, 3> p = ToGltf(x.pos);
+    const std::array<float, 3> pp = x.parent < 0 ? std::array<float, 3>{0, 0, 0} : ToGltf(bones[x.parent].pos);
     n.translation = {p[0] - pp[0], p[1] - pp[1], p[2] - pp[2]};
     node_of[b] = static_cast<int>(rig.nodes.size());
     rig.nodes[n.parent].children.push_back(node_of[b]);
     rig.nodes.push_back(n);
   }
-  for (size_t b = 0; b < nbones; ++b) {
+  for (size_t b = 0; b < bones.size(); ++b) {
     skin.joints.push_back(node_of[b]);
-    const std::array<float, 3> p = convert(bones[b].pos);
+    const std::array<float, 3> p = ToGltf(bones[b].pos);
     const float ib[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -p[0], -p[1], -p[2], 1};
     skin.inverse_bind.insert(skin.inverse_bind.end(), ib, ib + 16);
   }
-  Mesh mesh;
-  mesh.name = model.empty() ? name : model;
-  mesh.skin = nbones ? 0 : -1;
-  // Shapes: vertex and UV morphs, and group morphs baked from the vertex and UV morphs they name
-  // (bone and material morphs kept by the shape, flips picking shapes at weights). PMX 2.0 makes a
-  // group inside a group invalid (against recursion), so those entries are not followed, and reported.
-  // Each shape's offsets are summed per vertex and kept in vertex order.
-  constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
-  OffsetSum<3> positions(nverts);
-  OffsetSum<2> uvs(nverts);
-  size_t baked = 0, nested = 0, other = 0;  // Group entries naming a group morph; naming a morph we do not apply.
-  std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> deltas;
-  std::vector<std::vector<std::pair<uint32_t, std::array<float, 2>>>> uv_deltas;  // Per shape: UV offsets.
-  // Every morph is its own shape, as in MMD, whose motions name morphs by their (Japanese) names:
-  // an English name becomes an alias only when no morph of the file is called so.
+  return node_of;
+}
+
+// Each shape's offsets, summed per vertex of the model and kept in vertex order.
+struct ShapeOffsets {
+  std::vector<std::vector<std::pair<uint32_t, std::array<float, 3>>>> positions;
+  std::vector<std::vector<std::pair<uint32_t, std::array<float, 2>>>> uvs;
+};
+
+// What one shape gathers from its morph and, for a group, the morphs it names: offsets (summed),
+// material and bone morphs; and the count of group entries it cannot follow.
+struct MorphBake {
+  OffsetSum<3> positions;
+  OffsetSum<2> uvs;
+  std::vector<MaterialMorph> material;
+  std::vector<BoneMorph> bone;
+  size_t baked = 0, nested = 0, other = 0;  // Offsets baked; entries naming a group; naming a morph not applied.
+};
+
+constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
+
+void AddBoneMorph(const Morph& src, float f, const std::vector<int>& node_of, MorphBake& bake) {
+  for (const BoneMorph& b : src.bone) {
+    const std::array<float, 3> t = ToGltf(b.translation.data());
+    const std::array<float, 4> q = NormalizedQuaternion({-b.rotation[0], -b.rotation[1], b.rotation[2], b.rotation[3]});
+    bake.bone.push_back({node_of[b.node], {f * t[0], f * t[1], f * t[2]}, Slerp({0, 0, 0, 1}, q, f)});
+  }
+}
+
+// A group's entry `c` at factor f: its vertex and UV offsets baked, its material and bone morphs kept.
+// PMX 2.0 makes a group inside a group invalid (against recursion): those are counted, not followed.
+Status BakeGroupEntry(const Model& in, const std::string& name, const Morph& c, float f, const std::vector<int>& node_of, MorphBake& bake) {
+  if (c.type == 8) {
+    for (MaterialMorph mm : c.material) {
+      mm.factor *= f;
+      bake.material.push_back(mm);
+    }
+  } else if (c.type == 2) {
+    AddBoneMorph(c, f, node_of, bake);
+  } else if (c.type == 1 || c.type == 3) {
+    bake.baked += c.type == 1 ? c.vertex.size() : c.uv.size();
+    if (bake.baked > kMaxBakedOffsets) {
+      return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
+    }
+    if (c.type == 1) bake.positions.Add(c.vertex, f);
+    else bake.uvs.Add(c.uv, f);
+  } else {
+    ++(c.type == 0 ? bake.nested : bake.other);
+  }
+  return Status::Ok();
+}
+
+// Shapes: vertex and UV morphs, and group morphs baked from the vertex and UV morphs they name (bone
+// and material morphs kept by the shape, flips picking shapes at weights). Every morph is its own
+// shape, as in MMD, whose motions name morphs by their (Japanese) names: an English name becomes an
+// alias only when no morph of the file is called so.
+Status AddShapes(const Model& in, const std::string& name, const std::vector<int>& node_of, Rig& rig, Mesh& mesh, ShapeOffsets& offsets,
+                 std::vector<std::string>& skipped) {
+  const std::vector<Morph>& morphs = in.morphs;
+  MorphBake bake{OffsetSum<3>(in.verts.size()), OffsetSum<2>(in.verts.size()), {}, {}};
   std::set<std::string> morph_names;
-  std::vector<int64_t> shape_of(nmorphs, -1);  // A flip's entries name morphs: their shapes.
-  for (size_t mi = 0, next = 0; mi < nmorphs; ++mi) {
+  std::vector<int64_t> shape_of(morphs.size(), -1);  // A flip's entries name morphs: their shapes.
+  for (size_t mi = 0, next = 0; mi < morphs.size(); ++mi) {
     morph_names.insert(morphs[mi].name);
     if (MorphIsShape(morphs[mi].type)) shape_of[mi] = static_cast<int64_t>(next++);
   }
-  for (size_t mi = 0; mi < nmorphs; ++mi) {
+  for (size_t mi = 0; mi < morphs.size(); ++mi) {
     const Morph& m = morphs[mi];
     if (!MorphIsShape(m.type)) continue;
-    if (m.type == 9) {
-      // A flip: a shape of its own that moves nothing, picking one of its entries' shapes (EffectiveWeights).
+    if (m.type == 9) {  // A flip: a shape of its own that moves nothing, picking one of its entries' shapes (EffectiveWeights).
       Flip flip{static_cast<uint32_t>(shape_of[mi]), {}};
       for (const auto& [child, w] : m.group) {
         if (shape_of[child] >= 0 && morphs[child].type != 9) flip.entries.emplace_back(static_cast<uint32_t>(shape_of[child]), w);
-        else ++other;
+        else ++bake.other;
       }
       rig.flips.push_back(std::move(flip));
     }
-    std::vector<MaterialMorph> material = m.material;  // A material morph's own, or a group's entries'.
-    std::vector<BoneMorph> bone;                       // A bone morph's own, or a group's entries' (by its factor).
-    auto add_bones = [&](const Morph& src, float f) {
-      for (const BoneMorph& b : src.bone) {
-        const std::array<float, 3> t = ToGltf(b.translation.data());
-        const std::array<float, 4> q = NormalizedQuaternion({-b.rotation[0], -b.rotation[1], b.rotation[2], b.rotation[3]});
-        bone.push_back({node_of[b.node], {f * t[0], f * t[1], f * t[2]}, Slerp({0, 0, 0, 1}, q, f)});
-      }
-    };
-    if (m.type == 2) add_bones(m, 1.0f);
-    if (m.type == 1) positions.Add(m.vertex, 1.0f);
-    if (m.type == 3) uvs.Add(m.uv, 1.0f);
-    static const std::vector<std::pair<int64_t, float>> kNoEntries;  // A flip's entries are picked, not baked.
-    for (const auto& [child, f] : m.type == 9 ? kNoEntries : m.group) {
-      const Morph& c = morphs[child];
-      if (c.type == 3) {
-        baked += c.uv.size();
-        if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
-        uvs.Add(c.uv, f);
-        continue;
-      }
-      if (c.type == 8) {
-        for (MaterialMorph mm : c.material) {
-          mm.factor *= f;
-          material.push_back(mm);
-        }
-        continue;
-      }
-      if (c.type == 2) {
-        add_bones(c, f);
-        continue;
-      }
-      if (c.type != 1) {
-        ++(c.type == 0 ? nested : other);
-        continue;
-      }
-      baked += c.vertex.size();
-      if (baked > kMaxBakedOffsets) return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
-      positions.Add(c.vertex, f);
+    bake.material = m.material;  // A material morph's own, or a group's entries'.
+    bake.bone.clear();           // A bone morph's own, or a group's entries' (by its factor).
+    if (m.type == 2) AddBoneMorph(m, 1.0f, node_of, bake);
+    if (m.type == 1) bake.positions.Add(m.vertex, 1.0f);
+    if (m.type == 3) bake.uvs.Add(m.uv, 1.0f);
+    for (size_t e = 0; m.type != 9 && e < m.group.size(); ++e) {  // A flip's entries are picked, not baked.
+      if (Status s = BakeGroupEntry(in, name, morphs[m.group[e].first], m.group[e].second, node_of, bake); !s.ok()) return s;
     }
-    uv_deltas.push_back(uvs.Take());
     Shape shape;
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
     if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
     shape.group = PanelGroup(m.panel);
-    shape.material_morphs = std::move(material);
-    shape.bone_morphs = std::move(bone);
+    shape.material_morphs = std::move(bake.material);
+    shape.bone_morphs = std::move(bake.bone);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(shape);
-    deltas.push_back(positions.Take());
+    offsets.positions.push_back(bake.positions.Take());
+    offsets.uvs.push_back(bake.uvs.Take());
   }
-  if (nested) skipped.push_back(std::to_string(nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
-  if (other) skipped.push_back(std::to_string(other) + " group- or flip-morph entries naming additional-UV, flip or impulse morphs");
-  for (const auto& [type, count] : in.unapplied) {
-    static const char* kNames[] = {"group", "vertex", "bone", "UV", "additional-UV-1", "additional-UV-2", "additional-UV-3", "additional-UV-4", "material", "flip", "impulse"};
-    const char* why = type == 10 ? " (a push on a rigid body, PMX 2.1: not simulated)" : " (the model's additional UV sets, which only MMD effect shaders read, are not carried)";
-    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : "") + why);
+  if (bake.nested) skipped.push_back(std::to_string(bake.nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
+  if (bake.other) skipped.push_back(std::to_string(bake.other) + " group- or flip-morph entries naming additional-UV, flip or impulse morphs");
+  return Status::Ok();
+}
+
+// A PMX material as the rig's: its diffuse colour (blended when see-through), two-sided, its texture
+// by its path in the model's folder (the bytes read by LoadImagesBeside, a file's loader: until then
+// reported as not loaded), one image per texture.
+Material MaterialOf(const Model& in, const ModelMaterial& m, std::vector<int>& image_of, Rig& rig) {
+  Material mat;
+  mat.name = m.name;
+  for (int c = 0; c < 4; ++c) mat.base_color_factor[c] = std::clamp(m.diffuse[c], 0.0f, 1.0f);
+  if (mat.base_color_factor[3] < 1.0f) mat.alpha_mode = "BLEND";
+  mat.metallic_factor = 0.0f;
+  mat.roughness_factor = 0.9f;
+  mat.double_sided = true;  // MMD draws most materials two-sided.
+  if (m.texture >= 0 && static_cast<size_t>(m.texture) < in.textures.size()) {
+    if (image_of[m.texture] < 0) {
+      std::string path = in.textures[m.texture];
+      std::replace(path.begin(), path.end(), '\\', '/');
+      image_of[m.texture] = AddImageBeside(rig, path);
+    }
+    mat.base_color_image = image_of[m.texture];
   }
-  // One primitive per material, over the vertices its faces use (in vertex order, so that each
-  // shape's offsets, in vertex order, land in ascending local indices).
+  return mat;
+}
+
+// The vertices `used` (in vertex order) as a primitive's attributes and joints.
+void FillVertices(const Model& in, std::span<const uint32_t> used, Primitive& p) {
+  const bool skinned = !in.bones.empty();
+  size_t most = 1;
+  for (uint32_t v : used) most = std::max<size_t>(most, static_cast<size_t>(in.verts[v].count));
+  p.influences = skinned ? most : 0;
+  for (uint32_t v : used) {
+    const Vertex& x = in.verts[v];
+    const auto pos = ToGltf(x.pos);
+    p.positions.insert(p.positions.end(), pos.begin(), pos.end());
+    p.normals.insert(p.normals.end(), {x.normal[0], x.normal[1], -x.normal[2]});
+    p.texcoords.insert(p.texcoords.end(), {x.uv[0], x.uv[1]});
+    if (!skinned) continue;
+    float total = 0;
+    for (int k = 0; k < x.count; ++k) total += x.bones[k] >= 0 ? std::max(0.0f, x.weights[k]) : 0.0f;
+    for (size_t k = 0; k < most; ++k) {
+      const bool real = static_cast<int>(k) < x.count && x.bones[k] >= 0 && total > 0;
+      p.joints.push_back(real ? static_cast<uint16_t>(x.bones[k]) : 0);
+      p.joint_weights.push_back(real ? std::max(0.0f, x.weights[k]) / total : (k == 0 && total <= 0 ? 1.0f : 0.0f));
+    }
+  }
+}
+
+// One primitive per material, over the vertices its faces use (in vertex order, so that each shape's
+// offsets, in vertex order, land in ascending local indices); `used_of` gets each one's model vertices,
+// `material_of` each PMX material's index in the rig (-1 for one without faces).
+Status AddPrimitives(const Model& in, const std::string& name, size_t shapes, Rig& rig, Mesh& mesh,
+                     std::vector<std::vector<uint32_t>>& used_of, std::vector<int>& material_of) {
   size_t nonempty = 0;
-  for (const ModelMaterial& m : mats) nonempty += m.indices > 0;
+  for (const ModelMaterial& m : in.mats) nonempty += m.indices > 0;
   constexpr size_t kMaxTargets = size_t{1} << 22;  // Materials x shapes: 50 x 500 in a big model.
-  if (nonempty * deltas.size() > kMaxTargets) {
-    return InvalidArgument(name + ": " + std::string(in.format) + ": " + std::to_string(nonempty) + " materials x " + std::to_string(deltas.size()) + " morphs is beyond " + std::to_string(kMaxTargets) + " targets");
+  if (nonempty * shapes > kMaxTargets) {
+    return InvalidArgument(name + ": " + std::string(in.format) + ": " + std::to_string(nonempty) + " materials x " + std::to_string(shapes) + " morphs is beyond " + std::to_string(kMaxTargets) + " targets");
   }
-  std::vector<int> image_of(textures.size(), -1);
-  std::vector<int32_t> remap(nverts, -1);
-  std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the PMX vertices it holds.
+  std::vector<int> image_of(in.textures.size(), -1);
+  std::vector<int32_t> remap(in.verts.size(), -1);
+  material_of.assign(in.mats.size(), -1);
   size_t first = 0;
-  std::vector<int> material_of(nmats, -1);  // PMX material -> the rig's (none for one without faces).
-  for (size_t mi = 0; mi < nmats; ++mi) {
-    const ModelMaterial& m = mats[mi];
-    const std::span<const uint32_t> faces(indices.data() + first, m.indices);
-    first += m.indices;
+  for (size_t mi = 0; mi < in.mats.size(); ++mi) {
+    const std::span<const uint32_t> faces(in.indices.data() + first, in.mats[mi].indices);
+    first += in.mats[mi].indices;
     if (faces.empty()) continue;
     std::vector<uint32_t> used;
     for (uint32_t v : faces) {
@@ -450,89 +506,58 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
       for (uint32_t v : {faces[i], faces[i + 2], faces[i + 1]}) p.indices.push_back(static_cast<uint32_t>(remap[v]));  // Left- to right-handed: swap two corners.
     }
     for (uint32_t v : used) remap[v] = -1;
-    size_t most = 1;
-    for (uint32_t v : used) most = std::max<size_t>(most, static_cast<size_t>(verts[v].count));
-    p.influences = nbones ? most : 0;
-    for (uint32_t v : used) {
-      const Vertex& x = verts[v];
-      const auto pos = convert(x.pos);
-      p.positions.insert(p.positions.end(), pos.begin(), pos.end());
-      p.normals.insert(p.normals.end(), {x.normal[0], x.normal[1], -x.normal[2]});
-      p.texcoords.insert(p.texcoords.end(), {x.uv[0], x.uv[1]});
-      if (!nbones) continue;
-      float total = 0;
-      for (int k = 0; k < x.count; ++k) total += x.bones[k] >= 0 ? std::max(0.0f, x.weights[k]) : 0.0f;
-      for (size_t k = 0; k < most; ++k) {
-        const bool real = static_cast<int>(k) < x.count && x.bones[k] >= 0 && total > 0;
-        p.joints.push_back(real ? static_cast<uint16_t>(x.bones[k]) : 0);
-        p.joint_weights.push_back(real ? std::max(0.0f, x.weights[k]) / total : (k == 0 && total <= 0 ? 1.0f : 0.0f));
-      }
-    }
+    FillVertices(in, used, p);
     p.source_has_normals = true;
-    p.targets.resize(deltas.size());
-    Material mat;
-    mat.name = m.name;
-    for (int c = 0; c < 4; ++c) mat.base_color_factor[c] = std::clamp(m.diffuse[c], 0.0f, 1.0f);
-    if (mat.base_color_factor[3] < 1.0f) mat.alpha_mode = "BLEND";
-    mat.metallic_factor = 0.0f;
-    mat.roughness_factor = 0.9f;
-    mat.double_sided = true;  // MMD draws most materials two-sided.
-    if (m.texture >= 0 && static_cast<size_t>(m.texture) < textures.size()) {
-      // The image by its path in the model's folder, its bytes read by LoadImagesBeside (a file's
-      // loader): until then reported as not loaded.
-      if (image_of[m.texture] < 0) {
-        std::string path = textures[m.texture];
-        std::replace(path.begin(), path.end(), '\\', '/');
-        image_of[m.texture] = AddImageBeside(rig, path);
-      }
-      mat.base_color_image = image_of[m.texture];
-    }
+    p.targets.resize(shapes);
     p.material = static_cast<int>(rig.materials.size());
     material_of[mi] = p.material;
-    rig.materials.push_back(mat);
+    rig.materials.push_back(MaterialOf(in, in.mats[mi], image_of, rig));
     FinalizePrimitive(p);
     mesh.primitives.push_back(static_cast<int>(rig.primitives.size()));
     rig.primitives.push_back(std::move(p));
     used_of.push_back(std::move(used));
   }
   if (rig.primitives.empty()) return InvalidArgument(name + ": " + std::string(in.format) + ": no material covers any face");
-  // Material morphs to the rig's materials (a PMX material that covers no face has none: dropped).
-  {
-    for (Shape& shape : rig.shapes) {
-      std::vector<MaterialMorph> kept;
-      for (MaterialMorph mm : shape.material_morphs) {
-        if (mm.material >= 0 && material_of[mm.material] < 0) continue;
-        if (mm.material >= 0) mm.material = material_of[mm.material];
-        kept.push_back(mm);
-      }
-      shape.material_morphs = std::move(kept);
+  return Status::Ok();
+}
+
+// Material morphs to the rig's materials (a PMX material that covers no face has none: dropped).
+void RemapMaterialMorphs(const std::vector<int>& material_of, Rig& rig) {
+  for (Shape& shape : rig.shapes) {
+    std::vector<MaterialMorph> kept;
+    for (MaterialMorph mm : shape.material_morphs) {
+      if (mm.material >= 0 && material_of[mm.material] < 0) continue;
+      if (mm.material >= 0) mm.material = material_of[mm.material];
+      kept.push_back(mm);
     }
+    shape.material_morphs = std::move(kept);
   }
-  // Each shape's offsets to the primitives holding their vertices: per PMX vertex, its (primitive,
-  // local index) slots (CSR), so the work is the offsets written, not materials x offsets.
+}
+
+// Each shape's offsets to the primitives holding their vertices: per model vertex, its (primitive,
+// local index) slots (CSR), so the work is the offsets written, not materials x offsets.
+void ScatterOffsets(const ShapeOffsets& offsets, const std::vector<std::vector<uint32_t>>& used_of, size_t nverts, Rig& rig) {
   std::vector<uint32_t> slot_start(nverts + 1, 0);
   for (const auto& used : used_of) {
     for (uint32_t v : used) ++slot_start[v + 1];
   }
   for (size_t v = 0; v < nverts; ++v) slot_start[v + 1] += slot_start[v];
   std::vector<std::pair<uint32_t, uint32_t>> slots(slot_start[nverts]);
-  {
-    std::vector<uint32_t> fill(slot_start.begin(), slot_start.end() - 1);
-    for (size_t q = 0; q < used_of.size(); ++q) {
-      for (size_t k = 0; k < used_of[q].size(); ++k) slots[fill[used_of[q][k]]++] = {static_cast<uint32_t>(q), static_cast<uint32_t>(k)};
-    }
+  std::vector<uint32_t> fill(slot_start.begin(), slot_start.end() - 1);
+  for (size_t q = 0; q < used_of.size(); ++q) {
+    for (size_t k = 0; k < used_of[q].size(); ++k) slots[fill[used_of[q][k]]++] = {static_cast<uint32_t>(q), static_cast<uint32_t>(k)};
   }
-  for (size_t s = 0; s < deltas.size(); ++s) {
-    for (const auto& [v, off] : deltas[s]) {
+  for (size_t s = 0; s < offsets.positions.size(); ++s) {
+    for (const auto& [v, off] : offsets.positions[s]) {
       if (off[0] == 0 && off[1] == 0 && off[2] == 0) continue;
-      const std::array<float, 3> d = convert(off.data());
+      const std::array<float, 3> d = ToGltf(off.data());
       for (uint32_t k = slot_start[v]; k < slot_start[v + 1]; ++k) {
         SparseTarget& t = rig.primitives[slots[k].first].targets[s];
         t.indices.push_back(slots[k].second);
         t.position_deltas.insert(t.position_deltas.end(), d.begin(), d.end());
       }
     }
-    for (const auto& [v, off] : uv_deltas[s]) {
+    for (const auto& [v, off] : offsets.uvs[s]) {
       if (off[0] == 0 && off[1] == 0) continue;
       for (uint32_t k = slot_start[v]; k < slot_start[v + 1]; ++k) {
         SparseTarget& t = rig.primitives[slots[k].first].targets[s];
@@ -542,23 +567,17 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
     }
     for (Primitive& p : rig.primitives) FinalizeTarget(p.targets[s]);
   }
-  rig.meshes.push_back(std::move(mesh));
-  Node mesh_node;
-  mesh_node.name = rig.meshes[0].name + "_mesh";
-  mesh_node.parent = 0;
-  mesh_node.mesh = 0;
-  rig.nodes[0].children.push_back(static_cast<int>(rig.nodes.size()));
-  rig.nodes.push_back(mesh_node);
-  if (nbones) {
-    rig.skins.push_back(std::move(skin));
-    rig.skin_count = 1;
-    rig.joint_count = nbones;
-  }
-  if (sdef || qdef) {
-    rig.load_warnings.push_back({"skinning_approximated", std::to_string(sdef) + " SDEF vertices skinned as BDEF2, " + std::to_string(qdef) + " QDEF as BDEF4", "", static_cast<double>(sdef + qdef), true});
+}
+
+// What the rig does not carry of the model, said once each: SDEF/QDEF skinning, constraints,
+// rigid bodies, morphs.
+void WarnUnapplied(const Model& in, const std::vector<int>& node_of, std::vector<std::string> skipped, Rig& rig) {
+  if (in.sdef || in.qdef) {
+    rig.load_warnings.push_back({"skinning_approximated", std::to_string(in.sdef) + " SDEF vertices skinned as BDEF2, " + std::to_string(in.qdef) + " QDEF as BDEF4", "", static_cast<double>(in.sdef + in.qdef), true});
   }
   size_t dropped = 0;
-  ReadConstraints(bones, node_of, rig, dropped);
+  ReadConstraints(in.bones, node_of, rig, dropped);
+  const size_t ik = in.ik, grants = in.grants;
   const size_t unread = (ik + grants) - std::min(ik + grants, rig.constraints.grants.size() + rig.constraints.chains.size() + dropped);
   if (dropped || unread) {
     rig.load_warnings.push_back({"bone_constraints_skipped",
@@ -574,11 +593,54 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
                                      std::to_string(in.joints.size()) + " joints name no bone or body, have an unknown shape, mode or joint type, or pass the counts allowed (1,024 bodies, 2,048 joints): not simulated",
                                  "", static_cast<double>(physics_dropped), false});
   }
+  for (const auto& [type, count] : in.unapplied) {
+    static const char* kNames[] = {"group", "vertex", "bone", "UV", "additional-UV-1", "additional-UV-2", "additional-UV-3", "additional-UV-4", "material", "flip", "impulse"};
+    const char* why = type == 10 ? " (a push on a rigid body, PMX 2.1: not simulated)" : " (the model's additional UV sets, which only MMD effect shaders read, are not carried)";
+    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : "") + why);
+  }
   if (!skipped.empty()) {
     std::string list;
     for (const std::string& s : skipped) list += (list.empty() ? "" : ", ") + s;
     rig.load_warnings.push_back({"morphs_skipped", "not applied: " + list, "", 0.0, false});
   }
+}
+
+}  // namespace
+
+// The rig: nodes (a root, then the bones), one skin, one mesh with a primitive per material, a shape
+// per morph.
+Result<Rig> BuildRig(const Model& in, const std::string& name) {
+  if (Status s = CheckBoneIndices(in, name); !s.ok()) return s;
+  std::vector<int> order;
+  if (Status s = BonesParentsFirst(in, name, order); !s.ok()) return s;
+  Rig rig;
+  rig.name = name;
+  Skin skin;
+  const std::vector<int> node_of = AddSkeleton(in, order, rig, skin);
+  Mesh mesh;
+  mesh.name = in.name.empty() ? name : in.name;
+  mesh.skin = in.bones.empty() ? -1 : 0;
+  ShapeOffsets offsets;
+  std::vector<std::string> skipped;
+  if (Status s = AddShapes(in, name, node_of, rig, mesh, offsets, skipped); !s.ok()) return s;
+  std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the model vertices it holds.
+  std::vector<int> material_of;
+  if (Status s = AddPrimitives(in, name, offsets.positions.size(), rig, mesh, used_of, material_of); !s.ok()) return s;
+  RemapMaterialMorphs(material_of, rig);
+  ScatterOffsets(offsets, used_of, in.verts.size(), rig);
+  rig.meshes.push_back(std::move(mesh));
+  Node mesh_node;
+  mesh_node.name = rig.meshes[0].name + "_mesh";
+  mesh_node.parent = 0;
+  mesh_node.mesh = 0;
+  rig.nodes[0].children.push_back(static_cast<int>(rig.nodes.size()));
+  rig.nodes.push_back(mesh_node);
+  if (!in.bones.empty()) {
+    rig.skins.push_back(std::move(skin));
+    rig.skin_count = 1;
+    rig.joint_count = in.bones.size();
+  }
+  WarnUnapplied(in, node_of, std::move(skipped), rig);
   CountMovedVertices(rig);
   DetectSymmetricPartners(rig);
   RepairNames(rig);
