@@ -111,31 +111,21 @@ void SortKeys(std::vector<Key>& keys) {
   keys = std::move(out);
 }
 
-}  // namespace
+// A motion's keys by their names' bytes.
+struct VmdKeys {
+  std::map<std::string, std::vector<BoneKey>> bones;
+  std::map<std::string, std::vector<MorphKey>> morphs;
+};
 
-Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings) {
-  auto fail = [&](const Bytes& r) { return InvalidArgument(clip_name + ": VMD " + r.error()); };
-  Bytes r(bytes);
-  char header[30];
-  if (!r.Raw(header, 30, "the header")) return fail(r);
-  const std::string_view magic(header, 25);
-  size_t model_bytes = 0;
-  if (magic == "Vocaloid Motion Data 0002") model_bytes = 20;
-  else if (magic == "Vocaloid Motion Data file") model_bytes = 10;
-  else return InvalidArgument(clip_name + ": not a VMD motion (no 'Vocaloid Motion Data' header)");
-  if (!r.Skip(model_bytes, "the model name")) return fail(r);
-
-  // Keys by name bytes.
-  std::map<std::string, std::vector<BoneKey>> bone_keys;
-  std::map<std::string, std::vector<MorphKey>> morph_keys;
-  size_t nbone = 0, nmorph = 0;
-  if (!r.CountOf<uint32_t>(111, nbone, "the bone key count")) return fail(r);
+Status ReadBoneKeys(Bytes& r, const std::string& clip_name, VmdKeys& keys) {
+  size_t nbone = 0;
+  if (!r.CountOf<uint32_t>(111, nbone, "the bone key count")) return InvalidArgument(clip_name + ": VMD " + r.error());
   for (size_t k = 0; k < nbone; ++k) {
     unsigned char name[15];
     BoneKey key;
     if (!r.Raw(name, 15, "a bone key") || !r.Get(key.frame, "a bone key") || !r.Floats(key.pos, 3, "a bone key") || !r.Floats(key.rot, 4, "a bone key") ||
         !r.Raw(key.curve, 64, "a bone key")) {
-      return fail(r);
+      return InvalidArgument(clip_name + ": VMD " + r.error());
     }
     if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
     if (std::any_of(key.pos, key.pos + 3, [](float v) { return std::fabs(v) > kMaxOffset; })) {
@@ -146,67 +136,84 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
     n = std::sqrt(n);
     if (!(n > 1e-6)) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " has a zero rotation");
     for (float& q : key.rot) q = static_cast<float>(q / n);
-    bone_keys[NameBytes(name)].push_back(key);
+    keys.bones[NameBytes(name)].push_back(key);
   }
-  if (!r.CountOf<uint32_t>(23, nmorph, "the morph key count")) return fail(r);
+  return Status::Ok();
+}
+
+Status ReadMorphKeys(Bytes& r, const std::string& clip_name, VmdKeys& keys) {
+  size_t nmorph = 0;
+  if (!r.CountOf<uint32_t>(23, nmorph, "the morph key count")) return InvalidArgument(clip_name + ": VMD " + r.error());
   for (size_t k = 0; k < nmorph; ++k) {
     unsigned char name[15];
     MorphKey key;
-    if (!r.Raw(name, 15, "a morph key") || !r.Get(key.frame, "a morph key") || !r.Floats(&key.weight, 1, "a morph key")) return fail(r);
+    if (!r.Raw(name, 15, "a morph key") || !r.Get(key.frame, "a morph key") || !r.Floats(&key.weight, 1, "a morph key")) return InvalidArgument(clip_name + ": VMD " + r.error());
     if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
     if (std::fabs(key.weight) > kMaxMorphWeight) {
       return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " has weight " + std::to_string(key.weight) + " (beyond +-" +
                              std::to_string(static_cast<int>(kMaxMorphWeight)) + ")");
     }
-    morph_keys[NameBytes(name)].push_back(key);
+    keys.morphs[NameBytes(name)].push_back(key);
   }
-  // Camera, light, shadow and IK switches follow: not read.
+  return Status::Ok();
+}
 
-  // The rig's names as a VMD writes them (the first of equal keys wins, as in MMD). Shapes by their
-  // names, as MMD matches morphs; then by aliases (a converted rig's English names) where no name is so.
-  std::map<std::string, int> node_of, shape_of;
-  for (size_t n = 0; n < rig.nodes.size(); ++n) node_of.emplace(VmdKey(rig.nodes[n].name), static_cast<int>(n));
-  for (size_t s = 0; s < rig.shapes.size(); ++s) shape_of.emplace(VmdKey(rig.shapes[s].name), static_cast<int>(s));
-  for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    for (const std::string& a : rig.shapes[s].aliases) shape_of.emplace(VmdKey(a), static_cast<int>(s));
+// The header, then the bone and morph keys; camera, light, shadow and IK switches follow: not read.
+Status ReadKeys(std::span<const unsigned char> bytes, const std::string& clip_name, VmdKeys& keys) {
+  Bytes r(bytes);
+  char header[30];
+  if (!r.Raw(header, 30, "the header")) return InvalidArgument(clip_name + ": VMD " + r.error());
+  const std::string_view magic(header, 25);
+  size_t model_bytes = 0;
+  if (magic == "Vocaloid Motion Data 0002") model_bytes = 20;
+  else if (magic == "Vocaloid Motion Data file") model_bytes = 10;
+  else return InvalidArgument(clip_name + ": not a VMD motion (no 'Vocaloid Motion Data' header)");
+  if (!r.Skip(model_bytes, "the model name")) return InvalidArgument(clip_name + ": VMD " + r.error());
+  if (Status s = ReadBoneKeys(r, clip_name, keys); !s.ok()) return s;
+  return ReadMorphKeys(r, clip_name, keys);
+}
+
+// Sample times of a bone's keys (in half frames): every key, and within a curved segment every half
+// frame between. A segment whose four curves are straight (MMD's default) is exact with its two keys
+// alone. `samples` counts them over every bone, against kMaxSamples.
+Status SampleTimes(const std::vector<BoneKey>& keys, const std::string& clip_name, size_t& samples, std::vector<uint32_t>& halves) {
+  halves.assign(1, keys.front().frame * kSamplesPerFrame);
+  for (size_t k = 1; k < keys.size(); ++k) {
+    const uint8_t* c = keys[k].curve;
+    bool straight = true;  // (x1, y1) and (x2, y2) on the diagonal, per channel.
+    for (int ch = 0; ch < 4; ++ch) straight &= c[ch] == c[ch + 4] && c[ch + 8] == c[ch + 12];
+    const uint32_t from = straight ? keys[k].frame * kSamplesPerFrame : keys[k - 1].frame * kSamplesPerFrame + 1;
+    if (samples + (keys[k].frame * kSamplesPerFrame - from + 1) > kMaxSamples) {
+      return InvalidArgument(clip_name + ": VMD: the motion's curved segments need more than " + std::to_string(kMaxSamples) + " samples");
+    }
+    for (uint32_t h = from; h <= keys[k].frame * kSamplesPerFrame; ++h) halves.push_back(h);
+    samples += keys[k].frame * kSamplesPerFrame - from + 1;
   }
-  node_of.erase("");
-  shape_of.erase("");
+  return Status::Ok();
+}
 
-  AnimationInfo clip;
-  clip.name = clip_name;
-  std::vector<std::string> unmatched;
+// Each keyed bone the rig has as a translation and a rotation channel; names it lacks into `unmatched`.
+Status AddBoneChannels(const Rig& rig, const std::map<std::string, int>& node_of, VmdKeys& keys, AnimationInfo& clip,
+                       std::vector<std::string>& unmatched) {
   size_t samples = 0;  // Bone samples between keys, against kMaxSamples.
-  for (auto& [key, keys] : bone_keys) {
+  std::vector<uint32_t> halves;
+  for (auto& [key, bone_keys] : keys.bones) {
     const auto it = node_of.find(key);
     if (it == node_of.end()) {
       unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
       continue;
     }
-    SortKeys(keys);
+    SortKeys(bone_keys);
+    if (Status s = SampleTimes(bone_keys, clip.name, samples, halves); !s.ok()) return s;
     const Node& node = rig.nodes[it->second];
     const Eigen::Quaternionf rest(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]);
     AnimationSampler t, q;
     t.components = 3, q.components = 4;
-    // Sample times (in half frames): every key, and within a curved segment every half frame between.
-    // A segment whose four curves are straight (MMD's default) is exact with its two keys alone.
-    std::vector<uint32_t> halves{keys.front().frame * kSamplesPerFrame};
-    for (size_t k = 1; k < keys.size(); ++k) {
-      const uint8_t* c = keys[k].curve;
-      bool straight = true;  // (x1, y1) and (x2, y2) on the diagonal, per channel.
-      for (int ch = 0; ch < 4; ++ch) straight &= c[ch] == c[ch + 4] && c[ch + 8] == c[ch + 12];
-      const uint32_t from = straight ? keys[k].frame * kSamplesPerFrame : keys[k - 1].frame * kSamplesPerFrame + 1;
-      if (samples + (keys[k].frame * kSamplesPerFrame - from + 1) > kMaxSamples) {
-        return InvalidArgument(clip_name + ": VMD: the motion's curved segments need more than " + std::to_string(kMaxSamples) + " samples");
-      }
-      for (uint32_t h = from; h <= keys[k].frame * kSamplesPerFrame; ++h) halves.push_back(h);
-      samples += keys[k].frame * kSamplesPerFrame - from + 1;
-    }
     for (uint32_t h : halves) {
       const float frame = static_cast<float>(h) / kSamplesPerFrame;
       std::array<float, 3> p;
       Eigen::Quaternionf rot;
-      BoneAt(keys, frame, p, rot);
+      BoneAt(bone_keys, frame, p, rot);
       rot = (rest * rot).normalized();
       const float time = frame / kFramesPerSecond;
       t.times.push_back(time);
@@ -219,19 +226,24 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
     clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), it->second, ChannelPath::kRotation});
     clip.sampler_data.push_back(std::move(q));
   }
-  // Morphs: per shape its keys; then per mesh with targets one weights channel over every key frame.
+  return Status::Ok();
+}
+
+// Morphs: per shape its keys; then per mesh with targets one weights channel over every key frame.
+void AddMorphChannels(const Rig& rig, const std::map<std::string, int>& shape_of, VmdKeys& keys, AnimationInfo& clip,
+                      std::vector<std::string>& unmatched) {
   std::map<int, std::vector<MorphKey>> shape_keys;
   std::vector<uint32_t> frames;
-  for (auto& [key, keys] : morph_keys) {
+  for (auto& [key, morph_keys] : keys.morphs) {
     const auto it = shape_of.find(key);
     if (it == shape_of.end()) {
       unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
       continue;
     }
-    SortKeys(keys);
-    for (const MorphKey& k : keys) frames.push_back(k.frame);
+    SortKeys(morph_keys);
+    for (const MorphKey& k : morph_keys) frames.push_back(k.frame);
     std::vector<MorphKey>& to = shape_keys[it->second];
-    if (to.empty()) to = keys;  // A name and an alias both keyed: the first wins.
+    if (to.empty()) to = morph_keys;  // A name and an alias both keyed: the first wins.
   }
   std::sort(frames.begin(), frames.end());
   frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
@@ -255,6 +267,28 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
     clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), node, ChannelPath::kWeights});
     clip.sampler_data.push_back(std::move(w));
   }
+}
+
+}  // namespace
+
+Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings) {
+  VmdKeys keys;
+  if (Status s = ReadKeys(bytes, clip_name, keys); !s.ok()) return s;
+  // The rig's names as a VMD writes them (the first of equal keys wins, as in MMD). Shapes by their
+  // names, as MMD matches morphs; then by aliases (a converted rig's English names) where no name is so.
+  std::map<std::string, int> node_of, shape_of;
+  for (size_t n = 0; n < rig.nodes.size(); ++n) node_of.emplace(VmdKey(rig.nodes[n].name), static_cast<int>(n));
+  for (size_t s = 0; s < rig.shapes.size(); ++s) shape_of.emplace(VmdKey(rig.shapes[s].name), static_cast<int>(s));
+  for (size_t s = 0; s < rig.shapes.size(); ++s) {
+    for (const std::string& a : rig.shapes[s].aliases) shape_of.emplace(VmdKey(a), static_cast<int>(s));
+  }
+  node_of.erase("");
+  shape_of.erase("");
+  AnimationInfo clip;
+  clip.name = clip_name;
+  std::vector<std::string> unmatched;
+  if (Status s = AddBoneChannels(rig, node_of, keys, clip, unmatched); !s.ok()) return s;
+  AddMorphChannels(rig, shape_of, keys, clip, unmatched);
   for (const AnimationSampler& s : clip.sampler_data) clip.duration = std::max(clip.duration, s.times.back());
   clip.channels = clip.channel_data.size();
   if (!unmatched.empty() && warnings) {
@@ -262,7 +296,7 @@ Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const 
     for (size_t k = 0; k < unmatched.size() && k < 12; ++k) list += (k ? ", " : "") + unmatched[k];
     if (unmatched.size() > 12) list += ", ...";
     warnings->push_back({"motion_names_unmatched", "motion '" + clip_name + "': " + std::to_string(unmatched.size()) + " of " +
-                                                       std::to_string(bone_keys.size() + morph_keys.size()) + " bone and morph names match nothing in the model: " + list,
+                                                       std::to_string(keys.bones.size() + keys.morphs.size()) + " bone and morph names match nothing in the model: " + list,
                          clip_name, static_cast<double>(unmatched.size()), true});
   }
   if (clip.channel_data.empty()) return InvalidArgument(clip_name + ": VMD: no bone or morph name of the motion is in the model");
