@@ -3,6 +3,7 @@
 
 #include <tiny_gltf.h>
 
+#include <array>
 #include <cstdint>
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -37,6 +38,18 @@ Status CheckImageViews(const nlohmann::json& j);
 // Splits a GLB into its JSON text and binary chunk, checking every length.
 Status SplitGlb(std::span<const unsigned char> bytes, std::string& json_text,
                 std::span<const unsigned char>& bin);
+
+// The scene's parts as the rig's (gltf_scene.cpp), in this order around the meshes (gltf_import.cpp).
+// PNG and JPEG images kept (others dropped, warned): the rig's image of each glTF image, or -1.
+std::vector<int> ConvertImages(const tinygltf::Model& model, Rig& rig);
+// Each material's base colour texture transform (KHR_texture_transform), applied to the UVs of the
+// primitives that use it: (its TEXCOORD set, the affine uv map), -1 without one.
+using UvTransforms = std::vector<std::pair<int, std::array<float, 6>>>;
+UvTransforms ConvertMaterials(const tinygltf::Model& model, const std::vector<int>& image_map, Rig& rig);
+Status ConvertNodes(const tinygltf::Model& model, Rig& rig);       // Names, meshes, transforms (finite).
+Status LinkNodes(const tinygltf::Model& model, Rig& rig);          // Children, no cycle, scene roots, mesh names.
+Status ConvertSkins(const tinygltf::Model& model, Rig& rig);       // Skins, and the skin of each mesh.
+Status ConvertAnimations(const tinygltf::Model& model, Rig& rig);  // Clips: samplers and channels, checked.
 
 // A VRM's (1.0 VRMC_vrm, or 0.x VRM) expressions, look-at and meta onto the rig (vrm_import.cpp); nothing
 // when the model has neither.
