@@ -97,7 +97,7 @@ json DescribeRig(const Rig& r) {
                      {"morph_weights", an.has_weights}});
   }
   j["animations"] = anims;
-  j["load_warnings"] = json::parse(WarningsToJson(r.load_warnings));
+  j["load_warnings"] = WarningsValue(r.load_warnings);
   return j;
 }
 

@@ -3,6 +3,7 @@
 #include "facespace/batch/queue.h"
 #include "facespace/api/request.h"
 #include "facespace/formats/io.h"
+#include "facespace/formats/rig_json.h"
 
 namespace facespace::api::http {
 
@@ -91,7 +92,7 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, int status
     p["errors"] = errors;
     if (fields.size() + omitted > errors.size()) p["errors_total"] = fields.size() + omitted;
   }
-  if (!warnings.empty()) p["warnings"] = json::parse(WarningsToJson(warnings));
+  if (!warnings.empty()) p["warnings"] = WarningsValue(warnings);
   res.status = status;
   res.set_content(Dump(p), "application/problem+json");
 }

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "facespace/formats/io.h"
+#include "facespace/formats/rig_json.h"
 #include "facespace/core/weights.h"
 #include "facespace/core/normal_matrix.h"
 #include "export/writers.h"
@@ -45,6 +46,26 @@ std::string WarningsToJson(std::span<const Warning> warnings) {
     out += '}';
   }
   return out + "]";
+}
+
+nlohmann::json NumberValue(double value) {
+  if (!std::isfinite(value)) return nullptr;
+  if (value == std::floor(value) && std::fabs(value) < 1e15) return static_cast<int64_t>(value);
+  return std::stod(FormatNumber(value));
+}
+
+nlohmann::json WarningsValue(std::span<const Warning> warnings) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const Warning& w : warnings) {
+    nlohmann::json o = {{"code", w.code}, {"message", w.message}};
+    if (!w.shape.empty()) o["shape"] = w.shape;
+    if (w.has_value) o["value"] = NumberValue(w.value);
+    for (auto& [key, v] : o.items()) {  // As WarningsToJson's text, valid UTF-8 whatever the names held.
+      if (v.is_string()) RepairUtf8(v.get_ref<std::string&>());
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
 }
 
 Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,

@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "facespace/formats/io.h"
+#include "facespace/formats/rig_json.h"
 #include "facespace/core/weights.h"
 #include "facespace/core/normal_matrix.h"
 #include "export/writers.h"
@@ -72,14 +73,9 @@ std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blende
 }
 
 // glb's asset.extras: the caller's extras, the warnings and the non-zero weights by shape name.
-Result<nlohmann::json> AssetExtras(const Rig& rig, std::span<const float> weights, std::span<const Warning> warnings,
-                                   const ExportOptions& options) {
+nlohmann::json AssetExtras(const Rig& rig, std::span<const float> weights, std::span<const Warning> warnings) {
   nlohmann::json extras = nlohmann::json::object();
-  if (!options.asset_extras_json.empty()) {
-    extras = nlohmann::json::parse(options.asset_extras_json, nullptr, false);
-    if (extras.is_discarded() || !extras.is_object()) return InvalidArgument("asset extras must be a JSON object");
-  }
-  extras["warnings"] = nlohmann::json::parse(WarningsToJson(warnings));
+  extras["warnings"] = WarningsValue(warnings);
   nlohmann::json wmap = nlohmann::json::object();
   for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
     if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
@@ -249,9 +245,7 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
         "flip_morphs_not_exported", "as MMD flip morphs (they switch other shapes on), which glTF's linear weights cannot say",
         "the mesh holds what they pick at the exported weights");
   }
-  auto extras = AssetExtras(rig, weights, all_warnings, options);
-  if (!extras.ok()) return extras.status();
-  m.asset.extras = ToValue(extras.value());
+  m.asset.extras = ToValue(AssetExtras(rig, weights, all_warnings));
 
   // glTF carries PNG and JPEG: other images (an MMD model's BMP or TGA) and unread ones are left out,
   // their materials keeping the base colour.
@@ -616,9 +610,7 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
     return Pieces{t.whole, {}};
   }
   // Later variants: what the blend changes, patched into the template.
-  auto extras = AssetExtras(rig, weights, warnings, options);
-  if (!extras.ok()) return extras.status();
-  AsTinygltfWrites(extras.value(), t.json["asset"]["extras"]);
+  AsTinygltfWrites(AssetExtras(rig, weights, warnings), t.json["asset"]["extras"]);
   for (const GlbTemplate::Attribute& a : t.attributes) {
     const BlendedPrimitive& bp = blended.primitives[a.primitive];
     const std::span<const float> values = a.kind == 0 ? std::span<const float>(bp.positions) : a.kind == 1 ? std::span<const float>(bp.normals)

@@ -144,8 +144,6 @@ struct ExportOptions {
   // mesh's default `weights`, instead of the blended mesh, for clients that morph on the GPU.
   bool keep_targets = false;
   bool clips = true;  // With keep_targets: the rig's clips too (a VRM leaves them out: apps bring their motions).
-  // Extra key/values for glb's asset.extras (e.g. {"warnings": [...]}) as JSON text; "" none.
-  std::string asset_extras_json;
   // JSON, OBJ and f32: positions and normals as each mesh stores them (before its node's
   // transform, still in a quantized mesh's units) instead of world space. glb carries its nodes
   // and is the same either way.
