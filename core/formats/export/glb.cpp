@@ -215,40 +215,35 @@ class GlbBuilder {
 
 namespace writers {
 
-Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
-                              std::span<const Warning> warnings, const ExportOptions& options) {
-  tinygltf::Model m;
-  GlbBuilder b(m);
-  m.asset.version = "2.0";
-  m.asset.generator = "facespace";
-  m.asset.copyright = rig.credit;
-  // glTF has no material, bone or flip morphs: the materials carry their colours, and the mesh its pose,
-  // at these weights; a glb that keeps the targets says which shapes lost what they do.
-  std::vector<Warning> all_warnings(warnings.begin(), warnings.end());
-  if (options.keep_targets) {
-    const auto say = [&](auto does, const char* code, const std::string& what, const std::string& kept) {
-      std::string names;
-      size_t count = 0;
-      for (size_t s = 0; s < rig.shapes.size(); ++s) {
-        if (does(s) && ++count <= 12) names += (names.empty() ? "" : ", ") + rig.shapes[s].name;
-      }
-      if (count) {
-        all_warnings.push_back({code, std::to_string(count) + (count == 1 ? " shape " : " shapes ") + what + ": " + names + (count > 12 ? ", ..." : "") + "; " + kept, "",
-                                static_cast<double>(count), false});
-      }
-    };
-    say([&](size_t s) { return !rig.shapes[s].material_morphs.empty(); }, "material_morphs_not_exported",
-        "with MMD material morphs (they change materials), which glTF cannot say", "the materials hold their colours at the exported weights");
-    say([&](size_t s) { return !rig.shapes[s].bone_morphs.empty(); }, "bone_morphs_not_exported",
-        "with MMD bone morphs (they move bones), which a glTF morph target cannot say", "the mesh holds their pose at the exported weights");
-    say([&](size_t s) { return std::any_of(rig.flips.begin(), rig.flips.end(), [s](const Flip& f) { return f.shape == s; }); },
-        "flip_morphs_not_exported", "as MMD flip morphs (they switch other shapes on), which glTF's linear weights cannot say",
-        "the mesh holds what they pick at the exported weights");
-  }
-  m.asset.extras = ToValue(AssetExtras(rig, weights, all_warnings));
+namespace {
 
-  // glTF carries PNG and JPEG: other images (an MMD model's BMP or TGA) and unread ones are left out,
-  // their materials keeping the base colour.
+// glTF has no material, bone or flip morphs: the materials carry their colours, and the mesh its pose,
+// at the exported weights; a glb that keeps the targets says which shapes lost what they do.
+void WarnUnexported(const Rig& rig, std::vector<Warning>& warnings) {
+  const auto say = [&](auto does, const char* code, const std::string& what, const std::string& kept) {
+    std::string names;
+    size_t count = 0;
+    for (size_t s = 0; s < rig.shapes.size(); ++s) {
+      if (does(s) && ++count <= 12) names += (names.empty() ? "" : ", ") + rig.shapes[s].name;
+    }
+    if (count) {
+      warnings.push_back({code, std::to_string(count) + (count == 1 ? " shape " : " shapes ") + what + ": " + names + (count > 12 ? ", ..." : "") + "; " + kept, "",
+                          static_cast<double>(count), false});
+    }
+  };
+  say([&](size_t s) { return !rig.shapes[s].material_morphs.empty(); }, "material_morphs_not_exported",
+      "with MMD material morphs (they change materials), which glTF cannot say", "the materials hold their colours at the exported weights");
+  say([&](size_t s) { return !rig.shapes[s].bone_morphs.empty(); }, "bone_morphs_not_exported",
+      "with MMD bone morphs (they move bones), which a glTF morph target cannot say", "the mesh holds their pose at the exported weights");
+  say([&](size_t s) { return std::any_of(rig.flips.begin(), rig.flips.end(), [s](const Flip& f) { return f.shape == s; }); },
+      "flip_morphs_not_exported", "as MMD flip morphs (they switch other shapes on), which glTF's linear weights cannot say",
+      "the mesh holds what they pick at the exported weights");
+}
+
+// The images glTF carries (PNG and JPEG: other images, an MMD model's BMP or TGA, and unread ones are
+// left out, their materials keeping the base colour), a texture each, then the materials (colours
+// under the material morphs at these weights).
+void WriteMaterials(const Rig& rig, const BlendedRig& blended, GlbBuilder& b, tinygltf::Model& m) {
   std::vector<int> texture_of(rig.images.size(), -1);
   for (size_t ii = 0; ii < rig.images.size(); ++ii) {
     const Image& im = rig.images[ii];
@@ -263,15 +258,15 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     t.source = static_cast<int>(m.images.size() - 1);
     m.textures.push_back(t);
   }
+  // Each map's glTF texture, or -1 (no image, or one glTF cannot carry): tinygltf writes a texture
+  // info only when its index is set.
+  const auto texture = [&texture_of](int image) { return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1; };
   for (size_t mi = 0; mi < rig.materials.size(); ++mi) {
     const Material& mat = rig.materials[mi];
     tinygltf::Material gm;
     gm.name = mat.name;
     const auto& base = mi < blended.material_colors.size() ? blended.material_colors[mi] : mat.base_color_factor;
     gm.pbrMetallicRoughness.baseColorFactor.assign(base.begin(), base.end());
-    // Each map's glTF texture, or -1 (no image, or one glTF cannot carry): tinygltf writes a
-    // texture info only when its index is set.
-    const auto texture = [&texture_of](int image) { return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1; };
     gm.pbrMetallicRoughness.baseColorTexture.index = texture(mat.base_color_image);
     gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
     gm.pbrMetallicRoughness.metallicRoughnessTexture.index = texture(mat.metallic_roughness_image);
@@ -288,69 +283,76 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     gm.alphaCutoff = mat.alpha_cutoff;
     m.materials.push_back(gm);
   }
+}
+
+// The skin itself (JOINTS_n / WEIGHTS_n, 4 influences per set), for clients that skin on the GPU.
+void WriteSkinAttributes(const Primitive& p, GlbBuilder& b, tinygltf::Primitive& gp) {
+  const size_t sets = (p.influences + 3) / 4, n = p.vertex_count();
+  for (size_t set = 0; set < sets; ++set) {
+    std::vector<uint16_t> joints(4 * n, 0);
+    std::vector<float> jw(4 * n, 0.0f);
+    for (size_t v = 0; v < n; ++v) {
+      for (size_t k = 0; k < 4 && 4 * set + k < p.influences; ++k) {
+        joints[4 * v + k] = p.joints[v * p.influences + 4 * set + k];
+        jw[4 * v + k] = p.joint_weights[v * p.influences + 4 * set + k];
+      }
+    }
+    gp.attributes["JOINTS_" + std::to_string(set)] = b.Joints(joints);
+    gp.attributes["WEIGHTS_" + std::to_string(set)] = b.Floats(jw, 4, false);
+  }
+}
+
+// The primitive's targets as sparse accessors. Targets without normal deltas get zero ones so every
+// target has the same attributes; UV morphs as TEXCOORD_0 targets (glTF 2.0 lets a target morph
+// TEXCOORD_n; clients MAY apply them).
+void WriteTargets(const Primitive& p, GlbBuilder& b, tinygltf::Primitive& gp) {
+  bool any_normals = false, all_tangents = !p.tangents.empty(), any_uvs = false;
+  for (const SparseTarget& t : p.targets) {
+    any_normals |= !t.normal_deltas.empty();
+    all_tangents &= t.indices.empty() || !t.tangent_deltas.empty();
+    any_uvs |= !t.texcoord_indices.empty();
+  }
+  for (const SparseTarget& t : p.targets) {
+    std::map<std::string, int> gt;
+    gt["POSITION"] = b.SparseDeltas(t.indices, t.position_deltas, p.vertex_count());
+    if (any_normals) {
+      std::vector<float> zeros;
+      if (t.normal_deltas.empty()) zeros.assign(t.position_deltas.size(), 0.0f);
+      gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas, p.vertex_count());
+    }
+    if (all_tangents) gt["TANGENT"] = b.SparseDeltas(t.indices, t.tangent_deltas, p.vertex_count());
+    if (any_uvs) gt["TEXCOORD_0"] = b.SparseDeltas(t.texcoord_indices, t.texcoord_deltas, p.vertex_count(), 2);
+    gp.targets.push_back(gt);
+  }
+}
+
+// One primitive: the blended one, or with `rig_data` the rig's own (base positions, targets, skin).
+tinygltf::Primitive WritePrimitive(const Primitive& p, const BlendedPrimitive& bp, bool rig_data, bool skinned, GlbBuilder& b) {
+  tinygltf::Primitive gp;
+  gp.attributes["POSITION"] = b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
+  gp.attributes["NORMAL"] = b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
+  if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
+  if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(rig_data ? std::span<const float>(p.texcoords) : TexcoordsOf(p, bp), 2, false);
+  if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
+  if (!p.source_vertices.empty()) {
+    // Floats: glTF allows no unsigned int in a vertex attribute; exact below 2^24 (ValidateRig).
+    const std::vector<float> source(p.source_vertices.begin(), p.source_vertices.end());
+    gp.attributes["_SOURCE_VERTEX"] = b.Floats(source, 1, false);
+  }
+  if (!p.indices.empty()) gp.indices = b.Indices(p.indices, p.vertex_count());
+  if (rig_data && p.influences > 0 && skinned) WriteSkinAttributes(p, b, gp);
+  gp.mode = static_cast<int>(p.mode);
+  gp.material = p.material;
+  if (rig_data && !p.targets.empty()) WriteTargets(p, b, gp);
+  return gp;
+}
+
+void WriteMeshes(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, bool keep_targets, GlbBuilder& b, tinygltf::Model& m) {
   for (const Mesh& mesh : rig.meshes) {
     tinygltf::Mesh gm;
     gm.name = mesh.name;
-    for (int pi : mesh.primitives) {
-      const Primitive& p = rig.primitives[pi];
-      const BlendedPrimitive& bp = blended.primitives[pi];
-      const bool rig_data = options.keep_targets;  // The rig itself: base positions, its targets, its skin.
-      const bool targets = rig_data && !p.targets.empty();
-      tinygltf::Primitive gp;
-      gp.attributes["POSITION"] = b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
-      gp.attributes["NORMAL"] = b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
-      if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
-      if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(rig_data ? std::span<const float>(p.texcoords) : TexcoordsOf(p, bp), 2, false);
-      if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
-      if (!p.source_vertices.empty()) {
-        // Floats: glTF allows no unsigned int in a vertex attribute; exact below 2^24 (ValidateRig).
-        const std::vector<float> source(p.source_vertices.begin(), p.source_vertices.end());
-        gp.attributes["_SOURCE_VERTEX"] = b.Floats(source, 1, false);
-      }
-      if (!p.indices.empty()) gp.indices = b.Indices(p.indices, p.vertex_count());
-      if (options.keep_targets && p.influences > 0 && mesh.skin >= 0) {
-        // The skin itself (JOINTS_n / WEIGHTS_n, 4 influences per set), for clients that skin on the GPU.
-        const size_t sets = (p.influences + 3) / 4, n = p.vertex_count();
-        for (size_t set = 0; set < sets; ++set) {
-          std::vector<uint16_t> joints(4 * n, 0);
-          std::vector<float> jw(4 * n, 0.0f);
-          for (size_t v = 0; v < n; ++v) {
-            for (size_t k = 0; k < 4 && 4 * set + k < p.influences; ++k) {
-              joints[4 * v + k] = p.joints[v * p.influences + 4 * set + k];
-              jw[4 * v + k] = p.joint_weights[v * p.influences + 4 * set + k];
-            }
-          }
-          gp.attributes["JOINTS_" + std::to_string(set)] = b.Joints(joints);
-          gp.attributes["WEIGHTS_" + std::to_string(set)] = b.Floats(jw, 4, false);
-        }
-      }
-      gp.mode = static_cast<int>(p.mode);
-      gp.material = p.material;
-      if (targets) {
-        // Targets without normal deltas get zero ones so every target has the same attributes.
-        bool any_normals = false, all_tangents = !p.tangents.empty(), any_uvs = false;
-        for (const SparseTarget& t : p.targets) {
-          any_normals |= !t.normal_deltas.empty();
-          all_tangents &= t.indices.empty() || !t.tangent_deltas.empty();
-          any_uvs |= !t.texcoord_indices.empty();
-        }
-        for (const SparseTarget& t : p.targets) {
-          std::map<std::string, int> gt;
-          gt["POSITION"] = b.SparseDeltas(t.indices, t.position_deltas, p.vertex_count());
-          if (any_normals) {
-            std::vector<float> zeros;
-            if (t.normal_deltas.empty()) zeros.assign(t.position_deltas.size(), 0.0f);
-            gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas, p.vertex_count());
-          }
-          if (all_tangents) gt["TANGENT"] = b.SparseDeltas(t.indices, t.tangent_deltas, p.vertex_count());
-          // UV morphs as TEXCOORD_0 targets (glTF 2.0 lets a target morph TEXCOORD_n; clients MAY apply them).
-          if (any_uvs) gt["TEXCOORD_0"] = b.SparseDeltas(t.texcoord_indices, t.texcoord_deltas, p.vertex_count(), 2);
-          gp.targets.push_back(gt);
-        }
-      }
-      gm.primitives.push_back(gp);
-    }
-    if (options.keep_targets && !mesh.target_shapes.empty()) {
+    for (int pi : mesh.primitives) gm.primitives.push_back(WritePrimitive(rig.primitives[pi], blended.primitives[pi], keep_targets, mesh.skin >= 0, b));
+    if (keep_targets && !mesh.target_shapes.empty()) {
       tinygltf::Value::Array names;
       for (uint32_t s : mesh.target_shapes) {
         names.push_back(tinygltf::Value(rig.shapes[s].name));
@@ -362,36 +364,43 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
     }
     m.meshes.push_back(gm);
   }
-  // Meshes whose primitives were skinned are already in scene space: they hang from a root
-  // node of their own (glTF ignores a skinned mesh node's transform; without the skin, a
-  // viewer would not).
+}
+
+// One node: the evaluated pose as its local matrix, else its own transform; its skin with the rig's data.
+tinygltf::Node WriteNode(const Rig& rig, const BlendedRig& blended, size_t i, bool keep_targets, bool mesh_elsewhere) {
+  const Node& n = rig.nodes[i];
+  tinygltf::Node gn;
+  gn.name = n.name;
+  gn.mesh = mesh_elsewhere ? -1 : n.mesh;
+  gn.children = n.children;
+  if (blended.posed && blended.node_world.size() == rig.nodes.size()) {
+    const std::array<double, 16> local = PosedLocalMatrix(rig, blended, i);
+    gn.matrix.assign(local.begin(), local.end());
+  } else if (n.has_matrix) {
+    gn.matrix.assign(n.matrix.begin(), n.matrix.end());
+  } else {
+    if (n.translation != std::array<float, 3>{0, 0, 0}) gn.translation.assign(n.translation.begin(), n.translation.end());
+    if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
+    if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
+  }
+  if (keep_targets && n.mesh >= 0 && rig.meshes[n.mesh].skin >= 0 && static_cast<size_t>(rig.meshes[n.mesh].skin) < rig.skins.size()) {
+    gn.skin = rig.meshes[n.mesh].skin;
+  }
+  return gn;
+}
+
+// The nodes and the scene. Meshes whose primitives were skinned are already in scene space: they
+// hang from a root node of their own (glTF ignores a skinned mesh node's transform; without the skin,
+// a viewer would not).
+void WriteNodes(const Rig& rig, const BlendedRig& blended, bool keep_targets, tinygltf::Model& m) {
   std::vector<uint8_t> skinned_mesh(rig.meshes.size(), 0);
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
-    if (blended.primitives[pi].skinned && !options.keep_targets) skinned_mesh[rig.primitives[pi].mesh] = 1;
+    if (blended.primitives[pi].skinned && !keep_targets) skinned_mesh[rig.primitives[pi].mesh] = 1;
   }
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
-    const Node& n = rig.nodes[i];
-    tinygltf::Node gn;
-    gn.name = n.name;
-    gn.mesh = n.mesh >= 0 && skinned_mesh[n.mesh] ? -1 : n.mesh;
-    gn.children = n.children;
-    if (blended.posed && blended.node_world.size() == rig.nodes.size()) {
-      // The evaluated pose, as each node's local matrix.
-      const std::array<double, 16> local = PosedLocalMatrix(rig, blended, i);
-      gn.matrix.assign(local.begin(), local.end());
-    } else if (n.has_matrix) {
-      gn.matrix.assign(n.matrix.begin(), n.matrix.end());
-    } else {
-      if (n.translation != std::array<float, 3>{0, 0, 0}) gn.translation.assign(n.translation.begin(), n.translation.end());
-      if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
-      if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
-    }
-    if (options.keep_targets && n.mesh >= 0 && rig.meshes[n.mesh].skin >= 0 && static_cast<size_t>(rig.meshes[n.mesh].skin) < rig.skins.size()) {
-      gn.skin = rig.meshes[n.mesh].skin;
-    }
+    tinygltf::Node gn = WriteNode(rig, blended, i, keep_targets, rig.nodes[i].mesh >= 0 && skinned_mesh[rig.nodes[i].mesh]);
     // tinygltf writes a node with no properties as null, which glTF forbids: name it.
-    if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() && gn.translation.empty() &&
-        gn.rotation.empty() && gn.scale.empty()) {
+    if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() && gn.translation.empty() && gn.rotation.empty() && gn.scale.empty()) {
       gn.name = "node_" + std::to_string(m.nodes.size());
     }
     m.nodes.push_back(gn);
@@ -408,6 +417,71 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   }
   m.scenes.push_back(scene);
   m.defaultScene = 0;
+}
+
+// One sampler, linear (glTF has no Bezier: sampled at 60 a second); a weights sampler padded to
+// `targets` values per key (a tool that appended shapes, mirror or derive, leaves the clip's keys
+// short: the new targets get 0). -1 when it cannot be mapped (dropped).
+int WriteSampler(const AnimationSampler& sampler, size_t targets, GlbBuilder& b, tinygltf::Animation& ga) {
+  const AnimationSampler s = LinearSampler(sampler, 60.0f);
+  const bool scalar = s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
+  std::vector<float> padded;
+  std::span<const float> values = s.values;
+  if (targets && s.components != targets) {
+    if (s.components > targets || s.interpolation == Interpolation::kCubicSpline) return -1;
+    for (size_t k = 0; k < s.times.size(); ++k) {
+      padded.insert(padded.end(), s.values.begin() + static_cast<std::ptrdiff_t>(k * s.components), s.values.begin() + static_cast<std::ptrdiff_t>((k + 1) * s.components));
+      padded.resize((k + 1) * targets, 0.0f);
+    }
+    values = padded;
+  }
+  tinygltf::AnimationSampler gs;
+  gs.input = b.Data(s.times, TINYGLTF_TYPE_SCALAR, s.times.size(), true);
+  const size_t per_key = s.interpolation == Interpolation::kCubicSpline ? 3 : 1;
+  gs.output = b.Data(values, scalar ? TINYGLTF_TYPE_SCALAR : s.components == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4,
+                     scalar ? values.size() : s.times.size() * per_key, false);
+  gs.interpolation = s.interpolation == Interpolation::kStep ? "STEP" : s.interpolation == Interpolation::kCubicSpline ? "CUBICSPLINE" : "LINEAR";
+  ga.samplers.push_back(gs);
+  return static_cast<int>(ga.samplers.size() - 1);
+}
+
+// Clip ci, MMD's grants and IK (which have no glTF form) solved into it; nothing when no channel is left.
+void WriteClip(const Rig& rig, size_t ci, GlbBuilder& b, tinygltf::Model& m) {
+  const AnimationInfo clip = ClipWithConstraintsSolved(rig, static_cast<int>(ci), 30.0f);
+  tinygltf::Animation ga;
+  ga.name = clip.name;
+  std::vector<size_t> targets(clip.sampler_data.size(), 0);  // A weights sampler's: its node's mesh's targets.
+  for (const AnimationChannel& c : clip.channel_data) {
+    if (c.path == ChannelPath::kWeights && rig.nodes[c.node].mesh >= 0) targets[c.sampler] = rig.meshes[rig.nodes[c.node].mesh].target_shapes.size();
+  }
+  std::vector<int> sampler_of(clip.sampler_data.size(), -1);
+  for (size_t si = 0; si < clip.sampler_data.size(); ++si) sampler_of[si] = WriteSampler(clip.sampler_data[si], targets[si], b, ga);
+  for (const AnimationChannel& c : clip.channel_data) {
+    if (sampler_of[c.sampler] < 0) continue;
+    tinygltf::AnimationChannel gc;
+    gc.sampler = sampler_of[c.sampler];
+    gc.target_node = c.node;
+    gc.target_path = c.path == ChannelPath::kTranslation ? "translation" : c.path == ChannelPath::kRotation ? "rotation" : c.path == ChannelPath::kScale ? "scale" : "weights";
+    ga.channels.push_back(gc);
+  }
+  if (!ga.channels.empty()) m.animations.push_back(ga);
+}
+
+}  // namespace
+
+Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
+                              std::span<const Warning> warnings, const ExportOptions& options) {
+  tinygltf::Model m;
+  GlbBuilder b(m);
+  m.asset.version = "2.0";
+  m.asset.generator = "facespace";
+  m.asset.copyright = rig.credit;
+  std::vector<Warning> all_warnings(warnings.begin(), warnings.end());
+  if (options.keep_targets) WarnUnexported(rig, all_warnings);
+  m.asset.extras = ToValue(AssetExtras(rig, weights, all_warnings));
+  WriteMaterials(rig, blended, b, m);
+  WriteMeshes(rig, blended, weights, options.keep_targets, b, m);
+  WriteNodes(rig, blended, options.keep_targets, m);
   if (options.keep_targets) {
     for (const Skin& skin : rig.skins) {
       tinygltf::Skin gs;
@@ -416,56 +490,10 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       gs.inverseBindMatrices = b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
       m.skins.push_back(gs);
     }
-    for (size_t ci = 0; options.clips && ci < rig.animations.size(); ++ci) {
-      // MMD's grants and IK have no glTF form: solved into the clips.
-      const AnimationInfo solved = ClipWithConstraintsSolved(rig, static_cast<int>(ci), 30.0f);
-      const AnimationInfo& clip = solved;
-      tinygltf::Animation ga;
-      ga.name = clip.name;
-      // A weights sampler needs one value per morph target of its node's mesh; a tool that appended
-      // shapes (mirror, derive) leaves the clip's keys short: the new targets get 0.
-      std::vector<size_t> targets(clip.sampler_data.size(), 0);
-      for (const AnimationChannel& c : clip.channel_data) {
-        if (c.path == ChannelPath::kWeights && rig.nodes[c.node].mesh >= 0) targets[c.sampler] = rig.meshes[rig.nodes[c.node].mesh].target_shapes.size();
-      }
-      std::vector<int> sampler_of(clip.sampler_data.size(), -1);
-      for (size_t si = 0; si < clip.sampler_data.size(); ++si) {
-        const AnimationSampler linear = LinearSampler(clip.sampler_data[si], 60.0f);  // glTF has no Bezier: sampled.
-        const AnimationSampler& s = linear;
-        const bool scalar = s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
-        std::vector<float> padded;
-        std::span<const float> values = s.values;
-        if (targets[si] && s.components != targets[si]) {
-          if (s.components > targets[si] || s.interpolation == Interpolation::kCubicSpline) continue;  // Cannot map: dropped.
-          for (size_t k = 0; k < s.times.size(); ++k) {
-            padded.insert(padded.end(), s.values.begin() + static_cast<std::ptrdiff_t>(k * s.components), s.values.begin() + static_cast<std::ptrdiff_t>((k + 1) * s.components));
-            padded.resize((k + 1) * targets[si], 0.0f);
-          }
-          values = padded;
-        }
-        tinygltf::AnimationSampler gs;
-        gs.input = b.Data(s.times, TINYGLTF_TYPE_SCALAR, s.times.size(), true);
-        const size_t per_key = s.interpolation == Interpolation::kCubicSpline ? 3 : 1;
-        gs.output = b.Data(values, scalar ? TINYGLTF_TYPE_SCALAR : s.components == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4,
-                           scalar ? values.size() : s.times.size() * per_key, false);
-        gs.interpolation = s.interpolation == Interpolation::kStep ? "STEP" : s.interpolation == Interpolation::kCubicSpline ? "CUBICSPLINE" : "LINEAR";
-        sampler_of[si] = static_cast<int>(ga.samplers.size());
-        ga.samplers.push_back(gs);
-      }
-      for (const AnimationChannel& c : clip.channel_data) {
-        if (sampler_of[c.sampler] < 0) continue;
-        tinygltf::AnimationChannel gc;
-        gc.sampler = sampler_of[c.sampler];
-        gc.target_node = c.node;
-        gc.target_path = c.path == ChannelPath::kTranslation ? "translation" : c.path == ChannelPath::kRotation ? "rotation" : c.path == ChannelPath::kScale ? "scale" : "weights";
-        ga.channels.push_back(gc);
-      }
-      if (!ga.channels.empty()) m.animations.push_back(ga);
-    }
+    for (size_t ci = 0; options.clips && ci < rig.animations.size(); ++ci) WriteClip(rig, ci, b, m);
   }
   m.buffers[0].data.resize((m.buffers[0].data.size() + 3) & ~size_t{3}, 0);
   if (m.buffers[0].data.empty()) m.buffers.clear();
-
   std::ostringstream os;
   tinygltf::TinyGLTF writer;
   if (!writer.WriteGltfSceneToStream(&m, os, false, true)) return InvalidArgument("glb writer failed");
