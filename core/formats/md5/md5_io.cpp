@@ -396,51 +396,39 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
   return Status::Ok();
 }
 
-}  // namespace
-
-Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_name,
-                          std::span<const std::pair<std::string, std::string>> anims) {
-  Reader r(mesh_text, mesh_name);
-  size_t njoints = 0, nmeshes = 0;
-  if (!ReadHeader(r) || !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Expect("numMeshes") ||
-      !r.Count(kMaxMeshes, &nmeshes, "numMeshes") || !r.Expect("joints") || !r.Expect("{")) {
-    return r.status();
-  }
-  if (njoints == 0) return InvalidArgument(mesh_name + ": the mesh has no joint");
-  std::vector<Joint> joints(njoints);
+// The joints block: each joint's name, parent (an earlier joint), position and orientation.
+bool ReadJoints(Reader& r, size_t njoints, std::vector<Joint>& joints) {
+  joints.resize(njoints);
   for (size_t j = 0; j < njoints; ++j) {
     Joint& jt = joints[j];
     long long parent = 0;
     float p[3], q[3];
     if (!r.String(&jt.name, "a joint name") || !r.Int(-1, static_cast<long long>(j) - 1, &parent, "the parent (an earlier joint)") ||
         !r.Floats(p, 3, "a joint position") || !r.Floats(q, 3, "a joint orientation")) {
-      return r.status();
+      return false;
     }
     jt.parent = static_cast<int>(parent);
     jt.pos = Eigen::Vector3f(p[0], p[1], p[2]);
     jt.orient = FromXyz(q).normalized();
   }
-  if (!r.Expect("}")) return r.status();
-  std::vector<Md5Mesh> meshes(nmeshes);
-  for (Md5Mesh& m : meshes) {
-    if (!r.Expect("mesh") || !ReadMesh(r, njoints, m)) return r.status();
-  }
+  return r.Expect("}");
+}
 
-  Rig rig;
-  // Node 0 turns Z-up into Y-up; then the joints, then one node per mesh.
+// Node 0 turns Z-up into Y-up; then a node per joint (from kFirstJoint), and the one skin over them.
+constexpr int kFirstJoint = 1;
+void AddSkeleton(std::span<const Joint> joints, Rig& rig) {
   Node root;
   root.name = "md5_root";
   root.rotation = {-0.70710678f, 0.0f, 0.0f, 0.70710678f};
   rig.nodes.push_back(root);
   rig.scene_roots = {0};
-  const int first_joint = 1;
   Skin skin;
   skin.name = "md5_skeleton";
-  for (size_t j = 0; j < njoints; ++j) {
+  for (size_t j = 0; j < joints.size(); ++j) {
     const Joint& jt = joints[j];
     Node n;
     n.name = jt.name;
-    n.parent = jt.parent < 0 ? 0 : first_joint + jt.parent;
+    n.parent = jt.parent < 0 ? 0 : kFirstJoint + jt.parent;
     if (jt.parent < 0) {
       SetTrs(n, jt.pos, jt.orient);
     } else {
@@ -450,65 +438,74 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
     }
     rig.nodes[n.parent].children.push_back(static_cast<int>(rig.nodes.size()));
     rig.nodes.push_back(n);
-    skin.joints.push_back(first_joint + static_cast<int>(j));
+    skin.joints.push_back(kFirstJoint + static_cast<int>(j));
     const Eigen::Matrix4f inv_bind = Matrix(jt.pos, jt.orient).inverse();
     skin.inverse_bind.insert(skin.inverse_bind.end(), inv_bind.data(), inv_bind.data() + 16);
   }
   rig.skins.push_back(std::move(skin));
   rig.skin_count = 1;
-  rig.joint_count = njoints;
+  rig.joint_count = joints.size();
+}
 
+// Each vertex's bind-pose position (sum of bias x the joint's transform of the weight's position) and
+// its influences, the biases normalised. MD5 triangles wind clockwise seen from outside; glTF's front
+// faces wind counter-clockwise.
+Status FillPrimitive(const Md5Mesh& m, std::span<const Joint> joints, const std::string& where, Primitive& p) {
+  const size_t n = m.first.size();
+  p.positions.assign(3 * n, 0.0f);
+  p.texcoords = m.uv;
+  size_t k = 1;
+  for (uint32_t c : m.count) k = std::max<size_t>(k, c);
+  p.influences = k;
+  p.joints.assign(n * k, 0);
+  p.joint_weights.assign(n * k, 0.0f);
+  for (size_t v = 0; v < n; ++v) {
+    Eigen::Vector3f pos = Eigen::Vector3f::Zero();
+    float total = 0.0f;
+    for (uint32_t i = 0; i < m.count[v]; ++i) {
+      const Md5Weight& w = m.weights[m.first[v] + i];
+      const Joint& jt = joints[w.joint];
+      pos += w.bias * (jt.orient * w.pos + jt.pos);
+      total += w.bias;
+      p.joints[v * k + i] = static_cast<uint16_t>(w.joint);
+      p.joint_weights[v * k + i] = w.bias;
+    }
+    if (!(total > 1e-6f)) return InvalidArgument(where + ", vertex " + std::to_string(v) + ": its weights' biases sum to " + std::to_string(total));
+    for (uint32_t i = 0; i < m.count[v]; ++i) p.joint_weights[v * k + i] /= total;
+    for (int c = 0; c < 3; ++c) p.positions[3 * v + c] = pos[c];
+  }
+  p.indices.resize(m.tris.size());
+  for (size_t t = 0; t < m.tris.size(); t += 3) {
+    p.indices[t] = m.tris[t];
+    p.indices[t + 1] = m.tris[t + 2];
+    p.indices[t + 2] = m.tris[t + 1];
+  }
+  return Status::Ok();
+}
+
+// The material a shader names, one per shader (its textures are not read: said once).
+int MaterialOf(const std::string& shader, Rig& rig) {
+  for (size_t i = 0; i < rig.materials.size(); ++i) {
+    if (rig.materials[i].name == shader) return static_cast<int>(i);
+  }
+  Material mat;
+  mat.name = shader;
+  mat.metallic_factor = 0.0f;
+  rig.materials.push_back(mat);
+  if (!shader.empty()) {
+    rig.load_warnings.push_back({"texture_not_loaded", "shader '" + shader + "': MD5 names a material, whose textures are not read", shader, 0.0, false});
+  }
+  return static_cast<int>(rig.materials.size()) - 1;
+}
+
+// Each mesh as a primitive of a mesh of its own, under a node of its own.
+Status AddMeshes(std::span<const Md5Mesh> meshes, std::span<const Joint> joints, const std::string& mesh_name, Rig& rig) {
   for (size_t mi = 0; mi < meshes.size(); ++mi) {
     const Md5Mesh& m = meshes[mi];
     Primitive p;
     p.mesh = static_cast<int>(mi);
-    const size_t n = m.first.size();
-    p.positions.assign(3 * n, 0.0f);
-    p.texcoords = m.uv;
-    size_t k = 1;
-    for (uint32_t c : m.count) k = std::max<size_t>(k, c);
-    p.influences = k;
-    p.joints.assign(n * k, 0);
-    p.joint_weights.assign(n * k, 0.0f);
-    for (size_t v = 0; v < n; ++v) {
-      // The bind-pose position: sum of bias x (the joint's transform of the weight's position).
-      Eigen::Vector3f pos = Eigen::Vector3f::Zero();
-      float total = 0.0f;
-      for (uint32_t i = 0; i < m.count[v]; ++i) {
-        const Md5Weight& w = m.weights[m.first[v] + i];
-        const Joint& jt = joints[w.joint];
-        pos += w.bias * (jt.orient * w.pos + jt.pos);
-        total += w.bias;
-        p.joints[v * k + i] = static_cast<uint16_t>(w.joint);
-        p.joint_weights[v * k + i] = w.bias;
-      }
-      if (!(total > 1e-6f)) return InvalidArgument(mesh_name + ": mesh " + std::to_string(mi) + ", vertex " + std::to_string(v) + ": its weights' biases sum to " + std::to_string(total));
-      for (uint32_t i = 0; i < m.count[v]; ++i) p.joint_weights[v * k + i] /= total;
-      for (int c = 0; c < 3; ++c) p.positions[3 * v + c] = pos[c];
-    }
-    // MD5 triangles wind clockwise seen from outside; glTF's front faces wind counter-clockwise.
-    p.indices.resize(m.tris.size());
-    for (size_t t = 0; t < m.tris.size(); t += 3) {
-      p.indices[t] = m.tris[t];
-      p.indices[t + 1] = m.tris[t + 2];
-      p.indices[t + 2] = m.tris[t + 1];
-    }
-    int material = -1;
-    for (size_t i = 0; i < rig.materials.size(); ++i) {
-      if (rig.materials[i].name == m.shader) material = static_cast<int>(i);
-    }
-    if (material < 0) {
-      Material mat;
-      mat.name = m.shader;
-      mat.metallic_factor = 0.0f;
-      rig.materials.push_back(mat);
-      material = static_cast<int>(rig.materials.size()) - 1;
-      if (!m.shader.empty()) {
-        rig.load_warnings.push_back({"texture_not_loaded", "shader '" + m.shader + "': MD5 names a material, whose textures are not read",
-                                     m.shader, 0.0, false});
-      }
-    }
-    p.material = material;
+    if (Status s = FillPrimitive(m, joints, mesh_name + ": mesh " + std::to_string(mi), p); !s.ok()) return s;
+    p.material = MaterialOf(m.shader, rig);
     FinalizePrimitive(p);
     rig.primitives.push_back(std::move(p));
     Mesh mesh;
@@ -523,10 +520,32 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
     rig.nodes[0].children.push_back(static_cast<int>(rig.nodes.size()));
     rig.nodes.push_back(node);
   }
+  return Status::Ok();
+}
 
+}  // namespace
+
+Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_name,
+                          std::span<const std::pair<std::string, std::string>> anims) {
+  Reader r(mesh_text, mesh_name);
+  size_t njoints = 0, nmeshes = 0;
+  if (!ReadHeader(r) || !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Expect("numMeshes") ||
+      !r.Count(kMaxMeshes, &nmeshes, "numMeshes") || !r.Expect("joints") || !r.Expect("{")) {
+    return r.status();
+  }
+  if (njoints == 0) return InvalidArgument(mesh_name + ": the mesh has no joint");
+  std::vector<Joint> joints;
+  if (!ReadJoints(r, njoints, joints)) return r.status();
+  std::vector<Md5Mesh> meshes(nmeshes);
+  for (Md5Mesh& m : meshes) {
+    if (!r.Expect("mesh") || !ReadMesh(r, njoints, m)) return r.status();
+  }
+  Rig rig;
+  AddSkeleton(joints, rig);
+  if (Status s = AddMeshes(meshes, joints, mesh_name, rig); !s.ok()) return s;
   for (const auto& [name, text] : anims) {
     AnimationInfo clip;
-    if (Status s = ReadAnim(text, name + ".md5anim", name, joints, first_joint, clip); !s.ok()) {
+    if (Status s = ReadAnim(text, name + ".md5anim", name, joints, kFirstJoint, clip); !s.ok()) {
       rig.load_warnings.push_back({"animation_skipped", "clip '" + name + "' skipped: " + s.message, name, 0.0, false});
       continue;
     }
