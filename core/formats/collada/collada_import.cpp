@@ -237,42 +237,26 @@ int Reader::Material(pugi::xml_node inst, const std::string& symbol) {
   return -1;
 }
 
-Status Reader::Instance(pugi::xml_node inst, int node) {
-  // Resolve the chain: controller(skin) -> controller(morph) -> geometry.
-  pugi::xml_node target = ById(inst.attribute("url").value());
-  pugi::xml_node skin, skin_controller, morph, morph_controller;
-  for (int hops = 0; target && std::strcmp(target.name(), "controller") == 0 && hops < 4; ++hops) {
-    if (pugi::xml_node s = target.child("skin"); s && !skin) {
-      skin = s;
-      skin_controller = target;
-      target = ById(s.attribute("source").value());
-    } else if (pugi::xml_node m = target.child("morph"); m && !morph) {
-      morph = m;
-      morph_controller = target;
-      target = ById(m.attribute("source").value());
+Status Reader::ResolveInstance(pugi::xml_node inst, InstanceChain& chain) {
+  chain.target = ById(inst.attribute("url").value());
+  for (int hops = 0; chain.target && std::strcmp(chain.target.name(), "controller") == 0 && hops < 4; ++hops) {
+    if (pugi::xml_node s = chain.target.child("skin"); s && !chain.skin) {
+      chain.skin = s;
+      chain.skin_controller = chain.target;
+      chain.target = ById(s.attribute("source").value());
+    } else if (pugi::xml_node m = chain.target.child("morph"); m && !chain.morph) {
+      chain.morph = m;
+      chain.morph_controller = chain.target;
+      chain.target = ById(m.attribute("source").value());
     } else {
-      return Bad(Describe(target) + ": a controller chain that is not skin -> morph -> geometry");
+      return Bad(Describe(chain.target) + ": a controller chain that is not skin -> morph -> geometry");
     }
   }
-  if (!target || std::strcmp(target.name(), "geometry") != 0) {
-    rig_.load_warnings.push_back({"instance_skipped", Describe(inst) + " '" + std::string(inst.attribute("url").value()).substr(0, 60) + "' does not lead to a geometry", "", 0.0, false});
-    return Status::Ok();
-  }
-  Split split;
-  if (Status s = SplitGeometry(target, split); !s.ok()) return s;
-  if (split.primitives.empty()) return Status::Ok();
-  Mesh mesh;
-  mesh.name = rig_.nodes[node].name;
-  const int mesh_index = static_cast<int>(rig_.meshes.size());
-  Morph m;
-  if (morph) {
-    if (Status s = ReadMorph(morph_controller, morph, split.point_count, split.points, m); !s.ok()) return s;
-  }
-  SkinData sd;
-  if (skin) {
-    if (Status s = ReadSkin(skin_controller, skin, split.point_count, sd); !s.ok()) return s;
-  }
-  const Eigen::Matrix3d linear = sd.bind_shape.block<3, 3>(0, 0);
+  return Status::Ok();
+}
+
+void Reader::PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData* skin, const Morph& m, Split& split) {
+  const Eigen::Matrix3d linear = skin ? Eigen::Matrix3d(skin->bind_shape.block<3, 3>(0, 0)) : Eigen::Matrix3d::Identity();
   const Eigen::Matrix3d normal_matrix = linear.inverse().transpose();
   for (size_t p = 0; p < split.primitives.size(); ++p) {
     Primitive& prim = split.primitives[p];
@@ -280,14 +264,12 @@ Status Reader::Instance(pugi::xml_node inst, int node) {
     prim.index_in_mesh = static_cast<int>(p);
     prim.material = Material(inst, split.material_symbol[p]);
     const std::vector<uint32_t>& points = split.point_of_vertex[p];
-    if (skin) {  // The bind shape matrix goes into the vertices, as glTF has none.
-      for (size_t v = 0; v < points.size(); ++v) {
-        const Eigen::Vector4d q = sd.bind_shape * Eigen::Vector4d(prim.positions[3 * v], prim.positions[3 * v + 1], prim.positions[3 * v + 2], 1.0);
-        for (int a = 0; a < 3; ++a) prim.positions[3 * v + a] = static_cast<float>(q[a]);
-        if (!prim.normals.empty()) {
-          const Vec3 n = (normal_matrix * Vec3(prim.normals[3 * v], prim.normals[3 * v + 1], prim.normals[3 * v + 2])).normalized();
-          for (int a = 0; a < 3; ++a) prim.normals[3 * v + a] = static_cast<float>(n[a]);
-        }
+    for (size_t v = 0; skin && v < points.size(); ++v) {  // The bind shape matrix goes into the vertices, as glTF has none.
+      const Eigen::Vector4d q = skin->bind_shape * Eigen::Vector4d(prim.positions[3 * v], prim.positions[3 * v + 1], prim.positions[3 * v + 2], 1.0);
+      for (int a = 0; a < 3; ++a) prim.positions[3 * v + a] = static_cast<float>(q[a]);
+      if (!prim.normals.empty()) {
+        const Vec3 n = (normal_matrix * Vec3(prim.normals[3 * v], prim.normals[3 * v + 1], prim.normals[3 * v + 2])).normalized();
+        for (int a = 0; a < 3; ++a) prim.normals[3 * v + a] = static_cast<float>(n[a]);
       }
     }
     for (const std::vector<double>& delta : m.targets) {
@@ -302,6 +284,9 @@ Status Reader::Instance(pugi::xml_node inst, int node) {
       prim.targets.push_back(std::move(t));
     }
   }
+}
+
+void Reader::AddMorphShapes(const Morph& m, int node, facespace::Mesh& mesh) {
   for (size_t t = 0; t < m.targets.size(); ++t) {
     Shape shape;
     shape.name = m.names[t];
@@ -314,57 +299,91 @@ Status Reader::Instance(pugi::xml_node inst, int node) {
     rig_.shapes.push_back(shape);
   }
   if (!m.weights_source.empty()) morph_node_[m.weights_source] = node;
-  if (skin) {
-    std::vector<int> roots;
-    for (pugi::xml_node s : inst.children("skeleton")) {
-      const int r = NodeOfXml(ById(s.child_value()));
-      if (r >= 0) roots.push_back(r);
-    }
-    facespace::Skin out;
-    out.name = skin_controller.attribute("id").value();
-    for (size_t j = 0; j < sd.joint_names.size(); ++j) {
-      const int jn = JointNode(sd.joint_names[j], sd.names_are_ids, roots);
-      if (jn < 0) return Bad(Describe(skin_controller) + ": joint '" + sd.joint_names[j].substr(0, 60) + "' is no node of the scene");
-      out.joints.push_back(jn);
-      for (int k = 0; k < 16; ++k) out.inverse_bind.push_back(static_cast<float>(sd.inverse_binds[j](k % 4, k / 4)));
-    }
-    // Vertices no joint weighs follow the instancing node.
-    bool unweighted = false;
-    for (const auto& inf : sd.influences) unweighted |= inf.empty();
-    if (unweighted) {
-      const uint32_t extra = static_cast<uint32_t>(out.joints.size());
-      out.joints.push_back(node);
-      const Mat4 ib = World(node).inverse();
-      for (int k = 0; k < 16; ++k) out.inverse_bind.push_back(static_cast<float>(ib(k % 4, k / 4)));
-      for (auto& inf : sd.influences) {
-        if (inf.empty()) inf.emplace_back(extra, 1.0f);
-      }
-      rig_.load_warnings.push_back({"unweighted_vertices", Describe(skin_controller) + ": vertices without joint weights follow node '" + rig_.nodes[node].name + "'", "", 0.0, false});
-    }
-    for (size_t p = 0; p < split.primitives.size(); ++p) SetInfluences(split.primitives[p], split.point_of_vertex[p], sd.influences);
-    mesh.skin = static_cast<int>(rig_.skins.size());
-    rig_.joint_count += out.joints.size();
-    rig_.skins.push_back(std::move(out));
-    rig_.skin_count = rig_.skins.size();
+}
+
+Status Reader::AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node, SkinData& sd, Split& split, facespace::Mesh& mesh) {
+  std::vector<int> roots;
+  for (pugi::xml_node s : inst.children("skeleton")) {
+    const int r = NodeOfXml(ById(s.child_value()));
+    if (r >= 0) roots.push_back(r);
   }
+  facespace::Skin out;
+  out.name = chain.skin_controller.attribute("id").value();
+  for (size_t j = 0; j < sd.joint_names.size(); ++j) {
+    const int jn = JointNode(sd.joint_names[j], sd.names_are_ids, roots);
+    if (jn < 0) return Bad(Describe(chain.skin_controller) + ": joint '" + sd.joint_names[j].substr(0, 60) + "' is no node of the scene");
+    out.joints.push_back(jn);
+    for (int k = 0; k < 16; ++k) out.inverse_bind.push_back(static_cast<float>(sd.inverse_binds[j](k % 4, k / 4)));
+  }
+  // Vertices no joint weighs follow the instancing node.
+  bool unweighted = false;
+  for (const auto& inf : sd.influences) unweighted |= inf.empty();
+  if (unweighted) {
+    const uint32_t extra = static_cast<uint32_t>(out.joints.size());
+    out.joints.push_back(node);
+    const Mat4 ib = World(node).inverse();
+    for (int k = 0; k < 16; ++k) out.inverse_bind.push_back(static_cast<float>(ib(k % 4, k / 4)));
+    for (auto& inf : sd.influences) {
+      if (inf.empty()) inf.emplace_back(extra, 1.0f);
+    }
+    rig_.load_warnings.push_back({"unweighted_vertices", Describe(chain.skin_controller) + ": vertices without joint weights follow node '" + rig_.nodes[node].name + "'", "", 0.0, false});
+  }
+  for (size_t p = 0; p < split.primitives.size(); ++p) SetInfluences(split.primitives[p], split.point_of_vertex[p], sd.influences);
+  mesh.skin = static_cast<int>(rig_.skins.size());
+  rig_.joint_count += out.joints.size();
+  rig_.skins.push_back(std::move(out));
+  rig_.skin_count = rig_.skins.size();
+  return Status::Ok();
+}
+
+void Reader::AttachMesh(Split& split, facespace::Mesh mesh, int node, const std::string& weights_source) {
+  const int mesh_index = static_cast<int>(rig_.meshes.size());
   for (Primitive& p : split.primitives) {
     FinalizePrimitive(p);
+    mesh.primitives.push_back(static_cast<int>(rig_.primitives.size()));
     rig_.primitives.push_back(std::move(p));
   }
-  for (size_t p = 0; p < split.primitives.size(); ++p) mesh.primitives.push_back(static_cast<int>(rig_.primitives.size() - split.primitives.size() + p));
   rig_.meshes.push_back(std::move(mesh));
-  if (rig_.nodes[node].mesh >= 0) {  // A second instance on one node: a child node carries it.
-    Node extra;
-    extra.name = rig_.nodes[node].name + "_" + std::to_string(mesh_index);
-    extra.parent = node;
-    extra.mesh = mesh_index;
-    rig_.nodes[node].children.push_back(static_cast<int>(rig_.nodes.size()));
-    rig_.nodes.push_back(extra);
-    world_ = NodeWorldMatrices(rig_);
-    if (!morph_node_.empty() && !m.weights_source.empty()) morph_node_[m.weights_source] = static_cast<int>(rig_.nodes.size()) - 1;
-  } else {
+  if (rig_.nodes[node].mesh < 0) {
     rig_.nodes[node].mesh = mesh_index;
+    return;
   }
+  Node extra;  // A second instance on one node: a child node carries it.
+  extra.name = rig_.nodes[node].name + "_" + std::to_string(mesh_index);
+  extra.parent = node;
+  extra.mesh = mesh_index;
+  rig_.nodes[node].children.push_back(static_cast<int>(rig_.nodes.size()));
+  rig_.nodes.push_back(extra);
+  world_ = NodeWorldMatrices(rig_);
+  if (!morph_node_.empty() && !weights_source.empty()) morph_node_[weights_source] = static_cast<int>(rig_.nodes.size()) - 1;
+}
+
+Status Reader::Instance(pugi::xml_node inst, int node) {
+  InstanceChain chain;
+  if (Status s = ResolveInstance(inst, chain); !s.ok()) return s;
+  if (!chain.target || std::strcmp(chain.target.name(), "geometry") != 0) {
+    rig_.load_warnings.push_back({"instance_skipped", Describe(inst) + " '" + std::string(inst.attribute("url").value()).substr(0, 60) + "' does not lead to a geometry", "", 0.0, false});
+    return Status::Ok();
+  }
+  Split split;
+  if (Status s = SplitGeometry(chain.target, split); !s.ok()) return s;
+  if (split.primitives.empty()) return Status::Ok();
+  facespace::Mesh mesh;
+  mesh.name = rig_.nodes[node].name;
+  Morph m;
+  if (chain.morph) {
+    if (Status s = ReadMorph(chain.morph_controller, chain.morph, split.point_count, split.points, m); !s.ok()) return s;
+  }
+  SkinData sd;
+  if (chain.skin) {
+    if (Status s = ReadSkin(chain.skin_controller, chain.skin, split.point_count, sd); !s.ok()) return s;
+  }
+  PlacePrimitives(inst, static_cast<int>(rig_.meshes.size()), chain.skin ? &sd : nullptr, m, split);
+  AddMorphShapes(m, node, mesh);
+  if (chain.skin) {
+    if (Status s = AddSkin(inst, chain, node, sd, split, mesh); !s.ok()) return s;
+  }
+  AttachMesh(split, std::move(mesh), node, m.weights_source);
   return Status::Ok();
 }
 

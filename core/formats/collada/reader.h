@@ -130,7 +130,18 @@ class Reader {
 
   int Material(pugi::xml_node inst, const std::string& symbol);
 
+  // An <instance_geometry> or <instance_controller> on `node`: its geometry split into primitives
+  // (placed by the skin's bind shape), its morph's targets as shapes, its skin, the mesh on the node.
   Status Instance(pugi::xml_node inst, int node);
+  // What an instance leads to: controller(skin) -> controller(morph) -> geometry.
+  struct InstanceChain {
+    pugi::xml_node target, skin, skin_controller, morph, morph_controller;
+  };
+  Status ResolveInstance(pugi::xml_node inst, InstanceChain& chain);
+  void PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData* skin, const Morph& m, Split& split);
+  void AddMorphShapes(const Morph& m, int node, facespace::Mesh& mesh);
+  Status AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node, SkinData& sd, Split& split, facespace::Mesh& mesh);
+  void AttachMesh(Split& split, facespace::Mesh mesh, int node, const std::string& weights_source);
 
   // ---- animation: morph weights ----
 
