@@ -67,6 +67,136 @@ RangeMap MapOf(const json& m, const char* in, const char* out, RangeMap fallback
 }
 
 // ApplyVrm's work: members of the wrong type throw (nlohmann's value() and get()).
+bool NodeOk(const Rig& rig, int n) { return n >= 0 && static_cast<size_t>(n) < rig.nodes.size(); }
+
+// The rig's name, credit and licence from VRM's meta.
+void ApplyMeta(const json& meta, Rig& rig) {
+  if (!meta.is_object()) return;
+  const std::string name = meta.value("name", meta.value("title", std::string()));
+  if (!name.empty()) rig.name = name;
+  if (rig.credit.empty()) {
+    if (meta.contains("authors") && meta["authors"].is_array() && !meta["authors"].empty() && meta["authors"][0].is_string()) rig.credit = meta["authors"][0];
+    else if (meta.contains("author") && meta["author"].is_string()) rig.credit = meta["author"];
+  }
+  const std::string other = meta.value("otherLicenseUrl", std::string());
+  rig.license_url = !other.empty() ? other : meta.value("licenseUrl", std::string());
+}
+
+// The humanoid's eyes and head (1.0: humanBones by name; 0.x: a list of {bone, node}).
+struct HumanoidBones {
+  int left = -1, right = -1, head = -1;
+};
+HumanoidBones FindHumanoidBones(const json& humanoid, bool one) {
+  HumanoidBones h;
+  if (one && humanoid.contains("humanBones") && humanoid["humanBones"].is_object()) {
+    const json& b = humanoid["humanBones"];
+    h.left = Index(b.value("leftEye", json()), "node");
+    h.right = Index(b.value("rightEye", json()), "node");
+    h.head = Index(b.value("head", json()), "node");
+  } else if (!one && humanoid.contains("humanBones") && humanoid["humanBones"].is_array()) {
+    for (const json& b : humanoid["humanBones"]) {
+      if (!b.is_object() || !b.contains("bone")) continue;
+      const int n = Index(b, "node");
+      if (b["bone"] == "leftEye") h.left = n;
+      if (b["bone"] == "rightEye") h.right = n;
+      if (b["bone"] == "head") h.head = n;
+    }
+  }
+  return h;
+}
+
+// One expression onto the rig: its morph binds (0.x: "binds", weights in percent and by mesh; 1.0:
+// "morphTargetBinds" by node), its overrides; the binds it cannot apply (no such target, material and
+// texture binds) counted in `dropped`.
+void AddExpression(const std::string& name, const json& x, bool v0_binds, Rig& rig, size_t& dropped) {
+  if (name.empty() || name.size() > 64 || !x.is_object()) return;
+  Expression e;
+  e.name = name;
+  e.binary = x.value("isBinary", false);
+  e.blink = OverrideOf(x, "overrideBlink");
+  e.look_at = OverrideOf(x, "overrideLookAt");
+  e.mouth = OverrideOf(x, "overrideMouth");
+  const json binds = x.value(v0_binds ? "binds" : "morphTargetBinds", json::array());
+  for (const json& b : binds.is_array() ? binds : json::array()) {
+    const int node = Index(b, "node");
+    const int mesh = v0_binds ? Index(b, "mesh") : NodeOk(rig, node) ? rig.nodes[node].mesh : -1;
+    const int shape = ShapeOf(rig, mesh, Index(b, "index"));
+    const double w = Number(b, "weight", v0_binds ? 100.0 : 1.0) / (v0_binds ? 100.0 : 1.0);
+    if (shape < 0 || !std::isfinite(w)) {
+      ++dropped;
+      continue;
+    }
+    auto same = std::find_if(e.binds.begin(), e.binds.end(), [&](const auto& p) { return p.first == static_cast<uint32_t>(shape); });
+    if (same == e.binds.end()) e.binds.emplace_back(static_cast<uint32_t>(shape), static_cast<float>(w));
+  }
+  for (const char* other : {"materialColorBinds", "textureTransformBinds", "materialValues"}) {
+    if (x.contains(other) && x[other].is_array()) dropped += x[other].size();
+  }
+  SetExpression(rig, std::move(e));
+}
+
+// 1.0's preset and custom expressions; 0.x's blend shape groups, their preset names in 1.0's words.
+void ApplyExpressions(const json& vrm, bool one, Rig& rig, size_t& dropped) {
+  if (one) {
+    const json ex = vrm.value("expressions", json::object());
+    for (const char* group : {"preset", "custom"}) {
+      if (!ex.is_object() || !ex.contains(group) || !ex[group].is_object()) continue;
+      for (auto it = ex[group].begin(); it != ex[group].end(); ++it) AddExpression(it.key(), it.value(), false, rig, dropped);
+    }
+    return;
+  }
+  static const std::pair<const char*, const char*> kPresets[] = {
+      {"joy", "happy"}, {"angry", "angry"}, {"sorrow", "sad"}, {"fun", "relaxed"}, {"surprised", "surprised"}, {"a", "aa"}, {"i", "ih"},
+      {"u", "ou"}, {"e", "ee"}, {"o", "oh"}, {"blink", "blink"}, {"blink_l", "blinkLeft"}, {"blink_r", "blinkRight"},
+      {"lookup", "lookUp"}, {"lookdown", "lookDown"}, {"lookleft", "lookLeft"}, {"lookright", "lookRight"}, {"neutral", "neutral"}};
+  const json groups = vrm.value("blendShapeMaster", json::object()).value("blendShapeGroups", json::array());
+  for (const json& g : groups.is_array() ? groups : json::array()) {
+    if (!g.is_object()) continue;
+    const std::string preset = g.value("presetName", std::string());
+    std::string name = g.value("name", std::string());
+    for (const auto& [from, to] : kPresets) {
+      if (preset == from) name = to;
+    }
+    AddExpression(name, g, true, rig, dropped);
+  }
+}
+
+// Look-at (1.0's lookAt, 0.x's firstPerson): bones or what DeriveGaze finds (shapes, look
+// expressions), the range maps, and the eyes' origin from the head (or first-person bone) and offset.
+void ApplyLookAt(const json& look, bool one, const HumanoidBones& h, Rig& rig) {
+  if (!look.is_object()) return;
+  GazeSetup& gaze = rig.gaze;
+  gaze = GazeSetup{};
+  gaze.from_manifest = true;
+  gaze.faces_minus_z = !one;
+  if (NodeOk(rig, h.head)) gaze.head = h.head;
+  const std::string type = one ? look.value("type", std::string()) : look.value("lookAtTypeName", std::string());
+  if ((type == "bone" || type == "Bone") && NodeOk(rig, h.left) && NodeOk(rig, h.right)) {
+    gaze.kind = GazeSetup::Kind::kBones;
+    gaze.eyes = {h.left, h.right};
+  }
+  DeriveGaze(rig);  // The kind when not bones (shapes or look expressions), the origin, default maps.
+  const char* in = one ? "inputMaxValue" : "xRange";
+  const char* out = one ? "outputScale" : "yRange";
+  gaze.horizontal_inner = MapOf(look.value(one ? "rangeMapHorizontalInner" : "lookAtHorizontalInner", json()), in, out, gaze.horizontal_inner);
+  gaze.horizontal_outer = MapOf(look.value(one ? "rangeMapHorizontalOuter" : "lookAtHorizontalOuter", json()), in, out, gaze.horizontal_outer);
+  gaze.vertical_down = MapOf(look.value(one ? "rangeMapVerticalDown" : "lookAtVerticalDown", json()), in, out, gaze.vertical_down);
+  gaze.vertical_up = MapOf(look.value(one ? "rangeMapVerticalUp" : "lookAtVerticalUp", json()), in, out, gaze.vertical_up);
+  const json offset = one ? look.value("offsetFromHeadBone", json()) : look.value("firstPersonBoneOffset", json());
+  const int from = one ? h.head : Index(look, "firstPersonBone");
+  if (!NodeOk(rig, from)) return;
+  const auto world = NodeWorldMatrices(rig);
+  float o[3] = {0, 0, 0};
+  if (offset.is_array() && offset.size() == 3) {
+    for (int k = 0; k < 3; ++k) o[k] = offset[k].is_number() ? offset[k].get<float>() : 0.0f;
+  } else if (offset.is_object()) {
+    o[0] = static_cast<float>(Number(offset, "x", 0)), o[1] = static_cast<float>(Number(offset, "y", 0)), o[2] = static_cast<float>(Number(offset, "z", 0));
+  }
+  if (gaze.kind != GazeSetup::Kind::kBones) {
+    for (int k = 0; k < 3; ++k) gaze.origin[k] = world[from][12 + k] + o[k];
+  }
+}
+
 void ApplyVrmMembers(const tinygltf::Model& model, Rig& rig) {
   const auto v1 = model.extensions.find("VRMC_vrm");
   const auto v0 = model.extensions.find("VRM");
@@ -74,126 +204,11 @@ void ApplyVrmMembers(const tinygltf::Model& model, Rig& rig) {
   const bool one = v1 != model.extensions.end();
   const json vrm = ToJson(one ? v1->second : v0->second);
   if (!vrm.is_object()) return;
+  ApplyMeta(vrm.value("meta", json::object()), rig);
+  const HumanoidBones humanoid = FindHumanoidBones(vrm.value("humanoid", json::object()), one);
   size_t dropped = 0;  // Binds naming no target, material and texture binds.
-  auto node_ok = [&](int n) { return n >= 0 && static_cast<size_t>(n) < rig.nodes.size(); };
-
-  // Meta.
-  const json meta = vrm.value("meta", json::object());
-  if (meta.is_object()) {
-    const std::string name = meta.value("name", meta.value("title", std::string()));
-    if (!name.empty()) rig.name = name;
-    if (rig.credit.empty()) {
-      if (meta.contains("authors") && meta["authors"].is_array() && !meta["authors"].empty() && meta["authors"][0].is_string()) rig.credit = meta["authors"][0];
-      else if (meta.contains("author") && meta["author"].is_string()) rig.credit = meta["author"];
-    }
-    const std::string other = meta.value("otherLicenseUrl", std::string());
-    rig.license_url = !other.empty() ? other : meta.value("licenseUrl", std::string());
-  }
-
-  // Humanoid: the eyes and the head.
-  int left = -1, right = -1, head = -1;
-  const json humanoid = vrm.value("humanoid", json::object());
-  if (one && humanoid.contains("humanBones") && humanoid["humanBones"].is_object()) {
-    const json& b = humanoid["humanBones"];
-    left = Index(b.value("leftEye", json()), "node");
-    right = Index(b.value("rightEye", json()), "node");
-    head = Index(b.value("head", json()), "node");
-  } else if (!one && humanoid.contains("humanBones") && humanoid["humanBones"].is_array()) {
-    for (const json& b : humanoid["humanBones"]) {
-      if (!b.is_object() || !b.contains("bone")) continue;
-      const int n = Index(b, "node");
-      if (b["bone"] == "leftEye") left = n;
-      if (b["bone"] == "rightEye") right = n;
-      if (b["bone"] == "head") head = n;
-    }
-  }
-
-  // Expressions.
-  auto add = [&](const std::string& name, const json& x, bool v0_binds) {
-    if (name.empty() || name.size() > 64 || !x.is_object()) return;
-    Expression e;
-    e.name = name;
-    e.binary = x.value("isBinary", false);
-    e.blink = OverrideOf(x, "overrideBlink");
-    e.look_at = OverrideOf(x, "overrideLookAt");
-    e.mouth = OverrideOf(x, "overrideMouth");
-    const json binds = x.value(v0_binds ? "binds" : "morphTargetBinds", json::array());
-    for (const json& b : binds.is_array() ? binds : json::array()) {
-      const int node = Index(b, "node");
-      const int mesh = v0_binds ? Index(b, "mesh") : node_ok(node) ? rig.nodes[node].mesh : -1;
-      const int shape = ShapeOf(rig, mesh, Index(b, "index"));
-      const double w = Number(b, "weight", v0_binds ? 100.0 : 1.0) / (v0_binds ? 100.0 : 1.0);
-      if (shape < 0 || !std::isfinite(w)) {
-        ++dropped;
-        continue;
-      }
-      auto same = std::find_if(e.binds.begin(), e.binds.end(), [&](const auto& p) { return p.first == static_cast<uint32_t>(shape); });
-      if (same == e.binds.end()) e.binds.emplace_back(static_cast<uint32_t>(shape), static_cast<float>(w));
-    }
-    for (const char* other : {"materialColorBinds", "textureTransformBinds", "materialValues"}) {
-      if (x.contains(other) && x[other].is_array()) dropped += x[other].size();
-    }
-    SetExpression(rig, std::move(e));
-  };
-  if (one) {
-    const json ex = vrm.value("expressions", json::object());
-    for (const char* group : {"preset", "custom"}) {
-      if (!ex.is_object() || !ex.contains(group) || !ex[group].is_object()) continue;
-      for (auto it = ex[group].begin(); it != ex[group].end(); ++it) add(it.key(), it.value(), false);
-    }
-  } else {
-    // VRM 0.x's preset names, in 1.0's words.
-    static const std::pair<const char*, const char*> kPresets[] = {
-        {"joy", "happy"}, {"angry", "angry"}, {"sorrow", "sad"}, {"fun", "relaxed"}, {"surprised", "surprised"}, {"a", "aa"}, {"i", "ih"},
-        {"u", "ou"}, {"e", "ee"}, {"o", "oh"}, {"blink", "blink"}, {"blink_l", "blinkLeft"}, {"blink_r", "blinkRight"},
-        {"lookup", "lookUp"}, {"lookdown", "lookDown"}, {"lookleft", "lookLeft"}, {"lookright", "lookRight"}, {"neutral", "neutral"}};
-    const json groups = vrm.value("blendShapeMaster", json::object()).value("blendShapeGroups", json::array());
-    for (const json& g : groups.is_array() ? groups : json::array()) {
-      if (!g.is_object()) continue;
-      const std::string preset = g.value("presetName", std::string());
-      std::string name = g.value("name", std::string());
-      for (const auto& [from, to] : kPresets) {
-        if (preset == from) name = to;
-      }
-      add(name, g, true);
-    }
-  }
-
-  // Look-at.
-  GazeSetup& gaze = rig.gaze;
-  const json look = one ? vrm.value("lookAt", json()) : vrm.value("firstPerson", json());
-  if (look.is_object()) {
-    gaze = GazeSetup{};
-    gaze.from_manifest = true;
-    gaze.faces_minus_z = !one;
-    if (node_ok(head)) gaze.head = head;
-    const std::string type = one ? look.value("type", std::string()) : look.value("lookAtTypeName", std::string());
-    if ((type == "bone" || type == "Bone") && node_ok(left) && node_ok(right)) {
-      gaze.kind = GazeSetup::Kind::kBones;
-      gaze.eyes = {left, right};
-    }
-    DeriveGaze(rig);  // The kind when not bones (shapes or look expressions), the origin, default maps.
-    const char* in = one ? "inputMaxValue" : "xRange";
-    const char* out = one ? "outputScale" : "yRange";
-    gaze.horizontal_inner = MapOf(look.value(one ? "rangeMapHorizontalInner" : "lookAtHorizontalInner", json()), in, out, gaze.horizontal_inner);
-    gaze.horizontal_outer = MapOf(look.value(one ? "rangeMapHorizontalOuter" : "lookAtHorizontalOuter", json()), in, out, gaze.horizontal_outer);
-    gaze.vertical_down = MapOf(look.value(one ? "rangeMapVerticalDown" : "lookAtVerticalDown", json()), in, out, gaze.vertical_down);
-    gaze.vertical_up = MapOf(look.value(one ? "rangeMapVerticalUp" : "lookAtVerticalUp", json()), in, out, gaze.vertical_up);
-    const json offset = one ? look.value("offsetFromHeadBone", json()) : look.value("firstPersonBoneOffset", json());
-    const int from = one ? head : Index(look, "firstPersonBone");
-    if (node_ok(from)) {
-      const auto world = NodeWorldMatrices(rig);
-      float o[3] = {0, 0, 0};
-      if (offset.is_array() && offset.size() == 3) {
-        for (int k = 0; k < 3; ++k) o[k] = offset[k].is_number() ? offset[k].get<float>() : 0.0f;
-      } else if (offset.is_object()) {
-        o[0] = static_cast<float>(Number(offset, "x", 0)), o[1] = static_cast<float>(Number(offset, "y", 0)), o[2] = static_cast<float>(Number(offset, "z", 0));
-      }
-      if (gaze.kind != GazeSetup::Kind::kBones) {
-        for (int k = 0; k < 3; ++k) gaze.origin[k] = world[from][12 + k] + o[k];
-      }
-    }
-  }
+  ApplyExpressions(vrm, one, rig, dropped);
+  ApplyLookAt(one ? vrm.value("lookAt", json()) : vrm.value("firstPerson", json()), one, humanoid, rig);
   if (dropped > 0) {
     rig.load_warnings.push_back({"vrm_binds_not_applied",
                                  std::to_string(dropped) + " VRM expression binds are not applied: material colour and texture binds, or morph binds naming no target",
