@@ -100,11 +100,134 @@ struct WebmEncoder::State {
       if (w < 0) return Internal("the WebM muxer failed: " + AvError(w));
     }
   }
+
+  // The WebM muxer writing into `memory`, a packet and a frame.
+  Status OpenMuxer() {
+    if (avformat_alloc_output_context2(&format, nullptr, "webm", nullptr) < 0 || !format) return Internal("libavformat has no WebM muxer");
+    constexpr int kBuffer = 1 << 16;
+    auto* buffer = static_cast<unsigned char*>(av_malloc(kBuffer));
+    io = avio_alloc_context(buffer, kBuffer, 1, &memory, nullptr, WritePacket, Seek);
+    if (!io) return Internal("out of memory");
+    format->pb = io;
+    format->flags |= AVFMT_FLAG_CUSTOM_IO;
+    packet = av_packet_alloc();
+    frame = av_frame_alloc();
+    return Status::Ok();
+  }
+
+  // Video: VP9 at constant quality, real-time speed, a key frame every two seconds.
+  Status OpenVideo(const AVCodec* vp9) {
+    const VideoOptions& o = options;
+    const AVRational rate = av_d2q(o.fps, 1001000);
+    video = avcodec_alloc_context3(vp9);
+    video->width = o.width;
+    video->height = o.height;
+    video->pix_fmt = AV_PIX_FMT_YUV420P;
+    video->time_base = av_inv_q(rate);
+    video->framerate = rate;
+    video->gop_size = std::max(1, static_cast<int>(2 * o.fps));
+    video->bit_rate = 0;
+    video->thread_count = std::max(1, o.threads);
+    video->colorspace = AVCOL_SPC_SMPTE170M;  // libswscale's default matrix (BT.601), as tagged.
+    video->color_range = AVCOL_RANGE_MPEG;
+    if (format->oformat->flags & AVFMT_GLOBALHEADER) video->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+    AVDictionary* vopts = nullptr;
+    av_dict_set_int(&vopts, "crf", std::clamp(o.crf, 0, 63), 0);
+    av_dict_set(&vopts, "deadline", "realtime", 0);
+    av_dict_set_int(&vopts, "cpu-used", 8, 0);
+    av_dict_set_int(&vopts, "row-mt", 1, 0);
+    av_dict_set_int(&vopts, "lag-in-frames", 0, 0);
+    const int r = avcodec_open2(video, vp9, &vopts);
+    av_dict_free(&vopts);
+    if (r < 0) return Internal("libvpx-vp9 would not open: " + AvError(r));
+    video_stream = avformat_new_stream(format, nullptr);
+    avcodec_parameters_from_context(video_stream->codecpar, video);
+    video_stream->time_base = video->time_base;
+    video_stream->avg_frame_rate = rate;
+    return Status::Ok();
+  }
+
+  // Audio: Opus at 48 kHz, mono.
+  Status OpenAudio(const AVCodec* opus) {
+    audio = avcodec_alloc_context3(opus);
+    audio->sample_rate = 48000;
+    audio->sample_fmt = AV_SAMPLE_FMT_FLT;
+    av_channel_layout_default(&audio->ch_layout, 1);
+    audio->bit_rate = 48000;
+    audio->time_base = AVRational{1, 48000};
+    if (format->oformat->flags & AVFMT_GLOBALHEADER) audio->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
+    const int r = avcodec_open2(audio, opus, nullptr);
+    if (r < 0) return Internal("libopus would not open: " + AvError(r));
+    audio_stream = avformat_new_stream(format, nullptr);
+    avcodec_parameters_from_context(audio_stream->codecpar, audio);
+    audio_stream->time_base = audio->time_base;
+    return Status::Ok();
+  }
+
+  // The whole soundtrack (48 kHz) fed in the codec's frames, the last padded with silence.
+  Status EncodeAudio(std::span<const float> pcm) {
+    const int n = audio->frame_size > 0 ? audio->frame_size : 960;
+    AVFrame* f = av_frame_alloc();
+    Status result = Status::Ok();
+    for (size_t at = 0; at < pcm.size() && result.ok(); at += static_cast<size_t>(n)) {
+      f->nb_samples = n;
+      f->format = AV_SAMPLE_FMT_FLT;
+      f->sample_rate = 48000;
+      av_channel_layout_copy(&f->ch_layout, &audio->ch_layout);
+      if (av_frame_get_buffer(f, 0) < 0) {
+        result = Internal("out of memory");
+        break;
+      }
+      auto* dst = reinterpret_cast<float*>(f->data[0]);
+      const size_t take = std::min(static_cast<size_t>(n), pcm.size() - at);
+      std::copy_n(pcm.data() + at, take, dst);
+      std::fill(dst + take, dst + n, 0.0f);
+      f->pts = static_cast<int64_t>(at);
+      const int r = avcodec_send_frame(audio, f);
+      av_frame_unref(f);
+      result = r < 0 ? Internal("libopus failed: " + AvError(r)) : Drain(audio, audio_stream);
+    }
+    av_frame_free(&f);
+    if (!result.ok()) return result;
+    avcodec_send_frame(audio, nullptr);
+    return Drain(audio, audio_stream);
+  }
 };
+
+namespace {
+
+// Mono samples at `rate` resampled to 48 kHz (what the filter still holds flushed), or empty when
+// libswresample will not start.
+bool ResampleTo48k(std::span<const float> samples, int rate, std::vector<float>& pcm) {
+  SwrContext* swr = nullptr;
+  AVChannelLayout mono;
+  av_channel_layout_default(&mono, 1);
+  if (swr_alloc_set_opts2(&swr, &mono, AV_SAMPLE_FMT_FLT, 48000, &mono, AV_SAMPLE_FMT_FLT, rate, 0, nullptr) < 0 || swr_init(swr) < 0) {
+    swr_free(&swr);
+    return false;
+  }
+  pcm.assign(static_cast<size_t>(swr_get_out_samples(swr, static_cast<int>(samples.size()))) + 48000, 0.0f);
+  const uint8_t* in[] = {reinterpret_cast<const uint8_t*>(samples.data())};
+  uint8_t* out[] = {reinterpret_cast<uint8_t*>(pcm.data())};
+  int got = swr_convert(swr, out, static_cast<int>(pcm.size()), in, static_cast<int>(samples.size()));
+  int total = std::max(0, got);
+  while (got > 0 && static_cast<size_t>(total) < pcm.size()) {
+    uint8_t* rest[] = {reinterpret_cast<uint8_t*>(pcm.data() + total)};
+    got = swr_convert(swr, rest, static_cast<int>(pcm.size()) - total, nullptr, 0);
+    total += std::max(0, got);
+  }
+  swr_free(&swr);
+  pcm.resize(static_cast<size_t>(total));
+  return true;
+}
+
+}  // namespace
 
 WebmEncoder::WebmEncoder(std::unique_ptr<State> state) : state_(std::move(state)) {}
 WebmEncoder::~WebmEncoder() = default;
 
+// The muxer, VP9 and (with samples) Opus opened, the header written, the whole soundtrack encoded
+// at once; then frames come one at a time (Add).
 Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, std::span<const float> samples, int audio_rate) {
   if (o.width < 16 || o.width > 4096 || o.width % 2) return InvalidField("/width", "a video's width is even, from 16 to 4096");
   if (o.height < 16 || o.height > 4096 || o.height % 2) return InvalidField("/height", "a video's height is even, from 16 to 4096");
@@ -115,115 +238,18 @@ Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, s
   const AVCodec* vp9 = avcodec_find_encoder_by_name("libvpx-vp9");
   const AVCodec* opus = avcodec_find_encoder_by_name("libopus");
   if (!vp9 || !opus) return Internal("libavcodec has no libvpx-vp9 or libopus encoder");
-  if (avformat_alloc_output_context2(&st->format, nullptr, "webm", nullptr) < 0 || !st->format) return Internal("libavformat has no WebM muxer");
-  constexpr int kBuffer = 1 << 16;
-  auto* buffer = static_cast<unsigned char*>(av_malloc(kBuffer));
-  st->io = avio_alloc_context(buffer, kBuffer, 1, &st->memory, nullptr, WritePacket, Seek);
-  if (!st->io) return Internal("out of memory");
-  st->format->pb = st->io;
-  st->format->flags |= AVFMT_FLAG_CUSTOM_IO;
-  st->packet = av_packet_alloc();
-  st->frame = av_frame_alloc();
-
-  // Video: VP9 at constant quality, real-time speed, a key frame every two seconds.
-  const AVRational rate = av_d2q(o.fps, 1001000);
-  st->video = avcodec_alloc_context3(vp9);
-  st->video->width = o.width;
-  st->video->height = o.height;
-  st->video->pix_fmt = AV_PIX_FMT_YUV420P;
-  st->video->time_base = av_inv_q(rate);
-  st->video->framerate = rate;
-  st->video->gop_size = std::max(1, static_cast<int>(2 * o.fps));
-  st->video->bit_rate = 0;
-  st->video->thread_count = std::max(1, o.threads);
-  st->video->colorspace = AVCOL_SPC_SMPTE170M;  // libswscale's default matrix (BT.601), as tagged.
-  st->video->color_range = AVCOL_RANGE_MPEG;
-  if (st->format->oformat->flags & AVFMT_GLOBALHEADER) st->video->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
-  AVDictionary* vopts = nullptr;
-  av_dict_set_int(&vopts, "crf", std::clamp(o.crf, 0, 63), 0);
-  av_dict_set(&vopts, "deadline", "realtime", 0);
-  av_dict_set_int(&vopts, "cpu-used", 8, 0);
-  av_dict_set_int(&vopts, "row-mt", 1, 0);
-  av_dict_set_int(&vopts, "lag-in-frames", 0, 0);
-  int r = avcodec_open2(st->video, vp9, &vopts);
-  av_dict_free(&vopts);
-  if (r < 0) return Internal("libvpx-vp9 would not open: " + AvError(r));
-  st->video_stream = avformat_new_stream(st->format, nullptr);
-  avcodec_parameters_from_context(st->video_stream->codecpar, st->video);
-  st->video_stream->time_base = st->video->time_base;
-  st->video_stream->avg_frame_rate = rate;
-
-  // Audio: Opus at 48 kHz, mono.
+  if (Status s = st->OpenMuxer(); !s.ok()) return s;
+  if (Status s = st->OpenVideo(vp9); !s.ok()) return s;
   const bool has_audio = !samples.empty() && audio_rate > 0;
   if (has_audio) {
-    st->audio = avcodec_alloc_context3(opus);
-    st->audio->sample_rate = 48000;
-    st->audio->sample_fmt = AV_SAMPLE_FMT_FLT;
-    av_channel_layout_default(&st->audio->ch_layout, 1);
-    st->audio->bit_rate = 48000;
-    st->audio->time_base = AVRational{1, 48000};
-    if (st->format->oformat->flags & AVFMT_GLOBALHEADER) st->audio->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
-    r = avcodec_open2(st->audio, opus, nullptr);
-    if (r < 0) return Internal("libopus would not open: " + AvError(r));
-    st->audio_stream = avformat_new_stream(st->format, nullptr);
-    avcodec_parameters_from_context(st->audio_stream->codecpar, st->audio);
-    st->audio_stream->time_base = st->audio->time_base;
+    if (Status s = st->OpenAudio(opus); !s.ok()) return s;
   }
-  r = avformat_write_header(st->format, nullptr);
-  if (r < 0) return Internal("the WebM header could not be written: " + AvError(r));
+  if (const int r = avformat_write_header(st->format, nullptr); r < 0) return Internal("the WebM header could not be written: " + AvError(r));
   st->header = true;
-
   if (has_audio) {
-    // Resampled to 48 kHz at once, then fed in the codec's frames (the last padded with silence).
-    SwrContext* swr = nullptr;
-    AVChannelLayout mono;
-    av_channel_layout_default(&mono, 1);
-    if (swr_alloc_set_opts2(&swr, &mono, AV_SAMPLE_FMT_FLT, 48000, &mono, AV_SAMPLE_FMT_FLT, audio_rate, 0, nullptr) < 0 || swr_init(swr) < 0) {
-      swr_free(&swr);
-      return Internal("libswresample would not start");
-    }
-    std::vector<float> pcm(static_cast<size_t>(swr_get_out_samples(swr, static_cast<int>(samples.size()))) + 48000);
-    const uint8_t* in[] = {reinterpret_cast<const uint8_t*>(samples.data())};
-    uint8_t* out[] = {reinterpret_cast<uint8_t*>(pcm.data())};
-    int got = swr_convert(swr, out, static_cast<int>(pcm.size()), in, static_cast<int>(samples.size()));
-    int total = std::max(0, got);
-    while (got > 0 && static_cast<size_t>(total) < pcm.size()) {  // What the filter still holds.
-      uint8_t* rest[] = {reinterpret_cast<uint8_t*>(pcm.data() + total)};
-      got = swr_convert(swr, rest, static_cast<int>(pcm.size()) - total, nullptr, 0);
-      total += std::max(0, got);
-    }
-    swr_free(&swr);
-    pcm.resize(static_cast<size_t>(total));
-    const int n = st->audio->frame_size > 0 ? st->audio->frame_size : 960;
-    AVFrame* f = av_frame_alloc();
-    for (size_t at = 0; at < pcm.size(); at += static_cast<size_t>(n)) {
-      f->nb_samples = n;
-      f->format = AV_SAMPLE_FMT_FLT;
-      f->sample_rate = 48000;
-      av_channel_layout_copy(&f->ch_layout, &st->audio->ch_layout);
-      if (av_frame_get_buffer(f, 0) < 0) {
-        av_frame_free(&f);
-        return Internal("out of memory");
-      }
-      auto* dst = reinterpret_cast<float*>(f->data[0]);
-      const size_t take = std::min(static_cast<size_t>(n), pcm.size() - at);
-      std::copy_n(pcm.data() + at, take, dst);
-      std::fill(dst + take, dst + n, 0.0f);
-      f->pts = static_cast<int64_t>(at);
-      r = avcodec_send_frame(st->audio, f);
-      av_frame_unref(f);
-      if (r < 0) {
-        av_frame_free(&f);
-        return Internal("libopus failed: " + AvError(r));
-      }
-      if (Status s = st->Drain(st->audio, st->audio_stream); !s.ok()) {
-        av_frame_free(&f);
-        return s;
-      }
-    }
-    av_frame_free(&f);
-    avcodec_send_frame(st->audio, nullptr);
-    if (Status s = st->Drain(st->audio, st->audio_stream); !s.ok()) return s;
+    std::vector<float> pcm;
+    if (!ResampleTo48k(samples, audio_rate, pcm)) return Internal("libswresample would not start");
+    if (Status s = st->EncodeAudio(pcm); !s.ok()) return s;
   }
   st->frame->format = AV_PIX_FMT_YUV420P;
   st->frame->width = o.width;
