@@ -174,214 +174,249 @@ std::string Sha256Hex(std::span<const std::string_view> pieces) {
   return out;
 }
 
-Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  const fs::path dir = options.dir;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir)) return FailedPrecondition("cannot create the output folder '" + options.dir + "'");
-  if (options.shards == 0 || options.shard >= options.shards) return InvalidArgument("bad shard");
-  if (!options.evaluator) return InvalidArgument("no evaluator");
-  const api::Evaluator& evaluator = *options.evaluator;
-  const bool sharded = options.shards > 1;
-  const std::string manifest_name = ManifestName(options.shard, options.shards);
-  const std::string shard_text = std::to_string(options.shard + 1) + "/" + std::to_string(options.shards);
-  RunLock run_lock;
-  if (!run_lock.Take(dir / (kLockPrefix + manifest_name))) {
-    return FailedPrecondition(std::string(sharded ? "shard " + shard_text + " of the batch" : "the batch") + " in '" + options.dir +
-                              "' is being written by another process; wait for it, or stop it first");
-  }
+namespace {
 
-  // The folder belongs to one batch: the same request against the same rig.
-  const fs::path spec_path = dir / "batch.json";
-  if (fs::exists(spec_path)) {
-    std::ifstream f(spec_path, std::ios::binary);
-    std::string old((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (old != plan.spec_json) {
-      return FailedPrecondition("'" + options.dir + "' holds another batch (its batch.json differs from this request or rig): "
-                                "use another output folder, or empty this one");
-    }
-  } else if (Status s = WriteInBatch(dir, "batch.json", plan.spec_json, "." + manifest_name); !s.ok()) {
-    return s;
-  }
-  // Leftovers of a run that was killed: temporary files are never complete. Those another
-  // process (another shard) is writing are locked, and stay.
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    if (e.path().filename().string().rfind(kTmpPrefix, 0) == 0) RemoveAbandoned(e.path());
-  }
+// One run of a batch (or a shard of one) in its folder: the workers write variants to temporary files
+// and flush them in groups: the files of a group are flushed and renamed, and only then do their
+// manifest lines go in, so resume never trusts a file the manifest does not vouch for, and the disk is
+// not waited on once per file.
+class BatchRun {
+ public:
+  BatchRun(const BatchPlan& plan, const RunOptions& options)
+      : plan_(plan), options_(options), dir_(options.dir), manifest_name_(ManifestName(options.shard, options.shards)) {}
 
-  // Resume: a manifest line (this run's, another shard count's, or a merged one) whose file is
-  // there with its size is done; the rest is redone.
-  const auto mine = [&](size_t k) { return k % options.shards == options.shard; };
-  std::map<size_t, std::string> lines = ReadManifests(dir, plan, mine);
-  auto write_manifest = [&] { return WriteInBatch(dir, manifest_name, JoinLines(lines)); };
-  if (Status s = write_manifest(); !s.ok()) return s;
-  const fs::path record_path = dir / RecordName(options.shard, options.shards);
-  if (sharded) fs::remove(record_path, ec);  // Written again once every variant of the shard is there.
+  // The folder taken (locked, its batch.json this request's, leftovers gone) and what is left to do.
+  Status Prepare();
+  // The pending variants over `jobs` workers, progress reported while they run.
+  void Work(int jobs);
+  // The manifest rewritten whole, then the shard's record or the contact sheet.
+  Result<Summary> Finish();
+  size_t pending() const { return pending_.size(); }
 
-  std::vector<size_t> pending;
-  Summary summary;
-  for (size_t k = options.shard; k < plan.total; k += options.shards) {
-    ++summary.total;
-    if (lines.count(k)) ++summary.skipped;
-    else pending.push_back(k);
-  }
-
-  std::ofstream manifest(dir / manifest_name, std::ios::app | std::ios::binary);
-  std::mutex mu;
-  std::condition_variable cv;
-  std::atomic<size_t> next{0}, finished{0};
-  size_t running = 0;  // Workers still in their loop (guarded by mu).
-  Status failure;
-  int jobs = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  jobs = static_cast<int>(std::min<size_t>(static_cast<size_t>(jobs), std::max<size_t>(1, pending.size())));
-  auto cancelled = [&] { return options.cancel && options.cancel->load(); };
-
-  // Each worker writes its variants to temporary files and flushes them in groups: the files of a
-  // group are flushed and renamed, and only then do their manifest lines go in, so resume never
-  // trusts a file the manifest does not vouch for, and the disk is not waited on once per file.
+ private:
   struct Written {
     size_t index;
     int fd;
     std::string file, line;
   };
-  constexpr size_t kGroupFiles = 32;
-  constexpr auto kGroupAge = std::chrono::milliseconds(250);
-  auto work = [&] {
+  // What one worker keeps: its workspace, its group of files not yet published, its warning counts.
+  struct Worker {
     api::Workspace ws;
     api::ResolvedPoint point;
     std::vector<Written> group;
-    std::map<std::string, size_t> warned;  // This worker's variants per warning code, merged at its end.
+    std::chrono::steady_clock::time_point group_started;
+    std::map<std::string, size_t> warned;  // Its variants per warning code, merged at its end.
     double max_sum = 0;
-    auto group_started = std::chrono::steady_clock::now();
-    // Publishes the group; the lines of the files published go into the manifest.
-    auto flush = [&]() -> Status {
-      Status failed;
-      size_t published = 0;
-      for (Written& w : group) {
-        if (!failed.ok()) {
-          Discard(w.fd, dir, kTmpPrefix + w.file);
-          continue;
-        }
-        failed = Publish(w.fd, dir, kTmpPrefix + w.file, w.file, "'" + w.file + "'");
-        if (failed.ok()) ++published;
-      }
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        for (size_t i = 0; i < published; ++i) {
-          manifest << group[i].line << '\n';
-          lines[group[i].index] = std::move(group[i].line);
-        }
-        manifest << std::flush;
-        summary.generated += published;
-      }
-      finished.fetch_add(published);
-      cv.notify_all();
-      group.clear();
-      return failed;
-    };
-    Status status;
-    for (;;) {
-      {
-        std::lock_guard<std::mutex> lock(mu);
-        if (!failure.ok() || cancelled()) break;
-      }
-      const size_t slot = next.fetch_add(1);
-      if (slot >= pending.size()) break;
-      const size_t k = pending[slot];
-      VariantPoint(plan, k, point);
-      auto encoded = evaluator.Run(plan.rig, point, plan.output, ws);
-      Result<std::array<std::string_view, 2>> pieces = encoded.ok() ? Result<std::array<std::string_view, 2>>(encoded->pieces())
-                                                                    : Result<std::array<std::string_view, 2>>(encoded.status());
-      const std::string file = VariantFile(plan, k);
-      Result<int> fd = pieces.ok() ? WriteTemporary(dir, kTmpPrefix + file, pieces.value(), "'" + file + "'") : pieces.status();
-      if (!fd.ok()) {
-        status = Prefixed(fd.status(), VariantId(plan, k) + ": ");
-        break;
-      }
-      size_t bytes = 0;
-      for (std::string_view p : pieces.value()) bytes += p.size();
-      for (size_t w = 0; w < point.report.warnings.size(); ++w) {  // Each code once per variant.
-        const std::string& code = point.report.warnings[w].code;
-        bool first = true;
-        for (size_t v = 0; v < w && first; ++v) first = point.report.warnings[v].code != code;
-        if (first) ++warned[code];
-      }
-      max_sum = std::max(max_sum, point.report.sum);
-      if (group.empty()) group_started = std::chrono::steady_clock::now();
-      group.push_back({k, fd.value(), file,
-                       "{\"index\":" + std::to_string(k) + ",\"id\":" + json(VariantId(plan, k)).dump(-1, ' ', false, json::error_handler_t::replace) +
-                           ",\"file\":" + json(file).dump(-1, ' ', false, json::error_handler_t::replace) + ",\"bytes\":" + std::to_string(bytes) +
-                           ",\"sha256\":\"" + Sha256Hex(pieces.value()) + "\",\"weights\":" + api::WeightsMapJson(plan.rig->rig, point.weights) +
-                           ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}"});
-      if (group.size() >= kGroupFiles || std::chrono::steady_clock::now() - group_started >= kGroupAge) {
-        if (status = flush(); !status.ok()) break;
-      }
-    }
-    if (Status s = flush(); status.ok()) status = s;
-    std::lock_guard<std::mutex> lock(mu);
-    if (!status.ok() && failure.ok()) failure = status;
-    for (const auto& [code, count] : warned) summary.warnings[code] += count;
-    summary.max_sum = std::max(summary.max_sum, max_sum);
   };
-  auto run_worker = [&] {
-    work();
-    std::lock_guard<std::mutex> lock(mu);
-    --running;
-    cv.notify_all();
-  };
+  static constexpr size_t kGroupFiles = 32;
+  static constexpr auto kGroupAge = std::chrono::milliseconds(250);
 
-  std::vector<std::thread> threads;
-  // The count is set, under the lock, before any worker can end and lower it (a cancelled worker
-  // ends at once): the loop does not read it.
-  const size_t workers = pending.empty() ? 0 : static_cast<size_t>(jobs);
-  {
-    std::lock_guard<std::mutex> lock(mu);
-    running = workers;
+  double Elapsed() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  bool Cancelled() const { return options_.cancel && options_.cancel->load(); }
+  bool Mine(size_t k) const { return k % options_.shards == options_.shard; }
+  Status WriteManifest() { return WriteInBatch(dir_, manifest_name_, JoinLines(lines_)); }
+  Status CheckSpec();
+  Status Encode(size_t k, Worker& w);
+  Status Flush(Worker& w);
+  void RunWorker();
+  void Report();
+
+  const BatchPlan& plan_;
+  const RunOptions& options_;
+  const fs::path dir_;
+  const std::string manifest_name_;
+  const std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+  RunLock lock_;
+  std::map<size_t, std::string> lines_;  // Every variant done, by index (guarded by mu_ while workers run).
+  std::vector<size_t> pending_;
+  std::ofstream manifest_;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::atomic<size_t> next_{0}, finished_{0};
+  size_t running_ = 0;  // Workers still in their loop (guarded by mu_).
+  Status failure_;
+  Summary summary_;
+};
+
+// The folder belongs to one batch: the same request against the same rig.
+Status BatchRun::CheckSpec() {
+  const fs::path spec_path = dir_ / "batch.json";
+  if (!fs::exists(spec_path)) return WriteInBatch(dir_, "batch.json", plan_.spec_json, "." + manifest_name_);
+  std::ifstream f(spec_path, std::ios::binary);
+  const std::string old((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  if (old == plan_.spec_json) return Status::Ok();
+  return FailedPrecondition("'" + options_.dir + "' holds another batch (its batch.json differs from this request or rig): "
+                            "use another output folder, or empty this one");
+}
+
+Status BatchRun::Prepare() {
+  std::error_code ec;
+  fs::create_directories(dir_, ec);
+  if (!fs::is_directory(dir_)) return FailedPrecondition("cannot create the output folder '" + options_.dir + "'");
+  if (options_.shards == 0 || options_.shard >= options_.shards) return InvalidArgument("bad shard");
+  if (!options_.evaluator) return InvalidArgument("no evaluator");
+  const bool sharded = options_.shards > 1;
+  if (!lock_.Take(dir_ / (kLockPrefix + manifest_name_))) {
+    const std::string shard_text = std::to_string(options_.shard + 1) + "/" + std::to_string(options_.shards);
+    return FailedPrecondition(std::string(sharded ? "shard " + shard_text + " of the batch" : "the batch") + " in '" + options_.dir +
+                              "' is being written by another process; wait for it, or stop it first");
   }
-  for (size_t t = 0; t < workers; ++t) threads.emplace_back(run_worker);
-  auto report = [&] {
-    if (options.progress) options.progress({summary.skipped + finished.load(), summary.skipped, summary.total, elapsed()});
-  };
+  if (Status s = CheckSpec(); !s.ok()) return s;
+  // Leftovers of a run that was killed: temporary files are never complete. Those another process
+  // (another shard) is writing are locked, and stay.
+  for (const auto& e : fs::directory_iterator(dir_, ec)) {
+    if (e.path().filename().string().rfind(kTmpPrefix, 0) == 0) RemoveAbandoned(e.path());
+  }
+  // Resume: a manifest line (this run's, another shard count's, or a merged one) whose file is there
+  // with its size is done; the rest is redone.
+  lines_ = ReadManifests(dir_, plan_, [this](size_t k) { return Mine(k); });
+  if (Status s = WriteManifest(); !s.ok()) return s;
+  if (sharded) fs::remove(dir_ / RecordName(options_.shard, options_.shards), ec);  // Written again once every variant of the shard is there.
+  for (size_t k = options_.shard; k < plan_.total; k += options_.shards) {
+    ++summary_.total;
+    if (lines_.count(k)) ++summary_.skipped;
+    else pending_.push_back(k);
+  }
+  manifest_.open(dir_ / manifest_name_, std::ios::app | std::ios::binary);
+  return Status::Ok();
+}
+
+// Variant k evaluated and written to its temporary file, its manifest line into the worker's group.
+Status BatchRun::Encode(size_t k, Worker& w) {
+  VariantPoint(plan_, k, w.point);
+  auto encoded = options_.evaluator->Run(plan_.rig, w.point, plan_.output, w.ws);
+  if (!encoded.ok()) return Prefixed(encoded.status(), VariantId(plan_, k) + ": ");
+  const std::array<std::string_view, 2> pieces = encoded->pieces();
+  const std::string file = VariantFile(plan_, k);
+  Result<int> fd = WriteTemporary(dir_, kTmpPrefix + file, pieces, "'" + file + "'");
+  if (!fd.ok()) return Prefixed(fd.status(), VariantId(plan_, k) + ": ");
+  const std::vector<Warning>& warnings = w.point.report.warnings;
+  for (size_t i = 0; i < warnings.size(); ++i) {  // Each code once per variant.
+    bool first = true;
+    for (size_t v = 0; v < i && first; ++v) first = warnings[v].code != warnings[i].code;
+    if (first) ++w.warned[warnings[i].code];
+  }
+  w.max_sum = std::max(w.max_sum, w.point.report.sum);
+  if (w.group.empty()) w.group_started = std::chrono::steady_clock::now();
+  const auto text = [](const std::string& s) { return json(s).dump(-1, ' ', false, json::error_handler_t::replace); };
+  w.group.push_back({k, fd.value(), file,
+                     "{\"index\":" + std::to_string(k) + ",\"id\":" + text(VariantId(plan_, k)) + ",\"file\":" + text(file) +
+                         ",\"bytes\":" + std::to_string(pieces[0].size() + pieces[1].size()) + ",\"sha256\":\"" + Sha256Hex(pieces) +
+                         "\",\"weights\":" + api::WeightsMapJson(plan_.rig->rig, w.point.weights) + ",\"warnings\":" + WarningsToJson(warnings) + "}"});
+  return Status::Ok();
+}
+
+// Publishes the worker's group; the lines of the files published go into the manifest.
+Status BatchRun::Flush(Worker& w) {
+  Status failed;
+  size_t published = 0;
+  for (Written& f : w.group) {
+    if (!failed.ok()) {
+      Discard(f.fd, dir_, kTmpPrefix + f.file);
+      continue;
+    }
+    failed = Publish(f.fd, dir_, kTmpPrefix + f.file, f.file, "'" + f.file + "'");
+    if (failed.ok()) ++published;
+  }
   {
-    std::unique_lock<std::mutex> lock(mu);
-    while (running > 0) {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (size_t i = 0; i < published; ++i) {
+      manifest_ << w.group[i].line << '\n';
+      lines_[w.group[i].index] = std::move(w.group[i].line);
+    }
+    manifest_ << std::flush;
+    summary_.generated += published;
+  }
+  finished_.fetch_add(published);
+  cv_.notify_all();
+  w.group.clear();
+  return failed;
+}
+
+// A worker: variants taken one at a time until none is left, one fails or the run is cancelled.
+void BatchRun::RunWorker() {
+  Worker w;
+  Status status;
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      if (!failure_.ok() || Cancelled()) break;
+    }
+    const size_t slot = next_.fetch_add(1);
+    if (slot >= pending_.size()) break;
+    if (status = Encode(pending_[slot], w); !status.ok()) break;
+    if (w.group.size() >= kGroupFiles || std::chrono::steady_clock::now() - w.group_started >= kGroupAge) {
+      if (status = Flush(w); !status.ok()) break;
+    }
+  }
+  if (Status s = Flush(w); status.ok()) status = s;
+  std::lock_guard<std::mutex> lock(mu_);
+  if (!status.ok() && failure_.ok()) failure_ = status;
+  for (const auto& [code, count] : w.warned) summary_.warnings[code] += count;
+  summary_.max_sum = std::max(summary_.max_sum, w.max_sum);
+  --running_;
+  cv_.notify_all();
+}
+
+void BatchRun::Report() {
+  if (options_.progress) options_.progress({summary_.skipped + finished_.load(), summary_.skipped, summary_.total, Elapsed()});
+}
+
+void BatchRun::Work(int jobs) {
+  // The count is set, under the lock, before any worker can end and lower it (a cancelled worker
+  // ends at once).
+  const size_t workers = pending_.empty() ? 0 : static_cast<size_t>(jobs);
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    running_ = workers;
+  }
+  std::vector<std::thread> threads;
+  for (size_t t = 0; t < workers; ++t) threads.emplace_back([this] { RunWorker(); });
+  {
+    std::unique_lock<std::mutex> lock(mu_);
+    while (running_ > 0) {
       lock.unlock();
-      report();
+      Report();
       lock.lock();
-      cv.wait_for(lock, std::chrono::milliseconds(200));
+      cv_.wait_for(lock, std::chrono::milliseconds(200));
     }
   }
   for (std::thread& t : threads) t.join();
-  manifest.close();
-  summary.cancelled = cancelled();
-  report();
-  const Status written = write_manifest();
-  if (!failure.ok()) return failure;
-  if (!written.ok()) return written;
+  manifest_.close();
+  summary_.cancelled = Cancelled();
+  Report();
+}
 
-  if (summary.cancelled) {
-    SyncDir(dir);
-    summary.seconds = elapsed();
-    return summary;
-  }
-  if (sharded) {
+Result<Summary> BatchRun::Finish() {
+  const Status written = WriteManifest();
+  if (!failure_.ok()) return failure_;
+  if (!written.ok()) return written;
+  if (!summary_.cancelled && options_.shards > 1) {
     // The shard's record: merge's proof that it finished, and where the rig is.
-    json record = {{"shard", options.shard + 1}, {"shards", options.shards}, {"variants", summary.total},
-                   {"sheet_cells", options.sheet_cells}, {"rig_files", options.rig_files}};
-    if (Status s = WriteInBatch(dir, RecordName(options.shard, options.shards),
-                                record.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
+    json record = {{"shard", options_.shard + 1}, {"shards", options_.shards}, {"variants", summary_.total},
+                   {"sheet_cells", options_.sheet_cells}, {"rig_files", options_.rig_files}};
+    if (Status s = WriteInBatch(dir_, RecordName(options_.shard, options_.shards), record.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
         !s.ok()) {
       return s;
     }
-  } else if (options.sheet_cells > 0 && summary.total > 0 && !fs::exists(dir / "sheet.png")) {
+  } else if (!summary_.cancelled && options_.sheet_cells > 0 && summary_.total > 0 && !fs::exists(dir_ / "sheet.png")) {
     // The contact sheet of the first variants, once they all exist.
-    if (Status s = WriteSheet(plan, dir, options.sheet_cells, evaluator); !s.ok()) return s;
+    if (Status s = WriteSheet(plan_, dir_, options_.sheet_cells, *options_.evaluator); !s.ok()) return s;
   }
-  SyncDir(dir);
-  summary.seconds = elapsed();
-  return summary;
+  SyncDir(dir_);
+  summary_.seconds = Elapsed();
+  return summary_;
+}
+
+}  // namespace
+
+Result<Summary> Run(const BatchPlan& plan, const RunOptions& options) {
+  BatchRun run(plan, options);
+  if (Status s = run.Prepare(); !s.ok()) return s;
+  int jobs = options.jobs > 0 ? options.jobs : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  jobs = static_cast<int>(std::min<size_t>(static_cast<size_t>(jobs), std::max<size_t>(1, run.pending())));
+  run.Work(jobs);
+  return run.Finish();
 }
 
 Result<ShardsFound> FindShards(const std::string& dir_name) {
