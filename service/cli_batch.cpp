@@ -160,16 +160,244 @@ void PrintBatchWarnings(const batch::Summary& s) {
   std::fprintf(stderr, "warnings: %s (each variant's are in manifest.jsonl)\n", line.c_str());
 }
 
-}  // namespace
-
-int Batch(const std::vector<std::string>& args) {
-  if (!args.empty() && args[0] == "merge") return Merge({args.begin() + 1, args.end()});
+// What `facespace batch` is asked: the rig files, the request (as the batch route's body), how to run.
+struct BatchArgs {
   std::vector<std::string> paths;
   json request = json::object();
   json sample = json::object();
   std::string variants_path, out_dir;
   batch::RunOptions run;
-  bool quiet = false;
+  bool quiet = false, shard_auto = false;
+  size_t shard_count = 0;
+};
+
+// Flags that set a member of a JSON object (the request, its "sample", its "camera") from an integer,
+// a number, JSON (inline or @FILE) or text.
+std::function<int(const std::string&)> IntegerMember(json& into, const std::string& key, long long lo, long long hi) {
+  return [&into, key, lo, hi](const std::string& v) {
+    long long n = 0;
+    if (!IntIn("--" + key, v, lo, hi, &n)) return 2;
+    into[key] = n;
+    return 0;
+  };
+}
+std::function<int(const std::string&)> NumberMember(json& into, const std::string& key) {
+  return [&into, key](const std::string& v) {
+    double d = 0;
+    if (!NumberIn("--" + key, v, -1e300, 1e300, &d)) return 2;
+    into[key] = d;
+    return 0;
+  };
+}
+std::function<int(const std::string&)> JsonMember(json& into, const std::string& key) {
+  return [&into, key](const std::string& v) { return JsonFlag("--" + key, v, &into[key]); };
+}
+std::function<int(const std::string&)> TextMember(json& into, const std::string& key) {
+  return [&into, key](const std::string& v) {
+    into[key] = v;
+    return 0;
+  };
+}
+
+int SeedFlag(json& sample, const std::string& v) {
+  unsigned long long n = 0;
+  const auto r = std::from_chars(v.data(), v.data() + v.size(), n);
+  if (r.ec != std::errc() || r.ptr != v.data() + v.size()) return std::fprintf(stderr, "error: --seed must be an integer in 0..2^64-1, not '%s'\n", v.c_str()), 2;
+  sample["seed"] = n;
+  return 0;
+}
+
+int FixFlag(json& sample, const std::string& v) {
+  const size_t eq = v.rfind('=');
+  double d = 0;
+  if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: --fix takes NAME=W, got '%s'\n", v.c_str()), 2;
+  if (!NumberIn("--fix " + v.substr(0, eq), v.substr(eq + 1), -1e300, 1e300, &d)) return 2;
+  sample["fixed"][v.substr(0, eq)] = d;
+  return 0;
+}
+
+// The variants: a file of JSON lines, or the face space sampled.
+void AddVariantFlags(Flags& flags, BatchArgs& a) {
+  json& sample = a.sample;
+  flags.Text("--variants", "FILE.jsonl", "the variants, one JSON line each", &a.variants_path);
+  flags.Value("--sample", "METHOD", "sample the face space: uniform, gaussian, grid or convex", TextMember(sample, "method"));
+  flags.Value("--count", "N", "variants to sample", IntegerMember(sample, "count", 1, 100000000));
+  flags.Value("--seed", "S", "random seed (0..2^64-1); the same seed gives the same variants", [&sample](const std::string& v) { return SeedFlag(sample, v); });
+  flags.Value("--shapes", "A,B,...", "the shapes varied (default: all)", [&sample](const std::string& v) {
+    for (const std::string& name : SplitList(v)) sample["shapes"].push_back(name);
+    return 0;
+  });
+  flags.Value("--fix", "NAME=W", "hold a shape at a weight (repeatable)", [&sample](const std::string& v) { return FixFlag(sample, v); });
+  flags.Value("--center", "JSON|@FILE", "gaussian: the mean weights", JsonMember(sample, "center"));
+  flags.Value("--spread", "S", "gaussian: standard deviation", NumberMember(sample, "spread"));
+  flags.Value("--points", "JSON|@FILE", "grid: 2 or 3 weight vectors spanning a line or plane", JsonMember(sample, "points"));
+  flags.Value("--active", "K", "only K of the varied shapes move in each variant", IntegerMember(sample, "active", 0, 100000000));
+  flags.Switch("--symmetric", "a shape's left/right partner takes its weight", [&sample] { sample["symmetric"] = true; });
+  flags.Switch("--sum-at-most-one", "scale each variant so its weights sum to at most 1", [&sample] { sample["sum_at_most_one"] = true; });
+}
+
+int ShardFlag(batch::RunOptions& run, bool& shard_auto, const std::string& v) {
+  if (v == "auto") return shard_auto = true, 0;
+  const size_t slash = v.find('/');
+  long long n = 0, count = 0;
+  if (slash == std::string::npos || !IntIn("--shard I", v.substr(0, slash), 1, 1000000, &n) ||
+      !IntIn("--shard N", v.substr(slash + 1), 1, 1000000, &count) || n > count) {
+    return std::fprintf(stderr, "error: --shard takes I/N with 1 <= I <= N, got '%s'\n", v.c_str()), 2;
+  }
+  run.shard = static_cast<size_t>(n - 1);
+  run.shards = static_cast<size_t>(count);
+  return 0;
+}
+
+// Where and how: the folder, the format, workers, shards, the sheet, quiet.
+void AddRunFlags(Flags& flags, BatchArgs& a) {
+  flags.Text("--out, -o", "DIR", "the output folder", &a.out_dir);
+  flags.Value("--format", "FORMAT", "glb (default), obj, json, f32, or an image: png, jpeg, exr, tiff, webp", TextMember(a.request, "format"));
+  flags.Value("--jobs", "N", "worker threads (default: every core)", [&a](const std::string& v) {
+    long long n = 0;
+    if (!IntIn("--jobs", v, 1, 1024, &n)) return 2;
+    a.run.jobs = static_cast<int>(n);
+    return 0;
+  });
+  flags.Value("--shard", "I/N|auto", "run the I-th of N shards (1-based); auto: the scheduler's (Slurm array, Kubernetes Indexed Job)",
+              [&a](const std::string& v) { return ShardFlag(a.run, a.shard_auto, v); });
+  flags.Value("--shards", "N", "with --shard auto: the shard count (a Kubernetes Indexed Job's completions)", [&a](const std::string& v) {
+    long long n = 0;
+    if (!IntIn("--shards", v, 1, 1000000, &n)) return 2;
+    a.shard_count = static_cast<size_t>(n);
+    return 0;
+  });
+  flags.Switch("--no-sheet", "no contact sheet", [&a] { a.run.sheet_cells = 0; });
+  flags.Switch("-q, --quiet", "no progress bar, no warnings (errors and the closing line still)", [&a] { a.quiet = Quiet() = true; });
+}
+
+// Every variant's mesh options, pose, face and render settings, as the routes' members.
+void AddRequestFlags(Flags& flags, json& request) {
+  for (const char* key : {"mode", "normals", "skinning", "view", "background"}) {
+    flags.Value(std::string("--") + key, "VALUE", std::string("as the mesh and render routes' \"") + key + "\"", TextMember(request, key));
+  }
+  flags.Value("--pose", "JSON|@FILE", "the pose of every variant", JsonMember(request, "pose"));
+  flags.Value("--expressions", "JSON|@FILE", "expressions by name on every variant: {\"happy\": 0.5}", JsonMember(request, "expressions"));
+  flags.Value("--gaze", "JSON|@FILE", "where every variant looks: {\"yaw\": 10, \"pitch\": 0} or {\"target\": [x, y, z]}", JsonMember(request, "gaze"));
+  flags.Value("--blend", "JSON|@FILE", "clips blended, for every variant", JsonMember(request, "blend"));
+  flags.Value("--animation", "NAME|INDEX", "a clip, sampled at --time", [&request](const std::string& v) {
+    const bool index = !v.empty() && v.find_first_not_of("0123456789") == std::string::npos && v.size() < 10;
+    index ? request["animation"] = std::stoll(v) : request["animation"] = v;
+    return 0;
+  });
+  flags.Value("--time", "SECONDS", "the time in --animation", NumberMember(request, "time"));
+  flags.Value("--motion", "NAME", "a .vmd motion of a PMX/PMD rig (as --animation)", TextMember(request, "motion"));
+  flags.Value("--frame", "N", "the time in MMD frames, 30 a second", NumberMember(request, "frame"));
+  flags.Value("--camera", "JSON|@FILE", "render camera", JsonMember(request, "camera"));
+  for (const char* key : {"width", "height", "supersample", "quality"}) {
+    flags.Value(std::string("--") + key, "N", std::string("render ") + key, IntegerMember(request, key, 1, 1 << 20));
+  }
+  flags.Value("--exposure", "STOPS", "render exposure", NumberMember(request, "exposure"));
+  for (const char* key : {"yaw", "pitch", "zoom", "distance", "fov"}) {
+    flags.Value(std::string("--") + key, "X", std::string("render camera ") + key, NumberMember(request["camera"], key));
+  }
+}
+
+// --variants FILE.jsonl into request["variants"]: {"id", "weights"} lines or bare weights. 0 or the exit code.
+int ReadVariants(const std::string& path, json& request) {
+  std::string text;
+  if (!ReadFile(path, text)) return std::fprintf(stderr, "error: --variants: cannot read '%s'\n", path.c_str()), 1;
+  size_t start = 0, line_no = 0;
+  while (start < text.size()) {
+    size_t end = text.find('\n', start);
+    if (end == std::string::npos) end = text.size();
+    ++line_no;
+    const std::string line = text.substr(start, end - start);
+    start = end + 1;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    json j = json::parse(line, nullptr, false);
+    if (j.is_discarded() || !(j.is_object() || j.is_array())) return std::fprintf(stderr, "error: %s:%zu: not a JSON object\n", path.c_str(), line_no), 1;
+    request["variants"].push_back(j.is_object() && j.contains("weights") ? j : json{{"weights", j}});
+  }
+  if (!request.contains("variants")) return std::fprintf(stderr, "error: %s holds no variants\n", path.c_str()), 1;
+  return 0;
+}
+
+// --shard auto: the scheduler's shard (an array submitted again in part, sbatch --array=2, has fewer
+// tasks than the folder's shards: refused). 0 or the exit code.
+int ShardOfScheduler(BatchArgs& a) {
+  auto shard = batch::ShardFromScheduler([](const char* name) { return std::getenv(name); }, a.shard_count);
+  if (!shard.ok()) return std::fprintf(stderr, "error: %s\n", shard.status().message.c_str()), 2;
+  if (auto found = batch::FindShards(a.out_dir); a.shard_count == 0 && found.ok() && found->shards != shard->shards) {
+    std::fprintf(stderr, "error: '%s' holds shards of %zu but the scheduler gives %zu (%s): give --shards %zu\n", a.out_dir.c_str(),
+                 found->shards, shard->shards, shard->source.c_str(), found->shards);
+    return 2;
+  }
+  a.run.shard = shard->shard;
+  a.run.shards = shard->shards;
+  std::fprintf(stderr, "batch: shard %zu/%zu (%s)\n", a.run.shard + 1, a.run.shards, shard->source.c_str());
+  return 0;
+}
+
+// What a run did: a shard's line, an interruption's, or the whole batch's with its warnings.
+int ReportBatch(const batch::Summary& s, const BatchArgs& a) {
+  const char* out = a.out_dir.c_str();
+  if (s.cancelled) {
+    std::fprintf(stderr, "interrupted: %zu of %zu variants are complete in %s; run the same command again to resume\n", s.skipped + s.generated, s.total, out);
+    return 130;
+  }
+  if (a.run.shards > 1) {
+    PrintBatchWarnings(s);
+    std::fprintf(stderr, "batch: shard %zu/%zu: %zu variants in %s (%zu generated, %zu already there) in %.2f s; once every shard is done: facespace batch merge %s\n",
+                 a.run.shard + 1, a.run.shards, s.total, out, s.generated, s.skipped, s.seconds, out);
+    return 0;
+  }
+  std::fprintf(stderr, "batch: %zu variants in %s (%zu generated, %zu already there) in %.2f s, %.1f variants/s\n", s.total, out, s.generated, s.skipped,
+               s.seconds, s.seconds > 0 ? s.generated / s.seconds : 0.0);
+  PrintBatchWarnings(s);
+  return 0;
+}
+
+// The rig loaded (its version the file's SHA-256), the plan made, the run done (SIGINT and SIGTERM stop
+// it resumably), and reported.
+int RunBatch(BatchArgs& a) {
+  for (const std::string& path : a.paths) {
+    std::error_code ec;
+    const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
+    a.run.rig_files.push_back(ec ? path : absolute.lexically_normal().string());
+  }
+  Result<Rig> rig = LoadAndReport(a.paths);
+  if (!rig.ok()) return 1;
+  if (!rig->images.empty()) render::OpenImageModule();  // Before the worker threads start (render.h says why).
+  std::string bytes;
+  ReadFile(a.paths[0], bytes);
+  const std::string_view whole[] = {bytes};
+  auto plan = batch::MakeBatchPlan(api::Unstored(std::move(rig.value()), batch::Sha256Hex(whole)),
+                                   a.request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  if (!plan.ok()) {
+    PrintStatus(plan.status());
+    return plan.status().code == StatusCode::kInvalidArgument ? 2 : 1;
+  }
+  struct sigaction sa{};
+  sa.sa_handler = OnInterrupt;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  ProgressBar bar;
+  const render::OsMesaRenderer renderer(a.run.jobs);
+  const api::Evaluator evaluator(renderer);
+  a.run.dir = a.out_dir;
+  a.run.evaluator = &evaluator;
+  a.run.cancel = &g_interrupted;
+  if (!a.quiet) a.run.progress = [&bar](const batch::Progress& p) { bar(p); };
+  auto summary = batch::Run(plan.value(), a.run);
+  if (!a.quiet) bar.End();
+  if (!summary.ok()) {
+    PrintStatus(summary.status());
+    return 1;
+  }
+  return ReportBatch(summary.value(), a);
+}
+
+}  // namespace
+
+int Batch(const std::vector<std::string>& args) {
+  if (!args.empty() && args[0] == "merge") return Merge({args.begin() + 1, args.end()});
+  BatchArgs a;
   Flags flags(
       "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
       "         --out DIR [--format glb|obj|json|f32|vrm|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N|auto [--shards N]]\n"
@@ -181,231 +409,25 @@ int Batch(const std::vector<std::string>& args) {
       "(JOB_COMPLETION_INDEX, with --shards N). When every shard is done, `facespace batch merge DIR` writes the\n"
       "manifest and sheet a single run would have written (batch merge --help).\n"
       "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n");
-  // Flags that set a member of the request (or of its "sample", or of its "camera") from an integer, number, JSON or text.
-  auto integer = [](json& into, const std::string& key, long long lo, long long hi) {
-    return [&into, key, lo, hi](const std::string& v) {
-      long long n = 0;
-      if (!IntIn("--" + key, v, lo, hi, &n)) return 2;
-      into[key] = n;
-      return 0;
-    };
-  };
-  auto number = [](json& into, const std::string& key) {
-    return [&into, key](const std::string& v) {
-      double d = 0;
-      if (!NumberIn("--" + key, v, -1e300, 1e300, &d)) return 2;
-      into[key] = d;
-      return 0;
-    };
-  };
-  auto json_value = [](json& into, const std::string& key) {
-    return [&into, key](const std::string& v) { return JsonFlag("--" + key, v, &into[key]); };
-  };
-  auto as_text = [](json& into, const std::string& key) {
-    return [&into, key](const std::string& v) {
-      into[key] = v;
-      return 0;
-    };
-  };
-  flags.Text("--variants", "FILE.jsonl", "the variants, one JSON line each", &variants_path);
-  flags.Value("--sample", "METHOD", "sample the face space: uniform, gaussian, grid or convex", as_text(sample, "method"));
-  flags.Value("--count", "N", "variants to sample", integer(sample, "count", 1, 100000000));
-  flags.Value("--seed", "S", "random seed (0..2^64-1); the same seed gives the same variants", [&sample](const std::string& v) {
-    unsigned long long n = 0;
-    const auto r = std::from_chars(v.data(), v.data() + v.size(), n);
-    if (r.ec != std::errc() || r.ptr != v.data() + v.size()) {
-      return std::fprintf(stderr, "error: --seed must be an integer in 0..2^64-1, not '%s'\n", v.c_str()), 2;
-    }
-    sample["seed"] = n;
-    return 0;
-  });
-  flags.Value("--shapes", "A,B,...", "the shapes varied (default: all)", [&sample](const std::string& v) {
-    for (const std::string& name : SplitList(v)) sample["shapes"].push_back(name);
-    return 0;
-  });
-  flags.Value("--fix", "NAME=W", "hold a shape at a weight (repeatable)", [&sample](const std::string& v) {
-    const size_t eq = v.rfind('=');
-    double d = 0;
-    if (eq == std::string::npos || eq == 0) return std::fprintf(stderr, "error: --fix takes NAME=W, got '%s'\n", v.c_str()), 2;
-    if (!NumberIn("--fix " + v.substr(0, eq), v.substr(eq + 1), -1e300, 1e300, &d)) return 2;
-    sample["fixed"][v.substr(0, eq)] = d;
-    return 0;
-  });
-  flags.Value("--center", "JSON|@FILE", "gaussian: the mean weights", json_value(sample, "center"));
-  flags.Value("--spread", "S", "gaussian: standard deviation", number(sample, "spread"));
-  flags.Value("--points", "JSON|@FILE", "grid: 2 or 3 weight vectors spanning a line or plane", json_value(sample, "points"));
-  flags.Value("--active", "K", "only K of the varied shapes move in each variant", integer(sample, "active", 0, 100000000));
-  flags.Switch("--symmetric", "a shape's left/right partner takes its weight", [&] { sample["symmetric"] = true; });
-  flags.Switch("--sum-at-most-one", "scale each variant so its weights sum to at most 1", [&] { sample["sum_at_most_one"] = true; });
-  flags.Text("--out, -o", "DIR", "the output folder", &out_dir);
-  flags.Value("--format", "FORMAT", "glb (default), obj, json, f32, or an image: png, jpeg, exr, tiff, webp", as_text(request, "format"));
-  flags.Value("--jobs", "N", "worker threads (default: every core)", [&run](const std::string& v) {
-    long long n = 0;
-    if (!IntIn("--jobs", v, 1, 1024, &n)) return 2;
-    run.jobs = static_cast<int>(n);
-    return 0;
-  });
-  bool shard_auto = false;
-  size_t shard_count = 0;
-  flags.Value("--shard", "I/N|auto", "run the I-th of N shards (1-based); auto: the scheduler's (Slurm array, Kubernetes Indexed Job)",
-              [&run, &shard_auto](const std::string& v) {
-    if (v == "auto") return shard_auto = true, 0;
-    const size_t slash = v.find('/');
-    long long n = 0, count = 0;
-    if (slash == std::string::npos || !IntIn("--shard I", v.substr(0, slash), 1, 1000000, &n) ||
-        !IntIn("--shard N", v.substr(slash + 1), 1, 1000000, &count) || n > count) {
-      return std::fprintf(stderr, "error: --shard takes I/N with 1 <= I <= N, got '%s'\n", v.c_str()), 2;
-    }
-    run.shard = static_cast<size_t>(n - 1);
-    run.shards = static_cast<size_t>(count);
-    return 0;
-  });
-  flags.Value("--shards", "N", "with --shard auto: the shard count (a Kubernetes Indexed Job's completions)", [&shard_count](const std::string& v) {
-    long long n = 0;
-    if (!IntIn("--shards", v, 1, 1000000, &n)) return 2;
-    shard_count = static_cast<size_t>(n);
-    return 0;
-  });
-  flags.Switch("--no-sheet", "no contact sheet", [&] { run.sheet_cells = 0; });
-  flags.Switch("-q, --quiet", "no progress bar, no warnings (errors and the closing line still)", [&] { quiet = Quiet() = true; });
-  for (const char* key : {"mode", "normals", "skinning", "view", "background"}) {
-    flags.Value(std::string("--") + key, "VALUE", std::string("as the mesh and render routes' \"") + key + "\"", as_text(request, key));
-  }
-  flags.Value("--pose", "JSON|@FILE", "the pose of every variant", json_value(request, "pose"));
-  flags.Value("--expressions", "JSON|@FILE", "expressions by name on every variant: {\"happy\": 0.5}", json_value(request, "expressions"));
-  flags.Value("--gaze", "JSON|@FILE", "where every variant looks: {\"yaw\": 10, \"pitch\": 0} or {\"target\": [x, y, z]}", json_value(request, "gaze"));
-  flags.Value("--blend", "JSON|@FILE", "clips blended, for every variant", json_value(request, "blend"));
-  flags.Value("--animation", "NAME|INDEX", "a clip, sampled at --time", [&request](const std::string& v) {
-    long long n = 0;
-    const bool index = !v.empty() && v.find_first_not_of("0123456789") == std::string::npos && v.size() < 10;
-    if (index) n = std::stoll(v);
-    index ? request["animation"] = n : request["animation"] = v;
-    return 0;
-  });
-  flags.Value("--time", "SECONDS", "the time in --animation", number(request, "time"));
-  flags.Value("--motion", "NAME", "a .vmd motion of a PMX/PMD rig (as --animation)", [&request](const std::string& v) {
-    request["motion"] = v;
-    return 0;
-  });
-  flags.Value("--frame", "N", "the time in MMD frames, 30 a second", number(request, "frame"));
-  flags.Value("--camera", "JSON|@FILE", "render camera", json_value(request, "camera"));
-  for (const char* key : {"width", "height", "supersample", "quality"}) {
-    flags.Value(std::string("--") + key, "N", std::string("render ") + key, integer(request, key, 1, 1 << 20));
-  }
-  flags.Value("--exposure", "STOPS", "render exposure", number(request, "exposure"));
-  for (const char* key : {"yaw", "pitch", "zoom", "distance", "fov"}) {
-    flags.Value(std::string("--") + key, "X", std::string("render camera ") + key, number(request["camera"], key));
-  }
-  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
+  AddVariantFlags(flags, a);
+  AddRunFlags(flags, a);
+  AddRequestFlags(flags, a.request);
+  if (int rc = flags.Parse(args, a.paths); rc >= 0) return rc;
+  json& request = a.request;
   if (request.contains("camera") && request["camera"].is_null()) request.erase("camera");
-  if (paths.empty() || out_dir.empty() || variants_path.empty() == sample.empty()) {
-    return flags.UsageError(paths.empty() ? "no rig given" : out_dir.empty() ? "no output folder given (--out DIR)"
-                                                                           : "give --variants FILE.jsonl or --sample METHOD (one of them)");
+  if (a.paths.empty() || a.out_dir.empty() || a.variants_path.empty() == a.sample.empty()) {
+    return flags.UsageError(a.paths.empty() ? "no rig given" : a.out_dir.empty() ? "no output folder given (--out DIR)"
+                                                                               : "give --variants FILE.jsonl or --sample METHOD (one of them)");
   }
-  if (!sample.empty()) {
-    if (!sample.contains("method")) {
-      std::fprintf(stderr, "error: sampling flags need --sample uniform|gaussian|grid|convex\n");
-      return 2;
-    }
-    request["sample"] = sample;
-  } else {
-    std::string text;
-    if (!ReadFile(variants_path, text)) {
-      std::fprintf(stderr, "error: --variants: cannot read '%s'\n", variants_path.c_str());
-      return 1;
-    }
-    size_t start = 0, line_no = 0;
-    while (start < text.size()) {
-      size_t end = text.find('\n', start);
-      if (end == std::string::npos) end = text.size();
-      ++line_no;
-      const std::string line = text.substr(start, end - start);
-      start = end + 1;
-      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-      json j = json::parse(line, nullptr, false);
-      if (j.is_discarded() || !(j.is_object() || j.is_array())) {
-        std::fprintf(stderr, "error: %s:%zu: not a JSON object\n", variants_path.c_str(), line_no);
-        return 1;
-      }
-      request["variants"].push_back(j.is_object() && j.contains("weights") ? j : json{{"weights", j}});
-    }
-    if (!request.contains("variants")) {
-      std::fprintf(stderr, "error: %s holds no variants\n", variants_path.c_str());
-      return 1;
-    }
-  }
+  if (!a.sample.empty() && !a.sample.contains("method")) return std::fprintf(stderr, "error: sampling flags need --sample uniform|gaussian|grid|convex\n"), 2;
+  if (!a.sample.empty()) request["sample"] = a.sample;
+  else if (int rc = ReadVariants(a.variants_path, request); rc != 0) return rc;
   if (!request.contains("format")) request["format"] = "glb";
-  if (shard_count != 0 && !shard_auto) return flags.UsageError("--shards N goes with --shard auto");
-  if (shard_auto) {
-    auto shard = batch::ShardFromScheduler([](const char* name) { return std::getenv(name); }, shard_count);
-    if (!shard.ok()) {
-      std::fprintf(stderr, "error: %s\n", shard.status().message.c_str());
-      return 2;
-    }
-    // An array submitted again in part (sbatch --array=2) has fewer tasks than the folder's shards.
-    if (auto found = batch::FindShards(out_dir); shard_count == 0 && found.ok() && found->shards != shard->shards) {
-      std::fprintf(stderr, "error: '%s' holds shards of %zu but the scheduler gives %zu (%s): give --shards %zu\n", out_dir.c_str(),
-                   found->shards, shard->shards, shard->source.c_str(), found->shards);
-      return 2;
-    }
-    run.shard = shard->shard;
-    run.shards = shard->shards;
-    std::fprintf(stderr, "batch: shard %zu/%zu (%s)\n", run.shard + 1, run.shards, shard->source.c_str());
+  if (a.shard_count != 0 && !a.shard_auto) return flags.UsageError("--shards N goes with --shard auto");
+  if (a.shard_auto) {
+    if (int rc = ShardOfScheduler(a); rc != 0) return rc;
   }
-  for (const std::string& path : paths) {
-    std::error_code ec;
-    const std::filesystem::path absolute = std::filesystem::absolute(path, ec);
-    run.rig_files.push_back(ec ? path : absolute.lexically_normal().string());
-  }
-
-  Result<Rig> rig = LoadAndReport(paths);
-  if (!rig.ok()) return 1;
-  // A rig with textures opens the image module before the worker threads start (render.h says why).
-  if (!rig->images.empty()) render::OpenImageModule();
-  std::string bytes;
-  ReadFile(paths[0], bytes);
-  const std::string_view whole[] = {bytes};
-  const std::string version = batch::Sha256Hex(whole);
-  auto plan = batch::MakeBatchPlan(api::Unstored(std::move(rig.value()), version),
-                                   request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
-  if (!plan.ok()) {
-    PrintStatus(plan.status());
-    return plan.status().code == StatusCode::kInvalidArgument ? 2 : 1;
-  }
-  struct sigaction sa{};
-  sa.sa_handler = OnInterrupt;
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
-  ProgressBar bar;
-  const render::OsMesaRenderer renderer(run.jobs);
-  const api::Evaluator evaluator(renderer);
-  run.dir = out_dir;
-  run.evaluator = &evaluator;
-  run.cancel = &g_interrupted;
-  if (!quiet) run.progress = [&bar](const batch::Progress& p) { bar(p); };
-  auto summary = batch::Run(plan.value(), run);
-  if (!quiet) bar.End();
-  if (!summary.ok()) {
-    PrintStatus(summary.status());
-    return 1;
-  }
-  const batch::Summary& s = summary.value();
-  if (!s.cancelled && run.shards > 1) PrintBatchWarnings(s);
-  if (!s.cancelled && run.shards > 1) {
-    std::fprintf(stderr, "batch: shard %zu/%zu: %zu variants in %s (%zu generated, %zu already there) in %.2f s; "
-                 "once every shard is done: facespace batch merge %s\n",
-                 run.shard + 1, run.shards, s.total, out_dir.c_str(), s.generated, s.skipped, s.seconds, out_dir.c_str());
-    return 0;
-  }
-  if (s.cancelled) {
-    std::fprintf(stderr, "interrupted: %zu of %zu variants are complete in %s; run the same command again to resume\n",
-                 s.skipped + s.generated, s.total, out_dir.c_str());
-    return 130;
-  }
-  std::fprintf(stderr, "batch: %zu variants in %s (%zu generated, %zu already there) in %.2f s, %.1f variants/s\n", s.total,
-               out_dir.c_str(), s.generated, s.skipped, s.seconds, s.seconds > 0 ? s.generated / s.seconds : 0.0);
-  PrintBatchWarnings(s);
-  return 0;
+  return RunBatch(a);
 }
 
 }  // namespace facespace::cli
