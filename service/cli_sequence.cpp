@@ -112,22 +112,16 @@ class WarningSummary {
   std::vector<Entry> codes_;
 };
 
-}  // namespace
-
-int Sequence(const std::vector<std::string>& args) {
+// What `facespace sequence` is asked.
+struct SequenceArgs {
   std::vector<std::string> paths;
   std::string keys_text, layers_text, from_animation, obj_times, transition, times_text, format, out, gaze_text, blink_text;
   bool smooth = false, has_fps = false, has_reduce = false, has_bake = false, physics = true;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
-  Flags flags(
-      "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --layers JSON|@FILE\n"
-      "         | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
-      "         [--transition T] [--smooth] [--no-physics] (--times JSON | --fps N) [--format json|weights|obj|glb|f32] -o OUT.json|DIR\n"
-      "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
-      "       facespace sequence RIG ... --bake TIME -o OUT.json\n",
-      "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
-      "frame_00000.EXT for obj, glb and f32, or into one JSON file.\n");
+};
+
+void AddSequenceFlags(Flags& flags, SequenceArgs& a) {
   auto number = [](const char* flag, float lo, float* dst, bool* given) {
     return [flag, lo, dst, given](const std::string& v) {
       double d = 0;
@@ -137,211 +131,220 @@ int Sequence(const std::vector<std::string>& args) {
       return 0;
     };
   };
-  flags.Value("--keys", "JSON|@FILE", "the keyframes", [&keys_text](const std::string& v) { return ReadAtFile("--keys", v, keys_text) ? 0 : 1; });
+  flags.Value("--keys", "JSON|@FILE", "the keyframes", [&a](const std::string& v) { return ReadAtFile("--keys", v, a.keys_text) ? 0 : 1; });
   flags.Value("--layers", "JSON|@FILE", "motions layered: a base, then overlays, each starting at its time: [{\"motion\", \"time\", \"loop\"}]",
-              [&layers_text](const std::string& v) { return ReadAtFile("--layers", v, layers_text) ? 0 : 1; });
-  flags.Text("--from-animation", "NAME|INDEX", "play a clip or motion: its pose and weights (keys: its morph-weight channel)", &from_animation);
-  flags.Text("--obj-times", "T0,T1,...", "OBJ sequence: one key per file at these times", &obj_times);
-  flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &transition);
-  flags.Switch("--smooth", "Catmull-Rom through the keys", [&] { smooth = true; });
-  flags.Switch("--no-physics", "no secondary motion: the rig's rigid bodies (MMD hair, skirts) follow their bones", [&] { physics = false; });
+              [&a](const std::string& v) { return ReadAtFile("--layers", v, a.layers_text) ? 0 : 1; });
+  flags.Text("--from-animation", "NAME|INDEX", "play a clip or motion: its pose and weights (keys: its morph-weight channel)", &a.from_animation);
+  flags.Text("--obj-times", "T0,T1,...", "OBJ sequence: one key per file at these times", &a.obj_times);
+  flags.Text("--transition", "T", "linear|step|smoothstep|smootherstep|ease-in|ease-out|ease-in-out|'cubic-bezier(a,b,c,d)'", &a.transition);
+  flags.Switch("--smooth", "Catmull-Rom through the keys", [&a] { a.smooth = true; });
+  flags.Switch("--no-physics", "no secondary motion: the rig's rigid bodies (MMD hair, skirts) follow their bones", [&a] { a.physics = false; });
   flags.Value("--gaze", "YAW,PITCH|X,Y,Z|JSON|@FILE", "where the eyes look: held (degrees, or a point), or a track {\"keys\": [{\"time\", \"target\" | \"yaw\", \"pitch\"}]}",
-              [&gaze_text](const std::string& v) { return ReadAtFile("--gaze", v, gaze_text) ? 0 : 1; });
-  flags.Text("--blink", "PER_MINUTE[,SEED]", "natural blinks through the rig's blink expression (e.g. 15, or 15,7 for another draw)", &blink_text);
-  flags.Text("--times", "JSON", "sample at these times: [0, 0.5, 1]", &times_text);
-  flags.Value("--fps", "N", "sample every 1/N s from the first key to the last (default 30)", number("--fps", 1e-3f, &fps, &has_fps));
-  flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &tolerance, &has_reduce));
-  flags.Value("--bake", "TIME", "add a key at TIME with the in-between weights", number("--bake", -1e9f, &bake, &has_bake));
-  AddBlendOptionFlags(flags, options);
-  flags.Text("--format", "json|weights|obj|glb|f32", "one JSON file of frames (weights: their weights and pose, no meshes), or a file per frame in DIR (default: json, or glb when OUT is a folder: ends in / or exists)", &format);
-  flags.Text("-o, --output", "OUT.json|DIR", "output", &out);
-  if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
-  const int sources = !keys_text.empty() + !layers_text.empty() + !from_animation.empty() + !obj_times.empty();
-  if ((!gaze_text.empty() || !blink_text.empty()) && keys_text.empty() && layers_text.empty()) {
+              [&a](const std::string& v) { return ReadAtFile("--gaze", v, a.gaze_text) ? 0 : 1; });
+  flags.Text("--blink", "PER_MINUTE[,SEED]", "natural blinks through the rig's blink expression (e.g. 15, or 15,7 for another draw)", &a.blink_text);
+  flags.Text("--times", "JSON", "sample at these times: [0, 0.5, 1]", &a.times_text);
+  flags.Value("--fps", "N", "sample every 1/N s from the first key to the last (default 30)", number("--fps", 1e-3f, &a.fps, &a.has_fps));
+  flags.Value("--reduce", "TOLERANCE", "remove keys while the largest vertex error stays under TOLERANCE", number("--reduce", 0, &a.tolerance, &a.has_reduce));
+  flags.Value("--bake", "TIME", "add a key at TIME with the in-between weights", number("--bake", -1e9f, &a.bake, &a.has_bake));
+  AddBlendOptionFlags(flags, a.options);
+  flags.Text("--format", "json|weights|obj|glb|f32", "one JSON file of frames (weights: their weights and pose, no meshes), or a file per frame in DIR (default: json, or glb when OUT is a folder: ends in / or exists)", &a.format);
+  flags.Text("-o, --output", "OUT.json|DIR", "output", &a.out);
+}
+
+// The flags that go together do, and the format is one there is (`-o frames/`, or an existing folder:
+// a glb per frame; else one JSON file). 0 or the exit code.
+int CheckSequenceArgs(const Flags& flags, SequenceArgs& a) {
+  const int sources = !a.keys_text.empty() + !a.layers_text.empty() + !a.from_animation.empty() + !a.obj_times.empty();
+  if ((!a.gaze_text.empty() || !a.blink_text.empty()) && a.keys_text.empty() && a.layers_text.empty()) {
     return flags.UsageError("--gaze and --blink go with --keys or --layers");
   }
-  if (paths.empty() || out.empty() || sources != 1) {
-    return flags.UsageError(paths.empty() ? "no rig given" : out.empty() ? "no output given (-o)"
-                                                                       : "give exactly one of --keys, --layers, --from-animation, --obj-times");
+  if (a.paths.empty() || a.out.empty() || sources != 1) {
+    return flags.UsageError(a.paths.empty() ? "no rig given" : a.out.empty() ? "no output given (-o)"
+                                                                             : "give exactly one of --keys, --layers, --from-animation, --obj-times");
   }
-  if (format.empty()) {  // `-o frames/` (or an existing folder): a glb per frame; else one JSON file.
+  if (a.format.empty()) {
     std::error_code ec;
-    format = out.back() == '/' || std::filesystem::is_directory(out, ec) ? "glb" : "json";
+    a.format = a.out.back() == '/' || std::filesystem::is_directory(a.out, ec) ? "glb" : "json";
   }
-  if ((format == "json" || format == "weights") && out.back() == '/') {
-    std::fprintf(stderr, "error: --format %s writes one file, and '%s' is a folder: give a file name, or --format obj|glb|f32 for a file per frame\n", format.c_str(), out.c_str());
+  if ((a.format == "json" || a.format == "weights") && a.out.back() == '/') {
+    std::fprintf(stderr, "error: --format %s writes one file, and '%s' is a folder: give a file name, or --format obj|glb|f32 for a file per frame\n", a.format.c_str(), a.out.c_str());
     return 2;
   }
-  if (format != "json" && format != "weights" && format != "obj" && format != "glb" && format != "f32") {
-    std::fprintf(stderr, "error: --format must be json, weights, obj, glb or f32\n");
-    return 2;
+  if (a.format != "json" && a.format != "weights" && a.format != "obj" && a.format != "glb" && a.format != "f32") {
+    return std::fprintf(stderr, "error: --format must be json, weights, obj, glb or f32\n"), 2;
   }
-  Result<Rig> loaded = paths.size() > 1 ? LoadObjSequence(paths) : LoadRigFile(paths[0]);
-  if (!loaded.ok()) {
-    std::fprintf(stderr, "error: %s\n", loaded.status().message.c_str());
-    return 1;
-  }
-  const auto stored = api::Unstored(std::move(loaded.value()));
-  const Rig& rig = stored->rig;
+  return 0;
+}
 
-  // The sequence.
-  facespace::Sequence seq;
-  if (!keys_text.empty() || !layers_text.empty()) {
-    const bool layered = !layers_text.empty();
-    nlohmann::json keys = nlohmann::json::parse(layered ? layers_text : keys_text, nullptr, false);
-    if (keys.is_discarded()) {
-      std::fprintf(stderr, "error: %s: malformed JSON\n", layered ? "--layers" : "--keys");
-      return 1;
-    }
-    nlohmann::json body = {{layered ? "layers" : "keys", keys}, {"smooth", smooth}};
-    if (!transition.empty()) body["transition"] = transition;
-    if (!gaze_text.empty() || !blink_text.empty()) {
-      if (Status s = FaceMembers(gaze_text, blink_text, body); !s.ok()) {
-        std::fprintf(stderr, "error: %s\n", s.message.c_str());
-        return 2;
-      }
-    }
-    auto parsed = api::ParseSequenceRequest(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
-    if (!parsed.ok()) {
-      std::fprintf(stderr, "error: %s\n", parsed.status().message.c_str());
-      return 1;
-    }
-    auto resolved = api::ResolveSequence(rig, parsed.value());
-    if (!resolved.ok()) {
-      std::fprintf(stderr, "error: %s\n", resolved.status().message.c_str());
-      return 1;
-    }
-    seq = std::move(resolved.value());
-  } else {
-    if (!from_animation.empty()) {
-      ClipRequest named;
-      named.name = from_animation;
-      int clip = FindClip(rig, named);
-      if (clip < 0 && from_animation.find_first_not_of("0123456789") == std::string::npos && from_animation.size() < 9) {
-        named = ClipRequest{};
-        named.index = std::stoi(from_animation);
-        clip = FindClip(rig, named);
-      }
-      if (clip < 0) {
-        std::fprintf(stderr, "error: --from-animation: %s\n", UnknownClipMessage(rig, named).c_str());
-        return 2;
-      }
-      auto s = SequenceOfClip(rig, clip);
-      if (!s.ok()) {
-        std::fprintf(stderr, "error: --from-animation: %s\n", s.status().message.c_str());
-        return 1;
-      }
-      seq = std::move(s.value());
-    } else {
-      // One key per OBJ file: the base at the first time, then each frame as its shape.
-      std::vector<float> times;
-      size_t start = 0;
-      while (start <= obj_times.size()) {
-        size_t end = obj_times.find(',', start);
-        if (end == std::string::npos) end = obj_times.size();
-        char* stop = nullptr;
-        const std::string tok = obj_times.substr(start, end - start);
-        times.push_back(std::strtof(tok.c_str(), &stop));
-        if (tok.empty() || *stop) {
-          std::fprintf(stderr, "error: --obj-times: '%s' is not a number\n", tok.c_str());
-          return 2;
-        }
-        start = end + 1;
-      }
-      if (times.size() != paths.size()) {
-        std::fprintf(stderr, "error: --obj-times gives %zu times for %zu OBJ files\n", times.size(), paths.size());
-        return 2;
-      }
-      for (size_t k = 0; k < times.size(); ++k) {
-        Keyframe key;
-        key.time = times[k];
-        key.weights.assign(rig.shapes.size(), 0.0f);
-        if (k > 0) key.weights[k - 1] = 1.0f;
-        seq.keys.push_back(std::move(key));
-      }
-    }
-    if (!transition.empty() && !ParseTransition(transition, &seq.transition)) {
-      std::fprintf(stderr, "error: --transition: unknown '%s'\n", transition.c_str());
-      return 2;
-    }
-    seq.smooth |= smooth;
-    if (Status st = ValidateSequence(seq, rig.shapes.size()); !st.ok()) {
-      std::fprintf(stderr, "error: %s\n", st.message.c_str());
-      return 1;
-    }
+// --keys or --layers, as a sequence request's body (with --gaze and --blink), resolved. 0 or the exit code.
+int SequenceOfKeys(const Rig& rig, const SequenceArgs& a, facespace::Sequence& seq) {
+  const bool layered = !a.layers_text.empty();
+  nlohmann::json keys = nlohmann::json::parse(layered ? a.layers_text : a.keys_text, nullptr, false);
+  if (keys.is_discarded()) return std::fprintf(stderr, "error: %s: malformed JSON\n", layered ? "--layers" : "--keys"), 1;
+  nlohmann::json body = {{layered ? "layers" : "keys", keys}, {"smooth", a.smooth}};
+  if (!a.transition.empty()) body["transition"] = a.transition;
+  if (!a.gaze_text.empty() || !a.blink_text.empty()) {
+    if (Status s = FaceMembers(a.gaze_text, a.blink_text, body); !s.ok()) return std::fprintf(stderr, "error: %s\n", s.message.c_str()), 2;
   }
-  seq.physics = physics;
+  auto parsed = api::ParseSequenceRequest(body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+  if (!parsed.ok()) return std::fprintf(stderr, "error: %s\n", parsed.status().message.c_str()), 1;
+  auto resolved = api::ResolveSequence(rig, parsed.value());
+  if (!resolved.ok()) return std::fprintf(stderr, "error: %s\n", resolved.status().message.c_str()), 1;
+  seq = std::move(resolved.value());
+  return 0;
+}
 
-  if (has_reduce) {
-    auto r = ReduceSequence(rig, seq, tolerance);
-    if (!r.ok()) {
-      std::fprintf(stderr, "error: %s\n", r.status().message.c_str());
-      return 1;
-    }
-    std::fprintf(stderr, "kept %zu of %zu keys, max vertex error %s (tolerance %s)\n", r->sequence.keys.size(), seq.keys.size(),
-                 FormatNumber(r->max_error).c_str(), FormatNumber(tolerance).c_str());
-    return WriteResult(out, api::ReducedSequenceJson(rig, seq, r.value(), tolerance));
+// --from-animation: a clip by name, else by index. 0 or the exit code.
+int SequenceOfAnimation(const Rig& rig, const std::string& from_animation, facespace::Sequence& seq) {
+  ClipRequest named;
+  named.name = from_animation;
+  int clip = FindClip(rig, named);
+  if (clip < 0 && from_animation.find_first_not_of("0123456789") == std::string::npos && from_animation.size() < 9) {
+    named = ClipRequest{};
+    named.index = std::stoi(from_animation);
+    clip = FindClip(rig, named);
   }
-  if (has_bake) {
-    const facespace::Sequence baked = BakeKey(seq, bake);
-    const std::string body = "{\"keys\":" + api::SequenceKeysJson(rig, baked) + ",\"transition\":\"" + TransitionName(seq.transition) + "\"}\n";
-    return WriteResult(out, body);
-  }
+  if (clip < 0) return std::fprintf(stderr, "error: --from-animation: %s\n", UnknownClipMessage(rig, named).c_str()), 2;
+  auto s = SequenceOfClip(rig, clip);
+  if (!s.ok()) return std::fprintf(stderr, "error: --from-animation: %s\n", s.status().message.c_str()), 1;
+  seq = std::move(s.value());
+  return 0;
+}
 
-  // Sampling.
+// --obj-times: one key per OBJ file, the base at the first time, then each frame as its shape. 0 or the exit code.
+int SequenceOfObjs(const Rig& rig, const std::string& obj_times, size_t files, facespace::Sequence& seq) {
   std::vector<float> times;
-  if (!times_text.empty()) {
-    nlohmann::json t = nlohmann::json::parse(times_text, nullptr, false);
-    if (t.is_discarded() || !t.is_array() || t.empty()) {
-      std::fprintf(stderr, "error: --times must be a JSON array of seconds\n");
-      return 2;
-    }
+  for (size_t start = 0; start <= obj_times.size();) {
+    size_t end = obj_times.find(',', start);
+    if (end == std::string::npos) end = obj_times.size();
+    char* stop = nullptr;
+    const std::string tok = obj_times.substr(start, end - start);
+    times.push_back(std::strtof(tok.c_str(), &stop));
+    if (tok.empty() || *stop) return std::fprintf(stderr, "error: --obj-times: '%s' is not a number\n", tok.c_str()), 2;
+    start = end + 1;
+  }
+  if (times.size() != files) return std::fprintf(stderr, "error: --obj-times gives %zu times for %zu OBJ files\n", times.size(), files), 2;
+  for (size_t k = 0; k < times.size(); ++k) {
+    Keyframe key;
+    key.time = times[k];
+    key.weights.assign(rig.shapes.size(), 0.0f);
+    if (k > 0) key.weights[k - 1] = 1.0f;
+    seq.keys.push_back(std::move(key));
+  }
+  return 0;
+}
+
+// The sequence the flags give: keys or layers (a request's), else a clip or OBJ files (with
+// --transition and --smooth). 0 or the exit code.
+int MakeSequence(const Rig& rig, const SequenceArgs& a, facespace::Sequence& seq) {
+  if (!a.keys_text.empty() || !a.layers_text.empty()) return SequenceOfKeys(rig, a, seq);
+  const int rc = !a.from_animation.empty() ? SequenceOfAnimation(rig, a.from_animation, seq) : SequenceOfObjs(rig, a.obj_times, a.paths.size(), seq);
+  if (rc != 0) return rc;
+  if (!a.transition.empty() && !ParseTransition(a.transition, &seq.transition)) return std::fprintf(stderr, "error: --transition: unknown '%s'\n", a.transition.c_str()), 2;
+  seq.smooth |= a.smooth;
+  if (Status st = ValidateSequence(seq, rig.shapes.size()); !st.ok()) return std::fprintf(stderr, "error: %s\n", st.message.c_str()), 1;
+  return 0;
+}
+
+// --times, else every 1/fps s from the first key to the last. 0 or the exit code.
+int SampleTimes(const SequenceArgs& a, const facespace::Sequence& seq, std::vector<float>& times) {
+  if (!a.times_text.empty()) {
+    nlohmann::json t = nlohmann::json::parse(a.times_text, nullptr, false);
+    if (t.is_discarded() || !t.is_array() || t.empty()) return std::fprintf(stderr, "error: --times must be a JSON array of seconds\n"), 2;
     for (const auto& v : t) {
       if (!v.is_number()) return std::fprintf(stderr, "error: --times must hold numbers\n"), 2;
       times.push_back(v.get<float>());
     }
-  } else {
-    if (!has_fps) fps = 30.0f;
-    const double duration = seq.keys.back().time - seq.keys.front().time;
-    const size_t frames = static_cast<size_t>(std::floor(duration * fps + 1e-6)) + 1;
-    if (frames > 1000000) return std::fprintf(stderr, "error: too many frames\n"), 2;
-    for (size_t k = 0; k < frames; ++k) times.push_back(seq.keys.front().time + static_cast<float>(k) / fps);
+    return 0;
   }
-  std::vector<Warning> warnings;
+  const float fps = a.has_fps ? a.fps : 30.0f;
+  const double duration = seq.keys.back().time - seq.keys.front().time;
+  const size_t frames = static_cast<size_t>(std::floor(duration * fps + 1e-6)) + 1;
+  if (frames > 1000000) return std::fprintf(stderr, "error: too many frames\n"), 2;
+  for (size_t k = 0; k < frames; ++k) times.push_back(seq.keys.front().time + static_cast<float>(k) / fps);
+  return 0;
+}
+
+// Frames as files in a folder, frame_00000.EXT, the sequence's physics simulated over them.
+int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored, const facespace::Sequence& seq, std::span<const float> times, const SequenceArgs& a) {
+  std::error_code ec;
+  std::filesystem::create_directories(a.out, ec);
+  if (ec) return std::fprintf(stderr, "error: cannot create '%s': %s\n", a.out.c_str(), ec.message().c_str()), 1;
+  MeshFormat mf;
+  ParseMeshFormat(a.format, &mf);
+  api::MeshRequest frame;
+  frame.options = a.options;
+  const api::OutputSpec spec = api::OutputSpec::Mesh(frame, mf);
   const api::Evaluator evaluator;
   api::Workspace ws;
-  if (format == "json" || format == "weights") {
-    auto body = api::SampleSequenceJson(evaluator, stored, seq, times, options, warnings, ws, static_cast<size_t>(-1), format == "weights");
-    WarningSummary summary;  // Each warning of the list is one frame's (they are in the body, by frame).
-    for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
-    summary.Print(times.size());
-    if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
-    return WriteResult(out, body);
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec) return std::fprintf(stderr, "error: cannot create '%s': %s\n", out.c_str(), ec.message().c_str()), 1;
-  MeshFormat mf;
-  ParseMeshFormat(format, &mf);
-  api::MeshRequest frame;
-  frame.options = options;
-  const api::OutputSpec spec = api::OutputSpec::Mesh(frame, mf);
   api::ResolvedPoint point;
-  api::SequencePhysics simulation(rig, seq);
+  api::SequencePhysics simulation(stored->rig, seq);
   Progress progress(times.size());
   WarningSummary summary;
   for (size_t k = 0; k < times.size(); ++k) {
-    api::SequencePoint(rig, seq, times[k], options.mode, point, &simulation);
+    api::SequencePoint(stored->rig, seq, times[k], a.options.mode, point, &simulation);
     summary.Add(point.report.warnings);
     auto bytes = evaluator.Run(stored, point, spec, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
     char name[64];
-    std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, format.c_str());
-    if (!WriteOutput(out + name, bytes->bytes)) return std::fprintf(stderr, "error: cannot write '%s%s'\n", out.c_str(), name), 1;
+    std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, a.format.c_str());
+    if (!WriteOutput(a.out + name, bytes->bytes)) return std::fprintf(stderr, "error: cannot write '%s%s'\n", a.out.c_str(), name), 1;
     progress.Step(k + 1);
   }
   summary.Print(times.size());
   return 0;
+}
+
+// The sequence sampled: one JSON file of frames (or their weights), else a file per frame.
+int WriteSamples(const std::shared_ptr<const api::StoredRig>& stored, const facespace::Sequence& seq, const SequenceArgs& a) {
+  std::vector<float> times;
+  if (int rc = SampleTimes(a, seq, times); rc != 0) return rc;
+  if (a.format != "json" && a.format != "weights") return WriteFrameFiles(stored, seq, times, a);
+  std::vector<Warning> warnings;
+  const api::Evaluator evaluator;
+  api::Workspace ws;
+  auto body = api::SampleSequenceJson(evaluator, stored, seq, times, a.options, warnings, ws, static_cast<size_t>(-1), a.format == "weights");
+  WarningSummary summary;  // Each warning of the list is one frame's (they are in the body, by frame).
+  for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
+  summary.Print(times.size());
+  if (!body.ok()) return std::fprintf(stderr, "error: %s\n", body.status().message.c_str()), 1;
+  return WriteResult(a.out, body);
+}
+
+}  // namespace
+
+int Sequence(const std::vector<std::string>& args) {
+  SequenceArgs a;
+  Flags flags(
+      "usage: facespace sequence RIG [SHAPE.obj ...] (--keys JSON|@FILE | --layers JSON|@FILE\n"
+      "         | --from-animation NAME|INDEX | --obj-times T0,T1,...)\n"
+      "         [--transition T] [--smooth] [--no-physics] (--times JSON | --fps N) [--format json|weights|obj|glb|f32] -o OUT.json|DIR\n"
+      "       facespace sequence RIG ... --reduce TOLERANCE -o OUT.json\n"
+      "       facespace sequence RIG ... --bake TIME -o OUT.json\n",
+      "keys: [{\"time\": 0, \"weights\": {...}} | {\"time\": 1, \"shape\": \"jawOpen\"}, ...]; frames go to DIR as\n"
+      "frame_00000.EXT for obj, glb and f32, or into one JSON file.\n");
+  AddSequenceFlags(flags, a);
+  if (int rc = flags.Parse(args, a.paths); rc >= 0) return rc;
+  if (int rc = CheckSequenceArgs(flags, a); rc != 0) return rc;
+  Result<Rig> loaded = a.paths.size() > 1 ? LoadObjSequence(a.paths) : LoadRigFile(a.paths[0]);
+  if (!loaded.ok()) return std::fprintf(stderr, "error: %s\n", loaded.status().message.c_str()), 1;
+  const auto stored = api::Unstored(std::move(loaded.value()));
+  const Rig& rig = stored->rig;
+  facespace::Sequence seq;
+  if (int rc = MakeSequence(rig, a, seq); rc != 0) return rc;
+  seq.physics = a.physics;
+  if (a.has_reduce) {
+    auto r = ReduceSequence(rig, seq, a.tolerance);
+    if (!r.ok()) return std::fprintf(stderr, "error: %s\n", r.status().message.c_str()), 1;
+    std::fprintf(stderr, "kept %zu of %zu keys, max vertex error %s (tolerance %s)\n", r->sequence.keys.size(), seq.keys.size(),
+                 FormatNumber(r->max_error).c_str(), FormatNumber(a.tolerance).c_str());
+    return WriteResult(a.out, api::ReducedSequenceJson(rig, seq, r.value(), a.tolerance));
+  }
+  if (a.has_bake) {
+    const facespace::Sequence baked = BakeKey(seq, a.bake);
+    return WriteResult(a.out, "{\"keys\":" + api::SequenceKeysJson(rig, baked) + ",\"transition\":\"" + TransitionName(seq.transition) + "\"}\n");
+  }
+  return WriteSamples(stored, seq, a);
 }
 
 int FitCommand(const std::vector<std::string>& args) {
