@@ -318,16 +318,19 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   return Status::Ok();
 }
 
+Status FileRigStore::WritablePath(const std::string& id, std::string& path) const {
+  std::lock_guard<std::mutex> lock(mu_);
+  auto it = map_.find(id);
+  if (it == map_.end()) return NotFound("no rig '" + id + "'");
+  if (it->second.read_only) return ReadOnly(id);
+  path = it->second.path;
+  return Status::Ok();
+}
+
 Status FileRigStore::PutManifest(const std::string& id, const std::string& manifest) {
   std::lock_guard<std::mutex> write_lock(write_mu_);
   std::string path;
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    auto it = map_.find(id);
-    if (it == map_.end()) return NotFound("no rig '" + id + "'");
-    if (it->second.read_only) return ReadOnly(id);
-    path = it->second.path;
-  }
+  if (Status s = WritablePath(id, path); !s.ok()) return s;
   // The rig as its file holds it, without the manifest it has now.
   std::ifstream f(path, std::ios::binary);
   const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -360,13 +363,7 @@ Status FileRigStore::PutManifest(const std::string& id, const std::string& manif
 Status FileRigStore::Delete(const std::string& id) {
   std::lock_guard<std::mutex> write_lock(write_mu_);
   std::string path;
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    auto it = map_.find(id);
-    if (it == map_.end()) return NotFound("no rig '" + id + "'");
-    if (it->second.read_only) return ReadOnly(id);
-    path = it->second.path;
-  }
+  if (Status s = WritablePath(id, path); !s.ok()) return s;
   if (::unlink(path.c_str()) != 0 && errno != ENOENT) {
     return Internal(std::string("cannot delete the rig file: ") + std::strerror(errno));
   }

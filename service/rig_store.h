@@ -68,6 +68,8 @@ class FileRigStore : public api::RigStore {
                     std::map<std::string, Entry>& loaded);
   Result<std::map<std::string, Entry>> Scan(const std::map<std::string, Entry>& previous);
   Status CheckLimits(const Rig& rig) const;
+  // The path of the writable rig `id` into `path`: NotFound, or reason read-only (a bundled rig).
+  Status WritablePath(const std::string& id, std::string& path) const;
   // Removes the store's upload temporaries written more than `older_than_seconds` ago (0: all).
   void RemoveTemporaries(int older_than_seconds);
   static constexpr int kAbandonedSeconds = 600;

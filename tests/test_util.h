@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "facespace/core/blend.h"
+
 namespace facespace::test {
 
 constexpr float kExact = 0.0f;
@@ -158,6 +160,15 @@ inline float MaxAbsDiff(const std::vector<float>& a, const std::vector<float>& b
   float m = 0.0f;
   for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) m = std::max(m, std::fabs(a[i] - b[i]));
   return m;
+}
+
+// The rig at rest into `rest` and with shape `s` alone at weight 1 into `shaped`.
+inline void RestAndShape(const Rig& rig, int s, BlendedRig& rest, BlendedRig& shaped) {
+  std::vector<float> zero(rig.shapes.size(), 0.0f), one = zero;
+  one[static_cast<size_t>(s)] = 1.0f;
+  BlendContext ctx;
+  ASSERT_TRUE(EvaluateRig(rig, zero, {}, rest, ctx).ok());
+  ASSERT_TRUE(EvaluateRig(rig, one, {}, shaped, ctx).ok());
 }
 
 }  // namespace facespace::test

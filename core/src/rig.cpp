@@ -386,35 +386,22 @@ bool RepairUtf8(std::string& s) {
 
 void RepairNames(Rig& rig) {
   size_t repaired = 0;
-  auto fix = [&repaired](std::string& s) { repaired += RepairUtf8(s); };
-  fix(rig.name);
-  fix(rig.credit);
-  for (Mesh& m : rig.meshes) fix(m.name);
+  auto fix = [&repaired](std::initializer_list<std::string*> texts) {
+    for (std::string* s : texts) repaired += RepairUtf8(*s);
+  };
+  fix({&rig.name, &rig.credit});
+  for (Mesh& m : rig.meshes) fix({&m.name});
   for (Shape& shape : rig.shapes) {
-    fix(shape.name);
-    fix(shape.group);
-    for (std::string& a : shape.aliases) fix(a);
+    fix({&shape.name, &shape.group});
+    for (std::string& a : shape.aliases) fix({&a});
   }
-  for (Control& c : rig.controls) {
-    fix(c.name);
-    fix(c.group);
-  }
-  for (Node& node : rig.nodes) fix(node.name);
-  for (Material& m : rig.materials) {
-    fix(m.name);
-    fix(m.alpha_mode);
-  }
-  for (Image& image : rig.images) {
-    fix(image.name);
-    fix(image.mime_type);
-  }
-  for (Skin& skin : rig.skins) fix(skin.name);
-  for (AnimationInfo& a : rig.animations) fix(a.name);
-  for (Warning& w : rig.load_warnings) {
-    fix(w.code);
-    fix(w.message);
-    fix(w.shape);
-  }
+  for (Control& c : rig.controls) fix({&c.name, &c.group});
+  for (Node& node : rig.nodes) fix({&node.name});
+  for (Material& m : rig.materials) fix({&m.name, &m.alpha_mode});
+  for (Image& image : rig.images) fix({&image.name, &image.mime_type});
+  for (Skin& skin : rig.skins) fix({&skin.name});
+  for (AnimationInfo& a : rig.animations) fix({&a.name});
+  for (Warning& w : rig.load_warnings) fix({&w.code, &w.message, &w.shape});
   if (repaired > 0) {
     rig.load_warnings.push_back({"names_repaired",
                                  std::to_string(repaired) + " name(s) in the file were not valid UTF-8; the bytes that were not "

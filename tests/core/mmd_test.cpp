@@ -102,12 +102,8 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
   EXPECT_EQ(rig->shapes[a].group, "mouth");
   // At weight 1 the moved vertices are the listed ones, each by its offset x 0.08 with z negated:
   // compared as the count of moved vertices and the sum of their moves.
-  std::vector<float> zero(rig->shapes.size(), 0.0f), one = zero;
-  one[a] = 1.0f;
   BlendedRig b0, b1;
-  BlendContext ctx;
-  ASSERT_TRUE(EvaluateRig(rig.value(), zero, {}, b0, ctx).ok());
-  ASSERT_TRUE(EvaluateRig(rig.value(), one, {}, b1, ctx).ok());
+  ASSERT_NO_FATAL_FAILURE(test::RestAndShape(rig.value(), a, b0, b1));
   size_t moved = 0;
   double got[3] = {0, 0, 0};
   for (size_t p = 0; p < b0.primitives.size(); ++p) {

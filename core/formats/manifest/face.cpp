@@ -11,53 +11,57 @@
 
 namespace facespace::manifest {
 
-// "expressions": name -> {weights, binary, override_*} (or null: none).
-Status ApplyExpressions(Rig& rig, const json& ex) {
-  if (!ex.is_object()) return Bad("/expressions", "must be an object of expression name -> {\"weights\": {SHAPE: w}, \"binary\", \"override_blink\", \"override_look_at\", \"override_mouth\"} (or null: none)");
-  for (auto it = ex.begin(); it != ex.end(); ++it) {
-    const std::string ptr = "/expressions/" + JsonPointerEscape(it.key());
-    if (it.key().empty() || it.key().size() > 64) return Bad(ptr, "an expression's name must have 1 to 64 bytes");
-    Expression e;
-    e.name = it.key();
-    const json& o = *it;
-    if (!o.is_null()) {
-      if (!o.is_object()) return Bad(ptr, "must be an object {\"weights\": {SHAPE: w}, ...} or null");
-      for (auto m = o.begin(); m != o.end(); ++m) {
-        static constexpr std::string_view kKeys[] = {"weights", "binary", "override_blink", "override_look_at", "override_mouth"};
-        if (std::find(std::begin(kKeys), std::end(kKeys), m.key()) == std::end(kKeys)) {
-          return Bad(ptr + "/" + JsonPointerEscape(m.key()), "unknown member" + DidYouMean(m.key(), kKeys));
-        }
-      }
-      if (!o.contains("weights") || !o["weights"].is_object()) return Bad(ptr + "/weights", "is required: an object of shape name -> weight at the expression's full value");
-      for (auto w = o["weights"].begin(); w != o["weights"].end(); ++w) {
-        const std::string wp = ptr + "/weights/" + JsonPointerEscape(w.key());
-        const int s = FindShape(rig, w.key());
-        if (s < 0) {
-          std::vector<std::string_view> names;
-          for (const Shape& sh : rig.shapes) names.push_back(sh.name);
-          return Bad(wp, "unknown shape '" + w.key() + "'" + DidYouMean(w.key(), names));
-        }
-        if (!w->is_number() || !std::isfinite(w->get<double>())) return Bad(wp, "must be a finite number");
-        e.binds.emplace_back(static_cast<uint32_t>(s), w->get<float>());
-      }
-      if (o.contains("binary")) {
-        if (!o["binary"].is_boolean()) return Bad(ptr + "/binary", "must be true or false");
-        e.binary = o["binary"].get<bool>();
-      }
-      for (const auto& [key, field] : {std::pair{"override_blink", &e.blink}, std::pair{"override_look_at", &e.look_at}, std::pair{"override_mouth", &e.mouth}}) {
-        if (!o.contains(key)) continue;
-        const json& v = o[key];
-        if (v == "none") *field = ExpressionOverride::kNone;
-        else if (v == "block") *field = ExpressionOverride::kBlock;
-        else if (v == "blend") *field = ExpressionOverride::kBlend;
-        else return Bad(ptr + "/" + key, "must be \"none\", \"block\" or \"blend\" (VRM's override rules)");
+namespace {
+
+// One expression: its weights by shape at full value, binary, VRM's override rules; null: none.
+Status ApplyExpression(Rig& rig, const std::string& key, const json& o, const std::string& ptr) {
+  if (key.empty() || key.size() > 64) return Bad(ptr, "an expression's name must have 1 to 64 bytes");
+  Expression e;
+  e.name = key;
+  if (!o.is_null()) {
+    if (!o.is_object()) return Bad(ptr, "must be an object {\"weights\": {SHAPE: w}, ...} or null");
+    for (auto m = o.begin(); m != o.end(); ++m) {
+      static constexpr std::string_view kKeys[] = {"weights", "binary", "override_blink", "override_look_at", "override_mouth"};
+      if (std::find(std::begin(kKeys), std::end(kKeys), m.key()) == std::end(kKeys)) {
+        return Bad(ptr + "/" + JsonPointerEscape(m.key()), "unknown member" + DidYouMean(m.key(), kKeys));
       }
     }
-    const int at = FindExpression(rig, e.name);
-    if (at >= 0) rig.expressions[at] = std::move(e);
-    else rig.expressions.push_back(std::move(e));
+    if (!o.contains("weights") || !o["weights"].is_object()) return Bad(ptr + "/weights", "is required: an object of shape name -> weight at the expression's full value");
+    for (auto w = o["weights"].begin(); w != o["weights"].end(); ++w) {
+      const std::string wp = ptr + "/weights/" + JsonPointerEscape(w.key());
+      const int s = FindShape(rig, w.key());
+      if (s < 0) {
+        std::vector<std::string_view> names;
+        for (const Shape& sh : rig.shapes) names.push_back(sh.name);
+        return Bad(wp, "unknown shape '" + w.key() + "'" + DidYouMean(w.key(), names));
+      }
+      if (!w->is_number() || !std::isfinite(w->get<double>())) return Bad(wp, "must be a finite number");
+      e.binds.emplace_back(static_cast<uint32_t>(s), w->get<float>());
+    }
+    if (o.contains("binary")) {
+      if (!o["binary"].is_boolean()) return Bad(ptr + "/binary", "must be true or false");
+      e.binary = o["binary"].get<bool>();
+    }
+    for (const auto& [member, field] : {std::pair{"override_blink", &e.blink}, std::pair{"override_look_at", &e.look_at}, std::pair{"override_mouth", &e.mouth}}) {
+      if (!o.contains(member)) continue;
+      const json& v = o[member];
+      if (v == "none") *field = ExpressionOverride::kNone;
+      else if (v == "block") *field = ExpressionOverride::kBlock;
+      else if (v == "blend") *field = ExpressionOverride::kBlend;
+      else return Bad(ptr + "/" + member, "must be \"none\", \"block\" or \"blend\" (VRM's override rules)");
+    }
   }
+  const int at = FindExpression(rig, e.name);
+  if (at >= 0) rig.expressions[at] = std::move(e);
+  else rig.expressions.push_back(std::move(e));
   return Status::Ok();
+}
+
+}  // namespace
+
+// "expressions": name -> {weights, binary, override_*} (or null: none).
+Status ApplyExpressions(Rig& rig, const json& ex) {
+  return ForEachMember(ex, "/expressions", "must be an object of expression name -> {\"weights\": {SHAPE: w}, \"binary\", \"override_blink\", \"override_look_at\", \"override_mouth\"} (or null: none)", rig, ApplyExpression);
 }
 
 // "gaze": {type, eyes, head, neck, coefficient, limits, range_maps}.

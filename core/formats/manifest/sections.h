@@ -9,6 +9,7 @@
 
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::manifest {
 
@@ -19,6 +20,17 @@ inline Status Bad(const std::string& pointer, const std::string& message) {
   Status s = InvalidArgument("manifest: " + pointer + ": " + message);
   s.fields.push_back({pointer, message});
   return s;
+}
+
+// Each member of `section` (an object, else an error at `pointer` saying it `must_be`) applied to the
+// rig: apply(rig, key, value, the member's pointer), in order, up to the first error.
+using MemberReader = Status (*)(Rig& rig, const std::string& key, const json& value, const std::string& pointer);
+inline Status ForEachMember(const json& section, const std::string& pointer, const std::string& must_be, Rig& rig, MemberReader apply) {
+  if (!section.is_object()) return Bad(pointer, must_be);
+  for (auto it = section.begin(); it != section.end(); ++it) {
+    if (Status s = apply(rig, it.key(), it.value(), pointer + "/" + JsonPointerEscape(it.key())); !s.ok()) return s;
+  }
+  return Status::Ok();
 }
 
 // The shape `v` names (a string), or an error at `ptr`.

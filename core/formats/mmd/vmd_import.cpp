@@ -117,43 +117,47 @@ struct VmdKeys {
   std::map<std::string, std::vector<MorphKey>> morphs;
 };
 
-Status ReadBoneKeys(Bytes& r, const std::string& clip_name, VmdKeys& keys) {
-  size_t nbone = 0;
-  if (!r.CountOf<uint32_t>(111, nbone, "the bone key count")) return InvalidArgument(clip_name + ": VMD " + r.error());
-  for (size_t k = 0; k < nbone; ++k) {
-    unsigned char name[15];
-    BoneKey key;
-    if (!r.Raw(name, 15, "a bone key") || !r.Get(key.frame, "a bone key") || !r.Floats(key.pos, 3, "a bone key") || !r.Floats(key.rot, 4, "a bone key") ||
-        !r.Raw(key.curve, 64, "a bone key")) {
-      return InvalidArgument(clip_name + ": VMD " + r.error());
-    }
-    if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
-    if (std::any_of(key.pos, key.pos + 3, [](float v) { return std::fabs(v) > kMaxOffset; })) {
-      return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " moves its bone beyond " + std::to_string(static_cast<int>(kMaxOffset)) + " units");
-    }
-    double n = 0;  // In double: a float's square can overflow.
-    for (float q : key.rot) n += static_cast<double>(q) * q;
-    n = std::sqrt(n);
-    if (!(n > 1e-6)) return InvalidArgument(clip_name + ": VMD: bone key " + std::to_string(k) + " has a zero rotation");
-    for (float& q : key.rot) q = static_cast<float>(q / n);
-    keys.bones[NameBytes(name)].push_back(key);
+// A bone key after its name: frame, position, rotation (normalised), curves; checked.
+Status ReadBoneKey(Bytes& r, const std::string& clip_name, size_t k, BoneKey& key) {
+  if (!r.Get(key.frame, "a bone key") || !r.Floats(key.pos, 3, "a bone key") || !r.Floats(key.rot, 4, "a bone key") || !r.Raw(key.curve, 64, "a bone key")) {
+    return InvalidArgument(clip_name + ": VMD " + r.error());
+  }
+  const auto which = [&] { return clip_name + ": VMD: bone key " + std::to_string(k); };  // Made only for an error.
+  if (key.frame > kMaxFrame) return InvalidArgument(which() + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
+  if (std::any_of(key.pos, key.pos + 3, [](float v) { return std::fabs(v) > kMaxOffset; })) {
+    return InvalidArgument(which() + " moves its bone beyond " + std::to_string(static_cast<int>(kMaxOffset)) + " units");
+  }
+  double n = 0;  // In double: a float's square can overflow.
+  for (float q : key.rot) n += static_cast<double>(q) * q;
+  n = std::sqrt(n);
+  if (!(n > 1e-6)) return InvalidArgument(which() + " has a zero rotation");
+  for (float& q : key.rot) q = static_cast<float>(q / n);
+  return Status::Ok();
+}
+
+// A morph key after its name: frame and weight, checked.
+Status ReadMorphKey(Bytes& r, const std::string& clip_name, size_t k, MorphKey& key) {
+  if (!r.Get(key.frame, "a morph key") || !r.Floats(&key.weight, 1, "a morph key")) return InvalidArgument(clip_name + ": VMD " + r.error());
+  const auto which = [&] { return clip_name + ": VMD: morph key " + std::to_string(k); };  // Made only for an error.
+  if (key.frame > kMaxFrame) return InvalidArgument(which() + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
+  if (std::fabs(key.weight) > kMaxMorphWeight) {
+    return InvalidArgument(which() + " has weight " + std::to_string(key.weight) + " (beyond +-" + std::to_string(static_cast<int>(kMaxMorphWeight)) + ")");
   }
   return Status::Ok();
 }
 
-Status ReadMorphKeys(Bytes& r, const std::string& clip_name, VmdKeys& keys) {
-  size_t nmorph = 0;
-  if (!r.CountOf<uint32_t>(23, nmorph, "the morph key count")) return InvalidArgument(clip_name + ": VMD " + r.error());
-  for (size_t k = 0; k < nmorph; ++k) {
+// A count, then that many keys of `item` bytes, each a 15-byte name and what read_key reads, by name.
+template <typename Key>
+Status ReadKeyList(Bytes& r, size_t item, const char* what, const std::string& clip_name,
+                   Status (*read_key)(Bytes&, const std::string&, size_t, Key&), std::map<std::string, std::vector<Key>>& by_name) {
+  size_t count = 0;
+  if (!r.CountOf<uint32_t>(item, count, (std::string("the ") + what + " count").c_str())) return InvalidArgument(clip_name + ": VMD " + r.error());
+  for (size_t k = 0; k < count; ++k) {
     unsigned char name[15];
-    MorphKey key;
-    if (!r.Raw(name, 15, "a morph key") || !r.Get(key.frame, "a morph key") || !r.Floats(&key.weight, 1, "a morph key")) return InvalidArgument(clip_name + ": VMD " + r.error());
-    if (key.frame > kMaxFrame) return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " at frame " + std::to_string(key.frame) + " (beyond an hour)");
-    if (std::fabs(key.weight) > kMaxMorphWeight) {
-      return InvalidArgument(clip_name + ": VMD: morph key " + std::to_string(k) + " has weight " + std::to_string(key.weight) + " (beyond +-" +
-                             std::to_string(static_cast<int>(kMaxMorphWeight)) + ")");
-    }
-    keys.morphs[NameBytes(name)].push_back(key);
+    Key key;
+    if (!r.Raw(name, 15, (std::string("a ") + what).c_str())) return InvalidArgument(clip_name + ": VMD " + r.error());
+    if (Status s = read_key(r, clip_name, k, key); !s.ok()) return s;
+    by_name[NameBytes(name)].push_back(key);
   }
   return Status::Ok();
 }
@@ -169,8 +173,8 @@ Status ReadKeys(std::span<const unsigned char> bytes, const std::string& clip_na
   else if (magic == "Vocaloid Motion Data file") model_bytes = 10;
   else return InvalidArgument(clip_name + ": not a VMD motion (no 'Vocaloid Motion Data' header)");
   if (!r.Skip(model_bytes, "the model name")) return InvalidArgument(clip_name + ": VMD " + r.error());
-  if (Status s = ReadBoneKeys(r, clip_name, keys); !s.ok()) return s;
-  return ReadMorphKeys(r, clip_name, keys);
+  if (Status s = ReadKeyList(r, 111, "bone key", clip_name, ReadBoneKey, keys.bones); !s.ok()) return s;
+  return ReadKeyList(r, 23, "morph key", clip_name, ReadMorphKey, keys.morphs);
 }
 
 // Sample times of a bone's keys (in half frames): every key, and within a curved segment every half
@@ -192,17 +196,21 @@ Status SampleTimes(const std::vector<BoneKey>& keys, const std::string& clip_nam
   return Status::Ok();
 }
 
+// The rig's node or shape a motion's name bytes match; a name matching none goes into `unmatched` (as text).
+std::map<std::string, int>::const_iterator Matched(const std::map<std::string, int>& of, const std::string& key, std::vector<std::string>& unmatched) {
+  const auto it = of.find(key);
+  if (it == of.end()) unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
+  return it;
+}
+
 // Each keyed bone the rig has as a translation and a rotation channel; names it lacks into `unmatched`.
 Status AddBoneChannels(const Rig& rig, const std::map<std::string, int>& node_of, VmdKeys& keys, AnimationInfo& clip,
                        std::vector<std::string>& unmatched) {
   size_t samples = 0;  // Bone samples between keys, against kMaxSamples.
   std::vector<uint32_t> halves;
   for (auto& [key, bone_keys] : keys.bones) {
-    const auto it = node_of.find(key);
-    if (it == node_of.end()) {
-      unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
-      continue;
-    }
+    const auto it = Matched(node_of, key, unmatched);
+    if (it == node_of.end()) continue;
     SortKeys(bone_keys);
     if (Status s = SampleTimes(bone_keys, clip.name, samples, halves); !s.ok()) return s;
     const Node& node = rig.nodes[it->second];
@@ -235,11 +243,8 @@ void AddMorphChannels(const Rig& rig, const std::map<std::string, int>& shape_of
   std::map<int, std::vector<MorphKey>> shape_keys;
   std::vector<uint32_t> frames;
   for (auto& [key, morph_keys] : keys.morphs) {
-    const auto it = shape_of.find(key);
-    if (it == shape_of.end()) {
-      unmatched.push_back(SjisToUtf8(reinterpret_cast<const unsigned char*>(key.data()), key.size()));
-      continue;
-    }
+    const auto it = Matched(shape_of, key, unmatched);
+    if (it == shape_of.end()) continue;
     SortKeys(morph_keys);
     for (const MorphKey& k : morph_keys) frames.push_back(k.frame);
     std::vector<MorphKey>& to = shape_keys[it->second];
