@@ -26,6 +26,7 @@ free_port() { py 'import socket;s=socket.socket();s.bind(("127.0.0.1",0));print(
 
 mkdir -p "$tmp/store" "$tmp/nginx"
 cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" "$tmp/store/"
+cp "$src/assets/makehuman/makehuman.glb" "$tmp/store/"  # A bigger rig: a warm-up long enough to probe.
 printf 'k3y-for-tests' >"$tmp/key"
 K=(-H 'Authorization: Bearer k3y-for-tests')
 ports=($(free_port) $(free_port) $(free_port)); front=$(free_port)
@@ -60,6 +61,21 @@ http {
 EOF
 "$nginx_bin" -p "$tmp/nginx" -c "$tmp/nginx.conf" -e "$tmp/nginx-error.log" -g 'daemon off;' >"$tmp/nginx.out" 2>&1 & npid=$!
 F=http://127.0.0.1:$front
+# Readiness probed through the proxy while the instances warm up (503 each, passed through as it is)
+# must not take them out of the pool: a GET right after a 503 probe is served, not 502 (no live
+# upstream). Then every instance is ready.
+for _ in $(seq 1 100); do [ "$(curl -s -o /dev/null -w '%{http_code}' "$F/healthz")" != 000 ] && break; sleep 0.05; done  # nginx listening.
+probes=
+for _ in $(seq 1 30); do
+  code=$(curl -s -o /dev/null -w '%{http_code}' "$F/readyz")
+  [ "$code" = 503 ] && code="503:$(curl -s -o /dev/null -w '%{http_code}' "$F/v1/rigs")"
+  probes="$probes$code "
+done
+for i in 0 1 2; do
+  for _ in $(seq 1 300); do curl -fs "http://127.0.0.1:${ports[$i]}/readyz" >/dev/null 2>&1 && break; sleep 0.1; done
+done
+check "/readyz through nginx while warming: 503 (then GET /v1/rigs 200) or 200, never 502 ($(echo $probes | tr ' ' '\n' | sort | uniq -c | tr -s ' \n' ' '))" \
+  sh -c "! echo '$probes' | grep -qv '^\(\(200\|503:200\) \)*\$'"
 for _ in $(seq 1 100); do curl -fs "$F/readyz" >/dev/null 2>&1 && break; sleep 0.1; done
 check "nginx ($("$nginx_bin" -v 2>&1 | sed 's/.*: //')) starts with the documented config: /readyz through it is 200" \
   test "$(curl -s -o /dev/null -w '%{http_code}' "$F/readyz")" = 200 || { cat "$tmp/nginx-error.log" "$tmp/nginx.out"; exit 1; }

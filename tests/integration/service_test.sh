@@ -49,6 +49,9 @@ check "startup: a broken rig and a bad id are reported and skipped" \
 
 # read routes
 check "GET /healthz" test "$(c "$U/healthz")" = 200
+code=$(curl -s -o /dev/null -w '%{http_code}' "$U/readyz")
+for _ in $(seq 100); do [ "$(curl -s -o /dev/null -w '%{http_code}' "$U/readyz")" = 200 ] && break; sleep 0.1; done  # Ready once warmed.
+check "GET /readyz: 503 while warming (Retry-After) or 200, then 200 ($code first)" sh -c "[ $code = 503 ] || [ $code = 200 ]"
 check "GET /readyz counts 2 rigs" sh -c "[ \$(curl -s -o '$tmp/body' -w '%{http_code}' '$U/readyz') = 200 ] && grep -q '\"rigs\":2' '$tmp/body'"
 code=$(c "$U/v1/rigs")
 check "GET /v1/rigs lists facecap and stress with counts" both "[ $code = 200 ]" jq_ "[r['id'] for r in d['rigs']]==['facecap','stress'] and d['rigs'][0]['shapes']==52 and d['rigs'][0]['vertices']==4368 and d['rigs'][0]['has_skeleton']==False"

@@ -49,11 +49,11 @@ class Server:
         if env.get("ASAN_OPTIONS"):
             env["ASAN_OPTIONS"] += ":detect_leaks=0"
         self.proc = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env)
-        for _ in range(600):
+        for _ in range(600):  # Ready: up, and its rigs encoded (/readyz is 503 while it warms up).
             try:
-                urllib.request.urlopen(self.url + "/healthz", timeout=1).read()
+                urllib.request.urlopen(self.url + "/readyz", timeout=1).read()
                 break
-            except OSError:
+            except OSError:  # Refused, or HTTPError 503.
                 time.sleep(0.1)
         self.idle = self.rss()
 

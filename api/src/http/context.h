@@ -94,6 +94,7 @@ struct ServerState {
   const std::shared_ptr<BodyPool> bodies = std::make_shared<BodyPool>();
   RenderBudget render_budget;
   const std::string openapi;  // The document, with this server's limits.
+  std::atomic<bool> warmed{false};  // Every rig of the store at start encoded (/readyz).
 };
 
 // ---- helpers the routes share ----

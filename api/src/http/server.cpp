@@ -29,6 +29,7 @@ struct Api::Impl {
         if (stop.stop_requested()) return;
         http::WarmRig(ctx, rig);
       }
+      ctx.warmed = true;
     });
   }
 };

@@ -173,7 +173,9 @@ json Auth() { return json::array({{{"bearer", json::array()}}}); }
 json ServiceOperations() {
   return {
       {"/healthz", {{"get", {{"summary", "Liveness"}, {"operationId", "healthz"}, {"responses", {{"200", JsonOk("Health")}}}}}}},
-      {"/readyz", {{"get", {{"summary", "Readiness (rigs loaded)"}, {"operationId", "readyz"}, {"responses", {{"200", JsonOk("Health")}}}}}}},
+      {"/readyz",
+       {{"get", {{"summary", "Readiness: the rigs loaded and encoded (503 while warming)"}, {"operationId", "readyz"},
+                 {"responses", {{"200", JsonOk("Health")}, {"503", JsonOk("Health", "Warming up")}}}}}}},
       {"/metrics",
        {{"get", {{"summary", "Prometheus metrics"}, {"operationId", "metrics"},
                  {"responses", {{"200", {{"description", "Prometheus text"}, {"content", {{"text/plain", {{"schema", {{"type", "string"}}}}}}}}}}}}}}},

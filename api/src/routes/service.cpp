@@ -9,8 +9,12 @@ void GetHealth(ServerState&, const httplib::Request&, httplib::Response& res) {
   res.set_content("{\"status\":\"ok\"}", "application/json");
 }
 
+// Ready once every rig's description and topology are encoded (the warm-up beside the first requests):
+// until then 503 with Retry-After, so an orchestrator sends traffic to an instance that answers at once.
 void GetReady(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
-  res.set_content("{\"status\":\"ready\",\"rigs\":" + std::to_string(ctx.store.List().size()) + "}", "application/json");
+  const bool warm = ctx.warmed.load();
+  if (!warm) res.set_header("Retry-After", "1");
+  SendJson(res, warm ? 200 : 503, {{"status", warm ? "ready" : "warming"}, {"rigs", ctx.store.List().size()}});
 }
 
 std::string MetricsText(ServerState& ctx) {
