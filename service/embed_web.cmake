@@ -1,7 +1,7 @@
 # Embeds service/web/* into the executable: cmake -DDIR=web -DOUT=web_assets.cpp -P embed_web.cmake
 file(GLOB names RELATIVE ${DIR} ${DIR}/*.html ${DIR}/*.js ${DIR}/*.css ${DIR}/*.svg)
 list(SORT names)
-set(body "// Generated from service/web by service/embed_web.cmake: do not edit.\n#include \"web_assets.h\"\n\nnamespace facespace::web {\n\nnamespace {\n")
+set(body "// Generated from service/web by service/embed_web.cmake: do not edit.\n#include \"server/web_assets.h\"\n\nnamespace facespace::web {\n\nnamespace {\n")
 set(table "")
 set(count 0)
 foreach(name ${names})

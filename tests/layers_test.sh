@@ -20,17 +20,18 @@ check() {
     echo "ok   $folder: $allowed"
   fi
 }
-evaluator_headers='api/(request|store|evaluator)\.h'
-check core 'core/' '^core/(formats|physics|speech)/'
+evaluator_headers='evaluator/'
+check core 'core/' '^core/(formats|physics|speech|files)/'
 check core/formats 'core/|formats/'
 check core/physics 'core/|physics/'
 check core/speech 'core/|speech/'
+check core/files 'core/|files/'
 check render/picture 'core/|render/picture\.h'
 check render 'core/|render/' '^render/picture/'
 check api/evaluator "core/|formats/|render/picture\.h|physics/|$evaluator_headers"
 check api/lipsync "core/|formats/|render/|speech/|$evaluator_headers|lipsync/"
-check api/batch "core/|formats/|render/picture\.h|$evaluator_headers|batch/"
-check api 'core/|formats/|render/|speech/|api/|batch/|lipsync/' '^api/(evaluator|batch|lipsync)/'
+check api/batch "core/|formats/|render/picture\.h|files/|$evaluator_headers|batch/"
+check api 'core/|formats/|render/|speech/|api/|evaluator/|batch/|lipsync/' '^api/(evaluator|batch|lipsync)/'
 # httplib stays in the HTTP layer: the evaluator and batch never see it.
 if grep -rlq 'httplib' api/evaluator api/batch; then echo "FAIL httplib below the HTTP layer: $(grep -rl httplib api/evaluator api/batch)"; fail=1; else echo "ok   no httplib in api/evaluator, api/batch"; fi
 exit $fail

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "facespace/api/store.h"
+#include "facespace/evaluator/store.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::test {

@@ -17,7 +17,7 @@
 
 #include "facespace/render/render.h"
 #include "facespace/api/http.h"
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "loopback.h"
 #include "memory_store.h"
 #include "test_util.h"

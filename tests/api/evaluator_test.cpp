@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "facespace/render/render.h"
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/lod.h"
 #include "test_util.h"
 

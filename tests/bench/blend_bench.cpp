@@ -15,7 +15,7 @@
 #include <cstring>
 #include <random>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 

@@ -2,7 +2,7 @@
 // from text to JSON keys, 10 s of speech to visemes, and 10 s of 512x512 30 fps WebM.
 #include <benchmark/benchmark.h>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
 #include "facespace/render/render.h"
 #include "facespace/formats/io.h"

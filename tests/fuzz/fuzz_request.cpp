@@ -5,7 +5,7 @@
 #include <string>
 #include <string_view>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/core/weights.h"

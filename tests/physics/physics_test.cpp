@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

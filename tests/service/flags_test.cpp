@@ -1,8 +1,8 @@
-// The flag parser every command shares (service/flags.h): both spellings of a value, switches,
+// The flag parser every command shares (service/commands/flags.h): both spellings of a value, switches,
 // positional arguments in order, and usage errors with exit 2.
 #include <gtest/gtest.h>
 
-#include "flags.h"
+#include "commands/flags.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// The file rig store (service/rig_store.h) on a real folder: uploads persist and read back, a broken
+// The file rig store (service/store/rig_store.h) on a real folder: uploads persist and read back, a broken
 // or oversized upload leaves nothing behind, another process's changes are seen on refresh, and the
 // bundled (read-only) rigs are served but never written.
 #include <gtest/gtest.h>
@@ -11,7 +11,7 @@
 #include <unistd.h>
 #include <vector>
 
-#include "rig_store.h"
+#include "store/rig_store.h"
 
 namespace {
 

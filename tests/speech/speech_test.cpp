@@ -16,7 +16,7 @@ extern "C" {
 #include <random>
 #include <sstream>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
 #include "facespace/render/render.h"
 #include "facespace/formats/io.h"

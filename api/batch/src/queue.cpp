@@ -1,7 +1,7 @@
 #include <sys/statvfs.h>
 #include "facespace/batch/queue.h"
 
-#include "facespace/batch/durable.h"
+#include "facespace/files/durable.h"
 
 #include <fcntl.h>
 #include <openssl/rand.h>

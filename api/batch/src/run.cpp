@@ -1,5 +1,5 @@
 #include "facespace/batch/run.h"
-#include "facespace/batch/durable.h"
+#include "facespace/files/durable.h"
 
 #include <fcntl.h>
 #include <openssl/evp.h>

@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 
 namespace facespace::api {
 

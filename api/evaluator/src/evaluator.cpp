@@ -1,5 +1,5 @@
 // Step 2: a resolved point to encoded bytes, with the fast paths and what is kept per rig.
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 
 #include <chrono>
 #include <cstring>

@@ -1,5 +1,5 @@
 // Fitting: the weights that best reproduce a mesh, as JSON.
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::api {

@@ -1,5 +1,5 @@
 // Step 1: a request's point resolved against a rig, and checked.
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::api {

@@ -1,6 +1,6 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/core/hierarchy.h"
 #include "facespace/physics/physics.h"
 #include "facespace/formats/io.h"

@@ -1,4 +1,4 @@
-#include "facespace/api/store.h"
+#include "facespace/evaluator/store.h"
 
 #include <cinttypes>
 #include <cstdio>

@@ -11,7 +11,7 @@
 #include <string>
 #include <unordered_map>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 
 namespace facespace::api::http {
 

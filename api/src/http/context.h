@@ -14,7 +14,7 @@
 
 #include "cache.h"
 #include "facespace/api/http.h"
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/api/front.h"
 #include "metrics.h"
 

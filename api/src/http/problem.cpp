@@ -1,7 +1,7 @@
 #include "problem.h"
 
 #include "facespace/batch/queue.h"
-#include "facespace/api/request.h"
+#include "facespace/evaluator/request.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 

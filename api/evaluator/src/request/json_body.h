@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "facespace/api/request.h"
+#include "facespace/evaluator/request.h"
 
 namespace facespace::api::body {
 

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "facespace/api/front.h"
-#include "facespace/api/evaluator.h"
-#include "facespace/api/store.h"
+#include "facespace/evaluator/evaluator.h"
+#include "facespace/evaluator/store.h"
 #include "facespace/batch/queue.h"
 
 namespace facespace::api {

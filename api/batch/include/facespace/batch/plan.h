@@ -9,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/api/evaluator.h"
-#include "facespace/api/request.h"
+#include "facespace/evaluator/evaluator.h"
+#include "facespace/evaluator/request.h"
 #include "facespace/core/variants.h"
 
 namespace facespace::batch {

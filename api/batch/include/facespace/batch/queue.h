@@ -28,7 +28,7 @@
 #include <thread>
 #include <vector>
 
-#include "facespace/api/store.h"
+#include "facespace/evaluator/store.h"
 #include "facespace/batch/plan.h"
 #include "facespace/core/enum_table.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/core/speech.h"
 #include "facespace/speech/speech.h"
 

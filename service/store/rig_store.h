@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "facespace/api/store.h"
+#include "facespace/evaluator/store.h"
 
 namespace facespace {
 

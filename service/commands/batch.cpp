@@ -11,8 +11,8 @@
 
 #include "facespace/render/render.h"
 #include "facespace/batch/run.h"
-#include "cli.h"
-#include "flags.h"
+#include "commands/cli.h"
+#include "commands/flags.h"
 
 namespace facespace::cli {
 

@@ -17,13 +17,13 @@
 #include <mutex>
 #include <thread>
 
-#include "cli.h"
-#include "flags.h"
+#include "commands/cli.h"
+#include "commands/flags.h"
 #include "facespace/api/http.h"
 #include "facespace/batch/queue.h"
 #include "facespace/render/render.h"
-#include "rig_store.h"
-#include "web_assets.h"
+#include "store/rig_store.h"
+#include "server/web_assets.h"
 
 namespace facespace::cli {
 

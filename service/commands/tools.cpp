@@ -5,9 +5,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "cli.h"
-#include "flags.h"
-#include "facespace/api/evaluator.h"
+#include "commands/cli.h"
+#include "commands/flags.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/core/basis.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/shape_tools.h"

@@ -1,4 +1,4 @@
-#include "facespace/batch/durable.h"
+#include "facespace/files/durable.h"
 
 #include <fcntl.h>
 #include <ctime>

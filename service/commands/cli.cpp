@@ -1,5 +1,5 @@
-#include "cli.h"
-#include "flags.h"
+#include "commands/cli.h"
+#include "commands/flags.h"
 
 #include <unistd.h>
 
@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/api/describe.h"
-#include "facespace/api/evaluator.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/core/blend.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/lod.h"

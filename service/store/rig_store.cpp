@@ -1,4 +1,4 @@
-#include "rig_store.h"
+#include "store/rig_store.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "facespace/batch/durable.h"
+#include "facespace/files/durable.h"
 #include "facespace/formats/io.h"
 
 namespace facespace {

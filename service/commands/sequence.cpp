@@ -12,9 +12,9 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/render/render.h"
-#include "cli.h"
-#include "flags.h"
-#include "facespace/api/evaluator.h"
+#include "commands/cli.h"
+#include "commands/flags.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
 #include "facespace/formats/io.h"
 #include "facespace/core/fit.h"

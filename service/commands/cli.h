@@ -41,7 +41,7 @@ int Serve(const std::vector<std::string>& args);
 int Render(const std::vector<std::string>& args, bool sheet);
 // Keyframe sequences: sample, bake, reduce.
 int Sequence(const std::vector<std::string>& args);
-// Lip sync from text or audio: keys, audio, video (cli_sequence.cpp).
+// Lip sync from text or audio: keys, audio, video (sequence.cpp).
 int Speak(const std::vector<std::string>& args);
 // Projection of a target mesh onto the face space.
 int FitCommand(const std::vector<std::string>& args);

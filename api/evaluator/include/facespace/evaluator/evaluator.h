@@ -22,8 +22,8 @@
 #include <string>
 #include <vector>
 
-#include "facespace/api/request.h"
-#include "facespace/api/store.h"
+#include "facespace/evaluator/request.h"
+#include "facespace/evaluator/store.h"
 #include "facespace/core/blend.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"

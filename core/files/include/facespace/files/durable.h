@@ -1,4 +1,5 @@
-// Durable file replacement, shared by the rig store, batch jobs and the batch CLI.
+// Durable file replacement (a crash leaves the old file or the new, never a mixture), for whatever
+// keeps files: the rig store, batch jobs and the batch CLI. POSIX alone.
 #pragma once
 
 #include <filesystem>

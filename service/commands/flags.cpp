@@ -1,4 +1,4 @@
-#include "flags.h"
+#include "commands/flags.h"
 
 #include <charconv>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <fstream>
 #include <iterator>
 
-#include "cli.h"
+#include "commands/cli.h"
 
 namespace facespace::cli {
 
