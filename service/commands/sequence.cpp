@@ -17,6 +17,7 @@
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
 #include "facespace/formats/io.h"
+#include "facespace/core/enum_table.h"
 #include "facespace/core/fit.h"
 #include "facespace/core/sequence.h"
 
@@ -112,6 +113,14 @@ class WarningSummary {
   std::vector<Entry> codes_;
 };
 
+// What `facespace sequence` writes: one JSON file of frames (with meshes, or their weights and pose
+// alone), or a file per frame in a folder (OBJ, glb, f32).
+enum class SequenceOutput { kJson, kWeights, kObj, kGlb, kF32 };
+constexpr EnumName<SequenceOutput> kSequenceOutputs[] = {{SequenceOutput::kJson, "json"}, {SequenceOutput::kWeights, "weights"},
+                                                         {SequenceOutput::kObj, "obj"},   {SequenceOutput::kGlb, "glb"},
+                                                         {SequenceOutput::kF32, "f32"}};
+bool OneFile(SequenceOutput o) { return o == SequenceOutput::kJson || o == SequenceOutput::kWeights; }
+
 // What `facespace sequence` is asked.
 struct SequenceArgs {
   std::vector<std::string> paths;
@@ -119,6 +128,7 @@ struct SequenceArgs {
   bool smooth = false, has_fps = false, has_reduce = false, has_bake = false, physics = true;
   float fps = 30.0f, tolerance = 0.0f, bake = 0.0f;
   BlendOptions options;
+  SequenceOutput output = SequenceOutput::kJson;  // --format, parsed.
 };
 
 void AddSequenceFlags(Flags& flags, SequenceArgs& a) {
@@ -166,12 +176,10 @@ int CheckSequenceArgs(const Flags& flags, SequenceArgs& a) {
     std::error_code ec;
     a.format = a.out.back() == '/' || std::filesystem::is_directory(a.out, ec) ? "glb" : "json";
   }
-  if ((a.format == "json" || a.format == "weights") && a.out.back() == '/') {
+  if (!ParseEnum(kSequenceOutputs, a.format, &a.output)) return std::fprintf(stderr, "error: --format must be json, weights, obj, glb or f32\n"), 2;
+  if (OneFile(a.output) && a.out.back() == '/') {
     std::fprintf(stderr, "error: --format %s writes one file, and '%s' is a folder: give a file name, or --format obj|glb|f32 for a file per frame\n", a.format.c_str(), a.out.c_str());
     return 2;
-  }
-  if (a.format != "json" && a.format != "weights" && a.format != "obj" && a.format != "glb" && a.format != "f32") {
-    return std::fprintf(stderr, "error: --format must be json, weights, obj, glb or f32\n"), 2;
   }
   return 0;
 }
@@ -271,7 +279,8 @@ int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored, const f
   std::filesystem::create_directories(a.out, ec);
   if (ec) return std::fprintf(stderr, "error: cannot create '%s': %s\n", a.out.c_str(), ec.message().c_str()), 1;
   MeshFormat mf;
-  ParseMeshFormat(a.format, &mf);
+  const char* extension = EnumEntry(kSequenceOutputs, a.output).name;  // The mesh format's name too.
+  ParseMeshFormat(extension, &mf);
   api::MeshRequest frame;
   frame.options = a.options;
   const api::OutputSpec spec = api::OutputSpec::Mesh(frame, mf);
@@ -287,7 +296,7 @@ int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored, const f
     auto bytes = evaluator.Run(stored, point, spec, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
     char name[64];
-    std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, a.format.c_str());
+    std::snprintf(name, sizeof name, "/frame_%05zu.%s", k, extension);
     if (!WriteOutput(a.out + name, bytes->bytes)) return std::fprintf(stderr, "error: cannot write '%s%s'\n", a.out.c_str(), name), 1;
     progress.Step(k + 1);
   }
@@ -299,11 +308,11 @@ int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored, const f
 int WriteSamples(const std::shared_ptr<const api::StoredRig>& stored, const facespace::Sequence& seq, const SequenceArgs& a) {
   std::vector<float> times;
   if (int rc = SampleTimes(a, seq, times); rc != 0) return rc;
-  if (a.format != "json" && a.format != "weights") return WriteFrameFiles(stored, seq, times, a);
+  if (!OneFile(a.output)) return WriteFrameFiles(stored, seq, times, a);
   std::vector<Warning> warnings;
   const api::Evaluator evaluator;
   api::Workspace ws;
-  auto body = api::SampleSequenceJson(evaluator, stored, seq, times, a.options, warnings, ws, static_cast<size_t>(-1), a.format == "weights");
+  auto body = api::SampleSequenceJson(evaluator, stored, seq, times, a.options, warnings, ws, static_cast<size_t>(-1), a.output == SequenceOutput::kWeights);
   WarningSummary summary;  // Each warning of the list is one frame's (they are in the body, by frame).
   for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
   summary.Print(times.size());

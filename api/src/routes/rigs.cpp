@@ -5,6 +5,7 @@
 
 #include "facespace/api/describe.h"
 #include "facespace/formats/lod.h"
+#include "facespace/core/enum_table.h"
 #include "facespace/core/transform.h"
 #include "facespace/render/render.h"
 #include "http/encoded.h"
@@ -318,8 +319,11 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
     SendProblem(req, res, 422, "invalid-request", "lod: must be " + LodExpected(), {{"?lod", "must be " + LodExpected()}});
     return;
   }
-  std::string format = req.has_param("format") ? req.get_param_value("format") : "json";
-  if (format != "json" && format != "u32") {
+  // The triangles as JSON, or the indices alone as little-endian uint32.
+  enum class TopologyFormat { kJson, kU32 };
+  static constexpr EnumName<TopologyFormat> kTopologyFormats[] = {{TopologyFormat::kJson, "json"}, {TopologyFormat::kU32, "u32"}};
+  TopologyFormat format = TopologyFormat::kJson;
+  if (req.has_param("format") && !ParseEnum(kTopologyFormats, req.get_param_value("format"), &format)) {
     SendProblem(req, res, 422, "invalid-request", "format: must be json or u32 (the indices alone, little-endian)", {{"?format", "must be json or u32"}});
     return;
   }
@@ -329,7 +333,7 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
     return;
   }
   const Rig& at = *derived->rig;
-  if (format == "u32") {
+  if (format == TopologyFormat::kU32) {
     // For WebGL clients: every primitive's triangle indices as little-endian uint32, one after the
     // other, in the order of the f32 and JSON mesh outputs; the headers say how many each has.
     std::string vertices, indices;
