@@ -7,7 +7,9 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "facespace/api/describe.h"
 #include "facespace/evaluator/evaluator.h"
@@ -62,11 +64,19 @@ void PrintStatus(const Status& s) {
 
 void PrintWarnings(const std::vector<Warning>& warnings) {
   if (Quiet()) return;
+  // A kind that comes more than once is one line, its first and how many more (Uka's 37 motions that
+  // name bones she lacks are one line); --verbose prints each. In the order each kind first came.
+  std::map<std::string, size_t> count;
+  for (const Warning& w : warnings) ++count[w.code];
+  std::set<std::string> said;
   for (const Warning& w : warnings) {
+    const size_t n = count[w.code];
+    if (!Verbose() && n > 1 && !said.insert(w.code).second) continue;
     // The message of an extrapolation warning already names its code (after a "cell N: " or
     // "t=T: " prefix when it has one).
-    if (w.message.find(w.code + ": ") != std::string::npos) std::fprintf(stderr, "warning: %s\n", w.message.c_str());
-    else std::fprintf(stderr, "warning: %s: %s\n", w.code.c_str(), w.message.c_str());
+    const std::string line = w.message.find(w.code + ": ") != std::string::npos ? w.message : w.code + ": " + w.message;
+    if (Verbose() || n == 1) std::fprintf(stderr, "warning: %s\n", line.c_str());
+    else std::fprintf(stderr, "warning: %s (and %zu more %s warnings: --verbose lists them)\n", line.c_str(), n - 1, w.code.c_str());
   }
 }
 

@@ -62,6 +62,10 @@ int Flags::Parse(const std::vector<std::string>& args, std::vector<std::string>&
       Quiet() = true;
       continue;
     }
+    if ((a == "--verbose" || a == "-v") && !Find(a)) {  // Every command's: each warning on a line of its own.
+      Verbose() = true;
+      continue;
+    }
     if (a.size() < 2 || a[0] != '-') {  // "-" alone is a positional argument (stdout, stdin).
       positional.push_back(a);
       continue;
@@ -105,6 +109,7 @@ std::string Flags::Help() const {
     out += left + f.help + "\n";
   }
   if (!Find("--quiet")) out += "  -q, --quiet                 no warnings on stderr (errors still)\n";
+  if (!Find("--verbose")) out += "  -v, --verbose               every warning on a line of its own (else one line per kind, counted)\n";
   out += "  -h, --help                  this text\n";
   if (!about_.empty()) out += "\n" + about_;
   return out;
@@ -113,6 +118,11 @@ std::string Flags::Help() const {
 bool& Quiet() {
   static bool quiet = false;
   return quiet;
+}
+
+bool& Verbose() {
+  static bool verbose = false;
+  return verbose;
 }
 
 bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi, long long* out) {

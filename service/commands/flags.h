@@ -51,6 +51,9 @@ class Flags {
 // -q / --quiet, which every command's Parse takes (one that declares its own --quiet keeps it):
 // warnings are not printed (PrintWarnings), errors are.
 bool& Quiet();
+// -v / --verbose, which every command's Parse takes: every warning printed, where by default a kind
+// that comes more than once is one line with its count (PrintWarnings).
+bool& Verbose();
 
 // Helpers for Flags::Value: parse a number in [lo, hi] or print "error: FLAG: ..." and return false.
 bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi, long long* out);

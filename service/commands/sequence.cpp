@@ -424,7 +424,7 @@ int Speak(const std::vector<std::string>& args) {
     };
   };
   Flags flags(
-      "usage: facespace speak RIG (--text TEXT | --audio FILE.wav [--transcript TEXT]) [--voice V] [--rate WPM] [--fps N]\n"
+      "usage: facespace speak RIG (--text TEXT | --audio FILE.wav [--transcript TEXT]) [--voice V] [--rate WPM] [--fps N] [--strength S]\n"
       "       [--expressions JSON] [--gaze YAW,PITCH|X,Y,Z|JSON] [--blink PER_MINUTE[,SEED]] [--width W --height H] [--camera JSON]\n"
       "       -o OUT.json|OUT.wav|OUT.webm|OUT.ndjson\n",
       "Lip sync: the words are spoken by espeak-ng (--text) or heard by PocketSphinx (--audio), their phonemes become visemes\n"
@@ -450,9 +450,13 @@ int Speak(const std::vector<std::string>& args) {
   if (paths.size() != 1 || out.empty() || text.empty() == audio_path.empty()) {
     return flags.UsageError(paths.size() != 1 ? "give one rig" : out.empty() ? "no output given (-o)" : "give --text or --audio");
   }
-  if (format.empty()) {
-    const std::string ext = std::filesystem::path(out).extension().string();
-    format = ext == ".wav" ? "wav" : ext == ".webm" ? "webm" : ext == ".ndjson" ? "ndjson" : "json";
+  if (format.empty()) {  // From OUT's extension; none (or stdout) is JSON; another is refused, not written as JSON.
+    const std::string ext = out == "-" ? "" : std::filesystem::path(out).extension().string();
+    format = ext == ".wav" ? "wav" : ext == ".webm" ? "webm" : ext == ".ndjson" ? "ndjson" : ext == ".json" || ext.empty() ? "json" : "";
+    if (format.empty()) {
+      std::fprintf(stderr, "error: -o %s: speak writes .json, .wav, .webm or .ndjson (or say which with --format json|wav|webm|ndjson)\n", out.c_str());
+      return 2;
+    }
   }
   // One body, read by the route's own parser: the same checks and messages.
   nlohmann::json body = nlohmann::json::object();

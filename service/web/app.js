@@ -3,6 +3,12 @@
 'use strict';
 
 import { createMeshView, drag } from './meshview.js';
+import { History } from './history.js';
+import { characterFile, parseCharacter, recentCharacters, rememberCharacter } from './character.js';
+import { loadSheets, showCell } from './thumbs.js';
+import { createSpeech } from './speech.js';
+import { createMotions } from './motion.js';
+import { fillSelect } from './dom.js';
 
 const params = new URLSearchParams(location.search);
 const API = (params.get('api') || '').replace(/\/$/, '');  // Another origin, or '' for this one.
@@ -10,8 +16,10 @@ const $ = (id) => document.getElementById(id);
 
 // `weights` by shape, or `controls` by control when the rig has controls (MakeHuman modifiers):
 // the sliders show one or the other.
-const state = { rig: null, ready: null, detail: null, weights: {}, controls: {}, view: 'shaded', yaw: 0, pitch: 0, lastPng: null,
-                motion: { name: '', duration: 0, time: 0, playing: false, last: 0 } };
+// `expressions` by name (the rig's presets: happy, blink, ...), on top of either.
+const state = { rig: null, ready: null, detail: null, weights: {}, controls: {}, expressions: {}, view: 'shaded', yaw: 0, pitch: 0,
+                lastPng: null, motion: { name: '', duration: 0, time: 0, playing: false, last: 0, maxSum: 0 } };
+const edits = new History();  // Undo and redo (history.js).
 
 // ---- service calls -------------------------------------------------------------------------
 
@@ -52,9 +60,114 @@ const nonZero = () => nonZeroOf(values());
 // The request members for the current point: {"weights": ...} or {"controls": ...}, and the motion
 // playing (its clip and time: what it animates, the rest from the sliders).
 const point = () => ({
-  ...(usesControls() ? { controls: nonZero() } : { weights: state.speech ? speechWeights() : nonZero() }),
+  ...(usesControls() ? { controls: nonZero() } : { weights: state.speech ? speech.weights() : nonZero() }),
+  ...(Object.keys(nonZeroOf(state.expressions)).length ? { expressions: nonZeroOf(state.expressions) } : {}),
   ...(state.motion.name ? { animation: state.motion.name, time: +state.motion.time.toFixed(4) } : {}),
 });
+
+// ---- undo, redo and keeping a character --------------------------------------------------------
+
+// What the user set, as history.js and character files keep it.
+const snapshot = () => ({ weights: nonZeroOf(state.weights), controls: nonZeroOf(state.controls), expressions: nonZeroOf(state.expressions) });
+
+// An edit ended: the face as it now is becomes a step of the history.
+function commit() {
+  edits.commit(snapshot());
+  showHistory();
+}
+
+function showHistory() {
+  $('undo').disabled = !edits.canUndo();
+  $('redo').disabled = !edits.canRedo();
+}
+
+// Shows `face` (a snapshot): every slider at its value (0 when it names none), the presets as it says.
+function applyFace(face) {
+  for (const s of items()) setWeight(s.name, (usesControls() ? face.controls : face.weights)[s.name] || 0, true);
+  state.expressions = { ...face.expressions };
+  showPresets();
+  schedule();
+}
+
+function step(face) {
+  if (!face) return;
+  applyFace(face);
+  showHistory();
+}
+
+// The character file of the face shown, and the face kept among the recent ones.
+function face() {
+  return { rig: state.rig, rig_version: state.detail.version || '', ...snapshot(), view: state.view, yaw: state.yaw, pitch: state.pitch };
+}
+
+function saveCharacter() {
+  const c = face();
+  save(new Blob([characterFile(c)], { type: 'application/json' }), `${state.rig}.character.json`);
+  rememberCharacter(c, `${state.rig} ${new Date().toLocaleString()}`);
+  showRecent();
+}
+
+// A character (from a file or the recent list) opened: its rig loaded if it is another, its face shown,
+// an edit that undo can step back from.
+async function openCharacter(c) {
+  if (![...$('rig').options].some((o) => o.value === c.rig)) throw new Error(`this service has no rig "${c.rig}" for that character`);
+  if (c.rig !== state.rig) {
+    $('rig').value = c.rig;
+    await loadRig(c.rig, c.weights);
+  }
+  if (c.rig_version && state.detail.version && c.rig_version !== state.detail.version) notice(`${c.rig} has changed since this character was kept`);
+  if (['shaded', 'heatmap', 'wireframe', 'clay'].includes(c.view)) state.view = $('view').value = c.view;
+  state.yaw = Number.isFinite(c.yaw) ? c.yaw : 0;
+  state.pitch = Number.isFinite(c.pitch) ? c.pitch : 0;
+  applyFace({ weights: c.weights, controls: c.controls, expressions: c.expressions });
+  commit();
+}
+
+function showRecent() {
+  fillSelect($('recent'), 'Recent\u2026', recentCharacters().map((c, i) => [String(i), c.name || c.rig]));
+  $('recent').disabled = $('recent').options.length < 2;
+}
+
+// ---- presets: the rig's expressions, one click each ------------------------------------------------
+
+// A chip per expression the rig has (happy, sad, blink, ...), with a picture of it; clicking one shows it
+// at full value (and clicking it again takes it off).
+function buildPresets() {
+  const bar = $('presets');
+  bar.textContent = '';
+  const names = Object.keys(state.detail.expressions || {});
+  bar.hidden = !names.length;
+  for (const name of names) {
+    const chip = document.createElement('button');
+    chip.type = 'button';
+    chip.className = 'preset';
+    chip.dataset.name = name;
+    chip.setAttribute('aria-pressed', 'false');
+    const pic = document.createElement('span');
+    pic.className = 'thumb';
+    chip.append(pic, document.createTextNode(name));
+    chip.addEventListener('click', () => {
+      state.expressions = state.expressions[name] ? {} : { [name]: 1 };
+      showPresets();
+      schedule();
+      commit();
+    });
+    bar.appendChild(chip);
+  }
+  const id = state.rig;
+  const binds = names.map((n) => ({ weights: state.detail.expressions[n].weights || {} }));
+  loadSheets(post, `/v1/rigs/${encodeURIComponent(id)}`, binds, { view: 'shaded', camera: { frame: 'shapes' } },
+             (url, first, count) => {
+               const chips = bar.querySelectorAll('.preset .thumb');
+               for (let i = 0; i < count; ++i) showCell(chips[first + i], url, i, count, 40);
+             }, () => state.rig === id);
+}
+
+function showPresets() {
+  for (const chip of document.querySelectorAll('#presets .preset')) {
+    chip.setAttribute('aria-pressed', String(!!state.expressions[chip.dataset.name]));
+  }
+}
 
 // The sliders' items: shapes (not driven ones), or controls.
 function items() {
@@ -78,8 +191,12 @@ function setWeight(name, value, fromPartner) {
 }
 
 // Groups: identity, expression, then a face's regions from the top down (ARKit-named rigs), then the rest by name.
-const kRegions = ['brow', 'eye', 'cheek', 'nose', 'jaw', 'mouth', 'tongue'];
-function groupOrder(g) { return g === 'identity' ? 0 : g === 'expression' ? 1 : kRegions.includes(g) ? 2 + kRegions.indexOf(g) : 2 + kRegions.length; }
+// MMD's groups by the same regions (its whole-face morphs first; "other" and "system" last).
+const kRegions = ['face', 'brow', 'eyebrow', 'eye', 'cheek', 'nose', 'jaw', 'mouth', 'tongue'];
+function groupOrder(g) {
+  if (g === 'identity' || g === 'expression') return g === 'identity' ? 0 : 1;
+  return kRegions.includes(g) ? 2 + kRegions.indexOf(g) : ['other', 'default', 'system'].includes(g) ? 99 : 2 + kRegions.length;
+}
 
 // The sliders, one <details> per group. A rig with many (MakeHuman's 146 controls, Uka's 200
 // expressions) opens with only its first group unfolded; the filter finds any slider by name.
@@ -130,7 +247,9 @@ function buildControls() {
       row.dataset.name = s.name;
       row.dataset.search = [s.name, ...(s.aliases || [])].join(' ').toLowerCase();
       const label = document.createElement('label');
-      label.textContent = s.name.includes('/') ? readableControl(s.name) : s.name;  // Controls: group/name.
+      // Controls as words; a name in another script with its English alias beside it ("まばたき · blink").
+      const english = (s.aliases || []).find((a) => /^[\x20-\x7e]+$/.test(a));
+      label.textContent = s.name.includes('/') ? readableControl(s.name) : english && !/^[\x20-\x7e]+$/.test(s.name) ? `${s.name} \u00b7 ${english}` : s.name;
       label.title = `${s.name} [${s.min}, ${s.max}]` + (s.partner ? ` (partner ${s.partner})` : '') +
                     (s.negative ? ` (${s.negative} below 0, ${s.positive} above)` : '') +
                     (s.aliases && s.aliases.length ? ` (also ${s.aliases.join(', ')})` : '');
@@ -141,14 +260,34 @@ function buildControls() {
       Object.assign(num, { type: 'number', step: 0.05, value: values()[s.name] || 0 });
       num.setAttribute('aria-label', s.name + ' value');
       range.addEventListener('input', () => { setWeight(s.name, parseFloat(range.value)); schedule(); });
-      num.addEventListener('change', () => { setWeight(s.name, parseFloat(num.value)); schedule(); });
-      row.append(label, range, num);
+      range.addEventListener('change', commit);  // Let go: one edit, however long the drag.
+      num.addEventListener('change', () => { setWeight(s.name, parseFloat(num.value)); schedule(); commit(); });
+      const pic = document.createElement('span');
+      pic.className = 'thumb';
+      pic.title = `what ${s.name} does`;
+      row.append(pic, label, range, num);
       details.appendChild(row);
     }
     box.appendChild(details);
   });
   $('filter').value = '';
   filterControls();
+  loadShapeThumbs();
+}
+
+// Each slider's picture: its shape alone at full weight (a control: its positive shape), in the order
+// the rows show them.
+function loadShapeThumbs() {
+  const rows = [...document.querySelectorAll('#sliders .shape')];
+  const id = state.rig;
+  const cells = rows.map((row) => {
+    const s = shapeByName(row.dataset.name);
+    return { weights: { [usesControls() ? s.positive : s.name]: 1 } };
+  });
+  loadSheets(post, `/v1/rigs/${encodeURIComponent(id)}`, cells, { view: 'shaded', camera: { frame: 'shapes' } },
+             (url, first, count) => {
+               for (let i = 0; i < count; ++i) showCell(rows[first + i].querySelector('.thumb'), url, i, count, 28);
+             }, () => state.rig === id);
 }
 
 // Shows the sliders whose name (or alias) holds every word typed, unfolding the groups that have
@@ -196,6 +335,7 @@ function randomise() {
   }
   $('seed').value = (parseInt($('seed').value, 10) || 0) + 1;
   schedule();
+  commit();
 }
 
 // Where the rig starts and resets: the neutral face, unless its manifest says its defaults.
@@ -203,9 +343,12 @@ const startValue = (s) => (state.detail.start === 'defaults' ? s.default || 0 : 
 
 function reset() {
   for (const s of items()) setWeight(s.name, startValue(s), true);
+  state.expressions = {};
+  showPresets();
   state.yaw = 0;
   state.pitch = 0;
   schedule();
+  commit();
 }
 
 // ---- refresh: three lanes, the mesh, the check and the render, each at its own pace -------------
@@ -226,160 +369,6 @@ function schedule() {
 
 function refreshViews() {
   for (const lane of Object.values(lanes)) kick(lane);
-}
-
-// ---- motions: a rig's clip (an MMD motion, a glTF animation) played, paused, scrubbed ------------
-
-function setupMotions() {
-  const anims = state.detail.animations || [];
-  const select = $('motion-name');
-  select.textContent = '';
-  const none = document.createElement('option');
-  none.value = '';
-  none.textContent = 'none: the sliders';
-  select.appendChild(none);
-  for (const a of anims) {
-    const o = document.createElement('option');
-    o.value = a.name;
-    o.textContent = `${a.name} (${a.duration.toFixed(1)} s)`;
-    select.appendChild(o);
-  }
-  $('motion').hidden = !anims.length;
-  pickMotion('');
-}
-
-function pickMotion(name) {
-  const a = (state.detail.animations || []).find((x) => x.name === name);
-  Object.assign(state.motion, { name: a ? a.name : '', duration: a ? a.duration : 0, time: 0, playing: false });
-  $('motion-name').value = state.motion.name;
-  $('motion-time').max = String(state.motion.duration || 1);
-  $('motion-play').disabled = $('motion-time').disabled = !a;
-  showMotion();
-  if (!a) showMotionWeights(null);
-}
-
-function showMotion() {
-  $('motion-time').value = String(state.motion.time);
-  $('motion-clock').textContent = `${state.motion.time.toFixed(2)} s`;
-  $('motion-play').innerHTML = state.motion.playing ? '&#10074;&#10074;' : '&#9654;';
-  $('motion-play').setAttribute('aria-label', state.motion.playing ? 'pause' : 'play');
-}
-
-// Playing: the clock runs in real time (looping), and each frame asks for the views at its time; the
-// lanes send what they can (the newest time when a lane frees).
-function tick(now) {
-  const m = state.motion;
-  if (!m.playing) return;
-  m.time = (m.time + (now - m.last) / 1000) % (m.duration || 1);
-  m.last = now;
-  showMotion();
-  refreshViews();
-  requestAnimationFrame(tick);
-}
-
-$('motion-name').addEventListener('change', () => { pickMotion($('motion-name').value); schedule(); });
-$('motion-play').addEventListener('click', () => {
-  state.motion.playing = !state.motion.playing;
-  state.motion.last = performance.now();
-  showMotion();
-  if (state.motion.playing) requestAnimationFrame(tick);
-});
-$('motion-time').addEventListener('input', () => {
-  state.motion.time = parseFloat($('motion-time').value);
-  showMotion();
-  refreshViews();
-});
-
-// ---- speech: the face says a line (POST /speech: its keys and audio), played with the audio -----
-
-// state.speech while one plays: {keys, audio (an <audio>), url}. The views then show the keys' weights at
-// the audio's own clock (audio.currentTime), so the mouth follows what is heard.
-function speechWeights() {
-  const { keys, audio } = state.speech;
-  const t = audio.currentTime;
-  let i = 0;
-  while (i + 1 < keys.length && keys[i + 1].time <= t) ++i;
-  const b = keys[i], c = keys[Math.min(i + 1, keys.length - 1)];
-  const u = c.time > b.time ? Math.min(1, Math.max(0, (t - b.time) / (c.time - b.time))) : 0;
-  const f = u * u * (3 - 2 * u);  // The keys' smoothstep, as the service samples them.
-  const w = {};
-  for (const name of new Set([...Object.keys(b.weights), ...Object.keys(c.weights)])) {
-    const v = (b.weights[name] || 0) + ((c.weights[name] || 0) - (b.weights[name] || 0)) * f;
-    if (v !== 0) w[name] = +v.toFixed(5);
-  }
-  state.speechMax = Math.max(state.speechMax || 0, ...Object.values(w), 0);  // For the browser test.
-  return w;
-}
-
-function setupSpeech() {
-  stopSpeech();
-  const can = !!(state.detail && state.detail.visemes);
-  $('say').hidden = !can;
-  $('say-state').textContent = '';
-}
-
-function stopSpeech() {
-  if (!state.speech) return;
-  state.speech.audio.pause();
-  URL.revokeObjectURL(state.speech.url);
-  state.speech = null;
-  $('say-stop').hidden = true;
-  refreshViews();
-}
-
-// `text`, or a WAV file: its keys over the face the sliders make, then the audio played and followed.
-async function say(text, file) {
-  const id = state.ready;
-  if (!id) return;
-  stopSpeech();
-  $('say-state').textContent = text ? 'speaking\u2026' : 'listening\u2026';
-  const path = `/v1/rigs/${encodeURIComponent(id)}/speech`;
-  let answer, wav;
-  try {
-    if (text) {
-      answer = await post(path, { text, format: 'json', with_audio: true, weights: nonZero() }).then((r) => r.json());
-      wav = Uint8Array.from(atob(answer.audio_wav), (ch) => ch.charCodeAt(0));
-    } else {
-      const weights = encodeURIComponent(JSON.stringify(nonZero()));
-      answer = await call(`${path}?format=json&weights=${weights}`, { method: 'POST', headers: { 'Content-Type': 'audio/wav' }, body: file })
-        .then((r) => r.json());
-      wav = file;
-    }
-  } catch (e) {
-    $('say-state').textContent = '';
-    throw e;
-  }
-  if (id !== state.ready) return;
-  const url = URL.createObjectURL(new Blob([wav], { type: 'audio/wav' }));
-  const audio = new Audio(url);
-  state.speech = { keys: answer.keys, audio, url };
-  state.speechMax = 0;
-  const said = answer.visemes.filter((v) => v.viseme !== 'sil').length;
-  $('say-state').textContent = `${answer.duration.toFixed(1)} s, ${said} visemes (${answer.source})`;
-  if (answer.warnings && answer.warnings.length) showWarnings(answer.warnings);
-  $('say-stop').hidden = false;
-  const follow = () => {
-    if (!state.speech || state.speech.audio !== audio) return;
-    refreshViews();
-    if (audio.ended) stopSpeech();
-    else requestAnimationFrame(follow);
-  };
-  audio.addEventListener('playing', () => requestAnimationFrame(follow), { once: true });
-  await audio.play();
-}
-
-$('say-go').addEventListener('click', () => {
-  const text = $('say-text').value.trim();
-  if (text) say(text).catch(showError);
-});
-$('say-text').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('say-go').click(); });
-$('say-file').addEventListener('change', () => { const f = $('say-file').files[0]; if (f) say(null, f).catch(showError); });
-$('say-stop').addEventListener('click', stopSpeech);
-for (const ev of ['dragover', 'drop']) {
-  $('say').addEventListener(ev, (e) => {
-    e.preventDefault();
-    if (ev === 'drop' && e.dataTransfer.files[0]) say(null, e.dataTransfer.files[0]).catch(showError);
-  });
 }
 
 // `gap`: the least time between a lane's answer and its next request, so that renders (tens of ms of the
@@ -460,12 +449,22 @@ function showWarnings(warnings) {
   }
   const extrapolation = warnings.find((w) => w.code === 'extrapolation');
   const parts = [];
-  if (extrapolation) parts.push(extrapolation.message);  // "extrapolation: sum of weights 1.7 exceeds 1": said once.
+  // An authored motion whose own keys go past the authored space (Uka's sum 4): said once, quietly, with
+  // the largest sum it has reached; the user's own point past it stays a warning.
+  const motion = state.motion.name && !usesControls();
+  if (extrapolation && motion) {
+    state.motion.maxSum = Math.max(state.motion.maxSum, extrapolation.value || 0);
+    parts.push(`${state.motion.name}'s own keys go past the authored space (sum up to ${+state.motion.maxSum.toFixed(2)})`);
+  } else if (extrapolation) {
+    parts.push(extrapolation.message);  // "extrapolation: sum of weights 1.7 exceeds 1": said once.
+  }
   if (out.size) parts.push('out of range: ' + [...out].join(', '));
   for (const w of warnings) {
     if (!['extrapolation', 'out_of_range', 'control_out_of_range'].includes(w.code)) parts.push(w.message);
   }
-  el.textContent = '\u26a0 ' + parts.join(' \u00b7 ');
+  el.textContent = (motion ? '\u24d8 ' : '\u26a0 ') + parts.join(' \u00b7 ');
+  el.title = el.textContent;
+  el.className = motion ? 'warning motion' : 'warning';
   el.hidden = false;
 }
 
@@ -473,20 +472,26 @@ function showWarnings(warnings) {
 
 function writeHash() {
   const w = Object.entries(nonZero()).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
-  history.replaceState(null, '', '#rig=' + encodeURIComponent(state.rig) + (usesControls() ? '&c=' : '&w=') + w +
+  const e = Object.entries(nonZeroOf(state.expressions)).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
+  history.replaceState(null, '', '#rig=' + encodeURIComponent(state.rig) + (usesControls() ? '&c=' : '&w=') + w + (e ? '&e=' + e : '') +
                                  (state.view !== 'shaded' ? '&view=' + state.view : ''));
+}
+
+// "name:0.5,other:1" as {name: 0.5, other: 1}.
+function pairsOf(text) {
+  const out = {};
+  for (const pair of (text || '').split(',').filter(Boolean)) {
+    const i = pair.lastIndexOf(':');
+    out[decodeURIComponent(pair.slice(0, i))] = parseFloat(pair.slice(i + 1));
+  }
+  return out;
 }
 
 function readHash() {
   const h = new URLSearchParams(location.hash.slice(1));
-  const weights = {};
   const key = h.has('c') ? 'c' : 'w';
-  for (const pair of (h.get(key) || '').split(',').filter(Boolean)) {
-    const i = pair.lastIndexOf(':');
-    weights[decodeURIComponent(pair.slice(0, i))] = parseFloat(pair.slice(i + 1));
-  }
   // A link's weights are the whole vector: shapes it does not name are 0, not their defaults.
-  return { rig: h.get('rig'), weights: h.has(key) ? weights : null, view: h.get('view') };
+  return { rig: h.get('rig'), weights: h.has(key) ? pairsOf(h.get(key)) : null, expressions: pairsOf(h.get('e')), view: h.get('view') };
 }
 
 // ---- downloads -----------------------------------------------------------------------------
@@ -508,6 +513,8 @@ async function download(format) {
 }
 
 const gl = createMeshView($('gl'));
+const motions = createMotions({ state, $, refreshViews, schedule, showMotionWeights });
+const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError });
 
 // ---- start ---------------------------------------------------------------------------------
 
@@ -532,10 +539,12 @@ async function loadRig(id, weights) {
   $('credit').hidden = !state.detail.credit;
   state.weights = {};
   state.controls = {};
+  state.expressions = {};
   for (const s of items()) values()[s.name] = weights ? 0 : startValue(s);
   buildControls();
-  setupMotions();
-  setupSpeech();
+  buildPresets();
+  motions.setup();
+  speech.setup();
   const unknown = [];
   for (const [k, v] of Object.entries(weights || {})) {
     if (shapeByName(k)) setWeight(k, v, true);
@@ -545,6 +554,8 @@ async function loadRig(id, weights) {
   if (unknown.length) notice(`Not in ${id}, left out: ${unknown.slice(0, 6).join(', ')}${unknown.length > 6 ? ', \u2026' : ''}`);
   gl.setTopology(topology);
   state.ready = id;
+  edits.clear(snapshot());  // A rig's history starts at the face it opens with.
+  showHistory();
   schedule();
 }
 
@@ -553,17 +564,13 @@ async function start() {
   if (['shaded', 'heatmap', 'wireframe', 'clay'].includes(fromHash.view)) state.view = $('view').value = fromHash.view;
   try {
     const { rigs } = await (await call('/v1/rigs')).json();
-    for (const r of rigs) {
-      const o = document.createElement('option');
-      o.value = r.id;
-      o.textContent = `${r.id} (${r.shapes} shapes)`;
-      $('rig').appendChild(o);
-    }
+    fillSelect($('rig'), null, rigs.map((r) => [r.id, `${r.id} (${r.shapes} shapes)`]));
     if (!rigs.length) throw new Error('the service has no rigs');
     const known = rigs.some((r) => r.id === fromHash.rig);
     const first = known ? fromHash.rig : rigs[0].id;
     $('rig').value = first;
     await loadRig(first, fromHash.weights);
+    if (Object.keys(fromHash.expressions).length) applyFace({ ...snapshot(), expressions: fromHash.expressions });
     if (fromHash.rig && !known) notice(`No rig \u201c${fromHash.rig}\u201d here: showing ${first}`);
   } catch (e) {
     showError(e);
@@ -599,11 +606,37 @@ async function share() {
 }
 
 $('share').addEventListener('click', share);
+$('undo').addEventListener('click', () => step(edits.undo()));
+$('redo').addEventListener('click', () => step(edits.redo()));
+document.addEventListener('keydown', (e) => {  // Ctrl+Z, Ctrl+Shift+Z (and Ctrl+Y), outside text boxes.
+  if (!(e.ctrlKey || e.metaKey) || ['INPUT', 'TEXTAREA'].includes(e.target.tagName) && e.target.type !== 'range') return;
+  const key = e.key.toLowerCase();
+  if (key === 'z' || key === 'y') {
+    e.preventDefault();
+    step(key === 'y' || e.shiftKey ? edits.redo() : edits.undo());
+  }
+});
+$('save').addEventListener('click', saveCharacter);
+$('open').addEventListener('change', async () => {
+  const file = $('open').files[0];
+  $('open').value = '';
+  if (!file) return;
+  try {
+    await openCharacter(parseCharacter(await file.text()));
+    notice(`\u2713 Opened ${file.name}`);
+  } catch (e) { showError(e); }
+});
+$('recent').addEventListener('change', () => {
+  const c = recentCharacters()[parseInt($('recent').value, 10)];
+  $('recent').value = '';
+  if (c) openCharacter(c).catch(showError);
+});
+showRecent();
 $('filter').addEventListener('input', filterControls);
 drag($('preview'), (dx, dy) => { state.yaw += dx * 0.5; state.pitch = Math.max(-80, Math.min(80, state.pitch + dy * 0.5)); },
      () => schedule());
 // On a phone the status line sticks at the top and the views under it: they stick at its height.
 new ResizeObserver(() => document.documentElement.style.setProperty('--status-h', `${$('status').offsetHeight}px`)).observe($('status'));
 
-window.facespace = { state, gl, loadRig, schedule };  // For tests and the console.
+window.facespace = { state, gl, loadRig, schedule, edits, point, openCharacter, parseCharacter };  // For tests and the console.
 start();

@@ -15,7 +15,8 @@ free_port() { python3 -c 'import socket;s=socket.socket();s.bind(("127.0.0.1",0)
 port=$(free_port); web=$(free_port)
 mkdir -p "$tmp/store" && cp "$src/assets/facecap/facecap.glb" "$src/assets/facecap/facecap.manifest.json" \
   "$src/assets/makehuman/makehuman.glb" "$src/assets/makehuman/makehuman.manifest.json" "$tmp/store/"
-mkdir -p "$tmp/store/uka" && cp "$src/assets/uka/MS_Uka.pmx" "$src/assets/uka/MS_Uka.manifest.json" "$tmp/store/uka/"
+mkdir -p "$tmp/store/uka/motion" && cp "$src/assets/uka/MS_Uka.pmx" "$src/assets/uka/MS_Uka.manifest.json" "$tmp/store/uka/" &&
+  cp "$src/assets/uka/motion/stand.vmd" "$src/assets/uka/motion/01_happy.vmd" "$tmp/store/uka/motion/"  # Her base and one authored expression.
 "$bin" serve --port "$port" --rigs "$tmp/store" --jobs-dir "$tmp/jobs" --cors-origin "http://127.0.0.1:$web" --quiet >"$tmp/log" 2>&1 &
 pids+=($!)
 python3 -m http.server "$web" --bind 127.0.0.1 --directory "$src/service/web" >/dev/null 2>&1 &

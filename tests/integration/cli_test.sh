@@ -376,6 +376,8 @@ check "info on a truncated FBX: exit 1 and the byte offset named" sh -c "[ $rc -
 uka="$src/assets/uka/MS_Uka.pmx"
 "$bin" info "$uka" >"$tmp/uka.info" 2>"$tmp/uka.err"; rc=$?
 check "info MS_Uka.pmx: 49955 vertices, 213 shapes (4 of them material morphs, 7 bone morphs), 302 joints, 40 motions (stand and 39 expressions), the credit; unmatched motion names reported" sh -c "[ $rc -eq 0 ] && grep -q '^vertices   49955' '$tmp/uka.info' && grep -q '^shapes     213' '$tmp/uka.info' && grep -q '302 joints' '$tmp/uka.info' && [ \$(grep -c '^animation ' '$tmp/uka.info') -eq 40 ] && grep -q 'Nagoya Institute of Technology' '$tmp/uka.info' && grep -q 'motion_names_unmatched' '$tmp/uka.err'"
+"$bin" info "$uka" --verbose >/dev/null 2>"$tmp/uka.verbose"
+check "Uka's load warnings: one line per kind, counted ($(wc -l <"$tmp/uka.err") lines), each of them with --verbose ($(wc -l <"$tmp/uka.verbose"))" sh -c "[ \$(grep -c '^warning: motion_names_unmatched' '$tmp/uka.err') -eq 1 ] && grep -Eq 'and [0-9]+ more motion_names_unmatched warnings: --verbose lists them' '$tmp/uka.err' && [ \$(grep -c '^warning: motion_names_unmatched' '$tmp/uka.verbose') -gt 30 ] && [ \$(wc -l <'$tmp/uka.err') -le 4 ]"
 "$bin" info "$M/MMD/Uka_PMD/MS_Uka.pmd" --json >"$tmp/pmd.json" 2>/dev/null
 check "info MS_Uka.pmd: 49955 vertices, 120 expressions (121 skins with the base), each its own shape under its own name (あ's English name mouth_a_geo_C is another morph's)" py 'import json,sys
 d=json.load(open(sys.argv[1])); s=d["shapes"]; names=[x["name"] for x in s]
@@ -568,6 +570,8 @@ check "speak --audio --transcript: its own WAV heard back, aligned, closures fou
 j=json.load(open(sys.argv[1])); sys.exit(not(j["source"]=="pocketsphinx-aligned" and sum(1 for x in j["visemes"] if x["viseme"]=="PP")>=2))' "$tmp/heard.json"
 "$bin" speak "$uka" --text "Good morning." --width 128 --height 128 --fps 25 -o "$tmp/speak.webm" -q; rc=$?
 check "speak -o X.webm: Uka speaking, VP9 + Opus as ffprobe reads them" sh -c "[ $rc -eq 0 ] && ffprobe -v error -show_entries stream=codec_name -of csv=p=0 '$tmp/speak.webm' | tr '\n' ' ' | grep -q 'vp9 opus'"
+err_case "speak -o x.mp4: refused, naming the formats it writes (not JSON into x.mp4)" "speak writes .json, .wav, .webm or .ndjson" speak "$src/assets/facecap/facecap.glb" --text "Hello" -o "$tmp/x.mp4"
+check "  ... and writes no x.mp4" test ! -e "$tmp/x.mp4"
 err_case "speak on a rig without a mouth: says what it lacks" "has no mouth to speak with" speak "$src/assets/makehuman/makehuman.glb" --text "Hello" -o "$tmp/x.json"
 
 finish

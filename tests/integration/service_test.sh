@@ -215,6 +215,7 @@ check "unknown route: 404 problem" problem "$(c "$U/v2/nothing")" 404 "True"
 fox=$A/Fox/Fox.glb
 put_without_key() { problem "$(c -X PUT -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 401 "True" && grep -qi '^www-authenticate: bearer' "$tmp/hdr"; }
 check "PUT without key: 401 + WWW-Authenticate: Bearer" put_without_key
+check "PUT with an empty Bearer token (an unread key file): 401 saying the token is empty" problem "$(c -X PUT -H 'Authorization: Bearer ' -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 401 "'token is empty' in d['detail']"
 check "PUT with a wrong key: 403" problem "$(c -X PUT -H 'Authorization: Bearer nope' -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 403 "True"
 check "PUT with the key in another header: 401" problem "$(c -X PUT -H 'X-Api-Key: k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$fox" "$U/v1/rigs/fox")" 401 "True"
 K=(-H 'Authorization: Bearer k3y-for-tests')

@@ -133,6 +133,9 @@ TEST(Espeak, KeysFollowEspeaksOwnPhonemeTimesExactly) {
   ASSERT_TRUE(spoken.ok()) << spoken.status().message;
   ASSERT_GT(spoken->phonemes.size(), 20u);
   EXPECT_GT(spoken->audio.seconds(), 2.0f);
+  // espeak-ng's unnamed pause events: a pause that lasts is "_", one of no length is left out.
+  for (const TimedPhoneme& p : spoken->phonemes) EXPECT_TRUE(!p.name.empty() && (p.name != "_" || p.end > p.start)) << p.start;
+  EXPECT_TRUE(std::any_of(spoken->phonemes.begin(), spoken->phonemes.end(), [](const TimedPhoneme& p) { return p.name == "_"; }));
   const auto rig = Rig("facecap/facecap.glb");
   api::SpeechRequest request;
   request.text = "Hello, my name is Bob. Please pass the map.";

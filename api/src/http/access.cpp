@@ -33,14 +33,29 @@ bool OriginAllowed(const ApiOptions& options, const std::string& origin) {
 KeyCheck CheckKey(const ApiOptions& options, std::string_view authorization) {
   if (options.api_key.empty()) return KeyCheck::kNoKeyConfigured;
   if (authorization.empty()) return KeyCheck::kMissing;
-  constexpr std::string_view kBearer = "Bearer ";
+  constexpr std::string_view kBearer = "Bearer";
   if (authorization.size() < kBearer.size() || !EqualsIgnoreCase(authorization.substr(0, kBearer.size()), kBearer)) return KeyCheck::kNotBearer;
-  return ConstantTimeEquals(std::string(authorization.substr(kBearer.size())), options.api_key) ? KeyCheck::kRight : KeyCheck::kWrong;
+  const std::string_view rest = authorization.substr(kBearer.size());
+  // "Bearer" and nothing after (a key file that was empty or not read): said as such.
+  if (rest.find_first_not_of(" \t") == std::string_view::npos) return KeyCheck::kEmptyToken;
+  if (rest[0] != ' ') return KeyCheck::kNotBearer;  // "Bearerx...": another scheme.
+  return ConstantTimeEquals(std::string(rest.substr(1)), options.api_key) ? KeyCheck::kRight : KeyCheck::kWrong;
 }
 
 bool CarriesKey(const ServerState& ctx, const httplib::Request& req) {
   return CheckKey(ctx.options, req.get_header_value("Authorization")) == KeyCheck::kRight;
 }
+
+namespace {
+
+// 401 with the Bearer challenge; false, for Authorized to return.
+bool Unauthorized(const httplib::Request& req, httplib::Response& res, const std::string& detail) {
+  res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
+  SendProblem(req, res, 401, "unauthorized", detail);
+  return false;
+}
+
+}  // namespace
 
 bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   switch (CheckKey(ctx.options, req.get_header_value("Authorization"))) {
@@ -48,14 +63,10 @@ bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Re
     case KeyCheck::kNoKeyConfigured:
       SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads, deletes and batch jobs are disabled (start it with --api-key-file FILE, a file holding the key; bash .ci/dev start makes build/api-key)");
       return false;
-    case KeyCheck::kMissing:
-      res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
-      SendProblem(req, res, 401, "unauthorized", "this route needs the API key: Authorization: Bearer KEY");
-      return false;
-    case KeyCheck::kNotBearer:
-      res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
-      SendProblem(req, res, 401, "unauthorized", "the Authorization header must use the Bearer scheme");
-      return false;
+    case KeyCheck::kMissing: return Unauthorized(req, res, "this route needs the API key: Authorization: Bearer KEY");
+    case KeyCheck::kNotBearer: return Unauthorized(req, res, "the Authorization header must use the Bearer scheme");
+    case KeyCheck::kEmptyToken:
+      return Unauthorized(req, res, "the Bearer token is empty: Authorization: Bearer KEY (was the key file empty or unread?)");
     case KeyCheck::kWrong:
       SendProblem(req, res, 403, "forbidden", "wrong API key");
       return false;

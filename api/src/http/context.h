@@ -142,7 +142,7 @@ bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Respons
 
 // What an Authorization header's value says of this server's API key: the one reading of
 // "Bearer KEY" for Authorized (which answers each refusal), CarriesKey and the front's deadline.
-enum class KeyCheck { kNoKeyConfigured, kMissing, kNotBearer, kWrong, kRight };
+enum class KeyCheck { kNoKeyConfigured, kMissing, kNotBearer, kEmptyToken, kWrong, kRight };
 KeyCheck CheckKey(const ApiOptions& options, std::string_view authorization);
 
 // Whether the request carries this server's API key (Authorization: Bearer KEY); sends nothing.

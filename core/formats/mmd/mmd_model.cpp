@@ -1,6 +1,7 @@
 // The MMD model (from PMX or PMD) as a Rig, and Shift-JIS text through iconv.
 #include <iconv.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 
@@ -127,6 +128,25 @@ const char* PanelGroup(int panel) {
     case 4: return "other";
     default: return "system";
   }
+}
+
+// A morph's group: its panel's, but the "other" panel (and the system one) holds whatever the author did
+// not sort, and there the names say where most belong (Uka's 140: eye_wink_geo_L, mouth_a_geo_C, the
+// ARKit set, 頬照り1 "cheek_blush1"): eyes, brows, mouth, cheeks, or the face as a whole ("..._face",
+// MMD's 総 morphs); what none of them names stays "other".
+std::string MorphGroup(int panel, const std::string& name, const std::string& english) {
+  if (panel >= 1 && panel <= 3) return PanelGroup(panel);
+  std::string text = name + " " + english;
+  for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const auto has = [&text](std::initializer_list<const char*> words) {
+    return std::any_of(words.begin(), words.end(), [&text](const char* w) { return text.find(w) != std::string::npos; });
+  };
+  if (has({"_face"})) return "face";
+  if (has({"brow"})) return "eyebrow";
+  if (has({"eye", "pupil", "blink", "wink"})) return "eye";
+  if (has({"mouth", "jaw", "tongue", "tooth", "teeth"})) return "mouth";
+  if (has({"cheek", "blush", "nose"})) return "cheek";
+  return PanelGroup(panel);
 }
 
 // The bones' grants and IK chains as the rig's constraints, in MMD's deform order (after-physics
@@ -414,7 +434,7 @@ Status AddShapes(const Model& in, const std::string& name, const std::vector<int
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
     for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
     if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
-    shape.group = PanelGroup(m.panel);
+    shape.group = MorphGroup(m.panel, m.name, m.english);
     shape.material_morphs = std::move(bake.material);
     shape.bone_morphs = std::move(bake.bone);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
