@@ -5,7 +5,7 @@
 import { createMeshView, drag } from './meshview.js';
 import { History } from './history.js';
 import { characterFile, parseCharacter, recentCharacters, rememberCharacter } from './character.js';
-import { loadSheets, showCell } from './thumbs.js';
+import { loadSheets, releaseSheets, showCell } from './thumbs.js';
 import { createSpeech } from './speech.js';
 import { createMotions } from './motion.js';
 import { fillSelect } from './dom.js';
@@ -470,9 +470,12 @@ function showWarnings(warnings) {
 
 // ---- URL: rig and weights in the hash, so a link reproduces the face ------------------------
 
+// {name: 0.5, other: 1} as "name:0.5,other:1" (pairsOf reads it back).
+const pairsText = (map) => Object.entries(map).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
+
 function writeHash() {
-  const w = Object.entries(nonZero()).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
-  const e = Object.entries(nonZeroOf(state.expressions)).map(([k, v]) => encodeURIComponent(k) + ':' + +v.toFixed(4)).join(',');
+  const w = pairsText(nonZero());
+  const e = pairsText(nonZeroOf(state.expressions));
   history.replaceState(null, '', '#rig=' + encodeURIComponent(state.rig) + (usesControls() ? '&c=' : '&w=') + w + (e ? '&e=' + e : '') +
                                  (state.view !== 'shaded' ? '&view=' + state.view : ''));
 }
@@ -541,6 +544,7 @@ async function loadRig(id, weights) {
   state.controls = {};
   state.expressions = {};
   for (const s of items()) values()[s.name] = weights ? 0 : startValue(s);
+  releaseSheets();  // The last rig's pictures.
   buildControls();
   buildPresets();
   motions.setup();

@@ -30,6 +30,12 @@ export function showCell(el, url, i, count, size) {
   el.classList.add('loaded');
 }
 
+// The sheets' object URLs, let go when the pictures of another rig replace them (releaseSheets).
+const sheetUrls = [];
+export function releaseSheets() {
+  for (const url of sheetUrls.splice(0)) URL.revokeObjectURL(url);
+}
+
 // Sheets for `items` ({weights}: the face each shows), kChunk cells at a time, one request after the
 // other; onSheet(url, first, count) for each that arrives. Stops when stillWanted() turns false (another
 // rig picked); a failed sheet is skipped (its pictures stay blank).
@@ -42,7 +48,9 @@ export async function loadSheets(post, rigPath, items, settings, onSheet, stillW
         ...settings, cells: chunk.map((it) => ({ weights: it.weights, label: '' })), columns: kColumns, width: kCell, height: kCell,
       });
       if (!stillWanted()) return;
-      onSheet(URL.createObjectURL(await r.blob()), first, chunk.length);
+      const url = URL.createObjectURL(await r.blob());
+      sheetUrls.push(url);
+      onSheet(url, first, chunk.length);
     } catch (e) { /* A sheet refused or lost: those pictures stay blank, the sliders work as ever. */ }
   }
 }

@@ -152,10 +152,11 @@ Status ReadKeyList(Bytes& r, size_t item, const char* what, const std::string& c
                    Status (*read_key)(Bytes&, const std::string&, size_t, Key&), std::map<std::string, std::vector<Key>>& by_name) {
   size_t count = 0;
   if (!r.CountOf<uint32_t>(item, count, (std::string("the ") + what + " count").c_str())) return InvalidArgument(clip_name + ": VMD " + r.error());
+  const std::string one = std::string("a ") + what;  // The reader's word for a key, made once, not per key.
   for (size_t k = 0; k < count; ++k) {
     unsigned char name[15];
     Key key;
-    if (!r.Raw(name, 15, (std::string("a ") + what).c_str())) return InvalidArgument(clip_name + ": VMD " + r.error());
+    if (!r.Raw(name, 15, one.c_str())) return InvalidArgument(clip_name + ": VMD " + r.error());
     if (Status s = read_key(r, clip_name, k, key); !s.ok()) return s;
     by_name[NameBytes(name)].push_back(key);
   }
