@@ -4,22 +4,6 @@
 
 namespace facespace {
 
-namespace {
-
-double Diagonal(const Rig& rig) {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
-  for (const Primitive& p : rig.primitives) {
-    for (size_t v = 0; v < p.vertex_count(); ++v) {
-      const Eigen::Vector3d q(p.positions[3 * v], p.positions[3 * v + 1], p.positions[3 * v + 2]);
-      lo = lo.cwiseMin(q);
-      hi = hi.cwiseMax(q);
-    }
-  }
-  return lo.x() <= hi.x() ? (hi - lo).norm() : 0.0;
-}
-
-}  // namespace
-
 Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport* report) {
   const size_t n = rig.shapes.size();
   if (n == 0) return FailedPrecondition("the rig has no shapes");
@@ -92,7 +76,7 @@ Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport*
     report->components = k;
     report->max_error = worst;
     report->rms_error = rms;
-    report->diagonal = Diagonal(rig);
+    report->diagonal = RigDiagonal(rig);
     report->energy_kept = total > 0 ? sigma.head(k).squaredNorm() / total : 1.0;
     report->sparse_bytes = sparse_entries * 16;
     report->dense_bytes = rig.vertex_count() * 12 * n;

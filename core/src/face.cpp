@@ -58,13 +58,9 @@ namespace {
 
 using Override = ExpressionOverride;
 
-struct Bind {
-  const char* shapes;  // Candidates, "a|b".
-  float weight;
-};
 struct Default {
   const char* preset;
-  std::vector<Bind> binds;
+  std::vector<CandidateBind> binds;
   Override blink = Override::kNone, look_at = Override::kNone, mouth = Override::kNone;
 };
 
@@ -127,7 +123,7 @@ const std::vector<Default>& MmdDefaults() {
 size_t Matches(const Rig& rig, const std::vector<Default>& table) {
   size_t n = 0;
   for (const Default& d : table) {
-    for (const Bind& b : d.binds) n += FirstShapeOf(rig, b.shapes) >= 0;
+    for (const CandidateBind& b : d.binds) n += FirstShapeOf(rig, b.shapes) >= 0;
   }
   return n;
 }
@@ -263,7 +259,7 @@ void DeriveFace(Rig& rig) {
     if (FindExpression(rig, d.preset) >= 0) continue;
     Expression e;
     e.name = d.preset;
-    for (const Bind& b : d.binds) {
+    for (const CandidateBind& b : d.binds) {
       const int s = FirstShapeOf(rig, b.shapes);
       if (s >= 0) e.binds.emplace_back(static_cast<uint32_t>(s), b.weight);
     }

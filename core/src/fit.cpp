@@ -71,6 +71,21 @@ Eigen::MatrixXd StackedDeltas(const Rig& rig, size_t rows) {
   return dense;
 }
 
+// Per stacked vertex, the scale its primitive's world matrix gives it (the cube root of the
+// determinant's size): the residual is told in the scene's units, as the target came, not in mesh
+// units (FaceCap's mesh is in units of 1.95 mm).
+std::vector<double> VertexWorldScale(const Rig& rig, size_t vertices) {
+  const auto world = PrimitiveWorldMatrices(rig);
+  std::vector<double> scale;
+  scale.reserve(vertices);
+  for (size_t p = 0; p < rig.primitives.size() && p < world.size(); ++p) {
+    const double det = Eigen::Map<const Eigen::Matrix4f>(world[p].data()).topLeftCorner<3, 3>().cast<double>().determinant();
+    scale.insert(scale.end(), rig.primitives[p].vertex_count(), std::cbrt(std::fabs(det)));
+  }
+  scale.resize(vertices, 1.0);
+  return scale;
+}
+
 }  // namespace
 
 Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>> target, const FitOptions& options) {
@@ -166,9 +181,10 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
   r.weights.resize(S);
   for (size_t s = 0; s < S; ++s) r.weights[s] = static_cast<float>(w(s));
   const Eigen::VectorXd residual = dense * w - b;
+  const std::vector<double> scale = VertexWorldScale(rig, rows / 3);
   double sum2 = 0.0;
   for (size_t i = 0; i < rows / 3; ++i) {
-    const double d2 = residual.segment<3>(3 * i).squaredNorm();
+    const double d2 = residual.segment<3>(3 * i).squaredNorm() * scale[i] * scale[i];
     sum2 += d2;
     r.max_error = std::max(r.max_error, std::sqrt(d2));
   }

@@ -511,4 +511,16 @@ Status ValidateRig(const Rig& rig) {
   return Status::Ok();
 }
 
+double RigDiagonal(const Rig& rig) {
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (const Primitive& p : rig.primitives) {
+    for (size_t i = 0; i < p.positions.size(); ++i) {
+      lo[i % 3] = std::min(lo[i % 3], static_cast<double>(p.positions[i]));
+      hi[i % 3] = std::max(hi[i % 3], static_cast<double>(p.positions[i]));
+    }
+  }
+  if (lo[0] > hi[0]) return 0.0;
+  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
 }  // namespace facespace

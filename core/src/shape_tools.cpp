@@ -9,18 +9,6 @@ namespace facespace {
 
 namespace {
 
-float Diagonal(const Rig& rig) {
-  float lo[3] = {1e30f, 1e30f, 1e30f}, hi[3] = {-1e30f, -1e30f, -1e30f};
-  for (const Primitive& p : rig.primitives) {
-    for (size_t i = 0; i < p.positions.size(); ++i) {
-      lo[i % 3] = std::min(lo[i % 3], p.positions[i]);
-      hi[i % 3] = std::max(hi[i % 3], p.positions[i]);
-    }
-  }
-  if (lo[0] > hi[0]) return 1.0f;
-  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
-}
-
 // Smooth 0..1 weight of a mask at position p (vertex `global` over all primitives).
 float MaskWeight(const ShapeMask& m, float center, const float* p) {
   if (m.side == 0) return 1.0f;
@@ -85,10 +73,26 @@ std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float cente
 
 namespace {
 
-// The vertices of `p` some shape moves noticeably: over 5% of that shape's largest move.
-void MovedVertices(const Primitive& p, std::vector<uint8_t>& moved) {
+// The shapes the focus follows: those the rig's expressions bind (the face: eyes, brows, mouth; not an
+// ear or a skirt a shape also moves) when it has any, else every shape.
+std::vector<uint8_t> FocusShapes(const Rig& rig) {
+  std::vector<uint8_t> in(rig.shapes.size(), rig.expressions.empty() ? 1 : 0);
+  for (const Expression& e : rig.expressions) {
+    for (const auto& [shape, weight] : e.binds) {
+      if (shape < in.size() && weight != 0.0f) in[shape] = 1;
+    }
+  }
+  return in;
+}
+
+// The vertices of `p` some focus shape moves noticeably: over 5% of that shape's largest move.
+void MovedVertices(const Rig& rig, const Primitive& p, std::span<const uint8_t> focus, std::vector<uint8_t>& moved) {
   moved.assign(p.vertex_count(), 0);
-  for (const SparseTarget& t : p.targets) {
+  const Mesh* mesh = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? &rig.meshes[static_cast<size_t>(p.mesh)] : nullptr;
+  for (size_t ti = 0; ti < p.targets.size(); ++ti) {
+    const SparseTarget& t = p.targets[ti];
+    const size_t shape = mesh && ti < mesh->target_shapes.size() ? mesh->target_shapes[ti] : SIZE_MAX;
+    if (shape < focus.size() && !focus[shape]) continue;
     float largest = 0.0f;
     for (size_t k = 0; k < t.indices.size(); ++k) {
       const float* d = &t.position_deltas[3 * k];
@@ -105,11 +109,12 @@ void MovedVertices(const Primitive& p, std::vector<uint8_t>& moved) {
 
 bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3>& hi) {
   const auto world = PrimitiveWorldMatrices(rig);
+  const std::vector<uint8_t> focus = FocusShapes(rig);
   std::vector<float> points;
   std::vector<uint8_t> moved;
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
-    MovedVertices(p, moved);
+    MovedVertices(rig, p, focus, moved);
     const auto& m = world[pi];
     for (size_t v = 0; v < moved.size(); ++v) {
       if (!moved[v]) continue;
@@ -156,12 +161,13 @@ bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const 
 
 int ShapeFocusJoint(const Rig& rig) {
   std::vector<double> carried(rig.nodes.size(), 0.0);
+  const std::vector<uint8_t> focus = FocusShapes(rig);
   std::vector<uint8_t> moved;
   for (const Primitive& p : rig.primitives) {
     const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? rig.meshes[static_cast<size_t>(p.mesh)].skin : -1;
     if (skin < 0 || static_cast<size_t>(skin) >= rig.skins.size() || p.influences == 0) continue;
     const std::vector<int>& joints = rig.skins[static_cast<size_t>(skin)].joints;
-    MovedVertices(p, moved);
+    MovedVertices(rig, p, focus, moved);
     for (size_t v = 0; v < moved.size(); ++v) {
       if (!moved[v]) continue;
       for (size_t k = 0; k < p.influences; ++k) {
@@ -199,7 +205,8 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
 
   DeriveReport report;
   report.shape = static_cast<int>(rig.shapes.size());
-  const float tolerance = options.tolerance * Diagonal(rig);
+  const double size = RigDiagonal(rig);
+  const float tolerance = options.tolerance * static_cast<float>(size > 0.0 ? size : 1.0);
   for (Mesh& mesh : rig.meshes) {
     const auto it = std::find(mesh.target_shapes.begin(), mesh.target_shapes.end(), static_cast<uint32_t>(source));
     if (it == mesh.target_shapes.end()) continue;

@@ -161,11 +161,7 @@ std::vector<TimedViseme> VisemesOfPhonemes(std::span<const TimedPhoneme> phoneme
 
 namespace {
 
-struct Bind {
-  const char* shapes;  // Candidates, "a|b".
-  float weight;
-};
-using Row = std::vector<Bind>;  // One viseme's binds.
+using Row = std::vector<CandidateBind>;  // One viseme's binds.
 
 // ARKit's mouth: each viseme as the jaw and lip shapes a face tracker reports for it.
 const std::array<Row, kVisemeCount>& ArkitVisemes() {
@@ -235,7 +231,7 @@ void DeriveVisemes(Rig& rig) {
   for (size_t v = 0; v < kVisemeCount; ++v) {
     if (m.named & (1u << v)) continue;
     m.binds[v].clear();
-    for (const Bind& b : rows[v]) {
+    for (const CandidateBind& b : rows[v]) {
       const int s = FirstShapeOf(rig, b.shapes);
       if (s >= 0) m.binds[v].push_back({static_cast<uint32_t>(s), b.weight});
     }

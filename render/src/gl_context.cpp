@@ -15,8 +15,11 @@ layout(location = 1) in vec3 a_normal;
 layout(location = 2) in vec2 a_uv;
 layout(location = 3) in vec4 a_color;
 layout(location = 4) in float a_scalar;
+layout(location = 5) in vec4 a_occlusion;  // Baked (core/occlusion.h): ao, then b in the normal's frame.
 uniform mat4 u_view;
 uniform mat4 u_proj;
+out float v_ao;
+out vec3 v_seen;     // View space: b, 4 x the mean visible direction.
 out vec3 v_pos;      // View space.
 out vec3 v_normal;   // View space.
 out vec3 v_world_normal;
@@ -31,6 +34,13 @@ void main() {
   v_uv = a_uv;
   v_color = a_color;
   v_scalar = a_scalar;
+  // b out of the frame the bake stored it in (OcclusionFrame: Duff et al.), built on the drawn normal.
+  vec3 n = normalize(a_normal);
+  float sgn = n.z >= 0.0 ? 1.0 : -1.0;
+  float a = -1.0 / (sgn + n.z), b = n.x * n.y * a;
+  vec3 t = vec3(1.0 + sgn * n.x * n.x * a, sgn * b, -sgn * n.x), s = vec3(b, sgn + n.y * n.y * a, -n.y);
+  v_seen = mat3(u_view) * (a_occlusion.y * t + a_occlusion.z * s + a_occlusion.w * n);
+  v_ao = a_occlusion.x;
   gl_Position = u_proj * p;
 }
 )";
@@ -46,6 +56,9 @@ in vec3 v_world_normal;
 in vec2 v_uv;
 in vec4 v_color;
 in float v_scalar;
+in float v_ao;
+in vec3 v_seen;
+uniform float u_baked;       // 1: the baked occlusion shades; 0: every point is open.
 uniform vec4 u_base_color;   // Linear.
 uniform sampler2D u_texture; // sRGB texture: sampled as linear.
 uniform vec2 u_metal_rough;
@@ -112,6 +125,17 @@ vec3 env_brdf(vec3 f0, float rough, float nv) {
   vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
   return f0 * ab.x + ab.y;
 }
+// How much of a light from l reaches this point (core/occlusion.h's LightVisibility), and of the sky
+// (ambient occlusion); a back face, whose bake was the front's, is open. At least OCCLUSION_FLOOR: the
+// bake is of the closed neutral face, and what an open mouth shows (teeth, tongue) still gets some light
+// bounced in, rather than none.
+const float OCCLUSION_FLOOR = 0.06;
+float light_seen(vec3 n, vec3 l) {
+  float open = 0.5 + 0.75 * max(dot(n, l), 0.0);
+  float seen = clamp((0.5 * v_ao + 0.75 * dot(v_seen, l)) / open, OCCLUSION_FLOOR, 1.0);
+  return gl_FrontFacing ? mix(1.0, seen, u_baked) : 1.0;
+}
+float sky_seen() { return gl_FrontFacing ? mix(1.0, max(v_ao, OCCLUSION_FLOOR), u_baked) : 1.0; }
 // A studio in view space (camera looks down -z): key light high on the left, fill low on the
 // right, rim behind; a sky-to-floor gradient for the ambient and reflections. Its level is set
 // against three.js's RoomEnvironment under the same tone mapping (tests/render/reference): the
@@ -137,8 +161,9 @@ vec3 studio(vec3 n, vec3 v, vec3 albedo, float metallic, float rough, float occl
     float D = a2 / (PI * q * q);
     float V = 0.5 / (nl * sqrt(nv * nv * (1.0 - a2) + a2) + nv * sqrt(nl * nl * (1.0 - a2) + a2));
     vec3 F = f0 + (1.0 - f0) * pow(1.0 - vh, 5.0);
-    color += ((1.0 - F) * diffuse / PI + D * V * F) * radiance[i] * nl;
+    color += ((1.0 - F) * diffuse / PI + D * V * F) * radiance[i] * nl * light_seen(n, l);
   }
+  occlusion *= sky_seen();
   vec3 ambient = mix(floor_, sky, n.y * 0.5 + 0.5);
   vec3 r = reflect(-v, n);
   vec3 reflected = mix(floor_, sky, clamp(r.y * 0.5 + 0.5, 0.0, 1.0));

@@ -26,8 +26,6 @@ namespace facespace::render {
 
 namespace {
 
-float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
-
 // Same polynomial as the heatmap shader (viridis), sRGB.
 std::array<float, 3> Viridis(float t) {
   static const float c[7][3] = {{0.2777273272234177f, 0.005407344544966578f, 0.3340998053353061f},

@@ -1,12 +1,16 @@
 // Shared between render's .cpp files only.
 #pragma once
 
+#include <cmath>
 #include <span>
 #include <vector>
 
 #include "facespace/render/render.h"
 
 namespace facespace::render {
+
+// An sRGB component (0..1) in linear light.
+inline float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
 
 // Draws the heatmap's colour bar with its 0 and max labels on the right of the image.
 void DrawHeatLegend(Image& image, float max_value);

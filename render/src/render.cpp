@@ -26,11 +26,6 @@
 
 namespace facespace::render {
 
-namespace {
-
-float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
-
-}  // namespace
 
 Result<std::string> EncodingRenderer::Encode(const Image& image, ImageFormat format, int quality) const {
   return render::Encode(image, format, quality);
@@ -79,14 +74,15 @@ struct DrawCall {
 };
 
 // What one render gathers before it draws: the world-space vertices (gl.verts: position, normal, uv,
-// colour, displacement: kFloatsPerVertex floats) and indices (gl.indices), a draw call per primitive,
+// colour, displacement, baked occlusion: kFloatsPerVertex floats) and indices (gl.indices), a draw call per primitive,
 // and the boxes the camera may frame.
-constexpr size_t kFloatsPerVertex = 13;
+constexpr size_t kFloatsPerVertex = 13 + kOcclusionFloats;
 struct Scene {
   std::vector<DrawCall> draws;
   Eigen::AlignedBox3f box, shape_box, rest_box, joint_box;
   bool frame_shapes = false;
   int joint_node = -1;                // The joint the camera frames, or -1.
+  bool carry_shapes = false;          // Auto framing of a skinned face: the shapes' box, carried by the joint.
   std::vector<int> joint_in_skin;     // Its index among each skin's joints (-1: not in it).
   float heat_max = 0.0f;              // The largest displacement (the heatmap's scale).
 };
@@ -102,8 +98,16 @@ Status ChooseFraming(const Rig& rig, const Camera& c, Scene& scene) {
     if (found) {
       scene.frame_shapes = c.frame == Framing::kShapes || small;
       scene.shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]), Eigen::Vector3f(hi[0], hi[1], hi[2]));
+      // By default a face on a body is framed with a margin of 40% (its ears and hair may crop).
+      if (c.frame == Framing::kAuto && small) {
+        const Eigen::Vector3f centre = scene.shape_box.center(), half = 0.7f * scene.shape_box.sizes();
+        scene.shape_box = Eigen::AlignedBox3f(centre - half, centre + half);
+      }
     }
-    if (c.frame == Framing::kAuto && small) scene.joint_node = c.has_focus ? c.focus_joint : ShapeFocusJoint(rig);
+    if (c.frame == Framing::kAuto && small) {
+      scene.joint_node = c.has_focus ? c.focus_joint : ShapeFocusJoint(rig);
+      scene.carry_shapes = found;
+    }
   }
   if (c.frame == Framing::kJoint) {
     scene.joint_node = FindNode(rig, c.frame_joint);
@@ -133,10 +137,57 @@ bool CarriedBy(const Primitive& p, size_t v, int joint) {
 }
 
 // One primitive's vertices in world space into `verts`, the boxes extended.
-void GatherPrimitive(const Primitive& p, const BlendedPrimitive& b, bool posed, int joint, Scene& scene, std::vector<float>& verts) {
+// Whether material `m` draws as a soft stand-in (StandIn::kSoft) for want of its base colour's image.
+bool SoftStandIn(const Rig& rig, int m) {
+  if (m < 0 || static_cast<size_t>(m) >= rig.materials.size()) return false;
+  const Material& mat = rig.materials[static_cast<size_t>(m)];
+  const int image = mat.base_color_image;
+  const bool missing = image < 0 || static_cast<size_t>(image) >= rig.images.size() || rig.images[static_cast<size_t>(image)].bytes.empty();
+  return mat.stand_in == StandIn::kSoft && missing;
+}
+
+// A soft stand-in's opacity per vertex of `p`: 1 in the middle of its UV island (the triangles sharing
+// vertices), fading to 0 at the island's UV box (an ellipse inscribed in it).
+std::vector<float> SoftFade(const Primitive& p, std::span<const float> uv) {
+  const size_t n = p.vertex_count();
+  std::vector<float> fade(n, 1.0f);
+  if (uv.size() < 2 * n) return fade;
+  std::vector<uint32_t> root(n);
+  for (uint32_t v = 0; v < n; ++v) root[v] = v;
+  auto find = [&root](uint32_t v) {
+    while (root[v] != v) v = root[v] = root[root[v]];
+    return v;
+  };
+  for (size_t i = 0; i + 2 < p.indices.size(); i += 3) {
+    if (p.indices[i] >= n || p.indices[i + 1] >= n || p.indices[i + 2] >= n) continue;
+    root[find(p.indices[i + 1])] = find(p.indices[i]);
+    root[find(p.indices[i + 2])] = find(p.indices[i]);
+  }
+  std::vector<float> box(4 * n);  // Per root: u and v, least and greatest.
+  for (uint32_t v = 0; v < n; ++v) box[4 * v] = box[4 * v + 2] = INFINITY, box[4 * v + 1] = box[4 * v + 3] = -INFINITY;
+  for (uint32_t v = 0; v < n; ++v) {
+    float* b = &box[4 * find(v)];
+    b[0] = std::min(b[0], uv[2 * v]), b[1] = std::max(b[1], uv[2 * v]);
+    b[2] = std::min(b[2], uv[2 * v + 1]), b[3] = std::max(b[3], uv[2 * v + 1]);
+  }
+  for (uint32_t v = 0; v < n; ++v) {
+    const float* b = &box[4 * find(v)];
+    const float x = (2.0f * uv[2 * v] - b[0] - b[1]) / std::max(b[1] - b[0], 1e-12f);
+    const float y = (2.0f * uv[2 * v + 1] - b[2] - b[3]) / std::max(b[3] - b[2], 1e-12f);
+    const float t = std::clamp((std::sqrt(x * x + y * y) - 0.25f) / 0.75f, 0.0f, 1.0f);
+    fade[v] = 1.0f - t * t * (3.0f - 2.0f * t);
+  }
+  return fade;
+}
+
+// `occlusion`: the primitive's baked occlusion (kOcclusionFloats per vertex), or empty: open. `soft`:
+// it draws as a soft stand-in (SoftStandIn).
+void GatherPrimitive(const Primitive& p, const BlendedPrimitive& b, bool posed, int joint, std::span<const float> occlusion, bool soft,
+                     Scene& scene, std::vector<float>& verts) {
   const auto& m = b.world;
   const Eigen::Matrix3f nm = Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().inverse().transpose();
   const std::span<const float> texcoords = TexcoordsOf(p, b);  // UV morphs move them.
+  const std::vector<float> fade = soft ? SoftFade(p, texcoords) : std::vector<float>();
   for (size_t v = 0; v < p.vertex_count(); ++v) {
     float q[3], rest[3], moved[3];
     TransformPoint(m, &b.positions[3 * v], q);
@@ -158,13 +209,33 @@ void GatherPrimitive(const Primitive& p, const BlendedPrimitive& b, bool posed, 
     verts.insert(verts.end(), {q[0], q[1], q[2], n.x(), n.y(), n.z(), uv[0], uv[1]});
     if (p.colors.empty()) verts.insert(verts.end(), {1.0f, 1.0f, 1.0f, 1.0f});
     else verts.insert(verts.end(), p.colors.begin() + 4 * v, p.colors.begin() + 4 * v + 4);
+    if (soft) verts.back() *= fade[v];
     verts.push_back(d);
+    const bool baked = occlusion.size() >= kOcclusionFloats * (v + 1);
+    if (baked) verts.insert(verts.end(), occlusion.begin() + static_cast<long>(kOcclusionFloats * v), occlusion.begin() + static_cast<long>(kOcclusionFloats * (v + 1)));
+    else verts.insert(verts.end(), kOpenOcclusion.begin(), kOpenOcclusion.end());
   }
+}
+
+// The shapes' rest box as the framed joint carries it under the pose (its world now times its world at
+// rest, inverted): the face and not the whole head (ears, hair), moving with the head.
+Eigen::AlignedBox3f CarriedShapeBox(const Rig& rig, const BlendedRig& blended, const Scene& scene) {
+  const size_t node = static_cast<size_t>(scene.joint_node);
+  if (node >= blended.node_world.size()) return scene.shape_box;
+  const std::vector<std::array<float, 16>> rest = NodeWorldMatrices(rig);
+  if (node >= rest.size()) return scene.shape_box;
+  const Eigen::Matrix4f now = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[node].data());
+  const Eigen::Matrix4f at_rest = Eigen::Map<const Eigen::Matrix4f>(rest[node].data());
+  const Eigen::Affine3f carry(now * at_rest.inverse());
+  Eigen::AlignedBox3f box;
+  for (int corner = 0; corner < 8; ++corner) box.extend(carry * scene.shape_box.corner(static_cast<Eigen::AlignedBox3f::CornerType>(corner)));
+  return box;
 }
 
 // Every primitive's vertices and indices, and a draw call each. A framed joint no vertex follows (a
 // root, an end site) frames its position, in a tenth of the whole.
-void GatherScene(const Rig& rig, const BlendedRig& blended, Scene& scene, std::vector<float>& verts, std::vector<uint32_t>& indices) {
+void GatherScene(const Rig& rig, const BlendedRig& blended, const RigOcclusion* occlusion, Scene& scene, std::vector<float>& verts,
+                 std::vector<uint32_t>& indices) {
   verts.clear();
   indices.clear();
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
@@ -172,10 +243,12 @@ void GatherScene(const Rig& rig, const BlendedRig& blended, Scene& scene, std::v
     const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? rig.meshes[static_cast<size_t>(p.mesh)].skin : -1;
     const int joint = skin >= 0 && static_cast<size_t>(skin) < scene.joint_in_skin.size() ? scene.joint_in_skin[static_cast<size_t>(skin)] : -1;
     const size_t first = verts.size() / kFloatsPerVertex;
-    GatherPrimitive(p, blended.primitives[pi], blended.posed, p.influences > 0 ? joint : -1, scene, verts);
+    const std::span<const float> baked = occlusion && pi < occlusion->size() ? std::span<const float>((*occlusion)[pi]) : std::span<const float>();
+    GatherPrimitive(p, blended.primitives[pi], blended.posed, p.influences > 0 ? joint : -1, baked, SoftStandIn(rig, p.material), scene, verts);
     scene.draws.push_back({first, indices.size(), p.indices.size(), p.mode, p.material});
     for (uint32_t i : p.indices) indices.push_back(static_cast<uint32_t>(first + i));
   }
+  if (scene.joint_node >= 0 && scene.carry_shapes && !scene.shape_box.isEmpty()) scene.joint_box = CarriedShapeBox(rig, blended, scene);
   if (scene.joint_node >= 0 && scene.joint_box.isEmpty()) {
     const size_t node = static_cast<size_t>(scene.joint_node);
     const auto& world = node < blended.node_world.size() ? blended.node_world[node] : std::array<float, 16>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
@@ -267,8 +340,8 @@ void Upload(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>&
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.ibo);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(gl.indices.size() * 4), gl.indices.data(), GL_STREAM_DRAW);
   const GLsizei stride = kFloatsPerVertex * 4;
-  const int sizes[5] = {3, 3, 2, 4, 1}, offsets[5] = {0, 3, 6, 8, 12};
-  for (int a = 0; a < 5; ++a) {
+  const int sizes[6] = {3, 3, 2, 4, 1, 4}, offsets[6] = {0, 3, 6, 8, 12, 13};
+  for (int a = 0; a < 6; ++a) {
     glEnableVertexAttribArray(a);
     glVertexAttribPointer(a, sizes[a], GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(static_cast<uintptr_t>(offsets[a] * 4)));
   }
@@ -279,6 +352,7 @@ struct Pass {
   int shader_mode;  // 0 shaded, 1 edges, 2 heatmap, 3 normals, 4 clay.
   Matrices matrices;
   float heat_max, exposure;
+  bool occlusion;  // Baked occlusion drawn (else every vertex is open).
 };
 
 // A material's uniforms and textures on `program`.
@@ -290,6 +364,7 @@ void SetMaterial(GLuint program, const Pass& pass, const Material& mat, const st
   glUniformMatrix4fv(at("u_proj"), 1, GL_FALSE, pass.matrices.proj.data());
   glUniform1f(at("u_heat_max"), pass.heat_max);
   glUniform1f(at("u_exposure"), pass.exposure);
+  glUniform1f(at("u_baked"), pass.occlusion ? 1.0f : 0.0f);
   glUniform4f(at("u_base_color"), base[0], base[1], base[2], base[3]);
   glUniform2f(at("u_metal_rough"), mat.metallic_factor, mat.roughness_factor);
   glUniform1f(at("u_normal_scale"), mat.normal_scale);
@@ -316,7 +391,7 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
     // The colour under the shapes' material morphs (MMD's blush, pallor), else the material's own.
     const bool morphed = d.material >= 0 && static_cast<size_t>(d.material) < blended.material_colors.size();
     const auto& base = morphed ? blended.material_colors[static_cast<size_t>(d.material)] : mat.base_color_factor;
-    const bool blend = mat.alpha_mode == "BLEND" || (morphed && base[3] < 1.0f);
+    const bool blend = mat.alpha_mode == "BLEND" || (morphed && base[3] < 1.0f) || SoftStandIn(rig, d.material);
     // The material's textures (clay, heatmap, normals and edges use none), each decoded before
     // any is bound: a decode binds on the active unit.
     const bool textured = pass.shader_mode == 0;
@@ -345,7 +420,7 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
 // The view's passes: one, or for the wireframe the shaded surface pushed back and its edges over it.
 Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene, const RenderOptions& o, const Matrices& m) {
   const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : o.view == View::kClay ? 4 : 0;
-  Pass pass{mode, m, scene.heat_max, std::exp2(std::clamp(o.exposure, -10.0f, 10.0f))};
+  Pass pass{mode, m, scene.heat_max, std::exp2(std::clamp(o.exposure, -10.0f, 10.0f)), o.occlusion != nullptr};
   if (o.view == View::kWireframe) {
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.0f, 1.0f);
@@ -440,7 +515,7 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
     GlContext& gl;
     ~Trim() { gl.TrimLarge(); }
   } trim{gl};
-  GatherScene(rig, blended, scene, gl.verts, gl.indices);
+  GatherScene(rig, blended, o.occlusion.get(), scene, gl.verts, gl.indices);
   auto matrices = CameraMatrices(o, scene, blended.posed);
   if (!matrices.ok()) return matrices.status();
   // Straight to 8 bits where asked and nothing after the draw needs floats (the box filter of

@@ -404,7 +404,7 @@ int FitCommand(const std::vector<std::string>& args) {
   auto fit = FitWeights(rig.value(), target, options);
   if (!fit.ok()) return std::fprintf(stderr, "error: %s\n", fit.status().message.c_str()), 1;
   PrintWarnings(fit->warnings);
-  std::fprintf(stderr, "residual: rms %s, max %s (vertex distances in the rig's units: metres for glTF)\n", FormatNumber(fit->rms_error).c_str(),
+  std::fprintf(stderr, "residual: rms %s, max %s (vertex distances in the scene's units: metres for glTF)\n", FormatNumber(fit->rms_error).c_str(),
                FormatNumber(fit->max_error).c_str());
   return WriteResult(out, api::FitResultJson(rig.value(), fit.value(), options.rigid_align));
 }

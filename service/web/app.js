@@ -517,7 +517,7 @@ async function download(format) {
 
 const gl = createMeshView($('gl'));
 const motions = createMotions({ state, $, refreshViews, schedule, showMotionWeights });
-const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError });
+const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError, save });
 
 // ---- start ---------------------------------------------------------------------------------
 
@@ -540,6 +540,7 @@ async function loadRig(id, weights) {
   // The credit the rig's license asks for, shown with it.
   $('credit').textContent = state.detail.credit ? `Model: ${state.detail.credit}` : '';
   $('credit').hidden = !state.detail.credit;
+  $('dl-vrm').hidden = !state.detail.has_skeleton;  // The service says why when the skeleton is no humanoid.
   state.weights = {};
   state.controls = {};
   state.expressions = {};
@@ -587,6 +588,7 @@ $('reset').addEventListener('click', reset);
 $('randomise').addEventListener('click', randomise);
 $('dl-glb').addEventListener('click', () => download('glb'));
 $('dl-obj').addEventListener('click', () => download('obj'));
+$('dl-vrm').addEventListener('click', () => download('vrm'));
 $('dl-png').addEventListener('click', () => state.lastPng && save(state.lastPng.blob, `${state.rig}.png`));
 $('dl-json').addEventListener('click', () =>
   save(new Blob([JSON.stringify(point(), null, 2)], { type: 'application/json' }), `${state.rig}.weights.json`));

@@ -1,9 +1,9 @@
 // The Say bar: the face says a line (POST /v1/rigs/{id}/speech: its keys and audio), played with the
 // audio, from typed text or a WAV dropped or picked. A module of the page: `page` hands it the page's
-// state and the calls it shares ({state, $, post, call, nonZero, refreshViews, showWarnings, showError}).
+// state and the calls it shares ({state, $, post, call, nonZero, refreshViews, showWarnings, showError, save}).
 
 export function createSpeech(page) {
-  const { state, $, post, call, nonZero, refreshViews, showWarnings, showError } = page;
+  const { state, $, post, call, nonZero, refreshViews, showWarnings, showError, save } = page;
 
   // state.speech while one plays: {keys, audio (an <audio>), url}. The views then show the keys' weights at
   // the audio's own clock (audio.currentTime), so the mouth follows what is heard.
@@ -88,6 +88,20 @@ export function createSpeech(page) {
   $('say-text').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('say-go').click(); });
   $('say-file').addEventListener('change', () => { const f = $('say-file').files[0]; if (f) say(null, f).catch(showError); });
   $('say-stop').addEventListener('click', stopSpeech);
+  // The typed line as a video of the face saying it (format webm: VP9 + Opus), saved as a file.
+  $('say-webm').addEventListener('click', async () => {
+    const text = $('say-text').value.trim(), id = state.ready;
+    if (!text || !id) return;
+    $('say-state').textContent = 'making the video\u2026';
+    try {
+      const r = await post(`/v1/rigs/${encodeURIComponent(id)}/speech`, { text, format: 'webm', weights: nonZero() });
+      save(await r.blob(), `${id}.webm`);
+      $('say-state').textContent = '';
+    } catch (e) {
+      $('say-state').textContent = '';
+      showError(e);
+    }
+  });
   for (const ev of ['dragover', 'drop']) {
     $('say').addEventListener(ev, (e) => {
       e.preventDefault();

@@ -45,8 +45,31 @@ Rig BigMesh() {
 const Rig& Case(int which) {
   static const Rig face = LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   static const Rig big = BigMesh();
+  if (which == 2) {
+    static const Rig uka = LoadRigFile(FACESPACE_SOURCE_DIR "/assets/uka/MS_Uka.pmx").value();
+    return uka;
+  }
   return which == 0 ? face : big;
 }
+
+const char* CaseName(int which) { return which == 0 ? "facecap 8k tris" : which == 1 ? "sheet 100k tris" : "uka 78k tris"; }
+
+// The rig's occlusion baked at its neutral weights, as the service bakes it once per rig and level.
+std::shared_ptr<const RigOcclusion> Baked(const Rig& rig) {
+  BlendedRig rest;
+  BlendContext ctx;
+  EvaluateRig(rig, std::vector<float>(rig.shapes.size(), 0.0f), {}, rest, ctx);
+  return std::make_shared<const RigOcclusion>(BakeRigOcclusion(rig, rest, OcclusionSettings{}));
+}
+
+// The bake itself: what a rig's first shaded render waits for.
+void BM_BakeOcclusion(benchmark::State& state) {
+  const Rig& rig = Case(static_cast<int>(state.range(0)));
+  for (auto _ : state) benchmark::DoNotOptimize(Baked(rig));
+  state.SetLabel(CaseName(static_cast<int>(state.range(0))));
+  state.counters["vertices"] = static_cast<double>(rig.vertex_count());
+}
+BENCHMARK(BM_BakeOcclusion)->ArgName("mesh")->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
 
 // One renderer for every benchmark: its GL contexts are made once.
 const render::OsMesaRenderer& Renderer() {
@@ -89,6 +112,7 @@ void BM_Render(benchmark::State& state) {
   render::RenderOptions o;
   o.width = o.height = size;
   o.srgb8 = srgb8;
+  o.occlusion = Baked(rig);
   // The framing box of the shapes, found once per rig as the service keeps it (api's DerivedRig).
   o.camera.has_focus = ShapeFocusBox(rig, o.camera.focus_min, o.camera.focus_max);
   o.camera.focus_small = o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
@@ -100,7 +124,7 @@ void BM_Render(benchmark::State& state) {
     if (png) bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
     benchmark::DoNotOptimize(image.rgba.data());
   }
-  state.SetLabel(std::string(state.range(0) == 0 ? "facecap 8k tris" : "sheet 100k tris") + (srgb8 ? ", 8-bit sRGB" : ", float") + (png ? " + PNG" : ""));
+  state.SetLabel(std::string(CaseName(static_cast<int>(state.range(0)))) + (srgb8 ? ", 8-bit sRGB" : ", float") + (png ? " + PNG" : ""));
   state.counters["triangles"] = static_cast<double>(rig.triangle_count());
   if (png) state.counters["png_KB"] = bytes / 1024.0;
 }

@@ -9,7 +9,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace blend_test {  // Named: core_tests is a unity build, its files share one unit.
 
 // Two triangles sharing an edge (a unit square in z = 0) with two shapes.
 Rig Square() {
@@ -326,7 +326,7 @@ TEST(Rig, SymmetricPartnersFromNames) {
 }  // namespace facespace
 
 namespace facespace {
-namespace {
+namespace blend_test {
 
 // SparseBlend gives EvaluateRig's bits for the primitives a point moves and says the rest stand:
 // FaceCap, where a point of the head's shapes moves the head and leaves the eyes and teeth.

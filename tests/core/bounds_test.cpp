@@ -13,7 +13,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace bounds_test {  // Named: core_tests is a unity build, its files share one unit.
 
 const Rig& FaceCap() {
   static const Rig rig = LoadRigFile(test::Bundled("facecap/facecap.glb")).value();

@@ -14,7 +14,7 @@
 #include "world.h"
 
 namespace facespace {
-namespace {
+namespace collada_test {  // Named: core_tests is a unity build, its files share one unit.
 
 std::string Dae(const std::string& rel) { return test::SharedAssets() + "/more/Collada/" + rel; }
 

@@ -14,7 +14,7 @@
 #include "world.h"
 
 namespace facespace {
-namespace {
+namespace constraints_test {  // Named: core_tests is a unity build, its files share one unit.
 
 constexpr float kPi = 3.14159265358979f;
 

@@ -15,7 +15,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace face_space_test {  // Named: core_tests is a unity build, its files share one unit.
 
 Rig FaceCap() {
   auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
@@ -143,7 +143,7 @@ TEST(Variants, GridAlongALineAndOverRanges) {
 #include "facespace/core/shape_tools.h"
 
 namespace facespace {
-namespace {
+namespace face_space_test {
 
 // Mean vertex distance between two shapes' displacements, over every vertex either moves.
 double ShapeDifference(const Rig& rig, int a, int b, double* magnitude) {
@@ -240,7 +240,7 @@ TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
 #include "facespace/formats/lod.h"
 
 namespace facespace {
-namespace {
+namespace face_space_test {
 
 TEST(Lod, EveryLodVertexBlendsToTheFullRigsPosition) {
   const Rig rig = FaceCap();
@@ -347,7 +347,7 @@ TEST(Basis, QuantisationErrorIsHalfAStep) {
 #include "facespace/core/weights.h"
 
 namespace facespace {
-namespace {
+namespace face_space_test {
 
 std::vector<float> Effective(const Rig& rig, std::vector<std::pair<const char*, float>> given) {
   std::vector<float> w(rig.shapes.size(), 0.0f), out(rig.shapes.size(), 0.0f);
@@ -510,7 +510,7 @@ TEST(Semantics, ManifestErrorsNameTheField) {
 }  // namespace facespace
 
 namespace facespace {
-namespace {
+namespace face_space_test {
 
 const std::string kMakeHuman = std::string(FACESPACE_SHARED_ASSETS) + "/more/MakeHumanFace";
 

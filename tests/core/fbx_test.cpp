@@ -18,7 +18,7 @@
 #include "world.h"
 
 namespace facespace {
-namespace {
+namespace fbx_test {  // Named: core_tests is a unity build, its files share one unit.
 
 std::string Fbx(const std::string& rel) { return test::SharedAssets() + "/more/FBX/" + rel; }
 

@@ -6,7 +6,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace import_test {  // Named: core_tests is a unity build, its files share one unit.
 
 using test::RawGltf;
 using test::RealAsset;

@@ -16,7 +16,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace io_test {  // Named: core_tests is a unity build, its files share one unit.
 
 using test::TempDir;
 

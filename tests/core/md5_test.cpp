@@ -14,7 +14,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace md5_test {  // Named: core_tests is a unity build, its files share one unit.
 
 std::string BobDir() { return test::SharedAssets() + "/more/MD5/Bob/"; }
 

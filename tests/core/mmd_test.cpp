@@ -18,7 +18,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace mmd_test {  // Named: core_tests is a unity build, its files share one unit.
 
 std::string UkaDir() { return test::SharedAssets() + "/more/MMD/Uka"; }
 std::string Pmd() { return test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd"; }

@@ -11,7 +11,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace pmx_test {  // Named: core_tests is a unity build, its files share one unit.
 
 std::string Uka() { return test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx"; }
 

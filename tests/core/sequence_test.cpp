@@ -9,7 +9,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace sequence_test {  // Named: core_tests is a unity build, its files share one unit.
 
 Transition T(const char* name) {
   Transition t;

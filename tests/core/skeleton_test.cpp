@@ -12,7 +12,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace skeleton_test {  // Named: core_tests is a unity build, its files share one unit.
 
 // ---- analytic ------------------------------------------------------------------------------
 

@@ -9,7 +9,7 @@
 #include "facespace/formats/io.h"
 
 namespace facespace {
-namespace {
+namespace speech_test {  // Named: core_tests is a unity build, its files share one unit.
 
 Rig Load(const std::string& rel) {
   auto rig = LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel);

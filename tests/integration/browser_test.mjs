@@ -227,6 +227,12 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
         `${during.max.toFixed(2)}; "${during.status}")`, during.updates - before >= 10 && during.max > 0.3 && /espeak-ng/.test(during.status));
   check('say: when the line ends the face is the sliders\' again', await page.evaluate(() => !window.facespace.state.speech) &&
         await page.locator('#say-stop').isHidden());
+  // The typed line as a video: a WebM file (EBML's magic number first) of the face saying it.
+  const [video] = await Promise.all([page.waitForEvent('download', { timeout: 60000 }), page.locator('#say-webm').click()]);
+  const webm = fs.readFileSync(await video.path());
+  check(`say: the webm button saves the line as a WebM video (${webm.length} bytes, ${video.suggestedFilename()})`,
+    webm.length > 10000 && webm.readUInt32BE(0) === 0x1a45dfa3 && video.suggestedFilename() === 'facecap.webm');
+  check('say: no VRM button for a rig without a skeleton (FaceCap)', await page.locator('#dl-vrm').isHidden());
   await page.locator('#rig').selectOption('makehuman');
   await page.waitForFunction(() => window.facespace.state.ready === 'makehuman', null, { timeout: 30000 });
   check('say: no Say bar for a rig without a mouth (MakeHuman)', await page.locator('#say').isHidden());
@@ -266,6 +272,13 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   });
   check(`switch: picking uka marks the views loading at once and shows her face in ${Math.round(switched.ms)} ms (at most 500; ${switched.shapes} sliders)`,
     switched.loadingAtOnce && switched.ms <= 500 && switched.shapes > 100);
+  // Her face as a VRM avatar: a glb whose JSON carries VRMC_vrm with a humanoid.
+  const [avatar] = await Promise.all([page.waitForEvent('download', { timeout: 60000 }), page.locator('#dl-vrm').click()]);
+  const vrm = fs.readFileSync(await avatar.path());
+  const vrmJson = vrm.length > 20 ? JSON.parse(vrm.subarray(20, 20 + vrm.readUInt32LE(12)).toString('utf8')) : {};
+  check(`vrm: the vrm button saves uka as a VRM 1.0 avatar (${vrm.length} bytes, ${avatar.suggestedFilename()})`,
+    vrm.readUInt32LE(0) === 0x46546c67 && !!(vrmJson.extensions && vrmJson.extensions.VRMC_vrm && vrmJson.extensions.VRMC_vrm.humanoid) &&
+    avatar.suggestedFilename() === 'uka.vrm');
   await page.close();
 }
 {  // A motion plays, pauses and scrubs: FaceCap's recorded take (its morph-weight channel).

@@ -13,6 +13,8 @@
 #include <thread>
 
 #include "facespace/formats/io.h"
+#include "facespace/core/face.h"
+#include "facespace/core/occlusion.h"
 #include "facespace/core/shape_tools.h"
 #include "facespace/core/skeleton.h"
 #include "facespace/render/render.h"
@@ -414,14 +416,15 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, shapes).ok());
   o.camera.frame = render::Framing::kAll;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, all).ok());
-  EXPECT_EQ(by_default.rgba, shapes.rgba);
+  EXPECT_NE(by_default.rgba, shapes.rgba);  // The shapes' box grown by 40%: a margin around the face.
   EXPECT_GT(CoveredRows(by_default), 100);  // The head fills the frame...
   EXPECT_GT(CoveredRows(all), 100);         // ...where "all" shows the whole body, as tall,
   EXPECT_NE(by_default.rgba, all.rgba);     // and so a different picture.
 }
 
-// Uka's shapes are her face on a skinned body: by default a render frames the joint that carries
-// them (頭, her head), where a pose takes it, as frame=joint:頭 does; "all" shows her whole, small.
+// Uka's shapes are her face on a skinned body: by default a render frames her face (the box of what her
+// expressions move, with a margin) carried by the joint that carries them (頭, her head) to where a pose
+// takes it; frame=joint:頭 frames all that joint carries (her ears and hair too), "all" her whole, small.
 TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
   auto loaded = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(loaded.ok());
@@ -456,8 +459,9 @@ TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
     ASSERT_TRUE(Gl().Draw(uka, blended, o, joint).ok());
     o.camera.frame = render::Framing::kAll;
     ASSERT_TRUE(Gl().Draw(uka, blended, o, all).ok());
-    EXPECT_EQ(by_default.rgba, joint.rgba) << (posed ? "posed" : "at rest");
-    EXPECT_GT(CoveredRows(by_default), 80) << (posed ? "posed" : "at rest");  // The head fills the frame,
+    EXPECT_NE(by_default.rgba, joint.rgba) << (posed ? "posed" : "at rest");
+    EXPECT_EQ(CoveredRows(by_default), 96) << (posed ? "posed" : "at rest");  // The face fills the frame,
+    EXPECT_GT(CoveredRows(joint), 80) << (posed ? "posed" : "at rest");
     EXPECT_LT(CoveredRows(all), 80) << (posed ? "posed" : "at rest");         // a whole body is thin.
   }
 }
@@ -999,6 +1003,69 @@ TEST(Image, DecodesBmpAndTgaTextures) {
   EXPECT_FALSE(render::Decode(tga).ok());  // Without the hint: no magic.
 }
 
+// ---- occlusion -----------------------------------------------------------------------------
+
+// The rig's occlusion baked at its neutral weights, as the service bakes it (api's DerivedRigs).
+std::shared_ptr<const RigOcclusion> Baked(const Rig& rig) {
+  return std::make_shared<const RigOcclusion>(BakeRigOcclusion(rig, Evaluate(rig), OcclusionSettings{}));
+}
+
+// The mean luminance of the (2r+1)^2 pixels around (x, y) of a linear-light image.
+float PatchLuma(const Image& im, int x, int y, int r = 2) {
+  float sum = 0;
+  int n = 0;
+  for (int j = y - r; j <= y + r; ++j) {
+    for (int i = x - r; i <= x + r; ++i) {
+      const float* px = &im.rgba[4 * (static_cast<size_t>(j) * static_cast<size_t>(im.width) + static_cast<size_t>(i))];
+      sum += Luma({px[0], px[1], px[2]});
+      ++n;
+    }
+  }
+  return sum / static_cast<float>(n);
+}
+
+// The rig drawn at 256 x 256 (from 20 degrees below: under the chin shows) without and with its baked
+// occlusion, both written beside the test (NAME_off/on.actual.png) for a person to look at.
+std::pair<Image, Image> WithoutAndWith(const std::string& name, const Rig& rig, const std::vector<float>& w) {
+  const BlendedRig blended = Evaluate(rig, w);
+  RenderOptions o;
+  o.width = o.height = 256;
+  o.camera.pitch = -20;
+  std::pair<Image, Image> drawn;
+  EXPECT_TRUE(Gl().Draw(rig, blended, o, drawn.first).ok());
+  o.occlusion = Baked(rig);
+  EXPECT_TRUE(Gl().Draw(rig, blended, o, drawn.second).ok());
+  test::WriteBytes(name + "_off.actual.png", render::Encode(drawn.first, render::ImageFormat::kPng).value());
+  test::WriteBytes(name + "_on.actual.png", render::Encode(drawn.second, render::ImageFormat::kPng).value());
+  return drawn;
+}
+
+struct Place {
+  const char* name;
+  int x, y;
+};
+
+// With over without occlusion, in linear light, around each place.
+void ExpectRatios(const std::pair<Image, Image>& drawn, std::initializer_list<Place> creases, std::initializer_list<Place> open) {
+  for (const Place& p : creases) EXPECT_LT(PatchLuma(drawn.second, p.x, p.y) / PatchLuma(drawn.first, p.x, p.y), 0.75f) << p.name;
+  for (const Place& p : open) EXPECT_GT(PatchLuma(drawn.second, p.x, p.y) / PatchLuma(drawn.first, p.x, p.y), 0.9f) << p.name;
+}
+
+// Baked occlusion darkens the creases against the same render without it (FaceCap's nostrils and open
+// mouth, MakeHuman's fold under the chin) and leaves open skin (forehead, cheeks) nearly as it was. The
+// places were picked on the renders the test writes.
+TEST(Occlusion, DarkensCreasesAndLeavesOpenSkin) {
+  auto facecap = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  ASSERT_TRUE(facecap.ok());
+  std::vector<float> w(facecap->shapes.size(), 0.0f);
+  w[static_cast<size_t>(FindShape(facecap.value(), "jawOpen"))] = 1.0f;
+  ExpectRatios(WithoutAndWith("occlusion_facecap", facecap.value(), w), {{"a nostril", 134, 125}, {"the open mouth", 127, 165}},
+               {{"forehead", 128, 75}, {"right cheek", 95, 135}, {"left cheek", 160, 135}});
+  auto makehuman = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
+  ASSERT_TRUE(makehuman.ok());
+  ExpectRatios(WithoutAndWith("occlusion_makehuman", makehuman.value(), {}), {{"under the chin", 124, 209}}, {{"forehead", 128, 70}, {"cheek", 100, 132}});
+}
+
 // ---- goldens of real assets ---------------------------------------------------------------
 
 struct GoldenCase {
@@ -1010,7 +1077,9 @@ struct GoldenCase {
   const char* animation = nullptr;  // Skinned assets: a clip and a time.
   float time = 0.0f;
   bool checker = false;  // Every material's base colour: a checker over the UVs (shows UV seams).
+  const char* expression = nullptr;  // An expression at 1 (core/face.h), over the weights.
 };
+
 
 // A 512 x 512 checker of 16 x 16 squares, two colours, with a red cell at the atlas's (0, 0) corner
 // and a blue one at (1, 1) so an upside-down map shows.
@@ -1066,6 +1135,13 @@ TEST_P(Golden, MatchesCommittedImage) {
     ASSERT_GE(s, 0) << name;
     w[s] = value;
   }
+  if (c.expression) {
+    const int e = FindExpression(rig.value(), c.expression);
+    ASSERT_GE(e, 0) << c.expression;
+    std::vector<float> values(rig->expressions.size(), 0.0f);
+    values[static_cast<size_t>(e)] = 1.0f;
+    AddExpressionWeights(rig.value(), values, ExpressionMultipliers{}, w);
+  }
   BlendedRig blended = Evaluate(rig.value(), w);
   if (c.animation) {
     PoseRequest req;
@@ -1086,6 +1162,7 @@ TEST_P(Golden, MatchesCommittedImage) {
   o.camera.yaw = c.yaw;
   o.camera.pitch = c.pitch;
   o.supersample = 2;
+  if (c.view != render::View::kHeatmap && c.view != render::View::kNormals) o.occlusion = Baked(rig.value());
   Image im;
   ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, im).ok());
   auto png = render::Encode(im, render::ImageFormat::kPng);
@@ -1113,6 +1190,12 @@ TEST_P(Golden, MatchesCommittedImage) {
 INSTANTIATE_TEST_SUITE_P(
     RealAssets, Golden,
     ::testing::Values(GoldenCase{"facecap_neutral", "@facecap/facecap.glb", {}, render::View::kShaded, 0, 0},
+                      GoldenCase{"facecap_jaw_open", "@facecap/facecap.glb", {{"jawOpen", 1.0f}}, render::View::kShaded, 0, 0},
+                      GoldenCase{"uka_neutral", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 0, 0},
+                      GoldenCase{"uka_happy_still", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
+                      GoldenCase{"uka_blush", "@uka/MS_Uka.pmx", {{"照れ", 1.0f}, {"赤み", 1.0f}}, render::View::kShaded, 0, 0},
+                      GoldenCase{"makehuman_neutral", "@makehuman/makehuman.glb", {}, render::View::kShaded, 0, 0},
+                      GoldenCase{"makehuman_happy", "@makehuman/makehuman.glb", {}, render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
                       GoldenCase{"facecap_jaw_smile", "@facecap/facecap.glb", {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}},
                                  render::View::kShaded, 25, 10},
                       GoldenCase{"facecap_heatmap", "@facecap/facecap.glb", {{"jawOpen", 0.6f}, {"eyeBlink_L", 1.0f}}, render::View::kHeatmap, 0, 0},

@@ -158,6 +158,12 @@ std::shared_ptr<const DerivedRig> Evaluator::Derived(const std::shared_ptr<const
   return kept_->derived.At(rig, lod);
 }
 
+void Evaluator::WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lod) const {
+  if (!renderer_) return;
+  render::RenderOptions options;  // Shaded: the occlusion is baked.
+  kept_->derived.Prepare(rig, lod, options);
+}
+
 Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, std::span<const ResolvedPoint> points,
                                const OutputSpec& spec, Workspace& ws) const {
   if (points.empty() || (spec.kind != OutputSpec::Kind::kSheet && points.size() != 1)) {
@@ -205,7 +211,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
       auto start = Clock::now();
       render::RenderOptions options = spec.render;
-      kept_->derived.SetFocus(stored, spec.lod, options.camera);
+      kept_->derived.Prepare(stored, spec.lod, options);
       options.srgb8 = spec.image_format != render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
       if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
       Lap(start, ws.timing.draw);
@@ -217,7 +223,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
     }
     case OutputSpec::Kind::kSheet: {
       render::RenderOptions options = spec.render;
-      kept_->derived.SetFocus(stored, spec.lod, options.camera);
+      kept_->derived.Prepare(stored, spec.lod, options);
       auto bytes = Grid(rig, points, spec, options, *renderer_, ws);
       if (!bytes.ok()) return bytes.status();
       return Whole(std::move(bytes.value()));

@@ -41,7 +41,33 @@ std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const Stored
   return d ? d->rig : nullptr;
 }
 
-void DerivedRigs::SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera) {
+std::shared_ptr<const RigOcclusion> DerivedRigs::Occlusion(const std::shared_ptr<const StoredRig>& stored, int lod) {
+  if (lod < 0 || lod > kMaxLod) return nullptr;
+  const std::shared_ptr<const Rig> own(stored, &stored->rig);
+  auto kept = [&]() -> std::shared_ptr<const RigOcclusion> {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto* levels = occlusion_.Find(own);
+    return levels ? (*levels)[static_cast<size_t>(lod)] : nullptr;
+  };
+  if (auto found = kept()) return found;
+  std::lock_guard<std::mutex> baking(bake_mu_);
+  if (auto found = kept()) return found;  // Baked while this one waited.
+  const std::shared_ptr<const Rig> rig = RigAt(stored, lod);
+  if (!rig) return nullptr;
+  BlendedRig rest;
+  BlendContext context;
+  const std::vector<float> neutral(rig->shapes.size(), 0.0f);
+  if (!EvaluateRig(*rig, neutral, BlendOptions{}, rest, context).ok()) return nullptr;
+  auto baked = std::make_shared<const RigOcclusion>(BakeRigOcclusion(*rig, rest, OcclusionSettings{}));
+  std::lock_guard<std::mutex> lock(mu_);
+  occlusion_.At(own)[static_cast<size_t>(lod)] = baked;
+  return baked;
+}
+
+void DerivedRigs::Prepare(const std::shared_ptr<const StoredRig>& stored, int lod, render::RenderOptions& options) {
+  const render::View view = options.view;
+  if (view == render::View::kShaded || view == render::View::kWireframe || view == render::View::kClay) options.occlusion = Occlusion(stored, lod);
+  render::Camera& camera = options.camera;
   if (camera.frame == render::Framing::kAll) return;
   if (auto d = At(stored, lod); d && d->has_focus) {
     camera.has_focus = true;

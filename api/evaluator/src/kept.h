@@ -54,12 +54,19 @@ class DerivedRigs {
   std::shared_ptr<const DerivedRig> At(const std::shared_ptr<const StoredRig>& stored, int lod);
   // The rig at a level of detail: the stored rig itself at 0 (no lookup), else At(...)->rig.
   std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod);
-  // Framing on the shapes: the camera gets the kept box instead of a per-render one.
-  void SetFocus(const std::shared_ptr<const StoredRig>& stored, int lod, render::Camera& camera);
+  // What a picture of the rig at a level takes from what is kept: the camera's framing on the shapes
+  // (the kept box instead of a per-render one) and, for the views that shade, the baked occlusion.
+  void Prepare(const std::shared_ptr<const StoredRig>& stored, int lod, render::RenderOptions& options);
 
  private:
+  // The rig's occlusion at a level, baked on first use at its neutral weights and rest pose (one bake at
+  // a time: a second caller waits for the first's rather than baking again).
+  std::shared_ptr<const RigOcclusion> Occlusion(const std::shared_ptr<const StoredRig>& stored, int lod);
+
   std::mutex mu_;
   PerRig<std::array<std::shared_ptr<const DerivedRig>, kMaxLod + 1>> derived_;
+  std::mutex bake_mu_;  // Held while baking; taken before mu_.
+  PerRig<std::array<std::shared_ptr<const RigOcclusion>, kMaxLod + 1>> occlusion_;  // Under mu_.
 };
 
 // Glb writers kept per rig (a GlbVariantWriter holds one rig's exported template), leased one per

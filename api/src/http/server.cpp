@@ -20,8 +20,8 @@ using httplib::Response;
 
 struct Api::Impl {
   http::ServerState ctx;
-  // Encodes each rig's description and topology beside the first requests (routes/rigs.cpp, WarmRig);
-  // stopped and joined before `ctx` goes.
+  // Encodes each rig's description and topology and bakes its occlusion beside the first requests
+  // (routes/rigs.cpp, WarmRig); stopped and joined before `ctx` goes.
   std::jthread warm;
   Impl(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o) : ctx(s, j, e, std::move(o), http::MetricLabels()) {
     warm = std::jthread([this](std::stop_token stop) {

@@ -110,6 +110,7 @@ void WarmRig(ServerState& ctx, const std::shared_ptr<const StoredRig>& stored) {
     c = coding;
     if (derived) EncodedOnce(ctx, TopologyKey(*stored, 0), c, "application/json", [&] { return TopologyJson(*derived->rig, *derived); });
   }
+  ctx.evaluator.WarmPictures(stored, 0);
 }
 
 void ListRigs(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {

@@ -11,20 +11,23 @@ namespace facespace::manifest {
 
 namespace {
 
-// One material's base colour (RGBA): for a rig whose textures are not at hand (an MMD model's blush
-// is a red texture on a see-through material). A name the rig lacks warns.
+// One material's base colour (RGBA) and stand-in: for a rig whose textures are not at hand (an MMD
+// model's blush is a red texture on a see-through material). A name the rig lacks warns.
 Status ApplyMaterial(Rig& rig, const std::string& key, const json& item, const std::string& ptr) {
   auto found = std::find_if(rig.materials.begin(), rig.materials.end(), [&](const Material& x) { return x.name == key; });
   const json& c = item.is_object() && item.contains("base_color") ? item["base_color"] : json();
-  if (!item.is_object() || item.size() != 1 || !c.is_array() || c.size() != 4 ||
+  const json& stand_in = item.is_object() && item.contains("stand_in") ? item["stand_in"] : json("none");
+  if (!item.is_object() || item.size() != 1u + item.contains("stand_in") || !c.is_array() || c.size() != 4 ||
       !std::all_of(c.begin(), c.end(), [](const json& x) { return x.is_number() && x.get<double>() >= 0 && x.get<double>() <= 1; })) {
-    return Bad(ptr, "must be {\"base_color\": [r, g, b, a]}, each in [0, 1]");
+    return Bad(ptr, "must be {\"base_color\": [r, g, b, a]}, each in [0, 1], and optionally \"stand_in\"");
   }
+  if (stand_in != "none" && stand_in != "soft") return Bad(ptr + "/stand_in", "must be \"none\" or \"soft\"");
   if (found == rig.materials.end()) {
     rig.load_warnings.push_back({"manifest_unknown_material", "manifest: " + ptr + " names no material of the rig", key.substr(0, 60), 0.0, false});
     return Status::Ok();
   }
   for (int k = 0; k < 4; ++k) found->base_color_factor[k] = c[k].get<float>();
+  found->stand_in = stand_in == "soft" ? StandIn::kSoft : StandIn::kNone;
   return Status::Ok();
 }
 
@@ -145,7 +148,8 @@ Status ApplyShape(Rig& rig, const std::string& key, const json& o, const std::st
 Status ApplyMaterials(Rig& rig, const json& m) {
   // A material's base colour (RGBA) by name: for a rig whose textures are not at hand (an MMD
   // model's blush is a red texture on a see-through material).
-  return ForEachMember(m, "/materials", "must be an object of material name -> {\"base_color\": [r, g, b, a]}", rig, ApplyMaterial);
+  return ForEachMember(m, "/materials", "must be an object of material name -> {\"base_color\": [r, g, b, a], \"stand_in\": \"soft\"}", rig,
+                       ApplyMaterial);
 }
 // "derived": new shapes mirrored or masked from others.
 Status ApplyDerived(Rig& rig, const json& section) {

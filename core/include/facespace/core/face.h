@@ -32,6 +32,13 @@ int FirstNodeOf(const Rig& rig, std::string_view candidates);
 // The same for shapes (by name or alias).
 int FirstShapeOf(const Rig& rig, std::string_view candidates);
 
+// A shape by candidate names ("a|b", FirstShapeOf) at a weight: a row of the tables that map expression
+// presets and visemes onto whatever shapes a rig has.
+struct CandidateBind {
+  const char* shapes;
+  float weight;
+};
+
 // "none", "block", "blend": VRM's and the manifest's word for an override.
 const char* ExpressionOverrideName(ExpressionOverride o);
 

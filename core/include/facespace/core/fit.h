@@ -21,7 +21,7 @@ struct FitOptions {
 
 struct FitResult {
   std::vector<float> weights;      // One per shape.
-  double rms_error = 0.0;          // Vertex distance between fit and target, root mean square.
+  double rms_error = 0.0;          // Vertex distance between fit and target (scene units), root mean square.
   double max_error = 0.0;          // And largest.
   std::vector<Warning> warnings;
   std::array<float, 16> alignment{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // Applied to the target.

@@ -334,6 +334,11 @@ struct Image {
   std::vector<unsigned char> bytes;    // Encoded file contents; empty: not read (name is its path).
 };
 
+// What draws in place of a base-colour texture that could not be read (manifest "stand_in"): the
+// material's colour as it is, or soft, a translucent blot over each UV island fading to its edges (an
+// overlay whose shape was the texture's alpha: blush, marks), never an opaque rectangle.
+enum class StandIn : uint8_t { kNone, kSoft };
+
 struct Material {
   std::string name;
   std::array<float, 4> base_color_factor{1, 1, 1, 1};
@@ -351,6 +356,7 @@ struct Material {
   bool double_sided = false;
   std::string alpha_mode = "OPAQUE";
   float alpha_cutoff = 0.5f;
+  StandIn stand_in = StandIn::kNone;   // Only while the base colour's image is not read.
 };
 
 struct Skin {
@@ -455,6 +461,10 @@ void DetectSymmetricPartners(Rig& rig);
 
 // Recounts Shape::vertices_moved from the targets.
 void CountMovedVertices(Rig& rig);
+
+// The diagonal of the box around every primitive's positions (mesh space, as stored): the rig's size,
+// for tolerances relative to it. 0 for a rig with no vertices.
+double RigDiagonal(const Rig& rig);
 
 // Column-major 4x4 world matrix of each node (parent before child).
 std::vector<std::array<float, 16>> NodeWorldMatrices(const Rig& rig);

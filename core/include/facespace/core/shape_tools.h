@@ -40,7 +40,8 @@ struct DeriveReport {
 // `name` already taken, bad axis or vertex index. Group, range and default are copied.
 Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options);
 
-// The box of the vertices the shapes move noticeably (over 5% of a shape's largest move), in
+// The box of the vertices the shapes move noticeably (over 5% of a shape's largest move; of the shapes
+// the rig's expressions bind when it has expressions, so the face and not an ear or a skirt), in
 // scene space at rest, 1st to 99th percentile per axis so a stray vertex does not widen it:
 // where a camera should look on a whole body whose shapes are a face. False when no shape
 // moves anything.

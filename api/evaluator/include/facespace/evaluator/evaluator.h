@@ -190,6 +190,11 @@ class Evaluator {
   // The rig at a level of detail and the box its shapes act in (kept); null when it cannot be made.
   std::shared_ptr<const DerivedRig> Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const;
 
+  // What pictures of the rig at a level will need, made now rather than at the first (the occlusion
+  // baked once per rig and level: a quarter second for a 50k-vertex rig); nothing for an evaluator of
+  // meshes. The service's warm-up calls it for the rigs it starts with.
+  void WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lod) const;
+
  private:
   struct Kept;
   const render::Renderer* renderer_ = nullptr;

@@ -5,11 +5,13 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "facespace/core/blend.h"
+#include "facespace/core/occlusion.h"
 #include "facespace/core/rig.h"
 #include "facespace/core/status.h"
 
@@ -66,6 +68,10 @@ struct RenderOptions {
   // an 8-bit file: GL converts at its store, so there is no float frame to clear, read back and
   // convert. Ignored (floats drawn) with supersampling and the heatmap, which work on floats after.
   bool srgb8 = false;
+  // Occlusion baked for this rig (core/occlusion.h: BakeRigOcclusion), drawn as ambient occlusion and soft
+  // shadows of every light in the shaded, wireframe and clay views; null draws without (every vertex open).
+  // The evaluator bakes it once per rig and level of detail (DerivedRigs::Prepare).
+  std::shared_ptr<const RigOcclusion> occlusion;
 };
 
 // Linear-light RGBA, top row first. Encoding converts to sRGB for 8-bit formats. A draw asked for
