@@ -23,7 +23,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace api_test {  // Named: the target is a unity build, its files share one unit.
 
 using nlohmann::json;
 

@@ -6,7 +6,7 @@
 #include "http/context.h"
 
 namespace facespace::api::http {
-namespace {
+namespace budget_test {  // Named: the target is a unity build, its files share one unit.
 
 TEST(RenderBudget, EstimatesSamplesAndOutputPixels) {
   render::RenderOptions o;

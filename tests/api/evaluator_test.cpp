@@ -11,7 +11,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace evaluator_test {  // Named: the target is a unity build, its files share one unit.
 
 const std::shared_ptr<const api::StoredRig>& FaceCapStored() {
   static const auto rig = api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");

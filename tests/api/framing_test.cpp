@@ -6,7 +6,7 @@
 #include "http/framing.h"
 
 namespace facespace::api::http {
-namespace {
+namespace framing_test {  // Named: the target is a unity build, its files share one unit.
 
 struct Parsed {
   Framing f;

@@ -15,7 +15,7 @@
 #include "loopback.h"
 
 namespace facespace::api {
-namespace {
+namespace front_test {  // Named: the target is a unity build, its files share one unit.
 
 using Clock = std::chrono::steady_clock;
 

@@ -10,7 +10,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace batch_test {  // Named: the target is a unity build, its files share one unit.
 
 namespace fs = std::filesystem;
 using nlohmann::json;

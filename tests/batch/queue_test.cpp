@@ -12,7 +12,7 @@
 #include "test_util.h"
 
 namespace facespace {
-namespace {
+namespace queue_test {  // Named: the target is a unity build, its files share one unit.
 
 namespace fs = std::filesystem;
 
