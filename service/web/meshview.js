@@ -62,7 +62,9 @@ export function createMeshView(canvas) {
       if (focus) [lo, hi] = [focus.min, focus.max];
       else for (let i = 0; i < n; ++i) { lo[i % 3] = Math.min(lo[i % 3], pos[i]); hi[i % 3] = Math.max(hi[i % 3], pos[i]); }
       view.center = lo.map((l, i) => (l + hi[i]) / 2);
-      view.radius = Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2 || 1;
+      // The focus (the face its expressions move) with a 40% margin, as the renders frame it: the eyes and
+      // mouth inside while a motion moves the head a little; ears and hair may crop.
+      view.radius = (focus ? 1.4 : 1) * Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]) / 2 || 1;
       framed = true;
     }
     c.bindBuffer(c.ARRAY_BUFFER, pbuf);
