@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "facespace/core/bezier.h"
+#include "facespace/core/weights.h"
 
 namespace facespace {
 
@@ -179,26 +180,12 @@ Sequence BakeKey(const Sequence& s, float t) {
 
 namespace {
 
-// Per shape, the farthest any vertex moves at weight 1: max_v |d_j(v)| over every primitive.
-std::vector<double> ShapeReach(const Rig& rig) {
-  std::vector<double> reach(rig.shapes.size(), 0.0);
-  for (const Primitive& p : rig.primitives) {
-    const Mesh& mesh = rig.meshes[static_cast<size_t>(p.mesh)];
-    for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
-      const std::vector<float>& d = p.targets[t].position_deltas;
-      double& r = reach[mesh.target_shapes[t]];
-      for (size_t k = 0; k + 2 < d.size(); k += 3) r = std::max(r, std::sqrt(double(d[k]) * d[k] + double(d[k + 1]) * d[k + 1] + double(d[k + 2]) * d[k + 2]));
-    }
-  }
-  return reach;
-}
-
 // Largest vertex distance between the rig at weights a and at weights b:
 // max_v |sum_j (a_j - b_j) d_j(v)|, computed with the blend kernel on a zero base. Without a blend, the
-// bound sum_j |a_j - b_j| reach_j (ShapeReach), never below the distance, where it is close enough: when
+// bound sum_j |a_j - b_j| reach_j (reach: LargestMoves), never below the distance, where it is close enough: when
 // all but the largest term add up to `slack` or less (the other weights equal but for round-off; ReduceSequence
 // gives 5% of its tolerance) or to a thousandth of the bound.
-double MaxVertexDistance(const Rig& rig, std::span<const double> reach, std::span<const float> a, std::span<const float> b, double slack,
+double MaxVertexDistance(const Rig& rig, std::span<const float> reach, std::span<const float> a, std::span<const float> b, double slack,
                          std::vector<float>& diff, std::vector<float>& tw, std::vector<float>& scratch) {
   diff.resize(a.size());
   double bound = 0.0, dominant = 0.0;
@@ -258,7 +245,7 @@ struct ReduceScratch {
   Sequence window;  // The kept keys around a candidate segment.
   std::vector<float> w, diff, target_weights, blend;
   std::vector<double> errors;
-  std::vector<double> reach;  // ShapeReach of the rig.
+  std::vector<float> reach;  // Each shape's largest move (LargestMoves).
 };
 
 // Whether keys `from` .. `to` of `s` may lose every key between them: the sequence with only the kept
@@ -300,7 +287,7 @@ Result<ReduceResult> ReduceSequence(const Rig& rig, const Sequence& s, float tol
   x.window.transition = s.transition;
   x.window.smooth = s.smooth;
   x.w.resize(rig.shapes.size());
-  x.reach = ShapeReach(rig);
+  x.reach = LargestMoves(rig, {});
   std::vector<double> errors(c.times.size(), 0.0);
   std::vector<size_t> kept{0};
   const size_t last = s.keys.size() - 1;

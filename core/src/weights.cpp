@@ -130,6 +130,22 @@ double MahalanobisDistance(const Rig& rig, std::span<const float> weights) {
   return std::sqrt(d2);
 }
 
+std::vector<float> LargestMoves(const Rig& rig, std::span<const float> active) {
+  std::vector<float> most(rig.shapes.size(), 0.0f);
+  for (const Mesh& mesh : rig.meshes) {
+    for (int pi : mesh.primitives) {
+      const Primitive& p = rig.primitives[pi];
+      for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
+        const uint32_t s = mesh.target_shapes[t];
+        if (s >= most.size() || (!active.empty() && (s >= active.size() || !(active[s] > 0.0f)))) continue;
+        const SparseTarget& st = p.targets[t];
+        for (size_t k = 0; k < st.indices.size(); ++k) most[s] = std::max(most[s], Norm3(&st.position_deltas[3 * k]));
+      }
+    }
+  }
+  return most;
+}
+
 double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vector<uint32_t>& shapes) {
   shapes.clear();
   double best = 0.0;
@@ -137,18 +153,8 @@ double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vec
   uint32_t best_vertex = 0;
   // Each vertex gets the weight times the share of the shape's largest move (over all its primitives)
   // it moves there: a shape is "full" where it moves most (a left smile moves the middle of the lips half as much).
-  std::vector<float> most(rig.shapes.size(), 0.0f), acc;
-  for (const Mesh& mesh : rig.meshes) {
-    for (int pi : mesh.primitives) {
-      const Primitive& p = rig.primitives[pi];
-      for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
-        const uint32_t s = mesh.target_shapes[t];
-        if (s >= weights.size() || s >= most.size() || !(weights[s] > 0.0f)) continue;
-        const SparseTarget& st = p.targets[t];
-        for (size_t k = 0; k < st.indices.size(); ++k) most[s] = std::max(most[s], Norm3(&st.position_deltas[3 * k]));
-      }
-    }
-  }
+  const std::vector<float> most = LargestMoves(rig, weights);
+  std::vector<float> acc;
   for (const Mesh& mesh : rig.meshes) {
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];

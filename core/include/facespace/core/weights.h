@@ -42,6 +42,10 @@ struct WeightReport {
   std::vector<uint32_t> stacked_shapes;
 };
 
+// Per shape, its largest vertex move at weight 1, max_v |d_j(v)| over every primitive: of the shapes whose
+// weight in `active` is above 0, or of every shape when `active` is empty; 0 for the others.
+std::vector<float> LargestMoves(const Rig& rig, std::span<const float> active);
+
 // Over the vertices, the largest sum of w_j |d_j(v)| / max_u |d_j(u)| of the shapes of positive weight
 // (each shape's move at the vertex as a share of its largest, times its weight: 1 is one full shape), and
 // the shapes moving that vertex (into `shapes`, in rig order); 0 when none moves a vertex.
