@@ -26,7 +26,6 @@
 
 namespace facespace::render {
 
-
 Result<std::string> EncodingRenderer::Encode(const Image& image, ImageFormat format, int quality) const {
   return render::Encode(image, format, quality);
 }
@@ -136,7 +135,6 @@ bool CarriedBy(const Primitive& p, size_t v, int joint) {
   return false;
 }
 
-// One primitive's vertices in world space into `verts`, the boxes extended.
 // Whether material `m` draws as a soft stand-in (StandIn::kSoft) for want of its base colour's image.
 bool SoftStandIn(const Rig& rig, int m) {
   if (m < 0 || static_cast<size_t>(m) >= rig.materials.size()) return false;
@@ -180,8 +178,9 @@ std::vector<float> SoftFade(const Primitive& p, std::span<const float> uv) {
   return fade;
 }
 
-// `occlusion`: the primitive's baked occlusion (kOcclusionFloats per vertex), or empty: open. `soft`:
-// it draws as a soft stand-in (SoftStandIn).
+// One primitive's vertices in world space into `verts`, the boxes extended. `occlusion`: the primitive's
+// baked occlusion (kOcclusionFloats per vertex), or empty: open. `soft`: it draws as a soft stand-in
+// (SoftStandIn).
 void GatherPrimitive(const Primitive& p, const BlendedPrimitive& b, bool posed, int joint, std::span<const float> occlusion, bool soft,
                      Scene& scene, std::vector<float>& verts) {
   const auto& m = b.world;
