@@ -16,7 +16,7 @@ const char kUsage[] =
     "      shapes (names, groups, ranges, vertices moved), meshes, skeleton\n"
     "  blend RIG [SHAPE.obj ...] [--weights JSON | --weights @FILE | --set NAME=W ...]\n"
     "        [--mode relative|absolute] [--normals blend|recompute] [--keep-targets]\n"
-    "        [--format glb|obj|json|f32|vrm] -o OUT\n"
+    "        [--format glb|obj|json|f32|vrm|vrm0] -o OUT\n"
     "      the blended mesh; format from OUT's extension or --format; -o - writes to stdout\n"
     "  render RIG [weights flags] [--view shaded|wireframe|heatmap|normals|clay] [--width W --height H]\n"
     "        [--camera JSON | --yaw D --pitch D --zoom Z] [--background C] [--supersample N] -o OUT.png\n"

@@ -308,7 +308,7 @@ int Blend(const std::vector<std::string>& args) {
   std::string out_path, format_name;
   bool weights_given = false;
   api::MeshRequest request;
-  Flags flags("usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format glb|obj|json|f32|vrm] -o OUT\n",
+  Flags flags("usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format glb|obj|json|f32|vrm|vrm0] -o OUT\n",
               "The blended mesh. The format comes from OUT's extension or --format; -o - writes to stdout.\n"
               "RIG is any rig we read, told by its bytes: glTF 2.0 (.glb, .gltf), FBX (.fbx, binary or ASCII),\n"
               "COLLADA (.dae), Doom 3 MD5 (.md5mesh, with the .md5anim files beside it), MikuMikuDance (.pmx,\n"
@@ -323,18 +323,19 @@ int Blend(const std::vector<std::string>& args) {
     request.mesh_space = v == "mesh";
     return 0;
   });
-  flags.Text("--format", "glb|obj|json|f32|vrm", "output format (default: from OUT's extension; vrm: a VRM 1.0 avatar of a humanoid rig)", &format_name);
+  flags.Text("--format", "glb|obj|json|f32|vrm|vrm0", "output format (default: from OUT's extension; vrm: a VRM 1.0 avatar of a humanoid rig, vrm0: VRM 0.x, named .vrm too)", &format_name);
   flags.Text("-o, --output", "OUT", "output file, or - for stdout", &out_path);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   if (paths.empty() || out_path.empty()) return flags.UsageError(paths.empty() ? "no rig given" : "no output given (-o OUT or -o -)");
   MeshFormat format = MeshFormat::kJson;
   if (!format_name.empty()) {
     if (!ParseMeshFormat(format_name, &format)) {
-      std::fprintf(stderr, "error: --format must be glb, obj, json or f32, not '%s'\n", format_name.c_str());
+      std::fprintf(stderr, "error: --format must be glb, obj, json, f32, vrm or vrm0, not '%s'\n", format_name.c_str());
       return 2;
     }
     const size_t dot = out_path.rfind('.');
-    if (MeshFormat named; out_path != "-" && dot != std::string::npos && ParseMeshFormat(out_path.substr(dot + 1), &named) && named != format) {
+    const bool vrm0_as_vrm = format == MeshFormat::kVrm0 && out_path.ends_with(".vrm");
+    if (MeshFormat named; out_path != "-" && dot != std::string::npos && ParseMeshFormat(out_path.substr(dot + 1), &named) && named != format && !vrm0_as_vrm) {
       std::fprintf(stderr, "error: --format %s does not match the output name '%s': name it .%s, or drop --format\n", format_name.c_str(),
                    out_path.c_str(), MeshFormatName(format));
       return 2;

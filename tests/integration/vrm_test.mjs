@@ -1,17 +1,22 @@
 // Loads a VRM of ours in three.js with @pixiv/three-vrm (as a web avatar app would) and checks it
 // against facespace's own meshes:
-//   node vrm_test.mjs FILE.vrm DIR
+//   node vrm_test.mjs FILE.vrm DIR [--v0] [--avatar]
 // DIR holds rest.json and EXPRESSION.json for each expression to check (facespace blend --format json,
 // world space). Checks: the humanoid's required bones are found, every expression of the files is
 // there, and setting one to 1 moves the vertices to where facespace puts them (within 1e-5 of the
-// bounding box's diagonal). Prints one line per expression; exit 0 when all hold.
+// bounding box's diagonal). --v0: a VRM 0.x, turned to face +z as apps do (VRMUtils.rotateVRM0) before
+// comparing. --avatar (vrm_avatar.mjs): its terms, springs (the hair swings after the head turns and comes
+// to rest), colliders, node constraints (evaluated) and MToon materials. Prints one line per check; exit 0
+// when all hold.
 import fs from 'node:fs';
 import path from 'node:path';
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { VRMLoaderPlugin } from '@pixiv/three-vrm';
+import { VRMLoaderPlugin, VRMUtils } from '@pixiv/three-vrm';
+import { checkAvatar } from './vrm_avatar.mjs';
 
-const [file, dir] = process.argv.slice(2);
+const [file, dir] = process.argv.slice(2).filter((a) => !a.startsWith('--'));
+const v0 = process.argv.includes('--v0');
 const bytes = fs.readFileSync(file);
 const loader = new GLTFLoader();
 loader.register((parser) => new VRMLoaderPlugin(parser));
@@ -20,7 +25,9 @@ const vrm = gltf.userData.vrm;
 let bad = 0;
 const fail = (msg) => { console.log('FAIL ' + msg); bad = 1; };
 if (!vrm) { console.log('FAIL no VRM in the file'); process.exit(1); }
-console.log(`VRM ${vrm.meta.metaVersion}: "${vrm.meta.name}", licence ${vrm.meta.licenseUrl}`);
+console.log(`VRM ${vrm.meta.metaVersion}: "${vrm.meta.name ?? vrm.meta.title}", licence ${vrm.meta.licenseUrl ?? vrm.meta.licenseName}`);
+if (v0 !== (vrm.meta.metaVersion === '0')) fail(`meta version ${vrm.meta.metaVersion}, expected ${v0 ? '0' : '1'}`);
+if (v0) VRMUtils.rotateVRM0(vrm);
 
 const required = ['hips', 'spine', 'head', 'leftUpperArm', 'leftLowerArm', 'leftHand', 'rightUpperArm', 'rightLowerArm', 'rightHand',
   'leftUpperLeg', 'leftLowerLeg', 'leftFoot', 'rightUpperLeg', 'rightLowerLeg', 'rightFoot'];
@@ -87,4 +94,5 @@ for (const name of names) {
 }
 vrm.expressionManager.resetValues();
 console.log(`${names.length} expressions checked; ${Object.keys(vrm.expressionManager.expressionMap).length} in the VRM`);
+if (process.argv.includes('--avatar') && !checkAvatar(vrm, gltf, v0, meshes)) bad = 1;
 process.exit(bad);

@@ -164,6 +164,20 @@ void Evaluator::WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lo
   kept_->derived.Prepare(rig, lod, options);
 }
 
+Status Evaluator::Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig, Workspace& ws, std::vector<unsigned char>& png) const {
+  if (!renderer_) return Status::Ok();  // A mesh-only evaluator writes VRMs without one.
+  render::RenderOptions options;
+  options.width = options.height = kThumbnailSize;
+  options.camera.frame = render::Framing::kShapes;  // The face the shapes move, on a whole body.
+  options.srgb8 = true;
+  kept_->derived.Prepare(stored, lod, options);
+  if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the VRM's thumbnail: ");
+  auto bytes = renderer_->Encode(ws.image, render::ImageFormat::kPng, 0);
+  if (!bytes.ok()) return bytes.status();
+  png.assign(bytes->begin(), bytes->end());
+  return Status::Ok();
+}
+
 Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, std::span<const ResolvedPoint> points,
                                const OutputSpec& spec, Workspace& ws) const {
   if (points.empty() || (spec.kind != OutputSpec::Kind::kSheet && points.size() != 1)) {
@@ -199,6 +213,9 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       ExportOptions options;
       options.keep_targets = spec.keep_targets;
       options.mesh_space = spec.mesh_space;
+      if (spec.mesh_format == MeshFormat::kVrm || spec.mesh_format == MeshFormat::kVrm0) {
+        if (Status s = Thumbnail(stored, spec.lod, rig, ws, options.thumbnail_png); !s.ok()) return s;
+      }
       auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, spec.mesh_format, options);
       if (!bytes.ok()) {  // The request's fault (a VRM of a rig without a humanoid) as it is; else ours.
         return bytes.status().code == StatusCode::kInvalidArgument ? bytes.status() : Prefixed(bytes.status(), "the export failed: ");

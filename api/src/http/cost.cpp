@@ -57,7 +57,14 @@ double ImageSeconds(const render::RenderOptions& o, const Rig& rig) {
   return kPerImage + FrameSeconds(s) + kPerSample * Samples(o) + 1e-7 * static_cast<double>(s.triangles);
 }
 
-Cost MeshCost(const Rig& rig) { return {kPerRequest + FrameSeconds(rig), "/weights", "one blend"}; }
+Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format) {
+  if (format != MeshFormat::kVrm && format != MeshFormat::kVrm0) return {kPerRequest + FrameSeconds(rig), "/weights", "one blend"};
+  // A VRM: the whole rig written (every target: a frame's work per shape at most) and its thumbnail drawn.
+  render::RenderOptions thumbnail;
+  thumbnail.width = thumbnail.height = Evaluator::kThumbnailSize;
+  const double seconds = kPerRequest + FrameSeconds(rig) * (1.0 + 0.1 * static_cast<double>(rig.shapes.size())) + ImageSeconds(thumbnail, rig);
+  return {seconds, "/format", "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
+}
 
 Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query) {
   return {kPerRequest + ImageSeconds(o, rig), query ? "?supersample" : "/supersample",

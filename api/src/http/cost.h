@@ -42,7 +42,8 @@ double FrameSeconds(const Rig& rig);
 // One image of `o` of a rig with `triangles`.
 double ImageSeconds(const render::RenderOptions& o, const Rig& rig);
 
-Cost MeshCost(const Rig& rig);
+// One blend in `format`; a VRM writes the whole rig and draws its thumbnail.
+Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format = std::nullopt);
 Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query);
 Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells);
 // `frames` frames of a sequence lasting `seconds` (physics steps at 60 a second when the rig has bodies).

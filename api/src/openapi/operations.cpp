@@ -96,7 +96,7 @@ json QueryParam(std::string_view name, bool render) {
   const json number = {{"type", "number"}}, boolean = {{"type", "boolean"}};
   if (name == "format") {
     return render ? param({{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}, {"default", "png"}})
-                  : param({{"enum", {"glb", "obj", "json", "f32", "vrm"}}, {"default", "glb"}});
+                  : param({{"enum", {"glb", "obj", "json", "f32", "vrm", "vrm0"}}, {"default", "glb"}});
   }
   if (name == "space") {
     return param({{"enum", {"world", "mesh"}}, {"default", "world"}},

@@ -119,7 +119,7 @@ json MeshRequest() {
             {"controls", Controls()},
             {"mode", {{"enum", {"relative", "absolute"}}, {"default", "relative"}}},
             {"normals", {{"enum", {"blend", "recompute"}}, {"default", "blend"}}},
-            {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm"}}}},
+            {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm", "vrm0"}}}},
             {"space", {{"enum", {"world", "mesh"}}, {"default", "world"}}},
             {"strict", {{"type", "boolean"}, {"default", false}}},
             {"keep_targets", {{"type", "boolean"}, {"default", false}}}}}};
@@ -250,7 +250,7 @@ json BatchRequest() {
         "render settings (width, height, view, camera, background, supersample, quality) for image formats."},
   {"properties", {{"variants", {{"type", "array"}, {"items", VariantItem()}}},
         {"sample", Sample()},
-        {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
+        {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm", "vrm0", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
 }
 
 // ---- answers ----

@@ -104,7 +104,7 @@ bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshReques
 void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig))) return;
+  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format))) return;
   const auto format = NegotiateMesh(req, res, r.format);
   if (!format) return;
   ResolvedPoint point;

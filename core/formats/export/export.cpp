@@ -77,7 +77,8 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
     case MeshFormat::kObj: return ExportObj(rig, blended, warnings, options.mesh_space);
     case MeshFormat::kF32: return ExportF32(blended, options.mesh_space);
     case MeshFormat::kGlb: return ExportGlb(rig, blended, weights, warnings, options);
-    case MeshFormat::kVrm: return ExportVrm(rig, blended, weights, warnings);
+    case MeshFormat::kVrm: return ExportVrm(rig, blended, weights, warnings, options);
+    case MeshFormat::kVrm0: return ExportVrm0(rig, blended, weights, warnings, options);
   }
   return InvalidArgument("unknown format");
 }

@@ -26,7 +26,8 @@ constexpr EnumName<MeshFormat> kMeshFormats[] = {
     {MeshFormat::kObj, "obj", nullptr, "model/obj", "obj"},
     {MeshFormat::kJson, "json", nullptr, "application/json", "json"},
     {MeshFormat::kF32, "f32", nullptr, "application/octet-stream", "f32"},
-    {MeshFormat::kVrm, "vrm", nullptr, "model/gltf-binary", "vrm"}};
+    {MeshFormat::kVrm, "vrm", nullptr, "model/gltf-binary", "vrm"},
+    {MeshFormat::kVrm0, "vrm0", nullptr, "model/gltf-binary", "vrm"}};
 }  // namespace
 
 bool ParseMeshFormat(const std::string& name, MeshFormat* format) { return ParseEnum(kMeshFormats, name, format); }

@@ -1,11 +1,15 @@
-// VRM 1.0 out: the rig as a glb (its base, targets, skin and clips, ExportGlb's keep_targets) with the
-// VRMC_vrm extension: meta from the rig's credit and licence, the humanoid's bones by their MMD, VRM or
-// Mixamo names, the expressions as morph target binds, and the look-at from the rig's gaze.
+// VRM 1.0 out: the rig as a glb (its base, targets and skin, ExportGlb's keep_targets) with VRMC_vrm (meta
+// from the rig's credit, licence and terms, the humanoid's bones by their MMD, VRoid, Mixamo or VRM names,
+// the expressions as morph target and material colour binds, the look-at from the rig's gaze, a thumbnail),
+// VRMC_springBone from MMD's physics, VRMC_node_constraint from its grants and VRMC_materials_mtoon for its
+// toon materials (vrm_parts.h). Also the pieces vrm0.cpp shares.
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "export/vrm_parts.h"
 #include "export/writers.h"
+#include "common/vrm_terms.h"
 #include "facespace/core/face.h"
 #include "facespace/core/weights.h"
 #include "gltf/gltf_common.h"
@@ -69,23 +73,25 @@ std::string Mirrored(std::string s) {
   return s;
 }
 
-// The humanoid's bones, or what is missing.
-Status HumanBones(const Rig& rig, ordered_json& out) {
+}  // namespace
+
+double Num(float x) { return std::stod(FormatNumber(x)); }
+
+Result<std::vector<std::pair<std::string, int>>> HumanBones(const Rig& rig) {
+  std::vector<std::pair<std::string, int>> out;
   std::vector<std::string> missing;
-  std::vector<int> used;
   auto add = [&](const std::string& name, bool required, const std::string& candidates) {
     const int n = FirstNodeOf(rig, candidates);
-    if (n < 0 || std::find(used.begin(), used.end(), n) != used.end()) {
+    if (n < 0 || std::any_of(out.begin(), out.end(), [n](const auto& b) { return b.second == n; })) {
       if (required) missing.push_back(name + " (" + candidates.substr(0, candidates.find('|')) + ")");
       return;
     }
-    used.push_back(n);
-    out[name] = {{"node", n}};
+    out.emplace_back(name, n);
   };
   for (const HumanBone& b : kCentre) add(b.name, b.required, b.candidates);
   for (const HumanBone& b : kLeft) add(b.name, b.required, b.candidates);
   for (const HumanBone& b : kLeft) add(Mirrored(b.name), b.required, Mirrored(b.candidates));
-  if (missing.empty()) return Status::Ok();
+  if (missing.empty()) return out;
   std::string list;
   for (size_t i = 0; i < missing.size(); ++i) list += (i ? ", " : "") + missing[i];
   Status s = InvalidArgument("a VRM needs a humanoid skeleton, and '" + rig.name + "' has no bone for " + list +
@@ -95,22 +101,85 @@ Status HumanBones(const Rig& rig, ordered_json& out) {
   return s;
 }
 
-double Num(float x) { return std::stod(FormatNumber(x)); }
+std::vector<Expression> VrmExpressions(const Rig& rig) {
+  std::vector<Expression> out = rig.expressions;
+  for (Expression& e : AppExpressions(rig)) {
+    if (FindExpression(rig, e.name) < 0) out.push_back(std::move(e));
+  }
+  return out;
+}
 
-// An expression's shapes as VRM's morph target binds: each target of each mesh that carries the shape,
-// on the first node showing that mesh.
+std::vector<int> MeshNodes(const Rig& rig) {
+  std::vector<int> out(rig.meshes.size(), -1);
+  for (size_t n = rig.nodes.size(); n-- > 0;) {
+    const int m = rig.nodes[n].mesh;
+    if (m >= 0 && static_cast<size_t>(m) < out.size()) out[m] = static_cast<int>(n);
+  }
+  return out;
+}
+
+Result<GlbParts> RestGlbParts(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings) {
+  BlendedRig rest = blended;  // A VRM's rest is its bind pose: the weights as its meshes' defaults.
+  rest.posed = false;
+  std::vector<Warning> said(warnings.begin(), warnings.end());
+  if (blended.posed) said.push_back({"pose_not_exported", "a VRM is written at rest: the request's pose is not in it", "", 0.0, false});
+  ExportOptions options;
+  options.keep_targets = true;
+  options.clips = false;
+  auto glb = ExportGlb(rig, rest, weights, said, options);
+  if (!glb.ok()) return glb.status();
+  std::string text;
+  std::span<const unsigned char> bin;
+  if (Status s = SplitGlb({reinterpret_cast<const unsigned char*>(glb->data()), glb->size()}, text, bin); !s.ok()) return Internal("our glb: " + s.message);
+  GlbParts g;
+  g.json = ordered_json::parse(text, nullptr, false);
+  if (g.json.is_discarded()) return Internal("our glb's JSON does not parse");
+  g.bin.assign(bin.begin(), bin.end());
+  return g;
+}
+
+std::string PackGlb(const GlbParts& g) {
+  const std::vector<unsigned char> out = MakeGlb(g.json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), g.bin);
+  return std::string(out.begin(), out.end());
+}
+
+std::pair<int, int> AddImage(GlbParts& g, std::span<const unsigned char> bytes, const std::string& mime_type, const std::string& name) {
+  while (g.bin.size() % 4) g.bin.push_back(0);
+  ordered_json& j = g.json;
+  for (const char* key : {"bufferViews", "images", "textures", "samplers"}) {
+    if (!j.contains(key)) j[key] = ordered_json::array();
+  }
+  j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", g.bin.size()}, {"byteLength", bytes.size()}});
+  g.bin.insert(g.bin.end(), bytes.begin(), bytes.end());
+  if (!j.contains("buffers") || j["buffers"].empty()) j["buffers"] = ordered_json::array({ordered_json::object()});
+  j["buffers"][0]["byteLength"] = g.bin.size();
+  const int image = static_cast<int>(j["images"].size());
+  j["images"].push_back({{"name", name}, {"mimeType", mime_type}, {"bufferView", j["bufferViews"].size() - 1}});
+  j["samplers"].push_back({{"magFilter", 9729}, {"minFilter", 9729}});
+  const int texture = static_cast<int>(j["textures"].size());
+  j["textures"].push_back({{"sampler", j["samplers"].size() - 1}, {"source", image}});
+  return {image, texture};
+}
+
+void UseExtension(GlbParts& g, const std::string& name) {
+  ordered_json& used = g.json["extensionsUsed"];
+  if (!used.is_array()) used = ordered_json::array();
+  if (std::find(used.begin(), used.end(), name) == used.end()) used.push_back(name);
+}
+
+namespace {
+
+
+// An expression's shapes as VRM's morph target binds: each target of each mesh that carries the shape, on
+// the first node showing that mesh.
 ordered_json MorphTargetBinds(const Rig& rig, const Expression& e) {
   ordered_json binds = ordered_json::array();
+  const std::vector<int> nodes = MeshNodes(rig);
   for (const auto& [shape, weight] : e.binds) {
     for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
-      const Mesh& mesh = rig.meshes[mi];
-      for (size_t t = 0; t < mesh.target_shapes.size(); ++t) {
-        if (mesh.target_shapes[t] != shape) continue;
-        for (size_t n = 0; n < rig.nodes.size(); ++n) {
-          if (rig.nodes[n].mesh != static_cast<int>(mi)) continue;
-          binds.push_back({{"node", n}, {"index", t}, {"weight", Num(std::clamp(weight, 0.0f, 1.0f))}});
-          break;
-        }
+      const auto& shapes = rig.meshes[mi].target_shapes;
+      for (size_t t = 0; t < shapes.size(); ++t) {
+        if (shapes[t] == shape && nodes[mi] >= 0) binds.push_back({{"node", nodes[mi]}, {"index", t}, {"weight", Num(std::clamp(weight, 0.0f, 1.0f))}});
       }
     }
   }
@@ -123,82 +192,96 @@ ordered_json RangeMapJson(const RangeMap& m, float share) {
   return {{"inputMaxValue", Num(m.input_max / keep)}, {"outputScale", Num(m.output_scale)}};
 }
 
-}  // namespace
-
-Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings) {
-  ordered_json humanoid = ordered_json::object();
-  if (Status s = HumanBones(rig, humanoid); !s.ok()) return s;
-  if (rig.license_url.empty()) {
-    Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + rig.name + "' has none: set \"license_url\" in its manifest");
-    s.fields.push_back({"/format", "the rig has no licence URL (manifest \"license_url\")"});
-    return s;
-  }
-  // The rig at rest (a VRM's rest is its bind pose) with these weights as its meshes' defaults.
-  BlendedRig rest = blended;
-  rest.posed = false;
-  std::vector<Warning> said(warnings.begin(), warnings.end());
-  if (blended.posed) said.push_back({"pose_not_exported", "a VRM is written at rest: the request's pose is not in it", "", 0.0, false});
-  ExportOptions options;
-  options.keep_targets = true;
-  options.clips = false;
-  auto glb = ExportGlb(rig, rest, weights, said, options);
-  if (!glb.ok()) return glb.status();
-  std::string text;
-  std::span<const unsigned char> bin;
-  const auto* bytes = reinterpret_cast<const unsigned char*>(glb->data());
-  if (Status s = SplitGlb({bytes, glb->size()}, text, bin); !s.ok()) return Internal("our glb: " + s.message);
-  ordered_json j = ordered_json::parse(text, nullptr, false);
-  if (j.is_discarded()) return Internal("our glb's JSON does not parse");
-
-  // VRM 1.0's meta is itself a licence (licenseUrl is always VRM's): the rig's own goes in otherLicenseUrl,
-  // and the meta's terms say what it allows when it is one we know (Creative Commons' CC0, BY, BY-SA);
-  // for another, VRM's defaults, its most restrictive terms, stand.
+// VRM 1.0's meta: VRM's licence (licenseUrl is always VRM's own), the rig's own in otherLicenseUrl, and the
+// terms its authors allow (UsageTerms: VRM's most restrictive values when nothing is known).
+ordered_json Meta(const Rig& rig, int thumbnail) {
   ordered_json meta = {{"name", rig.name.empty() ? "facespace rig" : rig.name},
                        {"authors", ordered_json::array({rig.credit.empty() ? rig.name : rig.credit})},
                        {"licenseUrl", "https://vrm.dev/licenses/1.0/"},
                        {"otherLicenseUrl", rig.license_url}};
   if (!rig.credit.empty()) meta["copyrightInformation"] = rig.credit;
-  const bool cc0 = rig.license_url.find("creativecommons.org/publicdomain/zero/") != std::string::npos;
-  const bool by = rig.license_url.find("creativecommons.org/licenses/by/") != std::string::npos;
-  const bool by_sa = rig.license_url.find("creativecommons.org/licenses/by-sa/") != std::string::npos;
-  if (cc0 || by || by_sa) {
-    meta["avatarPermission"] = "everyone";
-    meta["allowExcessivelyViolentUsage"] = true;
-    meta["allowExcessivelySexualUsage"] = true;
-    meta["commercialUsage"] = "corporation";
-    meta["allowPoliticalOrReligiousUsage"] = true;
-    meta["allowAntisocialOrHateUsage"] = true;
-    meta["creditNotation"] = cc0 ? "unnecessary" : "required";
-    meta["allowRedistribution"] = true;
-    meta["modification"] = "allowModificationRedistribution";
-  }
+  if (thumbnail >= 0) meta["thumbnailImage"] = thumbnail;
+  meta.update(vrm_terms::Meta1(rig.terms));
+  meta["extras"] = {{"termsSource", rig.terms.source.empty() ? "none known: VRM's most restrictive terms" : rig.terms.source}};
+  return meta;
+}
+
+ordered_json Expressions(const Rig& rig) {
   ordered_json preset = ordered_json::object(), custom = ordered_json::object();
-  for (const Expression& e : rig.expressions) {
+  for (const Expression& e : VrmExpressions(rig)) {
     ordered_json x = {{"morphTargetBinds", MorphTargetBinds(rig, e)}, {"isBinary", e.binary}, {"overrideBlink", ExpressionOverrideName(e.blink)},
                       {"overrideLookAt", ExpressionOverrideName(e.look_at)}, {"overrideMouth", ExpressionOverrideName(e.mouth)}};
+    if (ordered_json colours = MaterialColorBinds(rig, e); !colours.empty()) x["materialColorBinds"] = std::move(colours);
     (IsExpressionPreset(e.name) ? preset : custom)[e.name] = std::move(x);
   }
-  ordered_json vrm = {{"specVersion", "1.0"}, {"meta", meta}, {"humanoid", {{"humanBones", humanoid}}}};
-  ordered_json expressions = {{"preset", preset}};
-  if (!custom.empty()) expressions["custom"] = custom;
-  vrm["expressions"] = expressions;
+  ordered_json out = {{"preset", preset}};
+  if (!custom.empty()) out["custom"] = custom;
+  return out;
+}
+
+ordered_json LookAt(const Rig& rig, int head) {
   const GazeSetup& g = rig.gaze;
-  if (g.kind != GazeSetup::Kind::kNone) {
-    const int head = humanoid["head"]["node"].get<int>();
-    const auto world = NodeWorldMatrices(rig);
-    const float share = g.kind == GazeSetup::Kind::kBones ? g.head_share + g.neck_share : 0.0f;
-    vrm["lookAt"] = {{"offsetFromHeadBone", {Num(g.origin[0] - world[head][12]), Num(g.origin[1] - world[head][13]), Num(g.origin[2] - world[head][14])}},
-                     {"type", g.kind == GazeSetup::Kind::kBones ? "bone" : "expression"},
-                     {"rangeMapHorizontalInner", RangeMapJson(g.horizontal_inner, share)},
-                     {"rangeMapHorizontalOuter", RangeMapJson(g.horizontal_outer, share)},
-                     {"rangeMapVerticalDown", RangeMapJson(g.vertical_down, share)},
-                     {"rangeMapVerticalUp", RangeMapJson(g.vertical_up, share)}};
+  const auto world = NodeWorldMatrices(rig);
+  const float share = g.kind == GazeSetup::Kind::kBones ? g.head_share + g.neck_share : 0.0f;
+  return {{"offsetFromHeadBone", {Num(g.origin[0] - world[head][12]), Num(g.origin[1] - world[head][13]), Num(g.origin[2] - world[head][14])}},
+          {"type", g.kind == GazeSetup::Kind::kBones ? "bone" : "expression"},
+          {"rangeMapHorizontalInner", RangeMapJson(g.horizontal_inner, share)},
+          {"rangeMapHorizontalOuter", RangeMapJson(g.horizontal_outer, share)},
+          {"rangeMapVerticalDown", RangeMapJson(g.vertical_down, share)},
+          {"rangeMapVerticalUp", RangeMapJson(g.vertical_up, share)}};
+}
+
+// Springs, node constraints and MToon onto the glb; grants VRM cannot say are a warning in asset.extras.
+void AddSecondaryAndLooks(const Rig& rig, const SpringSetup& springs, const Constrained& constrained, GlbParts& g) {
+  if (!springs.empty()) {
+    g.json["extensions"]["VRMC_springBone"] = SpringBone1(springs);
+    UseExtension(g, "VRMC_springBone");
   }
-  if (!j.contains("extensionsUsed")) j["extensionsUsed"] = ordered_json::array();
-  j["extensionsUsed"].push_back("VRMC_vrm");
-  j["extensions"]["VRMC_vrm"] = std::move(vrm);
-  const std::vector<unsigned char> out = MakeGlb(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), bin);
-  return std::string(out.begin(), out.end());
+  for (const auto& [node, constraint] : constrained.constraints) {
+    g.json["nodes"][node]["extensions"]["VRMC_node_constraint"] = constraint;
+    UseExtension(g, "VRMC_node_constraint");
+  }
+  if (constrained.dropped > 0) {
+    g.json["asset"]["extras"]["warnings"].push_back(
+        {{"code", "vrm_constraints_dropped"},
+         {"message", std::to_string(constrained.dropped) + " MMD grants VRM's node constraints cannot say (of translation, with a ratio outside [0, 1], or onto a swinging bone) are left out"}});
+  }
+  ordered_json& materials = g.json["materials"];
+  for (size_t m = 0; m < rig.materials.size() && m < materials.size(); ++m) {
+    if (ordered_json mtoon = MToon1(rig.materials[m], materials[m]); !mtoon.is_null()) {
+      materials[m]["extensions"]["VRMC_materials_mtoon"] = std::move(mtoon);
+      UseExtension(g, "VRMC_materials_mtoon");
+    }
+  }
+}
+
+}  // namespace
+
+Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings,
+                              const ExportOptions& options) {
+  auto bones = HumanBones(rig);
+  if (!bones.ok()) return bones.status();
+  if (rig.license_url.empty()) {
+    Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + rig.name + "' has none: set \"license_url\" in its manifest");
+    s.fields.push_back({"/format", "the rig has no licence URL (manifest \"license_url\")"});
+    return s;
+  }
+  std::vector<int> humanoid_nodes;
+  for (const auto& bone : bones.value()) humanoid_nodes.push_back(bone.second);
+  const SpringSetup springs = SpringsOf(rig);
+  const Constrained constrained = WithNodeConstraints(rig, humanoid_nodes, springs);
+  auto glb = RestGlbParts(constrained.rig, blended, weights, warnings);
+  if (!glb.ok()) return glb.status();
+  GlbParts& g = glb.value();
+  const int thumbnail = options.thumbnail_png.empty() ? -1 : AddImage(g, options.thumbnail_png, "image/png", "thumbnail").first;
+  ordered_json humanoid = ordered_json::object();
+  for (const auto& [name, node] : bones.value()) humanoid[name] = {{"node", node}};
+  ordered_json vrm = {{"specVersion", "1.0"}, {"meta", Meta(rig, thumbnail)}, {"humanoid", {{"humanBones", humanoid}}}, {"expressions", Expressions(rig)}};
+  if (rig.gaze.kind != GazeSetup::Kind::kNone) vrm["lookAt"] = LookAt(rig, humanoid["head"]["node"].get<int>());
+  UseExtension(g, "VRMC_vrm");
+  g.json["extensions"]["VRMC_vrm"] = std::move(vrm);
+  AddSecondaryAndLooks(rig, springs, constrained, g);
+  return PackGlb(g);
 }
 
 }  // namespace facespace::writers

@@ -17,9 +17,12 @@ std::string ExportF32(const BlendedRig& blended, bool mesh_space);
 Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
                               std::span<const Warning> warnings, const ExportOptions& options);
 
-// VRM 1.0 (vrm.cpp): ExportGlb's keep_targets glb at rest with VRMC_vrm; InvalidArgument naming "/format"
-// when the rig has no humanoid skeleton or no licence URL.
-Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings);
+// VRM 1.0 (vrm.cpp) and 0.x (vrm0.cpp): ExportGlb's keep_targets glb at rest with the VRM's members;
+// InvalidArgument naming "/format" when the rig has no humanoid skeleton or no licence URL.
+Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings,
+                              const ExportOptions& options);
+Result<std::string> ExportVrm0(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings,
+                               const ExportOptions& options);
 
 // A primitive's node transform, or the identity in mesh space.
 const std::array<float, 16>& Placement(const BlendedPrimitive& b, bool mesh_space);

@@ -33,7 +33,7 @@ constexpr std::pair<std::string_view, Section> kSections[] = {
     {"controls", manifest::ApplyControls},       {"inbetweens", manifest::ApplyInBetweens},
     {"correctives", manifest::ApplyCorrectives}, {"statistics", manifest::ApplyStatistics},
     {"expressions", manifest::ApplyExpressions}, {"gaze", manifest::ApplyGaze},
-    {"visemes", manifest::ApplyVisemes}};
+    {"visemes", manifest::ApplyVisemes},         {"terms", manifest::ApplyTerms}};
 constexpr std::string_view kPlainMembers[] = {"name", "credit", "license_url", "start", "base_motion"};
 
 // "base_motion": one of the rig's motions; one it lacks (a model copied without its motion folder)
@@ -224,6 +224,7 @@ std::string ManifestJson(const Rig& rig) {
   if (!rig.license_url.empty()) m["license_url"] = rig.license_url;
   if (rig.start_at_defaults) m["start"] = "defaults";
   if (!rig.base_motion.empty()) m["base_motion"] = rig.base_motion;
+  if (!rig.terms.source.empty()) m["terms"] = manifest::TermsValue(rig.terms);
   json shapes = json::object();
   for (const Shape& s : rig.shapes) {
     json o = {{"group", s.group}, {"min", s.min}, {"max", s.max}, {"default", s.default_weight}};

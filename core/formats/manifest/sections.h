@@ -50,5 +50,7 @@ Status ApplyStatistics(Rig& rig, const json& v);
 Status ApplyExpressions(Rig& rig, const json& v);
 Status ApplyGaze(Rig& rig, const json& v);
 Status ApplyVisemes(Rig& rig, const json& v);
+Status ApplyTerms(Rig& rig, const json& v);  // terms.cpp
+json TermsValue(const UsageTerms& t);         // The section as ApplyTerms reads it.
 
 }  // namespace facespace::manifest

@@ -122,6 +122,8 @@ struct Vertex {
 struct ModelMaterial {
   std::string name, english;
   float diffuse[4];
+  float edge[4] = {0, 0, 0, 1};  // RGBA.
+  float edge_size = 0.0f;        // 0: no edge drawn.
   int64_t texture = -1;
   size_t indices = 0;
 };

@@ -458,6 +458,11 @@ Material MaterialOf(const Model& in, const ModelMaterial& m, std::vector<int>& i
   mat.metallic_factor = 0.0f;
   mat.roughness_factor = 0.9f;
   mat.double_sided = true;  // MMD draws most materials two-sided.
+  // Toon-shaded, its edge (when drawn) an outline: MMD's edge size 1 as a quarter of a percent of the
+  // picture's height (about what MMD draws at a full-body view; our choice).
+  mat.toon = true;
+  for (int c = 0; c < 4; ++c) mat.outline_color[c] = std::isfinite(m.edge[c]) ? std::clamp(m.edge[c], 0.0f, 1.0f) : 0.0f;
+  mat.outline_width = 0.0025f * m.edge_size;
   if (m.texture >= 0 && static_cast<size_t>(m.texture) < in.textures.size()) {
     if (image_of[m.texture] < 0) {
       std::string path = in.textures[m.texture];

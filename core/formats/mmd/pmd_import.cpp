@@ -97,6 +97,7 @@ Status ReadMaterials(Pmd& p) {
       return p.Broken();
     }
     m.name = "material" + std::to_string(mi);
+    m.edge_size = edge ? 1.0f : 0.0f;  // PMD: a flag; black edges of size 1.
     if (count > nindices - covered || count % 3) {
       return p.Bad("material " + std::to_string(mi) + " covers " + std::to_string(count) + " face indices of the " + std::to_string(nindices - covered) + " left");
     }

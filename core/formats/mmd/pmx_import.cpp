@@ -172,6 +172,8 @@ Status ReadMaterials(Pmx& p) {
     }
     m.indices = static_cast<size_t>(count);
     covered += m.indices;
+    std::copy(edge, edge + 4, m.edge);
+    m.edge_size = (flags & 0x10) && std::isfinite(edge[4]) ? std::clamp(edge[4], 0.0f, 10.0f) : 0.0f;
   }
   return Status::Ok();
 }

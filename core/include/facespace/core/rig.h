@@ -357,6 +357,12 @@ struct Material {
   std::string alpha_mode = "OPAQUE";
   float alpha_cutoff = 0.5f;
   StandIn stand_in = StandIn::kNone;   // Only while the base colour's image is not read.
+  // Drawn toon-shaded by its authors (MMD), with an outline (MMD's edge) in `outline_color`, `outline_width` a
+  // fraction of the picture's height (0: none). VRM writes it as MToon (VRMC_materials_mtoon); our renders
+  // stay lit as glTF's PBR.
+  bool toon = false;
+  std::array<float, 4> outline_color{0, 0, 0, 1};
+  float outline_width = 0.0f;
 };
 
 struct Skin {
@@ -401,10 +407,26 @@ struct AnimationInfo {
   std::vector<AnimationChannel> channel_data;
 };
 
+// What a rig's authors allow done with it, in VRM 1.0 meta's terms: from the manifest ("terms", which
+// names where the authors say so) or a VRM's meta. The defaults are VRM's most restrictive values, what
+// stands when nothing is known: an export never grants more than its source.
+struct UsageTerms {
+  enum class Avatar : uint8_t { kOnlyAuthor, kOnlySeparatelyLicensedPerson, kEveryone };
+  enum class Commercial : uint8_t { kPersonalNonProfit, kPersonalProfit, kCorporation };
+  enum class Modification : uint8_t { kProhibited, kAllowModification, kAllowModificationRedistribution };
+  Avatar avatar = Avatar::kOnlyAuthor;
+  Commercial commercial = Commercial::kPersonalNonProfit;
+  Modification modification = Modification::kProhibited;
+  bool violent = false, sexual = false, political_or_religious = false, antisocial_or_hate = false;
+  bool credit_required = true, redistribution = false;
+  std::string source;  // Where the authors state them (manifest "terms"/"source", or "VRM meta"); "": unknown.
+};
+
 struct Rig {
   std::string name;
   std::string credit;                  // The attribution its license asks for (manifest "credit"); shown and exported.
   std::string license_url;             // Its licence (manifest "license_url"): a VRM's meta needs one.
+  UsageTerms terms;                    // What its authors allow (VRM's meta).
   // Where an editor starts and resets (manifest "start"): the neutral face (every weight 0, the
   // default) or the shapes' default weights (a glTF mesh's `weights`, FaceCap's capture frame).
   bool start_at_defaults = false;

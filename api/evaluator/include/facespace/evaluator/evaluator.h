@@ -195,7 +195,11 @@ class Evaluator {
   // meshes. The service's warm-up calls it for the rigs it starts with.
   void WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lod) const;
 
+  // A VRM's meta thumbnail: the face (the shapes' framing) at the evaluated point, kThumbnailSize square.
+  static constexpr int kThumbnailSize = 512;
+
  private:
+  Status Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig, Workspace& ws, std::vector<unsigned char>& png) const;
   struct Kept;
   const render::Renderer* renderer_ = nullptr;
   std::unique_ptr<Kept> kept_;

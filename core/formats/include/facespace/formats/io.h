@@ -131,10 +131,11 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {}
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
 Status ApplyManifest(Rig& rig, const std::string& json_text);
 
-// kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp).
-enum class MeshFormat { kGlb, kObj, kJson, kF32, kVrm };
+// kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp);
+// kVrm0: the same as VRM 0.x (its "VRM" extension, turned to face -z: export/vrm0.cpp).
+enum class MeshFormat { kGlb, kObj, kJson, kF32, kVrm, kVrm0 };
 
-// "glb", "obj", "json", "f32", "vrm" -> format; false when unknown.
+// "glb", "obj", "json", "f32", "vrm", "vrm0" -> format; false when unknown.
 bool ParseMeshFormat(const std::string& name, MeshFormat* format);
 const char* MeshFormatName(MeshFormat format);
 const char* MeshFormatMimeType(MeshFormat format);
@@ -148,6 +149,8 @@ struct ExportOptions {
   // transform, still in a quantized mesh's units) instead of world space. glb carries its nodes
   // and is the same either way.
   bool mesh_space = false;
+  // VRM only: a PNG of the avatar's face, its meta's thumbnail (empty: none).
+  std::vector<unsigned char> thumbnail_png;
 };
 
 // Writes the evaluated rig. `weights` and `warnings` are recorded where the format has room
