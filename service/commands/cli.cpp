@@ -1,6 +1,7 @@
 #include "commands/cli.h"
 #include "commands/flags.h"
 
+#include <optional>
 #include <unistd.h>
 
 #include <charconv>
@@ -353,7 +354,11 @@ int Blend(const std::vector<std::string>& args) {
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok()) return 1;
   const auto rig = api::Unstored(std::move(loaded.value()));
-  const api::Evaluator evaluator;
+  // A VRM's meta carries a thumbnail of the face: the evaluator draws it.
+  const bool avatar = format == MeshFormat::kVrm || format == MeshFormat::kVrm0;
+  std::optional<render::OsMesaRenderer> renderer;
+  if (avatar) renderer.emplace(1);
+  const api::Evaluator evaluator = avatar ? api::Evaluator(*renderer) : api::Evaluator();
   if (!ReportLod(evaluator, rig, request.lod)) return 1;
   if (std::string e = api::FinishPoseSettings(request); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());

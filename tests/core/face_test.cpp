@@ -409,5 +409,48 @@ TEST(Face, VrmExpressionsAndLookAtAreReadBack) {
   EXPECT_FLOAT_EQ(zero_x->gaze.horizontal_outer.output_scale, 10.0f);
 }
 
+// Terms: the manifest's, refused when malformed; Uka's survive a VRM's round trip, 1.0 and 0.x (whose meta says
+// fewer of them: the rest fall back to VRM's most restrictive); her blush, a material morph, comes back as a
+// material colour bind on a shape of its own, and the 0.x file is turned half round.
+TEST(Face, VrmTermsAndColourBindsSurviveARoundTrip) {
+  Rig rig;
+  auto bad = [&](const char* text) { return ApplyManifest(rig, text); };
+  EXPECT_EQ(bad(R"({"terms": {"allowExcessivelyViolentUsage": false}})").fields.at(0).pointer, "/terms/source");
+  EXPECT_EQ(bad(R"({"terms": {"source": "x", "allowExcessivelySexualUsage": "no"}})").fields.at(0).pointer, "/terms/allowExcessivelySexualUsage");
+  EXPECT_EQ(bad(R"({"terms": {"source": "x", "avatarPermission": "Everyone"}})").fields.at(0).pointer, "/terms/avatarPermission");
+  EXPECT_NE(bad(R"({"terms": {"source": "x", "allowRedistributon": true}})").message.find("did you mean 'allowRedistribution'"), std::string::npos);
+  const Rig& uka = Uka();
+  EXPECT_FALSE(uka.terms.violent);
+  EXPECT_EQ(uka.terms.avatar, UsageTerms::Avatar::kEveryone);
+  BlendedRig blended;
+  BlendContext context;
+  const std::vector<float> zero(uka.shapes.size(), 0.0f);
+  ASSERT_TRUE(EvaluateRig(uka, zero, {}, blended, context).ok());
+  for (MeshFormat format : {MeshFormat::kVrm, MeshFormat::kVrm0}) {
+    auto vrm = ExportMesh(uka, blended, zero, {}, format);
+    ASSERT_TRUE(vrm.ok()) << vrm.status().message;
+    auto back = LoadRigMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(vrm->data()), vrm->size()), RigFormat::kGltf, "back");
+    ASSERT_TRUE(back.ok()) << back.status().message;
+    const bool one = format == MeshFormat::kVrm;
+    EXPECT_EQ(back->terms.source, "the VRM's meta");
+    EXPECT_FALSE(back->terms.violent || back->terms.sexual || back->terms.antisocial_or_hate || back->terms.political_or_religious);
+    EXPECT_EQ(back->terms.avatar, UsageTerms::Avatar::kEveryone);
+    EXPECT_EQ(back->terms.commercial, UsageTerms::Commercial::kCorporation);
+    EXPECT_EQ(back->terms.modification, one ? UsageTerms::Modification::kAllowModificationRedistribution : UsageTerms::Modification::kProhibited);
+    const int blush = FindExpression(back.value(), "blush");
+    ASSERT_GE(blush, 0);
+    std::vector<float> w(back->shapes.size(), 0.0f);
+    for (const auto& [shape, weight] : back->expressions[blush].binds) w[shape] = weight;
+    std::vector<std::array<float, 4>> colours;
+    MorphedMaterialColors(back.value(), w, colours);
+    const int cheeks = 10;  // 頬照り2, transparent until blushing.
+    ASSERT_EQ(back->materials[cheeks].name, "頬照り2");
+    ASSERT_EQ(colours.size(), back->materials.size());
+    EXPECT_NEAR(colours[cheeks][3], 1.0f, 1e-6f) << (one ? "1.0" : "0.x");
+    EXPECT_NEAR(back->primitives[0].positions[0], (one ? 1.0f : -1.0f) * uka.primitives[0].positions[0], 1e-6f);
+    EXPECT_NEAR(back->primitives[0].positions[2], (one ? 1.0f : -1.0f) * uka.primitives[0].positions[2], 1e-6f);
+  }
+}
+
 }  // namespace
 }  // namespace facespace

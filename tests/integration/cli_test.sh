@@ -532,28 +532,96 @@ f=json.load(open(sys.argv[1]))["frames"]; c=[x["weights"].get("eyeBlink_L",0) fo
 starts=[i for i in range(1,len(c)) if c[i]>0.9>=c[i-1]]; longest=max(sum(1 for _ in g) for k,g in __import__("itertools").groupby(c,lambda v:v>0) if k)
 sys.exit(not(12<=len(starts)<=18 and all(x["weights"].get("eyeBlink_R",0)==x["weights"].get("eyeBlink_L",0) for x in f) and longest<=25))' "$tmp/blinks.json"
 "$bin" blend "$uka" --format vrm -o "$tmp/uka.vrm" -q; rc=$?
-check "blend --format vrm: Uka as a VRM 1.0 (VRMC_vrm: 15 required humanoid bones, 18 expressions, a bone look-at, CC BY's terms)" py 'import json,struct,sys
+check "blend --format vrm: Uka as a VRM 1.0 (15 required humanoid bones, 18 presets, 69 custom expressions, a bone look-at; springs, node constraints, MToon; a 512² thumbnail)" py 'import json,struct,sys
 b=open(sys.argv[1],"rb").read(); n=struct.unpack_from("<I",b,12)[0]; j=json.loads(b[20:20+n]); v=j["extensions"]["VRMC_vrm"]
-sys.exit(not(v["specVersion"]=="1.0" and "VRMC_vrm" in j["extensionsUsed"] and v["humanoid"]["humanBones"]["head"]["node"]>=0
-  and len(v["expressions"]["preset"])==18 and v["lookAt"]["type"]=="bone" and v["meta"]["otherLicenseUrl"].endswith("/by/4.0/")
-  and v["meta"]["creditNotation"]=="required" and "animations" not in j))' "$tmp/uka.vrm"
+used=set(j["extensionsUsed"]); t=v["meta"].get("thumbnailImage",-1)
+sys.exit(not(v["specVersion"]=="1.0" and {"VRMC_vrm","VRMC_springBone","VRMC_node_constraint","VRMC_materials_mtoon"}<=used and v["humanoid"]["humanBones"]["head"]["node"]>=0
+  and len(v["expressions"]["preset"])==18 and len(v["expressions"]["custom"])==69 and v["lookAt"]["type"]=="bone" and "animations" not in j
+  and len(j["extensions"]["VRMC_springBone"]["springs"])>=50 and j["images"][t]["mimeType"]=="image/png"))' "$tmp/uka.vrm"
+check "Uka's VRM terms are her authors': violent, sexual, antisocial/hate, political/religious usage false, credit required, from the manifest's \"terms\" (her README)" py 'import json,struct,sys
+b=open(sys.argv[1],"rb").read(); n=struct.unpack_from("<I",b,12)[0]; m=json.loads(b[20:20+n])["extensions"]["VRMC_vrm"]["meta"]
+sys.exit(not(m["allowExcessivelyViolentUsage"] is False and m["allowExcessivelySexualUsage"] is False and m["allowAntisocialOrHateUsage"] is False
+  and m["allowPoliticalOrReligiousUsage"] is False and m["creditNotation"]=="required" and m["otherLicenseUrl"].endswith("/by/4.0/")
+  and "Usage Guideline" in m["extras"]["termsSource"]))' "$tmp/uka.vrm"
+mkdir -p "$tmp/uka_noterms"; cp "$uka" "$tmp/uka_noterms/MS_Uka.pmx"
+py 'import json,sys; m=json.load(open(sys.argv[1])); m.pop("terms"); json.dump(m,open(sys.argv[2],"w"),ensure_ascii=False)' "$src/assets/uka/MS_Uka.manifest.json" "$tmp/uka_noterms/MS_Uka.manifest.json"
+"$bin" blend "$tmp/uka_noterms/MS_Uka.pmx" --format vrm -o "$tmp/noterms.vrm" -q
+check "a rig whose terms nobody stated gets VRM's most restrictive ones (only its author, non-profit, nothing excessive, no redistribution, no modification)" py 'import json,struct,sys
+b=open(sys.argv[1],"rb").read(); n=struct.unpack_from("<I",b,12)[0]; m=json.loads(b[20:20+n])["extensions"]["VRMC_vrm"]["meta"]
+sys.exit(not(m["avatarPermission"]=="onlyAuthor" and m["commercialUsage"]=="personalNonProfit" and not any(m[k] for k in ("allowExcessivelyViolentUsage","allowExcessivelySexualUsage",
+  "allowPoliticalOrReligiousUsage","allowAntisocialOrHateUsage","allowRedistribution")) and m["modification"]=="prohibited" and m["creditNotation"]=="required"))' "$tmp/noterms.vrm"
 err_case "blend --format vrm of a rig without a skeleton: an error saying what a humanoid lacks" "cannot be a VRM humanoid: no bone for hips" blend "$src/assets/facecap/facecap.glb" --format vrm -o "$tmp/x.vrm"
+"$bin" blend "$uka" --format vrm0 -o "$tmp/uka0.vrm" -q
+check "blend --format vrm0: Uka as a VRM 0.x (the VRM extension: 0.x meta, 87 blend shape groups, springs, MToon material properties)" py 'import json,struct,sys
+b=open(sys.argv[1],"rb").read(); n=struct.unpack_from("<I",b,12)[0]; j=json.loads(b[20:20+n]); v=j["extensions"]["VRM"]
+sys.exit(not(j["extensionsUsed"]==["VRM"] and v["meta"]["violentUssageName"]=="Disallow" and v["meta"]["licenseName"]=="CC_BY" and len(v["blendShapeMaster"]["blendShapeGroups"])==87
+  and len(v["secondaryAnimation"]["boneGroups"])>=40 and v["materialProperties"][1]["shader"]=="VRM/MToon" and v["firstPerson"]["lookAtTypeName"]=="Bone"))' "$tmp/uka0.vrm"
+# Our own meshes for every face the VRMs carry: the 18 presets, blush and pale (material colour binds), ARKit's 52 by
+# name and the 15 visemes by OVR's names (at their weights in Uka's viseme map).
 mkdir -p "$tmp/vrm_expected"
-keys=$(py 'import json; names=["happy","angry","sad","relaxed","surprised","aa","ih","ou","ee","oh","blink","blinkLeft","blinkRight","lookUp","lookDown","lookLeft","lookRight","neutral"]
-print(json.dumps([{"time":0}]+[{"time":i+1,"expressions":{n:1}} for i,n in enumerate(names)]))')
-"$bin" sequence "$uka" --keys "$keys" --times "[$(seq -s, 0 18)]" --transition step -q -o "$tmp/vrm_frames.json"
+"$bin" info "$uka" --json >"$tmp/uka_info.json" 2>/dev/null
+keys=$(py 'import json,sys
+presets=["happy","angry","sad","relaxed","surprised","aa","ih","ou","ee","oh","blink","blinkLeft","blinkRight","lookUp","lookDown","lookLeft","lookRight","neutral","blush","pale"]
+arkit="browDownLeft browDownRight browInnerUp browOuterUpLeft browOuterUpRight cheekPuff cheekSquintLeft cheekSquintRight eyeBlinkLeft eyeBlinkRight eyeLookDownLeft eyeLookDownRight eyeLookInLeft eyeLookInRight eyeLookOutLeft eyeLookOutRight eyeLookUpLeft eyeLookUpRight eyeSquintLeft eyeSquintRight eyeWideLeft eyeWideRight jawForward jawLeft jawOpen jawRight mouthClose mouthDimpleLeft mouthDimpleRight mouthFrownLeft mouthFrownRight mouthFunnel mouthLeft mouthLowerDownLeft mouthLowerDownRight mouthPressLeft mouthPressRight mouthPucker mouthRight mouthRollLower mouthRollUpper mouthShrugLower mouthShrugUpper mouthSmileLeft mouthSmileRight mouthStretchLeft mouthStretchRight mouthUpperUpLeft mouthUpperUpRight noseSneerLeft noseSneerRight tongueOut".split()
+ovr=dict(sil="sil",PP="PP",FF="FF",TH="TH",DD="DD",kk="kk",CH="CH",SS="SS",nn="nn",RR="RR",aa="aa",E="E",I="ih",O="oh",U="ou")
+vis=json.load(open(sys.argv[1]))["visemes"]
+faces=[(n,{"expressions":{n:1}}) for n in presets]+[(n,{"weights":{n:1}}) for n in arkit]+[("viseme_"+k,{"weights":vis[v]}) for k,v in ovr.items()]
+json.dump([n for n,_ in faces],open(sys.argv[2],"w"))
+print(json.dumps([{"time":0}]+[dict(time=i+1,**f) for i,(n,f) in enumerate(faces)]))' "$tmp/uka_info.json" "$tmp/vrm_names.json")
+"$bin" sequence "$uka" --keys "$keys" --times "[$(seq -s, 0 87)]" --transition step -q -o "$tmp/vrm_frames.json"
 py 'import json,sys
-names=["rest","happy","angry","sad","relaxed","surprised","aa","ih","ou","ee","oh","blink","blinkLeft","blinkRight","lookUp","lookDown","lookLeft","lookRight","neutral"]
-f=json.load(open(sys.argv[1]))["frames"]
-for n,x in zip(names,f): json.dump({"primitives":x["primitives"]},open(sys.argv[2]+"/"+n+".json","w"))' "$tmp/vrm_frames.json" "$tmp/vrm_expected"
+names=["rest"]+json.load(open(sys.argv[3])); f=json.load(open(sys.argv[1]))["frames"]
+for n,x in zip(names,f): json.dump({"primitives":x["primitives"]},open(sys.argv[2]+"/"+n+".json","w"))' "$tmp/vrm_frames.json" "$tmp/vrm_expected" "$tmp/vrm_names.json"
+"$bin" info "$tmp/uka.vrm" >/dev/null 2>"$tmp/err"; rc=$?
+check "our VRM loads back: its expressions, look-at and terms, no load error" sh -c "[ $rc -eq 0 ] && ! grep -q 'error' '$tmp/err'"
+"$src/tests/integration/vrm_edit.py" hostile "$tmp/uka.vrm" "$tmp/vrm_hostile"
+for f in "$tmp"/vrm_hostile/*.vrm; do
+  name=$(basename "$f" .vrm); member=$(py 'import json,sys; print(json.load(open(sys.argv[1]))[sys.argv[2]])' "$tmp/vrm_hostile/faults.json" "$name")
+  err_case "a VRM with $name: an error naming $member" "$member" info "$f"
+done
+"$src/tests/integration/vrm_edit.py" binds "$tmp/uka.vrm" "$tmp/binds.vrm"
+for e in none tint slide; do
+  "$bin" render "$tmp/binds.vrm" $( [ $e = none ] || echo "--expression $e=1" ) --width 128 --height 128 -o "$tmp/binds_$e.png" -q
+  "$bin" blend "$tmp/binds.vrm" $( [ $e = none ] || echo "--expression $e=1" ) --format glb -o "$tmp/binds_$e.glb" -q
+done
+check "a VRM's material colour bind (tint, to [1, 0.1, 0.1]) renders: the face turns red (mean red up, green down)" py 'import subprocess,sys
+def mean(p):
+    out=subprocess.run(["oiiotool","--stats",p],capture_output=True,text=True).stdout
+    return [float(x) for x in next(l for l in out.splitlines() if "Stats Avg" in l).split(":")[1].split()[:3]]
+a,b=mean(sys.argv[1]),mean(sys.argv[2]); print("mean rgb", a, "->", b)
+sys.exit(not(b[0]>a[0]-0.5 and b[1]<a[1]-10))' "$tmp/binds_none.png" "$tmp/binds_tint.png"
+check "a VRM's texture transform bind (slide, offset 0.25) renders: the face's texture moves (the pictures differ)" sh -c "! cmp -s '$tmp/binds_none.png' '$tmp/binds_slide.png'"
+py 'import json,struct,sys
+def rd(p):
+    b=open(p,"rb").read(); n=struct.unpack_from("<I",b,12)[0]; return json.loads(b[20:20+n]), b[20+n+8:]
+def uv(p):
+    j,b=rd(p)
+    for m in j["meshes"]:
+        for pr in m["primitives"]:
+            if pr.get("material")==1:
+                a=j["accessors"][pr["attributes"]["TEXCOORD_0"]]; bv=j["bufferViews"][a["bufferView"]]
+                return struct.unpack_from("<%df"%(2*a["count"]),b,bv.get("byteOffset",0)+a.get("byteOffset",0))
+u0,u1=uv(sys.argv[1]),uv(sys.argv[3]); d=[u1[i]-u0[i] for i in range(len(u0))]
+print(json.dumps({"tint":rd(sys.argv[2])[0]["materials"][1]["pbrMetallicRoughness"]["baseColorFactor"][:3],"slide":[max(d[0::2]),max(d[1::2]),min(d[0::2]),min(d[1::2])]}))' \
+  "$tmp/binds_none.glb" "$tmp/binds_tint.glb" "$tmp/binds_slide.glb" >"$tmp/binds_ours.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/@pixiv/three-vrm" ]; then
-  NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/uka.vrm" >"$tmp/val" 2>&1; rc=$?; cat "$tmp/val"
-  check "glTF validator: 0 errors on Uka's VRM" test $rc -eq 0
+  for f in uka uka0; do
+    NODE_PATH=$node_modules node "$src/tests/integration/validate_gltf.js" "$tmp/$f.vrm" >"$tmp/val" 2>&1; rc=$?; cat "$tmp/val"
+    check "glTF validator: 0 errors on Uka's VRM ($f)" test $rc -eq 0
+  done
   # An ES module finds its packages beside it (NODE_PATH is CommonJS's): it runs from the packages' folder.
-  cp "$src/tests/integration/vrm_test.mjs" "$node_modules/../vrm_test.mjs"
-  node "$node_modules/../vrm_test.mjs" "$tmp/uka.vrm" "$tmp/vrm_expected" >"$tmp/vrm_out" 2>&1; rc=$?; cat "$tmp/vrm_out"
-  check "three.js + @pixiv/three-vrm load Uka's VRM: humanoid bones found, every expression there, each moving the vertices as ours (within 1e-5 of the diagonal)" \
-    sh -c "[ $rc -eq 0 ] && grep -q '15 of 15 required bones' '$tmp/vrm_out' && grep -q '18 expressions checked; 18 in the VRM' '$tmp/vrm_out'"
+  cp "$src/tests/integration/vrm_test.mjs" "$src/tests/integration/vrm_avatar.mjs" "$node_modules/.."
+  node "$node_modules/../vrm_test.mjs" "$tmp/uka.vrm" "$tmp/vrm_expected" --avatar >"$tmp/vrm_out" 2>&1; rc=$?; cat "$tmp/vrm_out"
+  check "three.js + @pixiv/three-vrm load Uka's VRM 1.0: humanoid bones, all 87 expressions (ARKit's 52, 15 visemes) moving the vertices as ours (1e-5 of the diagonal); the hair swings and comes to rest; constraints evaluated; MToon" \
+    sh -c "[ $rc -eq 0 ] && grep -q '15 of 15 required bones' '$tmp/vrm_out' && grep -q '87 expressions checked; 87 in the VRM' '$tmp/vrm_out' && grep -q '^ok   secondary motion' '$tmp/vrm_out'"
+  node "$node_modules/../vrm_test.mjs" "$tmp/uka0.vrm" "$tmp/vrm_expected" --v0 --avatar >"$tmp/vrm0_out" 2>&1; rc=$?; cat "$tmp/vrm0_out"
+  check "three-vrm's 0.x path loads Uka's VRM 0.x: its expressions (happy, blink, aa and all 87) as ours within 1e-5 of the diagonal, springs swinging, look-at by bones" \
+    sh -c "[ $rc -eq 0 ] && grep -q '^VRM 0' '$tmp/vrm0_out' && grep -q '87 expressions checked; 87 in the VRM' '$tmp/vrm0_out' && grep -q '^ok   happy' '$tmp/vrm0_out' && grep -q '^ok   secondary motion' '$tmp/vrm0_out'"
+  node "$node_modules/../vrm_test.mjs" "$tmp/binds.vrm" "$tmp/vrm_expected" --binds >"$tmp/binds_out" 2>&1; cat "$tmp/binds_out" | tail -1
+  check "three-vrm and we agree on the binds: tint's colour and slide's UV offset" py 'import json,sys
+theirs=json.loads(next(l for l in open(sys.argv[1]) if l.startswith("binds: "))[7:]); ours=json.load(open(sys.argv[2])); print("ours", ours)
+sys.exit(not(all(abs(a-b)<1e-5 for a,b in zip(theirs["tint"]["color"],ours["tint"])) and abs(ours["slide"][0]-theirs["slide"]["offset"][0])<1e-5
+  and abs(ours["slide"][2]-theirs["slide"]["offset"][0])<1e-5 and abs(ours["slide"][1]-theirs["slide"]["offset"][1])<1e-6))' "$tmp/binds_out" "$tmp/binds_ours.json"
 else
   no "@pixiv/three-vrm not installed: the VRM is not loaded in three.js (run .ci/dev test)"
 fi

@@ -143,6 +143,31 @@ def glb_with_targets(n):
             struct.pack("<II", len(positions), 0x004E4942) + positions)
 
 
+def vrm_uploads(srv, U, glb, tmp):
+    """VRMs whose binds, springs or constraints point out of range or carry the wrong types: 422 naming the member,
+    nothing stored. One with material colour and texture transform binds: stored, and its renders show them."""
+    st, _, vrm, _ = request(U + "/v1/rigs/uka/mesh?format=vrm")
+    check(f"GET uka/mesh?format=vrm: {st}, {len(vrm) >> 20} MB", st == 200 and vrm[:4] == b"glTF")
+    src = os.path.join(tmp, "uka.vrm")
+    open(src, "wb").write(vrm)
+    edit = os.path.join(os.path.dirname(os.path.abspath(__file__)), "vrm_edit.py")
+    subprocess.run([sys.executable, edit, "hostile", src, os.path.join(tmp, "vrm_hostile")], check=True)
+    faults = json.load(open(os.path.join(tmp, "vrm_hostile", "faults.json")))
+    for name, member in faults.items():
+        data = open(os.path.join(tmp, "vrm_hostile", name + ".vrm"), "rb").read()
+        st, sec, b, _ = request(U + "/v1/rigs/vrmbad", "PUT", data, glb)
+        pointers = [e.get("pointer") for e in json.loads(b).get("errors", [])] if b.startswith(b"{") else []
+        gone, _, _, _ = request(U + "/v1/rigs/vrmbad")
+        check(f"PUT a VRM with {name}: {st} naming {member} in {sec * 1000:.0f} ms; nothing stored (GET {gone})",
+              st == 422 and member in pointers and gone == 404 and srv.alive())
+    subprocess.run([sys.executable, edit, "binds", src, os.path.join(tmp, "binds.vrm")], check=True)
+    st, _, _, _ = request(U + "/v1/rigs/vrmbinds", "PUT", open(os.path.join(tmp, "binds.vrm"), "rb").read(), glb)
+    renders = {e: request(U + f"/v1/rigs/vrmbinds/render?width=96&height=96{'&e.' + e + '=1' if e else ''}") for e in ("", "tint", "slide")}
+    check(f"PUT a VRM whose expressions carry colour and texture binds: {st}; renders {[r[0] for r in renders.values()]}, tint and slide each "
+          f"drawing other pixels than the neutral face", st == 201 and all(r[0] == 200 for r in renders.values())
+          and renders["tint"][2] != renders[""][2] and renders["slide"][2] != renders[""][2])
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="facespace-hostile-")
     os.makedirs(os.path.join(tmp, "store"))
@@ -317,6 +342,8 @@ def main():
     attack(srv, f"upload of a glb declaring 100,000 morph targets ({len(big) >> 20} MB)", 413,
            lambda: (lambda st, sec, b, h: (st, sec, b[:0].decode() + ("names --max-shapes" if b"--max-shapes" in b else "")))(
                *request(U + "/v1/rigs/manytargets", "PUT", big, glb)))
+
+    vrm_uploads(srv, U, glb, tmp)
 
     st, sec, b, _ = request(U + "/v1/rigs/facecap/batch", "POST",
                             json.dumps({"sample": {"method": "uniform", "count": 65000}, "format": "exr", "width": 2048, "height": 2048}).encode(), auth)

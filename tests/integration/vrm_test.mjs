@@ -19,6 +19,8 @@ const [file, dir] = process.argv.slice(2).filter((a) => !a.startsWith('--'));
 const v0 = process.argv.includes('--v0');
 const bytes = fs.readFileSync(file);
 const loader = new GLTFLoader();
+// Node has no image decoder: every image is an empty texture (what binds do to a texture is still seen).
+loader.register((parser) => { parser.loadImageSource = () => Promise.resolve(new THREE.Texture()); return { name: 'no_image_decoding' }; });
 loader.register((parser) => new VRMLoaderPlugin(parser));
 const gltf = await loader.parseAsync(bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength), '');
 const vrm = gltf.userData.vrm;
@@ -95,4 +97,21 @@ for (const name of names) {
 vrm.expressionManager.resetValues();
 console.log(`${names.length} expressions checked; ${Object.keys(vrm.expressionManager.expressionMap).length} in the VRM`);
 if (process.argv.includes('--avatar') && !checkAvatar(vrm, gltf, v0, meshes)) bad = 1;
+// --binds: what "tint" and "slide" (vrm_edit.py binds) do to the face material (glTF material 1) at 1, as JSON.
+if (process.argv.includes('--binds')) {
+  const name = gltf.parser.json.materials[1].name;
+  const face = meshes.flatMap(({ o }) => (Array.isArray(o.material) ? o.material : [o.material])).find((m) => m.name === name);
+  if (!face) fail('no three.js material for glTF material 1');
+  else {
+    const seen = {};
+    for (const name of ['tint', 'slide']) {
+      vrm.expressionManager.resetValues();
+      vrm.expressionManager.setValue(name, 1);
+      vrm.update(0);
+      seen[name] = { color: face.color.toArray(), offset: face.map ? face.map.offset.toArray() : null, repeat: face.map ? face.map.repeat.toArray() : null };
+    }
+    vrm.expressionManager.resetValues();
+    console.log('binds: ' + JSON.stringify(seen));
+  }
+}
 process.exit(bad);

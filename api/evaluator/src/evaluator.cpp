@@ -168,7 +168,8 @@ Status Evaluator::Thumbnail(const std::shared_ptr<const StoredRig>& stored, int 
   if (!renderer_) return Status::Ok();  // A mesh-only evaluator writes VRMs without one.
   render::RenderOptions options;
   options.width = options.height = kThumbnailSize;
-  options.camera.frame = render::Framing::kShapes;  // The face the shapes move, on a whole body.
+  options.camera.frame = render::Framing::kShapes;  // The face the shapes move, on a whole body,
+  options.camera.zoom = 0.8f;                        // with its hair around it.
   options.srgb8 = true;
   kept_->derived.Prepare(stored, lod, options);
   if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the VRM's thumbnail: ");

@@ -51,9 +51,15 @@ Status LinkNodes(const tinygltf::Model& model, Rig& rig);          // Children, 
 Status ConvertSkins(const tinygltf::Model& model, Rig& rig);       // Skins, and the skin of each mesh.
 Status ConvertAnimations(const tinygltf::Model& model, Rig& rig);  // Clips: samplers and channels, checked.
 
-// A VRM's (1.0 VRMC_vrm, or 0.x VRM) expressions, look-at and meta onto the rig (vrm_import.cpp); nothing
-// when the model has neither.
+// A VRM's (1.0 VRMC_vrm, or 0.x VRM) expressions (with their material colour and texture transform binds),
+// look-at, meta and terms onto the rig (vrm_import.cpp), after CheckVrmExtensions; nothing when the model has
+// neither.
 Status ApplyVrm(const tinygltf::Model& model, Rig& rig);
+// Every index and member type of the VRM extensions (VRMC_vrm or VRM, VRMC_springBone, VRMC_node_constraint)
+// checked against the model (vrm_checks.cpp): InvalidArgument "invalid-vrm" naming the first bad member.
+Status CheckVrmExtensions(const tinygltf::Model& model);
+// A tinygltf value as JSON (32 levels at most; deeper is null).
+nlohmann::json VrmJson(const tinygltf::Value& v);
 
 // A GLB of a JSON text and a binary chunk (none when empty), each padded to 4 bytes.
 std::vector<unsigned char> MakeGlb(const std::string& json_text, std::span<const unsigned char> bin);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "common/vrm_terms.h"
 #include "facespace/core/face.h"
 #include "gltf/gltf_common.h"
 
@@ -13,25 +14,6 @@ namespace facespace {
 namespace {
 
 using nlohmann::json;
-
-json ToJson(const tinygltf::Value& v, int depth = 0) {
-  if (depth > 32) return nullptr;
-  if (v.IsBool()) return v.Get<bool>();
-  if (v.IsInt()) return v.Get<int>();
-  if (v.IsNumber()) return v.GetNumberAsDouble();
-  if (v.IsString()) return v.Get<std::string>();
-  if (v.IsArray()) {
-    json a = json::array();
-    for (size_t i = 0; i < v.ArrayLen(); ++i) a.push_back(ToJson(v.Get(static_cast<int>(i)), depth + 1));
-    return a;
-  }
-  if (v.IsObject()) {
-    json o = json::object();
-    for (const std::string& k : v.Keys()) o[k] = ToJson(v.Get(k), depth + 1);
-    return o;
-  }
-  return nullptr;
-}
 
 double Number(const json& o, const char* key, double fallback) {
   return o.is_object() && o.contains(key) && o[key].is_number() && std::isfinite(o[key].get<double>()) ? o[key].get<double>() : fallback;
@@ -69,6 +51,21 @@ RangeMap MapOf(const json& m, const char* in, const char* out, RangeMap fallback
 // ApplyVrm's work: members of the wrong type throw (nlohmann's value() and get()).
 bool NodeOk(const Rig& rig, int n) { return n >= 0 && static_cast<size_t>(n) < rig.nodes.size(); }
 
+// The terms a VRM's meta states (1.0's members, 0.x's *UssageName and allowedUserName), each as restrictive as
+// VRM's default where the meta does not say it or says something we do not know.
+void ApplyTerms(const json& meta, UsageTerms& t) {
+  t = UsageTerms{};
+  t.source = "the VRM's meta";
+  auto text = [&](const char* key) { return meta.contains(key) && meta[key].is_string() ? meta[key].get<std::string>() : std::string(); };
+  if (ParseEnum(vrm_terms::kAvatar, text("avatarPermission"), &t.avatar) || ParseEnum(vrm_terms::kAvatar, text("allowedUserName"), &t.avatar)) {}
+  if (!ParseEnum(vrm_terms::kCommercial, text("commercialUsage"), &t.commercial)) t.commercial = text("commercialUssageName") == "Allow" ? vrm_terms::Commercial::kCorporation : t.commercial;
+  ParseEnum(vrm_terms::kModification, text("modification"), &t.modification);
+  for (const vrm_terms::Flag& f : vrm_terms::kFlags) t.*f.member = meta.contains(f.name) && meta[f.name] == true;
+  t.violent = t.violent || text("violentUssageName") == "Allow";
+  t.sexual = t.sexual || text("sexualUssageName") == "Allow";
+  t.credit_required = text("creditNotation") != "unnecessary";
+}
+
 // The rig's name, credit and licence from VRM's meta.
 void ApplyMeta(const json& meta, Rig& rig) {
   if (!meta.is_object()) return;
@@ -80,6 +77,7 @@ void ApplyMeta(const json& meta, Rig& rig) {
   }
   const std::string other = meta.value("otherLicenseUrl", std::string());
   rig.license_url = !other.empty() ? other : meta.value("licenseUrl", std::string());
+  ApplyTerms(meta, rig.terms);
 }
 
 // The humanoid's eyes and head (1.0: humanBones by name; 0.x: a list of {bone, node}).
@@ -105,9 +103,83 @@ HumanoidBones FindHumanoidBones(const json& humanoid, bool one) {
   return h;
 }
 
+// A shape of an expression's own, named after it, for what its binds do beyond morph targets.
+uint32_t LookShape(Rig& rig, const std::string& expression) {
+  std::string name = expression + " (VRM binds)";
+  while (FindShape(rig, name) >= 0) name += "'";
+  Shape shape;
+  shape.name = name;
+  shape.group = "expression";
+  rig.shapes.push_back(std::move(shape));
+  return static_cast<uint32_t>(rig.shapes.size() - 1);
+}
+
+// A material colour bind as a material morph: the base colour moves linearly to `target` with the weight.
+void AddColourBind(Rig& rig, uint32_t shape, int material, const json& target) {
+  MaterialMorph m;
+  m.material = material;
+  m.add = true;
+  const auto& base = rig.materials[material].base_color_factor;
+  for (int c = 0; c < 4; ++c) m.diffuse[c] = (c < static_cast<int>(target.size()) ? target[c].get<float>() : base[c]) - base[c];
+  for (float& t : m.texture_tint) t = 0.0f;
+  rig.shapes[shape].material_morphs.push_back(m);
+}
+
+// A texture transform bind (uv * scale + offset at weight 1) as UV deltas of every vertex drawn with the
+// material: (scale - 1) uv + offset, linear in the weight as VRM's lerp of scale and offset.
+void AddUvBind(Rig& rig, uint32_t shape, int material, std::array<float, 2> scale, std::array<float, 2> offset) {
+  for (Mesh& mesh : rig.meshes) {
+    bool uses = false;
+    for (int pi : mesh.primitives) uses = uses || (rig.primitives[pi].material == material && !rig.primitives[pi].texcoords.empty());
+    if (!uses) continue;
+    auto at = std::find(mesh.target_shapes.begin(), mesh.target_shapes.end(), shape);
+    const size_t t = static_cast<size_t>(at - mesh.target_shapes.begin());
+    if (at == mesh.target_shapes.end()) mesh.target_shapes.push_back(shape);
+    for (int pi : mesh.primitives) {
+      Primitive& p = rig.primitives[pi];
+      p.targets.resize(mesh.target_shapes.size());
+      if (p.material != material || p.texcoords.empty()) continue;
+      SparseTarget& st = p.targets[t];
+      st.texcoord_indices.resize(p.vertex_count());
+      st.texcoord_deltas.resize(2 * p.vertex_count());
+      for (uint32_t v = 0; v < p.vertex_count(); ++v) {
+        st.texcoord_indices[v] = v;
+        for (int k = 0; k < 2; ++k) st.texcoord_deltas[2 * v + k] = (scale[k] - 1.0f) * p.texcoords[2 * v + k] + offset[k];
+      }
+      FinalizeTarget(st);
+    }
+  }
+}
+
+// An expression's material colour and texture transform binds (1.0's, or 0.x's materialValues: "_Color" and
+// "_MainTex_ST") on a shape of its own, bound at weight 1; the kinds we do not draw (emission, shade, rim,
+// outline, matcap colours) counted in `dropped`. Indices were checked (CheckVrmExtensions).
+void AddLookBinds(Rig& rig, const json& x, bool v0, Expression& e, size_t& dropped) {
+  int shape = -1;
+  auto own = [&] { return static_cast<uint32_t>(shape < 0 ? (shape = static_cast<int>(LookShape(rig, e.name))) : shape); };
+  auto material_named = [&](const json& v) {
+    for (size_t m = 0; m < rig.materials.size(); ++m) if (rig.materials[m].name == v.value("materialName", std::string())) return static_cast<int>(m);
+    return -1;
+  };
+  for (const json& b : x.value(v0 ? "materialValues" : "materialColorBinds", json::array())) {
+    const int m = v0 ? material_named(b) : b.value("material", -1);
+    const std::string kind = b.value(v0 ? "propertyName" : "type", std::string());
+    const json target = b.value("targetValue", json::array());
+    if (m >= 0 && (kind == "color" || kind == "_Color") && target.size() >= 3) AddColourBind(rig, own(), m, target);
+    else if (m >= 0 && kind == "_MainTex_ST" && target.size() == 4) {
+      const float sy = target[1].get<float>();
+      AddUvBind(rig, own(), m, {target[0].get<float>(), sy}, {target[2].get<float>(), 1.0f - target[3].get<float>() - sy});
+    } else ++dropped;
+  }
+  for (const json& b : v0 ? json::array() : x.value("textureTransformBinds", json::array())) {
+    const json sc = b.value("scale", json::array({1, 1})), of = b.value("offset", json::array({0, 0}));
+    AddUvBind(rig, own(), b["material"].get<int>(), {sc[0].get<float>(), sc[1].get<float>()}, {of[0].get<float>(), of[1].get<float>()});
+  }
+  if (shape >= 0) e.binds.emplace_back(static_cast<uint32_t>(shape), 1.0f);
+}
+
 // One expression onto the rig: its morph binds (0.x: "binds", weights in percent and by mesh; 1.0:
-// "morphTargetBinds" by node), its overrides; the binds it cannot apply (no such target, material and
-// texture binds) counted in `dropped`.
+// "morphTargetBinds" by node), its material colour and texture transform binds, its overrides.
 void AddExpression(const std::string& name, const json& x, bool v0_binds, Rig& rig, size_t& dropped) {
   if (name.empty() || name.size() > 64 || !x.is_object()) return;
   Expression e;
@@ -129,9 +201,7 @@ void AddExpression(const std::string& name, const json& x, bool v0_binds, Rig& r
     auto same = std::find_if(e.binds.begin(), e.binds.end(), [&](const auto& p) { return p.first == static_cast<uint32_t>(shape); });
     if (same == e.binds.end()) e.binds.emplace_back(static_cast<uint32_t>(shape), static_cast<float>(w));
   }
-  for (const char* other : {"materialColorBinds", "textureTransformBinds", "materialValues"}) {
-    if (x.contains(other) && x[other].is_array()) dropped += x[other].size();
-  }
+  AddLookBinds(rig, x, v0_binds, e, dropped);
   SetExpression(rig, std::move(e));
 }
 
@@ -202,16 +272,16 @@ void ApplyVrmMembers(const tinygltf::Model& model, Rig& rig) {
   const auto v0 = model.extensions.find("VRM");
   if (v1 == model.extensions.end() && v0 == model.extensions.end()) return;
   const bool one = v1 != model.extensions.end();
-  const json vrm = ToJson(one ? v1->second : v0->second);
+  const json vrm = VrmJson(one ? v1->second : v0->second);
   if (!vrm.is_object()) return;
   ApplyMeta(vrm.value("meta", json::object()), rig);
   const HumanoidBones humanoid = FindHumanoidBones(vrm.value("humanoid", json::object()), one);
-  size_t dropped = 0;  // Binds naming no target, material and texture binds.
+  size_t dropped = 0;  // Binds naming no target, colours we do not draw.
   ApplyExpressions(vrm, one, rig, dropped);
   ApplyLookAt(one ? vrm.value("lookAt", json()) : vrm.value("firstPerson", json()), one, humanoid, rig);
   if (dropped > 0) {
     rig.load_warnings.push_back({"vrm_binds_not_applied",
-                                 std::to_string(dropped) + " VRM expression binds are not applied: material colour and texture binds, or morph binds naming no target",
+                                 std::to_string(dropped) + " VRM expression binds are not applied: colours we do not draw (emission, shade, rim, outline, matcap), or morph binds naming no target",
                                  "", static_cast<double>(dropped), true});
   }
 }
@@ -219,13 +289,15 @@ void ApplyVrmMembers(const tinygltf::Model& model, Rig& rig) {
 }  // namespace
 
 Status ApplyVrm(const tinygltf::Model& model, Rig& rig) {
+  if (Status s = CheckVrmExtensions(model); !s.ok()) return s;
   try {
     ApplyVrmMembers(model, rig);
   } catch (const json::exception& e) {
     const char* where = model.extensions.count("VRMC_vrm") ? "/extensions/VRMC_vrm" : "/extensions/VRM";
     return WithReason(InvalidField(where, std::string("a member has the wrong type (") + e.what() + ")"), "invalid-vrm");
   }
-  return Status::Ok();
+  CountMovedVertices(rig);  // The binds' shapes.
+  return ValidateRig(rig);
 }
 
 }  // namespace facespace
