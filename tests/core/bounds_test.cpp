@@ -82,7 +82,7 @@ TEST(JsonDepth, AManifestNestedDeeperThanTheLimitIsRefused) {
   EXPECT_EQ(s.reason, "too-deep") << s.message;
 }
 
-TEST(Vrm, AMemberOfTheWrongTypeIsTheFilesFaultNamingTheExtension) {
+TEST(Vrm, AMemberOfTheWrongTypeIsTheFilesFaultNamingTheMember) {
   auto rig = Load(FaceCapWithJson([](nlohmann::json j) {
     j["extensionsUsed"].push_back("VRM");
     j["extensions"]["VRM"] = {{"blendShapeMaster", {{"blendShapeGroups", {{{"name", "joy"}, {"presetName", "joy"}, {"isBinary", "yes"}}}}}}};
@@ -92,7 +92,7 @@ TEST(Vrm, AMemberOfTheWrongTypeIsTheFilesFaultNamingTheExtension) {
   EXPECT_EQ(rig.status().code, StatusCode::kInvalidArgument);
   EXPECT_EQ(rig.status().reason, "invalid-vrm") << rig.status().message;
   ASSERT_FALSE(rig.status().fields.empty());
-  EXPECT_EQ(rig.status().fields[0].pointer, "/extensions/VRM");
+  EXPECT_EQ(rig.status().fields[0].pointer, "/extensions/VRM/blendShapeMaster/blendShapeGroups/0/isBinary");
 }
 
 TEST(Expressions, WeightsPastAFloatAreTheRequestsFault) {

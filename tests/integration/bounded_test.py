@@ -247,7 +247,7 @@ def main():
     vrm.setdefault("extensionsUsed", []).append("VRM")
     vrm.setdefault("extensions", {})["VRM"] = {"blendShapeMaster": {"blendShapeGroups": [{"name": "joy", "presetName": "joy", "isBinary": "yes"}]}}
     st, sec, b, _ = request(U + "/v1/rigs/mistyped", "PUT", write_glb(vrm, rest), glb)
-    check(f"a VRM 0.x upload with \"isBinary\": \"yes\": {st} {problem(b)} (was 500)", st == 422 and "/extensions/VRM" in problem(b)[1])
+    check(f"a VRM 0.x upload with \"isBinary\": \"yes\": {st} {problem(b)} (was 500)", st == 422 and "/extensions/VRM/blendShapeMaster/blendShapeGroups/0/isBinary" in problem(b)[1])
 
     # ---- 5. every route states its cost; work that can last is cancelled when its client leaves ----
     walk_routes(srv, doc, rest)
