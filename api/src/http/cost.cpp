@@ -59,10 +59,12 @@ double ImageSeconds(const render::RenderOptions& o, const Rig& rig) {
 
 Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format) {
   if (format != MeshFormat::kVrm && format != MeshFormat::kVrm0) return {kPerRequest + FrameSeconds(rig), "/weights", "one blend"};
-  // A VRM: the whole rig written (every target: a frame's work per shape at most) and its thumbnail drawn.
+  // A VRM: the whole rig written (every target of every vertex: 1.2e-8 s each, measured on Uka's, 50k vertices
+  // x 213 shapes in 0.14 s with its thumbnail) and its thumbnail drawn.
   render::RenderOptions thumbnail;
   thumbnail.width = thumbnail.height = Evaluator::kThumbnailSize;
-  const double seconds = kPerRequest + FrameSeconds(rig) * (1.0 + 0.1 * static_cast<double>(rig.shapes.size())) + ImageSeconds(thumbnail, rig);
+  const double seconds = kPerRequest + FrameSeconds(rig) + 1.2e-8 * static_cast<double>(rig.vertex_count()) * static_cast<double>(rig.shapes.size()) +
+                         ImageSeconds(thumbnail, rig);
   return {seconds, "/format", "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
 }
 
