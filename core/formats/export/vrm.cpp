@@ -22,7 +22,7 @@ using nlohmann::ordered_json;
 
 // VRM 1.0's human bones: name, required, and the node names that may be it ("a|b|c", the first the rig
 // has wins): MMD's standard bones (D bones before the ones they follow: they carry the skin), VRoid's,
-// Mixamo's, and VRM's own. Right-side rows are made from the left's (HumanBones).
+// Mixamo's, and VRM's own. Right-side rows are made from the left's (AvatarBones).
 struct HumanBone {
   const char* name;
   bool required;
@@ -77,7 +77,7 @@ std::string Mirrored(std::string s) {
 
 double Num(float x) { return std::stod(FormatNumber(x)); }
 
-Result<std::vector<std::pair<std::string, int>>> HumanBones(const Rig& rig) {
+Result<std::vector<std::pair<std::string, int>>> AvatarBones(const Rig& rig) {
   std::vector<std::pair<std::string, int>> out;
   std::vector<std::string> missing;
   auto add = [&](const std::string& name, bool required, const std::string& candidates) {
@@ -91,7 +91,14 @@ Result<std::vector<std::pair<std::string, int>>> HumanBones(const Rig& rig) {
   for (const HumanBone& b : kCentre) add(b.name, b.required, b.candidates);
   for (const HumanBone& b : kLeft) add(b.name, b.required, b.candidates);
   for (const HumanBone& b : kLeft) add(Mirrored(b.name), b.required, Mirrored(b.candidates));
-  if (missing.empty()) return out;
+  if (missing.empty()) {
+    if (rig.license_url.empty()) {
+      Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + rig.name + "' has none: set \"license_url\" in its manifest");
+      s.fields.push_back({"/format", "the rig has no licence URL (manifest \"license_url\")"});
+      return s;
+    }
+    return out;
+  }
   std::string list;
   for (size_t i = 0; i < missing.size(); ++i) list += (i ? ", " : "") + missing[i];
   Status s = InvalidArgument("a VRM needs a humanoid skeleton, and '" + rig.name + "' has no bone for " + list +
@@ -259,13 +266,8 @@ void AddSecondaryAndLooks(const Rig& rig, const SpringSetup& springs, const Cons
 
 Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings,
                               const ExportOptions& options) {
-  auto bones = HumanBones(rig);
+  auto bones = AvatarBones(rig);
   if (!bones.ok()) return bones.status();
-  if (rig.license_url.empty()) {
-    Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + rig.name + "' has none: set \"license_url\" in its manifest");
-    s.fields.push_back({"/format", "the rig has no licence URL (manifest \"license_url\")"});
-    return s;
-  }
   std::vector<int> humanoid_nodes;
   for (const auto& bone : bones.value()) humanoid_nodes.push_back(bone.second);
   const SpringSetup springs = SpringsOf(rig);

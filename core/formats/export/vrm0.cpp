@@ -147,13 +147,8 @@ Rig TurnedHalfRound(const Rig& rig) {
 
 Result<std::string> ExportVrm0(const Rig& source, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings,
                                const ExportOptions& options) {
-  auto bones = HumanBones(source);
+  auto bones = AvatarBones(source);
   if (!bones.ok()) return bones.status();
-  if (source.license_url.empty()) {
-    Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + source.name + "' has none: set \"license_url\" in its manifest");
-    s.fields.push_back({"/format", "the rig has no licence URL (manifest \"license_url\")"});
-    return s;
-  }
   const Rig rig = TurnedHalfRound(source);
   auto glb = RestGlbParts(rig, blended, weights, warnings);
   if (!glb.ok()) return glb.status();

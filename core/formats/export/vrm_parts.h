@@ -108,8 +108,9 @@ std::string PackGlb(const GlbParts& g);
 std::pair<int, int> AddImage(GlbParts& g, std::span<const unsigned char> bytes, const std::string& mime_type, const std::string& name);
 void UseExtension(GlbParts& g, const std::string& name);
 
-// The humanoid's bones as (VRM bone name, node), or InvalidArgument naming "/format" and what it lacks.
-Result<std::vector<std::pair<std::string, int>>> HumanBones(const Rig& rig);
+// What makes the rig an avatar: its humanoid's bones as (VRM bone name, node); or InvalidArgument naming
+// "/format" when it lacks a required bone (each named) or, a humanoid, has no licence URL (a VRM's meta needs one).
+Result<std::vector<std::pair<std::string, int>>> AvatarBones(const Rig& rig);
 // The rig's expressions, then the app expressions (AppExpressions) whose names it does not use.
 std::vector<Expression> VrmExpressions(const Rig& rig);
 // The first node showing each mesh (-1: none), where VRM's binds point.
