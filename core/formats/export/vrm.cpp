@@ -116,6 +116,28 @@ std::vector<Expression> VrmExpressions(const Rig& rig) {
   return out;
 }
 
+std::vector<std::pair<size_t, size_t>> TargetsOf(const Rig& rig, uint32_t shape) {
+  std::vector<std::pair<size_t, size_t>> out;
+  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
+    const auto& shapes = rig.meshes[mi].target_shapes;
+    for (size_t t = 0; t < shapes.size(); ++t) {
+      if (shapes[t] == shape) out.emplace_back(mi, t);
+    }
+  }
+  return out;
+}
+
+std::array<float, 3> EyesFromHead(const Rig& rig, int head) {
+  const auto world = NodeWorldMatrices(rig);
+  const auto& o = rig.gaze.origin;
+  return {o[0] - world[head][12], o[1] - world[head][13], o[2] - world[head][14]};
+}
+
+float WholeAngle(const GazeSetup& g, const RangeMap& m) {
+  const float share = g.kind == GazeSetup::Kind::kBones ? g.head_share + g.neck_share : 0.0f;
+  return m.input_max / std::max(1e-3f, 1.0f - share);
+}
+
 std::vector<int> MeshNodes(const Rig& rig) {
   std::vector<int> out(rig.meshes.size(), -1);
   for (size_t n = rig.nodes.size(); n-- > 0;) {
@@ -183,20 +205,15 @@ ordered_json MorphTargetBinds(const Rig& rig, const Expression& e) {
   ordered_json binds = ordered_json::array();
   const std::vector<int> nodes = MeshNodes(rig);
   for (const auto& [shape, weight] : e.binds) {
-    for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
-      const auto& shapes = rig.meshes[mi].target_shapes;
-      for (size_t t = 0; t < shapes.size(); ++t) {
-        if (shapes[t] == shape && nodes[mi] >= 0) binds.push_back({{"node", nodes[mi]}, {"index", t}, {"weight", Num(std::clamp(weight, 0.0f, 1.0f))}});
-      }
+    for (const auto& [mesh, t] : TargetsOf(rig, shape)) {
+      if (nodes[mesh] >= 0) binds.push_back({{"node", nodes[mesh]}, {"index", t}, {"weight", Num(std::clamp(weight, 0.0f, 1.0f))}});
     }
   }
   return binds;
 }
 
-ordered_json RangeMapJson(const RangeMap& m, float share) {
-  // VRM turns the eyes by the whole angle: our head's and neck's shares fold into the input's range.
-  const float keep = std::max(1e-3f, 1.0f - share);
-  return {{"inputMaxValue", Num(m.input_max / keep)}, {"outputScale", Num(m.output_scale)}};
+ordered_json RangeMapJson(const Rig& rig, const RangeMap& m) {
+  return {{"inputMaxValue", Num(WholeAngle(rig.gaze, m))}, {"outputScale", Num(m.output_scale)}};
 }
 
 // VRM 1.0's meta: VRM's licence (licenseUrl is always VRM's own), the rig's own in otherLicenseUrl, and the
@@ -228,14 +245,13 @@ ordered_json Expressions(const Rig& rig) {
 
 ordered_json LookAt(const Rig& rig, int head) {
   const GazeSetup& g = rig.gaze;
-  const auto world = NodeWorldMatrices(rig);
-  const float share = g.kind == GazeSetup::Kind::kBones ? g.head_share + g.neck_share : 0.0f;
-  return {{"offsetFromHeadBone", {Num(g.origin[0] - world[head][12]), Num(g.origin[1] - world[head][13]), Num(g.origin[2] - world[head][14])}},
+  const std::array<float, 3> offset = EyesFromHead(rig, head);
+  return {{"offsetFromHeadBone", {Num(offset[0]), Num(offset[1]), Num(offset[2])}},
           {"type", g.kind == GazeSetup::Kind::kBones ? "bone" : "expression"},
-          {"rangeMapHorizontalInner", RangeMapJson(g.horizontal_inner, share)},
-          {"rangeMapHorizontalOuter", RangeMapJson(g.horizontal_outer, share)},
-          {"rangeMapVerticalDown", RangeMapJson(g.vertical_down, share)},
-          {"rangeMapVerticalUp", RangeMapJson(g.vertical_up, share)}};
+          {"rangeMapHorizontalInner", RangeMapJson(rig, g.horizontal_inner)},
+          {"rangeMapHorizontalOuter", RangeMapJson(rig, g.horizontal_outer)},
+          {"rangeMapVerticalDown", RangeMapJson(rig, g.vertical_down)},
+          {"rangeMapVerticalUp", RangeMapJson(rig, g.vertical_up)}};
 }
 
 // Springs, node constraints and MToon onto the glb; grants VRM cannot say are a warning in asset.extras.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/vrm_presets.h"
 #include "common/vrm_terms.h"
 #include "export/vrm_parts.h"
 #include "export/writers.h"
@@ -38,11 +39,7 @@ std::string Bone0(std::string name) {
 
 // 0.x's preset names for 1.0's (the others are custom: "unknown").
 const char* Preset0(const std::string& name) {
-  static const std::pair<const char*, const char*> kPresets[] = {
-      {"happy", "joy"}, {"angry", "angry"}, {"sad", "sorrow"}, {"relaxed", "fun"}, {"aa", "a"}, {"ih", "i"}, {"ou", "u"}, {"ee", "e"},
-      {"oh", "o"}, {"blink", "blink"}, {"blinkLeft", "blink_l"}, {"blinkRight", "blink_r"}, {"lookUp", "lookup"}, {"lookDown", "lookdown"},
-      {"lookLeft", "lookleft"}, {"lookRight", "lookright"}, {"neutral", "neutral"}};
-  for (const auto& [one, zero] : kPresets) {
+  for (const auto& [one, zero] : vrm_presets::kPresets) {
     if (name == one) return zero;
   }
   return "unknown";
@@ -53,12 +50,7 @@ ordered_json BlendShapeGroups(const Rig& rig, const ordered_json& materials) {
   for (const Expression& e : VrmExpressions(rig)) {
     ordered_json binds = ordered_json::array(), values = ordered_json::array();
     for (const auto& [shape, weight] : e.binds) {
-      for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
-        const auto& shapes = rig.meshes[mi].target_shapes;
-        for (size_t t = 0; t < shapes.size(); ++t) {
-          if (shapes[t] == shape) binds.push_back({{"mesh", mi}, {"index", t}, {"weight", Num(100.0f * std::clamp(weight, 0.0f, 1.0f))}});
-        }
-      }
+      for (const auto& [mesh, t] : TargetsOf(rig, shape)) binds.push_back({{"mesh", mesh}, {"index", t}, {"weight", Num(100.0f * std::clamp(weight, 0.0f, 1.0f))}});
     }
     for (const ordered_json& c : MaterialColorBinds(rig, e)) {
       const size_t m = c["material"].get<size_t>();
@@ -69,26 +61,24 @@ ordered_json BlendShapeGroups(const Rig& rig, const ordered_json& materials) {
   return groups;
 }
 
-ordered_json Curve(const RangeMap& m, float share) {
-  const float keep = std::max(1e-3f, 1.0f - share);
-  return {{"curve", {0, 0, 0, 1, 1, 1, 1, 0}}, {"xRange", Num(m.input_max / keep)}, {"yRange", Num(m.output_scale)}};
+ordered_json Curve(const Rig& rig, const RangeMap& m) {
+  return {{"curve", {0, 0, 0, 1, 1, 1, 1, 0}}, {"xRange", Num(WholeAngle(rig.gaze, m))}, {"yRange", Num(m.output_scale)}};
 }
 
 ordered_json FirstPerson(const Rig& rig, int head) {
   const GazeSetup& g = rig.gaze;
-  const auto world = NodeWorldMatrices(rig);
-  const float share = g.kind == GazeSetup::Kind::kBones ? g.head_share + g.neck_share : 0.0f;
+  const std::array<float, 3> offset = EyesFromHead(rig, head);
   ordered_json annotations = ordered_json::array();
   for (size_t m = 0; m < rig.meshes.size(); ++m) annotations.push_back({{"mesh", m}, {"firstPersonFlag", "Auto"}});
   ordered_json o = {{"firstPersonBone", head},
-                    {"firstPersonBoneOffset", {{"x", Num(g.origin[0] - world[head][12])}, {"y", Num(g.origin[1] - world[head][13])}, {"z", Num(g.origin[2] - world[head][14])}}},
+                    {"firstPersonBoneOffset", {{"x", Num(offset[0])}, {"y", Num(offset[1])}, {"z", Num(offset[2])}}},
                     {"meshAnnotations", annotations},
                     {"lookAtTypeName", g.kind == GazeSetup::Kind::kBones ? "Bone" : "BlendShape"}};
   if (g.kind == GazeSetup::Kind::kNone) return o;
-  o["lookAtHorizontalInner"] = Curve(g.horizontal_inner, share);
-  o["lookAtHorizontalOuter"] = Curve(g.horizontal_outer, share);
-  o["lookAtVerticalDown"] = Curve(g.vertical_down, share);
-  o["lookAtVerticalUp"] = Curve(g.vertical_up, share);
+  o["lookAtHorizontalInner"] = Curve(rig, g.horizontal_inner);
+  o["lookAtHorizontalOuter"] = Curve(rig, g.horizontal_outer);
+  o["lookAtVerticalDown"] = Curve(rig, g.vertical_down);
+  o["lookAtVerticalUp"] = Curve(rig, g.vertical_up);
   return o;
 }
 

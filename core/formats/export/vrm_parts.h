@@ -113,6 +113,12 @@ void UseExtension(GlbParts& g, const std::string& name);
 Result<std::vector<std::pair<std::string, int>>> AvatarBones(const Rig& rig);
 // The rig's expressions, then the app expressions (AppExpressions) whose names it does not use.
 std::vector<Expression> VrmExpressions(const Rig& rig);
+// The shape's morph targets: (mesh, target) for each mesh that carries it.
+std::vector<std::pair<size_t, size_t>> TargetsOf(const Rig& rig, uint32_t shape);
+// The look-at as both versions say it: from the head bone to between the eyes at rest, and a range map's input
+// as the whole angle (VRM turns only the eyes: our head's and neck's shares fold into it).
+std::array<float, 3> EyesFromHead(const Rig& rig, int head);
+float WholeAngle(const GazeSetup& gaze, const RangeMap& m);
 // The first node showing each mesh (-1: none), where VRM's binds point.
 std::vector<int> MeshNodes(const Rig& rig);
 

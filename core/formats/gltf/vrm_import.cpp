@@ -5,6 +5,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "common/vrm_presets.h"
 #include "common/vrm_terms.h"
 #include "facespace/core/face.h"
 #include "gltf/gltf_common.h"
@@ -215,18 +216,15 @@ void ApplyExpressions(const json& vrm, bool one, Rig& rig, size_t& dropped) {
     }
     return;
   }
-  static const std::pair<const char*, const char*> kPresets[] = {
-      {"joy", "happy"}, {"angry", "angry"}, {"sorrow", "sad"}, {"fun", "relaxed"}, {"surprised", "surprised"}, {"a", "aa"}, {"i", "ih"},
-      {"u", "ou"}, {"e", "ee"}, {"o", "oh"}, {"blink", "blink"}, {"blink_l", "blinkLeft"}, {"blink_r", "blinkRight"},
-      {"lookup", "lookUp"}, {"lookdown", "lookDown"}, {"lookleft", "lookLeft"}, {"lookright", "lookRight"}, {"neutral", "neutral"}};
   const json groups = vrm.value("blendShapeMaster", json::object()).value("blendShapeGroups", json::array());
   for (const json& g : groups.is_array() ? groups : json::array()) {
     if (!g.is_object()) continue;
     const std::string preset = g.value("presetName", std::string());
     std::string name = g.value("name", std::string());
-    for (const auto& [from, to] : kPresets) {
-      if (preset == from) name = to;
+    for (const vrm_presets::PresetName& p : vrm_presets::kPresets) {
+      if (preset == p.zero) name = p.one;
     }
+    if (preset == "surprised") name = preset;  // Not one of 0.x's presets, but written by exporters that know 1.0's.
     AddExpression(name, g, true, rig, dropped);
   }
 }
