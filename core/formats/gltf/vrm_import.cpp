@@ -58,8 +58,9 @@ void ApplyTerms(const json& meta, UsageTerms& t) {
   t = UsageTerms{};
   t.source = "the VRM's meta";
   auto text = [&](const char* key) { return meta.contains(key) && meta[key].is_string() ? meta[key].get<std::string>() : std::string(); };
-  if (ParseEnum(vrm_terms::kAvatar, text("avatarPermission"), &t.avatar) || ParseEnum(vrm_terms::kAvatar, text("allowedUserName"), &t.avatar)) {}
-  if (!ParseEnum(vrm_terms::kCommercial, text("commercialUsage"), &t.commercial)) t.commercial = text("commercialUssageName") == "Allow" ? vrm_terms::Commercial::kCorporation : t.commercial;
+  // 1.0's member, else 0.x's (the tables take 0.x's words as aliases: "Everyone", "Allow", "Disallow").
+  if (!ParseEnum(vrm_terms::kAvatar, text("avatarPermission"), &t.avatar)) ParseEnum(vrm_terms::kAvatar, text("allowedUserName"), &t.avatar);
+  if (!ParseEnum(vrm_terms::kCommercial, text("commercialUsage"), &t.commercial)) ParseEnum(vrm_terms::kCommercial, text("commercialUssageName"), &t.commercial);
   ParseEnum(vrm_terms::kModification, text("modification"), &t.modification);
   for (const vrm_terms::Flag& f : vrm_terms::kFlags) t.*f.member = meta.contains(f.name) && meta[f.name] == true;
   t.violent = t.violent || text("violentUssageName") == "Allow";
