@@ -17,6 +17,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "facespace/core/color.h"
 #include "facespace/render/render.h"
 #include "internal.h"
 #include "oiio_module.h"
@@ -105,10 +106,7 @@ class SrgbEncoder {
   }
 
  private:
-  static unsigned char Exact(float v) {
-    const double c = std::clamp(static_cast<double>(v), 0.0, 1.0);
-    return static_cast<unsigned char>(std::lround((c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055) * 255.0));
-  }
+  static unsigned char Exact(float v) { return static_cast<unsigned char>(std::lround(SrgbEncode(v) * 255.0)); }
 
   static constexpr float kLow = 1.0f / 8192.0f;                      // 2^-13.
   static constexpr uint32_t kFirst = (uint32_t{127 - 13} << 23) >> 15;  // Its bits' bucket.

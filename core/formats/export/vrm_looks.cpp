@@ -6,6 +6,7 @@
 
 #include "export/vrm_parts.h"
 #include "facespace/core/blend.h"
+#include "facespace/core/color.h"
 #include "facespace/core/speech.h"
 
 namespace facespace::writers {
@@ -16,10 +17,7 @@ namespace {
 // MMD's shared toon ramps darken the side turned from the light to about three quarters of the lit colour.
 constexpr float kShade = 0.75f;
 
-float GammaOf(float linear) {  // sRGB's encoding (0.x's colours are written so).
-  linear = std::clamp(linear, 0.0f, 1.0f);
-  return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
-}
+float GammaOf(float linear) { return static_cast<float>(SrgbEncode(linear)); }  // 0.x's colours are written sRGB-encoded.
 
 int BaseTexture(const ordered_json& gltf_material) {
   const auto pbr = gltf_material.find("pbrMetallicRoughness");
