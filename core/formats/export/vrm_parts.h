@@ -79,7 +79,8 @@ Constrained WithNodeConstraints(const Rig& rig, std::span<const int> humanoid, c
 
 // VRMC_materials_mtoon (1.0) for a toon material; null for the others.
 ordered_json MToon1(const Material& m, const ordered_json& gltf_material);
-// 0.x's materialProperties entry (VRM/MToon's floats, vectors, textures) of glTF material `index`.
+// 0.x's materialProperties entry for `m`, written as `gltf_material`: VRM/MToon's floats, vectors and textures
+// for a toon material, else VRM_USE_GLTFSHADER.
 ordered_json MaterialProperties0(const Material& m, const ordered_json& gltf_material);
 
 // An expression's material colour binds: each material whose colour its shapes' material morphs change, with
@@ -89,10 +90,6 @@ ordered_json MaterialColorBinds(const Rig& rig, const Expression& e);
 // The custom expressions apps drive: ARKit's 52 blend shapes under their own names (the shapes the rig has by
 // those names or aliases), and the rig's visemes as viseme_sil ... viseme_U (OVR's names).
 std::vector<Expression> AppExpressions(const Rig& rig);
-
-}  // namespace facespace::writers
-
-namespace facespace::writers {
 
 // ---- the glb both versions start from (vrm.cpp) ----
 

@@ -210,7 +210,7 @@ int InsertUnder(Rig& rig, int bone) {
 
 Constrained WithNodeConstraints(const Rig& rig, std::span<const int> humanoid, const SpringSetup& springs) {
   Constrained out{rig, {}, 0};
-  auto in = [](int n, auto&& list) { return std::any_of(list.begin(), list.end(), [n](const auto& x) { return x == n; }); };
+  auto in = [](int n, std::span<const int> list) { return std::find(list.begin(), list.end(), n) != list.end(); };
   std::vector<int> swinging;
   for (const Spring& s : springs.springs) {
     for (const SpringJoint& j : s.joints) swinging.push_back(j.node);
