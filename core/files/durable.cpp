@@ -11,12 +11,12 @@
 
 namespace facespace {
 
-namespace {
-
 Status WriteError(const std::string& doing, int e) {
   const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
   return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}, {}, 0};
 }
+
+namespace {
 
 // Closes and removes a temporary file after `e`, and says what failed.
 Status Abandon(int fd, const std::string& tmp, const std::string& doing, int e) {

@@ -46,8 +46,8 @@ void main() {
 )";
 
 // One program per variant (GlContext::Program): MODE (0 shaded with the material, 1 flat colour,
-// 2 heatmap, 3 normals, 4 clay), ALPHA_MODE (0 opaque, 1 mask, 2 blend) and HAS_* (the material's
-// textures) are defined before this text. llvmpipe runs both sides of every branch with masks,
+// 2 heatmap, 3 normals, 4 clay), ALPHA_MODE (0 opaque, 1 mask, 2 blend), HAS_* (the material's
+// textures) and LABELS (the label planes written too) are defined before this text. llvmpipe runs both sides of every branch with masks,
 // so one program branching on uniforms paid for every mode and every texture on each fragment.
 const char* kFragmentShader = R"(
 in vec3 v_pos;
@@ -72,7 +72,13 @@ uniform sampler2D u_emissive_texture;     // sRGB.
 uniform float u_alpha_cutoff;
 uniform float u_exposure;    // Multiplies the light before tone mapping.
 uniform float u_heat_max;
-out vec4 frag;
+uniform mat3 u_light;        // Turns the studio's lights (RenderOptions::light_yaw, light_pitch).
+uniform float u_segment;     // LABELS: the draw's segment id.
+layout(location = 0) out vec4 frag;
+#if LABELS  // The label planes (RenderOptions::labels): distance along the ray and camera-space normal; segment.
+layout(location = 1) out vec4 frag_label;
+layout(location = 2) out vec4 frag_segment;
+#endif
 const float PI = 3.14159265;
 vec3 viridis(float t) {
   // Polynomial fit of matplotlib's viridis (perceptually uniform), sRGB output.
@@ -152,7 +158,7 @@ vec3 studio(vec3 n, vec3 v, vec3 albedo, float metallic, float rough, float occl
   float nv = max(dot(n, v), 1e-4);
   vec3 color = vec3(0.0);
   for (int i = 0; i < 3; ++i) {
-    vec3 l = normalize(dirs[i]);
+    vec3 l = normalize(u_light * dirs[i]);
     float nl = dot(n, l);
     if (nl <= 0.0) continue;
     vec3 h = normalize(l + v);
@@ -173,6 +179,7 @@ vec3 studio(vec3 n, vec3 v, vec3 albedo, float metallic, float rough, float occl
 void main() {
   vec3 n = normalize(v_normal);
   if (!gl_FrontFacing) n = -n;
+  vec3 label_n = n;
 #if MODE == 1
   frag = vec4(0.02, 0.02, 0.03, 1.0);
 #elif MODE == 3
@@ -220,6 +227,10 @@ void main() {
 #endif
   vec3 color = studio(n, view_dir, base.rgb, clamp(metallic, 0.0, 1.0), rough, occlusion) + emissive;
   frag = vec4(pbr_neutral(u_exposure * color), ALPHA_MODE == 2 ? base.a : 1.0);
+#endif
+#if LABELS  // The interpolated vertex normal facing the eye (no normal map): the surface's, not its shading's.
+  frag_label = vec4(length(v_pos), label_n);
+  frag_segment = vec4(u_segment, 0.0, 0.0, 1.0);
 #endif
 }
 )";
@@ -304,7 +315,8 @@ GLuint GlContext::Program(int key) {
                               std::to_string((key >> 3) & 3) + "\n#define HAS_TEXTURE " + std::to_string((key >> 5) & 1) +
                               "\n#define HAS_METAL_ROUGH " + std::to_string((key >> 6) & 1) + "\n#define HAS_NORMAL_MAP " +
                               std::to_string((key >> 7) & 1) + "\n#define HAS_OCCLUSION " + std::to_string((key >> 8) & 1) +
-                              "\n#define HAS_EMISSIVE " + std::to_string((key >> 9) & 1) + "\n";
+                              "\n#define HAS_EMISSIVE " + std::to_string((key >> 9) & 1) + "\n#define LABELS " +
+                              std::to_string((key >> 10) & 1) + "\n";
   const GLuint fs = Compile(GL_FRAGMENT_SHADER, (defines + kFragmentShader).c_str());
   if (!fs) return 0;
   const GLuint p = glCreateProgram();
@@ -329,39 +341,50 @@ GLuint GlContext::Program(int key) {
 void GlContext::TrimLarge() {
   constexpr long long kKept = 1024LL * 1024;
   for (Target& t : targets) {
-    if (t.fbo && static_cast<long long>(t.w) * t.h > kKept) {
-      glDeleteFramebuffers(1, &t.fbo);
-      glDeleteRenderbuffers(1, &t.color);
-      glDeleteRenderbuffers(1, &t.depth);
-      t = Target{};
-    }
+    if (t.fbo && static_cast<long long>(t.w) * t.h > kKept) FreeTarget(t);
   }
   if (pixels.capacity() > static_cast<size_t>(kKept) * 4) std::vector<float>().swap(pixels);
 }
 
+void GlContext::FreeTarget(Target& t) {
+  glDeleteFramebuffers(1, &t.fbo);
+  glDeleteRenderbuffers(1, &t.color);
+  glDeleteRenderbuffers(1, &t.depth);
+  for (GLuint& rb : t.labels) {
+    if (rb) glDeleteRenderbuffers(1, &rb);
+  }
+  t = Target{};
+}
+
+// A renderbuffer of `format`, w x h, attached to the bound framebuffer at `attachment`.
+static GLuint Attach(GLenum format, GLenum attachment, int w, int h) {
+  GLuint rb = 0;
+  glGenRenderbuffers(1, &rb);
+  glBindRenderbuffer(GL_RENDERBUFFER, rb);
+  glRenderbufferStorage(GL_RENDERBUFFER, format, w, h);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, attachment, GL_RENDERBUFFER, rb);
+  return rb;
+}
+
 // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h.
-void GlContext::BindTarget(int w, int h, bool srgb8) {
+void GlContext::BindTarget(int w, int h, bool srgb8, bool labels) {
   Target& t = targets[srgb8 ? 1 : 0];
   if (w != t.w || h != t.h || !t.fbo) {
-    if (t.fbo) {
-      glDeleteFramebuffers(1, &t.fbo);
-      glDeleteRenderbuffers(1, &t.color);
-      glDeleteRenderbuffers(1, &t.depth);
-    }
+    if (t.fbo) FreeTarget(t);
     glGenFramebuffers(1, &t.fbo);
     glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
-    glGenRenderbuffers(1, &t.color);
-    glBindRenderbuffer(GL_RENDERBUFFER, t.color);
-    glRenderbufferStorage(GL_RENDERBUFFER, srgb8 ? GL_SRGB8_ALPHA8 : GL_RGBA32F, w, h);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, t.color);
-    glGenRenderbuffers(1, &t.depth);
-    glBindRenderbuffer(GL_RENDERBUFFER, t.depth);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, w, h);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, t.depth);
+    t.color = Attach(srgb8 ? GL_SRGB8_ALPHA8 : GL_RGBA32F, GL_COLOR_ATTACHMENT0, w, h);
+    t.depth = Attach(GL_DEPTH_COMPONENT24, GL_DEPTH_ATTACHMENT, w, h);
     t.w = w;
     t.h = h;
   }
   glBindFramebuffer(GL_FRAMEBUFFER, t.fbo);
+  if (labels && !t.labels[0]) {
+    t.labels[0] = Attach(GL_RGBA32F, GL_COLOR_ATTACHMENT1, w, h);
+    t.labels[1] = Attach(GL_R32F, GL_COLOR_ATTACHMENT2, w, h);
+  }
+  const GLenum buffers[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
+  glDrawBuffers(labels ? 3 : 1, buffers);
   // Shader outputs are linear: GL converts them (and the clear colour, and blends) to sRGB at the store.
   if (srgb8) glEnable(GL_FRAMEBUFFER_SRGB);
   else glDisable(GL_FRAMEBUFFER_SRGB);
@@ -405,8 +428,8 @@ GLuint GlContext::TextureFor(const facespace::Image& image, bool srgb_data) {
   return id;
 }
 
-int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5]) {
-  int key = mode | alpha_mode << 3;
+int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5], bool labels) {
+  int key = mode | alpha_mode << 3 | (labels ? 1 << 10 : 0);
   for (int unit = 0; unit < 5; ++unit) key |= textures[unit] ? 1 << (5 + unit) : 0;
   return key;
 }

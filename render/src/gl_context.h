@@ -43,6 +43,7 @@ struct GlContext {
   // floats (RGBA32F), and 8-bit sRGB (SRGB8_ALPHA8) for pictures that only go to 8-bit files.
   struct Target {
     GLuint fbo = 0, color = 0, depth = 0;
+    GLuint labels[2] = {0, 0};  // RGBA32F distance and normal, R32F segment: RenderOptions::labels, made when first asked.
     int w = 0, h = 0;
   };
   Target targets[2];
@@ -72,9 +73,11 @@ struct GlContext {
   // read-back) its targets and read-back are let go, so a context does not keep hundreds of
   // megabytes, or gigabytes, for the next, likely smaller, render.
   void TrimLarge();
+  void FreeTarget(Target& t);  // Its framebuffer and renderbuffers deleted, emptied.
 
-  // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h.
-  void BindTarget(int w, int h, bool srgb8);
+  // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h, drawing
+  // to its colour and, with `labels`, to its two label planes too (attachments 1 and 2).
+  void BindTarget(int w, int h, bool srgb8, bool labels = false);
 
   // The GL texture of an encoded image, decoded once per thread (a few kept).
   // Colour maps are sRGB (sampled as linear), data maps (normals, roughness, occlusion) linear.
@@ -82,8 +85,9 @@ struct GlContext {
 };
 
 // A fragment program variant (GlContext::Program): the mode in bits 0-2, the alpha mode in 3-4,
-// then a bit per texture the material has (base colour, metal-rough, normal, occlusion, emissive).
-int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5]);
+// then a bit per texture the material has (base colour, metal-rough, normal, occlusion, emissive),
+// then whether it writes the label planes.
+int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5], bool labels = false);
 
 // llvmpipe's rasteriser threads per context: one per core, at most 16 (llvmpipe's own limit).
 int RasterThreads();

@@ -182,28 +182,6 @@ std::vector<float> LinearPixels(const Image& image) {
   return out;
 }
 
-void PutBigEndian(std::string& out, uint32_t v) {
-  const char b[4] = {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8), static_cast<char>(v)};
-  out.append(b, 4);
-}
-
-// Ends the PNG chunk begun at `start`: 8 bytes left there for its length and type, its data after
-// them up to the end of `out`; then its CRC.
-void CloseChunk(std::string& out, size_t start, const char* type) {
-  const size_t length = out.size() - start - 8;
-  for (int i = 0; i < 4; ++i) out[start + i] = static_cast<char>(length >> (24 - 8 * i));
-  std::memcpy(&out[start + 4], type, 4);
-  const auto* bytes = reinterpret_cast<const Bytef*>(out.data() + start + 4);
-  PutBigEndian(out, static_cast<uint32_t>(crc32(crc32(0, nullptr, 0), bytes, static_cast<uInt>(length + 4))));
-}
-
-void Chunk(std::string& out, const char* type, const std::string& data) {
-  const size_t start = out.size();
-  out.append(8, '\0');
-  out += data;
-  CloseChunk(out, start, type);
-}
-
 // True when every alpha byte of the 8-bit RGBA pixels is 255: the PNG can then be RGB (a quarter
 // fewer bytes to filter and deflate, and a smaller file).
 bool Opaque(std::span<const unsigned char> rgba8) {
@@ -250,6 +228,29 @@ class DeflaterPool {
 };
 
 }  // namespace
+
+// (internal.h)
+void PutBigEndian(std::string& out, uint32_t v) {
+  const char b[4] = {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8), static_cast<char>(v)};
+  out.append(b, 4);
+}
+
+// Ends the PNG chunk begun at `start`: 8 bytes left there for its length and type, its data after
+// them up to the end of `out`; then its CRC.
+void CloseChunk(std::string& out, size_t start, const char* type) {
+  const size_t length = out.size() - start - 8;
+  for (int i = 0; i < 4; ++i) out[start + i] = static_cast<char>(length >> (24 - 8 * i));
+  std::memcpy(&out[start + 4], type, 4);
+  const auto* bytes = reinterpret_cast<const Bytef*>(out.data() + start + 4);
+  PutBigEndian(out, static_cast<uint32_t>(crc32(crc32(0, nullptr, 0), bytes, static_cast<uInt>(length + 4))));
+}
+
+void Chunk(std::string& out, const char* type, const std::string& data) {
+  const size_t start = out.size();
+  out.append(8, '\0');
+  out += data;
+  CloseChunk(out, start, type);
+}
 
 // (internal.h) The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG): an 8-bit
 // draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in parts on

@@ -2,7 +2,9 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "facespace/render/render.h"
@@ -21,5 +23,11 @@ int HeatLegendLeft(int width, int height);
 // The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white: an 8-bit draw's RGBA as
 // it is, else converted into `room`.
 std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vector<unsigned char>& room);
+
+// PNG's pieces: a big-endian word; a chunk (its length, type, data and CRC); the chunk begun at
+// `start` (8 bytes left for its length and type, its data after them) closed with its CRC.
+void PutBigEndian(std::string& out, uint32_t v);
+void Chunk(std::string& out, const char* type, const std::string& data);
+void CloseChunk(std::string& out, size_t start, const char* type);
 
 }  // namespace facespace::render

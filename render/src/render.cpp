@@ -37,6 +37,14 @@ Image EncodingRenderer::Sheet(std::span<const Image> cells, std::span<const std:
 
 bool EncodingRenderer::CanDrawText(const std::string& text) const { return render::CanDrawText(text); }
 
+Result<std::string> EncodingRenderer::EncodeData(std::span<const float> values, int width, int height, int channels, bool full_float) const {
+  return EncodeDataExr(values, width, height, channels, full_float);
+}
+
+Result<std::string> EncodingRenderer::EncodeIds(std::span<const uint16_t> ids, int width, int height) const {
+  return EncodeIdPng(ids, width, height);
+}
+
 OsMesaRenderer::OsMesaRenderer(int max_contexts) : pool_(std::make_unique<ContextPool>()) { pool_->SetLimit(max_contexts); }
 OsMesaRenderer::~OsMesaRenderer() = default;
 
@@ -60,6 +68,8 @@ Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Rende
     for (int c = 0; c < 3; ++c) out.rgba[i + c] = SrgbToLinear(o.background[c]);
     out.rgba[i + 3] = o.background[3];
   }
+  const size_t n = o.labels ? static_cast<size_t>(o.width) * o.height : 0;  // Nothing drawn: nothing labelled.
+  out.labels.distance.assign(n, 0.0f), out.labels.normal.assign(3 * n, 0.0f), out.labels.segment.assign(n, 0);
   return Status::Ok();
 }
 
@@ -326,11 +336,13 @@ Result<Matrices> CameraMatrices(const RenderOptions& o, const Scene& scene, bool
 }
 
 // The target cleared to the background, the vertex and index arrays uploaded and laid out.
-void Upload(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>& bg) {
-  gl.BindTarget(w, h, srgb8);
+void Upload(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>& bg, bool labels) {
+  gl.BindTarget(w, h, srgb8, labels);
   glViewport(0, 0, w, h);
-  glClearColor(SrgbToLinear(bg[0]), SrgbToLinear(bg[1]), SrgbToLinear(bg[2]), bg[3]);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  const float colour[4] = {SrgbToLinear(bg[0]), SrgbToLinear(bg[1]), SrgbToLinear(bg[2]), bg[3]}, nothing[4] = {0, 0, 0, 0};
+  glClearBufferfv(GL_COLOR, 0, colour);
+  for (int plane = 1; labels && plane <= 2; ++plane) glClearBufferfv(GL_COLOR, plane, nothing);
+  glClear(GL_DEPTH_BUFFER_BIT);
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
   glBindVertexArray(gl.vao);
@@ -352,7 +364,17 @@ struct Pass {
   Matrices matrices;
   float heat_max, exposure;
   bool occlusion;  // Baked occlusion drawn (else every vertex is open).
+  Eigen::Matrix3f light = Eigen::Matrix3f::Identity();  // Turns the studio's lights.
+  bool labels = false;  // The label planes written too (attachments 1 and 2 of the target).
+  const std::vector<uint32_t>* segments = nullptr;  // RenderOptions::segment_of_primitive.
 };
+
+// The studio's lights turned by yaw about the camera's up, then pitch about its right (degrees).
+Eigen::Matrix3f LightTurn(const RenderOptions& o) {
+  const float rad = static_cast<float>(M_PI) / 180.0f;
+  return (Eigen::AngleAxisf(o.light_yaw * rad, Eigen::Vector3f::UnitY()) * Eigen::AngleAxisf(-o.light_pitch * rad, Eigen::Vector3f::UnitX()))
+      .toRotationMatrix();
+}
 
 // A material's uniforms and textures on `program`.
 void SetMaterial(GLuint program, const Pass& pass, const Material& mat, const std::array<float, 4>& base, const GLuint (&textures)[5]) {
@@ -370,11 +392,28 @@ void SetMaterial(GLuint program, const Pass& pass, const Material& mat, const st
   glUniform1f(at("u_occlusion_strength"), mat.occlusion_strength);
   glUniform3f(at("u_emissive"), mat.emissive_factor[0], mat.emissive_factor[1], mat.emissive_factor[2]);
   glUniform1f(at("u_alpha_cutoff"), mat.alpha_cutoff);
+  glUniformMatrix3fv(at("u_light"), 1, GL_FALSE, pass.light.data());
   for (int unit = 0; unit < 5; ++unit) {
     glUniform1i(at(kSamplers[unit]), unit);
     glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
     glBindTexture(GL_TEXTURE_2D, textures[unit]);
   }
+}
+
+// Whether a draw call shows in the labels: triangles of a material that is not wholly transparent
+// (MMD's hidden overlays, shown by material morphs, have alpha 0 until then).
+bool Labelled(const Rig& rig, const BlendedRig& blended, const DrawCall& d) {
+  if (d.mode != PrimitiveMode::kTriangles) return false;
+  if (d.material < 0) return true;
+  const size_t m = static_cast<size_t>(d.material);
+  const float alpha = m < blended.material_colors.size() ? blended.material_colors[m][3] : rig.materials[m].base_color_factor[3];
+  return alpha > 0.0f;
+}
+
+// Whether draws write the label planes (attachments 1 and 2): on for the draws they show, off for the
+// others (no depth either: a wholly transparent overlay hides nothing).
+void LabelWrites(bool on) {
+  for (GLuint plane = 1; plane <= 2; ++plane) glColorMaski(plane, on, on, on, on);
 }
 
 // One pass over every draw call. A primitive with no material draws as light grey clay, not glTF's
@@ -401,9 +440,17 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
       if (images[unit] >= 0) textures[unit] = gl.TextureFor(rig.images[static_cast<size_t>(images[unit])], srgb[unit]);
     }
     const int alpha_mode = !textured ? 0 : blend ? 2 : mat.alpha_mode == "MASK" ? 1 : 0;
-    const GLuint program = gl.Program(ShaderKey(pass.shader_mode, alpha_mode, textures));
+    const GLuint program = gl.Program(ShaderKey(pass.shader_mode, alpha_mode, textures, pass.labels));
     if (!program) return Internal("renderer: " + gl.error);
     SetMaterial(program, pass, mat, base, textures);
+    if (pass.labels) {
+      const size_t i = static_cast<size_t>(&d - scene.draws.data());
+      const uint32_t id = i < pass.segments->size() ? (*pass.segments)[i] : static_cast<uint32_t>(d.material + 1);
+      glUniform1f(glGetUniformLocation(program, "u_segment"), static_cast<float>(std::min<uint32_t>(id, 65535)));
+      const bool shows = Labelled(rig, blended, d);
+      LabelWrites(shows);
+      glDepthMask(shows ? GL_TRUE : GL_FALSE);
+    }
     if (alpha_mode == 2) {
       glEnable(GL_BLEND);
       glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // "Over", alpha too.
@@ -413,13 +460,20 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
     const GLenum prim = d.mode == PrimitiveMode::kTriangles ? GL_TRIANGLES : d.mode == PrimitiveMode::kLines ? GL_LINES : GL_POINTS;
     glDrawElements(prim, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT, reinterpret_cast<void*>(static_cast<uintptr_t>(d.first_index * 4)));
   }
+  glDepthMask(GL_TRUE);
   return Status::Ok();
 }
+
+// Whether the label planes are drawn with the picture, by the same fragments (one sample a pixel), or
+// apart after it (a supersampled picture: DrawLabelsApart).
+bool LabelsInPicture(const RenderOptions& o) { return o.labels && o.supersample == 1; }
 
 // The view's passes: one, or for the wireframe the shaded surface pushed back and its edges over it.
 Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene, const RenderOptions& o, const Matrices& m) {
   const int mode = o.view == View::kHeatmap ? 2 : o.view == View::kNormals ? 3 : o.view == View::kClay ? 4 : 0;
-  Pass pass{mode, m, scene.heat_max, std::exp2(std::clamp(o.exposure, -10.0f, 10.0f)), o.occlusion != nullptr};
+  Pass pass{mode, m, scene.heat_max, std::exp2(std::clamp(o.exposure, -10.0f, 10.0f)), o.occlusion != nullptr, LightTurn(o)};
+  pass.labels = LabelsInPicture(o);
+  pass.segments = &o.segment_of_primitive;
   if (o.view == View::kWireframe) {
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.0f, 1.0f);
@@ -430,7 +484,10 @@ Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
     glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     glDepthFunc(GL_LEQUAL);
     pass.shader_mode = 1;
+    pass.labels = false;  // The edges are not the surface: its labels stay.
+    LabelWrites(false);
     drawn = DrawPass(gl, rig, blended, scene, pass);
+    LabelWrites(true);
     glPolygonMode(GL_FRONT_AND_BACK, GL_FILL);
     glDepthFunc(GL_LESS);
   }
@@ -438,9 +495,9 @@ Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
 }
 
 // The w x h target into `data`, top row first (MESA_pack_invert): no 4 MB copy to flip the rows.
-Status ReadTopFirst(int w, int h, GLenum type, void* data) {
+Status ReadTopFirst(int w, int h, GLenum format, GLenum type, void* data) {
   glPixelStorei(GL_PACK_INVERT_MESA, GL_TRUE);
-  glReadPixels(0, 0, w, h, GL_RGBA, type, data);
+  glReadPixels(0, 0, w, h, format, type, data);
   glPixelStorei(GL_PACK_INVERT_MESA, GL_FALSE);
   const GLenum err = glGetError();
   return err == GL_NO_ERROR ? Status::Ok() : Internal("GL error " + std::to_string(err));
@@ -480,12 +537,12 @@ Status ReadBack(GlContext& gl, const RenderOptions& o, bool srgb8, float heat_ma
     glDisable(GL_FRAMEBUFFER_SRGB);  // The stored sRGB bytes, no conversion on the way out.
     out.rgba.clear();
     out.srgb8.resize(static_cast<size_t>(w) * h * 4);
-    return ReadTopFirst(w, h, GL_UNSIGNED_BYTE, out.srgb8.data());
+    return ReadTopFirst(w, h, GL_RGBA, GL_UNSIGNED_BYTE, out.srgb8.data());
   }
   out.srgb8.clear();
   if (ss == 1 && gl.pack_invert) {
     out.rgba.resize(static_cast<size_t>(w) * h * 4);
-    if (Status s = ReadTopFirst(w, h, GL_FLOAT, out.rgba.data()); !s.ok()) return s;
+    if (Status s = ReadTopFirst(w, h, GL_RGBA, GL_FLOAT, out.rgba.data()); !s.ok()) return s;
   } else {
     std::vector<float>& pixels = gl.pixels;
     pixels.resize(static_cast<size_t>(w) * h * 4);
@@ -495,6 +552,39 @@ Status ReadBack(GlContext& gl, const RenderOptions& o, bool srgb8, float heat_ma
   }
   if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
   return Status::Ok();
+}
+
+// The label planes (attachments 1 and 2 of the bound target, w x h) into `out`, top row first.
+Status ReadLabels(GlContext& gl, int w, int h, LabelPlanes& out) {
+  const size_t n = static_cast<size_t>(w) * h;
+  gl.pixels.resize(4 * n);
+  glReadBuffer(GL_COLOR_ATTACHMENT1);
+  Status s = ReadTopFirst(w, h, GL_RGBA, GL_FLOAT, gl.pixels.data());
+  out.distance.resize(n);
+  out.normal.resize(3 * n);
+  for (size_t i = 0; i < n && s.ok(); ++i) {
+    out.distance[i] = gl.pixels[4 * i];
+    for (int c = 0; c < 3; ++c) out.normal[3 * i + c] = gl.pixels[4 * i + 1 + c];
+  }
+  glReadBuffer(GL_COLOR_ATTACHMENT2);
+  if (s.ok()) s = ReadTopFirst(w, h, GL_RED, GL_FLOAT, gl.pixels.data());
+  out.segment.resize(n);
+  for (size_t i = 0; i < n && s.ok(); ++i) out.segment[i] = static_cast<uint16_t>(gl.pixels[i] + 0.5f);
+  glReadBuffer(GL_COLOR_ATTACHMENT0);
+  return s;
+}
+
+// The label planes of a supersampled picture: drawn again at its size, one sample a pixel, colour not written.
+Status DrawLabelsApart(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene, const RenderOptions& o, const Matrices& m,
+                       LabelPlanes& out) {
+  Upload(gl, o.width, o.height, false, {0, 0, 0, 0}, true);
+  glColorMaski(0, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+  Pass pass{1, m, 0.0f, 1.0f, false};
+  pass.labels = true;
+  pass.segments = &o.segment_of_primitive;
+  Status s = DrawPass(gl, rig, blended, scene, pass);
+  glColorMaski(0, GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  return s.ok() ? ReadLabels(gl, o.width, o.height, out) : s;
 }
 
 }  // namespace
@@ -520,9 +610,18 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   // Straight to 8 bits where asked and nothing after the draw needs floats (the box filter of
   // supersamples, the heatmap's legend).
   const bool srgb8 = o.srgb8 && o.supersample == 1 && o.view != View::kHeatmap && gl.pack_invert;
-  Upload(gl, o.width * o.supersample, o.height * o.supersample, srgb8, o.background);
+  Upload(gl, o.width * o.supersample, o.height * o.supersample, srgb8, o.background, LabelsInPicture(o));
   if (Status s = DrawView(gl, rig, blended, scene, o, matrices.value()); !s.ok()) return s;
-  return ReadBack(gl, o, srgb8, scene.heat_max, out);
+  if (Status s = ReadBack(gl, o, srgb8, scene.heat_max, out); !s.ok()) return s;
+  Eigen::Map<Eigen::Matrix4f>(out.view.data()) = matrices->view;
+  Eigen::Map<Eigen::Matrix4f>(out.projection.data()) = matrices->proj;
+  if (!o.labels) {
+    out.labels.distance.clear(), out.labels.normal.clear(), out.labels.segment.clear();
+    return Status::Ok();
+  }
+  if (!gl.pack_invert) return Internal("renderer: the labels need GL_MESA_pack_invert");
+  if (LabelsInPicture(o)) return ReadLabels(gl, o.width, o.height, out.labels);
+  return DrawLabelsApart(gl, rig, blended, scene, o, matrices.value(), out.labels);
 }
 
 }  // namespace facespace::render

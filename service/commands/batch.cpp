@@ -268,6 +268,16 @@ void AddRunFlags(Flags& flags, BatchArgs& a) {
     return 0;
   });
   flags.Switch("--no-sheet", "no contact sheet", [&a] { a.run.sheet_cells = 0; });
+  flags.Value("--labels", "L,...", "a labelled dataset: depth, normals, segmentation, landmarks beside each render (KEY.json always)",
+              [&a](const std::string& v) {
+                a.request["labels"] = json::array();
+                for (const std::string& name : SplitList(v)) a.request["labels"].push_back(name);
+                return 0;
+              });
+  flags.Value("--archive", "folder|tar", "tar: WebDataset tar shards (shard-000000.tar, ...) instead of one file each", TextMember(a.request, "archive"));
+  flags.Value("--shard-samples", "N", "samples in each tar shard (default 1000)", IntegerMember(a.request, "shard_samples", 1, 1000000));
+  flags.Value("--randomize", "JSON|@FILE", "what varies per sample: camera, light, background, expressions, gaze (batch --help)",
+              JsonMember(a.request, "randomize"));
   flags.Switch("-q, --quiet", "no progress bar, no warnings (errors and the closing line still)", [&a] { a.quiet = Quiet() = true; });
 }
 
@@ -401,6 +411,7 @@ int Batch(const std::vector<std::string>& args) {
   Flags flags(
       "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
       "         --out DIR [--format glb|obj|json|f32|vrm|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N|auto [--shards N]]\n"
+      "         [--labels depth,normals,segmentation,landmarks] [--archive tar [--shard-samples N]] [--randomize JSON]\n"
       "         [sampling, pose, render flags]\n"
       "       facespace batch merge DIR\n",
       "One file per variant in DIR, manifest.jsonl, batch.json and sheet.png (the first 16 variants); rerun the\n"
@@ -408,7 +419,14 @@ int Batch(const std::vector<std::string>& args) {
       "--shard auto takes I/N from a Slurm job array (SLURM_ARRAY_TASK_ID, _COUNT) or a Kubernetes Indexed Job\n"
       "(JOB_COMPLETION_INDEX, with --shards N). When every shard is done, `facespace batch merge DIR` writes the\n"
       "manifest and sheet a single run would have written (batch merge --help).\n"
-      "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n");
+      "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n"
+      "A labelled dataset (--labels depth,normals,segmentation,landmarks): each sample is KEY.png, KEY.depth.exr\n"
+      "(float32 distance along the ray, metres), KEY.normals.exr (camera space), KEY.seg.png (ids; legend in\n"
+      "KEY.json) and KEY.json (camera K and world_to_camera, landmarks with pixel and 3D positions and\n"
+      "visibility, the point). --archive tar writes them as WebDataset shards; --randomize varies each sample:\n"
+      "  {\"seed\": 7, \"camera\": {\"yaw\": [-30, 30], \"pitch\": [-10, 10], \"zoom\": [0.9, 1.1]},\n"
+      "   \"light\": {\"yaw\": [-60, 60], \"pitch\": [-20, 30], \"exposure\": [-0.5, 0.5]}, \"background\": \"random\",\n"
+      "   \"expressions\": {\"happy\": [0, 1]}, \"gaze\": {\"yaw\": [-20, 20], \"pitch\": [-10, 10]}}\n");
   AddVariantFlags(flags, a);
   AddRunFlags(flags, a);
   AddRequestFlags(flags, a.request);
@@ -422,7 +440,8 @@ int Batch(const std::vector<std::string>& args) {
   if (!a.sample.empty() && !a.sample.contains("method")) return std::fprintf(stderr, "error: sampling flags need --sample uniform|gaussian|grid|convex\n"), 2;
   if (!a.sample.empty()) request["sample"] = a.sample;
   else if (int rc = ReadVariants(a.variants_path, request); rc != 0) return rc;
-  if (!request.contains("format")) request["format"] = "glb";
+  const bool labelled = request.contains("labels") || request.contains("randomize");
+  if (!request.contains("format")) request["format"] = labelled ? "png" : "glb";
   if (a.shard_count != 0 && !a.shard_auto) return flags.UsageError("--shards N goes with --shard auto");
   if (a.shard_auto) {
     if (int rc = ShardOfScheduler(a); rc != 0) return rc;

@@ -136,6 +136,29 @@ BENCHMARK(BM_Render)
     ->UseRealTime()  // llvmpipe's threads do the drawing: the wall clock is what a client waits.
     ->MinTime(1.0);
 
+// A labelled sample's draw (api/batch/dataset.h): FaceCap at 256 x 256 and 512 x 512 in 8-bit sRGB, with
+// the label planes (distance, normal, segment) or without, one draw at a time.
+void BM_RenderLabels(benchmark::State& state) {
+  const Rig& rig = Case(0);
+  std::vector<float> w(rig.shapes.size(), 0.0f);
+  w[24] = 0.5f;
+  BlendedRig blended;
+  BlendContext ctx;
+  EvaluateRig(rig, w, {}, blended, ctx);
+  render::RenderOptions o;
+  o.width = o.height = static_cast<int>(state.range(0));
+  o.srgb8 = true;
+  o.labels = state.range(1) != 0;
+  o.occlusion = Baked(rig);
+  render::Image image;
+  for (auto _ : state) {
+    if (!Renderer().Draw(rig, blended, o, image).ok()) state.SkipWithError("render failed");
+    benchmark::DoNotOptimize(image.srgb8.data());
+  }
+  state.SetLabel(o.labels ? "with labels" : "picture only");
+}
+BENCHMARK(BM_RenderLabels)->ArgsProduct({{256, 512}, {0, 1}})->ArgNames({"size", "labels"})->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
+
 // The encoder settings, measured on the 512x512 FaceCap render (8-bit sRGB RGBA, as Encode
 // hands it to OpenImageIO): PNG zlib levels and row filters, WebP lossless and lossy.
 // kind: 0 PNG (arg = zlib level, filter = libpng's filter mask, 0 = libpng's choice), 1 WebP (arg = quality, 100 = lossless).

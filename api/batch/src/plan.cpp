@@ -1,4 +1,5 @@
 #include "facespace/batch/plan.h"
+#include "facespace/batch/dataset.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,6 +9,50 @@
 namespace facespace::batch {
 
 using nlohmann::json;
+
+namespace {
+
+// A field error of the dataset members.
+Status DatasetError(const std::string& pointer, const std::string& message) {
+  Status s = InvalidArgument(pointer + ": " + message);
+  s.fields.push_back({pointer, message});
+  return s;
+}
+
+// The dataset's part of the plan: labels the rig can give, the segments, the seed of the draws, the
+// randomised face tried once (an unknown expression is the request's fault, said now), the pose members.
+Status PlanDataset(const json& request, BatchPlan& plan) {
+  const api::DatasetRequest& d = plan.request.dataset;
+  if (!d.labelled()) return Status::Ok();
+  const Rig& rig = plan.rig->rig;
+  if (d.has(api::Label::kLandmarks) && rig.landmarks.empty()) {
+    return DatasetError("/labels", "the rig '" + rig.name + "' has no landmarks (its manifest's \"landmarks\" names none): leave \"landmarks\" out");
+  }
+  if (d.has(api::Label::kLandmarks) && plan.output.lod != 0) return DatasetError("/lod", "landmarks are on the full mesh: lod must be 0");
+  SegmentsOf(rig, plan.segment_of_primitive, plan.segment_names);
+  const api::Randomization& r = d.randomize;
+  plan.draw_seed = r.seeded ? r.seed : plan.request.sampled ? plan.request.sample.seed : 1;
+  PoseRequest bare = plan.request.render.mesh.pose;
+  bare.expressions.clear();
+  bare.gaze.reset();
+  Pose pose;
+  bool posed = false;
+  std::vector<Warning> warnings;
+  if (Status s = ResolvePoseAndWeights(rig, {}, bare, plan.bare_weights, pose, posed, warnings); !s.ok()) return s;
+  PoseRequest face = plan.request.render.mesh.pose;
+  for (const auto& [name, strength] : r.expressions) face.expressions.push_back({name, -1, strength.hi, "/randomize/expressions/" + name});
+  if (r.gaze_yaw || r.gaze_pitch) face.gaze = Gaze{};
+  std::vector<float> tried;
+  if (Status s = ResolvePoseAndWeights(rig, {}, face, tried, pose, posed, warnings); !s.ok()) return s;
+  json members = json::object();
+  for (const char* key : {"pose", "animation", "motion", "time", "frame", "loop", "blend", "layers"}) {
+    if (request.contains(key)) members[key] = request[key];
+  }
+  plan.pose_json = members.dump(-1, ' ', false, json::error_handler_t::replace);
+  return Status::Ok();
+}
+
+}  // namespace
 
 Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned, std::string_view request_json) {
   auto request = api::ParseBatchRequest(request_json);
@@ -53,6 +98,7 @@ Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned, std
   const api::BatchRequest& r = plan.request;
   plan.output = r.image ? api::OutputSpec::Image(r.render, r.image_format) : api::OutputSpec::Mesh(r.render.mesh, r.mesh_format);
   plan.output.pieces = true;
+  if (Status s = PlanDataset(spec["request"], plan); !s.ok()) return s;
   return plan;
 }
 

@@ -65,7 +65,7 @@ std::string RenderCanonical(const OutputSpec& s) {
          (c.look_at ? "L" : "O") +
          (c.frame == render::Framing::kShapes ? "S" : c.frame == render::Framing::kAll ? "A" : c.frame == render::Framing::kJoint ? "J" + c.frame_joint + "|" : "D") +
          (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up) : "") + "|ev" +
-         FloatsCanonical(std::array<float, 1>{o.exposure}) + "|" + OptionsCanonical(s.blend) + (s.blend.dual_quaternion ? "|dq" : "");
+         FloatsCanonical(std::array<float, 3>{o.exposure, o.light_yaw, o.light_pitch}) + "|" + OptionsCanonical(s.blend) + (s.blend.dual_quaternion ? "|dq" : "");
 }
 
 }  // namespace

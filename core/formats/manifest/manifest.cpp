@@ -33,7 +33,8 @@ constexpr std::pair<std::string_view, Section> kSections[] = {
     {"controls", manifest::ApplyControls},       {"inbetweens", manifest::ApplyInBetweens},
     {"correctives", manifest::ApplyCorrectives}, {"statistics", manifest::ApplyStatistics},
     {"expressions", manifest::ApplyExpressions}, {"gaze", manifest::ApplyGaze},
-    {"visemes", manifest::ApplyVisemes},         {"terms", manifest::ApplyTerms}};
+    {"visemes", manifest::ApplyVisemes},         {"terms", manifest::ApplyTerms},
+    {"regions", manifest::ApplyRegions},         {"landmarks", manifest::ApplyLandmarks}};
 constexpr std::string_view kPlainMembers[] = {"name", "credit", "license_url", "start", "base_motion"};
 
 // "base_motion": one of the rig's motions; one it lacks (a model copied without its motion folder)
@@ -257,6 +258,8 @@ std::string ManifestJson(const Rig& rig) {
   if (rig.gaze.from_manifest) m["gaze"] = GazeObject(rig, true);
   json visemes = VisemesObject(rig, false);
   if (!visemes.empty()) m["visemes"] = std::move(visemes);
+  if (!rig.regions.empty()) m["regions"] = manifest::RegionsValue(rig);
+  if (!rig.landmarks.empty()) m["landmarks"] = manifest::LandmarksValue(rig);
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 

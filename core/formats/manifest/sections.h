@@ -52,5 +52,9 @@ Status ApplyGaze(Rig& rig, const json& v);
 Status ApplyVisemes(Rig& rig, const json& v);
 Status ApplyTerms(Rig& rig, const json& v);  // terms.cpp
 json TermsValue(const UsageTerms& t);         // The section as ApplyTerms reads it.
+Status ApplyRegions(Rig& rig, const json& v);    // labels.cpp
+Status ApplyLandmarks(Rig& rig, const json& v);  // labels.cpp
+json RegionsValue(const Rig& rig);               // The sections as they read them.
+json LandmarksValue(const Rig& rig);
 
 }  // namespace facespace::manifest

@@ -131,7 +131,9 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
       }
     } else if (key == "sample") {
       SampleFromJson(v, r, errors);
+    } else if (DatasetMember(key, v, r.dataset, errors)) {
     } else if (key == "format") {
+      r.format_given = true;
       MeshFormat mf;
       render::ImageFormat imf;
       if (v.is_string() && ParseMeshFormat(v.get<std::string>(), &mf)) {
@@ -156,6 +158,14 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
   FinishPose(r.render.mesh.pose, errors);
   if (errors.fields.empty()) {
     if (r.sampled == !r.variants.empty()) errors.fields.push_back({"/sample", "give exactly one of \"sample\" or \"variants\""});
+  }
+  if (r.dataset.labelled() && !r.format_given) {  // A labelled sample's picture: PNG unless told.
+    r.image = true;
+    r.image_format = render::ImageFormat::kPng;
+    r.format = "png";
+  }
+  if (r.dataset.labelled() && !r.image) {
+    errors.fields.push_back({"/format", "labels and randomisation go with a render: give an image format (\"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\")"});
   }
   if (errors.fields.empty()) {
     std::vector<std::string> ids;

@@ -508,6 +508,21 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
   }
 }
 
+// "light": {"yaw": D, "pitch": D}: the studio's lights turned about the camera.
+void LightFromJson(const json& v, render::RenderOptions& o, Status& errors) {
+  if (!v.is_object()) {
+    errors.fields.push_back({"/light", "must be an object {\"yaw\": degrees, \"pitch\": degrees}"});
+    return;
+  }
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    double d = 0;
+    const std::string ptr = "/light/" + JsonPointerEscape(it.key());
+    if (it.key() != "yaw" && it.key() != "pitch") errors.fields.push_back({ptr, "unknown light member (yaw, pitch)"});
+    else if (!Number(*it, -3600, 3600, &d)) errors.fields.push_back({ptr, "must be a number of degrees"});
+    else (it.key() == "yaw" ? o.light_yaw : o.light_pitch) = static_cast<float>(d);
+  }
+}
+
 // A render member; false when the key is not one.
 bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Status& errors) {
   const std::string ptr = "/" + JsonPointerEscape(key);
@@ -541,6 +556,8 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
     else r.quality = static_cast<int>(d);
   } else if (key == "camera") {
     CameraFromJson(v, r.render.camera, errors);
+  } else if (key == "light") {
+    LightFromJson(v, r.render, errors);
   } else {
     return false;
   }

@@ -23,15 +23,16 @@ inline constexpr std::string_view kMeshMembers[] = {"weights", "controls", "expr
                                                     "keep_targets", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop"};
 inline constexpr std::string_view kRenderMembers[] = {"weights", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod", "strict", "pose",
                                                       "blend", "layers", "animation", "motion", "time", "frame", "loop", "width", "height",
-                                                      "view", "background", "supersample", "format", "quality", "camera", "exposure"};
+                                                      "view", "background", "supersample", "format", "quality", "camera", "exposure", "light"};
 inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod",
                                                      "strict", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop",
-                                                     "width", "height", "view", "background", "supersample", "quality", "camera", "exposure"};
+                                                     "width", "height", "view", "background", "supersample", "quality", "camera", "exposure", "light"};
 inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "layers", "transition", "smooth", "gaze", "blink", "physics",
                                                         "format", "tolerance", "mode", "normals"};
 inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod",
                                                      "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop", "width",
-                                                     "height", "view", "background", "supersample", "quality", "camera", "exposure"};
+                                                     "height", "view", "background", "supersample", "quality", "camera", "exposure", "light",
+                                                     "labels", "archive", "shard_samples", "randomize"};
 // What one body may hold, sized to its route: a limit on the values parsed (every number, string,
 // array and object counts one) bounds the memory and time of the parse before any work.
 struct BodyLimits {

@@ -422,6 +422,22 @@ struct UsageTerms {
   std::string source;  // Where the authors state them (manifest "terms"/"source", or "VRM meta"); "": unknown.
 };
 
+// A named point on the surface (the manifest's "landmarks"): a barycentric point of three vertices of
+// one primitive (a vertex itself: weights 1, 0, 0), moving with the blended mesh.
+struct Landmark {
+  std::string name;
+  uint32_t primitive = 0;
+  std::array<uint32_t, 3> vertices{};
+  std::array<float, 3> weights{1.0f, 0.0f, 0.0f};
+};
+
+// A named part of the surface (the manifest's "regions": skin, eyes, teeth, hair ...): the primitives
+// it covers, named there by mesh or by material.
+struct Region {
+  std::string name;
+  std::vector<uint32_t> primitives;
+};
+
 struct Rig {
   std::string name;
   std::string credit;                  // The attribution its license asks for (manifest "credit"); shown and exported.
@@ -455,6 +471,9 @@ struct Rig {
   std::vector<Expression> expressions;  // By name (core/face.h): the manifest's, then those derived from shape names.
   GazeSetup gaze;
   VisemeMap visemes;                    // How it speaks (core/speech.h): the manifest's, then derived.
+  std::vector<Landmark> landmarks;      // The manifest's, in its order (FaceCap's and Uka's: iBUG 300-W's 68).
+  std::string landmark_scheme;          // What they follow ("ibug-300w-68"), from the manifest.
+  std::vector<Region> regions;          // The manifest's; a primitive in none is labelled by its material.
 
   size_t vertex_count() const;
   size_t triangle_count() const;

@@ -22,6 +22,8 @@ class EncodingRenderer : public Renderer {
   Image Sheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
               std::array<float, 4> background) const override;
   bool CanDrawText(const std::string& text) const override;
+  Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels, bool full_float) const override;
+  Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const override;
 };
 
 // OSMesa (llvmpipe, rasterising on one thread per core): draws with a GL context leased from a bounded pool
@@ -57,6 +59,12 @@ class NullRenderer final : public EncodingRenderer {
 // Encodes to file bytes: PNG/JPEG/TIFF/WebP as 8-bit sRGB (alpha kept where the format has it),
 // EXR as linear half floats. `quality` is JPEG's and WebP's 1..100 (WebP: 100 is lossless).
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality = 90);
+
+// Data as images, written as they are (no colour space): `channels` (1 or 3) floats a pixel, top row
+// first, as a zip-compressed EXR of 32-bit (full_float) or half floats, one channel "Y" or R, G, B
+// (depth, normals); and ids as a grey PNG, 8 bits when every id is below 256, else 16 (segmentation).
+Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height, int channels, bool full_float);
+Result<std::string> EncodeIdPng(std::span<const uint16_t> ids, int width, int height);
 
 // Decodes PNG/JPEG/EXR/TIFF/BMP bytes (TGA, which has no magic, when mime_type is "image/x-tga") to
 // linear RGBA (for tests and textures).

@@ -30,6 +30,13 @@ struct BatchPlan {
   // What the request's expressions (and a gaze through eye shapes) add to every variant's weights.
   std::vector<float> face_weights;
   api::OutputSpec output;                   // Every variant's file (a mesh in pieces, or a render).
+  // Labelled samples (request.dataset, dataset.h).
+  std::vector<float> bare_weights;          // The pose's weights without the face: a drawn face is added to them.
+  std::vector<uint32_t> segment_of_primitive;
+  std::vector<std::string> segment_names;   // By id; 0 is "background".
+  uint64_t draw_seed = 1;                   // randomize.seed, else the sample's seed.
+  std::string pose_json = "{}";             // The request's pose members, for every KEY.json.
+  bool labelled() const { return request.dataset.labelled(); }
 };
 
 // Parses and resolves a batch body (api::ParseBatchRequest's schema) against a rig (the pose must

@@ -2,7 +2,9 @@
 // Parsing never throws; every error names the offending field as a JSON Pointer.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <span>
 #include <string>
@@ -205,6 +207,53 @@ Result<TargetMesh> ParseTargetJson(std::string_view text);
 //             "points": [{...}, {...}], "active": K, "symmetric": bool, "sum_at_most_one": bool},
 //  "format": "glb"|"obj"|"json"|"f32"|"png"|"jpeg"|"exr"|"tiff"|"webp",
 //  "mode", "normals", "skinning" as on the mesh route; the render route's settings for images}
+// What a labelled sample holds beside its render (api/batch/dataset.h writes them): a closed set, named
+// in one table (the request's and the CLI's spellings).
+enum class Label { kDepth, kNormals, kSegmentation, kLandmarks };
+inline constexpr EnumName<Label> kLabels[] = {
+    {Label::kDepth, "depth"}, {Label::kNormals, "normals"}, {Label::kSegmentation, "segmentation"}, {Label::kLandmarks, "landmarks"}};
+inline const char* Name(Label l) { return EnumEntry(kLabels, l).name; }
+
+// How a batch's files are laid out: one file each in the folder, or WebDataset tar shards.
+enum class Archive { kFolder, kTar };
+inline constexpr EnumName<Archive> kArchives[] = {{Archive::kFolder, "folder"}, {Archive::kTar, "tar"}};
+inline const char* Name(Archive a) { return EnumEntry(kArchives, a).name; }
+
+// A closed interval a randomised setting is drawn from, uniformly.
+struct Interval {
+  float lo = 0.0f, hi = 0.0f;
+};
+
+// "randomize": what varies from sample to sample beside the weights, drawn per sample from its own
+// seeded stream (the same seed and index give the same draw, whatever the threads or shards):
+// {"seed": S, "camera": {"yaw": [lo, hi], "pitch": [...], "zoom": [...]}, "light": {"yaw", "pitch",
+//  "exposure": [...]}, "background": "random" | ["#rrggbb", ...], "expressions": {NAME: [lo, hi]},
+//  "gaze": {"yaw": [...], "pitch": [...]}}
+struct Randomization {
+  uint64_t seed = 1;
+  bool seeded = false;  // "seed" given; else the sample's seed.
+  std::optional<Interval> yaw, pitch, zoom, light_yaw, light_pitch, exposure, gaze_yaw, gaze_pitch;
+  bool random_background = false;
+  std::vector<std::array<float, 4>> backgrounds;  // One of these, uniformly (sRGB).
+  std::vector<std::pair<std::string, Interval>> expressions;
+  bool any() const {
+    return yaw || pitch || zoom || light_yaw || light_pitch || exposure || gaze_yaw || gaze_pitch || random_background || !backgrounds.empty() ||
+           !expressions.empty();
+  }
+};
+
+// The dataset members of a batch: "labels": ["depth", "normals", "segmentation", "landmarks"] (or
+// "depth,normals"), "archive": "folder" | "tar", "shard_samples": N (tar: samples a shard), "randomize".
+struct DatasetRequest {
+  std::vector<Label> labels;  // Each once, in the table's order.
+  Archive archive = Archive::kFolder;
+  size_t shard_samples = 1000;
+  Randomization randomize;
+  bool has(Label l) const { return std::find(labels.begin(), labels.end(), l) != labels.end(); }
+  // A sample is more than one file: the render with its labels' files and KEY.json.
+  bool labelled() const { return !labels.empty() || randomize.any(); }
+};
+
 struct BatchRequest {
   struct Variant {
     std::string id;                    // "" = "v" + the index, zero-padded.
@@ -224,8 +273,14 @@ struct BatchRequest {
   MeshFormat mesh_format = MeshFormat::kGlb;
   render::ImageFormat image_format = render::ImageFormat::kPng;
   RenderRequest render;                // Render settings and the mesh options (mode, normals, skinning).
+  bool format_given = false;           // "format" was in the body (labels default to png).
+  DatasetRequest dataset;
 };
 Result<BatchRequest> ParseBatchRequest(std::string_view body);
+
+// A dataset member of a batch body ("labels", "archive", "shard_samples", "randomize") into `r`;
+// false when `key` is not one. Errors name their field.
+bool DatasetMember(const std::string& key, const nlohmann::json& value, DatasetRequest& r, Status& errors);
 
 // The sampling part resolved against a rig (names to indices). Errors name the field.
 Result<SampleSpec> ResolveSampleSpec(const Rig& rig, const BatchRequest& request);

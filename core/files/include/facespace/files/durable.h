@@ -35,6 +35,10 @@ void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_na
 // fail for space; on failure the temporary file is discarded.
 Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& what);
 
+// What a failed write says: kStorageFull for a full disk, quota or file size limit (ENOSPC, EDQUOT,
+// EFBIG), else kInternal; "DOING: the system's reason".
+Status WriteError(const std::string& doing, int err);
+
 // fsync of a folder, so that renames and new names in it survive a crash.
 void SyncDir(const std::filesystem::path& dir);
 

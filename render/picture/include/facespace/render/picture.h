@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
@@ -72,6 +73,24 @@ struct RenderOptions {
   // shadows of every light in the shaded, wireframe and clay views; null draws without (every vertex open).
   // The evaluator bakes it once per rig and level of detail (DerivedRigs::Prepare).
   std::shared_ptr<const RigOcclusion> occlusion;
+  // The studio's lights turned about the camera: yaw (degrees, about its up axis, positive to the
+  // right) then pitch (degrees, about its right axis, positive up). 0, 0: key light high on the left.
+  float light_yaw = 0.0f, light_pitch = 0.0f;
+  // Draw the label planes too (Image::labels), width x height, one sample at each pixel's centre
+  // (no supersampling, no blending): what a synthetic-data pipeline trains on.
+  bool labels = false;
+  // The segment id of each primitive's pixels in Image::labels.segment; empty: its material + 1
+  // (0 for a primitive without one). Ids above 65535 are cut to it.
+  std::vector<uint32_t> segment_of_primitive;
+};
+
+// What a draw with RenderOptions::labels says about each pixel, top row first, at its centre: the
+// triangles (not lines or points) of every primitive whose material shows (alpha above 0), nearest first.
+struct LabelPlanes {
+  std::vector<float> distance;   // Along the pixel's ray from the eye, scene units (glTF: metres); 0: nothing.
+  std::vector<float> normal;     // xyz, camera space (x right, y up, z toward the eye), the blended vertex
+                                 // normals interpolated and turned to face the eye; 0, 0, 0: nothing.
+  std::vector<uint16_t> segment; // RenderOptions::segment_of_primitive; 0: nothing.
 };
 
 // Linear-light RGBA, top row first. Encoding converts to sRGB for 8-bit formats. A draw asked for
@@ -82,6 +101,10 @@ struct Image {
   int height = 0;
   std::vector<float> rgba;
   std::vector<unsigned char> srgb8;
+  // The camera of the draw (column-major 4 x 4, as GL takes them): world to camera (glTF's: looking
+  // down -z, y up), and camera to clip (NDC x, y in -1..1 across the image, y up).
+  std::array<float, 16> view{}, projection{};
+  LabelPlanes labels;  // With RenderOptions::labels; else empty.
 };
 
 enum class ImageFormat { kPng, kJpeg, kExr, kTiff, kWebp };
@@ -108,6 +131,10 @@ class Renderer {
                       std::array<float, 4> background) const = 0;
   // Whether every character of UTF-8 `text` has a glyph in the fonts the sheet's labels use.
   virtual bool CanDrawText(const std::string& text) const = 0;
+  // Label planes as files (render/render.h's EncodeDataExr and EncodeIdPng): `channels` (1 or 3) floats
+  // a pixel as EXR (32-bit floats or half), and ids as a grey PNG.
+  virtual Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels, bool full_float) const = 0;
+  virtual Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const = 0;
 };
 
 // The inputs every renderer refuses: an image size outside 1..8192, supersample outside 1..4,
