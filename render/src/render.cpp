@@ -452,7 +452,7 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
       glDepthMask(shows ? GL_TRUE : GL_FALSE);
     }
     if (alpha_mode == 2) {
-      glEnable(GL_BLEND);
+      glEnablei(GL_BLEND, 0);  // The picture only: the label planes take the nearest surface as it is, not a mix.
       glBlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ONE, GL_ONE_MINUS_SRC_ALPHA);  // "Over", alpha too.
     } else {
       glDisable(GL_BLEND);
@@ -460,6 +460,8 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
     const GLenum prim = d.mode == PrimitiveMode::kTriangles ? GL_TRIANGLES : d.mode == PrimitiveMode::kLines ? GL_LINES : GL_POINTS;
     glDrawElements(prim, static_cast<GLsizei>(d.index_count), GL_UNSIGNED_INT, reinterpret_cast<void*>(static_cast<uintptr_t>(d.first_index * 4)));
   }
+  // Writes on again: masks hold for clears too, and a plane left masked would keep the last render's labels.
+  if (pass.labels) LabelWrites(true);
   glDepthMask(GL_TRUE);
   return Status::Ok();
 }

@@ -99,6 +99,8 @@ PinholeCamera CameraOf(const render::Image& image) {
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) cam.world_to_camera[static_cast<size_t>(4 * r + c)] = image.view[static_cast<size_t>(4 * c + r)];
   }
+  cam.near = P(2, 3) / (P(2, 2) - 1.0);
+  cam.far = P(2, 3) / (P(2, 2) + 1.0);
   return cam;
 }
 
@@ -187,6 +189,8 @@ json CameraJson(const PinholeCamera& cam, const render::RenderOptions& o) {
           {"projection", "pixel = K (x, -y, -z) / -z for (x, y, z) = world_to_camera p: the camera looks down -z with y up (glTF); "
                          "pixel centres at +0.5, origin top left"},
           {"fov_y_degrees", Short(o.camera.fov)},
+          {"near", Short(cam.near)},
+          {"far", Short(cam.far)},
           {"width", cam.width},
           {"height", cam.height}};
 }

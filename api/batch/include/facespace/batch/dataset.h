@@ -9,7 +9,8 @@
 // bits: segment ids, 0 background; the legend in KEY.json) and KEY.json:
 //   {"key", "index", "image": {"file", "width", "height"},
 //    "camera": {"K": 3 x 3 in pixels, "world_to_camera": 4 x 4 row-major (glTF's camera: looking down
-//               -z, y up), "projection": how they map a point to a pixel, "fov_y_degrees"},
+//               -z, y up), "projection": how they map a point to a pixel, "fov_y_degrees", "near", "far"
+//               (what was drawn lies between them along -z)},
 //    "depth": "distance along the ray, metres", "segmentation": {"0": "background", "1": NAME, ...},
 //    "landmarks": [{"name", "xy": [px, py] (pixel centres at +0.5, origin top left), "xyz": world,
 //                   "visible"}], "landmark_scheme",
@@ -47,6 +48,7 @@ struct PinholeCamera {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   std::array<double, 16> world_to_camera{};  // Row-major.
   int width = 0, height = 0;
+  double near = 0, far = 0;  // What was drawn lies between these distances along -z (GL's clip planes).
   // The pixel position of world point p, and its camera-space point; false behind the eye.
   bool Project(const std::array<double, 3>& p, std::array<double, 2>& xy, std::array<double, 3>& camera) const;
 };
