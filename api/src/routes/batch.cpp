@@ -1,4 +1,5 @@
 // /v1/rigs/{id}/batch and /v1/jobs/...: batch jobs of variants, their files and archives.
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -46,24 +47,45 @@ const char* FileType(const std::string& name) {
   MeshFormat mesh;
   render::ImageFormat image;
   if (ext == "jsonl") return "application/x-ndjson";
+  if (ext == "tar") return "application/x-tar";
   if (ParseMeshFormat(ext, &mesh)) return MeshFormatMimeType(mesh);
   if (render::ParseImageFormat(ext, &image)) return render::ImageFormatMimeType(image);
   return "application/octet-stream";
 }
 
+// The files a manifest line vouches for, as a results archive holds them: a folder's (the variant's and its
+// labels'), or the tar shard holding an archived sample.
+std::vector<std::string> ManifestFiles(const json& l) {
+  std::vector<std::string> names;
+  if (l.is_discarded() || !l.is_object()) return names;
+  if (l.contains("shard") && l["shard"].is_string()) return {l["shard"].get<std::string>()};
+  if (l.contains("file") && l["file"].is_string()) names.push_back(l["file"]);
+  for (const json& f : l.value("files", json::array())) {
+    if (f.is_object() && f.contains("file") && f["file"].is_string()) names.push_back(f["file"]);
+  }
+  return names;
+}
+
+// A job's file, read as it is sent (a tar shard of labelled samples runs to hundreds of megabytes).
 void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& name) {
   auto job = FindJob(ctx, req, res);
   if (!job) return;
   const std::filesystem::path path = std::filesystem::path(ctx.jobs->Folder(job->id)) / name;
-  std::ifstream f(path, std::ios::binary);
-  if (!IsValidVariantId(name) || !f) {
+  auto f = std::make_shared<std::ifstream>(path, std::ios::binary);
+  std::error_code ec;
+  const uint64_t size = std::filesystem::file_size(path, ec);
+  if (!IsValidVariantId(name) || !*f || ec) {
     SendProblem(req, res, 404, "file-not-found", "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
                                                      (job->state == JobState::kDone ? "" : std::string(" (yet: the job is ") + Name(job->state) + ")"));
     return;
   }
-  std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   res.set_header("Cache-Control", name == "manifest.jsonl" ? "no-cache" : "private, max-age=86400");
-  res.set_content(std::move(bytes), FileType(name));
+  res.set_content_provider(static_cast<size_t>(size), FileType(name), [f](size_t offset, size_t length, httplib::DataSink& sink) {
+    std::vector<char> chunk(std::min<size_t>(length, 1 << 20));
+    f->seekg(static_cast<std::streamoff>(offset));
+    if (!f->read(chunk.data(), static_cast<std::streamsize>(chunk.size()))) return false;  // Deleted or cut short under us.
+    return sink.write(chunk.data(), chunk.size());
+  });
 }
 
 }  // namespace
@@ -131,8 +153,9 @@ void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Respo
   }
   std::ifstream manifest(dir / "manifest.jsonl");
   for (std::string line; std::getline(manifest, line);) {
-    json l = json::parse(line, nullptr, false);
-    if (!l.is_discarded() && l.is_object() && l.contains("file") && l["file"].is_string()) names->push_back(l["file"]);
+    for (std::string& name : ManifestFiles(json::parse(line, nullptr, false))) {
+      if (std::find(names->begin(), names->end(), name) == names->end()) names->push_back(std::move(name));
+    }
   }
   auto zip = std::make_shared<ZipStream>();
   auto next = std::make_shared<size_t>(0);

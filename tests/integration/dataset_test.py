@@ -1,0 +1,200 @@
+"""Issue 52's dataset from the outside: `facespace batch --labels ... --archive tar` as a person runs it, and the
+batch route with the same members. WebDataset shards read with Python's tarfile, each sample whole (its
+KEY.png, KEY.depth.exr, KEY.normals.exr, KEY.seg.png, KEY.json, the sizes its manifest line says); the
+same seed gives the same bytes; shards run apart and merged give the one-process dataset; a kill -9 mid-run
+leaves only whole shards under their names and a rerun finishes the same bytes; a file size limit (a full
+disk) fails the run cleanly, publishes nothing half-written, and a rerun resumes; bad members are refused
+naming the valid ones.
+usage: dataset_test.py FACESPACE_BINARY SOURCE_DIR"""
+import filecmp
+import io
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+import zipfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from suite import Server, check, counts, request  # noqa: E402
+
+binary, src = sys.argv[1], sys.argv[2]
+facecap = os.path.join(src, "assets/facecap/facecap.glb")
+tmp = tempfile.mkdtemp(prefix="fs-dataset-")
+RANDOM = '{"camera": {"yaw": [-30, 30], "pitch": [-10, 10]}, "light": {"yaw": [-60, 60]}, "background": "random"}'
+SUFFIXES = ["png", "depth.exr", "normals.exr", "seg.png", "json"]
+
+
+def batch(out, count, *extra, limit=None):
+    """The CLI's exit code and stderr; `limit`: a file size limit in bytes (SIGXFSZ ignored, so writes fail EFBIG)."""
+    def child():
+        if limit:
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    args = [binary, "batch", facecap, "--sample", "uniform", "--count", str(count), "--seed", "5", "--active", "4",
+            "--labels", "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM,
+            "--archive", "tar", "--shard-samples", "16", "--jobs", "2", "-q", "-o", out, *extra]
+    p = subprocess.run(args, capture_output=True, text=True, preexec_fn=child)
+    return p.returncode, p.stderr
+
+
+def shards(folder):
+    return sorted(f for f in os.listdir(folder) if f.startswith("shard-") and f.endswith(".tar"))
+
+
+def whole_samples(folder):
+    """Every named shard read with tarfile: {key: {suffix: bytes}}, and the problems found."""
+    samples, problems = {}, []
+    for name in shards(folder):
+        try:
+            with tarfile.open(os.path.join(folder, name)) as t:
+                for m in t.getmembers():
+                    key, suffix = m.name.split(".", 1)
+                    samples.setdefault(key, {})[suffix] = t.extractfile(m).read()
+        except (tarfile.TarError, OSError, ValueError) as e:
+            problems.append(f"{name}: {e}")
+    for key, files in samples.items():
+        if sorted(files) != sorted(SUFFIXES):
+            problems.append(f"{key}: has {sorted(files)}")
+        elif not files["png"].startswith(b"\x89PNG") or not files["depth.exr"].startswith(b"\x76\x2f\x31\x01"):
+            problems.append(f"{key}: a file is not what its name says")
+    return samples, problems
+
+
+def manifest(folder):
+    with open(os.path.join(folder, "manifest.jsonl")) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def same_dataset(a, b):
+    names = shards(a)
+    return names == shards(b) and all(filecmp.cmp(os.path.join(a, n), os.path.join(b, n), shallow=False) for n in names + ["manifest.jsonl"])
+
+
+# One run, read back.
+ref = os.path.join(tmp, "ref")
+rc, err = batch(ref, 40)
+check(f"batch --labels ... --archive tar: 40 samples in {len(shards(ref))} shards (rc {rc}) {err.strip()[-200:]}", rc == 0 and shards(ref) == [
+    "shard-000000.tar", "shard-000001.tar", "shard-000002.tar"])
+samples, problems = whole_samples(ref)
+check(f"tarfile reads every shard; each of the 40 samples has its 5 files, as WebDataset groups them by key {problems[:3]}",
+      len(samples) == 40 and not problems)
+lines = manifest(ref)
+sizes_ok = all(samples[l["id"]][f["file"].split(".", 1)[1]].__len__() == f["bytes"] for l in lines for f in l["files"])
+check("manifest.jsonl: a line per sample, its shard and offset, every file's size as in the shard", len(lines) == 40 and sizes_ok and
+      all(l["shard"] == f"shard-{l['index'] // 16:06d}.tar" for l in lines))
+j = json.loads(samples["v000007"]["json"])
+check("KEY.json: K, world_to_camera 4 x 4, the depth's meaning, the segments' legend, 68 landmarks with xy, xyz, visible, the point",
+      len(j["camera"]["K"]) == 3 and len(j["camera"]["world_to_camera"]) == 4 and j["depth"] == "distance along the ray, metres" and
+      j["segmentation"]["0"] == "background" and "skin" in j["segmentation"].values() and len(j["landmarks"]) == 68 and
+      set(j["landmarks"][0]) == {"name", "xy", "xyz", "visible"} and "weights" in j and "render" in j)
+
+# The same seed, the same bytes.
+again = os.path.join(tmp, "again")
+rc, _ = batch(again, 40)
+check("the same command again: byte-identical shards and manifest", rc == 0 and same_dataset(ref, again))
+
+# Shards of a job array, merged.
+split = os.path.join(tmp, "split")
+rc1, _ = batch(split, 40, "--shard", "1/2")
+rc2, _ = batch(split, 40, "--shard", "2/2")
+p = subprocess.run([binary, "batch", "merge", split], capture_output=True, text=True)
+check(f"--shard 1/2 and 2/2 (whole tar shards each), then batch merge: the one-process dataset byte for byte (rc {rc1} {rc2} {p.returncode})",
+      rc1 == 0 and rc2 == 0 and p.returncode == 0 and same_dataset(ref, split))
+
+# kill -9 mid-run: what is named is whole; a rerun finishes the same bytes.
+killed = os.path.join(tmp, "killed")
+args = [binary, "batch", facecap, "--sample", "uniform", "--count", "40", "--seed", "5", "--active", "4", "--labels",
+        "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM, "--archive", "tar",
+        "--shard-samples", "16", "--jobs", "2", "-q", "-o", killed]
+proc = subprocess.Popen(args, stderr=subprocess.DEVNULL)
+deadline = time.time() + 60
+while time.time() < deadline:
+    if os.path.exists(os.path.join(killed, "shard-000000.tar")) and os.path.exists(os.path.join(killed, ".fs-part-shard-000001.tar")):
+        break
+    time.sleep(0.005)
+proc.send_signal(signal.SIGKILL)
+proc.wait()
+named = shards(killed)
+samples, problems = whole_samples(killed)
+check(f"kill -9 mid-run: {len(named)} shard(s) under their names, every sample in them whole ({len(samples)} samples) {problems[:3]}",
+      0 < len(named) < 3 and not problems and len(samples) == 16 * len(named))
+rc, _ = batch(killed, 40)
+check("the rerun resumes after the published samples and ends byte-identical to an uninterrupted run", rc == 0 and same_dataset(ref, killed))
+
+# A full disk (a file size limit): a clean failure, nothing half-written under a name, then a resume.
+full = os.path.join(tmp, "full")
+rc, err = batch(full, 40, limit=300_000)
+samples, problems = whole_samples(full)
+check(f"a file size limit mid-shard: exit 1 saying the disk is full, every named shard whole ({len(shards(full))} named) ({err.strip()[-160:]})",
+      rc == 1 and ("File too large" in err or "space" in err) and not problems)
+rc, _ = batch(full, 40)
+check("the rerun without the limit resumes and ends byte-identical", rc == 0 and same_dataset(ref, full))
+
+# Bad members, as the CLI says them.
+rc, err = batch(os.path.join(tmp, "bad1"), 2, "--labels", "depth,albedo")
+check(f"--labels depth,albedo: a usage error naming the labels ({err.strip()[:160]})", rc == 2 and "albedo" in err and "segmentation" in err)
+rc, err = batch(os.path.join(tmp, "bad2"), 2, "--archive", "zip")
+check(f"--archive zip: a usage error naming the archives ({err.strip()[:160]})", rc == 2 and "tar" in err and "folder" in err)
+p = subprocess.run([binary, "batch", os.path.join(src, "assets/makehuman/makehuman.glb"), "--sample", "uniform", "--count", "2",
+                    "--labels", "landmarks", "-q", "-o", os.path.join(tmp, "bad3")], capture_output=True, text=True)
+check(f"landmarks of a rig without any: refused, saying so ({p.stderr.strip()[:160]})", p.returncode == 2 and "no landmarks" in p.stderr)
+
+# The route: the same members, the same refusals, a job whose shard downloads.
+with open(os.path.join(tmp, "key"), "w") as f:
+    f.write("k3y-for-dataset-tests\n")
+store = os.path.join(tmp, "store")
+os.makedirs(store)
+shutil.copy(facecap, store)
+shutil.copy(os.path.join(src, "assets/facecap/facecap.manifest.json"), store)
+server = Server(binary, tmp, store=store)
+auth = {"Authorization": "Bearer k3y-for-dataset-tests"}
+url = server.url + "/v1/rigs/facecap/batch"
+st, _, body, hdr = request(url, "POST", json.dumps({"sample": {"method": "uniform", "count": 2}, "labels": ["depth", "albedo"]}).encode(), auth)
+problem = json.loads(body) if body.startswith(b"{") else {}
+check(f"POST batch labels [depth, albedo]: 422 problem+json at /labels/1 naming the labels ({st})", st == 422 and
+      "application/problem+json" in hdr.get("Content-Type", "") and any(e.get("pointer") == "/labels/1" and "segmentation" in e.get("detail", "")
+                                                                          for e in problem.get("errors", [])))
+st, _, body, _ = request(url, "POST", json.dumps({"sample": {"method": "uniform", "count": 2}, "archive": "zip"}).encode(), auth)
+check(f"POST batch archive zip: 422 naming the archives ({st})", st == 422 and b"tar" in body and b"/archive" in body)
+job_body = {"sample": {"method": "uniform", "count": 20, "seed": 5, "active": 4}, "labels": ["depth", "normals", "segmentation", "landmarks"],
+            "archive": "tar", "shard_samples": 16, "width": 96, "height": 96, "randomize": json.loads(RANDOM)}
+st, _, body, _ = request(url, "POST", json.dumps(job_body).encode(), auth)
+job = json.loads(body) if st == 202 else {}
+state = {}
+for _ in range(600):
+    if not job:
+        break
+    st2, _, b2, _ = request(server.url + job["links"]["self"])
+    state = json.loads(b2) if st2 == 200 else {}
+    if state.get("state") in ("done", "failed", "cancelled", "lost"):
+        break
+    time.sleep(0.1)
+st3, _, tar_bytes, _ = request(server.url + job.get("links", {}).get("files", "/") + "shard-000001.tar") if job else (0, 0, b"", {})
+with open(os.path.join(tmp, "route.tar"), "wb") as f:
+    f.write(tar_bytes)
+try:
+    with tarfile.open(os.path.join(tmp, "route.tar")) as t:
+        keys = {m.name.split(".", 1)[0] for m in t.getmembers()}
+except tarfile.TarError:
+    keys = set()
+check(f"POST batch with labels and archive tar: a job that ends done, its shard-000001.tar downloads and reads ({state.get('state')}, {len(keys)} keys)",
+      state.get("state") == "done" and st3 == 200 and keys == {f"v{k:06d}" for k in range(16, 20)})
+st4, _, zip_bytes, _ = request(server.url + job.get("links", {}).get("self", "/") + "/results.zip") if job else (0, 0, b"", {})
+try:
+    zip_names = zipfile.ZipFile(io.BytesIO(zip_bytes)).namelist()
+except zipfile.BadZipFile:
+    zip_names = []
+check(f"results.zip holds the manifest and both tar shards ({st4}: {zip_names})",
+      st4 == 200 and {"manifest.jsonl", "shard-000000.tar", "shard-000001.tar"} <= set(zip_names))
+check("the server still serves", server.alive())
+server.stop()
+
+shutil.rmtree(tmp, ignore_errors=True)
+print(f"{counts['passed']} passed, {counts['failed']} failed")
+sys.exit(1 if counts["failed"] else 0)
