@@ -142,7 +142,11 @@ json RenderProperties() {
           {"supersample", {{"type", "integer"}, {"minimum", 1}, {"maximum", 4}}},
           {"format", {{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}}},
           {"quality", {{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}},
-          {"exposure", {{"type", "number"}, {"minimum", -10}, {"maximum", 10}, {"default", 0}}}};
+          {"exposure", {{"type", "number"}, {"minimum", -10}, {"maximum", 10}, {"default", 0}}},
+          {"light", {{"type", "object"},
+                     {"description", "The studio's lights turned about the camera: yaw (degrees, to the right), then pitch (up)."},
+                     {"properties", {{"yaw", {{"type", "number"}}}, {"pitch", {{"type", "number"}}}}},
+                     {"additionalProperties", false}}}};
   const json skeleton = SkeletonProperties();
   for (auto& [key, value] : skeleton.items()) properties[key] = value;
   return properties;
@@ -243,14 +247,42 @@ json Sample() {
                           {"sum_at_most_one", {{"type", "boolean"}}}}}};
 }
 
+// [lo, hi]: an interval a randomised setting is drawn from.
+json Interval() { return {{"type", "array"}, {"items", {{"type", "number"}}}, {"minItems", 2}, {"maxItems", 2}}; }
+
+json Randomize() {
+  auto intervals = [](std::initializer_list<const char*> names) {
+    json props = json::object();
+    for (const char* n : names) props[n] = Interval();
+    return json{{"type", "object"}, {"properties", props}, {"additionalProperties", false}};
+  };
+  json props = json::object();
+  props["seed"] = {{"type", "integer"}, {"minimum", 0}};
+  props["camera"] = intervals({"yaw", "pitch", "zoom"});
+  props["light"] = intervals({"yaw", "pitch", "exposure"});
+  props["gaze"] = intervals({"yaw", "pitch"});
+  props["background"] = {{"oneOf", json::array({json{{"const", "random"}}, json{{"type", "array"}, {"items", {{"type", "string"}}}, {"minItems", 1}}})}};
+  props["expressions"] = {{"type", "object"}, {"additionalProperties", Interval()}};
+  return {{"type", "object"},
+          {"description", "What varies per sample, drawn from the sample's own seeded stream: the same seed and index, the same draw."},
+          {"properties", props},
+          {"additionalProperties", false}};
+}
+
 json BatchRequest() {
   return {
   {"type", "object"},
   {"description", "Exactly one of variants or sample. Also takes mode, normals, skinning, pose, animation/time, and the "
-        "render settings (width, height, view, camera, background, supersample, quality) for image formats."},
+        "render settings (width, height, view, camera, background, supersample, quality, light) for image formats. "
+        "labels make each variant a training sample: KEY.png with KEY.depth.exr, KEY.normals.exr, KEY.seg.png and KEY.json "
+        "(camera K and world_to_camera, landmarks, the point); archive tar writes WebDataset shards of shard_samples each."},
   {"properties", {{"variants", {{"type", "array"}, {"items", VariantItem()}}},
         {"sample", Sample()},
-        {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm", "vrm0", "png", "jpeg", "exr", "tiff", "webp"}}}}}}};
+        {"format", {{"enum", {"glb", "obj", "json", "f32", "vrm", "vrm0", "png", "jpeg", "exr", "tiff", "webp"}}}},
+        {"labels", {{"type", "array"}, {"items", {{"enum", {"depth", "normals", "segmentation", "landmarks"}}}}}},
+        {"archive", {{"enum", {"folder", "tar"}}, {"default", "folder"}}},
+        {"shard_samples", {{"type", "integer"}, {"minimum", 1}, {"maximum", 1000000}, {"default", 1000}}},
+        {"randomize", Randomize()}}}};
 }
 
 // ---- answers ----
