@@ -138,9 +138,15 @@ bool Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::
   return *u >= 0 && *v >= 0 && *u + *v <= 1 && *t > 0;
 }
 
-// Every pixel's nearest hit: each triangle tried against the pixel centres its projection's box holds.
-std::vector<Hits> CastAll(const Rig& rig, const BlendedRig& b, const WorldMesh& w, const StatedCamera& cam) {
+// Every pixel's hits: each triangle tried against the pixel centres its projection's box holds. With
+// `near`: only the pixels it marks, each through nine rays moved by up to GL's subpixel step (1/256 px)
+// each way: llvmpipe snaps vertices to that grid, so at a grazing fold or a silhouette the fragment at a
+// pixel centre can be a surface the exact centre's ray just misses.
+std::vector<Hits> CastAll(const Rig& rig, const BlendedRig& b, const WorldMesh& w, const StatedCamera& cam, const std::vector<char>* near = nullptr) {
   std::vector<Hits> hits(static_cast<size_t>(cam.width) * cam.height);
+  const int steps = near ? 1 : 0, grow = near ? 1 : 0;
+  std::vector<Eigen::Vector3d> centre(hits.size());  // Each pixel centre's ray, made once.
+  for (size_t at = 0; at < centre.size(); ++at) centre[at] = cam.Ray(static_cast<double>(at % cam.width) + 0.5, static_cast<double>(at / cam.width) + 0.5);
   for (size_t p = 0; p < rig.primitives.size(); ++p) {
     if (!Shows(rig, b, rig.primitives[p])) continue;
     const std::vector<uint32_t>& idx = rig.primitives[p].indices;
@@ -163,49 +169,32 @@ std::vector<Hits> CastAll(const Rig& rig, const BlendedRig& b, const WorldMesh& 
       const Eigen::Vector2d a = cam.Project(A), bb = cam.Project(B), c = cam.Project(C);
       const bool front = ((bb.x() - a.x()) * (a.y() - c.y()) - (a.y() - bb.y()) * (c.x() - a.x()) > 0) ==
                          (cam.Depth(A) > 0 && cam.Depth(B) > 0 && cam.Depth(C) > 0);
-      const int x0 = std::max(0, static_cast<int>(std::floor(lo.x() - 0.5))), x1 = std::min(cam.width - 1, static_cast<int>(std::ceil(hi.x() - 0.5)));
-      const int y0 = std::max(0, static_cast<int>(std::floor(lo.y() - 0.5))), y1 = std::min(cam.height - 1, static_cast<int>(std::ceil(hi.y() - 0.5)));
+      const int x0 = std::max(0, static_cast<int>(std::floor(lo.x() - 0.5)) - grow);
+      const int x1 = std::min(cam.width - 1, static_cast<int>(std::ceil(hi.x() - 0.5)) + grow);
+      const int y0 = std::max(0, static_cast<int>(std::floor(lo.y() - 0.5)) - grow);
+      const int y1 = std::min(cam.height - 1, static_cast<int>(std::ceil(hi.y() - 0.5)) + grow);
+      const Eigen::Vector3d e = (B - A).cross(C - A).normalized();
       for (int y = y0; y <= y1; ++y) {
         for (int x = x0; x <= x1; ++x) {
-          const Eigen::Vector3d d = cam.Ray(x + 0.5, y + 0.5);
-          double t, u, v;
-          if (!Intersect(cam.eye, d, A, B, C, &t, &u, &v)) continue;
-          const double z = cam.Depth(cam.eye + t * d);
-          if (z < cam.near || z > cam.far) continue;  // Clipped, as GL clips it.
-          const Eigen::Vector3d n = (1 - u - v) * w.normals[p][idx[i]] + u * w.normals[p][idx[i + 1]] + v * w.normals[p][idx[i + 2]];
-          const Eigen::Vector3d e = (B - A).cross(C - A);
-          hits[static_cast<size_t>(y) * cam.width + x].push_back(
-              {t * d.norm(), static_cast<int>(p), front ? n : Eigen::Vector3d(-n), std::abs(e.normalized().dot(d.normalized()))});
+          const size_t at = static_cast<size_t>(y) * cam.width + x;
+          if (near && !(*near)[at]) continue;
+          for (int jy = -steps; jy <= steps; ++jy) {
+            for (int jx = -steps; jx <= steps; ++jx) {
+              const Eigen::Vector3d d = near ? cam.Ray(x + 0.5 + jx / 256.0, y + 0.5 + jy / 256.0) : centre[at];
+              double t, u, v;
+              if (!Intersect(cam.eye, d, A, B, C, &t, &u, &v)) continue;
+              const double z = cam.Depth(cam.eye + t * d);
+              if (z < cam.near || z > cam.far) continue;  // Clipped, as GL clips it.
+              const Eigen::Vector3d n = (1 - u - v) * w.normals[p][idx[i]] + u * w.normals[p][idx[i + 1]] + v * w.normals[p][idx[i + 2]];
+              hits[at].push_back({t * d.norm(), static_cast<int>(p), front ? n : Eigen::Vector3d(-n), std::abs(e.dot(d.normalized()))});
+            }
+          }
         }
       }
     }
   }
   for (Hits& h : hits) std::sort(h.begin(), h.end(), [](const Hit& a, const Hit& b2) { return a.distance < b2.distance; });
   return hits;
-}
-
-// The hits along rays through (x, y) moved by up to GL's subpixel step (1/256 px) each way: llvmpipe snaps
-// vertices to that grid, so at a grazing fold or a silhouette the fragment at a pixel centre can be a
-// surface the exact centre's ray just misses. Tried only where the centre's own hits hold no match.
-Hits NearbyHits(const Rig& rig, const BlendedRig& b, const WorldMesh& w, const StatedCamera& cam, double x, double y) {
-  Hits out;
-  for (int dy = -1; dy <= 1; ++dy) {
-    for (int dx = -1; dx <= 1; ++dx) {
-      const Eigen::Vector3d d = cam.Ray(x + dx / 256.0, y + dy / 256.0);
-      for (size_t p = 0; p < rig.primitives.size(); ++p) {
-        if (!Shows(rig, b, rig.primitives[p])) continue;
-        const std::vector<uint32_t>& idx = rig.primitives[p].indices;
-        for (size_t i = 0; i + 2 < idx.size(); i += 3) {
-          double t, u, v;
-          if (!Intersect(cam.eye, d, w.positions[p][idx[i]], w.positions[p][idx[i + 1]], w.positions[p][idx[i + 2]], &t, &u, &v)) continue;
-          const Eigen::Vector3d n = (1 - u - v) * w.normals[p][idx[i]] + u * w.normals[p][idx[i + 1]] + v * w.normals[p][idx[i + 2]];
-          const Eigen::Vector3d e = (w.positions[p][idx[i + 1]] - w.positions[p][idx[i]]).cross(w.positions[p][idx[i + 2]] - w.positions[p][idx[i]]);
-          out.push_back({t * d.norm(), static_cast<int>(p), e.dot(d) < 0 ? n : Eigen::Vector3d(-n), std::abs(e.normalized().dot(d.normalized()))});
-        }
-      }
-    }
-  }
-  return out;
 }
 
 // What one sample's comparison found.
@@ -228,6 +217,15 @@ void CompareSample(const batch::BatchPlan& plan, const std::vector<batch::Sample
   const WorldMesh world = WorldOf(rig, blended);
   const std::vector<Hits> hits = CastAll(rig, blended, world, cam);
   const Eigen::Matrix3d to_camera = cam.world_to_camera.topLeftCorner<3, 3>();
+  // Pixels whose centre's hits hold no surface at GL's depth: tried again through rays 1/256 px around.
+  std::vector<char> unmatched(hits.size(), 0);
+  bool any = false;
+  for (size_t i = 0; i < hits.size(); ++i) {
+    if (depth[i] <= 0 || hits[i].empty()) continue;
+    unmatched[i] = std::none_of(hits[i].begin(), hits[i].end(), [&](const Hit& h) { return std::abs(depth[i] - h.distance) <= 1e-3; });
+    any |= unmatched[i] != 0;
+  }
+  const std::vector<Hits> nearby = any ? CastAll(rig, blended, world, cam, &unmatched) : std::vector<Hits>();
   for (size_t i = 0; i < hits.size(); ++i) {
     const bool drawn = depth[i] > 0, hit = !hits[i].empty();
     t.foreground += drawn;
@@ -240,17 +238,11 @@ void CompareSample(const batch::BatchPlan& plan, const std::vector<batch::Sample
       continue;
     }
     // The surface drawn: the nearest hit, or where GL's subpixel grid (1/256 px) moved a grazing fold's
-    // edge across the pixel centre, a hit behind it. Either way a surface on the ray, to 1 mm.
-    const Hits* along = &hits[i];
-    Hits nearby;
+    // edge across the pixel centre, a hit behind it or one 1/256 px away. Either way a surface on the ray, to 1 mm.
+    const Hits* along = unmatched[i] ? &nearby[i] : &hits[i];
     size_t k = 0;
     while (k < along->size() && std::abs(depth[i] - (*along)[k].distance) > 1e-3) ++k;
-    if (k == along->size()) {
-      nearby = NearbyHits(rig, blended, world, cam, static_cast<double>(i % cam.width) + 0.5, static_cast<double>(i / cam.width) + 0.5);
-      along = &nearby;
-      for (k = 0; k < along->size() && std::abs(depth[i] - (*along)[k].distance) > 1e-3;) ++k;
-      t.snapped += k < along->size();
-    }
+    t.snapped += unmatched[i] && k < along->size();
     if (k == along->size()) {
       ++t.depth;
       t.worst_depth = std::max(t.worst_depth, std::abs(depth[i] - hits[i][0].distance));

@@ -1,5 +1,6 @@
-// libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling, resolved
-// against real rigs (FaceCap; a skinned CesiumMan). The first byte picks the schema.
+// libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling (and a dataset's
+// members), resolved against real rigs (FaceCap; a skinned CesiumMan); or (first byte 0xFF) a manifest
+// applied to FaceCap. The first byte picks the schema.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -33,6 +34,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const std::string_view body(reinterpret_cast<const char*>(data + 1), size - 1);
   const facespace::Rig& rig = Rig(data[0] & 0x10);
+  if (data[0] == 0xFF) {  // A manifest (an upload's): its regions and landmarks index meshes, materials, vertices.
+    facespace::Rig copy = Rig(false);
+    (void)facespace::ApplyManifest(copy, std::string(body));
+    return 0;
+  }
   using namespace facespace::api;
   switch (data[0] % 6) {
     case 0:

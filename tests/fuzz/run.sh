@@ -52,6 +52,11 @@ req = [
   (3, {"keys": [{"time": 0}, {"time": 1, "shape": "jawOpen"}, {"time": 2, "weights": {"eyeBlink_L": 1}, "transition": "cubic-bezier(0.1,0.7,1,0.1)"}], "times": [0.5, 1.5], "smooth": True}),
   (4, {"sample": {"method": "gaussian", "count": 5, "seed": 3, "center": {"jawOpen": 0.5}, "spread": 0.2, "symmetric": True, "active": 3}, "format": "png"}),
   (4, {"sample": {"method": "grid", "shapes": ["jawOpen", "mouthSmile_L"], "count": 9}}),
+  (4, {"sample": {"method": "uniform", "count": 9}, "labels": ["depth", "landmarks"], "archive": "tar", "shard_samples": 4,
+       "randomize": {"seed": 2, "camera": {"yaw": [-30, 30]}, "light": {"exposure": [-1, 1]}, "background": "random",
+                     "expressions": {"happy": [0, 1]}, "gaze": {"yaw": [-10, 10]}}}),
+  (255, {"regions": {"skin": {"meshes": ["head"]}, "eyes": {"meshes": ["eyeLeft"]}}, "landmarks": {"scheme": "x",
+         "points": [{"name": "a", "mesh": "head", "vertex": 3}, {"name": "b", "mesh": "head", "vertices": [1, 2, 3], "weights": [0.2, 0.3, 0.5]}]}}),
   (5, {"target": {"primitives": [{"positions": [0, 0, 0]}]}, "bounded": True, "rigid_align": True}),
 ]
 for i, (k, body) in enumerate(req):

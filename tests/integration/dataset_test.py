@@ -192,6 +192,10 @@ except zipfile.BadZipFile:
     zip_names = []
 check(f"results.zip holds the manifest and both tar shards ({st4}: {zip_names})",
       st4 == 200 and {"manifest.jsonl", "shard-000000.tar", "shard-000001.tar"} <= set(zip_names))
+huge = {"sample": {"method": "uniform", "count": 10000}, "labels": ["depth", "normals"], "width": 8192, "height": 8192, "archive": "tar"}
+st5, _, body, hdr = request(url, "POST", json.dumps(huge).encode(), auth)
+check(f"a labelled batch of 10,000 samples at 8192²: refused before any work for the disk it would take ({st5}, {body[:160]!r})",
+      st5 == 507 and b"/sample/count" in body and "application/problem+json" in hdr.get("Content-Type", ""))
 check("the server still serves", server.alive())
 server.stop()
 

@@ -265,7 +265,10 @@ static size_t VariantBytes(const Rig& rig, const BatchPlan& plan) {
       case render::ImageFormat::kExr: per_pixel = 8; break;
       default: break;
     }
-    return static_cast<size_t>(pixels * per_pixel) + 4096;
+    // A labelled sample's files beside its picture (FaceCap at 256²: depth 61 KB, normals 63 KB, ids and
+    // KEY.json 3 KB: about 2 bytes a pixel), and a tar member's header and padding each.
+    if (r.dataset.labelled()) per_pixel += 2.5;
+    return static_cast<size_t>(pixels * per_pixel) + (r.dataset.labelled() ? 4096 * 5 : 4096);
   }
   const size_t vertices = rig.vertex_count();
   switch (r.mesh_format) {
