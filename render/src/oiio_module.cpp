@@ -19,14 +19,7 @@ bool Encode(const EncodeArgs& a, std::vector<unsigned char>* out, std::string* e
     return false;
   }
   bool ok;
-  if (a.planes) {
-    OIIO::ImageSpec spec(a.width, a.height, a.channels, a.full_float ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
-    if (a.channels == 1) spec.channelnames = {"Y"};
-    spec.attribute("DateTime", "1970:01:01 00:00:00");  // Not the time of writing: the same data, the same bytes.
-    // zlib at level 1: deflate was a fifth of a labelled sample's time at OpenEXR's default level 4.
-    if (a.zip) spec.attribute("compression", "zip:1");
-    ok = writer->open(a.name, spec) && writer->write_image(OIIO::TypeDesc::FLOAT, a.planes) && writer->close();
-  } else if (a.linear) {
+  if (a.linear) {
     OIIO::ImageSpec spec(a.width, a.height, 4, OIIO::TypeDesc::HALF);
     if (a.zip) spec.attribute("compression", "zip");
     ok = writer->open(a.name, spec) && writer->write_image(OIIO::TypeDesc::FLOAT, a.linear) && writer->close();

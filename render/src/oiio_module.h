@@ -18,8 +18,6 @@ struct EncodeArgs {
   int width = 0, height = 0;
   int channels = 4;
   const float* linear = nullptr;          // RGBA, linear: written as half floats (EXR);
-  const float* planes = nullptr;          // or `channels` data floats a pixel (EXR: "Y", or R, G, B), written as they are,
-  bool full_float = false;                // as 32-bit floats (else half);
   const unsigned char* srgb8 = nullptr;   // else `channels` 8-bit sRGB values a pixel.
   int quality = 0;                        // JPEG quality, 1-100, when > 0.
   bool zip = false;                       // zip compression (TIFF, EXR).

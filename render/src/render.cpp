@@ -37,8 +37,8 @@ Image EncodingRenderer::Sheet(std::span<const Image> cells, std::span<const std:
 
 bool EncodingRenderer::CanDrawText(const std::string& text) const { return render::CanDrawText(text); }
 
-Result<std::string> EncodingRenderer::EncodeData(std::span<const float> values, int width, int height, int channels, bool full_float) const {
-  return EncodeDataExr(values, width, height, channels, full_float);
+Result<std::string> EncodingRenderer::EncodeData(std::span<const float> values, int width, int height, int channels) const {
+  return EncodeDataExr(values, width, height, channels);
 }
 
 Result<std::string> EncodingRenderer::EncodeIds(std::span<const uint16_t> ids, int width, int height) const {

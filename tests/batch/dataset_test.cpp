@@ -13,6 +13,8 @@
 #include <OpenImageIO/imageio.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -93,8 +95,25 @@ struct Hit {
   Eigen::Vector3d normal{0, 0, 0};  // Interpolated, world space, facing the way the triangle faces the eye.
   double grazing = 1;               // |cos| of the angle between the ray and the triangle's plane normal.
 };
-// Every hit along one pixel's ray, nearest first once sorted.
-using Hits = std::vector<Hit>;
+// The hits along one pixel's ray, nearest first: a few kept in place (no allocation per pixel: the
+// test runs under ASan too), the farthest let go past kKept.
+struct Hits {
+  static constexpr size_t kKept = 8;
+  std::array<Hit, kKept> hit;
+  size_t count = 0;
+  void Add(const Hit& h) {
+    size_t i = std::min(count, kKept - 1);
+    if (count == kKept && h.distance >= hit[i].distance) return;
+    while (i > 0 && hit[i - 1].distance > h.distance) hit[i] = hit[i - 1], --i;
+    hit[i] = h;
+    count = std::min(count + 1, kKept);
+  }
+  bool empty() const { return count == 0; }
+  size_t size() const { return count; }
+  const Hit& operator[](size_t k) const { return hit[k]; }
+  const Hit* begin() const { return hit.data(); }
+  const Hit* end() const { return hit.data() + count; }
+};
 
 // The blended mesh in world space, with its vertex normals, as the renderer places them.
 struct WorldMesh {
@@ -186,14 +205,13 @@ std::vector<Hits> CastAll(const Rig& rig, const BlendedRig& b, const WorldMesh& 
               const double z = cam.Depth(cam.eye + t * d);
               if (z < cam.near || z > cam.far) continue;  // Clipped, as GL clips it.
               const Eigen::Vector3d n = (1 - u - v) * w.normals[p][idx[i]] + u * w.normals[p][idx[i + 1]] + v * w.normals[p][idx[i + 2]];
-              hits[at].push_back({t * d.norm(), static_cast<int>(p), front ? n : Eigen::Vector3d(-n), std::abs(e.dot(d.normalized()))});
+              hits[at].Add({t * d.norm(), static_cast<int>(p), front ? n : Eigen::Vector3d(-n), std::abs(e.dot(d.normalized()))});
             }
           }
         }
       }
     }
   }
-  for (Hits& h : hits) std::sort(h.begin(), h.end(), [](const Hit& a, const Hit& b2) { return a.distance < b2.distance; });
   return hits;
 }
 

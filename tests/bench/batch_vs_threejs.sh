@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Side by side in one run: `facespace batch` and the three.js peer (peer/threejs_batch.mjs: three's
 # CPU morph evaluation + GLTFExporter, pinned three) make the same N glb variants of FaceCap from
-# the same seeded weight vectors, into the same filesystem. Each side runs 3 times; medians and the
-# ratio are printed, and one variant's positions are compared between the two files.
+# the same seeded weight vectors, into the same filesystem (ours also as WebDataset tar shards, one
+# sync a group). Each side runs 3 times; medians and the ratio are printed, and one variant's
+# positions are compared between the two files.
 # usage: batch_vs_threejs.sh FACESPACE_BINARY [N]
 set -eu
 bin=$(realpath "$1"); n=${2:-500}
@@ -17,11 +18,12 @@ fi
 cp "$src/tests/bench/peer/threejs_batch.mjs" "$peer/"
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/fs-bench.XXXXXX"); trap "rm -rf $tmp" EXIT
 
-ours() {  # jobs -> "wall_seconds batch_seconds" (after a sync, so neither side pays for the other's write-back)
-  rm -rf "$tmp/ours"; sync
+ours() {  # jobs [archive] -> "wall_seconds batch_seconds" (after a sync, so neither side pays for the other's write-back)
+  local out=$tmp/ours${2:+-$2}
+  rm -rf "$out"; sync
   local start end line
   start=$(date +%s.%N)
-  line=$("$bin" batch "$rig" --sample uniform --count "$n" --seed 1 --format glb --out "$tmp/ours" --no-sheet --quiet --jobs "$1" 2>&1 | tail -1)
+  line=$("$bin" batch "$rig" --sample uniform --count "$n" --seed 1 --format glb --out "$out" --no-sheet --quiet --jobs "$1" ${2:+--archive $2} 2>&1 | grep "^batch:" | tail -1)
   end=$(date +%s.%N)
   python3 -c "import re,sys; print(float(sys.argv[2]) - float(sys.argv[1]), re.search(r'in ([0-9.]+) s,', sys.argv[3]).group(1))" "$start" "$end" "$line"
 }
@@ -33,7 +35,7 @@ peer() {
 }
 ours "$(nproc)" >/dev/null && cp "$tmp/ours/manifest.jsonl" "$tmp/manifest.jsonl"
 for i in 1 2 3; do
-  echo "ours2 $(ours "$(nproc)")"; echo "ours1 $(ours 1)"; echo "peer $(peer)"
+  echo "ours2 $(ours "$(nproc)")"; echo "ourstar $(ours "$(nproc)" tar)"; echo "ours1 $(ours 1)"; echo "peer $(peer)"
 done > "$tmp/runs"
 python3 - "$tmp" "$n" "$(nproc)" "$three" <<'PY'
 import json, struct, statistics, sys
@@ -44,7 +46,7 @@ for line in open(f"{tmp}/runs"):
 med = lambda k, i: statistics.median(r[i] for r in runs[k])
 peer = med("peer", 0) / n * 1000
 print(f"glb variants of FaceCap, {n} seeded uniform weight vectors, {cores} cores, 3 runs each (medians):")
-for k, label in (("ours2", f"facespace batch, {cores} workers"), ("ours1", "facespace batch, 1 worker")):
+for k, label in (("ours2", f"facespace batch, {cores} workers"), ("ourstar", f"  the same, --archive tar"), ("ours1", "facespace batch, 1 worker")):
     wall, work = med(k, 0) / n * 1000, med(k, 1) / n * 1000
     print(f"  {label:32} {work:6.3f} ms a variant ({1000 / work:6.0f}/s), {wall:6.3f} ms with the process's start"
           f"  -> {peer / work:5.1f}x three.js ({peer / wall:4.1f}x with start)")

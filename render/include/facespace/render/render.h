@@ -22,7 +22,7 @@ class EncodingRenderer : public Renderer {
   Image Sheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
               std::array<float, 4> background) const override;
   bool CanDrawText(const std::string& text) const override;
-  Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels, bool full_float) const override;
+  Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels) const override;
   Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const override;
 };
 
@@ -61,9 +61,9 @@ class NullRenderer final : public EncodingRenderer {
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality = 90);
 
 // Data as images, written as they are (no colour space): `channels` (1 or 3) floats a pixel, top row
-// first, as a zip-compressed EXR of 32-bit (full_float) or half floats, one channel "Y" or R, G, B
-// (depth, normals); and ids as a grey PNG, 8 bits when every id is below 256, else 16 (segmentation).
-Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height, int channels, bool full_float);
+// first, as a ZIP-compressed EXR of 32-bit floats, one channel "Y" or R, G, B (depth, normals); and ids
+// as a grey PNG, 8 bits when every id is below 256, else 16 (segmentation).
+Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height, int channels);
 Result<std::string> EncodeIdPng(std::span<const uint16_t> ids, int width, int height);
 
 // Decodes PNG/JPEG/EXR/TIFF/BMP bytes (TGA, which has no magic, when mime_type is "image/x-tga") to

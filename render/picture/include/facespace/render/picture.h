@@ -132,8 +132,8 @@ class Renderer {
   // Whether every character of UTF-8 `text` has a glyph in the fonts the sheet's labels use.
   virtual bool CanDrawText(const std::string& text) const = 0;
   // Label planes as files (render/render.h's EncodeDataExr and EncodeIdPng): `channels` (1 or 3) floats
-  // a pixel as EXR (32-bit floats or half), and ids as a grey PNG.
-  virtual Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels, bool full_float) const = 0;
+  // a pixel as an EXR of 32-bit floats, and ids as a grey PNG.
+  virtual Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels) const = 0;
   virtual Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const = 0;
 };
 
