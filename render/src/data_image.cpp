@@ -1,7 +1,6 @@
 // Images of data rather than light, for labelled datasets: planes of floats as EXR (depth, normals)
 // and ids as grey PNG (segmentation), written as they are: no colour space, no tone.
 #include <isa-l/igzip_lib.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <cstdint>
@@ -27,16 +26,8 @@ void Attribute(std::string& out, const char* name, const char* type, const std::
   out += value;
 }
 
-// OpenEXR's ZIP block: bytes split into even and odd halves, each byte the difference from the one before
-// (+128), deflated with the zlib wrapper (ISA-L's igzip at level 1, as our PNGs). Left raw when that is no
-// smaller, as readers expect.
-std::string ZipBlock(std::string_view raw, std::string& scratch) {
-  scratch.resize(raw.size());
-  const size_t half = (raw.size() + 1) / 2;
-  for (size_t i = 0; i < raw.size(); ++i) scratch[(i % 2 ? half : 0) + i / 2] = raw[i];
-  for (size_t i = scratch.size(); i-- > 1;) {
-    scratch[i] = static_cast<char>(static_cast<unsigned char>(scratch[i]) - static_cast<unsigned char>(scratch[i - 1]) + 128);
-  }
+// `raw` deflated with the zlib wrapper by ISA-L's igzip at level 1 (as our PNGs), or "" when that fails.
+std::string Deflated(std::string_view raw) {
   thread_local std::vector<uint8_t> level_buf(ISAL_DEF_LVL1_DEFAULT);
   std::string out(raw.size() + raw.size() / 8 + 1024, '\0');
   isal_zstream z;
@@ -47,13 +38,26 @@ std::string ZipBlock(std::string_view raw, std::string& scratch) {
   z.gzip_flag = IGZIP_ZLIB;
   z.end_of_stream = 1;
   z.flush = NO_FLUSH;
-  z.next_in = reinterpret_cast<uint8_t*>(scratch.data());
-  z.avail_in = static_cast<uint32_t>(scratch.size());
+  z.next_in = reinterpret_cast<uint8_t*>(const_cast<char*>(raw.data()));
+  z.avail_in = static_cast<uint32_t>(raw.size());
   z.next_out = reinterpret_cast<uint8_t*>(out.data());
   z.avail_out = static_cast<uint32_t>(out.size());
-  if (isal_deflate(&z) != COMP_OK || z.avail_in != 0 || z.internal_state.state != ZSTATE_END || z.total_out >= raw.size()) return std::string(raw);
+  if (isal_deflate(&z) != COMP_OK || z.avail_in != 0 || z.internal_state.state != ZSTATE_END) return {};
   out.resize(z.total_out);
   return out;
+}
+
+// OpenEXR's ZIP block: bytes split into even and odd halves, each byte the difference from the one before
+// (+128), deflated (Deflated). Left raw when that is no smaller, as readers expect.
+std::string ZipBlock(std::string_view raw, std::string& scratch) {
+  scratch.resize(raw.size());
+  const size_t half = (raw.size() + 1) / 2;
+  for (size_t i = 0; i < raw.size(); ++i) scratch[(i % 2 ? half : 0) + i / 2] = raw[i];
+  for (size_t i = scratch.size(); i-- > 1;) {
+    scratch[i] = static_cast<char>(static_cast<unsigned char>(scratch[i]) - static_cast<unsigned char>(scratch[i - 1]) + 128);
+  }
+  std::string out = Deflated(scratch);
+  return out.empty() || out.size() >= raw.size() ? std::string(raw) : out;
 }
 
 }  // namespace
@@ -131,19 +135,8 @@ Result<std::string> EncodeIdPng(std::span<const uint16_t> ids, int width, int he
       else row[x] = static_cast<unsigned char>(id);
     }
   }
-  // Run-length deflate (Z_RLE): ids are long runs, and zlib's default match search took a fifth of a
-  // labelled sample's time on them.
-  z_stream z{};
-  if (deflateInit2(&z, 6, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK) return Internal("zlib: deflateInit2 failed");
-  std::string deflated(deflateBound(&z, static_cast<uLong>(raw.size())), '\0');
-  z.next_in = reinterpret_cast<Bytef*>(raw.data());
-  z.avail_in = static_cast<uInt>(raw.size());
-  z.next_out = reinterpret_cast<Bytef*>(deflated.data());
-  z.avail_out = static_cast<uInt>(deflated.size());
-  const int done = deflate(&z, Z_FINISH);
-  deflated.resize(z.total_out);
-  deflateEnd(&z);
-  if (done != Z_STREAM_END) return Internal("zlib: deflate failed");
+  const std::string deflated = Deflated(raw);
+  if (deflated.empty()) return Internal("igzip: deflate failed");
   std::string out("\x89PNG\r\n\x1a\n", 8), header;
   PutBigEndian(header, static_cast<uint32_t>(w));
   PutBigEndian(header, static_cast<uint32_t>(h));

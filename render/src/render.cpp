@@ -335,14 +335,19 @@ Result<Matrices> CameraMatrices(const RenderOptions& o, const Scene& scene, bool
   return m;
 }
 
-// The target cleared to the background, the vertex and index arrays uploaded and laid out.
-void Upload(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>& bg, bool labels) {
+// The target bound and cleared: the picture to the background, the label planes (with `labels`) to 0.
+void ClearTarget(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>& bg, bool labels) {
   gl.BindTarget(w, h, srgb8, labels);
   glViewport(0, 0, w, h);
   const float colour[4] = {SrgbToLinear(bg[0]), SrgbToLinear(bg[1]), SrgbToLinear(bg[2]), bg[3]}, nothing[4] = {0, 0, 0, 0};
   glClearBufferfv(GL_COLOR, 0, colour);
   for (int plane = 1; labels && plane <= 2; ++plane) glClearBufferfv(GL_COLOR, plane, nothing);
   glClear(GL_DEPTH_BUFFER_BIT);
+}
+
+// The target cleared, the vertex and index arrays uploaded and laid out.
+void Upload(GlContext& gl, int w, int h, bool srgb8, const std::array<float, 4>& bg, bool labels) {
+  ClearTarget(gl, w, h, srgb8, bg, labels);
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);
   glBindVertexArray(gl.vao);
@@ -576,10 +581,11 @@ Status ReadLabels(GlContext& gl, int w, int h, LabelPlanes& out) {
   return s;
 }
 
-// The label planes of a supersampled picture: drawn again at its size, one sample a pixel, colour not written.
+// The label planes of a supersampled picture: drawn again at its size (the arrays the picture uploaded),
+// one sample a pixel, colour not written.
 Status DrawLabelsApart(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene, const RenderOptions& o, const Matrices& m,
                        LabelPlanes& out) {
-  Upload(gl, o.width, o.height, false, {0, 0, 0, 0}, true);
+  ClearTarget(gl, o.width, o.height, false, {0, 0, 0, 0}, true);
   glColorMaski(0, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
   Pass pass{1, m, 0.0f, 1.0f, false};
   pass.labels = true;

@@ -79,13 +79,23 @@ const render::OsMesaRenderer& Renderer() {
 
 // The 512x512 FaceCap render (jawOpen at 0.5) the encoder benchmarks encode, drawn once as floats
 // and once straight into 8-bit sRGB (RenderOptions::srgb8, what the render route draws for 8-bit files).
+// FaceCap blended with jawOpen at 0.5, once.
+const BlendedRig& FaceCapJawHalfOpen() {
+  static const BlendedRig blended = [] {
+    const Rig& rig = Case(0);
+    std::vector<float> w(rig.shapes.size(), 0.0f);
+    w[24] = 0.5f;  // jawOpen
+    BlendedRig b;
+    BlendContext ctx;
+    EvaluateRig(rig, w, {}, b, ctx);
+    return b;
+  }();
+  return blended;
+}
+
 render::Image Draw512(bool srgb8) {
   const Rig& rig = Case(0);
-  std::vector<float> w(rig.shapes.size(), 0.0f);
-  w[24] = 0.5f;
-  BlendedRig blended;
-  BlendContext ctx;
-  EvaluateRig(rig, w, {}, blended, ctx);
+  const BlendedRig& blended = FaceCapJawHalfOpen();
   render::RenderOptions o;
   o.width = o.height = 512;
   o.srgb8 = srgb8;
@@ -140,11 +150,7 @@ BENCHMARK(BM_Render)
 // the label planes (distance, normal, segment) or without, one draw at a time.
 void BM_RenderLabels(benchmark::State& state) {
   const Rig& rig = Case(0);
-  std::vector<float> w(rig.shapes.size(), 0.0f);
-  w[24] = 0.5f;
-  BlendedRig blended;
-  BlendContext ctx;
-  EvaluateRig(rig, w, {}, blended, ctx);
+  const BlendedRig& blended = FaceCapJawHalfOpen();
   render::RenderOptions o;
   o.width = o.height = static_cast<int>(state.range(0));
   o.srgb8 = true;

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 
 #include "facespace/core/pose_request.h"
@@ -16,8 +17,8 @@ namespace {
 // A float as JSON by its shortest text (0.1f is 0.1, not 0.10000000149011612).
 json Short(double v) {
   char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, static_cast<float>(v));
-  return json::parse(std::string_view(buf, static_cast<size_t>(r.ptr - buf)), nullptr, false);
+  *std::to_chars(buf, buf + sizeof buf - 1, static_cast<float>(v)).ptr = '\0';
+  return std::strtod(buf, nullptr);  // The double nearest that text prints as it.
 }
 
 // SplitMix64's finaliser: a well-mixed 64-bit value of its input.
@@ -130,15 +131,15 @@ namespace {
 
 // Sample `index`'s point: the variant's, with the drawn expressions and gaze on its face.
 void SamplePoint(const BatchPlan& plan, size_t index, const SampleDraw& draw, api::ResolvedPoint& point) {
-  VariantPoint(plan, index, point);
-  if (draw.expressions.empty() && !draw.gaze) return;
+  if (draw.expressions.empty() && !draw.gaze) return VariantPoint(plan, index, point);
+  VariantWeights(plan, index, point);  // Checked once the drawn face is on.
   const Rig& rig = plan.rig->rig;
   PoseRequest face = plan.request.render.mesh.pose;
   face.expressions.insert(face.expressions.end(), draw.expressions.begin(), draw.expressions.end());
   if (draw.gaze) face.gaze = draw.gaze;
   std::vector<float> with;
   std::vector<Warning> warnings;
-  if (!ResolvePoseAndWeights(rig, {}, face, with, point.pose, point.posed, warnings).ok()) return;  // Checked by the plan.
+  if (!ResolvePoseAndWeights(rig, {}, face, with, point.pose, point.posed, warnings).ok()) return VariantPoint(plan, index, point);  // Tried by the plan.
   for (size_t s = 0; s < point.weights.size() && s < with.size(); ++s) {
     const float planned = s < plan.face_weights.size() ? plan.face_weights[s] : 0.0f;
     const float bare = s < plan.bare_weights.size() ? plan.bare_weights[s] : 0.0f;

@@ -111,7 +111,7 @@ std::string VariantId(const BatchPlan& plan, size_t index) {
 
 std::string VariantFile(const BatchPlan& plan, size_t index) { return VariantId(plan, index) + "." + plan.request.format; }
 
-void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point) {
+void VariantWeights(const BatchPlan& plan, size_t index, api::ResolvedPoint& point) {
   const Rig& rig = plan.rig->rig;
   point.weights.resize(rig.shapes.size());
   if (plan.request.sampled) SampleVariant(rig, plan.sample, index, point.weights);
@@ -119,7 +119,11 @@ void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point
   for (size_t s = 0; s < plan.face_weights.size() && s < point.weights.size(); ++s) point.weights[s] += plan.face_weights[s];
   point.pose = plan.pose;  // Same sizes every time: no allocation once warm.
   point.posed = plan.posed;
-  api::CheckPoint(rig, plan.request.render.mesh.options.mode, point);
+}
+
+void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point) {
+  VariantWeights(plan, index, point);
+  api::CheckPoint(plan.rig->rig, plan.request.render.mesh.options.mode, point);
   point.report.warnings.insert(point.report.warnings.end(), plan.pose_warnings.begin(), plan.pose_warnings.end());
 }
 

@@ -13,9 +13,7 @@ namespace {
 template <typename E, size_t N>
 Status ReadEnum(const EnumName<E> (&table)[N], const json& v, const std::string& ptr, E* out) {
   if (v.is_string() && ParseEnum(table, v.get<std::string>(), out) && EnumEntry(table, *out).name == v.get<std::string>()) return Status::Ok();
-  std::string names;
-  for (const EnumName<E>& e : table) names += (names.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
-  return Bad(ptr, "must be one of " + names);
+  return Bad(ptr, "must be one of " + EnumNames(table));
 }
 
 }  // namespace

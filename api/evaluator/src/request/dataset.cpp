@@ -9,14 +9,6 @@ using namespace body;  // The shared readers of json_body.h.
 
 namespace {
 
-// "What the valid names are", from a table: "\"depth\", \"normals\", ...".
-template <typename E, size_t N>
-std::string Names(const EnumName<E> (&table)[N]) {
-  std::string names;
-  for (const EnumName<E>& e : table) names += (names.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
-  return names;
-}
-
 void LabelsFromJson(const json& v, DatasetRequest& r, Status& errors) {
   std::vector<std::string> names;
   if (v.is_string()) {
@@ -29,13 +21,13 @@ void LabelsFromJson(const json& v, DatasetRequest& r, Status& errors) {
   } else if (v.is_array()) {
     for (const json& n : v) names.push_back(n.is_string() ? n.get<std::string>() : std::string("?"));
   } else {
-    errors.fields.push_back({"/labels", "must be an array of label names: " + Names(kLabels)});
+    errors.fields.push_back({"/labels", "must be an array of label names: " + EnumNames(kLabels)});
     return;
   }
   for (size_t i = 0; i < names.size(); ++i) {
     Label l;
     if (!ParseEnum(kLabels, names[i], &l)) {
-      errors.fields.push_back({"/labels/" + std::to_string(i), "unknown label '" + names[i].substr(0, 40) + "': the labels are " + Names(kLabels)});
+      errors.fields.push_back({"/labels/" + std::to_string(i), "unknown label '" + names[i].substr(0, 40) + "': the labels are " + EnumNames(kLabels)});
     } else if (!r.has(l)) {
       r.labels.push_back(l);
     }
@@ -122,7 +114,7 @@ bool DatasetMember(const std::string& key, const json& v, DatasetRequest& r, Sta
     LabelsFromJson(v, r, errors);
   } else if (key == "archive") {
     if (!v.is_string() || !ParseEnum(kArchives, v.get<std::string>(), &r.archive)) {
-      errors.fields.push_back({"/archive", "unknown archive: the archives are " + Names(kArchives)});
+      errors.fields.push_back({"/archive", "unknown archive: the archives are " + EnumNames(kArchives)});
     }
   } else if (key == "shard_samples") {
     if (!v.is_number_integer() || !Number(v, 1, 1000000, &d)) errors.fields.push_back({"/shard_samples", "must be an integer in 1..1000000"});

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <string_view>
 
 namespace facespace {
@@ -35,6 +36,14 @@ const EnumName<E>& EnumEntry(const EnumName<E> (&table)[N], E value) {
     if (e.value == value) return e;
   }
   return table[0];
+}
+
+// Every canonical name, quoted, for an error naming the valid values: "\"depth\", \"normals\", ...".
+template <typename E, size_t N>
+std::string EnumNames(const EnumName<E> (&table)[N]) {
+  std::string names;
+  for (const EnumName<E>& e : table) names += (names.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
+  return names;
 }
 
 }  // namespace facespace

@@ -48,6 +48,8 @@ std::string VariantFile(const BatchPlan& plan, size_t index);  // id + "." + the
 
 // Variant `index` as a point: its weights and the plan's pose, checked (the pose's warnings last).
 void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point);
+// The same unchecked, for a caller that changes the point before checking it (a sample's drawn face).
+void VariantWeights(const BatchPlan& plan, size_t index, api::ResolvedPoint& point);
 
 // The contact sheet of the variants `indices`, labelled with their ids: 256 x 256 cells, PNG.
 Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices, const api::Evaluator& evaluator,
