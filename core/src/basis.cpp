@@ -108,6 +108,7 @@ QuantizeReport QuantizeDisplacements(const Rig& rig, int bits, Rig* dequantized)
         }
         r.max_error = std::max(r.max_error, std::sqrt(e2));
       }
+      if (dequantized) FinalizeTarget(dequantized->primitives[pi].targets[t]);  // Its move lengths are the new deltas'.
     }
   }
   return r;

@@ -26,6 +26,11 @@ void FinalizeTarget(SparseTarget& target) {
   // Scattered targets (runs shorter than 4 vertices on average) blend faster one index at
   // a time than run by run: they keep no runs (tests/bench/blend_bench.cpp).
   if (target.runs.size() / 2 * 4 > idx.size()) target.runs.clear();
+  target.move_lengths.resize(std::min(idx.size(), target.position_deltas.size() / 3));
+  for (size_t k = 0; k < target.move_lengths.size(); ++k) {
+    const float* d = &target.position_deltas[3 * k];
+    target.move_lengths[k] = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  }
 }
 
 size_t RankKeptVertices(std::span<int32_t> remap) {

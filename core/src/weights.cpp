@@ -130,16 +130,28 @@ double MahalanobisDistance(const Rig& rig, std::span<const float> weights) {
   return std::sqrt(d2);
 }
 
+namespace {
+
+// Each index's move length: the target's own (FinalizeTarget), else measured into `scratch`.
+std::span<const float> MoveLengths(const SparseTarget& st, std::vector<float>& scratch) {
+  const size_t n = std::min(st.indices.size(), st.position_deltas.size() / 3);
+  if (st.move_lengths.size() == n) return st.move_lengths;
+  scratch.resize(n);
+  for (size_t k = 0; k < n; ++k) scratch[k] = Norm3(&st.position_deltas[3 * k]);
+  return scratch;
+}
+
+}  // namespace
+
 std::vector<float> LargestMoves(const Rig& rig, std::span<const float> active) {
-  std::vector<float> most(rig.shapes.size(), 0.0f);
+  std::vector<float> most(rig.shapes.size(), 0.0f), scratch;
   for (const Mesh& mesh : rig.meshes) {
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];
       for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
         const uint32_t s = mesh.target_shapes[t];
         if (s >= most.size() || (!active.empty() && (s >= active.size() || !(active[s] > 0.0f)))) continue;
-        const SparseTarget& st = p.targets[t];
-        for (size_t k = 0; k < st.indices.size(); ++k) most[s] = std::max(most[s], Norm3(&st.position_deltas[3 * k]));
+        for (float length : MoveLengths(p.targets[t], scratch)) most[s] = std::max(most[s], length);
       }
     }
   }
@@ -154,7 +166,7 @@ double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vec
   // Each vertex gets the weight times the share of the shape's largest move (over all its primitives)
   // it moves there: a shape is "full" where it moves most (a left smile moves the middle of the lips half as much).
   const std::vector<float> most = LargestMoves(rig, weights);
-  std::vector<float> acc;
+  std::vector<float> acc, scratch;
   for (const Mesh& mesh : rig.meshes) {
     for (int pi : mesh.primitives) {
       const Primitive& p = rig.primitives[pi];
@@ -162,10 +174,12 @@ double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vec
       for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
         const uint32_t s = mesh.target_shapes[t];
         if (s >= weights.size() || s >= most.size() || !(weights[s] > 0.0f) || !(most[s] > 0.0f)) continue;
-        const SparseTarget& st = p.targets[t];
         if (!any) acc.assign(p.vertex_count(), 0.0f);
         any = true;
-        for (size_t k = 0; k < st.indices.size(); ++k) acc[st.indices[k]] += weights[s] * Norm3(&st.position_deltas[3 * k]) / most[s];
+        const std::span<const float> lengths = MoveLengths(p.targets[t], scratch);
+        const uint32_t* idx = p.targets[t].indices.data();
+        const float share = weights[s] / most[s];
+        for (size_t k = 0; k < lengths.size(); ++k) acc[idx[k]] += share * lengths[k];
       }
       for (size_t v = 0; any && v < acc.size(); ++v) {
         if (acc[v] > best) best = acc[v], best_primitive = static_cast<size_t>(pi), best_vertex = static_cast<uint32_t>(v);

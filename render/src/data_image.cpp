@@ -48,16 +48,22 @@ std::string Deflated(std::string_view raw) {
 }
 
 // OpenEXR's ZIP block: bytes split into even and odd halves, each byte the difference from the one before
-// (+128), deflated (Deflated). Left raw when that is no smaller, as readers expect.
-std::string ZipBlock(std::string_view raw, std::string& scratch) {
-  scratch.resize(raw.size());
-  const size_t half = (raw.size() + 1) / 2;
-  for (size_t i = 0; i < raw.size(); ++i) scratch[(i % 2 ? half : 0) + i / 2] = raw[i];
-  for (size_t i = scratch.size(); i-- > 1;) {
-    scratch[i] = static_cast<char>(static_cast<unsigned char>(scratch[i]) - static_cast<unsigned char>(scratch[i - 1]) + 128);
-  }
-  std::string out = Deflated(scratch);
-  return out.empty() || out.size() >= raw.size() ? std::string(raw) : out;
+// (+128), deflated (Deflated). Left raw when that is no smaller, as readers expect. Plain byte loops the
+// compiler vectorises: this was a tenth of a labelled sample's time as one loop indexing a string.
+std::string ZipBlock(std::string_view raw, std::vector<uint8_t>& split, std::string& predicted) {
+  const size_t n = raw.size(), half = (n + 1) / 2;
+  const auto* in = reinterpret_cast<const uint8_t*>(raw.data());
+  split.resize(n);
+  predicted.resize(n);
+  uint8_t* even = split.data();
+  uint8_t* odd = split.data() + half;
+  for (size_t j = 0; j < n / 2; ++j) even[j] = in[2 * j], odd[j] = in[2 * j + 1];
+  if (n % 2) even[half - 1] = in[n - 1];
+  auto* to = reinterpret_cast<uint8_t*>(predicted.data());
+  if (n) to[0] = split[0];
+  for (size_t i = 1; i < n; ++i) to[i] = static_cast<uint8_t>(split[i] - split[i - 1] + 128);
+  std::string out = Deflated(predicted);
+  return out.empty() || out.size() >= n ? std::string(raw) : out;
 }
 
 }  // namespace
@@ -101,7 +107,8 @@ Result<std::string> EncodeDataExr(std::span<const float> values, int width, int 
   out.push_back('\0');
   const size_t blocks = (h + 15) / 16, table = out.size();
   out.append(8 * blocks, '\0');
-  std::string raw, scratch;
+  std::string raw, predicted;
+  std::vector<uint8_t> split;
   for (size_t b = 0; b < blocks; ++b) {
     const size_t first = 16 * b, lines = std::min(h, first + 16) - first;
     raw.resize(lines * w * c * 4);
@@ -113,7 +120,7 @@ Result<std::string> EncodeDataExr(std::span<const float> values, int width, int 
       }
     }
     for (int i = 0; i < 8; ++i) out[table + 8 * b + static_cast<size_t>(i)] = static_cast<char>(static_cast<uint64_t>(out.size()) >> (8 * i));
-    const std::string block = ZipBlock(raw, scratch);
+    const std::string block = ZipBlock(raw, split, predicted);
     PutLE(out, 16 * b, 4);
     PutLE(out, block.size(), 4);
     out += block;

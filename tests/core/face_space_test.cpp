@@ -436,6 +436,12 @@ TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
   EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{1.0f, 0.2f}, stacked), 1.0);  // v0: A whole.
   EXPECT_EQ(stacked, (std::vector<uint32_t>{0}));
   EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.0f, -1.0f}, stacked), 0.0);  // Negative weights do not stack.
+  // Finalized targets carry their move lengths (measured once per rig): the same answers from them.
+  for (SparseTarget& t : two.primitives[0].targets) FinalizeTarget(t);
+  EXPECT_EQ(two.primitives[0].targets[0].move_lengths, (std::vector<float>{2, 1}));
+  EXPECT_EQ(LargestMoves(two, {}), (std::vector<float>{2, 4}));
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.8f, 0.5f}, stacked), 0.9);
+  EXPECT_EQ(stacked, (std::vector<uint32_t>{0, 1}));
 
   Rig rig = FaceCap();
   std::vector<float> w(rig.shapes.size(), 0.0f);

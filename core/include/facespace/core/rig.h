@@ -30,6 +30,9 @@ struct SparseTarget {
   // whose deltas follow each other in the arrays above. Built by FinalizeTarget(); empty
   // when the target is scattered (average run shorter than 4), which blends by index.
   std::vector<uint32_t> runs;
+  // The length of each index's position delta, built by FinalizeTarget() (empty before): what the
+  // extrapolation check (core/weights.h) weighs per vertex, measured once per rig rather than per point.
+  std::vector<float> move_lengths;
   // What the shape does to the first UV set (MMD's UV morphs, glTF's TEXCOORD_0 targets): the
   // vertices whose UV moves, ascending, apart from the position indices (most shapes move no UV,
   // a UV morph moves no position), and 2 floats (du, dv) per index.
@@ -37,7 +40,7 @@ struct SparseTarget {
   std::vector<float> texcoord_deltas;
 };
 
-// Builds `runs` from `indices`. Call after filling a target.
+// Builds `runs` from `indices` and `move_lengths` from `position_deltas`. Call after filling a target.
 void FinalizeTarget(SparseTarget& target);
 
 // Order-preserving vertex compaction (LOD, keeping some groups of an OBJ). `remap` holds per
