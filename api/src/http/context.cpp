@@ -87,7 +87,13 @@ ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, Ap
       cache(options.cache_bytes),
       workspaces(2 * std::max(2u, std::thread::hardware_concurrency())),
       render_budget(options.render_budget, options.render_memory),
-      openapi(OpenApiJson(options)) {}
+      openapi(OpenApiJson(options)),
+      live([this] {
+        LiveLimits l;
+        l.max_sessions = options.max_live_sessions;
+        l.max_per_client = options.max_client_live_sessions;
+        return l;
+      }()) {}
 
 std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
   auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;

@@ -16,6 +16,7 @@
 #include "facespace/api/http.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/api/front.h"
+#include "live_hub.h"
 #include "metrics.h"
 
 namespace facespace::api::http {
@@ -95,6 +96,7 @@ struct ServerState {
   RenderBudget render_budget;
   const std::string openapi;  // The document, with this server's limits.
   std::atomic<bool> warmed{false};  // Every rig of the store at start encoded (/readyz).
+  LiveHub live;  // The WebSocket sessions (last: its threads use what is above, and stop first).
 };
 
 // ---- helpers the routes share ----

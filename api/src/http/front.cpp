@@ -50,6 +50,9 @@ struct Conn : http::Peer {
   bool sent_continue = false;
   bool close_after = false;  // Set by the worker.
   bool keyed = false;        // The request carries the API key (its deadline is the keyed one).
+  // Set by a handler (UpgradeConnection): the head that answers instead, and who takes the socket after.
+  std::string upgrade_head;
+  UpgradeTaker upgrade_take;
 };
 
 void Address(int fd, bool peer, std::string& ip, int& port) {
@@ -91,6 +94,7 @@ void SendNow(int fd, std::string_view bytes) {
 }
 
 thread_local std::stop_token t_stop;
+thread_local Conn* t_conn = nullptr;  // The connection the calling worker serves.
 
 // cpp-httplib's accept loop hands every accepted socket to its task queue: this one gives it to
 // the front at once, on the accept thread.
@@ -107,6 +111,13 @@ class AdoptQueue final : public httplib::TaskQueue {
 }  // namespace
 
 std::stop_token CurrentStop() { return t_stop; }
+
+bool UpgradeConnection(std::string head, UpgradeTaker take) {
+  if (!t_conn || head.empty() || !take) return false;
+  t_conn->upgrade_head = std::move(head);
+  t_conn->upgrade_take = std::move(take);
+  return true;
+}
 
 class FrontServer::Front {
  public:
@@ -520,12 +531,28 @@ class FrontServer::Front {
   }
 
   void Returned(Conn& c) {
+    if (c.upgrade_take && !c.close_after) return HandOff(c);
     if (c.close_after) return Close(c);
     ReadyForNext(c);
     c.state = Conn::State::kIdle;
     const int fd = c.fd;
     Advance(c);  // A pipelined request may be whole already.
     Arm(fd);
+  }
+
+  // An upgraded connection leaves the front: its socket and what the client sent after its request go
+  // to their taker (the live hub), which owns and closes the socket from then on.
+  void HandOff(Conn& c) {
+    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
+    Release(c);
+    auto pc = per_client_.find(c.ip);
+    if (pc != per_client_.end() && --pc->second == 0) per_client_.erase(pc);
+    const int fd = c.fd;
+    UpgradeTaker take = std::move(c.upgrade_take);
+    std::string rest = c.buf.substr(std::min(c.request_end, c.buf.size()));
+    conns_.erase(fd);  // Destroys c.
+    stats.open = conns_.size();
+    take(fd, std::move(rest));
   }
 
   void Sweep(Clock::time_point now) {
@@ -571,11 +598,14 @@ class FrontServer::Front {
       const bool close = stopping || c->served + 1 >= o_.keep_alive_max;
       bool closed_by_client = false;
       bool ok = false;
+      stream.ReplaceResponse(&c->upgrade_head);
+      t_conn = c;
       try {
         ok = server_.Process(stream, close, closed_by_client);
       } catch (...) {
         ok = false;
       }
+      t_conn = nullptr;
       --stats.in_flight;
       t_stop = {};
       watchdog_.Unwatch(watch);
@@ -585,9 +615,14 @@ class FrontServer::Front {
         EndTurn(c->ip);
       }
       c->close_after = !ok || close || closed_by_client || stream.closes() || watch.source.stop_requested();
+      if (c->upgrade_take) {
+        // Upgraded when its 101 went out whole; else the taker is dropped (its place given back) and the connection closes.
+        c->close_after = !stream.replaced() || stopping;
+        if (c->close_after) c->upgrade_take = nullptr;
+      }
       // A large body's parse leaves freed heap behind (a DOM of a million values): give it back.
       if (c->request_end > (size_t{1} << 20)) malloc_trim(0);
-      if (!c->close_after && c->buf.size() == c->request_end) {
+      if (!c->close_after && !c->upgrade_take && c->buf.size() == c->request_end) {
         // Kept alive with nothing more sent yet (the usual case): made ready for its next request
         // here and armed, without a round trip through the front. Armed first: the front waits
         // for the state below before it touches the connection.

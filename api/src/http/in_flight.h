@@ -50,6 +50,10 @@ class RequestStream final : public httplib::Stream {
  public:
   RequestStream(const Peer& peer, std::string_view request, bool sent_continue, WriteBounds bounds)
       : c_(peer), request_(request), b_(std::move(bounds)), drop_continue_(sent_continue) {}
+  // A response head that replaces the one cpp-httplib writes (an upgrade's 101), when not empty by then:
+  // it goes out instead, and the rest of cpp-httplib's response is dropped.
+  void ReplaceResponse(const std::string* head) { replace_ = head; }
+  bool replaced() const { return replaced_ && !failed_; }
 
   bool is_readable() const override { return pos_ < request_.size(); }
   bool is_writable() const override { return const_cast<RequestStream*>(this)->WaitWritable(); }
@@ -65,6 +69,11 @@ class RequestStream final : public httplib::Stream {
       drop_continue_ = false;
       if (bytes == "HTTP/1.1 100 Continue\r\n\r\n") return static_cast<ssize_t>(size);  // The front sent it already.
     }
+    if (replaced_) return failed_ ? -1 : static_cast<ssize_t>(size);
+    if (!head_seen_ && replace_ && !replace_->empty()) {
+      head_seen_ = replaced_ = true;
+      return SendAll(replace_->data(), replace_->size()) ? static_cast<ssize_t>(size) : -1;
+    }
     if (!head_seen_) {  // The response's head: does it close the connection?
       head_seen_ = true;
       const size_t end = bytes.find("\r\n\r\n");
@@ -74,8 +83,11 @@ class RequestStream final : public httplib::Stream {
         if (EqualsIgnoreCase(line, "Connection: close")) closes_ = true;
       }
     }
-    // A stopped request's answer (a 503 problem, the end of a stream) goes out as far as the socket takes
-    // it at once; it never waits.
+    return SendAll(ptr, size) ? static_cast<ssize_t>(size) : -1;
+  }
+  // A stopped request's answer (a 503 problem, the end of a stream) goes out as far as the socket takes
+  // it at once; it never waits.
+  bool SendAll(const char* ptr, size_t size) {
     size_t done = 0;
     while (done < size) {
       const ssize_t n = ::send(c_.fd, ptr + done, size - done, MSG_NOSIGNAL | MSG_DONTWAIT);
@@ -88,9 +100,9 @@ class RequestStream final : public httplib::Stream {
       if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && WaitWritable()) continue;
       break;
     }
-    if (done == size) return static_cast<ssize_t>(size);
+    if (done == size) return true;
     failed_ = true;
-    return -1;
+    return false;
   }
   void get_remote_ip_and_port(std::string& ip, int& port) const override {
     ip = c_.ip;
@@ -139,7 +151,8 @@ class RequestStream final : public httplib::Stream {
   size_t pos_ = 0;
   WriteBounds b_;
   bool drop_continue_;
-  bool head_seen_ = false, closes_ = false, failed_ = false, too_slow_ = false;
+  const std::string* replace_ = nullptr;
+  bool head_seen_ = false, closes_ = false, failed_ = false, too_slow_ = false, replaced_ = false;
   size_t sent_ = 0;
   Clock::duration waited_{};
 };

@@ -32,6 +32,7 @@ constexpr Route kRoutes[] = {
     {"POST", "/v1/rigs/{id}/sequence/stream", kSequence, PostSequenceStream},
     {"POST", "/v1/rigs/{id}/sequence/reduce", kSequence, PostSequenceReduce},
     {"POST", "/v1/rigs/{id}/speech", "/v1/rigs/{id}/speech", PostSpeech},
+    {"GET", "/v1/rigs/{id}/live", "/v1/rigs/{id}/live", GetLive},
     {"GET", "/v1/voices", "/v1/voices", GetVoices},
     {"POST", "/v1/rigs/{id}/fit", "/v1/rigs/{id}/fit", PostFit},
     {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch, true},

@@ -244,7 +244,21 @@ json RigOperations() {
                                          {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Topology"}}}}},
                                                       {"application/octet-stream", {{"schema", {{"type", "string"}, {"format", "binary"}}}}}}}}},
                                 {"304", {{"description", "Not modified (If-None-Match)"}}},
-                                {"404", Problem("Unknown rig")}, {"422", Problem("Bad lod or format")}}}}}}}};
+                                {"404", Problem("Unknown rig")}, {"422", Problem("Bad lod or format")}}}}}}},
+      {"/v1/rigs/{id}/live",
+       {{"get", {{"summary", "One face live over a WebSocket (RFC 6455): text messages set the state ({\"weights\": {...}}, \"expressions\", "
+                             "\"gaze\", \"pose\", \"controls\", \"id\"), merged as the mesh route reads them; each change is answered, at most 60 "
+                             "times a second (newest state wins), by a binary message: 16 bytes (\"mesh\", frame number, the newest id applied, "
+                             "0; little-endian uint32) then the bytes of GET /mesh?format=f32 for that point. Events are text: ready, warnings, "
+                             "error (the session goes on). Closes: 1002 broken framing, 1003 binary without listen, 1007 text not UTF-8, "
+                             "1008 a flood, a client that does not read, or the session's CPU spent, 1009 a message over 64 KiB, 1001 the server stops "
+                             "or the session's time is up."},
+                 {"operationId", "getLive"},
+                 {"parameters", json::array({IdParam()})},
+                 {"responses", {{"101", {{"description", "Switched to the WebSocket protocol; Facespace-Cost states a second of frames"}}},
+                                {"400", Problem("Bad Sec-WebSocket-Key")}, {"404", Problem("Unknown rig")},
+                                {"426", Problem("Not a WebSocket upgrade, or not version 13")},
+                                {"503", Problem("As many live sessions as the server takes, in all or from this address")}}}}}}}};
 }
 
 // A point of face space: its mesh, render, contact sheet, check, and the fit that finds one.

@@ -51,6 +51,8 @@ void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
 // routes/speech.cpp
 void PostSpeech(ServerState&, const httplib::Request&, httplib::Response&);
 void GetVoices(ServerState&, const httplib::Request&, httplib::Response&);
+// routes/live.cpp: the WebSocket of one face.
+void GetLive(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/batch.cpp
 void PostBatch(ServerState&, const httplib::Request&, httplib::Response&);
 void ListJobs(ServerState&, const httplib::Request&, httplib::Response&);

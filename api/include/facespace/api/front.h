@@ -78,6 +78,15 @@ struct FrontStats {
 // between its steps (frames, cells, keys, audio chunks). A token that never fires elsewhere.
 std::stop_token CurrentStop();
 
+// Who takes a connection upgraded to another protocol (the live route's WebSocket sessions): the socket
+// (theirs from then on) and the bytes the client sent after its request.
+using UpgradeTaker = std::function<void(int fd, std::string buffered)>;
+
+// From a route handler on a front's worker: answer the request with `head` (a whole response head,
+// "HTTP/1.1 101 Switching Protocols\r\n...\r\n\r\n") instead of what cpp-httplib writes, then hand the
+// connection to `take` once the head is out. False outside a front's worker (nothing is taken).
+bool UpgradeConnection(std::string head, UpgradeTaker take);
+
 // A cpp-httplib server whose connections go through the front. Use it as httplib::Server
 // (routes, hooks, bind_to_port, listen_after_bind, stop); new_task_queue is its own.
 class FrontServer : public httplib::Server {

@@ -34,6 +34,12 @@ struct ApiOptions {
   long long max_video_pixels = 1920 * 1080; // ... and larger frames 422.
   double anonymous_cpu = 2.0;               // Estimated CPU-seconds a request without the key may cost (else 422 over-budget).
   double keyed_cpu = 600.0;                 // ... with the key.
+  // Live sessions (GET /v1/rigs/{id}/live, WebSocket): how many at once, in all and from one address, and
+  // how long one may last without the key and with it.
+  size_t max_live_sessions = 1024;
+  size_t max_client_live_sessions = 128;
+  int live_seconds = 3600;
+  int keyed_live_seconds = 86400;
 };
 
 // The routes (api/src/http/route_table.cpp) over a store, an evaluator and a job queue that the

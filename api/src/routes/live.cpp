@@ -1,0 +1,236 @@
+// GET /v1/rigs/{id}/live, upgraded to a WebSocket (issue 53): one face per socket. Text messages set the
+// state ({"weights"}, {"expressions"}, {"gaze"}, {"pose"}, {"controls"}, merged into the current point as
+// the mesh route reads them); each change is answered by one binary message, a 16-byte header then the
+// same bytes as GET /mesh?format=f32 for that point, at most 60 a second (the hub coalesces).
+#include <nlohmann/json.hpp>
+
+#include "../http/cost.h"
+#include "../http/framing.h"
+#include "../http/live_hub.h"
+#include "../http/problem.h"
+#include "routes.h"
+
+namespace facespace::api::http {
+
+namespace {
+
+using nlohmann::json;
+
+// The header of a binary message: tag, frame number, the newest "id" the frame reflects, reserved.
+constexpr char kMeshTag[4] = {'m', 'e', 's', 'h'};
+constexpr size_t kHeaderBytes = 16;
+
+void PutU32(std::string& out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
+}
+
+std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer = "") {
+  json e = {{"event", "error"}, {"type", type}, {"detail", detail}};
+  if (!pointer.empty()) e["pointer"] = pointer;
+  return e.dump();
+}
+
+// The members a state message may carry, merged into the point; and the others it may carry.
+constexpr std::string_view kMerged[] = {"weights", "expressions", "controls", "gaze"};
+constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id"};
+
+class FaceSession final : public LiveHandler {
+ public:
+  FaceSession(ServerState& ctx, std::shared_ptr<const StoredRig> rig, json limits)
+      : ctx_(ctx), rig_(std::move(rig)), limits_(std::move(limits)) {
+    request_.format = MeshFormat::kF32;
+    ResolvePoint(rig_->rig, request_, point_);  // The rest point: every weight 0.
+  }
+
+  void Open(Out& out) override {
+    out.texts.push_back(json{{"event", "ready"},
+                             {"rig", rig_->id},
+                             {"version", rig_->version},
+                             {"header_bytes", kHeaderBytes},
+                             {"limits", limits_}}
+                            .dump());
+    out.frame_wanted = true;  // The face as it starts.
+  }
+
+  void OnText(std::string_view text, Out& out) override {
+    json m = json::parse(text, nullptr, false);
+    if (m.is_discarded() || !m.is_object()) {
+      out.texts.push_back(ErrorEvent("malformed-message", "a message is a JSON object: {\"weights\": {\"jawOpen\": 0.5}}"));
+      return;
+    }
+    json next = state_;
+    uint32_t id = last_id_;
+    for (auto it = m.begin(); it != m.end(); ++it) {
+      const std::string& key = it.key();
+      if (key == "id") {
+        if (!it->is_number_unsigned() || it->get<uint64_t>() > UINT32_MAX) {
+          out.texts.push_back(ErrorEvent("invalid-message", "id must be an integer from 0 to 4294967295", "/id"));
+          return;
+        }
+        id = it->get<uint32_t>();
+      } else if (key == "pose") {
+        next["pose"] = *it;
+      } else if (std::find(std::begin(kMerged), std::end(kMerged), key) != std::end(kMerged)) {
+        if (!it->is_object()) {
+          out.texts.push_back(ErrorEvent("invalid-message", key + " must be an object of names and values", "/" + key));
+          return;
+        }
+        json& into = next[key];
+        if (!into.is_object()) into = json::object();
+        for (auto v = it->begin(); v != it->end(); ++v) {
+          if (v->is_null()) into.erase(v.key());  // null: back to the rest value.
+          else into[v.key()] = *v;
+        }
+        if (into.empty()) next.erase(key);
+      } else if (key == "say" || key == "listen" || key == "stop") {
+        out.texts.push_back(ErrorEvent("not-supported", "'" + key + "' is not served on this socket yet: use POST /v1/rigs/{id}/speech", "/" + key));
+        return;
+      } else {
+        std::string valid;
+        for (std::string_view k : kKnown) valid += (valid.empty() ? "" : ", ") + std::string(k);
+        out.texts.push_back(ErrorEvent("unknown-member", "unknown member '" + key.substr(0, 64) + "'; valid: " + valid, "/" + key.substr(0, 64)));
+        return;
+      }
+    }
+    json body = next;
+    body["format"] = "f32";
+    auto request = ParseMeshRequest(body.dump());
+    if (!request.ok()) return Refuse(request.status(), out);
+    ResolvedPoint point;
+    if (Status s = ResolvePoint(rig_->rig, request.value(), point); !s.ok()) return Refuse(s, out);
+    state_ = std::move(next);
+    request_ = std::move(request.value());
+    point_ = std::move(point);
+    last_id_ = id;
+    out.frame_wanted = true;
+    SayWarnings(out);
+  }
+
+  void OnBinary(std::string_view, Out& out) override {
+    out.close = true;
+    out.code = ws::CloseCode::kUnsupportedData;
+    out.reason = "binary messages are audio, and need {\"listen\": ...} first";
+  }
+
+  bool MakeFrame(std::string& message, Out& out) override {
+    auto ws = ctx_.workspaces.Acquire(stop_.get_token());
+    ctx_.metrics.CountBlends(1);
+    auto enc = ctx_.evaluator.Run(rig_, point_, OutputSpec::Mesh(request_, MeshFormat::kF32), *ws);
+    if (!enc.ok()) {
+      out.texts.push_back(ErrorEvent(enc.status().reason.empty() ? "error" : enc.status().reason, enc.status().message));
+      return false;
+    }
+    const auto pieces = enc->pieces();
+    message.reserve(kHeaderBytes + pieces[0].size() + pieces[1].size());
+    message.append(kMeshTag, 4);
+    PutU32(message, ++frame_);
+    PutU32(message, last_id_);
+    PutU32(message, 0);
+    message.append(pieces[0]).append(pieces[1]);
+    return true;
+  }
+
+  void Cancel() override { stop_.request_stop(); }
+
+ private:
+  void Refuse(const Status& s, Out& out) {
+    const std::string pointer = s.fields.empty() ? "" : s.fields[0].pointer;
+    out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, pointer));
+  }
+
+  // The point's warnings (extrapolation, out of range ...) when they change: never silent.
+  void SayWarnings(Out& out) {
+    json list = json::array();
+    for (const Warning& w : point_.report.warnings) list.push_back({{"code", w.code}, {"message", w.message}});
+    std::string text = json{{"event", "warnings"}, {"id", last_id_}, {"sum", point_.report.sum}, {"warnings", list}}.dump();
+    if (list == last_warnings_) return;
+    last_warnings_ = std::move(list);
+    out.texts.push_back(std::move(text));
+  }
+
+  ServerState& ctx_;
+  std::shared_ptr<const StoredRig> rig_;
+  json limits_;
+  json state_ = json::object();
+  MeshRequest request_;
+  ResolvedPoint point_;
+  uint32_t frame_ = 0, last_id_ = 0;
+  json last_warnings_ = json::array();
+  std::stop_source stop_;
+};
+
+bool HasToken(const httplib::Request& req, const char* header, std::string_view token) {
+  const std::string value = req.get_header_value(header);
+  size_t at = 0;
+  while (at <= value.size()) {
+    size_t end = value.find(',', at);
+    if (end == std::string::npos) end = value.size();
+    std::string_view part(value.data() + at, end - at);
+    while (!part.empty() && (part.front() == ' ' || part.front() == '\t')) part.remove_prefix(1);
+    while (!part.empty() && (part.back() == ' ' || part.back() == '\t')) part.remove_suffix(1);
+    if (EqualsIgnoreCase(part, token)) return true;
+    at = end + 1;
+  }
+  return false;
+}
+
+// The session's place, given back unless the hub took the socket.
+struct Place {
+  LiveHub& hub;
+  std::string ip;
+  bool taken = false;
+  ~Place() {
+    if (!taken) hub.Unreserve(ip);
+  }
+};
+
+}  // namespace
+
+void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  auto stored = FindRig(ctx, req, res, req.matches[1]);
+  if (!stored) return;
+  if (!HasToken(req, "Upgrade", "websocket") || !HasToken(req, "Connection", "upgrade")) {
+    res.set_header("Upgrade", "websocket");
+    return SendProblem(req, res, 426, "upgrade-required",
+                       "this route is a WebSocket (RFC 6455): ask with Upgrade: websocket and Connection: Upgrade");
+  }
+  if (req.get_header_value("Sec-WebSocket-Version") != "13") {
+    res.set_header("Sec-WebSocket-Version", "13");
+    return SendProblem(req, res, 426, "upgrade-required", "Sec-WebSocket-Version must be 13");
+  }
+  const std::string key = req.get_header_value("Sec-WebSocket-Key");
+  if (!ws::ValidClientKey(key)) return SendProblem(req, res, 400, "bad-request", "Sec-WebSocket-Key must be the base64 of 16 bytes");
+  // The cost, stated before the session: a frame's blend and encoding, at most 60 a second; the session
+  // may spend twice that over its lifetime, and lasts at most --live-seconds.
+  const Cost frame = MeshCost(stored->rig, MeshFormat::kF32);
+  const double per_second = 60 * frame.seconds;
+  if (!WithinBudget(ctx, req, res, {per_second, "/live", "60 frames a second x " + frame.formula})) return;
+  const bool keyed = CarriesKey(ctx, req);
+  SessionBounds bounds;
+  bounds.lifetime = std::chrono::seconds(keyed ? ctx.options.keyed_live_seconds : ctx.options.live_seconds);
+  bounds.cpu_seconds = 2 * per_second * static_cast<double>(bounds.lifetime.count()) + 1;
+  if (!ctx.live.Reserve(req.remote_addr)) {
+    res.set_header("Retry-After", "5");
+    return SendProblem(req, res, 503, "too-many-sessions",
+                       "the server holds as many live sessions as it takes, in all or from this address (--max-live-sessions, --max-client-live-sessions)");
+  }
+  auto place = std::make_shared<Place>(Place{ctx.live, req.remote_addr});
+  const LiveLimits& l = ctx.live.limits();
+  json limits = {{"fps", std::lround(1e6 / static_cast<double>(std::max<long>(1, l.frame_interval.count())))},
+                 {"max_message_bytes", l.max_message},
+                 {"max_messages_per_second", l.max_rate},
+                 {"seconds", bounds.lifetime.count()},
+                 {"cpu_seconds", bounds.cpu_seconds}};
+  auto session = std::make_shared<std::unique_ptr<LiveHandler>>(std::make_unique<FaceSession>(ctx, stored, limits));
+  const std::string head = "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Accept: " + ws::AcceptKey(key) +
+                           "\r\nFacespace-Cost: " + std::to_string(per_second) + "\r\n\r\n";
+  const std::string ip = req.remote_addr;
+  const bool upgraded = UpgradeConnection(head, [&ctx, place, session, ip, bounds](int fd, std::string buffered) {
+    place->taken = true;
+    ctx.live.Adopt(fd, ip, std::move(buffered), std::move(*session), bounds);
+  });
+  if (!upgraded) return SendProblem(req, res, 501, "not-implemented", "this server's connections cannot be upgraded");
+  res.status = 101;
+}
+
+}  // namespace facespace::api::http
