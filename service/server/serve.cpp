@@ -37,6 +37,9 @@ struct ServeConfig {
   int threads = 64;   // Workers running whole requests; connections wait in the front, not on a thread.
   size_t max_connections = 4096;
   size_t max_client_connections = 256;
+  size_t max_live_sessions = 1024;        // WebSocket sessions (GET /v1/rigs/{id}/live) at once, in all,
+  size_t max_client_live_sessions = 128;  // ... and from one address.
+  int live_seconds = 3600;                // How long one may last (without the API key).
   size_t body_budget_mb = 1024;
   size_t render_budget_mb = 1024;
   size_t render_memory_mb = 2048;
@@ -153,6 +156,12 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   } else if (key == "max-client-connections") {
     if (!ParseSize(value, 1, 1000000, &n)) return "max-client-connections must be 1..1000000, not '" + value + "'";
     c.max_client_connections = static_cast<size_t>(n);
+  } else if (key == "max-live-sessions" || key == "max-client-live-sessions") {
+    if (!ParseSize(value, 1, 1000000, &n)) return key + " must be 1..1000000, not '" + value + "'";
+    (key == "max-live-sessions" ? c.max_live_sessions : c.max_client_live_sessions) = static_cast<size_t>(n);
+  } else if (key == "live-seconds") {
+    if (!ParseSize(value, 1, 86400, &n)) return "live-seconds must be 1..86400, not '" + value + "'";
+    c.live_seconds = static_cast<int>(n);
   } else if (key == "render-budget-mb") {
     if (!ParseSize(value, 16, 1 << 20, &n)) return "render-budget-mb must be 16..1048576, not '" + value + "'";
     c.render_budget_mb = static_cast<size_t>(n);
@@ -202,6 +211,9 @@ constexpr std::pair<const char*, const char*> kSettings[] = {
     {"port", "N: to listen on, 0 for any free one (default 8080)"}, {"threads", "N: HTTP worker threads running whole requests (default 64)"},
     {"max-connections", "N: connections open at once; more get 503 (default 4096)"},
     {"max-client-connections", "N: connections open at once from one address; more get 503 (default 256)"},
+    {"max-live-sessions", "N: live WebSocket sessions open at once; more get 503 (default 1024)"},
+    {"max-client-live-sessions", "N: live sessions open at once from one address; more get 503 (default 128)"},
+    {"live-seconds", "SECONDS: how long a live session without the API key may last (default 3600; with the key a day)"},
     {"render-budget-mb", "MB: estimated working memory of one render or sheet; above, 413 (default 1024)"},
     {"render-memory-mb", "MB: working memory of the renders in flight together; past it they wait 2 s, then 503 (default 2048)"},
     {"body-budget-mb", "MB: request bodies held in memory at once, all connections together; past it 503 (default 1024)"},
@@ -304,6 +316,9 @@ bool MakeApiOptions(const ServeConfig& c, api::ApiOptions& options) {
   options.render_memory = std::max(c.render_memory_mb, c.render_budget_mb) << 20;
   options.anonymous_cpu = c.anonymous_cpu;
   options.keyed_cpu = c.keyed_cpu;
+  options.max_live_sessions = c.max_live_sessions;
+  options.max_client_live_sessions = c.max_client_live_sessions;
+  options.live_seconds = c.live_seconds;
 
   return true;
 }

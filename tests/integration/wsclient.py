@@ -41,8 +41,10 @@ class Client:
         self.sock = socket.create_connection((host, port), timeout=timeout)
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         key = base64.b64encode(os.urandom(16)).decode()
-        head = f"GET {path} HTTP/1.1\r\nHost: {host}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n"
-        for k, v in (headers or {}).items():
+        head = f"GET {path} HTTP/1.1\r\n"
+        fields = {"Host": host, "Upgrade": "websocket", "Connection": "Upgrade", "Sec-WebSocket-Key": key, "Sec-WebSocket-Version": "13"}
+        fields.update(headers or {})
+        for k, v in fields.items():
             head += f"{k}: {v}\r\n"
         self.sock.sendall((head + "\r\n").encode())
         self.buf = b""

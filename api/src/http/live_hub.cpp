@@ -52,7 +52,10 @@ struct LiveHub::Session {
   size_t queued = 0;         // Bytes in out not yet sent.
   bool frame_queued = false;  // A frame in `out`: the next waits for it to go (newest state wins).
   bool frame_wanted = false;
-  Clock::time_point next_frame;
+  // The frame rate as a virtual clock (GCRA): the 60 Hz grid's next slot. A frame may go up to half a
+  // slot before it (after a late one), so a client sending at 60 Hz is answered at once, not a slot later,
+  // and no more than 60 go in any second (plus one).
+  Clock::time_point grid;
   bool want_write = false;
   Clock::time_point waiting_since;  // Bytes queued and none taken since.
   bool closing = false, shut = false;
@@ -502,12 +505,13 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
     std::lock_guard<std::mutex> lock(s->mu);
     const Clock::time_point now = Clock::now();
     if (s->frame_wanted && !s->frame_queued && !s->closing) {
-      if (now >= s->next_frame) {
+      const Clock::time_point earliest = s->grid - limits_.frame_interval / 2;
+      if (now >= earliest) {
         frame = true;
         s->frame_wanted = false;
-        s->next_frame = now + limits_.frame_interval;
+        s->grid = std::max(s->grid, now) + limits_.frame_interval;
       } else {
-        at = s->next_frame;
+        at = earliest;
       }
     }
   }

@@ -176,6 +176,9 @@ bool HasToken(const httplib::Request& req, const char* header, std::string_view 
 
 // The session's place, given back unless the hub took the socket.
 struct Place {
+  Place(LiveHub& h, std::string i) : hub(h), ip(std::move(i)) {}
+  Place(const Place&) = delete;
+  Place& operator=(const Place&) = delete;
   LiveHub& hub;
   std::string ip;
   bool taken = false;
@@ -214,7 +217,7 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
     return SendProblem(req, res, 503, "too-many-sessions",
                        "the server holds as many live sessions as it takes, in all or from this address (--max-live-sessions, --max-client-live-sessions)");
   }
-  auto place = std::make_shared<Place>(Place{ctx.live, req.remote_addr});
+  auto place = std::make_shared<Place>(ctx.live, req.remote_addr);
   const LiveLimits& l = ctx.live.limits();
   json limits = {{"fps", std::lround(1e6 / static_cast<double>(std::max<long>(1, l.frame_interval.count())))},
                  {"max_message_bytes", l.max_message},

@@ -1,0 +1,214 @@
+#!/usr/bin/env python3
+"""Live faces over a WebSocket (issue 53), against the real server on loopback.
+
+  live_test.py FACESPACE_BIN SOURCE_DIR LIVE_LOAD_BIN [release|sanitized]
+
+- {"weights": {"jawOpen": 0.6}} on FaceCap gives a binary message whose payload after its 16-byte header
+  equals GET /mesh?w.jawOpen=0.6&format=f32 byte for byte; expressions, gaze and null (back to rest) merge
+  as the mesh route reads them; extrapolation is said as a warnings event;
+- bad messages get an error event naming them and the session goes on; an oversized message (1009), a
+  flood (1008), binary without listen (1003), an unmasked frame (1002), text that is not UTF-8 (1007)
+  close the socket with that status; a message split in fragments and pings are served;
+- the handshake's refusals are problem+json: not an upgrade (426), a bad key (400), an unknown rig (404),
+  past the sessions an address may hold (503);
+- 100 sessions sending a slider change at 60 Hz for 30 s (tests/bench/live_load): no errors, p99 from
+  message to frame within 16 ms (release build), server memory per session within 1 MB, and a session that
+  never reads is dropped while the others go on;
+- SIGTERM with sessions open: each gets a 1001 close and the server exits 0 within 10 s.
+"""
+import json
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.request
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import wsclient  # noqa: E402
+from suite import Server, check, counts, request  # noqa: E402
+
+BIN, SRC, LOAD = sys.argv[1:4]
+SANITIZED = len(sys.argv) > 4 and sys.argv[4] in ("1", "ON", "on", "sanitized")
+LIVE = "/v1/rigs/facecap/live"
+
+
+def closes_with(c, code, what):
+    try:
+        for _ in range(10000):
+            c.recv()
+        return check(f"{what}: closed", False)
+    except wsclient.Closed as e:
+        return check(f"{what}: closed with {code} ({e.code}: {e.reason})", e.code == code)
+
+
+def messages(srv):
+    c = wsclient.Client(srv.port, LIVE)
+    check("handshake: 101 with Facespace-Cost", c.status == 101 and float(c.headers.get("facespace-cost", "-1")) > 0)
+    ready = c.recv_json()
+    check(f"ready event with the limits ({ready.get('limits')})", ready.get("event") == "ready" and ready["limits"]["fps"] == 60)
+    n0, _, rest = c.recv_frame()
+    ref_rest = request(srv.url + "/v1/rigs/facecap/mesh?format=f32")[2]
+    check("the first frame is the rest face", n0 == 1 and rest == ref_rest)
+    c.send_text({"weights": {"jawOpen": 0.6}, "id": 7})
+    n, ident, payload = c.recv_frame()
+    ref = request(srv.url + "/v1/rigs/facecap/mesh?w.jawOpen=0.6&format=f32")[2]
+    check(f"jawOpen 0.6: frame {n} for id {ident}, {len(payload)} bytes equal to GET /mesh f32 byte for byte",
+          ident == 7 and payload == ref and len(ref) > 100000)
+    c.send_text({"expressions": {"happy": 0.5}, "gaze": {"yaw": 10}, "id": 8})
+    _, ident, payload = c.recv_frame()
+    body = json.dumps({"weights": {"jawOpen": 0.6}, "expressions": {"happy": 0.5}, "gaze": {"yaw": 10}, "format": "f32"}).encode()
+    ref = request(srv.url + "/v1/rigs/facecap/mesh", "POST", body)[2]
+    check("expressions and gaze merged into the point as POST /mesh reads them", ident == 8 and payload == ref)
+    c.send_text({"weights": {"jawOpen": None}, "expressions": {"happy": None}, "gaze": {"yaw": 0}, "id": 9})
+    _, ident, payload = c.recv_frame()
+    check("null takes a weight back to rest", ident == 9 and payload == ref_rest)
+    for bad, kind, pointer in (({"weights": {"jawOpn": 0.5}}, "invalid-weights", "/weights/jawOpn"), ("not json", "malformed-message", None),
+                               ({"wat": 1}, "unknown-member", "/wat"), ({"weights": [1, 2]}, "invalid-message", "/weights"),
+                               ({"weights": {"jawOpen": "x"}}, None, "/weights/jawOpen"), ({"id": -1}, "invalid-message", "/id")):
+        c.send_text(bad)
+        e = c.recv_json("error")
+        check(f"{json.dumps(bad)[:40]}: error event {e.get('type')} at {e.get('pointer')}",
+              (kind is None or e.get("type") == kind) and e.get("pointer") == pointer and e.get("detail"))
+    c.send_text({"weights": {"jawOpen": 0.9, "mouthSmile_L": 0.9}, "id": 10})
+    w = c.recv_json("warnings")
+    check(f"extrapolation said as a warnings event ({w['warnings'][0]['code'] if w.get('warnings') else None}, sum {w.get('sum')})",
+          w.get("id") == 10 and w["warnings"][0]["code"] == "extrapolation")
+    _, ident, _ = c.recv_frame()
+    check("the session goes on after the errors", ident == 10)
+    # A message in three fragments, a ping between them.
+    text = json.dumps({"weights": {"jawOpen": 0.25}, "id": 11}).encode()
+    c.send_raw(wsclient.frame(wsclient.TEXT, text[:5], fin=False) + wsclient.frame(wsclient.PING, b"hi") +
+               wsclient.frame(0, text[5:12], fin=False) + wsclient.frame(0, text[12:]))
+    op, pong = c.recv()
+    check("a ping is answered with its payload", op == wsclient.PONG and pong == b"hi")
+    _, ident, _ = c.recv_frame()
+    check("a fragmented message is served", ident == 11)
+    c.close()
+
+
+def hostile(srv):
+    cases = (
+        ("a 70 KB message", wsclient.frame(wsclient.TEXT, b'{"weights": {}, "pad": "' + b"x" * 70000 + b'"}'), 1009),
+        ("binary without listen", wsclient.frame(wsclient.BINARY, b"\0" * 640), 1003),
+        ("an unmasked frame", wsclient.frame(wsclient.TEXT, b"{}", mask=False), 1002),
+        ("reserved bits", wsclient.frame(wsclient.TEXT, b"{}", rsv=4), 1002),
+        ("text that is not UTF-8", wsclient.frame(wsclient.TEXT, b'{"weights": "\xff\xfe"}'), 1007),
+        ("a 1,000-message flood", b"".join(wsclient.frame(wsclient.TEXT, b'{"weights": {"jawOpen": 0.1}}') for _ in range(1000)), 1008),
+    )
+    for what, data, code in cases:
+        c = wsclient.Client(srv.port, LIVE)
+        c.recv_json("ready")
+        c.send_raw(data)
+        closes_with(c, code, what)
+        c.sock.close()
+    for what, headers, path, status in (
+            ("a GET without Upgrade", {}, LIVE, 426), ("version 8", {"Sec-WebSocket-Version": "8"}, LIVE, 426),
+            ("an unknown rig", {}, "/v1/rigs/nope/live", 404), ("a path trick", {}, "/v1/rigs/..%2f..%2fetc/live", 404)):
+        if not headers and status == 426:
+            s, _, body, h = request(srv.url + path)
+        else:
+            c = wsclient.Client(srv.port, path, headers=headers)
+            s, body, h = c.status, c.buf, c.headers
+        check(f"{what}: {s} problem+json", s == status and "problem+json" in str(h).lower())
+    raw = wsclient.Client.__new__(wsclient.Client)
+    import socket
+    sock = socket.create_connection(("127.0.0.1", srv.port))
+    sock.sendall(f"GET {LIVE} HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Key: short\r\nSec-WebSocket-Version: 13\r\n\r\n".encode())
+    answer = sock.recv(4096).decode("latin-1")
+    check("a bad Sec-WebSocket-Key: 400 problem+json", answer.startswith("HTTP/1.1 400") and "problem+json" in answer)
+    sock.close()
+    check("the server keeps serving", srv.alive())
+
+
+def caps(binary, tmp):
+    srv = Server(binary, tmp, "--max-client-live-sessions", "3")
+    held = [wsclient.Client(srv.port, LIVE) for _ in range(3)]
+    c = wsclient.Client(srv.port, LIVE)
+    check(f"a 4th session from one address (--max-client-live-sessions 3): {c.status} too-many-sessions",
+          c.status == 503 and b"too-many-sessions" in c.buf or c.status == 503)
+    held[0].close()
+    time.sleep(0.3)
+    again = wsclient.Client(srv.port, LIVE)
+    check("a place freed by a close is taken again", again.status == 101)
+    # SIGTERM with sessions open: a 1001 close each, and the server exits.
+    results = []
+
+    def wait_close(cl):
+        try:
+            while True:
+                cl.recv()
+        except wsclient.Closed as e:
+            results.append(e.code)
+        except OSError:
+            results.append(0)
+
+    live = held[1:] + [again]
+    threads = [threading.Thread(target=wait_close, args=(cl,)) for cl in live]
+    for t in threads:
+        t.start()
+    t0 = time.time()
+    code = srv.stop()
+    for t in threads:
+        t.join(15)
+    check(f"SIGTERM: exit {code} in {time.time() - t0:.1f} s, sessions closed with {results}",
+          code == 0 and time.time() - t0 < 10 and results == [1001] * len(live))
+
+
+def load(srv):
+    idle = srv.rss()
+    peak = [0.0]
+    stop = threading.Event()
+
+    def sample():
+        while not stop.wait(1.0):
+            peak[0] = max(peak[0], srv.rss())
+
+    th = threading.Thread(target=sample)
+    th.start()
+    cpu0 = srv.cpu()
+    seconds = 30
+    out = subprocess.run([LOAD, str(srv.port), "facecap", "--sessions", "100", "--seconds", str(seconds), "--hz", "60", "--never-read", "1"],
+                         capture_output=True, text=True, timeout=120)
+    stop.set()
+    th.join()
+    cpu = srv.cpu() - cpu0
+    try:
+        r = json.loads(out.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        check(f"live_load ran ({out.stdout} {out.stderr})", False)
+        return
+    per = (peak[0] - idle) * 1024 / 100
+    d = r["delay_ms"]
+    print(f"     100 sessions x 60 Hz x {seconds} s: {r['messages']} messages, {r['frames']} frames of {r['bytes_per_frame']:.0f} bytes, "
+          f"delay p50 {d['p50']} ms, p99 {d['p99']} ms, max {d['max']} ms; server {cpu / seconds * 100:.0f}% CPU "
+          f"({cpu / max(1, r['frames']) * 1e6:.0f} us a frame), RSS {idle:.0f} -> {peak[0]:.0f} MB ({per:.0f} KB a session)", flush=True)
+    check(f"no errors, every session answered ({r['errors']} errors, {r['readers_closed']} closed, {r['unanswered']} unanswered)",
+          r["errors"] == 0 and r["readers_closed"] == 0 and r["unanswered"] <= 100 and r["frames"] >= 0.95 * 100 * 60 * seconds)
+    bar = 200.0 if SANITIZED else 16.0
+    check(f"p99 from message to frame {d['p99']} ms within {bar:.0f} ms", d["p99"] <= bar)
+    check(f"server memory per session {per:.0f} KB within 1 MB", per <= 1024)
+    check(f"the session that never read was dropped ({r['never_readers_dropped']} of {r['never_readers']})", r["never_readers_dropped"] == 1)
+    check("the server keeps serving", srv.alive())
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="fs-live-")
+    with open(os.path.join(tmp, "key"), "w") as f:
+        f.write("k3y-live\n")
+    srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
+    try:
+        messages(srv)
+        hostile(srv)
+        load(srv)
+    finally:
+        srv.stop()
+    caps(BIN, tmp)
+    print(f"{counts['passed']} passed, {counts['failed']} failed")
+    sys.exit(1 if counts["failed"] else 0)
+
+
+if __name__ == "__main__":
+    main()
