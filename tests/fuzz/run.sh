@@ -8,7 +8,7 @@ build=$1; budget=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech"
+targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech fuzz_live"
 for t in $targets; do mkdir -p "$corpus/$t"; done
 set -- $targets
 seconds=$((budget / $#)); [ $seconds -ge 10 ] || seconds=10
@@ -95,6 +95,9 @@ f="$shared/real/TriangleWithoutIndices/TriangleWithoutIndices.gltf"
 if [ -f "$f" ]; then
   { printf 'PUT /v1/rigs/up HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer fuzz-key\r\nContent-Type: model/gltf+json\r\nContent-Length: %s\r\n\r\n' "$(stat -c %s "$f")"; cat "$f"; } >"$corpus/fuzz_http/put"
 fi
+# Live: the RFC's masked "Hello", a 16-bit length and a fragmented message with a ping between (cap byte first).
+printf '\1\x81\x85\x37\xfa\x21\x3d\x7f\x9f\x4d\x51\x58' >"$corpus/fuzz_live/hello"
+printf '\1\x01\x82\0\0\0\0{"\x89\x80\0\0\0\0\x80\x81\0\0\0\0}' >"$corpus/fuzz_live/fragments"
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:intercept_tls_get_addr=0 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
 # One target: its regression inputs, then the timed run; what it found in $build/$t.summary, its
 # exit code in $build/$t.rc. Targets run as many at once as there are cores.
