@@ -26,7 +26,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, cons
                          std::none_of(plan.warnings.begin(), plan.warnings.end(), [](const Warning& w) { return w.code == "transcript_not_aligned"; });
     plan.source = aligned ? "pocketsphinx-aligned" : "pocketsphinx";
   } else {
-    auto spoken = speech::Synthesize(request.text, {.voice = request.voice, .rate = request.rate, .stop = stop});
+    auto spoken = speech::Synthesize(request.text, {.voice = request.voice, .rate = request.rate, .stop = stop, .on_chunk = {}});
     if (!spoken.ok()) return spoken.status();
     plan.audio = std::move(spoken->audio);
     plan.phonemes = std::move(spoken->phonemes);

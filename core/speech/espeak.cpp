@@ -26,6 +26,8 @@ struct Collect {
   std::vector<std::pair<int, std::string>> events;  // (ms, IPA phoneme)
   std::chrono::steady_clock::time_point deadline;
   std::stop_token stop;
+  const SynthOptions* options = nullptr;
+  int rate = 0;
   bool timed_out = false, stopped = false;
 };
 Collect* g_collect = nullptr;  // Under Lock().
@@ -33,11 +35,16 @@ Collect* g_collect = nullptr;  // Under Lock().
 int OnSynth(short* wav, int count, espeak_EVENT* events) {
   Collect* c = g_collect;
   if (!c) return 1;
+  const size_t samples_before = c->samples.size(), events_before = c->events.size();
   if (wav && count > 0) c->samples.insert(c->samples.end(), wav, wav + count);
   for (espeak_EVENT* e = events; e && e->type != espeakEVENT_LIST_TERMINATED; ++e) {
     if (e->type != espeakEVENT_PHONEME) continue;
     const char* s = e->id.string;
     c->events.emplace_back(e->audio_position, std::string(s, strnlen(s, sizeof(e->id.string))));
+  }
+  if (c->options && c->options->on_chunk) {
+    c->options->on_chunk(c->rate, std::span<const int16_t>(c->samples).subspan(samples_before),
+                         std::span<const std::pair<int, std::string>>(c->events).subspan(events_before));
   }
   if (c->stop.stop_requested()) {
     c->stopped = true;
@@ -133,6 +140,8 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
   Collect collect;
   collect.deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   collect.stop = options.stop;
+  collect.options = &options;
+  collect.rate = rate;
   g_collect = &collect;
   const std::string z(text);
   const espeak_ERROR err = espeak_Synth(z.c_str(), z.size() + 1, 0, POS_CHARACTER, 0, espeakCHARS_UTF8, nullptr, nullptr);

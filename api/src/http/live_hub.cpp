@@ -130,6 +130,14 @@ void LiveHub::Adopt(int fd, const std::string& ip, std::string buffered, std::un
   s->in = std::move(buffered);
   s->tokens = 2 * limits_.max_rate;
   s->tokens_at = Clock::now();
+  s->handler->Attach([this, weak = std::weak_ptr<Session>(s)](ws::Opcode op, std::string_view payload) {
+    const std::shared_ptr<Session> held = weak.lock();
+    if (!held) return false;
+    std::lock_guard<std::mutex> lock(held->mu);
+    if (held->closing) return false;
+    Queue(*held, ws::ServerFrame(op, payload));
+    return true;
+  });
   {
     std::lock_guard<std::mutex> lock(mu_);
     s->id = next_id_++;
@@ -422,6 +430,7 @@ void LiveHub::Forget(const std::shared_ptr<Session>& s) {
   s->reading = false;
   ::shutdown(s->fd, SHUT_RDWR);
   s->handler->Cancel();
+  s->handler->End();
 }
 
 // ---- turns ------------------------------------------------------------------------------------

@@ -12,6 +12,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -37,10 +38,16 @@ struct LiveLimits {
   int workers = 0;                       // Threads running turns; 0: one per core.
 };
 
+// Sends one whole message of a session from any thread (speech made as it is spoken); false once the
+// session is closing or gone.
+using LivePost = std::function<bool(ws::Opcode opcode, std::string_view payload)>;
+
 // What a session does with its messages, called from one thread at a time.
 class LiveHandler {
  public:
   virtual ~LiveHandler() = default;
+  // The session's post, before its first turn.
+  virtual void Attach(LivePost) {}
   struct Out {
     std::vector<std::string> texts;     // Text messages to send (events), in order.
     bool frame_wanted = false;          // The state changed: a frame is due.
@@ -54,8 +61,10 @@ class LiveHandler {
   virtual void OnBinary(std::string_view bytes, Out& out) = 0;
   // The payload of a binary message: a frame of the current state, into `message`; false to skip it.
   virtual bool MakeFrame(std::string& message, Out& out) = 0;
-  // Stop whatever runs for the session (the socket is closing).
+  // Stop whatever runs for the session (the socket is closing): from any thread, without waiting.
   virtual void Cancel() {}
+  // The session is gone: wait for what ran for it to end (once, on the hub's loop thread).
+  virtual void End() {}
 };
 
 // A session's limits from its admission: how long it may stay and the CPU it may spend.

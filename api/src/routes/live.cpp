@@ -8,6 +8,7 @@
 #include "../http/framing.h"
 #include "../http/live_hub.h"
 #include "../http/problem.h"
+#include "live_say.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -20,10 +21,6 @@ using nlohmann::json;
 constexpr char kMeshTag[4] = {'m', 'e', 's', 'h'};
 constexpr size_t kHeaderBytes = 16;
 
-void PutU32(std::string& out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
-}
-
 std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer = "") {
   json e = {{"event", "error"}, {"type", type}, {"detail", detail}};
   if (!pointer.empty()) e["pointer"] = pointer;
@@ -32,7 +29,7 @@ std::string ErrorEvent(const std::string& type, const std::string& detail, const
 
 // The members a state message may carry, merged into the point; and the others it may carry.
 constexpr std::string_view kMerged[] = {"weights", "expressions", "controls", "gaze"};
-constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id"};
+constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id", "say", "stop"};
 
 class FaceSession final : public LiveHandler {
  public:
@@ -58,6 +55,7 @@ class FaceSession final : public LiveHandler {
       out.texts.push_back(ErrorEvent("malformed-message", "a message is a JSON object: {\"weights\": {\"jawOpen\": 0.5}}"));
       return;
     }
+    if (m.contains("say") || m.contains("stop")) return Speech(m, out);
     json next = state_;
     uint32_t id = last_id_;
     for (auto it = m.begin(); it != m.end(); ++it) {
@@ -82,8 +80,8 @@ class FaceSession final : public LiveHandler {
           else into[v.key()] = *v;
         }
         if (into.empty()) next.erase(key);
-      } else if (key == "say" || key == "listen" || key == "stop") {
-        out.texts.push_back(ErrorEvent("not-supported", "'" + key + "' is not served on this socket yet: use POST /v1/rigs/{id}/speech", "/" + key));
+      } else if (key == "listen") {
+        out.texts.push_back(ErrorEvent("not-supported", "'listen' is not served on this socket yet: send the recording to POST /v1/rigs/{id}/speech", "/listen"));
         return;
       } else {
         std::string valid;
@@ -130,9 +128,44 @@ class FaceSession final : public LiveHandler {
     return true;
   }
 
-  void Cancel() override { stop_.request_stop(); }
+  void Attach(LivePost post) override { speaker_.Attach(std::move(post)); }
+  void Cancel() override {
+    stop_.request_stop();
+    speaker_.Stop();
+  }
+  void End() override { speaker_.Close(); }
 
  private:
+  // {"say": {"text", "voice", "rate"}} queued for the speaker; {"stop": true} ends the speech.
+  void Speech(const json& m, Out& out) {
+    for (auto it = m.begin(); it != m.end(); ++it) {
+      if (it.key() != "say" && it.key() != "stop") {
+        return out.texts.push_back(ErrorEvent("invalid-message", "say and stop go alone in their message, not with '" + it.key().substr(0, 64) + "'", "/" + it.key().substr(0, 64)));
+      }
+    }
+    if (m.contains("stop")) {
+      if (m["stop"] != true) return out.texts.push_back(ErrorEvent("invalid-message", "stop must be true", "/stop"));
+      if (!speaker_.Stop()) out.texts.push_back(json{{"event", "say"}, {"state", "idle"}}.dump());
+      return;
+    }
+    const json& say = m["say"];
+    if (!say.is_object() || !say.contains("text") || !say["text"].is_string()) {
+      return out.texts.push_back(ErrorEvent("invalid-message", "say is {\"text\": \"...\", \"voice\": \"en-us\", \"rate\": 175}", "/say"));
+    }
+    if (Status s = CanSpeak(rig_->rig); !s.ok()) return Refuse(s, out);
+    std::string voice = kDefaultVoice;
+    int rate = 175;
+    for (auto it = say.begin(); it != say.end(); ++it) {
+      const std::string where = "/say/" + it.key().substr(0, 64);
+      if (it.key() == "voice" && it->is_string()) voice = it->get<std::string>();
+      else if (it.key() == "rate" && it->is_number_integer()) rate = it->get<int>();
+      else if (it.key() != "text") return out.texts.push_back(ErrorEvent("invalid-message", "say takes text, voice (a string) and rate (words a minute)", where));
+    }
+    if (Status s = speaker_.Say(say["text"].get<std::string>(), voice, rate); !s.ok()) {
+      return out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, s.fields.empty() ? "/say" : s.fields[0].pointer));
+    }
+  }
+
   void Refuse(const Status& s, Out& out) {
     const std::string pointer = s.fields.empty() ? "" : s.fields[0].pointer;
     out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, pointer));
@@ -157,6 +190,7 @@ class FaceSession final : public LiveHandler {
   uint32_t frame_ = 0, last_id_ = 0;
   json last_warnings_ = json::array();
   std::stop_source stop_;
+  LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
 };
 
 bool HasToken(const httplib::Request& req, const char* header, std::string_view token) {

@@ -9,6 +9,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <functional>
+#include <span>
+#include <utility>
 #include <string>
 #include <stop_token>
 #include <string_view>
@@ -74,6 +77,10 @@ struct SynthOptions {
   std::string voice = kDefaultVoice;  // An espeak-ng voice name or language ("en-us", "en", "ja", "de", ...).
   int rate = 175;               // Words per minute, 80 to 450.
   std::stop_token stop;         // Fired: the synthesis stops at espeak-ng's next callback, Cancelled.
+  // Called as espeak-ng makes the speech (about 0.2 s of audio a call), under its lock: the new samples
+  // (16-bit, at the voice's rate) and the new phoneme events (start in ms, IPA; "" a pause). For speech
+  // that starts while it is made (the live route); it must not wait.
+  std::function<void(int rate, std::span<const int16_t> samples, std::span<const std::pair<int, std::string>> events)> on_chunk;
 };
 
 struct Spoken {
