@@ -7,6 +7,7 @@ import { History } from './history.js';
 import { characterFile, parseCharacter, recentCharacters, rememberCharacter } from './character.js';
 import { loadSheets, releaseSheets, showCell } from './thumbs.js';
 import { createSpeech } from './speech.js';
+import { createLive } from './live.js';
 import { createMotions } from './motion.js';
 import { fillSelect } from './dom.js';
 
@@ -414,6 +415,7 @@ function showMotionWeights(weights) {
 async function refreshMesh() {
   const id = state.ready;  // The rig whose sliders and topology are set; none while one loads.
   if (!id) return;
+  if (live.send(point())) return;  // Its frame comes back over the socket.
   const mesh = await post(`/v1/rigs/${encodeURIComponent(id)}/mesh`, { ...point(), format: 'f32' }).then((r) => r.arrayBuffer());
   if (id !== state.ready) return;
   showError(null);
@@ -517,7 +519,8 @@ async function download(format) {
 
 const gl = createMeshView($('gl'));
 const motions = createMotions({ state, $, refreshViews, schedule, showMotionWeights });
-const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError, save });
+const live = createLive({ state, gl, $, showError, refreshViews, nonZero });
+const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError, save, live });
 
 // ---- start ---------------------------------------------------------------------------------
 
@@ -559,6 +562,7 @@ async function loadRig(id, weights) {
   if (unknown.length) notice(`Not in ${id}, left out: ${unknown.slice(0, 6).join(', ')}${unknown.length > 6 ? ', \u2026' : ''}`);
   gl.setTopology(topology);
   state.ready = id;
+  live.connect(id);
   edits.clear(snapshot());  // A rig's history starts at the face it opens with.
   showHistory();
   schedule();

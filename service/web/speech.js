@@ -3,11 +3,12 @@
 // state and the calls it shares ({state, $, post, call, nonZero, refreshViews, showWarnings, showError, save}).
 
 export function createSpeech(page) {
-  const { state, $, post, call, nonZero, refreshViews, showWarnings, showError, save } = page;
+  const { state, $, post, call, nonZero, refreshViews, showWarnings, showError, save, live } = page;
 
   // state.speech while one plays: {keys, audio (an <audio>), url}. The views then show the keys' weights at
   // the audio's own clock (audio.currentTime), so the mouth follows what is heard.
   function speechWeights() {
+    if (state.speech.live) return live.weights();
     const { keys, audio } = state.speech;
     const t = audio.currentTime;
     let i = 0;
@@ -33,6 +34,7 @@ export function createSpeech(page) {
 
   function stopSpeech() {
     if (!state.speech) return;
+    if (state.speech.live) return live.stopSay();
     state.speech.audio.pause();
     URL.revokeObjectURL(state.speech.url);
     state.speech = null;
@@ -45,6 +47,7 @@ export function createSpeech(page) {
     const id = state.ready;
     if (!id) return;
     stopSpeech();
+    if (text && live.say(text)) return;  // Over the live socket: it starts while it is made.
     $('say-state').textContent = text ? 'speaking\u2026' : 'listening\u2026';
     const path = `/v1/rigs/${encodeURIComponent(id)}/speech`;
     let answer, wav;

@@ -219,12 +219,15 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   const before = await page.evaluate(() => window.facespace.state.meshUpdates || 0);
   await page.locator('#say-text').fill('Hello, my name is Bob. Please pass the map.');
   await page.locator('#say-go').click();
-  await page.waitForFunction(() => window.facespace.state.speech && window.facespace.state.speech.audio.currentTime > 1.0, null, { timeout: 20000 });
+  // Over the live socket: audio chunks played as they come (Web Audio), the mouth on their clock.
+  await page.waitForFunction(() => { const s = window.facespace.state.speech; return s && s.live && s.base !== null && s.ctx.currentTime - s.base > 1.0; },
+                             null, { timeout: 20000 });
   const during = await page.evaluate(() => ({ updates: window.facespace.state.meshUpdates, max: window.facespace.state.speechMax,
-                                              status: document.getElementById('say-state').textContent }));
+                                              frames: window.facespace.state.liveFrames }));
   await page.waitForFunction(() => !window.facespace.state.speech, null, { timeout: 20000 });
-  check(`say: the audio plays and the WebGL face follows it (${during.updates - before} meshes in its first second, largest weight ` +
-        `${during.max.toFixed(2)}; "${during.status}")`, during.updates - before >= 10 && during.max > 0.3 && /espeak-ng/.test(during.status));
+  const status = await page.locator('#say-state').textContent();
+  check(`say: over the live socket the audio plays and the WebGL face follows it (${during.updates - before} meshes in its first second, ` +
+        `largest weight ${during.max.toFixed(2)}; "${status}")`, during.updates - before >= 10 && during.max > 0.3 && /espeak-ng, live/.test(status));
   check('say: when the line ends the face is the sliders\' again', await page.evaluate(() => !window.facespace.state.speech) &&
         await page.locator('#say-stop').isHidden());
   // The typed line as a video: a WebM file (EBML's magic number first) of the face saying it.
@@ -245,9 +248,12 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   await page.waitForFunction(() => document.getElementById('preview').naturalWidth === 512 && !document.getElementById('views').classList.contains('loading'), null, { timeout: 30000 });
   // A drag as a browser delivers it: an input event each frame (60 a second) for 1 s, in the page (the
   // test driver's own mouse moves come at about 11 a second here).
+  await page.waitForFunction(() => window.facespace.state.liveFrames > 0, null, { timeout: 10000 });
+  let meshRequests = 0;
+  page.on('request', (r) => { if (r.url().includes('/mesh')) ++meshRequests; });
   const drag = await page.evaluate(async () => {
     const slider = document.querySelector('input[aria-label="jawOpen"]');
-    const before = window.facespace.state.meshUpdates;
+    const before = window.facespace.state.meshUpdates, frames = window.facespace.state.liveFrames;
     let inputs = 0;
     const t = performance.now();
     while (performance.now() - t < 1000) {
@@ -256,10 +262,11 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
       ++inputs;
       await new Promise((r) => setTimeout(r, 16));
     }
-    return { updates: window.facespace.state.meshUpdates - before, inputs };
+    return { updates: window.facespace.state.meshUpdates - before, frames: window.facespace.state.liveFrames - frames, inputs };
   });
   const during = drag.updates, inputs = drag.inputs;
   check(`drag: the WebGL view follows a 1 s slider drag (${during} mesh updates for ${inputs} input events, at least 10)`, during >= 10);
+  check(`drag: over the live socket (${drag.frames} frames, ${meshRequests} HTTP mesh requests)`, drag.frames >= 10 && meshRequests === 0);
   const switched = await page.evaluate(async () => {
     const views = document.getElementById('views');
     const select = document.getElementById('rig');

@@ -1,0 +1,150 @@
+// The live socket (GET /v1/rigs/{id}/live, a WebSocket), one per rig shown. While it is open the WebGL
+// view's meshes come from it: a slider move is one small message (what changed), the answer one binary
+// frame (16 bytes, then the float32 mesh), at most 60 a second, the newest state winning. Say speaks over
+// it too: audio chunks played as they arrive (Web Audio) and visemes on the audio's clock, the mouth
+// following them. Closed or refused, the page falls back to HTTP. A module of the page: `page` hands it
+// {state, gl, $, showError, refreshViews, nonZero}.
+
+export function createLive(page) {
+  const { state, gl, $, showError, refreshViews, nonZero } = page;
+  const live = { ws: null, rig: null, open: false, sent: {}, id: 0 };
+
+  function connect(id) {
+    close();
+    if (typeof WebSocket === 'undefined') return;
+    const url = new URL(`/v1/rigs/${encodeURIComponent(id)}/live`, location.href);
+    url.protocol = url.protocol === 'https:' ? 'wss:' : 'ws:';
+    const ws = new WebSocket(url);
+    ws.binaryType = 'arraybuffer';
+    Object.assign(live, { ws, rig: id, open: false, sent: {} });
+    ws.onmessage = (e) => (typeof e.data === 'string' ? onText(JSON.parse(e.data)) : onBinary(e.data));
+    ws.onclose = () => {
+      if (live.ws !== ws) return;
+      live.open = false;
+      if (state.speech && state.speech.live) stopSay();
+    };
+  }
+
+  function close() {
+    if (live.ws) live.ws.close(1000);
+    Object.assign(live, { ws: null, rig: null, open: false, sent: {} });
+  }
+
+  // The point's change as one message; false when the socket cannot carry it (closed, another rig, a motion).
+  function send(p) {
+    if (!live.open || live.rig !== state.ready || p.animation !== undefined) return false;
+    const message = {};
+    for (const key of ['weights', 'expressions', 'controls']) {
+      const now = p[key] || {}, before = live.sent[key] || {}, diff = {};
+      for (const [name, v] of Object.entries(now)) if (before[name] !== v) diff[name] = v;
+      for (const name of Object.keys(before)) if (!(name in now)) diff[name] = null;
+      if (Object.keys(diff).length) message[key] = diff;
+      live.sent[key] = { ...now };
+    }
+    if (!Object.keys(message).length) return true;
+    message.id = ++live.id;
+    live.ws.send(JSON.stringify(message));
+    return true;
+  }
+
+  function onText(m) {
+    if (m.event === 'ready') {
+      live.open = true;
+      refreshViews();  // The face as the sliders have it, now over the socket.
+    } else if (m.viseme && state.speech && state.speech.live) {
+      state.speech.visemes.push(m);
+    } else if (m.event === 'say' && state.speech && state.speech.live) {
+      if (m.state === 'start' && state.speech.clock === null) state.speech.clock = m.clock;
+      if (m.state === 'end' || m.state === 'stopped') state.speech.made = true;
+    } else if (m.event === 'error') {
+      showError(new Error(m.detail));
+    }
+  }
+
+  function onBinary(buf) {
+    const tag = String.fromCharCode(...new Uint8Array(buf, 0, 4));
+    if (tag === 'mesh' && live.rig === state.ready) {
+      gl.update(new Float32Array(buf, 16));
+      state.meshUpdates = (state.meshUpdates || 0) + 1;
+      state.liveFrames = (state.liveFrames || 0) + 1;  // Counted for the browser test.
+      $('views').classList.remove('loading');
+    } else if (tag === 'pcm1') {
+      play(buf);
+    }
+  }
+
+  // One audio chunk, scheduled at its place on the say's clock.
+  function play(buf) {
+    const s = state.speech;
+    if (!s || !s.live) return;
+    const head = new DataView(buf), rate = head.getUint32(8, true), first = head.getUint32(12, true);
+    const pcm = new Int16Array(buf, 16, (buf.byteLength - 16) / 2);
+    const audio = s.ctx.createBuffer(1, pcm.length, rate);
+    const channel = audio.getChannelData(0);
+    for (let i = 0; i < pcm.length; ++i) channel[i] = pcm[i] / 32768;
+    if (s.base === null) s.base = s.ctx.currentTime + 0.05 - first / rate;  // Session clock -> audio context time.
+    const source = s.ctx.createBufferSource();
+    source.buffer = audio;
+    source.connect(s.ctx.destination);
+    source.start(Math.max(s.ctx.currentTime, s.base + first / rate));
+    s.end = Math.max(s.end, first / rate + pcm.length / rate);
+    s.samples += pcm.length;
+  }
+
+  // The weights at the audio's clock: the sliders', with the viseme said (and the next, faded in over its
+  // last 60 ms) on top, as the rig's viseme map says it.
+  function weights() {
+    const s = state.speech, map = (state.detail && state.detail.visemes) || {};
+    const out = { ...nonZero() };
+    if (s.base === null) return out;
+    const t = s.ctx.currentTime - s.base;
+    const i = s.visemes.findIndex((v) => v.start <= t && t < v.end);
+    if (i < 0) return out;
+    const v = s.visemes[i], next = s.visemes[i + 1];
+    const f = next ? Math.min(1, Math.max(0, (t - (v.end - 0.06)) / 0.06)) : 0;
+    const add = (name, w) => { for (const [k, x] of Object.entries(map[name] || {})) out[k] = Math.min(1, (out[k] || 0) + x * w); };
+    add(v.viseme, 1 - f);
+    if (next) add(next.viseme, f);
+    for (const k of Object.keys(out)) out[k] = +out[k].toFixed(4);
+    state.speechMax = Math.max(state.speechMax || 0, ...Object.values(out), 0);  // For the browser test.
+    return out;
+  }
+
+  // Say over the socket: false when it cannot (closed), so the page says it over HTTP instead.
+  function say(text) {
+    if (!live.open || live.rig !== state.ready) return false;
+    const ctx = new AudioContext();
+    state.speech = { live: true, ctx, base: null, clock: null, visemes: [], end: 0, samples: 0, made: false };
+    state.speechMax = 0;
+    live.ws.send(JSON.stringify({ say: { text } }));
+    $('say-stop').hidden = false;
+    $('say-state').textContent = 'speaking (live)\u2026';
+    const follow = () => {
+      const s = state.speech;
+      if (!s || s.ctx !== ctx) return;
+      refreshViews();
+      if (s.made && s.base !== null && ctx.currentTime - s.base > s.end) {
+        const said = s.visemes.filter((v) => v.viseme !== 'sil').length;
+        stopSay(`${(s.samples / 22050).toFixed(1)} s, ${said} visemes (espeak-ng, live)`);
+      } else {
+        requestAnimationFrame(follow);
+      }
+    };
+    requestAnimationFrame(follow);
+    return true;
+  }
+
+  function stopSay(status) {
+    const s = state.speech;
+    if (!s || !s.live) return;
+    if (!s.made && live.open) live.ws.send(JSON.stringify({ stop: true }));
+    s.ctx.close();
+    state.speech = null;
+    state.liveSaid = (state.liveSaid || 0) + 1;  // Counted for the browser test.
+    $('say-stop').hidden = true;
+    $('say-state').textContent = status || '';
+    refreshViews();
+  }
+
+  return { connect, close, send, say, stopSay, weights, get open() { return live.open; } };
+}
