@@ -14,12 +14,43 @@
 #include <sstream>
 
 #include "facespace/speech/speech.h"
-
-#ifndef FACESPACE_SPHINX_MODEL
-#define FACESPACE_SPHINX_MODEL "/usr/share/pocketsphinx/model/en-us"
-#endif
+#include "sphinx_decoder.h"
 
 namespace facespace::speech {
+
+ps_decoder_t* NewAllPhoneDecoder() {
+  const std::string model = FACESPACE_SPHINX_MODEL;
+  cmd_ln_t* config = cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", (model + "/en-us").c_str(), "-dict", (model + "/cmudict-en-us.dict").c_str(),
+                                 "-allphone", (model + "/en-us-phone.lm.bin").c_str(), "-backtrace", "yes", "-beam", "1e-20", "-pbeam", "1e-20",
+                                 "-lw", "2.0", "-allphone_ci", "yes", "-remove_silence", "no", "-logfn", "/dev/null", nullptr);
+  if (!config) return nullptr;
+  ps_decoder_t* ps = ps_init(config);
+  cmd_ln_free_r(config);
+  return ps;
+}
+
+std::vector<float> CepstralMeans(ps_decoder_t* ps) {
+  const cmn_t* c = ps_get_feat(ps)->cmn_struct;
+  return c ? std::vector<float>(c->cmn_mean, c->cmn_mean + c->veclen) : std::vector<float>{};
+}
+
+void SetCepstralMeans(ps_decoder_t* ps, const std::vector<float>& means) {
+  cmn_t* c = ps_get_feat(ps)->cmn_struct;
+  if (!c || means.size() != static_cast<size_t>(c->veclen)) return;
+  std::copy(means.begin(), means.end(), c->cmn_mean);
+  std::fill(c->sum, c->sum + c->veclen, 0.0f);
+  c->nframe = 0;
+}
+
+void AppendSegment(std::vector<TimedPhoneme>& out, std::string name, float start, float end, bool heard) {
+  if (const size_t paren = name.find('('); paren != std::string::npos) name.resize(paren);
+  if (!heard || name.empty() || name == "<sil>" || name == "<s>" || name == "</s>" || name.front() == '+' || name.front() == '[') name = "SIL";
+  if (!out.empty() && out.back().name == "SIL" && name == "SIL") {
+    out.back().end = std::max(out.back().end, end);
+    return;
+  }
+  out.push_back({name, start, std::max(start, end)});
+}
 
 namespace {
 
@@ -29,6 +60,7 @@ struct Decoder {
   std::timed_mutex lock;
   ps_decoder_t* ps = nullptr;
   bool tried = false;
+  std::vector<float> cmn;  // Its cepstral means as made (the model's -cmninit).
 };
 
 Decoder& TheDecoder() {
@@ -40,13 +72,8 @@ Decoder& TheDecoder() {
 ps_decoder_t* Make(Decoder& d) {
   if (d.tried) return d.ps;
   d.tried = true;
-  const std::string model = FACESPACE_SPHINX_MODEL;
-  cmd_ln_t* config = cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", (model + "/en-us").c_str(), "-dict", (model + "/cmudict-en-us.dict").c_str(),
-                                 "-allphone", (model + "/en-us-phone.lm.bin").c_str(), "-backtrace", "yes", "-beam", "1e-20", "-pbeam", "1e-20",
-                                 "-lw", "2.0", "-allphone_ci", "yes", "-logfn", "/dev/null", nullptr);
-  if (!config) return nullptr;
-  d.ps = ps_init(config);
-  cmd_ln_free_r(config);
+  d.ps = NewAllPhoneDecoder();
+  if (d.ps) d.cmn = CepstralMeans(d.ps);
   return d.ps;
 }
 
@@ -84,6 +111,7 @@ struct Segment {
 // `first_frame`: where `pcm` starts in the audio, added to the segments' frames.
 std::vector<Segment> Decode(ps_decoder_t* ps, std::span<const int16_t> pcm, int first_frame, bool* ok) {
   std::vector<Segment> out;
+  SetCepstralMeans(ps, TheDecoder().cmn);
   *ok = ps_start_utt(ps) >= 0 && ps_process_raw(ps, pcm.data(), pcm.size(), FALSE, TRUE) >= 0 && ps_end_utt(ps) >= 0;
   if (!*ok) return out;
   int32 score;
@@ -239,15 +267,7 @@ Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options
     size_t on = 0;
     for (size_t f = sf; f <= ef && f < active.size(); ++f) on += active[f];
     const bool heard = 2 * on > ef - sf + 1;
-    std::string name = s.name;
-    if (const size_t paren = name.find('('); paren != std::string::npos) name.resize(paren);
-    if (!heard || name == "<sil>" || name == "<s>" || name == "</s>" || name.front() == '+' || name.front() == '[') name = "SIL";
-    const float start = sf * kFrame, end = std::min(total, (ef + 1) * kFrame);
-    if (!out.phonemes.empty() && out.phonemes.back().name == "SIL" && name == "SIL") {
-      out.phonemes.back().end = end;
-      continue;
-    }
-    out.phonemes.push_back({name, start, std::max(start, end)});
+    AppendSegment(out.phonemes, s.name, sf * kFrame, std::min(total, (ef + 1) * kFrame), heard);
   }
   if (out.phonemes.empty()) out.phonemes.push_back({"SIL", 0.0f, total});
   return out;

@@ -8,6 +8,7 @@
 #include "../http/framing.h"
 #include "../http/live_hub.h"
 #include "../http/problem.h"
+#include "facespace/speech/speech.h"
 #include "live_say.h"
 #include "routes.h"
 
@@ -29,7 +30,7 @@ std::string ErrorEvent(const std::string& type, const std::string& detail, const
 
 // The members a state message may carry, merged into the point; and the others it may carry.
 constexpr std::string_view kMerged[] = {"weights", "expressions", "controls", "gaze"};
-constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id", "say", "stop"};
+constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id", "say", "stop", "listen"};
 
 class FaceSession final : public LiveHandler {
  public:
@@ -55,6 +56,7 @@ class FaceSession final : public LiveHandler {
       out.texts.push_back(ErrorEvent("malformed-message", "a message is a JSON object: {\"weights\": {\"jawOpen\": 0.5}}"));
       return;
     }
+    if (m.contains("listen")) return Listen(m, out);
     if (m.contains("say") || m.contains("stop")) return Speech(m, out);
     json next = state_;
     uint32_t id = last_id_;
@@ -80,9 +82,6 @@ class FaceSession final : public LiveHandler {
           else into[v.key()] = *v;
         }
         if (into.empty()) next.erase(key);
-      } else if (key == "listen") {
-        out.texts.push_back(ErrorEvent("not-supported", "'listen' is not served on this socket yet: send the recording to POST /v1/rigs/{id}/speech", "/listen"));
-        return;
       } else {
         std::string valid;
         for (std::string_view k : kKnown) valid += (valid.empty() ? "" : ", ") + std::string(k);
@@ -104,10 +103,18 @@ class FaceSession final : public LiveHandler {
     SayWarnings(out);
   }
 
-  void OnBinary(std::string_view, Out& out) override {
-    out.close = true;
-    out.code = ws::CloseCode::kUnsupportedData;
-    out.reason = "binary messages are audio, and need {\"listen\": ...} first";
+  void OnBinary(std::string_view bytes, Out& out) override {
+    if (!listener_) {
+      out.close = true;
+      out.code = ws::CloseCode::kUnsupportedData;
+      out.reason = "binary messages are audio, and need {\"listen\": ...} first";
+      return;
+    }
+    if (bytes.size() % 2) return out.texts.push_back(ErrorEvent("invalid-audio", "audio is 16-bit samples: an even number of bytes"));
+    std::vector<int16_t> pcm(bytes.size() / 2);
+    std::memcpy(pcm.data(), bytes.data(), bytes.size());  // Little-endian, as this machine.
+    if (Status s = listener_->Feed(pcm, heard_); !s.ok()) return Refuse(s, out);
+    SayHeard(false, out);
   }
 
   bool MakeFrame(std::string& message, Out& out) override {
@@ -166,6 +173,70 @@ class FaceSession final : public LiveHandler {
     }
   }
 
+  // {"listen": {"rate": 16000, "frames": false}} starts hearing binary audio; {"listen": false} ends it.
+  void Listen(const json& m, Out& out) {
+    const json& l = m["listen"];
+    if (m.size() != 1) return out.texts.push_back(ErrorEvent("invalid-message", "listen goes alone in its message", "/listen"));
+    if (l == false) {
+      if (listener_) {
+        listener_->Finish(heard_);
+        SayHeard(true, out);
+        listener_.reset();
+      }
+      return out.texts.push_back(json{{"event", "listen"}, {"state", "end"}}.dump());
+    }
+    if (!l.is_object()) return out.texts.push_back(ErrorEvent("invalid-message", "listen is {\"rate\": 16000, \"frames\": false} or false", "/listen"));
+    for (auto it = l.begin(); it != l.end(); ++it) {
+      const std::string where = "/listen/" + it.key().substr(0, 64);
+      if (it.key() == "rate" && (!it->is_number_integer() || it->get<int>() != 16000)) {
+        return out.texts.push_back(ErrorEvent("invalid-message", "the audio's rate must be 16000 (16-bit mono PCM; a browser resamples with an AudioContext of 16 kHz)", where));
+      }
+      if (it.key() == "frames" && !it->is_boolean()) return out.texts.push_back(ErrorEvent("invalid-message", "frames must be true or false", where));
+      if (it.key() != "rate" && it.key() != "frames") return out.texts.push_back(ErrorEvent("invalid-message", "listen takes rate and frames", where));
+    }
+    if (Status s = CanSpeak(rig_->rig); !s.ok()) return Refuse(s, out);
+    if (listener_) return out.texts.push_back(ErrorEvent("invalid-message", "already listening: {\"listen\": false} ends it", "/listen"));
+    auto opened = speech::LiveRecognizer::Open();
+    if (!opened.ok()) return Refuse(opened.status(), out);
+    listener_ = std::move(opened.value());
+    listen_frames_ = l.value("frames", false);
+    heard_.clear();
+    out.texts.push_back(json{{"event", "listen"}, {"state", "start"}, {"rate", 16000}}.dump());
+  }
+
+  // The visemes of what was heard, each once it is sure (the last held until the next begins, unless `all`).
+  void SayHeard(bool all, Out& out) {
+    if (heard_.empty()) return;
+    std::vector<TimedViseme> v = VisemesOfPhonemes(heard_);
+    const size_t n = all ? v.size() : (v.size() > 1 ? v.size() - 1 : 0);
+    for (size_t i = 0; i < n; ++i) {
+      out.texts.push_back("{\"viseme\":\"" + std::string(VisemeName(v[i].viseme)) + "\",\"start\":" + FormatNumber(v[i].start) +
+                          ",\"end\":" + FormatNumber(v[i].end) + "}");
+      if (listen_frames_) Mouth(v[i].viseme, out);
+    }
+    if (n == 0) return;
+    const float done = v[n - 1].end;
+    heard_.erase(std::remove_if(heard_.begin(), heard_.end(), [done](const TimedPhoneme& p) { return p.end <= done + 1e-6f; }), heard_.end());
+  }
+
+  // With frames: the face the sliders set with the viseme's shapes on top, as a frame.
+  void Mouth(Viseme v, Out& out) {
+    json body = state_;
+    json& w = body["weights"];
+    if (!w.is_object()) w = json::object();
+    for (const auto& [shape, weight] : rig_->rig.visemes.binds[static_cast<size_t>(v)]) {
+      const std::string& name = rig_->rig.shapes[shape].name;
+      w[name] = std::min(1.0, w.value(name, 0.0) + weight);
+    }
+    body["format"] = "f32";
+    auto request = ParseMeshRequest(body.dump());
+    ResolvedPoint point;
+    if (!request.ok() || !ResolvePoint(rig_->rig, request.value(), point).ok()) return;
+    request_ = std::move(request.value());
+    point_ = std::move(point);
+    out.frame_wanted = true;
+  }
+
   void Refuse(const Status& s, Out& out) {
     const std::string pointer = s.fields.empty() ? "" : s.fields[0].pointer;
     out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, pointer));
@@ -190,6 +261,9 @@ class FaceSession final : public LiveHandler {
   uint32_t frame_ = 0, last_id_ = 0;
   json last_warnings_ = json::array();
   std::stop_source stop_;
+  std::unique_ptr<speech::LiveRecognizer> listener_;  // While listening: a decoder of its own.
+  std::vector<TimedPhoneme> heard_;                    // Phonemes heard and not yet given as visemes.
+  bool listen_frames_ = false;
   LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
 };
 

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <span>
 #include <utility>
 #include <string>
@@ -127,6 +128,37 @@ struct Recognized {
 // US English, 16 kHz (other rates are resampled). Where the voice detector hears no voice (silence,
 // steady noise), phonemes are SIL whatever the decoder said. One decoder, used one request at a time.
 Result<Recognized> Recognize(const Audio& audio, const RecognizeOptions& options);
+
+// Speech recognized while it is heard (the live route's listen): 16 kHz 16-bit mono chunks in, as they
+// come, through PocketSphinx's all-phone search decoding as it goes; phonemes out once they are sure
+// (their end kLiveLag behind the newest audio), SIL where the voice detector hears no voice. Each
+// recognizer holds a decoder of its own (made in 90 ms), at most kMaxLiveDecoders at once.
+class LiveRecognizer {
+ public:
+  static constexpr int kLagFrames = 8;           // 80 ms: a phoneme ending later may still change.
+  static constexpr double kUtteranceSeconds = 20; // The decoder starts afresh after this much audio.
+  // A recognizer, or ResourceExhausted (reason "busy") when every decoder is in use.
+  static Result<std::unique_ptr<LiveRecognizer>> Open();
+  ~LiveRecognizer();
+  LiveRecognizer(const LiveRecognizer&) = delete;
+  LiveRecognizer& operator=(const LiveRecognizer&) = delete;
+  // Decodes `pcm` (16 kHz); appends the phonemes now sure to `sure` (times from the first sample fed).
+  Status Feed(std::span<const int16_t> pcm, std::vector<TimedPhoneme>& sure);
+  // The end of the audio: every phoneme left.
+  Status Finish(std::vector<TimedPhoneme>& rest);
+  double seconds() const { return offset_ + static_cast<double>(audio_.size()) / 16000.0; }
+
+ private:
+  explicit LiveRecognizer(void* decoder) : ps_(decoder) {}
+  // The utterance's segments ending before frame `before` (all of them at its end) as phonemes.
+  void Take(int before, std::vector<TimedPhoneme>& out);
+  void* ps_;                    // ps_decoder_t.
+  std::vector<int16_t> audio_;  // This utterance's, for the voice detector.
+  double offset_ = 0;           // Seconds before this utterance.
+  int taken_ = 0;               // Frames of this utterance already given out.
+  bool in_utterance_ = false;
+};
+inline constexpr int kMaxLiveDecoders = 4;
 
 // Per 10 ms frame of `audio`: whether a voice speaks there (energy above the floor and a pitch
 // period between 60 and 400 Hz near it, with a margin of 0.2 s around voiced stretches).

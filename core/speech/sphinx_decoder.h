@@ -1,0 +1,34 @@
+// What the batch recognizer (sphinx.cpp) and the live one (live_sphinx.cpp) share: the decoder's set-up
+// and a segment's phoneme. Private to core/speech.
+#pragma once
+
+#include <pocketsphinx.h>
+#include <sphinxbase/cmn.h>
+#include <sphinxbase/feat.h>
+
+#include <string>
+#include <vector>
+
+#include "facespace/core/speech.h"
+
+#ifndef FACESPACE_SPHINX_MODEL
+#define FACESPACE_SPHINX_MODEL "/usr/share/pocketsphinx/model/en-us"
+#endif
+
+namespace facespace::speech {
+
+// PocketSphinx's all-phone search over US English (context-independent, backtrace on), or null when its
+// model is missing.
+ps_decoder_t* NewAllPhoneDecoder();
+
+// PocketSphinx's cepstral mean normalisation carries each utterance's means into the next: the same WAV's
+// phonemes came 120 ms earlier on every request after a process's first. The means as the decoder made
+// them, read once, and set back before each recognition, so that every one starts where the first did.
+std::vector<float> CepstralMeans(ps_decoder_t* ps);
+void SetCepstralMeans(ps_decoder_t* ps, const std::vector<float>& means);
+
+// A decoder's segment as a phoneme: "(2)" variants and fillers cut, SIL where the voice detector heard no
+// voice over most of it (`heard` false), silences next to each other merged.
+void AppendSegment(std::vector<TimedPhoneme>& out, std::string name, float start, float end, bool heard);
+
+}  // namespace facespace::speech
