@@ -279,7 +279,10 @@ float Median(std::vector<float> v) {
 
 // flite's speech and its own phoneme times (-psdur: each phoneme's end).
 bool Flite(const std::string& text, const std::string& wav, std::vector<TimedPhoneme>& truth) {
-  const std::string command = "flite -psdur -t \"" + text + "\" -o " + wav;
+  // FACESPACE_FLITE_VOICE: another of flite's voices (awb, rms, slt: ones no test here was tuned to) for
+  // the figures in tests/bench/README.md; the test itself speaks with flite's default (kal).
+  const char* voice = getenv("FACESPACE_FLITE_VOICE");
+  const std::string command = "flite " + (voice ? "-voice " + std::string(voice) + " " : std::string()) + "-psdur -t \"" + text + "\" -o " + wav;
   FILE* p = popen(command.c_str(), "r");
   if (!p) return false;
   std::string out;
@@ -353,11 +356,11 @@ TEST(Sphinx, SpeechOfAnotherEngineMatchesItsOwnPhonemeTimes) {
     std::printf("flite speech, %s: %.1f%% of %zu frames in the right viseme class (%.1f%% in the very viseme), %zu of %zu closures found (%.0f%%), "
                 "median boundary offset %.0f ms\n",
                 name, frames, s->frames, 100.0 * s->exact / s->frames, s->found, s->closures, closures, median);
-    // The figures hold with the transcript (Rhubarb's dialog option). PocketSphinx's all-phone
-    // search alone confuses phonemes (flite's voice: 40% of frames in their class): those floors only
-    // guard against regressions (tests/bench/README.md reports both).
-    EXPECT_GE(frames, with_transcript ? 70.0 : 35.0) << name;
-    EXPECT_GE(closures, with_transcript ? 90.0 : 60.0) << name;
+    // With the transcript the figures hold (Rhubarb's dialog option); without, since PocketSphinx's
+    // own silence remover is off (it shifted every recognition after a process's first by the silence it
+    // dropped), 74.6% of frames and 12 of 15 closures (tests/bench/README.md reports both).
+    EXPECT_GE(frames, 70.0) << name;
+    EXPECT_GE(closures, with_transcript ? 90.0 : 75.0) << name;
     EXPECT_LE(median, 40.0) << name;
   }
 }
