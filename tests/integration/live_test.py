@@ -14,6 +14,11 @@
 - 100 sessions sending a slider change at 60 Hz for 30 s (tests/bench/live_load): no errors, p99 from
   message to frame within 16 ms (release build), server memory per session within 1 MB, and a session that
   never reads is dropped while the others go on;
+- say: a sentence's visemes are the speech route's; 2,000 characters start within 300 ms and are paced,
+  stopped; pieces queue on one clock; bad says get error events;
+- listen: a WAV of another voice (flite's awb) streamed in real time in 20 ms chunks gives its visemes
+  within 250 ms of their end (median), agreeing with the speech route's on the same WAV; noise and silence
+  give silence;
 - SIGTERM with sessions open: each gets a 1001 close and the server exits 0 within 10 s.
 """
 import json
@@ -168,6 +173,95 @@ def speech(srv):
     c.close()
 
 
+def frames_of(visemes, n):
+    out = ["sil"] * n
+    for v in visemes:
+        for f in range(int(round(v["start"] * 100)), min(n, int(round(v["end"] * 100)))):
+            out[f] = v["viseme"]
+    return out
+
+
+def listen(srv, tmp):
+    """A WAV of another voice (flite's awb, no test tuned to it) streamed in real time in 20 ms chunks."""
+    import select
+    import wave
+    path = os.path.join(tmp, "awb.wav")
+    subprocess.run(["flite", "-voice", "awb", "-t", "A large size in stockings is hard to sell. The juice of lemons makes fine punch.",
+                    "-o", path], check=True)
+    w = wave.open(path)
+    rate, pcm = w.getframerate(), w.readframes(w.getnframes())
+    c = wsclient.Client(srv.port, LIVE)
+    c.recv_json("ready")
+    c.recv_frame()
+    c.send_text({"listen": {"rate": 8000}})
+    e = c.recv_json("error")
+    check(f"listen at 8 kHz: error at {e.get('pointer')}", e.get("pointer") == "/listen/rate")
+    c.send_text({"listen": {"rate": 16000, "frames": True}})
+    check("listen: started", c.recv_json("listen").get("state") == "start" and rate == 16000)
+    visemes, delays, frames = [], [], 0
+
+    def take(block):
+        nonlocal frames
+        c.sock.setblocking(block)
+        try:
+            while True:
+                if not block and not select.select([c.sock], [], [], 0)[0] and len(c.buf) < 2:
+                    return
+                op, p = c.recv()
+                if op == wsclient.TEXT and "viseme" in json.loads(p):
+                    m = json.loads(p)
+                    visemes.append(m)
+                    delays.append(time.time() - (t0 + m["end"]))
+                elif op == wsclient.TEXT and json.loads(p).get("event") == "listen":
+                    return True
+                elif op == wsclient.BINARY:
+                    frames += 1
+        except BlockingIOError:
+            return
+        finally:
+            c.sock.setblocking(True)
+
+    t0 = time.time()
+    for i in range(0, len(pcm), 640):  # 20 ms
+        while time.time() < t0 + i / 2 / rate:
+            take(False)
+            time.sleep(0.002)
+        c.send_raw(wsclient.frame(wsclient.BINARY, pcm[i:i + 640]))
+    c.send_text({"listen": False})
+    live_delays = sorted(delays)
+    while not take(True):
+        pass
+    route = json.loads(request(srv.url + "/v1/rigs/facecap/speech", "POST", open(path, "rb").read(), {"Content-Type": "audio/wav"})[2])["visemes"]
+    n = int(len(pcm) / 2 / rate * 100)
+    a, b = frames_of(visemes, n), frames_of(route, n)
+    agree = 100.0 * sum(x == y for x, y in zip(a, b)) / n
+    median = 1e3 * live_delays[len(live_delays) // 2] if live_delays else 1e9
+    check(f"listen: {len(visemes)} visemes while it was heard, median {median:.0f} ms from a viseme's end to its message (within 250), "
+          f"{frames} mesh frames", median <= 250 and len(live_delays) >= 10 and frames >= 10)
+    check(f"listen: the visemes agree with the speech route's on the same WAV in {agree:.1f}% of 10 ms frames", agree >= 60)
+    # Silence and noise give silence.
+    c.send_text({"listen": {"rate": 16000}})
+    c.recv_json("listen")
+    import random
+    rnd = random.Random(5)
+    noise = b"".join(struct.pack("<h", int(rnd.gauss(0, 300))) for _ in range(16000 * 2)) + bytes(16000 * 2)
+    for i in range(0, len(noise), 3200):
+        c.send_raw(wsclient.frame(wsclient.BINARY, noise[i:i + 3200]))
+    c.send_text({"listen": False})
+    heard = []
+    while True:
+        op, p = c.recv()
+        if op == wsclient.TEXT:
+            m = json.loads(p)
+            if "viseme" in m:
+                heard.append(m["viseme"])
+            elif m.get("event") == "listen":
+                break
+    check(f"listen: 2 s of noise and silence give silence ({heard})", set(heard) <= {"sil"})
+    c.send_raw(wsclient.frame(wsclient.BINARY, b"\0" * 640))
+    closes_with(c, 1003, "audio after listening ended")
+
+
 def hostile(srv):
     cases = (
         ("a 70 KB message", wsclient.frame(wsclient.TEXT, b'{"weights": {}, "pad": "' + b"x" * 70000 + b'"}'), 1009),
@@ -281,6 +375,7 @@ def main():
     try:
         messages(srv)
         speech(srv)
+        listen(srv, tmp)
         hostile(srv)
         load(srv)
     finally:
