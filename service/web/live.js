@@ -26,6 +26,7 @@ export function createLive(page) {
   }
 
   function close() {
+    if (live.mic) stopMic();
     if (live.ws) live.ws.close(1000);
     Object.assign(live, { ws: null, rig: null, open: false, sent: {} });
   }
@@ -53,6 +54,8 @@ export function createLive(page) {
       refreshViews();  // The face as the sliders have it, now over the socket.
     } else if (m.viseme && state.speech && state.speech.live) {
       state.speech.visemes.push(m);
+    } else if (m.viseme && live.mic) {
+      state.heardVisemes = (state.heardVisemes || 0) + 1;  // Counted for the browser test.
     } else if (m.event === 'say' && state.speech && state.speech.live) {
       if (m.state === 'start' && state.speech.clock === null) state.speech.clock = m.clock;
       if (m.state === 'end' || m.state === 'stopped') state.speech.made = true;
@@ -146,5 +149,39 @@ export function createLive(page) {
     refreshViews();
   }
 
-  return { connect, close, send, say, stopSay, weights, get open() { return live.open; } };
+  // The microphone: the browser's capture at 16 kHz, sent as 16-bit PCM while the server listens; its
+  // visemes come back with frames of the mouth (the sliders' face with the viseme on top).
+  async function toggleMic() {
+    if (live.mic) return stopMic();
+    if (!live.open || !navigator.mediaDevices) return;
+    const stream = await navigator.mediaDevices.getUserMedia({ audio: { channelCount: 1, echoCancellation: true, noiseSuppression: true } });
+    const ctx = new AudioContext({ sampleRate: 16000 });
+    const source = ctx.createMediaStreamSource(stream);
+    const tap = ctx.createScriptProcessor(512, 1, 1);  // 32 ms a chunk.
+    tap.onaudioprocess = (e) => {
+      if (!live.mic || !live.open) return;
+      const f = e.inputBuffer.getChannelData(0), pcm = new Int16Array(f.length);
+      for (let i = 0; i < f.length; ++i) pcm[i] = Math.max(-32768, Math.min(32767, Math.round(f[i] * 32767)));
+      live.ws.send(pcm.buffer);
+      state.micChunks = (state.micChunks || 0) + 1;  // Counted for the browser test.
+    };
+    source.connect(tap);
+    tap.connect(ctx.destination);
+    live.mic = { stream, ctx };
+    live.ws.send(JSON.stringify({ listen: { rate: 16000, frames: true } }));
+    $('say-mic').classList.add('on');
+    $('say-state').textContent = 'listening (live)\u2026';
+  }
+
+  function stopMic() {
+    if (!live.mic) return;
+    live.mic.stream.getTracks().forEach((t) => t.stop());
+    live.mic.ctx.close();
+    live.mic = null;
+    if (live.open) live.ws.send(JSON.stringify({ listen: false }));
+    $('say-mic').classList.remove('on');
+    $('say-state').textContent = '';
+  }
+
+  return { connect, close, send, say, stopSay, weights, toggleMic, get open() { return live.open; } };
 }

@@ -91,6 +91,7 @@ export function createSpeech(page) {
   $('say-text').addEventListener('keydown', (e) => { if (e.key === 'Enter') $('say-go').click(); });
   $('say-file').addEventListener('change', () => { const f = $('say-file').files[0]; if (f) say(null, f).catch(showError); });
   $('say-stop').addEventListener('click', stopSpeech);
+  $('say-mic').addEventListener('click', () => live.toggleMic().catch(showError));
   // The typed line as a video of the face saying it (format webm: VP9 + Opus), saved as a file.
   $('say-webm').addEventListener('click', async () => {
     const text = $('say-text').value.trim(), id = state.ready;

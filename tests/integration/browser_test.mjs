@@ -12,7 +12,8 @@ const check = (what, cond) => { if (cond) { pass++; console.log('ok   ' + what);
 
 const browser = await chromium.launch({
   executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
-  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist'],
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
+         '--use-fake-device-for-media-stream', '--use-fake-ui-for-media-stream'],  // A microphone that beeps.
 });
 
 // A digest of the preview's pixels, drawn into a canvas in the page.
@@ -228,6 +229,14 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   const status = await page.locator('#say-state').textContent();
   check(`say: over the live socket the audio plays and the WebGL face follows it (${during.updates - before} meshes in its first second, ` +
         `largest weight ${during.max.toFixed(2)}; "${status}")`, during.updates - before >= 10 && during.max > 0.3 && /espeak-ng, live/.test(status));
+  // The microphone: Chromium's fake device (a beep) captured at 16 kHz and sent over the socket while the
+  // server listens; its answers come back as events.
+  await page.locator('#say-mic').click();
+  await page.waitForFunction(() => (window.facespace.state.micChunks || 0) > 40, null, { timeout: 20000 });
+  const mic = await page.evaluate(() => ({ chunks: window.facespace.state.micChunks, on: document.getElementById('say-mic').classList.contains('on') }));
+  await page.locator('#say-mic').click();
+  check(`say: the mic button sends the microphone's PCM over the live socket (${mic.chunks} chunks of 32 ms) and stops`,
+        mic.chunks > 40 && mic.on && !(await page.evaluate(() => document.getElementById('say-mic').classList.contains('on'))));
   check('say: when the line ends the face is the sliders\' again', await page.evaluate(() => !window.facespace.state.speech) &&
         await page.locator('#say-stop').isHidden());
   // The typed line as a video: a WebM file (EBML's magic number first) of the face saying it.
