@@ -45,6 +45,8 @@ const cases = {
   getManifest: [() => call('getManifest', { id: 'client-upload' }), (r) => r.status === 200 && typeof json(r).shapes === 'object'],
   putManifest: [() => call('putManifest', { id: 'client-upload' }, body({ name: 'From the client', shapes: { jawOpen: { max: 2 } } })),
                 (r) => r.status === 200 && json(r).name === 'From the client'],
+  // A generated HTTP client cannot upgrade: it is told so (426, problem+json naming the WebSocket).
+  getLive: [() => call('getLive', { id: 'facecap' }), (r) => r.status === 426 && /WebSocket/.test(r.text)],
   getTopology: [() => call('getTopology', { id: 'facecap', lod: 1 }),
                 (r) => r.status === 200 && json(r).primitives.length === 4 && json(r).primitives.every((p) => p.indices.length % 3 === 0)],
   // The weights as the document declares them (deepObject): w[jawOpen]=0.5 on the wire.

@@ -319,7 +319,7 @@ want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"
       "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"},
       "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
       "/v1/jobs/{job}/files/{name}":{"get"},"/v1/jobs/{job}/results.zip":{"get"},
-      "/v1/rigs/{id}/speech":{"post"},"/v1/voices":{"get"}}
+      "/v1/rigs/{id}/speech":{"post"},"/v1/voices":{"get"},"/v1/rigs/{id}/live":{"get"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
 sys.exit(not(d["openapi"].startswith("3.1") and got==want))' "$tmp/openapi.json"
 if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-validator" ]; then

@@ -196,30 +196,7 @@ void LiveHub::Loop() {
     const bool stopping = stopping_.load();
     if (now >= next_sweep || stopping) {
       next_sweep = now + std::chrono::milliseconds(100);
-      std::vector<std::shared_ptr<Session>> all;
-      {
-        std::lock_guard<std::mutex> lock(mu_);
-        for (auto& [id, s] : sessions_) all.push_back(s);
-      }
-      for (auto& s : all) {
-        bool closing, stalled;
-        Clock::time_point linger;
-        {
-          std::lock_guard<std::mutex> lock(s->mu);
-          closing = s->closing, linger = s->linger_until;
-          stalled = s->queued > 0 && now - s->waiting_since >= limits_.stall;
-        }
-        if (closing) {
-          if (now >= linger || stalled) Forget(s);
-        } else if (stopping) {
-          Close(s, ws::CloseCode::kGoingAway, "the server is stopping");
-        } else if (stalled) {
-          ++counts.dropped_slow;
-          Close(s, ws::CloseCode::kPolicy, "the client took nothing sent to it for " + std::to_string(limits_.stall.count() / 1000) + " s");
-        } else if (now >= s->ends) {
-          Close(s, ws::CloseCode::kGoingAway, "the session's time is up");
-        }
-      }
+      Sweep(now, stopping);
     }
     if (stopping) {
       std::lock_guard<std::mutex> lock(mu_);
@@ -228,21 +205,87 @@ void LiveHub::Loop() {
   }
 }
 
-void LiveHub::OnReadable(const std::shared_ptr<Session>& s) {
-  char chunk[65536];
-  bool gone = false;
-  while (true) {
-    const ssize_t n = ::recv(s->fd, chunk, sizeof chunk, MSG_DONTWAIT);
-    if (n > 0) {
-      if (s->reading) s->in.append(chunk, static_cast<size_t>(n));
-      if (s->in.size() >= limits_.max_message + 64) break;  // Enough for a frame: parse before reading more.
-      continue;
-    }
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
-    gone = true;  // The client closed or reset.
-    break;
+// Every 100 ms: sessions past their time or stalled are closed, closed ones past their linger forgotten.
+void LiveHub::Sweep(Clock::time_point now, bool stopping) {
+  std::vector<std::shared_ptr<Session>> all;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    for (auto& [id, s] : sessions_) all.push_back(s);
   }
+  for (auto& s : all) {
+    bool closing, stalled;
+    Clock::time_point linger;
+    {
+      std::lock_guard<std::mutex> lock(s->mu);
+      closing = s->closing, linger = s->linger_until;
+      stalled = s->queued > 0 && now - s->waiting_since >= limits_.stall;
+    }
+    if (closing) {
+      if (now >= linger || stalled) Forget(s);
+    } else if (stopping) {
+      Close(s, ws::CloseCode::kGoingAway, "the server is stopping");
+    } else if (stalled) {
+      ++counts.dropped_slow;
+      Close(s, ws::CloseCode::kPolicy, "the client took nothing sent to it for " + std::to_string(limits_.stall.count() / 1000) + " s");
+    } else if (now >= s->ends) {
+      Close(s, ws::CloseCode::kGoingAway, "the session's time is up");
+    }
+  }
+}
+
+// A data frame: the session's rate first (every frame counts), then its message assembled and, when
+// whole, queued for the session's turn. False when the session was closed for it.
+bool LiveHub::Assemble(const std::shared_ptr<Session>& s, const ws::Frame& f) {
+    const Clock::time_point now = Clock::now();
+    s->tokens = std::min(2 * limits_.max_rate, s->tokens + limits_.max_rate * std::chrono::duration<double>(now - s->tokens_at).count());
+    s->tokens_at = now;
+    if (s->tokens < 1) {
+      ++counts.closed_flood;
+      Close(s, ws::CloseCode::kPolicy, "more than " + std::to_string(static_cast<int>(limits_.max_rate)) + " messages a second");
+      return false;
+    }
+    s->tokens -= 1;
+    if (f.opcode == ws::Opcode::kContinuation) {
+      if (!s->in_message) {
+        Close(s, ws::CloseCode::kProtocolError, "a continuation frame with no message begun");
+        return false;
+      }
+    } else {
+      if (s->in_message) {
+        Close(s, ws::CloseCode::kProtocolError, "a new message before the last one ended");
+        return false;
+      }
+      s->in_message = true;
+      s->message_op = f.opcode;
+      s->message.clear();
+    }
+    s->message.append(f.payload);
+    if (!f.fin) return true;
+    s->in_message = false;
+    if (s->message_op == ws::Opcode::kText && !ws::ValidUtf8(s->message)) {
+      Close(s, ws::CloseCode::kInvalidPayload, "a text message that is not UTF-8");
+      return false;
+    }
+    ++counts.messages;
+    bool over = false;
+    {
+      std::lock_guard<std::mutex> lock(s->mu);
+      s->inbox_bytes += s->message.size();
+      over = s->inbox_bytes > limits_.max_queued;
+      s->inbox.emplace_back(s->message_op, std::move(s->message));
+    }
+    s->message = std::string();
+    if (over) {
+      Close(s, ws::CloseCode::kPolicy, "messages arrive faster than the session runs them");
+      return false;
+    }
+  Schedule(s);
+  return true;
+}
+
+// The whole frames in s->in: control frames answered, data frames assembled into messages for its turns.
+// Returns the bytes they took.
+size_t LiveHub::ReadFrames(const std::shared_ptr<Session>& s) {
   size_t at = 0;
   while (s->reading) {
     ws::Frame f;
@@ -269,52 +312,27 @@ void LiveHub::OnReadable(const std::shared_ptr<Session>& s) {
       Close(s, code, "");
       break;
     }
-    // Data: the rate first (every frame counts), then the message assembled.
-    const Clock::time_point now = Clock::now();
-    s->tokens = std::min(2 * limits_.max_rate, s->tokens + limits_.max_rate * std::chrono::duration<double>(now - s->tokens_at).count());
-    s->tokens_at = now;
-    if (s->tokens < 1) {
-      ++counts.closed_flood;
-      Close(s, ws::CloseCode::kPolicy, "more than " + std::to_string(static_cast<int>(limits_.max_rate)) + " messages a second");
-      break;
-    }
-    s->tokens -= 1;
-    if (f.opcode == ws::Opcode::kContinuation) {
-      if (!s->in_message) {
-        Close(s, ws::CloseCode::kProtocolError, "a continuation frame with no message begun");
-        break;
-      }
-    } else {
-      if (s->in_message) {
-        Close(s, ws::CloseCode::kProtocolError, "a new message before the last one ended");
-        break;
-      }
-      s->in_message = true;
-      s->message_op = f.opcode;
-      s->message.clear();
-    }
-    s->message.append(f.payload);
-    if (!f.fin) continue;
-    s->in_message = false;
-    if (s->message_op == ws::Opcode::kText && !ws::ValidUtf8(s->message)) {
-      Close(s, ws::CloseCode::kInvalidPayload, "a text message that is not UTF-8");
-      break;
-    }
-    ++counts.messages;
-    bool over = false;
-    {
-      std::lock_guard<std::mutex> lock(s->mu);
-      s->inbox_bytes += s->message.size();
-      over = s->inbox_bytes > limits_.max_queued;
-      s->inbox.emplace_back(s->message_op, std::move(s->message));
-    }
-    s->message = std::string();
-    if (over) {
-      Close(s, ws::CloseCode::kPolicy, "messages arrive faster than the session runs them");
-      break;
-    }
-    Schedule(s);
+    if (!Assemble(s, f)) break;
   }
+  return at;
+}
+
+void LiveHub::OnReadable(const std::shared_ptr<Session>& s) {
+  char chunk[65536];
+  bool gone = false;
+  while (true) {
+    const ssize_t n = ::recv(s->fd, chunk, sizeof chunk, MSG_DONTWAIT);
+    if (n > 0) {
+      if (s->reading) s->in.append(chunk, static_cast<size_t>(n));
+      if (s->in.size() >= limits_.max_message + 64) break;  // Enough for a frame: parse before reading more.
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
+    gone = true;  // The client closed or reset.
+    break;
+  }
+  const size_t at = ReadFrames(s);
   s->in.erase(0, std::min(at, s->in.size()));
   if (!s->reading) s->in.clear();
   if (gone) Forget(s);

@@ -102,7 +102,10 @@ class LiveHub {
 
   void Loop();
   void Work();
+  void Sweep(Clock::time_point now, bool stopping);
   void OnReadable(const std::shared_ptr<Session>& s);
+  size_t ReadFrames(const std::shared_ptr<Session>& s);
+  bool Assemble(const std::shared_ptr<Session>& s, const ws::Frame& f);
   void OnWritable(const std::shared_ptr<Session>& s);
   void Turn(const std::shared_ptr<Session>& s);
   void Schedule(const std::shared_ptr<Session>& s);
