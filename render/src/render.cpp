@@ -45,6 +45,10 @@ Result<std::string> EncodingRenderer::EncodeIds(std::span<const uint16_t> ids, i
   return EncodeIdPng(ids, width, height);
 }
 
+Result<Image> EncodingRenderer::DecodePicture(std::span<const unsigned char> bytes, const std::string& mime_type) const {
+  return Decode(bytes, mime_type);
+}
+
 OsMesaRenderer::OsMesaRenderer(int max_contexts) : pool_(std::make_unique<ContextPool>()) { pool_->SetLimit(max_contexts); }
 OsMesaRenderer::~OsMesaRenderer() = default;
 

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/render/render.h"
+#include "facespace/batch/dataset.h"
 #include "facespace/batch/run.h"
 #include "commands/cli.h"
 #include "commands/flags.h"
@@ -17,6 +18,14 @@
 namespace facespace::cli {
 
 namespace {
+
+// randomize.background.images: the folder's pictures, decoded before any worker starts (the image module
+// opened on this thread first, as render.h asks).
+Status LoadBackgrounds(batch::BatchPlan& plan, const render::Renderer& renderer) {
+  if (plan.request.dataset.randomize.background_images.empty()) return Status::Ok();
+  render::OpenImageModule();
+  return batch::LoadBackgroundImages(plan, renderer);
+}
 
 using nlohmann::json;
 
@@ -129,6 +138,10 @@ int Merge(const std::vector<std::string>& args) {
   }
   const render::OsMesaRenderer renderer(0);
   const api::Evaluator evaluator(renderer);
+  if (Status s = LoadBackgrounds(plan.value(), renderer); !s.ok()) {
+    PrintStatus(s);
+    return 1;
+  }
   batch::MergeOptions options;
   options.dir = dir;
   options.evaluator = &evaluator;
@@ -394,6 +407,10 @@ int RunBatch(BatchArgs& a) {
   ProgressBar bar;
   const render::OsMesaRenderer renderer(a.run.jobs);
   const api::Evaluator evaluator(renderer);
+  if (Status s = LoadBackgrounds(plan.value(), renderer); !s.ok()) {
+    PrintStatus(s);
+    return 2;
+  }
   a.run.dir = a.out_dir;
   a.run.evaluator = &evaluator;
   a.run.cancel = &g_interrupted;

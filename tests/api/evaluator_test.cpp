@@ -315,6 +315,7 @@ class AsciiOnly final : public render::Renderer {
   }
   Result<std::string> EncodeData(std::span<const float> v, int, int, int) const override { return std::to_string(v.size()) + " floats"; }
   Result<std::string> EncodeIds(std::span<const uint16_t> v, int, int) const override { return std::to_string(v.size()) + " ids"; }
+  Result<render::Image> DecodePicture(std::span<const unsigned char> b, const std::string& t) const override { return null.DecodePicture(b, t); }
   mutable int draws = 0;
   render::NullRenderer null;
 };

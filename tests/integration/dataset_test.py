@@ -4,7 +4,7 @@ KEY.png, KEY.depth.exr, KEY.normals.exr, KEY.seg.png, KEY.json, the sizes its ma
 same seed gives the same bytes; shards run apart and merged give the one-process dataset; a kill -9 mid-run
 leaves only whole shards under their names and a rerun finishes the same bytes; a file size limit (a full
 disk) fails the run cleanly, publishes nothing half-written, and a rerun resumes; bad members are refused
-naming the valid ones.
+naming the valid ones; background pictures from a folder go behind each sample (the CLI's alone).
 usage: dataset_test.py FACESPACE_BINARY SOURCE_DIR"""
 import filecmp
 import io
@@ -145,6 +145,86 @@ p = subprocess.run([binary, "batch", os.path.join(src, "assets/makehuman/makehum
                     "--labels", "landmarks", "-q", "-o", os.path.join(tmp, "bad3")], capture_output=True, text=True)
 check(f"landmarks of a rig without any: refused, saying so ({p.stderr.strip()[:160]})", p.returncode == 2 and "no landmarks" in p.stderr)
 
+
+def write_png(path, w, h, rgb):
+    """An 8-bit RGB PNG of rgb(x, y)."""
+    import struct
+    import zlib
+    rows = b"".join(b"\0" + b"".join(bytes(rgb(x, y)) for x in range(w)) for y in range(h))
+    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)) + chunk(b"IDAT", zlib.compress(rows)) +
+                chunk(b"IEND", b""))
+
+
+def read_png(data):
+    """(width, height, channels, rows of bytes) of an 8-bit PNG (any filter)."""
+    import struct
+    import zlib
+    w, h, depth, kind = struct.unpack(">IIBB", data[16:26])
+    channels = {0: 1, 2: 3, 6: 4}[kind]
+    idat, at = b"", 8
+    while at < len(data):
+        n, t = struct.unpack(">I4s", data[at:at + 8])
+        if t == b"IDAT":
+            idat += data[at + 8:at + 8 + n]
+        at += 12 + n
+    raw, stride, rows, prev = zlib.decompress(idat), w * channels, [], bytearray(w * channels)
+    for y in range(h):
+        f, line = raw[y * (stride + 1)], bytearray(raw[y * (stride + 1) + 1:(y + 1) * (stride + 1)])
+        for i in range(stride):
+            a = line[i - channels] if i >= channels else 0
+            b, c = prev[i], prev[i - channels] if i >= channels else 0
+            pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
+            pred = [0, a, b, (a + b) // 2, a if pa <= pb and pa <= pc else b if pb <= pc else c][f]
+            line[i] = (line[i] + pred) & 255
+        rows.append(line)
+        prev = line
+    return w, h, channels, rows
+
+
+# Background pictures from a folder: one behind each sample, drawn from its stream, named in KEY.json.
+pictures = os.path.join(tmp, "backgrounds")
+os.makedirs(pictures)
+write_png(os.path.join(pictures, "checker.png"), 48, 96, lambda x, y: (230, 200, 40) if (x // 8 + y // 8) % 2 else (30, 90, 160))
+write_png(os.path.join(pictures, "plain.png"), 40, 30, lambda x, y: (200, 30, 30))
+with open(os.path.join(pictures, "readme.txt"), "w") as f:
+    f.write("not a picture")
+BG = '{"camera": {"yaw": [-30, 30]}, "background": {"images": "%s"}}' % pictures
+bg = os.path.join(tmp, "bg")
+p = subprocess.run([binary, "batch", facecap, "--sample", "uniform", "--count", "8", "--seed", "5", "--active", "4", "--labels",
+                    "segmentation", "--width", "96", "--height", "96", "--randomize", BG, "--archive", "tar", "-q", "-o", bg],
+                   capture_output=True, text=True)
+named, behind = {}, []
+with tarfile.open(os.path.join(bg, "shard-000000.tar")) as t:
+    for m in t.getmembers():
+        key, suffix = m.name.split(".", 1)
+        named.setdefault(key, {})[suffix] = t.extractfile(m).read()
+for key, files in sorted(named.items()):
+    picture = json.loads(files["json"]).get("background_image")
+    w, h, ch, rows = read_png(files["png"])
+    _, _, _, seg = read_png(files["seg.png"])
+    # Each background pixel (segment 0) is the picture there: plain red, or the checker scaled x2 to cover 96².
+    for x, y in ((8, 8), (88, 8), (40, 40), (8, 88)):  # Inside a square of the checker, not on an edge.
+        if seg[y][x] != 0:
+            continue
+        want = (200, 30, 30) if picture == "plain.png" else ((230, 200, 40) if ((x // 2) // 8 + (y // 2 + 24) // 8) % 2 else (30, 90, 160))
+        behind.append((picture, max(abs(rows[y][ch * x + c] - want[c]) for c in range(3)), rows[y][ch * x + 3] if ch == 4 else 255))
+pictures_used = {json.loads(f["json"]).get("background_image") for f in named.values()}
+check(f"background pictures from a folder: each sample names its picture ({sorted(pictures_used)}), every background pixel is it "
+      f"(largest difference {max(d for _, d, _ in behind) if behind else None} of 255 over {len(behind)} pixels), opaque",
+      p.returncode == 0 and pictures_used == {"checker.png", "plain.png"} and behind and all(d <= 3 and a == 255 for _, d, a in behind))
+with open(os.path.join(bg, "batch.json")) as f:
+    check("batch.json names the folder's pictures (another folder is another batch)",
+          [b["name"] for b in json.load(f)["background_images"]] == ["checker.png", "plain.png"])
+empty = os.path.join(tmp, "no-pictures")
+os.makedirs(empty)
+p = subprocess.run([binary, "batch", facecap, "--sample", "uniform", "--count", "2", "--labels", "segmentation", "--randomize",
+                    '{"background": {"images": "%s"}}' % empty,
+                    "-q", "-o", os.path.join(tmp, "bg-empty")], capture_output=True, text=True)
+check(f"a folder without pictures: refused naming the member ({p.stderr.strip()[:160]})",
+      p.returncode == 2 and "/randomize/background/images" in p.stderr and "no pictures" in p.stderr)
+
 # The route: the same members, the same refusals, a job whose shard downloads.
 with open(os.path.join(tmp, "key"), "w") as f:
     f.write("k3y-for-dataset-tests\n")
@@ -162,6 +242,10 @@ check(f"POST batch labels [depth, albedo]: 422 problem+json at /labels/1 naming 
                                                                           for e in problem.get("errors", [])))
 st, _, body, _ = request(url, "POST", json.dumps({"sample": {"method": "uniform", "count": 2}, "archive": "zip"}).encode(), auth)
 check(f"POST batch archive zip: 422 naming the archives ({st})", st == 422 and b"tar" in body and b"/archive" in body)
+st, _, body, _ = request(url, "POST", json.dumps({"sample": {"method": "uniform", "count": 2}, "labels": ["segmentation"],
+                                                  "randomize": {"background": {"images": "/etc"}}}).encode(), auth)
+check(f"POST batch with background images from a folder: 422, the service reads no folder a client names ({st})",
+      st == 422 and b"/randomize/background/images" in body)
 job_body = {"sample": {"method": "uniform", "count": 20, "seed": 5, "active": 4}, "labels": ["depth", "normals", "segmentation", "landmarks"],
             "archive": "tar", "shard_samples": 16, "width": 96, "height": 96, "randomize": json.loads(RANDOM)}
 st, _, body, _ = request(url, "POST", json.dumps(job_body).encode(), auth)

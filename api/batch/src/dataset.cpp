@@ -1,5 +1,7 @@
 #include "facespace/batch/dataset.h"
 
+#include "background.h"
+
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -60,6 +62,8 @@ SampleDraw DrawSample(const BatchPlan& plan, size_t index) {
   } else if (!r.backgrounds.empty()) {
     const float pick = Uniform(seed, index, 10, 0.0f, static_cast<float>(r.backgrounds.size()));
     d.render.background = r.backgrounds[std::min(static_cast<size_t>(pick), r.backgrounds.size() - 1)];
+  } else if (!plan.backgrounds.empty()) {
+    d.render.background = {0, 0, 0, 0};  // Transparent: the sample's picture goes behind (PutOverBackground).
   }
   if (r.gaze_yaw || r.gaze_pitch) {
     d.gaze = Gaze{};
@@ -241,6 +245,13 @@ Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer, const
 
 }  // namespace
 
+size_t PutOverBackground(const BatchPlan& plan, size_t index, render::Image& image) {
+  const size_t n = plan.backgrounds.size();
+  const size_t k = std::min(n - 1, static_cast<size_t>(Uniform(plan.draw_seed, index, 13, 0.0f, static_cast<float>(n))));
+  BlendOver(image, plan.backgrounds[k]);
+  return k;
+}
+
 Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& evaluator, api::Workspace& ws, api::ResolvedPoint& point,
                   std::vector<SampleFile>& files) {
   files.clear();
@@ -250,6 +261,7 @@ Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& eva
   spec.kind = api::OutputSpec::Kind::kPixels;
   spec.render = draw.render;
   if (auto drawn = evaluator.Run(plan.rig, point, spec, ws); !drawn.ok()) return drawn.status();
+  const size_t background = plan.backgrounds.empty() ? 0 : PutOverBackground(plan, index, ws.image);
   auto picture = evaluator.renderer()->Encode(ws.image, plan.request.image_format, plan.request.render.quality);
   if (!picture.ok()) return picture.status();
   files.push_back({plan.request.format, std::move(picture.value())});
@@ -270,6 +282,7 @@ Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& eva
     j["landmark_scheme"] = plan.rig->rig.landmark_scheme;
     j["landmarks"] = LandmarksJson(plan.rig->rig, ws.blended, cam, ws.image.labels);
   }
+  if (!plan.backgrounds.empty()) j["background_image"] = plan.backgrounds[background].name;
   PointJson(plan, draw, point, j);
   files.push_back({"json", j.dump(-1, ' ', false, json::error_handler_t::replace) + "\n"});
   return Status::Ok();

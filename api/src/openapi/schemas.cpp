@@ -261,7 +261,9 @@ json Randomize() {
   props["camera"] = intervals({"yaw", "pitch", "zoom"});
   props["light"] = intervals({"yaw", "pitch", "exposure"});
   props["gaze"] = intervals({"yaw", "pitch"});
-  props["background"] = {{"oneOf", json::array({json{{"const", "random"}}, json{{"type", "array"}, {"items", {{"type", "string"}}}, {"minItems", 1}}})}};
+  props["background"] = {{"oneOf", json::array({json{{"const", "random"}}, json{{"type", "array"}, {"items", {{"type", "string"}}}, {"minItems", 1}}})},
+                         {"description", "A random colour, or one of these colours; `facespace batch` also takes {\"images\": FOLDER} (pictures behind "
+                                         "the samples), which the service refuses (422): it reads no folder a client names"}};
   props["expressions"] = {{"type", "object"}, {"additionalProperties", Interval()}};
   return {{"type", "object"},
           {"description", "What varies per sample, drawn from the sample's own seeded stream: the same seed and index, the same draw."},

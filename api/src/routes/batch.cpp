@@ -97,6 +97,12 @@ void PostBatch(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!stored || !AcceptsJsonBody(req, res)) return;
   auto plan = batch::MakeBatchPlan(stored, req.body);
   if (!plan.ok()) return SendStatus(req, res, plan.status());
+  if (!plan->request.dataset.randomize.background_images.empty()) {  // A path on the server: never the client's to name.
+    return SendProblem(req, res, 422, "invalid-request",
+                       "/randomize/background/images: the service reads no folder a client names; `facespace batch` takes one, "
+                       "or give colours (\"random\" or [\"#rrggbb\", ...])",
+                       {{"/randomize/background/images", "not taken by the service"}});
+  }
   int retry_after = 0;
   auto job = ctx.jobs->Submit(std::make_shared<const batch::BatchPlan>(std::move(plan.value())), req.body, &retry_after);
   if (!job.ok()) {

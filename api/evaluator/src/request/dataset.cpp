@@ -69,11 +69,21 @@ void BackgroundsFrom(const json& v, Randomization& r, Status& errors) {
     r.random_background = true;
     return;
   }
+  if (v.is_object()) {
+    if (v.size() != 1 || !v.contains("images") || !v["images"].is_string() || v["images"].get<std::string>().empty()) {
+      errors.fields.push_back({"/randomize/background", "an object is {\"images\": \"FOLDER\"}: pictures, one behind each sample"});
+    } else {
+      r.background_images = v["images"].get<std::string>();
+    }
+    return;
+  }
   for (size_t i = 0; v.is_array() && i < v.size(); ++i) {
     r.backgrounds.emplace_back();
     if (!ParseBackground(v[i], r.backgrounds.back())) errors.fields.push_back({"/randomize/background/" + std::to_string(i), "must be \"#rrggbb\" or [r, g, b]"});
   }
-  if (!v.is_array() || v.empty()) errors.fields.push_back({"/randomize/background", "must be \"random\" or a non-empty array of colours"});
+  if (!v.is_array() || v.empty()) {
+    errors.fields.push_back({"/randomize/background", "must be \"random\", a non-empty array of colours or {\"images\": \"FOLDER\"}"});
+  }
 }
 
 void RandomizeFromJson(const json& v, Randomization& r, Status& errors) {

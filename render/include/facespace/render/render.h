@@ -24,6 +24,7 @@ class EncodingRenderer : public Renderer {
   bool CanDrawText(const std::string& text) const override;
   Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels) const override;
   Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const override;
+  Result<Image> DecodePicture(std::span<const unsigned char> bytes, const std::string& mime_type) const override;
 };
 
 // OSMesa (llvmpipe, rasterising on one thread per core): draws with a GL context leased from a bounded pool

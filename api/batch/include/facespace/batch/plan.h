@@ -36,6 +36,14 @@ struct BatchPlan {
   std::vector<std::string> segment_names;   // By id; 0 is "background".
   uint64_t draw_seed = 1;                   // randomize.seed, else the sample's seed.
   std::string pose_json = "{}";             // The request's pose members, for every KEY.json.
+  // randomize.background.images, loaded (LoadBackgroundImages): each picture scaled to cover the render's
+  // size, as 8-bit sRGB and as linear floats, so a sample only blends.
+  struct Background {
+    std::string name;
+    std::vector<unsigned char> srgb8;  // RGB, width x height.
+    std::vector<float> linear;         // RGB.
+  };
+  std::vector<Background> backgrounds;
   bool labelled() const { return request.dataset.labelled(); }
 };
 

@@ -227,7 +227,7 @@ struct Interval {
 // "randomize": what varies from sample to sample beside the weights, drawn per sample from its own
 // seeded stream (the same seed and index give the same draw, whatever the threads or shards):
 // {"seed": S, "camera": {"yaw": [lo, hi], "pitch": [...], "zoom": [...]}, "light": {"yaw", "pitch",
-//  "exposure": [...]}, "background": "random" | ["#rrggbb", ...], "expressions": {NAME: [lo, hi]},
+//  "exposure": [...]}, "background": "random" | ["#rrggbb", ...] | {"images": DIR}, "expressions": {NAME: [lo, hi]},
 //  "gaze": {"yaw": [...], "pitch": [...]}}
 struct Randomization {
   uint64_t seed = 1;
@@ -235,10 +235,11 @@ struct Randomization {
   std::optional<Interval> yaw, pitch, zoom, light_yaw, light_pitch, exposure, gaze_yaw, gaze_pitch;
   bool random_background = false;
   std::vector<std::array<float, 4>> backgrounds;  // One of these, uniformly (sRGB).
+  std::string background_images;                 // A folder of pictures, one behind each sample (the CLI's alone).
   std::vector<std::pair<std::string, Interval>> expressions;
   bool any() const {
     return yaw || pitch || zoom || light_yaw || light_pitch || exposure || gaze_yaw || gaze_pitch || random_background || !backgrounds.empty() ||
-           !expressions.empty();
+           !background_images.empty() || !expressions.empty();
   }
 };
 

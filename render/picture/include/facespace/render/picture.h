@@ -135,6 +135,8 @@ class Renderer {
   // a pixel as an EXR of 32-bit floats, and ids as a grey PNG.
   virtual Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels) const = 0;
   virtual Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const = 0;
+  // PNG/JPEG/EXR/TIFF/BMP/WebP bytes as linear RGBA (a dataset's background pictures).
+  virtual Result<Image> DecodePicture(std::span<const unsigned char> bytes, const std::string& mime_type) const = 0;
 };
 
 // The inputs every renderer refuses: an image size outside 1..8192, supersample outside 1..4,
