@@ -3,16 +3,16 @@
 // frame (16 bytes, then the float32 mesh), at most 60 a second, the newest state winning. Say speaks over
 // it too: audio chunks played as they arrive (Web Audio) and visemes on the audio's clock, the mouth
 // following them. Closed or refused, the page falls back to HTTP. A module of the page: `page` hands it
-// {state, gl, $, showError, refreshViews, nonZero}.
+// {state, gl, $, showError, refreshViews, nonZero, api (the API's base URL, '' for this origin)}.
 
 export function createLive(page) {
-  const { state, gl, $, showError, refreshViews, nonZero } = page;
+  const { state, gl, $, showError, refreshViews, nonZero, api } = page;
   const live = { ws: null, rig: null, open: false, sent: {}, id: 0 };
 
   function connect(id) {
     close();
     if (typeof WebSocket === 'undefined') return;
-    const url = new URL(`/v1/rigs/${encodeURIComponent(id)}/live`, location.href);
+    const url = new URL(`${api}/v1/rigs/${encodeURIComponent(id)}/live`, location.href);  // The API's origin, this page's or another.
     url.protocol = url.protocol === 'https:' ? 'wss:' : 'ws:';
     const ws = new WebSocket(url);
     ws.binaryType = 'arraybuffer';

@@ -364,6 +364,11 @@ def load(srv):
     check(f"p99 from message to frame {d['p99']} ms within {bar:.0f} ms", d["p99"] <= bar)
     check(f"server memory per session {per:.0f} KB within 1 MB", per <= 1024)
     check(f"the session that never read was dropped ({r['never_readers_dropped']} of {r['never_readers']})", r["never_readers_dropped"] == 1)
+    metrics = request(srv.url + "/metrics")[2].decode()
+    counted = {l.split()[0]: float(l.split()[1]) for l in metrics.splitlines() if l.startswith("facespace_live_")}
+    check(f"/metrics counts the live sessions (frames {counted.get('facespace_live_frames_total')}, dropped slow "
+          f"{counted.get('facespace_live_dropped_slow_total')})",
+          counted.get("facespace_live_frames_total", 0) >= r["frames"] and counted.get("facespace_live_dropped_slow_total", 0) >= 1)
     check("the server keeps serving", srv.alive())
 
 

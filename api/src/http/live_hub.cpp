@@ -507,15 +507,17 @@ void LiveHub::Apply(const std::shared_ptr<Session>& s, LiveHandler::Out& out) {
 // A session's turn: its messages, then its frame if one is due and the last is out.
 void LiveHub::Turn(const std::shared_ptr<Session>& s) {
   std::deque<std::pair<ws::Opcode, std::string>> inbox;
+  bool closing;
   {
     std::lock_guard<std::mutex> lock(s->mu);
     inbox.swap(s->inbox);
     s->inbox_bytes = 0;
-    if (s->closing) inbox.clear();
+    closing = s->closing;
+    if (closing) inbox.clear();
   }
   const double cpu_start = ThreadCpu();
   LiveHandler::Out out;
-  if (!s->opened && !s->closing) {
+  if (!s->opened && !closing) {
     s->opened = true;
     s->handler->Open(out);
     Apply(s, out);

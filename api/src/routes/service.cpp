@@ -45,6 +45,18 @@ std::string MetricsText(ServerState& ctx) {
         {"facespace_responses_slow_reader_total", "counter", "Answers ended for a client reading slower than --min-send-rate, or not at all.", f->slow_readers}};
     for (const auto& [name, type, help, value] : front) gauge(name, type, help, value.load());
   }
+  // Live sessions (GET /v1/rigs/{id}/live).
+  const LiveHub::Counts& c = ctx.live.counts;
+  gauge("facespace_live_sessions_open", "gauge", "Live WebSocket sessions open (--max-live-sessions).", ctx.live.open());
+  const std::tuple<const char*, const char*, const std::atomic<size_t>&> live[] = {
+      {"facespace_live_sessions_total", "Live sessions opened.", c.opened},
+      {"facespace_live_sessions_refused_total", "Live handshakes refused with 503 for the caps.", c.refused},
+      {"facespace_live_messages_total", "Messages received from live clients.", c.messages},
+      {"facespace_live_frames_total", "Mesh frames sent to live clients.", c.frames},
+      {"facespace_live_dropped_slow_total", "Live sessions closed (1008) for taking nothing sent to them.", c.dropped_slow},
+      {"facespace_live_closed_flood_total", "Live sessions closed (1008) for a flood of messages.", c.closed_flood},
+      {"facespace_live_closed_too_big_total", "Live sessions closed (1009) for a message over the cap.", c.closed_too_big}};
+  for (const auto& [name, help, value] : live) gauge(name, "counter", help, value.load());
   return out;
 }
 
