@@ -33,14 +33,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, cons
     plan.voice = std::move(spoken->voice);
     plan.source = "espeak-ng";
   }
-  plan.visemes = VisemesOfPhonemes(plan.phonemes);
-  const float end = plan.audio.seconds();
-  if (plan.visemes.empty()) plan.visemes.push_back({Viseme::kSil, 0.0f, end});
-  if (plan.visemes.front().start > 0.0f) plan.visemes.insert(plan.visemes.begin(), {Viseme::kSil, 0.0f, plan.visemes.front().start});
-  if (plan.visemes.back().end < end) {
-    if (plan.visemes.back().viseme == Viseme::kSil) plan.visemes.back().end = end;
-    else plan.visemes.push_back({Viseme::kSil, plan.visemes.back().end, end});
-  }
+  plan.visemes = VisemesOfUtterance(plan.phonemes, plan.audio.seconds());
   // The face under the speech.
   ResolvedPoint base;
   if (Status s = ResolvePoint(rig, request.render.mesh, base); !s.ok()) return s;

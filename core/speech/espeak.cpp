@@ -155,15 +155,18 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
   out.audio.rate = rate;
   out.audio.samples.resize(collect.samples.size());
   for (size_t i = 0; i < collect.samples.size(); ++i) out.audio.samples[i] = collect.samples[i] / 32768.0f;
-  const float total = out.audio.seconds();
-  // Each phoneme from its event's time to the next one's (the last to the end of the audio). espeak-ng
-  // marks pauses with an unnamed event: one that lasts is a pause ("_"), one of no length is no phoneme.
-  for (size_t i = 0; i < collect.events.size(); ++i) {
-    const float start = std::min(total, collect.events[i].first / 1000.0f);
-    const float end = std::max(start, i + 1 < collect.events.size() ? std::min(total, collect.events[i + 1].first / 1000.0f) : total);
-    const std::string& name = collect.events[i].second;
-    if (name.empty() && end <= start) continue;
-    out.phonemes.push_back({name.empty() ? "_" : name, start, end});
+  out.phonemes = PhonemesOfEvents(collect.events, out.audio.seconds());
+  return out;
+}
+
+std::vector<TimedPhoneme> PhonemesOfEvents(std::span<const std::pair<int, std::string>> events, float end) {
+  std::vector<TimedPhoneme> out;
+  for (size_t i = 0; i < events.size(); ++i) {
+    const float start = std::min(end, events[i].first / 1000.0f);
+    const float stop = std::max(start, i + 1 < events.size() ? std::min(end, events[i + 1].first / 1000.0f) : end);
+    const std::string& name = events[i].second;
+    if (name.empty() && stop <= start) continue;
+    out.push_back({name.empty() ? "_" : name, start, stop});
   }
   return out;
 }

@@ -22,7 +22,6 @@ Pool& ThePool() {
   return p;
 }
 
-
 }  // namespace
 
 Result<std::unique_ptr<LiveRecognizer>> LiveRecognizer::Open() {
@@ -73,13 +72,8 @@ void LiveRecognizer::Take(int before, std::vector<TimedPhoneme>& out) {
       ps_seg_free(seg);
       break;
     }
-    size_t on = 0;
-    for (int f = sf; f <= ef; ++f) {
-      const size_t k = static_cast<size_t>(f - from);
-      on += k < active.size() && active[k];
-    }
-    const bool heard = 2 * on > static_cast<size_t>(ef - sf + 1);
-    AppendSegment(out, ps_seg_word(seg), static_cast<float>(offset_ + sf * 0.01), static_cast<float>(offset_ + (ef + 1) * 0.01), heard);
+    AppendSegment(out, ps_seg_word(seg), static_cast<float>(offset_ + sf * 0.01), static_cast<float>(offset_ + (ef + 1) * 0.01),
+                  Heard(active, from, sf, ef));
     taken_ = ef + 1;
   }
 }

@@ -42,6 +42,12 @@ void SetCepstralMeans(ps_decoder_t* ps, const std::vector<float>& means) {
   c->nframe = 0;
 }
 
+bool Heard(const std::vector<bool>& active, int first, int sf, int ef) {
+  size_t on = 0;
+  for (int f = std::max(sf, first); f <= ef && static_cast<size_t>(f - first) < active.size(); ++f) on += active[static_cast<size_t>(f - first)];
+  return 2 * on > static_cast<size_t>(ef - sf + 1);
+}
+
 void AppendSegment(std::vector<TimedPhoneme>& out, std::string name, float start, float end, bool heard) {
   if (const size_t paren = name.find('('); paren != std::string::npos) name.resize(paren);
   if (!heard || name.empty() || name == "<sil>" || name == "<s>" || name == "</s>" || name.front() == '+' || name.front() == '[') name = "SIL";
@@ -263,11 +269,8 @@ Result<Recognized> Recognize(const Audio& input, const RecognizeOptions& options
   }
   // Segments to phonemes; where the voice detector heard no voice over most of one, silence.
   for (const Segment& s : segments) {
-    const size_t sf = static_cast<size_t>(std::max(0, s.sf)), ef = static_cast<size_t>(std::max(s.sf, s.ef));
-    size_t on = 0;
-    for (size_t f = sf; f <= ef && f < active.size(); ++f) on += active[f];
-    const bool heard = 2 * on > ef - sf + 1;
-    AppendSegment(out.phonemes, s.name, sf * kFrame, std::min(total, (ef + 1) * kFrame), heard);
+    const int sf = std::max(0, s.sf), ef = std::max(s.sf, s.ef);
+    AppendSegment(out.phonemes, s.name, sf * kFrame, std::min(total, (ef + 1) * kFrame), Heard(active, 0, sf, ef));
   }
   if (out.phonemes.empty()) out.phonemes.push_back({"SIL", 0.0f, total});
   return out;

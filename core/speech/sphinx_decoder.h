@@ -27,6 +27,9 @@ ps_decoder_t* NewAllPhoneDecoder();
 std::vector<float> CepstralMeans(ps_decoder_t* ps);
 void SetCepstralMeans(ps_decoder_t* ps, const std::vector<float>& means);
 
+// Whether the voice detector heard a voice over most of frames sf..ef, `active` starting at frame `first`.
+bool Heard(const std::vector<bool>& active, int first, int sf, int ef);
+
 // A decoder's segment as a phoneme: "(2)" variants and fillers cut, SIL where the voice detector heard no
 // voice over most of it (`heard` false), silences next to each other merged.
 void AppendSegment(std::vector<TimedPhoneme>& out, std::string name, float start, float end, bool heard);

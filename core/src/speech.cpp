@@ -157,6 +157,17 @@ std::vector<TimedViseme> VisemesOfPhonemes(std::span<const TimedPhoneme> phoneme
   return out;
 }
 
+std::vector<TimedViseme> VisemesOfUtterance(std::span<const TimedPhoneme> phonemes, float end) {
+  std::vector<TimedViseme> v = VisemesOfPhonemes(phonemes);
+  if (v.empty()) v.push_back({Viseme::kSil, 0.0f, end});
+  if (v.front().start > 0.0f) v.insert(v.begin(), {Viseme::kSil, 0.0f, v.front().start});
+  if (v.back().end < end) {
+    if (v.back().viseme == Viseme::kSil) v.back().end = end;
+    else v.push_back({Viseme::kSil, v.back().end, end});
+  }
+  return v;
+}
+
 // ---- viseme maps ------------------------------------------------------------------------------
 
 namespace {

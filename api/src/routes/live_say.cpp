@@ -12,28 +12,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 constexpr size_t kChunkSamples = 2205;  // 0.1 s at espeak-ng's 22,050 Hz: an audio message.
 
-// The phonemes whose end is known (each ends where the next event starts), as Synthesize makes them.
+// The phonemes whose end is known: each event's but the last's, which ends where that one starts.
 std::vector<TimedPhoneme> FinishedPhonemes(std::span<const std::pair<int, std::string>> events) {
-  std::vector<TimedPhoneme> out;
-  for (size_t i = 0; i + 1 < events.size(); ++i) {
-    const float start = events[i].first / 1000.0f, end = std::max(start, events[i + 1].first / 1000.0f);
-    if (events[i].second.empty() && end <= start) continue;
-    out.push_back({events[i].second.empty() ? "_" : events[i].second, start, end});
-  }
-  return out;
-}
-
-// The speech route's visemes of a whole utterance (lipsync::PlanSpeech): sil before the first and after
-// the last, to the end of the audio.
-std::vector<TimedViseme> PaddedVisemes(std::span<const TimedPhoneme> phonemes, float end) {
-  std::vector<TimedViseme> v = VisemesOfPhonemes(phonemes);
-  if (v.empty()) v.push_back({Viseme::kSil, 0.0f, end});
-  if (v.front().start > 0.0f) v.insert(v.begin(), {Viseme::kSil, 0.0f, v.front().start});
-  if (v.back().end < end) {
-    if (v.back().viseme == Viseme::kSil) v.back().end = end;
-    else v.push_back({Viseme::kSil, v.back().end, end});
-  }
-  return v;
+  if (events.size() < 2) return {};
+  return speech::PhonemesOfEvents(events.first(events.size() - 1), events.back().first / 1000.0f);
 }
 
 }  // namespace
@@ -158,7 +140,7 @@ void LiveSpeaker::Speak(const Piece& piece, std::stop_token stop) {
     u.samples.insert(u.samples.end(), samples.begin(), samples.end());
     u.events.insert(u.events.end(), events.begin(), events.end());
     // Visemes sure not to change as more speech comes: all but the last three of those known.
-    std::vector<TimedViseme> known = PaddedVisemes(FinishedPhonemes(u.events), 0.0f);
+    std::vector<TimedViseme> known = VisemesOfUtterance(FinishedPhonemes(u.events), 0.0f);
     if (known.size() > 3) {
       known.resize(known.size() - 3);
       if (known.size() > u.visemes.size()) u.visemes = std::move(known);
@@ -174,7 +156,7 @@ void LiveSpeaker::Speak(const Piece& piece, std::stop_token stop) {
     }
   } else {
     // The whole utterance's visemes, as the speech route makes them; those sent are its first ones.
-    u.visemes = PaddedVisemes(spoken->phonemes, spoken->audio.seconds());
+    u.visemes = VisemesOfUtterance(spoken->phonemes, spoken->audio.seconds());
     if (!u.started) u.started = true, u.wall = Clock::now();
     for (double wait = Send(u, true); wait > 0 && !halt.stop_requested(); wait = Send(u, true)) {
       std::unique_lock<std::mutex> lock(mu_);

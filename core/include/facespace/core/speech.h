@@ -55,6 +55,10 @@ inline constexpr float kShortPause = 0.08f;
 // zero-length ones dropped. Times as given (sorted by start); gaps between phonemes are sil.
 std::vector<TimedViseme> VisemesOfPhonemes(std::span<const TimedPhoneme> phonemes);
 
+// An utterance's visemes (VisemesOfPhonemes) with sil before the first and after the last, to `end`
+// (seconds: the audio's length): what the speech route says, and the live route's say with it.
+std::vector<TimedViseme> VisemesOfUtterance(std::span<const TimedPhoneme> phonemes, float end);
+
 // Fills what the manifest left of rig.visemes: MMD's あ い う え お when the rig has all five (NOLIP: the
 // other standard MMD mouth morphs it has), else ARKit's names (jawOpen, mouthFunnel, mouthPucker,
 // mouthStretch_L/R, mouthRollLower, mouthPress_L/R, ...). Neither: it stays empty (CanSpeak says so).

@@ -95,6 +95,11 @@ struct Spoken {
 // synthesis at a time (espeak-ng keeps global state): callers queue on a lock.
 Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options);
 
+// espeak-ng's phoneme events (start in ms, IPA; "" a pause) as phonemes: each from its event to the next
+// one's, the last to `end` (seconds), every time at most `end`; an unnamed one that lasts is a pause ("_"),
+// one of no length no phoneme. Synthesize's, and the live route's as the speech comes.
+std::vector<TimedPhoneme> PhonemesOfEvents(std::span<const std::pair<int, std::string>> events, float end);
+
 // The voices espeak-ng has: {name, languages}.
 struct VoiceInfo {
   std::string name, language;
@@ -131,7 +136,7 @@ Result<Recognized> Recognize(const Audio& audio, const RecognizeOptions& options
 
 // Speech recognized while it is heard (the live route's listen): 16 kHz 16-bit mono chunks in, as they
 // come, through PocketSphinx's all-phone search decoding as it goes; phonemes out once they are sure
-// (their end kLiveLag behind the newest audio), SIL where the voice detector hears no voice. Each
+// (their end kLagFrames behind the newest audio), SIL where the voice detector hears no voice. Each
 // recognizer holds a decoder of its own (made in 90 ms), at most kMaxLiveDecoders at once.
 class LiveRecognizer {
  public:
@@ -146,7 +151,6 @@ class LiveRecognizer {
   Status Feed(std::span<const int16_t> pcm, std::vector<TimedPhoneme>& sure);
   // The end of the audio: every phoneme left.
   Status Finish(std::vector<TimedPhoneme>& rest);
-  double seconds() const { return offset_ + static_cast<double>(audio_.size()) / 16000.0; }
 
  private:
   explicit LiveRecognizer(void* decoder) : ps_(decoder) {}
