@@ -309,9 +309,15 @@ class FrontServer::Front {
   }
 
   void Close(Conn& c) {
-    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
     ::shutdown(c.fd, SHUT_RDWR);
     ::close(c.fd);
+    Forget(c);
+  }
+
+  // The connection no longer the front's (closed, or handed off): out of epoll, its budget and its
+  // address's count given back, and gone.
+  void Forget(Conn& c) {
+    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
     Release(c);
     auto pc = per_client_.find(c.ip);
     if (pc != per_client_.end() && --pc->second == 0) per_client_.erase(pc);
@@ -543,15 +549,10 @@ class FrontServer::Front {
   // An upgraded connection leaves the front: its socket and what the client sent after its request go
   // to their taker (the live hub), which owns and closes the socket from then on.
   void HandOff(Conn& c) {
-    epoll_ctl(epoll_, EPOLL_CTL_DEL, c.fd, nullptr);
-    Release(c);
-    auto pc = per_client_.find(c.ip);
-    if (pc != per_client_.end() && --pc->second == 0) per_client_.erase(pc);
     const int fd = c.fd;
     UpgradeTaker take = std::move(c.upgrade_take);
     std::string rest = c.buf.substr(std::min(c.request_end, c.buf.size()));
-    conns_.erase(fd);  // Destroys c.
-    stats.open = conns_.size();
+    Forget(c);
     take(fd, std::move(rest));
   }
 

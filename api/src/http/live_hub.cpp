@@ -115,6 +115,10 @@ bool LiveHub::Reserve(const std::string& ip) {
 
 void LiveHub::Unreserve(const std::string& ip) {
   std::lock_guard<std::mutex> lock(mu_);
+  GiveBack(ip);
+}
+
+void LiveHub::GiveBack(const std::string& ip) {
   --reserved_;
   auto it = per_client_.find(ip);
   if (it != per_client_.end() && --it->second == 0) per_client_.erase(it);
@@ -432,9 +436,7 @@ void LiveHub::Forget(const std::shared_ptr<Session>& s) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (sessions_.erase(s->id) == 0) return;
-    --reserved_;
-    auto it = per_client_.find(s->ip);
-    if (it != per_client_.end() && --it->second == 0) per_client_.erase(it);
+    GiveBack(s->ip);
   }
   --open_;
   epoll_ctl(epoll_, EPOLL_CTL_DEL, s->fd, nullptr);

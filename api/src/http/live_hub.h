@@ -117,6 +117,7 @@ class LiveHub {
   void Close(const std::shared_ptr<Session>& s, ws::CloseCode code, std::string_view reason);
   void Apply(const std::shared_ptr<Session>& s, LiveHandler::Out& out);
   void Forget(const std::shared_ptr<Session>& s);
+  void GiveBack(const std::string& ip);  // A place of Reserve's (mu_ held).
   void Arm(Session& s);
   void Wake();
 

@@ -22,12 +22,6 @@ using nlohmann::json;
 constexpr char kMeshTag[4] = {'m', 'e', 's', 'h'};
 constexpr size_t kHeaderBytes = 16;
 
-std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer = "") {
-  json e = {{"event", "error"}, {"type", type}, {"detail", detail}};
-  if (!pointer.empty()) e["pointer"] = pointer;
-  return e.dump();
-}
-
 // The members a state message may carry, merged into the point; and the others it may carry.
 constexpr std::string_view kMerged[] = {"weights", "expressions", "controls", "gaze"};
 constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id", "say", "stop", "listen"};
@@ -89,15 +83,8 @@ class FaceSession final : public LiveHandler {
         return;
       }
     }
-    json body = next;
-    body["format"] = "f32";
-    auto request = ParseMeshRequest(body.dump());
-    if (!request.ok()) return Refuse(request.status(), out);
-    ResolvedPoint point;
-    if (Status s = ResolvePoint(rig_->rig, request.value(), point); !s.ok()) return Refuse(s, out);
+    if (Status s = Show(next); !s.ok()) return Refuse(s, out);
     state_ = std::move(next);
-    request_ = std::move(request.value());
-    point_ = std::move(point);
     last_id_ = id;
     out.frame_wanted = true;
     SayWarnings(out);
@@ -168,9 +155,7 @@ class FaceSession final : public LiveHandler {
       else if (it.key() == "rate" && it->is_number_integer()) rate = it->get<int>();
       else if (it.key() != "text") return out.texts.push_back(ErrorEvent("invalid-message", "say takes text, voice (a string) and rate (words a minute)", where));
     }
-    if (Status s = speaker_.Say(say["text"].get<std::string>(), voice, rate); !s.ok()) {
-      return out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, s.fields.empty() ? "/say" : s.fields[0].pointer));
-    }
+    if (Status s = speaker_.Say(say["text"].get<std::string>(), voice, rate); !s.ok()) Refuse(s, out, "/say");
   }
 
   // {"listen": {"rate": 16000, "frames": false}} starts hearing binary audio; {"listen": false} ends it.
@@ -210,8 +195,7 @@ class FaceSession final : public LiveHandler {
     std::vector<TimedViseme> v = VisemesOfPhonemes(heard_);
     const size_t n = all ? v.size() : (v.size() > 1 ? v.size() - 1 : 0);
     for (size_t i = 0; i < n; ++i) {
-      out.texts.push_back("{\"viseme\":\"" + std::string(VisemeName(v[i].viseme)) + "\",\"start\":" + FormatNumber(v[i].start) +
-                          ",\"end\":" + FormatNumber(v[i].end) + "}");
+      out.texts.push_back(VisemeEvent(v[i]));
       if (listen_frames_) Mouth(v[i].viseme, out);
     }
     if (n == 0) return;
@@ -228,28 +212,34 @@ class FaceSession final : public LiveHandler {
       const std::string& name = rig_->rig.shapes[shape].name;
       w[name] = std::min(1.0, w.value(name, 0.0) + weight);
     }
-    body["format"] = "f32";
-    auto request = ParseMeshRequest(body.dump());
-    ResolvedPoint point;
-    if (!request.ok() || !ResolvePoint(rig_->rig, request.value(), point).ok()) return;
-    request_ = std::move(request.value());
-    point_ = std::move(point);
-    out.frame_wanted = true;
+    if (Show(body).ok()) out.frame_wanted = true;
   }
 
-  void Refuse(const Status& s, Out& out) {
-    const std::string pointer = s.fields.empty() ? "" : s.fields[0].pointer;
-    out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, pointer));
+  // The point a state (the mesh route's members) makes, read as POST /mesh reads it, becomes the one the
+  // frames show; an error leaves the shown point as it was.
+  Status Show(json body) {
+    body["format"] = "f32";
+    auto request = ParseMeshRequest(body.dump());
+    if (!request.ok()) return request.status();
+    ResolvedPoint point;
+    if (Status s = ResolvePoint(rig_->rig, request.value(), point); !s.ok()) return s;
+    request_ = std::move(request.value());
+    point_ = std::move(point);
+    return Status::Ok();
+  }
+
+  // A status as an error event, at its first field's pointer, else at `where`.
+  void Refuse(const Status& s, Out& out, const std::string& where = "") {
+    out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, s.fields.empty() ? where : s.fields[0].pointer));
   }
 
   // The point's warnings (extrapolation, out of range ...) when they change: never silent.
   void SayWarnings(Out& out) {
     json list = json::array();
     for (const Warning& w : point_.report.warnings) list.push_back({{"code", w.code}, {"message", w.message}});
-    std::string text = json{{"event", "warnings"}, {"id", last_id_}, {"sum", point_.report.sum}, {"warnings", list}}.dump();
     if (list == last_warnings_) return;
+    out.texts.push_back(json{{"event", "warnings"}, {"id", last_id_}, {"sum", point_.report.sum}, {"warnings", list}}.dump());
     last_warnings_ = std::move(list);
-    out.texts.push_back(std::move(text));
   }
 
   ServerState& ctx_;

@@ -20,6 +20,17 @@ std::vector<TimedPhoneme> FinishedPhonemes(std::span<const std::pair<int, std::s
 
 }  // namespace
 
+std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer) {
+  nlohmann::json e = {{"event", "error"}, {"type", type}, {"detail", detail}};
+  if (!pointer.empty()) e["pointer"] = pointer;
+  return e.dump();
+}
+
+std::string VisemeEvent(const TimedViseme& v, double clock) {
+  return "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) + "\",\"start\":" + FormatNumber(clock + v.start) + ",\"end\":" +
+         FormatNumber(clock + v.end) + "}";
+}
+
 struct LiveSpeaker::Utterance {
   int rate = 22050;
   std::vector<int16_t> samples;
@@ -119,9 +130,7 @@ double LiveSpeaker::Send(Utterance& u, bool all_made) {
   const double sent_to = static_cast<double>(u.sent_samples) / u.rate;
   const bool audio_out = all_made && u.sent_samples == u.samples.size();
   while (u.sent_visemes < u.visemes.size() && (audio_out || u.visemes[u.sent_visemes].start < sent_to)) {
-    const TimedViseme& v = u.visemes[u.sent_visemes++];
-    Post("{\"viseme\":\"" + std::string(VisemeName(v.viseme)) + "\",\"start\":" + FormatNumber(u.clock + v.start) +
-         ",\"end\":" + FormatNumber(u.clock + v.end) + "}");
+    Post(VisemeEvent(u.visemes[u.sent_visemes++], u.clock));
   }
   if (audio_out && u.sent_visemes == u.visemes.size()) return 0;
   return std::max(0.01, sent_to - kLead - played);
@@ -151,8 +160,7 @@ void LiveSpeaker::Speak(const Piece& piece, std::stop_token stop) {
   if (!spoken.ok()) {
     const Status& s = spoken.status();
     if (s.code != StatusCode::kCancelled) {
-      const std::string pointer = s.fields.empty() ? "/say" : "/say" + s.fields[0].pointer;
-      Post(nlohmann::json{{"event", "error"}, {"type", s.reason.empty() ? "say-failed" : s.reason}, {"detail", s.message}, {"pointer", pointer}}.dump());
+      Post(ErrorEvent(s.reason.empty() ? "say-failed" : s.reason, s.message, s.fields.empty() ? "/say" : "/say" + s.fields[0].pointer));
     }
   } else {
     // The whole utterance's visemes, as the speech route makes them; those sent are its first ones.

@@ -25,6 +25,11 @@ inline void PutU32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
 }
 
+// The text events of a live session: an error (its type, what is wrong, the member's pointer if any),
+// and a viseme on the session's audio clock ({"viseme", "start", "end"}, as the speech route writes them).
+std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer = "");
+std::string VisemeEvent(const TimedViseme& v, double clock = 0);
+
 class LiveSpeaker {
  public:
   static constexpr double kLead = 1.0;              // Seconds of audio sent ahead of real time.
