@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/batch/dataset.h"
+#include "facespace/core/color.h"
 
 namespace facespace::batch {
 
@@ -20,20 +21,13 @@ namespace fs = std::filesystem;
 constexpr uintmax_t kMaxFileBytes = uintmax_t{64} << 20;
 constexpr size_t kMaxHeldBytes = size_t{512} << 20;  // All the pictures, scaled, together.
 
-const char* PictureType(std::string ext) {
+// Whether a file's extension names a picture (the decoder itself tells the format by its magic).
+bool IsPicture(std::string ext) {
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".png") return "image/png";
-  if (ext == ".jpg" || ext == ".jpeg") return "image/jpeg";
-  if (ext == ".webp") return "image/webp";
-  if (ext == ".exr") return "image/x-exr";
-  if (ext == ".tif" || ext == ".tiff") return "image/tiff";
-  if (ext == ".bmp") return "image/bmp";
-  return nullptr;
-}
-
-float ToSrgb(float linear) {
-  const float c = std::clamp(linear, 0.0f, 1.0f);
-  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+  for (const char* e : {".png", ".jpg", ".jpeg", ".webp", ".exr", ".tif", ".tiff", ".bmp"}) {
+    if (ext == e) return true;
+  }
+  return false;
 }
 
 // `picture` (linear RGBA) scaled to cover w x h, centred, sampled bilinearly.
@@ -59,7 +53,7 @@ BatchPlan::Background Covering(std::string name, const render::Image& picture, i
         const float top = at(ix, iy, c) * (1 - fx) + at(ix + 1, iy, c) * fx, bottom = at(ix, iy + 1, c) * (1 - fx) + at(ix + 1, iy + 1, c) * fx;
         const size_t k = (static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * 3 + static_cast<size_t>(c);
         bg.linear[k] = top * (1 - fy) + bottom * fy;
-        bg.srgb8[k] = static_cast<unsigned char>(std::lround(ToSrgb(bg.linear[k]) * 255.0f));
+        bg.srgb8[k] = static_cast<unsigned char>(std::lround(SrgbEncode(bg.linear[k]) * 255.0));
       }
     }
   }
@@ -78,7 +72,7 @@ Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer) {
   std::error_code ec;
   std::vector<fs::path> files;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    if (it->is_regular_file(ec) && PictureType(it->path().extension().string())) files.push_back(it->path());
+    if (it->is_regular_file(ec) && IsPicture(it->path().extension().string())) files.push_back(it->path());
   }
   if (ec) return Refused("cannot read the folder '" + dir + "': " + ec.message());
   if (files.empty()) return Refused("'" + dir + "' holds no pictures (.png, .jpg, .webp, .exr, .tif, .bmp)");
@@ -95,7 +89,7 @@ Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer) {
     std::ifstream in(f, std::ios::binary);
     std::vector<unsigned char> bytes(static_cast<size_t>(size));
     if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size))) return Refused("cannot read '" + f.filename().string() + "'");
-    auto picture = renderer.DecodePicture(bytes, PictureType(f.extension().string()));
+    auto picture = renderer.DecodePicture(bytes, "");
     if (!picture.ok()) return Refused("'" + f.filename().string() + "': " + picture.status().message);
     plan.backgrounds.push_back(Covering(f.filename().string(), picture.value(), w, h));
     listed.push_back({{"name", f.filename().string()}, {"bytes", size}});
@@ -113,7 +107,7 @@ void BlendOver(render::Image& image, const BatchPlan::Background& bg) {
   if (!image.srgb8.empty()) {
     static const std::array<float, 256> linear = [] {
       std::array<float, 256> t{};
-      for (int i = 0; i < 256; ++i) t[static_cast<size_t>(i)] = i / 255.0f <= 0.04045f ? i / 255.0f / 12.92f : std::pow((i / 255.0f + 0.055f) / 1.055f, 2.4f);
+      for (size_t i = 0; i < 256; ++i) t[i] = static_cast<float>(SrgbDecode(static_cast<double>(i) / 255.0));
       return t;
     }();
     for (size_t p = 0; p < n; ++p) {
@@ -122,7 +116,7 @@ void BlendOver(render::Image& image, const BatchPlan::Background& bg) {
       const float a = px[3] / 255.0f;
       for (size_t c = 0; c < 3; ++c) {
         px[c] = a == 0.0f ? bg.srgb8[3 * p + c]
-                          : static_cast<unsigned char>(std::lround(ToSrgb(linear[px[c]] * a + bg.linear[3 * p + c] * (1 - a)) * 255.0f));
+                          : static_cast<unsigned char>(std::lround(SrgbEncode(linear[px[c]] * a + bg.linear[3 * p + c] * (1 - a)) * 255.0));
       }
       px[3] = 255;
     }

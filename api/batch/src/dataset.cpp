@@ -243,14 +243,16 @@ Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer, const
   return Status::Ok();
 }
 
-}  // namespace
-
+// Sample `index`'s picture (plan.backgrounds, drawn from its stream) behind what `image` drew over a
+// transparent background; its index in plan.backgrounds.
 size_t PutOverBackground(const BatchPlan& plan, size_t index, render::Image& image) {
   const size_t n = plan.backgrounds.size();
   const size_t k = std::min(n - 1, static_cast<size_t>(Uniform(plan.draw_seed, index, 13, 0.0f, static_cast<float>(n))));
   BlendOver(image, plan.backgrounds[k]);
   return k;
 }
+
+}  // namespace
 
 Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& evaluator, api::Workspace& ws, api::ResolvedPoint& point,
                   std::vector<SampleFile>& files) {

@@ -12,4 +12,9 @@ inline double SrgbEncode(double linear) {
   return c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055;
 }
 
+// The linear value an sRGB encoding stands for.
+inline double SrgbDecode(double encoded) {
+  return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
+}
+
 }  // namespace facespace

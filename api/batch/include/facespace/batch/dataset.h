@@ -48,10 +48,6 @@ SampleDraw DrawSample(const BatchPlan& plan, size_t index);
 inline constexpr size_t kMaxBackgrounds = 1000;
 Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer);
 
-// Sample `index`'s picture (plan.backgrounds, drawn from its stream) behind what `image` drew over a
-// transparent background; its index in plan.backgrounds.
-size_t PutOverBackground(const BatchPlan& plan, size_t index, render::Image& image);
-
 // A pinhole camera in pixels, from a draw's matrices: pixel = K (x, -y, -z) / -z for a point (x, y, z)
 // in camera space (glTF's camera looks down -z with y up; the image's origin is its top left corner
 // and pixel centres are at +0.5).
