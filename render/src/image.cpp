@@ -295,7 +295,7 @@ Result<std::string> EncodePng(const Image& image) {
   d.lines.resize(batch * line_bytes);
   d.zeros.assign(stride, 0);
 
-  isal_zstream z;
+  isal_zstream z{};  // Every field known (hist_bits among them), not only those isal_deflate_init sets.
   isal_deflate_init(&z);
   z.level = 1;
   z.level_buf = d.level_buf.data();

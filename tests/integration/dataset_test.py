@@ -99,6 +99,75 @@ again = os.path.join(tmp, "again")
 rc, _ = batch(again, 40)
 check("the same command again: byte-identical shards and manifest", rc == 0 and same_dataset(ref, again))
 
+# Makers: a process a job (the default from 1,000 renders; the closing line says how many) make the threads' bytes.
+p = subprocess.run([binary, "batch", facecap, "--sample", "uniform", "--count", "40", "--seed", "5", "--active", "4", "--labels",
+                    "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM, "--archive", "tar",
+                    "--shard-samples", "16", "--jobs", "2", "--workers", "processes", "-o", os.path.join(tmp, "said")], capture_output=True,
+                   text=True)
+check(f"--workers processes: the closing line names the 2 maker processes ({[l for l in p.stderr.splitlines() if 'variants/s' in l]})",
+      p.returncode == 0 and "2 maker processes" in p.stderr)
+check("the maker processes' samples: the same bytes as the threads'", same_dataset(ref, os.path.join(tmp, "said")))
+rc, err = batch(os.path.join(tmp, "bad0"), 2, "--workers", "fibers")
+check(f"--workers fibers: a usage error naming processes and threads ({err.strip()[:120]})", rc == 2 and "processes" in err and "threads" in err)
+
+# The same seed, the same bytes, at 256² over 150 samples: igzip at level 1 wrote a few label files in some hundred
+# samples in other (valid) bytes from run to run; the 96² run above was too small to show it.
+big = [os.path.join(tmp, f"big{i}") for i in range(2)]
+rcs = [batch(b, 150, "--width", "256", "--height", "256", "--shard-samples", "150", "--workers", w)[0] for b, w in zip(big, ["processes", "threads"])]
+check("150 samples at 256², by makers and by threads: byte-identical shards and manifest", rcs == [0, 0] and same_dataset(big[0], big[1]))
+for b in big:
+    shutil.rmtree(b, ignore_errors=True)
+
+
+def makers_of(pid):
+    """The pids of `pid`'s children (its maker processes)."""
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children") as f:
+            return [int(x) for x in f.read().split()]
+    except OSError:
+        return []
+
+
+def alive(pids):
+    return [p for p in pids if os.path.exists(f"/proc/{p}") and not open(f"/proc/{p}/stat").read().split(") ")[1].startswith("Z")]
+
+
+def start_and_wait(out, *extra):
+    """A 40-sample run started, returned once its first shard is published and its makers are known."""
+    proc = subprocess.Popen([binary, "batch", facecap, "--sample", "uniform", "--count", "40", "--seed", "5", "--active", "4", "--labels",
+                             "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM, "--archive",
+                             "tar", "--shard-samples", "16", "--jobs", "2", "--workers", "processes", "-q", "-o", out, *extra],
+                            stderr=subprocess.PIPE, text=True)
+    deadline, makers = time.time() + 60, []
+    while time.time() < deadline and not os.path.exists(os.path.join(out, "shard-000000.tar")):
+        makers = makers_of(proc.pid) or makers
+        time.sleep(0.002)
+    return proc, makers_of(proc.pid) or makers
+
+
+# A maker killed mid-run: the run fails saying so, what is named is whole, a rerun finishes the same bytes.
+lost = os.path.join(tmp, "lost")
+proc, makers = start_and_wait(lost)
+if makers:
+    os.kill(makers[0], signal.SIGKILL)
+_, err = proc.communicate(timeout=60)
+samples, problems = whole_samples(lost)
+check(f"kill -9 of one of the {len(makers)} makers: exit 1 naming the lost maker, every named sample whole ({err.strip()[-160:]})",
+      len(makers) == 2 and proc.returncode == 1 and "sample maker process" in err and "signal 9" in err and not problems and
+      not alive(makers))
+rc, _ = batch(lost, 40)
+check("the rerun resumes and ends byte-identical to an uninterrupted run", rc == 0 and same_dataset(ref, lost))
+
+# SIGTERM: the run stops resumably (exit 130) and its makers end with it; a rerun finishes the same bytes.
+termed = os.path.join(tmp, "termed")
+proc, makers = start_and_wait(termed)
+proc.send_signal(signal.SIGTERM)
+_, err = proc.communicate(timeout=60)
+time.sleep(0.2)
+check(f"SIGTERM mid-run: exit 130 and no maker left ({err.strip()[-120:]})", len(makers) == 2 and proc.returncode == 130 and not alive(makers))
+rc, _ = batch(termed, 40)
+check("the rerun finishes byte-identical", rc == 0 and same_dataset(ref, termed))
+
 # Shards of a job array, merged.
 split = os.path.join(tmp, "split")
 rc1, _ = batch(split, 40, "--shard", "1/2")
@@ -107,19 +176,13 @@ p = subprocess.run([binary, "batch", "merge", split], capture_output=True, text=
 check(f"--shard 1/2 and 2/2 (whole tar shards each), then batch merge: the one-process dataset byte for byte (rc {rc1} {rc2} {p.returncode})",
       rc1 == 0 and rc2 == 0 and p.returncode == 0 and same_dataset(ref, split))
 
-# kill -9 mid-run: what is named is whole; a rerun finishes the same bytes.
+# kill -9 mid-run (maker processes): what is named is whole, no maker is left; a rerun finishes the same bytes.
 killed = os.path.join(tmp, "killed")
-args = [binary, "batch", facecap, "--sample", "uniform", "--count", "40", "--seed", "5", "--active", "4", "--labels",
-        "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM, "--archive", "tar",
-        "--shard-samples", "16", "--jobs", "2", "-q", "-o", killed]
-proc = subprocess.Popen(args, stderr=subprocess.DEVNULL)
-deadline = time.time() + 60
-while time.time() < deadline:
-    if os.path.exists(os.path.join(killed, "shard-000000.tar")) and os.path.exists(os.path.join(killed, ".fs-part-shard-000001.tar")):
-        break
-    time.sleep(0.005)
+proc, makers = start_and_wait(killed)
 proc.send_signal(signal.SIGKILL)
 proc.wait()
+time.sleep(0.2)
+check(f"kill -9 of the batch takes its {len(makers)} maker processes with it", len(makers) == 2 and not alive(makers))
 named = shards(killed)
 samples, problems = whole_samples(killed)
 check(f"kill -9 mid-run: {len(named)} shard(s) under their names, every sample in them whole ({len(samples)} samples) {problems[:3]}",

@@ -12,6 +12,7 @@
 #include "facespace/batch/dataset.h"
 #include "facespace/files/durable.h"
 #include "folder.h"
+#include "maker.h"
 
 namespace facespace::batch {
 
@@ -61,6 +62,7 @@ class BatchRun {
     std::chrono::steady_clock::time_point group_started;
     std::map<std::string, size_t> warned;  // Its variants per warning code, merged at its end.
     double max_sum = 0;
+    std::unique_ptr<MakerProcess> maker;    // Makes its variants, when the run has makers (RunOptions::processes).
   };
   static constexpr size_t kGroupFiles = 32;
   static constexpr auto kGroupAge = std::chrono::milliseconds(250);
@@ -75,13 +77,16 @@ class BatchRun {
   Status CheckSpec();
   Status ResumeTar();
   Status MakeFiles(size_t k, Worker& w);
+  Status Make(size_t k, Worker& w, MadeVariant& out);
+  Status Store(size_t k, Worker& w, MadeVariant&& made, const std::vector<std::pair<std::string, std::array<std::string_view, 2>>>& files);
   Status Encode(size_t k, Worker& w);
+  Status StartMakers(std::vector<Worker>& workers);
   Status Flush(Worker& w);
   Status Deliver(Written&& sample);
   Status AppendReady();
   Status Commit();
   void Published(size_t count);
-  void RunWorker();
+  void RunWorker(Worker& w);
   void Report();
 
   const BatchPlan& plan_;
@@ -206,18 +211,18 @@ Status BatchRun::MakeFiles(size_t k, Worker& w) {
   return Status::Ok();
 }
 
-// Variant k made and written: to temporary files in the worker's group, or handed to the tar writer.
-Status BatchRun::Encode(size_t k, Worker& w) {
+// Variant k made: its files (a tar's as members), its manifest line's head and tail, its warnings.
+Status BatchRun::Make(size_t k, Worker& w, MadeVariant& out) {
   if (Status s = MakeFiles(k, w); !s.ok()) return Prefixed(s, VariantId(plan_, k) + ": ");
   const std::vector<Warning>& warnings = w.point.report.warnings;
   for (size_t i = 0; i < warnings.size(); ++i) {  // Each code once per variant.
     bool first = true;
     for (size_t v = 0; v < i && first; ++v) first = warnings[v].code != warnings[i].code;
-    if (first) ++w.warned[warnings[i].code];
+    if (first) out.codes.push_back(warnings[i].code);
   }
-  w.max_sum = std::max(w.max_sum, w.point.report.sum);
+  out.sum = w.point.report.sum;
   const auto text = [](const std::string& s) { return json(s).dump(-1, ' ', false, json::error_handler_t::replace); };
-  Written out{k, {}, {}, "{\"index\":" + std::to_string(k) + ",\"id\":" + text(VariantId(plan_, k)) + ",\"file\":" + text(w.files[0].first), "", ""};
+  out.head = "{\"index\":" + std::to_string(k) + ",\"id\":" + text(VariantId(plan_, k)) + ",\"file\":" + text(w.files[0].first);
   std::string listed;  // The files beside the first (a folder's), or every member (a tar's).
   for (size_t i = tar_ ? 0 : 1; i < w.files.size(); ++i) {
     const auto& [name, pieces] = w.files[i];
@@ -230,8 +235,17 @@ Status BatchRun::Encode(size_t k, Worker& w) {
   out.tail = ",\"bytes\":" + std::to_string(whole[0].size() + whole[1].size()) + ",\"sha256\":\"" + Sha256Hex(whole) + "\"" +
              (listed.empty() ? "" : ",\"files\":[" + listed + "]") + ",\"weights\":" + api::WeightsMapJson(plan_.rig->rig, w.point.weights) +
              ",\"warnings\":" + WarningsToJson(warnings) + "}";
+  return Status::Ok();
+}
+
+// A made variant counted and stored: handed to the tar writer, or its files (`files`: the folder's, by
+// name, as pieces) written under temporary names into the worker's group.
+Status BatchRun::Store(size_t k, Worker& w, MadeVariant&& made, const std::vector<std::pair<std::string, std::array<std::string_view, 2>>>& files) {
+  for (const std::string& code : made.codes) ++w.warned[code];
+  w.max_sum = std::max(w.max_sum, made.sum);
+  Written out{k, {}, {}, std::move(made.head), std::move(made.tail), std::move(made.tar)};
   if (tar_) return Deliver(std::move(out));
-  for (const auto& [name, pieces] : w.files) {
+  for (const auto& [name, pieces] : files) {
     Result<int> fd = WriteTemporary(dir_, kTmpPrefix + name, pieces, "'" + name + "'");
     if (!fd.ok()) {
       for (size_t i = 0; i < out.fds.size(); ++i) Discard(out.fds[i], dir_, kTmpPrefix + out.files[i]);
@@ -243,6 +257,19 @@ Status BatchRun::Encode(size_t k, Worker& w) {
   if (w.group.empty()) w.group_started = std::chrono::steady_clock::now();
   w.group.push_back(std::move(out));
   return Status::Ok();
+}
+
+// Variant k made, here or by the worker's maker process, and stored.
+Status BatchRun::Encode(size_t k, Worker& w) {
+  MadeVariant made;
+  if (!w.maker) {
+    if (Status s = Make(k, w, made); !s.ok()) return s;
+    return Store(k, w, std::move(made), w.files);
+  }
+  if (Status s = w.maker->Ask(k, made); !s.ok()) return s;
+  w.files.clear();
+  for (const auto& [name, bytes] : made.files) w.files.push_back({name, {bytes, {}}});
+  return Store(k, w, std::move(made), w.files);
 }
 
 void BatchRun::Published(size_t count) {
@@ -328,8 +355,7 @@ Status BatchRun::Commit() {
 
 // A worker: variants taken one at a time until none is left, one fails or the run is cancelled. A tar's
 // worker waits while it is too far ahead of the sample the writer needs next.
-void BatchRun::RunWorker() {
-  Worker w;
+void BatchRun::RunWorker(Worker& w) {
   Status status;
   for (;;) {
     const size_t slot = next_.fetch_add(1);
@@ -357,6 +383,29 @@ void BatchRun::Report() {
   if (options_.progress) options_.progress({summary_.skipped + finished_.load(), summary_.skipped, summary_.total, Elapsed()});
 }
 
+// A maker process for each worker (maker.h), forked before any thread starts, when the run asks for
+// them and this process is still one thread; else the workers make their variants themselves.
+Status BatchRun::StartMakers(std::vector<Worker>& workers) {
+  if (pending_.size() < options_.processes_from || workers.size() < 2 || !CanForkMakers()) return Status::Ok();
+  Worker child;                   // The child's own, copied with the process.
+  std::vector<std::string> whole;  // A folder variant's files, each in one piece for the message.
+  const MakerProcess::Make make = [this, &child, &whole](size_t k, MadeVariant& out) {
+    Status s = Make(k, child, out);
+    if (!s.ok() || tar_) return s;
+    whole.clear();
+    for (const auto& [name, pieces] : child.files) whole.push_back(std::string(pieces[0]) + std::string(pieces[1]));
+    for (size_t i = 0; i < whole.size(); ++i) out.files.emplace_back(child.files[i].first, whole[i]);
+    return s;
+  };
+  for (Worker& w : workers) {
+    auto maker = MakerProcess::Start(make);
+    if (!maker.ok()) return maker.status();
+    w.maker = std::move(maker.value());
+  }
+  summary_.processes = workers.size();
+  return Status::Ok();
+}
+
 void BatchRun::Work(int jobs) {
   // The count is set, under the lock, before any worker can end and lower it (a cancelled worker
   // ends at once).
@@ -365,8 +414,15 @@ void BatchRun::Work(int jobs) {
     std::lock_guard<std::mutex> lock(mu_);
     running_ = workers;
   }
+  std::vector<Worker> state(workers);
+  if (Status s = StartMakers(state); !s.ok()) {
+    std::lock_guard<std::mutex> lock(mu_);
+    failure_ = s;
+    running_ = 0;
+  }
+  if (options_.before_threads) options_.before_threads();
   std::vector<std::thread> threads;
-  for (size_t t = 0; t < workers; ++t) threads.emplace_back([this] { RunWorker(); });
+  for (size_t t = 0; failure_.ok() && t < workers; ++t) threads.emplace_back([this, &w = state[t]] { RunWorker(w); });
   {
     std::unique_lock<std::mutex> lock(mu_);
     while (running_ > 0) {

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <atomic>
+#include <cstdint>
 #include <map>
 #include <functional>
 #include <span>
@@ -42,6 +43,12 @@ struct RunOptions {
   std::string dir;
   const api::Evaluator* evaluator = nullptr;  // Makes every file and the contact sheet; required.
   int jobs = 0;                      // Worker threads; 0 = every core.
+  // Each worker's variants made by a process of its own (maker.h), forked when the run starts, once at
+  // least this many variants are to be made: for batches that render, from a one-thread process (the CLI;
+  // never the service, whose threads a fork would lose). Threads when the process already runs others.
+  // Each maker starts its own llvmpipe (about 0.3 s), so a small run is quicker with threads.
+  size_t processes_from = SIZE_MAX;
+  std::function<void()> before_threads;  // Once the makers are forked, before any worker thread starts (render.h's OpenImageModule).
   size_t shard = 0, shards = 1;      // Variant k belongs to shard k % shards.
   size_t sheet_cells = 16;           // Contact sheet of the first variants; 0 = none.
   std::vector<std::string> rig_files;  // Recorded by a shard (absolute paths), so merge can find the rig.
@@ -56,6 +63,7 @@ struct Summary {
   // Of the variants generated: how many carry each warning code, and the largest sum of weights.
   std::map<std::string, size_t> warnings;
   double max_sum = 0;
+  size_t processes = 0;  // Maker processes the run used; 0: its worker threads made the variants.
 };
 
 // Writes the variants of `plan` (MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
