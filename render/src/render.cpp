@@ -37,8 +37,9 @@ Image EncodingRenderer::Sheet(std::span<const Image> cells, std::span<const std:
 
 bool EncodingRenderer::CanDrawText(const std::string& text) const { return render::CanDrawText(text); }
 
-Result<std::string> EncodingRenderer::EncodeData(std::span<const float> values, int width, int height, int channels) const {
-  return EncodeDataExr(values, width, height, channels);
+Result<std::string> EncodingRenderer::EncodeData(std::span<const float> values, int width, int height, int channels,
+                                                 DataPrecision precision) const {
+  return EncodeDataExr(values, width, height, channels, precision);
 }
 
 Result<std::string> EncodingRenderer::EncodeIds(std::span<const uint16_t> ids, int width, int height) const {

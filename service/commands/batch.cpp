@@ -400,8 +400,14 @@ int RunBatch(BatchArgs& a) {
   // sheet never decodes a texture, and the module's loading took 0.35 s of a 550-variant glb run's 0.78.
   const bool pictures = a.run.sheet_cells > 0 || (a.request.contains("format") && a.request["format"] != "glb" &&
                                                    a.request["format"] != "obj" && a.request["format"] != "json" && a.request["format"] != "f32");
-  // Opened after the makers are forked (maker.h): its loading starts a logging library's threads.
-  if (!rig->images.empty() && pictures) a.run.before_threads = [] { render::OpenImageModule(); };
+  // Opened after the makers are forked (maker.h; its loading starts a logging library's threads), and with
+  // makers only for the contact sheet: each maker opens its own (0.3 s) while this process would keep them waiting.
+  const bool sheet = a.run.sheet_cells > 0;
+  if (!rig->images.empty() && pictures) {
+    a.run.before_threads = [sheet](bool makers) {
+      if (!makers || sheet) render::OpenImageModule();
+    };
+  }
   std::string bytes;
   ReadFile(a.paths[0], bytes);
   const std::string_view whole[] = {bytes};
@@ -453,7 +459,7 @@ int Batch(const std::vector<std::string>& args) {
       "manifest and sheet a single run would have written (batch merge --help).\n"
       "--variants: JSON lines of {\"id\": \"...\", \"weights\": {...}} (or a bare weights object).\n"
       "A labelled dataset (--labels depth,normals,segmentation,landmarks): each sample is KEY.png, KEY.depth.exr\n"
-      "(float32 distance along the ray, metres), KEY.normals.exr (camera space), KEY.seg.png (ids; legend in\n"
+      "(float32 distance along the ray, metres), KEY.normals.exr (half floats, camera space), KEY.seg.png (ids; legend in\n"
       "KEY.json) and KEY.json (camera K and world_to_camera, landmarks with pixel and 3D positions and\n"
       "visibility, the point). --archive tar writes them as WebDataset shards; --randomize varies each sample:\n"
       "  {\"seed\": 7, \"camera\": {\"yaw\": [-30, 30], \"pitch\": [-10, 10], \"zoom\": [0.9, 1.1]},\n"

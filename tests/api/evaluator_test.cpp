@@ -313,7 +313,7 @@ class AsciiOnly final : public render::Renderer {
   bool CanDrawText(const std::string& text) const override {
     return std::all_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) < 0x80; });
   }
-  Result<std::string> EncodeData(std::span<const float> v, int, int, int) const override { return std::to_string(v.size()) + " floats"; }
+  Result<std::string> EncodeData(std::span<const float> v, int, int, int, render::DataPrecision) const override { return std::to_string(v.size()) + " floats"; }
   Result<std::string> EncodeIds(std::span<const uint16_t> v, int, int) const override { return std::to_string(v.size()) + " ids"; }
   Result<render::Image> DecodePicture(std::span<const unsigned char> b, const std::string& t) const override { return null.DecodePicture(b, t); }
   mutable int draws = 0;

@@ -226,12 +226,12 @@ Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer, const
   const api::DatasetRequest& d = plan.request.dataset;
   const render::LabelPlanes& planes = image.labels;
   if (d.has(api::Label::kDepth)) {
-    auto exr = renderer.EncodeData(planes.distance, image.width, image.height, 1);
+    auto exr = renderer.EncodeData(planes.distance, image.width, image.height, 1, render::DataPrecision::kFloat);
     if (!exr.ok()) return exr.status();
     files.push_back({"depth.exr", std::move(exr.value())});
   }
   if (d.has(api::Label::kNormals)) {
-    auto exr = renderer.EncodeData(planes.normal, image.width, image.height, 3);
+    auto exr = renderer.EncodeData(planes.normal, image.width, image.height, 3, render::DataPrecision::kHalf);
     if (!exr.ok()) return exr.status();
     files.push_back({"normals.exr", std::move(exr.value())});
   }

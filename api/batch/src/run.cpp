@@ -420,7 +420,7 @@ void BatchRun::Work(int jobs) {
     failure_ = s;
     running_ = 0;
   }
-  if (options_.before_threads) options_.before_threads();
+  if (options_.before_threads) options_.before_threads(summary_.processes > 0);
   std::vector<std::thread> threads;
   for (size_t t = 0; failure_.ok() && t < workers; ++t) threads.emplace_back([this, &w = state[t]] { RunWorker(w); });
   {

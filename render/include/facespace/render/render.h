@@ -22,7 +22,7 @@ class EncodingRenderer : public Renderer {
   Image Sheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
               std::array<float, 4> background) const override;
   bool CanDrawText(const std::string& text) const override;
-  Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels) const override;
+  Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels, DataPrecision precision) const override;
   Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const override;
   Result<Image> DecodePicture(std::span<const unsigned char> bytes, const std::string& mime_type) const override;
 };
@@ -62,9 +62,13 @@ class NullRenderer final : public EncodingRenderer {
 Result<std::string> Encode(const Image& image, ImageFormat format, int quality = 90);
 
 // Data as images, written as they are (no colour space): `channels` (1 or 3) floats a pixel, top row
-// first, as a ZIP-compressed EXR of 32-bit floats, one channel "Y" or R, G, B (depth, normals); and ids
-// as a grey PNG, 8 bits when every id is below 256, else 16 (segmentation).
-Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height, int channels);
+// first, as a ZIP-compressed EXR of 32-bit floats or 16-bit halves (rounded to nearest, ties to even),
+// one channel "Y" or R, G, B (depth, normals); and ids as a grey PNG, 8 bits when every id is below
+// 256, else 16 (segmentation).
+Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height, int channels,
+                                  DataPrecision precision = DataPrecision::kFloat);
+// IEEE 754 half of `f`, rounded to nearest, ties to even (as F16C's conversion), for EncodeDataExr.
+uint16_t HalfOf(float f);
 Result<std::string> EncodeIdPng(std::span<const uint16_t> ids, int width, int height);
 
 // Decodes PNG/JPEG/EXR/TIFF/BMP bytes (TGA, which has no magic, when mime_type is "image/x-tga") to

@@ -48,7 +48,9 @@ struct RunOptions {
   // never the service, whose threads a fork would lose). Threads when the process already runs others.
   // Each maker starts its own llvmpipe (about 0.3 s), so a small run is quicker with threads.
   size_t processes_from = SIZE_MAX;
-  std::function<void()> before_threads;  // Once the makers are forked, before any worker thread starts (render.h's OpenImageModule).
+  // Once the makers are forked (`makers`: whether there are any), before any worker thread starts: the
+  // place to open render.h's image module, which the workers need only when they make the variants.
+  std::function<void(bool makers)> before_threads;
   size_t shard = 0, shards = 1;      // Variant k belongs to shard k % shards.
   size_t sheet_cells = 16;           // Contact sheet of the first variants; 0 = none.
   std::vector<std::string> rig_files;  // Recorded by a shard (absolute paths), so merge can find the rig.

@@ -113,6 +113,11 @@ const char* ImageFormatMimeType(ImageFormat format);
 const char* ImageFormatExtension(ImageFormat format);
 
 
+// How a data plane's values are stored: 32-bit floats (depth: a millimetre at any distance), or 16-bit
+// halves (unit normals: 11 bits of mantissa, an angle within 0.06 degrees; half the bytes to deflate,
+// hash and write).
+enum class DataPrecision { kFloat, kHalf };
+
 // Draws a blended rig (the rig evaluated at some weights) with the rig's node transforms and
 // materials into a linear-light image, and encodes images. Implementations are thread-safe; callers
 // own them and pass them down (the service owns one for all its threads).
@@ -132,8 +137,8 @@ class Renderer {
   // Whether every character of UTF-8 `text` has a glyph in the fonts the sheet's labels use.
   virtual bool CanDrawText(const std::string& text) const = 0;
   // Label planes as files (render/render.h's EncodeDataExr and EncodeIdPng): `channels` (1 or 3) floats
-  // a pixel as an EXR of 32-bit floats, and ids as a grey PNG.
-  virtual Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels) const = 0;
+  // a pixel as an EXR of 32-bit floats or 16-bit halves, and ids as a grey PNG.
+  virtual Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels, DataPrecision precision) const = 0;
   virtual Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width, int height) const = 0;
   // PNG/JPEG/EXR/TIFF/BMP/WebP bytes as linear RGBA (a dataset's background pictures).
   virtual Result<Image> DecodePicture(std::span<const unsigned char> bytes, const std::string& mime_type) const = 0;
