@@ -41,7 +41,9 @@ scene.collection.objects.link(cam)
 cam.location = (centre[0], centre[1] - 1.4 * height / 0.5, centre[2])
 cam.rotation_euler = (1.5708, 0.0, 0.0)
 scene.camera = cam
-light = bpy.data.objects.new("key", bpy.data.lights.new("key", "SUN"))
+sun = bpy.data.lights.new("key", "SUN")
+sun.energy = 2.0  # W/m², a studio's key light (made from Python, a sun starts at 10: a white face burnt out).
+light = bpy.data.objects.new("key", sun)
 light.rotation_euler = (0.9, 0.0, -0.5)
 scene.collection.objects.link(light)
 
