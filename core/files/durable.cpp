@@ -49,6 +49,16 @@ bool RemoveAbandoned(const std::filesystem::path& path) {
   return abandoned;
 }
 
+int WriteAll(int fd, std::string_view data) {
+  while (!data.empty()) {
+    const ssize_t n = ::write(fd, data.data(), data.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return n < 0 ? errno : ENOSPC;
+    data.remove_prefix(static_cast<size_t>(n));
+  }
+  return 0;
+}
+
 Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& tmp_name,
                            std::span<const std::string_view> pieces, const std::string& what) {
   const std::string tmp = (dir / tmp_name).string();
@@ -59,13 +69,7 @@ Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& 
   // process sharing the folder tells a temporary being written from one left by a crash.
   ::flock(fd, LOCK_EX | LOCK_NB);
   for (std::string_view data : pieces) {
-    size_t done = 0;
-    while (done < data.size()) {
-      const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
-      if (n < 0 && errno == EINTR) continue;
-      if (n <= 0) return Abandon(fd, tmp, "cannot write " + what, n < 0 ? errno : ENOSPC);
-      done += static_cast<size_t>(n);
-    }
+    if (const int e = WriteAll(fd, data); e != 0) return Abandon(fd, tmp, "cannot write " + what, e);
   }
   // Start the write-back now, so that the flush in Publish finds it done or under way.
   ::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);

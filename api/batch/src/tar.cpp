@@ -64,20 +64,12 @@ Status TarPart::Open(const fs::path& dir, size_t shard, uint64_t length) {
 }
 
 Status TarPart::Append(std::string_view bytes) {
-  const uint64_t start = length_;
-  while (!bytes.empty()) {
-    const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int e = n < 0 ? errno : ENOSPC;
-      length_ = start;  // Nothing half-written stays past what was appended whole.
-      (void)!::ftruncate(fd_, static_cast<off_t>(start));
-      (void)!::lseek(fd_, static_cast<off_t>(start), SEEK_SET);
-      return WriteError("writing '" + TarShardName(shard_) + "'", e);
-    }
-    bytes.remove_prefix(static_cast<size_t>(n));
-    length_ += static_cast<uint64_t>(n);
+  if (const int e = WriteAll(fd_, bytes); e != 0) {  // Nothing half-written stays past what was appended whole.
+    (void)!::ftruncate(fd_, static_cast<off_t>(length_));
+    (void)!::lseek(fd_, static_cast<off_t>(length_), SEEK_SET);
+    return WriteError("writing '" + TarShardName(shard_) + "'", e);
   }
+  length_ += bytes.size();
   return Status::Ok();
 }
 

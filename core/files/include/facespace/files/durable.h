@@ -39,6 +39,10 @@ Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_na
 // EFBIG), else kInternal; "DOING: the system's reason".
 Status WriteError(const std::string& doing, int err);
 
+// All of `data` written to `fd`, through short writes and EINTR: 0, or the errno that stopped it (ENOSPC
+// for a write that took nothing).
+int WriteAll(int fd, std::string_view data);
+
 // fsync of a folder, so that renames and new names in it survive a crash.
 void SyncDir(const std::filesystem::path& dir);
 
