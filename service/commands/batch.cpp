@@ -19,11 +19,10 @@ namespace facespace::cli {
 
 namespace {
 
-// randomize.background.images: the folder's pictures, decoded before any worker starts (the image module
-// opened on this thread first, as render.h asks).
+// randomize.background.images: the folder's pictures, decoded on this thread before any worker starts
+// (Decode opens the image module here, as render.h asks; its threads then keep the run from forking
+// makers, maker.h, and the run makes its samples with threads).
 Status LoadBackgrounds(batch::BatchPlan& plan, const render::Renderer& renderer) {
-  // Decode opens the image module for the pictures that need it (not PNG or WebP): a batch whose
-  // pictures are PNG can still fork its makers (maker.h).
   if (plan.request.dataset.randomize.background_images.empty()) return Status::Ok();
   return batch::LoadBackgroundImages(plan, renderer);
 }
@@ -180,7 +179,6 @@ struct BatchArgs {
   json request = json::object();
   json sample = json::object();
   std::string variants_path, out_dir;
-  std::string workers;  // --workers: "threads" or "processes"; empty: processes when the batch renders.
   batch::RunOptions run;
   bool quiet = false, shard_auto = false;
   size_t shard_count = 0;
@@ -286,7 +284,7 @@ void AddRunFlags(Flags& flags, BatchArgs& a) {
               "who makes the variants: a process a job (the default for 1,000 renders or more: llvmpipe rasterises one context of a process at a time) or threads",
               [&a](const std::string& v) {
                 if (v != "processes" && v != "threads") return std::fprintf(stderr, "error: --workers: '%s' is not processes or threads\n", v.c_str()), 2;
-                a.workers = v;
+                a.run.makers = v == "processes" ? batch::RunOptions::Makers::kProcesses : batch::RunOptions::Makers::kThreads;
                 return 0;
               });
   flags.Switch("--no-sheet", "no contact sheet", [&a] { a.run.sheet_cells = 0; });
@@ -446,6 +444,9 @@ int RunBatch(BatchArgs& a) {
 int Batch(const std::vector<std::string>& args) {
   if (!args.empty() && args[0] == "merge") return Merge({args.begin() + 1, args.end()});
   BatchArgs a;
+  // Makers for big render runs unless --workers says (batch/run.h): 8-13% more samples a second than
+  // threads (tests/bench/README.md, "Datasets").
+  a.run.makers = batch::RunOptions::Makers::kAuto;
   Flags flags(
       "usage: facespace batch RIG (--variants FILE.jsonl | --sample uniform|gaussian|grid|convex [--count N] [--seed S])\n"
       "         --out DIR [--format glb|obj|json|f32|vrm|png|jpeg|exr|tiff|webp] [--jobs N] [--shard I/N|auto [--shards N]]\n"
@@ -480,11 +481,6 @@ int Batch(const std::vector<std::string>& args) {
   else if (int rc = ReadVariants(a.variants_path, request); rc != 0) return rc;
   const bool labelled = request.contains("labels") || request.contains("randomize");
   if (!request.contains("format")) request["format"] = labelled ? "png" : "glb";
-  const bool renders = labelled || !(request["format"] == "glb" || request["format"] == "obj" || request["format"] == "json" ||
-                                     request["format"] == "f32" || request["format"] == "vrm");
-  // Makers (batch/run.h) for renders of 1,000 variants or more: each starts its own llvmpipe (0.3 s),
-  // and then makes 8-13% more samples a second than threads (tests/bench/README.md, "Datasets").
-  a.run.processes_from = a.workers == "processes" ? 0 : a.workers == "threads" || !renders ? SIZE_MAX : 1000;
   if (a.shard_count != 0 && !a.shard_auto) return flags.UsageError("--shards N goes with --shard auto");
   if (a.shard_auto) {
     if (int rc = ShardOfScheduler(a); rc != 0) return rc;

@@ -22,7 +22,7 @@ MadeVariant Example() {
 TEST(MakerMessage, RoundTrips) {
   MadeVariant m = Example();
   const std::string files[2] = {"png bytes", std::string("\0exr\xff", 5)};
-  m.files = {{"v3.png", files[0]}, {"v3.depth.exr", files[1]}};
+  m.files = {{"v3.png", {"png ", "bytes"}}, {"v3.depth.exr", {files[1], {}}}};  // A file in two pieces arrives as one.
   const std::string message = EncodeMade(Status::Ok(), m);
   MadeVariant back;
   ASSERT_TRUE(DecodeMade(message, back).ok());
@@ -32,8 +32,9 @@ TEST(MakerMessage, RoundTrips) {
   EXPECT_DOUBLE_EQ(back.sum, 1.25);
   EXPECT_EQ(back.tar, "tar bytes");
   ASSERT_EQ(back.files.size(), 2u);
+  EXPECT_EQ(back.files[0].second[0], files[0]);
   EXPECT_EQ(back.files[1].first, "v3.depth.exr");
-  EXPECT_EQ(back.files[1].second, files[1]);
+  EXPECT_EQ(back.files[1].second[0], files[1]);
 }
 
 TEST(MakerMessage, CarriesTheMakersError) {
@@ -46,7 +47,7 @@ TEST(MakerMessage, CarriesTheMakersError) {
 
 TEST(MakerMessage, EveryTruncationAndABadCodeAreRefused) {
   MadeVariant m = Example();
-  m.files = {{"v3.png", "png"}};
+  m.files = {{"v3.png", {"png", {}}}};
   const std::string message = EncodeMade(Status::Ok(), m);
   MadeVariant back;
   for (size_t n = 0; n < message.size(); ++n) {

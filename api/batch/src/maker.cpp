@@ -1,5 +1,7 @@
 #include "maker.h"
 
+#include "facespace/files/durable.h"
+
 #include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -20,17 +22,6 @@ namespace {
 // A message's largest size: a labelled 4096² sample is about 250 MB; a bigger length is a broken pipe's.
 constexpr uint64_t kMaxMessage = uint64_t{1} << 32;
 
-bool WriteAll(int fd, const void* data, size_t size) {
-  const char* p = static_cast<const char*>(data);
-  while (size > 0) {
-    const ssize_t n = write(fd, p, size);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n, size -= static_cast<size_t>(n);
-  }
-  return true;
-}
-
 bool ReadAll(int fd, void* data, size_t size) {
   char* p = static_cast<char*>(data);
   while (size > 0) {
@@ -42,10 +33,12 @@ bool ReadAll(int fd, void* data, size_t size) {
   return true;
 }
 
-void PutPiece(std::string& out, std::string_view piece) {
-  const uint64_t n = piece.size();
-  out.append(reinterpret_cast<const char*>(&n), 8);
-  out.append(piece);
+void PutU64(std::string& out, uint64_t n) { out.append(reinterpret_cast<const char*>(&n), 8); }
+
+// One piece: its length, then its bytes (`more` after `piece`, as one).
+void PutPiece(std::string& out, std::string_view piece, std::string_view more = {}) {
+  PutU64(out, piece.size() + more.size());
+  out.append(piece).append(more);
 }
 
 // The next piece of `in` from `at`, or false past its end.
@@ -80,7 +73,7 @@ bool TakePiece(std::string_view in, size_t& at, std::string_view& piece) {
     const Status status = make(static_cast<size_t>(k), made);
     message = EncodeMade(status, made);
     const uint64_t n = message.size();
-    if (!WriteAll(to_parent, &n, 8) || !WriteAll(to_parent, message.data(), message.size())) break;
+    if (WriteAll(to_parent, {reinterpret_cast<const char*>(&n), 8}) != 0 || WriteAll(to_parent, message) != 0) break;
   }
   _exit(0);  // Never exit(): the parent's buffered streams (the manifest) must not be flushed twice.
 }
@@ -98,8 +91,7 @@ bool CanForkMakers() {
 
 std::string EncodeMade(const Status& status, const MadeVariant& made) {
   std::string out;
-  const uint64_t code = static_cast<uint64_t>(status.code);
-  out.append(reinterpret_cast<const char*>(&code), 8);
+  PutU64(out, static_cast<uint64_t>(status.code));
   PutPiece(out, status.message);
   PutPiece(out, status.reason);
   if (!status.ok()) return out;
@@ -110,9 +102,8 @@ std::string EncodeMade(const Status& status, const MadeVariant& made) {
   for (const std::string& c : made.codes) codes += c + '\n';
   PutPiece(out, codes);
   PutPiece(out, made.tar);
-  const uint64_t files = made.files.size();
-  out.append(reinterpret_cast<const char*>(&files), 8);
-  for (const auto& [name, bytes] : made.files) PutPiece(out, name), PutPiece(out, bytes);
+  PutU64(out, made.files.size());
+  for (const auto& [name, pieces] : made.files) PutPiece(out, name), PutPiece(out, pieces[0], pieces[1]);
   return out;
 }
 
@@ -141,7 +132,7 @@ Status DecodeMade(std::string_view message, MadeVariant& out) {
   at += 8;
   for (uint64_t i = 0; i < files; ++i) {  // Each file takes 16 bytes at least: a count past the end fails at once.
     if (!TakePiece(message, at, name) || !TakePiece(message, at, bytes)) return broken;
-    out.files.emplace_back(std::string(name), bytes);
+    out.files.push_back({std::string(name), {bytes, {}}});
   }
   return at == message.size() ? Status::Ok() : broken;
 }
@@ -191,7 +182,8 @@ Status MakerProcess::Ask(size_t k, MadeVariant& out) {
   if (pid_ < 0) return Internal("the sample maker process has ended");
   const uint64_t index = k;
   uint64_t n = 0;
-  if (!WriteAll(to_child_, &index, 8) || !ReadAll(from_child_, &n, 8) || n > kMaxMessage) return Died();
+  const std::string_view asked(reinterpret_cast<const char*>(&index), 8);
+  if (WriteAll(to_child_, asked) != 0 || !ReadAll(from_child_, &n, 8) || n > kMaxMessage) return Died();
   received_.resize(static_cast<size_t>(n));
   if (!ReadAll(from_child_, received_.data(), received_.size())) return Died();
   return DecodeMade(received_, out);

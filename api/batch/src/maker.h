@@ -13,6 +13,7 @@
 
 #include <sys/types.h>
 
+#include <array>
 #include <functional>
 #include <memory>
 #include <string>
@@ -24,15 +25,19 @@
 
 namespace facespace::batch {
 
+// A folder variant's files by name, each in up to two pieces (a mesh's header and body), viewing the
+// buffers of whoever made them.
+using NamedFiles = std::vector<std::pair<std::string, std::array<std::string_view, 2>>>;
+
 // A variant as made, ready to be stored: the manifest line's head and tail (its position in a tar
 // goes between), the warning codes it carries (each once) and its sum of weights, and its bytes: a
-// tar's members, or a folder's files by name.
+// tar's members, or a folder's files.
 struct MadeVariant {
   std::string head, tail;
   std::vector<std::string> codes;
   double sum = 0;
   std::string tar;
-  std::vector<std::pair<std::string, std::string_view>> files;  // Views into the maker's or the worker's buffers.
+  NamedFiles files;  // A maker's: views into the message its MakerProcess received.
 };
 
 // Whether this process may fork makers now: it runs one thread (a thread started before, such as an

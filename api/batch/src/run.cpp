@@ -57,12 +57,12 @@ class BatchRun {
     api::ResolvedPoint point;
     api::Encoded encoded;                                                       // A variant's one file,
     std::vector<SampleFile> sample;                                             // or a labelled sample's,
-    std::vector<std::pair<std::string, std::array<std::string_view, 2>>> files;  // named, as pieces.
+    NamedFiles files;                                                           // named, as pieces.
     std::vector<Written> group;
     std::chrono::steady_clock::time_point group_started;
     std::map<std::string, size_t> warned;  // Its variants per warning code, merged at its end.
     double max_sum = 0;
-    std::unique_ptr<MakerProcess> maker;    // Makes its variants, when the run has makers (RunOptions::processes).
+    std::unique_ptr<MakerProcess> maker;    // Makes its variants, when the run has makers (RunOptions::makers).
   };
   static constexpr size_t kGroupFiles = 32;
   static constexpr auto kGroupAge = std::chrono::milliseconds(250);
@@ -78,7 +78,7 @@ class BatchRun {
   Status ResumeTar();
   Status MakeFiles(size_t k, Worker& w);
   Status Make(size_t k, Worker& w, MadeVariant& out);
-  Status Store(size_t k, Worker& w, MadeVariant&& made, const std::vector<std::pair<std::string, std::array<std::string_view, 2>>>& files);
+  Status Store(size_t k, Worker& w, MadeVariant&& made);
   Status Encode(size_t k, Worker& w);
   Status StartMakers(std::vector<Worker>& workers);
   Status Flush(Worker& w);
@@ -235,17 +235,18 @@ Status BatchRun::Make(size_t k, Worker& w, MadeVariant& out) {
   out.tail = ",\"bytes\":" + std::to_string(whole[0].size() + whole[1].size()) + ",\"sha256\":\"" + Sha256Hex(whole) + "\"" +
              (listed.empty() ? "" : ",\"files\":[" + listed + "]") + ",\"weights\":" + api::WeightsMapJson(plan_.rig->rig, w.point.weights) +
              ",\"warnings\":" + WarningsToJson(warnings) + "}";
+  if (!tar_) out.files = w.files;
   return Status::Ok();
 }
 
-// A made variant counted and stored: handed to the tar writer, or its files (`files`: the folder's, by
-// name, as pieces) written under temporary names into the worker's group.
-Status BatchRun::Store(size_t k, Worker& w, MadeVariant&& made, const std::vector<std::pair<std::string, std::array<std::string_view, 2>>>& files) {
+// A made variant counted and stored: handed to the tar writer, or its files written under temporary
+// names into the worker's group.
+Status BatchRun::Store(size_t k, Worker& w, MadeVariant&& made) {
   for (const std::string& code : made.codes) ++w.warned[code];
   w.max_sum = std::max(w.max_sum, made.sum);
   Written out{k, {}, {}, std::move(made.head), std::move(made.tail), std::move(made.tar)};
   if (tar_) return Deliver(std::move(out));
-  for (const auto& [name, pieces] : files) {
+  for (const auto& [name, pieces] : made.files) {
     Result<int> fd = WriteTemporary(dir_, kTmpPrefix + name, pieces, "'" + name + "'");
     if (!fd.ok()) {
       for (size_t i = 0; i < out.fds.size(); ++i) Discard(out.fds[i], dir_, kTmpPrefix + out.files[i]);
@@ -262,14 +263,8 @@ Status BatchRun::Store(size_t k, Worker& w, MadeVariant&& made, const std::vecto
 // Variant k made, here or by the worker's maker process, and stored.
 Status BatchRun::Encode(size_t k, Worker& w) {
   MadeVariant made;
-  if (!w.maker) {
-    if (Status s = Make(k, w, made); !s.ok()) return s;
-    return Store(k, w, std::move(made), w.files);
-  }
-  if (Status s = w.maker->Ask(k, made); !s.ok()) return s;
-  w.files.clear();
-  for (const auto& [name, bytes] : made.files) w.files.push_back({name, {bytes, {}}});
-  return Store(k, w, std::move(made), w.files);
+  if (Status s = w.maker ? w.maker->Ask(k, made) : Make(k, w, made); !s.ok()) return s;
+  return Store(k, w, std::move(made));
 }
 
 void BatchRun::Published(size_t count) {
@@ -384,19 +379,15 @@ void BatchRun::Report() {
 }
 
 // A maker process for each worker (maker.h), forked before any thread starts, when the run asks for
-// them and this process is still one thread; else the workers make their variants themselves.
+// them (RunOptions::makers) and this process is still one thread; else the workers make their variants
+// themselves.
 Status BatchRun::StartMakers(std::vector<Worker>& workers) {
-  if (pending_.size() < options_.processes_from || workers.size() < 2 || !CanForkMakers()) return Status::Ok();
-  Worker child;                   // The child's own, copied with the process.
-  std::vector<std::string> whole;  // A folder variant's files, each in one piece for the message.
-  const MakerProcess::Make make = [this, &child, &whole](size_t k, MadeVariant& out) {
-    Status s = Make(k, child, out);
-    if (!s.ok() || tar_) return s;
-    whole.clear();
-    for (const auto& [name, pieces] : child.files) whole.push_back(std::string(pieces[0]) + std::string(pieces[1]));
-    for (size_t i = 0; i < whole.size(); ++i) out.files.emplace_back(child.files[i].first, whole[i]);
-    return s;
-  };
+  using Makers = RunOptions::Makers;
+  const bool renders = plan_.labelled() || plan_.output.kind == api::OutputSpec::Kind::kImage;
+  const bool asked = options_.makers == Makers::kProcesses || (options_.makers == Makers::kAuto && renders && pending_.size() >= 1000);
+  if (!asked || workers.size() < 2 || !CanForkMakers()) return Status::Ok();
+  Worker child;  // The child's own, copied with the process.
+  const MakerProcess::Make make = [this, &child](size_t k, MadeVariant& out) { return Make(k, child, out); };
   for (Worker& w : workers) {
     auto maker = MakerProcess::Start(make);
     if (!maker.ok()) return maker.status();

@@ -18,7 +18,6 @@
 #pragma once
 
 #include <atomic>
-#include <cstdint>
 #include <map>
 #include <functional>
 #include <span>
@@ -43,11 +42,12 @@ struct RunOptions {
   std::string dir;
   const api::Evaluator* evaluator = nullptr;  // Makes every file and the contact sheet; required.
   int jobs = 0;                      // Worker threads; 0 = every core.
-  // Each worker's variants made by a process of its own (maker.h), forked when the run starts, once at
-  // least this many variants are to be made: for batches that render, from a one-thread process (the CLI;
-  // never the service, whose threads a fork would lose). Threads when the process already runs others.
-  // Each maker starts its own llvmpipe (about 0.3 s), so a small run is quicker with threads.
-  size_t processes_from = SIZE_MAX;
+  // Who makes the variants. kProcesses: a maker process for each worker (maker.h), forked when the run
+  // starts, from a one-thread process only (the CLI; never the service, whose threads a fork would
+  // lose; threads when the process already runs others). kAuto: makers for a run of 1,000 renders or
+  // more (each maker starts its own llvmpipe, about 0.3 s, so a smaller run is quicker with threads).
+  enum class Makers { kThreads, kAuto, kProcesses };
+  Makers makers = Makers::kThreads;
   // Once the makers are forked (`makers`: whether there are any), before any worker thread starts: the
   // place to open render.h's image module, which the workers need only when they make the variants.
   std::function<void(bool makers)> before_threads;
