@@ -191,10 +191,9 @@ bool Opaque(std::span<const unsigned char> rgba8) {
   return true;
 }
 
-// An encoder's buffers: igzip's level buffer (about 300 KB), a float image converted to 8 bits,
-// the filtered rows of a batch, and a row of zeros (above the first).
+// An encoder's buffers: a float image converted to 8 bits, the filtered rows of a batch, and a row
+// of zeros (above the first).
 struct Deflater {
-  std::vector<uint8_t> level_buf = std::vector<uint8_t>(ISAL_DEF_LVL1_DEFAULT);
   std::vector<unsigned char> converted, lines, zeros;
 };
 
@@ -279,11 +278,15 @@ namespace {
 
 // PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: the
 // 8-bit pixels (the draw's own, or a float image converted) UP-filtered in batches, each batch
-// deflated as it is made by ISA-L's igzip at level 1 with the zlib wrapper (its header and
-// Adler-32), into one IDAT. Measured on the 512x512 FaceCap render (tests/bench/README.md): igzip
-// level 1 deflates the filtered rows 6.8x faster than zlib level 1 (0.45 against 3.05 ms on one
-// thread) and smaller (79 against 84 KB), so one thread deflates what two parts on two threads did
-// with zlib. The buffers come from a pool (not allocated and faulted in again per image).
+// deflated as it is made by ISA-L's igzip at level 0 with the zlib wrapper (its header and
+// Adler-32), into one IDAT. igzip deflates the filtered rows many times faster than zlib level 1
+// (level 1: 0.45 against 3.05 ms on the 512x512 FaceCap render, tests/bench/README.md), so one
+// thread deflates what two parts on two threads did with zlib. Level 0, not 1: on this machine
+// level 1's output for the same rows changed about once in a thousand images, and only inside a
+// busy process (never in a harness, the same rows deflated 100,000 times), which broke the
+// dataset's same seed, same bytes; level 0 never did in the same stress, is faster, and makes
+// files about a fifth larger. The buffers come from a pool (not allocated and faulted in again
+// per image).
 Result<std::string> EncodePng(const Image& image) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
   Deflater& d = *lease;
@@ -297,9 +300,7 @@ Result<std::string> EncodePng(const Image& image) {
 
   isal_zstream z{};  // Every field known (hist_bits among them), not only those isal_deflate_init sets.
   isal_deflate_init(&z);
-  z.level = 1;
-  z.level_buf = d.level_buf.data();
-  z.level_buf_size = static_cast<uint32_t>(d.level_buf.size());
+  z.level = 0;
   z.gzip_flag = IGZIP_ZLIB;
   z.flush = NO_FLUSH;
 

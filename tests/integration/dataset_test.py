@@ -71,9 +71,29 @@ def manifest(folder):
         return [json.loads(line) for line in f if line.strip()]
 
 
+def differences(a, b):
+    """The files of dataset `b` that are not byte for byte those of `a` (its shards and manifest), each with the
+    first sample file that differs inside it: [] when they are the same dataset."""
+    if shards(a) != shards(b):
+        return [f"shards {shards(a)} against {shards(b)}"]
+    found = []
+    for n in shards(a) + ["manifest.jsonl"]:
+        pa, pb = os.path.join(a, n), os.path.join(b, n)
+        if not os.path.exists(pb) or not filecmp.cmp(pa, pb, shallow=False):
+            found.append(n)
+            if n.endswith(".tar") and os.path.exists(pb):
+                with tarfile.open(pa) as ta, tarfile.open(pb) as tb:
+                    names = ta.getnames()
+                    found += [m for m in names if m in tb.getnames() and ta.extractfile(m).read() != tb.extractfile(m).read()][:1]
+    return found
+
+
 def same_dataset(a, b):
-    names = shards(a)
-    return names == shards(b) and all(filecmp.cmp(os.path.join(a, n), os.path.join(b, n), shallow=False) for n in names + ["manifest.jsonl"])
+    """True when `b` is `a` byte for byte; else it says which files differ (the check's line follows)."""
+    found = differences(a, b)
+    if found:
+        print(f"     {os.path.basename(b)} differs from {os.path.basename(a)}: {found}")
+    return not found
 
 
 # One run, read back.
@@ -187,8 +207,9 @@ named = shards(killed)
 samples, problems = whole_samples(killed)
 check(f"kill -9 mid-run: {len(named)} shard(s) under their names, every sample in them whole ({len(samples)} samples) {problems[:3]}",
       0 < len(named) < 3 and not problems and len(samples) == 16 * len(named))
-rc, _ = batch(killed, 40)
-check("the rerun resumes after the published samples and ends byte-identical to an uninterrupted run", rc == 0 and same_dataset(ref, killed))
+rc, err = batch(killed, 40)
+check(f"the rerun resumes after the published samples and ends byte-identical to an uninterrupted run (rc {rc}) {err.strip()[-160:] if rc else ''}",
+      rc == 0 and same_dataset(ref, killed))
 
 # A full disk (a file size limit): a clean failure, nothing half-written under a name, then a resume.
 full = os.path.join(tmp, "full")
