@@ -353,6 +353,9 @@ except tarfile.TarError:
     keys = set()
 check(f"POST batch with labels and archive tar: a job that ends done, its shard-000001.tar downloads and reads ({state.get('state')}, {len(keys)} keys)",
       state.get("state") == "done" and st3 == 200 and keys == {f"v{k:06d}" for k in range(16, 20)})
+said = {k: state.get(k) for k in ("format", "labels", "archive")}
+check(f"the job's status says what it makes: {said}",
+      said == {"format": "png", "labels": ["depth", "normals", "segmentation", "landmarks"], "archive": "tar"})
 st4, _, zip_bytes, _ = request(server.url + job.get("links", {}).get("self", "/") + "/results.zip") if job else (0, 0, b"", {})
 try:
     zip_names = zipfile.ZipFile(io.BytesIO(zip_bytes)).namelist()

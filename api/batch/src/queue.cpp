@@ -124,6 +124,30 @@ double AgeSeconds(const fs::path& path) {
   return std::chrono::duration<double>(fs::file_time_type::clock::now() - t).count();
 }
 
+// What a job makes, as its plan says (Submit writes it to job.json's "output"): its files' format
+// (a labelled sample's picture: png unless the request said), its labels and its archive.
+json JobOutput(const BatchPlan& plan) {
+  json labels = json::array();
+  for (api::Label l : plan.request.dataset.labels) labels.push_back(api::Name(l));
+  return {{"format", plan.request.format}, {"labels", labels}, {"archive", api::Name(plan.request.dataset.archive)}};
+}
+
+// job.json's "output" into `info`; a job written before there was one: the request's format.
+void ReadJobOutput(const json& job, JobInfo& info) {
+  const auto text = [](const json& o, const char* key, const std::string& otherwise) {
+    return o.is_object() && o.contains(key) && o[key].is_string() ? o[key].get<std::string>() : otherwise;
+  };
+  const json out = job.contains("output") ? job["output"] : json::object();
+  info.format = text(out, "format", text(job.contains("request") ? job["request"] : json(), "format", "glb"));
+  info.archive = text(out, "archive", "folder");
+  info.labels.clear();
+  if (out.contains("labels") && out["labels"].is_array()) {
+    for (const json& l : out["labels"]) {
+      if (l.is_string()) info.labels.push_back(l.get<std::string>());
+    }
+  }
+}
+
 }  // namespace
 
 bool IsValidJobId(const std::string& id) {
@@ -167,7 +191,7 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) con
   job->rig_version = j.value("rig_version", "");
   job->info.created = j.value("created", "");
   job->info.total = j.value("total", size_t{0});
-  job->info.format = j["request"].value("format", "glb");
+  ReadJobOutput(j, job->info);
   job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   job->info.done = ManifestLines(folder / "out" / "manifest.jsonl");
   json st = json::parse(ReadText(folder / "state.json"), nullptr, false);
@@ -329,7 +353,8 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   job->info.id = NewJobId();
   job->info.rig = rig->id;
   job->info.state = JobState::kQueued;
-  job->info.format = plan->request.format;
+  const json output = JobOutput(*plan);
+  ReadJobOutput({{"output", output}, {"request", json::object()}}, job->info);
   job->info.created = NowRfc3339();
   job->info.total = plan->total;
   job->rig_version = rig->version;
@@ -339,7 +364,8 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   std::error_code ec;
   fs::create_directories(folder, ec);
   json j = {{"id", job->info.id},          {"rig", rig->id},         {"rig_version", rig->version},
-            {"created", job->info.created}, {"total", plan->total}, {"request", json::parse(body, nullptr, false)}};
+            {"created", job->info.created}, {"total", plan->total}, {"output", output},
+            {"request", json::parse(body, nullptr, false)}};
   Status written = ec ? Internal("cannot create the job's folder: " + ec.message())
                       : WriteJobFile(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   if (!written.ok()) {

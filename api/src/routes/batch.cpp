@@ -18,7 +18,8 @@ json JobJson(const batch::JobInfo& j) {
   json o = {{"id", j.id},           {"rig", j.rig},     {"state", Name(j.state)}, {"format", j.format},
             {"created", j.created}, {"total", j.total}, {"done", j.done},
             {"progress", j.total ? static_cast<double>(j.done) / static_cast<double>(j.total) : 1.0},
-            {"rate", std::round(j.rate * 10.0) / 10.0}};
+            {"rate", std::round(j.rate * 10.0) / 10.0}, {"archive", j.archive}};
+  if (!j.labels.empty()) o["labels"] = j.labels;
   if (j.state == JobState::kRunning && j.rate > 0) o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
   if (!j.error.empty()) o["error"] = j.error;
   o["links"] = {{"self", self}, {"manifest", self + "/manifest.jsonl"}, {"files", self + "/files/"}, {"sheet", self + "/files/sheet.png"}};

@@ -48,7 +48,9 @@ struct JobInfo {
   std::string rig;
   JobState state = JobState::kQueued;
   std::string error;       // Why it failed or was lost.
-  std::string format;      // Of every variant file.
+  std::string format;      // Of every variant file (a labelled sample's picture: png unless the request said).
+  std::vector<std::string> labels;  // A dataset's labels beside each picture (none for plain variants).
+  std::string archive;     // "folder" or "tar" (WebDataset shards).
   std::string created;     // RFC 3339, UTC.
   size_t total = 0;        // Variants.
   size_t done = 0;         // Variants whose file is complete.
