@@ -8,7 +8,7 @@ build=$1; budget=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech fuzz_live"
+targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech fuzz_live fuzz_made"
 for t in $targets; do mkdir -p "$corpus/$t"; done
 set -- $targets
 seconds=$((budget / $#)); [ $seconds -ge 10 ] || seconds=10
@@ -98,6 +98,21 @@ fi
 # Live: the RFC's masked "Hello", a 16-bit length and a fragmented message with a ping between (cap byte first).
 printf '\1\x81\x85\x37\xfa\x21\x3d\x7f\x9f\x4d\x51\x58' >"$corpus/fuzz_live/hello"
 printf '\1\x01\x82\0\0\0\0{"\x89\x80\0\0\0\0\x80\x81\0\0\0\0}' >"$corpus/fuzz_live/fragments"
+# A maker's messages (api/batch/src/maker.h): a tar sample, a folder variant of two files, a maker's error.
+python3 - "$corpus/fuzz_made" <<'PY'
+import os, struct, sys
+def piece(b): return struct.pack("<Q", len(b)) + b
+def made(head, tail, total, codes, tar, files):
+    m = struct.pack("<Q", 0) + piece(b"") + piece(b"") + piece(head) + piece(tail) + struct.pack("<d", total) + piece(codes) + piece(tar)
+    return m + struct.pack("<Q", len(files)) + b"".join(piece(n) + piece(b) for n, b in files)
+seeds = {
+  "tar": made(b'{"id":"v000001","index":1,', b',"files":[]}', 2.5, b"extrapolation\n", b"v000001.json" + b"\0" * 500, []),
+  "folder": made(b'{"id":"v000002"', b"}", 0.25, b"", b"", [(b"v000002.obj", b"v 0 0 0\n"), (b"v000002.png", b"\x89PNG\r\n")]),
+  "error": struct.pack("<Q", 3) + piece(b"/weights/jawOpen: not a number") + piece(b"invalid-weights"),
+}
+for name, b in seeds.items():
+    open(os.path.join(sys.argv[1], name), "wb").write(b)
+PY
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1:intercept_tls_get_addr=0 LSAN_OPTIONS=suppressions=$src/tests/lsan.supp UBSAN_OPTIONS=halt_on_error=1
 # One target: its regression inputs, then the timed run; what it found in $build/$t.summary, its
 # exit code in $build/$t.rc. Targets run as many at once as there are cores.
