@@ -285,8 +285,8 @@ namespace {
 // level 1's output for the same rows changed about once in a thousand images, and only inside a
 // busy process (never in a harness, the same rows deflated 100,000 times), which broke the
 // dataset's same seed, same bytes; level 0 never did in the same stress, is faster, and makes
-// files about a fifth larger. The buffers come from a pool (not allocated and faulted in again
-// per image).
+// files about a seventh larger (67.4 against 76.6 KB). The buffers come from a pool (not allocated
+// and faulted in again per image).
 Result<std::string> EncodePng(const Image& image) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
   Deflater& d = *lease;

@@ -132,17 +132,20 @@ json JobOutput(const BatchPlan& plan) {
   return {{"format", plan.request.format}, {"labels", labels}, {"archive", api::Name(plan.request.dataset.archive)}};
 }
 
-// job.json's "output" into `info`; a job written before there was one: the request's format.
-void ReadJobOutput(const json& job, JobInfo& info) {
-  const auto text = [](const json& o, const char* key, const std::string& otherwise) {
-    return o.is_object() && o.contains(key) && o[key].is_string() ? o[key].get<std::string>() : otherwise;
-  };
-  const json out = job.contains("output") ? job["output"] : json::object();
-  info.format = text(out, "format", text(job.contains("request") ? job["request"] : json(), "format", "glb"));
-  info.archive = text(out, "archive", "folder");
+// o[key] when it is a string, else `otherwise` (job.json is read as found on disk).
+std::string TextAt(const json& o, const char* key, const std::string& otherwise) {
+  return o.is_object() && o.contains(key) && o[key].is_string() ? o[key].get<std::string>() : otherwise;
+}
+
+// A job's "output" (JobOutput's) into `info`; `format`: a job written before there was one, its
+// request's.
+
+void ReadJobOutput(const json& output, const std::string& format, JobInfo& info) {
+  info.format = TextAt(output, "format", format);
+  info.archive = TextAt(output, "archive", "folder");
   info.labels.clear();
-  if (out.contains("labels") && out["labels"].is_array()) {
-    for (const json& l : out["labels"]) {
+  if (output.is_object() && output.contains("labels") && output["labels"].is_array()) {
+    for (const json& l : output["labels"]) {
       if (l.is_string()) info.labels.push_back(l.get<std::string>());
     }
   }
@@ -191,7 +194,7 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) con
   job->rig_version = j.value("rig_version", "");
   job->info.created = j.value("created", "");
   job->info.total = j.value("total", size_t{0});
-  ReadJobOutput(j, job->info);
+  ReadJobOutput(j.contains("output") ? j["output"] : json(), TextAt(j["request"], "format", "glb"), job->info);
   job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   job->info.done = ManifestLines(folder / "out" / "manifest.jsonl");
   json st = json::parse(ReadText(folder / "state.json"), nullptr, false);
@@ -354,7 +357,7 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   job->info.rig = rig->id;
   job->info.state = JobState::kQueued;
   const json output = JobOutput(*plan);
-  ReadJobOutput({{"output", output}, {"request", json::object()}}, job->info);
+  ReadJobOutput(output, plan->request.format, job->info);
   job->info.created = NowRfc3339();
   job->info.total = plan->total;
   job->rig_version = rig->version;
