@@ -1,8 +1,6 @@
 // Images of data rather than light, for labelled datasets: planes of floats as EXR (depth, normals)
 // and ids as grey PNG (segmentation), written as they are: no colour space, no tone.
 #include <immintrin.h>
-#include <isa-l/igzip_lib.h>
-
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -28,18 +26,12 @@ void Attribute(std::string& out, const char* name, const char* type, const std::
   out += value;
 }
 
-// `raw` deflated with the zlib wrapper by ISA-L's igzip at level 0, or "" when that fails. Level 0: at
-// level 1 the same block came out in different (valid) bytes from run to run, one label file in a few
-// hundred samples (the same pixels; with address randomisation off, the same bytes each run), and the same
-// seed must give the same bytes. Level 0 is as fast here; the label files are a fifth larger.
+// `raw` deflated in one call (StartDeflate), or "" when that fails.
 std::string Deflated(std::string_view raw) {
   std::string out(raw.size() + raw.size() / 8 + 1024, '\0');
-  isal_zstream z{};
-  isal_deflate_init(&z);
-  z.level = 0;
-  z.gzip_flag = IGZIP_ZLIB;
+  isal_zstream z;
+  StartDeflate(z);
   z.end_of_stream = 1;
-  z.flush = NO_FLUSH;
   z.next_in = reinterpret_cast<uint8_t*>(const_cast<char*>(raw.data()));
   z.avail_in = static_cast<uint32_t>(raw.size());
   z.next_out = reinterpret_cast<uint8_t*>(out.data());

@@ -251,6 +251,22 @@ void Chunk(std::string& out, const char* type, const std::string& data) {
   CloseChunk(out, start, type);
 }
 
+// (internal.h) igzip deflates our filtered rows many times faster than zlib level 1 (level 1: 0.45
+// against 3.05 ms on the 512x512 FaceCap render, tests/bench/README.md), so one thread deflates what
+// two parts on two threads did with zlib. Level 0, not 1: on this machine level 1's output for the same
+// bytes changed about once in a thousand images (and one label EXR in a few hundred samples), only
+// inside a busy process (never in a harness, the same rows deflated 100,000 times), which broke the
+// dataset's same seed, same bytes; level 0 never did in the same stress, is faster, and makes files
+// about a seventh larger (67.4 against 76.6 KB). Every field is set (hist_bits among them), not only
+// those isal_deflate_init sets.
+void StartDeflate(isal_zstream& z) {
+  z = isal_zstream{};
+  isal_deflate_init(&z);
+  z.level = 0;
+  z.gzip_flag = IGZIP_ZLIB;
+  z.flush = NO_FLUSH;
+}
+
 // (internal.h) The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG): an 8-bit
 // draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in parts on
 // up to one thread per core (4 at most), as the conversion costs more than igzip's deflate (512x512
@@ -278,14 +294,7 @@ namespace {
 
 // PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: the
 // 8-bit pixels (the draw's own, or a float image converted) UP-filtered in batches, each batch
-// deflated as it is made by ISA-L's igzip at level 0 with the zlib wrapper (its header and
-// Adler-32), into one IDAT. igzip deflates the filtered rows many times faster than zlib level 1
-// (level 1: 0.45 against 3.05 ms on the 512x512 FaceCap render, tests/bench/README.md), so one
-// thread deflates what two parts on two threads did with zlib. Level 0, not 1: on this machine
-// level 1's output for the same rows changed about once in a thousand images, and only inside a
-// busy process (never in a harness, the same rows deflated 100,000 times), which broke the
-// dataset's same seed, same bytes; level 0 never did in the same stress, is faster, and makes
-// files about a seventh larger (67.4 against 76.6 KB). The buffers come from a pool (not allocated
+// deflated as it is made (StartDeflate) into one IDAT. The buffers come from a pool (not allocated
 // and faulted in again per image).
 Result<std::string> EncodePng(const Image& image) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
@@ -298,11 +307,8 @@ Result<std::string> EncodePng(const Image& image) {
   d.lines.resize(batch * line_bytes);
   d.zeros.assign(stride, 0);
 
-  isal_zstream z{};  // Every field known (hist_bits among them), not only those isal_deflate_init sets.
-  isal_deflate_init(&z);
-  z.level = 0;
-  z.gzip_flag = IGZIP_ZLIB;
-  z.flush = NO_FLUSH;
+  isal_zstream z;
+  StartDeflate(z);
 
   std::string out("\x89PNG\r\n\x1a\n", 8);
   std::string header;

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <isa-l/igzip_lib.h>
+
 #include "facespace/render/render.h"
 
 namespace facespace::render {
@@ -29,5 +31,9 @@ std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vect
 void PutBigEndian(std::string& out, uint32_t v);
 void Chunk(std::string& out, const char* type, const std::string& data);
 void CloseChunk(std::string& out, size_t start, const char* type);
+
+// `z` made ready to deflate with the zlib wrapper by ISA-L's igzip at level 0, as every PNG and EXR
+// we write (why level 0: image.cpp); the caller gives the input, output and end of stream.
+void StartDeflate(isal_zstream& z);
 
 }  // namespace facespace::render
