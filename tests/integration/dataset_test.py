@@ -30,16 +30,20 @@ RANDOM = '{"camera": {"yaw": [-30, 30], "pitch": [-10, 10]}, "light": {"yaw": [-
 SUFFIXES = ["png", "depth.exr", "normals.exr", "seg.png", "json"]
 
 
+def batch_args(out, count, *extra):
+    """The test's labelled FaceCap batch into `out` (96², tar shards of 16, 2 jobs), with `extra` flags."""
+    return [binary, "batch", facecap, "--sample", "uniform", "--count", str(count), "--seed", "5", "--active", "4",
+            "--labels", "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM,
+            "--archive", "tar", "--shard-samples", "16", "--jobs", "2", "-o", out, *extra]
+
+
 def batch(out, count, *extra, limit=None):
     """The CLI's exit code and stderr; `limit`: a file size limit in bytes (SIGXFSZ ignored, so writes fail EFBIG)."""
     def child():
         if limit:
             signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
             resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-    args = [binary, "batch", facecap, "--sample", "uniform", "--count", str(count), "--seed", "5", "--active", "4",
-            "--labels", "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM,
-            "--archive", "tar", "--shard-samples", "16", "--jobs", "2", "-q", "-o", out, *extra]
-    p = subprocess.run(args, capture_output=True, text=True, preexec_fn=child)
+    p = subprocess.run(batch_args(out, count, "-q", *extra), capture_output=True, text=True, preexec_fn=child)
     return p.returncode, p.stderr
 
 
@@ -120,10 +124,7 @@ rc, _ = batch(again, 40)
 check("the same command again: byte-identical shards and manifest", rc == 0 and same_dataset(ref, again))
 
 # Makers: a process a job (the default from 1,000 renders; the closing line says how many) make the threads' bytes.
-p = subprocess.run([binary, "batch", facecap, "--sample", "uniform", "--count", "40", "--seed", "5", "--active", "4", "--labels",
-                    "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM, "--archive", "tar",
-                    "--shard-samples", "16", "--jobs", "2", "--workers", "processes", "-o", os.path.join(tmp, "said")], capture_output=True,
-                   text=True)
+p = subprocess.run(batch_args(os.path.join(tmp, "said"), 40, "--workers", "processes"), capture_output=True, text=True)
 check(f"--workers processes: the closing line names the 2 maker processes ({[l for l in p.stderr.splitlines() if 'variants/s' in l]})",
       p.returncode == 0 and "2 maker processes" in p.stderr)
 check("the maker processes' samples: the same bytes as the threads'", same_dataset(ref, os.path.join(tmp, "said")))
@@ -154,10 +155,7 @@ def alive(pids):
 
 def start_and_wait(out, *extra):
     """A 40-sample run started, returned once its first shard is published and its makers are known."""
-    proc = subprocess.Popen([binary, "batch", facecap, "--sample", "uniform", "--count", "40", "--seed", "5", "--active", "4", "--labels",
-                             "depth,normals,segmentation,landmarks", "--width", "96", "--height", "96", "--randomize", RANDOM, "--archive",
-                             "tar", "--shard-samples", "16", "--jobs", "2", "--workers", "processes", "-q", "-o", out, *extra],
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(batch_args(out, 40, "--workers", "processes", "-q", *extra), stderr=subprocess.PIPE, text=True)
     deadline, makers = time.time() + 60, []
     while time.time() < deadline and not os.path.exists(os.path.join(out, "shard-000000.tar")):
         makers = makers_of(proc.pid) or makers

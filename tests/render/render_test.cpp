@@ -1246,12 +1246,6 @@ TEST(NullRenderer, FillsTheBackgroundAndChecksItsInputsAsGlDoes) {
   EXPECT_EQ(Gl().Draw(cube, Evaluate(cube), o, im).code, StatusCode::kInvalidArgument);
 }
 
-}  // namespace
-}  // namespace facespace
-
-
-namespace facespace {
-namespace {
 // Halves as IEEE rounds them (nearest, ties to even), the same as F16C's on a million floats of every
 // kind, and a half EXR of normals read back by OpenImageIO as those halves.
 __attribute__((target("avx,f16c"))) uint16_t F16cHalf(float f) { return static_cast<uint16_t>(_cvtss_sh(f, _MM_FROUND_TO_NEAREST_INT)); }
