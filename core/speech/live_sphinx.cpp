@@ -47,7 +47,7 @@ LiveRecognizer::~LiveRecognizer() {
   if (in_utterance_) ps_end_utt(ps);
   // Not reused: a decoder given a second utterance here gave no partial segments in it (PocketSphinx
   // 5prealpha's all-phone search); a new one takes 90 ms to make.
-  ps_free(ps);
+  FreeDecoder(ps);
   std::lock_guard<std::mutex> lock(ThePool().mu);
   --ThePool().made;
 }

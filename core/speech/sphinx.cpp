@@ -2,6 +2,7 @@
 // search, or a grammar of the transcript's words whose segments are then split into the words'
 // phonemes from CMU's dictionary. A voice detector of our own (VoiceActivity) silences what nobody said.
 #include <pocketsphinx.h>
+#include <sphinxbase/err.h>
 
 #include <algorithm>
 #include <cctype>
@@ -18,15 +19,37 @@
 
 namespace facespace::speech {
 
+namespace {
+
+// The lock every decoder's making and freeing takes (see sphinx_decoder.h).
+std::mutex& SetUpLock() {
+  static std::mutex mu;
+  return mu;
+}
+
+}  // namespace
+
 ps_decoder_t* NewAllPhoneDecoder() {
+  std::lock_guard<std::mutex> lock(SetUpLock());
+  static const bool quiet = [] {
+    err_set_logfp(nullptr);  // sphinxbase's log off, for the process (its default is stderr).
+    return true;
+  }();
+  (void)quiet;
   const std::string model = FACESPACE_SPHINX_MODEL;
   cmd_ln_t* config = cmd_ln_init(nullptr, ps_args(), TRUE, "-hmm", (model + "/en-us").c_str(), "-dict", (model + "/cmudict-en-us.dict").c_str(),
                                  "-allphone", (model + "/en-us-phone.lm.bin").c_str(), "-backtrace", "yes", "-beam", "1e-20", "-pbeam", "1e-20",
-                                 "-lw", "2.0", "-allphone_ci", "yes", "-remove_silence", "no", "-logfn", "/dev/null", nullptr);
+                                 "-lw", "2.0", "-allphone_ci", "yes", "-remove_silence", "no", nullptr);
   if (!config) return nullptr;
   ps_decoder_t* ps = ps_init(config);
   cmd_ln_free_r(config);
   return ps;
+}
+
+void FreeDecoder(ps_decoder_t* ps) {
+  if (!ps) return;
+  std::lock_guard<std::mutex> lock(SetUpLock());
+  ps_free(ps);
 }
 
 std::vector<float> CepstralMeans(ps_decoder_t* ps) {

@@ -18,8 +18,14 @@
 namespace facespace::speech {
 
 // PocketSphinx's all-phone search over US English (context-independent, backtrace on), or null when its
-// model is missing.
+// model is missing. PocketSphinx and sphinxbase are not thread-safe where a decoder is made or freed:
+// ps_init reads the model's files through process-wide state (sphinxbase's log file, which a decoder's
+// -logfn reopened and closed under another decoder's feet: two live listeners opening at once crashed the
+// process in fclose, or deadlocked in fopen). Both go through one process-wide lock, and sphinxbase's
+// logging is turned off once, before the first decoder, instead of per decoder. A decoder made is then
+// its owner's alone (one thread at a time).
 ps_decoder_t* NewAllPhoneDecoder();
+void FreeDecoder(ps_decoder_t* ps);
 
 // PocketSphinx's cepstral mean normalisation carries each utterance's means into the next: the same WAV's
 // phonemes came 120 ms earlier on every request after a process's first. The means as the decoder made

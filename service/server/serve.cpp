@@ -337,6 +337,7 @@ api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api* const& api_fo
   front.body_budget = c.body_budget_mb << 20;
   front.log_requests = !c.quiet;
   front.head_check = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->CheckHead(head); };
+  front.probe = [&api_for_front](const api::RequestHeadView& head) { return api_for_front->Probe(head); };
   front.max_client_requests = c.max_client_requests;
   front.request_deadline = c.request_deadline;
   front.keyed_deadline = c.keyed_deadline;

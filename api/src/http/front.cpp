@@ -453,7 +453,33 @@ class FrontServer::Front {
       if (c.buf.size() < c.head.end + c.head.content_length) return;
       c.request_end = c.head.end + c.head.content_length;
     }
+    if (!c.head.has_body() && o_.probe) {
+      if (std::optional<std::string> answer = o_.probe(View(c))) return AnswerHere(c, *answer);
+    }
     Dispatch(c);
+  }
+
+  // A request the front answers itself (a probe): the answer written now (a few KB: what the socket does
+  // not take at once gets 100 ms), then the connection waits for its next request, or closes.
+  void AnswerHere(Conn& c, std::string_view response) {
+    const bool close = http::EqualsIgnoreCase(HeaderValue(c, "Connection"), "close") || c.served + 1 >= o_.keep_alive_max;
+    const Clock::time_point give_up = Clock::now() + std::chrono::milliseconds(100);
+    while (!response.empty()) {
+      const ssize_t n = ::send(c.fd, response.data(), response.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) {
+        response.remove_prefix(static_cast<size_t>(n));
+        continue;
+      }
+      if (n < 0 && errno == EINTR) continue;
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now()).count();
+      pollfd p{c.fd, POLLOUT, 0};
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && left > 0 && ::poll(&p, 1, static_cast<int>(left)) > 0) continue;
+      return Close(c);
+    }
+    if (close) return Linger(c);
+    ReadyForNext(c);
+    c.state = Conn::State::kIdle;
+    if (!c.buf.empty()) recheck_.push_back(c.fd);  // A pipelined request: next time round.
   }
 
   // Calls fn(name, value) for each field of the head as it came (values without surrounding blanks)

@@ -21,6 +21,7 @@ class Metrics {
   ~Metrics();
 
   size_t other_route() const { return labels_.size() - 1; }
+  const std::vector<std::string>& labels() const { return labels_; }
   void Observe(size_t route, int status, double seconds);
   void CountWarnings(std::span<const Warning> warnings);
   void CountBlends(uint64_t n) { blends_.fetch_add(n, std::memory_order_relaxed); }

@@ -54,7 +54,9 @@ const char* ReasonPhrase(int status) {
 
 const char* StatusLinePhrase(int status) {
   switch (status) {
+    case 200: return "OK";
     case 204: return "No Content";
+    case 304: return "Not Modified";
     case 413: return "Payload Too Large";
     case 414: return "URI Too Long";
     case 431: return "Request Header Fields Too Large";
@@ -64,13 +66,21 @@ const char* StatusLinePhrase(int status) {
   }
 }
 
-std::string ClosingResponse(const httplib::Response& res) {
+namespace {
+
+std::string WholeResponse(const httplib::Response& res, bool head_only, const char* connection) {
   std::string out = "HTTP/1.1 " + std::to_string(res.status) + " " + StatusLinePhrase(res.status) + "\r\n";
   for (const auto& [name, value] : res.headers) {
     if (name != "Content-Length" && name != "Connection") out += name + ": " + value + "\r\n";
   }
-  return out + "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: close\r\n\r\n" + res.body;
+  out += "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: " + connection + "\r\n\r\n";
+  return head_only ? out : out + res.body;
 }
+
+}  // namespace
+
+std::string ClosingResponse(const httplib::Response& res, bool head_only) { return WholeResponse(res, head_only, "close"); }
+std::string KeptAliveResponse(const httplib::Response& res, bool head_only) { return WholeResponse(res, head_only, "keep-alive"); }
 
 std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 

@@ -31,7 +31,10 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, int status
 // The whole HTTP/1.1 answer of `res` on a connection closed after it, for answers written without
 // cpp-httplib (the connection front's, and its pre-routing from the headers alone): the status line
 // as cpp-httplib writes its own, the headers, Content-Length, Connection: close, the body.
-std::string ClosingResponse(const httplib::Response& res);
+std::string ClosingResponse(const httplib::Response& res, bool head_only = false);
+// The same, for a connection kept open after it (the front's probes). `head_only`: a HEAD's answer, the
+// body's length stated and the body left out.
+std::string KeptAliveResponse(const httplib::Response& res, bool head_only = false);
 
 // The problem for a Status: HttpStatus, the type from its reason (or its code), its message and fields.
 void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& status,

@@ -6,6 +6,7 @@
 
 #include "facespace/api/http.h"
 #include "cost.h"
+#include "encoded.h"
 #include "framing.h"
 #include "problem.h"
 #include "route_table.h"
@@ -57,6 +58,34 @@ std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
   return http::ClosingResponse(res);
 }
 
+std::optional<std::string> Api::Probe(const RequestHeadView& head) {
+  if (head.method != "GET" && head.method != "HEAD") return std::nullopt;
+  const std::string path = head.target.substr(0, head.target.find('?'));
+  void (*handler)(http::ServerState&, const Request&, Response&) = path == "/healthz" ? http::GetHealth
+                                                                   : path == "/readyz"  ? http::GetReady
+                                                                   : path == "/metrics" ? http::GetMetrics
+                                                                                        : nullptr;
+  if (!handler) return std::nullopt;
+  http::ServerState& ctx = impl_->ctx;
+  const auto start = std::chrono::steady_clock::now();
+  Request req;
+  req.method = head.method;
+  req.path = path;
+  for (const auto& [name, value] : head.headers) req.headers.emplace(name, value);
+  Response res;
+  http::PreRoute(ctx, req, res);  // CORS, as for every request (GET is never refused there).
+  res.status = 200;
+  res.set_header("Facespace-Cost", http::kConstantCost);
+  handler(ctx, req, res);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto& labels = ctx.metrics.labels();
+  const size_t metric = static_cast<size_t>(std::find(labels.begin(), labels.end(), path) - labels.begin());
+  ctx.metrics.Observe(metric < labels.size() ? metric : ctx.metrics.other_route(), res.status, seconds);
+  if (ctx.options.log_requests) std::fprintf(stderr, "%s %s %d %zu %.3fms\n", req.method.c_str(), path.c_str(), res.status, res.body.size(), seconds * 1e3);
+  const bool close = http::EqualsIgnoreCase(req.get_header_value("Connection"), "close");
+  return close ? http::ClosingResponse(res, req.method == "HEAD") : http::KeptAliveResponse(res, req.method == "HEAD");
+}
+
 void Api::Register(httplib::Server& server) {
   http::ServerState& ctx = impl_->ctx;
   server.set_payload_max_length(ctx.options.max_body);
@@ -72,6 +101,7 @@ void Api::Register(httplib::Server& server) {
   };
   server.set_expect_100_continue_handler([&ctx, start](const Request& req, Response& res) {
     start(true);
+    http::HideAcceptEncoding(const_cast<Request&>(req));  // cpp-httplib's own object, not const (encoded.h).
     // 100 invites the body: never for one that will be refused from the headers.
     if (http::PreRoute(ctx, req, res)) {
       // cpp-httplib writes this answer without applying the body's length: without it the client
@@ -84,6 +114,8 @@ void Api::Register(httplib::Server& server) {
   });
   server.set_pre_routing_handler([&ctx, start](const Request& req, Response& res) {
     start(req.get_header_value("Expect") != "100-continue");  // Else the Expect handler started it.
+    // Before anything can answer: cpp-httplib would compress the answer itself, unbounded (encoded.h).
+    http::HideAcceptEncoding(const_cast<Request&>(req));
     return http::PreRoute(ctx, req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
   });
 
@@ -135,6 +167,7 @@ void Api::Register(httplib::Server& server) {
       // grow with the request, replaced by the estimate of those whose work does (cost.h, WithinBudget).
       res.set_header("Facespace-Cost", http::kConstantCost);
       h(ctx, req, res);
+      http::CompressBody(req, res, CurrentStop());  // On this worker, metered and stoppable (encoded.h).
     };
     const std::string method = route.method;
     if (method == "GET") server.Get(pattern, handler);

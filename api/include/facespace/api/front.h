@@ -54,6 +54,10 @@ struct FrontOptions {
   // send (then the connection is closed), or nothing to go on. (The API's pre-routing: 401, 404,
   // 405, 411, 413 from the headers, so a refused body is never uploaded.)
   std::function<std::optional<std::string>(const RequestHeadView&)> head_check;
+  // Called for a whole request without a body before it would go to a worker: a whole HTTP response the
+  // front sends itself, at once (the probes, /healthz, /readyz and /metrics, answered however many
+  // workers are busy), or nothing to go on.
+  std::function<std::optional<std::string>(const RequestHeadView&)> probe;
 };
 
 // Counters of the front, for /metrics and the log.

@@ -59,6 +59,11 @@ class Api {
   // whole response when it is refused before its body (404, 405, 411, 413, 401, 403), else nothing.
   std::optional<std::string> CheckHead(const RequestHeadView& head);
 
+  // A probe (GET or HEAD /healthz, /readyz, /metrics) answered from its head alone on the front's own
+  // thread (FrontOptions::probe): a whole keep-alive response, so that probes never wait for a worker
+  // however many are busy; nothing for any other request.
+  std::optional<std::string> Probe(const RequestHeadView& head);
+
   // Whether an Authorization header's value carries the API key (FrontOptions::keyed: the request's
   // deadline is then the keyed one).
   bool Keyed(std::string_view authorization) const;
