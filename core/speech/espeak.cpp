@@ -28,15 +28,18 @@ struct Collect {
   std::stop_token stop;
   const SynthOptions* options = nullptr;
   int rate = 0;
-  bool timed_out = false, stopped = false;
+  size_t made = 0;  // Samples made, kept or not.
+  bool timed_out = false, stopped = false, too_long = false;
 };
 Collect* g_collect = nullptr;  // Under Lock().
 
 int OnSynth(short* wav, int count, espeak_EVENT* events) {
   Collect* c = g_collect;
   if (!c) return 1;
+  const bool keep = !c->options || !c->options->on_chunk || c->options->keep_audio;
+  if (!keep) c->samples.clear();  // Given to on_chunk last time: not kept.
   const size_t samples_before = c->samples.size(), events_before = c->events.size();
-  if (wav && count > 0) c->samples.insert(c->samples.end(), wav, wav + count);
+  if (wav && count > 0) c->samples.insert(c->samples.end(), wav, wav + count), c->made += static_cast<size_t>(count);
   for (espeak_EVENT* e = events; e && e->type != espeakEVENT_LIST_TERMINATED; ++e) {
     if (e->type != espeakEVENT_PHONEME) continue;
     const char* s = e->id.string;
@@ -52,6 +55,10 @@ int OnSynth(short* wav, int count, espeak_EVENT* events) {
   }
   if (std::chrono::steady_clock::now() > c->deadline) {
     c->timed_out = true;
+    return 1;
+  }
+  if (c->options && c->options->max_seconds > 0 && static_cast<double>(c->made) > c->options->max_seconds * c->rate) {
+    c->too_long = true;
     return 1;
   }
   return 0;
@@ -150,12 +157,20 @@ Result<Spoken> Synthesize(std::string_view text, const SynthOptions& options) {
   if (collect.stopped) return Cancelled();
   if (err != EE_OK) return Internal("espeak-ng failed to speak (error " + std::to_string(static_cast<int>(err)) + ")");
   if (collect.timed_out) return WithReason(InvalidField("/text", "took espeak-ng over 20 s; say less at once", StatusCode::kResourceExhausted), "text-too-long");
+  if (collect.too_long) {
+    return WithReason(InvalidField("/text", "makes over " + std::to_string(static_cast<int>(options.max_seconds)) + " s of speech without a pause; say less at once",
+                                   StatusCode::kResourceExhausted),
+                      "speech-too-long");
+  }
   Spoken out;
   out.voice = voice;
   out.audio.rate = rate;
-  out.audio.samples.resize(collect.samples.size());
-  for (size_t i = 0; i < collect.samples.size(); ++i) out.audio.samples[i] = collect.samples[i] / 32768.0f;
-  out.phonemes = PhonemesOfEvents(collect.events, out.audio.seconds());
+  out.seconds = static_cast<double>(collect.made) / rate;
+  if (!options.on_chunk || options.keep_audio) {
+    out.audio.samples.resize(collect.samples.size());
+    for (size_t i = 0; i < collect.samples.size(); ++i) out.audio.samples[i] = collect.samples[i] / 32768.0f;
+  }
+  out.phonemes = PhonemesOfEvents(collect.events, static_cast<float>(out.seconds));
   return out;
 }
 

@@ -37,8 +37,9 @@ def frame(opcode, payload, fin=True, mask=True, rsv=0):
 
 
 class Client:
-    def __init__(self, port, path, host="127.0.0.1", headers=None, timeout=10):
-        self.sock = socket.create_connection((host, port), timeout=timeout)
+    def __init__(self, port, path, host="127.0.0.1", headers=None, timeout=10, source=None):
+        """`source`: the client's own address (127.0.0.x: another client to the server's caps)."""
+        self.sock = socket.create_connection((host, port), timeout=timeout, source_address=(source, 0) if source else None)
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         key = base64.b64encode(os.urandom(16)).decode()
         head = f"GET {path} HTTP/1.1\r\n"

@@ -121,6 +121,11 @@ Framing ParseHead(std::string_view buf, size_t& scan, const HeadLimits& limits, 
       return Fail(error, 400, "a header field name holds a space or another character a name cannot");
     }
     const std::string_view value = Trim(field.substr(colon + 1));
+    // RFC 9110 5.5: a field value holds no NUL or other control character but HTAB (a NUL cut a value short
+    // in any C string that read it after us).
+    if (std::any_of(value.begin(), value.end(), [](char c) { return (static_cast<unsigned char>(c) < 0x20 && c != '\t') || c == 0x7f; })) {
+      return Fail(error, 400, "the value of header field '" + std::string(name.substr(0, 40)) + "' holds a NUL or another control character");
+    }
     if (EqualsIgnoreCase(name, "Content-Length")) {
       if (!AllDigits(value) || value.size() > 19) return Fail(error, 400, "Content-Length must be a number of bytes");
       const size_t n = std::stoull(std::string(value));

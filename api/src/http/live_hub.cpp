@@ -6,19 +6,8 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <ctime>
 
 namespace facespace::api::http {
-
-namespace {
-
-double ThreadCpu() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
-}  // namespace
 
 struct LiveHub::Session {
   uint64_t id = 0;
@@ -32,6 +21,7 @@ struct LiveHub::Session {
   std::string message;
   ws::Opcode message_op = ws::Opcode::kText;
   bool in_message = false;
+  Clock::time_point message_began;  // Its first fragment's arrival: the rest must follow within the stall time.
   std::atomic<bool> reading{true};  // False once closing: what comes is dropped.
   double tokens = 0;
   Clock::time_point tokens_at;
@@ -141,6 +131,8 @@ void LiveHub::Adopt(int fd, const std::string& ip, std::string buffered, std::un
     if (held->closing) return false;
     Queue(*held, ws::ServerFrame(op, payload));
     return true;
+  }, [this, weak = std::weak_ptr<Session>(s)] {
+    if (const std::shared_ptr<Session> held = weak.lock()) Schedule(held);
   });
   {
     std::lock_guard<std::mutex> lock(mu_);
@@ -228,6 +220,8 @@ void LiveHub::Sweep(Clock::time_point now, bool stopping) {
       if (now >= linger || stalled) Forget(s);
     } else if (stopping) {
       Close(s, ws::CloseCode::kGoingAway, "the server is stopping");
+    } else if (s->in_message && now - s->message_began >= limits_.stall) {
+      Close(s, ws::CloseCode::kPolicy, "a message begun and not finished within " + std::to_string(limits_.stall.count() / 1000) + " s");
     } else if (stalled) {
       ++counts.dropped_slow;
       Close(s, ws::CloseCode::kPolicy, "the client took nothing sent to it for " + std::to_string(limits_.stall.count() / 1000) + " s");
@@ -239,16 +233,22 @@ void LiveHub::Sweep(Clock::time_point now, bool stopping) {
 
 // A data frame: the session's rate first (every frame counts), then its message assembled and, when
 // whole, queued for the session's turn. False when the session was closed for it.
+// Every frame but a close spends one of the session's tokens (max_rate a second, a burst of twice that):
+// pings and pongs too. False when the session was closed for a flood.
+bool LiveHub::Spend(const std::shared_ptr<Session>& s) {
+  const Clock::time_point now = Clock::now();
+  s->tokens = std::min(2 * limits_.max_rate, s->tokens + limits_.max_rate * std::chrono::duration<double>(now - s->tokens_at).count());
+  s->tokens_at = now;
+  if (s->tokens < 1) {
+    ++counts.closed_flood;
+    Close(s, ws::CloseCode::kPolicy, "more than " + std::to_string(static_cast<int>(limits_.max_rate)) + " frames a second");
+    return false;
+  }
+  s->tokens -= 1;
+  return true;
+}
+
 bool LiveHub::Assemble(const std::shared_ptr<Session>& s, const ws::Frame& f) {
-    const Clock::time_point now = Clock::now();
-    s->tokens = std::min(2 * limits_.max_rate, s->tokens + limits_.max_rate * std::chrono::duration<double>(now - s->tokens_at).count());
-    s->tokens_at = now;
-    if (s->tokens < 1) {
-      ++counts.closed_flood;
-      Close(s, ws::CloseCode::kPolicy, "more than " + std::to_string(static_cast<int>(limits_.max_rate)) + " messages a second");
-      return false;
-    }
-    s->tokens -= 1;
     if (f.opcode == ws::Opcode::kContinuation) {
       if (!s->in_message) {
         Close(s, ws::CloseCode::kProtocolError, "a continuation frame with no message begun");
@@ -262,6 +262,7 @@ bool LiveHub::Assemble(const std::shared_ptr<Session>& s, const ws::Frame& f) {
       s->in_message = true;
       s->message_op = f.opcode;
       s->message.clear();
+      s->message_began = Clock::now();
     }
     s->message.append(f.payload);
     if (!f.fin) return true;
@@ -303,6 +304,7 @@ size_t LiveHub::ReadFrames(const std::shared_ptr<Session>& s) {
       break;
     }
     at += f.size;
+    if (f.opcode != ws::Opcode::kClose && !Spend(s)) break;
     if (f.opcode == ws::Opcode::kPing) {
       std::lock_guard<std::mutex> lock(s->mu);
       Queue(*s, ws::ServerFrame(ws::Opcode::kPong, f.payload));
@@ -517,7 +519,7 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
     closing = s->closing;
     if (closing) inbox.clear();
   }
-  const double cpu_start = ThreadCpu();
+  const double cpu_start = ThreadCpuSeconds();
   LiveHandler::Out out;
   if (!s->opened && !closing) {
     s->opened = true;
@@ -529,6 +531,10 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
     else s->handler->OnBinary(message, out);
     Apply(s, out);
     if (!s->reading) break;
+  }
+  if (!closing && s->reading) {
+    s->handler->Poll(out);
+    Apply(s, out);
   }
   bool frame = false;
   Clock::time_point at{};
@@ -555,7 +561,7 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
     }
     Apply(s, out);
   }
-  s->cpu += ThreadCpu() - cpu_start;
+  s->cpu += ThreadCpuSeconds() - cpu_start + s->handler->TakeHelperCpu();
   if (s->cpu > s->cpu_budget) {
     Close(s, ws::CloseCode::kPolicy, "the session spent the CPU it may (" + std::to_string(s->cpu_budget) + " s)");
   }

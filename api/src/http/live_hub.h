@@ -11,6 +11,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <ctime>
 #include <deque>
 #include <functional>
 #include <map>
@@ -27,6 +28,13 @@
 
 namespace facespace::api::http {
 
+// The calling thread's CPU clock, in seconds: what a session's turns and helper threads spend.
+inline double ThreadCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 struct LiveLimits {
   size_t max_sessions = 1024;            // Open at once, in all (--max-live-sessions).
   size_t max_per_client = 128;           // ... from one address (--max-client-live-sessions).
@@ -41,13 +49,16 @@ struct LiveLimits {
 // Sends one whole message of a session from any thread (speech made as it is spoken); false once the
 // session is closing or gone.
 using LivePost = std::function<bool(ws::Opcode opcode, std::string_view payload)>;
+// Asks for a turn of the session from any thread (a helper thread has made something for it); a no-op
+// once the session is gone.
+using LiveWake = std::function<void()>;
 
 // What a session does with its messages, called from one thread at a time.
 class LiveHandler {
  public:
   virtual ~LiveHandler() = default;
-  // The session's post, before its first turn.
-  virtual void Attach(LivePost) {}
+  // The session's post and wake, before its first turn.
+  virtual void Attach(LivePost, LiveWake) {}
   struct Out {
     std::vector<std::string> texts;     // Text messages to send (events), in order.
     bool frame_wanted = false;          // The state changed: a frame is due.
@@ -59,6 +70,11 @@ class LiveHandler {
   virtual void Open(Out& out) = 0;
   virtual void OnText(std::string_view text, Out& out) = 0;
   virtual void OnBinary(std::string_view bytes, Out& out) = 0;
+  // Each turn, after its messages: what the session's helper threads made since (a listener's visemes).
+  virtual void Poll(Out&) {}
+  // CPU-seconds the session's helper threads spent since last asked (synthesis, decoding): the session's
+  // budget counts them as its turns' own.
+  virtual double TakeHelperCpu() { return 0; }
   // The payload of a binary message: a frame of the current state, into `message`; false to skip it.
   virtual bool MakeFrame(std::string& message, Out& out) = 0;
   // Stop whatever runs for the session (the socket is closing): from any thread, without waiting.
@@ -105,6 +121,7 @@ class LiveHub {
   void Sweep(Clock::time_point now, bool stopping);
   void OnReadable(const std::shared_ptr<Session>& s);
   size_t ReadFrames(const std::shared_ptr<Session>& s);
+  bool Spend(const std::shared_ptr<Session>& s);
   bool Assemble(const std::shared_ptr<Session>& s, const ws::Frame& f);
   void OnWritable(const std::shared_ptr<Session>& s);
   void Turn(const std::shared_ptr<Session>& s);

@@ -9,6 +9,7 @@
 #include "../http/live_hub.h"
 #include "../http/problem.h"
 #include "facespace/speech/speech.h"
+#include "live_listen.h"
 #include "live_say.h"
 #include "routes.h"
 
@@ -100,9 +101,32 @@ class FaceSession final : public LiveHandler {
     if (bytes.size() % 2) return out.texts.push_back(ErrorEvent("invalid-audio", "audio is 16-bit samples: an even number of bytes"));
     std::vector<int16_t> pcm(bytes.size() / 2);
     std::memcpy(pcm.data(), bytes.data(), bytes.size());  // Little-endian, as this machine.
-    if (Status s = listener_->Feed(pcm, heard_); !s.ok()) return Refuse(s, out);
-    SayHeard(false, out);
+    if (Status s = listener_->Feed(pcm); !s.ok()) {
+      // Faster than it plays: the session ends (a client that streams a microphone never gets here).
+      out.close = true;
+      out.code = ws::CloseCode::kPolicy;
+      out.reason = s.message.substr(0, 120);
+    }
   }
+
+  // What the listener's thread heard since the last turn: visemes (and mouth frames); its end.
+  void Poll(Out& out) override {
+    if (!listener_) return;
+    if (Status s = listener_->Take(heard_); !s.ok()) Refuse(s, out);
+    if (!listener_->Ended()) return SayHeard(false, out);
+    SayHeard(true, out);
+    DropListener();
+    out.texts.push_back(json{{"event", "listen"}, {"state", "end"}}.dump());
+  }
+
+  // The listener let go (its thread joined outside the lock, which Cancel takes from the hub's loop).
+  void DropListener() {
+    std::unique_ptr<LiveListener> old;
+    std::lock_guard<std::mutex> lock(listener_mu_);
+    old = std::move(listener_);
+  }
+
+  double TakeHelperCpu() override { return (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu(); }
 
   bool MakeFrame(std::string& message, Out& out) override {
     auto ws = ctx_.workspaces.Acquire(stop_.get_token());
@@ -122,12 +146,20 @@ class FaceSession final : public LiveHandler {
     return true;
   }
 
-  void Attach(LivePost post) override { speaker_.Attach(std::move(post)); }
+  void Attach(LivePost post, LiveWake wake) override {
+    speaker_.Attach(std::move(post));
+    wake_ = std::move(wake);
+  }
   void Cancel() override {
     stop_.request_stop();
     speaker_.Stop();
+    std::lock_guard<std::mutex> lock(listener_mu_);
+    if (listener_) listener_->Cancel();
   }
-  void End() override { speaker_.Close(); }
+  void End() override {
+    speaker_.Close();
+    DropListener();  // Its thread joined (stopped by Cancel).
+  }
 
  private:
   // {"say": {"text", "voice", "rate"}} queued for the speaker; {"stop": true} ends the speech.
@@ -163,11 +195,8 @@ class FaceSession final : public LiveHandler {
     const json& l = m["listen"];
     if (m.size() != 1) return out.texts.push_back(ErrorEvent("invalid-message", "listen goes alone in its message", "/listen"));
     if (l == false) {
-      if (listener_) {
-        listener_->Finish(heard_);
-        SayHeard(true, out);
-        listener_.reset();
-      }
+      // The end event follows the last visemes, once the listener's thread has decoded what waits (Poll).
+      if (listener_) return listener_->Finish();
       return out.texts.push_back(json{{"event", "listen"}, {"state", "end"}}.dump());
     }
     if (!l.is_object()) return out.texts.push_back(ErrorEvent("invalid-message", "listen is {\"rate\": 16000, \"frames\": false} or false", "/listen"));
@@ -181,9 +210,12 @@ class FaceSession final : public LiveHandler {
     }
     if (Status s = CanSpeak(rig_->rig); !s.ok()) return Refuse(s, out);
     if (listener_) return out.texts.push_back(ErrorEvent("invalid-message", "already listening: {\"listen\": false} ends it", "/listen"));
-    auto opened = speech::LiveRecognizer::Open();
+    auto opened = LiveListener::Open(wake_);
     if (!opened.ok()) return Refuse(opened.status(), out);
-    listener_ = std::move(opened.value());
+    {
+      std::lock_guard<std::mutex> lock(listener_mu_);
+      listener_ = std::move(opened.value());
+    }
     listen_frames_ = l.value("frames", false);
     heard_.clear();
     out.texts.push_back(json{{"event", "listen"}, {"state", "start"}, {"rate", 16000}}.dump());
@@ -251,7 +283,11 @@ class FaceSession final : public LiveHandler {
   uint32_t frame_ = 0, last_id_ = 0;
   json last_warnings_ = json::array();
   std::stop_source stop_;
-  std::unique_ptr<speech::LiveRecognizer> listener_;  // While listening: a decoder of its own.
+  LiveWake wake_;
+  // While listening: a decoder and a thread of its own. Set and reset by turns under listener_mu_, which
+  // Cancel takes from the hub's loop; turns read it without.
+  std::mutex listener_mu_;
+  std::unique_ptr<LiveListener> listener_;
   std::vector<TimedPhoneme> heard_;                    // Phonemes heard and not yet given as visemes.
   bool listen_frames_ = false;
   LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).

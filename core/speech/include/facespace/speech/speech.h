@@ -82,10 +82,16 @@ struct SynthOptions {
   // (16-bit, at the voice's rate) and the new phoneme events (start in ms, IPA; "" a pause). For speech
   // that starts while it is made (the live route); it must not wait.
   std::function<void(int rate, std::span<const int16_t> samples, std::span<const std::pair<int, std::string>> events)> on_chunk;
+  // With on_chunk: false gives the samples to on_chunk alone, keeping none (Spoken's audio is then empty,
+  // its rate and `seconds` still set), so that memory does not grow with the speech.
+  bool keep_audio = true;
+  // Seconds of audio at most (0: no cap); more stops the synthesis with ResourceExhausted ("speech-too-long").
+  double max_seconds = 0;
 };
 
 struct Spoken {
   Audio audio;
+  double seconds = 0;                  // Of the speech made (the audio's, also when it was not kept).
   std::vector<TimedPhoneme> phonemes;  // IPA, as espeak-ng's phoneme events name them; pauses "_".
   std::string voice;                   // The voice that spoke.
 };
