@@ -1,9 +1,15 @@
 // One GL context's objects (gl_context.h) and the shaders every context compiles.
 #include "gl_context.h"
 
+#include <dirent.h>
+
+#include <cstdio>
+
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+
+#include "facespace/core/cpu.h"
 
 namespace facespace::render {
 
@@ -435,5 +441,42 @@ int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5], bool labels
 }
 
 int RasterThreads() { return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 16u)); }
+
+namespace {
+
+// The process's threads whose name starts with "llvmpipe-" (llvmpipe names its rasteriser threads so).
+std::vector<pid_t> FindRasterThreads() {
+  std::vector<pid_t> out;
+  DIR* dir = opendir("/proc/self/task");
+  if (!dir) return out;
+  while (const dirent* e = readdir(dir)) {
+    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+    char comm[32] = {};
+    const std::string path = std::string("/proc/self/task/") + e->d_name + "/comm";
+    if (FILE* f = std::fopen(path.c_str(), "r")) {
+      if (std::fgets(comm, sizeof comm, f) && std::strncmp(comm, "llvmpipe-", 9) == 0) out.push_back(static_cast<pid_t>(std::atoi(e->d_name)));
+      std::fclose(f);
+    }
+  }
+  closedir(dir);
+  return out;
+}
+
+}  // namespace
+
+double RasterCpu() {
+  // Found once the first context made them (they live as long as the process's llvmpipe screen).
+  static std::mutex mu;
+  static std::vector<pid_t> tids;
+  std::vector<pid_t> now;
+  {
+    std::lock_guard<std::mutex> lock(mu);
+    if (tids.empty()) tids = FindRasterThreads();
+    now = tids;
+  }
+  double sum = 0.0;
+  for (pid_t t : now) sum += ThreadCpuSeconds(t);
+  return sum;
+}
 
 }  // namespace facespace::render

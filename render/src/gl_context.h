@@ -7,6 +7,7 @@
 #include <GL/glext.h>
 
 #include <algorithm>
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <list>
@@ -18,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "facespace/core/cpu.h"
 #include "facespace/render/render.h"
 
 namespace facespace::render {
@@ -91,6 +93,10 @@ int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5], bool labels
 
 // llvmpipe's rasteriser threads per context: one per core, at most 16 (llvmpipe's own limit).
 int RasterThreads();
+// The CPU-seconds llvmpipe's rasteriser threads have spent, all of them: one set serves every context of the
+// process, so each lease is charged (ChargeHelperCpu) what they spent while it was held, shared among the
+// leases held meanwhile.
+double RasterCpu();
 
 // The GL contexts of one renderer, shared by every thread that draws with it. A render leases one for its whole run (vertex arrays,
 // draw, read-back), so at most `limit` renders hold that memory at once, about 20 MB each at
@@ -100,16 +106,25 @@ class OsMesaRenderer::ContextPool {
  public:
   class Lease {
    public:
-    Lease(ContextPool* pool, std::unique_ptr<GlContext> context) : pool_(pool), context_(std::move(context)) {}
-    Lease(Lease&&) = default;
+    Lease(ContextPool* pool, std::unique_ptr<GlContext> context)
+        : pool_(pool), context_(std::move(context)), held_with_(++pool->leased_), raster_mark_(RasterCpu()) {}
+    Lease(Lease&& o) noexcept
+        : pool_(o.pool_), context_(std::move(o.context_)), held_with_(o.held_with_), raster_mark_(o.raster_mark_) {}
+    Lease& operator=(Lease&&) = delete;
     ~Lease() {
-      if (context_) pool_->Release(std::move(context_));
+      if (!context_) return;
+      // The rasteriser's CPU while this lease was held, its share of it charged to the work it drew for.
+      const int now = pool_->leased_--;
+      ChargeHelperCpu((RasterCpu() - raster_mark_) / std::max(1.0, 0.5 * (held_with_ + now)));
+      pool_->Release(std::move(context_));
     }
     GlContext* get() const { return context_.get(); }
 
    private:
     ContextPool* pool_;
     std::unique_ptr<GlContext> context_;
+    int held_with_ = 1;       // Leases held when this one began, itself included.
+    double raster_mark_ = 0;  // RasterCpu() then.
   };
 
   // A context current on this thread, or the reason there is none.
@@ -179,6 +194,7 @@ class OsMesaRenderer::ContextPool {
 
   std::mutex mu_;
   std::condition_variable cv_;
+  std::atomic<int> leased_{0};  // Leases held now.
   std::vector<std::unique_ptr<GlContext>> idle_;
   int live_ = 0;    // Contexts created and not destroyed: idle or leased.
   int limit_ = 0;   // 0: one per core.

@@ -19,6 +19,7 @@
 
 #include "facespace/core/color.h"
 #include "facespace/render/render.h"
+#include "facespace/core/cpu.h"
 #include "internal.h"
 #include "oiio_module.h"
 #include "text.h"
@@ -283,9 +284,16 @@ std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vect
     for (int y = first; y < end; ++y) Row8(image, y, alpha, &room[static_cast<size_t>(y) * row]);
   };
   std::vector<std::thread> helpers;
-  for (int k = 1; k < parts; ++k) helpers.emplace_back(run, k);
+  std::vector<double> spent(static_cast<size_t>(parts), 0.0);  // Each helper's CPU, charged to the caller's work.
+  for (int k = 1; k < parts; ++k) {
+    helpers.emplace_back([&run, &spent, k] {
+      run(k);
+      spent[static_cast<size_t>(k)] = ThreadCpuSeconds();
+    });
+  }
   run(0);
   for (std::thread& t : helpers) t.join();
+  for (double s : spent) ChargeHelperCpu(s);
   return room;
 }
 

@@ -74,14 +74,27 @@ Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format) {
   return {seconds, "/format", "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
 }
 
-Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query) {
-  return {kPerRequest + ImageSeconds(o, rig), query ? "?supersample" : "/supersample",
-          Amount(Samples(o)) + " samples (width x height x supersample squared)"};
+double EncodeSeconds(render::ImageFormat format, double pixels) {
+  switch (format) {
+    case render::ImageFormat::kExr: return 110e-9 * pixels;
+    case render::ImageFormat::kTiff: return 100e-9 * pixels;
+    case render::ImageFormat::kWebp: return 25e-9 * pixels;
+    case render::ImageFormat::kJpeg: return 8e-9 * pixels;
+    case render::ImageFormat::kPng: break;
+  }
+  return 5e-9 * pixels;
 }
 
-Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells) {
-  return {kPerRequest + static_cast<double>(cells) * ImageSeconds(o, rig), "/cells",
-          std::to_string(cells) + " cells x " + Amount(Samples(o)) + " samples"};
+Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query, render::ImageFormat format) {
+  const double pixels = static_cast<double>(std::max(0, o.width)) * std::max(0, o.height);
+  return {kPerRequest + ImageSeconds(o, rig) + EncodeSeconds(format, pixels), query ? "?supersample" : "/supersample",
+          Amount(Samples(o)) + " samples (width x height x supersample squared), encoded as " + render::ImageFormatExtension(format)};
+}
+
+Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells, render::ImageFormat format) {
+  const double pixels = static_cast<double>(cells) * std::max(0, o.width) * std::max(0, o.height);
+  return {kPerRequest + static_cast<double>(cells) * ImageSeconds(o, rig) + EncodeSeconds(format, pixels), "/cells",
+          std::to_string(cells) + " cells x " + Amount(Samples(o)) + " samples, encoded as " + render::ImageFormatExtension(format)};
 }
 
 Cost FramesCost(const Rig& rig, size_t frames, double seconds, bool meshes, const char* field) {

@@ -21,6 +21,7 @@
 #include <thread>
 #include <unordered_map>
 
+#include "facespace/core/cpu.h"
 #include "framing.h"
 #include "in_flight.h"
 #include "problem.h"
@@ -120,6 +121,11 @@ bool UpgradeConnection(std::string head, UpgradeTaker take) {
 }
 
 class FrontServer::Front {
+  struct Turns {  // An address's requests on workers, and those waiting for its turn.
+    size_t running = 0;
+    std::deque<Conn*> waiting;
+  };
+
  public:
   Front(FrontServer& server, FrontOptions options) : server_(server), o_(std::move(options)) {}
   ~Front() { Stop(); }
@@ -519,34 +525,54 @@ class FrontServer::Front {
     return v;
   }
 
-  // A whole request to a worker, or, when its address has max_client_requests running, to the
-  // back of that address's line (so one address cannot hold every worker while others wait).
+  // A whole request to a worker, or to the back of its address's line when the address may not start
+  // one more now (MayStart), so that one address, or a few, cannot hold every worker while others wait.
   void Dispatch(Conn& c) {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
     {
       std::lock_guard<std::mutex> lock(mu_);
       Turns& t = turns_[c.ip];
-      if (t.running >= std::max<size_t>(1, o_.max_client_requests)) {
+      if (!t.waiting.empty() || !MayStart(t.running)) {
         t.waiting.push_back(&c);
         ++stats.waited_turn;
         return;
       }
-      ++t.running;
-      work_.push_back(&c);
+      Start(t, &c);
     }
     work_cv_.notify_one();
   }
 
-  // Under mu_: the address's next waiting request takes the finished one's turn.
+  // Under mu_: whether an address running `running` requests may start one more: under its own cap
+  // (max_client_requests), and once only the reserve of workers is left (a quarter), only while it runs
+  // none: a request from an address that runs nothing always finds a worker.
+  bool MayStart(size_t running) const {
+    if (running >= std::max<size_t>(1, o_.max_client_requests)) return false;
+    const size_t workers = static_cast<size_t>(std::max(1, o_.workers));
+    return running == 0 || started_ + workers / 4 < workers;
+  }
+  void Start(Turns& t, Conn* c) {
+    ++t.running;
+    ++started_;
+    work_.push_back(c);
+  }
+
+  // Under mu_: the finished request's turn given back; then the waiting requests that may start now
+  // start, the address running fewest first (fair shares).
   void EndTurn(const std::string& ip) {
     auto it = turns_.find(ip);
     if (it == turns_.end()) return;
-    if (!it->second.waiting.empty()) {
-      work_.push_back(it->second.waiting.front());
-      it->second.waiting.pop_front();
+    --it->second.running;
+    --started_;
+    if (it->second.running == 0 && it->second.waiting.empty()) turns_.erase(it);
+    while (true) {
+      Turns* next = nullptr;
+      for (auto& [address, t] : turns_) {
+        if (!t.waiting.empty() && MayStart(t.running) && (!next || t.running < next->running)) next = &t;
+      }
+      if (!next) return;
+      Start(*next, next->waiting.front());
+      next->waiting.pop_front();
       work_cv_.notify_one();
-    } else if (--it->second.running == 0) {
-      turns_.erase(it);
     }
   }
 
@@ -617,6 +643,8 @@ class FrontServer::Front {
       watch.fd = c->fd;
       watch.deadline = Clock::now() + std::chrono::seconds(c->keyed ? o_.keyed_deadline : o_.request_deadline);
       Watchdog::MeterThisThread(watch, c->keyed ? o_.keyed_cpu_limit : o_.cpu_limit);
+      // What helper threads spend for the request is its own (facespace/core/cpu.h).
+      SetHelperCpuSink([](void* e, double seconds) { static_cast<Watchdog::Entry*>(e)->helper_ns += static_cast<int64_t>(seconds * 1e9); }, &watch);
       watchdog_.Watch(watch);
       t_stop = watch.source.get_token();
       ++stats.in_flight;
@@ -633,6 +661,7 @@ class FrontServer::Front {
         ok = false;
       }
       t_conn = nullptr;
+      SetHelperCpuSink(nullptr, nullptr);
       --stats.in_flight;
       t_stop = {};
       watchdog_.Unwatch(watch);
@@ -687,11 +716,8 @@ class FrontServer::Front {
   std::vector<int> adopted_;
   std::vector<Conn*> returned_;
   std::deque<Conn*> work_;
-  struct Turns {
-    size_t running = 0;
-    std::deque<Conn*> waiting;
-  };
   std::unordered_map<std::string, Turns> turns_;  // Per client address, under mu_.
+  size_t started_ = 0;                              // Requests started on workers, every address's, under mu_.
   Watchdog watchdog_{stats};
 };
 

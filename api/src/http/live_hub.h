@@ -11,7 +11,6 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
-#include <ctime>
 #include <deque>
 #include <functional>
 #include <map>
@@ -24,16 +23,10 @@
 #include <vector>
 
 #include "facespace/api/front.h"
+#include "facespace/core/cpu.h"
 #include "websocket.h"
 
 namespace facespace::api::http {
-
-// The calling thread's CPU clock, in seconds: what a session's turns and helper threads spend.
-inline double ThreadCpuSeconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
 struct LiveLimits {
   size_t max_sessions = 1024;            // Open at once, in all (--max-live-sessions).

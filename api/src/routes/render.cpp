@@ -37,12 +37,9 @@ bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Res
 void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   RenderRequest r;
-  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1) ||
-      !WithinBudget(ctx, req, res, RenderCost(stored->rig, r.render, req.method == "GET"))) {
-    return;
-  }
+  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1)) return;
   const auto format = NegotiateImage(req, res, r.format);
-  if (!format) return;
+  if (!format || !WithinBudget(ctx, req, res, RenderCost(stored->rig, r.render, req.method == "GET", *format))) return;
   ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r.mesh, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
@@ -69,7 +66,7 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
     return;
   }
   if (!CheckRenderBudget(ctx, req, res, r.base.render, r.cells.size()) ||
-      !WithinBudget(ctx, req, res, SheetCost(stored->rig, r.base.render, r.cells.size()))) {
+      !WithinBudget(ctx, req, res, SheetCost(stored->rig, r.base.render, r.cells.size(), *format))) {
     return;
   }
   SheetPoints points;

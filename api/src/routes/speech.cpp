@@ -82,6 +82,9 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;
   auto plan = lipsync::PlanSpeech(stored->rig, r, CurrentStop());
   if (!plan.ok()) return SendStatus(req, res, plan.status());
+  // Text was priced by its words; now that it is spoken, by its real length (espeak-ng reads digits as
+  // long numbers: 130 bytes were 64 s of speech, priced as 8), before any frame is drawn.
+  if (!r.has_audio && !WithinBudget(ctx, req, res, SpeechCost(stored->rig, r, plan->audio.seconds(), 16000))) return;
   if (const std::vector<Warning> warnings = lipsync::SpeechWarnings(plan.value()); !warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
   if (r.format == FrameFormat::kJson) {
