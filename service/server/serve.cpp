@@ -196,6 +196,9 @@ std::string Apply(ServeConfig& c, const std::string& key, const std::string& val
   } else if (key == "batch-threads") {
     if (!ParseSize(value, 0, 1024, &n)) return "batch-threads must be 0..1024 (0: every core), not '" + value + "'";
     c.job_limits.threads = static_cast<int>(n);
+  } else if (key == "keep-free-mb") {
+    if (!ParseSize(value, 0, size_t{1} << 30, &n)) return "keep-free-mb must be 0..1073741824 MB (0: 5% of the disk, at most 1 GiB), not '" + value + "'";
+    c.job_limits.keep_free = static_cast<size_t>(n) << 20;
   }
   else return "unknown option --" + key;
   return "";
@@ -225,6 +228,7 @@ constexpr std::pair<const char*, const char*> kSettings[] = {
     {"max-frames", "N: frames of one sequence stream (default 100000)"},
     {"jobs-dir", "DIR: where batch jobs live"}, {"max-jobs", "N: batch jobs queued or running (default 4)"},
     {"max-batch", "N: variants per batch job (default 10000)"}, {"batch-threads", "N: threads of the running job (0: every core)"},
+    {"keep-free-mb", "MB: the jobs folder's disk kept free: a batch that would pass it is refused 507, a running one stops failed (default 0: 5% of the disk, at most 1 GiB)"},
     {"max-vertices", "N: per uploaded rig (default 1000000)"}, {"max-shapes", "N: per uploaded rig (default 1024)"},
     {"read-timeout", "SECONDS: a client may take to send a whole request, head and body (default 10, plus 1 s per MiB of body)"},
     {"render-threads", "N: renders drawing at once (0: one per core)"},

@@ -1,4 +1,6 @@
 #include <sys/statvfs.h>
+
+#include <thread>
 #include "facespace/batch/queue.h"
 
 #include "facespace/files/durable.h"
@@ -194,6 +196,7 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) con
   job->rig_version = j.value("rig_version", "");
   job->info.created = j.value("created", "");
   job->info.total = j.value("total", size_t{0});
+  if (j.contains("variant_bytes") && j["variant_bytes"].is_number()) job->variant_bytes = j["variant_bytes"].get<double>();
   ReadJobOutput(j.contains("output") ? j["output"] : json(), TextAt(j["request"], "format", "glb"), job->info);
   job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   job->info.done = ManifestLines(folder / "out" / "manifest.jsonl");
@@ -214,6 +217,7 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::RunningHere(const std::string& 
   if (running_ && running_->info.id == id && !running_->removed) {
     auto copy = std::make_shared<Job>();
     copy->info = running_->info;
+    copy->variant_bytes = running_->variant_bytes;
     return copy;
   }
   return nullptr;
@@ -301,24 +305,52 @@ static size_t VariantBytes(const Rig& rig, const BatchPlan& plan) {
   switch (r.mesh_format) {
     case MeshFormat::kF32: return vertices * 24 + 4096;
     case MeshFormat::kGlb: return vertices * 40 + 65536;
-    default: return vertices * 80 + 4096;  // Text: OBJ, JSON.
+    default: return vertices * 200 + 4096;  // Text: OBJ (FaceCap's 178 bytes a vertex), JSON.
   }
 }
 
-Status FileJobQueue::CheckRoom(const api::StoredRig& rig, const BatchPlan& plan) const {
+namespace {
+
+// "1.2 GB", "35 MB": sizes for people.
+std::string Bytes(double b) {
+  char text[32];
+  std::snprintf(text, sizeof text, b >= 1e9 ? "%.1f GB" : "%.0f MB", b >= 1e9 ? b / 1e9 : b / 1e6);
+  return text;
+}
+
+struct Disk {
+  double free = 0, size = 0;  // Bytes: what an unprivileged writer may still use, and the whole filesystem.
+};
+std::optional<Disk> DiskOf(const std::string& dir) {
   struct statvfs st {};
-  if (::statvfs(dir_.c_str(), &st) != 0) return Status::Ok();  // Unknown: the writes will say.
-  const double free_bytes = static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize);
-  const double keep = std::min(1024.0 * (1 << 20), 0.05 * static_cast<double>(st.f_blocks) * static_cast<double>(st.f_frsize));
-  const double need = static_cast<double>(VariantBytes(rig.rig, plan)) * static_cast<double>(plan.total);
-  if (need + keep <= free_bytes) return Status::Ok();
-  char text[256];
-  std::snprintf(text, sizeof text,
-                "the batch would write about %.1f GB (%zu variants); the jobs folder has %.1f GB free, and %.1f GB is kept free",
-                need / 1e9, plan.total, free_bytes / 1e9, keep / 1e9);
+  if (::statvfs(dir.c_str(), &st) != 0) return std::nullopt;
+  return Disk{static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize), static_cast<double>(st.f_blocks) * static_cast<double>(st.f_frsize)};
+}
+
+}  // namespace
+
+double FileJobQueue::KeepFree(double disk_bytes) const {
+  return limits_.keep_free > 0 ? static_cast<double>(limits_.keep_free) : std::min(1024.0 * (1 << 20), 0.05 * disk_bytes);
+}
+
+Status FileJobQueue::CheckRoom(double need, size_t variants, const std::vector<std::shared_ptr<Job>>& jobs, bool sampled) const {
+  const std::optional<Disk> disk = DiskOf(dir_);
+  if (!disk) return Status::Ok();  // Unknown: the writes will say.
+  double reserved = 0;
+  size_t others = 0;
+  for (const auto& j : jobs) {
+    if (!Unfinished(j->info.state)) continue;
+    // What it has still to write: its variants to go at its bytes a variant.
+    reserved += static_cast<double>(j->info.total - std::min(j->info.done, j->info.total)) * j->variant_bytes;
+    ++others;
+  }
+  const double keep = KeepFree(disk->size);
+  if (need + reserved + keep <= disk->free) return Status::Ok();
+  const std::string text = "the batch would write about " + Bytes(need) + " (" + std::to_string(variants) + " variants); the jobs folder has " +
+                           Bytes(disk->free) + " free, of which " + Bytes(reserved) + " is kept for the " + std::to_string(others) +
+                           " unfinished job(s) and " + Bytes(keep) + " is kept free (--keep-free-mb)";
   Status s{StatusCode::kStorageFull, text, {}, "storage-full", 0};
-  const std::string ptr = plan.request.sampled ? "/sample/count" : "/variants";
-  s.fields.push_back({ptr, "fewer variants, or a smaller format"});
+  s.fields.push_back({sampled ? "/sample/count" : "/variants", "fewer variants, or a smaller format"});
   return s;
 }
 
@@ -331,12 +363,15 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
     s.fields.push_back({ptr, "at most " + std::to_string(limits_.max_batch) + " variants"});
     return s;
   }
-  // The disk: the variants' estimated bytes must fit in what the jobs folder has free, with room kept.
-  if (Status s = CheckRoom(*rig, *plan); !s.ok()) return s;
+  // The disk: the variants' estimated bytes must fit in what the jobs folder has free, beside what the
+  // unfinished jobs (every instance's) have still to write, with the margin kept.
+  const std::vector<std::shared_ptr<Job>> jobs = Scan();
+  const double variant_bytes = static_cast<double>(VariantBytes(rig->rig, *plan));
+  if (Status s = CheckRoom(variant_bytes * static_cast<double>(plan->total), plan->total, jobs, plan->request.sampled); !s.ok()) return s;
   // The queue is the folder's: every instance's unfinished jobs count.
   size_t active = 0, remaining = 0;
   double rate = 0, wait = 0;
-  for (const auto& j : Scan()) {
+  for (const auto& j : jobs) {
     if (!Unfinished(j->info.state)) continue;
     ++active;
     remaining += j->info.total - std::min(j->info.done, j->info.total);
@@ -367,7 +402,7 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   std::error_code ec;
   fs::create_directories(folder, ec);
   json j = {{"id", job->info.id},          {"rig", rig->id},         {"rig_version", rig->version},
-            {"created", job->info.created}, {"total", plan->total}, {"output", output},
+            {"created", job->info.created}, {"total", plan->total}, {"output", output}, {"variant_bytes", variant_bytes},
             {"request", json::parse(body, nullptr, false)}};
   Status written = ec ? Internal("cannot create the job's folder: " + ec.message())
                       : WriteJobFile(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
@@ -512,9 +547,18 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
   options.jobs = limits_.threads;
   options.cancel = &job->cancel;
   double said = -1.0;  // When the rate was last written in the claim, in the run's seconds.
-  options.progress = [this, &job, &folder, claim, &said](const Progress& p) {
+  const std::optional<Disk> at_start = DiskOf(dir_);
+  const size_t workers = options.jobs > 0 ? static_cast<size_t>(options.jobs) : std::max(1u, std::thread::hardware_concurrency());
+  options.progress = [this, &job, &folder, claim, &said, &at_start, workers](const Progress& p) {
     std::error_code ec;
     const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
+    // The disk: bytes a variant as measured after the first few (what the disk lost since the start),
+    // and a stop, failed, before the margin is passed.
+    const std::optional<Disk> read = at_start ? DiskOf(dir_) : std::nullopt;
+    const Disk now = read.value_or(Disk{});
+    const size_t made = p.done - p.skipped;
+    double measured = 0;
+    if (read && made >= 8) measured = std::max(0.0, at_start->free - now.free) / static_cast<double>(made);
     // The rate, for the instances that do not run the job: once a variant is made, then each second.
     if (p.done > p.skipped && p.seconds > 0 && p.seconds - said >= 1.0) {
       said = p.seconds;
@@ -526,6 +570,15 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
     job->info.done = p.done;
     job->info.seconds = p.seconds;
     job->info.rate = p.seconds > 0 ? (p.done - p.skipped) / p.seconds : 0.0;
+    if (measured > 0) job->variant_bytes = measured;
+    // Progress comes a group of files a worker (kGroupFiles) at most; after the stop each worker ends the
+    // variant it makes: that much room is kept beside the margin.
+    const double in_flight = static_cast<double>(workers * (kGroupFiles + 1)) * job->variant_bytes;
+    if (read && job->out_of_room.empty() && now.free < KeepFree(now.size) + in_flight) {
+      job->out_of_room = "stopped before the jobs folder's disk passed its margin (" + Bytes(KeepFree(now.size)) + " kept free, --keep-free-mb): " +
+                         std::to_string(p.done) + " of " + std::to_string(p.total) + " variants made, and kept";
+      job->cancel.store(true);
+    }
     if (deleted_elsewhere) {
       job->removed = true;
       job->cancel.store(true);
@@ -545,6 +598,8 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
     fs::remove_all(folder, ec);
   } else if (!summary.ok()) {
     Finish(*job, JobState::kFailed, summary.status().message);
+  } else if (!job->out_of_room.empty()) {
+    Finish(*job, JobState::kFailed, job->out_of_room);
   } else if (summary->cancelled) {
     if (!stopping) Finish(*job, JobState::kCancelled, "");
     // Stopping: no state.json, so this instance's next start, or another instance now, resumes it.

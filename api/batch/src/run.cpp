@@ -64,7 +64,6 @@ class BatchRun {
     double max_sum = 0;
     std::unique_ptr<MakerProcess> maker;    // Makes its variants, when the run has makers (RunOptions::makers).
   };
-  static constexpr size_t kGroupFiles = 32;
   static constexpr auto kGroupAge = std::chrono::milliseconds(250);
   static constexpr size_t kTarWindow = 32;  // Samples made ahead of the one the tar writer waits for.
 

@@ -12,12 +12,10 @@ namespace {
 
 struct RigSize {
   size_t vertices = 0, triangles = 0, skinned = 0;
-  size_t moved = 0;  // Vertices moved by its shapes, all of them together: a blend's work when every one is weighted.
 };
 
 RigSize SizeOf(const Rig& rig) {
   RigSize s;
-  for (const Shape& shape : rig.shapes) s.moved += shape.vertices_moved;
   for (const Primitive& p : rig.primitives) {
     const size_t v = p.positions.size() / 3;
     s.vertices += v;
@@ -48,11 +46,7 @@ double Samples(const render::RenderOptions& o) {
   return static_cast<double>(std::max(0, o.width)) * std::max(0, o.height) * ss * ss;
 }
 
-// A frame: its vertices written, skinned, and every shape's moved vertices added (the worst case, every
-// weight given: a dense 1,000-shape rig was priced 200 times low by its vertices alone).
-double FrameSeconds(const RigSize& s) {
-  return 2e-5 + 8e-9 * static_cast<double>(s.vertices) + 1.5e-8 * static_cast<double>(s.skinned) + 3e-9 * static_cast<double>(s.moved);
-}
+double FrameSeconds(const RigSize& s) { return 2e-5 + 8e-9 * static_cast<double>(s.vertices) + 1.5e-8 * static_cast<double>(s.skinned); }
 
 }  // namespace
 
@@ -63,13 +57,27 @@ double ImageSeconds(const render::RenderOptions& o, const Rig& rig) {
   return kPerImage + FrameSeconds(s) + kPerSample * Samples(o) + 1e-7 * static_cast<double>(s.triangles);
 }
 
-Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format) {
-  if (format != MeshFormat::kVrm && format != MeshFormat::kVrm0) return {kPerRequest + FrameSeconds(rig), "/weights", "one blend"};
+double BlendSeconds(const Rig& rig, size_t weighted) {
+  size_t all = 0, largest = 0;
+  for (const Shape& shape : rig.shapes) {
+    all += shape.vertices_moved;
+    largest = std::max(largest, shape.vertices_moved);
+  }
+  const double bound = weighted >= rig.shapes.size() ? static_cast<double>(all)
+                                                     : std::min(static_cast<double>(all), static_cast<double>(weighted) * static_cast<double>(largest));
+  return kPerMovedVertex * bound;
+}
+
+Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted) {
+  const double blend = BlendSeconds(rig, weighted);
+  if (format != MeshFormat::kVrm && format != MeshFormat::kVrm0) {
+    return {kPerRequest + FrameSeconds(rig) + blend, "/weights", "one blend of " + (weighted >= rig.shapes.size() ? std::string("every") : std::to_string(weighted)) + " shape(s)"};
+  }
   // A VRM: the whole rig written (every target of every vertex: 1.2e-8 s each, measured on Uka's, 50k vertices
   // x 213 shapes in 0.14 s with its thumbnail) and its thumbnail drawn.
   render::RenderOptions thumbnail;
   thumbnail.width = thumbnail.height = Evaluator::kThumbnailSize;
-  const double seconds = kPerRequest + FrameSeconds(rig) + 1.2e-8 * static_cast<double>(rig.vertex_count()) * static_cast<double>(rig.shapes.size()) +
+  const double seconds = kPerRequest + FrameSeconds(rig) + blend + 1.2e-8 * static_cast<double>(rig.vertex_count()) * static_cast<double>(rig.shapes.size()) +
                          ImageSeconds(thumbnail, rig);
   return {seconds, "/format", "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
 }
@@ -83,6 +91,11 @@ double EncodeSeconds(render::ImageFormat format, double pixels) {
     case render::ImageFormat::kPng: break;
   }
   return 5e-9 * pixels;
+}
+
+size_t WeightedShapes(const MeshRequest& r) {
+  if (!r.controls.empty()) return SIZE_MAX;
+  return static_cast<size_t>(std::count_if(r.weights.begin(), r.weights.end(), [](const WeightEntry& w) { return w.value != 0.0; }));
 }
 
 Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query, render::ImageFormat format) {

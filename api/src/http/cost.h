@@ -36,14 +36,21 @@ inline constexpr double kSynthPerSecond = 0.002; // espeak-ng, per second of spe
 inline constexpr double kDecodePerSecond = 0.08; // PocketSphinx, per second of audio at 16 kHz (0.66 s for 9 s).
 inline constexpr double kPerInputSample = 1e-7;  // Resampling and voice detection, per sample sent.
 inline constexpr double kPerUploadByte = 1e-7;   // Reading a rig file.
+inline constexpr double kPerMovedVertex = 3e-9;  // One weighted shape's moved vertex added into the blend.
 
 // One frame of `rig`: its blend (and skinning, when skinned) and the frame's encoding.
 double FrameSeconds(const Rig& rig);
 // One image of `o` of a rig with `triangles`.
 double ImageSeconds(const render::RenderOptions& o, const Rig& rig);
 
-// One blend in `format`; a VRM writes the whole rig and draws its thumbnail.
-Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format = std::nullopt);
+// The blend's additions for `weighted` shapes: each moves at most the rig's largest shape's vertices, all of
+// them together at most every shape's (a dense 1,000-shape rig was priced 200 times low by its vertices alone).
+double BlendSeconds(const Rig& rig, size_t weighted);
+// One blend of `weighted` shapes (SIZE_MAX: any, as a live session may) in `format`; a VRM writes the whole
+// rig and draws its thumbnail.
+Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted);
+// The shapes a mesh request weights, for MeshCost: its non-zero weights, every shape when controls drive them.
+size_t WeightedShapes(const MeshRequest& r);
 // An image's encode, per output pixel, in `format` (measured at 2048², issue 61: EXR and TIFF 90-95 ns, WebP
 // 20, JPEG 7, PNG 4).
 double EncodeSeconds(render::ImageFormat format, double pixels);

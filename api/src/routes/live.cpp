@@ -339,7 +339,7 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   if (!ws::ValidClientKey(key)) return SendProblem(req, res, 400, "bad-request", "Sec-WebSocket-Key must be the base64 of 16 bytes");
   // The cost, stated before the session: a frame's blend and encoding, at most 60 a second; the session
   // may spend twice that over its lifetime, and lasts at most --live-seconds.
-  const Cost frame = MeshCost(stored->rig, MeshFormat::kF32);
+  const Cost frame = MeshCost(stored->rig, MeshFormat::kF32, SIZE_MAX);  // Any shapes a message may weight.
   const double per_second = 60 * frame.seconds;
   if (!WithinBudget(ctx, req, res, {per_second, "/live", "60 frames a second x " + frame.formula})) return;
   const bool keyed = CarriesKey(ctx, req);

@@ -104,7 +104,7 @@ bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshReques
 void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format))) return;
+  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format, WeightedShapes(r)))) return;
   const auto format = NegotiateMesh(req, res, r.format);
   if (!format) return;
   ResolvedPoint point;
@@ -123,7 +123,7 @@ void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Respo
 void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig))) return;
+  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig, std::nullopt, WeightedShapes(r)))) return;
   ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;

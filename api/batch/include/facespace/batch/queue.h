@@ -85,6 +85,9 @@ struct JobLimits {
   size_t max_jobs = 4;        // Queued + running; past it Submit says ResourceExhausted (429).
   size_t max_batch = 10000;   // Variants per job.
   int threads = 0;            // Worker threads of the running job; 0 = every core.
+  // Bytes the jobs folder's disk keeps free (--keep-free-mb): a job that would pass it is refused (507),
+  // a running one that reaches it stops, failed, with what it made kept. 0: 5% of the disk, at most 1 GiB.
+  size_t keep_free = 0;
 };
 
 class FileJobQueue : public JobQueue {
@@ -113,6 +116,8 @@ class FileJobQueue : public JobQueue {
     std::string body;
     std::atomic<bool> cancel{false};
     bool removed = false;
+    double variant_bytes = 0;   // About a variant's file: job.json's estimate, measured once the job runs.
+    std::string out_of_room;    // Why the running job stopped for the disk (empty: it did not).
   };
   // The job in DIR/id as the folder says (null when it is not a job, or was deleted).
   std::shared_ptr<Job> Load(const std::string& id) const;
@@ -126,7 +131,9 @@ class FileJobQueue : public JobQueue {
   void Finish(Job& job, JobState state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
   std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;
-  Status CheckRoom(const api::StoredRig& rig, const BatchPlan& plan) const;
+  // Whether `need` more bytes fit beside what the unfinished jobs (`jobs`) have still to write, the margin kept.
+  Status CheckRoom(double need, size_t variants, const std::vector<std::shared_ptr<Job>>& jobs, bool sampled) const;
+  double KeepFree(double disk_bytes) const;
   void MarkLost(Job& job);
 
   std::string dir_;

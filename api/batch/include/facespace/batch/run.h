@@ -31,6 +31,9 @@
 
 namespace facespace::batch {
 
+// Files a worker writes before it syncs them as one group and reports progress (group commit).
+inline constexpr size_t kGroupFiles = 32;
+
 struct Progress {
   size_t done = 0;      // Variants of this shard complete, including those skipped.
   size_t skipped = 0;   // Complete before this run started.
