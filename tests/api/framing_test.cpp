@@ -68,6 +68,8 @@ TEST(Framing, RefusesWhatCppHttplibAccepted) {
       {post + "X-A: 1\r\n folded\r\n\r\n", 400, "obs-fold"},
       {post + "Bad Name: 1\r\n\r\n", 400, "field name"},
       {post + "X-A: 1\nX-B: 2\r\n\r\n", 400, "bare CR or LF"},
+      {post + std::string("X-A: a\0b\r\n\r\n", 12), 400, "NUL or another control character"},
+      {post + "X-A: a\x01b\r\n\r\n", 400, "NUL or another control character"},
       {"GET /" + std::string(9000, 'a') + " HTTP/1.1\r\n\r\n", 414, "8,192 bytes"},
   };
   for (const Case& c : cases) {

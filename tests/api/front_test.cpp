@@ -49,9 +49,9 @@ class Front {
     server_.stop();
     thread_.join();
   }
-  // A socket with `path`'s POST sent.
-  int Send(const char* path) const {
-    const int fd = test::ConnectLoopback(port_, 10);
+  // A socket with `path`'s POST sent, from 127.0.0.`from`.
+  int Send(const char* path, int from = 1) const {
+    const int fd = test::ConnectLoopback(port_, 10, 0x7f000000u + static_cast<uint32_t>(from));
     if (fd < 0) return -1;
     const std::string request = std::string("POST ") + path + " HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n";
     send(fd, request.data(), request.size(), MSG_NOSIGNAL);
@@ -66,6 +66,17 @@ class Front {
     }
     close(fd);
     return out.substr(out.find("\r\n\r\n") == std::string::npos ? 0 : out.find("\r\n\r\n") + 4);
+  }
+  // The whole answer to a GET of `path` on a socket of its own.
+  std::string Get(const char* path) const {
+    const int fd = test::ConnectLoopback(port_, 10);
+    const std::string request = std::string("GET ") + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+    send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    std::string out;
+    char buf[4096];
+    for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) out.append(buf, static_cast<size_t>(n));
+    close(fd);
+    return out;
   }
   const FrontStats& stats() const { return server_.Stats(); }
   std::atomic<int> running_{0}, peak_{0};
@@ -127,6 +138,52 @@ TEST(Front, OneAddressRunsAtMostItsTurnsAndTheRestWait) {
   for (int fd : fds) EXPECT_EQ(Front::Answer(fd), "stopped");
   EXPECT_EQ(front.peak_.load(), 2);
   EXPECT_EQ(front.stats().waited_turn.load(), 3u);
+}
+
+// Fair shares (issue 61): an address may take the workers but a quarter kept for addresses that run nothing.
+TEST(Front, AnAddressThatRunsNothingFindsAWorkerWhileAnotherTakesTheRest) {
+  FrontOptions o = Options();
+  o.workers = 4;
+  o.max_client_requests = 16;
+  o.request_deadline = 2;
+  Front front(o);
+  int busy[8];
+  for (size_t i = 0; i < 8; ++i) {  // One at a time: cpp-httplib's listen backlog is 5, and a SYN past it waits a second.
+    busy[i] = front.Send("/wait", 1);
+    while (front.stats().open.load() < i + 1) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  while (front.running_ < 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(front.running_.load(), 3) << "one address takes every worker but the reserve";
+  const int other = front.Send("/wait", 2);
+  while (front.running_ < 4 && front.stats().past_deadline.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  EXPECT_EQ(front.running_.load(), 4) << "the other address's request waited behind the first's";
+  EXPECT_EQ(front.stats().past_deadline.load(), 0u);
+  EXPECT_EQ(Front::Answer(other), "stopped");
+  for (int fd : busy) EXPECT_EQ(Front::Answer(fd), "stopped");
+  EXPECT_EQ(front.peak_.load(), 4);
+  EXPECT_EQ(front.stats().waited_turn.load(), 5u);
+}
+
+// A probe is answered by the front itself, however many workers are busy.
+TEST(Front, AProbeIsAnsweredWithoutAWorker) {
+  FrontOptions o = Options();
+  o.workers = 2;
+  o.request_deadline = 2;
+  o.probe = [](const RequestHeadView& head) -> std::optional<std::string> {
+    if (head.target != "/healthz") return std::nullopt;
+    return std::string("HTTP/1.1 200 OK\r\nContent-Length: 2\r\nConnection: keep-alive\r\n\r\nok");
+  };
+  Front front(o);
+  const int a = front.Send("/wait", 1), b = front.Send("/wait", 2);
+  while (front.running_ < 2) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const std::string answer = front.Get("/healthz");
+  EXPECT_EQ(front.running_.load(), 2) << "both workers were still busy";
+  EXPECT_EQ(answer.substr(0, 15), "HTTP/1.1 200 OK");
+  EXPECT_EQ(answer.substr(answer.size() - 2), "ok");
+  EXPECT_EQ(front.stats().past_deadline.load(), 0u);
+  Front::Answer(a);
+  Front::Answer(b);
 }
 
 }  // namespace

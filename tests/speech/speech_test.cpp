@@ -15,6 +15,8 @@ extern "C" {
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <thread>
+#include <atomic>
 
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
@@ -198,6 +200,33 @@ TEST(Espeak, BadTextAndVoicesNameTheirField) {
 }
 
 // ---- speech: PocketSphinx ----
+
+// Issue 61: four live listeners opening at once crashed the process (sphinxbase's log file reopened by each
+// decoder's set-up). Decoders made, fed and freed on four threads at once, rounds over: each one hears.
+TEST(Sphinx, LiveRecognizersOpenedAndClosedAtOnceOnManyThreads) {
+  std::vector<int16_t> pcm(16000);
+  for (size_t i = 0; i < pcm.size(); ++i) pcm[i] = static_cast<int16_t>(3000 * std::sin(2 * M_PI * 180 * static_cast<double>(i) / 16000));
+  std::atomic<int> opened{0}, busy{0}, failed{0};
+  for (int round = 0; round < 6; ++round) {
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t) {
+      threads.emplace_back([&] {
+        auto rec = LiveRecognizer::Open();
+        if (!rec.ok()) {
+          (rec.status().reason == "busy" ? busy : failed)++;
+          return;
+        }
+        std::vector<TimedPhoneme> heard;
+        if (!rec.value()->Feed(pcm, heard).ok() || !rec.value()->Finish(heard).ok() || heard.empty()) ++failed;
+        ++opened;
+      });
+    }
+    for (std::thread& t : threads) t.join();
+  }
+  EXPECT_EQ(failed.load(), 0);
+  EXPECT_EQ(opened.load() + busy.load(), 24);
+  EXPECT_GE(opened.load(), 20);  // At most kMaxLiveDecoders at once: all four of a round fit.
+}
 
 TEST(Sphinx, SilenceAndNoiseAreSilence) {
   Audio quiet;

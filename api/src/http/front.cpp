@@ -24,6 +24,7 @@
 #include "facespace/core/cpu.h"
 #include "framing.h"
 #include "in_flight.h"
+#include "turns.h"
 #include "problem.h"
 
 namespace facespace::api {
@@ -121,13 +122,9 @@ bool UpgradeConnection(std::string head, UpgradeTaker take) {
 }
 
 class FrontServer::Front {
-  struct Turns {  // An address's requests on workers, and those waiting for its turn.
-    size_t running = 0;
-    std::deque<Conn*> waiting;
-  };
-
  public:
-  Front(FrontServer& server, FrontOptions options) : server_(server), o_(std::move(options)) {}
+  Front(FrontServer& server, FrontOptions options)
+      : server_(server), o_(std::move(options)), turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests) {}
   ~Front() { Stop(); }
 
   FrontStats stats;
@@ -469,19 +466,7 @@ class FrontServer::Front {
   // not take at once gets 100 ms), then the connection waits for its next request, or closes.
   void AnswerHere(Conn& c, std::string_view response) {
     const bool close = http::EqualsIgnoreCase(HeaderValue(c, "Connection"), "close") || c.served + 1 >= o_.keep_alive_max;
-    const Clock::time_point give_up = Clock::now() + std::chrono::milliseconds(100);
-    while (!response.empty()) {
-      const ssize_t n = ::send(c.fd, response.data(), response.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-      if (n > 0) {
-        response.remove_prefix(static_cast<size_t>(n));
-        continue;
-      }
-      if (n < 0 && errno == EINTR) continue;
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now()).count();
-      pollfd p{c.fd, POLLOUT, 0};
-      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && left > 0 && ::poll(&p, 1, static_cast<int>(left)) > 0) continue;
-      return Close(c);
-    }
+    if (!http::SendWithin(c.fd, response, std::chrono::milliseconds(100))) return Close(c);
     if (close) return Linger(c);
     ReadyForNext(c);
     c.state = Conn::State::kIdle;
@@ -525,55 +510,27 @@ class FrontServer::Front {
     return v;
   }
 
-  // A whole request to a worker, or to the back of its address's line when the address may not start
-  // one more now (MayStart), so that one address, or a few, cannot hold every worker while others wait.
+  // A whole request to a worker, or to its address's line when the address may not start one more now
+  // (turns.h: fair shares), so that one address, or a few, cannot hold every worker while others wait.
   void Dispatch(Conn& c) {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
     {
       std::lock_guard<std::mutex> lock(mu_);
-      Turns& t = turns_[c.ip];
-      if (!t.waiting.empty() || !MayStart(t.running)) {
-        t.waiting.push_back(&c);
+      if (!turns_.Arrive(c.ip, &c)) {
         ++stats.waited_turn;
         return;
       }
-      Start(t, &c);
+      work_.push_back(&c);
     }
     work_cv_.notify_one();
   }
 
-  // Under mu_: whether an address running `running` requests may start one more: under its own cap
-  // (max_client_requests), and once only the reserve of workers is left (a quarter), only while it runs
-  // none: a request from an address that runs nothing always finds a worker.
-  bool MayStart(size_t running) const {
-    if (running >= std::max<size_t>(1, o_.max_client_requests)) return false;
-    const size_t workers = static_cast<size_t>(std::max(1, o_.workers));
-    return running == 0 || started_ + workers / 4 < workers;
-  }
-  void Start(Turns& t, Conn* c) {
-    ++t.running;
-    ++started_;
-    work_.push_back(c);
-  }
-
-  // Under mu_: the finished request's turn given back; then the waiting requests that may start now
-  // start, the address running fewest first (fair shares).
+  // Under mu_: the finished request's turn given back, and the waiting ones that may start now started.
   void EndTurn(const std::string& ip) {
-    auto it = turns_.find(ip);
-    if (it == turns_.end()) return;
-    --it->second.running;
-    --started_;
-    if (it->second.running == 0 && it->second.waiting.empty()) turns_.erase(it);
-    while (true) {
-      Turns* next = nullptr;
-      for (auto& [address, t] : turns_) {
-        if (!t.waiting.empty() && MayStart(t.running) && (!next || t.running < next->running)) next = &t;
-      }
-      if (!next) return;
-      Start(*next, next->waiting.front());
-      next->waiting.pop_front();
-      work_cv_.notify_one();
-    }
+    std::vector<Conn*> start;
+    turns_.End(ip, start);
+    for (Conn* c : start) work_.push_back(c);
+    for (size_t i = 0; i < start.size(); ++i) work_cv_.notify_one();
   }
 
   // A served request's bytes and budget let go, the connection waiting for its next request (not
@@ -716,8 +673,7 @@ class FrontServer::Front {
   std::vector<int> adopted_;
   std::vector<Conn*> returned_;
   std::deque<Conn*> work_;
-  std::unordered_map<std::string, Turns> turns_;  // Per client address, under mu_.
-  size_t started_ = 0;                              // Requests started on workers, every address's, under mu_.
+  http::FairTurns<Conn*> turns_;  // Under mu_.
   Watchdog watchdog_{stats};
 };
 

@@ -11,6 +11,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <ctime>
 #include <mutex>
@@ -156,6 +157,25 @@ class RequestStream final : public httplib::Stream {
   size_t sent_ = 0;
   Clock::duration waited_{};
 };
+
+// Writes all of `bytes` to a non-blocking socket, waiting at most `wait` in all for room; false when the
+// socket failed or the time ran out (a small answer the front writes itself: a probe's).
+inline bool SendWithin(int fd, std::string_view bytes, std::chrono::milliseconds wait) {
+  const Clock::time_point give_up = Clock::now() + wait;
+  while (!bytes.empty()) {
+    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      bytes.remove_prefix(static_cast<size_t>(n));
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now()).count();
+    pollfd p{fd, POLLOUT, 0};
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && left > 0 && ::poll(&p, 1, static_cast<int>(left)) > 0) continue;
+    return false;
+  }
+  return true;
+}
 
 // The requests in flight, each with its stop source: a thread fires one when its client hangs up
 // (the socket's EPOLLRDHUP), at its deadline (looked at every 100 ms), and all of them when the
