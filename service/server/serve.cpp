@@ -350,6 +350,13 @@ api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api* const& api_fo
   front.cpu_limit = (2 * c.anonymous_cpu + 1) * kInstrumentedSlowdown;
   front.keyed_cpu_limit = (2 * c.keyed_cpu + 1) * kInstrumentedSlowdown;
   front.keyed = [&api_for_front](std::string_view authorization) { return api_for_front->Keyed(authorization); };
+  // Renders and sheets wait for a GL context in the front, not on a worker: two of them a context hold one.
+  front.needs_renderer = [](std::string_view, std::string_view target) {
+    const std::string_view path = target.substr(0, target.find('?'));
+    return path.starts_with("/v1/rigs/") && (path.ends_with("/render") || path.ends_with("/sheet"));
+  };
+  const int contexts = c.render_threads > 0 ? c.render_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  front.renderer_slots = 2 * static_cast<size_t>(contexts);
   return front;
 }
 

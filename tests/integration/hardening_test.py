@@ -343,7 +343,9 @@ def listeners_fast(srv, U, tmp):
                         time.sleep(ahead)
             except wsclient.Closed as e:
                 closes.append(e.code)
+                time.sleep(0.05)
             except OSError:  # The server closed while this still sent: its close frame is in what came.
+                time.sleep(0.05)
                 try:
                     while True:
                         c.recv()

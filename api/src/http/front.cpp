@@ -52,6 +52,7 @@ struct Conn : http::Peer {
   bool sent_continue = false;
   bool close_after = false;  // Set by the worker.
   bool keyed = false;        // The request carries the API key (its deadline is the keyed one).
+  bool scarce = false;       // It needs the renderer (FrontOptions::needs_renderer): it passed the gate.
   // Set by a handler (UpgradeConnection): the head that answers instead, and who takes the socket after.
   std::string upgrade_head;
   UpgradeTaker upgrade_take;
@@ -124,7 +125,7 @@ bool UpgradeConnection(std::string head, UpgradeTaker take) {
 class FrontServer::Front {
  public:
   Front(FrontServer& server, FrontOptions options)
-      : server_(server), o_(std::move(options)), turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests) {}
+      : server_(server), o_(std::move(options)), turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests, o_.renderer_slots) {}
   ~Front() { Stop(); }
 
   FrontStats stats;
@@ -516,7 +517,8 @@ class FrontServer::Front {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
     {
       std::lock_guard<std::mutex> lock(mu_);
-      if (!turns_.Arrive(c.ip, &c)) {
+      c.scarce = o_.needs_renderer && o_.needs_renderer(c.head.method, c.head.target);
+      if (!turns_.Arrive(c.ip, &c, c.scarce)) {
         ++stats.waited_turn;
         return;
       }
@@ -526,9 +528,9 @@ class FrontServer::Front {
   }
 
   // Under mu_: the finished request's turn given back, and the waiting ones that may start now started.
-  void EndTurn(const std::string& ip) {
+  void EndTurn(const std::string& ip, bool scarce) {
     std::vector<Conn*> start;
-    turns_.End(ip, start);
+    turns_.End(ip, scarce, start);
     for (Conn* c : start) work_.push_back(c);
     for (size_t i = 0; i < start.size(); ++i) work_cv_.notify_one();
   }
@@ -625,7 +627,7 @@ class FrontServer::Front {
       if (stream.too_slow()) ++stats.slow_readers;
       {
         std::lock_guard<std::mutex> lock(mu_);
-        EndTurn(c->ip);
+        EndTurn(c->ip, c->scarce);
       }
       c->close_after = !ok || close || closed_by_client || stream.closes() || watch.source.stop_requested();
       if (c->upgrade_take) {

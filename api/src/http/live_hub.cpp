@@ -492,8 +492,13 @@ void LiveHub::Work() {
       continue;
     }
     if (workers_stop_) return;
-    if (timers_.empty()) cv_.wait(lock);
-    else cv_.wait_until(lock, timers_.begin()->first);
+    if (timers_.empty()) {
+      cv_.wait(lock);
+    } else {
+      // A copy: wait_until reads its time point after the wait, when another worker may have erased the timer.
+      const Clock::time_point next = timers_.begin()->first;
+      cv_.wait_until(lock, next);
+    }
   }
 }
 
