@@ -328,6 +328,7 @@ def listeners_fast(srv, U, tmp):
 
     def listener(i):
         while time.time() < stop:
+            c = None
             try:
                 c = wsclient.Client(srv.port, LIVE, source=f"127.0.0.{80 + i}", timeout=10)
                 c.recv_json("ready")
@@ -346,13 +347,7 @@ def listeners_fast(srv, U, tmp):
                 time.sleep(0.05)
             except OSError:  # The server closed while this still sent: its close frame is in what came.
                 time.sleep(0.05)
-                try:
-                    while True:
-                        c.recv()
-                except wsclient.Closed as e:
-                    closes.append(e.code)
-                except OSError:
-                    closes.append(0)
+                closes.append(close_code(c) if c else 0)
 
     lat = []
 
@@ -444,6 +439,17 @@ def disk(tmp):
         subprocess.run(["umount", "-l", jobs])
 
 
+def close_code(c):
+    """The code of the close frame the server sends next (reading past everything else); 0 for none."""
+    try:
+        while True:
+            c.recv()
+    except wsclient.Closed as e:
+        return e.code
+    except OSError:
+        return 0
+
+
 def small(srv, U):
     # A NUL in a header value.
     s = socket.create_connection(("127.0.0.1", srv.port), timeout=5)
@@ -455,28 +461,14 @@ def small(srv, U):
     c = wsclient.Client(srv.port, LIVE, timeout=10)
     c.recv_json("ready")
     c.send_raw(b"".join(wsclient.frame(wsclient.PING, b"p") for _ in range(1000)))
-    code = None
-    try:
-        while True:
-            c.recv()
-    except wsclient.Closed as e:
-        code = e.code
-    except OSError:
-        code = 0
+    code = close_code(c)
     check(f"1,000 pings at once: closed {code} (1008, the frame rate)", code == 1008)
     # A first fragment with nothing after it.
     c = wsclient.Client(srv.port, LIVE, timeout=20)
     c.recv_json("ready")
     t = time.time()
     c.send_raw(wsclient.frame(wsclient.TEXT, b'{"weights":', fin=False))
-    code = None
-    try:
-        while True:
-            c.recv()
-    except wsclient.Closed as e:
-        code = e.code
-    except OSError:
-        code = 0
+    code = close_code(c)
     check(f"a first fragment and nothing after: closed {code} after {time.time() - t:.1f} s (1008 within the stall time, 10 s)",
           code == 1008 and time.time() - t <= 13)
 
