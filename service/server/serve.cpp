@@ -350,13 +350,17 @@ api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api* const& api_fo
   front.cpu_limit = (2 * c.anonymous_cpu + 1) * kInstrumentedSlowdown;
   front.keyed_cpu_limit = (2 * c.keyed_cpu + 1) * kInstrumentedSlowdown;
   front.keyed = [&api_for_front](std::string_view authorization) { return api_for_front->Keyed(authorization); };
-  // Renders and sheets wait for a GL context in the front, not on a worker: two of them a context hold one.
-  front.needs_renderer = [](std::string_view, std::string_view target) {
+  // Work that waits for a scarce resource waits in the front, not on a worker: renders and sheets for a GL
+  // context (gate 0, two a context), recognitions of a recording for the speech decoder (gate 1, two).
+  front.scarce = [](std::string_view method, std::string_view target, std::string_view content_type) {
     const std::string_view path = target.substr(0, target.find('?'));
-    return path.starts_with("/v1/rigs/") && (path.ends_with("/render") || path.ends_with("/sheet"));
+    if (!path.starts_with("/v1/rigs/")) return -1;
+    if (path.ends_with("/render") || path.ends_with("/sheet")) return 0;
+    if (method == "POST" && path.ends_with("/speech") && content_type.starts_with("audio/")) return 1;
+    return -1;
   };
   const int contexts = c.render_threads > 0 ? c.render_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  front.renderer_slots = 2 * static_cast<size_t>(contexts);
+  front.scarce_slots = {2 * static_cast<size_t>(contexts), 2};
   return front;
 }
 

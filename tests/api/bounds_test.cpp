@@ -129,28 +129,32 @@ TEST(FairTurns, AnAddressRunningNothingAlwaysStartsAndTheFewestRunningGoesNext) 
   EXPECT_FALSE(turns.Arrive("b", 101));  // b runs one now, and the reserve is gone.
   EXPECT_EQ(turns.running(), 9u);
   std::vector<int> start;
-  turns.End("a", false, start);  // Nothing may start: 8 still run.
+  turns.End("a", -1, start);  // Nothing may start: 8 still run.
   EXPECT_TRUE(start.empty());
-  turns.End("d", false, start);  // 7 run: still only the reserve left.
+  turns.End("d", -1, start);  // 7 run: still only the reserve left.
   EXPECT_TRUE(start.empty());
-  turns.End("c", false, start);
+  turns.End("c", -1, start);
   EXPECT_TRUE(start.empty());
-  turns.End("a", false, start);  // 5 run: one may start, and b (one running) goes before a (four).
+  turns.End("a", -1, start);  // 5 run: one may start, and b (one running) goes before a (four).
   EXPECT_EQ(start, std::vector<int>{101});
-  turns.End("b", false, start);  // Then a's next.
+  turns.End("b", -1, start);  // Then a's next.
   EXPECT_EQ(start, (std::vector<int>{101, 6}));
   // The scarce gate: at most 2 renders hold a worker or a place in a line; the third waits at the gate and
   // goes when one of them ends, before anything else of its address.
-  FairTurns<int> gl(64, 16, 2);
-  EXPECT_TRUE(gl.Arrive("r", 1, true));
-  EXPECT_TRUE(gl.Arrive("r", 2, true));
-  EXPECT_FALSE(gl.Arrive("s", 3, true));
-  EXPECT_TRUE(gl.Arrive("s", 4, false));  // Not scarce: starts at once.
+  FairTurns<int> gl(64, 16, {2, 1});
+  EXPECT_TRUE(gl.Arrive("r", 1, 0));
+  EXPECT_TRUE(gl.Arrive("r", 2, 0));
+  EXPECT_FALSE(gl.Arrive("s", 3, 0));
+  EXPECT_TRUE(gl.Arrive("s", 4));      // Needs nothing scarce: starts at once.
+  EXPECT_TRUE(gl.Arrive("s", 5, 1));   // Another gate: its own cap.
+  EXPECT_FALSE(gl.Arrive("t", 6, 1));
   std::vector<int> next;
-  gl.End("s", false, next);
+  gl.End("s", -1, next);
   EXPECT_TRUE(next.empty());
-  gl.End("r", true, next);
+  gl.End("r", 0, next);
   EXPECT_EQ(next, std::vector<int>{3});
+  gl.End("s", 1, next);
+  EXPECT_EQ(next, (std::vector<int>{3, 6}));
   // Its own cap holds whatever is free.
   FairTurns<int> one(64, 2);
   EXPECT_TRUE(one.Arrive("x", 1));

@@ -52,7 +52,7 @@ struct Conn : http::Peer {
   bool sent_continue = false;
   bool close_after = false;  // Set by the worker.
   bool keyed = false;        // The request carries the API key (its deadline is the keyed one).
-  bool scarce = false;       // It needs the renderer (FrontOptions::needs_renderer): it passed the gate.
+  int gate = -1;             // The scarce resource's gate it passed (FrontOptions::scarce), or -1.
   // Set by a handler (UpgradeConnection): the head that answers instead, and who takes the socket after.
   std::string upgrade_head;
   UpgradeTaker upgrade_take;
@@ -125,7 +125,7 @@ bool UpgradeConnection(std::string head, UpgradeTaker take) {
 class FrontServer::Front {
  public:
   Front(FrontServer& server, FrontOptions options)
-      : server_(server), o_(std::move(options)), turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests, o_.renderer_slots) {}
+      : server_(server), o_(std::move(options)), turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests, o_.scarce_slots) {}
   ~Front() { Stop(); }
 
   FrontStats stats;
@@ -517,8 +517,8 @@ class FrontServer::Front {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
     {
       std::lock_guard<std::mutex> lock(mu_);
-      c.scarce = o_.needs_renderer && o_.needs_renderer(c.head.method, c.head.target);
-      if (!turns_.Arrive(c.ip, &c, c.scarce)) {
+      c.gate = o_.scarce ? o_.scarce(c.head.method, c.head.target, HeaderValue(c, "Content-Type")) : -1;
+      if (!turns_.Arrive(c.ip, &c, c.gate)) {
         ++stats.waited_turn;
         return;
       }
@@ -528,9 +528,9 @@ class FrontServer::Front {
   }
 
   // Under mu_: the finished request's turn given back, and the waiting ones that may start now started.
-  void EndTurn(const std::string& ip, bool scarce) {
+  void EndTurn(const std::string& ip, int gate) {
     std::vector<Conn*> start;
-    turns_.End(ip, scarce, start);
+    turns_.End(ip, gate, start);
     for (Conn* c : start) work_.push_back(c);
     for (size_t i = 0; i < start.size(); ++i) work_cv_.notify_one();
   }
@@ -627,7 +627,7 @@ class FrontServer::Front {
       if (stream.too_slow()) ++stats.slow_readers;
       {
         std::lock_guard<std::mutex> lock(mu_);
-        EndTurn(c->ip, c->scarce);
+        EndTurn(c->ip, c->gate);
       }
       c->close_after = !ok || close || closed_by_client || stream.closes() || watch.source.stop_requested();
       if (c->upgrade_take) {

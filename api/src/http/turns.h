@@ -2,9 +2,10 @@
 // runs at most `per_address` requests at once; once only a quarter of the workers is left, only an address
 // that runs nothing may start one, so a request from an address running nothing always finds a worker
 // however many others keep theirs busy; when a request ends, the waiting address running fewest goes first.
-// Requests that need a scarce resource (the renderer's GL contexts) pass a gate first: at most `scarce_cap`
-// of them hold a worker or a place in an address's line at once; the rest wait at the gate, in order,
-// holding no worker (96 renders from six addresses had held every worker while they waited for 2 contexts).
+// Requests that need a scarce resource (the renderer's GL contexts, the speech decoder) pass its gate first:
+// at most the gate's cap of them hold a worker or a place in an address's line at once; the rest wait at
+// the gate, in order, holding no worker (96 renders from six addresses had held every worker while they
+// waited for 2 contexts).
 // Not thread-safe: the front holds its lock around every call.
 #pragma once
 
@@ -22,29 +23,36 @@ namespace facespace::api::http {
 template <typename Item>
 class FairTurns {
  public:
-  FairTurns(size_t workers, size_t per_address, size_t scarce_cap = SIZE_MAX)
-      : workers_(std::max<size_t>(1, workers)), per_address_(std::max<size_t>(1, per_address)), scarce_cap_(std::max<size_t>(1, scarce_cap)) {}
+  // `gate_caps`: each scarce resource's gate, its cap.
+  FairTurns(size_t workers, size_t per_address, const std::vector<size_t>& gate_caps = {})
+      : workers_(std::max<size_t>(1, workers)), per_address_(std::max<size_t>(1, per_address)) {
+    for (size_t cap : gate_caps) gates_.push_back({std::max<size_t>(1, cap), 0, {}});
+  }
 
-  // A request of `address` is whole: true when it starts now (counted as running), false when it waits.
-  bool Arrive(const std::string& address, Item item, bool scarce = false) {
-    if (scarce && scarce_in_ >= scarce_cap_) {
-      gate_.push_back({address, item});
-      return false;
+  // A request of `address` is whole (`gate`: the scarce resource it needs, or -1): true when it starts now
+  // (counted as running), false when it waits.
+  bool Arrive(const std::string& address, Item item, int gate = -1) {
+    if (Gate* g = GateOf(gate)) {
+      if (g->in >= g->cap) {
+        g->waiting.push_back({address, item});
+        return false;
+      }
+      ++g->in;
     }
-    scarce_in_ += scarce;
     return Admit(address, item);
   }
 
-  // One of `address`'s requests ended (`scarce`: one that passed the gate): those that start now are
-  // appended to `start` (counted as running).
-  void End(const std::string& address, bool scarce, std::vector<Item>& start) {
+  // One of `address`'s requests ended (`gate`: the one it passed, or -1): those that start now are appended
+  // to `start` (counted as running).
+  void End(const std::string& address, int gate, std::vector<Item>& start) {
     Release(address, start);
-    if (!scarce) return;
-    --scarce_in_;
-    while (!gate_.empty() && scarce_in_ < scarce_cap_) {
-      auto [from, item] = gate_.front();
-      gate_.pop_front();
-      ++scarce_in_;
+    Gate* g = GateOf(gate);
+    if (!g) return;
+    --g->in;
+    while (!g->waiting.empty() && g->in < g->cap) {
+      auto [from, item] = g->waiting.front();
+      g->waiting.pop_front();
+      ++g->in;
       if (Admit(from, item)) start.push_back(item);
     }
   }
@@ -86,11 +94,16 @@ class FairTurns {
     size_t running = 0;
     std::deque<Item> waiting;
   };
+  struct Gate {
+    size_t cap = 1, in = 0;  // Requests past it, on a worker or in an address's line.
+    std::deque<std::pair<std::string, Item>> waiting;
+  };
+  Gate* GateOf(int gate) { return gate >= 0 && static_cast<size_t>(gate) < gates_.size() ? &gates_[static_cast<size_t>(gate)] : nullptr; }
   bool MayStart(size_t running) const { return running < per_address_ && (running == 0 || running_ + workers_ / 4 < workers_); }
 
-  size_t workers_, per_address_, scarce_cap_;
-  size_t running_ = 0, scarce_in_ = 0;
-  std::deque<std::pair<std::string, Item>> gate_;
+  size_t workers_, per_address_;
+  size_t running_ = 0;
+  std::vector<Gate> gates_;
   std::unordered_map<std::string, Address> addresses_;
 };
 

@@ -59,11 +59,11 @@ struct FrontOptions {
   // front sends itself, at once (the probes, /healthz, /readyz and /metrics, answered however many
   // workers are busy), or nothing to go on.
   std::function<std::optional<std::string>(const RequestHeadView&)> probe;
-  // Whether a request (its method and target) needs the renderer's GL contexts: at most renderer_slots of
-  // those hold a worker (or a place in their address's line) at once; the rest wait in the front, in order,
-  // holding no worker.
-  std::function<bool(std::string_view method, std::string_view target)> needs_renderer;
-  size_t renderer_slots = SIZE_MAX;
+  // The scarce resource a request needs, from its method, target and Content-Type (an index into
+  // scarce_slots), or -1 for none: at most scarce_slots[i] of the requests that need resource i hold a worker
+  // (or a place in their address's line) at once; the rest wait in the front, in order, holding no worker.
+  std::function<int(std::string_view method, std::string_view target, std::string_view content_type)> scarce;
+  std::vector<size_t> scarce_slots;
 };
 
 // Counters of the front, for /metrics and the log.
