@@ -28,7 +28,7 @@ inline constexpr char kConstantCost[] = "0.0001";
 
 // Per unit of work, in CPU-seconds.
 inline constexpr double kPerRequest = 5e-5;      // Parsing, routing, a small answer.
-inline constexpr double kPerSample = 50e-9;      // One rendered sample (pixels x supersample squared), llvmpipe's threads included.
+inline constexpr double kPerSample = 36e-9;      // One rendered sample (pixels x supersample squared).
 inline constexpr double kPerImage = 1e-3;        // One image's set-up and encode.
 inline constexpr double kPerVideoPixel = 15e-9;  // VP9's real-time encode, per output pixel a frame.
 inline constexpr double kPerPhysicsBody = 6e-6;  // One rigid body's step (60 a second of sequence).
