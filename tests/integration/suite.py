@@ -38,23 +38,31 @@ class Server:
     """`facespace serve` on 0.0.0.0 (so that 127.0.0.x are other client addresses), with a key file in `tmp`."""
 
     def __init__(self, binary, tmp, *extra, store=None, jobs=None):
-        self.port = free_port()
-        self.url = f"http://127.0.0.1:{self.port}"
-        self.log = open(os.path.join(tmp, f"server-{self.port}.log"), "w")
-        args = [binary, "serve", "--host", "0.0.0.0", "--port", str(self.port), "--store", store or os.path.join(tmp, f"store-{self.port}"),
-                "--jobs-dir", jobs or os.path.join(tmp, f"jobs-{self.port}"), "--api-key-file", os.path.join(tmp, "key"), "--quiet", *extra]
         env = dict(os.environ)
         # Under ASan, no LeakSanitizer check at the server's exit: its tracer now and then crashes itself
         # there with the server's ~80 threads (see service_test.sh). ASan and UBSan stay on.
         if env.get("ASAN_OPTIONS"):
             env["ASAN_OPTIONS"] += ":detect_leaks=0"
-        self.proc = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env)
-        for _ in range(600):  # Ready: up, and its rigs encoded (/readyz is 503 while it warms up).
-            try:
-                urllib.request.urlopen(self.url + "/readyz", timeout=1).read()
+        # A free port can be taken between free_port() and the server's bind (a client of a suite running
+        # beside this one, given it as its ephemeral port): the server then exits at once, and another is tried.
+        for _ in range(5):
+            self.port = free_port()
+            self.url = f"http://127.0.0.1:{self.port}"
+            self.log = open(os.path.join(tmp, f"server-{self.port}.log"), "w")
+            args = [binary, "serve", "--host", "0.0.0.0", "--port", str(self.port), "--store", store or os.path.join(tmp, f"store-{self.port}"),
+                    "--jobs-dir", jobs or os.path.join(tmp, f"jobs-{self.port}"), "--api-key-file", os.path.join(tmp, "key"), "--quiet", *extra]
+            self.proc = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, env=env)
+            for _ in range(600):  # Ready: up, and its rigs encoded (/readyz is 503 while it warms up).
+                try:
+                    urllib.request.urlopen(self.url + "/readyz", timeout=1).read()
+                    break
+                except OSError:  # Refused, or HTTPError 503.
+                    if self.proc.poll() is not None:
+                        break
+                    time.sleep(0.1)
+            if self.proc.poll() is None or "cannot listen" not in open(self.log.name, errors="replace").read():
                 break
-            except OSError:  # Refused, or HTTPError 503.
-                time.sleep(0.1)
+            self.log.close()
         self.idle = self.rss()
 
     def rss(self):
