@@ -64,6 +64,7 @@ class FairTurns {
     Address& a = addresses_[address];
     if (!a.waiting.empty() || !MayStart(a.running)) {
       a.waiting.push_back(item);
+      ++waiting_;
       return false;
     }
     ++a.running;
@@ -77,7 +78,7 @@ class FairTurns {
     --it->second.running;
     --running_;
     if (it->second.running == 0 && it->second.waiting.empty()) addresses_.erase(it);
-    while (true) {
+    while (waiting_ > 0) {  // The scan over the addresses only when some request waits its turn.
       Address* next = nullptr;
       for (auto& [name, a] : addresses_) {
         if (!a.waiting.empty() && MayStart(a.running) && (!next || a.running < next->running)) next = &a;
@@ -85,6 +86,7 @@ class FairTurns {
       if (!next) return;
       start.push_back(next->waiting.front());
       next->waiting.pop_front();
+      --waiting_;
       ++next->running;
       ++running_;
     }
@@ -103,6 +105,7 @@ class FairTurns {
 
   size_t workers_, per_address_;
   size_t running_ = 0;
+  size_t waiting_ = 0;  // Requests in the addresses' lines, every address's.
   std::vector<Gate> gates_;
   std::unordered_map<std::string, Address> addresses_;
 };
