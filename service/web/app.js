@@ -519,7 +519,7 @@ async function download(format) {
 
 const gl = createMeshView($('gl'));
 const motions = createMotions({ state, $, refreshViews, schedule, showMotionWeights });
-const live = createLive({ state, gl, $, showError, refreshViews, nonZero, api: API });
+const live = createLive({ state, gl, $, showError, refreshViews, refreshMesh: () => kick(lanes.mesh), nonZero, api: API });
 const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError, save, live });
 
 // ---- start ---------------------------------------------------------------------------------

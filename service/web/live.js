@@ -3,10 +3,10 @@
 // frame (16 bytes, then the float32 mesh), at most 60 a second, the newest state winning. Say speaks over
 // it too: audio chunks played as they arrive (Web Audio) and visemes on the audio's clock, the mouth
 // following them. Closed or refused, the page falls back to HTTP. A module of the page: `page` hands it
-// {state, gl, $, showError, refreshViews, nonZero, api (the API's base URL, '' for this origin)}.
+// {state, gl, $, showError, refreshViews, refreshMesh, nonZero, api (the API's base URL, '' for this origin)}.
 
 export function createLive(page) {
-  const { state, gl, $, showError, refreshViews, nonZero, api } = page;
+  const { state, gl, $, showError, refreshViews, refreshMesh, nonZero, api } = page;
   const live = { ws: null, rig: null, open: false, sent: {}, id: 0 };
 
   function connect(id) {
@@ -51,7 +51,7 @@ export function createLive(page) {
   function onText(m) {
     if (m.event === 'ready') {
       live.open = true;
-      refreshViews();  // The face as the sliders have it, now over the socket.
+      refreshMesh();  // The face as the sliders have it, now over the socket (the render has it already).
     } else if (m.viseme && state.speech && state.speech.live) {
       state.speech.visemes.push(m);
     } else if (m.viseme && live.mic) {

@@ -44,7 +44,10 @@ async function run(label, url, shot) {
   const groups = await page.locator('#controls h2').allTextContents();
   check(`${label}: sliders are grouped by face region, top down (${groups.join(', ')})`,
     groups.join(',') === 'brow,eye,cheek,nose,jaw,mouth,tongue');
-  const before = await previewDigest(page);
+  // A second render of the same face (the live socket's first frame asks for one) may be decoding
+  // the moment the first is judged: wait for the image that is there to be whole.
+  let before = await previewDigest(page);
+  for (let i = 0; i < 100 && before === null; ++i) { await page.waitForTimeout(100); before = await previewDigest(page); }
   check(`${label}: the first preview is a render`, before !== null);
   await page.waitForFunction(() => window.facespace.state.liveFrames > 0, null, { timeout: 10000 }).catch(() => {});
   const liveFrames = await page.evaluate(() => window.facespace.state.liveFrames || 0);
