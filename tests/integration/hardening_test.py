@@ -2,24 +2,25 @@
 """Issue 61's attacks against the real server on loopback: anonymous clients aiming at the cost model and
 the live channel.
 
-  hardening_test.py FACESPACE_BIN SOURCE_DIR FIGURES_OUT [release|sanitized] [quiet|rest|SECTION,...]
+  hardening_test.py FACESPACE_BIN SOURCE_DIR FIGURES_OUT [release|sanitized] [listeners|rest|SECTION,...]
 
 - four listeners opening at once, 50 rounds (20 under the sanitizers): no crash, no hang, and a WAV /speech
   answered after them;
 - Accept-Encoding br and gzip on a 6.7 MB answer and on /openapi.json: whole-process CPU within the stop line
   of the request's estimate (2 x estimate + 1 s), the bodies decoding to the identity one; 64 clients asking
-  for /openapi.json compressed while a probe from another address is answered (p99 <= 1 s);
+  for /openapi.json compressed while a probe from another address is answered (bar: p99 <= 1 s);
 - 40 live says of an 8-minute line: RSS growth <= 300 MB;
 - requests whose estimates lied low (a text of digits as a video, an EXR sheet, a 2048 WebP): whole-process
   CPU within their stop line (2 x the anonymous budget + 1 s), or refused;
-- 96 renders from 6 addresses: /healthz from a seventh p99 <= 1 s;
-- 4 listeners streaming at 3x real time: other sessions' frames p99 <= 100 ms, the listeners closed 1008;
+- 96 renders from 6 addresses: /healthz and /v1/rigs from a seventh answered (bar: p99 <= 1 s and 2 s);
+- 4 listeners streaming at 3x real time: other sessions' frames come (bar: p99 <= 100 ms), the listeners closed 1008;
 - the disk: a second large job that does not fit beside the first 507 at once, a running job stopped
   (failed, what it made kept) before the margin is passed (a tmpfs as the jobs folder; skipped unless root);
 - pings counted in the frame rate, an unfinished fragment closed, a NUL in a header refused;
 - every numeric member of every route in /openapi.json with NaN, +-Infinity, +-1e308, -0, 2^63, -1: no 5xx.
-The CPU and latency bars hold on the release build; under the sanitizers (10x slower) the suite checks
-crashes, hangs and 5xx. Figures (attack, status, seconds, CPU, RSS, probe) go to FIGURES_OUT.
+The CPU bars hold on the release build; under the sanitizers (10x slower) the suite checks crashes, hangs
+and 5xx. The latency bars (suite.bar) are held by tests/bench/bars.sh, alone; here they are figures.
+Figures (attack, status, seconds, CPU, RSS, probe) go to FIGURES_OUT.
 """
 import gzip
 import http.client
@@ -36,16 +37,16 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from suite import Server as ServeProcess, check, counts, no, ok, probe_p99, request  # noqa: E402
+from suite import Server as ServeProcess, bar, check, counts, no, ok, probe_p99, request  # noqa: E402
 import wsclient  # noqa: E402
 
 BIN, SRC, FIGURES = sys.argv[1:4]
 SANITIZED = len(sys.argv) > 4 and sys.argv[4] in ("1", "ON", "on", "sanitized")
-# Sections to run, by name: "quiet" (the one whose bar is the machine's: other sessions' frames beside fast
-# listeners, run alone), "rest" (every other; their bars are the server's own CPU, RSS and answers, or a
-# probe's 1 s), or a comma-separated list of names, for work on one. Default: all.
+# Sections to run, by name: "listeners" (other sessions' frames beside fast listeners: 12 s of four clients'
+# load, its own ctest entry so that it runs beside the rest), "rest" (every other), or a comma-separated list
+# of names, for work on one. Default: all.
 ONLY = sys.argv[5].split(",") if len(sys.argv) > 5 else None
-QUIET = ("listeners at 3x",)
+LISTENERS = ("listeners at 3x",)
 KEY = "k3y-hardening"
 LIVE = "/v1/rigs/facecap/live"
 BUDGET = 2.0  # --anonymous-cpu's default
@@ -206,8 +207,9 @@ def compression(srv, U):
         t.join(60)
     cpu = srv.cpu() - c0
     figure(f"64 clients asking for /openapi.json with br ({served[0]} answers)", 200, 8, cpu, srv.rss(), f"p99 {p99 * 1e3:.0f} ms")
-    check(f"64 clients asking for /openapi.json with br ({served[0]} answers, {cpu:.1f} CPU-s): a probe from another address p99 "
-          f"{p99 * 1e3:.0f} ms (within 1 s)", p99 <= (5.0 if SANITIZED else 1.0) and srv.alive())
+    check(f"64 clients asking for /openapi.json with br ({served[0]} answers, {cpu:.1f} CPU-s): every probe from another address "
+          f"answered", p99 < 99 and srv.alive())
+    bar(f"... the probes' p99 {p99 * 1e3:.0f} ms (within 1 s)", p99 <= (5.0 if SANITIZED else 1.0))
 
 
 def says(srv, U):
@@ -326,9 +328,10 @@ def renders_from_six(srv, U):
     statuses = sorted(set(r if isinstance(r, int) else -1 for r in result))
     figure("96 1024² uka renders from 6 addresses", ",".join(map(str, statuses)), seconds, "-", srv.rss(),
            f"/healthz p99 {p99 * 1e3:.0f} ms, /v1/rigs p99 {p99_rig * 1e3:.0f} ms")
-    check(f"96 1024² uka renders from 6 addresses ({statuses}, {seconds:.1f} s): /healthz from a seventh p99 {p99 * 1e3:.0f} ms (within 1 s), "
-          f"/v1/rigs (a worker's) p99 {p99_rig * 1e3:.0f} ms", p99 <= (5.0 if SANITIZED else 1.0) and p99_rig <= (10.0 if SANITIZED else 2.0)
-          and all(s in (200, 503) for s in statuses))
+    check(f"96 1024² uka renders from 6 addresses ({statuses}, {seconds:.1f} s): every /healthz and /v1/rigs (a worker's) from a "
+          f"seventh answered", p99 < 99 and p99_rig < 99 and all(s in (200, 503) for s in statuses))
+    bar(f"... /healthz p99 {p99 * 1e3:.0f} ms (within 1 s), /v1/rigs p99 {p99_rig * 1e3:.0f} ms (within 2 s)",
+        p99 <= (5.0 if SANITIZED else 1.0) and p99_rig <= (10.0 if SANITIZED else 2.0))
 
 
 def listeners_fast(srv, U, tmp):
@@ -391,8 +394,9 @@ def listeners_fast(srv, U, tmp):
     p99 = lat[int(0.99 * len(lat))] if lat else 99.0
     figure("4 listeners at 3x real time, 12 s, beside 4 sessions sending 30 changes a second", f"closes {sorted(set(closes))}", 12, cpu,
            srv.rss(), f"frames p99 {p99 * 1e3:.0f} ms")
-    check(f"4 listeners at 3x real time: closed {sorted(set(closes))} ({len(closes)} times); other sessions' frames p99 {p99 * 1e3:.0f} ms "
-          f"over {len(lat)} (within 100 ms)", closes and set(closes) <= {1008} and len(lat) > 100 and (SANITIZED or p99 <= 0.1))
+    check(f"4 listeners at 3x real time: closed {sorted(set(closes))} ({len(closes)} times); other sessions' {len(lat)} frames came",
+          closes and set(closes) <= {1008} and len(lat) > 100)
+    bar(f"... those frames' p99 {p99 * 1e3:.0f} ms (within 100 ms)", SANITIZED or p99 <= 0.1)
 
 
 def disk(tmp):
@@ -483,8 +487,9 @@ def lone_fragment(srv):
     t = time.time()
     c.send_raw(wsclient.frame(wsclient.TEXT, b'{"weights":', fin=False))
     code = close_code(c)
-    check(f"a first fragment and nothing after: closed {code} after {time.time() - t:.1f} s (1008 within the stall time, 10 s)",
-          code == 1008 and time.time() - t <= 13)
+    took = time.time() - t
+    check(f"a first fragment and nothing after: closed {code} after {took:.1f} s (1008 at the stall time, 10 s; the client waits 20)",
+          code == 1008 and took >= 9.5)
 
 
 BAD_NUMBERS = ("NaN", "Infinity", "-Infinity", "1e308", "-1e308", "-0", "9223372036854775808", "-1")
@@ -566,7 +571,7 @@ def main():
                          ("renders from six addresses", lambda: renders_from_six(srv, U)),
                          ("listeners at 3x", lambda: listeners_fast(srv, U, tmp)), ("small", lambda: small(srv, U)),
                          ("numeric sweep", lambda: numeric_sweep(srv, U))):
-            if ONLY and name not in ONLY and not ("quiet" in ONLY and name in QUIET) and not ("rest" in ONLY and name not in QUIET):
+            if ONLY and name not in ONLY and not ("listeners" in ONLY and name in LISTENERS) and not ("rest" in ONLY and name not in LISTENERS):
                 continue
             t = time.time()
             fn()

@@ -3,10 +3,10 @@
 
   hostile_test.py FACESPACE_BIN SHARED_ASSETS SOURCE_DIR FIGURES_OUT [sanitized]
 
-Each attack is answered with the right status within 2 s (10 s under sanitizers), the server's RSS
-grows by at most 200 MB and is back near idle after (not asserted under sanitizers, whose allocator
-keeps freed memory in quarantine), the server stays alive, and a probe client is answered within
-1 s (p99) while 1,000 slow sockets are open. The figures (attack, status, time, RSS before/after)
+Each attack is answered with the right status, the server's RSS grows by at most 200 MB and is back near
+idle after (not asserted under sanitizers, whose allocator keeps freed memory in quarantine), the server
+stays alive, and a probe client is answered while 1,000 slow sockets are open. Speed bars (suite.bar, held by
+tests/bench/bars.sh): each answer within 2 s (10 s under sanitizers), the probe's p99 within 1 s. The figures (attack, status, time, RSS before/after)
 go to FIGURES_OUT as a Markdown table (tests/bench/README.md shows them).
 """
 import json
@@ -21,7 +21,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from suite import Server as ServeProcess, check, counts, probe_p99, request  # noqa: E402
+from suite import Server as ServeProcess, bar, check, counts, probe_p99, request  # noqa: E402
 
 BIN, SHARED, SRC, FIGURES = sys.argv[1:5]
 SANITIZED = len(sys.argv) > 5 and sys.argv[5] in ("1", "ON", "on", "sanitized")
@@ -68,9 +68,9 @@ def attack(srv, name, expect, fn):
     growth = after - before
     rss_ok = SANITIZED or growth <= RSS_GROWTH_MB
     figures.append((name, status, seconds, before, after))
-    check(f"{name}: {status} in {seconds * 1000:.0f} ms (expected {expect} within {ANSWER_S:.0f} s), RSS {before:.0f} -> {after:.0f} MB"
-          f" (peak seen {after_peak:.0f}){', ' + note if note else ''}; server alive",
-          status == expect and seconds <= ANSWER_S and rss_ok and alive)
+    check(f"{name}: {status} (expected {expect}), RSS {before:.0f} -> {after:.0f} MB"
+          f" (peak seen {after_peak:.0f}){', ' + note if note else ''}; server alive", status == expect and rss_ok and alive)
+    bar(f"... in {seconds * 1000:.0f} ms (within {ANSWER_S:.0f} s)", seconds <= ANSWER_S)
 
 
 def slow_sockets(port, count, sources):
@@ -232,13 +232,15 @@ def main():
     st, sec, b, _ = request(check_url, "POST", names)
     doc = json.loads(b) if st == 422 else {}
     figures.append(("/check with 90,000 unknown names (under the value cap)", st, sec, srv.rss(), srv.rss()))
-    check(f"/check with 90,000 unknown names: 422 in {sec * 1000:.0f} ms listing {len(doc.get('errors', []))} errors of "
+    check(f"/check with 90,000 unknown names: 422 listing {len(doc.get('errors', []))} errors of "
           f"errors_total {doc.get('errors_total')} ({len(b)} bytes)",
-          st == 422 and sec <= ANSWER_S and len(doc.get("errors", [])) == 20 and doc.get("errors_total") == 90000 and len(b) < 20000)
+          st == 422 and len(doc.get("errors", [])) == 20 and doc.get("errors_total") == 90000 and len(b) < 20000)
+    bar(f"... in {sec * 1000:.0f} ms (within {ANSWER_S:.0f} s)", sec <= ANSWER_S)
     dense = ('{"weights":[' + ",".join(["0"] * 60000) + "]}").encode()
     st, sec, b, _ = request(check_url, "POST", dense)
-    check(f"/check with 60,000 weights for 52 shapes: 422 at once with one error ({len(b)} bytes, {sec * 1000:.0f} ms)",
-          st == 422 and len(json.loads(b).get("errors", [])) == 1 and sec <= ANSWER_S)
+    check(f"/check with 60,000 weights for 52 shapes: 422 with one error ({len(b)} bytes)",
+          st == 422 and len(json.loads(b).get("errors", [])) == 1)
+    bar(f"... in {sec * 1000:.0f} ms (within {ANSWER_S:.0f} s)", sec <= ANSWER_S)
 
     # ---- 3. quadratic parsing ----
     objs = ('{"weights":{},"x":[' + ",".join(["{}"] * 100000) + "]}").encode()
@@ -257,15 +259,16 @@ def main():
     dripper.start()
     time.sleep(1.0)
     p99, p50 = probe_p99(U, 20)
-    time.sleep(3.5)  # --read-timeout 3: every slow request is cut off by now.
+    time.sleep(4.5)  # --read-timeout 3: every slow request is cut off by now.
     cut = sum(closed_by_server(s) for s in socks)
     stop.set()
     dripper.join()
     for s in socks:
         s.close()
     figures.append(("slowloris: 320 sockets, a header byte a second", f"{cut} cut off", p99, before, srv.rss()))
-    check(f"slowloris, 320 sockets sending a header byte a second: a probe answered in {p99 * 1000:.0f} ms (p99, median {p50 * 1000:.0f}),"
-          f" {cut}/320 cut off after --read-timeout (3 s)", p99 <= 1.0 and cut == 320 and srv.alive())
+    check(f"slowloris, 320 sockets sending a header byte a second: every probe answered, {cut}/320 cut off after --read-timeout (3 s)",
+          p99 < 99 and cut == 320 and srv.alive())
+    bar(f"... the probes' p99 {p99 * 1000:.0f} ms (median {p50 * 1000:.0f}; within 1 s)", p99 <= 1.0)
 
     before = srv.rss()
     socks = slow_sockets(srv.port, 1000, ["127.0.0.4", "127.0.0.5", "127.0.0.6", "127.0.0.7"])
@@ -281,8 +284,8 @@ def main():
     for s in socks:
         s.close()
     figures.append(("1,000 slow sockets open (4 addresses)", "probe 200", p99, before, srv.rss()))
-    check(f"1,000 slow sockets open from 4 addresses: a probe answered in {p99 * 1000:.0f} ms (p99 of 40, median {p50 * 1000:.0f});"
-          f" the server has {threads} threads", p99 <= 1.0 and srv.alive())
+    check(f"1,000 slow sockets open from 4 addresses: every probe answered; the server has {threads} threads", p99 < 99 and srv.alive())
+    bar(f"... the probes' p99 {p99 * 1000:.0f} ms (of 40, median {p50 * 1000:.0f}; within 1 s)", p99 <= 1.0)
 
     socks = slow_sockets(srv.port, 300, ["127.0.0.8"])
     time.sleep(0.5)
@@ -348,8 +351,9 @@ def main():
     st, sec, b, _ = request(U + "/v1/rigs/facecap/batch", "POST",
                             json.dumps({"sample": {"method": "uniform", "count": 65000}, "format": "exr", "width": 2048, "height": 2048}).encode(), auth)
     figures.append(("batch of 65,000 2048² EXR variants (about 2 TB)", st, sec, srv.rss(), srv.rss()))
-    check(f"a batch that cannot fit on the disk (65,000 2048² EXR): {st} in {sec * 1000:.0f} ms "
-          f"({json.loads(b).get('detail', '')[:100] if b.startswith(b'{') else ''})", st == 507 and sec <= ANSWER_S)
+    check(f"a batch that cannot fit on the disk (65,000 2048² EXR): {st} "
+          f"({json.loads(b).get('detail', '')[:100] if b.startswith(b'{') else ''})", st == 507)
+    bar(f"... in {sec * 1000:.0f} ms (within {ANSWER_S:.0f} s)", sec <= ANSWER_S)
 
     store = os.path.join(tmp, "store")
     old_tmp, new_tmp = os.path.join(store, ".gone.1.0.tmp"), os.path.join(store, ".kept.1.1.tmp")

@@ -11,15 +11,17 @@
   close the socket with that status; a message split in fragments and pings are served;
 - the handshake's refusals are problem+json: not an upgrade (426), a bad key (400), an unknown rig (404),
   past the sessions an address may hold (503);
-- 100 sessions sending a slider change at 60 Hz for 30 s (tests/bench/live_load): no errors, p99 from
-  message to frame within 16 ms (release build), server memory per session within 1 MB, and a session that
-  never reads is dropped while the others go on;
-- say: a sentence's visemes are the speech route's; 2,000 characters start within 300 ms and are paced,
-  stopped; pieces queue on one clock; bad says get error events;
-- listen: a WAV of another voice (flite's awb) streamed in real time in 20 ms chunks gives its visemes
-  within 250 ms of their end (median), agreeing with the speech route's on the same WAV; noise and silence
-  give silence;
-- SIGTERM with sessions open: each gets a 1001 close and the server exits 0 within 10 s.
+- 100 sessions sending a slider change at 60 Hz for 30 s (tests/bench/live_load): no errors, every session
+  answered, server memory per session within 1 MB, and a session that never reads is dropped while the
+  others go on;
+- say: a sentence's visemes are the speech route's; 2,000 characters start at once and are paced, stopped;
+  pieces queue on one clock; bad says get error events;
+- listen: a WAV of another voice (flite's awb) streamed in real time in 20 ms chunks gives its visemes while
+  it is heard, agreeing with the speech route's on the same WAV; noise and silence give silence;
+- SIGTERM with sessions open: each gets a 1001 close and the server exits 0 by itself.
+Speed bars (suite.bar: held by tests/bench/bars.sh, figures here): p99 from message to frame within 16 ms
+and 95% of the messages answered by their own frame (release build), the first audio of a long say within
+300 ms, a heard viseme's message within 250 ms of its end (median).
 """
 import json
 import os
@@ -33,7 +35,7 @@ import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import wsclient  # noqa: E402
-from suite import Server, check, counts, request  # noqa: E402
+from suite import Server, bar, check, counts, request  # noqa: E402
 
 BIN, SRC, LOAD = sys.argv[1:4]
 SANITIZED = len(sys.argv) > 4 and sys.argv[4] in ("1", "ON", "on", "sanitized")
@@ -149,8 +151,9 @@ def speech(srv):
     t = time.time()
     c.send_text({"say": {"text": long_text}})
     visemes, samples, fa, fv, state, clock = said(c, stop_after=2.0)
-    check(f"say 2,000 characters: first audio after {fa * 1e3:.0f} ms, first viseme after {fv * 1e3:.0f} ms (within 300)",
-          fa is not None and fv is not None and fa <= 0.3 and fv <= 0.3)
+    check("say 2,000 characters: audio and visemes before the stop (2 s)", fa is not None and fv is not None)
+    bar(f"say 2,000 characters: first audio after {fa * 1e3 if fa else -1:.0f} ms, first viseme after {fv * 1e3 if fv else -1:.0f} ms (within 300)",
+        fa is not None and fv is not None and fa <= 0.3 and fv <= 0.3)
     check(f"... paced: {samples / 22050:.1f} s of audio in the {time.time() - t:.1f} s before the stop, {state}",
           state == "stopped" and samples / 22050 <= time.time() - t + 1.5)
     check(f"... its {len(visemes)} visemes are the first of the speech route's {len(route['visemes'])}",
@@ -236,8 +239,8 @@ def listen(srv, tmp):
     a, b = frames_of(visemes, n), frames_of(route, n)
     agree = 100.0 * sum(x == y for x, y in zip(a, b)) / n
     median = 1e3 * live_delays[len(live_delays) // 2] if live_delays else 1e9
-    check(f"listen: {len(visemes)} visemes while it was heard, median {median:.0f} ms from a viseme's end to its message (within 250), "
-          f"{frames} mesh frames", median <= 250 and len(live_delays) >= 10 and frames >= 10)
+    check(f"listen: {len(visemes)} visemes while it was heard, {frames} mesh frames", len(live_delays) >= 10 and frames >= 10)
+    bar(f"listen: median {median:.0f} ms from a viseme's end to its message (within 250)", median <= 250)
     check(f"listen: the visemes agree with the speech route's on the same WAV in {agree:.1f}% of 10 ms frames", agree >= 60)
     # Silence and noise give silence.
     c.send_text({"listen": {"rate": 16000}})
@@ -326,8 +329,8 @@ def caps(binary, tmp):
     code = srv.stop()
     for t in threads:
         t.join(15)
-    check(f"SIGTERM: exit {code} in {time.time() - t0:.1f} s, sessions closed with {results}",
-          code == 0 and time.time() - t0 < 10 and results == [1001] * len(live))
+    # Exit 0 is by itself: stop() kills what has not exited in 30 s.
+    check(f"SIGTERM: exit {code} in {time.time() - t0:.1f} s, sessions closed with {results}", code == 0 and results == [1001] * len(live))
 
 
 def load(srv):
@@ -359,9 +362,10 @@ def load(srv):
           f"delay p50 {d['p50']} ms, p99 {d['p99']} ms, max {d['max']} ms; server {cpu / seconds * 100:.0f}% CPU "
           f"({cpu / max(1, r['frames']) * 1e6:.0f} us a frame), RSS {idle:.0f} -> {peak[0]:.0f} MB ({per:.0f} KB a session)", flush=True)
     check(f"no errors, every session answered ({r['errors']} errors, {r['readers_closed']} closed, {r['unanswered']} unanswered)",
-          r["errors"] == 0 and r["readers_closed"] == 0 and r["unanswered"] <= 100 and r["frames"] >= 0.95 * 100 * 60 * seconds)
-    bar = 200.0 if SANITIZED else 16.0
-    check(f"p99 from message to frame {d['p99']} ms within {bar:.0f} ms", d["p99"] <= bar)
+          r["errors"] == 0 and r["readers_closed"] == 0 and r["unanswered"] <= 100)
+    bar(f"{r['frames']} frames for {r['messages']} messages (95% of them answered by their own frame)", r["frames"] >= 0.95 * 100 * 60 * seconds)
+    within = 200.0 if SANITIZED else 16.0
+    bar(f"p99 from message to frame {d['p99']} ms within {within:.0f} ms", d["p99"] <= within)
     check(f"server memory per session {per:.0f} KB within 1 MB", per <= 1024)
     check(f"the session that never read was dropped ({r['never_readers_dropped']} of {r['never_readers']})", r["never_readers_dropped"] == 1)
     metrics = request(srv.url + "/metrics")[2].decode()

@@ -26,6 +26,19 @@ def check(what, cond):
     return cond
 
 
+# Speed bars (a p99, "within 300 ms") are the machine's as much as the code's: in the test command they are
+# figures, printed "fast" or "slow" beside the outcome checks, and fail nothing. The benchmarks run the same
+# suites with FACESPACE_BARS=1 on the release binary, alone (tests/bench/bars.sh), and there they are held.
+BARS = os.environ.get("FACESPACE_BARS") == "1"
+
+
+def bar(what, cond):
+    if BARS:
+        return check(what, cond)
+    print(("fast " if cond else "slow ") + what, flush=True)
+    return True
+
+
 def free_port():
     s = socket.socket()
     s.bind(("127.0.0.1", 0))
