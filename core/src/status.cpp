@@ -45,6 +45,11 @@ Status WithReason(Status status, std::string reason) {
   return status;
 }
 
+Status WithInputReason(Status status, std::string reason) {
+  if (status.code == StatusCode::kInvalidArgument || status.code == StatusCode::kFailedPrecondition) status.reason = std::move(reason);
+  return status;
+}
+
 std::string JsonPointerEscape(const std::string& key) {
   std::string r;
   for (char c : key) {

@@ -340,7 +340,7 @@ Status FileRigStore::PutManifest(const std::string& id, const std::string& manif
   if (!manifest.empty()) {
     if (Status s = ApplyManifest(rig.value(), manifest); !s.ok()) {
       for (FieldError& fe : s.fields) fe.pointer = "/manifest" + fe.pointer;
-      return WithReason(s, "invalid-manifest");
+      return WithInputReason(s, "invalid-manifest");
     }
   }
   if (Status s = CheckLimits(rig.value()); !s.ok()) return s;  // Derived shapes count too.

@@ -8,7 +8,7 @@ set -uo pipefail
 build=${1:-build}
 root=$(cd "$(dirname "$0")/../.." && pwd)
 export FACESPACE_BARS=1
-suites=(live_end_to_end hardening_rest_end_to_end hardening_listeners_end_to_end hostile_end_to_end bounded_end_to_end nginx_end_to_end)
+suites=(live_end_to_end browser_end_to_end hardening_rest_end_to_end hardening_listeners_end_to_end hostile_end_to_end bounded_end_to_end nginx_end_to_end)
 failed=()
 for suite in "${suites[@]}"; do
   echo "== $suite (bars held)"
@@ -16,7 +16,7 @@ for suite in "${suites[@]}"; do
   out=$(ctest --test-dir "$root/$build" -R "^${suite}\$" --output-on-failure 2>&1)
   rc=$?
   # The bars' own lines, and any check that failed.
-  grep -E '^(ok|FAIL|fast|slow) .*(p99|within|median|frames for|first audio)|^FAIL ' <<<"$out" | sort -u
+  grep -E '^(ok|FAIL) +bar: |^FAIL ' <<<"$out" | sort -u
   [ $rc -eq 0 ] || failed+=("$suite")
   echo "   ($((SECONDS - start)) s)"
 done

@@ -164,9 +164,9 @@ def compression(srv, U):
             decoded = b
         same = decoded is None or decoded == plain
         figure(f"uka sequence/sample, {n} times, Accept-Encoding {coding} ({enc}, {len(b)} bytes)", st, sec, cpu, srv.rss())
-        bar = cpu <= 2 * cost + 1 or SANITIZED
+        within = cpu <= 2 * cost + 1 or SANITIZED
         check(f"uka's sample of {n} times with Accept-Encoding {coding}: {st}, {len(b)} bytes as {enc}, {cpu:.2f} CPU-s for an estimate of "
-              f"{cost} (within 2 x + 1 s), the same body decoded", st == 200 and bar and same and (enc == coding or n == 12 or coding == "identity"))
+              f"{cost} (within 2 x + 1 s), the same body decoded", st == 200 and within and same and (enc == coding or n == 12 or coding == "identity"))
     for coding in ("br", "gzip"):
         c0 = srv.cpu()
         st, sec, b, h = request(U + "/openapi.json", headers={"Accept-Encoding": coding})

@@ -34,7 +34,7 @@ BARS = os.environ.get("FACESPACE_BARS") == "1"
 
 def bar(what, cond):
     if BARS:
-        return check(what, cond)
+        return check("bar: " + what, cond)
     print(("fast " if cond else "slow ") + what, flush=True)
     return True
 

@@ -24,7 +24,7 @@ Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
   auto fit = FitWeights(rig, target, request.options);
   if (!fit.ok() && fit.status().code == StatusCode::kCancelled) return fit.status();
   if (!fit.ok()) {
-    Status s = WithReason(fit.status(), kInvalidTarget);
+    Status s = WithInputReason(fit.status(), kInvalidTarget);
     if (s.fields.empty()) s.fields.push_back({"/target", s.message});
     return s;
   }

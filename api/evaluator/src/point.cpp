@@ -20,9 +20,9 @@ void CheckPoint(const Rig& rig, BlendMode mode, ResolvedPoint& point) {
 Status ResolvePoint(const Rig& rig, const MeshRequest& r, ResolvedPoint& point) {
   std::vector<Warning> pose_warnings;
   std::vector<WeightEntry> entries = r.weights;
-  if (Status s = ApplyControls(rig, r.controls, entries, pose_warnings); !s.ok()) return WithReason(std::move(s), kInvalidControls);
+  if (Status s = ApplyControls(rig, r.controls, entries, pose_warnings); !s.ok()) return WithInputReason(std::move(s), kInvalidControls);
   if (Status s = ResolvePoseAndWeights(rig, entries, r.pose, point.weights, point.pose, point.posed, pose_warnings); !s.ok()) {
-    return WithReason(std::move(s), kInvalidWeights);
+    return WithInputReason(std::move(s), kInvalidWeights);
   }
   CheckPoint(rig, r.options.mode, point);
   point.report.warnings.insert(point.report.warnings.end(), pose_warnings.begin(), pose_warnings.end());

@@ -25,7 +25,7 @@ Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> byt
   if (Status s = ApplyManifest(rig.value(), manifest); !s.ok()) {
     for (FieldError& f : s.fields) f.pointer = "/manifest" + f.pointer;
     if (s.fields.empty()) s.fields.push_back({"/manifest", s.message});
-    return WithReason(s, "invalid-manifest");
+    return WithInputReason(s, "invalid-manifest");
   }
   // A file on disk may name shapes its rig lacks (a load warning); an upload is a client's
   // request, refused at the first unknown name like any other.

@@ -51,7 +51,7 @@ namespace {
 // 401 with the Bearer challenge; false, for Authorized to return.
 bool Unauthorized(const httplib::Request& req, httplib::Response& res, const std::string& detail) {
   res.set_header("WWW-Authenticate", "Bearer realm=\"facespace\"");
-  SendProblem(req, res, 401, "unauthorized", detail);
+  SendProblem(req, res, Problem::kUnauthorized, detail);
   return false;
 }
 
@@ -61,14 +61,14 @@ bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Re
   switch (CheckKey(ctx.options, req.get_header_value("Authorization"))) {
     case KeyCheck::kRight: return true;
     case KeyCheck::kNoKeyConfigured:
-      SendProblem(req, res, 403, "uploads-disabled", "this server has no API key configured: uploads, deletes and batch jobs are disabled (start it with --api-key-file FILE, a file holding the key; bash .ci/dev start makes build/api-key)");
+      SendProblem(req, res, Problem::kUploadsDisabled, "this server has no API key configured: uploads, deletes and batch jobs are disabled (start it with --api-key-file FILE, a file holding the key; bash .ci/dev start makes build/api-key)");
       return false;
     case KeyCheck::kMissing: return Unauthorized(req, res, "this route needs the API key: Authorization: Bearer KEY");
     case KeyCheck::kNotBearer: return Unauthorized(req, res, "the Authorization header must use the Bearer scheme");
     case KeyCheck::kEmptyToken:
       return Unauthorized(req, res, "the Bearer token is empty: Authorization: Bearer KEY (was the key file empty or unread?)");
     case KeyCheck::kWrong:
-      SendProblem(req, res, 403, "forbidden", "wrong API key");
+      SendProblem(req, res, Problem::kForbidden, "wrong API key");
       return false;
   }
   return false;
@@ -102,7 +102,7 @@ bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Resp
   // stated length, a write without the key.
   const PathRoutes routes = MatchPath(req.path);
   if (!routes.path) {
-    SendProblem(req, res, 404, "not-found", "no route " + req.path.substr(0, 200));
+    SendProblem(req, res, Problem::kNotFound, "no route " + req.path.substr(0, 200));
     return RefuseBeforeBody(req, res);
   }
   const std::string allow = routes.Allow();
@@ -119,13 +119,12 @@ bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Resp
   const Route* route = routes.Find(req.method);
   if (!route) {
     res.set_header("Allow", allow);
-    SendProblem(req, res, 405, "method-not-allowed", req.method.substr(0, 20) + " is not allowed here; allowed: " + allow);
+    SendProblem(req, res, Problem::kMethodNotAllowed, req.method.substr(0, 20) + " is not allowed here; allowed: " + allow);
     return RefuseBeforeBody(req, res);
   }
   const bool chunked = req.get_header_value("Transfer-Encoding").find("chunked") != std::string::npos;
   if (req.method != "DELETE" && !chunked && !req.has_header("Content-Length")) {
-    SendProblem(req, res, 411, "length-required",
-                req.method + " " + route->path + " needs a body with Content-Length (or Transfer-Encoding: chunked); this request has neither");
+    SendProblem(req, res, Problem::kLengthRequired, req.method + " " + route->path + " needs a body with Content-Length (or Transfer-Encoding: chunked); this request has neither");
     return RefuseBeforeBody(req, res);
   }
   if (req.has_header("Content-Length")) {
@@ -133,8 +132,7 @@ bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Resp
     const bool digits = !length.empty() && length.size() <= 19 &&
                         std::all_of(length.begin(), length.end(), [](char c) { return c >= '0' && c <= '9'; });
     if (!digits || std::stoull(length) > ctx.options.max_body) {
-      SendProblem(req, res, 413, "body-too-large",
-                  "the request body (Content-Length: " + length.substr(0, 24) + ") is over the server's limit of " +
+      SendProblem(req, res, Problem::kBodyTooLarge, "the request body (Content-Length: " + length.substr(0, 24) + ") is over the server's limit of " +
                       std::to_string(ctx.options.max_body) + " bytes (--max-body)");
       return RefuseBeforeBody(req, res);
     }

@@ -70,8 +70,7 @@ bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::R
   std::vector<FieldError> fields = {{std::string(p) + "width", "lower width x height"}};
   if (o.supersample > 1) fields.push_back({std::string(p) + "supersample", "lower the supersampling"});
   if (cells > 1) fields.push_back({"/cells", "fewer cells"});
-  SendProblem(req, res, 413, "render-too-large",
-              "this render would need about " + std::to_string(bytes >> 20) + " MiB of working memory (width x height x supersample^2" +
+  SendProblem(req, res, Problem::kRenderTooLarge, "this render would need about " + std::to_string(bytes >> 20) + " MiB of working memory (width x height x supersample^2" +
                   (cells > 1 ? std::string(", times ") + std::to_string(cells) + " cells" : std::string()) + "); this server allows " +
                   std::to_string(ctx.render_budget.per_request() >> 20) + " MiB a request (--render-budget-mb)",
               fields);
@@ -102,7 +101,7 @@ std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Reques
     std::vector<std::string> ids;
     for (const auto& r : ctx.store.List()) ids.push_back(r->id);
     const std::vector<std::string_view> views(ids.begin(), ids.end());
-    SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'" + DidYouMean(id.substr(0, 80), views));
+    SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'" + DidYouMean(id.substr(0, 80), views));
   }
   return rig;
 }

@@ -11,7 +11,7 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
   if (!AcceptsJsonBody(req, res)) return false;
   if (!req.params.empty()) {  // Not read: the client's setting would be silently lost.
     const std::string name = req.params.begin()->first;
-    SendProblem(req, res, 422, "invalid-request", name + ": query parameters are not read with a JSON body; give \"" + name + "\" in the body",
+    SendProblem(req, res, Problem::kInvalidRequest, name + ": query parameters are not read with a JSON body; give \"" + name + "\" in the body",
                 {{"?" + name, "is not read with a JSON body"}});
     return false;
   }

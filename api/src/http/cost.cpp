@@ -171,8 +171,7 @@ bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Respon
   const std::string limit = keyed ? "the keyed budget of " + Seconds(budget) + " (--keyed-cpu)"
                                   : "an anonymous request's budget of " + Seconds(budget) + " (--anonymous-cpu; with the API key, " +
                                         Seconds(ctx.options.keyed_cpu) + ")";
-  SendProblem(req, res, 422, "over-budget",
-              "this request would cost about " + Seconds(cost.seconds) + " CPU-seconds (" + cost.formula + "), over " + limit +
+  SendProblem(req, res, Problem::kOverBudget, "this request would cost about " + Seconds(cost.seconds) + " CPU-seconds (" + cost.formula + "), over " + limit +
                   ": ask for less at once (fewer frames, cells, keys or samples, a smaller size), or split it",
               {{cost.field, "about " + Seconds(cost.seconds) + " CPU-seconds, over " + Seconds(budget)}});
   return false;

@@ -77,13 +77,13 @@ void Address(int fd, bool peer, std::string& ip, int& port) {
 
 // A whole response for a request the front refuses itself: problem+json, as the routes write one
 // (SendProblem), then the connection closes.
-std::string Refusal(int status, const std::string& type, const std::string& detail, bool retry_after = false,
+std::string Refusal(http::Problem problem, const std::string& detail, bool retry_after = false,
                     const std::string& path = "") {
   httplib::Request req;
   req.path = path;
   httplib::Response res;
   if (retry_after) res.set_header("Retry-After", "1");
-  http::SendProblem(req, res, status, type, detail);
+  http::SendProblem(req, res, problem, detail);
   return http::ClosingResponse(res);
 }
 
@@ -282,7 +282,7 @@ class FrontServer::Front {
       ++stats.refused_total;
       if (from_client >= o_.max_per_client) ++stats.refused_client;
       if (from_client == 0) per_client_.erase(c->ip);
-      SendNow(fd, Refusal(503, "too-many-connections", refused, true));
+      SendNow(fd, Refusal(http::Problem::kTooManyConnections, refused, true));
       ::shutdown(fd, SHUT_RDWR);
       ::close(fd);
       return;
@@ -331,12 +331,13 @@ class FrontServer::Front {
 
   // Answers a request the front refuses, then reads and drops what the client still sends for a
   // moment (closing with unread bytes would reset the connection and could lose the answer).
-  void Refuse(Conn& c, int status, const std::string& type, const std::string& detail, bool retry_after = false) {
+  void Refuse(Conn& c, http::Problem problem, const std::string& detail, bool retry_after = false) {
     const std::string path = c.head.target.substr(0, c.head.target.find('?')).substr(0, 200);
-    const std::string response = Refusal(status, type, detail, retry_after, path);
+    const std::string response = Refusal(problem, detail, retry_after, path);
     SendNow(c.fd, response);
     if (o_.log_requests) {
       // As the access log writes a request, with no duration: the request never reached a handler.
+      const int status = http::TypeOf(problem).status;
       const bool parsed = !c.head.method.empty();
       const std::string logged = parsed ? path : status == 414 ? "(request line over 8,192 bytes)" : "-";
       std::fprintf(stderr, "%s %s %d %zu -\n", parsed ? c.head.method.substr(0, 20).c_str() : "-", logged.c_str(), status,
@@ -409,7 +410,7 @@ class FrontServer::Front {
       if (f == Framing::kNeedMore) return;
       if (f == Framing::kError) {
         ++stats.bad_framing;
-        return Refuse(c, error.status, error.status == 414 ? "uri-too-long" : "bad-request", error.detail);
+        return Refuse(c, http::ProblemOfHttpStatus(error.status), error.detail);
       }
       // Read from the head as it came (a chunked body is rewritten before its request is handed on).
       c.keyed = o_.keyed && o_.keyed(HeaderValue(c, "Authorization"));
@@ -418,13 +419,13 @@ class FrontServer::Front {
           if (auto refusal = o_.head_check(View(c)); refusal) return RefuseRaw(c, *refusal);
         }
         if (c.head.content_length > o_.max_body) {
-          return Refuse(c, 413, "body-too-large",
+          return Refuse(c, http::Problem::kBodyTooLarge,
                         "the request body (Content-Length: " + std::to_string(c.head.content_length) + ") is over the server's limit of " +
                             std::to_string(o_.max_body) + " bytes (--max-body)");
         }
         if (!Reserve(c, c.head.end + c.head.content_length)) {
           ++stats.over_budget;
-          return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", true);
+          return Refuse(c, http::Problem::kBusy, "the server holds as many request bodies in memory as it may; retry shortly", true);
         }
         // A body of N MiB may take N more seconds. Its room is made once (no copies as it grows).
         c.deadline += std::chrono::seconds(c.head.content_length >> 20);
@@ -442,11 +443,11 @@ class FrontServer::Front {
       const Framing f = http::ParseChunked(c.buf, c.chunked, o_.max_body, error);
       if (f == Framing::kError) {
         ++stats.bad_framing;
-        return Refuse(c, error.status, error.status == 413 ? "body-too-large" : "bad-request", error.detail);
+        return Refuse(c, http::ProblemOfHttpStatus(error.status), error.detail);
       }
       if (!Reserve(c, c.buf.size())) {
         ++stats.over_budget;
-        return Refuse(c, 503, "busy", "the server holds as many request bodies in memory as it may; retry shortly", true);
+        return Refuse(c, http::Problem::kBusy, "the server holds as many request bodies in memory as it may; retry shortly", true);
       }
       if (f == Framing::kNeedMore) return;
       // Handed on with its body whole (Content-Length), followed by what came after it.
@@ -575,7 +576,7 @@ class FrontServer::Front {
     for (Conn* c : late) {
       if (c->state == Conn::State::kHead || c->state == Conn::State::kBody) {
         ++stats.timed_out;
-        Refuse(*c, 408, "request-timeout",
+        Refuse(*c, http::Problem::kRequestTimeout,
                "the request did not arrive whole within " + std::to_string(o_.request_timeout) + " s (--read-timeout)");
         c->deadline = now + std::chrono::milliseconds(200);  // A short linger: the client was slow anyway.
       } else {

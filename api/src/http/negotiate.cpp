@@ -37,7 +37,7 @@ std::optional<T> Negotiate(const httplib::Request& req, httplib::Response& res, 
   if (given) return given;
   const std::string accept = req.get_header_value("Accept");
   if (auto picked = PickFromAccept(accept, produced, fallback)) return picked;
-  SendProblem(req, res, 406, "not-acceptable", "cannot produce " + accept.substr(0, 100) + "; available: " + available);
+  SendProblem(req, res, Problem::kNotAcceptable, "cannot produce " + accept.substr(0, 100) + "; available: " + available);
   return std::nullopt;
 }
 
@@ -154,7 +154,7 @@ std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req, h
 bool AcceptsJsonBody(const httplib::Request& req, httplib::Response& res) {
   const std::string ct = MediaType(req.get_header_value("Content-Type"));
   if (ct.empty() || ct == "application/json") return true;
-  SendProblem(req, res, 415, "unsupported-media-type", "the body must be application/json, not " + ct);
+  SendProblem(req, res, Problem::kUnsupportedMediaType, "the body must be application/json, not " + ct);
   return false;
 }
 

@@ -9,24 +9,6 @@ namespace facespace::api::http {
 
 using nlohmann::json;
 
-int HttpStatus(const Status& s) {
-  if (s.reason == kMalformedJson) return 400;
-  if (s.reason == batch::kJobQueueFull) return 429;
-  if (s.reason == "busy") return 503;  // A budget of the server's is in use: retry shortly.
-  if (s.reason == "read-only") return 409;  // A bundled rig: PUT or DELETE conflicts with the server's set-up.
-  switch (s.code) {
-    case StatusCode::kOk: return 200;
-    case StatusCode::kInvalidArgument:
-    case StatusCode::kFailedPrecondition: return 422;
-    case StatusCode::kNotFound: return 404;
-    case StatusCode::kResourceExhausted: return 413;
-    case StatusCode::kStorageFull: return 507;
-    case StatusCode::kCancelled: return 503;  // Stopped: the client is gone, or the deadline or a SIGTERM came.
-    case StatusCode::kInternal: return 500;
-  }
-  return 500;
-}
-
 const char* ReasonPhrase(int status) {
   switch (status) {
     case 400: return "Bad Request";
@@ -84,11 +66,30 @@ std::string KeptAliveResponse(const httplib::Response& res, bool head_only) { re
 
 std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
-void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,
-                 const std::string& detail, const std::vector<FieldError>& fields, std::span<const Warning> warnings, size_t omitted) {
-  json p = {{"type", "urn:facespace:problem:" + type},
-            {"title", ReasonPhrase(status)},
-            {"status", status},
+Problem ProblemOfHttpStatus(int status) {
+  switch (status) {
+    case 404: return Problem::kNotFound;
+    case 405: return Problem::kMethodNotAllowed;
+    case 408: return Problem::kRequestTimeout;
+    case 411: return Problem::kLengthRequired;
+    case 413: return Problem::kBodyTooLarge;
+    case 414: return Problem::kUriTooLong;
+    case 415: return Problem::kUnsupportedMediaType;
+    case 416: return Problem::kRangeNotSatisfiable;
+    case 417: return Problem::kExpectationFailed;
+    case 431: return Problem::kHeadersTooLarge;
+    case 501: return Problem::kNotImplemented;
+    case 505: return Problem::kHttpVersionNotSupported;
+    default: return status >= 500 ? Problem::kInternal : Problem::kBadRequest;
+  }
+}
+
+void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem, const std::string& detail,
+                 const std::vector<FieldError>& fields, std::span<const Warning> warnings, size_t omitted) {
+  const ProblemType& t = TypeOf(problem);
+  json p = {{"type", "urn:facespace:problem:" + std::string(t.name)},
+            {"title", t.title},
+            {"status", t.status},
             {"detail", detail},
             {"instance", req.path}};
   if (!fields.empty()) {
@@ -103,24 +104,14 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, int status
     if (fields.size() + omitted > errors.size()) p["errors_total"] = fields.size() + omitted;
   }
   if (!warnings.empty()) p["warnings"] = WarningsValue(warnings);
-  res.status = status;
+  res.status = t.status;
   res.set_content(Dump(p), "application/problem+json");
 }
 
 void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& s, std::span<const Warning> warnings) {
-  std::string type = s.reason;
-  if (type.empty()) {
-    switch (s.code) {
-      case StatusCode::kInvalidArgument: type = "invalid-request"; break;
-      case StatusCode::kNotFound: type = "not-found"; break;
-      case StatusCode::kResourceExhausted: type = "too-large"; break;
-      case StatusCode::kStorageFull: type = "storage-full"; break;
-      case StatusCode::kCancelled: type = "cancelled"; break;
-      default: type = "internal";
-    }
-  }
-  if (HttpStatus(s) == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "2");
-  SendProblem(req, res, HttpStatus(s), type, s.message, s.fields, warnings, s.omitted);
+  const Problem problem = ProblemOf(s);
+  if (TypeOf(problem).status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "2");
+  SendProblem(req, res, problem, s.message, s.fields, warnings, s.omitted);
 }
 
 void SendJson(httplib::Response& res, int status, const json& body) {

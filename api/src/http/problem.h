@@ -9,24 +9,23 @@
 #include <vector>
 
 #include "facespace/core/status.h"
+#include "problems.h"
 
 namespace facespace::api::http {
-
-// The HTTP status of a Status: malformed JSON 400, invalid 422, not found 404, a full job queue
-// 429, another limit 413, a full disk 507, anything else 500.
-int HttpStatus(const Status& status);
 
 const char* ReasonPhrase(int status);
 // The phrase of a status line as cpp-httplib writes it ("413 Payload Too Large"), for the
 // answers written without it (the connection front's), so every status line reads the same.
 const char* StatusLinePhrase(int status);
 
-// A problem document. Field errors whose pointer starts with '?' name a query parameter
-// ({"parameter": ...}); the others are JSON Pointers into the body ({"pointer": ...}). At most
-// kMaxFieldErrors are listed; "errors_total" counts them all (with `omitted`) when more there were.
-void SendProblem(const httplib::Request& req, httplib::Response& res, int status, const std::string& type,
-                 const std::string& detail, const std::vector<FieldError>& fields = {},
-                 std::span<const Warning> warnings = {}, size_t omitted = 0);
+// A problem document of `problem` (its type, status and title from problems.h). Field errors whose
+// pointer starts with '?' name a query parameter ({"parameter": ...}); the others are JSON Pointers into
+// the body ({"pointer": ...}). At most kMaxFieldErrors are listed; "errors_total" counts them all (with
+// `omitted`) when more there were.
+void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem, const std::string& detail,
+                 const std::vector<FieldError>& fields = {}, std::span<const Warning> warnings = {}, size_t omitted = 0);
+// The problem cpp-httplib answers an HTTP status with itself (a bad Range, Expect, headers too large...).
+Problem ProblemOfHttpStatus(int status);
 
 // The whole HTTP/1.1 answer of `res` on a connection closed after it, for answers written without
 // cpp-httplib (the connection front's, and its pre-routing from the headers alone): the status line
@@ -36,7 +35,7 @@ std::string ClosingResponse(const httplib::Response& res, bool head_only = false
 // body's length stated and the body left out.
 std::string KeptAliveResponse(const httplib::Response& res, bool head_only = false);
 
-// The problem for a Status: HttpStatus, the type from its reason (or its code), its message and fields.
+// The problem for a Status: the one its reason names (else its code's), its message and fields.
 void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& status,
                 std::span<const Warning> warnings = {});
 

@@ -16,6 +16,7 @@ namespace facespace::api {
 
 using http::CurrentRequest;
 using http::RequestState;
+using http::Problem;
 using httplib::Request;
 using httplib::Response;
 
@@ -122,22 +123,22 @@ void Api::Register(httplib::Server& server) {
   server.set_error_handler(httplib::Server::HandlerWithResponse([](const Request& req, Response& res) {
     if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
     switch (res.status) {
-      case 404: http::SendProblem(req, res, 404, "not-found", "no route " + req.path.substr(0, 200)); break;
-      case 413: http::SendProblem(req, res, 413, "body-too-large", "the request body is over the server's limit"); break;
-      case 414: http::SendProblem(req, res, 414, "uri-too-long", "the request line is over 8,192 bytes: send long weight lists as a POST body"); break;
+      case 404: http::SendProblem(req, res, Problem::kNotFound, "no route " + req.path.substr(0, 200)); break;
+      case 413: http::SendProblem(req, res, Problem::kBodyTooLarge, "the request body is over the server's limit"); break;
+      case 414: http::SendProblem(req, res, Problem::kUriTooLong, "the request line is over 8,192 bytes: send long weight lists as a POST body"); break;
       case 400:
-        if (CurrentRequest().started) http::SendProblem(req, res, 400, "bad-request", "the request body could not be read");
-        else http::SendProblem(req, res, 400, "bad-request", "the request line or headers could not be parsed");
+        if (CurrentRequest().started) http::SendProblem(req, res, Problem::kBadRequest, "the request body could not be read");
+        else http::SendProblem(req, res, Problem::kBadRequest, "the request line or headers could not be parsed");
         break;
       default:
-        if (res.status >= 400) http::SendProblem(req, res, res.status, "error", http::ReasonPhrase(res.status));
+        if (res.status >= 400) http::SendProblem(req, res, http::ProblemOfHttpStatus(res.status), http::ReasonPhrase(res.status));
         else return httplib::Server::HandlerResponse::Unhandled;
     }
     return httplib::Server::HandlerResponse::Handled;
   }));
 
   server.set_exception_handler([](const Request& req, Response& res, std::exception_ptr) {
-    http::SendProblem(req, res, 500, "internal", "internal error");
+    http::SendProblem(req, res, Problem::kInternal, "internal error");
   });
 
   server.set_logger([&ctx](const Request& req, const Response& res) {
@@ -180,7 +181,7 @@ void Api::Register(httplib::Server& server) {
     const std::string allow = http::MatchPath(path).Allow();
     auto not_allowed = [allow](const Request& req, Response& res) {
       res.set_header("Allow", allow);
-      http::SendProblem(req, res, 405, "method-not-allowed", req.method + " is not allowed here; allowed: " + allow);
+      http::SendProblem(req, res, Problem::kMethodNotAllowed, req.method + " is not allowed here; allowed: " + allow);
     };
     // Only GET reaches these: the methods with a body are answered by pre-routing, from the headers.
     const http::PathRoutes routes = http::MatchPath(path);

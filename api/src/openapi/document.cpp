@@ -7,6 +7,7 @@
 
 #include "openapi.h"
 #include "facespace/api/http.h"
+#include "../http/problems.h"
 #include "../http/route_table.h"
 
 namespace facespace::api {
@@ -76,6 +77,15 @@ std::string OpenApiJson(const ApiOptions& limits) {
     for (const char* side : {"width", "height"}) schemas[schema]["properties"][side]["maximum"] = limits.max_render_size;
   }
   schemas["SheetRequest"]["properties"]["cells"]["oneOf"][0]["maxItems"] = limits.max_sheet_cells;
+  // Every problem type the server answers (http/problems.h): the type's values, and each with its status and title.
+  json types = json::array(), problems = json::array();
+  for (const http::ProblemType& t : http::Problems()) {
+    const std::string type = "urn:facespace:problem:" + std::string(t.name);
+    types.push_back(type);
+    problems.push_back({{"type", type}, {"status", t.status}, {"title", std::string(t.title)}});
+  }
+  schemas["Problem"]["properties"]["type"]["enum"] = types;
+  doc["x-facespace-problems"] = problems;
   return doc.dump(1);
 }
 

@@ -29,7 +29,7 @@ json JobJson(const batch::JobInfo& j) {
 
 bool JobsEnabled(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (ctx.jobs) return true;
-  SendProblem(req, res, 503, "jobs-disabled", "this server runs no batch jobs");
+  SendProblem(req, res, Problem::kJobsDisabled, "this server runs no batch jobs");
   return false;
 }
 
@@ -38,7 +38,7 @@ std::optional<batch::JobInfo> FindJob(ServerState& ctx, const httplib::Request& 
   if (!JobsEnabled(ctx, req, res)) return std::nullopt;
   const std::string id = req.matches[1];
   std::optional<batch::JobInfo> j = batch::IsValidJobId(id) ? ctx.jobs->Get(id) : std::nullopt;
-  if (!j) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
+  if (!j) SendProblem(req, res, Problem::kJobNotFound, "no job with id '" + id.substr(0, 80) + "'");
   return j;
 }
 
@@ -76,7 +76,7 @@ void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Respons
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
   if (!IsValidVariantId(name) || !*f || ec) {
-    SendProblem(req, res, 404, "file-not-found", "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
+    SendProblem(req, res, Problem::kFileNotFound, "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
                                                      (job->state == JobState::kDone ? "" : std::string(" (yet: the job is ") + Name(job->state) + ")"));
     return;
   }
@@ -99,8 +99,7 @@ void PostBatch(ServerState& ctx, const httplib::Request& req, httplib::Response&
   auto plan = batch::MakeBatchPlan(stored, req.body);
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   if (!plan->request.dataset.randomize.background_images.empty()) {  // A path on the server: never the client's to name.
-    return SendProblem(req, res, 422, "invalid-request",
-                       "/randomize/background/images: the service reads no folder a client names; `facespace batch` takes one, "
+    return SendProblem(req, res, Problem::kInvalidRequest, "/randomize/background/images: the service reads no folder a client names; `facespace batch` takes one, "
                        "or give colours (\"random\" or [\"#rrggbb\", ...])",
                        {{"/randomize/background/images", "not taken by the service"}});
   }
@@ -109,7 +108,7 @@ void PostBatch(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!job.ok()) {
     Status s = job.status();
     if (s.reason == batch::kJobQueueFull) res.set_header("Retry-After", std::to_string(retry_after));
-    else if (s.reason.empty() && s.code != StatusCode::kInvalidArgument) s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : "storage-failed";
+    else if (s.reason.empty() && s.code == StatusCode::kInternal) s.reason = "storage-failed";  // A full disk is storage-full by its code.
     return SendStatus(req, res, s);
   }
   res.set_header("Location", "/v1/jobs/" + job->id);
@@ -134,7 +133,7 @@ void DeleteJob(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
   Status s = batch::IsValidJobId(id) ? ctx.jobs->Remove(id) : NotFound("");
-  if (!s.ok()) SendProblem(req, res, 404, "job-not-found", "no job with id '" + id.substr(0, 80) + "'");
+  if (!s.ok()) SendProblem(req, res, Problem::kJobNotFound, "no job with id '" + id.substr(0, 80) + "'");
   else res.status = 204;
 }
 
@@ -146,7 +145,7 @@ void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Respo
   auto job = FindJob(ctx, req, res);
   if (!job) return;
   if (job->state != JobState::kDone) {
-    SendProblem(req, res, 409, "job-not-done", "job " + job->id + " is " + Name(job->state) + " (" + std::to_string(job->done) + " of " +
+    SendProblem(req, res, Problem::kJobNotDone, "job " + job->id + " is " + Name(job->state) + " (" + std::to_string(job->done) + " of " +
                                                    std::to_string(job->total) +
                                                    " variants): its archive exists once it is done; finished files are at " +
                                                    "/v1/jobs/" + job->id + "/files/NAME");

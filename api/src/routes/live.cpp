@@ -328,15 +328,14 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   if (!stored) return;
   if (!HasToken(req, "Upgrade", "websocket") || !HasToken(req, "Connection", "upgrade")) {
     res.set_header("Upgrade", "websocket");
-    return SendProblem(req, res, 426, "upgrade-required",
-                       "this route is a WebSocket (RFC 6455): ask with Upgrade: websocket and Connection: Upgrade");
+    return SendProblem(req, res, Problem::kUpgradeRequired, "this route is a WebSocket (RFC 6455): ask with Upgrade: websocket and Connection: Upgrade");
   }
   if (req.get_header_value("Sec-WebSocket-Version") != "13") {
     res.set_header("Sec-WebSocket-Version", "13");
-    return SendProblem(req, res, 426, "upgrade-required", "Sec-WebSocket-Version must be 13");
+    return SendProblem(req, res, Problem::kUpgradeRequired, "Sec-WebSocket-Version must be 13");
   }
   const std::string key = req.get_header_value("Sec-WebSocket-Key");
-  if (!ws::ValidClientKey(key)) return SendProblem(req, res, 400, "bad-request", "Sec-WebSocket-Key must be the base64 of 16 bytes");
+  if (!ws::ValidClientKey(key)) return SendProblem(req, res, Problem::kBadRequest, "Sec-WebSocket-Key must be the base64 of 16 bytes");
   // The cost, stated before the session: a frame's blend and encoding, at most 60 a second; the session
   // may spend twice that over its lifetime, and lasts at most --live-seconds.
   const Cost frame = MeshCost(stored->rig, MeshFormat::kF32, SIZE_MAX);  // Any shapes a message may weight.
@@ -348,8 +347,7 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   bounds.cpu_seconds = 2 * per_second * static_cast<double>(bounds.lifetime.count()) + 1;
   if (!ctx.live.Reserve(req.remote_addr)) {
     res.set_header("Retry-After", "5");
-    return SendProblem(req, res, 503, "too-many-sessions",
-                       "the server holds as many live sessions as it takes, in all or from this address (--max-live-sessions, --max-client-live-sessions)");
+    return SendProblem(req, res, Problem::kTooManySessions, "the server holds as many live sessions as it takes, in all or from this address (--max-live-sessions, --max-client-live-sessions)");
   }
   auto place = std::make_shared<Place>(ctx.live, req.remote_addr);
   const LiveLimits& l = ctx.live.limits();
@@ -366,7 +364,7 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
     place->taken = true;
     ctx.live.Adopt(fd, ip, std::move(buffered), std::move(*session), bounds);
   });
-  if (!upgraded) return SendProblem(req, res, 501, "not-implemented", "this server's connections cannot be upgraded");
+  if (!upgraded) return SendProblem(req, res, Problem::kNotImplemented, "this server's connections cannot be upgraded");
   res.status = 101;
 }
 

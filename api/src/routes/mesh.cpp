@@ -97,7 +97,7 @@ bool MeshQueryParam(const std::string& key, const std::string& value, MeshReques
 bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r, std::vector<FieldError>& errors) {
   if (std::string e = FinishPoseSettings(r); !e.empty()) errors.push_back({"?animation", e});
   if (errors.empty()) return true;
-  SendProblem(req, res, 422, "invalid-request", errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
+  SendProblem(req, res, Problem::kInvalidRequest, errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
   return false;
 }
 

@@ -27,7 +27,7 @@ bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, Rend
 bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o) {
   const int max = ctx.options.max_render_size;
   if (o.width <= max && o.height <= max) return true;
-  SendProblem(req, res, 422, "image-too-large", "width and height are limited to " + std::to_string(max) + " pixels",
+  SendProblem(req, res, Problem::kImageTooLarge, "width and height are limited to " + std::to_string(max) + " pixels",
               {{std::string(req.method == "GET" ? "?" : "/") + (o.width > max ? "width" : "height"), "at most " + std::to_string(max)}});
   return false;
 }
@@ -61,7 +61,7 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!format) return;
   const size_t max_cells = static_cast<size_t>(ctx.options.max_sheet_cells);
   if (r.cells.size() > max_cells) {
-    SendProblem(req, res, 422, "too-many-cells", "a sheet has at most " + std::to_string(max_cells) + " cells",
+    SendProblem(req, res, Problem::kTooManyCells, "a sheet has at most " + std::to_string(max_cells) + " cells",
                 {{"/cells", "at most " + std::to_string(max_cells)}});
     return;
   }

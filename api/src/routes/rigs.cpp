@@ -179,18 +179,18 @@ bool UploadParts(const httplib::Request& req, httplib::Response& res, const http
   static constexpr std::string_view kParts[] = {"rig", "manifest"};
   for (const auto& [name, part] : req.files) {
     if (name != "rig" && name != "manifest") {
-      SendProblem(req, res, 422, "invalid-request", "unknown part '" + name.substr(0, 80) + "'" + DidYouMean(name, kParts) + "; an upload has a part \"rig\" and an optional \"manifest\"",
+      SendProblem(req, res, Problem::kInvalidRequest, "unknown part '" + name.substr(0, 80) + "'" + DidYouMean(name, kParts) + "; an upload has a part \"rig\" and an optional \"manifest\"",
                   {{"/" + JsonPointerEscape(name.substr(0, 80)), "unknown part"}});
       return false;
     }
     if (req.files.count(name) > 1) {
-      SendProblem(req, res, 422, "invalid-request", "the part '" + name + "' is given more than once", {{"/" + name, "given more than once"}});
+      SendProblem(req, res, Problem::kInvalidRequest, "the part '" + name + "' is given more than once", {{"/" + name, "given more than once"}});
       return false;
     }
   }
   auto it = req.files.find("rig");
   if (it == req.files.end()) {
-    SendProblem(req, res, 422, "invalid-request", "a multipart upload needs a part \"rig\": the rig file", {{"/rig", "missing"}});
+    SendProblem(req, res, Problem::kInvalidRequest, "a multipart upload needs a part \"rig\": the rig file", {{"/rig", "missing"}});
     return false;
   }
   *rig = &it->second;
@@ -207,7 +207,7 @@ bool ManifestIsJsonObject(const httplib::Request& req, httplib::Response& res, c
     return false;
   }
   if (!j.is_object()) {
-    SendProblem(req, res, 422, "invalid-manifest", pointer.substr(1) + ": must be a JSON object (README \"Manifest\")", {{pointer, "must be an object"}});
+    SendProblem(req, res, Problem::kInvalidManifest, pointer.substr(1) + ": must be a JSON object (README \"Manifest\")", {{pointer, "must be an object"}});
     return false;
   }
   return true;
@@ -215,7 +215,9 @@ bool ManifestIsJsonObject(const httplib::Request& req, httplib::Response& res, c
 
 void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status s, const char* bad_input) {
   if (s.reason.empty()) {
-    s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : bad_input;
+    // A limit, not-found or cancellation keeps its code's own problem.
+    const bool input = s.code == StatusCode::kInvalidArgument || s.code == StatusCode::kFailedPrecondition;
+    s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : input ? bad_input : "";
   }
   SendStatus(req, res, s);
 }
@@ -226,7 +228,7 @@ void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
   if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size()))) return;
   const std::string id = req.matches[1];
   if (!IsValidRigId(id)) {
-    SendProblem(req, res, 422, "invalid-id", "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
+    SendProblem(req, res, Problem::kInvalidId, "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
                 {{"?id", "invalid rig id"}});
     return;
   }
@@ -249,11 +251,11 @@ void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
   }
   RigFormat format;
   if (Status s = UploadFormat(media_type, name, bytes, &format); !s.ok()) {
-    SendProblem(req, res, 415, "unsupported-media-type", s.message);
+    SendProblem(req, res, Problem::kUnsupportedMediaType, s.message);
     return;
   }
   if (bytes.empty()) {
-    SendProblem(req, res, 422, "invalid-rig", "the body is empty");
+    SendProblem(req, res, Problem::kInvalidRig, "the body is empty");
     return;
   }
   bool created = false;
@@ -278,13 +280,13 @@ void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
   if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size()))) return;
   const std::string id = req.matches[1];
   if (MediaType(req.get_header_value("Content-Type")) != "application/json") {
-    SendProblem(req, res, 415, "unsupported-media-type", "a manifest is application/json (README \"Manifest\")");
+    SendProblem(req, res, Problem::kUnsupportedMediaType, "a manifest is application/json (README \"Manifest\")");
     return;
   }
   if (!ManifestIsJsonObject(req, res, req.body, "/")) return;
   Status s = IsValidRigId(id) ? ctx.store.PutManifest(id, req.body) : NotFound("");
   if (s.code == StatusCode::kNotFound) {
-    SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+    SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'");
     return;
   }
   if (!s.ok()) {
@@ -304,9 +306,9 @@ void DeleteRig(ServerState& ctx, const httplib::Request& req, httplib::Response&
   const std::string id = req.matches[1];
   Status s = IsValidRigId(id) ? ctx.store.Delete(id) : NotFound("");
   if (s.code == StatusCode::kNotFound) {
-    SendProblem(req, res, 404, "rig-not-found", "no rig with id '" + id.substr(0, 80) + "'");
+    SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'");
   } else if (!s.ok()) {
-    SendStatus(req, res, s.reason.empty() ? WithReason(s, "storage-failed") : s);
+    SendStatus(req, res, s.reason.empty() && s.code == StatusCode::kInternal ? WithReason(s, "storage-failed") : s);
   } else {
     res.status = 204;
   }
@@ -317,7 +319,7 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
   if (!stored) return;
   int lod = 0;
   if (req.has_param("lod") && !ParseLod(req.get_param_value("lod"), &lod)) {
-    SendProblem(req, res, 422, "invalid-request", "lod: must be " + LodExpected(), {{"?lod", "must be " + LodExpected()}});
+    SendProblem(req, res, Problem::kInvalidRequest, "lod: must be " + LodExpected(), {{"?lod", "must be " + LodExpected()}});
     return;
   }
   // The triangles as JSON, or the indices alone as little-endian uint32.
@@ -325,12 +327,12 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
   static constexpr EnumName<TopologyFormat> kTopologyFormats[] = {{TopologyFormat::kJson, "json"}, {TopologyFormat::kU32, "u32"}};
   TopologyFormat format = TopologyFormat::kJson;
   if (req.has_param("format") && !ParseEnum(kTopologyFormats, req.get_param_value("format"), &format)) {
-    SendProblem(req, res, 422, "invalid-request", "format: must be json or u32 (the indices alone, little-endian)", {{"?format", "must be json or u32"}});
+    SendProblem(req, res, Problem::kInvalidRequest, "format: must be json or u32 (the indices alone, little-endian)", {{"?format", "must be json or u32"}});
     return;
   }
   const auto derived = ctx.evaluator.Derived(stored, lod);
   if (!derived) {
-    SendProblem(req, res, 500, "internal", "the level of detail failed");
+    SendProblem(req, res, Problem::kInternal, "the level of detail failed");
     return;
   }
   const Rig& at = *derived->rig;

@@ -11,7 +11,7 @@ bool ReadSequence(const httplib::Request& req, httplib::Response& res, const Rig
   if (!ReadJsonBody(req, res, ParseSequenceRequest, r)) return false;
   auto resolved = ResolveSequence(rig, r);
   if (!resolved.ok()) {
-    SendStatus(req, res, WithReason(resolved.status(), kInvalidSequence));
+    SendStatus(req, res, WithInputReason(resolved.status(), kInvalidSequence));
     return false;
   }
   seq = std::move(resolved.value());
@@ -21,7 +21,7 @@ bool ReadSequence(const httplib::Request& req, httplib::Response& res, const Rig
 double Duration(const Sequence& seq) { return seq.keys.empty() ? 0.0 : static_cast<double>(seq.keys.back().time) - seq.keys.front().time; }
 
 void Required(const httplib::Request& req, httplib::Response& res, const std::string& member, const std::string& what) {
-  SendProblem(req, res, 422, "invalid-request", "/" + member + ": is required (" + what + ")", {{"/" + member, "is required"}});
+  SendProblem(req, res, Problem::kInvalidRequest, "/" + member + ": is required (" + what + ")", {{"/" + member, "is required"}});
 }
 
 }  // namespace
@@ -34,7 +34,7 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
   const FrameFormat format = r.format.value_or(FrameFormat::kJson);
   if (format != FrameFormat::kJson && format != FrameFormat::kWeights) {
-    return SendProblem(req, res, 422, "invalid-request", "/format: sample as json (meshes) or weights (no meshes)", {{"/format", "must be json or weights"}});
+    return SendProblem(req, res, Problem::kInvalidRequest, "/format: sample as json (meshes) or weights (no meshes)", {{"/format", "must be json or weights"}});
   }
   // Physics is simulated from the first key to the latest time asked for.
   const double span = static_cast<double>(*std::max_element(r.times.begin(), r.times.end())) - seq.keys.front().time;
@@ -53,8 +53,7 @@ bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Re
                       const char* over) {
   if (frames <= ctx.options.max_frames) return true;
   const std::string max = std::to_string(ctx.options.max_frames);
-  SendProblem(req, res, 422, "too-many-frames",
-              std::string("the ") + what + " would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max +
+  SendProblem(req, res, Problem::kTooManyFrames, std::string("the ") + what + " would be " + std::to_string(frames) + " frames (duration x fps), over this server's limit of " + max +
                   " (--max-frames)",
               {{"/fps", "at most " + max + " frames over " + over + " duration"}});
   return false;
@@ -63,7 +62,7 @@ bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Re
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,
                         std::shared_ptr<const Sequence> seq, float fps, FrameFormat format, const BlendOptions& options) {
   if (format != FrameFormat::kNdjson && format != FrameFormat::kF32 && format != FrameFormat::kWeights) {
-    SendProblem(req, res, 422, "invalid-request", "/format: stream as ndjson (weights, as \"weights\") or f32", {{"/format", "must be ndjson, weights or f32"}});
+    SendProblem(req, res, Problem::kInvalidRequest, "/format: stream as ndjson (weights, as \"weights\") or f32", {{"/format", "must be ndjson, weights or f32"}});
     return;
   }
   const size_t frames = FrameCount(*seq, fps);
@@ -112,7 +111,7 @@ void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::
   if (!r.has_tolerance) return Required(req, res, "tolerance", "largest vertex error allowed, mesh units");
   if (!WithinBudget(ctx, req, res, ReduceCost(stored->rig, seq.keys.size()))) return;
   auto reduced = ReduceSequence(stored->rig, seq, r.tolerance, CurrentStop());
-  if (!reduced.ok()) return SendStatus(req, res, WithReason(reduced.status(), kInvalidSequence));
+  if (!reduced.ok()) return SendStatus(req, res, WithInputReason(reduced.status(), kInvalidSequence));
   res.status = 200;
   res.set_content(ReducedSequenceJson(stored->rig, seq, reduced.value(), r.tolerance), "application/json");
 }

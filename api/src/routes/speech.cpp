@@ -39,8 +39,7 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
   const float max_seconds = ctx.options.max_video_seconds;
   if (plan.audio.seconds() > max_seconds) {
     const std::string field = r.has_audio ? "/audio" : "/text";
-    return SendProblem(req, res, 422, "video-too-long",
-                       field + ": a video is at most " + FormatNumber(max_seconds) + " s, and this speech is " + FormatNumber(plan.audio.seconds()) +
+    return SendProblem(req, res, Problem::kVideoTooLong, field + ": a video is at most " + FormatNumber(max_seconds) + " s, and this speech is " + FormatNumber(plan.audio.seconds()) +
                            " s; say less at once, or ask for json, wav or a stream of frames",
                        {{field, "at most " + FormatNumber(max_seconds) + " s of speech as a video"}});
   }
@@ -76,7 +75,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   }
   const render::RenderOptions& size = r.render.render;
   if (r.format == FrameFormat::kWebm && static_cast<long long>(size.width) * size.height > ctx.options.max_video_pixels) {
-    return SendProblem(req, res, 422, "invalid-request", "/width: a video is at most " + std::to_string(ctx.options.max_video_pixels) + " pixels (1920 x 1080)",
+    return SendProblem(req, res, Problem::kInvalidRequest, "/width: a video is at most " + std::to_string(ctx.options.max_video_pixels) + " pixels (1920 x 1080)",
                        {{"/width", "width x height at most " + std::to_string(ctx.options.max_video_pixels)}});
   }
   if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;

@@ -77,6 +77,9 @@ Status InvalidField(const std::string& pointer, const std::string& message, Stat
 Status Prefixed(Status status, const std::string& prefix);
 // The same status with its reason set.
 Status WithReason(Status status, std::string reason);
+// The same for a status passed up from below, when it is the caller's input that is wrong (invalid
+// argument or failed precondition): a limit, a full disk or a cancellation keeps its own reason.
+Status WithInputReason(Status status, std::string reason);
 
 // A value or the Status that says why there is none.
 template <typename T>
