@@ -5,6 +5,8 @@
 // usage: node openapi_client_test.mjs SERVICE_URL API_KEY RIG_GLB
 // Prints ok/FAIL lines like the shell tests; exit 1 on a failure.
 import SwaggerClient from 'swagger-client';
+import Ajv2020 from 'ajv/dist/2020.js';
+import addFormats from 'ajv-formats';
 import fs from 'node:fs';
 
 const [service, key, glbPath] = process.argv.slice(2);
@@ -13,6 +15,37 @@ const check = (what, cond) => { if (cond) { pass++; console.log('ok   ' + what);
 
 const spec = await (await fetch(service + '/openapi.json')).json();
 spec.servers = [{ url: service }];
+
+// Each answer against the document (JSON Schema 2020-12, as OpenAPI 3.1 says): its status declared for the
+// operation, its content type declared for that status, a JSON body valid against that content's schema,
+// and every Facespace-* header (and Location, ETag) declared. The reasons it does not conform, if any.
+const ajv = new Ajv2020({ strict: false, allErrors: true });
+addFormats(ajv);
+ajv.addSchema({ $id: 'facespace-openapi', components: spec.components });
+const rooted = (schema) => JSON.parse(JSON.stringify(schema).replaceAll('"#/components/', '"facespace-openapi#/components/'));
+function nonConformance(op, r) {
+  const operation = spec.paths[op.path][op.method];
+  const declared = operation.responses[String(r.status)] || operation.responses.default;
+  if (!declared) return [`status ${r.status} is not declared (${Object.keys(operation.responses).join(', ')})`];
+  const out = [];
+  const type = (r.headers['content-type'] || '').split(';')[0].trim();
+  const text = typeof r.text === 'string' ? r.text : '';
+  if (declared.content) {
+    const media = declared.content[type];
+    if (!media) out.push(`${r.status} ${type || '(no type)'} is not declared (${Object.keys(declared.content).join(', ')})`);
+    else if (media.schema && /[/+]json$/.test(type) && text) {
+      const validate = ajv.compile(rooted(media.schema));
+      if (!validate(JSON.parse(text))) out.push(`${r.status} ${type} fails its schema: ${ajv.errorsText(validate.errors, { separator: '; ' }).slice(0, 300)}`);
+    }
+  } else if (text) {
+    out.push(`${r.status} has a body the document does not declare`);
+  }
+  const headers = Object.keys(declared.headers || {}).map((h) => h.toLowerCase());
+  for (const h of Object.keys(r.headers)) {
+    if ((/^facespace-/.test(h) || h === 'location' || h === 'etag') && !headers.includes(h)) out.push(`header ${h} is not declared for ${r.status}`);
+  }
+  return out;
+}
 const client = await SwaggerClient({ spec, authorizations: { bearer: { value: key } } });
 const glb = fs.readFileSync(glbPath);
 const json = (r) => (typeof r.body === 'object' && r.body !== null && !(r.body instanceof ArrayBuffer) ? r.body : JSON.parse(r.text));
@@ -129,6 +162,10 @@ for (const [id, [run, holds]] of Object.entries(cases)) {
   }
   check(`generated client: ${op.method.toUpperCase()} ${op.path} (${id}) -> ${r ? r.status : error}` +
         (ok || !r ? '' : ` ${error} ${typeof r.text === 'string' ? r.text.slice(0, 160) : r.headers['content-type']}`), ok);
+  if (r) {
+    const reasons = nonConformance(op, r);
+    check(`  ... the answer is the document's${reasons.length ? ': ' + reasons.join(' | ') : ''}`, reasons.length === 0);
+  }
 }
 console.log(`${pass} passed, ${fail} failed`);
 process.exit(fail ? 1 : 0);

@@ -2,6 +2,7 @@
 #include <algorithm>
 
 #include "context.h"
+#include "cost.h"
 #include "route_table.h"
 #include "framing.h"
 #include "problem.h"
@@ -86,6 +87,9 @@ bool RefuseBeforeBody(const httplib::Request& req, httplib::Response& res) {
 }  // namespace
 
 bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  // Every answer states its cost (401, 405 and OPTIONS too): this constant, replaced by the estimate of a
+  // route whose work grows with the request (cost.h, WithinBudget).
+  res.set_header("Facespace-Cost", kConstantCost);
   const std::string origin = req.get_header_value("Origin");
   const bool cors = !origin.empty() && OriginAllowed(ctx.options, origin);
   if (cors) {

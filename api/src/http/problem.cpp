@@ -1,5 +1,7 @@
 #include "problem.h"
 
+#include "cost.h"
+
 #include "facespace/batch/queue.h"
 #include "facespace/evaluator/request.h"
 #include "facespace/formats/io.h"
@@ -105,6 +107,8 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, Problem pr
   }
   if (!warnings.empty()) p["warnings"] = WarningsValue(warnings);
   res.status = t.status;
+  // A refusal written before any route (the connection front's) states its cost as every answer does.
+  if (!res.has_header("Facespace-Cost")) res.set_header("Facespace-Cost", kConstantCost);
   res.set_content(Dump(p), "application/problem+json");
 }
 

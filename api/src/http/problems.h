@@ -24,10 +24,10 @@ enum class Problem : uint8_t {
   kNotFound, kRigNotFound, kJobNotFound, kFileNotFound, kInvalidId,
   // What the request says.
   kInvalidRequest, kInvalidWeights, kInvalidControls, kInvalidTarget, kInvalidSequence, kWeightsLeaveAuthoredSpace,
-  kInvalidText, kInvalidAudio, kInvalidRig, kInvalidManifest, kInvalidVrm, kUnknownVoice, kNoMouth,
+  kInvalidText, kInvalidAudio, kInvalidRate, kInvalidRig, kInvalidManifest, kInvalidVrm, kUnknownVoice, kNoMouth,
   // Its size and cost.
   kTooLarge, kResponseTooLarge, kRenderTooLarge, kImageTooLarge, kTooManyCells, kTooManyFrames, kVideoTooLong,
-  kTextTooLong, kAudioTooLong, kAudioTooFast, kOverBudget,
+  kTextTooLong, kSpeechTooLong, kSayQueueFull, kTranscriptTooLong, kAudioTooLong, kAudioTooFast, kOverBudget,
   // The state of things.
   kReadOnly, kJobNotDone, kJobQueueFull, kJobsDisabled, kStorageFull, kStorageFailed,
   // The server's own room.

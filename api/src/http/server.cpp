@@ -75,8 +75,7 @@ std::optional<std::string> Api::Probe(const RequestHeadView& head) {
   for (const auto& [name, value] : head.headers) req.headers.emplace(name, value);
   Response res;
   http::PreRoute(ctx, req, res);  // CORS, as for every request (GET is never refused there).
-  res.status = 200;
-  res.set_header("Facespace-Cost", http::kConstantCost);
+  res.status = 200;  // PreRoute said its cost.
   handler(ctx, req, res);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const auto& labels = ctx.metrics.labels();
@@ -164,9 +163,7 @@ void Api::Register(httplib::Server& server) {
     const std::string pattern = http::PathPattern(route.path);
     auto handler = [&ctx, metric, h = route.handler](const Request& req, Response& res) {
       CurrentRequest().route = metric;
-      // Every route states its cost before it works: this constant for the routes whose work does not
-      // grow with the request, replaced by the estimate of those whose work does (cost.h, WithinBudget).
-      res.set_header("Facespace-Cost", http::kConstantCost);
+      // Its cost is stated before it works (PreRoute's constant, or the estimate: cost.h, WithinBudget).
       h(ctx, req, res);
       http::CompressBody(req, res, CurrentStop());  // On this worker, metered and stoppable (encoded.h).
     };

@@ -43,6 +43,55 @@ json PathsOfRoutes(const json& operations) {
   return paths;
 }
 
+// The headers answers carry beside their body, each declared once (components.headers).
+json HeaderComponents() {
+  const auto h = [](const char* description) { return json{{"description", description}, {"schema", {{"type", "string"}}}}; };
+  return {{"Facespace-Cost", h("The request's estimated CPU-seconds, stated before its work; on every answer")},
+          {"ETag", h("Strong validator of what the answer holds: send it back as If-None-Match for a 304")},
+          {"Location", h("The resource created or changed")},
+          {"Facespace-Frames", h("How many frames the answer holds")},
+          {"Facespace-Duration", h("The speech's length, in seconds")},
+          {"Facespace-Weight-Sum", h("The sum of the weights")},
+          {"Retry-After", h("Seconds to wait before trying again")},
+          {"WWW-Authenticate", h("Bearer: the API key this request needs")}};
+}
+
+// Which operations' successful answers carry which headers beyond Facespace-Cost (by operationId).
+const std::vector<std::pair<const char*, std::vector<const char*>>>& SuccessHeaders() {
+  static const std::vector<std::pair<const char*, std::vector<const char*>>> table = {
+      {"openapi", {"ETag"}}, {"listRigs", {"ETag"}}, {"checkWeights", {"Facespace-Weight-Sum"}},
+      {"getRig", {"ETag"}}, {"getManifest", {"ETag"}}, {"getTopology", {"ETag"}}, {"putRig", {"Location"}},
+      {"putManifest", {"Location"}}, {"sampleSequence", {"Facespace-Frames"}}, {"streamSequence", {"Facespace-Frames"}},
+      {"speak", {"Facespace-Duration"}}};
+  return table;
+}
+
+// Every answer of every operation names Facespace-Cost; 401 names WWW-Authenticate, 429 and 503
+// Retry-After; a success the headers SuccessHeaders lists.
+void DeclareHeaders(json& doc) {
+  doc["components"]["headers"] = HeaderComponents();
+  const auto ref = [](const char* name) { return json{{"$ref", std::string("#/components/headers/") + name}}; };
+  for (auto& [path, item] : doc["paths"].items()) {
+    for (auto& [method, op] : item.items()) {
+      if (!op.is_object() || !op.contains("responses")) continue;
+      const std::string id = op.value("operationId", "");
+      for (auto& [status, response] : op["responses"].items()) {
+        json& headers = response["headers"];
+        headers["Facespace-Cost"] = ref("Facespace-Cost");
+        if (status == "401") headers["WWW-Authenticate"] = ref("WWW-Authenticate");
+        if (status == "429" || status == "503") headers["Retry-After"] = ref("Retry-After");
+        if (status[0] != '2') continue;
+        for (const auto& [operation, names] : SuccessHeaders()) {
+          if (id != operation) continue;
+          for (const char* name : names) {
+            if (!headers.contains(name)) headers[name] = ref(name);
+          }
+        }
+      }
+    }
+  }
+}
+
 json Build() {
   return {{"openapi", "3.1.0"},
           {"info", {{"title", "facespace"}, {"version", FACESPACE_VERSION},
@@ -77,6 +126,7 @@ std::string OpenApiJson(const ApiOptions& limits) {
     for (const char* side : {"width", "height"}) schemas[schema]["properties"][side]["maximum"] = limits.max_render_size;
   }
   schemas["SheetRequest"]["properties"]["cells"]["oneOf"][0]["maxItems"] = limits.max_sheet_cells;
+  DeclareHeaders(doc);
   // Every problem type the server answers (http/problems.h): the type's values, and each with its status and title.
   json types = json::array(), problems = json::array();
   for (const http::ProblemType& t : http::Problems()) {
