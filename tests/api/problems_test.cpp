@@ -11,6 +11,7 @@
 #include <string>
 
 #include "facespace/api/http.h"
+#include "facespace/formats/io.h"
 #include "http/problems.h"
 
 namespace facespace::api::http {
@@ -106,6 +107,17 @@ TEST(Problems, TheDocumentListsEveryType) {
     EXPECT_EQ(listed[i]["status"], t.status);
     EXPECT_EQ(types[i], listed[i]["type"]);
   }
+}
+
+// A declaration the reader keeps and the document names: the manifest's members (formats/io.h).
+TEST(Declared, TheManifestSchemaNamesTheMembersTheReaderTakes) {
+  const nlohmann::json doc = nlohmann::json::parse(OpenApiJson(ApiOptions{}));
+  const nlohmann::json& schema = doc["components"]["schemas"]["Manifest"];
+  std::set<std::string> documented, read;
+  for (const auto& [name, _] : schema["properties"].items()) documented.insert(name);
+  for (std::string_view name : ManifestMembers()) read.insert(std::string(name));
+  EXPECT_EQ(documented, read);
+  EXPECT_EQ(schema["additionalProperties"], false);  // As the reader refuses an unknown member.
 }
 
 }  // namespace problems_test

@@ -75,7 +75,8 @@ const cases = {
   getRig: [() => call('getRig', { id: 'facecap' }), (r) => r.status === 200 && json(r).shapes[24].name === 'jawOpen'],
   putRig: [() => call('putRig', { id: 'client-upload' }, { requestBody: glb, requestContentType: 'model/gltf-binary' }),
            (r) => r.status === 201 && json(r).id === 'client-upload' && json(r).shapes === 52],
-  getManifest: [() => call('getManifest', { id: 'client-upload' }), (r) => r.status === 200 && typeof json(r).shapes === 'object'],
+  // A bundled rig's manifest (regions, landmarks...): what a client GETs, edits and PUTs is the document's Manifest.
+  getManifest: [() => call('getManifest', { id: 'facecap' }), (r) => r.status === 200 && typeof json(r).shapes === 'object' && 'landmarks' in json(r)],
   putManifest: [() => call('putManifest', { id: 'client-upload' }, body({ name: 'From the client', shapes: { jawOpen: { max: 2 } } })),
                 (r) => r.status === 200 && json(r).name === 'From the client'],
   // A generated HTTP client cannot upgrade: it is told so (426, problem+json naming the WebSocket).

@@ -386,13 +386,18 @@ json Manifest() {
   return {{"type", "object"},
           {"additionalProperties", false},
           {"description", "What a rig file does not say (core/README.md, \"Manifest\"); an unknown member is refused"},
-          {"properties", {{"name", String()}, {"credit", String()}, {"start", {{"enum", {"neutral", "defaults"}}}},
+          {"properties", {{"name", String()}, {"credit", String()}, {"license_url", {{"type", "string"}, {"format", "uri"}}},
+                          {"start", {{"enum", {"neutral", "defaults"}}}},
                           {"shapes", {{"type", "object"}, {"additionalProperties", {{"type", "object"}}}}},
                           {"groups", {{"type", "object"}, {"additionalProperties", ArrayOf(String())}}},
                           {"controls", {{"type", "object"}}}, {"derived", {{"type", "object"}}},
                           {"inbetweens", {{"type", "object"}}}, {"correctives", {{"type", "object"}}},
                           {"statistics", {{"type", "object"}}}, {"expressions", {{"type", "object"}}}, {"gaze", {{"type", "object"}}},
-                          {"base_motion", String()}, {"materials", {{"type", "object"}}}}}};
+                          {"base_motion", String()}, {"materials", {{"type", "object"}}},
+                          {"visemes", {{"type", "object"}, {"description", "Each viseme's shapes and weights"}}},
+                          {"terms", {{"type", "object"}, {"description", "The rig's licence terms (VRM's)"}}},
+                          {"regions", {{"type", "object"}, {"description", "Named parts of the mesh (skin, eyes, teeth...)"}}},
+                          {"landmarks", {{"type", "object"}, {"description", "A landmark scheme's points on the mesh"}}}}}};
 }
 
 json Check() {

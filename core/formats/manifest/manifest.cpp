@@ -76,13 +76,18 @@ Status ApplyPlainMembers(Rig& rig, const json& j) {
 
 }  // namespace
 
+std::vector<std::string_view> ManifestMembers() {
+  std::vector<std::string_view> members(std::begin(kPlainMembers), std::end(kPlainMembers));
+  for (const auto& section : kSections) members.push_back(section.first);
+  return members;
+}
+
 Status ApplyManifest(Rig& rig, const std::string& text) {
   if (Status s = CheckJsonDepth(text, "manifest"); !s.ok()) return s;
   json j = json::parse(text, nullptr, false);
   if (j.is_discarded()) return InvalidArgument("manifest: not valid JSON");
   if (!j.is_object()) return InvalidArgument("manifest: must be a JSON object");
-  std::vector<std::string_view> members(std::begin(kPlainMembers), std::end(kPlainMembers));
-  for (const auto& section : kSections) members.push_back(section.first);
+  const std::vector<std::string_view> members = ManifestMembers();
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(members.begin(), members.end(), it.key()) == members.end()) {
       return Bad("/" + JsonPointerEscape(it.key()), "unknown member" + DidYouMean(it.key(), members));

@@ -130,6 +130,9 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {}
 
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
 Status ApplyManifest(Rig& rig, const std::string& json_text);
+// The members a manifest may hold, as ApplyManifest reads them (any other is refused); the OpenAPI
+// document's Manifest schema names the same (a test compares them).
+std::vector<std::string_view> ManifestMembers();
 
 // kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp);
 // kVrm0: the same as VRM 0.x (its "VRM" extension, turned to face -z: export/vrm0.cpp).
