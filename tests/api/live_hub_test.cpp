@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <string>
 #include <thread>
 #include <vector>
@@ -128,6 +129,53 @@ TEST(LiveHub, SessionsWithHelperThreadsAnswerEveryMessageAndClose) {
   EXPECT_EQ(closes.load(), kSessions);
   hub.Stop();
   EXPECT_EQ(hub.open(), 0u);
+}
+
+// A turn that takes a while; End counts the times it found a turn of its session running (as a live
+// listener's Poll was while End dropped it: the server's crash after 48 rounds of four listeners).
+class SlowTurn final : public LiveHandler {
+ public:
+  SlowTurn(std::atomic<int>& ends, std::atomic<int>& overlaps) : ends_(ends), overlaps_(overlaps) {}
+  void Open(Out&) override {}
+  void OnText(std::string_view, Out& out) override {
+    in_turn_ = true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    out.texts.push_back("done");
+    in_turn_ = false;
+  }
+  void OnBinary(std::string_view, Out&) override {}
+  bool MakeFrame(std::string&, Out&) override { return false; }
+  void End() override {
+    overlaps_ += in_turn_.load();
+    ++ends_;
+  }
+
+ private:
+  std::atomic<bool> in_turn_{false};
+  std::atomic<int>& ends_;
+  std::atomic<int>& overlaps_;
+};
+
+TEST(LiveHub, AClientGoneDuringATurnEndsItsSessionAfterTheTurn) {
+  LiveLimits limits;
+  limits.workers = 2;
+  LiveHub hub(limits);
+  constexpr int kSessions = 12;
+  std::atomic<int> ends{0}, overlaps{0};
+  for (int i = 0; i < kSessions; ++i) {
+    int pair[2];
+    ASSERT_EQ(socketpair(AF_UNIX, SOCK_STREAM, 0, pair), 0);
+    ASSERT_TRUE(hub.Reserve("127.0.0.1"));
+    hub.Adopt(pair[1], "127.0.0.1", "", std::make_unique<SlowTurn>(ends, overlaps), SessionBounds{});
+    const std::string text = ClientFrame(ws::Opcode::kText, "slow");
+    send(pair[0], text.data(), text.size(), MSG_NOSIGNAL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // Its turn has begun: then the client is gone.
+    ::close(pair[0]);
+  }
+  for (int i = 0; i < 500 && ends.load() < kSessions; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(ends.load(), kSessions);
+  EXPECT_EQ(overlaps.load(), 0) << "End ran while a turn of its session was running";
+  hub.Stop();
 }
 
 }  // namespace live_hub_test

@@ -50,6 +50,9 @@ struct LiveHub::Session {
   Clock::time_point waiting_since;  // Bytes queued and none taken since.
   bool closing = false, shut = false;
   Clock::time_point linger_until;
+  // Held by a turn (on a worker) and by End (on the loop): the handler is never in both at once. Without
+  // it a client closing right after {"listen"} had End drop the listener a turn was polling.
+  std::mutex turn_mu;
 
   ~Session() {
     if (fd >= 0) ::close(fd);
@@ -452,6 +455,7 @@ void LiveHub::Forget(const std::shared_ptr<Session>& s) {
   s->reading = false;
   ::shutdown(s->fd, SHUT_RDWR);
   s->handler->Cancel();
+  std::lock_guard<std::mutex> turn(s->turn_mu);  // A turn running for it ends first.
   s->handler->End();
 }
 
@@ -515,6 +519,7 @@ void LiveHub::Apply(const std::shared_ptr<Session>& s, LiveHandler::Out& out) {
 
 // A session's turn: its messages, then its frame if one is due and the last is out.
 void LiveHub::Turn(const std::shared_ptr<Session>& s) {
+  std::lock_guard<std::mutex> turn(s->turn_mu);
   std::deque<std::pair<ws::Opcode, std::string>> inbox;
   bool closing;
   {
