@@ -2,8 +2,6 @@
 
 #include "cost.h"
 
-#include "facespace/batch/queue.h"
-#include "facespace/evaluator/request.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 
