@@ -63,6 +63,25 @@ async function call(operationId, parameters = {}, extra = {}) {
   }
 }
 
+// The document's own example of an operation: its parameters' examples and its body's. The cases send
+// these (a case adds what only a running server knows: a job's id, an uploaded file, a mesh to fit).
+function example(operationId) {
+  for (const item of Object.values(spec.paths)) {
+    for (const op of Object.values(item)) {
+      if (op.operationId !== operationId) continue;
+      const parameters = {};
+      for (const p of op.parameters || []) if ('example' in p) parameters[p.name] = p.example;
+      const ex = op.requestBody?.content?.['application/json']?.examples?.example;
+      return { parameters, body: ex ? ex.value : undefined };
+    }
+  }
+  throw new Error(`no operation ${operationId}`);
+}
+const examples = (operationId, extra = {}) => {
+  const ex = example(operationId);
+  return call(operationId, ex.parameters, { ...(ex.body !== undefined ? body(ex.body) : {}), ...extra });
+};
+
 const job = {};
 const body = (b) => ({ requestBody: b, requestContentType: 'application/json' });
 // Each operation of the document: how to call it, and what its answer must hold.
@@ -72,50 +91,48 @@ const cases = {
   metrics: [() => call('metrics'), (r) => r.status === 200 && /facespace_http_requests_total/.test(r.text)],
   openapi: [() => call('openapi'), (r) => r.status === 200 && json(r).openapi.startsWith('3.1')],
   listRigs: [() => call('listRigs'), (r) => r.status === 200 && json(r).rigs.some((x) => x.id === 'facecap' && x.shapes === 52)],
-  getRig: [() => call('getRig', { id: 'facecap' }), (r) => r.status === 200 && json(r).shapes[24].name === 'jawOpen'],
-  putRig: [() => call('putRig', { id: 'client-upload' }, { requestBody: glb, requestContentType: 'model/gltf-binary' }),
+  getRig: [() => examples('getRig'), (r) => r.status === 200 && json(r).shapes[24].name === 'jawOpen'],
+  putRig: [() => call('putRig', example('putRig').parameters, { requestBody: glb, requestContentType: 'model/gltf-binary' }),
            (r) => r.status === 201 && json(r).id === 'client-upload' && json(r).shapes === 52],
   // A bundled rig's manifest (regions, landmarks...): what a client GETs, edits and PUTs is the document's Manifest.
-  getManifest: [() => call('getManifest', { id: 'facecap' }), (r) => r.status === 200 && typeof json(r).shapes === 'object' && 'landmarks' in json(r)],
-  putManifest: [() => call('putManifest', { id: 'client-upload' }, body({ name: 'From the client', shapes: { jawOpen: { max: 2 } } })),
+  getManifest: [() => examples('getManifest'), (r) => r.status === 200 && typeof json(r).shapes === 'object' && 'landmarks' in json(r)],
+  putManifest: [() => examples('putManifest'),
                 (r) => r.status === 200 && json(r).name === 'From the client'],
   // A generated HTTP client cannot upgrade: it is told so (426, problem+json naming the WebSocket).
-  getLive: [() => call('getLive', { id: 'facecap' }), (r) => r.status === 426 && /WebSocket/.test(r.text)],
-  getTopology: [() => call('getTopology', { id: 'facecap', lod: 1 }),
+  getLive: [() => examples('getLive'), (r) => r.status === 426 && /WebSocket/.test(r.text)],
+  getTopology: [() => examples('getTopology'),
                 (r) => r.status === 200 && json(r).primitives.length === 4 && json(r).primitives.every((p) => p.indices.length % 3 === 0)],
   // The weights as the document declares them (deepObject): w[jawOpen]=0.5 on the wire.
-  getMesh: [() => call('getMesh', { id: 'facecap', w: { jawOpen: 0.5 }, format: 'json' }),
+  getMesh: [() => examples('getMesh'),
             (r) => r.status === 200 && /w%5BjawOpen%5D=0.5/.test(r.request.url) && r.headers['facespace-weight-sum'] === '0.5' &&
                    json(r).primitives.length === 4],
-  postMesh: [() => call('postMesh', { id: 'facecap' }, body({ weights: { jawOpen: 1.5 }, format: 'json' })),
+  postMesh: [() => examples('postMesh'),
              (r) => r.status === 200 && json(r).warnings.some((w) => w.code === 'extrapolation')],
-  checkWeights: [() => call('checkWeights', { id: 'facecap' }, body({ weights: { jawOpen: 0.4, mouthSmile_L: 0.2 } })),
+  checkWeights: [() => examples('checkWeights'),
                  (r) => r.status === 200 && Math.abs(json(r).sum - 0.6) < 1e-6 && json(r).warnings.length === 0],
   // An image route answers the type asked for (Accept); the client asks as its caller says.
-  getRender: [() => call('getRender', { id: 'facecap', w: { jawOpen: 1 }, width: 64, height: 64, frame: 'shapes', yaw: 20 },
-                         { responseContentType: 'image/png' }),
+  getRender: [() => examples('getRender', { responseContentType: 'image/png' }),
               (r) => r.status === 200 && /image\/png/.test(r.headers['content-type']) && /w%5BjawOpen%5D=1/.test(r.request.url)],
-  postRender: [() => call('postRender', { id: 'facecap' }, body({ weights: { jawOpen: 1 }, width: 64, height: 64, format: 'webp' })),
+  postRender: [() => examples('postRender'),
                (r) => r.status === 200 && /image\/webp/.test(r.headers['content-type'])],
-  postSheet: [() => call('postSheet', { id: 'facecap' }, { ...body({ cells: [{}, { weights: { jawOpen: 1 }, label: 'open' }], width: 32, height: 32 }),
-                                                            responseContentType: 'image/png' }),
+  postSheet: [() => examples('postSheet', { responseContentType: 'image/png' }),
               (r) => r.status === 200 && /image\/png/.test(r.headers['content-type'])],
-  sampleSequence: [() => call('sampleSequence', { id: 'facecap' }, body({ keys: [{ time: 0 }, { time: 1, shape: 'jawOpen' }], times: [0.5] })),
+  sampleSequence: [() => examples('sampleSequence'),
                    (r) => r.status === 200 && json(r).frames[0].weights.jawOpen === 0.5],
-  streamSequence: [() => call('streamSequence', { id: 'facecap' }, body({ keys: [{ time: 0 }, { time: 0.1, shape: 'jawOpen' }], fps: 1000, format: 'ndjson' })),
+  streamSequence: [() => examples('streamSequence'),
                    (r) => r.status === 200 && r.text.trim().split('\n').length >= 100],
-  reduceSequence: [() => call('reduceSequence', { id: 'facecap' },
-                              body({ keys: [{ time: 0 }, { time: 0.5, weights: { jawOpen: 0.5 } }, { time: 1, shape: 'jawOpen' }], tolerance: 0.001 })),
+  reduceSequence: [() => examples('reduceSequence'),
                    (r) => r.status === 200 && json(r).kept === 2 && json(r).removed === 1],
-  speak: [() => call('speak', { id: 'facecap' }, body({ text: 'Hello there.', format: 'json' })),
+  speak: [() => examples('speak'),
           (r) => r.status === 200 && json(r).source === 'espeak-ng' && json(r).visemes.some((v) => v.viseme === 'aa') && json(r).keys.length > 2],
   listVoices: [() => call('listVoices'), (r) => r.status === 200 && json(r).voices.some((v) => v.language === 'en-us')],
   fit: [async () => {
-          const target = json(await call('getMesh', { id: 'facecap', w: { jawOpen: 0.5 }, format: 'json' }));
-          return call('fit', { id: 'facecap' }, body({ target }));
+          const target = json(await examples('getMesh'));
+          const ex = example('fit');
+          return call('fit', ex.parameters, body({ ...ex.body, target }));
         },
         (r) => r.status === 200 && Math.abs(json(r).weights.jawOpen - 0.5) < 1e-3],
-  startBatch: [() => call('startBatch', { id: 'facecap' }, body({ sample: { method: 'uniform', count: 3, seed: 2 }, format: 'obj' })),
+  startBatch: [() => examples('startBatch'),
                (r) => { job.id = r.status === 202 && json(r).links.self.split('/').pop(); return r.status === 202 && /^[0-9a-f]{32}$/.test(job.id); }],
   listJobs: [() => call('listJobs'), (r) => r.status === 200 && json(r).jobs.some((j) => j.links.self.endsWith(job.id))],
   getJob: [async () => {
@@ -137,7 +154,7 @@ const cases = {
                async (r) => r.status === 200 && /^v /m.test(r.data instanceof Blob ? await r.data.text() : r.text)],
   getJobResults: [() => call('getJobResults', { job: job.id }), (r) => r.status === 200 && /application\/zip/.test(r.headers['content-type'])],
   deleteJob: [() => call('deleteJob', { job: job.id }), (r) => r.status === 204],
-  deleteRig: [() => call('deleteRig', { id: 'client-upload' }), (r) => r.status === 204],
+  deleteRig: [() => examples('deleteRig'), (r) => r.status === 204],
 };
 
 const operations = [];

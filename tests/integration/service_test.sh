@@ -331,6 +331,30 @@ if [ -n "$node_modules" ] && [ -d "$node_modules/@seriousme/openapi-schema-valid
   node "$node_modules/../openapi_client_test.mjs" "$U" k3y-for-tests "$store/facecap.glb" >"$tmp/client.out" 2>&1; rc=$?
   sed 's/^/     /' "$tmp/client.out"
   check "OpenAPI: a client generated from the document (swagger-client) calls every operation, each answer checked" test $rc -eq 0
+  # Redocly's recommended rules: no error (warnings are shown).
+  if [ -x "$node_modules/.bin/redocly" ]; then
+    "$node_modules/.bin/redocly" lint --format=stylish "$tmp/openapi.json" >"$tmp/lint.out" 2>&1; rc=$?
+    grep -E '^ +[0-9]+:[0-9]+ +(error|warning)' "$tmp/lint.out" | sed 's/^/     /'
+    check "OpenAPI: Redocly's recommended lint reports no error" test $rc -eq 0
+  else
+    no "Redocly CLI not installed (run .ci/dev test)"
+  fi
+  # Types from the document (openapi-typescript, default options), a client script compiled against
+  # them with tsc --strict, and run: ten operations on this server.
+  if [ -x "$node_modules/.bin/tsc" ] && [ -x "$node_modules/.bin/openapi-typescript" ]; then
+    typed=$tmp/typed; mkdir -p "$typed"; ln -s "$node_modules" "$typed/node_modules"
+    cp "$src/tests/integration/typed_client.ts" "$typed/"
+    "$node_modules/.bin/openapi-typescript" "$tmp/openapi.json" -o "$typed/api.d.ts" >"$typed/gen.out" 2>&1 || cat "$typed/gen.out"
+    (cd "$typed" && "$node_modules/.bin/tsc" --strict --target es2022 --module nodenext --moduleResolution nodenext typed_client.ts) \
+      >"$typed/tsc.out" 2>&1; rc=$?
+    sed 's/^/     /' "$typed/tsc.out"
+    check "OpenAPI: openapi-typescript's types of the document compile a ten-operation client under tsc --strict" test $rc -eq 0
+    node "$typed/typed_client.js" "$U" k3y-for-tests >"$typed/run.out" 2>&1; rc=$?
+    sed 's/^/     /' "$typed/run.out"
+    check "OpenAPI: the typed client's ten operations answer as their types say" test $rc -eq 0
+  else
+    no "TypeScript and openapi-typescript not installed (run .ci/dev test)"
+  fi
 else
   no "OpenAPI validator not installed (run .ci/dev test)"
 fi

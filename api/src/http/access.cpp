@@ -6,6 +6,7 @@
 #include "route_table.h"
 #include "framing.h"
 #include "problem.h"
+#include "../openapi/openapi.h"
 
 namespace facespace::api::http {
 
@@ -79,6 +80,31 @@ namespace {
 
 // A refusal sent before the body is read. When the request declared a body the client may be
 // sending it still: the connection is marked to close, so its bytes are never read as a request.
+// A query parameter its operation does not declare (the document's, openapi::QueryParameters) is
+// refused alike on every route without a body: 422 naming it. The mesh and render GETs read theirs
+// themselves (http/query_params.h, the same lists the document declares), with hints for the maps.
+bool RefusedQuery(const httplib::Request& req, httplib::Response& res) {
+  const PathRoutes routes = MatchPath(req.path);
+  const Route* route = routes.path ? routes.Find(req.method == "HEAD" ? "GET" : req.method) : nullptr;
+  if (!route) return false;
+  const std::string_view path = route->path;
+  if (path == "/v1/rigs/{id}/mesh" || path == "/v1/rigs/{id}/render") return false;
+  const std::vector<openapi::QueryParameter>& declared = openapi::QueryParameters(route->method, path);
+  for (const auto& [name, value] : req.params) {
+    bool known = false;
+    for (const openapi::QueryParameter& d : declared) {
+      known = known || name == d.name || (d.map && (name.starts_with(d.name + ".") || name.starts_with(d.name + "[")));
+    }
+    if (known) continue;
+    std::string list;
+    for (const openapi::QueryParameter& d : declared) list += (list.empty() ? "" : ", ") + d.name;
+    const std::string detail = "unknown query parameter; " + (list.empty() ? std::string("this operation takes none") : "it takes " + list);
+    SendProblem(req, res, Problem::kInvalidRequest, name.substr(0, 64) + ": " + detail, {{"?" + name.substr(0, 64), detail}});
+    return true;
+  }
+  return false;
+}
+
 bool RefuseBeforeBody(const httplib::Request& req, httplib::Response& res) {
   if (req.has_header("Content-Length") || req.has_header("Transfer-Encoding")) res.set_header("Connection", "close");
   return true;
@@ -98,6 +124,8 @@ bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Resp
     res.set_header("Access-Control-Expose-Headers", "Facespace-Weight-Sum, Facespace-Warnings, Facespace-Cost, ETag, Location, Server-Timing");
     res.set_header("Timing-Allow-Origin", origin);  // The browser's performance API sees Server-Timing too.
   }
+  const bool bodiless = req.method == "GET" || req.method == "HEAD" || req.method == "DELETE";
+  if (bodiless && !req.params.empty() && RefusedQuery(req, res)) return true;
   // GET and HEAD carry no body: cpp-httplib routes them (405 and 404 included) at no extra cost.
   if (req.method == "GET" || req.method == "HEAD") return false;
 

@@ -33,6 +33,8 @@ json PathsOfRoutes(const json& operations) {
     if (item->contains("parameters") && !op.contains("parameters")) op["parameters"] = (*item)["parameters"];
     // Public operations say so (an empty requirement), beside the keyed ones' bearer.
     if (!op.contains("security")) op["security"] = json::array();
+    // A query parameter it does not declare is refused (http/access.cpp, RefusedQuery; the JSON body readers).
+    if (!op["responses"].contains("422")) op["responses"]["422"] = Problem("A query parameter the operation does not declare");
     // Every body is bounded (--max-body) and must be JSON unless the operation says otherwise.
     if (op.contains("requestBody")) {
       if (!op["responses"].contains("413")) op["responses"]["413"] = Problem("The body is over the server's limit (--max-body)");
@@ -95,9 +97,12 @@ void DeclareHeaders(json& doc) {
 json Build() {
   return {{"openapi", "3.1.0"},
           {"info", {{"title", "facespace"}, {"version", FACESPACE_VERSION},
+                    {"license", {{"name", "MIT"}, {"identifier", "MIT"}}},
                     {"description", "Blend-shape rigs over HTTP: blended meshes with warnings when a point leaves the authored space. "
                                     "Errors are RFC 9457 problem details. A method a path does not list answers 405 with an Allow "
                                     "header; too many connections (from one address or in all) answer 503 with Retry-After."}}},
+          {"servers", json::array({{{"url", "/"}, {"description", "The server that answers this document"}}})},
+          {"tags", openapi::Tags()},
           {"paths", PathsOfRoutes(openapi::Operations())},
           {"components", {{"schemas", openapi::Schemas()}, {"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}}}};
 }
@@ -126,6 +131,7 @@ std::string OpenApiJson(const ApiOptions& limits) {
     for (const char* side : {"width", "height"}) schemas[schema]["properties"][side]["maximum"] = limits.max_render_size;
   }
   schemas["SheetRequest"]["properties"]["cells"]["oneOf"][0]["maxItems"] = limits.max_sheet_cells;
+  openapi::AddGuides(doc["paths"]);
   DeclareHeaders(doc);
   // Every problem type the server answers (http/problems.h): the type's values, and each with its status and title.
   json types = json::array(), problems = json::array();

@@ -4,6 +4,8 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace facespace::api::openapi {
 
@@ -13,6 +15,18 @@ using nlohmann::json;
 json Schemas();
 // {PATH: {METHOD: operation, "parameters"?: [...]}} for every route there is.
 json Operations();
+
+// The document's tags, and each operation's tag, description and examples (guide.cpp) put into `paths`.
+json Tags();
+void AddGuides(json& paths);
+
+// The query parameters the document declares for `method` (upper case) on `path` (the route table's
+// spelling), built once from Operations(); a deepObject map ("w") stands for its w[NAME] and w.NAME.
+struct QueryParameter {
+  std::string name;
+  bool map = false;
+};
+const std::vector<QueryParameter>& QueryParameters(std::string_view method, std::string_view path);
 
 // A response whose body is a problem (RFC 9457) described so.
 json Problem(const std::string& description);

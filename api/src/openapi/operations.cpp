@@ -6,6 +6,7 @@
 #include "openapi.h"
 #include "../http/query_params.h"
 #include "facespace/core/speech.h"
+#include "facespace/evaluator/members.h"
 
 namespace facespace::api::openapi {
 
@@ -15,6 +16,11 @@ json Problem(const std::string& description) {
 }
 
 namespace {
+
+using facespace::api::Body;
+using facespace::api::Kind;
+using facespace::api::Member;
+using facespace::api::Members;
 
 // The headers every answer of the mesh and image routes carries.
 json CommonHeaders() {
@@ -160,7 +166,22 @@ json QueryParams(bool render) {
   return params;
 }
 
-json OkJson() { return {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}}}}}}}}; }
+// The speech route's settings as query parameters, read with an audio/wav body (a JSON body takes
+// them as members): the speech table's members but text and audio, objects as JSON text.
+json SpeechQuery() {
+  json params = json::array({IdParam()});
+  for (const Member& m : Members(Body::kSpeech)) {
+    if (m.name == "text" || m.name == "audio") continue;
+    json schema = m.kind == Kind::kNumber ? json{{"type", "number"}}
+                  : m.kind == Kind::kInteger ? json{{"type", "integer"}}
+                  : m.kind == Kind::kBoolean ? json{{"type", "boolean"}} : json{{"type", "string"}};
+    params.push_back({{"name", std::string(m.name)}, {"in", "query"}, {"schema", schema},
+                      {"description", "With an audio/wav body: " + std::string(m.doc) + (m.kind == Kind::kSchema ? " (as JSON)" : "")}});
+  }
+  return params;
+}
+
+json OkJson() { return {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}, {"additionalProperties", true}}}}}}}}; }
 
 // A 200 whose JSON body is the component `name`.
 json JsonOk(const char* name, const char* description = "OK") {
@@ -196,11 +217,14 @@ json RigOperations() {
                  {"responses", {{"200", JsonOk("Rig")}, {"404", Problem("Unknown rig")}}}}},
         {"put", {{"summary", "Upload or replace a rig (validated fully, stored atomically)"}, {"operationId", "putRig"},
                  {"security", Auth()},
+                 {"parameters", json::array({IdParam(), {{"name", "filename"}, {"in", "query"}, {"schema", {{"type", "string"}}},
+                                                         {"description", "A plain upload's file name (else Content-Disposition's), "
+                                                                         "whose extension says its format"}}})},
                  {"requestBody", {{"required", true},
                                   {"description", "glb, glTF with embedded buffers, COLLADA, or (as application/octet-stream with a "
                                                    "file name in Content-Disposition or ?filename=, else told by its magic) FBX, .dae, .glb, .gltf"},
                                   {"content", {{"model/gltf-binary", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}},
-                                               {"model/gltf+json", {{"schema", {{"type", "object"}}}}},
+                                               {"model/gltf+json", {{"schema", {{"type", "object"}, {"additionalProperties", true}, {"description", "glTF 2.0 JSON, buffers embedded"}}}}},
                                                {"model/vnd.collada+xml", {{"schema", {{"type", "string"}}}}},
                                                {"application/octet-stream", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}},
                                                {"multipart/form-data",
@@ -293,14 +317,7 @@ json PointOperations() {
        {{"post", {{"summary", "Weights that best reproduce a target mesh (least squares), with residual and warnings"},
                   {"operationId", "fit"},
                   {"parameters", json::array({IdParam()})},
-                  {"requestBody", {{"required", true},
-                                   {"content", {{"application/json",
-                                                 {{"schema", {{"type", "object"},
-                                                              {"required", {"target"}},
-                                                              {"properties", {{"target", {{"$ref", "#/components/schemas/MeshJson"}}},
-                                                                              {"bounded", {{"type", "boolean"}}},
-                                                                              {"sum_at_most_one", {{"type", "boolean"}}},
-                                                                              {"rigid_align", {{"type", "boolean"}}}}}}}}}}}}},
+                  {"requestBody", {{"required", true}, {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/FitRequest"}}}}}}}}},
                   {"responses", {{"200", JsonOk("Fit")}, {"400", Problem("Malformed JSON")}, {"404", Problem("Unknown rig")},
                                  {"422", Problem("A target that does not match the rig")}}}}}}}};
 }
@@ -335,30 +352,11 @@ json SequenceOperations() {
          {{"summary", "Lip sync: text (espeak-ng) or recorded speech (PocketSphinx) to phonemes, visemes and keys on the rig, as JSON, a stream of frames, "
                       "the audio (WAV) or a video (WebM: VP9 + Opus)"},
           {"operationId", "speak"},
-          {"parameters", json::array({IdParam()})},
+          {"parameters", SpeechQuery()},
           {"requestBody",
            {{"required", true},
             {"content",
-             {{"application/json",
-               {{"schema",
-                 {{"type", "object"},
-                  {"properties",
-                   {{"text", {{"type", "string"}, {"maxLength", 2000}, {"description", "Words to say (espeak-ng); or audio"}}},
-                    {"audio", {{"type", "string"}, {"contentEncoding", "base64"}, {"description", "A WAV file (at most 60 s) to lip-sync"}}},
-                    {"transcript", {{"type", "string"}, {"description", "With audio: the words said, to align to"}}},
-                    {"voice", {{"type", "string"}, {"default", facespace::kDefaultVoice}, {"description", "An espeak-ng voice (GET /v1/voices)"}}},
-                    {"rate", {{"type", "integer"}, {"minimum", 80}, {"maximum", 450}, {"default", 175}}},
-                    {"fps", {{"type", "number"}, {"minimum", 1}, {"maximum", 120}, {"default", 30}}},
-                    {"strength", {{"type", "number"}, {"minimum", 0}, {"maximum", 2}, {"default", 1}}},
-                    {"format", {{"type", "string"}, {"enum", {"json", "ndjson", "f32", "weights", "wav", "webm"}}, {"default", "json"}}},
-                    {"with_audio", {{"type", "boolean"}, {"description", "json: the audio too, as audio_wav (base64 WAV)"}}},
-                    {"weights", {{"description", "The face under the speech, as on the mesh route"}}},
-                    {"expressions", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}},
-                    {"gaze", {{"type", "object"}}},
-                    {"blink", {{"type", "object"}}},
-                    {"width", {{"type", "integer"}}},
-                    {"height", {{"type", "integer"}}},
-                    {"camera", {{"type", "object"}}}}}}}}},
+             {{"application/json", {{"schema", {{"$ref", "#/components/schemas/SpeechRequest"}}}}},
               {"audio/wav", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}}}}}},
           {"responses",
            {{"200", {{"description", "json: phonemes, visemes ({viseme, start, end}) and keys; ndjson/weights/f32: the frames streamed; wav; webm"},

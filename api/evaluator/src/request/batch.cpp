@@ -88,8 +88,7 @@ void SampleFromJson(const json& s, BatchRequest& r, Status& errors) {
       if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
       else (key == "symmetric" ? r.sample.symmetric : r.sample.sum_at_most_one) = v.get<bool>();
     } else {
-      errors.fields.push_back({ptr, "unknown member (method, count, seed, shapes, fixed, center, spread, points, "
-                                    "active, symmetric, sum_at_most_one)"});
+      UnknownMember("/sample", key, Body::kSample, errors);
     }
   }
   if (!has_method) errors.fields.push_back({"/sample/method", "is required"});
@@ -117,6 +116,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
           errors.fields.push_back({ptr, "must be an object with \"weights\""});
           continue;
         }
+        RefuseUnknown(v[i], ptr, Body::kVariant, errors);
         auto w = WeightsFromJson(v[i]["weights"], ptr + "/weights");
         if (w.ok()) variant.weights = std::move(w.value());
         else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
@@ -152,7 +152,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
     } else if (key == "weights" || key == "strict" || key == "keep_targets") {
       errors.fields.push_back({"/" + key, "is not a batch member: give \"variants\" or \"sample\""});
     } else if (!MeshMember(key, v, r.render.mesh, false, errors) && !RenderMember(key, v, r.render, errors)) {
-      UnknownMember(key, kBatchMembers, errors);
+      UnknownMember("", key, Body::kBatch, errors);
     }
   }
   FinishPose(r.render.mesh.pose, errors);

@@ -111,7 +111,7 @@ void RandomizeFromJson(const json& v, Randomization& r, Status& errors) {
         if (strength) r.expressions.emplace_back(e.key(), *strength);
       }
     } else {
-      errors.fields.push_back({ptr, "unknown member (seed, camera, light, background, expressions, gaze)"});
+      UnknownMember("/randomize", key, Body::kRandomize, errors);
     }
   }
 }
@@ -127,8 +127,7 @@ bool DatasetMember(const std::string& key, const json& v, DatasetRequest& r, Sta
       errors.fields.push_back({"/archive", "unknown archive: the archives are " + EnumNames(kArchives)});
     }
   } else if (key == "shard_samples") {
-    if (!v.is_number_integer() || !Number(v, 1, 1000000, &d)) errors.fields.push_back({"/shard_samples", "must be an integer in 1..1000000"});
-    else r.shard_samples = static_cast<size_t>(d);
+    if (ReadNumber(Body::kBatch, key, v, "/shard_samples", &d, errors)) r.shard_samples = static_cast<size_t>(d);
   } else if (key == "randomize") {
     RandomizeFromJson(v, r.randomize, errors);
   } else {

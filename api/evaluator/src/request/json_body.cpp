@@ -20,15 +20,6 @@ namespace facespace::api::body {
 
 
 
-void UnknownMember(const std::string& key, std::span<const std::string_view> members, Status& errors) {
-  std::string message = "unknown member" + DidYouMean(key, members);
-  if (message.size() == 14) {
-    message += "; the members are";
-    for (std::string_view m : members) message += std::string(m == members.front() ? " " : ", ") + std::string(m);
-  }
-  errors.fields.push_back({"/" + JsonPointerEscape(key), message});
-}
-
 Status FieldStatus(const std::string& pointer, const std::string& message) { return InvalidField(pointer, message); }
 
 Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::string& pointer) {
@@ -113,7 +104,7 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
       else if (p.key() == "euler") ok = j.has_euler = FloatArray(*p, j.euler.data(), 3);
       else if (p.key() == "translation") ok = j.has_translation = FloatArray(*p, j.translation.data(), 3);
       else if (p.key() == "scale") ok = j.has_scale = FloatArray(*p, j.scale.data(), 3);
-      else errors.fields.push_back({ptr, "unknown member (rotation, euler, translation, scale)"});
+      else UnknownMember(j.pointer, p.key(), Body::kJoint, errors);
       if (!ok) {
         errors.fields.push_back({ptr, p.key() == "rotation" ? "must be [x, y, z, w] of finite numbers" : "must be [x, y, z] of finite numbers"});
       }
@@ -191,7 +182,7 @@ void BlinkFromJson(const json& v, const std::string& ptr, float& per_minute, uin
       if (!m->is_number_unsigned()) errors.fields.push_back({mp, "must be an integer >= 0"});
       else seed = m->get<uint64_t>();
     } else {
-      errors.fields.push_back({mp, "unknown member (per_minute, seed)"});
+      UnknownMember(ptr, m.key(), Body::kBlink, errors);
     }
   }
 }
@@ -216,7 +207,7 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
         if (!p->is_number() || !std::isfinite(p->get<double>())) errors.fields.push_back({ptr, "must be a finite number"});
         else (p.key() == "time" ? c.time : c.weight) = p->get<float>();
       } else if (!LoopOrMask(p.key(), *p, ptr, c, errors)) {
-        errors.fields.push_back({ptr, "unknown member (animation, time, weight, loop, mask)"});
+        UnknownMember(c.pointer, p.key(), Body::kBlendClip, errors);
       }
     }
     if (c.weight < 0.0f) errors.fields.push_back({c.pointer + "/weight", "must be >= 0"});
@@ -260,7 +251,7 @@ void LayersFromJson(const json& v, PoseRequest& pose, Status& errors) {
         if (k == "fade_in") c.fade_in = static_cast<float>(x);
         if (k == "fade_out") c.fade_out = static_cast<float>(x);
       } else if (!LoopOrMask(k, *p, ptr, c, errors)) {
-        errors.fields.push_back({ptr, "unknown member (motion, animation, time, frame, weight, loop, fade_in, fade_out, mask)"});
+        UnknownMember(c.pointer, k, Body::kLayer, errors);
       }
     }
     pose.clips.push_back(std::move(c));
@@ -286,7 +277,7 @@ std::optional<Gaze> GazeFromJson(const json& v, const std::string& ptr, Status& 
       }
       (it.key() == "yaw" ? g.yaw : g.pitch) = it->get<float>();
     } else {
-      errors.fields.push_back({p, "unknown member (target, or yaw and pitch)"});
+      UnknownMember(ptr, it.key(), Body::kGaze, errors);
     }
   }
   if (g.has_target && (v.contains("yaw") || v.contains("pitch"))) errors.fields.push_back({ptr, "give target, or yaw and pitch, not both"});
@@ -479,18 +470,11 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
     const std::string ptr = "/camera/" + JsonPointerEscape(it.key());
     double d = 0;
     const std::string& k = it.key();
-    if (k == "yaw" || k == "pitch") {
-      if (!Number(*it, -3600, 3600, &d)) errors.fields.push_back({ptr, "must be a number of degrees"});
-      else (k == "yaw" ? cam.yaw : cam.pitch) = static_cast<float>(d);
-    } else if (k == "distance") {
-      if (!Number(*it, 0, 1e9, &d)) errors.fields.push_back({ptr, "must be a number >= 0 (0: auto)"});
-      else cam.distance = static_cast<float>(d);
-    } else if (k == "zoom") {
-      if (!Number(*it, 0.01, 100, &d)) errors.fields.push_back({ptr, "must be a number in [0.01, 100]"});
-      else cam.zoom = static_cast<float>(d);
-    } else if (k == "fov") {
-      if (!Number(*it, 1, 170, &d)) errors.fields.push_back({ptr, "must be degrees in [1, 170]"});
-      else cam.fov = static_cast<float>(d);
+    if (k == "yaw" || k == "pitch" || k == "distance" || k == "zoom" || k == "fov") {
+      if (ReadNumber(Body::kCamera, k, *it, ptr, &d, errors)) {
+        float& dst = k == "yaw" ? cam.yaw : k == "pitch" ? cam.pitch : k == "distance" ? cam.distance : k == "zoom" ? cam.zoom : cam.fov;
+        dst = static_cast<float>(d);
+      }
     } else if (k == "eye" || k == "target" || k == "up") {
       std::array<float, 3>& dst = k == "eye" ? cam.eye : k == "target" ? cam.target : cam.up;
       if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
@@ -500,7 +484,7 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
         errors.fields.push_back({ptr, "must be \"all\", \"shapes\", \"auto\" or \"joint:NAME\""});
       }
     } else {
-      errors.fields.push_back({ptr, "unknown camera member (yaw, pitch, distance, zoom, fov, frame, eye, target, up)"});
+      UnknownMember("/camera", k, Body::kCamera, errors);
     }
   }
   if (cam.look_at && !(c.contains("eye") && c.contains("target"))) {
@@ -517,9 +501,8 @@ void LightFromJson(const json& v, render::RenderOptions& o, Status& errors) {
   for (auto it = v.begin(); it != v.end(); ++it) {
     double d = 0;
     const std::string ptr = "/light/" + JsonPointerEscape(it.key());
-    if (it.key() != "yaw" && it.key() != "pitch") errors.fields.push_back({ptr, "unknown light member (yaw, pitch)"});
-    else if (!Number(*it, -3600, 3600, &d)) errors.fields.push_back({ptr, "must be a number of degrees"});
-    else (it.key() == "yaw" ? o.light_yaw : o.light_pitch) = static_cast<float>(d);
+    if (!FindMember(Body::kLight, it.key())) UnknownMember("/light", it.key(), Body::kLight, errors);
+    else if (ReadNumber(Body::kLight, it.key(), *it, ptr, &d, errors)) (it.key() == "yaw" ? o.light_yaw : o.light_pitch) = static_cast<float>(d);
   }
 }
 
@@ -528,8 +511,7 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
   const std::string ptr = "/" + JsonPointerEscape(key);
   double d = 0;
   if (key == "width" || key == "height") {
-    if (!v.is_number_integer() || !Number(v, 1, 1 << 20, &d)) errors.fields.push_back({ptr, "must be a positive integer"});
-    else (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
   } else if (key == "view") {
     if (!v.is_string() || !render::ParseView(v.get<std::string>(), &r.render.view)) {
       errors.fields.push_back({ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\", \"clay\""});
@@ -539,8 +521,7 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
       errors.fields.push_back({ptr, "must be \"#rrggbb\", \"#rrggbbaa\", \"transparent\" or [r, g, b, a] in 0..1"});
     }
   } else if (key == "supersample") {
-    if (!v.is_number_integer() || !Number(v, 1, 4, &d)) errors.fields.push_back({ptr, "must be 1, 2, 3 or 4"});
-    else r.render.supersample = static_cast<int>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) r.render.supersample = static_cast<int>(d);
   } else if (key == "format") {
     render::ImageFormat f;
     if (!v.is_string() || !render::ParseImageFormat(v.get<std::string>(), &f)) {
@@ -549,11 +530,9 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
       r.format = f;
     }
   } else if (key == "exposure") {
-    if (!v.is_number() || !Number(v, -10, 10, &d)) errors.fields.push_back({ptr, "must be a number of stops in -10..10"});
-    else r.render.exposure = static_cast<float>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) r.render.exposure = static_cast<float>(d);
   } else if (key == "quality") {
-    if (!v.is_number_integer() || !Number(v, 1, 100, &d)) errors.fields.push_back({ptr, "must be an integer in 1..100"});
-    else r.quality = static_cast<int>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) r.quality = static_cast<int>(d);
   } else if (key == "camera") {
     CameraFromJson(v, r.render.camera, errors);
   } else if (key == "light") {

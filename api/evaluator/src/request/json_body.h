@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "facespace/evaluator/members.h"
 #include "facespace/evaluator/request.h"
 
 namespace facespace::api::body {
@@ -18,21 +19,6 @@ namespace facespace::api::body {
 using nlohmann::json;
 
 inline constexpr char kMalformed[] = "malformed JSON";
-// The members each body takes, for "did you mean" when one is not.
-inline constexpr std::string_view kMeshMembers[] = {"weights", "controls", "expressions", "gaze", "format", "space", "mode", "normals", "skinning", "lod", "strict",
-                                                    "keep_targets", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop"};
-inline constexpr std::string_view kRenderMembers[] = {"weights", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod", "strict", "pose",
-                                                      "blend", "layers", "animation", "motion", "time", "frame", "loop", "width", "height",
-                                                      "view", "background", "supersample", "format", "quality", "camera", "exposure", "light"};
-inline constexpr std::string_view kSheetMembers[] = {"cells", "columns", "weights", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod",
-                                                     "strict", "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop",
-                                                     "width", "height", "view", "background", "supersample", "quality", "camera", "exposure", "light"};
-inline constexpr std::string_view kSequenceMembers[] = {"keys", "times", "fps", "animation", "motion", "layers", "transition", "smooth", "gaze", "blink", "physics",
-                                                        "format", "tolerance", "mode", "normals"};
-inline constexpr std::string_view kBatchMembers[] = {"variants", "sample", "format", "space", "controls", "expressions", "gaze", "mode", "normals", "skinning", "lod",
-                                                     "pose", "blend", "layers", "animation", "motion", "time", "frame", "loop", "width",
-                                                     "height", "view", "background", "supersample", "quality", "camera", "exposure", "light",
-                                                     "labels", "archive", "shard_samples", "randomize"};
 // What one body may hold, sized to its route: a limit on the values parsed (every number, string,
 // array and object counts one) bounds the memory and time of the parse before any work.
 struct BodyLimits {
@@ -45,8 +31,6 @@ inline constexpr BodyLimits kSequenceBody{500000};   // Keys and times.
 inline constexpr BodyLimits kFitBody{3100000};       // A target mesh: three numbers a vertex, a million vertices.
 inline constexpr BodyLimits kBatchBody{500000};      // Explicit variants.
 
-
-void UnknownMember(const std::string& key, std::span<const std::string_view> members, Status& errors);
 
 Status FieldStatus(const std::string& pointer, const std::string& message);
 

@@ -42,7 +42,7 @@ Result<MeshRequest> ParseMeshRequest(std::string_view body) {
   MeshRequest r;
   Status errors = InvalidArgument("");
   for (auto it = j->begin(); it != j->end(); ++it) {
-    if (!MeshMember(it.key(), it.value(), r, true, errors)) UnknownMember(it.key(), kMeshMembers, errors);
+    if (!MeshMember(it.key(), it.value(), r, true, errors)) UnknownMember("", it.key(), Body::kMesh, errors);
   }
   FinishPose(r.pose, errors);
   if (!errors.fields.empty()) return Finish(errors);
@@ -56,7 +56,7 @@ Result<RenderRequest> ParseRenderRequest(std::string_view body) {
   Status errors = InvalidArgument("");
   for (auto it = j->begin(); it != j->end(); ++it) {
     if (!MeshMember(it.key(), it.value(), r.mesh, false, errors) && !RenderMember(it.key(), it.value(), r, errors)) {
-      UnknownMember(it.key(), kRenderMembers, errors);
+      UnknownMember("", it.key(), Body::kRender, errors);
     }
   }
   FinishPose(r.mesh.pose, errors);
@@ -88,6 +88,7 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
           errors.fields.push_back({ptr, "must be an object"});
           continue;
         }
+        RefuseUnknown(v[i], ptr, Body::kCell, errors);
         std::vector<WeightEntry> w;
         if (v[i].contains("weights")) {
           auto parsed = WeightsFromJson(v[i]["weights"], ptr + "/weights");
@@ -104,10 +105,9 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
       }
     } else if (key == "columns") {
       double d = 0;
-      if (!v.is_number_integer() || !Number(v, 1, 64, &d)) errors.fields.push_back({"/columns", "must be an integer in 1..64"});
-      else r.columns = static_cast<int>(d);
+      if (ReadNumber(Body::kSheet, key, v, "/columns", &d, errors)) r.columns = static_cast<int>(d);
     } else if (!MeshMember(key, v, r.base.mesh, false, errors) && !RenderMember(key, v, r.base, errors)) {
-      UnknownMember(key, kSheetMembers, errors);
+      UnknownMember("", key, Body::kSheet, errors);
     }
   }
   FinishPose(r.base.mesh.pose, errors);

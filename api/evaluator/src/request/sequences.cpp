@@ -63,7 +63,7 @@ SequenceRequest::Key ParseKey(const json& e, size_t k, Status& errors) {
       TransitionMember(*m, mp, &t, errors);
       key_out.transition = t;
     } else {
-      errors.fields.push_back({mp, "unknown member (time, weights, shape, expressions, transition)"});
+      UnknownMember(key_out.pointer, m.key(), Body::kKey, errors);
     }
   }
   if (!key_out.shape.empty() && !key_out.weights.empty()) errors.fields.push_back({key_out.pointer, "give weights or shape, not both"});
@@ -137,7 +137,7 @@ Result<SequenceRequest> ParseSequenceRequest(std::string_view body) {
     } else if (key == "normals") {
       if (!v.is_string() || !ParseNormalMode(v.get<std::string>(), &r.options.normals)) errors.fields.push_back({ptr, "must be blend or recompute"});
     } else {
-      UnknownMember(key, kSequenceMembers, errors);
+      UnknownMember("", key, Body::kSequence, errors);
     }
   }
   if (!r.layers.empty() && (!r.keys.empty() || !r.clip.pointer.empty())) errors.fields.push_back({"/layers", "give keys, a motion or layers: one of them"});
@@ -329,8 +329,10 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
       }
       bool& dst = it.key() == "bounded" ? r.options.bounded : it.key() == "sum_at_most_one" ? r.options.sum_at_most_one : r.options.rigid_align;
       dst = it->get<bool>();
+    } else if (it.key() == "primitives" || it.key() == "space" || it.key() == "warnings") {
+      errors.fields.push_back({ptr, "is read with \"primitives\" (the mesh route's JSON as it is), not with \"target\""});
     } else {
-      errors.fields.push_back({ptr, "unknown member (target, bounded, sum_at_most_one, rigid_align; or the mesh route's JSON as it is)"});
+      UnknownMember("", it.key(), Body::kFit, errors);
     }
   }
   if (!has_target && errors.fields.empty()) errors.fields.push_back({"/target", "is required"});

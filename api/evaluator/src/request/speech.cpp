@@ -10,9 +10,6 @@ using namespace body;
 
 namespace {
 
-constexpr std::string_view kSpeechMembers[] = {"text", "audio", "transcript", "voice", "rate", "fps", "strength", "format", "with_audio",
-                                               "weights", "expressions", "controls", "mode", "normals", "gaze", "blink",
-                                               "width", "height", "camera", "view", "background", "supersample", "exposure"};
 constexpr BodyLimits kSpeechBody{100000};
 
 
@@ -53,15 +50,11 @@ bool SpeechMember(const std::string& key, const json& v, SpeechRequest& r, Statu
     if (!v.is_string() || !DecodeBase64(v.get<std::string>(), r.audio)) {
       errors.fields.push_back({ptr, "must be a WAV file as base64 (or POST the WAV itself as the body, Content-Type audio/wav)"});
     }
-  } else if (key == "rate") {
-    if (!v.is_number_integer() || !Number(v, 80, 450, &d)) errors.fields.push_back({ptr, "must be words a minute, an integer from 80 to 450"});
-    else r.rate = static_cast<int>(d);
-  } else if (key == "fps") {
-    if (!Number(v, 1, 120, &d)) errors.fields.push_back({ptr, "must be a number of frames a second in [1, 120]"});
-    else r.fps = static_cast<float>(d);
-  } else if (key == "strength") {
-    if (!Number(v, 0, 2, &d)) errors.fields.push_back({ptr, "must be a number in [0, 2] (1: the visemes as mapped)"});
-    else r.strength = static_cast<float>(d);
+  } else if (key == "rate" || key == "fps" || key == "strength") {
+    if (ReadNumber(Body::kSpeech, key, v, ptr, &d, errors)) {
+      if (key == "rate") r.rate = static_cast<int>(d);
+      else (key == "fps" ? r.fps : r.strength) = static_cast<float>(d);
+    }
   } else if (key == "format") {
     if (!v.is_string() || !ParseEnum(kFrameFormats, v.get<std::string>(), &r.format)) {
       errors.fields.push_back({ptr, "must be json, ndjson, f32, weights, wav or webm"});
@@ -105,7 +98,7 @@ Result<SpeechRequest> ParseSpeechRequest(std::string_view text) {
   SpeechRequest r;
   Status errors = InvalidArgument("");
   for (auto it = j->begin(); it != j->end(); ++it) {
-    if (!SpeechMember(it.key(), it.value(), r, errors)) UnknownMember(it.key(), kSpeechMembers, errors);
+    if (!SpeechMember(it.key(), it.value(), r, errors)) UnknownMember("", it.key(), Body::kSpeech, errors);
   }
   if (Status s = FinishSpeech(r, std::move(errors)); !s.ok()) return s;
   return r;
@@ -121,12 +114,13 @@ Result<SpeechRequest> SpeechRequestOfWav(std::string wav, const std::vector<std:
       errors.fields.push_back({"/" + key, "the body is the audio; send text in a JSON body"});
       continue;
     }
-    // Numbers as numbers, the rest as strings; JSON-valued settings (camera, gaze, blink) as JSON.
+    // Each setting's text as its declared kind: numbers as numbers, objects and arrays as JSON, the rest as strings.
+    const Member* m = FindMember(Body::kSpeech, key);
     json v = value;
-    if (key == "camera" || key == "gaze" || key == "blink" || key == "weights" || key == "expressions" || key == "controls" || key == "background") {
+    if (m && m->kind == Kind::kSchema) {
       v = json::parse(value, nullptr, false);
       if (v.is_discarded()) v = value;
-    } else if (key != "text" && key != "transcript" && key != "voice" && key != "format" && key != "mode" && key != "normals" && key != "view") {
+    } else if (m && (m->kind == Kind::kNumber || m->kind == Kind::kInteger)) {
       double d = 0;
       const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), d);
       if (ec == std::errc() && end == value.data() + value.size() && !value.empty()) {
@@ -134,7 +128,7 @@ Result<SpeechRequest> SpeechRequestOfWav(std::string wav, const std::vector<std:
         else v = d;
       }
     }
-    if (!SpeechMember(key, v, r, errors)) UnknownMember(key, kSpeechMembers, errors);
+    if (!SpeechMember(key, v, r, errors)) UnknownMember("", key, Body::kSpeech, errors);
   }
   if (Status s = FinishSpeech(r, std::move(errors)); !s.ok()) return s;
   return r;
