@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Figures and lists in the docs that come from the code stay true: every route of the route table
-(api/src/http/route_table.cpp) is in api/README.md's route table (by its path), and the README names the
+(api/http/src/http/route_table.cpp) is in api/README.md's route table (by its path), and the README names the
 place its test-command figure comes from rather than a number."""
 import re
 import sys
@@ -8,7 +8,7 @@ from pathlib import Path
 
 root = Path(sys.argv[1] if len(sys.argv) > 1 else Path(__file__).resolve().parent.parent)
 failures = []
-table = (root / "api/src/http/route_table.cpp").read_text()
+table = (root / "api/http/src/http/route_table.cpp").read_text()
 routes = re.findall(r'\{"(GET|POST|PUT|DELETE)", "(/[^"]*)"', table)
 if len(routes) < 20:
     failures.append(f"read only {len(routes)} routes from route_table.cpp: the pattern no longer matches")

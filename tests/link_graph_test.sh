@@ -9,7 +9,7 @@ trap 'rm -rf "$scratch"' EXIT
 if ! cmake -S "$src" -B "$scratch" -DFACESPACE_BUILD_BENCH=OFF --graphviz="$scratch/deps.dot" >"$scratch/log" 2>&1; then
   cat "$scratch/log"; exit 2
 fi
-heavy='OSMESA|osmesa|LIBAV|libav|ESPEAK|espeak|POCKETSPHINX|pocketsphinx|"facespace_render"|"facespace_speech"|"facespace_lipsync"'
+heavy='OSMESA|osmesa|LIBAV|libav|ESPEAK|espeak|POCKETSPHINX|pocketsphinx|"facespace_offscreen"|"facespace_speech"|"facespace_lipsync"'
 fail=0
 check() {  # target, what it must reach (a sanity check that the graph is read)
   local file="$scratch/deps.dot.$1"

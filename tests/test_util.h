@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 
 namespace facespace::test {
 

@@ -3,7 +3,7 @@
 #include "facespace/lipsync/lipsync.h"
 
 #include "facespace/formats/io.h"
-#include "facespace/render/video.h"
+#include "facespace/offscreen/video.h"
 
 namespace facespace::lipsync {
 

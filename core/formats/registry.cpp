@@ -9,7 +9,7 @@
 #include <string_view>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/face.h"
+#include "facespace/engine/face.h"
 #include "common/image_file.h"
 #include "fbx/fbx_tree.h"
 

@@ -10,7 +10,7 @@
 #include <cmath>
 #include <vector>
 
-#include "facespace/core/transform.h"
+#include "facespace/engine/transform.h"
 
 namespace facespace::physics {
 

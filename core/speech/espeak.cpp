@@ -7,8 +7,8 @@
 #include <cstring>
 #include <mutex>
 
-#include "facespace/core/rig.h"
-#include "facespace/core/utf8.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/utf8.h"
 #include "facespace/speech/speech.h"
 
 namespace facespace::speech {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/speech.h"
+#include "facespace/engine/speech.h"
 
 #ifndef FACESPACE_SPHINX_MODEL
 #define FACESPACE_SPHINX_MODEL "/usr/share/pocketsphinx/model/en-us"

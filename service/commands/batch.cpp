@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-#include "facespace/render/render.h"
+#include "facespace/offscreen/render.h"
 #include "facespace/batch/dataset.h"
 #include "facespace/batch/run.h"
 #include "commands/cli.h"

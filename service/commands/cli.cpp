@@ -12,14 +12,14 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
-#include "facespace/api/describe.h"
+#include "facespace/http/describe.h"
 #include "facespace/evaluator/evaluator.h"
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/lod.h"
-#include "facespace/core/skeleton.h"
-#include "facespace/core/weights.h"
-#include "facespace/render/render.h"
+#include "facespace/engine/skeleton.h"
+#include "facespace/engine/weights.h"
+#include "facespace/offscreen/render.h"
 
 namespace facespace::cli {
 

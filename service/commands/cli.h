@@ -4,9 +4,9 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/blend.h"
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
 
 namespace facespace::cli {
 

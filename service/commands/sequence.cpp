@@ -11,15 +11,15 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
-#include "facespace/render/render.h"
+#include "facespace/offscreen/render.h"
 #include "commands/cli.h"
 #include "commands/flags.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/enum_table.h"
-#include "facespace/core/fit.h"
-#include "facespace/core/sequence.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/fit.h"
+#include "facespace/engine/sequence.h"
 
 #include <Eigen/Dense>
 

@@ -8,9 +8,9 @@
 #include "commands/cli.h"
 #include "commands/flags.h"
 #include "facespace/evaluator/evaluator.h"
-#include "facespace/core/basis.h"
+#include "facespace/engine/basis.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/shape_tools.h"
+#include "facespace/engine/shape_tools.h"
 
 namespace facespace::cli {
 

@@ -15,8 +15,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "facespace/render/render.h"
-#include "facespace/api/http.h"
+#include "facespace/offscreen/render.h"
+#include "facespace/http/http.h"
 #include "facespace/evaluator/evaluator.h"
 #include "loopback.h"
 #include "memory_store.h"
@@ -44,7 +44,9 @@ class ApiTest : public ::testing::Test {
     front.log_requests = false;
     front.max_body = o.max_body;
     front.head_check = [](const api::RequestHeadView& head) { return api_->CheckHead(head); };
-    server_ = new api::FrontServer(front);
+    front.refusal = &api::Api::RefusalResponse;
+    static api::FrontStats front_stats;
+    server_ = new api::FrontServer(front, front_stats);
     api_->Register(*server_);
     port_ = server_->bind_to_any_port("127.0.0.1");
     thread_ = new std::thread([] { server_->listen_after_bind(); });

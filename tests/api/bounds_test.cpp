@@ -7,7 +7,7 @@
 #include <string>
 
 #include "http/encoded.h"
-#include "http/turns.h"
+#include "turns.h"
 #include "routes/live_say.h"
 
 namespace facespace::api::http {

@@ -1,4 +1,4 @@
-// The render memory budget (api/src/http/context.h): estimates, and room shared by renders in flight.
+// The render memory budget (api/http/src/http/context.h): estimates, and room shared by renders in flight.
 #include <gtest/gtest.h>
 
 #include <thread>

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cstring>
 
-#include "facespace/render/render.h"
+#include "facespace/offscreen/render.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/lod.h"
 #include "test_util.h"

@@ -1,9 +1,9 @@
-// The connection front's framing (api/src/http/framing.h): where a request ends, what is refused.
+// The connection front's framing (api/net/include/facespace/net/framing.h): where a request ends, what is refused.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "http/framing.h"
+#include "facespace/net/framing.h"
 
 namespace facespace::api::http {
 namespace framing_test {  // Named: the target is a unity build, its files share one unit.

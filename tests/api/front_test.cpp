@@ -11,7 +11,7 @@
 #include <chrono>
 #include <thread>
 
-#include "facespace/api/front.h"
+#include "facespace/net/front.h"
 #include "loopback.h"
 
 namespace facespace::api {
@@ -21,7 +21,7 @@ using Clock = std::chrono::steady_clock;
 
 class Front {
  public:
-  explicit Front(FrontOptions o) : server_(std::move(o)) {
+  explicit Front(FrontOptions o) : server_(std::move(o), stats_) {
     // Spins (burning CPU) until its stop token fires, then says how long it ran.
     server_.Post("/spin", [this](const httplib::Request&, httplib::Response& res) {
       ++running_;
@@ -82,6 +82,7 @@ class Front {
   std::atomic<int> running_{0}, peak_{0};
 
  private:
+  FrontStats stats_;  // Before the server, which counts into it.
   FrontServer server_;
   int port_ = 0;
   std::thread thread_;

@@ -12,7 +12,7 @@
 #include <thread>
 #include <vector>
 
-#include "http/live_hub.h"
+#include "facespace/net/live_hub.h"
 
 namespace facespace::api::http {
 namespace live_hub_test {  // Named: the target is a unity build, its files share one unit.

@@ -12,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-#include "facespace/api/http.h"
+#include "facespace/http/http.h"
 #include "facespace/evaluator/members.h"
 #include "facespace/evaluator/request.h"
 

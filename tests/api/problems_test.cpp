@@ -1,4 +1,4 @@
-// The problem table (api/src/http/problems.h): one entry a type, each reason the code names is one of
+// The problem table (api/http/src/http/problems.h): one entry a type, each reason the code names is one of
 // them, a Status answers its reason's status, and /openapi.json lists them all.
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <string>
 
-#include "facespace/api/http.h"
+#include "facespace/http/http.h"
 #include "facespace/formats/io.h"
 #include "http/problems.h"
 

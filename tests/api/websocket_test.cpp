@@ -1,10 +1,10 @@
-// RFC 6455 framing (api/src/http/websocket.h): the RFC's own examples, every prefix of a frame wanting
+// RFC 6455 framing (api/net/include/facespace/net/websocket.h): the RFC's own examples, every prefix of a frame wanting
 // more, and each broken frame refused with its close code before its payload is held.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "http/websocket.h"
+#include "facespace/net/websocket.h"
 
 namespace facespace::api::http::ws {
 namespace websocket_test {

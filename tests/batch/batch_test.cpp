@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/batch/run.h"
-#include "facespace/render/render.h"
+#include "facespace/offscreen/render.h"
 #include "test_util.h"
 
 namespace facespace {

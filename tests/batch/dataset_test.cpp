@@ -21,8 +21,8 @@
 
 #include "facespace/batch/dataset.h"
 #include "facespace/batch/run.h"
-#include "facespace/core/transform.h"
-#include "facespace/render/render.h"
+#include "facespace/engine/transform.h"
+#include "facespace/offscreen/render.h"
 #include "test_util.h"
 
 namespace facespace {

@@ -7,7 +7,7 @@
 #include <thread>
 
 #include "facespace/batch/queue.h"
-#include "facespace/render/render.h"
+#include "facespace/offscreen/render.h"
 #include "memory_store.h"
 #include "test_util.h"
 

@@ -16,7 +16,7 @@
 #include <random>
 
 #include "facespace/evaluator/evaluator.h"
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 
 namespace {

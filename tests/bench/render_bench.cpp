@@ -10,8 +10,8 @@
 #include <cmath>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/shape_tools.h"
-#include "facespace/render/render.h"
+#include "facespace/engine/shape_tools.h"
+#include "facespace/offscreen/render.h"
 
 namespace {
 

@@ -3,7 +3,7 @@
 
 #include <random>
 
-#include "facespace/core/skeleton.h"
+#include "facespace/engine/skeleton.h"
 
 namespace {
 

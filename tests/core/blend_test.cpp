@@ -2,10 +2,10 @@
 
 #include <random>
 
-#include "facespace/core/blend.h"
-#include "facespace/core/sparse_blend.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/sparse_blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/weights.h"
 #include "test_util.h"
 
 namespace facespace {

@@ -7,8 +7,8 @@
 #include <random>
 #include <stop_token>
 
-#include "facespace/core/pose_request.h"
-#include "facespace/core/sequence.h"
+#include "facespace/engine/pose_request.h"
+#include "facespace/engine/sequence.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

@@ -7,8 +7,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "facespace/core/animation.h"
-#include "facespace/core/blend.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 #include "world.h"

@@ -5,10 +5,10 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "facespace/core/animation.h"
-#include "facespace/core/blend.h"
-#include "facespace/core/constraints.h"
-#include "facespace/core/pose_request.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/constraints.h"
+#include "facespace/engine/pose_request.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 #include "world.h"

@@ -11,7 +11,7 @@
 #include <numeric>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/variants.h"
+#include "facespace/engine/variants.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -140,7 +140,7 @@ TEST(Variants, GridAlongALineAndOverRanges) {
 }  // namespace
 }  // namespace facespace
 
-#include "facespace/core/shape_tools.h"
+#include "facespace/engine/shape_tools.h"
 
 namespace facespace {
 namespace face_space_test {
@@ -235,8 +235,8 @@ TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
 }  // namespace
 }  // namespace facespace
 
-#include "facespace/core/basis.h"
-#include "facespace/core/blend.h"
+#include "facespace/engine/basis.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/lod.h"
 
 namespace facespace {
@@ -344,7 +344,7 @@ TEST(Basis, QuantisationErrorIsHalfAStep) {
 }  // namespace
 }  // namespace facespace
 
-#include "facespace/core/weights.h"
+#include "facespace/engine/weights.h"
 
 namespace facespace {
 namespace face_space_test {

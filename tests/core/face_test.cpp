@@ -8,10 +8,10 @@
 #include <map>
 #include <numeric>
 
-#include "facespace/core/blend.h"
-#include "facespace/core/face.h"
-#include "facespace/core/pose_request.h"
-#include "facespace/core/sequence.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/pose_request.h"
+#include "facespace/engine/sequence.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

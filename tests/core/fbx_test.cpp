@@ -11,8 +11,8 @@
 #include <map>
 #include <sstream>
 
-#include "facespace/core/animation.h"
-#include "facespace/core/blend.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 #include "world.h"

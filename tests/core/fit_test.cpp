@@ -2,9 +2,9 @@
 
 #include <random>
 
-#include "facespace/core/blend.h"
-#include "facespace/core/fit.h"
-#include "facespace/core/transform.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/fit.h"
+#include "facespace/engine/transform.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

@@ -1,7 +1,7 @@
 // Import of every real asset, checked against the test's own raw reader.
 #include <gtest/gtest.h>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

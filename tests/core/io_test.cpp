@@ -7,12 +7,12 @@
 #include <set>
 #include <sstream>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/pose_request.h"
-#include "facespace/core/weights.h"
-#include "facespace/core/transform.h"
-#include "facespace/core/normal_matrix.h"  // Core-internal: the per-vertex reference.
+#include "facespace/engine/pose_request.h"
+#include "facespace/engine/weights.h"
+#include "facespace/engine/transform.h"
+#include "facespace/engine/normal_matrix.h"  // Core-internal: the per-vertex reference.
 #include "test_util.h"
 
 namespace facespace {

@@ -11,9 +11,9 @@
 
 #include <unistd.h>
 
-#include "facespace/core/animation.h"
-#include "facespace/core/blend.h"
-#include "facespace/core/hierarchy.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/hierarchy.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-#include "facespace/core/occlusion.h"
+#include "facespace/engine/occlusion.h"
 
 namespace facespace {
 namespace occlusion_test {  // Named: core_tests is a unity build, its files share one unit.

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstring>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
 

@@ -2,10 +2,10 @@
 
 #include <random>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/sequence.h"
-#include "facespace/core/skeleton.h"
+#include "facespace/engine/sequence.h"
+#include "facespace/engine/skeleton.h"
 #include "test_util.h"
 
 namespace facespace {

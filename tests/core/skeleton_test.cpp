@@ -6,9 +6,9 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/skeleton.h"
+#include "facespace/engine/skeleton.h"
 #include "test_util.h"
 
 namespace facespace {

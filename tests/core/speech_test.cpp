@@ -1,5 +1,5 @@
 // Phonemes to visemes to keys (core/speech.h), on the bundled rigs.
-#include "facespace/core/speech.h"
+#include "facespace/engine/speech.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include <span>
 #include <vector>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::test {

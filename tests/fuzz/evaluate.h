@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/animation.h"
-#include "facespace/core/blend.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/skeleton.h"
+#include "facespace/engine/skeleton.h"
 
 inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace::Rig& rig, const facespace::BlendedRig& blended,
                            const std::vector<float>& weights) {

@@ -13,9 +13,9 @@
 #include <string>
 #include <string_view>
 
-#include "facespace/api/http.h"
-#include "facespace/render/render.h"
-#include "http/framing.h"
+#include "facespace/http/http.h"
+#include "facespace/offscreen/render.h"
+#include "facespace/net/framing.h"
 #include "memory_store.h"
 
 namespace {

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "http/websocket.h"
+#include "facespace/net/websocket.h"
 
 using facespace::api::http::ws::Frame;
 using facespace::api::http::ws::FrameError;

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <string>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
 
 namespace {

@@ -8,8 +8,8 @@
 
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/skeleton.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/skeleton.h"
+#include "facespace/engine/weights.h"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <sstream>
 #include <string>
 
-#include "facespace/core/speech.h"
+#include "facespace/engine/speech.h"
 #include "facespace/formats/io.h"
 #include "facespace/speech/speech.h"
 

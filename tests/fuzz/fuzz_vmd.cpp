@@ -5,9 +5,9 @@
 #include <cstdlib>
 #include <span>
 
-#include "facespace/core/blend.h"
+#include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/pose_request.h"
+#include "facespace/engine/pose_request.h"
 
 namespace {
 

@@ -16,11 +16,11 @@
 #include <thread>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/face.h"
-#include "facespace/core/occlusion.h"
-#include "facespace/core/shape_tools.h"
-#include "facespace/core/skeleton.h"
-#include "facespace/render/render.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/occlusion.h"
+#include "facespace/engine/shape_tools.h"
+#include "facespace/engine/skeleton.h"
+#include "facespace/offscreen/render.h"
 #include "test_util.h"
 
 namespace facespace {

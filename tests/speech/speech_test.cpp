@@ -20,7 +20,7 @@ extern "C" {
 
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/lipsync/lipsync.h"
-#include "facespace/render/render.h"
+#include "facespace/offscreen/render.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::speech {

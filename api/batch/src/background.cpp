@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/batch/dataset.h"
-#include "facespace/core/color.h"
+#include "facespace/engine/color.h"
 
 namespace facespace::batch {
 

@@ -7,8 +7,8 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
-#include "facespace/core/pose_request.h"
-#include "facespace/core/transform.h"
+#include "facespace/engine/pose_request.h"
+#include "facespace/engine/transform.h"
 
 namespace facespace::batch {
 

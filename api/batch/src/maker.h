@@ -21,7 +21,7 @@
 #include <utility>
 #include <vector>
 
-#include "facespace/core/status.h"
+#include "facespace/engine/status.h"
 
 namespace facespace::batch {
 

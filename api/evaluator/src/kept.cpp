@@ -1,6 +1,6 @@
 #include "kept.h"
 
-#include "facespace/core/shape_tools.h"
+#include "facespace/engine/shape_tools.h"
 #include "facespace/formats/lod.h"
 
 namespace facespace::api {

@@ -1,7 +1,7 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
 #include "facespace/evaluator/evaluator.h"
-#include "facespace/core/hierarchy.h"
+#include "facespace/engine/hierarchy.h"
 #include "facespace/physics/physics.h"
 #include "facespace/formats/io.h"
 

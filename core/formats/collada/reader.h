@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/bezier.h"
+#include "facespace/engine/bezier.h"
 #include "common/split_mesh.h"
 
 namespace facespace::collada {

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <string>
 
-#include "facespace/core/rig.h"
+#include "facespace/engine/rig.h"
 
 namespace facespace {
 

@@ -13,7 +13,7 @@
 
 #include <Eigen/Dense>
 
-#include "facespace/core/rig.h"
+#include "facespace/engine/rig.h"
 
 namespace facespace {
 

@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "facespace/core/enum_table.h"
-#include "facespace/core/rig.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/rig.h"
 
 namespace facespace::vrm_terms {
 

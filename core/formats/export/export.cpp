@@ -1,7 +1,7 @@
 // ExportMesh picks the writer; the f32 body written over the rest's bytes (F32Writer); warnings as JSON.
 #include <tiny_gltf.h>
-#include "facespace/core/enum_table.h"
-#include "facespace/core/transform.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/transform.h"
 
 #include <Eigen/Dense>
 #include <charconv>
@@ -13,8 +13,8 @@
 
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
-#include "facespace/core/weights.h"
-#include "facespace/core/normal_matrix.h"
+#include "facespace/engine/weights.h"
+#include "facespace/engine/normal_matrix.h"
 #include "export/writers.h"
 
 namespace facespace {

@@ -1,9 +1,9 @@
 // The glb writer (tinygltf), and glb bodies of many variants written from a kept template.
 #include <tiny_gltf.h>
-#include "facespace/core/animation.h"
-#include "facespace/core/constraints.h"
-#include "facespace/core/enum_table.h"
-#include "facespace/core/transform.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/constraints.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/transform.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -16,8 +16,8 @@
 
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
-#include "facespace/core/weights.h"
-#include "facespace/core/normal_matrix.h"
+#include "facespace/engine/weights.h"
+#include "facespace/engine/normal_matrix.h"
 #include "export/writers.h"
 
 namespace facespace {

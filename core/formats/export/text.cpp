@@ -1,7 +1,7 @@
 // The text and raw writers: JSON, OBJ and f32 (the glb writer is glb.cpp).
 #include <tiny_gltf.h>
-#include "facespace/core/enum_table.h"
-#include "facespace/core/transform.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/transform.h"
 
 #include <Eigen/Dense>
 #include <charconv>
@@ -12,8 +12,8 @@
 #include <sstream>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/weights.h"
-#include "facespace/core/normal_matrix.h"
+#include "facespace/engine/weights.h"
+#include "facespace/engine/normal_matrix.h"
 #include "export/writers.h"
 
 namespace facespace {

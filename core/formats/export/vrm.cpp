@@ -10,8 +10,8 @@
 #include "export/vrm_parts.h"
 #include "export/writers.h"
 #include "common/vrm_terms.h"
-#include "facespace/core/face.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/weights.h"
 #include "gltf/gltf_common.h"
 
 namespace facespace::writers {

@@ -9,8 +9,8 @@
 #include "common/vrm_terms.h"
 #include "export/vrm_parts.h"
 #include "export/writers.h"
-#include "facespace/core/face.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/weights.h"
 
 namespace facespace::writers {
 

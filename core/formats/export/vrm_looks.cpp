@@ -5,9 +5,9 @@
 #include <cmath>
 
 #include "export/vrm_parts.h"
-#include "facespace/core/blend.h"
-#include "facespace/core/color.h"
-#include "facespace/core/speech.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/color.h"
+#include "facespace/engine/speech.h"
 
 namespace facespace::writers {
 

@@ -23,7 +23,7 @@
 #include <unordered_map>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/bezier.h"
+#include "facespace/engine/bezier.h"
 #include "common/split_mesh.h"
 #include "fbx/fbx_scene.h"
 

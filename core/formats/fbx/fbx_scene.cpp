@@ -7,7 +7,7 @@
 #include <iterator>
 #include <unordered_map>
 
-#include "facespace/core/bezier.h"
+#include "facespace/engine/bezier.h"
 #include "common/split_mesh.h"
 
 namespace facespace::fbx_scene {

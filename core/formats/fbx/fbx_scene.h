@@ -11,9 +11,9 @@
 #include <unordered_map>
 #include <vector>
 
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
-#include "facespace/core/bezier.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
+#include "facespace/engine/bezier.h"
 #include "fbx/fbx_tree.h"
 
 namespace facespace::fbx_scene {

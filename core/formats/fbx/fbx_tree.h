@@ -13,7 +13,7 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/core/status.h"
+#include "facespace/engine/status.h"
 
 namespace facespace::fbx {
 

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
 
 namespace facespace {
 

@@ -7,7 +7,7 @@
 
 #include "common/vrm_presets.h"
 #include "common/vrm_terms.h"
-#include "facespace/core/face.h"
+#include "facespace/engine/face.h"
 #include "gltf/gltf_common.h"
 
 namespace facespace {

@@ -6,8 +6,8 @@
 
 #include "sections.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/face.h"
-#include "facespace/core/speech.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/speech.h"
 
 namespace facespace::manifest {
 

@@ -10,10 +10,10 @@
 
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
-#include "facespace/core/face.h"
-#include "facespace/core/shape_tools.h"
-#include "facespace/core/speech.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/shape_tools.h"
+#include "facespace/engine/speech.h"
+#include "facespace/engine/weights.h"
 #include "sections.h"
 #include "../common/json_depth.h"
 

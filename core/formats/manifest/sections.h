@@ -7,8 +7,8 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::manifest {

@@ -5,7 +5,7 @@
 
 #include "sections.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/shape_tools.h"
+#include "facespace/engine/shape_tools.h"
 
 namespace facespace::manifest {
 

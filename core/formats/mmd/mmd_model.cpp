@@ -11,8 +11,8 @@
 #include <set>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/rig.h"
-#include "facespace/core/transform.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/transform.h"
 #include "mmd/mmd.h"
 
 namespace facespace::mmd {

@@ -19,7 +19,7 @@
 #include <Eigen/Geometry>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/bezier.h"
+#include "facespace/engine/bezier.h"
 #include "mmd/mmd.h"
 
 namespace facespace {

@@ -1,7 +1,7 @@
 // The batch request schema and its sampling.
 #include "json_body.h"
 
-#include "facespace/core/enum_table.h"
+#include "facespace/engine/enum_table.h"
 
 #include "facespace/formats/lod.h"
 

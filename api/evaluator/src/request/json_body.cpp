@@ -1,7 +1,7 @@
 // The JSON body readers shared by the request schemas (json_body.h).
 #include "json_body.h"
 
-#include "facespace/core/enum_table.h"
+#include "facespace/engine/enum_table.h"
 
 #include "facespace/formats/lod.h"
 

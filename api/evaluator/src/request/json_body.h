@@ -1,4 +1,4 @@
-// The JSON body readers shared by the request schemas (api/src/request/): limits, members, the
+// The JSON body readers shared by the request schemas (api/http/src/request/): limits, members, the
 // checked parse, and the readers of the members several requests share (weights, pose, render).
 #pragma once
 

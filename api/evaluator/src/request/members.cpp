@@ -6,9 +6,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "facespace/core/rig.h"
-#include "facespace/core/speech.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/speech.h"
+#include "facespace/engine/weights.h"
 #include "facespace/formats/lod.h"
 
 namespace facespace::api {

@@ -1,10 +1,10 @@
 // Request schemas of a point of face space: mesh, check, render, sheet (bodies and GET queries).
 #include "json_body.h"
 
-#include "facespace/core/enum_table.h"
+#include "facespace/engine/enum_table.h"
 
 #include "facespace/formats/lod.h"
-#include "facespace/render/picture.h"
+#include "facespace/picture/picture.h"
 
 #include <algorithm>
 #include <cctype>

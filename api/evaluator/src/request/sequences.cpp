@@ -1,7 +1,7 @@
 // Request schemas of sequences and fitting.
 #include "json_body.h"
 
-#include "facespace/core/enum_table.h"
+#include "facespace/engine/enum_table.h"
 
 #include "facespace/formats/lod.h"
 

@@ -11,7 +11,7 @@
 
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/evaluator/request.h"
-#include "facespace/core/variants.h"
+#include "facespace/engine/variants.h"
 
 namespace facespace::batch {
 

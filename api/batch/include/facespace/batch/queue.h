@@ -30,7 +30,7 @@
 
 #include "facespace/evaluator/store.h"
 #include "facespace/batch/plan.h"
-#include "facespace/core/enum_table.h"
+#include "facespace/engine/enum_table.h"
 
 namespace facespace::batch {
 

@@ -26,8 +26,8 @@
 #include <vector>
 
 #include "facespace/batch/plan.h"
-#include "facespace/core/rig.h"
-#include "facespace/core/variants.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/variants.h"
 
 namespace facespace::batch {
 

@@ -11,7 +11,7 @@
 // The fast paths (f32 bodies written over the rest's bytes, glb written over a kept template)
 // and what is kept per rig (levels of detail, the box its shapes act in) live in the Evaluator.
 // No HTTP here: errors are Status values whose `reason` names the problem ("invalid-weights");
-// api/src/http maps them to status codes in one place.
+// api/http/src/http maps them to status codes in one place.
 #pragma once
 
 #include <array>
@@ -24,14 +24,14 @@
 
 #include "facespace/evaluator/request.h"
 #include "facespace/evaluator/store.h"
-#include "facespace/core/blend.h"
-#include "facespace/core/fit.h"
-#include "facespace/core/sequence.h"
-#include "facespace/core/skeleton.h"
-#include "facespace/core/status.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/fit.h"
+#include "facespace/engine/sequence.h"
+#include "facespace/engine/skeleton.h"
+#include "facespace/engine/status.h"
+#include "facespace/engine/weights.h"
 #include "facespace/formats/io.h"
-#include "facespace/render/picture.h"
+#include "facespace/picture/picture.h"
 
 namespace facespace::physics {
 class Simulation;

@@ -1,6 +1,6 @@
 // The members of every JSON request body, declared once: name, type, range, default, documentation
 // and example. The readers (src/request/) refuse a member no table names and check a number against
-// its declared range; the OpenAPI document (api/src/openapi) writes its request schemas from these
+// its declared range; the OpenAPI document (api/http/src/openapi) writes its request schemas from these
 // tables, and the TypeScript types the page and clients use are generated from that document.
 #pragma once
 
@@ -11,7 +11,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
-#include "facespace/core/status.h"
+#include "facespace/engine/status.h"
 
 namespace facespace::api {
 

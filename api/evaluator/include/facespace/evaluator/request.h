@@ -11,17 +11,17 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/core/blend.h"
-#include "facespace/core/enum_table.h"
-#include "facespace/core/fit.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/fit.h"
 #include "facespace/formats/io.h"
-#include "facespace/core/sequence.h"
-#include "facespace/core/speech.h"
-#include "facespace/core/skeleton.h"
-#include "facespace/core/status.h"
-#include "facespace/core/variants.h"
-#include "facespace/core/weights.h"
-#include "facespace/render/picture.h"
+#include "facespace/engine/sequence.h"
+#include "facespace/engine/speech.h"
+#include "facespace/engine/skeleton.h"
+#include "facespace/engine/status.h"
+#include "facespace/engine/variants.h"
+#include "facespace/engine/weights.h"
+#include "facespace/picture/picture.h"
 
 namespace facespace::api {
 

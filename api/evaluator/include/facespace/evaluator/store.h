@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "facespace/formats/io.h"
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
 
 namespace facespace::api {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "facespace/evaluator/evaluator.h"
-#include "facespace/core/speech.h"
+#include "facespace/engine/speech.h"
 #include "facespace/speech/speech.h"
 
 namespace facespace::lipsync {

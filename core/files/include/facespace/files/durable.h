@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-#include "facespace/core/status.h"
+#include "facespace/engine/status.h"
 
 namespace facespace {
 

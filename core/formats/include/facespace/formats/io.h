@@ -9,11 +9,11 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/core/blend.h"
-#include "facespace/core/sparse_blend.h"
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
-#include "facespace/core/weights.h"
+#include "facespace/engine/blend.h"
+#include "facespace/engine/sparse_blend.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
+#include "facespace/engine/weights.h"
 
 namespace facespace {
 

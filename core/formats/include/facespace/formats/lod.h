@@ -8,8 +8,8 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/core/rig.h"
-#include "facespace/core/status.h"
+#include "facespace/engine/rig.h"
+#include "facespace/engine/status.h"
 
 namespace facespace {
 

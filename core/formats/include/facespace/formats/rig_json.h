@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <span>
 
-#include "facespace/core/rig.h"
+#include "facespace/engine/rig.h"
 
 namespace facespace {
 

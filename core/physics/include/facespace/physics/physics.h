@@ -6,8 +6,8 @@
 
 #include <memory>
 
-#include "facespace/core/hierarchy.h"
-#include "facespace/core/rig.h"
+#include "facespace/engine/hierarchy.h"
+#include "facespace/engine/rig.h"
 
 namespace facespace::physics {
 

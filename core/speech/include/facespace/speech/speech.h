@@ -18,8 +18,8 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/core/speech.h"
-#include "facespace/core/status.h"
+#include "facespace/engine/speech.h"
+#include "facespace/engine/status.h"
 
 namespace facespace::speech {
 
