@@ -23,21 +23,21 @@ class Front {
  public:
   explicit Front(FrontOptions o) : server_(std::move(o), stats_) {
     // Spins (burning CPU) until its stop token fires, then says how long it ran.
-    server_.Post("/spin", [this](const httplib::Request&, httplib::Response& res) {
+    server_.Post("/spin", [this](const httplib::Request& req, httplib::Response& res) {
       ++running_;
       const auto start = Clock::now();
       volatile double x = 0;
-      while (!CurrentStop().stop_requested()) {
+      while (!StopOf(req).stop_requested()) {
         for (int i = 0; i < 10000; ++i) x = x + 1.0;
       }
       --running_;
       res.set_content(std::to_string(std::chrono::duration<double>(Clock::now() - start).count()), "text/plain");
     });
     // Waits without CPU until its token fires.
-    server_.Post("/wait", [this](const httplib::Request&, httplib::Response& res) {
+    server_.Post("/wait", [this](const httplib::Request& req, httplib::Response& res) {
       ++running_;
       peak_ = std::max(peak_.load(), running_.load());
-      while (!CurrentStop().stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      while (!StopOf(req).stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
       --running_;
       res.set_content("stopped", "text/plain");
     });

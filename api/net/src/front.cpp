@@ -92,8 +92,13 @@ void SendNow(int fd, std::string_view bytes) {
   }
 }
 
-thread_local std::stop_token t_stop;
-thread_local Conn* t_conn = nullptr;  // The connection the calling worker serves.
+// Carries a request's Running on the request: cpp-httplib's Request has no slot of the server's, and its
+// `progress` (a client's download callback) is never used by a server; what it holds is found again by
+// its type (RunningOf). Called anyway, it would let the transfer go on.
+struct Carrier {
+  Running* running;
+  bool operator()(uint64_t, uint64_t) const { return true; }
+};
 
 // cpp-httplib's accept loop hands every accepted socket to its task queue: this one gives it to
 // the front at once, on the accept thread.
@@ -109,12 +114,22 @@ class AdoptQueue final : public httplib::TaskQueue {
 
 }  // namespace
 
-std::stop_token CurrentStop() { return t_stop; }
+Running* RunningOf(const httplib::Request& req) {
+  const Carrier* carrier = req.progress.target<Carrier>();
+  return carrier ? carrier->running : nullptr;
+}
 
-bool UpgradeConnection(std::string head, UpgradeTaker take) {
-  if (!t_conn || head.empty() || !take) return false;
-  t_conn->upgrade_head = std::move(head);
-  t_conn->upgrade_take = std::move(take);
+std::stop_token StopOf(const httplib::Request& req) {
+  const Running* running = RunningOf(req);
+  return running ? running->stop : std::stop_token();
+}
+
+bool UpgradeConnection(const httplib::Request& req, std::string head, UpgradeTaker take) {
+  Running* running = RunningOf(req);
+  Conn* conn = running ? static_cast<Conn*>(running->connection) : nullptr;
+  if (!conn || head.empty() || !take) return false;
+  conn->upgrade_head = std::move(head);
+  conn->upgrade_take = std::move(take);
   return true;
 }
 
@@ -601,24 +616,21 @@ class FrontServer::Front {
       // What helper threads spend for the request is its own (facespace/engine/cpu.h).
       SetHelperCpuSink([](void* e, double seconds) { static_cast<Watchdog::Entry*>(e)->helper_ns += static_cast<int64_t>(seconds * 1e9); }, &watch);
       watchdog_.Watch(watch);
-      t_stop = watch.source.get_token();
+      Running running{watch.source.get_token(), c, {}};
       ++stats.in_flight;
       RequestStream stream(*c, std::string_view(c->buf.data(), c->request_end), c->sent_continue,
-                           {t_stop, std::chrono::seconds(o_.write_timeout), static_cast<double>(o_.min_send_rate)});
+                           {running.stop, std::chrono::seconds(o_.write_timeout), static_cast<double>(o_.min_send_rate)});
       const bool close = stopping || c->served + 1 >= o_.keep_alive_max;
       bool closed_by_client = false;
       bool ok = false;
       stream.ReplaceResponse(&c->upgrade_head);
-      t_conn = c;
       try {
-        ok = server_.Process(stream, close, closed_by_client);
+        ok = server_.Process(stream, close, closed_by_client, running);
       } catch (...) {
         ok = false;
       }
-      t_conn = nullptr;
       SetHelperCpuSink(nullptr, nullptr);
       --stats.in_flight;
-      t_stop = {};
       watchdog_.Unwatch(watch);
       if (stream.too_slow()) ++stats.slow_readers;
       {
@@ -689,8 +701,10 @@ bool FrontServer::process_and_close_socket(socket_t sock) {
   return true;
 }
 
-bool FrontServer::Process(httplib::Stream& stream, bool close_connection, bool& connection_closed) {
-  return process_request(stream, close_connection, connection_closed, nullptr);
+bool FrontServer::Process(httplib::Stream& stream, bool close_connection, bool& connection_closed, Running& running) {
+  // cpp-httplib calls this once the request's head is read, before its hooks and handler.
+  const auto carry = [&running](httplib::Request& req) { req.progress = Carrier{&running}; };
+  return process_request(stream, close_connection, connection_closed, carry);
 }
 
 }  // namespace facespace::api

@@ -33,7 +33,7 @@ class WorkspacePool {
     void operator()(Workspace* ws) const;
   };
   using Lease = std::unique_ptr<Workspace, Return>;
-  // A workspace for a request whose stop token is `stop` (CurrentStop() in a route).
+  // A workspace for a request whose stop token is `stop` (StopOf(req) in a route).
   Lease Acquire(std::stop_token stop);
 
  private:

@@ -43,7 +43,7 @@ void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response
   if (!enc) {
     Workspace::Timing timing;
     Result<Encoded> bytes = [&] {
-      const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
+      const WorkspacePool::Lease ws = ctx.workspaces.Acquire(StopOf(req));
       ws->timing = {};
       Result<Encoded> made = produce(*ws);
       timing = ws->timing;

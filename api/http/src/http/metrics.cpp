@@ -1,5 +1,9 @@
 #include "metrics.h"
 
+#include <any>
+
+#include "facespace/net/front.h"
+
 #include <malloc.h>
 
 #include <cstdio>
@@ -16,8 +20,6 @@ constexpr int kBucketCount = sizeof(kBuckets) / sizeof(kBuckets[0]);
 const char* const kWarningCodes[] = {"extrapolation", "out_of_range", "negative_weight", "absolute_sum"};
 constexpr int kWarningCount = sizeof(kWarningCodes) / sizeof(kWarningCodes[0]);
 
-thread_local RequestState t_request;
-
 }  // namespace
 
 struct Metrics::RouteCounters {
@@ -27,7 +29,16 @@ struct Metrics::RouteCounters {
   std::atomic<uint64_t> sum_us{0};
 };
 
-RequestState& CurrentRequest() { return t_request; }
+RequestState& StateOf(const httplib::Request& req) {
+  Running* running = RunningOf(req);
+  if (!running) {
+    // A request no front serves (the fuzzer's in-process server, one request at a time).
+    static RequestState unserved;
+    return unserved;
+  }
+  if (!running->state.has_value()) running->state.emplace<RequestState>();
+  return *std::any_cast<RequestState>(&running->state);
+}
 
 Metrics::Metrics(std::vector<std::string> routes)
     : labels_(std::move(routes)), warnings_(new std::atomic<uint64_t>[kWarningCount]()) {

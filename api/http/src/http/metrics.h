@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include <httplib.h>
+
 #include "facespace/engine/status.h"
 
 namespace facespace::api::http {
@@ -39,12 +41,12 @@ class Metrics {
   std::unique_ptr<std::atomic<uint64_t>[]> warnings_;
 };
 
-// Per-request state the hooks share on the worker thread serving the request.
+// Per-request state the hooks share, carried on the request (facespace/net/front.h, Running::state).
 struct RequestState {
   std::chrono::steady_clock::time_point start;
   bool started = false;  // False for a request refused by the parser: its start is unknown.
   size_t route = 0;
 };
-RequestState& CurrentRequest();
+RequestState& StateOf(const httplib::Request& req);
 
 }  // namespace facespace::api::http

@@ -14,7 +14,7 @@
 
 namespace facespace::api {
 
-using http::CurrentRequest;
+using http::StateOf;
 using http::RequestState;
 using http::Problem;
 using httplib::Request;
@@ -107,15 +107,15 @@ void Api::Register(httplib::Server& server) {
 
   // The request's clock starts at its first hook: the Expect handler, else pre-routing. Requests
   // cpp-httplib refuses while parsing (400, 414) reach none: their log line has no duration.
-  auto start = [&ctx](bool again) {
-    RequestState& r = CurrentRequest();
+  auto start = [&ctx](const Request& req, bool again) {
+    RequestState& r = StateOf(req);
     if (r.started && !again) return;
     r.started = true;
     r.start = std::chrono::steady_clock::now();
     r.route = ctx.metrics.other_route();
   };
   server.set_expect_100_continue_handler([&ctx, start](const Request& req, Response& res) {
-    start(true);
+    start(req, true);
     http::HideAcceptEncoding(const_cast<Request&>(req));  // cpp-httplib's own object, not const (encoded.h).
     // 100 invites the body: never for one that will be refused from the headers.
     if (http::PreRoute(ctx, req, res)) {
@@ -128,7 +128,7 @@ void Api::Register(httplib::Server& server) {
     return 100;
   });
   server.set_pre_routing_handler([&ctx, start](const Request& req, Response& res) {
-    start(req.get_header_value("Expect") != "100-continue");  // Else the Expect handler started it.
+    start(req, req.get_header_value("Expect") != "100-continue");  // Else the Expect handler started it.
     // Before anything can answer: cpp-httplib would compress the answer itself, unbounded (encoded.h).
     http::HideAcceptEncoding(const_cast<Request&>(req));
     return http::PreRoute(ctx, req, res) ? httplib::Server::HandlerResponse::Handled : httplib::Server::HandlerResponse::Unhandled;
@@ -141,7 +141,7 @@ void Api::Register(httplib::Server& server) {
       case 413: http::SendProblem(req, res, Problem::kBodyTooLarge, "the request body is over the server's limit"); break;
       case 414: http::SendProblem(req, res, Problem::kUriTooLong, "the request line is over 8,192 bytes: send long weight lists as a POST body"); break;
       case 400:
-        if (CurrentRequest().started) http::SendProblem(req, res, Problem::kBadRequest, "the request body could not be read");
+        if (StateOf(req).started) http::SendProblem(req, res, Problem::kBadRequest, "the request body could not be read");
         else http::SendProblem(req, res, Problem::kBadRequest, "the request line or headers could not be parsed");
         break;
       default:
@@ -156,7 +156,7 @@ void Api::Register(httplib::Server& server) {
   });
 
   server.set_logger([&ctx](const Request& req, const Response& res) {
-    RequestState& r = CurrentRequest();
+    RequestState& r = StateOf(req);
     const double seconds = r.started ? std::chrono::duration<double>(std::chrono::steady_clock::now() - r.start).count() : 0.0;
     ctx.metrics.Observe(r.started ? r.route : ctx.metrics.other_route(), res.status, seconds);
     if (ctx.options.log_requests) {
@@ -177,10 +177,10 @@ void Api::Register(httplib::Server& server) {
     const size_t metric = static_cast<size_t>(std::find(labels.begin(), labels.end(), route.metric) - labels.begin());
     const std::string pattern = http::PathPattern(route.path);
     auto handler = [&ctx, metric, h = route.handler](const Request& req, Response& res) {
-      CurrentRequest().route = metric;
+      StateOf(req).route = metric;
       // Its cost is stated before it works (PreRoute's constant, or the estimate: cost.h, WithinBudget).
       h(ctx, req, res);
-      http::CompressBody(req, res, CurrentStop());  // On this worker, metered and stoppable (encoded.h).
+      http::CompressBody(req, res, StopOf(req));  // On this worker, metered and stoppable (encoded.h).
     };
     const std::string method = route.method;
     if (method == "GET") server.Get(pattern, handler);

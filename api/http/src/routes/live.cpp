@@ -360,7 +360,7 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   const std::string head = "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Accept: " + ws::AcceptKey(key) +
                            "\r\nFacespace-Cost: " + std::to_string(per_second) + "\r\n\r\n";
   const std::string ip = req.remote_addr;
-  const bool upgraded = UpgradeConnection(head, [&ctx, place, session, ip, bounds](int fd, std::string buffered) {
+  const bool upgraded = UpgradeConnection(req, head, [&ctx, place, session, ip, bounds](int fd, std::string buffered) {
     place->taken = true;
     ctx.live.Adopt(fd, ip, std::move(buffered), std::move(*session), bounds);
   });

@@ -135,7 +135,7 @@ void PostFit(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   FitRequest r;
   if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r) || !WithinBudget(ctx, req, res, FitCost(stored->rig, r))) return;
-  r.options.stop = CurrentStop();
+  r.options.stop = StopOf(req);
   auto out = ProduceFit(stored->rig, r);
   if (!out.ok()) return SendStatus(req, res, out.status());
   if (!out->warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(out->warnings));

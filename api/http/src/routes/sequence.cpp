@@ -40,7 +40,7 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   const double span = static_cast<double>(*std::max_element(r.times.begin(), r.times.end())) - seq.keys.front().time;
   if (!WithinBudget(ctx, req, res, FramesCost(stored->rig, r.times.size(), span, format != FrameFormat::kWeights, "/times"))) return;
   std::vector<Warning> warnings;
-  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(StopOf(req));
   auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws, ctx.options.max_response, format == FrameFormat::kWeights);
   if (!body.ok()) return SendStatus(req, res, body.status());
   ctx.metrics.CountBlends(r.times.size());
@@ -74,13 +74,13 @@ void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
   auto next = std::make_shared<size_t>(0);
   auto physics = std::make_shared<SequencePhysics>(stored->rig, *seq);  // Carried from frame to frame.
   res.set_chunked_content_provider(f32 ? "application/octet-stream" : "application/x-ndjson",
-                                   [&ctx, stored, seq, next, frames, f32, physics, fps, options](size_t, httplib::DataSink& sink) {
+                                   [&ctx, stored, seq, next, frames, f32, physics, fps, options, stop = StopOf(req)](size_t, httplib::DataSink& sink) {
                                      if (*next >= frames) {
                                        sink.done();
                                        return true;
                                      }
-                                     if (CurrentStop().stop_requested()) return false;  // Gone, late, or SIGTERM: the stream ends.
-                                     const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
+                                     if (stop.stop_requested()) return false;  // Gone, late, or SIGTERM: the stream ends.
+                                     const WorkspacePool::Lease ws = ctx.workspaces.Acquire(stop);
                                      auto chunk = StreamFrame(ctx.evaluator, stored, *seq, (*next)++, fps, f32, options, *ws, physics.get());
                                      if (!chunk.ok()) return false;
                                      if (f32) ctx.metrics.CountBlends(1);
@@ -110,7 +110,7 @@ void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::
   if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
   if (!r.has_tolerance) return Required(req, res, "tolerance", "largest vertex error allowed, mesh units");
   if (!WithinBudget(ctx, req, res, ReduceCost(stored->rig, seq.keys.size()))) return;
-  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance, CurrentStop());
+  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance, StopOf(req));
   if (!reduced.ok()) return SendStatus(req, res, WithInputReason(reduced.status(), kInvalidSequence));
   res.status = 200;
   res.set_content(ReducedSequenceJson(stored->rig, seq, reduced.value(), r.tolerance), "application/json");

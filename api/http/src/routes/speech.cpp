@@ -44,7 +44,7 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
                        {{field, "at most " + FormatNumber(max_seconds) + " s of speech as a video"}});
   }
   if (!WithinFrameLimit(ctx, req, res, frames, "video", "the speech's") || !CheckRenderBudget(ctx, req, res, r.render.render, 1)) return;
-  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(CurrentStop());
+  const WorkspacePool::Lease ws = ctx.workspaces.Acquire(StopOf(req));
   std::string video;
   auto encoded = WithinRenderBudget(ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<Encoded> {
     auto bytes = lipsync::SpeechVideo(ctx.evaluator, stored, plan, r, *ws);
@@ -79,7 +79,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
                        {{"/width", "width x height at most " + std::to_string(ctx.options.max_video_pixels)}});
   }
   if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;
-  auto plan = lipsync::PlanSpeech(stored->rig, r, CurrentStop());
+  auto plan = lipsync::PlanSpeech(stored->rig, r, StopOf(req));
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   // Text was priced by its words; now that it is spoken, by its real length (espeak-ng reads digits as
   // long numbers: 130 bytes were 64 s of speech, priced as 8), before any frame is drawn.

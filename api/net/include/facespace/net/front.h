@@ -13,6 +13,7 @@
 
 #include <httplib.h>
 
+#include <any>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -59,7 +60,7 @@ struct FrontOptions {
   size_t max_per_client = 256;              // Open at once from one address.
   size_t body_budget = size_t{1} << 30;     // Bytes of requests held in memory at once, in all; past it 503.
   bool log_requests = true;                 // An access-log line (stderr) for each request the front answers itself.
-  // Bounds on a request once it runs (its stop token fires at any of them; see CurrentStop):
+  // Bounds on a request once it runs (its stop token fires at any of them; see Running):
   size_t max_client_requests = 16;          // Requests of one address running at once; its others wait their turn.
   int request_deadline = 120;               // Seconds from the start of its work to the end of its answer.
   int keyed_deadline = 1800;                // ... for a request that `keyed` says carries the API key.
@@ -102,19 +103,29 @@ struct FrontStats {
   std::atomic<size_t> in_flight{0};          // Requests running now.
 };
 
-// The stop token of the request the calling thread serves: it fires when the request's client
-// hangs up, at the request's deadline, and when the server stops (SIGTERM). Long work checks it
-// between its steps (frames, cells, keys, audio chunks). A token that never fires elsewhere.
-std::stop_token CurrentStop();
+// A request running on a front's worker, as the front knows it: carried on the request itself (RunningOf),
+// not on the thread. `stop` fires when the request's client hangs up, at its deadline or CPU limit, and
+// when the server stops (SIGTERM); long work checks it between its steps (frames, cells, keys, audio
+// chunks). `state` is the caller's own state of the request (the API's clock and route label).
+struct Running {
+  std::stop_token stop;
+  void* connection = nullptr;  // The front's, for UpgradeConnection.
+  std::any state;
+};
+
+// The running request `req` is, or null for a request no front's worker serves.
+Running* RunningOf(const httplib::Request& req);
+// Its stop token; one that never fires for a request no front serves.
+std::stop_token StopOf(const httplib::Request& req);
 
 // Who takes a connection upgraded to another protocol (the live route's WebSocket sessions): the socket
 // (theirs from then on) and the bytes the client sent after its request.
 using UpgradeTaker = std::function<void(int fd, std::string buffered)>;
 
-// From a route handler on a front's worker: answer the request with `head` (a whole response head,
-// "HTTP/1.1 101 Switching Protocols\r\n...\r\n\r\n") instead of what cpp-httplib writes, then hand the
-// connection to `take` once the head is out. False outside a front's worker (nothing is taken).
-bool UpgradeConnection(std::string head, UpgradeTaker take);
+// From a route handler: answer `req` with `head` (a whole response head, "HTTP/1.1 101 Switching
+// Protocols\r\n...\r\n\r\n") instead of what cpp-httplib writes, then hand the connection to `take` once
+// the head is out. False for a request no front's worker serves (nothing is taken).
+bool UpgradeConnection(const httplib::Request& req, std::string head, UpgradeTaker take);
 
 // A cpp-httplib server whose connections go through the front. Use it as httplib::Server
 // (routes, hooks, bind_to_port, listen_after_bind, stop); new_task_queue is its own.
@@ -129,7 +140,7 @@ class FrontServer : public httplib::Server {
 
  private:
   bool process_and_close_socket(socket_t sock) override;
-  bool Process(httplib::Stream& stream, bool close_connection, bool& connection_closed);
+  bool Process(httplib::Stream& stream, bool close_connection, bool& connection_closed, Running& running);
   std::unique_ptr<Front> front_;
 };
 
