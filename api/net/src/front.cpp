@@ -24,6 +24,7 @@
 #include "facespace/engine/cpu.h"
 #include "facespace/net/framing.h"
 #include "in_flight.h"
+#include "running.h"
 #include "turns.h"
 
 namespace facespace::api {
@@ -92,13 +93,6 @@ void SendNow(int fd, std::string_view bytes) {
   }
 }
 
-// Carries a request's Running on the request: cpp-httplib's Request has no slot of the server's, and its
-// `progress` (a client's download callback) is never used by a server; what it holds is found again by
-// its type (RunningOf). Called anyway, it would let the transfer go on.
-struct Carrier {
-  Running* running;
-  bool operator()(uint64_t, uint64_t) const { return true; }
-};
 
 // cpp-httplib's accept loop hands every accepted socket to its task queue: this one gives it to
 // the front at once, on the accept thread.
@@ -113,16 +107,6 @@ class AdoptQueue final : public httplib::TaskQueue {
 };
 
 }  // namespace
-
-Running* RunningOf(const httplib::Request& req) {
-  const Carrier* carrier = req.progress.target<Carrier>();
-  return carrier ? carrier->running : nullptr;
-}
-
-std::stop_token StopOf(const httplib::Request& req) {
-  const Running* running = RunningOf(req);
-  return running ? running->stop : std::stop_token();
-}
 
 bool UpgradeConnection(const httplib::Request& req, std::string head, UpgradeTaker take) {
   Running* running = RunningOf(req);
