@@ -62,8 +62,13 @@ int WriteAll(int fd, std::string_view data) {
 Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& tmp_name,
                            std::span<const std::string_view> pieces, const std::string& what) {
   const std::string tmp = (dir / tmp_name).string();
-  ::unlink(tmp.c_str());  // A temporary file left by a crash.
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0 && errno == EEXIST) {
+    // A temporary file left by a crash. (Removed only then: an unlink takes the folder's lock, and
+    // an unconditional one a file was most of a glb batch's system time, its workers waiting on it.)
+    ::unlink(tmp.c_str());
+    fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  }
   if (fd < 0) return WriteError("cannot create " + what, errno);
   // Held until the file is published or dropped (the lock goes with the descriptor): another
   // process sharing the folder tells a temporary being written from one left by a crash.
@@ -93,6 +98,31 @@ Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_na
 void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_name) {
   ::close(fd);
   ::unlink((dir / tmp_name).c_str());
+}
+
+GroupResult PublishGroup(const std::filesystem::path& dir, std::span<PendingFile> pending) {
+  GroupResult out;
+  if (pending.empty()) return out;
+  // One flush for the group's data; a filesystem that cannot say (syncfs failed) gets one a file.
+  const bool synced = ::syncfs(pending.front().fd) == 0;
+  for (PendingFile& f : pending) {
+    const std::string tmp = (dir / f.tmp_name).string();
+    if (!out.status.ok()) {
+      Discard(f.fd, dir, f.tmp_name);
+      continue;
+    }
+    if (!synced && ::fdatasync(f.fd) != 0) {
+      out.status = Abandon(f.fd, tmp, "cannot flush " + f.what + " to disk", errno);
+    } else if (::close(f.fd) != 0) {
+      out.status = Abandon(-1, tmp, "cannot flush " + f.what + " to disk", errno);
+    } else if (::rename(tmp.c_str(), (dir / f.name).c_str()) != 0) {
+      out.status = Abandon(-1, tmp, "cannot publish " + f.what, errno);
+    } else {
+      ++out.published;
+    }
+  }
+  if (out.published) SyncDir(dir);
+  return out;
 }
 
 Status WriteFileDurably(const std::filesystem::path& dir, const std::string& name, std::string_view data,

@@ -272,16 +272,18 @@ void BatchRun::Published(size_t count) {
   cv_.notify_all();
 }
 
-// Publishes the worker's group; the lines of the variants published go into the manifest.
+// Publishes the worker's group with one sync (group commit, PublishGroup); the lines of the variants
+// whose files were all published go into the manifest.
 Status BatchRun::Flush(Worker& w) {
-  Status failed;
-  size_t published = 0;
+  std::vector<PendingFile> files;
   for (Written& v : w.group) {
-    for (size_t i = 0; i < v.fds.size(); ++i) {
-      if (!failed.ok()) Discard(v.fds[i], dir_, kTmpPrefix + v.files[i]);
-      else failed = Publish(v.fds[i], dir_, kTmpPrefix + v.files[i], v.files[i], "'" + v.files[i] + "'");
-    }
-    if (failed.ok()) ++published;
+    for (size_t i = 0; i < v.fds.size(); ++i) files.push_back({v.fds[i], kTmpPrefix + v.files[i], v.files[i], "'" + v.files[i] + "'"});
+  }
+  const GroupResult group = PublishGroup(dir_, files);
+  const Status failed = group.status;
+  size_t published = 0;
+  for (size_t done = 0; published < w.group.size() && done + w.group[published].fds.size() <= group.published; ++published) {
+    done += w.group[published].fds.size();
   }
   {
     std::lock_guard<std::mutex> lock(mu_);

@@ -31,6 +31,21 @@ Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& 
 Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& name,
                const std::string& what);
 void Discard(int fd, const std::filesystem::path& dir, const std::string& tmp_name);
+
+// Group commit: the temporaries of `pending` (each written by WriteTemporary in `dir`) made durable
+// together and published: one syncfs of the folder's filesystem for all their data (each fdatasync'd
+// instead where syncfs fails), then each renamed over its name, then the folder synced once, so their
+// names survive a crash too. A file whose flush or rename fails is removed, and so is every one after
+// it; the count published (a prefix of `pending`) is returned with the first failure.
+struct PendingFile {
+  int fd;
+  std::string tmp_name, name, what;
+};
+struct GroupResult {
+  size_t published = 0;
+  Status status;
+};
+GroupResult PublishGroup(const std::filesystem::path& dir, std::span<PendingFile> pending);
 // Flushes a temporary file (fdatasync) without publishing it, so that a later Publish of it cannot
 // fail for space; on failure the temporary file is discarded.
 Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& what);
