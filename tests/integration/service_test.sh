@@ -244,6 +244,8 @@ check "  ... GET the rig: the manifest's group and range on jawOpen" jq_ "d['sha
 check "  ... kept beside the rig file in the store" sh -c "[ -s '$store/face2.glb' ] && cmp -s '$store/face2.manifest.json' '$tmp/m1.json'"
 code=$(c "$U/v1/rigs/face2/manifest")
 check "  ... GET /manifest: the rig's manifest as JSON" both "[ $code = 200 ]" jq_ "d['name']=='Face two' and d['shapes']['jawOpen']['max']==0.5 and d['shapes']['jawOpen']['group']=='mouth'"
+etag=$(hdr ETag)
+check "  ... with If-None-Match of its ETag: 304, no body" sh -c "[ -n '$etag' ] && [ \"\$(curl -s -o '$tmp/nm' -w '%{http_code}' -H 'If-None-Match: $etag' '$U/v1/rigs/face2/manifest')\" = 304 ] && [ ! -s '$tmp/nm' ]"
 check "  ... multipart with the rig part named by its file name (no type): 200" test "$(c -X PUT "${K[@]}" -F "rig=@$store/facecap.glb" -F "manifest=@$tmp/m1.json" "$U/v1/rigs/face2")" = 200
 check "  ... an unknown part: 422 naming it, did you mean" problem "$(c -X PUT "${K[@]}" -F "rig=@$store/facecap.glb" -F "manifets=@$tmp/m1.json" "$U/v1/rigs/face2")" 422 "d['errors'][0]['pointer']=='/manifets' and \"'manifest'\" in d['detail']"
 check "  ... no rig part: 422 naming /rig" problem "$(c -X PUT "${K[@]}" -F "manifest=@$tmp/m1.json" "$U/v1/rigs/face2")" 422 "d['errors'][0]['pointer']=='/rig'"

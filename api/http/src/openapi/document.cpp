@@ -2,6 +2,7 @@
 // operations (operations.cpp) are looked up by path and method for each route the table lists, so the
 // document names exactly the routes the server answers; a route without an operation here stops
 // the server at its first request for the document (every service test would fail).
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 
@@ -77,11 +78,19 @@ void DeclareHeaders(json& doc) {
     for (auto& [method, op] : item.items()) {
       if (!op.is_object() || !op.contains("responses")) continue;
       const std::string id = op.value("operationId", "");
+      // A GET whose answer carries an ETag answers 304 to an If-None-Match that names it.
+      for (const auto& [operation, names] : SuccessHeaders()) {
+        const bool etag = id == operation && std::find(names.begin(), names.end(), std::string_view("ETag")) != names.end();
+        if (etag && method == "get" && !op["responses"].contains("304")) {
+          op["responses"]["304"] = {{"description", "Not modified: If-None-Match named the ETag"}};
+        }
+      }
       for (auto& [status, response] : op["responses"].items()) {
         json& headers = response["headers"];
         headers["Facespace-Cost"] = ref("Facespace-Cost");
         if (status == "401") headers["WWW-Authenticate"] = ref("WWW-Authenticate");
         if (status == "429" || status == "503") headers["Retry-After"] = ref("Retry-After");
+        if (status == "304" && headers.find("ETag") == headers.end()) headers["ETag"] = ref("ETag");
         if (status[0] != '2') continue;
         for (const auto& [operation, names] : SuccessHeaders()) {
           if (id != operation) continue;

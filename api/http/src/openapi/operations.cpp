@@ -181,6 +181,16 @@ json SpeechQuery() {
   return params;
 }
 
+// What a job's files are: a variant's mesh or image, a labelled sample's EXR and PNG, a tar shard, the
+// manifest's lines, batch.json (routes/batch.cpp, FileType).
+json JobFileContent() {
+  const json bin = {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}};
+  const json text = {{"schema", {{"type", "string"}}}};
+  return {{"model/gltf-binary", bin}, {"model/obj", text}, {"application/json", {{"schema", {{"type", "object"}, {"additionalProperties", true}}}}},
+          {"application/octet-stream", bin}, {"image/png", bin}, {"image/jpeg", bin}, {"image/x-exr", bin}, {"image/tiff", bin},
+          {"image/webp", bin}, {"application/x-tar", bin}, {"application/x-ndjson", text}};
+}
+
 json OkJson() { return {{"description", "OK"}, {"content", {{"application/json", {{"schema", {{"type", "object"}, {"additionalProperties", true}}}}}}}}; }
 
 // A 200 whose JSON body is the component `name`.
@@ -362,6 +372,8 @@ json SequenceOperations() {
            {{"200", {{"description", "json: phonemes, visemes ({viseme, start, end}) and keys; ndjson/weights/f32: the frames streamed; wav; webm"},
                      {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Speech"}}}}},
                                   {"application/x-ndjson", {{"schema", {{"type", "string"}}}}},
+                                  {"application/octet-stream", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"},
+                                                                            {"description", "format f32: uint32-length-prefixed float32 frames"}}}}},
                                   {"audio/wav", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}},
                                   {"video/webm", {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}}}}}},
             {"400", Problem("Malformed JSON")},
@@ -408,7 +420,8 @@ json JobOperations() {
        {{"get", {{"summary", "One file of a job: a variant (as named in the manifest), sheet.png, batch.json"},
                  {"operationId", "getJobFile"},
                  {"parameters", json::array({JobParam(), {{"name", "name"}, {"in", "path"}, {"required", true}, {"schema", {{"type", "string"}}}}})},
-                 {"responses", {{"200", {{"description", "The file"}}}, {"404", Problem("Unknown job or file")}}}}}}},
+                 {"responses", {{"200", {{"description", "The file, typed by its extension"}, {"content", JobFileContent()}}},
+                                {"404", Problem("Unknown job or file")}}}}}}},
       {"/v1/jobs/{job}/results.zip",
        {{"get", {{"summary", "Every file of a finished job as one zip archive (streamed)"}, {"operationId", "getJobResults"},
                  {"parameters", json::array({JobParam()})},

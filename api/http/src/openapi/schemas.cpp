@@ -199,6 +199,12 @@ json Rig() {
                       {"properties", {{"type", {{"enum", {"bones", "shapes", "expressions", "none"}}}}, {"eyes", Open()},
                                       {"shapes", Open()}, {"head", Open()}, {"neck", Open()},
                                       {"range_maps", Open()}, {"origin", ArrayOf(Number())}}}}},
+            {"visemes", {{"type", "object"},
+                         {"properties", {{"jaw", {{"type", "array"}, {"items", String()}, {"description", "The shapes that open the jaw"}}},
+                                         {"nolip", {{"type", "array"}, {"items", String()},
+                                                    {"description", "Shapes held at 0 while speaking (MMDAgent's NOLIP)"}}}}},
+                         {"additionalProperties", {{"type", {"object", "null"}}, {"additionalProperties", {{"type", "number"}}}}},
+                         {"description", "Each viseme (sil, PP, FF, ... ou) -> the shapes and weights that say it"}}},
             {"load_warnings", ArrayOf(Ref("Warning"))}}}};
 }
 
@@ -224,6 +230,8 @@ json Check() {
   return {{"type", "object"},
           {"required", {"sum", "weights", "warnings"}},
           {"properties", {{"sum", Number()}, {"weights", WeightsObject()}, {"warnings", ArrayOf(Ref("Warning"))},
+                          {"vertex_sum", {{"type", "number"}, {"description", "Beside a sum above 1: the most weight one vertex takes"}}},
+                          {"stacked", {{"type", "array"}, {"items", String()}, {"description", "Beside vertex_sum: the shapes stacking there"}}},
                           {"mahalanobis", {{"type", "number"}, {"description", "With manifest statistics: distance from the mean in standard deviations"}}}}}};
 }
 
@@ -299,6 +307,10 @@ json Schemas() {
                       {"properties", {{"source", {{"type", "string"}, {"enum", {"espeak-ng", "pocketsphinx", "pocketsphinx-aligned"}}}},
                                       {"voice", {{"type", "string"}}},
                                       {"duration", {{"type", "number"}}},
+                                      {"fps", {{"type", "number"}, {"description", "Frames a second of the keys"}}},
+                                      {"frames", {{"type", "integer"}, {"description", "Frames the speech lasts at fps"}}},
+                                      {"transition", {{"type", "string"}, {"description", "How the keys blend (a sequence's transition)"}}},
+                                      {"audio_wav", {{"type", "string"}, {"contentEncoding", "base64"}, {"description", "with_audio: the speech as a WAV file"}}},
                                       {"phonemes", ArrayOf(json{{"type", "object"}, {"required", {"name", "start", "end"}},
                                                                 {"properties", {{"name", String()}, {"start", Number()}, {"end", Number()}}}})},
                                       {"visemes", ArrayOf(json{{"type", "object"}, {"required", {"viseme", "start", "end"}},

@@ -271,7 +271,12 @@ void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
 
 void GetManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (auto r = FindRig(ctx, req, res, req.matches[1])) {
-    res.set_header("ETag", "\"" + r->version + "\"");
+    const std::string etag = "\"" + r->version + "\"";
+    res.set_header("ETag", etag);
+    if (req.get_header_value("If-None-Match").find(etag) != std::string::npos) {
+      res.status = 304;  // The client's copy is this version's.
+      return;
+    }
     res.set_content(ManifestJson(r->rig), "application/json");
   }
 }
