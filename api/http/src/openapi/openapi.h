@@ -3,6 +3,8 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+
+#include "facespace/evaluator/members.h"
 #include <string>
 #include <string_view>
 #include <vector>
@@ -27,6 +29,11 @@ struct QueryParameter {
   bool map = false;
 };
 const std::vector<QueryParameter>& QueryParameters(std::string_view method, std::string_view path);
+
+// A member of a request body (facespace/evaluator/members.h) as a JSON Schema: its kind and range, its
+// documentation, its default in the description and x-facespace-default (not `default`: generated
+// clients would make it required), its example.
+json MemberSchema(const facespace::api::Member& m);
 
 // A response whose body is a problem (RFC 9457) described so.
 json Problem(const std::string& description);

@@ -20,6 +20,7 @@ namespace {
 using facespace::api::Body;
 using facespace::api::Kind;
 using facespace::api::Member;
+using facespace::api::FindMember;
 using facespace::api::Members;
 
 // The headers every answer of the mesh and image routes carries.
@@ -92,64 +93,36 @@ json MapParam(const char* name, const char* description) {
           {"schema", {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}}};
 }
 
-// One query parameter of GET mesh or render, by the name the route reads (http/query_params.h).
+// One query parameter of GET mesh or render, by the name the route reads (http/query_params.h): the
+// body's member of that name (the camera's, flat: yaw=20), from the member tables. Three read the query
+// their own way: camera (the body's object as JSON), frame (a time in MMD frames, or the camera's
+// framing) and gaze (short forms); other objects and arrays are the body's as JSON.
 json QueryParam(std::string_view name, bool render) {
-  auto param = [&](json schema, const char* description = nullptr) {
-    json p = {{"name", std::string(name)}, {"in", "query"}, {"schema", std::move(schema)}};
-    if (description) p["description"] = description;
-    return p;
-  };
-  const json number = {{"type", "number"}}, boolean = {{"type", "boolean"}};
-  if (name == "format") {
-    return render ? param({{"enum", {"png", "jpeg", "exr", "tiff", "webp"}}, {"default", "png"}})
-                  : param({{"enum", {"glb", "obj", "json", "f32", "vrm", "vrm0"}}, {"default", "glb"}});
-  }
-  if (name == "space") {
-    return param({{"enum", {"world", "mesh"}}, {"default", "world"}},
-                 "json, obj, f32: world space (each primitive placed by its node, dequantized) or each mesh's own");
-  }
-  if (name == "keep_targets") return param(boolean, "glb: keep the morph targets, with the blend as the mesh's weights");
-  if (name == "mode") return param({{"enum", {"relative", "absolute"}}, {"default", "relative"}});
-  if (name == "normals") return param({{"enum", {"blend", "recompute"}}, {"default", "blend"}});
-  if (name == "strict") return param(boolean, "Refuse (422) a point with warnings instead of answering with them");
-  if (name == "skinning") return param({{"enum", {"linear", "dual_quaternion"}}, {"default", "linear"}});
-  if (name == "lod") {
-    return param({{"type", "integer"}, {"minimum", 0}, {"maximum", 4}, {"default", 0}},
-                 "Level of detail: 0 full, L about 1/2^L of the triangles");
-  }
-  if (name == "pose") return param({{"type", "string"}}, "The body's pose object (joint -> rotation, euler, translation, scale) as JSON");
-  if (name == "gaze") {
-    return param({{"type", "string"}}, "Where the eyes look: YAW,PITCH (degrees; yaw > 0 to the character's left, pitch > 0 up), X,Y,Z (a point of "
-                                       "the rig's world), or the body's gaze object as JSON");
-  }
-  if (name == "blend") return param({{"type", "string"}}, "The body's blend array (several clips at their times and weights) as JSON");
-  if (name == "layers") return param({{"type", "string"}}, "The body's layers array (a base motion, then overlays) as JSON");
-  if (name == "animation") return param({{"type", "string"}}, "A clip by name or index, posed at time");
-  if (name == "motion") return param({{"type", "string"}}, "A clip by MMD's word (a .vmd motion): as animation");
-  if (name == "time") return param(number, "Seconds into the animation");
-  if (name == "loop") return param(boolean, "Wrap time into the clip's length");
-  if (name == "frame") {
-    if (!render) return param(number, "The time in MMD frames, 30 a second");
-    return param({{"oneOf", json::array({number, json{{"type", "string"}, {"pattern", "^(all|shapes|auto|joint:.+)$"}}})}},
-                 "A time in MMD frames (30 a second), or the camera's framing: all (the rest shape unless posed, so the camera "
-                 "stays still while weights change), shapes, joint:NAME (the vertices a joint carries, under the pose), auto (the "
-                 "default: the shapes when they act on a small part of the rig, through the joint carrying them on a skinned one, else all)");
-  }
-  if (name == "width" || name == "height") return param({{"type", "integer"}, {"minimum", 1}, {"default", 512}});
-  if (name == "view") return param({{"enum", {"shaded", "wireframe", "heatmap", "normals", "clay"}}, {"default", "shaded"}});
-  if (name == "background") return param({{"type", "string"}}, "#rrggbb, #rrggbbaa or transparent");
-  if (name == "supersample") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 4}});
-  if (name == "exposure") return param({{"type", "number"}, {"minimum", -10}, {"maximum", 10}, {"default", 0}}, "Stops of light before tone mapping (+1: twice the light)");
-  if (name == "quality") return param({{"type", "integer"}, {"minimum", 1}, {"maximum", 100}}, "jpeg and webp");
   if (name == "camera") {  // JSON in the query string: OpenAPI's content form, typed as the body's camera.
     return {{"name", "camera"}, {"in", "query"}, {"description", "The body's camera object as JSON (yaw, pitch, zoom, distance, fov, frame, eye, target, up)"},
             {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Camera"}}}}}}}};
   }
-  if (name == "yaw" || name == "pitch") return param(number, "Degrees");
-  if (name == "distance" || name == "zoom") return param(number);
-  if (name == "fov") return param(number, "Vertical field of view, degrees (1 to 170)");
-  std::fprintf(stderr, "facespace: the OpenAPI document cannot describe the query parameter '%.*s'\n", static_cast<int>(name.size()), name.data());
-  std::abort();
+  const Member* m = FindMember(render ? Body::kRender : Body::kMesh, name);
+  if (!m) m = FindMember(Body::kCamera, name);
+  if (!m) {
+    std::fprintf(stderr, "facespace: the OpenAPI document cannot describe the query parameter '%.*s'\n", static_cast<int>(name.size()), name.data());
+    std::abort();
+  }
+  json schema = MemberSchema(*m);
+  std::string description = schema.value("description", "");
+  schema.erase("description");
+  if (name == "frame" && render) {
+    schema = {{"oneOf", json::array({json{{"type", "number"}}, json{{"type", "string"}, {"pattern", "^(all|shapes|auto|joint:.+)$"}}})}};
+    description = "A time in MMD frames (30 a second), or the camera's framing: all, shapes, joint:NAME or auto (the default)";
+  } else if (name == "gaze") {
+    schema = {{"type", "string"}};
+    description = "Where the eyes look: YAW,PITCH (degrees; yaw > 0 to the character's left, pitch > 0 up), X,Y,Z (a point of "
+                  "the rig's world), or the body's gaze object as JSON";
+  } else if (m->kind == Kind::kSchema) {
+    schema = {{"type", "string"}};
+    description += " (as in the body: a name or an index, a colour, or JSON)";
+  }
+  return {{"name", std::string(name)}, {"in", "query"}, {"schema", schema}, {"description", description}};
 }
 
 // The parameters of GET mesh or render: the path's id, the weights and controls, and each name

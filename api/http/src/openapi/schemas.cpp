@@ -37,46 +37,6 @@ json Weights() {
                                         {"description", "By shape name, alias or index"}}})}};
 }
 
-// The request bodies, from their member tables (evaluator/members.h): a member's default is in its
-// description and x-facespace-default, not `default`, so that generated clients keep it optional.
-json MemberSchema(const Member& m) {
-  json s;
-  switch (m.kind) {
-    case Kind::kNumber:
-    case Kind::kInteger:
-      s = {{"type", m.kind == Kind::kInteger ? "integer" : "number"}};
-      if (std::isfinite(m.lo)) s["minimum"] = m.lo;
-      if (std::isfinite(m.hi)) s["maximum"] = m.hi;
-      break;
-    case Kind::kBoolean: s = {{"type", "boolean"}}; break;
-    case Kind::kString:
-      s = {{"type", "string"}};
-      if (!m.schema.empty()) s["pattern"] = m.schema;
-      break;
-    case Kind::kChoice: {
-      json choices = json::array();
-      for (std::string_view rest = m.choices; !rest.empty();) {
-        const size_t bar = rest.find('|');
-        choices.push_back(std::string(rest.substr(0, bar)));
-        rest = bar == std::string_view::npos ? std::string_view() : rest.substr(bar + 1);
-      }
-      s = {{"type", "string"}, {"enum", choices}};
-      break;
-    }
-    case Kind::kSchema:
-      s = m.schema.starts_with('#') ? Ref(std::string(m.schema.substr(1)).c_str()) : json::parse(m.schema);
-      break;
-  }
-  std::string doc(m.doc);
-  if (!m.fallback.empty()) {
-    doc += ". Default: " + std::string(m.fallback);
-    s["x-facespace-default"] = json::parse(m.fallback);
-  }
-  s["description"] = doc;
-  if (!m.example.empty()) s["examples"] = json::array({json::parse(m.example)});
-  return s;
-}
-
 json BodySchema(Body body) {
   json properties = json::object(), required = json::array();
   for (const Member& m : Members(body)) {
@@ -292,6 +252,47 @@ json Job() {
 }
 
 }  // namespace
+
+// The request bodies, from their member tables (evaluator/members.h): a member's default is in its
+// description and x-facespace-default, not `default`, so that generated clients keep it optional.
+json MemberSchema(const facespace::api::Member& m) {
+  json s;
+  switch (m.kind) {
+    case facespace::api::Kind::kNumber:
+    case facespace::api::Kind::kInteger:
+      s = {{"type", m.kind == facespace::api::Kind::kInteger ? "integer" : "number"}};
+      if (std::isfinite(m.lo)) s["minimum"] = m.lo;
+      if (std::isfinite(m.hi)) s["maximum"] = m.hi;
+      break;
+    case facespace::api::Kind::kBoolean: s = {{"type", "boolean"}}; break;
+    case facespace::api::Kind::kString:
+      s = {{"type", "string"}};
+      if (!m.schema.empty()) s["pattern"] = m.schema;
+      break;
+    case facespace::api::Kind::kChoice: {
+      json choices = json::array();
+      for (std::string_view rest = m.choices; !rest.empty();) {
+        const size_t bar = rest.find('|');
+        choices.push_back(std::string(rest.substr(0, bar)));
+        rest = bar == std::string_view::npos ? std::string_view() : rest.substr(bar + 1);
+      }
+      s = {{"type", "string"}, {"enum", choices}};
+      break;
+    }
+    case facespace::api::Kind::kSchema:
+      s = m.schema.starts_with('#') ? Ref(std::string(m.schema.substr(1)).c_str()) : json::parse(m.schema);
+      break;
+  }
+  std::string doc(m.doc);
+  if (!m.fallback.empty()) {
+    doc += ". Default: " + std::string(m.fallback);
+    s["x-facespace-default"] = json::parse(m.fallback);
+  }
+  s["description"] = doc;
+  if (!m.example.empty()) s["examples"] = json::array({json::parse(m.example)});
+  return s;
+}
+
 
 json Schemas() {
   json schemas = {{"Job", Job()},
