@@ -163,13 +163,19 @@ TEST(Members, NoReaderReadsAMemberTheTablesDoNotDeclare) {
     for (const Member& m : Members(body)) declared.insert(std::string(m.name));
   }
   // Names a reader compares that are not body members: the one-member object of a batch's background
-  // images (read by `facespace batch` alone), and a fit target's primitives, which are the mesh
-  // route's answer (the MeshJson schema) read back.
+  // images (read by `facespace batch` alone), and a fit target's primitives, which are the mesh route's
+  // answer (the MeshJson schema) read back.
   const std::set<std::string> not_members = {"images", "positions"};
   const std::regex key_use(R"re((?:\bkey|\bk|\.key\(\))\s*[!=]=\s*"([a-z_]+)"|contains\("([a-z_]+)"\)|\["([a-z_]+)"\])re");
   size_t seen = 0;
+  std::vector<fs::path> readers;
   for (const auto& entry : fs::directory_iterator(fs::path(FACESPACE_SOURCE_DIR) / "api/evaluator/src/request")) {
-    if (entry.path().filename() == "members.cpp") continue;
+    if (entry.path().filename() != "members.cpp") readers.push_back(entry.path());
+  }
+  // The live socket's messages (the other routes read bodies through the readers above).
+  readers.push_back(fs::path(FACESPACE_SOURCE_DIR) / "api/http/src/routes/live.cpp");
+  for (const fs::path& path : readers) {
+    const fs::directory_entry entry(path);
     std::ifstream in(entry.path());
     std::stringstream text;
     text << in.rdbuf();

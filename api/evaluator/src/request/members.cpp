@@ -269,6 +269,29 @@ constexpr Member kRandomize[] = {
            R"({"type": "object", "additionalProperties": {"$ref": "#/components/schemas/Interval"}})"),
 };
 
+// ---- the live socket's text messages ----
+constexpr Member kLive[] = {
+    Schema("weights", "Shape weights merged into the face (a name's null: back to 0)", kByName).Example(R"({"jawOpen": 0.5})"),
+    Schema("expressions", "Expressions merged into the face, as weights", kByName),
+    Schema("controls", "Control values merged into the face, as weights", kByName),
+    Schema("gaze", "Where the eyes look", "#Gaze"),
+    Schema("pose", "The pose, replacing the last one", "#Pose"),
+    Integer("id", "Echoed in the frames and warnings that show this message", 0, 4294967295.0),
+    Schema("say", "Speak a text on the face (alone in its message)", "#LiveSay"),
+    Boolean("stop", "true: end the speech (alone in its message)"),
+    Schema("listen", "Hear 16 kHz 16-bit mono PCM sent as binary messages, lip-synced (alone in its message); false ends it",
+           R"({"oneOf": [{"$ref": "#/components/schemas/LiveListen"}, {"const": false}]})"),
+};
+constexpr Member kLiveSay[] = {
+    String("text", "What to say").Required(),
+    String("voice", "An espeak-ng voice (GET /v1/voices)").Default(R"("en-us")"),
+    Integer("rate", "Words a minute", 80, 450).Default("175"),
+};
+constexpr Member kLiveListen[] = {
+    Integer("rate", "Samples a second of the audio sent: 16000 only", 16000, 16000).Default("16000"),
+    Boolean("frames", "Send the face's frames as the audio is heard").Default("false"),
+};
+
 struct Table {
   Body body;
   std::string_view name, doc;
@@ -349,6 +372,10 @@ std::vector<Table> MakeTables() {
   add(Body::kSample, "Sample", "How a batch's points are sampled, with a seed", kSample);
   add(Body::kRandomize, "Randomize", "What varies per sample, drawn from the sample's own seeded stream: the same seed and "
       "index, the same draw", kRandomize);
+  add(Body::kLive, "LiveMessage", "A text message of the live socket: a change of the face (merged into it), or say, stop or listen",
+      kLive);
+  add(Body::kLiveSay, "LiveSay", "Text the live face speaks", kLiveSay);
+  add(Body::kLiveListen, "LiveListen", "Audio the live face hears and lip-syncs", kLiveListen);
   return t;
 }
 

@@ -262,6 +262,9 @@ json RigOperations() {
                              "or the session's time is up."},
                  {"operationId", "getLive"},
                  {"parameters", json::array({IdParam()})},
+                 // The socket's messages, declared as the bodies are (facespace/evaluator/members.h).
+                 {"x-facespace-messages", {{"client", {{"text", {{"$ref", "#/components/schemas/LiveMessage"}}},
+                                                       {"binary", "16 kHz 16-bit mono PCM, after {\"listen\": ...}"}}}}},
                  {"responses", {{"101", {{"description", "Switched to the WebSocket protocol; Facespace-Cost states a second of frames"}}},
                                 {"400", Problem("Bad Sec-WebSocket-Key")}, {"404", Problem("Unknown rig")},
                                 {"426", Problem("Not a WebSocket upgrade, or not version 13")},

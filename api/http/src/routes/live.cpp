@@ -4,6 +4,7 @@
 // same bytes as GET /mesh?format=f32 for that point, at most 60 a second (the hub coalesces).
 #include <nlohmann/json.hpp>
 
+#include "facespace/evaluator/members.h"
 #include "../http/cost.h"
 #include "facespace/net/framing.h"
 #include "facespace/net/live_hub.h"
@@ -25,7 +26,6 @@ constexpr size_t kHeaderBytes = 16;
 
 // The members a state message may carry, merged into the point; and the others it may carry.
 constexpr std::string_view kMerged[] = {"weights", "expressions", "controls", "gaze"};
-constexpr std::string_view kKnown[] = {"weights", "expressions", "controls", "gaze", "pose", "id", "say", "stop", "listen"};
 
 class FaceSession final : public LiveHandler {
  public:
@@ -78,8 +78,8 @@ class FaceSession final : public LiveHandler {
         }
         if (into.empty()) next.erase(key);
       } else {
-        std::string valid;
-        for (std::string_view k : kKnown) valid += (valid.empty() ? "" : ", ") + std::string(k);
+        std::string valid;  // The message's members: its table (facespace/evaluator/members.h).
+        for (const Member& k : Members(Body::kLive)) valid += (valid.empty() ? "" : ", ") + std::string(k.name);
         out.texts.push_back(ErrorEvent("unknown-member", "unknown member '" + key.substr(0, 64) + "'; valid: " + valid, "/" + key.substr(0, 64)));
         return;
       }
@@ -183,9 +183,12 @@ class FaceSession final : public LiveHandler {
     int rate = 175;
     for (auto it = say.begin(); it != say.end(); ++it) {
       const std::string where = "/say/" + it.key().substr(0, 64);
+      if (!FindMember(Body::kLiveSay, it.key())) {
+        return out.texts.push_back(ErrorEvent("unknown-member", "say takes text, voice (a string) and rate (words a minute)", where));
+      }
       if (it.key() == "voice" && it->is_string()) voice = it->get<std::string>();
       else if (it.key() == "rate" && it->is_number_integer()) rate = it->get<int>();
-      else if (it.key() != "text") return out.texts.push_back(ErrorEvent("invalid-message", "say takes text, voice (a string) and rate (words a minute)", where));
+      else if (it.key() != "text") return out.texts.push_back(ErrorEvent("invalid-message", "voice is a string and rate an integer (words a minute)", where));
     }
     if (Status s = speaker_.Say(say["text"].get<std::string>(), voice, rate); !s.ok()) Refuse(s, out, "/say");
   }
@@ -206,7 +209,7 @@ class FaceSession final : public LiveHandler {
         return out.texts.push_back(ErrorEvent("invalid-message", "the audio's rate must be 16000 (16-bit mono PCM; a browser resamples with an AudioContext of 16 kHz)", where));
       }
       if (it.key() == "frames" && !it->is_boolean()) return out.texts.push_back(ErrorEvent("invalid-message", "frames must be true or false", where));
-      if (it.key() != "rate" && it.key() != "frames") return out.texts.push_back(ErrorEvent("invalid-message", "listen takes rate and frames", where));
+      if (!FindMember(Body::kLiveListen, it.key())) return out.texts.push_back(ErrorEvent("unknown-member", "listen takes rate and frames", where));
     }
     if (Status s = CanSpeak(rig_->rig); !s.ok()) return Refuse(s, out);
     if (listener_) return out.texts.push_back(ErrorEvent("invalid-message", "already listening: {\"listen\": false} ends it", "/listen"));

@@ -95,12 +95,15 @@ enum class Body : unsigned char {
   kVariant,    // One variant of a batch.
   kSample,     // A batch's "sample".
   kRandomize,  // A batch's "randomize".
+  kLive,       // A text message of the live socket (GET /v1/rigs/{id}/live).
+  kLiveSay,    // Its "say".
+  kLiveListen, // Its "listen".
 };
 inline constexpr Body kBodies[] = {Body::kMesh,      Body::kRender,   Body::kSheet,     Body::kSequence, Body::kBatch,
                                    Body::kFit,       Body::kSpeech,   Body::kCamera,    Body::kLight,    Body::kGaze,
                                    Body::kGazeTrack, Body::kGazeKey,  Body::kBlink,     Body::kJoint,    Body::kBlendClip,
                                    Body::kLayer,     Body::kKey,      Body::kCell,      Body::kVariant,  Body::kSample,
-                                   Body::kRandomize};
+                                   Body::kRandomize, Body::kLive,     Body::kLiveSay,   Body::kLiveListen};
 
 // The members `body` takes, in the order the document lists them.
 std::span<const Member> Members(Body body);
