@@ -60,7 +60,14 @@ class ApiTest : public ::testing::Test {
     delete api_;
     delete store_;
   }
-  static httplib::Client Client() { return httplib::Client("127.0.0.1", port_); }
+  // A client that waits as long as the work may take (cpp-httplib's 5 s read timeout is a time limit, and
+  // keyed work under the sanitizers beside other load has taken longer): tests judge answers, not speed.
+  static httplib::Client Client() {
+    httplib::Client c("127.0.0.1", port_);
+    c.set_read_timeout(300, 0);
+    c.set_write_timeout(300, 0);
+    return c;
+  }
 
   // A raw exchange on one connection: `request` is sent as it is (headers only, or a partial
   // body), then what the server answers within 3 s is read (a server that waits for a body that

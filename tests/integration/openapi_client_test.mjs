@@ -51,15 +51,22 @@ const glb = fs.readFileSync(glbPath);
 const json = (r) => (typeof r.body === 'object' && r.body !== null && !(r.body instanceof ArrayBuffer) ? r.body : JSON.parse(r.text));
 
 // Calls an operation by its id with the generated client; failures (4xx, 5xx) come back as responses.
+// A GET whose kept-alive connection the server closed as the request went out (its idle timeout passed
+// while this machine was busy) gets no answer at all ("fetch failed"): it is sent once more, as a client
+// may retry an idempotent request then (RFC 9112, 9.3.1).
 async function call(operationId, parameters = {}, extra = {}) {
-  try {
-    const request = SwaggerClient.buildRequest({ spec, operationId, parameters, ...extra });
-    const response = await client.execute({ operationId, parameters, ...extra });
-    response.request = request;
-    return response;
-  } catch (e) {
-    if (e.response) return e.response;
-    throw e;
+  for (let attempt = 0; ; ++attempt) {
+    try {
+      const request = SwaggerClient.buildRequest({ spec, operationId, parameters, ...extra });
+      const response = await client.execute({ operationId, parameters, ...extra });
+      response.request = request;
+      return response;
+    } catch (e) {
+      if (e.response) return e.response;
+      const idempotent = ['GET', 'HEAD'].includes(SwaggerClient.buildRequest({ spec, operationId, parameters, ...extra }).method);
+      if (attempt === 0 && idempotent && /fetch failed/.test(String(e.message))) continue;
+      throw e;
+    }
   }
 }
 
