@@ -418,6 +418,16 @@ void RefuseUnknown(const nlohmann::json& v, std::string_view pointer, Body body,
   }
 }
 
+std::vector<std::string_view> Choices(const Member& m) {
+  std::vector<std::string_view> out;
+  for (std::string_view rest = m.choices; !rest.empty();) {
+    const size_t bar = rest.find('|');
+    out.push_back(rest.substr(0, bar));
+    rest = bar == std::string_view::npos ? std::string_view() : rest.substr(bar + 1);
+  }
+  return out;
+}
+
 std::string Expected(const Member& m) {
   switch (m.kind) {
     case Kind::kNumber:
@@ -432,12 +442,7 @@ std::string Expected(const Member& m) {
     case Kind::kString: return "a string";
     case Kind::kChoice: {
       std::string out = "one of ";
-      std::string_view rest = m.choices;
-      while (!rest.empty()) {
-        const size_t bar = rest.find('|');
-        out += "\"" + std::string(rest.substr(0, bar)) + "\"" + (bar == std::string_view::npos ? "" : ", ");
-        rest = bar == std::string_view::npos ? std::string_view() : rest.substr(bar + 1);
-      }
+      for (std::string_view c : Choices(m)) out += (out.size() > 7 ? ", \"" : "\"") + std::string(c) + "\"";
       return out;
     }
     case Kind::kSchema: return "as the document's schema says";

@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include "openapi.h"
+#include "facespace/formats/rig_json.h"
 #include "facespace/http/http.h"
 #include "../http/problems.h"
 #include "../http/route_table.h"
@@ -137,9 +138,7 @@ std::string OpenApiJson(const ApiOptions& limits) {
                                        {"keyed_cpu_seconds", limits.keyed_cpu}};
   for (const auto& [name, value] : limits.limits) {
     json& at = doc["info"]["x-facespace-limits"][name];
-    if (!at.is_null()) continue;
-    if (value == static_cast<double>(static_cast<long long>(value))) at = static_cast<long long>(value);
-    else at = value;
+    if (at.is_null()) at = NumberValue(value);  // Whole numbers as integers (formats' rig_json.h).
   }
   json& schemas = doc["components"]["schemas"];
   for (const char* schema : {"RenderRequest", "SheetRequest"}) {

@@ -271,11 +271,7 @@ json MemberSchema(const facespace::api::Member& m) {
       break;
     case facespace::api::Kind::kChoice: {
       json choices = json::array();
-      for (std::string_view rest = m.choices; !rest.empty();) {
-        const size_t bar = rest.find('|');
-        choices.push_back(std::string(rest.substr(0, bar)));
-        rest = bar == std::string_view::npos ? std::string_view() : rest.substr(bar + 1);
-      }
+      for (std::string_view c : facespace::api::Choices(m)) choices.push_back(std::string(c));
       s = {{"type", "string"}, {"enum", choices}};
       break;
     }

@@ -8,6 +8,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <nlohmann/json_fwd.hpp>
 
@@ -120,6 +121,8 @@ void RefuseUnknown(const nlohmann::json& v, std::string_view pointer, Body body,
 // `pointer`, when it is not.
 bool ReadNumber(Body body, std::string_view name, const nlohmann::json& v, const std::string& pointer, double* out,
                 Status& errors);
+// A kChoice member's choices, in order ("a|b|c" -> a, b, c).
+std::vector<std::string_view> Choices(const Member& m);
 // What a member must be, from its declaration: "an integer in [1, 4]", "true or false", ...
 std::string Expected(const Member& m);
 
