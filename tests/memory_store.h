@@ -27,8 +27,9 @@ class MemoryStore : public facespace::api::RigStore {
     for (const auto& [id, r] : rigs_) out.push_back(r);
     return out;
   }
-  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes, facespace::RigFormat format,
-                        const std::string& manifest, bool* created) override {
+  facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes,
+                        facespace::RigFormat format, const std::string& manifest,
+                        bool* created) override {
     auto rig = facespace::api::LoadUpload(id, bytes, format, manifest);
     if (!rig.ok()) return rig.status();
     auto stored = std::make_shared<facespace::api::StoredRig>();
@@ -74,7 +75,8 @@ class MemoryStore : public facespace::api::RigStore {
  private:
   mutable std::mutex mu_;
   std::map<std::string, std::shared_ptr<const facespace::api::StoredRig>> rigs_;
-  std::map<std::string, std::pair<std::vector<unsigned char>, facespace::RigFormat>> files_;  // Uploads.
+  std::map<std::string, std::pair<std::vector<unsigned char>, facespace::RigFormat>>
+      files_;  // Uploads.
 };
 
 }  // namespace facespace::test

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -17,17 +18,35 @@
 
 namespace facespace::test {
 
+// The largest distance between the same vertex in two evaluations of one rig (positions of every
+// primitive).
+inline double MaxDistance(const BlendedRig& a, const BlendedRig& b) {
+  double worst = 0;
+  for (size_t p = 0; p < a.primitives.size() && p < b.primitives.size(); ++p) {
+    const std::vector<float>& pa = a.primitives[p].positions;
+    const std::vector<float>& pb = b.primitives[p].positions;
+    for (size_t v = 0; v + 2 < pa.size() && v + 2 < pb.size(); v += 3) {
+      worst = std::max(worst, static_cast<double>(std::hypot(pa[v] - pb[v], pa[v + 1] - pb[v + 1],
+                                                             pa[v + 2] - pb[v + 2])));
+    }
+  }
+  return worst;
+}
+
 constexpr float kExact = 0.0f;
 constexpr float kPositionTol = 1e-5f;  // Relative to the mesh's extent, for float sums.
 constexpr float kNormalTol = 1e-4f;
 
 inline std::string SharedAssets() { return FACESPACE_SHARED_ASSETS; }
 inline std::string RealAsset(const std::string& rel) { return SharedAssets() + "/real/" + rel; }
-inline std::string Bundled(const std::string& rel) { return std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel; }
+inline std::string Bundled(const std::string& rel) {
+  return std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel;
+}
 
 inline std::vector<unsigned char> ReadBytes(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
-  return std::vector<unsigned char>((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return std::vector<unsigned char>((std::istreambuf_iterator<char>(f)),
+                                    std::istreambuf_iterator<char>());
 }
 
 inline void WriteBytes(const std::string& path, const std::string& data) {
@@ -92,7 +111,8 @@ class RawGltf {
       const size_t stride = bv.value("byteStride", comps * 4);
       const size_t off = bv.value("byteOffset", 0) + a.value("byteOffset", 0);
       const auto& buf = buffers[bv["buffer"].get<int>()];
-      for (size_t e = 0; e < count; ++e) std::memcpy(&out[e * comps], &buf[off + e * stride], comps * 4);
+      for (size_t e = 0; e < count; ++e)
+        std::memcpy(&out[e * comps], &buf[off + e * stride], comps * 4);
     }
     if (a.contains("sparse")) {
       const auto& sp = a["sparse"];
@@ -125,7 +145,8 @@ class RawGltf {
     const size_t off = bv.value("byteOffset", 0) + a.value("byteOffset", 0);
     const auto& buf = buffers[bv["buffer"].get<int>()];
     std::vector<uint16_t> out(count * comps);
-    for (size_t e = 0; e < count; ++e) std::memcpy(&out[e * comps], &buf[off + e * stride], comps * 2);
+    for (size_t e = 0; e < count; ++e)
+      std::memcpy(&out[e * comps], &buf[off + e * stride], comps * 2);
     return out;
   }
 
@@ -134,7 +155,12 @@ class RawGltf {
 
  private:
   static int Components(const std::string& t) {
-    return t == "SCALAR" ? 1 : t == "VEC2" ? 2 : t == "VEC3" ? 3 : t == "VEC4" ? 4 : t == "MAT4" ? 16 : 0;
+    return t == "SCALAR" ? 1
+           : t == "VEC2" ? 2
+           : t == "VEC3" ? 3
+           : t == "VEC4" ? 4
+           : t == "MAT4" ? 16
+                         : 0;
   }
   static std::vector<unsigned char> Base64(const std::string& s) {
     std::vector<unsigned char> out;

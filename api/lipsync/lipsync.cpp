@@ -9,24 +9,29 @@ namespace facespace::lipsync {
 
 using namespace api;  // The evaluator's points, specs and sequences.
 
-Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, const std::stop_token& stop) {
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request,
+                              const std::stop_token& stop) {
   if (Status s = CanSpeak(rig); !s.ok()) return s;
   SpeechPlan plan;
   if (request.has_audio) {
     auto audio = speech::ReadWav(request.audio);
     if (!audio.ok()) return audio.status();
     plan.audio = std::move(audio.value());
-    if (plan.audio.samples.empty()) return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
+    if (plan.audio.samples.empty())
+      return WithReason(InvalidArgument("/audio: has no samples"), "invalid-audio");
     auto heard = speech::Recognize(plan.audio, {.transcript = request.transcript, .stop = stop});
     if (!heard.ok()) return heard.status();
     plan.phonemes = std::move(heard->phonemes);
     plan.warnings = std::move(heard->warnings);
     plan.voiced_seconds = heard->voiced_seconds;
-    const bool aligned = !request.transcript.empty() &&
-                         std::none_of(plan.warnings.begin(), plan.warnings.end(), [](const Warning& w) { return w.code == "transcript_not_aligned"; });
+    const bool aligned =
+        !request.transcript.empty() &&
+        std::none_of(plan.warnings.begin(), plan.warnings.end(),
+                     [](const Warning& w) { return w.code == "transcript_not_aligned"; });
     plan.source = aligned ? "pocketsphinx-aligned" : "pocketsphinx";
   } else {
-    auto spoken = speech::Synthesize(request.text, {.voice = request.voice, .rate = request.rate, .stop = stop, .on_chunk = {}});
+    auto spoken = speech::Synthesize(
+        request.text, {.voice = request.voice, .rate = request.rate, .stop = stop, .on_chunk = {}});
     if (!spoken.ok()) return spoken.status();
     plan.audio = std::move(spoken->audio);
     plan.phonemes = std::move(spoken->phonemes);
@@ -37,25 +42,29 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request, cons
   // The face under the speech.
   ResolvedPoint base;
   if (Status s = ResolvePoint(rig, request.render.mesh, base); !s.ok()) return s;
-  plan.warnings.insert(plan.warnings.end(), base.report.warnings.begin(), base.report.warnings.end());
+  plan.warnings.insert(plan.warnings.end(), base.report.warnings.begin(),
+                       base.report.warnings.end());
   SpeechOptions options;
   options.min_hold = 1.0f / request.fps;
   options.strength = request.strength;
   plan.sequence = SpeechSequence(rig, plan.visemes, base.weights, options);
-  AttachFace(rig, request.gaze, request.blink, request.blink_per_minute, request.blink_seed, plan.sequence);
+  AttachFace(rig, request.gaze, request.blink, request.blink_per_minute, request.blink_seed,
+             plan.sequence);
   return plan;
 }
 
 namespace {
 
 std::string Base64(std::string_view in) {
-  static constexpr char kDigits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static constexpr char kDigits[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((in.size() + 2) / 3 * 4);
   for (size_t i = 0; i < in.size(); i += 3) {
     const size_t n = std::min<size_t>(3, in.size() - i);
     uint32_t v = 0;
-    for (size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? static_cast<unsigned char>(in[i + k]) : 0u);
+    for (size_t k = 0; k < 3; ++k)
+      v = (v << 8) | (k < n ? static_cast<unsigned char>(in[i + k]) : 0u);
     for (size_t k = 0; k < 4; ++k) out += k <= n ? kDigits[(v >> (18 - 6 * k)) & 63] : '=';
   }
   return out;
@@ -78,27 +87,32 @@ std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool w
   out += ",\"phonemes\":[";
   for (size_t i = 0; i < plan.phonemes.size(); ++i) {
     const TimedPhoneme& p = plan.phonemes[i];
-    out += std::string(i ? "," : "") + "{\"name\":" + JsonString(p.name) + ",\"start\":" + FormatNumber(p.start) + ",\"end\":" + FormatNumber(p.end) + "}";
+    out += std::string(i ? "," : "") + "{\"name\":" + JsonString(p.name) +
+           ",\"start\":" + FormatNumber(p.start) + ",\"end\":" + FormatNumber(p.end) + "}";
   }
   out += "],\"visemes\":[";
   for (size_t i = 0; i < plan.visemes.size(); ++i) {
     const TimedViseme& v = plan.visemes[i];
-    out += std::string(i ? "," : "") + "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) + "\",\"start\":" + FormatNumber(v.start) +
-           ",\"end\":" + FormatNumber(v.end) + "}";
+    out += std::string(i ? "," : "") + "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) +
+           "\",\"start\":" + FormatNumber(v.start) + ",\"end\":" + FormatNumber(v.end) + "}";
   }
-  out += "],\"keys\":" + SequenceKeysJson(rig, plan.sequence) + ",\"transition\":" + JsonString(TransitionName(plan.sequence.transition));
+  out += "],\"keys\":" + SequenceKeysJson(rig, plan.sequence) +
+         ",\"transition\":" + JsonString(TransitionName(plan.sequence.transition));
   out += ",\"warnings\":" + WarningsToJson(SpeechWarnings(plan));
   if (with_audio) out += ",\"audio_wav\":\"" + Base64(speech::WriteWav(plan.audio)) + "\"";
   out += "}\n";
   return out;
 }
 
-Result<std::string> SpeechVideo(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored, const SpeechPlan& plan,
-                                const SpeechRequest& request, Workspace& ws, const std::function<void(size_t)>& on_frame) {
+Result<std::string> SpeechVideo(const Evaluator& evaluator,
+                                const std::shared_ptr<const StoredRig>& stored,
+                                const SpeechPlan& plan, const SpeechRequest& request, Workspace& ws,
+                                const std::function<void(size_t)>& on_frame) {
   render::VideoOptions video;
   video.width = request.render.render.width;
   video.height = request.render.render.height;
   video.fps = request.fps;
+  video.helper_cpu = ws.helper_cpu;
   auto encoder = render::WebmEncoder::Start(video, plan.audio.samples, plan.audio.rate);
   if (!encoder.ok()) return encoder.status();
   const Rig& rig = stored->rig;

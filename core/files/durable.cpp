@@ -1,19 +1,23 @@
 #include "facespace/files/durable.h"
 
 #include <fcntl.h>
-#include <ctime>
-#include <sys/stat.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
+#include <ctime>
 
 namespace facespace {
 
 Status WriteError(const std::string& doing, int e) {
   const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
-  return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal, doing + ": " + std::strerror(e), {}, {}, 0};
+  return Status{full ? StatusCode::kStorageFull : StatusCode::kInternal,
+                doing + ": " + std::strerror(e),
+                {},
+                {},
+                0};
 }
 
 namespace {
@@ -65,7 +69,8 @@ Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& 
   int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   if (fd < 0 && errno == EEXIST) {
     // A temporary file left by a crash. (Removed only then: an unlink takes the folder's lock, and
-    // an unconditional one a file was most of a glb batch's system time, its workers waiting on it.)
+    // an unconditional one a file was most of a glb batch's system time, its workers waiting on
+    // it.)
     ::unlink(tmp.c_str());
     fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
   }
@@ -74,24 +79,28 @@ Result<int> WriteTemporary(const std::filesystem::path& dir, const std::string& 
   // process sharing the folder tells a temporary being written from one left by a crash.
   ::flock(fd, LOCK_EX | LOCK_NB);
   for (std::string_view data : pieces) {
-    if (const int e = WriteAll(fd, data); e != 0) return Abandon(fd, tmp, "cannot write " + what, e);
+    if (const int e = WriteAll(fd, data); e != 0)
+      return Abandon(fd, tmp, "cannot write " + what, e);
   }
   // Start the write-back now, so that the flush in Publish finds it done or under way.
   ::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
   return fd;
 }
 
-Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& name,
-               const std::string& what) {
+Status Publish(int fd, const std::filesystem::path& dir, const std::string& tmp_name,
+               const std::string& name, const std::string& what) {
   const std::string tmp = (dir / tmp_name).string();
   if (::fdatasync(fd) != 0) return Abandon(fd, tmp, "cannot flush " + what + " to disk", errno);
   if (::close(fd) != 0) return Abandon(-1, tmp, "cannot flush " + what + " to disk", errno);
-  if (::rename(tmp.c_str(), (dir / name).c_str()) != 0) return Abandon(-1, tmp, "cannot publish " + what, errno);
+  if (::rename(tmp.c_str(), (dir / name).c_str()) != 0)
+    return Abandon(-1, tmp, "cannot publish " + what, errno);
   return Status::Ok();
 }
 
-Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_name, const std::string& what) {
-  if (::fdatasync(fd) != 0) return Abandon(fd, (dir / tmp_name).string(), "cannot flush " + what + " to disk", errno);
+Status Flush(int fd, const std::filesystem::path& dir, const std::string& tmp_name,
+             const std::string& what) {
+  if (::fdatasync(fd) != 0)
+    return Abandon(fd, (dir / tmp_name).string(), "cannot flush " + what + " to disk", errno);
   return Status::Ok();
 }
 
@@ -125,8 +134,9 @@ GroupResult PublishGroup(const std::filesystem::path& dir, std::span<PendingFile
   return out;
 }
 
-Status WriteFileDurably(const std::filesystem::path& dir, const std::string& name, std::string_view data,
-                        const std::string& tmp_name, const std::string& what, bool sync_dir) {
+Status WriteFileDurably(const std::filesystem::path& dir, const std::string& name,
+                        std::string_view data, const std::string& tmp_name, const std::string& what,
+                        bool sync_dir) {
   const std::string_view pieces[] = {data};
   auto fd = WriteTemporary(dir, tmp_name, pieces, what);
   if (!fd.ok()) return fd.status();

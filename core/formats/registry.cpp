@@ -1,6 +1,6 @@
-// One registry of the rig formats: how each is told (extension, magic) and read (from bytes, and from
-// a file with what lies beside it). LoadRigFile, LoadRigMemory and the format helpers read this table
-// alone; a new format is a row.
+// One registry of the rig formats: how each is told (extension, magic) and read (from bytes, and
+// from a file with what lies beside it). LoadRigFile, LoadRigMemory and the format helpers read
+// this table alone; a new format is a row.
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
@@ -8,9 +8,9 @@
 #include <iterator>
 #include <string_view>
 
-#include "facespace/formats/io.h"
-#include "facespace/engine/face.h"
 #include "common/image_file.h"
+#include "facespace/engine/face.h"
+#include "facespace/formats/io.h"
 #include "fbx/fbx_tree.h"
 
 namespace facespace {
@@ -34,7 +34,8 @@ std::string Stem(const std::string& path) {
 Result<std::vector<unsigned char>> ReadFile(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   if (!f) return NotFound("cannot open '" + path + "'");
-  return std::vector<unsigned char>((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  return std::vector<unsigned char>((std::istreambuf_iterator<char>(f)),
+                                    std::istreambuf_iterator<char>());
 }
 
 std::string_view Head(std::span<const unsigned char> bytes) {
@@ -45,12 +46,14 @@ Result<Rig> GltfMemory(std::span<const unsigned char> bytes, const std::string&)
   return LoadGltfMemory(bytes, "", {.allow_external_files = false, .read_manifest = false});
 }
 Result<Rig> Md5Memory(std::span<const unsigned char> bytes, const std::string& name) {
-  return LoadMd5Memory(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), name + ".md5mesh", {});
+  return LoadMd5Memory(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                       name + ".md5mesh", {});
 }
 
-// A format read whole from the file's bytes (FBX, COLLADA, PMX, PMD), then what lies beside it: images
-// (COLLADA, MMD) and motions (MMD).
-template <Result<Rig> (*Load)(std::span<const unsigned char>, const std::string&), bool kImages, bool kMotions>
+// A format read whole from the file's bytes (FBX, COLLADA, PMX, PMD), then what lies beside it:
+// images (COLLADA, MMD) and motions (MMD).
+template <Result<Rig> (*Load)(std::span<const unsigned char>, const std::string&), bool kImages,
+          bool kMotions>
 Result<Rig> FromBytes(const std::string& path, const LoadOptions&) {
   Result<std::vector<unsigned char>> bytes = ReadFile(path);
   if (!bytes.ok()) return bytes.status();
@@ -62,7 +65,9 @@ Result<Rig> FromBytes(const std::string& path, const LoadOptions&) {
   return rig;
 }
 
-Result<Rig> GltfFile(const std::string& path, const LoadOptions& options) { return LoadGltfFile(path, options); }
+Result<Rig> GltfFile(const std::string& path, const LoadOptions& options) {
+  return LoadGltfFile(path, options);
+}
 Result<Rig> Md5File(const std::string& path, const LoadOptions&) { return LoadMd5File(path); }
 
 struct FormatEntry {
@@ -75,20 +80,28 @@ struct FormatEntry {
 
 // Sniffed in this order: the binary magics first, glTF JSON (which only says "asset") last.
 constexpr FormatEntry kFormats[] = {
-    {RigFormat::kGlb, ".glb", [](std::string_view h) { return h.substr(0, 4) == "glTF"; }, GltfMemory, GltfFile},
-    {RigFormat::kPmx, ".pmx", [](std::string_view h) { return h.substr(0, 4) == "PMX "; }, LoadPmxMemory,
-     FromBytes<LoadPmxMemory, true, true>},
-    {RigFormat::kPmd, ".pmd", [](std::string_view h) { return h.substr(0, 3) == "Pmd"; }, LoadPmdMemory,
-     FromBytes<LoadPmdMemory, true, true>},
+    {RigFormat::kGlb, ".glb", [](std::string_view h) { return h.substr(0, 4) == "glTF"; },
+     GltfMemory, GltfFile},
+    {RigFormat::kPmx, ".pmx", [](std::string_view h) { return h.substr(0, 4) == "PMX "; },
+     LoadPmxMemory, FromBytes<LoadPmxMemory, true, true>},
+    {RigFormat::kPmd, ".pmd", [](std::string_view h) { return h.substr(0, 3) == "Pmd"; },
+     LoadPmdMemory, FromBytes<LoadPmdMemory, true, true>},
     {RigFormat::kFbx, ".fbx",
-     [](std::string_view h) { return fbx::LooksLikeFbx({reinterpret_cast<const unsigned char*>(h.data()), h.size()}); },
+     [](std::string_view h) {
+       return fbx::LooksLikeFbx({reinterpret_cast<const unsigned char*>(h.data()), h.size()});
+     },
      LoadFbxMemory, FromBytes<LoadFbxMemory, false, false>},
-    {RigFormat::kCollada, ".dae", [](std::string_view h) { return h.find("<COLLADA") != std::string_view::npos; },
+    {RigFormat::kCollada, ".dae",
+     [](std::string_view h) { return h.find("<COLLADA") != std::string_view::npos; },
      LoadColladaMemory, FromBytes<LoadColladaMemory, true, false>},
-    {RigFormat::kMd5, ".md5mesh", [](std::string_view h) { return h.find("MD5Version") != std::string_view::npos; }, Md5Memory,
+    {RigFormat::kMd5, ".md5mesh",
+     [](std::string_view h) { return h.find("MD5Version") != std::string_view::npos; }, Md5Memory,
      Md5File},
     {RigFormat::kGltf, ".gltf",
-     [](std::string_view h) { return h.find("\"asset\"") != std::string_view::npos && h.find('{') != std::string_view::npos; },
+     [](std::string_view h) {
+       return h.find("\"asset\"") != std::string_view::npos &&
+              h.find('{') != std::string_view::npos;
+     },
      GltfMemory, GltfFile},
 };
 
@@ -123,7 +136,8 @@ bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format) {
 
 const char* RigFormatExtension(RigFormat format) { return Entry(format).extension; }
 
-Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name) {
+Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format,
+                          const std::string& name) {
   Result<Rig> rig = Entry(format).load_memory(bytes, name);
   if (!rig.ok()) return rig;
   rig->name = name;
@@ -170,7 +184,10 @@ std::filesystem::path FindBeside(const std::filesystem::path& dir, const std::st
 
 int AddImageBeside(Rig& rig, const std::string& path) {
   rig.images.push_back({path, "", {}});
-  rig.load_warnings.push_back({"texture_not_loaded", "texture '" + path + "' is not read (a model read from bytes has no folder)", path, 0.0, false});
+  rig.load_warnings.push_back(
+      {"texture_not_loaded",
+       "texture '" + path + "' is not read (a model read from bytes has no folder)", path, 0.0,
+       false});
   return static_cast<int>(rig.images.size()) - 1;
 }
 
@@ -182,15 +199,21 @@ std::string ReadImageFile(const std::filesystem::path& file, Image& image) {
   if (file.empty() || ec || !fs::is_regular_file(file, ec)) return "no such file";
   if (size == 0 || size > kMaxImageBytes) return "empty or over 64 MiB";
   std::ifstream f(file, std::ios::binary);
-  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
+                                   std::istreambuf_iterator<char>());
   std::string ext = file.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   std::string mime;
-  if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G') mime = "image/png";
-  else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) mime = "image/jpeg";
-  else if (bytes.size() > 2 && bytes[0] == 'B' && bytes[1] == 'M') mime = "image/bmp";
-  else if (ext == ".tga") mime = "image/x-tga";
-  else return "not a PNG, JPEG, BMP or TGA image";
+  if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P' && bytes[2] == 'N' && bytes[3] == 'G')
+    mime = "image/png";
+  else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
+    mime = "image/jpeg";
+  else if (bytes.size() > 2 && bytes[0] == 'B' && bytes[1] == 'M')
+    mime = "image/bmp";
+  else if (ext == ".tga")
+    mime = "image/x-tga";
+  else
+    return "not a PNG, JPEG, BMP or TGA image";
   image.bytes = std::move(bytes);
   image.mime_type = std::move(mime);
   return "";
@@ -198,20 +221,24 @@ std::string ReadImageFile(const std::filesystem::path& file, Image& image) {
 
 void LoadImagesBeside(Rig& rig, const std::string& model_path) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::path(model_path).parent_path().empty() ? fs::path(".") : fs::path(model_path).parent_path();
+  const fs::path dir = fs::path(model_path).parent_path().empty()
+                           ? fs::path(".")
+                           : fs::path(model_path).parent_path();
   std::vector<std::string> loaded;
   for (Image& im : rig.images) {
     if (!im.bytes.empty() || im.name.empty()) continue;
     std::string why = ReadImageFile(FindBeside(dir, im.name), im);
     if (why == "no such file") why = "no such file in the model's folder";
     for (Warning& w : rig.load_warnings) {
-      if (w.code == "texture_not_loaded" && w.shape == im.name) w.message = "texture '" + im.name + "' is not read: " + why;
+      if (w.code == "texture_not_loaded" && w.shape == im.name)
+        w.message = "texture '" + im.name + "' is not read: " + why;
     }
     if (!why.empty()) continue;
     loaded.push_back(im.name);
   }
   std::erase_if(rig.load_warnings, [&](const Warning& w) {
-    return w.code == "texture_not_loaded" && std::find(loaded.begin(), loaded.end(), w.shape) != loaded.end();
+    return w.code == "texture_not_loaded" &&
+           std::find(loaded.begin(), loaded.end(), w.shape) != loaded.end();
   });
 }
 
@@ -226,7 +253,8 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
   if (rig->name.empty()) rig->name = Stem(path);
   if (options.read_manifest) {
     const size_t dot = path.rfind('.');
-    const std::string manifest = (dot == std::string::npos ? path : path.substr(0, dot)) + ".manifest.json";
+    const std::string manifest =
+        (dot == std::string::npos ? path : path.substr(0, dot)) + ".manifest.json";
     std::ifstream f(manifest, std::ios::binary);
     if (f) {
       std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());

@@ -37,7 +37,8 @@ Affine FromPlacement(const std::array<float, 3>& t, const std::array<float, 4>& 
 btTransform ToBullet(const Affine& a, float scale) {
   const Eigen::Quaternionf q(a.linear());
   const Eigen::Vector3f t = a.translation() * scale;
-  return btTransform(btQuaternion(q.x(), q.y(), q.z(), q.w()).normalized(), btVector3(t.x(), t.y(), t.z()));
+  return btTransform(btQuaternion(q.x(), q.y(), q.z(), q.w()).normalized(),
+                     btVector3(t.x(), t.y(), t.z()));
 }
 
 Affine FromBullet(const btTransform& b, float scale) {
@@ -59,7 +60,9 @@ std::unique_ptr<btCollisionShape> MakeShape(const RigidBody& b, float scale) {
   return std::make_unique<btSphereShape>(s.x());
 }
 
-bool Simulated(const RigidBody& b) { return b.mode != RigidBody::Mode::kFollowBone && b.mass > 0.0f; }
+bool Simulated(const RigidBody& b) {
+  return b.mode != RigidBody::Mode::kFollowBone && b.mass > 0.0f;
+}
 
 }  // namespace
 
@@ -78,9 +81,9 @@ struct Simulation::World {
   std::vector<std::unique_ptr<btRigidBody>> bodies;
   std::vector<std::unique_ptr<btGeneric6DofSpringConstraint>> joints;
   std::vector<Affine> offset, inverse_offset;  // Each body in its bone's frame (rest pose).
-  std::vector<Affine> last;                    // Followed bodies: where the last pose put them (metres).
-  std::vector<Affine> target;                  // Step's scratch: where this pose puts them.
-  std::vector<int> driver;                     // Per node: the simulated body that moves it, or -1.
+  std::vector<Affine> last;    // Followed bodies: where the last pose put them (metres).
+  std::vector<Affine> target;  // Step's scratch: where this pose puts them.
+  std::vector<int> driver;     // Per node: the simulated body that moves it, or -1.
   mutable std::vector<std::array<float, 16>> world_m, moved;
   mutable std::vector<int> order;
 
@@ -103,7 +106,9 @@ Simulation::~Simulation() = default;
 
 std::unique_ptr<Simulation> Simulation::Create(const Rig& rig, const Pose& pose) {
   const Physics& ph = rig.physics;
-  const bool moves_a_bone = std::any_of(ph.bodies.begin(), ph.bodies.end(), [](const RigidBody& b) { return b.node >= 0 && Simulated(b); });
+  const bool moves_a_bone = std::any_of(ph.bodies.begin(), ph.bodies.end(), [](const RigidBody& b) {
+    return b.node >= 0 && Simulated(b);
+  });
   if (!moves_a_bone || rig.nodes.empty()) return nullptr;
   auto w = std::make_unique<World>(rig);
   const float scale = w->scale;
@@ -153,7 +158,8 @@ std::unique_ptr<Simulation> Simulation::Create(const Rig& rig, const Pose& pose)
     auto body = std::make_unique<btRigidBody>(info);
     body->setSleepingThresholds(0.01f, 0.0017453f);  // 0.1 degrees.
     body->setActivationState(DISABLE_DEACTIVATION);
-    if (!simulated) body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
+    if (!simulated)
+      body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
     w->world.addRigidBody(body.get(), 1 << b.group, b.collides_with);
     w->bodies.push_back(std::move(body));
   }
@@ -161,9 +167,12 @@ std::unique_ptr<Simulation> Simulation::Create(const Rig& rig, const Pose& pose)
     const Affine frame = FromPlacement(j.position, j.rotation);
     const btTransform in_a = ToBullet(rest_body[j.a].inverse() * frame, scale);
     const btTransform in_b = ToBullet(rest_body[j.b].inverse() * frame, scale);
-    auto c = std::make_unique<btGeneric6DofSpringConstraint>(*w->bodies[j.a], *w->bodies[j.b], in_a, in_b, true);
-    c->setLinearLowerLimit(btVector3(j.linear_lower[0], j.linear_lower[1], j.linear_lower[2]) * scale);
-    c->setLinearUpperLimit(btVector3(j.linear_upper[0], j.linear_upper[1], j.linear_upper[2]) * scale);
+    auto c = std::make_unique<btGeneric6DofSpringConstraint>(*w->bodies[j.a], *w->bodies[j.b], in_a,
+                                                             in_b, true);
+    c->setLinearLowerLimit(btVector3(j.linear_lower[0], j.linear_lower[1], j.linear_lower[2]) *
+                           scale);
+    c->setLinearUpperLimit(btVector3(j.linear_upper[0], j.linear_upper[1], j.linear_upper[2]) *
+                           scale);
     c->setAngularLowerLimit(btVector3(j.angular_lower[0], j.angular_lower[1], j.angular_lower[2]));
     c->setAngularUpperLimit(btVector3(j.angular_upper[0], j.angular_upper[1], j.angular_upper[2]));
     for (int a = 0; a < 3; ++a) {
@@ -201,7 +210,8 @@ void Simulation::Step(const Pose& pose, float seconds) {
       if (Simulated(bodies[i])) continue;
       const Eigen::Quaternionf q0(w.last[i].linear()), q1(target[i].linear());
       Affine a = Affine::Identity();
-      a.translate(w.last[i].translation() + u * (target[i].translation() - w.last[i].translation()));
+      a.translate(w.last[i].translation() +
+                  u * (target[i].translation() - w.last[i].translation()));
       a.rotate(q0.slerp(u, q1));
       w.states[state++]->setWorldTransform(ToBullet(a, w.scale));
     }
@@ -225,14 +235,17 @@ void Simulation::Apply(Pose& pose) const {
     Affine world = new_parent * local;
     const int b = w.driver[n];
     if (b >= 0) {
-      const Affine placed = FromBullet(w.bodies[b]->getWorldTransform(), w.scale) * w.inverse_offset[b];
+      const Affine placed =
+          FromBullet(w.bodies[b]->getWorldTransform(), w.scale) * w.inverse_offset[b];
       const Eigen::Vector3f keep = world.translation();
       world = placed;
-      if (rig.physics.bodies[b].mode == RigidBody::Mode::kPhysicsKeepPosition) world.translation() = keep;
+      if (rig.physics.bodies[b].mode == RigidBody::Mode::kPhysicsKeepPosition)
+        world.translation() = keep;
       const Affine moved_local = new_parent.inverse() * world;
       const Eigen::Quaternionf q = Eigen::Quaternionf(moved_local.linear()).normalized();
       Transform& t = pose.local[n];
-      t.translation = {moved_local.translation().x(), moved_local.translation().y(), moved_local.translation().z()};
+      t.translation = {moved_local.translation().x(), moved_local.translation().y(),
+                       moved_local.translation().z()};
       t.rotation = {q.x(), q.y(), q.z(), q.w()};
       pose.from_matrix[n] = 0;
     }

@@ -10,14 +10,19 @@ namespace facespace::speech {
 namespace {
 
 uint32_t U32(std::string_view b, size_t at) {
-  return static_cast<uint32_t>(static_cast<unsigned char>(b[at])) | static_cast<uint32_t>(static_cast<unsigned char>(b[at + 1])) << 8 |
-         static_cast<uint32_t>(static_cast<unsigned char>(b[at + 2])) << 16 | static_cast<uint32_t>(static_cast<unsigned char>(b[at + 3])) << 24;
+  return static_cast<uint32_t>(static_cast<unsigned char>(b[at])) |
+         static_cast<uint32_t>(static_cast<unsigned char>(b[at + 1])) << 8 |
+         static_cast<uint32_t>(static_cast<unsigned char>(b[at + 2])) << 16 |
+         static_cast<uint32_t>(static_cast<unsigned char>(b[at + 3])) << 24;
 }
 uint16_t U16(std::string_view b, size_t at) {
-  return static_cast<uint16_t>(static_cast<unsigned char>(b[at]) | static_cast<unsigned char>(b[at + 1]) << 8);
+  return static_cast<uint16_t>(static_cast<unsigned char>(b[at]) |
+                               static_cast<unsigned char>(b[at + 1]) << 8);
 }
 
-Status Invalid(const std::string& message) { return WithReason(InvalidField("/audio", message), "invalid-audio"); }
+Status Invalid(const std::string& message) {
+  return WithReason(InvalidField("/audio", message), "invalid-audio");
+}
 
 void Put16(std::string& out, uint16_t v) {
   out += static_cast<char>(v & 0xFF);
@@ -37,7 +42,9 @@ float SampleAt(const unsigned char* s, uint16_t format, uint16_t bits) {
   if (bits == 8) return (static_cast<int>(s[0]) - 128) / 128.0f;
   if (bits == 16) return static_cast<int16_t>(s[0] | s[1] << 8) / 32768.0f;
   if (bits == 24) {
-    const int32_t x = static_cast<int32_t>(static_cast<uint32_t>(s[0]) << 8 | static_cast<uint32_t>(s[1]) << 16 | static_cast<uint32_t>(s[2]) << 24);
+    const int32_t x =
+        static_cast<int32_t>(static_cast<uint32_t>(s[0]) << 8 | static_cast<uint32_t>(s[1]) << 16 |
+                             static_cast<uint32_t>(s[2]) << 24);
     return static_cast<float>(x) / 2147483648.0f;
   }
   int32_t x;
@@ -67,19 +74,27 @@ Result<WavLayout> ReadWavLayout(std::string_view b) {
       w.rate = static_cast<int>(U32(b, body + 4) & 0x7FFFFFFF);
       w.bits = U16(b, body + 14);
       if (w.format == 0xFFFE) {  // WAVE_FORMAT_EXTENSIBLE: the sub-format's first two bytes.
-        if (size < 40 || body + 40 > b.size()) return Invalid("its extensible fmt chunk is cut short");
+        if (size < 40 || body + 40 > b.size())
+          return Invalid("its extensible fmt chunk is cut short");
         w.format = U16(b, body + 24);
       }
       have_fmt = true;
     } else if (id == "data") {
       if (!have_fmt) return Invalid("its data comes before its fmt chunk");
-      if (w.format != 1 && w.format != 3) return Invalid("format " + std::to_string(w.format) + " is not PCM or float (send 16-bit PCM WAV)");
-      if (w.format == 1 && w.bits != 8 && w.bits != 16 && w.bits != 24 && w.bits != 32) return Invalid(std::to_string(w.bits) + "-bit PCM is not read (8, 16, 24 or 32)");
-      if (w.format == 3 && w.bits != 32) return Invalid(std::to_string(w.bits) + "-bit float is not read (32)");
-      if (w.channels < 1 || w.channels > 8) return Invalid(std::to_string(w.channels) + " channels (1 to 8 are read)");
-      if (w.rate < 8000 || w.rate > 192000) return Invalid("a rate of " + std::to_string(w.rate) + " Hz (8 to 192 kHz are read)");
+      if (w.format != 1 && w.format != 3)
+        return Invalid("format " + std::to_string(w.format) +
+                       " is not PCM or float (send 16-bit PCM WAV)");
+      if (w.format == 1 && w.bits != 8 && w.bits != 16 && w.bits != 24 && w.bits != 32)
+        return Invalid(std::to_string(w.bits) + "-bit PCM is not read (8, 16, 24 or 32)");
+      if (w.format == 3 && w.bits != 32)
+        return Invalid(std::to_string(w.bits) + "-bit float is not read (32)");
+      if (w.channels < 1 || w.channels > 8)
+        return Invalid(std::to_string(w.channels) + " channels (1 to 8 are read)");
+      if (w.rate < 8000 || w.rate > 192000)
+        return Invalid("a rate of " + std::to_string(w.rate) + " Hz (8 to 192 kHz are read)");
       const size_t frame = static_cast<size_t>(w.channels) * (w.bits / 8);
-      const size_t available = std::min<size_t>(size, b.size() - body);  // Streamed WAVs say 0 or ~0: what is there.
+      const size_t available =
+          std::min<size_t>(size, b.size() - body);  // Streamed WAVs say 0 or ~0: what is there.
       w.frames = (size == 0 || size == 0xFFFFFFFFu ? b.size() - body : available) / frame;
       w.data = body;
       return w;
@@ -95,11 +110,12 @@ Result<Audio> ReadWav(std::string_view b, float max_seconds) {
   if (!layout.ok()) return layout.status();
   const WavLayout& w = layout.value();
   if (w.seconds() > max_seconds) {
-    return WithReason(InvalidField("/audio",
-                                   std::to_string(w.seconds()).substr(0, 6) + " s of audio, over the limit of " +
-                                       std::to_string(static_cast<int>(max_seconds)) + " s",
-                                   StatusCode::kResourceExhausted),
-                      "audio-too-long");
+    return WithReason(
+        InvalidField("/audio",
+                     std::to_string(w.seconds()).substr(0, 6) + " s of audio, over the limit of " +
+                         std::to_string(static_cast<int>(max_seconds)) + " s",
+                     StatusCode::kResourceExhausted),
+        "audio-too-long");
   }
   const size_t channels = w.channels, bytes = w.bits / 8u, frame = channels * bytes;
   Audio audio;
@@ -109,7 +125,8 @@ Result<Audio> ReadWav(std::string_view b, float max_seconds) {
   const float scale = 1.0f / static_cast<float>(channels);
   for (size_t i = 0; i < w.frames; ++i) {
     float sum = 0.0f;
-    for (size_t c = 0; c < channels; ++c) sum += SampleAt(p + i * frame + c * bytes, w.format, w.bits);
+    for (size_t c = 0; c < channels; ++c)
+      sum += SampleAt(p + i * frame + c * bytes, w.format, w.bits);
     audio.samples[i] = sum * scale;
   }
   return audio;
@@ -131,7 +148,9 @@ std::string WriteWav(const Audio& audio) {
   Put16(out, 16);
   out += "data";
   Put32(out, data);
-  for (float s : audio.samples) Put16(out, static_cast<uint16_t>(static_cast<int16_t>(std::lround(std::clamp(s, -1.0f, 1.0f) * 32767.0f))));
+  for (float s : audio.samples)
+    Put16(out, static_cast<uint16_t>(
+                   static_cast<int16_t>(std::lround(std::clamp(s, -1.0f, 1.0f) * 32767.0f))));
   return out;
 }
 
@@ -142,7 +161,8 @@ Audio Resample(const Audio& audio, int rate) {
   const double ratio = static_cast<double>(rate) / audio.rate;
   const size_t n = static_cast<size_t>(std::floor(audio.samples.size() * ratio));
   out.samples.resize(n);
-  // Windowed sinc (Hann, 16 zero crossings each side of the lower rate's) with its cutoff at the lower Nyquist.
+  // Windowed sinc (Hann, 16 zero crossings each side of the lower rate's) with its cutoff at the
+  // lower Nyquist.
   const double cutoff = std::min(1.0, ratio);  // Of the input's Nyquist.
   constexpr int kZeros = 16;
   const double half = kZeros / cutoff;  // Input samples each side.
@@ -174,7 +194,8 @@ std::vector<bool> VoiceActivity(const Audio& audio) {
   std::vector<bool> voiced(frames, false);
   const auto& x = audio.samples;
   const size_t window = 3 * hop;  // 30 ms: two periods of a 60 Hz voice.
-  const size_t min_lag = static_cast<size_t>(audio.rate / 400), max_lag = static_cast<size_t>(audio.rate / 60);
+  const size_t min_lag = static_cast<size_t>(audio.rate / 400),
+               max_lag = static_cast<size_t>(audio.rate / 60);
   float loudest = 0.0f;
   for (size_t f = 0; f < frames; ++f) {
     double e = 0.0;
@@ -207,7 +228,8 @@ std::vector<bool> VoiceActivity(const Audio& audio) {
   constexpr size_t kMargin = 20;
   for (size_t f = 0; f < frames; ++f) {
     if (!voiced[f]) continue;
-    const size_t lo = f >= kMargin ? f - kMargin : 0, hi = std::min<size_t>(frames, f + kMargin + 1);
+    const size_t lo = f >= kMargin ? f - kMargin : 0,
+                 hi = std::min<size_t>(frames, f + kMargin + 1);
     for (size_t g = lo; g < hi; ++g) active[g] = true;
   }
   return active;

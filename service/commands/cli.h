@@ -12,7 +12,8 @@ namespace facespace::cli {
 
 // Reads a whole file; false when it cannot.
 bool ReadFile(const std::string& path, std::string& out);
-// Writes `data` to `path` atomically (a temporary file beside it, then rename), or to stdout for "-".
+// Writes `data` to `path` atomically (a temporary file beside it, then rename), or to stdout for
+// "-".
 bool WriteOutput(const std::string& path, const std::string& data);
 // The exit code of writing an export's result to `path`: 1 with the error on stderr when the
 // export failed or the file cannot be written, else 0.

@@ -23,21 +23,33 @@ std::vector<std::string> SplitNames(const std::string& names) {
 
 }  // namespace
 
-Flags::Flags(std::string synopsis, std::string about) : synopsis_(std::move(synopsis)), about_(std::move(about)) {}
+Flags::Flags(std::string synopsis, std::string about)
+    : synopsis_(std::move(synopsis)), about_(std::move(about)) {}
 
-Flags& Flags::Switch(const std::string& names, const std::string& help, std::function<void()> apply) {
+Flags& Flags::Switch(const std::string& names, const std::string& help,
+                     std::function<void()> apply) {
   flags_.push_back({SplitNames(names), "", help, nullptr, std::move(apply)});
   return *this;
 }
 
-Flags& Flags::Value(const std::string& names, const std::string& metavar, const std::string& help, Apply apply) {
+Flags& Flags::Value(const std::string& names, const std::string& metavar, const std::string& help,
+                    Apply apply) {
   flags_.push_back({SplitNames(names), metavar, help, std::move(apply), nullptr});
   return *this;
 }
 
-Flags& Flags::Text(const std::string& names, const std::string& metavar, const std::string& help, std::string* out) {
+Flags& Flags::Text(const std::string& names, const std::string& metavar, const std::string& help,
+                   std::string* out) {
   return Value(names, metavar, help, [out](const std::string& v) {
     *out = v;
+    return 0;
+  });
+}
+
+Flags& Flags::Texts(const std::string& names, const std::string& metavar, const std::string& help,
+                    std::vector<std::string>* out) {
+  return Value(names, metavar, help, [out](const std::string& v) {
+    out->push_back(v);
     return 0;
   });
 }
@@ -62,7 +74,8 @@ int Flags::Parse(const std::vector<std::string>& args, std::vector<std::string>&
       Quiet() = true;
       continue;
     }
-    if ((a == "--verbose" || a == "-v") && !Find(a)) {  // Every command's: each warning on a line of its own.
+    if ((a == "--verbose" || a == "-v") &&
+        !Find(a)) {  // Every command's: each warning on a line of its own.
       Verbose() = true;
       continue;
     }
@@ -93,8 +106,10 @@ int Flags::Parse(const std::vector<std::string>& args, std::vector<std::string>&
 }
 
 int Flags::UsageError(const std::string& message) const {
-  std::fprintf(stderr, "error: %s\n%s(facespace %s --help lists every flag)\n", message.c_str(), synopsis_.c_str(),
-               synopsis_.size() > 17 ? synopsis_.substr(17, synopsis_.find(' ', 17) - 17).c_str() : "COMMAND");
+  std::fprintf(stderr, "error: %s\n%s(facespace %s --help lists every flag)\n", message.c_str(),
+               synopsis_.c_str(),
+               synopsis_.size() > 17 ? synopsis_.substr(17, synopsis_.find(' ', 17) - 17).c_str()
+                                     : "COMMAND");
   return 2;
 }
 
@@ -104,12 +119,18 @@ std::string Flags::Help() const {
     std::string left = "  ";
     for (size_t k = 0; k < f.names.size(); ++k) left += (k ? ", " : "") + f.names[k];
     if (!f.metavar.empty()) left += " " + f.metavar;
-    if (left.size() < 30) left.resize(30, ' ');
-    else left += "\n" + std::string(30, ' ');
+    if (left.size() < 30)
+      left.resize(30, ' ');
+    else
+      left += "\n" + std::string(30, ' ');
     out += left + f.help + "\n";
   }
-  if (!Find("--quiet")) out += "  -q, --quiet                 no warnings on stderr (errors still)\n";
-  if (!Find("--verbose")) out += "  -v, --verbose               every warning on a line of its own (else one line per kind, counted)\n";
+  if (!Find("--quiet"))
+    out += "  -q, --quiet                 no warnings on stderr (errors still)\n";
+  if (!Find("--verbose"))
+    out +=
+        "  -v, --verbose               every warning on a line of its own (else one line per kind, "
+        "counted)\n";
   out += "  -h, --help                  this text\n";
   if (!about_.empty()) out += "\n" + about_;
   return out;
@@ -125,22 +146,27 @@ bool& Verbose() {
   return verbose;
 }
 
-bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi, long long* out) {
+bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi,
+           long long* out) {
   long long v = 0;
   const auto r = std::from_chars(value.data(), value.data() + value.size(), v);
   if (r.ec != std::errc() || r.ptr != value.data() + value.size() || v < lo || v > hi) {
-    std::fprintf(stderr, "error: %s must be an integer in %lld..%lld, not '%s'\n", flag.c_str(), lo, hi, value.c_str());
+    std::fprintf(stderr, "error: %s must be an integer in %lld..%lld, not '%s'\n", flag.c_str(), lo,
+                 hi, value.c_str());
     return false;
   }
   *out = v;
   return true;
 }
 
-bool NumberIn(const std::string& flag, const std::string& value, double lo, double hi, double* out) {
+bool NumberIn(const std::string& flag, const std::string& value, double lo, double hi,
+              double* out) {
   double v = 0;
   const auto r = std::from_chars(value.data(), value.data() + value.size(), v);
-  if (r.ec != std::errc() || r.ptr != value.data() + value.size() || !std::isfinite(v) || v < lo || v > hi) {
-    std::fprintf(stderr, "error: %s: '%s' is not a number in [%g, %g]\n", flag.c_str(), value.c_str(), lo, hi);
+  if (r.ec != std::errc() || r.ptr != value.data() + value.size() || !std::isfinite(v) || v < lo ||
+      v > hi) {
+    std::fprintf(stderr, "error: %s: '%s' is not a number in [%g, %g]\n", flag.c_str(),
+                 value.c_str(), lo, hi);
     return false;
   }
   *out = v;
@@ -157,7 +183,8 @@ bool ReadAtFile(const std::string& flag, const std::string& value, std::string& 
   return false;
 }
 
-// The argument helpers cli.h declares that flags use too: kept here so the parser stands alone (tests/service).
+// The argument helpers cli.h declares that flags use too: kept here so the parser stands alone
+// (tests/service).
 std::vector<std::string> SplitList(const std::string& value) {
   std::vector<std::string> items;
   size_t start = 0;

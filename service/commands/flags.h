@@ -1,7 +1,7 @@
 // One flag parser for every command. A command declares its flags once, with their help; Parse
 // reads the arguments in order: positional ones, "--flag VALUE" or "--flag=VALUE", switches, and
-// --help / -h (the usage with every flag on stdout, exit 0), and -q / --quiet (Quiet()). An unknown flag or a missing value
-// is a usage error (the message and the usage on stderr, exit 2).
+// --help / -h (the usage with every flag on stdout, exit 0), and -q / --quiet (Quiet()). An unknown
+// flag or a missing value is a usage error (the message and the usage on stderr, exit 2).
 #pragma once
 
 #include <functional>
@@ -22,11 +22,17 @@ class Flags {
 
   // `names`: "--keep-targets", or several spellings: "-o, --output".
   Flags& Switch(const std::string& names, const std::string& help, std::function<void()> apply);
-  Flags& Value(const std::string& names, const std::string& metavar, const std::string& help, Apply apply);
+  Flags& Value(const std::string& names, const std::string& metavar, const std::string& help,
+               Apply apply);
   // A value stored as given.
-  Flags& Text(const std::string& names, const std::string& metavar, const std::string& help, std::string* out);
+  Flags& Text(const std::string& names, const std::string& metavar, const std::string& help,
+              std::string* out);
+  // A value that may be given again: each one appended.
+  Flags& Texts(const std::string& names, const std::string& metavar, const std::string& help,
+               std::vector<std::string>* out);
 
-  // -1 when the command goes on (positional arguments appended to `positional`), else the exit code.
+  // -1 when the command goes on (positional arguments appended to `positional`), else the exit
+  // code.
   int Parse(const std::vector<std::string>& args, std::vector<std::string>& positional) const;
 
   // "error: MESSAGE" and the synopsis on stderr; returns 2.
@@ -55,10 +61,13 @@ bool& Quiet();
 // that comes more than once is one line with its count (PrintWarnings).
 bool& Verbose();
 
-// Helpers for Flags::Value: parse a number in [lo, hi] or print "error: FLAG: ..." and return false.
-bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi, long long* out);
+// Helpers for Flags::Value: parse a number in [lo, hi] or print "error: FLAG: ..." and return
+// false.
+bool IntIn(const std::string& flag, const std::string& value, long long lo, long long hi,
+           long long* out);
 bool NumberIn(const std::string& flag, const std::string& value, double lo, double hi, double* out);
-// "@FILE" read into `text` (other values kept as they are); false, with the error printed, when it cannot be read.
+// "@FILE" read into `text` (other values kept as they are); false, with the error printed, when it
+// cannot be read.
 bool ReadAtFile(const std::string& flag, const std::string& value, std::string& text);
 
 }  // namespace facespace::cli

@@ -1,30 +1,30 @@
 // facespace serve: configuration (flags, then environment, then defaults), the rig store,
 // the HTTP server and graceful shutdown.
 #include <malloc.h>
-#include <algorithm>
 #include <pthread.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <chrono>
-#include <condition_variable>
 #include <mutex>
 #include <thread>
 
 #include "commands/cli.h"
 #include "commands/flags.h"
-#include "facespace/http/http.h"
 #include "facespace/batch/queue.h"
+#include "facespace/http/http.h"
 #include "facespace/offscreen/render.h"
 #include "server/settings.h"
-#include "store/rig_store.h"
 #include "server/web_assets.h"
+#include "store/rig_store.h"
 
 namespace facespace::cli {
 
@@ -32,15 +32,17 @@ namespace {
 
 // $XDG_STATE_HOME/facespace/NAME, else ~/.local/state/facespace/NAME.
 std::string StateDir(const std::string& name) {
-  if (const char* x = std::getenv("XDG_STATE_HOME"); x && *x == '/') return std::string(x) + "/facespace/" + name;
-  if (const char* h = std::getenv("HOME"); h && *h == '/') return std::string(h) + "/.local/state/facespace/" + name;
+  if (const char* x = std::getenv("XDG_STATE_HOME"); x && *x == '/')
+    return std::string(x) + "/facespace/" + name;
+  if (const char* h = std::getenv("HOME"); h && *h == '/')
+    return std::string(h) + "/.local/state/facespace/" + name;
   return "/tmp/facespace-" + name + "-" + std::to_string(getuid());
 }
 
 std::string DefaultJobsDir() { return StateDir("jobs"); }
 
-// The estimates are of this build's work uninstrumented: under AddressSanitizer the same work costs about
-// ten times the CPU, and the meter allows for it.
+// The estimates are of this build's work uninstrumented: under AddressSanitizer the same work costs
+// about ten times the CPU, and the meter allows for it.
 #if defined(__SANITIZE_ADDRESS__)
 constexpr double kInstrumentedSlowdown = 10;
 #elif defined(__has_feature)
@@ -53,19 +55,22 @@ constexpr double kInstrumentedSlowdown = 1;
 constexpr double kInstrumentedSlowdown = 1;
 #endif
 
-// The API's options from the configuration: the key read from its file (empty when none); false, said
-// on stderr, when the key file cannot be read or is too short.
+// The API's options from the configuration: the key read from its file (empty when none); false,
+// said on stderr, when the key file cannot be read or is too short.
 bool MakeApiOptions(const ServeConfig& c, api::ApiOptions& options) {
   if (!c.api_key_file.empty()) {
     std::ifstream f(c.api_key_file, std::ios::binary);
     if (!f) {
-      std::fprintf(stderr, "facespace: cannot read the API key file '%s'\n", c.api_key_file.c_str());
+      std::fprintf(stderr, "facespace: cannot read the API key file '%s'\n",
+                   c.api_key_file.c_str());
       return false;
     }
     std::string key((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    while (!key.empty() && (key.back() == '\n' || key.back() == '\r' || key.back() == ' ')) key.pop_back();
+    while (!key.empty() && (key.back() == '\n' || key.back() == '\r' || key.back() == ' '))
+      key.pop_back();
     if (key.size() < 3) {
-      std::fprintf(stderr, "facespace: the API key in '%s' is empty or too short\n", c.api_key_file.c_str());
+      std::fprintf(stderr, "facespace: the API key in '%s' is empty or too short\n",
+                   c.api_key_file.c_str());
       return false;
     }
     options.api_key = key;
@@ -90,7 +95,8 @@ bool MakeApiOptions(const ServeConfig& c, api::ApiOptions& options) {
   return true;
 }
 
-// The connection front's options from the configuration; `api` answers its head checks and words its refusals.
+// The connection front's options from the configuration; `api` answers its head checks and words
+// its refusals.
 api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api& api) {
   api::FrontOptions front;
   front.workers = c.threads;
@@ -110,20 +116,26 @@ api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api& api) {
   front.request_deadline = c.request_deadline;
   front.keyed_deadline = c.keyed_deadline;
   front.min_send_rate = c.min_send_rate_kib << 10;
-  // The meter behind the estimates: a request whose worker spends twice its budget (and a second) is stopped.
+  // The meter behind the estimates: a request whose worker spends twice its budget (and a second)
+  // is stopped.
   front.cpu_limit = (2 * c.anonymous_cpu + 1) * kInstrumentedSlowdown;
   front.keyed_cpu_limit = (2 * c.keyed_cpu + 1) * kInstrumentedSlowdown;
   front.keyed = [&api](std::string_view authorization) { return api.Keyed(authorization); };
-  // Work that waits for a scarce resource waits in the front, not on a worker: renders and sheets for a GL
-  // context (gate 0, two a context), recognitions of a recording for the speech decoder (gate 1, two).
-  front.scarce = [](std::string_view method, std::string_view target, std::string_view content_type) {
+  // Work that waits for a scarce resource waits in the front, not on a worker: renders and sheets
+  // for a GL context (gate 0, two a context), recognitions of a recording for the speech decoder
+  // (gate 1, two).
+  front.scarce = [](std::string_view method, std::string_view target,
+                    std::string_view content_type) {
     const std::string_view path = target.substr(0, target.find('?'));
     if (!path.starts_with("/v1/rigs/")) return -1;
     if (path.ends_with("/render") || path.ends_with("/sheet")) return 0;
-    if (method == "POST" && path.ends_with("/speech") && content_type.starts_with("audio/")) return 1;
+    if (method == "POST" && path.ends_with("/speech") && content_type.starts_with("audio/"))
+      return 1;
     return -1;
   };
-  const int contexts = c.render_threads > 0 ? c.render_threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int contexts = c.render_threads > 0
+                           ? c.render_threads
+                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   front.scarce_slots = {2 * static_cast<size_t>(contexts), 2};
   return front;
 }
@@ -133,26 +145,27 @@ void ServePage(httplib::Server& server) {
   for (size_t i = 0; i < web::kAssetCount; ++i) {
     const web::Asset& asset = web::kAssets[i];
     const std::string path = asset.path;
-    const char* type = path.ends_with(".html") ? "text/html; charset=utf-8"
+    const char* type = path.ends_with(".html")  ? "text/html; charset=utf-8"
                        : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
                        : path.ends_with(".css") ? "text/css; charset=utf-8"
                                                 : "image/svg+xml";
     auto handler = [&asset, type](const httplib::Request&, httplib::Response& res) {
       res.set_header("Cache-Control", "no-cache");
       res.set_header("Content-Security-Policy",
-                     "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; connect-src *; style-src 'self'; script-src 'self'");
+                     "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; "
+                     "connect-src *; style-src 'self'; script-src 'self'");
       res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
     };
     server.Get(path, handler);
     if (path == "/index.html") server.Get("/", handler);
   }
-
 }
 
 // Where uploads go, and what is served read-only: a given --rigs is the store itself (unless a
 // --store is given too); the bundled rigs are never written. False, said on stderr, when the store
 // folder cannot be made (a --rigs folder that is not there is a typo, refused when it is read).
-bool StoreFolders(const ServeConfig& c, std::string& store_dir, std::vector<std::string>& read_only) {
+bool StoreFolders(const ServeConfig& c, std::string& store_dir,
+                  std::vector<std::string>& read_only) {
   store_dir = c.store;
   if (c.rigs.empty()) {
     read_only.push_back(FACESPACE_DEFAULT_RIGS);
@@ -162,14 +175,17 @@ bool StoreFolders(const ServeConfig& c, std::string& store_dir, std::vector<std:
   } else {
     read_only.push_back(c.rigs);
   }
-  if (std::error_code ec; store_dir != c.rigs && !std::filesystem::create_directories(store_dir, ec) && ec) {
-    std::fprintf(stderr, "facespace: cannot create the store '%s': %s\n", store_dir.c_str(), ec.message().c_str());
+  if (std::error_code ec;
+      store_dir != c.rigs && !std::filesystem::create_directories(store_dir, ec) && ec) {
+    std::fprintf(stderr, "facespace: cannot create the store '%s': %s\n", store_dir.c_str(),
+                 ec.message().c_str());
     return false;
   }
   return true;
 }
 
-// Binds `server` to --host and --port (0: any free one) with the kernel's largest backlog; the port, or -1.
+// Binds `server` to --host and --port (0: any free one) with the kernel's largest backlog; the
+// port, or -1.
 int Bind(httplib::Server& server, const ServeConfig& c) {
   // cpp-httplib's own socket options set SO_REUSEPORT, with which a second server on the same
   // port starts without a word and takes half the connections. SO_REUSEADDR alone still lets a
@@ -180,9 +196,12 @@ int Bind(httplib::Server& server, const ServeConfig& c) {
     setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     listening = fd;  // The last socket tried is the one bound.
   });
-  const int port = c.port == 0 ? server.bind_to_any_port(c.host) : (server.bind_to_port(c.host, c.port) ? c.port : -1);
+  const int port = c.port == 0 ? server.bind_to_any_port(c.host)
+                               : (server.bind_to_port(c.host, c.port) ? c.port : -1);
   if (port < 0) {
-    std::fprintf(stderr, "facespace: cannot listen on %s:%d (in use, or not an address of this machine)\n", c.host.c_str(), c.port);
+    std::fprintf(stderr,
+                 "facespace: cannot listen on %s:%d (in use, or not an address of this machine)\n",
+                 c.host.c_str(), c.port);
     return -1;
   }
   // cpp-httplib listens with a backlog of 5. When 64 clients connect at once while the cores are
@@ -191,20 +210,25 @@ int Bind(httplib::Server& server, const ServeConfig& c) {
   // time-outs. Listening again on a bound socket only changes the backlog (capped by
   // net.core.somaxconn).
   if (listening < 0 || ::listen(listening, SOMAXCONN) != 0) {
-    std::fprintf(stderr, "facespace: warning: cannot raise the listen backlog; bursts of connections may wait\n");
+    std::fprintf(
+        stderr,
+        "facespace: warning: cannot raise the listen backlog; bursts of connections may wait\n");
   }
   return port;
 }
 
-// Serves until SIGINT or SIGTERM (taken by one thread with sigwait), then stops: the front stops the work
-// in flight, and the process exits within `drain` seconds whatever is left. False when listening failed.
+// Serves until SIGINT or SIGTERM (taken by one thread with sigwait), then stops: the front stops
+// the work in flight, and the process exits within `drain` seconds whatever is left. False when
+// listening failed.
 bool ListenUntilSignalled(httplib::Server& server, const sigset_t& signals, double drain_seconds) {
   std::atomic<bool> signalled{false};
   std::thread waiter([&server, &signalled, signals, drain = drain_seconds] {
     int sig = 0;
     sigwait(&signals, &sig);
     if (!signalled.exchange(true)) {
-      std::fprintf(stderr, "facespace: %s received, stopping the requests in flight (at most %g s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM", drain);
+      std::fprintf(stderr,
+                   "facespace: %s received, stopping the requests in flight (at most %g s)\n",
+                   sig == SIGINT ? "SIGINT" : "SIGTERM", drain);
       // The drain is bounded: work that does not stop in time is left (files are written whole, so
       // nothing is half-stored) and the process exits as a stopped one does.
       std::thread([drain] {
@@ -222,6 +246,46 @@ bool ListenUntilSignalled(httplib::Server& server, const sigset_t& signals, doub
   return ok;
 }
 
+// Instances sharing a store (a shared filesystem behind a balancer) see each other's uploads,
+// replacements and deletes within --store-poll: a stat per file per poll, a read only of what
+// moved. The job runner asks too, for the rig of a job another instance accepted.
+void RefreshStore(FileRigStore& store) {
+  auto changes = store.Refresh();
+  if (!changes.ok()) {
+    std::fprintf(stderr, "facespace: store: %s\n", changes.status().message.c_str());
+    return;
+  }
+  for (const auto& [what, ids] :
+       {std::pair{"added", &changes->added}, std::pair{"replaced", &changes->replaced},
+        std::pair{"removed", &changes->removed}}) {
+    for (const std::string& id : *ids)
+      std::fprintf(stderr, "facespace: store: rig '%s' %s on disk\n", id.c_str(), what);
+  }
+}
+
+void TuneMalloc() {
+  // Large buffers (response bodies of big meshes, images, render read-backs) straight from and
+  // back to the system: glibc's default raises this threshold to the largest block freed so far,
+  // after which such buffers come from the per-thread arenas and stay there, fragmented.
+  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+  // Fewer malloc arenas than glibc's default of 8 per core: with hundreds of threads each
+  // arena keeps its own free pieces, and RSS crept up (+6 MB/min after 10 min of soak, heap in
+  // use flat) where 2 per core held it level (tests/bench/soak.sh).
+  mallopt(M_ARENA_MAX, 2 * static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+}
+
+sigset_t BlockStopSignals() {
+  // SIGINT/SIGTERM are taken by one thread with sigwait: block them before any other thread
+  // starts, so every worker inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+  return signals;
+}
+
 }  // namespace
 
 int Serve(const std::vector<std::string>& args) {
@@ -234,7 +298,9 @@ int Serve(const std::vector<std::string>& args) {
   std::string store_dir;
   if (!StoreFolders(c, store_dir, read_only)) return 1;
   if (const std::string problem = render::ImageModuleProblem(); !problem.empty()) {
-    std::fprintf(stderr, "facespace: warning: %s: renders draw without textures or labels, and only PNG and WebP are written\n",
+    std::fprintf(stderr,
+                 "facespace: warning: %s: renders draw without textures or labels, and only PNG "
+                 "and WebP are written\n",
                  problem.c_str());
   }
   FileRigStore store(store_dir, read_only);
@@ -245,52 +311,29 @@ int Serve(const std::vector<std::string>& args) {
     return 1;
   }
 
-  // SIGINT/SIGTERM are taken by one thread with sigwait: block them before any other thread
-  // starts, so every worker inherits the mask.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  ::signal(SIGPIPE, SIG_IGN);
+  const sigset_t signals = BlockStopSignals();
 
   if (c.jobs_dir.empty()) c.jobs_dir = DefaultJobsDir();
   // One renderer for every thread: its GL contexts are a bounded pool (--render-threads).
   render::OsMesaRenderer renderer(c.render_threads);
   const api::Evaluator evaluator(renderer);
-  // Instances sharing a store (a shared filesystem behind a balancer) see each other's uploads,
-  // replacements and deletes within --store-poll: a stat per file per poll, a read only of what
-  // moved. The job runner asks too, for the rig of a job another instance accepted.
-  auto refresh_store = [&store] {
-    auto changes = store.Refresh();
-    if (!changes.ok()) {
-      std::fprintf(stderr, "facespace: store: %s\n", changes.status().message.c_str());
-      return;
-    }
-    for (const auto& [what, ids] : {std::pair{"added", &changes->added}, std::pair{"replaced", &changes->replaced},
-                                    std::pair{"removed", &changes->removed}}) {
-      for (const std::string& id : *ids) std::fprintf(stderr, "facespace: store: rig '%s' %s on disk\n", id.c_str(), what);
-    }
-  };
-  batch::FileJobQueue jobs(c.jobs_dir, store, evaluator, c.job_limits, c.store_poll > 0 ? c.store_poll : 1.0, refresh_store);
+  auto refresh_store = [&store] { RefreshStore(store); };
+  batch::FileJobQueue jobs(c.jobs_dir, store, evaluator, c.job_limits,
+                           c.store_poll > 0 ? c.store_poll : 1.0, refresh_store);
   auto resumed = jobs.Start();
   if (!resumed.ok()) {
     std::fprintf(stderr, "facespace: %s\n", resumed.status().message.c_str());
     return 1;
   }
-  if (resumed.value() > 0) std::fprintf(stderr, "facespace: resuming %zu unfinished batch job(s) from %s\n", resumed.value(), c.jobs_dir.c_str());
+  if (resumed.value() > 0)
+    std::fprintf(stderr, "facespace: resuming %zu unfinished batch job(s) from %s\n",
+                 resumed.value(), c.jobs_dir.c_str());
 
-  // Large buffers (response bodies of big meshes, images, render read-backs) straight from and
-  // back to the system: glibc's default raises this threshold to the largest block freed so far,
-  // after which such buffers come from the per-thread arenas and stay there, fragmented.
-  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
-  // Fewer malloc arenas than glibc's default of 8 per core: with hundreds of threads each
-  // arena keeps its own free pieces, and RSS crept up (+6 MB/min after 10 min of soak, heap in
-  // use flat) where 2 per core held it level (tests/bench/soak.sh).
-  mallopt(M_ARENA_MAX, 2 * static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  TuneMalloc();
   // Connections wait in the front (one epoll thread, deadlines for whole requests, caps per client
   // and in all, a budget for bodies in memory); only whole requests take one of the workers.
-  // The API first (it reports the front's counters), then the front that calls it: no start-up cycle.
+  // The API first (it reports the front's counters), then the front that calls it: no start-up
+  // cycle.
   api::FrontStats front_stats;
   options.front = &front_stats;
   api::Api api(store, evaluator, options, &jobs);
@@ -308,9 +351,11 @@ int Serve(const std::vector<std::string>& args) {
   if (port < 0) return 1;
   std::string from = store_dir;
   for (const std::string& r : read_only) from += " and " + r + " (read-only)";
-  std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n", loaded.value(), from.c_str(),
-               c.host.c_str(), port, threads, options.api_key.empty() ? ", uploads disabled: no API key" : "");
-  std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", renderer.Info().c_str(), renderer.Concurrency());
+  std::fprintf(stderr, "facespace: serving %zu rig(s) from %s on http://%s:%d (%d threads%s)\n",
+               loaded.value(), from.c_str(), c.host.c_str(), port, threads,
+               options.api_key.empty() ? ", uploads disabled: no API key" : "");
+  std::fprintf(stderr, "facespace: renderer: %s (%d at once)\n", renderer.Info().c_str(),
+               renderer.Concurrency());
   std::fflush(stderr);
 
   std::mutex poll_mu;
@@ -318,7 +363,9 @@ int Serve(const std::vector<std::string>& args) {
   bool poll_stop = false;
   std::thread poller([&] {
     std::unique_lock<std::mutex> lock(poll_mu);
-    while (c.store_poll > 0 && !poll_cv.wait_for(lock, std::chrono::milliseconds(static_cast<int>(c.store_poll * 1000)), [&] { return poll_stop; })) {
+    while (c.store_poll > 0 &&
+           !poll_cv.wait_for(lock, std::chrono::milliseconds(static_cast<int>(c.store_poll * 1000)),
+                             [&] { return poll_stop; })) {
       lock.unlock();
       refresh_store();
       lock.lock();

@@ -7,7 +7,7 @@
 namespace facespace::web {
 
 struct Asset {
-  const char* path;            // "/index.html", "/app.js", ...
+  const char* path;  // "/index.html", "/app.js", ...
   const unsigned char* data;
   size_t size;
 };

@@ -12,7 +12,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-
 #include <nlohmann/json.hpp>
 
 #include "facespace/files/durable.h"
@@ -45,17 +44,20 @@ bool IsRigFile(const fs::path& p) {
 
 FileRigStore::FileRigStore(std::string dir, std::vector<std::string> read_only)
     : dir_(std::move(dir)), read_only_(std::move(read_only)) {
-  while (dir_.size() > 1 && dir_.back() == '/') dir_.pop_back();  // Paths compare equal to the scan's.
+  while (dir_.size() > 1 && dir_.back() == '/')
+    dir_.pop_back();  // Paths compare equal to the scan's.
 }
 
 FileRigStore::Stamp FileRigStore::StampOf(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0) return {};
-  return {static_cast<long long>(st.st_size), static_cast<long long>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec,
+  return {static_cast<long long>(st.st_size),
+          static_cast<long long>(st.st_mtim.tv_sec) * 1000000000LL + st.st_mtim.tv_nsec,
           static_cast<unsigned long long>(st.st_ino)};
 }
 
-Result<std::map<std::string, FileRigStore::Entry>> FileRigStore::Scan(const std::map<std::string, Entry>& previous) {
+Result<std::map<std::string, FileRigStore::Entry>> FileRigStore::Scan(
+    const std::map<std::string, Entry>& previous) {
   std::map<std::string, Entry> loaded;
   if (Status s = LoadFolder(dir_, false, previous, loaded); !s.ok()) return s;
   for (const std::string& dir : read_only_) {
@@ -69,11 +71,16 @@ void FileRigStore::RemoveTemporaries(int older_than_seconds) {
   const auto now = fs::file_time_type::clock::now();
   for (const auto& e : fs::directory_iterator(dir_, ec)) {
     const std::string name = e.path().filename().string();
-    if (!e.is_regular_file() || name.size() <= 4 || name[0] != '.' || name.find(".tmp") == std::string::npos) continue;
+    if (!e.is_regular_file() || name.size() <= 4 || name[0] != '.' ||
+        name.find(".tmp") == std::string::npos)
+      continue;
     std::error_code time_ec;
     const auto written = fs::last_write_time(e.path(), time_ec);
-    if (older_than_seconds > 0 && (time_ec || now - written < std::chrono::seconds(older_than_seconds))) continue;
-    RemoveAbandoned(e.path());  // Left by an upload that crashed (here or in another instance): never published.
+    if (older_than_seconds > 0 &&
+        (time_ec || now - written < std::chrono::seconds(older_than_seconds)))
+      continue;
+    RemoveAbandoned(e.path());  // Left by an upload that crashed (here or in another instance):
+                                // never published.
   }
 }
 
@@ -102,8 +109,10 @@ Result<FileRigStore::Changes> FileRigStore::Refresh() {
   Changes changes;
   for (const auto& [id, e] : loaded.value()) {
     auto it = current.find(id);
-    if (it == current.end()) changes.added.push_back(id);
-    else if (it->second.rig != e.rig) changes.replaced.push_back(id);
+    if (it == current.end())
+      changes.added.push_back(id);
+    else if (it->second.rig != e.rig)
+      changes.replaced.push_back(id);
   }
   for (const auto& [id, e] : current) {
     if (!loaded->count(id)) changes.removed.push_back(id);
@@ -115,10 +124,12 @@ Result<FileRigStore::Changes> FileRigStore::Refresh() {
   return changes;
 }
 
-Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, const std::map<std::string, Entry>& previous,
+Status FileRigStore::LoadFolder(const std::string& dir, bool read_only,
+                                const std::map<std::string, Entry>& previous,
                                 std::map<std::string, Entry>& loaded) {
   std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return NotFound("rig store '" + dir + "' is not a readable directory");
+  if (!fs::is_directory(dir, ec))
+    return NotFound("rig store '" + dir + "' is not a readable directory");
   // Candidates: files in dir first, then in its immediate subfolders; the first id wins.
   std::vector<fs::path> top, nested;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
@@ -141,28 +152,36 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, const st
   for (const fs::path& p : top) {
     std::string id = p.stem().string();
     const std::string folder = p.parent_path().filename().string();
-    if (!api::IsValidRigId(id) && in_folder.count(p.parent_path()) && in_folder[p.parent_path()] == 1 && api::IsValidRigId(folder)) id = folder;
+    if (!api::IsValidRigId(id) && in_folder.count(p.parent_path()) &&
+        in_folder[p.parent_path()] == 1 && api::IsValidRigId(folder))
+      id = folder;
     if (!api::IsValidRigId(id)) {
       // Said once, not at every look at the store (--store-poll).
       if (misnamed_.insert(p.string()).second) {
-        std::fprintf(stderr, "facespace: skipping %s: '%s' is not a valid rig id ([a-z0-9][a-z0-9_-]{0,63}); rename it, or its folder\n",
+        std::fprintf(stderr,
+                     "facespace: skipping %s: '%s' is not a valid rig id "
+                     "([a-z0-9][a-z0-9_-]{0,63}); rename it, or its folder\n",
                      p.c_str(), id.c_str());
       }
       continue;
     }
     if (loaded.count(id)) continue;
     const Stamp file = StampOf(p.string()), manifest = StampOf(ManifestPath(p.string()));
-    if (auto it = previous.find(id); it != previous.end() && it->second.path == p.string() && it->second.file == file &&
-                                     it->second.manifest == manifest) {
+    if (auto it = previous.find(id); it != previous.end() && it->second.path == p.string() &&
+                                     it->second.file == file && it->second.manifest == manifest) {
       loaded[id] = it->second;  // Unchanged: not read again.
       continue;
     }
-    if (auto it = reported_.find(p.string()); it != reported_.end() && it->second == std::pair(file, manifest)) continue;
+    if (auto it = reported_.find(p.string());
+        it != reported_.end() && it->second == std::pair(file, manifest))
+      continue;
     std::ifstream f(p, std::ios::binary);
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
+                                     std::istreambuf_iterator<char>());
     auto rig = LoadRigFile(p.string());
     if (!rig.ok()) {
-      std::fprintf(stderr, "facespace: skipping broken rig %s: %s\n", p.c_str(), rig.status().message.c_str());
+      std::fprintf(stderr, "facespace: skipping broken rig %s: %s\n", p.c_str(),
+                   rig.status().message.c_str());
       reported_[p.string()] = {file, manifest};
       continue;
     }
@@ -179,7 +198,10 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only, const st
 namespace {
 
 Status ReadOnly(const std::string& id) {
-  return WithReason(FailedPrecondition("rig '" + id + "' is bundled with the server and read-only; upload under another id"), "read-only");
+  return WithReason(
+      FailedPrecondition("rig '" + id +
+                         "' is bundled with the server and read-only; upload under another id"),
+      "read-only");
 }
 
 }  // namespace
@@ -199,7 +221,8 @@ std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
 
 // A glTF's counts from its JSON alone (a linear parse), before any decoding: a file declaring
 // 100,000 morph targets was decoded for half a minute before --max-shapes refused it.
-Status FileRigStore::CheckDeclaredCounts(std::span<const unsigned char> bytes, RigFormat format) const {
+Status FileRigStore::CheckDeclaredCounts(std::span<const unsigned char> bytes,
+                                         RigFormat format) const {
   std::string_view text;
   if (format == RigFormat::kGlb) {
     if (bytes.size() < 20) return Status::Ok();  // The reader says what is wrong with it.
@@ -219,25 +242,32 @@ Status FileRigStore::CheckDeclaredCounts(std::span<const unsigned char> bytes, R
   const auto& accessors = j.value("accessors", nlohmann::json::array());
   const auto& meshes = j.value("meshes", nlohmann::json::array());
   for (const auto& mesh : meshes.is_array() ? meshes : nlohmann::json::array()) {
-    const auto& prims = mesh.is_object() ? mesh.value("primitives", nlohmann::json::array()) : nlohmann::json::array();
+    const auto& prims = mesh.is_object() ? mesh.value("primitives", nlohmann::json::array())
+                                         : nlohmann::json::array();
     for (const auto& prim : prims.is_array() ? prims : nlohmann::json::array()) {
       if (!prim.is_object()) continue;
-      if (const auto t = prim.find("targets"); t != prim.end() && t->is_array()) targets = std::max(targets, t->size());
+      if (const auto t = prim.find("targets"); t != prim.end() && t->is_array())
+        targets = std::max(targets, t->size());
       const auto a = prim.find("attributes");
-      if (a == prim.end() || !a->is_object() || !a->contains("POSITION") || !(*a)["POSITION"].is_number_unsigned()) continue;
+      if (a == prim.end() || !a->is_object() || !a->contains("POSITION") ||
+          !(*a)["POSITION"].is_number_unsigned())
+        continue;
       const size_t index = (*a)["POSITION"].get<size_t>();
       if (accessors.is_array() && index < accessors.size() && accessors[index].is_object()) {
         const auto count = accessors[index].find("count");
-        if (count != accessors[index].end() && count->is_number_unsigned()) vertices += count->get<size_t>();
+        if (count != accessors[index].end() && count->is_number_unsigned())
+          vertices += count->get<size_t>();
       }
     }
   }
   if (targets > max_shapes_) {
-    return ResourceExhausted("the rig declares " + std::to_string(targets) + " morph targets on a primitive (shapes); this server takes at most " +
+    return ResourceExhausted("the rig declares " + std::to_string(targets) +
+                             " morph targets on a primitive (shapes); this server takes at most " +
                              std::to_string(max_shapes_) + " (--max-shapes)");
   }
   if (vertices > max_vertices_) {
-    return ResourceExhausted("the rig declares " + std::to_string(vertices) + " vertices; this server takes at most " +
+    return ResourceExhausted("the rig declares " + std::to_string(vertices) +
+                             " vertices; this server takes at most " +
                              std::to_string(max_vertices_) + " (--max-vertices)");
   }
   return Status::Ok();
@@ -245,18 +275,20 @@ Status FileRigStore::CheckDeclaredCounts(std::span<const unsigned char> bytes, R
 
 Status FileRigStore::CheckLimits(const Rig& rig) const {
   if (rig.vertex_count() > max_vertices_) {
-    return ResourceExhausted("the rig has " + std::to_string(rig.vertex_count()) + " vertices; this server takes at most " +
+    return ResourceExhausted("the rig has " + std::to_string(rig.vertex_count()) +
+                             " vertices; this server takes at most " +
                              std::to_string(max_vertices_) + " (--max-vertices)");
   }
   if (rig.shapes.size() > max_shapes_) {
-    return ResourceExhausted("the rig has " + std::to_string(rig.shapes.size()) + " shapes; this server takes at most " +
-                             std::to_string(max_shapes_) + " (--max-shapes)");
+    return ResourceExhausted("the rig has " + std::to_string(rig.shapes.size()) +
+                             " shapes; this server takes at most " + std::to_string(max_shapes_) +
+                             " (--max-shapes)");
   }
   return Status::Ok();
 }
 
-Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
-                         const std::string& manifest, bool* created) {
+Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes,
+                         RigFormat format, const std::string& manifest, bool* created) {
   if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
   // Validate fully before anything touches the disk; what the file declares first.
   if (Status s = CheckDeclaredCounts(bytes, format); !s.ok()) return s;
@@ -274,13 +306,16 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
     if (auto it = map_.find(id); it != map_.end() && it->second.read_only) return ReadOnly(id);
   }
   static std::atomic<uint64_t> counter{0};
-  auto tmp_name = [&id] { return "." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp"; };
+  auto tmp_name = [&id] {
+    return "." + id + "." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
+  };
   const std::string file = id + RigFormatExtension(format), manifest_file = id + ".manifest.json";
   const std::string final_path = dir_ + "/" + file;
   // Both files are written and flushed under temporary names before anything is replaced: a full
   // disk leaves the old rig and its manifest as they were.
   const std::string rig_tmp = tmp_name(), manifest_tmp = tmp_name();
-  const std::string_view rig_pieces[] = {std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())};
+  const std::string_view rig_pieces[] = {
+      std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())};
   auto rig_fd = WriteTemporary(dir_, rig_tmp, rig_pieces, "the rig");
   if (!rig_fd.ok()) return rig_fd.status();
   if (Status s = Flush(rig_fd.value(), dir_, rig_tmp, "the rig"); !s.ok()) return s;
@@ -304,11 +339,13 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
     return s;
   }
   if (manifest_fd >= 0) {
-    if (Status s = Publish(manifest_fd, dir_, manifest_tmp, manifest_file, "the manifest"); !s.ok()) return s;
+    if (Status s = Publish(manifest_fd, dir_, manifest_tmp, manifest_file, "the manifest"); !s.ok())
+      return s;
   }
   SyncDir(dir_);
   // Other extensions, if any, must not shadow the new file after a restart.
-  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada, RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd}) {
+  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada,
+                          RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd}) {
     if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
   }
   const Stamp file_stamp = StampOf(final_path), manifest_stamp = StampOf(ManifestPath(final_path));
@@ -333,8 +370,10 @@ Status FileRigStore::PutManifest(const std::string& id, const std::string& manif
   if (Status s = WritablePath(id, path); !s.ok()) return s;
   // The rig as its file holds it, without the manifest it has now.
   std::ifstream f(path, std::ios::binary);
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  auto rig = LoadRigFile(path, {.allow_external_files = true, .read_manifest = false});  // As LoadAll reads it.
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
+                                         std::istreambuf_iterator<char>());
+  auto rig = LoadRigFile(
+      path, {.allow_external_files = true, .read_manifest = false});  // As LoadAll reads it.
   if (!rig.ok()) return Internal("the stored rig no longer loads: " + rig.status().message);
   rig->name = id;
   if (!manifest.empty()) {
@@ -351,8 +390,11 @@ Status FileRigStore::PutManifest(const std::string& id, const std::string& manif
   const fs::path p(path);
   const std::string manifest_file = p.stem().string() + ".manifest.json";
   static std::atomic<uint64_t> counter{0};
-  const std::string tmp = "." + id + ".manifest." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ".tmp";
-  if (Status s = WriteFileDurably(p.parent_path(), manifest_file, manifest, tmp, "the manifest"); !s.ok()) return s;
+  const std::string tmp = "." + id + ".manifest." + std::to_string(::getpid()) + "." +
+                          std::to_string(counter++) + ".tmp";
+  if (Status s = WriteFileDurably(p.parent_path(), manifest_file, manifest, tmp, "the manifest");
+      !s.ok())
+    return s;
   const Stamp manifest_stamp = StampOf(ManifestPath(path));
   std::lock_guard<std::mutex> lock(mu_);
   map_[id].rig = std::move(stored);

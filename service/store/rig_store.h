@@ -3,8 +3,8 @@
 #pragma once
 
 #include <map>
-#include <set>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -43,8 +43,8 @@ class FileRigStore : public api::RigStore {
 
   std::shared_ptr<const api::StoredRig> Get(const std::string& id) const override;
   std::vector<std::shared_ptr<const api::StoredRig>> List() const override;
-  Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format, const std::string& manifest,
-             bool* created) override;
+  Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
+             const std::string& manifest, bool* created) override;
   Status PutManifest(const std::string& id, const std::string& manifest) override;
   Status Delete(const std::string& id) override;
 
@@ -64,7 +64,8 @@ class FileRigStore : public api::RigStore {
   static Stamp StampOf(const std::string& path);
   // The rigs of one folder (into `loaded`, ids already there kept), reusing those of `previous`
   // whose files have not moved; false when the folder cannot be read.
-  Status LoadFolder(const std::string& dir, bool read_only, const std::map<std::string, Entry>& previous,
+  Status LoadFolder(const std::string& dir, bool read_only,
+                    const std::map<std::string, Entry>& previous,
                     std::map<std::string, Entry>& loaded);
   Result<std::map<std::string, Entry>> Scan(const std::map<std::string, Entry>& previous);
   Status CheckLimits(const Rig& rig) const;
@@ -76,9 +77,10 @@ class FileRigStore : public api::RigStore {
   Status CheckDeclaredCounts(std::span<const unsigned char> bytes, RigFormat format) const;
   std::string dir_;
   std::vector<std::string> read_only_;
-  mutable std::mutex mu_;     // Guards map_ (held only to copy or swap pointers).
-  std::mutex write_mu_;       // Serialises uploads, deletes and refreshes.
-  std::map<std::string, std::pair<Stamp, Stamp>> reported_;  // Broken files said once (under write_mu_).
+  mutable std::mutex mu_;  // Guards map_ (held only to copy or swap pointers).
+  std::mutex write_mu_;    // Serialises uploads, deletes and refreshes.
+  std::map<std::string, std::pair<Stamp, Stamp>>
+      reported_;                    // Broken files said once (under write_mu_).
   std::set<std::string> misnamed_;  // Files whose name is no rig id, said once (under write_mu_).
   std::map<std::string, Entry> map_;
   size_t max_vertices_ = 1000000;

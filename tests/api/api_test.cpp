@@ -1,9 +1,8 @@
 // The routes in process: the real cpp-httplib server on a loopback port, a memory store, the null
 // renderer. Status codes, headers and bodies, checked against core evaluated in the test.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
-
-#include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/time.h>
@@ -11,13 +10,13 @@
 
 #include <cstring>
 #include <map>
-#include <sstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
-#include "facespace/offscreen/render.h"
-#include "facespace/http/http.h"
 #include "facespace/evaluator/evaluator.h"
+#include "facespace/http/http.h"
+#include "facespace/offscreen/render.h"
 #include "loopback.h"
 #include "memory_store.h"
 #include "test_util.h"
@@ -60,8 +59,9 @@ class ApiTest : public ::testing::Test {
     delete api_;
     delete store_;
   }
-  // A client that waits as long as the work may take (cpp-httplib's 5 s read timeout is a time limit, and
-  // keyed work under the sanitizers beside other load has taken longer): tests judge answers, not speed.
+  // A client that waits as long as the work may take (cpp-httplib's 5 s read timeout is a time
+  // limit, and keyed work under the sanitizers beside other load has taken longer): tests judge
+  // answers, not speed.
   static httplib::Client Client() {
     httplib::Client c("127.0.0.1", port_);
     c.set_read_timeout(300, 0);
@@ -72,7 +72,8 @@ class ApiTest : public ::testing::Test {
   // A raw exchange on one connection: `request` is sent as it is (headers only, or a partial
   // body), then what the server answers within 3 s is read (a server that waits for a body that
   // never comes answers nothing in that time). `then`, when set, is sent after the first answer.
-  static std::string Raw(const std::string& request, std::string* second = nullptr, const std::string& then = {}) {
+  static std::string Raw(const std::string& request, std::string* second = nullptr,
+                         const std::string& then = {}) {
     const int fd = test::ConnectLoopback(port_, 3);
     std::string out;
     if (fd >= 0 && send(fd, request.data(), request.size(), 0) > 0) {
@@ -90,7 +91,8 @@ class ApiTest : public ::testing::Test {
       const size_t end = out.find("\r\n\r\n");
       if (end != std::string::npos) {
         const size_t cl = out.find("Content-Length: ");
-        const size_t body = cl == std::string::npos || cl > end ? 0 : std::stoul(out.substr(cl + 16));
+        const size_t body =
+            cl == std::string::npos || cl > end ? 0 : std::stoul(out.substr(cl + 16));
         if (out.size() >= end + 4 + body) return out;
       }
       const ssize_t n = recv(fd, buf, sizeof buf, 0);
@@ -105,7 +107,9 @@ class ApiTest : public ::testing::Test {
     const size_t from = at + name.size() + 4;
     return raw.substr(from, raw.find("\r\n", from) - from);
   }
-  static json RawBody(const std::string& raw) { return json::parse(raw.substr(std::min(raw.size(), raw.find("\r\n\r\n") + 4)), nullptr, false); }
+  static json RawBody(const std::string& raw) {
+    return json::parse(raw.substr(std::min(raw.size(), raw.find("\r\n\r\n") + 4)), nullptr, false);
+  }
   static json Body(const httplib::Result& r) { return json::parse(r->body, nullptr, false); }
 
   static inline test::MemoryStore* store_ = nullptr;
@@ -117,16 +121,17 @@ class ApiTest : public ::testing::Test {
   static inline int port_ = 0;
 };
 
-// What does not change (topology, a rig's description) is encoded once per coding: brotli or gzip as
-// asked, the same body once decoded (the client decodes), an ETag per coding, and the indices also
-// as little-endian uint32 for WebGL clients.
+// What does not change (topology, a rig's description) is encoded once per coding: brotli or gzip
+// as asked, the same body once decoded (the client decodes), an ETag per coding, and the indices
+// also as little-endian uint32 for WebGL clients.
 TEST_F(ApiTest, TopologyAndDescriptionComeEncodedAsAskedAndAsU32) {
   auto get = [](const std::string& path, const std::string& coding) {
     httplib::Client c = Client();
     return c.Get(path, {{"Accept-Encoding", coding}});
   };
   for (const std::string path : {"/v1/rigs/facecap/topology", "/v1/rigs/facecap", "/v1/rigs"}) {
-    auto plain = get(path, "identity"), br = get(path, "br, gzip"), gz = get(path, "gzip;q=1, br;q=0");
+    auto plain = get(path, "identity"), br = get(path, "br, gzip"),
+         gz = get(path, "gzip;q=1, br;q=0");
     ASSERT_TRUE(plain && br && gz) << path;
     EXPECT_EQ(plain->status, 200);
     EXPECT_FALSE(plain->has_header("Content-Encoding")) << path;
@@ -136,7 +141,8 @@ TEST_F(ApiTest, TopologyAndDescriptionComeEncodedAsAskedAndAsU32) {
     EXPECT_EQ(gz->body, plain->body) << path;
     EXPECT_EQ(br->get_header_value("Vary"), "Accept, Accept-Encoding");
     EXPECT_NE(br->get_header_value("ETag"), gz->get_header_value("ETag"));
-    auto again = Client().Get(path, {{"Accept-Encoding", "br"}, {"If-None-Match", br->get_header_value("ETag")}});
+    auto again = Client().Get(
+        path, {{"Accept-Encoding", "br"}, {"If-None-Match", br->get_header_value("ETag")}});
     ASSERT_TRUE(again);
     EXPECT_EQ(again->status, 304) << path;
   }
@@ -161,14 +167,16 @@ TEST_F(ApiTest, TopologyAndDescriptionComeEncodedAsAskedAndAsU32) {
   EXPECT_NE(bad->body.find("format"), std::string::npos);
 }
 
-// Issue 48: every answer states its cost; work over an anonymous request's budget is refused before it
-// is done (422 over-budget naming the member that drives it), and the same work with the key is done.
+// Issue 48: every answer states its cost; work over an anonymous request's budget is refused before
+// it is done (422 over-budget naming the member that drives it), and the same work with the key is
+// done.
 TEST_F(ApiTest, EveryAnswerStatesItsCostAndAnonymousWorkOverItsBudgetIsRefused) {
   auto health = Client().Get("/healthz");
   ASSERT_TRUE(health);
   EXPECT_EQ(health->get_header_value("Facespace-Cost"), "0.0001");
   std::string keys = "{\"tolerance\":0,\"keys\":[";
-  for (int i = 0; i < 60000; ++i) keys += (i ? ",{\"time\":" : "{\"time\":") + std::to_string(i) + "}";
+  for (int i = 0; i < 60000; ++i)
+    keys += (i ? ",{\"time\":" : "{\"time\":") + std::to_string(i) + "}";
   keys += "]}";
   auto anonymous = Client().Post("/v1/rigs/facecap/sequence/reduce", keys, "application/json");
   ASSERT_TRUE(anonymous);
@@ -178,12 +186,16 @@ TEST_F(ApiTest, EveryAnswerStatesItsCostAndAnonymousWorkOverItsBudgetIsRefused) 
   EXPECT_EQ(problem["errors"][0]["pointer"], "/keys");
   const double cost = std::stod(anonymous->get_header_value("Facespace-Cost"));
   EXPECT_GT(cost, 2.0);
-  auto keyed = Client().Post("/v1/rigs/facecap/sequence/reduce", {{"Authorization", "Bearer test-key"}}, keys, "application/json");
+  auto keyed = Client().Post("/v1/rigs/facecap/sequence/reduce",
+                             {{"Authorization", "Bearer test-key"}}, keys, "application/json");
   ASSERT_TRUE(keyed);
   EXPECT_EQ(keyed->status, 200);
-  EXPECT_EQ(json::parse(keyed->body)["kept"], 2);  // Sixty thousand keys of the rest pose: the ends stay.
+  EXPECT_EQ(json::parse(keyed->body)["kept"],
+            2);  // Sixty thousand keys of the rest pose: the ends stay.
   EXPECT_EQ(std::stod(keyed->get_header_value("Facespace-Cost")), cost);
-  auto small = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"tolerance":0,"keys":[{"time":0},{"time":1}]})", "application/json");
+  auto small =
+      Client().Post("/v1/rigs/facecap/sequence/reduce",
+                    R"({"tolerance":0,"keys":[{"time":0},{"time":1}]})", "application/json");
   ASSERT_TRUE(small);
   EXPECT_EQ(small->status, 200);
   EXPECT_LT(std::stod(small->get_header_value("Facespace-Cost")), 0.01);
@@ -219,7 +231,8 @@ TEST_F(ApiTest, MeshF32IsTheBlendInWorldSpaceWithItsHeaders) {
 }
 
 TEST_F(ApiTest, ErrorsAreProblemDetailsNamingTheField) {
-  auto r = Client().Post("/v1/rigs/facecap/mesh", R"({"weights": {"jawOpn": 1}})", "application/json");
+  auto r =
+      Client().Post("/v1/rigs/facecap/mesh", R"({"weights": {"jawOpn": 1}})", "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(r->get_header_value("Content-Type"), "application/problem+json");
@@ -232,12 +245,16 @@ TEST_F(ApiTest, ErrorsAreProblemDetailsNamingTheField) {
   EXPECT_EQ(r->status, 400);
   EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:malformed-json");
   // Where: the line and column the parser stopped at (the stray "}" of line 3).
-  r = Client().Post("/v1/rigs/facecap/mesh", "{\"weights\": {\n  \"jawOpen\": 0.5,\n  \"x\": }\n}", "application/json");
+  r = Client().Post("/v1/rigs/facecap/mesh", "{\"weights\": {\n  \"jawOpen\": 0.5,\n  \"x\": }\n}",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 400);
-  EXPECT_NE(Body(r)["detail"].get<std::string>().find("at line 3, column 8"), std::string::npos) << r->body;
+  EXPECT_NE(Body(r)["detail"].get<std::string>().find("at line 3, column 8"), std::string::npos)
+      << r->body;
 
-  r = Client().Post("/v1/rigs/facecap/mesh", R"({"weights": {"jawOpen": 0.9, "cheekPuff": 0.8}, "strict": true})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/mesh",
+                    R"({"weights": {"jawOpen": 0.9, "cheekPuff": 0.8}, "strict": true})",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:weights-leave-authored-space");
@@ -251,16 +268,19 @@ TEST_F(ApiTest, ErrorsAreProblemDetailsNamingTheField) {
   r = Client().Get("/v1/rigs/facecpa/mesh");  // A typo of an id: the nearest is suggested.
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 404);
-  EXPECT_NE(Body(r)["detail"].get<std::string>().find("did you mean 'facecap'?"), std::string::npos) << r->body;
+  EXPECT_NE(Body(r)["detail"].get<std::string>().find("did you mean 'facecap'?"), std::string::npos)
+      << r->body;
 }
 
 TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {
-  auto r = Client().Get("/v1/rigs/facecap/render?w.jawOpen=1&width=40&height=30&background=%23ff0000");
+  auto r =
+      Client().Get("/v1/rigs/facecap/render?w.jawOpen=1&width=40&height=30&background=%23ff0000");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(r->get_header_value("Content-Type"), "image/png");
   EXPECT_EQ(r->get_header_value("Facespace-Weight-Sum"), "1");
-  auto image = render::Decode({reinterpret_cast<const unsigned char*>(r->body.data()), r->body.size()});
+  auto image =
+      render::Decode({reinterpret_cast<const unsigned char*>(r->body.data()), r->body.size()});
   ASSERT_TRUE(image.ok());
   EXPECT_EQ(image->width, 40);
   EXPECT_EQ(image->height, 30);
@@ -272,7 +292,8 @@ TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["errors"][0]["parameter"], "width");
 
-  r = Client().Get("/v1/rigs/facecap/render?width=64&height=64", {{"Accept", "image/png;q=0, image/jpeg"}});
+  r = Client().Get("/v1/rigs/facecap/render?width=64&height=64",
+                   {{"Accept", "image/png;q=0, image/jpeg"}});
   ASSERT_TRUE(r);
   EXPECT_EQ(r->get_header_value("Content-Type"), "image/jpeg");
   r = Client().Get("/v1/rigs/facecap/render?width=64&height=64", {{"Accept", "text/html"}});
@@ -285,17 +306,21 @@ TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {
 TEST_F(ApiTest, EveryRenderSettingHasItsOwnCacheEntry) {
   const std::string base = "/v1/rigs/facecap/render?width=32&height=32";
   std::map<std::string, std::string> seen;  // ETag -> the query that had it.
-  for (const std::string extra : {"", "&exposure=2", "&exposure=-1", "&view=clay", "&view=heatmap", "&frame=all", "&frame=shapes", "&yaw=10",
-                                  "&pitch=5", "&fov=40", "&zoom=2", "&background=%23ff0000", "&supersample=2", "&w.jawOpen=1", "&normals=recompute"}) {
+  for (const std::string extra :
+       {"", "&exposure=2", "&exposure=-1", "&view=clay", "&view=heatmap", "&frame=all",
+        "&frame=shapes", "&yaw=10", "&pitch=5", "&fov=40", "&zoom=2", "&background=%23ff0000",
+        "&supersample=2", "&w.jawOpen=1", "&normals=recompute"}) {
     auto r = Client().Get(base + extra);
     ASSERT_TRUE(r);
     ASSERT_EQ(r->status, 200) << extra << " " << r->body;
     const std::string etag = r->get_header_value("ETag");
     ASSERT_FALSE(etag.empty());
-    EXPECT_TRUE(seen.emplace(etag, extra).second) << "'" << extra << "' has the ETag of '" << seen[etag] << "'";
+    EXPECT_TRUE(seen.emplace(etag, extra).second)
+        << "'" << extra << "' has the ETag of '" << seen[etag] << "'";
     auto again = Client().Get(base + extra);
     ASSERT_TRUE(again);
-    EXPECT_EQ(again->get_header_value("ETag"), etag) << extra;  // And the same request the same one.
+    EXPECT_EQ(again->get_header_value("ETag"), etag)
+        << extra;  // And the same request the same one.
   }
 }
 
@@ -303,7 +328,9 @@ TEST_F(ApiTest, EveryRenderSettingHasItsOwnCacheEntry) {
 // for a second time: the third identical mesh request is the first hit, the second render is. Every
 // answer has the same bytes and ETag. A point asked for once is not kept.
 TEST_F(ApiTest, MeshesAreKeptOnTheirSecondRequestRendersOnTheirFirst) {
-  auto timing = [](const httplib::Result& r) { return r ? r->get_header_value("Server-Timing") : std::string("no answer"); };
+  auto timing = [](const httplib::Result& r) {
+    return r ? r->get_header_value("Server-Timing") : std::string("no answer");
+  };
   const std::string hit = "cache;desc=\"hit\"";
   const std::string mesh = "/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.123457&w.eyeBlink_L=0.3";
   std::vector<httplib::Result> answers;
@@ -317,7 +344,8 @@ TEST_F(ApiTest, MeshesAreKeptOnTheirSecondRequestRendersOnTheirFirst) {
   EXPECT_NE(timing(answers[0]), hit);
   EXPECT_NE(timing(answers[1]), hit);  // Made again, and now kept.
   EXPECT_EQ(timing(answers[2]), hit);
-  EXPECT_NE(timing(Client().Get("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.654321")), hit);  // Another point.
+  EXPECT_NE(timing(Client().Get("/v1/rigs/facecap/mesh?format=f32&w.jawOpen=0.654321")),
+            hit);  // Another point.
 
   const std::string render = "/v1/rigs/facecap/render?width=24&height=24&w.jawOpen=0.123457";
   auto first = Client().Get(render), second = Client().Get(render);
@@ -328,19 +356,24 @@ TEST_F(ApiTest, MeshesAreKeptOnTheirSecondRequestRendersOnTheirFirst) {
 }
 
 TEST_F(ApiTest, SheetRefusesMoreCellsThanConfigured) {
-  auto r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{}, {}, {}, {}], "width": 16, "height": 16})", "application/json");
+  auto r = Client().Post("/v1/rigs/facecap/sheet",
+                         R"({"cells": [{}, {}, {}, {}], "width": 16, "height": 16})",
+                         "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["type"], "urn:facespace:problem:too-many-cells");
-  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{"weights": {"jawOpen": 1}, "label": "open"}, {}], "width": 16, "height": 16})",
-                    "application/json");
+  r = Client().Post(
+      "/v1/rigs/facecap/sheet",
+      R"({"cells": [{"weights": {"jawOpen": 1}, "label": "open"}, {}], "width": 16, "height": 16})",
+      "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
   EXPECT_EQ(r->get_header_value("Content-Type"), "image/png");
 }
 
 TEST_F(ApiTest, CheckAndSequenceAndFit) {
-  auto r = Client().Post("/v1/rigs/facecap/check", R"({"weights": {"jawOpen": 1.5}})", "application/json");
+  auto r = Client().Post("/v1/rigs/facecap/check", R"({"weights": {"jawOpen": 1.5}})",
+                         "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200);
   json c = Body(r);
@@ -348,18 +381,21 @@ TEST_F(ApiTest, CheckAndSequenceAndFit) {
   EXPECT_EQ(c["weights"]["jawOpen"], 1.5);
   EXPECT_EQ(c["warnings"][0]["code"], "extrapolation");
 
-  r = Client().Post("/v1/rigs/facecap/sequence/sample",
-                    R"({"keys": [{"time": 0, "weights": {}}, {"time": 1, "shape": "jawOpen"}], "times": [0.5], "transition": "linear"})",
-                    "application/json");
+  r = Client().Post(
+      "/v1/rigs/facecap/sequence/sample",
+      R"({"keys": [{"time": 0, "weights": {}}, {"time": 1, "shape": "jawOpen"}], "times": [0.5], "transition": "linear"})",
+      "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(Body(r)["frames"][0]["weights"]["jawOpen"], 0.5);
   EXPECT_EQ(Body(r)["space"], "world");  // As blend's JSON: positions placed by their nodes.
 
-  // "format": "weights": each frame's time, weights and sum, no mesh (clients that blend on the GPU).
-  r = Client().Post("/v1/rigs/facecap/sequence/sample",
-                    R"({"keys": [{"time": 0}, {"time": 1, "weights": {"jawOpen": 1}}], "times": [0.25, 0.5], "format": "weights"})",
-                    "application/json");
+  // "format": "weights": each frame's time, weights and sum, no mesh (clients that blend on the
+  // GPU).
+  r = Client().Post(
+      "/v1/rigs/facecap/sequence/sample",
+      R"({"keys": [{"time": 0}, {"time": 1, "weights": {"jawOpen": 1}}], "times": [0.25, 0.5], "format": "weights"})",
+      "application/json");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200) << r->body;
   json w = Body(r);
@@ -368,12 +404,15 @@ TEST_F(ApiTest, CheckAndSequenceAndFit) {
   EXPECT_EQ(w["frames"][0]["sum"], 0.25);
   EXPECT_FALSE(w["frames"][0].contains("primitives"));
   EXPECT_FALSE(w["frames"][0].contains("pose"));  // Keys of weights pose nothing.
-  r = Client().Post("/v1/rigs/facecap/sequence/sample", R"({"keys": [{"time": 0}, {"time": 1}], "times": [0], "format": "f32"})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/sequence/sample",
+                    R"({"keys": [{"time": 0}, {"time": 1}], "times": [0], "format": "f32"})",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/format");
 
-  r = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"keys": [{"time": 0}, {"time": 1}]})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/sequence/reduce", R"({"keys": [{"time": 0}, {"time": 1}]})",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/tolerance");
@@ -388,24 +427,23 @@ TEST_F(ApiTest, CheckAndSequenceAndFit) {
   EXPECT_NEAR(Body(r)["weights"]["jawOpen"].get<double>(), 0.4, 1e-3);
 }
 
+// An answer's status and the methods its Allow header names.
+void ExpectAllow(const httplib::Result& r, int status, const std::string& allow) {
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, status);
+  EXPECT_EQ(r->get_header_value("Allow"), allow);
+}
+
 TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
   auto r = Client().Delete("/v1/rigs/facecap/mesh");
-  ASSERT_TRUE(r);
-  EXPECT_EQ(r->status, 405);
-  EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, POST, OPTIONS");
+  ExpectAllow(r, 405, "GET, HEAD, POST, OPTIONS");
   r = Client().Post("/v1/rigs/facecap", "{}", "application/json");
-  ASSERT_TRUE(r);
-  EXPECT_EQ(r->status, 405);
-  EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, PUT, DELETE, OPTIONS");
+  ExpectAllow(r, 405, "GET, HEAD, PUT, DELETE, OPTIONS");
   r = Client().Get("/v1/rigs/facecap/check");
-  ASSERT_TRUE(r);
-  EXPECT_EQ(r->status, 405);
-  EXPECT_EQ(r->get_header_value("Allow"), "POST, OPTIONS");
+  ExpectAllow(r, 405, "POST, OPTIONS");
   // OPTIONS says what the 405 says.
   r = Client().Options("/v1/rigs/facecap/mesh");
-  ASSERT_TRUE(r);
-  EXPECT_EQ(r->status, 204);
-  EXPECT_EQ(r->get_header_value("Allow"), "GET, HEAD, POST, OPTIONS");
+  ExpectAllow(r, 204, "GET, HEAD, POST, OPTIONS");
   r = Client().Options("/v1/nowhere");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 404);
@@ -413,7 +451,8 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
   r = Client().Get("/openapi.json");
   ASSERT_TRUE(r);
   json doc = Body(r);
-  // Every documented operation answers something other than 404/405 here, and the count is the table's.
+  // Every documented operation answers something other than 404/405 here, and the count is the
+  // table's.
   size_t operations = 0;
   for (auto& [path, item] : doc["paths"].items()) {
     for (auto& [method, op] : item.items()) {
@@ -430,11 +469,14 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
     ASSERT_GT(params.size(), 10u) << path;
     for (const json& p : params) {
       const std::string name = p["name"];
-      if (p["in"] != "query" || name == "w" || name == "c" || name == "e") continue;  // Maps: w[NAME], c[NAME], e[NAME].
-      std::string url = std::string(path).replace(std::string(path).find("{id}"), 4, "facecap") + "?" + name + "=%7Bnot-a-value";
+      if (p["in"] != "query" || name == "w" || name == "c" || name == "e")
+        continue;  // Maps: w[NAME], c[NAME], e[NAME].
+      std::string url = std::string(path).replace(std::string(path).find("{id}"), 4, "facecap") +
+                        "?" + name + "=%7Bnot-a-value";
       r = Client().Get(url);
       ASSERT_TRUE(r);
-      EXPECT_EQ(r->body.find("unknown parameter"), std::string::npos) << url << ": " << r->body.substr(0, 200);
+      EXPECT_EQ(r->body.find("unknown parameter"), std::string::npos)
+          << url << ": " << r->body.substr(0, 200);
     }
   }
   // Weights as the document declares them (deepObject: w[NAME]) are the weights of w.NAME.
@@ -452,7 +494,8 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
   // The access log (and the counters) run after the response is sent: wait for it, bounded.
   // Other tests may have counted some already: the count grows by one.
   auto counted = [](const std::string& text) {
-    const std::string label = "facespace_http_requests_total{route=\"/v1/rigs/{id}\",status=\"200\"} ";
+    const std::string label =
+        "facespace_http_requests_total{route=\"/v1/rigs/{id}\",status=\"200\"} ";
     const size_t at = text.find(label);
     return at == std::string::npos ? 0L : std::stol(text.substr(at + label.size()));
   };
@@ -472,7 +515,8 @@ TEST_F(ApiTest, BatchAndJobsWithoutAQueueAre503AfterAuth) {
   auto r = Client().Post("/v1/rigs/facecap/batch", body, "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 401);  // The key is checked first, from the headers.
-  r = Client().Post("/v1/rigs/facecap/batch", {{"Authorization", "Bearer test-key"}}, body, "application/json");
+  r = Client().Post("/v1/rigs/facecap/batch", {{"Authorization", "Bearer test-key"}}, body,
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 503);
   r = Client().Get("/v1/jobs");
@@ -482,8 +526,11 @@ TEST_F(ApiTest, BatchAndJobsWithoutAQueueAre503AfterAuth) {
 
 TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {
   httplib::Headers auth = {{"Authorization", "Bearer test-key"}};
-  const std::vector<unsigned char> fbx = test::ReadBytes(test::SharedAssets() + "/more/FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx");
-  const std::vector<unsigned char> dae = test::ReadBytes(test::SharedAssets() + "/more/Collada/CTS_morph_two_targets/morph_two_targets.dae");
+  const std::vector<unsigned char> fbx =
+      test::ReadBytes(test::SharedAssets() +
+                      "/more/FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx");
+  const std::vector<unsigned char> dae = test::ReadBytes(
+      test::SharedAssets() + "/more/Collada/CTS_morph_two_targets/morph_two_targets.dae");
   const std::string fbx_body(fbx.begin(), fbx.end()), dae_body(dae.begin(), dae.end());
   // An octet stream with a file name.
   httplib::Headers named = auth;
@@ -493,7 +540,8 @@ TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {
   EXPECT_EQ(r->status, 201) << r->body;
   r = Client().Get("/v1/rigs/cube");
   ASSERT_TRUE(r);
-  EXPECT_EQ(Body(r)["shapes"].size(), 5u) << r->body;  // LiftTop, MoveToSide and their 3 in-betweens.
+  EXPECT_EQ(Body(r)["shapes"].size(), 5u)
+      << r->body;  // LiftTop, MoveToSide and their 3 in-betweens.
   // The slider at 0.5 is the in-between alone: its mesh differs from the rest's.
   r = Client().Get("/v1/rigs/cube/mesh?w.LiftTop=0.5&format=json");
   ASSERT_TRUE(r);
@@ -506,7 +554,8 @@ TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 201) << r->body;
   EXPECT_EQ(Body(Client().Get("/v1/rigs/pyramid"))["shapes"].size(), 2u);
-  // A truncated FBX is an invalid rig, named; an unknown octet stream is 415; the store keeps serving.
+  // A truncated FBX is an invalid rig, named; an unknown octet stream is 415; the store keeps
+  // serving.
   r = Client().Put("/v1/rigs/cube", named, fbx_body.substr(0, 5000), "application/octet-stream");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422) << r->body;
@@ -515,7 +564,8 @@ TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 415);
   EXPECT_EQ(Body(Client().Get("/v1/rigs/cube"))["shapes"].size(), 5u);
-  for (const char* id : {"cube", "cube2", "pyramid"}) Client().Delete(std::string("/v1/rigs/") + id, auth);
+  for (const char* id : {"cube", "cube2", "pyramid"})
+    Client().Delete(std::string("/v1/rigs/") + id, auth);
 }
 
 // glb bodies come from writers kept per rig: after a rig is replaced under the same id, its glb
@@ -529,15 +579,18 @@ TEST_F(ApiTest, GlbAfterAReplacedRigIsTheNewRigs) {
   const std::string face = bytes("FaceCap/facecap_decoded.glb"), fox = bytes("Fox/Fox.glb");
   ASSERT_EQ(Client().Put("/v1/rigs/swap", auth, face, "model/gltf-binary")->status, 201);
   auto first = Client().Get("/v1/rigs/swap/mesh?format=glb");
-  auto second = Client().Get("/v1/rigs/swap/mesh?format=glb&w.jawOpen=0.5");  // Patched from the first's template.
+  auto second = Client().Get(
+      "/v1/rigs/swap/mesh?format=glb&w.jawOpen=0.5");  // Patched from the first's template.
   ASSERT_TRUE(first && second);
   EXPECT_EQ(second->status, 200);
   EXPECT_NE(first->body, second->body);
   ASSERT_EQ(Client().Put("/v1/rigs/swap", auth, fox, "model/gltf-binary")->status, 200);
   ASSERT_EQ(Client().Put("/v1/rigs/fox2", auth, fox, "model/gltf-binary")->status, 201);
   for (int i = 0; i < 2; ++i) {  // Twice: the second from a kept writer.
-    auto replaced = Client().Get("/v1/rigs/swap/mesh?format=glb&animation=0&time=" + std::to_string(0.3 * i));
-    auto other = Client().Get("/v1/rigs/fox2/mesh?format=glb&animation=0&time=" + std::to_string(0.3 * i));
+    auto replaced =
+        Client().Get("/v1/rigs/swap/mesh?format=glb&animation=0&time=" + std::to_string(0.3 * i));
+    auto other =
+        Client().Get("/v1/rigs/fox2/mesh?format=glb&animation=0&time=" + std::to_string(0.3 * i));
     ASSERT_TRUE(replaced && other);
     EXPECT_EQ(replaced->status, 200) << replaced->body;
     EXPECT_EQ(replaced->body, other->body);
@@ -566,13 +619,17 @@ TEST_F(ApiTest, UploadsNeedTheKey) {
 
 // Requests refused from their request line and headers are answered at once, before any body
 // (the server used to wait out its read timeout for a body that never came, or invite it with 100).
-// The face by name over HTTP: an expression is the mesh of its mapped weights (body and query alike),
-// a gaze sets FaceCap's eye shapes through its range map, typos are 422 naming the member, and a
-// sequence's blinks and gaze track show in its frames.
+// The face by name over HTTP: an expression is the mesh of its mapped weights (body and query
+// alike), a gaze sets FaceCap's eye shapes through its range map, typos are 422 naming the member,
+// and a sequence's blinks and gaze track show in its frames.
 TEST_F(ApiTest, ExpressionsGazeAndBlinksByName) {
-  auto post = [](const std::string& path, const std::string& body) { return Client().Post(path, body, "application/json"); };
+  auto post = [](const std::string& path, const std::string& body) {
+    return Client().Post(path, body, "application/json");
+  };
   auto by_name = post("/v1/rigs/facecap/mesh", R"({"expressions": {"happy": 1}, "format": "f32"})");
-  auto by_weights = post("/v1/rigs/facecap/mesh", R"({"weights": {"mouthSmile_L": 1, "mouthSmile_R": 1, "cheekSquint_L": 0.5, "cheekSquint_R": 0.5,
+  auto by_weights = post(
+      "/v1/rigs/facecap/mesh",
+      R"({"weights": {"mouthSmile_L": 1, "mouthSmile_R": 1, "cheekSquint_L": 0.5, "cheekSquint_R": 0.5,
                                                                  "eyeSquint_L": 0.4, "eyeSquint_R": 0.4}, "format": "f32"})");
   auto rest = post("/v1/rigs/facecap/mesh", R"({"format": "f32"})");
   auto query = Client().Get("/v1/rigs/facecap/mesh?e.happy=1&format=f32");
@@ -600,21 +657,25 @@ TEST_F(ApiTest, ExpressionsGazeAndBlinksByName) {
   ASSERT_TRUE(q && b);
   EXPECT_EQ(q->body, b->body);
 
-  for (const auto& [body, pointer] : {std::pair{R"({"expressions": {"hapy": 1}})", "/expressions/hapy"},
-                                      std::pair{R"({"gaze": {"target": [0, 0, 1], "yaw": 3}})", "/gaze"},
-                                      std::pair{R"({"gaze": {"yaw": "left"}})", "/gaze/yaw"},
-                                      std::pair{R"({"expressions": [1]})", "/expressions"}}) {
+  for (const auto& [body, pointer] :
+       {std::pair{R"({"expressions": {"hapy": 1}})", "/expressions/hapy"},
+        std::pair{R"({"gaze": {"target": [0, 0, 1], "yaw": 3}})", "/gaze"},
+        std::pair{R"({"gaze": {"yaw": "left"}})", "/gaze/yaw"},
+        std::pair{R"({"expressions": [1]})", "/expressions"}}) {
     auto r = post("/v1/rigs/facecap/mesh", body);
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 422) << body;
     EXPECT_EQ(Body(r)["errors"][0]["pointer"], pointer) << r->body;
   }
-  // 60 s at 15 blinks a minute, sampled at 50 fps: 12 to 18 closings, the gaze track from left to right.
+  // 60 s at 15 blinks a minute, sampled at 50 fps: 12 to 18 closings, the gaze track from left to
+  // right.
   std::string times;
   for (int i = 0; i <= 3000; ++i) times += (i ? "," : "") + FormatNumber(i * 0.02);
-  auto seq = post("/v1/rigs/facecap/sequence/sample",
-                  R"({"keys": [{"time": 0}, {"time": 60}], "blink": {"per_minute": 15, "seed": 4}, "format": "weights",
-                      "gaze": {"keys": [{"time": 0, "yaw": 30, "pitch": 0}, {"time": 60, "yaw": -30, "pitch": 0}]}, "times": [)" + times + "]}");
+  auto seq = post(
+      "/v1/rigs/facecap/sequence/sample",
+      R"({"keys": [{"time": 0}, {"time": 60}], "blink": {"per_minute": 15, "seed": 4}, "format": "weights",
+                      "gaze": {"keys": [{"time": 0, "yaw": 30, "pitch": 0}, {"time": 60, "yaw": -30, "pitch": 0}]}, "times": [)" +
+          times + "]}");
   ASSERT_TRUE(seq) << httplib::to_string(seq.error());
   ASSERT_EQ(seq->status, 200) << seq->body.substr(0, 300);
   const json frames = Body(seq)["frames"];
@@ -635,30 +696,40 @@ TEST_F(ApiTest, ExpressionsGazeAndBlinksByName) {
 
 TEST_F(ApiTest, RefusalsComeFromTheHeadersBeforeTheBody) {
   // A Content-Length over the limit, no body sent: 413 naming the limit.
-  std::string raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer test-key\r\nContent-Length: 900000000\r\n\r\n");
+  std::string raw =
+      Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer "
+          "test-key\r\nContent-Length: 900000000\r\n\r\n");
   EXPECT_EQ(Status(raw), "HTTP/1.1 413 Payload Too Large") << raw;
   EXPECT_EQ(Header(raw, "Content-Type"), "application/problem+json");
   EXPECT_NE(RawBody(raw).value("detail", "").find("--max-body"), std::string::npos) << raw;
   EXPECT_EQ(Header(raw, "Connection"), "close");
 
   // The same with Expect: 100-continue: the 413 is the answer, never a 100.
-  raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer test-key\r\nContent-Length: 900000000\r\nExpect: 100-continue\r\n\r\n");
+  raw =
+      Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer "
+          "test-key\r\nContent-Length: 900000000\r\nExpect: 100-continue\r\n\r\n");
   EXPECT_EQ(Status(raw), "HTTP/1.1 413 Payload Too Large") << raw;
   EXPECT_EQ(RawBody(raw).value("status", 0), 413) << raw;
   // An upload without the key: 401 before the body, not 100.
-  raw = Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nContent-Length: 1000\r\nExpect: 100-continue\r\n\r\n");
+  raw =
+      Raw("PUT /v1/rigs/big HTTP/1.1\r\nHost: x\r\nContent-Length: 1000\r\nExpect: "
+          "100-continue\r\n\r\n");
   EXPECT_EQ(Status(raw), "HTTP/1.1 401 Unauthorized") << raw;
   // A body that will be taken: 100, then the answer once it is sent.
   const std::string body = R"({"weights": {"jawOpen": 0.5}, "format": "f32"})";
   std::string answer;
-  raw = Raw("POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: " +
-                std::to_string(body.size()) + "\r\nExpect: 100-continue\r\n\r\n",
-            &answer, body);
+  raw =
+      Raw("POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: "
+          "application/json\r\nContent-Length: " +
+              std::to_string(body.size()) + "\r\nExpect: 100-continue\r\n\r\n",
+          &answer, body);
   EXPECT_EQ(Status(raw), "HTTP/1.1 100 Continue") << raw;
   EXPECT_EQ(Status(answer), "HTTP/1.1 200 OK") << answer;
 
-  // POST of JSON with no length at all: 411 at once (it used to wait 10 s for the connection to close).
-  raw = Raw("POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n");
+  // POST of JSON with no length at all: 411 at once (it used to wait 10 s for the connection to
+  // close).
+  raw = Raw(
+      "POST /v1/rigs/facecap/mesh HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\n\r\n");
   EXPECT_EQ(Status(raw), "HTTP/1.1 411 Length Required") << raw;
   EXPECT_EQ(RawBody(raw).value("type", ""), "urn:facespace:problem:length-required");
   // PATCH on a rig: 405 at once, with the Allow that OPTIONS gives.
@@ -671,7 +742,8 @@ TEST_F(ApiTest, RefusalsComeFromTheHeadersBeforeTheBody) {
 }
 
 TEST_F(ApiTest, ParserRefusalsAreProblemDocuments) {
-  std::string raw = Raw("GET /v1/rigs/facecap/mesh?w.jawOpen=" + std::string(9000, '1') + " HTTP/1.1\r\nHost: x\r\n\r\n");
+  std::string raw = Raw("GET /v1/rigs/facecap/mesh?w.jawOpen=" + std::string(9000, '1') +
+                        " HTTP/1.1\r\nHost: x\r\n\r\n");
   EXPECT_EQ(Status(raw), "HTTP/1.1 414 URI Too Long") << raw.substr(0, 200);
   EXPECT_EQ(Header(raw, "Content-Type"), "application/problem+json");
   json problem = RawBody(raw);
@@ -686,33 +758,41 @@ TEST_F(ApiTest, ParserRefusalsAreProblemDocuments) {
 // neutral face): both refuse them now, naming the closest valid name, and a member or parameter
 // given twice.
 TEST_F(ApiTest, UnknownAndRepeatedMembersAreRefusedInBodiesAndQueries) {
-  auto r = Client().Post("/v1/rigs/facecap/mesh", R"({"wieghts": {"jawOpen": 1}, "format": "f32"})", "application/json");
+  auto r = Client().Post("/v1/rigs/facecap/mesh", R"({"wieghts": {"jawOpen": 1}, "format": "f32"})",
+                         "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   json problem = Body(r);
   ASSERT_EQ(problem["errors"].size(), 1u) << r->body;
   EXPECT_EQ(problem["errors"][0]["pointer"], "/wieghts");
-  EXPECT_NE(problem["errors"][0]["detail"].get<std::string>().find("did you mean 'weights'"), std::string::npos) << r->body;
+  EXPECT_NE(problem["errors"][0]["detail"].get<std::string>().find("did you mean 'weights'"),
+            std::string::npos)
+      << r->body;
 
   r = Client().Post("/v1/rigs/facecap/render", R"({"widht": 64})", "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_NE(r->body.find("did you mean 'width'"), std::string::npos) << r->body;
-  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": "shapes", "colums": 2})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": "shapes", "colums": 2})",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_NE(r->body.find("did you mean 'columns'"), std::string::npos) << r->body;
-  r = Client().Post("/v1/rigs/facecap/sequence/sample", R"({"keys": [{"time": 0, "weights": {}}], "time": [0]})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/sequence/sample",
+                    R"({"keys": [{"time": 0, "weights": {}}], "time": [0]})", "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_NE(r->body.find("did you mean 'times'"), std::string::npos) << r->body;
 
   // A member given twice, at the top or deeper: 422 with its JSON Pointer.
-  r = Client().Post("/v1/rigs/facecap/mesh", R"({"format": "f32", "format": "glb"})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/mesh", R"({"format": "f32", "format": "glb"})",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/format") << r->body;
-  r = Client().Post("/v1/rigs/facecap/sheet", R"({"cells": [{"weights": {}}, {"weights": {"jawOpen": 1, "jawOpen": 0}}]})", "application/json");
+  r = Client().Post("/v1/rigs/facecap/sheet",
+                    R"({"cells": [{"weights": {}}, {"weights": {"jawOpen": 1, "jawOpen": 0}}]})",
+                    "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 422);
   EXPECT_EQ(Body(r)["errors"][0]["pointer"], "/cells/1/weights/jawOpen") << r->body;
@@ -779,7 +859,9 @@ TEST_F(ApiTest, EveryFlatFormatIsInOneSpace) {
     ASSERT_NEAR(from_obj[i], world, 1e-6f * (1 + std::fabs(world))) << i;
     diagonal = std::max(diagonal, std::fabs(world));
   }
-  EXPECT_LT(diagonal, 10.0f);  // World space: a head a couple of units across, not int16 units in the thousands.
+  EXPECT_LT(
+      diagonal,
+      10.0f);  // World space: a head a couple of units across, not int16 units in the thousands.
 
   // space=mesh: the mesh's own units, in every flat format alike.
   auto js_mesh = Client().Get(q + "&format=json&space=mesh");
@@ -796,7 +878,8 @@ TEST_F(ApiTest, EveryFlatFormatIsInOneSpace) {
 
   // Fit takes the JSON as the mesh route writes it, in either space.
   for (const json* target : {&doc, &mesh_doc}) {
-    auto fit = Client().Post("/v1/rigs/facecap/fit", json{{"target", *target}}.dump(), "application/json");
+    auto fit =
+        Client().Post("/v1/rigs/facecap/fit", json{{"target", *target}}.dump(), "application/json");
     ASSERT_TRUE(fit);
     ASSERT_EQ(fit->status, 200) << fit->body;
     EXPECT_NEAR(Body(fit)["weights"]["jawOpen"].get<double>(), 0.6, 1e-3) << (*target)["space"];
@@ -814,5 +897,5 @@ TEST_F(ApiTest, HeadCarriesGetsHeaders) {
   EXPECT_EQ(get->get_header_value("Cache-Control"), "public, no-cache");
 }
 
-}  // namespace
+}  // namespace api_test
 }  // namespace facespace

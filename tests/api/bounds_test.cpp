@@ -1,5 +1,5 @@
-// Issue 61's pieces in process: the response encoder that replaced cpp-httplib's, and the live say's
-// segments (a long text spoken in parts, a short one whole).
+// Issue 61's pieces in process: the response encoder that replaced cpp-httplib's, and the live
+// say's segments (a long text spoken in parts, a short one whole).
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <zlib.h>
@@ -7,8 +7,8 @@
 #include <string>
 
 #include "http/encoded.h"
-#include "turns.h"
 #include "routes/live_say.h"
+#include "turns.h"
 
 namespace facespace::api::http {
 namespace bounds_test {  // Named: the target is a unity build, its files share one unit.
@@ -73,10 +73,10 @@ TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
     const char* type;
     bool stopped;
   } cases[] = {
-      {"br", JsonBody(500), "application/json", false},                         // Under kMinCompressed.
-      {"br", JsonBody(kMaxDynamicCompressed + 1000), "application/json", false}, // Over the cap.
-      {"br", std::string(100000, 'x'), "image/png", false},                      // Not text-like.
-      {"br", JsonBody(600000), "application/json", true},                        // Its request stopped.
+      {"br", JsonBody(500), "application/json", false},  // Under kMinCompressed.
+      {"br", JsonBody(kMaxDynamicCompressed + 1000), "application/json", false},  // Over the cap.
+      {"br", std::string(100000, 'x'), "image/png", false},                       // Not text-like.
+      {"br", JsonBody(600000), "application/json", true},  // Its request stopped.
       {"identity", JsonBody(600000), "application/json", false},
   };
   for (const Case& c : cases) {
@@ -86,7 +86,8 @@ TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
     std::stop_source stop;
     if (c.stopped) stop.request_stop();
     CompressBody(req, res, stop.get_token());
-    EXPECT_FALSE(res.has_header("Content-Encoding")) << c.coding << " " << c.body.size() << " " << c.type;
+    EXPECT_FALSE(res.has_header("Content-Encoding"))
+        << c.coding << " " << c.body.size() << " " << c.type;
     EXPECT_EQ(res.body, c.body);
   }
   // br when it is asked for: smaller, and brotli's stream (not gzip's magic).
@@ -100,8 +101,10 @@ TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
 }
 
 TEST(LiveSay, AShortTextIsOnePartAndALongOneIsCutAfterItsSentences) {
-  EXPECT_EQ(SpeechSegments("Please pass the map, Bob. We will meet at five by the old bridge.", 175),
-            std::vector<std::string>{"Please pass the map, Bob. We will meet at five by the old bridge."});
+  EXPECT_EQ(
+      SpeechSegments("Please pass the map, Bob. We will meet at five by the old bridge.", 175),
+      std::vector<std::string>{
+          "Please pass the map, Bob. We will meet at five by the old bridge."});
   std::string sentences;
   for (int i = 0; i < 12; ++i) sentences += "We will meet at five by the old bridge. ";
   const std::vector<std::string> parts = SpeechSegments(sentences, 175);
@@ -113,7 +116,8 @@ TEST(LiveSay, AShortTextIsOnePartAndALongOneIsCutAfterItsSentences) {
   }
   EXPECT_EQ(joined, sentences);  // Nothing lost or added but the spaces between.
   // Digits are read as long numbers: a part per number or two, however short the text.
-  const std::vector<std::string> numbers = SpeechSegments("999999999999 999999999999 999999999999 999999999999", 80);
+  const std::vector<std::string> numbers =
+      SpeechSegments("999999999999 999999999999 999999999999 999999999999", 80);
   EXPECT_EQ(numbers.size(), 4u);
   EXPECT_EQ(SpeechSegments("   ", 175).size(), 0u);
 }
@@ -122,10 +126,11 @@ TEST(FairTurns, AnAddressRunningNothingAlwaysStartsAndTheFewestRunningGoesNext) 
   FairTurns<int> turns(8, 16);  // 8 workers: 2 kept for addresses that run nothing.
   int started_a = 0;
   for (int i = 0; i < 10; ++i) started_a += turns.Arrive("a", i);
-  EXPECT_EQ(started_a, 6);  // Up to the reserve.
-  EXPECT_TRUE(turns.Arrive("b", 100));   // Runs nothing: starts.
-  EXPECT_TRUE(turns.Arrive("c", 200));   // So does another.
-  EXPECT_TRUE(turns.Arrive("d", 300));   // And another, past the workers: it queues for a worker, not a turn.
+  EXPECT_EQ(started_a, 6);              // Up to the reserve.
+  EXPECT_TRUE(turns.Arrive("b", 100));  // Runs nothing: starts.
+  EXPECT_TRUE(turns.Arrive("c", 200));  // So does another.
+  EXPECT_TRUE(turns.Arrive(
+      "d", 300));  // And another, past the workers: it queues for a worker, not a turn.
   EXPECT_FALSE(turns.Arrive("b", 101));  // b runs one now, and the reserve is gone.
   EXPECT_EQ(turns.running(), 9u);
   std::vector<int> start;
@@ -139,14 +144,14 @@ TEST(FairTurns, AnAddressRunningNothingAlwaysStartsAndTheFewestRunningGoesNext) 
   EXPECT_EQ(start, std::vector<int>{101});
   turns.End("b", -1, start);  // Then a's next.
   EXPECT_EQ(start, (std::vector<int>{101, 6}));
-  // The scarce gate: at most 2 renders hold a worker or a place in a line; the third waits at the gate and
-  // goes when one of them ends, before anything else of its address.
+  // The scarce gate: at most 2 renders hold a worker or a place in a line; the third waits at the
+  // gate and goes when one of them ends, before anything else of its address.
   FairTurns<int> gl(64, 16, {2, 1});
   EXPECT_TRUE(gl.Arrive("r", 1, 0));
   EXPECT_TRUE(gl.Arrive("r", 2, 0));
   EXPECT_FALSE(gl.Arrive("s", 3, 0));
-  EXPECT_TRUE(gl.Arrive("s", 4));      // Needs nothing scarce: starts at once.
-  EXPECT_TRUE(gl.Arrive("s", 5, 1));   // Another gate: its own cap.
+  EXPECT_TRUE(gl.Arrive("s", 4));     // Needs nothing scarce: starts at once.
+  EXPECT_TRUE(gl.Arrive("s", 5, 1));  // Another gate: its own cap.
   EXPECT_FALSE(gl.Arrive("t", 6, 1));
   std::vector<int> next;
   gl.End("s", -1, next);

@@ -1,4 +1,5 @@
-// The render memory budget (api/http/src/http/context.h): estimates, and room shared by renders in flight.
+// The render memory budget (api/http/src/http/context.h): estimates, and room shared by renders in
+// flight.
 #include <gtest/gtest.h>
 
 #include <thread>
@@ -16,7 +17,8 @@ TEST(RenderBudget, EstimatesSamplesAndOutputPixels) {
   // 8192² samples at 36 bytes (float colour, depth, read-back) + 2048² output pixels at 36 bytes.
   EXPECT_EQ(RenderBudget::Estimate(o, 1), size_t{8192} * 8192 * 36 + size_t{2048} * 2048 * 36);
   o.supersample = 1;
-  EXPECT_EQ(RenderBudget::Estimate(o, 64), size_t{2048} * 2048 * 36 * 65);  // A sheet: every cell's image.
+  EXPECT_EQ(RenderBudget::Estimate(o, 64),
+            size_t{2048} * 2048 * 36 * 65);  // A sheet: every cell's image.
 }
 
 TEST(RenderBudget, RendersInFlightShareTheRoomAndOneAloneMayTakeItAll) {
@@ -35,12 +37,13 @@ TEST(RenderBudget, RendersInFlightShareTheRoomAndOneAloneMayTakeItAll) {
   EXPECT_FALSE(budget.Acquire(50));
   EXPECT_EQ(budget.InFlight(), 60u);
   budget.Release(60);
-  // More than the whole budget, alone: allowed (the per-request check is the route's), counted as all of it.
+  // More than the whole budget, alone: allowed (the per-request check is the route's), counted as
+  // all of it.
   EXPECT_TRUE(budget.Acquire(500));
   EXPECT_EQ(budget.InFlight(), 100u);
   budget.Release(500);
   EXPECT_EQ(budget.InFlight(), 0u);
 }
 
-}  // namespace
+}  // namespace budget_test
 }  // namespace facespace::api::http

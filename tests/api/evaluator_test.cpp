@@ -1,20 +1,22 @@
 // The evaluator without HTTP: each output checked against core evaluated and exported directly,
 // its fast paths against the plain path, and its cache key against what the bytes depend on.
+#include "facespace/evaluator/evaluator.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstring>
 
-#include "facespace/offscreen/render.h"
-#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/lod.h"
+#include "facespace/offscreen/render.h"
 #include "test_util.h"
 
 namespace facespace {
 namespace evaluator_test {  // Named: the target is a unity build, its files share one unit.
 
 const std::shared_ptr<const api::StoredRig>& FaceCapStored() {
-  static const auto rig = api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
+  static const auto rig =
+      api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
   return rig;
 }
 const Rig& FaceCap() { return FaceCapStored()->rig; }
@@ -36,7 +38,8 @@ api::ResolvedPoint PointAt(std::initializer_list<std::pair<const char*, float>> 
 }
 
 // Core's own answer: the rig evaluated at the point, then exported.
-std::string Exported(const Rig& rig, const api::ResolvedPoint& p, MeshFormat format, bool mesh_space = false) {
+std::string Exported(const Rig& rig, const api::ResolvedPoint& p, MeshFormat format,
+                     bool mesh_space = false) {
   BlendedRig blended;
   BlendContext context;
   EXPECT_TRUE(EvaluateRig(rig, p.weights, {}, blended, context).ok());
@@ -50,7 +53,8 @@ const render::NullRenderer kNull;
 TEST(Evaluator, MeshIsCoreEvaluationEncoded) {
   const api::Evaluator evaluator(kNull);
   api::MeshRequest r;
-  r.weights = {{"jawOpen", -1, 0.6, "/weights/jawOpen"}, {"mouthSmile_L", -1, 0.3, "/weights/mouthSmile_L"}};
+  r.weights = {{"jawOpen", -1, 0.6, "/weights/jawOpen"},
+               {"mouthSmile_L", -1, 0.3, "/weights/mouthSmile_L"}};
   api::Workspace ws;
   auto out = api::ProduceMesh(evaluator, FaceCapStored(), r, MeshFormat::kF32, ws);
   ASSERT_TRUE(out.ok()) << out.status().message;
@@ -77,7 +81,8 @@ TEST(Evaluator, MeshIsCoreEvaluationEncoded) {
 TEST(Evaluator, FastPathsGiveTheExportersBytes) {
   const api::Evaluator evaluator(kNull);
   api::Workspace ws;
-  const api::ResolvedPoint points[] = {PointAt({{"jawOpen", 0.6f}}), PointAt({{"eyeBlink_L", 1.0f}, {"mouthSmile_R", 0.4f}}),
+  const api::ResolvedPoint points[] = {PointAt({{"jawOpen", 0.6f}}),
+                                       PointAt({{"eyeBlink_L", 1.0f}, {"mouthSmile_R", 0.4f}}),
                                        PointAt({}), PointAt({{"jawOpen", 0.2f}})};
   for (const api::ResolvedPoint& p : points) {
     for (bool mesh_space : {false, true}) {
@@ -86,8 +91,10 @@ TEST(Evaluator, FastPathsGiveTheExportersBytes) {
       f32.mesh_space = mesh_space;
       auto body = evaluator.Run(FaceCapStored(), p, f32, ws);
       ASSERT_TRUE(body.ok());
-      EXPECT_TRUE(body->bytes == Exported(FaceCap(), p, MeshFormat::kF32, mesh_space)) << "f32, mesh space " << mesh_space;
-      ws.body = std::move(body->bytes);  // Handed back, as the service does once a response is sent: written over next.
+      EXPECT_TRUE(body->bytes == Exported(FaceCap(), p, MeshFormat::kF32, mesh_space))
+          << "f32, mesh space " << mesh_space;
+      ws.body = std::move(body->bytes);  // Handed back, as the service does once a response is
+                                         // sent: written over next.
     }
     api::OutputSpec glb;
     glb.mesh_format = MeshFormat::kGlb;
@@ -99,7 +106,8 @@ TEST(Evaluator, FastPathsGiveTheExportersBytes) {
     auto pieces = evaluator.Run(FaceCapStored(), p, glb, ws);
     ASSERT_TRUE(pieces.ok());
     EXPECT_TRUE(pieces->bytes.empty());
-    EXPECT_TRUE(std::string(pieces->head) + std::string(pieces->bin) == expected) << "glb in pieces";
+    EXPECT_TRUE(std::string(pieces->head) + std::string(pieces->bin) == expected)
+        << "glb in pieces";
   }
 }
 
@@ -116,7 +124,8 @@ TEST(Evaluator, LevelOfDetailIsTheSimplifiedRigEvaluated) {
   EXPECT_LT(lod.triangle_count(), FaceCap().triangle_count() / 2);
   EXPECT_TRUE(obj->bytes == Exported(lod, p, MeshFormat::kObj));
   EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2)->rig->triangle_count(), lod.triangle_count());
-  EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2), evaluator.Derived(FaceCapStored(), 2));  // Kept, not made again.
+  EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2),
+            evaluator.Derived(FaceCapStored(), 2));  // Kept, not made again.
 }
 
 // What the evaluator keeps per rig (levels of detail, focus boxes, glb and f32 writers) never keeps
@@ -136,7 +145,8 @@ TEST(Evaluator, KeepsNothingAliveOfARigGone) {
   render.render.width = render.render.height = 8;
   for (int lod : {0, 1}) {
     render.mesh.lod = lod;
-    ASSERT_TRUE(evaluator.Run(rig, p, api::OutputSpec::Image(render, render::ImageFormat::kPng), ws).ok());
+    ASSERT_TRUE(
+        evaluator.Run(rig, p, api::OutputSpec::Image(render, render::ImageFormat::kPng), ws).ok());
     ASSERT_NE(evaluator.Derived(rig, lod), nullptr);
   }
   rig.reset();
@@ -226,7 +236,8 @@ TEST(Evaluator, ErrorsCarryTheirReason) {
   EXPECT_EQ(s.reason, api::kInvalidWeights);
   ASSERT_EQ(s.fields.size(), 1u);
   EXPECT_EQ(s.fields[0].pointer, "/weights/jawOpn");
-  EXPECT_NE(s.message.find("jawOpen"), std::string::npos) << s.message;  // The closest name is suggested.
+  EXPECT_NE(s.message.find("jawOpen"), std::string::npos)
+      << s.message;  // The closest name is suggested.
 
   r.weights = {{"jawOpen", -1, 0.9, ""}, {"cheekPuff", -1, 0.8, ""}};
   r.strict = true;
@@ -249,9 +260,13 @@ TEST(Evaluator, AFiredStopTokenEndsSheetsAndSequencesCancelled) {
   api::Workspace ws;
   std::stop_source stop;
   ws.stop = stop.get_token();
-  ASSERT_TRUE(evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws).ok());
+  ASSERT_TRUE(evaluator
+                  .Run(FaceCapStored(), points.cells,
+                       api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws)
+                  .ok());
   stop.request_stop();
-  auto sheet = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
+  auto sheet = evaluator.Run(FaceCapStored(), points.cells,
+                             api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
   ASSERT_FALSE(sheet.ok());
   EXPECT_EQ(sheet.status().code, StatusCode::kCancelled);
   Sequence seq;
@@ -267,7 +282,8 @@ TEST(Evaluator, AFiredStopTokenEndsSheetsAndSequencesCancelled) {
 TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
   api::SheetRequest r;
   r.base.render.width = r.base.render.height = 16;
-  r.cells = {{{"jawOpen", -1, 1.0, "/cells/0/weights/jawOpen"}}, {{"nope", -1, 1.0, "/cells/1/weights/nope"}}};
+  r.cells = {{{"jawOpen", -1, 1.0, "/cells/0/weights/jawOpen"}},
+             {{"nope", -1, 1.0, "/cells/1/weights/nope"}}};
   r.labels = {"a", "b"};
   api::SheetPoints points;
   const Status s = api::ResolveSheet(FaceCap(), r, points);
@@ -281,9 +297,11 @@ TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
   EXPECT_NEAR(points.max_sum, 1.7, 1e-6);
   const api::Evaluator evaluator(kNull);
   api::Workspace ws;
-  auto png = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
+  auto png = evaluator.Run(FaceCapStored(), points.cells,
+                           api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
   ASSERT_TRUE(png.ok());
-  auto image = render::Decode({reinterpret_cast<const unsigned char*>(png->bytes.data()), png->bytes.size()});
+  auto image = render::Decode(
+      {reinterpret_cast<const unsigned char*>(png->bytes.data()), png->bytes.size()});
   ASSERT_TRUE(image.ok());
   EXPECT_EQ(ws.cells.size(), 2u);
   EXPECT_EQ(ws.cells[0].width, 16);
@@ -292,30 +310,44 @@ TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
   EXPECT_EQ(two.status().code, StatusCode::kInternal);
 }
 
-// Pictures come from the renderer handed in: without one the evaluator still makes meshes and frames,
-// and refuses pictures; with one, it draws and encodes through it, and a sheet's labels are what its
-// fonts can draw.
+// Pictures come from the renderer handed in: without one the evaluator still makes meshes and
+// frames, and refuses pictures; with one, it draws and encodes through it, and a sheet's labels are
+// what its fonts can draw.
 class AsciiOnly final : public render::Renderer {
  public:
-  Status Draw(const Rig& rig, const BlendedRig& b, const render::RenderOptions& o, render::Image& out) const override {
+  Status Draw(const Rig& rig, const BlendedRig& b, const render::RenderOptions& o,
+              render::Image& out) const override {
     ++draws;
     return null.Draw(rig, b, o, out);
   }
   std::string Info() const override { return "ascii only"; }
   int Concurrency() const override { return 1; }
-  Result<std::string> Encode(const render::Image& image, render::ImageFormat, int) const override {
+  Result<std::string> Encode(const render::Image& image, render::ImageFormat, int,
+                             HelperCpu*) const override {
     return std::to_string(image.width) + "x" + std::to_string(image.height);
   }
-  render::Image Sheet(std::span<const render::Image> cells, std::span<const std::string>, int columns,
-                      std::array<float, 4>) const override {
-    return {static_cast<int>(columns), static_cast<int>((cells.size() + columns - 1) / columns), {}, {}};
+  render::Image Sheet(std::span<const render::Image> cells, std::span<const std::string>,
+                      int columns, std::array<float, 4>) const override {
+    return {static_cast<int>(columns),
+            static_cast<int>((cells.size() + columns - 1) / columns),
+            {},
+            {}};
   }
   bool CanDrawText(const std::string& text) const override {
-    return std::all_of(text.begin(), text.end(), [](char c) { return static_cast<unsigned char>(c) < 0x80; });
+    return std::all_of(text.begin(), text.end(),
+                       [](char c) { return static_cast<unsigned char>(c) < 0x80; });
   }
-  Result<std::string> EncodeData(std::span<const float> v, int, int, int, render::DataPrecision) const override { return std::to_string(v.size()) + " floats"; }
-  Result<std::string> EncodeIds(std::span<const uint16_t> v, int, int) const override { return std::to_string(v.size()) + " ids"; }
-  Result<render::Image> DecodePicture(std::span<const unsigned char> b, const std::string& t) const override { return null.DecodePicture(b, t); }
+  Result<std::string> EncodeData(std::span<const float> v, int, int, int,
+                                 render::DataPrecision) const override {
+    return std::to_string(v.size()) + " floats";
+  }
+  Result<std::string> EncodeIds(std::span<const uint16_t> v, int, int) const override {
+    return std::to_string(v.size()) + " ids";
+  }
+  Result<render::Image> DecodePicture(std::span<const unsigned char> b,
+                                      const std::string& t) const override {
+    return null.DecodePicture(b, t);
+  }
   mutable int draws = 0;
   render::NullRenderer null;
 };
@@ -328,14 +360,18 @@ TEST(Evaluator, PicturesComeFromTheRendererHandedIn) {
   api::Workspace ws;
   const api::Evaluator meshes;
   EXPECT_EQ(meshes.renderer(), nullptr);
-  EXPECT_TRUE(meshes.Run(FaceCapStored(), point, api::OutputSpec::Mesh(request.mesh, MeshFormat::kObj), ws).ok());
-  auto refused = meshes.Run(FaceCapStored(), point, api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
+  EXPECT_TRUE(
+      meshes.Run(FaceCapStored(), point, api::OutputSpec::Mesh(request.mesh, MeshFormat::kObj), ws)
+          .ok());
+  auto refused = meshes.Run(FaceCapStored(), point,
+                            api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.status().code, StatusCode::kFailedPrecondition);
 
   const AsciiOnly renderer;
   const api::Evaluator pictures(renderer);
-  auto drawn = pictures.Run(FaceCapStored(), point, api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
+  auto drawn = pictures.Run(FaceCapStored(), point,
+                            api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
   ASSERT_TRUE(drawn.ok()) << drawn.status().message;
   EXPECT_EQ(drawn->bytes, "40x30");
   EXPECT_EQ(renderer.draws, 1);
@@ -343,7 +379,8 @@ TEST(Evaluator, PicturesComeFromTheRendererHandedIn) {
   sheet.base = request;
   sheet.columns = 2;
   const api::ResolvedPoint cells[] = {point, point, point};
-  auto grid = pictures.Run(FaceCapStored(), cells, api::OutputSpec::Sheet(sheet, render::ImageFormat::kPng), ws);
+  auto grid = pictures.Run(FaceCapStored(), cells,
+                           api::OutputSpec::Sheet(sheet, render::ImageFormat::kPng), ws);
   ASSERT_TRUE(grid.ok()) << grid.status().message;
   EXPECT_EQ(grid->bytes, "2x2");  // Three cells two columns wide, laid out by the renderer's Sheet.
   EXPECT_EQ(renderer.draws, 4);
@@ -362,5 +399,5 @@ TEST(Evaluator, PicturesComeFromTheRendererHandedIn) {
   EXPECT_EQ(any_font.labels[0], rig.shapes[0].name + " (blink)");
 }
 
-}  // namespace
+}  // namespace evaluator_test
 }  // namespace facespace

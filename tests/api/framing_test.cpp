@@ -1,9 +1,10 @@
-// The connection front's framing (api/net/include/facespace/net/framing.h): where a request ends, what is refused.
+// The connection front's framing (api/net/include/facespace/net/framing.h): where a request ends,
+// what is refused.
+#include "facespace/net/framing.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
-
-#include "facespace/net/framing.h"
 
 namespace facespace::api::http {
 namespace framing_test {  // Named: the target is a unity build, its files share one unit.
@@ -23,7 +24,9 @@ Parsed Head(const std::string& bytes) {
 }
 
 TEST(Framing, AHeadFoundByteByByteIsTheHeadFoundAtOnce) {
-  const std::string req = "\r\nPOST /v1/rigs/facecap/mesh?x=1 HTTP/1.1\r\nHost: x\r\nContent-Length:  12 \r\nExpect: 100-Continue\r\n\r\n{\"weights\":{}}";
+  const std::string req =
+      "\r\nPOST /v1/rigs/facecap/mesh?x=1 HTTP/1.1\r\nHost: x\r\nContent-Length:  12 \r\nExpect: "
+      "100-Continue\r\n\r\n{\"weights\":{}}";
   std::string buf;
   size_t scan = 0;
   RequestHead head;
@@ -57,10 +60,12 @@ TEST(Framing, RefusesWhatCppHttplibAccepted) {
     int status;
     const char* says;
   } cases[] = {
-      {post + "Transfer-Encoding: chunked\r\nContent-Length: 2\r\n\r\n", 400, "both Transfer-Encoding and Content-Length"},
+      {post + "Transfer-Encoding: chunked\r\nContent-Length: 2\r\n\r\n", 400,
+       "both Transfer-Encoding and Content-Length"},
       {post + "Content-Length: abc\r\n\r\n", 400, "Content-Length must be a number"},
       {post + "Content-Length: -5\r\n\r\n", 400, "Content-Length must be a number"},
-      {post + "Content-Length: 2\r\nContent-Length: 3\r\n\r\n", 400, "two different Content-Length"},
+      {post + "Content-Length: 2\r\nContent-Length: 3\r\n\r\n", 400,
+       "two different Content-Length"},
       {post + "Transfer-Encoding: gzip, chunked\r\n\r\n", 501, "not supported"},
       {"GET /v1/rigs/%u0066acecap HTTP/1.1\r\n\r\n", 400, "%u escape"},
       {"GET /a b HTTP/1.1\r\n\r\n", 400, "METHOD TARGET"},
@@ -123,12 +128,13 @@ TEST(Framing, ChunkedBodiesEndAtTheLastChunkAndItsTrailers) {
     const Framing r = ParseChunked(head + b, s, max_body, e);
     return std::make_pair(r, e.status);
   };
-  EXPECT_EQ(chunked("2\r\n{}XX0\r\n\r\n", 100), std::make_pair(Framing::kError, 400));  // No CRLF after the data.
+  EXPECT_EQ(chunked("2\r\n{}XX0\r\n\r\n", 100),
+            std::make_pair(Framing::kError, 400));  // No CRLF after the data.
   EXPECT_EQ(chunked("zz\r\n", 100), std::make_pair(Framing::kError, 400));
-  EXPECT_EQ(chunked("65\r\n", 100), std::make_pair(Framing::kError, 413));            // 101 bytes, over 100.
+  EXPECT_EQ(chunked("65\r\n", 100), std::make_pair(Framing::kError, 413));  // 101 bytes, over 100.
   EXPECT_EQ(chunked("ffffffffffffffffff\r\n", 100), std::make_pair(Framing::kError, 413));
   EXPECT_EQ(chunked("2\r\n{}", 100).first, Framing::kNeedMore);
 }
 
-}  // namespace
+}  // namespace framing_test
 }  // namespace facespace::api::http

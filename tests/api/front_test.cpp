@@ -1,6 +1,8 @@
-// The connection front's bounds on a running request (issue 48), with handlers of the test's own that
-// spin until their stop token fires: the CPU meter, the deadline, a client that hangs up, and one
-// address's turns.
+// The connection front's bounds on a running request (issue 48), with handlers of the test's own
+// that spin until their stop token fires: the CPU meter, the deadline, a client that hangs up, and
+// one address's turns.
+#include "facespace/net/front.h"
+
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
@@ -11,7 +13,6 @@
 #include <chrono>
 #include <thread>
 
-#include "facespace/net/front.h"
 #include "loopback.h"
 
 namespace facespace::api {
@@ -31,13 +32,15 @@ class Front {
         for (int i = 0; i < 10000; ++i) x = x + 1.0;
       }
       --running_;
-      res.set_content(std::to_string(std::chrono::duration<double>(Clock::now() - start).count()), "text/plain");
+      res.set_content(std::to_string(std::chrono::duration<double>(Clock::now() - start).count()),
+                      "text/plain");
     });
     // Waits without CPU until its token fires.
     server_.Post("/wait", [this](const httplib::Request& req, httplib::Response& res) {
       ++running_;
       peak_ = std::max(peak_.load(), running_.load());
-      while (!StopOf(req).stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      while (!StopOf(req).stop_requested())
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
       --running_;
       res.set_content("stopped", "text/plain");
     });
@@ -53,7 +56,8 @@ class Front {
   int Send(const char* path, int from = 1) const {
     const int fd = test::ConnectLoopback(port_, 10, 0x7f000000u + static_cast<uint32_t>(from));
     if (fd < 0) return -1;
-    const std::string request = std::string("POST ") + path + " HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n";
+    const std::string request =
+        std::string("POST ") + path + " HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n";
     send(fd, request.data(), request.size(), MSG_NOSIGNAL);
     return fd;
   }
@@ -70,11 +74,13 @@ class Front {
   // The whole answer to a GET of `path` on a socket of its own.
   std::string Get(const char* path) const {
     const int fd = test::ConnectLoopback(port_, 10);
-    const std::string request = std::string("GET ") + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+    const std::string request =
+        std::string("GET ") + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
     send(fd, request.data(), request.size(), MSG_NOSIGNAL);
     std::string out;
     char buf[4096];
-    for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) out.append(buf, static_cast<size_t>(n));
+    for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;)
+      out.append(buf, static_cast<size_t>(n));
     close(fd);
     return out;
   }
@@ -100,7 +106,9 @@ TEST(Front, ARequestSpendingMoreCpuThanItMayIsStopped) {
   o.cpu_limit = 0.3;
   Front front(o);
   const double ran = std::stod(Front::Answer(front.Send("/spin")));
-  EXPECT_GE(ran, 0.3);  // Seconds run: not stopped before its 0.3 CPU-s (without the meter it would spin on).
+  EXPECT_GE(
+      ran,
+      0.3);  // Seconds run: not stopped before its 0.3 CPU-s (without the meter it would spin on).
   EXPECT_EQ(front.stats().over_cpu.load(), 1u);
 }
 
@@ -111,7 +119,9 @@ TEST(Front, ARequestIsStoppedAtItsDeadline) {
   const auto start = Clock::now();
   EXPECT_EQ(Front::Answer(front.Send("/wait")), "stopped");
   const double took = std::chrono::duration<double>(Clock::now() - start).count();
-  EXPECT_GE(took, 0.9);  // Not before it (without the deadline, /wait would not return: the test's timeout).
+  EXPECT_GE(
+      took,
+      0.9);  // Not before it (without the deadline, /wait would not return: the test's timeout).
   EXPECT_EQ(front.stats().past_deadline.load(), 1u);
 }
 
@@ -121,8 +131,10 @@ TEST(Front, AClientThatHangsUpStopsItsRequest) {
   while (front.running_ == 0) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   close(fd);
   const auto start = Clock::now();
-  // Without the hang-up's stop it would spin on: waited for up to 30 s (a hang's bound, not a speed bar).
-  while (front.running_ > 0 && Clock::now() - start < std::chrono::seconds(30)) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  // Without the hang-up's stop it would spin on: waited for up to 30 s (a hang's bound, not a speed
+  // bar).
+  while (front.running_ > 0 && Clock::now() - start < std::chrono::seconds(30))
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   EXPECT_EQ(front.running_.load(), 0) << "the spinning handler was not stopped";
   EXPECT_EQ(front.stats().client_gone.load(), 1u);
 }
@@ -139,7 +151,8 @@ TEST(Front, OneAddressRunsAtMostItsTurnsAndTheRestWait) {
   EXPECT_EQ(front.stats().waited_turn.load(), 3u);
 }
 
-// Fair shares (issue 61): an address may take the workers but a quarter kept for addresses that run nothing.
+// Fair shares (issue 61): an address may take the workers but a quarter kept for addresses that run
+// nothing.
 TEST(Front, AnAddressThatRunsNothingFindsAWorkerWhileAnotherTakesTheRest) {
   FrontOptions o = Options();
   o.workers = 4;
@@ -147,15 +160,18 @@ TEST(Front, AnAddressThatRunsNothingFindsAWorkerWhileAnotherTakesTheRest) {
   o.request_deadline = 2;
   Front front(o);
   int busy[8];
-  for (size_t i = 0; i < 8; ++i) {  // One at a time: cpp-httplib's listen backlog is 5, and a SYN past it waits a second.
+  for (size_t i = 0; i < 8; ++i) {  // One at a time: cpp-httplib's listen backlog is 5, and a SYN
+                                    // past it waits a second.
     busy[i] = front.Send("/wait", 1);
-    while (front.stats().open.load() < i + 1) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    while (front.stats().open.load() < i + 1)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   while (front.running_ < 3) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_EQ(front.running_.load(), 3) << "one address takes every worker but the reserve";
   const int other = front.Send("/wait", 2);
-  while (front.running_ < 4 && front.stats().past_deadline.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  while (front.running_ < 4 && front.stats().past_deadline.load() == 0)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
   EXPECT_EQ(front.running_.load(), 4) << "the other address's request waited behind the first's";
   EXPECT_EQ(front.stats().past_deadline.load(), 0u);
   EXPECT_EQ(Front::Answer(other), "stopped");
@@ -185,5 +201,5 @@ TEST(Front, AProbeIsAnsweredWithoutAWorker) {
   Front::Answer(b);
 }
 
-}  // namespace
+}  // namespace front_test
 }  // namespace facespace::api

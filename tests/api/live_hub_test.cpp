@@ -1,6 +1,8 @@
-// The live hub's threads together (issue 61; run under ThreadSanitizer by tests/tsan.sh): sessions on
-// socket pairs, each message answered on a turn, helper threads waking sessions and posting to them while
-// the loop reads, pings, closes and sessions' ends run beside them.
+// The live hub's threads together (issue 61; run under ThreadSanitizer by tests/tsan.sh): sessions
+// on socket pairs, each message answered on a turn, helper threads waking sessions and posting to
+// them while the loop reads, pings, closes and sessions' ends run beside them.
+#include "facespace/net/live_hub.h"
+
 #include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/time.h>
@@ -11,8 +13,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include "facespace/net/live_hub.h"
 
 namespace facespace::api::http {
 namespace live_hub_test {  // Named: the target is a unity build, its files share one unit.
@@ -26,7 +26,8 @@ std::string ClientFrame(ws::Opcode op, const std::string& payload) {
   return f + payload;
 }
 
-// The next server frame's opcode and payload (short frames only), or opcode 0xff when the socket ended.
+// The next server frame's opcode and payload (short frames only), or opcode 0xff when the socket
+// ended.
 std::pair<uint8_t, std::string> ReadFrame(int fd) {
   auto read_n = [fd](size_t n) {
     std::string out;
@@ -48,7 +49,8 @@ std::pair<uint8_t, std::string> ReadFrame(int fd) {
   return {static_cast<uint8_t>(head[0]) & 0x0f, read_n(n)};
 }
 
-// Echoes each text message on its turn; a helper thread of its own posts "helper" and wakes the session.
+// Echoes each text message on its turn; a helper thread of its own posts "helper" and wakes the
+// session.
 class Echo final : public LiveHandler {
  public:
   ~Echo() override { End(); }
@@ -60,7 +62,9 @@ class Echo final : public LiveHandler {
     });
   }
   void Open(Out& out) override { out.texts.push_back("ready"); }
-  void OnText(std::string_view text, Out& out) override { out.texts.push_back("echo " + std::string(text)); }
+  void OnText(std::string_view text, Out& out) override {
+    out.texts.push_back("echo " + std::string(text));
+  }
   void OnBinary(std::string_view, Out&) override {}
   void Poll(Out& out) override {
     if (woken_.exchange(false)) out.texts.push_back("polled");
@@ -96,10 +100,12 @@ TEST(LiveHub, SessionsWithHelperThreadsAnswerEveryMessageAndClose) {
   for (int fd : clients) {
     talkers.emplace_back([&, fd] {
       for (int m = 0; m < kMessages; ++m) {
-        const std::string frames = ClientFrame(ws::Opcode::kText, "m" + std::to_string(m)) + ClientFrame(ws::Opcode::kPing, "p");
+        const std::string frames = ClientFrame(ws::Opcode::kText, "m" + std::to_string(m)) +
+                                   ClientFrame(ws::Opcode::kPing, "p");
         send(fd, frames.data(), frames.size(), MSG_NOSIGNAL);
       }
-      // Everything answered first (a close drops what is not yet begun), then the close, answered with one.
+      // Everything answered first (a close drops what is not yet begun), then the close, answered
+      // with one.
       int mine = 0, my_pongs = 0;
       bool helped = false, closed = false;
       for (auto [op, payload] = ReadFrame(fd); op != 0xff; std::tie(op, payload) = ReadFrame(fd)) {
@@ -166,13 +172,16 @@ TEST(LiveHub, AClientGoneDuringATurnEndsItsSessionAfterTheTurn) {
     int pair[2];
     ASSERT_EQ(socketpair(AF_UNIX, SOCK_STREAM, 0, pair), 0);
     ASSERT_TRUE(hub.Reserve("127.0.0.1"));
-    hub.Adopt(pair[1], "127.0.0.1", "", std::make_unique<SlowTurn>(ends, overlaps), SessionBounds{});
+    hub.Adopt(pair[1], "127.0.0.1", "", std::make_unique<SlowTurn>(ends, overlaps),
+              SessionBounds{});
     const std::string text = ClientFrame(ws::Opcode::kText, "slow");
     send(pair[0], text.data(), text.size(), MSG_NOSIGNAL);
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // Its turn has begun: then the client is gone.
+    std::this_thread::sleep_for(
+        std::chrono::milliseconds(10));  // Its turn has begun: then the client is gone.
     ::close(pair[0]);
   }
-  for (int i = 0; i < 500 && ends.load() < kSessions; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 500 && ends.load() < kSessions; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_EQ(ends.load(), kSessions);
   EXPECT_EQ(overlaps.load(), 0) << "End ran while a turn of its session was running";
   hub.Stop();

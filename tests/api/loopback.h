@@ -10,8 +10,9 @@
 
 namespace facespace::test {
 
-// A TCP connection to 127.0.0.1:`port` whose reads wait at most `timeout_seconds`; -1 when it fails.
-// `source`: the client's own address (127.0.0.x, another client to the server's caps), 0 for any.
+// A TCP connection to 127.0.0.1:`port` whose reads wait at most `timeout_seconds`; -1 when it
+// fails. `source`: the client's own address (127.0.0.x, another client to the server's caps), 0 for
+// any.
 inline int ConnectLoopback(int port, int timeout_seconds, uint32_t source = 0) {
   const int fd = socket(AF_INET, SOCK_STREAM, 0);
   if (source != 0) {

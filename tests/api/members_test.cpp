@@ -1,6 +1,8 @@
-// The request bodies' member tables (evaluator/members.h): each body's reader takes every member its
-// table declares and no other, the document's request schemas are the tables, and no reader spells
-// a member name the tables do not declare.
+// The request bodies' member tables (evaluator/members.h): each body's reader takes every member
+// its table declares and no other, the document's request schemas are the tables, and no reader
+// spells a member name the tables do not declare.
+#include "facespace/evaluator/members.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -12,9 +14,8 @@
 #include <sstream>
 #include <string>
 
-#include "facespace/http/http.h"
-#include "facespace/evaluator/members.h"
 #include "facespace/evaluator/request.h"
+#include "facespace/http/http.h"
 
 namespace facespace::api {
 namespace members_test {  // Named: the target is a unity build, its files share one unit.
@@ -50,7 +51,8 @@ Status Read(Body body, const std::string& text) {
     default: return InvalidArgument("not a top-level body");
   }
 }
-constexpr Body kTopLevel[] = {Body::kMesh, Body::kRender, Body::kSheet, Body::kSequence, Body::kBatch, Body::kFit, Body::kSpeech};
+constexpr Body kTopLevel[] = {Body::kMesh,  Body::kRender, Body::kSheet, Body::kSequence,
+                              Body::kBatch, Body::kFit,    Body::kSpeech};
 
 bool SaysUnknown(const Status& s, const std::string& pointer) {
   for (const FieldError& f : s.fields) {
@@ -69,22 +71,26 @@ TEST(Members, EveryBodyHasItsTableWithNamesOnceAndJsonThatParses) {
       EXPECT_TRUE(names.insert(m.name).second) << SchemaName(body) << "." << m.name << " twice";
       EXPECT_FALSE(m.doc.empty()) << SchemaName(body) << "." << m.name;
       for (std::string_view text : {m.example, m.fallback}) {
-        if (!text.empty()) EXPECT_FALSE(json::parse(text, nullptr, false).is_discarded()) << m.name << ": " << text;
+        if (!text.empty()) {
+          EXPECT_FALSE(json::parse(text, nullptr, false).is_discarded()) << m.name << ": " << text;
+        }
       }
       if (m.kind == Kind::kSchema && !m.schema.starts_with('#')) {
-        EXPECT_FALSE(json::parse(m.schema, nullptr, false).is_discarded()) << m.name << ": " << m.schema;
+        EXPECT_FALSE(json::parse(m.schema, nullptr, false).is_discarded())
+            << m.name << ": " << m.schema;
       }
     }
   }
 }
 
-// A member the table declares is read (its example, or a value of its kind, is never "unknown"), and
-// one it does not is refused with the pointer of the member and the route's members named.
+// A member the table declares is read (its example, or a value of its kind, is never "unknown"),
+// and one it does not is refused with the pointer of the member and the route's members named.
 TEST(Members, EachReaderTakesEveryDeclaredMemberAndRefusesOthers) {
   for (Body body : kTopLevel) {
     for (const Member& m : Members(body)) {
       const std::string text = json{{std::string(m.name), ValueOf(m)}}.dump();
-      EXPECT_FALSE(SaysUnknown(Read(body, text), "/" + std::string(m.name))) << SchemaName(body) << ": " << text;
+      EXPECT_FALSE(SaysUnknown(Read(body, text), "/" + std::string(m.name)))
+          << SchemaName(body) << ": " << text;
     }
     const Status s = Read(body, R"({"wieghts": {}})");
     EXPECT_TRUE(SaysUnknown(s, "/wieghts")) << SchemaName(body) << ": " << s.message;
@@ -103,8 +109,9 @@ TEST(Members, NestedObjectsRefuseAnUnknownMemberByItsPointer) {
       {Body::kSequence, R"({"keys": [{"time": 0, "wieghts": {}}]})"},
       {Body::kSequence, R"({"blink": {"per_minut": 3}})"},
   };
-  const char* pointers[] = {"/camera/yaww", "/light/yaww", "/gaze/yaww", "/cells/0/wieghts", "/variants/0/idd",
-                            "/sample/cuont", "/randomize/sed", "/keys/0/wieghts", "/blink/per_minut"};
+  const char* pointers[] = {"/camera/yaww",     "/light/yaww",     "/gaze/yaww",
+                            "/cells/0/wieghts", "/variants/0/idd", "/sample/cuont",
+                            "/randomize/sed",   "/keys/0/wieghts", "/blink/per_minut"};
   for (size_t i = 0; i < std::size(cases); ++i) {
     const Status s = Read(cases[i].first, cases[i].second);
     EXPECT_TRUE(SaysUnknown(s, pointers[i])) << cases[i].second << ": " << s.message;
@@ -116,7 +123,8 @@ TEST(Members, ANumberOutOfItsDeclaredRangeIsRefusedWithTheRange) {
   ASSERT_EQ(s.fields.size(), 1u);
   EXPECT_EQ(s.fields[0].pointer, "/supersample");
   EXPECT_EQ(s.fields[0].message, "must be an integer in [1, 4]");
-  EXPECT_EQ(ParseRenderRequest(R"({"camera": {"zoom": 0}})").status().fields.at(0).message, "must be a number in [0.01, 100]");
+  EXPECT_EQ(ParseRenderRequest(R"({"camera": {"zoom": 0}})").status().fields.at(0).message,
+            "must be a number in [0.01, 100]");
 }
 
 // The document's request schemas are the tables: the same members, closed, no `default` keyword
@@ -135,7 +143,9 @@ TEST(Members, TheDocumentsRequestSchemasAreTheTables) {
       documented.insert(member);
       EXPECT_FALSE(schema.contains("default")) << name << "." << member;
       const Member* m = FindMember(body, member);
-      if (m && !m->fallback.empty()) EXPECT_EQ(schema["x-facespace-default"], json::parse(m->fallback)) << name << "." << member;
+      if (m && !m->fallback.empty()) {
+        EXPECT_EQ(schema["x-facespace-default"], json::parse(m->fallback)) << name << "." << member;
+      }
     }
     EXPECT_EQ(declared, documented) << name;
   }
@@ -145,7 +155,9 @@ TEST(Members, TheDocumentsRequestSchemasAreTheTables) {
       if (j.contains("$ref") && j["$ref"].is_string()) {
         const std::string ref = j["$ref"];
         const std::string prefix = "#/components/schemas/";
-        if (ref.starts_with(prefix)) EXPECT_TRUE(schemas.contains(ref.substr(prefix.size()))) << ref;
+        if (ref.starts_with(prefix)) {
+          EXPECT_TRUE(schemas.contains(ref.substr(prefix.size()))) << ref;
+        }
       }
       for (const auto& [k, v] : j.items()) walk(v);
     } else if (j.is_array()) {
@@ -162,14 +174,16 @@ TEST(Members, NoReaderReadsAMemberTheTablesDoNotDeclare) {
   for (Body body : kBodies) {
     for (const Member& m : Members(body)) declared.insert(std::string(m.name));
   }
-  // Names a reader compares that are not body members: the one-member object of a batch's background
-  // images (read by `facespace batch` alone), and a fit target's primitives, which are the mesh route's
-  // answer (the MeshJson schema) read back.
+  // Names a reader compares that are not body members: the one-member object of a batch's
+  // background images (read by `facespace batch` alone), and a fit target's primitives, which are
+  // the mesh route's answer (the MeshJson schema) read back.
   const std::set<std::string> not_members = {"images", "positions"};
-  const std::regex key_use(R"re((?:\bkey|\bk|\.key\(\))\s*[!=]=\s*"([a-z_]+)"|contains\("([a-z_]+)"\)|\["([a-z_]+)"\])re");
+  const std::regex key_use(
+      R"re((?:\bkey|\bk|\.key\(\))\s*[!=]=\s*"([a-z_]+)"|contains\("([a-z_]+)"\)|\["([a-z_]+)"\])re");
   size_t seen = 0;
   std::vector<fs::path> readers;
-  for (const auto& entry : fs::directory_iterator(fs::path(FACESPACE_SOURCE_DIR) / "api/evaluator/src/request")) {
+  for (const auto& entry :
+       fs::directory_iterator(fs::path(FACESPACE_SOURCE_DIR) / "api/evaluator/src/request")) {
     if (entry.path().filename() != "members.cpp") readers.push_back(entry.path());
   }
   // The live socket's messages (the other routes read bodies through the readers above).
@@ -180,10 +194,12 @@ TEST(Members, NoReaderReadsAMemberTheTablesDoNotDeclare) {
     std::stringstream text;
     text << in.rdbuf();
     const std::string source = text.str();
-    for (auto it = std::sregex_iterator(source.begin(), source.end(), key_use); it != std::sregex_iterator(); ++it) {
+    for (auto it = std::sregex_iterator(source.begin(), source.end(), key_use);
+         it != std::sregex_iterator(); ++it) {
       const std::string name = (*it)[1].matched ? (*it)[1] : (*it)[2].matched ? (*it)[2] : (*it)[3];
       ++seen;
-      EXPECT_TRUE(declared.count(name) || not_members.count(name)) << entry.path().filename() << " reads \"" << name << "\"";
+      EXPECT_TRUE(declared.count(name) || not_members.count(name))
+          << entry.path().filename() << " reads \"" << name << "\"";
     }
   }
   EXPECT_GT(seen, 100u);  // The pattern finds the readers' names at all.

@@ -1,5 +1,7 @@
-// The problem table (api/http/src/http/problems.h): one entry a type, each reason the code names is one of
-// them, a Status answers its reason's status, and /openapi.json lists them all.
+// The problem table (api/http/src/http/problems.h): one entry a type, each reason the code names is
+// one of them, a Status answers its reason's status, and /openapi.json lists them all.
+#include "http/problems.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -10,9 +12,8 @@
 #include <sstream>
 #include <string>
 
-#include "facespace/http/http.h"
 #include "facespace/formats/io.h"
-#include "http/problems.h"
+#include "facespace/http/http.h"
 
 namespace facespace::api::http {
 namespace problems_test {  // Named: the target is a unity build, its files share one unit.
@@ -32,7 +33,8 @@ TEST(Problems, EachTypeOnceWithAnErrorStatusAndATitle) {
 }
 
 TEST(Problems, AStatusAnswersTheStatusItsReasonNames) {
-  EXPECT_EQ(TypeOf(ProblemOf(WithReason(ResourceExhausted("decoders in use"), "busy"))).status, 503);
+  EXPECT_EQ(TypeOf(ProblemOf(WithReason(ResourceExhausted("decoders in use"), "busy"))).status,
+            503);
   EXPECT_EQ(TypeOf(ProblemOf(WithReason(InvalidArgument("x"), "malformed-json"))).status, 400);
   EXPECT_EQ(TypeOf(ProblemOf(WithReason(FailedPrecondition("bundled"), "read-only"))).status, 409);
   // No reason, or one that is not the table's: the code's own problem, never an undeclared type.
@@ -41,8 +43,10 @@ TEST(Problems, AStatusAnswersTheStatusItsReasonNames) {
   EXPECT_EQ(ProblemOf(ResourceExhausted("x")), Problem::kTooLarge);
   EXPECT_EQ(ProblemOf(Status{StatusCode::kStorageFull, "full", {}, "", 0}), Problem::kStorageFull);
   // A limit passed up through an input's wrapper keeps its own problem.
-  EXPECT_EQ(ProblemOf(WithInputReason(ResourceExhausted("x"), "invalid-weights")), Problem::kTooLarge);
-  EXPECT_EQ(ProblemOf(WithInputReason(InvalidArgument("x"), "invalid-weights")), Problem::kInvalidWeights);
+  EXPECT_EQ(ProblemOf(WithInputReason(ResourceExhausted("x"), "invalid-weights")),
+            Problem::kTooLarge);
+  EXPECT_EQ(ProblemOf(WithInputReason(InvalidArgument("x"), "invalid-weights")),
+            Problem::kInvalidWeights);
 }
 
 // The text of the call whose '(' is at `open`, to its matching ')', string and character literals
@@ -66,10 +70,12 @@ std::string CallText(const std::string& s, size_t open) {
 // WithInputReason, and the slugs of `.reason = ...;` statements.
 std::set<std::string> ReasonsInSources() {
   std::set<std::string> found;
-  const std::regex with(R"x(\bWith(?:Input)?Reason\()x"), last(R"x(,\s*"([a-z]+(?:-[a-z]+)*)"\s*\)$)x");
+  const std::regex with(R"x(\bWith(?:Input)?Reason\()x"),
+      last(R"x(,\s*"([a-z]+(?:-[a-z]+)*)"\s*\)$)x");
   const std::regex assign(R"x(\breason = ([^;]*);)x"), slug(R"x("([a-z]+(?:-[a-z]+)*)")x");
   for (const char* dir : {"core", "api", "service", "render"}) {
-    for (const auto& entry : fs::recursive_directory_iterator(fs::path(FACESPACE_SOURCE_DIR) / dir)) {
+    for (const auto& entry :
+         fs::recursive_directory_iterator(fs::path(FACESPACE_SOURCE_DIR) / dir)) {
       const std::string ext = entry.path().extension().string();
       if (!entry.is_regular_file() || (ext != ".cpp" && ext != ".h")) continue;
       std::ifstream in(entry.path());
@@ -82,7 +88,8 @@ std::set<std::string> ReasonsInSources() {
       }
       for (std::sregex_iterator m(s.begin(), s.end(), assign), end; m != end; ++m) {
         const std::string rhs = (*m)[1];
-        for (std::sregex_iterator k(rhs.begin(), rhs.end(), slug); k != end; ++k) found.insert((*k)[1]);
+        for (std::sregex_iterator k(rhs.begin(), rhs.end(), slug); k != end; ++k)
+          found.insert((*k)[1]);
       }
     }
   }
@@ -92,13 +99,15 @@ std::set<std::string> ReasonsInSources() {
 TEST(Problems, EveryReasonTheSourcesNameIsDeclared) {
   const std::set<std::string> reasons = ReasonsInSources();
   EXPECT_GE(reasons.size(), 15u) << "the scan found too few reasons to be reading the sources";
-  for (const std::string& r : reasons) EXPECT_TRUE(ProblemNamed(r).has_value()) << "reason '" << r << "' is not in problems.h";
+  for (const std::string& r : reasons)
+    EXPECT_TRUE(ProblemNamed(r).has_value()) << "reason '" << r << "' is not in problems.h";
 }
 
 TEST(Problems, TheDocumentListsEveryType) {
   const nlohmann::json doc = nlohmann::json::parse(OpenApiJson(ApiOptions{}));
   const nlohmann::json& listed = doc["x-facespace-problems"];
-  const nlohmann::json& types = doc["components"]["schemas"]["Problem"]["properties"]["type"]["enum"];
+  const nlohmann::json& types =
+      doc["components"]["schemas"]["Problem"]["properties"]["type"]["enum"];
   ASSERT_EQ(listed.size(), Problems().size());
   ASSERT_EQ(types.size(), Problems().size());
   for (size_t i = 0; i < Problems().size(); ++i) {

@@ -1,10 +1,11 @@
-// RFC 6455 framing (api/net/include/facespace/net/websocket.h): the RFC's own examples, every prefix of a frame wanting
-// more, and each broken frame refused with its close code before its payload is held.
+// RFC 6455 framing (api/net/include/facespace/net/websocket.h): the RFC's own examples, every
+// prefix of a frame wanting more, and each broken frame refused with its close code before its
+// payload is held.
+#include "facespace/net/websocket.h"
+
 #include <gtest/gtest.h>
 
 #include <string>
-
-#include "facespace/net/websocket.h"
 
 namespace facespace::api::http::ws {
 namespace websocket_test {
@@ -16,7 +17,8 @@ std::string Bytes(std::initializer_list<int> b) {
 }
 
 TEST(WebSocket, AcceptKeyIsTheRfcExample) {
-  EXPECT_EQ(AcceptKey("dGhlIHNhbXBsZSBub25jZQ=="), "s3pPLMBiTxaQ9kYGzzhZRbK+xOo=");  // RFC 6455, 1.3.
+  EXPECT_EQ(AcceptKey("dGhlIHNhbXBsZSBub25jZQ=="),
+            "s3pPLMBiTxaQ9kYGzzhZRbK+xOo=");  // RFC 6455, 1.3.
   EXPECT_TRUE(ValidClientKey("dGhlIHNhbXBsZSBub25jZQ=="));
   EXPECT_FALSE(ValidClientKey("short"));
   EXPECT_FALSE(ValidClientKey("dGhlIHNhbXBsZSBub25jZR=="));  // Bits past the 16 bytes.
@@ -25,7 +27,8 @@ TEST(WebSocket, AcceptKeyIsTheRfcExample) {
 
 TEST(WebSocket, MaskedHelloFromTheRfcAndEveryPrefixWantsMore) {
   // RFC 6455, 5.7: a masked text frame "Hello".
-  const std::string whole = Bytes({0x81, 0x85, 0x37, 0xfa, 0x21, 0x3d, 0x7f, 0x9f, 0x4d, 0x51, 0x58});
+  const std::string whole =
+      Bytes({0x81, 0x85, 0x37, 0xfa, 0x21, 0x3d, 0x7f, 0x9f, 0x4d, 0x51, 0x58});
   for (size_t n = 0; n < whole.size(); ++n) {
     std::string part = whole.substr(0, n);
     Frame f;
@@ -49,21 +52,24 @@ TEST(WebSocket, BrokenFramesAreRefusedWithTheirCode) {
     CloseCode code;
   };
   const Case cases[] = {
-      {Bytes({0x81, 0x05, 'H', 'e', 'l', 'l', 'o'}), 100, CloseCode::kProtocolError},            // Unmasked.
-      {Bytes({0xC1, 0x80, 0, 0, 0, 0}), 100, CloseCode::kProtocolError},                          // RSV1.
-      {Bytes({0x83, 0x80, 0, 0, 0, 0}), 100, CloseCode::kProtocolError},                          // Opcode 3.
-      {Bytes({0x09, 0x80, 0, 0, 0, 0}), 100, CloseCode::kProtocolError},                          // A ping split.
-      {Bytes({0x89, 0xFE, 0x00, 0x7E}), 1000, CloseCode::kProtocolError},                         // A 126-byte ping.
-      {Bytes({0x81, 0xFE, 0x00, 0x05}), 1000, CloseCode::kProtocolError},                         // 16-bit length for 5.
-      {Bytes({0x82, 0xFF, 0x80, 0, 0, 0, 0, 0, 0, 0}), 1000, CloseCode::kProtocolError},          // Top bit of 64.
-      {Bytes({0x82, 0xFF, 0, 0, 0, 1, 0, 0, 0, 0}), size_t{1} << 20, CloseCode::kTooBig},        // 4 GiB declared.
-      {Bytes({0x81, 0xFE, 0x10, 0x00}), 1000, CloseCode::kTooBig},                                // 4,096 over 1,000.
+      {Bytes({0x81, 0x05, 'H', 'e', 'l', 'l', 'o'}), 100, CloseCode::kProtocolError},  // Unmasked.
+      {Bytes({0xC1, 0x80, 0, 0, 0, 0}), 100, CloseCode::kProtocolError},               // RSV1.
+      {Bytes({0x83, 0x80, 0, 0, 0, 0}), 100, CloseCode::kProtocolError},               // Opcode 3.
+      {Bytes({0x09, 0x80, 0, 0, 0, 0}), 100, CloseCode::kProtocolError},   // A ping split.
+      {Bytes({0x89, 0xFE, 0x00, 0x7E}), 1000, CloseCode::kProtocolError},  // A 126-byte ping.
+      {Bytes({0x81, 0xFE, 0x00, 0x05}), 1000, CloseCode::kProtocolError},  // 16-bit length for 5.
+      {Bytes({0x82, 0xFF, 0x80, 0, 0, 0, 0, 0, 0, 0}), 1000,
+       CloseCode::kProtocolError},  // Top bit of 64.
+      {Bytes({0x82, 0xFF, 0, 0, 0, 1, 0, 0, 0, 0}), size_t{1} << 20,
+       CloseCode::kTooBig},                                         // 4 GiB declared.
+      {Bytes({0x81, 0xFE, 0x10, 0x00}), 1000, CloseCode::kTooBig},  // 4,096 over 1,000.
   };
   for (const Case& c : cases) {
     std::string buf = c.bytes;
     Frame f;
     FrameError e;
-    EXPECT_EQ(ParseClientFrame(buf, c.max, f, e), Parsed::kError) << testing::PrintToString(c.bytes);
+    EXPECT_EQ(ParseClientFrame(buf, c.max, f, e), Parsed::kError)
+        << testing::PrintToString(c.bytes);
     EXPECT_EQ(e.code, c.code) << e.reason;
     EXPECT_FALSE(e.reason.empty());
   }
@@ -76,10 +82,12 @@ TEST(WebSocket, ServerFramesAndCloses) {
   const std::string big = ServerFrame(Opcode::kBinary, std::string(70000, 'x'));
   EXPECT_EQ(big.substr(0, 10), Bytes({0x82, 0x7F, 0, 0, 0, 0, 0, 0x01, 0x11, 0x70}));
   const std::string close = CloseFrame(CloseCode::kTooBig, std::string(200, 'r'));
-  EXPECT_EQ(close.substr(0, 4), Bytes({0x88, 125, 0x03, 0xF1}));  // 1009, the reason cut to fit 125.
+  EXPECT_EQ(close.substr(0, 4),
+            Bytes({0x88, 125, 0x03, 0xF1}));  // 1009, the reason cut to fit 125.
   EXPECT_EQ(close.size(), 127u);
   // A reason cut within a character keeps whole characters.
-  const std::string accented = CloseFrame(CloseCode::kNormal, std::string(122, 'a') + "\xc3\xa9\xc3\xa9");
+  const std::string accented =
+      CloseFrame(CloseCode::kNormal, std::string(122, 'a') + "\xc3\xa9\xc3\xa9");
   EXPECT_TRUE(ValidUtf8(accented.substr(4)));
   EXPECT_TRUE(ValidUtf8("caf\xc3\xa9"));
   EXPECT_FALSE(ValidUtf8("\xff\xfe"));

@@ -16,13 +16,15 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 const std::shared_ptr<const api::StoredRig>& FaceCap() {
-  static const auto rig = api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
+  static const auto rig =
+      api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
   return rig;
 }
 
 const render::NullRenderer kNull;
 
-constexpr char kSampled[] = R"({"sample": {"method": "uniform", "count": 7, "seed": 3, "shapes": ["jawOpen", "cheekPuff", "mouthSmile_L"]},
+constexpr char kSampled[] =
+    R"({"sample": {"method": "uniform", "count": 7, "seed": 3, "shapes": ["jawOpen", "cheekPuff", "mouthSmile_L"]},
                                 "format": "glb"})";
 
 batch::BatchPlan Plan(const char* request) {
@@ -43,8 +45,8 @@ std::vector<json> ManifestLines(const fs::path& dir) {
   return lines;
 }
 
-Result<batch::Summary> RunInto(const batch::BatchPlan& plan, const api::Evaluator& evaluator, const std::string& dir,
-                               size_t shard = 0, size_t shards = 1) {
+Result<batch::Summary> RunInto(const batch::BatchPlan& plan, const api::Evaluator& evaluator,
+                               const std::string& dir, size_t shard = 0, size_t shards = 1) {
   batch::RunOptions options;
   options.dir = dir;
   options.evaluator = &evaluator;
@@ -55,7 +57,8 @@ Result<batch::Summary> RunInto(const batch::BatchPlan& plan, const api::Evaluato
 }
 
 TEST(BatchPlan, VariantsAreAPureFunctionOfThePlanAndIndex) {
-  const batch::BatchPlan plan = Plan(R"({"sample": {"method": "uniform", "count": 5, "seed": 7, "shapes": ["jawOpen", "cheekPuff"]},
+  const batch::BatchPlan plan = Plan(
+      R"({"sample": {"method": "uniform", "count": 5, "seed": 7, "shapes": ["jawOpen", "cheekPuff"]},
                                          "format": "json"})");
   EXPECT_EQ(plan.total, 5u);
   EXPECT_EQ(batch::VariantFile(plan, 3), "v000003.json");
@@ -78,7 +81,8 @@ TEST(BatchPlan, VariantsAreAPureFunctionOfThePlanAndIndex) {
 
 TEST(BatchRun, FilesAreTheEvaluatorsBytesAndTheManifestVouchesForThem) {
   const test::TempDir dir;
-  const batch::BatchPlan plan = Plan(R"({"variants": [{"id": "smile", "weights": {"mouthSmile_L": 1, "mouthSmile_R": 1}},
+  const batch::BatchPlan plan =
+      Plan(R"({"variants": [{"id": "smile", "weights": {"mouthSmile_L": 1, "mouthSmile_R": 1}},
                                                       {"id": "open", "weights": {"jawOpen": 0.8}}], "format": "obj"})");
   const api::Evaluator evaluator(kNull);
   auto summary = RunInto(plan, evaluator, dir.path.string());
@@ -103,7 +107,8 @@ TEST(BatchRun, FilesAreTheEvaluatorsBytesAndTheManifestVouchesForThem) {
   EXPECT_EQ(lines[1]["weights"], json::parse(R"({"jawOpen": 0.8})"));
   EXPECT_TRUE(fs::exists(dir.path / "sheet.png"));
   // No temporary file or lock is left behind.
-  for (const auto& e : fs::directory_iterator(dir.path)) EXPECT_NE(e.path().filename().string().rfind(".fs-tmp-", 0), 0u);
+  for (const auto& e : fs::directory_iterator(dir.path))
+    EXPECT_NE(e.path().filename().string().rfind(".fs-tmp-", 0), 0u);
 }
 
 TEST(BatchRun, ARerunResumesAndRedoesOnlyWhatIsMissing) {
@@ -130,10 +135,12 @@ TEST(BatchRun, AFolderHoldsOneBatch) {
   const test::TempDir dir;
   const api::Evaluator evaluator(kNull);
   ASSERT_TRUE(RunInto(Plan(kSampled), evaluator, dir.path.string()).ok());
-  auto other = RunInto(Plan(R"({"variants": [{"weights": {"jawOpen": 1}}], "format": "glb"})"), evaluator, dir.path.string());
+  auto other = RunInto(Plan(R"({"variants": [{"weights": {"jawOpen": 1}}], "format": "glb"})"),
+                       evaluator, dir.path.string());
   ASSERT_FALSE(other.ok());
   EXPECT_EQ(other.status().code, StatusCode::kFailedPrecondition);
-  EXPECT_NE(other.status().message.find("another batch"), std::string::npos) << other.status().message;
+  EXPECT_NE(other.status().message.find("another batch"), std::string::npos)
+      << other.status().message;
 }
 
 TEST(BatchRun, ShardsMergedAreTheOneProcessRun) {
@@ -178,10 +185,12 @@ TEST(BatchRun, ACancelledRunLeavesNoHalfWrittenFile) {
     const std::string name = e.path().filename().string();
     EXPECT_NE(name.rfind(".fs-tmp-", 0), 0u) << name;
     if (e.path().extension() == ".glb") {  // Every variant file there is in the manifest.
-      EXPECT_TRUE(std::any_of(lines.begin(), lines.end(), [&](const json& l) { return l["file"] == name; })) << name;
+      EXPECT_TRUE(std::any_of(lines.begin(), lines.end(), [&](const json& l) {
+        return l["file"] == name;
+      })) << name;
     }
   }
 }
 
-}  // namespace
+}  // namespace batch_test
 }  // namespace facespace

@@ -1,7 +1,9 @@
-// Group commit (facespace/files/durable.h, PublishGroup): many temporaries made durable with one sync
-// and published in order; a failure publishes the files before it and removes it and every one after.
-#include <gtest/gtest.h>
+// Group commit (facespace/files/durable.h, PublishGroup): many temporaries made durable with one
+// sync and published in order; a failure publishes the files before it and removes it and every one
+// after.
+#include "facespace/files/durable.h"
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -10,15 +12,14 @@
 #include <string>
 #include <vector>
 
-#include "facespace/files/durable.h"
-
 namespace facespace {
 namespace durable_test {
 
 namespace fs = std::filesystem;
 
 fs::path Scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("fs-durable-" + name + "-" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("fs-durable-" + name + "-" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -34,7 +35,8 @@ std::string Read(const fs::path& path) {
 std::vector<PendingFile> Temporaries(const fs::path& dir, int count) {
   std::vector<PendingFile> pending;
   for (int i = 0; i < count; ++i) {
-    const std::string name = "v" + std::to_string(i) + ".txt", tmp = ".fs-tmp-" + name, body = "variant " + std::to_string(i);
+    const std::string name = "v" + std::to_string(i) + ".txt", tmp = ".fs-tmp-" + name,
+                      body = "variant " + std::to_string(i);
     const std::string_view pieces[] = {body, "\n"};
     Result<int> fd = WriteTemporary(dir, tmp, pieces, "'" + name + "'");
     EXPECT_TRUE(fd.ok()) << fd.status().message;
@@ -45,7 +47,8 @@ std::vector<PendingFile> Temporaries(const fs::path& dir, int count) {
 
 size_t Temporaries(const fs::path& dir) {
   size_t n = 0;
-  for (const auto& e : fs::directory_iterator(dir)) n += e.path().filename().string().starts_with(".fs-tmp-");
+  for (const auto& e : fs::directory_iterator(dir))
+    n += e.path().filename().string().starts_with(".fs-tmp-");
   return n;
 }
 
@@ -55,21 +58,27 @@ TEST(PublishGroup, EveryFileOfTheGroupIsPublishedWholeUnderItsName) {
   const GroupResult r = PublishGroup(dir, pending);
   EXPECT_TRUE(r.status.ok()) << r.status.message;
   EXPECT_EQ(r.published, 40u);
-  for (int i = 0; i < 40; ++i) EXPECT_EQ(Read(dir / ("v" + std::to_string(i) + ".txt")), "variant " + std::to_string(i) + "\n");
+  for (int i = 0; i < 40; ++i)
+    EXPECT_EQ(Read(dir / ("v" + std::to_string(i) + ".txt")),
+              "variant " + std::to_string(i) + "\n");
   EXPECT_EQ(Temporaries(dir), 0u);
   fs::remove_all(dir);
 }
 
 TEST(PublishGroup, AFailedRenamePublishesThoseBeforeItAndRemovesTheRest) {
   const fs::path dir = Scratch("fail");
-  fs::create_directories(dir / "v3.txt" / "inside");  // A folder in the way of the fourth file: its rename fails.
+  fs::create_directories(dir / "v3.txt" /
+                         "inside");  // A folder in the way of the fourth file: its rename fails.
   std::vector<PendingFile> pending = Temporaries(dir, 6);
   const GroupResult r = PublishGroup(dir, pending);
   EXPECT_FALSE(r.status.ok());
-  EXPECT_NE(r.status.message.find("cannot publish 'v3.txt'"), std::string::npos) << r.status.message;
+  EXPECT_NE(r.status.message.find("cannot publish 'v3.txt'"), std::string::npos)
+      << r.status.message;
   EXPECT_EQ(r.published, 3u);
-  for (int i = 0; i < 3; ++i) EXPECT_TRUE(fs::is_regular_file(dir / ("v" + std::to_string(i) + ".txt"))) << i;
-  for (int i = 4; i < 6; ++i) EXPECT_FALSE(fs::exists(dir / ("v" + std::to_string(i) + ".txt"))) << i;
+  for (int i = 0; i < 3; ++i)
+    EXPECT_TRUE(fs::is_regular_file(dir / ("v" + std::to_string(i) + ".txt"))) << i;
+  for (int i = 4; i < 6; ++i)
+    EXPECT_FALSE(fs::exists(dir / ("v" + std::to_string(i) + ".txt"))) << i;
   EXPECT_EQ(Temporaries(dir), 0u);
   fs::remove_all(dir);
 }

@@ -1,5 +1,5 @@
-// The maker processes of a batch (api/batch/src/maker.h): their messages read back whole or refused,
-// a forked maker's answers, its errors, and its death said as such.
+// The maker processes of a batch (api/batch/src/maker.h): their messages read back whole or
+// refused, a forked maker's answers, its errors, and its death said as such.
 #include "maker.h"
 
 #include <gtest/gtest.h>
@@ -22,7 +22,8 @@ MadeVariant Example() {
 TEST(MakerMessage, RoundTrips) {
   MadeVariant m = Example();
   const std::string files[2] = {"png bytes", std::string("\0exr\xff", 5)};
-  m.files = {{"v3.png", {"png ", "bytes"}}, {"v3.depth.exr", {files[1], {}}}};  // A file in two pieces arrives as one.
+  m.files = {{"v3.png", {"png ", "bytes"}},
+             {"v3.depth.exr", {files[1], {}}}};  // A file in two pieces arrives as one.
   const std::string message = EncodeMade(Status::Ok(), m);
   MadeVariant back;
   ASSERT_TRUE(DecodeMade(message, back).ok());
@@ -39,7 +40,8 @@ TEST(MakerMessage, RoundTrips) {
 
 TEST(MakerMessage, CarriesTheMakersError) {
   MadeVariant back;
-  const Status s = DecodeMade(EncodeMade(WithReason(InvalidArgument("v3: bad weight"), "invalid-weights"), {}), back);
+  const Status s = DecodeMade(
+      EncodeMade(WithReason(InvalidArgument("v3: bad weight"), "invalid-weights"), {}), back);
   EXPECT_EQ(s.code, StatusCode::kInvalidArgument);
   EXPECT_EQ(s.message, "v3: bad weight");
   EXPECT_EQ(s.reason, "invalid-weights");
@@ -57,7 +59,8 @@ TEST(MakerMessage, EveryTruncationAndABadCodeAreRefused) {
   bad[0] = 99;
   EXPECT_FALSE(DecodeMade(bad, back).ok());
   std::string huge = message;
-  for (int i = 8; i < 16; ++i) huge[static_cast<size_t>(i)] = '\xff';  // The first piece's length: past the end.
+  for (int i = 8; i < 16; ++i)
+    huge[static_cast<size_t>(i)] = '\xff';  // The first piece's length: past the end.
   EXPECT_FALSE(DecodeMade(huge, back).ok());
 }
 

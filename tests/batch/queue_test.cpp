@@ -1,12 +1,13 @@
 // The on-disk job queue in process: a submitted job runs to done, another instance over the same
 // folder says the same, a full queue refuses with a wait, and a removed job leaves nothing.
+#include "facespace/batch/queue.h"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <filesystem>
 #include <thread>
 
-#include "facespace/batch/queue.h"
 #include "facespace/offscreen/render.h"
 #include "memory_store.h"
 #include "test_util.h"
@@ -19,7 +20,8 @@ namespace fs = std::filesystem;
 const render::NullRenderer kNull;
 
 // The job's state once it has left "queued" and "running" (or after `seconds`).
-batch::JobInfo WaitForEnd(const batch::JobQueue& queue, const std::string& id, double seconds = 60) {
+batch::JobInfo WaitForEnd(const batch::JobQueue& queue, const std::string& id,
+                          double seconds = 60) {
   const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   for (;;) {
     auto info = queue.Get(id);
@@ -44,7 +46,8 @@ class JobQueue : public ::testing::Test {
   const api::Evaluator evaluator{kNull};
 };
 
-constexpr char kBody[] = R"({"sample": {"method": "uniform", "count": 6, "seed": 1, "shapes": ["jawOpen"]}, "format": "f32"})";
+constexpr char kBody[] =
+    R"({"sample": {"method": "uniform", "count": 6, "seed": 1, "shapes": ["jawOpen"]}, "format": "f32"})";
 
 TEST_F(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
   batch::JobLimits limits;
@@ -61,7 +64,8 @@ TEST_F(JobQueue, ASubmittedJobRunsToDoneAndEveryInstanceSaysSo) {
   EXPECT_EQ(done.state, batch::JobState::kDone) << done.error;
   EXPECT_EQ(done.done, 6u);
   const fs::path folder = queue.Folder(job->id);
-  for (const char* name : {"manifest.jsonl", "v000000.f32", "v000005.f32", "sheet.png"}) EXPECT_TRUE(fs::exists(folder / name)) << name;
+  for (const char* name : {"manifest.jsonl", "v000000.f32", "v000005.f32", "sheet.png"})
+    EXPECT_TRUE(fs::exists(folder / name)) << name;
   // FaceCap's f32 body: positions and normals of every vertex.
   EXPECT_EQ(fs::file_size(folder / "v000000.f32"), store.Get("facecap")->rig.vertex_count() * 24);
 
@@ -122,5 +126,5 @@ TEST_F(JobQueue, AJobLeftUnfinishedResumesInTheNextInstance) {
   EXPECT_EQ(done.done, 6u);
 }
 
-}  // namespace
+}  // namespace queue_test
 }  // namespace facespace

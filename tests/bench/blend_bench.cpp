@@ -15,8 +15,8 @@
 #include <cstring>
 #include <random>
 
-#include "facespace/evaluator/evaluator.h"
 #include "facespace/engine/blend.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
 namespace {
@@ -32,7 +32,8 @@ struct Synthetic {
   size_t active_runs = 0;
 };
 
-Synthetic Make(size_t n, size_t shapes, double moved, size_t active, bool clustered, uint32_t seed) {
+Synthetic Make(size_t n, size_t shapes, double moved, size_t active, bool clustered,
+               uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> u(-1.0f, 1.0f);
   Synthetic s;
@@ -51,7 +52,8 @@ Synthetic Make(size_t n, size_t shapes, double moved, size_t active, bool cluste
         const size_t a = start(rng), l = std::min(len(rng), k - count);
         for (size_t v = a; v < std::min(n, a + l); ++v) count += !mark[v], mark[v] = 1;
       }
-      for (size_t v = 0; v < n; ++v) if (mark[v]) t.indices.push_back(static_cast<uint32_t>(v));
+      for (size_t v = 0; v < n; ++v)
+        if (mark[v]) t.indices.push_back(static_cast<uint32_t>(v));
     } else {
       std::vector<uint32_t> all(n);
       for (size_t v = 0; v < n; ++v) all[v] = static_cast<uint32_t>(v);
@@ -83,8 +85,8 @@ const Synthetic& Case(int which) {
   return cases[which];
 }
 
-const char* kCaseNames[4] = {"50k_100shapes_clustered", "50k_100shapes_scattered", "metahuman_clustered",
-                             "metahuman_scattered"};
+const char* kCaseNames[4] = {"50k_100shapes_clustered", "50k_100shapes_scattered",
+                             "metahuman_clustered", "metahuman_scattered"};
 
 // Bytes a sparse blend must touch: read base, write out, read each active delta + index,
 // and read-modify-write the vertex it moves.
@@ -100,8 +102,12 @@ void Report(benchmark::State& state, double bytes) {
 void BM_ByShapeRuns(benchmark::State& state) {
   const Synthetic& s = Case(static_cast<int>(state.range(0)));
   std::vector<float> out(s.base.size());
-  facespace::BlendShapeJob job{.base = s.base, .weights = s.weights, .targets = s.targets,
-                               .channel = facespace::TargetChannel::kPosition, .stride = 3, .out = out};
+  facespace::BlendShapeJob job{.base = s.base,
+                               .weights = s.weights,
+                               .targets = s.targets,
+                               .channel = facespace::TargetChannel::kPosition,
+                               .stride = 3,
+                               .out = out};
   for (auto _ : state) {
     if (!job.Run()) state.SkipWithError("job failed");
     benchmark::DoNotOptimize(out.data());
@@ -137,11 +143,13 @@ void BM_ByShapeIndices(benchmark::State& state) {
   state.SetLabel(kCaseNames[state.range(0)]);
 }
 
-
 // Candidate: entries interleaved as {index, dx, dy, dz} (one 16-byte stream per shape).
 void BM_ByShapeInterleaved(benchmark::State& state) {
   const Synthetic& s = Case(static_cast<int>(state.range(0)));
-  struct Entry { uint32_t v; float d[3]; };
+  struct Entry {
+    uint32_t v;
+    float d[3];
+  };
   std::vector<std::vector<Entry>> packed(s.targets.size());
   for (size_t t = 0; t < s.targets.size(); ++t) {
     for (size_t k = 0; k < s.targets[t].indices.size(); ++k) {
@@ -208,7 +216,8 @@ void BM_ByVertexCsr(benchmark::State& state) {
   // Build the CSR once: for each vertex, (shape, delta) entries.
   std::vector<uint32_t> offsets(s.vertices + 1, 0), shape_of;
   std::vector<float> deltas;
-  for (const SparseTarget& t : s.targets) for (uint32_t v : t.indices) offsets[v + 1]++;
+  for (const SparseTarget& t : s.targets)
+    for (uint32_t v : t.indices) offsets[v + 1]++;
   for (size_t v = 0; v < s.vertices; ++v) offsets[v + 1] += offsets[v];
   shape_of.resize(offsets.back());
   deltas.resize(3 * offsets.back());
@@ -285,7 +294,8 @@ using facespace::Rig;
 
 const Rig& MakeHuman() {
   static const Rig rig = [] {
-    auto r = facespace::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/makehuman/makehuman.glb");
+    auto r = facespace::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) +
+                                    "/assets/makehuman/makehuman.glb");
     if (!r.ok()) std::abort();
     return std::move(r.value());
   }();
@@ -295,7 +305,8 @@ const Rig& MakeHuman() {
 std::vector<float> MakeHumanWeights(size_t active) {
   const Rig& rig = MakeHuman();
   std::vector<float> w(rig.shapes.size(), 0.0f);
-  for (size_t k = 0; k < active; ++k) w[(k * 7919) % w.size()] = 0.3f + 0.001f * static_cast<float>(k);
+  for (size_t k = 0; k < active; ++k)
+    w[(k * 7919) % w.size()] = 0.3f + 0.001f * static_cast<float>(k);
   return w;
 }
 
@@ -329,11 +340,12 @@ void BM_MakeHumanEvaluate(benchmark::State& state) {
 }
 
 // The mesh route's work in process, FaceCap with 4 shapes at 0.2: the blend, then the f32 body
-// (arg 0), the glb through ExportMesh (1), the glb through the batch's GlbVariantWriter (2), or nothing (3);
-// or the f32 body through F32Writer, the route's way (4: only the primitives the point moves
-// blended, written over the last body).
+// (arg 0), the glb through ExportMesh (1), the glb through the batch's GlbVariantWriter (2), or
+// nothing (3); or the f32 body through F32Writer, the route's way (4: only the primitives the point
+// moves blended, written over the last body).
 void BM_FaceCapMeshEncode(benchmark::State& state) {
-  static const Rig rig = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+  static const Rig rig =
+      facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   std::vector<float> w(rig.shapes.size(), 0.0f);
   for (size_t k : {24, 37, 38, 9}) w[k] = 0.2f;
   BlendedRig out;
@@ -358,11 +370,19 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
     } else if (encode == 2) {
       bytes = writer.Write(rig, out, w, {}).value().bin.size();
     } else {
-      bytes = facespace::ExportMesh(rig, out, w, {}, encode == 0 ? facespace::MeshFormat::kF32 : facespace::MeshFormat::kGlb).value().size();
+      bytes = facespace::ExportMesh(
+                  rig, out, w, {},
+                  encode == 0 ? facespace::MeshFormat::kF32 : facespace::MeshFormat::kGlb)
+                  .value()
+                  .size();
     }
     benchmark::DoNotOptimize(bytes);
   }
-  state.SetLabel(encode == 4 ? "f32 (F32Writer)" : encode == 0 ? "blend + f32" : encode == 1 ? "blend + glb (ExportMesh)" : encode == 2 ? "blend + glb (GlbVariantWriter)" : "blend");
+  state.SetLabel(encode == 4   ? "f32 (F32Writer)"
+                 : encode == 0 ? "blend + f32"
+                 : encode == 1 ? "blend + glb (ExportMesh)"
+                 : encode == 2 ? "blend + glb (GlbVariantWriter)"
+                               : "blend");
   state.counters["KB"] = bytes / 1024.0;
 }
 
@@ -370,12 +390,15 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
 // or with the request's first step and the cache key before it (1: ResolvePoint, CacheKey, Run).
 // Against BM_FaceCapMeshEncode/4 (the F32Writer alone), what the evaluator's layer adds.
 void BM_FaceCapEvaluatorF32(benchmark::State& state) {
-  static const auto rig = facespace::api::Unstored(facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value(), "1");
+  static const auto rig = facespace::api::Unstored(
+      facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value(), "1");
   const facespace::api::Evaluator evaluator;
   facespace::api::Workspace ws;
   facespace::api::MeshRequest request;
-  for (const char* name : {"jawOpen", "mouthSmile_L", "mouthSmile_R", "cheekPuff"}) request.weights.push_back({name, -1, 0.2, ""});
-  const facespace::api::OutputSpec spec = facespace::api::OutputSpec::Mesh(request, facespace::MeshFormat::kF32);
+  for (const char* name : {"jawOpen", "mouthSmile_L", "mouthSmile_R", "cheekPuff"})
+    request.weights.push_back({name, -1, 0.2, ""});
+  const facespace::api::OutputSpec spec =
+      facespace::api::OutputSpec::Mesh(request, facespace::MeshFormat::kF32);
   facespace::api::ResolvedPoint point;
   facespace::api::ResolvePoint(rig->rig, request, point);
   const bool resolve = state.range(0) == 1;

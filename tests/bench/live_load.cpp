@@ -1,8 +1,8 @@
-// Live sessions under load (issue 53): N WebSocket clients on GET /v1/rigs/{rig}/live, each sending a
-// slider change ({"weights": {SHAPE: v}, "id": k}) at a rate for a time, reading every frame; M more that
-// send the same but never read. Prints one JSON line: messages, frames, bytes, the delay from a message
-// to the first frame that reflects it (p50, p99, max; frames carry the newest id applied), errors, and
-// how the never-readers ended (closed by the server, and when).
+// Live sessions under load (issue 53): N WebSocket clients on GET /v1/rigs/{rig}/live, each sending
+// a slider change ({"weights": {SHAPE: v}, "id": k}) at a rate for a time, reading every frame; M
+// more that send the same but never read. Prints one JSON line: messages, frames, bytes, the delay
+// from a message to the first frame that reflects it (p50, p99, max; frames carry the newest id
+// applied), errors, and how the never-readers ended (closed by the server, and when).
 //
 //   live_load PORT RIG [--sessions 100] [--seconds 30] [--hz 60] [--shape jawOpen] [--never-read 0]
 #include <arpa/inet.h>
@@ -64,8 +64,10 @@ int Connect(int port, const std::string& rig) {
   if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) return -1;
   const int yes = 1;
   setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
-  const std::string head = "GET /v1/rigs/" + rig + "/live HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                           "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
+  const std::string head =
+      "GET /v1/rigs/" + rig +
+      "/live HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
   if (send(fd, head.data(), head.size(), 0) != static_cast<ssize_t>(head.size())) return -1;
   std::string got;
   char c;
@@ -112,7 +114,8 @@ void Parse(Session& s, Clock::time_point now, double t, std::vector<double>& del
       s.seen_id = std::max(s.seen_id, id);
     } else if (op == 1) {
       if (std::string_view(p, n).find("\"event\":\"error\"") != std::string_view::npos) ++s.errors;
-      if (std::string_view(p, n).find("\"event\":\"ready\"") != std::string_view::npos) s.open = true;
+      if (std::string_view(p, n).find("\"event\":\"ready\"") != std::string_view::npos)
+        s.open = true;
     } else if (op == 8) {
       s.closed = true;
       s.close_code = n >= 2 ? (static_cast<uint8_t>(p[0]) << 8 | static_cast<uint8_t>(p[1])) : 1005;
@@ -127,7 +130,9 @@ void Parse(Session& s, Clock::time_point now, double t, std::vector<double>& del
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: live_load PORT RIG [--sessions N] [--seconds S] [--hz H] [--shape NAME] [--never-read M]\n");
+    std::fprintf(stderr,
+                 "usage: live_load PORT RIG [--sessions N] [--seconds S] [--hz H] [--shape NAME] "
+                 "[--never-read M]\n");
     return 2;
   }
   const int port = std::atoi(argv[1]);
@@ -137,11 +142,16 @@ int main(int argc, char** argv) {
   std::string shape = "jawOpen";
   for (int i = 3; i + 1 < argc; i += 2) {
     const std::string k = argv[i], v = argv[i + 1];
-    if (k == "--sessions") sessions = std::atoi(v.c_str());
-    else if (k == "--seconds") seconds = std::atof(v.c_str());
-    else if (k == "--hz") hz = std::atof(v.c_str());
-    else if (k == "--shape") shape = v;
-    else if (k == "--never-read") never = std::atoi(v.c_str());
+    if (k == "--sessions")
+      sessions = std::atoi(v.c_str());
+    else if (k == "--seconds")
+      seconds = std::atof(v.c_str());
+    else if (k == "--hz")
+      hz = std::atof(v.c_str());
+    else if (k == "--shape")
+      shape = v;
+    else if (k == "--never-read")
+      never = std::atoi(v.c_str());
   }
   std::vector<Session> all(static_cast<size_t>(sessions + never));
   const int ep = epoll_create1(0);
@@ -166,8 +176,11 @@ int main(int argc, char** argv) {
   std::mt19937 rng(7);
   std::vector<double> phase(all.size());
   for (double& p : phase) p = std::uniform_real_distribution<double>(0, 6.28)(rng);
-  const Clock::time_point start = Clock::now(), end = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
+  const Clock::time_point start = Clock::now(),
+                          end = start + std::chrono::duration_cast<Clock::duration>(
+                                            std::chrono::duration<double>(seconds));
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
   Clock::time_point next_send = start + std::chrono::milliseconds(200);
   size_t messages = 0;
   std::vector<char> chunk(1 << 20);
@@ -182,9 +195,11 @@ int main(int argc, char** argv) {
         if (s.closed) continue;
         char text[160];
         const double v = 0.5 + 0.45 * std::sin(2 * M_PI * 0.5 * t + phase[i]);
-        std::snprintf(text, sizeof text, "{\"weights\":{\"%s\":%.4f},\"id\":%u}", shape.c_str(), v, s.next_id);
+        std::snprintf(text, sizeof text, "{\"weights\":{\"%s\":%.4f},\"id\":%u}", shape.c_str(), v,
+                      s.next_id);
         const std::string f = Frame(1, text);
-        if (send(s.fd, f.data(), f.size(), MSG_NOSIGNAL | MSG_DONTWAIT) == static_cast<ssize_t>(f.size())) {
+        if (send(s.fd, f.data(), f.size(), MSG_NOSIGNAL | MSG_DONTWAIT) ==
+            static_cast<ssize_t>(f.size())) {
           if (s.reader) s.sent[s.next_id] = Clock::now();
           ++s.next_id;
           ++messages;
@@ -192,7 +207,9 @@ int main(int argc, char** argv) {
       }
       next_send += period;
     }
-    const int wait = static_cast<int>(std::max<int64_t>(0, std::chrono::duration_cast<std::chrono::milliseconds>(next_send - Clock::now()).count()));
+    const int wait = static_cast<int>(std::max<int64_t>(
+        0,
+        std::chrono::duration_cast<std::chrono::milliseconds>(next_send - Clock::now()).count()));
     const int n = epoll_wait(ep, events, 256, std::min(wait, 5));
     const Clock::time_point got = Clock::now();
     const double t = std::chrono::duration<double>(got - start).count();
@@ -218,24 +235,38 @@ int main(int argc, char** argv) {
     if (s.reader) continue;
     const double t = std::chrono::duration<double>(Clock::now() - start).count();
     ssize_t r;
-    while ((r = recv(s.fd, chunk.data(), chunk.size(), MSG_DONTWAIT)) > 0) s.in.append(chunk.data(), static_cast<size_t>(r));
+    while ((r = recv(s.fd, chunk.data(), chunk.size(), MSG_DONTWAIT)) > 0)
+      s.in.append(chunk.data(), static_cast<size_t>(r));
     std::vector<double> ignored;
     Parse(s, Clock::now(), t, ignored);
     if (!s.closed && r == 0) s.closed = true, s.close_code = 1006;
   }
   std::sort(delays.begin(), delays.end());
-  auto pct = [&](double q) { return delays.empty() ? 0.0 : 1e3 * delays[std::min(delays.size() - 1, static_cast<size_t>(q * static_cast<double>(delays.size())))]; };
+  auto pct = [&](double q) {
+    return delays.empty()
+               ? 0.0
+               : 1e3 *
+                     delays[std::min(delays.size() - 1,
+                                     static_cast<size_t>(q * static_cast<double>(delays.size())))];
+  };
   size_t frames = 0, bytes = 0, errors = 0, unseen = 0, readers_closed = 0, dropped = 0;
   for (const Session& s : all) {
     frames += s.frames, bytes += s.bytes, errors += s.errors;
-    if (s.reader) unseen += s.sent.size(), readers_closed += s.closed;
-    else dropped += s.closed;
+    if (s.reader)
+      unseen += s.sent.size(), readers_closed += s.closed;
+    else
+      dropped += s.closed;
   }
-  std::printf("{\"sessions\": %d, \"seconds\": %g, \"hz\": %g, \"messages\": %zu, \"frames\": %zu, \"bytes_per_frame\": %.0f, "
-              "\"delay_ms\": {\"p50\": %.2f, \"p99\": %.2f, \"max\": %.2f, \"count\": %zu}, \"unanswered\": %zu, \"errors\": %zu, "
-              "\"readers_closed\": %zu, \"never_readers\": %d, \"never_readers_dropped\": %zu}\n",
-              sessions, seconds, hz, messages, frames, frames ? static_cast<double>(bytes) / static_cast<double>(frames) : 0.0, pct(0.5), pct(0.99),
-              delays.empty() ? 0.0 : 1e3 * delays.back(), delays.size(), unseen, errors, readers_closed, never, dropped);
+  std::printf(
+      "{\"sessions\": %d, \"seconds\": %g, \"hz\": %g, \"messages\": %zu, \"frames\": %zu, "
+      "\"bytes_per_frame\": %.0f, "
+      "\"delay_ms\": {\"p50\": %.2f, \"p99\": %.2f, \"max\": %.2f, \"count\": %zu}, "
+      "\"unanswered\": %zu, \"errors\": %zu, "
+      "\"readers_closed\": %zu, \"never_readers\": %d, \"never_readers_dropped\": %zu}\n",
+      sessions, seconds, hz, messages, frames,
+      frames ? static_cast<double>(bytes) / static_cast<double>(frames) : 0.0, pct(0.5), pct(0.99),
+      delays.empty() ? 0.0 : 1e3 * delays.back(), delays.size(), unseen, errors, readers_closed,
+      never, dropped);
   for (Session& s : all) close(s.fd);
   return 0;
 }

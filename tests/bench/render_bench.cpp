@@ -2,15 +2,15 @@
 // 512x512 and 1024x1024, with and without PNG encoding. One draw at a time, llvmpipe
 // rasterising on one thread per core as the service runs it (LP_NUM_THREADS=0 in the
 // environment measures drawing on the calling thread, as before).
-#include <benchmark/benchmark.h>
-
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <benchmark/benchmark.h>
 
+#include <array>
 #include <cmath>
 
-#include "facespace/formats/io.h"
 #include "facespace/engine/shape_tools.h"
+#include "facespace/formats/io.h"
 #include "facespace/offscreen/render.h"
 
 namespace {
@@ -24,7 +24,8 @@ Rig BigMesh() {
   const int n = 224;
   for (int y = 0; y < n; ++y) {
     for (int x = 0; x < n; ++x) {
-      const float u = static_cast<float>(x) / (n - 1) * 2 - 1, v = static_cast<float>(y) / (n - 1) * 2 - 1;
+      const float u = static_cast<float>(x) / (n - 1) * 2 - 1,
+                  v = static_cast<float>(y) / (n - 1) * 2 - 1;
       p.positions.insert(p.positions.end(), {u, v, 0.1f * std::sin(6 * u) * std::cos(5 * v)});
     }
   }
@@ -52,7 +53,9 @@ const Rig& Case(int which) {
   return which == 0 ? face : big;
 }
 
-const char* CaseName(int which) { return which == 0 ? "facecap 8k tris" : which == 1 ? "sheet 100k tris" : "uka 78k tris"; }
+const char* CaseName(int which) {
+  return which == 0 ? "facecap 8k tris" : which == 1 ? "sheet 100k tris" : "uka 78k tris";
+}
 
 // The rig's occlusion baked at its neutral weights, as the service bakes it once per rig and level.
 std::shared_ptr<const RigOcclusion> Baked(const Rig& rig) {
@@ -69,7 +72,14 @@ void BM_BakeOcclusion(benchmark::State& state) {
   state.SetLabel(CaseName(static_cast<int>(state.range(0))));
   state.counters["vertices"] = static_cast<double>(rig.vertex_count());
 }
-BENCHMARK(BM_BakeOcclusion)->ArgName("mesh")->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_BakeOcclusion)
+    ->ArgName("mesh")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
 
 // One renderer for every benchmark: its GL contexts are made once.
 const render::OsMesaRenderer& Renderer() {
@@ -78,8 +88,8 @@ const render::OsMesaRenderer& Renderer() {
 }
 
 // The 512x512 FaceCap render (jawOpen at 0.5) the encoder benchmarks encode, drawn once as floats
-// and once straight into 8-bit sRGB (RenderOptions::srgb8, what the render route draws for 8-bit files).
-// FaceCap blended with jawOpen at 0.5, once.
+// and once straight into 8-bit sRGB (RenderOptions::srgb8, what the render route draws for 8-bit
+// files). FaceCap blended with jawOpen at 0.5, once.
 const BlendedRig& FaceCapJawHalfOpen() {
   static const BlendedRig blended = [] {
     const Rig& rig = Case(0);
@@ -125,7 +135,8 @@ void BM_Render(benchmark::State& state) {
   o.occlusion = Baked(rig);
   // The framing box of the shapes, found once per rig as the service keeps it (api's DerivedRig).
   o.camera.has_focus = ShapeFocusBox(rig, o.camera.focus_min, o.camera.focus_max);
-  o.camera.focus_small = o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
+  o.camera.focus_small =
+      o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
   o.camera.focus_joint = o.camera.focus_small ? ShapeFocusJoint(rig) : -1;
   render::Image image;
   size_t bytes = 0;
@@ -134,7 +145,8 @@ void BM_Render(benchmark::State& state) {
     if (png) bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
     benchmark::DoNotOptimize(image.rgba.data());
   }
-  state.SetLabel(std::string(CaseName(static_cast<int>(state.range(0)))) + (srgb8 ? ", 8-bit sRGB" : ", float") + (png ? " + PNG" : ""));
+  state.SetLabel(std::string(CaseName(static_cast<int>(state.range(0)))) +
+                 (srgb8 ? ", 8-bit sRGB" : ", float") + (png ? " + PNG" : ""));
   state.counters["triangles"] = static_cast<double>(rig.triangle_count());
   if (png) state.counters["png_KB"] = bytes / 1024.0;
 }
@@ -146,8 +158,8 @@ BENCHMARK(BM_Render)
     ->UseRealTime()  // llvmpipe's threads do the drawing: the wall clock is what a client waits.
     ->MinTime(1.0);
 
-// A labelled sample's draw (api/batch/dataset.h): FaceCap at 256 x 256 and 512 x 512 in 8-bit sRGB, with
-// the label planes (distance, normal, segment) or without, one draw at a time.
+// A labelled sample's draw (api/batch/dataset.h): FaceCap at 256 x 256 and 512 x 512 in 8-bit sRGB,
+// with the label planes (distance, normal, segment) or without, one draw at a time.
 void BM_RenderLabels(benchmark::State& state) {
   const Rig& rig = Case(0);
   const BlendedRig& blended = FaceCapJawHalfOpen();
@@ -163,18 +175,25 @@ void BM_RenderLabels(benchmark::State& state) {
   }
   state.SetLabel(o.labels ? "with labels" : "picture only");
 }
-BENCHMARK(BM_RenderLabels)->ArgsProduct({{256, 512}, {0, 1}})->ArgNames({"size", "labels"})->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_RenderLabels)
+    ->ArgsProduct({{256, 512}, {0, 1}})
+    ->ArgNames({"size", "labels"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
 
 // The encoder settings, measured on the 512x512 FaceCap render (8-bit sRGB RGBA, as Encode
 // hands it to OpenImageIO): PNG zlib levels and row filters, WebP lossless and lossy.
-// kind: 0 PNG (arg = zlib level, filter = libpng's filter mask, 0 = libpng's choice), 1 WebP (arg = quality, 100 = lossless).
+// kind: 0 PNG (arg = zlib level, filter = libpng's filter mask, 0 = libpng's choice), 1 WebP (arg =
+// quality, 100 = lossless).
 void BM_Encode(benchmark::State& state) {
   static const std::vector<unsigned char> px = [] {
     const render::Image& image = FaceCapImage();
     std::vector<unsigned char> out(image.rgba.size());
     for (size_t i = 0; i < out.size(); ++i) {
       const float c = std::clamp(image.rgba[i], 0.0f, 1.0f);
-      out[i] = static_cast<unsigned char>(std::lround((i % 4 == 3 ? c : std::pow(c, 1.0f / 2.2f)) * 255.0f));
+      out[i] = static_cast<unsigned char>(
+          std::lround((i % 4 == 3 ? c : std::pow(c, 1.0f / 2.2f)) * 255.0f));
     }
     return out;
   }();
@@ -193,13 +212,16 @@ void BM_Encode(benchmark::State& state) {
     } else {
       spec.attribute("compression", arg >= 100 ? "lossless" : "webp:" + std::to_string(arg));
     }
-    if (!writer || !writer->open(name, spec) || !writer->write_image(OIIO::TypeDesc::UINT8, px.data()) || !writer->close()) {
+    if (!writer || !writer->open(name, spec) ||
+        !writer->write_image(OIIO::TypeDesc::UINT8, px.data()) || !writer->close()) {
       state.SkipWithError("encoding failed");
     }
     bytes = out.size();
   }
-  state.SetLabel(png ? "png level " + std::to_string(arg) + (filter ? " filter " + std::to_string(filter) : " filter libpng's")
-                     : arg >= 100 ? "webp lossless" : "webp quality " + std::to_string(arg));
+  state.SetLabel(png ? "png level " + std::to_string(arg) +
+                           (filter ? " filter " + std::to_string(filter) : " filter libpng's")
+                 : arg >= 100 ? "webp lossless"
+                              : "webp quality " + std::to_string(arg));
   state.counters["KB"] = bytes / 1024.0;
 }
 
@@ -212,16 +234,28 @@ void BM_EncodeOurs(benchmark::State& state) {
   for (auto _ : state) {
     bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
   }
-  state.SetLabel(state.range(0) ? "png ours (8-bit sRGB in, igzip level 0, UP)" : "png ours (float in, igzip level 0, UP)");
+  state.SetLabel(state.range(0) ? "png ours (8-bit sRGB in, igzip level 0, UP)"
+                                : "png ours (float in, igzip level 0, UP)");
   state.counters["KB"] = bytes / 1024.0;
 }
-BENCHMARK(BM_EncodeOurs)->ArgName("srgb8")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(0.5);
+BENCHMARK(BM_EncodeOurs)
+    ->ArgName("srgb8")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(0.5);
 
-// PNG_FILTER_NONE 0x08, SUB 0x10, UP 0x20, PAETH 0x80.
+// {webp, level, filter}: PNG at deflate levels and filters (PNG_FILTER_NONE 0x08, SUB 0x10, UP
+// 0x20, PAETH 0x80), then WebP at qualities.
+void EncodeCases(benchmark::internal::Benchmark* b) {
+  const std::array<int64_t, 3> cases[] = {{0, 6, 0},    {0, 1, 0},    {0, 1, 0x08}, {0, 1, 0x10},
+                                          {0, 1, 0x20}, {0, 1, 0x80}, {0, 2, 0x10}, {0, 3, 0x20},
+                                          {0, 6, 0x20}, {1, 100, 0},  {1, 90, 0},   {1, 75, 0}};
+  for (const auto& c : cases) b->Args({c[0], c[1], c[2]});
+}
 BENCHMARK(BM_Encode)
-    ->Args({0, 6, 0})->Args({0, 1, 0})->Args({0, 1, 0x08})->Args({0, 1, 0x10})->Args({0, 1, 0x20})->Args({0, 1, 0x80})
-    ->Args({0, 2, 0x10})->Args({0, 3, 0x20})->Args({0, 6, 0x20})
-    ->Args({1, 100, 0})->Args({1, 90, 0})->Args({1, 75, 0})
+    ->Apply(EncodeCases)
     ->ArgNames({"webp", "level", "filter"})
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.5);

@@ -23,10 +23,22 @@ const Data& Get() {
     for (size_t j = 0; j < joints; ++j) {
       const auto q = EulerToQuaternion(20 * u(rng), 20 * u(rng), 20 * u(rng));
       const float x = q[0], y = q[1], z = q[2], w = q[3];
-      const float m[16] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w), 0,
-                           2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w), 0,
-                           2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y), 0,
-                           u(rng), u(rng), u(rng), 1};
+      const float m[16] = {1 - 2 * (y * y + z * z),
+                           2 * (x * y + z * w),
+                           2 * (x * z - y * w),
+                           0,
+                           2 * (x * y - z * w),
+                           1 - 2 * (x * x + z * z),
+                           2 * (y * z + x * w),
+                           0,
+                           2 * (x * z + y * w),
+                           2 * (y * z - x * w),
+                           1 - 2 * (x * x + y * y),
+                           0,
+                           u(rng),
+                           u(rng),
+                           u(rng),
+                           1};
       d.matrices.insert(d.matrices.end(), m, m + 16);
     }
     DualQuaternions(d.matrices, d.dq);
@@ -49,15 +61,22 @@ const Data& Get() {
 
 void BM_Skin(benchmark::State& state) {
   Data& d = const_cast<Data&>(Get());
-  SkinningJob job{.joint_matrices = d.matrices, .influences = 4, .joints = d.joints, .weights = d.weights,
-                  .in_positions = d.positions, .in_normals = d.normals, .out_positions = d.out_p, .out_normals = d.out_n};
+  SkinningJob job{.joint_matrices = d.matrices,
+                  .influences = 4,
+                  .joints = d.joints,
+                  .weights = d.weights,
+                  .in_positions = d.positions,
+                  .in_normals = d.normals,
+                  .out_positions = d.out_p,
+                  .out_normals = d.out_n};
   if (state.range(0)) job.joint_dual_quaternions = d.dq;
   for (auto _ : state) {
     if (!job.Run()) state.SkipWithError("skinning failed");
     benchmark::DoNotOptimize(d.out_p.data());
   }
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * 50000);
-  state.SetLabel(state.range(0) ? "dual quaternion, 50k vertices x 4 influences" : "linear, 50k vertices x 4 influences");
+  state.SetLabel(state.range(0) ? "dual quaternion, 50k vertices x 4 influences"
+                                : "linear, 50k vertices x 4 influences");
 }
 
 BENCHMARK(BM_Skin)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);

@@ -1,11 +1,11 @@
-// Lip sync's figures (issue 38; tests/bench/README.md): on one core (run under `taskset -c 0`), a 10 s line
-// from text to JSON keys, 10 s of speech to visemes, and 10 s of 512x512 30 fps WebM.
+// Lip sync's figures (issue 38; tests/bench/README.md): on one core (run under `taskset -c 0`), a
+// 10 s line from text to JSON keys, 10 s of speech to visemes, and 10 s of 512x512 30 fps WebM.
 #include <benchmark/benchmark.h>
 
 #include "facespace/evaluator/evaluator.h"
+#include "facespace/formats/io.h"
 #include "facespace/lipsync/lipsync.h"
 #include "facespace/offscreen/render.h"
-#include "facespace/formats/io.h"
 
 namespace {
 
@@ -13,11 +13,13 @@ using namespace facespace;
 
 // About 10 s at espeak-ng's default 175 words a minute.
 constexpr char kLine[] =
-    "Good morning everyone. Today I would like to tell you a short story about a fox who lived in a forest near a small village, "
+    "Good morning everyone. Today I would like to tell you a short story about a fox who lived in "
+    "a forest near a small village, "
     "and who loved to watch the people at the market.";
 
 const std::shared_ptr<const api::StoredRig>& FaceCap() {
-  static const auto rig = api::Unstored(LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb").value());
+  static const auto rig = api::Unstored(
+      LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb").value());
   return rig;
 }
 
@@ -56,7 +58,8 @@ void BM_Webm512At30(benchmark::State& state) {
   api::Evaluator evaluator(renderer);
   api::Workspace ws;
   size_t bytes = 0;
-  for (auto _ : state) bytes = lipsync::SpeechVideo(evaluator, FaceCap(), plan.value(), r, ws)->size();
+  for (auto _ : state)
+    bytes = lipsync::SpeechVideo(evaluator, FaceCap(), plan.value(), r, ws)->size();
   state.counters["audio_s"] = plan->audio.seconds();
   state.counters["frames"] = static_cast<double>(api::FrameCount(plan->sequence, 30));
   state.counters["KB"] = bytes / 1024.0;

@@ -7,8 +7,8 @@
 #include <new>
 
 #include "facespace/engine/blend.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/skeleton.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace {
@@ -26,9 +26,10 @@ void operator delete(void* p, size_t) noexcept { std::free(p); }
 namespace facespace {
 namespace {
 
-size_t AllocationsOf(const Rig& rig, std::span<const float> weights, const BlendOptions& options, BlendedRig& out,
-                     BlendContext& context) {
-  EXPECT_TRUE(EvaluateRig(rig, weights, options, out, context).ok());  // Warm: buffers grow to the rig.
+size_t AllocationsOf(const Rig& rig, std::span<const float> weights, const BlendOptions& options,
+                     BlendedRig& out, BlendContext& context) {
+  EXPECT_TRUE(
+      EvaluateRig(rig, weights, options, out, context).ok());  // Warm: buffers grow to the rig.
   EXPECT_TRUE(EvaluateRig(rig, weights, options, out, context).ok());
   const size_t before = g_allocations.load();
   const Status s = EvaluateRig(rig, weights, options, out, context);

@@ -1,11 +1,12 @@
+#include "facespace/engine/blend.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "facespace/engine/blend.h"
 #include "facespace/engine/sparse_blend.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/weights.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -195,7 +196,8 @@ TEST(Normals, RecomputedOnlyAroundMovedVertices) {
   for (int v = 0; v < 25; ++v) {
     const int x = v % g, y = v / g;
     const bool near = std::abs(x - 2) <= 1 && std::abs(y - 2) <= 1;
-    const float len = std::sqrt(n[3 * v] * n[3 * v] + n[3 * v + 1] * n[3 * v + 1] + n[3 * v + 2] * n[3 * v + 2]);
+    const float len =
+        std::sqrt(n[3 * v] * n[3 * v] + n[3 * v + 1] * n[3 * v + 1] + n[3 * v + 2] * n[3 * v + 2]);
     EXPECT_NEAR(len, 1.0f, 1e-6f);
     if (!near) {
       EXPECT_EQ(n[3 * v], p.normals[3 * v]) << "vertex " << v << " is far from the moved one";
@@ -245,28 +247,35 @@ TEST(Weights, ResolveByNameIndexAndAlias) {
   std::vector<WeightEntry> digits = {{.name = "1", .value = 2.0}};
   EXPECT_EQ(ResolveWeights(rig, digits).value(), (std::vector<float>{0.0f, 2.0f}));
   std::vector<WeightEntry> none;
-  EXPECT_EQ(ResolveWeights(rig, none).value(), (std::vector<float>{0.0f, 0.0f})) << "missing shapes are 0";
+  EXPECT_EQ(ResolveWeights(rig, none).value(), (std::vector<float>{0.0f, 0.0f}))
+      << "missing shapes are 0";
 }
 
 TEST(Weights, Errors) {
   Rig rig = Square();
-  auto check = [&](std::vector<WeightEntry> e, const std::string& pointer, const std::string& needle) {
+  auto check = [&](std::vector<WeightEntry> e, const std::string& pointer,
+                   const std::string& needle) {
     auto r = ResolveWeights(rig, e);
     ASSERT_FALSE(r.ok());
     EXPECT_EQ(r.status().code, StatusCode::kInvalidArgument);
     ASSERT_FALSE(r.status().fields.empty());
     EXPECT_EQ(r.status().fields[0].pointer, pointer);
-    EXPECT_NE(r.status().fields[0].message.find(needle), std::string::npos) << r.status().fields[0].message;
+    EXPECT_NE(r.status().fields[0].message.find(needle), std::string::npos)
+        << r.status().fields[0].message;
   };
-  check({{.name = "lfit", .value = 1, .pointer = "/weights/lfit"}}, "/weights/lfit", "did you mean 'lift'");
+  check({{.name = "lfit", .value = 1, .pointer = "/weights/lfit"}}, "/weights/lfit",
+        "did you mean 'lift'");
   check({{.name = "zzzzzzzz", .value = 1, .pointer = "/w"}}, "/w", "unknown shape 'zzzzzzzz'");
-  // The valid names are listed once, in the message, however many names are unknown (not per field).
+  // The valid names are listed once, in the message, however many names are unknown (not per
+  // field).
   {
-    std::vector<WeightEntry> two = {{.name = "zzzz", .value = 1, .pointer = "/weights/zzzz"}, {.name = "lfit", .value = 1, .pointer = "/weights/lfit"}};
+    std::vector<WeightEntry> two = {{.name = "zzzz", .value = 1, .pointer = "/weights/zzzz"},
+                                    {.name = "lfit", .value = 1, .pointer = "/weights/lfit"}};
     auto r = ResolveWeights(rig, two);
     ASSERT_FALSE(r.ok());
     ASSERT_EQ(r.status().fields.size(), 2u);
-    for (const auto& f : r.status().fields) EXPECT_EQ(f.message.find("valid shapes"), std::string::npos) << f.message;
+    for (const auto& f : r.status().fields)
+      EXPECT_EQ(f.message.find("valid shapes"), std::string::npos) << f.message;
     const std::string& m = r.status().message;
     EXPECT_NE(m.find("(and 1 more); valid shapes: lift, slide"), std::string::npos) << m;
     EXPECT_EQ(m.find("valid shapes"), m.rfind("valid shapes")) << m;
@@ -288,7 +297,9 @@ TEST(Weights, Warnings) {
   ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_EQ(r.warnings[0].code, "extrapolation");
   // The square's two shapes move different vertices: none takes more than 0.9 of a full move.
-  EXPECT_EQ(r.warnings[0].message, "extrapolation: sum of weights 1.7 exceeds 1; but no vertex moves more than 0.9 of a full shape's move (the shapes act on different vertices)");
+  EXPECT_EQ(r.warnings[0].message,
+            "extrapolation: sum of weights 1.7 exceeds 1; but no vertex moves more than 0.9 of a "
+            "full shape's move (the shapes act on different vertices)");
 
   w = {1.5f, -0.5f};  // Sum 1: no extrapolation; lift out of range, slide negative in range.
   r = CheckWeights(rig, w, BlendMode::kRelative);
@@ -311,7 +322,8 @@ TEST(Weights, Warnings) {
 
 TEST(Rig, SymmetricPartnersFromNames) {
   Rig rig;
-  for (const char* n : {"eyeBlink_L", "eyeBlink_R", "jawOpen", "mouthLeft", "mouthRight", "nose/l-nostril", "nose/r-nostril"}) {
+  for (const char* n : {"eyeBlink_L", "eyeBlink_R", "jawOpen", "mouthLeft", "mouthRight",
+                        "nose/l-nostril", "nose/r-nostril"}) {
     rig.shapes.push_back(Shape{.name = n});
   }
   DetectSymmetricPartners(rig);
@@ -322,7 +334,7 @@ TEST(Rig, SymmetricPartnersFromNames) {
   EXPECT_EQ(rig.shapes[5].partner, 6);
 }
 
-}  // namespace
+}  // namespace blend_test
 }  // namespace facespace
 
 namespace facespace {
@@ -352,12 +364,14 @@ TEST(SparseBlend, BlendsWhatAPointMovesAsEvaluateRigDoes) {
     const SparseBlend::Outcome outcome = sparse.Blend(rig, w, pi, scratch);
     ASSERT_NE(outcome, SparseBlend::Outcome::kDeclined);
     if (outcome == SparseBlend::Outcome::kRest) {
-      EXPECT_EQ(full.primitives[pi].positions, rest.primitives[pi].positions) << pi;  // Nothing moved it.
+      EXPECT_EQ(full.primitives[pi].positions, rest.primitives[pi].positions)
+          << pi;  // Nothing moved it.
       continue;
     }
     ++blended;
     EXPECT_EQ(scratch.positions, full.primitives[pi].positions) << pi;
-    // Normals: the blend's sums, which EvaluateRig then scales to unit length where a target moved a vertex.
+    // Normals: the blend's sums, which EvaluateRig then scales to unit length where a target moved
+    // a vertex.
     size_t marked = 0;
     for (size_t v = 0; v < rig.primitives[pi].vertex_count(); ++v) {
       const bool moved = (scratch.moved[v / 64] >> (v % 64)) & 1;
@@ -380,5 +394,5 @@ TEST(SparseBlend, BlendsWhatAPointMovesAsEvaluateRigDoes) {
   EXPECT_FALSE(sparse.Accepts(rig, w));
 }
 
-}  // namespace
+}  // namespace blend_test
 }  // namespace facespace

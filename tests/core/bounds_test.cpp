@@ -1,5 +1,5 @@
-// Issue 48 in core: parsers that cannot recurse without bound, a reduce whose work is its input's size,
-// work that stops when its token fires, and the request's fault reported as the request's.
+// Issue 48 in core: parsers that cannot recurse without bound, a reduce whose work is its input's
+// size, work that stops when its token fires, and the request's fault reported as the request's.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -39,7 +39,9 @@ std::string FaceCapWithJson(const std::function<std::string(const nlohmann::json
 }
 
 Result<Rig> Load(const std::string& glb) {
-  return LoadRigMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(glb.data()), glb.size()), RigFormat::kGltf, "t");
+  return LoadRigMemory(std::span<const unsigned char>(
+                           reinterpret_cast<const unsigned char*>(glb.data()), glb.size()),
+                       RigFormat::kGltf, "t");
 }
 
 // The JSON with `depth` nested arrays where the string "DEEP" was.
@@ -61,7 +63,8 @@ TEST(JsonDepth, AGlbNestedDeeperThanTheLimitIsRefusedBeforeTinygltfRecurses) {
   // Inside a VRM 0.x extension too (nlohmann's dump recursed there).
   auto vrm = Load(FaceCapWithJson([](nlohmann::json j) {
     j["extensionsUsed"].push_back("VRM");
-    j["extensions"]["VRM"] = {{"blendShapeMaster", {{"blendShapeGroups", {{{"name", "x"}, {"binds", "DEEP"}}}}}}};
+    j["extensions"]["VRM"] = {
+        {"blendShapeMaster", {{"blendShapeGroups", {{{"name", "x"}, {"binds", "DEEP"}}}}}}};
     return Nest(j.dump(), 100000);
   }));
   EXPECT_EQ(vrm.status().reason, "too-deep");
@@ -69,7 +72,8 @@ TEST(JsonDepth, AGlbNestedDeeperThanTheLimitIsRefusedBeforeTinygltfRecurses) {
 
 TEST(JsonDepth, ExtrasWithinTheLimitAndBracketsInStringsLoad) {
   auto rig = Load(FaceCapWithJson([](nlohmann::json j) {
-    j["asset"]["extras"] = {{"note", std::string(5000, '[') + "\\\"" + std::string(5000, '{')}, {"nested", "DEEP"}};
+    j["asset"]["extras"] = {{"note", std::string(5000, '[') + "\\\"" + std::string(5000, '{')},
+                            {"nested", "DEEP"}};
     return Nest(j.dump(), 100);
   }));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
@@ -78,21 +82,25 @@ TEST(JsonDepth, ExtrasWithinTheLimitAndBracketsInStringsLoad) {
 
 TEST(JsonDepth, AManifestNestedDeeperThanTheLimitIsRefused) {
   Rig rig = FaceCap();
-  const Status s = ApplyManifest(rig, "{\"groups\":" + std::string(20000, '[') + std::string(20000, ']') + "}");
+  const Status s =
+      ApplyManifest(rig, "{\"groups\":" + std::string(20000, '[') + std::string(20000, ']') + "}");
   EXPECT_EQ(s.reason, "too-deep") << s.message;
 }
 
 TEST(Vrm, AMemberOfTheWrongTypeIsTheFilesFaultNamingTheMember) {
   auto rig = Load(FaceCapWithJson([](nlohmann::json j) {
     j["extensionsUsed"].push_back("VRM");
-    j["extensions"]["VRM"] = {{"blendShapeMaster", {{"blendShapeGroups", {{{"name", "joy"}, {"presetName", "joy"}, {"isBinary", "yes"}}}}}}};
+    j["extensions"]["VRM"] = {
+        {"blendShapeMaster",
+         {{"blendShapeGroups", {{{"name", "joy"}, {"presetName", "joy"}, {"isBinary", "yes"}}}}}}};
     return j.dump();
   }));
   ASSERT_FALSE(rig.ok());
   EXPECT_EQ(rig.status().code, StatusCode::kInvalidArgument);
   EXPECT_EQ(rig.status().reason, "invalid-vrm") << rig.status().message;
   ASSERT_FALSE(rig.status().fields.empty());
-  EXPECT_EQ(rig.status().fields[0].pointer, "/extensions/VRM/blendShapeMaster/blendShapeGroups/0/isBinary");
+  EXPECT_EQ(rig.status().fields[0].pointer,
+            "/extensions/VRM/blendShapeMaster/blendShapeGroups/0/isBinary");
 }
 
 TEST(Expressions, WeightsPastAFloatAreTheRequestsFault) {
@@ -121,16 +129,19 @@ double Distance(const Rig& rig, std::span<const float> a, std::span<const float>
         if (dw == 0) continue;
         const SparseTarget& st = p.targets[t];
         for (size_t i = 0; i < st.indices.size(); ++i) {
-          for (int k = 0; k < 3; ++k) d[3 * st.indices[i] + k] += dw * st.position_deltas[3 * i + k];
+          for (int k = 0; k < 3; ++k)
+            d[3 * st.indices[i] + k] += dw * st.position_deltas[3 * i + k];
         }
       }
-      for (size_t v = 0; v < d.size(); v += 3) worst = std::max(worst, std::sqrt(d[v] * d[v] + d[v + 1] * d[v + 1] + d[v + 2] * d[v + 2]));
+      for (size_t v = 0; v < d.size(); v += 3)
+        worst = std::max(worst, std::sqrt(d[v] * d[v] + d[v + 1] * d[v + 1] + d[v + 2] * d[v + 2]));
     }
   }
   return worst;
 }
 
-Sequence Keys(const Rig& rig, size_t count, const std::function<float(size_t key, size_t shape)>& weight) {
+Sequence Keys(const Rig& rig, size_t count,
+              const std::function<float(size_t key, size_t shape)>& weight) {
   Sequence s;
   for (size_t k = 0; k < count; ++k) {
     Keyframe key;
@@ -147,9 +158,11 @@ Sequence Keys(const Rig& rig, size_t count, const std::function<float(size_t key
 TEST(Reduce, TwentyThousandKeysOfARampKeepTheBoundAndLoseNearlyAll) {
   const Rig& rig = FaceCap();
   const size_t jaw = static_cast<size_t>(FindShape(rig, "jawOpen"));
-  const Sequence s = Keys(rig, 20000, [&](size_t k, size_t j) { return j == jaw ? static_cast<float>(k) / 20000.0f : 0.1f; });
-  // FaceCap's mesh units are small (jawOpen moves a vertex 2,400 of them): one float step of a weight is
-  // 1.4e-4, so the tolerance stands well above the round-off of sampling at any time.
+  const Sequence s = Keys(rig, 20000, [&](size_t k, size_t j) {
+    return j == jaw ? static_cast<float>(k) / 20000.0f : 0.1f;
+  });
+  // FaceCap's mesh units are small (jawOpen moves a vertex 2,400 of them): one float step of a
+  // weight is 1.4e-4, so the tolerance stands well above the round-off of sampling at any time.
   const float tolerance = 0.01f;
   auto r = ReduceSequence(rig, s, tolerance);
   ASSERT_TRUE(r.ok()) << r.status().message;
@@ -175,14 +188,18 @@ TEST(Reduce, KeysThatTurnStayAndSmoothKeysKeepTheBound) {
   const Rig& rig = FaceCap();
   const size_t jaw = static_cast<size_t>(FindShape(rig, "jawOpen"));
   // A zigzag: every key turns, none may go at a small tolerance.
-  const Sequence zig = Keys(rig, 300, [&](size_t k, size_t j) { return j == jaw ? static_cast<float>(k % 2) * 0.8f : 0.0f; });
+  const Sequence zig = Keys(rig, 300, [&](size_t k, size_t j) {
+    return j == jaw ? static_cast<float>(k % 2) * 0.8f : 0.0f;
+  });
   auto r = ReduceSequence(rig, zig, 0.01f);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->sequence.keys.size(), zig.keys.size());
-  // A smooth (Catmull-Rom) sine: keys go, and the curve stays within the bound between the kept ones. (The
-  // spline is uniform in its keys, so segments of unequal length bend away: at 0.05 units of this 2,400-unit
-  // motion 1% of the keys go, at 10 units 92%.)
-  Sequence sine = Keys(rig, 2000, [&](size_t k, size_t j) { return j == jaw ? 0.5f + 0.5f * std::sin(0.01f * static_cast<float>(k)) : 0.0f; });
+  // A smooth (Catmull-Rom) sine: keys go, and the curve stays within the bound between the kept
+  // ones. (The spline is uniform in its keys, so segments of unequal length bend away: at 0.05
+  // units of this 2,400-unit motion 1% of the keys go, at 10 units 92%.)
+  Sequence sine = Keys(rig, 2000, [&](size_t k, size_t j) {
+    return j == jaw ? 0.5f + 0.5f * std::sin(0.01f * static_cast<float>(k)) : 0.0f;
+  });
   sine.smooth = true;
   auto sr = ReduceSequence(rig, sine, 10.0f);
   ASSERT_TRUE(sr.ok());
@@ -202,7 +219,8 @@ TEST(Reduce, KeysThatTurnStayAndSmoothKeysKeepTheBound) {
 
 TEST(Reduce, StopsWhenItsTokenFires) {
   const Rig& rig = FaceCap();
-  const Sequence s = Keys(rig, 1000, [](size_t k, size_t) { return static_cast<float>(k) / 1000.0f; });
+  const Sequence s =
+      Keys(rig, 1000, [](size_t k, size_t) { return static_cast<float>(k) / 1000.0f; });
   std::stop_source stop;
   stop.request_stop();
   auto r = ReduceSequence(rig, s, 1e-4f, stop.get_token());
@@ -210,5 +228,5 @@ TEST(Reduce, StopsWhenItsTokenFires) {
   EXPECT_EQ(r.status().code, StatusCode::kCancelled);
 }
 
-}  // namespace
+}  // namespace bounds_test
 }  // namespace facespace

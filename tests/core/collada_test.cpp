@@ -48,30 +48,48 @@ std::vector<float> World(const Rig& rig, std::vector<float> w = {}, const Pose* 
 }
 
 // True when every point of `want` is within `tol` of a vertex of `got` (vertices split per corner).
-bool Covers(const std::vector<float>& got, const std::vector<std::array<double, 3>>& want, double tol) {
+bool Covers(const std::vector<float>& got, const std::vector<std::array<double, 3>>& want,
+            double tol) {
   for (const auto& p : want) {
     double best = 1e30;
-    for (size_t v = 0; v + 2 < got.size(); v += 3) best = std::min(best, std::hypot(got[v] - p[0], got[v + 1] - p[1], got[v + 2] - p[2]));
+    for (size_t v = 0; v + 2 < got.size(); v += 3)
+      best = std::min(best, std::hypot(got[v] - p[0], got[v + 1] - p[1], got[v + 2] - p[2]));
     if (best > tol) return false;
   }
   return true;
 }
 
-TEST(Collada, NormalizedMorphIsTheWeightedSumOfTargetsAndBase) {
-  const std::string path = Dae("CTS_morph_two_targets/morph_two_targets.dae");
-  const Rig rig = Load(path);
-  ASSERT_EQ(rig.shapes.size(), 2u);
-  EXPECT_FLOAT_EQ(rig.shapes[0].default_weight, 0.5f);
-  EXPECT_FLOAT_EQ(rig.shapes[1].default_weight, 1.0f);
+// The Khronos test's two-target morph of one file: the rig, and the base's and targets' positions
+// as the file writes them; its shapes' default weights are the file's.
+struct TwoTargets {
+  Rig rig;
+  std::vector<double> base, t1, t2;
+};
+TwoTargets LoadTwoTargets(const std::string& file, float w1, float w2) {
+  const std::string path = Dae("CTS_morph_two_targets/" + file);
+  TwoTargets m{Load(path), {}, {}, {}};
+  EXPECT_EQ(m.rig.shapes.size(), 2u);
+  if (m.rig.shapes.size() == 2) {
+    EXPECT_FLOAT_EQ(m.rig.shapes[0].default_weight, w1);
+    EXPECT_FLOAT_EQ(m.rig.shapes[1].default_weight, w2);
+  }
   const std::string text = Text(path);
-  const auto base = ArrayById(text, "pCubeShape3-positions-array"), t1 = ArrayById(text, "pCubeShape1-positions-array"),
-             t2 = ArrayById(text, "pCubeShape2-positions-array");
+  m.base = ArrayById(text, "pCubeShape3-positions-array");
+  m.t1 = ArrayById(text, "pCubeShape1-positions-array");
+  m.t2 = ArrayById(text, "pCubeShape2-positions-array");
+  return m;
+}
+
+TEST(Collada, NormalizedMorphIsTheWeightedSumOfTargetsAndBase) {
+  const auto [rig, base, t1, t2] = LoadTwoTargets("morph_two_targets.dae", 0.5f, 1.0f);
   ASSERT_EQ(base.size(), 15u);
   // (1 - 0.5 - 1) base + 0.5 t1 + 1 t2, then the node: translate (0, -50, 0), scale 3.
   std::vector<std::array<double, 3>> want;
   for (size_t v = 0; v < 5; ++v) {
     std::array<double, 3> p;
-    for (int c = 0; c < 3; ++c) p[c] = 3 * (-0.5 * base[3 * v + c] + 0.5 * t1[3 * v + c] + t2[3 * v + c]) + (c == 1 ? -50 : 0);
+    for (int c = 0; c < 3; ++c)
+      p[c] =
+          3 * (-0.5 * base[3 * v + c] + 0.5 * t1[3 * v + c] + t2[3 * v + c]) + (c == 1 ? -50 : 0);
     want.push_back(p);
   }
   EXPECT_TRUE(Covers(World(rig), want, 1e-3));
@@ -79,21 +97,18 @@ TEST(Collada, NormalizedMorphIsTheWeightedSumOfTargetsAndBase) {
 }
 
 TEST(Collada, RelativeMorphAddsTheWeightedTargetsAsGiven) {
-  const std::string path = Dae("CTS_morph_two_targets/morph_two_targets_relative.dae");
-  const Rig rig = Load(path);
-  ASSERT_EQ(rig.shapes.size(), 2u);
-  EXPECT_FLOAT_EQ(rig.shapes[0].default_weight, 0.5f);
-  EXPECT_FLOAT_EQ(rig.shapes[1].default_weight, 0.25f);
-  const std::string text = Text(path);
-  const auto base = ArrayById(text, "pCubeShape3-positions-array"), t1 = ArrayById(text, "pCubeShape1-positions-array"),
-             t2 = ArrayById(text, "pCubeShape2-positions-array");
+  const auto [rig, base, t1, t2] = LoadTwoTargets("morph_two_targets_relative.dae", 0.5f, 0.25f);
+  ASSERT_EQ(base.size(), 15u);
   // COLLADA 1.4.1: RELATIVE is base + w1 t1 + w2 t2 (the targets as given); then the node's
   // translate (0, 20, 0) and scale 2. At the file's weights the square grows by 1 + 0.5 + 0.25.
-  for (const std::array<float, 2> w : {std::array<float, 2>{0.5f, 0.25f}, {1.0f, 0.0f}, {0.0f, 1.0f}}) {
+  for (const std::array<float, 2> w :
+       {std::array<float, 2>{0.5f, 0.25f}, {1.0f, 0.0f}, {0.0f, 1.0f}}) {
     std::vector<std::array<double, 3>> want;
     for (size_t v = 0; v < 5; ++v) {
       std::array<double, 3> p;
-      for (int c = 0; c < 3; ++c) p[c] = 2 * (base[3 * v + c] + w[0] * t1[3 * v + c] + w[1] * t2[3 * v + c]) + (c == 1 ? 20 : 0);
+      for (int c = 0; c < 3; ++c)
+        p[c] =
+            2 * (base[3 * v + c] + w[0] * t1[3 * v + c] + w[1] * t2[3 * v + c]) + (c == 1 ? 20 : 0);
       want.push_back(p);
     }
     EXPECT_TRUE(Covers(World(rig, {w[0], w[1]}), want, 1e-3)) << w[0] << " " << w[1];
@@ -109,7 +124,8 @@ TEST(Collada, SkinOverMorphBlendsThenSkins) {
   ASSERT_EQ(rig.skins.size(), 1u);
   EXPECT_EQ(rig.skins[0].joints.size(), 2u);
   const std::string text = Text(path);
-  const auto g0 = ArrayById(text, "geometries_0-Pos-array"), g1 = ArrayById(text, "geometries_1-Pos-array");
+  const auto g0 = ArrayById(text, "geometries_0-Pos-array"),
+             g1 = ArrayById(text, "geometries_1-Pos-array");
   ASSERT_EQ(g0.size(), 18u);
   // From the file: bind shape matrix identity; joint "null" rests where its inverse bind binds it
   // (z = -4), "null1" sits 4 further along x than its bind (world (4, 0, 4), bound at (0, 0, 4)),
@@ -119,7 +135,8 @@ TEST(Collada, SkinOverMorphBlendsThenSkins) {
     std::vector<std::array<double, 3>> want;
     for (size_t v = 0; v < 6; ++v) {
       std::array<double, 3> p;
-      for (int c = 0; c < 3; ++c) p[c] = (1 - w) * g0[3 * v + c] + w * g1[3 * v + c] + (c == 0 ? 4 * null1[v] : 0.0);
+      for (int c = 0; c < 3; ++c)
+        p[c] = (1 - w) * g0[3 * v + c] + w * g1[3 * v + c] + (c == 0 ? 4 * null1[v] : 0.0);
       want.push_back(p);
     }
     EXPECT_TRUE(Covers(World(rig, {w}), want, 1e-4)) << w;
@@ -152,8 +169,8 @@ TEST(Collada, FourInfluenceSkinKeepsEveryInfluence) {
 }
 
 // The weight curve of SCEA_animation_morph, evaluated here from the file's numbers: per segment the
-// cubic Bezier through (t_k, v_k), the key's out-tangent, the next key's in-tangent, (t_k+1, v_k+1),
-// time as the curve's x (its parameter found by bisection), then y.
+// cubic Bezier through (t_k, v_k), the key's out-tangent, the next key's in-tangent, (t_k+1,
+// v_k+1), time as the curve's x (its parameter found by bisection), then y.
 double FileCurve(double x) {
   const double t[] = {0.041666, 0.416667, 0.833333}, v[] = {0, 1, -0.5};
   const double in[] = {-0.291667, -0.888889, 0.291667, 1.07895, 0.694444, 0};
@@ -162,7 +179,8 @@ double FileCurve(double x) {
   if (x >= t[2]) return v[2];
   const int k = x < t[1] ? 0 : 1;
   const auto at = [](double a, double b, double c, double d, double s) {
-    return (1 - s) * (1 - s) * (1 - s) * a + 3 * (1 - s) * (1 - s) * s * b + 3 * (1 - s) * s * s * c + s * s * s * d;
+    return (1 - s) * (1 - s) * (1 - s) * a + 3 * (1 - s) * (1 - s) * s * b +
+           3 * (1 - s) * s * s * c + s * s * s * d;
   };
   double lo = 0, hi = 1;
   for (int i = 0; i < 80; ++i) {
@@ -175,7 +193,8 @@ double FileCurve(double x) {
 TEST(Collada, AnimatedMorphWeightFollowsItsBezierCurve) {
   const Rig rig = Load(Dae("SCEA_animation_morph/animation_morph.dae"));
   ASSERT_EQ(rig.animations.size(), 1u);
-  ASSERT_EQ(rig.shapes.size(), 1u);  // The IDREF array names a second, missing target: the accessor says 1.
+  ASSERT_EQ(rig.shapes.size(),
+            1u);  // The IDREF array names a second, missing target: the accessor says 1.
   const auto weight = [&](double time) {
     Pose pose = RestPose(rig);
     std::vector<float> w;
@@ -188,27 +207,37 @@ TEST(Collada, AnimatedMorphWeightFollowsItsBezierCurve) {
   EXPECT_NEAR(weight(0.041666), 0.0, 1e-6);
   EXPECT_NEAR(weight(0.833333), -0.5, 1e-6);
   double worst = 0;
-  for (double x = 0.0; x <= 0.9; x += 1.0 / 240) worst = std::max(worst, std::fabs(weight(x) - FileCurve(x)));
+  for (double x = 0.0; x <= 0.9; x += 1.0 / 240)
+    worst = std::max(worst, std::fabs(weight(x) - FileCurve(x)));
   EXPECT_LT(worst, 1e-5);
   EXPECT_NEAR(weight(0.229166), FileCurve(0.229166), 1e-5);
-  EXPECT_GT(FileCurve(0.4), 1.0);  // The curve overshoots its key, which no straight line between keys does.
+  EXPECT_GT(FileCurve(0.4),
+            1.0);  // The curve overshoots its key, which no straight line between keys does.
   EXPECT_NEAR(weight(0.4), FileCurve(0.4), 1e-5);
 }
 
 // ---- hostile ----
 
-std::string Doc(const std::string& geometry_body, const std::string& extra = "", const std::string& scene = "") {
-  return "<?xml version=\"1.0\"?><COLLADA version=\"1.4.1\"><library_geometries><geometry id=\"g\"><mesh>"
+std::string Doc(const std::string& geometry_body, const std::string& extra = "",
+                const std::string& scene = "") {
+  return "<?xml version=\"1.0\"?><COLLADA version=\"1.4.1\"><library_geometries><geometry "
+         "id=\"g\"><mesh>"
          "<source id=\"p\"><float_array id=\"pa\" count=\"9\">0 0 0 1 0 0 0 1 0</float_array>"
-         "<technique_common><accessor source=\"#pa\" count=\"3\" stride=\"3\"/></technique_common></source>"
+         "<technique_common><accessor source=\"#pa\" count=\"3\" "
+         "stride=\"3\"/></technique_common></source>"
          "<vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>" +
          geometry_body + "</mesh></geometry></library_geometries>" + extra +
-         "<library_visual_scenes><visual_scene id=\"s\"><node id=\"n\"><instance_geometry url=\"#g\"/></node>" + scene +
-         "</visual_scene></library_visual_scenes><scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>";
+         "<library_visual_scenes><visual_scene id=\"s\"><node id=\"n\"><instance_geometry "
+         "url=\"#g\"/></node>" +
+         scene +
+         "</visual_scene></library_visual_scenes><scene><instance_visual_scene "
+         "url=\"#s\"/></scene></COLLADA>";
 }
 
 Result<Rig> LoadText(const std::string& text) {
-  return LoadColladaMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(text.data()), text.size()), "t");
+  return LoadColladaMemory(std::span<const unsigned char>(
+                               reinterpret_cast<const unsigned char*>(text.data()), text.size()),
+                           "t");
 }
 
 void ExpectError(const std::string& text, const std::string& needle) {
@@ -218,37 +247,60 @@ void ExpectError(const std::string& text, const std::string& needle) {
 }
 
 TEST(ColladaHostile, AWellFormedTriangleLoads) {
-  const Result<Rig> rig = LoadText(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>"));
+  const Result<Rig> rig =
+      LoadText(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" "
+                   "offset=\"0\"/><p>0 1 2</p></triangles>"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   EXPECT_EQ(rig->triangle_count(), 1u);
 }
 
 TEST(ColladaHostile, BrokenFilesNameWhatIsWrong) {
   ExpectError("<COLLADA><library_geometries>", "not well-formed XML");
-  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 99</p></triangles>"),
+  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" "
+                  "offset=\"0\"/><p>0 1 99</p></triangles>"),
               "<geometry id=\"g\">: corner 2 uses vertex 99 of 3");
-  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1</p></triangles>"), "the polygons need");
-  ExpectError(Doc("<polylist count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><vcount>5</vcount><p>0 1 2</p></polylist>"),
+  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" "
+                  "offset=\"0\"/><p>0 1</p></triangles>"),
+              "the polygons need");
+  ExpectError(Doc("<polylist count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" "
+                  "offset=\"0\"/><vcount>5</vcount><p>0 1 2</p></polylist>"),
               "<p> holds 3 indices, the polygons need 5");
-  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 nan</p></triangles>"), "not a number");
-  std::string lying = Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>");
+  ExpectError(Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" "
+                  "offset=\"0\"/><p>0 1 nan</p></triangles>"),
+              "not a number");
+  std::string lying =
+      Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 "
+          "2</p></triangles>");
   lying.replace(lying.find("count=\"3\""), 9, "count=\"30\"");
   ExpectError(lying, "its accessor reads 30 x 3 values of 9");
 }
 
 TEST(ColladaHostile, InstanceNodeCyclesAndBadSkinsAreRefused) {
-  const std::string tri = "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>";
-  ExpectError(Doc(tri, "<library_nodes><node id=\"a\"><instance_node url=\"#b\"/></node><node id=\"b\"><instance_node url=\"#a\"/></node></library_nodes>",
+  const std::string tri =
+      "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 "
+      "2</p></triangles>";
+  ExpectError(Doc(tri,
+                  "<library_nodes><node id=\"a\"><instance_node url=\"#b\"/></node><node "
+                  "id=\"b\"><instance_node url=\"#a\"/></node></library_nodes>",
                   "<node id=\"c\"><instance_node url=\"#a\"/></node>"),
               "nested deeper than 128");
   const std::string skin =
       "<library_controllers><controller id=\"k\"><skin source=\"#g\">"
-      "<source id=\"j\"><Name_array id=\"ja\" count=\"1\">n</Name_array><technique_common><accessor source=\"#ja\" count=\"1\"/></technique_common></source>"
-      "<source id=\"m\"><float_array id=\"ma\" count=\"16\">1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1</float_array><technique_common><accessor source=\"#ma\" count=\"1\" stride=\"16\"/></technique_common></source>"
-      "<source id=\"w\"><float_array id=\"wa\" count=\"1\">1</float_array><technique_common><accessor source=\"#wa\" count=\"1\"/></technique_common></source>"
-      "<joints><input semantic=\"JOINT\" source=\"#j\"/><input semantic=\"INV_BIND_MATRIX\" source=\"#m\"/></joints>"
-      "<vertex_weights count=\"3\"><input semantic=\"JOINT\" source=\"#j\" offset=\"0\"/><input semantic=\"WEIGHT\" source=\"#w\" offset=\"1\"/>"
-      "<vcount>1 1 1</vcount><v>0 0 0 0 JOINT</v></vertex_weights></skin></controller></library_controllers>";
+      "<source id=\"j\"><Name_array id=\"ja\" "
+      "count=\"1\">n</Name_array><technique_common><accessor source=\"#ja\" "
+      "count=\"1\"/></technique_common></source>"
+      "<source id=\"m\"><float_array id=\"ma\" count=\"16\">1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 "
+      "1</float_array><technique_common><accessor source=\"#ma\" count=\"1\" "
+      "stride=\"16\"/></technique_common></source>"
+      "<source id=\"w\"><float_array id=\"wa\" "
+      "count=\"1\">1</float_array><technique_common><accessor source=\"#wa\" "
+      "count=\"1\"/></technique_common></source>"
+      "<joints><input semantic=\"JOINT\" source=\"#j\"/><input semantic=\"INV_BIND_MATRIX\" "
+      "source=\"#m\"/></joints>"
+      "<vertex_weights count=\"3\"><input semantic=\"JOINT\" source=\"#j\" offset=\"0\"/><input "
+      "semantic=\"WEIGHT\" source=\"#w\" offset=\"1\"/>"
+      "<vcount>1 1 1</vcount><v>0 0 0 0 "
+      "JOINT</v></vertex_weights></skin></controller></library_controllers>";
   std::string doc = Doc(tri, skin);
   doc.replace(doc.find("<instance_geometry url=\"#g\"/>"), 29, "<instance_controller url=\"#k\"/>");
   std::string fixed = doc;
@@ -272,11 +324,12 @@ TEST(ColladaHostile, InstanceNodeCyclesAndBadSkinsAreRefused) {
   EXPECT_EQ(rig->skins.size(), 1u);
 }
 
-
 TEST(ColladaHostile, NamesThatAreNotUtf8AreRepairedAndExportable) {
   // A node and a geometry named with stray bytes (Latin-1, a cut sequence): the glb writer's JSON
   // took them as they were and threw (found by fuzz_dae).
-  std::string doc = Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>");
+  std::string doc =
+      Doc("<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 "
+          "2</p></triangles>");
   doc.replace(doc.find("<node id=\"n\">"), 13, "<node id=\"n\" name=\"caf\xE9 \xE2\x82\">");
   doc.replace(doc.find("<geometry id=\"g\">"), 17, "<geometry id=\"g\" name=\"\xFFhead\">");
   const Result<Rig> rig = LoadText(doc);
@@ -307,35 +360,48 @@ TEST(Utf8, RepairReplacesWhatIsNotUtf8AndKeepsWhatIs) {
   };
   std::string ok = "abc \xC3\xA9 \xE3\x81\x82 \xF0\x9F\x98\x80";  // a, é, あ, an emoji
   EXPECT_FALSE(RepairUtf8(ok));
-  EXPECT_EQ(repaired("caf\xE9"), "caf\xEF\xBF\xBD");                       // Latin-1
-  EXPECT_EQ(repaired("\xE3\x81"), "\xEF\xBF\xBD\xEF\xBF\xBD");             // cut short
-  EXPECT_EQ(repaired("\xC0\xAF"), "\xEF\xBF\xBD\xEF\xBF\xBD");             // overlong '/'
-  EXPECT_EQ(repaired("\xED\xA0\x80x"), "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBDx");  // a UTF-16 surrogate
-  EXPECT_EQ(repaired("\xF4\x90\x80\x80"), std::string(4 * 3, ' ').replace(0, 12, "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD"));  // past U+10FFFF
+  EXPECT_EQ(repaired("caf\xE9"), "caf\xEF\xBF\xBD");            // Latin-1
+  EXPECT_EQ(repaired("\xE3\x81"), "\xEF\xBF\xBD\xEF\xBF\xBD");  // cut short
+  EXPECT_EQ(repaired("\xC0\xAF"), "\xEF\xBF\xBD\xEF\xBF\xBD");  // overlong '/'
+  EXPECT_EQ(repaired("\xED\xA0\x80x"),
+            "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBDx");  // a UTF-16 surrogate
+  EXPECT_EQ(
+      repaired("\xF4\x90\x80\x80"),
+      std::string(4 * 3, ' ')
+          .replace(0, 12, "\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD"));  // past U+10FFFF
 }
 
-// A triangle with UVs and a textured material, its image given three ways (COLLADA 1.4's sampler and
-// surface params; 1.5's instance_image; an absolute path on the author's disk), read from the
+// A triangle with UVs and a textured material, its image given three ways (COLLADA 1.4's sampler
+// and surface params; 1.5's instance_image; an absolute path on the author's disk), read from the
 // model's folder; a path out of the folder is not read.
 std::string TexturedDoc(const std::string& image_uri, bool v15) {
-  const std::string sampler = v15 ? "<newparam sid=\"smp\"><sampler2D><instance_image url=\"#img\"/></sampler2D></newparam>"
-                                  : "<newparam sid=\"srf\"><surface type=\"2D\"><init_from>img</init_from></surface></newparam>"
-                                    "<newparam sid=\"smp\"><sampler2D><source>srf</source></sampler2D></newparam>";
-  const std::string extra =
-      "<library_images><image id=\"img\"><init_from>" + std::string(v15 ? "<ref>" : "") + image_uri + (v15 ? "</ref>" : "") +
-      "</init_from></image></library_images>"
-      "<library_effects><effect id=\"fx\"><profile_COMMON>" + sampler +
-      "<technique sid=\"t\"><lambert><diffuse><texture texture=\"smp\" texcoord=\"UV0\"/></diffuse></lambert></technique>"
-      "</profile_COMMON></effect></library_effects>"
-      "<library_materials><material id=\"mat\"><instance_effect url=\"#fx\"/></material></library_materials>";
-  std::string doc = Doc("<source id=\"t\"><float_array id=\"ta\" count=\"6\">0 0 1 0 0 1</float_array>"
-                        "<technique_common><accessor source=\"#ta\" count=\"3\" stride=\"2\"/></technique_common></source>"
-                        "<triangles count=\"1\" material=\"m\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/>"
-                        "<input semantic=\"TEXCOORD\" source=\"#t\" offset=\"0\"/><p>0 1 2</p></triangles>",
-                        extra);
+  const std::string sampler =
+      v15 ? "<newparam sid=\"smp\"><sampler2D><instance_image url=\"#img\"/></sampler2D></newparam>"
+          : "<newparam sid=\"srf\"><surface "
+            "type=\"2D\"><init_from>img</init_from></surface></newparam>"
+            "<newparam sid=\"smp\"><sampler2D><source>srf</source></sampler2D></newparam>";
+  const std::string extra = "<library_images><image id=\"img\"><init_from>" +
+                            std::string(v15 ? "<ref>" : "") + image_uri + (v15 ? "</ref>" : "") +
+                            "</init_from></image></library_images>"
+                            "<library_effects><effect id=\"fx\"><profile_COMMON>" +
+                            sampler +
+                            "<technique sid=\"t\"><lambert><diffuse><texture texture=\"smp\" "
+                            "texcoord=\"UV0\"/></diffuse></lambert></technique>"
+                            "</profile_COMMON></effect></library_effects>"
+                            "<library_materials><material id=\"mat\"><instance_effect "
+                            "url=\"#fx\"/></material></library_materials>";
+  std::string doc =
+      Doc("<source id=\"t\"><float_array id=\"ta\" count=\"6\">0 0 1 0 0 1</float_array>"
+          "<technique_common><accessor source=\"#ta\" count=\"3\" "
+          "stride=\"2\"/></technique_common></source>"
+          "<triangles count=\"1\" material=\"m\"><input semantic=\"VERTEX\" source=\"#v\" "
+          "offset=\"0\"/>"
+          "<input semantic=\"TEXCOORD\" source=\"#t\" offset=\"0\"/><p>0 1 2</p></triangles>",
+          extra);
   const std::string plain = "<instance_geometry url=\"#g\"/>";
   doc.replace(doc.find(plain), plain.size(),
-              "<instance_geometry url=\"#g\"><bind_material><technique_common><instance_material symbol=\"m\" target=\"#mat\"/>"
+              "<instance_geometry url=\"#g\"><bind_material><technique_common><instance_material "
+              "symbol=\"m\" target=\"#mat\"/>"
               "</technique_common></bind_material></instance_geometry>");
   return doc;
 }
@@ -351,10 +417,13 @@ TEST(Collada, DiffuseTexturesAreReadFromTheModelsFolder) {
     bool v15;
     bool read;
   };
-  for (const Case& c : {Case{"tex/Checker.png", false, true}, Case{"./tex/checker.PNG", true, true}, Case{"tex/Checker%2Epng", false, true},
-                        Case{"file:///C:/Users/someone/art/Checker.png", false, false},  // Its file name, not beside the model.
-                        Case{"file:///home/someone/tex/Checker.png", true, false}, Case{"../secret.png", false, false},
-                        Case{"tex/../../secret.png", true, false}}) {
+  for (const Case& c :
+       {Case{"tex/Checker.png", false, true}, Case{"./tex/checker.PNG", true, true},
+        Case{"tex/Checker%2Epng", false, true},
+        Case{"file:///C:/Users/someone/art/Checker.png", false,
+             false},  // Its file name, not beside the model.
+        Case{"file:///home/someone/tex/Checker.png", true, false},
+        Case{"../secret.png", false, false}, Case{"tex/../../secret.png", true, false}}) {
     test::WriteBytes(dir / "model/m.dae", TexturedDoc(c.uri, c.v15));
     const Result<Rig> rig = LoadRigFile(dir / "model/m.dae");
     ASSERT_TRUE(rig.ok()) << c.uri << ": " << rig.status().message;
@@ -369,12 +438,15 @@ TEST(Collada, DiffuseTexturesAreReadFromTheModelsFolder) {
     } else {
       ASSERT_FALSE(rig->load_warnings.empty()) << c.uri;
       EXPECT_EQ(rig->load_warnings[0].code, "texture_not_loaded");
-      EXPECT_NE(rig->load_warnings[0].message.find("no such file in the model's folder"), std::string::npos) << rig->load_warnings[0].message;
+      EXPECT_NE(rig->load_warnings[0].message.find("no such file in the model's folder"),
+                std::string::npos)
+          << rig->load_warnings[0].message;
     }
   }
   // An absolute path on the author's disk: its file name, found beside the model.
   test::WriteBytes(dir / "model/Checker.png", png);
-  test::WriteBytes(dir / "model/m.dae", TexturedDoc("file:///C:/Users/someone/art/Checker.png", false));
+  test::WriteBytes(dir / "model/m.dae",
+                   TexturedDoc("file:///C:/Users/someone/art/Checker.png", false));
   const Result<Rig> beside = LoadRigFile(dir / "model/m.dae");
   ASSERT_TRUE(beside.ok());
   EXPECT_FALSE(beside->images[0].bytes.empty());
@@ -385,5 +457,5 @@ TEST(Collada, DiffuseTexturesAreReadFromTheModelsFolder) {
   EXPECT_NE(bytes->load_warnings[0].message.find("has no folder"), std::string::npos);
 }
 
-}  // namespace
+}  // namespace collada_test
 }  // namespace facespace

@@ -1,5 +1,7 @@
 // MMD's bone constraints (core/constraints.h): grants and IK on small skeletons whose answers
 // follow from geometry, then on Uka (shared/assets/more/MMD) with the motions she is played with.
+#include "facespace/engine/constraints.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -7,7 +9,6 @@
 
 #include "facespace/engine/animation.h"
 #include "facespace/engine/blend.h"
-#include "facespace/engine/constraints.h"
 #include "facespace/engine/pose_request.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
@@ -61,7 +62,8 @@ Rig Arm(bool knee) {
   c.loops = 40;
   c.max_angle = 2.0f;
   IkLink elbow{2, knee, {0, 0, 0}, {0, 0, 0}};
-  if (knee) elbow.lower[0] = 0.5f * kPi / 180, elbow.upper[0] = kPi;  // Bends one way only, about x.
+  if (knee)
+    elbow.lower[0] = 0.5f * kPi / 180, elbow.upper[0] = kPi;  // Bends one way only, about x.
   c.links = {elbow, IkLink{1}};
   rig.constraints.chains = {c};
   rig.constraints.order = {4};
@@ -70,7 +72,9 @@ Rig Arm(bool knee) {
 
 TEST(Ik, TheEffectorReachesAReachableGoal) {
   const Rig rig = Arm(false);
-  for (const Eigen::Vector3f& goal : {Eigen::Vector3f(1.0f, 2.0f, 0.3f), Eigen::Vector3f(0.0f, 1.2f, 1.0f), Eigen::Vector3f(-1.5f, 1.0f, -0.2f)}) {
+  for (const Eigen::Vector3f& goal :
+       {Eigen::Vector3f(1.0f, 2.0f, 0.3f), Eigen::Vector3f(0.0f, 1.2f, 1.0f),
+        Eigen::Vector3f(-1.5f, 1.0f, -0.2f)}) {
     Pose pose = RestPose(rig);
     pose.local[4].translation = {goal.x(), goal.y(), goal.z()};
     SolveBoneConstraints(rig, pose);
@@ -97,13 +101,15 @@ TEST(Ik, AKneeBendsOneWayAboutItsAxisWithinItsLimits) {
   Pose pose = RestPose(rig);
   pose.local[4].translation = {0, 1.0f + 0.6f, 1.2f * std::sqrt(1 - 0.25f)};
   SolveBoneConstraints(rig, pose);
-  const Eigen::Quaternionf knee(pose.local[2].rotation[3], pose.local[2].rotation[0], pose.local[2].rotation[1], pose.local[2].rotation[2]);
+  const Eigen::Quaternionf knee(pose.local[2].rotation[3], pose.local[2].rotation[0],
+                                pose.local[2].rotation[1], pose.local[2].rotation[2]);
   const Eigen::AngleAxisf aa(knee);
   EXPECT_NEAR(std::fabs(aa.axis().x()), 1.0f, 1e-4f);  // About x alone.
   const float bend = aa.axis().x() > 0 ? aa.angle() : -aa.angle();
   EXPECT_GT(bend, 0.5f * kPi / 180 - 1e-6f);
   EXPECT_NEAR(bend, kPi - 2 * std::asin(0.6f), 2e-3f);  // The angle at the knee: pi - 2 asin(0.6).
-  EXPECT_LT((NodePosition(rig, pose, 3) - Eigen::Vector3f(0, 1.6f, 1.2f * std::sqrt(0.75f))).norm(), 2e-3f);
+  EXPECT_LT((NodePosition(rig, pose, 3) - Eigen::Vector3f(0, 1.6f, 1.2f * std::sqrt(0.75f))).norm(),
+            2e-3f);
 }
 
 TEST(Grant, ABoneInheritsAShareOfAnothersRotationAndTranslation) {
@@ -114,11 +120,14 @@ TEST(Grant, ABoneInheritsAShareOfAnothersRotationAndTranslation) {
   Pose pose = RestPose(rig);
   pose.local[1].rotation = AxisAngle(0, 0, 1, 1.0f);
   pose.local[1].translation = {0.4f, 1.0f, 0.0f};  // Moved 0.4 along x from its rest.
-  pose.local[3].rotation = AxisAngle(1, 0, 0, 0.3f);  // b3's own animation stays, the share after it.
+  pose.local[3].rotation =
+      AxisAngle(1, 0, 0, 0.3f);  // b3's own animation stays, the share after it.
   SolveBoneConstraints(rig, pose);
-  const Eigen::Quaternionf want = Eigen::Quaternionf(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitX())) *
-                                  Eigen::Quaternionf(Eigen::AngleAxisf(0.5f, Eigen::Vector3f::UnitZ()));
-  const Eigen::Quaternionf got(pose.local[3].rotation[3], pose.local[3].rotation[0], pose.local[3].rotation[1], pose.local[3].rotation[2]);
+  const Eigen::Quaternionf want =
+      Eigen::Quaternionf(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitX())) *
+      Eigen::Quaternionf(Eigen::AngleAxisf(0.5f, Eigen::Vector3f::UnitZ()));
+  const Eigen::Quaternionf got(pose.local[3].rotation[3], pose.local[3].rotation[0],
+                               pose.local[3].rotation[1], pose.local[3].rotation[2]);
   EXPECT_NEAR(std::fabs(got.dot(want)), 1.0f, 1e-6f);
   EXPECT_NEAR(pose.local[3].translation[0], 0.2f, 1e-6f);
   EXPECT_NEAR(pose.local[3].translation[1], 1.0f, 1e-6f);
@@ -142,8 +151,9 @@ AnimationSampler Key(std::vector<float> values, size_t components) {
   return s;
 }
 
-// Nodes b1, b2 under b0 and a mesh of two shapes; clip 0 (the base) turns b1 by 1 rad and b2 by 0.5 about
-// z and sets shape 0 to 0.2; clip 1 keys b1 at rest, turns b2 by 1.0, keys shape 0 at 0 and shape 1 at 1.
+// Nodes b1, b2 under b0 and a mesh of two shapes; clip 0 (the base) turns b1 by 1 rad and b2 by 0.5
+// about z and sets shape 0 to 0.2; clip 1 keys b1 at rest, turns b2 by 1.0, keys shape 0 at 0 and
+// shape 1 at 1.
 Rig Layered() {
   Rig rig = Chain(2);
   rig.shapes.resize(2);
@@ -158,9 +168,13 @@ Rig Layered() {
   over.name = "over";
   base.duration = over.duration = 2.0f;
   base.sampler_data = {Key(TurnZ(1.0f), 4), Key(TurnZ(0.5f), 4), Key({0.2f, 0.0f}, 2)};
-  base.channel_data = {{0, 1, ChannelPath::kRotation}, {1, 2, ChannelPath::kRotation}, {2, 0, ChannelPath::kWeights}};
+  base.channel_data = {{0, 1, ChannelPath::kRotation},
+                       {1, 2, ChannelPath::kRotation},
+                       {2, 0, ChannelPath::kWeights}};
   over.sampler_data = {Key({0, 0, 0, 1}, 4), Key(TurnZ(1.0f), 4), Key({0.0f, 1.0f}, 2)};
-  over.channel_data = {{0, 1, ChannelPath::kRotation}, {1, 2, ChannelPath::kRotation}, {2, 0, ChannelPath::kWeights}};
+  over.channel_data = {{0, 1, ChannelPath::kRotation},
+                       {1, 2, ChannelPath::kRotation},
+                       {2, 0, ChannelPath::kWeights}};
   rig.animations = {base, over};
   return rig;
 }
@@ -215,7 +229,8 @@ Uka LoadUka() {
   EXPECT_TRUE(rig.ok());
   if (!rig.ok()) return u;
   u.rig = std::move(rig.value());
-  const auto bytes = test::ReadBytes(test::SharedAssets() + "/more/MMD/Uka_upstream/motion/stand.vmd");
+  const auto bytes =
+      test::ReadBytes(test::SharedAssets() + "/more/MMD/Uka_upstream/motion/stand.vmd");
   std::vector<Warning> warnings;
   Result<AnimationInfo> stand = LoadVmdMemory(bytes, u.rig, "stand", &warnings);
   EXPECT_TRUE(stand.ok());
@@ -227,7 +242,8 @@ Uka LoadUka() {
 
 // Width (x) over height (y) of the posed mesh.
 float Aspect(const Rig& rig, const Pose& pose) {
-  const std::vector<float> p = test::WorldOf(rig, std::vector<float>(rig.shapes.size(), 0.0f), &pose);
+  const std::vector<float> p =
+      test::WorldOf(rig, std::vector<float>(rig.shapes.size(), 0.0f), &pose);
   float lo[3] = {1e9f, 1e9f, 1e9f}, hi[3] = {-1e9f, -1e9f, -1e9f};
   for (size_t k = 0; k < p.size(); ++k) {
     lo[k % 3] = std::min(lo[k % 3], p[k]);
@@ -251,7 +267,8 @@ TEST(UkaConstraints, HerIkAndGrantBonesAreRead) {
   const Uka u = LoadUka();
   EXPECT_EQ(u.rig.constraints.chains.size(), 10u);
   EXPECT_EQ(u.rig.constraints.grants.size(), 2u);
-  for (const Warning& w : u.rig.load_warnings) EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
+  for (const Warning& w : u.rig.load_warnings)
+    EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
 }
 
 TEST(UkaConstraints, ThePmdsIkListIsReadWithItsKneesLimited) {
@@ -276,8 +293,8 @@ TEST(UkaConstraints, ThePmdsIkListIsReadWithItsKneesLimited) {
 
 TEST(UkaMorphs, ABoneMorphTurnsHerEarsByItsRotationScaledByItsWeight) {
   // 耳驚き (ears, surprised) is a PMX bone morph (type 2): 8 entries, each turning one ear bone by
-  // about 10 degrees about MMD's x (quaternion (-0.0872, 0, 0, 0.9962) in the file for 左耳1_1, which
-  // our axes read (0.0872, 0, 0, 0.9962)). At weight w a bone turns by w times that angle.
+  // about 10 degrees about MMD's x (quaternion (-0.0872, 0, 0, 0.9962) in the file for 左耳1_1,
+  // which our axes read (0.0872, 0, 0, 0.9962)). At weight w a bone turns by w times that angle.
   const Uka u = LoadUka();
   const int shape = FindShape(u.rig, "耳驚き");
   ASSERT_GE(shape, 0);
@@ -293,13 +310,16 @@ TEST(UkaMorphs, ABoneMorphTurnsHerEarsByItsRotationScaledByItsWeight) {
     bool posed = false;
     std::vector<Warning> warnings;
     const WeightEntry entry{.name = "耳驚き", .value = w};
-    ASSERT_TRUE(ResolvePoseAndWeights(u.rig, std::span(&entry, 1), PoseRequest{}, weights, pose, posed, warnings).ok());
+    ASSERT_TRUE(ResolvePoseAndWeights(u.rig, std::span(&entry, 1), PoseRequest{}, weights, pose,
+                                      posed, warnings)
+                    .ok());
     ASSERT_TRUE(posed) << "weights alone move bones when a bone morph has a weight";
     const auto& q = pose.local[morphs[0].node].rotation;
     EXPECT_NEAR(2 * std::acos(std::min(1.0f, q[3])), w * angle, 1e-4f) << "w=" << w;
     EXPECT_NEAR(q[1], 0.0f, 1e-6f);
     // Her left ear's vertices move; her face does not (the shape has no vertex offsets of its own).
-    const std::vector<float> rest = test::WorldOf(u.rig, std::vector<float>(u.rig.shapes.size(), 0.0f), nullptr);
+    const std::vector<float> rest =
+        test::WorldOf(u.rig, std::vector<float>(u.rig.shapes.size(), 0.0f), nullptr);
     const std::vector<float> moved = test::WorldOf(u.rig, weights, &pose);
     float most = 0.0f;
     for (size_t i = 0; i < rest.size(); ++i) most = std::max(most, std::abs(rest[i] - moved[i]));
@@ -308,7 +328,8 @@ TEST(UkaMorphs, ABoneMorphTurnsHerEarsByItsRotationScaledByItsWeight) {
 }
 
 TEST(UkaConstraints, ThePmdsRotationFollowingEyesAreTheGrantsHerPmxGives) {
-  // PMD bones 34 左目 and 36 右目 are type 9 (回転連動): tail 32 (両目), IK field 7, a ratio of 7/100.
+  // PMD bones 34 左目 and 36 右目 are type 9 (回転連動): tail 32 (両目), IK field 7, a ratio of
+  // 7/100.
   const Result<Rig> pmd = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
   const Uka u = LoadUka();
   ASSERT_TRUE(pmd.ok());
@@ -323,7 +344,8 @@ TEST(UkaConstraints, ThePmdsRotationFollowingEyesAreTheGrantsHerPmxGives) {
     EXPECT_FLOAT_EQ(x.ratio, d.ratio);
     EXPECT_TRUE(d.rotation && !d.translation && !d.local);
   }
-  for (const Warning& w : pmd->load_warnings) EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
+  for (const Warning& w : pmd->load_warnings)
+    EXPECT_NE(w.code, "bone_constraints_skipped") << w.message;
 }
 
 TEST(UkaConstraints, StandingHerSleevesFollowHerArms) {
@@ -334,7 +356,8 @@ TEST(UkaConstraints, StandingHerSleevesFollowHerArms) {
   clip.index = u.stand;
   clip.time = 1.0f;
   request.clips.push_back(clip);
-  // Hands in front, sleeves around the arms: the mesh is narrow (T-pose 0.70, stand.vmd without IK 0.55).
+  // Hands in front, sleeves around the arms: the mesh is narrow (T-pose 0.70, stand.vmd without IK
+  // 0.55).
   EXPECT_LE(Aspect(u.rig, Posed(u.rig, request)), 0.5f);
   Rig unconstrained = u.rig;
   unconstrained.constraints = {};
@@ -355,10 +378,11 @@ TEST(UkaConstraints, AMotionAloneStandsOnTheManifestsBaseMotion) {
   std::vector<float> w;
   EXPECT_LE(Aspect(u.rig, Posed(u.rig, request, &w)), 0.5f);  // Standing, not in the bind T-pose.
   ASSERT_EQ(w.size(), u.rig.shapes.size());
-  EXPECT_FLOAT_EQ(w[FindShape(u.rig, "笑い")], 1.0f);           // And smiling: 笑い is 1 from frame 15 to 285.
-  request.clips[0].over_base = false;                         // Alone: the T-pose.
+  EXPECT_FLOAT_EQ(w[FindShape(u.rig, "笑い")],
+                  1.0f);               // And smiling: 笑い is 1 from frame 15 to 285.
+  request.clips[0].over_base = false;  // Alone: the T-pose.
   EXPECT_GT(Aspect(u.rig, Posed(u.rig, request)), 0.65f);
 }
 
-}  // namespace
+}  // namespace constraints_test
 }  // namespace facespace

@@ -1,17 +1,16 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numeric>
 #include <set>
 #include <sstream>
 
-#include <cmath>
-#include <numeric>
-
-#include "facespace/formats/io.h"
 #include "facespace/engine/variants.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -65,7 +64,11 @@ TEST(Variants, UniformCoversEachRangeEvenly) {
 TEST(Variants, ActiveFixedAndSumCap) {
   const Rig rig = FaceCap();
   const uint32_t blink = FindShape(rig, "eyeBlink_L");
-  SampleSpec spec{.method = SampleMethod::kUniform, .seed = 3, .count = 200, .fixed = {{blink, 0.25f}}, .active = 5,
+  SampleSpec spec{.method = SampleMethod::kUniform,
+                  .seed = 3,
+                  .count = 200,
+                  .fixed = {{blink, 0.25f}},
+                  .active = 5,
                   .sum_at_most_one = true};
   ASSERT_TRUE(ValidateSampleSpec(rig, spec).ok());
   for (size_t i = 0; i < spec.count; ++i) {
@@ -98,7 +101,12 @@ TEST(Variants, GaussianMeanSpreadAndSymmetry) {
   const uint32_t l = FindShape(rig, "mouthSmile_L"), r = FindShape(rig, "mouthSmile_R");
   ASSERT_EQ(rig.shapes[l].partner, static_cast<int>(r));
   std::vector<float> center(rig.shapes.size(), 0.5f);
-  SampleSpec spec{.method = SampleMethod::kGaussian, .seed = 2, .count = 3000, .center = center, .spread = 0.1f, .symmetric = true};
+  SampleSpec spec{.method = SampleMethod::kGaussian,
+                  .seed = 2,
+                  .count = 3000,
+                  .center = center,
+                  .spread = 0.1f,
+                  .symmetric = true};
   double sum = 0, sq = 0;
   for (size_t i = 0; i < spec.count; ++i) {
     const auto w = Sample(rig, spec, i);
@@ -126,7 +134,7 @@ TEST(Variants, GridAlongALineAndOverRanges) {
   EXPECT_FLOAT_EQ(Sample(rig, line, 4)[jaw], 1.0f);
 
   SampleSpec grid{.method = SampleMethod::kGrid, .count = 16, .shapes = {jaw, smile}};
-  ASSERT_EQ(SampleCount(grid, n), 16u);  // 4 x 4
+  ASSERT_EQ(SampleCount(grid, n), 16u);         // 4 x 4
   const auto w = Sample(rig, grid, 1 + 4 * 2);  // Step 1 along jaw, step 2 along smile.
   EXPECT_FLOAT_EQ(w[jaw], 1.0f / 3.0f);
   EXPECT_FLOAT_EQ(w[smile], 2.0f / 3.0f);
@@ -137,7 +145,7 @@ TEST(Variants, GridAlongALineAndOverRanges) {
   EXPECT_EQ(s.fields[0].pointer, "/sample/shapes");
 }
 
-}  // namespace
+}  // namespace face_space_test
 }  // namespace facespace
 
 #include "facespace/engine/shape_tools.h"
@@ -154,7 +162,9 @@ double ShapeDifference(const Rig& rig, int a, int b, double* magnitude) {
       const Primitive& p = rig.primitives[pi];
       std::vector<float> da(p.positions.size(), 0.0f), db(p.positions.size(), 0.0f);
       for (size_t t = 0; t < m.target_shapes.size(); ++t) {
-        std::vector<float>* dst = m.target_shapes[t] == static_cast<uint32_t>(a) ? &da : m.target_shapes[t] == static_cast<uint32_t>(b) ? &db : nullptr;
+        std::vector<float>* dst = m.target_shapes[t] == static_cast<uint32_t>(a)   ? &da
+                                  : m.target_shapes[t] == static_cast<uint32_t>(b) ? &db
+                                                                                   : nullptr;
         if (!dst) continue;
         const SparseTarget& st = p.targets[t];
         for (size_t k = 0; k < st.indices.size(); ++k) {
@@ -165,7 +175,8 @@ double ShapeDifference(const Rig& rig, int a, int b, double* magnitude) {
         const double ea = std::hypot(da[3 * v], da[3 * v + 1], da[3 * v + 2]);
         const double eb = std::hypot(db[3 * v], db[3 * v + 1], db[3 * v + 2]);
         if (ea == 0 && eb == 0) continue;
-        diff += std::hypot(da[3 * v] - db[3 * v], da[3 * v + 1] - db[3 * v + 1], da[3 * v + 2] - db[3 * v + 2]);
+        diff += std::hypot(da[3 * v] - db[3 * v], da[3 * v + 1] - db[3 * v + 1],
+                           da[3 * v + 2] - db[3 * v + 2]);
         mag += eb;
         ++count;
       }
@@ -178,12 +189,15 @@ double ShapeDifference(const Rig& rig, int a, int b, double* magnitude) {
 TEST(ShapeTools, MirrorOfALeftShapeIsItsRightOnFaceCap) {
   Rig rig = FaceCap();
   const int right = FindShape(rig, "mouthSmile_R");
-  auto r = DeriveShape(rig, "mirroredSmile", "mouthSmile_L", {.mirror = true, .axis = 0, .tolerance = 1e-3f});
+  auto r = DeriveShape(rig, "mirroredSmile", "mouthSmile_L",
+                       {.mirror = true, .axis = 0, .tolerance = 1e-3f});
   ASSERT_TRUE(r.ok()) << r.status().message;
   double magnitude = 0;
   const double diff = ShapeDifference(rig, r->shape, right, &magnitude);
-  std::printf("mirror(mouthSmile_L) vs mouthSmile_R: mean difference %.5f, mean displacement %.5f, unmatched %zu\n", diff,
-              magnitude, r->unmatched);
+  std::printf(
+      "mirror(mouthSmile_L) vs mouthSmile_R: mean difference %.5f, mean displacement %.5f, "
+      "unmatched %zu\n",
+      diff, magnitude, r->unmatched);
   EXPECT_LT(diff, 0.01 * magnitude);  // The authored right smile, within 1% (0.08% measured).
   EXPECT_EQ(r->unmatched, 0u);
   EXPECT_EQ(rig.shapes.back().name, "mirroredSmile");
@@ -194,13 +208,18 @@ TEST(ShapeTools, MirrorOfALeftShapeIsItsRightOnFaceCap) {
 TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
   Rig rig = FaceCap();
   const int jaw = FindShape(rig, "jawOpen");
-  auto r = DeriveShape(rig, "jawOpen_left", "jawOpen", {.masked = true, .mask = {.side = 1, .axis = 0, .falloff = 0.0f}});
+  auto r = DeriveShape(rig, "jawOpen_left", "jawOpen",
+                       {.masked = true, .mask = {.side = 1, .axis = 0, .falloff = 0.0f}});
   ASSERT_TRUE(r.ok()) << r.status().message;
   // Every kept vertex is right of the middle plane, with the source delta unchanged.
   size_t kept = 0, source_pos = 0, source_all = 0;
   for (const Mesh& m : rig.meshes) {
-    const auto t_new = std::find(m.target_shapes.begin(), m.target_shapes.end(), static_cast<uint32_t>(r->shape)) - m.target_shapes.begin();
-    const auto t_src = std::find(m.target_shapes.begin(), m.target_shapes.end(), static_cast<uint32_t>(jaw)) - m.target_shapes.begin();
+    const auto t_new =
+        std::find(m.target_shapes.begin(), m.target_shapes.end(), static_cast<uint32_t>(r->shape)) -
+        m.target_shapes.begin();
+    const auto t_src =
+        std::find(m.target_shapes.begin(), m.target_shapes.end(), static_cast<uint32_t>(jaw)) -
+        m.target_shapes.begin();
     if (static_cast<size_t>(t_src) >= m.target_shapes.size()) continue;
     float lo = 1e30f, hi = -1e30f;
     for (int pi : m.primitives) {
@@ -214,12 +233,14 @@ TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
       const Primitive& p = rig.primitives[pi];
       const SparseTarget& a = p.targets[t_new];
       const SparseTarget& s = p.targets[t_src];
-      for (size_t k = 0; k < s.indices.size(); ++k) source_pos += p.positions[3 * s.indices[k]] > mid;
+      for (size_t k = 0; k < s.indices.size(); ++k)
+        source_pos += p.positions[3 * s.indices[k]] > mid;
       source_all += s.indices.size();
       for (size_t k = 0; k < a.indices.size(); ++k) {
         const uint32_t v = a.indices[k];
         ASSERT_GT(p.positions[3 * v], mid);
-        const size_t ks = std::lower_bound(s.indices.begin(), s.indices.end(), v) - s.indices.begin();
+        const size_t ks =
+            std::lower_bound(s.indices.begin(), s.indices.end(), v) - s.indices.begin();
         EXPECT_EQ(a.position_deltas[3 * k + 1], s.position_deltas[3 * ks + 1]);
         ++kept;
       }
@@ -232,7 +253,7 @@ TEST(ShapeTools, MaskKeepsOneSideWithASmoothBand) {
   EXPECT_FALSE(DeriveShape(rig, "jawOpen", "jawOpen", {.mirror = true}).ok());  // Name taken.
 }
 
-}  // namespace
+}  // namespace face_space_test
 }  // namespace facespace
 
 #include "facespace/engine/basis.h"
@@ -262,7 +283,9 @@ TEST(Lod, EveryLodVertexBlendsToTheFullRigsPosition) {
       ASSERT_EQ(src.size() * 3, lod.primitives[p].positions.size());
       for (size_t v = 0; v < src.size(); ++v) {
         for (int c = 0; c < 3; ++c) {
-          ASSERT_EQ(lod.primitives[p].positions[3 * v + c], full.primitives[p].positions[3 * src[v] + c]) << "level " << level;
+          ASSERT_EQ(lod.primitives[p].positions[3 * v + c],
+                    full.primitives[p].positions[3 * src[v] + c])
+              << "level " << level;
         }
       }
     }
@@ -282,7 +305,8 @@ TEST(Basis, ReconstructionStaysWithinTheBound) {
   EXPECT_LE(exact.components, rig.shapes.size());
   // Check the bound independently: rebuild every shape from the basis and compare with the targets.
   std::vector<size_t> first(rig.primitives.size() + 1, 0);
-  for (size_t p = 0; p < rig.primitives.size(); ++p) first[p + 1] = first[p] + rig.primitives[p].vertex_count();
+  for (size_t p = 0; p < rig.primitives.size(); ++p)
+    first[p + 1] = first[p] + rig.primitives[p].vertex_count();
   std::vector<int> row(first.back(), -1);
   for (size_t r = 0; r < a->vertices.size(); ++r) row[a->vertices[r]] = static_cast<int>(r);
   const Eigen::MatrixXf rebuilt = a->components * a->coefficients;
@@ -295,8 +319,10 @@ TEST(Basis, ReconstructionStaysWithinTheBound) {
         for (size_t k = 0; k < st.indices.size(); ++k) {
           const int r = row[first[pi] + st.indices[k]];
           ASSERT_GE(r, 0);
-          Eigen::Vector3d d(st.position_deltas[3 * k], st.position_deltas[3 * k + 1], st.position_deltas[3 * k + 2]);
-          worst = std::max(worst, (d - rebuilt.block<3, 1>(3 * r, m.target_shapes[t]).cast<double>()).norm());
+          Eigen::Vector3d d(st.position_deltas[3 * k], st.position_deltas[3 * k + 1],
+                            st.position_deltas[3 * k + 2]);
+          worst = std::max(
+              worst, (d - rebuilt.block<3, 1>(3 * r, m.target_shapes[t]).cast<double>()).norm());
         }
       }
     }
@@ -316,7 +342,8 @@ TEST(Basis, QuantisationErrorIsHalfAStep) {
   double largest = 0;
   for (const Primitive& p : rig.primitives) {
     for (const SparseTarget& t : p.targets) {
-      for (float d : t.position_deltas) largest = std::max(largest, static_cast<double>(std::fabs(d)));
+      for (float d : t.position_deltas)
+        largest = std::max(largest, static_cast<double>(std::fabs(d)));
     }
   }
   EXPECT_LE(q16.max_error, std::sqrt(3.0) * 0.5 * largest / 32767 * 1.0001);
@@ -329,19 +356,12 @@ TEST(Basis, QuantisationErrorIsHalfAStep) {
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(rig, w, {}, a, ctx).ok());
   ASSERT_TRUE(EvaluateRig(dequantized, w, {}, b, ctx).ok());
-  double diff = 0;
-  for (size_t p = 0; p < a.primitives.size(); ++p) {
-    for (size_t i = 0; i < a.primitives[p].positions.size(); i += 3) {
-      diff = std::max<double>(diff, std::hypot(a.primitives[p].positions[i] - b.primitives[p].positions[i],
-                                       a.primitives[p].positions[i + 1] - b.primitives[p].positions[i + 1],
-                                       a.primitives[p].positions[i + 2] - b.primitives[p].positions[i + 2]));
-    }
-  }
+  const double diff = test::MaxDistance(a, b);
   EXPECT_GT(diff, 0.0);
   EXPECT_LE(diff, 1.5 * q16.max_error + 1e-3);
 }
 
-}  // namespace
+}  // namespace face_space_test
 }  // namespace facespace
 
 #include "facespace/engine/weights.h"
@@ -368,8 +388,13 @@ TEST(Semantics, AManifestMemberOutOfTheSchemaIsRefusedWithTheClosestName) {
 
 TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
   Rig rig = FaceCap();
-  ASSERT_TRUE(ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 0.5}, {"shape": "mouthPucker", "weight": 0.25}]}})").ok());
-  const int jaw = FindShape(rig, "jawOpen"), half = FindShape(rig, "mouthFunnel"), quarter = FindShape(rig, "mouthPucker");
+  ASSERT_TRUE(
+      ApplyManifest(
+          rig,
+          R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 0.5}, {"shape": "mouthPucker", "weight": 0.25}]}})")
+          .ok());
+  const int jaw = FindShape(rig, "jawOpen"), half = FindShape(rig, "mouthFunnel"),
+            quarter = FindShape(rig, "mouthPucker");
   EXPECT_TRUE(rig.shapes[half].driven && rig.shapes[quarter].driven && !rig.shapes[jaw].driven);
   auto e = Effective(rig, {{"jawOpen", 0.125f}});  // Base -> quarter key.
   EXPECT_FLOAT_EQ(e[quarter], 0.5f);
@@ -394,7 +419,8 @@ TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(rig, slider, {}, a, ctx).ok());
   ASSERT_TRUE(EvaluateRig(plain, eff, {}, b, ctx).ok());
-  for (size_t p = 0; p < a.primitives.size(); ++p) EXPECT_EQ(a.primitives[p].positions, b.primitives[p].positions);
+  for (size_t p = 0; p < a.primitives.size(); ++p)
+    EXPECT_EQ(a.primitives[p].positions, b.primitives[p].positions);
   // A weight given for a driven shape is ignored, with a warning.
   slider[half] = 0.3f;
   const WeightReport r = CheckWeights(rig, slider, BlendMode::kRelative);
@@ -405,16 +431,19 @@ TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
 
 TEST(Semantics, CorrectivesFollowProductOrMinimum) {
   Rig rig = FaceCap();
-  ASSERT_TRUE(ApplyManifest(rig, R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L", "eyeBlink_L"]},
-                                                      "cheekSquint_L": {"drivers": ["mouthSmile_L", "eyeBlink_L"], "mode": "min"}}})").ok());
+  ASSERT_TRUE(ApplyManifest(
+                  rig, R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L", "eyeBlink_L"]},
+                                                      "cheekSquint_L": {"drivers": ["mouthSmile_L", "eyeBlink_L"], "mode": "min"}}})")
+                  .ok());
   const auto e = Effective(rig, {{"mouthSmile_L", 0.5f}, {"eyeBlink_L", 0.8f}});
   EXPECT_FLOAT_EQ(e[FindShape(rig, "cheekPuff")], 0.4f);
   EXPECT_FLOAT_EQ(e[FindShape(rig, "cheekSquint_L")], 0.5f);
-  EXPECT_FLOAT_EQ(Effective(rig, {{"mouthSmile_L", 1.0f}})[FindShape(rig, "cheekPuff")], 0.0f);  // One driver alone: no fix.
+  EXPECT_FLOAT_EQ(Effective(rig, {{"mouthSmile_L", 1.0f}})[FindShape(rig, "cheekPuff")],
+                  0.0f);  // One driver alone: no fix.
 }
 
-// The extrapolation warning says where it matters: each vertex takes w_j |d_j(v)| / max |d_j| of every
-// shape moving it (1: one full shape), and the sum carries no float noise.
+// The extrapolation warning says where it matters: each vertex takes w_j |d_j(v)| / max |d_j| of
+// every shape moving it (1: one full shape), and the sum carries no float noise.
 TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
   // Two vertices: A moves v0 by 2 and v1 by 1 (half its largest), B moves v1 by 4.
   Rig two;
@@ -431,11 +460,14 @@ TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
   two.meshes = {Mesh{.name = "m", .primitives = {0}, .target_shapes = {0, 1}}};
   two.shapes = {Shape{.name = "A"}, Shape{.name = "B"}};
   std::vector<uint32_t> stacked;
-  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.8f, 0.5f}, stacked), 0.9);  // v1: 0.8 x 0.5 + 0.5 x 1.
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.8f, 0.5f}, stacked),
+                   0.9);  // v1: 0.8 x 0.5 + 0.5 x 1.
   EXPECT_EQ(stacked, (std::vector<uint32_t>{0, 1}));
-  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{1.0f, 0.2f}, stacked), 1.0);  // v0: A whole.
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{1.0f, 0.2f}, stacked),
+                   1.0);  // v0: A whole.
   EXPECT_EQ(stacked, (std::vector<uint32_t>{0}));
-  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.0f, -1.0f}, stacked), 0.0);  // Negative weights do not stack.
+  EXPECT_DOUBLE_EQ(LargestVertexSum(two, std::vector<float>{0.0f, -1.0f}, stacked),
+                   0.0);  // Negative weights do not stack.
   // Finalized targets carry their move lengths (measured once per rig): the same answers from them.
   for (SparseTarget& t : two.primitives[0].targets) FinalizeTarget(t);
   EXPECT_EQ(two.primitives[0].targets[0].move_lengths, (std::vector<float>{2, 1}));
@@ -450,14 +482,18 @@ TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
   WeightReport r = CheckWeights(rig, w, BlendMode::kRelative);
   EXPECT_EQ(r.sum, 1.9);  // Not 1.9000001.
   ASSERT_FALSE(r.warnings.empty());
-  EXPECT_EQ(r.warnings[0].message.rfind("extrapolation: sum of weights 1.9 exceeds 1", 0), 0u) << r.warnings[0].message;
-  // A symmetric smile sums to 2, but each half moves its own side: no vertex takes more than one full move.
+  EXPECT_EQ(r.warnings[0].message.rfind("extrapolation: sum of weights 1.9 exceeds 1", 0), 0u)
+      << r.warnings[0].message;
+  // A symmetric smile sums to 2, but each half moves its own side: no vertex takes more than one
+  // full move.
   std::fill(w.begin(), w.end(), 0.0f);
   set("mouthSmile_L", 1.0f), set("mouthSmile_R", 1.0f);
   r = CheckWeights(rig, w, BlendMode::kRelative);
   EXPECT_EQ(r.sum, 2.0);
   EXPECT_DOUBLE_EQ(r.vertex_sum, 1.0);
-  EXPECT_NE(r.warnings[0].message.find("no vertex moves more than 1 of a full shape's move"), std::string::npos) << r.warnings[0].message;
+  EXPECT_NE(r.warnings[0].message.find("no vertex moves more than 1 of a full shape's move"),
+            std::string::npos)
+      << r.warnings[0].message;
   // jawOpen and mouthFunnel stack on the lips.
   std::fill(w.begin(), w.end(), 0.0f);
   set("jawOpen", 0.6f), set("mouthFunnel", 0.8f);
@@ -467,12 +503,18 @@ TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
   std::vector<std::string> names;
   for (uint32_t s : r.stacked_shapes) names.push_back(rig.shapes[s].name);
   EXPECT_EQ(names, (std::vector<std::string>{"jawOpen", "mouthFunnel"}));
-  EXPECT_NE(r.warnings[0].message.find("on one vertex jawOpen + mouthFunnel stack to"), std::string::npos) << r.warnings[0].message;
+  EXPECT_NE(r.warnings[0].message.find("on one vertex jawOpen + mouthFunnel stack to"),
+            std::string::npos)
+      << r.warnings[0].message;
 }
 
 TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
   Rig rig = FaceCap();
-  ASSERT_TRUE(ApplyManifest(rig, R"({"statistics": {"mean": {"jawOpen": 0.1}, "stddev": {"jawOpen": 0.2, "mouthSmile_L": 0.5}}})").ok());
+  ASSERT_TRUE(
+      ApplyManifest(
+          rig,
+          R"({"statistics": {"mean": {"jawOpen": 0.1}, "stddev": {"jawOpen": 0.2, "mouthSmile_L": 0.5}}})")
+          .ok());
   std::vector<float> w(rig.shapes.size(), 0.0f);
   w[FindShape(rig, "jawOpen")] = 0.5f;  // (0.5 - 0.1) / 0.2 = 2 sigma.
   WeightReport r = CheckWeights(rig, w, BlendMode::kRelative);
@@ -482,11 +524,16 @@ TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
   r = CheckWeights(rig, w, BlendMode::kRelative);
   EXPECT_NEAR(r.mahalanobis, std::sqrt(13.0), 1e-5);
   bool implausible = false;
-  for (const Warning& x : r.warnings) implausible |= x.code == "implausible" && std::fabs(x.value - std::sqrt(13.0)) < 1e-5;
+  for (const Warning& x : r.warnings)
+    implausible |= x.code == "implausible" && std::fabs(x.value - std::sqrt(13.0)) < 1e-5;
   EXPECT_TRUE(implausible);
   // A rotated component: distance along (1, 1)/sqrt(2).
   Rig other = FaceCap();
-  ASSERT_TRUE(ApplyManifest(other, R"({"statistics": {"components": [{"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 0.5}], "bound": 2}})").ok());
+  ASSERT_TRUE(
+      ApplyManifest(
+          other,
+          R"({"statistics": {"components": [{"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 0.5}], "bound": 2}})")
+          .ok());
   std::vector<float> v(other.shapes.size(), 0.0f);
   v[FindShape(other, "jawOpen")] = 1.0f;
   v[FindShape(other, "mouthSmile_L")] = 1.0f;
@@ -495,7 +542,8 @@ TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
 
 TEST(Semantics, ManifestErrorsNameTheField) {
   Rig rig = FaceCap();
-  Status s = ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 1}]}})");
+  Status s =
+      ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 1}]}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/inbetweens/jawOpen/0/weight");
   rig = FaceCap();
@@ -503,7 +551,9 @@ TEST(Semantics, ManifestErrorsNameTheField) {
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/correctives/cheekPuff/drivers");
   rig = FaceCap();
-  s = ApplyManifest(rig, R"({"statistics": {"components": [{"weights": {"jawOpen": 1}, "stddev": 1}, {"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 1}]}})");
+  s = ApplyManifest(
+      rig,
+      R"({"statistics": {"components": [{"weights": {"jawOpen": 1}, "stddev": 1}, {"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 1}]}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/statistics/components/1/weights");
   rig = FaceCap();
@@ -512,7 +562,7 @@ TEST(Semantics, ManifestErrorsNameTheField) {
   EXPECT_EQ(s.fields[0].pointer, "/derived/x");
 }
 
-}  // namespace
+}  // namespace face_space_test
 }  // namespace facespace
 
 namespace facespace {
@@ -536,25 +586,29 @@ std::map<uint32_t, std::array<float, 3>> ReadTargetFile(const std::string& path)
 }
 
 // MakeHuman's CC0 eyes (a proxy: eyes/high-poly.mhclo places each of its 1,064 vertices on the
-// base mesh's helper eyeballs, vertices 14598-14741, by three weights and an offset): they sit on the
-// helper eyeballs and move exactly as they do. l-eye-trans-up lifts one helper eyeball by 0.061 dm
-// (every one of its 72 vertices): that eye's every vertex rises 6.1 mm at weight 1, the other stays.
+// base mesh's helper eyeballs, vertices 14598-14741, by three weights and an offset): they sit on
+// the helper eyeballs and move exactly as they do. l-eye-trans-up lifts one helper eyeball by 0.061
+// dm (every one of its 72 vertices): that eye's every vertex rises 6.1 mm at weight 1, the other
+// stays.
 TEST(MakeHuman, TheEyeProxySitsOnTheHelperEyeballsAndMovesWithThem) {
   MakeHumanOptions options;
   options.metres = true;
   options.proxies = {kMakeHuman + "/eyes/high-poly.mhclo"};
-  auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", std::vector<std::string>{kMakeHuman + "/targets/eyes"}, options);
+  auto rig = LoadMakeHuman(kMakeHuman + "/base.obj",
+                           std::vector<std::string>{kMakeHuman + "/targets/eyes"}, options);
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   ASSERT_EQ(rig->primitives.size(), 2u);
   const Primitive& eyes = rig->primitives[1];
-  EXPECT_EQ(std::set<uint32_t>(eyes.source_vertices.begin(), eyes.source_vertices.end()).size(), 1064u);
+  EXPECT_EQ(std::set<uint32_t>(eyes.source_vertices.begin(), eyes.source_vertices.end()).size(),
+            1064u);
   ASSERT_GE(eyes.material, 0);
   const Material& m = rig->materials[static_cast<size_t>(eyes.material)];
   EXPECT_EQ(m.name, "Eye_brown");
   EXPECT_EQ(m.alpha_mode, "MASK");
   ASSERT_GE(m.base_color_image, 0);
   EXPECT_EQ(rig->images[static_cast<size_t>(m.base_color_image)].mime_type, "image/png");
-  EXPECT_EQ(rig->images[static_cast<size_t>(m.base_color_image)].bytes.size(), std::filesystem::file_size(kMakeHuman + "/eyes/brown_eye.png"));
+  EXPECT_EQ(rig->images[static_cast<size_t>(m.base_color_image)].bytes.size(),
+            std::filesystem::file_size(kMakeHuman + "/eyes/brown_eye.png"));
 
   // The helper eyeballs from base.obj, in metres.
   std::vector<std::array<float, 3>> helpers;
@@ -575,14 +629,18 @@ TEST(MakeHuman, TheEyeProxySitsOnTheHelperEyeballsAndMovesWithThem) {
   // with a cornea, a little larger: 29.6 mm wide where the helper is 27.6): box centres in x and y
   // within 0.5 mm, widths within 3 mm.
   for (const int side : {-1, 1}) {
-    std::array<float, 2> lo_a{INFINITY, INFINITY}, hi_a{-INFINITY, -INFINITY}, lo_b = lo_a, hi_b = hi_a;
+    std::array<float, 2> lo_a{INFINITY, INFINITY}, hi_a{-INFINITY, -INFINITY}, lo_b = lo_a,
+                                                                               hi_b = hi_a;
     for (size_t v = 0; v < eyes.vertex_count(); ++v) {
       if ((eyes.positions[3 * v] > 0) != (side > 0)) continue;
-      for (int c = 0; c < 2; ++c) lo_a[c] = std::min(lo_a[c], eyes.positions[3 * v + c]), hi_a[c] = std::max(hi_a[c], eyes.positions[3 * v + c]);
+      for (int c = 0; c < 2; ++c)
+        lo_a[c] = std::min(lo_a[c], eyes.positions[3 * v + c]),
+        hi_a[c] = std::max(hi_a[c], eyes.positions[3 * v + c]);
     }
     for (const auto& x : helpers) {
       if ((x[0] > 0) != (side > 0)) continue;
-      for (int c = 0; c < 2; ++c) lo_b[c] = std::min(lo_b[c], x[c]), hi_b[c] = std::max(hi_b[c], x[c]);
+      for (int c = 0; c < 2; ++c)
+        lo_b[c] = std::min(lo_b[c], x[c]), hi_b[c] = std::max(hi_b[c], x[c]);
     }
     for (int c = 0; c < 2; ++c) {
       EXPECT_NEAR(lo_a[c] + hi_a[c], lo_b[c] + hi_b[c], 0.001f) << "side " << side << " axis " << c;
@@ -609,13 +667,15 @@ TEST(MakeHuman, TheEyeProxySitsOnTheHelperEyeballsAndMovesWithThem) {
     const bool lifted = (eyes.positions[3 * v] > 0) == (lifted_side > 0);
     for (int c = 0; c < 3; ++c) {
       const float want = eyes.positions[3 * v + c] + (lifted && c == 1 ? 0.0061f : 0.0f);
-      ASSERT_NEAR(out.primitives[1].positions[3 * v + c], want, 2e-6f) << "vertex " << v << " axis " << c;
+      ASSERT_NEAR(out.primitives[1].positions[3 * v + c], want, 2e-6f)
+          << "vertex " << v << " axis " << c;
     }
   }
 }
 
 TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
-  const std::vector<std::string> dirs = {kMakeHuman + "/targets/nose", kMakeHuman + "/targets/eyes"};
+  const std::vector<std::string> dirs = {kMakeHuman + "/targets/nose",
+                                         kMakeHuman + "/targets/eyes"};
   MakeHumanOptions options;
   options.modifiers = kMakeHuman + "/modifiers/modeling_modifiers.json";
   auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", dirs, options);
@@ -628,7 +688,8 @@ TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
   ASSERT_EQ(p.texcoords.size(), 2 * p.vertex_count());
   EXPECT_EQ(std::set<uint32_t>(p.source_vertices.begin(), p.source_vertices.end()).size(), 13380u);
   EXPECT_GT(p.vertex_count(), 13380u);
-  for (const Warning& w : rig->load_warnings) EXPECT_EQ(w.message.find("texture coordinates"), std::string::npos) << w.message;
+  for (const Warning& w : rig->load_warnings)
+    EXPECT_EQ(w.message.find("texture coordinates"), std::string::npos) << w.message;
   // Each face corner has its own UV: no triangle reaches across the atlas. Had each vertex one UV
   // (its first corner's), triangles along the seams would join islands far apart.
   std::map<uint32_t, uint32_t> first_copy;
@@ -637,9 +698,13 @@ TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
   for (size_t f = 0; f < p.indices.size(); f += 3) {
     for (int e = 0; e < 3; ++e) {
       const uint32_t va = p.indices[f + e], vb = p.indices[f + (e + 1) % 3];
-      auto edge = [&](uint32_t a, uint32_t b) { return std::hypot(p.texcoords[2 * a] - p.texcoords[2 * b], p.texcoords[2 * a + 1] - p.texcoords[2 * b + 1]); };
+      auto edge = [&](uint32_t a, uint32_t b) {
+        return std::hypot(p.texcoords[2 * a] - p.texcoords[2 * b],
+                          p.texcoords[2 * a + 1] - p.texcoords[2 * b + 1]);
+      };
       longest = std::max(longest, edge(va, vb));
-      longest_unsplit = std::max(longest_unsplit, edge(first_copy[p.source_vertices[va]], first_copy[p.source_vertices[vb]]));
+      longest_unsplit = std::max(longest_unsplit, edge(first_copy[p.source_vertices[va]],
+                                                       first_copy[p.source_vertices[vb]]));
     }
   }
   EXPECT_LT(longest, 0.07f);  // hm08: 0.062 of the atlas.
@@ -662,8 +727,10 @@ TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
         auto it = target.find(p.source_vertices[v]);  // Every copy moves as its OBJ vertex.
 
         for (int c = 0; c < 3; ++c) {
-          const float want = p.positions[3 * v + c] + (it == target.end() ? 0.0f : 0.7f * it->second[c]);
-          ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want, 1e-6f) << e.path() << " vertex " << v;
+          const float want =
+              p.positions[3 * v + c] + (it == target.end() ? 0.0f : 0.7f * it->second[c]);
+          ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want, 1e-6f)
+              << e.path() << " vertex " << v;
         }
       }
     }
@@ -671,7 +738,8 @@ TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
   EXPECT_EQ(files, rig->shapes.size());
   // Controls: nose-trans is two-sided; l-/r- eye controls are partners.
   const auto control = [&](const std::string& name) -> const Control* {
-    for (const Control& c : rig->controls) if (c.name == name) return &c;
+    for (const Control& c : rig->controls)
+      if (c.name == name) return &c;
     return nullptr;
   };
   const Control* nose = control("nose/nose-trans-down|up");
@@ -713,7 +781,8 @@ TEST(MakeHuman, BadTargetFilesNameFileAndLine) {
     const char* want;
   } cases[] = {
       {"# ok\n1 0 0 0.1\n2 0 0.1\n", "x.target:3: malformed line"},
-      {"5 0 0 0.1\n13380 0 0 1\n", ""},  // The body ends at 13379, but 13380 is a vertex of the OBJ (helpers): fine.
+      {"5 0 0 0.1\n13380 0 0 1\n",
+       ""},  // The body ends at 13379, but 13380 is a vertex of the OBJ (helpers): fine.
       {"19158 0 0 1\n", "x.target:1: vertex index 19158 is beyond the mesh's 19158 vertices"},
       {"7 0 0 1\n# c\n7 1 0 0\n", "x.target:3: vertex 7 is given twice (first on line 1)"},
       {"7 0 zero 1\n", "x.target:1: malformed line"},
@@ -731,5 +800,5 @@ TEST(MakeHuman, BadTargetFilesNameFileAndLine) {
   }
 }
 
-}  // namespace
+}  // namespace face_space_test
 }  // namespace facespace

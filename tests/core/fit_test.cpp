@@ -1,9 +1,10 @@
+#include "facespace/engine/fit.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "facespace/engine/blend.h"
-#include "facespace/engine/fit.h"
 #include "facespace/engine/transform.h"
 #include "facespace/formats/io.h"
 #include "test_util.h"
@@ -20,13 +21,14 @@ std::vector<std::vector<float>> Blend(const Rig& rig, const std::vector<float>& 
   return t;
 }
 
-// The service's own neutral mesh (world space, float32, as the JSON and OBJ exports write it) fits back to
-// zero weights with a residual of float round-off in the scene's units (micrometres), not FaceCap's mesh
-// units (1.95 mm each, where it read 0.00078 as if in metres).
+// The service's own neutral mesh (world space, float32, as the JSON and OBJ exports write it) fits
+// back to zero weights with a residual of float round-off in the scene's units (micrometres), not
+// FaceCap's mesh units (1.95 mm each, where it read 0.00078 as if in metres).
 TEST(Fit, TheNeutralMeshInWorldSpaceFitsToZeroWithRoundOffAlone) {
   auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok());
-  std::vector<std::vector<float>> target = Blend(rig.value(), std::vector<float>(rig->shapes.size(), 0.0f));
+  std::vector<std::vector<float>> target =
+      Blend(rig.value(), std::vector<float>(rig->shapes.size(), 0.0f));
   const auto world = PrimitiveWorldMatrices(rig.value());
   for (size_t p = 0; p < target.size(); ++p) {
     for (size_t v = 0; v + 2 < target[p].size(); v += 3) {
@@ -39,7 +41,8 @@ TEST(Fit, TheNeutralMeshInWorldSpaceFitsToZeroWithRoundOffAlone) {
   auto fit = FitWeights(rig.value(), target, {});
   ASSERT_TRUE(fit.ok()) << fit.status().message;
   for (float w : fit->weights) EXPECT_EQ(w, 0.0f);
-  EXPECT_LT(fit->rms_error, 1e-5);  // Metres: float32 at 11 m from the origin rounds to about 1 micrometre.
+  EXPECT_LT(fit->rms_error,
+            1e-5);  // Metres: float32 at 11 m from the origin rounds to about 1 micrometre.
   EXPECT_LT(fit->max_error, 1e-5);
 }
 
@@ -59,11 +62,14 @@ TEST(Fit, RecoversKnownWeightsOnFaceCap) {
   EXPECT_LT(fit->max_error, 1e-2);
   // An exact round trip is inside the authored space: round-off (weights like -4.6e-08 for the
   // shapes at 0) is no warning.
-  for (const Warning& warning : fit->warnings) EXPECT_EQ(warning.code, "extrapolation") << warning.message;  // The sum 1.7 is, rightly.
-  for (size_t s = 0; s < w.size(); ++s) EXPECT_GE(fit->weights[s], rig->shapes[s].min) << rig->shapes[s].name;
+  for (const Warning& warning : fit->warnings)
+    EXPECT_EQ(warning.code, "extrapolation") << warning.message;  // The sum 1.7 is, rightly.
+  for (size_t s = 0; s < w.size(); ++s)
+    EXPECT_GE(fit->weights[s], rig->shapes[s].min) << rig->shapes[s].name;
   // And the shapes at 0 come back as 0, not as 1e-7 noise: the answer lists what acts.
   size_t noise = 0;
-  for (size_t s = 0; s < w.size(); ++s) noise += w[s] == 0.0f && fit->weights[s] != 0.0f && rig->shapes[s].vertices_moved > 0;
+  for (size_t s = 0; s < w.size(); ++s)
+    noise += w[s] == 0.0f && fit->weights[s] != 0.0f && rig->shapes[s].vertices_moved > 0;
   EXPECT_LE(noise, 3u);  // At most a few with a real (if small) share of the answer.
   for (size_t s = 0; s < w.size(); ++s) {
     if (fit->weights[s] != 0.0f) {
@@ -79,7 +85,8 @@ TEST(Fit, NoiseAndBounds) {
   auto target = Blend(rig.value(), w);
   std::mt19937 rng(5);
   std::normal_distribution<float> noise(0.0f, 1e-3f);
-  for (auto& p : target) for (float& f : p) f += noise(rng);
+  for (auto& p : target)
+    for (float& f : p) f += noise(rng);
   auto fit = FitWeights(rig.value(), target, {});
   ASSERT_TRUE(fit.ok());
   for (size_t s = 0; s < w.size(); ++s) EXPECT_NEAR(fit->weights[s], w[s], 0.02f) << s;
@@ -97,7 +104,8 @@ TEST(Fit, NoiseAndBounds) {
   EXPECT_GT(bounded->max_error, free_fit->max_error);
   // Sum at most one: two shapes at 0.8 each come back summing to 1.
   std::vector<float> two = {0.8f, 0.8f, 0, 0, 0, 0, 0, 0};
-  auto capped = FitWeights(rig.value(), Blend(rig.value(), two), {.bounded = true, .sum_at_most_one = true});
+  auto capped =
+      FitWeights(rig.value(), Blend(rig.value(), two), {.bounded = true, .sum_at_most_one = true});
   ASSERT_TRUE(capped.ok());
   float sum = 0;
   for (float f : capped->weights) sum += f;
@@ -140,5 +148,5 @@ TEST(Fit, Errors) {
   EXPECT_FALSE(FitWeights(rig.value(), target, {}).ok());
 }
 
-}  // namespace
+}  // namespace fit_test
 }  // namespace facespace

@@ -57,7 +57,8 @@ TEST_P(RealAssets, BlendMatchesRawAccessors) {
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   RawGltf raw(RealAsset(c.path));
   std::vector<float> w(rig->shapes.size());
-  for (size_t j = 0; j < w.size(); ++j) w[j] = 0.3f + 0.1f * static_cast<float>(j % 7) - (j % 5 == 4 ? 0.6f : 0.0f);
+  for (size_t j = 0; j < w.size(); ++j)
+    w[j] = 0.3f + 0.1f * static_cast<float>(j % 7) - (j % 5 == 4 ? 0.6f : 0.0f);
   BlendedRig out;
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
@@ -79,7 +80,8 @@ TEST_P(RealAssets, BlendMatchesRawAccessors) {
         ++prim;
         continue;
       }
-      EXPECT_LE(test::MaxAbsDiff(out.primitives[prim].positions, expected), test::kPositionTol * std::max(extent, 1.0f))
+      EXPECT_LE(test::MaxAbsDiff(out.primitives[prim].positions, expected),
+                test::kPositionTol * std::max(extent, 1.0f))
           << "mesh " << m;
       ++prim;
     }
@@ -87,12 +89,14 @@ TEST_P(RealAssets, BlendMatchesRawAccessors) {
   EXPECT_EQ(prim, out.primitives.size());
 }
 
-INSTANTIATE_TEST_SUITE_P(Import, RealAssets, ::testing::ValuesIn(kAssets), [](const auto& param_info) {
-  std::string n = param_info.param.path;
-  n = n.substr(n.find('/') + 1);
-  for (char& ch : n) if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
-  return n;
-});
+INSTANTIATE_TEST_SUITE_P(Import, RealAssets, ::testing::ValuesIn(kAssets),
+                         [](const auto& param_info) {
+                           std::string n = param_info.param.path;
+                           n = n.substr(n.find('/') + 1);
+                           for (char& ch : n)
+                             if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return n;
+                         });
 
 TEST(Import, FaceCapMatchesDecodedCopy) {
   // facecap.glb (meshopt + int16 quantization, decoded by us) against facecap_decoded.glb
@@ -102,21 +106,24 @@ TEST(Import, FaceCapMatchesDecodedCopy) {
   ASSERT_TRUE(packed.ok()) << packed.status().message;
   ASSERT_TRUE(plain.ok()) << plain.status().message;
   ASSERT_EQ(packed->shapes.size(), plain->shapes.size());
-  for (size_t s = 0; s < packed->shapes.size(); ++s) EXPECT_EQ(packed->shapes[s].name, plain->shapes[s].name);
+  for (size_t s = 0; s < packed->shapes.size(); ++s)
+    EXPECT_EQ(packed->shapes[s].name, plain->shapes[s].name);
   EXPECT_EQ(packed->shapes[24].name, "jawOpen");
   ASSERT_EQ(packed->load_warnings.size(), 1u);
   EXPECT_EQ(packed->load_warnings[0].code, "texture_dropped");
   std::vector<float> w(52, 0.0f);
-  w[24] = 0.8f;   // jawOpen
-  w[37] = 0.5f;   // mouthSmile_L
+  w[24] = 0.8f;  // jawOpen
+  w[37] = 0.5f;  // mouthSmile_L
   BlendedRig a, b;
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(packed.value(), w, {}, a, ctx).ok());
   ASSERT_TRUE(EvaluateRig(plain.value(), w, {}, b, ctx).ok());
   for (size_t p = 0; p < a.primitives.size(); ++p) {
     EXPECT_EQ(packed->primitives[p].indices, plain->primitives[p].indices);
-    EXPECT_LE(test::MaxAbsDiff(a.primitives[p].positions, b.primitives[p].positions), 1e-3f);  // Units of 2^-16.
-    EXPECT_LE(test::MaxAbsDiff(a.primitives[p].normals, b.primitives[p].normals), 2e-2f);       // int8 normals.
+    EXPECT_LE(test::MaxAbsDiff(a.primitives[p].positions, b.primitives[p].positions),
+              1e-3f);  // Units of 2^-16.
+    EXPECT_LE(test::MaxAbsDiff(a.primitives[p].normals, b.primitives[p].normals),
+              2e-2f);  // int8 normals.
   }
   // jawOpen moves the head; the eyes do not have it.
   EXPECT_GT(packed->shapes[24].vertices_moved, 1000u);
@@ -128,7 +135,8 @@ TEST(Import, SparseBaseAccessor) {
   auto rig = LoadGltfFile(RealAsset("SimpleSparseAccessor/SimpleSparseAccessor.gltf"));
   ASSERT_TRUE(rig.ok());
   RawGltf raw(RealAsset("SimpleSparseAccessor/SimpleSparseAccessor.gltf"));
-  const auto expected = raw.Floats(raw.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"]);
+  const auto expected =
+      raw.Floats(raw.json["meshes"][0]["primitives"][0]["attributes"]["POSITION"]);
   EXPECT_EQ(rig->primitives[0].positions, expected);
   // The sparse substitution did change the data of the bufferView underneath.
   RawGltf plain(RealAsset("SimpleSparseAccessor/SimpleSparseAccessor.gltf"));
@@ -181,17 +189,30 @@ std::string Triangle(const std::function<void(nlohmann::json&)>& patch) {
   }
   nlohmann::json j = {
       {"asset", {{"version", "2.0"}}},
-      {"buffers", {{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + enc}}}},
-      {"bufferViews", {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 36}},
-                       {{"buffer", 0}, {"byteOffset", 36}, {"byteLength", 6}},
-                       {{"buffer", 0}, {"byteOffset", 44}, {"byteLength", 36}}}},
-      {"accessors", {{{"bufferView", 0}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
-                      {"min", {0, 0, 0}}, {"max", {1, 1, 0}}},
-                     {{"bufferView", 1}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}},
-                     {{"bufferView", 2}, {"componentType", 5126}, {"count", 3}, {"type", "VEC3"},
-                      {"min", {0, 0, 0}}, {"max", {0, 0, 1}}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"targets", {{{"POSITION", 2}}}}}}},
-                   {"extras", {{"targetNames", {"up"}}}}}}},
+      {"buffers",
+       {{{"byteLength", bin.size()}, {"uri", "data:application/octet-stream;base64," + enc}}}},
+      {"bufferViews",
+       {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", 36}},
+        {{"buffer", 0}, {"byteOffset", 36}, {"byteLength", 6}},
+        {{"buffer", 0}, {"byteOffset", 44}, {"byteLength", 36}}}},
+      {"accessors",
+       {{{"bufferView", 0},
+         {"componentType", 5126},
+         {"count", 3},
+         {"type", "VEC3"},
+         {"min", {0, 0, 0}},
+         {"max", {1, 1, 0}}},
+        {{"bufferView", 1}, {"componentType", 5123}, {"count", 3}, {"type", "SCALAR"}},
+        {{"bufferView", 2},
+         {"componentType", 5126},
+         {"count", 3},
+         {"type", "VEC3"},
+         {"min", {0, 0, 0}},
+         {"max", {0, 0, 1}}}}},
+      {"meshes",
+       {{{"primitives",
+          {{{"attributes", {{"POSITION", 0}}}, {"indices", 1}, {"targets", {{{"POSITION", 2}}}}}}},
+         {"extras", {{"targetNames", {"up"}}}}}}},
       {"nodes", {{{"mesh", 0}}}},
       {"scenes", {{{"nodes", {0}}}}}};
   patch(j);
@@ -212,32 +233,52 @@ TEST(ImportHostile, ClearErrors) {
     const char* needle;
   };
   const Case cases[] = {
-      {"accessor beyond its view", [](auto& j) { j["accessors"][0]["count"] = 4; }, "beyond its bufferView"},
+      {"accessor beyond its view", [](auto& j) { j["accessors"][0]["count"] = 4; },
+       "beyond its bufferView"},
       {"view beyond its buffer", [](auto& j) { j["bufferViews"][0]["byteLength"] = 400; }, ""},
-      {"byteOffset overflow", [](auto& j) { j["accessors"][0]["byteOffset"] = 0x7ffffffffffffff0ll; }, ""},
-      {"index beyond vertex count", [](auto& j) { j["accessors"][0]["count"] = 2; j["accessors"][2]["count"] = 2; }, "beyond vertex count"},
-      {"target with another vertex count", [](auto& j) { j["accessors"][2]["count"] = 2; }, "the base has 3"},
-      {"missing accessor", [](auto& j) { j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 9; }, ""},
+      {"byteOffset overflow",
+       [](auto& j) { j["accessors"][0]["byteOffset"] = 0x7ffffffffffffff0ll; }, ""},
+      {"index beyond vertex count",
+       [](auto& j) {
+         j["accessors"][0]["count"] = 2;
+         j["accessors"][2]["count"] = 2;
+       },
+       "beyond vertex count"},
+      {"target with another vertex count", [](auto& j) { j["accessors"][2]["count"] = 2; },
+       "the base has 3"},
+      {"missing accessor",
+       [](auto& j) { j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 9; }, ""},
       {"missing bufferView", [](auto& j) { j["accessors"][0]["bufferView"] = 7; }, ""},
-      {"child cycle", [](auto& j) { j["nodes"] = {{{"mesh", 0}, {"children", {1}}}, {{"children", {0}}}}; }, ""},
-      {"unsupported required extension", [](auto& j) { j["extensionsRequired"] = {"KHR_draco_mesh_compression"}; j["extensionsUsed"] = {"KHR_draco_mesh_compression"}; }, "KHR_draco_mesh_compression"},
+      {"child cycle",
+       [](auto& j) {
+         j["nodes"] = {{{"mesh", 0}, {"children", {1}}}, {{"children", {0}}}};
+       },
+       ""},
+      {"unsupported required extension",
+       [](auto& j) {
+         j["extensionsRequired"] = {"KHR_draco_mesh_compression"};
+         j["extensionsUsed"] = {"KHR_draco_mesh_compression"};
+       },
+       "KHR_draco_mesh_compression"},
       {"POSITION as VEC2", [](auto& j) { j["accessors"][0]["type"] = "VEC2"; }, ""},
-      {"NaN in data URI count", [](auto& j) { j["accessors"][1]["componentType"] = 5126; }, "unsigned integer"},
+      {"NaN in data URI count", [](auto& j) { j["accessors"][1]["componentType"] = 5126; },
+       "unsigned integer"},
   };
   for (const Case& c : cases) {
     auto rig = LoadText(Triangle(c.patch));
     EXPECT_FALSE(rig.ok()) << c.name;
     if (!rig.ok()) {
       EXPECT_FALSE(rig.status().message.empty()) << c.name;
-      EXPECT_NE(rig.status().message.find(c.needle), std::string::npos) << c.name << ": " << rig.status().message;
+      EXPECT_NE(rig.status().message.find(c.needle), std::string::npos)
+          << c.name << ": " << rig.status().message;
     }
   }
 }
 
 TEST(ImportHostile, TruncatedGlbAtEveryRegion) {
   const auto bytes = test::ReadBytes(RealAsset("FaceCap/facecap.glb"));
-  for (size_t cut : {size_t{0}, size_t{3}, size_t{12}, size_t{19}, size_t{20}, size_t{100}, size_t{5000}, bytes.size() / 2,
-                     bytes.size() - 100, bytes.size() - 1}) {
+  for (size_t cut : {size_t{0}, size_t{3}, size_t{12}, size_t{19}, size_t{20}, size_t{100},
+                     size_t{5000}, bytes.size() / 2, bytes.size() - 100, bytes.size() - 1}) {
     std::vector<unsigned char> part(bytes.begin(), bytes.begin() + cut);
     auto rig = LoadGltfMemory(part, "", {.allow_external_files = false});
     EXPECT_FALSE(rig.ok()) << "cut at " << cut;
@@ -267,5 +308,5 @@ TEST(ImportHostile, GarbageIsNotGltf) {
   EXPECT_EQ(LoadGltfFile("/nonexistent/rig.glb").status().code, StatusCode::kNotFound);
 }
 
-}  // namespace
+}  // namespace import_test
 }  // namespace facespace

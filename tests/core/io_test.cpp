@@ -1,4 +1,6 @@
 // OBJ sequences, manifests and every export format, with round trips.
+#include "facespace/formats/io.h"
+
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -8,11 +10,10 @@
 #include <sstream>
 
 #include "facespace/engine/blend.h"
-#include "facespace/formats/io.h"
-#include "facespace/engine/pose_request.h"
-#include "facespace/engine/weights.h"
-#include "facespace/engine/transform.h"
 #include "facespace/engine/normal_matrix.h"  // Core-internal: the per-vertex reference.
+#include "facespace/engine/pose_request.h"
+#include "facespace/engine/transform.h"
+#include "facespace/engine/weights.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -21,17 +22,24 @@ namespace io_test {  // Named: core_tests is a unity build, its files share one 
 using test::TempDir;
 
 std::string Quad(float lift, bool other_faces = false) {
-  std::string s = "# quad\nv 0 0 0\nv 1 0 0\nv 1 1 " + std::to_string(lift) + "\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
+  std::string s = "# quad\nv 0 0 0\nv 1 0 0\nv 1 1 " + std::to_string(lift) +
+                  "\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n";
   s += other_faces ? "f 1/1 2/2 4/4\nf 2/2 3/3 4/4\n" : "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n";
   return s;
 }
 
+// A base and one shape as OBJ files {name, text} in `dir`, loaded as a sequence.
+Result<Rig> LoadTwoObjs(const TempDir& dir, const std::pair<std::string, std::string>& base,
+                        const std::pair<std::string, std::string>& shape) {
+  test::WriteBytes(dir / base.first, base.second);
+  test::WriteBytes(dir / shape.first, shape.second);
+  const std::vector<std::string> paths = {dir / base.first, dir / shape.first};
+  return LoadObjSequence(paths);
+}
+
 TEST(ObjSequence, ShapesAreRelativeAndSparse) {
   TempDir dir;
-  test::WriteBytes(dir / "base.obj", Quad(0));
-  test::WriteBytes(dir / "up.obj", Quad(2));
-  std::vector<std::string> paths = {dir / "base.obj", dir / "up.obj"};
-  auto rig = LoadObjSequence(paths);
+  auto rig = LoadTwoObjs(dir, {"base.obj", Quad(0)}, {"up.obj", Quad(2)});
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   ASSERT_EQ(rig->shapes.size(), 1u);
   EXPECT_EQ(rig->shapes[0].name, "up");
@@ -48,17 +56,15 @@ TEST(ObjSequence, ShapesAreRelativeAndSparse) {
 // Two quads folded along the edge v3-v4, whose corners have other UVs in each quad (a UV seam):
 // v3 and v4 are split in two; "lift" raises v3 and v4 by 1 in z.
 std::string Fold(float lift) {
-  return "v 0 0 0\nv 1 0 0\nv 1 1 " + std::to_string(lift) + "\nv 0 1 " + std::to_string(lift) + "\nv 1 2 1\nv 0 2 1\n" +
+  return "v 0 0 0\nv 1 0 0\nv 1 1 " + std::to_string(lift) + "\nv 0 1 " + std::to_string(lift) +
+         "\nv 1 2 1\nv 0 2 1\n" +
          "vt 0 0\nvt 0.5 0\nvt 0.5 0.5\nvt 0 0.5\nvt 0.6 0.5\nvt 0.9 0.5\nvt 0.9 1\nvt 0.6 1\n"
          "f 1/1 2/2 3/3 4/4\nf 4/5 3/6 5/7 6/8\n";
 }
 
 TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
   TempDir dir;
-  test::WriteBytes(dir / "fold.obj", Fold(0));
-  test::WriteBytes(dir / "lift.obj", Fold(1));
-  std::vector<std::string> paths = {dir / "fold.obj", dir / "lift.obj"};
-  auto rig = LoadObjSequence(paths);
+  auto rig = LoadTwoObjs(dir, {"fold.obj", Fold(0)}, {"lift.obj", Fold(1)});
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   EXPECT_TRUE(rig->load_warnings.empty());
   const Primitive& p = rig->primitives[0];
@@ -67,7 +73,7 @@ TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
   ASSERT_EQ(p.texcoords.size(), 16u);
   EXPECT_FLOAT_EQ(p.texcoords[2 * 2], 0.5f);  // v3 in the first quad: vt 3 (0.5, 0.5), v flipped.
   EXPECT_FLOAT_EQ(p.texcoords[2 * 2 + 1], 0.5f);
-  EXPECT_FLOAT_EQ(p.texcoords[2 * 3], 0.9f);  // v3 in the second quad: vt 6 (0.9, 0.5).
+  EXPECT_FLOAT_EQ(p.texcoords[2 * 3], 0.9f);      // v3 in the second quad: vt 6 (0.9, 0.5).
   EXPECT_FLOAT_EQ(p.texcoords[2 * 5 + 1], 0.5f);  // v4 in the second: vt 5 (0.6, 0.5).
   // The target moves both copies.
   EXPECT_EQ(p.targets[0].indices, (std::vector<uint32_t>{2, 3, 4, 5}));
@@ -91,12 +97,15 @@ TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
   EXPECT_FLOAT_EQ(out.primitives[0].positions[3 * 3 + 2], 0.5f);
   auto glb = ExportMesh(rig.value(), out, w, {}, MeshFormat::kGlb, {.keep_targets = true});
   ASSERT_TRUE(glb.ok());
-  auto back = LoadGltfMemory(std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(glb->data()), glb->size()), "", {});
+  auto back = LoadGltfMemory(std::span<const unsigned char>(
+                                 reinterpret_cast<const unsigned char*>(glb->data()), glb->size()),
+                             "", {});
   ASSERT_TRUE(back.ok()) << back.status().message;
   EXPECT_EQ(back->primitives[0].source_vertices, p.source_vertices);
   BlendedRig out2;
   ASSERT_TRUE(EvaluateRig(back.value(), w, options, out2, ctx).ok());
-  for (size_t k = 0; k < out.primitives[0].normals.size(); ++k) EXPECT_NEAR(out2.primitives[0].normals[k], out.primitives[0].normals[k], 1e-6f) << k;
+  for (size_t k = 0; k < out.primitives[0].normals.size(); ++k)
+    EXPECT_NEAR(out2.primitives[0].normals[k], out.primitives[0].normals[k], 1e-6f) << k;
   // OBJ out is welded again: the source's 6 `v`, 8 `vt`/`vn`, faces naming both.
   auto obj = ExportMesh(rig.value(), out, w, {}, MeshFormat::kObj);
   ASSERT_TRUE(obj.ok());
@@ -111,12 +120,17 @@ TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
   EXPECT_EQ(vs, 6u);
   EXPECT_EQ(vts, 8u);
   ASSERT_EQ(faces.size(), 4u);
-  EXPECT_EQ(faces[2], "f 4/6/6 3/4/4 5/7/7");  // The second quad's first triangle: v4 and v3 by their second copies.
+  EXPECT_EQ(faces[2], "f 4/6/6 3/4/4 5/7/7");  // The second quad's first triangle: v4 and v3 by
+                                               // their second copies.
   // A manifest's mask names vertices as the source numbers them: vertex 3 (v4) is both copies.
-  ASSERT_TRUE(ApplyManifest(rig.value(), R"({"derived": {"lift_v4": {"from": "lift", "mask": {"vertices": [3]}}}})").ok());
+  ASSERT_TRUE(
+      ApplyManifest(rig.value(),
+                    R"({"derived": {"lift_v4": {"from": "lift", "mask": {"vertices": [3]}}}})")
+          .ok());
   const int derived = FindShape(rig.value(), "lift_v4");
   ASSERT_GE(derived, 0);
-  EXPECT_EQ(rig->primitives[0].targets[static_cast<size_t>(derived)].indices, (std::vector<uint32_t>{4, 5}));
+  EXPECT_EQ(rig->primitives[0].targets[static_cast<size_t>(derived)].indices,
+            (std::vector<uint32_t>{4, 5}));
 }
 
 TEST(ObjSequence, ReportsFirstDifferingFace) {
@@ -147,7 +161,9 @@ TEST(ObjSequence, IctFaceKitFrames) {
   }
   std::sort(paths.begin(), paths.end());
   ASSERT_GE(paths.size(), 3u);
-  auto neutral = std::find_if(paths.begin(), paths.end(), [](const std::string& p) { return p.find("neutral") != std::string::npos; });
+  auto neutral = std::find_if(paths.begin(), paths.end(), [](const std::string& p) {
+    return p.find("neutral") != std::string::npos;
+  });
   ASSERT_NE(neutral, paths.end());
   std::iter_swap(paths.begin(), neutral);
   auto rig = LoadObjSequence(paths);
@@ -178,7 +194,10 @@ TEST(ObjSequence, IctFaceKitFrames) {
     BlendContext ctx;
     ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
     for (size_t v = 0; v < p.vertex_count(); ++v) {
-      for (int c = 0; c < 3; ++c) ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want[3 * p.source_vertices[v] + c], 2e-6f) << s << " " << v;
+      for (int c = 0; c < 3; ++c)
+        ASSERT_NEAR(out.primitives[0].positions[3 * v + c], want[3 * p.source_vertices[v] + c],
+                    2e-6f)
+            << s << " " << v;
     }
   }
   for (const Shape& s : rig->shapes) {
@@ -193,7 +212,8 @@ TEST(ObjSequence, IctFaceKitFrames) {
 }
 
 TEST(Manifest, AppliesAndRejects) {
-  auto rig = LoadGltfFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"), {.read_manifest = false});
+  auto rig = LoadGltfFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
+                          {.read_manifest = false});
   ASSERT_TRUE(rig.ok());
   const std::string good = R"({"name": "Stress", "groups": {"identity": ["Key 1", "Key 2"]},
     "shapes": {"Key 3": {"group": "expression", "min": -1, "max": 2, "default": 0.5, "aliases": ["k3"], "partner": "Key 4"},
@@ -234,12 +254,16 @@ TEST(MeshoptOut, CompressedGlbIsSmallerAndTheSameRig) {
   ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
   auto plain = ExportMesh(rig.value(), out, w, {}, MeshFormat::kGlb, {.keep_targets = true});
   ASSERT_TRUE(plain.ok());
-  const auto bytes = [](const std::string& s) { return std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(s.data()), s.size()); };
+  const auto bytes = [](const std::string& s) {
+    return std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(s.data()),
+                                          s.size());
+  };
   auto packed = EncodeMeshoptGlb(bytes(plain.value()));
   ASSERT_TRUE(packed.ok()) << packed.status().message;
   EXPECT_LT(packed->size(), plain->size() * 2 / 3) << plain->size();
   const std::string packed_text(packed->begin(), packed->end());
-  EXPECT_NE(packed_text.find("\"extensionsRequired\":[\"EXT_meshopt_compression\"]"), std::string::npos);
+  EXPECT_NE(packed_text.find("\"extensionsRequired\":[\"EXT_meshopt_compression\"]"),
+            std::string::npos);
   auto a = LoadGltfMemory(bytes(plain.value()), "", {});
   auto b = LoadGltfMemory(packed.value(), "", {});
   ASSERT_TRUE(a.ok() && b.ok()) << b.status().message;
@@ -249,8 +273,11 @@ TEST(MeshoptOut, CompressedGlbIsSmallerAndTheSameRig) {
     EXPECT_EQ(a->primitives[p].indices, b->primitives[p].indices) << p;
     ASSERT_EQ(a->primitives[p].targets.size(), b->primitives[p].targets.size());
     for (size_t k = 0; k < a->primitives[p].targets.size(); ++k) {
-      EXPECT_EQ(a->primitives[p].targets[k].indices, b->primitives[p].targets[k].indices) << p << " " << k;
-      EXPECT_EQ(a->primitives[p].targets[k].position_deltas, b->primitives[p].targets[k].position_deltas) << p << " " << k;
+      EXPECT_EQ(a->primitives[p].targets[k].indices, b->primitives[p].targets[k].indices)
+          << p << " " << k;
+      EXPECT_EQ(a->primitives[p].targets[k].position_deltas,
+                b->primitives[p].targets[k].position_deltas)
+          << p << " " << k;
     }
   }
   // Compressing again changes nothing (the extension is there already).
@@ -262,7 +289,8 @@ TEST(MeshoptOut, CompressedGlbIsSmallerAndTheSameRig) {
 TEST(Manifest, BundledFaceCap) {
   auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
-  EXPECT_EQ(rig->shapes[FindShape(rig.value(), "jawOpen")].group, "jaw");  // Grouped by face region.
+  EXPECT_EQ(rig->shapes[FindShape(rig.value(), "jawOpen")].group,
+            "jaw");  // Grouped by face region.
   EXPECT_EQ(rig->shapes[FindShape(rig.value(), "browInnerUp")].group, "brow");
   EXPECT_NE(rig->credit.find("Face Cap model by Bannaflak"), std::string::npos);
   EXPECT_EQ(FindShape(rig.value(), "mouthSmileLeft"), FindShape(rig.value(), "mouthSmile_L"));
@@ -283,7 +311,8 @@ Evaluated Evaluate(const std::string& path, std::vector<float> w) {
 }
 
 TEST(Export, JsonShapeAndDeterminism) {
-  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"), {0.5f, 0, 0, 0, 0, 0, 0, 0.25f});
+  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
+                    {0.5f, 0, 0, 0, 0, 0, 0, 0.25f});
   std::vector<Warning> warn = {{"extrapolation", "x", "", 1.5, true}};
   auto a = ExportMesh(e.rig, e.blended, e.weights, warn, MeshFormat::kJson);
   auto b = ExportMesh(e.rig, e.blended, e.weights, warn, MeshFormat::kJson);
@@ -299,7 +328,8 @@ TEST(Export, JsonShapeAndDeterminism) {
   EXPECT_EQ(j["warnings"][0]["value"], 1.5);
   // Floats survive the text exactly.
   for (size_t i = 0; i < 30; ++i) {
-    EXPECT_EQ(j["primitives"][0]["positions"][i].get<float>(), e.blended.primitives[0].positions[i]);
+    EXPECT_EQ(j["primitives"][0]["positions"][i].get<float>(),
+              e.blended.primitives[0].positions[i]);
   }
 }
 
@@ -327,17 +357,21 @@ TEST(Export, GlbRoundTripKeepsBlendHierarchyAndMaterials) {
 // Every map of a metallic-roughness material is read and written back (MorphStressTest's
 // material with each map pointed at its base colour image).
 TEST(Export, GlbKeepsEveryMaterialMap) {
-  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"), std::vector<float>(8, 0.0f));
+  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
+                    std::vector<float>(8, 0.0f));
   ASSERT_FALSE(e.rig.materials.empty());
   Material& m = e.rig.materials[0];
   // Its occlusion map is on TEXCOORD_1, which is not kept: said, not silent.
   EXPECT_EQ(m.occlusion_image, -1);
-  const auto dropped = std::find_if(e.rig.load_warnings.begin(), e.rig.load_warnings.end(),
-                                    [](const Warning& w) { return w.code == "material_map_dropped"; });
+  const auto dropped =
+      std::find_if(e.rig.load_warnings.begin(), e.rig.load_warnings.end(),
+                   [](const Warning& w) { return w.code == "material_map_dropped"; });
   ASSERT_NE(dropped, e.rig.load_warnings.end());
-  EXPECT_NE(dropped->message.find("occlusion map is on TEXCOORD_1"), std::string::npos) << dropped->message;
+  EXPECT_NE(dropped->message.find("occlusion map is on TEXCOORD_1"), std::string::npos)
+      << dropped->message;
   ASSERT_GE(m.base_color_image, 0);
-  m.normal_image = m.metallic_roughness_image = m.emissive_image = m.occlusion_image = m.base_color_image;
+  m.normal_image = m.metallic_roughness_image = m.emissive_image = m.occlusion_image =
+      m.base_color_image;
   m.normal_scale = 0.75f;
   m.occlusion_strength = 0.5f;
   m.emissive_factor = {0.25f, 0.5f, 1.0f};
@@ -348,7 +382,8 @@ TEST(Export, GlbKeepsEveryMaterialMap) {
   ASSERT_TRUE(back.ok()) << back.status().message;
   const Material& b = back->materials[0];
   ASSERT_GE(b.normal_image, 0);
-  EXPECT_EQ(back->images[static_cast<size_t>(b.normal_image)].bytes, e.rig.images[static_cast<size_t>(m.normal_image)].bytes);
+  EXPECT_EQ(back->images[static_cast<size_t>(b.normal_image)].bytes,
+            e.rig.images[static_cast<size_t>(m.normal_image)].bytes);
   EXPECT_EQ(b.metallic_roughness_image, b.normal_image);
   EXPECT_EQ(b.emissive_image, b.normal_image);
   EXPECT_EQ(b.occlusion_image, b.normal_image);
@@ -362,7 +397,8 @@ TEST(Export, GlbKeepsEveryMaterialMap) {
 }
 
 TEST(Export, GlbWithTargetsReblendsTheSame) {
-  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"), {0.5f, 0, 0.3f, 0, 0, 0, 0, 0.25f});
+  auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
+                    {0.5f, 0, 0.3f, 0, 0, 0, 0, 0.25f});
   auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kGlb, {.keep_targets = true});
   ASSERT_TRUE(glb.ok());
   std::vector<unsigned char> bytes(glb->begin(), glb->end());
@@ -377,7 +413,8 @@ TEST(Export, GlbWithTargetsReblendsTheSame) {
   ASSERT_TRUE(EvaluateRig(back.value(), e.weights, {}, again, ctx).ok());
   for (size_t p = 0; p < again.primitives.size(); ++p) {
     EXPECT_EQ(again.primitives[p].positions, e.blended.primitives[p].positions);
-    EXPECT_EQ(back->primitives[p].targets[0].indices, e.rig.primitives[p].targets[0].indices) << "sparse kept sparse";
+    EXPECT_EQ(back->primitives[p].targets[0].indices, e.rig.primitives[p].targets[0].indices)
+        << "sparse kept sparse";
   }
 }
 
@@ -400,7 +437,8 @@ TEST(Export, ObjAndF32InWorldSpace) {
   EXPECT_FLOAT_EQ(z, first[2]);
   EXPECT_LT(std::fabs(first[0]) + std::fabs(first[1]) + std::fabs(first[2]), 100.0f);
   size_t faces = 0;
-  for (size_t at = obj->find("\nf "); at != std::string::npos; at = obj->find("\nf ", at + 1)) ++faces;
+  for (size_t at = obj->find("\nf "); at != std::string::npos; at = obj->find("\nf ", at + 1))
+    ++faces;
   EXPECT_EQ(faces, e.rig.triangle_count());
   // OBJ round trip through our own reader: same vertex count and triangles.
   TempDir dir;
@@ -421,7 +459,8 @@ TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
     BlendedRig blended;
     blended.primitives.resize(1);
     BlendedPrimitive& b = blended.primitives[0];
-    b.world = {0.0f, -2.5f, 0.0f, 0, 0.3f, 0.0f, 0.1f, 0, 0.0f, 0.2f, -1.7f, 0, 4.0f, -5.0f, 6.5f, 1};
+    b.world = {0.0f, -2.5f, 0.0f,  0, 0.3f, 0.0f,  0.1f, 0,
+               0.0f, 0.2f,  -1.7f, 0, 4.0f, -5.0f, 6.5f, 1};
     uint32_t state = 7;
     auto next = [&state] {
       state = state * 1664525u + 1013904223u;
@@ -452,7 +491,8 @@ TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
 // length, then placed): bit for bit Normalize3 then Apply for the marked normals and Apply alone
 // for the rest, four at a time and in the tail, with zero, tiny, huge and NaN normals among them.
 TEST(Export, UnitFirstNormalsAreNormalize3ThenApply) {
-  const float m[16] = {0.0f, -2.5f, 0.0f, 0, 0.3f, 0.0f, 0.1f, 0, 0.0f, 0.2f, -1.7f, 0, 4.0f, -5.0f, 6.5f, 1};
+  const float m[16] = {0.0f, -2.5f, 0.0f,  0, 0.3f, 0.0f,  0.1f, 0,
+                       0.0f, 0.2f,  -1.7f, 0, 4.0f, -5.0f, 6.5f, 1};
   const NormalMatrix nm(m, 4);
   uint32_t state = 3;
   auto next = [&state] {
@@ -461,14 +501,16 @@ TEST(Export, UnitFirstNormalsAreNormalize3ThenApply) {
   };
   for (size_t count : {1u, 7u, 61u, 64u}) {
     std::vector<float> n(3 * count);
-    for (float& f : n) f = static_cast<float>(next() >> 8) / 4194304.0f - 2.0f;  // [-2, 2): rarely unit length.
+    for (float& f : n)
+      f = static_cast<float>(next() >> 8) / 4194304.0f - 2.0f;  // [-2, 2): rarely unit length.
     if (count > 4) {
-      std::fill(n.begin() + 3, n.begin() + 6, 0.0f);                       // zero: kept
-      std::fill(n.begin() + 6, n.begin() + 9, 1e-31f);                     // length under 1e-30: kept
-      n[9] = std::numeric_limits<float>::quiet_NaN();                      // NaN: kept by both
-      std::fill(n.begin() + 12, n.begin() + 15, 3e18f);                    // huge
+      std::fill(n.begin() + 3, n.begin() + 6, 0.0f);     // zero: kept
+      std::fill(n.begin() + 6, n.begin() + 9, 1e-31f);   // length under 1e-30: kept
+      n[9] = std::numeric_limits<float>::quiet_NaN();    // NaN: kept by both
+      std::fill(n.begin() + 12, n.begin() + 15, 3e18f);  // huge
     }
-    const uint64_t bits = (uint64_t{next()} << 32 | next()) | 0x1e;  // The odd normals are all marked.
+    const uint64_t bits =
+        (uint64_t{next()} << 32 | next()) | 0x1e;  // The odd normals are all marked.
     std::vector<float> got(3 * count), want(3 * count);
     nm.ApplyMany(n.data(), count, got.data(), bits);
     int unit = 0;
@@ -480,8 +522,10 @@ TEST(Export, UnitFirstNormalsAreNormalize3ThenApply) {
       }
       nm.Apply(t, &want[3 * v]);
     }
-    EXPECT_EQ(std::memcmp(got.data(), want.data(), got.size() * 4), 0) << count << " normals, " << unit << " marked";
-    // And the marks matter: without them the bits differ wherever a marked normal is not unit length.
+    EXPECT_EQ(std::memcmp(got.data(), want.data(), got.size() * 4), 0)
+        << count << " normals, " << unit << " marked";
+    // And the marks matter: without them the bits differ wherever a marked normal is not unit
+    // length.
     std::vector<float> plain(3 * count);
     nm.ApplyMany(n.data(), count, plain.data());
     if (count > 4) {
@@ -502,7 +546,8 @@ TEST(F32Writer, WritesExportMeshBytes) {
   };
   int points = 0, written = 0;
   for (const char* asset : {"FaceCap/facecap_decoded.glb", "MorphStressTest/MorphStressTest.gltf",
-                            "MorphPrimitivesTest/MorphPrimitivesTest.gltf", "AnimatedMorphSphere/AnimatedMorphSphere.gltf"}) {
+                            "MorphPrimitivesTest/MorphPrimitivesTest.gltf",
+                            "AnimatedMorphSphere/AnimatedMorphSphere.gltf"}) {
     auto rig = LoadRigFile(test::RealAsset(asset));
     ASSERT_TRUE(rig.ok()) << asset << ": " << rig.status().message;
     ASSERT_TRUE(SparseBlend::Serves(rig.value(), {})) << asset;
@@ -516,10 +561,13 @@ TEST(F32Writer, WritesExportMeshBytes) {
       for (int point = 0; point < 12; ++point) {
         if (point > 0) {
           std::fill(w.begin(), w.end(), 0.0f);
-          for (int k = 0; k < 1 + point % 5; ++k) w[static_cast<size_t>(next() * 1000) % w.size()] = point % 4 == 3 ? 1.0f - 2.0f * next() : 0.5f * next();
+          for (int k = 0; k < 1 + point % 5; ++k)
+            w[static_cast<size_t>(next() * 1000) % w.size()] =
+                point % 4 == 3 ? 1.0f - 2.0f * next() : 0.5f * next();
         }
         ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, blended, ctx).ok());
-        auto want = ExportMesh(rig.value(), blended, w, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+        auto want =
+            ExportMesh(rig.value(), blended, w, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
         ASSERT_TRUE(want.ok());
         // Served unless an active target has no normal deltas (MorphPrimitivesTest's have none).
         bool recomputed = false;
@@ -527,7 +575,8 @@ TEST(F32Writer, WritesExportMeshBytes) {
           for (int pi : m.primitives) {
             const Primitive& p = rig->primitives[pi];
             for (size_t t = 0; t < p.targets.size(); ++t) {
-              recomputed |= w[m.target_shapes[t]] != 0.0f && p.targets[t].normal_deltas.size() != 3 * p.targets[t].indices.size();
+              recomputed |= w[m.target_shapes[t]] != 0.0f &&
+                            p.targets[t].normal_deltas.size() != 3 * p.targets[t].indices.size();
             }
           }
         }
@@ -539,16 +588,20 @@ TEST(F32Writer, WritesExportMeshBytes) {
         EXPECT_FALSE(recomputed) << asset << " point " << point;
         ++written;
         ASSERT_EQ(body.size(), want->size());
-        EXPECT_EQ(std::memcmp(body.data(), want->data(), body.size()), 0) << asset << " point " << point << (mesh_space ? " mesh" : " world");
+        EXPECT_EQ(std::memcmp(body.data(), want->data(), body.size()), 0)
+            << asset << " point " << point << (mesh_space ? " mesh" : " world");
       }
-      // The body is written over whole: the rest again, into the last point's body, is the rest's bytes.
+      // The body is written over whole: the rest again, into the last point's body, is the rest's
+      // bytes.
       const std::vector<float> zero(w.size(), 0.0f);
       ASSERT_TRUE(EvaluateRig(rig.value(), zero, {}, blended, ctx).ok());
-      auto rest = ExportMesh(rig.value(), blended, zero, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+      auto rest =
+          ExportMesh(rig.value(), blended, zero, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
       ASSERT_TRUE(rest.ok());
       ASSERT_TRUE(writer.Write(rig.value(), zero, scratch, body));
       EXPECT_TRUE(body == rest.value()) << asset << " at rest after a point";
-      EXPECT_FALSE(writer.Write(rig.value(), std::vector<float>(w.size() + 1, 0.0f), scratch, body)) << "weights of another rig";
+      EXPECT_FALSE(writer.Write(rig.value(), std::vector<float>(w.size() + 1, 0.0f), scratch, body))
+          << "weights of another rig";
       std::vector<float> nan(w.size(), 0.0f);
       nan[0] = std::nanf("");
       EXPECT_FALSE(writer.Write(rig.value(), nan, scratch, body));
@@ -565,7 +618,8 @@ TEST(F32Writer, WritesExportMeshBytes) {
     for (size_t t = 0; t < p.targets.size() && shape == SIZE_MAX; ++t) {
       p.targets[t].normal_deltas.clear();
       for (const Mesh& m : rig.meshes) {
-        if (!m.target_shapes.empty() && &rig.primitives[m.primitives[0]] == &p) shape = m.target_shapes[t];
+        if (!m.target_shapes.empty() && &rig.primitives[m.primitives[0]] == &p)
+          shape = m.target_shapes[t];
       }
     }
   }
@@ -582,7 +636,9 @@ TEST(F32Writer, WritesExportMeshBytes) {
   auto skinned = LoadRigFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
   ASSERT_TRUE(skinned.ok());
   EXPECT_FALSE(SparseBlend::Serves(skinned.value(), {}));
-  EXPECT_FALSE(F32Writer(skinned.value(), false).Write(skinned.value(), std::vector<float>(skinned->shapes.size(), 0.0f), scratch, body));
+  EXPECT_FALSE(
+      F32Writer(skinned.value(), false)
+          .Write(skinned.value(), std::vector<float>(skinned->shapes.size(), 0.0f), scratch, body));
   Pose pose;
   EXPECT_FALSE(SparseBlend::Serves(face.value(), {.pose = &pose}));
   EXPECT_FALSE(SparseBlend::Serves(face.value(), {.normals = NormalMode::kRecompute}));
@@ -593,7 +649,9 @@ TEST(F32Writer, WritesExportMeshBytes) {
 // positions, every node's matrix), then the same CesiumMan at rest (another shape: the template
 // is made again), and a rig's export with keep_targets.
 TEST(GlbVariantWriter, WritesExportMeshBytes) {
-  auto joined = [](const GlbVariantWriter::Pieces& p) { return std::string(p.head) + std::string(p.bin); };
+  auto joined = [](const GlbVariantWriter::Pieces& p) {
+    return std::string(p.head) + std::string(p.bin);
+  };
   GlbVariantWriter writer;
   auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
   ASSERT_TRUE(face.ok());
@@ -602,13 +660,15 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
   size_t patched = 0;
   for (int i = 0; i < 6; ++i) {
     std::vector<float> w(face->shapes.size(), 0.0f);
-    for (size_t k = static_cast<size_t>(i); k < w.size(); k += 7) w[k] = 0.1f * static_cast<float>(i + k % 5);
+    for (size_t k = static_cast<size_t>(i); k < w.size(); k += 7)
+      w[k] = 0.1f * static_cast<float>(i + k % 5);
     const WeightReport report = CheckWeights(face.value(), w, BlendMode::kRelative);
     ASSERT_TRUE(EvaluateRig(face.value(), w, {}, out, ctx).ok());
     auto expected = ExportMesh(face.value(), out, w, report.warnings, MeshFormat::kGlb);
     auto pieces = writer.Write(face.value(), out, w, report.warnings);
     ASSERT_TRUE(expected.ok() && pieces.ok());
-    ASSERT_EQ(joined(pieces.value()), expected.value()) << "variant " << i << ", " << report.warnings.size() << " warnings";
+    ASSERT_EQ(joined(pieces.value()), expected.value())
+        << "variant " << i << ", " << report.warnings.size() << " warnings";
     patched += !pieces->bin.empty();
   }
   EXPECT_EQ(patched, 5u) << "the first variant makes the template, the others patch it";
@@ -637,8 +697,10 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
   }
   auto rig_itself = writer.Write(man.value(), out, none, {}, {.keep_targets = true});
   ASSERT_TRUE(rig_itself.ok());
-  EXPECT_EQ(joined(rig_itself.value()), ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb, {.keep_targets = true}).value());
+  EXPECT_EQ(
+      joined(rig_itself.value()),
+      ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb, {.keep_targets = true}).value());
 }
 
-}  // namespace
+}  // namespace io_test
 }  // namespace facespace

@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "facespace/engine/blend.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/skeleton.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -43,8 +43,9 @@ struct Q {  // w, x, y, z
   double w, x, y, z;
 };
 Q Mul(Q a, Q b) {
-  return {a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
-          a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
+  return {
+      a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
+      a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
 }
 std::array<double, 3> Rotate(Q q, std::array<double, 3> v) {
   const Q p = Mul(Mul(q, {0, v[0], v[1], v[2]}), {q.w, -q.x, -q.y, -q.z});
@@ -66,6 +67,12 @@ struct RawWeight {
   double bias;
   std::array<double, 3> pos;
 };
+// Moves `i` past the next token `w` of `t` (to the end when there is none).
+void SkipPast(const std::vector<std::string>& t, const std::string& w, size_t& i) {
+  while (i < t.size() && t[i] != w) ++i;
+  ++i;
+}
+
 struct RawMesh {
   std::vector<std::pair<int, int>> verts;  // first weight, count
   std::vector<RawWeight> weights;
@@ -75,10 +82,7 @@ struct RawMesh {
 void ReadRawMesh(std::vector<RawJoint>& joints, std::vector<RawMesh>& meshes) {
   const std::vector<std::string> t = Tokens(Text(BobDir() + "Bob.md5mesh"));
   size_t i = 0;
-  auto find = [&](const std::string& w) {
-    while (i < t.size() && t[i] != w) ++i;
-    ++i;
-  };
+  auto find = [&](const std::string& w) { SkipPast(t, w, i); };
   find("numJoints");
   joints.resize(std::stoi(t[i]));
   find("joints");
@@ -104,7 +108,9 @@ void ReadRawMesh(std::vector<RawJoint>& joints, std::vector<RawMesh>& meshes) {
     m.weights.resize(std::stoi(t[i]));
     for (RawWeight& w : m.weights) {
       find("weight");
-      w = {std::stoi(t[i + 1]), std::stod(t[i + 2]), {std::stod(t[i + 3]), std::stod(t[i + 4]), std::stod(t[i + 5])}};
+      w = {std::stoi(t[i + 1]),
+           std::stod(t[i + 2]),
+           {std::stod(t[i + 3]), std::stod(t[i + 4]), std::stod(t[i + 5])}};
     }
     meshes.push_back(std::move(m));
   }
@@ -115,10 +121,7 @@ void ReadRawMesh(std::vector<RawJoint>& joints, std::vector<RawMesh>& meshes) {
 std::vector<RawJoint> RawFrame(const std::vector<RawJoint>& bind, int f) {
   const std::vector<std::string> t = Tokens(Text(BobDir() + "Bob.md5anim"));
   size_t i = 0;
-  auto find = [&](const std::string& w) {
-    while (i < t.size() && t[i] != w) ++i;
-    ++i;
-  };
+  auto find = [&](const std::string& w) { SkipPast(t, w, i); };
   find("hierarchy");
   std::vector<std::array<int, 2>> flags(bind.size());
   for (auto& fl : flags) {
@@ -178,7 +181,8 @@ class Md5 : public ::testing::Test {
     rig_ = std::move(loaded.value());
     ReadRawMesh(joints_, meshes_);
   }
-  // Largest distance between our evaluation under `pose` and the raw computation, over every vertex.
+  // Largest distance between our evaluation under `pose` and the raw computation, over every
+  // vertex.
   double MaxError(const Pose* pose, const std::vector<RawJoint>& joints, double* extent) {
     BlendedRig blended;
     BlendContext context;
@@ -234,7 +238,9 @@ TEST_F(Md5, AnimationFramesPoseTheSkinAsTheFileSays) {
     Pose pose = RestPose(rig_);
     std::vector<float> w;
     std::vector<uint8_t> set;
-    ASSERT_TRUE(SampleClip(rig_, 0, static_cast<float>(frame) / 24.0f, ClipWrap::kClamp, pose, w, set).ok());
+    ASSERT_TRUE(
+        SampleClip(rig_, 0, static_cast<float>(frame) / 24.0f, ClipWrap::kClamp, pose, w, set)
+            .ok());
     double extent = 0;
     const double err = MaxError(&pose, RawFrame(joints_, frame), &extent);
     EXPECT_LT(err, 1e-4 * extent) << "frame " << frame << ": " << err;
@@ -251,7 +257,8 @@ TEST_F(Md5, BetweenFramesTranslationsInterpolateLinearly) {
     return pose.local[head];
   };
   const Transform a = at(30.0f / 24), b = at(31.0f / 24), mid = at(30.5f / 24);
-  for (int c = 0; c < 3; ++c) EXPECT_NEAR(mid.translation[c], 0.5f * (a.translation[c] + b.translation[c]), 1e-4);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(mid.translation[c], 0.5f * (a.translation[c] + b.translation[c]), 1e-4);
 }
 
 TEST_F(Md5, TrianglesFaceOutwards) {
@@ -263,7 +270,8 @@ TEST_F(Md5, TrianglesFaceOutwards) {
       const float* a = &p.positions[3 * p.indices[t]];
       const float* b = &p.positions[3 * p.indices[t + 1]];
       const float* c = &p.positions[3 * p.indices[t + 2]];
-      volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0]);
+      volume += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+                a[2] * (b[0] * c[1] - b[1] * c[0]);
     }
     EXPECT_GT(volume, 0) << rig_.meshes[p.mesh].name;
   }
@@ -282,35 +290,48 @@ Status Load(const std::string& mesh, const std::string& anim = "") {
 
 TEST(Md5Hostile, ClearErrorsNamingTheLine) {
   const std::string bob = Text(BobDir() + "Bob.md5mesh");
-  const std::string head = "MD5Version 10\ncommandline \"\"\nnumJoints 1\nnumMeshes 1\njoints {\n\"root\" -1 ( 0 0 0 ) ( 0 0 0 )\n}\n";
+  const std::string head =
+      "MD5Version 10\ncommandline \"\"\nnumJoints 1\nnumMeshes 1\njoints {\n\"root\" -1 ( 0 0 0 ) "
+      "( 0 0 0 )\n}\n";
   struct Case {
     std::string text, needle;
   };
   const Case cases[] = {
-      {bob.substr(0, bob.size() / 2), "t.md5mesh:"},                                              // Truncated.
+      {bob.substr(0, bob.size() / 2), "t.md5mesh:"},  // Truncated.
       {"MD5Version 11\ncommandline \"\"", "only 10"},
-      {head + "mesh {\nshader \"s\"\nnumverts 999999999\n", "numverts 999999999 is outside"},  // A lying count.
-      {head + "mesh {\nshader \"s\"\nnumverts 2\nvert 0 ( 0 0 ) 0 1\n}", "t.md5mesh:12: expected 'vert', got '}'"},
-      {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 0 ) 5 1\nnumtris 0\nnumweights 1\nweight 0 0 1 ( 0 0 0 )\n}",
+      {head + "mesh {\nshader \"s\"\nnumverts 999999999\n",
+       "numverts 999999999 is outside"},  // A lying count.
+      {head + "mesh {\nshader \"s\"\nnumverts 2\nvert 0 ( 0 0 ) 0 1\n}",
+       "t.md5mesh:12: expected 'vert', got '}'"},
+      {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 0 ) 5 1\nnumtris 0\nnumweights "
+              "1\nweight 0 0 1 ( 0 0 0 )\n}",
        "uses weights 5..5 of 1"},
-      {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 0 ) 0 1\nnumtris 1\ntri 0 0 0 7\n", "vertex 7 is outside"},
-      {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 0 ) 0 1\nnumtris 0\nnumweights 1\nweight 0 3 1 ( 0 0 0 )\n}",
+      {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 0 ) 0 1\nnumtris 1\ntri 0 0 0 7\n",
+       "vertex 7 is outside"},
+      {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 0 ) 0 1\nnumtris 0\nnumweights "
+              "1\nweight 0 3 1 ( 0 0 0 )\n}",
        "joint 3 is outside"},
-      {"MD5Version 10\ncommandline \"\"\nnumJoints 2\nnumMeshes 0\njoints {\n\"a\" 1 ( 0 0 0 ) ( 0 0 0 )\n", "parent"},  // A cycle.
+      {"MD5Version 10\ncommandline \"\"\nnumJoints 2\nnumMeshes 0\njoints {\n\"a\" 1 ( 0 0 0 ) ( 0 "
+       "0 0 )\n",
+       "parent"},  // A cycle.
       {head + "mesh {\nshader \"s\"\nnumverts 1\nvert 0 ( 0 nan ) 0 1\n", "not a finite number"},
       {"MD5Version 10\ncommandline \"unterminated", "unterminated string"},
-      {head + "mesh {\nshader \"s\"\nnumverts 2\nvert 1 ( 0 0 ) 0 1\n", "the vertex index 1 where 0 was due"},  // Out of order.
+      {head + "mesh {\nshader \"s\"\nnumverts 2\nvert 1 ( 0 0 ) 0 1\n",
+       "the vertex index 1 where 0 was due"},  // Out of order.
   };
   for (const Case& c : cases) {
     const Status s = Load(c.text);
     EXPECT_FALSE(s.ok()) << c.needle;
-    EXPECT_NE(s.message.find(c.needle), std::string::npos) << "want '" << c.needle << "' in: " << s.message;
+    EXPECT_NE(s.message.find(c.needle), std::string::npos)
+        << "want '" << c.needle << "' in: " << s.message;
   }
   // A clip whose joints are not the mesh's is skipped with a warning naming the difference.
-  const Status s = Load(bob, "MD5Version 10\ncommandline \"\"\nnumFrames 1\nnumJoints 2\nframeRate 24\nnumAnimatedComponents 0\n");
+  const Status s = Load(bob,
+                        "MD5Version 10\ncommandline \"\"\nnumFrames 1\nnumJoints 2\nframeRate "
+                        "24\nnumAnimatedComponents 0\n");
   EXPECT_NE(s.message.find("animation_skipped"), std::string::npos) << s.message;
   EXPECT_NE(s.message.find("2 joints, the mesh has 33"), std::string::npos) << s.message;
 }
 
-}  // namespace
+}  // namespace md5_test
 }  // namespace facespace

@@ -1,15 +1,14 @@
-// MikuMikuDance beyond the PMX basics (pmx_test.cpp): PMD expressions against the raw bytes, a BDEF2
-// vertex under a rotated bone against the skinning formula, VMD motions (counts, a Bezier key at
-// mid-time against the curve computed here another way, morph keys), hostile PMD and VMD bytes.
+// MikuMikuDance beyond the PMX basics (pmx_test.cpp): PMD expressions against the raw bytes, a
+// BDEF2 vertex under a rotated bone against the skinning formula, VMD motions (counts, a Bezier key
+// at mid-time against the curve computed here another way, morph keys), hostile PMD and VMD bytes.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <map>
-
-#include <unistd.h>
 
 #include "facespace/engine/animation.h"
 #include "facespace/engine/blend.h"
@@ -58,7 +57,7 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
     for (int c = 0; c < 3; ++c) pos[v][c] = r.Get<float>();
     r.at += 38 - 12;
   }
-  r.at += 2 * static_cast<size_t>(r.Get<uint32_t>());  // Faces.
+  r.at += 2 * static_cast<size_t>(r.Get<uint32_t>());   // Faces.
   r.at += 70 * static_cast<size_t>(r.Get<uint32_t>());  // Materials.
   const uint16_t nbones = r.Get<uint16_t>();
   r.at += 39 * static_cast<size_t>(nbones);
@@ -76,14 +75,16 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
   std::map<uint32_t, std::array<double, 3>> a_offsets;
   const std::string a_sjis = "\x82\xa0";  // "あ" in Shift-JIS.
   for (int s = 0; s < nskins; ++s) {
-    const std::string name(reinterpret_cast<const char*>(&r.b[r.at]), strnlen(reinterpret_cast<const char*>(&r.b[r.at]), 20));
+    const std::string name(reinterpret_cast<const char*>(&r.b[r.at]),
+                           strnlen(reinterpret_cast<const char*>(&r.b[r.at]), 20));
     r.at += 20;
     const uint32_t n = r.Get<uint32_t>();
     const uint8_t type = r.Get<uint8_t>();
     for (uint32_t k = 0; k < n; ++k) {
       const uint32_t idx = r.Get<uint32_t>();
       float d[3] = {r.Get<float>(), r.Get<float>(), r.Get<float>()};
-      if (type == 0) base.push_back(idx);
+      if (type == 0)
+        base.push_back(idx);
       else if (name == a_sjis) {
         auto& o = a_offsets[base.at(idx)];
         for (int c = 0; c < 3; ++c) o[c] += d[c];
@@ -109,7 +110,8 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
   for (size_t p = 0; p < b0.primitives.size(); ++p) {
     for (size_t k = 0; k < b0.primitives[p].positions.size(); k += 3) {
       double d[3];
-      for (int c = 0; c < 3; ++c) d[c] = b1.primitives[p].positions[k + c] - b0.primitives[p].positions[k + c];
+      for (int c = 0; c < 3; ++c)
+        d[c] = b1.primitives[p].positions[k + c] - b0.primitives[p].positions[k + c];
       if (d[0] == 0 && d[1] == 0 && d[2] == 0) continue;
       ++moved;
       for (int c = 0; c < 3; ++c) got[c] += d[c];
@@ -132,11 +134,13 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
 
 TEST(Pmx, ABdef2VertexUnderARotatedBoneLandsWhereTheFormulaPutsIt) {
   // The first BDEF2 vertex with a real blend, read from the raw bytes with its two bones; the bone
-  // positions from the bone section. Bone b0 turns 40 degrees about Z (glTF axes) at its own origin.
+  // positions from the bone section. Bone b0 turns 40 degrees about Z (glTF axes) at its own
+  // origin.
   Raw r{test::ReadBytes(UkaDir() + "/MS_Uka.pmx")};
   r.at = 8;
   const int globals = r.b[r.at++];
-  const int extra_uv = r.b[r.at + 1], vsize = r.b[r.at + 2], tsize = r.b[r.at + 3], bsize = r.b[r.at + 5];
+  const int extra_uv = r.b[r.at + 1], vsize = r.b[r.at + 2], tsize = r.b[r.at + 3],
+            bsize = r.b[r.at + 5];
   ASSERT_EQ(bsize, 2);
   r.at += static_cast<size_t>(globals);
   auto text = [&] { r.at += static_cast<size_t>(r.Get<int32_t>()); };
@@ -207,17 +211,22 @@ TEST(Pmx, ABdef2VertexUnderARotatedBoneLandsWhereTheFormulaPutsIt) {
   const double w = b1_under_b0 ? 1 - w0 : w0;
   const double th = 40.0 * M_PI / 180.0;
   Pose pose = RestPose(rig.value());
-  pose.local[rig->skins[0].joints[turned]].rotation = {0, 0, static_cast<float>(std::sin(th / 2)), static_cast<float>(std::cos(th / 2))};
+  pose.local[rig->skins[0].joints[turned]].rotation = {0, 0, static_cast<float>(std::sin(th / 2)),
+                                                       static_cast<float>(std::cos(th / 2))};
   BlendOptions options;
   options.pose = &pose;
   BlendedRig out;
   BlendContext ctx;
-  ASSERT_TRUE(EvaluateRig(rig.value(), std::vector<float>(rig->shapes.size(), 0.0f), options, out, ctx).ok());
-  // p' = w Mt p + (1 - w) p, Mt = T(c) Rz T(-c) about the turned bone's rest place c; in glTF axes (x, y, -z) x 0.08.
+  ASSERT_TRUE(
+      EvaluateRig(rig.value(), std::vector<float>(rig->shapes.size(), 0.0f), options, out, ctx)
+          .ok());
+  // p' = w Mt p + (1 - w) p, Mt = T(c) Rz T(-c) about the turned bone's rest place c; in glTF axes
+  // (x, y, -z) x 0.08.
   const double p[3] = {vpos[0] * 0.08, vpos[1] * 0.08, -vpos[2] * 0.08};
   const double c[3] = {bpos[turned][0] * 0.08, bpos[turned][1] * 0.08, -bpos[turned][2] * 0.08};
   const double q[3] = {p[0] - c[0], p[1] - c[1], p[2] - c[2]};
-  const double mt[3] = {c[0] + std::cos(th) * q[0] - std::sin(th) * q[1], c[1] + std::sin(th) * q[0] + std::cos(th) * q[1], p[2]};
+  const double mt[3] = {c[0] + std::cos(th) * q[0] - std::sin(th) * q[1],
+                        c[1] + std::sin(th) * q[0] + std::cos(th) * q[1], p[2]};
   double want[3];
   for (int k = 0; k < 3; ++k) want[k] = w * mt[k] + (1 - w) * p[k];
   // Find the vertex by its rest position, then compare where it went.
@@ -225,9 +234,13 @@ TEST(Pmx, ABdef2VertexUnderARotatedBoneLandsWhereTheFormulaPutsIt) {
   for (size_t pi = 0; pi < rig->primitives.size() && !found; ++pi) {
     const Primitive& prim = rig->primitives[pi];
     for (size_t k = 0; k < prim.vertex_count() && !found; ++k) {
-      if (std::fabs(prim.positions[3 * k] - p[0]) > 1e-6 || std::fabs(prim.positions[3 * k + 1] - p[1]) > 1e-6 || std::fabs(prim.positions[3 * k + 2] - p[2]) > 1e-6) continue;
+      if (std::fabs(prim.positions[3 * k] - p[0]) > 1e-6 ||
+          std::fabs(prim.positions[3 * k + 1] - p[1]) > 1e-6 ||
+          std::fabs(prim.positions[3 * k + 2] - p[2]) > 1e-6)
+        continue;
       found = true;
-      for (int a = 0; a < 3; ++a) EXPECT_NEAR(out.primitives[pi].positions[3 * k + a], want[a], 2e-6) << a;
+      for (int a = 0; a < 3; ++a)
+        EXPECT_NEAR(out.primitives[pi].positions[3 * k + a], want[a], 2e-6) << a;
       EXPECT_GT(std::hypot(want[0] - p[0], want[1] - p[1]), 1e-3);  // It did move.
     }
   }
@@ -259,7 +272,8 @@ std::vector<unsigned char> TestVmd(uint8_t x1, uint8_t y1, uint8_t x2, uint8_t y
     const float f[7] = {k ? 10.0f : 0.0f, 0, 0, 0, k ? s : 0.0f, 0, k ? c : 1.0f};
     put(f, sizeof f);
     uint8_t curve[64] = {};
-    for (int ch = 0; ch < 4; ++ch) curve[ch] = x1, curve[ch + 4] = y1, curve[ch + 8] = x2, curve[ch + 12] = y2;
+    for (int ch = 0; ch < 4; ++ch)
+      curve[ch] = x1, curve[ch + 4] = y1, curve[ch + 8] = x2, curve[ch + 12] = y2;
     put(curve, 64);
   }
   u32(2);
@@ -278,7 +292,8 @@ double CurveY(double x1, double y1, double x2, double y2, double u) {
   for (int i = 0; i <= 200000; ++i) {
     const double s = i / 200000.0, t = 1 - s;
     const double x = 3 * t * t * s * x1 + 3 * t * s * s * x2 + s * s * s;
-    if (std::fabs(x - u) < best) best = std::fabs(x - u), y = 3 * t * t * s * y1 + 3 * t * s * s * y2 + s * s * s;
+    if (std::fabs(x - u) < best)
+      best = std::fabs(x - u), y = 3 * t * t * s * y1 + 3 * t * s * s * y2 + s * s * s;
   }
   return y;
 }
@@ -295,7 +310,8 @@ TEST(Vmd, ABezierKeyAtMidTimeGivesTheCurvesValue) {
   ASSERT_TRUE(rig.ok());
   const uint8_t x1 = 100, y1 = 10, x2 = 120, y2 = 40;  // Slow in.
   std::vector<Warning> warnings;
-  const Result<AnimationInfo> clip = LoadVmdMemory(TestVmd(x1, y1, x2, y2), rig.value(), "test", &warnings);
+  const Result<AnimationInfo> clip =
+      LoadVmdMemory(TestVmd(x1, y1, x2, y2), rig.value(), "test", &warnings);
   ASSERT_TRUE(clip.ok()) << clip.status().message;
   EXPECT_TRUE(warnings.empty());
   const int head = FindNode(rig.value(), "頭");
@@ -308,7 +324,8 @@ TEST(Vmd, ABezierKeyAtMidTimeGivesTheCurvesValue) {
   EXPECT_FLOAT_EQ(rot->times[10], 5.0f / 30.0f);
   const double y = CurveY(x1 / 127.0, y1 / 127.0, x2 / 127.0, y2 / 127.0, 0.5);
   EXPECT_LT(y, 0.3);  // Far from linear's 0.5: the curve is what moves it.
-  // Rotation: slerp from identity by y of 90 degrees about Y; MMD's Y stays glTF's Y, the angle flips sign.
+  // Rotation: slerp from identity by y of 90 degrees about Y; MMD's Y stays glTF's Y, the angle
+  // flips sign.
   const double half = -0.5 * y * M_PI / 2;
   EXPECT_NEAR(rot->values[4 * 10 + 1], std::sin(half), 1e-5);
   EXPECT_NEAR(rot->values[4 * 10 + 3], std::cos(half), 1e-5);
@@ -337,9 +354,11 @@ TEST(Vmd, AStraightSegmentKeepsItsTwoKeys) {
   // MMD's default curve (20, 20, 107, 107) is the diagonal: linear, so the keys alone are exact.
   const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
-  const Result<AnimationInfo> clip = LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "straight", nullptr);
+  const Result<AnimationInfo> clip =
+      LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "straight", nullptr);
   ASSERT_TRUE(clip.ok()) << clip.status().message;
-  const AnimationSampler* rot = ChannelOf(clip.value(), FindNode(rig.value(), "頭"), ChannelPath::kRotation);
+  const AnimationSampler* rot =
+      ChannelOf(clip.value(), FindNode(rig.value(), "頭"), ChannelPath::kRotation);
   ASSERT_TRUE(rot);
   ASSERT_EQ(rot->times.size(), 2u);
   EXPECT_FLOAT_EQ(rot->times[1], 10.0f / 30.0f);
@@ -362,7 +381,8 @@ TEST(Vmd, TheMotionsBesideTheModelAreClipsWithTheirKeyCounts) {
   // The motions were written for another model: the names Uka lacks are reported, by motion.
   size_t unmatched = 0;
   for (const Warning& w : rig->load_warnings) {
-    if (w.code == "motion_names_unmatched" && w.shape == "01_happy") unmatched = static_cast<size_t>(w.value);
+    if (w.code == "motion_names_unmatched" && w.shape == "01_happy")
+      unmatched = static_cast<size_t>(w.value);
   }
   EXPECT_GT(unmatched, 100u);
   EXPECT_LT(unmatched, 200u);
@@ -382,8 +402,9 @@ TEST(Vmd, TheMotionsBesideTheModelAreClipsWithTheirKeyCounts) {
   EXPECT_EQ(w->values[k * w->components + t], 1.0f);
 }
 
-// MMD matches a motion's morph tracks to the model's morphs by their names, and every morph is its own
-// morph: 瞳小 and pupil_decrease_geo_ hold the same 834 offsets, and 08_surprise keys them apart.
+// MMD matches a motion's morph tracks to the model's morphs by their names, and every morph is its
+// own morph: 瞳小 and pupil_decrease_geo_ hold the same 834 offsets, and 08_surprise keys them
+// apart.
 TEST(Vmd, EveryMorphIsItsOwnShapeAndATrackDrivesTheMorphOfItsName) {
   // From the file: 瞳小's keys (Shift-JIS 93 B5 8F AC), frame -> weight.
   Raw r{test::ReadBytes(UkaDir() + "/motion/08_surprise.vmd")};
@@ -404,7 +425,8 @@ TEST(Vmd, EveryMorphIsItsOwnShapeAndATrackDrivesTheMorphOfItsName) {
 
   const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
-  const int small = FindShape(rig.value(), "瞳小"), geo = FindShape(rig.value(), "pupil_decrease_geo_");
+  const int small = FindShape(rig.value(), "瞳小"),
+            geo = FindShape(rig.value(), "pupil_decrease_geo_");
   ASSERT_GE(small, 0);
   ASSERT_GE(geo, 0);
   EXPECT_NE(small, geo);
@@ -418,7 +440,9 @@ TEST(Vmd, EveryMorphIsItsOwnShapeAndATrackDrivesTheMorphOfItsName) {
     Pose pose = RestPose(rig.value());
     std::vector<float> w;
     std::vector<uint8_t> set;
-    ASSERT_TRUE(SampleClip(rig.value(), clip, static_cast<float>(frame) / 30.0f, ClipWrap::kClamp, pose, w, set).ok());
+    ASSERT_TRUE(SampleClip(rig.value(), clip, static_cast<float>(frame) / 30.0f, ClipWrap::kClamp,
+                           pose, w, set)
+                    .ok());
     EXPECT_FLOAT_EQ(w[small], weight) << "frame " << frame;
     EXPECT_FLOAT_EQ(w[geo], 0.0f) << "frame " << frame;  // Its own track: keyed 0.
   }
@@ -434,21 +458,27 @@ TEST(MmdHostile, TruncatedAndLyingPmdAndVmdAreErrors) {
   std::memcpy(&lying[3 + 4 + 20 + 256], &lie, 4);
   const Result<Rig> bad = LoadPmdMemory(lying, "lying");
   ASSERT_FALSE(bad.ok());
-  EXPECT_NE(bad.status().message.find("more than the file holds"), std::string::npos) << bad.status().message;
+  EXPECT_NE(bad.status().message.find("more than the file holds"), std::string::npos)
+      << bad.status().message;
 
   const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   const std::vector<unsigned char> vmd = test::ReadBytes(UkaDir() + "/motion/01_happy.vmd");
   for (size_t n = 0; n < vmd.size() - 200; n += 997) {
-    EXPECT_FALSE(LoadVmdMemory(std::span<const unsigned char>(vmd.data(), n), rig.value(), "cut", nullptr).ok()) << n;
+    EXPECT_FALSE(
+        LoadVmdMemory(std::span<const unsigned char>(vmd.data(), n), rig.value(), "cut", nullptr)
+            .ok())
+        << n;
   }
   std::vector<unsigned char> far = TestVmd(20, 20, 107, 107);
   const uint32_t frame = 0xffffffffu;
   std::memcpy(&far[54 + 15], &frame, 4);
   const Result<AnimationInfo> clip = LoadVmdMemory(far, rig.value(), "far", nullptr);
   ASSERT_FALSE(clip.ok());
-  EXPECT_NE(clip.status().message.find("beyond an hour"), std::string::npos) << clip.status().message;
-  EXPECT_FALSE(LoadVmdMemory(std::vector<unsigned char>(60, 'x'), rig.value(), "junk", nullptr).ok());
+  EXPECT_NE(clip.status().message.find("beyond an hour"), std::string::npos)
+      << clip.status().message;
+  EXPECT_FALSE(
+      LoadVmdMemory(std::vector<unsigned char>(60, 'x'), rig.value(), "junk", nullptr).ok());
 }
 
 // Found by fuzz_vmd: finite keys whose interpolation overflows a float (a morph from -3e38 to 3e38
@@ -464,27 +494,31 @@ TEST(MmdHostile, VmdValuesWhoseInterpolationWouldOverflowAreRefused) {
   std::memcpy(&vmd[morphs + 23 + 19], &high, 4);
   const Result<AnimationInfo> morph = LoadVmdMemory(vmd, rig.value(), "wide", nullptr);
   ASSERT_FALSE(morph.ok());
-  EXPECT_NE(morph.status().message.find("morph key 0 has weight"), std::string::npos) << morph.status().message;
+  EXPECT_NE(morph.status().message.find("morph key 0 has weight"), std::string::npos)
+      << morph.status().message;
 
   vmd = TestVmd(20, 20, 107, 107);
   const float far = 2e6f;
   std::memcpy(&vmd[54 + 111 + 19], &far, 4);  // Bone key 1's x.
   const Result<AnimationInfo> bone = LoadVmdMemory(vmd, rig.value(), "far", nullptr);
   ASSERT_FALSE(bone.ok());
-  EXPECT_NE(bone.status().message.find("bone key 1 moves its bone beyond"), std::string::npos) << bone.status().message;
+  EXPECT_NE(bone.status().message.find("bone key 1 moves its bone beyond"), std::string::npos)
+      << bone.status().message;
 
   vmd = TestVmd(20, 20, 107, 107);
   const float big[4] = {0, 2e38f, 0, 2e38f};  // 90 degrees about y, scaled.
   std::memcpy(&vmd[54 + 111 + 19 + 12], big, 16);
   const Result<AnimationInfo> scaled = LoadVmdMemory(vmd, rig.value(), "scaled", nullptr);
   ASSERT_TRUE(scaled.ok()) << scaled.status().message;
-  const Result<AnimationInfo> plain = LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "plain", nullptr);
+  const Result<AnimationInfo> plain =
+      LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "plain", nullptr);
   ASSERT_TRUE(plain.ok());
   ASSERT_EQ(scaled->sampler_data.size(), plain->sampler_data.size());
   for (size_t s = 0; s < plain->sampler_data.size(); ++s) {
     ASSERT_EQ(scaled->sampler_data[s].values.size(), plain->sampler_data[s].values.size());
     for (size_t i = 0; i < plain->sampler_data[s].values.size(); ++i) {
-      EXPECT_NEAR(scaled->sampler_data[s].values[i], plain->sampler_data[s].values[i], 1e-6) << s << " " << i;
+      EXPECT_NEAR(scaled->sampler_data[s].values[i], plain->sampler_data[s].values[i], 1e-6)
+          << s << " " << i;
     }
   }
 }
@@ -511,13 +545,15 @@ TEST(MaterialMorphs, MultipliesThenAddsByWeight) {
   EXPECT_TRUE(colors.empty());  // No shape with material morphs has a weight.
   MorphedMaterialColors(rig, std::vector<float>{0.5f, 0.4f, 0}, colors);
   ASSERT_EQ(colors.size(), 2u);
-  EXPECT_NEAR(colors[0][0], 0.5f * (1 + 0.5f * (0.2f - 1)), 1e-6f);  // 0.5 x lerp(1, 0.2, 0.5) = 0.3.
+  EXPECT_NEAR(colors[0][0], 0.5f * (1 + 0.5f * (0.2f - 1)),
+              1e-6f);  // 0.5 x lerp(1, 0.2, 0.5) = 0.3.
   EXPECT_NEAR(colors[0][1], 0.5f, 1e-6f);
   EXPECT_NEAR(colors[1][0], std::min(1.0f, 1.0f * 0.6f + 0.4f * 0.5f), 1e-6f);  // x 0.6, + 0.2.
-  EXPECT_NEAR(colors[1][3], 0.4f, 1e-6f);                                     // Alpha 0 + 0.4.
+  EXPECT_NEAR(colors[1][3], 0.4f, 1e-6f);                                       // Alpha 0 + 0.4.
 }
 
-// Uka's blush (赤み), pallor (青ざめ) and gloom (どんより) are material morphs: shapes a motion drives.
+// Uka's blush (赤み), pallor (青ざめ) and gloom (どんより) are material morphs: shapes a motion
+// drives.
 TEST(MaterialMorphs, UkasBlushIsAShapeThatColoursHerMaterials) {
   const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
@@ -532,7 +568,8 @@ TEST(MaterialMorphs, UkasBlushIsAShapeThatColoursHerMaterials) {
     ASSERT_EQ(colors.size(), rig->materials.size());
     bool changed = false;
     for (size_t m = 0; m < colors.size(); ++m) {
-      for (int c = 0; c < 4; ++c) changed |= std::fabs(colors[m][c] - rig->materials[m].base_color_factor[c]) > 1e-3f;
+      for (int c = 0; c < 4; ++c)
+        changed |= std::fabs(colors[m][c] - rig->materials[m].base_color_factor[c]) > 1e-3f;
     }
     EXPECT_TRUE(changed) << name;
   }
@@ -564,12 +601,18 @@ TEST(MaterialMorphs, EveryGlbVariantCarriesItsColours) {
   }
 }
 
-// The manifest may colour a material (a model whose textures are not at hand) and name the base motion.
+// The manifest may colour a material (a model whose textures are not at hand) and name the base
+// motion.
 TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
   Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
-  ASSERT_TRUE(ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [0.9, 0.5, 0.5, 0]}}, "base_motion": "01_happy"})").ok());
-  const auto it = std::find_if(rig->materials.begin(), rig->materials.end(), [](const Material& m) { return m.name == "頬照り2"; });
+  ASSERT_TRUE(
+      ApplyManifest(
+          rig.value(),
+          R"({"materials": {"頬照り2": {"base_color": [0.9, 0.5, 0.5, 0]}}, "base_motion": "01_happy"})")
+          .ok());
+  const auto it = std::find_if(rig->materials.begin(), rig->materials.end(),
+                               [](const Material& m) { return m.name == "頬照り2"; });
   ASSERT_NE(it, rig->materials.end());
   EXPECT_FLOAT_EQ(it->base_color_factor[0], 0.9f);
   EXPECT_FLOAT_EQ(it->base_color_factor[3], 0.0f);
@@ -585,13 +628,19 @@ TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
   // Names that are not there are load warnings (a model copied without its motions still loads); a
   // colour out of range is refused, naming the member.
   rig->load_warnings.clear();
-  ASSERT_TRUE(ApplyManifest(rig.value(), R"({"materials": {"nope": {"base_color": [1, 1, 1, 1]}}, "base_motion": "01_hapy"})").ok());
+  ASSERT_TRUE(
+      ApplyManifest(
+          rig.value(),
+          R"({"materials": {"nope": {"base_color": [1, 1, 1, 1]}}, "base_motion": "01_hapy"})")
+          .ok());
   ASSERT_EQ(rig->load_warnings.size(), 2u);
   EXPECT_EQ(rig->load_warnings[0].code, "manifest_unknown_motion");
-  EXPECT_NE(rig->load_warnings[0].message.find("did you mean '01_happy'"), std::string::npos) << rig->load_warnings[0].message;
+  EXPECT_NE(rig->load_warnings[0].message.find("did you mean '01_happy'"), std::string::npos)
+      << rig->load_warnings[0].message;
   EXPECT_EQ(rig->load_warnings[1].code, "manifest_unknown_material");
   EXPECT_EQ(rig->base_motion, "01_happy");  // Unchanged.
-  const Status bad = ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
+  const Status bad =
+      ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
   EXPECT_EQ(bad.fields.at(0).pointer, "/materials/頬照り2");
 }
 
@@ -606,23 +655,29 @@ TEST(MmdTextures, ImagesAreReadFromTheModelsFolderOnly) {
   test::WriteBytes((dir / "model" / "notes.txt").string(), "hello");
   test::WriteBytes((dir / "secret.png").string(), png);
   Rig rig;
-  for (const char* name : {"tex/face.png", "hair.tga", "../secret.png", "/etc/passwd", "C:/x.png", "tex/../../secret.png", "notes.txt", "missing.bmp"}) {
+  for (const char* name : {"tex/face.png", "hair.tga", "../secret.png", "/etc/passwd", "C:/x.png",
+                           "tex/../../secret.png", "notes.txt", "missing.bmp"}) {
     rig.images.push_back({name, "", {}});
     rig.load_warnings.push_back({"texture_not_loaded", "not read", name, 0.0, false});
   }
   LoadImagesBeside(rig, (dir / "model" / "m.pmx").string());
-  // Read: the PNG (its letter case forgiven) and the TGA (by extension); nothing outside the folder.
+  // Read: the PNG (its letter case forgiven) and the TGA (by extension); nothing outside the
+  // folder.
   EXPECT_EQ(rig.images[0].mime_type, "image/png");
   EXPECT_EQ(rig.images[0].bytes.size(), png.size());
   EXPECT_EQ(rig.images[1].mime_type, "image/x-tga");
-  for (size_t k = 2; k < rig.images.size(); ++k) EXPECT_TRUE(rig.images[k].bytes.empty()) << rig.images[k].name;
+  for (size_t k = 2; k < rig.images.size(); ++k)
+    EXPECT_TRUE(rig.images[k].bytes.empty()) << rig.images[k].name;
   // The warnings left are the images not read, each saying why.
   ASSERT_EQ(rig.load_warnings.size(), 6u);
   EXPECT_EQ(rig.load_warnings[0].shape, "../secret.png");
-  EXPECT_NE(rig.load_warnings[0].message.find("no such file in the model's folder"), std::string::npos);
-  EXPECT_NE(rig.load_warnings[4].message.find("not a PNG, JPEG, BMP or TGA image"), std::string::npos) << rig.load_warnings[4].message;
+  EXPECT_NE(rig.load_warnings[0].message.find("no such file in the model's folder"),
+            std::string::npos);
+  EXPECT_NE(rig.load_warnings[4].message.find("not a PNG, JPEG, BMP or TGA image"),
+            std::string::npos)
+      << rig.load_warnings[4].message;
   fs::remove_all(dir);
 }
 
-}  // namespace
+}  // namespace mmd_test
 }  // namespace facespace

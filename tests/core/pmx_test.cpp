@@ -19,8 +19,18 @@ std::string Uka() { return test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx"; }
 struct Raw {
   std::vector<unsigned char> b;
   size_t at = 0;
-  int32_t I32() { int32_t v; std::memcpy(&v, &b[at], 4); at += 4; return v; }
-  float F32() { float v; std::memcpy(&v, &b[at], 4); at += 4; return v; }
+  int32_t I32() {
+    int32_t v;
+    std::memcpy(&v, &b[at], 4);
+    at += 4;
+    return v;
+  }
+  float F32() {
+    float v;
+    std::memcpy(&v, &b[at], 4);
+    at += 4;
+    return v;
+  }
   void Text() { at += static_cast<size_t>(I32()); }
 };
 
@@ -64,13 +74,18 @@ TEST(Pmx, VerticesAreTheFilesInRightHandedMetres) {
     const float x = r.F32(), y = r.F32(), z = r.F32();
     r.at += 4 * (3 + 2 + 4 * static_cast<size_t>(extra_uv));
     const int kind = r.b[r.at++];
-    r.at += kind == 0 ? bone_size : kind == 1 ? 2 * bone_size + 4 : kind == 2 ? 4 * bone_size + 16 : kind == 3 ? 2 * bone_size + 40 : 4 * bone_size + 16;
+    r.at += kind == 0   ? bone_size
+            : kind == 1 ? 2 * bone_size + 4
+            : kind == 2 ? 4 * bone_size + 16
+            : kind == 3 ? 2 * bone_size + 40
+                        : 4 * bone_size + 16;
     r.at += 4;  // Edge scale.
     const float want[3] = {x * 0.08f, y * 0.08f, -z * 0.08f};
     bool found = false;
     for (const Primitive& p : rig->primitives) {
       for (size_t k = 0; k < p.vertex_count() && !found; ++k) {
-        found = std::fabs(p.positions[3 * k] - want[0]) < 1e-6f && std::fabs(p.positions[3 * k + 1] - want[1]) < 1e-6f &&
+        found = std::fabs(p.positions[3 * k] - want[0]) < 1e-6f &&
+                std::fabs(p.positions[3 * k + 1] - want[1]) < 1e-6f &&
                 std::fabs(p.positions[3 * k + 2] - want[2]) < 1e-6f;
       }
       if (found) break;
@@ -86,14 +101,17 @@ TEST(Pmx, AVertexMorphMovesExactlyItsVerticesByItsOffsets) {
   ASSERT_GE(a, 0);
   BlendedRig b0, b1;
   ASSERT_NO_FATAL_FAILURE(test::RestAndShape(rig.value(), a, b0, b1));
-  // The vertices that move are the shape's own, by its deltas (which are the file's offsets x 0.08, z negated:
-  // checked on the moved count and on the largest move, a few centimetres for an open mouth).
+  // The vertices that move are the shape's own, by its deltas (which are the file's offsets x 0.08,
+  // z negated: checked on the moved count and on the largest move, a few centimetres for an open
+  // mouth).
   size_t moved = 0;
   float largest = 0;
   for (size_t p = 0; p < b0.primitives.size(); ++p) {
     for (size_t k = 0; k < b0.primitives[p].positions.size(); k += 3) {
-      const float d = std::hypot(b1.primitives[p].positions[k] - b0.primitives[p].positions[k], b1.primitives[p].positions[k + 1] - b0.primitives[p].positions[k + 1],
-                                 b1.primitives[p].positions[k + 2] - b0.primitives[p].positions[k + 2]);
+      const float d =
+          std::hypot(b1.primitives[p].positions[k] - b0.primitives[p].positions[k],
+                     b1.primitives[p].positions[k + 1] - b0.primitives[p].positions[k + 1],
+                     b1.primitives[p].positions[k + 2] - b0.primitives[p].positions[k + 2]);
       moved += d > 0;
       largest = std::max(largest, d);
     }
@@ -106,7 +124,8 @@ TEST(Pmx, AVertexMorphMovesExactlyItsVerticesByItsOffsets) {
 
 TEST(PmxHostile, TruncationsAndBadHeadersAreErrors) {
   const std::vector<unsigned char> whole = test::ReadBytes(Uka());
-  for (size_t n = 0; n < whole.size() / 2; n += n < 2000 ? 7 : 199999) {  // The first half: before the morphs end.
+  for (size_t n = 0; n < whole.size() / 2;
+       n += n < 2000 ? 7 : 199999) {  // The first half: before the morphs end.
     const Result<Rig> rig = LoadPmxMemory(std::span<const unsigned char>(whole.data(), n), "cut");
     EXPECT_FALSE(rig.ok()) << n;
   }
@@ -127,53 +146,70 @@ TEST(PmxHostile, TruncationsAndBadHeadersAreErrors) {
   }
   rig = LoadPmxMemory(bad, "lying");
   ASSERT_FALSE(rig.ok());
-  EXPECT_NE(rig.status().message.find("more than the file holds"), std::string::npos) << rig.status().message;
+  EXPECT_NE(rig.status().message.find("more than the file holds"), std::string::npos)
+      << rig.status().message;
 }
 
-// A small PMX written here: one bone, one triangle over vertex 0, a vertex morph moving vertex 0 by
-// (1, 2, 3) units, and a group morph of `entries` entries alternating between that morph (factor 0.25)
-// and itself. Index sizes are 1 byte.
-std::vector<unsigned char> GroupFanOut(int entries) {
+// A PMX file's bytes as a test writes them: raw bytes, little-endian int32s and floats, bytes, and
+// UTF-8 text with its length.
+struct PmxBytes {
   std::vector<unsigned char> b;
-  auto bytes = [&](const void* p, size_t n) { b.insert(b.end(), static_cast<const unsigned char*>(p), static_cast<const unsigned char*>(p) + n); };
-  auto i32 = [&](int32_t v) { bytes(&v, 4); };
-  auto f32 = [&](std::initializer_list<float> fs) { for (float f : fs) bytes(&f, 4); };
-  auto u8 = [&](int v) { b.push_back(static_cast<unsigned char>(v)); };
-  bytes("PMX ", 4);
-  f32({2.0f});
-  for (int g : {8, 1, 0, 1, 1, 1, 1, 1, 1}) u8(g);  // 8 globals: UTF-8, no extra UV, 1-byte indices.
-  for (int t = 0; t < 4; ++t) i32(0);                // Model names and comments.
-  i32(1);                                             // One vertex: position, normal, UV, BDEF1 on bone 0, edge.
-  f32({0, 0, 0, 0, 0, -1, 0, 0});
-  u8(0);
-  u8(0);
-  f32({1});
-  i32(3);  // One (degenerate) triangle.
-  u8(0), u8(0), u8(0);
-  i32(0);  // No textures.
-  i32(1);  // One material over the 3 indices.
-  i32(0), i32(0);
-  f32({1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0});
-  u8(0);
-  f32({0, 0, 0, 1, 1});
-  u8(0xff), u8(0xff), u8(0), u8(1), u8(0);
-  i32(0), i32(3);
-  i32(1);  // One bone at the origin, no parent.
-  i32(0), i32(0);
-  f32({0, 0, 0});
-  u8(0xff);
-  i32(0);
-  u8(0), u8(0);
-  f32({0, 1, 0});
-  i32(2);  // Two morphs.
-  i32(0), i32(0), u8(3), u8(1), i32(1), u8(0);
-  f32({1, 2, 3});
-  i32(0), i32(0), u8(3), u8(0), i32(entries);
-  for (int k = 0; k < entries; ++k) {
-    u8(k % 2);
-    f32({k % 2 ? 1.0f : 0.25f});
+  void bytes(const void* p, size_t n) {
+    b.insert(b.end(), static_cast<const unsigned char*>(p),
+             static_cast<const unsigned char*>(p) + n);
   }
-  return b;
+  void i32(int32_t v) { bytes(&v, 4); }
+  void f32(std::initializer_list<float> fs) {
+    for (float f : fs) bytes(&f, 4);
+  }
+  void u8(int v) { b.push_back(static_cast<unsigned char>(v)); }
+  void text(const std::string& t) {
+    i32(static_cast<int32_t>(t.size()));
+    bytes(t.data(), t.size());
+  }
+};
+
+// A small PMX written here: one bone, one triangle over vertex 0, a vertex morph moving vertex 0 by
+// (1, 2, 3) units, and a group morph of `entries` entries alternating between that morph (factor
+// 0.25) and itself. Index sizes are 1 byte.
+std::vector<unsigned char> GroupFanOut(int entries) {
+  PmxBytes w;
+  w.bytes("PMX ", 4);
+  w.f32({2.0f});
+  for (int g : {8, 1, 0, 1, 1, 1, 1, 1, 1})
+    w.u8(g);                             // 8 globals: UTF-8, no extra UV, 1-byte indices.
+  for (int t = 0; t < 4; ++t) w.i32(0);  // Model names and comments.
+  w.i32(1);                              // One vertex: position, normal, UV, BDEF1 on bone 0, edge.
+  w.f32({0, 0, 0, 0, 0, -1, 0, 0});
+  w.u8(0);
+  w.u8(0);
+  w.f32({1});
+  w.i32(3);  // One (degenerate) triangle.
+  w.u8(0), w.u8(0), w.u8(0);
+  w.i32(0);  // No textures.
+  w.i32(1);  // One material over the 3 indices.
+  w.i32(0), w.i32(0);
+  w.f32({1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0});
+  w.u8(0);
+  w.f32({0, 0, 0, 1, 1});
+  w.u8(0xff), w.u8(0xff), w.u8(0), w.u8(1), w.u8(0);
+  w.i32(0), w.i32(3);
+  w.i32(1);  // One bone at the origin, no parent.
+  w.i32(0), w.i32(0);
+  w.f32({0, 0, 0});
+  w.u8(0xff);
+  w.i32(0);
+  w.u8(0), w.u8(0);
+  w.f32({0, 1, 0});
+  w.i32(2);  // Two morphs.
+  w.i32(0), w.i32(0), w.u8(3), w.u8(1), w.i32(1), w.u8(0);
+  w.f32({1, 2, 3});
+  w.i32(0), w.i32(0), w.u8(3), w.u8(0), w.i32(entries);
+  for (int k = 0; k < entries; ++k) {
+    w.u8(k % 2);
+    w.f32({k % 2 ? 1.0f : 0.25f});
+  }
+  return w.b;
 }
 
 TEST(PmxHostile, AGroupNamingItselfIsNotFollowed) {
@@ -190,54 +226,53 @@ TEST(PmxHostile, AGroupNamingItselfIsNotFollowed) {
   EXPECT_NEAR(t.position_deltas[1], 250 * 2 * 0.08f, 1e-3f);
   EXPECT_NEAR(t.position_deltas[2], -250 * 3 * 0.08f, 1e-3f);
   bool reported = false;
-  for (const auto& w : rig->load_warnings) reported |= w.code == "morphs_skipped" && w.message.find("1000 group-morph entries naming group morphs") != std::string::npos;
+  for (const auto& w : rig->load_warnings)
+    reported |= w.code == "morphs_skipped" &&
+                w.message.find("1000 group-morph entries naming group morphs") != std::string::npos;
   EXPECT_TRUE(reported);
 }
 
-// A small PMX written here with every other morph kind: three vertices (UVs (0,0), (1,0), (0,1)) on one
-// triangle, and the morphs
+// A small PMX written here with every other morph kind: three vertices (UVs (0,0), (1,0), (0,1)) on
+// one triangle, and the morphs
 //   0 "v"   vertex: vertex 1 by (0, 0, 1) units
 //   1 "uv"  UV: vertex 1's UV by (0.25, -0.5) (z and w, for effect shaders, 7 and 9)
 //   2 "g"   group: "uv" x 0.5, "v" x 1
 //   3 "f"   flip (PMX 2.1): entries "uv" at 1, "v" at 0.5
 //   4 "uv1" additional UV 1, 5 "imp" impulse (rigid body 0): read, not made shapes.
 std::vector<unsigned char> EveryMorphKind() {
-  std::vector<unsigned char> b;
-  auto bytes = [&](const void* p, size_t n) { b.insert(b.end(), static_cast<const unsigned char*>(p), static_cast<const unsigned char*>(p) + n); };
-  auto i32 = [&](int32_t v) { bytes(&v, 4); };
-  auto f32 = [&](std::initializer_list<float> fs) { for (float f : fs) bytes(&f, 4); };
-  auto u8 = [&](int v) { b.push_back(static_cast<unsigned char>(v)); };
-  auto text = [&](const std::string& t) { i32(static_cast<int32_t>(t.size())), bytes(t.data(), t.size()); };
-  bytes("PMX ", 4);
-  f32({2.1f});
-  for (int g : {8, 1, 0, 1, 1, 1, 1, 1, 1}) u8(g);  // UTF-8, no additional UV sets, 1-byte indices.
-  for (int t = 0; t < 4; ++t) i32(0);
-  i32(3);
+  PmxBytes w;
+  w.bytes("PMX ", 4);
+  w.f32({2.1f});
+  for (int g : {8, 1, 0, 1, 1, 1, 1, 1, 1})
+    w.u8(g);  // UTF-8, no additional UV sets, 1-byte indices.
+  for (int t = 0; t < 4; ++t) w.i32(0);
+  w.i32(3);
   const float uvs[3][2] = {{0, 0}, {1, 0}, {0, 1}};
   for (int v = 0; v < 3; ++v) {
-    f32({static_cast<float>(v == 1), static_cast<float>(v == 2), 0, 0, 0, -1, uvs[v][0], uvs[v][1]});
-    u8(0), u8(0), f32({1});  // BDEF1 on bone 0, edge scale.
+    w.f32({static_cast<float>(v == 1), static_cast<float>(v == 2), 0, 0, 0, -1, uvs[v][0],
+           uvs[v][1]});
+    w.u8(0), w.u8(0), w.f32({1});  // BDEF1 on bone 0, edge scale.
   }
-  i32(3), u8(0), u8(1), u8(2);
-  i32(0);  // No textures.
-  i32(1), i32(0), i32(0);
-  f32({1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0});
-  u8(0);
-  f32({0, 0, 0, 1, 1});
-  u8(0xff), u8(0xff), u8(0), u8(1), u8(0);
-  i32(0), i32(3);
-  i32(1), i32(0), i32(0);  // One bone.
-  f32({0, 0, 0});
-  u8(0xff), i32(0), u8(0), u8(0);
-  f32({0, 1, 0});
-  i32(6);
-  text("v"), i32(0), u8(4), u8(1), i32(1), u8(1), f32({0, 0, 1});
-  text("uv"), i32(0), u8(4), u8(3), i32(1), u8(1), f32({0.25f, -0.5f, 7, 9});
-  text("g"), i32(0), u8(4), u8(0), i32(2), u8(1), f32({0.5f}), u8(0), f32({1});
-  text("f"), i32(0), u8(4), u8(9), i32(2), u8(1), f32({1}), u8(0), f32({0.5f});
-  text("uv1"), i32(0), u8(4), u8(4), i32(1), u8(2), f32({1, 1, 1, 1});
-  text("imp"), i32(0), u8(4), u8(10), i32(1), u8(0), u8(0), f32({0, 1, 0, 0, 0, 0});
-  return b;
+  w.i32(3), w.u8(0), w.u8(1), w.u8(2);
+  w.i32(0);  // No textures.
+  w.i32(1), w.i32(0), w.i32(0);
+  w.f32({1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0});
+  w.u8(0);
+  w.f32({0, 0, 0, 1, 1});
+  w.u8(0xff), w.u8(0xff), w.u8(0), w.u8(1), w.u8(0);
+  w.i32(0), w.i32(3);
+  w.i32(1), w.i32(0), w.i32(0);  // One bone.
+  w.f32({0, 0, 0});
+  w.u8(0xff), w.i32(0), w.u8(0), w.u8(0);
+  w.f32({0, 1, 0});
+  w.i32(6);
+  w.text("v"), w.i32(0), w.u8(4), w.u8(1), w.i32(1), w.u8(1), w.f32({0, 0, 1});
+  w.text("uv"), w.i32(0), w.u8(4), w.u8(3), w.i32(1), w.u8(1), w.f32({0.25f, -0.5f, 7, 9});
+  w.text("g"), w.i32(0), w.u8(4), w.u8(0), w.i32(2), w.u8(1), w.f32({0.5f}), w.u8(0), w.f32({1});
+  w.text("f"), w.i32(0), w.u8(4), w.u8(9), w.i32(2), w.u8(1), w.f32({1}), w.u8(0), w.f32({0.5f});
+  w.text("uv1"), w.i32(0), w.u8(4), w.u8(4), w.i32(1), w.u8(2), w.f32({1, 1, 1, 1});
+  w.text("imp"), w.i32(0), w.u8(4), w.u8(10), w.i32(1), w.u8(0), w.u8(0), w.f32({0, 1, 0, 0, 0, 0});
+  return w.b;
 }
 
 struct Evaluated {
@@ -258,7 +293,8 @@ Evaluated At(const Rig& rig, std::vector<std::pair<std::string, float>> named) {
 
 TEST(PmxMorphs, UvGroupAndFlipMorphsActAsPmxDefinesThem) {
   // The same bytes are tests/data/every_morph_kind.pmx, which the CLI suite exports and validates.
-  EXPECT_EQ(test::ReadBytes(std::string(FACESPACE_SOURCE_DIR) + "/tests/data/every_morph_kind.pmx"), EveryMorphKind());
+  EXPECT_EQ(test::ReadBytes(std::string(FACESPACE_SOURCE_DIR) + "/tests/data/every_morph_kind.pmx"),
+            EveryMorphKind());
   const Result<Rig> loaded = LoadPmxMemory(EveryMorphKind(), "kinds");
   ASSERT_TRUE(loaded.ok()) << loaded.status().message;
   const Rig& rig = loaded.value();
@@ -266,7 +302,8 @@ TEST(PmxMorphs, UvGroupAndFlipMorphsActAsPmxDefinesThem) {
   EXPECT_EQ(rig.shapes[FindShape(rig, "uv")].vertices_moved, 1u);
   bool reported = false;
   for (const auto& w : rig.load_warnings) {
-    reported |= w.code == "morphs_skipped" && w.message.find("1 additional-UV-1 morph") != std::string::npos &&
+    reported |= w.code == "morphs_skipped" &&
+                w.message.find("1 additional-UV-1 morph") != std::string::npos &&
                 w.message.find("1 impulse morph") != std::string::npos;
   }
   EXPECT_TRUE(reported);
@@ -296,7 +333,8 @@ TEST(PmxMorphs, UvGroupAndFlipMorphsActAsPmxDefinesThem) {
   }
 }
 
-// UV morphs leave as glTF TEXCOORD_0 targets (the rig) or as the blended UVs (a point), and come back.
+// UV morphs leave as glTF TEXCOORD_0 targets (the rig) or as the blended UVs (a point), and come
+// back.
 TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
   const Result<Rig> loaded = LoadPmxMemory(EveryMorphKind(), "kinds");
   ASSERT_TRUE(loaded.ok()) << loaded.status().message;
@@ -314,7 +352,8 @@ TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
     ASSERT_TRUE(reloaded.ok()) << reloaded.status().message;
     const Rig* back = &reloaded.value();
     if (keep) {
-      const SparseTarget& t = back->primitives[0].targets[static_cast<size_t>(FindShape(*back, "uv"))];
+      const SparseTarget& t =
+          back->primitives[0].targets[static_cast<size_t>(FindShape(*back, "uv"))];
       ASSERT_EQ(t.texcoord_indices, std::vector<uint32_t>{1});
       EXPECT_EQ(t.texcoord_deltas, (std::vector<float>{0.25f, -0.5f}));
       EXPECT_FLOAT_EQ(At(*back, {{"uv", 1.0f}}).uv1[0], 1.25f);
@@ -339,5 +378,5 @@ TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
   EXPECT_NE(obj->find("vt 1.25 1.5\n"), std::string::npos) << obj.value();
 }
 
-}  // namespace
+}  // namespace pmx_test
 }  // namespace facespace

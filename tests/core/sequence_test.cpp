@@ -1,11 +1,12 @@
+#include "facespace/engine/sequence.h"
+
 #include <gtest/gtest.h>
 
 #include <random>
 
 #include "facespace/engine/blend.h"
-#include "facespace/formats/io.h"
-#include "facespace/engine/sequence.h"
 #include "facespace/engine/skeleton.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -21,17 +22,19 @@ TEST(Transitions, ExactValues) {
   EXPECT_EQ(ApplyTransition(T("step"), 0.99f), 0.0f);
   EXPECT_EQ(ApplyTransition(T("step"), 1.0f), 1.0f);
   EXPECT_EQ(ApplyTransition(T("linear"), 0.3f), 0.3f);
-  EXPECT_FLOAT_EQ(ApplyTransition(T("smoothstep"), 0.25f), 0.15625f);       // 3u^2 - 2u^3
-  EXPECT_FLOAT_EQ(ApplyTransition(T("smootherstep"), 0.25f), 0.103515625f); // 6u^5 - 15u^4 + 10u^3
+  EXPECT_FLOAT_EQ(ApplyTransition(T("smoothstep"), 0.25f), 0.15625f);        // 3u^2 - 2u^3
+  EXPECT_FLOAT_EQ(ApplyTransition(T("smootherstep"), 0.25f), 0.103515625f);  // 6u^5 - 15u^4 + 10u^3
   EXPECT_FLOAT_EQ(ApplyTransition(T("ease-in"), 0.5f), 0.125f);
   EXPECT_FLOAT_EQ(ApplyTransition(T("ease-out"), 0.5f), 0.875f);
   EXPECT_FLOAT_EQ(ApplyTransition(T("ease-in-out"), 0.25f), 0.0625f);
   EXPECT_FLOAT_EQ(ApplyTransition(T("ease-in-out"), 0.75f), 0.9375f);
-  for (const char* n : {"linear", "smoothstep", "smootherstep", "ease-in", "ease-out", "ease-in-out"}) {
+  for (const char* n :
+       {"linear", "smoothstep", "smootherstep", "ease-in", "ease-out", "ease-in-out"}) {
     EXPECT_FLOAT_EQ(ApplyTransition(T(n), 0.0f), 0.0f) << n;
     EXPECT_FLOAT_EQ(ApplyTransition(T(n), 1.0f), 1.0f) << n;
   }
-  for (const char* n : {"linear", "smoothstep", "smootherstep", "ease-in-out"}) {  // Point-symmetric ones.
+  for (const char* n :
+       {"linear", "smoothstep", "smootherstep", "ease-in-out"}) {  // Point-symmetric ones.
     EXPECT_FLOAT_EQ(ApplyTransition(T(n), 0.5f), 0.5f) << n;
   }
   // CSS's "ease" is cubic-bezier(0.25, 0.1, 0.25, 1); its value at x = 0.5 is 0.8024033877.
@@ -45,7 +48,8 @@ TEST(Transitions, ExactValues) {
   EXPECT_FALSE(ParseTransition("bounce", &bad));
   EXPECT_FALSE(ParseTransition("cubic-bezier(1.5, 0, 0, 1)", &bad)) << "x must stay in [0, 1]";
   EXPECT_FALSE(ParseTransition("cubic-bezier(0.1, 0, 0.2)", &bad));
-  EXPECT_EQ(TransitionName(T("cubic-bezier(0.25, 0.1, 0.25, 1)")), "cubic-bezier(0.25, 0.1, 0.25, 1)");
+  EXPECT_EQ(TransitionName(T("cubic-bezier(0.25, 0.1, 0.25, 1)")),
+            "cubic-bezier(0.25, 0.1, 0.25, 1)");
 }
 
 Sequence ThreeKeys(const char* transition) {
@@ -130,15 +134,7 @@ double Distance(const Rig& rig, const std::vector<float>& a, const std::vector<f
   BlendContext ctx;
   EXPECT_TRUE(EvaluateRig(rig, a, {}, x, ctx).ok());
   EXPECT_TRUE(EvaluateRig(rig, b, {}, y, ctx).ok());
-  double worst = 0;
-  for (size_t p = 0; p < x.primitives.size(); ++p) {
-    const auto& pa = x.primitives[p].positions;
-    const auto& pb = y.primitives[p].positions;
-    for (size_t v = 0; v < pa.size(); v += 3) {
-      worst = std::max(worst, static_cast<double>(std::hypot(pa[v] - pb[v], pa[v + 1] - pb[v + 1], pa[v + 2] - pb[v + 2])));
-    }
-  }
-  return worst;
+  return test::MaxDistance(x, y);
 }
 
 class Reduction : public ::testing::TestWithParam<std::pair<const char*, float>> {};
@@ -185,10 +181,14 @@ TEST_P(Reduction, ToleranceRespectedOnRealAnimation) {
   EXPECT_EQ(exact->max_error, 0.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(Real, Reduction,
-                         ::testing::Values(std::make_pair("AnimatedMorphCube/AnimatedMorphCube.gltf", 0.001f),
-                                           std::make_pair("AnimatedMorphSphere/AnimatedMorphSphere.gltf", 0.01f)),
-                         [](const auto& param_info) { return std::string(param_info.param.first).substr(0, std::string(param_info.param.first).find('/')); });
+INSTANTIATE_TEST_SUITE_P(
+    Real, Reduction,
+    ::testing::Values(std::make_pair("AnimatedMorphCube/AnimatedMorphCube.gltf", 0.001f),
+                      std::make_pair("AnimatedMorphSphere/AnimatedMorphSphere.gltf", 0.01f)),
+    [](const auto& param_info) {
+      return std::string(param_info.param.first)
+          .substr(0, std::string(param_info.param.first).find('/'));
+    });
 
-}  // namespace
+}  // namespace sequence_test
 }  // namespace facespace

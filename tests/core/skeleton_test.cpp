@@ -1,6 +1,8 @@
 // Skeletons: skinning, sampling, blending and poses, checked analytically and against an
 // independent evaluation of the real skinned assets written in this test (Eigen's own
 // quaternion slerp, straight from the glTF JSON and buffers).
+#include "facespace/engine/skeleton.h"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -8,7 +10,6 @@
 
 #include "facespace/engine/blend.h"
 #include "facespace/formats/io.h"
-#include "facespace/engine/skeleton.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -32,8 +33,9 @@ Rig TwoBones() {
   Skin skin;
   skin.name = "chain";
   skin.joints = {0, 1};
-  skin.inverse_bind = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,     // Inverse of identity.
-                       1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1, 0, 1};   // Inverse of translate(0, 1, 0).
+  skin.inverse_bind = {
+      1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0,  0, 1,   // Inverse of identity.
+      1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1, 0, 1};  // Inverse of translate(0, 1, 0).
   rig.skins.push_back(skin);
   Primitive p;
   p.mode = PrimitiveMode::kPoints;
@@ -133,7 +135,8 @@ TEST(JobResult, DualQuaternionKeepsVolumeOnTwist) {
   ASSERT_TRUE(EvaluateRig(rig, {}, o, lin, ctx).ok());
   o.dual_quaternion = true;
   ASSERT_TRUE(EvaluateRig(rig, {}, o, dq, ctx).ok());
-  for (int i = 3 * 32; i < 3 * 40; ++i) EXPECT_NEAR(lin.primitives[0].positions[i], dq.primitives[0].positions[i], 1e-5f);
+  for (int i = 3 * 32; i < 3 * 40; ++i)
+    EXPECT_NEAR(lin.primitives[0].positions[i], dq.primitives[0].positions[i], 1e-5f);
   EXPECT_NEAR(lin.primitives[0].positions[3 * 32 + 2], 1.0f, 1e-5f);
 }
 
@@ -141,8 +144,12 @@ TEST(JobValidity, SkinningJob) {
   Rig rig = TwoBones();
   const Primitive& p = rig.primitives[0];
   std::vector<float> jm(32, 0.0f), out(9, -1.0f);
-  SkinningJob ok{.joint_matrices = jm, .influences = 2, .joints = p.joints, .weights = p.joint_weights,
-                 .in_positions = p.positions, .out_positions = out};
+  SkinningJob ok{.joint_matrices = jm,
+                 .influences = 2,
+                 .joints = p.joints,
+                 .weights = p.joint_weights,
+                 .in_positions = p.positions,
+                 .out_positions = out};
   EXPECT_TRUE(ok.Validate());
   SkinningJob one_joint = ok;
   std::vector<float> jm1(16);
@@ -175,7 +182,9 @@ TEST(Sampling, StepLinearCubic) {
   cubic.values = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 0, 0, 0};
   cubic.components = 3;
   clip.sampler_data = {lin, step, cubic};
-  clip.channel_data = {{0, 0, ChannelPath::kTranslation}, {1, 1, ChannelPath::kTranslation}, {2, 2, ChannelPath::kScale}};
+  clip.channel_data = {{0, 0, ChannelPath::kTranslation},
+                       {1, 1, ChannelPath::kTranslation},
+                       {2, 2, ChannelPath::kScale}};
   clip.duration = 3;
   rig.animations.push_back(clip);
   auto sample = [&](float t, ClipWrap wrap) {
@@ -186,16 +195,16 @@ TEST(Sampling, StepLinearCubic) {
     return pose;
   };
   Pose p = sample(0.5f, ClipWrap::kClamp);
-  EXPECT_FLOAT_EQ(p.local[0].translation[0], 1.0f);    // Linear: halfway to 2.
-  EXPECT_FLOAT_EQ(p.local[1].translation[0], 0.0f);    // Step: holds the first key.
-  EXPECT_FLOAT_EQ(p.local[2].scale[0], 0.15625f);      // Hermite at u = 0.25: 3u^2 - 2u^3.
+  EXPECT_FLOAT_EQ(p.local[0].translation[0], 1.0f);  // Linear: halfway to 2.
+  EXPECT_FLOAT_EQ(p.local[1].translation[0], 0.0f);  // Step: holds the first key.
+  EXPECT_FLOAT_EQ(p.local[2].scale[0], 0.15625f);    // Hermite at u = 0.25: 3u^2 - 2u^3.
   p = sample(2.0f, ClipWrap::kClamp);
-  EXPECT_FLOAT_EQ(p.local[0].translation[1], 2.0f);    // Between keys 1 and 3.
+  EXPECT_FLOAT_EQ(p.local[0].translation[1], 2.0f);  // Between keys 1 and 3.
   EXPECT_FLOAT_EQ(p.local[1].translation[0], 2.0f);
   p = sample(7.0f, ClipWrap::kClamp);
-  EXPECT_FLOAT_EQ(p.local[0].translation[1], 4.0f);    // Clamped at the end.
+  EXPECT_FLOAT_EQ(p.local[0].translation[1], 4.0f);  // Clamped at the end.
   p = sample(3.5f, ClipWrap::kLoop);
-  EXPECT_FLOAT_EQ(p.local[0].translation[0], 1.0f);    // 3.5 loops to 0.5.
+  EXPECT_FLOAT_EQ(p.local[0].translation[0], 1.0f);  // 3.5 loops to 0.5.
   p = sample(-1.0f, ClipWrap::kClamp);
   EXPECT_FLOAT_EQ(p.local[0].translation[0], 0.0f);
 }
@@ -230,7 +239,8 @@ TEST(Pose, RequestsAndErrors) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_EQ(warnings[0].code, "quaternion_normalised");
   EXPECT_NEAR(pose.local[1].rotation[2], std::sqrt(0.5f), 1e-6f);
-  EXPECT_EQ(pose.local[1].translation, (std::array<float, 3>{0, 1, 0})) << "translation kept from rest";
+  EXPECT_EQ(pose.local[1].translation, (std::array<float, 3>{0, 1, 0}))
+      << "translation kept from rest";
 
   req.joints[0].rotation = {0, 0, 0, 0};
   auto bad = BuildPose(rig, req, pose, w, set, warnings);
@@ -239,10 +249,12 @@ TEST(Pose, RequestsAndErrors) {
   req.joints[0].rotation = {NAN, 0, 0, 1};
   EXPECT_FALSE(BuildPose(rig, req, pose, w, set, warnings).ok());
   req.joints[0].joint = "nose";
-  EXPECT_NE(BuildPose(rig, req, pose, w, set, warnings).message.find("unknown joint 'nose'"), std::string::npos);
+  EXPECT_NE(BuildPose(rig, req, pose, w, set, warnings).message.find("unknown joint 'nose'"),
+            std::string::npos);
   PoseRequest clip;
   clip.clips.push_back(ClipRequest{.name = "dance", .pointer = "/animation"});
-  EXPECT_NE(BuildPose(rig, clip, pose, w, set, warnings).message.find("unknown animation 'dance'"), std::string::npos);
+  EXPECT_NE(BuildPose(rig, clip, pose, w, set, warnings).message.find("unknown animation 'dance'"),
+            std::string::npos);
 }
 
 TEST(Pose, BlendOfClipsWithMask) {
@@ -293,7 +305,8 @@ TEST(Pose, AnimatedWeightsYieldToExplicitOnes) {
   const size_t k = std::upper_bound(times.begin(), times.end(), 1.0f) - times.begin();
   const float u = (1.0f - times[k - 1]) / (times[k] - times[k - 1]);
   for (int s = 0; s < 2; ++s) {
-    EXPECT_NEAR(weights[s], values[2 * (k - 1) + s] + u * (values[2 * k + s] - values[2 * (k - 1) + s]), 1e-6f);
+    EXPECT_NEAR(weights[s],
+                values[2 * (k - 1) + s] + u * (values[2 * k + s] - values[2 * (k - 1) + s]), 1e-6f);
   }
   std::vector<WeightEntry> one = {{.name = rig->shapes[0].name, .value = 0.25}};
   ASSERT_TRUE(ResolvePoseAndWeights(rig.value(), one, req, weights, pose, posed, warnings).ok());
@@ -310,9 +323,11 @@ Eigen::Matrix4f NodeLocal(const nlohmann::json& n) {
   }
   Eigen::Vector3f t(0, 0, 0), s(1, 1, 1);
   Eigen::Quaternionf r(1, 0, 0, 0);
-  if (n.contains("translation")) t = Eigen::Vector3f(n["translation"][0], n["translation"][1], n["translation"][2]);
+  if (n.contains("translation"))
+    t = Eigen::Vector3f(n["translation"][0], n["translation"][1], n["translation"][2]);
   if (n.contains("scale")) s = Eigen::Vector3f(n["scale"][0], n["scale"][1], n["scale"][2]);
-  if (n.contains("rotation")) r = Eigen::Quaternionf(n["rotation"][3], n["rotation"][0], n["rotation"][1], n["rotation"][2]);
+  if (n.contains("rotation"))
+    r = Eigen::Quaternionf(n["rotation"][3], n["rotation"][0], n["rotation"][1], n["rotation"][2]);
   return (Eigen::Translation3f(t) * r.normalized() * Eigen::Scaling(s)).matrix();
 }
 
@@ -338,13 +353,16 @@ std::vector<nlohmann::json> AnimatedNodes(const test::RawGltf& raw, int anim, fl
     }
     auto& node = nodes[ch["target"]["node"].get<int>()];
     if (path == "rotation") {
-      const Eigen::Quaternionf q0(values[4 * k0 + 3], values[4 * k0], values[4 * k0 + 1], values[4 * k0 + 2]);
-      const Eigen::Quaternionf q1(values[4 * k1 + 3], values[4 * k1], values[4 * k1 + 1], values[4 * k1 + 2]);
+      const Eigen::Quaternionf q0(values[4 * k0 + 3], values[4 * k0], values[4 * k0 + 1],
+                                  values[4 * k0 + 2]);
+      const Eigen::Quaternionf q1(values[4 * k1 + 3], values[4 * k1], values[4 * k1 + 1],
+                                  values[4 * k1 + 2]);
       const Eigen::Quaternionf q = q0.slerp(u, q1).normalized();
       node["rotation"] = {q.x(), q.y(), q.z(), q.w()};
     } else {
       std::vector<float> v(comps);
-      for (int c = 0; c < comps; ++c) v[c] = values[comps * k0 + c] + u * (values[comps * k1 + c] - values[comps * k0 + c]);
+      for (int c = 0; c < comps; ++c)
+        v[c] = values[comps * k0 + c] + u * (values[comps * k1 + c] - values[comps * k0 + c]);
       node[path] = v;
     }
   }
@@ -370,16 +388,19 @@ TEST_P(SkinnedAssets, MatchIndependentEvaluation) {
   const auto nodes = AnimatedNodes(raw, c.animation, c.time);
   std::vector<int> parent(nodes.size(), -1);
   for (size_t i = 0; i < nodes.size(); ++i) {
-    for (const auto& ch : nodes[i].value("children", nlohmann::json::array())) parent[ch.get<int>()] = static_cast<int>(i);
+    for (const auto& ch : nodes[i].value("children", nlohmann::json::array()))
+      parent[ch.get<int>()] = static_cast<int>(i);
   }
   std::function<Eigen::Matrix4f(int)> world = [&](int i) -> Eigen::Matrix4f {
-    return parent[i] < 0 ? NodeLocal(nodes[i]) : Eigen::Matrix4f(world(parent[i]) * NodeLocal(nodes[i]));
+    return parent[i] < 0 ? NodeLocal(nodes[i])
+                         : Eigen::Matrix4f(world(parent[i]) * NodeLocal(nodes[i]));
   };
   const auto& skin = raw.json["skins"][0];
   const auto ibm = raw.Floats(skin["inverseBindMatrices"]);
   std::vector<Eigen::Matrix4f> jm;
   for (size_t j = 0; j < skin["joints"].size(); ++j) {
-    jm.push_back(world(skin["joints"][j].get<int>()) * Eigen::Map<const Eigen::Matrix4f>(&ibm[16 * j]));
+    jm.push_back(world(skin["joints"][j].get<int>()) *
+                 Eigen::Map<const Eigen::Matrix4f>(&ibm[16 * j]));
   }
   const auto& prim = raw.json["meshes"][0]["primitives"][0];
   const auto pos = raw.Floats(prim["attributes"]["POSITION"]);
@@ -412,7 +433,8 @@ TEST_P(SkinnedAssets, MatchIndependentEvaluation) {
   o.pose = &pose;
   ASSERT_TRUE(EvaluateRig(rig.value(), w, o, out, ctx).ok());
   ASSERT_TRUE(out.primitives[0].skinned);
-  EXPECT_LE(test::MaxAbsDiff(out.primitives[0].positions, expected), 2e-5f * std::max(extent, 1.0f));
+  EXPECT_LE(test::MaxAbsDiff(out.primitives[0].positions, expected),
+            2e-5f * std::max(extent, 1.0f));
   // Normals stay unit length after skinning.
   const auto& n = out.primitives[0].normals;
   for (size_t v = 0; v < n.size(); v += 3) {
@@ -420,26 +442,35 @@ TEST_P(SkinnedAssets, MatchIndependentEvaluation) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Skins, SkinnedAssets,
-    ::testing::Values(SkinCase{"SimpleSkin/SimpleSkin.gltf", 0, 0.0f}, SkinCase{"SimpleSkin/SimpleSkin.gltf", 0, 2.25f},
-                      SkinCase{"SimpleSkin/SimpleSkin.gltf", 0, 4.9f}, SkinCase{"RiggedSimple/RiggedSimple.gltf", 0, 0.37f},
-                      SkinCase{"RiggedSimple/RiggedSimple.gltf", 0, 1.5f}, SkinCase{"CesiumMan/CesiumMan.gltf", 0, 0.0f},
-                      SkinCase{"CesiumMan/CesiumMan.gltf", 0, 0.8f}, SkinCase{"CesiumMan/CesiumMan.gltf", 0, 1.7f},
-                      SkinCase{"Fox/Fox.glb", 0, 1.2f}, SkinCase{"Fox/Fox.glb", 1, 0.3f}, SkinCase{"Fox/Fox.glb", 2, 0.77f}),
-    [](const auto& param_info) {
-      std::string n = std::string(param_info.param.path) + "_a" + std::to_string(param_info.param.animation) + "_t" +
-                      std::to_string(static_cast<int>(param_info.param.time * 100));
-      n = n.substr(n.find('/') + 1);
-      for (char& ch : n) if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
-      return n;
-    });
+INSTANTIATE_TEST_SUITE_P(Skins, SkinnedAssets,
+                         ::testing::Values(SkinCase{"SimpleSkin/SimpleSkin.gltf", 0, 0.0f},
+                                           SkinCase{"SimpleSkin/SimpleSkin.gltf", 0, 2.25f},
+                                           SkinCase{"SimpleSkin/SimpleSkin.gltf", 0, 4.9f},
+                                           SkinCase{"RiggedSimple/RiggedSimple.gltf", 0, 0.37f},
+                                           SkinCase{"RiggedSimple/RiggedSimple.gltf", 0, 1.5f},
+                                           SkinCase{"CesiumMan/CesiumMan.gltf", 0, 0.0f},
+                                           SkinCase{"CesiumMan/CesiumMan.gltf", 0, 0.8f},
+                                           SkinCase{"CesiumMan/CesiumMan.gltf", 0, 1.7f},
+                                           SkinCase{"Fox/Fox.glb", 0, 1.2f},
+                                           SkinCase{"Fox/Fox.glb", 1, 0.3f},
+                                           SkinCase{"Fox/Fox.glb", 2, 0.77f}),
+                         [](const auto& param_info) {
+                           std::string n =
+                               std::string(param_info.param.path) + "_a" +
+                               std::to_string(param_info.param.animation) + "_t" +
+                               std::to_string(static_cast<int>(param_info.param.time * 100));
+                           n = n.substr(n.find('/') + 1);
+                           for (char& ch : n)
+                             if (!isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                           return n;
+                         });
 
 TEST(Skins, CesiumManWeightsAreNormalisedWithAWarning) {
   auto rig = LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
   ASSERT_TRUE(rig.ok());
   bool warned = false;
-  for (const Warning& w : rig->load_warnings) warned |= w.code == "weights_normalised" && w.value == 210;
+  for (const Warning& w : rig->load_warnings)
+    warned |= w.code == "weights_normalised" && w.value == 210;
   EXPECT_TRUE(warned) << "210 of 3273 vertices do not sum to 1 in this sample";
   const Primitive& p = rig->primitives[0];
   for (size_t v = 0; v < p.vertex_count(); ++v) {
@@ -449,5 +480,5 @@ TEST(Skins, CesiumManWeightsAreNormalisedWithAWarning) {
   }
 }
 
-}  // namespace
+}  // namespace skeleton_test
 }  // namespace facespace

@@ -63,8 +63,9 @@ TEST(Speech, PhonemesInIpaAndArpabetGiveTheirVisemes) {
 
 TEST(Speech, VisemesMergeInheritAndSplitShortPauses) {
   const std::vector<TimedPhoneme> phonemes = {
-      {"_", 0.0f, 0.1f}, {"h", 0.1f, 0.15f}, {"ə", 0.15f, 0.2f}, {"l", 0.2f, 0.3f}, {"_", 0.3f, 0.34f},  // A 40 ms pause: no closing.
-      {"m", 0.34f, 0.4f}, {"b", 0.4f, 0.45f}, {"iː", 0.6f, 0.8f},                                     // A gap at 0.45..0.6: a pause.
+      {"_", 0.0f, 0.1f},  {"h", 0.1f, 0.15f}, {"ə", 0.15f, 0.2f},
+      {"l", 0.2f, 0.3f},  {"_", 0.3f, 0.34f},                      // A 40 ms pause: no closing.
+      {"m", 0.34f, 0.4f}, {"b", 0.4f, 0.45f}, {"iː", 0.6f, 0.8f},  // A gap at 0.45..0.6: a pause.
   };
   const std::vector<TimedViseme> v = VisemesOfPhonemes(phonemes);
   ASSERT_EQ(v.size(), 6u);
@@ -73,7 +74,7 @@ TEST(Speech, VisemesMergeInheritAndSplitShortPauses) {
   EXPECT_FLOAT_EQ(v[1].start, 0.1f);
   EXPECT_FLOAT_EQ(v[1].end, 0.2f);
   EXPECT_EQ(v[2].viseme, Viseme::kNN);
-  EXPECT_FLOAT_EQ(v[2].end, 0.32f);  // Half the short pause.
+  EXPECT_FLOAT_EQ(v[2].end, 0.32f);     // Half the short pause.
   EXPECT_EQ(v[3].viseme, Viseme::kPP);  // m + b merged, and half the pause.
   EXPECT_FLOAT_EQ(v[3].start, 0.32f);
   EXPECT_FLOAT_EQ(v[3].end, 0.45f);
@@ -88,7 +89,9 @@ TEST(Speech, DerivedMapsForArkitAndMmdRigsAndNoneForAFaceSpace) {
   const auto& aa = facecap.visemes.binds[static_cast<size_t>(Viseme::kAA)];
   const int jaw = FindShape(facecap, "jawOpen");
   ASSERT_GE(jaw, 0);
-  EXPECT_TRUE(std::any_of(aa.begin(), aa.end(), [&](const auto& b) { return b.first == static_cast<uint32_t>(jaw) && b.second > 0.5f; }));
+  EXPECT_TRUE(std::any_of(aa.begin(), aa.end(), [&](const auto& b) {
+    return b.first == static_cast<uint32_t>(jaw) && b.second > 0.5f;
+  }));
   EXPECT_EQ(facecap.visemes.jaw, std::vector<uint32_t>{static_cast<uint32_t>(jaw)});
 
   const Rig uka = Load("uka/MS_Uka.pmx");  // Her manifest's map, from her MMDAgent shapemap.
@@ -115,8 +118,11 @@ float WeightAt(const Rig& rig, const Sequence& seq, float t, int shape) {
 TEST(Speech, KeysSitAtTheVisemesTimesAndClosuresClose) {
   const Rig rig = Load("facecap/facecap.glb");
   const int jaw = FindShape(rig, "jawOpen"), press = FindShape(rig, "mouthPress_L");
-  const std::vector<TimedViseme> visemes = {{Viseme::kSil, 0.0f, 0.2f}, {Viseme::kAA, 0.2f, 0.45f}, {Viseme::kPP, 0.45f, 0.48f},
-                                            {Viseme::kAA, 0.48f, 0.6f}, {Viseme::kSil, 0.6f, 0.9f}};
+  const std::vector<TimedViseme> visemes = {{Viseme::kSil, 0.0f, 0.2f},
+                                            {Viseme::kAA, 0.2f, 0.45f},
+                                            {Viseme::kPP, 0.45f, 0.48f},
+                                            {Viseme::kAA, 0.48f, 0.6f},
+                                            {Viseme::kSil, 0.6f, 0.9f}};
   const std::vector<float> base(rig.shapes.size(), 0.0f);
   SpeechOptions options;
   const Sequence seq = SpeechSequence(rig, visemes, base, options);
@@ -127,7 +133,9 @@ TEST(Speech, KeysSitAtTheVisemesTimesAndClosuresClose) {
     for (float t : VisemeKeyTimes(v, options)) expected.push_back(std::clamp(t, 0.0f, 0.9f));
   }
   for (const Keyframe& k : seq.keys) {
-    EXPECT_TRUE(std::any_of(expected.begin(), expected.end(), [&](float t) { return std::fabs(t - k.time) < 1e-6f; })) << k.time;
+    EXPECT_TRUE(std::any_of(expected.begin(), expected.end(), [&](float t) {
+      return std::fabs(t - k.time) < 1e-6f;
+    })) << k.time;
   }
   // The long aa holds its jaw (0.7) between its inset keys; silence is the base.
   EXPECT_NEAR(WeightAt(rig, seq, 0.3f, jaw), 0.7f, 1e-5f);
@@ -162,10 +170,10 @@ TEST(Speech, TheJawDoesNotChatterOnShortSyllables) {
     lo = std::min(lo, w);
     hi = std::max(hi, w);
   }
-  EXPECT_GT(hi, 0.3f);                       // It does open.
-  EXPECT_GE(lo, 0.6f * hi - 1e-4f);           // And does not shut between the vowels.
+  EXPECT_GT(hi, 0.3f);               // It does open.
+  EXPECT_GE(lo, 0.6f * hi - 1e-4f);  // And does not shut between the vowels.
   EXPECT_LT(hi - lo, 0.35f);
-  EXPECT_LT(hi, 0.7f);                        // Short vowels open less than a full aa.
+  EXPECT_LT(hi, 0.7f);  // Short vowels open less than a full aa.
 }
 
 TEST(Speech, MmdRigsHoldNolipShapesAtZeroWhileSpeaking) {
@@ -173,7 +181,8 @@ TEST(Speech, MmdRigsHoldNolipShapesAtZeroWhileSpeaking) {
   const int e = FindShape(uka, "え"), smile = FindShape(uka, "にっこり"), a = FindShape(uka, "あ");
   std::vector<float> base(uka.shapes.size(), 0.0f);
   base[smile] = 0.8f;  // A smiling mouth under the speech.
-  const std::vector<TimedViseme> visemes = {{Viseme::kSil, 0.0f, 0.2f}, {Viseme::kAA, 0.2f, 0.5f}, {Viseme::kSil, 0.5f, 0.8f}};
+  const std::vector<TimedViseme> visemes = {
+      {Viseme::kSil, 0.0f, 0.2f}, {Viseme::kAA, 0.2f, 0.5f}, {Viseme::kSil, 0.5f, 0.8f}};
   const Sequence seq = SpeechSequence(uka, visemes, base);
   EXPECT_NEAR(WeightAt(uka, seq, 0.35f, a), 1.0f, 1e-5f);
   EXPECT_NEAR(WeightAt(uka, seq, 0.35f, smile), 0.0f, 1e-6f);
@@ -182,5 +191,5 @@ TEST(Speech, MmdRigsHoldNolipShapesAtZeroWhileSpeaking) {
   EXPECT_NEAR(WeightAt(uka, seq, 0.8f, smile), 0.8f, 1e-6f);
 }
 
-}  // namespace
+}  // namespace speech_test
 }  // namespace facespace

@@ -12,7 +12,8 @@
 
 namespace facespace::test {
 
-inline std::vector<float> WorldOf(const Rig& rig, std::span<const float> weights, const Pose* pose) {
+inline std::vector<float> WorldOf(const Rig& rig, std::span<const float> weights,
+                                  const Pose* pose) {
   BlendedRig blended;
   BlendContext context;
   BlendOptions options;

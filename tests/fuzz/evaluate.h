@@ -9,15 +9,17 @@
 
 #include "facespace/engine/animation.h"
 #include "facespace/engine/blend.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/skeleton.h"
+#include "facespace/formats/io.h"
 
-inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace::Rig& rig, const facespace::BlendedRig& blended,
+inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace::Rig& rig,
+                           const facespace::BlendedRig& blended,
                            const std::vector<float>& weights) {
   auto expected = facespace::ExportMesh(rig, blended, weights, {}, facespace::MeshFormat::kGlb);
   auto pieces = writer.Write(rig, blended, weights, {});
   if (expected.ok() != pieces.ok()) __builtin_trap();
-  if (expected.ok() && expected.value() != std::string(pieces->head) + std::string(pieces->bin)) __builtin_trap();
+  if (expected.ok() && expected.value() != std::string(pieces->head) + std::string(pieces->bin))
+    __builtin_trap();
 }
 
 inline void EvaluateLoadedRig(const facespace::Rig& rig, float weight) {
@@ -36,5 +38,6 @@ inline void EvaluateLoadedRig(const facespace::Rig& rig, float weight) {
   if (!facespace::SampleClip(rig, 0, 0.37f, facespace::ClipWrap::kLoop, pose, w, set).ok()) return;
   facespace::BlendOptions options;
   options.pose = &pose;
-  if (facespace::EvaluateRig(rig, weights, options, blended, context).ok()) CheckGlbWriter(writer, rig, blended, weights);
+  if (facespace::EvaluateRig(rig, weights, options, blended, context).ok())
+    CheckGlbWriter(writer, rig, blended, weights);
 }

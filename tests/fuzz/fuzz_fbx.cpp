@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <span>
 
-#include "facespace/formats/io.h"
 #include "evaluate.h"
+#include "facespace/formats/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto rig = facespace::LoadFbxMemory(std::span<const unsigned char>(data, size), "fuzz");

@@ -1,8 +1,8 @@
 // libFuzzer: a whole HTTP request through the connection front's framing and then the router
 // (every route, the error handler, CORS, caching) with no socket: what the framing takes as one
 // whole request (a chunked one made whole) is fed to cpp-httplib's request processing over an
-// in-memory stream, as the front hands it to a worker. The framing found in two pieces must be the framing found at once. Rigs:
-// FaceCap in a memory store that accepts uploads (key "fuzz-key").
+// in-memory stream, as the front hands it to a worker. The framing found in two pieces must be the
+// framing found at once. Rigs: FaceCap in a memory store that accepts uploads (key "fuzz-key").
 #include <httplib.h>
 
 #include <algorithm>
@@ -14,8 +14,8 @@
 #include <string_view>
 
 #include "facespace/http/http.h"
-#include "facespace/offscreen/render.h"
 #include "facespace/net/framing.h"
+#include "facespace/offscreen/render.h"
 #include "memory_store.h"
 
 namespace {
@@ -89,7 +89,8 @@ Framing Frame(std::string_view bytes, size_t split, size_t& end, std::string& re
       }
     }
     if (f == Framing::kComplete) {  // As the front hands it on: a chunked body made whole.
-      request = head.chunked ? facespace::api::http::Dechunked(bytes.substr(0, end), head) : std::string(bytes.substr(0, end));
+      request = head.chunked ? facespace::api::http::Dechunked(bytes.substr(0, end), head)
+                             : std::string(bytes.substr(0, end));
     }
     if (f != Framing::kNeedMore || have == bytes.size()) return f;
     have = std::min(bytes.size(), have + split);
@@ -105,7 +106,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string request, request_split;
   const Framing once = Frame(bytes, 0, end, request);
   const Framing pieces = Frame(bytes, 1 + size % 7, end_split, request_split);
-  if (once != pieces || (once == Framing::kComplete && (end != end_split || request != request_split))) __builtin_trap();
-  if (once == Framing::kComplete) h.server.Process(reinterpret_cast<const uint8_t*>(request.data()), request.size());
+  if (once != pieces ||
+      (once == Framing::kComplete && (end != end_split || request != request_split)))
+    __builtin_trap();
+  if (once == Framing::kComplete)
+    h.server.Process(reinterpret_cast<const uint8_t*>(request.data()), request.size());
   return 0;
 }

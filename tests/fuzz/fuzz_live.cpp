@@ -1,6 +1,7 @@
-// libFuzzer: bytes from a live client (GET /v1/rigs/{id}/live) through the WebSocket framing as the hub
-// reads them: frames parsed one after the other from a buffer (payloads unmasked in place), within a
-// 64 KiB cap, text checked for UTF-8, and each frame found the same when its bytes come in two pieces.
+// libFuzzer: bytes from a live client (GET /v1/rigs/{id}/live) through the WebSocket framing as the
+// hub reads them: frames parsed one after the other from a buffer (payloads unmasked in place),
+// within a 64 KiB cap, text checked for UTF-8, and each frame found the same when its bytes come in
+// two pieces.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -11,8 +12,8 @@
 using facespace::api::http::ws::Frame;
 using facespace::api::http::ws::FrameError;
 using facespace::api::http::ws::Opcode;
-using facespace::api::http::ws::Parsed;
 using facespace::api::http::ws::ParseClientFrame;
+using facespace::api::http::ws::Parsed;
 using facespace::api::http::ws::ValidUtf8;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -7,8 +7,8 @@
 #include <utility>
 #include <vector>
 
-#include "facespace/formats/io.h"
 #include "evaluate.h"
+#include "facespace/formats/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

@@ -5,13 +5,14 @@
 #include <cstring>
 #include <span>
 
-#include "facespace/formats/io.h"
 #include "evaluate.h"
+#include "facespace/formats/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const unsigned char> bytes(data, size);
   const bool pmd = size >= 3 && std::memcmp(data, "Pmd", 3) == 0;
-  auto rig = pmd ? facespace::LoadPmdMemory(bytes, "fuzz") : facespace::LoadPmxMemory(bytes, "fuzz");
+  auto rig =
+      pmd ? facespace::LoadPmdMemory(bytes, "fuzz") : facespace::LoadPmxMemory(bytes, "fuzz");
   if (rig.ok()) EvaluateLoadedRig(rig.value(), 0.7f);
   return 0;
 }

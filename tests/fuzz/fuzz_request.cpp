@@ -1,23 +1,26 @@
-// libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling (and a dataset's
-// members), resolved against real rigs (FaceCap; a skinned CesiumMan); or (first byte 0xFF) a manifest
-// applied to FaceCap. The first byte picks the schema.
+// libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling (and a
+// dataset's members), resolved against real rigs (FaceCap; a skinned CesiumMan); or (first byte
+// 0xFF) a manifest applied to FaceCap. The first byte picks the schema.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
 
-#include "facespace/evaluator/evaluator.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/skeleton.h"
 #include "facespace/engine/weights.h"
+#include "facespace/evaluator/evaluator.h"
+#include "facespace/formats/io.h"
 
 namespace {
 
 const facespace::Rig& Rig(bool skinned) {
-  static const facespace::Rig face = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+  static const facespace::Rig face =
+      facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   static const facespace::Rig man = [] {
     auto r = facespace::LoadRigFile(FACESPACE_SHARED_ASSETS "/real/CesiumMan/CesiumMan.glb");
-    return r.ok() ? std::move(r.value()) : facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+    return r.ok()
+               ? std::move(r.value())
+               : facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   }();
   return skinned ? man : face;
 }
@@ -34,7 +37,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const std::string_view body(reinterpret_cast<const char*>(data + 1), size - 1);
   const facespace::Rig& rig = Rig(data[0] & 0x10);
-  if (data[0] == 0xFF) {  // A manifest (an upload's): its regions and landmarks index meshes, materials, vertices.
+  if (data[0] == 0xFF) {  // A manifest (an upload's): its regions and landmarks index meshes,
+                          // materials, vertices.
     facespace::Rig copy = Rig(false);
     (void)facespace::ApplyManifest(copy, std::string(body));
     return 0;
@@ -68,7 +72,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       if (auto b = ParseBatchRequest(body); b.ok() && b->sampled) {
         if (auto spec = ResolveSampleSpec(rig, b.value()); spec.ok()) {
           std::vector<float> w(rig.shapes.size());
-          const size_t n = std::min<size_t>(facespace::SampleCount(spec.value(), rig.shapes.size()), 3);
+          const size_t n =
+              std::min<size_t>(facespace::SampleCount(spec.value(), rig.shapes.size()), 3);
           for (size_t k = 0; k < n; ++k) facespace::SampleVariant(rig, spec.value(), k, w);
         }
       }

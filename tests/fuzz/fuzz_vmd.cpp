@@ -6,8 +6,8 @@
 #include <span>
 
 #include "facespace/engine/blend.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/pose_request.h"
+#include "facespace/formats/io.h"
 
 namespace {
 

@@ -1,6 +1,6 @@
 // Secondary motion. A pendulum checked against its own mechanics; Uka's rigid bodies and joints as
-// the PMX and PMD bytes say them; her happy motion with physics: hair and skirt swing, nothing flies
-// off, and the same request gives the same bytes.
+// the PMX and PMD bytes say them; her happy motion with physics: hair and skirt swing, nothing
+// flies off, and the same request gives the same bytes.
 #include "facespace/physics/physics.h"
 
 #include <gtest/gtest.h>
@@ -27,11 +27,19 @@ Rig Pendulum() {
   rig.nodes[3] = {.name = "tip", .parent = 2, .translation = {1, 0, 0}};
   rig.scene_roots = {0};
   RigidBody pivot{.name = "pivot", .node = 1, .size = {0.05f, 0, 0}, .position = {0, 1, 0}};
-  RigidBody arm{.name = "arm", .node = 2, .size = {0.05f, 0, 0}, .position = {0.5f, 1, 0}, .mass = 1.0f,
+  RigidBody arm{.name = "arm",
+                .node = 2,
+                .size = {0.05f, 0, 0},
+                .position = {0.5f, 1, 0},
+                .mass = 1.0f,
                 .mode = RigidBody::Mode::kPhysics};
   pivot.collides_with = arm.collides_with = 0;  // Only the ground.
-  PhysicsJoint hinge{.name = "hinge", .a = 0, .b = 1, .position = {0, 1, 0},
-                     .angular_lower = {1, 1, 1}, .angular_upper = {-1, -1, -1}};  // lower > upper: free.
+  PhysicsJoint hinge{.name = "hinge",
+                     .a = 0,
+                     .b = 1,
+                     .position = {0, 1, 0},
+                     .angular_lower = {1, 1, 1},
+                     .angular_upper = {-1, -1, -1}};  // lower > upper: free.
   rig.physics.bodies = {pivot, arm};
   rig.physics.joints = {hinge};
   return rig;
@@ -47,8 +55,8 @@ TEST(Physics, APendulumReleasedHorizontalSwingsDownInAQuarterOfItsPeriod) {
   const Pose rest = RestPose(rig);
   auto sim = physics::Simulation::Create(rig, rest);
   ASSERT_NE(sim, nullptr);
-  // A rigid pendulum from 90 degrees: T/4 = K(sin 45 deg) sqrt(I / (m g L)), with I = m L^2 + 2/5 m r^2
-  // about the pivot (a sphere of radius r at L = 0.5 m): K(1/sqrt 2) = 1.854075, so 0.4196 s.
+  // A rigid pendulum from 90 degrees: T/4 = K(sin 45 deg) sqrt(I / (m g L)), with I = m L^2 + 2/5 m
+  // r^2 about the pivot (a sphere of radius r at L = 0.5 m): K(1/sqrt 2) = 1.854075, so 0.4196 s.
   const double L = 0.5, r = 0.05, g = 9.8;
   const double quarter = 1.854075 * std::sqrt((L * L + 0.4 * r * r) / (g * L));
   float lowest_y = 2.0f, lowest_t = 0.0f;
@@ -76,12 +84,14 @@ TEST(Physics, TheSameStepsGiveTheSameBonesAndTheFirstPoseIsAsGiven) {
   auto one = physics::Simulation::Create(rig, rest);
   auto two = physics::Simulation::Create(rig, rest);
   one->Apply(untouched);
-  EXPECT_NEAR(At(rig, untouched, 3)[0], 1.0f, 1e-5f) << "before any step the bones are where the pose put them";
+  EXPECT_NEAR(At(rig, untouched, 3)[0], 1.0f, 1e-5f)
+      << "before any step the bones are where the pose put them";
   EXPECT_NEAR(At(rig, untouched, 3)[1], 1.0f, 1e-5f);
   for (int i = 0; i < 30; ++i) one->Step(rest, 1.0f / 60.0f), two->Step(rest, 1.0f / 60.0f);
   one->Apply(a);
   two->Apply(b);
-  EXPECT_EQ(std::memcmp(a.local[2].rotation.data(), b.local[2].rotation.data(), sizeof(float) * 4), 0);
+  EXPECT_EQ(std::memcmp(a.local[2].rotation.data(), b.local[2].rotation.data(), sizeof(float) * 4),
+            0);
 }
 
 TEST(Physics, ARigWithNothingSimulatedOnABoneHasNoSimulation) {
@@ -93,8 +103,9 @@ TEST(Physics, ARigWithNothingSimulatedOnABoneHasNoSimulation) {
 // ---- Uka ----
 
 size_t Simulated(const Rig& rig) {
-  return static_cast<size_t>(std::count_if(rig.physics.bodies.begin(), rig.physics.bodies.end(),
-                                           [](const RigidBody& b) { return b.mode != RigidBody::Mode::kFollowBone; }));
+  return static_cast<size_t>(
+      std::count_if(rig.physics.bodies.begin(), rig.physics.bodies.end(),
+                    [](const RigidBody& b) { return b.mode != RigidBody::Mode::kFollowBone; }));
 }
 
 TEST(UkaPhysics, HerBodiesAndJointsAreReadAsTheFilesSay) {
@@ -112,7 +123,8 @@ TEST(UkaPhysics, HerBodiesAndJointsAreReadAsTheFilesSay) {
   // Each body where its file puts it: the PMX's absolute, the PMD's from its bone.
   for (size_t i = 0; i < pmx->physics.bodies.size(); ++i) {
     const RigidBody &x = pmx->physics.bodies[i], &d = pmd->physics.bodies[i];
-    for (int a = 0; a < 3; ++a) EXPECT_NEAR(x.position[a], d.position[a], 1e-3f) << x.name << " axis " << a;
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(x.position[a], d.position[a], 1e-3f) << x.name << " axis " << a;
   }
 }
 
@@ -120,7 +132,8 @@ struct Played {
   std::vector<std::vector<float>> frames;  // World positions at each time.
 };
 
-Played PlayHappy(const std::shared_ptr<const api::StoredRig>& stored, bool physics, const std::vector<float>& times) {
+Played PlayHappy(const std::shared_ptr<const api::StoredRig>& stored, bool physics,
+                 const std::vector<float>& times) {
   const Rig& rig = stored->rig;
   ClipRequest named{.name = "01_happy"};
   auto seq = SequenceOfClip(rig, FindClip(rig, named));
@@ -148,12 +161,14 @@ TEST(UkaPhysics, HappyForFiveSecondsSwingsHairAndSkirtAndNothingFliesOff) {
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   const auto stored = api::Unstored(std::move(rig.value()));
   const std::vector<float> times = {0.0f, 1.0f, 2.5f, 5.0f};
-  const Played with = PlayHappy(stored, true, times), without = PlayHappy(stored, false, times), again = PlayHappy(stored, true, times);
+  const Played with = PlayHappy(stored, true, times), without = PlayHappy(stored, false, times),
+               again = PlayHappy(stored, true, times);
   // The rest pose's bounding box, grown 1.5 times about its centre.
   std::vector<float> rest = without.frames[0];
   std::array<float, 3> lo{1e9f, 1e9f, 1e9f}, hi{-1e9f, -1e9f, -1e9f};
   for (size_t v = 0; v < rest.size(); v += 3) {
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], rest[v + a]), hi[a] = std::max(hi[a], rest[v + a]);
+    for (int a = 0; a < 3; ++a)
+      lo[a] = std::min(lo[a], rest[v + a]), hi[a] = std::max(hi[a], rest[v + a]);
   }
   for (size_t f = 0; f < times.size(); ++f) {
     ASSERT_EQ(with.frames[f].size(), without.frames[f].size());
@@ -173,10 +188,13 @@ TEST(UkaPhysics, HappyForFiveSecondsSwingsHairAndSkirtAndNothingFliesOff) {
     if (f == 0) {
       EXPECT_EQ(most, 0.0f) << "the first frame is the pose as it is";
     } else {
-      EXPECT_GT(moved, 300u) << "t=" << times[f] << ": hair and skirt move (largest " << most << " m)";
+      EXPECT_GT(moved, 300u) << "t=" << times[f] << ": hair and skirt move (largest " << most
+                             << " m)";
       EXPECT_LT(most, 0.5f) << "t=" << times[f];
     }
-    EXPECT_EQ(std::memcmp(with.frames[f].data(), again.frames[f].data(), with.frames[f].size() * 4), 0) << "t=" << times[f] << ": two runs, the same bytes";
+    EXPECT_EQ(std::memcmp(with.frames[f].data(), again.frames[f].data(), with.frames[f].size() * 4),
+              0)
+        << "t=" << times[f] << ": two runs, the same bytes";
   }
 }
 
@@ -184,9 +202,14 @@ TEST(UkaPhysics, SampledTimesInAnyOrderGiveTheStreamsFrames) {
   Result<Rig> rig = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(rig.ok());
   const auto stored = api::Unstored(std::move(rig.value()));
-  const Played forward = PlayHappy(stored, true, {0.5f, 1.0f}), backward = PlayHappy(stored, true, {1.0f, 0.5f});
-  EXPECT_EQ(std::memcmp(forward.frames[0].data(), backward.frames[1].data(), forward.frames[0].size() * 4), 0);
-  EXPECT_EQ(std::memcmp(forward.frames[1].data(), backward.frames[0].data(), forward.frames[1].size() * 4), 0);
+  const Played forward = PlayHappy(stored, true, {0.5f, 1.0f}),
+               backward = PlayHappy(stored, true, {1.0f, 0.5f});
+  EXPECT_EQ(std::memcmp(forward.frames[0].data(), backward.frames[1].data(),
+                        forward.frames[0].size() * 4),
+            0);
+  EXPECT_EQ(std::memcmp(forward.frames[1].data(), backward.frames[0].data(),
+                        forward.frames[1].size() * 4),
+            0);
 }
 
 }  // namespace

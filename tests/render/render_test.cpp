@@ -1,26 +1,25 @@
 // Renders: analytic checks on built meshes, and goldens of the real assets compared with
 // OpenImageIO's image comparison. FACESPACE_UPDATE_GOLDENS=1 rewrites the goldens (look at
 // every one before committing it).
-#include <gtest/gtest.h>
+#include "facespace/offscreen/render.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
-#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
-
+#include <gtest/gtest.h>
 #include <immintrin.h>
 
 #include <cmath>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <thread>
 
-#include "facespace/formats/io.h"
 #include "facespace/engine/face.h"
 #include "facespace/engine/occlusion.h"
 #include "facespace/engine/shape_tools.h"
 #include "facespace/engine/skeleton.h"
-#include "facespace/offscreen/render.h"
+#include "facespace/formats/io.h"
 #include "test_util.h"
 
 namespace facespace {
@@ -36,7 +35,8 @@ const render::OsMesaRenderer& Gl() {
 }
 
 // A rig from one triangle-list primitive (and its shapes).
-Rig OnePrimitive(std::vector<float> positions, std::vector<uint32_t> indices, std::vector<SparseTarget> targets = {}) {
+Rig OnePrimitive(std::vector<float> positions, std::vector<uint32_t> indices,
+                 std::vector<SparseTarget> targets = {}) {
   Rig rig;
   Primitive p;
   p.positions = std::move(positions);
@@ -62,9 +62,12 @@ Rig UnitCube() {
   std::vector<float> pos;
   std::vector<uint32_t> idx;
   // Six faces with their own vertices (flat normals).
-  const int faces[6][4][3] = {{{-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}},     {{1, -1, -1}, {-1, -1, -1}, {-1, 1, -1}, {1, 1, -1}},
-                              {{1, -1, 1}, {1, -1, -1}, {1, 1, -1}, {1, 1, 1}},     {{-1, -1, -1}, {-1, -1, 1}, {-1, 1, 1}, {-1, 1, -1}},
-                              {{-1, 1, 1}, {1, 1, 1}, {1, 1, -1}, {-1, 1, -1}},     {{-1, -1, -1}, {1, -1, -1}, {1, -1, 1}, {-1, -1, 1}}};
+  const int faces[6][4][3] = {{{-1, -1, 1}, {1, -1, 1}, {1, 1, 1}, {-1, 1, 1}},
+                              {{1, -1, -1}, {-1, -1, -1}, {-1, 1, -1}, {1, 1, -1}},
+                              {{1, -1, 1}, {1, -1, -1}, {1, 1, -1}, {1, 1, 1}},
+                              {{-1, -1, -1}, {-1, -1, 1}, {-1, 1, 1}, {-1, 1, -1}},
+                              {{-1, 1, 1}, {1, 1, 1}, {1, 1, -1}, {-1, 1, -1}},
+                              {{-1, -1, -1}, {1, -1, -1}, {1, -1, 1}, {-1, -1, 1}}};
   for (const auto& f : faces) {
     const uint32_t base = static_cast<uint32_t>(pos.size() / 3);
     for (const auto& v : f) pos.insert(pos.end(), {0.5f * v[0], 0.5f * v[1], 0.5f * v[2]});
@@ -131,7 +134,8 @@ TEST(Render, EmptyBackgroundStaysBackground) {
 // A draw straight into 8-bit sRGB (what the render route asks for 8-bit files) gives the float
 // draw's picture: every channel of the textured FaceCap head within one 8-bit step of the float
 // draw's value rounded to 8-bit sRGB, alpha exact, over an opaque and a transparent background.
-// The heatmap (its legend is drawn on floats) and supersampling (box-filtered in floats) draw floats.
+// The heatmap (its legend is drawn on floats) and supersampling (box-filtered in floats) draw
+// floats.
 TEST(Render, EightBitDrawIsTheFloatDrawToAStep) {
   auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
@@ -160,9 +164,13 @@ TEST(Render, EightBitDrawIsTheFloatDrawToAStep) {
       transparent += i % 4 == 3 && bytes.srgb8[i] == 0;
     }
     EXPECT_EQ(wrong, 0u) << "alpha " << alpha;
-    EXPECT_LT(off_by_one, floats.rgba.size() / 20) << "alpha " << alpha;  // Rounding at a step's edge, not a shift.
-    if (alpha == 0.0f) EXPECT_GT(transparent, floats.rgba.size() / 4 / 10);  // The background around the head.
-    else EXPECT_EQ(transparent, 0u);
+    EXPECT_LT(off_by_one, floats.rgba.size() / 20)
+        << "alpha " << alpha;  // Rounding at a step's edge, not a shift.
+    if (alpha == 0.0f) {
+      EXPECT_GT(transparent, floats.rgba.size() / 4 / 10);  // The background around the head.
+    } else {
+      EXPECT_EQ(transparent, 0u);
+    }
   }
   RenderOptions o;
   o.width = o.height = 64;
@@ -178,7 +186,8 @@ TEST(Render, EightBitDrawIsTheFloatDrawToAStep) {
 }
 
 // The heatmap's legend on images too small for it: drawn as far as it fits, never aborting the
-// process (OpenImageIO asserts on text wholly above the image, which a 64-pixel legend's title was).
+// process (OpenImageIO asserts on text wholly above the image, which a 64-pixel legend's title
+// was).
 TEST(Render, HeatmapLegendOnSmallImages) {
   Rig cube = UnitCube();
   for (const int size : {1, 16, 40, 64, 100}) {
@@ -191,14 +200,16 @@ TEST(Render, HeatmapLegendOnSmallImages) {
   Image im;
   im.width = im.height = 64;
   im.rgba.assign(64 * 64 * 4, 0.0f);
-  EXPECT_FALSE(render::DrawText(im, 2, -30, "displacement", 10, {1, 1, 1}));  // Wholly above: not drawn.
+  EXPECT_FALSE(
+      render::DrawText(im, 2, -30, "displacement", 10, {1, 1, 1}));  // Wholly above: not drawn.
   EXPECT_TRUE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
   EXPECT_TRUE(render::DrawText(im, 2, 30, "displacement", 10, {1, 1, 1}));
   EXPECT_FALSE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
 }
 
-// Labels in any script: Uka's Japanese shape names draw as their glyphs on a contact sheet (FreeType
-// with fonts-noto-cjk), where OpenImageIO 2.4's text drew ま as '>' and others as empty boxes.
+// Labels in any script: Uka's Japanese shape names draw as their glyphs on a contact sheet
+// (FreeType with fonts-noto-cjk), where OpenImageIO 2.4's text drew ま as '>' and others as empty
+// boxes.
 TEST(Render, JapaneseLabelsDrawAsGlyphs) {
   ASSERT_TRUE(render::CanDrawText("まばたき (blink)")) << "fonts-noto-cjk is in .ci/dev's packages";
   EXPECT_FALSE(render::CanDrawText("\xF0\x9F\x98")) << "a malformed sequence";
@@ -232,12 +243,15 @@ TEST(Render, HeatmapFramesTheModelLeftOfItsLegend) {
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
   const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
   int model_lo = o.width, model_hi = -1, legend_lo = o.width;
-  for (int y = 0; y < o.height * 2 / 3; ++y) {  // Above the legend's swatch (nothing moved: one purple square at its foot).
+  for (int y = 0; y < o.height * 2 / 3;
+       ++y) {  // Above the legend's swatch (nothing moved: one purple square at its foot).
     for (int x = 0; x < o.width; ++x) {
       if (IsBackground(im, x, y, bg)) continue;
       const float* p = &im.rgba[(static_cast<size_t>(y) * o.width + x) * 4];
-      if (p[2] > 2.0f * p[1] + 0.02f) model_lo = std::min(model_lo, x), model_hi = std::max(model_hi, x);  // Viridis' purple.
-      else if (p[0] + p[1] + p[2] > 2.0f) legend_lo = std::min(legend_lo, x);  // The legend's veil.
+      if (p[2] > 2.0f * p[1] + 0.02f)
+        model_lo = std::min(model_lo, x), model_hi = std::max(model_hi, x);  // Viridis' purple.
+      else if (p[0] + p[1] + p[2] > 2.0f)
+        legend_lo = std::min(legend_lo, x);  // The legend's veil.
     }
   }
   ASSERT_GE(model_hi, 0);
@@ -269,6 +283,31 @@ TEST(Render, UnitCubeHeadOnCoversExpectedArea) {
   EXPECT_NEAR(0.5 * (min_x + max_x), 0.5 * (size - 1), 1.0) << "centred";
 }
 
+// What other threads spend for a picture is charged to the meter handed down with it (never found
+// through the thread): llvmpipe's rasteriser for a draw, the conversion helpers for a big PNG.
+TEST(Render, HelperThreadsChargeTheMeterHandedDown) {
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "one core: no helper threads";
+  Rig cube = UnitCube();
+  HelperCpu drawn;
+  RenderOptions o = HeadOn(1024);
+  o.supersample = 2;
+  o.helper_cpu = &drawn;
+  Image im;
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
+  EXPECT_GT(drawn.Seconds(), 0.0) << "the rasteriser's CPU for this draw";
+  o.helper_cpu = nullptr;  // Charged nowhere, and nothing else is charged.
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
+  const double before = drawn.Seconds();
+  ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
+  EXPECT_EQ(drawn.Seconds(), before);
+  HelperCpu encoded;
+  ASSERT_FALSE(im.rgba.empty()) << "a float image: converted to 8 bits in parts";
+  ASSERT_TRUE(render::Encode(im, render::ImageFormat::kPng, 0, &encoded).ok());
+  EXPECT_GT(encoded.Seconds(), 0.0) << "the conversion helpers' CPU";
+  EXPECT_GT(encoded.Take(), 0.0);
+  EXPECT_EQ(encoded.Seconds(), 0.0) << "Take empties the meter";
+}
+
 TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
   // A 20x20 grid in z = 0 spanning [-1, 1]^2; the shape pushes the vertices with x > 0.5
   // towards the camera.
@@ -276,7 +315,8 @@ TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
   std::vector<float> pos;
   std::vector<uint32_t> idx;
   for (int y = 0; y < g; ++y) {
-    for (int x = 0; x < g; ++x) pos.insert(pos.end(), {-1.0f + 2.0f * x / (g - 1), -1.0f + 2.0f * y / (g - 1), 0.0f});
+    for (int x = 0; x < g; ++x)
+      pos.insert(pos.end(), {-1.0f + 2.0f * x / (g - 1), -1.0f + 2.0f * y / (g - 1), 0.0f});
   }
   for (int y = 0; y + 1 < g; ++y) {
     for (int x = 0; x + 1 < g; ++x) {
@@ -288,7 +328,8 @@ TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
   for (uint32_t v = 0; v < static_cast<uint32_t>(g * g); ++v) {
     if (pos[3 * v] > 0.5f) {
       push.indices.push_back(v);
-      push.position_deltas.insert(push.position_deltas.end(), {0.0f, 0.0f, 0.3f * (pos[3 * v] - 0.5f)});
+      push.position_deltas.insert(push.position_deltas.end(),
+                                  {0.0f, 0.0f, 0.3f * (pos[3 * v] - 0.5f)});
     }
   }
   Rig rig = OnePrimitive(pos, idx, {push});
@@ -298,17 +339,22 @@ TEST(Render, WeightChangesExactlyThePixelsWhereTheVerticesAre) {
   ASSERT_TRUE(Gl().Draw(rig, Evaluate(rig, {0.0f}), o, base).ok());
   ASSERT_TRUE(Gl().Draw(rig, Evaluate(rig, {1.0f}), o, moved).ok());
   // Faces touching a moved vertex span x >= 0.4 (the grid step is 0.1); with the camera 5
-  // away (4.85 for the raised ones) and tan(15 deg), x = 0.4 is column 100 + 0.4 / (4.85 * 0.2679) * 100.
-  const int first_col = static_cast<int>(std::floor(100.0 + 0.4 / (4.85 * std::tan(15.0 * M_PI / 180.0)) * 100.0)) - 1;
+  // away (4.85 for the raised ones) and tan(15 deg), x = 0.4 is column 100 + 0.4 / (4.85 * 0.2679)
+  // * 100.
+  const int first_col =
+      static_cast<int>(std::floor(100.0 + 0.4 / (4.85 * std::tan(15.0 * M_PI / 180.0)) * 100.0)) -
+      1;
   int changed = 0;
   for (int y = 0; y < 200; ++y) {
     for (int x = 0; x < 200; ++x) {
       const size_t i = (static_cast<size_t>(y) * 200 + x) * 4;
       bool differs = false;
-      for (int c = 0; c < 3; ++c) differs |= std::fabs(base.rgba[i + c] - moved.rgba[i + c]) > 1e-5f;
+      for (int c = 0; c < 3; ++c)
+        differs |= std::fabs(base.rgba[i + c] - moved.rgba[i + c]) > 1e-5f;
       if (differs) {
         ++changed;
-        EXPECT_GE(x, first_col) << "pixel (" << x << "," << y << ") changed left of the moved region";
+        EXPECT_GE(x, first_col) << "pixel (" << x << "," << y
+                                << ") changed left of the moved region";
       }
     }
   }
@@ -334,7 +380,8 @@ TEST(Render, ThreadsShareABoundedSetOfContexts) {
       for (int i = 0; i < 8; ++i) {
         const bool big = (t + i) % 2 == 1;
         Image im;
-        if (!one.Draw(cube, blended, big ? large : small, im).ok() || im.rgba != (big ? want_large : want_small).rgba) {
+        if (!one.Draw(cube, blended, big ? large : small, im).ok() ||
+            im.rgba != (big ? want_large : want_small).rgba) {
           ++mismatches[t];
         }
       }
@@ -370,7 +417,8 @@ TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
   o.camera.focus_min = lo;
   o.camera.focus_max = hi;
   ASSERT_TRUE(Gl().Draw(cube, blended, o, given).ok());
-  EXPECT_EQ(given.rgba, computed.rgba) << "the box the caller keeps is the one a render would compute";
+  EXPECT_EQ(given.rgba, computed.rgba)
+      << "the box the caller keeps is the one a render would compute";
   o.camera.focus_min = {-0.5f, -0.5f, -0.5f};
   o.camera.focus_max = {-0.4f, -0.4f, -0.4f};
   ASSERT_TRUE(Gl().Draw(cube, blended, o, elsewhere).ok());
@@ -412,22 +460,25 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
   RenderOptions o;
   o.width = o.height = 128;
   o.background = {1, 1, 1, 0};
-  const BlendedRig blended = Evaluate(human.value(), std::vector<float>(human->shapes.size(), 0.0f));
+  const BlendedRig blended =
+      Evaluate(human.value(), std::vector<float>(human->shapes.size(), 0.0f));
   Image by_default, shapes, all;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, by_default).ok());
   o.camera.frame = render::Framing::kShapes;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, shapes).ok());
   o.camera.frame = render::Framing::kAll;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, all).ok());
-  EXPECT_NE(by_default.rgba, shapes.rgba);  // The shapes' box grown by 40%: a margin around the face.
+  EXPECT_NE(by_default.rgba,
+            shapes.rgba);  // The shapes' box grown by 40%: a margin around the face.
   EXPECT_GT(CoveredRows(by_default), 100);  // The head fills the frame...
   EXPECT_GT(CoveredRows(all), 100);         // ...where "all" shows the whole body, as tall,
   EXPECT_NE(by_default.rgba, all.rgba);     // and so a different picture.
 }
 
-// Uka's shapes are her face on a skinned body: by default a render frames her face (the box of what her
-// expressions move, with a margin) carried by the joint that carries them (頭, her head) to where a pose
-// takes it; frame=joint:頭 frames all that joint carries (her ears and hair too), "all" her whole, small.
+// Uka's shapes are her face on a skinned body: by default a render frames her face (the box of what
+// her expressions move, with a margin) carried by the joint that carries them (頭, her head) to
+// where a pose takes it; frame=joint:頭 frames all that joint carries (her ears and hair too),
+// "all" her whole, small.
 TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
   auto loaded = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(loaded.ok());
@@ -463,20 +514,22 @@ TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
     o.camera.frame = render::Framing::kAll;
     ASSERT_TRUE(Gl().Draw(uka, blended, o, all).ok());
     EXPECT_NE(by_default.rgba, joint.rgba) << (posed ? "posed" : "at rest");
-    EXPECT_EQ(CoveredRows(by_default), 96) << (posed ? "posed" : "at rest");  // The face fills the frame,
+    EXPECT_EQ(CoveredRows(by_default), 96)
+        << (posed ? "posed" : "at rest");  // The face fills the frame,
     EXPECT_GT(CoveredRows(joint), 80) << (posed ? "posed" : "at rest");
-    EXPECT_LT(CoveredRows(all), 80) << (posed ? "posed" : "at rest");         // a whole body is thin.
+    EXPECT_LT(CoveredRows(all), 80) << (posed ? "posed" : "at rest");  // a whole body is thin.
   }
 }
 
 // A nose 4 mm lower on MakeHuman (the bundled rig is in metres: nose-trans-down, whose largest move
-// is 3.7 mm at 1, scaled so that it is 0.004) shows at 512 x 512 with the default framing and light: a share of the
-// face's pixels (those not background) changes by more than 2/255 in sRGB.
+// is 3.7 mm at 1, scaled so that it is 0.004) shows at 512 x 512 with the default framing and
+// light: a share of the face's pixels (those not background) changes by more than 2/255 in sRGB.
 TEST(Render, AFourMillimetreNoseChangeShowsOnMakeHuman) {
   auto human = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
   ASSERT_TRUE(human.ok());
   const Rig& rig = human.value();
-  const auto shape = std::find_if(rig.shapes.begin(), rig.shapes.end(), [](const Shape& s) { return s.name == "nose-trans-down"; });
+  const auto shape = std::find_if(rig.shapes.begin(), rig.shapes.end(),
+                                  [](const Shape& s) { return s.name == "nose-trans-down"; });
   ASSERT_NE(shape, rig.shapes.end());
   const size_t index = static_cast<size_t>(shape - rig.shapes.begin());
   float largest = 0;  // The shape's largest vertex move at weight 1.
@@ -486,7 +539,10 @@ TEST(Render, AFourMillimetreNoseChangeShowsOnMakeHuman) {
   const BlendedRig full = Evaluate(rig, w);
   for (size_t v = 0; v < rig.primitives[0].vertex_count(); ++v) {
     float d2 = 0;
-    for (int c = 0; c < 3; ++c) d2 += std::pow(full.primitives[0].positions[3 * v + c] - neutral.primitives[0].positions[3 * v + c], 2.0f);
+    for (int c = 0; c < 3; ++c)
+      d2 += std::pow(
+          full.primitives[0].positions[3 * v + c] - neutral.primitives[0].positions[3 * v + c],
+          2.0f);
     largest = std::max(largest, std::sqrt(d2));
   }
   ASSERT_GT(largest, 0.001f);
@@ -511,7 +567,8 @@ TEST(Render, AFourMillimetreNoseChangeShowsOnMakeHuman) {
   }
   ASSERT_GT(face, 512u * 512u / 4) << "the face fills the frame";
   const double share = static_cast<double>(changed) / static_cast<double>(face);
-  std::printf("nose 4 mm lower: %zu of %zu face pixels changed (%.2f%%)\n", changed, face, 100.0 * share);
+  std::printf("nose 4 mm lower: %zu of %zu face pixels changed (%.2f%%)\n", changed, face,
+              100.0 * share);
   EXPECT_GT(share, 0.03);  // 3.9% measured (llvmpipe).
 }
 
@@ -537,8 +594,8 @@ TEST(Render, TheCameraStaysStillWhileWeightsChange) {
     changed += differs;
     if (i < top) top_changed += differs;
   }
-  EXPECT_GT(changed, 200u);     // The jaw moved...
-  EXPECT_EQ(top_changed, 0u);   // ...and nothing above the eyes did.
+  EXPECT_GT(changed, 200u);    // The jaw moved...
+  EXPECT_EQ(top_changed, 0u);  // ...and nothing above the eyes did.
 }
 
 TEST(Render, FramesAJointByName) {
@@ -560,8 +617,8 @@ TEST(Render, FramesAJointByName) {
     for (size_t i = 3; i < im.rgba.size(); i += 4) n += im.rgba[i] > 0.5f;
     return n;
   };
-  EXPECT_GT(CoveredRows(head), 100);              // The head fills the frame (its neck leaves it),
-  EXPECT_GT(covered(head), 2 * covered(all));     // where the whole fox, side on, covers a fraction.
+  EXPECT_GT(CoveredRows(head), 100);           // The head fills the frame (its neck leaves it),
+  EXPECT_GT(covered(head), 2 * covered(all));  // where the whole fox, side on, covers a fraction.
   o.camera.frame_joint = "b_head_5";
   const Status unknown = Gl().Draw(fox.value(), blended, o, head);
   EXPECT_FALSE(unknown.ok());
@@ -580,7 +637,8 @@ std::vector<unsigned char> FlatPng(std::array<int, 4> bytes, int w = 4, int h = 
   im.width = w;
   im.height = h;
   for (int i = 0; i < w * h; ++i) {
-    for (int c = 0; c < 4; ++c) im.rgba.push_back(c == 3 ? bytes[3] / 255.0f : Linear(bytes[c] / 255.0f));
+    for (int c = 0; c < 4; ++c)
+      im.rgba.push_back(c == 3 ? bytes[3] / 255.0f : Linear(bytes[c] / 255.0f));
   }
   auto png = render::Encode(im, render::ImageFormat::kPng);
   EXPECT_TRUE(png.ok());
@@ -604,7 +662,8 @@ std::array<float, 3> Middle(const Rig& rig, RenderOptions o = HeadOn(64)) {
   std::array<float, 3> sum{0, 0, 0};
   for (int y = 24; y < 40; ++y) {
     for (int x = 24; x < 40; ++x) {
-      for (int c = 0; c < 3; ++c) sum[c] += im.rgba[(static_cast<size_t>(y) * 64 + x) * 4 + c] / 256.0f;
+      for (int c = 0; c < 3; ++c)
+        sum[c] += im.rgba[(static_cast<size_t>(y) * 64 + x) * 4 + c] / 256.0f;
     }
   }
   return sum;
@@ -621,7 +680,8 @@ Material Dielectric(std::array<float, 4> base = {0.8f, 0.8f, 0.8f, 1.0f}) {
 }
 
 // The key light is high on the left, the fill low on the right: a normal map tilting the surface
-// up brightens it, down or right darkens it, left outshines right; a flat map (128, 128, 255) changes nothing. Green up = toward v = 0.
+// up brightens it, down or right darkens it, left outshines right; a flat map (128, 128, 255)
+// changes nothing. Green up = toward v = 0.
 TEST(Materials, NormalMapTurnsTheSurfaceInTheMapsFrame) {
   Material m = Dielectric();
   const float plain = Luma(Middle(Quad(m)));
@@ -638,8 +698,9 @@ TEST(Materials, NormalMapTurnsTheSurfaceInTheMapsFrame) {
   EXPECT_NEAR(Luma(Middle(Quad(m, {FlatPng({51, 128, 230, 255})}))), plain, 0.01f);
 }
 
-// A UV morph (MMD's, glTF's TEXCOORD_0 targets) moves where the texture is read: a map red on its left
-// half and blue on its right, the quad's UVs on the left half; a shape moving every u by 0.5 shows blue.
+// A UV morph (MMD's, glTF's TEXCOORD_0 targets) moves where the texture is read: a map red on its
+// left half and blue on its right, the quad's UVs on the left half; a shape moving every u by 0.5
+// shows blue.
 TEST(Materials, AUvMorphMovesWhereTheMapIsRead) {
   Image map;
   map.width = 4;
@@ -650,7 +711,9 @@ TEST(Materials, AUvMorphMovesWhereTheMapIsRead) {
   Material m = Dielectric({1, 1, 1, 1});
   m.base_color_image = 0;
   Rig rig = Quad(m, {{png->begin(), png->end()}});
-  for (size_t v = 0; v < 4; ++v) rig.primitives[0].texcoords[2 * v] = 0.125f + 0.25f * rig.primitives[0].texcoords[2 * v];  // u in [1/8, 3/8]: red texels alone.
+  for (size_t v = 0; v < 4; ++v)
+    rig.primitives[0].texcoords[2 * v] =
+        0.125f + 0.25f * rig.primitives[0].texcoords[2 * v];  // u in [1/8, 3/8]: red texels alone.
   SparseTarget shift;
   shift.texcoord_indices = {0, 1, 2, 3};
   shift.texcoord_deltas = {0.5f, 0, 0.5f, 0, 0.5f, 0, 0.5f, 0};  // u in [5/8, 7/8]: blue.
@@ -664,7 +727,8 @@ TEST(Materials, AUvMorphMovesWhereTheMapIsRead) {
     std::array<float, 3> sum{0, 0, 0};
     for (int y = 24; y < 40; ++y) {
       for (int x = 24; x < 40; ++x) {
-        for (int c = 0; c < 3; ++c) sum[c] += im.rgba[(static_cast<size_t>(y) * 64 + x) * 4 + c] / 256.0f;
+        for (int c = 0; c < 3; ++c)
+          sum[c] += im.rgba[(static_cast<size_t>(y) * 64 + x) * 4 + c] / 256.0f;
       }
     }
     return sum;
@@ -675,7 +739,8 @@ TEST(Materials, AUvMorphMovesWhereTheMapIsRead) {
   const BlendedRig half = Evaluate(rig, {0.5f});
   ASSERT_EQ(half.primitives[0].texcoords.size(), 8u);
   EXPECT_FLOAT_EQ(half.primitives[0].texcoords[2], 0.375f + 0.25f);  // Vertex 1: u 3/8 + 0.5 x 0.5.
-  EXPECT_TRUE(Evaluate(rig, {0.0f}).primitives[0].texcoords.empty());  // At rest the primitive's own hold.
+  EXPECT_TRUE(
+      Evaluate(rig, {0.0f}).primitives[0].texcoords.empty());  // At rest the primitive's own hold.
 }
 
 // The map multiplies the factors: roughness from green, metallic from blue.
@@ -787,7 +852,9 @@ TEST(Render, SupersamplingSmoothsEdges) {
     int n = 0;
     for (size_t i = 0; i < im.rgba.size(); i += 4) {
       const float b = im.rgba[i + 2];
-      if (b > 0.02f && std::fabs(b - Linear(0.6f)) > 0.02f && std::fabs(im.rgba[i] - im.rgba[i + 2]) > 0.01f) ++n;
+      if (b > 0.02f && std::fabs(b - Linear(0.6f)) > 0.02f &&
+          std::fabs(im.rgba[i] - im.rgba[i + 2]) > 0.01f)
+        ++n;
     }
     return n;
   };
@@ -799,8 +866,8 @@ TEST(Render, EncodeDecodeRoundTrip) {
   Rig cube = UnitCube();
   Image im;
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), HeadOn(32), im).ok());
-  for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr, render::ImageFormat::kJpeg,
-                 render::ImageFormat::kWebp}) {
+  for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr,
+                 render::ImageFormat::kJpeg, render::ImageFormat::kWebp}) {
     // WebP at 100 is lossless (8-bit exact, as PNG); JPEG at 95 is lossy.
     auto bytes = render::Encode(im, f, f == render::ImageFormat::kWebp ? 100 : 95);
     ASSERT_TRUE(bytes.ok()) << render::ImageFormatExtension(f);
@@ -820,7 +887,8 @@ TEST(Render, EncodeDecodeRoundTrip) {
         sum_err += e;
       }
     }
-    EXPECT_LT(jpeg ? sum_err / (im.rgba.size() / 4 * 3) : max_err, tol) << render::ImageFormatExtension(f);
+    EXPECT_LT(jpeg ? sum_err / (im.rgba.size() / 4 * 3) : max_err, tol)
+        << render::ImageFormatExtension(f);
   }
   EXPECT_FALSE(render::Decode(std::vector<unsigned char>{1, 2, 3, 4, 5, 6, 7, 8, 9}).ok());
 }
@@ -834,17 +902,21 @@ TEST(Render, PngDecodesExactlyAsRgbWhenOpaqueElseRgba) {
     int w, h;
     bool opaque, all_noise;
   };
-  for (const Case c : {Case{523, 777, false, false}, Case{523, 777, true, false}, Case{1500, 1100, true, true},
-                       Case{700, 300, false, true}, Case{1, 1, false, false}, Case{1, 1, true, false}}) {
+  for (const Case c :
+       {Case{523, 777, false, false}, Case{523, 777, true, false}, Case{1500, 1100, true, true},
+        Case{700, 300, false, true}, Case{1, 1, false, false}, Case{1, 1, true, false}}) {
     Image im;
     im.width = c.w;
     im.height = c.h;
     im.rgba.resize(static_cast<size_t>(c.w) * c.h * 4);
     uint32_t state = 12345;
     for (size_t i = 0; i < im.rgba.size(); ++i) {
-      state = state * 1664525u + 1013904223u;  // Noise in half the channels (or all), gradients in the rest.
+      state = state * 1664525u +
+              1013904223u;  // Noise in half the channels (or all), gradients in the rest.
       const size_t px = i / 4;
-      im.rgba[i] = (i % 2 || c.all_noise) ? static_cast<float>(state >> 8) / 16777216.0f : static_cast<float>((px % c.w + px / c.w) % 256) / 255.0f;
+      im.rgba[i] = (i % 2 || c.all_noise)
+                       ? static_cast<float>(state >> 8) / 16777216.0f
+                       : static_cast<float>((px % c.w + px / c.w) % 256) / 255.0f;
       if (c.opaque && i % 4 == 3) im.rgba[i] = 1.0f;
     }
     auto png = render::Encode(im, render::ImageFormat::kPng);
@@ -861,28 +933,33 @@ TEST(Render, PngDecodesExactlyAsRgbWhenOpaqueElseRgba) {
     const int channels = c.opaque ? 3 : 4;
     ASSERT_EQ(in->spec().nchannels, channels);
     std::vector<unsigned char> px(static_cast<size_t>(c.w) * c.h * channels);
-    ASSERT_TRUE(in->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, px.data())) << in->geterror();
+    ASSERT_TRUE(in->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, px.data()))
+        << in->geterror();
     size_t wrong = 0;
     for (size_t p = 0; p < static_cast<size_t>(c.w) * c.h; ++p) {
       for (int ch = 0; ch < channels; ++ch) {
         const float v = std::clamp(im.rgba[4 * p + ch], 0.0f, 1.0f);
         const int expected = static_cast<int>(std::lround((ch == 3 ? v : Srgb(v)) * 255.0f));
-        wrong += std::abs(px[p * channels + ch] - expected) > (ch == 3 ? 0 : 1);  // The sRGB table may round the other way at a step's edge.
+        wrong += std::abs(px[p * channels + ch] - expected) >
+                 (ch == 3 ? 0 : 1);  // The sRGB table may round the other way at a step's edge.
       }
     }
     EXPECT_EQ(wrong, 0u) << c.w << "x" << c.h;
   }
 }
 
-// Floats to 8-bit sRGB in the PNG writer are exact: the nearest step of the sRGB curve worked out in
-// double precision, for values a few ulps either side of each of the 255 points where the step
+// Floats to 8-bit sRGB in the PNG writer are exact: the nearest step of the sRGB curve worked out
+// in double precision, for values a few ulps either side of each of the 255 points where the step
 // changes, every 65,536th of the range, random values, and out of range (negative, above 1, NaN).
 TEST(Render, PngSrgbStepsAreExact) {
   auto exact = [](float v) {
     const double c = std::isnan(v) ? 0.0 : std::clamp(static_cast<double>(v), 0.0, 1.0);
-    return static_cast<int>(std::lround((c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055) * 255.0));
+    return static_cast<int>(
+        std::lround((c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1.0 / 2.4) - 0.055) * 255.0));
   };
-  std::vector<float> values = {-1.0f, -0.0f, 0.0f, 1.0f, 2.0f, 1e30f, std::numeric_limits<float>::quiet_NaN(), 1e-30f, 1.0f / 8192.0f};
+  std::vector<float> values = {
+      -1.0f,  -0.0f,         0.0f, 1.0f, 2.0f, 1e30f, std::numeric_limits<float>::quiet_NaN(),
+      1e-30f, 1.0f / 8192.0f};
   for (int k = 1; k < 256; ++k) {
     const double s = (k - 0.5) / 255.0;  // Where the step k begins, in sRGB; then in linear light.
     float t = static_cast<float>(s <= 0.04045 ? s / 12.92 : std::pow((s + 0.055) / 1.055, 2.4));
@@ -910,7 +987,8 @@ TEST(Render, PngSrgbStepsAreExact) {
   ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
   size_t wrong = 0;
   for (size_t i = 0; i < values.size(); ++i) {
-    if (px[3 * i] != exact(values[i]) && wrong++ < 5) ADD_FAILURE() << values[i] << ": " << int(px[3 * i]) << " not " << exact(values[i]);
+    if (px[3 * i] != exact(values[i]) && wrong++ < 5)
+      ADD_FAILURE() << values[i] << ": " << int(px[3 * i]) << " not " << exact(values[i]);
   }
   EXPECT_EQ(wrong, 0u) << "of " << values.size();
 }
@@ -936,7 +1014,9 @@ TEST(Render, WebpIsLossySmallAndKeepsAlpha) {
   double sum_err = 0;
   float alpha_err = 0;
   for (size_t i = 0; i < im.rgba.size(); i += 4) {
-    for (int c = 0; c < 3; ++c) sum_err += std::fabs(Srgb(back->rgba[i + c] * back->rgba[i + 3]) - Srgb(im.rgba[i + c] * im.rgba[i + 3]));
+    for (int c = 0; c < 3; ++c)
+      sum_err += std::fabs(Srgb(back->rgba[i + c] * back->rgba[i + 3]) -
+                           Srgb(im.rgba[i + c] * im.rgba[i + 3]));
     alpha_err = std::max(alpha_err, std::fabs(back->rgba[i + 3] - im.rgba[i + 3]));
   }
   EXPECT_LT(sum_err / (im.rgba.size() / 4 * 3), 0.02);
@@ -951,7 +1031,8 @@ TEST(Image, SheetLabelsStayInTheirCell) {
   white.width = white.height = 64;
   white.rgba.assign(64 * 64 * 4, 1.0f);
   const std::vector<Image> cells = {white, white};
-  const std::vector<std::string> labels = {"a-very-long-label-that-would-cross-into-the-next-cell", "b"};
+  const std::vector<std::string> labels = {"a-very-long-label-that-would-cross-into-the-next-cell",
+                                           "b"};
   const Image sheet = ContactSheet(cells, labels, 2, {1, 1, 1, 1});
   ASSERT_GT(sheet.width, 128);
   const int pad = 4, label_h = 18, x_edge = pad + 64;  // Cell 0 spans [pad, pad + 64).
@@ -960,8 +1041,10 @@ TEST(Image, SheetLabelsStayInTheirCell) {
     for (int x = pad; x < sheet.width; ++x) {
       const float v = sheet.rgba[(static_cast<size_t>(y) * sheet.width + x) * 4];
       const bool ink = v < 0.5f;
-      if (x < x_edge) ink_in_cell += ink;
-      else if (x < x_edge + pad + 4) ink_beyond += ink;  // The gap and the next cell's first pixels.
+      if (x < x_edge)
+        ink_in_cell += ink;
+      else if (x < x_edge + pad + 4)
+        ink_beyond += ink;  // The gap and the next cell's first pixels.
     }
   }
   EXPECT_GT(ink_in_cell, 20u);  // The label is drawn (its cut start).
@@ -981,19 +1064,23 @@ TEST(Image, SheetTakesTinyCellsAndBlankLabels) {
   ASSERT_GE(sheet.width, 3 * 16);
   size_t ink = 0;  // Label strip of the blank cells: background only.
   for (int y = 4 + 16; y < sheet.height; ++y) {
-    for (int x = sheet.width / 3; x < sheet.width; ++x) ink += sheet.rgba[(static_cast<size_t>(y) * sheet.width + x) * 4] < 0.5f;
+    for (int x = sheet.width / 3; x < sheet.width; ++x)
+      ink += sheet.rgba[(static_cast<size_t>(y) * sheet.width + x) * 4] < 0.5f;
   }
   EXPECT_EQ(ink, 0u);
 }
 
 TEST(Image, DecodesBmpAndTgaTextures) {
-  std::vector<unsigned char> bmp = {'B', 'M', 62, 0, 0, 0, 0, 0, 0, 0, 54, 0, 0, 0,  // File header.
-                                    40, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 1, 0, 24, 0, 0, 0, 0, 0, 8, 0, 0, 0,
-                                    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,  // Info header.
-                                    0, 0, 255, 255, 0, 0, 0, 0};                     // BGR red, BGR blue, padding.
-  std::vector<unsigned char> tga = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 0, 24, 0,  // Uncompressed true colour.
+  std::vector<unsigned char> bmp = {
+      'B', 'M', 62,  0,   0, 0, 0, 0, 0, 0, 54, 0, 0, 0,  // File header.
+      40,  0,   0,   0,   2, 0, 0, 0, 1, 0, 0,  0, 1, 0, 24, 0, 0, 0, 0, 0,
+      8,   0,   0,   0,   0, 0, 0, 0, 0, 0, 0,  0, 0, 0, 0,  0, 0, 0, 0, 0,  // Info header.
+      0,   0,   255, 255, 0, 0, 0, 0};  // BGR red, BGR blue, padding.
+  std::vector<unsigned char> tga = {0, 0, 2,   0,   0, 0, 0, 0,  0,
+                                    0, 0, 0,   2,   0, 1, 0, 24, 0,  // Uncompressed true colour.
                                     0, 0, 255, 255, 0, 0};
-  for (const auto& [bytes, mime] : {std::pair{bmp, std::string("image/bmp")}, std::pair{tga, std::string("image/x-tga")}}) {
+  for (const auto& [bytes, mime] :
+       {std::pair{bmp, std::string("image/bmp")}, std::pair{tga, std::string("image/x-tga")}}) {
     auto im = render::Decode(bytes, mime);
     ASSERT_TRUE(im.ok()) << mime << ": " << im.status().message;
     ASSERT_EQ(im->width, 2);
@@ -1010,7 +1097,8 @@ TEST(Image, DecodesBmpAndTgaTextures) {
 
 // The rig's occlusion baked at its neutral weights, as the service bakes it (api's DerivedRigs).
 std::shared_ptr<const RigOcclusion> Baked(const Rig& rig) {
-  return std::make_shared<const RigOcclusion>(BakeRigOcclusion(rig, Evaluate(rig), OcclusionSettings{}));
+  return std::make_shared<const RigOcclusion>(
+      BakeRigOcclusion(rig, Evaluate(rig), OcclusionSettings{}));
 }
 
 // The mean luminance of the (2r+1)^2 pixels around (x, y) of a linear-light image.
@@ -1019,7 +1107,8 @@ float PatchLuma(const Image& im, int x, int y, int r = 2) {
   int n = 0;
   for (int j = y - r; j <= y + r; ++j) {
     for (int i = x - r; i <= x + r; ++i) {
-      const float* px = &im.rgba[4 * (static_cast<size_t>(j) * static_cast<size_t>(im.width) + static_cast<size_t>(i))];
+      const float* px = &im.rgba[4 * (static_cast<size_t>(j) * static_cast<size_t>(im.width) +
+                                      static_cast<size_t>(i))];
       sum += Luma({px[0], px[1], px[2]});
       ++n;
     }
@@ -1027,9 +1116,10 @@ float PatchLuma(const Image& im, int x, int y, int r = 2) {
   return sum / static_cast<float>(n);
 }
 
-// The rig drawn at 256 x 256 (from 20 degrees below: under the chin shows) without and with its baked
-// occlusion, both written beside the test (NAME_off/on.actual.png) for a person to look at.
-std::pair<Image, Image> WithoutAndWith(const std::string& name, const Rig& rig, const std::vector<float>& w) {
+// The rig drawn at 256 x 256 (from 20 degrees below: under the chin shows) without and with its
+// baked occlusion, both written beside the test (NAME_off/on.actual.png) for a person to look at.
+std::pair<Image, Image> WithoutAndWith(const std::string& name, const Rig& rig,
+                                       const std::vector<float>& w) {
   const BlendedRig blended = Evaluate(rig, w);
   RenderOptions o;
   o.width = o.height = 256;
@@ -1038,8 +1128,10 @@ std::pair<Image, Image> WithoutAndWith(const std::string& name, const Rig& rig, 
   EXPECT_TRUE(Gl().Draw(rig, blended, o, drawn.first).ok());
   o.occlusion = Baked(rig);
   EXPECT_TRUE(Gl().Draw(rig, blended, o, drawn.second).ok());
-  test::WriteBytes(name + "_off.actual.png", render::Encode(drawn.first, render::ImageFormat::kPng).value());
-  test::WriteBytes(name + "_on.actual.png", render::Encode(drawn.second, render::ImageFormat::kPng).value());
+  test::WriteBytes(name + "_off.actual.png",
+                   render::Encode(drawn.first, render::ImageFormat::kPng).value());
+  test::WriteBytes(name + "_on.actual.png",
+                   render::Encode(drawn.second, render::ImageFormat::kPng).value());
   return drawn;
 }
 
@@ -1049,24 +1141,30 @@ struct Place {
 };
 
 // With over without occlusion, in linear light, around each place.
-void ExpectRatios(const std::pair<Image, Image>& drawn, std::initializer_list<Place> creases, std::initializer_list<Place> open) {
-  for (const Place& p : creases) EXPECT_LT(PatchLuma(drawn.second, p.x, p.y) / PatchLuma(drawn.first, p.x, p.y), 0.75f) << p.name;
-  for (const Place& p : open) EXPECT_GT(PatchLuma(drawn.second, p.x, p.y) / PatchLuma(drawn.first, p.x, p.y), 0.9f) << p.name;
+void ExpectRatios(const std::pair<Image, Image>& drawn, std::initializer_list<Place> creases,
+                  std::initializer_list<Place> open) {
+  for (const Place& p : creases)
+    EXPECT_LT(PatchLuma(drawn.second, p.x, p.y) / PatchLuma(drawn.first, p.x, p.y), 0.75f)
+        << p.name;
+  for (const Place& p : open)
+    EXPECT_GT(PatchLuma(drawn.second, p.x, p.y) / PatchLuma(drawn.first, p.x, p.y), 0.9f) << p.name;
 }
 
-// Baked occlusion darkens the creases against the same render without it (FaceCap's nostrils and open
-// mouth, MakeHuman's fold under the chin) and leaves open skin (forehead, cheeks) nearly as it was. The
-// places were picked on the renders the test writes.
+// Baked occlusion darkens the creases against the same render without it (FaceCap's nostrils and
+// open mouth, MakeHuman's fold under the chin) and leaves open skin (forehead, cheeks) nearly as it
+// was. The places were picked on the renders the test writes.
 TEST(Occlusion, DarkensCreasesAndLeavesOpenSkin) {
   auto facecap = LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(facecap.ok());
   std::vector<float> w(facecap->shapes.size(), 0.0f);
   w[static_cast<size_t>(FindShape(facecap.value(), "jawOpen"))] = 1.0f;
-  ExpectRatios(WithoutAndWith("occlusion_facecap", facecap.value(), w), {{"a nostril", 134, 125}, {"the open mouth", 127, 165}},
+  ExpectRatios(WithoutAndWith("occlusion_facecap", facecap.value(), w),
+               {{"a nostril", 134, 125}, {"the open mouth", 127, 165}},
                {{"forehead", 128, 75}, {"right cheek", 95, 135}, {"left cheek", 160, 135}});
   auto makehuman = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
   ASSERT_TRUE(makehuman.ok());
-  ExpectRatios(WithoutAndWith("occlusion_makehuman", makehuman.value(), {}), {{"under the chin", 124, 209}}, {{"forehead", 128, 70}, {"cheek", 100, 132}});
+  ExpectRatios(WithoutAndWith("occlusion_makehuman", makehuman.value(), {}),
+               {{"under the chin", 124, 209}}, {{"forehead", 128, 70}, {"cheek", 100, 132}});
 }
 
 // ---- goldens of real assets ---------------------------------------------------------------
@@ -1083,7 +1181,6 @@ struct GoldenCase {
   const char* expression = nullptr;  // An expression at 1 (core/face.h), over the weights.
 };
 
-
 // A 512 x 512 checker of 16 x 16 squares, two colours, with a red cell at the atlas's (0, 0) corner
 // and a blue one at (1, 1) so an upside-down map shows.
 std::vector<unsigned char> CheckerPng() {
@@ -1092,7 +1189,8 @@ std::vector<unsigned char> CheckerPng() {
   for (int y = 0; y < 512; ++y) {
     for (int x = 0; x < 512; ++x) {
       const bool odd = ((x / 32) + (y / 32)) % 2;
-      std::array<float, 3> c = odd ? std::array<float, 3>{0.9f, 0.85f, 0.75f} : std::array<float, 3>{0.15f, 0.25f, 0.35f};
+      std::array<float, 3> c = odd ? std::array<float, 3>{0.9f, 0.85f, 0.75f}
+                                   : std::array<float, 3>{0.15f, 0.25f, 0.35f};
       if (x < 32 && y < 32) c = {0.9f, 0.05f, 0.05f};
       if (x >= 480 && y >= 480) c = {0.05f, 0.1f, 0.9f};
       im.rgba.insert(im.rgba.end(), {c[0], c[1], c[2], 1.0f});
@@ -1120,7 +1218,8 @@ OIIO::ImageBuf ReadWithAlpha(const std::string& path) {
 
 TEST_P(Golden, MatchesCommittedImage) {
   const GoldenCase& c = GetParam();
-  // '@': bundled in assets/; '+': the shared more/ data (FBX, COLLADA, MD5); else the shared real/ glTFs.
+  // '@': bundled in assets/; '+': the shared more/ data (FBX, COLLADA, MD5); else the shared real/
+  // glTFs.
   auto rig = LoadRigFile(c.asset[0] == '@'   ? test::Bundled(c.asset + 1)
                          : c.asset[0] == '+' ? test::SharedAssets() + "/more/" + (c.asset + 1)
                                              : test::RealAsset(c.asset));
@@ -1128,7 +1227,9 @@ TEST_P(Golden, MatchesCommittedImage) {
   if (c.checker) {
     rig->images.push_back({"checker", "image/png", CheckerPng()});
     if (rig->materials.empty()) rig->materials.emplace_back();
-    for (Material& m : rig->materials) m.base_color_image = static_cast<int>(rig->images.size() - 1), m.base_color_factor = {1, 1, 1, 1};
+    for (Material& m : rig->materials)
+      m.base_color_image = static_cast<int>(rig->images.size() - 1),
+      m.base_color_factor = {1, 1, 1, 1};
     for (Primitive& p : rig->primitives) p.material = p.material < 0 ? 0 : p.material;
     ASSERT_TRUE(ValidateRig(rig.value()).ok());
   }
@@ -1165,12 +1266,14 @@ TEST_P(Golden, MatchesCommittedImage) {
   o.camera.yaw = c.yaw;
   o.camera.pitch = c.pitch;
   o.supersample = 2;
-  if (c.view != render::View::kHeatmap && c.view != render::View::kNormals) o.occlusion = Baked(rig.value());
+  if (c.view != render::View::kHeatmap && c.view != render::View::kNormals)
+    o.occlusion = Baked(rig.value());
   Image im;
   ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, im).ok());
   auto png = render::Encode(im, render::ImageFormat::kPng);
   ASSERT_TRUE(png.ok());
-  const std::string golden = std::string(FACESPACE_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
+  const std::string golden =
+      std::string(FACESPACE_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
   const char* update = std::getenv("FACESPACE_UPDATE_GOLDENS");
   if (update && *update == '1') {
     test::WriteBytes(golden, png.value());
@@ -1186,41 +1289,60 @@ TEST_P(Golden, MatchesCommittedImage) {
   // of the pixels to (rasterisation on another CPU may move an edge by a pixel).
   const auto cmp = OIIO::ImageBufAlgo::compare(actual, expected, 6.0f / 255.0f, 2.0f / 255.0f);
   const double npix = 256.0 * 256.0;
-  EXPECT_LE(static_cast<double>(cmp.nfail), 0.005 * npix) << "mean " << cmp.meanerror << " max " << cmp.maxerror;
+  EXPECT_LE(static_cast<double>(cmp.nfail), 0.005 * npix)
+      << "mean " << cmp.meanerror << " max " << cmp.maxerror;
   EXPECT_LT(cmp.meanerror, 1.0 / 255.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     RealAssets, Golden,
-    ::testing::Values(GoldenCase{"facecap_neutral", "@facecap/facecap.glb", {}, render::View::kShaded, 0, 0},
-                      GoldenCase{"facecap_jaw_open", "@facecap/facecap.glb", {{"jawOpen", 1.0f}}, render::View::kShaded, 0, 0},
-                      GoldenCase{"uka_neutral", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 0, 0},
-                      GoldenCase{"uka_happy_still", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
-                      GoldenCase{"uka_blush", "@uka/MS_Uka.pmx", {{"照れ", 1.0f}, {"赤み", 1.0f}}, render::View::kShaded, 0, 0},
-                      GoldenCase{"makehuman_neutral", "@makehuman/makehuman.glb", {}, render::View::kShaded, 0, 0},
-                      GoldenCase{"makehuman_happy", "@makehuman/makehuman.glb", {}, render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
-                      GoldenCase{"facecap_jaw_smile", "@facecap/facecap.glb", {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}},
-                                 render::View::kShaded, 25, 10},
-                      GoldenCase{"facecap_heatmap", "@facecap/facecap.glb", {{"jawOpen", 0.6f}, {"eyeBlink_L", 1.0f}}, render::View::kHeatmap, 0, 0},
-                      GoldenCase{"facecap_wireframe", "@facecap/facecap.glb", {{"browInnerUp", 1.0f}}, render::View::kWireframe, -30, 0},
-                      GoldenCase{"stress_textured", "MorphStressTest/MorphStressTest.gltf", {{"Key 3", 1.0f}, {"Key 6", 0.5f}},
-                                 render::View::kShaded, 30, 20},
-                      GoldenCase{"sphere_normals", "AnimatedMorphSphere/AnimatedMorphSphere.gltf", {{"Blob", 0.8f}},
-                                 render::View::kNormals, 0, 0},
-                      GoldenCase{"primitives_jpeg_texture", "MorphPrimitivesTest/MorphPrimitivesTest.gltf", {{"target_0", 1.0f}},
-                                 render::View::kShaded, 20, 30},
-                      GoldenCase{"fox_run", "Fox/Fox.glb", {}, render::View::kShaded, 90, 10, "Run", 0.4f},
-                      GoldenCase{"cesium_man_walk", "CesiumMan/CesiumMan.gltf", {}, render::View::kShaded, 60, 0, "animation_0", 0.9f},
-                      GoldenCase{"makehuman_skin", "@makehuman/makehuman.glb", {{"nose-trans-down", 1.0f}, {"mouth-scale-horiz-incr", 0.6f}},
-                                 render::View::kShaded, 0, 0},
-                      GoldenCase{"makehuman_uv_checker", "@makehuman/makehuman.glb", {}, render::View::kShaded, 35, 5, nullptr, 0.0f, true},
-                      GoldenCase{"uka_happy", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 15, 0, "01_happy", 1.5f},
-                      GoldenCase{"fbx_inbetween", "+FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx",
-                                 {{"LiftTop", 0.5f}, {"MoveToSide", 1.0f}}, render::View::kShaded, 30, 20},
-                      GoldenCase{"collada_skin_on_morph", "+Collada/CTS_skin_on_morph/skin_on_morph.dae", {}, render::View::kShaded, 30, 15},
-                      GoldenCase{"md5_bob", "+MD5/Bob/Bob.md5mesh", {}, render::View::kShaded, 20, 5},
-                      GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {}, render::View::kWireframe, 0, 0,
-                                 "animation_0", 0.6f}),
+    // One case a line (or two), as a table reads:
+    // clang-format off
+    ::testing::Values(
+        GoldenCase{"facecap_neutral", "@facecap/facecap.glb", {}, render::View::kShaded, 0, 0},
+        GoldenCase{"facecap_jaw_open", "@facecap/facecap.glb", {{"jawOpen", 1.0f}},
+                   render::View::kShaded, 0, 0},
+        GoldenCase{"uka_neutral", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 0, 0},
+        GoldenCase{"uka_happy_still", "@uka/MS_Uka.pmx", {},
+                   render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
+        GoldenCase{"uka_blush", "@uka/MS_Uka.pmx", {{"照れ", 1.0f}, {"赤み", 1.0f}},
+                   render::View::kShaded, 0, 0},
+        GoldenCase{"makehuman_neutral", "@makehuman/makehuman.glb", {},
+                   render::View::kShaded, 0, 0},
+        GoldenCase{"makehuman_happy", "@makehuman/makehuman.glb", {},
+                   render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
+        GoldenCase{"facecap_jaw_smile", "@facecap/facecap.glb",
+                   {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}},
+                   render::View::kShaded, 25, 10},
+        GoldenCase{"facecap_heatmap", "@facecap/facecap.glb",
+                   {{"jawOpen", 0.6f}, {"eyeBlink_L", 1.0f}}, render::View::kHeatmap, 0, 0},
+        GoldenCase{"facecap_wireframe", "@facecap/facecap.glb", {{"browInnerUp", 1.0f}},
+                   render::View::kWireframe, -30, 0},
+        GoldenCase{"stress_textured", "MorphStressTest/MorphStressTest.gltf",
+                   {{"Key 3", 1.0f}, {"Key 6", 0.5f}}, render::View::kShaded, 30, 20},
+        GoldenCase{"sphere_normals", "AnimatedMorphSphere/AnimatedMorphSphere.gltf",
+                   {{"Blob", 0.8f}}, render::View::kNormals, 0, 0},
+        GoldenCase{"primitives_jpeg_texture", "MorphPrimitivesTest/MorphPrimitivesTest.gltf",
+                   {{"target_0", 1.0f}}, render::View::kShaded, 20, 30},
+        GoldenCase{"fox_run", "Fox/Fox.glb", {}, render::View::kShaded, 90, 10, "Run", 0.4f},
+        GoldenCase{"cesium_man_walk", "CesiumMan/CesiumMan.gltf", {},
+                   render::View::kShaded, 60, 0, "animation_0", 0.9f},
+        GoldenCase{"makehuman_skin", "@makehuman/makehuman.glb",
+                   {{"nose-trans-down", 1.0f}, {"mouth-scale-horiz-incr", 0.6f}},
+                   render::View::kShaded, 0, 0},
+        GoldenCase{"makehuman_uv_checker", "@makehuman/makehuman.glb", {},
+                   render::View::kShaded, 35, 5, nullptr, 0.0f, true},
+        GoldenCase{"uka_happy", "@uka/MS_Uka.pmx", {},
+                   render::View::kShaded, 15, 0, "01_happy", 1.5f},
+        GoldenCase{"fbx_inbetween",
+                   "+FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx",
+                   {{"LiftTop", 0.5f}, {"MoveToSide", 1.0f}}, render::View::kShaded, 30, 20},
+        GoldenCase{"collada_skin_on_morph", "+Collada/CTS_skin_on_morph/skin_on_morph.dae", {},
+                   render::View::kShaded, 30, 15},
+        GoldenCase{"md5_bob", "+MD5/Bob/Bob.md5mesh", {}, render::View::kShaded, 20, 5},
+        GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {},
+                   render::View::kWireframe, 0, 0, "animation_0", 0.6f}),
+    // clang-format on
     [](const auto& param_info) { return std::string(param_info.param.name); });
 
 }  // namespace
@@ -1246,27 +1368,33 @@ TEST(NullRenderer, FillsTheBackgroundAndChecksItsInputsAsGlDoes) {
   EXPECT_EQ(Gl().Draw(cube, Evaluate(cube), o, im).code, StatusCode::kInvalidArgument);
 }
 
-// Halves as IEEE rounds them (nearest, ties to even), the same as F16C's on a million floats of every
-// kind, and a half EXR of normals read back by OpenImageIO as those halves.
-__attribute__((target("avx,f16c"))) uint16_t F16cHalf(float f) { return static_cast<uint16_t>(_cvtss_sh(f, _MM_FROUND_TO_NEAREST_INT)); }
+// Halves as IEEE rounds them (nearest, ties to even), the same as F16C's on a million floats of
+// every kind, and a half EXR of normals read back by OpenImageIO as those halves.
+__attribute__((target("avx,f16c"))) uint16_t F16cHalf(float f) {
+  return static_cast<uint16_t>(_cvtss_sh(f, _MM_FROUND_TO_NEAREST_INT));
+}
 
 TEST(DataExr, HalvesRoundToNearestEvenAsF16cDoes) {
   EXPECT_EQ(render::HalfOf(1.0f), 0x3c00);
   EXPECT_EQ(render::HalfOf(-2.0f), 0xc000);
   EXPECT_EQ(render::HalfOf(65504.0f), 0x7bff);
-  EXPECT_EQ(render::HalfOf(65520.0f), 0x7c00);                    // Rounds up past the largest: infinity.
-  EXPECT_EQ(render::HalfOf(std::ldexp(1.0f, -24)), 0x0001);       // The smallest subnormal.
-  EXPECT_EQ(render::HalfOf(std::ldexp(1.0f, -25)), 0x0000);       // Half of it: a tie, to even (zero).
+  EXPECT_EQ(render::HalfOf(65520.0f), 0x7c00);  // Rounds up past the largest: infinity.
+  EXPECT_EQ(render::HalfOf(std::ldexp(1.0f, -24)), 0x0001);  // The smallest subnormal.
+  EXPECT_EQ(render::HalfOf(std::ldexp(1.0f, -25)), 0x0000);  // Half of it: a tie, to even (zero).
   EXPECT_EQ(render::HalfOf(std::ldexp(1.5f, -25)), 0x0001);
-  EXPECT_EQ(render::HalfOf(1.0f + std::ldexp(1.0f, -11)), 0x3c00);  // A tie between 1 and the next: even.
-  EXPECT_EQ(render::HalfOf(1.0f + std::ldexp(3.0f, -11)), 0x3c02);  // A tie the other way: even again.
+  EXPECT_EQ(render::HalfOf(1.0f + std::ldexp(1.0f, -11)),
+            0x3c00);  // A tie between 1 and the next: even.
+  EXPECT_EQ(render::HalfOf(1.0f + std::ldexp(3.0f, -11)),
+            0x3c02);  // A tie the other way: even again.
   EXPECT_EQ(render::HalfOf(-0.0f), 0x8000);
   if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "no F16C (AVX2) to compare with";
   uint32_t state = 12345, differing = 0;
   for (int i = 0; i < 1000000; ++i) {
     state = state * 1664525u + 1013904223u;
     uint32_t bits = state;
-    if (i % 2) bits = (bits & 0x8fffffffu) | 0x30000000u;  // Half of them near the half range (subnormals to 2^2).
+    if (i % 2)
+      bits = (bits & 0x8fffffffu) |
+             0x30000000u;  // Half of them near the half range (subnormals to 2^2).
     float f;
     std::memcpy(&f, &bits, 4);
     if (std::isnan(f)) continue;

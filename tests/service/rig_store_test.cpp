@@ -1,17 +1,17 @@
-// The file rig store (service/store/rig_store.h) on a real folder: uploads persist and read back, a broken
-// or oversized upload leaves nothing behind, another process's changes are seen on refresh, and the
-// bundled (read-only) rigs are served but never written.
+// The file rig store (service/store/rig_store.h) on a real folder: uploads persist and read back, a
+// broken or oversized upload leaves nothing behind, another process's changes are seen on refresh,
+// and the bundled (read-only) rigs are served but never written.
+#include "store/rig_store.h"
+
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
-#include <unistd.h>
 #include <vector>
-
-#include "store/rig_store.h"
 
 namespace {
 
@@ -21,7 +21,8 @@ using facespace::RigFormat;
 using facespace::StatusCode;
 
 std::vector<unsigned char> FaceCapBytes() {
-  std::ifstream f(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb", std::ios::binary);
+  std::ifstream f(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb",
+                  std::ios::binary);
   return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
 }
 
@@ -58,7 +59,7 @@ TEST(FileRigStore, AnUploadIsServedAndAFreshStoreReadsItBack) {
   EXPECT_EQ(rig->rig.vertex_count(), 4368u);
   EXPECT_FALSE(rig->version.empty());
   ASSERT_TRUE(store.Put("face", bytes, RigFormat::kGlb, "", &created).ok());
-  EXPECT_FALSE(created);  // The same id again replaces it.
+  EXPECT_FALSE(created);                                // The same id again replaces it.
   EXPECT_EQ(store.Get("face")->version, rig->version);  // Same bytes, same version.
 
   FileRigStore again(dir.path.string());
@@ -111,7 +112,8 @@ TEST(FileRigStore, AnotherProcessesChangesAreSeenOnRefresh) {
 
   auto unchanged = reader.Refresh();
   ASSERT_TRUE(unchanged.ok());
-  EXPECT_TRUE(unchanged->added.empty() && unchanged->replaced.empty() && unchanged->removed.empty());
+  EXPECT_TRUE(unchanged->added.empty() && unchanged->replaced.empty() &&
+              unchanged->removed.empty());
 
   ASSERT_TRUE(writer.Delete("face").ok());
   changes = reader.Refresh();

@@ -1,13 +1,13 @@
 // `facespace serve`'s one table of settings (service/server/settings.h): flags and environment read
 // alike, ranges checked, and every limit listed for /openapi.json.
+#include "server/settings.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <map>
 #include <string>
 #include <vector>
-
-#include "server/settings.h"
 
 namespace facespace::cli {
 namespace settings_test {
@@ -22,7 +22,8 @@ TEST(Settings, FlagsAndTheEnvironmentSetTheConfigurationFlagsWinning) {
   ::setenv("FACESPACE_MAX_CONNECTIONS", "77", 1);
   ::setenv("FACESPACE_KEYED_CPU", "12.5", 1);
   ServeConfig c;
-  EXPECT_EQ(ReadServeConfig({"--max-connections", "5", "--max-jobs", "9", "--keep-free-mb", "3"}, c), -1);
+  EXPECT_EQ(
+      ReadServeConfig({"--max-connections", "5", "--max-jobs", "9", "--keep-free-mb", "3"}, c), -1);
   ::unsetenv("FACESPACE_MAX_CONNECTIONS");
   ::unsetenv("FACESPACE_KEYED_CPU");
   EXPECT_EQ(c.max_connections, 5u);
@@ -32,8 +33,11 @@ TEST(Settings, FlagsAndTheEnvironmentSetTheConfigurationFlagsWinning) {
 }
 
 TEST(Settings, AValueOutOfItsRangeOrOfTheWrongKindIsRefused) {
-  for (const std::vector<std::string>& args : {std::vector<std::string>{"--port", "65536"}, {"--threads", "0"}, {"--threads", "2.5"},
-                                               {"--anonymous-cpu", "0"}, {"--max-body", "12x"}}) {
+  for (const std::vector<std::string>& args : {std::vector<std::string>{"--port", "65536"},
+                                               {"--threads", "0"},
+                                               {"--threads", "2.5"},
+                                               {"--anonymous-cpu", "0"},
+                                               {"--max-body", "12x"}}) {
     ServeConfig c;
     EXPECT_EQ(ReadServeConfig(args, c), 2) << args[0] << " " << args[1];
   }

@@ -1,5 +1,5 @@
-// A dataset's background pictures: a folder's files decoded once, scaled to cover the render, and blended
-// behind each sample's transparent pixels.
+// A dataset's background pictures: a folder's files decoded once, scaled to cover the render, and
+// blended behind each sample's transparent pixels.
 #include "background.h"
 
 #include <algorithm>
@@ -33,13 +33,17 @@ bool IsPicture(std::string ext) {
 // `picture` (linear RGBA) scaled to cover w x h, centred, sampled bilinearly.
 BatchPlan::Background Covering(std::string name, const render::Image& picture, int w, int h) {
   BatchPlan::Background bg{std::move(name), {}, {}};
-  const double scale = std::max(static_cast<double>(w) / picture.width, static_cast<double>(h) / picture.height);
+  const double scale =
+      std::max(static_cast<double>(w) / picture.width, static_cast<double>(h) / picture.height);
   const double x0 = (picture.width - w / scale) / 2, y0 = (picture.height - h / scale) / 2;
   bg.linear.resize(static_cast<size_t>(w) * static_cast<size_t>(h) * 3);
   bg.srgb8.resize(bg.linear.size());
   auto at = [&](int x, int y, int c) {
     x = std::clamp(x, 0, picture.width - 1), y = std::clamp(y, 0, picture.height - 1);
-    return picture.rgba[(static_cast<size_t>(y) * static_cast<size_t>(picture.width) + static_cast<size_t>(x)) * 4 + static_cast<size_t>(c)];
+    return picture.rgba[(static_cast<size_t>(y) * static_cast<size_t>(picture.width) +
+                         static_cast<size_t>(x)) *
+                            4 +
+                        static_cast<size_t>(c)];
   };
   for (int y = 0; y < h; ++y) {
     const double sy = y0 + (y + 0.5) / scale - 0.5;
@@ -50,8 +54,11 @@ BatchPlan::Background Covering(std::string name, const render::Image& picture, i
       const int ix = static_cast<int>(std::floor(sx));
       const float fx = static_cast<float>(sx - ix);
       for (int c = 0; c < 3; ++c) {
-        const float top = at(ix, iy, c) * (1 - fx) + at(ix + 1, iy, c) * fx, bottom = at(ix, iy + 1, c) * (1 - fx) + at(ix + 1, iy + 1, c) * fx;
-        const size_t k = (static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * 3 + static_cast<size_t>(c);
+        const float top = at(ix, iy, c) * (1 - fx) + at(ix + 1, iy, c) * fx,
+                    bottom = at(ix, iy + 1, c) * (1 - fx) + at(ix + 1, iy + 1, c) * fx;
+        const size_t k =
+            (static_cast<size_t>(y) * static_cast<size_t>(w) + static_cast<size_t>(x)) * 3 +
+            static_cast<size_t>(c);
         bg.linear[k] = top * (1 - fy) + bottom * fy;
         bg.srgb8[k] = static_cast<unsigned char>(std::lround(SrgbEncode(bg.linear[k]) * 255.0));
       }
@@ -72,25 +79,33 @@ Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer) {
   std::error_code ec;
   std::vector<fs::path> files;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    if (it->is_regular_file(ec) && IsPicture(it->path().extension().string())) files.push_back(it->path());
+    if (it->is_regular_file(ec) && IsPicture(it->path().extension().string()))
+      files.push_back(it->path());
   }
   if (ec) return Refused("cannot read the folder '" + dir + "': " + ec.message());
-  if (files.empty()) return Refused("'" + dir + "' holds no pictures (.png, .jpg, .webp, .exr, .tif, .bmp)");
-  if (files.size() > kMaxBackgrounds) return Refused("'" + dir + "' holds " + std::to_string(files.size()) + " pictures; at most " + std::to_string(kMaxBackgrounds));
+  if (files.empty())
+    return Refused("'" + dir + "' holds no pictures (.png, .jpg, .webp, .exr, .tif, .bmp)");
+  if (files.size() > kMaxBackgrounds)
+    return Refused("'" + dir + "' holds " + std::to_string(files.size()) + " pictures; at most " +
+                   std::to_string(kMaxBackgrounds));
   std::sort(files.begin(), files.end());
   const int w = plan.output.render.width, h = plan.output.render.height;
   if (files.size() * static_cast<size_t>(w) * static_cast<size_t>(h) * 15 > kMaxHeldBytes) {
-    return Refused(std::to_string(files.size()) + " pictures at " + std::to_string(w) + " x " + std::to_string(h) + " are over 512 MB held; use fewer");
+    return Refused(std::to_string(files.size()) + " pictures at " + std::to_string(w) + " x " +
+                   std::to_string(h) + " are over 512 MB held; use fewer");
   }
   nlohmann::json listed = nlohmann::json::array();
   for (const fs::path& f : files) {
     const uintmax_t size = fs::file_size(f, ec);
-    if (ec || size > kMaxFileBytes) return Refused("'" + f.filename().string() + "' is over 64 MB or cannot be read");
+    if (ec || size > kMaxFileBytes)
+      return Refused("'" + f.filename().string() + "' is over 64 MB or cannot be read");
     std::ifstream in(f, std::ios::binary);
     std::vector<unsigned char> bytes(static_cast<size_t>(size));
-    if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size))) return Refused("cannot read '" + f.filename().string() + "'");
+    if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size)))
+      return Refused("cannot read '" + f.filename().string() + "'");
     auto picture = renderer.DecodePicture(bytes, "");
-    if (!picture.ok()) return Refused("'" + f.filename().string() + "': " + picture.status().message);
+    if (!picture.ok())
+      return Refused("'" + f.filename().string() + "': " + picture.status().message);
     plan.backgrounds.push_back(Covering(f.filename().string(), picture.value(), w, h));
     listed.push_back({{"name", f.filename().string()}, {"bytes", size}});
   }
@@ -107,7 +122,8 @@ void BlendOver(render::Image& image, const BatchPlan::Background& bg) {
   if (!image.srgb8.empty()) {
     static const std::array<float, 256> linear = [] {
       std::array<float, 256> t{};
-      for (size_t i = 0; i < 256; ++i) t[i] = static_cast<float>(SrgbDecode(static_cast<double>(i) / 255.0));
+      for (size_t i = 0; i < 256; ++i)
+        t[i] = static_cast<float>(SrgbDecode(static_cast<double>(i) / 255.0));
       return t;
     }();
     for (size_t p = 0; p < n; ++p) {
@@ -115,8 +131,10 @@ void BlendOver(render::Image& image, const BatchPlan::Background& bg) {
       if (px[3] == 255) continue;
       const float a = px[3] / 255.0f;
       for (size_t c = 0; c < 3; ++c) {
-        px[c] = a == 0.0f ? bg.srgb8[3 * p + c]
-                          : static_cast<unsigned char>(std::lround(SrgbEncode(linear[px[c]] * a + bg.linear[3 * p + c] * (1 - a)) * 255.0));
+        px[c] = a == 0.0f
+                    ? bg.srgb8[3 * p + c]
+                    : static_cast<unsigned char>(std::lround(
+                          SrgbEncode(linear[px[c]] * a + bg.linear[3 * p + c] * (1 - a)) * 255.0));
       }
       px[3] = 255;
     }

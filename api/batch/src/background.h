@@ -1,5 +1,5 @@
-// A dataset's background pictures (dataset.h, LoadBackgroundImages): what the sample's compositing shares.
-// Private to api/batch.
+// A dataset's background pictures (dataset.h, LoadBackgroundImages): what the sample's compositing
+// shares. Private to api/batch.
 #pragma once
 
 #include "facespace/batch/plan.h"

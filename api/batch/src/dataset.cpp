@@ -1,12 +1,11 @@
 #include "facespace/batch/dataset.h"
 
-#include "background.h"
-
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
+#include "background.h"
 #include "facespace/engine/pose_request.h"
 #include "facespace/engine/transform.h"
 
@@ -57,13 +56,16 @@ SampleDraw DrawSample(const BatchPlan& plan, size_t index) {
   draw(5, r.light_pitch, d.render.light_pitch, false);
   draw(6, r.exposure, d.render.exposure, false);
   if (r.random_background) {
-    for (int c = 0; c < 3; ++c) d.render.background[c] = Uniform(seed, index, 7 + static_cast<uint64_t>(c), 0.0f, 1.0f);
+    for (int c = 0; c < 3; ++c)
+      d.render.background[c] = Uniform(seed, index, 7 + static_cast<uint64_t>(c), 0.0f, 1.0f);
     d.render.background[3] = 1.0f;
   } else if (!r.backgrounds.empty()) {
     const float pick = Uniform(seed, index, 10, 0.0f, static_cast<float>(r.backgrounds.size()));
-    d.render.background = r.backgrounds[std::min(static_cast<size_t>(pick), r.backgrounds.size() - 1)];
+    d.render.background =
+        r.backgrounds[std::min(static_cast<size_t>(pick), r.backgrounds.size() - 1)];
   } else if (!plan.backgrounds.empty()) {
-    d.render.background = {0, 0, 0, 0};  // Transparent: the sample's picture goes behind (PutOverBackground).
+    d.render.background = {
+        0, 0, 0, 0};  // Transparent: the sample's picture goes behind (PutOverBackground).
   }
   if (r.gaze_yaw || r.gaze_pitch) {
     d.gaze = Gaze{};
@@ -82,7 +84,8 @@ SampleDraw DrawSample(const BatchPlan& plan, size_t index) {
   return d;
 }
 
-bool PinholeCamera::Project(const std::array<double, 3>& p, std::array<double, 2>& xy, std::array<double, 3>& c) const {
+bool PinholeCamera::Project(const std::array<double, 3>& p, std::array<double, 2>& xy,
+                            std::array<double, 3>& c) const {
   for (int r = 0; r < 3; ++r) {
     const double* row = &world_to_camera[static_cast<size_t>(4 * r)];
     c[static_cast<size_t>(r)] = row[0] * p[0] + row[1] * p[1] + row[2] * p[2] + row[3];
@@ -93,7 +96,9 @@ bool PinholeCamera::Project(const std::array<double, 3>& p, std::array<double, 2
 }
 
 PinholeCamera CameraOf(const render::Image& image) {
-  const auto P = [&image](int r, int c) { return static_cast<double>(image.projection[static_cast<size_t>(4 * c + r)]); };
+  const auto P = [&image](int r, int c) {
+    return static_cast<double>(image.projection[static_cast<size_t>(4 * c + r)]);
+  };
   PinholeCamera cam;
   cam.width = image.width;
   cam.height = image.height;
@@ -102,20 +107,24 @@ PinholeCamera CameraOf(const render::Image& image) {
   cam.fy = 0.5 * image.height * P(1, 1);
   cam.cy = 0.5 * image.height * (1.0 + P(1, 2));
   for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) cam.world_to_camera[static_cast<size_t>(4 * r + c)] = image.view[static_cast<size_t>(4 * c + r)];
+    for (int c = 0; c < 4; ++c)
+      cam.world_to_camera[static_cast<size_t>(4 * r + c)] =
+          image.view[static_cast<size_t>(4 * c + r)];
   }
   cam.near = P(2, 3) / (P(2, 2) - 1.0);
   cam.far = P(2, 3) / (P(2, 2) + 1.0);
   return cam;
 }
 
-void SegmentsOf(const Rig& rig, std::vector<uint32_t>& of_primitive, std::vector<std::string>& names) {
+void SegmentsOf(const Rig& rig, std::vector<uint32_t>& of_primitive,
+                std::vector<std::string>& names) {
   names = {"background"};
   of_primitive.assign(rig.primitives.size(), 0);
   for (const Region& region : rig.regions) {
     names.push_back(region.name);
     for (uint32_t p : region.primitives) {
-      if (p < of_primitive.size() && of_primitive[p] == 0) of_primitive[p] = static_cast<uint32_t>(names.size() - 1);
+      if (p < of_primitive.size() && of_primitive[p] == 0)
+        of_primitive[p] = static_cast<uint32_t>(names.size() - 1);
     }
   }
   std::vector<uint32_t> of_material(rig.materials.size() + 1, 0);  // The last: no material.
@@ -124,7 +133,9 @@ void SegmentsOf(const Rig& rig, std::vector<uint32_t>& of_primitive, std::vector
     const int m = rig.primitives[p].material;
     const size_t slot = m >= 0 ? static_cast<size_t>(m) : rig.materials.size();
     if (of_material[slot] == 0) {
-      names.push_back(m >= 0 ? (rig.materials[slot].name.empty() ? "material " + std::to_string(m) : rig.materials[slot].name) : "no material");
+      names.push_back(m >= 0 ? (rig.materials[slot].name.empty() ? "material " + std::to_string(m)
+                                                                 : rig.materials[slot].name)
+                             : "no material");
       of_material[slot] = static_cast<uint32_t>(names.size() - 1);
     }
     of_primitive[p] = of_material[slot];
@@ -134,7 +145,8 @@ void SegmentsOf(const Rig& rig, std::vector<uint32_t>& of_primitive, std::vector
 namespace {
 
 // Sample `index`'s point: the variant's, with the drawn expressions and gaze on its face.
-void SamplePoint(const BatchPlan& plan, size_t index, const SampleDraw& draw, api::ResolvedPoint& point) {
+void SamplePoint(const BatchPlan& plan, size_t index, const SampleDraw& draw,
+                 api::ResolvedPoint& point) {
   if (draw.expressions.empty() && !draw.gaze) return VariantPoint(plan, index, point);
   VariantWeights(plan, index, point);  // Checked once the drawn face is on.
   const Rig& rig = plan.rig->rig;
@@ -143,7 +155,8 @@ void SamplePoint(const BatchPlan& plan, size_t index, const SampleDraw& draw, ap
   if (draw.gaze) face.gaze = draw.gaze;
   std::vector<float> with;
   std::vector<Warning> warnings;
-  if (!ResolvePoseAndWeights(rig, {}, face, with, point.pose, point.posed, warnings).ok()) return VariantPoint(plan, index, point);  // Tried by the plan.
+  if (!ResolvePoseAndWeights(rig, {}, face, with, point.pose, point.posed, warnings).ok())
+    return VariantPoint(plan, index, point);  // Tried by the plan.
   for (size_t s = 0; s < point.weights.size() && s < with.size(); ++s) {
     const float planned = s < plan.face_weights.size() ? plan.face_weights[s] : 0.0f;
     const float bare = s < plan.bare_weights.size() ? plan.bare_weights[s] : 0.0f;
@@ -159,25 +172,34 @@ std::array<double, 3> LandmarkAt(const Landmark& l, const BlendedRig& blended) {
   std::array<double, 3> out{0, 0, 0};
   for (int k = 0; k < 3; ++k) {
     float q[3];
-    TransformPoint(b.world, &b.positions[3 * static_cast<size_t>(l.vertices[static_cast<size_t>(k)])], q);
-    for (int c = 0; c < 3; ++c) out[static_cast<size_t>(c)] += static_cast<double>(l.weights[static_cast<size_t>(k)]) * q[c];
+    TransformPoint(b.world,
+                   &b.positions[3 * static_cast<size_t>(l.vertices[static_cast<size_t>(k)])], q);
+    for (int c = 0; c < 3; ++c)
+      out[static_cast<size_t>(c)] += static_cast<double>(l.weights[static_cast<size_t>(k)]) * q[c];
   }
   return out;
 }
 
-json LandmarksJson(const Rig& rig, const BlendedRig& blended, const PinholeCamera& cam, const render::LabelPlanes& planes) {
+json LandmarksJson(const Rig& rig, const BlendedRig& blended, const PinholeCamera& cam,
+                   const render::LabelPlanes& planes) {
   json list = json::array();
   for (const Landmark& l : rig.landmarks) {
     const std::array<double, 3> p = LandmarkAt(l, blended);
     std::array<double, 2> xy{0, 0};
     std::array<double, 3> c{0, 0, 0};
-    bool visible = cam.Project(p, xy, c) && xy[0] >= 0 && xy[1] >= 0 && xy[0] < cam.width && xy[1] < cam.height;
+    bool visible = cam.Project(p, xy, c) && xy[0] >= 0 && xy[1] >= 0 && xy[0] < cam.width &&
+                   xy[1] < cam.height;
     if (visible) {
-      const size_t at = static_cast<size_t>(std::floor(xy[1])) * static_cast<size_t>(cam.width) + static_cast<size_t>(std::floor(xy[0]));
-      const double seen = planes.distance[at], own = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+      const size_t at = static_cast<size_t>(std::floor(xy[1])) * static_cast<size_t>(cam.width) +
+                        static_cast<size_t>(std::floor(xy[0]));
+      const double seen = planes.distance[at],
+                   own = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
       visible = seen <= 0.0 || seen >= own * (1.0 - kLandmarkDepthSlack);
     }
-    list.push_back({{"name", l.name}, {"xy", {Short(xy[0]), Short(xy[1])}}, {"xyz", {Short(p[0]), Short(p[1]), Short(p[2])}}, {"visible", visible}});
+    list.push_back({{"name", l.name},
+                    {"xy", {Short(xy[0]), Short(xy[1])}},
+                    {"xyz", {Short(p[0]), Short(p[1]), Short(p[2])}},
+                    {"visible", visible}});
   }
   return list;
 }
@@ -186,13 +208,16 @@ json CameraJson(const PinholeCamera& cam, const render::RenderOptions& o) {
   json w2c = json::array();
   for (int r = 0; r < 4; ++r) {
     json row = json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(Short(cam.world_to_camera[static_cast<size_t>(4 * r + c)]));
+    for (int c = 0; c < 4; ++c)
+      row.push_back(Short(cam.world_to_camera[static_cast<size_t>(4 * r + c)]));
     w2c.push_back(row);
   }
   return {{"K", {{Short(cam.fx), 0, Short(cam.cx)}, {0, Short(cam.fy), Short(cam.cy)}, {0, 0, 1}}},
           {"world_to_camera", w2c},
-          {"projection", "pixel = K (x, -y, -z) / -z for (x, y, z) = world_to_camera p: the camera looks down -z with y up (glTF); "
-                         "pixel centres at +0.5, origin top left"},
+          {"projection",
+           "pixel = K (x, -y, -z) / -z for (x, y, z) = world_to_camera p: the camera looks down -z "
+           "with y up (glTF); "
+           "pixel centres at +0.5, origin top left"},
           {"fov_y_degrees", Short(o.camera.fov)},
           {"near", Short(cam.near)},
           {"far", Short(cam.far)},
@@ -201,7 +226,8 @@ json CameraJson(const PinholeCamera& cam, const render::RenderOptions& o) {
 }
 
 // What KEY.json says of the point and how it was drawn.
-void PointJson(const BatchPlan& plan, const SampleDraw& draw, const api::ResolvedPoint& point, json& j) {
+void PointJson(const BatchPlan& plan, const SampleDraw& draw, const api::ResolvedPoint& point,
+               json& j) {
   const Rig& rig = plan.rig->rig;
   j["weights"] = json::parse(api::WeightsMapJson(rig, point.weights));
   json expressions = json::object();
@@ -210,28 +236,39 @@ void PointJson(const BatchPlan& plan, const SampleDraw& draw, const api::Resolve
   }
   j["expressions"] = expressions;
   const std::optional<Gaze>& gaze = draw.gaze ? draw.gaze : plan.request.render.mesh.pose.gaze;
-  if (gaze && gaze->has_target) j["gaze"] = {{"target", {Short(gaze->target[0]), Short(gaze->target[1]), Short(gaze->target[2])}}};
-  else if (gaze) j["gaze"] = {{"yaw", Short(gaze->yaw)}, {"pitch", Short(gaze->pitch)}};
+  if (gaze && gaze->has_target)
+    j["gaze"] = {
+        {"target", {Short(gaze->target[0]), Short(gaze->target[1]), Short(gaze->target[2])}}};
+  else if (gaze)
+    j["gaze"] = {{"yaw", Short(gaze->yaw)}, {"pitch", Short(gaze->pitch)}};
   j["pose"] = json::parse(plan.pose_json);
   const render::RenderOptions& o = draw.render;
-  j["render"] = {{"camera", {{"yaw", Short(o.camera.yaw)}, {"pitch", Short(o.camera.pitch)}, {"zoom", Short(o.camera.zoom)}}},
+  j["render"] = {{"camera",
+                  {{"yaw", Short(o.camera.yaw)},
+                   {"pitch", Short(o.camera.pitch)},
+                   {"zoom", Short(o.camera.zoom)}}},
                  {"light", {{"yaw", Short(o.light_yaw)}, {"pitch", Short(o.light_pitch)}}},
                  {"exposure", Short(o.exposure)},
-                 {"background", {Short(o.background[0]), Short(o.background[1]), Short(o.background[2]), Short(o.background[3])}}};
+                 {"background",
+                  {Short(o.background[0]), Short(o.background[1]), Short(o.background[2]),
+                   Short(o.background[3])}}};
   j["warnings"] = json::parse(WarningsToJson(point.report.warnings));
 }
 
 // The label planes as files, each as asked.
-Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer, const render::Image& image, std::vector<SampleFile>& files) {
+Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer,
+                  const render::Image& image, std::vector<SampleFile>& files) {
   const api::DatasetRequest& d = plan.request.dataset;
   const render::LabelPlanes& planes = image.labels;
   if (d.has(api::Label::kDepth)) {
-    auto exr = renderer.EncodeData(planes.distance, image.width, image.height, 1, render::DataPrecision::kFloat);
+    auto exr = renderer.EncodeData(planes.distance, image.width, image.height, 1,
+                                   render::DataPrecision::kFloat);
     if (!exr.ok()) return exr.status();
     files.push_back({"depth.exr", std::move(exr.value())});
   }
   if (d.has(api::Label::kNormals)) {
-    auto exr = renderer.EncodeData(planes.normal, image.width, image.height, 3, render::DataPrecision::kHalf);
+    auto exr = renderer.EncodeData(planes.normal, image.width, image.height, 3,
+                                   render::DataPrecision::kHalf);
     if (!exr.ok()) return exr.status();
     files.push_back({"normals.exr", std::move(exr.value())});
   }
@@ -243,19 +280,20 @@ Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer, const
   return Status::Ok();
 }
 
-// Sample `index`'s picture (plan.backgrounds, drawn from its stream) behind what `image` drew over a
-// transparent background; its index in plan.backgrounds.
+// Sample `index`'s picture (plan.backgrounds, drawn from its stream) behind what `image` drew over
+// a transparent background; its index in plan.backgrounds.
 size_t PutOverBackground(const BatchPlan& plan, size_t index, render::Image& image) {
   const size_t n = plan.backgrounds.size();
-  const size_t k = std::min(n - 1, static_cast<size_t>(Uniform(plan.draw_seed, index, 13, 0.0f, static_cast<float>(n))));
+  const size_t k = std::min(
+      n - 1, static_cast<size_t>(Uniform(plan.draw_seed, index, 13, 0.0f, static_cast<float>(n))));
   BlendOver(image, plan.backgrounds[k]);
   return k;
 }
 
 }  // namespace
 
-Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& evaluator, api::Workspace& ws, api::ResolvedPoint& point,
-                  std::vector<SampleFile>& files) {
+Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& evaluator,
+                  api::Workspace& ws, api::ResolvedPoint& point, std::vector<SampleFile>& files) {
   files.clear();
   const SampleDraw draw = DrawSample(plan, index);
   SamplePoint(plan, index, draw, point);
@@ -264,20 +302,27 @@ Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& eva
   spec.render = draw.render;
   if (auto drawn = evaluator.Run(plan.rig, point, spec, ws); !drawn.ok()) return drawn.status();
   const size_t background = plan.backgrounds.empty() ? 0 : PutOverBackground(plan, index, ws.image);
-  auto picture = evaluator.renderer()->Encode(ws.image, plan.request.image_format, plan.request.render.quality);
+  auto picture = evaluator.renderer()->Encode(ws.image, plan.request.image_format,
+                                              plan.request.render.quality, ws.helper_cpu);
   if (!picture.ok()) return picture.status();
   files.push_back({plan.request.format, std::move(picture.value())});
   if (Status s = LabelFiles(plan, *evaluator.renderer(), ws.image, files); !s.ok()) return s;
   const PinholeCamera cam = CameraOf(ws.image);
   const std::string key = VariantId(plan, index);
-  json j = {{"key", key}, {"index", index}, {"image", {{"file", key + "." + plan.request.format}, {"width", cam.width}, {"height", cam.height}}}};
+  json j = {
+      {"key", key},
+      {"index", index},
+      {"image",
+       {{"file", key + "." + plan.request.format}, {"width", cam.width}, {"height", cam.height}}}};
   j["camera"] = CameraJson(cam, draw.render);
   const api::DatasetRequest& d = plan.request.dataset;
   if (d.has(api::Label::kDepth)) j["depth"] = "distance along the ray, metres";
-  if (d.has(api::Label::kNormals)) j["normals"] = "camera space, unit (x right, y up, z toward the eye)";
+  if (d.has(api::Label::kNormals))
+    j["normals"] = "camera space, unit (x right, y up, z toward the eye)";
   if (d.has(api::Label::kSegmentation)) {
     json legend = json::object();
-    for (size_t id = 0; id < plan.segment_names.size(); ++id) legend[std::to_string(id)] = plan.segment_names[id];
+    for (size_t id = 0; id < plan.segment_names.size(); ++id)
+      legend[std::to_string(id)] = plan.segment_names[id];
     j["segmentation"] = legend;
   }
   if (d.has(api::Label::kLandmarks)) {

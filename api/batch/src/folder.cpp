@@ -19,7 +19,8 @@ namespace facespace::batch {
 
 using nlohmann::json;
 
-Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data, const std::string& writer) {
+Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data,
+                    const std::string& writer) {
   return WriteFileDurably(dir, name, data, kTmpPrefix + name + writer, "'" + name + "'", false);
 }
 
@@ -35,21 +36,28 @@ uint64_t SizeOf(const fs::path& path) {
   return ec ? 0 : size;
 }
 
-// Whether the files manifest line `j` of variant `index` vouches for are there: its file with its size
-// (archived: its bytes in its tar shard, or in the part being written) and each of its "files".
+// Whether the files manifest line `j` of variant `index` vouches for are there: its file with its
+// size (archived: its bytes in its tar shard, or in the part being written) and each of its
+// "files".
 bool LineHolds(const fs::path& dir, const BatchPlan& plan, size_t index, const json& j) {
   if (j.contains("shard")) {
     const size_t shard = TarShardOf(plan, index);
-    if (j["shard"] != TarShardName(shard) || !j.contains("offset") || !j["offset"].is_number_unsigned()) return false;
+    if (j["shard"] != TarShardName(shard) || !j.contains("offset") ||
+        !j["offset"].is_number_unsigned())
+      return false;
     const uint64_t end = j["offset"].get<uint64_t>() + j["bytes"].get<uint64_t>();
     return std::max(SizeOf(dir / TarShardName(shard)), SizeOf(dir / TarPartName(shard))) >= end;
   }
   if (SizeOf(dir / j["file"].get<std::string>()) != j["bytes"].get<uint64_t>()) return false;
   const std::string key = VariantId(plan, index) + ".";
   for (const json& f : j.value("files", json::array())) {
-    if (!f.is_object() || !f.contains("file") || !f["file"].is_string() || !f.contains("bytes") || !f["bytes"].is_number_unsigned()) return false;
+    if (!f.is_object() || !f.contains("file") || !f["file"].is_string() || !f.contains("bytes") ||
+        !f["bytes"].is_number_unsigned())
+      return false;
     const std::string name = f["file"].get<std::string>();
-    if (name.rfind(key, 0) != 0 || name.find('/') != std::string::npos || SizeOf(dir / name) != f["bytes"].get<uint64_t>()) return false;
+    if (name.rfind(key, 0) != 0 || name.find('/') != std::string::npos ||
+        SizeOf(dir / name) != f["bytes"].get<uint64_t>())
+      return false;
   }
   return true;
 }
@@ -61,7 +69,8 @@ std::string ManifestName(size_t shard, size_t shards) {
 }
 std::string RecordName(size_t shard, size_t shards) { return ShardSuffix(shard, shards) + ".json"; }
 
-bool ParseShardName(std::string_view name, std::string_view prefix, std::string_view suffix, size_t* shard, size_t* shards) {
+bool ParseShardName(std::string_view name, std::string_view prefix, std::string_view suffix,
+                    size_t* shard, size_t* shards) {
   if (name.size() <= prefix.size() + suffix.size() || name.substr(0, prefix.size()) != prefix ||
       name.substr(name.size() - suffix.size()) != suffix) {
     return false;
@@ -70,13 +79,13 @@ bool ParseShardName(std::string_view name, std::string_view prefix, std::string_
   unsigned long i = 0, n = 0;
   char tail = 0;
   const std::string text(name);
-  if (std::sscanf(text.c_str(), "shard-%lu-of-%lu%c", &i, &n, &tail) != 2 || i < 1 || i > n) return false;
+  if (std::sscanf(text.c_str(), "shard-%lu-of-%lu%c", &i, &n, &tail) != 2 || i < 1 || i > n)
+    return false;
   if (text != "shard-" + std::to_string(i) + "-of-" + std::to_string(n)) return false;
   *shard = i - 1;
   *shards = n;
   return true;
 }
-
 
 RunLock::~RunLock() {
   if (fd_ >= 0) {
@@ -103,14 +112,16 @@ bool Locked(const fs::path& path) {
   return held;
 }
 
-std::map<size_t, std::string> ReadManifests(const fs::path& dir, const BatchPlan& plan, const std::function<bool(size_t)>& keep) {
+std::map<size_t, std::string> ReadManifests(const fs::path& dir, const BatchPlan& plan,
+                                            const std::function<bool(size_t)>& keep) {
   std::map<size_t, std::string> lines;
   std::error_code ec;
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
     size_t shard = 0, shards = 0;
-    if (name == kManifest || ParseShardName(name, "manifest.", ".jsonl", &shard, &shards)) files.push_back(e.path());
+    if (name == kManifest || ParseShardName(name, "manifest.", ".jsonl", &shard, &shards))
+      files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
   for (const fs::path& path : files) {
@@ -118,12 +129,15 @@ std::map<size_t, std::string> ReadManifests(const fs::path& dir, const BatchPlan
     std::string line;
     while (std::getline(f, line)) {
       json j = json::parse(line, nullptr, false);
-      if (j.is_discarded() || !j.is_object() || !j.contains("index") || !j["index"].is_number_unsigned() ||
-          !j.contains("file") || !j["file"].is_string() || !j.contains("bytes") || !j["bytes"].is_number_unsigned()) {
+      if (j.is_discarded() || !j.is_object() || !j.contains("index") ||
+          !j["index"].is_number_unsigned() || !j.contains("file") || !j["file"].is_string() ||
+          !j.contains("bytes") || !j["bytes"].is_number_unsigned()) {
         continue;
       }
       const size_t index = j["index"].get<size_t>();
-      if (index >= plan.total || !keep(index) || lines.count(index) || j["file"].get<std::string>() != VariantFile(plan, index)) continue;
+      if (index >= plan.total || !keep(index) || lines.count(index) ||
+          j["file"].get<std::string>() != VariantFile(plan, index))
+        continue;
       if (LineHolds(dir, plan, index, j)) lines[index] = line;
     }
   }
@@ -136,7 +150,8 @@ std::string JoinLines(const std::map<size_t, std::string>& lines) {
   return text;
 }
 
-Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells, const api::Evaluator& evaluator) {
+Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells,
+                  const api::Evaluator& evaluator) {
   std::vector<size_t> first;
   for (size_t k = 0; k < plan.total && first.size() < cells; ++k) first.push_back(k);
   api::Workspace ws;

@@ -1,6 +1,6 @@
 // What a batch run (run.cpp) and a merge (merge.cpp) share about the batch folder: the names in it,
-// the lock a run holds, the manifest lines that vouch for files, the contact sheet, and the tar shards
-// of an archived batch (tar.cpp). Internal to facespace_batch.
+// the lock a run holds, the manifest lines that vouch for files, the contact sheet, and the tar
+// shards of an archived batch (tar.cpp). Internal to facespace_batch.
 #pragma once
 
 #include <array>
@@ -22,12 +22,15 @@ inline constexpr char kManifest[] = "manifest.jsonl";
 
 // dir/name, durably; the folder itself is synced once at the end of the run. `writer` keeps the
 // temporary names of processes writing the same file (shards writing batch.json) apart.
-Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data, const std::string& writer = "");
+Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data,
+                    const std::string& writer = "");
 
-std::string ManifestName(size_t shard, size_t shards);  // manifest.jsonl, or manifest.shard-I-of-N.jsonl
-std::string RecordName(size_t shard, size_t shards);    // shard-I-of-N.json
+std::string ManifestName(size_t shard,
+                         size_t shards);  // manifest.jsonl, or manifest.shard-I-of-N.jsonl
+std::string RecordName(size_t shard, size_t shards);  // shard-I-of-N.json
 // "PREFIX" + "shard-I-of-N" + suffix -> {I-1, N}; false for any other name.
-bool ParseShardName(std::string_view name, std::string_view prefix, std::string_view suffix, size_t* shard, size_t* shards);
+bool ParseShardName(std::string_view name, std::string_view prefix, std::string_view suffix,
+                    size_t* shard, size_t* shards);
 
 // An exclusive lock held while a run writes its manifest: the same shard never runs twice at
 // once (two array tasks given the same index, a rerun while the first still runs).
@@ -47,17 +50,20 @@ class RunLock {
 bool Locked(const fs::path& path);
 
 // The manifest lines of `dir` (manifest.jsonl and every shard's) whose variant `keep(index)` and
-// whose files are there with their sizes (in the folder, or in a tar shard or its part), by index. A torn
-// line (a kill mid-write) or a line for a missing file is dropped.
-std::map<size_t, std::string> ReadManifests(const fs::path& dir, const BatchPlan& plan, const std::function<bool(size_t)>& keep);
+// whose files are there with their sizes (in the folder, or in a tar shard or its part), by index.
+// A torn line (a kill mid-write) or a line for a missing file is dropped.
+std::map<size_t, std::string> ReadManifests(const fs::path& dir, const BatchPlan& plan,
+                                            const std::function<bool(size_t)>& keep);
 std::string JoinLines(const std::map<size_t, std::string>& lines);
 
 // The contact sheet of the first `cells` variants, as a one-process run writes it.
-Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells, const api::Evaluator& evaluator);
+Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells,
+                  const api::Evaluator& evaluator);
 
 // ---- tar shards (tar.cpp) ----
 
-// The tar shard holding sample `index`: shard-000000.tar holds the first `shard_samples`, and so on.
+// The tar shard holding sample `index`: shard-000000.tar holds the first `shard_samples`, and so
+// on.
 size_t TarShardOf(const BatchPlan& plan, size_t index);
 std::string TarShardName(size_t shard);
 // The shard being written: ".fs-part-shard-000000.tar", renamed to its name once whole.
@@ -65,7 +71,8 @@ std::string TarPartName(size_t shard);
 
 // One member of a tar (POSIX ustar): its 512-byte header, `pieces` one after the other, zeros to a
 // whole block. Deterministic: mode 0644, owner 0, time 0. Names over 100 bytes are refused.
-Status AppendTarMember(std::string& out, const std::string& name, std::array<std::string_view, 2> pieces);
+Status AppendTarMember(std::string& out, const std::string& name,
+                       std::array<std::string_view, 2> pieces);
 // The end of an archive: two blocks of zeros.
 inline constexpr size_t kTarEnd = 1024;
 

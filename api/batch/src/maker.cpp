@@ -1,7 +1,5 @@
 #include "maker.h"
 
-#include "facespace/files/durable.h"
-
 #include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -15,11 +13,14 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "facespace/files/durable.h"
+
 namespace facespace::batch {
 
 namespace {
 
-// A message's largest size: a labelled 4096² sample is about 250 MB; a bigger length is a broken pipe's.
+// A message's largest size: a labelled 4096² sample is about 250 MB; a bigger length is a broken
+// pipe's.
 constexpr uint64_t kMaxMessage = uint64_t{1} << 32;
 
 bool ReadAll(int fd, void* data, size_t size) {
@@ -55,16 +56,19 @@ bool TakePiece(std::string_view in, size_t& at, std::string_view& piece) {
 
 // The child's life: a variant number in, its message out, until the parent closes the pipe or dies.
 [[noreturn]] void Serve(int from_parent, int to_parent, const MakerProcess::Make& make) {
-  // Only its own pipe's ends stay open: another maker's copy of a pipe would keep that maker from ever
-  // seeing its end, and the parent's files (its lock, its tar part) are not the child's to hold.
-  const unsigned lo = static_cast<unsigned>(std::min(from_parent, to_parent)), hi = static_cast<unsigned>(std::max(from_parent, to_parent));
+  // Only its own pipe's ends stay open: another maker's copy of a pipe would keep that maker from
+  // ever seeing its end, and the parent's files (its lock, its tar part) are not the child's to
+  // hold.
+  const unsigned lo = static_cast<unsigned>(std::min(from_parent, to_parent)),
+                 hi = static_cast<unsigned>(std::max(from_parent, to_parent));
   if (lo > 3) close_range(3, lo - 1, 0);
   if (hi > lo + 1) close_range(lo + 1, hi - 1, 0);
   close_range(hi + 1, ~0u, 0);
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   signal(SIGINT, SIG_IGN);
   signal(SIGTERM, SIG_IGN);
-  setenv("LP_NUM_THREADS", "0", 0);  // llvmpipe rasterises in this thread: the process is the unit of work.
+  setenv("LP_NUM_THREADS", "0",
+         0);  // llvmpipe rasterises in this thread: the process is the unit of work.
   uint64_t k = 0;
   MadeVariant made;
   std::string message;
@@ -73,9 +77,12 @@ bool TakePiece(std::string_view in, size_t& at, std::string_view& piece) {
     const Status status = make(static_cast<size_t>(k), made);
     message = EncodeMade(status, made);
     const uint64_t n = message.size();
-    if (WriteAll(to_parent, {reinterpret_cast<const char*>(&n), 8}) != 0 || WriteAll(to_parent, message) != 0) break;
+    if (WriteAll(to_parent, {reinterpret_cast<const char*>(&n), 8}) != 0 ||
+        WriteAll(to_parent, message) != 0)
+      break;
   }
-  _exit(0);  // Never exit(): the parent's buffered streams (the manifest) must not be flushed twice.
+  _exit(
+      0);  // Never exit(): the parent's buffered streams (the manifest) must not be flushed twice.
 }
 
 }  // namespace
@@ -103,12 +110,13 @@ std::string EncodeMade(const Status& status, const MadeVariant& made) {
   PutPiece(out, codes);
   PutPiece(out, made.tar);
   PutU64(out, made.files.size());
-  for (const auto& [name, pieces] : made.files) PutPiece(out, name), PutPiece(out, pieces[0], pieces[1]);
+  for (const auto& [name, pieces] : made.files)
+    PutPiece(out, name), PutPiece(out, pieces[0], pieces[1]);
   return out;
 }
 
-// A maker's message read into `out` (its views into `message`): the maker's status, or an error for a
-// message that does not hold together.
+// A maker's message read into `out` (its views into `message`): the maker's status, or an error for
+// a message that does not hold together.
 Status DecodeMade(std::string_view message, MadeVariant& out) {
   out = MadeVariant{};
   const Status broken = Internal("a sample maker process sent a broken message");
@@ -117,20 +125,28 @@ Status DecodeMade(std::string_view message, MadeVariant& out) {
   std::string_view text, reason, codes, tar, name, bytes;
   if (message.size() < 8) return broken;
   std::memcpy(&code, message.data(), 8);
-  if (code > static_cast<uint64_t>(StatusCode::kInternal) || !TakePiece(message, at, text) || !TakePiece(message, at, reason)) return broken;
-  if (code != 0) return WithReason(Status{static_cast<StatusCode>(code), std::string(text), {}, {}, 0}, std::string(reason));
+  if (code > static_cast<uint64_t>(StatusCode::kInternal) || !TakePiece(message, at, text) ||
+      !TakePiece(message, at, reason))
+    return broken;
+  if (code != 0)
+    return WithReason(Status{static_cast<StatusCode>(code), std::string(text), {}, {}, 0},
+                      std::string(reason));
   std::string_view head, tail;
-  if (!TakePiece(message, at, head) || !TakePiece(message, at, tail) || message.size() - at < 8) return broken;
+  if (!TakePiece(message, at, head) || !TakePiece(message, at, tail) || message.size() - at < 8)
+    return broken;
   std::memcpy(&out.sum, message.data() + at, 8);
   at += 8;
   if (!TakePiece(message, at, codes) || !TakePiece(message, at, tar)) return broken;
   out.head = head, out.tail = tail, out.tar = tar;
-  for (size_t from = 0, end; (end = codes.find('\n', from)) != std::string_view::npos; from = end + 1) out.codes.emplace_back(codes.substr(from, end - from));
+  for (size_t from = 0, end; (end = codes.find('\n', from)) != std::string_view::npos;
+       from = end + 1)
+    out.codes.emplace_back(codes.substr(from, end - from));
   uint64_t files = 0;
   if (message.size() - at < 8) return broken;
   std::memcpy(&files, message.data() + at, 8);
   at += 8;
-  for (uint64_t i = 0; i < files; ++i) {  // Each file takes 16 bytes at least: a count past the end fails at once.
+  for (uint64_t i = 0; i < files;
+       ++i) {  // Each file takes 16 bytes at least: a count past the end fails at once.
     if (!TakePiece(message, at, name) || !TakePiece(message, at, bytes)) return broken;
     out.files.push_back({std::string(name), {bytes, {}}});
   }
@@ -139,7 +155,7 @@ Status DecodeMade(std::string_view message, MadeVariant& out) {
 
 Result<std::unique_ptr<MakerProcess>> MakerProcess::Start(const Make& make) {
   signal(SIGPIPE, SIG_IGN);  // A maker that died is a failed write (EPIPE), not this process's end.
-  int down[2], up[2];  // Parent to child, child to parent.
+  int down[2], up[2];        // Parent to child, child to parent.
   if (pipe2(down, O_CLOEXEC) != 0) return Internal(std::string("pipe: ") + std::strerror(errno));
   if (pipe2(up, O_CLOEXEC) != 0) {
     close(down[0]), close(down[1]);
@@ -174,8 +190,12 @@ Status MakerProcess::Died() {
   while ((r = waitpid(pid, &status, 0)) < 0 && errno == EINTR) {
   }
   pid_ = -1;
-  const std::string how = r != pid ? "" : WIFSIGNALED(status) ? " by signal " + std::to_string(WTERMSIG(status)) : " with exit code " + std::to_string(WEXITSTATUS(status));
-  return Internal("sample maker process " + std::to_string(pid) + " ended" + how + " before its variant was made; run the same command again to resume");
+  const std::string how = r != pid ? ""
+                          : WIFSIGNALED(status)
+                              ? " by signal " + std::to_string(WTERMSIG(status))
+                              : " with exit code " + std::to_string(WEXITSTATUS(status));
+  return Internal("sample maker process " + std::to_string(pid) + " ended" + how +
+                  " before its variant was made; run the same command again to resume");
 }
 
 Status MakerProcess::Ask(size_t k, MadeVariant& out) {
@@ -183,7 +203,8 @@ Status MakerProcess::Ask(size_t k, MadeVariant& out) {
   const uint64_t index = k;
   uint64_t n = 0;
   const std::string_view asked(reinterpret_cast<const char*>(&index), 8);
-  if (WriteAll(to_child_, asked) != 0 || !ReadAll(from_child_, &n, 8) || n > kMaxMessage) return Died();
+  if (WriteAll(to_child_, asked) != 0 || !ReadAll(from_child_, &n, 8) || n > kMaxMessage)
+    return Died();
   received_.resize(static_cast<size_t>(n));
   if (!ReadAll(from_child_, received_.data(), received_.size())) return Died();
   return DecodeMade(received_, out);

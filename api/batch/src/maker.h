@@ -7,8 +7,9 @@
 // asks it for variant k over a pipe and gets back what the variant's worker thread would have made:
 // its manifest line's pieces, its warnings and its files. The parent alone writes to the folder, so
 // group commit, tar order and resume are the threads' own. A maker dies with its parent (a kill -9
-// leaves none behind), ignores SIGINT and SIGTERM (the parent stops asking and closes the pipe), and
-// one that dies fails the run like any worker's error: the rerun resumes. Internal to facespace_batch.
+// leaves none behind), ignores SIGINT and SIGTERM (the parent stops asking and closes the pipe),
+// and one that dies fails the run like any worker's error: the rerun resumes. Internal to
+// facespace_batch.
 #pragma once
 
 #include <sys/types.h>
@@ -25,8 +26,8 @@
 
 namespace facespace::batch {
 
-// A folder variant's files by name, each in up to two pieces (a mesh's header and body), viewing the
-// buffers of whoever made them.
+// A folder variant's files by name, each in up to two pieces (a mesh's header and body), viewing
+// the buffers of whoever made them.
 using NamedFiles = std::vector<std::pair<std::string, std::array<std::string_view, 2>>>;
 
 // A variant as made, ready to be stored: the manifest line's head and tail (its position in a tar
@@ -57,7 +58,8 @@ class MakerProcess {
   Status Ask(size_t k, MadeVariant& out);
 
  private:
-  MakerProcess(pid_t pid, int to_child, int from_child) : pid_(pid), to_child_(to_child), from_child_(from_child) {}
+  MakerProcess(pid_t pid, int to_child, int from_child)
+      : pid_(pid), to_child_(to_child), from_child_(from_child) {}
   Status Died();
 
   pid_t pid_;

@@ -15,7 +15,8 @@ using nlohmann::json;
 
 namespace {
 
-// What manifest line `j` vouches for: its whole file, or (archived) its bytes in the tar shard `path`.
+// What manifest line `j` vouches for: its whole file, or (archived) its bytes in the tar shard
+// `path`.
 bool ReadRange(const fs::path& path, const json& j, std::string& data) {
   std::ifstream f(path, std::ios::binary);
   if (!j.contains("offset")) {
@@ -41,14 +42,17 @@ Result<ShardsFound> FindShards(const std::string& dir_name) {
     const bool record = ParseShardName(name, "", ".json", &shard, &shards);
     if (!record && !ParseShardName(name, "manifest.", ".jsonl", &shard, &shards)) continue;
     if (found.shards != 0 && shards != found.shards) {
-      return FailedPrecondition("'" + dir_name + "' holds shards of " + std::to_string(found.shards) + " and of " +
-                                std::to_string(shards) + ": runs with different shard counts cannot be merged; rerun with one count");
+      return FailedPrecondition(
+          "'" + dir_name + "' holds shards of " + std::to_string(found.shards) + " and of " +
+          std::to_string(shards) +
+          ": runs with different shard counts cannot be merged; rerun with one count");
     }
     found.shards = shards;
     if (!record) continue;
     std::ifstream f(e.path(), std::ios::binary);
     json j = json::parse(f, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) continue;  // Unreadable: the shard counts as unfinished.
+    if (j.is_discarded() || !j.is_object())
+      continue;  // Unreadable: the shard counts as unfinished.
     ShardRecord r;
     r.shard = shard;
     r.shards = shards;
@@ -61,7 +65,9 @@ Result<ShardsFound> FindShards(const std::string& dir_name) {
     }
     records[shard] = std::move(r);
   }
-  if (found.shards == 0) return FailedPrecondition("'" + dir_name + "' holds no shards of a batch (no manifest.shard-I-of-N.jsonl)");
+  if (found.shards == 0)
+    return FailedPrecondition("'" + dir_name +
+                              "' holds no shards of a batch (no manifest.shard-I-of-N.jsonl)");
   for (auto& [shard, r] : records) found.finished.push_back(std::move(r));
   return found;
 }
@@ -73,7 +79,9 @@ Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options) {
   {
     std::ifstream f(dir / "batch.json", std::ios::binary);
     const std::string spec((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (spec != plan.spec_json) return FailedPrecondition("'" + options.dir + "/batch.json' is not this batch's (another request or rig version)");
+    if (spec != plan.spec_json)
+      return FailedPrecondition(
+          "'" + options.dir + "/batch.json' is not this batch's (another request or rig version)");
   }
   auto found = FindShards(options.dir);
   if (!found.ok()) return found.status();
@@ -86,13 +94,14 @@ Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options) {
     const bool running = Locked(dir / (kLockPrefix + ManifestName(i, shards)));
     if (finished[i] && !running) continue;
     if (++unfinished <= 8) {
-      problems += std::string(problems.empty() ? "" : ", ") + std::to_string(i + 1) + "/" + std::to_string(shards) +
-                  (running ? " (running)" : "");
+      problems += std::string(problems.empty() ? "" : ", ") + std::to_string(i + 1) + "/" +
+                  std::to_string(shards) + (running ? " (running)" : "");
     }
   }
   if (unfinished > 0) {
-    return FailedPrecondition(std::to_string(unfinished) + " of " + std::to_string(shards) + " shards of '" + options.dir +
-                              "' have not finished: " + problems + (unfinished > 8 ? ", ..." : "") +
+    return FailedPrecondition(std::to_string(unfinished) + " of " + std::to_string(shards) +
+                              " shards of '" + options.dir + "' have not finished: " + problems +
+                              (unfinished > 8 ? ", ..." : "") +
                               "; run them (again: each resumes where it stopped), then merge");
   }
 
@@ -105,25 +114,31 @@ Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options) {
       if (lines.count(k)) continue;
       if (++count <= 5) missing += std::string(missing.empty() ? "" : ", ") + VariantId(plan, k);
     }
-    return FailedPrecondition(std::to_string(count) + " variants are missing from '" + options.dir + "' (" + missing +
-                              (count > 5 ? ", ..." : "") + "): rerun their shards, then merge");
+    return FailedPrecondition(std::to_string(count) + " variants are missing from '" + options.dir +
+                              "' (" + missing + (count > 5 ? ", ..." : "") +
+                              "): rerun their shards, then merge");
   }
   if (options.verify) {
     std::string data;
     for (const auto& [index, line] : lines) {
       const json j = json::parse(line, nullptr, false);
-      const std::string file = j.contains("shard") ? j["shard"].get<std::string>() : j["file"].get<std::string>();
-      if (!ReadRange(dir / file, j, data)) return FailedPrecondition("cannot read '" + file + "': rerun its shard, then merge");
+      const std::string file =
+          j.contains("shard") ? j["shard"].get<std::string>() : j["file"].get<std::string>();
+      if (!ReadRange(dir / file, j, data))
+        return FailedPrecondition("cannot read '" + file + "': rerun its shard, then merge");
       const std::string_view whole[] = {data};
       if (!j.contains("sha256") || j["sha256"] != Sha256Hex(whole)) {
-        return FailedPrecondition("'" + file + "' does not match its manifest line's sha256 (changed after it was written): "
-                                  "remove it and rerun its shard, then merge");
+        return FailedPrecondition(
+            "'" + file +
+            "' does not match its manifest line's sha256 (changed after it was written): "
+            "remove it and rerun its shard, then merge");
       }
     }
   }
   if (Status s = WriteInBatch(dir, kManifest, JoinLines(lines)); !s.ok()) return s;
   if (options.sheet_cells > 0 && plan.total > 0) {
-    if (Status s = WriteSheet(plan, dir, options.sheet_cells, *options.evaluator); !s.ok()) return s;
+    if (Status s = WriteSheet(plan, dir, options.sheet_cells, *options.evaluator); !s.ok())
+      return s;
   }
   SyncDir(dir);
   // manifest.jsonl vouches for every variant now: the shards' files go.
@@ -140,7 +155,8 @@ Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options) {
   return summary;
 }
 
-Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const char*)>& env, size_t count) {
+Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const char*)>& env,
+                                          size_t count) {
   auto number = [&](const char* name, size_t* out) -> Result<bool> {
     const char* v = env(name);
     if (!v || !*v) return false;
@@ -169,44 +185,59 @@ Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const 
       // With --shards, the array ids are the shards (0..N-1), so a part of the array can be
       // submitted again (sbatch --array=2) and still be shard 3/N.
       if (id >= count) {
-        return InvalidArgument("SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " is not below --shards " + std::to_string(count) +
-                               " (with --shards N the array ids are the shards: --array=0-" + std::to_string(count - 1) + ", or a part of it)");
+        return InvalidArgument("SLURM_ARRAY_TASK_ID=" + std::to_string(id) +
+                               " is not below --shards " + std::to_string(count) +
+                               " (with --shards N the array ids are the shards: --array=0-" +
+                               std::to_string(count - 1) + ", or a part of it)");
       }
       out.shard = id;
       out.shards = count;
-      out.source = "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " with --shards " + std::to_string(count);
+      out.source =
+          "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " with --shards " + std::to_string(count);
       return out;
     }
     if (!has_step.value() || step == 0) step = 1;
     if (!has_lo.value()) lo = 0;
     if (!has_count.value()) {
-      if (!has_hi.value()) return InvalidArgument("SLURM_ARRAY_TASK_ID is set but neither SLURM_ARRAY_TASK_COUNT nor _MAX: give --shards N");
+      if (!has_hi.value())
+        return InvalidArgument(
+            "SLURM_ARRAY_TASK_ID is set but neither SLURM_ARRAY_TASK_COUNT nor _MAX: give --shards "
+            "N");
       n = hi < lo ? 0 : (hi - lo) / step + 1;
     }
     if (id < lo || (id - lo) % step != 0 || (id - lo) / step >= n) {
-      return InvalidArgument("SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " is not one of " + std::to_string(n) +
-                             " evenly spaced tasks from " + std::to_string(lo) +
-                             " (arrays like --array=0-3 or 1-8:1 shard; for others give --shard I/N)");
+      return InvalidArgument(
+          "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " is not one of " + std::to_string(n) +
+          " evenly spaced tasks from " + std::to_string(lo) +
+          " (arrays like --array=0-3 or 1-8:1 shard; for others give --shard I/N)");
     }
     out.shard = (id - lo) / step;
     out.shards = n;
-    out.source = "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " of " + std::to_string(n) + " tasks";
+    out.source =
+        "SLURM_ARRAY_TASK_ID=" + std::to_string(id) + " of " + std::to_string(n) + " tasks";
   } else {
     auto has_index = number("JOB_COMPLETION_INDEX", &id);
     if (!has_index.ok()) return has_index.status();
     if (!has_index.value()) {
-      return InvalidArgument("--shard auto: no scheduler's task index in the environment (SLURM_ARRAY_TASK_ID of a Slurm job array, "
-                             "JOB_COMPLETION_INDEX of a Kubernetes Indexed Job); give --shard I/N");
+      return InvalidArgument(
+          "--shard auto: no scheduler's task index in the environment (SLURM_ARRAY_TASK_ID of a "
+          "Slurm job array, "
+          "JOB_COMPLETION_INDEX of a Kubernetes Indexed Job); give --shard I/N");
     }
-    if (count == 0) return InvalidArgument("--shard auto with JOB_COMPLETION_INDEX needs --shards N (the Job's completions)");
+    if (count == 0)
+      return InvalidArgument(
+          "--shard auto with JOB_COMPLETION_INDEX needs --shards N (the Job's completions)");
     if (id >= count) {
-      return InvalidArgument("JOB_COMPLETION_INDEX=" + std::to_string(id) + " is not below --shards " + std::to_string(count));
+      return InvalidArgument("JOB_COMPLETION_INDEX=" + std::to_string(id) +
+                             " is not below --shards " + std::to_string(count));
     }
     out.shard = id;
     out.shards = count;
     out.source = "JOB_COMPLETION_INDEX=" + std::to_string(id) + " of " + std::to_string(count);
   }
-  if (out.shards == 0 || out.shards > 1000000) return InvalidArgument("the scheduler's task count " + std::to_string(out.shards) + " is out of range");
+  if (out.shards == 0 || out.shards > 1000000)
+    return InvalidArgument("the scheduler's task count " + std::to_string(out.shards) +
+                           " is out of range");
   return out;
 }
 

@@ -1,24 +1,22 @@
-#include <sys/statvfs.h>
-
-#include <thread>
 #include "facespace/batch/queue.h"
-
-#include "facespace/files/durable.h"
 
 #include <fcntl.h>
 #include <openssl/rand.h>
 #include <sys/file.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cstdlib>
 #include <ctime>
-#include <random>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
 
 #include "facespace/batch/run.h"
+#include "facespace/files/durable.h"
 
 namespace facespace::batch {
 
@@ -131,12 +129,15 @@ double AgeSeconds(const fs::path& path) {
 json JobOutput(const BatchPlan& plan) {
   json labels = json::array();
   for (api::Label l : plan.request.dataset.labels) labels.push_back(api::Name(l));
-  return {{"format", plan.request.format}, {"labels", labels}, {"archive", api::Name(plan.request.dataset.archive)}};
+  return {{"format", plan.request.format},
+          {"labels", labels},
+          {"archive", api::Name(plan.request.dataset.archive)}};
 }
 
 // o[key] when it is a string, else `otherwise` (job.json is read as found on disk).
 std::string TextAt(const json& o, const char* key, const std::string& otherwise) {
-  return o.is_object() && o.contains(key) && o[key].is_string() ? o[key].get<std::string>() : otherwise;
+  return o.is_object() && o.contains(key) && o[key].is_string() ? o[key].get<std::string>()
+                                                                : otherwise;
 }
 
 // A job's "output" (JobOutput's) into `info`; `format`: a job written before there was one, its
@@ -163,8 +164,9 @@ bool IsValidJobId(const std::string& id) {
   return true;
 }
 
-FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator, JobLimits limits,
-                           double poll_seconds, std::function<void()> refresh_store)
+FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator,
+                           JobLimits limits, double poll_seconds,
+                           std::function<void()> refresh_store)
     : dir_(std::move(dir)),
       store_(store),
       evaluator_(evaluator),
@@ -187,23 +189,28 @@ std::shared_ptr<FileJobQueue::Job> FileJobQueue::Load(const std::string& id) con
   if (!IsValidJobId(id)) return nullptr;
   const fs::path folder = fs::path(dir_) / id;
   json j = json::parse(ReadText(folder / "job.json"), nullptr, false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("request") || !j.contains("rig")) return nullptr;
+  if (j.is_discarded() || !j.is_object() || !j.contains("request") || !j.contains("rig"))
+    return nullptr;
   std::error_code ec;
-  if (fs::exists(folder / kCancel, ec)) return nullptr;  // Deleted; the instance running it removes it.
+  if (fs::exists(folder / kCancel, ec))
+    return nullptr;  // Deleted; the instance running it removes it.
   auto job = std::make_shared<Job>();
   job->info.id = id;
   job->info.rig = j.value("rig", "");
   job->rig_version = j.value("rig_version", "");
   job->info.created = j.value("created", "");
   job->info.total = j.value("total", size_t{0});
-  if (j.contains("variant_bytes") && j["variant_bytes"].is_number()) job->variant_bytes = j["variant_bytes"].get<double>();
-  ReadJobOutput(j.contains("output") ? j["output"] : json(), TextAt(j["request"], "format", "glb"), job->info);
+  if (j.contains("variant_bytes") && j["variant_bytes"].is_number())
+    job->variant_bytes = j["variant_bytes"].get<double>();
+  ReadJobOutput(j.contains("output") ? j["output"] : json(), TextAt(j["request"], "format", "glb"),
+                job->info);
   job->body = j["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   job->info.done = ManifestLines(folder / "out" / "manifest.jsonl");
   json st = json::parse(ReadText(folder / "state.json"), nullptr, false);
   if (!st.is_discarded() && st.is_object()) {
     job->info.state = JobState::kFailed;  // A state.json that says no known state: failed.
-    if (st.contains("state") && st["state"].is_string()) ParseEnum(kJobStates, st["state"].get<std::string>(), &job->info.state);
+    if (st.contains("state") && st["state"].is_string())
+      ParseEnum(kJobStates, st["state"].get<std::string>(), &job->info.state);
     job->info.error = st.value("error", "");
   } else {
     job->info.state = ClaimHeld(folder) ? JobState::kRunning : JobState::kQueued;
@@ -239,16 +246,19 @@ std::vector<std::shared_ptr<FileJobQueue::Job>> FileJobQueue::Scan() const {
     }
     // A folder that is no job: a deleted one whose runner is gone, or one whose job.json never
     // reached the disk (an instance died in Submit; give a live one time to write it).
-    if ((fs::exists(e.path() / kCancel, ec) || AgeSeconds(e.path()) > 60) && !fs::exists(e.path() / ".tmp-job.json", ec)) {
+    if ((fs::exists(e.path() / kCancel, ec) || AgeSeconds(e.path()) > 60) &&
+        !fs::exists(e.path() / ".tmp-job.json", ec)) {
       const int fd = TakeClaim(e.path(), instance_);
       if (fd >= 0) {
-        if (!fs::exists(e.path() / "job.json", ec) || fs::exists(e.path() / kCancel, ec)) fs::remove_all(e.path(), ec);
+        if (!fs::exists(e.path() / "job.json", ec) || fs::exists(e.path() / kCancel, ec))
+          fs::remove_all(e.path(), ec);
         ::close(fd);
       }
     }
   }
   std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
-    return a->info.created < b->info.created || (a->info.created == b->info.created && a->info.id < b->info.id);
+    return a->info.created < b->info.created ||
+           (a->info.created == b->info.created && a->info.id < b->info.id);
   });
   return out;
 }
@@ -256,14 +266,16 @@ std::vector<std::shared_ptr<FileJobQueue::Job>> FileJobQueue::Scan() const {
 Result<size_t> FileJobQueue::Start() {
   std::error_code ec;
   fs::create_directories(dir_, ec);
-  if (!fs::is_directory(dir_)) return FailedPrecondition("cannot create the jobs folder '" + dir_ + "'");
+  if (!fs::is_directory(dir_))
+    return FailedPrecondition("cannot create the jobs folder '" + dir_ + "'");
   // Jobs whose rig went while they were unfinished are lost; the rest resume, here or elsewhere.
   size_t unfinished = 0;
   for (const auto& job : Scan()) {
     if (job->info.state == JobState::kQueued && !RigFor(*job, false)) {
       const int fd = TakeClaim(fs::path(dir_) / job->info.id, instance_);
       if (fd >= 0) {
-        if (auto again = Load(job->info.id); again && again->info.state == JobState::kRunning) MarkLost(*again);
+        if (auto again = Load(job->info.id); again && again->info.state == JobState::kRunning)
+          MarkLost(*again);
         ::close(fd);
       }
       continue;
@@ -274,7 +286,8 @@ Result<size_t> FileJobQueue::Start() {
     for (;;) {
       if (RunNext()) continue;
       std::unique_lock<std::mutex> lock(mu_);
-      cv_.wait_for(lock, std::chrono::duration<double>(poll_seconds_), [this] { return stopping_ || wake_; });
+      cv_.wait_for(lock, std::chrono::duration<double>(poll_seconds_),
+                   [this] { return stopping_ || wake_; });
       if (stopping_) return;
       wake_ = false;
     }
@@ -296,8 +309,8 @@ static size_t VariantBytes(const Rig& rig, const BatchPlan& plan) {
       case render::ImageFormat::kExr: per_pixel = 8; break;
       default: break;
     }
-    // A labelled sample's files beside its picture (FaceCap at 256²: depth 61 KB, normals 63 KB, ids and
-    // KEY.json 3 KB: about 2 bytes a pixel), and a tar member's header and padding each.
+    // A labelled sample's files beside its picture (FaceCap at 256²: depth 61 KB, normals 63 KB,
+    // ids and KEY.json 3 KB: about 2 bytes a pixel), and a tar member's header and padding each.
     if (r.dataset.labelled()) per_pixel += 2.5;
     return static_cast<size_t>(pixels * per_pixel) + (r.dataset.labelled() ? 4096 * 5 : 4096);
   }
@@ -319,21 +332,25 @@ std::string Bytes(double b) {
 }
 
 struct Disk {
-  double free = 0, size = 0;  // Bytes: what an unprivileged writer may still use, and the whole filesystem.
+  double free = 0,
+         size = 0;  // Bytes: what an unprivileged writer may still use, and the whole filesystem.
 };
 std::optional<Disk> DiskOf(const std::string& dir) {
   struct statvfs st {};
   if (::statvfs(dir.c_str(), &st) != 0) return std::nullopt;
-  return Disk{static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize), static_cast<double>(st.f_blocks) * static_cast<double>(st.f_frsize)};
+  return Disk{static_cast<double>(st.f_bavail) * static_cast<double>(st.f_frsize),
+              static_cast<double>(st.f_blocks) * static_cast<double>(st.f_frsize)};
 }
 
 }  // namespace
 
 double FileJobQueue::KeepFree(double disk_bytes) const {
-  return limits_.keep_free > 0 ? static_cast<double>(limits_.keep_free) : std::min(1024.0 * (1 << 20), 0.05 * disk_bytes);
+  return limits_.keep_free > 0 ? static_cast<double>(limits_.keep_free)
+                               : std::min(1024.0 * (1 << 20), 0.05 * disk_bytes);
 }
 
-Status FileJobQueue::CheckRoom(double need, size_t variants, const std::vector<std::shared_ptr<Job>>& jobs, bool sampled) const {
+Status FileJobQueue::CheckRoom(double need, size_t variants,
+                               const std::vector<std::shared_ptr<Job>>& jobs, bool sampled) const {
   const std::optional<Disk> disk = DiskOf(dir_);
   if (!disk) return Status::Ok();  // Unknown: the writes will say.
   double reserved = 0;
@@ -341,33 +358,41 @@ Status FileJobQueue::CheckRoom(double need, size_t variants, const std::vector<s
   for (const auto& j : jobs) {
     if (!Unfinished(j->info.state)) continue;
     // What it has still to write: its variants to go at its bytes a variant.
-    reserved += static_cast<double>(j->info.total - std::min(j->info.done, j->info.total)) * j->variant_bytes;
+    reserved += static_cast<double>(j->info.total - std::min(j->info.done, j->info.total)) *
+                j->variant_bytes;
     ++others;
   }
   const double keep = KeepFree(disk->size);
   if (need + reserved + keep <= disk->free) return Status::Ok();
-  const std::string text = "the batch would write about " + Bytes(need) + " (" + std::to_string(variants) + " variants); the jobs folder has " +
-                           Bytes(disk->free) + " free, of which " + Bytes(reserved) + " is kept for the " + std::to_string(others) +
-                           " unfinished job(s) and " + Bytes(keep) + " is kept free (--keep-free-mb)";
+  const std::string text =
+      "the batch would write about " + Bytes(need) + " (" + std::to_string(variants) +
+      " variants); the jobs folder has " + Bytes(disk->free) + " free, of which " +
+      Bytes(reserved) + " is kept for the " + std::to_string(others) + " unfinished job(s) and " +
+      Bytes(keep) + " is kept free (--keep-free-mb)";
   Status s{StatusCode::kStorageFull, text, {}, "storage-full", 0};
-  s.fields.push_back({sampled ? "/sample/count" : "/variants", "fewer variants, or a smaller format"});
+  s.fields.push_back(
+      {sampled ? "/sample/count" : "/variants", "fewer variants, or a smaller format"});
   return s;
 }
 
-Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body, int* retry_after) {
+Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body,
+                                     int* retry_after) {
   const std::shared_ptr<const api::StoredRig>& rig = plan->rig;
   if (plan->total > limits_.max_batch) {
     const std::string ptr = plan->request.sampled ? "/sample/count" : "/variants";
-    Status s = InvalidArgument(ptr + ": a batch has at most " + std::to_string(limits_.max_batch) + " variants; this one has " +
-                               std::to_string(plan->total));
+    Status s = InvalidArgument(ptr + ": a batch has at most " + std::to_string(limits_.max_batch) +
+                               " variants; this one has " + std::to_string(plan->total));
     s.fields.push_back({ptr, "at most " + std::to_string(limits_.max_batch) + " variants"});
     return s;
   }
-  // The disk: the variants' estimated bytes must fit in what the jobs folder has free, beside what the
-  // unfinished jobs (every instance's) have still to write, with the margin kept.
+  // The disk: the variants' estimated bytes must fit in what the jobs folder has free, beside what
+  // the unfinished jobs (every instance's) have still to write, with the margin kept.
   const std::vector<std::shared_ptr<Job>> jobs = Scan();
   const double variant_bytes = static_cast<double>(VariantBytes(rig->rig, *plan));
-  if (Status s = CheckRoom(variant_bytes * static_cast<double>(plan->total), plan->total, jobs, plan->request.sampled); !s.ok()) return s;
+  if (Status s = CheckRoom(variant_bytes * static_cast<double>(plan->total), plan->total, jobs,
+                           plan->request.sampled);
+      !s.ok())
+    return s;
   // The queue is the folder's: every instance's unfinished jobs count.
   size_t active = 0, remaining = 0;
   double rate = 0, wait = 0;
@@ -383,9 +408,11 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   if (active >= limits_.max_jobs) {
     // Until the job running here ends, if its rate is known; else a guess.
     *retry_after = static_cast<int>(std::clamp(rate > 0 ? wait : 10.0, 1.0, 3600.0));
-    return WithReason(ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " + std::to_string(limits_.max_jobs) +
-                                        " jobs queued or running, " + std::to_string(remaining) + " variants to go)"),
-                      kJobQueueFull);
+    return WithReason(
+        ResourceExhausted("the job queue is full (" + std::to_string(active) + " of " +
+                          std::to_string(limits_.max_jobs) + " jobs queued or running, " +
+                          std::to_string(remaining) + " variants to go)"),
+        kJobQueueFull);
   }
   auto job = std::make_shared<Job>();
   job->info.id = NewJobId();
@@ -401,11 +428,18 @@ Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std:
   const fs::path folder = fs::path(dir_) / job->info.id;
   std::error_code ec;
   fs::create_directories(folder, ec);
-  json j = {{"id", job->info.id},          {"rig", rig->id},         {"rig_version", rig->version},
-            {"created", job->info.created}, {"total", plan->total}, {"output", output}, {"variant_bytes", variant_bytes},
+  json j = {{"id", job->info.id},
+            {"rig", rig->id},
+            {"rig_version", rig->version},
+            {"created", job->info.created},
+            {"total", plan->total},
+            {"output", output},
+            {"variant_bytes", variant_bytes},
             {"request", json::parse(body, nullptr, false)}};
-  Status written = ec ? Internal("cannot create the job's folder: " + ec.message())
-                      : WriteJobFile(folder / "job.json", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  Status written =
+      ec ? Internal("cannot create the job's folder: " + ec.message())
+         : WriteJobFile(folder / "job.json",
+                        j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   if (!written.ok()) {
     fs::remove_all(folder, ec);
     return Prefixed(written, "cannot store the job: ");
@@ -430,7 +464,9 @@ std::optional<JobInfo> FileJobQueue::Get(const std::string& id) const {
 std::vector<JobInfo> FileJobQueue::List() const {
   std::vector<JobInfo> out;
   for (const auto& job : Scan()) out.push_back(job->info);
-  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.created > b.created || (a.created == b.created && a.id < b.id); });
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) {
+    return a.created > b.created || (a.created == b.created && a.id < b.id);
+  });
   return out;
 }
 
@@ -457,10 +493,15 @@ Status FileJobQueue::Remove(const std::string& id) {
   return WriteJobFile(folder / kCancel, "{}\n");
 }
 
-std::string FileJobQueue::Folder(const std::string& id) const { return (fs::path(dir_) / id / "out").string(); }
+std::string FileJobQueue::Folder(const std::string& id) const {
+  return (fs::path(dir_) / id / "out").string();
+}
 
 void FileJobQueue::Finish(Job& job, JobState state, const std::string& error) {
-  WriteJobFile(fs::path(dir_) / job.info.id / "state.json", json{{"state", Name(state)}, {"error", error}}.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  WriteJobFile(fs::path(dir_) / job.info.id / "state.json",
+               json{{"state", Name(state)}, {"error", error}}.dump(
+                   -1, ' ', false, nlohmann::json::error_handler_t::replace) +
+                   "\n");
   std::lock_guard<std::mutex> lock(mu_);
   job.info.state = state;
   job.info.error = error;
@@ -480,7 +521,9 @@ bool FileJobQueue::RunNext() {
     if (!rig && AgeSeconds(folder / "job.json") < 30) continue;
     const int fd = TakeClaim(folder, instance_);
     if (fd < 0) continue;  // Another instance took it.
-    auto job = Load(candidate->info.id);  // Again, now that it is ours: it may have ended or been deleted meanwhile.
+    auto job =
+        Load(candidate->info
+                 .id);  // Again, now that it is ours: it may have ended or been deleted meanwhile.
     if (!job || job->info.state != JobState::kRunning) {
       ::close(fd);
       continue;
@@ -499,8 +542,8 @@ bool FileJobQueue::RunNext() {
       MarkLost(*job);
     } else {
       if (job->info.done > 0) {
-        std::fprintf(stderr, "jobs: resuming job %s (%zu of %zu variants were done)\n", job->info.id.c_str(), job->info.done,
-                     job->info.total);
+        std::fprintf(stderr, "jobs: resuming job %s (%zu of %zu variants were done)\n",
+                     job->info.id.c_str(), job->info.done, job->info.total);
       }
       Run(job, rig, fd);
     }
@@ -525,16 +568,20 @@ std::shared_ptr<const api::StoredRig> FileJobQueue::RigFor(const Job& job, bool 
 
 void FileJobQueue::MarkLost(Job& job) {
   const bool replaced = store_.Get(job.info.rig) != nullptr;
-  Finish(job, JobState::kLost, "rig '" + job.info.rig + "' was " + (replaced ? "replaced" : "removed") + " while the job was unfinished; " +
-                          std::to_string(job.info.done) + " of " + std::to_string(job.info.total) + " variants were done");
+  Finish(job, JobState::kLost,
+         "rig '" + job.info.rig + "' was " + (replaced ? "replaced" : "removed") +
+             " while the job was unfinished; " + std::to_string(job.info.done) + " of " +
+             std::to_string(job.info.total) + " variants were done");
 }
 
-void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig, int claim) {
+void FileJobQueue::Run(const std::shared_ptr<Job>& job,
+                       const std::shared_ptr<const api::StoredRig>& rig, int claim) {
   const fs::path folder = fs::path(dir_) / job->info.id;
   Result<std::shared_ptr<const BatchPlan>> plan = job->plan;
   if (!job->plan) {  // Submitted elsewhere or before a restart: plan the stored request again.
     auto made = MakeBatchPlan(rig, job->body);
-    plan = made.ok() ? Result<std::shared_ptr<const BatchPlan>>(std::make_shared<const BatchPlan>(std::move(made.value())))
+    plan = made.ok() ? Result<std::shared_ptr<const BatchPlan>>(
+                           std::make_shared<const BatchPlan>(std::move(made.value())))
                      : Result<std::shared_ptr<const BatchPlan>>(made.status());
   }
   if (!plan.ok()) {
@@ -548,18 +595,21 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
   options.cancel = &job->cancel;
   double said = -1.0;  // When the rate was last written in the claim, in the run's seconds.
   const std::optional<Disk> at_start = DiskOf(dir_);
-  const size_t workers = options.jobs > 0 ? static_cast<size_t>(options.jobs) : std::max(1u, std::thread::hardware_concurrency());
+  const size_t workers = options.jobs > 0 ? static_cast<size_t>(options.jobs)
+                                          : std::max(1u, std::thread::hardware_concurrency());
   options.progress = [this, &job, &folder, claim, &said, &at_start, workers](const Progress& p) {
     std::error_code ec;
     const bool deleted_elsewhere = fs::exists(folder / kCancel, ec);
-    // The disk: bytes a variant as measured after the first few (what the disk lost since the start),
-    // and a stop, failed, before the margin is passed.
+    // The disk: bytes a variant as measured after the first few (what the disk lost since the
+    // start), and a stop, failed, before the margin is passed.
     const std::optional<Disk> read = at_start ? DiskOf(dir_) : std::nullopt;
     const Disk now = read.value_or(Disk{});
     const size_t made = p.done - p.skipped;
     double measured = 0;
-    if (read && made >= 8) measured = std::max(0.0, at_start->free - now.free) / static_cast<double>(made);
-    // The rate, for the instances that do not run the job: once a variant is made, then each second.
+    if (read && made >= 8)
+      measured = std::max(0.0, at_start->free - now.free) / static_cast<double>(made);
+    // The rate, for the instances that do not run the job: once a variant is made, then each
+    // second.
     if (p.done > p.skipped && p.seconds > 0 && p.seconds - said >= 1.0) {
       said = p.seconds;
       char text[64];
@@ -571,12 +621,14 @@ void FileJobQueue::Run(const std::shared_ptr<Job>& job, const std::shared_ptr<co
     job->info.seconds = p.seconds;
     job->info.rate = p.seconds > 0 ? (p.done - p.skipped) / p.seconds : 0.0;
     if (measured > 0) job->variant_bytes = measured;
-    // Progress comes a group of files a worker (kGroupFiles) at most; after the stop each worker ends the
-    // variant it makes: that much room is kept beside the margin.
+    // Progress comes a group of files a worker (kGroupFiles) at most; after the stop each worker
+    // ends the variant it makes: that much room is kept beside the margin.
     const double in_flight = static_cast<double>(workers * (kGroupFiles + 1)) * job->variant_bytes;
     if (read && job->out_of_room.empty() && now.free < KeepFree(now.size) + in_flight) {
-      job->out_of_room = "stopped before the jobs folder's disk passed its margin (" + Bytes(KeepFree(now.size)) + " kept free, --keep-free-mb): " +
-                         std::to_string(p.done) + " of " + std::to_string(p.total) + " variants made, and kept";
+      job->out_of_room = "stopped before the jobs folder's disk passed its margin (" +
+                         Bytes(KeepFree(now.size)) +
+                         " kept free, --keep-free-mb): " + std::to_string(p.done) + " of " +
+                         std::to_string(p.total) + " variants made, and kept";
       job->cancel.store(true);
     }
     if (deleted_elsewhere) {

@@ -1,5 +1,5 @@
-// WebDataset tar shards of a batch (folder.h): members written in POSIX ustar, a shard's part appended
-// to in order and synced in groups, renamed to its name once whole.
+// WebDataset tar shards of a batch (folder.h): members written in POSIX ustar, a shard's part
+// appended to in order and synced in groups, renamed to its name once whole.
 #include <fcntl.h>
 #include <unistd.h>
 
@@ -12,7 +12,9 @@
 
 namespace facespace::batch {
 
-size_t TarShardOf(const BatchPlan& plan, size_t index) { return index / std::max<size_t>(1, plan.request.dataset.shard_samples); }
+size_t TarShardOf(const BatchPlan& plan, size_t index) {
+  return index / std::max<size_t>(1, plan.request.dataset.shard_samples);
+}
 
 std::string TarShardName(size_t shard) {
   char name[32];
@@ -22,19 +24,22 @@ std::string TarShardName(size_t shard) {
 
 std::string TarPartName(size_t shard) { return ".fs-part-" + TarShardName(shard); }
 
-Status AppendTarMember(std::string& out, const std::string& name, std::array<std::string_view, 2> pieces) {
-  if (name.empty() || name.size() > 99) return InvalidArgument("the tar member name '" + name.substr(0, 120) + "' is longer than 99 bytes");
+Status AppendTarMember(std::string& out, const std::string& name,
+                       std::array<std::string_view, 2> pieces) {
+  if (name.empty() || name.size() > 99)
+    return InvalidArgument("the tar member name '" + name.substr(0, 120) +
+                           "' is longer than 99 bytes");
   const size_t size = pieces[0].size() + pieces[1].size();
   char header[512] = {};
   std::memcpy(header, name.data(), name.size());
-  std::memcpy(header + 100, "0000644", 7);                                   // mode
-  std::memcpy(header + 108, "0000000", 7);                                   // uid
-  std::memcpy(header + 116, "0000000", 7);                                   // gid
+  std::memcpy(header + 100, "0000644", 7);                                            // mode
+  std::memcpy(header + 108, "0000000", 7);                                            // uid
+  std::memcpy(header + 116, "0000000", 7);                                            // gid
   std::snprintf(header + 124, 12, "%011llo", static_cast<unsigned long long>(size));  // size
-  std::memcpy(header + 136, "00000000000", 11);                              // mtime: 0, for bytes that repeat
-  header[156] = '0';                                                         // a regular file
-  std::memcpy(header + 257, "ustar", 6);                                     // magic, with its NUL
-  std::memcpy(header + 263, "00", 2);                                        // version
+  std::memcpy(header + 136, "00000000000", 11);  // mtime: 0, for bytes that repeat
+  header[156] = '0';                             // a regular file
+  std::memcpy(header + 257, "ustar", 6);         // magic, with its NUL
+  std::memcpy(header + 263, "00", 2);            // version
   std::memset(header + 148, ' ', 8);
   unsigned sum = 0;
   for (unsigned char c : header) sum += c;
@@ -57,14 +62,16 @@ Status TarPart::Open(const fs::path& dir, size_t shard, uint64_t length) {
   const std::string path = (dir / TarPartName(shard)).string();
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) return WriteError("opening '" + TarShardName(shard) + "'", errno);
-  if (::ftruncate(fd_, static_cast<off_t>(length)) != 0 || ::lseek(fd_, static_cast<off_t>(length), SEEK_SET) < 0) {
+  if (::ftruncate(fd_, static_cast<off_t>(length)) != 0 ||
+      ::lseek(fd_, static_cast<off_t>(length), SEEK_SET) < 0) {
     return WriteError("resuming '" + TarShardName(shard) + "'", errno);
   }
   return Status::Ok();
 }
 
 Status TarPart::Append(std::string_view bytes) {
-  if (const int e = WriteAll(fd_, bytes); e != 0) {  // Nothing half-written stays past what was appended whole.
+  if (const int e = WriteAll(fd_, bytes);
+      e != 0) {  // Nothing half-written stays past what was appended whole.
     (void)!::ftruncate(fd_, static_cast<off_t>(length_));
     (void)!::lseek(fd_, static_cast<off_t>(length_), SEEK_SET);
     return WriteError("writing '" + TarShardName(shard_) + "'", e);
@@ -85,7 +92,8 @@ Status TarPart::Finish() {
   ::close(fd_);
   fd_ = -1;
   const fs::path part = dir_ / TarPartName(shard_), done = dir_ / TarShardName(shard_);
-  if (::rename(part.c_str(), done.c_str()) != 0) return WriteError("publishing '" + TarShardName(shard_) + "'", errno);
+  if (::rename(part.c_str(), done.c_str()) != 0)
+    return WriteError("publishing '" + TarShardName(shard_) + "'", errno);
   SyncDir(dir_);
   length_ = whole;
   return Status::Ok();

@@ -40,9 +40,11 @@ Encoded Whole(std::string bytes) { return Encoded{std::move(bytes), {}, {}}; }
 
 // The f32 body written over the rest's bytes (F32Writer), over ws.body; false when the writer
 // does not serve this rig, point or spec.
-bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec, const F32Writer& f32, Workspace& ws,
-             std::string& out) {
-  if (f32.mesh_space() != spec.mesh_space || point.pose_or_null() || !SparseBlend::Serves(rig, spec.blend)) return false;
+bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec,
+             const F32Writer& f32, Workspace& ws, std::string& out) {
+  if (f32.mesh_space() != spec.mesh_space || point.pose_or_null() ||
+      !SparseBlend::Serves(rig, spec.blend))
+    return false;
   auto start = Clock::now();
   std::string bytes = std::move(ws.body);
   if (!f32.Write(rig, point.weights, ws.f32, bytes)) {
@@ -55,7 +57,8 @@ bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec,
 }
 
 // The blended glb through a writer that keeps the rig's template: its two pieces.
-Result<GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec, Workspace& ws,
+Result<GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& point,
+                                           const OutputSpec& spec, Workspace& ws,
                                            GlbVariantWriter& glb) {
   if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
   auto start = Clock::now();
@@ -68,23 +71,27 @@ Result<GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& 
 }
 
 // A labelled grid of renders of `cells` (each with its own pose).
-Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells, const OutputSpec& spec,
-                         const render::RenderOptions& options, const render::Renderer& renderer, Workspace& ws) {
+Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells,
+                         const OutputSpec& spec, const render::RenderOptions& options,
+                         const render::Renderer& renderer, Workspace& ws) {
   ws.cells.resize(cells.size());
   for (size_t c = 0; c < cells.size(); ++c) {
     if (ws.stop.stop_requested()) return Cancelled();
     if (Status s = Evaluate(rig, cells[c], spec.blend, ws); !s.ok()) return s;
     auto start = Clock::now();
-    if (Status s = renderer.Draw(rig, ws.blended, options, ws.cells[c]); !s.ok()) return Prefixed(s, "the render failed: ");
+    if (Status s = renderer.Draw(rig, ws.blended, options, ws.cells[c]); !s.ok())
+      return Prefixed(s, "the render failed: ");
     Lap(start, ws.timing.draw);
   }
   auto start = Clock::now();
-  auto bytes = renderer.Encode(renderer.Sheet(ws.cells, spec.labels, spec.columns, options.background), spec.image_format,
-                               spec.quality);
+  auto bytes =
+      renderer.Encode(renderer.Sheet(ws.cells, spec.labels, spec.columns, options.background),
+                      spec.image_format, spec.quality, ws.helper_cpu);
   Lap(start, ws.timing.encode);
   // A workspace is kept for the next request: it keeps no large sheet's images.
   size_t pixels = 0;
-  for (const render::Image& c : ws.cells) pixels += static_cast<size_t>(c.width) * static_cast<size_t>(c.height);
+  for (const render::Image& c : ws.cells)
+    pixels += static_cast<size_t>(c.width) * static_cast<size_t>(c.height);
   if (pixels > (size_t{1} << 20)) std::vector<render::Image>().swap(ws.cells);
   return bytes;
 }
@@ -151,10 +158,12 @@ const char* OutputSpec::content_type() const {
 // ---- the evaluator ------------------------------------------------------------------------------
 
 Evaluator::Evaluator() : kept_(std::make_unique<Kept>()) {}
-Evaluator::Evaluator(const render::Renderer& renderer) : renderer_(&renderer), kept_(std::make_unique<Kept>()) {}
+Evaluator::Evaluator(const render::Renderer& renderer)
+    : renderer_(&renderer), kept_(std::make_unique<Kept>()) {}
 Evaluator::~Evaluator() = default;
 
-std::shared_ptr<const DerivedRig> Evaluator::Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const {
+std::shared_ptr<const DerivedRig> Evaluator::Derived(const std::shared_ptr<const StoredRig>& rig,
+                                                     int lod) const {
   return kept_->derived.At(rig, lod);
 }
 
@@ -164,23 +173,27 @@ void Evaluator::WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lo
   kept_->derived.Prepare(rig, lod, options);
 }
 
-Status Evaluator::Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig, Workspace& ws, std::vector<unsigned char>& png) const {
+Status Evaluator::Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig,
+                            Workspace& ws, std::vector<unsigned char>& png) const {
   if (!renderer_) return Status::Ok();  // A mesh-only evaluator writes VRMs without one.
   render::RenderOptions options;
   options.width = options.height = kThumbnailSize;
   options.camera.frame = render::Framing::kShapes;  // The face the shapes move, on a whole body,
-  options.camera.zoom = 0.8f;                        // with its hair around it.
+  options.camera.zoom = 0.8f;                       // with its hair around it.
   options.srgb8 = true;
+  options.helper_cpu = ws.helper_cpu;
   kept_->derived.Prepare(stored, lod, options);
-  if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the VRM's thumbnail: ");
-  auto bytes = renderer_->Encode(ws.image, render::ImageFormat::kPng, 0);
+  if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok())
+    return Prefixed(s, "the VRM's thumbnail: ");
+  auto bytes = renderer_->Encode(ws.image, render::ImageFormat::kPng, 0, ws.helper_cpu);
   if (!bytes.ok()) return bytes.status();
   png.assign(bytes->begin(), bytes->end());
   return Status::Ok();
 }
 
-Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, std::span<const ResolvedPoint> points,
-                               const OutputSpec& spec, Workspace& ws) const {
+Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored,
+                               std::span<const ResolvedPoint> points, const OutputSpec& spec,
+                               Workspace& ws) const {
   if (points.empty() || (spec.kind != OutputSpec::Kind::kSheet && points.size() != 1)) {
     return Internal("an output of " + std::to_string(points.size()) + " points");
   }
@@ -188,13 +201,18 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
   if (!at) return Internal("the level of detail failed");
   const Rig& rig = *at;
   const ResolvedPoint& point = points[0];
-  const bool picture = spec.kind == OutputSpec::Kind::kImage || spec.kind == OutputSpec::Kind::kPixels || spec.kind == OutputSpec::Kind::kSheet;
-  if (picture && !renderer_) return FailedPrecondition("this evaluator was handed no renderer: it makes meshes, not pictures");
+  const bool picture = spec.kind == OutputSpec::Kind::kImage ||
+                       spec.kind == OutputSpec::Kind::kPixels ||
+                       spec.kind == OutputSpec::Kind::kSheet;
+  if (picture && !renderer_)
+    return FailedPrecondition(
+        "this evaluator was handed no renderer: it makes meshes, not pictures");
   switch (spec.kind) {
     case OutputSpec::Kind::kMesh: {
       if (spec.mesh_format == MeshFormat::kF32) {
         std::string bytes;
-        if (F32Fast(rig, point, spec, *kept_->f32_writers.Get(at, spec.mesh_space), ws, bytes)) return Whole(std::move(bytes));
+        if (F32Fast(rig, point, spec, *kept_->f32_writers.Get(at, spec.mesh_space), ws, bytes))
+          return Whole(std::move(bytes));
       }
       if (spec.mesh_format == MeshFormat::kGlb && !spec.keep_targets) {
         if (spec.pieces) {
@@ -215,11 +233,16 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       options.keep_targets = spec.keep_targets;
       options.mesh_space = spec.mesh_space;
       if (spec.mesh_format == MeshFormat::kVrm || spec.mesh_format == MeshFormat::kVrm0) {
-        if (Status s = Thumbnail(stored, spec.lod, rig, ws, options.thumbnail_png); !s.ok()) return s;
+        if (Status s = Thumbnail(stored, spec.lod, rig, ws, options.thumbnail_png); !s.ok())
+          return s;
       }
-      auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings, spec.mesh_format, options);
-      if (!bytes.ok()) {  // The request's fault (a VRM of a rig without a humanoid) as it is; else ours.
-        return bytes.status().code == StatusCode::kInvalidArgument ? bytes.status() : Prefixed(bytes.status(), "the export failed: ");
+      auto bytes = ExportMesh(rig, ws.blended, point.weights, point.report.warnings,
+                              spec.mesh_format, options);
+      if (!bytes.ok()) {  // The request's fault (a VRM of a rig without a humanoid) as it is; else
+                          // ours.
+        return bytes.status().code == StatusCode::kInvalidArgument
+                   ? bytes.status()
+                   : Prefixed(bytes.status(), "the export failed: ");
       }
       Lap(start, ws.timing.encode);
       return Whole(std::move(bytes.value()));
@@ -229,18 +252,22 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored, s
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
       auto start = Clock::now();
       render::RenderOptions options = spec.render;
+      options.helper_cpu = ws.helper_cpu;
       kept_->derived.Prepare(stored, spec.lod, options);
-      options.srgb8 = spec.image_format != render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
-      if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok()) return Prefixed(s, "the render failed: ");
+      options.srgb8 = spec.image_format !=
+                      render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
+      if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok())
+        return Prefixed(s, "the render failed: ");
       Lap(start, ws.timing.draw);
       if (spec.kind == OutputSpec::Kind::kPixels) return Encoded{};
-      auto bytes = renderer_->Encode(ws.image, spec.image_format, spec.quality);
+      auto bytes = renderer_->Encode(ws.image, spec.image_format, spec.quality, ws.helper_cpu);
       Lap(start, ws.timing.encode);
       if (!bytes.ok()) return bytes.status();
       return Whole(std::move(bytes.value()));
     }
     case OutputSpec::Kind::kSheet: {
       render::RenderOptions options = spec.render;
+      options.helper_cpu = ws.helper_cpu;
       kept_->derived.Prepare(stored, spec.lod, options);
       auto bytes = Grid(rig, points, spec, options, *renderer_, ws);
       if (!bytes.ok()) return bytes.status();
@@ -276,31 +303,40 @@ std::shared_ptr<const StoredRig> Unstored(Rig rig, std::string version) {
 
 namespace {
 
-Result<Output> Finish(Result<Encoded> encoded, const OutputSpec& spec, std::vector<Warning> warnings, double sum) {
+Result<Output> Finish(Result<Encoded> encoded, const OutputSpec& spec,
+                      std::vector<Warning> warnings, double sum) {
   if (!encoded.ok()) return encoded.status();
   return Output{std::move(encoded->bytes), spec.content_type(), std::move(warnings), sum};
 }
 
 }  // namespace
 
-Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const MeshRequest& request,
-                           MeshFormat format, Workspace& ws) {
+namespace {
+
+// The point `mesh` names, made as `spec` says.
+Result<Output> ProducePoint(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                            const MeshRequest& mesh, const OutputSpec& spec, Workspace& ws) {
   ResolvedPoint point;
-  if (Status s = ResolvePoint(rig->rig, request, point); !s.ok()) return s;
-  const OutputSpec spec = OutputSpec::Mesh(request, format);
+  if (Status s = ResolvePoint(rig->rig, mesh, point); !s.ok()) return s;
   return Finish(evaluator.Run(rig, point, spec, ws), spec, point.report.warnings, point.report.sum);
 }
 
-Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const RenderRequest& request,
-                            render::ImageFormat format, Workspace& ws) {
-  ResolvedPoint point;
-  if (Status s = ResolvePoint(rig->rig, request.mesh, point); !s.ok()) return s;
-  const OutputSpec spec = OutputSpec::Image(request, format);
-  return Finish(evaluator.Run(rig, point, spec, ws), spec, point.report.warnings, point.report.sum);
+}  // namespace
+
+Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                           const MeshRequest& request, MeshFormat format, Workspace& ws) {
+  return ProducePoint(evaluator, rig, request, OutputSpec::Mesh(request, format), ws);
 }
 
-Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const SheetRequest& request,
-                            render::ImageFormat format, Workspace& ws) {
+Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                            const RenderRequest& request, render::ImageFormat format,
+                            Workspace& ws) {
+  return ProducePoint(evaluator, rig, request.mesh, OutputSpec::Image(request, format), ws);
+}
+
+Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                            const SheetRequest& request, render::ImageFormat format,
+                            Workspace& ws) {
   SheetPoints points;
   if (Status s = ResolveSheet(rig->rig, request, points); !s.ok()) return s;
   const OutputSpec spec = OutputSpec::Sheet(request, format);

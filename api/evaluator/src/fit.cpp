@@ -7,9 +7,11 @@ namespace facespace::api {
 std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
   std::string out = "{\"weights\":{";
   for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    out += std::string(s ? "," : "") + JsonString(rig.shapes[s].name) + ":" + FormatNumber(fit.weights[s]);
+    out += std::string(s ? "," : "") + JsonString(rig.shapes[s].name) + ":" +
+           FormatNumber(fit.weights[s]);
   }
-  out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) + ",\"max\":" + FormatNumber(fit.max_error) + "}";
+  out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) +
+         ",\"max\":" + FormatNumber(fit.max_error) + "}";
   if (aligned) {
     out += ",\"alignment\":[";
     for (int i = 0; i < 16; ++i) out += std::string(i ? "," : "") + FormatNumber(fit.alignment[i]);
@@ -28,7 +30,8 @@ Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
     if (s.fields.empty()) s.fields.push_back({"/target", s.message});
     return s;
   }
-  return Output{FitResultJson(rig, fit.value(), request.options.rigid_align), "application/json", fit->warnings, 0.0};
+  return Output{FitResultJson(rig, fit.value(), request.options.rigid_align), "application/json",
+                fit->warnings, 0.0};
 }
 
 }  // namespace facespace::api

@@ -5,7 +5,8 @@
 
 namespace facespace::api {
 
-std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored, int lod) {
+std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored,
+                                                  int lod) {
   if (lod < 0 || lod > kMaxLod) return nullptr;
   const std::shared_ptr<const Rig> own(stored, &stored->rig);
   std::shared_ptr<const DerivedRig> kept;
@@ -35,13 +36,15 @@ std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const St
   return at_rest;
 }
 
-std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const StoredRig>& stored, int lod) {
+std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const StoredRig>& stored,
+                                              int lod) {
   if (lod == 0) return std::shared_ptr<const Rig>(stored, &stored->rig);
   auto d = At(stored, lod);
   return d ? d->rig : nullptr;
 }
 
-std::shared_ptr<const RigOcclusion> DerivedRigs::Occlusion(const std::shared_ptr<const StoredRig>& stored, int lod) {
+std::shared_ptr<const RigOcclusion> DerivedRigs::Occlusion(
+    const std::shared_ptr<const StoredRig>& stored, int lod) {
   if (lod < 0 || lod > kMaxLod) return nullptr;
   const std::shared_ptr<const Rig> own(stored, &stored->rig);
   auto kept = [&]() -> std::shared_ptr<const RigOcclusion> {
@@ -58,15 +61,19 @@ std::shared_ptr<const RigOcclusion> DerivedRigs::Occlusion(const std::shared_ptr
   BlendContext context;
   const std::vector<float> neutral(rig->shapes.size(), 0.0f);
   if (!EvaluateRig(*rig, neutral, BlendOptions{}, rest, context).ok()) return nullptr;
-  auto baked = std::make_shared<const RigOcclusion>(BakeRigOcclusion(*rig, rest, OcclusionSettings{}));
+  auto baked =
+      std::make_shared<const RigOcclusion>(BakeRigOcclusion(*rig, rest, OcclusionSettings{}));
   std::lock_guard<std::mutex> lock(mu_);
   occlusion_.At(own)[static_cast<size_t>(lod)] = baked;
   return baked;
 }
 
-void DerivedRigs::Prepare(const std::shared_ptr<const StoredRig>& stored, int lod, render::RenderOptions& options) {
+void DerivedRigs::Prepare(const std::shared_ptr<const StoredRig>& stored, int lod,
+                          render::RenderOptions& options) {
   const render::View view = options.view;
-  if (view == render::View::kShaded || view == render::View::kWireframe || view == render::View::kClay) options.occlusion = Occlusion(stored, lod);
+  if (view == render::View::kShaded || view == render::View::kWireframe ||
+      view == render::View::kClay)
+    options.occlusion = Occlusion(stored, lod);
   render::Camera& camera = options.camera;
   if (camera.frame == render::Framing::kAll) return;
   if (auto d = At(stored, lod); d && d->has_focus) {
@@ -91,18 +98,21 @@ GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
   return Lease(*this, rig, std::move(writer));
 }
 
-void GlbWriters::Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer) {
+void GlbWriters::Release(const std::shared_ptr<const Rig>& rig,
+                         std::unique_ptr<GlbVariantWriter> writer) {
   std::lock_guard<std::mutex> lock(mu_);
   auto& free = free_.At(rig);
   if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
 }
 
-std::shared_ptr<const F32Writer> F32Writers::Get(const std::shared_ptr<const Rig>& rig, bool mesh_space) {
+std::shared_ptr<const F32Writer> F32Writers::Get(const std::shared_ptr<const Rig>& rig,
+                                                 bool mesh_space) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (auto* kept = writers_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
   }
-  auto made = std::make_shared<const F32Writer>(*rig, mesh_space);  // Outside the lock: a large rig takes a while.
+  auto made = std::make_shared<const F32Writer>(
+      *rig, mesh_space);  // Outside the lock: a large rig takes a while.
   std::lock_guard<std::mutex> lock(mu_);
   auto& kept = writers_.At(rig)[mesh_space];
   if (!kept) kept = std::move(made);

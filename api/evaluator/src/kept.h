@@ -1,5 +1,6 @@
 // What the evaluator keeps per rig between calls: the levels of detail and the box the shapes act
-// in, the glb writers holding a rig's exported template, and the f32 blenders holding its rest body.
+// in, the glb writers holding a rig's exported template, and the f32 blenders holding its rest
+// body.
 #pragma once
 
 #include <array>
@@ -46,22 +47,25 @@ class PerRig {
 };
 
 // DerivedRig made once per stored rig and level and kept while the stored rig lives (PerRig, keyed
-// by the stored rig's own Rig): a replaced or deleted rig's entries go. Level 0's entry holds no rig
-// (At hands out the stored rig itself with its box), so no entry keeps its stored rig alive.
+// by the stored rig's own Rig): a replaced or deleted rig's entries go. Level 0's entry holds no
+// rig (At hands out the stored rig itself with its box), so no entry keeps its stored rig alive.
 class DerivedRigs {
  public:
   // nullptr when the level of detail cannot be made.
   std::shared_ptr<const DerivedRig> At(const std::shared_ptr<const StoredRig>& stored, int lod);
   // The rig at a level of detail: the stored rig itself at 0 (no lookup), else At(...)->rig.
   std::shared_ptr<const Rig> RigAt(const std::shared_ptr<const StoredRig>& stored, int lod);
-  // What a picture of the rig at a level takes from what is kept: the camera's framing on the shapes
-  // (the kept box instead of a per-render one) and, for the views that shade, the baked occlusion.
-  void Prepare(const std::shared_ptr<const StoredRig>& stored, int lod, render::RenderOptions& options);
+  // What a picture of the rig at a level takes from what is kept: the camera's framing on the
+  // shapes (the kept box instead of a per-render one) and, for the views that shade, the baked
+  // occlusion.
+  void Prepare(const std::shared_ptr<const StoredRig>& stored, int lod,
+               render::RenderOptions& options);
 
  private:
-  // The rig's occlusion at a level, baked on first use at its neutral weights and rest pose (one bake at
-  // a time: a second caller waits for the first's rather than baking again).
-  std::shared_ptr<const RigOcclusion> Occlusion(const std::shared_ptr<const StoredRig>& stored, int lod);
+  // The rig's occlusion at a level, baked on first use at its neutral weights and rest pose (one
+  // bake at a time: a second caller waits for the first's rather than baking again).
+  std::shared_ptr<const RigOcclusion> Occlusion(const std::shared_ptr<const StoredRig>& stored,
+                                                int lod);
 
   std::mutex mu_;
   PerRig<std::array<std::shared_ptr<const DerivedRig>, kMaxLod + 1>> derived_;
@@ -75,7 +79,8 @@ class GlbWriters {
  public:
   class Lease {
    public:
-    Lease(GlbWriters& pool, std::shared_ptr<const Rig> rig, std::unique_ptr<GlbVariantWriter> writer)
+    Lease(GlbWriters& pool, std::shared_ptr<const Rig> rig,
+          std::unique_ptr<GlbVariantWriter> writer)
         : pool_(pool), rig_(std::move(rig)), writer_(std::move(writer)) {}
     Lease(const Lease&) = delete;
     Lease& operator=(const Lease&) = delete;

@@ -7,7 +7,9 @@ namespace facespace::api {
 namespace {
 
 Status Refused(const std::vector<Warning>& warnings) {
-  return WithReason(FailedPrecondition(warnings[0].message + (warnings.size() > 1 ? " (and more)" : "")), kLeavesAuthoredSpace);
+  return WithReason(
+      FailedPrecondition(warnings[0].message + (warnings.size() > 1 ? " (and more)" : "")),
+      kLeavesAuthoredSpace);
 }
 
 }  // namespace
@@ -20,12 +22,16 @@ void CheckPoint(const Rig& rig, BlendMode mode, ResolvedPoint& point) {
 Status ResolvePoint(const Rig& rig, const MeshRequest& r, ResolvedPoint& point) {
   std::vector<Warning> pose_warnings;
   std::vector<WeightEntry> entries = r.weights;
-  if (Status s = ApplyControls(rig, r.controls, entries, pose_warnings); !s.ok()) return WithInputReason(std::move(s), kInvalidControls);
-  if (Status s = ResolvePoseAndWeights(rig, entries, r.pose, point.weights, point.pose, point.posed, pose_warnings); !s.ok()) {
+  if (Status s = ApplyControls(rig, r.controls, entries, pose_warnings); !s.ok())
+    return WithInputReason(std::move(s), kInvalidControls);
+  if (Status s = ResolvePoseAndWeights(rig, entries, r.pose, point.weights, point.pose, point.posed,
+                                       pose_warnings);
+      !s.ok()) {
     return WithInputReason(std::move(s), kInvalidWeights);
   }
   CheckPoint(rig, r.options.mode, point);
-  point.report.warnings.insert(point.report.warnings.end(), pose_warnings.begin(), pose_warnings.end());
+  point.report.warnings.insert(point.report.warnings.end(), pose_warnings.begin(),
+                               pose_warnings.end());
   if (r.strict && !point.report.warnings.empty()) return Refused(point.report.warnings);
   return Status::Ok();
 }
@@ -40,7 +46,8 @@ Status ResolveSheet(const Rig& rig, const SheetRequest& request, SheetPoints& po
   for (size_t c = 0; c < request.cells.size(); ++c) {
     cell.weights = request.cells[c];
     ResolvedPoint& point = points.cells[c];
-    if (Status s = ResolvePoint(rig, cell, point); !s.ok()) return Prefixed(std::move(s), "cell " + std::to_string(c) + ": ");
+    if (Status s = ResolvePoint(rig, cell, point); !s.ok())
+      return Prefixed(std::move(s), "cell " + std::to_string(c) + ": ");
     points.max_sum = std::max(points.max_sum, point.report.sum);
     // The pose's warnings (after the weights') are the same for every cell: reported once.
     const size_t shown = c == 0 ? point.report.warnings.size() : point.weight_warnings;
@@ -66,11 +73,13 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
 
 namespace {
 
-// Beside a sum above 1: "vertex_sum" (the most one vertex takes) and "stacked" (the shapes stacking there).
+// Beside a sum above 1: "vertex_sum" (the most one vertex takes) and "stacked" (the shapes stacking
+// there).
 std::string StackedJson(const Rig& rig, const WeightReport& r) {
   if (r.vertex_sum <= 0.0) return {};
   std::string out = ",\"vertex_sum\":" + FormatNumber(r.vertex_sum) + ",\"stacked\":[";
-  for (size_t k = 0; k < r.stacked_shapes.size(); ++k) out += (k ? "," : "") + JsonString(rig.shapes[r.stacked_shapes[k]].name);
+  for (size_t k = 0; k < r.stacked_shapes.size(); ++k)
+    out += (k ? "," : "") + JsonString(rig.shapes[r.stacked_shapes[k]].name);
   return out + "]";
 }
 
@@ -79,8 +88,8 @@ std::string StackedJson(const Rig& rig, const WeightReport& r) {
 std::string CheckJson(const Rig& rig, const ResolvedPoint& point) {
   const WeightReport& r = point.report;
   return "{\"sum\":" + FormatNumber(r.sum) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
-         (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) + StackedJson(rig, r) +
-         ",\"warnings\":" + WarningsToJson(r.warnings) + "}";
+         (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) +
+         StackedJson(rig, r) + ",\"warnings\":" + WarningsToJson(r.warnings) + "}";
 }
 
 }  // namespace facespace::api

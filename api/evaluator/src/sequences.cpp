@@ -1,18 +1,21 @@
 // Keyframe sequences: frames as points, sampled and streamed through the evaluator; keys as JSON.
 #include <cmath>
-#include "facespace/evaluator/evaluator.h"
+
 #include "facespace/engine/hierarchy.h"
-#include "facespace/physics/physics.h"
+#include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
+#include "facespace/physics/physics.h"
 
 namespace facespace::api {
 
-bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& weights) {
+bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose,
+                  std::vector<float>& weights) {
   FaceState face;
   const bool has_face = SampleFace(sequence, time, face);
   std::vector<Warning> warnings;  // A face the rig cannot show was said once, by ResolveSequence.
   if (sequence.clip < 0 && sequence.layers.empty()) {
-    return has_face ? PoseOfFaceAndWeights(rig, face, weights, pose, warnings) : PoseOfWeightsAlone(rig, weights, pose);
+    return has_face ? PoseOfFaceAndWeights(rig, face, weights, pose, warnings)
+                    : PoseOfWeightsAlone(rig, weights, pose);
   }
   // The clip's pose and weights at this time: its curves as it draws them (the keys are its weight
   // channel's keys; between them a curve need not be linear).
@@ -42,8 +45,10 @@ bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& po
 }
 
 SequencePhysics::SequencePhysics(const Rig& rig, const Sequence& sequence)
-    : rig_(rig), sequence_(sequence),
-      active_(sequence.physics && !rig.physics.empty() && (sequence.clip >= 0 || !sequence.layers.empty()) && !sequence.keys.empty()) {}
+    : rig_(rig),
+      sequence_(sequence),
+      active_(sequence.physics && !rig.physics.empty() &&
+              (sequence.clip >= 0 || !sequence.layers.empty()) && !sequence.keys.empty()) {}
 
 SequencePhysics::~SequencePhysics() = default;
 
@@ -51,17 +56,23 @@ void SequencePhysics::Apply(float time, Pose& pose, std::vector<Warning>& warnin
   if (!active_ || !std::isfinite(time)) return;
   const float start = sequence_.keys.front().time;
   const long long last = static_cast<long long>(kMaxSeconds * kStepsPerSecond);
-  const double wanted = std::min(std::max(0.0, static_cast<double>(time) - start) * kStepsPerSecond, static_cast<double>(last + 1));
+  const double wanted = std::min(std::max(0.0, static_cast<double>(time) - start) * kStepsPerSecond,
+                                 static_cast<double>(last + 1));
   long long step = std::llround(wanted);
   if (step > last) {
-    warnings.push_back({"physics_limited", "physics is simulated for the first " + FormatNumber(kMaxSeconds) +
-                        " s of a sequence; later frames hold its last step", "", kMaxSeconds, true});
+    warnings.push_back({"physics_limited",
+                        "physics is simulated for the first " + FormatNumber(kMaxSeconds) +
+                            " s of a sequence; later frames hold its last step",
+                        "", kMaxSeconds, true});
     step = last;
   }
   if (step == 0) return;  // The first frame: the bodies start where their bones are.
   if ((!sim_ || step < step_ ? step : step - step_) > budget_) {
-    warnings.push_back({"physics_limited", "this request's times go back and forth past the physics it may simulate (" +
-                        FormatNumber(kMaxSeconds) + " s in all): this frame is not simulated", "", kMaxSeconds, true});
+    warnings.push_back(
+        {"physics_limited",
+         "this request's times go back and forth past the physics it may simulate (" +
+             FormatNumber(kMaxSeconds) + " s in all): this frame is not simulated",
+         "", kMaxSeconds, true});
     return;
   }
   if (!sim_ || step < step_) {
@@ -74,7 +85,8 @@ void SequencePhysics::Apply(float time, Pose& pose, std::vector<Warning>& warnin
     }
   }
   for (; step_ < step; ++step_, --budget_) {
-    if (!TickPose(start + static_cast<float>(static_cast<double>(step_ + 1) / kStepsPerSecond))) return;
+    if (!TickPose(start + static_cast<float>(static_cast<double>(step_ + 1) / kStepsPerSecond)))
+      return;
     sim_->Step(scratch_, 1.0f / kStepsPerSecond);
   }
   sim_->Apply(pose);
@@ -86,8 +98,8 @@ bool SequencePhysics::TickPose(float time) {
   return SequencePose(rig_, sequence_, time, scratch_, weights_);
 }
 
-void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point,
-                   SequencePhysics* physics) {
+void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode,
+                   ResolvedPoint& point, SequencePhysics* physics) {
   point.weights.resize(rig.shapes.size());
   point.posed = false;
   point.report.warnings.clear();
@@ -97,12 +109,15 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
   std::vector<Warning> physics_warnings;
   if (point.posed && physics) physics->Apply(time, point.pose, physics_warnings);
   CheckPoint(rig, mode, point);
-  point.report.warnings.insert(point.report.warnings.end(), physics_warnings.begin(), physics_warnings.end());
+  point.report.warnings.insert(point.report.warnings.end(), physics_warnings.begin(),
+                               physics_warnings.end());
   const std::string at = "t=" + FormatNumber(time) + ": ";
   for (Warning& w : point.report.warnings) w.message = at + w.message;
   if (f < 0.0f || f > 1.0f) {
-    point.report.warnings.insert(point.report.warnings.begin(),
-                                 {"transition_extrapolation", at + "the transition gives " + FormatNumber(f) + ", outside [0, 1]", "", f, true});
+    point.report.warnings.insert(
+        point.report.warnings.begin(),
+        {"transition_extrapolation",
+         at + "the transition gives " + FormatNumber(f) + ", outside [0, 1]", "", f, true});
   }
 }
 
@@ -121,11 +136,16 @@ std::string PoseJson(const Rig& rig, const Pose& pose, const Pose& rest) {
   for (size_t n = 0; n < rig.nodes.size() && n < pose.local.size() && n < rest.local.size(); ++n) {
     const Transform& a = pose.local[n];
     const Transform& b = rest.local[n];
-    const bool moved = a.translation != b.translation || a.rotation != b.rotation || a.scale != b.scale ||
-                       (n < pose.from_matrix.size() && n < rest.from_matrix.size() && pose.from_matrix[n] != rest.from_matrix[n]);
+    const bool moved = a.translation != b.translation || a.rotation != b.rotation ||
+                       a.scale != b.scale ||
+                       (n < pose.from_matrix.size() && n < rest.from_matrix.size() &&
+                        pose.from_matrix[n] != rest.from_matrix[n]);
     if (!moved) continue;
-    out += std::string(first ? "" : ",") + JsonString(rig.nodes[n].name.empty() ? "node" + std::to_string(n) : rig.nodes[n].name) +
-           ":{\"translation\":" + vec(a.translation.data(), 3) + ",\"rotation\":" + vec(a.rotation.data(), 4) + ",\"scale\":" + vec(a.scale.data(), 3) + "}";
+    out += std::string(first ? "" : ",") +
+           JsonString(rig.nodes[n].name.empty() ? "node" + std::to_string(n) : rig.nodes[n].name) +
+           ":{\"translation\":" + vec(a.translation.data(), 3) +
+           ",\"rotation\":" + vec(a.rotation.data(), 4) + ",\"scale\":" + vec(a.scale.data(), 3) +
+           "}";
     first = false;
   }
   return out + "}";
@@ -133,22 +153,27 @@ std::string PoseJson(const Rig& rig, const Pose& pose, const Pose& rest) {
 
 }  // namespace
 
-Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored,
-                                       const Sequence& sequence, std::span<const float> times, const BlendOptions& options,
-                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes, bool weights_only) {
+Result<std::string> SampleSequenceJson(const Evaluator& evaluator,
+                                       const std::shared_ptr<const StoredRig>& stored,
+                                       const Sequence& sequence, std::span<const float> times,
+                                       const BlendOptions& options, std::vector<Warning>& warnings,
+                                       Workspace& ws, size_t max_bytes, bool weights_only) {
   const Rig& rig = stored->rig;
   const OutputSpec spec = OutputSpec::Frame(options, false);
   ResolvedPoint point;
   SequencePhysics physics(rig, sequence);
   const Pose rest = weights_only ? RestPose(rig) : Pose{};
-  // Positions and normals placed by each primitive's node, as blend's JSON; or the weights and pose alone.
-  std::string out = weights_only ? "{\"format\":\"weights\",\"frames\":[" : "{\"space\":\"world\",\"frames\":[";
+  // Positions and normals placed by each primitive's node, as blend's JSON; or the weights and pose
+  // alone.
+  std::string out =
+      weights_only ? "{\"format\":\"weights\",\"frames\":[" : "{\"space\":\"world\",\"frames\":[";
   warnings.insert(warnings.end(), sequence.warnings.begin(), sequence.warnings.end());
   for (size_t i = 0; i < times.size(); ++i) {
     if (ws.stop.stop_requested()) return Cancelled();
     SequencePoint(rig, sequence, times[i], options.mode, point, &physics);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) + ",\"weights\":" + WeightsMapJson(rig, point.weights);
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) +
+           ",\"weights\":" + WeightsMapJson(rig, point.weights);
     if (weights_only) {
       if (point.posed) out += ",\"pose\":" + PoseJson(rig, point.pose, rest);
       out += ",\"sum\":" + FormatNumber(point.report.sum) + "}";
@@ -157,13 +182,24 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::sh
       if (!primitives.ok()) return primitives.status();
       out += ",\"primitives\":" + primitives->bytes + "}";
     }
-    const double expected = i == 0 ? static_cast<double>(out.size()) * static_cast<double>(times.size()) : static_cast<double>(out.size());
+    const double expected =
+        i == 0 ? static_cast<double>(out.size()) * static_cast<double>(times.size())
+               : static_cast<double>(out.size());
     if (expected > static_cast<double>(max_bytes)) {
       const auto mb = [](double bytes) { return FormatNumber(std::round(bytes / 1e5) / 10); };
-      Status s = InvalidArgument("the response would be about " + mb(expected) + " MB (" + std::to_string(times.size()) +
-                                 " frames), over this server's limit of " + mb(static_cast<double>(max_bytes)) +
-                                 " MB (--max-response): ask for fewer times, or stream the frames (sequence/stream, ndjson or f32)");
-      s.fields.push_back({"/times", "at most about " + std::to_string(std::max<size_t>(1, static_cast<size_t>(static_cast<double>(max_bytes) / (expected / static_cast<double>(i == 0 ? times.size() : i + 1))))) + " times for this rig"});
+      Status s = InvalidArgument(
+          "the response would be about " + mb(expected) + " MB (" + std::to_string(times.size()) +
+          " frames), over this server's limit of " + mb(static_cast<double>(max_bytes)) +
+          " MB (--max-response): ask for fewer times, or stream the frames (sequence/stream, "
+          "ndjson or f32)");
+      s.fields.push_back(
+          {"/times",
+           "at most about " +
+               std::to_string(std::max<size_t>(
+                   1, static_cast<size_t>(
+                          static_cast<double>(max_bytes) /
+                          (expected / static_cast<double>(i == 0 ? times.size() : i + 1))))) +
+               " times for this rig"});
       return WithReason(std::move(s), kResponseTooLarge);
     }
   }
@@ -175,16 +211,21 @@ size_t FrameCount(const Sequence& sequence, float fps) {
   return static_cast<size_t>(std::floor(duration * fps + 1e-6)) + 1;
 }
 
-Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& stored, const Sequence& sequence,
-                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws,
+Result<std::string> StreamFrame(const Evaluator& evaluator,
+                                const std::shared_ptr<const StoredRig>& stored,
+                                const Sequence& sequence, size_t frame, float fps, bool f32,
+                                const BlendOptions& options, Workspace& ws,
                                 SequencePhysics* physics) {
   const Rig& rig = stored->rig;
   const float t = sequence.keys.front().time + static_cast<float>(frame) / fps;
   ResolvedPoint point;
   SequencePoint(rig, sequence, t, options.mode, point, physics);
-  if (frame == 0) point.report.warnings.insert(point.report.warnings.begin(), sequence.warnings.begin(), sequence.warnings.end());
+  if (frame == 0)
+    point.report.warnings.insert(point.report.warnings.begin(), sequence.warnings.begin(),
+                                 sequence.warnings.end());
   if (!f32) {
-    return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
+    return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) +
+           ",\"weights\":" + WeightsMapJson(rig, point.weights) +
            ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}\n";
   }
   auto chunk = evaluator.Run(stored, point, OutputSpec::Frame(options, true), ws);
@@ -196,17 +237,22 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
   std::string out = "[";
   for (size_t i = 0; i < sequence.keys.size(); ++i) {
     const Keyframe& k = sequence.keys[i];
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) + ",\"weights\":" + WeightsMapJson(rig, k.weights);
+    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) +
+           ",\"weights\":" + WeightsMapJson(rig, k.weights);
     if (k.transition) out += ",\"transition\":" + JsonString(TransitionName(*k.transition));
     out += "}";
   }
   return out + "]";
 }
 
-std::string ReducedSequenceJson(const Rig& rig, const Sequence& original, const ReduceResult& reduced, float tolerance) {
-  return "{\"keys\":" + SequenceKeysJson(rig, reduced.sequence) + ",\"transition\":" + JsonString(TransitionName(original.transition)) +
-         ",\"kept\":" + std::to_string(reduced.sequence.keys.size()) + ",\"removed\":" + std::to_string(reduced.removed) +
-         ",\"max_error\":" + FormatNumber(reduced.max_error) + ",\"tolerance\":" + FormatNumber(tolerance) + "}\n";
+std::string ReducedSequenceJson(const Rig& rig, const Sequence& original,
+                                const ReduceResult& reduced, float tolerance) {
+  return "{\"keys\":" + SequenceKeysJson(rig, reduced.sequence) +
+         ",\"transition\":" + JsonString(TransitionName(original.transition)) +
+         ",\"kept\":" + std::to_string(reduced.sequence.keys.size()) +
+         ",\"removed\":" + std::to_string(reduced.removed) +
+         ",\"max_error\":" + FormatNumber(reduced.max_error) +
+         ",\"tolerance\":" + FormatNumber(tolerance) + "}\n";
 }
 
 }  // namespace facespace::api

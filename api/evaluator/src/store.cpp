@@ -16,8 +16,8 @@ bool IsValidRigId(const std::string& id) {
   return true;
 }
 
-Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
-                       const std::string& manifest) {
+Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> bytes,
+                       RigFormat format, const std::string& manifest) {
   auto rig = LoadRigMemory(bytes, format, id);
   if (!rig.ok()) return rig;
   rig->name = id;
@@ -31,17 +31,22 @@ Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> byt
   // request, refused at the first unknown name like any other.
   for (const Warning& w : rig->load_warnings) {
     if (w.code == "manifest_unknown_material") {
-      Status s = InvalidArgument("manifest: /materials/" + JsonPointerEscape(w.shape) + ": the rig has no material '" + w.shape + "'");
-      s.fields.push_back({"/manifest/materials/" + JsonPointerEscape(w.shape), "unknown material '" + w.shape + "'"});
+      Status s = InvalidArgument("manifest: /materials/" + JsonPointerEscape(w.shape) +
+                                 ": the rig has no material '" + w.shape + "'");
+      s.fields.push_back({"/manifest/materials/" + JsonPointerEscape(w.shape),
+                          "unknown material '" + w.shape + "'"});
       return WithReason(s, "invalid-manifest");
     }
     if (w.code != "manifest_unknown_shape") continue;
     std::vector<std::string_view> names;
     for (const Shape& shape : rig->shapes) names.push_back(shape.name);
-    const auto shapes = nlohmann::json::parse(manifest, nullptr, false).value("shapes", nlohmann::json::object());
+    const auto shapes =
+        nlohmann::json::parse(manifest, nullptr, false).value("shapes", nlohmann::json::object());
     const bool in_shapes = shapes.is_object() && shapes.contains(w.shape);
-    const std::string pointer = in_shapes ? "/manifest/shapes/" + JsonPointerEscape(w.shape) : "/manifest/groups";
-    Status s = InvalidArgument("manifest: " + pointer.substr(9) + ": the rig has no shape '" + w.shape + "'" + DidYouMean(w.shape, names));
+    const std::string pointer =
+        in_shapes ? "/manifest/shapes/" + JsonPointerEscape(w.shape) : "/manifest/groups";
+    Status s = InvalidArgument("manifest: " + pointer.substr(9) + ": the rig has no shape '" +
+                               w.shape + "'" + DidYouMean(w.shape, names));
     s.fields.push_back({pointer, "unknown shape '" + w.shape + "'"});
     return WithReason(s, "invalid-manifest");
   }

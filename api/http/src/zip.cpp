@@ -57,8 +57,9 @@ std::string ZipStream::Entry(const std::string& name, std::string_view data, boo
   Central c;
   c.name = name;
   c.size = static_cast<uint32_t>(data.size());
-  c.crc = static_cast<uint32_t>(crc32(0L, reinterpret_cast<const Bytef*>(data.data()), static_cast<uInt>(data.size())));
-  std::string deflated = compress ? Deflate(data, -15) : std::string()  /* Raw, as zip wants. */;
+  c.crc = static_cast<uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(data.data()), static_cast<uInt>(data.size())));
+  std::string deflated = compress ? Deflate(data, -15) : std::string() /* Raw, as zip wants. */;
   const bool deflate = compress && !deflated.empty() && deflated.size() < data.size();
   c.method = deflate ? 8 : 0;
   const std::string_view body = deflate ? std::string_view(deflated) : data;

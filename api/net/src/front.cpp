@@ -21,11 +21,13 @@
 #include <thread>
 #include <unordered_map>
 
+#include "conn.h"
 #include "facespace/engine/cpu.h"
 #include "facespace/net/framing.h"
 #include "in_flight.h"
 #include "running.h"
 #include "turns.h"
+#include "workers.h"
 
 namespace facespace::api {
 
@@ -36,63 +38,16 @@ using http::Framing;
 using http::RequestStream;
 using http::Watchdog;
 
-struct Conn : http::Peer {
-  enum class State { kIdle, kHead, kBody, kBusy, kLinger };
-  std::string buf;
-  // Busy: a worker owns the connection (the front touches nothing of it but this); the worker's
-  // writes before its store of another state are seen by the front's load of it.
-  std::atomic<State> state{State::kIdle};
-  http::RequestHead head;
-  size_t head_scan = 0;
-  http::ChunkedState chunked;
-  size_t request_end = 0;
-  Clock::time_point deadline;
-  size_t served = 0;
-  size_t reserved = 0;       // Bytes counted in the body budget.
-  bool sent_continue = false;
-  bool close_after = false;  // Set by the worker.
-  bool keyed = false;        // The request carries the API key (its deadline is the keyed one).
-  int gate = -1;             // The scarce resource's gate it passed (FrontOptions::scarce), or -1.
-  // Set by a handler (UpgradeConnection): the head that answers instead, and who takes the socket after.
-  std::string upgrade_head;
-  UpgradeTaker upgrade_take;
-};
-
-void Address(int fd, bool peer, std::string& ip, int& port) {
-  sockaddr_storage addr{};
-  socklen_t len = sizeof addr;
-  if ((peer ? getpeername(fd, reinterpret_cast<sockaddr*>(&addr), &len) : getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len)) != 0) return;
-  char text[INET6_ADDRSTRLEN] = {};
-  if (addr.ss_family == AF_INET) {
-    const auto* a = reinterpret_cast<const sockaddr_in*>(&addr);
-    inet_ntop(AF_INET, &a->sin_addr, text, sizeof text);
-    port = ntohs(a->sin_port);
-  } else if (addr.ss_family == AF_INET6) {
-    const auto* a = reinterpret_cast<const sockaddr_in6*>(&addr);
-    inet_ntop(AF_INET6, &a->sin6_addr, text, sizeof text);
-    port = ntohs(a->sin6_port);
-  }
-  ip = text;
-}
-
-// A whole response for a request the front refuses itself, worded by the caller (FrontOptions::refusal:
-// the API's problem+json), else plain text; then the connection closes.
+// A whole response for a request the front refuses itself, worded by the caller
+// (FrontOptions::refusal: the API's problem+json), else plain text; then the connection closes.
 std::string Refused(const FrontOptions& o, const RefusalInfo& info) {
   if (o.refusal) return o.refusal(info);
-  return "HTTP/1.1 " + std::to_string(info.status) + " Refused\r\nContent-Type: text/plain\r\nConnection: close\r\n" +
-         (info.retry_after ? "Retry-After: 1\r\n" : "") + "Content-Length: " + std::to_string(info.detail.size() + 1) +
-         "\r\n\r\n" + std::string(info.detail) + "\n";
+  return "HTTP/1.1 " + std::to_string(info.status) +
+         " Refused\r\nContent-Type: text/plain\r\nConnection: close\r\n" +
+         (info.retry_after ? "Retry-After: 1\r\n" : "") +
+         "Content-Length: " + std::to_string(info.detail.size() + 1) + "\r\n\r\n" +
+         std::string(info.detail) + "\n";
 }
-
-// Writes what it can at once (the socket is non-blocking); the front never waits on a client.
-void SendNow(int fd, std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t n = ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-    if (n <= 0) return;
-    bytes.remove_prefix(static_cast<size_t>(n));
-  }
-}
-
 
 // cpp-httplib's accept loop hands every accepted socket to its task queue: this one gives it to
 // the front at once, on the accept thread.
@@ -120,10 +75,15 @@ bool UpgradeConnection(const httplib::Request& req, std::string head, UpgradeTak
 class FrontServer::Front {
  public:
   Front(FrontServer& server, FrontOptions options, FrontStats& counters)
-      : stats(counters), server_(server), o_(std::move(options)), turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests, o_.scarce_slots) {}
+      : stats(counters),
+        server_(server),
+        o_(std::move(options)),
+        turns_(static_cast<size_t>(std::max(1, o_.workers)), o_.max_client_requests,
+               o_.scarce_slots) {}
   ~Front() { Stop(); }
 
-  FrontStats& stats;  // The caller's, so what reads them (the API's /metrics) can exist before the front.
+  FrontStats&
+      stats;  // The caller's, so what reads them (the API's /metrics) can exist before the front.
 
   void Start() {
     std::lock_guard<std::mutex> lock(mu_);
@@ -157,16 +117,11 @@ class FrontServer::Front {
       if (!running_) return;
       stopping_ = true;
     }
-    watchdog_.StopAll();  // Work in flight stops at its next step; what waits its turn is stopped as it starts.
+    watchdog_.StopAll();  // Work in flight stops at its next step; what waits its turn is stopped
+                          // as it starts.
     Wake();
     loop_.join();
-    {
-      std::lock_guard<std::mutex> lock(mu_);
-      workers_stop_ = true;
-    }
-    work_cv_.notify_all();
-    for (std::thread& t : workers_) t.join();
-    workers_.clear();
+    StopWorkers(mu_, workers_stop_, work_cv_, workers_);
     ::close(epoll_);
     ::close(wake_);
     std::lock_guard<std::mutex> lock(mu_);
@@ -188,7 +143,8 @@ class FrontServer::Front {
     size_t logged_refused = 0, logged_timed_out = 0, logged_framing = 0, logged_budget = 0;
     std::vector<int> recheck;
     while (true) {
-      const int n = epoll_wait(epoll_, events.data(), static_cast<int>(events.size()), recheck_.empty() ? 100 : 1);
+      const int n = epoll_wait(epoll_, events.data(), static_cast<int>(events.size()),
+                               recheck_.empty() ? 100 : 1);
       recheck.swap(recheck_);
       for (int i = 0; i < n; ++i) recheck.push_back(events[static_cast<size_t>(i)].data.fd);
       for (int fd : recheck) {
@@ -215,10 +171,16 @@ class FrontServer::Front {
         next_sweep = now + std::chrono::milliseconds(100);
       }
       if (now >= next_log) {  // What the caps turned away, once in ten seconds at most.
-        const size_t r = stats.refused_total, t = stats.timed_out, f = stats.bad_framing, b = stats.over_budget;
-        if (r != logged_refused || t != logged_timed_out || f != logged_framing || b != logged_budget) {
-          std::fprintf(stderr, "facespace: front: in the last 10 s %zu connections refused (caps), %zu requests timed out, %zu refused for their framing, %zu over the body budget; %zu open\n",
-                       r - logged_refused, t - logged_timed_out, f - logged_framing, b - logged_budget, stats.open.load());
+        const size_t r = stats.refused_total, t = stats.timed_out, f = stats.bad_framing,
+                     b = stats.over_budget;
+        if (r != logged_refused || t != logged_timed_out || f != logged_framing ||
+            b != logged_budget) {
+          std::fprintf(
+              stderr,
+              "facespace: front: in the last 10 s %zu connections refused (caps), %zu requests "
+              "timed out, %zu refused for their framing, %zu over the body budget; %zu open\n",
+              r - logged_refused, t - logged_timed_out, f - logged_framing, b - logged_budget,
+              stats.open.load());
           logged_refused = r, logged_timed_out = t, logged_framing = f, logged_budget = b;
         }
         next_log = now + std::chrono::seconds(10);
@@ -271,8 +233,11 @@ class FrontServer::Front {
     Address(fd, false, c->local_ip, c->local_port);
     size_t& from_client = per_client_[c->ip];
     const char* refused = nullptr;
-    if (conns_.size() >= o_.max_connections) refused = "the server has as many connections open as it takes (--max-connections)";
-    else if (from_client >= o_.max_per_client) refused = "this address has as many connections open as one client may (--max-client-connections)";
+    if (conns_.size() >= o_.max_connections)
+      refused = "the server has as many connections open as it takes (--max-connections)";
+    else if (from_client >= o_.max_per_client)
+      refused =
+          "this address has as many connections open as one client may (--max-client-connections)";
     if (refused) {
       ++stats.refused_total;
       if (from_client >= o_.max_per_client) ++stats.refused_client;
@@ -326,16 +291,19 @@ class FrontServer::Front {
 
   // Answers a request the front refuses, then reads and drops what the client still sends for a
   // moment (closing with unread bytes would reset the connection and could lose the answer).
-  void Refuse(Conn& c, Refusal why, int status, const std::string& detail, bool retry_after = false) {
+  void Refuse(Conn& c, Refusal why, int status, const std::string& detail,
+              bool retry_after = false) {
     const std::string path = c.head.target.substr(0, c.head.target.find('?')).substr(0, 200);
     const std::string response = Refused(o_, {why, status, detail, path, retry_after});
     SendNow(c.fd, response);
     if (o_.log_requests) {
       // As the access log writes a request, with no duration: the request never reached a handler.
       const bool parsed = !c.head.method.empty();
-      const std::string logged = parsed ? path : status == 414 ? "(request line over 8,192 bytes)" : "-";
-      std::fprintf(stderr, "%s %s %d %zu -\n", parsed ? c.head.method.substr(0, 20).c_str() : "-", logged.c_str(), status,
-                   response.size() - response.find("\r\n\r\n") - 4);
+      const std::string logged = parsed          ? path
+                                 : status == 414 ? "(request line over 8,192 bytes)"
+                                                 : "-";
+      std::fprintf(stderr, "%s %s %d %zu -\n", parsed ? c.head.method.substr(0, 20).c_str() : "-",
+                   logged.c_str(), status, response.size() - response.find("\r\n\r\n") - 4);
     }
     Linger(c);
   }
@@ -372,9 +340,13 @@ class FrontServer::Front {
       if (n > 0) {
         if (c.state == Conn::State::kLinger) continue;  // Dropped.
         c.buf.append(chunk, static_cast<size_t>(n));
-        // Enough to find a head, or for the whole body: the rest stays in the socket until asked for.
+        // Enough to find a head, or for the whole body: the rest stays in the socket until asked
+        // for.
         if (c.state != Conn::State::kBody && c.buf.size() > (1u << 20)) break;
-        if (c.state == Conn::State::kBody && c.buf.size() >= c.head.end + (c.head.chunked ? o_.max_body + 4096 : c.head.content_length)) break;
+        if (c.state == Conn::State::kBody &&
+            c.buf.size() >=
+                c.head.end + (c.head.chunked ? o_.max_body + 4096 : c.head.content_length))
+          break;
         continue;
       }
       if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) break;
@@ -406,20 +378,25 @@ class FrontServer::Front {
         ++stats.bad_framing;
         return Refuse(c, Refusal::kFraming, error.status, error.detail);
       }
-      // Read from the head as it came (a chunked body is rewritten before its request is handed on).
+      // Read from the head as it came (a chunked body is rewritten before its request is handed
+      // on).
       c.keyed = o_.keyed && o_.keyed(HeaderValue(c, "Authorization"));
       if (c.head.has_body()) {
         if (o_.head_check) {
           if (auto refusal = o_.head_check(View(c)); refusal) return RefuseRaw(c, *refusal);
         }
         if (c.head.content_length > o_.max_body) {
-          return Refuse(c, Refusal::kBodyTooLarge, 413,
-                        "the request body (Content-Length: " + std::to_string(c.head.content_length) + ") is over the server's limit of " +
-                            std::to_string(o_.max_body) + " bytes (--max-body)");
+          return Refuse(
+              c, Refusal::kBodyTooLarge, 413,
+              "the request body (Content-Length: " + std::to_string(c.head.content_length) +
+                  ") is over the server's limit of " + std::to_string(o_.max_body) +
+                  " bytes (--max-body)");
         }
         if (!Reserve(c, c.head.end + c.head.content_length)) {
           ++stats.over_budget;
-          return Refuse(c, Refusal::kBusy, 503, "the server holds as many request bodies in memory as it may; retry shortly", true);
+          return Refuse(
+              c, Refusal::kBusy, 503,
+              "the server holds as many request bodies in memory as it may; retry shortly", true);
         }
         // A body of N MiB may take N more seconds. Its room is made once (no copies as it grows).
         c.deadline += std::chrono::seconds(c.head.content_length >> 20);
@@ -441,7 +418,9 @@ class FrontServer::Front {
       }
       if (!Reserve(c, c.buf.size())) {
         ++stats.over_budget;
-        return Refuse(c, Refusal::kBusy, 503, "the server holds as many request bodies in memory as it may; retry shortly", true);
+        return Refuse(c, Refusal::kBusy, 503,
+                      "the server holds as many request bodies in memory as it may; retry shortly",
+                      true);
       }
       if (f == Framing::kNeedMore) return;
       // Handed on with its body whole (Content-Length), followed by what came after it.
@@ -458,41 +437,16 @@ class FrontServer::Front {
     Dispatch(c);
   }
 
-  // A request the front answers itself (a probe): the answer written now (a few KB: what the socket does
-  // not take at once gets 100 ms), then the connection waits for its next request, or closes.
+  // A request the front answers itself (a probe): the answer written now (a few KB: what the socket
+  // does not take at once gets 100 ms), then the connection waits for its next request, or closes.
   void AnswerHere(Conn& c, std::string_view response) {
-    const bool close = http::EqualsIgnoreCase(HeaderValue(c, "Connection"), "close") || c.served + 1 >= o_.keep_alive_max;
+    const bool close = http::EqualsIgnoreCase(HeaderValue(c, "Connection"), "close") ||
+                       c.served + 1 >= o_.keep_alive_max;
     if (!http::SendWithin(c.fd, response, std::chrono::milliseconds(100))) return Close(c);
     if (close) return Linger(c);
     ReadyForNext(c);
     c.state = Conn::State::kIdle;
     if (!c.buf.empty()) recheck_.push_back(c.fd);  // A pipelined request: next time round.
-  }
-
-  // Calls fn(name, value) for each field of the head as it came (values without surrounding blanks)
-  // until fn returns true; no allocation.
-  template <typename Fn>
-  static void ForEachField(const Conn& c, Fn fn) {
-    const std::string_view head(c.buf.data() + c.head.start, c.head.end - c.head.start);
-    for (size_t pos = head.find("\r\n"); pos != std::string_view::npos && pos + 2 < head.size();) {
-      pos += 2;
-      const size_t eol = head.find("\r\n", pos);
-      const std::string_view field = head.substr(pos, eol == std::string_view::npos ? std::string_view::npos : eol - pos);
-      if (const size_t colon = field.find(':'); colon != std::string_view::npos) {
-        std::string_view value = field.substr(colon + 1);
-        while (!value.empty() && (value.front() == ' ' || value.front() == '\t')) value.remove_prefix(1);
-        while (!value.empty() && (value.back() == ' ' || value.back() == '\t')) value.remove_suffix(1);
-        if (fn(field.substr(0, colon), value)) return;
-      }
-      pos = eol;
-    }
-  }
-
-  // The value of the head's first field `name`, or empty.
-  static std::string_view HeaderValue(const Conn& c, std::string_view name) {
-    std::string_view found;
-    ForEachField(c, [&](std::string_view field, std::string_view value) { return http::EqualsIgnoreCase(field, name) && (found = value, true); });
-    return found;
   }
 
   RequestHeadView View(const Conn& c) const {
@@ -506,13 +460,15 @@ class FrontServer::Front {
     return v;
   }
 
-  // A whole request to a worker, or to its address's line when the address may not start one more now
-  // (turns.h: fair shares), so that one address, or a few, cannot hold every worker while others wait.
+  // A whole request to a worker, or to its address's line when the address may not start one more
+  // now (turns.h: fair shares), so that one address, or a few, cannot hold every worker while
+  // others wait.
   void Dispatch(Conn& c) {
     c.state = Conn::State::kBusy;  // Not armed: the worker arms it when the answer is out.
     {
       std::lock_guard<std::mutex> lock(mu_);
-      c.gate = o_.scarce ? o_.scarce(c.head.method, c.head.target, HeaderValue(c, "Content-Type")) : -1;
+      c.gate =
+          o_.scarce ? o_.scarce(c.head.method, c.head.target, HeaderValue(c, "Content-Type")) : -1;
       if (!turns_.Arrive(c.ip, &c, c.gate)) {
         ++stats.waited_turn;
         return;
@@ -522,7 +478,8 @@ class FrontServer::Front {
     work_cv_.notify_one();
   }
 
-  // Under mu_: the finished request's turn given back, and the waiting ones that may start now started.
+  // Under mu_: the finished request's turn given back, and the waiting ones that may start now
+  // started.
   void EndTurn(const std::string& ip, int gate) {
     std::vector<Conn*> start;
     turns_.End(ip, gate, start);
@@ -552,8 +509,8 @@ class FrontServer::Front {
     Arm(fd);
   }
 
-  // An upgraded connection leaves the front: its socket and what the client sent after its request go
-  // to their taker (the live hub), which owns and closes the socket from then on.
+  // An upgraded connection leaves the front: its socket and what the client sent after its request
+  // go to their taker (the live hub), which owns and closes the socket from then on.
   void HandOff(Conn& c) {
     const int fd = c.fd;
     UpgradeTaker take = std::move(c.upgrade_take);
@@ -571,8 +528,10 @@ class FrontServer::Front {
       if (c->state == Conn::State::kHead || c->state == Conn::State::kBody) {
         ++stats.timed_out;
         Refuse(*c, Refusal::kRequestTimeout, 408,
-               "the request did not arrive whole within " + std::to_string(o_.request_timeout) + " s (--read-timeout)");
-        c->deadline = now + std::chrono::milliseconds(200);  // A short linger: the client was slow anyway.
+               "the request did not arrive whole within " + std::to_string(o_.request_timeout) +
+                   " s (--read-timeout)");
+        c->deadline =
+            now + std::chrono::milliseconds(200);  // A short linger: the client was slow anyway.
       } else {
         Close(*c);  // Idle past the keep-alive time, or done lingering.
       }
@@ -595,15 +554,16 @@ class FrontServer::Front {
       }
       Watchdog::Entry watch;
       watch.fd = c->fd;
-      watch.deadline = Clock::now() + std::chrono::seconds(c->keyed ? o_.keyed_deadline : o_.request_deadline);
+      watch.deadline =
+          Clock::now() + std::chrono::seconds(c->keyed ? o_.keyed_deadline : o_.request_deadline);
       Watchdog::MeterThisThread(watch, c->keyed ? o_.keyed_cpu_limit : o_.cpu_limit);
-      // What helper threads spend for the request is its own (facespace/engine/cpu.h).
-      SetHelperCpuSink([](void* e, double seconds) { static_cast<Watchdog::Entry*>(e)->helper_ns += static_cast<int64_t>(seconds * 1e9); }, &watch);
       watchdog_.Watch(watch);
-      Running running{watch.source.get_token(), c, {}};
+      // What helper threads spend for the request is its own (facespace/engine/cpu.h).
+      Running running{watch.source.get_token(), c, {}, &watch.helper_cpu};
       ++stats.in_flight;
       RequestStream stream(*c, std::string_view(c->buf.data(), c->request_end), c->sent_continue,
-                           {running.stop, std::chrono::seconds(o_.write_timeout), static_cast<double>(o_.min_send_rate)});
+                           {running.stop, std::chrono::seconds(o_.write_timeout),
+                            static_cast<double>(o_.min_send_rate)});
       const bool close = stopping || c->served + 1 >= o_.keep_alive_max;
       bool closed_by_client = false;
       bool ok = false;
@@ -613,7 +573,6 @@ class FrontServer::Front {
       } catch (...) {
         ok = false;
       }
-      SetHelperCpuSink(nullptr, nullptr);
       --stats.in_flight;
       watchdog_.Unwatch(watch);
       if (stream.too_slow()) ++stats.slow_readers;
@@ -621,9 +580,11 @@ class FrontServer::Front {
         std::lock_guard<std::mutex> lock(mu_);
         EndTurn(c->ip, c->gate);
       }
-      c->close_after = !ok || close || closed_by_client || stream.closes() || watch.source.stop_requested();
+      c->close_after =
+          !ok || close || closed_by_client || stream.closes() || watch.source.stop_requested();
       if (c->upgrade_take) {
-        // Upgraded when its 101 went out whole; else the taker is dropped (its place given back) and the connection closes.
+        // Upgraded when its 101 went out whole; else the taker is dropped (its place given back)
+        // and the connection closes.
         c->close_after = !stream.replaced() || stopping;
         if (c->close_after) c->upgrade_take = nullptr;
       }
@@ -659,7 +620,7 @@ class FrontServer::Front {
   std::vector<std::thread> workers_;
   std::unordered_map<int, std::unique_ptr<Conn>> conns_;  // The front thread's.
   std::unordered_map<std::string, size_t> per_client_;    // The front thread's.
-  std::vector<int> recheck_;                               // The front thread's: events to look at again.
+  std::vector<int> recheck_;  // The front thread's: events to look at again.
 
   std::mutex mu_;
   std::condition_variable work_cv_;
@@ -685,7 +646,8 @@ bool FrontServer::process_and_close_socket(socket_t sock) {
   return true;
 }
 
-bool FrontServer::Process(httplib::Stream& stream, bool close_connection, bool& connection_closed, Running& running) {
+bool FrontServer::Process(httplib::Stream& stream, bool close_connection, bool& connection_closed,
+                          Running& running) {
   // cpp-httplib calls this once the request's head is read, before its hooks and handler.
   const auto carry = [&running](httplib::Request& req) { req.progress = Carrier{&running}; };
   return process_request(stream, close_connection, connection_closed, carry);

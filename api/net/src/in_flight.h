@@ -1,7 +1,7 @@
-// A request while it runs on a worker (issue 48): how its answer is written (a stall time and a lowest
-// rate; nothing waited for once it is stopped) and the watchdog that fires its stop token when its
-// client hangs up, at its deadline, when its worker has spent its CPU, or when the server stops.
-// The connection front's (front.cpp); private to api/.
+// A request while it runs on a worker (issue 48): how its answer is written (a stall time and a
+// lowest rate; nothing waited for once it is stopped) and the watchdog that fires its stop token
+// when its client hangs up, at its deadline, when its worker has spent its CPU, or when the server
+// stops. The connection front's (front.cpp); private to api/.
 #pragma once
 
 #include <httplib.h>
@@ -21,8 +21,9 @@
 #include <thread>
 #include <unordered_map>
 
-#include "facespace/net/front.h"
+#include "facespace/engine/cpu.h"
 #include "facespace/net/framing.h"
+#include "facespace/net/front.h"
 
 namespace facespace::api::http {
 
@@ -35,24 +36,26 @@ struct Peer {
   int port = 0, local_port = 0;
 };
 
-// How a response is written: its stop token, the longest wait without progress, and the lowest rate.
+// How a response is written: its stop token, the longest wait without progress, and the lowest
+// rate.
 struct WriteBounds {
   std::stop_token stop;
-  std::chrono::milliseconds stall;  // No byte taken for this long: the client is gone or not reading.
-  double min_rate = 0;               // Bytes a second, over the time spent waiting, past `stall`'s grace.
+  std::chrono::milliseconds
+      stall;            // No byte taken for this long: the client is gone or not reading.
+  double min_rate = 0;  // Bytes a second, over the time spent waiting, past `stall`'s grace.
 };
 
 // One buffered request for cpp-httplib: reads come from the bytes the front collected, writes go
 // to the socket. A write waits for room in slices of 100 ms and gives up when the request is
-// stopped (client gone, deadline, CPU, SIGTERM), when the client takes nothing for the stall time, or
-// when the time spent waiting on it passes the grace plus what the bytes sent allow at the lowest
-// rate: so a client that reads slowly, or never, holds a worker for seconds, not for ever.
+// stopped (client gone, deadline, CPU, SIGTERM), when the client takes nothing for the stall time,
+// or when the time spent waiting on it passes the grace plus what the bytes sent allow at the
+// lowest rate: so a client that reads slowly, or never, holds a worker for seconds, not for ever.
 class RequestStream final : public httplib::Stream {
  public:
   RequestStream(const Peer& peer, std::string_view request, bool sent_continue, WriteBounds bounds)
       : c_(peer), request_(request), b_(std::move(bounds)), drop_continue_(sent_continue) {}
-  // A response head that replaces the one cpp-httplib writes (an upgrade's 101), when not empty by then:
-  // it goes out instead, and the rest of cpp-httplib's response is dropped.
+  // A response head that replaces the one cpp-httplib writes (an upgrade's 101), when not empty by
+  // then: it goes out instead, and the rest of cpp-httplib's response is dropped.
   void ReplaceResponse(const std::string* head) { replace_ = head; }
   bool replaced() const { return replaced_ && !failed_; }
 
@@ -68,7 +71,8 @@ class RequestStream final : public httplib::Stream {
     const std::string_view bytes(ptr, size);
     if (drop_continue_) {
       drop_continue_ = false;
-      if (bytes == "HTTP/1.1 100 Continue\r\n\r\n") return static_cast<ssize_t>(size);  // The front sent it already.
+      if (bytes == "HTTP/1.1 100 Continue\r\n\r\n")
+        return static_cast<ssize_t>(size);  // The front sent it already.
     }
     if (replaced_) return failed_ ? -1 : static_cast<ssize_t>(size);
     if (!head_seen_ && replace_ && !replace_->empty()) {
@@ -79,15 +83,16 @@ class RequestStream final : public httplib::Stream {
       head_seen_ = true;
       const size_t end = bytes.find("\r\n\r\n");
       const std::string_view head = bytes.substr(0, end);
-      for (size_t at = head.find("\r\n"); at != std::string_view::npos; at = head.find("\r\n", at + 2)) {
+      for (size_t at = head.find("\r\n"); at != std::string_view::npos;
+           at = head.find("\r\n", at + 2)) {
         const std::string_view line = head.substr(at + 2, head.find("\r\n", at + 2) - (at + 2));
         if (EqualsIgnoreCase(line, "Connection: close")) closes_ = true;
       }
     }
     return SendAll(ptr, size) ? static_cast<ssize_t>(size) : -1;
   }
-  // A stopped request's answer (a 503 problem, the end of a stream) goes out as far as the socket takes
-  // it at once; it never waits.
+  // A stopped request's answer (a 503 problem, the end of a stream) goes out as far as the socket
+  // takes it at once; it never waits.
   bool SendAll(const char* ptr, size_t size) {
     size_t done = 0;
     while (done < size) {
@@ -131,7 +136,8 @@ class RequestStream final : public httplib::Stream {
         return !(p.revents & (POLLERR | POLLHUP)) && !BelowRate();
       }
       if (r < 0 && errno != EINTR) return false;
-      if (now - start >= b_.stall || (waited_ + (now - start) > b_.stall && BelowRate(now - start))) {
+      if (now - start >= b_.stall ||
+          (waited_ + (now - start) > b_.stall && BelowRate(now - start))) {
         too_slow_ = true;
         return false;
       }
@@ -141,7 +147,8 @@ class RequestStream final : public httplib::Stream {
   // Whether the time spent waiting on the client (with `more`) is past the grace and the rate.
   bool BelowRate(Clock::duration more = {}) {
     const double waited = std::chrono::duration<double>(waited_ + more).count();
-    const double allowed = std::chrono::duration<double>(b_.stall).count() + (b_.min_rate > 0 ? static_cast<double>(sent_) / b_.min_rate : 1e300);
+    const double allowed = std::chrono::duration<double>(b_.stall).count() +
+                           (b_.min_rate > 0 ? static_cast<double>(sent_) / b_.min_rate : 1e300);
     if (waited <= allowed) return false;
     too_slow_ = true;
     return true;
@@ -158,8 +165,8 @@ class RequestStream final : public httplib::Stream {
   Clock::duration waited_{};
 };
 
-// Writes all of `bytes` to a non-blocking socket, waiting at most `wait` in all for room; false when the
-// socket failed or the time ran out (a small answer the front writes itself: a probe's).
+// Writes all of `bytes` to a non-blocking socket, waiting at most `wait` in all for room; false
+// when the socket failed or the time ran out (a small answer the front writes itself: a probe's).
 inline bool SendWithin(int fd, std::string_view bytes, std::chrono::milliseconds wait) {
   const Clock::time_point give_up = Clock::now() + wait;
   while (!bytes.empty()) {
@@ -169,9 +176,12 @@ inline bool SendWithin(int fd, std::string_view bytes, std::chrono::milliseconds
       continue;
     }
     if (n < 0 && errno == EINTR) continue;
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now()).count();
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now()).count();
     pollfd p{fd, POLLOUT, 0};
-    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && left > 0 && ::poll(&p, 1, static_cast<int>(left)) > 0) continue;
+    if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK) && left > 0 &&
+        ::poll(&p, 1, static_cast<int>(left)) > 0)
+      continue;
     return false;
   }
   return true;
@@ -200,8 +210,8 @@ class Watchdog {
     // The worker's CPU clock and what it read at the start; a limit of 0: none.
     clockid_t cpu_clock{};
     double cpu_start = 0, cpu_limit = 0;
-    std::atomic<int64_t> helper_ns{0};  // CPU other threads spent for it (ChargeHelperCpu), in nanoseconds.
-    double cpu() const { return Seconds(cpu_clock) - cpu_start + 1e-9 * static_cast<double>(helper_ns.load()); }
+    HelperCpu helper_cpu;  // CPU other threads spent for it (Running::helper_cpu).
+    double cpu() const { return Seconds(cpu_clock) - cpu_start + helper_cpu.Seconds(); }
   };
   // The calling thread's CPU clock into `e`, for a limit of `limit` CPU-seconds from now.
   static void MeterThisThread(Entry& e, double limit) {
@@ -238,7 +248,8 @@ class Watchdog {
       const int n = epoll_wait(epoll_, events, 64, 100);
       std::lock_guard<std::mutex> lock(mu_);
       for (int i = 0; i < n; ++i) {
-        const uint64_t serial = events[i].data.u64;  // A copy: epoll_event is packed, its u64 misaligned.
+        const uint64_t serial =
+            events[i].data.u64;  // A copy: epoll_event is packed, its u64 misaligned.
         auto it = entries_.find(serial);
         if (it == entries_.end() || it->second->source.stop_requested()) continue;
         it->second->source.request_stop();

@@ -7,6 +7,8 @@
 
 #include <cerrno>
 
+#include "workers.h"
+
 namespace facespace::api::http {
 
 struct LiveHub::Session {
@@ -21,7 +23,8 @@ struct LiveHub::Session {
   std::string message;
   ws::Opcode message_op = ws::Opcode::kText;
   bool in_message = false;
-  Clock::time_point message_began;  // Its first fragment's arrival: the rest must follow within the stall time.
+  Clock::time_point
+      message_began;  // Its first fragment's arrival: the rest must follow within the stall time.
   std::atomic<bool> reading{true};  // False once closing: what comes is dropped.
   double tokens = 0;
   Clock::time_point tokens_at;
@@ -38,20 +41,21 @@ struct LiveHub::Session {
     bool frame = false;
   };
   std::deque<Pending> out;
-  size_t out_sent = 0;       // Of out.front().
-  size_t queued = 0;         // Bytes in out not yet sent.
+  size_t out_sent = 0;        // Of out.front().
+  size_t queued = 0;          // Bytes in out not yet sent.
   bool frame_queued = false;  // A frame in `out`: the next waits for it to go (newest state wins).
   bool frame_wanted = false;
-  // The frame rate as a virtual clock (GCRA): the 60 Hz grid's next slot. A frame may go up to half a
-  // slot before it (after a late one), so a client sending at 60 Hz is answered at once, not a slot later,
-  // and no more than 60 go in any second (plus one).
+  // The frame rate as a virtual clock (GCRA): the 60 Hz grid's next slot. A frame may go up to half
+  // a slot before it (after a late one), so a client sending at 60 Hz is answered at once, not a
+  // slot later, and no more than 60 go in any second (plus one).
   Clock::time_point grid;
   bool want_write = false;
   Clock::time_point waiting_since;  // Bytes queued and none taken since.
   bool closing = false, shut = false;
   Clock::time_point linger_until;
-  // Held by a turn (on a worker) and by End (on the loop): the handler is never in both at once. Without
-  // it a client closing right after {"listen"} had End drop the listener a turn was polling.
+  // Held by a turn (on a worker) and by End (on the loop): the handler is never in both at once.
+  // Without it a client closing right after {"listen"} had End drop the listener a turn was
+  // polling.
   std::mutex turn_mu;
 
   ~Session() {
@@ -67,7 +71,9 @@ LiveHub::LiveHub(LiveLimits limits) : limits_(limits) {
   ev.data.u64 = 0;  // Session ids start at 1.
   epoll_ctl(epoll_, EPOLL_CTL_ADD, wake_, &ev);
   loop_ = std::thread([this] { Loop(); });
-  const int n = limits_.workers > 0 ? limits_.workers : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int n = limits_.workers > 0
+                    ? limits_.workers
+                    : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   for (int i = 0; i < n; ++i) workers_.emplace_back([this] { Work(); });
 }
 
@@ -81,12 +87,7 @@ void LiveHub::Stop() {
   if (stopping_.exchange(true)) return;
   Wake();
   loop_.join();
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    workers_stop_ = true;
-  }
-  cv_.notify_all();
-  for (std::thread& t : workers_) t.join();
+  StopWorkers(mu_, workers_stop_, cv_, workers_);
   std::lock_guard<std::mutex> lock(mu_);
   ready_.clear();
   timers_.clear();
@@ -117,7 +118,8 @@ void LiveHub::GiveBack(const std::string& ip) {
   if (it != per_client_.end() && --it->second == 0) per_client_.erase(it);
 }
 
-void LiveHub::Adopt(int fd, const std::string& ip, std::string buffered, std::unique_ptr<LiveHandler> handler, SessionBounds bounds) {
+void LiveHub::Adopt(int fd, const std::string& ip, std::string buffered,
+                    std::unique_ptr<LiveHandler> handler, SessionBounds bounds) {
   auto s = std::make_shared<Session>();
   s->fd = fd;
   s->ip = ip;
@@ -127,16 +129,18 @@ void LiveHub::Adopt(int fd, const std::string& ip, std::string buffered, std::un
   s->in = std::move(buffered);
   s->tokens = 2 * limits_.max_rate;
   s->tokens_at = Clock::now();
-  s->handler->Attach([this, weak = std::weak_ptr<Session>(s)](ws::Opcode op, std::string_view payload) {
-    const std::shared_ptr<Session> held = weak.lock();
-    if (!held) return false;
-    std::lock_guard<std::mutex> lock(held->mu);
-    if (held->closing) return false;
-    Queue(*held, ws::ServerFrame(op, payload));
-    return true;
-  }, [this, weak = std::weak_ptr<Session>(s)] {
-    if (const std::shared_ptr<Session> held = weak.lock()) Schedule(held);
-  });
+  s->handler->Attach(
+      [this, weak = std::weak_ptr<Session>(s)](ws::Opcode op, std::string_view payload) {
+        const std::shared_ptr<Session> held = weak.lock();
+        if (!held) return false;
+        std::lock_guard<std::mutex> lock(held->mu);
+        if (held->closing) return false;
+        Queue(*held, ws::ServerFrame(op, payload));
+        return true;
+      },
+      [this, weak = std::weak_ptr<Session>(s)] {
+        if (const std::shared_ptr<Session> held = weak.lock()) Schedule(held);
+      });
   {
     std::lock_guard<std::mutex> lock(mu_);
     s->id = next_id_++;
@@ -204,7 +208,8 @@ void LiveHub::Loop() {
   }
 }
 
-// Every 100 ms: sessions past their time or stalled are closed, closed ones past their linger forgotten.
+// Every 100 ms: sessions past their time or stalled are closed, closed ones past their linger
+// forgotten.
 void LiveHub::Sweep(Clock::time_point now, bool stopping) {
   std::vector<std::shared_ptr<Session>> all;
   {
@@ -224,10 +229,14 @@ void LiveHub::Sweep(Clock::time_point now, bool stopping) {
     } else if (stopping) {
       Close(s, ws::CloseCode::kGoingAway, "the server is stopping");
     } else if (s->in_message && now - s->message_began >= limits_.stall) {
-      Close(s, ws::CloseCode::kPolicy, "a message begun and not finished within " + std::to_string(limits_.stall.count() / 1000) + " s");
+      Close(s, ws::CloseCode::kPolicy,
+            "a message begun and not finished within " +
+                std::to_string(limits_.stall.count() / 1000) + " s");
     } else if (stalled) {
       ++counts.dropped_slow;
-      Close(s, ws::CloseCode::kPolicy, "the client took nothing sent to it for " + std::to_string(limits_.stall.count() / 1000) + " s");
+      Close(s, ws::CloseCode::kPolicy,
+            "the client took nothing sent to it for " +
+                std::to_string(limits_.stall.count() / 1000) + " s");
     } else if (now >= s->ends) {
       Close(s, ws::CloseCode::kGoingAway, "the session's time is up");
     }
@@ -236,15 +245,18 @@ void LiveHub::Sweep(Clock::time_point now, bool stopping) {
 
 // A data frame: the session's rate first (every frame counts), then its message assembled and, when
 // whole, queued for the session's turn. False when the session was closed for it.
-// Every frame but a close spends one of the session's tokens (max_rate a second, a burst of twice that):
-// pings and pongs too. False when the session was closed for a flood.
+// Every frame but a close spends one of the session's tokens (max_rate a second, a burst of twice
+// that): pings and pongs too. False when the session was closed for a flood.
 bool LiveHub::Spend(const std::shared_ptr<Session>& s) {
   const Clock::time_point now = Clock::now();
-  s->tokens = std::min(2 * limits_.max_rate, s->tokens + limits_.max_rate * std::chrono::duration<double>(now - s->tokens_at).count());
+  s->tokens = std::min(
+      2 * limits_.max_rate,
+      s->tokens + limits_.max_rate * std::chrono::duration<double>(now - s->tokens_at).count());
   s->tokens_at = now;
   if (s->tokens < 1) {
     ++counts.closed_flood;
-    Close(s, ws::CloseCode::kPolicy, "more than " + std::to_string(static_cast<int>(limits_.max_rate)) + " frames a second");
+    Close(s, ws::CloseCode::kPolicy,
+          "more than " + std::to_string(static_cast<int>(limits_.max_rate)) + " frames a second");
     return false;
   }
   s->tokens -= 1;
@@ -252,54 +264,55 @@ bool LiveHub::Spend(const std::shared_ptr<Session>& s) {
 }
 
 bool LiveHub::Assemble(const std::shared_ptr<Session>& s, const ws::Frame& f) {
-    if (f.opcode == ws::Opcode::kContinuation) {
-      if (!s->in_message) {
-        Close(s, ws::CloseCode::kProtocolError, "a continuation frame with no message begun");
-        return false;
-      }
-    } else {
-      if (s->in_message) {
-        Close(s, ws::CloseCode::kProtocolError, "a new message before the last one ended");
-        return false;
-      }
-      s->in_message = true;
-      s->message_op = f.opcode;
-      s->message.clear();
-      s->message_began = Clock::now();
-    }
-    s->message.append(f.payload);
-    if (!f.fin) return true;
-    s->in_message = false;
-    if (s->message_op == ws::Opcode::kText && !ws::ValidUtf8(s->message)) {
-      Close(s, ws::CloseCode::kInvalidPayload, "a text message that is not UTF-8");
+  if (f.opcode == ws::Opcode::kContinuation) {
+    if (!s->in_message) {
+      Close(s, ws::CloseCode::kProtocolError, "a continuation frame with no message begun");
       return false;
     }
-    ++counts.messages;
-    bool over = false;
-    {
-      std::lock_guard<std::mutex> lock(s->mu);
-      s->inbox_bytes += s->message.size();
-      over = s->inbox_bytes > limits_.max_queued;
-      s->inbox.emplace_back(s->message_op, std::move(s->message));
-    }
-    s->message = std::string();
-    if (over) {
-      Close(s, ws::CloseCode::kPolicy, "messages arrive faster than the session runs them");
+  } else {
+    if (s->in_message) {
+      Close(s, ws::CloseCode::kProtocolError, "a new message before the last one ended");
       return false;
     }
+    s->in_message = true;
+    s->message_op = f.opcode;
+    s->message.clear();
+    s->message_began = Clock::now();
+  }
+  s->message.append(f.payload);
+  if (!f.fin) return true;
+  s->in_message = false;
+  if (s->message_op == ws::Opcode::kText && !ws::ValidUtf8(s->message)) {
+    Close(s, ws::CloseCode::kInvalidPayload, "a text message that is not UTF-8");
+    return false;
+  }
+  ++counts.messages;
+  bool over = false;
+  {
+    std::lock_guard<std::mutex> lock(s->mu);
+    s->inbox_bytes += s->message.size();
+    over = s->inbox_bytes > limits_.max_queued;
+    s->inbox.emplace_back(s->message_op, std::move(s->message));
+  }
+  s->message = std::string();
+  if (over) {
+    Close(s, ws::CloseCode::kPolicy, "messages arrive faster than the session runs them");
+    return false;
+  }
   Schedule(s);
   return true;
 }
 
-// The whole frames in s->in: control frames answered, data frames assembled into messages for its turns.
-// Returns the bytes they took.
+// The whole frames in s->in: control frames answered, data frames assembled into messages for its
+// turns. Returns the bytes they took.
 size_t LiveHub::ReadFrames(const std::shared_ptr<Session>& s) {
   size_t at = 0;
   while (s->reading) {
     ws::Frame f;
     ws::FrameError error;
     const size_t room = limits_.max_message - (s->in_message ? s->message.size() : 0);
-    const ws::Parsed p = ws::ParseClientFrame(std::span<char>(s->in.data() + at, s->in.size() - at), room, f, error);
+    const ws::Parsed p =
+        ws::ParseClientFrame(std::span<char>(s->in.data() + at, s->in.size() - at), room, f, error);
     if (p == ws::Parsed::kNeedMore) break;
     if (p == ws::Parsed::kError) {
       if (error.code == ws::CloseCode::kTooBig) ++counts.closed_too_big;
@@ -317,7 +330,9 @@ size_t LiveHub::ReadFrames(const std::shared_ptr<Session>& s) {
     if (f.opcode == ws::Opcode::kClose) {
       // The client's close: answered with its code (or none), then the socket ends.
       ws::CloseCode code = ws::CloseCode::kNormal;
-      if (f.payload.size() >= 2) code = static_cast<ws::CloseCode>(static_cast<uint8_t>(f.payload[0]) << 8 | static_cast<uint8_t>(f.payload[1]));
+      if (f.payload.size() >= 2)
+        code = static_cast<ws::CloseCode>(static_cast<uint8_t>(f.payload[0]) << 8 |
+                                          static_cast<uint8_t>(f.payload[1]));
       Close(s, code, "");
       break;
     }
@@ -333,7 +348,8 @@ void LiveHub::OnReadable(const std::shared_ptr<Session>& s) {
     const ssize_t n = ::recv(s->fd, chunk, sizeof chunk, MSG_DONTWAIT);
     if (n > 0) {
       if (s->reading) s->in.append(chunk, static_cast<size_t>(n));
-      if (s->in.size() >= limits_.max_message + 64) break;  // Enough for a frame: parse before reading more.
+      if (s->in.size() >= limits_.max_message + 64)
+        break;  // Enough for a frame: parse before reading more.
       continue;
     }
     if (n < 0 && errno == EINTR) continue;
@@ -372,7 +388,8 @@ void LiveHub::Queue(Session& s, std::string bytes, bool frame) {
 void LiveHub::Flush(Session& s) {
   while (!s.out.empty()) {
     const std::string& b = s.out.front().bytes;
-    const ssize_t n = ::send(s.fd, b.data() + s.out_sent, b.size() - s.out_sent, MSG_DONTWAIT | MSG_NOSIGNAL);
+    const ssize_t n =
+        ::send(s.fd, b.data() + s.out_sent, b.size() - s.out_sent, MSG_DONTWAIT | MSG_NOSIGNAL);
     if (n > 0) {
       s.out_sent += static_cast<size_t>(n);
       s.queued -= static_cast<size_t>(n);
@@ -417,7 +434,8 @@ void LiveHub::Arm(Session& s) {
   epoll_ctl(epoll_, EPOLL_CTL_MOD, s.fd, &ev);
 }
 
-void LiveHub::Close(const std::shared_ptr<Session>& s, ws::CloseCode code, std::string_view reason) {
+void LiveHub::Close(const std::shared_ptr<Session>& s, ws::CloseCode code,
+                    std::string_view reason) {
   {
     std::lock_guard<std::mutex> lock(s->mu);
     if (s->closing) return;
@@ -483,7 +501,8 @@ void LiveHub::Work() {
   while (true) {
     const Clock::time_point now = Clock::now();
     while (!timers_.empty() && timers_.begin()->first <= now) {
-      if (auto s = timers_.begin()->second.lock(); s && !s->scheduled.exchange(true)) ready_.push_back(std::move(s));
+      if (auto s = timers_.begin()->second.lock(); s && !s->scheduled.exchange(true))
+        ready_.push_back(std::move(s));
       timers_.erase(timers_.begin());
     }
     if (!ready_.empty()) {
@@ -499,7 +518,8 @@ void LiveHub::Work() {
     if (timers_.empty()) {
       cv_.wait(lock);
     } else {
-      // A copy: wait_until reads its time point after the wait, when another worker may have erased the timer.
+      // A copy: wait_until reads its time point after the wait, when another worker may have erased
+      // the timer.
       const Clock::time_point next = timers_.begin()->first;
       cv_.wait_until(lock, next);
     }
@@ -537,8 +557,10 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
     Apply(s, out);
   }
   for (auto& [op, message] : inbox) {
-    if (op == ws::Opcode::kText) s->handler->OnText(message, out);
-    else s->handler->OnBinary(message, out);
+    if (op == ws::Opcode::kText)
+      s->handler->OnText(message, out);
+    else
+      s->handler->OnBinary(message, out);
     Apply(s, out);
     if (!s->reading) break;
   }
@@ -573,7 +595,8 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
   }
   s->cpu += ThreadCpuSeconds() - cpu_start + s->handler->TakeHelperCpu();
   if (s->cpu > s->cpu_budget) {
-    Close(s, ws::CloseCode::kPolicy, "the session spent the CPU it may (" + std::to_string(s->cpu_budget) + " s)");
+    Close(s, ws::CloseCode::kPolicy,
+          "the session spent the CPU it may (" + std::to_string(s->cpu_budget) + " s)");
   }
   if (at != Clock::time_point{}) ScheduleAt(s, at);
   s->scheduled = false;

@@ -13,4 +13,9 @@ std::stop_token StopOf(const httplib::Request& req) {
   return running ? running->stop : std::stop_token();
 }
 
+HelperCpu* HelperCpuOf(const httplib::Request& req) {
+  const Running* running = RunningOf(req);
+  return running ? running->helper_cpu : nullptr;
+}
+
 }  // namespace facespace::api

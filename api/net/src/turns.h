@@ -1,21 +1,21 @@
-// Fair shares of the workers (issue 61): which waiting request runs next, by client address. An address
-// runs at most `per_address` requests at once; once only a quarter of the workers is left, only an address
-// that runs nothing may start one, so a request from an address running nothing always finds a worker
-// however many others keep theirs busy; when a request ends, the waiting address running fewest goes first.
-// Requests that need a scarce resource (the renderer's GL contexts, the speech decoder) pass its gate first:
-// at most the gate's cap of them hold a worker or a place in an address's line at once; the rest wait at
-// the gate, in order, holding no worker (96 renders from six addresses had held every worker while they
-// waited for 2 contexts).
-// Not thread-safe: the front holds its lock around every call.
+// Fair shares of the workers (issue 61): which waiting request runs next, by client address. An
+// address runs at most `per_address` requests at once; once only a quarter of the workers is left,
+// only an address that runs nothing may start one, so a request from an address running nothing
+// always finds a worker however many others keep theirs busy; when a request ends, the waiting
+// address running fewest goes first. Requests that need a scarce resource (the renderer's GL
+// contexts, the speech decoder) pass its gate first: at most the gate's cap of them hold a worker
+// or a place in an address's line at once; the rest wait at the gate, in order, holding no worker
+// (96 renders from six addresses had held every worker while they waited for 2 contexts). Not
+// thread-safe: the front holds its lock around every call.
 #pragma once
 
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
-#include <utility>
 #include <deque>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace facespace::api::http {
@@ -29,8 +29,8 @@ class FairTurns {
     for (size_t cap : gate_caps) gates_.push_back({std::max<size_t>(1, cap), 0, {}});
   }
 
-  // A request of `address` is whole (`gate`: the scarce resource it needs, or -1): true when it starts now
-  // (counted as running), false when it waits.
+  // A request of `address` is whole (`gate`: the scarce resource it needs, or -1): true when it
+  // starts now (counted as running), false when it waits.
   bool Arrive(const std::string& address, Item item, int gate = -1) {
     if (Gate* g = GateOf(gate)) {
       if (g->in >= g->cap) {
@@ -42,8 +42,8 @@ class FairTurns {
     return Admit(address, item);
   }
 
-  // One of `address`'s requests ended (`gate`: the one it passed, or -1): those that start now are appended
-  // to `start` (counted as running).
+  // One of `address`'s requests ended (`gate`: the one it passed, or -1): those that start now are
+  // appended to `start` (counted as running).
   void End(const std::string& address, int gate, std::vector<Item>& start) {
     Release(address, start);
     Gate* g = GateOf(gate);
@@ -81,7 +81,8 @@ class FairTurns {
     while (waiting_ > 0) {  // The scan over the addresses only when some request waits its turn.
       Address* next = nullptr;
       for (auto& [name, a] : addresses_) {
-        if (!a.waiting.empty() && MayStart(a.running) && (!next || a.running < next->running)) next = &a;
+        if (!a.waiting.empty() && MayStart(a.running) && (!next || a.running < next->running))
+          next = &a;
       }
       if (!next) return;
       start.push_back(next->waiting.front());
@@ -100,8 +101,14 @@ class FairTurns {
     size_t cap = 1, in = 0;  // Requests past it, on a worker or in an address's line.
     std::deque<std::pair<std::string, Item>> waiting;
   };
-  Gate* GateOf(int gate) { return gate >= 0 && static_cast<size_t>(gate) < gates_.size() ? &gates_[static_cast<size_t>(gate)] : nullptr; }
-  bool MayStart(size_t running) const { return running < per_address_ && (running == 0 || running_ + workers_ / 4 < workers_); }
+  Gate* GateOf(int gate) {
+    return gate >= 0 && static_cast<size_t>(gate) < gates_.size()
+               ? &gates_[static_cast<size_t>(gate)]
+               : nullptr;
+  }
+  bool MayStart(size_t running) const {
+    return running < per_address_ && (running == 0 || running_ + workers_ / 4 < workers_);
+  }
 
   size_t workers_, per_address_;
   size_t running_ = 0;

@@ -12,7 +12,10 @@ namespace {
 
 constexpr char kGuid[] = "258EAFA5-E914-47DA-95CA-C5AB0DC85B11";
 
-bool IsBase64(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' || c == '/'; }
+bool IsBase64(char c) {
+  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' ||
+         c == '/';
+}
 
 bool Known(uint8_t opcode) { return opcode <= 2 || (opcode >= 8 && opcode <= 10); }
 
@@ -27,12 +30,14 @@ Parsed ParseClientFrame(std::span<char> buf, size_t max_payload, Frame& frame, F
     error = {code, reason};
     return Parsed::kError;
   };
-  if (b[0] & 0x70) return fail(CloseCode::kProtocolError, "reserved bits set (no extension was agreed)");
+  if (b[0] & 0x70)
+    return fail(CloseCode::kProtocolError, "reserved bits set (no extension was agreed)");
   if (!Known(opcode)) return fail(CloseCode::kProtocolError, "unknown opcode");
   if (!(b[1] & 0x80)) return fail(CloseCode::kProtocolError, "a client frame must be masked");
   uint64_t length = b[1] & 0x7F;
   size_t at = 2;
-  if (opcode >= 8 && (!fin || length > 125)) return fail(CloseCode::kProtocolError, "a control frame must be whole and at most 125 bytes");
+  if (opcode >= 8 && (!fin || length > 125))
+    return fail(CloseCode::kProtocolError, "a control frame must be whole and at most 125 bytes");
   if (length == 126) {
     if (buf.size() < 4) return Parsed::kNeedMore;
     length = static_cast<uint64_t>(b[2]) << 8 | b[3];
@@ -50,7 +55,8 @@ Parsed ParseClientFrame(std::span<char> buf, size_t max_payload, Frame& frame, F
   if (buf.size() < at + 4 + length) return Parsed::kNeedMore;
   const uint8_t* mask = b + at;
   char* payload = buf.data() + at + 4;
-  for (size_t i = 0; i < length; ++i) payload[i] = static_cast<char>(payload[i] ^ static_cast<char>(mask[i & 3]));
+  for (size_t i = 0; i < length; ++i)
+    payload[i] = static_cast<char>(payload[i] ^ static_cast<char>(mask[i & 3]));
   frame.fin = fin;
   frame.opcode = static_cast<Opcode>(opcode);
   frame.payload = std::string_view(payload, static_cast<size_t>(length));
@@ -105,7 +111,9 @@ std::string CloseFrame(CloseCode code, std::string_view reason) {
   payload.push_back(static_cast<char>(static_cast<uint16_t>(code) >> 8));
   payload.push_back(static_cast<char>(static_cast<uint16_t>(code)));
   size_t keep = std::min<size_t>(reason.size(), 123);
-  while (keep > 0 && keep < reason.size() && (static_cast<unsigned char>(reason[keep]) & 0xC0) == 0x80) --keep;  // Whole characters.
+  while (keep > 0 && keep < reason.size() &&
+         (static_cast<unsigned char>(reason[keep]) & 0xC0) == 0x80)
+    --keep;  // Whole characters.
   payload.append(reason.substr(0, keep));
   return ServerFrame(Opcode::kClose, payload);
 }

@@ -12,7 +12,8 @@ namespace facespace {
 namespace {
 
 // The keys around `time` and the fraction between them.
-void Locate(const std::vector<float>& times, float time, size_t& k0, size_t& k1, float& u, float& dt) {
+void Locate(const std::vector<float>& times, float time, size_t& k0, size_t& k1, float& u,
+            float& dt) {
   if (times.size() == 1 || time <= times.front()) {
     k0 = k1 = 0;
     u = 0.0f;
@@ -46,11 +47,13 @@ void Sample(const AnimationSampler& s, float time, bool rotation, float* out) {
   } else if (s.interpolation == Interpolation::kBezier) {
     const float* seg = &s.values[k0 * stride];
     for (size_t i = 0; i < c; ++i) {
-      out[i] = static_cast<float>(BezierYAtX(0.0, seg[c + i], seg[3 * c + i], 1.0, v0[i], seg[2 * c + i], seg[4 * c + i], seg[5 * c + i], u));
+      out[i] = static_cast<float>(BezierYAtX(0.0, seg[c + i], seg[3 * c + i], 1.0, v0[i],
+                                             seg[2 * c + i], seg[4 * c + i], seg[5 * c + i], u));
     }
   } else if (!cubic) {
     if (rotation) {
-      const std::array<float, 4> q = Slerp({v0[0], v0[1], v0[2], v0[3]}, {v1[0], v1[1], v1[2], v1[3]}, u);
+      const std::array<float, 4> q =
+          Slerp({v0[0], v0[1], v0[2], v0[3]}, {v1[0], v1[1], v1[2], v1[3]}, u);
       std::copy(q.begin(), q.end(), out);
       return;
     }
@@ -60,8 +63,10 @@ void Sample(const AnimationSampler& s, float time, bool rotation, float* out) {
     const float* b0 = &s.values[k0 * stride + 2 * c];
     const float* a1 = &s.values[k1 * stride];
     const float u2 = u * u, u3 = u2 * u;
-    const float h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
-    for (size_t i = 0; i < c; ++i) out[i] = h00 * v0[i] + h10 * dt * b0[i] + h01 * v1[i] + h11 * dt * a1[i];
+    const float h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2,
+                h11 = u3 - u2;
+    for (size_t i = 0; i < c; ++i)
+      out[i] = h00 * v0[i] + h10 * dt * b0[i] + h01 * v1[i] + h11 * dt * a1[i];
   }
   if (rotation) {
     const std::array<float, 4> q = NormalizedQuaternion({out[0], out[1], out[2], out[3]});
@@ -78,9 +83,15 @@ AnimationSampler LinearSampler(const AnimationSampler& s, float per_second) {
   out.interpolation = Interpolation::kLinear;
   std::vector<float> value(s.components);
   for (size_t k = 0; k < s.times.size(); ++k) {
-    const size_t steps = k + 1 < s.times.size() ? std::max<size_t>(1, static_cast<size_t>(std::ceil((s.times[k + 1] - s.times[k]) * per_second))) : 1;
+    const size_t steps =
+        k + 1 < s.times.size()
+            ? std::max<size_t>(
+                  1, static_cast<size_t>(std::ceil((s.times[k + 1] - s.times[k]) * per_second)))
+            : 1;
     for (size_t i = 0; i < steps; ++i) {
-      const float t = i == 0 ? s.times[k] : s.times[k] + (s.times[k + 1] - s.times[k]) * static_cast<float>(i) / static_cast<float>(steps);
+      const float t = i == 0 ? s.times[k]
+                             : s.times[k] + (s.times[k + 1] - s.times[k]) * static_cast<float>(i) /
+                                                static_cast<float>(steps);
       Sample(s, t, false, value.data());  // kBezier drives weights.
       out.times.push_back(t);
       out.values.insert(out.values.end(), value.begin(), value.end());
@@ -89,9 +100,10 @@ AnimationSampler LinearSampler(const AnimationSampler& s, float per_second) {
   return out;
 }
 
-Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose, std::vector<float>& shape_weights,
-                  std::vector<uint8_t>& shape_set) {
-  if (clip < 0 || static_cast<size_t>(clip) >= rig.animations.size()) return InvalidArgument("no animation " + std::to_string(clip));
+Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose,
+                  std::vector<float>& shape_weights, std::vector<uint8_t>& shape_set) {
+  if (clip < 0 || static_cast<size_t>(clip) >= rig.animations.size())
+    return InvalidArgument("no animation " + std::to_string(clip));
   if (!std::isfinite(time)) return InvalidArgument("time must be finite");
   const AnimationInfo& a = rig.animations[clip];
   if (wrap == ClipWrap::kLoop && a.duration > 0.0f) {
@@ -130,7 +142,8 @@ float LayerWeight(const Rig& rig, const ClipLayer& layer) {
   const float t = layer.time, duration = rig.animations[layer.clip].duration;
   if (layer.wrap == ClipWrap::kClamp && t < 0.0f) return 0.0f;  // Not started.
   if (layer.fade_in > 0.0f) w *= std::clamp(t / layer.fade_in, 0.0f, 1.0f);
-  if (layer.wrap == ClipWrap::kClamp && layer.fade_out > 0.0f) w *= std::clamp((duration - t) / layer.fade_out, 0.0f, 1.0f);
+  if (layer.wrap == ClipWrap::kClamp && layer.fade_out > 0.0f)
+    w *= std::clamp((duration - t) / layer.fade_out, 0.0f, 1.0f);
   return w;
 }
 
@@ -143,7 +156,8 @@ bool ComponentAtRest(const AnimationSampler& s, size_t c, float rest) {
   for (size_t k = 0; k < s.times.size(); ++k) {
     const float* key = &s.values[k * s.key_stride()];
     if (key[s.value_offset() + c] != rest) return false;
-    if (bezier && (key[2 * n + c] != rest || key[4 * n + c] != rest || key[5 * n + c] != rest)) return false;
+    if (bezier && (key[2 * n + c] != rest || key[4 * n + c] != rest || key[5 * n + c] != rest))
+      return false;
   }
   return true;
 }
@@ -151,8 +165,11 @@ bool ComponentAtRest(const AnimationSampler& s, size_t c, float rest) {
 // True when every key of a TRS channel holds the node's rest value.
 bool ChannelAtRest(const AnimationSampler& s, const Transform& rest, ChannelPath path) {
   const size_t n = s.components;
-  const float* want = path == ChannelPath::kTranslation ? rest.translation.data() : path == ChannelPath::kScale ? rest.scale.data() : rest.rotation.data();
-  if (s.interpolation == Interpolation::kBezier || (path == ChannelPath::kRotation) != (n == 4)) return false;
+  const float* want = path == ChannelPath::kTranslation ? rest.translation.data()
+                      : path == ChannelPath::kScale     ? rest.scale.data()
+                                                        : rest.rotation.data();
+  if (s.interpolation == Interpolation::kBezier || (path == ChannelPath::kRotation) != (n == 4))
+    return false;
   for (size_t k = 0; k < s.times.size(); ++k) {
     const float* v = &s.values[k * s.key_stride() + s.value_offset()];
     if (path == ChannelPath::kRotation) {
@@ -180,16 +197,31 @@ std::vector<uint8_t> MaskedNodes(const Rig& rig, const std::vector<int>& mask) {
   return in;
 }
 
+// A layer's clip sampled at its time over the rest pose, and the nodes its mask lets through.
+struct SampledLayer {
+  Pose pose;
+  std::vector<float> weights;
+  std::vector<uint8_t> set;
+  std::vector<uint8_t> in;
+};
+
+Status SampleLayer(const Rig& rig, const Pose& rest, const ClipLayer& layer, SampledLayer& out) {
+  out.pose = rest;
+  if (Status s =
+          SampleClip(rig, layer.clip, layer.time, layer.wrap, out.pose, out.weights, out.set);
+      !s.ok())
+    return s;
+  out.in = MaskedNodes(rig, layer.mask);
+  return Status::Ok();
+}
+
 // Puts an overlay over `pose` and the weights: what its clip moves, towards the clip by its weight.
-Status Overlay(const Rig& rig, const Pose& rest, const ClipLayer& layer, Pose& pose, std::vector<float>& shape_weights,
-               std::vector<uint8_t>& shape_set) {
+Status Overlay(const Rig& rig, const Pose& rest, const ClipLayer& layer, Pose& pose,
+               std::vector<float>& shape_weights, std::vector<uint8_t>& shape_set) {
   const float w = LayerWeight(rig, layer);
   if (w <= 0.0f) return Status::Ok();
-  Pose sampled = rest;
-  std::vector<float> sw;
-  std::vector<uint8_t> ss;
-  if (Status s = SampleClip(rig, layer.clip, layer.time, layer.wrap, sampled, sw, ss); !s.ok()) return s;
-  const std::vector<uint8_t> in = MaskedNodes(rig, layer.mask);
+  SampledLayer l;
+  if (Status s = SampleLayer(rig, rest, layer, l); !s.ok()) return s;
   const AnimationInfo& a = rig.animations[layer.clip];
   for (const AnimationChannel& ch : a.channel_data) {
     const AnimationSampler& smp = a.sampler_data[ch.sampler];
@@ -199,14 +231,14 @@ Status Overlay(const Rig& rig, const Pose& rest, const ClipLayer& layer, Pose& p
         const uint32_t shape = mesh.target_shapes[k];
         if (ComponentAtRest(smp, k, 0.0f)) continue;
         const float below = shape_set[shape] ? shape_weights[shape] : 0.0f;
-        shape_weights[shape] = below + w * (sw[shape] - below);
+        shape_weights[shape] = below + w * (l.weights[shape] - below);
         shape_set[shape] = 1;
       }
       continue;
     }
-    if (!in[ch.node] || ChannelAtRest(smp, rest.local[ch.node], ch.path)) continue;
+    if (!l.in[ch.node] || ChannelAtRest(smp, rest.local[ch.node], ch.path)) continue;
     Transform& t = pose.local[ch.node];
-    const Transform& o = sampled.local[ch.node];
+    const Transform& o = l.pose.local[ch.node];
     if (pose.from_matrix[ch.node]) t = rest.local[ch.node];
     pose.from_matrix[ch.node] = 0;
     switch (ch.path) {
@@ -229,13 +261,15 @@ bool ClipMovesJoints(const Rig& rig, int clip) {
   const AnimationInfo& a = rig.animations[clip];
   const Pose rest = RestPose(rig);
   for (const AnimationChannel& ch : a.channel_data) {
-    if (ch.path != ChannelPath::kWeights && !ChannelAtRest(a.sampler_data[ch.sampler], rest.local[ch.node], ch.path)) return true;
+    if (ch.path != ChannelPath::kWeights &&
+        !ChannelAtRest(a.sampler_data[ch.sampler], rest.local[ch.node], ch.path))
+      return true;
   }
   return false;
 }
 
-Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose, std::vector<float>& shape_weights,
-                  std::vector<uint8_t>& shape_set) {
+Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
+                  std::vector<float>& shape_weights, std::vector<uint8_t>& shape_set) {
   const size_t n = rig.nodes.size();
   const Pose rest = RestPose(rig);
   std::vector<float> total(n, 0.0f);
@@ -243,23 +277,22 @@ Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
   for (Transform& t : acc) t = {{0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0}};
   std::vector<float> wsum(rig.shapes.size(), 0.0f), wtotal(rig.shapes.size(), 0.0f);
   for (const ClipLayer& layer : layers) {
-    if (!(layer.weight >= 0.0f) || !std::isfinite(layer.weight)) return InvalidArgument("blend weights must be finite and >= 0");
-    if (!std::isfinite(layer.fade_in) || !std::isfinite(layer.fade_out) || layer.fade_in < 0.0f || layer.fade_out < 0.0f) {
+    if (!(layer.weight >= 0.0f) || !std::isfinite(layer.weight))
+      return InvalidArgument("blend weights must be finite and >= 0");
+    if (!std::isfinite(layer.fade_in) || !std::isfinite(layer.fade_out) || layer.fade_in < 0.0f ||
+        layer.fade_out < 0.0f) {
       return InvalidArgument("fades must be finite and >= 0");
     }
     if (layer.overlay) continue;
-    Pose sampled = rest;
-    std::vector<float> sw;
-    std::vector<uint8_t> ss;
-    if (Status s = SampleClip(rig, layer.clip, layer.time, layer.wrap, sampled, sw, ss); !s.ok()) return s;
-    const std::vector<uint8_t> in = MaskedNodes(rig, layer.mask);
+    SampledLayer l;
+    if (Status s = SampleLayer(rig, rest, layer, l); !s.ok()) return s;
     for (size_t i = 0; i < n; ++i) {
-      if (!in[i] || layer.weight == 0.0f) continue;
-      const Transform& t = sampled.local[i];
+      if (!l.in[i] || layer.weight == 0.0f) continue;
+      const Transform& t = l.pose.local[i];
       Transform& a = acc[i];
       // Align the quaternion with the first one accumulated (same hemisphere).
-      const float dot = a.rotation[0] * t.rotation[0] + a.rotation[1] * t.rotation[1] + a.rotation[2] * t.rotation[2] +
-                        a.rotation[3] * t.rotation[3];
+      const float dot = a.rotation[0] * t.rotation[0] + a.rotation[1] * t.rotation[1] +
+                        a.rotation[2] * t.rotation[2] + a.rotation[3] * t.rotation[3];
       const float sign = dot < 0.0f ? -1.0f : 1.0f;
       for (int c = 0; c < 3; ++c) {
         a.translation[c] += layer.weight * t.translation[c];
@@ -267,11 +300,11 @@ Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
       }
       for (int c = 0; c < 4; ++c) a.rotation[c] += sign * layer.weight * t.rotation[c];
       total[i] += layer.weight;
-      if (sampled.from_matrix[i] == 0) pose.from_matrix[i] = 0;
+      if (l.pose.from_matrix[i] == 0) pose.from_matrix[i] = 0;
     }
-    for (size_t s = 0; s < ss.size(); ++s) {
-      if (!ss[s]) continue;
-      wsum[s] += layer.weight * sw[s];
+    for (size_t s = 0; s < l.set.size(); ++s) {
+      if (!l.set[s]) continue;
+      wsum[s] += layer.weight * l.weights[s];
       wtotal[s] += layer.weight;
     }
   }

@@ -8,7 +8,8 @@ Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport*
   const size_t n = rig.shapes.size();
   if (n == 0) return FailedPrecondition("the rig has no shapes");
   std::vector<size_t> first(rig.primitives.size() + 1, 0);
-  for (size_t p = 0; p < rig.primitives.size(); ++p) first[p + 1] = first[p] + rig.primitives[p].vertex_count();
+  for (size_t p = 0; p < rig.primitives.size(); ++p)
+    first[p + 1] = first[p] + rig.primitives[p].vertex_count();
   // Rows: the vertices any shape moves.
   std::vector<int32_t> row(first.back(), -1);
   ShapeBasis basis;
@@ -37,7 +38,8 @@ Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport*
         const SparseTarget& st = p.targets[t];
         for (size_t k = 0; k < st.indices.size(); ++k) {
           const size_t r = static_cast<size_t>(row[first[pi] + st.indices[k]]);
-          for (int c = 0; c < 3; ++c) D(3 * r + c, m.target_shapes[t]) += st.position_deltas[3 * k + c];
+          for (int c = 0; c < 3; ++c)
+            D(3 * r + c, m.target_shapes[t]) += st.position_deltas[3 * k + c];
         }
       }
     }
@@ -68,7 +70,8 @@ Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport*
     worst = max_vertex_error(&rms);
   }
   basis.components = svd.matrixU().leftCols(k).cast<float>();
-  basis.coefficients = (sigma.head(k).asDiagonal() * svd.matrixV().leftCols(k).transpose()).cast<float>();
+  basis.coefficients =
+      (sigma.head(k).asDiagonal() * svd.matrixV().leftCols(k).transpose()).cast<float>();
   basis.singular_values.assign(sigma.data(), sigma.data() + sigma.size());
   if (report) {
     report->shapes = n;
@@ -104,11 +107,15 @@ QuantizeReport QuantizeDisplacements(const Rig& rig, int bits, Rig* dequantized)
           const double d = st.position_deltas[3 * k + c];
           const double q = std::round(d / scale * levels) / levels * scale;
           e2 += (q - d) * (q - d);
-          if (dequantized) dequantized->primitives[pi].targets[t].position_deltas[3 * k + c] = static_cast<float>(q);
+          if (dequantized)
+            dequantized->primitives[pi].targets[t].position_deltas[3 * k + c] =
+                static_cast<float>(q);
         }
         r.max_error = std::max(r.max_error, std::sqrt(e2));
       }
-      if (dequantized) FinalizeTarget(dequantized->primitives[pi].targets[t]);  // Its move lengths are the new deltas'.
+      if (dequantized)
+        FinalizeTarget(
+            dequantized->primitives[pi].targets[t]);  // Its move lengths are the new deltas'.
     }
   }
   return r;

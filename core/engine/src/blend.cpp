@@ -1,12 +1,12 @@
 #include "facespace/engine/blend.h"
 
-#include "facespace/engine/skeleton.h"
-#include "facespace/engine/normal_matrix.h"
-
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <cstring>
+#include <limits>
+
+#include "facespace/engine/normal_matrix.h"
+#include "facespace/engine/skeleton.h"
 
 namespace facespace {
 
@@ -24,8 +24,8 @@ const std::vector<float>& Deltas(const SparseTarget& t, TargetChannel c) {
 // The vertices the targets of non-zero weight move, each once, in the order first met, into
 // `moved`; `mark` is scratch of zeros, grown to `vertex_count` and left all zero. Indices must be
 // below vertex_count (a BlendShapeJob that ran over the same targets checked them).
-void MovedVertices(std::span<const SparseTarget> targets, std::span<const float> weights, size_t vertex_count,
-                   std::vector<uint8_t>& mark, std::vector<uint32_t>& moved) {
+void MovedVertices(std::span<const SparseTarget> targets, std::span<const float> weights,
+                   size_t vertex_count, std::vector<uint8_t>& mark, std::vector<uint32_t>& moved) {
   if (mark.size() < vertex_count) mark.resize(vertex_count, 0);
   moved.clear();
   for (size_t t = 0; t < targets.size() && t < weights.size(); ++t) {
@@ -197,17 +197,28 @@ bool HasChannel(const SparseTarget& t, TargetChannel c) {
 
 }  // namespace
 
+bool BlendChannel(std::span<const float> base, std::span<const float> weights,
+                  std::span<const SparseTarget> targets, TargetChannel channel, size_t stride,
+                  std::span<float> out) {
+  const BlendShapeJob job{.base = base,
+                          .weights = weights,
+                          .targets = targets,
+                          .channel = channel,
+                          .stride = stride,
+                          .out = out};
+  return job.Run();
+}
+
 namespace {
 
 // Morphs one primitive into `bp`: positions, then fresh normals and tangents.
-bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_active, const BlendOptions& options,
-                    BlendedPrimitive& bp, BlendContext& ctx) {
+bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_active,
+                    const BlendOptions& options, BlendedPrimitive& bp, BlendContext& ctx) {
   bp.positions.resize(p.positions.size());
   bp.normals.resize(p.normals.size());
   bp.tangents.resize(p.tangents.size());
-  BlendShapeJob job{.base = p.positions, .weights = tw, .targets = p.targets,
-                    .channel = TargetChannel::kPosition, .stride = 3, .out = bp.positions};
-  if (!job.Run()) return false;
+  if (!BlendChannel(p.positions, tw, p.targets, TargetChannel::kPosition, 3, bp.positions))
+    return false;
   BlendTexcoords(p.texcoords, tw, p.targets, bp.texcoords);
   if (!any_active) {
     std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
@@ -227,9 +238,8 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
   // A blend job starts from a copy of its base: the base is copied here only where no job runs.
   std::span<const uint32_t> changed = ctx.moved;  // Vertices whose normal may differ.
   if (can_blend_normals) {
-    BlendShapeJob nj{.base = p.normals, .weights = tw, .targets = p.targets,
-                     .channel = TargetChannel::kNormal, .stride = 3, .out = bp.normals};
-    if (!nj.Run()) std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
+    if (!BlendChannel(p.normals, tw, p.targets, TargetChannel::kNormal, 3, bp.normals))
+      std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
     for (uint32_t v : ctx.moved) Normalize3(&bp.normals[3 * static_cast<size_t>(v)]);
   } else {
     std::copy(p.normals.begin(), p.normals.end(), bp.normals.begin());
@@ -238,9 +248,8 @@ bool MorphPrimitive(const Primitive& p, std::span<const float> tw, bool any_acti
   }
   if (p.tangents.empty()) return true;
   if (can_blend_tangents) {
-    BlendShapeJob tj{.base = p.tangents, .weights = tw, .targets = p.targets,
-                     .channel = TargetChannel::kTangent, .stride = 4, .out = bp.tangents};
-    if (!tj.Run()) std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
+    if (!BlendChannel(p.tangents, tw, p.targets, TargetChannel::kTangent, 4, bp.tangents))
+      std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
   } else {
     std::copy(p.tangents.begin(), p.tangents.end(), bp.tangents.begin());
   }
@@ -304,16 +313,18 @@ void EffectiveWeights(const Rig& rig, std::span<const float> weights, std::span<
   for (const Flip& f : rig.flips) {
     const size_t n = f.entries.size();
     const float w = std::clamp(weights[f.shape], 0.0f, 1.0f);
-    const size_t pick = std::min(static_cast<size_t>(static_cast<float>(n + 1) * w), n);  // 0: none.
+    const size_t pick =
+        std::min(static_cast<size_t>(static_cast<float>(n + 1) * w), n);  // 0: none.
     if (pick > 0) out[f.entries[pick - 1].first] += f.entries[pick - 1].second;
   }
 }
 
-void BlendTexcoords(std::span<const float> base, std::span<const float> weights, std::span<const SparseTarget> targets,
-                    std::vector<float>& out) {
+void BlendTexcoords(std::span<const float> base, std::span<const float> weights,
+                    std::span<const SparseTarget> targets, std::vector<float>& out) {
   out.clear();
   bool any = false;
-  for (size_t t = 0; t < targets.size() && t < weights.size() && !any; ++t) any = weights[t] != 0.0f && !targets[t].texcoord_indices.empty();
+  for (size_t t = 0; t < targets.size() && t < weights.size() && !any; ++t)
+    any = weights[t] != 0.0f && !targets[t].texcoord_indices.empty();
   if (!any || base.empty()) return;
   out.assign(base.begin(), base.end());
   for (size_t t = 0; t < targets.size() && t < weights.size(); ++t) {
@@ -328,19 +339,23 @@ void BlendTexcoords(std::span<const float> base, std::span<const float> weights,
   }
 }
 
-void MorphedMaterialColors(const Rig& rig, std::span<const float> weights, std::vector<std::array<float, 4>>& out) {
+void MorphedMaterialColors(const Rig& rig, std::span<const float> weights,
+                           std::vector<std::array<float, 4>>& out) {
   out.clear();
   bool any = false;
-  for (size_t s = 0; s < rig.shapes.size() && s < weights.size() && !any; ++s) any = weights[s] != 0.0f && !rig.shapes[s].material_morphs.empty();
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size() && !any; ++s)
+    any = weights[s] != 0.0f && !rig.shapes[s].material_morphs.empty();
   if (!any) return;
   // Per material: multiply and add factors of the diffuse colour and of the texture tint.
   const size_t n = rig.materials.size();
-  std::vector<std::array<float, 4>> mul_d(n, {1, 1, 1, 1}), add_d(n, {0, 0, 0, 0}), mul_t(n, {1, 1, 1, 1}), add_t(n, {0, 0, 0, 0});
+  std::vector<std::array<float, 4>> mul_d(n, {1, 1, 1, 1}), add_d(n, {0, 0, 0, 0}),
+      mul_t(n, {1, 1, 1, 1}), add_t(n, {0, 0, 0, 0});
   for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
     if (weights[s] == 0.0f) continue;
     for (const MaterialMorph& m : rig.shapes[s].material_morphs) {
       const float w = weights[s] * m.factor;
-      const size_t first = m.material < 0 ? 0 : static_cast<size_t>(m.material), last = m.material < 0 ? n : std::min(n, first + 1);
+      const size_t first = m.material < 0 ? 0 : static_cast<size_t>(m.material),
+                   last = m.material < 0 ? n : std::min(n, first + 1);
       for (size_t i = first; i < last; ++i) {
         for (int c = 0; c < 4; ++c) {
           if (m.add) {
@@ -357,7 +372,9 @@ void MorphedMaterialColors(const Rig& rig, std::span<const float> weights, std::
   out.resize(n);
   for (size_t i = 0; i < n; ++i) {
     const auto& base = rig.materials[i].base_color_factor;
-    for (int c = 0; c < 4; ++c) out[i][c] = std::clamp((base[c] * mul_d[i][c] + add_d[i][c]) * (mul_t[i][c] + add_t[i][c]), 0.0f, 1.0f);
+    for (int c = 0; c < 4; ++c)
+      out[i][c] = std::clamp((base[c] * mul_d[i][c] + add_d[i][c]) * (mul_t[i][c] + add_t[i][c]),
+                             0.0f, 1.0f);
   }
 }
 
@@ -376,7 +393,8 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
     EffectiveWeights(rig, given, ctx.effective);
     weights = ctx.effective;
   }
-  if (options.pose && options.pose->local.size() != rig.nodes.size()) return InvalidArgument("the pose does not match the rig");
+  if (options.pose && options.pose->local.size() != rig.nodes.size())
+    return InvalidArgument("the pose does not match the rig");
   MorphedMaterialColors(rig, weights, out.material_colors);
   WorldMatricesInto(rig, options.pose, out.node_world, ctx.node_order);
   out.posed = options.pose != nullptr;
@@ -385,7 +403,8 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
   std::vector<int>& mesh_node = ctx.mesh_node;
   mesh_node.assign(rig.meshes.size(), -1);
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
-    if (rig.nodes[i].mesh >= 0 && mesh_node[rig.nodes[i].mesh] < 0) mesh_node[rig.nodes[i].mesh] = static_cast<int>(i);
+    if (rig.nodes[i].mesh >= 0 && mesh_node[rig.nodes[i].mesh] < 0)
+      mesh_node[rig.nodes[i].mesh] = static_cast<int>(i);
   }
   const std::array<float, 16> identity{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
@@ -414,13 +433,22 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
       bp.normals.resize(morphed.normals.size());
       bp.tangents.resize(morphed.tangents.size());
       bp.texcoords.swap(morphed.texcoords);  // UVs do not skin.
-      SkinningJob skin{.joint_matrices = ctx.joint_matrices, .influences = p.influences, .joints = p.joints,
-                       .weights = p.joint_weights, .in_positions = morphed.positions, .in_normals = morphed.normals,
-                       .in_tangents = morphed.tangents, .out_positions = bp.positions, .out_normals = bp.normals,
-                       .out_tangents = bp.tangents,
-                       .joint_dual_quaternions = options.dual_quaternion ? std::span<const float>(ctx.joint_dual_quaternions)
-                                                                         : std::span<const float>()};
-      if (!skin.Run()) return InvalidArgument("primitive " + std::to_string(pi) + " cannot be skinned");
+      SkinningJob skin{
+          .joint_matrices = ctx.joint_matrices,
+          .influences = p.influences,
+          .joints = p.joints,
+          .weights = p.joint_weights,
+          .in_positions = morphed.positions,
+          .in_normals = morphed.normals,
+          .in_tangents = morphed.tangents,
+          .out_positions = bp.positions,
+          .out_normals = bp.normals,
+          .out_tangents = bp.tangents,
+          .joint_dual_quaternions = options.dual_quaternion
+                                        ? std::span<const float>(ctx.joint_dual_quaternions)
+                                        : std::span<const float>()};
+      if (!skin.Run())
+        return InvalidArgument("primitive " + std::to_string(pi) + " cannot be skinned");
       bp.morphed_positions.assign(morphed.positions.begin(), morphed.positions.end());
     }
   }

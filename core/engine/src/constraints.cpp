@@ -52,7 +52,8 @@ Vec3 Decompose(const Eigen::Matrix3f& m, const Vec3& before) {
     r.z() = std::atan2(m(1, 0), m(0, 0));
   }
   const auto err = [&](const Vec3& v) {
-    return std::fabs(DiffAngle(v.x(), before.x())) + std::fabs(DiffAngle(v.y(), before.y())) + std::fabs(DiffAngle(v.z(), before.z()));
+    return std::fabs(DiffAngle(v.x(), before.x())) + std::fabs(DiffAngle(v.y(), before.y())) +
+           std::fabs(DiffAngle(v.z(), before.z()));
   };
   float best = err(r);
   Vec3 out = r;
@@ -71,7 +72,8 @@ Vec3 Decompose(const Eigen::Matrix3f& m, const Vec3& before) {
 }
 
 Quat EulerXyz(const Vec3& a) {
-  return Quat(Eigen::AngleAxisf(a.z(), Vec3::UnitZ())) * Quat(Eigen::AngleAxisf(a.y(), Vec3::UnitY())) *
+  return Quat(Eigen::AngleAxisf(a.z(), Vec3::UnitZ())) *
+         Quat(Eigen::AngleAxisf(a.y(), Vec3::UnitY())) *
          Quat(Eigen::AngleAxisf(a.x(), Vec3::UnitX()));
 }
 
@@ -104,7 +106,9 @@ class Solver {
       grant_rot_[g.node] = Quat::Identity().slerp(g.ratio, q);
     }
     if (g.translation) {
-      const Vec3 t = g.local || !granted_[s] ? Vec3(anim_t_[s] - Vec3(rig_.nodes[s].translation.data())) : grant_t_[s];
+      const Vec3 t = g.local || !granted_[s]
+                         ? Vec3(anim_t_[s] - Vec3(rig_.nodes[s].translation.data()))
+                         : grant_t_[s];
       grant_t_[g.node] = t * g.ratio;
     }
     granted_[g.node] = 1;
@@ -154,7 +158,8 @@ class Solver {
   Vec3 Position(int node) const { return world_[node].translation(); }
 
   Eigen::Affine3f Local(int i) const {
-    if (pose_.from_matrix[i]) return Eigen::Affine3f(Eigen::Map<const Eigen::Matrix4f>(rig_.nodes[i].matrix.data()));
+    if (pose_.from_matrix[i])
+      return Eigen::Affine3f(Eigen::Map<const Eigen::Matrix4f>(rig_.nodes[i].matrix.data()));
     const Transform& l = pose_.local[i];
     Eigen::Affine3f m = Eigen::Affine3f::Identity();
     m.translate(anim_t_[i] + grant_t_[i]);
@@ -181,24 +186,31 @@ class Solver {
       const IkLink& l = c.links[k];
       if (l.node == c.effector) continue;
       const Eigen::Affine3f inv = world_[l.node].inverse();
-      const Vec3 to_goal = (inv * goal).normalized(), to_effector = (inv * Position(c.effector)).normalized();
+      const Vec3 to_goal = (inv * goal).normalized(),
+                 to_effector = (inv * Position(c.effector)).normalized();
       if (!to_goal.allFinite() || !to_effector.allFinite()) continue;
-      const float angle = std::min(std::acos(std::clamp(to_effector.dot(to_goal), -1.0f, 1.0f)), c.max_angle);
+      const float angle =
+          std::min(std::acos(std::clamp(to_effector.dot(to_goal), -1.0f, 1.0f)), c.max_angle);
       int axis = -1;  // A link limited to one axis turns in its plane.
       if (l.limited) {
         for (int a = 0; a < 3 && axis < 0; ++a) {
           const int b = (a + 1) % 3, d = (a + 2) % 3;
-          if ((l.lower[a] != 0 || l.upper[a] != 0) && (l.lower[b] == 0 || l.upper[b] == 0) && (l.lower[d] == 0 || l.upper[d] == 0)) axis = a;
+          if ((l.lower[a] != 0 || l.upper[a] != 0) && (l.lower[b] == 0 || l.upper[b] == 0) &&
+              (l.lower[d] == 0 || l.upper[d] == 0))
+            axis = a;
         }
       }
       if (axis >= 0) {
         const Vec3 ax = Vec3::Unit(axis);
-        const float d1 = (Eigen::AngleAxisf(angle, ax) * to_effector).dot(to_goal), d2 = (Eigen::AngleAxisf(-angle, ax) * to_effector).dot(to_goal);
+        const float d1 = (Eigen::AngleAxisf(angle, ax) * to_effector).dot(to_goal),
+                    d2 = (Eigen::AngleAxisf(-angle, ax) * to_effector).dot(to_goal);
         float a = plane[k] + (d1 > d2 ? angle : -angle);
         const float lo = l.lower[axis], hi = l.upper[axis];
         if (it == 0 && (a < lo || a > hi)) {
-          if (-a > lo && -a < hi) a = -a;
-          else if (std::fabs(0.5f * (lo + hi) - a) > std::fabs(0.5f * (lo + hi) + a)) a = -a;
+          if (-a > lo && -a < hi)
+            a = -a;
+          else if (std::fabs(0.5f * (lo + hi) - a) > std::fabs(0.5f * (lo + hi) + a))
+            a = -a;
         }
         a = std::clamp(a, lo, hi);
         plane[k] = a;
@@ -209,11 +221,15 @@ class Solver {
       if (angle * 180.0f / kPi < 1e-3f) continue;
       const Vec3 cross = to_effector.cross(to_goal);
       if (cross.norm() < 1e-12f) continue;
-      Quat r = ik_rot_[l.node] * anim_rot_[l.node] * Quat(Eigen::AngleAxisf(angle, cross.normalized()));
+      Quat r =
+          ik_rot_[l.node] * anim_rot_[l.node] * Quat(Eigen::AngleAxisf(angle, cross.normalized()));
       if (l.limited) {
         const Vec3 e = Decompose(r.normalized().toRotationMatrix(), prev[k]);
         Vec3 clamped = e.cwiseMax(Vec3(l.lower.data())).cwiseMin(Vec3(l.upper.data()));
-        clamped = (clamped - prev[k]).cwiseMax(Vec3::Constant(-c.max_angle)).cwiseMin(Vec3::Constant(c.max_angle)) + prev[k];
+        clamped = (clamped - prev[k])
+                      .cwiseMax(Vec3::Constant(-c.max_angle))
+                      .cwiseMin(Vec3::Constant(c.max_angle)) +
+                  prev[k];
         prev[k] = clamped;
         r = EulerXyz(clamped);
       }
@@ -263,7 +279,8 @@ AnimationInfo ClipWithConstraintsSolved(const Rig& rig, int clip, float per_seco
   out.duration = a.duration;
   out.has_weights = a.has_weights;
   for (const AnimationChannel& ch : a.channel_data) {
-    if (ch.path != ChannelPath::kWeights && ch.path != ChannelPath::kScale && moved[ch.node]) continue;
+    if (ch.path != ChannelPath::kWeights && ch.path != ChannelPath::kScale && moved[ch.node])
+      continue;
     out.channel_data.push_back({static_cast<int>(out.sampler_data.size()), ch.node, ch.path});
     out.sampler_data.push_back(a.sampler_data[ch.sampler]);
   }
@@ -291,9 +308,11 @@ AnimationInfo ClipWithConstraintsSolved(const Rig& rig, int clip, float per_seco
   for (size_t k = 0; k < nodes.size(); ++k) {
     t[k].components = 3;
     r[k].components = 4;
-    out.channel_data.push_back({static_cast<int>(out.sampler_data.size()), nodes[k], ChannelPath::kTranslation});
+    out.channel_data.push_back(
+        {static_cast<int>(out.sampler_data.size()), nodes[k], ChannelPath::kTranslation});
     out.sampler_data.push_back(std::move(t[k]));
-    out.channel_data.push_back({static_cast<int>(out.sampler_data.size()), nodes[k], ChannelPath::kRotation});
+    out.channel_data.push_back(
+        {static_cast<int>(out.sampler_data.size()), nodes[k], ChannelPath::kRotation});
     out.sampler_data.push_back(std::move(r[k]));
   }
   out.channels = out.channel_data.size();

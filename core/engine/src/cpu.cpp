@@ -12,24 +12,14 @@ double Seconds(clockid_t clock) {
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
 
-thread_local HelperCpuSink t_sink = nullptr;
-thread_local void* t_context = nullptr;
-
 }  // namespace
 
 double ThreadCpuSeconds() { return Seconds(CLOCK_THREAD_CPUTIME_ID); }
 
-// The kernel's per-thread CPU clock of `tid` (what pthread_getcpuclockid makes: the id inverted, shifted
-// by 3, with the per-thread bit and CPUCLOCK_SCHED).
-double ThreadCpuSeconds(pid_t tid) { return Seconds(static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 6u)); }
-
-void ChargeHelperCpu(double seconds) {
-  if (t_sink && seconds > 0) t_sink(t_context, seconds);
-}
-
-void SetHelperCpuSink(HelperCpuSink sink, void* context) {
-  t_sink = sink;
-  t_context = context;
+// The kernel's per-thread CPU clock of `tid` (what pthread_getcpuclockid makes: the id inverted,
+// shifted by 3, with the per-thread bit and CPUCLOCK_SCHED).
+double ThreadCpuSeconds(pid_t tid) {
+  return Seconds(static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 6u));
 }
 
 }  // namespace facespace

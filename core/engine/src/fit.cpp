@@ -11,7 +11,8 @@ namespace {
 
 // Projects w onto {lo <= w <= hi} (and sum w <= 1 when asked), by bisection on the
 // multiplier of the sum constraint.
-void Project(Eigen::VectorXd& w, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi, bool sum_le_one) {
+void Project(Eigen::VectorXd& w, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
+             bool sum_le_one) {
   auto clamp = [&](double shift) {
     Eigen::VectorXd p = w.array() - shift;
     return Eigen::VectorXd(p.cwiseMax(lo).cwiseMin(hi));
@@ -21,7 +22,8 @@ void Project(Eigen::VectorXd& w, const Eigen::VectorXd& lo, const Eigen::VectorX
     w = p;
     return;
   }
-  double a = 0.0, b = std::max(1.0, w.cwiseAbs().maxCoeff() + hi.cwiseAbs().maxCoeff() + lo.cwiseAbs().maxCoeff());
+  double a = 0.0, b = std::max(1.0, w.cwiseAbs().maxCoeff() + hi.cwiseAbs().maxCoeff() +
+                                        lo.cwiseAbs().maxCoeff());
   for (int i = 0; i < 100; ++i) {
     const double m = 0.5 * (a + b);
     (clamp(m).sum() > 1.0 ? a : b) = m;
@@ -29,18 +31,19 @@ void Project(Eigen::VectorXd& w, const Eigen::VectorXd& lo, const Eigen::VectorX
   w = clamp(b);
 }
 
-// The target fits the rig (its primitives and vertices, finite) and the rig can be fitted (no skin): its
-// coordinates' count, or the error.
+// The target fits the rig (its primitives and vertices, finite) and the rig can be fitted (no
+// skin): its coordinates' count, or the error.
 Result<size_t> CheckTarget(const Rig& rig, std::span<const std::vector<float>> target) {
   if (target.size() != rig.primitives.size()) {
-    return InvalidArgument("the target has " + std::to_string(target.size()) + " primitives, the rig " +
-                           std::to_string(rig.primitives.size()));
+    return InvalidArgument("the target has " + std::to_string(target.size()) +
+                           " primitives, the rig " + std::to_string(rig.primitives.size()));
   }
   size_t rows = 0;
   for (size_t p = 0; p < target.size(); ++p) {
     if (target[p].size() != rig.primitives[p].positions.size()) {
-      return InvalidArgument("primitive " + std::to_string(p) + " of the target has " + std::to_string(target[p].size() / 3) +
-                             " vertices, the rig's has " + std::to_string(rig.primitives[p].vertex_count()));
+      return InvalidArgument("primitive " + std::to_string(p) + " of the target has " +
+                             std::to_string(target[p].size() / 3) + " vertices, the rig's has " +
+                             std::to_string(rig.primitives[p].vertex_count()));
     }
     for (float f : target[p]) {
       if (!std::isfinite(f)) return InvalidArgument("the target has a non-finite coordinate");
@@ -48,14 +51,16 @@ Result<size_t> CheckTarget(const Rig& rig, std::span<const std::vector<float>> t
     rows += target[p].size();
   }
   for (const Mesh& m : rig.meshes) {
-    if (m.skin >= 0) return FailedPrecondition("fitting a skinned rig is not supported: give an unskinned rig");
+    if (m.skin >= 0)
+      return FailedPrecondition("fitting a skinned rig is not supported: give an unskinned rig");
   }
   return rows;
 }
 
 // D: every primitive's sparse deltas stacked (3V x S).
 Eigen::MatrixXd StackedDeltas(const Rig& rig, size_t rows) {
-  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(rig.shapes.size()));
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows),
+                                                static_cast<Eigen::Index>(rig.shapes.size()));
   size_t row0 = 0;
   for (const Primitive& prim : rig.primitives) {
     const Mesh& mesh = rig.meshes[prim.mesh];
@@ -63,7 +68,8 @@ Eigen::MatrixXd StackedDeltas(const Rig& rig, size_t rows) {
       const SparseTarget& st = prim.targets[t];
       const uint32_t s = mesh.target_shapes[t];
       for (size_t k = 0; k < st.indices.size(); ++k) {
-        for (int c = 0; c < 3; ++c) dense(row0 + 3 * st.indices[k] + c, s) += st.position_deltas[3 * k + c];
+        for (int c = 0; c < 3; ++c)
+          dense(row0 + 3 * st.indices[k] + c, s) += st.position_deltas[3 * k + c];
       }
     }
     row0 += prim.positions.size();
@@ -79,7 +85,10 @@ std::vector<double> VertexWorldScale(const Rig& rig, size_t vertices) {
   std::vector<double> scale;
   scale.reserve(vertices);
   for (size_t p = 0; p < rig.primitives.size() && p < world.size(); ++p) {
-    const double det = Eigen::Map<const Eigen::Matrix4f>(world[p].data()).topLeftCorner<3, 3>().cast<double>().determinant();
+    const double det = Eigen::Map<const Eigen::Matrix4f>(world[p].data())
+                           .topLeftCorner<3, 3>()
+                           .cast<double>()
+                           .determinant();
     scale.insert(scale.end(), rig.primitives[p].vertex_count(), std::cbrt(std::fabs(det)));
   }
   scale.resize(vertices, 1.0);
@@ -88,7 +97,8 @@ std::vector<double> VertexWorldScale(const Rig& rig, size_t vertices) {
 
 }  // namespace
 
-Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>> target, const FitOptions& options) {
+Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>> target,
+                             const FitOptions& options) {
   const Result<size_t> checked = CheckTarget(rig, target);
   if (!checked.ok()) return checked.status();
   const size_t rows = checked.value();
@@ -117,11 +127,14 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
     lo(s) = options.bounded ? rig.shapes[s].min : -1e30;
     hi(s) = options.bounded ? rig.shapes[s].max : 1e30;
   }
-  const double lipschitz = std::max(1e-30, dtd.selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff());
+  const double lipschitz =
+      std::max(1e-30, dtd.selfadjointView<Eigen::Lower>().eigenvalues().maxCoeff());
   // min |D w - (target - base)|^2 (projected gradient when constrained).
   auto solve = [&](const Eigen::Matrix3Xd& t) {
     Eigen::VectorXd b(rows);
-    for (size_t i = 0; i < rows / 3; ++i) b.segment<3>(3 * i) = t.col(static_cast<Eigen::Index>(i)) - base.col(static_cast<Eigen::Index>(i));
+    for (size_t i = 0; i < rows / 3; ++i)
+      b.segment<3>(3 * i) =
+          t.col(static_cast<Eigen::Index>(i)) - base.col(static_cast<Eigen::Index>(i));
     const Eigen::VectorXd dtb = dense.transpose() * b;
     Eigen::VectorXd w = ldlt.solve(dtb);
     if (options.bounded || options.sum_at_most_one) {
@@ -145,7 +158,8 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
     for (int round = 0; round < 30 && !options.stop.stop_requested(); ++round) {
       Eigen::Matrix3Xd fitted = base;
       const Eigen::VectorXd dw = dense * w;
-      for (size_t i = 0; i < rows / 3; ++i) fitted.col(static_cast<Eigen::Index>(i)) += dw.segment<3>(3 * i);
+      for (size_t i = 0; i < rows / 3; ++i)
+        fitted.col(static_cast<Eigen::Index>(i)) += dw.segment<3>(3 * i);
       const Eigen::Vector3d cf = fitted.rowwise().mean(), ct = original.rowwise().mean();
       const Eigen::Matrix3d h = (original.colwise() - ct) * (fitted.colwise() - cf).transpose();
       Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -167,7 +181,9 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
   }
   if (options.stop.stop_requested()) return Cancelled();
   Eigen::VectorXd b(rows);
-  for (size_t i = 0; i < rows / 3; ++i) b.segment<3>(3 * i) = tgt.col(static_cast<Eigen::Index>(i)) - base.col(static_cast<Eigen::Index>(i));
+  for (size_t i = 0; i < rows / 3; ++i)
+    b.segment<3>(3 * i) =
+        tgt.col(static_cast<Eigen::Index>(i)) - base.col(static_cast<Eigen::Index>(i));
   // A weight past its range by round-off alone (an exact round trip gives -4.6e-08 for a shape at
   // 0) is put on the bound: no warning for a point that is inside the authored space. The residual
   // below is of these weights.
@@ -176,7 +192,8 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
     const double lo_s = rig.shapes[s].min, hi_s = rig.shapes[s].max;
     if (w(s) < lo_s && w(s) > lo_s - kRoundOff) w(s) = lo_s;
     if (w(s) > hi_s && w(s) < hi_s + kRoundOff) w(s) = hi_s;
-    if (std::fabs(w(s)) < kRoundOff) w(s) = 0.0;  // A weight of round-off alone (1e-7) is none: the answer lists what acts.
+    if (std::fabs(w(s)) < kRoundOff)
+      w(s) = 0.0;  // A weight of round-off alone (1e-7) is none: the answer lists what acts.
   }
   r.weights.resize(S);
   for (size_t s = 0; s < S; ++s) r.weights[s] = static_cast<float>(w(s));

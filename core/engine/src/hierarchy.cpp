@@ -26,7 +26,8 @@ Pose RestPose(const Rig& rig) {
   return p;
 }
 
-void WorldMatricesInto(const Rig& rig, const Pose* pose, std::vector<std::array<float, 16>>& world, std::vector<int>& order) {
+void WorldMatricesInto(const Rig& rig, const Pose* pose, std::vector<std::array<float, 16>>& world,
+                       std::vector<int>& order) {
   const size_t n = rig.nodes.size();
   world.resize(n);
   order.clear();
@@ -40,13 +41,16 @@ void WorldMatricesInto(const Rig& rig, const Pose* pose, std::vector<std::array<
     if (pose ? pose->from_matrix[i] != 0 : node.has_matrix) {
       local = node.matrix;
     } else {
-      local = ComposeTrs(pose ? pose->local[i] : Transform{node.translation, NormalizedQuaternion(node.rotation), node.scale});
+      local = ComposeTrs(
+          pose ? pose->local[i]
+               : Transform{node.translation, NormalizedQuaternion(node.rotation), node.scale});
     }
     if (node.parent < 0) {
       world[i] = local;
     } else {
       Eigen::Map<Eigen::Matrix4f>(world[i].data()) =
-          Eigen::Map<const Eigen::Matrix4f>(world[node.parent].data()) * Eigen::Map<const Eigen::Matrix4f>(local.data());
+          Eigen::Map<const Eigen::Matrix4f>(world[node.parent].data()) *
+          Eigen::Map<const Eigen::Matrix4f>(local.data());
     }
     for (int c : node.children) order.push_back(c);
   }
@@ -59,7 +63,8 @@ std::vector<std::array<float, 16>> WorldMatrices(const Rig& rig, const Pose& pos
   return world;
 }
 
-void JointMatrices(const Rig& rig, int skin, std::span<const std::array<float, 16>> world, std::vector<float>& out) {
+void JointMatrices(const Rig& rig, int skin, std::span<const std::array<float, 16>> world,
+                   std::vector<float>& out) {
   const Skin& s = rig.skins[skin];
   out.resize(16 * s.joints.size());
   for (size_t j = 0; j < s.joints.size(); ++j) {

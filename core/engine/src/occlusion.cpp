@@ -1,5 +1,5 @@
-// Occlusion baked from depth maps (occlusion.h): per direction, the mesh rasterised orthographically
-// keeping the nearest depth toward the sky, then each vertex looked up.
+// Occlusion baked from depth maps (occlusion.h): per direction, the mesh rasterised
+// orthographically keeping the nearest depth toward the sky, then each vertex looked up.
 #include "facespace/engine/occlusion.h"
 
 #include <algorithm>
@@ -36,8 +36,8 @@ struct DepthMap {
 };
 
 // The mesh's vertices in the frame (u, v, d) of one direction, as pixel x, pixel y and depth.
-void Project(std::span<const float> positions, const float u[3], const float v[3], const float d[3], const DepthMap& map,
-             std::span<float> projected) {
+void Project(std::span<const float> positions, const float u[3], const float v[3], const float d[3],
+             const DepthMap& map, std::span<float> projected) {
   for (size_t i = 0; i < positions.size() / 3; ++i) {
     const float* p = &positions[3 * i];
     projected[3 * i] = (Dot(p, u) - map.x0) * map.scale;
@@ -51,10 +51,14 @@ void RasterizeTriangle(const float* a, const float* b, const float* c, DepthMap&
   const float area = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
   if (!(std::abs(area) > 1e-12f)) return;
   const float n = static_cast<float>(map.size - 1);
-  const int x_lo = static_cast<int>(std::clamp(std::ceil(std::min({a[0], b[0], c[0]}) - 0.5f), 0.0f, n));
-  const int x_hi = static_cast<int>(std::clamp(std::floor(std::max({a[0], b[0], c[0]}) - 0.5f), -1.0f, n));
-  const int y_lo = static_cast<int>(std::clamp(std::ceil(std::min({a[1], b[1], c[1]}) - 0.5f), 0.0f, n));
-  const int y_hi = static_cast<int>(std::clamp(std::floor(std::max({a[1], b[1], c[1]}) - 0.5f), -1.0f, n));
+  const int x_lo =
+      static_cast<int>(std::clamp(std::ceil(std::min({a[0], b[0], c[0]}) - 0.5f), 0.0f, n));
+  const int x_hi =
+      static_cast<int>(std::clamp(std::floor(std::max({a[0], b[0], c[0]}) - 0.5f), -1.0f, n));
+  const int y_lo =
+      static_cast<int>(std::clamp(std::ceil(std::min({a[1], b[1], c[1]}) - 0.5f), 0.0f, n));
+  const int y_hi =
+      static_cast<int>(std::clamp(std::floor(std::max({a[1], b[1], c[1]}) - 0.5f), -1.0f, n));
   const float inv = 1.0f / area;
   for (int y = y_lo; y <= y_hi; ++y) {
     for (int x = x_lo; x <= x_hi; ++x) {
@@ -63,7 +67,8 @@ void RasterizeTriangle(const float* a, const float* b, const float* c, DepthMap&
       const float wb = ((c[0] - px) * (a[1] - py) - (c[1] - py) * (a[0] - px)) * inv;
       const float wc = 1.0f - wa - wb;
       if (wa < 0 || wb < 0 || wc < 0) continue;
-      float& z = map.depth[static_cast<size_t>(y) * static_cast<size_t>(map.size) + static_cast<size_t>(x)];
+      float& z = map.depth[static_cast<size_t>(y) * static_cast<size_t>(map.size) +
+                           static_cast<size_t>(x)];
       z = std::max(z, wa * a[2] + wb * b[2] + wc * c[2]);
     }
   }
@@ -72,12 +77,17 @@ void RasterizeTriangle(const float* a, const float* b, const float* c, DepthMap&
 // Whether a point at pixel (x, y) and depth z sees the sky: the share of the four pixels around it
 // with nothing more than `bias` nearer the sky (a soft edge rather than a pixel's staircase).
 float Visible(const DepthMap& map, float x, float y, float z, float bias) {
-  const int x0 = static_cast<int>(std::floor(x - 0.5f)), y0 = static_cast<int>(std::floor(y - 0.5f));
+  const int x0 = static_cast<int>(std::floor(x - 0.5f)),
+            y0 = static_cast<int>(std::floor(y - 0.5f));
   float seen = 0;
   for (int j = y0; j <= y0 + 1; ++j) {
     for (int i = x0; i <= x0 + 1; ++i) {
       const bool outside = i < 0 || j < 0 || i >= map.size || j >= map.size;
-      seen += outside || z >= map.depth[static_cast<size_t>(j) * static_cast<size_t>(map.size) + static_cast<size_t>(i)] - bias ? 0.25f : 0.0f;
+      seen += outside || z >= map.depth[static_cast<size_t>(j) * static_cast<size_t>(map.size) +
+                                        static_cast<size_t>(i)] -
+                                  bias
+                  ? 0.25f
+                  : 0.0f;
     }
   }
   return seen;
@@ -104,21 +114,23 @@ float LightVisibility(float ao, const float b[3], const float n[3], const float 
 
 namespace {
 
-// Per vertex: the cosine-weighted visible and total shares of the hemisphere, and the visible directions'
-// sum (world space): kSums floats.
+// Per vertex: the cosine-weighted visible and total shares of the hemisphere, and the visible
+// directions' sum (world space): kSums floats.
 constexpr size_t kSums = 5;
 
 // One direction's looks: each vertex facing it, pushed 1.5 pixels out along its normal (so its own
 // surface does not hide it), is looked up in the map.
-void Accumulate(const DepthMap& map, std::span<const float> projected, std::span<const float> normals, const float u[3], const float v[3],
+void Accumulate(const DepthMap& map, std::span<const float> projected,
+                std::span<const float> normals, const float u[3], const float v[3],
                 const float d[3], std::span<float> sums) {
   const float pixel = 1.0f / map.scale;
   for (size_t i = 0; i < projected.size() / 3; ++i) {
     const float* n = &normals[3 * i];
     const float cos = Dot(n, d);
     if (!(cos > 0.0f)) continue;
-    const float seen = Visible(map, projected[3 * i] + 1.5f * Dot(n, u), projected[3 * i + 1] + 1.5f * Dot(n, v),
-                               projected[3 * i + 2] + 1.5f * pixel * cos, pixel);
+    const float seen =
+        Visible(map, projected[3 * i] + 1.5f * Dot(n, u), projected[3 * i + 1] + 1.5f * Dot(n, v),
+                projected[3 * i + 2] + 1.5f * pixel * cos, pixel);
     float* s = &sums[kSums * i];
     s[0] += seen * cos;
     s[1] += cos;
@@ -127,7 +139,8 @@ void Accumulate(const DepthMap& map, std::span<const float> projected, std::span
 }
 
 // The sums into kOcclusionFloats per vertex: ao, and b in the normal's frame.
-void Finish(std::span<const float> sums, std::span<const float> normals, int directions, std::span<float> out) {
+void Finish(std::span<const float> sums, std::span<const float> normals, int directions,
+            std::span<float> out) {
   for (size_t i = 0; i < sums.size() / kSums; ++i) {
     const float* s = &sums[kSums * i];
     const float* n = &normals[3 * i];
@@ -146,7 +159,8 @@ void Finish(std::span<const float> sums, std::span<const float> normals, int dir
 // The centre and radius of a sphere around every position.
 void Bounds(std::span<const float> positions, float center[3], float& radius) {
   float lo[3], hi[3];
-  for (int c = 0; c < 3; ++c) lo[c] = std::numeric_limits<float>::max(), hi[c] = std::numeric_limits<float>::lowest();
+  for (int c = 0; c < 3; ++c)
+    lo[c] = std::numeric_limits<float>::max(), hi[c] = std::numeric_limits<float>::lowest();
   for (size_t i = 0; i < positions.size(); ++i) {
     lo[i % 3] = std::min(lo[i % 3], positions[i]);
     hi[i % 3] = std::max(hi[i % 3], positions[i]);
@@ -161,10 +175,13 @@ void Bounds(std::span<const float> positions, float center[3], float& radius) {
 
 }  // namespace
 
-void BakeOcclusion(std::span<const float> positions, std::span<const float> normals, std::span<const uint32_t> triangles,
-                   const OcclusionSettings& settings, std::span<float> out) {
+void BakeOcclusion(std::span<const float> positions, std::span<const float> normals,
+                   std::span<const uint32_t> triangles, const OcclusionSettings& settings,
+                   std::span<float> out) {
   const size_t count = positions.size() / 3;
-  for (size_t i = 0; i < count; ++i) std::copy(kOpenOcclusion.begin(), kOpenOcclusion.end(), out.begin() + static_cast<long>(kOcclusionFloats * i));
+  for (size_t i = 0; i < count; ++i)
+    std::copy(kOpenOcclusion.begin(), kOpenOcclusion.end(),
+              out.begin() + static_cast<long>(kOcclusionFloats * i));
   if (triangles.size() < 3 || count == 0 || normals.size() < positions.size()) return;
   float center[3], radius;
   Bounds(positions, center, radius);
@@ -184,7 +201,8 @@ void BakeOcclusion(std::span<const float> positions, std::span<const float> norm
     Project(positions, u, v, d, map, projected);
     for (size_t t = 0; t + 2 < triangles.size(); t += 3) {
       if (triangles[t] >= count || triangles[t + 1] >= count || triangles[t + 2] >= count) continue;
-      RasterizeTriangle(&projected[3 * triangles[t]], &projected[3 * triangles[t + 1]], &projected[3 * triangles[t + 2]], map);
+      RasterizeTriangle(&projected[3 * triangles[t]], &projected[3 * triangles[t + 1]],
+                        &projected[3 * triangles[t + 2]], map);
     }
     Accumulate(map, projected, normals, u, v, d, sums);
   }
@@ -194,11 +212,15 @@ void BakeOcclusion(std::span<const float> positions, std::span<const float> norm
 namespace {
 
 // One primitive's vertices and normals in scene space appended to `positions` and `normals`.
-void AppendScene(const Primitive& p, const BlendedPrimitive& b, std::vector<float>& positions, std::vector<float>& normals) {
-  for (size_t v = 0; v < p.vertex_count() && 3 * v + 2 < b.positions.size() && 3 * v + 2 < b.normals.size(); ++v) {
+void AppendScene(const Primitive& p, const BlendedPrimitive& b, std::vector<float>& positions,
+                 std::vector<float>& normals) {
+  for (size_t v = 0;
+       v < p.vertex_count() && 3 * v + 2 < b.positions.size() && 3 * v + 2 < b.normals.size();
+       ++v) {
     float q[3], n[3];
     TransformPoint(b.world, &b.positions[3 * v], q);
-    TransformPoint(b.world, &b.normals[3 * v], n, 0.0f);  // Uniform scale: the normal's direction stays.
+    TransformPoint(b.world, &b.normals[3 * v], n,
+                   0.0f);  // Uniform scale: the normal's direction stays.
     Normalize3(n);
     positions.insert(positions.end(), q, q + 3);
     normals.insert(normals.end(), n, n + 3);
@@ -207,7 +229,8 @@ void AppendScene(const Primitive& p, const BlendedPrimitive& b, std::vector<floa
 
 }  // namespace
 
-RigOcclusion BakeRigOcclusion(const Rig& rig, const BlendedRig& rest, const OcclusionSettings& settings) {
+RigOcclusion BakeRigOcclusion(const Rig& rig, const BlendedRig& rest,
+                              const OcclusionSettings& settings) {
   std::vector<float> positions, normals;
   std::vector<uint32_t> triangles;
   std::vector<size_t> first(rig.primitives.size() + 1, 0);
@@ -216,11 +239,13 @@ RigOcclusion BakeRigOcclusion(const Rig& rig, const BlendedRig& rest, const Occl
     const uint32_t base = static_cast<uint32_t>(positions.size() / 3);
     AppendScene(p, rest.primitives[i], positions, normals);
     first[i + 1] = positions.size() / 3;
-    const bool overlay = p.material >= 0 && static_cast<size_t>(p.material) < rig.materials.size() &&
+    const bool overlay = p.material >= 0 &&
+                         static_cast<size_t>(p.material) < rig.materials.size() &&
                          rig.materials[static_cast<size_t>(p.material)].alpha_mode == "BLEND";
     if (p.mode != PrimitiveMode::kTriangles || overlay) continue;
     const uint32_t count = static_cast<uint32_t>(first[i + 1] - first[i]);
-    for (uint32_t index : p.indices) triangles.push_back(index < count ? base + index : UINT32_MAX);  // The bake skips these.
+    for (uint32_t index : p.indices)
+      triangles.push_back(index < count ? base + index : UINT32_MAX);  // The bake skips these.
   }
   for (size_t i = rest.primitives.size(); i < rig.primitives.size(); ++i) first[i + 1] = first[i];
   std::vector<float> baked(kOcclusionFloats * (positions.size() / 3));
@@ -228,7 +253,8 @@ RigOcclusion BakeRigOcclusion(const Rig& rig, const BlendedRig& rest, const Occl
   RigOcclusion out(rig.primitives.size());
   for (size_t i = 0; i < rig.primitives.size(); ++i) {
     if (rig.primitives[i].mode != PrimitiveMode::kTriangles) continue;
-    out[i].assign(baked.begin() + static_cast<long>(kOcclusionFloats * first[i]), baked.begin() + static_cast<long>(kOcclusionFloats * first[i + 1]));
+    out[i].assign(baked.begin() + static_cast<long>(kOcclusionFloats * first[i]),
+                  baked.begin() + static_cast<long>(kOcclusionFloats * first[i + 1]));
   }
   return out;
 }

@@ -1,11 +1,10 @@
 #include "facespace/engine/rig.h"
 
-#include <cstring>
-
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <cmath>
 #include <cctype>
+#include <cmath>
+#include <cstring>
 
 #include "facespace/engine/blend.h"
 #include "facespace/engine/skeleton.h"
@@ -57,7 +56,8 @@ SparseTarget RemapTarget(const SparseTarget& t, std::span<const int32_t> remap) 
     const int32_t v = remap[t.texcoord_indices[k]];
     if (v < 0) continue;
     out.texcoord_indices.push_back(static_cast<uint32_t>(v));
-    out.texcoord_deltas.insert(out.texcoord_deltas.end(), {t.texcoord_deltas[2 * k], t.texcoord_deltas[2 * k + 1]});
+    out.texcoord_deltas.insert(out.texcoord_deltas.end(),
+                               {t.texcoord_deltas[2 * k], t.texcoord_deltas[2 * k + 1]});
   }
   FinalizeTarget(out);
   return out;
@@ -72,7 +72,9 @@ void GroupAdjacencyBySource(Primitive& p) {
   // Each vertex's group: the rank of its source number among the distinct ones.
   std::vector<uint32_t> order(n), group(n);
   for (uint32_t v = 0; v < n; ++v) order[v] = v;
-  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return p.source_vertices[a] < p.source_vertices[b]; });
+  std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+    return p.source_vertices[a] < p.source_vertices[b];
+  });
   uint32_t groups = 0;
   for (size_t k = 0; k < n; ++k) {
     if (k > 0 && p.source_vertices[order[k]] != p.source_vertices[order[k - 1]]) ++groups;
@@ -82,7 +84,8 @@ void GroupAdjacencyBySource(Primitive& p) {
   std::vector<std::vector<uint32_t>> faces_of(n == 0 ? 0 : groups + 1);
   for (uint32_t v = 0; v < n; ++v) {
     std::vector<uint32_t>& f = faces_of[group[v]];
-    f.insert(f.end(), p.vertex_faces.begin() + p.vertex_face_offsets[v], p.vertex_faces.begin() + p.vertex_face_offsets[v + 1]);
+    f.insert(f.end(), p.vertex_faces.begin() + p.vertex_face_offsets[v],
+             p.vertex_faces.begin() + p.vertex_face_offsets[v + 1]);
   }
   for (std::vector<uint32_t>& f : faces_of) {
     std::sort(f.begin(), f.end());
@@ -103,7 +106,8 @@ void GroupAdjacencyBySource(Primitive& p) {
 void FinalizePrimitive(Primitive& p) {
   const size_t n = p.vertex_count();
   const size_t faces = p.triangle_count();
-  const bool grouped = p.source_vertices.size() == n && n > 0 && p.mode == PrimitiveMode::kTriangles;
+  const bool grouped =
+      p.source_vertices.size() == n && n > 0 && p.mode == PrimitiveMode::kTriangles;
   // Vertex -> face adjacency, CSR.
   p.vertex_face_offsets.assign(n + 1, 0);
   for (size_t f = 0; f < faces * 3; ++f) p.vertex_face_offsets[p.indices[f] + 1]++;
@@ -219,9 +223,9 @@ Sided SideOf(const std::string& name) {
     bool suffix;
   };
   static const Marker kMarkers[] = {
-      {"_L", "_R", true},   {"_l", "_r", true},       {".L", ".R", true},  {".l", ".r", true},
-      {"Left", "Right", true}, {"_left", "_right", true}, {"l-", "r-", false}, {"L_", "R_", false},
-      {"left", "right", true},
+      {"_L", "_R", true},  {"_l", "_r", true},      {".L", ".R", true},
+      {".l", ".r", true},  {"Left", "Right", true}, {"_left", "_right", true},
+      {"l-", "r-", false}, {"L_", "R_", false},     {"left", "right", true},
   };
   auto ends = [](const std::string& s, const std::string& t) {
     return s.size() > t.size() && s.compare(s.size() - t.size(), t.size(), t) == 0;
@@ -232,8 +236,10 @@ Sided SideOf(const std::string& name) {
   for (const Marker& m : kMarkers) {
     for (int side : {-1, 1}) {
       const std::string tag = side < 0 ? m.left : m.right;
-      if (m.suffix && ends(name, tag)) return {name.substr(0, name.size() - tag.size()) + "\x01" + m.left, side};
-      if (!m.suffix && starts(name, tag)) return {std::string(m.left) + "\x01" + name.substr(tag.size()), side};
+      if (m.suffix && ends(name, tag))
+        return {name.substr(0, name.size() - tag.size()) + "\x01" + m.left, side};
+      if (!m.suffix && starts(name, tag))
+        return {std::string(m.left) + "\x01" + name.substr(tag.size()), side};
     }
   }
   // MakeHuman-style: "l-" / "r-" after a group prefix ("eyes/r-eye-move-in").
@@ -250,8 +256,11 @@ Sided SideOf(const std::string& name) {
 
 std::string CounterpartName(const std::string& name) {
   static const std::pair<const char*, const char*> kSuffixes[] = {
-      {"_L", "_R"}, {"_l", "_r"}, {".L", ".R"}, {".l", ".r"}, {"_left", "_right"}, {"Left", "Right"}, {"left", "right"}};
-  auto ends = [&](const std::string& t) { return name.size() > t.size() && name.compare(name.size() - t.size(), t.size(), t) == 0; };
+      {"_L", "_R"},        {"_l", "_r"},      {".L", ".R"},     {".l", ".r"},
+      {"_left", "_right"}, {"Left", "Right"}, {"left", "right"}};
+  auto ends = [&](const std::string& t) {
+    return name.size() > t.size() && name.compare(name.size() - t.size(), t.size(), t) == 0;
+  };
   for (const auto& [l, r] : kSuffixes) {
     if (ends(l)) return name.substr(0, name.size() - std::strlen(l)) + r;
     if (ends(r)) return name.substr(0, name.size() - std::strlen(r)) + l;
@@ -259,8 +268,10 @@ std::string CounterpartName(const std::string& name) {
   const size_t slash = name.rfind('/');
   const size_t at = slash == std::string::npos ? 0 : slash + 1;
   for (const auto& [l, r] : {std::pair<const char*, const char*>{"l-", "r-"}, {"L_", "R_"}}) {
-    if (name.compare(at, 2, l) == 0 && name.size() > at + 2) return name.substr(0, at) + r + name.substr(at + 2);
-    if (name.compare(at, 2, r) == 0 && name.size() > at + 2) return name.substr(0, at) + l + name.substr(at + 2);
+    if (name.compare(at, 2, l) == 0 && name.size() > at + 2)
+      return name.substr(0, at) + r + name.substr(at + 2);
+    if (name.compare(at, 2, r) == 0 && name.size() > at + 2)
+      return name.substr(0, at) + l + name.substr(at + 2);
   }
   return "";
 }
@@ -318,11 +329,15 @@ void CountMovedVertices(Rig& rig) {
         const SparseTarget& st = p.targets[t];
         size_t both = 0;
         for (size_t a = 0, b = 0; a < st.indices.size() && b < st.texcoord_indices.size();) {
-          if (st.indices[a] == st.texcoord_indices[b]) ++both, ++a, ++b;
-          else if (st.indices[a] < st.texcoord_indices[b]) ++a;
-          else ++b;
+          if (st.indices[a] == st.texcoord_indices[b])
+            ++both, ++a, ++b;
+          else if (st.indices[a] < st.texcoord_indices[b])
+            ++a;
+          else
+            ++b;
         }
-        rig.shapes[m.target_shapes[t]].vertices_moved += st.indices.size() + st.texcoord_indices.size() - both;
+        rig.shapes[m.target_shapes[t]].vertices_moved +=
+            st.indices.size() + st.texcoord_indices.size() - both;
       }
     }
   }
@@ -352,7 +367,8 @@ std::vector<std::array<float, 16>> PrimitiveWorldMatrices(const Rig& rig) {
 void WorldToMeshSpace(const Rig& rig, std::span<std::vector<float>> positions) {
   const auto world = PrimitiveWorldMatrices(rig);
   for (size_t p = 0; p < std::min(positions.size(), world.size()); ++p) {
-    const Eigen::Matrix4d inv = Eigen::Map<const Eigen::Matrix4f>(world[p].data()).cast<double>().inverse();
+    const Eigen::Matrix4d inv =
+        Eigen::Map<const Eigen::Matrix4f>(world[p].data()).cast<double>().inverse();
     std::vector<float>& xyz = positions[p];
     for (size_t v = 0; v + 2 < xyz.size(); v += 3) {
       const Eigen::Vector4d q = inv * Eigen::Vector4d(xyz[v], xyz[v + 1], xyz[v + 2], 1.0);
@@ -408,28 +424,64 @@ void RepairNames(Rig& rig) {
   for (AnimationInfo& a : rig.animations) fix({&a.name});
   for (Warning& w : rig.load_warnings) fix({&w.code, &w.message, &w.shape});
   if (repaired > 0) {
-    rig.load_warnings.push_back({"names_repaired",
-                                 std::to_string(repaired) + " name(s) in the file were not valid UTF-8; the bytes that were not "
-                                 "were replaced with U+FFFD",
-                                 "", static_cast<double>(repaired), true});
+    rig.load_warnings.push_back(
+        CountWarning("names_repaired", repaired,
+                     "name(s) in the file were not valid UTF-8; the bytes that were not "
+                     "were replaced with U+FFFD"));
   }
 }
+
+namespace {
+
+// One morph target of a primitive of `n` vertices: its deltas' counts, its vertices ascending and
+// within the primitive, its UV deltas only where the primitive has UVs. `at` names it in errors.
+Status ValidateTarget(const SparseTarget& st, size_t n, bool has_uvs, const std::string& at) {
+  const size_t k = st.indices.size();
+  if (st.position_deltas.size() != 3 * k ||
+      (!st.normal_deltas.empty() && st.normal_deltas.size() != 3 * k) ||
+      (!st.tangent_deltas.empty() && st.tangent_deltas.size() != 3 * k)) {
+    return InvalidArgument(at + " delta count mismatch");
+  }
+  for (size_t j = 0; j < k; ++j) {
+    if (st.indices[j] >= n || (j > 0 && st.indices[j] <= st.indices[j - 1])) {
+      return InvalidArgument(at + " has a bad vertex index");
+    }
+  }
+  const size_t u = st.texcoord_indices.size();
+  if (st.texcoord_deltas.size() != 2 * u || (u && !has_uvs)) {
+    return InvalidArgument(at + " has UV deltas that do not match its UVs");
+  }
+  for (size_t j = 0; j < u; ++j) {
+    if (st.texcoord_indices[j] >= n ||
+        (j > 0 && st.texcoord_indices[j] <= st.texcoord_indices[j - 1])) {
+      return InvalidArgument(at + " has a bad UV vertex index");
+    }
+  }
+  return Status::Ok();
+}
+
+}  // namespace
 
 Status ValidateRig(const Rig& rig) {
   const size_t shapes = rig.shapes.size();
   for (const InBetweens& ib : rig.inbetweens) {
-    if (ib.slider >= shapes || !std::isfinite(ib.full) || ib.full == 0.0f) return InvalidArgument("in-betweens: bad slider");
+    if (ib.slider >= shapes || !std::isfinite(ib.full) || ib.full == 0.0f)
+      return InvalidArgument("in-betweens: bad slider");
     for (size_t k = 0; k < ib.keys.size(); ++k) {
       const auto& [w, s] = ib.keys[k];
-      if (s >= shapes || !std::isfinite(w) || w == 0.0f || w == ib.full || (k && !(w > ib.keys[k - 1].first))) {
-        return InvalidArgument("in-betweens of '" + rig.shapes[ib.slider].name + "': keys must be distinct non-zero weights, ascending");
+      if (s >= shapes || !std::isfinite(w) || w == 0.0f || w == ib.full ||
+          (k && !(w > ib.keys[k - 1].first))) {
+        return InvalidArgument("in-betweens of '" + rig.shapes[ib.slider].name +
+                               "': keys must be distinct non-zero weights, ascending");
       }
     }
   }
   for (const Flip& f : rig.flips) {
     if (f.shape >= shapes) return InvalidArgument("flip morph: bad shape");
     for (const auto& [s, w] : f.entries) {
-      if (s >= shapes || !std::isfinite(w)) return InvalidArgument("flip morph '" + rig.shapes[f.shape].name + "': an entry names no shape or has a weight that is not finite");
+      if (s >= shapes || !std::isfinite(w))
+        return InvalidArgument("flip morph '" + rig.shapes[f.shape].name +
+                               "': an entry names no shape or has a weight that is not finite");
     }
   }
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
@@ -440,48 +492,39 @@ Status ValidateRig(const Rig& rig) {
     if (p.mesh < 0 || static_cast<size_t>(p.mesh) >= rig.meshes.size()) {
       return InvalidArgument(where + "mesh index out of range");
     }
-    if (p.normals.size() != 3 * n) return InvalidArgument(where + "normal count differs from vertex count");
-    if (!p.tangents.empty() && p.tangents.size() != 4 * n) return InvalidArgument(where + "tangent count differs from vertex count");
-    if (!p.texcoords.empty() && p.texcoords.size() != 2 * n) return InvalidArgument(where + "texcoord count differs from vertex count");
-    if (!p.colors.empty() && p.colors.size() != 4 * n) return InvalidArgument(where + "color count differs from vertex count");
-    if (!p.source_vertices.empty() && p.source_vertices.size() != n) return InvalidArgument(where + "source vertex count (_SOURCE_VERTEX) differs from vertex count");
+    if (p.normals.size() != 3 * n)
+      return InvalidArgument(where + "normal count differs from vertex count");
+    if (!p.tangents.empty() && p.tangents.size() != 4 * n)
+      return InvalidArgument(where + "tangent count differs from vertex count");
+    if (!p.texcoords.empty() && p.texcoords.size() != 2 * n)
+      return InvalidArgument(where + "texcoord count differs from vertex count");
+    if (!p.colors.empty() && p.colors.size() != 4 * n)
+      return InvalidArgument(where + "color count differs from vertex count");
+    if (!p.source_vertices.empty() && p.source_vertices.size() != n)
+      return InvalidArgument(where +
+                             "source vertex count (_SOURCE_VERTEX) differs from vertex count");
     for (uint32_t s : p.source_vertices) {
-      if (s >= Primitive::kMaxSourceVertex) return InvalidArgument(where + "source vertex " + std::to_string(s) + " is beyond " + std::to_string(Primitive::kMaxSourceVertex));
+      if (s >= Primitive::kMaxSourceVertex)
+        return InvalidArgument(where + "source vertex " + std::to_string(s) + " is beyond " +
+                               std::to_string(Primitive::kMaxSourceVertex));
     }
     for (uint32_t i : p.indices) {
       if (i >= n) {
-        return InvalidArgument(where + "index " + std::to_string(i) + " beyond vertex count " + std::to_string(n));
+        return InvalidArgument(where + "index " + std::to_string(i) + " beyond vertex count " +
+                               std::to_string(n));
       }
     }
     if (p.mode == PrimitiveMode::kTriangles && p.indices.size() % 3 != 0) {
       return InvalidArgument(where + "triangle index count not a multiple of 3");
     }
-    if (p.material >= static_cast<int>(rig.materials.size())) return InvalidArgument(where + "material out of range");
+    if (p.material >= static_cast<int>(rig.materials.size()))
+      return InvalidArgument(where + "material out of range");
     if (p.targets.size() != rig.meshes[p.mesh].target_shapes.size()) {
       return InvalidArgument(where + "target count differs from its mesh's");
     }
     for (size_t t = 0; t < p.targets.size(); ++t) {
-      const SparseTarget& st = p.targets[t];
-      const size_t k = st.indices.size();
-      if (st.position_deltas.size() != 3 * k ||
-          (!st.normal_deltas.empty() && st.normal_deltas.size() != 3 * k) ||
-          (!st.tangent_deltas.empty() && st.tangent_deltas.size() != 3 * k)) {
-        return InvalidArgument(where + "target " + std::to_string(t) + " delta count mismatch");
-      }
-      for (size_t j = 0; j < k; ++j) {
-        if (st.indices[j] >= n || (j > 0 && st.indices[j] <= st.indices[j - 1])) {
-          return InvalidArgument(where + "target " + std::to_string(t) + " has a bad vertex index");
-        }
-      }
-      const size_t u = st.texcoord_indices.size();
-      if (st.texcoord_deltas.size() != 2 * u || (u && p.texcoords.empty())) {
-        return InvalidArgument(where + "target " + std::to_string(t) + " has UV deltas that do not match its UVs");
-      }
-      for (size_t j = 0; j < u; ++j) {
-        if (st.texcoord_indices[j] >= n || (j > 0 && st.texcoord_indices[j] <= st.texcoord_indices[j - 1])) {
-          return InvalidArgument(where + "target " + std::to_string(t) + " has a bad UV vertex index");
-        }
-      }
+      const std::string at = where + "target " + std::to_string(t);
+      if (Status s = ValidateTarget(p.targets[t], n, !p.texcoords.empty(), at); !s.ok()) return s;
     }
   }
   for (const Mesh& m : rig.meshes) {
@@ -489,7 +532,8 @@ Status ValidateRig(const Rig& rig) {
       if (s >= shapes) return InvalidArgument("mesh target maps to a missing shape");
     }
     for (int p : m.primitives) {
-      if (p < 0 || static_cast<size_t>(p) >= rig.primitives.size()) return InvalidArgument("mesh primitive out of range");
+      if (p < 0 || static_cast<size_t>(p) >= rig.primitives.size())
+        return InvalidArgument("mesh primitive out of range");
     }
   }
   for (const Shape& s : rig.shapes) {
@@ -497,20 +541,26 @@ Status ValidateRig(const Rig& rig) {
   }
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
     const Node& node = rig.nodes[i];
-    if (node.mesh >= static_cast<int>(rig.meshes.size())) return InvalidArgument("node mesh out of range");
-    if (node.parent >= static_cast<int>(rig.nodes.size())) return InvalidArgument("node parent out of range");
+    if (node.mesh >= static_cast<int>(rig.meshes.size()))
+      return InvalidArgument("node mesh out of range");
+    if (node.parent >= static_cast<int>(rig.nodes.size()))
+      return InvalidArgument("node parent out of range");
     for (int c : node.children) {
-      if (c < 0 || static_cast<size_t>(c) >= rig.nodes.size() || rig.nodes[c].parent != static_cast<int>(i)) {
+      if (c < 0 || static_cast<size_t>(c) >= rig.nodes.size() ||
+          rig.nodes[c].parent != static_cast<int>(i)) {
         return InvalidArgument("node " + std::to_string(i) + " has an invalid child");
       }
     }
   }
   for (int r : rig.scene_roots) {
-    if (r < 0 || static_cast<size_t>(r) >= rig.nodes.size()) return InvalidArgument("scene root out of range");
+    if (r < 0 || static_cast<size_t>(r) >= rig.nodes.size())
+      return InvalidArgument("scene root out of range");
   }
   for (const Material& m : rig.materials) {
-    for (int image : {m.base_color_image, m.metallic_roughness_image, m.normal_image, m.occlusion_image, m.emissive_image}) {
-      if (image < -1 || image >= static_cast<int>(rig.images.size())) return InvalidArgument("material image out of range");
+    for (int image : {m.base_color_image, m.metallic_roughness_image, m.normal_image,
+                      m.occlusion_image, m.emissive_image}) {
+      if (image < -1 || image >= static_cast<int>(rig.images.size()))
+        return InvalidArgument("material image out of range");
     }
   }
   return Status::Ok();
@@ -525,7 +575,8 @@ double RigDiagonal(const Rig& rig) {
     }
   }
   if (lo[0] > hi[0]) return 0.0;
-  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                   (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }
 
 }  // namespace facespace

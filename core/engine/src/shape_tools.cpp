@@ -1,9 +1,10 @@
 #include "facespace/engine/shape_tools.h"
-#include "facespace/engine/transform.h"
 
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
+
+#include "facespace/engine/transform.h"
 
 namespace facespace {
 
@@ -33,16 +34,19 @@ float MidPlane(const Rig& rig, const Mesh& mesh, int axis) {
 
 }  // namespace
 
-std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float center, float tolerance) {
+std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float center,
+                               float tolerance) {
   const size_t n = primitive.vertex_count();
   std::vector<int32_t> map(n, -1);
   const float cell = std::max(tolerance, 1e-12f) * 2.0f;
   auto key = [cell](float x, float y, float z) {
-    const auto q = [cell](float v) {  // Clamped: a far vertex over a tiny cell would not fit in 64 bits.
-      const double c = std::floor(static_cast<double>(v) / static_cast<double>(cell));
-      return static_cast<int64_t>(std::isfinite(c) ? std::clamp(c, -9.0e18, 9.0e18) : 0.0);
-    };
-    return (static_cast<uint64_t>(q(x)) * 73856093u) ^ (static_cast<uint64_t>(q(y)) * 19349663u) ^ (static_cast<uint64_t>(q(z)) * 83492791u);
+    const auto q =
+        [cell](float v) {  // Clamped: a far vertex over a tiny cell would not fit in 64 bits.
+          const double c = std::floor(static_cast<double>(v) / static_cast<double>(cell));
+          return static_cast<int64_t>(std::isfinite(c) ? std::clamp(c, -9.0e18, 9.0e18) : 0.0);
+        };
+    return (static_cast<uint64_t>(q(x)) * 73856093u) ^ (static_cast<uint64_t>(q(y)) * 19349663u) ^
+           (static_cast<uint64_t>(q(z)) * 83492791u);
   };
   std::unordered_multimap<uint64_t, uint32_t> grid;
   grid.reserve(n);
@@ -58,7 +62,8 @@ std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float cente
           auto range = grid.equal_range(key(r[0] + dx * cell, r[1] + dy * cell, r[2] + dz * cell));
           for (auto it = range.first; it != range.second; ++it) {
             const float* q = pos + 3 * it->second;
-            const float d = (q[0] - r[0]) * (q[0] - r[0]) + (q[1] - r[1]) * (q[1] - r[1]) + (q[2] - r[2]) * (q[2] - r[2]);
+            const float d = (q[0] - r[0]) * (q[0] - r[0]) + (q[1] - r[1]) * (q[1] - r[1]) +
+                            (q[2] - r[2]) * (q[2] - r[2]);
             if (d <= best) {
               best = d;
               map[v] = static_cast<int32_t>(it->second);
@@ -73,8 +78,8 @@ std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float cente
 
 namespace {
 
-// The shapes the focus follows: those the rig's expressions bind (the face: eyes, brows, mouth; not an
-// ear or a skirt a shape also moves) when it has any, else every shape.
+// The shapes the focus follows: those the rig's expressions bind (the face: eyes, brows, mouth; not
+// an ear or a skirt a shape also moves) when it has any, else every shape.
 std::vector<uint8_t> FocusShapes(const Rig& rig) {
   std::vector<uint8_t> in(rig.shapes.size(), rig.expressions.empty() ? 1 : 0);
   for (const Expression& e : rig.expressions) {
@@ -86,12 +91,16 @@ std::vector<uint8_t> FocusShapes(const Rig& rig) {
 }
 
 // The vertices of `p` some focus shape moves noticeably: over 5% of that shape's largest move.
-void MovedVertices(const Rig& rig, const Primitive& p, std::span<const uint8_t> focus, std::vector<uint8_t>& moved) {
+void MovedVertices(const Rig& rig, const Primitive& p, std::span<const uint8_t> focus,
+                   std::vector<uint8_t>& moved) {
   moved.assign(p.vertex_count(), 0);
-  const Mesh* mesh = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? &rig.meshes[static_cast<size_t>(p.mesh)] : nullptr;
+  const Mesh* mesh = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size()
+                         ? &rig.meshes[static_cast<size_t>(p.mesh)]
+                         : nullptr;
   for (size_t ti = 0; ti < p.targets.size(); ++ti) {
     const SparseTarget& t = p.targets[ti];
-    const size_t shape = mesh && ti < mesh->target_shapes.size() ? mesh->target_shapes[ti] : SIZE_MAX;
+    const size_t shape =
+        mesh && ti < mesh->target_shapes.size() ? mesh->target_shapes[ti] : SIZE_MAX;
     if (shape < focus.size() && !focus[shape]) continue;
     float largest = 0.0f;
     for (size_t k = 0; k < t.indices.size(); ++k) {
@@ -137,9 +146,11 @@ bool ShapeFocusBox(const Rig& rig, std::array<float, 3>& lo, std::array<float, 3
   return true;
 }
 
-bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo, const std::array<float, 3>& hi) {
+bool FrameShapesByDefault(const Rig& rig, const std::array<float, 3>& lo,
+                          const std::array<float, 3>& hi) {
   const auto world = PrimitiveWorldMatrices(rig);
-  std::array<float, 3> all_lo{INFINITY, INFINITY, INFINITY}, all_hi{-INFINITY, -INFINITY, -INFINITY};
+  std::array<float, 3> all_lo{INFINITY, INFINITY, INFINITY},
+      all_hi{-INFINITY, -INFINITY, -INFINITY};
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     const Primitive& p = rig.primitives[pi];
     for (size_t v = 0; v < p.vertex_count(); ++v) {
@@ -164,7 +175,9 @@ int ShapeFocusJoint(const Rig& rig) {
   const std::vector<uint8_t> focus = FocusShapes(rig);
   std::vector<uint8_t> moved;
   for (const Primitive& p : rig.primitives) {
-    const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size() ? rig.meshes[static_cast<size_t>(p.mesh)].skin : -1;
+    const int skin = p.mesh >= 0 && static_cast<size_t>(p.mesh) < rig.meshes.size()
+                         ? rig.meshes[static_cast<size_t>(p.mesh)].skin
+                         : -1;
     if (skin < 0 || static_cast<size_t>(skin) >= rig.skins.size() || p.influences == 0) continue;
     const std::vector<int>& joints = rig.skins[static_cast<size_t>(skin)].joints;
     MovedVertices(rig, p, focus, moved);
@@ -173,7 +186,8 @@ int ShapeFocusJoint(const Rig& rig) {
       for (size_t k = 0; k < p.influences; ++k) {
         const size_t j = p.joints[v * p.influences + k];
         const int node = j < joints.size() ? joints[j] : -1;
-        if (node >= 0 && static_cast<size_t>(node) < carried.size()) carried[static_cast<size_t>(node)] += p.joint_weights[v * p.influences + k];
+        if (node >= 0 && static_cast<size_t>(node) < carried.size())
+          carried[static_cast<size_t>(node)] += p.joint_weights[v * p.influences + k];
       }
     }
   }
@@ -181,24 +195,33 @@ int ShapeFocusJoint(const Rig& rig) {
   return most == carried.end() || *most <= 0.0 ? -1 : static_cast<int>(most - carried.begin());
 }
 
-Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from, const DeriveOptions& options) {
+Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::string& from,
+                                 const DeriveOptions& options) {
   const int source = FindShape(rig, from);
   if (source < 0) return InvalidArgument("unknown shape '" + from + "'");
-  if (name.empty() || FindShape(rig, name) >= 0) return InvalidArgument("shape name '" + name + "' is empty or taken");
-  if (options.axis < 0 || options.axis > 2 || options.mask.axis < 0 || options.mask.axis > 2) return InvalidArgument("axis must be x, y or z");
+  if (name.empty() || FindShape(rig, name) >= 0)
+    return InvalidArgument("shape name '" + name + "' is empty or taken");
+  if (options.axis < 0 || options.axis > 2 || options.mask.axis < 0 || options.mask.axis > 2)
+    return InvalidArgument("axis must be x, y or z");
   // Mask vertices are numbered as the source numbers them (Primitive::source_vertices: one number
   // for every copy of a vertex split at a UV seam), primitive after primitive.
   std::vector<size_t> first(rig.primitives.size() + 1, 0);
   for (size_t p = 0; p < rig.primitives.size(); ++p) {
     const Primitive& prim = rig.primitives[p];
-    const size_t sources = prim.source_vertices.empty() ? prim.vertex_count() : *std::max_element(prim.source_vertices.begin(), prim.source_vertices.end()) + size_t{1};
+    const size_t sources =
+        prim.source_vertices.empty()
+            ? prim.vertex_count()
+            : *std::max_element(prim.source_vertices.begin(), prim.source_vertices.end()) +
+                  size_t{1};
     first[p + 1] = first[p] + sources;
   }
   std::vector<uint8_t> keep;
   if (options.masked && !options.mask.vertices.empty()) {
     keep.assign(first.back(), 0);
     for (uint32_t v : options.mask.vertices) {
-      if (v >= keep.size()) return InvalidArgument("mask vertex " + std::to_string(v) + " is beyond the rig's " + std::to_string(keep.size()) + " vertices");
+      if (v >= keep.size())
+        return InvalidArgument("mask vertex " + std::to_string(v) + " is beyond the rig's " +
+                               std::to_string(keep.size()) + " vertices");
       keep[v] = 1;
     }
   }
@@ -208,10 +231,12 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
   const double size = RigDiagonal(rig);
   const float tolerance = options.tolerance * static_cast<float>(size > 0.0 ? size : 1.0);
   for (Mesh& mesh : rig.meshes) {
-    const auto it = std::find(mesh.target_shapes.begin(), mesh.target_shapes.end(), static_cast<uint32_t>(source));
+    const auto it = std::find(mesh.target_shapes.begin(), mesh.target_shapes.end(),
+                              static_cast<uint32_t>(source));
     if (it == mesh.target_shapes.end()) continue;
     const float center = options.auto_center ? MidPlane(rig, mesh, options.axis) : options.center;
-    const float mask_center = options.mask.auto_center ? MidPlane(rig, mesh, options.mask.axis) : options.mask.center;
+    const float mask_center =
+        options.mask.auto_center ? MidPlane(rig, mesh, options.mask.axis) : options.mask.center;
     const size_t t = static_cast<size_t>(it - mesh.target_shapes.begin());
     for (int pi : mesh.primitives) {
       Primitive& prim = rig.primitives[pi];
@@ -220,7 +245,8 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
       const size_t n = prim.vertex_count();
       // Dense view of the source deltas by vertex (position, normal, tangent).
       std::vector<int32_t> slot(n, -1);
-      for (size_t k = 0; k < src.indices.size(); ++k) slot[src.indices[k]] = static_cast<int32_t>(k);
+      for (size_t k = 0; k < src.indices.size(); ++k)
+        slot[src.indices[k]] = static_cast<int32_t>(k);
       std::vector<int32_t> mirror;
       if (options.mirror) {
         mirror = MirrorMap(prim, options.axis, center, tolerance);
@@ -232,7 +258,9 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
         if (from_v < 0 || slot[from_v] < 0) continue;
         float w = 1.0f;
         if (options.masked) {
-          if (!keep.empty() && !keep[first[pi] + (prim.source_vertices.empty() ? v : prim.source_vertices[v])]) continue;
+          if (!keep.empty() &&
+              !keep[first[pi] + (prim.source_vertices.empty() ? v : prim.source_vertices[v])])
+            continue;
           w = MaskWeight(options.mask, mask_center, &prim.positions[3 * v]);
           if (w == 0.0f) continue;
         }

@@ -12,12 +12,18 @@ namespace facespace {
 bool SkinningJob::Validate() const {
   const size_t n = in_positions.size() / 3;
   if (in_positions.size() % 3 || out_positions.size() != in_positions.size()) return false;
-  if (influences == 0 || joints.size() != n * influences || weights.size() != n * influences) return false;
+  if (influences == 0 || joints.size() != n * influences || weights.size() != n * influences)
+    return false;
   if (joint_matrices.size() % 16) return false;
-  if (!in_normals.empty() && (in_normals.size() != 3 * n || out_normals.size() != in_normals.size())) return false;
-  if (!in_tangents.empty() && (in_tangents.size() != 4 * n || out_tangents.size() != in_tangents.size())) return false;
+  if (!in_normals.empty() &&
+      (in_normals.size() != 3 * n || out_normals.size() != in_normals.size()))
+    return false;
+  if (!in_tangents.empty() &&
+      (in_tangents.size() != 4 * n || out_tangents.size() != in_tangents.size()))
+    return false;
   const size_t joint_count = joint_matrices.size() / 16;
-  if (!joint_dual_quaternions.empty() && joint_dual_quaternions.size() != 8 * joint_count) return false;
+  if (!joint_dual_quaternions.empty() && joint_dual_quaternions.size() != 8 * joint_count)
+    return false;
   for (uint16_t j : joints) {
     if (j >= joint_count) return false;
   }
@@ -37,8 +43,14 @@ void DualQuaternions(std::span<const float> joint_matrices, std::vector<float>& 
     const Eigen::Quaternionf tq(0.0f, t.x(), t.y(), t.z());
     const Eigen::Quaternionf d = tq * r;
     float* o = &out[8 * j];
-    o[0] = r.x(); o[1] = r.y(); o[2] = r.z(); o[3] = r.w();
-    o[4] = 0.5f * d.x(); o[5] = 0.5f * d.y(); o[6] = 0.5f * d.z(); o[7] = 0.5f * d.w();
+    o[0] = r.x();
+    o[1] = r.y();
+    o[2] = r.z();
+    o[3] = r.w();
+    o[4] = 0.5f * d.x();
+    o[5] = 0.5f * d.y();
+    o[6] = 0.5f * d.z();
+    o[7] = 0.5f * d.w();
   }
 }
 
@@ -55,13 +67,15 @@ void SkinVertexDq(const SkinningJob& job, size_t v) {
     const float* q = &job.joint_dual_quaternions[8 * static_cast<size_t>(job.joints[v * K + k])];
     if (!first) first = q;
     // Blend in the hemisphere of the first influence (antipodality).
-    const float sign = (q[0] * first[0] + q[1] * first[1] + q[2] * first[2] + q[3] * first[3]) < 0.0f ? -w : w;
+    const float sign =
+        (q[0] * first[0] + q[1] * first[1] + q[2] * first[2] + q[3] * first[3]) < 0.0f ? -w : w;
     for (int i = 0; i < 4; ++i) {
       real[i] += sign * q[i];
       dual[i] += sign * q[4 + i];
     }
   }
-  const float len = std::sqrt(real[0] * real[0] + real[1] * real[1] + real[2] * real[2] + real[3] * real[3]);
+  const float len =
+      std::sqrt(real[0] * real[0] + real[1] * real[1] + real[2] * real[2] + real[3] * real[3]);
   if (!(len > 0.0f)) {
     real[3] = 1.0f;
   } else {
@@ -113,7 +127,8 @@ bool SkinningJob::Run() const {
       }
     }
     const float* p = &in_positions[3 * v];
-    for (int r = 0; r < 3; ++r) out_positions[3 * v + r] = m[r] * p[0] + m[3 + r] * p[1] + m[6 + r] * p[2] + m[9 + r];
+    for (int r = 0; r < 3; ++r)
+      out_positions[3 * v + r] = m[r] * p[0] + m[3 + r] * p[1] + m[6 + r] * p[2] + m[9 + r];
     if (!in_normals.empty()) TransformNormal(m, 3, &in_normals[3 * v], &out_normals[3 * v]);
     if (!in_tangents.empty()) {
       const float* t = &in_tangents[4 * v];

@@ -12,7 +12,9 @@ size_t MovedWords(const Primitive& p) { return (p.vertex_count() + 63) / 64; }
 }  // namespace
 
 bool SparseBlend::Serves(const Rig& rig, const BlendOptions& options) {
-  if (options.normals != NormalMode::kBlend || options.pose || !rig.inbetweens.empty() || !rig.correctives.empty() || !rig.flips.empty()) return false;
+  if (options.normals != NormalMode::kBlend || options.pose || !rig.inbetweens.empty() ||
+      !rig.correctives.empty() || !rig.flips.empty())
+    return false;
   for (const Mesh& m : rig.meshes) {
     if (m.skin >= 0) return false;
   }
@@ -23,11 +25,14 @@ SparseBlend::SparseBlend(const Rig& rig, BlendedRig* rest) {
   if (!Serves(rig, {})) return;
   BlendedRig at_rest;
   BlendContext context;
-  if (!EvaluateRig(rig, std::vector<float>(rig.shapes.size(), 0.0f), {}, at_rest, context).ok()) return;
+  if (!EvaluateRig(rig, std::vector<float>(rig.shapes.size(), 0.0f), {}, at_rest, context).ok())
+    return;
   for (size_t pi = 0; pi < at_rest.primitives.size(); ++pi) {
     const BlendedPrimitive& b = at_rest.primitives[pi];
     const Primitive& p = rig.primitives[pi];
-    if (b.positions.size() != p.positions.size() || b.normals.size() != p.normals.size() || p.normals.size() != p.positions.size()) return;
+    if (b.positions.size() != p.positions.size() || b.normals.size() != p.normals.size() ||
+        p.normals.size() != p.positions.size())
+      return;
   }
   primitives_.resize(rig.primitives.size());
   for (const Mesh& mesh : rig.meshes) {
@@ -53,27 +58,29 @@ SparseBlend::SparseBlend(const Rig& rig, BlendedRig* rest) {
 }
 
 bool SparseBlend::Accepts(const Rig& rig, std::span<const float> weights) const {
-  if (!ok_ || weights.size() != shapes_ || rig.shapes.size() != shapes_ || rig.primitives.size() != primitives_.size()) return false;
+  if (!ok_ || weights.size() != shapes_ || rig.shapes.size() != shapes_ ||
+      rig.primitives.size() != primitives_.size())
+    return false;
   for (float w : weights) {
     if (!std::isfinite(w)) return false;
   }
   return true;
 }
 
-SparseBlend::Outcome SparseBlend::Blend(const Rig& rig, std::span<const float> weights, size_t pi, Scratch& s) const {
+SparseBlend::Outcome SparseBlend::Blend(const Rig& rig, std::span<const float> weights, size_t pi,
+                                        Scratch& s) const {
   const Targets& t = primitives_[pi];
   const Primitive& p = rig.primitives[pi];
   if (!GatherTargetWeights(weights, t.shapes, s.target_weights)) return Outcome::kRest;
   // Blended as EvaluateRig blends a primitive (positions and normals: no tangents).
   s.positions.resize(p.positions.size());
   s.normals.resize(p.normals.size());
-  BlendShapeJob pj{.base = p.positions, .weights = s.target_weights, .targets = p.targets,
-                   .channel = TargetChannel::kPosition, .stride = 3, .out = s.positions};
-  BlendShapeJob nj{.base = p.normals, .weights = s.target_weights, .targets = p.targets,
-                   .channel = TargetChannel::kNormal, .stride = 3, .out = s.normals};
   // The normals' job declines an active target without normal deltas, as the blend does (it
   // recomputes normals there).
-  if (!pj.Run() || !nj.Run()) return Outcome::kDeclined;
+  if (!BlendChannel(p.positions, s.target_weights, p.targets, TargetChannel::kPosition, 3,
+                    s.positions) ||
+      !BlendChannel(p.normals, s.target_weights, p.targets, TargetChannel::kNormal, 3, s.normals))
+    return Outcome::kDeclined;
   // The vertices any active target moves: the blend scales their normals to unit length.
   const size_t words = MovedWords(p);
   s.moved.assign(words, 0);

@@ -21,18 +21,23 @@ namespace {
 
 using V = Viseme;
 
-// A phoneme as the tables spell it: ASCII lowered, stress digits and marks, length marks and combining
-// diacritics (U+0300..U+036F: syllabic, dental, ...) left out.
+// A phoneme as the tables spell it: ASCII lowered, stress digits and marks, length marks and
+// combining diacritics (U+0300..U+036F: syllabic, dental, ...) left out.
 std::string Normalized(std::string_view p) {
   std::string out;
   for (size_t i = 0; i < p.size();) {
     char32_t cp = 0;
-    const size_t len = std::max<size_t>(DecodeUtf8(p, i, cp), 1);  // A broken byte is kept as it is.
-    const bool mark = cp == 0x2C8 || cp == 0x2CC || cp == 0x2D0 || cp == 0x2D1 || (cp >= 0x300 && cp <= 0x36F) ||
-                      (cp < 0x80 && ((cp >= '0' && cp <= '9') || cp == '\'' || cp == ',' || cp == '%' || cp == '=' || cp == ':'));
+    const size_t len =
+        std::max<size_t>(DecodeUtf8(p, i, cp), 1);  // A broken byte is kept as it is.
+    const bool mark = cp == 0x2C8 || cp == 0x2CC || cp == 0x2D0 || cp == 0x2D1 ||
+                      (cp >= 0x300 && cp <= 0x36F) ||
+                      (cp < 0x80 && ((cp >= '0' && cp <= '9') || cp == '\'' || cp == ',' ||
+                                     cp == '%' || cp == '=' || cp == ':'));
     if (!mark) {
-      if (cp >= 'A' && cp <= 'Z') out += static_cast<char>(cp + 32);
-      else out += p.substr(i, len);
+      if (cp >= 'A' && cp <= 'Z')
+        out += static_cast<char>(cp + 32);
+      else
+        out += p.substr(i, len);
     }
     i += len;
   }
@@ -48,8 +53,8 @@ const std::unordered_map<std::string, Entry>& Table() {
       for (const char* n : names) t.emplace(n, v);
     };
     // Pauses and noises (espeak-ng, CMU/PocketSphinx fillers, flite).
-    put(V::kSil, {"", "_", "sil", "sp", "pau", "h#", "+nsn+", "+spn+", "+breath+", "+cough+", "+noise+", "+um+", "+uh+",
-                  "<s>", "</s>", "<sil>", "[sil]", "|", "||"});
+    put(V::kSil, {"", "_", "sil", "sp", "pau", "h#", "+nsn+", "+spn+", "+breath+", "+cough+",
+                  "+noise+", "+um+", "+uh+", "<s>", "</s>", "<sil>", "[sil]", "|", "||"});
     // ARPAbet (CMU's dictionary, PocketSphinx, flite).
     put(V::kAA, {"aa", "ae", "ah", "aw", "ax", "ay", "ax-h"});
     put(V::kE, {"eh", "ey"});
@@ -66,7 +71,8 @@ const std::unordered_map<std::string, Entry>& Table() {
     put(V::kSS, {"s", "z"});
     put(V::kNN, {"n", "l", "el", "en", "nx"});
     put(std::nullopt, {"hh", "q"});
-    // IPA (espeak-ng with phoneme events as IPA), single symbols and the clusters the first symbol misreads.
+    // IPA (espeak-ng with phoneme events as IPA), single symbols and the clusters the first symbol
+    // misreads.
     put(V::kAA, {"a", "ɑ", "æ", "ʌ", "ɐ", "ə", "ɶ", "aɪ", "aʊ"});
     put(V::kE, {"e", "ɛ", "ɜ", "ø", "œ", "eɪ", "eə"});
     put(V::kIH, {"i", "ɪ", "ɨ", "j", "ɪə"});
@@ -114,20 +120,24 @@ std::vector<TimedViseme> VisemesOfPhonemes(std::span<const TimedPhoneme> phoneme
   for (const TimedPhoneme& p : phonemes) {
     if (std::isfinite(p.start) && std::isfinite(p.end) && p.end >= p.start) sorted.push_back(&p);
   }
-  std::stable_sort(sorted.begin(), sorted.end(), [](const auto* a, const auto* b) { return a->start < b->start; });
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const auto* a, const auto* b) { return a->start < b->start; });
   std::vector<Item> items;
   items.reserve(sorted.size() + 1);
   for (const TimedPhoneme* p : sorted) {
     const float start = items.empty() ? p->start : std::max(p->start, items.back().end);
-    if (!items.empty() && start > items.back().end + 1e-4f) items.push_back({V::kSil, items.back().end, start});
+    if (!items.empty() && start > items.back().end + 1e-4f)
+      items.push_back({V::kSil, items.back().end, start});
     items.push_back({VisemeOfPhoneme(p->name), start, std::max(start, p->end)});
   }
   // h-like sounds: the next sound's shape (else the one before, else a pause).
   for (size_t i = items.size(); i-- > 0;) {
     if (items[i].v) continue;
     std::optional<Viseme> take;
-    if (i + 1 < items.size() && !IsPause(items[i + 1].v)) take = items[i + 1].v;
-    else if (i > 0 && items[i - 1].v) take = items[i - 1].v;
+    if (i + 1 < items.size() && !IsPause(items[i + 1].v))
+      take = items[i + 1].v;
+    else if (i > 0 && items[i - 1].v)
+      take = items[i - 1].v;
     items[i].v = take ? take : std::optional<Viseme>(V::kSil);
   }
   // Short pauses between two sounds: half to each.
@@ -135,7 +145,8 @@ std::vector<TimedViseme> VisemesOfPhonemes(std::span<const TimedPhoneme> phoneme
   kept.reserve(items.size());
   for (size_t i = 0; i < items.size(); ++i) {
     Item it = items[i];
-    const bool inner = !kept.empty() && i + 1 < items.size() && !IsPause(kept.back().v) && !IsPause(items[i + 1].v);
+    const bool inner = !kept.empty() && i + 1 < items.size() && !IsPause(kept.back().v) &&
+                       !IsPause(items[i + 1].v);
     if (IsPause(it.v) && inner && it.end - it.start < kShortPause) {
       const float mid = 0.5f * (it.start + it.end);
       kept.back().end = mid;
@@ -162,8 +173,10 @@ std::vector<TimedViseme> VisemesOfUtterance(std::span<const TimedPhoneme> phonem
   if (v.empty()) v.push_back({Viseme::kSil, 0.0f, end});
   if (v.front().start > 0.0f) v.insert(v.begin(), {Viseme::kSil, 0.0f, v.front().start});
   if (v.back().end < end) {
-    if (v.back().viseme == Viseme::kSil) v.back().end = end;
-    else v.push_back({Viseme::kSil, v.back().end, end});
+    if (v.back().viseme == Viseme::kSil)
+      v.back().end = end;
+    else
+      v.push_back({Viseme::kSil, v.back().end, end});
   }
   return v;
 }
@@ -177,27 +190,53 @@ using Row = std::vector<CandidateBind>;  // One viseme's binds.
 // ARKit's mouth: each viseme as the jaw and lip shapes a face tracker reports for it.
 const std::array<Row, kVisemeCount>& ArkitVisemes() {
   static const std::array<Row, kVisemeCount> kRows = {
-      Row{},                                                                                       // sil
-      Row{{"mouthPress_L|mouthPressLeft", 0.5f}, {"mouthPress_R|mouthPressRight", 0.5f}, {"mouthRollLower", 0.3f},
-          {"mouthRollUpper", 0.2f}},                                                               // PP
-      Row{{"mouthRollLower", 0.7f}, {"mouthUpperUp_L|mouthUpperUpLeft", 0.3f}, {"mouthUpperUp_R|mouthUpperUpRight", 0.3f},
-          {"jawOpen", 0.08f}},                                                                     // FF
-      Row{{"jawOpen", 0.15f}, {"tongueOut", 0.4f}, {"mouthStretch_L|mouthStretchLeft", 0.2f},
-          {"mouthStretch_R|mouthStretchRight", 0.2f}},                                             // TH
-      Row{{"jawOpen", 0.2f}, {"mouthStretch_L|mouthStretchLeft", 0.3f}, {"mouthStretch_R|mouthStretchRight", 0.3f}},  // DD
-      Row{{"jawOpen", 0.25f}, {"mouthStretch_L|mouthStretchLeft", 0.3f}, {"mouthStretch_R|mouthStretchRight", 0.3f}},  // kk
-      Row{{"jawOpen", 0.15f}, {"mouthFunnel", 0.5f}, {"mouthPucker", 0.3f}, {"mouthShrugUpper", 0.2f}},               // CH
-      Row{{"jawOpen", 0.08f}, {"mouthStretch_L|mouthStretchLeft", 0.5f}, {"mouthStretch_R|mouthStretchRight", 0.5f},
-          {"mouthSmile_L|mouthSmileLeft", 0.2f}, {"mouthSmile_R|mouthSmileRight", 0.2f}},          // SS
-      Row{{"jawOpen", 0.15f}, {"mouthStretch_L|mouthStretchLeft", 0.2f}, {"mouthStretch_R|mouthStretchRight", 0.2f}},  // nn
-      Row{{"jawOpen", 0.2f}, {"mouthFunnel", 0.4f}, {"mouthPucker", 0.2f}},                       // RR
-      Row{{"jawOpen", 0.7f}, {"mouthLowerDown_L|mouthLowerDownLeft", 0.3f}, {"mouthLowerDown_R|mouthLowerDownRight", 0.3f}},  // aa
-      Row{{"jawOpen", 0.4f}, {"mouthStretch_L|mouthStretchLeft", 0.4f}, {"mouthStretch_R|mouthStretchRight", 0.4f},
-          {"mouthSmile_L|mouthSmileLeft", 0.2f}, {"mouthSmile_R|mouthSmileRight", 0.2f}},          // E
-      Row{{"jawOpen", 0.25f}, {"mouthStretch_L|mouthStretchLeft", 0.5f}, {"mouthStretch_R|mouthStretchRight", 0.5f},
-          {"mouthSmile_L|mouthSmileLeft", 0.2f}, {"mouthSmile_R|mouthSmileRight", 0.2f}},          // ih
-      Row{{"jawOpen", 0.5f}, {"mouthFunnel", 0.8f}},                                              // oh
-      Row{{"jawOpen", 0.2f}, {"mouthPucker", 0.9f}, {"mouthFunnel", 0.3f}},                       // ou
+      Row{},  // sil
+      Row{{"mouthPress_L|mouthPressLeft", 0.5f},
+          {"mouthPress_R|mouthPressRight", 0.5f},
+          {"mouthRollLower", 0.3f},
+          {"mouthRollUpper", 0.2f}},  // PP
+      Row{{"mouthRollLower", 0.7f},
+          {"mouthUpperUp_L|mouthUpperUpLeft", 0.3f},
+          {"mouthUpperUp_R|mouthUpperUpRight", 0.3f},
+          {"jawOpen", 0.08f}},  // FF
+      Row{{"jawOpen", 0.15f},
+          {"tongueOut", 0.4f},
+          {"mouthStretch_L|mouthStretchLeft", 0.2f},
+          {"mouthStretch_R|mouthStretchRight", 0.2f}},  // TH
+      Row{{"jawOpen", 0.2f},
+          {"mouthStretch_L|mouthStretchLeft", 0.3f},
+          {"mouthStretch_R|mouthStretchRight", 0.3f}},  // DD
+      Row{{"jawOpen", 0.25f},
+          {"mouthStretch_L|mouthStretchLeft", 0.3f},
+          {"mouthStretch_R|mouthStretchRight", 0.3f}},  // kk
+      Row{{"jawOpen", 0.15f},
+          {"mouthFunnel", 0.5f},
+          {"mouthPucker", 0.3f},
+          {"mouthShrugUpper", 0.2f}},  // CH
+      Row{{"jawOpen", 0.08f},
+          {"mouthStretch_L|mouthStretchLeft", 0.5f},
+          {"mouthStretch_R|mouthStretchRight", 0.5f},
+          {"mouthSmile_L|mouthSmileLeft", 0.2f},
+          {"mouthSmile_R|mouthSmileRight", 0.2f}},  // SS
+      Row{{"jawOpen", 0.15f},
+          {"mouthStretch_L|mouthStretchLeft", 0.2f},
+          {"mouthStretch_R|mouthStretchRight", 0.2f}},                       // nn
+      Row{{"jawOpen", 0.2f}, {"mouthFunnel", 0.4f}, {"mouthPucker", 0.2f}},  // RR
+      Row{{"jawOpen", 0.7f},
+          {"mouthLowerDown_L|mouthLowerDownLeft", 0.3f},
+          {"mouthLowerDown_R|mouthLowerDownRight", 0.3f}},  // aa
+      Row{{"jawOpen", 0.4f},
+          {"mouthStretch_L|mouthStretchLeft", 0.4f},
+          {"mouthStretch_R|mouthStretchRight", 0.4f},
+          {"mouthSmile_L|mouthSmileLeft", 0.2f},
+          {"mouthSmile_R|mouthSmileRight", 0.2f}},  // E
+      Row{{"jawOpen", 0.25f},
+          {"mouthStretch_L|mouthStretchLeft", 0.5f},
+          {"mouthStretch_R|mouthStretchRight", 0.5f},
+          {"mouthSmile_L|mouthSmileLeft", 0.2f},
+          {"mouthSmile_R|mouthSmileRight", 0.2f}},                           // ih
+      Row{{"jawOpen", 0.5f}, {"mouthFunnel", 0.8f}},                         // oh
+      Row{{"jawOpen", 0.2f}, {"mouthPucker", 0.9f}, {"mouthFunnel", 0.3f}},  // ou
   };
   return kRows;
 }
@@ -205,35 +244,37 @@ const std::array<Row, kVisemeCount>& ArkitVisemes() {
 // MMD's five vowel morphs: consonants as the vowel shapes they look most like, a little.
 const std::array<Row, kVisemeCount>& MmdVisemes() {
   static const std::array<Row, kVisemeCount> kRows = {
-      Row{},                               // sil
-      Row{},                               // PP: every mouth morph at 0 is closed lips.
-      Row{{"う", 0.3f}, {"い", 0.2f}},     // FF
-      Row{{"あ", 0.2f}, {"え", 0.2f}},     // TH
-      Row{{"あ", 0.2f}, {"い", 0.3f}},     // DD
-      Row{{"あ", 0.3f}, {"い", 0.2f}},     // kk
-      Row{{"う", 0.5f}, {"い", 0.3f}},     // CH
-      Row{{"い", 0.6f}},                   // SS
-      Row{{"あ", 0.15f}, {"い", 0.2f}},    // nn
-      Row{{"う", 0.5f}, {"お", 0.2f}},     // RR
-      Row{{"あ", 1.0f}},                   // aa
-      Row{{"え", 1.0f}},                   // E
-      Row{{"い", 1.0f}},                   // ih
-      Row{{"お", 1.0f}},                   // oh
-      Row{{"う", 1.0f}},                   // ou
+      Row{},                             // sil
+      Row{},                             // PP: every mouth morph at 0 is closed lips.
+      Row{{"う", 0.3f}, {"い", 0.2f}},   // FF
+      Row{{"あ", 0.2f}, {"え", 0.2f}},   // TH
+      Row{{"あ", 0.2f}, {"い", 0.3f}},   // DD
+      Row{{"あ", 0.3f}, {"い", 0.2f}},   // kk
+      Row{{"う", 0.5f}, {"い", 0.3f}},   // CH
+      Row{{"い", 0.6f}},                 // SS
+      Row{{"あ", 0.15f}, {"い", 0.2f}},  // nn
+      Row{{"う", 0.5f}, {"お", 0.2f}},   // RR
+      Row{{"あ", 1.0f}},                 // aa
+      Row{{"え", 1.0f}},                 // E
+      Row{{"い", 1.0f}},                 // ih
+      Row{{"お", 1.0f}},                 // oh
+      Row{{"う", 1.0f}},                 // ou
   };
   return kRows;
 }
 
 // MMD's other standard mouth morphs, held at 0 while speaking (MMDAgent's NOLIP).
-constexpr std::string_view kMmdNolip[] = {"ワ", "▲", "∧", "ω", "ω□", "□", "にやり", "にっこり", "口角上げ", "口角下げ",
-                                          "口横広げ", "ん", "はんっ！", "えー", "ぺろっ", "てへぺろ", "口締め", "結び", "む"};
+constexpr std::string_view kMmdNolip[] = {"ワ",       "▲",      "∧",        "ω",        "ω□",
+                                          "□",        "にやり", "にっこり", "口角上げ", "口角下げ",
+                                          "口横広げ", "ん",     "はんっ！", "えー",     "ぺろっ",
+                                          "てへぺろ", "口締め", "結び",     "む"};
 
 }  // namespace
 
 void DeriveVisemes(Rig& rig) {
   VisemeMap& m = rig.visemes;
-  // MMD's five vowels where the rig has them all (an MMD model with ARKit-named morphs too, as Uka, speaks
-  // with the vowels its author made for lip sync), else ARKit's jaw and lips.
+  // MMD's five vowels where the rig has them all (an MMD model with ARKit-named morphs too, as Uka,
+  // speaks with the vowels its author made for lip sync), else ARKit's jaw and lips.
   bool mmd = true;
   for (const char* vowel : {"あ", "い", "う", "え", "お"}) mmd = mmd && FindShape(rig, vowel) >= 0;
   const bool arkit = !mmd && FindShape(rig, "jawOpen") >= 0;
@@ -263,10 +304,13 @@ void DeriveVisemes(Rig& rig) {
 
 Status CanSpeak(const Rig& rig) {
   if (!rig.visemes.empty()) return Status::Ok();
-  return WithReason(FailedPrecondition("rig '" + rig.name +
-                                       "' has no mouth to speak with: its manifest maps no \"visemes\", and it has neither ARKit's "
-                                       "jawOpen (with mouthClose, mouthFunnel, mouthPucker, ...) nor MMD's あ い う え お"),
-                    "no-mouth");
+  return WithReason(
+      FailedPrecondition(
+          "rig '" + rig.name +
+          "' has no mouth to speak with: its manifest maps no \"visemes\", and it has neither "
+          "ARKit's "
+          "jawOpen (with mouthClose, mouthFunnel, mouthPucker, ...) nor MMD's あ い う え お"),
+      "no-mouth");
 }
 
 // ---- keys -------------------------------------------------------------------------------------
@@ -281,8 +325,8 @@ std::vector<float> VisemeKeyTimes(const TimedViseme& v, const SpeechOptions& opt
   return {mid};
 }
 
-Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes, std::span<const float> base,
-                        const SpeechOptions& options) {
+Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes,
+                        std::span<const float> base, const SpeechOptions& options) {
   const size_t n = rig.shapes.size();
   const VisemeMap& map = rig.visemes;
   Sequence seq;
@@ -300,7 +344,8 @@ Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes, st
       if (s < n) w[s] = 0.0f;
     }
     float a = options.strength;
-    if (IsVowel(v.viseme) && options.full_vowel > 0.0f) a *= std::clamp((v.end - v.start) / options.full_vowel, 0.35f, 1.0f);
+    if (IsVowel(v.viseme) && options.full_vowel > 0.0f)
+      a *= std::clamp((v.end - v.start) / options.full_vowel, 0.35f, 1.0f);
     for (const auto& [s, weight] : map.binds[static_cast<size_t>(v.viseme)]) {
       if (s < n) w[s] += a * weight;
     }
@@ -308,10 +353,14 @@ Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes, st
   // A short consonant between two open sounds keeps part of their jaw: no chatter.
   for (size_t i = 1; i + 1 < visemes.size(); ++i) {
     const TimedViseme& v = visemes[i];
-    if (IsVowel(v.viseme) || v.viseme == V::kPP || v.viseme == V::kSil || v.end - v.start >= options.short_consonant) continue;
+    if (IsVowel(v.viseme) || v.viseme == V::kPP || v.viseme == V::kSil ||
+        v.end - v.start >= options.short_consonant)
+      continue;
     if (!IsVowel(visemes[i - 1].viseme) || !IsVowel(visemes[i + 1].viseme)) continue;
     for (uint32_t s : map.jaw) {
-      if (s < n) values[i][s] = std::max(values[i][s], options.jaw_carry * std::min(values[i - 1][s], values[i + 1][s]));
+      if (s < n)
+        values[i][s] = std::max(values[i][s],
+                                options.jaw_carry * std::min(values[i - 1][s], values[i + 1][s]));
     }
   }
   // Key times; a closure's keys win over an open sound's that would come at the same time.
@@ -325,15 +374,19 @@ Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes, st
   keys.reserve(2 * visemes.size() + 2);
   keys.push_back({first, 0, false});
   for (size_t i = 0; i < visemes.size(); ++i) {
-    for (float t : VisemeKeyTimes(visemes[i], options)) keys.push_back({std::clamp(t, first, last), i, visemes[i].viseme == V::kPP});
+    for (float t : VisemeKeyTimes(visemes[i], options))
+      keys.push_back({std::clamp(t, first, last), i, visemes[i].viseme == V::kPP});
   }
   keys.push_back({last, visemes.size() - 1, false});
-  std::stable_sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.time < b.time; });
+  std::stable_sort(keys.begin(), keys.end(),
+                   [](const Key& a, const Key& b) { return a.time < b.time; });
   constexpr float kMinGap = 1e-3f;
   std::vector<Key> kept;
   kept.reserve(keys.size());
   for (const Key& k : keys) {
-    while (!kept.empty() && k.time <= kept.back().time + kMinGap && k.closure && !kept.back().closure) kept.pop_back();
+    while (!kept.empty() && k.time <= kept.back().time + kMinGap && k.closure &&
+           !kept.back().closure)
+      kept.pop_back();
     if (kept.empty() || k.time > kept.back().time + kMinGap) kept.push_back(k);
   }
   seq.keys.reserve(kept.size());
@@ -345,7 +398,8 @@ Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes, st
   }
   if (seq.keys.size() == 1) {  // One instant: a sequence needs its ends.
     Keyframe end = seq.keys.front();
-    end.time = std::max(end.time + 2 * kMinGap, std::nextafter(end.time, std::numeric_limits<float>::infinity()));
+    end.time = std::max(end.time + 2 * kMinGap,
+                        std::nextafter(end.time, std::numeric_limits<float>::infinity()));
     seq.keys.push_back(std::move(end));
   }
   return seq;

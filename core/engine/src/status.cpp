@@ -16,19 +16,29 @@ const char* StatusCodeName(StatusCode code) {
   return "unknown";
 }
 
-Status InvalidArgument(std::string message) {
-  return {StatusCode::kInvalidArgument, std::move(message), {}, {}, 0};
-}
-Status NotFound(std::string message) { return {StatusCode::kNotFound, std::move(message), {}, {}, 0}; }
-Status FailedPrecondition(std::string message) {
-  return {StatusCode::kFailedPrecondition, std::move(message), {}, {}, 0};
-}
-Status ResourceExhausted(std::string message) {
-  return {StatusCode::kResourceExhausted, std::move(message), {}, {}, 0};
+Status StatusOf(StatusCode code, std::string message) {
+  return {code, std::move(message), {}, {}, 0};
 }
 
-Status Internal(std::string message) { return {StatusCode::kInternal, std::move(message), {}, {}, 0}; }
-Status Cancelled(std::string message) { return {StatusCode::kCancelled, std::move(message), {}, {}, 0}; }
+Status InvalidArgument(std::string message) {
+  return StatusOf(StatusCode::kInvalidArgument, std::move(message));
+}
+Status NotFound(std::string message) { return StatusOf(StatusCode::kNotFound, std::move(message)); }
+Status FailedPrecondition(std::string message) {
+  return StatusOf(StatusCode::kFailedPrecondition, std::move(message));
+}
+Status ResourceExhausted(std::string message) {
+  return StatusOf(StatusCode::kResourceExhausted, std::move(message));
+}
+Status Internal(std::string message) { return StatusOf(StatusCode::kInternal, std::move(message)); }
+Status Cancelled(std::string message) {
+  return StatusOf(StatusCode::kCancelled, std::move(message));
+}
+
+Warning CountWarning(std::string code, size_t count, const std::string& what) {
+  return {std::move(code), std::to_string(count) + " " + what, "", static_cast<double>(count),
+          true};
+}
 
 Status InvalidField(const std::string& pointer, const std::string& message, StatusCode code) {
   Status s{code, pointer.empty() ? message : pointer + ": " + message, {{pointer, message}}, {}, 0};
@@ -46,16 +56,20 @@ Status WithReason(Status status, std::string reason) {
 }
 
 Status WithInputReason(Status status, std::string reason) {
-  if (status.code == StatusCode::kInvalidArgument || status.code == StatusCode::kFailedPrecondition) status.reason = std::move(reason);
+  if (status.code == StatusCode::kInvalidArgument || status.code == StatusCode::kFailedPrecondition)
+    status.reason = std::move(reason);
   return status;
 }
 
 std::string JsonPointerEscape(const std::string& key) {
   std::string r;
   for (char c : key) {
-    if (c == '~') r += "~0";
-    else if (c == '/') r += "~1";
-    else r += c;
+    if (c == '~')
+      r += "~0";
+    else if (c == '/')
+      r += "~1";
+    else
+      r += c;
   }
   return r;
 }

@@ -19,7 +19,8 @@ Quat NormalizedQuaternion(Quat q) {
 std::array<float, 16> ComposeTrs(const Transform& t) {
   Eigen::Affine3f a = Eigen::Affine3f::Identity();
   a.translate(Eigen::Vector3f(t.translation[0], t.translation[1], t.translation[2]));
-  a.rotate(Eigen::Quaternionf(t.rotation[3], t.rotation[0], t.rotation[1], t.rotation[2]).normalized());
+  a.rotate(
+      Eigen::Quaternionf(t.rotation[3], t.rotation[0], t.rotation[1], t.rotation[2]).normalized());
   a.scale(Eigen::Vector3f(t.scale[0], t.scale[1], t.scale[2]));
   std::array<float, 16> m;
   std::copy(a.matrix().data(), a.matrix().data() + 16, m.begin());

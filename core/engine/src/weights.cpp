@@ -23,7 +23,8 @@ namespace {
 
 float Norm3(const float* d) { return std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]); }
 
-// `value` to `digits` significant digits: a sum of float weights without its noise (1.9000001 is 1.9).
+// `value` to `digits` significant digits: a sum of float weights without its noise (1.9000001
+// is 1.9).
 double RoundSignificant(double value, int digits = 6) {
   if (!std::isfinite(value) || value == 0.0) return value;
   char buf[32];
@@ -51,9 +52,10 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   for (const WeightEntry& e : entries) indexed += e.name.empty();
   if (indexed > rig.shapes.size()) {
     const std::string& ptr = entries.front().pointer;
-    status.AddField(ptr.substr(0, ptr.rfind('/')), "has " + std::to_string(indexed) + " weights: indices from " +
-                                                         std::to_string(rig.shapes.size()) + " on are out of range; this rig has " +
-                                                         std::to_string(rig.shapes.size()) + " shapes");
+    status.AddField(ptr.substr(0, ptr.rfind('/')),
+                    "has " + std::to_string(indexed) + " weights: indices from " +
+                        std::to_string(rig.shapes.size()) + " on are out of range; this rig has " +
+                        std::to_string(rig.shapes.size()) + " shapes");
     status.message = status.fields.front().message;
     return status;
   }
@@ -62,7 +64,9 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   bool unknown_name = false;
   for (const WeightEntry& e : entries) {
     long long index = e.index;
-    auto label = [&e] { return e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'"; };
+    auto label = [&e] {
+      return e.name.empty() ? "index " + std::to_string(e.index) : "'" + e.name + "'";
+    };
     if (!e.name.empty()) {
       index = FindShape(rig, e.name);
       // A map key of digits that names no shape is an index: {"3": 0.5}.
@@ -71,7 +75,8 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
         index = std::stoll(e.name);
         if (static_cast<size_t>(index) >= rig.shapes.size()) {
           status.AddField(e.pointer, [&] {
-            return "shape index " + e.name + " out of range: this rig has " + std::to_string(rig.shapes.size()) + " shapes";
+            return "shape index " + e.name + " out of range: this rig has " +
+                   std::to_string(rig.shapes.size()) + " shapes";
           });
           continue;
         }
@@ -88,13 +93,15 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
       }
     } else if (index < 0 || static_cast<size_t>(index) >= rig.shapes.size()) {
       status.AddField(e.pointer, [&] {
-        return "shape index " + std::to_string(index) + " out of range: this rig has " + std::to_string(rig.shapes.size()) +
-               " shapes (0.." + std::to_string(static_cast<long long>(rig.shapes.size()) - 1) + ")";
+        return "shape index " + std::to_string(index) + " out of range: this rig has " +
+               std::to_string(rig.shapes.size()) + " shapes (0.." +
+               std::to_string(static_cast<long long>(rig.shapes.size()) - 1) + ")";
       });
       continue;
     }
     if (!std::isfinite(e.value)) {
-      status.AddField(e.pointer, [&] { return "weight of " + label() + " must be a finite number"; });
+      status.AddField(e.pointer,
+                      [&] { return "weight of " + label() + " must be a finite number"; });
       continue;
     }
     if (std::fabs(e.value) > 3.0e38) {
@@ -102,7 +109,8 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
       continue;
     }
     if (seen[index]) {
-      status.AddField(e.pointer, [&] { return "shape '" + rig.shapes[index].name + "' is given twice"; });
+      status.AddField(e.pointer,
+                      [&] { return "shape '" + rig.shapes[index].name + "' is given twice"; });
       continue;
     }
     seen[index] = 1;
@@ -110,7 +118,8 @@ Result<std::vector<float>> ResolveWeights(const Rig& rig, std::span<const Weight
   }
   if (!status.fields.empty()) {
     status.message = status.fields.front().message;
-    if (status.field_count() > 1) status.message += " (and " + std::to_string(status.field_count() - 1) + " more)";
+    if (status.field_count() > 1)
+      status.message += " (and " + std::to_string(status.field_count() - 1) + " more)";
     // The names a client may use, once: in the message, not in every unknown name's field error.
     if (unknown_name) status.message += "; valid shapes: " + ValidNames(rig);
     return status;
@@ -124,7 +133,8 @@ double MahalanobisDistance(const Rig& rig, std::span<const float> weights) {
   double d2 = 0;
   for (size_t k = 0; k < st.components.size(); ++k) {
     double proj = 0;
-    for (size_t s = 0; s < weights.size() && s < st.mean.size(); ++s) proj += (static_cast<double>(weights[s]) - st.mean[s]) * st.components[k][s];
+    for (size_t s = 0; s < weights.size() && s < st.mean.size(); ++s)
+      proj += (static_cast<double>(weights[s]) - st.mean[s]) * st.components[k][s];
     d2 += (proj / st.stddev[k]) * (proj / st.stddev[k]);
   }
   return std::sqrt(d2);
@@ -150,7 +160,8 @@ std::vector<float> LargestMoves(const Rig& rig, std::span<const float> active) {
       const Primitive& p = rig.primitives[pi];
       for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
         const uint32_t s = mesh.target_shapes[t];
-        if (s >= most.size() || (!active.empty() && (s >= active.size() || !(active[s] > 0.0f)))) continue;
+        if (s >= most.size() || (!active.empty() && (s >= active.size() || !(active[s] > 0.0f))))
+          continue;
         for (float length : MoveLengths(p.targets[t], scratch)) most[s] = std::max(most[s], length);
       }
     }
@@ -158,13 +169,15 @@ std::vector<float> LargestMoves(const Rig& rig, std::span<const float> active) {
   return most;
 }
 
-double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vector<uint32_t>& shapes) {
+double LargestVertexSum(const Rig& rig, std::span<const float> weights,
+                        std::vector<uint32_t>& shapes) {
   shapes.clear();
   double best = 0.0;
   size_t best_primitive = 0;
   uint32_t best_vertex = 0;
-  // Each vertex gets the weight times the share of the shape's largest move (over all its primitives)
-  // it moves there: a shape is "full" where it moves most (a left smile moves the middle of the lips half as much).
+  // Each vertex gets the weight times the share of the shape's largest move (over all its
+  // primitives) it moves there: a shape is "full" where it moves most (a left smile moves the
+  // middle of the lips half as much).
   const std::vector<float> most = LargestMoves(rig, weights);
   std::vector<float> acc, scratch;
   for (const Mesh& mesh : rig.meshes) {
@@ -173,7 +186,8 @@ double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vec
       bool any = false;
       for (size_t t = 0; t < p.targets.size() && t < mesh.target_shapes.size(); ++t) {
         const uint32_t s = mesh.target_shapes[t];
-        if (s >= weights.size() || s >= most.size() || !(weights[s] > 0.0f) || !(most[s] > 0.0f)) continue;
+        if (s >= weights.size() || s >= most.size() || !(weights[s] > 0.0f) || !(most[s] > 0.0f))
+          continue;
         if (!any) acc.assign(p.vertex_count(), 0.0f);
         any = true;
         const std::span<const float> lengths = MoveLengths(p.targets[t], scratch);
@@ -182,7 +196,9 @@ double LargestVertexSum(const Rig& rig, std::span<const float> weights, std::vec
         for (size_t k = 0; k < lengths.size(); ++k) acc[idx[k]] += share * lengths[k];
       }
       for (size_t v = 0; any && v < acc.size(); ++v) {
-        if (acc[v] > best) best = acc[v], best_primitive = static_cast<size_t>(pi), best_vertex = static_cast<uint32_t>(v);
+        if (acc[v] > best)
+          best = acc[v], best_primitive = static_cast<size_t>(pi),
+          best_vertex = static_cast<uint32_t>(v);
       }
     }
   }
@@ -210,22 +226,25 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
     r.sum += w;
     if (w < s.min || w > s.max) {
       r.warnings.push_back({"out_of_range",
-                            "weight " + FormatNumber(w) + " of '" + s.name + "' is outside its range [" +
-                                FormatNumber(s.min) + ", " + FormatNumber(s.max) + "]",
+                            "weight " + FormatNumber(w) + " of '" + s.name +
+                                "' is outside its range [" + FormatNumber(s.min) + ", " +
+                                FormatNumber(s.max) + "]",
                             s.name, w, true});
     } else if (w < 0.0f) {
-      r.warnings.push_back({"negative_weight",
-                            "negative weight " + FormatNumber(w) + " of '" + s.name +
-                                "' subtracts the shape",
-                            s.name, w, true});
+      r.warnings.push_back(
+          {"negative_weight",
+           "negative weight " + FormatNumber(w) + " of '" + s.name + "' subtracts the shape",
+           s.name, w, true});
     }
   }
   for (size_t i = 0; i < weights.size() && i < rig.shapes.size(); ++i) {
     if (rig.shapes[i].driven && weights[i] != 0.0f) {
-      r.warnings.push_back({"driven_shape",
-                            "'" + rig.shapes[i].name + "' is driven by other shapes (an in-between or a corrective): the weight " +
-                                FormatNumber(weights[i]) + " given for it is ignored",
-                            rig.shapes[i].name, weights[i], true});
+      r.warnings.push_back(
+          {"driven_shape",
+           "'" + rig.shapes[i].name +
+               "' is driven by other shapes (an in-between or a corrective): the weight " +
+               FormatNumber(weights[i]) + " given for it is ignored",
+           rig.shapes[i].name, weights[i], true});
     }
   }
   if (rig.statistics.present) {
@@ -233,7 +252,8 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
     r.mahalanobis = d;
     if (d > rig.statistics.bound) {
       r.warnings.push_back({"implausible",
-                            "implausible: the point is " + FormatNumber(d) + " standard deviations from the mean (Mahalanobis), beyond " +
+                            "implausible: the point is " + FormatNumber(d) +
+                                " standard deviations from the mean (Mahalanobis), beyond " +
                                 FormatNumber(rig.statistics.bound),
                             "", d, true});
     }
@@ -244,17 +264,20 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
     r.vertex_sum = LargestVertexSum(rig, weights, r.stacked_shapes);
     std::string where;
     if (r.vertex_sum <= 1.0 + 1e-6) {
-      where = "; but no vertex moves more than " + FormatNumber(r.vertex_sum) + " of a full shape's move (the shapes act on different vertices)";
+      where = "; but no vertex moves more than " + FormatNumber(r.vertex_sum) +
+              " of a full shape's move (the shapes act on different vertices)";
     } else {
       std::string names;
-      for (size_t k = 0; k < r.stacked_shapes.size() && k < 6; ++k) names += (k ? " + " : "") + rig.shapes[r.stacked_shapes[k]].name;
+      for (size_t k = 0; k < r.stacked_shapes.size() && k < 6; ++k)
+        names += (k ? " + " : "") + rig.shapes[r.stacked_shapes[k]].name;
       if (r.stacked_shapes.size() > 6) names += " + ...";
-      where = "; on one vertex " + names + " stack to " + FormatNumber(r.vertex_sum) + " of a full shape's move";
+      where = "; on one vertex " + names + " stack to " + FormatNumber(r.vertex_sum) +
+              " of a full shape's move";
     }
-    r.warnings.insert(r.warnings.begin(),
-                      {"extrapolation",
-                       "extrapolation: sum of weights " + FormatNumber(r.sum) + " exceeds 1" + where, "",
-                       r.sum, true});
+    r.warnings.insert(r.warnings.begin(), {"extrapolation",
+                                           "extrapolation: sum of weights " + FormatNumber(r.sum) +
+                                               " exceeds 1" + where,
+                                           "", r.sum, true});
   }
   if (mode == BlendMode::kAbsolute && std::fabs(r.sum - 1.0) > 1e-4) {
     r.warnings.push_back({"absolute_sum",
@@ -265,8 +288,8 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
   return r;
 }
 
-Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std::vector<WeightEntry>& weights,
-                     std::vector<Warning>& warnings) {
+Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls,
+                     std::vector<WeightEntry>& weights, std::vector<Warning>& warnings) {
   Status status = InvalidArgument("");
   for (const WeightEntry& e : controls) {
     const Control* c = nullptr;
@@ -299,13 +322,16 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls, std:
     }
     if (e.value < c->min || e.value > c->max) {
       warnings.push_back({"control_out_of_range",
-                          "control '" + c->name + "' = " + FormatNumber(e.value) + " is outside its range [" + FormatNumber(c->min) +
-                              ", " + FormatNumber(c->max) + "]",
+                          "control '" + c->name + "' = " + FormatNumber(e.value) +
+                              " is outside its range [" + FormatNumber(c->min) + ", " +
+                              FormatNumber(c->max) + "]",
                           c->name, e.value, true});
     }
-    WeightEntry pos{rig.shapes[c->positive].name, -1, c->negative >= 0 ? std::max(e.value, 0.0) : e.value, e.pointer};
+    WeightEntry pos{rig.shapes[c->positive].name, -1,
+                    c->negative >= 0 ? std::max(e.value, 0.0) : e.value, e.pointer};
     weights.push_back(pos);
-    if (c->negative >= 0) weights.push_back({rig.shapes[c->negative].name, -1, std::max(-e.value, 0.0), e.pointer});
+    if (c->negative >= 0)
+      weights.push_back({rig.shapes[c->negative].name, -1, std::max(-e.value, 0.0), e.pointer});
   }
   if (status.fields.empty()) return Status::Ok();
   status.message = status.fields[0].pointer + ": " + status.fields[0].message;

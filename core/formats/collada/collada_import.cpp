@@ -5,10 +5,7 @@
 //
 // A parser of untrusted XML (pugixml reads it): every index is checked against its source's
 // accessor, every reference resolved or reported, nesting and instancing capped.
-#include <pugixml.hpp>
-
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -16,6 +13,7 @@
 #include <cstring>
 #include <iterator>
 #include <map>
+#include <pugixml.hpp>
 #include <set>
 #include <string_view>
 #include <unordered_map>
@@ -43,25 +41,33 @@ Mat4 Reader::LocalTransform(pugi::xml_node node) {
   for (pugi::xml_node t : node.children()) {
     const std::string_view kind = t.name();
     std::vector<double> v;
-    if (kind != "matrix" && kind != "translate" && kind != "rotate" && kind != "scale" && kind != "lookat" && kind != "skew") continue;
+    if (kind != "matrix" && kind != "translate" && kind != "rotate" && kind != "scale" &&
+        kind != "lookat" && kind != "skew")
+      continue;
     if (!ParseNumbers(t.child_value(), v, 16)) v.clear();
     if (kind == "matrix" && v.size() == 16) {
       m = m * RowMajor(v.data());
     } else if (kind == "translate" && v.size() == 3) {
       m = m * Eigen::Affine3d(Eigen::Translation3d(v[0], v[1], v[2])).matrix();
     } else if (kind == "rotate" && v.size() == 4 && Vec3(v[0], v[1], v[2]).norm() > 0) {
-      m = m * Eigen::Affine3d(Eigen::AngleAxisd(v[3] * M_PI / 180.0, Vec3(v[0], v[1], v[2]).normalized())).matrix();
+      m = m * Eigen::Affine3d(
+                  Eigen::AngleAxisd(v[3] * M_PI / 180.0, Vec3(v[0], v[1], v[2]).normalized()))
+                  .matrix();
     } else if (kind == "scale" && v.size() == 3) {
       m = m * Eigen::Affine3d(Eigen::Scaling(v[0], v[1], v[2])).matrix();
     } else {
-      rig_.load_warnings.push_back({"transform_skipped", Describe(node) + ": <" + std::string(kind) + "> is not read (or malformed)", "", 0.0, false});
+      rig_.load_warnings.push_back(
+          {"transform_skipped",
+           Describe(node) + ": <" + std::string(kind) + "> is not read (or malformed)", "", 0.0,
+           false});
     }
   }
   return m;
 }
 
 Status Reader::Scene() {
-  pugi::xml_node scene = ById(root_.child("scene").child("instance_visual_scene").attribute("url").value());
+  pugi::xml_node scene =
+      ById(root_.child("scene").child("instance_visual_scene").attribute("url").value());
   if (!scene) scene = root_.child("library_visual_scenes").child("visual_scene");
   if (!scene) return Bad("no <visual_scene>");
   // Z_UP (or X_UP) files get a root node that turns them Y-up, as glTF wants.
@@ -70,7 +76,8 @@ Status Reader::Scene() {
   if (up == "Z_UP" || up == "X_UP") {
     Node r;
     r.name = "collada_root";
-    r.rotation = up == "Z_UP" ? std::array<float, 4>{-0.70710678f, 0, 0, 0.70710678f} : std::array<float, 4>{0, 0, 0.70710678f, 0.70710678f};
+    r.rotation = up == "Z_UP" ? std::array<float, 4>{-0.70710678f, 0, 0, 0.70710678f}
+                              : std::array<float, 4>{0, 0, 0.70710678f, 0.70710678f};
     rig_.nodes.push_back(r);
     rig_.scene_roots.push_back(0);
     parent = 0;
@@ -78,7 +85,11 @@ Status Reader::Scene() {
   first_node_ = rig_.nodes.size();
   // Nodes first (joints must exist before skins resolve them), instances after.
   std::vector<std::pair<pugi::xml_node, int>> instances;
-  struct Item { pugi::xml_node node; int parent; size_t depth; };
+  struct Item {
+    pugi::xml_node node;
+    int parent;
+    size_t depth;
+  };
   std::vector<Item> stack;
   for (pugi::xml_node n = scene.last_child(); n; n = n.previous_sibling()) {
     if (std::strcmp(n.name(), "node") == 0) stack.push_back({n, parent, 0});
@@ -86,10 +97,14 @@ Status Reader::Scene() {
   while (!stack.empty()) {
     const Item it = stack.back();
     stack.pop_back();
-    if (it.depth >= kMaxDepth) return Bad(Describe(it.node) + ": nodes nested deeper than " + std::to_string(kMaxDepth) + " (or an <instance_node> cycle)");
-    if (rig_.nodes.size() >= kMaxNodes) return Bad("more than " + std::to_string(kMaxNodes) + " nodes");
+    if (it.depth >= kMaxDepth)
+      return Bad(Describe(it.node) + ": nodes nested deeper than " + std::to_string(kMaxDepth) +
+                 " (or an <instance_node> cycle)");
+    if (rig_.nodes.size() >= kMaxNodes)
+      return Bad("more than " + std::to_string(kMaxNodes) + " nodes");
     Node n;
-    n.name = it.node.attribute("name").value()[0] ? it.node.attribute("name").value() : it.node.attribute("id").value();
+    n.name = it.node.attribute("name").value()[0] ? it.node.attribute("name").value()
+                                                  : it.node.attribute("id").value();
     n.parent = it.parent;
     SetNodeLocal(n, LocalTransform(it.node));
     const int index = static_cast<int>(rig_.nodes.size());
@@ -108,7 +123,8 @@ Status Reader::Scene() {
         pugi::xml_node target = ById(c.attribute("url").value());
         if (target && std::strcmp(target.name(), "node") == 0) kids.push_back(target);
       }
-      if (kind == "instance_geometry" || kind == "instance_controller") instances.emplace_back(c, index);
+      if (kind == "instance_geometry" || kind == "instance_controller")
+        instances.emplace_back(c, index);
     }
     for (auto k = kids.rbegin(); k != kids.rend(); ++k) stack.push_back({*k, index, it.depth + 1});
   }
@@ -120,7 +136,8 @@ Status Reader::Scene() {
 }
 
 // The node a skin's joint name means: a sid under the <skeleton> roots, else an id, else a name.
-int Reader::JointNode(const std::string& name, bool is_id, const std::vector<int>& skeleton_roots) const {
+int Reader::JointNode(const std::string& name, bool is_id,
+                      const std::vector<int>& skeleton_roots) const {
   auto find = [&](auto match) {
     for (size_t i = 0; i < node_xml_.size(); ++i) {
       if (match(node_xml_[i])) return static_cast<int>(first_node_ + i);
@@ -132,12 +149,14 @@ int Reader::JointNode(const std::string& name, bool is_id, const std::vector<int
       const int ni = static_cast<int>(first_node_ + i);
       if (name != node_xml_[i].attribute("sid").value()) continue;
       for (int a = ni; a >= 0; a = rig_.nodes[a].parent) {
-        if (std::find(skeleton_roots.begin(), skeleton_roots.end(), a) != skeleton_roots.end()) return ni;
+        if (std::find(skeleton_roots.begin(), skeleton_roots.end(), a) != skeleton_roots.end())
+          return ni;
       }
     }
   }
   int n = find([&](pugi::xml_node x) { return name == x.attribute("id").value(); });
-  if (n < 0 && !is_id) n = find([&](pugi::xml_node x) { return name == x.attribute("sid").value(); });
+  if (n < 0 && !is_id)
+    n = find([&](pugi::xml_node x) { return name == x.attribute("sid").value(); });
   if (n < 0) n = find([&](pugi::xml_node x) { return name == x.attribute("name").value(); });
   return n;
 }
@@ -174,15 +193,21 @@ std::string Reader::TextureFile(pugi::xml_node profile, const std::string& name)
   };
   std::string image_id = name;
   if (pugi::xml_node sampler = param(name).child("sampler2D")) {
-    if (pugi::xml_node inst = sampler.child("instance_image")) image_id = std::string(Fragment(inst.attribute("url").value()));
-    else if (pugi::xml_node surface = param(trim(sampler.child_value("source"))).child("surface")) image_id = trim(surface.child_value("init_from"));
+    if (pugi::xml_node inst = sampler.child("instance_image"))
+      image_id = std::string(Fragment(inst.attribute("url").value()));
+    else if (pugi::xml_node surface = param(trim(sampler.child_value("source"))).child("surface"))
+      image_id = trim(surface.child_value("init_from"));
   }
   pugi::xml_node image = ById(image_id);
   if (!image || std::strcmp(image.name(), "image") != 0) return "";
   pugi::xml_node init = image.child("init_from");
   std::string uri = trim(init.child("ref") ? init.child_value("ref") : init.child_value());
   if (uri.rfind("file://", 0) == 0) uri.erase(0, 7);
-  const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) ? (std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (c | 0x20) - 'a' + 10) : -1; };
+  const auto hex = [](char c) {
+    return std::isxdigit(static_cast<unsigned char>(c))
+               ? (std::isdigit(static_cast<unsigned char>(c)) ? c - '0' : (c | 0x20) - 'a' + 10)
+               : -1;
+  };
   std::string path;
   for (size_t k = 0; k < uri.size(); ++k) {
     if (uri[k] == '%' && k + 2 < uri.size() && hex(uri[k + 1]) >= 0 && hex(uri[k + 2]) >= 0) {
@@ -192,7 +217,8 @@ std::string Reader::TextureFile(pugi::xml_node profile, const std::string& name)
       path += uri[k] == '\\' ? '/' : uri[k];
     }
   }
-  if (!path.empty() && (path[0] == '/' || path.find(':') != std::string::npos)) path = path.substr(path.find_last_of("/:") + 1);
+  if (!path.empty() && (path[0] == '/' || path.find(':') != std::string::npos))
+    path = path.substr(path.find_last_of("/:") + 1);
   return path;
 }
 
@@ -205,7 +231,8 @@ int Reader::ImageNamed(const std::string& file) {
 }
 
 int Reader::Material(pugi::xml_node inst, const std::string& symbol) {
-  for (pugi::xml_node im : inst.child("bind_material").child("technique_common").children("instance_material")) {
+  for (pugi::xml_node im :
+       inst.child("bind_material").child("technique_common").children("instance_material")) {
     if (symbol != im.attribute("symbol").value()) continue;
     pugi::xml_node mat = ById(im.attribute("target").value());
     if (!mat) return -1;
@@ -219,12 +246,18 @@ int Reader::Material(pugi::xml_node inst, const std::string& symbol) {
     for (pugi::xml_node tech : effect.child("profile_COMMON").child("technique").children()) {
       pugi::xml_node diffuse = tech.child("diffuse");
       std::vector<double> c;
-      if (diffuse.child("color") && ParseNumbers(diffuse.child_value("color"), c, 4) && c.size() >= 3) {
-        for (size_t k = 0; k < 3; ++k) m.base_color_factor[k] = static_cast<float>(std::clamp(c[k], 0.0, 1.0));
+      if (diffuse.child("color") && ParseNumbers(diffuse.child_value("color"), c, 4) &&
+          c.size() >= 3) {
+        for (size_t k = 0; k < 3; ++k)
+          m.base_color_factor[k] = static_cast<float>(std::clamp(c[k], 0.0, 1.0));
       } else if (pugi::xml_node texture = diffuse.child("texture")) {
-        const std::string file = TextureFile(effect.child("profile_COMMON"), texture.attribute("texture").value());
+        const std::string file =
+            TextureFile(effect.child("profile_COMMON"), texture.attribute("texture").value());
         if (file.empty()) {
-          rig_.load_warnings.push_back({"texture_not_loaded", "material '" + m.name + "': its diffuse texture names no image", m.name, 0.0, false});
+          rig_.load_warnings.push_back(
+              {"texture_not_loaded",
+               "material '" + m.name + "': its diffuse texture names no image", m.name, 0.0,
+               false});
         } else {
           m.base_color_image = ImageNamed(file);
         }
@@ -239,7 +272,8 @@ int Reader::Material(pugi::xml_node inst, const std::string& symbol) {
 
 Status Reader::ResolveInstance(pugi::xml_node inst, InstanceChain& chain) {
   chain.target = ById(inst.attribute("url").value());
-  for (int hops = 0; chain.target && std::strcmp(chain.target.name(), "controller") == 0 && hops < 4; ++hops) {
+  for (int hops = 0;
+       chain.target && std::strcmp(chain.target.name(), "controller") == 0 && hops < 4; ++hops) {
     if (pugi::xml_node s = chain.target.child("skin"); s && !chain.skin) {
       chain.skin = s;
       chain.skin_controller = chain.target;
@@ -249,14 +283,17 @@ Status Reader::ResolveInstance(pugi::xml_node inst, InstanceChain& chain) {
       chain.morph_controller = chain.target;
       chain.target = ById(m.attribute("source").value());
     } else {
-      return Bad(Describe(chain.target) + ": a controller chain that is not skin -> morph -> geometry");
+      return Bad(Describe(chain.target) +
+                 ": a controller chain that is not skin -> morph -> geometry");
     }
   }
   return Status::Ok();
 }
 
-void Reader::PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData* skin, const Morph& m, Split& split) {
-  const Eigen::Matrix3d linear = skin ? Eigen::Matrix3d(skin->bind_shape.block<3, 3>(0, 0)) : Eigen::Matrix3d::Identity();
+void Reader::PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData* skin,
+                             const Morph& m, Split& split) {
+  const Eigen::Matrix3d linear =
+      skin ? Eigen::Matrix3d(skin->bind_shape.block<3, 3>(0, 0)) : Eigen::Matrix3d::Identity();
   const Eigen::Matrix3d normal_matrix = linear.inverse().transpose();
   for (size_t p = 0; p < split.primitives.size(); ++p) {
     Primitive& prim = split.primitives[p];
@@ -264,11 +301,16 @@ void Reader::PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData
     prim.index_in_mesh = static_cast<int>(p);
     prim.material = Material(inst, split.material_symbol[p]);
     const std::vector<uint32_t>& points = split.point_of_vertex[p];
-    for (size_t v = 0; skin && v < points.size(); ++v) {  // The bind shape matrix goes into the vertices, as glTF has none.
-      const Eigen::Vector4d q = skin->bind_shape * Eigen::Vector4d(prim.positions[3 * v], prim.positions[3 * v + 1], prim.positions[3 * v + 2], 1.0);
+    for (size_t v = 0; skin && v < points.size();
+         ++v) {  // The bind shape matrix goes into the vertices, as glTF has none.
+      const Eigen::Vector4d q =
+          skin->bind_shape * Eigen::Vector4d(prim.positions[3 * v], prim.positions[3 * v + 1],
+                                             prim.positions[3 * v + 2], 1.0);
       for (int a = 0; a < 3; ++a) prim.positions[3 * v + a] = static_cast<float>(q[a]);
       if (!prim.normals.empty()) {
-        const Vec3 n = (normal_matrix * Vec3(prim.normals[3 * v], prim.normals[3 * v + 1], prim.normals[3 * v + 2])).normalized();
+        const Vec3 n = (normal_matrix *
+                        Vec3(prim.normals[3 * v], prim.normals[3 * v + 1], prim.normals[3 * v + 2]))
+                           .normalized();
         for (int a = 0; a < 3; ++a) prim.normals[3 * v + a] = static_cast<float>(n[a]);
       }
     }
@@ -290,7 +332,8 @@ void Reader::AddMorphShapes(const Morph& m, int node, facespace::Mesh& mesh) {
   for (size_t t = 0; t < m.targets.size(); ++t) {
     Shape shape;
     shape.name = m.names[t];
-    for (int k = 2; FindShape(rig_, shape.name) >= 0; ++k) shape.name = mesh.name + "." + m.names[t] + (k > 2 ? "_" + std::to_string(k) : "");
+    for (int k = 2; FindShape(rig_, shape.name) >= 0; ++k)
+      shape.name = mesh.name + "." + m.names[t] + (k > 2 ? "_" + std::to_string(k) : "");
     shape.default_weight = static_cast<float>(m.weights[t]);
     shape.min = std::min(0.0f, shape.default_weight);
     shape.max = std::max(1.0f, shape.default_weight);
@@ -301,7 +344,8 @@ void Reader::AddMorphShapes(const Morph& m, int node, facespace::Mesh& mesh) {
   if (!m.weights_source.empty()) morph_node_[m.weights_source] = node;
 }
 
-Status Reader::AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node, SkinData& sd, Split& split, facespace::Mesh& mesh) {
+Status Reader::AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node, SkinData& sd,
+                       Split& split, facespace::Mesh& mesh) {
   std::vector<int> roots;
   for (pugi::xml_node s : inst.children("skeleton")) {
     const int r = NodeOfXml(ById(s.child_value()));
@@ -311,9 +355,12 @@ Status Reader::AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node
   out.name = chain.skin_controller.attribute("id").value();
   for (size_t j = 0; j < sd.joint_names.size(); ++j) {
     const int jn = JointNode(sd.joint_names[j], sd.names_are_ids, roots);
-    if (jn < 0) return Bad(Describe(chain.skin_controller) + ": joint '" + sd.joint_names[j].substr(0, 60) + "' is no node of the scene");
+    if (jn < 0)
+      return Bad(Describe(chain.skin_controller) + ": joint '" + sd.joint_names[j].substr(0, 60) +
+                 "' is no node of the scene");
     out.joints.push_back(jn);
-    for (int k = 0; k < 16; ++k) out.inverse_bind.push_back(static_cast<float>(sd.inverse_binds[j](k % 4, k / 4)));
+    for (int k = 0; k < 16; ++k)
+      out.inverse_bind.push_back(static_cast<float>(sd.inverse_binds[j](k % 4, k / 4)));
   }
   // Vertices no joint weighs follow the instancing node.
   bool unweighted = false;
@@ -326,9 +373,14 @@ Status Reader::AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node
     for (auto& inf : sd.influences) {
       if (inf.empty()) inf.emplace_back(extra, 1.0f);
     }
-    rig_.load_warnings.push_back({"unweighted_vertices", Describe(chain.skin_controller) + ": vertices without joint weights follow node '" + rig_.nodes[node].name + "'", "", 0.0, false});
+    rig_.load_warnings.push_back({"unweighted_vertices",
+                                  Describe(chain.skin_controller) +
+                                      ": vertices without joint weights follow node '" +
+                                      rig_.nodes[node].name + "'",
+                                  "", 0.0, false});
   }
-  for (size_t p = 0; p < split.primitives.size(); ++p) SetInfluences(split.primitives[p], split.point_of_vertex[p], sd.influences);
+  for (size_t p = 0; p < split.primitives.size(); ++p)
+    SetInfluences(split.primitives[p], split.point_of_vertex[p], sd.influences);
   mesh.skin = static_cast<int>(rig_.skins.size());
   rig_.joint_count += out.joints.size();
   rig_.skins.push_back(std::move(out));
@@ -336,7 +388,8 @@ Status Reader::AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node
   return Status::Ok();
 }
 
-void Reader::AttachMesh(Split& split, facespace::Mesh mesh, int node, const std::string& weights_source) {
+void Reader::AttachMesh(Split& split, facespace::Mesh mesh, int node,
+                        const std::string& weights_source) {
   const int mesh_index = static_cast<int>(rig_.meshes.size());
   for (Primitive& p : split.primitives) {
     FinalizePrimitive(p);
@@ -355,14 +408,19 @@ void Reader::AttachMesh(Split& split, facespace::Mesh mesh, int node, const std:
   rig_.nodes[node].children.push_back(static_cast<int>(rig_.nodes.size()));
   rig_.nodes.push_back(extra);
   world_ = NodeWorldMatrices(rig_);
-  if (!morph_node_.empty() && !weights_source.empty()) morph_node_[weights_source] = static_cast<int>(rig_.nodes.size()) - 1;
+  if (!morph_node_.empty() && !weights_source.empty())
+    morph_node_[weights_source] = static_cast<int>(rig_.nodes.size()) - 1;
 }
 
 Status Reader::Instance(pugi::xml_node inst, int node) {
   InstanceChain chain;
   if (Status s = ResolveInstance(inst, chain); !s.ok()) return s;
   if (!chain.target || std::strcmp(chain.target.name(), "geometry") != 0) {
-    rig_.load_warnings.push_back({"instance_skipped", Describe(inst) + " '" + std::string(inst.attribute("url").value()).substr(0, 60) + "' does not lead to a geometry", "", 0.0, false});
+    rig_.load_warnings.push_back({"instance_skipped",
+                                  Describe(inst) + " '" +
+                                      std::string(inst.attribute("url").value()).substr(0, 60) +
+                                      "' does not lead to a geometry",
+                                  "", 0.0, false});
     return Status::Ok();
   }
   Split split;
@@ -372,11 +430,15 @@ Status Reader::Instance(pugi::xml_node inst, int node) {
   mesh.name = rig_.nodes[node].name;
   Morph m;
   if (chain.morph) {
-    if (Status s = ReadMorph(chain.morph_controller, chain.morph, split.point_count, split.points, m); !s.ok()) return s;
+    if (Status s =
+            ReadMorph(chain.morph_controller, chain.morph, split.point_count, split.points, m);
+        !s.ok())
+      return s;
   }
   SkinData sd;
   if (chain.skin) {
-    if (Status s = ReadSkin(chain.skin_controller, chain.skin, split.point_count, sd); !s.ok()) return s;
+    if (Status s = ReadSkin(chain.skin_controller, chain.skin, split.point_count, sd); !s.ok())
+      return s;
   }
   PlacePrimitives(inst, static_cast<int>(rig_.meshes.size()), chain.skin ? &sd : nullptr, m, split);
   AddMorphShapes(m, node, mesh);
@@ -389,10 +451,12 @@ Status Reader::Instance(pugi::xml_node inst, int node) {
 
 Status Reader::Animations() {
   // Channels whose target is "<weights source id>(<index>)": a morph weight.
-  std::map<std::string, std::map<size_t, Curve>> curves;  // weights source -> target index -> curve.
+  std::map<std::string, std::map<size_t, Curve>>
+      curves;  // weights source -> target index -> curve.
   size_t skipped = 0;
   std::vector<pugi::xml_node> stack;
-  for (pugi::xml_node a : root_.child("library_animations").children("animation")) stack.push_back(a);
+  for (pugi::xml_node a : root_.child("library_animations").children("animation"))
+    stack.push_back(a);
   while (!stack.empty()) {
     pugi::xml_node anim = stack.back();
     stack.pop_back();
@@ -407,7 +471,8 @@ Status Reader::Animations() {
         ++skipped;
         continue;
       }
-      const long long index = std::strtoll(target.c_str() + open + 1, nullptr, 10);  // Saturates where atoll is undefined.
+      const long long index = std::strtoll(target.c_str() + open + 1, nullptr,
+                                           10);  // Saturates where atoll is undefined.
       if (index < 0 || static_cast<size_t>(index) >= morph_shapes_[src].size()) {
         ++skipped;
         continue;
@@ -417,26 +482,40 @@ Status Reader::Animations() {
       Source in, out, tin, tout, interp;
       for (pugi::xml_node i : sampler.children("input")) {
         const std::string_view sem = i.attribute("semantic").value();
-        Source* dst = sem == "INPUT" ? &in : sem == "OUTPUT" ? &out : sem == "IN_TANGENT" ? &tin : sem == "OUT_TANGENT" ? &tout : sem == "INTERPOLATION" ? &interp : nullptr;
+        Source* dst = sem == "INPUT"           ? &in
+                      : sem == "OUTPUT"        ? &out
+                      : sem == "IN_TANGENT"    ? &tin
+                      : sem == "OUT_TANGENT"   ? &tout
+                      : sem == "INTERPOLATION" ? &interp
+                                               : nullptr;
         if (dst) {
           if (Status s = ReadSource(ById(i.attribute("source").value()), *dst); !s.ok()) return s;
         }
       }
-      if (in.count == 0 || in.count != out.count || out.numbers.empty()) return Bad(Describe(sampler) + ": INPUT and OUTPUT differ in length (or are empty)");
+      if (in.count == 0 || in.count != out.count || out.numbers.empty())
+        return Bad(Describe(sampler) + ": INPUT and OUTPUT differ in length (or are empty)");
       for (size_t k = 0; k < in.count; ++k) {
         c.t.push_back(in.At(k)[0]);
         c.v.push_back(out.At(k)[0]);
-        if (k && !(c.t[k] > c.t[k - 1])) return Bad(Describe(sampler) + ": key times are not ascending");
+        if (k && !(c.t[k] > c.t[k - 1]))
+          return Bad(Describe(sampler) + ": key times are not ascending");
       }
-      c.interp.assign(interp.names.begin(), interp.names.begin() + static_cast<std::ptrdiff_t>(std::min(interp.names.size(), in.count)));
-      if (tin.stride == 2 && tin.count == in.count) c.in.assign(tin.numbers.begin(), tin.numbers.begin() + static_cast<std::ptrdiff_t>(2 * in.count));
-      if (tout.stride == 2 && tout.count == in.count) c.out.assign(tout.numbers.begin(), tout.numbers.begin() + static_cast<std::ptrdiff_t>(2 * in.count));
+      c.interp.assign(interp.names.begin(),
+                      interp.names.begin() +
+                          static_cast<std::ptrdiff_t>(std::min(interp.names.size(), in.count)));
+      if (tin.stride == 2 && tin.count == in.count)
+        c.in.assign(tin.numbers.begin(),
+                    tin.numbers.begin() + static_cast<std::ptrdiff_t>(2 * in.count));
+      if (tout.stride == 2 && tout.count == in.count)
+        c.out.assign(tout.numbers.begin(),
+                     tout.numbers.begin() + static_cast<std::ptrdiff_t>(2 * in.count));
       curves[src][static_cast<size_t>(index)] = std::move(c);
     }
   }
   if (skipped) {
-    rig_.load_warnings.push_back({"animation_skipped", std::to_string(skipped) + " animation channels target nodes or other properties; only morph weights are read", "",
-                                  static_cast<double>(skipped), true});
+    rig_.load_warnings.push_back(CountWarning(
+        "animation_skipped", skipped,
+        "animation channels target nodes or other properties; only morph weights are read"));
   }
   if (curves.empty()) return Status::Ok();
   // One weights channel per morphed mesh, its keys every key of its curves, each segment the curves
@@ -452,7 +531,9 @@ Status Reader::Animations() {
     std::sort(times.begin(), times.end());
     times.erase(std::unique(times.begin(), times.end()), times.end());
     const size_t n = mesh.target_shapes.size();
-    if (times.size() * n > kMaxSamples) return Bad("an animated morph has more than " + std::to_string(kMaxSamples) + " keys x targets");
+    if (times.size() * n > kMaxSamples)
+      return Bad("an animated morph has more than " + std::to_string(kMaxSamples) +
+                 " keys x targets");
     AnimationSampler s;
     s.components = n;
     s.interpolation = Interpolation::kBezier;
@@ -463,16 +544,20 @@ Status Reader::Animations() {
       const double a = times[k], b = k + 1 < times.size() ? times[k + 1] : times[k] + 1.0;
       for (size_t j = 0; j < n; ++j) {
         const uint32_t shape = mesh.target_shapes[j];
-        std::array<double, 6> part{rig_.shapes[shape].default_weight, 1.0 / 3, rig_.shapes[shape].default_weight, 2.0 / 3,
-                                   rig_.shapes[shape].default_weight, rig_.shapes[shape].default_weight};
+        std::array<double, 6> part{
+            rig_.shapes[shape].default_weight, 1.0 / 3,
+            rig_.shapes[shape].default_weight, 2.0 / 3,
+            rig_.shapes[shape].default_weight, rig_.shapes[shape].default_weight};
         for (size_t i = 0; i < shapes.size(); ++i) {
           if (shapes[i] == shape && by_index.count(i)) part = by_index.at(i).Part(a, b);
         }
-        for (size_t f = 0; f < 6; ++f) s.values[k * 6 * n + f * n + j] = static_cast<float>(part[f]);
+        for (size_t f = 0; f < 6; ++f)
+          s.values[k * 6 * n + f * n + j] = static_cast<float>(part[f]);
       }
     }
     clip.duration = std::max(clip.duration, s.times.back());
-    clip.channel_data.push_back({static_cast<int>(clip.sampler_data.size()), node, ChannelPath::kWeights});
+    clip.channel_data.push_back(
+        {static_cast<int>(clip.sampler_data.size()), node, ChannelPath::kWeights});
     clip.sampler_data.push_back(std::move(s));
   }
   if (clip.channel_data.empty()) return Status::Ok();
@@ -489,9 +574,11 @@ using collada::Reader;
 
 Result<Rig> LoadColladaMemory(std::span<const unsigned char> bytes, const std::string& name) {
   pugi::xml_document doc;
-  const pugi::xml_parse_result parsed = doc.load_buffer(bytes.data(), bytes.size(), pugi::parse_default, pugi::encoding_auto);
+  const pugi::xml_parse_result parsed =
+      doc.load_buffer(bytes.data(), bytes.size(), pugi::parse_default, pugi::encoding_auto);
   if (!parsed) {
-    return InvalidArgument(name + ": COLLADA: not well-formed XML at byte " + std::to_string(parsed.offset) + ": " + parsed.description());
+    return InvalidArgument(name + ": COLLADA: not well-formed XML at byte " +
+                           std::to_string(parsed.offset) + ": " + parsed.description());
   }
   Reader reader(doc, name);
   Result<Rig> rig = reader.Run();

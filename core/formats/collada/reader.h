@@ -3,27 +3,25 @@
 // animations (collada_import.cpp). Every index checked, every reference resolved or reported.
 #pragma once
 
-#include <pugixml.hpp>
-
 #include <Eigen/Geometry>
-
 #include <map>
+#include <pugixml.hpp>
 #include <set>
 #include <string>
 #include <string_view>
 #include <unordered_map>
 #include <vector>
 
-#include "facespace/formats/io.h"
-#include "facespace/engine/bezier.h"
 #include "common/split_mesh.h"
+#include "facespace/engine/bezier.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::collada {
 
 using Mat4 = Eigen::Matrix4d;
 using Vec3 = Eigen::Vector3d;
 
-constexpr size_t kMaxDepth = 128;          // Node nesting (instance_node included).
+constexpr size_t kMaxDepth = 128;  // Node nesting (instance_node included).
 constexpr size_t kMaxNodes = 100'000;
 constexpr size_t kMaxValues = 64'000'000;  // Numbers in one array.
 constexpr size_t kMaxSamples = 100'000;
@@ -56,7 +54,9 @@ Mat4 RowMajor(const double* v);
 
 class Reader {
  public:
-  explicit Reader(const pugi::xml_document& doc, std::string name) : doc_(doc) { rig_.name = std::move(name); }
+  explicit Reader(const pugi::xml_document& doc, std::string name) : doc_(doc) {
+    rig_.name = std::move(name);
+  }
 
   Result<Rig> Run();
 
@@ -78,7 +78,8 @@ class Reader {
   };
 
   // The <mesh>'s positions (through <vertices>).
-  Status Positions(pugi::xml_node mesh, std::vector<double>& out, pugi::xml_node* vertices_out = nullptr);
+  Status Positions(pugi::xml_node mesh, std::vector<double>& out,
+                   pugi::xml_node* vertices_out = nullptr);
 
   Status SplitGeometry(pugi::xml_node geometry, Split& out);
 
@@ -92,7 +93,8 @@ class Reader {
     std::vector<double> weights;
   };
 
-  Status ReadMorph(pugi::xml_node controller, pugi::xml_node morph, size_t points, const std::vector<double>& base, Morph& out);
+  Status ReadMorph(pugi::xml_node controller, pugi::xml_node morph, size_t points,
+                   const std::vector<double>& base, Morph& out);
 
   struct SkinData {
     Mat4 bind_shape = Mat4::Identity();
@@ -131,16 +133,19 @@ class Reader {
   int Material(pugi::xml_node inst, const std::string& symbol);
 
   // An <instance_geometry> or <instance_controller> on `node`: its geometry split into primitives
-  // (placed by the skin's bind shape), its morph's targets as shapes, its skin, the mesh on the node.
+  // (placed by the skin's bind shape), its morph's targets as shapes, its skin, the mesh on the
+  // node.
   Status Instance(pugi::xml_node inst, int node);
   // What an instance leads to: controller(skin) -> controller(morph) -> geometry.
   struct InstanceChain {
     pugi::xml_node target, skin, skin_controller, morph, morph_controller;
   };
   Status ResolveInstance(pugi::xml_node inst, InstanceChain& chain);
-  void PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData* skin, const Morph& m, Split& split);
+  void PlacePrimitives(pugi::xml_node inst, int mesh_index, const SkinData* skin, const Morph& m,
+                       Split& split);
   void AddMorphShapes(const Morph& m, int node, facespace::Mesh& mesh);
-  Status AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node, SkinData& sd, Split& split, facespace::Mesh& mesh);
+  Status AddSkin(pugi::xml_node inst, const InstanceChain& chain, int node, SkinData& sd,
+                 Split& split, facespace::Mesh& mesh);
   void AttachMesh(Split& split, facespace::Mesh mesh, int node, const std::string& weights_source);
 
   // ---- animation: morph weights ----
@@ -150,10 +155,12 @@ class Reader {
     std::vector<double> t, v, in, out;  // in/out: 2 per key when BEZIER.
     std::vector<std::string> interp;
     // The curve between times a < b that lie within one of its segments (or outside its keys), as
-    // one kBezier key: the value at a, handles (x1, y1), (x2, y2) with x as a fraction of b - a, and
-    // the value reached at b. The same curve, cut exactly (de Casteljau); STEP and LINEAR too.
+    // one kBezier key: the value at a, handles (x1, y1), (x2, y2) with x as a fraction of b - a,
+    // and the value reached at b. The same curve, cut exactly (de Casteljau); STEP and LINEAR too.
     std::array<double, 6> Part(double a, double b) const {
-      const auto flat = [](double y) { return std::array<double, 6>{y, 1.0 / 3, y, 2.0 / 3, y, y}; };
+      const auto flat = [](double y) {
+        return std::array<double, 6>{y, 1.0 / 3, y, 2.0 / 3, y, y};
+      };
       if (b <= t.front()) return flat(v.front());
       if (a >= t.back()) return flat(v.back());
       const size_t k = static_cast<size_t>(std::upper_bound(t.begin(), t.end(), a) - t.begin()) - 1;
@@ -170,7 +177,8 @@ class Reader {
         const auto frac = [&](double h) { return std::clamp((h - a) / (b - a), 0.0, 1.0); };
         return {py[0], frac(px[1]), py[1], frac(px[2]), py[2], py[3]};
       }
-      const double ya = v[k] + (v[k + 1] - v[k]) * (a - t[k]) / gap, yb = v[k] + (v[k + 1] - v[k]) * (b - t[k]) / gap;
+      const double ya = v[k] + (v[k + 1] - v[k]) * (a - t[k]) / gap,
+                   yb = v[k] + (v[k + 1] - v[k]) * (b - t[k]) / gap;
       return {ya, 1.0 / 3, ya + (yb - ya) / 3, 2.0 / 3, ya + 2 * (yb - ya) / 3, yb};
     }
   };

@@ -1,6 +1,7 @@
 // JSON from outside (glTF, VRM extensions, manifests) is nested at most kMaxJsonDepth deep before a
 // recursive reader sees it: tinygltf's reader and nlohmann's dump recurse once a level, and 20,000
-// nested arrays overflowed the stack (a crash that any shared store would spread to every instance).
+// nested arrays overflowed the stack (a crash that any shared store would spread to every
+// instance).
 #pragma once
 
 #include <cstddef>
@@ -22,8 +23,10 @@ inline size_t JsonDepth(std::string_view text, size_t limit = kMaxJsonDepth) {
   for (size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (in_string) {
-      if (c == '\\') ++i;
-      else if (c == '"') in_string = false;
+      if (c == '\\')
+        ++i;
+      else if (c == '"')
+        in_string = false;
     } else if (c == '"') {
       in_string = true;
     } else if (c == '[' || c == '{') {
@@ -38,7 +41,9 @@ inline size_t JsonDepth(std::string_view text, size_t limit = kMaxJsonDepth) {
 // InvalidArgument naming `what` when `text` nests deeper than kMaxJsonDepth.
 inline Status CheckJsonDepth(std::string_view text, const char* what) {
   if (JsonDepth(text) <= kMaxJsonDepth) return Status::Ok();
-  return WithReason(InvalidArgument(std::string(what) + ": JSON nested deeper than " + std::to_string(kMaxJsonDepth) + " levels"), "too-deep");
+  return WithReason(InvalidArgument(std::string(what) + ": JSON nested deeper than " +
+                                    std::to_string(kMaxJsonDepth) + " levels"),
+                    "too-deep");
 }
 
 }  // namespace facespace

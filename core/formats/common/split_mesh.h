@@ -4,14 +4,13 @@
 // node transforms as matrices, made TRS where they can be.
 #pragma once
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Dense>
 
 #include "facespace/engine/rig.h"
 
@@ -22,7 +21,8 @@ using Influences = std::vector<std::pair<uint32_t, float>>;
 
 // Sets `prim`'s skinning from per-control-point influences: as many slots per vertex as the most
 // any point has, weights normalised to sum 1. Every point must have at least one influence.
-inline void SetInfluences(Primitive& prim, const std::vector<uint32_t>& point_of_vertex, const std::vector<Influences>& per_point) {
+inline void SetInfluences(Primitive& prim, const std::vector<uint32_t>& point_of_vertex,
+                          const std::vector<Influences>& per_point) {
   size_t most = 1;
   for (const Influences& inf : per_point) most = std::max(most, inf.size());
   prim.influences = most;
@@ -40,7 +40,8 @@ inline void SetInfluences(Primitive& prim, const std::vector<uint32_t>& point_of
 }
 
 // TRS of a matrix; false when it shears (no TRS gives it).
-inline bool DecomposeTrs(const Eigen::Matrix4d& m, std::array<float, 3>& t, std::array<float, 4>& q, std::array<float, 3>& s) {
+inline bool DecomposeTrs(const Eigen::Matrix4d& m, std::array<float, 3>& t, std::array<float, 4>& q,
+                         std::array<float, 3>& s) {
   Eigen::Matrix3d a = m.block<3, 3>(0, 0);
   Eigen::Vector3d scale(a.col(0).norm(), a.col(1).norm(), a.col(2).norm());
   if (a.determinant() < 0) scale.x() = -scale.x();
@@ -48,14 +49,16 @@ inline bool DecomposeTrs(const Eigen::Matrix4d& m, std::array<float, 3>& t, std:
     if (!(std::fabs(scale[c]) > 1e-12)) return false;
     a.col(c) /= scale[c];
   }
-  const bool orthonormal = (a.transpose() * a - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-5;
+  const bool orthonormal =
+      (a.transpose() * a - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-5;
   Eigen::Quaterniond r(a);
   r.normalize();
   for (int c = 0; c < 3; ++c) {
     t[c] = static_cast<float>(m(c, 3));
     s[c] = static_cast<float>(scale[c]);
   }
-  q = {static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()), static_cast<float>(r.w())};
+  q = {static_cast<float>(r.x()), static_cast<float>(r.y()), static_cast<float>(r.z()),
+       static_cast<float>(r.w())};
   return orthonormal;
 }
 

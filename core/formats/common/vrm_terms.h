@@ -1,6 +1,6 @@
-// A rig's usage terms (core's UsageTerms) as VRM 1.0's meta says them and as VRM 0.x's meta says them:
-// one table per closed set, read by the manifest ("terms", in 1.0's words), the VRM importer and both
-// VRM writers.
+// A rig's usage terms (core's UsageTerms) as VRM 1.0's meta says them and as VRM 0.x's meta says
+// them: one table per closed set, read by the manifest ("terms", in 1.0's words), the VRM importer
+// and both VRM writers.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -16,26 +16,31 @@ using Commercial = UsageTerms::Commercial;
 using Modification = UsageTerms::Modification;
 
 // 1.0's names (the canonical ones) with 0.x's as aliases where 0.x has the value.
-inline constexpr EnumName<Avatar> kAvatar[] = {{Avatar::kOnlyAuthor, "onlyAuthor", "OnlyAuthor"},
-                                               {Avatar::kOnlySeparatelyLicensedPerson, "onlySeparatelyLicensedPerson", "ExplicitlyLicensedPerson"},
-                                               {Avatar::kEveryone, "everyone", "Everyone"}};
-inline constexpr EnumName<Commercial> kCommercial[] = {{Commercial::kPersonalNonProfit, "personalNonProfit", "Disallow"},
-                                                       {Commercial::kPersonalProfit, "personalProfit"},
-                                                       {Commercial::kCorporation, "corporation", "Allow"}};
-inline constexpr EnumName<Modification> kModification[] = {{Modification::kProhibited, "prohibited"},
-                                                           {Modification::kAllowModification, "allowModification"},
-                                                           {Modification::kAllowModificationRedistribution, "allowModificationRedistribution"}};
+inline constexpr EnumName<Avatar> kAvatar[] = {
+    {Avatar::kOnlyAuthor, "onlyAuthor", "OnlyAuthor"},
+    {Avatar::kOnlySeparatelyLicensedPerson, "onlySeparatelyLicensedPerson",
+     "ExplicitlyLicensedPerson"},
+    {Avatar::kEveryone, "everyone", "Everyone"}};
+inline constexpr EnumName<Commercial> kCommercial[] = {
+    {Commercial::kPersonalNonProfit, "personalNonProfit", "Disallow"},
+    {Commercial::kPersonalProfit, "personalProfit"},
+    {Commercial::kCorporation, "corporation", "Allow"}};
+inline constexpr EnumName<Modification> kModification[] = {
+    {Modification::kProhibited, "prohibited"},
+    {Modification::kAllowModification, "allowModification"},
+    {Modification::kAllowModificationRedistribution, "allowModificationRedistribution"}};
 
 // The boolean members of 1.0's meta, each with its place in UsageTerms.
 struct Flag {
   const char* name;
   bool UsageTerms::*member;
 };
-inline constexpr Flag kFlags[] = {{"allowExcessivelyViolentUsage", &UsageTerms::violent},
-                                  {"allowExcessivelySexualUsage", &UsageTerms::sexual},
-                                  {"allowPoliticalOrReligiousUsage", &UsageTerms::political_or_religious},
-                                  {"allowAntisocialOrHateUsage", &UsageTerms::antisocial_or_hate},
-                                  {"allowRedistribution", &UsageTerms::redistribution}};
+inline constexpr Flag kFlags[] = {
+    {"allowExcessivelyViolentUsage", &UsageTerms::violent},
+    {"allowExcessivelySexualUsage", &UsageTerms::sexual},
+    {"allowPoliticalOrReligiousUsage", &UsageTerms::political_or_religious},
+    {"allowAntisocialOrHateUsage", &UsageTerms::antisocial_or_hate},
+    {"allowRedistribution", &UsageTerms::redistribution}};
 
 // 1.0's meta members for `t` (the caller adds name, authors and licences).
 inline nlohmann::ordered_json Meta1(const UsageTerms& t) {
@@ -48,8 +53,9 @@ inline nlohmann::ordered_json Meta1(const UsageTerms& t) {
   return m;
 }
 
-// 0.x's: allowedUserName, violentUssageName, sexualUssageName, commercialUssageName (sic), "Allow"/"Disallow".
-// 0.x has no political, hate, credit or redistribution members: its licenseName says the rest.
+// 0.x's: allowedUserName, violentUssageName, sexualUssageName, commercialUssageName (sic),
+// "Allow"/"Disallow". 0.x has no political, hate, credit or redistribution members: its licenseName
+// says the rest.
 inline nlohmann::ordered_json Meta0(const UsageTerms& t) {
   auto allow = [](bool b) { return b ? "Allow" : "Disallow"; };
   return {{"allowedUserName", EnumEntry(kAvatar, t.avatar).alias},

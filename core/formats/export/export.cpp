@@ -1,7 +1,6 @@
-// ExportMesh picks the writer; the f32 body written over the rest's bytes (F32Writer); warnings as JSON.
+// ExportMesh picks the writer; the f32 body written over the rest's bytes (F32Writer); warnings as
+// JSON.
 #include <tiny_gltf.h>
-#include "facespace/engine/enum_table.h"
-#include "facespace/engine/transform.h"
 
 #include <Eigen/Dense>
 #include <charconv>
@@ -11,11 +10,13 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "export/writers.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/normal_matrix.h"
+#include "facespace/engine/transform.h"
+#include "facespace/engine/weights.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
-#include "facespace/engine/weights.h"
-#include "facespace/engine/normal_matrix.h"
-#include "export/writers.h"
 
 namespace facespace {
 
@@ -32,22 +33,6 @@ void WorldPositions(const BlendedRig& blended, std::vector<float>& out) {
   }
 }
 
-std::string WarningsToJson(std::span<const Warning> warnings) {
-  std::string out = "[";
-  for (size_t i = 0; i < warnings.size(); ++i) {
-    const Warning& w = warnings[i];
-    if (i) out += ',';
-    out += "{\"code\":" + JsonString(w.code) + ",\"message\":" + JsonString(w.message);
-    if (!w.shape.empty()) out += ",\"shape\":" + JsonString(w.shape);
-    if (w.has_value) {
-      out += ",\"value\":";
-      out += std::isfinite(w.value) ? FormatNumber(w.value) : "null";
-    }
-    out += '}';
-  }
-  return out + "]";
-}
-
 nlohmann::json NumberValue(double value) {
   if (!std::isfinite(value)) return nullptr;
   if (value == std::floor(value) && std::fabs(value) < 1e15) return static_cast<int64_t>(value);
@@ -60,7 +45,8 @@ nlohmann::json WarningsValue(std::span<const Warning> warnings) {
     nlohmann::json o = {{"code", w.code}, {"message", w.message}};
     if (!w.shape.empty()) o["shape"] = w.shape;
     if (w.has_value) o["value"] = NumberValue(w.value);
-    for (auto& [key, v] : o.items()) {  // As WarningsToJson's text, valid UTF-8 whatever the names held.
+    for (auto& [key, v] :
+         o.items()) {  // As WarningsToJson's text, valid UTF-8 whatever the names held.
       if (v.is_string()) RepairUtf8(v.get_ref<std::string&>());
     }
     out.push_back(std::move(o));
@@ -68,10 +54,17 @@ nlohmann::json WarningsValue(std::span<const Warning> warnings) {
   return out;
 }
 
-Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
-                               std::span<const Warning> warnings, MeshFormat format,
-                               const ExportOptions& options) {
-  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
+// The text of WarningsValue: one declaration of a warning's members for the text writers and the
+// JSON answers alike.
+std::string WarningsToJson(std::span<const Warning> warnings) {
+  return WarningsValue(warnings).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended,
+                               std::span<const float> weights, std::span<const Warning> warnings,
+                               MeshFormat format, const ExportOptions& options) {
+  if (blended.primitives.size() != rig.primitives.size())
+    return InvalidArgument("blended rig does not match the rig");
   switch (format) {
     case MeshFormat::kJson: return ExportJson(rig, blended, warnings, options.mesh_space);
     case MeshFormat::kObj: return ExportObj(rig, blended, warnings, options.mesh_space);
@@ -88,7 +81,8 @@ Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended, std::s
 F32Writer::F32Writer(const Rig& rig, bool mesh_space) : F32Writer(rig, mesh_space, BlendedRig{}) {}
 
 // `rest` is filled by blend_'s construction, before the body reads it.
-F32Writer::F32Writer(const Rig& rig, bool mesh_space, BlendedRig&& rest) : mesh_space_(mesh_space), blend_(rig, &rest) {
+F32Writer::F32Writer(const Rig& rig, bool mesh_space, BlendedRig&& rest)
+    : mesh_space_(mesh_space), blend_(rig, &rest) {
   if (!blend_.ok()) return;
   rest_ = ExportF32(rest, mesh_space);
   // The body is every primitive's positions, in order, then every primitive's normals.
@@ -106,7 +100,8 @@ F32Writer::F32Writer(const Rig& rig, bool mesh_space, BlendedRig&& rest) : mesh_
   ok_ = normals_at == rest_.size();
 }
 
-bool F32Writer::Write(const Rig& rig, std::span<const float> weights, Scratch& s, std::string& out) const {
+bool F32Writer::Write(const Rig& rig, std::span<const float> weights, Scratch& s,
+                      std::string& out) const {
   if (!ok_ || !blend_.Accepts(rig, weights)) return false;
   // Every byte of `out` is written below, so a body of this size handed back (a response sent)
   // is written over as it is: no allocation, and no copy of what the point's shapes move.
@@ -121,8 +116,10 @@ bool F32Writer::Write(const Rig& rig, std::span<const float> weights, Scratch& s
         break;
       }
       case SparseBlend::Outcome::kBlended:
-        // The moved vertices' normals are scaled to unit length, as the blend leaves them, while placed.
-        WritePlaced(s.positions, s.normals, placed.placement, out.data() + placed.at, out.data() + placed.normals_at, s.moved.data());
+        // The moved vertices' normals are scaled to unit length, as the blend leaves them, while
+        // placed.
+        WritePlaced(s.positions, s.normals, placed.placement, out.data() + placed.at,
+                    out.data() + placed.normals_at, s.moved.data());
         break;
       case SparseBlend::Outcome::kDeclined: return false;
     }
@@ -131,4 +128,3 @@ bool F32Writer::Write(const Rig& rig, std::span<const float> weights, Scratch& s
 }
 
 }  // namespace facespace
-

@@ -1,9 +1,5 @@
 // The glb writer (tinygltf), and glb bodies of many variants written from a kept template.
 #include <tiny_gltf.h>
-#include "facespace/engine/animation.h"
-#include "facespace/engine/constraints.h"
-#include "facespace/engine/enum_table.h"
-#include "facespace/engine/transform.h"
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -14,11 +10,15 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "export/writers.h"
+#include "facespace/engine/animation.h"
+#include "facespace/engine/constraints.h"
+#include "facespace/engine/enum_table.h"
+#include "facespace/engine/normal_matrix.h"
+#include "facespace/engine/transform.h"
+#include "facespace/engine/weights.h"
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
-#include "facespace/engine/weights.h"
-#include "facespace/engine/normal_matrix.h"
-#include "export/writers.h"
 
 namespace facespace {
 
@@ -32,7 +32,8 @@ tinygltf::Value ToValue(const nlohmann::json& j) {
   switch (j.type()) {
     case nlohmann::json::value_t::boolean: return tinygltf::Value(j.get<bool>());
     case nlohmann::json::value_t::number_integer:
-    case nlohmann::json::value_t::number_unsigned: return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
+    case nlohmann::json::value_t::number_unsigned:
+      return tinygltf::Value(static_cast<int>(j.get<int64_t>()));
     case nlohmann::json::value_t::number_float: return tinygltf::Value(j.get<double>());
     case nlohmann::json::value_t::string: return tinygltf::Value(j.get<std::string>());
     case nlohmann::json::value_t::array: {
@@ -49,65 +50,15 @@ tinygltf::Value ToValue(const nlohmann::json& j) {
   }
 }
 
-// An accessor's min and max: per component, over `count` elements of `comps` floats.
-void FloatBounds(std::span<const float> values, int comps, size_t count, std::vector<double>& lo, std::vector<double>& hi) {
-  lo.assign(comps, 0.0);
-  hi.assign(comps, 0.0);
-  for (size_t e = 0; e < count; ++e) {
-    for (int c = 0; c < comps; ++c) {
-      const double v = values[e * comps + c];
-      if (e == 0 || v < lo[c]) lo[c] = v;
-      if (e == 0 || v > hi[c]) hi[c] = v;
-    }
-  }
-}
-
 // Node i's local matrix under the evaluated pose (its world matrix relative to its parent's).
 std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blended, size_t i) {
   Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
   const int parent = rig.nodes[i].parent;
-  if (parent >= 0) world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[parent].data()).inverse() * world;
+  if (parent >= 0)
+    world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[parent].data()).inverse() * world;
   std::array<double, 16> out;
   std::copy(world.data(), world.data() + 16, out.begin());
   return out;
-}
-
-// glb's asset.extras: the caller's extras, the warnings and the non-zero weights by shape name.
-nlohmann::json AssetExtras(const Rig& rig, std::span<const float> weights, std::span<const Warning> warnings) {
-  nlohmann::json extras = nlohmann::json::object();
-  extras["warnings"] = WarningsValue(warnings);
-  nlohmann::json wmap = nlohmann::json::object();
-  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
-    if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
-  }
-  extras["weights"] = wmap;
-  return extras;
-}
-
-// What tinygltf writes for JSON that went through ToValue: integers as int, empty arrays and
-// objects as null, nulls left out. False when nothing is written.
-bool AsTinygltfWrites(const nlohmann::json& j, nlohmann::json& out) {
-  out = nlohmann::json();
-  switch (j.type()) {
-    case nlohmann::json::value_t::boolean: out = j.get<bool>(); return true;
-    case nlohmann::json::value_t::number_integer:
-    case nlohmann::json::value_t::number_unsigned: out = static_cast<int>(j.get<int64_t>()); return true;
-    case nlohmann::json::value_t::number_float: out = j.get<double>(); return true;
-    case nlohmann::json::value_t::string: out = j; return true;
-    case nlohmann::json::value_t::array:
-      for (const auto& e : j) {
-        nlohmann::json v;
-        if (AsTinygltfWrites(e, v)) out.push_back(std::move(v));
-      }
-      return true;
-    case nlohmann::json::value_t::object:
-      for (auto it = j.begin(); it != j.end(); ++it) {
-        nlohmann::json v;
-        if (AsTinygltfWrites(it.value(), v)) out[it.key()] = std::move(v);
-      }
-      return true;
-    default: return false;
-  }
 }
 
 class GlbBuilder {
@@ -181,13 +132,15 @@ class GlbBuilder {
 
   // A sparse VEC3 delta accessor over `count` vertices. Empty targets become an accessor
   // without bufferView, which glTF defines as all zeros.
-  int SparseDeltas(std::span<const uint32_t> indices, std::span<const float> deltas, size_t count, int comps = 3) {
+  int SparseDeltas(std::span<const uint32_t> indices, std::span<const float> deltas, size_t count,
+                   int comps = 3) {
     tinygltf::Accessor a;
     a.componentType = TINYGLTF_COMPONENT_TYPE_FLOAT;
     a.count = count;
     a.type = TypeOf(comps);
     std::vector<float> mm(deltas.begin(), deltas.end());
-    if (indices.size() < count) mm.insert(mm.end(), static_cast<size_t>(comps), 0.0f);  // Implicit zeros.
+    if (indices.size() < count)
+      mm.insert(mm.end(), static_cast<size_t>(comps), 0.0f);  // Implicit zeros.
     MinMax(mm, comps, mm.size() / static_cast<size_t>(comps), a);
     if (!indices.empty()) {
       a.sparse.isSparse = true;
@@ -204,9 +157,13 @@ class GlbBuilder {
 
  private:
   static int TypeOf(int comps) {
-    return comps == 1 ? TINYGLTF_TYPE_SCALAR : comps == 2 ? TINYGLTF_TYPE_VEC2 : comps == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4;
+    return comps == 1   ? TINYGLTF_TYPE_SCALAR
+           : comps == 2 ? TINYGLTF_TYPE_VEC2
+           : comps == 3 ? TINYGLTF_TYPE_VEC3
+                        : TINYGLTF_TYPE_VEC4;
   }
-  static void MinMax(std::span<const float> values, int comps, size_t count, tinygltf::Accessor& a) {
+  static void MinMax(std::span<const float> values, int comps, size_t count,
+                     tinygltf::Accessor& a) {
     FloatBounds(values, comps, count, a.minValues, a.maxValues);
   }
   tinygltf::Model& m_;
@@ -215,34 +172,100 @@ class GlbBuilder {
 
 namespace writers {
 
+// An accessor's min and max: per component, over `count` elements of `comps` floats.
+void FloatBounds(std::span<const float> values, int comps, size_t count, std::vector<double>& lo,
+                 std::vector<double>& hi) {
+  lo.assign(comps, 0.0);
+  hi.assign(comps, 0.0);
+  for (size_t e = 0; e < count; ++e) {
+    for (int c = 0; c < comps; ++c) {
+      const double v = values[e * comps + c];
+      if (e == 0 || v < lo[c]) lo[c] = v;
+      if (e == 0 || v > hi[c]) hi[c] = v;
+    }
+  }
+}
+
+// glb's asset.extras: the caller's extras, the warnings and the non-zero weights by shape name.
+nlohmann::json AssetExtras(const Rig& rig, std::span<const float> weights,
+                           std::span<const Warning> warnings) {
+  nlohmann::json extras = nlohmann::json::object();
+  extras["warnings"] = WarningsValue(warnings);
+  nlohmann::json wmap = nlohmann::json::object();
+  for (size_t s = 0; s < rig.shapes.size() && s < weights.size(); ++s) {
+    if (weights[s] != 0.0f) wmap[rig.shapes[s].name] = weights[s];
+  }
+  extras["weights"] = wmap;
+  return extras;
+}
+
+// What tinygltf writes for JSON that went through ToValue: integers as int, empty arrays and
+// objects as null, nulls left out. False when nothing is written.
+bool AsTinygltfWrites(const nlohmann::json& j, nlohmann::json& out) {
+  out = nlohmann::json();
+  switch (j.type()) {
+    case nlohmann::json::value_t::boolean: out = j.get<bool>(); return true;
+    case nlohmann::json::value_t::number_integer:
+    case nlohmann::json::value_t::number_unsigned:
+      out = static_cast<int>(j.get<int64_t>());
+      return true;
+    case nlohmann::json::value_t::number_float: out = j.get<double>(); return true;
+    case nlohmann::json::value_t::string: out = j; return true;
+    case nlohmann::json::value_t::array:
+      for (const auto& e : j) {
+        nlohmann::json v;
+        if (AsTinygltfWrites(e, v)) out.push_back(std::move(v));
+      }
+      return true;
+    case nlohmann::json::value_t::object:
+      for (auto it = j.begin(); it != j.end(); ++it) {
+        nlohmann::json v;
+        if (AsTinygltfWrites(it.value(), v)) out[it.key()] = std::move(v);
+      }
+      return true;
+    default: return false;
+  }
+}
+
 namespace {
 
-// glTF has no material, bone or flip morphs: the materials carry their colours, and the mesh its pose,
-// at the exported weights; a glb that keeps the targets says which shapes lost what they do.
+// glTF has no material, bone or flip morphs: the materials carry their colours, and the mesh its
+// pose, at the exported weights; a glb that keeps the targets says which shapes lost what they do.
 void WarnUnexported(const Rig& rig, std::vector<Warning>& warnings) {
-  const auto say = [&](auto does, const char* code, const std::string& what, const std::string& kept) {
+  const auto say = [&](auto does, const char* code, const std::string& what,
+                       const std::string& kept) {
     std::string names;
     size_t count = 0;
     for (size_t s = 0; s < rig.shapes.size(); ++s) {
       if (does(s) && ++count <= 12) names += (names.empty() ? "" : ", ") + rig.shapes[s].name;
     }
     if (count) {
-      warnings.push_back({code, std::to_string(count) + (count == 1 ? " shape " : " shapes ") + what + ": " + names + (count > 12 ? ", ..." : "") + "; " + kept, "",
-                          static_cast<double>(count), false});
+      warnings.push_back({code,
+                          std::to_string(count) + (count == 1 ? " shape " : " shapes ") + what +
+                              ": " + names + (count > 12 ? ", ..." : "") + "; " + kept,
+                          "", static_cast<double>(count), false});
     }
   };
-  say([&](size_t s) { return !rig.shapes[s].material_morphs.empty(); }, "material_morphs_not_exported",
-      "with MMD material morphs (they change materials), which glTF cannot say", "the materials hold their colours at the exported weights");
+  say([&](size_t s) { return !rig.shapes[s].material_morphs.empty(); },
+      "material_morphs_not_exported",
+      "with MMD material morphs (they change materials), which glTF cannot say",
+      "the materials hold their colours at the exported weights");
   say([&](size_t s) { return !rig.shapes[s].bone_morphs.empty(); }, "bone_morphs_not_exported",
-      "with MMD bone morphs (they move bones), which a glTF morph target cannot say", "the mesh holds their pose at the exported weights");
-  say([&](size_t s) { return std::any_of(rig.flips.begin(), rig.flips.end(), [s](const Flip& f) { return f.shape == s; }); },
-      "flip_morphs_not_exported", "as MMD flip morphs (they switch other shapes on), which glTF's linear weights cannot say",
+      "with MMD bone morphs (they move bones), which a glTF morph target cannot say",
+      "the mesh holds their pose at the exported weights");
+  say(
+      [&](size_t s) {
+        return std::any_of(rig.flips.begin(), rig.flips.end(),
+                           [s](const Flip& f) { return f.shape == s; });
+      },
+      "flip_morphs_not_exported",
+      "as MMD flip morphs (they switch other shapes on), which glTF's linear weights cannot say",
       "the mesh holds what they pick at the exported weights");
 }
 
-// The images glTF carries (PNG and JPEG: other images, an MMD model's BMP or TGA, and unread ones are
-// left out, their materials keeping the base colour), a texture each, then the materials (colours
-// under the material morphs at these weights).
+// The images glTF carries (PNG and JPEG: other images, an MMD model's BMP or TGA, and unread ones
+// are left out, their materials keeping the base colour), a texture each, then the materials
+// (colours under the material morphs at these weights).
 void WriteMaterials(const Rig& rig, const BlendedRig& blended, GlbBuilder& b, tinygltf::Model& m) {
   std::vector<int> texture_of(rig.images.size(), -1);
   for (size_t ii = 0; ii < rig.images.size(); ++ii) {
@@ -260,12 +283,15 @@ void WriteMaterials(const Rig& rig, const BlendedRig& blended, GlbBuilder& b, ti
   }
   // Each map's glTF texture, or -1 (no image, or one glTF cannot carry): tinygltf writes a texture
   // info only when its index is set.
-  const auto texture = [&texture_of](int image) { return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1; };
+  const auto texture = [&texture_of](int image) {
+    return image >= 0 ? texture_of[static_cast<size_t>(image)] : -1;
+  };
   for (size_t mi = 0; mi < rig.materials.size(); ++mi) {
     const Material& mat = rig.materials[mi];
     tinygltf::Material gm;
     gm.name = mat.name;
-    const auto& base = mi < blended.material_colors.size() ? blended.material_colors[mi] : mat.base_color_factor;
+    const auto& base =
+        mi < blended.material_colors.size() ? blended.material_colors[mi] : mat.base_color_factor;
     gm.pbrMetallicRoughness.baseColorFactor.assign(base.begin(), base.end());
     gm.pbrMetallicRoughness.baseColorTexture.index = texture(mat.base_color_image);
     gm.pbrMetallicRoughness.baseColorTexture.texCoord = mat.base_color_texcoord;
@@ -279,7 +305,9 @@ void WriteMaterials(const Rig& rig, const BlendedRig& blended, GlbBuilder& b, ti
     gm.pbrMetallicRoughness.metallicFactor = mat.metallic_factor;
     gm.pbrMetallicRoughness.roughnessFactor = mat.roughness_factor;
     gm.doubleSided = mat.double_sided;
-    gm.alphaMode = mat.alpha_mode == "OPAQUE" && base[3] < 1.0f ? "BLEND" : mat.alpha_mode;  // Made see-through by a material morph.
+    gm.alphaMode = mat.alpha_mode == "OPAQUE" && base[3] < 1.0f
+                       ? "BLEND"
+                       : mat.alpha_mode;  // Made see-through by a material morph.
     gm.alphaCutoff = mat.alpha_cutoff;
     m.materials.push_back(gm);
   }
@@ -318,21 +346,30 @@ void WriteTargets(const Primitive& p, GlbBuilder& b, tinygltf::Primitive& gp) {
     if (any_normals) {
       std::vector<float> zeros;
       if (t.normal_deltas.empty()) zeros.assign(t.position_deltas.size(), 0.0f);
-      gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas, p.vertex_count());
+      gt["NORMAL"] = b.SparseDeltas(t.indices, t.normal_deltas.empty() ? zeros : t.normal_deltas,
+                                    p.vertex_count());
     }
     if (all_tangents) gt["TANGENT"] = b.SparseDeltas(t.indices, t.tangent_deltas, p.vertex_count());
-    if (any_uvs) gt["TEXCOORD_0"] = b.SparseDeltas(t.texcoord_indices, t.texcoord_deltas, p.vertex_count(), 2);
+    if (any_uvs)
+      gt["TEXCOORD_0"] = b.SparseDeltas(t.texcoord_indices, t.texcoord_deltas, p.vertex_count(), 2);
     gp.targets.push_back(gt);
   }
 }
 
 // One primitive: the blended one, or with `rig_data` the rig's own (base positions, targets, skin).
-tinygltf::Primitive WritePrimitive(const Primitive& p, const BlendedPrimitive& bp, bool rig_data, bool skinned, GlbBuilder& b) {
+tinygltf::Primitive WritePrimitive(const Primitive& p, const BlendedPrimitive& bp, bool rig_data,
+                                   bool skinned, GlbBuilder& b) {
   tinygltf::Primitive gp;
-  gp.attributes["POSITION"] = b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
-  gp.attributes["NORMAL"] = b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
-  if (!p.tangents.empty()) gp.attributes["TANGENT"] = b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
-  if (!p.texcoords.empty()) gp.attributes["TEXCOORD_0"] = b.Floats(rig_data ? std::span<const float>(p.texcoords) : TexcoordsOf(p, bp), 2, false);
+  gp.attributes["POSITION"] =
+      b.Floats(rig_data ? std::span<const float>(p.positions) : bp.positions, 3, true);
+  gp.attributes["NORMAL"] =
+      b.Floats(rig_data ? std::span<const float>(p.normals) : bp.normals, 3, false);
+  if (!p.tangents.empty())
+    gp.attributes["TANGENT"] =
+        b.Floats(rig_data ? std::span<const float>(p.tangents) : bp.tangents, 4, false);
+  if (!p.texcoords.empty())
+    gp.attributes["TEXCOORD_0"] =
+        b.Floats(rig_data ? std::span<const float>(p.texcoords) : TexcoordsOf(p, bp), 2, false);
   if (!p.colors.empty()) gp.attributes["COLOR_0"] = b.Floats(p.colors, 4, false);
   if (!p.source_vertices.empty()) {
     // Floats: glTF allows no unsigned int in a vertex attribute; exact below 2^24 (ValidateRig).
@@ -347,11 +384,14 @@ tinygltf::Primitive WritePrimitive(const Primitive& p, const BlendedPrimitive& b
   return gp;
 }
 
-void WriteMeshes(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, bool keep_targets, GlbBuilder& b, tinygltf::Model& m) {
+void WriteMeshes(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
+                 bool keep_targets, GlbBuilder& b, tinygltf::Model& m) {
   for (const Mesh& mesh : rig.meshes) {
     tinygltf::Mesh gm;
     gm.name = mesh.name;
-    for (int pi : mesh.primitives) gm.primitives.push_back(WritePrimitive(rig.primitives[pi], blended.primitives[pi], keep_targets, mesh.skin >= 0, b));
+    for (int pi : mesh.primitives)
+      gm.primitives.push_back(WritePrimitive(rig.primitives[pi], blended.primitives[pi],
+                                             keep_targets, mesh.skin >= 0, b));
     if (keep_targets && !mesh.target_shapes.empty()) {
       tinygltf::Value::Array names;
       for (uint32_t s : mesh.target_shapes) {
@@ -366,8 +406,10 @@ void WriteMeshes(const Rig& rig, const BlendedRig& blended, std::span<const floa
   }
 }
 
-// One node: the evaluated pose as its local matrix, else its own transform; its skin with the rig's data.
-tinygltf::Node WriteNode(const Rig& rig, const BlendedRig& blended, size_t i, bool keep_targets, bool mesh_elsewhere) {
+// One node: the evaluated pose as its local matrix, else its own transform; its skin with the rig's
+// data.
+tinygltf::Node WriteNode(const Rig& rig, const BlendedRig& blended, size_t i, bool keep_targets,
+                         bool mesh_elsewhere) {
   const Node& n = rig.nodes[i];
   tinygltf::Node gn;
   gn.name = n.name;
@@ -379,28 +421,33 @@ tinygltf::Node WriteNode(const Rig& rig, const BlendedRig& blended, size_t i, bo
   } else if (n.has_matrix) {
     gn.matrix.assign(n.matrix.begin(), n.matrix.end());
   } else {
-    if (n.translation != std::array<float, 3>{0, 0, 0}) gn.translation.assign(n.translation.begin(), n.translation.end());
-    if (n.rotation != std::array<float, 4>{0, 0, 0, 1}) gn.rotation.assign(n.rotation.begin(), n.rotation.end());
+    if (n.translation != std::array<float, 3>{0, 0, 0})
+      gn.translation.assign(n.translation.begin(), n.translation.end());
+    if (n.rotation != std::array<float, 4>{0, 0, 0, 1})
+      gn.rotation.assign(n.rotation.begin(), n.rotation.end());
     if (n.scale != std::array<float, 3>{1, 1, 1}) gn.scale.assign(n.scale.begin(), n.scale.end());
   }
-  if (keep_targets && n.mesh >= 0 && rig.meshes[n.mesh].skin >= 0 && static_cast<size_t>(rig.meshes[n.mesh].skin) < rig.skins.size()) {
+  if (keep_targets && n.mesh >= 0 && rig.meshes[n.mesh].skin >= 0 &&
+      static_cast<size_t>(rig.meshes[n.mesh].skin) < rig.skins.size()) {
     gn.skin = rig.meshes[n.mesh].skin;
   }
   return gn;
 }
 
 // The nodes and the scene. Meshes whose primitives were skinned are already in scene space: they
-// hang from a root node of their own (glTF ignores a skinned mesh node's transform; without the skin,
-// a viewer would not).
+// hang from a root node of their own (glTF ignores a skinned mesh node's transform; without the
+// skin, a viewer would not).
 void WriteNodes(const Rig& rig, const BlendedRig& blended, bool keep_targets, tinygltf::Model& m) {
   std::vector<uint8_t> skinned_mesh(rig.meshes.size(), 0);
   for (size_t pi = 0; pi < rig.primitives.size(); ++pi) {
     if (blended.primitives[pi].skinned && !keep_targets) skinned_mesh[rig.primitives[pi].mesh] = 1;
   }
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
-    tinygltf::Node gn = WriteNode(rig, blended, i, keep_targets, rig.nodes[i].mesh >= 0 && skinned_mesh[rig.nodes[i].mesh]);
+    tinygltf::Node gn = WriteNode(rig, blended, i, keep_targets,
+                                  rig.nodes[i].mesh >= 0 && skinned_mesh[rig.nodes[i].mesh]);
     // tinygltf writes a node with no properties as null, which glTF forbids: name it.
-    if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() && gn.translation.empty() && gn.rotation.empty() && gn.scale.empty()) {
+    if (gn.name.empty() && gn.mesh < 0 && gn.children.empty() && gn.matrix.empty() &&
+        gn.translation.empty() && gn.rotation.empty() && gn.scale.empty()) {
       gn.name = "node_" + std::to_string(m.nodes.size());
     }
     m.nodes.push_back(gn);
@@ -410,7 +457,8 @@ void WriteNodes(const Rig& rig, const BlendedRig& blended, bool keep_targets, ti
   for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
     if (!skinned_mesh[mi]) continue;
     tinygltf::Node gn;
-    gn.name = (rig.meshes[mi].name.empty() ? "mesh" + std::to_string(mi) : rig.meshes[mi].name) + " (skinned)";
+    gn.name = (rig.meshes[mi].name.empty() ? "mesh" + std::to_string(mi) : rig.meshes[mi].name) +
+              " (skinned)";
     gn.mesh = static_cast<int>(mi);
     scene.nodes.push_back(static_cast<int>(m.nodes.size()));
     m.nodes.push_back(gn);
@@ -422,15 +470,18 @@ void WriteNodes(const Rig& rig, const BlendedRig& blended, bool keep_targets, ti
 // One sampler, linear (glTF has no Bezier: sampled at 60 a second); a weights sampler padded to
 // `targets` values per key (a tool that appended shapes, mirror or derive, leaves the clip's keys
 // short: the new targets get 0). -1 when it cannot be mapped (dropped).
-int WriteSampler(const AnimationSampler& sampler, size_t targets, GlbBuilder& b, tinygltf::Animation& ga) {
+int WriteSampler(const AnimationSampler& sampler, size_t targets, GlbBuilder& b,
+                 tinygltf::Animation& ga) {
   const AnimationSampler s = LinearSampler(sampler, 60.0f);
-  const bool scalar = s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
+  const bool scalar =
+      s.components != 3 && s.components != 4;  // Morph weights: one scalar per target.
   std::vector<float> padded;
   std::span<const float> values = s.values;
   if (targets && s.components != targets) {
     if (s.components > targets || s.interpolation == Interpolation::kCubicSpline) return -1;
     for (size_t k = 0; k < s.times.size(); ++k) {
-      padded.insert(padded.end(), s.values.begin() + static_cast<std::ptrdiff_t>(k * s.components), s.values.begin() + static_cast<std::ptrdiff_t>((k + 1) * s.components));
+      padded.insert(padded.end(), s.values.begin() + static_cast<std::ptrdiff_t>(k * s.components),
+                    s.values.begin() + static_cast<std::ptrdiff_t>((k + 1) * s.components));
       padded.resize((k + 1) * targets, 0.0f);
     }
     values = padded;
@@ -438,30 +489,42 @@ int WriteSampler(const AnimationSampler& sampler, size_t targets, GlbBuilder& b,
   tinygltf::AnimationSampler gs;
   gs.input = b.Data(s.times, TINYGLTF_TYPE_SCALAR, s.times.size(), true);
   const size_t per_key = s.interpolation == Interpolation::kCubicSpline ? 3 : 1;
-  gs.output = b.Data(values, scalar ? TINYGLTF_TYPE_SCALAR : s.components == 3 ? TINYGLTF_TYPE_VEC3 : TINYGLTF_TYPE_VEC4,
+  gs.output = b.Data(values,
+                     scalar              ? TINYGLTF_TYPE_SCALAR
+                     : s.components == 3 ? TINYGLTF_TYPE_VEC3
+                                         : TINYGLTF_TYPE_VEC4,
                      scalar ? values.size() : s.times.size() * per_key, false);
-  gs.interpolation = s.interpolation == Interpolation::kStep ? "STEP" : s.interpolation == Interpolation::kCubicSpline ? "CUBICSPLINE" : "LINEAR";
+  gs.interpolation = s.interpolation == Interpolation::kStep          ? "STEP"
+                     : s.interpolation == Interpolation::kCubicSpline ? "CUBICSPLINE"
+                                                                      : "LINEAR";
   ga.samplers.push_back(gs);
   return static_cast<int>(ga.samplers.size() - 1);
 }
 
-// Clip ci, MMD's grants and IK (which have no glTF form) solved into it; nothing when no channel is left.
+// Clip ci, MMD's grants and IK (which have no glTF form) solved into it; nothing when no channel is
+// left.
 void WriteClip(const Rig& rig, size_t ci, GlbBuilder& b, tinygltf::Model& m) {
   const AnimationInfo clip = ClipWithConstraintsSolved(rig, static_cast<int>(ci), 30.0f);
   tinygltf::Animation ga;
   ga.name = clip.name;
-  std::vector<size_t> targets(clip.sampler_data.size(), 0);  // A weights sampler's: its node's mesh's targets.
+  std::vector<size_t> targets(clip.sampler_data.size(),
+                              0);  // A weights sampler's: its node's mesh's targets.
   for (const AnimationChannel& c : clip.channel_data) {
-    if (c.path == ChannelPath::kWeights && rig.nodes[c.node].mesh >= 0) targets[c.sampler] = rig.meshes[rig.nodes[c.node].mesh].target_shapes.size();
+    if (c.path == ChannelPath::kWeights && rig.nodes[c.node].mesh >= 0)
+      targets[c.sampler] = rig.meshes[rig.nodes[c.node].mesh].target_shapes.size();
   }
   std::vector<int> sampler_of(clip.sampler_data.size(), -1);
-  for (size_t si = 0; si < clip.sampler_data.size(); ++si) sampler_of[si] = WriteSampler(clip.sampler_data[si], targets[si], b, ga);
+  for (size_t si = 0; si < clip.sampler_data.size(); ++si)
+    sampler_of[si] = WriteSampler(clip.sampler_data[si], targets[si], b, ga);
   for (const AnimationChannel& c : clip.channel_data) {
     if (sampler_of[c.sampler] < 0) continue;
     tinygltf::AnimationChannel gc;
     gc.sampler = sampler_of[c.sampler];
     gc.target_node = c.node;
-    gc.target_path = c.path == ChannelPath::kTranslation ? "translation" : c.path == ChannelPath::kRotation ? "rotation" : c.path == ChannelPath::kScale ? "scale" : "weights";
+    gc.target_path = c.path == ChannelPath::kTranslation ? "translation"
+                     : c.path == ChannelPath::kRotation  ? "rotation"
+                     : c.path == ChannelPath::kScale     ? "scale"
+                                                         : "weights";
     ga.channels.push_back(gc);
   }
   if (!ga.channels.empty()) m.animations.push_back(ga);
@@ -469,8 +532,9 @@ void WriteClip(const Rig& rig, size_t ci, GlbBuilder& b, tinygltf::Model& m) {
 
 }  // namespace
 
-Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::span<const float> weights,
-                              std::span<const Warning> warnings, const ExportOptions& options) {
+Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended,
+                              std::span<const float> weights, std::span<const Warning> warnings,
+                              const ExportOptions& options) {
   tinygltf::Model m;
   GlbBuilder b(m);
   m.asset.version = "2.0";
@@ -487,7 +551,8 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
       tinygltf::Skin gs;
       gs.name = skin.name;
       gs.joints = skin.joints;
-      gs.inverseBindMatrices = b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
+      gs.inverseBindMatrices =
+          b.Data(skin.inverse_bind, TINYGLTF_TYPE_MAT4, skin.joints.size(), false);
       m.skins.push_back(gs);
     }
     for (size_t ci = 0; options.clips && ci < rig.animations.size(); ++ci) WriteClip(rig, ci, b, m);
@@ -496,181 +561,13 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended, std::sp
   if (m.buffers[0].data.empty()) m.buffers.clear();
   std::ostringstream os;
   tinygltf::TinyGLTF writer;
-  if (!writer.WriteGltfSceneToStream(&m, os, false, true)) return InvalidArgument("glb writer failed");
+  if (!writer.WriteGltfSceneToStream(&m, os, false, true))
+    return InvalidArgument("glb writer failed");
   return os.str();
 }
 
 }  // namespace writers
 
 using writers::ExportGlb;
-
-// ---- glb of many variants ------------------------------------------------------------------
-
-struct GlbTemplate {
-  struct Attribute {
-    size_t primitive = 0;
-    int kind = 0;          // 0 positions, 1 normals, 2 tangents, 3 UVs (a rig with UV morphs).
-    size_t offset = 0;     // In `bin`.
-    int accessor = -1;     // POSITION: its bounds are patched.
-  };
-  const Rig* rig = nullptr;
-  std::vector<size_t> shape;  // What the template was made for: posed, then per primitive skinned and sizes.
-  nlohmann::json json;        // The glb's JSON, patched for each variant.
-  std::string bin;            // The binary chunk, attributes overwritten for each variant.
-  std::vector<Attribute> attributes;
-  bool posed_nodes = false;
-  std::string head;
-  std::string whole;          // keep_targets: the whole glb.
-  std::vector<double> lo, hi;
-  std::vector<size_t> probe;  // The shape of the call at hand.
-};
-
-namespace {
-
-// Whether some shape moves UVs (MMD's UV morphs): their variants' TEXCOORD_0 is patched too.
-bool MovesTexcoords(const Rig& rig) {
-  return std::any_of(rig.primitives.begin(), rig.primitives.end(), [](const Primitive& p) {
-    return std::any_of(p.targets.begin(), p.targets.end(), [](const SparseTarget& t) { return !t.texcoord_indices.empty(); });
-  });
-}
-
-// What a template depends on besides the rig, into `shape` (kept: no allocation once warm).
-void GlbShape(const Rig& rig, const BlendedRig& blended, std::vector<size_t>& shape) {
-  shape.assign(1, blended.posed && blended.node_world.size() == rig.nodes.size());
-  for (const BlendedPrimitive& bp : blended.primitives) {
-    shape.insert(shape.end(), {bp.skinned, bp.positions.size(), bp.normals.size(), bp.tangents.size()});
-  }
-}
-
-uint32_t ReadU32(const std::string& s, size_t at) {
-  uint32_t v;
-  std::memcpy(&v, s.data() + at, 4);
-  return v;
-}
-
-void AppendU32(std::string& s, uint32_t v) { s.append(reinterpret_cast<const char*>(&v), 4); }
-
-// The template from one full export: its JSON, its binary chunk, and where each blended
-// attribute lies in the binary chunk (meshes and primitives in the order ExportGlb writes them).
-Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t);
-
-// The same, with a JSON member of an unexpected type (nlohmann's exceptions) as a failure.
-Status MakeTemplateOrFail(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
-  try {
-    return MakeTemplate(glb, rig, blended, t);
-  } catch (const nlohmann::json::exception& e) {
-    return Internal(std::string("glb template: ") + e.what());
-  }
-}
-
-Status MakeTemplate(const std::string& glb, const Rig& rig, const BlendedRig& blended, GlbTemplate& t) {
-  if (glb.size() < 20 || glb.compare(0, 4, "glTF") != 0) return Internal("glb template: not a glb");
-  const size_t json_bytes = ReadU32(glb, 12);
-  if (20 + json_bytes > glb.size()) return Internal("glb template: JSON chunk");
-  t.json = nlohmann::json::parse(glb.begin() + 20, glb.begin() + 20 + static_cast<std::ptrdiff_t>(json_bytes), nullptr, false);
-  if (t.json.is_discarded()) return Internal("glb template: JSON");
-  t.bin = 28 + json_bytes <= glb.size() ? glb.substr(28 + json_bytes) : std::string();
-  t.attributes.clear();
-  // Read through a const view: a member the glb lacks (a rig without meshes) must not be added.
-  const nlohmann::json& root = t.json;
-  static const nlohmann::json kNone = nlohmann::json::array();
-  auto member = [&root](const char* key) -> const nlohmann::json& { return root.contains(key) ? root.at(key) : kNone; };
-  const nlohmann::json& meshes = member("meshes");
-  const nlohmann::json& accessors = member("accessors");
-  const nlohmann::json& views = member("bufferViews");
-  const int kinds = MovesTexcoords(rig) ? 4 : 3;
-  for (size_t mi = 0; mi < rig.meshes.size(); ++mi) {
-    const std::vector<int>& prims = rig.meshes[mi].primitives;
-    for (size_t k = 0; k < prims.size(); ++k) {
-      const BlendedPrimitive& bp = blended.primitives[prims[k]];
-      const nlohmann::json& attributes = meshes.at(mi).at("primitives").at(k).at("attributes");
-      const char* names[] = {"POSITION", "NORMAL", "TANGENT", "TEXCOORD_0"};
-      const size_t bytes[] = {bp.positions.size() * 4, bp.normals.size() * 4, bp.tangents.size() * 4, rig.primitives[prims[k]].texcoords.size() * 4};
-      for (int kind = 0; kind < kinds; ++kind) {
-        if (!attributes.contains(names[kind])) continue;
-        const int a = attributes[names[kind]].get<int>();
-        const nlohmann::json& view = views.at(accessors.at(a).at("bufferView").get<size_t>());
-        const size_t offset = view.value("byteOffset", size_t{0});
-        if (view.at("byteLength").get<size_t>() != bytes[kind] || offset + bytes[kind] > t.bin.size()) {
-          return Internal("glb template: attribute sizes");
-        }
-        t.attributes.push_back({static_cast<size_t>(prims[k]), kind, offset, kind == 0 ? a : -1});
-      }
-    }
-  }
-  t.posed_nodes = blended.posed && blended.node_world.size() == rig.nodes.size();
-  return Status::Ok();
-}
-
-}  // namespace
-
-GlbVariantWriter::GlbVariantWriter() : t_(std::make_unique<GlbTemplate>()) {}
-GlbVariantWriter::~GlbVariantWriter() = default;
-GlbVariantWriter::GlbVariantWriter(GlbVariantWriter&&) noexcept = default;
-GlbVariantWriter& GlbVariantWriter::operator=(GlbVariantWriter&&) noexcept = default;
-
-Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const BlendedRig& blended,
-                                                         std::span<const float> weights,
-                                                         std::span<const Warning> warnings, const ExportOptions& options) {
-  if (blended.primitives.size() != rig.primitives.size()) return InvalidArgument("blended rig does not match the rig");
-  GlbTemplate& t = *t_;
-  if (options.keep_targets) {
-    auto glb = ExportGlb(rig, blended, weights, warnings, options);
-    if (!glb.ok()) return glb.status();
-    t.whole = std::move(glb.value());
-    return Pieces{t.whole, {}};
-  }
-  GlbShape(rig, blended, t.probe);
-  // Material morphs change the materials' colours from variant to variant: no template patches them,
-  // so such a rig's variants are exported whole.
-  const bool colours_move = std::any_of(rig.shapes.begin(), rig.shapes.end(), [](const Shape& s) { return !s.material_morphs.empty(); });
-  if (t.rig != &rig || t.shape != t.probe || colours_move) {
-    // The first variant of this shape: exported whole, and kept as the template (when its
-    // layout is the one expected; otherwise every call exports whole).
-    auto glb = ExportGlb(rig, blended, weights, warnings, options);
-    if (!glb.ok()) return glb.status();
-    t.rig = nullptr;
-    t.whole = std::move(glb.value());
-    if (!colours_move && MakeTemplateOrFail(t.whole, rig, blended, t).ok()) {
-      t.rig = &rig;
-      t.shape = t.probe;
-    }
-    return Pieces{t.whole, {}};
-  }
-  // Later variants: what the blend changes, patched into the template.
-  AsTinygltfWrites(AssetExtras(rig, weights, warnings), t.json["asset"]["extras"]);
-  for (const GlbTemplate::Attribute& a : t.attributes) {
-    const BlendedPrimitive& bp = blended.primitives[a.primitive];
-    const std::span<const float> values = a.kind == 0 ? std::span<const float>(bp.positions) : a.kind == 1 ? std::span<const float>(bp.normals)
-                                          : a.kind == 2 ? std::span<const float>(bp.tangents) : TexcoordsOf(rig.primitives[a.primitive], bp);
-    std::memcpy(t.bin.data() + a.offset, values.data(), values.size() * 4);
-    if (a.accessor >= 0) {  // An attribute's accessor: the template has "accessors".
-      FloatBounds(values, 3, values.size() / 3, t.lo, t.hi);
-      nlohmann::json& accessor = t.json["accessors"][a.accessor];
-      accessor["min"] = t.lo;
-      accessor["max"] = t.hi;
-    }
-  }
-  if (t.posed_nodes && !rig.nodes.empty()) {
-    nlohmann::json& nodes = t.json["nodes"];
-    for (size_t i = 0; i < rig.nodes.size(); ++i) nodes[i]["matrix"] = PosedLocalMatrix(rig, blended, i);
-  }
-  // The glb header and chunk headers as tinygltf writes them (JSON padded with spaces).
-  const std::string text = t.json.dump();
-  const size_t padded = (text.size() + 3) & ~size_t{3};
-  t.head.clear();
-  t.head += "glTF";
-  AppendU32(t.head, 2);
-  AppendU32(t.head, static_cast<uint32_t>(12 + 8 + padded + (t.bin.empty() ? 0 : 8 + t.bin.size())));
-  AppendU32(t.head, static_cast<uint32_t>(padded));
-  AppendU32(t.head, 0x4E4F534A);
-  t.head += text;
-  t.head.append(padded - text.size(), ' ');
-  if (!t.bin.empty()) {
-    AppendU32(t.head, static_cast<uint32_t>(t.bin.size()));
-    AppendU32(t.head, 0x004E4942);
-  }
-  return Pieces{t.head, t.bin};
-}
 
 }  // namespace facespace

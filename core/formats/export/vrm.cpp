@@ -1,15 +1,16 @@
-// VRM 1.0 out: the rig as a glb (its base, targets and skin, ExportGlb's keep_targets) with VRMC_vrm (meta
-// from the rig's credit, licence and terms, the humanoid's bones by their MMD, VRoid, Mixamo or VRM names,
-// the expressions as morph target and material colour binds, the look-at from the rig's gaze, a thumbnail),
-// VRMC_springBone from MMD's physics, VRMC_node_constraint from its grants and VRMC_materials_mtoon for its
-// toon materials (vrm_parts.h). Also the pieces vrm0.cpp shares.
+// VRM 1.0 out: the rig as a glb (its base, targets and skin, ExportGlb's keep_targets) with
+// VRMC_vrm (meta from the rig's credit, licence and terms, the humanoid's bones by their MMD,
+// VRoid, Mixamo or VRM names, the expressions as morph target and material colour binds, the
+// look-at from the rig's gaze, a thumbnail), VRMC_springBone from MMD's physics,
+// VRMC_node_constraint from its grants and VRMC_materials_mtoon for its toon materials
+// (vrm_parts.h). Also the pieces vrm0.cpp shares.
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "common/vrm_terms.h"
 #include "export/vrm_parts.h"
 #include "export/writers.h"
-#include "common/vrm_terms.h"
 #include "facespace/engine/face.h"
 #include "facespace/engine/weights.h"
 #include "gltf/gltf_common.h"
@@ -20,9 +21,9 @@ namespace {
 
 using nlohmann::ordered_json;
 
-// VRM 1.0's human bones: name, required, and the node names that may be it ("a|b|c", the first the rig
-// has wins): MMD's standard bones (D bones before the ones they follow: they carry the skin), VRoid's,
-// Mixamo's, and VRM's own. Right-side rows are made from the left's (AvatarBones).
+// VRM 1.0's human bones: name, required, and the node names that may be it ("a|b|c", the first the
+// rig has wins): MMD's standard bones (D bones before the ones they follow: they carry the skin),
+// VRoid's, Mixamo's, and VRM's own. Right-side rows are made from the left's (AvatarBones).
 struct HumanBone {
   const char* name;
   bool required;
@@ -38,38 +39,58 @@ constexpr HumanBone kCentre[] = {
 };
 constexpr HumanBone kLeft[] = {
     {"leftEye", false, "左目|LeftEye|leftEye|J_Adj_L_FaceEye|mixamorig:LeftEye"},
-    {"leftShoulder", false, "左肩|LeftShoulder|leftShoulder|J_Bip_L_Shoulder|mixamorig:LeftShoulder"},
-    {"leftUpperArm", true, "左腕|LeftUpperArm|leftUpperArm|LeftArm|J_Bip_L_UpperArm|mixamorig:LeftArm"},
-    {"leftLowerArm", true, "左ひじ|LeftLowerArm|leftLowerArm|LeftForeArm|J_Bip_L_LowerArm|mixamorig:LeftForeArm"},
+    {"leftShoulder", false,
+     "左肩|LeftShoulder|leftShoulder|J_Bip_L_Shoulder|mixamorig:LeftShoulder"},
+    {"leftUpperArm", true,
+     "左腕|LeftUpperArm|leftUpperArm|LeftArm|J_Bip_L_UpperArm|mixamorig:LeftArm"},
+    {"leftLowerArm", true,
+     "左ひじ|LeftLowerArm|leftLowerArm|LeftForeArm|J_Bip_L_LowerArm|mixamorig:LeftForeArm"},
     {"leftHand", true, "左手首|LeftHand|leftHand|J_Bip_L_Hand|mixamorig:LeftHand"},
-    {"leftUpperLeg", true, "左足D|左足|LeftUpperLeg|leftUpperLeg|LeftUpLeg|J_Bip_L_UpperLeg|mixamorig:LeftUpLeg"},
-    {"leftLowerLeg", true, "左ひざD|左ひざ|LeftLowerLeg|leftLowerLeg|LeftLeg|J_Bip_L_LowerLeg|mixamorig:LeftLeg"},
+    {"leftUpperLeg", true,
+     "左足D|左足|LeftUpperLeg|leftUpperLeg|LeftUpLeg|J_Bip_L_UpperLeg|mixamorig:LeftUpLeg"},
+    {"leftLowerLeg", true,
+     "左ひざD|左ひざ|LeftLowerLeg|leftLowerLeg|LeftLeg|J_Bip_L_LowerLeg|mixamorig:LeftLeg"},
     {"leftFoot", true, "左足首D|左足首|LeftFoot|leftFoot|J_Bip_L_Foot|mixamorig:LeftFoot"},
-    {"leftToes", false, "左足先EX|左つま先|LeftToes|leftToes|J_Bip_L_ToeBase|mixamorig:LeftToeBase"},
-    {"leftThumbMetacarpal", false, "左親指０|LeftThumbMetacarpal|J_Bip_L_Thumb1|mixamorig:LeftHandThumb1"},
-    {"leftThumbProximal", false, "左親指１|LeftThumbProximal|J_Bip_L_Thumb2|mixamorig:LeftHandThumb2"},
+    {"leftToes", false,
+     "左足先EX|左つま先|LeftToes|leftToes|J_Bip_L_ToeBase|mixamorig:LeftToeBase"},
+    {"leftThumbMetacarpal", false,
+     "左親指０|LeftThumbMetacarpal|J_Bip_L_Thumb1|mixamorig:LeftHandThumb1"},
+    {"leftThumbProximal", false,
+     "左親指１|LeftThumbProximal|J_Bip_L_Thumb2|mixamorig:LeftHandThumb2"},
     {"leftThumbDistal", false, "左親指２|LeftThumbDistal|J_Bip_L_Thumb3|mixamorig:LeftHandThumb3"},
-    {"leftIndexProximal", false, "左人指１|LeftIndexProximal|J_Bip_L_Index1|mixamorig:LeftHandIndex1"},
-    {"leftIndexIntermediate", false, "左人指２|LeftIndexIntermediate|J_Bip_L_Index2|mixamorig:LeftHandIndex2"},
+    {"leftIndexProximal", false,
+     "左人指１|LeftIndexProximal|J_Bip_L_Index1|mixamorig:LeftHandIndex1"},
+    {"leftIndexIntermediate", false,
+     "左人指２|LeftIndexIntermediate|J_Bip_L_Index2|mixamorig:LeftHandIndex2"},
     {"leftIndexDistal", false, "左人指３|LeftIndexDistal|J_Bip_L_Index3|mixamorig:LeftHandIndex3"},
-    {"leftMiddleProximal", false, "左中指１|LeftMiddleProximal|J_Bip_L_Middle1|mixamorig:LeftHandMiddle1"},
-    {"leftMiddleIntermediate", false, "左中指２|LeftMiddleIntermediate|J_Bip_L_Middle2|mixamorig:LeftHandMiddle2"},
-    {"leftMiddleDistal", false, "左中指３|LeftMiddleDistal|J_Bip_L_Middle3|mixamorig:LeftHandMiddle3"},
+    {"leftMiddleProximal", false,
+     "左中指１|LeftMiddleProximal|J_Bip_L_Middle1|mixamorig:LeftHandMiddle1"},
+    {"leftMiddleIntermediate", false,
+     "左中指２|LeftMiddleIntermediate|J_Bip_L_Middle2|mixamorig:LeftHandMiddle2"},
+    {"leftMiddleDistal", false,
+     "左中指３|LeftMiddleDistal|J_Bip_L_Middle3|mixamorig:LeftHandMiddle3"},
     {"leftRingProximal", false, "左薬指１|LeftRingProximal|J_Bip_L_Ring1|mixamorig:LeftHandRing1"},
-    {"leftRingIntermediate", false, "左薬指２|LeftRingIntermediate|J_Bip_L_Ring2|mixamorig:LeftHandRing2"},
+    {"leftRingIntermediate", false,
+     "左薬指２|LeftRingIntermediate|J_Bip_L_Ring2|mixamorig:LeftHandRing2"},
     {"leftRingDistal", false, "左薬指３|LeftRingDistal|J_Bip_L_Ring3|mixamorig:LeftHandRing3"},
-    {"leftLittleProximal", false, "左小指１|LeftLittleProximal|J_Bip_L_Little1|mixamorig:LeftHandPinky1"},
-    {"leftLittleIntermediate", false, "左小指２|LeftLittleIntermediate|J_Bip_L_Little2|mixamorig:LeftHandPinky2"},
-    {"leftLittleDistal", false, "左小指３|LeftLittleDistal|J_Bip_L_Little3|mixamorig:LeftHandPinky3"},
+    {"leftLittleProximal", false,
+     "左小指１|LeftLittleProximal|J_Bip_L_Little1|mixamorig:LeftHandPinky1"},
+    {"leftLittleIntermediate", false,
+     "左小指２|LeftLittleIntermediate|J_Bip_L_Little2|mixamorig:LeftHandPinky2"},
+    {"leftLittleDistal", false,
+     "左小指３|LeftLittleDistal|J_Bip_L_Little3|mixamorig:LeftHandPinky3"},
 };
 
 void ReplaceAll(std::string& s, const std::string& from, const std::string& to) {
-  for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+  for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size()))
+    s.replace(at, from.size(), to);
 }
 
 // The right side's row from the left's.
 std::string Mirrored(std::string s) {
-  for (const auto& [l, r] : {std::pair{"左", "右"}, std::pair{"Left", "Right"}, std::pair{"left", "right"}, std::pair{"_L_", "_R_"}}) ReplaceAll(s, l, r);
+  for (const auto& [l, r] : {std::pair{"左", "右"}, std::pair{"Left", "Right"},
+                             std::pair{"left", "right"}, std::pair{"_L_", "_R_"}})
+    ReplaceAll(s, l, r);
   return s;
 }
 
@@ -82,8 +103,10 @@ Result<std::vector<std::pair<std::string, int>>> AvatarBones(const Rig& rig) {
   std::vector<std::string> missing;
   auto add = [&](const std::string& name, bool required, const std::string& candidates) {
     const int n = FirstNodeOf(rig, candidates);
-    if (n < 0 || std::any_of(out.begin(), out.end(), [n](const auto& b) { return b.second == n; })) {
-      if (required) missing.push_back(name + " (" + candidates.substr(0, candidates.find('|')) + ")");
+    if (n < 0 ||
+        std::any_of(out.begin(), out.end(), [n](const auto& b) { return b.second == n; })) {
+      if (required)
+        missing.push_back(name + " (" + candidates.substr(0, candidates.find('|')) + ")");
       return;
     }
     out.emplace_back(name, n);
@@ -93,7 +116,8 @@ Result<std::vector<std::pair<std::string, int>>> AvatarBones(const Rig& rig) {
   for (const HumanBone& b : kLeft) add(Mirrored(b.name), b.required, Mirrored(b.candidates));
   if (missing.empty()) {
     if (rig.license_url.empty()) {
-      Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + rig.name + "' has none: set \"license_url\" in its manifest");
+      Status s = InvalidArgument("a VRM's meta needs the rig's licence, and '" + rig.name +
+                                 "' has none: set \"license_url\" in its manifest");
       s.fields.push_back({"/format", "the rig has no licence URL (manifest \"license_url\")"});
       return s;
     }
@@ -101,9 +125,10 @@ Result<std::vector<std::pair<std::string, int>>> AvatarBones(const Rig& rig) {
   }
   std::string list;
   for (size_t i = 0; i < missing.size(); ++i) list += (i ? ", " : "") + missing[i];
-  Status s = InvalidArgument("a VRM needs a humanoid skeleton, and '" + rig.name + "' has no bone for " + list +
-                             (rig.skins.empty() ? " (it has no skeleton)" : "") +
-                             "; bones are found by MMD's standard names, VRoid's, Mixamo's or VRM's own");
+  Status s =
+      InvalidArgument("a VRM needs a humanoid skeleton, and '" + rig.name + "' has no bone for " +
+                      list + (rig.skins.empty() ? " (it has no skeleton)" : "") +
+                      "; bones are found by MMD's standard names, VRoid's, Mixamo's or VRM's own");
   s.fields.push_back({"/format", "this rig cannot be a VRM humanoid: no bone for " + list});
   return s;
 }
@@ -147,11 +172,14 @@ std::vector<int> MeshNodes(const Rig& rig) {
   return out;
 }
 
-Result<GlbParts> RestGlbParts(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings) {
+Result<GlbParts> RestGlbParts(const Rig& rig, const BlendedRig& blended,
+                              std::span<const float> weights, std::span<const Warning> warnings) {
   BlendedRig rest = blended;  // A VRM's rest is its bind pose: the weights as its meshes' defaults.
   rest.posed = false;
   std::vector<Warning> said(warnings.begin(), warnings.end());
-  if (blended.posed) said.push_back({"pose_not_exported", "a VRM is written at rest: the request's pose is not in it", "", 0.0, false});
+  if (blended.posed)
+    said.push_back({"pose_not_exported",
+                    "a VRM is written at rest: the request's pose is not in it", "", 0.0, false});
   ExportOptions options;
   options.keep_targets = true;
   options.clips = false;
@@ -159,7 +187,10 @@ Result<GlbParts> RestGlbParts(const Rig& rig, const BlendedRig& blended, std::sp
   if (!glb.ok()) return glb.status();
   std::string text;
   std::span<const unsigned char> bin;
-  if (Status s = SplitGlb({reinterpret_cast<const unsigned char*>(glb->data()), glb->size()}, text, bin); !s.ok()) return Internal("our glb: " + s.message);
+  if (Status s =
+          SplitGlb({reinterpret_cast<const unsigned char*>(glb->data()), glb->size()}, text, bin);
+      !s.ok())
+    return Internal("our glb: " + s.message);
   GlbParts g;
   g.json = ordered_json::parse(text, nullptr, false);
   if (g.json.is_discarded()) return Internal("our glb's JSON does not parse");
@@ -168,22 +199,27 @@ Result<GlbParts> RestGlbParts(const Rig& rig, const BlendedRig& blended, std::sp
 }
 
 std::string PackGlb(const GlbParts& g) {
-  const std::vector<unsigned char> out = MakeGlb(g.json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), g.bin);
+  const std::vector<unsigned char> out =
+      MakeGlb(g.json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), g.bin);
   return std::string(out.begin(), out.end());
 }
 
-std::pair<int, int> AddImage(GlbParts& g, std::span<const unsigned char> bytes, const std::string& mime_type, const std::string& name) {
+std::pair<int, int> AddImage(GlbParts& g, std::span<const unsigned char> bytes,
+                             const std::string& mime_type, const std::string& name) {
   while (g.bin.size() % 4) g.bin.push_back(0);
   ordered_json& j = g.json;
   for (const char* key : {"bufferViews", "images", "textures", "samplers"}) {
     if (!j.contains(key)) j[key] = ordered_json::array();
   }
-  j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", g.bin.size()}, {"byteLength", bytes.size()}});
+  j["bufferViews"].push_back(
+      {{"buffer", 0}, {"byteOffset", g.bin.size()}, {"byteLength", bytes.size()}});
   g.bin.insert(g.bin.end(), bytes.begin(), bytes.end());
-  if (!j.contains("buffers") || j["buffers"].empty()) j["buffers"] = ordered_json::array({ordered_json::object()});
+  if (!j.contains("buffers") || j["buffers"].empty())
+    j["buffers"] = ordered_json::array({ordered_json::object()});
   j["buffers"][0]["byteLength"] = g.bin.size();
   const int image = static_cast<int>(j["images"].size());
-  j["images"].push_back({{"name", name}, {"mimeType", mime_type}, {"bufferView", j["bufferViews"].size() - 1}});
+  j["images"].push_back(
+      {{"name", name}, {"mimeType", mime_type}, {"bufferView", j["bufferViews"].size() - 1}});
   j["samplers"].push_back({{"magFilter", 9729}, {"minFilter", 9729}});
   const int texture = static_cast<int>(j["textures"].size());
   j["textures"].push_back({{"sampler", j["samplers"].size() - 1}, {"source", image}});
@@ -198,15 +234,16 @@ void UseExtension(GlbParts& g, const std::string& name) {
 
 namespace {
 
-
-// An expression's shapes as VRM's morph target binds: each target of each mesh that carries the shape, on
-// the first node showing that mesh.
+// An expression's shapes as VRM's morph target binds: each target of each mesh that carries the
+// shape, on the first node showing that mesh.
 ordered_json MorphTargetBinds(const Rig& rig, const Expression& e) {
   ordered_json binds = ordered_json::array();
   const std::vector<int> nodes = MeshNodes(rig);
   for (const auto& [shape, weight] : e.binds) {
     for (const auto& [mesh, t] : TargetsOf(rig, shape)) {
-      if (nodes[mesh] >= 0) binds.push_back({{"node", nodes[mesh]}, {"index", t}, {"weight", Num(std::clamp(weight, 0.0f, 1.0f))}});
+      if (nodes[mesh] >= 0)
+        binds.push_back(
+            {{"node", nodes[mesh]}, {"index", t}, {"weight", Num(std::clamp(weight, 0.0f, 1.0f))}});
     }
   }
   return binds;
@@ -216,26 +253,34 @@ ordered_json RangeMapJson(const Rig& rig, const RangeMap& m) {
   return {{"inputMaxValue", Num(WholeAngle(rig.gaze, m))}, {"outputScale", Num(m.output_scale)}};
 }
 
-// VRM 1.0's meta: VRM's licence (licenseUrl is always VRM's own), the rig's own in otherLicenseUrl, and the
-// terms its authors allow (UsageTerms: VRM's most restrictive values when nothing is known).
+// VRM 1.0's meta: VRM's licence (licenseUrl is always VRM's own), the rig's own in otherLicenseUrl,
+// and the terms its authors allow (UsageTerms: VRM's most restrictive values when nothing is
+// known).
 ordered_json Meta(const Rig& rig, int thumbnail) {
-  ordered_json meta = {{"name", rig.name.empty() ? "facespace rig" : rig.name},
-                       {"authors", ordered_json::array({rig.credit.empty() ? rig.name : rig.credit})},
-                       {"licenseUrl", "https://vrm.dev/licenses/1.0/"},
-                       {"otherLicenseUrl", rig.license_url}};
+  ordered_json meta = {
+      {"name", rig.name.empty() ? "facespace rig" : rig.name},
+      {"authors", ordered_json::array({rig.credit.empty() ? rig.name : rig.credit})},
+      {"licenseUrl", "https://vrm.dev/licenses/1.0/"},
+      {"otherLicenseUrl", rig.license_url}};
   if (!rig.credit.empty()) meta["copyrightInformation"] = rig.credit;
   if (thumbnail >= 0) meta["thumbnailImage"] = thumbnail;
   meta.update(vrm_terms::Meta1(rig.terms));
-  meta["extras"] = {{"termsSource", rig.terms.source.empty() ? "none known: VRM's most restrictive terms" : rig.terms.source}};
+  meta["extras"] = {{"termsSource", rig.terms.source.empty()
+                                        ? "none known: VRM's most restrictive terms"
+                                        : rig.terms.source}};
   return meta;
 }
 
 ordered_json Expressions(const Rig& rig) {
   ordered_json preset = ordered_json::object(), custom = ordered_json::object();
   for (const Expression& e : VrmExpressions(rig)) {
-    ordered_json x = {{"morphTargetBinds", MorphTargetBinds(rig, e)}, {"isBinary", e.binary}, {"overrideBlink", ExpressionOverrideName(e.blink)},
-                      {"overrideLookAt", ExpressionOverrideName(e.look_at)}, {"overrideMouth", ExpressionOverrideName(e.mouth)}};
-    if (ordered_json colours = MaterialColorBinds(rig, e); !colours.empty()) x["materialColorBinds"] = std::move(colours);
+    ordered_json x = {{"morphTargetBinds", MorphTargetBinds(rig, e)},
+                      {"isBinary", e.binary},
+                      {"overrideBlink", ExpressionOverrideName(e.blink)},
+                      {"overrideLookAt", ExpressionOverrideName(e.look_at)},
+                      {"overrideMouth", ExpressionOverrideName(e.mouth)}};
+    if (ordered_json colours = MaterialColorBinds(rig, e); !colours.empty())
+      x["materialColorBinds"] = std::move(colours);
     (IsExpressionPreset(e.name) ? preset : custom)[e.name] = std::move(x);
   }
   ordered_json out = {{"preset", preset}};
@@ -254,8 +299,10 @@ ordered_json LookAt(const Rig& rig, int head) {
           {"rangeMapVerticalUp", RangeMapJson(rig, g.vertical_up)}};
 }
 
-// Springs, node constraints and MToon onto the glb; grants VRM cannot say are a warning in asset.extras.
-void AddSecondaryAndLooks(const Rig& rig, const SpringSetup& springs, const Constrained& constrained, GlbParts& g) {
+// Springs, node constraints and MToon onto the glb; grants VRM cannot say are a warning in
+// asset.extras.
+void AddSecondaryAndLooks(const Rig& rig, const SpringSetup& springs,
+                          const Constrained& constrained, GlbParts& g) {
   if (!springs.empty()) {
     g.json["extensions"]["VRMC_springBone"] = SpringBone1(springs);
     UseExtension(g, "VRMC_springBone");
@@ -267,7 +314,9 @@ void AddSecondaryAndLooks(const Rig& rig, const SpringSetup& springs, const Cons
   if (constrained.dropped > 0) {
     g.json["asset"]["extras"]["warnings"].push_back(
         {{"code", "vrm_constraints_dropped"},
-         {"message", std::to_string(constrained.dropped) + " MMD grants VRM's node constraints cannot say (of translation, with a ratio outside [0, 1], or onto a swinging bone) are left out"}});
+         {"message", std::to_string(constrained.dropped) +
+                         " MMD grants VRM's node constraints cannot say (of translation, with a "
+                         "ratio outside [0, 1], or onto a swinging bone) are left out"}});
   }
   ordered_json& materials = g.json["materials"];
   for (size_t m = 0; m < rig.materials.size() && m < materials.size(); ++m) {
@@ -280,7 +329,8 @@ void AddSecondaryAndLooks(const Rig& rig, const SpringSetup& springs, const Cons
 
 }  // namespace
 
-Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::span<const float> weights, std::span<const Warning> warnings,
+Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended,
+                              std::span<const float> weights, std::span<const Warning> warnings,
                               const ExportOptions& options) {
   auto bones = AvatarBones(rig);
   if (!bones.ok()) return bones.status();
@@ -291,11 +341,17 @@ Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended, std::sp
   auto glb = RestGlbParts(constrained.rig, blended, weights, warnings);
   if (!glb.ok()) return glb.status();
   GlbParts& g = glb.value();
-  const int thumbnail = options.thumbnail_png.empty() ? -1 : AddImage(g, options.thumbnail_png, "image/png", "thumbnail").first;
+  const int thumbnail = options.thumbnail_png.empty()
+                            ? -1
+                            : AddImage(g, options.thumbnail_png, "image/png", "thumbnail").first;
   ordered_json humanoid = ordered_json::object();
   for (const auto& [name, node] : bones.value()) humanoid[name] = {{"node", node}};
-  ordered_json vrm = {{"specVersion", "1.0"}, {"meta", Meta(rig, thumbnail)}, {"humanoid", {{"humanBones", humanoid}}}, {"expressions", Expressions(rig)}};
-  if (rig.gaze.kind != GazeSetup::Kind::kNone) vrm["lookAt"] = LookAt(rig, humanoid["head"]["node"].get<int>());
+  ordered_json vrm = {{"specVersion", "1.0"},
+                      {"meta", Meta(rig, thumbnail)},
+                      {"humanoid", {{"humanBones", humanoid}}},
+                      {"expressions", Expressions(rig)}};
+  if (rig.gaze.kind != GazeSetup::Kind::kNone)
+    vrm["lookAt"] = LookAt(rig, humanoid["head"]["node"].get<int>());
   UseExtension(g, "VRMC_vrm");
   g.json["extensions"]["VRMC_vrm"] = std::move(vrm);
   AddSecondaryAndLooks(rig, springs, constrained, g);

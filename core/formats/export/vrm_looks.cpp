@@ -1,6 +1,6 @@
-// What a VRM looks like and which faces apps find in it: toon materials as MToon (1.0's extension, 0.x's
-// material properties), material morphs as expressions' material colour binds, and the custom expressions
-// apps drive by name (ARKit's 52 "perfect sync" shapes, OVR's 15 visemes).
+// What a VRM looks like and which faces apps find in it: toon materials as MToon (1.0's extension,
+// 0.x's material properties), material morphs as expressions' material colour binds, and the custom
+// expressions apps drive by name (ARKit's 52 "perfect sync" shapes, OVR's 15 visemes).
 #include <algorithm>
 #include <cmath>
 
@@ -13,11 +13,13 @@ namespace facespace::writers {
 
 namespace {
 
-
-// MMD's shared toon ramps darken the side turned from the light to about three quarters of the lit colour.
+// MMD's shared toon ramps darken the side turned from the light to about three quarters of the lit
+// colour.
 constexpr float kShade = 0.75f;
 
-float GammaOf(float linear) { return static_cast<float>(SrgbEncode(linear)); }  // 0.x's colours are written sRGB-encoded.
+float GammaOf(float linear) {
+  return static_cast<float>(SrgbEncode(linear));
+}  // 0.x's colours are written sRGB-encoded.
 
 int BaseTexture(const ordered_json& gltf_material) {
   const auto pbr = gltf_material.find("pbrMetallicRoughness");
@@ -26,37 +28,45 @@ int BaseTexture(const ordered_json& gltf_material) {
 }
 
 constexpr const char* kArkit[] = {
-    "browDownLeft", "browDownRight", "browInnerUp", "browOuterUpLeft", "browOuterUpRight", "cheekPuff", "cheekSquintLeft",
-    "cheekSquintRight", "eyeBlinkLeft", "eyeBlinkRight", "eyeLookDownLeft", "eyeLookDownRight", "eyeLookInLeft", "eyeLookInRight",
-    "eyeLookOutLeft", "eyeLookOutRight", "eyeLookUpLeft", "eyeLookUpRight", "eyeSquintLeft", "eyeSquintRight", "eyeWideLeft",
-    "eyeWideRight", "jawForward", "jawLeft", "jawOpen", "jawRight", "mouthClose", "mouthDimpleLeft", "mouthDimpleRight",
-    "mouthFrownLeft", "mouthFrownRight", "mouthFunnel", "mouthLeft", "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft",
-    "mouthPressRight", "mouthPucker", "mouthRight", "mouthRollLower", "mouthRollUpper", "mouthShrugLower", "mouthShrugUpper",
-    "mouthSmileLeft", "mouthSmileRight", "mouthStretchLeft", "mouthStretchRight", "mouthUpperUpLeft", "mouthUpperUpRight",
-    "noseSneerLeft", "noseSneerRight", "tongueOut"};
+    "browDownLeft",      "browDownRight",      "browInnerUp",         "browOuterUpLeft",
+    "browOuterUpRight",  "cheekPuff",          "cheekSquintLeft",     "cheekSquintRight",
+    "eyeBlinkLeft",      "eyeBlinkRight",      "eyeLookDownLeft",     "eyeLookDownRight",
+    "eyeLookInLeft",     "eyeLookInRight",     "eyeLookOutLeft",      "eyeLookOutRight",
+    "eyeLookUpLeft",     "eyeLookUpRight",     "eyeSquintLeft",       "eyeSquintRight",
+    "eyeWideLeft",       "eyeWideRight",       "jawForward",          "jawLeft",
+    "jawOpen",           "jawRight",           "mouthClose",          "mouthDimpleLeft",
+    "mouthDimpleRight",  "mouthFrownLeft",     "mouthFrownRight",     "mouthFunnel",
+    "mouthLeft",         "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft",
+    "mouthPressRight",   "mouthPucker",        "mouthRight",          "mouthRollLower",
+    "mouthRollUpper",    "mouthShrugLower",    "mouthShrugUpper",     "mouthSmileLeft",
+    "mouthSmileRight",   "mouthStretchLeft",   "mouthStretchRight",   "mouthUpperUpLeft",
+    "mouthUpperUpRight", "noseSneerLeft",      "noseSneerRight",      "tongueOut"};
 
 // OVR's viseme names, in our Viseme order (we call I, O and U ih, oh and ou).
-constexpr const char* kOvrVisemes[kVisemeCount] = {"viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD",
-                                                   "viseme_kk",  "viseme_CH", "viseme_SS", "viseme_nn", "viseme_RR",
-                                                   "viseme_aa",  "viseme_E",  "viseme_I",  "viseme_O",  "viseme_U"};
+constexpr const char* kOvrVisemes[kVisemeCount] = {
+    "viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD",
+    "viseme_kk",  "viseme_CH", "viseme_SS", "viseme_nn", "viseme_RR",
+    "viseme_aa",  "viseme_E",  "viseme_I",  "viseme_O",  "viseme_U"};
 
 }  // namespace
 
 ordered_json MToon1(const Material& m, const ordered_json& gltf_material) {
   if (!m.toon) return nullptr;
   const auto& c = m.base_color_factor;
-  ordered_json x = {{"specVersion", "1.0"},
-                    {"transparentWithZWrite", false},
-                    {"renderQueueOffsetNumber", 0},
-                    {"shadeColorFactor", {Num(kShade * c[0]), Num(kShade * c[1]), Num(kShade * c[2])}},
-                    {"shadingShiftFactor", 0},
-                    {"shadingToonyFactor", 0.9},
-                    {"giEqualizationFactor", 0.9}};
+  ordered_json x = {
+      {"specVersion", "1.0"},
+      {"transparentWithZWrite", false},
+      {"renderQueueOffsetNumber", 0},
+      {"shadeColorFactor", {Num(kShade * c[0]), Num(kShade * c[1]), Num(kShade * c[2])}},
+      {"shadingShiftFactor", 0},
+      {"shadingToonyFactor", 0.9},
+      {"giEqualizationFactor", 0.9}};
   if (const int t = BaseTexture(gltf_material); t >= 0) x["shadeMultiplyTexture"] = {{"index", t}};
   x["outlineWidthMode"] = m.outline_width > 0 ? "screenCoordinates" : "none";
   if (m.outline_width > 0) {
     x["outlineWidthFactor"] = Num(m.outline_width);
-    x["outlineColorFactor"] = {Num(m.outline_color[0]), Num(m.outline_color[1]), Num(m.outline_color[2])};
+    x["outlineColorFactor"] = {Num(m.outline_color[0]), Num(m.outline_color[1]),
+                               Num(m.outline_color[2])};
     x["outlineLightingMixFactor"] = 0;  // MMD's edges are drawn unlit.
   }
   return x;
@@ -64,26 +74,44 @@ ordered_json MToon1(const Material& m, const ordered_json& gltf_material) {
 
 ordered_json MaterialProperties0(const Material& m, const ordered_json& gltf_material) {
   const std::string name = gltf_material.value("name", m.name);
-  if (!m.toon) return {{"name", name}, {"shader", "VRM_USE_GLTFSHADER"}, {"floatProperties", ordered_json::object()},
-                       {"vectorProperties", ordered_json::object()}, {"textureProperties", ordered_json::object()},
-                       {"keywordMap", ordered_json::object()}, {"tagMap", ordered_json::object()}};
+  if (!m.toon)
+    return {{"name", name},
+            {"shader", "VRM_USE_GLTFSHADER"},
+            {"floatProperties", ordered_json::object()},
+            {"vectorProperties", ordered_json::object()},
+            {"textureProperties", ordered_json::object()},
+            {"keywordMap", ordered_json::object()},
+            {"tagMap", ordered_json::object()}};
   const auto& c = m.base_color_factor;
   const bool blend = m.alpha_mode == "BLEND" || c[3] < 1.0f;
   ordered_json textures = ordered_json::object();
-  if (const int t = BaseTexture(gltf_material); t >= 0) textures = {{"_MainTex", t}, {"_ShadeTexture", t}};
+  if (const int t = BaseTexture(gltf_material); t >= 0)
+    textures = {{"_MainTex", t}, {"_ShadeTexture", t}};
   ordered_json keywords = ordered_json::object();
   if (blend) keywords["_ALPHABLEND_ON"] = true;
   return {{"name", name},
           {"shader", "VRM/MToon"},
           {"renderQueue", blend ? 3000 : 2000},
-          {"floatProperties", {{"_BlendMode", blend ? 2 : 0}, {"_CullMode", m.double_sided ? 0 : 2}, {"_ShadeShift", 0}, {"_ShadeToony", 0.9},
-                               {"_IndirectLightIntensity", 0.1}, {"_OutlineWidthMode", m.outline_width > 0 ? 2 : 0},
-                               {"_OutlineWidth", Num(100.0f * m.outline_width)}, {"_OutlineColorMode", 0}, {"_ZWrite", blend ? 0 : 1},
-                               {"_MToonVersion", 38}}},
-          {"vectorProperties", {{"_Color", {Num(GammaOf(c[0])), Num(GammaOf(c[1])), Num(GammaOf(c[2])), Num(c[3])}},
-                                {"_ShadeColor", {Num(GammaOf(kShade * c[0])), Num(GammaOf(kShade * c[1])), Num(GammaOf(kShade * c[2])), 1}},
-                                {"_OutlineColor", {Num(GammaOf(m.outline_color[0])), Num(GammaOf(m.outline_color[1])), Num(GammaOf(m.outline_color[2])), 1}},
-                                {"_MainTex", {0, 0, 1, 1}}}},
+          {"floatProperties",
+           {{"_BlendMode", blend ? 2 : 0},
+            {"_CullMode", m.double_sided ? 0 : 2},
+            {"_ShadeShift", 0},
+            {"_ShadeToony", 0.9},
+            {"_IndirectLightIntensity", 0.1},
+            {"_OutlineWidthMode", m.outline_width > 0 ? 2 : 0},
+            {"_OutlineWidth", Num(100.0f * m.outline_width)},
+            {"_OutlineColorMode", 0},
+            {"_ZWrite", blend ? 0 : 1},
+            {"_MToonVersion", 38}}},
+          {"vectorProperties",
+           {{"_Color", {Num(GammaOf(c[0])), Num(GammaOf(c[1])), Num(GammaOf(c[2])), Num(c[3])}},
+            {"_ShadeColor",
+             {Num(GammaOf(kShade * c[0])), Num(GammaOf(kShade * c[1])), Num(GammaOf(kShade * c[2])),
+              1}},
+            {"_OutlineColor",
+             {Num(GammaOf(m.outline_color[0])), Num(GammaOf(m.outline_color[1])),
+              Num(GammaOf(m.outline_color[2])), 1}},
+            {"_MainTex", {0, 0, 1, 1}}}},
           {"textureProperties", textures},
           {"keywordMap", keywords},
           {"tagMap", {{"RenderType", blend ? "Transparent" : "Opaque"}}}};
@@ -94,7 +122,8 @@ ordered_json MaterialColorBinds(const Rig& rig, const Expression& e) {
   std::vector<float> weights(rig.shapes.size(), 0.0f);
   bool any = false;
   for (const auto& [shape, w] : e.binds) {
-    if (shape < weights.size() && !rig.shapes[shape].material_morphs.empty()) weights[shape] = w, any = true;
+    if (shape < weights.size() && !rig.shapes[shape].material_morphs.empty())
+      weights[shape] = w, any = true;
   }
   if (!any) return binds;
   std::vector<std::array<float, 4>> colors;
@@ -102,7 +131,11 @@ ordered_json MaterialColorBinds(const Rig& rig, const Expression& e) {
   for (size_t m = 0; m < colors.size() && m < rig.materials.size(); ++m) {
     const auto& base = rig.materials[m].base_color_factor;
     if (colors[m] == base) continue;
-    binds.push_back({{"material", m}, {"type", "color"}, {"targetValue", {Num(colors[m][0]), Num(colors[m][1]), Num(colors[m][2]), Num(colors[m][3])}}});
+    binds.push_back(
+        {{"material", m},
+         {"type", "color"},
+         {"targetValue",
+          {Num(colors[m][0]), Num(colors[m][1]), Num(colors[m][2]), Num(colors[m][3])}}});
   }
   return binds;
 }
@@ -117,7 +150,8 @@ std::vector<Expression> AppExpressions(const Rig& rig) {
     e.binds.emplace_back(static_cast<uint32_t>(s), 1.0f);
     out.push_back(std::move(e));
   }
-  for (size_t v = 0; v < kVisemeCount && !rig.visemes.empty(); ++v) {  // sil (and often PP) is the closed mouth: no shape.
+  for (size_t v = 0; v < kVisemeCount && !rig.visemes.empty();
+       ++v) {  // sil (and often PP) is the closed mouth: no shape.
     Expression e;
     e.name = kOvrVisemes[v];
     e.binds = rig.visemes.binds[v];

@@ -3,7 +3,6 @@
 #pragma once
 
 #include <Eigen/Geometry>
-
 #include <cstdint>
 #include <map>
 #include <string>
@@ -11,9 +10,10 @@
 #include <unordered_map>
 #include <vector>
 
+#include "common/split_mesh.h"
+#include "facespace/engine/bezier.h"
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
-#include "facespace/engine/bezier.h"
 #include "fbx/fbx_tree.h"
 
 namespace facespace::fbx_scene {
@@ -27,8 +27,8 @@ constexpr double kTicksPerSecond = 46186158000.0;
 constexpr size_t kMaxControlPoints = 4'000'000;
 constexpr size_t kMaxCorners = 16'000'000;
 constexpr size_t kMaxPolygonCorners = 4096;
-constexpr size_t kMaxJoints = 65535;       // Joint indices are uint16 in a Primitive.
-constexpr size_t kMaxFrames = 100'000;     // Samples of one clip.
+constexpr size_t kMaxJoints = 65535;    // Joint indices are uint16 in a Primitive.
+constexpr size_t kMaxFrames = 100'000;  // Samples of one clip.
 constexpr size_t kMaxClipValues = 32'000'000;
 
 struct Object {
@@ -37,7 +37,9 @@ struct Object {
   std::string cls;   // "Model", "Geometry", "Deformer", ...
   std::string name;  // Without its class prefix.
   std::string sub;   // "Mesh", "Shape", "LimbNode", "Skin", "Cluster", "BlendShapeChannel", ...
-  std::string Describe() const { return cls + " '" + name + "'" + (sub.empty() ? "" : " (" + sub + ")"); }
+  std::string Describe() const {
+    return cls + " '" + name + "'" + (sub.empty() ? "" : " (" + sub + ")");
+  }
 };
 
 struct Link {
@@ -66,11 +68,13 @@ class Scene {
         }
       }
     }
-    if (const FNode* settings = doc.Find("GlobalSettings")) settings_ = settings->Find("Properties70");
+    if (const FNode* settings = doc.Find("GlobalSettings"))
+      settings_ = settings->Find("Properties70");
     const FNode* objects = doc.Find("Objects");
     if (!objects) return InvalidArgument("FBX: no Objects section");
     for (const FNode& n : objects->children) {
-      if (n.props.size() < 2 || !n.props[0].IsScalarNumber() || n.props[1].kind != Prop::kString) continue;
+      if (n.props.size() < 2 || !n.props[0].IsScalarNumber() || n.props[1].kind != Prop::kString)
+        continue;
       Object o;
       o.id = n.props[0].AsInt();
       o.node = &n;
@@ -78,7 +82,8 @@ class Scene {
       o.name = fbx::ObjectName(n.props[1].s);
       if (n.props.size() > 2 && n.props[2].kind == Prop::kString) o.sub = n.props[2].s;
       if (o.id == 0) return InvalidArgument("FBX: " + o.Describe() + " has id 0, the scene root's");
-      if (!objects_.emplace(o.id, o).second) return InvalidArgument("FBX: two objects have id " + std::to_string(o.id));
+      if (!objects_.emplace(o.id, o).second)
+        return InvalidArgument("FBX: two objects have id " + std::to_string(o.id));
       order_.push_back(o.id);
     }
     if (const FNode* conns = doc.Find("Connections")) {
@@ -100,11 +105,13 @@ class Scene {
   const std::vector<int64_t>& order() const { return order_; }
 
   // Objects of class `cls` (and subclass `sub` unless empty) linked into `id`, in file order.
-  std::vector<std::pair<const Object*, std::string>> Sources(int64_t id, std::string_view cls, std::string_view sub = {}) const {
+  std::vector<std::pair<const Object*, std::string>> Sources(int64_t id, std::string_view cls,
+                                                             std::string_view sub = {}) const {
     return Filter(sources_, id, cls, sub);
   }
   // Objects of class `cls` that `id` links into.
-  std::vector<std::pair<const Object*, std::string>> Targets(int64_t id, std::string_view cls, std::string_view sub = {}) const {
+  std::vector<std::pair<const Object*, std::string>> Targets(int64_t id, std::string_view cls,
+                                                             std::string_view sub = {}) const {
     return Filter(targets_, id, cls, sub);
   }
 
@@ -118,33 +125,39 @@ class Scene {
   }
   double Number(const Object& o, std::string_view name, double fallback) const {
     const FNode* p = Property(o, name);
-    return p && p->props.size() > 4 && p->props[4].IsScalarNumber() ? p->props[4].AsNumber() : fallback;
+    return p && p->props.size() > 4 && p->props[4].IsScalarNumber() ? p->props[4].AsNumber()
+                                                                    : fallback;
   }
   Vec3 Vector(const Object& o, std::string_view name, const Vec3& fallback) const {
     const FNode* p = Property(o, name);
     if (!p || p->props.size() < 7) return fallback;
     Vec3 v;
     for (int c = 0; c < 3; ++c) {
-      if (!p->props[4 + c].IsScalarNumber() || !std::isfinite(p->props[4 + c].AsNumber())) return fallback;
+      if (!p->props[4 + c].IsScalarNumber() || !std::isfinite(p->props[4 + c].AsNumber()))
+        return fallback;
       v[c] = p->props[4 + c].AsNumber();
     }
     return v;
   }
   double Setting(std::string_view name, double fallback) const {
     const FNode* p = settings_ ? FindP(*settings_, name) : nullptr;
-    return p && p->props.size() > 4 && p->props[4].IsScalarNumber() ? p->props[4].AsNumber() : fallback;
+    return p && p->props.size() > 4 && p->props[4].IsScalarNumber() ? p->props[4].AsNumber()
+                                                                    : fallback;
   }
 
  private:
   static const FNode* FindP(const FNode& p70, std::string_view name) {
     for (const FNode& p : p70.children) {
-      if (p.name == "P" && !p.props.empty() && p.props[0].kind == Prop::kString && p.props[0].s == name) return &p;
+      if (p.name == "P" && !p.props.empty() && p.props[0].kind == Prop::kString &&
+          p.props[0].s == name)
+        return &p;
     }
     return nullptr;
   }
 
-  std::vector<std::pair<const Object*, std::string>> Filter(const std::unordered_map<int64_t, std::vector<Link>>& links, int64_t id,
-                                                           std::string_view cls, std::string_view sub) const {
+  std::vector<std::pair<const Object*, std::string>> Filter(
+      const std::unordered_map<int64_t, std::vector<Link>>& links, int64_t id, std::string_view cls,
+      std::string_view sub) const {
     std::vector<std::pair<const Object*, std::string>> out;
     auto it = links.find(id);
     if (it == links.end()) return out;
@@ -176,15 +189,17 @@ Mat4 Rotation(const Vec3& deg, int order);
 // The static parts of a Model's transform stack: everything but T, R and S themselves.
 struct TransformStack {
   Vec3 t{0, 0, 0}, r{0, 0, 0}, s{1, 1, 1};
-  Vec3 rotation_offset{0, 0, 0}, rotation_pivot{0, 0, 0}, scaling_offset{0, 0, 0}, scaling_pivot{0, 0, 0};
+  Vec3 rotation_offset{0, 0, 0}, rotation_pivot{0, 0, 0}, scaling_offset{0, 0, 0},
+      scaling_pivot{0, 0, 0};
   Mat4 pre = Mat4::Identity(), post_inverse = Mat4::Identity();
   int order = 0;
   Mat4 geometric = Mat4::Identity();
 
   // T * Roff * Rp * Rpre * R * Rpost^-1 * Rp^-1 * Soff * Sp * S * Sp^-1 (FBX SDK's local matrix).
   Mat4 Local(const Vec3& tt, const Vec3& rr, const Vec3& ss) const {
-    return Translation(tt) * Translation(rotation_offset) * Translation(rotation_pivot) * pre * Rotation(rr, order) * post_inverse *
-           Translation(-rotation_pivot) * Translation(scaling_offset) * Translation(scaling_pivot) * Scaling(ss) *
+    return Translation(tt) * Translation(rotation_offset) * Translation(rotation_pivot) * pre *
+           Rotation(rr, order) * post_inverse * Translation(-rotation_pivot) *
+           Translation(scaling_offset) * Translation(scaling_pivot) * Scaling(ss) *
            Translation(-scaling_pivot);
   }
   Mat4 Local() const { return Local(t, r, s); }
@@ -216,8 +231,9 @@ struct Element {
   }
 };
 
-Status ReadElement(const FNode& geom, const Object& o, std::string_view element, std::string_view values_name,
-                   std::string_view index_name, int stride, Element& out);
+Status ReadElement(const FNode& geom, const Object& o, std::string_view element,
+                   std::string_view values_name, std::string_view index_name, int stride,
+                   Element& out);
 
 // One Geometry split into primitives (one per material slot used), each vertex remembering
 // the control point it came from, so shapes and skin weights follow.
@@ -226,25 +242,34 @@ struct SplitMesh {
   std::vector<std::vector<uint32_t>> point_of_vertex;  // Per primitive.
   std::vector<int> material_slot;                      // Per primitive.
   size_t point_count = 0;
-  std::vector<double> points;                          // xyz per control point.
+  std::vector<double> points;  // xyz per control point.
 };
 
-Status SplitGeometry(const Object& o, const Mat4& geometric, std::vector<Warning>& warnings, SplitMesh& out);
+Status SplitGeometry(const Object& o, const Mat4& geometric, std::vector<Warning>& warnings,
+                     SplitMesh& out);
+
+// A skin cluster's 4x4 matrix `name` (Transform, TransformLink), column-major; false when it is
+// missing or not 16 finite numbers.
+bool ClusterMatrix(const Object& cluster, const char* name, Mat4& out);
+// A skin cluster's control point weights (Indexes, Weights), as influences of `joint`.
+Status ClusterWeights(const Object& cluster, uint32_t joint, size_t point_count,
+                      std::vector<Influences>& influences);
 
 // ---------------------------------------------------------------------------------------------
 // Animation curves
 
 struct Curve {
-  std::vector<double> times;   // Seconds.
+  std::vector<double> times;  // Seconds.
   std::vector<double> values;
   std::vector<uint32_t> flags;  // Per key.
-  std::vector<float> data;      // 4 per key: right slope, next left slope, packed weights, velocity.
+  std::vector<float> data;  // 4 per key: right slope, next left slope, packed weights, velocity.
 
   double At(double t) const {
     if (times.empty()) return 0.0;
     if (t <= times.front()) return values.front();
     if (t >= times.back()) return values.back();
-    const size_t k = static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
+    const size_t k =
+        static_cast<size_t>(std::upper_bound(times.begin(), times.end(), t) - times.begin()) - 1;
     const double t0 = times[k], t1 = times[k + 1], v0 = values[k], v1 = values[k + 1];
     const double dt = t1 - t0;
     if (!(dt > 0)) return v1;
@@ -261,7 +286,8 @@ struct Curve {
     const double x1 = w0, x2 = 1.0 - w1;  // Control points' times in [0, 1].
     const double y0 = v0, y1 = v0 + s0 * w0 * dt, y2 = v1 - s1 * w1 * dt, y3 = v1;
     // Default weights (1/3, 2/3) make x(s) = s; else x(s) rises for weights in [0, 1]: solved.
-    if (std::fabs(x1 - 1.0 / 3.0) <= 1e-9 && std::fabs(x2 - 2.0 / 3.0) <= 1e-9) return CubicBezier(y0, y1, y2, y3, u);
+    if (std::fabs(x1 - 1.0 / 3.0) <= 1e-9 && std::fabs(x2 - 2.0 / 3.0) <= 1e-9)
+      return CubicBezier(y0, y1, y2, y3, u);
     return BezierYAtX(0.0, x1, x2, 1.0, y0, y1, y2, y3, u);
   }
 };

@@ -22,7 +22,8 @@ constexpr size_t kHeaderSize = 27;
 
 class BinaryReader {
  public:
-  BinaryReader(std::span<const unsigned char> bytes, const Limits& limits) : b_(bytes), limits_(limits) {}
+  BinaryReader(std::span<const unsigned char> bytes, const Limits& limits)
+      : b_(bytes), limits_(limits) {}
 
   Status Read(Document& doc) {
     doc.binary = true;
@@ -71,16 +72,23 @@ class BinaryReader {
       pos += head;
       return true;
     }
-    if (depth >= limits_.max_depth) return Fail(pos, "nodes nested deeper than " + std::to_string(limits_.max_depth));
-    if (++nodes_ > limits_.max_nodes) return Fail(pos, "more than " + std::to_string(limits_.max_nodes) + " nodes");
+    if (depth >= limits_.max_depth)
+      return Fail(pos, "nodes nested deeper than " + std::to_string(limits_.max_depth));
+    if (++nodes_ > limits_.max_nodes)
+      return Fail(pos, "more than " + std::to_string(limits_.max_nodes) + " nodes");
     const size_t start = pos;
     pos += head;
     if (!Has(pos, name_len)) return Fail(start, "truncated node name");
     node.name.assign(reinterpret_cast<const char*>(b_.data() + pos), name_len);
     pos += name_len;
-    if (end_offset > b_.size() || end_offset < pos) return Fail(start, "node '" + node.name + "' ends at " + std::to_string(end_offset) + ", outside the file");
-    if (props_len > end_offset - pos) return Fail(start, "node '" + node.name + "': its properties run past its end");
-    if (nprops > props_len) return Fail(start, "node '" + node.name + "': " + std::to_string(nprops) + " properties in " + std::to_string(props_len) + " bytes");
+    if (end_offset > b_.size() || end_offset < pos)
+      return Fail(start, "node '" + node.name + "' ends at " + std::to_string(end_offset) +
+                             ", outside the file");
+    if (props_len > end_offset - pos)
+      return Fail(start, "node '" + node.name + "': its properties run past its end");
+    if (nprops > props_len)
+      return Fail(start, "node '" + node.name + "': " + std::to_string(nprops) + " properties in " +
+                             std::to_string(props_len) + " bytes");
     const size_t props_end = pos + static_cast<size_t>(props_len);
     node.props.reserve(static_cast<size_t>(nprops));
     for (uint64_t k = 0; k < nprops; ++k) {
@@ -88,7 +96,8 @@ class BinaryReader {
       if (!ReadProp(pos, props_end, node.name, p)) return false;
       node.props.push_back(std::move(p));
     }
-    if (pos != props_end) return Fail(pos, "node '" + node.name + "': properties do not fill their declared length");
+    if (pos != props_end)
+      return Fail(pos, "node '" + node.name + "': properties do not fill their declared length");
     while (pos < end_offset) {
       Node child;
       bool child_end = false;
@@ -111,14 +120,46 @@ class BinaryReader {
   bool ReadProp(size_t& pos, size_t end, const std::string& owner, Prop& p) {
     if (pos >= end) return Fail(pos, "node '" + owner + "': missing property");
     const char type = static_cast<char>(b_[pos++]);
-    auto need = [&](size_t n) { return n <= end - pos ? true : Fail(pos, "node '" + owner + "': truncated property"); };
+    auto need = [&](size_t n) {
+      return n <= end - pos ? true : Fail(pos, "node '" + owner + "': truncated property");
+    };
     switch (type) {
-      case 'Y': if (!need(2)) return false; p.kind = Prop::kInt; p.i = Load<int16_t>(&b_[pos]); pos += 2; return true;
-      case 'C': if (!need(1)) return false; p.kind = Prop::kInt; p.i = b_[pos] != 0; pos += 1; return true;
-      case 'I': if (!need(4)) return false; p.kind = Prop::kInt; p.i = Load<int32_t>(&b_[pos]); pos += 4; return true;
-      case 'L': if (!need(8)) return false; p.kind = Prop::kInt; p.i = Load<int64_t>(&b_[pos]); pos += 8; return true;
-      case 'F': if (!need(4)) return false; p.kind = Prop::kNumber; p.d = Load<float>(&b_[pos]); pos += 4; return true;
-      case 'D': if (!need(8)) return false; p.kind = Prop::kNumber; p.d = Load<double>(&b_[pos]); pos += 8; return true;
+      case 'Y':
+        if (!need(2)) return false;
+        p.kind = Prop::kInt;
+        p.i = Load<int16_t>(&b_[pos]);
+        pos += 2;
+        return true;
+      case 'C':
+        if (!need(1)) return false;
+        p.kind = Prop::kInt;
+        p.i = b_[pos] != 0;
+        pos += 1;
+        return true;
+      case 'I':
+        if (!need(4)) return false;
+        p.kind = Prop::kInt;
+        p.i = Load<int32_t>(&b_[pos]);
+        pos += 4;
+        return true;
+      case 'L':
+        if (!need(8)) return false;
+        p.kind = Prop::kInt;
+        p.i = Load<int64_t>(&b_[pos]);
+        pos += 8;
+        return true;
+      case 'F':
+        if (!need(4)) return false;
+        p.kind = Prop::kNumber;
+        p.d = Load<float>(&b_[pos]);
+        pos += 4;
+        return true;
+      case 'D':
+        if (!need(8)) return false;
+        p.kind = Prop::kNumber;
+        p.d = Load<double>(&b_[pos]);
+        pos += 8;
+        return true;
       case 'S':
       case 'R': {
         if (!need(4)) return false;
@@ -130,10 +171,14 @@ class BinaryReader {
         pos += n;
         return true;
       }
-      case 'f': case 'd': case 'l': case 'i': case 'b':
-        return ReadArray(pos, end, owner, type, p);
+      case 'f':
+      case 'd':
+      case 'l':
+      case 'i':
+      case 'b': return ReadArray(pos, end, owner, type, p);
       default:
-        return Fail(pos - 1, "node '" + owner + "': unknown property type 0x" + Hex(static_cast<unsigned char>(type)));
+        return Fail(pos - 1, "node '" + owner + "': unknown property type 0x" +
+                                 Hex(static_cast<unsigned char>(type)));
     }
   }
 
@@ -150,32 +195,43 @@ class BinaryReader {
     pos += 12;
     const size_t elem = (type == 'd' || type == 'l') ? 8 : type == 'b' ? 1 : 4;
     const uint64_t bytes = uint64_t{count} * elem;
-    if (stored > end - pos) return Fail(pos, "node '" + owner + "': array data runs past its node (" + std::to_string(stored) + " bytes)");
+    if (stored > end - pos)
+      return Fail(pos, "node '" + owner + "': array data runs past its node (" +
+                           std::to_string(stored) + " bytes)");
     if (bytes > limits_.max_decoded_bytes - decoded_) {
-      return Fail(pos, "node '" + owner + "': arrays decode to more than " + std::to_string(limits_.max_decoded_bytes >> 20) + " MiB");
+      return Fail(pos, "node '" + owner + "': arrays decode to more than " +
+                           std::to_string(limits_.max_decoded_bytes >> 20) + " MiB");
     }
     decoded_ += static_cast<size_t>(bytes);
     raw_.resize(static_cast<size_t>(bytes));
     const unsigned char* src = &b_[pos];
     if (encoding == 0) {
-      if (stored != bytes) return Fail(pos, "node '" + owner + "': array of " + std::to_string(count) + " stored in " + std::to_string(stored) + " bytes");
+      if (stored != bytes)
+        return Fail(pos, "node '" + owner + "': array of " + std::to_string(count) + " stored in " +
+                             std::to_string(stored) + " bytes");
       if (bytes) std::memcpy(raw_.data(), src, static_cast<size_t>(bytes));
     } else if (encoding == 1) {
-      if (!Inflate(src, stored, raw_)) return Fail(pos, "node '" + owner + "': compressed array does not inflate to exactly " + std::to_string(count) + " elements");
+      if (!Inflate(src, stored, raw_))
+        return Fail(pos, "node '" + owner + "': compressed array does not inflate to exactly " +
+                             std::to_string(count) + " elements");
     } else {
-      return Fail(pos - 8, "node '" + owner + "': unknown array encoding " + std::to_string(encoding));
+      return Fail(pos - 8,
+                  "node '" + owner + "': unknown array encoding " + std::to_string(encoding));
     }
     pos += stored;
     const unsigned char* r = raw_.data();
     if (type == 'f' || type == 'd') {
       p.kind = Prop::kNumbers;
       p.numbers.resize(count);
-      for (uint32_t k = 0; k < count; ++k) p.numbers[k] = type == 'f' ? Load<float>(r + 4 * k) : Load<double>(r + 8 * k);
+      for (uint32_t k = 0; k < count; ++k)
+        p.numbers[k] = type == 'f' ? Load<float>(r + 4 * k) : Load<double>(r + 8 * k);
     } else {
       p.kind = Prop::kInts;
       p.ints.resize(count);
       for (uint32_t k = 0; k < count; ++k) {
-        p.ints[k] = type == 'l' ? Load<int64_t>(r + 8 * k) : type == 'i' ? Load<int32_t>(r + 4 * k) : (r[k] != 0);
+        p.ints[k] = type == 'l'   ? Load<int64_t>(r + 8 * k)
+                    : type == 'i' ? Load<int32_t>(r + 4 * k)
+                                  : (r[k] != 0);
       }
     }
     return true;
@@ -257,15 +313,21 @@ class AsciiReader {
     }
   }
 
-  static bool NameChar(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '|' || c == '-' || c == '.'; }
+  static bool NameChar(char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '|' || c == '-' ||
+           c == '.';
+  }
 
   bool ReadNode(size_t depth, Node& node) {
-    if (depth >= limits_.max_depth) return Fail("nodes nested deeper than " + std::to_string(limits_.max_depth));
-    if (++nodes_ > limits_.max_nodes) return Fail("more than " + std::to_string(limits_.max_nodes) + " nodes");
+    if (depth >= limits_.max_depth)
+      return Fail("nodes nested deeper than " + std::to_string(limits_.max_depth));
+    if (++nodes_ > limits_.max_nodes)
+      return Fail("more than " + std::to_string(limits_.max_nodes) + " nodes");
     const size_t start = pos_;
     while (pos_ < s_.size() && NameChar(s_[pos_])) ++pos_;
     if (pos_ == start || pos_ >= s_.size() || s_[pos_] != ':') {
-      return Fail("expected a node name and ':', got '" + std::string(s_.substr(start, std::min<size_t>(20, s_.size() - start))) + "'");
+      return Fail("expected a node name and ':', got '" +
+                  std::string(s_.substr(start, std::min<size_t>(20, s_.size() - start))) + "'");
     }
     node.name.assign(s_.substr(start, pos_ - start));
     ++pos_;
@@ -307,19 +369,23 @@ class AsciiReader {
       return true;
     }
     const size_t start = pos_;
-    while (pos_ < s_.size() && s_[pos_] != ',' && s_[pos_] != '\n' && s_[pos_] != '\r' && s_[pos_] != ' ' && s_[pos_] != '\t' &&
-           s_[pos_] != '{' && s_[pos_] != '}' && s_[pos_] != ';') {
+    while (pos_ < s_.size() && s_[pos_] != ',' && s_[pos_] != '\n' && s_[pos_] != '\r' &&
+           s_[pos_] != ' ' && s_[pos_] != '\t' && s_[pos_] != '{' && s_[pos_] != '}' &&
+           s_[pos_] != ';') {
       ++pos_;
     }
     const std::string tok(s_.substr(start, pos_ - start));
     if (tok.empty()) return Fail("node '" + owner + "': empty value");
-    return Number(tok, p) ? true : (p.kind = Prop::kString, p.s = tok, true);  // Bare words (Y, T, ...) are strings.
+    return Number(tok, p)
+               ? true
+               : (p.kind = Prop::kString, p.s = tok, true);  // Bare words (Y, T, ...) are strings.
   }
 
   // An integer or a number; false when `tok` is neither.
   static bool Number(const std::string& tok, Prop& p) {
     const char c = tok[0];
-    if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.')) return false;
+    if (!(std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.'))
+      return false;
     char* end = nullptr;
     errno = 0;
     const long long v = std::strtoll(tok.c_str(), &end, 10);
@@ -341,24 +407,31 @@ class AsciiReader {
     const size_t start = pos_;
     while (pos_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[pos_]))) ++pos_;
     const std::string count_text(s_.substr(start, pos_ - start));
-    if (count_text.empty() || count_text.size() > 10) return Fail("node '" + owner + "': bad array count");
+    if (count_text.empty() || count_text.size() > 10)
+      return Fail("node '" + owner + "': bad array count");
     const uint64_t count = std::strtoull(count_text.c_str(), nullptr, 10);
-    if (count * 8 > limits_.max_decoded_bytes - decoded_) return Fail("node '" + owner + "': arrays hold more than the limit");
+    if (count * 8 > limits_.max_decoded_bytes - decoded_)
+      return Fail("node '" + owner + "': arrays hold more than the limit");
     Skip();
-    if (pos_ >= s_.size() || s_[pos_] != '{') return Fail("node '" + owner + "': expected '{' after the array count");
+    if (pos_ >= s_.size() || s_[pos_] != '{')
+      return Fail("node '" + owner + "': expected '{' after the array count");
     ++pos_;
     Skip();
     std::vector<double> nums;
     std::vector<int64_t> ints;
     bool integral = true;
     if (pos_ < s_.size() && s_[pos_] != '}') {
-      if (s_.substr(pos_, 2) != "a:") return Fail("node '" + owner + "': expected 'a:' in the array");
+      if (s_.substr(pos_, 2) != "a:")
+        return Fail("node '" + owner + "': expected 'a:' in the array");
       pos_ += 2;
       for (;;) {
         Skip();
         Prop v;
-        if (pos_ >= s_.size() || !ReadValue(owner, v) || !v.IsScalarNumber()) return Fail("node '" + owner + "': array values must be numbers");
-        if (nums.size() >= count) return Fail("node '" + owner + "': more values than the declared " + std::to_string(count));
+        if (pos_ >= s_.size() || !ReadValue(owner, v) || !v.IsScalarNumber())
+          return Fail("node '" + owner + "': array values must be numbers");
+        if (nums.size() >= count)
+          return Fail("node '" + owner + "': more values than the declared " +
+                      std::to_string(count));
         nums.push_back(v.AsNumber());
         if (v.kind == Prop::kInt) {
           ints.push_back(v.i);
@@ -374,9 +447,12 @@ class AsciiReader {
       }
       Skip();
     }
-    if (pos_ >= s_.size() || s_[pos_] != '}') return Fail("node '" + owner + "': expected '}' closing the array");
+    if (pos_ >= s_.size() || s_[pos_] != '}')
+      return Fail("node '" + owner + "': expected '}' closing the array");
     ++pos_;
-    if (nums.size() != count) return Fail("node '" + owner + "': " + std::to_string(nums.size()) + " values, declared " + std::to_string(count));
+    if (nums.size() != count)
+      return Fail("node '" + owner + "': " + std::to_string(nums.size()) + " values, declared " +
+                  std::to_string(count));
     decoded_ += static_cast<size_t>(count) * 8;
     if (integral) {
       p.kind = Prop::kInts;
@@ -415,7 +491,8 @@ const Node* Document::Find(std::string_view name) const {
 
 bool LooksLikeFbx(std::span<const unsigned char> bytes) {
   if (bytes.size() >= 20 && std::memcmp(bytes.data(), kBinaryMagic, 20) == 0) return true;
-  std::string_view head(reinterpret_cast<const char*>(bytes.data()), std::min<size_t>(bytes.size(), 1024));
+  std::string_view head(reinterpret_cast<const char*>(bytes.data()),
+                        std::min<size_t>(bytes.size(), 1024));
   size_t i = 0;
   while (i < head.size() && std::isspace(static_cast<unsigned char>(head[i]))) ++i;
   head.remove_prefix(i);
@@ -429,18 +506,22 @@ Result<Document> Parse(std::span<const unsigned char> bytes, const Limits& limit
     BinaryReader r(bytes, limits);
     if (Status s = r.Read(doc); !s.ok()) return s;
   } else {
-    AsciiReader r(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()), limits);
+    AsciiReader r(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                  limits);
     if (Status s = r.Read(doc); !s.ok()) return s;
     if (const Node* h = doc.Find("FBXHeaderExtension")) {
-      if (const Node* v = h->Find("FBXVersion"); v && !v->props.empty()) doc.version = static_cast<uint32_t>(v->props[0].AsInt());
+      if (const Node* v = h->Find("FBXVersion"); v && !v->props.empty())
+        doc.version = static_cast<uint32_t>(v->props[0].AsInt());
     }
   }
   return doc;
 }
 
 std::string ObjectName(std::string_view raw) {
-  if (const size_t sep = raw.find(std::string_view("\0\1", 2)); sep != std::string_view::npos) return std::string(raw.substr(0, sep));
-  if (const size_t sep = raw.find("::"); sep != std::string_view::npos) return std::string(raw.substr(sep + 2));
+  if (const size_t sep = raw.find(std::string_view("\0\1", 2)); sep != std::string_view::npos)
+    return std::string(raw.substr(0, sep));
+  if (const size_t sep = raw.find("::"); sep != std::string_view::npos)
+    return std::string(raw.substr(sep + 2));
   return std::string(raw);
 }
 

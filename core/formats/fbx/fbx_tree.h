@@ -29,10 +29,14 @@ struct Prop {
 
   double AsNumber() const { return kind == kInt ? static_cast<double>(i) : d; }
   // A number outside int64's range (or not finite) reads as 0.
-  int64_t AsInt() const { return kind == kNumber ? (std::fabs(d) < 9.2e18 ? static_cast<int64_t>(d) : 0) : i; }
+  int64_t AsInt() const {
+    return kind == kNumber ? (std::fabs(d) < 9.2e18 ? static_cast<int64_t>(d) : 0) : i;
+  }
   bool IsScalarNumber() const { return kind == kInt || kind == kNumber; }
   bool IsArray() const { return kind == kInts || kind == kNumbers; }
-  size_t ArraySize() const { return kind == kInts ? ints.size() : kind == kNumbers ? numbers.size() : 0; }
+  size_t ArraySize() const {
+    return kind == kInts ? ints.size() : kind == kNumbers ? numbers.size() : 0;
+  }
 };
 
 struct Node {
@@ -59,7 +63,8 @@ struct Limits {
 };
 
 // True when the bytes start like a binary FBX ("Kaydara FBX Binary") or an ASCII one (after white
-// space, the "; FBX" comment, or an FBXHeaderExtension node in the first kilobyte). The registry's test.
+// space, the "; FBX" comment, or an FBXHeaderExtension node in the first kilobyte). The registry's
+// test.
 bool LooksLikeFbx(std::span<const unsigned char> bytes);
 
 // Reads either kind (told apart by the magic). Errors name the byte offset (binary) or the

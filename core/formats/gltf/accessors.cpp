@@ -21,7 +21,6 @@ int ComponentCount(int type) {
   }
 }
 
-
 float ConvertComponent(const unsigned char* p, int component_type, bool normalized) {
   switch (component_type) {
     case TINYGLTF_COMPONENT_TYPE_FLOAT: {
@@ -66,9 +65,10 @@ Status ViewBytes(const tinygltf::Model& m, int view_index, std::span<const unsig
   }
   const std::vector<unsigned char>& data = m.buffers[v.buffer].data;
   if (v.byteOffset > data.size() || v.byteLength > data.size() - v.byteOffset) {
-    return InvalidArgument("bufferView " + std::to_string(view_index) + " lies beyond its buffer (" +
-                           std::to_string(v.byteOffset) + "+" + std::to_string(v.byteLength) + " > " +
-                           std::to_string(data.size()) + " bytes)");
+    return InvalidArgument("bufferView " + std::to_string(view_index) +
+                           " lies beyond its buffer (" + std::to_string(v.byteOffset) + "+" +
+                           std::to_string(v.byteLength) + " > " + std::to_string(data.size()) +
+                           " bytes)");
   }
   out = std::span<const unsigned char>(data.data() + v.byteOffset, v.byteLength);
   stride = v.byteStride;
@@ -106,14 +106,16 @@ Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out
   const std::string where = what + " (accessor " + std::to_string(index) + ")";
   components = ComponentCount(a.type);
   const int csize = ComponentSize(a.componentType);
-  if (components == 0 || csize == 0) return InvalidArgument(where + ": unsupported type or componentType");
+  if (components == 0 || csize == 0)
+    return InvalidArgument(where + ": unsupported type or componentType");
   if (a.count > kMaxElements) return InvalidArgument(where + ": count too large");
   const size_t esize = static_cast<size_t>(components) * csize;
   out.assign(a.count * components, 0.0f);
   if (a.bufferView >= 0) {
     std::span<const unsigned char> bytes;
     size_t stride = 0;
-    if (Status s = ViewBytes(m, a.bufferView, bytes, stride); !s.ok()) return InvalidArgument(where + ": " + s.message);
+    if (Status s = ViewBytes(m, a.bufferView, bytes, stride); !s.ok())
+      return InvalidArgument(where + ": " + s.message);
     if (stride == 0) stride = esize;
     if (stride < esize) return InvalidArgument(where + ": byteStride smaller than an element");
     if (a.count > 0 && !Element(bytes, a.byteOffset, stride, a.count - 1, esize)) {
@@ -127,7 +129,8 @@ Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out
     }
   }
   if (a.sparse.isSparse) {
-    const size_t count = a.sparse.count < 0 ? kMaxElements + 1 : static_cast<size_t>(a.sparse.count);
+    const size_t count =
+        a.sparse.count < 0 ? kMaxElements + 1 : static_cast<size_t>(a.sparse.count);
     if (count > a.count) return InvalidArgument(where + ": sparse count exceeds accessor count");
     const int isize = ComponentSize(a.sparse.indices.componentType);
     if (isize == 0 || a.sparse.indices.componentType == TINYGLTF_COMPONENT_TYPE_BYTE ||
@@ -152,11 +155,15 @@ Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out
     }
     for (size_t k = 0; k < count; ++k) {
       const unsigned char* ip = ibytes.data() + a.sparse.indices.byteOffset + isize * k;
-      const uint32_t target = static_cast<uint32_t>(ConvertComponent(ip, a.sparse.indices.componentType, false));
-      if (target >= a.count) return InvalidArgument(where + ": sparse index " + std::to_string(target) + " beyond count");
+      const uint32_t target =
+          static_cast<uint32_t>(ConvertComponent(ip, a.sparse.indices.componentType, false));
+      if (target >= a.count)
+        return InvalidArgument(where + ": sparse index " + std::to_string(target) +
+                               " beyond count");
       const unsigned char* vp = vbytes.data() + a.sparse.values.byteOffset + esize * k;
       for (int c = 0; c < components; ++c) {
-        out[target * components + c] = ConvertComponent(vp + c * csize, a.componentType, a.normalized);
+        out[target * components + c] =
+            ConvertComponent(vp + c * csize, a.componentType, a.normalized);
       }
     }
   }
@@ -166,7 +173,8 @@ Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out
   return Status::Ok();
 }
 
-Status ReadIndices(const tinygltf::Model& m, int index, std::vector<uint32_t>& out, const std::string& what) {
+Status ReadIndices(const tinygltf::Model& m, int index, std::vector<uint32_t>& out,
+                   const std::string& what) {
   if (index < 0 || static_cast<size_t>(index) >= m.accessors.size()) {
     return InvalidArgument(what + ": accessor " + std::to_string(index) + " does not exist");
   }
@@ -183,7 +191,8 @@ Status ReadIndices(const tinygltf::Model& m, int index, std::vector<uint32_t>& o
   if (a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT && !a.sparse.isSparse) {
     std::span<const unsigned char> bytes;
     size_t stride = 0;
-    if (Status s = ViewBytes(m, a.bufferView, bytes, stride); !s.ok()) return InvalidArgument(what + ": " + s.message);
+    if (Status s = ViewBytes(m, a.bufferView, bytes, stride); !s.ok())
+      return InvalidArgument(what + ": " + s.message);
     if (stride == 0) stride = 4;
     if (a.count > kMaxElements) return InvalidArgument(what + ": count too large");
     if (a.count > 0 && !Element(bytes, a.byteOffset, stride, a.count - 1, 4)) {

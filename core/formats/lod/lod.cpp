@@ -10,12 +10,14 @@ namespace facespace {
 namespace {
 
 template <typename T>
-std::vector<T> Compact(const std::vector<T>& in, const std::vector<int32_t>& remap, size_t per_vertex, size_t kept) {
+std::vector<T> Compact(const std::vector<T>& in, const std::vector<int32_t>& remap,
+                       size_t per_vertex, size_t kept) {
   if (in.empty()) return {};
   std::vector<T> out(kept * per_vertex);
   for (size_t v = 0; v < remap.size(); ++v) {
     if (remap[v] < 0) continue;
-    std::copy_n(in.begin() + v * per_vertex, per_vertex, out.begin() + static_cast<size_t>(remap[v]) * per_vertex);
+    std::copy_n(in.begin() + v * per_vertex, per_vertex,
+                out.begin() + static_cast<size_t>(remap[v]) * per_vertex);
   }
   return out;
 }
@@ -23,7 +25,8 @@ std::vector<T> Compact(const std::vector<T>& in, const std::vector<int32_t>& rem
 }  // namespace
 
 Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
-  if (level < 0 || level > kMaxLod) return InvalidArgument("lod must be 0.." + std::to_string(kMaxLod));
+  if (level < 0 || level > kMaxLod)
+    return InvalidArgument("lod must be 0.." + std::to_string(kMaxLod));
   LodReport r;
   r.triangles_before = rig.triangle_count();
   r.vertices_before = rig.vertex_count();
@@ -38,11 +41,13 @@ Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
     for (size_t pi = 0; pi < out.primitives.size(); ++pi) {
       Primitive& p = out.primitives[pi];
       if (p.mode != PrimitiveMode::kTriangles || p.indices.size() < 3 * 8) continue;
-      const size_t target = std::max<size_t>(3, static_cast<size_t>(std::llround(p.indices.size() / 3 * ratio)) * 3);
+      const size_t target =
+          std::max<size_t>(3, static_cast<size_t>(std::llround(p.indices.size() / 3 * ratio)) * 3);
       std::vector<uint32_t> simplified(p.indices.size());
       float error = 0;
-      const size_t count = meshopt_simplify(simplified.data(), p.indices.data(), p.indices.size(), p.positions.data(),
-                                            p.vertex_count(), 3 * sizeof(float), target, 0.05f, meshopt_SimplifyLockBorder, &error);
+      const size_t count = meshopt_simplify(simplified.data(), p.indices.data(), p.indices.size(),
+                                            p.positions.data(), p.vertex_count(), 3 * sizeof(float),
+                                            target, 0.05f, meshopt_SimplifyLockBorder, &error);
       simplified.resize(count);
       r.error = std::max(r.error, error);
       // Keep the used vertices in their original order.

@@ -8,19 +8,19 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 
-#include "facespace/formats/io.h"
-#include "facespace/formats/rig_json.h"
+#include "../common/json_depth.h"
 #include "facespace/engine/face.h"
 #include "facespace/engine/shape_tools.h"
 #include "facespace/engine/speech.h"
 #include "facespace/engine/weights.h"
+#include "facespace/formats/io.h"
+#include "facespace/formats/rig_json.h"
 #include "sections.h"
-#include "../common/json_depth.h"
 
 namespace facespace {
 
-using nlohmann::json;
 using manifest::Bad;
+using nlohmann::json;
 
 namespace {
 
@@ -35,7 +35,8 @@ constexpr std::pair<std::string_view, Section> kSections[] = {
     {"expressions", manifest::ApplyExpressions}, {"gaze", manifest::ApplyGaze},
     {"visemes", manifest::ApplyVisemes},         {"terms", manifest::ApplyTerms},
     {"regions", manifest::ApplyRegions},         {"landmarks", manifest::ApplyLandmarks}};
-constexpr std::string_view kPlainMembers[] = {"name", "credit", "license_url", "start", "base_motion"};
+constexpr std::string_view kPlainMembers[] = {"name", "credit", "license_url", "start",
+                                              "base_motion"};
 
 // "base_motion": one of the rig's motions; one it lacks (a model copied without its motion folder)
 // warns, and motions play without a base.
@@ -47,7 +48,8 @@ void ApplyBaseMotion(Rig& rig, const std::string& name) {
     return;
   }
   rig.load_warnings.push_back({"manifest_unknown_motion",
-                               "manifest: /base_motion names no motion of the rig: '" + name.substr(0, 60) + "'" + DidYouMean(name, names) +
+                               "manifest: /base_motion names no motion of the rig: '" +
+                                   name.substr(0, 60) + "'" + DidYouMean(name, names) +
                                    "; motions play without a base",
                                name.substr(0, 60), 0.0, false});
 }
@@ -60,15 +62,18 @@ Status ApplyPlainMembers(Rig& rig, const json& j) {
     (std::string_view(key) == "name" ? rig.name : rig.credit) = j[key].get<std::string>();
   }
   if (j.contains("license_url")) {
-    if (!j["license_url"].is_string() || j["license_url"].get<std::string>().empty()) return Bad("/license_url", "must be the URL of the rig's licence");
+    if (!j["license_url"].is_string() || j["license_url"].get<std::string>().empty())
+      return Bad("/license_url", "must be the URL of the rig's licence");
     rig.license_url = j["license_url"].get<std::string>();
   }
   if (j.contains("start")) {
-    if (j["start"] != "neutral" && j["start"] != "defaults") return Bad("/start", "must be \"neutral\" (every weight 0) or \"defaults\"");
+    if (j["start"] != "neutral" && j["start"] != "defaults")
+      return Bad("/start", "must be \"neutral\" (every weight 0) or \"defaults\"");
     rig.start_at_defaults = j["start"] == "defaults";
   }
   if (j.contains("base_motion")) {
-    if (!j["base_motion"].is_string()) return Bad("/base_motion", "must be the name of one of the rig's motions (clips)");
+    if (!j["base_motion"].is_string())
+      return Bad("/base_motion", "must be the name of one of the rig's motions (clips)");
     ApplyBaseMotion(rig, j["base_motion"].get<std::string>());
   }
   return Status::Ok();
@@ -90,7 +95,8 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
   const std::vector<std::string_view> members = ManifestMembers();
   for (auto it = j.begin(); it != j.end(); ++it) {
     if (std::find(members.begin(), members.end(), it.key()) == members.end()) {
-      return Bad("/" + JsonPointerEscape(it.key()), "unknown member" + DidYouMean(it.key(), members));
+      return Bad("/" + JsonPointerEscape(it.key()),
+                 "unknown member" + DidYouMean(it.key(), members));
     }
   }
   if (Status s = ApplyPlainMembers(rig, j); !s.ok()) return s;
@@ -105,20 +111,21 @@ Status ApplyManifest(Rig& rig, const std::string& text) {
 Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
   if (Status s = CheckJsonDepth(text, "modifiers"); !s.ok()) return s;
   json j = json::parse(text, nullptr, false);
-  if (j.is_discarded() || !j.is_array()) return InvalidArgument("not a modifiers file: want a JSON array of {\"group\", \"modifiers\"}");
+  if (j.is_discarded() || !j.is_array())
+    return InvalidArgument("not a modifiers file: want a JSON array of {\"group\", \"modifiers\"}");
   std::vector<std::string> missing;
   for (size_t g = 0; g < j.size(); ++g) {
     const json& group = j[g];
-    if (!group.is_object() || !group.contains("group") || !group["group"].is_string() || !group.contains("modifiers") ||
-        !group["modifiers"].is_array()) {
-      return InvalidArgument("/" + std::to_string(g) + ": want {\"group\": NAME, \"modifiers\": [...]}");
+    if (!group.is_object() || !group.contains("group") || !group["group"].is_string() ||
+        !group.contains("modifiers") || !group["modifiers"].is_array()) {
+      return InvalidArgument("/" + std::to_string(g) +
+                             ": want {\"group\": NAME, \"modifiers\": [...]}");
     }
     const std::string gname = group["group"].get<std::string>();
     for (const json& m : group["modifiers"]) {
-      auto missing_target = [&](const std::string& name) {
-        missing.push_back(gname + "/" + name);
-      };
-      if (!m.is_object() || !m.contains("target") || !m["target"].is_string()) continue;  // Macro modifiers: no target.
+      auto missing_target = [&](const std::string& name) { missing.push_back(gname + "/" + name); };
+      if (!m.is_object() || !m.contains("target") || !m["target"].is_string())
+        continue;  // Macro modifiers: no target.
       const std::string target = m["target"].get<std::string>();
       Control c;
       c.group = gname;
@@ -151,9 +158,9 @@ Status ApplyMakeHumanModifiers(Rig& rig, const std::string& text) {
     std::string names;
     for (size_t i = 0; i < missing.size() && i < 12; ++i) names += (i ? ", " : "") + missing[i];
     if (missing.size() > 12) names += ", ... (" + std::to_string(missing.size()) + " in all)";
-    rig.load_warnings.push_back({"modifier_targets_missing",
-                                 std::to_string(missing.size()) + " modifier(s) name targets that were not found, so they are no controls: " + names,
-                                 "", static_cast<double>(missing.size()), true});
+    rig.load_warnings.push_back(CountWarning(
+        "modifier_targets_missing", missing.size(),
+        "modifier(s) name targets that were not found, so they are no controls: " + names));
   }
   return Status::Ok();
 }
@@ -169,8 +176,11 @@ json ExpressionsObject(const Rig& rig, bool derived_too) {
     if (e.derived && !derived_too) continue;
     json weights = json::object();
     for (const auto& [s, w] : e.binds) weights[rig.shapes[s].name] = Num(w);
-    json o = {{"weights", weights}, {"binary", e.binary}, {"override_blink", ExpressionOverrideName(e.blink)},
-                                {"override_look_at", ExpressionOverrideName(e.look_at)}, {"override_mouth", ExpressionOverrideName(e.mouth)}};
+    json o = {{"weights", weights},
+              {"binary", e.binary},
+              {"override_blink", ExpressionOverrideName(e.blink)},
+              {"override_look_at", ExpressionOverrideName(e.look_at)},
+              {"override_mouth", ExpressionOverrideName(e.mouth)}};
     if (derived_too) o["derived"] = e.derived;
     out[e.name] = o;
   }
@@ -200,20 +210,34 @@ json GazeObject(const Rig& rig, bool for_manifest) {
   const GazeSetup& g = rig.gaze;
   using K = GazeSetup::Kind;
   json o;
-  o["type"] = g.kind == K::kBones ? "bones" : g.kind == K::kShapes ? "shapes" : g.kind == K::kExpressions ? "expressions" : "none";
-  if (g.kind == K::kBones) o["eyes"] = {{"left", rig.nodes[g.eyes[0]].name}, {"right", rig.nodes[g.eyes[1]].name}};
+  o["type"] = g.kind == K::kBones         ? "bones"
+              : g.kind == K::kShapes      ? "shapes"
+              : g.kind == K::kExpressions ? "expressions"
+                                          : "none";
+  if (g.kind == K::kBones)
+    o["eyes"] = {{"left", rig.nodes[g.eyes[0]].name}, {"right", rig.nodes[g.eyes[1]].name}};
   if (g.kind == K::kShapes && !for_manifest) {
-    auto pair = [&](const std::array<int, 2>& a) { return json::array({rig.shapes[a[0]].name, rig.shapes[a[1]].name}); };
-    o["shapes"] = {{"look_in", pair(g.look_in)}, {"look_out", pair(g.look_out)}, {"look_up", pair(g.look_up)}, {"look_down", pair(g.look_down)}};
+    auto pair = [&](const std::array<int, 2>& a) {
+      return json::array({rig.shapes[a[0]].name, rig.shapes[a[1]].name});
+    };
+    o["shapes"] = {{"look_in", pair(g.look_in)},
+                   {"look_out", pair(g.look_out)},
+                   {"look_up", pair(g.look_up)},
+                   {"look_down", pair(g.look_down)}};
   }
   if (g.head >= 0) o["head"] = {{"bone", rig.nodes[g.head].name}, {"share", Num(g.head_share)}};
   if (g.neck >= 0) o["neck"] = {{"bone", rig.nodes[g.neck].name}, {"share", Num(g.neck_share)}};
-  auto map = [](const RangeMap& m) { return json{{"input_max", Num(m.input_max)}, {"output_scale", Num(m.output_scale)}}; };
+  auto map = [](const RangeMap& m) {
+    return json{{"input_max", Num(m.input_max)}, {"output_scale", Num(m.output_scale)}};
+  };
   if (g.kind != K::kNone) {
-    o["range_maps"] = {{"horizontal_inner", map(g.horizontal_inner)}, {"horizontal_outer", map(g.horizontal_outer)},
-                       {"vertical_down", map(g.vertical_down)}, {"vertical_up", map(g.vertical_up)}};
+    o["range_maps"] = {{"horizontal_inner", map(g.horizontal_inner)},
+                       {"horizontal_outer", map(g.horizontal_outer)},
+                       {"vertical_down", map(g.vertical_down)},
+                       {"vertical_up", map(g.vertical_up)}};
   }
-  if (!for_manifest && g.kind != K::kNone) o["origin"] = {Num(g.origin[0]), Num(g.origin[1]), Num(g.origin[2])};
+  if (!for_manifest && g.kind != K::kNone)
+    o["origin"] = {Num(g.origin[0]), Num(g.origin[1]), Num(g.origin[2])};
   return o;
 }
 
@@ -221,7 +245,9 @@ json GazeObject(const Rig& rig, bool for_manifest) {
 
 json ExpressionsValue(const Rig& rig) { return ExpressionsObject(rig, true); }
 json GazeValue(const Rig& rig) { return GazeObject(rig, false); }
-json VisemesValue(const Rig& rig) { return rig.visemes.empty() ? json() : VisemesObject(rig, true); }
+json VisemesValue(const Rig& rig) {
+  return rig.visemes.empty() ? json() : VisemesObject(rig, true);
+}
 
 std::string ManifestJson(const Rig& rig) {
   json m = json::object();
@@ -243,8 +269,10 @@ std::string ManifestJson(const Rig& rig) {
     json inbetweens = json::object();
     for (const InBetweens& ib : rig.inbetweens) {
       json keys = json::array();
-      for (const auto& [w, shape] : ib.keys) keys.push_back({{"shape", rig.shapes[shape].name}, {"weight", w}});
-      if (ib.full != 1.0f) keys.push_back({{"shape", rig.shapes[ib.slider].name}, {"weight", ib.full}});
+      for (const auto& [w, shape] : ib.keys)
+        keys.push_back({{"shape", rig.shapes[shape].name}, {"weight", w}});
+      if (ib.full != 1.0f)
+        keys.push_back({{"shape", rig.shapes[ib.slider].name}, {"weight", ib.full}});
       inbetweens[rig.shapes[ib.slider].name] = keys;
     }
     m["inbetweens"] = inbetweens;

@@ -1,6 +1,6 @@
-// The manifest's sections, each read by its own function (manifest.cpp's table says in which order):
-// the shapes' own (shapes.cpp), what makes them more than a sum (semantics.cpp), the face's (face.cpp).
-// Each takes its member's value; errors name the member's JSON Pointer.
+// The manifest's sections, each read by its own function (manifest.cpp's table says in which
+// order): the shapes' own (shapes.cpp), what makes them more than a sum (semantics.cpp), the face's
+// (face.cpp). Each takes its member's value; errors name the member's JSON Pointer.
 #pragma once
 
 #include <cstdint>
@@ -22,13 +22,17 @@ inline Status Bad(const std::string& pointer, const std::string& message) {
   return s;
 }
 
-// Each member of `section` (an object, else an error at `pointer` saying it `must_be`) applied to the
-// rig: apply(rig, key, value, the member's pointer), in order, up to the first error.
-using MemberReader = Status (*)(Rig& rig, const std::string& key, const json& value, const std::string& pointer);
-inline Status ForEachMember(const json& section, const std::string& pointer, const std::string& must_be, Rig& rig, MemberReader apply) {
+// Each member of `section` (an object, else an error at `pointer` saying it `must_be`) applied to
+// the rig: apply(rig, key, value, the member's pointer), in order, up to the first error.
+using MemberReader = Status (*)(Rig& rig, const std::string& key, const json& value,
+                                const std::string& pointer);
+inline Status ForEachMember(const json& section, const std::string& pointer,
+                            const std::string& must_be, Rig& rig, MemberReader apply) {
   if (!section.is_object()) return Bad(pointer, must_be);
   for (auto it = section.begin(); it != section.end(); ++it) {
-    if (Status s = apply(rig, it.key(), it.value(), pointer + "/" + JsonPointerEscape(it.key())); !s.ok()) return s;
+    if (Status s = apply(rig, it.key(), it.value(), pointer + "/" + JsonPointerEscape(it.key()));
+        !s.ok())
+      return s;
   }
   return Status::Ok();
 }
@@ -50,8 +54,8 @@ Status ApplyStatistics(Rig& rig, const json& v);
 Status ApplyExpressions(Rig& rig, const json& v);
 Status ApplyGaze(Rig& rig, const json& v);
 Status ApplyVisemes(Rig& rig, const json& v);
-Status ApplyTerms(Rig& rig, const json& v);  // terms.cpp
-json TermsValue(const UsageTerms& t);         // The section as ApplyTerms reads it.
+Status ApplyTerms(Rig& rig, const json& v);      // terms.cpp
+json TermsValue(const UsageTerms& t);            // The section as ApplyTerms reads it.
 Status ApplyRegions(Rig& rig, const json& v);    // labels.cpp
 Status ApplyLandmarks(Rig& rig, const json& v);  // labels.cpp
 json RegionsValue(const Rig& rig);               // The sections as they read them.

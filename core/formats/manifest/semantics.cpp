@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "sections.h"
-#include "facespace/formats/io.h"
 #include "facespace/engine/shape_tools.h"
+#include "facespace/formats/io.h"
+#include "sections.h"
 
 namespace facespace::manifest {
 
@@ -29,7 +29,8 @@ Status ApplyControl(Rig& rig, const std::string& key, const json& item, const st
     if (Status st = ShapeAt(rig, item[side], ptr + "/" + side, &shape); !st.ok()) return st;
     (std::string(side) == "negative" ? c.negative : c.positive) = static_cast<int>(shape);
   }
-  if (c.positive < 0) return Bad(ptr + "/positive", "is required (the shape driven by values above 0)");
+  if (c.positive < 0)
+    return Bad(ptr + "/positive", "is required (the shape driven by values above 0)");
   if (item.contains("group")) {
     if (!item["group"].is_string()) return Bad(ptr + "/group", "must be a string");
     c.group = item["group"].get<std::string>();
@@ -39,22 +40,26 @@ Status ApplyControl(Rig& rig, const std::string& key, const json& item, const st
   return Status::Ok();
 }
 
-// One slider's in-betweens: each a driven shape at its weight (the slider's own shape at `full`), sorted.
+// One slider's in-betweens: each a driven shape at its weight (the slider's own shape at `full`),
+// sorted.
 Status ApplyInBetween(Rig& rig, const std::string& key, const json& item, const std::string& ptr) {
   InBetweens ib;
   std::vector<std::string> key_ptr;  // Each key's pointer, by weight once sorted.
   if (Status s = ShapeAt(rig, json(key), ptr, &ib.slider); !s.ok()) return s;
-  if (!item.is_array() || item.empty()) return Bad(ptr, "must be a non-empty array of {\"shape\", \"weight\"}");
+  if (!item.is_array() || item.empty())
+    return Bad(ptr, "must be a non-empty array of {\"shape\", \"weight\"}");
   for (size_t k = 0; k < item.size(); ++k) {
     const json& e = item[k];
     const std::string kp = ptr + "/" + std::to_string(k);
-    if (!e.is_object() || !e.contains("shape") || !e.contains("weight") || !e["weight"].is_number()) {
+    if (!e.is_object() || !e.contains("shape") || !e.contains("weight") ||
+        !e["weight"].is_number()) {
       return Bad(kp, "must be {\"shape\": NAME, \"weight\": W} with W a non-zero number");
     }
     uint32_t shape = 0;
     if (Status s = ShapeAt(rig, e["shape"], kp + "/shape", &shape); !s.ok()) return s;
     const float w = e["weight"].get<float>();
-    if (!std::isfinite(w) || w == 0.0f) return Bad(kp + "/weight", "must be a finite non-zero number (the base is at 0)");
+    if (!std::isfinite(w) || w == 0.0f)
+      return Bad(kp + "/weight", "must be a finite non-zero number (the base is at 0)");
     if (shape == ib.slider) {  // Where the slider's own shape is reached: 1 unless given.
       ib.full = w;
       continue;
@@ -64,11 +69,14 @@ Status ApplyInBetween(Rig& rig, const std::string& key, const json& item, const 
     key_ptr.push_back(kp + "/weight");
   }
   for (size_t k = 0; k < ib.keys.size(); ++k) {
-    if (ib.keys[k].first == ib.full) return Bad(key_ptr[k], "is where the slider reaches its own shape (" + std::to_string(ib.full) + "); an in-between needs another weight");
+    if (ib.keys[k].first == ib.full)
+      return Bad(key_ptr[k], "is where the slider reaches its own shape (" +
+                                 std::to_string(ib.full) + "); an in-between needs another weight");
   }
   std::sort(ib.keys.begin(), ib.keys.end());
   for (size_t k = 1; k < ib.keys.size(); ++k) {
-    if (ib.keys[k].first == ib.keys[k - 1].first) return Bad(ptr, "two in-betweens at the same weight");
+    if (ib.keys[k].first == ib.keys[k - 1].first)
+      return Bad(ptr, "two in-betweens at the same weight");
   }
   rig.inbetweens.push_back(std::move(ib));
   return Status::Ok();
@@ -78,13 +86,18 @@ Status ApplyInBetween(Rig& rig, const std::string& key, const json& item, const 
 Status ApplyCorrective(Rig& rig, const std::string& key, const json& item, const std::string& ptr) {
   Corrective c;
   if (Status s = ShapeAt(rig, json(key), ptr, &c.shape); !s.ok()) return s;
-  if (!item.is_object() || !item.contains("drivers") || !item["drivers"].is_array() || item["drivers"].size() < 2) {
+  if (!item.is_object() || !item.contains("drivers") || !item["drivers"].is_array() ||
+      item["drivers"].size() < 2) {
     return Bad(ptr + "/drivers", "must be an array of at least two shape names");
   }
   for (size_t k = 0; k < item["drivers"].size(); ++k) {
     uint32_t d = 0;
-    if (Status s = ShapeAt(rig, item["drivers"][k], ptr + "/drivers/" + std::to_string(k), &d); !s.ok()) return s;
-    if (d == c.shape || rig.shapes[d].driven) return Bad(ptr + "/drivers/" + std::to_string(k), "a driver must be a slider, not a driven shape");
+    if (Status s = ShapeAt(rig, item["drivers"][k], ptr + "/drivers/" + std::to_string(k), &d);
+        !s.ok())
+      return s;
+    if (d == c.shape || rig.shapes[d].driven)
+      return Bad(ptr + "/drivers/" + std::to_string(k),
+                 "a driver must be a slider, not a driven shape");
     c.drivers.push_back(d);
   }
   if (item.contains("mode")) {
@@ -122,22 +135,33 @@ Status ShapeAt(const Rig& rig, const json& v, const std::string& ptr, uint32_t* 
 }
 // "controls": name -> {group, negative, positive}; left/right ones paired.
 Status ApplyControls(Rig& rig, const json& section) {
-  if (Status s = ForEachMember(section, "/controls", "must be an object of control name -> {\"group\", \"negative\", \"positive\"}", rig, ApplyControl); !s.ok()) return s;
+  if (Status s = ForEachMember(
+          section, "/controls",
+          "must be an object of control name -> {\"group\", \"negative\", \"positive\"}", rig,
+          ApplyControl);
+      !s.ok())
+    return s;
   PairControls(rig);
   return Status::Ok();
 }
 // "inbetweens": slider -> [{shape, weight}], sorted by weight.
 Status ApplyInBetweens(Rig& rig, const json& section) {
-  return ForEachMember(section, "/inbetweens", "must be an object of slider shape -> [{\"shape\", \"weight\"}]", rig, ApplyInBetween);
+  return ForEachMember(section, "/inbetweens",
+                       "must be an object of slider shape -> [{\"shape\", \"weight\"}]", rig,
+                       ApplyInBetween);
 }
 // "correctives": shape -> {drivers, mode}.
 Status ApplyCorrectives(Rig& rig, const json& section) {
-  return ForEachMember(section, "/correctives", "must be an object of shape -> {\"drivers\": [...], \"mode\"}", rig, ApplyCorrective);
+  return ForEachMember(section, "/correctives",
+                       "must be an object of shape -> {\"drivers\": [...], \"mode\"}", rig,
+                       ApplyCorrective);
 }
 
 // "statistics": {mean, stddev | components, bound}, the face space's distribution.
 Status ApplyStatistics(Rig& rig, const json& st) {
-  if (!st.is_object()) return Bad("/statistics", "must be an object {\"mean\", \"stddev\" | \"components\", \"bound\"}");
+  if (!st.is_object())
+    return Bad("/statistics",
+               "must be an object {\"mean\", \"stddev\" | \"components\", \"bound\"}");
   ShapeStatistics stats;
   stats.present = true;
   const size_t n = rig.shapes.size();
@@ -147,7 +171,9 @@ Status ApplyStatistics(Rig& rig, const json& st) {
     out.assign(n, 0.0f);
     for (auto e = m.begin(); e != m.end(); ++e) {
       uint32_t s = 0;
-      if (Status r = ShapeAt(rig, json(e.key()), ptr + "/" + JsonPointerEscape(e.key()), &s); !r.ok()) return r;
+      if (Status r = ShapeAt(rig, json(e.key()), ptr + "/" + JsonPointerEscape(e.key()), &s);
+          !r.ok())
+        return r;
       if (!e->is_number()) return Bad(ptr + "/" + JsonPointerEscape(e.key()), "must be a number");
       out[s] = e->get<float>();
     }
@@ -161,18 +187,21 @@ Status ApplyStatistics(Rig& rig, const json& st) {
     if (Status r = weight_map(st["stddev"], "/statistics/stddev", sd); !r.ok()) return r;
     for (size_t s = 0; s < n; ++s) {
       if (sd[s] == 0.0f) continue;
-      if (!(sd[s] > 0.0f)) return Bad("/statistics/stddev/" + JsonPointerEscape(rig.shapes[s].name), "must be > 0");
+      if (!(sd[s] > 0.0f))
+        return Bad("/statistics/stddev/" + JsonPointerEscape(rig.shapes[s].name), "must be > 0");
       stats.components.emplace_back(n, 0.0f);
       stats.components.back()[s] = 1.0f;
       stats.stddev.push_back(sd[s]);
     }
   }
   if (st.contains("components")) {
-    if (!st["components"].is_array()) return Bad("/statistics/components", "must be an array of {\"weights\", \"stddev\"}");
+    if (!st["components"].is_array())
+      return Bad("/statistics/components", "must be an array of {\"weights\", \"stddev\"}");
     for (size_t k = 0; k < st["components"].size(); ++k) {
       const json& c = st["components"][k];
       const std::string ptr = "/statistics/components/" + std::to_string(k);
-      if (!c.is_object() || !c.contains("weights") || !c.contains("stddev") || !c["stddev"].is_number() || !(c["stddev"].get<double>() > 0)) {
+      if (!c.is_object() || !c.contains("weights") || !c.contains("stddev") ||
+          !c["stddev"].is_number() || !(c["stddev"].get<double>() > 0)) {
         return Bad(ptr, "must be {\"weights\": {NAME: x}, \"stddev\": s > 0}");
       }
       std::vector<float> dir;
@@ -184,14 +213,16 @@ Status ApplyStatistics(Rig& rig, const json& st) {
       for (const auto& other : stats.components) {
         double dot = 0;
         for (size_t s = 0; s < n; ++s) dot += static_cast<double>(dir[s]) * other[s];
-        if (std::fabs(dot) > 1e-3) return Bad(ptr + "/weights", "must be orthogonal to the other components");
+        if (std::fabs(dot) > 1e-3)
+          return Bad(ptr + "/weights", "must be orthogonal to the other components");
       }
       stats.components.push_back(std::move(dir));
       stats.stddev.push_back(c["stddev"].get<float>());
     }
   }
   if (st.contains("bound")) {
-    if (!st["bound"].is_number() || !(st["bound"].get<double>() > 0)) return Bad("/statistics/bound", "must be a number > 0 (in standard deviations)");
+    if (!st["bound"].is_number() || !(st["bound"].get<double>() > 0))
+      return Bad("/statistics/bound", "must be a number > 0 (in standard deviations)");
     stats.bound = st["bound"].get<float>();
   }
   if (stats.components.empty()) return Bad("/statistics", "needs \"stddev\" or \"components\"");

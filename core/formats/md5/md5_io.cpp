@@ -5,7 +5,6 @@
 // wants (-90 degrees about X), units are kept. Quaternions store x, y, z; w is rebuilt as
 // -sqrt(1 - x^2 - y^2 - z^2) (0 when that is negative), id's convention.
 #include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -45,7 +44,8 @@ class Lexer {
 
   Token Next() {
     for (;;) {
-      while (pos_ < s_.size() && (s_[pos_] == ' ' || s_[pos_] == '\t' || s_[pos_] == '\r' || s_[pos_] == '\n')) {
+      while (pos_ < s_.size() &&
+             (s_[pos_] == ' ' || s_[pos_] == '\t' || s_[pos_] == '\r' || s_[pos_] == '\n')) {
         if (s_[pos_] == '\n') ++line_;
         ++pos_;
       }
@@ -79,8 +79,9 @@ class Lexer {
       return t;
     }
     const size_t start = pos_;
-    while (pos_ < s_.size() && !std::isspace(static_cast<unsigned char>(s_[pos_])) && s_[pos_] != '(' && s_[pos_] != ')' &&
-           s_[pos_] != '{' && s_[pos_] != '}' && s_[pos_] != '"') {
+    while (pos_ < s_.size() && !std::isspace(static_cast<unsigned char>(s_[pos_])) &&
+           s_[pos_] != '(' && s_[pos_] != ')' && s_[pos_] != '{' && s_[pos_] != '}' &&
+           s_[pos_] != '"') {
       ++pos_;
     }
     t.kind = Token::kWord;
@@ -104,7 +105,8 @@ class Reader {
 
   // The first error, at `at`'s line (the last token read when `at` has none).
   bool Fail(const Token& at, const std::string& message) {
-    if (error_.empty()) error_ = file_ + ":" + std::to_string(at.line > 0 ? at.line : last_line_) + ": " + message;
+    if (error_.empty())
+      error_ = file_ + ":" + std::to_string(at.line > 0 ? at.line : last_line_) + ": " + message;
     return false;
   }
 
@@ -122,13 +124,17 @@ class Reader {
 
   bool Int(long long lo, long long hi, long long* out, const char* what) {
     const Token t = Take();
-    if (t.kind != Token::kWord) return Fail(t, std::string("expected ") + what + ", got " + Describe(t));
+    if (t.kind != Token::kWord)
+      return Fail(t, std::string("expected ") + what + ", got " + Describe(t));
     const std::string s(t.text);
     char* end = nullptr;
     errno = 0;
     const long long v = std::strtoll(s.c_str(), &end, 10);
-    if (s.empty() || *end || errno == ERANGE) return Fail(t, std::string(what) + ": '" + s.substr(0, 40) + "' is not an integer");
-    if (v < lo || v > hi) return Fail(t, std::string(what) + " " + s + " is outside " + std::to_string(lo) + ".." + std::to_string(hi));
+    if (s.empty() || *end || errno == ERANGE)
+      return Fail(t, std::string(what) + ": '" + s.substr(0, 40) + "' is not an integer");
+    if (v < lo || v > hi)
+      return Fail(t, std::string(what) + " " + s + " is outside " + std::to_string(lo) + ".." +
+                         std::to_string(hi));
     *out = v;
     return true;
   }
@@ -142,11 +148,13 @@ class Reader {
 
   bool Float(float* out, const char* what) {
     const Token t = Take();
-    if (t.kind != Token::kWord) return Fail(t, std::string("expected ") + what + ", got " + Describe(t));
+    if (t.kind != Token::kWord)
+      return Fail(t, std::string("expected ") + what + ", got " + Describe(t));
     const std::string s(t.text);
     char* end = nullptr;
     const float v = std::strtof(s.c_str(), &end);
-    if (s.empty() || *end || !std::isfinite(v)) return Fail(t, std::string(what) + ": '" + s.substr(0, 40) + "' is not a finite number");
+    if (s.empty() || *end || !std::isfinite(v))
+      return Fail(t, std::string(what) + ": '" + s.substr(0, 40) + "' is not a finite number");
     *out = v;
     return true;
   }
@@ -162,11 +170,11 @@ class Reader {
 
   bool String(std::string* out, const char* what) {
     const Token t = Take();
-    if (t.kind != Token::kString) return Fail(t, std::string("expected ") + what + " (a quoted string), got " + Describe(t));
+    if (t.kind != Token::kString)
+      return Fail(t, std::string("expected ") + what + " (a quoted string), got " + Describe(t));
     *out = std::string(t.text);
     return true;
   }
-
 
  private:
   static std::string Describe(const Token& t) {
@@ -201,7 +209,8 @@ struct Joint {
 bool ReadHeader(Reader& r) {
   long long version = 0;
   if (!r.Expect("MD5Version") || !r.Int(0, 1 << 20, &version, "the version")) return false;
-  if (version != 10) return r.Fail(Token{}, "MD5Version " + std::to_string(version) + " is not supported (only 10)");
+  if (version != 10)
+    return r.Fail(Token{}, "MD5Version " + std::to_string(version) + " is not supported (only 10)");
   std::string command;
   return r.Expect("commandline") && r.String(&command, "the command line");
 }
@@ -214,10 +223,10 @@ struct Md5Weight {
 
 struct Md5Mesh {
   std::string shader;
-  std::vector<float> uv;          // 2 per vertex.
-  std::vector<uint32_t> first;    // Per vertex: its first weight.
-  std::vector<uint32_t> count;    // Per vertex: its number of weights.
-  std::vector<uint32_t> tris;     // 3 per triangle.
+  std::vector<float> uv;        // 2 per vertex.
+  std::vector<uint32_t> first;  // Per vertex: its first weight.
+  std::vector<uint32_t> count;  // Per vertex: its number of weights.
+  std::vector<uint32_t> tris;   // 3 per triangle.
   std::vector<Md5Weight> weights;
 };
 
@@ -226,7 +235,9 @@ struct Md5Mesh {
 bool InOrder(Reader& r, size_t n, size_t count, const char* what) {
   long long i = 0;
   if (!r.Int(0, static_cast<long long>(count) - 1, &i, what)) return false;
-  if (static_cast<size_t>(i) != n) return r.Fail(Token{}, std::string(what) + " " + std::to_string(i) + " where " + std::to_string(n) + " was due");
+  if (static_cast<size_t>(i) != n)
+    return r.Fail(Token{}, std::string(what) + " " + std::to_string(i) + " where " +
+                               std::to_string(n) + " was due");
   return true;
 }
 
@@ -237,7 +248,9 @@ bool ReadMesh(Reader& r, size_t joints, Md5Mesh& m) {
   for (size_t k = 0; k < nverts; ++k) {
     long long start = 0, n = 0;
     float uv[2];
-    if (!r.Expect("vert") || !InOrder(r, k, nverts, "the vertex index") || !r.Floats(uv, 2, "a texture coordinate")) return false;
+    if (!r.Expect("vert") || !InOrder(r, k, nverts, "the vertex index") ||
+        !r.Floats(uv, 2, "a texture coordinate"))
+      return false;
     if (!r.Int(0, static_cast<long long>(kMaxWeights), &start, "the first weight") ||
         !r.Int(1, static_cast<long long>(kMaxInfluences), &n, "the weight count")) {
       return false;
@@ -261,8 +274,8 @@ bool ReadMesh(Reader& r, size_t joints, Md5Mesh& m) {
     Md5Weight w;
     float p[3];
     if (!r.Expect("weight") || !InOrder(r, k, nweights, "the weight index") ||
-        !r.Int(0, static_cast<long long>(joints) - 1, &j, "the weight's joint") || !r.Float(&w.bias, "the weight's bias") ||
-        !r.Floats(p, 3, "a weight position")) {
+        !r.Int(0, static_cast<long long>(joints) - 1, &j, "the weight's joint") ||
+        !r.Float(&w.bias, "the weight's bias") || !r.Floats(p, 3, "a weight position")) {
       return false;
     }
     w.joint = static_cast<int>(j);
@@ -271,8 +284,10 @@ bool ReadMesh(Reader& r, size_t joints, Md5Mesh& m) {
   }
   for (size_t v = 0; v < nverts; ++v) {
     if (static_cast<size_t>(m.first[v]) + m.count[v] > nweights) {
-      return r.Fail(Token{}, "vertex " + std::to_string(v) + " uses weights " + std::to_string(m.first[v]) + ".." +
-                                 std::to_string(m.first[v] + m.count[v] - 1) + " of " + std::to_string(nweights));
+      return r.Fail(Token{}, "vertex " + std::to_string(v) + " uses weights " +
+                                 std::to_string(m.first[v]) + ".." +
+                                 std::to_string(m.first[v] + m.count[v] - 1) + " of " +
+                                 std::to_string(nweights));
     }
   }
   return r.Expect("}");
@@ -292,39 +307,48 @@ void SetTrs(Node& node, const Eigen::Vector3f& t, const Quat& q) {
 }
 
 // An .md5anim as a clip over the mesh's joints (nodes first_joint ...), or an error.
-Status ReadAnim(std::string_view text, const std::string& file, const std::string& name, const std::vector<Joint>& joints,
-                int first_joint, AnimationInfo& clip) {
+Status ReadAnim(std::string_view text, const std::string& file, const std::string& name,
+                const std::vector<Joint>& joints, int first_joint, AnimationInfo& clip) {
   Reader r(text, file);
   size_t frames = 0, njoints = 0, ncomponents = 0;
   long long rate = 0;
-  if (!ReadHeader(r) || !r.Expect("numFrames") || !r.Count(kMaxFrames, &frames, "numFrames") || !r.Expect("numJoints") ||
-      !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Expect("frameRate") || !r.Int(1, 1000, &rate, "frameRate") ||
-      !r.Expect("numAnimatedComponents") || !r.Count(6 * kMaxJoints, &ncomponents, "numAnimatedComponents")) {
+  if (!ReadHeader(r) || !r.Expect("numFrames") || !r.Count(kMaxFrames, &frames, "numFrames") ||
+      !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") ||
+      !r.Expect("frameRate") || !r.Int(1, 1000, &rate, "frameRate") ||
+      !r.Expect("numAnimatedComponents") ||
+      !r.Count(6 * kMaxJoints, &ncomponents, "numAnimatedComponents")) {
     return r.status();
   }
   if (frames == 0) return InvalidArgument(file + ": the clip has no frame");
   if (frames * njoints > kMaxFrameJoints) {
-    return InvalidArgument(file + ": " + std::to_string(frames) + " frames of " + std::to_string(njoints) + " joints is over the limit of " +
+    return InvalidArgument(file + ": " + std::to_string(frames) + " frames of " +
+                           std::to_string(njoints) + " joints is over the limit of " +
                            std::to_string(kMaxFrameJoints) + " joint keys");
   }
   if (njoints != joints.size()) {
-    return InvalidArgument(file + ": " + std::to_string(njoints) + " joints, the mesh has " + std::to_string(joints.size()));
+    return InvalidArgument(file + ": " + std::to_string(njoints) + " joints, the mesh has " +
+                           std::to_string(joints.size()));
   }
   std::vector<int> flags(njoints), start(njoints);
   if (!r.Expect("hierarchy") || !r.Expect("{")) return r.status();
   for (size_t j = 0; j < njoints; ++j) {
     std::string jname;
     long long parent = 0, f = 0, s = 0;
-    if (!r.String(&jname, "a joint name") || !r.Int(-1, static_cast<long long>(j) - 1, &parent, "the parent") ||
-        !r.Int(0, 63, &f, "the flags") || !r.Int(0, static_cast<long long>(ncomponents), &s, "the start index")) {
+    if (!r.String(&jname, "a joint name") ||
+        !r.Int(-1, static_cast<long long>(j) - 1, &parent, "the parent") ||
+        !r.Int(0, 63, &f, "the flags") ||
+        !r.Int(0, static_cast<long long>(ncomponents), &s, "the start index")) {
       return r.status();
     }
     if (jname != joints[j].name || parent != joints[j].parent) {
-      return InvalidArgument(file + ": joint " + std::to_string(j) + " is '" + jname + "' (parent " + std::to_string(parent) +
-                             "), the mesh's is '" + joints[j].name + "' (parent " + std::to_string(joints[j].parent) + ")");
+      return InvalidArgument(file + ": joint " + std::to_string(j) + " is '" + jname +
+                             "' (parent " + std::to_string(parent) + "), the mesh's is '" +
+                             joints[j].name + "' (parent " + std::to_string(joints[j].parent) +
+                             ")");
     }
     if (s + __builtin_popcount(static_cast<unsigned>(f)) > static_cast<long long>(ncomponents)) {
-      return InvalidArgument(file + ": joint '" + jname + "' reads components beyond numAnimatedComponents");
+      return InvalidArgument(file + ": joint '" + jname +
+                             "' reads components beyond numAnimatedComponents");
     }
     flags[j] = static_cast<int>(f);
     start[j] = static_cast<int>(s);
@@ -337,7 +361,9 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
   std::vector<float> base(6 * njoints);
   if (!r.Expect("}") || !r.Expect("baseframe") || !r.Expect("{")) return r.status();
   for (size_t j = 0; j < njoints; ++j) {
-    if (!r.Floats(&base[6 * j], 3, "a base position") || !r.Floats(&base[6 * j + 3], 3, "a base orientation")) return r.status();
+    if (!r.Floats(&base[6 * j], 3, "a base position") ||
+        !r.Floats(&base[6 * j + 3], 3, "a base orientation"))
+      return r.status();
   }
   if (!r.Expect("}")) return r.status();
 
@@ -356,7 +382,8 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
   }
   std::vector<float> comp(ncomponents);
   for (size_t f = 0; f < frames; ++f) {
-    if (!r.Expect("frame") || !InOrder(r, f, frames, "the frame index") || !r.Expect("{")) return r.status();
+    if (!r.Expect("frame") || !InOrder(r, f, frames, "the frame index") || !r.Expect("{"))
+      return r.status();
     for (float& c : comp) {
       if (!r.Float(&c, "a component")) return r.status();
     }
@@ -403,7 +430,8 @@ bool ReadJoints(Reader& r, size_t njoints, std::vector<Joint>& joints) {
     Joint& jt = joints[j];
     long long parent = 0;
     float p[3], q[3];
-    if (!r.String(&jt.name, "a joint name") || !r.Int(-1, static_cast<long long>(j) - 1, &parent, "the parent (an earlier joint)") ||
+    if (!r.String(&jt.name, "a joint name") ||
+        !r.Int(-1, static_cast<long long>(j) - 1, &parent, "the parent (an earlier joint)") ||
         !r.Floats(p, 3, "a joint position") || !r.Floats(q, 3, "a joint orientation")) {
       return false;
     }
@@ -414,7 +442,8 @@ bool ReadJoints(Reader& r, size_t njoints, std::vector<Joint>& joints) {
   return r.Expect("}");
 }
 
-// Node 0 turns Z-up into Y-up; then a node per joint (from kFirstJoint), and the one skin over them.
+// Node 0 turns Z-up into Y-up; then a node per joint (from kFirstJoint), and the one skin over
+// them.
 constexpr int kFirstJoint = 1;
 void AddSkeleton(std::span<const Joint> joints, Rig& rig) {
   Node root;
@@ -447,10 +476,11 @@ void AddSkeleton(std::span<const Joint> joints, Rig& rig) {
   rig.joint_count = joints.size();
 }
 
-// Each vertex's bind-pose position (sum of bias x the joint's transform of the weight's position) and
-// its influences, the biases normalised. MD5 triangles wind clockwise seen from outside; glTF's front
-// faces wind counter-clockwise.
-Status FillPrimitive(const Md5Mesh& m, std::span<const Joint> joints, const std::string& where, Primitive& p) {
+// Each vertex's bind-pose position (sum of bias x the joint's transform of the weight's position)
+// and its influences, the biases normalised. MD5 triangles wind clockwise seen from outside; glTF's
+// front faces wind counter-clockwise.
+Status FillPrimitive(const Md5Mesh& m, std::span<const Joint> joints, const std::string& where,
+                     Primitive& p) {
   const size_t n = m.first.size();
   p.positions.assign(3 * n, 0.0f);
   p.texcoords = m.uv;
@@ -470,7 +500,9 @@ Status FillPrimitive(const Md5Mesh& m, std::span<const Joint> joints, const std:
       p.joints[v * k + i] = static_cast<uint16_t>(w.joint);
       p.joint_weights[v * k + i] = w.bias;
     }
-    if (!(total > 1e-6f)) return InvalidArgument(where + ", vertex " + std::to_string(v) + ": its weights' biases sum to " + std::to_string(total));
+    if (!(total > 1e-6f))
+      return InvalidArgument(where + ", vertex " + std::to_string(v) +
+                             ": its weights' biases sum to " + std::to_string(total));
     for (uint32_t i = 0; i < m.count[v]; ++i) p.joint_weights[v * k + i] /= total;
     for (int c = 0; c < 3; ++c) p.positions[3 * v + c] = pos[c];
   }
@@ -493,23 +525,29 @@ int MaterialOf(const std::string& shader, Rig& rig) {
   mat.metallic_factor = 0.0f;
   rig.materials.push_back(mat);
   if (!shader.empty()) {
-    rig.load_warnings.push_back({"texture_not_loaded", "shader '" + shader + "': MD5 names a material, whose textures are not read", shader, 0.0, false});
+    rig.load_warnings.push_back(
+        {"texture_not_loaded",
+         "shader '" + shader + "': MD5 names a material, whose textures are not read", shader, 0.0,
+         false});
   }
   return static_cast<int>(rig.materials.size()) - 1;
 }
 
 // Each mesh as a primitive of a mesh of its own, under a node of its own.
-Status AddMeshes(std::span<const Md5Mesh> meshes, std::span<const Joint> joints, const std::string& mesh_name, Rig& rig) {
+Status AddMeshes(std::span<const Md5Mesh> meshes, std::span<const Joint> joints,
+                 const std::string& mesh_name, Rig& rig) {
   for (size_t mi = 0; mi < meshes.size(); ++mi) {
     const Md5Mesh& m = meshes[mi];
     Primitive p;
     p.mesh = static_cast<int>(mi);
-    if (Status s = FillPrimitive(m, joints, mesh_name + ": mesh " + std::to_string(mi), p); !s.ok()) return s;
+    if (Status s = FillPrimitive(m, joints, mesh_name + ": mesh " + std::to_string(mi), p); !s.ok())
+      return s;
     p.material = MaterialOf(m.shader, rig);
     FinalizePrimitive(p);
     rig.primitives.push_back(std::move(p));
     Mesh mesh;
-    mesh.name = m.shader.empty() ? "mesh" + std::to_string(mi) : m.shader.substr(0, m.shader.rfind('.'));
+    mesh.name =
+        m.shader.empty() ? "mesh" + std::to_string(mi) : m.shader.substr(0, m.shader.rfind('.'));
     mesh.primitives = {static_cast<int>(mi)};
     mesh.skin = 0;
     rig.meshes.push_back(std::move(mesh));
@@ -529,8 +567,9 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
                           std::span<const std::pair<std::string, std::string>> anims) {
   Reader r(mesh_text, mesh_name);
   size_t njoints = 0, nmeshes = 0;
-  if (!ReadHeader(r) || !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") || !r.Expect("numMeshes") ||
-      !r.Count(kMaxMeshes, &nmeshes, "numMeshes") || !r.Expect("joints") || !r.Expect("{")) {
+  if (!ReadHeader(r) || !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") ||
+      !r.Expect("numMeshes") || !r.Count(kMaxMeshes, &nmeshes, "numMeshes") ||
+      !r.Expect("joints") || !r.Expect("{")) {
     return r.status();
   }
   if (njoints == 0) return InvalidArgument(mesh_name + ": the mesh has no joint");
@@ -546,7 +585,8 @@ Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_na
   for (const auto& [name, text] : anims) {
     AnimationInfo clip;
     if (Status s = ReadAnim(text, name + ".md5anim", name, joints, kFirstJoint, clip); !s.ok()) {
-      rig.load_warnings.push_back({"animation_skipped", "clip '" + name + "' skipped: " + s.message, name, 0.0, false});
+      rig.load_warnings.push_back(
+          {"animation_skipped", "clip '" + name + "' skipped: " + s.message, name, 0.0, false});
       continue;
     }
     rig.animations.push_back(std::move(clip));
@@ -569,7 +609,8 @@ Result<Rig> LoadMd5File(const std::string& path) {
   // Every .md5anim beside the mesh is a clip, named by its file stem, in name order.
   std::vector<std::pair<std::string, std::string>> anims;
   std::error_code ec;
-  const fs::path dir = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+  const fs::path dir =
+      fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
   std::vector<fs::path> files;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     if (e.path().extension() == ".md5anim") files.push_back(e.path());

@@ -22,7 +22,9 @@ namespace facespace::mmd {
 constexpr float kMetresPerUnit = 0.08f;
 constexpr float kFramesPerSecond = 30.0f;
 
-inline std::array<float, 3> ToGltf(const float* p) { return {p[0] * kMetresPerUnit, p[1] * kMetresPerUnit, -p[2] * kMetresPerUnit}; }
+inline std::array<float, 3> ToGltf(const float* p) {
+  return {p[0] * kMetresPerUnit, p[1] * kMetresPerUnit, -p[2] * kMetresPerUnit};
+}
 
 class Bytes {
  public:
@@ -46,7 +48,9 @@ class Bytes {
     return true;
   }
   template <typename T>
-  bool Get(T& out, const char* what) { return Raw(&out, sizeof(T), what); }
+  bool Get(T& out, const char* what) {
+    return Raw(&out, sizeof(T), what);
+  }
   bool Floats(float* out, int n, const char* what) {
     if (!Raw(out, sizeof(float) * static_cast<size_t>(n), what)) return false;
     for (int i = 0; i < n; ++i) {
@@ -64,7 +68,8 @@ class Bytes {
     int32_t n = 0;
     if (!Get(n, what)) return false;
     if (n < 0 || (item_bytes && static_cast<size_t>(n) > left() / item_bytes)) {
-      return Fail(std::string(what) + ": count " + std::to_string(n) + " is more than the file holds");
+      return Fail(std::string(what) + ": count " + std::to_string(n) +
+                  " is more than the file holds");
     }
     out = static_cast<size_t>(n);
     return true;
@@ -74,13 +79,16 @@ class Bytes {
   bool CountOf(size_t item_bytes, size_t& out, const char* what) {
     T n = 0;
     if (!Get(n, what)) return false;
-    if (static_cast<uint64_t>(n) > 0x7fffffffu || (item_bytes && static_cast<size_t>(n) > left() / item_bytes)) {
-      return Fail(std::string(what) + ": count " + std::to_string(static_cast<uint64_t>(n)) + " is more than the file holds");
+    if (static_cast<uint64_t>(n) > 0x7fffffffu ||
+        (item_bytes && static_cast<size_t>(n) > left() / item_bytes)) {
+      return Fail(std::string(what) + ": count " + std::to_string(static_cast<uint64_t>(n)) +
+                  " is more than the file holds");
     }
     out = static_cast<size_t>(n);
     return true;
   }
-  // An index of `size` bytes (1, 2 or 4); vertex indices of 1 and 2 bytes are unsigned, the others signed.
+  // An index of `size` bytes (1, 2 or 4); vertex indices of 1 and 2 bytes are unsigned, the others
+  // signed.
   bool Index(int size, bool vertex, int64_t& out, const char* what) {
     if (size == 1) {
       uint8_t u = 0;
@@ -138,9 +146,10 @@ struct Bone {
   std::string name, english;
   float pos[3];
   int64_t parent = -1;
-  int32_t layer = 0;                 // Deform layer: lower deforms first.
+  int32_t layer = 0;  // Deform layer: lower deforms first.
   bool after_physics = false;
-  // Grant (PMX flags 0x100 rotation, 0x200 translation, 0x80 local); PMD's rotation-following bones.
+  // Grant (PMX flags 0x100 rotation, 0x200 translation, 0x80 local); PMD's rotation-following
+  // bones.
   int64_t grant = -1;
   float grant_ratio = 0;
   bool grant_rotation = false, grant_translation = false, grant_local = false;
@@ -161,10 +170,12 @@ struct Morph {
   std::string name, english;
   int panel = 0, type = 0;
   std::vector<std::pair<int64_t, std::array<float, 3>>> vertex;  // (vertex, offset)
-  std::vector<std::pair<int64_t, float>> group;                  // (morph, factor); type 9 (flip): (morph, weight).
-  std::vector<std::pair<int64_t, std::array<float, 2>>> uv;      // Type 3: (vertex, UV offset).
-  std::vector<MaterialMorph> material;  // Type 8; `material` is the PMX material index (-1: all) until BuildRig.
-  std::vector<BoneMorph> bone;          // Type 2, in MMD's units and axes; `node` is the PMX bone index until BuildRig.
+  std::vector<std::pair<int64_t, float>> group;  // (morph, factor); type 9 (flip): (morph, weight).
+  std::vector<std::pair<int64_t, std::array<float, 2>>> uv;  // Type 3: (vertex, UV offset).
+  std::vector<MaterialMorph>
+      material;  // Type 8; `material` is the PMX material index (-1: all) until BuildRig.
+  std::vector<BoneMorph>
+      bone;  // Type 2, in MMD's units and axes; `node` is the PMX bone index until BuildRig.
 };
 
 // A rigid body and a joint as the file says them (PMD: the body's position is from its bone).
@@ -173,15 +184,15 @@ struct RigidBodyData {
   int64_t bone = -1;
   uint8_t group = 0, shape = 0, mode = 0;
   uint16_t mask = 0xffff;
-  float size[3], pos[3], rot[3];     // rot: Euler radians, applied y, x, z.
+  float size[3], pos[3], rot[3];  // rot: Euler radians, applied y, x, z.
   float mass, linear_damping, angular_damping, restitution, friction;
 };
 
 struct JointData {
   std::string name;
   int64_t a = -1, b = -1;
-  uint8_t type = 0;                  // 0: a spring joint (PMX 2.1 adds others).
-  float pos[3], rot[3];              // rot: Euler radians, applied z, y, x.
+  uint8_t type = 0;      // 0: a spring joint (PMX 2.1 adds others).
+  float pos[3], rot[3];  // rot: Euler radians, applied z, y, x.
   float linear_lower[3], linear_upper[3], angular_lower[3], angular_upper[3];
   float linear_spring[3], angular_spring[3];
 };
@@ -191,20 +202,28 @@ struct Model {
   const char* format = "PMX";
   std::string name;
   std::vector<Vertex> verts;
-  std::vector<uint32_t> indices;     // Checked against verts.
+  std::vector<uint32_t> indices;  // Checked against verts.
   std::vector<std::string> textures;
-  std::vector<ModelMaterial> mats;   // Their face index counts add up to indices.size().
+  std::vector<ModelMaterial> mats;  // Their face index counts add up to indices.size().
   std::vector<Bone> bones;
-  std::vector<Morph> morphs;         // Vertex and group entries checked against verts and morphs.
+  std::vector<Morph> morphs;  // Vertex and group entries checked against verts and morphs.
   std::vector<RigidBodyData> bodies;
   std::vector<JointData> joints;
   bool body_positions_from_bone = false;  // PMD.
   size_t sdef = 0, qdef = 0, ik = 0, grants = 0;
-  std::map<int, size_t> unapplied;   // PMX morph type -> count, for morphs not made shapes.
+  std::map<int, size_t> unapplied;  // PMX morph type -> count, for morphs not made shapes.
 };
 
-// The rig: a root node, the bones as nodes under it, one skin, one mesh with a primitive per material,
-// the vertex and group morphs as sparse shapes. Checks bones and vertex weights; reports what it skips.
+// The rig: a root node, the bones as nodes under it, one skin, one mesh with a primitive per
+// material, the vertex and group morphs as sparse shapes. Checks bones and vertex weights; reports
+// what it skips.
 Result<Rig> BuildRig(const Model& m, const std::string& name);
+
+// BuildRig's parts in mmd_rigging.cpp: the bones' grants and IK chains as the rig's constraints,
+// and the rigid bodies and joints as its physics. What names no bone is dropped and counted in
+// `dropped`.
+void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& node_of, Rig& rig,
+                     size_t& dropped);
+void ReadPhysics(const Model& in, const std::vector<int>& node_of, Rig& rig, size_t& dropped);
 
 }  // namespace facespace::mmd

@@ -1,18 +1,16 @@
 // The MMD model (from PMX or PMD) as a Rig, and Shift-JIS text through iconv.
 #include <iconv.h>
 
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
-
-#include <Eigen/Geometry>
-
-#include <algorithm>
 #include <set>
 
-#include "facespace/formats/io.h"
 #include "facespace/engine/rig.h"
 #include "facespace/engine/transform.h"
+#include "facespace/formats/io.h"
 #include "mmd/mmd.h"
 
 namespace facespace::mmd {
@@ -84,7 +82,9 @@ std::string SjisToUtf8(const unsigned char* p, size_t n) {
   return Convert("UTF-8", "CP932", reinterpret_cast<const char*>(p), len, true);
 }
 
-std::string Utf8ToSjis(const std::string& s) { return Convert("CP932", "UTF-8", s.data(), s.size(), false); }
+std::string Utf8ToSjis(const std::string& s) {
+  return Convert("CP932", "UTF-8", s.data(), s.size(), false);
+}
 
 std::string Utf16ToUtf8(const unsigned char* p, size_t n) {
   std::string out;
@@ -130,16 +130,17 @@ const char* PanelGroup(int panel) {
   }
 }
 
-// A morph's group: its panel's, but the "other" panel (and the system one) holds whatever the author did
-// not sort, and there the names say where most belong (Uka's 140: eye_wink_geo_L, mouth_a_geo_C, the
-// ARKit set, 頬照り1 "cheek_blush1"): eyes, brows, mouth, cheeks, or the face as a whole ("..._face",
-// MMD's 総 morphs); what none of them names stays "other".
+// A morph's group: its panel's, but the "other" panel (and the system one) holds whatever the
+// author did not sort, and there the names say where most belong (Uka's 140: eye_wink_geo_L,
+// mouth_a_geo_C, the ARKit set, 頬照り1 "cheek_blush1"): eyes, brows, mouth, cheeks, or the face as
+// a whole ("..._face", MMD's 総 morphs); what none of them names stays "other".
 std::string MorphGroup(int panel, const std::string& name, const std::string& english) {
   if (panel >= 1 && panel <= 3) return PanelGroup(panel);
   std::string text = name + " " + english;
   for (char& c : text) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   const auto has = [&text](std::initializer_list<const char*> words) {
-    return std::any_of(words.begin(), words.end(), [&text](const char* w) { return text.find(w) != std::string::npos; });
+    return std::any_of(words.begin(), words.end(),
+                       [&text](const char* w) { return text.find(w) != std::string::npos; });
   };
   if (has({"_face"})) return "face";
   if (has({"brow"})) return "eyebrow";
@@ -149,134 +150,6 @@ std::string MorphGroup(int panel, const std::string& name, const std::string& en
   return PanelGroup(panel);
 }
 
-// The bones' grants and IK chains as the rig's constraints, in MMD's deform order (after-physics
-// bones last, then by layer, then by index). Limits turn with the axes: MMD's z is our -z, so
-// rotations about x and y change sign (their ranges swap ends) and about z keep it. What names no
-// bone (or itself) is dropped and counted in `dropped`.
-void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& node_of, Rig& rig, size_t& dropped) {
-  const int64_t n = static_cast<int64_t>(bones.size());
-  const auto bone = [&](int64_t b) { return b >= 0 && b < n; };
-  constexpr int32_t kMaxLoops = 256;  // MMD models use 40 at most; a hostile count is cut (the work per pose is capped).
-  std::vector<int> by_order(bones.size());
-  for (size_t b = 0; b < bones.size(); ++b) by_order[b] = static_cast<int>(b);
-  std::stable_sort(by_order.begin(), by_order.end(), [&](int a, int b) {
-    return std::pair(bones[a].after_physics, bones[a].layer) < std::pair(bones[b].after_physics, bones[b].layer);
-  });
-  // The work a pose costs is capped: per chain, loops x the nodes its links move (each link's
-  // subtree); chains past kMaxIkWork in all are dropped (a hostile file, not a model: Uka's ten need
-  // about 3,000).
-  constexpr size_t kMaxIkWork = 1'000'000;
-  std::vector<size_t> subtree(rig.nodes.size(), 1);
-  for (size_t i = rig.nodes.size(); i-- > 1;) {
-    if (rig.nodes[i].parent >= 0) subtree[rig.nodes[i].parent] += subtree[i];
-  }
-  size_t work = 0;
-  BoneConstraints& c = rig.constraints;
-  for (int b : by_order) {
-    const Bone& x = bones[b];
-    const bool granted = x.grant_rotation || x.grant_translation;
-    if (granted && (!bone(x.grant) || x.grant == b || !std::isfinite(x.grant_ratio))) ++dropped;
-    else if (granted) c.grants.push_back({node_of[b], node_of[x.grant], x.grant_ratio, x.grant_rotation, x.grant_translation, x.grant_local});
-    if (x.ik) {
-      IkChain chain{node_of[b], bone(x.ik_effector) ? node_of[x.ik_effector] : -1, std::clamp(x.ik_loops, 0, kMaxLoops),
-                    std::isfinite(x.ik_angle) ? std::max(x.ik_angle, 0.0f) : 0.0f, {}};
-      bool ok = chain.effector >= 0 && x.ik_effector != b;
-      for (const IkLinkData& l : x.ik_links) {
-        ok &= bone(l.bone) && l.bone != b;
-        if (!ok) break;
-        IkLink link{node_of[l.bone], l.limited, {-l.upper[0], -l.upper[1], l.lower[2]}, {-l.lower[0], -l.lower[1], l.upper[2]}};
-        for (int a = 0; a < 3; ++a) ok &= std::isfinite(link.lower[a]) && std::isfinite(link.upper[a]);
-        chain.links.push_back(link);
-      }
-      size_t cost = 0;
-      for (const IkLink& l : chain.links) cost += static_cast<size_t>(chain.loops) * subtree[l.node];
-      if (ok && work + cost <= kMaxIkWork) {
-        work += cost;
-        c.chains.push_back(std::move(chain));
-      } else {
-        ++dropped;
-      }
-    }
-    if (granted || x.ik) c.order.push_back(node_of[b]);
-  }
-  if (c.empty()) c.order.clear();
-}
-
-// MMD's Euler angles applied in `order` (axes 0-2, first applied first), turned into the rig's axes as
-// positions are: (x, y, z, w) becomes (-x, -y, z, w).
-std::array<float, 4> EulerToRig(const float* angles, std::array<int, 3> order) {
-  Eigen::Quaternionf q = Eigen::Quaternionf::Identity();
-  for (int axis : order) q = Eigen::AngleAxisf(angles[axis], Eigen::Vector3f::Unit(axis)) * q;
-  return {-q.x(), -q.y(), q.z(), q.w()};
-}
-
-// The rigid bodies and joints as the rig's physics (rig.h), in its axes and metres; the masses,
-// springs and dampings hold at MMD's scale, where it is simulated. Bodies and joints that name
-// nothing, or of an unknown shape or mode, are dropped and counted.
-void ReadPhysics(const Model& in, const std::vector<int>& node_of, Rig& rig, size_t& dropped) {
-  constexpr size_t kMaxBodies = 1024, kMaxJoints = 2048;  // A model has hundreds; each costs every step.
-  Physics& ph = rig.physics;
-  ph.units_per_metre = 1.0f / kMetresPerUnit;
-  ph.gravity = 9.8f * 10.0f * kMetresPerUnit;  // MMD's 9.8 x 10 units a second squared.
-  const int64_t nbones = static_cast<int64_t>(in.bones.size());
-  std::vector<int> body_of(in.bodies.size(), -1);
-  for (size_t i = 0; i < in.bodies.size(); ++i) {
-    const RigidBodyData& b = in.bodies[i];
-    if (b.shape > 2 || b.mode > 2 || b.bone >= nbones || b.bone < -1 || b.group > 15 || ph.bodies.size() >= kMaxBodies) {
-      ++dropped;
-      continue;
-    }
-    RigidBody body;
-    body.name = b.name;
-    body.node = b.bone >= 0 ? node_of[b.bone] : -1;
-    body.shape = static_cast<RigidBody::Shape>(b.shape);
-    body.mode = static_cast<RigidBody::Mode>(b.mode);
-    for (int a = 0; a < 3; ++a) body.size[a] = std::clamp(b.size[a], 1e-3f, 1e4f) * kMetresPerUnit;
-    float pos[3] = {b.pos[0], b.pos[1], b.pos[2]};
-    if (in.body_positions_from_bone && nbones > 0) {  // PMD: from its bone (or the first bone).
-      const float* from = in.bones[b.bone >= 0 ? b.bone : 0].pos;
-      for (int a = 0; a < 3; ++a) pos[a] += from[a];
-    }
-    body.position = ToGltf(pos);
-    body.rotation = EulerToRig(b.rot, {2, 0, 1});  // R = Ry Rx Rz.
-    body.mass = std::clamp(b.mass, 0.0f, 1e6f);
-    body.linear_damping = std::clamp(b.linear_damping, 0.0f, 1.0f);
-    body.angular_damping = std::clamp(b.angular_damping, 0.0f, 1.0f);
-    body.restitution = std::clamp(b.restitution, 0.0f, 1.0f);
-    body.friction = std::clamp(b.friction, 0.0f, 1e3f);
-    body.group = b.group;
-    body.collides_with = b.mask;
-    body_of[i] = static_cast<int>(ph.bodies.size());
-    ph.bodies.push_back(std::move(body));
-  }
-  const int64_t nbodies = static_cast<int64_t>(in.bodies.size());
-  for (const JointData& j : in.joints) {
-    if (j.type != 0 || j.a < 0 || j.b < 0 || j.a >= nbodies || j.b >= nbodies || body_of[j.a] < 0 || body_of[j.b] < 0 || j.a == j.b ||
-        ph.joints.size() >= kMaxJoints) {
-      ++dropped;
-      continue;
-    }
-    PhysicsJoint joint;
-    joint.name = j.name;
-    joint.a = body_of[j.a];
-    joint.b = body_of[j.b];
-    joint.position = ToGltf(j.pos);
-    joint.rotation = EulerToRig(j.rot, {0, 1, 2});  // R = Rz Ry Rx.
-    for (int a = 0; a < 3; ++a) {
-      // The z axis turns over: translations along it and rotations about x and y change sign.
-      const bool flip_linear = a == 2, flip_angular = a != 2;
-      joint.linear_lower[a] = (flip_linear ? -j.linear_upper[a] : j.linear_lower[a]) * kMetresPerUnit;
-      joint.linear_upper[a] = (flip_linear ? -j.linear_lower[a] : j.linear_upper[a]) * kMetresPerUnit;
-      joint.angular_lower[a] = flip_angular ? -j.angular_upper[a] : j.angular_lower[a];
-      joint.angular_upper[a] = flip_angular ? -j.angular_lower[a] : j.angular_upper[a];
-      joint.linear_stiffness[a] = std::clamp(j.linear_spring[a], 0.0f, 1e6f);
-      joint.angular_stiffness[a] = std::clamp(j.angular_spring[a], 0.0f, 1e6f);
-    }
-    ph.joints.push_back(std::move(joint));
-  }
-  if (ph.bodies.empty()) ph = Physics{};
-}
-
 namespace {
 
 // Bones that name a bone out of range, vertices that name a bone out of range: the file is broken.
@@ -284,14 +157,18 @@ Status CheckBoneIndices(const Model& in, const std::string& name) {
   const size_t nbones = in.bones.size();
   for (size_t b = 0; b < nbones; ++b) {
     if (in.bones[b].parent >= static_cast<int64_t>(nbones) || in.bones[b].parent < -1) {
-      return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + in.bones[b].name + "' has parent " + std::to_string(in.bones[b].parent) + " of " + std::to_string(nbones));
+      return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + in.bones[b].name +
+                             "' has parent " + std::to_string(in.bones[b].parent) + " of " +
+                             std::to_string(nbones));
     }
   }
   for (size_t v = 0; v < in.verts.size(); ++v) {
     const Vertex& x = in.verts[v];
     for (int k = 0; k < x.count; ++k) {
       if (x.bones[k] >= static_cast<int64_t>(nbones) || (x.bones[k] < 0 && x.weights[k] != 0)) {
-        return InvalidArgument(name + ": " + std::string(in.format) + ": vertex " + std::to_string(v) + " names bone " + std::to_string(x.bones[k]) + " of " + std::to_string(nbones));
+        return InvalidArgument(name + ": " + std::string(in.format) + ": vertex " +
+                               std::to_string(v) + " names bone " + std::to_string(x.bones[k]) +
+                               " of " + std::to_string(nbones));
       }
     }
   }
@@ -305,7 +182,9 @@ Status BonesParentsFirst(const Model& in, const std::string& name, std::vector<i
   for (size_t b = 0; b < bones.size(); ++b) {
     std::vector<int> chain;
     for (int64_t c = static_cast<int64_t>(b); c >= 0 && state[c] != 2; c = bones[c].parent) {
-      if (state[c] == 1) return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[c].name + "' is its own ancestor");
+      if (state[c] == 1)
+        return InvalidArgument(name + ": " + std::string(in.format) + ": bone '" + bones[c].name +
+                               "' is its own ancestor");
       state[c] = 1;
       chain.push_back(static_cast<int>(c));
     }
@@ -317,8 +196,8 @@ Status BonesParentsFirst(const Model& in, const std::string& name, std::vector<i
   return Status::Ok();
 }
 
-// The root node, then a node per bone (parents first) into `rig`, and the skin over them; the node of
-// each bone.
+// The root node, then a node per bone (parents first) into `rig`, and the skin over them; the node
+// of each bone.
 std::vector<int> AddSkeleton(const Model& in, std::span<const int> order, Rig& rig, Skin& skin) {
   const std::vector<Bone>& bones = in.bones;
   Node root;
@@ -333,7 +212,8 @@ std::vector<int> AddSkeleton(const Model& in, std::span<const int> order, Rig& r
     n.name = x.name;
     n.parent = x.parent < 0 ? 0 : node_of[x.parent];
     const std::array<float, 3> p = ToGltf(x.pos);
-    const std::array<float, 3> pp = x.parent < 0 ? std::array<float, 3>{0, 0, 0} : ToGltf(bones[x.parent].pos);
+    const std::array<float, 3> pp =
+        x.parent < 0 ? std::array<float, 3>{0, 0, 0} : ToGltf(bones[x.parent].pos);
     n.translation = {p[0] - pp[0], p[1] - pp[1], p[2] - pp[2]};
     node_of[b] = static_cast<int>(rig.nodes.size());
     rig.nodes[n.parent].children.push_back(node_of[b]);
@@ -361,22 +241,28 @@ struct MorphBake {
   OffsetSum<2> uvs;
   std::vector<MaterialMorph> material;
   std::vector<BoneMorph> bone;
-  size_t baked = 0, nested = 0, other = 0;  // Offsets baked; entries naming a group; naming a morph not applied.
+  size_t baked = 0, nested = 0,
+         other = 0;  // Offsets baked; entries naming a group; naming a morph not applied.
 };
 
-constexpr size_t kMaxBakedOffsets = size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
+constexpr size_t kMaxBakedOffsets =
+    size_t{1} << 26;  // ~1.5 GiB of group offsets: a hostile file, not a model.
 
 void AddBoneMorph(const Morph& src, float f, const std::vector<int>& node_of, MorphBake& bake) {
   for (const BoneMorph& b : src.bone) {
     const std::array<float, 3> t = ToGltf(b.translation.data());
-    const std::array<float, 4> q = NormalizedQuaternion({-b.rotation[0], -b.rotation[1], b.rotation[2], b.rotation[3]});
-    bake.bone.push_back({node_of[b.node], {f * t[0], f * t[1], f * t[2]}, Slerp({0, 0, 0, 1}, q, f)});
+    const std::array<float, 4> q =
+        NormalizedQuaternion({-b.rotation[0], -b.rotation[1], b.rotation[2], b.rotation[3]});
+    bake.bone.push_back(
+        {node_of[b.node], {f * t[0], f * t[1], f * t[2]}, Slerp({0, 0, 0, 1}, q, f)});
   }
 }
 
-// A group's entry `c` at factor f: its vertex and UV offsets baked, its material and bone morphs kept.
-// PMX 2.0 makes a group inside a group invalid (against recursion): those are counted, not followed.
-Status BakeGroupEntry(const Model& in, const std::string& name, const Morph& c, float f, const std::vector<int>& node_of, MorphBake& bake) {
+// A group's entry `c` at factor f: its vertex and UV offsets baked, its material and bone morphs
+// kept. PMX 2.0 makes a group inside a group invalid (against recursion): those are counted, not
+// followed.
+Status BakeGroupEntry(const Model& in, const std::string& name, const Morph& c, float f,
+                      const std::vector<int>& node_of, MorphBake& bake) {
   if (c.type == 8) {
     for (MaterialMorph mm : c.material) {
       mm.factor *= f;
@@ -387,22 +273,26 @@ Status BakeGroupEntry(const Model& in, const std::string& name, const Morph& c, 
   } else if (c.type == 1 || c.type == 3) {
     bake.baked += c.type == 1 ? c.vertex.size() : c.uv.size();
     if (bake.baked > kMaxBakedOffsets) {
-      return InvalidArgument(name + ": " + std::string(in.format) + ": group morphs name more than " + std::to_string(kMaxBakedOffsets) + " vertex offsets in all");
+      return InvalidArgument(name + ": " + std::string(in.format) +
+                             ": group morphs name more than " + std::to_string(kMaxBakedOffsets) +
+                             " vertex offsets in all");
     }
-    if (c.type == 1) bake.positions.Add(c.vertex, f);
-    else bake.uvs.Add(c.uv, f);
+    if (c.type == 1)
+      bake.positions.Add(c.vertex, f);
+    else
+      bake.uvs.Add(c.uv, f);
   } else {
     ++(c.type == 0 ? bake.nested : bake.other);
   }
   return Status::Ok();
 }
 
-// Shapes: vertex and UV morphs, and group morphs baked from the vertex and UV morphs they name (bone
-// and material morphs kept by the shape, flips picking shapes at weights). Every morph is its own
-// shape, as in MMD, whose motions name morphs by their (Japanese) names: an English name becomes an
-// alias only when no morph of the file is called so.
-Status AddShapes(const Model& in, const std::string& name, const std::vector<int>& node_of, Rig& rig, Mesh& mesh, ShapeOffsets& offsets,
-                 std::vector<std::string>& skipped) {
+// Shapes: vertex and UV morphs, and group morphs baked from the vertex and UV morphs they name
+// (bone and material morphs kept by the shape, flips picking shapes at weights). Every morph is its
+// own shape, as in MMD, whose motions name morphs by their (Japanese) names: an English name
+// becomes an alias only when no morph of the file is called so.
+Status AddShapes(const Model& in, const std::string& name, const std::vector<int>& node_of,
+                 Rig& rig, Mesh& mesh, ShapeOffsets& offsets, std::vector<std::string>& skipped) {
   const std::vector<Morph>& morphs = in.morphs;
   MorphBake bake{OffsetSum<3>(in.verts.size()), OffsetSum<2>(in.verts.size()), {}, {}};
   std::set<std::string> morph_names;
@@ -414,11 +304,14 @@ Status AddShapes(const Model& in, const std::string& name, const std::vector<int
   for (size_t mi = 0; mi < morphs.size(); ++mi) {
     const Morph& m = morphs[mi];
     if (!MorphIsShape(m.type)) continue;
-    if (m.type == 9) {  // A flip: a shape of its own that moves nothing, picking one of its entries' shapes (EffectiveWeights).
+    if (m.type == 9) {  // A flip: a shape of its own that moves nothing, picking one of its
+                        // entries' shapes (EffectiveWeights).
       Flip flip{static_cast<uint32_t>(shape_of[mi]), {}};
       for (const auto& [child, w] : m.group) {
-        if (shape_of[child] >= 0 && morphs[child].type != 9) flip.entries.emplace_back(static_cast<uint32_t>(shape_of[child]), w);
-        else ++bake.other;
+        if (shape_of[child] >= 0 && morphs[child].type != 9)
+          flip.entries.emplace_back(static_cast<uint32_t>(shape_of[child]), w);
+        else
+          ++bake.other;
       }
       rig.flips.push_back(std::move(flip));
     }
@@ -427,13 +320,19 @@ Status AddShapes(const Model& in, const std::string& name, const std::vector<int
     if (m.type == 2) AddBoneMorph(m, 1.0f, node_of, bake);
     if (m.type == 1) bake.positions.Add(m.vertex, 1.0f);
     if (m.type == 3) bake.uvs.Add(m.uv, 1.0f);
-    for (size_t e = 0; m.type != 9 && e < m.group.size(); ++e) {  // A flip's entries are picked, not baked.
-      if (Status s = BakeGroupEntry(in, name, morphs[m.group[e].first], m.group[e].second, node_of, bake); !s.ok()) return s;
+    for (size_t e = 0; m.type != 9 && e < m.group.size();
+         ++e) {  // A flip's entries are picked, not baked.
+      if (Status s =
+              BakeGroupEntry(in, name, morphs[m.group[e].first], m.group[e].second, node_of, bake);
+          !s.ok())
+        return s;
     }
     Shape shape;
     shape.name = m.name.empty() ? "morph" + std::to_string(mi) : m.name;
-    for (int k = 2; FindShape(rig, shape.name) >= 0; ++k) shape.name = m.name + "_" + std::to_string(k);
-    if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0) shape.aliases.push_back(m.english);
+    for (int k = 2; FindShape(rig, shape.name) >= 0; ++k)
+      shape.name = m.name + "_" + std::to_string(k);
+    if (!m.english.empty() && !morph_names.count(m.english) && FindShape(rig, m.english) < 0)
+      shape.aliases.push_back(m.english);
     shape.group = MorphGroup(m.panel, m.name, m.english);
     shape.material_morphs = std::move(bake.material);
     shape.bone_morphs = std::move(bake.bone);
@@ -442,14 +341,18 @@ Status AddShapes(const Model& in, const std::string& name, const std::vector<int
     offsets.positions.push_back(bake.positions.Take());
     offsets.uvs.push_back(bake.uvs.Take());
   }
-  if (bake.nested) skipped.push_back(std::to_string(bake.nested) + " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
-  if (bake.other) skipped.push_back(std::to_string(bake.other) + " group- or flip-morph entries naming additional-UV, flip or impulse morphs");
+  if (bake.nested)
+    skipped.push_back(std::to_string(bake.nested) +
+                      " group-morph entries naming group morphs (PMX 2.0 does not nest groups)");
+  if (bake.other)
+    skipped.push_back(std::to_string(bake.other) +
+                      " group- or flip-morph entries naming additional-UV, flip or impulse morphs");
   return Status::Ok();
 }
 
-// A PMX material as the rig's: its diffuse colour (blended when see-through), two-sided, its texture
-// by its path in the model's folder (the bytes read by LoadImagesBeside, a file's loader: until then
-// reported as not loaded), one image per texture.
+// A PMX material as the rig's: its diffuse colour (blended when see-through), two-sided, its
+// texture by its path in the model's folder (the bytes read by LoadImagesBeside, a file's loader:
+// until then reported as not loaded), one image per texture.
 Material MaterialOf(const Model& in, const ModelMaterial& m, std::vector<int>& image_of, Rig& rig) {
   Material mat;
   mat.name = m.name;
@@ -458,10 +361,11 @@ Material MaterialOf(const Model& in, const ModelMaterial& m, std::vector<int>& i
   mat.metallic_factor = 0.0f;
   mat.roughness_factor = 0.9f;
   mat.double_sided = true;  // MMD draws most materials two-sided.
-  // Toon-shaded, its edge (when drawn) an outline: MMD's edge size 1 as a quarter of a percent of the
-  // picture's height (about what MMD draws at a full-body view; our choice).
+  // Toon-shaded, its edge (when drawn) an outline: MMD's edge size 1 as a quarter of a percent of
+  // the picture's height (about what MMD draws at a full-body view; our choice).
   mat.toon = true;
-  for (int c = 0; c < 4; ++c) mat.outline_color[c] = std::isfinite(m.edge[c]) ? std::clamp(m.edge[c], 0.0f, 1.0f) : 0.0f;
+  for (int c = 0; c < 4; ++c)
+    mat.outline_color[c] = std::isfinite(m.edge[c]) ? std::clamp(m.edge[c], 0.0f, 1.0f) : 0.0f;
   mat.outline_width = 0.0025f * m.edge_size;
   if (m.texture >= 0 && static_cast<size_t>(m.texture) < in.textures.size()) {
     if (image_of[m.texture] < 0) {
@@ -488,25 +392,29 @@ void FillVertices(const Model& in, std::span<const uint32_t> used, Primitive& p)
     p.texcoords.insert(p.texcoords.end(), {x.uv[0], x.uv[1]});
     if (!skinned) continue;
     float total = 0;
-    for (int k = 0; k < x.count; ++k) total += x.bones[k] >= 0 ? std::max(0.0f, x.weights[k]) : 0.0f;
+    for (int k = 0; k < x.count; ++k)
+      total += x.bones[k] >= 0 ? std::max(0.0f, x.weights[k]) : 0.0f;
     for (size_t k = 0; k < most; ++k) {
       const bool real = static_cast<int>(k) < x.count && x.bones[k] >= 0 && total > 0;
       p.joints.push_back(real ? static_cast<uint16_t>(x.bones[k]) : 0);
-      p.joint_weights.push_back(real ? std::max(0.0f, x.weights[k]) / total : (k == 0 && total <= 0 ? 1.0f : 0.0f));
+      p.joint_weights.push_back(real ? std::max(0.0f, x.weights[k]) / total
+                                     : (k == 0 && total <= 0 ? 1.0f : 0.0f));
     }
   }
 }
 
-// One primitive per material, over the vertices its faces use (in vertex order, so that each shape's
-// offsets, in vertex order, land in ascending local indices); `used_of` gets each one's model vertices,
-// `material_of` each PMX material's index in the rig (-1 for one without faces).
+// One primitive per material, over the vertices its faces use (in vertex order, so that each
+// shape's offsets, in vertex order, land in ascending local indices); `used_of` gets each one's
+// model vertices, `material_of` each PMX material's index in the rig (-1 for one without faces).
 Status AddPrimitives(const Model& in, const std::string& name, size_t shapes, Rig& rig, Mesh& mesh,
                      std::vector<std::vector<uint32_t>>& used_of, std::vector<int>& material_of) {
   size_t nonempty = 0;
   for (const ModelMaterial& m : in.mats) nonempty += m.indices > 0;
   constexpr size_t kMaxTargets = size_t{1} << 22;  // Materials x shapes: 50 x 500 in a big model.
   if (nonempty * shapes > kMaxTargets) {
-    return InvalidArgument(name + ": " + std::string(in.format) + ": " + std::to_string(nonempty) + " materials x " + std::to_string(shapes) + " morphs is beyond " + std::to_string(kMaxTargets) + " targets");
+    return InvalidArgument(name + ": " + std::string(in.format) + ": " + std::to_string(nonempty) +
+                           " materials x " + std::to_string(shapes) + " morphs is beyond " +
+                           std::to_string(kMaxTargets) + " targets");
   }
   std::vector<int> image_of(in.textures.size(), -1);
   std::vector<int32_t> remap(in.verts.size(), -1);
@@ -528,7 +436,9 @@ Status AddPrimitives(const Model& in, const std::string& name, size_t shapes, Ri
     p.index_in_mesh = static_cast<int>(rig.primitives.size());
     p.indices.reserve(faces.size());
     for (size_t i = 0; i < faces.size(); i += 3) {
-      for (uint32_t v : {faces[i], faces[i + 2], faces[i + 1]}) p.indices.push_back(static_cast<uint32_t>(remap[v]));  // Left- to right-handed: swap two corners.
+      for (uint32_t v : {faces[i], faces[i + 2], faces[i + 1]})
+        p.indices.push_back(
+            static_cast<uint32_t>(remap[v]));  // Left- to right-handed: swap two corners.
     }
     for (uint32_t v : used) remap[v] = -1;
     FillVertices(in, used, p);
@@ -542,7 +452,8 @@ Status AddPrimitives(const Model& in, const std::string& name, size_t shapes, Ri
     rig.primitives.push_back(std::move(p));
     used_of.push_back(std::move(used));
   }
-  if (rig.primitives.empty()) return InvalidArgument(name + ": " + std::string(in.format) + ": no material covers any face");
+  if (rig.primitives.empty())
+    return InvalidArgument(name + ": " + std::string(in.format) + ": no material covers any face");
   return Status::Ok();
 }
 
@@ -561,7 +472,8 @@ void RemapMaterialMorphs(const std::vector<int>& material_of, Rig& rig) {
 
 // Each shape's offsets to the primitives holding their vertices: per model vertex, its (primitive,
 // local index) slots (CSR), so the work is the offsets written, not materials x offsets.
-void ScatterOffsets(const ShapeOffsets& offsets, const std::vector<std::vector<uint32_t>>& used_of, size_t nverts, Rig& rig) {
+void ScatterOffsets(const ShapeOffsets& offsets, const std::vector<std::vector<uint32_t>>& used_of,
+                    size_t nverts, Rig& rig) {
   std::vector<uint32_t> slot_start(nverts + 1, 0);
   for (const auto& used : used_of) {
     for (uint32_t v : used) ++slot_start[v + 1];
@@ -570,7 +482,8 @@ void ScatterOffsets(const ShapeOffsets& offsets, const std::vector<std::vector<u
   std::vector<std::pair<uint32_t, uint32_t>> slots(slot_start[nverts]);
   std::vector<uint32_t> fill(slot_start.begin(), slot_start.end() - 1);
   for (size_t q = 0; q < used_of.size(); ++q) {
-    for (size_t k = 0; k < used_of[q].size(); ++k) slots[fill[used_of[q][k]]++] = {static_cast<uint32_t>(q), static_cast<uint32_t>(k)};
+    for (size_t k = 0; k < used_of[q].size(); ++k)
+      slots[fill[used_of[q][k]]++] = {static_cast<uint32_t>(q), static_cast<uint32_t>(k)};
   }
   for (size_t s = 0; s < offsets.positions.size(); ++s) {
     for (const auto& [v, off] : offsets.positions[s]) {
@@ -596,32 +509,59 @@ void ScatterOffsets(const ShapeOffsets& offsets, const std::vector<std::vector<u
 
 // What the rig does not carry of the model, said once each: SDEF/QDEF skinning, constraints,
 // rigid bodies, morphs.
-void WarnUnapplied(const Model& in, const std::vector<int>& node_of, std::vector<std::string> skipped, Rig& rig) {
+void WarnUnapplied(const Model& in, const std::vector<int>& node_of,
+                   std::vector<std::string> skipped, Rig& rig) {
   if (in.sdef || in.qdef) {
-    rig.load_warnings.push_back({"skinning_approximated", std::to_string(in.sdef) + " SDEF vertices skinned as BDEF2, " + std::to_string(in.qdef) + " QDEF as BDEF4", "", static_cast<double>(in.sdef + in.qdef), true});
+    rig.load_warnings.push_back({"skinning_approximated",
+                                 std::to_string(in.sdef) + " SDEF vertices skinned as BDEF2, " +
+                                     std::to_string(in.qdef) + " QDEF as BDEF4",
+                                 "", static_cast<double>(in.sdef + in.qdef), true});
   }
   size_t dropped = 0;
   ReadConstraints(in.bones, node_of, rig, dropped);
   const size_t ik = in.ik, grants = in.grants;
-  const size_t unread = (ik + grants) - std::min(ik + grants, rig.constraints.grants.size() + rig.constraints.chains.size() + dropped);
+  const size_t unread =
+      (ik + grants) - std::min(ik + grants, rig.constraints.grants.size() +
+                                                rig.constraints.chains.size() + dropped);
   if (dropped || unread) {
-    rig.load_warnings.push_back({"bone_constraints_skipped",
-                                 std::to_string(dropped + unread) + " of the " + std::to_string(ik) + " IK bones and " + std::to_string(grants) +
-                                     " grant (inherit) bones are not applied" + (dropped ? " (" + std::to_string(dropped) + " name no bone or themselves, or would take a pose past the work allowed)" : ""),
-                                 "", static_cast<double>(dropped + unread), false});
+    rig.load_warnings.push_back(
+        {"bone_constraints_skipped",
+         std::to_string(dropped + unread) + " of the " + std::to_string(ik) + " IK bones and " +
+             std::to_string(grants) + " grant (inherit) bones are not applied" +
+             (dropped
+                  ? " (" + std::to_string(dropped) +
+                        " name no bone or themselves, or would take a pose past the work allowed)"
+                  : ""),
+         "", static_cast<double>(dropped + unread), false});
   }
   size_t physics_dropped = 0;
   ReadPhysics(in, node_of, rig, physics_dropped);
   if (physics_dropped) {
-    rig.load_warnings.push_back({"physics_skipped",
-                                 std::to_string(physics_dropped) + " of the " + std::to_string(in.bodies.size()) + " rigid bodies and " +
-                                     std::to_string(in.joints.size()) + " joints name no bone or body, have an unknown shape, mode or joint type, or pass the counts allowed (1,024 bodies, 2,048 joints): not simulated",
-                                 "", static_cast<double>(physics_dropped), false});
+    rig.load_warnings.push_back(
+        {"physics_skipped",
+         std::to_string(physics_dropped) + " of the " + std::to_string(in.bodies.size()) +
+             " rigid bodies and " + std::to_string(in.joints.size()) +
+             " joints name no bone or body, have an unknown shape, mode or joint type, or pass the "
+             "counts allowed (1,024 bodies, 2,048 joints): not simulated",
+         "", static_cast<double>(physics_dropped), false});
   }
   for (const auto& [type, count] : in.unapplied) {
-    static const char* kNames[] = {"group", "vertex", "bone", "UV", "additional-UV-1", "additional-UV-2", "additional-UV-3", "additional-UV-4", "material", "flip", "impulse"};
-    const char* why = type == 10 ? " (a push on a rigid body, PMX 2.1: not simulated)" : " (the model's additional UV sets, which only MMD effect shaders read, are not carried)";
-    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" + (count > 1 ? "s" : "") + why);
+    static const char* kNames[] = {"group",
+                                   "vertex",
+                                   "bone",
+                                   "UV",
+                                   "additional-UV-1",
+                                   "additional-UV-2",
+                                   "additional-UV-3",
+                                   "additional-UV-4",
+                                   "material",
+                                   "flip",
+                                   "impulse"};
+    const char* why = type == 10 ? " (a push on a rigid body, PMX 2.1: not simulated)"
+                                 : " (the model's additional UV sets, which only MMD effect "
+                                   "shaders read, are not carried)";
+    skipped.push_back(std::to_string(count) + " " + kNames[type] + " morph" +
+                      (count > 1 ? "s" : "") + why);
   }
   if (!skipped.empty()) {
     std::string list;
@@ -632,8 +572,8 @@ void WarnUnapplied(const Model& in, const std::vector<int>& node_of, std::vector
 
 }  // namespace
 
-// The rig: nodes (a root, then the bones), one skin, one mesh with a primitive per material, a shape
-// per morph.
+// The rig: nodes (a root, then the bones), one skin, one mesh with a primitive per material, a
+// shape per morph.
 Result<Rig> BuildRig(const Model& in, const std::string& name) {
   if (Status s = CheckBoneIndices(in, name); !s.ok()) return s;
   std::vector<int> order;
@@ -650,7 +590,9 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   if (Status s = AddShapes(in, name, node_of, rig, mesh, offsets, skipped); !s.ok()) return s;
   std::vector<std::vector<uint32_t>> used_of;  // Per primitive, the model vertices it holds.
   std::vector<int> material_of;
-  if (Status s = AddPrimitives(in, name, offsets.positions.size(), rig, mesh, used_of, material_of); !s.ok()) return s;
+  if (Status s = AddPrimitives(in, name, offsets.positions.size(), rig, mesh, used_of, material_of);
+      !s.ok())
+    return s;
   RemapMaterialMorphs(material_of, rig);
   ScatterOffsets(offsets, used_of, in.verts.size(), rig);
   rig.meshes.push_back(std::move(mesh));

@@ -40,12 +40,15 @@ struct Pmd {
 Status ReadHeader(Pmd& p) {
   char magic[3];
   float version = 0;
-  if (!p.r.Raw(magic, 3, "the header") || std::memcmp(magic, "Pmd", 3) != 0) return InvalidArgument(p.name + ": not a PMD file (no 'Pmd' magic)");
+  if (!p.r.Raw(magic, 3, "the header") || std::memcmp(magic, "Pmd", 3) != 0)
+    return InvalidArgument(p.name + ": not a PMD file (no 'Pmd' magic)");
   if (!p.r.Get(version, "the header")) return p.Broken();
-  if (version != 1.0f) return InvalidArgument(p.name + ": PMD version " + std::to_string(version) + " is not 1.0");
+  if (version != 1.0f)
+    return InvalidArgument(p.name + ": PMD version " + std::to_string(version) + " is not 1.0");
   p.model.format = "PMD";
   std::string comment;
-  if (!Name(p.r, 20, p.model.name, "the model name") || !Name(p.r, 256, comment, "the comment")) return p.Broken();
+  if (!Name(p.r, 20, p.model.name, "the model name") || !Name(p.r, 256, comment, "the comment"))
+    return p.Broken();
   return Status::Ok();
 }
 
@@ -58,8 +61,10 @@ Status ReadVerticesAndFaces(Pmd& p) {
   for (Vertex& x : p.model.verts) {
     uint16_t bone[2];
     uint8_t weight, edge;
-    if (!r.Floats(x.pos, 3, "a vertex") || !r.Floats(x.normal, 3, "a vertex") || !r.Floats(x.uv, 2, "a vertex") || !r.Raw(bone, 4, "a vertex") ||
-        !r.Get(weight, "a vertex") || !r.Get(edge, "a vertex") || (weight > 100 && !r.Fail("a vertex weight of " + std::to_string(weight) + " (0..100)"))) {
+    if (!r.Floats(x.pos, 3, "a vertex") || !r.Floats(x.normal, 3, "a vertex") ||
+        !r.Floats(x.uv, 2, "a vertex") || !r.Raw(bone, 4, "a vertex") ||
+        !r.Get(weight, "a vertex") || !r.Get(edge, "a vertex") ||
+        (weight > 100 && !r.Fail("a vertex weight of " + std::to_string(weight) + " (0..100)"))) {
       return p.Broken();
     }
     x.bones[0] = bone[0], x.bones[1] = bone[1];
@@ -73,7 +78,9 @@ Status ReadVerticesAndFaces(Pmd& p) {
   for (size_t i = 0; i < nindices; ++i) {
     uint16_t v;
     if (!r.Get(v, "a face")) return p.Broken();
-    if (v >= nverts) return p.Bad("face index " + std::to_string(i) + " is vertex " + std::to_string(v) + " of " + std::to_string(nverts));
+    if (v >= nverts)
+      return p.Bad("face index " + std::to_string(i) + " is vertex " + std::to_string(v) + " of " +
+                   std::to_string(nverts));
     p.model.indices[i] = v;
   }
   return Status::Ok();
@@ -92,19 +99,22 @@ Status ReadMaterials(Pmd& p) {
     uint8_t toon, edge;
     uint32_t count;
     std::string texture;
-    if (!r.Floats(m.diffuse, 4, "a material") || !r.Floats(rest, 7, "a material") || !r.Get(toon, "a material") || !r.Get(edge, "a material") ||
-        !r.Get(count, "a material") || !Name(r, 20, texture, "a material")) {
+    if (!r.Floats(m.diffuse, 4, "a material") || !r.Floats(rest, 7, "a material") ||
+        !r.Get(toon, "a material") || !r.Get(edge, "a material") || !r.Get(count, "a material") ||
+        !Name(r, 20, texture, "a material")) {
       return p.Broken();
     }
     m.name = "material" + std::to_string(mi);
     m.edge_size = edge ? 1.0f : 0.0f;  // PMD: a flag; black edges of size 1.
     if (count > nindices - covered || count % 3) {
-      return p.Bad("material " + std::to_string(mi) + " covers " + std::to_string(count) + " face indices of the " + std::to_string(nindices - covered) + " left");
+      return p.Bad("material " + std::to_string(mi) + " covers " + std::to_string(count) +
+                   " face indices of the " + std::to_string(nindices - covered) + " left");
     }
     m.indices = count;
     covered += count;
     texture = texture.substr(0, texture.find('*'));
-    const bool sphere = texture.size() > 4 && (texture.ends_with(".sph") || texture.ends_with(".spa"));
+    const bool sphere =
+        texture.size() > 4 && (texture.ends_with(".sph") || texture.ends_with(".spa"));
     if (!texture.empty() && !sphere) {
       m.texture = static_cast<int64_t>(p.model.textures.size());
       p.model.textures.push_back(texture);
@@ -124,8 +134,9 @@ Status ReadBones(Pmd& p) {
   for (Bone& b : p.model.bones) {
     uint16_t parent = 0, tail = 0, ik_parent = 0;
     uint8_t type = 0;
-    if (!Name(p.r, 20, b.name, "a bone") || !p.r.Get(parent, "a bone") || !p.r.Get(tail, "a bone") || !p.r.Get(type, "a bone") ||
-        !p.r.Get(ik_parent, "a bone") || !p.r.Floats(b.pos, 3, "a bone")) {
+    if (!Name(p.r, 20, b.name, "a bone") || !p.r.Get(parent, "a bone") ||
+        !p.r.Get(tail, "a bone") || !p.r.Get(type, "a bone") || !p.r.Get(ik_parent, "a bone") ||
+        !p.r.Floats(b.pos, 3, "a bone")) {
       return p.Broken();
     }
     b.parent = parent == 0xFFFF ? -1 : parent;
@@ -140,7 +151,8 @@ Status ReadBones(Pmd& p) {
 }
 
 // IK chains: the IK bone, its effector, links, loops and the angle per step in units of 4 radians
-// (as MMD reads PMD); a knee (a link named ひざ) turns about x alone, between -180 and -0.5 degrees.
+// (as MMD reads PMD); a knee (a link named ひざ) turns about x alone, between -180 and -0.5
+// degrees.
 Status ReadIkChains(Pmd& p) {
   Bytes& r = p.r;
   std::vector<Bone>& bones = p.model.bones;
@@ -150,7 +162,8 @@ Status ReadIkChains(Pmd& p) {
     uint16_t ik_bone = 0, effector = 0, loops = 0;
     uint8_t chain = 0;
     float angle = 0;
-    if (!r.Get(ik_bone, "an IK chain") || !r.Get(effector, "an IK chain") || !r.Get(chain, "an IK chain") || !r.Get(loops, "an IK chain") ||
+    if (!r.Get(ik_bone, "an IK chain") || !r.Get(effector, "an IK chain") ||
+        !r.Get(chain, "an IK chain") || !r.Get(loops, "an IK chain") ||
         !r.Floats(&angle, 1, "an IK chain")) {
       return p.Broken();
     }
@@ -189,20 +202,28 @@ Status ReadSkins(Pmd& p) {
     Morph m;
     size_t n = 0;
     uint8_t type = 0;
-    if (!Name(r, 20, m.name, "a skin") || !r.CountOf<uint32_t>(16, n, "a skin's vertex count") || !r.Get(type, "a skin")) return p.Broken();
-    if ((s == 0) != (type == 0)) return p.Bad("skin '" + m.name + "' is type " + std::to_string(type) + " at " + std::to_string(s) + " (the base, type 0, comes first and only there)");
+    if (!Name(r, 20, m.name, "a skin") || !r.CountOf<uint32_t>(16, n, "a skin's vertex count") ||
+        !r.Get(type, "a skin"))
+      return p.Broken();
+    if ((s == 0) != (type == 0))
+      return p.Bad("skin '" + m.name + "' is type " + std::to_string(type) + " at " +
+                   std::to_string(s) + " (the base, type 0, comes first and only there)");
     if (type > 4) return p.Bad("skin '" + m.name + "' has type " + std::to_string(type));
     m.panel = type;
     m.type = 1;
     for (size_t k = 0; k < n; ++k) {
       uint32_t idx = 0;
       std::array<float, 3> d;
-      if (!r.Get(idx, "a skin vertex") || !r.Floats(d.data(), 3, "a skin vertex")) return p.Broken();
+      if (!r.Get(idx, "a skin vertex") || !r.Floats(d.data(), 3, "a skin vertex"))
+        return p.Broken();
       if (type == 0) {
-        if (idx >= nverts) return p.Bad("the base skin names vertex " + std::to_string(idx) + " of " + std::to_string(nverts));
+        if (idx >= nverts)
+          return p.Bad("the base skin names vertex " + std::to_string(idx) + " of " +
+                       std::to_string(nverts));
         base.push_back(idx);
       } else if (idx >= base.size()) {
-        return p.Bad("skin '" + m.name + "' names base entry " + std::to_string(idx) + " of " + std::to_string(base.size()));
+        return p.Bad("skin '" + m.name + "' names base entry " + std::to_string(idx) + " of " +
+                     std::to_string(base.size()));
       } else {
         m.vertex.emplace_back(base[idx], d);
       }
@@ -216,16 +237,21 @@ Status ReadSkins(Pmd& p) {
 Status ReadDisplayAndEnglish(Pmd& p) {
   Bytes& r = p.r;
   size_t nlist = 0, ndisp = 0;
-  if (!r.CountOf<uint8_t>(2, nlist, "the skin display list") || !r.Skip(2 * nlist, "the skin display list") ||
-      !r.CountOf<uint8_t>(50, p.bone_frames, "the bone display names") || !r.Skip(50 * p.bone_frames, "the bone display names") ||
-      !r.CountOf<uint32_t>(3, ndisp, "the bone display list") || !r.Skip(3 * ndisp, "the bone display list")) {
+  if (!r.CountOf<uint8_t>(2, nlist, "the skin display list") ||
+      !r.Skip(2 * nlist, "the skin display list") ||
+      !r.CountOf<uint8_t>(50, p.bone_frames, "the bone display names") ||
+      !r.Skip(50 * p.bone_frames, "the bone display names") ||
+      !r.CountOf<uint32_t>(3, ndisp, "the bone display list") ||
+      !r.Skip(3 * ndisp, "the bone display list")) {
     return p.Broken();
   }
   uint8_t english = 0;
   if (r.left() > 0 && !r.Get(english, "the English names")) return p.Broken();
   if (english != 1) return Status::Ok();
   std::string english_name, english_comment;
-  if (!Name(r, 20, english_name, "the English names") || !Name(r, 256, english_comment, "the English names")) return p.Broken();
+  if (!Name(r, 20, english_name, "the English names") ||
+      !Name(r, 256, english_comment, "the English names"))
+    return p.Broken();
   for (Bone& b : p.model.bones) {
     if (!Name(r, 20, b.english, "the English bone names")) return p.Broken();
   }
@@ -241,15 +267,20 @@ Status ReadPhysics(Pmd& p) {
   Bytes& r = p.r;
   if (r.left() < 1000 + 4) return Status::Ok();
   size_t nbodies = 0, njoints = 0;
-  if (!r.Skip(1000, "the toon textures") || !r.CountOf<uint32_t>(83, nbodies, "the rigid body count")) return p.Broken();
+  if (!r.Skip(1000, "the toon textures") ||
+      !r.CountOf<uint32_t>(83, nbodies, "the rigid body count"))
+    return p.Broken();
   p.model.bodies.resize(nbodies);
   for (RigidBodyData& b : p.model.bodies) {
     uint16_t bone;
-    if (!Name(r, 20, b.name, "a rigid body") || !r.Get(bone, "a rigid body") || !r.Get(b.group, "a rigid body") || !r.Get(b.mask, "a rigid body") ||
-        !r.Get(b.shape, "a rigid body") || !r.Floats(b.size, 3, "a rigid body") || !r.Floats(b.pos, 3, "a rigid body") ||
-        !r.Floats(b.rot, 3, "a rigid body") || !r.Floats(&b.mass, 1, "a rigid body") || !r.Floats(&b.linear_damping, 1, "a rigid body") ||
-        !r.Floats(&b.angular_damping, 1, "a rigid body") || !r.Floats(&b.restitution, 1, "a rigid body") ||
-        !r.Floats(&b.friction, 1, "a rigid body") || !r.Get(b.mode, "a rigid body")) {
+    if (!Name(r, 20, b.name, "a rigid body") || !r.Get(bone, "a rigid body") ||
+        !r.Get(b.group, "a rigid body") || !r.Get(b.mask, "a rigid body") ||
+        !r.Get(b.shape, "a rigid body") || !r.Floats(b.size, 3, "a rigid body") ||
+        !r.Floats(b.pos, 3, "a rigid body") || !r.Floats(b.rot, 3, "a rigid body") ||
+        !r.Floats(&b.mass, 1, "a rigid body") || !r.Floats(&b.linear_damping, 1, "a rigid body") ||
+        !r.Floats(&b.angular_damping, 1, "a rigid body") ||
+        !r.Floats(&b.restitution, 1, "a rigid body") || !r.Floats(&b.friction, 1, "a rigid body") ||
+        !r.Get(b.mode, "a rigid body")) {
       return p.Broken();
     }
     b.bone = bone == 0xffff ? -1 : bone;
@@ -258,8 +289,9 @@ Status ReadPhysics(Pmd& p) {
   p.model.joints.resize(njoints);
   for (JointData& j : p.model.joints) {
     uint32_t a, b;
-    if (!Name(r, 20, j.name, "a joint") || !r.Get(a, "a joint") || !r.Get(b, "a joint") || !r.Floats(j.pos, 3, "a joint") ||
-        !r.Floats(j.rot, 3, "a joint") || !r.Floats(j.linear_lower, 3, "a joint") || !r.Floats(j.linear_upper, 3, "a joint") ||
+    if (!Name(r, 20, j.name, "a joint") || !r.Get(a, "a joint") || !r.Get(b, "a joint") ||
+        !r.Floats(j.pos, 3, "a joint") || !r.Floats(j.rot, 3, "a joint") ||
+        !r.Floats(j.linear_lower, 3, "a joint") || !r.Floats(j.linear_upper, 3, "a joint") ||
         !r.Floats(j.angular_lower, 3, "a joint") || !r.Floats(j.angular_upper, 3, "a joint") ||
         !r.Floats(j.linear_spring, 3, "a joint") || !r.Floats(j.angular_spring, 3, "a joint")) {
       return p.Broken();
@@ -273,7 +305,8 @@ Status ReadPhysics(Pmd& p) {
 
 Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::string& name) {
   Pmd p{Bytes(bytes), name, {}};
-  for (Status (*section)(Pmd&) : {ReadHeader, ReadVerticesAndFaces, ReadMaterials, ReadBones, ReadIkChains, ReadSkins, ReadDisplayAndEnglish, ReadPhysics}) {
+  for (Status (*section)(Pmd&) : {ReadHeader, ReadVerticesAndFaces, ReadMaterials, ReadBones,
+                                  ReadIkChains, ReadSkins, ReadDisplayAndEnglish, ReadPhysics}) {
     if (Status s = section(p); !s.ok()) return s;
   }
   p.model.body_positions_from_bone = true;

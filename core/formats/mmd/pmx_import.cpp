@@ -52,29 +52,39 @@ Status ReadHeader(Pmx& p) {
   char magic[4];
   float version = 0;
   uint8_t nglobals = 0;
-  if (!r.Raw(magic, 4, "the header") || std::memcmp(magic, "PMX ", 4) != 0) return InvalidArgument(p.name + ": not a PMX file (no 'PMX ' magic)");
+  if (!r.Raw(magic, 4, "the header") || std::memcmp(magic, "PMX ", 4) != 0)
+    return InvalidArgument(p.name + ": not a PMX file (no 'PMX ' magic)");
   if (!r.Get(version, "the header") || !r.Get(nglobals, "the header")) return p.Broken();
-  if (!(version >= 2.0f && version <= 2.1f)) return InvalidArgument(p.name + ": PMX version " + std::to_string(version) + " is not 2.0 or 2.1");
-  if (nglobals < 8) return InvalidArgument(p.name + ": PMX header has " + std::to_string(nglobals) + " globals, 8 needed");
+  if (!(version >= 2.0f && version <= 2.1f))
+    return InvalidArgument(p.name + ": PMX version " + std::to_string(version) +
+                           " is not 2.0 or 2.1");
+  if (nglobals < 8)
+    return InvalidArgument(p.name + ": PMX header has " + std::to_string(nglobals) +
+                           " globals, 8 needed");
   uint8_t g[256];
   if (!r.Raw(g, nglobals, "the header")) return p.Broken();
   Header& h = p.h;
   h.utf8 = g[0] == 1;
   h.extra_uv = g[1];
-  h.vertex = g[2], h.texture = g[3], h.material = g[4], h.bone = g[5], h.morph = g[6], h.rigid = g[7];
+  h.vertex = g[2], h.texture = g[3], h.material = g[4], h.bone = g[5], h.morph = g[6],
+  h.rigid = g[7];
   for (int s : {h.vertex, h.texture, h.material, h.bone, h.morph, h.rigid}) {
-    if (s != 1 && s != 2 && s != 4) return InvalidArgument(p.name + ": PMX index size " + std::to_string(s) + " is not 1, 2 or 4");
+    if (s != 1 && s != 2 && s != 4)
+      return InvalidArgument(p.name + ": PMX index size " + std::to_string(s) +
+                             " is not 1, 2 or 4");
   }
-  if (g[0] > 1 || h.extra_uv > 4) return InvalidArgument(p.name + ": PMX header: bad encoding or additional UV count");
+  if (g[0] > 1 || h.extra_uv > 4)
+    return InvalidArgument(p.name + ": PMX header: bad encoding or additional UV count");
   std::string model_en, comment, comment_en;
-  if (!Text(r, h, p.model.name, "the model name") || !Text(r, h, model_en, "the model name") || !Text(r, h, comment, "the comment") ||
-      !Text(r, h, comment_en, "the comment")) {
+  if (!Text(r, h, p.model.name, "the model name") || !Text(r, h, model_en, "the model name") ||
+      !Text(r, h, comment, "the comment") || !Text(r, h, comment_en, "the comment")) {
     return p.Broken();
   }
   return Status::Ok();
 }
 
-// A vertex's bones and weights by its weight type: BDEF1, BDEF2, BDEF4, SDEF (as BDEF2), QDEF (as BDEF4).
+// A vertex's bones and weights by its weight type: BDEF1, BDEF2, BDEF4, SDEF (as BDEF2), QDEF (as
+// BDEF4).
 bool ReadVertexWeights(Pmx& p, size_t v, uint8_t kind, Vertex& x) {
   Bytes& r = p.r;
   const int bone = p.h.bone;
@@ -83,7 +93,8 @@ bool ReadVertexWeights(Pmx& p, size_t v, uint8_t kind, Vertex& x) {
     return r.Index(bone, false, x.bones[0], "a vertex's bone");
   }
   if (kind == 1 || kind == 3) {
-    if (!r.Index(bone, false, x.bones[0], "a vertex's bone") || !r.Index(bone, false, x.bones[1], "a vertex's bone") ||
+    if (!r.Index(bone, false, x.bones[0], "a vertex's bone") ||
+        !r.Index(bone, false, x.bones[1], "a vertex's bone") ||
         !r.Floats(&x.weights[0], 1, "a vertex weight")) {
       return false;
     }
@@ -113,8 +124,9 @@ Status ReadVertices(Pmx& p) {
     Vertex& x = p.model.verts[v];
     float extra[16], edge;
     uint8_t kind = 0;
-    if (!r.Floats(x.pos, 3, "a vertex") || !r.Floats(x.normal, 3, "a vertex") || !r.Floats(x.uv, 2, "a vertex") ||
-        !r.Floats(extra, 4 * p.h.extra_uv, "a vertex") || !r.Get(kind, "a vertex") || !ReadVertexWeights(p, v, kind, x) ||
+    if (!r.Floats(x.pos, 3, "a vertex") || !r.Floats(x.normal, 3, "a vertex") ||
+        !r.Floats(x.uv, 2, "a vertex") || !r.Floats(extra, 4 * p.h.extra_uv, "a vertex") ||
+        !r.Get(kind, "a vertex") || !ReadVertexWeights(p, v, kind, x) ||
         !r.Floats(&edge, 1, "a vertex")) {
       return p.Broken();
     }
@@ -127,13 +139,16 @@ Status ReadFacesAndTextures(Pmx& p) {
   Bytes& r = p.r;
   const size_t nverts = p.model.verts.size();
   size_t nindices = 0;
-  if (!r.Count(static_cast<size_t>(p.h.vertex), nindices, "the face index count")) return p.Broken();
+  if (!r.Count(static_cast<size_t>(p.h.vertex), nindices, "the face index count"))
+    return p.Broken();
   if (nindices % 3) return p.Bad(std::to_string(nindices) + " face indices is not whole triangles");
   p.model.indices.resize(nindices);
   for (size_t i = 0; i < nindices; ++i) {
     int64_t v = 0;
     if (!r.Index(p.h.vertex, true, v, "a face")) return p.Broken();
-    if (v < 0 || static_cast<size_t>(v) >= nverts) return p.Bad("face index " + std::to_string(i) + " is vertex " + std::to_string(v) + " of " + std::to_string(nverts));
+    if (v < 0 || static_cast<size_t>(v) >= nverts)
+      return p.Bad("face index " + std::to_string(i) + " is vertex " + std::to_string(v) + " of " +
+                   std::to_string(nverts));
     p.model.indices[i] = static_cast<uint32_t>(v);
   }
   size_t ntex = 0;
@@ -160,20 +175,26 @@ Status ReadMaterials(Pmx& p) {
     int64_t env, toon;
     std::string memo;
     int32_t count = 0;
-    if (!Text(r, h, m.name, "a material") || !Text(r, h, m.english, "a material") || !r.Floats(m.diffuse, 4, "a material") ||
-        !r.Floats(spec, 7, "a material") || !r.Get(flags, "a material") || !r.Floats(edge, 5, "a material") ||
-        !r.Index(h.texture, false, m.texture, "a material") || !r.Index(h.texture, false, env, "a material") || !r.Get(env_mode, "a material") ||
-        !r.Get(toon_ref, "a material") || !(toon_ref == 0 ? r.Index(h.texture, false, toon, "a material") : r.Get(toon_shared, "a material")) ||
+    if (!Text(r, h, m.name, "a material") || !Text(r, h, m.english, "a material") ||
+        !r.Floats(m.diffuse, 4, "a material") || !r.Floats(spec, 7, "a material") ||
+        !r.Get(flags, "a material") || !r.Floats(edge, 5, "a material") ||
+        !r.Index(h.texture, false, m.texture, "a material") ||
+        !r.Index(h.texture, false, env, "a material") || !r.Get(env_mode, "a material") ||
+        !r.Get(toon_ref, "a material") ||
+        !(toon_ref == 0 ? r.Index(h.texture, false, toon, "a material")
+                        : r.Get(toon_shared, "a material")) ||
         !Text(r, h, memo, "a material") || !r.Get(count, "a material")) {
       return p.Broken();
     }
     if (count < 0 || static_cast<size_t>(count) > nindices - covered || count % 3) {
-      return p.Bad("material '" + m.name + "' covers " + std::to_string(count) + " face indices of the " + std::to_string(nindices - covered) + " left");
+      return p.Bad("material '" + m.name + "' covers " + std::to_string(count) +
+                   " face indices of the " + std::to_string(nindices - covered) + " left");
     }
     m.indices = static_cast<size_t>(count);
     covered += m.indices;
     std::copy(edge, edge + 4, m.edge);
-    m.edge_size = (flags & 0x10) && std::isfinite(edge[4]) ? std::clamp(edge[4], 0.0f, 10.0f) : 0.0f;
+    m.edge_size =
+        (flags & 0x10) && std::isfinite(edge[4]) ? std::clamp(edge[4], 0.0f, 10.0f) : 0.0f;
   }
   return Status::Ok();
 }
@@ -182,16 +203,20 @@ Status ReadMaterials(Pmx& p) {
 bool ReadIk(Pmx& p, Bone& x) {
   Bytes& r = p.r;
   size_t links = 0;
-  if (!r.Index(p.h.bone, false, x.ik_effector, "an IK target") || !r.Get(x.ik_loops, "an IK bone") || !r.Floats(&x.ik_angle, 1, "an IK bone") ||
+  if (!r.Index(p.h.bone, false, x.ik_effector, "an IK target") ||
+      !r.Get(x.ik_loops, "an IK bone") || !r.Floats(&x.ik_angle, 1, "an IK bone") ||
       !r.Count(static_cast<size_t>(p.h.bone) + 1, links, "the IK link count")) {
     return false;
   }
   x.ik_links.resize(links);
   for (IkLinkData& l : x.ik_links) {
     uint8_t limited;
-    if (!r.Index(p.h.bone, false, l.bone, "an IK link") || !r.Get(limited, "an IK link")) return false;
+    if (!r.Index(p.h.bone, false, l.bone, "an IK link") || !r.Get(limited, "an IK link"))
+      return false;
     l.limited = limited;
-    if (limited && (!r.Floats(l.lower, 3, "an IK link's limits") || !r.Floats(l.upper, 3, "an IK link's limits"))) return false;
+    if (limited && (!r.Floats(l.lower, 3, "an IK link's limits") ||
+                    !r.Floats(l.upper, 3, "an IK link's limits")))
+      return false;
   }
   return true;
 }
@@ -203,18 +228,23 @@ bool ReadBone(Pmx& p, Bone& x) {
   const Header& h = p.h;
   int32_t layer;
   uint16_t flags;
-  if (!Text(r, h, x.name, "a bone") || !Text(r, h, x.english, "a bone") || !r.Floats(x.pos, 3, "a bone") ||
-      !r.Index(h.bone, false, x.parent, "a bone's parent") || !r.Get(layer, "a bone") || !r.Get(flags, "a bone")) {
+  if (!Text(r, h, x.name, "a bone") || !Text(r, h, x.english, "a bone") ||
+      !r.Floats(x.pos, 3, "a bone") || !r.Index(h.bone, false, x.parent, "a bone's parent") ||
+      !r.Get(layer, "a bone") || !r.Get(flags, "a bone")) {
     return false;
   }
   x.layer = layer;
   x.after_physics = flags & 0x1000;
   int64_t idx;
   float f[6];
-  if ((flags & 0x0001) ? !r.Index(h.bone, false, idx, "a bone's tail") : !r.Floats(f, 3, "a bone's tail")) return false;
+  if ((flags & 0x0001) ? !r.Index(h.bone, false, idx, "a bone's tail")
+                       : !r.Floats(f, 3, "a bone's tail"))
+    return false;
   if (flags & 0x0300) {
     ++p.model.grants;
-    if (!r.Index(h.bone, false, x.grant, "a bone's grant") || !r.Floats(&x.grant_ratio, 1, "a bone's grant")) return false;
+    if (!r.Index(h.bone, false, x.grant, "a bone's grant") ||
+        !r.Floats(&x.grant_ratio, 1, "a bone's grant"))
+      return false;
     x.grant_rotation = flags & 0x0100;
     x.grant_translation = flags & 0x0200;
     x.grant_local = flags & 0x0080;
@@ -241,18 +271,23 @@ Status ReadBones(Pmx& p) {
   return Status::Ok();
 }
 
-// A material morph's entry: index, operation (0 multiply, 1 add), diffuse RGBA, specular RGB, specular
-// power, ambient RGB, edge RGBA, edge size, texture, sphere and toon tints RGBA.
+// A material morph's entry: index, operation (0 multiply, 1 add), diffuse RGBA, specular RGB,
+// specular power, ambient RGB, edge RGBA, edge size, texture, sphere and toon tints RGBA.
 Status ReadMaterialMorph(Pmx& p, Morph& m) {
   MaterialMorph mm;
   int64_t idx = 0;
   uint8_t op;
   float v[28];
-  if (!p.r.Index(p.h.material, false, idx, "a material morph") || !p.r.Get(op, "a material morph") || !p.r.Floats(v, 28, "a material morph")) return p.Broken();
+  if (!p.r.Index(p.h.material, false, idx, "a material morph") ||
+      !p.r.Get(op, "a material morph") || !p.r.Floats(v, 28, "a material morph"))
+    return p.Broken();
   if (idx < -1 || idx >= static_cast<int64_t>(p.model.mats.size())) {
-    return p.Bad("material morph '" + m.name + "' names material " + std::to_string(idx) + " of " + std::to_string(p.model.mats.size()));
+    return p.Bad("material morph '" + m.name + "' names material " + std::to_string(idx) + " of " +
+                 std::to_string(p.model.mats.size()));
   }
-  if (op > 1) return p.Bad("material morph '" + m.name + "' has operation " + std::to_string(op) + " (0 multiply, 1 add)");
+  if (op > 1)
+    return p.Bad("material morph '" + m.name + "' has operation " + std::to_string(op) +
+                 " (0 multiply, 1 add)");
   mm.material = static_cast<int>(idx);
   mm.add = op == 1;
   std::copy(v, v + 4, mm.diffuse.begin());
@@ -268,32 +303,45 @@ Status ReadMaterialMorph(Pmx& p, Morph& m) {
   return Status::Ok();
 }
 
-// One offset of morph m (of `type`): a vertex's, a group's or flip's entry, a UV's (the first UV set's
-// x and y of its 4 floats), a bone's, a material's; the rest (additional UVs, impulses) skipped.
+// One offset of morph m (of `type`): a vertex's, a group's or flip's entry, a UV's (the first UV
+// set's x and y of its 4 floats), a bone's, a material's; the rest (additional UVs, impulses)
+// skipped.
 Status ReadMorphOffset(Pmx& p, Morph& m, int type, size_t item) {
   Bytes& r = p.r;
   const Header& h = p.h;
-  const size_t nverts = p.model.verts.size(), nbones = p.model.bones.size(), nmorphs = p.model.morphs.size();
+  const size_t nverts = p.model.verts.size(), nbones = p.model.bones.size(),
+               nmorphs = p.model.morphs.size();
   int64_t idx = 0;
   if (type == 1 || type == 3) {
     const char* what = type == 1 ? "a vertex morph" : "a UV morph";
     float d[4];
-    if (!r.Index(h.vertex, true, idx, what) || !r.Floats(d, type == 1 ? 3 : 4, what)) return p.Broken();
+    if (!r.Index(h.vertex, true, idx, what) || !r.Floats(d, type == 1 ? 3 : 4, what))
+      return p.Broken();
     if (idx < 0 || static_cast<size_t>(idx) >= nverts) {
-      return p.Bad(std::string(type == 1 ? "" : "UV ") + "morph '" + m.name + "' moves vertex " + std::to_string(idx) + " of " + std::to_string(nverts));
+      return p.Bad(std::string(type == 1 ? "" : "UV ") + "morph '" + m.name + "' moves vertex " +
+                   std::to_string(idx) + " of " + std::to_string(nverts));
     }
-    if (type == 1) m.vertex.emplace_back(idx, std::array<float, 3>{d[0], d[1], d[2]});
-    else m.uv.push_back({idx, {d[0], d[1]}});
+    if (type == 1)
+      m.vertex.emplace_back(idx, std::array<float, 3>{d[0], d[1], d[2]});
+    else
+      m.uv.push_back({idx, {d[0], d[1]}});
   } else if (type == 0 || type == 9) {
     float f;
     const char* what = type == 0 ? "a group morph" : "a flip morph";
     if (!r.Index(h.morph, false, idx, what) || !r.Floats(&f, 1, what)) return p.Broken();
-    if (idx < 0 || static_cast<size_t>(idx) >= nmorphs) return p.Bad(std::string(type == 0 ? "group" : "flip") + " morph '" + m.name + "' names morph " + std::to_string(idx) + " of " + std::to_string(nmorphs));
+    if (idx < 0 || static_cast<size_t>(idx) >= nmorphs)
+      return p.Bad(std::string(type == 0 ? "group" : "flip") + " morph '" + m.name +
+                   "' names morph " + std::to_string(idx) + " of " + std::to_string(nmorphs));
     m.group.emplace_back(idx, f);
   } else if (type == 2) {
     BoneMorph b;
-    if (!r.Index(h.bone, false, idx, "a bone morph") || !r.Floats(b.translation.data(), 3, "a bone morph") || !r.Floats(b.rotation.data(), 4, "a bone morph")) return p.Broken();
-    if (idx < 0 || static_cast<size_t>(idx) >= nbones) return p.Bad("bone morph '" + m.name + "' names bone " + std::to_string(idx) + " of " + std::to_string(nbones));
+    if (!r.Index(h.bone, false, idx, "a bone morph") ||
+        !r.Floats(b.translation.data(), 3, "a bone morph") ||
+        !r.Floats(b.rotation.data(), 4, "a bone morph"))
+      return p.Broken();
+    if (idx < 0 || static_cast<size_t>(idx) >= nbones)
+      return p.Bad("bone morph '" + m.name + "' names bone " + std::to_string(idx) + " of " +
+                   std::to_string(nbones));
     b.node = static_cast<int>(idx);
     m.bone.push_back(b);
   } else if (type == 8) {
@@ -313,11 +361,18 @@ Status ReadMorphs(Pmx& p) {
   for (Morph& m : p.model.morphs) {
     uint8_t panel, type;
     size_t n = 0;
-    if (!Text(r, h, m.name, "a morph") || !Text(r, h, m.english, "a morph") || !r.Get(panel, "a morph") || !r.Get(type, "a morph")) return p.Broken();
+    if (!Text(r, h, m.name, "a morph") || !Text(r, h, m.english, "a morph") ||
+        !r.Get(panel, "a morph") || !r.Get(type, "a morph"))
+      return p.Broken();
     m.panel = panel;
     m.type = type;
-    const size_t item = type == 0 || type == 9 ? h.morph + 4 : type == 1 ? h.vertex + 12 : type == 2 ? h.bone + 28 : (type >= 3 && type <= 7) ? h.vertex + 16
-                        : type == 8 ? h.material + 113 : type == 10 ? h.rigid + 25 : 0;
+    const size_t item = type == 0 || type == 9     ? h.morph + 4
+                        : type == 1                ? h.vertex + 12
+                        : type == 2                ? h.bone + 28
+                        : (type >= 3 && type <= 7) ? h.vertex + 16
+                        : type == 8                ? h.material + 113
+                        : type == 10               ? h.rigid + 25
+                                                   : 0;
     if (!item) {
       r.Fail("morph '" + m.name + "' has type " + std::to_string(type));
       return p.Broken();
@@ -341,13 +396,17 @@ Status SkipDisplayFrames(Pmx& p) {
     std::string frame, frame_en;
     uint8_t special;
     size_t n = 0;
-    if (!Text(r, h, frame, "a display frame") || !Text(r, h, frame_en, "a display frame") || !r.Get(special, "a display frame") ||
-        !r.Count(1 + static_cast<size_t>(std::min(h.bone, h.morph)), n, "a display frame's entry count")) {
+    if (!Text(r, h, frame, "a display frame") || !Text(r, h, frame_en, "a display frame") ||
+        !r.Get(special, "a display frame") ||
+        !r.Count(1 + static_cast<size_t>(std::min(h.bone, h.morph)), n,
+                 "a display frame's entry count")) {
       return p.Broken();
     }
     for (size_t e = 0; e < n; ++e) {
       uint8_t kind = 0;
-      if (!r.Get(kind, "a display frame entry") || !r.Skip(static_cast<size_t>(kind == 0 ? h.bone : h.morph), "a display frame entry")) return p.Broken();
+      if (!r.Get(kind, "a display frame entry") ||
+          !r.Skip(static_cast<size_t>(kind == 0 ? h.bone : h.morph), "a display frame entry"))
+        return p.Broken();
     }
   }
   return Status::Ok();
@@ -358,29 +417,38 @@ Status ReadPhysics(Pmx& p) {
   Bytes& r = p.r;
   const Header& h = p.h;
   size_t nbodies = 0;
-  if (!r.Count(8 + static_cast<size_t>(h.bone) + 4 + 9 * 4 + 5 * 4 + 1, nbodies, "the rigid body count")) return p.Broken();
+  if (!r.Count(8 + static_cast<size_t>(h.bone) + 4 + 9 * 4 + 5 * 4 + 1, nbodies,
+               "the rigid body count"))
+    return p.Broken();
   p.model.bodies.resize(nbodies);
   for (RigidBodyData& b : p.model.bodies) {
     std::string english;
-    if (!Text(r, h, b.name, "a rigid body") || !Text(r, h, english, "a rigid body") || !r.Index(h.bone, false, b.bone, "a rigid body's bone") ||
-        !r.Get(b.group, "a rigid body") || !r.Get(b.mask, "a rigid body") || !r.Get(b.shape, "a rigid body") ||
-        !r.Floats(b.size, 3, "a rigid body") || !r.Floats(b.pos, 3, "a rigid body") || !r.Floats(b.rot, 3, "a rigid body") ||
-        !r.Floats(&b.mass, 1, "a rigid body") || !r.Floats(&b.linear_damping, 1, "a rigid body") || !r.Floats(&b.angular_damping, 1, "a rigid body") ||
-        !r.Floats(&b.restitution, 1, "a rigid body") || !r.Floats(&b.friction, 1, "a rigid body") || !r.Get(b.mode, "a rigid body")) {
+    if (!Text(r, h, b.name, "a rigid body") || !Text(r, h, english, "a rigid body") ||
+        !r.Index(h.bone, false, b.bone, "a rigid body's bone") || !r.Get(b.group, "a rigid body") ||
+        !r.Get(b.mask, "a rigid body") || !r.Get(b.shape, "a rigid body") ||
+        !r.Floats(b.size, 3, "a rigid body") || !r.Floats(b.pos, 3, "a rigid body") ||
+        !r.Floats(b.rot, 3, "a rigid body") || !r.Floats(&b.mass, 1, "a rigid body") ||
+        !r.Floats(&b.linear_damping, 1, "a rigid body") ||
+        !r.Floats(&b.angular_damping, 1, "a rigid body") ||
+        !r.Floats(&b.restitution, 1, "a rigid body") || !r.Floats(&b.friction, 1, "a rigid body") ||
+        !r.Get(b.mode, "a rigid body")) {
       return p.Broken();
     }
   }
   size_t njoints = 0;
-  if (!r.Count(8 + 1 + 2 * static_cast<size_t>(h.rigid) + 24 * 4, njoints, "the joint count")) return p.Broken();
+  if (!r.Count(8 + 1 + 2 * static_cast<size_t>(h.rigid) + 24 * 4, njoints, "the joint count"))
+    return p.Broken();
   p.model.joints.resize(njoints);
   for (JointData& j : p.model.joints) {
     std::string english;
     uint8_t type;
-    if (!Text(r, h, j.name, "a joint") || !Text(r, h, english, "a joint") || !r.Get(type, "a joint") ||
-        !r.Index(h.rigid, false, j.a, "a joint's body") || !r.Index(h.rigid, false, j.b, "a joint's body") ||
-        !r.Floats(j.pos, 3, "a joint") || !r.Floats(j.rot, 3, "a joint") || !r.Floats(j.linear_lower, 3, "a joint") ||
-        !r.Floats(j.linear_upper, 3, "a joint") || !r.Floats(j.angular_lower, 3, "a joint") || !r.Floats(j.angular_upper, 3, "a joint") ||
-        !r.Floats(j.linear_spring, 3, "a joint") || !r.Floats(j.angular_spring, 3, "a joint")) {
+    if (!Text(r, h, j.name, "a joint") || !Text(r, h, english, "a joint") ||
+        !r.Get(type, "a joint") || !r.Index(h.rigid, false, j.a, "a joint's body") ||
+        !r.Index(h.rigid, false, j.b, "a joint's body") || !r.Floats(j.pos, 3, "a joint") ||
+        !r.Floats(j.rot, 3, "a joint") || !r.Floats(j.linear_lower, 3, "a joint") ||
+        !r.Floats(j.linear_upper, 3, "a joint") || !r.Floats(j.angular_lower, 3, "a joint") ||
+        !r.Floats(j.angular_upper, 3, "a joint") || !r.Floats(j.linear_spring, 3, "a joint") ||
+        !r.Floats(j.angular_spring, 3, "a joint")) {
       return p.Broken();
     }
     j.type = type;
@@ -392,7 +460,8 @@ Status ReadPhysics(Pmx& p) {
 
 Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::string& name) {
   Pmx p{Bytes(bytes), {}, name, {}};
-  for (Status (*section)(Pmx&) : {ReadHeader, ReadVertices, ReadFacesAndTextures, ReadMaterials, ReadBones, ReadMorphs}) {
+  for (Status (*section)(Pmx&) :
+       {ReadHeader, ReadVertices, ReadFacesAndTextures, ReadMaterials, ReadBones, ReadMorphs}) {
     if (Status s = section(p); !s.ok()) return s;
   }
   // Display frames, then the rigid bodies and joints. A file that ends before them (some tools stop

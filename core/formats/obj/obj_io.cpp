@@ -3,14 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
-#include <filesystem>
-#include <iterator>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 
-#include "facespace/formats/io.h"
 #include "common/image_file.h"
+#include "facespace/formats/io.h"
 
 namespace facespace {
 
@@ -18,11 +18,11 @@ namespace {
 
 struct ObjMesh {
   std::vector<float> positions;
-  std::vector<float> uvs;                 // From vt lines.
-  std::vector<std::vector<uint32_t>> faces;       // v indices (0-based) per polygon.
-  std::vector<std::vector<int64_t>> face_uvs;     // vt indices per corner (-1 none).
-  std::vector<size_t> face_lines;         // Source line of each face.
-  std::vector<uint32_t> face_groups;      // Index into `groups` of each face's "g" group.
+  std::vector<float> uvs;                      // From vt lines.
+  std::vector<std::vector<uint32_t>> faces;    // v indices (0-based) per polygon.
+  std::vector<std::vector<int64_t>> face_uvs;  // vt indices per corner (-1 none).
+  std::vector<size_t> face_lines;              // Source line of each face.
+  std::vector<uint32_t> face_groups;           // Index into `groups` of each face's "g" group.
   std::vector<std::string> groups = {""};
 };
 
@@ -51,10 +51,12 @@ Status ParseObj(const std::string& path, ObjMesh& mesh) {
       int got = 0;
       float vals[3] = {0, 0, 0};
       while (got < want && in >> tok) {
-        if (!ParseFloat(tok, vals[got])) return InvalidArgument(where + "malformed number '" + tok + "'");
+        if (!ParseFloat(tok, vals[got]))
+          return InvalidArgument(where + "malformed number '" + tok + "'");
         ++got;
       }
-      if (got < want && !(tag == "vt" && got == 1)) return InvalidArgument(where + "'" + tag + "' needs " + std::to_string(want) + " numbers");
+      if (got < want && !(tag == "vt" && got == 1))
+        return InvalidArgument(where + "'" + tag + "' needs " + std::to_string(want) + " numbers");
       auto& dst = tag == "v" ? mesh.positions : mesh.uvs;
       dst.insert(dst.end(), vals, vals + want);
     } else if (tag == "f") {
@@ -72,16 +74,21 @@ Status ParseObj(const std::string& path, ObjMesh& mesh) {
           return InvalidArgument(where + "malformed face corner '" + tok + "'");
         }
         if (vi < 0) vi = nv + vi + 1;  // Relative index.
-        if (vi < 1 || vi > nv) return InvalidArgument(where + "face refers to vertex " + std::to_string(vi) + " of " + std::to_string(nv));
+        if (vi < 1 || vi > nv)
+          return InvalidArgument(where + "face refers to vertex " + std::to_string(vi) + " of " +
+                                 std::to_string(nv));
         int64_t uv = -1;
         if (slash != std::string::npos) {
           const size_t slash2 = tok.find('/', slash + 1);
-          const std::string ts = tok.substr(slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
+          const std::string ts = tok.substr(
+              slash + 1, slash2 == std::string::npos ? std::string::npos : slash2 - slash - 1);
           if (!ts.empty()) {
             auto rt = std::from_chars(ts.data(), ts.data() + ts.size(), ti);
-            if (rt.ec != std::errc() || ti == 0) return InvalidArgument(where + "malformed face corner '" + tok + "'");
+            if (rt.ec != std::errc() || ti == 0)
+              return InvalidArgument(where + "malformed face corner '" + tok + "'");
             if (ti < 0) ti = nt + ti + 1;
-            if (ti < 1 || ti > nt) return InvalidArgument(where + "face refers to texture vertex " + std::to_string(ti));
+            if (ti < 1 || ti > nt)
+              return InvalidArgument(where + "face refers to texture vertex " + std::to_string(ti));
             uv = ti - 1;
           }
         }
@@ -137,7 +144,8 @@ BaseMesh BasePrimitive(const ObjMesh& m) {
   const bool has_uvs = !m.uvs.empty();
   auto uv_of_corner = [&](int64_t t, float* uv) {
     uv[0] = t < 0 ? 0.0f : m.uvs[2 * static_cast<size_t>(t)];
-    uv[1] = t < 0 ? 0.0f : 1.0f - m.uvs[2 * static_cast<size_t>(t) + 1];  // OBJ v is up; glTF v is down.
+    uv[1] = t < 0 ? 0.0f
+                  : 1.0f - m.uvs[2 * static_cast<size_t>(t) + 1];  // OBJ v is up; glTF v is down.
   };
   if (!split || !has_uvs) {
     p.positions = m.positions;
@@ -148,7 +156,8 @@ BaseMesh BasePrimitive(const ObjMesh& m) {
       }
     }
     for (const auto& face : m.faces) {
-      for (size_t k = 1; k + 1 < face.size(); ++k) p.indices.insert(p.indices.end(), {face[0], face[k], face[k + 1]});
+      for (size_t k = 1; k + 1 < face.size(); ++k)
+        p.indices.insert(p.indices.end(), {face[0], face[k], face[k + 1]});
     }
     return out;
   }
@@ -167,10 +176,12 @@ BaseMesh BasePrimitive(const ObjMesh& m) {
   auto corner = [&](size_t f, size_t k) {
     const uint32_t v = m.faces[f][k];
     const std::vector<int64_t>& l = uvs_of[v];
-    return out.first_copy[v] + static_cast<uint32_t>(std::find(l.begin(), l.end(), m.face_uvs[f][k]) - l.begin());
+    return out.first_copy[v] +
+           static_cast<uint32_t>(std::find(l.begin(), l.end(), m.face_uvs[f][k]) - l.begin());
   };
   for (size_t f = 0; f < m.faces.size(); ++f) {
-    for (size_t k = 1; k + 1 < m.faces[f].size(); ++k) p.indices.insert(p.indices.end(), {corner(f, 0), corner(f, k), corner(f, k + 1)});
+    for (size_t k = 1; k + 1 < m.faces[f].size(); ++k)
+      p.indices.insert(p.indices.end(), {corner(f, 0), corner(f, k), corner(f, k + 1)});
   }
   return out;
 }
@@ -182,7 +193,8 @@ SparseTarget SplitTarget(SparseTarget t, const std::vector<uint32_t>& first_copy
   for (size_t k = 0; k < t.indices.size(); ++k) {
     for (uint32_t c = first_copy[t.indices[k]]; c < first_copy[t.indices[k] + 1]; ++c) {
       out.indices.push_back(c);
-      out.position_deltas.insert(out.position_deltas.end(), &t.position_deltas[3 * k], &t.position_deltas[3 * k] + 3);
+      out.position_deltas.insert(out.position_deltas.end(), &t.position_deltas[3 * k],
+                                 &t.position_deltas[3 * k] + 3);
     }
   }
   FinalizeTarget(out);
@@ -225,25 +237,28 @@ Result<Rig> LoadObjSequence(std::span<const std::string> paths) {
     ObjMesh shape;
     if (Status s = ParseObj(paths[i], shape); !s.ok()) return s;
     if (shape.positions.size() != base.positions.size()) {
-      return InvalidArgument(paths[i] + ": has " + std::to_string(shape.positions.size() / 3) + " vertices, the base " +
-                             paths[0] + " has " + std::to_string(n));
+      return InvalidArgument(paths[i] + ": has " + std::to_string(shape.positions.size() / 3) +
+                             " vertices, the base " + paths[0] + " has " + std::to_string(n));
     }
     const size_t faces = std::min(shape.faces.size(), base.faces.size());
     for (size_t f = 0; f < faces; ++f) {
       if (shape.faces[f] != base.faces[f]) {
-        return InvalidArgument(paths[i] + ":" + std::to_string(shape.face_lines[f]) + ": face " + std::to_string(f + 1) +
-                               " differs from face " + std::to_string(f + 1) + " of the base (" + paths[0] + ":" +
-                               std::to_string(base.face_lines[f]) + "): connectivity must be identical");
+        return InvalidArgument(paths[i] + ":" + std::to_string(shape.face_lines[f]) + ": face " +
+                               std::to_string(f + 1) + " differs from face " +
+                               std::to_string(f + 1) + " of the base (" + paths[0] + ":" +
+                               std::to_string(base.face_lines[f]) +
+                               "): connectivity must be identical");
       }
     }
     if (shape.faces.size() != base.faces.size()) {
-      return InvalidArgument(paths[i] + ": has " + std::to_string(shape.faces.size()) + " faces, the base has " +
-                             std::to_string(base.faces.size()) + " (first missing or extra face: " +
-                             std::to_string(faces + 1) + ")");
+      return InvalidArgument(paths[i] + ": has " + std::to_string(shape.faces.size()) +
+                             " faces, the base has " + std::to_string(base.faces.size()) +
+                             " (first missing or extra face: " + std::to_string(faces + 1) + ")");
     }
     SparseTarget t;
     for (size_t v = 0; v < n; ++v) {
-      const float d[3] = {shape.positions[3 * v] - base.positions[3 * v], shape.positions[3 * v + 1] - base.positions[3 * v + 1],
+      const float d[3] = {shape.positions[3 * v] - base.positions[3 * v],
+                          shape.positions[3 * v + 1] - base.positions[3 * v + 1],
                           shape.positions[3 * v + 2] - base.positions[3 * v + 2]};
       if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f) continue;
       t.indices.push_back(static_cast<uint32_t>(v));
@@ -288,22 +303,25 @@ Status ReadTarget(const std::string& path, size_t vertex_count, float scale, Spa
     long long index = -1;
     auto r = std::from_chars(tok[0].data(), tok[0].data() + tok[0].size(), index);
     float d[3];
-    if (n != 4 || r.ec != std::errc() || r.ptr != tok[0].data() + tok[0].size() || !ParseFloat(tok[1], d[0]) ||
-        !ParseFloat(tok[2], d[1]) || !ParseFloat(tok[3], d[2])) {
-      return InvalidArgument(where + "malformed line '" + line.substr(0, 80) + "' (want: vertex-index dx dy dz)");
+    if (n != 4 || r.ec != std::errc() || r.ptr != tok[0].data() + tok[0].size() ||
+        !ParseFloat(tok[1], d[0]) || !ParseFloat(tok[2], d[1]) || !ParseFloat(tok[3], d[2])) {
+      return InvalidArgument(where + "malformed line '" + line.substr(0, 80) +
+                             "' (want: vertex-index dx dy dz)");
     }
     if (index < 0 || static_cast<size_t>(index) >= vertex_count) {
-      return InvalidArgument(where + "vertex index " + std::to_string(index) + " is beyond the mesh's " + std::to_string(vertex_count) +
-                             " vertices");
+      return InvalidArgument(where + "vertex index " + std::to_string(index) +
+                             " is beyond the mesh's " + std::to_string(vertex_count) + " vertices");
     }
     if (seen_line[index]) {
-      return InvalidArgument(where + "vertex " + std::to_string(index) + " is given twice (first on line " +
-                             std::to_string(seen_line[index]) + ")");
+      return InvalidArgument(where + "vertex " + std::to_string(index) +
+                             " is given twice (first on line " + std::to_string(seen_line[index]) +
+                             ")");
     }
     seen_line[index] = line_no;
     rows.push_back({static_cast<uint32_t>(index), {d[0] * scale, d[1] * scale, d[2] * scale}});
   }
-  std::sort(rows.begin(), rows.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::sort(rows.begin(), rows.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [i, d] : rows) {
     if (d[0] == 0.0f && d[1] == 0.0f && d[2] == 0.0f) continue;
     out.indices.push_back(i);
@@ -318,7 +336,8 @@ Status ReadTarget(const std::string& path, size_t vertex_count, float scale, Spa
 struct Mhclo {
   std::string obj_file, material_file;
   std::array<uint32_t, 3> scale_a{}, scale_b{};
-  std::array<float, 3> scale_by{0, 0, 0};  // 0: no scale line for the axis (the offset is taken as is).
+  std::array<float, 3> scale_by{0, 0,
+                                0};  // 0: no scale line for the axis (the offset is taken as is).
   std::vector<std::array<uint32_t, 3>> refs;
   std::vector<std::array<float, 3>> weights, offsets;
 };
@@ -330,7 +349,9 @@ Status ParseMhclo(const std::string& path, size_t base_vertices, Mhclo& out) {
   size_t line_no = 0;
   bool in_verts = false;
   constexpr size_t kMaxVerts = size_t{1} << 22;
-  auto bad = [&](const std::string& what) { return InvalidArgument(path + ":" + std::to_string(line_no) + ": " + what); };
+  auto bad = [&](const std::string& what) {
+    return InvalidArgument(path + ":" + std::to_string(line_no) + ": " + what);
+  };
   auto index = [&](const std::string& s, uint32_t& v) {
     size_t at = 0;
     const auto r = std::from_chars(s.data(), s.data() + s.size(), at);
@@ -347,16 +368,22 @@ Status ParseMhclo(const std::string& path, size_t base_vertices, Mhclo& out) {
     if (tok.empty() || tok[0][0] == '#') continue;
     const bool numeric = std::isdigit(static_cast<unsigned char>(tok[0][0]));
     if (in_verts && numeric) {
-      if (out.refs.size() >= kMaxVerts) return bad("more than " + std::to_string(kMaxVerts) + " vertices");
+      if (out.refs.size() >= kMaxVerts)
+        return bad("more than " + std::to_string(kMaxVerts) + " vertices");
       std::array<uint32_t, 3> r{};
       std::array<float, 3> w{1, 0, 0}, o{0, 0, 0};
       if (tok.size() == 1) {  // The base vertex itself.
-        if (!index(tok[0], r[0])) return bad("a base vertex index in 0.." + std::to_string(base_vertices - 1) + " expected");
+        if (!index(tok[0], r[0]))
+          return bad("a base vertex index in 0.." + std::to_string(base_vertices - 1) +
+                     " expected");
         r[1] = r[2] = r[0];
       } else if (tok.size() == 9) {
         for (int k = 0; k < 3; ++k) {
-          if (!index(tok[k], r[k])) return bad("a base vertex index in 0.." + std::to_string(base_vertices - 1) + " expected");
-          if (!ParseFloat(tok[3 + k], w[k]) || !ParseFloat(tok[6 + k], o[k]) || !std::isfinite(w[k]) || !std::isfinite(o[k])) {
+          if (!index(tok[k], r[k]))
+            return bad("a base vertex index in 0.." + std::to_string(base_vertices - 1) +
+                       " expected");
+          if (!ParseFloat(tok[3 + k], w[k]) || !ParseFloat(tok[6 + k], o[k]) ||
+              !std::isfinite(w[k]) || !std::isfinite(o[k])) {
             return bad("three finite weights and an offset expected");
           }
         }
@@ -379,7 +406,9 @@ Status ParseMhclo(const std::string& path, size_t base_vertices, Mhclo& out) {
     } else if (key == "x_scale" || key == "y_scale" || key == "z_scale") {
       const int axis = key[0] - 'x';
       float by = 0;
-      if (tok.size() != 4 || !index(tok[1], out.scale_a[axis]) || !index(tok[2], out.scale_b[axis]) || !ParseFloat(tok[3], by) || !(by > 0) || !std::isfinite(by)) {
+      if (tok.size() != 4 || !index(tok[1], out.scale_a[axis]) ||
+          !index(tok[2], out.scale_b[axis]) || !ParseFloat(tok[3], by) || !(by > 0) ||
+          !std::isfinite(by)) {
         return bad(key + " takes two base vertex indices and a positive size");
       }
       out.scale_by[axis] = by;
@@ -395,7 +424,8 @@ Status ParseMhclo(const std::string& path, size_t base_vertices, Mhclo& out) {
 void PlaceProxy(const Mhclo& m, std::span<const float> base, std::vector<float>& out) {
   std::array<float, 3> scale{1, 1, 1};
   for (int a = 0; a < 3; ++a) {
-    if (m.scale_by[a] > 0) scale[a] = std::abs(base[3 * m.scale_a[a] + a] - base[3 * m.scale_b[a] + a]) / m.scale_by[a];
+    if (m.scale_by[a] > 0)
+      scale[a] = std::abs(base[3 * m.scale_a[a] + a] - base[3 * m.scale_b[a] + a]) / m.scale_by[a];
   }
   out.assign(3 * m.refs.size(), 0.0f);
   for (size_t v = 0; v < m.refs.size(); ++v) {
@@ -414,17 +444,20 @@ struct ProxyPrimitive {
   Mhclo fit;
 };
 
-Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig, ProxyPrimitive& out) {
+Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig,
+                 ProxyPrimitive& out) {
   namespace fs = std::filesystem;
   if (Status s = ParseMhclo(path, base.size() / 3, out.fit); !s.ok()) return s;
   const fs::path dir = fs::path(path).parent_path();
   ObjMesh obj;
   if (Status s = ParseObj((dir / out.fit.obj_file).string(), obj); !s.ok()) return s;
   if (obj.positions.size() / 3 != out.fit.refs.size()) {
-    return InvalidArgument(path + ": " + std::to_string(out.fit.refs.size()) + " vertices placed for the " + std::to_string(obj.positions.size() / 3) +
+    return InvalidArgument(path + ": " + std::to_string(out.fit.refs.size()) +
+                           " vertices placed for the " + std::to_string(obj.positions.size() / 3) +
                            " of " + out.fit.obj_file);
   }
-  PlaceProxy(out.fit, base, obj.positions);  // The OBJ's own positions give way to where the proxy sits.
+  PlaceProxy(out.fit, base,
+             obj.positions);  // The OBJ's own positions give way to where the proxy sits.
   out.split = BasePrimitive(obj);
   // The material (.mhmat): its name, colour, texture and transparency. Its path is relative to
   // the proxy (MakeHuman's tree: ../materials/); beside the proxy when not there.
@@ -467,8 +500,10 @@ Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig,
         const fs::path file = beside(mhmat.parent_path(), name);
         Image image;
         image.name = file.filename().string();
-        if (const std::string why = ReadImageFile(file, image); !why.empty()) return InvalidArgument(path + ": its texture '" + name + "': " + why);
-        if (image.mime_type != "image/png" && image.mime_type != "image/jpeg") return InvalidArgument(path + ": its texture '" + name + "' is not a PNG or JPEG");
+        if (const std::string why = ReadImageFile(file, image); !why.empty())
+          return InvalidArgument(path + ": its texture '" + name + "': " + why);
+        if (image.mime_type != "image/png" && image.mime_type != "image/jpeg")
+          return InvalidArgument(path + ": its texture '" + name + "' is not a PNG or JPEG");
         mat.base_color_image = static_cast<int>(rig.images.size());
         rig.images.push_back(std::move(image));
       }
@@ -480,15 +515,17 @@ Status LoadProxy(const std::string& path, std::span<const float> base, Rig& rig,
 }
 
 // The proxy's move under a base target (`dense`: the target's deltas over every base vertex, zero
-// elsewhere), exact at the target's full weight: the three weighted vertices' moves and the offset's
-// change of scale.
-SparseTarget ProxyTarget(const ProxyPrimitive& proxy, std::span<const float> base, std::span<const float> dense) {
+// elsewhere), exact at the target's full weight: the three weighted vertices' moves and the
+// offset's change of scale.
+SparseTarget ProxyTarget(const ProxyPrimitive& proxy, std::span<const float> base,
+                         std::span<const float> dense) {
   const Mhclo& m = proxy.fit;
   std::array<float, 3> rescale{0, 0, 0};
   for (int a = 0; a < 3; ++a) {
     if (!(m.scale_by[a] > 0)) continue;
     const size_t i = 3 * m.scale_a[a] + a, j = 3 * m.scale_b[a] + a;
-    rescale[a] = (std::abs(base[i] + dense[i] - base[j] - dense[j]) - std::abs(base[i] - base[j])) / m.scale_by[a];
+    rescale[a] = (std::abs(base[i] + dense[i] - base[j] - dense[j]) - std::abs(base[i] - base[j])) /
+                 m.scale_by[a];
   }
   SparseTarget t;
   for (size_t v = 0; v < m.refs.size(); ++v) {
@@ -504,19 +541,60 @@ SparseTarget ProxyTarget(const ProxyPrimitive& proxy, std::span<const float> bas
   return SplitTarget(std::move(t), proxy.split.first_copy);
 }
 
+// A MakeHuman .target file and where it sits.
+struct TargetFile {
+  std::filesystem::path path;
+  std::string group;   // First sub-folder, or the folder's own name.
+  std::string folder;  // Sub-folder path relative to the folder given ("expression/units/asian").
+};
+
+// Targets: every .target under each folder, sorted by path (deterministic).
+Status ListTargetFiles(std::span<const std::string> target_dirs, std::vector<TargetFile>& files) {
+  namespace fs = std::filesystem;
+  for (const std::string& dir : target_dirs) {
+    std::vector<fs::path> found;
+    std::error_code ec;
+    // Linked folders are followed (a targets tree assembled from links); a cycle of links stops
+    // at the depth limit.
+    constexpr int kMaxDepth = 12;
+    for (auto it = fs::recursive_directory_iterator(
+             dir, fs::directory_options::follow_directory_symlink, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (it.depth() >= kMaxDepth) it.disable_recursion_pending();
+      if (it->is_regular_file() && it->path().extension() == ".target") found.push_back(it->path());
+    }
+    if (ec || !fs::is_directory(dir))
+      return NotFound("cannot read the targets folder '" + dir + "'");
+    if (found.empty()) return NotFound("no .target files under '" + dir + "'");
+    std::sort(found.begin(), found.end());
+    const std::string own = fs::path(dir).lexically_normal().filename().empty()
+                                ? fs::path(dir).lexically_normal().parent_path().filename().string()
+                                : fs::path(dir).lexically_normal().filename().string();
+    for (const fs::path& f : found) {
+      const fs::path rel = f.parent_path().lexically_relative(dir);
+      const bool top = rel.empty() || rel == ".";
+      files.push_back({f, top ? own : rel.begin()->string(), top ? own : rel.generic_string()});
+    }
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
-Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs, const MakeHumanOptions& options) {
+Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs,
+                          const MakeHumanOptions& options) {
   namespace fs = std::filesystem;
   ObjMesh obj;
   if (Status s = ParseObj(obj_path, obj); !s.ok()) return s;
   const size_t obj_vertices = obj.positions.size() / 3;
   const float scale = options.metres ? 0.1f : 1.0f;
   // The kept faces, and the vertices they use, in OBJ order.
-  const bool all = std::find(options.groups.begin(), options.groups.end(), "*") != options.groups.end();
+  const bool all =
+      std::find(options.groups.begin(), options.groups.end(), "*") != options.groups.end();
   std::vector<uint8_t> keep_group(obj.groups.size(), 0);
   for (size_t g = 0; g < obj.groups.size(); ++g) {
-    keep_group[g] = all || std::find(options.groups.begin(), options.groups.end(), obj.groups[g]) != options.groups.end();
+    keep_group[g] = all || std::find(options.groups.begin(), options.groups.end(), obj.groups[g]) !=
+                               options.groups.end();
   }
   std::vector<int32_t> remap(obj_vertices, -1);
   ObjMesh kept;
@@ -538,8 +616,10 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   kept.uvs = obj.uvs;
   Rig rig;
   rig.name = "makehuman";
-  std::vector<float> base(obj.positions.size());  // Every OBJ vertex (helpers too), scaled: where proxies sit.
-  std::transform(obj.positions.begin(), obj.positions.end(), base.begin(), [scale](float x) { return x * scale; });
+  std::vector<float> base(
+      obj.positions.size());  // Every OBJ vertex (helpers too), scaled: where proxies sit.
+  std::transform(obj.positions.begin(), obj.positions.end(), base.begin(),
+                 [scale](float x) { return x * scale; });
   BaseMesh split = BasePrimitive(kept);
   Primitive& p = split.primitive;
   // No CC0 MakeHuman skin texture is in our package sources: a skin-toned dielectric instead
@@ -556,53 +636,31 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     if (Status s = LoadProxy(options.proxies[k], base, rig, proxies[k]); !s.ok()) return s;
   }
   std::vector<float> dense(proxies.empty() ? 0 : base.size(), 0.0f);
-  // Targets: every .target under each folder, sorted by path (deterministic).
-  struct TargetFile {
-    fs::path path;
-    std::string group;   // First sub-folder, or the folder's own name.
-    std::string folder;  // Sub-folder path relative to the folder given ("expression/units/asian").
-  };
   std::vector<TargetFile> files;
-  for (const std::string& dir : target_dirs) {
-    std::vector<fs::path> found;
-    std::error_code ec;
-    // Linked folders are followed (a targets tree assembled from links); a cycle of links stops
-    // at the depth limit.
-    constexpr int kMaxDepth = 12;
-    for (auto it = fs::recursive_directory_iterator(dir, fs::directory_options::follow_directory_symlink, ec);
-         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-      if (it.depth() >= kMaxDepth) it.disable_recursion_pending();
-      if (it->is_regular_file() && it->path().extension() == ".target") found.push_back(it->path());
-    }
-    if (ec || !fs::is_directory(dir)) return NotFound("cannot read the targets folder '" + dir + "'");
-    if (found.empty()) return NotFound("no .target files under '" + dir + "'");
-    std::sort(found.begin(), found.end());
-    const std::string own = fs::path(dir).lexically_normal().filename().empty() ? fs::path(dir).lexically_normal().parent_path().filename().string()
-                                                                                 : fs::path(dir).lexically_normal().filename().string();
-    for (const fs::path& f : found) {
-      const fs::path rel = f.parent_path().lexically_relative(dir);
-      const bool top = rel.empty() || rel == ".";
-      files.push_back({f, top ? own : rel.begin()->string(), top ? own : rel.generic_string()});
-    }
-  }
+  if (Status s = ListTargetFiles(target_dirs, files); !s.ok()) return s;
   Mesh mesh;
   mesh.name = rig.name;
   for (const auto& [file, group, folder] : files) {
     SparseTarget full;
     if (Status s = ReadTarget(file.string(), obj_vertices, scale, full); !s.ok()) return s;
-    SparseTarget t = SplitTarget(RemapTarget(full, remap), split.first_copy);  // Vertices of geometry not kept drop out.
+    SparseTarget t = SplitTarget(RemapTarget(full, remap),
+                                 split.first_copy);  // Vertices of geometry not kept drop out.
     Shape shape;
     shape.name = file.stem().string();
     shape.group = group.empty() ? "default" : group;
-    // Same stem in two folders (MakeHuman's expression units per ethnicity): the folder path says which.
+    // Same stem in two folders (MakeHuman's expression units per ethnicity): the folder path says
+    // which.
     if (FindShape(rig, shape.name) >= 0) shape.name = folder + "/" + shape.name;
-    for (int n = 2; FindShape(rig, shape.name) >= 0; ++n) shape.name = folder + "/" + file.stem().string() + "#" + std::to_string(n);
+    for (int n = 2; FindShape(rig, shape.name) >= 0; ++n)
+      shape.name = folder + "/" + file.stem().string() + "#" + std::to_string(n);
     mesh.target_shapes.push_back(static_cast<uint32_t>(rig.shapes.size()));
     rig.shapes.push_back(std::move(shape));
     p.targets.push_back(std::move(t));
     if (proxies.empty()) continue;
-    for (size_t k = 0; k < full.indices.size(); ++k) std::copy_n(&full.position_deltas[3 * k], 3, &dense[3 * full.indices[k]]);
-    for (ProxyPrimitive& proxy : proxies) proxy.split.primitive.targets.push_back(ProxyTarget(proxy, base, dense));
+    for (size_t k = 0; k < full.indices.size(); ++k)
+      std::copy_n(&full.position_deltas[3 * k], 3, &dense[3 * full.indices[k]]);
+    for (ProxyPrimitive& proxy : proxies)
+      proxy.split.primitive.targets.push_back(ProxyTarget(proxy, base, dense));
     for (uint32_t v : full.indices) std::fill_n(&dense[3 * v], 3, 0.0f);
   }
   std::vector<Primitive> primitives;
@@ -613,7 +671,8 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
     std::ifstream f(options.modifiers, std::ios::binary);
     if (!f) return NotFound("cannot open '" + options.modifiers + "'");
     const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (Status s = ApplyMakeHumanModifiers(rig, text); !s.ok()) return Prefixed(s, options.modifiers + ": ");
+    if (Status s = ApplyMakeHumanModifiers(rig, text); !s.ok())
+      return Prefixed(s, options.modifiers + ": ");
   }
   RepairNames(rig);
   if (Status s = ValidateRig(rig); !s.ok()) return s;

@@ -3,9 +3,8 @@
 
 #include <dirent.h>
 
-#include <cstdio>
-
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -53,8 +52,9 @@ void main() {
 
 // One program per variant (GlContext::Program): MODE (0 shaded with the material, 1 flat colour,
 // 2 heatmap, 3 normals, 4 clay), ALPHA_MODE (0 opaque, 1 mask, 2 blend), HAS_* (the material's
-// textures) and LABELS (the label planes written too) are defined before this text. llvmpipe runs both sides of every branch with masks,
-// so one program branching on uniforms paid for every mode and every texture on each fragment.
+// textures) and LABELS (the label planes written too) are defined before this text. llvmpipe runs
+// both sides of every branch with masks, so one program branching on uniforms paid for every mode
+// and every texture on each fragment.
 const char* kFragmentShader = R"(
 in vec3 v_pos;
 in vec3 v_normal;
@@ -267,8 +267,17 @@ GlContext::~GlContext() {
 
 // Creates the context and makes it current on the calling thread.
 bool GlContext::Init() {
-  const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
-                         OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 3, 0};
+  const int attribs[] = {OSMESA_FORMAT,
+                         OSMESA_RGBA,
+                         OSMESA_DEPTH_BITS,
+                         24,
+                         OSMESA_PROFILE,
+                         OSMESA_CORE_PROFILE,
+                         OSMESA_CONTEXT_MAJOR_VERSION,
+                         3,
+                         OSMESA_CONTEXT_MINOR_VERSION,
+                         3,
+                         0};
   ctx = OSMesaCreateContextAttribs(attribs, nullptr);
   if (!ctx) {
     error = "OSMesa could not create a GL 3.3 core context";
@@ -280,10 +289,14 @@ bool GlContext::Init() {
   GLint extensions = 0;
   glGetIntegerv(GL_NUM_EXTENSIONS, &extensions);
   for (GLint i = 0; i < extensions; ++i) {
-    if (std::strcmp(reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))), "GL_MESA_pack_invert") == 0) pack_invert = true;
+    if (std::strcmp(
+            reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))),
+            "GL_MESA_pack_invert") == 0)
+      pack_invert = true;
   }
   vertex_shader = Compile(GL_VERTEX_SHADER, kVertexShader);
-  if (!vertex_shader || !Program(0)) return false;  // The shaded, untextured variant: every render's first.
+  if (!vertex_shader || !Program(0))
+    return false;  // The shaded, untextured variant: every render's first.
   glGenVertexArrays(1, &vao);
   glGenBuffers(1, &vbo);
   glGenBuffers(1, &ibo);
@@ -317,12 +330,13 @@ GLuint GlContext::Program(int key) {
   for (const auto& [k, p] : programs) {
     if (k == key) return p;
   }
-  const std::string defines = "#version 330 core\n#define MODE " + std::to_string(key & 7) + "\n#define ALPHA_MODE " +
-                              std::to_string((key >> 3) & 3) + "\n#define HAS_TEXTURE " + std::to_string((key >> 5) & 1) +
-                              "\n#define HAS_METAL_ROUGH " + std::to_string((key >> 6) & 1) + "\n#define HAS_NORMAL_MAP " +
-                              std::to_string((key >> 7) & 1) + "\n#define HAS_OCCLUSION " + std::to_string((key >> 8) & 1) +
-                              "\n#define HAS_EMISSIVE " + std::to_string((key >> 9) & 1) + "\n#define LABELS " +
-                              std::to_string((key >> 10) & 1) + "\n";
+  const std::string defines =
+      "#version 330 core\n#define MODE " + std::to_string(key & 7) + "\n#define ALPHA_MODE " +
+      std::to_string((key >> 3) & 3) + "\n#define HAS_TEXTURE " + std::to_string((key >> 5) & 1) +
+      "\n#define HAS_METAL_ROUGH " + std::to_string((key >> 6) & 1) + "\n#define HAS_NORMAL_MAP " +
+      std::to_string((key >> 7) & 1) + "\n#define HAS_OCCLUSION " + std::to_string((key >> 8) & 1) +
+      "\n#define HAS_EMISSIVE " + std::to_string((key >> 9) & 1) + "\n#define LABELS " +
+      std::to_string((key >> 10) & 1) + "\n";
   const GLuint fs = Compile(GL_FRAGMENT_SHADER, (defines + kFragmentShader).c_str());
   if (!fs) return 0;
   const GLuint p = glCreateProgram();
@@ -391,9 +405,12 @@ void GlContext::BindTarget(int w, int h, bool srgb8, bool labels) {
   }
   const GLenum buffers[3] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2};
   glDrawBuffers(labels ? 3 : 1, buffers);
-  // Shader outputs are linear: GL converts them (and the clear colour, and blends) to sRGB at the store.
-  if (srgb8) glEnable(GL_FRAMEBUFFER_SRGB);
-  else glDisable(GL_FRAMEBUFFER_SRGB);
+  // Shader outputs are linear: GL converts them (and the clear colour, and blends) to sRGB at the
+  // store.
+  if (srgb8)
+    glEnable(GL_FRAMEBUFFER_SRGB);
+  else
+    glDisable(GL_FRAMEBUFFER_SRGB);
 }
 
 // The GL texture of an encoded image, decoded once per thread (a few kept).
@@ -410,17 +427,20 @@ GLuint GlContext::TextureFor(const facespace::Image& image, bool srgb_data) {
   auto decoded = Decode(image.bytes, image.mime_type);
   if (!decoded.ok()) return 0;
   const render::Image& im = decoded.value();
-  std::vector<unsigned char> srgb(im.rgba.size());  // The file's own 8-bit values (Decode made them linear).
+  std::vector<unsigned char> srgb(
+      im.rgba.size());  // The file's own 8-bit values (Decode made them linear).
   for (size_t i = 0; i < im.rgba.size(); ++i) {
     const float c = im.rgba[i];
-    const float e = (i % 4 == 3) ? c : (c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1 / 2.4f) - 0.055f);
+    const float e =
+        (i % 4 == 3) ? c : (c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1 / 2.4f) - 0.055f);
     srgb[i] = static_cast<unsigned char>(std::lround(std::clamp(e, 0.0f, 1.0f) * 255.0f));
   }
   GLuint id = 0;
   glGenTextures(1, &id);
   glBindTexture(GL_TEXTURE_2D, id);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexImage2D(GL_TEXTURE_2D, 0, srgb_data ? GL_SRGB8_ALPHA8 : GL_RGBA8, im.width, im.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, srgb.data());
+  glTexImage2D(GL_TEXTURE_2D, 0, srgb_data ? GL_SRGB8_ALPHA8 : GL_RGBA8, im.width, im.height, 0,
+               GL_RGBA, GL_UNSIGNED_BYTE, srgb.data());
   glGenerateMipmap(GL_TEXTURE_2D);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
@@ -440,11 +460,14 @@ int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5], bool labels
   return key;
 }
 
-int RasterThreads() { return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 16u)); }
+int RasterThreads() {
+  return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 16u));
+}
 
 namespace {
 
-// The process's threads whose name starts with "llvmpipe-" (llvmpipe names its rasteriser threads so).
+// The process's threads whose name starts with "llvmpipe-" (llvmpipe names its rasteriser threads
+// so).
 std::vector<pid_t> FindRasterThreads() {
   std::vector<pid_t> out;
   DIR* dir = opendir("/proc/self/task");
@@ -454,7 +477,8 @@ std::vector<pid_t> FindRasterThreads() {
     char comm[32] = {};
     const std::string path = std::string("/proc/self/task/") + e->d_name + "/comm";
     if (FILE* f = std::fopen(path.c_str(), "r")) {
-      if (std::fgets(comm, sizeof comm, f) && std::strncmp(comm, "llvmpipe-", 9) == 0) out.push_back(static_cast<pid_t>(std::atoi(e->d_name)));
+      if (std::fgets(comm, sizeof comm, f) && std::strncmp(comm, "llvmpipe-", 9) == 0)
+        out.push_back(static_cast<pid_t>(std::atoi(e->d_name)));
       std::fclose(f);
     }
   }

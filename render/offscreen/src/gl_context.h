@@ -1,10 +1,10 @@
-// The GL side of the OSMesa renderer: one context's objects (shaders, targets, textures) and the pool
-// of contexts every thread shares (render.cpp draws with them; the shaders are in gl_context.cpp).
+// The GL side of the OSMesa renderer: one context's objects (shaders, targets, textures) and the
+// pool of contexts every thread shares (render.cpp draws with them; the shaders are in
+// gl_context.cpp).
 #pragma once
-#define GL_GLEXT_PROTOTYPES 1
-#include <GL/osmesa.h>
 #include <GL/gl.h>
 #include <GL/glext.h>
+#include <GL/osmesa.h>
 
 #include <algorithm>
 #include <atomic>
@@ -26,8 +26,9 @@ namespace facespace::render {
 
 // The key of an encoded image: the whole file up to 64 KB, else its first and last 32 KB (a PNG's
 // ends hold the checksums of all its pixels) and every 61st 8-byte word between, mixed eight
-// bytes at a time (FaceCap's 330 KB texture: 29 us a render, byte by byte 78 us). Sampling alone gave two small
-// flat-colour PNGs of the same length the same key (the second drew with the first's colour).
+// bytes at a time (FaceCap's 330 KB texture: 29 us a render, byte by byte 78 us). Sampling alone
+// gave two small flat-colour PNGs of the same length the same key (the second drew with the first's
+// colour).
 uint64_t TextureKey(std::span<const unsigned char> bytes, bool srgb_data);
 
 struct Texture {
@@ -45,11 +46,12 @@ struct GlContext {
   // floats (RGBA32F), and 8-bit sRGB (SRGB8_ALPHA8) for pictures that only go to 8-bit files.
   struct Target {
     GLuint fbo = 0, color = 0, depth = 0;
-    GLuint labels[2] = {0, 0};  // RGBA32F distance and normal, R32F segment: RenderOptions::labels, made when first asked.
+    GLuint labels[2] = {0, 0};  // RGBA32F distance and normal, R32F segment: RenderOptions::labels,
+                                // made when first asked.
     int w = 0, h = 0;
   };
   Target targets[2];
-  bool pack_invert = false;  // GL_MESA_pack_invert: glReadPixels can give the rows top first.
+  bool pack_invert = false;     // GL_MESA_pack_invert: glReadPixels can give the rows top first.
   std::list<Texture> textures;  // Most recent first; a few kept.
   // The last render's vertex arrays and read-back, kept so that a render of a size seen
   // before allocates nothing (a 512x512 read-back is 4 MB of floats: new pages each time).
@@ -77,8 +79,8 @@ struct GlContext {
   void TrimLarge();
   void FreeTarget(Target& t);  // Its framebuffer and renderbuffers deleted, emptied.
 
-  // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h, drawing
-  // to its colour and, with `labels`, to its two label planes too (attachments 1 and 2).
+  // Binds the target of that kind (srgb8: 8-bit sRGB, else float), made or resized to w x h,
+  // drawing to its colour and, with `labels`, to its two label planes too (attachments 1 and 2).
   void BindTarget(int w, int h, bool srgb8, bool labels = false);
 
   // The GL texture of an encoded image, decoded once per thread (a few kept).
@@ -93,29 +95,40 @@ int ShaderKey(int mode, int alpha_mode, const GLuint (&textures)[5], bool labels
 
 // llvmpipe's rasteriser threads per context: one per core, at most 16 (llvmpipe's own limit).
 int RasterThreads();
-// The CPU-seconds llvmpipe's rasteriser threads have spent, all of them: one set serves every context of the
-// process, so each lease is charged (ChargeHelperCpu) what they spent while it was held, shared among the
-// leases held meanwhile.
+// The CPU-seconds llvmpipe's rasteriser threads have spent, all of them: one set serves every
+// context of the process, so each lease is charged (ChargeHelperCpu) what they spent while it was
+// held, shared among the leases held meanwhile.
 double RasterCpu();
 
-// The GL contexts of one renderer, shared by every thread that draws with it. A render leases one for its whole run (vertex arrays,
-// draw, read-back), so at most `limit` renders hold that memory at once, about 20 MB each at
-// 1024 x 1024 samples, however many threads serve requests; the rest wait their turn. With
-// llvmpipe rasterising each draw on every core, more contexts than cores would not draw faster.
+// The GL contexts of one renderer, shared by every thread that draws with it. A render leases one
+// for its whole run (vertex arrays, draw, read-back), so at most `limit` renders hold that memory
+// at once, about 20 MB each at 1024 x 1024 samples, however many threads serve requests; the rest
+// wait their turn. With llvmpipe rasterising each draw on every core, more contexts than cores
+// would not draw faster.
 class OsMesaRenderer::ContextPool {
  public:
   class Lease {
    public:
-    Lease(ContextPool* pool, std::unique_ptr<GlContext> context)
-        : pool_(pool), context_(std::move(context)), held_with_(++pool->leased_), raster_mark_(RasterCpu()) {}
+    Lease(ContextPool* pool, std::unique_ptr<GlContext> context, HelperCpu* helper_cpu)
+        : pool_(pool),
+          context_(std::move(context)),
+          helper_cpu_(helper_cpu),
+          held_with_(++pool->leased_),
+          raster_mark_(RasterCpu()) {}
     Lease(Lease&& o) noexcept
-        : pool_(o.pool_), context_(std::move(o.context_)), held_with_(o.held_with_), raster_mark_(o.raster_mark_) {}
+        : pool_(o.pool_),
+          context_(std::move(o.context_)),
+          helper_cpu_(o.helper_cpu_),
+          held_with_(o.held_with_),
+          raster_mark_(o.raster_mark_) {}
     Lease& operator=(Lease&&) = delete;
     ~Lease() {
       if (!context_) return;
-      // The rasteriser's CPU while this lease was held, its share of it charged to the work it drew for.
+      // The rasteriser's CPU while this lease was held, its share of it charged to the work it drew
+      // for.
       const int now = pool_->leased_--;
-      ChargeHelperCpu((RasterCpu() - raster_mark_) / std::max(1.0, 0.5 * (held_with_ + now)));
+      ChargeHelperCpu(helper_cpu_,
+                      (RasterCpu() - raster_mark_) / std::max(1.0, 0.5 * (held_with_ + now)));
       pool_->Release(std::move(context_));
     }
     GlContext* get() const { return context_.get(); }
@@ -123,18 +136,21 @@ class OsMesaRenderer::ContextPool {
    private:
     ContextPool* pool_;
     std::unique_ptr<GlContext> context_;
+    HelperCpu* helper_cpu_;   // Charged the rasteriser's CPU for this lease (null: nowhere).
     int held_with_ = 1;       // Leases held when this one began, itself included.
     double raster_mark_ = 0;  // RasterCpu() then.
   };
 
-  // A context current on this thread, or the reason there is none.
-  Result<Lease> Acquire() {
+  // A context current on this thread, or the reason there is none; its lease charges `helper_cpu`.
+  Result<Lease> Acquire(HelperCpu* helper_cpu = nullptr) {
     std::unique_ptr<GlContext> context;
     {
       // First come, first served: a ticket each, so no render waits behind later ones.
       std::unique_lock lock(mu_);
       const uint64_t ticket = next_ticket_++;
-      cv_.wait(lock, [this, ticket] { return ticket == serving_ && (!idle_.empty() || live_ < Limit()); });
+      cv_.wait(lock, [this, ticket] {
+        return ticket == serving_ && (!idle_.empty() || live_ < Limit());
+      });
       ++serving_;
       cv_.notify_all();  // The next ticket may go too if another context is free.
       if (!idle_.empty()) {
@@ -145,16 +161,17 @@ class OsMesaRenderer::ContextPool {
       }
     }
     if (context) {
-      if (context->MakeCurrent()) return Lease(this, std::move(context));
+      if (context->MakeCurrent()) return Lease(this, std::move(context), helper_cpu);
       Discard();
       return Internal("renderer unavailable: " + context->error);
     }
     // llvmpipe rasterises each draw on one thread per core (unless LP_NUM_THREADS says otherwise):
     // faster than drawing on the calling thread (LP_NUM_THREADS=0), alone and under load
     // (figures in tests/bench/README.md).
-    std::call_once(env_once_, [] { setenv("LP_NUM_THREADS", std::to_string(RasterThreads()).c_str(), 0); });
+    std::call_once(env_once_,
+                   [] { setenv("LP_NUM_THREADS", std::to_string(RasterThreads()).c_str(), 0); });
     context = std::make_unique<GlContext>();
-    if (context->Init()) return Lease(this, std::move(context));
+    if (context->Init()) return Lease(this, std::move(context), helper_cpu);
     const std::string error = context->error;
     context.reset();
     Discard();
@@ -196,9 +213,10 @@ class OsMesaRenderer::ContextPool {
   std::condition_variable cv_;
   std::atomic<int> leased_{0};  // Leases held now.
   std::vector<std::unique_ptr<GlContext>> idle_;
-  int live_ = 0;    // Contexts created and not destroyed: idle or leased.
-  int limit_ = 0;   // 0: one per core.
-  const int cores_ = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));  // Asked once: a syscall.
+  int live_ = 0;   // Contexts created and not destroyed: idle or leased.
+  int limit_ = 0;  // 0: one per core.
+  const int cores_ =
+      std::max(1, static_cast<int>(std::thread::hardware_concurrency()));  // Asked once: a syscall.
   uint64_t next_ticket_ = 0, serving_ = 0;
   std::once_flag env_once_;
 };

@@ -1,27 +1,27 @@
-// Images: encoding and decoding (OpenImageIO, through facespace/oiio/module.h), text, legends and contact sheets.
-#include <webp/encode.h>
+// Images: encoding and decoding (OpenImageIO, through facespace/oiio/module.h), text, legends and
+// contact sheets.
 #include <isa-l/igzip_lib.h>
+#include <unistd.h>
+#include <webp/encode.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
-#include <unistd.h>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <mutex>
 #include <span>
 #include <thread>
 
-#include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
-
 #include "facespace/engine/color.h"
-#include "facespace/offscreen/render.h"
 #include "facespace/engine/cpu.h"
-#include "internal.h"
+#include "facespace/offscreen/render.h"
 #include "facespace/oiio/module.h"
+#include "internal.h"
 #include "text.h"
 
 namespace facespace::render {
@@ -59,7 +59,8 @@ void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> li
 // with method 0 at `quality` (alpha kept, lossless), or lossless at quality 100. Measured on the
 // 512x512 FaceCap render: quality 90 4.7 ms for 5.8 KB (PNG: 4.0 ms for 36 KB); lossless 9.6 ms
 // for 33 KB (OpenImageIO's: 349 ms for 15 KB).
-Result<std::string> EncodeWebp(std::span<const unsigned char> rgba, int width, int height, int quality) {
+Result<std::string> EncodeWebp(std::span<const unsigned char> rgba, int width, int height,
+                               int quality) {
   WebPConfig config;
   if (!WebPConfigInit(&config)) return Internal("libwebp: bad version");
   config.method = 0;
@@ -74,8 +75,10 @@ Result<std::string> EncodeWebp(std::span<const unsigned char> rgba, int width, i
   WebPMemoryWriterInit(&writer);
   picture.writer = WebPMemoryWrite;
   picture.custom_ptr = &writer;
-  const bool ok = WebPPictureImportRGBA(&picture, rgba.data(), width * 4) && WebPEncode(&config, &picture);
-  std::string bytes = ok ? std::string(reinterpret_cast<const char*>(writer.mem), writer.size) : std::string();
+  const bool ok =
+      WebPPictureImportRGBA(&picture, rgba.data(), width * 4) && WebPEncode(&config, &picture);
+  std::string bytes =
+      ok ? std::string(reinterpret_cast<const char*>(writer.mem), writer.size) : std::string();
   const int error = picture.error_code;
   WebPPictureFree(&picture);
   WebPMemoryWriterClear(&writer);
@@ -89,8 +92,8 @@ Result<std::string> EncodeWebp(std::span<const unsigned char> rgba, int width, i
 // 2^-13 every value rounds to 0); a bucket keeps the step of its first value, and the low mantissa
 // bits where the next step begins inside it, if one does (no bucket holds two: the steps are at
 // least 0.0003 apart in linear light, the buckets at most 0.002 wide near 1 where the steps are
-// 0.009 apart). 10 KB that stay in L1, where the 64 KB table of 65,536 steps it replaced missed L1 on
-// most lookups: the PNG of the 512x512 FaceCap float image 3.3 -> 2.2 ms (render_bench).
+// 0.009 apart). 10 KB that stay in L1, where the 64 KB table of 65,536 steps it replaced missed L1
+// on most lookups: the PNG of the 512x512 FaceCap float image 3.3 -> 2.2 ms (render_bench).
 class SrgbEncoder {
  public:
   static const SrgbEncoder& Get() {
@@ -107,9 +110,11 @@ class SrgbEncoder {
   }
 
  private:
-  static unsigned char Exact(float v) { return static_cast<unsigned char>(std::lround(SrgbEncode(v) * 255.0)); }
+  static unsigned char Exact(float v) {
+    return static_cast<unsigned char>(std::lround(SrgbEncode(v) * 255.0));
+  }
 
-  static constexpr float kLow = 1.0f / 8192.0f;                      // 2^-13.
+  static constexpr float kLow = 1.0f / 8192.0f;                         // 2^-13.
   static constexpr uint32_t kFirst = (uint32_t{127 - 13} << 23) >> 15;  // Its bits' bucket.
   static constexpr uint32_t kBuckets = 13 * 256;
   SrgbEncoder() {
@@ -121,11 +126,15 @@ class SrgbEncoder {
     for (uint32_t b = 0; b < kBuckets; ++b) {
       const uint32_t first = (kFirst + b) << 15;
       base_[b] = at(first);
-      uint32_t lo = 0, hi = 0x8000;  // The first low-bits value whose step is above the base (0x8000: none).
+      uint32_t lo = 0,
+               hi =
+                   0x8000;  // The first low-bits value whose step is above the base (0x8000: none).
       while (lo < hi) {
         const uint32_t mid = (lo + hi) / 2;
-        if (at(first | mid) > base_[b]) hi = mid;
-        else lo = mid + 1;
+        if (at(first | mid) > base_[b])
+          hi = mid;
+        else
+          lo = mid + 1;
       }
       step_[b] = static_cast<uint16_t>(lo);
     }
@@ -138,7 +147,8 @@ class SrgbEncoder {
 const float* LinearOf8() {
   static const std::array<float, 256> table = [] {
     std::array<float, 256> t{};
-    for (int i = 0; i < 256; ++i) t[static_cast<size_t>(i)] = SrgbToLinear(static_cast<float>(i) / 255.0f);
+    for (int i = 0; i < 256; ++i)
+      t[static_cast<size_t>(i)] = SrgbToLinear(static_cast<float>(i) / 255.0f);
     return t;
   }();
   return table.data();
@@ -170,7 +180,8 @@ void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
   const float* linear_of = LinearOf8();
   for (size_t x = 0; x < width; ++x, in += 4, out += 3) {
     const float a = static_cast<float>(in[3]) / 255.0f;
-    for (int c = 0; c < 3; ++c) out[c] = in[3] == 255 ? in[c] : srgb(linear_of[in[c]] * a + (1.0f - a));
+    for (int c = 0; c < 3; ++c)
+      out[c] = in[3] == 255 ? in[c] : srgb(linear_of[in[c]] * a + (1.0f - a));
   }
 }
 
@@ -179,7 +190,8 @@ std::vector<float> LinearPixels(const Image& image) {
   if (!image.rgba.empty()) return image.rgba;
   std::vector<float> out(image.srgb8.size());
   const float* linear_of = LinearOf8();
-  for (size_t i = 0; i < out.size(); ++i) out[i] = i % 4 == 3 ? static_cast<float>(image.srgb8[i]) / 255.0f : linear_of[image.srgb8[i]];
+  for (size_t i = 0; i < out.size(); ++i)
+    out[i] = i % 4 == 3 ? static_cast<float>(image.srgb8[i]) / 255.0f : linear_of[image.srgb8[i]];
   return out;
 }
 
@@ -231,7 +243,8 @@ class DeflaterPool {
 
 // (internal.h)
 void PutBigEndian(std::string& out, uint32_t v) {
-  const char b[4] = {static_cast<char>(v >> 24), static_cast<char>(v >> 16), static_cast<char>(v >> 8), static_cast<char>(v)};
+  const char b[4] = {static_cast<char>(v >> 24), static_cast<char>(v >> 16),
+                     static_cast<char>(v >> 8), static_cast<char>(v)};
   out.append(b, 4);
 }
 
@@ -242,7 +255,8 @@ void CloseChunk(std::string& out, size_t start, const char* type) {
   for (int i = 0; i < 4; ++i) out[start + i] = static_cast<char>(length >> (24 - 8 * i));
   std::memcpy(&out[start + 4], type, 4);
   const auto* bytes = reinterpret_cast<const Bytef*>(out.data() + start + 4);
-  PutBigEndian(out, static_cast<uint32_t>(crc32(crc32(0, nullptr, 0), bytes, static_cast<uInt>(length + 4))));
+  PutBigEndian(out, static_cast<uint32_t>(
+                        crc32(crc32(0, nullptr, 0), bytes, static_cast<uInt>(length + 4))));
 }
 
 void Chunk(std::string& out, const char* type, const std::string& data) {
@@ -253,13 +267,13 @@ void Chunk(std::string& out, const char* type, const std::string& data) {
 }
 
 // (internal.h) igzip deflates our filtered rows many times faster than zlib level 1 (level 1: 0.45
-// against 3.05 ms on the 512x512 FaceCap render, tests/bench/README.md), so one thread deflates what
-// two parts on two threads did with zlib. Level 0, not 1: on this machine level 1's output for the same
-// bytes changed about once in a thousand images (and one label EXR in a few hundred samples), only
-// inside a busy process (never in a harness, the same rows deflated 100,000 times), which broke the
-// dataset's same seed, same bytes; level 0 never did in the same stress, is faster, and makes files
-// about a seventh larger (67.4 against 76.6 KB). Every field is set (hist_bits among them), not only
-// those isal_deflate_init sets.
+// against 3.05 ms on the 512x512 FaceCap render, tests/bench/README.md), so one thread deflates
+// what two parts on two threads did with zlib. Level 0, not 1: on this machine level 1's output for
+// the same bytes changed about once in a thousand images (and one label EXR in a few hundred
+// samples), only inside a busy process (never in a harness, the same rows deflated 100,000 times),
+// which broke the dataset's same seed, same bytes; level 0 never did in the same stress, is faster,
+// and makes files about a seventh larger (67.4 against 76.6 KB). Every field is set (hist_bits
+// among them), not only those isal_deflate_init sets.
 void StartDeflate(isal_zstream& z) {
   z = isal_zstream{};
   isal_deflate_init(&z);
@@ -268,23 +282,27 @@ void StartDeflate(isal_zstream& z) {
   z.flush = NO_FLUSH;
 }
 
-// (internal.h) The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG): an 8-bit
-// draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in parts on
-// up to one thread per core (4 at most), as the conversion costs more than igzip's deflate (512x512
-// from floats: about 1.5 ms on one thread).
-std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vector<unsigned char>& room) {
+// (internal.h) The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white (JPEG):
+// an 8-bit draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in
+// parts on up to one thread per core (4 at most), as the conversion costs more than igzip's deflate
+// (512x512 from floats: about 1.5 ms on one thread).
+std::span<const unsigned char> Pixels8(const Image& image, bool alpha,
+                                       std::vector<unsigned char>& room, HelperCpu* helper_cpu) {
   if (alpha && image.rgba.empty()) return image.srgb8;
-  static const int cores = static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+  static const int cores =
+      static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
   const size_t row = static_cast<size_t>(image.width) * (alpha ? 4 : 3);
   room.resize(row * image.height);
-  const int parts = static_cast<int>(std::clamp<long long>(static_cast<long long>(image.width) * image.height / (128 * 1024), 1, cores));
+  const int parts = static_cast<int>(std::clamp<long long>(
+      static_cast<long long>(image.width) * image.height / (128 * 1024), 1, cores));
   auto run = [&](int k) {
     const int first = static_cast<int>(static_cast<long long>(image.height) * k / parts);
     const int end = static_cast<int>(static_cast<long long>(image.height) * (k + 1) / parts);
     for (int y = first; y < end; ++y) Row8(image, y, alpha, &room[static_cast<size_t>(y) * row]);
   };
   std::vector<std::thread> helpers;
-  std::vector<double> spent(static_cast<size_t>(parts), 0.0);  // Each helper's CPU, charged to the caller's work.
+  std::vector<double> spent(static_cast<size_t>(parts),
+                            0.0);  // Each helper's CPU, charged to the caller's work.
   for (int k = 1; k < parts; ++k) {
     helpers.emplace_back([&run, &spent, k] {
       run(k);
@@ -293,22 +311,21 @@ std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vect
   }
   run(0);
   for (std::thread& t : helpers) t.join();
-  for (double s : spent) ChargeHelperCpu(s);
+  for (double s : spent) ChargeHelperCpu(helper_cpu, s);
   return room;
 }
 
 namespace {
 
-
 // PNG, 8-bit sRGB (RGB when opaque, else RGBA), written here rather than through OpenImageIO: the
 // 8-bit pixels (the draw's own, or a float image converted) UP-filtered in batches, each batch
 // deflated as it is made (StartDeflate) into one IDAT. The buffers come from a pool (not allocated
 // and faulted in again per image).
-Result<std::string> EncodePng(const Image& image) {
+Result<std::string> EncodePng(const Image& image, HelperCpu* helper_cpu) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
   Deflater& d = *lease;
   const size_t width = static_cast<size_t>(image.width), stride = width * 4;
-  const std::span<const unsigned char> px = Pixels8(image, true, d.converted);
+  const std::span<const unsigned char> px = Pixels8(image, true, d.converted, helper_cpu);
   const bool opaque = Opaque(px);
   const size_t row_bytes = width * (opaque ? 3 : 4), line_bytes = row_bytes + 1;
   const size_t batch = std::max<size_t>(1, (64 * 1024) / line_bytes);  // Rows deflated per call.
@@ -322,14 +339,17 @@ Result<std::string> EncodePng(const Image& image) {
   std::string header;
   PutBigEndian(header, static_cast<uint32_t>(image.width));
   PutBigEndian(header, static_cast<uint32_t>(image.height));
-  header += std::string(opaque ? "\x08\x02\x00\x00\x00" : "\x08\x06\x00\x00\x00", 5);  // 8 bits, RGB or RGBA, deflate, filters, no interlace.
+  header += std::string(opaque ? "\x08\x02\x00\x00\x00" : "\x08\x06\x00\x00\x00",
+                        5);  // 8 bits, RGB or RGBA, deflate, filters, no interlace.
   Chunk(out, "IHDR", header);
-  Chunk(out, "sRGB", std::string(1, '\0'));  // Perceptual; with gAMA and cHRM as the PNG spec recommends.
+  Chunk(out, "sRGB",
+        std::string(1, '\0'));  // Perceptual; with gAMA and cHRM as the PNG spec recommends.
   std::string gama;
   PutBigEndian(gama, 45455);
   Chunk(out, "gAMA", gama);
   std::string chrm;
-  for (uint32_t v : {31270u, 32900u, 64000u, 33000u, 30000u, 60000u, 15000u, 6000u}) PutBigEndian(chrm, v);
+  for (uint32_t v : {31270u, 32900u, 64000u, 33000u, 30000u, 60000u, 15000u, 6000u})
+    PutBigEndian(chrm, v);
   Chunk(out, "cHRM", chrm);
   const size_t idat = out.size();
   out.append(8, '\0');
@@ -347,10 +367,12 @@ Result<std::string> EncodePng(const Image& image) {
       line[0] = 2;  // UP: every byte minus the byte above it.
       if (opaque) {
         for (size_t x = 0; x < width; ++x) {
-          for (int c = 0; c < 3; ++c) line[1 + 3 * x + c] = static_cast<unsigned char>(cur[4 * x + c] - above[4 * x + c]);
+          for (int c = 0; c < 3; ++c)
+            line[1 + 3 * x + c] = static_cast<unsigned char>(cur[4 * x + c] - above[4 * x + c]);
         }
       } else {
-        for (size_t i = 0; i < stride; ++i) line[1 + i] = static_cast<unsigned char>(cur[i] - above[i]);
+        for (size_t i = 0; i < stride; ++i)
+          line[1 + i] = static_cast<unsigned char>(cur[i] - above[i]);
       }
     }
     z.next_in = d.lines.data();
@@ -364,8 +386,10 @@ Result<std::string> EncodePng(const Image& image) {
       if (isal_deflate(&z) != COMP_OK) return Internal("igzip: deflate failed");
       written = out.size() - z.avail_out;
       if (z.avail_in == 0 && (!z.end_of_stream || z.internal_state.state == ZSTATE_END)) break;
-      if (z.avail_out == 0) out.resize(out.size() + out.size() / 2);
-      else if (z.avail_in == in_before && written == written_before) return Internal("igzip: deflate made no progress");
+      if (z.avail_out == 0)
+        out.resize(out.size() + out.size() / 2);
+      else if (z.avail_in == in_before && written == written_before)
+        return Internal("igzip: deflate made no progress");
     }
   }
   out.resize(written);
@@ -377,16 +401,19 @@ Result<std::string> EncodePng(const Image& image) {
 
 }  // namespace
 
-Result<std::string> Encode(const Image& image, ImageFormat format, int quality) {
-  const size_t values = image.width < 1 || image.height < 1 ? 0 : static_cast<size_t>(image.width) * image.height * 4;
-  if (values == 0 || (image.rgba.size() != values && !(image.rgba.empty() && image.srgb8.size() == values))) {
+Result<std::string> Encode(const Image& image, ImageFormat format, int quality,
+                           HelperCpu* helper_cpu) {
+  const size_t values =
+      image.width < 1 || image.height < 1 ? 0 : static_cast<size_t>(image.width) * image.height * 4;
+  if (values == 0 ||
+      (image.rgba.size() != values && !(image.rgba.empty() && image.srgb8.size() == values))) {
     return InvalidArgument("empty image");
   }
-  if (format == ImageFormat::kPng) return EncodePng(image);
+  if (format == ImageFormat::kPng) return EncodePng(image, helper_cpu);
   std::vector<unsigned char> room;
   const bool alpha = format != ImageFormat::kJpeg;
   if (format == ImageFormat::kWebp) {
-    const std::span<const unsigned char> px = Pixels8(image, alpha, room);
+    const std::span<const unsigned char> px = Pixels8(image, alpha, room, helper_cpu);
     return EncodeWebp(px, image.width, image.height, quality);
   }
   std::string error;
@@ -421,12 +448,14 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
     args.linear = linear.data();
   } else {
     args.channels = alpha ? 4 : 3;
-    args.srgb8 = Pixels8(image, alpha, room).data();  // JPEG has no alpha: composited over white.
+    args.srgb8 = Pixels8(image, alpha, room, helper_cpu)
+                     .data();  // JPEG has no alpha: composited over white.
     if (format == ImageFormat::kJpeg) args.quality = std::clamp(quality, 1, 100);
   }
   std::vector<unsigned char> bytes;
   if (!api->encode(args, &bytes, &error)) {
-    return Internal(std::string(format == ImageFormat::kExr ? "EXR" : "image") + " encoding failed: " + error);
+    return Internal(std::string(format == ImageFormat::kExr ? "EXR" : "image") +
+                    " encoding failed: " + error);
   }
   if (args.to_file) {
     std::ifstream f(name, std::ios::binary);
@@ -436,7 +465,9 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality) 
 }
 
 std::string ImageModuleProblem() {
-  return oiio::Locate().empty() ? "the image module libfacespace_oiio.so is neither beside the executable nor in the build" : "";
+  return oiio::Locate().empty() ? "the image module libfacespace_oiio.so is neither beside the "
+                                  "executable nor in the build"
+                                : "";
 }
 
 std::string OpenImageModule() {
@@ -446,13 +477,23 @@ std::string OpenImageModule() {
 
 Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type) {
   const char* name = nullptr;
-  if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P') name = "image.png";
-  else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8) name = "image.jpg";
-  else if (bytes.size() > 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 && bytes[3] == 0x01) name = "image.exr";
-  else if (bytes.size() > 4 && ((bytes[0] == 'I' && bytes[1] == 'I') || (bytes[0] == 'M' && bytes[1] == 'M'))) name = "image.tif";
-  else if (bytes.size() > 26 && bytes[0] == 'B' && bytes[1] == 'M') name = "image.bmp";
-  else if (bytes.size() > 12 && std::memcmp(bytes.data(), "RIFF", 4) == 0 && std::memcmp(bytes.data() + 8, "WEBP", 4) == 0) name = "image.webp";
-  else if (bytes.size() > 18 && mime_type == "image/x-tga") name = "image.tga";  // TGA has no magic.
+  if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P')
+    name = "image.png";
+  else if (bytes.size() > 3 && bytes[0] == 0xFF && bytes[1] == 0xD8)
+    name = "image.jpg";
+  else if (bytes.size() > 4 && bytes[0] == 0x76 && bytes[1] == 0x2f && bytes[2] == 0x31 &&
+           bytes[3] == 0x01)
+    name = "image.exr";
+  else if (bytes.size() > 4 &&
+           ((bytes[0] == 'I' && bytes[1] == 'I') || (bytes[0] == 'M' && bytes[1] == 'M')))
+    name = "image.tif";
+  else if (bytes.size() > 26 && bytes[0] == 'B' && bytes[1] == 'M')
+    name = "image.bmp";
+  else if (bytes.size() > 12 && std::memcmp(bytes.data(), "RIFF", 4) == 0 &&
+           std::memcmp(bytes.data() + 8, "WEBP", 4) == 0)
+    name = "image.webp";
+  else if (bytes.size() > 18 && mime_type == "image/x-tga")
+    name = "image.tga";  // TGA has no magic.
   if (!name) return InvalidArgument("not a PNG, JPEG, EXR, TIFF, WebP, BMP or TGA image");
   std::string error;
   const oiio::Api* api = oiio::Load(&error);
@@ -470,14 +511,18 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   const int nc = decoded.channels;
   for (size_t i = 0, n = static_cast<size_t>(im.width) * im.height; i < n; ++i) {
     const float* s = &px[i * nc];
-    float rgba[4] = {s[0], nc >= 3 ? s[1] : s[0], nc >= 3 ? s[2] : s[0], nc == 4 ? s[3] : nc == 2 ? s[1] : 1.0f};
+    float rgba[4] = {s[0], nc >= 3 ? s[1] : s[0], nc >= 3 ? s[2] : s[0],
+                     nc == 4   ? s[3]
+                     : nc == 2 ? s[1]
+                               : 1.0f};
     for (int c = 0; c < 3; ++c) im.rgba[4 * i + c] = linear ? rgba[c] : SrgbToLinear(rgba[c]);
     im.rgba[4 * i + 3] = rgba[3];
   }
   return im;
 }
 
-bool DrawText(Image& image, int x, int y, const std::string& text, int size, std::array<float, 3> srgb) {
+bool DrawText(Image& image, int x, int y, const std::string& text, int size,
+              std::array<float, 3> srgb) {
   const float color[3] = {SrgbToLinear(srgb[0]), SrgbToLinear(srgb[1]), SrgbToLinear(srgb[2])};
   return DrawGlyphs(image.rgba.data(), image.width, image.height, x, y, text, size, color);
 }
@@ -496,7 +541,8 @@ std::string FitText(const std::string& text, int size, int width) {
   if (TextWidth(text, size) <= width) return text;
   std::string cut = text;
   while (!cut.empty()) {
-    while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80) cut.pop_back();  // Continuation bytes,
+    while (!cut.empty() && (static_cast<unsigned char>(cut.back()) & 0xC0) == 0x80)
+      cut.pop_back();                  // Continuation bytes,
     if (!cut.empty()) cut.pop_back();  // then the lead byte (or an ASCII character).
     if (TextWidth(cut + "...", size) <= width) return cut + "...";
   }
@@ -527,13 +573,18 @@ LegendLayout HeatLegendLayout(int width, int height) {
   l.x0 = width - l.bar_w - std::max(40, width / 8);
   l.y0 = (height - l.bar_h) / 2;
   l.font = std::max(10, height / 36);
-  l.title_x = std::max(2, std::min(l.x0, width - std::max(TextWidth("displacement", l.font), TextWidth("(rig units)", l.font)) - 6));
+  l.title_x = std::max(2, std::min(l.x0, width -
+                                             std::max(TextWidth("displacement", l.font),
+                                                      TextWidth("(rig units)", l.font)) -
+                                             6));
   return l;
 }
 
 }  // namespace
 
-int HeatLegendLeft(int width, int height) { return std::max(0, HeatLegendLayout(width, height).title_x - 3); }
+int HeatLegendLeft(int width, int height) {
+  return std::max(0, HeatLegendLayout(width, height).title_x - 3);
+}
 
 void DrawHeatLegend(Image& im, float max_value) {
   const LegendLayout l = HeatLegendLayout(im.width, im.height);
@@ -543,18 +594,22 @@ void DrawHeatLegend(Image& im, float max_value) {
   const std::string title = "displacement", units = "(rig units)";
   Veil(im, l.title_x - 3, l.y0 - 3 * font, im.width, l.y0 + l.bar_h + font, 0.75f);
   const std::array<float, 3> ink{0.1f, 0.1f, 0.1f};
-  DrawText(im, l.title_x, l.y0 - 2 * font + font / 3, title, font, ink);  // Both end at the image's right margin.
+  DrawText(im, l.title_x, l.y0 - 2 * font + font / 3, title, font,
+           ink);  // Both end at the image's right margin.
   DrawText(im, l.title_x, l.y0 - font / 2, units, font, ink);
   if (!(max_value > 0.0f)) {  // Nothing moved: one swatch, said in words (not a scale from 0 to 0).
     const auto c = Viridis(0.0f);
-    FillRect(im, l.x0, l.y0 + l.bar_h - l.bar_w, l.x0 + l.bar_w, l.y0 + l.bar_h, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
+    FillRect(im, l.x0, l.y0 + l.bar_h - l.bar_w, l.x0 + l.bar_w, l.y0 + l.bar_h,
+             {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
     DrawText(im, l.x0 + l.bar_w + 4, l.y0 + l.bar_h, "0", font, ink);
     DrawText(im, l.title_x, l.y0 + l.bar_h / 2, "none moved", font, ink);
     return;
   }
   for (int y = 0; y < l.bar_h; ++y) {
-    const auto c = Viridis(1.0f - static_cast<float>(y) / static_cast<float>(std::max(1, l.bar_h - 1)));
-    FillRect(im, l.x0, l.y0 + y, l.x0 + l.bar_w, l.y0 + y + 1, {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
+    const auto c =
+        Viridis(1.0f - static_cast<float>(y) / static_cast<float>(std::max(1, l.bar_h - 1)));
+    FillRect(im, l.x0, l.y0 + y, l.x0 + l.bar_w, l.y0 + y + 1,
+             {SrgbToLinear(c[0]), SrgbToLinear(c[1]), SrgbToLinear(c[2]), 1.0f});
   }
   char top[32];
   std::snprintf(top, sizeof top, "%.3g", static_cast<double>(max_value));
@@ -576,19 +631,23 @@ Image ContactSheet(std::span<const Image> cells, std::span<const std::string> la
   const int rows = (static_cast<int>(cells.size()) + columns - 1) / columns;
   sheet.width = columns * (cw + pad) + pad;
   sheet.height = rows * (ch + label_h + pad) + pad;
-  const std::array<float, 4> bg{SrgbToLinear(background[0]), SrgbToLinear(background[1]), SrgbToLinear(background[2]), background[3]};
+  const std::array<float, 4> bg{SrgbToLinear(background[0]), SrgbToLinear(background[1]),
+                                SrgbToLinear(background[2]), background[3]};
   sheet.rgba.resize(static_cast<size_t>(sheet.width) * sheet.height * 4);
   FillRect(sheet, 0, 0, sheet.width, sheet.height, bg);
   for (size_t i = 0; i < cells.size(); ++i) {
     const Image& c = cells[i];
-    const int x0 = pad + static_cast<int>(i % columns) * (cw + pad), y0 = pad + static_cast<int>(i / columns) * (ch + label_h + pad);
+    const int x0 = pad + static_cast<int>(i % columns) * (cw + pad),
+              y0 = pad + static_cast<int>(i / columns) * (ch + label_h + pad);
     for (int y = 0; y < c.height; ++y) {
-      std::memcpy(&sheet.rgba[(static_cast<size_t>(y0 + y) * sheet.width + x0) * 4], &c.rgba[static_cast<size_t>(y) * c.width * 4],
-                  static_cast<size_t>(c.width) * 16);
+      std::memcpy(&sheet.rgba[(static_cast<size_t>(y0 + y) * sheet.width + x0) * 4],
+                  &c.rgba[static_cast<size_t>(y) * c.width * 4], static_cast<size_t>(c.width) * 16);
     }
-    if (i < labels.size()) {  // Cut to the cell's width: a long label never runs into the next cell.
+    if (i <
+        labels.size()) {  // Cut to the cell's width: a long label never runs into the next cell.
       const int size = label_h * 2 / 3;
-      DrawText(sheet, x0 + 4, y0 + ch + label_h * 3 / 4, FitText(labels[i], size, cw - 8), size, {0.1f, 0.1f, 0.1f});
+      DrawText(sheet, x0 + 4, y0 + ch + label_h * 3 / 4, FitText(labels[i], size, cw - 8), size,
+               {0.1f, 0.1f, 0.1f});
     }
   }
   return sheet;

@@ -1,20 +1,22 @@
 // Shared between render's .cpp files only.
 #pragma once
 
+#include <isa-l/igzip_lib.h>
+
 #include <cmath>
 #include <cstdint>
 #include <span>
 #include <string>
 #include <vector>
 
-#include <isa-l/igzip_lib.h>
-
 #include "facespace/offscreen/render.h"
 
 namespace facespace::render {
 
 // An sRGB component (0..1) in linear light.
-inline float SrgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+inline float SrgbToLinear(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
 
 // Draws the heatmap's colour bar with its 0 and max labels on the right of the image.
 void DrawHeatLegend(Image& image, float max_value);
@@ -22,9 +24,10 @@ void DrawHeatLegend(Image& image, float max_value);
 // frames the model in the part left of it.
 int HeatLegendLeft(int width, int height);
 
-// The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white: an 8-bit draw's RGBA as
-// it is, else converted into `room`.
-std::span<const unsigned char> Pixels8(const Image& image, bool alpha, std::vector<unsigned char>& room);
+// The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white: an 8-bit draw's RGBA
+// as it is, else converted into `room`; the helper threads' CPU charged to `helper_cpu`.
+std::span<const unsigned char> Pixels8(const Image& image, bool alpha,
+                                       std::vector<unsigned char>& room, HelperCpu* helper_cpu);
 
 // PNG's pieces: a big-endian word; a chunk (its length, type, data and CRC); the chunk begun at
 // `start` (8 bytes left for its length and type, its data after them) closed with its CRC.

@@ -21,7 +21,9 @@ std::string ModulePathBesideExecutable() {
   return path.substr(0, path.rfind('/') + 1) + "libfacespace_oiio.so";
 }
 
-std::vector<std::string> Candidates() { return {ModulePathBesideExecutable(), FACESPACE_OIIO_MODULE}; }
+std::vector<std::string> Candidates() {
+  return {ModulePathBesideExecutable(), FACESPACE_OIIO_MODULE};
+}
 
 }  // namespace
 
@@ -44,8 +46,10 @@ const Api* Load(std::string* error) {
     }
     if (!handle) return;
     using Entry = const Api* (*)();
-    if (auto entry = reinterpret_cast<Entry>(dlsym(handle, "facespace_oiio_api"))) api = entry();
-    else failure = "libfacespace_oiio.so has no facespace_oiio_api";
+    if (auto entry = reinterpret_cast<Entry>(dlsym(handle, "facespace_oiio_api")))
+      api = entry();
+    else
+      failure = "libfacespace_oiio.so has no facespace_oiio_api";
   });
   if (!api && error) *error = "the image module is unavailable (" + failure + ")";
   return api;

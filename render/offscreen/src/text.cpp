@@ -3,9 +3,9 @@
 // wrongly (ま drew as '>'), so labels are drawn here, glyph by glyph, over linear RGBA.
 #include "text.h"
 
-#include "facespace/engine/utf8.h"
-
 #include <ft2build.h>
+
+#include "facespace/engine/utf8.h"
 #include FT_FREETYPE_H
 
 #include <algorithm>
@@ -59,10 +59,14 @@ class Fonts {
  private:
   Fonts() {
     if (FT_Init_FreeType(&lib_) != 0) return;
-    const std::string latin_path = FirstFile({"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"});
+    const std::string latin_path = FirstFile(
+        {"/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/TTF/DejaVuSans.ttf"});
     // Noto Sans CJK's collection: its first face is the Japanese one (fonts-noto-cjk).
-    const std::string cjk_path = FirstFile({"/usr/share/fonts/opentype/noto/NotoSansCJK-Regular.ttc", "/usr/share/fonts/noto-cjk/NotoSansCJK-Regular.ttc"});
-    if (!latin_path.empty() && FT_New_Face(lib_, latin_path.c_str(), 0, &latin) != 0) latin = nullptr;
+    const std::string cjk_path =
+        FirstFile({"/usr/share/fonts/opentype/noto/NotoSansCJK-Regular.ttc",
+                   "/usr/share/fonts/noto-cjk/NotoSansCJK-Regular.ttc"});
+    if (!latin_path.empty() && FT_New_Face(lib_, latin_path.c_str(), 0, &latin) != 0)
+      latin = nullptr;
     if (!cjk_path.empty() && FT_New_Face(lib_, cjk_path.c_str(), 0, &cjk) != 0) cjk = nullptr;
   }
   ~Fonts() {
@@ -105,30 +109,35 @@ int TextAdvance(const std::string& text, int size) {
   if (text.empty() || size < 1) return 0;
   Fonts& fonts = Fonts::Get();
   std::lock_guard<std::mutex> lock(fonts.mu);
-  return Walk(fonts, Decode(text), std::min(size, 512), false, [](const FT_Bitmap&, int, int, int) {});
+  return Walk(fonts, Decode(text), std::min(size, 512), false,
+              [](const FT_Bitmap&, int, int, int) {});
 }
 
-bool DrawGlyphs(float* rgba, int width, int height, int x, int y, const std::string& text, int size, const float linear[3]) {
+bool DrawGlyphs(float* rgba, int width, int height, int x, int y, const std::string& text, int size,
+                const float linear[3]) {
   if (text.empty() || size < 1) return false;
   Fonts& fonts = Fonts::Get();
   std::lock_guard<std::mutex> lock(fonts.mu);
   bool inked = false;
-  const int advance = Walk(fonts, Decode(text), std::min(size, 512), true, [&](const FT_Bitmap& b, int left, int top, int pen) {
-    for (unsigned row = 0; row < b.rows; ++row) {
-      const int py = y - top + static_cast<int>(row);
-      if (py < 0 || py >= height) continue;
-      for (unsigned col = 0; col < b.width; ++col) {
-        const int px = x + pen + left + static_cast<int>(col);
-        if (px < 0 || px >= width) continue;
-        const float a = b.buffer[row * static_cast<unsigned>(b.pitch) + col] / 255.0f;  // Grey coverage.
-        if (a <= 0.0f) continue;
-        float* p = &rgba[(static_cast<size_t>(py) * width + px) * 4];
-        for (int c = 0; c < 3; ++c) p[c] += (linear[c] - p[c]) * a;
-        p[3] = std::max(p[3], a);
-        inked = true;
-      }
-    }
-  });
+  const int advance = Walk(fonts, Decode(text), std::min(size, 512), true,
+                           [&](const FT_Bitmap& b, int left, int top, int pen) {
+                             for (unsigned row = 0; row < b.rows; ++row) {
+                               const int py = y - top + static_cast<int>(row);
+                               if (py < 0 || py >= height) continue;
+                               for (unsigned col = 0; col < b.width; ++col) {
+                                 const int px = x + pen + left + static_cast<int>(col);
+                                 if (px < 0 || px >= width) continue;
+                                 const float a =
+                                     b.buffer[row * static_cast<unsigned>(b.pitch) + col] /
+                                     255.0f;  // Grey coverage.
+                                 if (a <= 0.0f) continue;
+                                 float* p = &rgba[(static_cast<size_t>(py) * width + px) * 4];
+                                 for (int c = 0; c < 3; ++c) p[c] += (linear[c] - p[c]) * a;
+                                 p[3] = std::max(p[3], a);
+                                 inked = true;
+                               }
+                             }
+                           });
   return advance >= 0 && inked;
 }
 

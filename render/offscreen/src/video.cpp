@@ -48,8 +48,10 @@ int64_t Seek(void* opaque, int64_t offset, int whence) {
   const int64_t size = static_cast<int64_t>(m->bytes.size());
   if (whence == AVSEEK_SIZE) return size;
   int64_t to = offset;
-  if ((whence & ~AVSEEK_FORCE) == SEEK_CUR) to = m->at + offset;
-  else if ((whence & ~AVSEEK_FORCE) == SEEK_END) to = size + offset;
+  if ((whence & ~AVSEEK_FORCE) == SEEK_CUR)
+    to = m->at + offset;
+  else if ((whence & ~AVSEEK_FORCE) == SEEK_END)
+    to = size + offset;
   if (to < 0) return AVERROR(EINVAL);
   m->at = to;
   return to;
@@ -103,7 +105,8 @@ struct WebmEncoder::State {
 
   // The WebM muxer writing into `memory`, a packet and a frame.
   Status OpenMuxer() {
-    if (avformat_alloc_output_context2(&format, nullptr, "webm", nullptr) < 0 || !format) return Internal("libavformat has no WebM muxer");
+    if (avformat_alloc_output_context2(&format, nullptr, "webm", nullptr) < 0 || !format)
+      return Internal("libavformat has no WebM muxer");
     constexpr int kBuffer = 1 << 16;
     auto* buffer = static_cast<unsigned char*>(av_malloc(kBuffer));
     io = avio_alloc_context(buffer, kBuffer, 1, &memory, nullptr, WritePacket, Seek);
@@ -202,14 +205,19 @@ bool ResampleTo48k(std::span<const float> samples, int rate, std::vector<float>&
   SwrContext* swr = nullptr;
   AVChannelLayout mono;
   av_channel_layout_default(&mono, 1);
-  if (swr_alloc_set_opts2(&swr, &mono, AV_SAMPLE_FMT_FLT, 48000, &mono, AV_SAMPLE_FMT_FLT, rate, 0, nullptr) < 0 || swr_init(swr) < 0) {
+  if (swr_alloc_set_opts2(&swr, &mono, AV_SAMPLE_FMT_FLT, 48000, &mono, AV_SAMPLE_FMT_FLT, rate, 0,
+                          nullptr) < 0 ||
+      swr_init(swr) < 0) {
     swr_free(&swr);
     return false;
   }
-  pcm.assign(static_cast<size_t>(swr_get_out_samples(swr, static_cast<int>(samples.size()))) + 48000, 0.0f);
+  pcm.assign(
+      static_cast<size_t>(swr_get_out_samples(swr, static_cast<int>(samples.size()))) + 48000,
+      0.0f);
   const uint8_t* in[] = {reinterpret_cast<const uint8_t*>(samples.data())};
   uint8_t* out[] = {reinterpret_cast<uint8_t*>(pcm.data())};
-  int got = swr_convert(swr, out, static_cast<int>(pcm.size()), in, static_cast<int>(samples.size()));
+  int got =
+      swr_convert(swr, out, static_cast<int>(pcm.size()), in, static_cast<int>(samples.size()));
   int total = std::max(0, got);
   while (got > 0 && static_cast<size_t>(total) < pcm.size()) {
     uint8_t* rest[] = {reinterpret_cast<uint8_t*>(pcm.data() + total)};
@@ -228,10 +236,15 @@ WebmEncoder::~WebmEncoder() = default;
 
 // The muxer, VP9 and (with samples) Opus opened, the header written, the whole soundtrack encoded
 // at once; then frames come one at a time (Add).
-Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, std::span<const float> samples, int audio_rate) {
-  if (o.width < 16 || o.width > 4096 || o.width % 2) return InvalidField("/width", "a video's width is even, from 16 to 4096");
-  if (o.height < 16 || o.height > 4096 || o.height % 2) return InvalidField("/height", "a video's height is even, from 16 to 4096");
-  if (!(o.fps >= 1.0 && o.fps <= 120.0)) return InvalidField("/fps", "a video has 1 to 120 frames a second");
+Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o,
+                                                        std::span<const float> samples,
+                                                        int audio_rate) {
+  if (o.width < 16 || o.width > 4096 || o.width % 2)
+    return InvalidField("/width", "a video's width is even, from 16 to 4096");
+  if (o.height < 16 || o.height > 4096 || o.height % 2)
+    return InvalidField("/height", "a video's height is even, from 16 to 4096");
+  if (!(o.fps >= 1.0 && o.fps <= 120.0))
+    return InvalidField("/fps", "a video has 1 to 120 frames a second");
   av_log_set_level(AV_LOG_ERROR);  // libvpx's banner and the muxer's notes are not ours to print.
   auto st = std::make_unique<State>();
   st->options = o;
@@ -244,7 +257,8 @@ Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, s
   if (has_audio) {
     if (Status s = st->OpenAudio(opus); !s.ok()) return s;
   }
-  if (const int r = avformat_write_header(st->format, nullptr); r < 0) return Internal("the WebM header could not be written: " + AvError(r));
+  if (const int r = avformat_write_header(st->format, nullptr); r < 0)
+    return Internal("the WebM header could not be written: " + AvError(r));
   st->header = true;
   if (has_audio) {
     std::vector<float> pcm;
@@ -255,7 +269,8 @@ Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, s
   st->frame->width = o.width;
   st->frame->height = o.height;
   if (av_frame_get_buffer(st->frame, 0) < 0) return Internal("out of memory");
-  st->sws = sws_getContext(o.width, o.height, AV_PIX_FMT_RGB24, o.width, o.height, AV_PIX_FMT_YUV420P, SWS_BILINEAR, nullptr, nullptr, nullptr);
+  st->sws = sws_getContext(o.width, o.height, AV_PIX_FMT_RGB24, o.width, o.height,
+                           AV_PIX_FMT_YUV420P, SWS_BILINEAR, nullptr, nullptr, nullptr);
   if (!st->sws) return Internal("libswscale would not start");
   return std::unique_ptr<WebmEncoder>(new WebmEncoder(std::move(st)));
 }
@@ -263,10 +278,11 @@ Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o, s
 Status WebmEncoder::Add(const Image& image) {
   State& st = *state_;
   if (image.width != st.options.width || image.height != st.options.height) {
-    return Internal("a frame of " + std::to_string(image.width) + "x" + std::to_string(image.height) + " in a video of " +
+    return Internal("a frame of " + std::to_string(image.width) + "x" +
+                    std::to_string(image.height) + " in a video of " +
                     std::to_string(st.options.width) + "x" + std::to_string(st.options.height));
   }
-  const std::span<const unsigned char> rgb = Pixels8(image, false, st.room);
+  const std::span<const unsigned char> rgb = Pixels8(image, false, st.room, st.options.helper_cpu);
   if (av_frame_make_writable(st.frame) < 0) return Internal("out of memory");
   const uint8_t* src[] = {rgb.data()};
   const int stride[] = {3 * image.width};

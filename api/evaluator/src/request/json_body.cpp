@@ -1,26 +1,22 @@
 // The JSON body readers shared by the request schemas (json_body.h).
 #include "json_body.h"
 
-#include "facespace/engine/enum_table.h"
-
-#include "facespace/formats/lod.h"
-
 #include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <span>
-#include <unordered_set>
-#include <nlohmann/json.hpp>
 
+#include "facespace/engine/enum_table.h"
+#include "facespace/formats/lod.h"
 
 namespace facespace::api::body {
 
-
-
-
-Status FieldStatus(const std::string& pointer, const std::string& message) { return InvalidField(pointer, message); }
+Status FieldStatus(const std::string& pointer, const std::string& message) {
+  return InvalidField(pointer, message);
+}
 
 Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::string& pointer) {
   std::vector<WeightEntry> entries;
@@ -52,15 +48,16 @@ Result<std::vector<WeightEntry>> WeightsFromJson(const json& j, const std::strin
       if (value_of(it.value(), e.pointer, e)) entries.push_back(e);
     }
   } else {
-    return FieldStatus(pointer, std::string("weights must be an array or an object, not ") + j.type_name());
+    return FieldStatus(pointer,
+                       std::string("weights must be an array or an object, not ") + j.type_name());
   }
   if (!errors.fields.empty()) {
-    errors.message = (errors.fields[0].pointer.empty() ? "" : errors.fields[0].pointer + ": ") + errors.fields[0].message;
+    errors.message = (errors.fields[0].pointer.empty() ? "" : errors.fields[0].pointer + ": ") +
+                     errors.fields[0].message;
     return errors;
   }
   return entries;
 }
-
 
 bool FloatArray(const json& v, float* out, size_t n) {
   if (!v.is_array() || v.size() != n) return false;
@@ -86,7 +83,8 @@ bool ClipRef(const json& v, ClipRequest& c) {
 
 void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
   if (!v.is_object()) {
-    errors.fields.push_back({"/pose", "must be an object of joint name -> {rotation|euler, translation, scale}"});
+    errors.fields.push_back(
+        {"/pose", "must be an object of joint name -> {rotation|euler, translation, scale}"});
     return;
   }
   for (auto it = v.begin(); it != v.end(); ++it) {
@@ -100,13 +98,20 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
     for (auto p = it->begin(); p != it->end(); ++p) {
       const std::string ptr = j.pointer + "/" + JsonPointerEscape(p.key());
       bool ok = true;
-      if (p.key() == "rotation") ok = j.has_rotation = FloatArray(*p, j.rotation.data(), 4);
-      else if (p.key() == "euler") ok = j.has_euler = FloatArray(*p, j.euler.data(), 3);
-      else if (p.key() == "translation") ok = j.has_translation = FloatArray(*p, j.translation.data(), 3);
-      else if (p.key() == "scale") ok = j.has_scale = FloatArray(*p, j.scale.data(), 3);
-      else UnknownMember(j.pointer, p.key(), Body::kJoint, errors);
+      if (p.key() == "rotation")
+        ok = j.has_rotation = FloatArray(*p, j.rotation.data(), 4);
+      else if (p.key() == "euler")
+        ok = j.has_euler = FloatArray(*p, j.euler.data(), 3);
+      else if (p.key() == "translation")
+        ok = j.has_translation = FloatArray(*p, j.translation.data(), 3);
+      else if (p.key() == "scale")
+        ok = j.has_scale = FloatArray(*p, j.scale.data(), 3);
+      else
+        UnknownMember(j.pointer, p.key(), Body::kJoint, errors);
       if (!ok) {
-        errors.fields.push_back({ptr, p.key() == "rotation" ? "must be [x, y, z, w] of finite numbers" : "must be [x, y, z] of finite numbers"});
+        errors.fields.push_back({ptr, p.key() == "rotation"
+                                          ? "must be [x, y, z, w] of finite numbers"
+                                          : "must be [x, y, z] of finite numbers"});
       }
     }
     pose.joints.push_back(std::move(j));
@@ -114,15 +119,20 @@ void PoseFromJson(const json& v, PoseRequest& pose, Status& errors) {
 }
 
 // The clip a request names with "animation" or "motion" (not one of "blend").
-bool IsRequestClip(const ClipRequest& c) { return c.pointer == "/animation" || c.pointer == "/motion"; }
+bool IsRequestClip(const ClipRequest& c) {
+  return c.pointer == "/animation" || c.pointer == "/motion";
+}
 
 namespace {
 
 // A clip's "loop" or "mask" member, in a blend or a layer; false for any other key.
-bool LoopOrMask(const std::string& key, const json& v, const std::string& ptr, ClipRequest& c, Status& errors) {
+bool LoopOrMask(const std::string& key, const json& v, const std::string& ptr, ClipRequest& c,
+                Status& errors) {
   if (key == "loop") {
-    if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
-    else c.loop = v.get<bool>();
+    if (!v.is_boolean())
+      errors.fields.push_back({ptr, "must be true or false"});
+    else
+      c.loop = v.get<bool>();
     return true;
   }
   if (key != "mask") return false;
@@ -131,22 +141,27 @@ bool LoopOrMask(const std::string& key, const json& v, const std::string& ptr, C
     return true;
   }
   for (const json& m : v) {
-    if (!m.is_string()) errors.fields.push_back({ptr, "must be an array of joint names"});
-    else c.mask.push_back(m.get<std::string>());
+    if (!m.is_string())
+      errors.fields.push_back({ptr, "must be an array of joint names"});
+    else
+      c.mask.push_back(m.get<std::string>());
   }
   return true;
 }
 
 }  // namespace
 
-void GazeTrackFromJson(const json& v, const std::string& ptr, std::vector<GazeKey>& track, Status& errors) {
+void GazeTrackFromJson(const json& v, const std::string& ptr, std::vector<GazeKey>& track,
+                       Status& errors) {
   if (!(v.is_object() && v.contains("keys"))) {
     if (auto gaze = GazeFromJson(v, ptr, errors)) track.push_back({0.0f, *gaze});
     return;
   }
   const json& ks = v["keys"];
   if (v.size() != 1 || !ks.is_array() || ks.empty() || ks.size() > 10000) {
-    errors.fields.push_back({ptr + "/keys", "must be an array of 1 to 10000 {\"time\", \"target\": [x, y, z]} or {\"time\", \"yaw\", \"pitch\"}"});
+    errors.fields.push_back({ptr + "/keys",
+                             "must be an array of 1 to 10000 {\"time\", \"target\": [x, y, z]} or "
+                             "{\"time\", \"yaw\", \"pitch\"}"});
     return;
   }
   for (size_t k = 0; k < ks.size(); ++k) {
@@ -157,30 +172,40 @@ void GazeTrackFromJson(const json& v, const std::string& ptr, std::vector<GazeKe
     }
     GazeKey g;
     double t = 0;
-    if (!Number(ks[k]["time"], -1e9, 1e9, &t)) errors.fields.push_back({kp + "/time", "must be a number in [-1e9, 1e9]"});
+    if (!Number(ks[k]["time"], -1e9, 1e9, &t))
+      errors.fields.push_back({kp + "/time", "must be a number in [-1e9, 1e9]"});
     g.time = static_cast<float>(t);
     json rest = ks[k];
     rest.erase("time");
     if (auto gaze = GazeFromJson(rest, kp, errors)) g.gaze = *gaze;
-    if (!track.empty() && !(g.time > track.back().time)) errors.fields.push_back({kp + "/time", "gaze key times must increase"});
-    if (!track.empty() && g.gaze.has_target != track.front().gaze.has_target) errors.fields.push_back({kp, "every gaze key gives a target, or every one angles"});
+    if (!track.empty() && !(g.time > track.back().time))
+      errors.fields.push_back({kp + "/time", "gaze key times must increase"});
+    if (!track.empty() && g.gaze.has_target != track.front().gaze.has_target)
+      errors.fields.push_back({kp, "every gaze key gives a target, or every one angles"});
     track.push_back(g);
   }
 }
 
-void BlinkFromJson(const json& v, const std::string& ptr, float& per_minute, uint64_t& seed, Status& errors) {
+void BlinkFromJson(const json& v, const std::string& ptr, float& per_minute, uint64_t& seed,
+                   Status& errors) {
   if (!v.is_object()) {
-    errors.fields.push_back({ptr, "must be {\"per_minute\": n, \"seed\": s} (natural blinks; people blink 10 to 20 times a minute)"});
+    errors.fields.push_back({ptr,
+                             "must be {\"per_minute\": n, \"seed\": s} (natural blinks; people "
+                             "blink 10 to 20 times a minute)"});
     return;
   }
   for (auto m = v.begin(); m != v.end(); ++m) {
     const std::string mp = ptr + "/" + JsonPointerEscape(m.key());
     if (m.key() == "per_minute") {
-      if (!m->is_number() || !(m->get<double>() > 0) || m->get<double>() > kMaxBlinksPerMinute) errors.fields.push_back({mp, "must be a number in (0, 60]"});
-      else per_minute = m->get<float>();
+      if (!m->is_number() || !(m->get<double>() > 0) || m->get<double>() > kMaxBlinksPerMinute)
+        errors.fields.push_back({mp, "must be a number in (0, 60]"});
+      else
+        per_minute = m->get<float>();
     } else if (m.key() == "seed") {
-      if (!m->is_number_unsigned()) errors.fields.push_back({mp, "must be an integer >= 0"});
-      else seed = m->get<uint64_t>();
+      if (!m->is_number_unsigned())
+        errors.fields.push_back({mp, "must be an integer >= 0"});
+      else
+        seed = m->get<uint64_t>();
     } else {
       UnknownMember(ptr, m.key(), Body::kBlink, errors);
     }
@@ -189,7 +214,8 @@ void BlinkFromJson(const json& v, const std::string& ptr, float& per_minute, uin
 
 void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
   if (!v.is_array() || v.empty()) {
-    errors.fields.push_back({"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});
+    errors.fields.push_back(
+        {"/blend", "must be a non-empty array of {animation, time, weight, mask, loop}"});
     return;
   }
   for (size_t i = 0; i < v.size(); ++i) {
@@ -204,8 +230,10 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
       const std::string ptr = c.pointer + "/" + JsonPointerEscape(p.key());
       if (p.key() == "animation") continue;
       if (p.key() == "time" || p.key() == "weight") {
-        if (!p->is_number() || !std::isfinite(p->get<double>())) errors.fields.push_back({ptr, "must be a finite number"});
-        else (p.key() == "time" ? c.time : c.weight) = p->get<float>();
+        if (!p->is_number() || !std::isfinite(p->get<double>()))
+          errors.fields.push_back({ptr, "must be a finite number"});
+        else
+          (p.key() == "time" ? c.time : c.weight) = p->get<float>();
       } else if (!LoopOrMask(p.key(), *p, ptr, c, errors)) {
         UnknownMember(c.pointer, p.key(), Body::kBlendClip, errors);
       }
@@ -219,7 +247,9 @@ void BlendFromJson(const json& v, PoseRequest& pose, Status& errors) {
 // later one an overlay that replaces only what it moves, over what lies below, by its weight.
 void LayersFromJson(const json& v, PoseRequest& pose, Status& errors) {
   if (!v.is_array() || v.empty() || v.size() > 16) {
-    errors.fields.push_back({"/layers", "must be an array of 1 to 16 {motion, time|frame, weight, loop, fade_in, fade_out, mask}: a base, then overlays"});
+    errors.fields.push_back({"/layers",
+                             "must be an array of 1 to 16 {motion, time|frame, weight, loop, "
+                             "fade_in, fade_out, mask}: a base, then overlays"});
     return;
   }
   for (size_t i = 0; i < v.size(); ++i) {
@@ -229,11 +259,14 @@ void LayersFromJson(const json& v, PoseRequest& pose, Status& errors) {
     const json& e = v[i];
     const char* clip_key = e.is_object() && e.contains("motion") ? "motion" : "animation";
     if (!e.is_object() || !e.contains(clip_key) || !ClipRef(e[clip_key], c)) {
-      errors.fields.push_back({c.pointer + "/motion", "needs a motion (or animation) name or index"});
+      errors.fields.push_back(
+          {c.pointer + "/motion", "needs a motion (or animation) name or index"});
       continue;
     }
-    if (e.contains("motion") && e.contains("animation")) errors.fields.push_back({c.pointer + "/motion", "give motion or animation, not both"});
-    if (e.contains("time") && e.contains("frame")) errors.fields.push_back({c.pointer + "/frame", "give time or frame, not both"});
+    if (e.contains("motion") && e.contains("animation"))
+      errors.fields.push_back({c.pointer + "/motion", "give motion or animation, not both"});
+    if (e.contains("time") && e.contains("frame"))
+      errors.fields.push_back({c.pointer + "/frame", "give time or frame, not both"});
     for (auto p = e.begin(); p != e.end(); ++p) {
       const std::string ptr = c.pointer + "/" + JsonPointerEscape(p.key());
       const std::string& k = p.key();
@@ -262,16 +295,22 @@ std::optional<Gaze> GazeFromJson(const json& v, const std::string& ptr, Status& 
   const size_t before = errors.fields.size();
   Gaze g;
   if (!v.is_object()) {
-    errors.fields.push_back({ptr, "must be {\"target\": [x, y, z]} (a point in the rig's world) or {\"yaw\": degrees, \"pitch\": degrees} (yaw > 0: to the character's left; pitch > 0: up)"});
+    errors.fields.push_back(
+        {ptr,
+         "must be {\"target\": [x, y, z]} (a point in the rig's world) or {\"yaw\": degrees, "
+         "\"pitch\": degrees} (yaw > 0: to the character's left; pitch > 0: up)"});
     return std::nullopt;
   }
   for (auto it = v.begin(); it != v.end(); ++it) {
     const std::string p = ptr + "/" + JsonPointerEscape(it.key());
     if (it.key() == "target") {
-      if (!FloatArray(*it, g.target.data(), 3)) errors.fields.push_back({p, "must be [x, y, z], three finite numbers (the rig's world units)"});
+      if (!FloatArray(*it, g.target.data(), 3))
+        errors.fields.push_back(
+            {p, "must be [x, y, z], three finite numbers (the rig's world units)"});
       g.has_target = true;
     } else if (it.key() == "yaw" || it.key() == "pitch") {
-      if (!it->is_number() || !std::isfinite(it->get<double>()) || std::fabs(it->get<double>()) > 180) {
+      if (!it->is_number() || !std::isfinite(it->get<double>()) ||
+          std::fabs(it->get<double>()) > 180) {
         errors.fields.push_back({p, "must be degrees in [-180, 180]"});
         continue;
       }
@@ -280,68 +319,103 @@ std::optional<Gaze> GazeFromJson(const json& v, const std::string& ptr, Status& 
       UnknownMember(ptr, it.key(), Body::kGaze, errors);
     }
   }
-  if (g.has_target && (v.contains("yaw") || v.contains("pitch"))) errors.fields.push_back({ptr, "give target, or yaw and pitch, not both"});
+  if (g.has_target && (v.contains("yaw") || v.contains("pitch")))
+    errors.fields.push_back({ptr, "give target, or yaw and pitch, not both"});
   if (errors.fields.size() != before) return std::nullopt;
   return g;
 }
 
 // Handles a member shared by the mesh, check, render and sheet bodies. Returns false when
 // the key is not one of them.
-bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format, Status& errors) {
+namespace {
+
+// The clip a mesh body names with its flat members (animation or motion, time or frame, loop).
+void ClipMember(const std::string& key, const json& v, const std::string& ptr, PoseRequest& pose,
+                Status& errors) {
+  // Gathered into one clip at the front of pose.clips by FinishPose. "motion" names a clip as
+  // "animation" does (MMD's word: a .vmd is a clip); "frame" is a time in MMD frames, 30 a
+  // second.
+  if (pose.clips.empty() || !IsRequestClip(pose.clips.front())) {
+    ClipRequest c;
+    c.pointer = "/animation";
+    c.index = -2;  // Marks "no animation named yet".
+    c.over_base = true;
+    pose.clips.insert(pose.clips.begin(), c);
+  }
+  ClipRequest& c = pose.clips.front();
+  if (key == "animation" || key == "motion") {
+    if (!c.name.empty() || c.index != -2)
+      errors.fields.push_back({ptr, "give animation or motion, not both"});
+    else if (!ClipRef(v, c))
+      errors.fields.push_back({ptr, "must be " +
+                                        std::string(key == "motion" ? "a motion" : "an animation") +
+                                        " name or index"});
+    c.pointer = ptr;
+  } else if (key == "time" || key == "frame") {
+    if (c.timed)
+      errors.fields.push_back({ptr, "give time or frame, not both"});
+    else if (!v.is_number() || !std::isfinite(v.get<double>()))
+      errors.fields.push_back({ptr, key == "time"
+                                        ? "must be a finite number of seconds"
+                                        : "must be a finite number of frames (30 a second)"});
+    else
+      c.time = key == "time" ? v.get<float>() : static_cast<float>(v.get<double>() / 30.0);
+    c.timed = true;
+  } else if (!v.is_boolean()) {
+    errors.fields.push_back({ptr, "must be true or false"});
+  } else {
+    c.loop = v.get<bool>();
+  }
+}
+
+// An object of name -> weight at `ptr`, into `dst`; its errors into `errors`.
+void WeightsMember(const json& v, const std::string& ptr, std::vector<WeightEntry>& dst,
+                   Status& errors) {
+  auto w = WeightsFromJson(v, ptr);
+  if (w.ok())
+    dst = std::move(w.value());
+  else
+    errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+}
+
+}  // namespace
+
+bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh_format,
+                Status& errors) {
   const std::string ptr = "/" + JsonPointerEscape(key);
   if (key == "pose") {
     PoseFromJson(v, r.pose, errors);
     return true;
   }
   if (key == "blend" || key == "layers") {
-    const bool other = std::any_of(r.pose.clips.begin(), r.pose.clips.end(), [](const ClipRequest& c) { return !IsRequestClip(c); });
-    if (other) errors.fields.push_back({"/" + key, "give blend or layers, not both"});
-    else if (key == "blend") BlendFromJson(v, r.pose, errors);
-    else LayersFromJson(v, r.pose, errors);
+    const bool other = std::any_of(r.pose.clips.begin(), r.pose.clips.end(),
+                                   [](const ClipRequest& c) { return !IsRequestClip(c); });
+    if (other)
+      errors.fields.push_back({"/" + key, "give blend or layers, not both"});
+    else if (key == "blend")
+      BlendFromJson(v, r.pose, errors);
+    else
+      LayersFromJson(v, r.pose, errors);
     return true;
   }
   if (key == "animation" || key == "motion" || key == "time" || key == "frame" || key == "loop") {
-    // Gathered into one clip at the front of pose.clips by FinishPose. "motion" names a clip as
-    // "animation" does (MMD's word: a .vmd is a clip); "frame" is a time in MMD frames, 30 a second.
-    if (r.pose.clips.empty() || !IsRequestClip(r.pose.clips.front())) {
-      ClipRequest c;
-      c.pointer = "/animation";
-      c.index = -2;  // Marks "no animation named yet".
-      c.over_base = true;
-      r.pose.clips.insert(r.pose.clips.begin(), c);
-    }
-    ClipRequest& c = r.pose.clips.front();
-    if (key == "animation" || key == "motion") {
-      if (!c.name.empty() || c.index != -2) errors.fields.push_back({ptr, "give animation or motion, not both"});
-      else if (!ClipRef(v, c)) errors.fields.push_back({ptr, "must be " + std::string(key == "motion" ? "a motion" : "an animation") + " name or index"});
-      c.pointer = ptr;
-    } else if (key == "time" || key == "frame") {
-      if (c.timed) errors.fields.push_back({ptr, "give time or frame, not both"});
-      else if (!v.is_number() || !std::isfinite(v.get<double>())) errors.fields.push_back({ptr, key == "time" ? "must be a finite number of seconds" : "must be a finite number of frames (30 a second)"});
-      else c.time = key == "time" ? v.get<float>() : static_cast<float>(v.get<double>() / 30.0);
-      c.timed = true;
-    } else if (!v.is_boolean()) {
-      errors.fields.push_back({ptr, "must be true or false"});
-    } else {
-      c.loop = v.get<bool>();
-    }
+    ClipMember(key, v, ptr, r.pose, errors);
     return true;
   }
   auto string_field = [&](auto parse, auto* dst, const char* allowed) {
-    if (!v.is_string() || !parse(v.get<std::string>(), dst)) errors.fields.push_back({ptr, std::string("must be one of ") + allowed});
+    if (!v.is_string() || !parse(v.get<std::string>(), dst))
+      errors.fields.push_back({ptr, std::string("must be one of ") + allowed});
   };
   if (key == "weights") {
-    auto w = WeightsFromJson(v, "/weights");
-    if (w.ok()) r.weights = std::move(w.value());
-    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+    WeightsMember(v, ptr, r.weights, errors);
   } else if (key == "expressions") {
     if (!v.is_object()) {
-      errors.fields.push_back({ptr, "must be an object of expression name -> value (VRM's presets: happy, aa, blink, lookLeft, ...; or the rig's own)"});
+      errors.fields.push_back({ptr,
+                               "must be an object of expression name -> value (VRM's presets: "
+                               "happy, aa, blink, lookLeft, ...; or the rig's own)"});
       return true;
     }
-    auto w = WeightsFromJson(v, "/expressions");
-    if (w.ok()) r.pose.expressions = std::move(w.value());
-    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+    WeightsMember(v, ptr, r.pose.expressions, errors);
   } else if (key == "gaze") {
     if (auto g = GazeFromJson(v, ptr, errors)) r.pose.gaze = *g;
   } else if (key == "controls") {
@@ -349,9 +423,7 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
       errors.fields.push_back({ptr, "must be an object of control name -> value"});
       return true;
     }
-    auto w = WeightsFromJson(v, "/controls");
-    if (w.ok()) r.controls = std::move(w.value());
-    else errors.fields.insert(errors.fields.end(), w.status().fields.begin(), w.status().fields.end());
+    WeightsMember(v, ptr, r.controls, errors);
   } else if (key == "mode") {
     string_field(ParseBlendMode, &r.options.mode, "\"relative\", \"absolute\"");
   } else if (key == "normals") {
@@ -376,18 +448,23 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
       r.lod = v.get<int>();
     }
   } else if (key == "space" && mesh_format) {
-    if (!v.is_string() || (v != "world" && v != "mesh")) errors.fields.push_back({ptr, "must be \"world\" (the default) or \"mesh\""});
-    else r.mesh_space = v == "mesh";
+    if (!v.is_string() || (v != "world" && v != "mesh"))
+      errors.fields.push_back({ptr, "must be \"world\" (the default) or \"mesh\""});
+    else
+      r.mesh_space = v == "mesh";
   } else if (key == "strict" || (key == "keep_targets" && mesh_format)) {
-    if (!v.is_boolean()) errors.fields.push_back({ptr, "must be true or false"});
-    else (key == "strict" ? r.strict : r.keep_targets) = v.get<bool>();
+    if (!v.is_boolean())
+      errors.fields.push_back({ptr, "must be true or false"});
+    else
+      (key == "strict" ? r.strict : r.keep_targets) = v.get<bool>();
   } else {
     return false;
   }
   return true;
 }
 
-// "time", "frame" or "loop" without "animation" (or "motion") is an error; "animation" with "blend" too.
+// "time", "frame" or "loop" without "animation" (or "motion") is an error; "animation" with "blend"
+// too.
 void FinishPose(PoseRequest& pose, Status& errors) {
   if (pose.clips.empty() || !IsRequestClip(pose.clips.front())) return;
   const ClipRequest& c = pose.clips.front();
@@ -422,9 +499,12 @@ bool ParseBackground(const json& v, std::array<float, 4>& out) {
     return true;
   }
   if (s.size() != 7 && s.size() != 9) return false;
-  if (s[0] != '#' || s.find_first_not_of("0123456789abcdefABCDEF", 1) != std::string::npos) return false;
+  if (s[0] != '#' || s.find_first_not_of("0123456789abcdefABCDEF", 1) != std::string::npos)
+    return false;
   for (size_t i = 0; i < 4; ++i) {
-    out[i] = 2 * i + 1 < s.size() ? static_cast<float>(std::stoi(s.substr(2 * i + 1, 2), nullptr, 16)) / 255.0f : 1.0f;
+    out[i] = 2 * i + 1 < s.size()
+                 ? static_cast<float>(std::stoi(s.substr(2 * i + 1, 2), nullptr, 16)) / 255.0f
+                 : 1.0f;
   }
   return true;
 }
@@ -450,7 +530,9 @@ bool Number(const json& v, double lo, double hi, double* out) {
 // The camera's framing: all, shapes, auto or joint:NAME. False for anything else.
 bool ParseFraming(const std::string& value, render::Camera& cam) {
   if (value == "all" || value == "shapes" || value == "auto") {
-    cam.frame = value == "shapes" ? render::Framing::kShapes : value == "all" ? render::Framing::kAll : render::Framing::kAuto;
+    cam.frame = value == "shapes" ? render::Framing::kShapes
+                : value == "all"  ? render::Framing::kAll
+                                  : render::Framing::kAuto;
     return true;
   }
   if (value.size() > 6 && value.compare(0, 6, "joint:") == 0) {
@@ -472,13 +554,19 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
     const std::string& k = it.key();
     if (k == "yaw" || k == "pitch" || k == "distance" || k == "zoom" || k == "fov") {
       if (ReadNumber(Body::kCamera, k, *it, ptr, &d, errors)) {
-        float& dst = k == "yaw" ? cam.yaw : k == "pitch" ? cam.pitch : k == "distance" ? cam.distance : k == "zoom" ? cam.zoom : cam.fov;
+        float& dst = k == "yaw"        ? cam.yaw
+                     : k == "pitch"    ? cam.pitch
+                     : k == "distance" ? cam.distance
+                     : k == "zoom"     ? cam.zoom
+                                       : cam.fov;
         dst = static_cast<float>(d);
       }
     } else if (k == "eye" || k == "target" || k == "up") {
       std::array<float, 3>& dst = k == "eye" ? cam.eye : k == "target" ? cam.target : cam.up;
-      if (!ParseVec3(*it, dst)) errors.fields.push_back({ptr, "must be [x, y, z]"});
-      else if (k != "up") cam.look_at = true;
+      if (!ParseVec3(*it, dst))
+        errors.fields.push_back({ptr, "must be [x, y, z]"});
+      else if (k != "up")
+        cam.look_at = true;
     } else if (k == "frame") {
       if (!it->is_string() || !ParseFraming(it->get<std::string>(), cam)) {
         errors.fields.push_back({ptr, "must be \"all\", \"shapes\", \"auto\" or \"joint:NAME\""});
@@ -501,8 +589,10 @@ void LightFromJson(const json& v, render::RenderOptions& o, Status& errors) {
   for (auto it = v.begin(); it != v.end(); ++it) {
     double d = 0;
     const std::string ptr = "/light/" + JsonPointerEscape(it.key());
-    if (!FindMember(Body::kLight, it.key())) UnknownMember("/light", it.key(), Body::kLight, errors);
-    else if (ReadNumber(Body::kLight, it.key(), *it, ptr, &d, errors)) (it.key() == "yaw" ? o.light_yaw : o.light_pitch) = static_cast<float>(d);
+    if (!FindMember(Body::kLight, it.key()))
+      UnknownMember("/light", it.key(), Body::kLight, errors);
+    else if (ReadNumber(Body::kLight, it.key(), *it, ptr, &d, errors))
+      (it.key() == "yaw" ? o.light_yaw : o.light_pitch) = static_cast<float>(d);
   }
 }
 
@@ -511,26 +601,32 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
   const std::string ptr = "/" + JsonPointerEscape(key);
   double d = 0;
   if (key == "width" || key == "height") {
-    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors))
+      (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
   } else if (key == "view") {
     if (!v.is_string() || !render::ParseView(v.get<std::string>(), &r.render.view)) {
-      errors.fields.push_back({ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\", \"clay\""});
+      errors.fields.push_back(
+          {ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\", \"clay\""});
     }
   } else if (key == "background") {
     if (!ParseBackground(v, r.render.background)) {
-      errors.fields.push_back({ptr, "must be \"#rrggbb\", \"#rrggbbaa\", \"transparent\" or [r, g, b, a] in 0..1"});
+      errors.fields.push_back(
+          {ptr, "must be \"#rrggbb\", \"#rrggbbaa\", \"transparent\" or [r, g, b, a] in 0..1"});
     }
   } else if (key == "supersample") {
-    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) r.render.supersample = static_cast<int>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors))
+      r.render.supersample = static_cast<int>(d);
   } else if (key == "format") {
     render::ImageFormat f;
     if (!v.is_string() || !render::ParseImageFormat(v.get<std::string>(), &f)) {
-      errors.fields.push_back({ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
+      errors.fields.push_back(
+          {ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
     } else {
       r.format = f;
     }
   } else if (key == "exposure") {
-    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) r.render.exposure = static_cast<float>(d);
+    if (ReadNumber(Body::kRender, key, v, ptr, &d, errors))
+      r.render.exposure = static_cast<float>(d);
   } else if (key == "quality") {
     if (ReadNumber(Body::kRender, key, v, ptr, &d, errors)) r.quality = static_cast<int>(d);
   } else if (key == "camera") {
@@ -541,128 +637,6 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
     return false;
   }
   return true;
-}
-
-
-// nlohmann's DOM builder under a SAX reader that tracks where it is (for JSON Pointers), refuses a
-// member given twice in any object (JSON parsers keep the last, or the first: the client's intent
-// is unknown), and stops at the body's limits. Linear in the body: the callback parser this
-// replaces scanned the parent again at every object's end, so 100,000 empty objects took seconds.
-namespace {
-
-class CheckedDom {
- public:
-  CheckedDom(json& root, BodyLimits limits) : dom_(root, false), limits_(limits) {}
-
-  bool null() { return Value() && dom_.null(); }
-  bool boolean(bool v) { return Value() && dom_.boolean(v); }
-  bool number_integer(json::number_integer_t v) { return Value() && dom_.number_integer(v); }
-  bool number_unsigned(json::number_unsigned_t v) { return Value() && dom_.number_unsigned(v); }
-  bool number_float(json::number_float_t v, const std::string& s) { return Value() && dom_.number_float(v, s); }
-  bool string(std::string& v) { return Value() && dom_.string(v); }
-  bool binary(json::binary_t& v) { return Value() && dom_.binary(v); }
-  bool start_object(size_t n) { return Open(false) && dom_.start_object(n); }
-  bool start_array(size_t n) { return Open(true) && dom_.start_array(n); }
-  bool end_object() { return Close() && dom_.end_object(); }
-  bool end_array() { return Close() && dom_.end_array(); }
-  bool key(std::string& k) {
-    Level& level = levels_.back();
-    level.key = k;
-    if (!level.keys.insert(k).second) {
-      duplicate_ = Pointer();
-      return false;
-    }
-    return dom_.key(k);
-  }
-  bool parse_error(size_t position, const std::string& token, const nlohmann::detail::exception& e) {
-    malformed_ = true;
-    error_at_ = position;
-    error_token_ = token;
-    return dom_.parse_error(position, token, e);
-  }
-
-  bool malformed() const { return malformed_; }
-  // Where the parser stopped, as "line L, column C" of `body` (1-based), and the text it stopped at.
-  std::string ErrorPlace(std::string_view body) const {
-    const size_t at = std::min(error_at_ ? error_at_ - 1 : 0, body.size());
-    size_t line = 1, column = 1;
-    for (size_t i = 0; i < at; ++i) {
-      if (body[i] == '\n') ++line, column = 1;
-      else ++column;
-    }
-    std::string near = error_token_.substr(0, 20);
-    for (char& c : near) if (static_cast<unsigned char>(c) < 0x20) c = ' ';
-    return "line " + std::to_string(line) + ", column " + std::to_string(column) + (near.empty() ? "" : " (at '" + near + "')");
-  }
-  const std::string& duplicate() const { return duplicate_; }
-  const std::string& over() const { return over_; }  // Which limit was passed, and where.
-
- private:
-  struct Level {
-    bool array = false;
-    size_t index = 0;
-    std::string key;
-    std::unordered_set<std::string> keys;
-  };
-
-  std::string Pointer() const {
-    std::string p;
-    for (const Level& l : levels_) p += "/" + (l.array ? std::to_string(l.index) : JsonPointerEscape(l.key));
-    return p;
-  }
-  bool Count() {
-    if (++values_ <= limits_.values) return true;
-    over_ = "more than " + std::to_string(limits_.values) + " JSON values (numbers, strings, arrays, objects) at " +
-            (levels_.empty() ? "/" : Pointer()) + "; this route takes at most that many";
-    return false;
-  }
-  bool Value() {  // A scalar ended: the next one of its array.
-    if (!Count()) return false;
-    if (!levels_.empty() && levels_.back().array) ++levels_.back().index;
-    return true;
-  }
-  bool Open(bool array) {
-    if (!Count()) return false;
-    if (levels_.size() >= limits_.depth) {
-      over_ = "nested deeper than " + std::to_string(limits_.depth) + " levels at " + Pointer();
-      return false;
-    }
-    levels_.push_back({array, 0, {}, {}});
-    return true;
-  }
-  bool Close() {
-    levels_.pop_back();
-    if (!levels_.empty() && levels_.back().array) ++levels_.back().index;
-    return true;
-  }
-
-  nlohmann::detail::json_sax_dom_parser<json> dom_;
-  BodyLimits limits_;
-  std::vector<Level> levels_;
-  size_t values_ = 0;
-  bool malformed_ = false;
-  size_t error_at_ = 0;
-  std::string error_token_;
-  std::string duplicate_, over_;
-};
-
-}  // namespace
-
-// A JSON object within `limits`, named by JSON Pointers when it is not one.
-Result<json> ParseObject(std::string_view body, BodyLimits limits) {
-  if (body.find_first_not_of(" \t\r\n") == std::string_view::npos) {
-    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is empty; send a JSON object"), kMalformedJson);
-  }
-  json j;
-  CheckedDom sax(j, limits);
-  const bool parsed = json::sax_parse(body, &sax);
-  if (!sax.over().empty()) return WithReason(ResourceExhausted("the body has " + sax.over()), "body-too-complex");
-  if (!sax.duplicate().empty()) return FieldStatus(sax.duplicate(), "is given more than once; give each member once");
-  if (!parsed || sax.malformed()) {
-    return WithReason(InvalidArgument(std::string(kMalformed) + ": the body is not valid JSON at " + sax.ErrorPlace(body)), kMalformedJson);
-  }
-  if (!j.is_object()) return FieldStatus("", std::string("the body must be a JSON object, not ") + j.type_name());
-  return j;
 }
 
 }  // namespace facespace::api::body

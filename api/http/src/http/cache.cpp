@@ -34,7 +34,8 @@ void ResponseCache::Put(const std::string& key, std::shared_ptr<const CachedResp
 
 bool ResponseCache::SeenBefore(size_t hash) {
   const uint64_t tag = static_cast<uint64_t>(hash) | 1;  // Never 0, an empty slot.
-  std::atomic<uint64_t>& slot = doorkeeper_[(hash >> 17) % kDoorkeeperSlots];  // Not the bits ShardOf uses.
+  std::atomic<uint64_t>& slot =
+      doorkeeper_[(hash >> 17) % kDoorkeeperSlots];  // Not the bits ShardOf uses.
   if (slot.load(std::memory_order_relaxed) == tag) {
     slot.store(0, std::memory_order_relaxed);
     return true;
@@ -43,7 +44,8 @@ bool ResponseCache::SeenBefore(size_t hash) {
   return false;
 }
 
-bool ResponseCache::Offer(const std::string& key, std::shared_ptr<const CachedResponse> value, Admit admit) {
+bool ResponseCache::Offer(const std::string& key, std::shared_ptr<const CachedResponse> value,
+                          Admit admit) {
   if (admit == Admit::kSecondRequest && !SeenBefore(std::hash<std::string>()(key))) return false;
   Put(key, std::move(value));
   return true;
@@ -75,7 +77,8 @@ bool NotModified(const httplib::Request& req, httplib::Response& res, const std:
   const uint64_t hash = Fnv1a(key);
   for (int i = 0; i < 16; ++i) etag[1 + i] = "0123456789abcdef"[(hash >> (60 - 4 * i)) & 15];
   res.set_header("ETag", etag);
-  res.set_header("Cache-Control", req.method == "GET" || req.method == "HEAD" ? "public, no-cache" : "no-store");
+  res.set_header("Cache-Control",
+                 req.method == "GET" || req.method == "HEAD" ? "public, no-cache" : "no-store");
   res.set_header("Vary", "Accept");
   const std::string inm = req.get_header_value("If-None-Match");
   if (!inm.empty() && (inm == etag || inm == "*" || inm.find(etag) != std::string::npos)) {

@@ -45,7 +45,8 @@ class ResponseCache {
   bool SeenBefore(size_t hash);
   static constexpr size_t kShards = 16;
   static constexpr size_t kDoorkeeperSlots = 1 << 14;  // Hashes, direct-mapped: 128 KB.
-  std::unique_ptr<std::atomic<uint64_t>[]> doorkeeper_ = std::make_unique<std::atomic<uint64_t>[]>(kDoorkeeperSlots);
+  std::unique_ptr<std::atomic<uint64_t>[]> doorkeeper_ =
+      std::make_unique<std::atomic<uint64_t>[]>(kDoorkeeperSlots);
   using Entry = std::pair<std::string, std::shared_ptr<const CachedResponse>>;
   struct Shard {
     std::mutex mu;
@@ -53,7 +54,9 @@ class ResponseCache {
     std::unordered_map<std::string, std::list<Entry>::iterator> map;
     size_t bytes = 0;
   };
-  Shard& ShardOf(const std::string& key) { return shards_[std::hash<std::string>()(key) % kShards]; }
+  Shard& ShardOf(const std::string& key) {
+    return shards_[std::hash<std::string>()(key) % kShards];
+  }
   size_t shard_cap_;
   std::array<Shard, kShards> shards_;
 };

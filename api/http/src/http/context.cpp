@@ -1,10 +1,10 @@
 #include "context.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
-#include <malloc.h>
-
 #include <thread>
 
 #include "negotiate.h"
@@ -18,7 +18,7 @@ void WorkspacePool::Return::operator()(Workspace* ws) const {
   if (pool->idle_.size() < pool->keep_) pool->idle_.push_back(std::move(owned));
 }
 
-WorkspacePool::Lease WorkspacePool::Acquire(std::stop_token stop) {
+WorkspacePool::Lease WorkspacePool::Acquire(std::stop_token stop, HelperCpu* helper_cpu) {
   Lease ws;
   {
     std::lock_guard lock(mu_);
@@ -29,12 +29,14 @@ WorkspacePool::Lease WorkspacePool::Acquire(std::stop_token stop) {
   }
   if (!ws) ws = Lease(new Workspace, Return{this});
   ws->stop = std::move(stop);
+  ws->helper_cpu = helper_cpu;
   return ws;
 }
 
 size_t RenderBudget::Estimate(const render::RenderOptions& o, size_t cells) {
   const size_t ss = static_cast<size_t>(std::max(1, o.supersample));
-  const size_t pixels = static_cast<size_t>(std::max(0, o.width)) * static_cast<size_t>(std::max(0, o.height));
+  const size_t pixels =
+      static_cast<size_t>(std::max(0, o.width)) * static_cast<size_t>(std::max(0, o.height));
   return pixels * ss * ss * 36 + pixels * std::max<size_t>(cells, 1) * 36;
 }
 
@@ -42,7 +44,8 @@ bool RenderBudget::Acquire(size_t bytes) {
   std::unique_lock<std::mutex> lock(mu_);
   // A request alone may use the whole budget: it waits until nothing else is in flight.
   const size_t need = std::min(bytes, total_);
-  if (!cv_.wait_for(lock, std::chrono::seconds(2), [&] { return used_ + need <= total_; })) return false;
+  if (!cv_.wait_for(lock, std::chrono::seconds(2), [&] { return used_ + need <= total_; }))
+    return false;
   used_ += need;
   return true;
 }
@@ -62,22 +65,28 @@ size_t RenderBudget::InFlight() const {
 
 void ReturnMemory() { malloc_trim(0); }
 
-bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o,
-                       size_t cells) {
+bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                       const render::RenderOptions& o, size_t cells) {
   const size_t bytes = RenderBudget::Estimate(o, cells);
   if (bytes <= ctx.render_budget.per_request()) return true;
   const char* p = req.method == "GET" ? "?" : "/";
   std::vector<FieldError> fields = {{std::string(p) + "width", "lower width x height"}};
-  if (o.supersample > 1) fields.push_back({std::string(p) + "supersample", "lower the supersampling"});
+  if (o.supersample > 1)
+    fields.push_back({std::string(p) + "supersample", "lower the supersampling"});
   if (cells > 1) fields.push_back({"/cells", "fewer cells"});
-  SendProblem(req, res, Problem::kRenderTooLarge, "this render would need about " + std::to_string(bytes >> 20) + " MiB of working memory (width x height x supersample^2" +
-                  (cells > 1 ? std::string(", times ") + std::to_string(cells) + " cells" : std::string()) + "); this server allows " +
-                  std::to_string(ctx.render_budget.per_request() >> 20) + " MiB a request (--render-budget-mb)",
-              fields);
+  SendProblem(
+      req, res, Problem::kRenderTooLarge,
+      "this render would need about " + std::to_string(bytes >> 20) +
+          " MiB of working memory (width x height x supersample^2" +
+          (cells > 1 ? std::string(", times ") + std::to_string(cells) + " cells" : std::string()) +
+          "); this server allows " + std::to_string(ctx.render_budget.per_request() >> 20) +
+          " MiB a request (--render-budget-mb)",
+      fields);
   return false;
 }
 
-ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o, std::vector<std::string> route_labels)
+ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o,
+                         std::vector<std::string> route_labels)
     : store(s),
       jobs(j),
       evaluator(e),
@@ -94,14 +103,16 @@ ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, Ap
         return l;
       }()) {}
 
-std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& id) {
+std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
+                                         httplib::Response& res, const std::string& id) {
   auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
   if (!rig) {
     // The nearest id, for a typo ("facecpa"): the store's ids are few.
     std::vector<std::string> ids;
     for (const auto& r : ctx.store.List()) ids.push_back(r->id);
     const std::vector<std::string_view> views(ids.begin(), ids.end());
-    SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'" + DidYouMean(id.substr(0, 80), views));
+    SendProblem(req, res, Problem::kRigNotFound,
+                "no rig with id '" + id.substr(0, 80) + "'" + DidYouMean(id.substr(0, 80), views));
   }
   return rig;
 }
@@ -121,18 +132,21 @@ void BodyPool::Give(std::string body) {
 }
 
 std::shared_ptr<CachedResponse> BodyPool::MakeCached(const std::shared_ptr<BodyPool>& pool) {
-  return std::shared_ptr<CachedResponse>(new CachedResponse, [weak = std::weak_ptr<BodyPool>(pool)](CachedResponse* e) {
-    if (auto p = weak.lock()) p->Give(std::move(e->body));
-    delete e;
-  });
+  return std::shared_ptr<CachedResponse>(new CachedResponse,
+                                         [weak = std::weak_ptr<BodyPool>(pool)](CachedResponse* e) {
+                                           if (auto p = weak.lock()) p->Give(std::move(e->body));
+                                           delete e;
+                                         });
 }
 
 std::string ServerTiming(const Workspace::Timing& timing) {
   std::string out;
   auto add = [&](const char* name, double ms) {
     if (ms <= 0) return;
-    char buf[32];  // "%.2f" by std::to_chars: the same digits without printf's parsing (a mesh request's headers were 2% of its CPU).
-    const auto end = std::to_chars(buf, buf + sizeof buf, std::min(ms, 1e12), std::chars_format::fixed, 2).ptr;
+    char buf[32];  // "%.2f" by std::to_chars: the same digits without printf's parsing (a mesh
+                   // request's headers were 2% of its CPU).
+    const auto end =
+        std::to_chars(buf, buf + sizeof buf, std::min(ms, 1e12), std::chars_format::fixed, 2).ptr;
     out.append(out.empty() ? "" : ", ").append(name).append(";dur=").append(buf, end);
   };
   add("blend", timing.blend);
@@ -145,12 +159,14 @@ void SendShared(httplib::Response& res, std::shared_ptr<const CachedResponse> en
   const std::string* body = &enc->body;
   res.set_content_provider(
       body->size(), enc->content_type,
-      [body](size_t offset, size_t length, httplib::DataSink& sink) { return sink.write(body->data() + offset, length); },
+      [body](size_t offset, size_t length, httplib::DataSink& sink) {
+        return sink.write(body->data() + offset, length);
+      },
       [enc](bool) {});
 }
 
-bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Status& s, double sum,
-                 std::span<const Warning> warnings) {
+bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                 const Status& s, double sum, std::span<const Warning> warnings) {
   const bool refused = s.reason == kLeavesAuthoredSpace;
   if (s.ok() || refused) {
     SetWeightHeaders(res, sum, warnings);

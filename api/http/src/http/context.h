@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "cache.h"
-#include "facespace/http/http.h"
 #include "facespace/evaluator/evaluator.h"
+#include "facespace/http/http.h"
 #include "facespace/net/front.h"
 #include "facespace/net/live_hub.h"
 #include "metrics.h"
@@ -33,8 +33,10 @@ class WorkspacePool {
     void operator()(Workspace* ws) const;
   };
   using Lease = std::unique_ptr<Workspace, Return>;
-  // A workspace for a request whose stop token is `stop` (StopOf(req) in a route).
-  Lease Acquire(std::stop_token stop);
+  // A workspace for a request whose stop token is `stop` and whose helper threads' CPU is charged
+  // to `helper_cpu` (StopOf(req) and HelperCpuOf(req) in a route: Acquire(req)).
+  Lease Acquire(std::stop_token stop, HelperCpu* helper_cpu);
+  Lease Acquire(const httplib::Request& req) { return Acquire(StopOf(req), HelperCpuOf(req)); }
 
  private:
   size_t keep_;
@@ -83,10 +85,11 @@ class RenderBudget {
 
 // The server's parts, owned by api::Api and passed to every route handler.
 struct ServerState {
-  ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o, std::vector<std::string> route_labels);
+  ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o,
+              std::vector<std::string> route_labels);
 
   RigStore& store;
-  batch::JobQueue* jobs;            // Null: the batch and job routes answer 503.
+  batch::JobQueue* jobs;  // Null: the batch and job routes answer 503.
   const Evaluator& evaluator;
   const ApiOptions options;
   Metrics metrics;
@@ -94,7 +97,7 @@ struct ServerState {
   WorkspacePool workspaces;
   const std::shared_ptr<BodyPool> bodies = std::make_shared<BodyPool>();
   RenderBudget render_budget;
-  const std::string openapi;  // The document, with this server's limits.
+  const std::string openapi;        // The document, with this server's limits.
   std::atomic<bool> warmed{false};  // Every rig of the store at start encoded (/readyz).
   LiveHub live;  // The WebSocket sessions (last: its threads use what is above, and stop first).
 };
@@ -102,8 +105,8 @@ struct ServerState {
 // ---- helpers the routes share ----
 
 // The stored rig named by the path, or nullptr with a 404 sent.
-std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                                         const std::string& id);
+std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
+                                         httplib::Response& res, const std::string& id);
 
 // A JSON body parsed by `parse`; false when an error was sent (415, 400 malformed, 422 schema).
 template <typename T, typename Parse>
@@ -112,8 +115,8 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
 // Answers from the response cache, or with `produce()` (the encoded body), which is then offered
 // to the cache under `key` (kept as `admit` says). A failed `produce` is sent as its Status.
 template <typename Produce>
-void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
-                const char* content_type, Admit admit, Produce produce);
+void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                const std::string& key, const char* content_type, Admit admit, Produce produce);
 
 // Work past this many bytes hands its freed memory back to the system (malloc_trim) when done.
 inline constexpr size_t kLargeWork = size_t{64} << 20;
@@ -121,8 +124,8 @@ void ReturnMemory();
 
 // The render budget's check before a render of `cells` images: false with a 413 sent when the
 // request alone is over it (naming the fields to lower).
-bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o,
-                       size_t cells);
+bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                       const render::RenderOptions& o, size_t cells);
 
 // Runs `render` (which returns Result<Encoded>) within the budget: a 503 status with reason
 // "busy" when no room was made in time; memory handed back to the system after large work.
@@ -139,8 +142,8 @@ void SendShared(httplib::Response& res, std::shared_ptr<const CachedResponse> en
 // After the evaluator's first step (ResolvePoint): Facespace-Weight-Sum and Facespace-Warnings
 // set, warnings counted; false when `status` is an error, which was sent (a strict refusal with
 // its warnings).
-bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Status& status, double sum,
-                 std::span<const Warning> warnings);
+bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                 const Status& status, double sum, std::span<const Warning> warnings);
 
 // What an Authorization header's value says of this server's API key: the one reading of
 // "Bearer KEY" for Authorized (which answers each refusal), CarriesKey and the front's deadline.

@@ -1,8 +1,8 @@
 // Template definitions of context.h.
 #pragma once
 
-#include "problem.h"
 #include "negotiate.h"
+#include "problem.h"
 
 namespace facespace::api::http {
 
@@ -11,7 +11,9 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
   if (!AcceptsJsonBody(req, res)) return false;
   if (!req.params.empty()) {  // Not read: the client's setting would be silently lost.
     const std::string name = req.params.begin()->first;
-    SendProblem(req, res, Problem::kInvalidRequest, name + ": query parameters are not read with a JSON body; give \"" + name + "\" in the body",
+    SendProblem(req, res, Problem::kInvalidRequest,
+                name + ": query parameters are not read with a JSON body; give \"" + name +
+                    "\" in the body",
                 {{"?" + name, "is not read with a JSON body"}});
     return false;
   }
@@ -27,7 +29,10 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
 template <typename Render>
 Result<Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render) {
   if (!ctx.render_budget.Acquire(bytes)) {
-    return WithReason(ResourceExhausted("the server is rendering as much as its memory budget allows; retry shortly"), "busy");
+    return WithReason(
+        ResourceExhausted(
+            "the server is rendering as much as its memory budget allows; retry shortly"),
+        "busy");
   }
   Result<Encoded> out = render();
   ctx.render_budget.Release(bytes);
@@ -36,14 +41,14 @@ Result<Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render
 }
 
 template <typename Produce>
-void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
-                const char* content_type, Admit admit, Produce produce) {
+void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                const std::string& key, const char* content_type, Admit admit, Produce produce) {
   std::shared_ptr<const CachedResponse> enc = ctx.cache.Get(key);
   ctx.metrics.CountCache(enc != nullptr);
   if (!enc) {
     Workspace::Timing timing;
     Result<Encoded> bytes = [&] {
-      const WorkspacePool::Lease ws = ctx.workspaces.Acquire(StopOf(req));
+      const WorkspacePool::Lease ws = ctx.workspaces.Acquire(req);
       ws->timing = {};
       Result<Encoded> made = produce(*ws);
       timing = ws->timing;

@@ -28,10 +28,14 @@ RigSize SizeOf(const Rig& rig) {
 // "1.2 M" and such: figures for people.
 std::string Amount(double v) {
   char buf[32];
-  if (v >= 1e9) std::snprintf(buf, sizeof buf, "%.1f G", v / 1e9);
-  else if (v >= 1e6) std::snprintf(buf, sizeof buf, "%.1f M", v / 1e6);
-  else if (v >= 1e4) std::snprintf(buf, sizeof buf, "%.0f k", v / 1e3);
-  else std::snprintf(buf, sizeof buf, "%.0f", v);
+  if (v >= 1e9)
+    std::snprintf(buf, sizeof buf, "%.1f G", v / 1e9);
+  else if (v >= 1e6)
+    std::snprintf(buf, sizeof buf, "%.1f M", v / 1e6);
+  else if (v >= 1e4)
+    std::snprintf(buf, sizeof buf, "%.0f k", v / 1e3);
+  else
+    std::snprintf(buf, sizeof buf, "%.0f", v);
   return buf;
 }
 
@@ -46,7 +50,9 @@ double Samples(const render::RenderOptions& o) {
   return static_cast<double>(std::max(0, o.width)) * std::max(0, o.height) * ss * ss;
 }
 
-double FrameSeconds(const RigSize& s) { return 2e-5 + 8e-9 * static_cast<double>(s.vertices) + 1.5e-8 * static_cast<double>(s.skinned); }
+double FrameSeconds(const RigSize& s) {
+  return 2e-5 + 8e-9 * static_cast<double>(s.vertices) + 1.5e-8 * static_cast<double>(s.skinned);
+}
 
 }  // namespace
 
@@ -54,7 +60,8 @@ double FrameSeconds(const Rig& rig) { return FrameSeconds(SizeOf(rig)); }
 
 double ImageSeconds(const render::RenderOptions& o, const Rig& rig) {
   const RigSize s = SizeOf(rig);  // One walk over the primitives for the blend and the triangles.
-  return kPerImage + FrameSeconds(s) + kPerSample * Samples(o) + 1e-7 * static_cast<double>(s.triangles);
+  return kPerImage + FrameSeconds(s) + kPerSample * Samples(o) +
+         1e-7 * static_cast<double>(s.triangles);
 }
 
 double BlendSeconds(const Rig& rig, size_t weighted) {
@@ -63,23 +70,31 @@ double BlendSeconds(const Rig& rig, size_t weighted) {
     all += shape.vertices_moved;
     largest = std::max(largest, shape.vertices_moved);
   }
-  const double bound = weighted >= rig.shapes.size() ? static_cast<double>(all)
-                                                     : std::min(static_cast<double>(all), static_cast<double>(weighted) * static_cast<double>(largest));
+  const double bound = weighted >= rig.shapes.size()
+                           ? static_cast<double>(all)
+                           : std::min(static_cast<double>(all),
+                                      static_cast<double>(weighted) * static_cast<double>(largest));
   return kPerMovedVertex * bound;
 }
 
 Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted) {
   const double blend = BlendSeconds(rig, weighted);
   if (format != MeshFormat::kVrm && format != MeshFormat::kVrm0) {
-    return {kPerRequest + FrameSeconds(rig) + blend, "/weights", "one blend of " + (weighted >= rig.shapes.size() ? std::string("every") : std::to_string(weighted)) + " shape(s)"};
+    return {kPerRequest + FrameSeconds(rig) + blend, "/weights",
+            "one blend of " +
+                (weighted >= rig.shapes.size() ? std::string("every") : std::to_string(weighted)) +
+                " shape(s)"};
   }
-  // A VRM: the whole rig written (every target of every vertex: 1.2e-8 s each, measured on Uka's, 50k vertices
-  // x 213 shapes in 0.14 s with its thumbnail) and its thumbnail drawn.
+  // A VRM: the whole rig written (every target of every vertex: 1.2e-8 s each, measured on Uka's,
+  // 50k vertices x 213 shapes in 0.14 s with its thumbnail) and its thumbnail drawn.
   render::RenderOptions thumbnail;
   thumbnail.width = thumbnail.height = Evaluator::kThumbnailSize;
-  const double seconds = kPerRequest + FrameSeconds(rig) + blend + 1.2e-8 * static_cast<double>(rig.vertex_count()) * static_cast<double>(rig.shapes.size()) +
-                         ImageSeconds(thumbnail, rig);
-  return {seconds, "/format", "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
+  const double seconds =
+      kPerRequest + FrameSeconds(rig) + blend +
+      1.2e-8 * static_cast<double>(rig.vertex_count()) * static_cast<double>(rig.shapes.size()) +
+      ImageSeconds(thumbnail, rig);
+  return {seconds, "/format",
+          "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
 }
 
 double EncodeSeconds(render::ImageFormat format, double pixels) {
@@ -95,43 +110,61 @@ double EncodeSeconds(render::ImageFormat format, double pixels) {
 
 size_t WeightedShapes(const MeshRequest& r) {
   if (!r.controls.empty()) return SIZE_MAX;
-  return static_cast<size_t>(std::count_if(r.weights.begin(), r.weights.end(), [](const WeightEntry& w) { return w.value != 0.0; }));
+  return static_cast<size_t>(std::count_if(r.weights.begin(), r.weights.end(),
+                                           [](const WeightEntry& w) { return w.value != 0.0; }));
 }
 
-Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query, render::ImageFormat format) {
+Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query,
+                render::ImageFormat format) {
   const double pixels = static_cast<double>(std::max(0, o.width)) * std::max(0, o.height);
-  return {kPerRequest + ImageSeconds(o, rig) + EncodeSeconds(format, pixels), query ? "?supersample" : "/supersample",
-          Amount(Samples(o)) + " samples (width x height x supersample squared), encoded as " + render::ImageFormatExtension(format)};
+  return {kPerRequest + ImageSeconds(o, rig) + EncodeSeconds(format, pixels),
+          query ? "?supersample" : "/supersample",
+          Amount(Samples(o)) + " samples (width x height x supersample squared), encoded as " +
+              render::ImageFormatExtension(format)};
 }
 
-Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells, render::ImageFormat format) {
+Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells,
+               render::ImageFormat format) {
   const double pixels = static_cast<double>(cells) * std::max(0, o.width) * std::max(0, o.height);
-  return {kPerRequest + static_cast<double>(cells) * ImageSeconds(o, rig) + EncodeSeconds(format, pixels), "/cells",
-          std::to_string(cells) + " cells x " + Amount(Samples(o)) + " samples, encoded as " + render::ImageFormatExtension(format)};
+  return {kPerRequest + static_cast<double>(cells) * ImageSeconds(o, rig) +
+              EncodeSeconds(format, pixels),
+          "/cells",
+          std::to_string(cells) + " cells x " + Amount(Samples(o)) + " samples, encoded as " +
+              render::ImageFormatExtension(format)};
 }
 
 Cost FramesCost(const Rig& rig, size_t frames, double seconds, bool meshes, const char* field) {
-  seconds = std::clamp(seconds, 0.0, static_cast<double>(SequencePhysics::kMaxSeconds));  // Steps past it are not simulated.
-  const double physics = rig.physics.bodies.empty() ? 0.0 : 60.0 * seconds * kPerPhysicsBody * static_cast<double>(rig.physics.bodies.size());
-  const double frame = meshes ? FrameSeconds(rig) : 2e-6 * static_cast<double>(rig.shapes.size() + 10);
+  seconds = std::clamp(
+      seconds, 0.0,
+      static_cast<double>(SequencePhysics::kMaxSeconds));  // Steps past it are not simulated.
+  const double physics =
+      rig.physics.bodies.empty()
+          ? 0.0
+          : 60.0 * seconds * kPerPhysicsBody * static_cast<double>(rig.physics.bodies.size());
+  const double frame =
+      meshes ? FrameSeconds(rig) : 2e-6 * static_cast<double>(rig.shapes.size() + 10);
   return {kPerRequest + static_cast<double>(frames) * frame + physics, field,
-          Amount(static_cast<double>(frames)) + " frames" + (physics > 0 ? " and " + Amount(60.0 * seconds) + " physics steps" : "")};
+          Amount(static_cast<double>(frames)) + " frames" +
+              (physics > 0 ? " and " + Amount(60.0 * seconds) + " physics steps" : "")};
 }
 
 Cost ReduceCost(const Rig& rig, size_t keys) {
   // O(K log K) samples, each a blend of the shapes that differ (ReduceSequence).
   const double k = static_cast<double>(std::max<size_t>(keys, 2));
-  const double samples = 2.0 * k * std::log2(k);  // Measured: 1,600 keys of all 52 FaceCap shapes ramping, 0.76 s.
-  return {kPerRequest + samples * (FrameSeconds(rig) + 5e-9 * static_cast<double>(rig.shapes.size())), "/keys",
-          Amount(static_cast<double>(keys)) + " keys (about " + Amount(samples) + " samples)"};
+  const double samples =
+      2.0 * k * std::log2(k);  // Measured: 1,600 keys of all 52 FaceCap shapes ramping, 0.76 s.
+  return {
+      kPerRequest + samples * (FrameSeconds(rig) + 5e-9 * static_cast<double>(rig.shapes.size())),
+      "/keys", Amount(static_cast<double>(keys)) + " keys (about " + Amount(samples) + " samples)"};
 }
 
 Cost FitCost(const Rig& rig, const FitRequest& r) {
   size_t v = 0;
   for (const auto& p : r.target.positions) v += p.size() / 3;
   const double n = static_cast<double>(rig.shapes.size());
-  return {kPerRequest + 6e-10 * static_cast<double>(v) * (n * n + 20.0), "/target", Amount(static_cast<double>(v)) + " vertices x " +
-                                                                                   std::to_string(rig.shapes.size()) + " shapes squared"};
+  return {kPerRequest + 6e-10 * static_cast<double>(v) * (n * n + 20.0), "/target",
+          Amount(static_cast<double>(v)) + " vertices x " + std::to_string(rig.shapes.size()) +
+              " shapes squared"};
 }
 
 Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate) {
@@ -147,10 +180,13 @@ Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate
   }
   const size_t frames = static_cast<size_t>(std::ceil(seconds * std::max(1.0f, r.fps))) + 1;
   if (r.format == FrameFormat::kWebm) {
-    const double pixels = static_cast<double>(std::max(0, r.render.render.width)) * std::max(0, r.render.render.height);
-    c.seconds += static_cast<double>(frames) * (ImageSeconds(r.render.render, rig) + kPerVideoPixel * pixels);
+    const double pixels = static_cast<double>(std::max(0, r.render.render.width)) *
+                          std::max(0, r.render.render.height);
+    c.seconds += static_cast<double>(frames) *
+                 (ImageSeconds(r.render.render, rig) + kPerVideoPixel * pixels);
     c.field = r.render.render.supersample > 1 ? "/supersample" : "/fps";
-    c.formula += ", " + Amount(static_cast<double>(frames)) + " video frames x " + Amount(Samples(r.render.render)) + " samples";
+    c.formula += ", " + Amount(static_cast<double>(frames)) + " video frames x " +
+                 Amount(Samples(r.render.render)) + " samples";
   } else if (r.format != FrameFormat::kJson && r.format != FrameFormat::kWav) {
     c.seconds += FramesCost(rig, frames, seconds, r.format == FrameFormat::kF32, "/fps").seconds;
     c.formula += ", " + Amount(static_cast<double>(frames)) + " frames";
@@ -159,9 +195,13 @@ Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate
   return c;
 }
 
-Cost UploadCost(size_t bytes) { return {kPerRequest + kPerUploadByte * static_cast<double>(bytes), "", Amount(static_cast<double>(bytes)) + " bytes"}; }
+Cost UploadCost(size_t bytes) {
+  return {kPerRequest + kPerUploadByte * static_cast<double>(bytes), "",
+          Amount(static_cast<double>(bytes)) + " bytes"};
+}
 
-bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const Cost& cost) {
+bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                  const Cost& cost) {
   res.headers.erase("Facespace-Cost");  // The route table's constant, said before the handler ran.
   res.set_header("Facespace-Cost", Seconds(cost.seconds));
   const bool keyed = CarriesKey(ctx, req);
@@ -169,11 +209,16 @@ bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Respon
   if (cost.seconds <= budget) return true;
   ctx.metrics.CountOverBudget();
   const std::string limit = keyed ? "the keyed budget of " + Seconds(budget) + " (--keyed-cpu)"
-                                  : "an anonymous request's budget of " + Seconds(budget) + " (--anonymous-cpu; with the API key, " +
+                                  : "an anonymous request's budget of " + Seconds(budget) +
+                                        " (--anonymous-cpu; with the API key, " +
                                         Seconds(ctx.options.keyed_cpu) + ")";
-  SendProblem(req, res, Problem::kOverBudget, "this request would cost about " + Seconds(cost.seconds) + " CPU-seconds (" + cost.formula + "), over " + limit +
-                  ": ask for less at once (fewer frames, cells, keys or samples, a smaller size), or split it",
-              {{cost.field, "about " + Seconds(cost.seconds) + " CPU-seconds, over " + Seconds(budget)}});
+  SendProblem(
+      req, res, Problem::kOverBudget,
+      "this request would cost about " + Seconds(cost.seconds) + " CPU-seconds (" + cost.formula +
+          "), over " + limit +
+          ": ask for less at once (fewer frames, cells, keys or samples, a smaller size), or split "
+          "it",
+      {{cost.field, "about " + Seconds(cost.seconds) + " CPU-seconds, over " + Seconds(budget)}});
   return false;
 }
 

@@ -58,7 +58,9 @@ bool BrotliFast(std::string_view body, std::stop_token stop, std::string& out) {
     const bool last = step == in_left;
     size_t avail = step;
     const uint8_t* next = in;
-    if (!ok || !BrotliEncoderCompressStream(st, last ? BROTLI_OPERATION_FINISH : BROTLI_OPERATION_PROCESS, &avail, &next, &out_left, &dst, nullptr)) {
+    if (!ok ||
+        !BrotliEncoderCompressStream(st, last ? BROTLI_OPERATION_FINISH : BROTLI_OPERATION_PROCESS,
+                                     &avail, &next, &out_left, &dst, nullptr)) {
       ok = false;
       break;
     }
@@ -96,28 +98,34 @@ bool GzipFast(std::string_view body, std::stop_token stop, std::string& out) {
 bool Compressible(const std::string& content_type) {
   const std::string_view t(content_type);
   const std::string_view type = t.substr(0, t.find(';'));
-  return type.starts_with("text/") || type == "application/json" || type == "application/problem+json" || type == "image/svg+xml" ||
-         type == "application/javascript" || type == "application/xml" || type == "application/x-ndjson" || type.ends_with("+json");
+  return type.starts_with("text/") || type == "application/json" ||
+         type == "application/problem+json" || type == "image/svg+xml" ||
+         type == "application/javascript" || type == "application/xml" ||
+         type == "application/x-ndjson" || type.ends_with("+json");
 }
 
 }  // namespace
 
 void HideAcceptEncoding(httplib::Request& req) {
-  if (!req.has_header("Accept-Encoding")) return;  // Nothing to hide (or hidden already: the Expect handler ran first).
+  if (!req.has_header("Accept-Encoding"))
+    return;  // Nothing to hide (or hidden already: the Expect handler ran first).
   std::string value = req.get_header_value("Accept-Encoding");
   req.headers.erase("Accept-Encoding");
   req.headers.erase(kAcceptEncoding);
   req.headers.emplace(kAcceptEncoding, std::move(value));
 }
 
-bool EncodeBodyFast(std::string_view body, ContentCoding coding, std::stop_token stop, std::string& out) {
+bool EncodeBodyFast(std::string_view body, ContentCoding coding, std::stop_token stop,
+                    std::string& out) {
   if (coding == ContentCoding::kBrotli) return BrotliFast(body, stop, out);
   if (coding == ContentCoding::kGzip) return GzipFast(body, stop, out);
   return false;
 }
 
 void CompressBody(const httplib::Request& req, httplib::Response& res, std::stop_token stop) {
-  if (res.body.size() < kMinCompressed || res.body.size() > kMaxDynamicCompressed || res.has_header("Content-Encoding")) return;
+  if (res.body.size() < kMinCompressed || res.body.size() > kMaxDynamicCompressed ||
+      res.has_header("Content-Encoding"))
+    return;
   if (!Compressible(res.get_header_value("Content-Type"))) return;
   const ContentCoding coding = PreferredCoding(req);
   if (coding == ContentCoding::kIdentity) return;
@@ -133,7 +141,9 @@ void CompressBody(const httplib::Request& req, httplib::Response& res, std::stop
 }
 
 ContentCoding PreferredCoding(const httplib::Request& req) {
-  const std::string header = req.has_header(kAcceptEncoding) ? req.get_header_value(kAcceptEncoding) : req.get_header_value("Accept-Encoding");
+  const std::string header = req.has_header(kAcceptEncoding)
+                                 ? req.get_header_value(kAcceptEncoding)
+                                 : req.get_header_value("Accept-Encoding");
   if (header.empty()) return ContentCoding::kIdentity;
   if (Quality(header, "br") > 0) return ContentCoding::kBrotli;
   if (Quality(header, "gzip") > 0) return ContentCoding::kGzip;
@@ -154,9 +164,11 @@ bool EncodeBody(std::string_view body, ContentCoding coding, std::string& out) {
     size_t size = BrotliEncoderMaxCompressedSize(body.size());
     if (size == 0) return false;
     out.resize(size);
-    // Quality 5: uka's 1.1 MB topology in 71 ms (quality 11: 1.85 s), 285 KB where quality 11 gave 216 KB.
-    if (!BrotliEncoderCompress(5, BROTLI_DEFAULT_WINDOW, BROTLI_MODE_GENERIC, body.size(), reinterpret_cast<const uint8_t*>(body.data()),
-                               &size, reinterpret_cast<uint8_t*>(out.data()))) {
+    // Quality 5: uka's 1.1 MB topology in 71 ms (quality 11: 1.85 s), 285 KB where quality 11 gave
+    // 216 KB.
+    if (!BrotliEncoderCompress(5, BROTLI_DEFAULT_WINDOW, BROTLI_MODE_GENERIC, body.size(),
+                               reinterpret_cast<const uint8_t*>(body.data()), &size,
+                               reinterpret_cast<uint8_t*>(out.data()))) {
       return false;
     }
     out.resize(size);
@@ -170,7 +182,8 @@ bool EncodeBody(std::string_view body, ContentCoding coding, std::string& out) {
   return true;
 }
 
-std::shared_ptr<const CachedResponse> EncodedOnce(ServerState& ctx, const std::string& key, ContentCoding& coding, const char* content_type,
+std::shared_ptr<const CachedResponse> EncodedOnce(ServerState& ctx, const std::string& key,
+                                                  ContentCoding& coding, const char* content_type,
                                                   const std::function<std::string()>& produce) {
   const std::string coded_key = key + "|" + CodingName(coding);
   if (auto kept = ctx.cache.Get(coded_key)) return kept;
@@ -186,8 +199,9 @@ std::shared_ptr<const CachedResponse> EncodedOnce(ServerState& ctx, const std::s
   return made;
 }
 
-void SendEncodedOnce(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& key,
-                     const char* content_type, const std::function<std::string()>& produce) {
+void SendEncodedOnce(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                     const std::string& key, const char* content_type,
+                     const std::function<std::string()>& produce) {
   ContentCoding coding = PreferredCoding(req);
   const bool not_modified = NotModified(req, res, key + "|" + CodingName(coding));
   res.headers.erase("Vary");

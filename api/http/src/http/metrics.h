@@ -2,6 +2,8 @@
 // warnings by code. Route labels come from the route table (route_table.h).
 #pragma once
 
+#include <httplib.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -9,8 +11,6 @@
 #include <span>
 #include <string>
 #include <vector>
-
-#include <httplib.h>
 
 #include "facespace/engine/status.h"
 
@@ -28,7 +28,9 @@ class Metrics {
   void CountWarnings(std::span<const Warning> warnings);
   void CountBlends(uint64_t n) { blends_.fetch_add(n, std::memory_order_relaxed); }
   void CountOverBudget() { over_budget_.fetch_add(1, std::memory_order_relaxed); }
-  void CountCache(bool hit) { (hit ? cache_hits_ : cache_misses_).fetch_add(1, std::memory_order_relaxed); }
+  void CountCache(bool hit) {
+    (hit ? cache_hits_ : cache_misses_).fetch_add(1, std::memory_order_relaxed);
+  }
 
   // The Prometheus text of the counters; the gauges are the caller's.
   std::string Text(size_t rigs_loaded, size_t cache_bytes) const;
@@ -41,7 +43,8 @@ class Metrics {
   std::unique_ptr<std::atomic<uint64_t>[]> warnings_;
 };
 
-// Per-request state the hooks share, carried on the request (facespace/net/front.h, Running::state).
+// Per-request state the hooks share, carried on the request (facespace/net/front.h,
+// Running::state).
 struct RequestState {
   std::chrono::steady_clock::time_point start;
   bool started = false;  // False for a request refused by the parser: its start is unknown.

@@ -21,7 +21,9 @@ std::string_view TrimSpaces(std::string_view s) {
 // The value of the most preferred type in `accept` that `produced` lists; `fallback` for no Accept
 // header; nullopt when it names only types we cannot produce.
 template <typename T>
-std::optional<T> PickFromAccept(const std::string& accept, const std::vector<std::pair<std::string_view, T>>& produced, T fallback) {
+std::optional<T> PickFromAccept(const std::string& accept,
+                                const std::vector<std::pair<std::string_view, T>>& produced,
+                                T fallback) {
   if (accept.empty()) return fallback;
   for (const std::string& type : AcceptedTypes(accept)) {
     for (const auto& [name, value] : produced) {
@@ -32,12 +34,15 @@ std::optional<T> PickFromAccept(const std::string& accept, const std::vector<std
 }
 
 template <typename T>
-std::optional<T> Negotiate(const httplib::Request& req, httplib::Response& res, std::optional<T> given,
-                           const std::vector<std::pair<std::string_view, T>>& produced, T fallback, const char* available) {
+std::optional<T> Negotiate(const httplib::Request& req, httplib::Response& res,
+                           std::optional<T> given,
+                           const std::vector<std::pair<std::string_view, T>>& produced, T fallback,
+                           const char* available) {
   if (given) return given;
   const std::string accept = req.get_header_value("Accept");
   if (auto picked = PickFromAccept(accept, produced, fallback)) return picked;
-  SendProblem(req, res, Problem::kNotAcceptable, "cannot produce " + accept.substr(0, 100) + "; available: " + available);
+  SendProblem(req, res, Problem::kNotAcceptable,
+              "cannot produce " + accept.substr(0, 100) + "; available: " + available);
   return std::nullopt;
 }
 
@@ -92,7 +97,8 @@ std::vector<std::string> AcceptedTypes(std::string_view accept) {
     double q = 1;
     while (semi != std::string_view::npos) {
       const size_t next = item.find(';', semi + 1);
-      const std::string_view param = TrimSpaces(item.substr(semi + 1, next == std::string_view::npos ? next : next - semi - 1));
+      const std::string_view param = TrimSpaces(
+          item.substr(semi + 1, next == std::string_view::npos ? next : next - semi - 1));
       if (param.size() > 2 && (param[0] == 'q' || param[0] == 'Q') && param[1] == '=') {
         double v = 1;
         const auto r = std::from_chars(param.data() + 2, param.data() + param.size(), v);
@@ -102,7 +108,8 @@ std::vector<std::string> AcceptedTypes(std::string_view accept) {
     }
     if (!type.empty() && q > 0) items.push_back({std::move(type), q});
   }
-  std::stable_sort(items.begin(), items.end(), [](const Item& a, const Item& b) { return a.q > b.q; });
+  std::stable_sort(items.begin(), items.end(),
+                   [](const Item& a, const Item& b) { return a.q > b.q; });
   std::vector<std::string> types;
   types.reserve(items.size());
   for (Item& i : items) types.push_back(std::move(i.type));
@@ -114,8 +121,9 @@ namespace {
 // What Accept may name for each value of a format enum: its media type (from the enum's one table),
 // then the ranges that pick the default.
 template <typename T, size_t N, size_t W>
-std::vector<std::pair<std::string_view, T>> Produced(const T (&values)[N], const char* (*media_type)(T),
-                                                     const std::pair<std::string_view, T> (&ranges)[W]) {
+std::vector<std::pair<std::string_view, T>> Produced(
+    const T (&values)[N], const char* (*media_type)(T),
+    const std::pair<std::string_view, T> (&ranges)[W]) {
   std::vector<std::pair<std::string_view, T>> out;
   for (T v : values) out.emplace_back(media_type(v), v);
   out.insert(out.end(), std::begin(ranges), std::end(ranges));
@@ -131,21 +139,30 @@ std::string Available(const T (&values)[N], const char* (*media_type)(T)) {
 
 }  // namespace
 
-std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res, std::optional<MeshFormat> given) {
-  static constexpr MeshFormat kFormats[] = {MeshFormat::kGlb, MeshFormat::kObj, MeshFormat::kJson, MeshFormat::kF32};
+std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res,
+                                        std::optional<MeshFormat> given) {
+  static constexpr MeshFormat kFormats[] = {MeshFormat::kGlb, MeshFormat::kObj, MeshFormat::kJson,
+                                            MeshFormat::kF32};
   static constexpr std::pair<std::string_view, MeshFormat> kRanges[] = {
-      {"*/*", MeshFormat::kJson}, {"model/*", MeshFormat::kJson}, {"application/*", MeshFormat::kJson}};
+      {"*/*", MeshFormat::kJson},
+      {"model/*", MeshFormat::kJson},
+      {"application/*", MeshFormat::kJson}};
   static const auto produced = Produced(kFormats, MeshFormatMimeType, kRanges);
   static const std::string available = Available(kFormats, MeshFormatMimeType);
   return Negotiate(req, res, given, produced, MeshFormat::kJson, available.c_str());
 }
 
-std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req, httplib::Response& res,
+std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req,
+                                                  httplib::Response& res,
                                                   std::optional<render::ImageFormat> given) {
   using render::ImageFormat;
-  static constexpr ImageFormat kFormats[] = {ImageFormat::kPng, ImageFormat::kJpeg, ImageFormat::kExr, ImageFormat::kTiff, ImageFormat::kWebp};
+  static constexpr ImageFormat kFormats[] = {ImageFormat::kPng, ImageFormat::kJpeg,
+                                             ImageFormat::kExr, ImageFormat::kTiff,
+                                             ImageFormat::kWebp};
   static constexpr std::pair<std::string_view, ImageFormat> kRanges[] = {
-      {"image/*", ImageFormat::kPng}, {"*/*", ImageFormat::kPng}, {"image/aces", ImageFormat::kExr}};
+      {"image/*", ImageFormat::kPng},
+      {"*/*", ImageFormat::kPng},
+      {"image/aces", ImageFormat::kExr}};
   static const auto produced = Produced(kFormats, render::ImageFormatMimeType, kRanges);
   static const std::string available = Available(kFormats, render::ImageFormatMimeType);
   return Negotiate(req, res, given, produced, ImageFormat::kPng, available.c_str());
@@ -154,19 +171,22 @@ std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req, h
 bool AcceptsJsonBody(const httplib::Request& req, httplib::Response& res) {
   const std::string ct = MediaType(req.get_header_value("Content-Type"));
   if (ct.empty() || ct == "application/json") return true;
-  SendProblem(req, res, Problem::kUnsupportedMediaType, "the body must be application/json, not " + ct);
+  SendProblem(req, res, Problem::kUnsupportedMediaType,
+              "the body must be application/json, not " + ct);
   return false;
 }
 
 std::string WarningsHeader(std::span<const Warning> warnings) {
-  // Each code and shape once (a sequence's frames repeat theirs: the body lists every one), and at most
-  // kMaxWarningsHeader bytes, then "more;count=N": clients and proxies cap a header's size.
+  // Each code and shape once (a sequence's frames repeat theirs: the body lists every one), and at
+  // most kMaxWarningsHeader bytes, then "more;count=N": clients and proxies cap a header's size.
   constexpr size_t kMaxWarningsHeader = 4096;
   std::string h;
   std::vector<std::pair<std::string_view, std::string_view>> said;
   size_t more = 0;
   for (const Warning& w : warnings) {
-    if (std::find(said.begin(), said.end(), std::pair<std::string_view, std::string_view>(w.code, w.shape)) != said.end()) continue;
+    if (std::find(said.begin(), said.end(),
+                  std::pair<std::string_view, std::string_view>(w.code, w.shape)) != said.end())
+      continue;
     std::string item = w.code;
     if (!w.shape.empty()) item += ";shape=" + SfString(w.shape);
     if (w.has_value) item += ";value=" + SfDecimal(w.value);

@@ -9,8 +9,8 @@
 #include <string_view>
 #include <vector>
 
-#include "facespace/formats/io.h"
 #include "facespace/engine/status.h"
+#include "facespace/formats/io.h"
 #include "facespace/offscreen/render.h"
 
 namespace facespace::api::http {
@@ -25,8 +25,10 @@ std::vector<std::string> AcceptedTypes(std::string_view accept);
 
 // The format the request names (`given`), else the one its Accept header prefers (JSON, PNG for
 // none); nullopt, with a 406 sent, when Accept names only types we cannot produce.
-std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res, std::optional<MeshFormat> given);
-std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req, httplib::Response& res,
+std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res,
+                                        std::optional<MeshFormat> given);
+std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req,
+                                                  httplib::Response& res,
                                                   std::optional<render::ImageFormat> given);
 
 // True when the body may be read as JSON (Content-Type application/json, or none); otherwise a 415

@@ -1,7 +1,6 @@
 #include "problem.h"
 
 #include "cost.h"
-
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 
@@ -51,18 +50,24 @@ const char* StatusLinePhrase(int status) {
 namespace {
 
 std::string WholeResponse(const httplib::Response& res, bool head_only, const char* connection) {
-  std::string out = "HTTP/1.1 " + std::to_string(res.status) + " " + StatusLinePhrase(res.status) + "\r\n";
+  std::string out =
+      "HTTP/1.1 " + std::to_string(res.status) + " " + StatusLinePhrase(res.status) + "\r\n";
   for (const auto& [name, value] : res.headers) {
     if (name != "Content-Length" && name != "Connection") out += name + ": " + value + "\r\n";
   }
-  out += "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: " + connection + "\r\n\r\n";
+  out += "Content-Length: " + std::to_string(res.body.size()) + "\r\nConnection: " + connection +
+         "\r\n\r\n";
   return head_only ? out : out + res.body;
 }
 
 }  // namespace
 
-std::string ClosingResponse(const httplib::Response& res, bool head_only) { return WholeResponse(res, head_only, "close"); }
-std::string KeptAliveResponse(const httplib::Response& res, bool head_only) { return WholeResponse(res, head_only, "keep-alive"); }
+std::string ClosingResponse(const httplib::Response& res, bool head_only) {
+  return WholeResponse(res, head_only, "close");
+}
+std::string KeptAliveResponse(const httplib::Response& res, bool head_only) {
+  return WholeResponse(res, head_only, "keep-alive");
+}
 
 std::string Dump(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
 
@@ -84,8 +89,9 @@ Problem ProblemOfHttpStatus(int status) {
   }
 }
 
-void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem, const std::string& detail,
-                 const std::vector<FieldError>& fields, std::span<const Warning> warnings, size_t omitted) {
+void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem,
+                 const std::string& detail, const std::vector<FieldError>& fields,
+                 std::span<const Warning> warnings, size_t omitted) {
   const ProblemType& t = TypeOf(problem);
   json p = {{"type", "urn:facespace:problem:" + std::string(t.name)},
             {"title", t.title},
@@ -97,22 +103,27 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, Problem pr
     json errors = json::array();
     for (size_t i = 0; i < fields.size() && i < kMaxFieldErrors; ++i) {
       const FieldError& f = fields[i];
-      if (!f.pointer.empty() && f.pointer[0] == '?') errors.push_back({{"parameter", f.pointer.substr(1)}, {"detail", f.message}});
-      else errors.push_back({{"pointer", f.pointer}, {"detail", f.message}});
+      if (!f.pointer.empty() && f.pointer[0] == '?')
+        errors.push_back({{"parameter", f.pointer.substr(1)}, {"detail", f.message}});
+      else
+        errors.push_back({{"pointer", f.pointer}, {"detail", f.message}});
     }
     p["errors"] = errors;
     if (fields.size() + omitted > errors.size()) p["errors_total"] = fields.size() + omitted;
   }
   if (!warnings.empty()) p["warnings"] = WarningsValue(warnings);
   res.status = t.status;
-  // A refusal written before any route (the connection front's) states its cost as every answer does.
+  // A refusal written before any route (the connection front's) states its cost as every answer
+  // does.
   if (!res.has_header("Facespace-Cost")) res.set_header("Facespace-Cost", kConstantCost);
   res.set_content(Dump(p), "application/problem+json");
 }
 
-void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& s, std::span<const Warning> warnings) {
+void SendStatus(const httplib::Request& req, httplib::Response& res, const Status& s,
+                std::span<const Warning> warnings) {
   const Problem problem = ProblemOf(s);
-  if (TypeOf(problem).status == 503 && !res.has_header("Retry-After")) res.set_header("Retry-After", "2");
+  if (TypeOf(problem).status == 503 && !res.has_header("Retry-After"))
+    res.set_header("Retry-After", "2");
   SendProblem(req, res, problem, s.message, s.fields, warnings, s.omitted);
 }
 

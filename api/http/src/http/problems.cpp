@@ -17,16 +17,19 @@ constexpr std::array<ProblemType, static_cast<size_t>(P::kCount)> kTable = {{
     {P::kMalformedJson, "malformed-json", 400, "The body is not JSON"},
     {P::kUriTooLong, "uri-too-long", 414, "The request line is too long"},
     {P::kBodyTooLarge, "body-too-large", 413, "The body is over the server's limit"},
-    {P::kBodyTooComplex, "body-too-complex", 413, "The body holds more values than the server reads"},
+    {P::kBodyTooComplex, "body-too-complex", 413,
+     "The body holds more values than the server reads"},
     {P::kTooDeep, "too-deep", 422, "JSON nested too deep"},
     {P::kLengthRequired, "length-required", 411, "A body needs its length"},
-    {P::kUnsupportedMediaType, "unsupported-media-type", 415, "The body's Content-Type is not read here"},
+    {P::kUnsupportedMediaType, "unsupported-media-type", 415,
+     "The body's Content-Type is not read here"},
     {P::kNotAcceptable, "not-acceptable", 406, "No answer of the type asked for"},
     {P::kMethodNotAllowed, "method-not-allowed", 405, "The method is not allowed here"},
     {P::kUpgradeRequired, "upgrade-required", 426, "A WebSocket upgrade is needed"},
     {P::kRequestTimeout, "request-timeout", 408, "The request did not come in time"},
     {P::kHeadersTooLarge, "headers-too-large", 431, "The request's headers are too large"},
-    {P::kRangeNotSatisfiable, "range-not-satisfiable", 416, "The range asked for is not in the answer"},
+    {P::kRangeNotSatisfiable, "range-not-satisfiable", 416,
+     "The range asked for is not in the answer"},
     {P::kExpectationFailed, "expectation-failed", 417, "The Expect header cannot be met"},
     {P::kHttpVersionNotSupported, "http-version-not-supported", 505, "HTTP/1.1 only"},
     {P::kNotImplemented, "not-implemented", 501, "Not implemented"},
@@ -43,7 +46,8 @@ constexpr std::array<ProblemType, static_cast<size_t>(P::kCount)> kTable = {{
     {P::kInvalidControls, "invalid-controls", 422, "The controls are not valid for this rig"},
     {P::kInvalidTarget, "invalid-target", 422, "The target mesh cannot be fitted"},
     {P::kInvalidSequence, "invalid-sequence", 422, "The sequence is not valid"},
-    {P::kWeightsLeaveAuthoredSpace, "weights-leave-authored-space", 422, "The point leaves the authored space (strict)"},
+    {P::kWeightsLeaveAuthoredSpace, "weights-leave-authored-space", 422,
+     "The point leaves the authored space (strict)"},
     {P::kInvalidText, "invalid-text", 422, "The text cannot be spoken"},
     {P::kInvalidAudio, "invalid-audio", 422, "The audio cannot be read"},
     {P::kInvalidRate, "invalid-rate", 422, "The audio's sample rate is not one taken here"},
@@ -53,7 +57,8 @@ constexpr std::array<ProblemType, static_cast<size_t>(P::kCount)> kTable = {{
     {P::kUnknownVoice, "unknown-voice", 422, "No such voice"},
     {P::kNoMouth, "no-mouth", 422, "The rig has no mouth to speak with"},
     {P::kTooLarge, "too-large", 413, "Over one of the server's limits"},
-    {P::kResponseTooLarge, "response-too-large", 422, "The answer would be over the server's limit"},
+    {P::kResponseTooLarge, "response-too-large", 422,
+     "The answer would be over the server's limit"},
     {P::kRenderTooLarge, "render-too-large", 413, "The render would be over the server's memory"},
     {P::kImageTooLarge, "image-too-large", 422, "The image is too large"},
     {P::kTooManyCells, "too-many-cells", 422, "Too many cells for one sheet"},
@@ -89,10 +94,14 @@ static_assert(InEnumOrder(), "kTable lists the problems in enum order, one each"
 
 // The reasons the lower layers name by constant are the table's.
 constexpr std::string_view NameOf(P p) { return kTable[static_cast<size_t>(p)].name; }
-static_assert(NameOf(P::kMalformedJson) == kMalformedJson && NameOf(P::kJobQueueFull) == batch::kJobQueueFull);
-static_assert(NameOf(P::kInvalidWeights) == kInvalidWeights && NameOf(P::kInvalidControls) == kInvalidControls &&
-              NameOf(P::kInvalidTarget) == kInvalidTarget && NameOf(P::kInvalidSequence) == kInvalidSequence &&
-              NameOf(P::kWeightsLeaveAuthoredSpace) == kLeavesAuthoredSpace && NameOf(P::kResponseTooLarge) == kResponseTooLarge);
+static_assert(NameOf(P::kMalformedJson) == kMalformedJson &&
+              NameOf(P::kJobQueueFull) == batch::kJobQueueFull);
+static_assert(NameOf(P::kInvalidWeights) == kInvalidWeights &&
+              NameOf(P::kInvalidControls) == kInvalidControls &&
+              NameOf(P::kInvalidTarget) == kInvalidTarget &&
+              NameOf(P::kInvalidSequence) == kInvalidSequence &&
+              NameOf(P::kWeightsLeaveAuthoredSpace) == kLeavesAuthoredSpace &&
+              NameOf(P::kResponseTooLarge) == kResponseTooLarge);
 
 }  // namespace
 

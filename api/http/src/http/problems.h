@@ -1,7 +1,8 @@
-// Every problem the service answers, declared once: its type (urn:facespace:problem:<name>), its HTTP
-// status and its title (RFC 9457: the same for every occurrence of the type; the detail says what this
-// one was). SendProblem takes one of these; a Status's reason names one (HttpStatus reads its status
-// here); /openapi.json lists them all (the Problem schema's type enum and x-facespace-problems).
+// Every problem the service answers, declared once: its type (urn:facespace:problem:<name>), its
+// HTTP status and its title (RFC 9457: the same for every occurrence of the type; the detail says
+// what this one was). SendProblem takes one of these; a Status's reason names one (HttpStatus reads
+// its status here); /openapi.json lists them all (the Problem schema's type enum and
+// x-facespace-problems).
 #pragma once
 
 #include <cstdint>
@@ -15,23 +16,76 @@ namespace facespace::api::http {
 
 enum class Problem : uint8_t {
   // The request as bytes and HTTP.
-  kBadRequest, kMalformedJson, kUriTooLong, kBodyTooLarge, kBodyTooComplex, kTooDeep, kLengthRequired,
-  kUnsupportedMediaType, kNotAcceptable, kMethodNotAllowed, kUpgradeRequired, kRequestTimeout,
-  kHeadersTooLarge, kRangeNotSatisfiable, kExpectationFailed, kHttpVersionNotSupported, kNotImplemented,
+  kBadRequest,
+  kMalformedJson,
+  kUriTooLong,
+  kBodyTooLarge,
+  kBodyTooComplex,
+  kTooDeep,
+  kLengthRequired,
+  kUnsupportedMediaType,
+  kNotAcceptable,
+  kMethodNotAllowed,
+  kUpgradeRequired,
+  kRequestTimeout,
+  kHeadersTooLarge,
+  kRangeNotSatisfiable,
+  kExpectationFailed,
+  kHttpVersionNotSupported,
+  kNotImplemented,
   // Who asks.
-  kUnauthorized, kForbidden, kUploadsDisabled,
+  kUnauthorized,
+  kForbidden,
+  kUploadsDisabled,
   // What is named.
-  kNotFound, kRigNotFound, kJobNotFound, kFileNotFound, kInvalidId,
+  kNotFound,
+  kRigNotFound,
+  kJobNotFound,
+  kFileNotFound,
+  kInvalidId,
   // What the request says.
-  kInvalidRequest, kInvalidWeights, kInvalidControls, kInvalidTarget, kInvalidSequence, kWeightsLeaveAuthoredSpace,
-  kInvalidText, kInvalidAudio, kInvalidRate, kInvalidRig, kInvalidManifest, kInvalidVrm, kUnknownVoice, kNoMouth,
+  kInvalidRequest,
+  kInvalidWeights,
+  kInvalidControls,
+  kInvalidTarget,
+  kInvalidSequence,
+  kWeightsLeaveAuthoredSpace,
+  kInvalidText,
+  kInvalidAudio,
+  kInvalidRate,
+  kInvalidRig,
+  kInvalidManifest,
+  kInvalidVrm,
+  kUnknownVoice,
+  kNoMouth,
   // Its size and cost.
-  kTooLarge, kResponseTooLarge, kRenderTooLarge, kImageTooLarge, kTooManyCells, kTooManyFrames, kVideoTooLong,
-  kTextTooLong, kSpeechTooLong, kSayQueueFull, kTranscriptTooLong, kAudioTooLong, kAudioTooFast, kOverBudget,
+  kTooLarge,
+  kResponseTooLarge,
+  kRenderTooLarge,
+  kImageTooLarge,
+  kTooManyCells,
+  kTooManyFrames,
+  kVideoTooLong,
+  kTextTooLong,
+  kSpeechTooLong,
+  kSayQueueFull,
+  kTranscriptTooLong,
+  kAudioTooLong,
+  kAudioTooFast,
+  kOverBudget,
   // The state of things.
-  kReadOnly, kJobNotDone, kJobQueueFull, kJobsDisabled, kStorageFull, kStorageFailed,
+  kReadOnly,
+  kJobNotDone,
+  kJobQueueFull,
+  kJobsDisabled,
+  kStorageFull,
+  kStorageFailed,
   // The server's own room.
-  kBusy, kTooManyConnections, kTooManySessions, kCancelled, kInternal,
+  kBusy,
+  kTooManyConnections,
+  kTooManySessions,
+  kCancelled,
+  kInternal,
   kCount
 };
 

@@ -85,7 +85,9 @@ const Route* PathRoutes::Find(std::string_view method) const {
   return nullptr;
 }
 
-bool PathRoutes::Allows(std::string_view method) const { return Find(method) || (method == "HEAD" && Find("GET")); }
+bool PathRoutes::Allows(std::string_view method) const {
+  return Find(method) || (method == "HEAD" && Find("GET"));
+}
 
 std::string PathRoutes::Allow() const {
   std::string allow;
@@ -116,7 +118,8 @@ std::string PathPattern(std::string_view path) {
 std::vector<std::string> MetricLabels() {
   std::vector<std::string> labels;
   for (const Route& r : kRoutes) {
-    if (std::find(labels.begin(), labels.end(), r.metric) == labels.end()) labels.push_back(r.metric);
+    if (std::find(labels.begin(), labels.end(), r.metric) == labels.end())
+      labels.push_back(r.metric);
   }
   return labels;
 }

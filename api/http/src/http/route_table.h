@@ -16,7 +16,7 @@ struct Route {
   const char* path;    // As the OpenAPI document writes it: /v1/rigs/{id}/mesh.
   const char* metric;  // Its label in /metrics (some routes share one).
   Handler handler;
-  bool key = false;    // Writes: needs the API key (checked from the headers, before the body).
+  bool key = false;  // Writes: needs the API key (checked from the headers, before the body).
 };
 
 std::span<const Route> Routes();
@@ -28,7 +28,8 @@ struct PathRoutes {
   const char* path = nullptr;  // The table's spelling of the path; null: unknown.
   bool Allows(std::string_view method) const;
   const Route* Find(std::string_view method) const;
-  // The Allow header of the path, the same for OPTIONS and 405: its methods, HEAD with GET, and OPTIONS.
+  // The Allow header of the path, the same for OPTIONS and 405: its methods, HEAD with GET, and
+  // OPTIONS.
   std::string Allow() const;
 };
 PathRoutes MatchPath(std::string_view path);
@@ -40,4 +41,3 @@ std::string PathPattern(std::string_view path);
 std::vector<std::string> MetricLabels();
 
 }  // namespace facespace::api::http
-

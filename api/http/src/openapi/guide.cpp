@@ -1,11 +1,11 @@
 // Each operation's tag, description and example (its parameters and body), which document.cpp puts
 // into the document. The examples are the requests tests/integration/openapi_client_test.mjs sends
 // to the real server, so every example here is one the server answers as its test says.
-#include "openapi.h"
-
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+
+#include "openapi.h"
 
 namespace facespace::api::openapi {
 
@@ -24,48 +24,78 @@ constexpr char kFacecap[] = R"({"id": "facecap"})";
 // In the order of the document's tags.
 constexpr Guide kGuides[] = {
     {"healthz", "service", "Answers 200 while the process serves; it loads nothing.", "", ""},
-    {"readyz", "service", "200 once every rig is loaded and its encodings kept; 503 while warming.", "", ""},
-    {"metrics", "service", "Requests, latencies, costs and refusals in Prometheus' text format.", "", ""},
-    {"openapi", "service", "This document, with this server's limits in info.x-facespace-limits.", "", ""},
-    {"listVoices", "service", "The espeak-ng voices the speech route takes, and the default.", "", ""},
-    {"listRigs", "rigs", "Every rig of the store: id, name, counts, version (its ETag) and the credit its license asks for.", "", ""},
-    {"getRig", "rigs", "A rig's shapes (names, groups, ranges, aliases), primitives, skeleton, clips, controls and expressions.",
+    {"readyz", "service", "200 once every rig is loaded and its encodings kept; 503 while warming.",
+     "", ""},
+    {"metrics", "service", "Requests, latencies, costs and refusals in Prometheus' text format.",
+     "", ""},
+    {"openapi", "service", "This document, with this server's limits in info.x-facespace-limits.",
+     "", ""},
+    {"listVoices", "service", "The espeak-ng voices the speech route takes, and the default.", "",
+     ""},
+    {"listRigs", "rigs",
+     "Every rig of the store: id, name, counts, version (its ETag) and the credit its license asks "
+     "for.",
+     "", ""},
+    {"getRig", "rigs",
+     "A rig's shapes (names, groups, ranges, aliases), primitives, skeleton, clips, controls and "
+     "expressions.",
      kFacecap, ""},
-    {"putRig", "rigs", "Stores a rig after validating it fully; the old one serves until the new one is in place.",
+    {"putRig", "rigs",
+     "Stores a rig after validating it fully; the old one serves until the new one is in place.",
      R"({"id": "client-upload"})", ""},
     {"deleteRig", "rigs", "Removes a rig and its manifest.", R"({"id": "client-upload"})", ""},
-    {"getManifest", "rigs", "What the rig file does not say: names, groups, ranges, controls, expressions, regions, landmarks.",
+    {"getManifest", "rigs",
+     "What the rig file does not say: names, groups, ranges, controls, expressions, regions, "
+     "landmarks.",
      kFacecap, ""},
-    {"putManifest", "rigs", "Replaces a rig's manifest; the rig is loaded again with it, or the manifest is refused (422).",
-     R"({"id": "client-upload"})", R"({"name": "From the client", "shapes": {"jawOpen": {"max": 2}}})"},
-    {"getTopology", "rigs", "What stays the same under any weights: each primitive's triangles and colour, at a level of detail.",
+    {"putManifest", "rigs",
+     "Replaces a rig's manifest; the rig is loaded again with it, or the manifest is refused "
+     "(422).",
+     R"({"id": "client-upload"})",
+     R"({"name": "From the client", "shapes": {"jawOpen": {"max": 2}}})"},
+    {"getTopology", "rigs",
+     "What stays the same under any weights: each primitive's triangles and colour, at a level of "
+     "detail.",
      R"({"id": "facecap", "lod": 1})", ""},
-    {"getLive", "live", "A WebSocket: weights in, meshes or pictures out at display rate. A plain HTTP client is told 426.",
+    {"getLive", "live",
+     "A WebSocket: weights in, meshes or pictures out at display rate. A plain HTTP client is told "
+     "426.",
      kFacecap, ""},
-    {"getMesh", "meshes", "The blended mesh of a point given in the query (w[NAME]=VALUE), cacheable by its ETag.",
+    {"getMesh", "meshes",
+     "The blended mesh of a point given in the query (w[NAME]=VALUE), cacheable by its ETag.",
      R"({"id": "facecap", "w": {"jawOpen": 0.5}, "format": "json"})", ""},
-    {"postMesh", "meshes", "The blended mesh of a point, posed; warnings when the point leaves the authored space.", kFacecap,
-     R"({"weights": {"jawOpen": 1.5}, "format": "json"})"},
+    {"postMesh", "meshes",
+     "The blended mesh of a point, posed; warnings when the point leaves the authored space.",
+     kFacecap, R"({"weights": {"jawOpen": 1.5}, "format": "json"})"},
     {"checkWeights", "meshes", "A point's sum and warnings, without the mesh.", kFacecap,
      R"({"weights": {"jawOpen": 0.4, "mouthSmile_L": 0.2}})"},
-    {"fit", "meshes", "The weights (least squares, in range) whose blend is nearest a target mesh, with the residual. The "
-     "example's target is the mesh route's JSON of the same rig.", kFacecap, R"({"target": {"primitives": []}, "bounded": true})"},
+    {"fit", "meshes",
+     "The weights (least squares, in range) whose blend is nearest a target mesh, with the "
+     "residual. The "
+     "example's target is the mesh route's JSON of the same rig.",
+     kFacecap, R"({"target": {"primitives": []}, "bounded": true})"},
     {"getRender", "images", "A picture of a point given in the query.",
-     R"({"id": "facecap", "w": {"jawOpen": 1}, "width": 64, "height": 64, "frame": "shapes", "yaw": 20})", ""},
-    {"postRender", "images", "A picture of a point, posed, from a camera, in a studio's light.", kFacecap,
-     R"({"weights": {"jawOpen": 1}, "width": 64, "height": 64, "format": "webp"})"},
-    {"postSheet", "images", "Several points drawn side by side, each labelled: a contact sheet.", kFacecap,
+     R"({"id": "facecap", "w": {"jawOpen": 1}, "width": 64, "height": 64, "frame": "shapes", "yaw": 20})",
+     ""},
+    {"postRender", "images", "A picture of a point, posed, from a camera, in a studio's light.",
+     kFacecap, R"({"weights": {"jawOpen": 1}, "width": 64, "height": 64, "format": "webp"})"},
+    {"postSheet", "images", "Several points drawn side by side, each labelled: a contact sheet.",
+     kFacecap,
      R"({"cells": [{}, {"weights": {"jawOpen": 1}, "label": "open"}], "width": 32, "height": 32})"},
-    {"sampleSequence", "sequences", "Keys (or a clip) sampled at times: each frame's weights and mesh.", kFacecap,
+    {"sampleSequence", "sequences",
+     "Keys (or a clip) sampled at times: each frame's weights and mesh.", kFacecap,
      R"({"keys": [{"time": 0}, {"time": 1, "shape": "jawOpen"}], "times": [0.5]})"},
     {"streamSequence", "sequences", "Frames streamed as they are computed, at fps.", kFacecap,
      R"({"keys": [{"time": 0}, {"time": 0.1, "shape": "jawOpen"}], "fps": 1000, "format": "ndjson"})"},
-    {"reduceSequence", "sequences", "The fewest keys whose sequence stays within tolerance of the one given.", kFacecap,
+    {"reduceSequence", "sequences",
+     "The fewest keys whose sequence stays within tolerance of the one given.", kFacecap,
      R"({"keys": [{"time": 0}, {"time": 0.5, "weights": {"jawOpen": 0.5}}, {"time": 1, "shape": "jawOpen"}], "tolerance": 0.001})"},
-    {"speak", "sequences", "Lip sync: phonemes, visemes and keys on the rig from text or a recording.", kFacecap,
+    {"speak", "sequences",
+     "Lip sync: phonemes, visemes and keys on the rig from text or a recording.", kFacecap,
      R"({"text": "Hello there.", "format": "json"})"},
-    {"startBatch", "batch", "A job writing many variants as files; 202 with the job, which runs in the background.", kFacecap,
-     R"({"sample": {"method": "uniform", "count": 3, "seed": 2}, "format": "obj"})"},
+    {"startBatch", "batch",
+     "A job writing many variants as files; 202 with the job, which runs in the background.",
+     kFacecap, R"({"sample": {"method": "uniform", "count": 3, "seed": 2}, "format": "obj"})"},
     {"listJobs", "batch", "Every job, newest first.", "", ""},
     {"getJob", "batch", "A job's state, progress, rate and estimated time left.", "", ""},
     {"deleteJob", "batch", "Cancels a job and deletes its files.", "", ""},
@@ -88,7 +118,8 @@ constexpr const char* kTags[][2] = {
 
 json Tags() {
   json tags = json::array();
-  for (const auto& [name, description] : kTags) tags.push_back({{"name", name}, {"description", description}});
+  for (const auto& [name, description] : kTags)
+    tags.push_back({{"name", name}, {"description", description}});
   return tags;
 }
 
@@ -107,12 +138,14 @@ void AddGuides(json& paths) {
       const json parameters = *guide->parameters ? json::parse(guide->parameters) : json::object();
       if (op.contains("parameters")) {
         for (json& p : op["parameters"]) {
-          if (parameters.contains(p["name"].get<std::string>())) p["example"] = parameters[p["name"].get<std::string>()];
+          if (parameters.contains(p["name"].get<std::string>()))
+            p["example"] = parameters[p["name"].get<std::string>()];
         }
       }
       if (*guide->body) {
         op["requestBody"]["content"]["application/json"]["examples"] = {
-            {"example", {{"summary", "What the service's tests send"}, {"value", json::parse(guide->body)}}}};
+            {"example",
+             {{"summary", "What the service's tests send"}, {"value", json::parse(guide->body)}}}};
       }
     }
   }
@@ -130,7 +163,8 @@ const std::vector<QueryParameter>& QueryParameters(std::string_view method, std:
         std::vector<QueryParameter>& names = out[key + " " + route];
         for (const json* list : {&op, &item}) {
           for (const json& p : list->value("parameters", json::array())) {
-            if (p.value("in", "") == "query") names.push_back({p["name"].get<std::string>(), p.value("style", "") == "deepObject"});
+            if (p.value("in", "") == "query")
+              names.push_back({p["name"].get<std::string>(), p.value("style", "") == "deepObject"});
           }
         }
       }

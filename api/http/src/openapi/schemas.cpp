@@ -1,10 +1,9 @@
-// The document's schemas (components.schemas), each a function named as its component; the operations
-// (operations.cpp) refer to them by $ref.
-#include "openapi.h"
-
+// The document's schemas (components.schemas), each a function named as its component; the
+// operations (operations.cpp) refer to them by $ref.
 #include <cmath>
 
 #include "facespace/evaluator/members.h"
+#include "openapi.h"
 
 namespace facespace::api::openapi {
 
@@ -26,15 +25,19 @@ json ArrayOf(json items) { return json{{"type", "array"}, {"items", std::move(it
 json Ref(const char* name) { return json{{"$ref", std::string("#/components/schemas/") + name}}; }
 // An object whose members the document does not list (a manifest's sections: core/README.md).
 json Open() { return {{"type", "object"}, {"additionalProperties", true}}; }
-json WeightsObject() { return {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}}; }
+json WeightsObject() {
+  return {{"type", "object"}, {"additionalProperties", {{"type", "number"}}}};
+}
 
 // ---- a point of face space: weights, controls, the skeleton's settings ----
 
 json Weights() {
-  return {{"oneOf", json::array({json{{"type", "array"}, {"items", {{"type", "number"}}},
-                                        {"description", "Dense, in shape order"}},
-                                   json{{"type", "object"}, {"additionalProperties", {{"type", "number"}}},
-                                        {"description", "By shape name, alias or index"}}})}};
+  return {{"oneOf", json::array({json{{"type", "array"},
+                                      {"items", {{"type", "number"}}},
+                                      {"description", "Dense, in shape order"}},
+                                 json{{"type", "object"},
+                                      {"additionalProperties", {{"type", "number"}}},
+                                      {"description", "By shape name, alias or index"}}})}};
 }
 
 json BodySchema(Body body) {
@@ -43,7 +46,9 @@ json BodySchema(Body body) {
     properties[std::string(m.name)] = MemberSchema(m);
     if (m.required) required.push_back(std::string(m.name));
   }
-  json s = {{"type", "object"}, {"description", std::string(Describe(body))}, {"properties", properties},
+  json s = {{"type", "object"},
+            {"description", std::string(Describe(body))},
+            {"properties", properties},
             {"additionalProperties", false}};
   if (!required.empty()) s["required"] = required;
   return s;
@@ -52,19 +57,38 @@ json BodySchema(Body body) {
 // The value shapes the tables refer to by "#Name".
 json ValueSchemas() {
   return {{"Weights", Weights()},
-          {"ClipRef", {{"oneOf", json::array({json{{"type", "string"}, {"minLength", 1}}, json{{"type", "integer"}, {"minimum", 0}}})},
-                       {"description", "A clip by name or index"}}},
-          {"Pose", {{"type", "object"},
-                    {"description", "Joint name -> local transform parts that replace the rest values"},
-                    {"additionalProperties", Ref("JointPose")}}},
-          {"Blend", {{"type", "array"}, {"items", Ref("BlendClip")}, {"description", "Clips at their times and weights"}}},
-          {"Layers", {{"type", "array"}, {"minItems", 1}, {"maxItems", 16}, {"items", Ref("Layer")},
-                      {"description", "The first the base, each later one an overlay"}}},
-          {"Colour", {{"oneOf", json::array({json{{"type", "string"}, {"pattern", "^(#[0-9a-fA-F]{6}([0-9a-fA-F]{2})?|transparent)$"}},
-                                             json{{"type", "array"}, {"items", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}},
-                                                  {"minItems", 3}, {"maxItems", 4}}})}}},
-          {"Interval", {{"type", "array"}, {"items", Number()}, {"minItems", 2}, {"maxItems", 2},
-                        {"description", "[lo, hi]: an interval a randomised setting is drawn from"}}}};
+          {"ClipRef",
+           {{"oneOf", json::array({json{{"type", "string"}, {"minLength", 1}},
+                                   json{{"type", "integer"}, {"minimum", 0}}})},
+            {"description", "A clip by name or index"}}},
+          {"Pose",
+           {{"type", "object"},
+            {"description", "Joint name -> local transform parts that replace the rest values"},
+            {"additionalProperties", Ref("JointPose")}}},
+          {"Blend",
+           {{"type", "array"},
+            {"items", Ref("BlendClip")},
+            {"description", "Clips at their times and weights"}}},
+          {"Layers",
+           {{"type", "array"},
+            {"minItems", 1},
+            {"maxItems", 16},
+            {"items", Ref("Layer")},
+            {"description", "The first the base, each later one an overlay"}}},
+          {"Colour",
+           {{"oneOf",
+             json::array({json{{"type", "string"},
+                               {"pattern", "^(#[0-9a-fA-F]{6}([0-9a-fA-F]{2})?|transparent)$"}},
+                          json{{"type", "array"},
+                               {"items", {{"type", "number"}, {"minimum", 0}, {"maximum", 1}}},
+                               {"minItems", 3},
+                               {"maxItems", 4}}})}}},
+          {"Interval",
+           {{"type", "array"},
+            {"items", Number()},
+            {"minItems", 2},
+            {"maxItems", 2},
+            {"description", "[lo, hi]: an interval a randomised setting is drawn from"}}}};
 }
 
 // ---- answers ----
@@ -80,175 +104,308 @@ json Warning() {
 }
 
 json ProblemSchema() {
-  return {{"type", "object"},
-          {"required", {"type", "title", "status", "detail"}},
-          {"properties",
-           {{"type", {{"type", "string"}}},
-            {"title", {{"type", "string"}}},
-            {"status", {{"type", "integer"}}},
-            {"detail", {{"type", "string"}}},
-            {"instance", {{"type", "string"}}},
-            {"errors",
-             {{"type", "array"},
-              {"items", {{"type", "object"},
-                         {"properties", {{"pointer", {{"type", "string"}}},
-                                         {"parameter", {{"type", "string"}}},
-                                         {"detail", {{"type", "string"}}}}}}}}},
-            {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
+  return {
+      {"type", "object"},
+      {"required", {"type", "title", "status", "detail"}},
+      {"properties",
+       {{"type", {{"type", "string"}}},
+        {"title", {{"type", "string"}}},
+        {"status", {{"type", "integer"}}},
+        {"detail", {{"type", "string"}}},
+        {"instance", {{"type", "string"}}},
+        {"errors",
+         {{"type", "array"},
+          {"items",
+           {{"type", "object"},
+            {"properties",
+             {{"pointer", {{"type", "string"}}},
+              {"parameter", {{"type", "string"}}},
+              {"detail", {{"type", "string"}}}}}}}}},
+        {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
 }
 
 json MeshJson() {
-  return {{"type", "object"},
-          {"properties",
-           {{"space", {{"enum", {"world", "mesh"}}}},
-            {"primitives",
-             {{"type", "array"},
-              {"items", {{"type", "object"},
-                         {"properties", {{"mesh", {{"type", "integer"}}},
-                                         {"primitive", {{"type", "integer"}}},
-                                         {"name", {{"type", "string"}}},
-                                         {"positions", {{"type", "array"}, {"items", {{"type", "number"}}}}},
-                                         {"normals", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}}}}},
-            {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
+  return {
+      {"type", "object"},
+      {"properties",
+       {{"space", {{"enum", {"world", "mesh"}}}},
+        {"primitives",
+         {{"type", "array"},
+          {"items",
+           {{"type", "object"},
+            {"properties",
+             {{"mesh", {{"type", "integer"}}},
+              {"primitive", {{"type", "integer"}}},
+              {"name", {{"type", "string"}}},
+              {"positions", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+              {"normals", {{"type", "array"}, {"items", {{"type", "number"}}}}}}}}}}},
+        {"warnings", {{"type", "array"}, {"items", {{"$ref", "#/components/schemas/Warning"}}}}}}}};
 }
 
 json RigSummary() {
-  return {{"type", "object"},
-          {"required", {"id", "name", "vertices", "triangles", "shapes", "primitives", "has_skeleton", "version"}},
-          {"properties", {{"id", String()}, {"name", String()}, {"vertices", Integer()}, {"triangles", Integer()},
-                          {"shapes", Integer()}, {"primitives", Integer()}, {"has_skeleton", Boolean()},
-                          {"version", {{"type", "string"}, {"description", "Changes with the rig file or its manifest (the ETag)"}}},
-                          {"credit", {{"type", "string"}, {"description", "The credit the rig's license asks for: show it with the rig"}}}}}};
+  return {
+      {"type", "object"},
+      {"required",
+       {"id", "name", "vertices", "triangles", "shapes", "primitives", "has_skeleton", "version"}},
+      {"properties",
+       {{"id", String()},
+        {"name", String()},
+        {"vertices", Integer()},
+        {"triangles", Integer()},
+        {"shapes", Integer()},
+        {"primitives", Integer()},
+        {"has_skeleton", Boolean()},
+        {"version",
+         {{"type", "string"},
+          {"description", "Changes with the rig file or its manifest (the ETag)"}}},
+        {"credit",
+         {{"type", "string"},
+          {"description", "The credit the rig's license asks for: show it with the rig"}}}}}};
 }
 
 json Shape() {
   return {{"type", "object"},
-          {"properties", {{"index", Integer()}, {"name", String()}, {"group", String()}, {"min", Number()}, {"max", Number()},
-                          {"default", Number()}, {"vertices_moved", Integer()}, {"partner", {{"type", {"string", "null"}}}},
-                          {"aliases", ArrayOf(String())}, {"driven", Boolean()}}}};
+          {"properties",
+           {{"index", Integer()},
+            {"name", String()},
+            {"group", String()},
+            {"min", Number()},
+            {"max", Number()},
+            {"default", Number()},
+            {"vertices_moved", Integer()},
+            {"partner", {{"type", {"string", "null"}}}},
+            {"aliases", ArrayOf(String())},
+            {"driven", Boolean()}}}};
 }
 
 json Rig() {
   return {{"type", "object"},
           {"properties",
-           {{"id", String()}, {"name", String()}, {"version", String()}, {"credit", String()}, {"vertices", Integer()}, {"triangles", Integer()},
-            {"has_skeleton", Boolean()}, {"start", {{"enum", {"neutral", "defaults"}}}},
+           {{"id", String()},
+            {"name", String()},
+            {"version", String()},
+            {"credit", String()},
+            {"vertices", Integer()},
+            {"triangles", Integer()},
+            {"has_skeleton", Boolean()},
+            {"start", {{"enum", {"neutral", "defaults"}}}},
             {"shapes", ArrayOf(Shape())},
             {"bounding_box", Box()},
             {"primitives", ArrayOf({{"type", "object"},
-                                     {"properties", {{"mesh", Integer()}, {"primitive", Integer()}, {"name", String()}, {"vertices", Integer()},
-                                                     {"triangles", Integer()}, {"material", Integer()}, {"has_normals", Boolean()},
-                                                     {"has_tangents", Boolean()}}}})},
+                                    {"properties",
+                                     {{"mesh", Integer()},
+                                      {"primitive", Integer()},
+                                      {"name", String()},
+                                      {"vertices", Integer()},
+                                      {"triangles", Integer()},
+                                      {"material", Integer()},
+                                      {"has_normals", Boolean()},
+                                      {"has_tangents", Boolean()}}}})},
             {"skeleton", {{"type", {"object", "null"}}, {"additionalProperties", true}}},
             {"animations", ArrayOf({{"type", "object"},
-                                     {"properties", {{"index", Integer()}, {"name", String()}, {"duration", Number()}, {"channels", Integer()},
-                                                     {"morph_weights", Boolean()}}}})},
+                                    {"properties",
+                                     {{"index", Integer()},
+                                      {"name", String()},
+                                      {"duration", Number()},
+                                      {"channels", Integer()},
+                                      {"morph_weights", Boolean()}}}})},
             {"controls", ArrayOf(Open())},
             {"inbetweens", ArrayOf(Open())},
             {"correctives", ArrayOf(Open())},
             {"statistics", {{"type", {"object", "null"}}, {"additionalProperties", true}}},
-            {"expressions", {{"type", "object"},
-                             {"description", "Name -> what it maps (the manifest's, else derived from ARKit or MMD shape names)"},
-                             {"additionalProperties", {{"type", "object"},
-                                                       {"properties", {{"weights", WeightsObject()}, {"binary", Boolean()},
-                                                                       {"override_blink", {{"enum", {"none", "block", "blend"}}}},
-                                                                       {"override_look_at", {{"enum", {"none", "block", "blend"}}}},
-                                                                       {"override_mouth", {{"enum", {"none", "block", "blend"}}}},
-                                                                       {"derived", Boolean()}}}}}}},
-            {"gaze", {{"type", "object"},
-                      {"properties", {{"type", {{"enum", {"bones", "shapes", "expressions", "none"}}}}, {"eyes", Open()},
-                                      {"shapes", Open()}, {"head", Open()}, {"neck", Open()},
-                                      {"range_maps", Open()}, {"origin", ArrayOf(Number())}}}}},
-            {"visemes", {{"type", "object"},
-                         {"properties", {{"jaw", {{"type", "array"}, {"items", String()}, {"description", "The shapes that open the jaw"}}},
-                                         {"nolip", {{"type", "array"}, {"items", String()},
-                                                    {"description", "Shapes held at 0 while speaking (MMDAgent's NOLIP)"}}}}},
-                         {"additionalProperties", {{"type", {"object", "null"}}, {"additionalProperties", {{"type", "number"}}}}},
-                         {"description", "Each viseme (sil, PP, FF, ... ou) -> the shapes and weights that say it"}}},
+            {"expressions",
+             {{"type", "object"},
+              {"description",
+               "Name -> what it maps (the manifest's, else derived from ARKit or MMD shape names)"},
+              {"additionalProperties",
+               {{"type", "object"},
+                {"properties",
+                 {{"weights", WeightsObject()},
+                  {"binary", Boolean()},
+                  {"override_blink", {{"enum", {"none", "block", "blend"}}}},
+                  {"override_look_at", {{"enum", {"none", "block", "blend"}}}},
+                  {"override_mouth", {{"enum", {"none", "block", "blend"}}}},
+                  {"derived", Boolean()}}}}}}},
+            {"gaze",
+             {{"type", "object"},
+              {"properties",
+               {{"type", {{"enum", {"bones", "shapes", "expressions", "none"}}}},
+                {"eyes", Open()},
+                {"shapes", Open()},
+                {"head", Open()},
+                {"neck", Open()},
+                {"range_maps", Open()},
+                {"origin", ArrayOf(Number())}}}}},
+            {"visemes",
+             {{"type", "object"},
+              {"properties",
+               {{"jaw",
+                 {{"type", "array"},
+                  {"items", String()},
+                  {"description", "The shapes that open the jaw"}}},
+                {"nolip",
+                 {{"type", "array"},
+                  {"items", String()},
+                  {"description", "Shapes held at 0 while speaking (MMDAgent's NOLIP)"}}}}},
+              {"additionalProperties",
+               {{"type", {"object", "null"}}, {"additionalProperties", {{"type", "number"}}}}},
+              {"description",
+               "Each viseme (sil, PP, FF, ... ou) -> the shapes and weights that say it"}}},
             {"load_warnings", ArrayOf(Ref("Warning"))}}}};
 }
 
 json Manifest() {
-  return {{"type", "object"},
-          {"additionalProperties", false},
-          {"description", "What a rig file does not say (core/README.md, \"Manifest\"); an unknown member is refused"},
-          {"properties", {{"name", String()}, {"credit", String()}, {"license_url", {{"type", "string"}, {"format", "uri"}}},
-                          {"start", {{"enum", {"neutral", "defaults"}}}},
-                          {"shapes", {{"type", "object"}, {"additionalProperties", Open()}}},
-                          {"groups", {{"type", "object"}, {"additionalProperties", ArrayOf(String())}}},
-                          {"controls", Open()}, {"derived", Open()},
-                          {"inbetweens", Open()}, {"correctives", Open()},
-                          {"statistics", Open()}, {"expressions", Open()}, {"gaze", Open()},
-                          {"base_motion", String()}, {"materials", Open()},
-                          {"visemes", {{"type", "object"}, {"additionalProperties", true}, {"description", "Each viseme's shapes and weights"}}},
-                          {"terms", {{"type", "object"}, {"additionalProperties", true}, {"description", "The rig's licence terms (VRM's)"}}},
-                          {"regions", {{"type", "object"}, {"additionalProperties", true}, {"description", "Named parts of the mesh (skin, eyes, teeth...)"}}},
-                          {"landmarks", {{"type", "object"}, {"additionalProperties", true}, {"description", "A landmark scheme's points on the mesh"}}}}}};
+  return {
+      {"type", "object"},
+      {"additionalProperties", false},
+      {"description",
+       "What a rig file does not say (core/README.md, \"Manifest\"); an unknown member is refused"},
+      {"properties",
+       {{"name", String()},
+        {"credit", String()},
+        {"license_url", {{"type", "string"}, {"format", "uri"}}},
+        {"start", {{"enum", {"neutral", "defaults"}}}},
+        {"shapes", {{"type", "object"}, {"additionalProperties", Open()}}},
+        {"groups", {{"type", "object"}, {"additionalProperties", ArrayOf(String())}}},
+        {"controls", Open()},
+        {"derived", Open()},
+        {"inbetweens", Open()},
+        {"correctives", Open()},
+        {"statistics", Open()},
+        {"expressions", Open()},
+        {"gaze", Open()},
+        {"base_motion", String()},
+        {"materials", Open()},
+        {"visemes",
+         {{"type", "object"},
+          {"additionalProperties", true},
+          {"description", "Each viseme's shapes and weights"}}},
+        {"terms",
+         {{"type", "object"},
+          {"additionalProperties", true},
+          {"description", "The rig's licence terms (VRM's)"}}},
+        {"regions",
+         {{"type", "object"},
+          {"additionalProperties", true},
+          {"description", "Named parts of the mesh (skin, eyes, teeth...)"}}},
+        {"landmarks",
+         {{"type", "object"},
+          {"additionalProperties", true},
+          {"description", "A landmark scheme's points on the mesh"}}}}}};
 }
 
 json Check() {
   return {{"type", "object"},
           {"required", {"sum", "weights", "warnings"}},
-          {"properties", {{"sum", Number()}, {"weights", WeightsObject()}, {"warnings", ArrayOf(Ref("Warning"))},
-                          {"vertex_sum", {{"type", "number"}, {"description", "Beside a sum above 1: the most weight one vertex takes"}}},
-                          {"stacked", {{"type", "array"}, {"items", String()}, {"description", "Beside vertex_sum: the shapes stacking there"}}},
-                          {"mahalanobis", {{"type", "number"}, {"description", "With manifest statistics: distance from the mean in standard deviations"}}}}}};
+          {"properties",
+           {{"sum", Number()},
+            {"weights", WeightsObject()},
+            {"warnings", ArrayOf(Ref("Warning"))},
+            {"vertex_sum",
+             {{"type", "number"},
+              {"description", "Beside a sum above 1: the most weight one vertex takes"}}},
+            {"stacked",
+             {{"type", "array"},
+              {"items", String()},
+              {"description", "Beside vertex_sum: the shapes stacking there"}}},
+            {"mahalanobis",
+             {{"type", "number"},
+              {"description",
+               "With manifest statistics: distance from the mean in standard deviations"}}}}}};
 }
 
 json Fit() {
-  return {{"type", "object"},
-          {"required", {"weights", "residual", "warnings"}},
-          {"properties", {{"weights", WeightsObject()},
-                          {"residual", {{"type", "object"}, {"properties", {{"rms", Number()}, {"max", Number()}}}}},
-                          {"warnings", ArrayOf(Ref("Warning"))}}}};
+  return {
+      {"type", "object"},
+      {"required", {"weights", "residual", "warnings"}},
+      {"properties",
+       {{"weights", WeightsObject()},
+        {"residual", {{"type", "object"}, {"properties", {{"rms", Number()}, {"max", Number()}}}}},
+        {"warnings", ArrayOf(Ref("Warning"))}}}};
 }
 
 json Topology() {
   return {{"type", "object"},
           {"required", {"primitives"}},
-          {"properties", {{"primitives", ArrayOf({{"type", "object"},
-                                                   {"properties", {{"mesh", Integer()}, {"primitive", Integer()}, {"vertices", Integer()},
-                                                                   {"mode", Integer()}, {"indices", ArrayOf(Integer())},
-                                                                   {"color", {{"type", "array"}, {"items", Number()}, {"minItems", 4}, {"maxItems", 4},
-                                                                              {"description", "Linear RGBA a client drawing no textures shows: the material's base colour times its texture's mean; alpha 0 is see-through (a material morph shows it)"}}}}}})},
-                          {"focus", Box()}}}};
+          {"properties",
+           {{"primitives", ArrayOf({{"type", "object"},
+                                    {"properties",
+                                     {{"mesh", Integer()},
+                                      {"primitive", Integer()},
+                                      {"vertices", Integer()},
+                                      {"mode", Integer()},
+                                      {"indices", ArrayOf(Integer())},
+                                      {"color",
+                                       {{"type", "array"},
+                                        {"items", Number()},
+                                        {"minItems", 4},
+                                        {"maxItems", 4},
+                                        {"description",
+                                         "Linear RGBA a client drawing no textures shows: the "
+                                         "material's base colour times its texture's mean; alpha 0 "
+                                         "is see-through (a material morph shows it)"}}}}}})},
+            {"focus", Box()}}}};
 }
 
 json SequenceFrames() {
   return {{"type", "object"},
           {"required", {"frames"}},
-          {"properties", {{"space", {{"enum", {"world"}}}},
-                          {"format", {{"enum", {"weights"}}, {"description", "Present when the frames are weights alone"}}},
-                          {"frames", ArrayOf({{"type", "object"},
-                                               {"properties", {{"time", Number()}, {"weights", WeightsObject()}, {"sum", Number()},
-                                                               {"pose", {{"type", "object"},
-                                                                         {"description", "format weights, posed frames: the nodes moved from rest, by name"},
-                                                                         {"additionalProperties", {{"type", "object"},
-                                                                                                   {"properties", {{"translation", ArrayOf(Number())},
-                                                                                                                   {"rotation", ArrayOf(Number())},
-                                                                                                                   {"scale", ArrayOf(Number())}}}}}}},
-                                                               {"primitives", ArrayOf(Open())}}}})},
-                          {"warnings", ArrayOf(Ref("Warning"))}}}};
+          {"properties",
+           {{"space", {{"enum", {"world"}}}},
+            {"format",
+             {{"enum", {"weights"}}, {"description", "Present when the frames are weights alone"}}},
+            {"frames",
+             ArrayOf({{"type", "object"},
+                      {"properties",
+                       {{"time", Number()},
+                        {"weights", WeightsObject()},
+                        {"sum", Number()},
+                        {"pose",
+                         {{"type", "object"},
+                          {"description",
+                           "format weights, posed frames: the nodes moved from rest, by name"},
+                          {"additionalProperties",
+                           {{"type", "object"},
+                            {"properties",
+                             {{"translation", ArrayOf(Number())},
+                              {"rotation", ArrayOf(Number())},
+                              {"scale", ArrayOf(Number())}}}}}}},
+                        {"primitives", ArrayOf(Open())}}}})},
+            {"warnings", ArrayOf(Ref("Warning"))}}}};
 }
 
 json Reduced() {
   return {{"type", "object"},
-          {"properties", {{"keys", ArrayOf(Open())}, {"transition", String()}, {"kept", Integer()}, {"removed", Integer()},
-                          {"max_error", Number()}, {"tolerance", Number()}}}};
+          {"properties",
+           {{"keys", ArrayOf(Open())},
+            {"transition", String()},
+            {"kept", Integer()},
+            {"removed", Integer()},
+            {"max_error", Number()},
+            {"tolerance", Number()}}}};
 }
 
 json Health() {
-  return {{"type", "object"}, {"required", {"status"}}, {"properties", {{"status", String()}, {"rigs", Integer()}}}};
+  return {{"type", "object"},
+          {"required", {"status"}},
+          {"properties", {{"status", String()}, {"rigs", Integer()}}}};
 }
 
 json Job() {
   return {{"type", "object"},
-          {"properties", {{"id", {{"type", "string"}}}, {"rig", {{"type", "string"}}},
-                          {"state", {{"enum", {"queued", "running", "done", "failed", "cancelled", "lost"}}}},
-                          {"format", {{"type", "string"}}}, {"created", {{"type", "string"}, {"format", "date-time"}}},
-                          {"total", {{"type", "integer"}}}, {"done", {{"type", "integer"}}}, {"progress", {{"type", "number"}}},
-                          {"rate", {{"type", "number"}}}, {"eta_seconds", {{"type", "number"}}}, {"error", {{"type", "string"}}},
-                          {"links", Open()}}}};
+          {"properties",
+           {{"id", {{"type", "string"}}},
+            {"rig", {{"type", "string"}}},
+            {"state", {{"enum", {"queued", "running", "done", "failed", "cancelled", "lost"}}}},
+            {"format", {{"type", "string"}}},
+            {"created", {{"type", "string"}, {"format", "date-time"}}},
+            {"total", {{"type", "integer"}}},
+            {"done", {{"type", "integer"}}},
+            {"progress", {{"type", "number"}}},
+            {"rate", {{"type", "number"}}},
+            {"eta_seconds", {{"type", "number"}}},
+            {"error", {{"type", "string"}}},
+            {"links", Open()}}}};
 }
 
 }  // namespace
@@ -276,7 +433,8 @@ json MemberSchema(const facespace::api::Member& m) {
       break;
     }
     case facespace::api::Kind::kSchema:
-      s = m.schema.starts_with('#') ? Ref(std::string(m.schema.substr(1)).c_str()) : json::parse(m.schema);
+      s = m.schema.starts_with('#') ? Ref(std::string(m.schema.substr(1)).c_str())
+                                    : json::parse(m.schema);
       break;
   }
   std::string doc(m.doc);
@@ -289,34 +447,74 @@ json MemberSchema(const facespace::api::Member& m) {
   return s;
 }
 
-
 json Schemas() {
-  json schemas = {{"Job", Job()},
-          {"Warning", Warning()}, {"Problem", ProblemSchema()}, {"MeshJson", MeshJson()}, {"RigSummary", RigSummary()},
-          {"RigList", {{"type", "object"}, {"required", {"rigs"}}, {"properties", {{"rigs", ArrayOf(Ref("RigSummary"))}}}}},
-          {"Rig", Rig()}, {"Manifest", Manifest()}, {"Check", Check()}, {"Fit", Fit()}, {"Topology", Topology()},
-          {"SequenceFrames", SequenceFrames()}, {"Reduced", Reduced()}, {"Health", Health()},
-          {"JobList", {{"type", "object"}, {"required", {"jobs"}}, {"properties", {{"jobs", ArrayOf(Ref("Job"))}}}}},
-          {"Voices", {{"type", "object"}, {"required", {"voices"}},
-                      {"properties", {{"voices", ArrayOf(json{{"type", "object"}, {"properties", {{"name", {{"type", "string"}}}, {"language", {{"type", "string"}}}}}})},
-                                      {"default", {{"type", "string"}}}}}}},
-          {"Speech", {{"type", "object"}, {"required", {"phonemes", "visemes", "keys", "duration"}},
-                      {"properties", {{"source", {{"type", "string"}, {"enum", {"espeak-ng", "pocketsphinx", "pocketsphinx-aligned"}}}},
-                                      {"voice", {{"type", "string"}}},
-                                      {"duration", {{"type", "number"}}},
-                                      {"fps", {{"type", "number"}, {"description", "Frames a second of the keys"}}},
-                                      {"frames", {{"type", "integer"}, {"description", "Frames the speech lasts at fps"}}},
-                                      {"transition", {{"type", "string"}, {"description", "How the keys blend (a sequence's transition)"}}},
-                                      {"audio_wav", {{"type", "string"}, {"contentEncoding", "base64"}, {"description", "with_audio: the speech as a WAV file"}}},
-                                      {"phonemes", ArrayOf(json{{"type", "object"}, {"required", {"name", "start", "end"}},
-                                                                {"properties", {{"name", String()}, {"start", Number()}, {"end", Number()}}}})},
-                                      {"visemes", ArrayOf(json{{"type", "object"}, {"required", {"viseme", "start", "end"}},
-                                                            {"properties", {{"viseme", {{"type", "string"}, {"enum", {"sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "ih", "oh", "ou"}}}},
-                                                                            {"start", Number()}, {"end", Number()}}}})},
-                                      {"keys", ArrayOf(Open())},
-                                      {"warnings", ArrayOf(Ref("Warning"))}}}}}};
+  json schemas = {
+      {"Job", Job()},
+      {"Warning", Warning()},
+      {"Problem", ProblemSchema()},
+      {"MeshJson", MeshJson()},
+      {"RigSummary", RigSummary()},
+      {"RigList",
+       {{"type", "object"},
+        {"required", {"rigs"}},
+        {"properties", {{"rigs", ArrayOf(Ref("RigSummary"))}}}}},
+      {"Rig", Rig()},
+      {"Manifest", Manifest()},
+      {"Check", Check()},
+      {"Fit", Fit()},
+      {"Topology", Topology()},
+      {"SequenceFrames", SequenceFrames()},
+      {"Reduced", Reduced()},
+      {"Health", Health()},
+      {"JobList",
+       {{"type", "object"},
+        {"required", {"jobs"}},
+        {"properties", {{"jobs", ArrayOf(Ref("Job"))}}}}},
+      {"Voices",
+       {{"type", "object"},
+        {"required", {"voices"}},
+        {"properties",
+         {{"voices",
+           ArrayOf(json{{"type", "object"},
+                        {"properties",
+                         {{"name", {{"type", "string"}}}, {"language", {{"type", "string"}}}}}})},
+          {"default", {{"type", "string"}}}}}}},
+      {"Speech",
+       {{"type", "object"},
+        {"required", {"phonemes", "visemes", "keys", "duration"}},
+        {"properties",
+         {{"source",
+           {{"type", "string"}, {"enum", {"espeak-ng", "pocketsphinx", "pocketsphinx-aligned"}}}},
+          {"voice", {{"type", "string"}}},
+          {"duration", {{"type", "number"}}},
+          {"fps", {{"type", "number"}, {"description", "Frames a second of the keys"}}},
+          {"frames", {{"type", "integer"}, {"description", "Frames the speech lasts at fps"}}},
+          {"transition",
+           {{"type", "string"}, {"description", "How the keys blend (a sequence's transition)"}}},
+          {"audio_wav",
+           {{"type", "string"},
+            {"contentEncoding", "base64"},
+            {"description", "with_audio: the speech as a WAV file"}}},
+          {"phonemes",
+           ArrayOf(
+               json{{"type", "object"},
+                    {"required", {"name", "start", "end"}},
+                    {"properties", {{"name", String()}, {"start", Number()}, {"end", Number()}}}})},
+          {"visemes", ArrayOf(json{{"type", "object"},
+                                   {"required", {"viseme", "start", "end"}},
+                                   {"properties",
+                                    {{"viseme",
+                                      {{"type", "string"},
+                                       {"enum",
+                                        {"sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn",
+                                         "RR", "aa", "E", "ih", "oh", "ou"}}}},
+                                     {"start", Number()},
+                                     {"end", Number()}}}})},
+          {"keys", ArrayOf(Open())},
+          {"warnings", ArrayOf(Ref("Warning"))}}}}}};
   schemas.update(ValueSchemas());
-  for (Body body : facespace::api::kBodies) schemas[std::string(facespace::api::SchemaName(body))] = BodySchema(body);
+  for (Body body : facespace::api::kBodies)
+    schemas[std::string(facespace::api::SchemaName(body))] = BodySchema(body);
   return schemas;
 }
 

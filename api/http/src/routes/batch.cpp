@@ -10,19 +10,30 @@ namespace facespace::api::http {
 
 namespace {
 
-using nlohmann::json;
 using batch::JobState;
+using nlohmann::json;
 
 json JobJson(const batch::JobInfo& j) {
   const std::string self = "/v1/jobs/" + j.id;
-  json o = {{"id", j.id},           {"rig", j.rig},     {"state", Name(j.state)}, {"format", j.format},
-            {"created", j.created}, {"total", j.total}, {"done", j.done},
-            {"progress", j.total ? static_cast<double>(j.done) / static_cast<double>(j.total) : 1.0},
-            {"rate", std::round(j.rate * 10.0) / 10.0}, {"archive", j.archive}};
+  json o = {
+      {"id", j.id},
+      {"rig", j.rig},
+      {"state", Name(j.state)},
+      {"format", j.format},
+      {"created", j.created},
+      {"total", j.total},
+      {"done", j.done},
+      {"progress", j.total ? static_cast<double>(j.done) / static_cast<double>(j.total) : 1.0},
+      {"rate", std::round(j.rate * 10.0) / 10.0},
+      {"archive", j.archive}};
   if (!j.labels.empty()) o["labels"] = j.labels;
-  if (j.state == JobState::kRunning && j.rate > 0) o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
+  if (j.state == JobState::kRunning && j.rate > 0)
+    o["eta_seconds"] = std::ceil(static_cast<double>(j.total - j.done) / j.rate);
   if (!j.error.empty()) o["error"] = j.error;
-  o["links"] = {{"self", self}, {"manifest", self + "/manifest.jsonl"}, {"files", self + "/files/"}, {"sheet", self + "/files/sheet.png"}};
+  o["links"] = {{"self", self},
+                {"manifest", self + "/manifest.jsonl"},
+                {"files", self + "/files/"},
+                {"sheet", self + "/files/sheet.png"}};
   if (j.state == JobState::kDone) o["links"]["results"] = self + "/results.zip";
   return o;
 }
@@ -34,7 +45,8 @@ bool JobsEnabled(const ServerState& ctx, const httplib::Request& req, httplib::R
 }
 
 // The job named by the path, or nullopt with 503 or 404 sent.
-std::optional<batch::JobInfo> FindJob(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+std::optional<batch::JobInfo> FindJob(ServerState& ctx, const httplib::Request& req,
+                                      httplib::Response& res) {
   if (!JobsEnabled(ctx, req, res)) return std::nullopt;
   const std::string id = req.matches[1];
   std::optional<batch::JobInfo> j = batch::IsValidJobId(id) ? ctx.jobs->Get(id) : std::nullopt;
@@ -54,8 +66,8 @@ const char* FileType(const std::string& name) {
   return "application/octet-stream";
 }
 
-// The files a manifest line vouches for, as a results archive holds them: a folder's (the variant's and its
-// labels'), or the tar shard holding an archived sample.
+// The files a manifest line vouches for, as a results archive holds them: a folder's (the variant's
+// and its labels'), or the tar shard holding an archived sample.
 std::vector<std::string> ManifestFiles(const json& l) {
   std::vector<std::string> names;
   if (l.is_discarded() || !l.is_object()) return names;
@@ -68,7 +80,8 @@ std::vector<std::string> ManifestFiles(const json& l) {
 }
 
 // A job's file, read as it is sent (a tar shard of labelled samples runs to hundreds of megabytes).
-void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res, const std::string& name) {
+void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                 const std::string& name) {
   auto job = FindJob(ctx, req, res);
   if (!job) return;
   const std::filesystem::path path = std::filesystem::path(ctx.jobs->Folder(job->id)) / name;
@@ -76,17 +89,22 @@ void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Respons
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
   if (!IsValidVariantId(name) || !*f || ec) {
-    SendProblem(req, res, Problem::kFileNotFound, "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
-                                                     (job->state == JobState::kDone ? "" : std::string(" (yet: the job is ") + Name(job->state) + ")"));
+    SendProblem(req, res, Problem::kFileNotFound,
+                "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
+                    (job->state == JobState::kDone
+                         ? ""
+                         : std::string(" (yet: the job is ") + Name(job->state) + ")"));
     return;
   }
   res.set_header("Cache-Control", name == "manifest.jsonl" ? "no-cache" : "private, max-age=86400");
-  res.set_content_provider(static_cast<size_t>(size), FileType(name), [f](size_t offset, size_t length, httplib::DataSink& sink) {
-    std::vector<char> chunk(std::min<size_t>(length, 1 << 20));
-    f->seekg(static_cast<std::streamoff>(offset));
-    if (!f->read(chunk.data(), static_cast<std::streamsize>(chunk.size()))) return false;  // Deleted or cut short under us.
-    return sink.write(chunk.data(), chunk.size());
-  });
+  res.set_content_provider(static_cast<size_t>(size), FileType(name),
+                           [f](size_t offset, size_t length, httplib::DataSink& sink) {
+                             std::vector<char> chunk(std::min<size_t>(length, 1 << 20));
+                             f->seekg(static_cast<std::streamoff>(offset));
+                             if (!f->read(chunk.data(), static_cast<std::streamsize>(chunk.size())))
+                               return false;  // Deleted or cut short under us.
+                             return sink.write(chunk.data(), chunk.size());
+                           });
 }
 
 }  // namespace
@@ -98,17 +116,23 @@ void PostBatch(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!stored || !AcceptsJsonBody(req, res)) return;
   auto plan = batch::MakeBatchPlan(stored, req.body);
   if (!plan.ok()) return SendStatus(req, res, plan.status());
-  if (!plan->request.dataset.randomize.background_images.empty()) {  // A path on the server: never the client's to name.
-    return SendProblem(req, res, Problem::kInvalidRequest, "/randomize/background/images: the service reads no folder a client names; `facespace batch` takes one, "
+  if (!plan->request.dataset.randomize.background_images
+           .empty()) {  // A path on the server: never the client's to name.
+    return SendProblem(req, res, Problem::kInvalidRequest,
+                       "/randomize/background/images: the service reads no folder a client names; "
+                       "`facespace batch` takes one, "
                        "or give colours (\"random\" or [\"#rrggbb\", ...])",
                        {{"/randomize/background/images", "not taken by the service"}});
   }
   int retry_after = 0;
-  auto job = ctx.jobs->Submit(std::make_shared<const batch::BatchPlan>(std::move(plan.value())), req.body, &retry_after);
+  auto job = ctx.jobs->Submit(std::make_shared<const batch::BatchPlan>(std::move(plan.value())),
+                              req.body, &retry_after);
   if (!job.ok()) {
     Status s = job.status();
-    if (s.reason == batch::kJobQueueFull) res.set_header("Retry-After", std::to_string(retry_after));
-    else if (s.reason.empty() && s.code == StatusCode::kInternal) s.reason = "storage-failed";  // A full disk is storage-full by its code.
+    if (s.reason == batch::kJobQueueFull)
+      res.set_header("Retry-After", std::to_string(retry_after));
+    else if (s.reason.empty() && s.code == StatusCode::kInternal)
+      s.reason = "storage-failed";  // A full disk is storage-full by its code.
     return SendStatus(req, res, s);
   }
   res.set_header("Location", "/v1/jobs/" + job->id);
@@ -133,22 +157,29 @@ void DeleteJob(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
   Status s = batch::IsValidJobId(id) ? ctx.jobs->Remove(id) : NotFound("");
-  if (!s.ok()) SendProblem(req, res, Problem::kJobNotFound, "no job with id '" + id.substr(0, 80) + "'");
-  else res.status = 204;
+  if (!s.ok())
+    SendProblem(req, res, Problem::kJobNotFound, "no job with id '" + id.substr(0, 80) + "'");
+  else
+    res.status = 204;
 }
 
-void GetJobManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, "manifest.jsonl"); }
+void GetJobManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  SendJobFile(ctx, req, res, "manifest.jsonl");
+}
 
-void GetJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res) { SendJobFile(ctx, req, res, req.matches[2]); }
+void GetJobFile(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  SendJobFile(ctx, req, res, req.matches[2]);
+}
 
 void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto job = FindJob(ctx, req, res);
   if (!job) return;
   if (job->state != JobState::kDone) {
-    SendProblem(req, res, Problem::kJobNotDone, "job " + job->id + " is " + Name(job->state) + " (" + std::to_string(job->done) + " of " +
-                                                   std::to_string(job->total) +
-                                                   " variants): its archive exists once it is done; finished files are at " +
-                                                   "/v1/jobs/" + job->id + "/files/NAME");
+    SendProblem(req, res, Problem::kJobNotDone,
+                "job " + job->id + " is " + Name(job->state) + " (" + std::to_string(job->done) +
+                    " of " + std::to_string(job->total) +
+                    " variants): its archive exists once it is done; finished files are at " +
+                    "/v1/jobs/" + job->id + "/files/NAME");
     return;
   }
   // Entries: the manifest, batch.json, the sheet, then every variant in manifest order.
@@ -160,13 +191,16 @@ void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Respo
   std::ifstream manifest(dir / "manifest.jsonl");
   for (std::string line; std::getline(manifest, line);) {
     for (std::string& name : ManifestFiles(json::parse(line, nullptr, false))) {
-      if (std::find(names->begin(), names->end(), name) == names->end()) names->push_back(std::move(name));
+      if (std::find(names->begin(), names->end(), name) == names->end())
+        names->push_back(std::move(name));
     }
   }
   auto zip = std::make_shared<ZipStream>();
   auto next = std::make_shared<size_t>(0);
-  res.set_header("Content-Disposition", "attachment; filename=\"facespace-batch-" + job->id + ".zip\"");
-  res.set_chunked_content_provider("application/zip", [dir, names, zip, next](size_t, httplib::DataSink& sink) {
+  res.set_header("Content-Disposition",
+                 "attachment; filename=\"facespace-batch-" + job->id + ".zip\"");
+  res.set_chunked_content_provider("application/zip", [dir, names, zip, next](
+                                                          size_t, httplib::DataSink& sink) {
     if (*next == names->size()) {
       const std::string end = zip->Finish();
       sink.write(end.data(), end.size());
@@ -177,8 +211,10 @@ void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Respo
     std::ifstream f(dir / name, std::ios::binary);
     const std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
     const std::string ext = name.substr(name.rfind('.') + 1);
-    const std::string entry = zip->Entry(name, data, ext == "obj" || ext == "json" || ext == "jsonl");
-    if (!f || zip->failed()) return false;  // A file vanished (job deleted) or the archive would pass 4 GiB.
+    const std::string entry =
+        zip->Entry(name, data, ext == "obj" || ext == "json" || ext == "jsonl");
+    if (!f || zip->failed())
+      return false;  // A file vanished (job deleted) or the archive would pass 4 GiB.
     return sink.write(entry.data(), entry.size());
   });
 }

@@ -1,14 +1,15 @@
-// GET /v1/rigs/{id}/live, upgraded to a WebSocket (issue 53): one face per socket. Text messages set the
-// state ({"weights"}, {"expressions"}, {"gaze"}, {"pose"}, {"controls"}, merged into the current point as
-// the mesh route reads them); each change is answered by one binary message, a 16-byte header then the
-// same bytes as GET /mesh?format=f32 for that point, at most 60 a second (the hub coalesces).
+// GET /v1/rigs/{id}/live, upgraded to a WebSocket (issue 53): one face per socket. Text messages
+// set the state ({"weights"}, {"expressions"}, {"gaze"}, {"pose"}, {"controls"}, merged into the
+// current point as the mesh route reads them); each change is answered by one binary message, a
+// 16-byte header then the same bytes as GET /mesh?format=f32 for that point, at most 60 a second
+// (the hub coalesces).
 #include <nlohmann/json.hpp>
 
-#include "facespace/evaluator/members.h"
 #include "../http/cost.h"
+#include "../http/problem.h"
+#include "facespace/evaluator/members.h"
 #include "facespace/net/framing.h"
 #include "facespace/net/live_hub.h"
-#include "../http/problem.h"
 #include "facespace/speech/speech.h"
 #include "live_listen.h"
 #include "live_say.h"
@@ -36,19 +37,20 @@ class FaceSession final : public LiveHandler {
   }
 
   void Open(Out& out) override {
-    out.texts.push_back(json{{"event", "ready"},
-                             {"rig", rig_->id},
-                             {"version", rig_->version},
-                             {"header_bytes", kHeaderBytes},
-                             {"limits", limits_}}
-                            .dump());
+    out.texts.push_back(json{
+        {"event", "ready"},
+        {"rig", rig_->id},
+        {"version", rig_->version},
+        {"header_bytes", kHeaderBytes},
+        {"limits", limits_}}.dump());
     out.frame_wanted = true;  // The face as it starts.
   }
 
   void OnText(std::string_view text, Out& out) override {
     json m = json::parse(text, nullptr, false);
     if (m.is_discarded() || !m.is_object()) {
-      out.texts.push_back(ErrorEvent("malformed-message", "a message is a JSON object: {\"weights\": {\"jawOpen\": 0.5}}"));
+      out.texts.push_back(ErrorEvent(
+          "malformed-message", "a message is a JSON object: {\"weights\": {\"jawOpen\": 0.5}}"));
       return;
     }
     if (m.contains("listen")) return Listen(m, out);
@@ -59,7 +61,8 @@ class FaceSession final : public LiveHandler {
       const std::string& key = it.key();
       if (key == "id") {
         if (!it->is_number_unsigned() || it->get<uint64_t>() > UINT32_MAX) {
-          out.texts.push_back(ErrorEvent("invalid-message", "id must be an integer from 0 to 4294967295", "/id"));
+          out.texts.push_back(
+              ErrorEvent("invalid-message", "id must be an integer from 0 to 4294967295", "/id"));
           return;
         }
         id = it->get<uint32_t>();
@@ -67,20 +70,26 @@ class FaceSession final : public LiveHandler {
         next["pose"] = *it;
       } else if (std::find(std::begin(kMerged), std::end(kMerged), key) != std::end(kMerged)) {
         if (!it->is_object()) {
-          out.texts.push_back(ErrorEvent("invalid-message", key + " must be an object of names and values", "/" + key));
+          out.texts.push_back(ErrorEvent(
+              "invalid-message", key + " must be an object of names and values", "/" + key));
           return;
         }
         json& into = next[key];
         if (!into.is_object()) into = json::object();
         for (auto v = it->begin(); v != it->end(); ++v) {
-          if (v->is_null()) into.erase(v.key());  // null: back to the rest value.
-          else into[v.key()] = *v;
+          if (v->is_null())
+            into.erase(v.key());  // null: back to the rest value.
+          else
+            into[v.key()] = *v;
         }
         if (into.empty()) next.erase(key);
       } else {
         std::string valid;  // The message's members: its table (facespace/evaluator/members.h).
-        for (const Member& k : Members(Body::kLive)) valid += (valid.empty() ? "" : ", ") + std::string(k.name);
-        out.texts.push_back(ErrorEvent("unknown-member", "unknown member '" + key.substr(0, 64) + "'; valid: " + valid, "/" + key.substr(0, 64)));
+        for (const Member& k : Members(Body::kLive))
+          valid += (valid.empty() ? "" : ", ") + std::string(k.name);
+        out.texts.push_back(ErrorEvent(
+            "unknown-member", "unknown member '" + key.substr(0, 64) + "'; valid: " + valid,
+            "/" + key.substr(0, 64)));
         return;
       }
     }
@@ -98,11 +107,14 @@ class FaceSession final : public LiveHandler {
       out.reason = "binary messages are audio, and need {\"listen\": ...} first";
       return;
     }
-    if (bytes.size() % 2) return out.texts.push_back(ErrorEvent("invalid-audio", "audio is 16-bit samples: an even number of bytes"));
+    if (bytes.size() % 2)
+      return out.texts.push_back(
+          ErrorEvent("invalid-audio", "audio is 16-bit samples: an even number of bytes"));
     std::vector<int16_t> pcm(bytes.size() / 2);
     std::memcpy(pcm.data(), bytes.data(), bytes.size());  // Little-endian, as this machine.
     if (Status s = listener_->Feed(pcm); !s.ok()) {
-      // Faster than it plays: the session ends (a client that streams a microphone never gets here).
+      // Faster than it plays: the session ends (a client that streams a microphone never gets
+      // here).
       out.close = true;
       out.code = ws::CloseCode::kPolicy;
       out.reason = s.message.substr(0, 120);
@@ -119,21 +131,25 @@ class FaceSession final : public LiveHandler {
     out.texts.push_back(json{{"event", "listen"}, {"state", "end"}}.dump());
   }
 
-  // The listener let go (its thread joined outside the lock, which Cancel takes from the hub's loop).
+  // The listener let go (its thread joined outside the lock, which Cancel takes from the hub's
+  // loop).
   void DropListener() {
     std::unique_ptr<LiveListener> old;
     std::lock_guard<std::mutex> lock(listener_mu_);
     old = std::move(listener_);
   }
 
-  double TakeHelperCpu() override { return (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu(); }
+  double TakeHelperCpu() override {
+    return (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu() + helper_cpu_.Take();
+  }
 
   bool MakeFrame(std::string& message, Out& out) override {
-    auto ws = ctx_.workspaces.Acquire(stop_.get_token());
+    auto ws = ctx_.workspaces.Acquire(stop_.get_token(), &helper_cpu_);
     ctx_.metrics.CountBlends(1);
     auto enc = ctx_.evaluator.Run(rig_, point_, OutputSpec::Mesh(request_, MeshFormat::kF32), *ws);
     if (!enc.ok()) {
-      out.texts.push_back(ErrorEvent(enc.status().reason.empty() ? "error" : enc.status().reason, enc.status().message));
+      out.texts.push_back(ErrorEvent(enc.status().reason.empty() ? "error" : enc.status().reason,
+                                     enc.status().message));
       return false;
     }
     const auto pieces = enc->pieces();
@@ -166,17 +182,23 @@ class FaceSession final : public LiveHandler {
   void Speech(const json& m, Out& out) {
     for (auto it = m.begin(); it != m.end(); ++it) {
       if (it.key() != "say" && it.key() != "stop") {
-        return out.texts.push_back(ErrorEvent("invalid-message", "say and stop go alone in their message, not with '" + it.key().substr(0, 64) + "'", "/" + it.key().substr(0, 64)));
+        return out.texts.push_back(ErrorEvent(
+            "invalid-message",
+            "say and stop go alone in their message, not with '" + it.key().substr(0, 64) + "'",
+            "/" + it.key().substr(0, 64)));
       }
     }
     if (m.contains("stop")) {
-      if (m["stop"] != true) return out.texts.push_back(ErrorEvent("invalid-message", "stop must be true", "/stop"));
+      if (m["stop"] != true)
+        return out.texts.push_back(ErrorEvent("invalid-message", "stop must be true", "/stop"));
       if (!speaker_.Stop()) out.texts.push_back(json{{"event", "say"}, {"state", "idle"}}.dump());
       return;
     }
     const json& say = m["say"];
     if (!say.is_object() || !say.contains("text") || !say["text"].is_string()) {
-      return out.texts.push_back(ErrorEvent("invalid-message", "say is {\"text\": \"...\", \"voice\": \"en-us\", \"rate\": 175}", "/say"));
+      return out.texts.push_back(
+          ErrorEvent("invalid-message",
+                     "say is {\"text\": \"...\", \"voice\": \"en-us\", \"rate\": 175}", "/say"));
     }
     if (Status s = CanSpeak(rig_->rig); !s.ok()) return Refuse(s, out);
     std::string voice = kDefaultVoice;
@@ -184,35 +206,56 @@ class FaceSession final : public LiveHandler {
     for (auto it = say.begin(); it != say.end(); ++it) {
       const std::string where = "/say/" + it.key().substr(0, 64);
       if (!FindMember(Body::kLiveSay, it.key())) {
-        return out.texts.push_back(ErrorEvent("unknown-member", "say takes text, voice (a string) and rate (words a minute)", where));
+        return out.texts.push_back(ErrorEvent(
+            "unknown-member", "say takes text, voice (a string) and rate (words a minute)", where));
       }
-      if (it.key() == "voice" && it->is_string()) voice = it->get<std::string>();
-      else if (it.key() == "rate" && it->is_number_integer()) rate = it->get<int>();
-      else if (it.key() != "text") return out.texts.push_back(ErrorEvent("invalid-message", "voice is a string and rate an integer (words a minute)", where));
+      if (it.key() == "voice" && it->is_string())
+        voice = it->get<std::string>();
+      else if (it.key() == "rate" && it->is_number_integer())
+        rate = it->get<int>();
+      else if (it.key() != "text")
+        return out.texts.push_back(ErrorEvent(
+            "invalid-message", "voice is a string and rate an integer (words a minute)", where));
     }
-    if (Status s = speaker_.Say(say["text"].get<std::string>(), voice, rate); !s.ok()) Refuse(s, out, "/say");
+    if (Status s = speaker_.Say(say["text"].get<std::string>(), voice, rate); !s.ok())
+      Refuse(s, out, "/say");
   }
 
-  // {"listen": {"rate": 16000, "frames": false}} starts hearing binary audio; {"listen": false} ends it.
+  // {"listen": {"rate": 16000, "frames": false}} starts hearing binary audio; {"listen": false}
+  // ends it.
   void Listen(const json& m, Out& out) {
     const json& l = m["listen"];
-    if (m.size() != 1) return out.texts.push_back(ErrorEvent("invalid-message", "listen goes alone in its message", "/listen"));
+    if (m.size() != 1)
+      return out.texts.push_back(
+          ErrorEvent("invalid-message", "listen goes alone in its message", "/listen"));
     if (l == false) {
-      // The end event follows the last visemes, once the listener's thread has decoded what waits (Poll).
+      // The end event follows the last visemes, once the listener's thread has decoded what waits
+      // (Poll).
       if (listener_) return listener_->Finish();
       return out.texts.push_back(json{{"event", "listen"}, {"state", "end"}}.dump());
     }
-    if (!l.is_object()) return out.texts.push_back(ErrorEvent("invalid-message", "listen is {\"rate\": 16000, \"frames\": false} or false", "/listen"));
+    if (!l.is_object())
+      return out.texts.push_back(ErrorEvent(
+          "invalid-message", "listen is {\"rate\": 16000, \"frames\": false} or false", "/listen"));
     for (auto it = l.begin(); it != l.end(); ++it) {
       const std::string where = "/listen/" + it.key().substr(0, 64);
       if (it.key() == "rate" && (!it->is_number_integer() || it->get<int>() != 16000)) {
-        return out.texts.push_back(ErrorEvent("invalid-message", "the audio's rate must be 16000 (16-bit mono PCM; a browser resamples with an AudioContext of 16 kHz)", where));
+        return out.texts.push_back(ErrorEvent("invalid-message",
+                                              "the audio's rate must be 16000 (16-bit mono PCM; a "
+                                              "browser resamples with an AudioContext of 16 kHz)",
+                                              where));
       }
-      if (it.key() == "frames" && !it->is_boolean()) return out.texts.push_back(ErrorEvent("invalid-message", "frames must be true or false", where));
-      if (!FindMember(Body::kLiveListen, it.key())) return out.texts.push_back(ErrorEvent("unknown-member", "listen takes rate and frames", where));
+      if (it.key() == "frames" && !it->is_boolean())
+        return out.texts.push_back(
+            ErrorEvent("invalid-message", "frames must be true or false", where));
+      if (!FindMember(Body::kLiveListen, it.key()))
+        return out.texts.push_back(
+            ErrorEvent("unknown-member", "listen takes rate and frames", where));
     }
     if (Status s = CanSpeak(rig_->rig); !s.ok()) return Refuse(s, out);
-    if (listener_) return out.texts.push_back(ErrorEvent("invalid-message", "already listening: {\"listen\": false} ends it", "/listen"));
+    if (listener_)
+      return out.texts.push_back(ErrorEvent(
+          "invalid-message", "already listening: {\"listen\": false} ends it", "/listen"));
     auto opened = LiveListener::Open(wake_);
     if (!opened.ok()) return Refuse(opened.status(), out);
     {
@@ -224,7 +267,8 @@ class FaceSession final : public LiveHandler {
     out.texts.push_back(json{{"event", "listen"}, {"state", "start"}, {"rate", 16000}}.dump());
   }
 
-  // The visemes of what was heard, each once it is sure (the last held until the next begins, unless `all`).
+  // The visemes of what was heard, each once it is sure (the last held until the next begins,
+  // unless `all`).
   void SayHeard(bool all, Out& out) {
     if (heard_.empty()) return;
     std::vector<TimedViseme> v = VisemesOfPhonemes(heard_);
@@ -235,7 +279,9 @@ class FaceSession final : public LiveHandler {
     }
     if (n == 0) return;
     const float done = v[n - 1].end;
-    heard_.erase(std::remove_if(heard_.begin(), heard_.end(), [done](const TimedPhoneme& p) { return p.end <= done + 1e-6f; }), heard_.end());
+    heard_.erase(std::remove_if(heard_.begin(), heard_.end(),
+                                [done](const TimedPhoneme& p) { return p.end <= done + 1e-6f; }),
+                 heard_.end());
   }
 
   // With frames: the face the sliders set with the viseme's shapes on top, as a frame.
@@ -250,8 +296,8 @@ class FaceSession final : public LiveHandler {
     if (Show(body).ok()) out.frame_wanted = true;
   }
 
-  // The point a state (the mesh route's members) makes, read as POST /mesh reads it, becomes the one the
-  // frames show; an error leaves the shown point as it was.
+  // The point a state (the mesh route's members) makes, read as POST /mesh reads it, becomes the
+  // one the frames show; an error leaves the shown point as it was.
   Status Show(json body) {
     body["format"] = "f32";
     auto request = ParseMeshRequest(body.dump());
@@ -265,15 +311,21 @@ class FaceSession final : public LiveHandler {
 
   // A status as an error event, at its first field's pointer, else at `where`.
   void Refuse(const Status& s, Out& out, const std::string& where = "") {
-    out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message, s.fields.empty() ? where : s.fields[0].pointer));
+    out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message,
+                                   s.fields.empty() ? where : s.fields[0].pointer));
   }
 
   // The point's warnings (extrapolation, out of range ...) when they change: never silent.
   void SayWarnings(Out& out) {
     json list = json::array();
-    for (const Warning& w : point_.report.warnings) list.push_back({{"code", w.code}, {"message", w.message}});
+    for (const Warning& w : point_.report.warnings)
+      list.push_back({{"code", w.code}, {"message", w.message}});
     if (list == last_warnings_) return;
-    out.texts.push_back(json{{"event", "warnings"}, {"id", last_id_}, {"sum", point_.report.sum}, {"warnings", list}}.dump());
+    out.texts.push_back(json{
+        {"event", "warnings"},
+        {"id", last_id_},
+        {"sum", point_.report.sum},
+        {"warnings", list}}.dump());
     last_warnings_ = std::move(list);
   }
 
@@ -286,12 +338,13 @@ class FaceSession final : public LiveHandler {
   uint32_t frame_ = 0, last_id_ = 0;
   json last_warnings_ = json::array();
   std::stop_source stop_;
+  HelperCpu helper_cpu_;  // What helper threads spent for its frames, taken each turn.
   LiveWake wake_;
-  // While listening: a decoder and a thread of its own. Set and reset by turns under listener_mu_, which
-  // Cancel takes from the hub's loop; turns read it without.
+  // While listening: a decoder and a thread of its own. Set and reset by turns under listener_mu_,
+  // which Cancel takes from the hub's loop; turns read it without.
   std::mutex listener_mu_;
   std::unique_ptr<LiveListener> listener_;
-  std::vector<TimedPhoneme> heard_;                    // Phonemes heard and not yet given as visemes.
+  std::vector<TimedPhoneme> heard_;  // Phonemes heard and not yet given as visemes.
   bool listen_frames_ = false;
   LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
 };
@@ -331,43 +384,59 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   if (!stored) return;
   if (!HasToken(req, "Upgrade", "websocket") || !HasToken(req, "Connection", "upgrade")) {
     res.set_header("Upgrade", "websocket");
-    return SendProblem(req, res, Problem::kUpgradeRequired, "this route is a WebSocket (RFC 6455): ask with Upgrade: websocket and Connection: Upgrade");
+    return SendProblem(req, res, Problem::kUpgradeRequired,
+                       "this route is a WebSocket (RFC 6455): ask with Upgrade: websocket and "
+                       "Connection: Upgrade");
   }
   if (req.get_header_value("Sec-WebSocket-Version") != "13") {
     res.set_header("Sec-WebSocket-Version", "13");
     return SendProblem(req, res, Problem::kUpgradeRequired, "Sec-WebSocket-Version must be 13");
   }
   const std::string key = req.get_header_value("Sec-WebSocket-Key");
-  if (!ws::ValidClientKey(key)) return SendProblem(req, res, Problem::kBadRequest, "Sec-WebSocket-Key must be the base64 of 16 bytes");
-  // The cost, stated before the session: a frame's blend and encoding, at most 60 a second; the session
-  // may spend twice that over its lifetime, and lasts at most --live-seconds.
-  const Cost frame = MeshCost(stored->rig, MeshFormat::kF32, SIZE_MAX);  // Any shapes a message may weight.
+  if (!ws::ValidClientKey(key))
+    return SendProblem(req, res, Problem::kBadRequest,
+                       "Sec-WebSocket-Key must be the base64 of 16 bytes");
+  // The cost, stated before the session: a frame's blend and encoding, at most 60 a second; the
+  // session may spend twice that over its lifetime, and lasts at most --live-seconds.
+  const Cost frame =
+      MeshCost(stored->rig, MeshFormat::kF32, SIZE_MAX);  // Any shapes a message may weight.
   const double per_second = 60 * frame.seconds;
-  if (!WithinBudget(ctx, req, res, {per_second, "/live", "60 frames a second x " + frame.formula})) return;
+  if (!WithinBudget(ctx, req, res, {per_second, "/live", "60 frames a second x " + frame.formula}))
+    return;
   const bool keyed = CarriesKey(ctx, req);
   SessionBounds bounds;
-  bounds.lifetime = std::chrono::seconds(keyed ? ctx.options.keyed_live_seconds : ctx.options.live_seconds);
+  bounds.lifetime =
+      std::chrono::seconds(keyed ? ctx.options.keyed_live_seconds : ctx.options.live_seconds);
   bounds.cpu_seconds = 2 * per_second * static_cast<double>(bounds.lifetime.count()) + 1;
   if (!ctx.live.Reserve(req.remote_addr)) {
     res.set_header("Retry-After", "5");
-    return SendProblem(req, res, Problem::kTooManySessions, "the server holds as many live sessions as it takes, in all or from this address (--max-live-sessions, --max-client-live-sessions)");
+    return SendProblem(req, res, Problem::kTooManySessions,
+                       "the server holds as many live sessions as it takes, in all or from this "
+                       "address (--max-live-sessions, --max-client-live-sessions)");
   }
   auto place = std::make_shared<Place>(ctx.live, req.remote_addr);
   const LiveLimits& l = ctx.live.limits();
-  json limits = {{"fps", std::lround(1e6 / static_cast<double>(std::max<long>(1, l.frame_interval.count())))},
-                 {"max_message_bytes", l.max_message},
-                 {"max_messages_per_second", l.max_rate},
-                 {"seconds", bounds.lifetime.count()},
-                 {"cpu_seconds", bounds.cpu_seconds}};
-  auto session = std::make_shared<std::unique_ptr<LiveHandler>>(std::make_unique<FaceSession>(ctx, stored, limits));
-  const std::string head = "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Accept: " + ws::AcceptKey(key) +
-                           "\r\nFacespace-Cost: " + std::to_string(per_second) + "\r\n\r\n";
+  json limits = {
+      {"fps", std::lround(1e6 / static_cast<double>(std::max<long>(1, l.frame_interval.count())))},
+      {"max_message_bytes", l.max_message},
+      {"max_messages_per_second", l.max_rate},
+      {"seconds", bounds.lifetime.count()},
+      {"cpu_seconds", bounds.cpu_seconds}};
+  auto session = std::make_shared<std::unique_ptr<LiveHandler>>(
+      std::make_unique<FaceSession>(ctx, stored, limits));
+  const std::string head =
+      "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: "
+      "Upgrade\r\nSec-WebSocket-Accept: " +
+      ws::AcceptKey(key) + "\r\nFacespace-Cost: " + std::to_string(per_second) + "\r\n\r\n";
   const std::string ip = req.remote_addr;
-  const bool upgraded = UpgradeConnection(req, head, [&ctx, place, session, ip, bounds](int fd, std::string buffered) {
-    place->taken = true;
-    ctx.live.Adopt(fd, ip, std::move(buffered), std::move(*session), bounds);
-  });
-  if (!upgraded) return SendProblem(req, res, Problem::kNotImplemented, "this server's connections cannot be upgraded");
+  const bool upgraded = UpgradeConnection(
+      req, head, [&ctx, place, session, ip, bounds](int fd, std::string buffered) {
+        place->taken = true;
+        ctx.live.Adopt(fd, ip, std::move(buffered), std::move(*session), bounds);
+      });
+  if (!upgraded)
+    return SendProblem(req, res, Problem::kNotImplemented,
+                       "this server's connections cannot be upgraded");
   res.status = 101;
 }
 

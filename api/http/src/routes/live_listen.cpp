@@ -1,12 +1,12 @@
 #include "live_listen.h"
 
-#include "facespace/net/live_hub.h"
-
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <utility>
+
+#include "facespace/net/live_hub.h"
 
 namespace facespace::api::http {
 
@@ -29,14 +29,20 @@ LiveListener::~LiveListener() {
 
 Status LiveListener::Feed(std::span<const int16_t> pcm) {
   std::lock_guard<std::mutex> lock(mu_);
-  if (finishing_) return InvalidField("/listen", "listening has ended: {\"listen\": {...}} starts again");
+  if (finishing_)
+    return InvalidField("/listen", "listening has ended: {\"listen\": {...}} starts again");
   const Clock::time_point now = Clock::now();
-  credit_ = std::min(kBurstSeconds * kRate, credit_ + kMaxRealTime * kRate * std::chrono::duration<double>(now - credit_at_).count());
+  credit_ = std::min(
+      kBurstSeconds * kRate,
+      credit_ + kMaxRealTime * kRate * std::chrono::duration<double>(now - credit_at_).count());
   credit_at_ = now;
   const double n = static_cast<double>(pcm.size());
-  if (n > credit_ || queued_samples_ + pcm.size() > static_cast<size_t>(kMaxBacklogSeconds * kRate)) {
-    return WithReason(ResourceExhausted("audio comes faster than it plays: at most " + std::to_string(kMaxRealTime).substr(0, 3) +
-                                        " seconds of audio a second (a burst of " + std::to_string(static_cast<int>(kBurstSeconds)) + " s)"),
+  if (n > credit_ ||
+      queued_samples_ + pcm.size() > static_cast<size_t>(kMaxBacklogSeconds * kRate)) {
+    return WithReason(ResourceExhausted("audio comes faster than it plays: at most " +
+                                        std::to_string(kMaxRealTime).substr(0, 3) +
+                                        " seconds of audio a second (a burst of " +
+                                        std::to_string(static_cast<int>(kBurstSeconds)) + " s)"),
                       "audio-too-fast");
   }
   credit_ -= n;
@@ -74,9 +80,11 @@ double LiveListener::TakeCpu() {
   return std::exchange(cpu_, 0.0);
 }
 
-// The thread: each chunk decoded as it comes, the phonemes made sure given to the session's next turn.
+// The thread: each chunk decoded as it comes, the phonemes made sure given to the session's next
+// turn.
 void LiveListener::Run(std::stop_token stop) {
-  setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), kNice);  // Below the turns: frames come first.
+  setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()),
+              kNice);  // Below the turns: frames come first.
   std::vector<TimedPhoneme> made;
   while (true) {
     std::vector<int16_t> chunk;

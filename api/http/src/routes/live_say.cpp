@@ -1,8 +1,7 @@
 #include "live_say.h"
 
-#include <nlohmann/json.hpp>
-
 #include <cstring>
+#include <nlohmann/json.hpp>
 
 #include "facespace/engine/weights.h"
 #include "facespace/speech/speech.h"
@@ -29,7 +28,8 @@ double WordSeconds(std::string_view word, int rate) {
 }
 
 bool EndsSentence(std::string_view word) {
-  while (!word.empty() && (word.back() == '"' || word.back() == '\'' || word.back() == ')')) word.remove_suffix(1);
+  while (!word.empty() && (word.back() == '"' || word.back() == '\'' || word.back() == ')'))
+    word.remove_suffix(1);
   return !word.empty() && std::strchr(".!?;:", word.back()) != nullptr;
 }
 
@@ -44,7 +44,7 @@ std::vector<std::string> SpeechSegments(std::string_view text, int rate) {
   std::vector<std::string> out;
   std::string segment;
   double seconds = 0;
-  size_t sentence_end = 0;      // Of `segment`: where its last whole sentence ends (0: none yet) ...
+  size_t sentence_end = 0;  // Of `segment`: where its last whole sentence ends (0: none yet) ...
   double sentence_seconds = 0;  // ... and how long those sentences take.
   for (size_t at = 0; at < text.size();) {
     const size_t begin = text.find_first_not_of(" \t\r\n", at);
@@ -69,35 +69,41 @@ std::vector<std::string> SpeechSegments(std::string_view text, int rate) {
   return out;
 }
 
-std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer) {
+std::string ErrorEvent(const std::string& type, const std::string& detail,
+                       const std::string& pointer) {
   nlohmann::json e = {{"event", "error"}, {"type", type}, {"detail", detail}};
   if (!pointer.empty()) e["pointer"] = pointer;
   return e.dump();
 }
 
 std::string VisemeEvent(const TimedViseme& v, double clock) {
-  return "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) + "\",\"start\":" + FormatNumber(clock + v.start) + ",\"end\":" +
-         FormatNumber(clock + v.end) + "}";
+  return "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) +
+         "\",\"start\":" + FormatNumber(clock + v.start) +
+         ",\"end\":" + FormatNumber(clock + v.end) + "}";
 }
 
 struct LiveSpeaker::Utterance {
   int rate = 22050;
-  std::vector<int16_t> pending;      // Made and not yet sent: the samples from sent_samples on.
+  std::vector<int16_t> pending;  // Made and not yet sent: the samples from sent_samples on.
   size_t made = 0, sent_samples = 0;
-  std::vector<TimedViseme> visemes;  // On the piece's clock: the finished segments', then the current one's sure ones.
+  std::vector<TimedViseme>
+      visemes;  // On the piece's clock: the finished segments', then the current one's sure ones.
   size_t sent_visemes = 0;
-  size_t segment_visemes = 0;        // Where the current segment's visemes begin.
-  double segment_start = 0;          // Seconds into the piece where the current segment begins.
-  double clock = 0;                  // The session's audio clock at its first sample.
-  Clock::time_point wall;            // When its first sample plays (is sent).
+  size_t segment_visemes = 0;  // Where the current segment's visemes begin.
+  double segment_start = 0;    // Seconds into the piece where the current segment begins.
+  double clock = 0;            // The session's audio clock at its first sample.
+  Clock::time_point wall;      // When its first sample plays (is sent).
   bool started = false;
   ~Utterance() { HeldBytes() -= pending.size() * sizeof(int16_t); }
   double seconds_made() const { return static_cast<double>(made) / rate; }
-  double played() const { return started ? std::chrono::duration<double>(Clock::now() - wall).count() : 0.0; }
+  double played() const {
+    return started ? std::chrono::duration<double>(Clock::now() - wall).count() : 0.0;
+  }
   // The current segment's visemes (on its own clock) in place of those it had, when they are more.
   void SetSegmentVisemes(std::vector<TimedViseme> v, bool final) {
     if (!final && v.size() <= visemes.size() - segment_visemes) return;
-    for (TimedViseme& t : v) t.start += static_cast<float>(segment_start), t.end += static_cast<float>(segment_start);
+    for (TimedViseme& t : v)
+      t.start += static_cast<float>(segment_start), t.end += static_cast<float>(segment_start);
     visemes.resize(segment_visemes);
     visemes.insert(visemes.end(), v.begin(), v.end());
     sent_visemes = std::min(sent_visemes, visemes.size());
@@ -124,12 +130,16 @@ void LiveSpeaker::Close() {
 }
 
 Status LiveSpeaker::Say(std::string text, std::string voice, int rate) {
-  if (text.empty() || text.size() > 4 * speech::kMaxTextChars) return InvalidField("/say/text", "must be 1 to 2,000 characters of text to speak");
-  if (rate < 80 || rate > 450) return InvalidField("/say/rate", std::to_string(rate) + " words a minute; from 80 to 450");
+  if (text.empty() || text.size() > 4 * speech::kMaxTextChars)
+    return InvalidField("/say/text", "must be 1 to 2,000 characters of text to speak");
+  if (rate < 80 || rate > 450)
+    return InvalidField("/say/rate", std::to_string(rate) + " words a minute; from 80 to 450");
   std::lock_guard<std::mutex> lock(mu_);
   if (closed_) return Cancelled();
   if (queued_chars_ + text.size() > kMaxQueuedChars) {
-    return WithReason(InvalidField("/say/text", "more than " + std::to_string(kMaxQueuedChars) + " characters waiting to be spoken; wait, or stop",
+    return WithReason(InvalidField("/say/text",
+                                   "more than " + std::to_string(kMaxQueuedChars) +
+                                       " characters waiting to be spoken; wait, or stop",
                                    StatusCode::kResourceExhausted),
                       "say-queue-full");
   }
@@ -177,12 +187,14 @@ double LiveSpeaker::Send(Utterance& u, bool all_made) {
   const double played = u.played();
   const size_t due = std::min(u.made, static_cast<size_t>((played + kLead) * u.rate));
   size_t taken = 0;  // Of u.pending.
-  while (u.sent_samples < due && (all_made || due - u.sent_samples >= kChunkSamples || u.made == due)) {
+  while (u.sent_samples < due &&
+         (all_made || due - u.sent_samples >= kChunkSamples || u.made == due)) {
     const size_t n = std::min(kChunkSamples, due - u.sent_samples);
     std::string m("pcm1", 4);
     PutU32(m, ++chunk_);
     PutU32(m, static_cast<uint32_t>(u.rate));
-    PutU32(m, static_cast<uint32_t>(std::llround(u.clock * u.rate)) + static_cast<uint32_t>(u.sent_samples));
+    PutU32(m, static_cast<uint32_t>(std::llround(u.clock * u.rate)) +
+                  static_cast<uint32_t>(u.sent_samples));
     for (size_t i = 0; i < n; ++i) {
       const auto s = static_cast<uint16_t>(u.pending[taken + i]);
       m.push_back(static_cast<char>(s & 0xFF));
@@ -196,7 +208,8 @@ double LiveSpeaker::Send(Utterance& u, bool all_made) {
   HeldBytes() -= taken * sizeof(int16_t);
   const double sent_to = static_cast<double>(u.sent_samples) / u.rate;
   const bool audio_out = all_made && u.sent_samples == u.made;
-  while (u.sent_visemes < u.visemes.size() && (audio_out || u.visemes[u.sent_visemes].start < sent_to)) {
+  while (u.sent_visemes < u.visemes.size() &&
+         (audio_out || u.visemes[u.sent_visemes].start < sent_to)) {
     Post(VisemeEvent(u.visemes[u.sent_visemes++], u.clock));
   }
   if (audio_out && u.sent_visemes == u.visemes.size()) return 0;
@@ -204,11 +217,14 @@ double LiveSpeaker::Send(Utterance& u, bool all_made) {
 }
 
 // Sends what is due until `until()` holds or the piece is halted, waiting between sends.
-void LiveSpeaker::SendWhile(Utterance& u, bool all_made, const std::stop_token& halt, const std::function<bool()>& more) {
-  for (double wait = Send(u, all_made); wait > 0 && !halt.stop_requested() && more(); wait = Send(u, all_made)) {
+void LiveSpeaker::SendWhile(Utterance& u, bool all_made, const std::stop_token& halt,
+                            const std::function<bool()>& more) {
+  for (double wait = Send(u, all_made); wait > 0 && !halt.stop_requested() && more();
+       wait = Send(u, all_made)) {
     Charge();
     std::unique_lock<std::mutex> lock(mu_);
-    cv_.wait_for(lock, halt, std::chrono::duration<double>(std::min(wait, 0.1)), [] { return false; });
+    cv_.wait_for(lock, halt, std::chrono::duration<double>(std::min(wait, 0.1)),
+                 [] { return false; });
   }
 }
 
@@ -219,12 +235,19 @@ void LiveSpeaker::Charge() {
 }
 
 // One segment of a piece synthesized, its audio streamed as it is made and let go as it is sent.
-bool LiveSpeaker::SpeakSegment(Utterance& u, const Piece& piece, std::string_view text, const std::stop_token& halt) {
+bool LiveSpeaker::SpeakSegment(Utterance& u, const Piece& piece, std::string_view text,
+                               const std::stop_token& halt) {
   u.segment_start = u.seconds_made();
   u.segment_visemes = u.visemes.size();
   std::vector<std::pair<int, std::string>> events;
-  speech::SynthOptions options{.voice = piece.voice, .rate = piece.rate, .stop = halt, .on_chunk = {}, .keep_audio = false, .max_seconds = kMaxSegmentSeconds};
-  options.on_chunk = [&](int rate, std::span<const int16_t> samples, std::span<const std::pair<int, std::string>> made_events) {
+  speech::SynthOptions options{.voice = piece.voice,
+                               .rate = piece.rate,
+                               .stop = halt,
+                               .on_chunk = {},
+                               .keep_audio = false,
+                               .max_seconds = kMaxSegmentSeconds};
+  options.on_chunk = [&](int rate, std::span<const int16_t> samples,
+                         std::span<const std::pair<int, std::string>> made_events) {
     u.rate = rate;
     if (!u.started && !samples.empty()) u.started = true, u.wall = Clock::now();
     u.pending.insert(u.pending.end(), samples.begin(), samples.end());
@@ -244,12 +267,16 @@ bool LiveSpeaker::SpeakSegment(Utterance& u, const Piece& piece, std::string_vie
   if (!spoken.ok()) {
     const Status& s = spoken.status();
     if (s.code != StatusCode::kCancelled) {
-      Post(ErrorEvent(s.reason.empty() ? "say-failed" : s.reason, s.message, s.fields.empty() ? "/say" : "/say" + s.fields[0].pointer));
+      Post(ErrorEvent(s.reason.empty() ? "say-failed" : s.reason, s.message,
+                      s.fields.empty() ? "/say" : "/say" + s.fields[0].pointer));
     }
-    return s.code != StatusCode::kCancelled && s.reason == "speech-too-long";  // Go on with the next segment.
+    return s.code != StatusCode::kCancelled &&
+           s.reason == "speech-too-long";  // Go on with the next segment.
   }
-  // The segment's visemes, as the speech route makes them for its text; those sent are its first ones.
-  u.SetSegmentVisemes(VisemesOfUtterance(spoken->phonemes, static_cast<float>(spoken->seconds)), true);
+  // The segment's visemes, as the speech route makes them for its text; those sent are its first
+  // ones.
+  u.SetSegmentVisemes(VisemesOfUtterance(spoken->phonemes, static_cast<float>(spoken->seconds)),
+                      true);
   if (!u.started) u.started = true, u.wall = Clock::now();
   return true;
 }
@@ -262,16 +289,20 @@ void LiveSpeaker::Speak(const Piece& piece, std::stop_token stop) {
   Post(nlohmann::json{{"event", "say"}, {"state", "start"}, {"clock", clock_}}.dump());
   const std::vector<std::string> segments = SpeechSegments(piece.text, piece.rate);
   for (size_t i = 0; i < segments.size() && !halt.stop_requested(); ++i) {
-    // The next segment is made once what is made of this one is within kRefill of playing, and while the
-    // speech held across sessions is under its cap: memory holds a segment and a lead, however long the text.
-    SendWhile(u, false, halt, [&] { return u.seconds_made() - u.played() > kRefill || HeldBytes() > kMaxHeldBytes; });
+    // The next segment is made once what is made of this one is within kRefill of playing, and
+    // while the speech held across sessions is under its cap: memory holds a segment and a lead,
+    // however long the text.
+    SendWhile(u, false, halt, [&] {
+      return u.seconds_made() - u.played() > kRefill || HeldBytes() > kMaxHeldBytes;
+    });
     if (halt.stop_requested() || !SpeakSegment(u, piece, segments[i], halt)) break;
   }
   SendWhile(u, true, halt, [] { return true; });
   const bool stopped = halt.stop_requested();
   clock_ += static_cast<double>(u.sent_samples) / u.rate;
   Charge();
-  Post(nlohmann::json{{"event", "say"}, {"state", stopped ? "stopped" : "end"}, {"clock", clock_}}.dump());
+  Post(nlohmann::json{{"event", "say"}, {"state", stopped ? "stopped" : "end"}, {"clock", clock_}}
+           .dump());
 }
 
 }  // namespace facespace::api::http

@@ -1,24 +1,24 @@
-// Speech on a live socket (issue 53): {"say": {"text", "voice", "rate"}} spoken by espeak-ng while it is
-// made. Audio goes out as binary messages ("pcm1", chunk number, sample rate, first sample on the
-// session's audio clock; then 16-bit little-endian mono samples) and visemes as text events
-// {"viseme", "start", "end"} on the same clock, each with its audio; the visemes are the speech route's
-// for the same text. Pieces queue (text as a language model streams it) and speak one after the other;
-// audio is sent at most kLead ahead of real time, so a long text never floods the socket; {"stop": true}
-// ends the speech and drops what is queued. One thread per speaking session, started at its first say.
-// Memory is bounded (issue 61: an 8-minute line held 57-84 MB a session for its playback): a piece is
-// spoken in segments (SpeechSegments: whole sentences of at most about kSegmentSeconds of speech), each made
-// when the one before is nearly played, its samples let go as they are sent; the speech held by every
-// session together has a cap (kMaxHeldBytes: past it, the next segments wait); the CPU of synthesis is
-// the session's (TakeCpu).
+// Speech on a live socket (issue 53): {"say": {"text", "voice", "rate"}} spoken by espeak-ng while
+// it is made. Audio goes out as binary messages ("pcm1", chunk number, sample rate, first sample on
+// the session's audio clock; then 16-bit little-endian mono samples) and visemes as text events
+// {"viseme", "start", "end"} on the same clock, each with its audio; the visemes are the speech
+// route's for the same text. Pieces queue (text as a language model streams it) and speak one after
+// the other; audio is sent at most kLead ahead of real time, so a long text never floods the
+// socket; {"stop": true} ends the speech and drops what is queued. One thread per speaking session,
+// started at its first say. Memory is bounded (issue 61: an 8-minute line held 57-84 MB a session
+// for its playback): a piece is spoken in segments (SpeechSegments: whole sentences of at most
+// about kSegmentSeconds of speech), each made when the one before is nearly played, its samples let
+// go as they are sent; the speech held by every session together has a cap (kMaxHeldBytes: past it,
+// the next segments wait); the CPU of synthesis is the session's (TakeCpu).
 #pragma once
 
 #include <atomic>
 #include <condition_variable>
-#include <functional>
-#include <string_view>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -29,8 +29,9 @@
 namespace facespace::api::http {
 
 // The text of a piece cut where it may be spoken in parts, each taking at most about
-// LiveSpeaker::kSegmentSeconds to say at `rate` (words a minute): after the last whole sentence (. ! ? ; :)
-// that fits, else between words. A text that fits is one part, spoken as the speech route speaks it.
+// LiveSpeaker::kSegmentSeconds to say at `rate` (words a minute): after the last whole sentence (.
+// ! ? ; :) that fits, else between words. A text that fits is one part, spoken as the speech route
+// speaks it.
 std::vector<std::string> SpeechSegments(std::string_view text, int rate);
 // Bytes of speech made and not yet sent, by every live session together.
 std::atomic<size_t>& HeldBytes();
@@ -40,19 +41,25 @@ inline void PutU32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
 }
 
-// The text events of a live session: an error (its type, what is wrong, the member's pointer if any),
-// and a viseme on the session's audio clock ({"viseme", "start", "end"}, as the speech route writes them).
-std::string ErrorEvent(const std::string& type, const std::string& detail, const std::string& pointer = "");
+// The text events of a live session: an error (its type, what is wrong, the member's pointer if
+// any), and a viseme on the session's audio clock ({"viseme", "start", "end"}, as the speech route
+// writes them).
+std::string ErrorEvent(const std::string& type, const std::string& detail,
+                       const std::string& pointer = "");
 std::string VisemeEvent(const TimedViseme& v, double clock = 0);
 
 class LiveSpeaker {
  public:
-  static constexpr double kLead = 1.0;              // Seconds of audio sent ahead of real time.
-  static constexpr size_t kMaxQueuedChars = 8000;   // Text waiting to be spoken (four long says).
-  static constexpr double kSegmentSeconds = 8.0;    // About the longest part of a piece made at once ...
-  static constexpr double kMaxSegmentSeconds = 60.0;// ... and the most it may make (a word that long is cut).
-  static constexpr double kRefill = 2.0;            // Seconds made ahead of playing before the next part is made.
-  static constexpr size_t kMaxHeldBytes = size_t{64} << 20;  // Speech made and unsent, every session together.
+  static constexpr double kLead = 1.0;             // Seconds of audio sent ahead of real time.
+  static constexpr size_t kMaxQueuedChars = 8000;  // Text waiting to be spoken (four long says).
+  static constexpr double kSegmentSeconds =
+      8.0;  // About the longest part of a piece made at once ...
+  static constexpr double kMaxSegmentSeconds =
+      60.0;  // ... and the most it may make (a word that long is cut).
+  static constexpr double kRefill =
+      2.0;  // Seconds made ahead of playing before the next part is made.
+  static constexpr size_t kMaxHeldBytes = size_t{64}
+                                          << 20;  // Speech made and unsent, every session together.
 
   LiveSpeaker() = default;
   ~LiveSpeaker();
@@ -80,8 +87,10 @@ class LiveSpeaker {
   void Speak(const Piece& piece, std::stop_token stop);
   // Sends what is due of `u`; returns when the next part is due (or zero when all is out).
   double Send(Utterance& u, bool all_made);
-  void SendWhile(Utterance& u, bool all_made, const std::stop_token& halt, const std::function<bool()>& more);
-  bool SpeakSegment(Utterance& u, const Piece& piece, std::string_view text, const std::stop_token& halt);
+  void SendWhile(Utterance& u, bool all_made, const std::stop_token& halt,
+                 const std::function<bool()>& more);
+  bool SpeakSegment(Utterance& u, const Piece& piece, std::string_view text,
+                    const std::stop_token& halt);
   void Charge();  // The speaking thread's CPU since the last call, into cpu_ns_.
   void Post(const std::string& text) { post_(ws::Opcode::kText, text); }
 
@@ -93,8 +102,8 @@ class LiveSpeaker {
   bool speaking_ = false, closed_ = false;
   std::stop_source utterance_;  // The piece being spoken (Stop fires it).
   std::jthread thread_;
-  // The session's audio clock (the speaker thread's): seconds of audio sent so far, and where real time
-  // stood when the audio now playing began.
+  // The session's audio clock (the speaker thread's): seconds of audio sent so far, and where real
+  // time stood when the audio now playing began.
   double clock_ = 0;
   uint32_t chunk_ = 0;
   double cpu_mark_ = 0;  // The speaking thread's CPU clock at the last Charge.

@@ -1,9 +1,9 @@
 // /v1/rigs/{id}/mesh, /check and /fit: a point of face space as a mesh, its checks, and the point
 // that best reproduces a mesh.
-#include "http/query_params.h"
 #include <charconv>
 
 #include "../http/cost.h"
+#include "http/query_params.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -21,9 +21,12 @@ bool ParseNumber(const std::string& s, double* out) {
 }
 
 bool ParseBool(const std::string& s, bool* out) {
-  if (s == "true" || s == "1") *out = true;
-  else if (s == "false" || s == "0") *out = false;
-  else return false;
+  if (s == "true" || s == "1")
+    *out = true;
+  else if (s == "false" || s == "0")
+    *out = false;
+  else
+    return false;
   return true;
 }
 
@@ -37,11 +40,15 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRe
     if (Repeated(req, it, errors)) continue;
     if (key == "format") {
       MeshFormat f;
-      if (ParseMeshFormat(value, &f)) r.format = f;
-      else errors.push_back({where, "must be one of glb, obj, json, f32"});
+      if (ParseMeshFormat(value, &f))
+        r.format = f;
+      else
+        errors.push_back({where, "must be one of glb, obj, json, f32"});
     } else if (key == "space") {
-      if (value == "world" || value == "mesh") r.mesh_space = value == "mesh";
-      else errors.push_back({where, "must be world (the default) or mesh"});
+      if (value == "world" || value == "mesh")
+        r.mesh_space = value == "mesh";
+      else
+        errors.push_back({where, "must be world (the default) or mesh"});
     } else if (key == "keep_targets") {
       if (!ParseBool(value, &r.keep_targets)) errors.push_back({where, "must be true or false"});
     } else if (!MeshQueryParam(key, value, r, errors)) {
@@ -54,35 +61,49 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRe
 }  // namespace
 
 std::string UnknownParameter(const std::string& key, bool render) {
-  std::string hint = DidYouMean(key, render ? std::span<const std::string_view>(kRenderQuery) : kMeshQuery);
-  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE or w[NAME]=VALUE, controls c.NAME=VALUE, expressions e.NAME=VALUE)" : hint);
+  std::string hint =
+      DidYouMean(key, render ? std::span<const std::string_view>(kRenderQuery) : kMeshQuery);
+  return "unknown parameter" + (hint.empty() ? " (weights are w.NAME=VALUE or w[NAME]=VALUE, "
+                                               "controls c.NAME=VALUE, expressions e.NAME=VALUE)"
+                                             : hint);
 }
 
-bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, std::vector<FieldError>& errors) {
-  if (it != req.params.begin() && std::prev(it)->first == it->first) return true;  // Said at its first.
+bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it,
+              std::vector<FieldError>& errors) {
+  if (it != req.params.begin() && std::prev(it)->first == it->first)
+    return true;  // Said at its first.
   const size_t n = req.params.count(it->first);
   if (n < 2) return false;
   errors.push_back({"?" + it->first, "is given " + std::to_string(n) + " times; give it once"});
   return true;
 }
 
-bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r, std::vector<FieldError>& errors) {
+bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r,
+                    std::vector<FieldError>& errors) {
   const std::string where = "?" + key;
   // A shape weight, or a control value: w.NAME, or w[NAME] (OpenAPI's deepObject style, what
   // generated clients send).
   const bool dotted = key.rfind("w.", 0) == 0 || key.rfind("c.", 0) == 0 || key.rfind("e.", 0) == 0;
-  const bool bracketed = (key.rfind("w[", 0) == 0 || key.rfind("c[", 0) == 0 || key.rfind("e[", 0) == 0) && key.size() >= 3 && key.back() == ']';
+  const bool bracketed =
+      (key.rfind("w[", 0) == 0 || key.rfind("c[", 0) == 0 || key.rfind("e[", 0) == 0) &&
+      key.size() >= 3 && key.back() == ']';
   if (dotted || bracketed) {
     WeightEntry e;
     e.name = bracketed ? key.substr(2, key.size() - 3) : key.substr(2);
     e.pointer = where;
-    if (e.name.empty()) errors.push_back({where, key.substr(0, 2) + " needs a name: w.SHAPE=0.5, c.CONTROL=-0.4 or e.EXPRESSION=1"});
-    else if (!ParseNumber(value, &e.value)) errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
-    else (key[0] == 'w' ? r.weights : key[0] == 'c' ? r.controls : r.pose.expressions).push_back(e);
+    if (e.name.empty())
+      errors.push_back({where, key.substr(0, 2) +
+                                   " needs a name: w.SHAPE=0.5, c.CONTROL=-0.4 or e.EXPRESSION=1"});
+    else if (!ParseNumber(value, &e.value))
+      errors.push_back({where, "'" + value.substr(0, 40) + "' is not a number"});
+    else
+      (key[0] == 'w' ? r.weights : key[0] == 'c' ? r.controls : r.pose.expressions).push_back(e);
   } else if (key == "mode") {
-    if (!ParseBlendMode(value, &r.options.mode)) errors.push_back({where, "must be relative or absolute"});
+    if (!ParseBlendMode(value, &r.options.mode))
+      errors.push_back({where, "must be relative or absolute"});
   } else if (key == "normals") {
-    if (!ParseNormalMode(value, &r.options.normals)) errors.push_back({where, "must be blend or recompute"});
+    if (!ParseNormalMode(value, &r.options.normals))
+      errors.push_back({where, "must be blend or recompute"});
   } else if (key == "strict") {
     if (!ParseBool(value, &r.strict)) errors.push_back({where, "must be true or false"});
   } else {
@@ -94,17 +115,21 @@ bool MeshQueryParam(const std::string& key, const std::string& value, MeshReques
   return true;
 }
 
-bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r, std::vector<FieldError>& errors) {
+bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r,
+                 std::vector<FieldError>& errors) {
   if (std::string e = FinishPoseSettings(r); !e.empty()) errors.push_back({"?animation", e});
   if (errors.empty()) return true;
-  SendProblem(req, res, Problem::kInvalidRequest, errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
+  SendProblem(req, res, Problem::kInvalidRequest,
+              errors[0].pointer.substr(1) + ": " + errors[0].message, errors);
   return false;
 }
 
 void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format, WeightedShapes(r)))) return;
+  if (!stored || !ReadMeshRequest(req, res, r) ||
+      !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format, WeightedShapes(r))))
+    return;
   const auto format = NegotiateMesh(req, res, r.format);
   if (!format) return;
   ResolvedPoint point;
@@ -113,17 +138,21 @@ void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Respo
   const OutputSpec spec = OutputSpec::Mesh(r, *format);
   const std::string key = CacheKey(*stored, {&point, 1}, spec);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, spec.content_type(), Admit::kSecondRequest, [&](Workspace& ws) -> Result<Encoded> {
-    ctx.metrics.CountBlends(1);
-    if (ws.body.capacity() == 0 && *format == MeshFormat::kF32) ws.body = ctx.bodies->Take();  // Written over, not allocated.
-    return ctx.evaluator.Run(stored, point, spec, ws);
-  });
+  SendCached(ctx, req, res, key, spec.content_type(), Admit::kSecondRequest,
+             [&](Workspace& ws) -> Result<Encoded> {
+               ctx.metrics.CountBlends(1);
+               if (ws.body.capacity() == 0 && *format == MeshFormat::kF32)
+                 ws.body = ctx.bodies->Take();  // Written over, not allocated.
+               return ctx.evaluator.Run(stored, point, spec, ws);
+             });
 }
 
 void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) || !WithinBudget(ctx, req, res, MeshCost(stored->rig, std::nullopt, WeightedShapes(r)))) return;
+  if (!stored || !ReadMeshRequest(req, res, r) ||
+      !WithinBudget(ctx, req, res, MeshCost(stored->rig, std::nullopt, WeightedShapes(r))))
+    return;
   ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
@@ -134,7 +163,9 @@ void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response&
 void PostFit(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   FitRequest r;
-  if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r) || !WithinBudget(ctx, req, res, FitCost(stored->rig, r))) return;
+  if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r) ||
+      !WithinBudget(ctx, req, res, FitCost(stored->rig, r)))
+    return;
   r.options.stop = StopOf(req);
   auto out = ProduceFit(stored->rig, r);
   if (!out.ok()) return SendStatus(req, res, out.status());

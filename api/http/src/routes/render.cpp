@@ -24,11 +24,14 @@ bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, Rend
 }
 
 // The server's size limit; false with a 422 sent.
-bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Response& res, const render::RenderOptions& o) {
+bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+               const render::RenderOptions& o) {
   const int max = ctx.options.max_render_size;
   if (o.width <= max && o.height <= max) return true;
-  SendProblem(req, res, Problem::kImageTooLarge, "width and height are limited to " + std::to_string(max) + " pixels",
-              {{std::string(req.method == "GET" ? "?" : "/") + (o.width > max ? "width" : "height"), "at most " + std::to_string(max)}});
+  SendProblem(req, res, Problem::kImageTooLarge,
+              "width and height are limited to " + std::to_string(max) + " pixels",
+              {{std::string(req.method == "GET" ? "?" : "/") + (o.width > max ? "width" : "height"),
+                "at most " + std::to_string(max)}});
   return false;
 }
 
@@ -37,36 +40,48 @@ bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Res
 void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   RenderRequest r;
-  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) || !CheckRenderBudget(ctx, req, res, r.render, 1)) return;
+  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) ||
+      !CheckRenderBudget(ctx, req, res, r.render, 1))
+    return;
   const auto format = NegotiateImage(req, res, r.format);
-  if (!format || !WithinBudget(ctx, req, res, RenderCost(stored->rig, r.render, req.method == "GET", *format))) return;
+  if (!format ||
+      !WithinBudget(ctx, req, res, RenderCost(stored->rig, r.render, req.method == "GET", *format)))
+    return;
   ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r.mesh, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
   const OutputSpec spec = OutputSpec::Image(r, *format);
   const std::string key = CacheKey(*stored, {&point, 1}, spec);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest, [&](Workspace& ws) -> Result<Encoded> {
-    ctx.metrics.CountBlends(1);
-    return WithinRenderBudget(ctx, RenderBudget::Estimate(r.render, 1), [&] { return ctx.evaluator.Run(stored, point, spec, ws); });
-  });
+  SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest,
+             [&](Workspace& ws) -> Result<Encoded> {
+               ctx.metrics.CountBlends(1);
+               return WithinRenderBudget(ctx, RenderBudget::Estimate(r.render, 1), [&] {
+                 return ctx.evaluator.Run(stored, point, spec, ws);
+               });
+             });
 }
 
 void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   SheetRequest r;
-  if (!stored || !ReadJsonBody(req, res, ParseSheetRequest, r) || !CheckSize(ctx, req, res, r.base.render)) return;
-  if (Status s = ExpandShapeCells(stored->rig, ctx.evaluator.renderer(), r); !s.ok()) return SendStatus(req, res, s);
+  if (!stored || !ReadJsonBody(req, res, ParseSheetRequest, r) ||
+      !CheckSize(ctx, req, res, r.base.render))
+    return;
+  if (Status s = ExpandShapeCells(stored->rig, ctx.evaluator.renderer(), r); !s.ok())
+    return SendStatus(req, res, s);
   const auto format = NegotiateImage(req, res, r.base.format);
   if (!format) return;
   const size_t max_cells = static_cast<size_t>(ctx.options.max_sheet_cells);
   if (r.cells.size() > max_cells) {
-    SendProblem(req, res, Problem::kTooManyCells, "a sheet has at most " + std::to_string(max_cells) + " cells",
+    SendProblem(req, res, Problem::kTooManyCells,
+                "a sheet has at most " + std::to_string(max_cells) + " cells",
                 {{"/cells", "at most " + std::to_string(max_cells)}});
     return;
   }
   if (!CheckRenderBudget(ctx, req, res, r.base.render, r.cells.size()) ||
-      !WithinBudget(ctx, req, res, SheetCost(stored->rig, r.base.render, r.cells.size(), *format))) {
+      !WithinBudget(ctx, req, res,
+                    SheetCost(stored->rig, r.base.render, r.cells.size(), *format))) {
     return;
   }
   SheetPoints points;
@@ -75,11 +90,13 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
   const OutputSpec spec = OutputSpec::Sheet(r, *format);
   const std::string key = CacheKey(*stored, points.cells, spec);
   if (NotModified(req, res, key)) return;
-  SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest, [&](Workspace& ws) -> Result<Encoded> {
-    ctx.metrics.CountBlends(points.cells.size());
-    return WithinRenderBudget(ctx, RenderBudget::Estimate(r.base.render, points.cells.size()),
-                              [&] { return ctx.evaluator.Run(stored, points.cells, spec, ws); });
-  });
+  SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest,
+             [&](Workspace& ws) -> Result<Encoded> {
+               ctx.metrics.CountBlends(points.cells.size());
+               return WithinRenderBudget(
+                   ctx, RenderBudget::Estimate(r.base.render, points.cells.size()),
+                   [&] { return ctx.evaluator.Run(stored, points.cells, spec, ws); });
+             });
 }
 
 }  // namespace facespace::api::http

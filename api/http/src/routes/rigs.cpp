@@ -3,13 +3,13 @@
 #include <cmath>
 #include <optional>
 
-#include "facespace/http/describe.h"
-#include "facespace/formats/lod.h"
+#include "../http/cost.h"
 #include "facespace/engine/enum_table.h"
 #include "facespace/engine/transform.h"
+#include "facespace/formats/lod.h"
+#include "facespace/http/describe.h"
 #include "facespace/offscreen/render.h"
 #include "http/encoded.h"
-#include "../http/cost.h"
 #include "routes.h"
 
 namespace facespace::api::http {
@@ -20,10 +20,14 @@ using nlohmann::json;
 
 json RigSummary(const StoredRig& s) {
   const Rig& r = s.rig;
-  json o = {{"id", s.id},           {"name", r.name},
-            {"vertices", r.vertex_count()}, {"triangles", r.triangle_count()},
-            {"shapes", r.shapes.size()},    {"primitives", r.primitives.size()},
-            {"has_skeleton", r.skin_count > 0}, {"version", s.version}};
+  json o = {{"id", s.id},
+            {"name", r.name},
+            {"vertices", r.vertex_count()},
+            {"triangles", r.triangle_count()},
+            {"shapes", r.shapes.size()},
+            {"primitives", r.primitives.size()},
+            {"has_skeleton", r.skin_count > 0},
+            {"version", s.version}};
   if (!r.credit.empty()) o["credit"] = r.credit;
   return o;
 }
@@ -47,7 +51,8 @@ std::vector<std::array<float, 4>> FlatColors(const Rig& rig) {
       if (!kept) {
         kept = std::array<float, 4>{1, 1, 1, 1};
         const Image& image = rig.images[static_cast<size_t>(m.base_color_image)];
-        if (auto decoded = render::Decode(image.bytes, image.mime_type); decoded.ok()) {  // Not read (no bytes): not an image.
+        if (auto decoded = render::Decode(image.bytes, image.mime_type);
+            decoded.ok()) {  // Not read (no bytes): not an image.
           const std::vector<float>& px = decoded->rgba;
           std::array<double, 4> sum{0, 0, 0, 0};
           for (size_t i = 0; i + 3 < px.size(); i += 4) {
@@ -74,11 +79,14 @@ std::string TopologyJson(const Rig& at, const DerivedRig& derived) {
   for (size_t p = 0; p < at.primitives.size(); ++p) {
     const Primitive& pr = at.primitives[p];
     if (p) out += ',';
-    out += "{\"mesh\":" + std::to_string(pr.mesh) + ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
-           ",\"vertices\":" + std::to_string(pr.vertex_count()) + ",\"mode\":" + std::to_string(static_cast<int>(pr.mode));
+    out += "{\"mesh\":" + std::to_string(pr.mesh) +
+           ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
+           ",\"vertices\":" + std::to_string(pr.vertex_count()) +
+           ",\"mode\":" + std::to_string(static_cast<int>(pr.mode));
     if (pr.material >= 0 && static_cast<size_t>(pr.material) < colors.size()) {
       const auto& c = colors[static_cast<size_t>(pr.material)];
-      out += ",\"color\":[" + FormatNumber(c[0]) + "," + FormatNumber(c[1]) + "," + FormatNumber(c[2]) + "," + FormatNumber(c[3]) + "]";
+      out += ",\"color\":[" + FormatNumber(c[0]) + "," + FormatNumber(c[1]) + "," +
+             FormatNumber(c[2]) + "," + FormatNumber(c[3]) + "]";
     }
     out += ",\"indices\":[";
     for (size_t i = 0; i < pr.indices.size(); ++i) {
@@ -91,13 +99,16 @@ std::string TopologyJson(const Rig& at, const DerivedRig& derived) {
   if (derived.has_focus) {  // For clients that frame a view.
     const auto& lo = derived.focus_min;
     const auto& hi = derived.focus_max;
-    out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," + FormatNumber(lo[2]) + "],\"max\":[" +
-           FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) + "," + FormatNumber(hi[2]) + "]}";
+    out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," +
+           FormatNumber(lo[2]) + "],\"max\":[" + FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) +
+           "," + FormatNumber(hi[2]) + "]}";
   }
   return out + "}";
 }
 
-std::string TopologyKey(const StoredRig& s, int lod) { return "topology|" + s.id + "@" + s.version + "|" + std::to_string(lod); }
+std::string TopologyKey(const StoredRig& s, int lod) {
+  return "topology|" + s.id + "@" + s.version + "|" + std::to_string(lod);
+}
 std::string RigKey(const StoredRig& s) { return "rig|" + s.id + "@" + s.version; }
 
 }  // namespace
@@ -106,9 +117,12 @@ void WarmRig(ServerState& ctx, const std::shared_ptr<const StoredRig>& stored) {
   const auto derived = ctx.evaluator.Derived(stored, 0);
   for (ContentCoding coding : {ContentCoding::kBrotli, ContentCoding::kGzip}) {
     ContentCoding c = coding;
-    EncodedOnce(ctx, RigKey(*stored), c, "application/json", [&stored] { return RigDetail(*stored).dump(); });
+    EncodedOnce(ctx, RigKey(*stored), c, "application/json",
+                [&stored] { return RigDetail(*stored).dump(); });
     c = coding;
-    if (derived) EncodedOnce(ctx, TopologyKey(*stored, 0), c, "application/json", [&] { return TopologyJson(*derived->rig, *derived); });
+    if (derived)
+      EncodedOnce(ctx, TopologyKey(*stored, 0), c, "application/json",
+                  [&] { return TopologyJson(*derived->rig, *derived); });
   }
   ctx.evaluator.WarmPictures(stored, 0);
 }
@@ -126,17 +140,21 @@ void ListRigs(ServerState& ctx, const httplib::Request& req, httplib::Response& 
 
 void GetRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (auto r = FindRig(ctx, req, res, req.matches[1])) {
-    SendEncodedOnce(ctx, req, res, RigKey(*r), "application/json", [&r] { return RigDetail(*r).dump(); });
+    SendEncodedOnce(ctx, req, res, RigKey(*r), "application/json",
+                    [&r] { return RigDetail(*r).dump(); });
   }
 }
 
 // The rig format of an upload: from its media type, or for application/octet-stream (or a
 // multipart part with no type) from the file name it carries, else from the bytes' magic.
-Status UploadFormat(const std::string& media_type, std::string name, std::string_view bytes, RigFormat* format) {
+Status UploadFormat(const std::string& media_type, std::string name, std::string_view bytes,
+                    RigFormat* format) {
   const std::string ct = MediaType(media_type);
   static const std::pair<const char*, RigFormat> kTypes[] = {
-      {"model/gltf-binary", RigFormat::kGlb},        {"model/gltf+json", RigFormat::kGltf},
-      {"model/vnd.collada+xml", RigFormat::kCollada}, {"model/x-fbx", RigFormat::kFbx},
+      {"model/gltf-binary", RigFormat::kGlb},
+      {"model/gltf+json", RigFormat::kGltf},
+      {"model/vnd.collada+xml", RigFormat::kCollada},
+      {"model/x-fbx", RigFormat::kFbx},
       {"application/vnd.autodesk.fbx", RigFormat::kFbx}};
   for (const auto& [type, f] : kTypes) {
     if (ct == type) {
@@ -145,16 +163,24 @@ Status UploadFormat(const std::string& media_type, std::string name, std::string
     }
   }
   const char* kAccepted =
-      "upload a rig as model/gltf-binary (.glb), model/gltf+json (.gltf with embedded buffers), model/vnd.collada+xml (.dae), "
-      "or application/octet-stream with a file name (Content-Disposition: attachment; filename=\"face.fbx\") for .fbx, .dae, .glb or .gltf; "
-      "or multipart/form-data with a part \"rig\" (the file) and an optional part \"manifest\" (JSON)";
-  if (ct != "application/octet-stream" && !ct.empty()) return InvalidArgument(std::string(kAccepted) + ", not " + ct);
-  if (!name.empty() && RigFormatFromPath(name, format) && *format != RigFormat::kMd5) return Status::Ok();
+      "upload a rig as model/gltf-binary (.glb), model/gltf+json (.gltf with embedded buffers), "
+      "model/vnd.collada+xml (.dae), "
+      "or application/octet-stream with a file name (Content-Disposition: attachment; "
+      "filename=\"face.fbx\") for .fbx, .dae, .glb or .gltf; "
+      "or multipart/form-data with a part \"rig\" (the file) and an optional part \"manifest\" "
+      "(JSON)";
+  if (ct != "application/octet-stream" && !ct.empty())
+    return InvalidArgument(std::string(kAccepted) + ", not " + ct);
+  if (!name.empty() && RigFormatFromPath(name, format) && *format != RigFormat::kMd5)
+    return Status::Ok();
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
-  if (name.empty() && SniffRigFormat(std::span<const unsigned char>(data, bytes.size()), format) && *format != RigFormat::kMd5) {
+  if (name.empty() && SniffRigFormat(std::span<const unsigned char>(data, bytes.size()), format) &&
+      *format != RigFormat::kMd5) {
     return Status::Ok();
   }
-  return InvalidArgument(std::string(kAccepted) + (name.empty() ? "; the bytes are none of these" : "; '" + name.substr(0, 80) + "' is none of these"));
+  return InvalidArgument(std::string(kAccepted) +
+                         (name.empty() ? "; the bytes are none of these"
+                                       : "; '" + name.substr(0, 80) + "' is none of these"));
 }
 
 namespace {
@@ -166,7 +192,9 @@ std::string UploadName(const httplib::Request& req) {
   std::string name;
   if (const size_t at = disposition.find("filename="); at != std::string::npos) {
     name = disposition.substr(at + 9);
-    if (!name.empty() && name[0] == '"') name = name.substr(1, name.find('"', 1) == std::string::npos ? std::string::npos : name.find('"', 1) - 1);
+    if (!name.empty() && name[0] == '"')
+      name = name.substr(
+          1, name.find('"', 1) == std::string::npos ? std::string::npos : name.find('"', 1) - 1);
     name = name.substr(0, name.find(';'));
   }
   return name;
@@ -174,23 +202,29 @@ std::string UploadName(const httplib::Request& req) {
 
 // The parts of a multipart upload: "rig" (required, once) and "manifest" (optional, once); any
 // other part is refused naming it. On failure the problem is sent and false returned.
-bool UploadParts(const httplib::Request& req, httplib::Response& res, const httplib::MultipartFormData** rig,
+bool UploadParts(const httplib::Request& req, httplib::Response& res,
+                 const httplib::MultipartFormData** rig,
                  const httplib::MultipartFormData** manifest) {
   static constexpr std::string_view kParts[] = {"rig", "manifest"};
   for (const auto& [name, part] : req.files) {
     if (name != "rig" && name != "manifest") {
-      SendProblem(req, res, Problem::kInvalidRequest, "unknown part '" + name.substr(0, 80) + "'" + DidYouMean(name, kParts) + "; an upload has a part \"rig\" and an optional \"manifest\"",
+      SendProblem(req, res, Problem::kInvalidRequest,
+                  "unknown part '" + name.substr(0, 80) + "'" + DidYouMean(name, kParts) +
+                      "; an upload has a part \"rig\" and an optional \"manifest\"",
                   {{"/" + JsonPointerEscape(name.substr(0, 80)), "unknown part"}});
       return false;
     }
     if (req.files.count(name) > 1) {
-      SendProblem(req, res, Problem::kInvalidRequest, "the part '" + name + "' is given more than once", {{"/" + name, "given more than once"}});
+      SendProblem(req, res, Problem::kInvalidRequest,
+                  "the part '" + name + "' is given more than once",
+                  {{"/" + name, "given more than once"}});
       return false;
     }
   }
   auto it = req.files.find("rig");
   if (it == req.files.end()) {
-    SendProblem(req, res, Problem::kInvalidRequest, "a multipart upload needs a part \"rig\": the rig file", {{"/rig", "missing"}});
+    SendProblem(req, res, Problem::kInvalidRequest,
+                "a multipart upload needs a part \"rig\": the rig file", {{"/rig", "missing"}});
     return false;
   }
   *rig = &it->second;
@@ -200,24 +234,36 @@ bool UploadParts(const httplib::Request& req, httplib::Response& res, const http
 }
 
 // A manifest body must be a JSON object: its own problems are the core's, these are the HTTP ones.
-bool ManifestIsJsonObject(const httplib::Request& req, httplib::Response& res, const std::string& text, const std::string& pointer) {
+bool ManifestIsJsonObject(const httplib::Request& req, httplib::Response& res,
+                          const std::string& text, const std::string& pointer) {
   const json j = json::parse(text, nullptr, false);
   if (j.is_discarded()) {
-    SendStatus(req, res, WithReason(InvalidArgument((pointer == "/" ? std::string("the manifest") : pointer.substr(1)) + ": not valid JSON"), kMalformedJson));
+    SendStatus(req, res,
+               WithReason(InvalidArgument(
+                              (pointer == "/" ? std::string("the manifest") : pointer.substr(1)) +
+                              ": not valid JSON"),
+                          kMalformedJson));
     return false;
   }
   if (!j.is_object()) {
-    SendProblem(req, res, Problem::kInvalidManifest, pointer.substr(1) + ": must be a JSON object (README \"Manifest\")", {{pointer, "must be an object"}});
+    SendProblem(req, res, Problem::kInvalidManifest,
+                pointer.substr(1) + ": must be a JSON object (README \"Manifest\")",
+                {{pointer, "must be an object"}});
     return false;
   }
   return true;
 }
 
-void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status s, const char* bad_input) {
+void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status s,
+                     const char* bad_input) {
   if (s.reason.empty()) {
     // A limit, not-found or cancellation keeps its code's own problem.
-    const bool input = s.code == StatusCode::kInvalidArgument || s.code == StatusCode::kFailedPrecondition;
-    s.reason = s.code == StatusCode::kStorageFull ? "storage-full" : s.code == StatusCode::kInternal ? "storage-failed" : input ? bad_input : "";
+    const bool input =
+        s.code == StatusCode::kInvalidArgument || s.code == StatusCode::kFailedPrecondition;
+    s.reason = s.code == StatusCode::kStorageFull ? "storage-full"
+               : s.code == StatusCode::kInternal  ? "storage-failed"
+               : input                            ? bad_input
+                                                  : "";
   }
   SendStatus(req, res, s);
 }
@@ -225,10 +271,12 @@ void SendStoreStatus(const httplib::Request& req, httplib::Response& res, Status
 }  // namespace
 
 void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size()))) return;
+  if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size())))
+    return;
   const std::string id = req.matches[1];
   if (!IsValidRigId(id)) {
-    SendProblem(req, res, Problem::kInvalidId, "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
+    SendProblem(req, res, Problem::kInvalidId,
+                "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
                 {{"?id", "invalid rig id"}});
     return;
   }
@@ -260,7 +308,9 @@ void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
   }
   bool created = false;
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
-  if (Status s = ctx.store.Put(id, std::span<const unsigned char>(data, bytes.size()), format, manifest, &created); !s.ok()) {
+  if (Status s = ctx.store.Put(id, std::span<const unsigned char>(data, bytes.size()), format,
+                               manifest, &created);
+      !s.ok()) {
     SendStoreStatus(req, res, s, "invalid-rig");
     return;
   }
@@ -282,10 +332,12 @@ void GetManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
 }
 
 void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size()))) return;
+  if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size())))
+    return;
   const std::string id = req.matches[1];
   if (MediaType(req.get_header_value("Content-Type")) != "application/json") {
-    SendProblem(req, res, Problem::kUnsupportedMediaType, "a manifest is application/json (README \"Manifest\")");
+    SendProblem(req, res, Problem::kUnsupportedMediaType,
+                "a manifest is application/json (README \"Manifest\")");
     return;
   }
   if (!ManifestIsJsonObject(req, res, req.body, "/")) return;
@@ -296,7 +348,8 @@ void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
   }
   if (!s.ok()) {
     for (FieldError& f : s.fields) {  // The body is the manifest itself: pointers from its root.
-      if (f.pointer.rfind("/manifest", 0) == 0) f.pointer = f.pointer.substr(9).empty() ? "/" : f.pointer.substr(9);
+      if (f.pointer.rfind("/manifest", 0) == 0)
+        f.pointer = f.pointer.substr(9).empty() ? "/" : f.pointer.substr(9);
     }
     SendStoreStatus(req, res, s, "invalid-manifest");
     return;
@@ -313,7 +366,9 @@ void DeleteRig(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (s.code == StatusCode::kNotFound) {
     SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'");
   } else if (!s.ok()) {
-    SendStatus(req, res, s.reason.empty() && s.code == StatusCode::kInternal ? WithReason(s, "storage-failed") : s);
+    SendStatus(
+        req, res,
+        s.reason.empty() && s.code == StatusCode::kInternal ? WithReason(s, "storage-failed") : s);
   } else {
     res.status = 204;
   }
@@ -324,15 +379,20 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
   if (!stored) return;
   int lod = 0;
   if (req.has_param("lod") && !ParseLod(req.get_param_value("lod"), &lod)) {
-    SendProblem(req, res, Problem::kInvalidRequest, "lod: must be " + LodExpected(), {{"?lod", "must be " + LodExpected()}});
+    SendProblem(req, res, Problem::kInvalidRequest, "lod: must be " + LodExpected(),
+                {{"?lod", "must be " + LodExpected()}});
     return;
   }
   // The triangles as JSON, or the indices alone as little-endian uint32.
   enum class TopologyFormat { kJson, kU32 };
-  static constexpr EnumName<TopologyFormat> kTopologyFormats[] = {{TopologyFormat::kJson, "json"}, {TopologyFormat::kU32, "u32"}};
+  static constexpr EnumName<TopologyFormat> kTopologyFormats[] = {{TopologyFormat::kJson, "json"},
+                                                                  {TopologyFormat::kU32, "u32"}};
   TopologyFormat format = TopologyFormat::kJson;
-  if (req.has_param("format") && !ParseEnum(kTopologyFormats, req.get_param_value("format"), &format)) {
-    SendProblem(req, res, Problem::kInvalidRequest, "format: must be json or u32 (the indices alone, little-endian)", {{"?format", "must be json or u32"}});
+  if (req.has_param("format") &&
+      !ParseEnum(kTopologyFormats, req.get_param_value("format"), &format)) {
+    SendProblem(req, res, Problem::kInvalidRequest,
+                "format: must be json or u32 (the indices alone, little-endian)",
+                {{"?format", "must be json or u32"}});
     return;
   }
   const auto derived = ctx.evaluator.Derived(stored, lod);
@@ -351,20 +411,23 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
     }
     res.set_header("Facespace-Vertex-Counts", vertices);
     res.set_header("Facespace-Index-Counts", indices);
-    SendEncodedOnce(ctx, req, res, TopologyKey(*stored, lod) + "|u32", "application/octet-stream", [&at] {
-      std::string out;
-      for (const Primitive& p : at.primitives) {
-        for (uint32_t i : p.indices) {
-          const unsigned char le[4] = {static_cast<unsigned char>(i), static_cast<unsigned char>(i >> 8), static_cast<unsigned char>(i >> 16),
-                                       static_cast<unsigned char>(i >> 24)};
-          out.append(reinterpret_cast<const char*>(le), 4);
-        }
-      }
-      return out;
-    });
+    SendEncodedOnce(
+        ctx, req, res, TopologyKey(*stored, lod) + "|u32", "application/octet-stream", [&at] {
+          std::string out;
+          for (const Primitive& p : at.primitives) {
+            for (uint32_t i : p.indices) {
+              const unsigned char le[4] = {
+                  static_cast<unsigned char>(i), static_cast<unsigned char>(i >> 8),
+                  static_cast<unsigned char>(i >> 16), static_cast<unsigned char>(i >> 24)};
+              out.append(reinterpret_cast<const char*>(le), 4);
+            }
+          }
+          return out;
+        });
     return;
   }
-  SendEncodedOnce(ctx, req, res, TopologyKey(*stored, lod), "application/json", [&at, &derived] { return TopologyJson(at, *derived); });
+  SendEncodedOnce(ctx, req, res, TopologyKey(*stored, lod), "application/json",
+                  [&at, &derived] { return TopologyJson(at, *derived); });
 }
 
 }  // namespace facespace::api::http

@@ -26,8 +26,8 @@ void GetManifest(ServerState&, const httplib::Request&, httplib::Response&);
 void PutManifest(ServerState&, const httplib::Request&, httplib::Response&);
 void GetTopology(ServerState&, const httplib::Request&, httplib::Response&);
 // Encodes what does not change of a rig (its description, its topology) into the response cache and
-// bakes its occlusion, so that a client's first request for them, or first picture, does not wait (uka's
-// topology: 70 ms in brotli; her occlusion: about 0.25 s).
+// bakes its occlusion, so that a client's first request for them, or first picture, does not wait
+// (uka's topology: 70 ms in brotli; her occlusion: about 0.25 s).
 void WarmRig(ServerState& ctx, const std::shared_ptr<const StoredRig>& stored);
 // routes/mesh.cpp
 void GetOrPostMesh(ServerState&, const httplib::Request&, httplib::Response&);
@@ -40,14 +40,16 @@ void PostSheet(ServerState&, const httplib::Request&, httplib::Response&);
 void PostSequenceSample(ServerState&, const httplib::Request&, httplib::Response&);
 void PostSequenceStream(ServerState&, const httplib::Request&, httplib::Response&);
 void PostSequenceReduce(ServerState&, const httplib::Request&, httplib::Response&);
-// False, with a 422 too-many-frames sent at /fps, for more frames than --max-frames: "the WHAT would be N
-// frames ...", "at most M frames over OVER duration".
-bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Response& res, size_t frames, const char* what,
-                      const char* over);
-// A sequence's frames streamed as the client reads them (ndjson, weights or f32); 422 for another format
-// or more frames than --max-frames.
-void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res, std::shared_ptr<const StoredRig> stored,
-                        std::shared_ptr<const Sequence> seq, float fps, FrameFormat format, const BlendOptions& options);
+// False, with a 422 too-many-frames sent at /fps, for more frames than --max-frames: "the WHAT
+// would be N frames ...", "at most M frames over OVER duration".
+bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                      size_t frames, const char* what, const char* over);
+// A sequence's frames streamed as the client reads them (ndjson, weights or f32); 422 for another
+// format or more frames than --max-frames.
+void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
+                        std::shared_ptr<const StoredRig> stored,
+                        std::shared_ptr<const Sequence> seq, float fps, FrameFormat format,
+                        const BlendOptions& options);
 // routes/speech.cpp
 void PostSpeech(ServerState&, const httplib::Request&, httplib::Response&);
 void GetVoices(ServerState&, const httplib::Request&, httplib::Response&);
@@ -64,14 +66,17 @@ void GetJobResults(ServerState&, const httplib::Request&, httplib::Response&);
 
 // Query parameters the mesh and render routes share (routes/mesh.cpp): w.NAME, c.NAME, mode,
 // normals, strict and the skeleton settings. False when `key` is none of them.
-bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r, std::vector<FieldError>& errors);
+bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r,
+                    std::vector<FieldError>& errors);
 
 // "unknown parameter" with the closest known one of the mesh (or render) query.
 std::string UnknownParameter(const std::string& key, bool render);
 
 // True when the query gives `it`'s parameter more than once (the error is added at its first).
-bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it, std::vector<FieldError>& errors);
+bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it,
+              std::vector<FieldError>& errors);
 // Ends query parsing: the skeleton settings' cross-checks; false with a 422 sent for any error.
-bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r, std::vector<FieldError>& errors);
+bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r,
+                 std::vector<FieldError>& errors);
 
 }  // namespace facespace::api::http

@@ -28,34 +28,37 @@
 #include <thread>
 #include <vector>
 
-#include "facespace/evaluator/store.h"
 #include "facespace/batch/plan.h"
 #include "facespace/engine/enum_table.h"
+#include "facespace/evaluator/store.h"
 
 namespace facespace::batch {
 
 // Where a job is: a closed set, named in one table (its JSON and state.json spellings).
 enum class JobState { kQueued, kRunning, kDone, kFailed, kCancelled, kLost };
-inline constexpr EnumName<JobState> kJobStates[] = {{JobState::kQueued, "queued"}, {JobState::kRunning, "running"}, {JobState::kDone, "done"},
-                                                    {JobState::kFailed, "failed"}, {JobState::kCancelled, "cancelled"}, {JobState::kLost, "lost"}};
+inline constexpr EnumName<JobState> kJobStates[] = {
+    {JobState::kQueued, "queued"}, {JobState::kRunning, "running"},     {JobState::kDone, "done"},
+    {JobState::kFailed, "failed"}, {JobState::kCancelled, "cancelled"}, {JobState::kLost, "lost"}};
 inline const char* Name(JobState s) { return EnumEntry(kJobStates, s).name; }
 // Queued or running: not finished.
 inline bool Unfinished(JobState s) { return s == JobState::kQueued || s == JobState::kRunning; }
 
 // A job as the batch routes show it.
 struct JobInfo {
-  std::string id;          // 32 lowercase hex digits: unguessable, so knowing it is the access.
+  std::string id;  // 32 lowercase hex digits: unguessable, so knowing it is the access.
   std::string rig;
   JobState state = JobState::kQueued;
-  std::string error;       // Why it failed or was lost.
-  std::string format;      // Of every variant file (a labelled sample's picture: png unless the request said).
-  std::vector<std::string> labels;  // A dataset's labels beside each picture (none for plain variants).
-  std::string archive;     // "folder" or "tar" (WebDataset shards).
-  std::string created;     // RFC 3339, UTC.
-  size_t total = 0;        // Variants.
-  size_t done = 0;         // Variants whose file is complete.
-  double seconds = 0;      // Running time so far (this run of the service).
-  double rate = 0;         // Variants per second while running.
+  std::string error;  // Why it failed or was lost.
+  std::string
+      format;  // Of every variant file (a labelled sample's picture: png unless the request said).
+  std::vector<std::string>
+      labels;           // A dataset's labels beside each picture (none for plain variants).
+  std::string archive;  // "folder" or "tar" (WebDataset shards).
+  std::string created;  // RFC 3339, UTC.
+  size_t total = 0;     // Variants.
+  size_t done = 0;      // Variants whose file is complete.
+  double seconds = 0;   // Running time so far (this run of the service).
+  double rate = 0;      // Variants per second while running.
 };
 
 // Status::reason of a refusal because the queue is full (HTTP 429 with Retry-After).
@@ -69,7 +72,8 @@ class JobQueue {
   // restart plans it again). InvalidArgument (with a field error) for more variants than the
   // server allows; ResourceExhausted with reason job-queue-full when the queue is full, with
   // *retry_after the seconds to wait.
-  virtual Result<JobInfo> Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body, int* retry_after) = 0;
+  virtual Result<JobInfo> Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body,
+                                 int* retry_after) = 0;
   virtual std::optional<JobInfo> Get(const std::string& id) const = 0;
   virtual std::vector<JobInfo> List() const = 0;  // Newest first.
   // Cancels a job (variants in flight finish) and deletes its files. NotFound when absent.
@@ -82,11 +86,12 @@ class JobQueue {
 bool IsValidJobId(const std::string& id);
 
 struct JobLimits {
-  size_t max_jobs = 4;        // Queued + running; past it Submit says ResourceExhausted (429).
-  size_t max_batch = 10000;   // Variants per job.
-  int threads = 0;            // Worker threads of the running job; 0 = every core.
-  // Bytes the jobs folder's disk keeps free (--keep-free-mb): a job that would pass it is refused (507),
-  // a running one that reaches it stops, failed, with what it made kept. 0: 5% of the disk, at most 1 GiB.
+  size_t max_jobs = 4;       // Queued + running; past it Submit says ResourceExhausted (429).
+  size_t max_batch = 10000;  // Variants per job.
+  int threads = 0;           // Worker threads of the running job; 0 = every core.
+  // Bytes the jobs folder's disk keeps free (--keep-free-mb): a job that would pass it is refused
+  // (507), a running one that reaches it stops, failed, with what it made kept. 0: 5% of the disk,
+  // at most 1 GiB.
   size_t keep_free = 0;
 };
 
@@ -94,15 +99,18 @@ class FileJobQueue : public JobQueue {
  public:
   // `poll_seconds`: how often the folder is looked at for jobs other instances submitted or left;
   // `refresh_store`: picks up the store's changes on disk (a rig another instance just uploaded).
-  FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator, JobLimits limits,
-               double poll_seconds = 1.0, std::function<void()> refresh_store = {});
-  ~FileJobQueue() override;  // Stops: the running job halts between variants; this or another instance resumes it.
+  FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator,
+               JobLimits limits, double poll_seconds = 1.0,
+               std::function<void()> refresh_store = {});
+  ~FileJobQueue() override;  // Stops: the running job halts between variants; this or another
+                             // instance resumes it.
 
   // Reads the jobs in the folder and starts the runner. Returns the unfinished jobs (to be resumed
   // here or by another instance).
   Result<size_t> Start();
 
-  Result<JobInfo> Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body, int* retry_after) override;
+  Result<JobInfo> Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body,
+                         int* retry_after) override;
   std::optional<JobInfo> Get(const std::string& id) const override;
   std::vector<JobInfo> List() const override;
   Status Remove(const std::string& id) override;
@@ -112,27 +120,33 @@ class FileJobQueue : public JobQueue {
   struct Job {
     JobInfo info;
     std::string rig_version;
-    std::shared_ptr<const BatchPlan> plan;  // Set when submitted here; else planned again from `body`.
+    std::shared_ptr<const BatchPlan>
+        plan;  // Set when submitted here; else planned again from `body`.
     std::string body;
     std::atomic<bool> cancel{false};
     bool removed = false;
-    double variant_bytes = 0;   // About a variant's file: job.json's estimate, measured once the job runs.
-    std::string out_of_room;    // Why the running job stopped for the disk (empty: it did not).
+    double variant_bytes =
+        0;  // About a variant's file: job.json's estimate, measured once the job runs.
+    std::string out_of_room;  // Why the running job stopped for the disk (empty: it did not).
   };
   // The job in DIR/id as the folder says (null when it is not a job, or was deleted).
   std::shared_ptr<Job> Load(const std::string& id) const;
-  // The jobs in the folder, oldest first (mu_ not held). The one running here keeps its live figures.
+  // The jobs in the folder, oldest first (mu_ not held). The one running here keeps its live
+  // figures.
   std::vector<std::shared_ptr<Job>> Scan() const;
   // The job this instance runs, if `id`, with its live figures (mu_ not held).
   std::shared_ptr<Job> RunningHere(const std::string& id) const;
   // Claims and runs the oldest job nobody runs, if any. True when one ran.
   bool RunNext();
-  void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig, int claim);
+  void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig,
+           int claim);
   void Finish(Job& job, JobState state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
   std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;
-  // Whether `need` more bytes fit beside what the unfinished jobs (`jobs`) have still to write, the margin kept.
-  Status CheckRoom(double need, size_t variants, const std::vector<std::shared_ptr<Job>>& jobs, bool sampled) const;
+  // Whether `need` more bytes fit beside what the unfinished jobs (`jobs`) have still to write, the
+  // margin kept.
+  Status CheckRoom(double need, size_t variants, const std::vector<std::shared_ptr<Job>>& jobs,
+                   bool sampled) const;
   double KeepFree(double disk_bytes) const;
   void MarkLost(Job& job);
 
@@ -146,7 +160,8 @@ class FileJobQueue : public JobQueue {
   mutable std::mutex mu_;
   std::condition_variable cv_;
   std::shared_ptr<Job> running_;
-  std::map<std::string, std::shared_ptr<const BatchPlan>> submitted_;  // Plans of jobs submitted here, not yet run.
+  std::map<std::string, std::shared_ptr<const BatchPlan>>
+      submitted_;  // Plans of jobs submitted here, not yet run.
   bool stopping_ = false, wake_ = false;
   std::thread runner_;
 };

@@ -14,12 +14,13 @@
 // shard writes its own manifest.shard-I-of-N.jsonl (I 1-based) and, when all its variants are
 // there, shard-I-of-N.json; no sheet. Merge checks that every shard finished and writes
 // manifest.jsonl and sheet.png, byte-identical to a one-process run, and removes the shard files.
-// A run holds a lock on its manifest (.fs-lock-<manifest>), so the same shard never runs twice at once.
+// A run holds a lock on its manifest (.fs-lock-<manifest>), so the same shard never runs twice at
+// once.
 #pragma once
 
 #include <atomic>
-#include <map>
 #include <functional>
+#include <map>
 #include <span>
 #include <string>
 #include <string_view>
@@ -35,30 +36,35 @@ namespace facespace::batch {
 inline constexpr size_t kGroupFiles = 32;
 
 struct Progress {
-  size_t done = 0;      // Variants of this shard complete, including those skipped.
-  size_t skipped = 0;   // Complete before this run started.
-  size_t total = 0;     // Variants of this shard.
-  double seconds = 0;   // Since the run started.
+  size_t done = 0;     // Variants of this shard complete, including those skipped.
+  size_t skipped = 0;  // Complete before this run started.
+  size_t total = 0;    // Variants of this shard.
+  double seconds = 0;  // Since the run started.
 };
 
 struct RunOptions {
   std::string dir;
   const api::Evaluator* evaluator = nullptr;  // Makes every file and the contact sheet; required.
-  int jobs = 0;                      // Worker threads; 0 = every core.
-  // Who makes the variants. kProcesses: a maker process for each worker (maker.h), forked when the run
-  // starts, from a one-thread process only (the CLI; never the service, whose threads a fork would
-  // lose; threads when the process already runs others). kAuto: makers for a run of 1,000 renders or
-  // more (each maker starts its own llvmpipe, about 0.3 s, so a smaller run is quicker with threads).
+  int jobs = 0;                               // Worker threads; 0 = every core.
+  // Who makes the variants. kProcesses: a maker process for each worker (maker.h), forked when the
+  // run starts, from a one-thread process only (the CLI; never the service, whose threads a fork
+  // would lose; threads when the process already runs others). kAuto: makers for a run of 1,000
+  // renders or more (each maker starts its own llvmpipe, about 0.3 s, so a smaller run is quicker
+  // with threads).
   enum class Makers { kThreads, kAuto, kProcesses };
   Makers makers = Makers::kThreads;
-  // Once the makers are forked (`makers`: whether there are any), before any worker thread starts: the
-  // place to open render.h's image module, which the workers need only when they make the variants.
+  // Once the makers are forked (`makers`: whether there are any), before any worker thread starts:
+  // the place to open render.h's image module, which the workers need only when they make the
+  // variants.
   std::function<void(bool makers)> before_threads;
-  size_t shard = 0, shards = 1;      // Variant k belongs to shard k % shards.
-  size_t sheet_cells = 16;           // Contact sheet of the first variants; 0 = none.
-  std::vector<std::string> rig_files;  // Recorded by a shard (absolute paths), so merge can find the rig.
-  std::function<void(const Progress&)> progress;  // From the calling thread, ~5 times a second and at the end.
-  const std::atomic<bool>* cancel = nullptr;      // Set to stop: variants in flight finish, none is half-written.
+  size_t shard = 0, shards = 1;  // Variant k belongs to shard k % shards.
+  size_t sheet_cells = 16;       // Contact sheet of the first variants; 0 = none.
+  std::vector<std::string>
+      rig_files;  // Recorded by a shard (absolute paths), so merge can find the rig.
+  std::function<void(const Progress&)>
+      progress;  // From the calling thread, ~5 times a second and at the end.
+  const std::atomic<bool>* cancel =
+      nullptr;  // Set to stop: variants in flight finish, none is half-written.
 };
 
 struct Summary {
@@ -71,7 +77,8 @@ struct Summary {
   size_t processes = 0;  // Maker processes the run used; 0: its worker threads made the variants.
 };
 
-// Writes the variants of `plan` (MakeBatchPlan) that this shard lacks, then the manifest and the sheet.
+// Writes the variants of `plan` (MakeBatchPlan) that this shard lacks, then the manifest and the
+// sheet.
 Result<Summary> Run(const BatchPlan& plan, const RunOptions& options);
 
 // What a shard recorded when it finished (shard-I-of-N.json).
@@ -111,9 +118,10 @@ Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options);
 // `env` is getenv or a test's.
 struct SchedulerShard {
   size_t shard = 0, shards = 1;  // 0-based shard.
-  std::string source;            // "SLURM_ARRAY_TASK_ID=1 of SLURM_ARRAY_TASK_COUNT=4", for the log.
+  std::string source;  // "SLURM_ARRAY_TASK_ID=1 of SLURM_ARRAY_TASK_COUNT=4", for the log.
 };
-Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const char*)>& env, size_t count);
+Result<SchedulerShard> ShardFromScheduler(const std::function<const char*(const char*)>& env,
+                                          size_t count);
 
 // Lowercase hex SHA-256 of the pieces one after the other.
 std::string Sha256Hex(std::span<const std::string_view> pieces);

@@ -2,7 +2,8 @@
 // command, batch variants and sequence frames call it, and none of them evaluates or encodes on
 // its own.
 //
-//   request ──ResolvePoint──> ResolvedPoint ──Evaluator::Run(point, OutputSpec, Workspace&)──> Encoded
+//   request ──ResolvePoint──> ResolvedPoint ──Evaluator::Run(point, OutputSpec, Workspace&)──>
+//   Encoded
 //             controls, pose,  (weights, pose,      the rig at its level of detail, evaluated,
 //             weights, checks   warnings, sum)      then exported or rendered and encoded
 //
@@ -22,14 +23,14 @@
 #include <string>
 #include <vector>
 
-#include "facespace/evaluator/request.h"
-#include "facespace/evaluator/store.h"
 #include "facespace/engine/blend.h"
 #include "facespace/engine/fit.h"
 #include "facespace/engine/sequence.h"
 #include "facespace/engine/skeleton.h"
 #include "facespace/engine/status.h"
 #include "facespace/engine/weights.h"
+#include "facespace/evaluator/request.h"
+#include "facespace/evaluator/store.h"
 #include "facespace/formats/io.h"
 #include "facespace/picture/picture.h"
 
@@ -52,9 +53,10 @@ inline constexpr char kInvalidTarget[] = "invalid-target";
 struct ResolvedPoint {
   std::vector<float> weights;  // One per shape.
   Pose pose;
-  bool posed = false;          // False: the rest pose.
-  WeightReport report;         // Sum, warnings (the weights', then the pose's and controls'), Mahalanobis.
-  size_t weight_warnings = 0;  // How many warnings CheckPoint found (ResolvePoint keeps them first).
+  bool posed = false;   // False: the rest pose.
+  WeightReport report;  // Sum, warnings (the weights', then the pose's and controls'), Mahalanobis.
+  size_t weight_warnings =
+      0;  // How many warnings CheckPoint found (ResolvePoint keeps them first).
   const Pose* pose_or_null() const { return posed ? &pose : nullptr; }
 };
 
@@ -73,7 +75,8 @@ void CheckPoint(const Rig& rig, BlendMode mode, ResolvedPoint& point);
 // A sheet's cells as points, every one first, so nothing is rendered when one of them is wrong.
 struct SheetPoints {
   std::vector<ResolvedPoint> cells;
-  std::vector<Warning> warnings;  // Every cell's, each message prefixed "cell N: "; the pose's once.
+  std::vector<Warning>
+      warnings;  // Every cell's, each message prefixed "cell N: "; the pose's once.
   double max_sum = 0.0;
 };
 // Errors as ResolvePoint's, the message prefixed "cell N: "; strict refuses on any cell's warning.
@@ -83,20 +86,20 @@ Status ResolveSheet(const Rig& rig, const SheetRequest& request, SheetPoints& po
 
 struct OutputSpec {
   enum class Kind {
-    kMesh,        // The mesh in mesh_format.
-    kImage,       // A render in image_format.
-    kSheet,       // A labelled grid of renders, one cell per point, `columns` wide.
-    kFrameJson,   // A sequence frame: the JSON export's primitives array (world space).
-    kFrameF32,    // A stream frame: a uint32 byte count, then the world-space positions.
-    kPixels,      // A render left in the workspace's image (8-bit sRGB), no bytes: a video's frame.
+    kMesh,       // The mesh in mesh_format.
+    kImage,      // A render in image_format.
+    kSheet,      // A labelled grid of renders, one cell per point, `columns` wide.
+    kFrameJson,  // A sequence frame: the JSON export's primitives array (world space).
+    kFrameF32,   // A stream frame: a uint32 byte count, then the world-space positions.
+    kPixels,     // A render left in the workspace's image (8-bit sRGB), no bytes: a video's frame.
   };
   Kind kind = Kind::kMesh;
-  BlendOptions blend;            // Mode, normals, skinning (the point's pose is the point's).
-  int lod = 0;                   // Level of detail of the rig (core/lod.h).
+  BlendOptions blend;  // Mode, normals, skinning (the point's pose is the point's).
+  int lod = 0;         // Level of detail of the rig (core/lod.h).
   // Meshes.
   MeshFormat mesh_format = MeshFormat::kJson;
-  bool mesh_space = false;       // JSON, OBJ and f32 before the node transforms.
-  bool keep_targets = false;     // glb: the rig with the point's weights as defaults.
+  bool mesh_space = false;    // JSON, OBJ and f32 before the node transforms.
+  bool keep_targets = false;  // glb: the rig with the point's weights as defaults.
   // glb: the bytes are left in the workspace as two pieces of one file (Encoded::pieces), for
   // callers that write them as they are (batch files); the workspace keeps its own writer, so it
   // must serve one rig (a batch worker's).
@@ -138,9 +141,12 @@ struct Workspace {
   // A response body handed back once sent, for the next f32 body to be written over.
   std::string body;
   GlbVariantWriter glb;  // OutputSpec::pieces' writer.
-  // The request's stop token (client gone, deadline, SIGTERM): the evaluator's loops over sheet cells,
-  // sequence frames and video frames check it between steps and end Cancelled.
+  // The request's stop token (client gone, deadline, SIGTERM): the evaluator's loops over sheet
+  // cells, sequence frames and video frames check it between steps and end Cancelled.
   std::stop_token stop;
+  // Where the CPU that helper threads spend for the request (the renderer's rasteriser, encoders'
+  // helpers) is charged: the server's meter of the request (facespace/net/front.h); null: nowhere.
+  HelperCpu* helper_cpu = nullptr;
   render::Image image;
   std::vector<render::Image> cells;
   // What the last call's steps took, in milliseconds (the service's Server-Timing header); the
@@ -152,7 +158,8 @@ struct Workspace {
 
 // The text a response cache keys `spec` at `points` of `rig` by: the rig's id and version and,
 // bit for bit, everything the bytes depend on. Equal keys, equal bytes.
-std::string CacheKey(const StoredRig& rig, std::span<const ResolvedPoint> points, const OutputSpec& spec);
+std::string CacheKey(const StoredRig& rig, std::span<const ResolvedPoint> points,
+                     const OutputSpec& spec);
 
 // What is derived from a stored rig per level of detail: the simplified rig (the stored rig itself
 // at 0) and the box its shapes act in.
@@ -168,7 +175,8 @@ class Evaluator {
  public:
   // An evaluator of meshes and frames: images, sheets and pixels are refused (FailedPrecondition).
   Evaluator();
-  // One that also draws: `renderer` draws and encodes images and sheets; it must outlive the evaluator.
+  // One that also draws: `renderer` draws and encodes images and sheets; it must outlive the
+  // evaluator.
   explicit Evaluator(const render::Renderer& renderer);
   ~Evaluator();
   Evaluator(const Evaluator&) = delete;
@@ -177,10 +185,11 @@ class Evaluator {
   // `spec` at `points` of `rig` (one point, or a sheet's cells). The points were resolved against
   // `rig` (ResolvePoint, CheckPoint): a failure to evaluate them is ours (Internal); a failure to
   // draw or encode says so. Thread-safe: each thread brings its own workspace.
-  Result<Encoded> Run(const std::shared_ptr<const StoredRig>& rig, std::span<const ResolvedPoint> points, const OutputSpec& spec,
+  Result<Encoded> Run(const std::shared_ptr<const StoredRig>& rig,
+                      std::span<const ResolvedPoint> points, const OutputSpec& spec,
                       Workspace& ws) const;
-  Result<Encoded> Run(const std::shared_ptr<const StoredRig>& rig, const ResolvedPoint& point, const OutputSpec& spec,
-                      Workspace& ws) const {
+  Result<Encoded> Run(const std::shared_ptr<const StoredRig>& rig, const ResolvedPoint& point,
+                      const OutputSpec& spec, Workspace& ws) const {
     return Run(rig, std::span<const ResolvedPoint>(&point, 1), spec, ws);
   }
 
@@ -188,18 +197,21 @@ class Evaluator {
   const render::Renderer* renderer() const { return renderer_; }
 
   // The rig at a level of detail and the box its shapes act in (kept); null when it cannot be made.
-  std::shared_ptr<const DerivedRig> Derived(const std::shared_ptr<const StoredRig>& rig, int lod) const;
+  std::shared_ptr<const DerivedRig> Derived(const std::shared_ptr<const StoredRig>& rig,
+                                            int lod) const;
 
   // What pictures of the rig at a level will need, made now rather than at the first (the occlusion
-  // baked once per rig and level: a quarter second for a 50k-vertex rig); nothing for an evaluator of
-  // meshes. The service's warm-up calls it for the rigs it starts with.
+  // baked once per rig and level: a quarter second for a 50k-vertex rig); nothing for an evaluator
+  // of meshes. The service's warm-up calls it for the rigs it starts with.
   void WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lod) const;
 
-  // A VRM's meta thumbnail: the face (the shapes' framing) at the evaluated point, kThumbnailSize square.
+  // A VRM's meta thumbnail: the face (the shapes' framing) at the evaluated point, kThumbnailSize
+  // square.
   static constexpr int kThumbnailSize = 512;
 
  private:
-  Status Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig, Workspace& ws, std::vector<unsigned char>& png) const;
+  Status Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig,
+                   Workspace& ws, std::vector<unsigned char>& png) const;
   struct Kept;
   const render::Renderer* renderer_ = nullptr;
   std::unique_ptr<Kept> kept_;
@@ -219,12 +231,13 @@ struct Output {
   double weight_sum = 0.0;
 };
 
-Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const MeshRequest& request,
-                           MeshFormat format, Workspace& ws);
-Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const RenderRequest& request,
-                            render::ImageFormat format, Workspace& ws);
-Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const SheetRequest& request,
-                            render::ImageFormat format, Workspace& ws);
+Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                           const MeshRequest& request, MeshFormat format, Workspace& ws);
+Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                            const RenderRequest& request, render::ImageFormat format,
+                            Workspace& ws);
+Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
+                            const SheetRequest& request, render::ImageFormat format, Workspace& ws);
 
 // ---- weights only -----------------------------------------------------------------------------
 
@@ -269,15 +282,17 @@ class SequencePhysics {
 
 // The sequence's pose at `time` (its clip or layers over the rig's base motion, the bone morphs of
 // `weights`, the constraints solved); `weights` (sampled from the keys) take what the clips
-// animate. False when it poses nothing (no clip, no layers, no bone morph) or the pose cannot be built.
-bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose, std::vector<float>& weights);
+// animate. False when it poses nothing (no clip, no layers, no bone morph) or the pose cannot be
+// built.
+bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose,
+                  std::vector<float>& weights);
 
 // The sequence's frame at `time` as a point: sampled weights, the clip's pose (else the rest
 // pose) with the bones `physics` simulates (when given), checked. Its warnings: the transition
 // leaving [0, 1] (transition_extrapolation), then the weights' own, each message prefixed with
 // "t=TIME: ".
-void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode, ResolvedPoint& point,
-                   SequencePhysics* physics = nullptr);
+void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMode mode,
+                   ResolvedPoint& point, SequencePhysics* physics = nullptr);
 
 // {"frames": [{"time", "weights", "primitives"}], "warnings": [...]}: the sample route's body and
 // `facespace sequence --format json`; with `weights_only` ("format": "weights"), each frame's time,
@@ -285,15 +300,19 @@ void SequencePoint(const Rig& rig, const Sequence& sequence, float time, BlendMo
 // scale}}, and no mesh. `warnings` receives the frames' warnings too.
 // A body that would pass `max_bytes` (judged from its first frame, then checked as it grows) is
 // refused before the work: 422 response-too-large on /times, naming the limit.
-Result<std::string> SampleSequenceJson(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                                       const Sequence& sequence, std::span<const float> times, const BlendOptions& options,
-                                       std::vector<Warning>& warnings, Workspace& ws, size_t max_bytes = static_cast<size_t>(-1),
+Result<std::string> SampleSequenceJson(const Evaluator& evaluator,
+                                       const std::shared_ptr<const StoredRig>& rig,
+                                       const Sequence& sequence, std::span<const float> times,
+                                       const BlendOptions& options, std::vector<Warning>& warnings,
+                                       Workspace& ws, size_t max_bytes = static_cast<size_t>(-1),
                                        bool weights_only = false);
 
 // One frame of a stream: ndjson {"frame", "time", "weights", "warnings"} and a newline, or f32:
 // a uint32 byte count then the world-space positions.
-Result<std::string> StreamFrame(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig, const Sequence& sequence,
-                                size_t frame, float fps, bool f32, const BlendOptions& options, Workspace& ws,
+Result<std::string> StreamFrame(const Evaluator& evaluator,
+                                const std::shared_ptr<const StoredRig>& rig,
+                                const Sequence& sequence, size_t frame, float fps, bool f32,
+                                const BlendOptions& options, Workspace& ws,
                                 SequencePhysics* physics = nullptr);
 
 // Frames from the first key to the last at `fps` (both ends included).
@@ -303,7 +322,8 @@ size_t FrameCount(const Sequence& sequence, float fps);
 std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence);
 
 // {"keys", "transition", "kept", "removed", "max_error", "tolerance"}: a reduced sequence.
-std::string ReducedSequenceJson(const Rig& rig, const Sequence& original, const ReduceResult& reduced, float tolerance);
+std::string ReducedSequenceJson(const Rig& rig, const Sequence& original,
+                                const ReduceResult& reduced, float tolerance);
 
 // ---- fitting ----------------------------------------------------------------------------------
 

@@ -6,17 +6,17 @@
 #include <string>
 #include <vector>
 
-#include "facespace/formats/io.h"
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
+#include "facespace/formats/io.h"
 
 namespace facespace::api {
 
 // A loaded rig, immutable once published, shared between requests.
 struct StoredRig {
-  std::string id;        // File stem: [a-z0-9][a-z0-9_-]{0,63}.
+  std::string id;  // File stem: [a-z0-9][a-z0-9_-]{0,63}.
   Rig rig;
-  std::string version;   // Changes whenever the stored file changes (content hash).
+  std::string version;  // Changes whenever the stored file changes (content hash).
 };
 
 class RigStore {
@@ -34,7 +34,8 @@ class RigStore {
   virtual Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
                      const std::string& manifest, bool* created) = 0;
   // Replaces the manifest of a stored rig (the rig file itself unchanged), validated against it
-  // first. NotFound when absent; InvalidArgument (reason "invalid-manifest") when it does not apply.
+  // first. NotFound when absent; InvalidArgument (reason "invalid-manifest") when it does not
+  // apply.
   virtual Status PutManifest(const std::string& id, const std::string& manifest) = 0;
   // NotFound when absent.
   virtual Status Delete(const std::string& id) = 0;
@@ -43,8 +44,8 @@ class RigStore {
 // The rig an upload describes: `bytes` in `format`, named `id`, then `manifest` (JSON text, README
 // "Manifest"; empty: none) applied, which may name it otherwise. A manifest that does not apply is
 // InvalidArgument with reason "invalid-manifest" and its fields' pointers under "/manifest".
-Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
-                       const std::string& manifest);
+Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> bytes,
+                       RigFormat format, const std::string& manifest);
 
 // A stored rig's version: a hash of its file's bytes and its manifest's text.
 std::string RigVersion(std::span<const unsigned char> bytes, const std::string& manifest);

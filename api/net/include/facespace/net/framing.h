@@ -19,10 +19,10 @@ struct FramingError {
 };
 
 struct RequestHead {
-  size_t start = 0;     // Where the request line starts (empty lines before it are skipped).
-  size_t end = 0;       // Just past the blank line that ends the head.
+  size_t start = 0;  // Where the request line starts (empty lines before it are skipped).
+  size_t end = 0;    // Just past the blank line that ends the head.
   std::string method;
-  std::string target;   // As sent: path and query, not decoded.
+  std::string target;  // As sent: path and query, not decoded.
   bool chunked = false;
   size_t content_length = 0;
   bool expect_continue = false;
@@ -30,13 +30,14 @@ struct RequestHead {
 };
 
 struct HeadLimits {
-  size_t max_head = 64 * 1024;   // Request line and headers together.
-  size_t max_line = 8192;        // The request line (longer: 414).
+  size_t max_head = 64 * 1024;  // Request line and headers together.
+  size_t max_line = 8192;       // The request line (longer: 414).
   size_t max_headers = 100;
 };
 
 // Looks for a whole head in `buf`; `scan` is where the previous call stopped looking (start at 0).
-Framing ParseHead(std::string_view buf, size_t& scan, const HeadLimits& limits, RequestHead& head, FramingError& error);
+Framing ParseHead(std::string_view buf, size_t& scan, const HeadLimits& limits, RequestHead& head,
+                  FramingError& error);
 
 // A chunked body from buf[pos...]: call again with the same state as bytes arrive.
 struct ChunkedState {
@@ -45,7 +46,8 @@ struct ChunkedState {
   size_t remaining = 0;  // Of the current chunk's data.
   size_t total = 0;      // Data bytes so far.
 };
-Framing ParseChunked(std::string_view buf, ChunkedState& state, size_t max_body, FramingError& error);
+Framing ParseChunked(std::string_view buf, ChunkedState& state, size_t max_body,
+                     FramingError& error);
 
 // A whole chunked request (`request` up to the end ParseChunked found) as the same request with
 // its body whole: Transfer-Encoding dropped, Content-Length added, the chunks' data joined and the

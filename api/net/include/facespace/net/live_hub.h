@@ -1,10 +1,11 @@
 // The live hub (issue 53): the WebSocket sessions the front handed over after their handshake. One
-// thread holds every session's socket (epoll): it reads frames (ws::ParseClientFrame), answers pings
-// and closes, and queues whole messages; a few worker threads run each session's turns one at a time:
-// its messages, then at most one frame per 1/60 s when its state changed and its last frame is out
-// (newest state wins: a client that reads slowly gets fewer frames, never a backlog). Every session
-// is bounded: its message size and rate, the bytes queued for it (a client that takes nothing for the
-// stall time is dropped), its CPU (measured) and its lifetime; sessions are capped in all and per address.
+// thread holds every session's socket (epoll): it reads frames (ws::ParseClientFrame), answers
+// pings and closes, and queues whole messages; a few worker threads run each session's turns one at
+// a time: its messages, then at most one frame per 1/60 s when its state changed and its last frame
+// is out (newest state wins: a client that reads slowly gets fewer frames, never a backlog). Every
+// session is bounded: its message size and rate, the bytes queued for it (a client that takes
+// nothing for the stall time is dropped), its CPU (measured) and its lifetime; sessions are capped
+// in all and per address.
 #pragma once
 
 #include <atomic>
@@ -22,28 +23,29 @@
 #include <unordered_map>
 #include <vector>
 
-#include "facespace/net/front.h"
 #include "facespace/engine/cpu.h"
+#include "facespace/net/front.h"
 #include "facespace/net/websocket.h"
 
 namespace facespace::api::http {
 
 struct LiveLimits {
-  size_t max_sessions = 1024;            // Open at once, in all (--max-live-sessions).
-  size_t max_per_client = 128;           // ... from one address (--max-client-live-sessions).
-  size_t max_message = size_t{64} << 10; // Bytes of one message (text or audio); more: 1009.
-  double max_rate = 240;                 // Messages a second, sustained (a burst of twice that); more: 1008.
-  size_t max_queued = size_t{1} << 20;   // Bytes waiting for one client; more: 1008.
-  std::chrono::milliseconds stall{10000};// A client that takes nothing queued for this long: 1008.
+  size_t max_sessions = 1024;             // Open at once, in all (--max-live-sessions).
+  size_t max_per_client = 128;            // ... from one address (--max-client-live-sessions).
+  size_t max_message = size_t{64} << 10;  // Bytes of one message (text or audio); more: 1009.
+  double max_rate = 240;  // Messages a second, sustained (a burst of twice that); more: 1008.
+  size_t max_queued = size_t{1} << 20;  // Bytes waiting for one client; more: 1008.
+  std::chrono::milliseconds stall{
+      10000};  // A client that takes nothing queued for this long: 1008.
   std::chrono::microseconds frame_interval{16667};  // At most 60 frames a second.
-  int workers = 0;                       // Threads running turns; 0: one per core.
+  int workers = 0;                                  // Threads running turns; 0: one per core.
 };
 
-// Sends one whole message of a session from any thread (speech made as it is spoken); false once the
-// session is closing or gone.
+// Sends one whole message of a session from any thread (speech made as it is spoken); false once
+// the session is closing or gone.
 using LivePost = std::function<bool(ws::Opcode opcode, std::string_view payload)>;
-// Asks for a turn of the session from any thread (a helper thread has made something for it); a no-op
-// once the session is gone.
+// Asks for a turn of the session from any thread (a helper thread has made something for it); a
+// no-op once the session is gone.
 using LiveWake = std::function<void()>;
 
 // What a session does with its messages, called from one thread at a time.
@@ -53,9 +55,9 @@ class LiveHandler {
   // The session's post and wake, before its first turn.
   virtual void Attach(LivePost, LiveWake) {}
   struct Out {
-    std::vector<std::string> texts;     // Text messages to send (events), in order.
-    bool frame_wanted = false;          // The state changed: a frame is due.
-    bool close = false;                 // Close the session with `code` and `reason`.
+    std::vector<std::string> texts;  // Text messages to send (events), in order.
+    bool frame_wanted = false;       // The state changed: a frame is due.
+    bool close = false;              // Close the session with `code` and `reason`.
     ws::CloseCode code = ws::CloseCode::kNormal;
     std::string reason;
   };
@@ -63,12 +65,14 @@ class LiveHandler {
   virtual void Open(Out& out) = 0;
   virtual void OnText(std::string_view text, Out& out) = 0;
   virtual void OnBinary(std::string_view bytes, Out& out) = 0;
-  // Each turn, after its messages: what the session's helper threads made since (a listener's visemes).
+  // Each turn, after its messages: what the session's helper threads made since (a listener's
+  // visemes).
   virtual void Poll(Out&) {}
-  // CPU-seconds the session's helper threads spent since last asked (synthesis, decoding): the session's
-  // budget counts them as its turns' own.
+  // CPU-seconds the session's helper threads spent since last asked (synthesis, decoding): the
+  // session's budget counts them as its turns' own.
   virtual double TakeHelperCpu() { return 0; }
-  // The payload of a binary message: a frame of the current state, into `message`; false to skip it.
+  // The payload of a binary message: a frame of the current state, into `message`; false to skip
+  // it.
   virtual bool MakeFrame(std::string& message, Out& out) = 0;
   // Stop whatever runs for the session (the socket is closing): from any thread, without waiting.
   virtual void Cancel() {}
@@ -94,14 +98,16 @@ class LiveHub {
   bool Reserve(const std::string& ip);
   void Unreserve(const std::string& ip);
   // A reserved session's socket (after its 101) and the bytes the client sent after its request.
-  void Adopt(int fd, const std::string& ip, std::string buffered, std::unique_ptr<LiveHandler> handler, SessionBounds bounds);
+  void Adopt(int fd, const std::string& ip, std::string buffered,
+             std::unique_ptr<LiveHandler> handler, SessionBounds bounds);
   // Every session closed (1001 going away) and the threads joined.
   void Stop();
 
   const LiveLimits& limits() const { return limits_; }
   size_t open() const { return open_.load(); }
   struct Counts {
-    std::atomic<size_t> opened{0}, frames{0}, messages{0}, dropped_slow{0}, closed_flood{0}, closed_too_big{0}, refused{0};
+    std::atomic<size_t> opened{0}, frames{0}, messages{0}, dropped_slow{0}, closed_flood{0},
+        closed_too_big{0}, refused{0};
   };
   Counts counts;
 

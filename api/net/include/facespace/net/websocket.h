@@ -1,7 +1,7 @@
-// RFC 6455 framing for the live route (the HTTP layer's GET /v1/rigs/{id}/live): the handshake's accept key, client frames
-// parsed strictly (masked, no reserved bits or unknown opcodes, control frames short and whole,
-// lengths within the caller's cap before any payload is held), server frames built (unmasked, whole).
-// Pure functions over bytes: what tests/fuzz feed hostile input to.
+// RFC 6455 framing for the live route (the HTTP layer's GET /v1/rigs/{id}/live): the handshake's
+// accept key, client frames parsed strictly (masked, no reserved bits or unknown opcodes, control
+// frames short and whole, lengths within the caller's cap before any payload is held), server
+// frames built (unmasked, whole). Pure functions over bytes: what tests/fuzz feed hostile input to.
 #pragma once
 
 #include <cstddef>
@@ -12,17 +12,24 @@
 
 namespace facespace::api::http::ws {
 
-enum class Opcode : uint8_t { kContinuation = 0, kText = 1, kBinary = 2, kClose = 8, kPing = 9, kPong = 10 };
+enum class Opcode : uint8_t {
+  kContinuation = 0,
+  kText = 1,
+  kBinary = 2,
+  kClose = 8,
+  kPing = 9,
+  kPong = 10
+};
 
 // The close codes this server sends (RFC 6455, 7.4.1).
 enum class CloseCode : uint16_t {
   kNormal = 1000,
-  kGoingAway = 1001,       // The server stops, or the session's time is up.
-  kProtocolError = 1002,   // Framing broken: unmasked, reserved bits, a control frame split or long.
-  kUnsupportedData = 1003, // Binary audio without {"listen": ...} first.
-  kInvalidPayload = 1007,  // A text message that is not UTF-8.
-  kPolicy = 1008,          // A flood past the session's message rate; a client that does not read.
-  kTooBig = 1009,          // A message over the session's cap.
+  kGoingAway = 1001,      // The server stops, or the session's time is up.
+  kProtocolError = 1002,  // Framing broken: unmasked, reserved bits, a control frame split or long.
+  kUnsupportedData = 1003,  // Binary audio without {"listen": ...} first.
+  kInvalidPayload = 1007,   // A text message that is not UTF-8.
+  kPolicy = 1008,           // A flood past the session's message rate; a client that does not read.
+  kTooBig = 1009,           // A message over the session's cap.
   kInternal = 1011,
 };
 
@@ -40,8 +47,9 @@ struct FrameError {
 
 enum class Parsed { kNeedMore, kFrame, kError };
 
-// One client frame at the start of `buf`, its payload unmasked in place. A frame whose declared payload
-// is over `max_payload` is an error (1009) as soon as its header is read: nothing of it is held.
+// One client frame at the start of `buf`, its payload unmasked in place. A frame whose declared
+// payload is over `max_payload` is an error (1009) as soon as its header is read: nothing of it is
+// held.
 Parsed ParseClientFrame(std::span<char> buf, size_t max_payload, Frame& frame, FrameError& error);
 
 // Whether `key` (Sec-WebSocket-Key) is the base64 of 16 bytes, as RFC 6455 asks.

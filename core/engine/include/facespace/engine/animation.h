@@ -3,6 +3,7 @@
 
 #include <span>
 #include <vector>
+
 #include "facespace/engine/hierarchy.h"
 #include "facespace/engine/status.h"
 
@@ -13,8 +14,8 @@ enum class ClipWrap { kClamp, kLoop };
 // Samples clip `clip` at `time` seconds into `pose` (TRS channels) and `shape_weights`
 // (morph weight channels; `shape_set` marks the shapes the clip drives). Time outside the
 // clip clamps or loops.
-Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose, std::vector<float>& shape_weights,
-                  std::vector<uint8_t>& shape_set);
+Status SampleClip(const Rig& rig, int clip, float time, ClipWrap wrap, Pose& pose,
+                  std::vector<float>& shape_weights, std::vector<uint8_t>& shape_set);
 
 // A kBezier sampler as LINEAR keys for formats that cannot say it (glTF): every key, and between
 // keys `per_second` samples a second. Any other sampler is returned as it is.
@@ -49,7 +50,7 @@ float LayerWeight(const Rig& rig, const ClipLayer& layer);
 // normalised quaternion sum (nlerp); nodes none of them reaches keep their rest transform; morph
 // weights the same way. Then each overlay in order: what it moves is interpolated from what lies
 // below towards it by its weight (lerp, rotations slerp).
-Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose, std::vector<float>& shape_weights,
-                  std::vector<uint8_t>& shape_set);
+Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
+                  std::vector<float>& shape_weights, std::vector<uint8_t>& shape_set);
 
 }  // namespace facespace

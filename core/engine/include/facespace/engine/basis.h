@@ -13,21 +13,23 @@ namespace facespace {
 // The shapes' position displacements over the vertices any shape moves, as
 // D (3 x moved vertices, by shapes) ~= components * coefficients.
 struct ShapeBasis {
-  std::vector<uint32_t> vertices;   // Global vertex index (primitives in order) of each row triple.
-  Eigen::MatrixXf components;       // 3M x k, orthonormal columns.
-  Eigen::MatrixXf coefficients;     // k x N: shape j = components * coefficients.col(j).
+  std::vector<uint32_t> vertices;  // Global vertex index (primitives in order) of each row triple.
+  Eigen::MatrixXf components;      // 3M x k, orthonormal columns.
+  Eigen::MatrixXf coefficients;    // k x N: shape j = components * coefficients.col(j).
   std::vector<double> singular_values;  // All of them, descending.
 };
 
 struct BasisReport {
   size_t shapes = 0, moved_vertices = 0, components = 0;
-  double max_error = 0;             // Largest vertex distance between a shape (weight 1) and its reconstruction, mesh units.
-  double rms_error = 0;             // Over every moved vertex of every shape.
-  double diagonal = 0;              // Bounding-box diagonal, mesh units (errors relative to it are unit-free).
-  double energy_kept = 0;           // Sum of kept squared singular values / total.
-  size_t sparse_bytes = 0;          // As stored now: per moved vertex of a shape, a uint32 index and 3 floats.
-  size_t dense_bytes = 0;           // Every shape over every vertex, 3 floats.
-  size_t basis_bytes = 0;           // Components (3M x k floats), coefficients (k x N), vertex indices (M).
+  double max_error =
+      0;  // Largest vertex distance between a shape (weight 1) and its reconstruction, mesh units.
+  double rms_error = 0;  // Over every moved vertex of every shape.
+  double diagonal = 0;   // Bounding-box diagonal, mesh units (errors relative to it are unit-free).
+  double energy_kept = 0;  // Sum of kept squared singular values / total.
+  size_t sparse_bytes =
+      0;  // As stored now: per moved vertex of a shape, a uint32 index and 3 floats.
+  size_t dense_bytes = 0;  // Every shape over every vertex, 3 floats.
+  size_t basis_bytes = 0;  // Components (3M x k floats), coefficients (k x N), vertex indices (M).
 };
 
 // The fewest components whose reconstruction keeps every vertex of every shape within
@@ -36,8 +38,8 @@ Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport*
 
 struct QuantizeReport {
   int bits = 16;
-  double max_error = 0;             // Largest vertex distance, mesh units.
-  size_t bytes = 0;                 // uint32 index + 3 x bits per moved vertex, a float scale per target.
+  double max_error = 0;  // Largest vertex distance, mesh units.
+  size_t bytes = 0;      // uint32 index + 3 x bits per moved vertex, a float scale per target.
 };
 
 // Quantises every target's position deltas to signed `bits`-bit integers with one scale per

@@ -25,7 +25,8 @@ inline double BezierParameterAtX(double x0, double x1, double x2, double x3, dou
 }
 
 // The y of the curve where its x is `x`.
-inline double BezierYAtX(double x0, double x1, double x2, double x3, double y0, double y1, double y2, double y3, double x) {
+inline double BezierYAtX(double x0, double x1, double x2, double x3, double y0, double y1,
+                         double y2, double y3, double x) {
   return CubicBezier(y0, y1, y2, y3, BezierParameterAtX(x0, x1, x2, x3, x));
 }
 
@@ -34,9 +35,11 @@ inline double BezierYAtX(double x0, double x1, double x2, double x3, double y0, 
 inline std::array<double, 4> BezierPart(const std::array<double, 4>& p, double s0, double s1) {
   // Split at s1, keep the left; split that at s0 / s1, keep the right.
   const auto split = [](const std::array<double, 4>& q, double s, bool keep_left) {
-    const double a = q[0] + s * (q[1] - q[0]), b = q[1] + s * (q[2] - q[1]), c = q[2] + s * (q[3] - q[2]);
+    const double a = q[0] + s * (q[1] - q[0]), b = q[1] + s * (q[2] - q[1]),
+                 c = q[2] + s * (q[3] - q[2]);
     const double ab = a + s * (b - a), bc = b + s * (c - b), at = ab + s * (bc - ab);
-    return keep_left ? std::array<double, 4>{q[0], a, ab, at} : std::array<double, 4>{at, bc, c, q[3]};
+    return keep_left ? std::array<double, 4>{q[0], a, ab, at}
+                     : std::array<double, 4>{at, bc, c, q[3]};
   };
   const std::array<double, 4> l = s1 < 1.0 ? split(p, s1, true) : p;
   return s0 > 0.0 && s1 > 0.0 ? split(l, s0 / s1, false) : l;

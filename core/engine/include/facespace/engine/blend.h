@@ -17,7 +17,8 @@ enum class TargetChannel { kPosition, kNormal, kTangent };
 
 // A mesh's target weights from the rig's shape weights (target t is shape shapes[t]) into `out`,
 // resized; true when any is non-zero. EvaluateRig's and SparseBlend's gather.
-inline bool GatherTargetWeights(std::span<const float> weights, std::span<const uint32_t> shapes, std::vector<float>& out) {
+inline bool GatherTargetWeights(std::span<const float> weights, std::span<const uint32_t> shapes,
+                                std::vector<float>& out) {
   out.resize(shapes.size());
   bool active = false;
   for (size_t t = 0; t < shapes.size(); ++t) {
@@ -35,13 +36,18 @@ struct BlendShapeJob {
                           // target index is beyond the vertex count.
   bool Run() const;       // Calls Validate(); on false, out is left untouched.
 
-  std::span<const float> base;             // 3 floats per vertex.
-  std::span<const float> weights;          // One per target. Any finite value; not clamped.
-  std::span<const SparseTarget> targets;   // Finalized (runs built).
+  std::span<const float> base;            // 3 floats per vertex.
+  std::span<const float> weights;         // One per target. Any finite value; not clamped.
+  std::span<const SparseTarget> targets;  // Finalized (runs built).
   TargetChannel channel = TargetChannel::kPosition;
-  size_t stride = 3;                       // Floats between vertices in base and out (3 or 4).
-  std::span<float> out;                    // Same size as base. May alias base.
+  size_t stride = 3;     // Floats between vertices in base and out (3 or 4).
+  std::span<float> out;  // Same size as base. May alias base.
 };
+
+// A BlendShapeJob of these members, run: false, `out` untouched, when the targets do not fit.
+bool BlendChannel(std::span<const float> base, std::span<const float> weights,
+                  std::span<const SparseTarget> targets, TargetChannel channel, size_t stride,
+                  std::span<float> out);
 
 enum class BlendMode {
   kRelative,  // p = base + sum w_j (S_j - base): the glTF convention.
@@ -60,7 +66,8 @@ struct BlendOptions {
   BlendMode mode = BlendMode::kRelative;
   NormalMode normals = NormalMode::kBlend;
   const Pose* pose = nullptr;  // Skeleton pose (skeleton.h); nullptr: the rest pose.
-  bool dual_quaternion = false;  // Dual-quaternion skinning (keeps volume on twists) instead of linear.
+  bool dual_quaternion =
+      false;  // Dual-quaternion skinning (keeps volume on twists) instead of linear.
 };
 
 struct BlendedPrimitive {
@@ -69,15 +76,17 @@ struct BlendedPrimitive {
   std::vector<float> tangents;   // xyzw per vertex, or empty when the rig has none.
   std::vector<float> texcoords;  // uv per vertex when a shape moving UVs has a weight; else empty,
                                  // and the primitive's own hold (TexcoordsOf).
-  bool skinned = false;          // Positions are in scene space (glTF ignores the node's transform).
+  bool skinned = false;  // Positions are in scene space (glTF ignores the node's transform).
   std::vector<float> morphed_positions;  // Skinned only: the positions after morphing, before
                                          // skinning (mesh space), for displacement views.
-  std::array<float, 16> world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // Places the
-                                 // positions in the scene (identity when skinned), under the pose.
+  std::array<float, 16> world{
+      1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};  // Places the
+                                                        // positions in the scene (identity when
+                                                        // skinned), under the pose.
 };
 
 struct BlendedRig {
-  std::vector<BlendedPrimitive> primitives;  // Same order as Rig::primitives.
+  std::vector<BlendedPrimitive> primitives;       // Same order as Rig::primitives.
   std::vector<std::array<float, 16>> node_world;  // World matrix of every node under the pose.
   bool posed = false;                             // A pose other than the rest pose was given.
   // Per material, its base colour (RGBA) under the shapes' material morphs; empty when no shape
@@ -86,35 +95,39 @@ struct BlendedRig {
 };
 
 // The first UV set of `primitive` as blended: `blended`'s when a shape moved it, else its own.
-inline std::span<const float> TexcoordsOf(const Primitive& primitive, const BlendedPrimitive& blended) {
-  return blended.texcoords.empty() ? std::span<const float>(primitive.texcoords) : std::span<const float>(blended.texcoords);
+inline std::span<const float> TexcoordsOf(const Primitive& primitive,
+                                          const BlendedPrimitive& blended) {
+  return blended.texcoords.empty() ? std::span<const float>(primitive.texcoords)
+                                   : std::span<const float>(blended.texcoords);
 }
 
 // base + sum_t weights[t] * target[t]'s UV deltas (2 floats per vertex) into `out`; `out` is left
 // empty when no target of non-zero weight moves a UV (or `base` is empty). Indices must have been
 // checked against the vertex count (ValidateRig).
-void BlendTexcoords(std::span<const float> base, std::span<const float> weights, std::span<const SparseTarget> targets,
-                    std::vector<float>& out);
+void BlendTexcoords(std::span<const float> base, std::span<const float> weights,
+                    std::span<const SparseTarget> targets, std::vector<float>& out);
 
-// The materials' base colours under the material morphs of `weights` (MMD: diffuse times the texture
-// tint; exact for untextured materials, the tint's add approximated as a factor on a texture), into
-// `out` (one per material); `out` is left empty when no shape with material morphs has a weight.
-void MorphedMaterialColors(const Rig& rig, std::span<const float> weights, std::vector<std::array<float, 4>>& out);
+// The materials' base colours under the material morphs of `weights` (MMD: diffuse times the
+// texture tint; exact for untextured materials, the tint's add approximated as a factor on a
+// texture), into `out` (one per material); `out` is left empty when no shape with material morphs
+// has a weight.
+void MorphedMaterialColors(const Rig& rig, std::span<const float> weights,
+                           std::vector<std::array<float, 4>>& out);
 
 // Per-evaluation scratch, owned by the caller and reused between calls so that steady-state
 // evaluation does not allocate (as ozz's jobs take their context): once its vectors have grown
 // to a rig's sizes, EvaluateRig allocates nothing.
 struct BlendContext {
-  std::vector<int> node_order;        // World matrices: nodes, parents before children.
-  std::vector<int> mesh_node;         // Per mesh: the first node that shows it.
-  std::vector<float> target_weights;  // Per target of the current mesh.
-  std::vector<uint8_t> vertex_mark;   // Per vertex of the largest primitive.
-  std::vector<uint32_t> moved;        // Vertices moved by the active targets.
-  std::vector<float> joint_matrices;  // Skinning: 16 floats per joint of the current skin.
+  std::vector<int> node_order;                // World matrices: nodes, parents before children.
+  std::vector<int> mesh_node;                 // Per mesh: the first node that shows it.
+  std::vector<float> target_weights;          // Per target of the current mesh.
+  std::vector<uint8_t> vertex_mark;           // Per vertex of the largest primitive.
+  std::vector<uint32_t> moved;                // Vertices moved by the active targets.
+  std::vector<float> joint_matrices;          // Skinning: 16 floats per joint of the current skin.
   std::vector<float> joint_dual_quaternions;  // Skinning: 8 floats per joint, when asked.
-  BlendedPrimitive unskinned;         // Skinning: the morphed primitive before skinning.
-  std::vector<uint32_t> affected;     // Vertices whose normals are recomputed.
-  std::vector<float> effective;       // Shape weights after in-betweens and correctives.
+  BlendedPrimitive unskinned;                 // Skinning: the morphed primitive before skinning.
+  std::vector<uint32_t> affected;             // Vertices whose normals are recomputed.
+  std::vector<float> effective;               // Shape weights after in-betweens and correctives.
 };
 
 // The weights the shapes are blended with: the given (slider) weights, with in-between
@@ -133,7 +146,8 @@ Status EvaluateRig(const Rig& rig, std::span<const float> weights, const BlendOp
 
 // Area-weighted normal of vertex v (unnormalised): the sum of the cross products of the faces
 // around it in `primitive`'s adjacency, over `positions`.
-void VertexNormalSum(const Primitive& primitive, std::span<const float> positions, uint32_t v, float* n);
+void VertexNormalSum(const Primitive& primitive, std::span<const float> positions, uint32_t v,
+                     float* n);
 
 // Recomputes normals of the vertices around `moved` (vertex indices) from `positions`:
 // n = normalize(n_base + N(positions) - N(base positions)) where N is the area-weighted

@@ -38,11 +38,13 @@ const EnumName<E>& EnumEntry(const EnumName<E> (&table)[N], E value) {
   return table[0];
 }
 
-// Every canonical name, quoted, for an error naming the valid values: "\"depth\", \"normals\", ...".
+// Every canonical name, quoted, for an error naming the valid values: "\"depth\", \"normals\",
+// ...".
 template <typename E, size_t N>
 std::string EnumNames(const EnumName<E> (&table)[N]) {
   std::string names;
-  for (const EnumName<E>& e : table) names += (names.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
+  for (const EnumName<E>& e : table)
+    names += (names.empty() ? "\"" : ", \"") + std::string(e.name) + "\"";
   return names;
 }
 

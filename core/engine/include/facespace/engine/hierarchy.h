@@ -5,6 +5,7 @@
 #include <span>
 #include <string>
 #include <vector>
+
 #include "facespace/engine/rig.h"
 #include "facespace/engine/transform.h"
 
@@ -25,7 +26,8 @@ std::vector<std::array<float, 16>> WorldMatrices(const Rig& rig, const Pose& pos
 
 // The same into `world` (resized to the node count), under `pose` or, when null, the nodes' own
 // transforms (the rest pose). `order` is scratch: nothing allocates once both have grown.
-void WorldMatricesInto(const Rig& rig, const Pose* pose, std::vector<std::array<float, 16>>& world, std::vector<int>& order);
+void WorldMatricesInto(const Rig& rig, const Pose* pose, std::vector<std::array<float, 16>>& world,
+                       std::vector<int>& order);
 
 // Joint matrices of a skin: world(joint) * inverseBind(joint), 16 floats each.
 void JointMatrices(const Rig& rig, int skin, std::span<const std::array<float, 16>> world,

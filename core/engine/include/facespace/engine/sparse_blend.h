@@ -31,7 +31,8 @@ class SparseBlend {
   explicit SparseBlend(const Rig& rig, BlendedRig* rest = nullptr);
   bool ok() const { return ok_; }  // False: the rig is not served, and no point is.
 
-  // Whether a point can be blended this way: weights one per shape of the rig this was made from, finite.
+  // Whether a point can be blended this way: weights one per shape of the rig this was made from,
+  // finite.
   bool Accepts(const Rig& rig, std::span<const float> weights) const;
 
   enum class Outcome {
@@ -40,7 +41,8 @@ class SparseBlend {
     kDeclined,  // An active target without normal deltas: EvaluateRig recomputes normals there.
   };
   // Primitive `primitive` at `weights` (Accepts), as EvaluateRig blends it.
-  Outcome Blend(const Rig& rig, std::span<const float> weights, size_t primitive, Scratch& scratch) const;
+  Outcome Blend(const Rig& rig, std::span<const float> weights, size_t primitive,
+                Scratch& scratch) const;
 
  private:
   struct Targets {

@@ -17,8 +17,9 @@ enum class StatusCode {
   kFailedPrecondition,  // The input is well formed but cannot be used here.
   kResourceExhausted,   // A configured limit was exceeded.
   kStorageFull,         // The disk (or a quota) is full: retry when space is freed.
-  kCancelled,           // The work was stopped: its client left, its deadline passed, or the server is stopping.
-  kInternal,            // A bug on our side.
+  kCancelled,  // The work was stopped: its client left, its deadline passed, or the server is
+               // stopping.
+  kInternal,   // A bug on our side.
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -39,11 +40,11 @@ inline constexpr size_t kMaxFieldErrors = 20;
 
 struct Status {
   StatusCode code = StatusCode::kOk;
-  std::string message;            // One line, meant for people. Empty when ok.
+  std::string message;             // One line, meant for people. Empty when ok.
   std::vector<FieldError> fields;  // Offending fields, when the input is structured.
-  std::string reason;             // A stable slug naming the kind of problem ("invalid-weights"), for
-                                  // clients to switch on; empty: the code says enough.
-  size_t omitted = 0;             // Offending fields past kMaxFieldErrors, counted, not listed.
+  std::string reason;  // A stable slug naming the kind of problem ("invalid-weights"), for
+                       // clients to switch on; empty: the code says enough.
+  size_t omitted = 0;  // Offending fields past kMaxFieldErrors, counted, not listed.
 
   bool ok() const { return code == StatusCode::kOk; }
   static Status Ok() { return {}; }
@@ -51,29 +52,39 @@ struct Status {
   bool full() const { return fields.size() >= kMaxFieldErrors; }
   // Lists the field, or counts it once kMaxFieldErrors are listed.
   void AddField(std::string pointer, std::string field_message) {
-    if (full()) ++omitted;
-    else fields.push_back({std::move(pointer), std::move(field_message)});
+    if (full())
+      ++omitted;
+    else
+      fields.push_back({std::move(pointer), std::move(field_message)});
   }
   // The same with the message made only when it is listed (a costly one: a closest-name search).
   template <typename MakeMessage>
-    requires std::is_invocable_r_v<std::string, MakeMessage>
+  requires std::is_invocable_r_v<std::string, MakeMessage>
   void AddField(std::string pointer, MakeMessage&& make_message) {
-    if (full()) ++omitted;
-    else fields.push_back({std::move(pointer), make_message()});
+    if (full())
+      ++omitted;
+    else
+      fields.push_back({std::move(pointer), make_message()});
   }
   size_t field_count() const { return fields.size() + omitted; }
 };
 
+// A status of `code` with `message` (the factories below say which code means what).
+Status StatusOf(StatusCode code, std::string message);
 Status InvalidArgument(std::string message);
 Status NotFound(std::string message);
 Status FailedPrecondition(std::string message);
 Status ResourceExhausted(std::string message);
 Status Internal(std::string message);
 // Work stopped part way (a std::stop_token fired): nothing half-made is kept or sent.
-Status Cancelled(std::string message = "stopped: the client left, the deadline passed or the server is stopping");
-// An error of one field: the message "POINTER: MESSAGE" (just MESSAGE for the empty pointer), the field listed.
-Status InvalidField(const std::string& pointer, const std::string& message, StatusCode code = StatusCode::kInvalidArgument);
-// The same status with `prefix` before its message ("shapes.json: ..."): code, fields and reason kept.
+Status Cancelled(std::string message =
+                     "stopped: the client left, the deadline passed or the server is stopping");
+// An error of one field: the message "POINTER: MESSAGE" (just MESSAGE for the empty pointer), the
+// field listed.
+Status InvalidField(const std::string& pointer, const std::string& message,
+                    StatusCode code = StatusCode::kInvalidArgument);
+// The same status with `prefix` before its message ("shapes.json: ..."): code, fields and reason
+// kept.
 Status Prefixed(Status status, const std::string& prefix);
 // The same status with its reason set.
 Status WithReason(Status status, std::string reason);
@@ -85,7 +96,7 @@ Status WithInputReason(Status status, std::string reason);
 template <typename T>
 class Result {
  public:
-  Result(T value) : value_(std::move(value)) {}  // NOLINT: implicit by design.
+  Result(T value) : value_(std::move(value)) {}          // NOLINT: implicit by design.
   Result(Status status) : status_(std::move(status)) {}  // NOLINT: implicit by design.
 
   bool ok() const { return value_.has_value(); }
@@ -110,5 +121,9 @@ struct Warning {
   double value = 0.0;   // The number the warning is about (sum, weight); see has_value.
   bool has_value = false;
 };
+
+// A warning about `count` things (names repaired, binds dropped...): "COUNT what", the count its
+// value.
+Warning CountWarning(std::string code, size_t count, const std::string& what);
 
 }  // namespace facespace

@@ -22,9 +22,12 @@ std::array<float, 4> NormalizedQuaternion(std::array<float, 4> q);
 // Column-major 4x4 matrix of a TRS: T * R * S.
 std::array<float, 16> ComposeTrs(const Transform& t);
 
-// Column-major 4x4 `m` applied to (p, w): a point for w = 1, a direction for w = 0. out may not alias p.
-inline void TransformPoint(std::span<const float, 16> m, const float* p, float* out, float w = 1.0f) {
-  for (int r = 0; r < 3; ++r) out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
+// Column-major 4x4 `m` applied to (p, w): a point for w = 1, a direction for w = 0. out may not
+// alias p.
+inline void TransformPoint(std::span<const float, 16> m, const float* p, float* out,
+                           float w = 1.0f) {
+  for (int r = 0; r < 3; ++r)
+    out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
 }
 
 }  // namespace facespace

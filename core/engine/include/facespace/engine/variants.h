@@ -30,16 +30,16 @@ const char* SampleMethodName(SampleMethod method);
 struct SampleSpec {
   SampleMethod method = SampleMethod::kUniform;
   uint64_t seed = 0;
-  size_t count = 0;                   // Variants asked for (grid: rounded to steps^dims).
-  std::vector<uint32_t> shapes;       // Shapes varied; empty = every shape not fixed.
+  size_t count = 0;              // Variants asked for (grid: rounded to steps^dims).
+  std::vector<uint32_t> shapes;  // Shapes varied; empty = every shape not fixed.
   std::vector<std::pair<uint32_t, float>> fixed;  // Shapes held at a weight in every variant.
-  std::vector<float> center;          // Gaussian mean, one per shape; empty = default weights.
-  float spread = 0.1f;                // Gaussian standard deviation, in weight units.
+  std::vector<float> center;               // Gaussian mean, one per shape; empty = default weights.
+  float spread = 0.1f;                     // Gaussian standard deviation, in weight units.
   std::vector<std::vector<float>> points;  // Grid: 2 or 3 full weight vectors.
-  size_t active = 0;                  // Uniform/Gaussian/convex: only this many of the varied
-                                      // shapes (picked at random per variant) move; 0 = all.
-  bool symmetric = false;             // A varied shape's symmetric partner takes its weight.
-  bool sum_at_most_one = false;       // Scale the varied positive weights so the sum stays <= 1.
+  size_t active = 0;                       // Uniform/Gaussian/convex: only this many of the varied
+                                           // shapes (picked at random per variant) move; 0 = all.
+  bool symmetric = false;                  // A varied shape's symmetric partner takes its weight.
+  bool sum_at_most_one = false;  // Scale the varied positive weights so the sum stays <= 1.
 };
 
 // Checks the spec against the rig (indices, sizes, finite numbers). Errors name the field.

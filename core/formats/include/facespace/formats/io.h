@@ -5,13 +5,13 @@
 #include <memory>
 #include <span>
 #include <string>
-#include <utility>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "facespace/engine/blend.h"
-#include "facespace/engine/sparse_blend.h"
 #include "facespace/engine/rig.h"
+#include "facespace/engine/sparse_blend.h"
 #include "facespace/engine/status.h"
 #include "facespace/engine/weights.h"
 
@@ -54,7 +54,8 @@ struct MakeHumanOptions {
 // kept face uses are dropped, order preserved (hm08's body is vertices 0-13379: unchanged).
 // Each of `target_dirs` is read recursively, files sorted by path; a shape's group is its
 // sub-folder, or the folder's own name for files directly in it.
-Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs, const MakeHumanOptions& options);
+Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::string> target_dirs,
+                          const MakeHumanOptions& options);
 
 // Controls from MakeHuman's modeling_modifiers.json: [{"group", "modifiers": [{"target",
 // "min", "max"}]}]. A modifier with min/max is a two-sided control "group/target-min|max" in
@@ -92,40 +93,45 @@ Result<Rig> LoadFbxMemory(std::span<const unsigned char> bytes, const std::strin
 Result<Rig> LoadColladaMemory(std::span<const unsigned char> bytes, const std::string& name);
 
 // MikuMikuDance PMX 2.0/2.1 (see core/README.md "MMD"): vertices with BDEF1/2/4 skinning, faces per
-// material, bones and one skin, vertex morphs (and group morphs baked) as shapes named in Japanese with
-// the English names as aliases. Converted once to right-handed metres: (x, y, -z) x 0.08.
+// material, bones and one skin, vertex morphs (and group morphs baked) as shapes named in Japanese
+// with the English names as aliases. Converted once to right-handed metres: (x, y, -z) x 0.08.
 Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::string& name);
-// PMD, the MMD model format before PMX: the same rig (BDEF2 skinning; expressions from the base-skin layout,
-// Shift-JIS names, English names as aliases when the file has them).
+// PMD, the MMD model format before PMX: the same rig (BDEF2 skinning; expressions from the
+// base-skin layout, Shift-JIS names, English names as aliases when the file has them).
 Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::string& name);
-// A VMD motion as a clip of `rig` (a PMX/PMD model or one converted from it): bone keys matched to nodes and
-// morph keys to shapes (or aliases) by Shift-JIS names cut to 15 bytes; bone keys sampled through their
-// Bezier curves at 60 a second (straight segments keep their keys), morph keys linear. Names matching nothing are a `motion_names_unmatched`
-// warning appended to `warnings`; a motion matching nothing is an error.
-Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig, const std::string& clip_name, std::vector<Warning>* warnings);
+// A VMD motion as a clip of `rig` (a PMX/PMD model or one converted from it): bone keys matched to
+// nodes and morph keys to shapes (or aliases) by Shift-JIS names cut to 15 bytes; bone keys sampled
+// through their Bezier curves at 60 a second (straight segments keep their keys), morph keys
+// linear. Names matching nothing are a `motion_names_unmatched` warning appended to `warnings`; a
+// motion matching nothing is an error.
+Result<AnimationInfo> LoadVmdMemory(std::span<const unsigned char> bytes, const Rig& rig,
+                                    const std::string& clip_name, std::vector<Warning>* warnings);
 // A new image of `rig` for the file at `path` in a model's folder (no bytes yet), with its
 // `texture_not_loaded` warning until LoadImagesBeside reads it; returns its index.
 int AddImageBeside(Rig& rig, const std::string& path);
-// Reads the rig's images that have a path but no bytes (MMD and COLLADA textures) from the folder of `model_path`:
-// paths stay inside that folder (no absolute paths, no ".."; letter case forgiven, as Windows tools
-// write them), at most 64 MiB each, PNG, JPEG, BMP or TGA (mime type from the magic, TGA by its
-// extension). Each image read drops its `texture_not_loaded` warning; the others keep it, saying why.
+// Reads the rig's images that have a path but no bytes (MMD and COLLADA textures) from the folder
+// of `model_path`: paths stay inside that folder (no absolute paths, no ".."; letter case forgiven,
+// as Windows tools write them), at most 64 MiB each, PNG, JPEG, BMP or TGA (mime type from the
+// magic, TGA by its extension). Each image read drops its `texture_not_loaded` warning; the others
+// keep it, saying why.
 void LoadImagesBeside(Rig& rig, const std::string& model_path);
-// Every .vmd beside `model_path` and in its motion/ folder as a clip of `rig`, named by file stem (a name
-// already taken is kept); a motion that fails is an `animation_skipped` warning.
+// Every .vmd beside `model_path` and in its motion/ folder as a clip of `rig`, named by file stem
+// (a name already taken is kept); a motion that fails is an `animation_skipped` warning.
 void AddVmdMotions(Rig& rig, const std::string& model_path);
 
 // The formats a rig comes in, and how to tell them: by file extension, or by the bytes' magic.
 enum class RigFormat { kGlb, kGltf, kFbx, kCollada, kMd5, kPmx, kPmd };
 bool RigFormatFromPath(const std::string& path, RigFormat* format);
 bool SniffRigFormat(std::span<const unsigned char> bytes, RigFormat* format);
-const char* RigFormatExtension(RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh", ".pmx", ".pmd"
+const char* RigFormatExtension(
+    RigFormat format);  // ".glb", ".gltf", ".fbx", ".dae", ".md5mesh", ".pmx", ".pmd"
 // A rig from bytes of a known format (never reads other files: no external buffers, manifests or
 // .md5anim clips). `name` names the rig.
-Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format, const std::string& name);
+Result<Rig> LoadRigMemory(std::span<const unsigned char> bytes, RigFormat format,
+                          const std::string& name);
 
-// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, .pmx/.pmd (with the .vmd motions beside it and in
-// its motion/ folder), or .obj (a single OBJ is a rig without shapes).
+// Loads a rig from a path: .glb/.gltf, .md5mesh, .fbx, .dae, .pmx/.pmd (with the .vmd motions
+// beside it and in its motion/ folder), or .obj (a single OBJ is a rig without shapes).
 Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options = {});
 
 // Applies a manifest (JSON text, schema in README "Manifest") to the rig's shapes.
@@ -134,8 +140,9 @@ Status ApplyManifest(Rig& rig, const std::string& json_text);
 // document's Manifest schema names the same (a test compares them).
 std::vector<std::string_view> ManifestMembers();
 
-// kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm (export/vrm.cpp);
-// kVrm0: the same as VRM 0.x (its "VRM" extension, turned to face -z: export/vrm0.cpp).
+// kVrm: a glb of the rig itself (as glb with keep_targets) at rest, with VRM 1.0's VRMC_vrm
+// (export/vrm.cpp); kVrm0: the same as VRM 0.x (its "VRM" extension, turned to face -z:
+// export/vrm0.cpp).
 enum class MeshFormat { kGlb, kObj, kJson, kF32, kVrm, kVrm0 };
 
 // "glb", "obj", "json", "f32", "vrm", "vrm0" -> format; false when unknown.
@@ -147,7 +154,8 @@ struct ExportOptions {
   // glb only: write the rig itself (base shape and sparse targets) with the weights as the
   // mesh's default `weights`, instead of the blended mesh, for clients that morph on the GPU.
   bool keep_targets = false;
-  bool clips = true;  // With keep_targets: the rig's clips too (a VRM leaves them out: apps bring their motions).
+  bool clips = true;  // With keep_targets: the rig's clips too (a VRM leaves them out: apps bring
+                      // their motions).
   // JSON, OBJ and f32: positions and normals as each mesh stores them (before its node's
   // transform, still in a quantized mesh's units) instead of world space. glb carries its nodes
   // and is the same either way.
@@ -167,9 +175,8 @@ struct ExportOptions {
 //         normals (xyz), primitives in the JSON order.
 //   glb:  the node hierarchy, materials and textures, with the blended mesh (or the rig).
 Result<std::string> ExportMesh(const Rig& rig, const BlendedRig& blended,
-                               std::span<const float> weights,
-                               std::span<const Warning> warnings, MeshFormat format,
-                               const ExportOptions& options = {});
+                               std::span<const float> weights, std::span<const Warning> warnings,
+                               MeshFormat format, const ExportOptions& options = {});
 
 struct GlbTemplate;  // GlbVariantWriter's kept export (export.cpp).
 
@@ -177,9 +184,10 @@ struct GlbTemplate;  // GlbVariantWriter's kept export (export.cpp).
 // fraction of its cost (as ozz's jobs keep their buffers between calls): the first call exports
 // through ExportMesh and keeps the result as a template; later calls patch only what a variant
 // changes (asset extras, the POSITION bounds, posed node matrices) and copy positions, normals and
-// tangents (and UVs, when UV morphs move them) into the kept binary chunk, whose other bytes (indices, UVs, colours, images) are
-// written once. A change of shape (another rig, posed or not, skinned or not) rebuilds the
-// template. With options.keep_targets nothing varies with the blend: each call is ExportMesh.
+// tangents (and UVs, when UV morphs move them) into the kept binary chunk, whose other bytes
+// (indices, UVs, colours, images) are written once. A change of shape (another rig, posed or not,
+// skinned or not) rebuilds the template. With options.keep_targets nothing varies with the blend:
+// each call is ExportMesh.
 class GlbVariantWriter {
  public:
   GlbVariantWriter();
@@ -212,13 +220,15 @@ class F32Writer {
   bool mesh_space() const { return mesh_space_; }
   // The body at `weights` (one per rig shape) into `out`, every byte of it written: a used body of
   // the same size is written over with no allocation. False: not served (see above).
-  bool Write(const Rig& rig, std::span<const float> weights, Scratch& scratch, std::string& out) const;
+  bool Write(const Rig& rig, std::span<const float> weights, Scratch& scratch,
+             std::string& out) const;
 
  private:
   F32Writer(const Rig& rig, bool mesh_space, BlendedRig&& rest);
   struct Placed {
-    std::array<float, 16> placement{};  // Its node's transform at rest, or the identity in mesh space.
-    size_t at = 0, normals_at = 0;      // Byte offsets of its positions and its normals in a body.
+    std::array<float, 16>
+        placement{};                // Its node's transform at rest, or the identity in mesh space.
+    size_t at = 0, normals_at = 0;  // Byte offsets of its positions and its normals in a body.
   };
   bool mesh_space_;
   bool ok_ = false;
@@ -237,8 +247,8 @@ void WorldPositions(const BlendedRig& blended, std::vector<float>& out);
 // JSON text of one warning list: [{"code", "message", "shape"?, "value"?}, ...].
 std::string WarningsToJson(std::span<const Warning> warnings);
 
-// `s` as a JSON string (invalid UTF-8 replaced), for the bodies written as text where nlohmann would
-// cost more than the body (per-frame JSON of sequences and meshes).
+// `s` as a JSON string (invalid UTF-8 replaced), for the bodies written as text where nlohmann
+// would cost more than the body (per-frame JSON of sequences and meshes).
 std::string JsonString(const std::string& s);
 
 }  // namespace facespace

@@ -16,6 +16,8 @@ struct VideoOptions {
   double fps = 30.0;              // 1 to 120.
   int crf = 32;                   // VP9's constant quality, 0 (best) to 63.
   int threads = 1;                // Encoder threads.
+  // Where the frames' conversion helpers' CPU is charged (facespace/engine/cpu.h); null: nowhere.
+  HelperCpu* helper_cpu = nullptr;
 };
 
 class WebmEncoder {
@@ -24,10 +26,11 @@ class WebmEncoder {
   WebmEncoder(const WebmEncoder&) = delete;
   WebmEncoder& operator=(const WebmEncoder&) = delete;
 
-  // An encoder with the whole audio already in (Opus, resampled to 48 kHz); `audio` may be empty (no
-  // audio track). Errors: options out of range (InvalidArgument naming /width, /height or /fps), a
-  // codec missing from libavcodec (Internal).
-  static Result<std::unique_ptr<WebmEncoder>> Start(const VideoOptions& options, std::span<const float> audio, int audio_rate);
+  // An encoder with the whole audio already in (Opus, resampled to 48 kHz); `audio` may be empty
+  // (no audio track). Errors: options out of range (InvalidArgument naming /width, /height or
+  // /fps), a codec missing from libavcodec (Internal).
+  static Result<std::unique_ptr<WebmEncoder>> Start(const VideoOptions& options,
+                                                    std::span<const float> audio, int audio_rate);
 
   // The next frame, options.width x options.height (8-bit or float; alpha composited over white).
   Status Add(const Image& frame);

@@ -14,13 +14,14 @@ namespace facespace::render::oiio {
 
 struct EncodeArgs {
   const char* name = nullptr;  // "image.<ext>": the extension picks the writer.
-  bool to_file = false;        // Write the file `name` itself rather than through memory (TIFF, see image.cpp).
+  bool to_file =
+      false;  // Write the file `name` itself rather than through memory (TIFF, see image.cpp).
   int width = 0, height = 0;
   int channels = 4;
-  const float* linear = nullptr;          // RGBA, linear: written as half floats (EXR);
-  const unsigned char* srgb8 = nullptr;   // else `channels` 8-bit sRGB values a pixel.
-  int quality = 0;                        // JPEG quality, 1-100, when > 0.
-  bool zip = false;                       // zip compression (TIFF, EXR).
+  const float* linear = nullptr;         // RGBA, linear: written as half floats (EXR);
+  const unsigned char* srgb8 = nullptr;  // else `channels` 8-bit sRGB values a pixel.
+  int quality = 0;                       // JPEG quality, 1-100, when > 0.
+  bool zip = false;                      // zip compression (TIFF, EXR).
 };
 
 struct Decoded {
@@ -30,16 +31,17 @@ struct Decoded {
 
 struct Api {
   bool (*encode)(const EncodeArgs& args, std::vector<unsigned char>* out, std::string* error);
-  // False with the message for the client ("image size out of range", "cannot decode the image: ...");
-  // an image with a side over `max_side` is refused before its pixels are read.
-  bool (*decode)(const unsigned char* bytes, size_t size, const char* name, int max_side, Decoded* out, std::string* error);
+  // False with the message for the client ("image size out of range", "cannot decode the image:
+  // ..."); an image with a side over `max_side` is refused before its pixels are read.
+  bool (*decode)(const unsigned char* bytes, size_t size, const char* name, int max_side,
+                 Decoded* out, std::string* error);
 };
 
 // The module, loaded once (thread-safe); nullptr with the reason in `error` when it cannot be.
 const Api* Load(std::string* error);
 
-// Where Load will find the module, without loading it (OpenImageIO's start-up cost); empty when it is
-// in neither place.
+// Where Load will find the module, without loading it (OpenImageIO's start-up cost); empty when it
+// is in neither place.
 std::string Locate();
 
 }  // namespace facespace::render::oiio
