@@ -568,6 +568,4 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended,
 
 }  // namespace writers
 
-using writers::ExportGlb;
-
 }  // namespace facespace

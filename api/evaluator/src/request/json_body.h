@@ -85,7 +85,8 @@ Result<json> ParseObject(std::string_view body, BodyLimits limits);
 
 // `body` parsed within `limits`, and member(key, value) called for each of its members in turn (it
 // adds what it refuses to the reader's errors): the parse's own error (malformed JSON, over the
-// limits, a member given twice), else OK. Every request body is read through it.
+// limits, a member given twice), else OK. Every body reader but fit's (which reads its
+// document whole first) walks its members through it.
 template <typename Fn>
 Status ReadMembers(std::string_view body, BodyLimits limits, Fn member) {
   auto j = ParseObject(body, limits);

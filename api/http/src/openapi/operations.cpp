@@ -1,11 +1,5 @@
 // The document's operations, by path, in groups of routes; document.cpp keeps those the route table
 // lists (and stops the server if one is missing).
-#include <cstdio>
-#include <cstdlib>
-
-#include "../http/query_params.h"
-#include "facespace/engine/speech.h"
-#include "facespace/evaluator/members.h"
 #include "openapi.h"
 #include "parts.h"
 

@@ -140,11 +140,12 @@ class FaceSession final : public LiveHandler {
   }
 
   double TakeHelperCpu() override {
-    return (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu() + helper_cpu_.Take();
+    return (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu();
   }
 
   bool MakeFrame(std::string& message, Out& out) override {
-    auto ws = ctx_.workspaces.Acquire(stop_.get_token(), &helper_cpu_);
+    auto ws =
+        ctx_.workspaces.Acquire(stop_.get_token(), nullptr);  // f32 frames: no helper threads.
     ctx_.metrics.CountBlends(1);
     auto enc = ctx_.evaluator.Run(rig_, point_, OutputSpec::Mesh(request_, MeshFormat::kF32), *ws);
     if (!enc.ok()) {
@@ -338,7 +339,6 @@ class FaceSession final : public LiveHandler {
   uint32_t frame_ = 0, last_id_ = 0;
   json last_warnings_ = json::array();
   std::stop_source stop_;
-  HelperCpu helper_cpu_;  // What helper threads spent for its frames, taken each turn.
   LiveWake wake_;
   // While listening: a decoder and a thread of its own. Set and reset by turns under listener_mu_,
   // which Cancel takes from the hub's loop; turns read it without.
