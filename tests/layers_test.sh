@@ -25,6 +25,18 @@ check() {
   local stray
   stray=$(find "$folder" -path "$folder/include/*" -name '*.h' ! -path "$folder/include/facespace/$name/*")
   if [ -n "$stray" ]; then echo "FAIL $folder: headers outside include/facespace/$name: $stray"; fail=1; fi
+  # Its namespace is its name: facespace::NAME (or one nested in it). The engine's is inline, as its
+  # names (Rig, Status, Weights) are the vocabulary every library speaks: facespace::engine::Rig,
+  # written Rig; every other library's names are qualified where they are used (formats::LoadGltf).
+  local want="facespace::$name" wrong
+  if [ "$name" = engine ]; then  # namespace facespace { inline namespace engine {
+    want="facespace { inline namespace engine"
+    wrong=$(grep -rnE '^\s*namespace facespace' "$folder" --include=*.cpp --include=*.h | grep -vE 'namespace facespace \{$'
+            grep -rLE '^inline namespace engine \{$' "$folder" --include=*.cpp --include=*.h | xargs -r grep -lE '^namespace facespace \{$')
+  else
+    wrong=$(grep -rnE '^\s*namespace facespace' "$folder" --include=*.cpp --include=*.h | grep -vE "namespace $want( \{|::)")
+  fi
+  if [ -n "$wrong" ]; then echo "FAIL $folder: a namespace other than $want:"; echo "$wrong" | sed 's/^/  /'; fail=1; fi
 }
 # core
 check core/engine 'engine'

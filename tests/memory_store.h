@@ -14,28 +14,28 @@
 
 namespace facespace::test {
 
-class MemoryStore : public facespace::api::RigStore {
+class MemoryStore : public facespace::evaluator::RigStore {
  public:
-  std::shared_ptr<const facespace::api::StoredRig> Get(const std::string& id) const override {
+  std::shared_ptr<const facespace::evaluator::StoredRig> Get(const std::string& id) const override {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = rigs_.find(id);
     return it == rigs_.end() ? nullptr : it->second;
   }
-  std::vector<std::shared_ptr<const facespace::api::StoredRig>> List() const override {
+  std::vector<std::shared_ptr<const facespace::evaluator::StoredRig>> List() const override {
     std::lock_guard<std::mutex> lock(mu_);
-    std::vector<std::shared_ptr<const facespace::api::StoredRig>> out;
+    std::vector<std::shared_ptr<const facespace::evaluator::StoredRig>> out;
     for (const auto& [id, r] : rigs_) out.push_back(r);
     return out;
   }
   facespace::Status Put(const std::string& id, std::span<const unsigned char> bytes,
-                        facespace::RigFormat format, const std::string& manifest,
+                        facespace::formats::RigFormat format, const std::string& manifest,
                         bool* created) override {
-    auto rig = facespace::api::LoadUpload(id, bytes, format, manifest);
+    auto rig = facespace::evaluator::LoadUpload(id, bytes, format, manifest);
     if (!rig.ok()) return rig.status();
-    auto stored = std::make_shared<facespace::api::StoredRig>();
+    auto stored = std::make_shared<facespace::evaluator::StoredRig>();
     stored->id = id;
     stored->rig = std::move(rig.value());
-    stored->version = facespace::api::RigVersion(bytes, manifest);
+    stored->version = facespace::evaluator::RigVersion(bytes, manifest);
     std::lock_guard<std::mutex> lock(mu_);
     *created = !rigs_.count(id);
     if (rigs_.size() < 4 || !*created) {  // Bounded, so a long run does not grow.
@@ -48,12 +48,12 @@ class MemoryStore : public facespace::api::RigStore {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = files_.find(id);
     if (it == files_.end()) return facespace::NotFound("no uploaded rig '" + id + "'");
-    auto rig = facespace::api::LoadUpload(id, it->second.first, it->second.second, manifest);
+    auto rig = facespace::evaluator::LoadUpload(id, it->second.first, it->second.second, manifest);
     if (!rig.ok()) return rig.status();
-    auto stored = std::make_shared<facespace::api::StoredRig>();
+    auto stored = std::make_shared<facespace::evaluator::StoredRig>();
     stored->id = id;
     stored->rig = std::move(rig.value());
-    stored->version = facespace::api::RigVersion(it->second.first, manifest);
+    stored->version = facespace::evaluator::RigVersion(it->second.first, manifest);
     rigs_[id] = stored;
     return facespace::Status::Ok();
   }
@@ -64,8 +64,8 @@ class MemoryStore : public facespace::api::RigStore {
     return facespace::Status::Ok();
   }
   void Seed() {
-    auto rig = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb");
-    auto stored = std::make_shared<facespace::api::StoredRig>();
+    auto rig = facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb");
+    auto stored = std::make_shared<facespace::evaluator::StoredRig>();
     stored->id = "facecap";
     stored->rig = std::move(rig.value());
     stored->version = "1";
@@ -74,8 +74,8 @@ class MemoryStore : public facespace::api::RigStore {
 
  private:
   mutable std::mutex mu_;
-  std::map<std::string, std::shared_ptr<const facespace::api::StoredRig>> rigs_;
-  std::map<std::string, std::pair<std::vector<unsigned char>, facespace::RigFormat>>
+  std::map<std::string, std::shared_ptr<const facespace::evaluator::StoredRig>> rigs_;
+  std::map<std::string, std::pair<std::vector<unsigned char>, facespace::formats::RigFormat>>
       files_;  // Uploads.
 };
 

@@ -7,9 +7,9 @@
 
 namespace facespace::lipsync {
 
-using namespace api;  // The evaluator's points, specs and sequences.
+using namespace evaluator;  // The evaluator's points, specs and sequences.
 
-Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request,
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const evaluator::SpeechRequest& request,
                               const std::stop_token& stop) {
   if (Status s = CanSpeak(rig); !s.ok()) return s;
   SpeechPlan plan;
@@ -40,7 +40,7 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request,
   }
   plan.visemes = VisemesOfUtterance(plan.phonemes, plan.audio.seconds());
   // The face under the speech.
-  ResolvedPoint base;
+  evaluator::ResolvedPoint base;
   if (Status s = ResolvePoint(rig, request.render.mesh, base); !s.ok()) return s;
   plan.warnings.insert(plan.warnings.end(), base.report.warnings.begin(),
                        base.report.warnings.end());
@@ -48,8 +48,8 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const SpeechRequest& request,
   options.min_hold = 1.0f / request.fps;
   options.strength = request.strength;
   plan.sequence = SpeechSequence(rig, plan.visemes, base.weights, options);
-  AttachFace(rig, request.gaze, request.blink, request.blink_per_minute, request.blink_seed,
-             plan.sequence);
+  evaluator::AttachFace(rig, request.gaze, request.blink, request.blink_per_minute,
+                        request.blink_seed, plan.sequence);
   return plan;
 }
 
@@ -79,15 +79,15 @@ std::vector<Warning> SpeechWarnings(const SpeechPlan& plan) {
 }
 
 std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio) {
-  std::string out = "{\"source\":" + JsonString(plan.source);
-  if (!plan.voice.empty()) out += ",\"voice\":" + JsonString(plan.voice);
+  std::string out = "{\"source\":" + formats::JsonString(plan.source);
+  if (!plan.voice.empty()) out += ",\"voice\":" + formats::JsonString(plan.voice);
   out += ",\"duration\":" + FormatNumber(plan.audio.seconds()) + ",\"fps\":" + FormatNumber(fps) +
-         ",\"frames\":" + std::to_string(FrameCount(plan.sequence, fps));
+         ",\"frames\":" + std::to_string(evaluator::FrameCount(plan.sequence, fps));
   if (plan.source != "espeak-ng") out += ",\"voiced_seconds\":" + FormatNumber(plan.voiced_seconds);
   out += ",\"phonemes\":[";
   for (size_t i = 0; i < plan.phonemes.size(); ++i) {
     const TimedPhoneme& p = plan.phonemes[i];
-    out += std::string(i ? "," : "") + "{\"name\":" + JsonString(p.name) +
+    out += std::string(i ? "," : "") + "{\"name\":" + formats::JsonString(p.name) +
            ",\"start\":" + FormatNumber(p.start) + ",\"end\":" + FormatNumber(p.end) + "}";
   }
   out += "],\"visemes\":[";
@@ -96,31 +96,32 @@ std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool w
     out += std::string(i ? "," : "") + "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) +
            "\",\"start\":" + FormatNumber(v.start) + ",\"end\":" + FormatNumber(v.end) + "}";
   }
-  out += "],\"keys\":" + SequenceKeysJson(rig, plan.sequence) +
-         ",\"transition\":" + JsonString(TransitionName(plan.sequence.transition));
-  out += ",\"warnings\":" + WarningsToJson(SpeechWarnings(plan));
+  out += "],\"keys\":" + evaluator::SequenceKeysJson(rig, plan.sequence) +
+         ",\"transition\":" + formats::JsonString(TransitionName(plan.sequence.transition));
+  out += ",\"warnings\":" + formats::WarningsToJson(SpeechWarnings(plan));
   if (with_audio) out += ",\"audio_wav\":\"" + Base64(speech::WriteWav(plan.audio)) + "\"";
   out += "}\n";
   return out;
 }
 
-Result<std::string> SpeechVideo(const Evaluator& evaluator,
-                                const std::shared_ptr<const StoredRig>& stored,
-                                const SpeechPlan& plan, const SpeechRequest& request, Workspace& ws,
+Result<std::string> SpeechVideo(const evaluator::Evaluator& evaluator,
+                                const std::shared_ptr<const evaluator::StoredRig>& stored,
+                                const SpeechPlan& plan, const evaluator::SpeechRequest& request,
+                                evaluator::Workspace& ws,
                                 const std::function<void(size_t)>& on_frame) {
-  render::VideoOptions video;
+  offscreen::VideoOptions video;
   video.width = request.render.render.width;
   video.height = request.render.render.height;
   video.fps = request.fps;
   video.helper_cpu = ws.helper_cpu;
-  auto encoder = render::WebmEncoder::Start(video, plan.audio.samples, plan.audio.rate);
+  auto encoder = offscreen::WebmEncoder::Start(video, plan.audio.samples, plan.audio.rate);
   if (!encoder.ok()) return encoder.status();
   const Rig& rig = stored->rig;
   const Sequence& seq = plan.sequence;
-  const OutputSpec spec = OutputSpec::Pixels(request.render);
-  SequencePhysics physics(rig, seq);
-  ResolvedPoint point;
-  const size_t frames = FrameCount(seq, request.fps);
+  const evaluator::OutputSpec spec = evaluator::OutputSpec::Pixels(request.render);
+  evaluator::SequencePhysics physics(rig, seq);
+  evaluator::ResolvedPoint point;
+  const size_t frames = evaluator::FrameCount(seq, request.fps);
   const float start = seq.keys.empty() ? 0.0f : seq.keys.front().time;
   for (size_t i = 0; i < frames; ++i) {
     if (ws.stop.stop_requested()) return Cancelled();

@@ -9,7 +9,7 @@
 #include <cstring>
 #include <ctime>
 
-namespace facespace {
+namespace facespace::files {
 
 Status WriteError(const std::string& doing, int e) {
   const bool full = e == ENOSPC || e == EDQUOT || e == EFBIG;
@@ -145,4 +145,4 @@ Status WriteFileDurably(const std::filesystem::path& dir, const std::string& nam
   return Status::Ok();
 }
 
-}  // namespace facespace
+}  // namespace facespace::files

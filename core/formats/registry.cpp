@@ -13,7 +13,7 @@
 #include "facespace/formats/io.h"
 #include "fbx/fbx_tree.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -267,4 +267,4 @@ Result<Rig> LoadRigFile(const std::string& path, const LoadOptions& options) {
   return rig;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

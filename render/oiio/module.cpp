@@ -8,7 +8,7 @@
 #include <memory>
 #include <mutex>
 
-namespace facespace::render::oiio {
+namespace facespace::oiio {
 
 namespace {
 
@@ -73,18 +73,18 @@ constexpr Api kApi{Encode, Decode};
 
 }  // namespace
 
-}  // namespace facespace::render::oiio
+}  // namespace facespace::oiio
 
 // OpenImageIO and OpenEXR work on the calling thread (issue 61): their pools' threads (one per core
 // each) spent a sheet's EXR compression where the request's meter did not see it (1.2 CPU-s of an
 // EXR sheet's 6). A render or sheet is one request's work on one worker; requests run side by side
 // already.
-extern "C" const facespace::render::oiio::Api* facespace_oiio_api() {
+extern "C" const facespace::oiio::Api* facespace_oiio_api() {
   static const bool single = [] {
     OIIO::attribute("threads", 1);
     OIIO::attribute("exr_threads", -1);  // -1: OpenEXR without a thread pool.
     return true;
   }();
   (void)single;
-  return &facespace::render::oiio::kApi;
+  return &facespace::oiio::kApi;
 }

@@ -22,7 +22,7 @@ namespace {
 // randomize.background.images: the folder's pictures, decoded on this thread before any worker
 // starts (Decode opens the image module here, as render.h asks; its threads then keep the run from
 // forking makers, maker.h, and the run makes its samples with threads).
-Status LoadBackgrounds(batch::BatchPlan& plan, const render::Renderer& renderer) {
+Status LoadBackgrounds(batch::BatchPlan& plan, const picture::Renderer& renderer) {
   if (plan.request.dataset.randomize.background_images.empty()) return Status::Ok();
   return batch::LoadBackgroundImages(plan, renderer);
 }
@@ -142,14 +142,14 @@ int Merge(const std::vector<std::string>& args) {
   Result<Rig> rig = LoadAndReport(rig_paths);
   if (!rig.ok()) return 1;
   auto plan = batch::MakeBatchPlan(
-      api::Unstored(std::move(rig.value()), spec["rig_version"].get<std::string>()),
+      evaluator::Unstored(std::move(rig.value()), spec["rig_version"].get<std::string>()),
       spec["request"].dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
     return 1;
   }
-  const render::OsMesaRenderer renderer(0);
-  const api::Evaluator evaluator(renderer);
+  const offscreen::OsMesaRenderer renderer(0);
+  const evaluator::Evaluator evaluator(renderer);
   if (Status s = LoadBackgrounds(plan.value(), renderer); !s.ok()) {
     PrintStatus(s);
     return 1;
@@ -488,14 +488,14 @@ int RunBatch(BatchArgs& a) {
   const bool sheet = a.run.sheet_cells > 0;
   if (!rig->images.empty() && pictures) {
     a.run.before_threads = [sheet](bool makers) {
-      if (!makers || sheet) render::OpenImageModule();
+      if (!makers || sheet) offscreen::OpenImageModule();
     };
   }
   std::string bytes;
   ReadFile(a.paths[0], bytes);
   const std::string_view whole[] = {bytes};
   auto plan = batch::MakeBatchPlan(
-      api::Unstored(std::move(rig.value()), batch::Sha256Hex(whole)),
+      evaluator::Unstored(std::move(rig.value()), batch::Sha256Hex(whole)),
       a.request.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!plan.ok()) {
     PrintStatus(plan.status());
@@ -506,8 +506,8 @@ int RunBatch(BatchArgs& a) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   ProgressBar bar;
-  const render::OsMesaRenderer renderer(a.run.jobs);
-  const api::Evaluator evaluator(renderer);
+  const offscreen::OsMesaRenderer renderer(a.run.jobs);
+  const evaluator::Evaluator evaluator(renderer);
   if (Status s = LoadBackgrounds(plan.value(), renderer); !s.ok()) {
     PrintStatus(s);
     return 2;

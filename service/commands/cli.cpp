@@ -40,10 +40,10 @@ Result<Rig> LoadFromArgs(const std::vector<std::string>& paths) {
                                "' is not an .obj (only OBJ sequences take several)");
       }
     }
-    if (paths.size() == 1) return LoadRigFile(paths[0]);
-    return LoadObjSequence(paths);
+    if (paths.size() == 1) return formats::LoadRigFile(paths[0]);
+    return formats::LoadObjSequence(paths);
   }
-  return LoadRigFile(paths[0]);
+  return formats::LoadRigFile(paths[0]);
 }
 
 }  // namespace
@@ -146,7 +146,7 @@ int Info(const std::vector<std::string>& args) {
   if (!loaded.ok()) return 1;
   const Rig& rig = loaded.value();
   if (as_json) {  // The rig route's document (without the store's id and version).
-    std::printf("%s\n", api::DescribeRig(rig)
+    std::printf("%s\n", http::DescribeRig(rig)
                             .dump(2, ' ', false, nlohmann::json::error_handler_t::replace)
                             .c_str());
     return 0;
@@ -209,7 +209,7 @@ int Info(const std::vector<std::string>& args) {
 void AddBlendOptionFlags(Flags& flags, BlendOptions& options) {
   flags.Value("--mode", "relative|absolute", "how weights combine (default relative)",
               [&options](const std::string& v) {
-                if (api::ParseBlendMode(v, &options.mode)) return 0;
+                if (evaluator::ParseBlendMode(v, &options.mode)) return 0;
                 return std::fprintf(stderr,
                                     "error: --mode must be relative or absolute, not '%s'\n",
                                     v.c_str()),
@@ -218,7 +218,7 @@ void AddBlendOptionFlags(Flags& flags, BlendOptions& options) {
   flags.Value("--normals", "blend|recompute",
               "blend the shapes' normals, or recompute them (default blend)",
               [&options](const std::string& v) {
-                if (api::ParseNormalMode(v, &options.normals)) return 0;
+                if (evaluator::ParseNormalMode(v, &options.normals)) return 0;
                 return std::fprintf(stderr,
                                     "error: --normals must be blend or recompute, not '%s'\n",
                                     v.c_str()),
@@ -229,7 +229,7 @@ void AddBlendOptionFlags(Flags& flags, BlendOptions& options) {
 namespace {
 
 // The flags blend, render and sheet share: weights, controls, blend options and the skeleton.
-void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
+void AddMeshFlags(Flags& flags, evaluator::MeshRequest& r, bool& weights_given) {
   auto pose_setting = [&r](const std::string& flag) {
     return [&r, flag](const std::string& value) {
       std::string v = value;
@@ -237,7 +237,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
           !ReadAtFile(flag, value, v))
         return 1;
       bool known = false;
-      if (std::string e = api::ApplyPoseSetting(flag.substr(2), v, r, &known); !e.empty()) {
+      if (std::string e = evaluator::ApplyPoseSetting(flag.substr(2), v, r, &known); !e.empty()) {
         std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
         return 2;
       }
@@ -248,7 +248,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
     return [flag, &into](const std::string& value) {
       std::string text;
       if (!ReadAtFile(flag, value, text)) return 1;
-      auto parsed = api::ParseWeightsJson(text, flag);
+      auto parsed = evaluator::ParseWeightsJson(text, flag);
       if (!parsed.ok()) {
         PrintStatus(parsed.status());
         return 1;
@@ -316,7 +316,7 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
               pose_setting("--frame"));
   flags.Switch("--loop", "wrap --time around the clip", [&r] {
     bool known = false;
-    api::ApplyPoseSetting("loop", "true", r, &known);
+    evaluator::ApplyPoseSetting("loop", "true", r, &known);
   });
   flags.Value("--blend", "JSON|@FILE",
               "several clips blended: [{\"animation\", \"time\", \"weight\", \"mask\"}]",
@@ -334,8 +334,8 @@ void AddMeshFlags(Flags& flags, api::MeshRequest& r, bool& weights_given) {
 
 // Says what the level of detail `lod` of `rig` kept (0: nothing to say); false (reported) when it
 // cannot be made.
-bool ReportLod(const api::Evaluator& evaluator, const std::shared_ptr<const api::StoredRig>& rig,
-               int lod) {
+bool ReportLod(const evaluator::Evaluator& evaluator,
+               const std::shared_ptr<const evaluator::StoredRig>& rig, int lod) {
   if (lod == 0) return true;
   const auto derived = evaluator.Derived(rig, lod);
   if (!derived) {
@@ -350,7 +350,7 @@ bool ReportLod(const api::Evaluator& evaluator, const std::shared_ptr<const api:
 }
 
 // A pipeline result: its warnings on stderr, then its bytes to `path` (WriteResult's exit code).
-int WriteProduced(const std::string& path, Result<api::Output> out) {
+int WriteProduced(const std::string& path, Result<evaluator::Output> out) {
   if (!out.ok()) return WriteResult(path, out.status());
   PrintWarnings(out->warnings);
   return WriteResult(path, std::move(out->bytes));
@@ -358,14 +358,14 @@ int WriteProduced(const std::string& path, Result<api::Output> out) {
 
 // The image format from --format or the output's extension (PNG for stdout).
 bool ImageFormatFor(const std::string& out_path, const std::string& format_name,
-                    render::ImageFormat* format) {
-  if (!format_name.empty()) return render::ParseImageFormat(format_name, format);
+                    picture::ImageFormat* format) {
+  if (!format_name.empty()) return picture::ParseImageFormat(format_name, format);
   if (out_path == "-") {
-    *format = render::ImageFormat::kPng;
+    *format = picture::ImageFormat::kPng;
     return true;
   }
   const size_t dot = out_path.rfind('.');
-  return dot != std::string::npos && render::ParseImageFormat(out_path.substr(dot + 1), format);
+  return dot != std::string::npos && picture::ParseImageFormat(out_path.substr(dot + 1), format);
 }
 
 }  // namespace
@@ -374,7 +374,7 @@ int Blend(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   std::string out_path, format_name;
   bool weights_given = false;
-  api::MeshRequest request;
+  evaluator::MeshRequest request;
   Flags flags(
       "usage: facespace blend RIG [SHAPE.obj ...] [weights, pose and blend flags] [--format "
       "glb|obj|json|f32|vrm|vrm0] -o OUT\n",
@@ -412,7 +412,7 @@ int Blend(const std::vector<std::string>& args) {
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   if (paths.empty() || out_path.empty())
     return flags.UsageError(paths.empty() ? "no rig given" : "no output given (-o OUT or -o -)");
-  MeshFormat format = MeshFormat::kJson;
+  formats::MeshFormat format = formats::MeshFormat::kJson;
   if (!format_name.empty()) {
     if (!ParseMeshFormat(format_name, &format)) {
       std::fprintf(stderr, "error: --format must be glb, obj, json, f32, vrm or vrm0, not '%s'\n",
@@ -420,10 +420,10 @@ int Blend(const std::vector<std::string>& args) {
       return 2;
     }
     const size_t dot = out_path.rfind('.');
-    const bool vrm0_as_vrm = format == MeshFormat::kVrm0 && out_path.ends_with(".vrm");
-    if (MeshFormat named; out_path != "-" && dot != std::string::npos &&
-                          ParseMeshFormat(out_path.substr(dot + 1), &named) && named != format &&
-                          !vrm0_as_vrm) {
+    const bool vrm0_as_vrm = format == formats::MeshFormat::kVrm0 && out_path.ends_with(".vrm");
+    if (formats::MeshFormat named; out_path != "-" && dot != std::string::npos &&
+                                   ParseMeshFormat(out_path.substr(dot + 1), &named) &&
+                                   named != format && !vrm0_as_vrm) {
       std::fprintf(
           stderr,
           "error: --format %s does not match the output name '%s': name it .%s, or drop --format\n",
@@ -444,25 +444,26 @@ int Blend(const std::vector<std::string>& args) {
 
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok()) return 1;
-  const auto rig = api::Unstored(std::move(loaded.value()));
+  const auto rig = evaluator::Unstored(std::move(loaded.value()));
   // A VRM's meta carries a thumbnail of the face: the evaluator draws it.
-  const bool avatar = format == MeshFormat::kVrm || format == MeshFormat::kVrm0;
-  std::optional<render::OsMesaRenderer> renderer;
+  const bool avatar = format == formats::MeshFormat::kVrm || format == formats::MeshFormat::kVrm0;
+  std::optional<offscreen::OsMesaRenderer> renderer;
   if (avatar) renderer.emplace(1);
-  const api::Evaluator evaluator = avatar ? api::Evaluator(*renderer) : api::Evaluator();
+  const evaluator::Evaluator evaluator =
+      avatar ? evaluator::Evaluator(*renderer) : evaluator::Evaluator();
   if (!ReportLod(evaluator, rig, request.lod)) return 1;
-  if (std::string e = api::FinishPoseSettings(request); !e.empty()) {
+  if (std::string e = evaluator::FinishPoseSettings(request); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
-  api::Workspace ws;
-  return WriteProduced(out_path, api::ProduceMesh(evaluator, rig, request, format, ws));
+  evaluator::Workspace ws;
+  return WriteProduced(out_path, evaluator::ProduceMesh(evaluator, rig, request, format, ws));
 }
 
 namespace {
 
-// The render settings (api::ApplyRenderSetting) as flags, each with its values and default.
-void AddRenderFlags(Flags& flags, api::RenderRequest& r, bool sheet) {
+// The render settings (evaluator::ApplyRenderSetting) as flags, each with its values and default.
+void AddRenderFlags(Flags& flags, evaluator::RenderRequest& r, bool sheet) {
   const std::string size = sheet ? "a cell's " : "the image's ";
   const std::string size_default = sheet ? " (default 256)" : " (default 512)";
   const std::tuple<const char*, const char*, std::string> kSettings[] = {
@@ -490,7 +491,7 @@ void AddRenderFlags(Flags& flags, api::RenderRequest& r, bool sheet) {
     const std::string flag = std::string("--") + key;
     flags.Value(flag, metavar, help, [&r, key = std::string(key), flag](const std::string& v) {
       bool known = false;
-      if (std::string e = api::ApplyRenderSetting(key, v, r, &known); !e.empty()) {
+      if (std::string e = evaluator::ApplyRenderSetting(key, v, r, &known); !e.empty()) {
         std::fprintf(stderr, "error: %s: %s\n", flag.c_str(), e.c_str());
         return 2;
       }
@@ -503,7 +504,7 @@ void AddRenderFlags(Flags& flags, api::RenderRequest& r, bool sheet) {
 
 int Render(const std::vector<std::string>& args, bool sheet) {
   std::vector<std::string> paths;
-  api::RenderRequest r;
+  evaluator::RenderRequest r;
   std::string out_path, format_name, cells_text;
   int columns = 4;
   bool weights_given = false;
@@ -537,7 +538,7 @@ int Render(const std::vector<std::string>& args, bool sheet) {
              &format_name);
   flags.Text("-o, --output", "OUT", "output file, or - for stdout (PNG)", &out_path);
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
-  render::ImageFormat format;
+  picture::ImageFormat format;
   if (paths.empty() || out_path.empty() || (sheet && cells_text.empty())) {
     return flags.UsageError(paths.empty()      ? "no rig given"
                             : out_path.empty() ? "no output given (-o OUT)"
@@ -555,27 +556,27 @@ int Render(const std::vector<std::string>& args, bool sheet) {
     return 2;
   }
   // --format and a file name that says another format: the bytes would belie the name.
-  if (render::ImageFormat named; !format_name.empty() && ImageFormatFor(out_path, "", &named) &&
-                                 out_path != "-" && named != format) {
+  if (picture::ImageFormat named; !format_name.empty() && ImageFormatFor(out_path, "", &named) &&
+                                  out_path != "-" && named != format) {
     std::fprintf(
         stderr,
         "error: --format %s does not match the output name '%s': name it .%s, or drop --format\n",
-        format_name.c_str(), out_path.c_str(), render::ImageFormatExtension(format));
+        format_name.c_str(), out_path.c_str(), picture::ImageFormatExtension(format));
     return 2;
   }
   Result<Rig> loaded = LoadAndReport(paths);
   if (!loaded.ok()) return 1;
-  const auto rig = api::Unstored(std::move(loaded.value()));
-  const render::OsMesaRenderer renderer(1);
-  const api::Evaluator evaluator(renderer);
+  const auto rig = evaluator::Unstored(std::move(loaded.value()));
+  const offscreen::OsMesaRenderer renderer(1);
+  const evaluator::Evaluator evaluator(renderer);
   if (!ReportLod(evaluator, rig, r.mesh.lod)) return 1;
-  if (std::string e = api::FinishPoseSettings(r.mesh); !e.empty()) {
+  if (std::string e = evaluator::FinishPoseSettings(r.mesh); !e.empty()) {
     std::fprintf(stderr, "error: --animation: %s\n", e.c_str());
     return 2;
   }
-  api::Workspace ws;
+  evaluator::Workspace ws;
   if (!sheet) {
-    return WriteProduced(out_path, api::ProduceImage(evaluator, rig, r, format, ws));
+    return WriteProduced(out_path, evaluator::ProduceImage(evaluator, rig, r, format, ws));
   } else {
     // Cells: a JSON array, or one JSON object per line.
     const bool shape_cells = cells_text == "shapes" || cells_text.starts_with("shapes:");
@@ -600,20 +601,20 @@ int Render(const std::vector<std::string>& args, bool sheet) {
       }
     }
     auto parsed =
-        api::ParseSheetRequest(nlohmann::json{{"cells", cells}, {"columns", columns}}.dump(
+        evaluator::ParseSheetRequest(nlohmann::json{{"cells", cells}, {"columns", columns}}.dump(
             -1, ' ', false, nlohmann::json::error_handler_t::replace));
     if (!parsed.ok()) {
       PrintStatus(parsed.status());
       return 1;
     }
-    api::SheetRequest& request = parsed.value();
-    if (Status s = api::ExpandShapeCells(rig->rig, &renderer, request); !s.ok()) {
+    evaluator::SheetRequest& request = parsed.value();
+    if (Status s = evaluator::ExpandShapeCells(rig->rig, &renderer, request); !s.ok()) {
       PrintStatus(s);
       return 1;
     }
     request.base =
         r;  // The render settings, blend options and pose of the flags; the cells' weights.
-    return WriteProduced(out_path, api::ProduceSheet(evaluator, rig, request, format, ws));
+    return WriteProduced(out_path, evaluator::ProduceSheet(evaluator, rig, request, format, ws));
   }
 }
 

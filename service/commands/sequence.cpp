@@ -43,7 +43,7 @@ Status FaceMembers(const std::string& gaze, const std::string& blink, nlohmann::
     return true;
   };
   if (!gaze.empty()) {
-    const std::string text = gaze[0] == '{' ? gaze : api::GazeShortForm(gaze);
+    const std::string text = gaze[0] == '{' ? gaze : evaluator::GazeShortForm(gaze);
     if (text.empty())
       return InvalidArgument("--gaze: want YAW,PITCH (degrees), X,Y,Z (a point) or JSON");
     body["gaze"] = nlohmann::json::parse(text, nullptr, false);
@@ -248,10 +248,10 @@ int SequenceOfKeys(const Rig& rig, const SequenceArgs& a, facespace::Sequence& s
     if (Status s = FaceMembers(a.gaze_text, a.blink_text, body); !s.ok())
       return std::fprintf(stderr, "error: %s\n", s.message.c_str()), 2;
   }
-  auto parsed = api::ParseSequenceRequest(
+  auto parsed = evaluator::ParseSequenceRequest(
       body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   if (!parsed.ok()) return std::fprintf(stderr, "error: %s\n", parsed.status().message.c_str()), 1;
-  auto resolved = api::ResolveSequence(rig, parsed.value());
+  auto resolved = evaluator::ResolveSequence(rig, parsed.value());
   if (!resolved.ok())
     return std::fprintf(stderr, "error: %s\n", resolved.status().message.c_str()), 1;
   seq = std::move(resolved.value());
@@ -347,7 +347,7 @@ int SampleTimes(const SequenceArgs& a, const facespace::Sequence& seq, std::vect
 }
 
 // Frames as files in a folder, frame_00000.EXT, the sequence's physics simulated over them.
-int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored,
+int WriteFrameFiles(const std::shared_ptr<const evaluator::StoredRig>& stored,
                     const facespace::Sequence& seq, std::span<const float> times,
                     const SequenceArgs& a) {
   std::error_code ec;
@@ -356,21 +356,21 @@ int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored,
     return std::fprintf(stderr, "error: cannot create '%s': %s\n", a.out.c_str(),
                         ec.message().c_str()),
            1;
-  MeshFormat mf;
+  formats::MeshFormat mf;
   const char* extension =
       EnumEntry(kSequenceOutputs, a.output).name;  // The mesh format's name too.
   ParseMeshFormat(extension, &mf);
-  api::MeshRequest frame;
+  evaluator::MeshRequest frame;
   frame.options = a.options;
-  const api::OutputSpec spec = api::OutputSpec::Mesh(frame, mf);
-  const api::Evaluator evaluator;
-  api::Workspace ws;
-  api::ResolvedPoint point;
-  api::SequencePhysics simulation(stored->rig, seq);
+  const evaluator::OutputSpec spec = evaluator::OutputSpec::Mesh(frame, mf);
+  const evaluator::Evaluator evaluator;
+  evaluator::Workspace ws;
+  evaluator::ResolvedPoint point;
+  evaluator::SequencePhysics simulation(stored->rig, seq);
   Progress progress(times.size());
   WarningSummary summary;
   for (size_t k = 0; k < times.size(); ++k) {
-    api::SequencePoint(stored->rig, seq, times[k], a.options.mode, point, &simulation);
+    evaluator::SequencePoint(stored->rig, seq, times[k], a.options.mode, point, &simulation);
     summary.Add(point.report.warnings);
     auto bytes = evaluator.Run(stored, point, spec, ws);
     if (!bytes.ok()) return std::fprintf(stderr, "error: %s\n", bytes.status().message.c_str()), 1;
@@ -385,17 +385,17 @@ int WriteFrameFiles(const std::shared_ptr<const api::StoredRig>& stored,
 }
 
 // The sequence sampled: one JSON file of frames (or their weights), else a file per frame.
-int WriteSamples(const std::shared_ptr<const api::StoredRig>& stored,
+int WriteSamples(const std::shared_ptr<const evaluator::StoredRig>& stored,
                  const facespace::Sequence& seq, const SequenceArgs& a) {
   std::vector<float> times;
   if (int rc = SampleTimes(a, seq, times); rc != 0) return rc;
   if (!OneFile(a.output)) return WriteFrameFiles(stored, seq, times, a);
   std::vector<Warning> warnings;
-  const api::Evaluator evaluator;
-  api::Workspace ws;
+  const evaluator::Evaluator evaluator;
+  evaluator::Workspace ws;
   auto body =
-      api::SampleSequenceJson(evaluator, stored, seq, times, a.options, warnings, ws,
-                              static_cast<size_t>(-1), a.output == SequenceOutput::kWeights);
+      evaluator::SampleSequenceJson(evaluator, stored, seq, times, a.options, warnings, ws,
+                                    static_cast<size_t>(-1), a.output == SequenceOutput::kWeights);
   WarningSummary
       summary;  // Each warning of the list is one frame's (they are in the body, by frame).
   for (const Warning& w : warnings) summary.Add(std::span<const Warning>(&w, 1));
@@ -421,9 +421,10 @@ int Sequence(const std::vector<std::string>& args) {
   AddSequenceFlags(flags, a);
   if (int rc = flags.Parse(args, a.paths); rc >= 0) return rc;
   if (int rc = CheckSequenceArgs(flags, a); rc != 0) return rc;
-  Result<Rig> loaded = a.paths.size() > 1 ? LoadObjSequence(a.paths) : LoadRigFile(a.paths[0]);
+  Result<Rig> loaded =
+      a.paths.size() > 1 ? formats::LoadObjSequence(a.paths) : formats::LoadRigFile(a.paths[0]);
   if (!loaded.ok()) return std::fprintf(stderr, "error: %s\n", loaded.status().message.c_str()), 1;
-  const auto stored = api::Unstored(std::move(loaded.value()));
+  const auto stored = evaluator::Unstored(std::move(loaded.value()));
   const Rig& rig = stored->rig;
   facespace::Sequence seq;
   if (int rc = MakeSequence(rig, a, seq); rc != 0) return rc;
@@ -434,11 +435,11 @@ int Sequence(const std::vector<std::string>& args) {
     std::fprintf(stderr, "kept %zu of %zu keys, max vertex error %s (tolerance %s)\n",
                  r->sequence.keys.size(), seq.keys.size(), FormatNumber(r->max_error).c_str(),
                  FormatNumber(a.tolerance).c_str());
-    return WriteResult(a.out, api::ReducedSequenceJson(rig, seq, r.value(), a.tolerance));
+    return WriteResult(a.out, evaluator::ReducedSequenceJson(rig, seq, r.value(), a.tolerance));
   }
   if (a.has_bake) {
     const facespace::Sequence baked = BakeKey(seq, a.bake);
-    return WriteResult(a.out, "{\"keys\":" + api::SequenceKeysJson(rig, baked) +
+    return WriteResult(a.out, "{\"keys\":" + evaluator::SequenceKeysJson(rig, baked) +
                                   ",\"transition\":\"" + TransitionName(seq.transition) + "\"}\n");
   }
   return WriteSamples(stored, seq, a);
@@ -467,7 +468,7 @@ int FitCommand(const std::vector<std::string>& args) {
   if (int rc = flags.Parse(args, paths); rc >= 0) return rc;
   if (paths.size() != 2 || out.empty())
     return flags.UsageError(out.empty() ? "no output given (-o FIT.json)" : "give RIG and TARGET");
-  auto rig = LoadRigFile(paths[0]);
+  auto rig = formats::LoadRigFile(paths[0]);
   if (!rig.ok()) return std::fprintf(stderr, "error: %s\n", rig.status().message.c_str()), 1;
   const std::string& tp = paths[1];
   const std::string ext = tp.substr(tp.rfind('.') + 1);
@@ -476,13 +477,13 @@ int FitCommand(const std::vector<std::string>& args) {
     std::string text;
     if (!ReadFile(tp, text))
       return std::fprintf(stderr, "error: cannot read '%s'\n", tp.c_str()), 1;
-    auto t = api::ParseTargetJson(text);
+    auto t = evaluator::ParseTargetJson(text);
     if (!t.ok())
       return std::fprintf(stderr, "error: %s: %s\n", tp.c_str(), t.status().message.c_str()), 1;
     target = std::move(t->positions);
     if (!t->mesh_space) WorldToMeshSpace(rig.value(), target);
   } else {
-    auto other = LoadRigFile(tp, {.allow_external_files = true, .read_manifest = false});
+    auto other = formats::LoadRigFile(tp, {.allow_external_files = true, .read_manifest = false});
     if (!other.ok()) return std::fprintf(stderr, "error: %s\n", other.status().message.c_str()), 1;
     if (ext == "obj") {
       // One OBJ with every primitive's vertices in order, world space: back to mesh space.
@@ -509,7 +510,7 @@ int FitCommand(const std::vector<std::string>& args) {
   std::fprintf(
       stderr, "residual: rms %s, max %s (vertex distances in the scene's units: metres for glTF)\n",
       FormatNumber(fit->rms_error).c_str(), FormatNumber(fit->max_error).c_str());
-  return WriteResult(out, api::FitResultJson(rig.value(), fit.value(), options.rigid_align));
+  return WriteResult(out, evaluator::FitResultJson(rig.value(), fit.value(), options.rigid_align));
 }
 
 }  // namespace facespace::cli
@@ -529,26 +530,26 @@ std::string SpeakFormatOf(const std::string& out) {
 }
 
 // The speech as OUT asks: its JSON, its audio, a video of the face speaking, or frames' weights.
-int WriteSpeech(const std::string& out, const std::shared_ptr<const api::StoredRig>& stored,
-                const lipsync::SpeechPlan& plan, const api::SpeechRequest& r) {
-  if (r.format == api::FrameFormat::kJson)
+int WriteSpeech(const std::string& out, const std::shared_ptr<const evaluator::StoredRig>& stored,
+                const lipsync::SpeechPlan& plan, const evaluator::SpeechRequest& r) {
+  if (r.format == evaluator::FrameFormat::kJson)
     return WriteOutput(out, lipsync::SpeechJson(stored->rig, plan, r.fps)) ? 0 : 1;
-  if (r.format == api::FrameFormat::kWav)
+  if (r.format == evaluator::FrameFormat::kWav)
     return WriteOutput(out, speech::WriteWav(plan.audio)) ? 0 : 1;
-  const size_t frames = api::FrameCount(plan.sequence, r.fps);
+  const size_t frames = evaluator::FrameCount(plan.sequence, r.fps);
   Progress progress(frames);
-  render::OsMesaRenderer renderer;
-  api::Evaluator evaluator(renderer);
-  api::Workspace ws;
-  if (r.format == api::FrameFormat::kWebm) {
+  offscreen::OsMesaRenderer renderer;
+  evaluator::Evaluator evaluator(renderer);
+  evaluator::Workspace ws;
+  if (r.format == evaluator::FrameFormat::kWebm) {
     auto video = lipsync::SpeechVideo(evaluator, stored, plan, r, ws,
                                       [&progress](size_t i) { progress.Step(i + 1); });
     return WriteResult(out, video);
   }
   std::string lines;
   for (size_t i = 0; i < frames; ++i) {
-    auto line = api::StreamFrame(evaluator, stored, plan.sequence, i, r.fps, false,
-                                 r.render.mesh.options, ws);
+    auto line = evaluator::StreamFrame(evaluator, stored, plan.sequence, i, r.fps, false,
+                                       r.render.mesh.options, ws);
     if (!line.ok()) {
       PrintStatus(line.status());
       return 1;
@@ -644,7 +645,7 @@ int Speak(const std::vector<std::string>& args) {
   }
   if (Status s = FaceMembers(gaze_text, blink_text, body); !s.ok())
     return flags.UsageError(s.message);
-  Result<api::SpeechRequest> request = Status::Ok();
+  Result<evaluator::SpeechRequest> request = Status::Ok();
   if (!audio_path.empty()) {
     std::string wav;
     if (!ReadFile(audio_path, wav)) {
@@ -654,10 +655,10 @@ int Speak(const std::vector<std::string>& args) {
     std::vector<std::pair<std::string, std::string>> settings;
     for (auto it = body.begin(); it != body.end(); ++it)
       settings.emplace_back(it.key(), it->is_string() ? it->get<std::string>() : it->dump());
-    request = api::SpeechRequestOfWav(std::move(wav), settings);
+    request = evaluator::SpeechRequestOfWav(std::move(wav), settings);
   } else {
     body["text"] = text;
-    request = api::ParseSpeechRequest(
+    request = evaluator::ParseSpeechRequest(
         body.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   }
   if (!request.ok()) {
@@ -666,7 +667,7 @@ int Speak(const std::vector<std::string>& args) {
   }
   auto loaded = LoadAndReport({paths[0]});
   if (!loaded.ok()) return 1;
-  const auto stored = api::Unstored(std::move(loaded.value()));
+  const auto stored = evaluator::Unstored(std::move(loaded.value()));
   auto plan = lipsync::PlanSpeech(stored->rig, request.value());
   if (!plan.ok()) {
     PrintStatus(plan.status());

@@ -19,14 +19,14 @@ namespace {
 int AxisOf(const std::string& a) { return a == "x" ? 0 : a == "y" ? 1 : a == "z" ? 2 : -1; }
 
 // The rig itself as glb (every shape a sparse morph target), its default weights as the mesh's.
-Result<std::string> RigAsGlb(const std::shared_ptr<const api::StoredRig>& rig) {
-  api::ResolvedPoint defaults;
+Result<std::string> RigAsGlb(const std::shared_ptr<const evaluator::StoredRig>& rig) {
+  evaluator::ResolvedPoint defaults;
   for (const Shape& s : rig->rig.shapes) defaults.weights.push_back(s.default_weight);
-  api::OutputSpec spec;
-  spec.mesh_format = MeshFormat::kGlb;
+  evaluator::OutputSpec spec;
+  spec.mesh_format = formats::MeshFormat::kGlb;
   spec.keep_targets = true;
-  api::Workspace ws;
-  auto glb = api::Evaluator().Run(rig, defaults, spec, ws);
+  evaluator::Workspace ws;
+  auto glb = evaluator::Evaluator().Run(rig, defaults, spec, ws);
   if (!glb.ok()) return glb.status();
   return std::move(glb->bytes);
 }
@@ -62,7 +62,7 @@ void CompressFlag(Flags& flags, int& mode) {
 Result<std::string> MaybeCompress(Result<std::string> glb, int mode, const std::string& input) {
   if (!glb.ok() || mode == 0 || (mode < 0 && !UsesMeshopt(input))) return glb;
   const auto& s = glb.value();
-  auto packed = EncodeMeshoptGlb(
+  auto packed = formats::EncodeMeshoptGlb(
       std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(s.data()), s.size()));
   if (!packed.ok()) return packed.status();
   return std::string(packed->begin(), packed->end());
@@ -119,7 +119,7 @@ int Mirror(const std::vector<std::string>& args) {
         {{"mirror_unmatched",
           std::to_string(r->unmatched) + " moved vertices have no mirror image and stay still", as,
           0.0, false}});
-  const auto stored = api::Unstored(std::move(rig.value()));
+  const auto stored = evaluator::Unstored(std::move(rig.value()));
   const Rig& result = stored->rig;
   auto glb = MaybeCompress(RigAsGlb(stored), compress, positional[0]);
   if (!glb.ok()) {
@@ -130,7 +130,7 @@ int Mirror(const std::vector<std::string>& args) {
   // The manifest beside it, as convert writes one: the rig's name, credit, groups, ranges and
   // partners (the new shape's group and range are its source's) come back with the glb.
   const std::string manifest_path = out.substr(0, out.rfind('.')) + ".manifest.json";
-  if (int rc = WriteResult(manifest_path, ManifestJson(result))) return rc;
+  if (int rc = WriteResult(manifest_path, formats::ManifestJson(result))) return rc;
   std::fprintf(stderr,
                "mirror: '%s' -> '%s' (%zu vertices moved, %zu unmatched), %zu shapes in %s (%zu "
                "bytes) and %s\n",
@@ -264,7 +264,7 @@ int Convert(const std::vector<std::string>& args) {
   std::vector<std::string> paths;
   std::vector<std::string> targets;
   std::string out;
-  MakeHumanOptions mh;
+  formats::MakeHumanOptions mh;
   Flags flags(
       "usage: facespace convert RIG [SHAPE.obj ...] [--targets DIR ... [--modifiers "
       "modeling_modifiers.json]\n"
@@ -312,14 +312,15 @@ int Convert(const std::vector<std::string>& args) {
       out.substr(slash == std::string::npos ? 0 : slash + 1,
                  out.rfind('.') - (slash == std::string::npos ? 0 : slash + 1));
   if (rig->name.empty() || !targets.empty()) rig->name = stem;
-  const auto stored = api::Unstored(std::move(rig.value()));
+  const auto stored = evaluator::Unstored(std::move(rig.value()));
   auto bytes = MaybeCompress(RigAsGlb(stored), compress, paths[0]);
   if (!bytes.ok()) {
     PrintStatus(bytes.status());
     return 1;
   }
   const std::string manifest_path = out.substr(0, out.rfind('.')) + ".manifest.json";
-  if (!WriteOutput(out, bytes.value()) || !WriteOutput(manifest_path, ManifestJson(stored->rig))) {
+  if (!WriteOutput(out, bytes.value()) ||
+      !WriteOutput(manifest_path, formats::ManifestJson(stored->rig))) {
     std::fprintf(stderr, "error: cannot write '%s'\n", out.c_str());
     return 1;
   }

@@ -57,7 +57,7 @@ constexpr double kInstrumentedSlowdown = 1;
 
 // The API's options from the configuration: the key read from its file (empty when none); false,
 // said on stderr, when the key file cannot be read or is too short.
-bool MakeApiOptions(const ServeConfig& c, api::ApiOptions& options) {
+bool MakeApiOptions(const ServeConfig& c, http::ApiOptions& options) {
   if (!c.api_key_file.empty()) {
     std::ifstream f(c.api_key_file, std::ios::binary);
     if (!f) {
@@ -97,8 +97,8 @@ bool MakeApiOptions(const ServeConfig& c, api::ApiOptions& options) {
 
 // The connection front's options from the configuration; `api` answers its head checks and words
 // its refusals.
-api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api& api) {
-  api::FrontOptions front;
+net::FrontOptions MakeFrontOptions(const ServeConfig& c, http::Api& api) {
+  net::FrontOptions front;
   front.workers = c.threads;
   front.request_timeout = c.read_timeout;
   front.keep_alive_timeout = 5;
@@ -109,9 +109,9 @@ api::FrontOptions MakeFrontOptions(const ServeConfig& c, api::Api& api) {
   front.max_per_client = c.max_client_connections;
   front.body_budget = c.body_budget_mb << 20;
   front.log_requests = !c.quiet;
-  front.head_check = [&api](const api::RequestHeadView& head) { return api.CheckHead(head); };
-  front.probe = [&api](const api::RequestHeadView& head) { return api.Probe(head); };
-  front.refusal = &api::Api::RefusalResponse;
+  front.head_check = [&api](const net::RequestHeadView& head) { return api.CheckHead(head); };
+  front.probe = [&api](const net::RequestHeadView& head) { return api.Probe(head); };
+  front.refusal = &http::Api::RefusalResponse;
   front.max_client_requests = c.max_client_requests;
   front.request_deadline = c.request_deadline;
   front.keyed_deadline = c.keyed_deadline;
@@ -292,12 +292,12 @@ int Serve(const std::vector<std::string>& args) {
   ServeConfig c;
   if (int rc = ReadServeConfig(args, c); rc >= 0) return rc;
 
-  api::ApiOptions options;
+  http::ApiOptions options;
   if (!MakeApiOptions(c, options)) return 1;
   std::vector<std::string> read_only;
   std::string store_dir;
   if (!StoreFolders(c, store_dir, read_only)) return 1;
-  if (const std::string problem = render::ImageModuleProblem(); !problem.empty()) {
+  if (const std::string problem = offscreen::ImageModuleProblem(); !problem.empty()) {
     std::fprintf(stderr,
                  "facespace: warning: %s: renders draw without textures or labels, and only PNG "
                  "and WebP are written\n",
@@ -315,8 +315,8 @@ int Serve(const std::vector<std::string>& args) {
 
   if (c.jobs_dir.empty()) c.jobs_dir = DefaultJobsDir();
   // One renderer for every thread: its GL contexts are a bounded pool (--render-threads).
-  render::OsMesaRenderer renderer(c.render_threads);
-  const api::Evaluator evaluator(renderer);
+  offscreen::OsMesaRenderer renderer(c.render_threads);
+  const evaluator::Evaluator evaluator(renderer);
   auto refresh_store = [&store] { RefreshStore(store); };
   batch::FileJobQueue jobs(c.jobs_dir, store, evaluator, c.job_limits,
                            c.store_poll > 0 ? c.store_poll : 1.0, refresh_store);
@@ -334,11 +334,11 @@ int Serve(const std::vector<std::string>& args) {
   // and in all, a budget for bodies in memory); only whole requests take one of the workers.
   // The API first (it reports the front's counters), then the front that calls it: no start-up
   // cycle.
-  api::FrontStats front_stats;
+  net::FrontStats front_stats;
   options.front = &front_stats;
-  api::Api api(store, evaluator, options, &jobs);
+  http::Api api(store, evaluator, options, &jobs);
   const int threads = c.threads;
-  api::FrontServer server(MakeFrontOptions(c, api), front_stats);
+  net::FrontServer server(MakeFrontOptions(c, api), front_stats);
   server.set_tcp_nodelay(true);
   server.set_keep_alive_max_count(10000);
   server.set_keep_alive_timeout(5);

@@ -36,7 +36,7 @@ std::string ReadText(const std::string& path) {
 
 bool IsRigFile(const fs::path& p) {
   const std::string ext = p.extension().string();
-  RigFormat format;
+  formats::RigFormat format;
   return RigFormatFromPath(p.filename().string(), &format);
 }
 
@@ -79,8 +79,8 @@ void FileRigStore::RemoveTemporaries(int older_than_seconds) {
     if (older_than_seconds > 0 &&
         (time_ec || now - written < std::chrono::seconds(older_than_seconds)))
       continue;
-    RemoveAbandoned(e.path());  // Left by an upload that crashed (here or in another instance):
-                                // never published.
+    files::RemoveAbandoned(e.path());  // Left by an upload that crashed (here or in another
+                                       // instance): never published.
   }
 }
 
@@ -152,10 +152,10 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only,
   for (const fs::path& p : top) {
     std::string id = p.stem().string();
     const std::string folder = p.parent_path().filename().string();
-    if (!api::IsValidRigId(id) && in_folder.count(p.parent_path()) &&
-        in_folder[p.parent_path()] == 1 && api::IsValidRigId(folder))
+    if (!evaluator::IsValidRigId(id) && in_folder.count(p.parent_path()) &&
+        in_folder[p.parent_path()] == 1 && evaluator::IsValidRigId(folder))
       id = folder;
-    if (!api::IsValidRigId(id)) {
+    if (!evaluator::IsValidRigId(id)) {
       // Said once, not at every look at the store (--store-poll).
       if (misnamed_.insert(p.string()).second) {
         std::fprintf(stderr,
@@ -178,7 +178,7 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only,
     std::ifstream f(p, std::ios::binary);
     std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
                                      std::istreambuf_iterator<char>());
-    auto rig = LoadRigFile(p.string());
+    auto rig = formats::LoadRigFile(p.string());
     if (!rig.ok()) {
       std::fprintf(stderr, "facespace: skipping broken rig %s: %s\n", p.c_str(),
                    rig.status().message.c_str());
@@ -186,10 +186,10 @@ Status FileRigStore::LoadFolder(const std::string& dir, bool read_only,
       continue;
     }
     reported_.erase(p.string());
-    auto stored = std::make_shared<api::StoredRig>();
+    auto stored = std::make_shared<evaluator::StoredRig>();
     stored->id = id;
     stored->rig = std::move(rig.value());
-    stored->version = api::RigVersion(bytes, ReadText(ManifestPath(p.string())));
+    stored->version = evaluator::RigVersion(bytes, ReadText(ManifestPath(p.string())));
     loaded[id] = {std::move(stored), p.string(), read_only, file, manifest};
   }
   return Status::Ok();
@@ -206,15 +206,15 @@ Status ReadOnly(const std::string& id) {
 
 }  // namespace
 
-std::shared_ptr<const api::StoredRig> FileRigStore::Get(const std::string& id) const {
+std::shared_ptr<const evaluator::StoredRig> FileRigStore::Get(const std::string& id) const {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = map_.find(id);
   return it == map_.end() ? nullptr : it->second.rig;
 }
 
-std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
+std::vector<std::shared_ptr<const evaluator::StoredRig>> FileRigStore::List() const {
   std::lock_guard<std::mutex> lock(mu_);
-  std::vector<std::shared_ptr<const api::StoredRig>> out;
+  std::vector<std::shared_ptr<const evaluator::StoredRig>> out;
   for (const auto& [id, e] : map_) out.push_back(e.rig);
   return out;
 }
@@ -222,16 +222,16 @@ std::vector<std::shared_ptr<const api::StoredRig>> FileRigStore::List() const {
 // A glTF's counts from its JSON alone (a linear parse), before any decoding: a file declaring
 // 100,000 morph targets was decoded for half a minute before --max-shapes refused it.
 Status FileRigStore::CheckDeclaredCounts(std::span<const unsigned char> bytes,
-                                         RigFormat format) const {
+                                         formats::RigFormat format) const {
   std::string_view text;
-  if (format == RigFormat::kGlb) {
+  if (format == formats::RigFormat::kGlb) {
     if (bytes.size() < 20) return Status::Ok();  // The reader says what is wrong with it.
     uint32_t length = 0, type = 0;
     std::memcpy(&length, bytes.data() + 12, 4);
     std::memcpy(&type, bytes.data() + 16, 4);
     if (type != 0x4E4F534Au || length > bytes.size() - 20) return Status::Ok();
     text = std::string_view(reinterpret_cast<const char*>(bytes.data()) + 20, length);
-  } else if (format == RigFormat::kGltf) {
+  } else if (format == formats::RigFormat::kGltf) {
     text = std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   } else {
     return Status::Ok();
@@ -288,17 +288,17 @@ Status FileRigStore::CheckLimits(const Rig& rig) const {
 }
 
 Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> bytes,
-                         RigFormat format, const std::string& manifest, bool* created) {
-  if (!api::IsValidRigId(id)) return InvalidArgument("invalid rig id");
+                         formats::RigFormat format, const std::string& manifest, bool* created) {
+  if (!evaluator::IsValidRigId(id)) return InvalidArgument("invalid rig id");
   // Validate fully before anything touches the disk; what the file declares first.
   if (Status s = CheckDeclaredCounts(bytes, format); !s.ok()) return s;
-  auto rig = api::LoadUpload(id, bytes, format, manifest);
+  auto rig = evaluator::LoadUpload(id, bytes, format, manifest);
   if (!rig.ok()) return rig.status();
   if (Status s = CheckLimits(rig.value()); !s.ok()) return s;
-  auto stored = std::make_shared<api::StoredRig>();
+  auto stored = std::make_shared<evaluator::StoredRig>();
   stored->id = id;
   stored->rig = std::move(rig.value());
-  stored->version = api::RigVersion(bytes, manifest);
+  stored->version = evaluator::RigVersion(bytes, manifest);
 
   std::lock_guard<std::mutex> write_lock(write_mu_);
   {
@@ -316,16 +316,16 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   const std::string rig_tmp = tmp_name(), manifest_tmp = tmp_name();
   const std::string_view rig_pieces[] = {
       std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())};
-  auto rig_fd = WriteTemporary(dir_, rig_tmp, rig_pieces, "the rig");
+  auto rig_fd = files::WriteTemporary(dir_, rig_tmp, rig_pieces, "the rig");
   if (!rig_fd.ok()) return rig_fd.status();
-  if (Status s = Flush(rig_fd.value(), dir_, rig_tmp, "the rig"); !s.ok()) return s;
+  if (Status s = files::Flush(rig_fd.value(), dir_, rig_tmp, "the rig"); !s.ok()) return s;
   int manifest_fd = -1;
   if (!manifest.empty()) {
     const std::string_view manifest_pieces[] = {manifest};
-    auto fd = WriteTemporary(dir_, manifest_tmp, manifest_pieces, "the manifest");
-    Status s = fd.ok() ? Flush(fd.value(), dir_, manifest_tmp, "the manifest") : fd.status();
+    auto fd = files::WriteTemporary(dir_, manifest_tmp, manifest_pieces, "the manifest");
+    Status s = fd.ok() ? files::Flush(fd.value(), dir_, manifest_tmp, "the manifest") : fd.status();
     if (!s.ok()) {
-      Discard(rig_fd.value(), dir_, rig_tmp);
+      files::Discard(rig_fd.value(), dir_, rig_tmp);
       return s;
     }
     manifest_fd = fd.value();
@@ -334,18 +334,21 @@ Status FileRigStore::Put(const std::string& id, std::span<const unsigned char> b
   // rig under a manifest written for the old one (which might not apply, and would hide the rig).
   std::error_code ec;
   fs::remove(dir_ + "/" + manifest_file, ec);
-  if (Status s = Publish(rig_fd.value(), dir_, rig_tmp, file, "the rig"); !s.ok()) {
-    if (manifest_fd >= 0) Discard(manifest_fd, dir_, manifest_tmp);
+  if (Status s = files::Publish(rig_fd.value(), dir_, rig_tmp, file, "the rig"); !s.ok()) {
+    if (manifest_fd >= 0) files::Discard(manifest_fd, dir_, manifest_tmp);
     return s;
   }
   if (manifest_fd >= 0) {
-    if (Status s = Publish(manifest_fd, dir_, manifest_tmp, manifest_file, "the manifest"); !s.ok())
+    if (Status s = files::Publish(manifest_fd, dir_, manifest_tmp, manifest_file, "the manifest");
+        !s.ok())
       return s;
   }
-  SyncDir(dir_);
+  files::SyncDir(dir_);
   // Other extensions, if any, must not shadow the new file after a restart.
-  for (RigFormat other : {RigFormat::kGlb, RigFormat::kGltf, RigFormat::kFbx, RigFormat::kCollada,
-                          RigFormat::kMd5, RigFormat::kPmx, RigFormat::kPmd}) {
+  for (formats::RigFormat other :
+       {formats::RigFormat::kGlb, formats::RigFormat::kGltf, formats::RigFormat::kFbx,
+        formats::RigFormat::kCollada, formats::RigFormat::kMd5, formats::RigFormat::kPmx,
+        formats::RigFormat::kPmd}) {
     if (other != format) fs::remove(dir_ + "/" + id + RigFormatExtension(other), ec);
   }
   const Stamp file_stamp = StampOf(final_path), manifest_stamp = StampOf(ManifestPath(final_path));
@@ -372,27 +375,28 @@ Status FileRigStore::PutManifest(const std::string& id, const std::string& manif
   std::ifstream f(path, std::ios::binary);
   const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(f)),
                                          std::istreambuf_iterator<char>());
-  auto rig = LoadRigFile(
+  auto rig = formats::LoadRigFile(
       path, {.allow_external_files = true, .read_manifest = false});  // As LoadAll reads it.
   if (!rig.ok()) return Internal("the stored rig no longer loads: " + rig.status().message);
   rig->name = id;
   if (!manifest.empty()) {
-    if (Status s = ApplyManifest(rig.value(), manifest); !s.ok()) {
+    if (Status s = formats::ApplyManifest(rig.value(), manifest); !s.ok()) {
       for (FieldError& fe : s.fields) fe.pointer = "/manifest" + fe.pointer;
       return WithInputReason(s, "invalid-manifest");
     }
   }
   if (Status s = CheckLimits(rig.value()); !s.ok()) return s;  // Derived shapes count too.
-  auto stored = std::make_shared<api::StoredRig>();
+  auto stored = std::make_shared<evaluator::StoredRig>();
   stored->id = id;
   stored->rig = std::move(rig.value());
-  stored->version = api::RigVersion(bytes, manifest);
+  stored->version = evaluator::RigVersion(bytes, manifest);
   const fs::path p(path);
   const std::string manifest_file = p.stem().string() + ".manifest.json";
   static std::atomic<uint64_t> counter{0};
   const std::string tmp = "." + id + ".manifest." + std::to_string(::getpid()) + "." +
                           std::to_string(counter++) + ".tmp";
-  if (Status s = WriteFileDurably(p.parent_path(), manifest_file, manifest, tmp, "the manifest");
+  if (Status s =
+          files::WriteFileDurably(p.parent_path(), manifest_file, manifest, tmp, "the manifest");
       !s.ok())
     return s;
   const Stamp manifest_stamp = StampOf(ManifestPath(path));

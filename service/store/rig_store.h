@@ -12,7 +12,7 @@
 
 namespace facespace {
 
-class FileRigStore : public api::RigStore {
+class FileRigStore : public evaluator::RigStore {
  public:
   // `dir` holds the rigs: files directly in it, and in its immediate subfolders (a file in
   // the folder itself wins over one of the same id in a subfolder). Uploads go to `dir`.
@@ -41,9 +41,9 @@ class FileRigStore : public api::RigStore {
   // stat per file; a broken file is reported once per version.
   Result<Changes> Refresh();
 
-  std::shared_ptr<const api::StoredRig> Get(const std::string& id) const override;
-  std::vector<std::shared_ptr<const api::StoredRig>> List() const override;
-  Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
+  std::shared_ptr<const evaluator::StoredRig> Get(const std::string& id) const override;
+  std::vector<std::shared_ptr<const evaluator::StoredRig>> List() const override;
+  Status Put(const std::string& id, std::span<const unsigned char> bytes, formats::RigFormat format,
              const std::string& manifest, bool* created) override;
   Status PutManifest(const std::string& id, const std::string& manifest) override;
   Status Delete(const std::string& id) override;
@@ -56,7 +56,7 @@ class FileRigStore : public api::RigStore {
     bool operator==(const Stamp&) const = default;
   };
   struct Entry {
-    std::shared_ptr<const api::StoredRig> rig;
+    std::shared_ptr<const evaluator::StoredRig> rig;
     std::string path;
     bool read_only = false;
     Stamp file, manifest;  // Of the rig file and its manifest when read.
@@ -74,7 +74,7 @@ class FileRigStore : public api::RigStore {
   // Removes the store's upload temporaries written more than `older_than_seconds` ago (0: all).
   void RemoveTemporaries(int older_than_seconds);
   static constexpr int kAbandonedSeconds = 600;
-  Status CheckDeclaredCounts(std::span<const unsigned char> bytes, RigFormat format) const;
+  Status CheckDeclaredCounts(std::span<const unsigned char> bytes, formats::RigFormat format) const;
   std::string dir_;
   std::vector<std::string> read_only_;
   mutable std::mutex mu_;  // Guards map_ (held only to copy or swap pointers).

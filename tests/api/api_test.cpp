@@ -31,21 +31,21 @@ class ApiTest : public ::testing::Test {
   static void SetUpTestSuite() {
     store_ = new test::MemoryStore;
     store_->Seed();
-    api::ApiOptions o;
+    http::ApiOptions o;
     o.api_key = "test-key";
     o.log_requests = false;
     o.max_render_size = 256;
     o.max_sheet_cells = 3;
-    api_ = new api::Api(*store_, evaluator_, o);
+    api_ = new http::Api(*store_, evaluator_, o);
     // The server as `facespace serve` runs it: connections through the front.
-    api::FrontOptions front;
+    net::FrontOptions front;
     front.workers = 8;
     front.log_requests = false;
     front.max_body = o.max_body;
-    front.head_check = [](const api::RequestHeadView& head) { return api_->CheckHead(head); };
-    front.refusal = &api::Api::RefusalResponse;
-    static api::FrontStats front_stats;
-    server_ = new api::FrontServer(front, front_stats);
+    front.head_check = [](const net::RequestHeadView& head) { return api_->CheckHead(head); };
+    front.refusal = &http::Api::RefusalResponse;
+    static net::FrontStats front_stats;
+    server_ = new net::FrontServer(front, front_stats);
     api_->Register(*server_);
     port_ = server_->bind_to_any_port("127.0.0.1");
     thread_ = new std::thread([] { server_->listen_after_bind(); });
@@ -113,9 +113,9 @@ class ApiTest : public ::testing::Test {
   static json Body(const httplib::Result& r) { return json::parse(r->body, nullptr, false); }
 
   static inline test::MemoryStore* store_ = nullptr;
-  static inline render::NullRenderer null_;
-  static inline api::Evaluator evaluator_{null_};
-  static inline api::Api* api_ = nullptr;
+  static inline offscreen::NullRenderer null_;
+  static inline evaluator::Evaluator evaluator_{null_};
+  static inline http::Api* api_ = nullptr;
   static inline httplib::Server* server_ = nullptr;
   static inline std::thread* thread_ = nullptr;
   static inline int port_ = 0;
@@ -218,7 +218,7 @@ TEST_F(ApiTest, MeshF32IsTheBlendInWorldSpaceWithItsHeaders) {
   BlendContext context;
   ASSERT_TRUE(EvaluateRig(rig, w, {}, blended, context).ok());
   std::vector<float> want;
-  WorldPositions(blended, want);
+  formats::WorldPositions(blended, want);
   ASSERT_GE(r->body.size(), want.size() * 4);
   std::vector<float> got(want.size());
   std::memcpy(got.data(), r->body.data(), want.size() * 4);
@@ -280,7 +280,7 @@ TEST_F(ApiTest, RenderWithTheNullRendererIsTheBackgroundAtTheAskedSize) {
   EXPECT_EQ(r->get_header_value("Content-Type"), "image/png");
   EXPECT_EQ(r->get_header_value("Facespace-Weight-Sum"), "1");
   auto image =
-      render::Decode({reinterpret_cast<const unsigned char*>(r->body.data()), r->body.size()});
+      offscreen::Decode({reinterpret_cast<const unsigned char*>(r->body.data()), r->body.size()});
   ASSERT_TRUE(image.ok());
   EXPECT_EQ(image->width, 40);
   EXPECT_EQ(image->height, 30);

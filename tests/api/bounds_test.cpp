@@ -10,7 +10,7 @@
 #include "routes/live_say.h"
 #include "turns.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 namespace bounds_test {  // Named: the target is a unity build, its files share one unit.
 
 std::string Gunzip(const std::string& in) {
@@ -42,28 +42,28 @@ std::string JsonBody(size_t bytes) {
 httplib::Request Asking(const char* coding) {
   httplib::Request req;
   req.headers.emplace("Accept-Encoding", coding);
-  HideAcceptEncoding(req);
+  http::HideAcceptEncoding(req);
   return req;
 }
 
 TEST(Encoding, CppHttplibNeverSeesAcceptEncodingAndOurEncoderAnswers) {
   httplib::Request req = Asking("gzip;q=1, br;q=0");
   EXPECT_FALSE(req.has_header("Accept-Encoding"));
-  EXPECT_EQ(req.get_header_value(kAcceptEncoding), "gzip;q=1, br;q=0");
+  EXPECT_EQ(req.get_header_value(http::kAcceptEncoding), "gzip;q=1, br;q=0");
   httplib::Response res;
   const std::string body = JsonBody(600000);  // Three steps of 256 KB.
   res.set_content(body, "application/json");
-  CompressBody(req, res, {});
+  http::CompressBody(req, res, {});
   EXPECT_EQ(res.get_header_value("Content-Encoding"), "gzip");
   EXPECT_NE(res.get_header_value("Vary").find("Accept-Encoding"), std::string::npos);
   EXPECT_LT(res.body.size(), body.size() / 3);
   EXPECT_EQ(Gunzip(res.body), body);
   // A client's own header under our name is not taken for the real one.
   httplib::Request spoofed;
-  spoofed.headers.emplace(kAcceptEncoding, "gzip");
+  spoofed.headers.emplace(http::kAcceptEncoding, "gzip");
   spoofed.headers.emplace("Accept-Encoding", "identity");
-  HideAcceptEncoding(spoofed);
-  EXPECT_EQ(spoofed.get_header_value(kAcceptEncoding), "identity");
+  http::HideAcceptEncoding(spoofed);
+  EXPECT_EQ(spoofed.get_header_value(http::kAcceptEncoding), "identity");
 }
 
 TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
@@ -74,9 +74,10 @@ TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
     bool stopped;
   } cases[] = {
       {"br", JsonBody(500), "application/json", false},  // Under kMinCompressed.
-      {"br", JsonBody(kMaxDynamicCompressed + 1000), "application/json", false},  // Over the cap.
-      {"br", std::string(100000, 'x'), "image/png", false},                       // Not text-like.
-      {"br", JsonBody(600000), "application/json", true},  // Its request stopped.
+      {"br", JsonBody(http::kMaxDynamicCompressed + 1000), "application/json",
+       false},                                               // Over the cap.
+      {"br", std::string(100000, 'x'), "image/png", false},  // Not text-like.
+      {"br", JsonBody(600000), "application/json", true},    // Its request stopped.
       {"identity", JsonBody(600000), "application/json", false},
   };
   for (const Case& c : cases) {
@@ -85,7 +86,7 @@ TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
     res.set_content(c.body, c.type);
     std::stop_source stop;
     if (c.stopped) stop.request_stop();
-    CompressBody(req, res, stop.get_token());
+    http::CompressBody(req, res, stop.get_token());
     EXPECT_FALSE(res.has_header("Content-Encoding"))
         << c.coding << " " << c.body.size() << " " << c.type;
     EXPECT_EQ(res.body, c.body);
@@ -94,20 +95,20 @@ TEST(Encoding, WhatIsNotWorthItOrTooLargeOrStoppedGoesAsItIs) {
   httplib::Request req = Asking("br");
   httplib::Response res;
   res.set_content(JsonBody(600000), "application/json");
-  CompressBody(req, res, {});
+  http::CompressBody(req, res, {});
   EXPECT_EQ(res.get_header_value("Content-Encoding"), "br");
   EXPECT_LT(res.body.size(), 200000u);
   EXPECT_NE(res.body.substr(0, 2), "\x1f\x8b");
 }
 
 TEST(LiveSay, AShortTextIsOnePartAndALongOneIsCutAfterItsSentences) {
-  EXPECT_EQ(
-      SpeechSegments("Please pass the map, Bob. We will meet at five by the old bridge.", 175),
-      std::vector<std::string>{
-          "Please pass the map, Bob. We will meet at five by the old bridge."});
+  EXPECT_EQ(http::SpeechSegments(
+                "Please pass the map, Bob. We will meet at five by the old bridge.", 175),
+            std::vector<std::string>{
+                "Please pass the map, Bob. We will meet at five by the old bridge."});
   std::string sentences;
   for (int i = 0; i < 12; ++i) sentences += "We will meet at five by the old bridge. ";
-  const std::vector<std::string> parts = SpeechSegments(sentences, 175);
+  const std::vector<std::string> parts = http::SpeechSegments(sentences, 175);
   ASSERT_GT(parts.size(), 1u);
   std::string joined;
   for (const std::string& p : parts) {
@@ -117,13 +118,13 @@ TEST(LiveSay, AShortTextIsOnePartAndALongOneIsCutAfterItsSentences) {
   EXPECT_EQ(joined, sentences);  // Nothing lost or added but the spaces between.
   // Digits are read as long numbers: a part per number or two, however short the text.
   const std::vector<std::string> numbers =
-      SpeechSegments("999999999999 999999999999 999999999999 999999999999", 80);
+      http::SpeechSegments("999999999999 999999999999 999999999999 999999999999", 80);
   EXPECT_EQ(numbers.size(), 4u);
-  EXPECT_EQ(SpeechSegments("   ", 175).size(), 0u);
+  EXPECT_EQ(http::SpeechSegments("   ", 175).size(), 0u);
 }
 
 TEST(FairTurns, AnAddressRunningNothingAlwaysStartsAndTheFewestRunningGoesNext) {
-  FairTurns<int> turns(8, 16);  // 8 workers: 2 kept for addresses that run nothing.
+  net::FairTurns<int> turns(8, 16);  // 8 workers: 2 kept for addresses that run nothing.
   int started_a = 0;
   for (int i = 0; i < 10; ++i) started_a += turns.Arrive("a", i);
   EXPECT_EQ(started_a, 6);              // Up to the reserve.
@@ -146,7 +147,7 @@ TEST(FairTurns, AnAddressRunningNothingAlwaysStartsAndTheFewestRunningGoesNext) 
   EXPECT_EQ(start, (std::vector<int>{101, 6}));
   // The scarce gate: at most 2 renders hold a worker or a place in a line; the third waits at the
   // gate and goes when one of them ends, before anything else of its address.
-  FairTurns<int> gl(64, 16, {2, 1});
+  net::FairTurns<int> gl(64, 16, {2, 1});
   EXPECT_TRUE(gl.Arrive("r", 1, 0));
   EXPECT_TRUE(gl.Arrive("r", 2, 0));
   EXPECT_FALSE(gl.Arrive("s", 3, 0));
@@ -161,11 +162,11 @@ TEST(FairTurns, AnAddressRunningNothingAlwaysStartsAndTheFewestRunningGoesNext) 
   gl.End("s", 1, next);
   EXPECT_EQ(next, (std::vector<int>{3, 6}));
   // Its own cap holds whatever is free.
-  FairTurns<int> one(64, 2);
+  net::FairTurns<int> one(64, 2);
   EXPECT_TRUE(one.Arrive("x", 1));
   EXPECT_TRUE(one.Arrive("x", 2));
   EXPECT_FALSE(one.Arrive("x", 3));
 }
 
 }  // namespace bounds_test
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -6,23 +6,24 @@
 
 #include "http/context.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 namespace budget_test {  // Named: the target is a unity build, its files share one unit.
 
 TEST(RenderBudget, EstimatesSamplesAndOutputPixels) {
-  render::RenderOptions o;
+  picture::RenderOptions o;
   o.width = 2048;
   o.height = 2048;
   o.supersample = 4;
   // 8192² samples at 36 bytes (float colour, depth, read-back) + 2048² output pixels at 36 bytes.
-  EXPECT_EQ(RenderBudget::Estimate(o, 1), size_t{8192} * 8192 * 36 + size_t{2048} * 2048 * 36);
+  EXPECT_EQ(http::RenderBudget::Estimate(o, 1),
+            size_t{8192} * 8192 * 36 + size_t{2048} * 2048 * 36);
   o.supersample = 1;
-  EXPECT_EQ(RenderBudget::Estimate(o, 64),
+  EXPECT_EQ(http::RenderBudget::Estimate(o, 64),
             size_t{2048} * 2048 * 36 * 65);  // A sheet: every cell's image.
 }
 
 TEST(RenderBudget, RendersInFlightShareTheRoomAndOneAloneMayTakeItAll) {
-  RenderBudget budget(100, 100);
+  http::RenderBudget budget(100, 100);
   ASSERT_TRUE(budget.Acquire(60));
   EXPECT_EQ(budget.InFlight(), 60u);
   // 60 + 60 does not fit: the second waits, and gets the room once the first is done.
@@ -46,4 +47,4 @@ TEST(RenderBudget, RendersInFlightShareTheRoomAndOneAloneMayTakeItAll) {
 }
 
 }  // namespace budget_test
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -14,9 +14,9 @@
 namespace facespace {
 namespace evaluator_test {  // Named: the target is a unity build, its files share one unit.
 
-const std::shared_ptr<const api::StoredRig>& FaceCapStored() {
+const std::shared_ptr<const evaluator::StoredRig>& FaceCapStored() {
   static const auto rig =
-      api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
+      evaluator::Unstored(formats::LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
   return rig;
 }
 const Rig& FaceCap() { return FaceCapStored()->rig; }
@@ -29,34 +29,34 @@ int Shape(const char* name) {
 }
 
 // A point at the weights, checked as a route checks it.
-api::ResolvedPoint PointAt(std::initializer_list<std::pair<const char*, float>> weights) {
-  api::ResolvedPoint p;
+evaluator::ResolvedPoint PointAt(std::initializer_list<std::pair<const char*, float>> weights) {
+  evaluator::ResolvedPoint p;
   p.weights.assign(FaceCap().shapes.size(), 0.0f);
   for (const auto& [name, w] : weights) p.weights[Shape(name)] = w;
-  api::CheckPoint(FaceCap(), BlendMode::kRelative, p);
+  evaluator::CheckPoint(FaceCap(), BlendMode::kRelative, p);
   return p;
 }
 
 // Core's own answer: the rig evaluated at the point, then exported.
-std::string Exported(const Rig& rig, const api::ResolvedPoint& p, MeshFormat format,
+std::string Exported(const Rig& rig, const evaluator::ResolvedPoint& p, formats::MeshFormat format,
                      bool mesh_space = false) {
   BlendedRig blended;
   BlendContext context;
   EXPECT_TRUE(EvaluateRig(rig, p.weights, {}, blended, context).ok());
-  ExportOptions options;
+  formats::ExportOptions options;
   options.mesh_space = mesh_space;
   return ExportMesh(rig, blended, p.weights, p.report.warnings, format, options).value();
 }
 
-const render::NullRenderer kNull;
+const offscreen::NullRenderer kNull;
 
 TEST(Evaluator, MeshIsCoreEvaluationEncoded) {
-  const api::Evaluator evaluator(kNull);
-  api::MeshRequest r;
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::MeshRequest r;
   r.weights = {{"jawOpen", -1, 0.6, "/weights/jawOpen"},
                {"mouthSmile_L", -1, 0.3, "/weights/mouthSmile_L"}};
-  api::Workspace ws;
-  auto out = api::ProduceMesh(evaluator, FaceCapStored(), r, MeshFormat::kF32, ws);
+  evaluator::Workspace ws;
+  auto out = evaluator::ProduceMesh(evaluator, FaceCapStored(), r, formats::MeshFormat::kF32, ws);
   ASSERT_TRUE(out.ok()) << out.status().message;
   EXPECT_EQ(out->content_type, "application/octet-stream");
   EXPECT_NEAR(out->weight_sum, 0.9, 1e-6);
@@ -69,7 +69,7 @@ TEST(Evaluator, MeshIsCoreEvaluationEncoded) {
   BlendContext context;
   ASSERT_TRUE(EvaluateRig(FaceCap(), w, {}, blended, context).ok());
   std::vector<float> positions;
-  WorldPositions(blended, positions);
+  formats::WorldPositions(blended, positions);
   ASSERT_GE(out->bytes.size(), positions.size() * 4);
   std::vector<float> got(positions.size());
   std::memcpy(got.data(), out->bytes.data(), got.size() * 4);
@@ -79,26 +79,26 @@ TEST(Evaluator, MeshIsCoreEvaluationEncoded) {
 // The f32 body blended where it is written, the glb written over a kept template (leased, or the
 // workspace's own in pieces): each gives the exporter's bytes, call after call.
 TEST(Evaluator, FastPathsGiveTheExportersBytes) {
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
-  const api::ResolvedPoint points[] = {PointAt({{"jawOpen", 0.6f}}),
-                                       PointAt({{"eyeBlink_L", 1.0f}, {"mouthSmile_R", 0.4f}}),
-                                       PointAt({}), PointAt({{"jawOpen", 0.2f}})};
-  for (const api::ResolvedPoint& p : points) {
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
+  const evaluator::ResolvedPoint points[] = {
+      PointAt({{"jawOpen", 0.6f}}), PointAt({{"eyeBlink_L", 1.0f}, {"mouthSmile_R", 0.4f}}),
+      PointAt({}), PointAt({{"jawOpen", 0.2f}})};
+  for (const evaluator::ResolvedPoint& p : points) {
     for (bool mesh_space : {false, true}) {
-      api::OutputSpec f32;
-      f32.mesh_format = MeshFormat::kF32;
+      evaluator::OutputSpec f32;
+      f32.mesh_format = formats::MeshFormat::kF32;
       f32.mesh_space = mesh_space;
       auto body = evaluator.Run(FaceCapStored(), p, f32, ws);
       ASSERT_TRUE(body.ok());
-      EXPECT_TRUE(body->bytes == Exported(FaceCap(), p, MeshFormat::kF32, mesh_space))
+      EXPECT_TRUE(body->bytes == Exported(FaceCap(), p, formats::MeshFormat::kF32, mesh_space))
           << "f32, mesh space " << mesh_space;
       ws.body = std::move(body->bytes);  // Handed back, as the service does once a response is
                                          // sent: written over next.
     }
-    api::OutputSpec glb;
-    glb.mesh_format = MeshFormat::kGlb;
-    const std::string expected = Exported(FaceCap(), p, MeshFormat::kGlb);
+    evaluator::OutputSpec glb;
+    glb.mesh_format = formats::MeshFormat::kGlb;
+    const std::string expected = Exported(FaceCap(), p, formats::MeshFormat::kGlb);
     auto joined = evaluator.Run(FaceCapStored(), p, glb, ws);
     ASSERT_TRUE(joined.ok());
     EXPECT_TRUE(joined->bytes == expected) << "glb";
@@ -112,17 +112,17 @@ TEST(Evaluator, FastPathsGiveTheExportersBytes) {
 }
 
 TEST(Evaluator, LevelOfDetailIsTheSimplifiedRigEvaluated) {
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
-  const api::ResolvedPoint p = PointAt({{"jawOpen", 0.7f}});
-  api::OutputSpec spec;
-  spec.mesh_format = MeshFormat::kObj;
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
+  const evaluator::ResolvedPoint p = PointAt({{"jawOpen", 0.7f}});
+  evaluator::OutputSpec spec;
+  spec.mesh_format = formats::MeshFormat::kObj;
   spec.lod = 2;
   auto obj = evaluator.Run(FaceCapStored(), p, spec, ws);
   ASSERT_TRUE(obj.ok());
-  const Rig lod = MakeLod(FaceCap(), 2).value();
+  const Rig lod = formats::MakeLod(FaceCap(), 2).value();
   EXPECT_LT(lod.triangle_count(), FaceCap().triangle_count() / 2);
-  EXPECT_TRUE(obj->bytes == Exported(lod, p, MeshFormat::kObj));
+  EXPECT_TRUE(obj->bytes == Exported(lod, p, formats::MeshFormat::kObj));
   EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2)->rig->triangle_count(), lod.triangle_count());
   EXPECT_EQ(evaluator.Derived(FaceCapStored(), 2),
             evaluator.Derived(FaceCapStored(), 2));  // Kept, not made again.
@@ -131,22 +131,23 @@ TEST(Evaluator, LevelOfDetailIsTheSimplifiedRigEvaluated) {
 // What the evaluator keeps per rig (levels of detail, focus boxes, glb and f32 writers) never keeps
 // the rig alive: a rig deleted or replaced in the store is freed once no request holds it.
 TEST(Evaluator, KeepsNothingAliveOfARigGone) {
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
-  auto rig = api::Unstored(FaceCap(), "gone");
-  const std::weak_ptr<const api::StoredRig> weak = rig;
-  const api::ResolvedPoint p = PointAt({{"jawOpen", 0.3f}});
-  for (MeshFormat format : {MeshFormat::kF32, MeshFormat::kGlb}) {
-    api::OutputSpec mesh;
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
+  auto rig = evaluator::Unstored(FaceCap(), "gone");
+  const std::weak_ptr<const evaluator::StoredRig> weak = rig;
+  const evaluator::ResolvedPoint p = PointAt({{"jawOpen", 0.3f}});
+  for (formats::MeshFormat format : {formats::MeshFormat::kF32, formats::MeshFormat::kGlb}) {
+    evaluator::OutputSpec mesh;
     mesh.mesh_format = format;
     ASSERT_TRUE(evaluator.Run(rig, p, mesh, ws).ok());
   }
-  api::RenderRequest render;
+  evaluator::RenderRequest render;
   render.render.width = render.render.height = 8;
   for (int lod : {0, 1}) {
     render.mesh.lod = lod;
     ASSERT_TRUE(
-        evaluator.Run(rig, p, api::OutputSpec::Image(render, render::ImageFormat::kPng), ws).ok());
+        evaluator.Run(rig, p, evaluator::OutputSpec::Image(render, picture::ImageFormat::kPng), ws)
+            .ok());
     ASSERT_NE(evaluator.Derived(rig, lod), nullptr);
   }
   rig.reset();
@@ -154,19 +155,19 @@ TEST(Evaluator, KeepsNothingAliveOfARigGone) {
 }
 
 TEST(Evaluator, FramesAreTheSequenceEncodings) {
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
-  const api::ResolvedPoint p = PointAt({{"mouthFunnel", 0.5f}});
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
+  const evaluator::ResolvedPoint p = PointAt({{"mouthFunnel", 0.5f}});
   BlendedRig blended;
   BlendContext context;
   ASSERT_TRUE(EvaluateRig(FaceCap(), p.weights, {}, blended, context).ok());
-  auto json = evaluator.Run(FaceCapStored(), p, api::OutputSpec::Frame({}, false), ws);
+  auto json = evaluator.Run(FaceCapStored(), p, evaluator::OutputSpec::Frame({}, false), ws);
   ASSERT_TRUE(json.ok());
-  EXPECT_EQ(json->bytes, PrimitivesJson(FaceCap(), blended));
-  auto f32 = evaluator.Run(FaceCapStored(), p, api::OutputSpec::Frame({}, true), ws);
+  EXPECT_EQ(json->bytes, formats::PrimitivesJson(FaceCap(), blended));
+  auto f32 = evaluator.Run(FaceCapStored(), p, evaluator::OutputSpec::Frame({}, true), ws);
   ASSERT_TRUE(f32.ok());
   std::vector<float> positions;
-  WorldPositions(blended, positions);
+  formats::WorldPositions(blended, positions);
   uint32_t size = 0;
   ASSERT_EQ(f32->bytes.size(), 4 + positions.size() * 4);
   std::memcpy(&size, f32->bytes.data(), 4);
@@ -175,53 +176,55 @@ TEST(Evaluator, FramesAreTheSequenceEncodings) {
 }
 
 TEST(Evaluator, CacheKeyChangesWithWhatTheBytesDependOn) {
-  const api::StoredRig& rig = *FaceCapStored();
-  api::ResolvedPoint p = PointAt({{"jawOpen", 0.5f}});
-  api::OutputSpec mesh;
-  mesh.mesh_format = MeshFormat::kGlb;
-  const std::string key = api::CacheKey(rig, {&p, 1}, mesh);
+  const evaluator::StoredRig& rig = *FaceCapStored();
+  evaluator::ResolvedPoint p = PointAt({{"jawOpen", 0.5f}});
+  evaluator::OutputSpec mesh;
+  mesh.mesh_format = formats::MeshFormat::kGlb;
+  const std::string key = evaluator::CacheKey(rig, {&p, 1}, mesh);
   EXPECT_EQ(key.rfind(rig.id + "|v1|", 0), 0u) << key;  // The rig's id and version first.
-  EXPECT_EQ(api::CacheKey(rig, {&p, 1}, mesh), key);
-  api::ResolvedPoint negative_zero = p;
+  EXPECT_EQ(evaluator::CacheKey(rig, {&p, 1}, mesh), key);
+  evaluator::ResolvedPoint negative_zero = p;
   negative_zero.weights[Shape("cheekPuff")] = -0.0f;  // The same weight as 0.
-  EXPECT_EQ(api::CacheKey(rig, {&negative_zero, 1}, mesh), key);
+  EXPECT_EQ(evaluator::CacheKey(rig, {&negative_zero, 1}, mesh), key);
 
   std::vector<std::string> others;
-  api::ResolvedPoint q = PointAt({{"jawOpen", 0.5000001f}});
-  others.push_back(api::CacheKey(rig, {&q, 1}, mesh));
+  evaluator::ResolvedPoint q = PointAt({{"jawOpen", 0.5000001f}});
+  others.push_back(evaluator::CacheKey(rig, {&q, 1}, mesh));
   for (int change = 0; change < 6; ++change) {
-    api::OutputSpec s = mesh;
-    if (change == 0) s.mesh_format = MeshFormat::kObj;
+    evaluator::OutputSpec s = mesh;
+    if (change == 0) s.mesh_format = formats::MeshFormat::kObj;
     if (change == 1) s.mesh_space = true;
     if (change == 2) s.keep_targets = true;
     if (change == 3) s.lod = 1;
     if (change == 4) s.blend.normals = NormalMode::kRecompute;
     if (change == 5) s.blend.mode = BlendMode::kAbsolute;
-    others.push_back(api::CacheKey(rig, {&p, 1}, s));
+    others.push_back(evaluator::CacheKey(rig, {&p, 1}, s));
   }
-  api::StoredRig next = rig;
+  evaluator::StoredRig next = rig;
   next.version = "v2";
-  others.push_back(api::CacheKey(next, {&p, 1}, mesh));
-  api::RenderRequest render;
-  const api::OutputSpec image = api::OutputSpec::Image(render, render::ImageFormat::kPng);
-  others.push_back(api::CacheKey(rig, {&p, 1}, image));
-  api::OutputSpec wider = image;
+  others.push_back(evaluator::CacheKey(next, {&p, 1}, mesh));
+  evaluator::RenderRequest render;
+  const evaluator::OutputSpec image =
+      evaluator::OutputSpec::Image(render, picture::ImageFormat::kPng);
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, image));
+  evaluator::OutputSpec wider = image;
   wider.render.width += 1;
-  others.push_back(api::CacheKey(rig, {&p, 1}, wider));
-  api::OutputSpec jpeg = image;
-  jpeg.image_format = render::ImageFormat::kJpeg;
-  others.push_back(api::CacheKey(rig, {&p, 1}, jpeg));
-  api::OutputSpec turned = image;
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, wider));
+  evaluator::OutputSpec jpeg = image;
+  jpeg.image_format = picture::ImageFormat::kJpeg;
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, jpeg));
+  evaluator::OutputSpec turned = image;
   turned.render.camera.yaw = 10;
-  others.push_back(api::CacheKey(rig, {&p, 1}, turned));
-  api::SheetRequest sheet_request;
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, turned));
+  evaluator::SheetRequest sheet_request;
   sheet_request.labels = {"a"};
-  api::OutputSpec sheet = api::OutputSpec::Sheet(sheet_request, render::ImageFormat::kPng);
-  others.push_back(api::CacheKey(rig, {&p, 1}, sheet));
+  evaluator::OutputSpec sheet =
+      evaluator::OutputSpec::Sheet(sheet_request, picture::ImageFormat::kPng);
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, sheet));
   sheet.lod = 1;  // Sheets are drawn at the asked level of detail too.
-  others.push_back(api::CacheKey(rig, {&p, 1}, sheet));
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, sheet));
   sheet.labels = {"b"};
-  others.push_back(api::CacheKey(rig, {&p, 1}, sheet));
+  others.push_back(evaluator::CacheKey(rig, {&p, 1}, sheet));
   for (size_t i = 0; i < others.size(); ++i) {
     EXPECT_NE(others[i], key) << i;
     for (size_t j = 0; j < i; ++j) EXPECT_NE(others[i], others[j]) << i << " " << j;
@@ -229,11 +232,11 @@ TEST(Evaluator, CacheKeyChangesWithWhatTheBytesDependOn) {
 }
 
 TEST(Evaluator, ErrorsCarryTheirReason) {
-  api::ResolvedPoint point;
-  api::MeshRequest r;
+  evaluator::ResolvedPoint point;
+  evaluator::MeshRequest r;
   r.weights = {{"jawOpn", -1, 1.0, "/weights/jawOpn"}};
-  Status s = api::ResolvePoint(FaceCap(), r, point);
-  EXPECT_EQ(s.reason, api::kInvalidWeights);
+  Status s = evaluator::ResolvePoint(FaceCap(), r, point);
+  EXPECT_EQ(s.reason, evaluator::kInvalidWeights);
   ASSERT_EQ(s.fields.size(), 1u);
   EXPECT_EQ(s.fields[0].pointer, "/weights/jawOpn");
   EXPECT_NE(s.message.find("jawOpen"), std::string::npos)
@@ -241,8 +244,8 @@ TEST(Evaluator, ErrorsCarryTheirReason) {
 
   r.weights = {{"jawOpen", -1, 0.9, ""}, {"cheekPuff", -1, 0.8, ""}};
   r.strict = true;
-  s = api::ResolvePoint(FaceCap(), r, point);
-  EXPECT_EQ(s.reason, api::kLeavesAuthoredSpace);
+  s = evaluator::ResolvePoint(FaceCap(), r, point);
+  EXPECT_EQ(s.reason, evaluator::kLeavesAuthoredSpace);
   ASSERT_FALSE(point.report.warnings.empty());  // Filled even when refused, for the headers.
   EXPECT_EQ(point.report.warnings[0].code, "extrapolation");
   EXPECT_NEAR(point.report.sum, 1.7, 1e-6);
@@ -251,22 +254,22 @@ TEST(Evaluator, ErrorsCarryTheirReason) {
 // Issue 48: the evaluator's loops end Cancelled at their next step once the request's token fires
 // (sheet cells, sequence frames), and nothing half-made comes out.
 TEST(Evaluator, AFiredStopTokenEndsSheetsAndSequencesCancelled) {
-  api::SheetRequest r;
+  evaluator::SheetRequest r;
   r.base.render.width = r.base.render.height = 16;
   r.cells = {{{"jawOpen", -1, 1.0, ""}}, {{"jawOpen", -1, 0.5, ""}}};
-  api::SheetPoints points;
-  ASSERT_TRUE(api::ResolveSheet(FaceCap(), r, points).ok());
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
+  evaluator::SheetPoints points;
+  ASSERT_TRUE(evaluator::ResolveSheet(FaceCap(), r, points).ok());
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
   std::stop_source stop;
   ws.stop = stop.get_token();
   ASSERT_TRUE(evaluator
                   .Run(FaceCapStored(), points.cells,
-                       api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws)
+                       evaluator::OutputSpec::Sheet(r, picture::ImageFormat::kPng), ws)
                   .ok());
   stop.request_stop();
   auto sheet = evaluator.Run(FaceCapStored(), points.cells,
-                             api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
+                             evaluator::OutputSpec::Sheet(r, picture::ImageFormat::kPng), ws);
   ASSERT_FALSE(sheet.ok());
   EXPECT_EQ(sheet.status().code, StatusCode::kCancelled);
   Sequence seq;
@@ -274,60 +277,61 @@ TEST(Evaluator, AFiredStopTokenEndsSheetsAndSequencesCancelled) {
   seq.keys.push_back({1.0f, std::vector<float>(FaceCap().shapes.size(), 0.5f), std::nullopt, {}});
   std::vector<Warning> warnings;
   const float times[] = {0.0f, 0.5f, 1.0f};
-  auto json = api::SampleSequenceJson(evaluator, FaceCapStored(), seq, times, {}, warnings, ws);
+  auto json =
+      evaluator::SampleSequenceJson(evaluator, FaceCapStored(), seq, times, {}, warnings, ws);
   ASSERT_FALSE(json.ok());
   EXPECT_EQ(json.status().code, StatusCode::kCancelled);
 }
 
 TEST(Evaluator, SheetResolvesEveryCellBeforeRendering) {
-  api::SheetRequest r;
+  evaluator::SheetRequest r;
   r.base.render.width = r.base.render.height = 16;
   r.cells = {{{"jawOpen", -1, 1.0, "/cells/0/weights/jawOpen"}},
              {{"nope", -1, 1.0, "/cells/1/weights/nope"}}};
   r.labels = {"a", "b"};
-  api::SheetPoints points;
-  const Status s = api::ResolveSheet(FaceCap(), r, points);
-  EXPECT_EQ(s.reason, api::kInvalidWeights);
+  evaluator::SheetPoints points;
+  const Status s = evaluator::ResolveSheet(FaceCap(), r, points);
+  EXPECT_EQ(s.reason, evaluator::kInvalidWeights);
   EXPECT_EQ(s.message.rfind("cell 1: ", 0), 0u) << s.message;
 
   r.cells[1] = {{"jawOpen", -1, 0.9, ""}, {"cheekPuff", -1, 0.8, ""}};
-  ASSERT_TRUE(api::ResolveSheet(FaceCap(), r, points).ok());
+  ASSERT_TRUE(evaluator::ResolveSheet(FaceCap(), r, points).ok());
   ASSERT_EQ(points.warnings.size(), 1u);
   EXPECT_EQ(points.warnings[0].message.rfind("cell 1: ", 0), 0u);
   EXPECT_NEAR(points.max_sum, 1.7, 1e-6);
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
   auto png = evaluator.Run(FaceCapStored(), points.cells,
-                           api::OutputSpec::Sheet(r, render::ImageFormat::kPng), ws);
+                           evaluator::OutputSpec::Sheet(r, picture::ImageFormat::kPng), ws);
   ASSERT_TRUE(png.ok());
-  auto image = render::Decode(
+  auto image = offscreen::Decode(
       {reinterpret_cast<const unsigned char*>(png->bytes.data()), png->bytes.size()});
   ASSERT_TRUE(image.ok());
   EXPECT_EQ(ws.cells.size(), 2u);
   EXPECT_EQ(ws.cells[0].width, 16);
   // One point for a mesh or an image; more is the caller's mistake, said as such.
-  auto two = evaluator.Run(FaceCapStored(), points.cells, api::OutputSpec{}, ws);
+  auto two = evaluator.Run(FaceCapStored(), points.cells, evaluator::OutputSpec{}, ws);
   EXPECT_EQ(two.status().code, StatusCode::kInternal);
 }
 
 // Pictures come from the renderer handed in: without one the evaluator still makes meshes and
 // frames, and refuses pictures; with one, it draws and encodes through it, and a sheet's labels are
 // what its fonts can draw.
-class AsciiOnly final : public render::Renderer {
+class AsciiOnly final : public picture::Renderer {
  public:
-  Status Draw(const Rig& rig, const BlendedRig& b, const render::RenderOptions& o,
-              render::Image& out) const override {
+  Status Draw(const Rig& rig, const BlendedRig& b, const picture::RenderOptions& o,
+              picture::Image& out) const override {
     ++draws;
     return null.Draw(rig, b, o, out);
   }
   std::string Info() const override { return "ascii only"; }
   int Concurrency() const override { return 1; }
-  Result<std::string> Encode(const render::Image& image, render::ImageFormat, int,
+  Result<std::string> Encode(const picture::Image& image, picture::ImageFormat, int,
                              HelperCpu*) const override {
     return std::to_string(image.width) + "x" + std::to_string(image.height);
   }
-  render::Image Sheet(std::span<const render::Image> cells, std::span<const std::string>,
-                      int columns, std::array<float, 4>) const override {
+  picture::Image Sheet(std::span<const picture::Image> cells, std::span<const std::string>,
+                       int columns, std::array<float, 4>) const override {
     return {static_cast<int>(columns),
             static_cast<int>((cells.size() + columns - 1) / columns),
             {},
@@ -338,49 +342,50 @@ class AsciiOnly final : public render::Renderer {
                        [](char c) { return static_cast<unsigned char>(c) < 0x80; });
   }
   Result<std::string> EncodeData(std::span<const float> v, int, int, int,
-                                 render::DataPrecision) const override {
+                                 picture::DataPrecision) const override {
     return std::to_string(v.size()) + " floats";
   }
   Result<std::string> EncodeIds(std::span<const uint16_t> v, int, int) const override {
     return std::to_string(v.size()) + " ids";
   }
-  Result<render::Image> DecodePicture(std::span<const unsigned char> b,
-                                      const std::string& t) const override {
+  Result<picture::Image> DecodePicture(std::span<const unsigned char> b,
+                                       const std::string& t) const override {
     return null.DecodePicture(b, t);
   }
   mutable int draws = 0;
-  render::NullRenderer null;
+  offscreen::NullRenderer null;
 };
 
 TEST(Evaluator, PicturesComeFromTheRendererHandedIn) {
-  api::RenderRequest request;
+  evaluator::RenderRequest request;
   request.render.width = 40;
   request.render.height = 30;
-  const api::ResolvedPoint point = PointAt({{"jawOpen", 0.5f}});
-  api::Workspace ws;
-  const api::Evaluator meshes;
+  const evaluator::ResolvedPoint point = PointAt({{"jawOpen", 0.5f}});
+  evaluator::Workspace ws;
+  const evaluator::Evaluator meshes;
   EXPECT_EQ(meshes.renderer(), nullptr);
-  EXPECT_TRUE(
-      meshes.Run(FaceCapStored(), point, api::OutputSpec::Mesh(request.mesh, MeshFormat::kObj), ws)
-          .ok());
+  EXPECT_TRUE(meshes
+                  .Run(FaceCapStored(), point,
+                       evaluator::OutputSpec::Mesh(request.mesh, formats::MeshFormat::kObj), ws)
+                  .ok());
   auto refused = meshes.Run(FaceCapStored(), point,
-                            api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
+                            evaluator::OutputSpec::Image(request, picture::ImageFormat::kPng), ws);
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.status().code, StatusCode::kFailedPrecondition);
 
   const AsciiOnly renderer;
-  const api::Evaluator pictures(renderer);
+  const evaluator::Evaluator pictures(renderer);
   auto drawn = pictures.Run(FaceCapStored(), point,
-                            api::OutputSpec::Image(request, render::ImageFormat::kPng), ws);
+                            evaluator::OutputSpec::Image(request, picture::ImageFormat::kPng), ws);
   ASSERT_TRUE(drawn.ok()) << drawn.status().message;
   EXPECT_EQ(drawn->bytes, "40x30");
   EXPECT_EQ(renderer.draws, 1);
-  api::SheetRequest sheet;
+  evaluator::SheetRequest sheet;
   sheet.base = request;
   sheet.columns = 2;
-  const api::ResolvedPoint cells[] = {point, point, point};
+  const evaluator::ResolvedPoint cells[] = {point, point, point};
   auto grid = pictures.Run(FaceCapStored(), cells,
-                           api::OutputSpec::Sheet(sheet, render::ImageFormat::kPng), ws);
+                           evaluator::OutputSpec::Sheet(sheet, picture::ImageFormat::kPng), ws);
   ASSERT_TRUE(grid.ok()) << grid.status().message;
   EXPECT_EQ(grid->bytes, "2x2");  // Three cells two columns wide, laid out by the renderer's Sheet.
   EXPECT_EQ(renderer.draws, 4);
@@ -389,13 +394,13 @@ TEST(Evaluator, PicturesComeFromTheRendererHandedIn) {
   Rig rig = FaceCap();
   rig.shapes[0].name = "\xe3\x81\xbe\xe3\x81\xb0\xe3\x81\x9f\xe3\x81\x8d";  // まばたき
   rig.shapes[0].aliases = {"blink"};
-  api::SheetRequest by_shape;
+  evaluator::SheetRequest by_shape;
   by_shape.shape_cells = "shapes";
-  ASSERT_TRUE(api::ExpandShapeCells(rig, &renderer, by_shape).ok());
+  ASSERT_TRUE(evaluator::ExpandShapeCells(rig, &renderer, by_shape).ok());
   EXPECT_EQ(by_shape.labels[0], "blink");
-  api::SheetRequest any_font;
+  evaluator::SheetRequest any_font;
   any_font.shape_cells = "shapes";
-  ASSERT_TRUE(api::ExpandShapeCells(rig, nullptr, any_font).ok());
+  ASSERT_TRUE(evaluator::ExpandShapeCells(rig, nullptr, any_font).ok());
   EXPECT_EQ(any_font.labels[0], rig.shapes[0].name + " (blink)");
 }
 

@@ -6,13 +6,13 @@
 
 #include <string>
 
-namespace facespace::api::http {
+namespace facespace::net {
 namespace framing_test {  // Named: the target is a unity build, its files share one unit.
 
 struct Parsed {
   Framing f;
-  RequestHead head;
-  FramingError error;
+  net::RequestHead head;
+  net::FramingError error;
 };
 
 // One call on the whole bytes.
@@ -29,8 +29,8 @@ TEST(Framing, AHeadFoundByteByByteIsTheHeadFoundAtOnce) {
       "100-Continue\r\n\r\n{\"weights\":{}}";
   std::string buf;
   size_t scan = 0;
-  RequestHead head;
-  FramingError error;
+  net::RequestHead head;
+  net::FramingError error;
   Framing f = Framing::kNeedMore;
   size_t calls = 0;
   for (char c : req) {
@@ -86,8 +86,8 @@ TEST(Framing, RefusesWhatCppHttplibAccepted) {
   // A request line over the limit is refused before its end arrives; so are endless headers.
   std::string endless = "GET /" + std::string(9000, 'a');
   size_t scan = 0;
-  RequestHead head;
-  FramingError error;
+  net::RequestHead head;
+  net::FramingError error;
   EXPECT_EQ(ParseHead(endless, scan, HeadLimits{}, head, error), Framing::kError);
   EXPECT_EQ(error.status, 414);
   std::string headers = "GET / HTTP/1.1\r\n";
@@ -105,9 +105,9 @@ TEST(Framing, ChunkedBodiesEndAtTheLastChunkAndItsTrailers) {
   const std::string body = "4;ext=1\r\n{\"we\r\nA\r\nights\":{}}\r\n0\r\nX-Trailer: 1\r\n\r\n";
   const std::string next = "GET / HTTP/1.1\r\n\r\n";  // Pipelined: must not be taken as the body's.
   std::string buf = head;
-  ChunkedState st;
+  net::ChunkedState st;
   st.pos = p.head.end;
-  FramingError error;
+  net::FramingError error;
   Framing f = Framing::kNeedMore;
   for (char c : body + next) {
     buf += c;
@@ -122,9 +122,9 @@ TEST(Framing, ChunkedBodiesEndAtTheLastChunkAndItsTrailers) {
             "POST /x HTTP/1.1\r\nContent-Length: 14\r\n\r\n{\"weights\":{}}");
 
   auto chunked = [&](const std::string& b, size_t max_body) {
-    ChunkedState s;
+    net::ChunkedState s;
     s.pos = head.size();
-    FramingError e;
+    net::FramingError e;
     const Framing r = ParseChunked(head + b, s, max_body, e);
     return std::make_pair(r, e.status);
   };
@@ -137,4 +137,4 @@ TEST(Framing, ChunkedBodiesEndAtTheLastChunkAndItsTrailers) {
 }
 
 }  // namespace framing_test
-}  // namespace facespace::api::http
+}  // namespace facespace::net

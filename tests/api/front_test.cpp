@@ -15,20 +15,20 @@
 
 #include "loopback.h"
 
-namespace facespace::api {
+namespace facespace::net {
 namespace front_test {  // Named: the target is a unity build, its files share one unit.
 
 using Clock = std::chrono::steady_clock;
 
 class Front {
  public:
-  explicit Front(FrontOptions o) : server_(std::move(o), stats_) {
+  explicit Front(net::FrontOptions o) : server_(std::move(o), stats_) {
     // Spins (burning CPU) until its stop token fires, then says how long it ran.
     server_.Post("/spin", [this](const httplib::Request& req, httplib::Response& res) {
       ++running_;
       const auto start = Clock::now();
       volatile double x = 0;
-      while (!StopOf(req).stop_requested()) {
+      while (!net::StopOf(req).stop_requested()) {
         for (int i = 0; i < 10000; ++i) x = x + 1.0;
       }
       --running_;
@@ -39,7 +39,7 @@ class Front {
     server_.Post("/wait", [this](const httplib::Request& req, httplib::Response& res) {
       ++running_;
       peak_ = std::max(peak_.load(), running_.load());
-      while (!StopOf(req).stop_requested())
+      while (!net::StopOf(req).stop_requested())
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
       --running_;
       res.set_content("stopped", "text/plain");
@@ -84,25 +84,25 @@ class Front {
     close(fd);
     return out;
   }
-  const FrontStats& stats() const { return server_.Stats(); }
+  const net::FrontStats& stats() const { return server_.Stats(); }
   std::atomic<int> running_{0}, peak_{0};
 
  private:
-  FrontStats stats_;  // Before the server, which counts into it.
-  FrontServer server_;
+  net::FrontStats stats_;  // Before the server, which counts into it.
+  net::FrontServer server_;
   int port_ = 0;
   std::thread thread_;
 };
 
-FrontOptions Options() {
-  FrontOptions o;
+net::FrontOptions Options() {
+  net::FrontOptions o;
   o.workers = 8;
   o.log_requests = false;
   return o;
 }
 
 TEST(Front, ARequestSpendingMoreCpuThanItMayIsStopped) {
-  FrontOptions o = Options();
+  net::FrontOptions o = Options();
   o.cpu_limit = 0.3;
   Front front(o);
   const double ran = std::stod(Front::Answer(front.Send("/spin")));
@@ -113,7 +113,7 @@ TEST(Front, ARequestSpendingMoreCpuThanItMayIsStopped) {
 }
 
 TEST(Front, ARequestIsStoppedAtItsDeadline) {
-  FrontOptions o = Options();
+  net::FrontOptions o = Options();
   o.request_deadline = 1;
   Front front(o);
   const auto start = Clock::now();
@@ -140,7 +140,7 @@ TEST(Front, AClientThatHangsUpStopsItsRequest) {
 }
 
 TEST(Front, OneAddressRunsAtMostItsTurnsAndTheRestWait) {
-  FrontOptions o = Options();
+  net::FrontOptions o = Options();
   o.max_client_requests = 2;
   o.request_deadline = 1;  // Each waits its second, then the next of the line runs.
   Front front(o);
@@ -154,7 +154,7 @@ TEST(Front, OneAddressRunsAtMostItsTurnsAndTheRestWait) {
 // Fair shares (issue 61): an address may take the workers but a quarter kept for addresses that run
 // nothing.
 TEST(Front, AnAddressThatRunsNothingFindsAWorkerWhileAnotherTakesTheRest) {
-  FrontOptions o = Options();
+  net::FrontOptions o = Options();
   o.workers = 4;
   o.max_client_requests = 16;
   o.request_deadline = 2;
@@ -182,10 +182,10 @@ TEST(Front, AnAddressThatRunsNothingFindsAWorkerWhileAnotherTakesTheRest) {
 
 // A probe is answered by the front itself, however many workers are busy.
 TEST(Front, AProbeIsAnsweredWithoutAWorker) {
-  FrontOptions o = Options();
+  net::FrontOptions o = Options();
   o.workers = 2;
   o.request_deadline = 2;
-  o.probe = [](const RequestHeadView& head) -> std::optional<std::string> {
+  o.probe = [](const net::RequestHeadView& head) -> std::optional<std::string> {
     if (head.target != "/healthz") return std::nullopt;
     return std::string("HTTP/1.1 200 OK\r\nContent-Length: 2\r\nConnection: keep-alive\r\n\r\nok");
   };
@@ -202,4 +202,4 @@ TEST(Front, AProbeIsAnsweredWithoutAWorker) {
 }
 
 }  // namespace front_test
-}  // namespace facespace::api
+}  // namespace facespace::net

@@ -14,11 +14,11 @@
 #include <thread>
 #include <vector>
 
-namespace facespace::api::http {
+namespace facespace::net {
 namespace live_hub_test {  // Named: the target is a unity build, its files share one unit.
 
 // A client's frame: masked (with a zero key, so the payload reads as it is), whole, short.
-std::string ClientFrame(ws::Opcode op, const std::string& payload) {
+std::string ClientFrame(net::ws::Opcode op, const std::string& payload) {
   std::string f;
   f.push_back(static_cast<char>(0x80 | static_cast<uint8_t>(op)));
   f.push_back(static_cast<char>(0x80 | payload.size()));
@@ -51,12 +51,12 @@ std::pair<uint8_t, std::string> ReadFrame(int fd) {
 
 // Echoes each text message on its turn; a helper thread of its own posts "helper" and wakes the
 // session.
-class Echo final : public LiveHandler {
+class Echo final : public net::LiveHandler {
  public:
   ~Echo() override { End(); }
-  void Attach(LivePost post, LiveWake wake) override {
+  void Attach(net::LivePost post, net::LiveWake wake) override {
     helper_ = std::thread([post, wake, this] {
-      post(ws::Opcode::kText, "helper");
+      post(net::ws::Opcode::kText, "helper");
       woken_ = true;
       wake();
     });
@@ -81,9 +81,9 @@ class Echo final : public LiveHandler {
 };
 
 TEST(LiveHub, SessionsWithHelperThreadsAnswerEveryMessageAndClose) {
-  LiveLimits limits;
+  net::LiveLimits limits;
   limits.workers = 2;
-  LiveHub hub(limits);
+  net::LiveHub hub(limits);
   constexpr int kSessions = 8, kMessages = 20;
   std::vector<int> clients;
   for (int i = 0; i < kSessions; ++i) {
@@ -100,8 +100,8 @@ TEST(LiveHub, SessionsWithHelperThreadsAnswerEveryMessageAndClose) {
   for (int fd : clients) {
     talkers.emplace_back([&, fd] {
       for (int m = 0; m < kMessages; ++m) {
-        const std::string frames = ClientFrame(ws::Opcode::kText, "m" + std::to_string(m)) +
-                                   ClientFrame(ws::Opcode::kPing, "p");
+        const std::string frames = ClientFrame(net::ws::Opcode::kText, "m" + std::to_string(m)) +
+                                   ClientFrame(net::ws::Opcode::kPing, "p");
         send(fd, frames.data(), frames.size(), MSG_NOSIGNAL);
       }
       // Everything answered first (a close drops what is not yet begun), then the close, answered
@@ -117,7 +117,7 @@ TEST(LiveHub, SessionsWithHelperThreadsAnswerEveryMessageAndClose) {
         mine += payload.rfind("echo m", 0) == 0;
         helped = helped || payload == "helper";
         if (mine == kMessages && my_pongs == kMessages && helped) {
-          const std::string bye = ClientFrame(ws::Opcode::kClose, std::string("\x03\xe8", 2));
+          const std::string bye = ClientFrame(net::ws::Opcode::kClose, std::string("\x03\xe8", 2));
           send(fd, bye.data(), bye.size(), MSG_NOSIGNAL);
         }
       }
@@ -142,15 +142,15 @@ TEST(LiveHub, SessionsWithHelperThreadsAnswerEveryMessageAndClose) {
 class SlowTurn final : public LiveHandler {
  public:
   SlowTurn(std::atomic<int>& ends, std::atomic<int>& overlaps) : ends_(ends), overlaps_(overlaps) {}
-  void Open(Out&) override {}
-  void OnText(std::string_view, Out& out) override {
+  void Open(Echo::Out&) override {}
+  void OnText(std::string_view, Echo::Out& out) override {
     in_turn_ = true;
     std::this_thread::sleep_for(std::chrono::milliseconds(30));
     out.texts.push_back("done");
     in_turn_ = false;
   }
-  void OnBinary(std::string_view, Out&) override {}
-  bool MakeFrame(std::string&, Out&) override { return false; }
+  void OnBinary(std::string_view, Echo::Out&) override {}
+  bool MakeFrame(std::string&, Echo::Out&) override { return false; }
   void End() override {
     overlaps_ += in_turn_.load();
     ++ends_;
@@ -163,9 +163,9 @@ class SlowTurn final : public LiveHandler {
 };
 
 TEST(LiveHub, AClientGoneDuringATurnEndsItsSessionAfterTheTurn) {
-  LiveLimits limits;
+  net::LiveLimits limits;
   limits.workers = 2;
-  LiveHub hub(limits);
+  net::LiveHub hub(limits);
   constexpr int kSessions = 12;
   std::atomic<int> ends{0}, overlaps{0};
   for (int i = 0; i < kSessions; ++i) {
@@ -174,7 +174,7 @@ TEST(LiveHub, AClientGoneDuringATurnEndsItsSessionAfterTheTurn) {
     ASSERT_TRUE(hub.Reserve("127.0.0.1"));
     hub.Adopt(pair[1], "127.0.0.1", "", std::make_unique<SlowTurn>(ends, overlaps),
               SessionBounds{});
-    const std::string text = ClientFrame(ws::Opcode::kText, "slow");
+    const std::string text = ClientFrame(net::ws::Opcode::kText, "slow");
     send(pair[0], text.data(), text.size(), MSG_NOSIGNAL);
     std::this_thread::sleep_for(
         std::chrono::milliseconds(10));  // Its turn has begun: then the client is gone.
@@ -188,4 +188,4 @@ TEST(LiveHub, AClientGoneDuringATurnEndsItsSessionAfterTheTurn) {
 }
 
 }  // namespace live_hub_test
-}  // namespace facespace::api::http
+}  // namespace facespace::net

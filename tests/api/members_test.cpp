@@ -17,14 +17,14 @@
 #include "facespace/evaluator/request.h"
 #include "facespace/http/http.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 namespace members_test {  // Named: the target is a unity build, its files share one unit.
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 
 // A value of the member's declared kind: its example, else its default, else one in range.
-json ValueOf(const Member& m) {
+json ValueOf(const evaluator::Member& m) {
   if (!m.example.empty()) return json::parse(m.example);
   if (!m.fallback.empty()) return json::parse(m.fallback);
   switch (m.kind) {
@@ -39,20 +39,22 @@ json ValueOf(const Member& m) {
 }
 
 // The reader of each top-level body, its errors as the Status of its parse.
-Status Read(Body body, const std::string& text) {
+Status Read(evaluator::Body body, const std::string& text) {
   switch (body) {
-    case Body::kMesh: return ParseMeshRequest(text).status();
-    case Body::kRender: return ParseRenderRequest(text).status();
-    case Body::kSheet: return ParseSheetRequest(text).status();
-    case Body::kSequence: return ParseSequenceRequest(text).status();
-    case Body::kBatch: return ParseBatchRequest(text).status();
-    case Body::kFit: return ParseFitRequest(text).status();
-    case Body::kSpeech: return ParseSpeechRequest(text).status();
+    case evaluator::Body::kMesh: return evaluator::ParseMeshRequest(text).status();
+    case evaluator::Body::kRender: return evaluator::ParseRenderRequest(text).status();
+    case evaluator::Body::kSheet: return evaluator::ParseSheetRequest(text).status();
+    case evaluator::Body::kSequence: return evaluator::ParseSequenceRequest(text).status();
+    case evaluator::Body::kBatch: return evaluator::ParseBatchRequest(text).status();
+    case evaluator::Body::kFit: return evaluator::ParseFitRequest(text).status();
+    case evaluator::Body::kSpeech: return evaluator::ParseSpeechRequest(text).status();
     default: return InvalidArgument("not a top-level body");
   }
 }
-constexpr Body kTopLevel[] = {Body::kMesh,  Body::kRender, Body::kSheet, Body::kSequence,
-                              Body::kBatch, Body::kFit,    Body::kSpeech};
+constexpr evaluator::Body kTopLevel[] = {evaluator::Body::kMesh,  evaluator::Body::kRender,
+                                         evaluator::Body::kSheet, evaluator::Body::kSequence,
+                                         evaluator::Body::kBatch, evaluator::Body::kFit,
+                                         evaluator::Body::kSpeech};
 
 bool SaysUnknown(const Status& s, const std::string& pointer) {
   for (const FieldError& f : s.fields) {
@@ -63,11 +65,11 @@ bool SaysUnknown(const Status& s, const std::string& pointer) {
 
 TEST(Members, EveryBodyHasItsTableWithNamesOnceAndJsonThatParses) {
   std::set<std::string_view> schemas;
-  for (Body body : kBodies) {
+  for (evaluator::Body body : evaluator::kBodies) {
     EXPECT_TRUE(schemas.insert(SchemaName(body)).second) << SchemaName(body);
     ASSERT_FALSE(Members(body).empty()) << SchemaName(body);
     std::set<std::string_view> names;
-    for (const Member& m : Members(body)) {
+    for (const evaluator::Member& m : Members(body)) {
       EXPECT_TRUE(names.insert(m.name).second) << SchemaName(body) << "." << m.name << " twice";
       EXPECT_FALSE(m.doc.empty()) << SchemaName(body) << "." << m.name;
       for (std::string_view text : {m.example, m.fallback}) {
@@ -86,8 +88,8 @@ TEST(Members, EveryBodyHasItsTableWithNamesOnceAndJsonThatParses) {
 // A member the table declares is read (its example, or a value of its kind, is never "unknown"),
 // and one it does not is refused with the pointer of the member and the route's members named.
 TEST(Members, EachReaderTakesEveryDeclaredMemberAndRefusesOthers) {
-  for (Body body : kTopLevel) {
-    for (const Member& m : Members(body)) {
+  for (evaluator::Body body : kTopLevel) {
+    for (const evaluator::Member& m : Members(body)) {
       const std::string text = json{{std::string(m.name), ValueOf(m)}}.dump();
       EXPECT_FALSE(SaysUnknown(Read(body, text), "/" + std::string(m.name)))
           << SchemaName(body) << ": " << text;
@@ -98,16 +100,16 @@ TEST(Members, EachReaderTakesEveryDeclaredMemberAndRefusesOthers) {
 }
 
 TEST(Members, NestedObjectsRefuseAnUnknownMemberByItsPointer) {
-  const std::pair<Body, const char*> cases[] = {
-      {Body::kRender, R"({"camera": {"yaww": 1}})"},
-      {Body::kRender, R"({"light": {"yaww": 1}})"},
-      {Body::kMesh, R"({"gaze": {"yaww": 1}})"},
-      {Body::kSheet, R"({"cells": [{"wieghts": {}}]})"},
-      {Body::kBatch, R"({"variants": [{"weights": {}, "idd": "a"}]})"},
-      {Body::kBatch, R"({"sample": {"method": "uniform", "cuont": 3}})"},
-      {Body::kBatch, R"({"sample": {"method": "uniform"}, "randomize": {"sed": 3}})"},
-      {Body::kSequence, R"({"keys": [{"time": 0, "wieghts": {}}]})"},
-      {Body::kSequence, R"({"blink": {"per_minut": 3}})"},
+  const std::pair<evaluator::Body, const char*> cases[] = {
+      {evaluator::Body::kRender, R"({"camera": {"yaww": 1}})"},
+      {evaluator::Body::kRender, R"({"light": {"yaww": 1}})"},
+      {evaluator::Body::kMesh, R"({"gaze": {"yaww": 1}})"},
+      {evaluator::Body::kSheet, R"({"cells": [{"wieghts": {}}]})"},
+      {evaluator::Body::kBatch, R"({"variants": [{"weights": {}, "idd": "a"}]})"},
+      {evaluator::Body::kBatch, R"({"sample": {"method": "uniform", "cuont": 3}})"},
+      {evaluator::Body::kBatch, R"({"sample": {"method": "uniform"}, "randomize": {"sed": 3}})"},
+      {evaluator::Body::kSequence, R"({"keys": [{"time": 0, "wieghts": {}}]})"},
+      {evaluator::Body::kSequence, R"({"blink": {"per_minut": 3}})"},
   };
   const char* pointers[] = {"/camera/yaww",     "/light/yaww",     "/gaze/yaww",
                             "/cells/0/wieghts", "/variants/0/idd", "/sample/cuont",
@@ -119,30 +121,31 @@ TEST(Members, NestedObjectsRefuseAnUnknownMemberByItsPointer) {
 }
 
 TEST(Members, ANumberOutOfItsDeclaredRangeIsRefusedWithTheRange) {
-  const Status s = ParseRenderRequest(R"({"supersample": 5})").status();
+  const Status s = evaluator::ParseRenderRequest(R"({"supersample": 5})").status();
   ASSERT_EQ(s.fields.size(), 1u);
   EXPECT_EQ(s.fields[0].pointer, "/supersample");
   EXPECT_EQ(s.fields[0].message, "must be an integer in [1, 4]");
-  EXPECT_EQ(ParseRenderRequest(R"({"camera": {"zoom": 0}})").status().fields.at(0).message,
-            "must be a number in [0.01, 100]");
+  EXPECT_EQ(
+      evaluator::ParseRenderRequest(R"({"camera": {"zoom": 0}})").status().fields.at(0).message,
+      "must be a number in [0.01, 100]");
 }
 
 // The document's request schemas are the tables: the same members, closed, no `default` keyword
 // (which generated clients would make required), each default in x-facespace-default.
 TEST(Members, TheDocumentsRequestSchemasAreTheTables) {
-  const json doc = json::parse(OpenApiJson(ApiOptions{}));
+  const json doc = json::parse(OpenApiJson(http::ApiOptions{}));
   const json& schemas = doc["components"]["schemas"];
-  for (Body body : kBodies) {
+  for (evaluator::Body body : evaluator::kBodies) {
     const std::string name(SchemaName(body));
     ASSERT_TRUE(schemas.contains(name)) << name;
     const json& s = schemas[name];
     EXPECT_EQ(s.value("additionalProperties", true), false) << name;
     std::set<std::string> declared, documented;
-    for (const Member& m : Members(body)) declared.insert(std::string(m.name));
+    for (const evaluator::Member& m : Members(body)) declared.insert(std::string(m.name));
     for (const auto& [member, schema] : s["properties"].items()) {
       documented.insert(member);
       EXPECT_FALSE(schema.contains("default")) << name << "." << member;
-      const Member* m = FindMember(body, member);
+      const evaluator::Member* m = FindMember(body, member);
       if (m && !m->fallback.empty()) {
         EXPECT_EQ(schema["x-facespace-default"], json::parse(m->fallback)) << name << "." << member;
       }
@@ -171,8 +174,8 @@ TEST(Members, TheDocumentsRequestSchemasAreTheTables) {
 // with, or looks up in an object, is a member of some table.
 TEST(Members, NoReaderReadsAMemberTheTablesDoNotDeclare) {
   std::set<std::string> declared;
-  for (Body body : kBodies) {
-    for (const Member& m : Members(body)) declared.insert(std::string(m.name));
+  for (evaluator::Body body : evaluator::kBodies) {
+    for (const evaluator::Member& m : Members(body)) declared.insert(std::string(m.name));
   }
   // Names a reader compares that are not body members: the one-member object of a batch's
   // background images (read by `facespace batch` alone), and a fit target's primitives, which are
@@ -206,4 +209,4 @@ TEST(Members, NoReaderReadsAMemberTheTablesDoNotDeclare) {
 }
 
 }  // namespace members_test
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -15,38 +15,42 @@
 #include "facespace/formats/io.h"
 #include "facespace/http/http.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 namespace problems_test {  // Named: the target is a unity build, its files share one unit.
 
 namespace fs = std::filesystem;
 
 TEST(Problems, EachTypeOnceWithAnErrorStatusAndATitle) {
   std::set<std::string_view> names;
-  for (const ProblemType& t : Problems()) {
+  for (const http::ProblemType& t : http::Problems()) {
     EXPECT_TRUE(names.insert(t.name).second) << t.name << " twice";
     EXPECT_TRUE(std::regex_match(std::string(t.name), std::regex("[a-z]+(-[a-z]+)*"))) << t.name;
     EXPECT_GE(t.status, 400) << t.name;
     EXPECT_LE(t.status, 599) << t.name;
     EXPECT_FALSE(t.title.empty()) << t.name;
   }
-  EXPECT_EQ(names.size(), static_cast<size_t>(Problem::kCount));
+  EXPECT_EQ(names.size(), static_cast<size_t>(http::Problem::kCount));
 }
 
 TEST(Problems, AStatusAnswersTheStatusItsReasonNames) {
-  EXPECT_EQ(TypeOf(ProblemOf(WithReason(ResourceExhausted("decoders in use"), "busy"))).status,
-            503);
-  EXPECT_EQ(TypeOf(ProblemOf(WithReason(InvalidArgument("x"), "malformed-json"))).status, 400);
-  EXPECT_EQ(TypeOf(ProblemOf(WithReason(FailedPrecondition("bundled"), "read-only"))).status, 409);
+  EXPECT_EQ(
+      TypeOf(http::ProblemOf(WithReason(ResourceExhausted("decoders in use"), "busy"))).status,
+      503);
+  EXPECT_EQ(TypeOf(http::ProblemOf(WithReason(InvalidArgument("x"), "malformed-json"))).status,
+            400);
+  EXPECT_EQ(TypeOf(http::ProblemOf(WithReason(FailedPrecondition("bundled"), "read-only"))).status,
+            409);
   // No reason, or one that is not the table's: the code's own problem, never an undeclared type.
-  EXPECT_EQ(ProblemOf(InvalidArgument("x")), Problem::kInvalidRequest);
-  EXPECT_EQ(ProblemOf(WithReason(NotFound("x"), "no-such-reason")), Problem::kNotFound);
-  EXPECT_EQ(ProblemOf(ResourceExhausted("x")), Problem::kTooLarge);
-  EXPECT_EQ(ProblemOf(Status{StatusCode::kStorageFull, "full", {}, "", 0}), Problem::kStorageFull);
+  EXPECT_EQ(http::ProblemOf(InvalidArgument("x")), http::Problem::kInvalidRequest);
+  EXPECT_EQ(http::ProblemOf(WithReason(NotFound("x"), "no-such-reason")), http::Problem::kNotFound);
+  EXPECT_EQ(http::ProblemOf(ResourceExhausted("x")), http::Problem::kTooLarge);
+  EXPECT_EQ(http::ProblemOf(Status{StatusCode::kStorageFull, "full", {}, "", 0}),
+            http::Problem::kStorageFull);
   // A limit passed up through an input's wrapper keeps its own problem.
-  EXPECT_EQ(ProblemOf(WithInputReason(ResourceExhausted("x"), "invalid-weights")),
-            Problem::kTooLarge);
-  EXPECT_EQ(ProblemOf(WithInputReason(InvalidArgument("x"), "invalid-weights")),
-            Problem::kInvalidWeights);
+  EXPECT_EQ(http::ProblemOf(WithInputReason(ResourceExhausted("x"), "invalid-weights")),
+            http::Problem::kTooLarge);
+  EXPECT_EQ(http::ProblemOf(WithInputReason(InvalidArgument("x"), "invalid-weights")),
+            http::Problem::kInvalidWeights);
 }
 
 // The text of the call whose '(' is at `open`, to its matching ')', string and character literals
@@ -100,18 +104,18 @@ TEST(Problems, EveryReasonTheSourcesNameIsDeclared) {
   const std::set<std::string> reasons = ReasonsInSources();
   EXPECT_GE(reasons.size(), 15u) << "the scan found too few reasons to be reading the sources";
   for (const std::string& r : reasons)
-    EXPECT_TRUE(ProblemNamed(r).has_value()) << "reason '" << r << "' is not in problems.h";
+    EXPECT_TRUE(http::ProblemNamed(r).has_value()) << "reason '" << r << "' is not in problems.h";
 }
 
 TEST(Problems, TheDocumentListsEveryType) {
-  const nlohmann::json doc = nlohmann::json::parse(OpenApiJson(ApiOptions{}));
+  const nlohmann::json doc = nlohmann::json::parse(OpenApiJson(http::ApiOptions{}));
   const nlohmann::json& listed = doc["x-facespace-problems"];
   const nlohmann::json& types =
       doc["components"]["schemas"]["Problem"]["properties"]["type"]["enum"];
-  ASSERT_EQ(listed.size(), Problems().size());
-  ASSERT_EQ(types.size(), Problems().size());
-  for (size_t i = 0; i < Problems().size(); ++i) {
-    const ProblemType& t = Problems()[i];
+  ASSERT_EQ(listed.size(), http::Problems().size());
+  ASSERT_EQ(types.size(), http::Problems().size());
+  for (size_t i = 0; i < http::Problems().size(); ++i) {
+    const http::ProblemType& t = http::Problems()[i];
     EXPECT_EQ(listed[i]["type"], "urn:facespace:problem:" + std::string(t.name));
     EXPECT_EQ(listed[i]["status"], t.status);
     EXPECT_EQ(types[i], listed[i]["type"]);
@@ -120,14 +124,14 @@ TEST(Problems, TheDocumentListsEveryType) {
 
 // A declaration the reader keeps and the document names: the manifest's members (formats/io.h).
 TEST(Declared, TheManifestSchemaNamesTheMembersTheReaderTakes) {
-  const nlohmann::json doc = nlohmann::json::parse(OpenApiJson(ApiOptions{}));
+  const nlohmann::json doc = nlohmann::json::parse(OpenApiJson(http::ApiOptions{}));
   const nlohmann::json& schema = doc["components"]["schemas"]["Manifest"];
   std::set<std::string> documented, read;
   for (const auto& [name, _] : schema["properties"].items()) documented.insert(name);
-  for (std::string_view name : ManifestMembers()) read.insert(std::string(name));
+  for (std::string_view name : formats::ManifestMembers()) read.insert(std::string(name));
   EXPECT_EQ(documented, read);
   EXPECT_EQ(schema["additionalProperties"], false);  // As the reader refuses an unknown member.
 }
 
 }  // namespace problems_test
-}  // namespace facespace::api::http
+}  // namespace facespace::http

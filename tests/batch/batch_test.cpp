@@ -15,13 +15,13 @@ namespace batch_test {  // Named: the target is a unity build, its files share o
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::shared_ptr<const api::StoredRig>& FaceCap() {
+const std::shared_ptr<const evaluator::StoredRig>& FaceCap() {
   static const auto rig =
-      api::Unstored(LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
+      evaluator::Unstored(formats::LoadRigFile(test::Bundled("facecap/facecap.glb")).value(), "v1");
   return rig;
 }
 
-const render::NullRenderer kNull;
+const offscreen::NullRenderer kNull;
 
 constexpr char kSampled[] =
     R"({"sample": {"method": "uniform", "count": 7, "seed": 3, "shapes": ["jawOpen", "cheekPuff", "mouthSmile_L"]},
@@ -45,7 +45,7 @@ std::vector<json> ManifestLines(const fs::path& dir) {
   return lines;
 }
 
-Result<batch::Summary> RunInto(const batch::BatchPlan& plan, const api::Evaluator& evaluator,
+Result<batch::Summary> RunInto(const batch::BatchPlan& plan, const evaluator::Evaluator& evaluator,
                                const std::string& dir, size_t shard = 0, size_t shards = 1) {
   batch::RunOptions options;
   options.dir = dir;
@@ -62,13 +62,13 @@ TEST(BatchPlan, VariantsAreAPureFunctionOfThePlanAndIndex) {
                                          "format": "json"})");
   EXPECT_EQ(plan.total, 5u);
   EXPECT_EQ(batch::VariantFile(plan, 3), "v000003.json");
-  api::ResolvedPoint a, b;
+  evaluator::ResolvedPoint a, b;
   batch::VariantPoint(plan, 3, a);
   batch::VariantPoint(plan, 1, b);
   batch::VariantPoint(plan, 3, b);  // The same index again, after another: the same point.
   EXPECT_EQ(a.weights, b.weights);
-  const api::Evaluator evaluator(kNull);
-  api::Workspace ws;
+  const evaluator::Evaluator evaluator(kNull);
+  evaluator::Workspace ws;
   auto bytes = evaluator.Run(plan.rig, a, plan.output, ws);
   ASSERT_TRUE(bytes.ok());
   EXPECT_EQ(bytes->pieces()[0].front(), '{');
@@ -84,7 +84,7 @@ TEST(BatchRun, FilesAreTheEvaluatorsBytesAndTheManifestVouchesForThem) {
   const batch::BatchPlan plan =
       Plan(R"({"variants": [{"id": "smile", "weights": {"mouthSmile_L": 1, "mouthSmile_R": 1}},
                                                       {"id": "open", "weights": {"jawOpen": 0.8}}], "format": "obj"})");
-  const api::Evaluator evaluator(kNull);
+  const evaluator::Evaluator evaluator(kNull);
   auto summary = RunInto(plan, evaluator, dir.path.string());
   ASSERT_TRUE(summary.ok()) << summary.status().message;
   EXPECT_EQ(summary->generated, 2u);
@@ -92,7 +92,7 @@ TEST(BatchRun, FilesAreTheEvaluatorsBytesAndTheManifestVouchesForThem) {
   EXPECT_EQ(Read(dir.path / "batch.json"), plan.spec_json);
   const std::vector<json> lines = ManifestLines(dir.path);
   ASSERT_EQ(lines.size(), 2u);
-  api::Workspace ws;
+  evaluator::Workspace ws;
   for (size_t k = 0; k < 2; ++k) {
     EXPECT_EQ(lines[k]["index"], k);
     EXPECT_EQ(lines[k]["id"], k == 0 ? "smile" : "open");
@@ -100,7 +100,7 @@ TEST(BatchRun, FilesAreTheEvaluatorsBytesAndTheManifestVouchesForThem) {
     EXPECT_EQ(lines[k]["bytes"], file.size());
     const std::string_view piece[] = {file};
     EXPECT_EQ(lines[k]["sha256"], batch::Sha256Hex(piece));
-    api::ResolvedPoint point;
+    evaluator::ResolvedPoint point;
     batch::VariantPoint(plan, k, point);
     EXPECT_TRUE(file == evaluator.Run(plan.rig, point, plan.output, ws)->bytes) << k;
   }
@@ -114,7 +114,7 @@ TEST(BatchRun, FilesAreTheEvaluatorsBytesAndTheManifestVouchesForThem) {
 TEST(BatchRun, ARerunResumesAndRedoesOnlyWhatIsMissing) {
   const test::TempDir dir;
   const batch::BatchPlan plan = Plan(kSampled);
-  const api::Evaluator evaluator(kNull);
+  const evaluator::Evaluator evaluator(kNull);
   ASSERT_TRUE(RunInto(plan, evaluator, dir.path.string()).ok());
   const std::string manifest = Read(dir.path / "manifest.jsonl");
   const std::string third = Read(dir.path / "v000003.glb");
@@ -133,7 +133,7 @@ TEST(BatchRun, ARerunResumesAndRedoesOnlyWhatIsMissing) {
 
 TEST(BatchRun, AFolderHoldsOneBatch) {
   const test::TempDir dir;
-  const api::Evaluator evaluator(kNull);
+  const evaluator::Evaluator evaluator(kNull);
   ASSERT_TRUE(RunInto(Plan(kSampled), evaluator, dir.path.string()).ok());
   auto other = RunInto(Plan(R"({"variants": [{"weights": {"jawOpen": 1}}], "format": "glb"})"),
                        evaluator, dir.path.string());
@@ -146,7 +146,7 @@ TEST(BatchRun, AFolderHoldsOneBatch) {
 TEST(BatchRun, ShardsMergedAreTheOneProcessRun) {
   const test::TempDir whole, sharded;
   const batch::BatchPlan plan = Plan(kSampled);
-  const api::Evaluator evaluator(kNull);
+  const evaluator::Evaluator evaluator(kNull);
   ASSERT_TRUE(RunInto(plan, evaluator, whole.path.string()).ok());
   auto first = RunInto(plan, evaluator, sharded.path.string(), 0, 2);
   ASSERT_TRUE(first.ok());
@@ -171,7 +171,7 @@ TEST(BatchRun, ShardsMergedAreTheOneProcessRun) {
 TEST(BatchRun, ACancelledRunLeavesNoHalfWrittenFile) {
   const test::TempDir dir;
   const batch::BatchPlan plan = Plan(kSampled);
-  const api::Evaluator evaluator(kNull);
+  const evaluator::Evaluator evaluator(kNull);
   std::atomic<bool> cancel{true};
   batch::RunOptions options;
   options.dir = dir.path.string();

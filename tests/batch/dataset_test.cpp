@@ -339,17 +339,17 @@ void CompareSample(const batch::BatchPlan& plan, const std::vector<batch::Sample
 }
 
 void CheckRig(const std::string& path, const std::string& randomize) {
-  static const render::OsMesaRenderer renderer(1);
-  const api::Evaluator evaluator(renderer);
-  auto stored = api::Unstored(LoadRigFile(path).value(), "v1");
+  static const offscreen::OsMesaRenderer renderer(1);
+  const evaluator::Evaluator evaluator(renderer);
+  auto stored = evaluator::Unstored(formats::LoadRigFile(path).value(), "v1");
   const std::string request =
       R"({"sample": {"method": "uniform", "count": 100, "seed": 11, "active": 4, "sum_at_most_one": true},
       "labels": ["depth", "normals", "segmentation", "landmarks"], "width": 256, "height": 256, "randomize": )" +
       randomize + "}";
   auto plan = batch::MakeBatchPlan(stored, request);
   ASSERT_TRUE(plan.ok()) << plan.status().message;
-  api::Workspace ws;
-  api::ResolvedPoint point;
+  evaluator::Workspace ws;
+  evaluator::ResolvedPoint point;
   std::vector<batch::SampleFile> files;
   Tally t;
   for (size_t k = 0; k < plan->total; ++k) {

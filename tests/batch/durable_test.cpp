@@ -32,13 +32,13 @@ std::string Read(const fs::path& path) {
   return s.str();
 }
 
-std::vector<PendingFile> Temporaries(const fs::path& dir, int count) {
-  std::vector<PendingFile> pending;
+std::vector<files::PendingFile> Temporaries(const fs::path& dir, int count) {
+  std::vector<files::PendingFile> pending;
   for (int i = 0; i < count; ++i) {
     const std::string name = "v" + std::to_string(i) + ".txt", tmp = ".fs-tmp-" + name,
                       body = "variant " + std::to_string(i);
     const std::string_view pieces[] = {body, "\n"};
-    Result<int> fd = WriteTemporary(dir, tmp, pieces, "'" + name + "'");
+    Result<int> fd = files::WriteTemporary(dir, tmp, pieces, "'" + name + "'");
     EXPECT_TRUE(fd.ok()) << fd.status().message;
     pending.push_back({fd.value(), tmp, name, "'" + name + "'"});
   }
@@ -54,8 +54,8 @@ size_t Temporaries(const fs::path& dir) {
 
 TEST(PublishGroup, EveryFileOfTheGroupIsPublishedWholeUnderItsName) {
   const fs::path dir = Scratch("all");
-  std::vector<PendingFile> pending = Temporaries(dir, 40);
-  const GroupResult r = PublishGroup(dir, pending);
+  std::vector<files::PendingFile> pending = Temporaries(dir, 40);
+  const files::GroupResult r = PublishGroup(dir, pending);
   EXPECT_TRUE(r.status.ok()) << r.status.message;
   EXPECT_EQ(r.published, 40u);
   for (int i = 0; i < 40; ++i)
@@ -69,8 +69,8 @@ TEST(PublishGroup, AFailedRenamePublishesThoseBeforeItAndRemovesTheRest) {
   const fs::path dir = Scratch("fail");
   fs::create_directories(dir / "v3.txt" /
                          "inside");  // A folder in the way of the fourth file: its rename fails.
-  std::vector<PendingFile> pending = Temporaries(dir, 6);
-  const GroupResult r = PublishGroup(dir, pending);
+  std::vector<files::PendingFile> pending = Temporaries(dir, 6);
+  const files::GroupResult r = PublishGroup(dir, pending);
   EXPECT_FALSE(r.status.ok());
   EXPECT_NE(r.status.message.find("cannot publish 'v3.txt'"), std::string::npos)
       << r.status.message;

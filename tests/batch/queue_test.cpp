@@ -17,7 +17,7 @@ namespace queue_test {  // Named: the target is a unity build, its files share o
 
 namespace fs = std::filesystem;
 
-const render::NullRenderer kNull;
+const offscreen::NullRenderer kNull;
 
 // The job's state once it has left "queued" and "running" (or after `seconds`).
 batch::JobInfo WaitForEnd(const batch::JobQueue& queue, const std::string& id,
@@ -31,7 +31,8 @@ batch::JobInfo WaitForEnd(const batch::JobQueue& queue, const std::string& id,
   }
 }
 
-std::shared_ptr<const batch::BatchPlan> Plan(const api::RigStore& store, const std::string& body) {
+std::shared_ptr<const batch::BatchPlan> Plan(const evaluator::RigStore& store,
+                                             const std::string& body) {
   auto plan = batch::MakeBatchPlan(store.Get("facecap"), body);
   EXPECT_TRUE(plan.ok()) << plan.status().message;
   return std::make_shared<const batch::BatchPlan>(std::move(plan.value()));
@@ -43,7 +44,7 @@ class JobQueue : public ::testing::Test {
   JobQueue() { store.Seed(); }
   const test::TempDir dir;
   test::MemoryStore store;
-  const api::Evaluator evaluator{kNull};
+  const evaluator::Evaluator evaluator{kNull};
 };
 
 constexpr char kBody[] =

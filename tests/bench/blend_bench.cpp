@@ -294,8 +294,8 @@ using facespace::Rig;
 
 const Rig& MakeHuman() {
   static const Rig rig = [] {
-    auto r = facespace::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) +
-                                    "/assets/makehuman/makehuman.glb");
+    auto r = facespace::formats::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) +
+                                             "/assets/makehuman/makehuman.glb");
     if (!r.ok()) std::abort();
     return std::move(r.value());
   }();
@@ -345,14 +345,14 @@ void BM_MakeHumanEvaluate(benchmark::State& state) {
 // moves blended, written over the last body).
 void BM_FaceCapMeshEncode(benchmark::State& state) {
   static const Rig rig =
-      facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+      facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   std::vector<float> w(rig.shapes.size(), 0.0f);
   for (size_t k : {24, 37, 38, 9}) w[k] = 0.2f;
   BlendedRig out;
   BlendContext ctx;
-  facespace::GlbVariantWriter writer;
-  const facespace::F32Writer blender(rig, false);
-  facespace::F32Writer::Scratch scratch;
+  facespace::formats::GlbVariantWriter writer;
+  const facespace::formats::F32Writer blender(rig, false);
+  facespace::formats::F32Writer::Scratch scratch;
   std::string body;
   const int encode = static_cast<int>(state.range(0));
   size_t bytes = 0;
@@ -370,9 +370,9 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
     } else if (encode == 2) {
       bytes = writer.Write(rig, out, w, {}).value().bin.size();
     } else {
-      bytes = facespace::ExportMesh(
-                  rig, out, w, {},
-                  encode == 0 ? facespace::MeshFormat::kF32 : facespace::MeshFormat::kGlb)
+      bytes = facespace::formats::ExportMesh(rig, out, w, {},
+                                             encode == 0 ? facespace::formats::MeshFormat::kF32
+                                                         : facespace::formats::MeshFormat::kGlb)
                   .value()
                   .size();
     }
@@ -390,24 +390,25 @@ void BM_FaceCapMeshEncode(benchmark::State& state) {
 // or with the request's first step and the cache key before it (1: ResolvePoint, CacheKey, Run).
 // Against BM_FaceCapMeshEncode/4 (the F32Writer alone), what the evaluator's layer adds.
 void BM_FaceCapEvaluatorF32(benchmark::State& state) {
-  static const auto rig = facespace::api::Unstored(
-      facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value(), "1");
-  const facespace::api::Evaluator evaluator;
-  facespace::api::Workspace ws;
-  facespace::api::MeshRequest request;
+  static const auto rig = facespace::evaluator::Unstored(
+      facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value(),
+      "1");
+  const facespace::evaluator::Evaluator evaluator;
+  facespace::evaluator::Workspace ws;
+  facespace::evaluator::MeshRequest request;
   for (const char* name : {"jawOpen", "mouthSmile_L", "mouthSmile_R", "cheekPuff"})
     request.weights.push_back({name, -1, 0.2, ""});
-  const facespace::api::OutputSpec spec =
-      facespace::api::OutputSpec::Mesh(request, facespace::MeshFormat::kF32);
-  facespace::api::ResolvedPoint point;
-  facespace::api::ResolvePoint(rig->rig, request, point);
+  const facespace::evaluator::OutputSpec spec =
+      facespace::evaluator::OutputSpec::Mesh(request, facespace::formats::MeshFormat::kF32);
+  facespace::evaluator::ResolvedPoint point;
+  facespace::evaluator::ResolvePoint(rig->rig, request, point);
   const bool resolve = state.range(0) == 1;
   size_t bytes = 0;
   for (auto _ : state) {
     request.weights[0].value += 1e-6;  // A new point each time, as the route sees.
     if (resolve) {
-      facespace::api::ResolvePoint(rig->rig, request, point);
-      benchmark::DoNotOptimize(facespace::api::CacheKey(*rig, {&point, 1}, spec).size());
+      facespace::evaluator::ResolvePoint(rig->rig, request, point);
+      benchmark::DoNotOptimize(facespace::evaluator::CacheKey(*rig, {&point, 1}, spec).size());
     } else {
       point.weights[0] += 1e-6f;
     }

@@ -44,10 +44,12 @@ Rig BigMesh() {
 }
 
 const Rig& Case(int which) {
-  static const Rig face = LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+  static const Rig face =
+      formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   static const Rig big = BigMesh();
   if (which == 2) {
-    static const Rig uka = LoadRigFile(FACESPACE_SOURCE_DIR "/assets/uka/MS_Uka.pmx").value();
+    static const Rig uka =
+        formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/uka/MS_Uka.pmx").value();
     return uka;
   }
   return which == 0 ? face : big;
@@ -82,8 +84,8 @@ BENCHMARK(BM_BakeOcclusion)
     ->MinTime(0.5);
 
 // One renderer for every benchmark: its GL contexts are made once.
-const render::OsMesaRenderer& Renderer() {
-  static const render::OsMesaRenderer renderer;
+const offscreen::OsMesaRenderer& Renderer() {
+  static const offscreen::OsMesaRenderer renderer;
   return renderer;
 }
 
@@ -103,19 +105,19 @@ const BlendedRig& FaceCapJawHalfOpen() {
   return blended;
 }
 
-render::Image Draw512(bool srgb8) {
+picture::Image Draw512(bool srgb8) {
   const Rig& rig = Case(0);
   const BlendedRig& blended = FaceCapJawHalfOpen();
-  render::RenderOptions o;
+  picture::RenderOptions o;
   o.width = o.height = 512;
   o.srgb8 = srgb8;
-  render::Image drawn;
+  picture::Image drawn;
   (void)Renderer().Draw(rig, blended, o, drawn);
   return drawn;
 }
 
-const render::Image& FaceCapImage(bool srgb8 = false) {
-  static const render::Image floats = Draw512(false), bytes = Draw512(true);
+const picture::Image& FaceCapImage(bool srgb8 = false) {
+  static const picture::Image floats = Draw512(false), bytes = Draw512(true);
   return srgb8 ? bytes : floats;
 }
 
@@ -129,7 +131,7 @@ void BM_Render(benchmark::State& state) {
   BlendedRig blended;
   BlendContext ctx;
   EvaluateRig(rig, w, {}, blended, ctx);
-  render::RenderOptions o;
+  picture::RenderOptions o;
   o.width = o.height = size;
   o.srgb8 = srgb8;
   o.occlusion = Baked(rig);
@@ -138,11 +140,11 @@ void BM_Render(benchmark::State& state) {
   o.camera.focus_small =
       o.camera.has_focus && FrameShapesByDefault(rig, o.camera.focus_min, o.camera.focus_max);
   o.camera.focus_joint = o.camera.focus_small ? ShapeFocusJoint(rig) : -1;
-  render::Image image;
+  picture::Image image;
   size_t bytes = 0;
   for (auto _ : state) {
     if (!Renderer().Draw(rig, blended, o, image).ok()) state.SkipWithError("render failed");
-    if (png) bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
+    if (png) bytes = offscreen::Encode(image, picture::ImageFormat::kPng).value().size();
     benchmark::DoNotOptimize(image.rgba.data());
   }
   state.SetLabel(std::string(CaseName(static_cast<int>(state.range(0)))) +
@@ -163,12 +165,12 @@ BENCHMARK(BM_Render)
 void BM_RenderLabels(benchmark::State& state) {
   const Rig& rig = Case(0);
   const BlendedRig& blended = FaceCapJawHalfOpen();
-  render::RenderOptions o;
+  picture::RenderOptions o;
   o.width = o.height = static_cast<int>(state.range(0));
   o.srgb8 = true;
   o.labels = state.range(1) != 0;
   o.occlusion = Baked(rig);
-  render::Image image;
+  picture::Image image;
   for (auto _ : state) {
     if (!Renderer().Draw(rig, blended, o, image).ok()) state.SkipWithError("render failed");
     benchmark::DoNotOptimize(image.srgb8.data());
@@ -188,7 +190,7 @@ BENCHMARK(BM_RenderLabels)
 // quality, 100 = lossless).
 void BM_Encode(benchmark::State& state) {
   static const std::vector<unsigned char> px = [] {
-    const render::Image& image = FaceCapImage();
+    const picture::Image& image = FaceCapImage();
     std::vector<unsigned char> out(image.rgba.size());
     for (size_t i = 0; i < out.size(); ++i) {
       const float c = std::clamp(image.rgba[i], 0.0f, 1.0f);
@@ -225,14 +227,14 @@ void BM_Encode(benchmark::State& state) {
   state.counters["KB"] = bytes / 1024.0;
 }
 
-// Our PNG writer (render::Encode) on the same 512x512 FaceCap render, from the float image (the
+// Our PNG writer (offscreen::Encode) on the same 512x512 FaceCap render, from the float image (the
 // sRGB conversion, UP filter and igzip level 0 in one pass) or from the 8-bit draw (UP and igzip).
 void BM_EncodeOurs(benchmark::State& state) {
-  const render::Image& image = FaceCapImage(state.range(0) != 0);
+  const picture::Image& image = FaceCapImage(state.range(0) != 0);
   if (image.rgba.empty() && image.srgb8.empty()) state.SkipWithError("render failed");
   size_t bytes = 0;
   for (auto _ : state) {
-    bytes = render::Encode(image, render::ImageFormat::kPng).value().size();
+    bytes = offscreen::Encode(image, picture::ImageFormat::kPng).value().size();
   }
   state.SetLabel(state.range(0) ? "png ours (8-bit sRGB in, igzip level 0, UP)"
                                 : "png ours (float in, igzip level 0, UP)");

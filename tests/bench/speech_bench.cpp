@@ -17,14 +17,15 @@ constexpr char kLine[] =
     "a forest near a small village, "
     "and who loved to watch the people at the market.";
 
-const std::shared_ptr<const api::StoredRig>& FaceCap() {
-  static const auto rig = api::Unstored(
-      LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb").value());
+const std::shared_ptr<const evaluator::StoredRig>& FaceCap() {
+  static const auto rig = evaluator::Unstored(
+      formats::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb")
+          .value());
   return rig;
 }
 
 void BM_TextToJsonKeys(benchmark::State& state) {
-  api::SpeechRequest r;
+  evaluator::SpeechRequest r;
   r.text = kLine;
   float seconds = 0;
   for (auto _ : state) {
@@ -39,7 +40,7 @@ BENCHMARK(BM_TextToJsonKeys)->Unit(benchmark::kMillisecond);
 void BM_SpeechToVisemes(benchmark::State& state) {
   const auto spoken = speech::Synthesize(kLine, {});
   const std::string wav = speech::WriteWav(spoken->audio);
-  api::SpeechRequest r;
+  evaluator::SpeechRequest r;
   r.audio = wav;
   r.has_audio = true;
   r.transcript = state.range(0) ? kLine : "";
@@ -50,18 +51,18 @@ void BM_SpeechToVisemes(benchmark::State& state) {
 BENCHMARK(BM_SpeechToVisemes)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 void BM_Webm512At30(benchmark::State& state) {
-  api::SpeechRequest r;
+  evaluator::SpeechRequest r;
   r.text = kLine;
   r.render.render.width = r.render.render.height = 512;
   auto plan = lipsync::PlanSpeech(FaceCap()->rig, r);
-  render::OsMesaRenderer renderer(1);
-  api::Evaluator evaluator(renderer);
-  api::Workspace ws;
+  offscreen::OsMesaRenderer renderer(1);
+  evaluator::Evaluator evaluator(renderer);
+  evaluator::Workspace ws;
   size_t bytes = 0;
   for (auto _ : state)
     bytes = lipsync::SpeechVideo(evaluator, FaceCap(), plan.value(), r, ws)->size();
   state.counters["audio_s"] = plan->audio.seconds();
-  state.counters["frames"] = static_cast<double>(api::FrameCount(plan->sequence, 30));
+  state.counters["frames"] = static_cast<double>(evaluator::FrameCount(plan->sequence, 30));
   state.counters["KB"] = bytes / 1024.0;
 }
 BENCHMARK(BM_Webm512At30)->Iterations(1)->Unit(benchmark::kSecond);

@@ -39,7 +39,7 @@ size_t AllocationsOf(const Rig& rig, std::span<const float> weights, const Blend
 }
 
 TEST(SteadyState, MorphsAndRecomputedNormalsAllocateNothing) {
-  const Rig rig = LoadRigFile(test::Bundled("facecap/facecap.glb")).value();
+  const Rig rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb")).value();
   std::vector<float> w(rig.shapes.size(), 0.0f);
   w[24] = 0.7f;
   w[3] = 0.4f;
@@ -52,7 +52,7 @@ TEST(SteadyState, MorphsAndRecomputedNormalsAllocateNothing) {
 }
 
 TEST(SteadyState, APosedSkinAllocatesNothing) {
-  const Rig rig = LoadRigFile(test::RealAsset("Fox/Fox.glb")).value();
+  const Rig rig = formats::LoadRigFile(test::RealAsset("Fox/Fox.glb")).value();
   Pose pose = RestPose(rig);
   pose.local[5].rotation = EulerToQuaternion(20, 10, 0);
   BlendOptions options;

@@ -343,7 +343,7 @@ namespace blend_test {
 // SparseBlend gives EvaluateRig's bits for the primitives a point moves and says the rest stand:
 // FaceCap, where a point of the head's shapes moves the head and leaves the eyes and teeth.
 TEST(SparseBlend, BlendsWhatAPointMovesAsEvaluateRigDoes) {
-  auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
+  auto face = formats::LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
   ASSERT_TRUE(face.ok());
   const Rig& rig = face.value();
   ASSERT_TRUE(SparseBlend::Serves(rig, {}));

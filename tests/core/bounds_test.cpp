@@ -16,7 +16,7 @@ namespace facespace {
 namespace bounds_test {  // Named: core_tests is a unity build, its files share one unit.
 
 const Rig& FaceCap() {
-  static const Rig rig = LoadRigFile(test::Bundled("facecap/facecap.glb")).value();
+  static const Rig rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb")).value();
   return rig;
 }
 
@@ -41,7 +41,7 @@ std::string FaceCapWithJson(const std::function<std::string(const nlohmann::json
 Result<Rig> Load(const std::string& glb) {
   return LoadRigMemory(std::span<const unsigned char>(
                            reinterpret_cast<const unsigned char*>(glb.data()), glb.size()),
-                       RigFormat::kGltf, "t");
+                       formats::RigFormat::kGltf, "t");
 }
 
 // The JSON with `depth` nested arrays where the string "DEEP" was.
@@ -82,8 +82,8 @@ TEST(JsonDepth, ExtrasWithinTheLimitAndBracketsInStringsLoad) {
 
 TEST(JsonDepth, AManifestNestedDeeperThanTheLimitIsRefused) {
   Rig rig = FaceCap();
-  const Status s =
-      ApplyManifest(rig, "{\"groups\":" + std::string(20000, '[') + std::string(20000, ']') + "}");
+  const Status s = formats::ApplyManifest(
+      rig, "{\"groups\":" + std::string(20000, '[') + std::string(20000, ']') + "}");
   EXPECT_EQ(s.reason, "too-deep") << s.message;
 }
 

@@ -34,7 +34,7 @@ std::vector<double> ArrayById(const std::string& text, const std::string& id) {
 }
 
 Rig Load(const std::string& path) {
-  Result<Rig> rig = LoadRigFile(path);
+  Result<Rig> rig = formats::LoadRigFile(path);
   EXPECT_TRUE(rig.ok()) << path << ": " << rig.status().message;
   return rig.ok() ? std::move(rig.value()) : Rig{};
 }
@@ -235,9 +235,10 @@ std::string Doc(const std::string& geometry_body, const std::string& extra = "",
 }
 
 Result<Rig> LoadText(const std::string& text) {
-  return LoadColladaMemory(std::span<const unsigned char>(
-                               reinterpret_cast<const unsigned char*>(text.data()), text.size()),
-                           "t");
+  return formats::LoadColladaMemory(
+      std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(text.data()),
+                                     text.size()),
+      "t");
 }
 
 void ExpectError(const std::string& text, const std::string& needle) {
@@ -348,7 +349,7 @@ TEST(ColladaHostile, NamesThatAreNotUtf8AreRepairedAndExportable) {
   BlendedRig blended;
   BlendContext context;
   ASSERT_TRUE(EvaluateRig(rig.value(), {}, {}, blended, context).ok());
-  const auto glb = ExportMesh(rig.value(), blended, {}, {}, MeshFormat::kGlb);
+  const auto glb = ExportMesh(rig.value(), blended, {}, {}, formats::MeshFormat::kGlb);
   ASSERT_TRUE(glb.ok()) << glb.status().message;
   EXPECT_NE(glb->find("\xEF\xBF\xBD"), std::string::npos);  // U+FFFD where the stray bytes were.
 }
@@ -425,7 +426,7 @@ TEST(Collada, DiffuseTexturesAreReadFromTheModelsFolder) {
         Case{"file:///home/someone/tex/Checker.png", true, false},
         Case{"../secret.png", false, false}, Case{"tex/../../secret.png", true, false}}) {
     test::WriteBytes(dir / "model/m.dae", TexturedDoc(c.uri, c.v15));
-    const Result<Rig> rig = LoadRigFile(dir / "model/m.dae");
+    const Result<Rig> rig = formats::LoadRigFile(dir / "model/m.dae");
     ASSERT_TRUE(rig.ok()) << c.uri << ": " << rig.status().message;
     ASSERT_EQ(rig->materials.size(), 1u) << c.uri;
     ASSERT_EQ(rig->materials[0].base_color_image, 0) << c.uri;
@@ -447,7 +448,7 @@ TEST(Collada, DiffuseTexturesAreReadFromTheModelsFolder) {
   test::WriteBytes(dir / "model/Checker.png", png);
   test::WriteBytes(dir / "model/m.dae",
                    TexturedDoc("file:///C:/Users/someone/art/Checker.png", false));
-  const Result<Rig> beside = LoadRigFile(dir / "model/m.dae");
+  const Result<Rig> beside = formats::LoadRigFile(dir / "model/m.dae");
   ASSERT_TRUE(beside.ok());
   EXPECT_FALSE(beside->images[0].bytes.empty());
   // From bytes (an upload) there is no folder: said so.

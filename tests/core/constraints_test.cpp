@@ -225,14 +225,14 @@ struct Uka {
 
 Uka LoadUka() {
   Uka u;
-  Result<Rig> rig = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx");
+  Result<Rig> rig = formats::LoadRigFile(test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx");
   EXPECT_TRUE(rig.ok());
   if (!rig.ok()) return u;
   u.rig = std::move(rig.value());
   const auto bytes =
       test::ReadBytes(test::SharedAssets() + "/more/MMD/Uka_upstream/motion/stand.vmd");
   std::vector<Warning> warnings;
-  Result<AnimationInfo> stand = LoadVmdMemory(bytes, u.rig, "stand", &warnings);
+  Result<AnimationInfo> stand = formats::LoadVmdMemory(bytes, u.rig, "stand", &warnings);
   EXPECT_TRUE(stand.ok());
   if (!stand.ok()) return u;
   u.rig.animations.push_back(std::move(stand.value()));
@@ -272,7 +272,8 @@ TEST(UkaConstraints, HerIkAndGrantBonesAreRead) {
 }
 
 TEST(UkaConstraints, ThePmdsIkListIsReadWithItsKneesLimited) {
-  const Result<Rig> rig = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
+  const Result<Rig> rig =
+      formats::LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
   ASSERT_TRUE(rig.ok());
   EXPECT_GE(rig->constraints.chains.size(), 4u);  // Legs and toes at least.
   size_t knees = 0;
@@ -330,7 +331,8 @@ TEST(UkaMorphs, ABoneMorphTurnsHerEarsByItsRotationScaledByItsWeight) {
 TEST(UkaConstraints, ThePmdsRotationFollowingEyesAreTheGrantsHerPmxGives) {
   // PMD bones 34 左目 and 36 右目 are type 9 (回転連動): tail 32 (両目), IK field 7, a ratio of
   // 7/100.
-  const Result<Rig> pmd = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
+  const Result<Rig> pmd =
+      formats::LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
   const Uka u = LoadUka();
   ASSERT_TRUE(pmd.ok());
   ASSERT_EQ(pmd->constraints.grants.size(), 2u);

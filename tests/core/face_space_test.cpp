@@ -17,7 +17,7 @@ namespace facespace {
 namespace face_space_test {  // Named: core_tests is a unity build, its files share one unit.
 
 Rig FaceCap() {
-  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   EXPECT_TRUE(rig.ok());
   return std::move(rig.value());
 }
@@ -271,7 +271,7 @@ TEST(Lod, EveryLodVertexBlendsToTheFullRigsPosition) {
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(rig, w, {}, full, ctx).ok());
   for (int level = 1; level <= 3; ++level) {
-    LodReport report;
+    formats::LodReport report;
     auto simplified = MakeLod(rig, level, &report);
     ASSERT_TRUE(simplified.ok()) << simplified.status().message;
     EXPECT_LT(report.triangles_after, report.triangles_before * 0.6 / (1 << (level - 1)));
@@ -290,7 +290,7 @@ TEST(Lod, EveryLodVertexBlendsToTheFullRigsPosition) {
       }
     }
   }
-  EXPECT_FALSE(MakeLod(rig, 9).ok());
+  EXPECT_FALSE(formats::MakeLod(rig, 9).ok());
 }
 
 TEST(Basis, ReconstructionStaysWithinTheBound) {
@@ -378,7 +378,8 @@ std::vector<float> Effective(const Rig& rig, std::vector<std::pair<const char*, 
 
 TEST(Semantics, AManifestMemberOutOfTheSchemaIsRefusedWithTheClosestName) {
   Rig rig = FaceCap();
-  const Status s = ApplyManifest(rig, R"({"name": "x", "shapse": {"jawOpen": {"max": 2}}})");
+  const Status s =
+      formats::ApplyManifest(rig, R"({"name": "x", "shapse": {"jawOpen": {"max": 2}}})");
   ASSERT_FALSE(s.ok());
   ASSERT_EQ(s.fields.size(), 1u);
   EXPECT_EQ(s.fields[0].pointer, "/shapse");
@@ -389,7 +390,7 @@ TEST(Semantics, AManifestMemberOutOfTheSchemaIsRefusedWithTheClosestName) {
 TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
   Rig rig = FaceCap();
   ASSERT_TRUE(
-      ApplyManifest(
+      formats::ApplyManifest(
           rig,
           R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 0.5}, {"shape": "mouthPucker", "weight": 0.25}]}})")
           .ok());
@@ -431,7 +432,7 @@ TEST(Semantics, InBetweensInterpolateInOrderAndExtrapolate) {
 
 TEST(Semantics, CorrectivesFollowProductOrMinimum) {
   Rig rig = FaceCap();
-  ASSERT_TRUE(ApplyManifest(
+  ASSERT_TRUE(formats::ApplyManifest(
                   rig, R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L", "eyeBlink_L"]},
                                                       "cheekSquint_L": {"drivers": ["mouthSmile_L", "eyeBlink_L"], "mode": "min"}}})")
                   .ok());
@@ -511,7 +512,7 @@ TEST(Semantics, ExtrapolationSaysWhatStacksOnOneVertex) {
 TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
   Rig rig = FaceCap();
   ASSERT_TRUE(
-      ApplyManifest(
+      formats::ApplyManifest(
           rig,
           R"({"statistics": {"mean": {"jawOpen": 0.1}, "stddev": {"jawOpen": 0.2, "mouthSmile_L": 0.5}}})")
           .ok());
@@ -530,7 +531,7 @@ TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
   // A rotated component: distance along (1, 1)/sqrt(2).
   Rig other = FaceCap();
   ASSERT_TRUE(
-      ApplyManifest(
+      formats::ApplyManifest(
           other,
           R"({"statistics": {"components": [{"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 0.5}], "bound": 2}})")
           .ok());
@@ -542,22 +543,23 @@ TEST(Semantics, MahalanobisWarnsBeyondTheBound) {
 
 TEST(Semantics, ManifestErrorsNameTheField) {
   Rig rig = FaceCap();
-  Status s =
-      ApplyManifest(rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 1}]}})");
+  Status s = formats::ApplyManifest(
+      rig, R"({"inbetweens": {"jawOpen": [{"shape": "mouthFunnel", "weight": 1}]}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/inbetweens/jawOpen/0/weight");
   rig = FaceCap();
-  s = ApplyManifest(rig, R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L"]}}})");
+  s = formats::ApplyManifest(rig,
+                             R"({"correctives": {"cheekPuff": {"drivers": ["mouthSmile_L"]}}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/correctives/cheekPuff/drivers");
   rig = FaceCap();
-  s = ApplyManifest(
+  s = formats::ApplyManifest(
       rig,
       R"({"statistics": {"components": [{"weights": {"jawOpen": 1}, "stddev": 1}, {"weights": {"jawOpen": 1, "mouthSmile_L": 1}, "stddev": 1}]}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/statistics/components/1/weights");
   rig = FaceCap();
-  s = ApplyManifest(rig, R"({"derived": {"x": {"from": "nope", "mirror": "x"}}})");
+  s = formats::ApplyManifest(rig, R"({"derived": {"x": {"from": "nope", "mirror": "x"}}})");
   ASSERT_FALSE(s.ok());
   EXPECT_EQ(s.fields[0].pointer, "/derived/x");
 }
@@ -591,7 +593,7 @@ std::map<uint32_t, std::array<float, 3>> ReadTargetFile(const std::string& path)
 // dm (every one of its 72 vertices): that eye's every vertex rises 6.1 mm at weight 1, the other
 // stays.
 TEST(MakeHuman, TheEyeProxySitsOnTheHelperEyeballsAndMovesWithThem) {
-  MakeHumanOptions options;
+  formats::MakeHumanOptions options;
   options.metres = true;
   options.proxies = {kMakeHuman + "/eyes/high-poly.mhclo"};
   auto rig = LoadMakeHuman(kMakeHuman + "/base.obj",
@@ -676,7 +678,7 @@ TEST(MakeHuman, TheEyeProxySitsOnTheHelperEyeballsAndMovesWithThem) {
 TEST(MakeHuman, EveryMovedVertexIsBasePlusWeightTimesTheTargetFile) {
   const std::vector<std::string> dirs = {kMakeHuman + "/targets/nose",
                                          kMakeHuman + "/targets/eyes"};
-  MakeHumanOptions options;
+  formats::MakeHumanOptions options;
   options.modifiers = kMakeHuman + "/modifiers/modeling_modifiers.json";
   auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", dirs, options);
   ASSERT_TRUE(rig.ok()) << rig.status().message;
@@ -790,7 +792,7 @@ TEST(MakeHuman, BadTargetFilesNameFileAndLine) {
   for (const Case& c : cases) {
     std::ofstream(dir + "/t/x.target") << c.text;
     const std::vector<std::string> dirs = {dir + "/t"};
-    auto rig = LoadMakeHuman(kMakeHuman + "/base.obj", dirs, {});
+    auto rig = formats::LoadMakeHuman(kMakeHuman + "/base.obj", dirs, {});
     if (!*c.want) {
       EXPECT_TRUE(rig.ok()) << rig.status().message;
       continue;

@@ -20,11 +20,11 @@ namespace facespace {
 namespace face_test {  // Named: core_tests is a unity build, its files share one unit.
 
 const Rig& FaceCap() {
-  static const Rig rig = LoadRigFile(test::Bundled("facecap/facecap.glb")).value();
+  static const Rig rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb")).value();
   return rig;
 }
 const Rig& Uka() {
-  static const Rig rig = LoadRigFile(test::Bundled("uka/MS_Uka.pmx")).value();
+  static const Rig rig = formats::LoadRigFile(test::Bundled("uka/MS_Uka.pmx")).value();
   return rig;
 }
 
@@ -144,7 +144,7 @@ TEST(Face, UnknownExpressionsAreErrorsAndUnmappedPresetsWarn) {
                    .ok());
   // MakeHuman's manifest maps happy, sad, angry, surprised and aa onto its face-space modifiers,
   // but no other mouth shape of VRM's: "ou" is a preset it does not map, said, not refused.
-  const Rig mh = LoadRigFile(test::Bundled("makehuman/makehuman.glb")).value();
+  const Rig mh = formats::LoadRigFile(test::Bundled("makehuman/makehuman.glb")).value();
   EXPECT_GE(FindExpression(mh, "happy"), 0);
   EXPECT_LT(FindExpression(mh, "ou"), 0);
   EXPECT_TRUE(ResolveExpressions(mh, std::vector<WeightEntry>{{"ou", -1, 1.0, "/expressions/ou"}},
@@ -386,7 +386,7 @@ TEST(Face, VrmExpressionsAndLookAtAreReadBack) {
   BlendContext context;
   const std::vector<float> zero(uka.shapes.size(), 0.0f);
   ASSERT_TRUE(EvaluateRig(uka, zero, {}, blended, context).ok());
-  auto vrm = ExportMesh(uka, blended, zero, {}, MeshFormat::kVrm);
+  auto vrm = ExportMesh(uka, blended, zero, {}, formats::MeshFormat::kVrm);
   ASSERT_TRUE(vrm.ok()) << vrm.status().message;
   auto check = [&](const Rig& back, const char* what) {
     for (const char* name : {"happy", "sad", "aa", "blinkLeft", "surprised"}) {
@@ -409,7 +409,7 @@ TEST(Face, VrmExpressionsAndLookAtAreReadBack) {
   };
   const std::span<const unsigned char> bytes(reinterpret_cast<const unsigned char*>(vrm->data()),
                                              vrm->size());
-  auto one = LoadRigMemory(bytes, RigFormat::kGltf, "uka_vrm1");
+  auto one = LoadRigMemory(bytes, formats::RigFormat::kGltf, "uka_vrm1");
   ASSERT_TRUE(one.ok()) << one.status().message;
   check(one.value(), "VRM 1.0");
   EXPECT_EQ(one->expressions[FindExpression(one.value(), "happy")].blink,
@@ -456,7 +456,7 @@ TEST(Face, VrmExpressionsAndLookAtAreReadBack) {
   const std::string v0 = JoinGlbForTest(j, bin);
   auto zero_x = LoadRigMemory(
       std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(v0.data()), v0.size()),
-      RigFormat::kGltf, "uka_vrm0");
+      formats::RigFormat::kGltf, "uka_vrm0");
   ASSERT_TRUE(zero_x.ok()) << zero_x.status().message;
   check(zero_x.value(), "VRM 0.x");
   EXPECT_EQ(zero_x->name,
@@ -472,7 +472,7 @@ TEST(Face, VrmExpressionsAndLookAtAreReadBack) {
 // turned half round.
 TEST(Face, VrmTermsAndColourBindsSurviveARoundTrip) {
   Rig rig;
-  auto bad = [&](const char* text) { return ApplyManifest(rig, text); };
+  auto bad = [&](const char* text) { return formats::ApplyManifest(rig, text); };
   EXPECT_EQ(bad(R"({"terms": {"allowExcessivelyViolentUsage": false}})").fields.at(0).pointer,
             "/terms/source");
   EXPECT_EQ(bad(R"({"terms": {"source": "x", "allowExcessivelySexualUsage": "no"}})")
@@ -492,14 +492,14 @@ TEST(Face, VrmTermsAndColourBindsSurviveARoundTrip) {
   BlendContext context;
   const std::vector<float> zero(uka.shapes.size(), 0.0f);
   ASSERT_TRUE(EvaluateRig(uka, zero, {}, blended, context).ok());
-  for (MeshFormat format : {MeshFormat::kVrm, MeshFormat::kVrm0}) {
+  for (formats::MeshFormat format : {formats::MeshFormat::kVrm, formats::MeshFormat::kVrm0}) {
     auto vrm = ExportMesh(uka, blended, zero, {}, format);
     ASSERT_TRUE(vrm.ok()) << vrm.status().message;
     auto back = LoadRigMemory(std::span<const unsigned char>(
                                   reinterpret_cast<const unsigned char*>(vrm->data()), vrm->size()),
-                              RigFormat::kGltf, "back");
+                              formats::RigFormat::kGltf, "back");
     ASSERT_TRUE(back.ok()) << back.status().message;
-    const bool one = format == MeshFormat::kVrm;
+    const bool one = format == formats::MeshFormat::kVrm;
     EXPECT_EQ(back->terms.source, "the VRM's meta");
     EXPECT_FALSE(back->terms.violent || back->terms.sexual || back->terms.antisocial_or_hate ||
                  back->terms.political_or_religious);

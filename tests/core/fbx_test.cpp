@@ -110,7 +110,7 @@ std::map<std::string, Points> Evaluate(const Rig& rig, double time,
 }
 
 Rig Load(const std::string& path) {
-  Result<Rig> rig = LoadRigFile(path);
+  Result<Rig> rig = formats::LoadRigFile(path);
   EXPECT_TRUE(rig.ok()) << path << ": " << rig.status().message;
   return rig.ok() ? std::move(rig.value()) : Rig{};
 }
@@ -385,9 +385,10 @@ std::vector<BNode> Quad(const std::vector<int32_t>& polygon, bool compress) {
 }
 
 Result<Rig> LoadBytes(const std::string& bytes) {
-  return LoadFbxMemory(std::span<const unsigned char>(
-                           reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size()),
-                       "t");
+  return formats::LoadFbxMemory(
+      std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(bytes.data()),
+                                     bytes.size()),
+      "t");
 }
 
 void ExpectError(const std::string& bytes, const std::string& needle) {
@@ -416,8 +417,8 @@ TEST(FbxHostile, EveryTruncationIsAnErrorNotACrash) {
   const std::vector<unsigned char> real =
       test::ReadBytes(Fbx("ufbx_maya_blend_shape_cube/maya_blend_shape_cube_7700_binary.fbx"));
   for (size_t n = 0; n < real.size(); n += 97) {
-    (void)LoadFbxMemory(std::span<const unsigned char>(real.data(), n),
-                        "cut");  // Must not crash; may load (a tail cut off).
+    (void)formats::LoadFbxMemory(std::span<const unsigned char>(real.data(), n),
+                                 "cut");  // Must not crash; may load (a tail cut off).
   }
 }
 

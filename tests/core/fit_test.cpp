@@ -25,7 +25,7 @@ std::vector<std::vector<float>> Blend(const Rig& rig, const std::vector<float>& 
 // back to zero weights with a residual of float round-off in the scene's units (micrometres), not
 // FaceCap's mesh units (1.95 mm each, where it read 0.00078 as if in metres).
 TEST(Fit, TheNeutralMeshInWorldSpaceFitsToZeroWithRoundOffAlone) {
-  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok());
   std::vector<std::vector<float>> target =
       Blend(rig.value(), std::vector<float>(rig->shapes.size(), 0.0f));
@@ -47,7 +47,7 @@ TEST(Fit, TheNeutralMeshInWorldSpaceFitsToZeroWithRoundOffAlone) {
 }
 
 TEST(Fit, RecoversKnownWeightsOnFaceCap) {
-  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok());
   std::vector<float> w(rig->shapes.size(), 0.0f);
   w[FindShape(rig.value(), "jawOpen")] = 0.6f;
@@ -79,7 +79,7 @@ TEST(Fit, RecoversKnownWeightsOnFaceCap) {
 }
 
 TEST(Fit, NoiseAndBounds) {
-  auto rig = LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  auto rig = formats::LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
   ASSERT_TRUE(rig.ok());
   std::vector<float> w = {0.5f, 0, 0.25f, 0, 0, 0.75f, 0, 0};
   auto target = Blend(rig.value(), w);
@@ -115,7 +115,7 @@ TEST(Fit, NoiseAndBounds) {
 }
 
 TEST(Fit, RigidAlignmentFirst) {
-  auto rig = LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  auto rig = formats::LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
   ASSERT_TRUE(rig.ok());
   std::vector<float> w = {0, 0.4f, 0, 0, 0.7f, 0, 0, 0};
   auto target = Blend(rig.value(), w);
@@ -136,7 +136,7 @@ TEST(Fit, RigidAlignmentFirst) {
 }
 
 TEST(Fit, Errors) {
-  auto rig = LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  auto rig = formats::LoadRigFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"));
   ASSERT_TRUE(rig.ok());
   std::vector<std::vector<float>> one = {std::vector<float>(9, 0.0f)};
   EXPECT_FALSE(FitWeights(rig.value(), one, {}).ok());

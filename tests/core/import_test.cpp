@@ -38,7 +38,7 @@ class RealAssets : public ::testing::TestWithParam<AssetCase> {};
 
 TEST_P(RealAssets, CountsMatch) {
   const AssetCase& c = GetParam();
-  auto rig = LoadGltfFile(RealAsset(c.path));
+  auto rig = formats::LoadGltfFile(RealAsset(c.path));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   EXPECT_EQ(rig->vertex_count(), c.vertices);
   EXPECT_EQ(rig->primitives.size(), c.primitives);
@@ -53,7 +53,7 @@ TEST_P(RealAssets, BlendMatchesRawAccessors) {
   // facecap.glb is quantized and meshopt-compressed, beyond the raw reader: it is checked
   // against its decoded copy in FaceCapMatchesDecodedCopy instead.
   if (std::string(c.path) == "FaceCap/facecap.glb") return;
-  auto rig = LoadGltfFile(RealAsset(c.path));
+  auto rig = formats::LoadGltfFile(RealAsset(c.path));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   RawGltf raw(RealAsset(c.path));
   std::vector<float> w(rig->shapes.size());
@@ -101,8 +101,8 @@ INSTANTIATE_TEST_SUITE_P(Import, RealAssets, ::testing::ValuesIn(kAssets),
 TEST(Import, FaceCapMatchesDecodedCopy) {
   // facecap.glb (meshopt + int16 quantization, decoded by us) against facecap_decoded.glb
   // (decoded and dequantized by glTF-Transform): the same geometry and the same shapes.
-  auto packed = LoadGltfFile(RealAsset("FaceCap/facecap.glb"));
-  auto plain = LoadGltfFile(RealAsset("FaceCap/facecap_decoded.glb"));
+  auto packed = formats::LoadGltfFile(RealAsset("FaceCap/facecap.glb"));
+  auto plain = formats::LoadGltfFile(RealAsset("FaceCap/facecap_decoded.glb"));
   ASSERT_TRUE(packed.ok()) << packed.status().message;
   ASSERT_TRUE(plain.ok()) << plain.status().message;
   ASSERT_EQ(packed->shapes.size(), plain->shapes.size());
@@ -132,7 +132,7 @@ TEST(Import, FaceCapMatchesDecodedCopy) {
 
 TEST(Import, SparseBaseAccessor) {
   // SimpleSparseAccessor: the base POSITION is sparse over a bufferView.
-  auto rig = LoadGltfFile(RealAsset("SimpleSparseAccessor/SimpleSparseAccessor.gltf"));
+  auto rig = formats::LoadGltfFile(RealAsset("SimpleSparseAccessor/SimpleSparseAccessor.gltf"));
   ASSERT_TRUE(rig.ok());
   RawGltf raw(RealAsset("SimpleSparseAccessor/SimpleSparseAccessor.gltf"));
   const auto expected =
@@ -146,13 +146,13 @@ TEST(Import, SparseBaseAccessor) {
 }
 
 TEST(Import, TargetNamesAndDefaults) {
-  auto rig = LoadGltfFile(RealAsset("MorphStressTest/MorphStressTest.gltf"));
+  auto rig = formats::LoadGltfFile(RealAsset("MorphStressTest/MorphStressTest.gltf"));
   ASSERT_TRUE(rig.ok());
   EXPECT_EQ(rig->shapes[0].name, "Key 1");
   EXPECT_EQ(rig->shapes[7].name, "Key 8");
   // Both primitives' targets map to the same 8 shapes.
   EXPECT_EQ(rig->meshes[0].target_shapes, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5, 6, 7}));
-  auto prims = LoadGltfFile(RealAsset("MorphPrimitivesTest/MorphPrimitivesTest.gltf"));
+  auto prims = formats::LoadGltfFile(RealAsset("MorphPrimitivesTest/MorphPrimitivesTest.gltf"));
   ASSERT_TRUE(prims.ok());
   EXPECT_EQ(prims->shapes[0].default_weight, 0.5f) << "mesh.weights";
   EXPECT_EQ(prims->images.size(), 1u) << "the JPEG texture is kept";
@@ -164,7 +164,8 @@ TEST(Import, TargetNamesAndDefaults) {
 std::vector<unsigned char> Bytes(const std::string& s) { return {s.begin(), s.end()}; }
 
 Result<Rig> LoadText(const std::string& gltf) {
-  return LoadGltfMemory(Bytes(gltf), "", {.allow_external_files = false, .read_manifest = false});
+  return formats::LoadGltfMemory(Bytes(gltf), "",
+                                 {.allow_external_files = false, .read_manifest = false});
 }
 
 // A one-triangle glTF with an embedded buffer; `patch` edits its JSON first.
@@ -280,14 +281,14 @@ TEST(ImportHostile, TruncatedGlbAtEveryRegion) {
   for (size_t cut : {size_t{0}, size_t{3}, size_t{12}, size_t{19}, size_t{20}, size_t{100},
                      size_t{5000}, bytes.size() / 2, bytes.size() - 100, bytes.size() - 1}) {
     std::vector<unsigned char> part(bytes.begin(), bytes.begin() + cut);
-    auto rig = LoadGltfMemory(part, "", {.allow_external_files = false});
+    auto rig = formats::LoadGltfMemory(part, "", {.allow_external_files = false});
     EXPECT_FALSE(rig.ok()) << "cut at " << cut;
   }
   // Flipped bytes inside the compressed data: an error or a valid rig, never a crash.
   for (size_t at = 80000; at < bytes.size(); at += 20011) {
     std::vector<unsigned char> bad = bytes;
     bad[at] ^= 0x5A;
-    auto rig = LoadGltfMemory(bad, "", {.allow_external_files = false});
+    auto rig = formats::LoadGltfMemory(bad, "", {.allow_external_files = false});
     if (rig.ok()) {
       EXPECT_TRUE(ValidateRig(rig.value()).ok());
     }
@@ -305,7 +306,7 @@ TEST(ImportHostile, GarbageIsNotGltf) {
   EXPECT_FALSE(LoadText("{").ok());
   EXPECT_FALSE(LoadText("[1,2,3]").ok());
   EXPECT_FALSE(LoadText("glTF\x02").ok());
-  EXPECT_EQ(LoadGltfFile("/nonexistent/rig.glb").status().code, StatusCode::kNotFound);
+  EXPECT_EQ(formats::LoadGltfFile("/nonexistent/rig.glb").status().code, StatusCode::kNotFound);
 }
 
 }  // namespace import_test

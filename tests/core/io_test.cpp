@@ -34,7 +34,7 @@ Result<Rig> LoadTwoObjs(const TempDir& dir, const std::pair<std::string, std::st
   test::WriteBytes(dir / base.first, base.second);
   test::WriteBytes(dir / shape.first, shape.second);
   const std::vector<std::string> paths = {dir / base.first, dir / shape.first};
-  return LoadObjSequence(paths);
+  return formats::LoadObjSequence(paths);
 }
 
 TEST(ObjSequence, ShapesAreRelativeAndSparse) {
@@ -95,11 +95,12 @@ TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
   same_normal(out.primitives[0].normals, 2, 3);
   same_normal(out.primitives[0].normals, 4, 5);
   EXPECT_FLOAT_EQ(out.primitives[0].positions[3 * 3 + 2], 0.5f);
-  auto glb = ExportMesh(rig.value(), out, w, {}, MeshFormat::kGlb, {.keep_targets = true});
+  auto glb = ExportMesh(rig.value(), out, w, {}, formats::MeshFormat::kGlb, {.keep_targets = true});
   ASSERT_TRUE(glb.ok());
-  auto back = LoadGltfMemory(std::span<const unsigned char>(
-                                 reinterpret_cast<const unsigned char*>(glb->data()), glb->size()),
-                             "", {});
+  auto back =
+      formats::LoadGltfMemory(std::span<const unsigned char>(
+                                  reinterpret_cast<const unsigned char*>(glb->data()), glb->size()),
+                              "", {});
   ASSERT_TRUE(back.ok()) << back.status().message;
   EXPECT_EQ(back->primitives[0].source_vertices, p.source_vertices);
   BlendedRig out2;
@@ -107,7 +108,7 @@ TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
   for (size_t k = 0; k < out.primitives[0].normals.size(); ++k)
     EXPECT_NEAR(out2.primitives[0].normals[k], out.primitives[0].normals[k], 1e-6f) << k;
   // OBJ out is welded again: the source's 6 `v`, 8 `vt`/`vn`, faces naming both.
-  auto obj = ExportMesh(rig.value(), out, w, {}, MeshFormat::kObj);
+  auto obj = ExportMesh(rig.value(), out, w, {}, formats::MeshFormat::kObj);
   ASSERT_TRUE(obj.ok());
   size_t vs = 0, vts = 0;
   std::istringstream in(obj.value());
@@ -124,8 +125,8 @@ TEST(ObjSeams, VerticesSplitAtUvSeamsMoveAndShadeAsOne) {
                                                // their second copies.
   // A manifest's mask names vertices as the source numbers them: vertex 3 (v4) is both copies.
   ASSERT_TRUE(
-      ApplyManifest(rig.value(),
-                    R"({"derived": {"lift_v4": {"from": "lift", "mask": {"vertices": [3]}}}})")
+      formats::ApplyManifest(
+          rig.value(), R"({"derived": {"lift_v4": {"from": "lift", "mask": {"vertices": [3]}}}})")
           .ok());
   const int derived = FindShape(rig.value(), "lift_v4");
   ASSERT_GE(derived, 0);
@@ -138,18 +139,20 @@ TEST(ObjSequence, ReportsFirstDifferingFace) {
   test::WriteBytes(dir / "base.obj", Quad(0));
   test::WriteBytes(dir / "bad.obj", Quad(1, true));
   std::vector<std::string> paths = {dir / "base.obj", dir / "bad.obj"};
-  auto rig = LoadObjSequence(paths);
+  auto rig = formats::LoadObjSequence(paths);
   ASSERT_FALSE(rig.ok());
   EXPECT_NE(rig.status().message.find("face 1 differs"), std::string::npos) << rig.status().message;
   EXPECT_NE(rig.status().message.find("bad.obj:10"), std::string::npos) << rig.status().message;
   test::WriteBytes(dir / "short.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
   paths[1] = dir / "short.obj";
-  EXPECT_NE(LoadObjSequence(paths).status().message.find("has 3 vertices"), std::string::npos);
+  EXPECT_NE(formats::LoadObjSequence(paths).status().message.find("has 3 vertices"),
+            std::string::npos);
   test::WriteBytes(dir / "broken.obj", "v 0 0 zero\n");
   paths[1] = dir / "broken.obj";
-  EXPECT_NE(LoadObjSequence(paths).status().message.find("broken.obj:1"), std::string::npos);
+  EXPECT_NE(formats::LoadObjSequence(paths).status().message.find("broken.obj:1"),
+            std::string::npos);
   test::WriteBytes(dir / "far.obj", "v 0 0 0\nf 1 2 3\n");
-  EXPECT_FALSE(LoadRigFile(dir / "far.obj").ok());
+  EXPECT_FALSE(formats::LoadRigFile(dir / "far.obj").ok());
 }
 
 TEST(ObjSequence, IctFaceKitFrames) {
@@ -166,7 +169,7 @@ TEST(ObjSequence, IctFaceKitFrames) {
   });
   ASSERT_NE(neutral, paths.end());
   std::iter_swap(paths.begin(), neutral);
-  auto rig = LoadObjSequence(paths);
+  auto rig = formats::LoadObjSequence(paths);
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   // 26,719 OBJ vertices, split where a vertex's UVs differ per face corner.
   ASSERT_EQ(rig->primitives.size(), 1u);
@@ -212,13 +215,13 @@ TEST(ObjSequence, IctFaceKitFrames) {
 }
 
 TEST(Manifest, AppliesAndRejects) {
-  auto rig = LoadGltfFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
-                          {.read_manifest = false});
+  auto rig = formats::LoadGltfFile(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
+                                   {.read_manifest = false});
   ASSERT_TRUE(rig.ok());
   const std::string good = R"({"name": "Stress", "groups": {"identity": ["Key 1", "Key 2"]},
     "shapes": {"Key 3": {"group": "expression", "min": -1, "max": 2, "default": 0.5, "aliases": ["k3"], "partner": "Key 4"},
                "Nope": {"group": "x"}}})";
-  ASSERT_TRUE(ApplyManifest(rig.value(), good).ok());
+  ASSERT_TRUE(formats::ApplyManifest(rig.value(), good).ok());
   EXPECT_EQ(rig->name, "Stress");
   EXPECT_EQ(rig->shapes[0].group, "identity");
   EXPECT_EQ(rig->shapes[2].group, "expression");
@@ -229,11 +232,12 @@ TEST(Manifest, AppliesAndRejects) {
   EXPECT_EQ(rig->shapes[3].partner, 2);
   ASSERT_FALSE(rig->load_warnings.empty());
   EXPECT_EQ(rig->load_warnings.back().code, "manifest_unknown_shape");
-  auto bad = ApplyManifest(rig.value(), R"({"shapes": {"Key 1": {"min": "low"}}})");
+  auto bad = formats::ApplyManifest(rig.value(), R"({"shapes": {"Key 1": {"min": "low"}}})");
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.fields[0].pointer, "/shapes/Key 1/min");
-  EXPECT_FALSE(ApplyManifest(rig.value(), "{").ok());
-  EXPECT_FALSE(ApplyManifest(rig.value(), R"({"shapes": {"Key 1": {"min": 2, "max": 1}}})").ok());
+  EXPECT_FALSE(formats::ApplyManifest(rig.value(), "{").ok());
+  EXPECT_FALSE(
+      formats::ApplyManifest(rig.value(), R"({"shapes": {"Key 1": {"min": 2, "max": 1}}})").ok());
 }
 
 TEST(JsonPointer, KeysAreEscapedAsOneReferenceToken) {
@@ -246,26 +250,27 @@ TEST(JsonPointer, KeysAreEscapedAsOneReferenceToken) {
 // A rig written back as glb (sparse targets kept) and compressed with EXT_meshopt_compression:
 // smaller, the extension required, and the same rig to the bit once read (the codecs are lossless).
 TEST(MeshoptOut, CompressedGlbIsSmallerAndTheSameRig) {
-  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok());
   std::vector<float> w(rig->shapes.size(), 0.0f);
   BlendedRig out;
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, out, ctx).ok());
-  auto plain = ExportMesh(rig.value(), out, w, {}, MeshFormat::kGlb, {.keep_targets = true});
+  auto plain =
+      ExportMesh(rig.value(), out, w, {}, formats::MeshFormat::kGlb, {.keep_targets = true});
   ASSERT_TRUE(plain.ok());
   const auto bytes = [](const std::string& s) {
     return std::span<const unsigned char>(reinterpret_cast<const unsigned char*>(s.data()),
                                           s.size());
   };
-  auto packed = EncodeMeshoptGlb(bytes(plain.value()));
+  auto packed = formats::EncodeMeshoptGlb(bytes(plain.value()));
   ASSERT_TRUE(packed.ok()) << packed.status().message;
   EXPECT_LT(packed->size(), plain->size() * 2 / 3) << plain->size();
   const std::string packed_text(packed->begin(), packed->end());
   EXPECT_NE(packed_text.find("\"extensionsRequired\":[\"EXT_meshopt_compression\"]"),
             std::string::npos);
-  auto a = LoadGltfMemory(bytes(plain.value()), "", {});
-  auto b = LoadGltfMemory(packed.value(), "", {});
+  auto a = formats::LoadGltfMemory(bytes(plain.value()), "", {});
+  auto b = formats::LoadGltfMemory(packed.value(), "", {});
   ASSERT_TRUE(a.ok() && b.ok()) << b.status().message;
   ASSERT_EQ(a->primitives.size(), b->primitives.size());
   for (size_t p = 0; p < a->primitives.size(); ++p) {
@@ -281,13 +286,13 @@ TEST(MeshoptOut, CompressedGlbIsSmallerAndTheSameRig) {
     }
   }
   // Compressing again changes nothing (the extension is there already).
-  auto again = EncodeMeshoptGlb(packed.value());
+  auto again = formats::EncodeMeshoptGlb(packed.value());
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(again.value(), packed.value());
 }
 
 TEST(Manifest, BundledFaceCap) {
-  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   EXPECT_EQ(rig->shapes[FindShape(rig.value(), "jawOpen")].group,
             "jaw");  // Grouped by face region.
@@ -304,7 +309,7 @@ struct Evaluated {
 };
 
 Evaluated Evaluate(const std::string& path, std::vector<float> w) {
-  Evaluated e{LoadRigFile(path).value(), std::move(w), {}};
+  Evaluated e{formats::LoadRigFile(path).value(), std::move(w), {}};
   BlendContext ctx;
   EXPECT_TRUE(EvaluateRig(e.rig, e.weights, {}, e.blended, ctx).ok());
   return e;
@@ -314,8 +319,8 @@ TEST(Export, JsonShapeAndDeterminism) {
   auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
                     {0.5f, 0, 0, 0, 0, 0, 0, 0.25f});
   std::vector<Warning> warn = {{"extrapolation", "x", "", 1.5, true}};
-  auto a = ExportMesh(e.rig, e.blended, e.weights, warn, MeshFormat::kJson);
-  auto b = ExportMesh(e.rig, e.blended, e.weights, warn, MeshFormat::kJson);
+  auto a = ExportMesh(e.rig, e.blended, e.weights, warn, formats::MeshFormat::kJson);
+  auto b = ExportMesh(e.rig, e.blended, e.weights, warn, formats::MeshFormat::kJson);
   ASSERT_TRUE(a.ok());
   EXPECT_EQ(a.value(), b.value()) << "byte-identical for the same input";
   auto j = nlohmann::json::parse(a.value());
@@ -338,10 +343,10 @@ TEST(Export, GlbRoundTripKeepsBlendHierarchyAndMaterials) {
   e.weights[24] = 0.9f;
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(e.rig, e.weights, {}, e.blended, ctx).ok());
-  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kGlb);
+  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, formats::MeshFormat::kGlb);
   ASSERT_TRUE(glb.ok());
   std::vector<unsigned char> bytes(glb->begin(), glb->end());
-  auto back = LoadGltfMemory(bytes, "", {.allow_external_files = false});
+  auto back = formats::LoadGltfMemory(bytes, "", {.allow_external_files = false});
   ASSERT_TRUE(back.ok()) << back.status().message;
   EXPECT_EQ(back->nodes.size(), e.rig.nodes.size());
   EXPECT_EQ(back->nodes[5].name, "grp_eyeLeft");
@@ -375,10 +380,10 @@ TEST(Export, GlbKeepsEveryMaterialMap) {
   m.normal_scale = 0.75f;
   m.occlusion_strength = 0.5f;
   m.emissive_factor = {0.25f, 0.5f, 1.0f};
-  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kGlb);
+  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, formats::MeshFormat::kGlb);
   ASSERT_TRUE(glb.ok()) << glb.status().message;
   std::vector<unsigned char> bytes(glb->begin(), glb->end());
-  auto back = LoadGltfMemory(bytes, "", {.allow_external_files = false});
+  auto back = formats::LoadGltfMemory(bytes, "", {.allow_external_files = false});
   ASSERT_TRUE(back.ok()) << back.status().message;
   const Material& b = back->materials[0];
   ASSERT_GE(b.normal_image, 0);
@@ -399,10 +404,11 @@ TEST(Export, GlbKeepsEveryMaterialMap) {
 TEST(Export, GlbWithTargetsReblendsTheSame) {
   auto e = Evaluate(test::RealAsset("MorphStressTest/MorphStressTest.gltf"),
                     {0.5f, 0, 0.3f, 0, 0, 0, 0, 0.25f});
-  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kGlb, {.keep_targets = true});
+  auto glb = ExportMesh(e.rig, e.blended, e.weights, {}, formats::MeshFormat::kGlb,
+                        {.keep_targets = true});
   ASSERT_TRUE(glb.ok());
   std::vector<unsigned char> bytes(glb->begin(), glb->end());
-  auto back = LoadGltfMemory(bytes, "", {.allow_external_files = false});
+  auto back = formats::LoadGltfMemory(bytes, "", {.allow_external_files = false});
   ASSERT_TRUE(back.ok()) << back.status().message;
   ASSERT_EQ(back->shapes.size(), 8u);
   EXPECT_EQ(back->shapes[7].name, "Key 8");
@@ -420,8 +426,8 @@ TEST(Export, GlbWithTargetsReblendsTheSame) {
 
 TEST(Export, ObjAndF32InWorldSpace) {
   auto e = Evaluate(test::RealAsset("FaceCap/facecap_decoded.glb"), std::vector<float>(52, 0.0f));
-  auto obj = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kObj);
-  auto f32 = ExportMesh(e.rig, e.blended, e.weights, {}, MeshFormat::kF32);
+  auto obj = ExportMesh(e.rig, e.blended, e.weights, {}, formats::MeshFormat::kObj);
+  auto f32 = ExportMesh(e.rig, e.blended, e.weights, {}, formats::MeshFormat::kF32);
   ASSERT_TRUE(obj.ok() && f32.ok());
   EXPECT_EQ(f32->size(), e.rig.vertex_count() * 6 * 4);
   // The first OBJ vertex equals the first f32 position; both are world space (the nodes
@@ -443,7 +449,7 @@ TEST(Export, ObjAndF32InWorldSpace) {
   // OBJ round trip through our own reader: same vertex count and triangles.
   TempDir dir;
   test::WriteBytes(dir / "out.obj", obj.value());
-  auto back = LoadRigFile(dir / "out.obj");
+  auto back = formats::LoadRigFile(dir / "out.obj");
   ASSERT_TRUE(back.ok()) << back.status().message;
   EXPECT_EQ(back->vertex_count(), e.rig.vertex_count());
   EXPECT_EQ(back->triangle_count(), e.rig.triangle_count());
@@ -471,7 +477,7 @@ TEST(Export, F32BlocksGiveTheVertexByVertexBits) {
       b.normals.push_back(next());
     }
     if (count > 3) std::fill(b.normals.begin() + 9, b.normals.begin() + 12, 0.0f);
-    auto f32 = ExportMesh(rig, blended, {}, {}, MeshFormat::kF32);
+    auto f32 = ExportMesh(rig, blended, {}, {}, formats::MeshFormat::kF32);
     ASSERT_TRUE(f32.ok());
     ASSERT_EQ(f32->size(), count * 24);
     std::vector<float> expected(6 * count);
@@ -548,12 +554,12 @@ TEST(F32Writer, WritesExportMeshBytes) {
   for (const char* asset : {"FaceCap/facecap_decoded.glb", "MorphStressTest/MorphStressTest.gltf",
                             "MorphPrimitivesTest/MorphPrimitivesTest.gltf",
                             "AnimatedMorphSphere/AnimatedMorphSphere.gltf"}) {
-    auto rig = LoadRigFile(test::RealAsset(asset));
+    auto rig = formats::LoadRigFile(test::RealAsset(asset));
     ASSERT_TRUE(rig.ok()) << asset << ": " << rig.status().message;
     ASSERT_TRUE(SparseBlend::Serves(rig.value(), {})) << asset;
     for (bool mesh_space : {false, true}) {
-      const F32Writer writer(rig.value(), mesh_space);
-      F32Writer::Scratch scratch;
+      const formats::F32Writer writer(rig.value(), mesh_space);
+      formats::F32Writer::Scratch scratch;
       BlendedRig blended;
       BlendContext ctx;
       std::string body;
@@ -566,8 +572,8 @@ TEST(F32Writer, WritesExportMeshBytes) {
                 point % 4 == 3 ? 1.0f - 2.0f * next() : 0.5f * next();
         }
         ASSERT_TRUE(EvaluateRig(rig.value(), w, {}, blended, ctx).ok());
-        auto want =
-            ExportMesh(rig.value(), blended, w, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+        auto want = ExportMesh(rig.value(), blended, w, {}, formats::MeshFormat::kF32,
+                               {.mesh_space = mesh_space});
         ASSERT_TRUE(want.ok());
         // Served unless an active target has no normal deltas (MorphPrimitivesTest's have none).
         bool recomputed = false;
@@ -595,8 +601,8 @@ TEST(F32Writer, WritesExportMeshBytes) {
       // bytes.
       const std::vector<float> zero(w.size(), 0.0f);
       ASSERT_TRUE(EvaluateRig(rig.value(), zero, {}, blended, ctx).ok());
-      auto rest =
-          ExportMesh(rig.value(), blended, zero, {}, MeshFormat::kF32, {.mesh_space = mesh_space});
+      auto rest = ExportMesh(rig.value(), blended, zero, {}, formats::MeshFormat::kF32,
+                             {.mesh_space = mesh_space});
       ASSERT_TRUE(rest.ok());
       ASSERT_TRUE(writer.Write(rig.value(), zero, scratch, body));
       EXPECT_TRUE(body == rest.value()) << asset << " at rest after a point";
@@ -610,7 +616,7 @@ TEST(F32Writer, WritesExportMeshBytes) {
   EXPECT_GT(written, points / 2) << written << " of " << points << " points written";
   // A target without normal deltas: the blend recomputes normals there, so the writer declines
   // when (only when) that target is active.
-  auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
+  auto face = formats::LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
   ASSERT_TRUE(face.ok());
   Rig rig = face.value();
   size_t shape = SIZE_MAX;
@@ -624,8 +630,8 @@ TEST(F32Writer, WritesExportMeshBytes) {
     }
   }
   ASSERT_NE(shape, SIZE_MAX);
-  const F32Writer writer(rig, false);
-  F32Writer::Scratch scratch;
+  const formats::F32Writer writer(rig, false);
+  formats::F32Writer::Scratch scratch;
   std::string body;
   std::vector<float> w(rig.shapes.size(), 0.0f);
   w[(shape + 1) % w.size()] = 0.5f;
@@ -633,11 +639,11 @@ TEST(F32Writer, WritesExportMeshBytes) {
   w[shape] = 0.5f;
   EXPECT_FALSE(writer.Write(rig, w, scratch, body));
   // Skinned, posed, recomputed normals: not served.
-  auto skinned = LoadRigFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
+  auto skinned = formats::LoadRigFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
   ASSERT_TRUE(skinned.ok());
   EXPECT_FALSE(SparseBlend::Serves(skinned.value(), {}));
   EXPECT_FALSE(
-      F32Writer(skinned.value(), false)
+      formats::F32Writer(skinned.value(), false)
           .Write(skinned.value(), std::vector<float>(skinned->shapes.size(), 0.0f), scratch, body));
   Pose pose;
   EXPECT_FALSE(SparseBlend::Serves(face.value(), {.pose = &pose}));
@@ -649,11 +655,11 @@ TEST(F32Writer, WritesExportMeshBytes) {
 // positions, every node's matrix), then the same CesiumMan at rest (another shape: the template
 // is made again), and a rig's export with keep_targets.
 TEST(GlbVariantWriter, WritesExportMeshBytes) {
-  auto joined = [](const GlbVariantWriter::Pieces& p) {
+  auto joined = [](const formats::GlbVariantWriter::Pieces& p) {
     return std::string(p.head) + std::string(p.bin);
   };
-  GlbVariantWriter writer;
-  auto face = LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
+  formats::GlbVariantWriter writer;
+  auto face = formats::LoadRigFile(test::RealAsset("FaceCap/facecap_decoded.glb"));
   ASSERT_TRUE(face.ok());
   BlendedRig out;
   BlendContext ctx;
@@ -664,7 +670,7 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
       w[k] = 0.1f * static_cast<float>(i + k % 5);
     const WeightReport report = CheckWeights(face.value(), w, BlendMode::kRelative);
     ASSERT_TRUE(EvaluateRig(face.value(), w, {}, out, ctx).ok());
-    auto expected = ExportMesh(face.value(), out, w, report.warnings, MeshFormat::kGlb);
+    auto expected = ExportMesh(face.value(), out, w, report.warnings, formats::MeshFormat::kGlb);
     auto pieces = writer.Write(face.value(), out, w, report.warnings);
     ASSERT_TRUE(expected.ok() && pieces.ok());
     ASSERT_EQ(joined(pieces.value()), expected.value())
@@ -673,7 +679,7 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
   }
   EXPECT_EQ(patched, 5u) << "the first variant makes the template, the others patch it";
 
-  auto man = LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
+  auto man = formats::LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
   ASSERT_TRUE(man.ok());
   std::vector<float> none;
   for (float time : {0.0f, 0.8f, 1.7f, -1.0f}) {
@@ -690,7 +696,7 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
       o.pose = &pose;
     }
     ASSERT_TRUE(EvaluateRig(man.value(), none, o, out, ctx).ok());
-    auto expected = ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb);
+    auto expected = ExportMesh(man.value(), out, none, {}, formats::MeshFormat::kGlb);
     auto pieces = writer.Write(man.value(), out, none, {});
     ASSERT_TRUE(expected.ok() && pieces.ok());
     ASSERT_EQ(joined(pieces.value()), expected.value()) << "CesiumMan at " << time;
@@ -699,7 +705,8 @@ TEST(GlbVariantWriter, WritesExportMeshBytes) {
   ASSERT_TRUE(rig_itself.ok());
   EXPECT_EQ(
       joined(rig_itself.value()),
-      ExportMesh(man.value(), out, none, {}, MeshFormat::kGlb, {.keep_targets = true}).value());
+      ExportMesh(man.value(), out, none, {}, formats::MeshFormat::kGlb, {.keep_targets = true})
+          .value());
 }
 
 }  // namespace io_test

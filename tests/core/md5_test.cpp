@@ -176,7 +176,7 @@ std::array<double, 3> RawVertex(const std::vector<RawJoint>& joints, const RawMe
 class Md5 : public ::testing::Test {
  protected:
   void SetUp() override {
-    auto loaded = LoadRigFile(BobDir() + "Bob.md5mesh");
+    auto loaded = formats::LoadRigFile(BobDir() + "Bob.md5mesh");
     ASSERT_TRUE(loaded.ok()) << loaded.status().message;
     rig_ = std::move(loaded.value());
     ReadRawMesh(joints_, meshes_);
@@ -280,7 +280,7 @@ TEST_F(Md5, TrianglesFaceOutwards) {
 Status Load(const std::string& mesh, const std::string& anim = "") {
   std::vector<std::pair<std::string, std::string>> anims;
   if (!anim.empty()) anims.emplace_back("a", anim);
-  auto r = LoadMd5Memory(mesh, "t.md5mesh", anims);
+  auto r = formats::LoadMd5Memory(mesh, "t.md5mesh", anims);
   if (!r.ok()) return r.status();
   for (const Warning& w : r->load_warnings) {
     if (w.code == "animation_skipped") return InvalidArgument(w.code + ": " + w.message);

@@ -93,7 +93,7 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
   }
   ASSERT_GT(a_offsets.size(), 20u);
 
-  const Result<Rig> rig = LoadRigFile(Pmd());
+  const Result<Rig> rig = formats::LoadRigFile(Pmd());
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   EXPECT_EQ(rig->vertex_count(), 49955u);
   EXPECT_EQ(rig->shapes.size(), 120u);
@@ -127,7 +127,7 @@ TEST(Pmd, CountsAndExpressionsAsTheRawBytesSay) {
   EXPECT_EQ(moved, want_moved);
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(got[c], want[c], 1e-4) << c;
   // The PMX of the same model has the same vertices: the PMD is the same character.
-  const Result<Rig> pmx = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> pmx = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(pmx.ok());
   EXPECT_NEAR(Span(rig.value()), Span(pmx.value()), 1e-5f);
 }
@@ -200,7 +200,7 @@ TEST(Pmx, ABdef2VertexUnderARotatedBoneLandsWhereTheFormulaPutsIt) {
     }
   }
 
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   // The skin's joint k is bone k: its node. The bone turned is b0, or b1 when b1 hangs under b0, so
   // that the other bone stays where it was (one is never under the other both ways).
@@ -306,12 +306,12 @@ const AnimationSampler* ChannelOf(const AnimationInfo& clip, int node, ChannelPa
 }
 
 TEST(Vmd, ABezierKeyAtMidTimeGivesTheCurvesValue) {
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   const uint8_t x1 = 100, y1 = 10, x2 = 120, y2 = 40;  // Slow in.
   std::vector<Warning> warnings;
   const Result<AnimationInfo> clip =
-      LoadVmdMemory(TestVmd(x1, y1, x2, y2), rig.value(), "test", &warnings);
+      formats::LoadVmdMemory(TestVmd(x1, y1, x2, y2), rig.value(), "test", &warnings);
   ASSERT_TRUE(clip.ok()) << clip.status().message;
   EXPECT_TRUE(warnings.empty());
   const int head = FindNode(rig.value(), "頭");
@@ -352,10 +352,10 @@ TEST(Vmd, ABezierKeyAtMidTimeGivesTheCurvesValue) {
 
 TEST(Vmd, AStraightSegmentKeepsItsTwoKeys) {
   // MMD's default curve (20, 20, 107, 107) is the diagonal: linear, so the keys alone are exact.
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   const Result<AnimationInfo> clip =
-      LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "straight", nullptr);
+      formats::LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "straight", nullptr);
   ASSERT_TRUE(clip.ok()) << clip.status().message;
   const AnimationSampler* rot =
       ChannelOf(clip.value(), FindNode(rig.value(), "頭"), ChannelPath::kRotation);
@@ -373,7 +373,7 @@ TEST(Vmd, TheMotionsBesideTheModelAreClipsWithTheirKeyCounts) {
   const uint32_t morph_keys = r.Get<uint32_t>();
   EXPECT_EQ(bone_keys, 224u);
   EXPECT_EQ(morph_keys, 345u);
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   ASSERT_EQ(rig->animations.size(), 4u);
   EXPECT_EQ(rig->animations[1].name, "01_happy");
@@ -423,7 +423,7 @@ TEST(Vmd, EveryMorphIsItsOwnShapeAndATrackDrivesTheMorphOfItsName) {
   ASSERT_EQ(pupil.count(15), 1u);
   EXPECT_FLOAT_EQ(pupil[15], 0.4f);
 
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   const int small = FindShape(rig.value(), "瞳小"),
             geo = FindShape(rig.value(), "pupil_decrease_geo_");
@@ -451,48 +451,50 @@ TEST(Vmd, EveryMorphIsItsOwnShapeAndATrackDrivesTheMorphOfItsName) {
 TEST(MmdHostile, TruncatedAndLyingPmdAndVmdAreErrors) {
   const std::vector<unsigned char> pmd = test::ReadBytes(Pmd());
   for (size_t n = 0; n < pmd.size() * 9 / 10; n += n < 3000 ? 13 : 299999) {
-    EXPECT_FALSE(LoadPmdMemory(std::span<const unsigned char>(pmd.data(), n), "cut").ok()) << n;
+    EXPECT_FALSE(formats::LoadPmdMemory(std::span<const unsigned char>(pmd.data(), n), "cut").ok())
+        << n;
   }
   std::vector<unsigned char> lying = pmd;
   const uint32_t lie = 0x7fffffff;
   std::memcpy(&lying[3 + 4 + 20 + 256], &lie, 4);
-  const Result<Rig> bad = LoadPmdMemory(lying, "lying");
+  const Result<Rig> bad = formats::LoadPmdMemory(lying, "lying");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message.find("more than the file holds"), std::string::npos)
       << bad.status().message;
 
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   const std::vector<unsigned char> vmd = test::ReadBytes(UkaDir() + "/motion/01_happy.vmd");
   for (size_t n = 0; n < vmd.size() - 200; n += 997) {
-    EXPECT_FALSE(
-        LoadVmdMemory(std::span<const unsigned char>(vmd.data(), n), rig.value(), "cut", nullptr)
-            .ok())
+    EXPECT_FALSE(formats::LoadVmdMemory(std::span<const unsigned char>(vmd.data(), n), rig.value(),
+                                        "cut", nullptr)
+                     .ok())
         << n;
   }
   std::vector<unsigned char> far = TestVmd(20, 20, 107, 107);
   const uint32_t frame = 0xffffffffu;
   std::memcpy(&far[54 + 15], &frame, 4);
-  const Result<AnimationInfo> clip = LoadVmdMemory(far, rig.value(), "far", nullptr);
+  const Result<AnimationInfo> clip = formats::LoadVmdMemory(far, rig.value(), "far", nullptr);
   ASSERT_FALSE(clip.ok());
   EXPECT_NE(clip.status().message.find("beyond an hour"), std::string::npos)
       << clip.status().message;
   EXPECT_FALSE(
-      LoadVmdMemory(std::vector<unsigned char>(60, 'x'), rig.value(), "junk", nullptr).ok());
+      formats::LoadVmdMemory(std::vector<unsigned char>(60, 'x'), rig.value(), "junk", nullptr)
+          .ok());
 }
 
 // Found by fuzz_vmd: finite keys whose interpolation overflows a float (a morph from -3e38 to 3e38
 // is infinite half-way) are refused, naming the key; so are offsets no bone has. A rotation whose
 // components square past a float's range is still a rotation (normalised in double).
 TEST(MmdHostile, VmdValuesWhoseInterpolationWouldOverflowAreRefused) {
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   const size_t morphs = 54 + 2 * 111 + 4;  // Header, bone keys, morph count.
   std::vector<unsigned char> vmd = TestVmd(20, 20, 107, 107);
   const float low = -3e38f, high = 3e38f;
   std::memcpy(&vmd[morphs + 19], &low, 4);
   std::memcpy(&vmd[morphs + 23 + 19], &high, 4);
-  const Result<AnimationInfo> morph = LoadVmdMemory(vmd, rig.value(), "wide", nullptr);
+  const Result<AnimationInfo> morph = formats::LoadVmdMemory(vmd, rig.value(), "wide", nullptr);
   ASSERT_FALSE(morph.ok());
   EXPECT_NE(morph.status().message.find("morph key 0 has weight"), std::string::npos)
       << morph.status().message;
@@ -500,7 +502,7 @@ TEST(MmdHostile, VmdValuesWhoseInterpolationWouldOverflowAreRefused) {
   vmd = TestVmd(20, 20, 107, 107);
   const float far = 2e6f;
   std::memcpy(&vmd[54 + 111 + 19], &far, 4);  // Bone key 1's x.
-  const Result<AnimationInfo> bone = LoadVmdMemory(vmd, rig.value(), "far", nullptr);
+  const Result<AnimationInfo> bone = formats::LoadVmdMemory(vmd, rig.value(), "far", nullptr);
   ASSERT_FALSE(bone.ok());
   EXPECT_NE(bone.status().message.find("bone key 1 moves its bone beyond"), std::string::npos)
       << bone.status().message;
@@ -508,10 +510,10 @@ TEST(MmdHostile, VmdValuesWhoseInterpolationWouldOverflowAreRefused) {
   vmd = TestVmd(20, 20, 107, 107);
   const float big[4] = {0, 2e38f, 0, 2e38f};  // 90 degrees about y, scaled.
   std::memcpy(&vmd[54 + 111 + 19 + 12], big, 16);
-  const Result<AnimationInfo> scaled = LoadVmdMemory(vmd, rig.value(), "scaled", nullptr);
+  const Result<AnimationInfo> scaled = formats::LoadVmdMemory(vmd, rig.value(), "scaled", nullptr);
   ASSERT_TRUE(scaled.ok()) << scaled.status().message;
   const Result<AnimationInfo> plain =
-      LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "plain", nullptr);
+      formats::LoadVmdMemory(TestVmd(20, 20, 107, 107), rig.value(), "plain", nullptr);
   ASSERT_TRUE(plain.ok());
   ASSERT_EQ(scaled->sampler_data.size(), plain->sampler_data.size());
   for (size_t s = 0; s < plain->sampler_data.size(); ++s) {
@@ -555,7 +557,7 @@ TEST(MaterialMorphs, MultipliesThenAddsByWeight) {
 // Uka's blush (赤み), pallor (青ざめ) and gloom (どんより) are material morphs: shapes a motion
 // drives.
 TEST(MaterialMorphs, UkasBlushIsAShapeThatColoursHerMaterials) {
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   for (const char* name : {"赤み", "青ざめ", "どんより"}) {
     const int s = FindShape(rig.value(), name);
@@ -584,16 +586,16 @@ TEST(MaterialMorphs, UkasBlushIsAShapeThatColoursHerMaterials) {
 // A glb of Uka carries the materials' colours at its weights; the batch's template writer gives the
 // same bytes as a whole export for every variant (colours change from one to the next).
 TEST(MaterialMorphs, EveryGlbVariantCarriesItsColours) {
-  const Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  const Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
-  GlbVariantWriter writer;
+  formats::GlbVariantWriter writer;
   BlendedRig blended;
   BlendContext context;
   for (float w : {0.0f, 0.7f, 0.35f}) {
     std::vector<float> weights(rig->shapes.size(), 0.0f);
     weights[FindShape(rig.value(), "赤み")] = w;
     ASSERT_TRUE(EvaluateRig(rig.value(), weights, {}, blended, context).ok());
-    auto whole = ExportMesh(rig.value(), blended, weights, {}, MeshFormat::kGlb);
+    auto whole = ExportMesh(rig.value(), blended, weights, {}, formats::MeshFormat::kGlb);
     auto pieces = writer.Write(rig.value(), blended, weights, {});
     ASSERT_TRUE(whole.ok() && pieces.ok());
     EXPECT_EQ(whole.value(), std::string(pieces->head) + std::string(pieces->bin)) << w;
@@ -604,10 +606,10 @@ TEST(MaterialMorphs, EveryGlbVariantCarriesItsColours) {
 // The manifest may colour a material (a model whose textures are not at hand) and name the base
 // motion.
 TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
-  Result<Rig> rig = LoadRigFile(UkaDir() + "/MS_Uka.pmx");
+  Result<Rig> rig = formats::LoadRigFile(UkaDir() + "/MS_Uka.pmx");
   ASSERT_TRUE(rig.ok());
   ASSERT_TRUE(
-      ApplyManifest(
+      formats::ApplyManifest(
           rig.value(),
           R"({"materials": {"頬照り2": {"base_color": [0.9, 0.5, 0.5, 0]}}, "base_motion": "01_happy"})")
           .ok());
@@ -629,7 +631,7 @@ TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
   // colour out of range is refused, naming the member.
   rig->load_warnings.clear();
   ASSERT_TRUE(
-      ApplyManifest(
+      formats::ApplyManifest(
           rig.value(),
           R"({"materials": {"nope": {"base_color": [1, 1, 1, 1]}}, "base_motion": "01_hapy"})")
           .ok());
@@ -639,8 +641,8 @@ TEST(MaterialMorphs, TheManifestColoursMaterialsAndNamesTheBaseMotion) {
       << rig->load_warnings[0].message;
   EXPECT_EQ(rig->load_warnings[1].code, "manifest_unknown_material");
   EXPECT_EQ(rig->base_motion, "01_happy");  // Unchanged.
-  const Status bad =
-      ApplyManifest(rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
+  const Status bad = formats::ApplyManifest(
+      rig.value(), R"({"materials": {"頬照り2": {"base_color": [2, 1, 1, 1]}}})");
   EXPECT_EQ(bad.fields.at(0).pointer, "/materials/頬照り2");
 }
 
@@ -660,7 +662,7 @@ TEST(MmdTextures, ImagesAreReadFromTheModelsFolderOnly) {
     rig.images.push_back({name, "", {}});
     rig.load_warnings.push_back({"texture_not_loaded", "not read", name, 0.0, false});
   }
-  LoadImagesBeside(rig, (dir / "model" / "m.pmx").string());
+  formats::LoadImagesBeside(rig, (dir / "model" / "m.pmx").string());
   // Read: the PNG (its letter case forgiven) and the TGA (by extension); nothing outside the
   // folder.
   EXPECT_EQ(rig.images[0].mime_type, "image/png");

@@ -35,7 +35,7 @@ struct Raw {
 };
 
 TEST(Pmx, CountsAsTheFileSays) {
-  const Result<Rig> rig = LoadRigFile(Uka());
+  const Result<Rig> rig = formats::LoadRigFile(Uka());
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   EXPECT_EQ(rig->vertex_count(), 49955u);
   EXPECT_EQ(rig->triangle_count(), 77909u);
@@ -67,7 +67,7 @@ TEST(Pmx, VerticesAreTheFilesInRightHandedMetres) {
   for (int k = 0; k < 4; ++k) r.Text();
   const int32_t count = r.I32();
   ASSERT_EQ(count, 49955);
-  const Result<Rig> rig = LoadRigFile(Uka());
+  const Result<Rig> rig = formats::LoadRigFile(Uka());
   ASSERT_TRUE(rig.ok());
   // Every vertex of the first 200: (x, y, -z) x 0.08 is somewhere in the rig's primitives.
   for (int v = 0; v < 200; ++v) {
@@ -95,7 +95,7 @@ TEST(Pmx, VerticesAreTheFilesInRightHandedMetres) {
 }
 
 TEST(Pmx, AVertexMorphMovesExactlyItsVerticesByItsOffsets) {
-  const Result<Rig> rig = LoadRigFile(Uka());
+  const Result<Rig> rig = formats::LoadRigFile(Uka());
   ASSERT_TRUE(rig.ok());
   const int a = FindShape(rig.value(), "あ");
   ASSERT_GE(a, 0);
@@ -126,12 +126,13 @@ TEST(PmxHostile, TruncationsAndBadHeadersAreErrors) {
   const std::vector<unsigned char> whole = test::ReadBytes(Uka());
   for (size_t n = 0; n < whole.size() / 2;
        n += n < 2000 ? 7 : 199999) {  // The first half: before the morphs end.
-    const Result<Rig> rig = LoadPmxMemory(std::span<const unsigned char>(whole.data(), n), "cut");
+    const Result<Rig> rig =
+        formats::LoadPmxMemory(std::span<const unsigned char>(whole.data(), n), "cut");
     EXPECT_FALSE(rig.ok()) << n;
   }
   std::vector<unsigned char> bad = whole;
   bad[4 + 4 + 1 + 2] = 3;  // Vertex index size 3.
-  Result<Rig> rig = LoadPmxMemory(bad, "bad");
+  Result<Rig> rig = formats::LoadPmxMemory(bad, "bad");
   ASSERT_FALSE(rig.ok());
   EXPECT_NE(rig.status().message.find("index size 3"), std::string::npos) << rig.status().message;
   bad = whole;
@@ -144,7 +145,7 @@ TEST(PmxHostile, TruncationsAndBadHeadersAreErrors) {
       break;
     }
   }
-  rig = LoadPmxMemory(bad, "lying");
+  rig = formats::LoadPmxMemory(bad, "lying");
   ASSERT_FALSE(rig.ok());
   EXPECT_NE(rig.status().message.find("more than the file holds"), std::string::npos)
       << rig.status().message;
@@ -216,7 +217,7 @@ TEST(PmxHostile, AGroupNamingItselfIsNotFollowed) {
   // Before, groups were followed to a depth of 8: 2000 entries naming the group itself were 1000^8
   // paths (the fuzzer's out-of-memory). PMX 2.0 does not nest groups: only the vertex morphs count.
   const std::vector<unsigned char> pmx = GroupFanOut(2000);
-  const Result<Rig> rig = LoadPmxMemory(pmx, "fanout");
+  const Result<Rig> rig = formats::LoadPmxMemory(pmx, "fanout");
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   ASSERT_EQ(rig->shapes.size(), 2u);
   const SparseTarget& t = rig->primitives[0].targets[1];
@@ -295,7 +296,7 @@ TEST(PmxMorphs, UvGroupAndFlipMorphsActAsPmxDefinesThem) {
   // The same bytes are tests/data/every_morph_kind.pmx, which the CLI suite exports and validates.
   EXPECT_EQ(test::ReadBytes(std::string(FACESPACE_SOURCE_DIR) + "/tests/data/every_morph_kind.pmx"),
             EveryMorphKind());
-  const Result<Rig> loaded = LoadPmxMemory(EveryMorphKind(), "kinds");
+  const Result<Rig> loaded = formats::LoadPmxMemory(EveryMorphKind(), "kinds");
   ASSERT_TRUE(loaded.ok()) << loaded.status().message;
   const Rig& rig = loaded.value();
   ASSERT_EQ(rig.shapes.size(), 4u);  // v, uv, g, f: additional-UV and impulse morphs are reported.
@@ -336,7 +337,7 @@ TEST(PmxMorphs, UvGroupAndFlipMorphsActAsPmxDefinesThem) {
 // UV morphs leave as glTF TEXCOORD_0 targets (the rig) or as the blended UVs (a point), and come
 // back.
 TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
-  const Result<Rig> loaded = LoadPmxMemory(EveryMorphKind(), "kinds");
+  const Result<Rig> loaded = formats::LoadPmxMemory(EveryMorphKind(), "kinds");
   ASSERT_TRUE(loaded.ok()) << loaded.status().message;
   const Rig* rig = &loaded.value();
   std::vector<float> w(rig->shapes.size(), 0.0f);
@@ -345,10 +346,10 @@ TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
   BlendContext ctx;
   ASSERT_TRUE(EvaluateRig(*rig, w, {}, blended, ctx).ok());
   for (bool keep : {true, false}) {
-    auto glb = ExportMesh(*rig, blended, w, {}, MeshFormat::kGlb, {.keep_targets = keep});
+    auto glb = ExportMesh(*rig, blended, w, {}, formats::MeshFormat::kGlb, {.keep_targets = keep});
     ASSERT_TRUE(glb.ok()) << glb.status().message;
     const std::vector<unsigned char> bytes(glb->begin(), glb->end());
-    const Result<Rig> reloaded = LoadGltfMemory(bytes, "", {});
+    const Result<Rig> reloaded = formats::LoadGltfMemory(bytes, "", {});
     ASSERT_TRUE(reloaded.ok()) << reloaded.status().message;
     const Rig* back = &reloaded.value();
     if (keep) {
@@ -363,17 +364,17 @@ TEST(PmxMorphs, UvMorphsSurviveGlbOneWayAndTheOther) {
     }
   }
   // The variant writer patches the UVs of later variants: the same bytes as a whole export.
-  GlbVariantWriter writer;
+  formats::GlbVariantWriter writer;
   BlendedRig rest;
   ASSERT_TRUE(EvaluateRig(*rig, std::vector<float>(w.size(), 0.0f), {}, rest, ctx).ok());
   ASSERT_TRUE(writer.Write(*rig, rest, std::vector<float>(w.size(), 0.0f), {}).ok());
   auto pieces = writer.Write(*rig, blended, w, {});
   ASSERT_TRUE(pieces.ok());
-  auto whole = ExportMesh(*rig, blended, w, {}, MeshFormat::kGlb);
+  auto whole = ExportMesh(*rig, blended, w, {}, formats::MeshFormat::kGlb);
   ASSERT_TRUE(whole.ok());
   EXPECT_EQ(std::string(pieces->head) + std::string(pieces->bin), whole.value());
   // OBJ: vt is (u, 1 - v).
-  auto obj = ExportMesh(*rig, blended, w, {}, MeshFormat::kObj);
+  auto obj = ExportMesh(*rig, blended, w, {}, formats::MeshFormat::kObj);
   ASSERT_TRUE(obj.ok());
   EXPECT_NE(obj->find("vt 1.25 1.5\n"), std::string::npos) << obj.value();
 }

@@ -141,7 +141,7 @@ class Reduction : public ::testing::TestWithParam<std::pair<const char*, float>>
 
 TEST_P(Reduction, ToleranceRespectedOnRealAnimation) {
   const auto [path, tolerance] = GetParam();
-  auto rig = LoadGltfFile(test::RealAsset(path));
+  auto rig = formats::LoadGltfFile(test::RealAsset(path));
   ASSERT_TRUE(rig.ok());
   auto seq = SequenceFromAnimation(rig.value(), 0);
   ASSERT_TRUE(seq.ok()) << seq.status().message;

@@ -286,7 +286,7 @@ TEST(Pose, BlendOfClipsWithMask) {
 }
 
 TEST(Pose, AnimatedWeightsYieldToExplicitOnes) {
-  auto rig = LoadGltfFile(test::RealAsset("AnimatedMorphCube/AnimatedMorphCube.gltf"));
+  auto rig = formats::LoadGltfFile(test::RealAsset("AnimatedMorphCube/AnimatedMorphCube.gltf"));
   ASSERT_TRUE(rig.ok());
   PoseRequest req;
   req.clips.push_back(ClipRequest{.index = 0, .time = 1.0f, .pointer = "/animation"});
@@ -381,7 +381,7 @@ class SkinnedAssets : public ::testing::TestWithParam<SkinCase> {};
 
 TEST_P(SkinnedAssets, MatchIndependentEvaluation) {
   const SkinCase& c = GetParam();
-  auto rig = LoadGltfFile(test::RealAsset(c.path));
+  auto rig = formats::LoadGltfFile(test::RealAsset(c.path));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   test::RawGltf raw(test::RealAsset(c.path));
   // Reference: world matrices by recursion, joint matrices, LBS with normalised weights.
@@ -466,7 +466,7 @@ INSTANTIATE_TEST_SUITE_P(Skins, SkinnedAssets,
                          });
 
 TEST(Skins, CesiumManWeightsAreNormalisedWithAWarning) {
-  auto rig = LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
+  auto rig = formats::LoadGltfFile(test::RealAsset("CesiumMan/CesiumMan.gltf"));
   ASSERT_TRUE(rig.ok());
   bool warned = false;
   for (const Warning& w : rig->load_warnings)

@@ -12,7 +12,7 @@ namespace facespace {
 namespace speech_test {  // Named: core_tests is a unity build, its files share one unit.
 
 Rig Load(const std::string& rel) {
-  auto rig = LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel);
+  auto rig = formats::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel);
   EXPECT_TRUE(rig.ok()) << rig.status().message;
   return std::move(rig.value());
 }

@@ -20,7 +20,7 @@ inline std::vector<float> WorldOf(const Rig& rig, std::span<const float> weights
   options.pose = pose;
   EXPECT_TRUE(EvaluateRig(rig, weights, options, blended, context).ok());
   std::vector<float> out;
-  WorldPositions(blended, out);
+  formats::WorldPositions(blended, out);
   return out;
 }
 

@@ -12,10 +12,11 @@
 #include "facespace/engine/skeleton.h"
 #include "facespace/formats/io.h"
 
-inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace::Rig& rig,
+inline void CheckGlbWriter(facespace::formats::GlbVariantWriter& writer, const facespace::Rig& rig,
                            const facespace::BlendedRig& blended,
                            const std::vector<float>& weights) {
-  auto expected = facespace::ExportMesh(rig, blended, weights, {}, facespace::MeshFormat::kGlb);
+  auto expected = facespace::formats::ExportMesh(rig, blended, weights, {},
+                                                 facespace::formats::MeshFormat::kGlb);
   auto pieces = writer.Write(rig, blended, weights, {});
   if (expected.ok() != pieces.ok()) __builtin_trap();
   if (expected.ok() && expected.value() != std::string(pieces->head) + std::string(pieces->bin))
@@ -25,7 +26,7 @@ inline void CheckGlbWriter(facespace::GlbVariantWriter& writer, const facespace:
 inline void EvaluateLoadedRig(const facespace::Rig& rig, float weight) {
   facespace::BlendedRig blended;
   facespace::BlendContext context;
-  facespace::GlbVariantWriter writer;
+  facespace::formats::GlbVariantWriter writer;
   const std::vector<float> weights(rig.shapes.size(), weight);
   if (facespace::EvaluateRig(rig, weights, {}, blended, context).ok()) {
     CheckGlbWriter(writer, rig, blended, weights);

@@ -8,7 +8,7 @@
 #include "facespace/formats/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  auto rig = facespace::LoadFbxMemory(std::span<const unsigned char>(data, size), "fuzz");
+  auto rig = facespace::formats::LoadFbxMemory(std::span<const unsigned char>(data, size), "fuzz");
   if (rig.ok()) EvaluateLoadedRig(rig.value(), 0.7f);
   return 0;
 }

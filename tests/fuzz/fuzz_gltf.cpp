@@ -8,10 +8,11 @@
 #include "facespace/formats/io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  facespace::LoadOptions options;
+  facespace::formats::LoadOptions options;
   options.allow_external_files = false;  // As for uploads: never our own disk.
   options.read_manifest = false;
-  auto rig = facespace::LoadGltfMemory(std::span<const unsigned char>(data, size), "", options);
+  auto rig =
+      facespace::formats::LoadGltfMemory(std::span<const unsigned char>(data, size), "", options);
   if (!rig.ok()) return 0;
   // A rig that loads must evaluate without touching memory it does not own.
   EvaluateLoadedRig(rig.value(), 0.5f);

@@ -32,20 +32,20 @@ class FuzzServer : public httplib::Server {
 
 struct Harness {
   facespace::test::MemoryStore store;
-  facespace::render::OsMesaRenderer renderer{1};
-  facespace::api::Evaluator evaluator{renderer};
+  facespace::offscreen::OsMesaRenderer renderer{1};
+  facespace::evaluator::Evaluator evaluator{renderer};
   FuzzServer server;
-  std::unique_ptr<facespace::api::Api> api;
+  std::unique_ptr<facespace::http::Api> api;
   Harness() {
     store.Seed();
-    facespace::api::ApiOptions o;
+    facespace::http::ApiOptions o;
     o.api_key = "fuzz-key";
     o.cors_origins = {"http://front.test"};
     o.max_body = 1 << 20;
     o.cache_bytes = 1 << 20;
     o.log_requests = false;
     o.max_render_size = 32;  // Renders stay tiny: the fuzzer is after the parsing.
-    api = std::make_unique<facespace::api::Api>(store, evaluator, o);
+    api = std::make_unique<facespace::http::Api>(store, evaluator, o);
     api->Register(server);
   }
 };
@@ -54,11 +54,11 @@ struct Harness {
 
 namespace {
 
-using facespace::api::http::ChunkedState;
-using facespace::api::http::Framing;
-using facespace::api::http::FramingError;
-using facespace::api::http::HeadLimits;
-using facespace::api::http::RequestHead;
+using facespace::net::ChunkedState;
+using facespace::net::Framing;
+using facespace::net::FramingError;
+using facespace::net::HeadLimits;
+using facespace::net::RequestHead;
 
 // Where the first request in `bytes` ends as the front finds it, when it is whole: bytes given
 // `split` at a time (0: at once).
@@ -73,7 +73,7 @@ Framing Frame(std::string_view bytes, size_t split, size_t& end, std::string& re
     const std::string_view buf = bytes.substr(0, have);
     Framing f = Framing::kNeedMore;
     if (!in_body) {
-      f = facespace::api::http::ParseHead(buf, scan, limits, head, error);
+      f = facespace::net::ParseHead(buf, scan, limits, head, error);
       if (f == Framing::kComplete) {
         in_body = true;
         chunked.pos = head.end;
@@ -81,7 +81,7 @@ Framing Frame(std::string_view bytes, size_t split, size_t& end, std::string& re
     }
     if (in_body) {
       if (head.chunked) {
-        f = facespace::api::http::ParseChunked(buf, chunked, 1 << 20, error);
+        f = facespace::net::ParseChunked(buf, chunked, 1 << 20, error);
         end = chunked.pos;
       } else {
         f = buf.size() >= head.end + head.content_length ? Framing::kComplete : Framing::kNeedMore;
@@ -89,7 +89,7 @@ Framing Frame(std::string_view bytes, size_t split, size_t& end, std::string& re
       }
     }
     if (f == Framing::kComplete) {  // As the front hands it on: a chunked body made whole.
-      request = head.chunked ? facespace::api::http::Dechunked(bytes.substr(0, end), head)
+      request = head.chunked ? facespace::net::Dechunked(bytes.substr(0, end), head)
                              : std::string(bytes.substr(0, end));
     }
     if (f != Framing::kNeedMore || have == bytes.size()) return f;

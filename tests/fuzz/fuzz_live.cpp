@@ -9,12 +9,12 @@
 
 #include "facespace/net/websocket.h"
 
-using facespace::api::http::ws::Frame;
-using facespace::api::http::ws::FrameError;
-using facespace::api::http::ws::Opcode;
-using facespace::api::http::ws::ParseClientFrame;
-using facespace::api::http::ws::Parsed;
-using facespace::api::http::ws::ValidUtf8;
+using facespace::net::ws::Frame;
+using facespace::net::ws::FrameError;
+using facespace::net::ws::Opcode;
+using facespace::net::ws::ParseClientFrame;
+using facespace::net::ws::Parsed;
+using facespace::net::ws::ValidUtf8;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;

@@ -22,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       anims.emplace_back("clip", std::string(all.substr(nul + 1)));
     }
   }
-  auto rig = facespace::LoadMd5Memory(mesh, "fuzz.md5mesh", anims);
+  auto rig = facespace::formats::LoadMd5Memory(mesh, "fuzz.md5mesh", anims);
   if (rig.ok()) EvaluateLoadedRig(rig.value(), 0.0f);
   return 0;
 }

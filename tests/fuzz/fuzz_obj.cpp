@@ -45,14 +45,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::ofstream f(path, std::ios::binary | std::ios::trunc);
     f.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
   }
-  facespace::MakeHumanOptions proxy;
+  facespace::formats::MakeHumanOptions proxy;
   proxy.proxies = {path};
   facespace::Result<facespace::Rig> rig =
-      mode == 1   ? facespace::LoadMakeHuman(dir + "/base.obj",
-                                             std::vector<std::string>{dir + "/targets"}, {})
-      : mode == 2 ? facespace::LoadMakeHuman(dir + "/base.obj",
-                                             std::vector<std::string>{dir + "/fixed"}, proxy)
-                  : facespace::LoadObjSequence(std::vector<std::string>{path});
+      mode == 1   ? facespace::formats::LoadMakeHuman(dir + "/base.obj",
+                                                      std::vector<std::string>{dir + "/targets"}, {})
+      : mode == 2 ? facespace::formats::LoadMakeHuman(
+                        dir + "/base.obj", std::vector<std::string>{dir + "/fixed"}, proxy)
+                  : facespace::formats::LoadObjSequence(std::vector<std::string>{path});
   if (!rig.ok()) return 0;
   std::vector<float> w(rig->shapes.size(), 1.0f);
   facespace::BlendedRig out;

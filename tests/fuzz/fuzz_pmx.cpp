@@ -11,8 +11,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::span<const unsigned char> bytes(data, size);
   const bool pmd = size >= 3 && std::memcmp(data, "Pmd", 3) == 0;
-  auto rig =
-      pmd ? facespace::LoadPmdMemory(bytes, "fuzz") : facespace::LoadPmxMemory(bytes, "fuzz");
+  auto rig = pmd ? facespace::formats::LoadPmdMemory(bytes, "fuzz")
+                 : facespace::formats::LoadPmxMemory(bytes, "fuzz");
   if (rig.ok()) EvaluateLoadedRig(rig.value(), 0.7f);
   return 0;
 }

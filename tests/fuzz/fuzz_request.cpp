@@ -15,20 +15,22 @@ namespace {
 
 const facespace::Rig& Rig(bool skinned) {
   static const facespace::Rig face =
-      facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+      facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
   static const facespace::Rig man = [] {
-    auto r = facespace::LoadRigFile(FACESPACE_SHARED_ASSETS "/real/CesiumMan/CesiumMan.glb");
+    auto r =
+        facespace::formats::LoadRigFile(FACESPACE_SHARED_ASSETS "/real/CesiumMan/CesiumMan.glb");
     return r.ok()
                ? std::move(r.value())
-               : facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb").value();
+               : facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb")
+                     .value();
   }();
   return skinned ? man : face;
 }
 
 // The evaluator's first step (controls, pose, weights, checks), as every route takes it.
-void Weigh(const facespace::Rig& rig, const facespace::api::MeshRequest& m) {
-  facespace::api::ResolvedPoint point;
-  facespace::api::ResolvePoint(rig, m, point);
+void Weigh(const facespace::Rig& rig, const facespace::evaluator::MeshRequest& m) {
+  facespace::evaluator::ResolvedPoint point;
+  facespace::evaluator::ResolvePoint(rig, m, point);
 }
 
 }  // namespace
@@ -40,28 +42,28 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (data[0] == 0xFF) {  // A manifest (an upload's): its regions and landmarks index meshes,
                           // materials, vertices.
     facespace::Rig copy = Rig(false);
-    (void)facespace::ApplyManifest(copy, std::string(body));
+    (void)facespace::formats::ApplyManifest(copy, std::string(body));
     return 0;
   }
-  using namespace facespace::api;
+  using namespace facespace;
   switch (data[0] % 6) {
     case 0:
-      if (auto m = ParseMeshRequest(body); m.ok()) Weigh(rig, m.value());
+      if (auto m = evaluator::ParseMeshRequest(body); m.ok()) Weigh(rig, m.value());
       break;
     case 1:
-      if (auto r = ParseRenderRequest(body); r.ok()) Weigh(rig, r->mesh);
+      if (auto r = evaluator::ParseRenderRequest(body); r.ok()) Weigh(rig, r->mesh);
       break;
     case 2:
-      if (auto s = ParseSheetRequest(body); s.ok()) {
+      if (auto s = evaluator::ParseSheetRequest(body); s.ok()) {
         for (const auto& cell : s->cells) {
-          facespace::api::MeshRequest m = s->base.mesh;
+          facespace::evaluator::MeshRequest m = s->base.mesh;
           m.weights = cell;
           Weigh(rig, m);
         }
       }
       break;
     case 3:
-      if (auto s = ParseSequenceRequest(body); s.ok()) {
+      if (auto s = evaluator::ParseSequenceRequest(body); s.ok()) {
         if (auto seq = ResolveSequence(rig, s.value()); seq.ok()) {
           std::vector<float> w(rig.shapes.size());
           for (float t : s->times) facespace::SampleSequence(seq.value(), t, w);
@@ -69,7 +71,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       break;
     case 4:
-      if (auto b = ParseBatchRequest(body); b.ok() && b->sampled) {
+      if (auto b = evaluator::ParseBatchRequest(body); b.ok() && b->sampled) {
         if (auto spec = ResolveSampleSpec(rig, b.value()); spec.ok()) {
           std::vector<float> w(rig.shapes.size());
           const size_t n =
@@ -79,7 +81,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       break;
     case 5:
-      if (auto f = ParseFitRequest(body); f.ok()) facespace::api::ProduceFit(rig, f.value());
+      if (auto f = evaluator::ParseFitRequest(body); f.ok())
+        facespace::evaluator::ProduceFit(rig, f.value());
       break;
   }
   return 0;

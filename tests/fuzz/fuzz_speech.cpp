@@ -28,7 +28,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   static const Rig rig = [] {
-    auto r = LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb");
+    auto r = facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/facecap/facecap.glb");
     if (!r.ok()) std::abort();
     return std::move(r.value());
   }();

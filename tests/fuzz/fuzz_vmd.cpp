@@ -13,7 +13,7 @@ namespace {
 
 const facespace::Rig& Uka() {
   static const facespace::Rig rig = [] {
-    auto r = facespace::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/uka/MS_Uka.pmx");
+    auto r = facespace::formats::LoadRigFile(FACESPACE_SOURCE_DIR "/assets/uka/MS_Uka.pmx");
     if (!r.ok()) std::abort();
     r->animations.clear();
     return std::move(r.value());
@@ -27,7 +27,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace facespace;
   static Rig rig = Uka();
   std::vector<Warning> warnings;
-  auto clip = LoadVmdMemory(std::span<const unsigned char>(data, size), rig, "fuzz", &warnings);
+  auto clip = facespace::formats::LoadVmdMemory(std::span<const unsigned char>(data, size), rig,
+                                                "fuzz", &warnings);
   if (!clip.ok()) return 0;
   rig.animations = {std::move(clip.value())};
   for (float f : {0.5f}) {

@@ -110,13 +110,14 @@ size_t Simulated(const Rig& rig) {
 
 TEST(UkaPhysics, HerBodiesAndJointsAreReadAsTheFilesSay) {
   // PMX: 164 rigid bodies (137 simulated: hair, ears, skirt), 151 joints. The PMD the same model.
-  const Result<Rig> pmx = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx");
+  const Result<Rig> pmx = formats::LoadRigFile(test::SharedAssets() + "/more/MMD/Uka/MS_Uka.pmx");
   ASSERT_TRUE(pmx.ok()) << pmx.status().message;
   EXPECT_EQ(pmx->physics.bodies.size(), 164u);
   EXPECT_EQ(Simulated(pmx.value()), 137u);
   EXPECT_EQ(pmx->physics.joints.size(), 151u);
   EXPECT_FLOAT_EQ(pmx->physics.units_per_metre, 12.5f);
-  const Result<Rig> pmd = LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
+  const Result<Rig> pmd =
+      formats::LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd");
   ASSERT_TRUE(pmd.ok()) << pmd.status().message;
   EXPECT_EQ(pmd->physics.bodies.size(), pmx->physics.bodies.size());
   EXPECT_EQ(pmd->physics.joints.size(), pmx->physics.joints.size());
@@ -132,22 +133,23 @@ struct Played {
   std::vector<std::vector<float>> frames;  // World positions at each time.
 };
 
-Played PlayHappy(const std::shared_ptr<const api::StoredRig>& stored, bool physics,
+Played PlayHappy(const std::shared_ptr<const evaluator::StoredRig>& stored, bool physics,
                  const std::vector<float>& times) {
   const Rig& rig = stored->rig;
   ClipRequest named{.name = "01_happy"};
   auto seq = SequenceOfClip(rig, FindClip(rig, named));
   EXPECT_TRUE(seq.ok());
   seq->physics = physics;
-  const api::Evaluator evaluator;
-  api::Workspace ws;
-  api::SequencePhysics simulation(rig, seq.value());
+  const evaluator::Evaluator evaluator;
+  evaluator::Workspace ws;
+  evaluator::SequencePhysics simulation(rig, seq.value());
   EXPECT_EQ(simulation.active(), physics);
   Played run;
-  api::ResolvedPoint point;
+  evaluator::ResolvedPoint point;
   for (float t : times) {
-    api::SequencePoint(rig, seq.value(), t, BlendMode::kRelative, point, &simulation);
-    auto bytes = evaluator.Run(stored, point, api::OutputSpec::Frame(BlendOptions{}, true), ws);
+    evaluator::SequencePoint(rig, seq.value(), t, BlendMode::kRelative, point, &simulation);
+    auto bytes =
+        evaluator.Run(stored, point, evaluator::OutputSpec::Frame(BlendOptions{}, true), ws);
     EXPECT_TRUE(bytes.ok());
     std::vector<float> xyz((bytes->bytes.size() - 4) / 4);
     std::memcpy(xyz.data(), bytes->bytes.data() + 4, xyz.size() * 4);
@@ -157,9 +159,9 @@ Played PlayHappy(const std::shared_ptr<const api::StoredRig>& stored, bool physi
 }
 
 TEST(UkaPhysics, HappyForFiveSecondsSwingsHairAndSkirtAndNothingFliesOff) {
-  Result<Rig> rig = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
+  Result<Rig> rig = formats::LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
-  const auto stored = api::Unstored(std::move(rig.value()));
+  const auto stored = evaluator::Unstored(std::move(rig.value()));
   const std::vector<float> times = {0.0f, 1.0f, 2.5f, 5.0f};
   const Played with = PlayHappy(stored, true, times), without = PlayHappy(stored, false, times),
                again = PlayHappy(stored, true, times);
@@ -199,9 +201,9 @@ TEST(UkaPhysics, HappyForFiveSecondsSwingsHairAndSkirtAndNothingFliesOff) {
 }
 
 TEST(UkaPhysics, SampledTimesInAnyOrderGiveTheStreamsFrames) {
-  Result<Rig> rig = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
+  Result<Rig> rig = formats::LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(rig.ok());
-  const auto stored = api::Unstored(std::move(rig.value()));
+  const auto stored = evaluator::Unstored(std::move(rig.value()));
   const Played forward = PlayHappy(stored, true, {0.5f, 1.0f}),
                backward = PlayHappy(stored, true, {1.0f, 0.5f});
   EXPECT_EQ(std::memcmp(forward.frames[0].data(), backward.frames[1].data(),

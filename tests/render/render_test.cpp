@@ -25,12 +25,12 @@
 namespace facespace {
 namespace {
 
-using render::Image;
-using render::RenderOptions;
+using picture::Image;
+using picture::RenderOptions;
 
 // One renderer for the tests, as the service keeps one for all its threads.
-const render::OsMesaRenderer& Gl() {
-  static const render::OsMesaRenderer renderer;
+const offscreen::OsMesaRenderer& Gl() {
+  static const offscreen::OsMesaRenderer renderer;
   return renderer;
 }
 
@@ -137,7 +137,7 @@ TEST(Render, EmptyBackgroundStaysBackground) {
 // The heatmap (its legend is drawn on floats) and supersampling (box-filtered in floats) draw
 // floats.
 TEST(Render, EightBitDrawIsTheFloatDrawToAStep) {
-  auto rig = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto rig = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   std::vector<float> w(rig->shapes.size(), 0.0f);
   w[static_cast<size_t>(FindShape(rig.value(), "jawOpen"))] = 0.5f;
@@ -176,7 +176,7 @@ TEST(Render, EightBitDrawIsTheFloatDrawToAStep) {
   o.width = o.height = 64;
   o.srgb8 = true;
   for (const bool heatmap : {true, false}) {
-    o.view = heatmap ? render::View::kHeatmap : render::View::kShaded;
+    o.view = heatmap ? picture::View::kHeatmap : picture::View::kShaded;
     o.supersample = heatmap ? 1 : 2;
     Image im;
     ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, im).ok());
@@ -192,7 +192,7 @@ TEST(Render, HeatmapLegendOnSmallImages) {
   Rig cube = UnitCube();
   for (const int size : {1, 16, 40, 64, 100}) {
     RenderOptions o = HeadOn(size);
-    o.view = render::View::kHeatmap;
+    o.view = picture::View::kHeatmap;
     Image im;
     ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok()) << size;
     EXPECT_EQ(im.rgba.size(), static_cast<size_t>(size) * size * 4);
@@ -201,9 +201,9 @@ TEST(Render, HeatmapLegendOnSmallImages) {
   im.width = im.height = 64;
   im.rgba.assign(64 * 64 * 4, 0.0f);
   EXPECT_FALSE(
-      render::DrawText(im, 2, -30, "displacement", 10, {1, 1, 1}));  // Wholly above: not drawn.
+      offscreen::DrawText(im, 2, -30, "displacement", 10, {1, 1, 1}));  // Wholly above: not drawn.
   EXPECT_TRUE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
-  EXPECT_TRUE(render::DrawText(im, 2, 30, "displacement", 10, {1, 1, 1}));
+  EXPECT_TRUE(offscreen::DrawText(im, 2, 30, "displacement", 10, {1, 1, 1}));
   EXPECT_FALSE(std::all_of(im.rgba.begin(), im.rgba.end(), [](float v) { return v == 0.0f; }));
 }
 
@@ -211,14 +211,15 @@ TEST(Render, HeatmapLegendOnSmallImages) {
 // (FreeType with fonts-noto-cjk), where OpenImageIO 2.4's text drew ま as '>' and others as empty
 // boxes.
 TEST(Render, JapaneseLabelsDrawAsGlyphs) {
-  ASSERT_TRUE(render::CanDrawText("まばたき (blink)")) << "fonts-noto-cjk is in .ci/dev's packages";
-  EXPECT_FALSE(render::CanDrawText("\xF0\x9F\x98")) << "a malformed sequence";
+  ASSERT_TRUE(offscreen::CanDrawText("まばたき (blink)"))
+      << "fonts-noto-cjk is in .ci/dev's packages";
+  EXPECT_FALSE(offscreen::CanDrawText("\xF0\x9F\x98")) << "a malformed sequence";
   auto ink = [](const std::string& text) {
     Image im;
     im.width = 48;
     im.height = 40;
     im.rgba.assign(static_cast<size_t>(im.width) * im.height * 4, 0.0f);
-    EXPECT_TRUE(render::DrawText(im, 4, 30, text, 28, {1, 1, 1})) << text;
+    EXPECT_TRUE(offscreen::DrawText(im, 4, 30, text, 28, {1, 1, 1})) << text;
     return im.rgba;
   };
   const auto ma = ink("ま"), ba = ink("ば"), gt = ink(">"), a = ink("あ");
@@ -238,7 +239,7 @@ TEST(Render, HeatmapFramesTheModelLeftOfItsLegend) {
   RenderOptions o;
   o.width = o.height = 256;
   o.background = {0.2f, 0.4f, 0.6f, 1.0f};
-  o.view = render::View::kHeatmap;
+  o.view = picture::View::kHeatmap;
   Image im;
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
   const std::array<float, 4> bg{Linear(0.2f), Linear(0.4f), Linear(0.6f), 1.0f};
@@ -301,7 +302,7 @@ TEST(Render, HelperThreadsChargeTheMeterHandedDown) {
   EXPECT_EQ(drawn.Seconds(), before);
   HelperCpu encoded;
   ASSERT_FALSE(im.rgba.empty()) << "a float image: converted to 8 bits in parts";
-  ASSERT_TRUE(render::Encode(im, render::ImageFormat::kPng, 0, &encoded).ok());
+  ASSERT_TRUE(offscreen::Encode(im, picture::ImageFormat::kPng, 0, &encoded).ok());
   EXPECT_GT(encoded.Seconds(), 0.0) << "the conversion helpers' CPU";
   EXPECT_GT(encoded.Take(), 0.0);
   EXPECT_EQ(encoded.Seconds(), 0.0) << "Take empties the meter";
@@ -369,7 +370,7 @@ TEST(Render, ThreadsShareABoundedSetOfContexts) {
   Image want_small, want_large;
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), small, want_small).ok());
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), large, want_large).ok());
-  render::OsMesaRenderer one(1);
+  offscreen::OsMesaRenderer one(1);
   EXPECT_EQ(one.Concurrency(), 1);
   const BlendedRig blended = Evaluate(cube);
   std::vector<int> mismatches(6, 0);
@@ -406,7 +407,7 @@ TEST(Render, FramingOnTheShapesUsesAGivenFocusBox) {
   ASSERT_TRUE(ValidateRig(cube).ok());
   RenderOptions o;
   o.width = o.height = 64;
-  o.camera.frame = render::Framing::kShapes;
+  o.camera.frame = picture::Framing::kShapes;
   const BlendedRig blended = Evaluate(cube, {1.0f});
   Image computed, given, elsewhere;
   ASSERT_TRUE(Gl().Draw(cube, blended, o, computed).ok());
@@ -443,9 +444,9 @@ int CoveredRows(const Image& im) {
 // all over the head) keeps the whole mesh; Uka (a face on a skinned body) frames her head joint
 // (below).
 TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
-  auto human = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
-  auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
-  auto uka = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
+  auto human = formats::LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
+  auto face = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto uka = formats::LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(human.ok() && face.ok() && uka.ok());
   std::array<float, 3> lo, hi;
   ASSERT_TRUE(ShapeFocusBox(human.value(), lo, hi));
@@ -463,9 +464,9 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
       Evaluate(human.value(), std::vector<float>(human->shapes.size(), 0.0f));
   Image by_default, shapes, all;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, by_default).ok());
-  o.camera.frame = render::Framing::kShapes;
+  o.camera.frame = picture::Framing::kShapes;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, shapes).ok());
-  o.camera.frame = render::Framing::kAll;
+  o.camera.frame = picture::Framing::kAll;
   ASSERT_TRUE(Gl().Draw(human.value(), blended, o, all).ok());
   EXPECT_NE(by_default.rgba,
             shapes.rgba);  // The shapes' box grown by 40%: a margin around the face.
@@ -479,7 +480,7 @@ TEST(Render, ShapesOnASmallPartAreFramedByDefault) {
 // where a pose takes it; frame=joint:頭 frames all that joint carries (her ears and hair too),
 // "all" her whole, small.
 TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
-  auto loaded = LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
+  auto loaded = formats::LoadRigFile(test::Bundled("uka/MS_Uka.pmx"));
   ASSERT_TRUE(loaded.ok());
   const Rig& uka = loaded.value();
   const int head = ShapeFocusJoint(uka);
@@ -505,12 +506,12 @@ TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
       ASSERT_TRUE(EvaluateRig(uka, w, bo, blended, ctx).ok());
     }
     Image by_default, joint, all;
-    o.camera.frame = render::Framing::kAuto;
+    o.camera.frame = picture::Framing::kAuto;
     ASSERT_TRUE(Gl().Draw(uka, blended, o, by_default).ok());
-    o.camera.frame = render::Framing::kJoint;
+    o.camera.frame = picture::Framing::kJoint;
     o.camera.frame_joint = "頭";
     ASSERT_TRUE(Gl().Draw(uka, blended, o, joint).ok());
-    o.camera.frame = render::Framing::kAll;
+    o.camera.frame = picture::Framing::kAll;
     ASSERT_TRUE(Gl().Draw(uka, blended, o, all).ok());
     EXPECT_NE(by_default.rgba, joint.rgba) << (posed ? "posed" : "at rest");
     EXPECT_EQ(CoveredRows(by_default), 96)
@@ -524,7 +525,7 @@ TEST(Render, AFaceOnASkinnedBodyFollowsItsHeadJointByDefault) {
 // is 3.7 mm at 1, scaled so that it is 0.004) shows at 512 x 512 with the default framing and
 // light: a share of the face's pixels (those not background) changes by more than 2/255 in sRGB.
 TEST(Render, AFourMillimetreNoseChangeShowsOnMakeHuman) {
-  auto human = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
+  auto human = formats::LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
   ASSERT_TRUE(human.ok());
   const Rig& rig = human.value();
   const auto shape = std::find_if(rig.shapes.begin(), rig.shapes.end(),
@@ -574,7 +575,7 @@ TEST(Render, AFourMillimetreNoseChangeShowsOnMakeHuman) {
 TEST(Render, TheCameraStaysStillWhileWeightsChange) {
   // FaceCap frames every vertex; the jaw opening lowers the chin. The camera orbits the rest
   // shape, so the forehead and eyes stay where they were (frames of a sequence line up).
-  auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto face = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(face.ok());
   const int jaw = FindShape(face.value(), "jawOpen");
   ASSERT_GE(jaw, 0);
@@ -598,7 +599,7 @@ TEST(Render, TheCameraStaysStillWhileWeightsChange) {
 }
 
 TEST(Render, FramesAJointByName) {
-  auto fox = LoadRigFile(test::RealAsset("Fox/Fox.glb"));
+  auto fox = formats::LoadRigFile(test::RealAsset("Fox/Fox.glb"));
   ASSERT_TRUE(fox.ok());
   RenderOptions o;
   o.width = o.height = 128;
@@ -606,9 +607,9 @@ TEST(Render, FramesAJointByName) {
   o.camera.yaw = 90;  // From the side: the fox is long, its head small.
   const BlendedRig blended = Evaluate(fox.value());
   Image all, head;
-  o.camera.frame = render::Framing::kAll;
+  o.camera.frame = picture::Framing::kAll;
   ASSERT_TRUE(Gl().Draw(fox.value(), blended, o, all).ok());
-  o.camera.frame = render::Framing::kJoint;
+  o.camera.frame = picture::Framing::kJoint;
   o.camera.frame_joint = "b_Head_05";
   ASSERT_TRUE(Gl().Draw(fox.value(), blended, o, head).ok());
   auto covered = [](const Image& im) {
@@ -622,7 +623,7 @@ TEST(Render, FramesAJointByName) {
   const Status unknown = Gl().Draw(fox.value(), blended, o, head);
   EXPECT_FALSE(unknown.ok());
   EXPECT_NE(unknown.message.find("did you mean 'b_Head_05'"), std::string::npos) << unknown.message;
-  auto face = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto face = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(face.ok());
   const Status boneless = Gl().Draw(face.value(), Evaluate(face.value()), o, head);
   EXPECT_NE(boneless.message.find("has no skeleton"), std::string::npos) << boneless.message;
@@ -639,7 +640,7 @@ std::vector<unsigned char> FlatPng(std::array<int, 4> bytes, int w = 4, int h = 
     for (int c = 0; c < 4; ++c)
       im.rgba.push_back(c == 3 ? bytes[3] / 255.0f : Linear(bytes[c] / 255.0f));
   }
-  auto png = render::Encode(im, render::ImageFormat::kPng);
+  auto png = offscreen::Encode(im, picture::ImageFormat::kPng);
   EXPECT_TRUE(png.ok());
   return {png->begin(), png->end()};
 }
@@ -705,7 +706,7 @@ TEST(Materials, AUvMorphMovesWhereTheMapIsRead) {
   map.width = 4;
   map.height = 1;
   map.rgba = {1, 0, 0, 1, 1, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 1};
-  auto png = render::Encode(map, render::ImageFormat::kPng);
+  auto png = offscreen::Encode(map, picture::ImageFormat::kPng);
   ASSERT_TRUE(png.ok());
   Material m = Dielectric({1, 1, 1, 1});
   m.base_color_image = 0;
@@ -819,7 +820,7 @@ TEST(Render, ClayIgnoresTheMaterialAndExposureScalesTheLight) {
   red.base_color_image = 0;
   const Rig textured = Quad(red, {FlatPng({255, 255, 0, 255})});
   RenderOptions o = HeadOn(64);
-  o.view = render::View::kClay;
+  o.view = picture::View::kClay;
   const auto clay = Middle(textured, o);
   EXPECT_NEAR(clay[0], clay[1], 0.02f);
   EXPECT_NEAR(clay[1], clay[2], 0.02f);
@@ -827,7 +828,7 @@ TEST(Render, ClayIgnoresTheMaterialAndExposureScalesTheLight) {
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(clay[c], plain[c], 1e-4f);
   const auto shaded = Middle(textured);
   EXPECT_GT(shaded[0], 5 * shaded[2]) << "shaded keeps the red texture";
-  o.view = render::View::kShaded;
+  o.view = picture::View::kShaded;
   const float at0 = Luma(Middle(textured, o));
   o.exposure = 1.0f;
   const float brighter = Luma(Middle(textured, o));
@@ -865,19 +866,20 @@ TEST(Render, EncodeDecodeRoundTrip) {
   Rig cube = UnitCube();
   Image im;
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), HeadOn(32), im).ok());
-  for (auto f : {render::ImageFormat::kPng, render::ImageFormat::kTiff, render::ImageFormat::kExr,
-                 render::ImageFormat::kJpeg, render::ImageFormat::kWebp}) {
+  for (auto f :
+       {picture::ImageFormat::kPng, picture::ImageFormat::kTiff, picture::ImageFormat::kExr,
+        picture::ImageFormat::kJpeg, picture::ImageFormat::kWebp}) {
     // WebP at 100 is lossless (8-bit exact, as PNG); JPEG at 95 is lossy.
-    auto bytes = render::Encode(im, f, f == render::ImageFormat::kWebp ? 100 : 95);
-    ASSERT_TRUE(bytes.ok()) << render::ImageFormatExtension(f);
+    auto bytes = offscreen::Encode(im, f, f == picture::ImageFormat::kWebp ? 100 : 95);
+    ASSERT_TRUE(bytes.ok()) << picture::ImageFormatExtension(f);
     std::vector<unsigned char> b(bytes->begin(), bytes->end());
-    auto back = render::Decode(b);
-    ASSERT_TRUE(back.ok()) << render::ImageFormatExtension(f) << ": " << back.status().message;
+    auto back = offscreen::Decode(b);
+    ASSERT_TRUE(back.ok()) << picture::ImageFormatExtension(f) << ": " << back.status().message;
     EXPECT_EQ(back->width, 32);
     // Errors in sRGB units: 8-bit formats round to 1/255; JPEG is lossy; EXR keeps halfs.
     // JPEG is lossy: its mean error is bounded, not its max.
-    const bool jpeg = f == render::ImageFormat::kJpeg;
-    const float tol = f == render::ImageFormat::kExr ? 2e-3f : jpeg ? 0.015f : 0.6f / 255.0f;
+    const bool jpeg = f == picture::ImageFormat::kJpeg;
+    const float tol = f == picture::ImageFormat::kExr ? 2e-3f : jpeg ? 0.015f : 0.6f / 255.0f;
     float max_err = 0, sum_err = 0;
     for (size_t i = 0; i < im.rgba.size(); i += 4) {
       for (int c = 0; c < 3; ++c) {
@@ -887,9 +889,9 @@ TEST(Render, EncodeDecodeRoundTrip) {
       }
     }
     EXPECT_LT(jpeg ? sum_err / (im.rgba.size() / 4 * 3) : max_err, tol)
-        << render::ImageFormatExtension(f);
+        << picture::ImageFormatExtension(f);
   }
-  EXPECT_FALSE(render::Decode(std::vector<unsigned char>{1, 2, 3, 4, 5, 6, 7, 8, 9}).ok());
+  EXPECT_FALSE(offscreen::Decode(std::vector<unsigned char>{1, 2, 3, 4, 5, 6, 7, 8, 9}).ok());
 }
 
 // Our PNG writer (igzip, batches of rows): images come back from libpng byte for byte, every colour
@@ -918,7 +920,7 @@ TEST(Render, PngDecodesExactlyAsRgbWhenOpaqueElseRgba) {
                        : static_cast<float>((px % c.w + px / c.w) % 256) / 255.0f;
       if (c.opaque && i % 4 == 3) im.rgba[i] = 1.0f;
     }
-    auto png = render::Encode(im, render::ImageFormat::kPng);
+    auto png = offscreen::Encode(im, picture::ImageFormat::kPng);
     ASSERT_TRUE(png.ok());
     // No room left over from the writer's buffer: the response cache counts a body by its size.
     EXPECT_LE(png->capacity(), png->size() + 64) << c.w << "x" << c.h;
@@ -976,7 +978,7 @@ TEST(Render, PngSrgbStepsAreExact) {
   im.height = static_cast<int>((values.size() + im.width - 1) / im.width);
   im.rgba.assign(static_cast<size_t>(im.width) * im.height * 4, 1.0f);  // Opaque: an RGB file.
   for (size_t i = 0; i < values.size(); ++i) im.rgba[4 * i] = values[i];
-  auto png = render::Encode(im, render::ImageFormat::kPng);
+  auto png = offscreen::Encode(im, picture::ImageFormat::kPng);
   ASSERT_TRUE(png.ok());
   OIIO::Filesystem::IOMemReader proxy(png->data(), png->size());
   auto in = OIIO::ImageInput::open("image.png", nullptr, &proxy);
@@ -1002,12 +1004,12 @@ TEST(Render, WebpIsLossySmallAndKeepsAlpha) {
   o.background = {0, 0, 0, 0};
   Image im;
   ASSERT_TRUE(Gl().Draw(cube, Evaluate(cube), o, im).ok());
-  auto webp = render::Encode(im, render::ImageFormat::kWebp, 90);
-  auto png = render::Encode(im, render::ImageFormat::kPng);
+  auto webp = offscreen::Encode(im, picture::ImageFormat::kWebp, 90);
+  auto png = offscreen::Encode(im, picture::ImageFormat::kPng);
   ASSERT_TRUE(webp.ok() && png.ok());
   EXPECT_EQ(webp->substr(0, 4), "RIFF");
   EXPECT_LT(webp->size() * 2, png->size());
-  auto back = render::Decode(std::vector<unsigned char>(webp->begin(), webp->end()));
+  auto back = offscreen::Decode(std::vector<unsigned char>(webp->begin(), webp->end()));
   ASSERT_TRUE(back.ok()) << back.status().message;
   ASSERT_EQ(back->rgba.size(), im.rgba.size());
   double sum_err = 0;
@@ -1032,7 +1034,7 @@ TEST(Image, SheetLabelsStayInTheirCell) {
   const std::vector<Image> cells = {white, white};
   const std::vector<std::string> labels = {"a-very-long-label-that-would-cross-into-the-next-cell",
                                            "b"};
-  const Image sheet = ContactSheet(cells, labels, 2, {1, 1, 1, 1});
+  const Image sheet = offscreen::ContactSheet(cells, labels, 2, {1, 1, 1, 1});
   ASSERT_GT(sheet.width, 128);
   const int pad = 4, label_h = 18, x_edge = pad + 64;  // Cell 0 spans [pad, pad + 64).
   size_t ink_in_cell = 0, ink_beyond = 0;
@@ -1058,7 +1060,7 @@ TEST(Image, SheetTakesTinyCellsAndBlankLabels) {
   grey.rgba.assign(16 * 16 * 4, 0.5f);
   const std::vector<Image> cells = {grey, grey, grey};
   const std::vector<std::string> labels = {"open", "", "   "};
-  const Image sheet = ContactSheet(cells, labels, 3, {1, 1, 1, 1});
+  const Image sheet = offscreen::ContactSheet(cells, labels, 3, {1, 1, 1, 1});
   ASSERT_EQ(sheet.height > 16, true);
   ASSERT_GE(sheet.width, 3 * 16);
   size_t ink = 0;  // Label strip of the blank cells: background only.
@@ -1080,7 +1082,7 @@ TEST(Image, DecodesBmpAndTgaTextures) {
                                     0, 0, 255, 255, 0, 0};
   for (const auto& [bytes, mime] :
        {std::pair{bmp, std::string("image/bmp")}, std::pair{tga, std::string("image/x-tga")}}) {
-    auto im = render::Decode(bytes, mime);
+    auto im = offscreen::Decode(bytes, mime);
     ASSERT_TRUE(im.ok()) << mime << ": " << im.status().message;
     ASSERT_EQ(im->width, 2);
     ASSERT_EQ(im->height, 1);
@@ -1089,7 +1091,7 @@ TEST(Image, DecodesBmpAndTgaTextures) {
     EXPECT_NEAR(im->rgba[4], 0.0f, 1e-3f) << mime;  // Blue.
     EXPECT_NEAR(im->rgba[6], 1.0f, 1e-3f) << mime;
   }
-  EXPECT_FALSE(render::Decode(tga).ok());  // Without the hint: no magic.
+  EXPECT_FALSE(offscreen::Decode(tga).ok());  // Without the hint: no magic.
 }
 
 // ---- occlusion -----------------------------------------------------------------------------
@@ -1128,9 +1130,9 @@ std::pair<Image, Image> WithoutAndWith(const std::string& name, const Rig& rig,
   o.occlusion = Baked(rig);
   EXPECT_TRUE(Gl().Draw(rig, blended, o, drawn.second).ok());
   test::WriteBytes(name + "_off.actual.png",
-                   render::Encode(drawn.first, render::ImageFormat::kPng).value());
+                   offscreen::Encode(drawn.first, picture::ImageFormat::kPng).value());
   test::WriteBytes(name + "_on.actual.png",
-                   render::Encode(drawn.second, render::ImageFormat::kPng).value());
+                   offscreen::Encode(drawn.second, picture::ImageFormat::kPng).value());
   return drawn;
 }
 
@@ -1153,14 +1155,14 @@ void ExpectRatios(const std::pair<Image, Image>& drawn, std::initializer_list<Pl
 // open mouth, MakeHuman's fold under the chin) and leaves open skin (forehead, cheeks) nearly as it
 // was. The places were picked on the renders the test writes.
 TEST(Occlusion, DarkensCreasesAndLeavesOpenSkin) {
-  auto facecap = LoadRigFile(test::Bundled("facecap/facecap.glb"));
+  auto facecap = formats::LoadRigFile(test::Bundled("facecap/facecap.glb"));
   ASSERT_TRUE(facecap.ok());
   std::vector<float> w(facecap->shapes.size(), 0.0f);
   w[static_cast<size_t>(FindShape(facecap.value(), "jawOpen"))] = 1.0f;
   ExpectRatios(WithoutAndWith("occlusion_facecap", facecap.value(), w),
                {{"a nostril", 134, 125}, {"the open mouth", 127, 165}},
                {{"forehead", 128, 75}, {"right cheek", 95, 135}, {"left cheek", 160, 135}});
-  auto makehuman = LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
+  auto makehuman = formats::LoadRigFile(test::Bundled("makehuman/makehuman.glb"));
   ASSERT_TRUE(makehuman.ok());
   ExpectRatios(WithoutAndWith("occlusion_makehuman", makehuman.value(), {}),
                {{"under the chin", 124, 209}}, {{"forehead", 128, 70}, {"cheek", 100, 132}});
@@ -1172,7 +1174,7 @@ struct GoldenCase {
   const char* name;
   const char* asset;
   std::vector<std::pair<std::string, float>> weights;
-  render::View view;
+  picture::View view;
   float yaw, pitch;
   const char* animation = nullptr;  // Skinned assets: a clip and a time.
   float time = 0.0f;
@@ -1195,7 +1197,7 @@ std::vector<unsigned char> CheckerPng() {
       im.rgba.insert(im.rgba.end(), {c[0], c[1], c[2], 1.0f});
     }
   }
-  auto png = render::Encode(im, render::ImageFormat::kPng);
+  auto png = offscreen::Encode(im, picture::ImageFormat::kPng);
   EXPECT_TRUE(png.ok());
   return {png->begin(), png->end()};
 }
@@ -1219,9 +1221,10 @@ TEST_P(Golden, MatchesCommittedImage) {
   const GoldenCase& c = GetParam();
   // '@': bundled in assets/; '+': the shared more/ data (FBX, COLLADA, MD5); else the shared real/
   // glTFs.
-  auto rig = LoadRigFile(c.asset[0] == '@'   ? test::Bundled(c.asset + 1)
-                         : c.asset[0] == '+' ? test::SharedAssets() + "/more/" + (c.asset + 1)
-                                             : test::RealAsset(c.asset));
+  auto rig =
+      formats::LoadRigFile(c.asset[0] == '@'   ? test::Bundled(c.asset + 1)
+                           : c.asset[0] == '+' ? test::SharedAssets() + "/more/" + (c.asset + 1)
+                                               : test::RealAsset(c.asset));
   ASSERT_TRUE(rig.ok()) << rig.status().message;
   if (c.checker) {
     rig->images.push_back({"checker", "image/png", CheckerPng()});
@@ -1265,11 +1268,11 @@ TEST_P(Golden, MatchesCommittedImage) {
   o.camera.yaw = c.yaw;
   o.camera.pitch = c.pitch;
   o.supersample = 2;
-  if (c.view != render::View::kHeatmap && c.view != render::View::kNormals)
+  if (c.view != picture::View::kHeatmap && c.view != picture::View::kNormals)
     o.occlusion = Baked(rig.value());
   Image im;
   ASSERT_TRUE(Gl().Draw(rig.value(), blended, o, im).ok());
-  auto png = render::Encode(im, render::ImageFormat::kPng);
+  auto png = offscreen::Encode(im, picture::ImageFormat::kPng);
   ASSERT_TRUE(png.ok());
   const std::string golden =
       std::string(FACESPACE_SOURCE_DIR) + "/tests/render/golden/" + c.name + ".png";
@@ -1298,49 +1301,49 @@ INSTANTIATE_TEST_SUITE_P(
     // One case a line (or two), as a table reads:
     // clang-format off
     ::testing::Values(
-        GoldenCase{"facecap_neutral", "@facecap/facecap.glb", {}, render::View::kShaded, 0, 0},
+        GoldenCase{"facecap_neutral", "@facecap/facecap.glb", {}, picture::View::kShaded, 0, 0},
         GoldenCase{"facecap_jaw_open", "@facecap/facecap.glb", {{"jawOpen", 1.0f}},
-                   render::View::kShaded, 0, 0},
-        GoldenCase{"uka_neutral", "@uka/MS_Uka.pmx", {}, render::View::kShaded, 0, 0},
+                   picture::View::kShaded, 0, 0},
+        GoldenCase{"uka_neutral", "@uka/MS_Uka.pmx", {}, picture::View::kShaded, 0, 0},
         GoldenCase{"uka_happy_still", "@uka/MS_Uka.pmx", {},
-                   render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
+                   picture::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
         GoldenCase{"uka_blush", "@uka/MS_Uka.pmx", {{"照れ", 1.0f}, {"赤み", 1.0f}},
-                   render::View::kShaded, 0, 0},
+                   picture::View::kShaded, 0, 0},
         GoldenCase{"makehuman_neutral", "@makehuman/makehuman.glb", {},
-                   render::View::kShaded, 0, 0},
+                   picture::View::kShaded, 0, 0},
         GoldenCase{"makehuman_happy", "@makehuman/makehuman.glb", {},
-                   render::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
+                   picture::View::kShaded, 0, 0, nullptr, 0.0f, false, "happy"},
         GoldenCase{"facecap_jaw_smile", "@facecap/facecap.glb",
                    {{"jawOpen", 0.6f}, {"mouthSmile_L", 0.8f}, {"mouthSmile_R", 0.8f}},
-                   render::View::kShaded, 25, 10},
+                   picture::View::kShaded, 25, 10},
         GoldenCase{"facecap_heatmap", "@facecap/facecap.glb",
-                   {{"jawOpen", 0.6f}, {"eyeBlink_L", 1.0f}}, render::View::kHeatmap, 0, 0},
+                   {{"jawOpen", 0.6f}, {"eyeBlink_L", 1.0f}}, picture::View::kHeatmap, 0, 0},
         GoldenCase{"facecap_wireframe", "@facecap/facecap.glb", {{"browInnerUp", 1.0f}},
-                   render::View::kWireframe, -30, 0},
+                   picture::View::kWireframe, -30, 0},
         GoldenCase{"stress_textured", "MorphStressTest/MorphStressTest.gltf",
-                   {{"Key 3", 1.0f}, {"Key 6", 0.5f}}, render::View::kShaded, 30, 20},
+                   {{"Key 3", 1.0f}, {"Key 6", 0.5f}}, picture::View::kShaded, 30, 20},
         GoldenCase{"sphere_normals", "AnimatedMorphSphere/AnimatedMorphSphere.gltf",
-                   {{"Blob", 0.8f}}, render::View::kNormals, 0, 0},
+                   {{"Blob", 0.8f}}, picture::View::kNormals, 0, 0},
         GoldenCase{"primitives_jpeg_texture", "MorphPrimitivesTest/MorphPrimitivesTest.gltf",
-                   {{"target_0", 1.0f}}, render::View::kShaded, 20, 30},
-        GoldenCase{"fox_run", "Fox/Fox.glb", {}, render::View::kShaded, 90, 10, "Run", 0.4f},
+                   {{"target_0", 1.0f}}, picture::View::kShaded, 20, 30},
+        GoldenCase{"fox_run", "Fox/Fox.glb", {}, picture::View::kShaded, 90, 10, "Run", 0.4f},
         GoldenCase{"cesium_man_walk", "CesiumMan/CesiumMan.gltf", {},
-                   render::View::kShaded, 60, 0, "animation_0", 0.9f},
+                   picture::View::kShaded, 60, 0, "animation_0", 0.9f},
         GoldenCase{"makehuman_skin", "@makehuman/makehuman.glb",
                    {{"nose-trans-down", 1.0f}, {"mouth-scale-horiz-incr", 0.6f}},
-                   render::View::kShaded, 0, 0},
+                   picture::View::kShaded, 0, 0},
         GoldenCase{"makehuman_uv_checker", "@makehuman/makehuman.glb", {},
-                   render::View::kShaded, 35, 5, nullptr, 0.0f, true},
+                   picture::View::kShaded, 35, 5, nullptr, 0.0f, true},
         GoldenCase{"uka_happy", "@uka/MS_Uka.pmx", {},
-                   render::View::kShaded, 15, 0, "01_happy", 1.5f},
+                   picture::View::kShaded, 15, 0, "01_happy", 1.5f},
         GoldenCase{"fbx_inbetween",
                    "+FBX/ufbx_maya_blend_inbetween/maya_blend_inbetween_7500_binary.fbx",
-                   {{"LiftTop", 0.5f}, {"MoveToSide", 1.0f}}, render::View::kShaded, 30, 20},
+                   {{"LiftTop", 0.5f}, {"MoveToSide", 1.0f}}, picture::View::kShaded, 30, 20},
         GoldenCase{"collada_skin_on_morph", "+Collada/CTS_skin_on_morph/skin_on_morph.dae", {},
-                   render::View::kShaded, 30, 15},
-        GoldenCase{"md5_bob", "+MD5/Bob/Bob.md5mesh", {}, render::View::kShaded, 20, 5},
+                   picture::View::kShaded, 30, 15},
+        GoldenCase{"md5_bob", "+MD5/Bob/Bob.md5mesh", {}, picture::View::kShaded, 20, 5},
         GoldenCase{"rigged_simple_bend", "RiggedSimple/RiggedSimple.gltf", {},
-                   render::View::kWireframe, 0, 0, "animation_0", 0.6f}),
+                   picture::View::kWireframe, 0, 0, "animation_0", 0.6f}),
     // clang-format on
     [](const auto& param_info) { return std::string(param_info.param.name); });
 
@@ -1352,7 +1355,7 @@ namespace {
 
 TEST(NullRenderer, FillsTheBackgroundAndChecksItsInputsAsGlDoes) {
   const Rig cube = UnitCube();
-  const render::NullRenderer null;
+  const offscreen::NullRenderer null;
   RenderOptions o = HeadOn(8);
   o.background = {1.0f, 0.5f, 0.0f, 1.0f};
   Image im;
@@ -1374,18 +1377,19 @@ __attribute__((target("avx,f16c"))) uint16_t F16cHalf(float f) {
 }
 
 TEST(DataExr, HalvesRoundToNearestEvenAsF16cDoes) {
-  EXPECT_EQ(render::HalfOf(1.0f), 0x3c00);
-  EXPECT_EQ(render::HalfOf(-2.0f), 0xc000);
-  EXPECT_EQ(render::HalfOf(65504.0f), 0x7bff);
-  EXPECT_EQ(render::HalfOf(65520.0f), 0x7c00);  // Rounds up past the largest: infinity.
-  EXPECT_EQ(render::HalfOf(std::ldexp(1.0f, -24)), 0x0001);  // The smallest subnormal.
-  EXPECT_EQ(render::HalfOf(std::ldexp(1.0f, -25)), 0x0000);  // Half of it: a tie, to even (zero).
-  EXPECT_EQ(render::HalfOf(std::ldexp(1.5f, -25)), 0x0001);
-  EXPECT_EQ(render::HalfOf(1.0f + std::ldexp(1.0f, -11)),
+  EXPECT_EQ(offscreen::HalfOf(1.0f), 0x3c00);
+  EXPECT_EQ(offscreen::HalfOf(-2.0f), 0xc000);
+  EXPECT_EQ(offscreen::HalfOf(65504.0f), 0x7bff);
+  EXPECT_EQ(offscreen::HalfOf(65520.0f), 0x7c00);  // Rounds up past the largest: infinity.
+  EXPECT_EQ(offscreen::HalfOf(std::ldexp(1.0f, -24)), 0x0001);  // The smallest subnormal.
+  EXPECT_EQ(offscreen::HalfOf(std::ldexp(1.0f, -25)),
+            0x0000);  // Half of it: a tie, to even (zero).
+  EXPECT_EQ(offscreen::HalfOf(std::ldexp(1.5f, -25)), 0x0001);
+  EXPECT_EQ(offscreen::HalfOf(1.0f + std::ldexp(1.0f, -11)),
             0x3c00);  // A tie between 1 and the next: even.
-  EXPECT_EQ(render::HalfOf(1.0f + std::ldexp(3.0f, -11)),
+  EXPECT_EQ(offscreen::HalfOf(1.0f + std::ldexp(3.0f, -11)),
             0x3c02);  // A tie the other way: even again.
-  EXPECT_EQ(render::HalfOf(-0.0f), 0x8000);
+  EXPECT_EQ(offscreen::HalfOf(-0.0f), 0x8000);
   if (!__builtin_cpu_supports("avx2")) GTEST_SKIP() << "no F16C (AVX2) to compare with";
   uint32_t state = 12345, differing = 0;
   for (int i = 0; i < 1000000; ++i) {
@@ -1397,7 +1401,7 @@ TEST(DataExr, HalvesRoundToNearestEvenAsF16cDoes) {
     float f;
     std::memcpy(&f, &bits, 4);
     if (std::isnan(f)) continue;
-    differing += render::HalfOf(f) != F16cHalf(f);
+    differing += offscreen::HalfOf(f) != F16cHalf(f);
   }
   EXPECT_EQ(differing, 0u);
 }
@@ -1406,7 +1410,7 @@ TEST(DataExr, HalfNormalsReadBackAsTheirHalves) {
   const int w = 5, h = 37;  // Blocks of 16 lines and a short last one.
   std::vector<float> normals(static_cast<size_t>(w) * h * 3);
   for (size_t i = 0; i < normals.size(); ++i) normals[i] = std::sin(0.37f * static_cast<float>(i));
-  auto exr = render::EncodeDataExr(normals, w, h, 3, render::DataPrecision::kHalf);
+  auto exr = offscreen::EncodeDataExr(normals, w, h, 3, picture::DataPrecision::kHalf);
   ASSERT_TRUE(exr.ok());
   OIIO::Filesystem::IOMemReader proxy(exr->data(), exr->size());
   auto in = OIIO::ImageInput::open("n.exr", nullptr, &proxy);
@@ -1414,7 +1418,8 @@ TEST(DataExr, HalfNormalsReadBackAsTheirHalves) {
   EXPECT_EQ(in->spec().format, OIIO::TypeDesc::HALF);
   std::vector<uint16_t> back(normals.size());
   ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::HALF, back.data()));
-  for (size_t i = 0; i < normals.size(); ++i) ASSERT_EQ(back[i], render::HalfOf(normals[i])) << i;
+  for (size_t i = 0; i < normals.size(); ++i)
+    ASSERT_EQ(back[i], offscreen::HalfOf(normals[i])) << i;
 }
 
 }  // namespace

@@ -17,8 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using facespace::FileRigStore;
-using facespace::RigFormat;
 using facespace::StatusCode;
+using facespace::formats::RigFormat;
 
 std::vector<unsigned char> FaceCapBytes() {
   std::ifstream f(std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb",

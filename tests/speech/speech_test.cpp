@@ -26,10 +26,10 @@ extern "C" {
 namespace facespace::speech {
 namespace {
 
-std::shared_ptr<const api::StoredRig> Rig(const std::string& rel) {
-  auto rig = LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel);
+std::shared_ptr<const evaluator::StoredRig> Rig(const std::string& rel) {
+  auto rig = formats::LoadRigFile(std::string(FACESPACE_SOURCE_DIR) + "/assets/" + rel);
   EXPECT_TRUE(rig.ok()) << rig.status().message;
-  return api::Unstored(std::move(rig.value()));
+  return evaluator::Unstored(std::move(rig.value()));
 }
 
 // ---- WAV ----
@@ -146,7 +146,7 @@ TEST(Espeak, KeysFollowEspeaksOwnPhonemeTimesExactly) {
   EXPECT_TRUE(std::any_of(spoken->phonemes.begin(), spoken->phonemes.end(),
                           [](const TimedPhoneme& p) { return p.name == "_"; }));
   const auto rig = Rig("facecap/facecap.glb");
-  api::SpeechRequest request;
+  evaluator::SpeechRequest request;
   request.text = "Hello, my name is Bob. Please pass the map.";
   auto plan = lipsync::PlanSpeech(rig->rig, request);
   ASSERT_TRUE(plan.ok()) << plan.status().message;
@@ -453,20 +453,20 @@ TEST(Sphinx, EspeaksOwnAudioMatchesItsEvents) {
 
 TEST(Video, AWebmOfTheFaceSpeakingWithItsAudioInSync) {
   const auto rig = Rig("facecap/facecap.glb");
-  api::SpeechRequest request;
+  evaluator::SpeechRequest request;
   request.text = "Please pass the map.";
   request.render.render.width = request.render.render.height = 128;
   request.fps = 25;
   auto plan = lipsync::PlanSpeech(rig->rig, request);
   ASSERT_TRUE(plan.ok());
-  render::OsMesaRenderer renderer(1);
-  api::Evaluator evaluator(renderer);
-  api::Workspace ws;
+  offscreen::OsMesaRenderer renderer(1);
+  evaluator::Evaluator evaluator(renderer);
+  evaluator::Workspace ws;
   size_t seen = 0;
   auto video =
       lipsync::SpeechVideo(evaluator, rig, plan.value(), request, ws, [&](size_t) { ++seen; });
   ASSERT_TRUE(video.ok()) << video.status().message;
-  const size_t frames = api::FrameCount(plan->sequence, 25);
+  const size_t frames = evaluator::FrameCount(plan->sequence, 25);
   EXPECT_EQ(seen, frames);
   // Read back by libavformat: VP9 and Opus, as many frames as asked, both as long as the speech.
   const std::string path = ::testing::TempDir() + "/speech.webm";

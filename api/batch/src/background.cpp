@@ -31,7 +31,7 @@ bool IsPicture(std::string ext) {
 }
 
 // `picture` (linear RGBA) scaled to cover w x h, centred, sampled bilinearly.
-BatchPlan::Background Covering(std::string name, const render::Image& picture, int w, int h) {
+BatchPlan::Background Covering(std::string name, const picture::Image& picture, int w, int h) {
   BatchPlan::Background bg{std::move(name), {}, {}};
   const double scale =
       std::max(static_cast<double>(w) / picture.width, static_cast<double>(h) / picture.height);
@@ -73,7 +73,7 @@ Status Refused(const std::string& message) {
 
 }  // namespace
 
-Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer) {
+Status LoadBackgroundImages(BatchPlan& plan, const picture::Renderer& renderer) {
   const std::string& dir = plan.request.dataset.randomize.background_images;
   if (dir.empty()) return Status::Ok();
   std::error_code ec;
@@ -116,7 +116,7 @@ Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer) {
   return Status::Ok();
 }
 
-void BlendOver(render::Image& image, const BatchPlan::Background& bg) {
+void BlendOver(picture::Image& image, const BatchPlan::Background& bg) {
   const size_t n = static_cast<size_t>(image.width) * static_cast<size_t>(image.height);
   if (bg.linear.size() != 3 * n) return;
   if (!image.srgb8.empty()) {

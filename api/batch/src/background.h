@@ -8,6 +8,6 @@ namespace facespace::batch {
 
 // `bg` (the render's size) behind what `image` drew over a transparent background, in linear light:
 // 8-bit sRGB or float images alike; the result is opaque.
-void BlendOver(render::Image& image, const BatchPlan::Background& bg);
+void BlendOver(picture::Image& image, const BatchPlan::Background& bg);
 
 }  // namespace facespace::batch

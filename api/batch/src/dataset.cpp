@@ -40,11 +40,12 @@ float Uniform(uint64_t seed, size_t index, uint64_t slot, float lo, float hi) {
 }  // namespace
 
 SampleDraw DrawSample(const BatchPlan& plan, size_t index) {
-  const api::Randomization& r = plan.request.dataset.randomize;
+  const evaluator::Randomization& r = plan.request.dataset.randomize;
   SampleDraw d;
   d.render = plan.output.render;
   const uint64_t seed = plan.draw_seed;
-  auto draw = [&](uint64_t slot, const std::optional<api::Interval>& i, float& value, bool scale) {
+  auto draw = [&](uint64_t slot, const std::optional<evaluator::Interval>& i, float& value,
+                  bool scale) {
     if (!i) return;
     const float x = Uniform(seed, index, slot, i->lo, i->hi);
     value = scale ? value * x : value + x;
@@ -95,7 +96,7 @@ bool PinholeCamera::Project(const std::array<double, 3>& p, std::array<double, 2
   return true;
 }
 
-PinholeCamera CameraOf(const render::Image& image) {
+PinholeCamera CameraOf(const picture::Image& image) {
   const auto P = [&image](int r, int c) {
     return static_cast<double>(image.projection[static_cast<size_t>(4 * c + r)]);
   };
@@ -146,7 +147,7 @@ namespace {
 
 // Sample `index`'s point: the variant's, with the drawn expressions and gaze on its face.
 void SamplePoint(const BatchPlan& plan, size_t index, const SampleDraw& draw,
-                 api::ResolvedPoint& point) {
+                 evaluator::ResolvedPoint& point) {
   if (draw.expressions.empty() && !draw.gaze) return VariantPoint(plan, index, point);
   VariantWeights(plan, index, point);  // Checked once the drawn face is on.
   const Rig& rig = plan.rig->rig;
@@ -162,7 +163,7 @@ void SamplePoint(const BatchPlan& plan, size_t index, const SampleDraw& draw,
     const float bare = s < plan.bare_weights.size() ? plan.bare_weights[s] : 0.0f;
     point.weights[s] += with[s] - bare - planned;
   }
-  api::CheckPoint(rig, plan.request.render.mesh.options.mode, point);
+  evaluator::CheckPoint(rig, plan.request.render.mesh.options.mode, point);
   point.report.warnings.insert(point.report.warnings.end(), warnings.begin(), warnings.end());
 }
 
@@ -181,7 +182,7 @@ std::array<double, 3> LandmarkAt(const Landmark& l, const BlendedRig& blended) {
 }
 
 json LandmarksJson(const Rig& rig, const BlendedRig& blended, const PinholeCamera& cam,
-                   const render::LabelPlanes& planes) {
+                   const picture::LabelPlanes& planes) {
   json list = json::array();
   for (const Landmark& l : rig.landmarks) {
     const std::array<double, 3> p = LandmarkAt(l, blended);
@@ -204,7 +205,7 @@ json LandmarksJson(const Rig& rig, const BlendedRig& blended, const PinholeCamer
   return list;
 }
 
-json CameraJson(const PinholeCamera& cam, const render::RenderOptions& o) {
+json CameraJson(const PinholeCamera& cam, const picture::RenderOptions& o) {
   json w2c = json::array();
   for (int r = 0; r < 4; ++r) {
     json row = json::array();
@@ -226,10 +227,10 @@ json CameraJson(const PinholeCamera& cam, const render::RenderOptions& o) {
 }
 
 // What KEY.json says of the point and how it was drawn.
-void PointJson(const BatchPlan& plan, const SampleDraw& draw, const api::ResolvedPoint& point,
+void PointJson(const BatchPlan& plan, const SampleDraw& draw, const evaluator::ResolvedPoint& point,
                json& j) {
   const Rig& rig = plan.rig->rig;
-  j["weights"] = json::parse(api::WeightsMapJson(rig, point.weights));
+  j["weights"] = json::parse(evaluator::WeightsMapJson(rig, point.weights));
   json expressions = json::object();
   for (const auto* list : {&plan.request.render.mesh.pose.expressions, &draw.expressions}) {
     for (const WeightEntry& e : *list) expressions[e.name] = Short(e.value);
@@ -242,7 +243,7 @@ void PointJson(const BatchPlan& plan, const SampleDraw& draw, const api::Resolve
   else if (gaze)
     j["gaze"] = {{"yaw", Short(gaze->yaw)}, {"pitch", Short(gaze->pitch)}};
   j["pose"] = json::parse(plan.pose_json);
-  const render::RenderOptions& o = draw.render;
+  const picture::RenderOptions& o = draw.render;
   j["render"] = {{"camera",
                   {{"yaw", Short(o.camera.yaw)},
                    {"pitch", Short(o.camera.pitch)},
@@ -252,27 +253,27 @@ void PointJson(const BatchPlan& plan, const SampleDraw& draw, const api::Resolve
                  {"background",
                   {Short(o.background[0]), Short(o.background[1]), Short(o.background[2]),
                    Short(o.background[3])}}};
-  j["warnings"] = json::parse(WarningsToJson(point.report.warnings));
+  j["warnings"] = json::parse(formats::WarningsToJson(point.report.warnings));
 }
 
 // The label planes as files, each as asked.
-Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer,
-                  const render::Image& image, std::vector<SampleFile>& files) {
-  const api::DatasetRequest& d = plan.request.dataset;
-  const render::LabelPlanes& planes = image.labels;
-  if (d.has(api::Label::kDepth)) {
+Status LabelFiles(const BatchPlan& plan, const picture::Renderer& renderer,
+                  const picture::Image& image, std::vector<SampleFile>& files) {
+  const evaluator::DatasetRequest& d = plan.request.dataset;
+  const picture::LabelPlanes& planes = image.labels;
+  if (d.has(evaluator::Label::kDepth)) {
     auto exr = renderer.EncodeData(planes.distance, image.width, image.height, 1,
-                                   render::DataPrecision::kFloat);
+                                   picture::DataPrecision::kFloat);
     if (!exr.ok()) return exr.status();
     files.push_back({"depth.exr", std::move(exr.value())});
   }
-  if (d.has(api::Label::kNormals)) {
+  if (d.has(evaluator::Label::kNormals)) {
     auto exr = renderer.EncodeData(planes.normal, image.width, image.height, 3,
-                                   render::DataPrecision::kHalf);
+                                   picture::DataPrecision::kHalf);
     if (!exr.ok()) return exr.status();
     files.push_back({"normals.exr", std::move(exr.value())});
   }
-  if (d.has(api::Label::kSegmentation)) {
+  if (d.has(evaluator::Label::kSegmentation)) {
     auto png = renderer.EncodeIds(planes.segment, image.width, image.height);
     if (!png.ok()) return png.status();
     files.push_back({"seg.png", std::move(png.value())});
@@ -282,7 +283,7 @@ Status LabelFiles(const BatchPlan& plan, const render::Renderer& renderer,
 
 // Sample `index`'s picture (plan.backgrounds, drawn from its stream) behind what `image` drew over
 // a transparent background; its index in plan.backgrounds.
-size_t PutOverBackground(const BatchPlan& plan, size_t index, render::Image& image) {
+size_t PutOverBackground(const BatchPlan& plan, size_t index, picture::Image& image) {
   const size_t n = plan.backgrounds.size();
   const size_t k = std::min(
       n - 1, static_cast<size_t>(Uniform(plan.draw_seed, index, 13, 0.0f, static_cast<float>(n))));
@@ -292,13 +293,14 @@ size_t PutOverBackground(const BatchPlan& plan, size_t index, render::Image& ima
 
 }  // namespace
 
-Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& evaluator,
-                  api::Workspace& ws, api::ResolvedPoint& point, std::vector<SampleFile>& files) {
+Status MakeSample(const BatchPlan& plan, size_t index, const evaluator::Evaluator& evaluator,
+                  evaluator::Workspace& ws, evaluator::ResolvedPoint& point,
+                  std::vector<SampleFile>& files) {
   files.clear();
   const SampleDraw draw = DrawSample(plan, index);
   SamplePoint(plan, index, draw, point);
-  api::OutputSpec spec = plan.output;
-  spec.kind = api::OutputSpec::Kind::kPixels;
+  evaluator::OutputSpec spec = plan.output;
+  spec.kind = evaluator::OutputSpec::Kind::kPixels;
   spec.render = draw.render;
   if (auto drawn = evaluator.Run(plan.rig, point, spec, ws); !drawn.ok()) return drawn.status();
   const size_t background = plan.backgrounds.empty() ? 0 : PutOverBackground(plan, index, ws.image);
@@ -315,17 +317,17 @@ Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& eva
       {"image",
        {{"file", key + "." + plan.request.format}, {"width", cam.width}, {"height", cam.height}}}};
   j["camera"] = CameraJson(cam, draw.render);
-  const api::DatasetRequest& d = plan.request.dataset;
-  if (d.has(api::Label::kDepth)) j["depth"] = "distance along the ray, metres";
-  if (d.has(api::Label::kNormals))
+  const evaluator::DatasetRequest& d = plan.request.dataset;
+  if (d.has(evaluator::Label::kDepth)) j["depth"] = "distance along the ray, metres";
+  if (d.has(evaluator::Label::kNormals))
     j["normals"] = "camera space, unit (x right, y up, z toward the eye)";
-  if (d.has(api::Label::kSegmentation)) {
+  if (d.has(evaluator::Label::kSegmentation)) {
     json legend = json::object();
     for (size_t id = 0; id < plan.segment_names.size(); ++id)
       legend[std::to_string(id)] = plan.segment_names[id];
     j["segmentation"] = legend;
   }
-  if (d.has(api::Label::kLandmarks)) {
+  if (d.has(evaluator::Label::kLandmarks)) {
     j["landmark_scheme"] = plan.rig->rig.landmark_scheme;
     j["landmarks"] = LandmarksJson(plan.rig->rig, ws.blended, cam, ws.image.labels);
   }

@@ -21,7 +21,8 @@ using nlohmann::json;
 
 Status WriteInBatch(const fs::path& dir, const std::string& name, std::string_view data,
                     const std::string& writer) {
-  return WriteFileDurably(dir, name, data, kTmpPrefix + name + writer, "'" + name + "'", false);
+  return files::WriteFileDurably(dir, name, data, kTmpPrefix + name + writer, "'" + name + "'",
+                                 false);
 }
 
 namespace {
@@ -151,10 +152,10 @@ std::string JoinLines(const std::map<size_t, std::string>& lines) {
 }
 
 Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells,
-                  const api::Evaluator& evaluator) {
+                  const evaluator::Evaluator& evaluator) {
   std::vector<size_t> first;
   for (size_t k = 0; k < plan.total && first.size() < cells; ++k) first.push_back(k);
-  api::Workspace ws;
+  evaluator::Workspace ws;
   auto png = VariantSheet(plan, first, evaluator, ws);
   if (!png.ok()) return png.status();
   return WriteInBatch(dir, "sheet.png", png.value());

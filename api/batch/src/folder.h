@@ -58,7 +58,7 @@ std::string JoinLines(const std::map<size_t, std::string>& lines);
 
 // The contact sheet of the first `cells` variants, as a one-process run writes it.
 Status WriteSheet(const BatchPlan& plan, const fs::path& dir, size_t cells,
-                  const api::Evaluator& evaluator);
+                  const evaluator::Evaluator& evaluator);
 
 // ---- tar shards (tar.cpp) ----
 

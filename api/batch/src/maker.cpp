@@ -77,8 +77,8 @@ bool TakePiece(std::string_view in, size_t& at, std::string_view& piece) {
     const Status status = make(static_cast<size_t>(k), made);
     message = EncodeMade(status, made);
     const uint64_t n = message.size();
-    if (WriteAll(to_parent, {reinterpret_cast<const char*>(&n), 8}) != 0 ||
-        WriteAll(to_parent, message) != 0)
+    if (files::WriteAll(to_parent, {reinterpret_cast<const char*>(&n), 8}) != 0 ||
+        files::WriteAll(to_parent, message) != 0)
       break;
   }
   _exit(
@@ -203,7 +203,7 @@ Status MakerProcess::Ask(size_t k, MadeVariant& out) {
   const uint64_t index = k;
   uint64_t n = 0;
   const std::string_view asked(reinterpret_cast<const char*>(&index), 8);
-  if (WriteAll(to_child_, asked) != 0 || !ReadAll(from_child_, &n, 8) || n > kMaxMessage)
+  if (files::WriteAll(to_child_, asked) != 0 || !ReadAll(from_child_, &n, 8) || n > kMaxMessage)
     return Died();
   received_.resize(static_cast<size_t>(n));
   if (!ReadAll(from_child_, received_.data(), received_.size())) return Died();

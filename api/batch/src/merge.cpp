@@ -140,14 +140,14 @@ Result<MergeSummary> Merge(const BatchPlan& plan, const MergeOptions& options) {
     if (Status s = WriteSheet(plan, dir, options.sheet_cells, *options.evaluator); !s.ok())
       return s;
   }
-  SyncDir(dir);
+  files::SyncDir(dir);
   // manifest.jsonl vouches for every variant now: the shards' files go.
   std::error_code ec;
   for (size_t i = 0; i < shards; ++i) {
     fs::remove(dir / ManifestName(i, shards), ec);
     fs::remove(dir / RecordName(i, shards), ec);
   }
-  SyncDir(dir);
+  files::SyncDir(dir);
   MergeSummary summary;
   summary.shards = shards;
   summary.variants = plan.total;

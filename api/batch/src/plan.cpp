@@ -24,18 +24,18 @@ Status DatasetError(const std::string& pointer, const std::string& message) {
 // randomised face tried once (an unknown expression is the request's fault, said now), the pose
 // members.
 Status PlanDataset(const json& request, BatchPlan& plan) {
-  const api::DatasetRequest& d = plan.request.dataset;
+  const evaluator::DatasetRequest& d = plan.request.dataset;
   if (!d.labelled()) return Status::Ok();
   const Rig& rig = plan.rig->rig;
-  if (d.has(api::Label::kLandmarks) && rig.landmarks.empty()) {
+  if (d.has(evaluator::Label::kLandmarks) && rig.landmarks.empty()) {
     return DatasetError("/labels", "the rig '" + rig.name +
                                        "' has no landmarks (its manifest's \"landmarks\" names "
                                        "none): leave \"landmarks\" out");
   }
-  if (d.has(api::Label::kLandmarks) && plan.output.lod != 0)
+  if (d.has(evaluator::Label::kLandmarks) && plan.output.lod != 0)
     return DatasetError("/lod", "landmarks are on the full mesh: lod must be 0");
   SegmentsOf(rig, plan.segment_of_primitive, plan.segment_names);
-  const api::Randomization& r = d.randomize;
+  const evaluator::Randomization& r = d.randomize;
   plan.draw_seed = r.seeded ? r.seed : plan.request.sampled ? plan.request.sample.seed : 1;
   PoseRequest bare = plan.request.render.mesh.pose;
   bare.expressions.clear();
@@ -64,9 +64,9 @@ Status PlanDataset(const json& request, BatchPlan& plan) {
 
 }  // namespace
 
-Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned,
+Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const evaluator::StoredRig> owned,
                                 std::string_view request_json) {
-  auto request = api::ParseBatchRequest(request_json);
+  auto request = evaluator::ParseBatchRequest(request_json);
   if (!request.ok()) return request.status();
   const Rig& rig = owned->rig;
   const std::string rig_version = owned->version;
@@ -74,7 +74,7 @@ Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned,
   plan.rig = std::move(owned);
   plan.request = std::move(request.value());
   if (plan.request.sampled) {
-    auto spec = api::ResolveSampleSpec(rig, plan.request);
+    auto spec = evaluator::ResolveSampleSpec(rig, plan.request);
     if (!spec.ok()) return spec.status();
     plan.sample = std::move(spec.value());
     plan.total = SampleCount(plan.sample, rig.shapes.size());
@@ -114,9 +114,9 @@ Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> owned,
                {"rig", rig.name},
                {"rig_version", rig_version}};
   plan.spec_json = spec.dump(2, ' ', false, json::error_handler_t::replace) + "\n";
-  const api::BatchRequest& r = plan.request;
-  plan.output = r.image ? api::OutputSpec::Image(r.render, r.image_format)
-                        : api::OutputSpec::Mesh(r.render.mesh, r.mesh_format);
+  const evaluator::BatchRequest& r = plan.request;
+  plan.output = r.image ? evaluator::OutputSpec::Image(r.render, r.image_format)
+                        : evaluator::OutputSpec::Mesh(r.render.mesh, r.mesh_format);
   plan.output.pieces = true;
   if (Status s = PlanDataset(spec["request"], plan); !s.ok()) return s;
   return plan;
@@ -134,7 +134,7 @@ std::string VariantFile(const BatchPlan& plan, size_t index) {
   return VariantId(plan, index) + "." + plan.request.format;
 }
 
-void VariantWeights(const BatchPlan& plan, size_t index, api::ResolvedPoint& point) {
+void VariantWeights(const BatchPlan& plan, size_t index, evaluator::ResolvedPoint& point) {
   const Rig& rig = plan.rig->rig;
   point.weights.resize(rig.shapes.size());
   if (plan.request.sampled)
@@ -147,18 +147,19 @@ void VariantWeights(const BatchPlan& plan, size_t index, api::ResolvedPoint& poi
   point.posed = plan.posed;
 }
 
-void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point) {
+void VariantPoint(const BatchPlan& plan, size_t index, evaluator::ResolvedPoint& point) {
   VariantWeights(plan, index, point);
-  api::CheckPoint(plan.rig->rig, plan.request.render.mesh.options.mode, point);
+  evaluator::CheckPoint(plan.rig->rig, plan.request.render.mesh.options.mode, point);
   point.report.warnings.insert(point.report.warnings.end(), plan.pose_warnings.begin(),
                                plan.pose_warnings.end());
 }
 
 Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices,
-                                 const api::Evaluator& evaluator, api::Workspace& ws) {
-  std::vector<api::ResolvedPoint> cells(indices.size());
-  api::OutputSpec spec = api::OutputSpec::Image(plan.request.render, render::ImageFormat::kPng);
-  spec.kind = api::OutputSpec::Kind::kSheet;
+                                 const evaluator::Evaluator& evaluator, evaluator::Workspace& ws) {
+  std::vector<evaluator::ResolvedPoint> cells(indices.size());
+  evaluator::OutputSpec spec =
+      evaluator::OutputSpec::Image(plan.request.render, picture::ImageFormat::kPng);
+  spec.kind = evaluator::OutputSpec::Kind::kSheet;
   spec.quality = 90;
   for (size_t i = 0; i < indices.size(); ++i) {
     VariantPoint(plan, indices[i], cells[i]);

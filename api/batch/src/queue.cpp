@@ -52,7 +52,7 @@ std::string NowRfc3339() {
 // path, durably (temporary name, fsync, rename, folder fsync).
 Status WriteJobFile(const fs::path& path, const std::string& text) {
   const std::string name = path.filename().string();
-  return WriteFileDurably(path.parent_path(), name, text, ".tmp-" + name, "'" + name + "'");
+  return files::WriteFileDurably(path.parent_path(), name, text, ".tmp-" + name, "'" + name + "'");
 }
 
 std::string ReadText(const fs::path& path) {
@@ -128,10 +128,10 @@ double AgeSeconds(const fs::path& path) {
 // (a labelled sample's picture: png unless the request said), its labels and its archive.
 json JobOutput(const BatchPlan& plan) {
   json labels = json::array();
-  for (api::Label l : plan.request.dataset.labels) labels.push_back(api::Name(l));
+  for (evaluator::Label l : plan.request.dataset.labels) labels.push_back(evaluator::Name(l));
   return {{"format", plan.request.format},
           {"labels", labels},
-          {"archive", api::Name(plan.request.dataset.archive)}};
+          {"archive", evaluator::Name(plan.request.dataset.archive)}};
 }
 
 // o[key] when it is a string, else `otherwise` (job.json is read as found on disk).
@@ -164,9 +164,9 @@ bool IsValidJobId(const std::string& id) {
   return true;
 }
 
-FileJobQueue::FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator,
-                           JobLimits limits, double poll_seconds,
-                           std::function<void()> refresh_store)
+FileJobQueue::FileJobQueue(std::string dir, evaluator::RigStore& store,
+                           const evaluator::Evaluator& evaluator, JobLimits limits,
+                           double poll_seconds, std::function<void()> refresh_store)
     : dir_(std::move(dir)),
       store_(store),
       evaluator_(evaluator),
@@ -298,15 +298,15 @@ Result<size_t> FileJobQueue::Start() {
 // About the bytes of one variant's file: images by their pixels (what renders of faces compress
 // to, with room), meshes by their vertices.
 static size_t VariantBytes(const Rig& rig, const BatchPlan& plan) {
-  const api::BatchRequest& r = plan.request;
+  const evaluator::BatchRequest& r = plan.request;
   if (r.image) {
     const double pixels = static_cast<double>(r.render.render.width) * r.render.render.height;
     double per_pixel = 0.25;  // PNG of a render: 0.17-0.33 bytes a pixel.
     switch (r.image_format) {
-      case render::ImageFormat::kJpeg:
-      case render::ImageFormat::kWebp: per_pixel = 0.1; break;
-      case render::ImageFormat::kTiff: per_pixel = 4; break;
-      case render::ImageFormat::kExr: per_pixel = 8; break;
+      case picture::ImageFormat::kJpeg:
+      case picture::ImageFormat::kWebp: per_pixel = 0.1; break;
+      case picture::ImageFormat::kTiff: per_pixel = 4; break;
+      case picture::ImageFormat::kExr: per_pixel = 8; break;
       default: break;
     }
     // A labelled sample's files beside its picture (FaceCap at 256²: depth 61 KB, normals 63 KB,
@@ -316,8 +316,8 @@ static size_t VariantBytes(const Rig& rig, const BatchPlan& plan) {
   }
   const size_t vertices = rig.vertex_count();
   switch (r.mesh_format) {
-    case MeshFormat::kF32: return vertices * 24 + 4096;
-    case MeshFormat::kGlb: return vertices * 40 + 65536;
+    case formats::MeshFormat::kF32: return vertices * 24 + 4096;
+    case formats::MeshFormat::kGlb: return vertices * 40 + 65536;
     default: return vertices * 200 + 4096;  // Text: OBJ (FaceCap's 178 bytes a vertex), JSON.
   }
 }
@@ -377,7 +377,7 @@ Status FileJobQueue::CheckRoom(double need, size_t variants,
 
 Result<JobInfo> FileJobQueue::Submit(std::shared_ptr<const BatchPlan> plan, std::string_view body,
                                      int* retry_after) {
-  const std::shared_ptr<const api::StoredRig>& rig = plan->rig;
+  const std::shared_ptr<const evaluator::StoredRig>& rig = plan->rig;
   if (plan->total > limits_.max_batch) {
     const std::string ptr = plan->request.sampled ? "/sample/count" : "/variants";
     Status s = InvalidArgument(ptr + ": a batch has at most " + std::to_string(limits_.max_batch) +
@@ -557,7 +557,8 @@ bool FileJobQueue::RunNext() {
   return false;
 }
 
-std::shared_ptr<const api::StoredRig> FileJobQueue::RigFor(const Job& job, bool refresh) const {
+std::shared_ptr<const evaluator::StoredRig> FileJobQueue::RigFor(const Job& job,
+                                                                 bool refresh) const {
   auto rig = store_.Get(job.info.rig);
   if ((!rig || rig->version != job.rig_version) && refresh && refresh_store_) {
     refresh_store_();
@@ -575,7 +576,7 @@ void FileJobQueue::MarkLost(Job& job) {
 }
 
 void FileJobQueue::Run(const std::shared_ptr<Job>& job,
-                       const std::shared_ptr<const api::StoredRig>& rig, int claim) {
+                       const std::shared_ptr<const evaluator::StoredRig>& rig, int claim) {
   const fs::path folder = fs::path(dir_) / job->info.id;
   Result<std::shared_ptr<const BatchPlan>> plan = job->plan;
   if (!job->plan) {  // Submitted elsewhere or before a restart: plan the stored request again.

@@ -37,7 +37,7 @@ class BatchRun {
         options_(options),
         dir_(options.dir),
         manifest_name_(ManifestName(options.shard, options.shards)),
-        tar_(plan.request.dataset.archive == api::Archive::kTar) {}
+        tar_(plan.request.dataset.archive == evaluator::Archive::kTar) {}
 
   // The folder taken (locked, its batch.json this request's, leftovers gone) and what is left to
   // do.
@@ -60,9 +60,9 @@ class BatchRun {
   };
   // What one worker keeps: its workspace, its group of files not yet published, its warning counts.
   struct Worker {
-    api::Workspace ws;
-    api::ResolvedPoint point;
-    api::Encoded encoded;            // A variant's one file,
+    evaluator::Workspace ws;
+    evaluator::ResolvedPoint point;
+    evaluator::Encoded encoded;      // A variant's one file,
     std::vector<SampleFile> sample;  // or a labelled sample's,
     NamedFiles files;                // named, as pieces.
     std::vector<Written> group;
@@ -198,7 +198,7 @@ Status BatchRun::Prepare() {
   // Leftovers of a run that was killed: temporary files are never complete. Those another process
   // (another shard) is writing are locked, and stay.
   for (const auto& e : fs::directory_iterator(dir_, ec)) {
-    if (e.path().filename().string().rfind(kTmpPrefix, 0) == 0) RemoveAbandoned(e.path());
+    if (e.path().filename().string().rfind(kTmpPrefix, 0) == 0) files::RemoveAbandoned(e.path());
   }
   // Resume: a manifest line (this run's, another shard count's, or a merged one) whose files are
   // there is done; the rest is redone.
@@ -270,8 +270,8 @@ Status BatchRun::Make(size_t k, Worker& w, MadeVariant& out) {
       tar_ ? std::array<std::string_view, 2>{out.tar, {}} : w.files[0].second;
   out.tail = ",\"bytes\":" + std::to_string(whole[0].size() + whole[1].size()) + ",\"sha256\":\"" +
              Sha256Hex(whole) + "\"" + (listed.empty() ? "" : ",\"files\":[" + listed + "]") +
-             ",\"weights\":" + api::WeightsMapJson(plan_.rig->rig, w.point.weights) +
-             ",\"warnings\":" + WarningsToJson(warnings) + "}";
+             ",\"weights\":" + evaluator::WeightsMapJson(plan_.rig->rig, w.point.weights) +
+             ",\"warnings\":" + formats::WarningsToJson(warnings) + "}";
   if (!tar_) out.files = w.files;
   return Status::Ok();
 }
@@ -284,10 +284,10 @@ Status BatchRun::Store(size_t k, Worker& w, MadeVariant&& made) {
   Written out{k, {}, {}, std::move(made.head), std::move(made.tail), std::move(made.tar)};
   if (tar_) return Deliver(std::move(out));
   for (const auto& [name, pieces] : made.files) {
-    Result<int> fd = WriteTemporary(dir_, kTmpPrefix + name, pieces, "'" + name + "'");
+    Result<int> fd = files::WriteTemporary(dir_, kTmpPrefix + name, pieces, "'" + name + "'");
     if (!fd.ok()) {
       for (size_t i = 0; i < out.fds.size(); ++i)
-        Discard(out.fds[i], dir_, kTmpPrefix + out.files[i]);
+        files::Discard(out.fds[i], dir_, kTmpPrefix + out.files[i]);
       return Prefixed(fd.status(), VariantId(plan_, k) + ": ");
     }
     out.fds.push_back(fd.value());
@@ -314,12 +314,12 @@ void BatchRun::Published(size_t count) {
 // Publishes the worker's group with one sync (group commit, PublishGroup); the lines of the
 // variants whose files were all published go into the manifest.
 Status BatchRun::Flush(Worker& w) {
-  std::vector<PendingFile> files;
+  std::vector<files::PendingFile> files;
   for (Written& v : w.group) {
     for (size_t i = 0; i < v.fds.size(); ++i)
       files.push_back({v.fds[i], kTmpPrefix + v.files[i], v.files[i], "'" + v.files[i] + "'"});
   }
-  const GroupResult group = PublishGroup(dir_, files);
+  const files::GroupResult group = PublishGroup(dir_, files);
   const Status failed = group.status;
   size_t published = 0;
   for (size_t done = 0;
@@ -432,7 +432,7 @@ void BatchRun::Report() {
 // variants themselves.
 Status BatchRun::StartMakers(std::vector<Worker>& workers) {
   using Makers = RunOptions::Makers;
-  const bool renders = plan_.labelled() || plan_.output.kind == api::OutputSpec::Kind::kImage;
+  const bool renders = plan_.labelled() || plan_.output.kind == evaluator::OutputSpec::Kind::kImage;
   const bool asked = options_.makers == Makers::kProcesses ||
                      (options_.makers == Makers::kAuto && renders && pending_.size() >= 1000);
   if (!asked || workers.size() < 2 || !CanForkMakers()) return Status::Ok();
@@ -508,7 +508,7 @@ Result<Summary> BatchRun::Finish() {
     if (Status s = WriteSheet(plan_, dir_, options_.sheet_cells, *options_.evaluator); !s.ok())
       return s;
   }
-  SyncDir(dir_);
+  files::SyncDir(dir_);
   summary_.seconds = Elapsed();
   return summary_;
 }

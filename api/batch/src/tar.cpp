@@ -61,27 +61,28 @@ Status TarPart::Open(const fs::path& dir, size_t shard, uint64_t length) {
   length_ = length;
   const std::string path = (dir / TarPartName(shard)).string();
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) return WriteError("opening '" + TarShardName(shard) + "'", errno);
+  if (fd_ < 0) return files::WriteError("opening '" + TarShardName(shard) + "'", errno);
   if (::ftruncate(fd_, static_cast<off_t>(length)) != 0 ||
       ::lseek(fd_, static_cast<off_t>(length), SEEK_SET) < 0) {
-    return WriteError("resuming '" + TarShardName(shard) + "'", errno);
+    return files::WriteError("resuming '" + TarShardName(shard) + "'", errno);
   }
   return Status::Ok();
 }
 
 Status TarPart::Append(std::string_view bytes) {
-  if (const int e = WriteAll(fd_, bytes);
+  if (const int e = files::WriteAll(fd_, bytes);
       e != 0) {  // Nothing half-written stays past what was appended whole.
     (void)!::ftruncate(fd_, static_cast<off_t>(length_));
     (void)!::lseek(fd_, static_cast<off_t>(length_), SEEK_SET);
-    return WriteError("writing '" + TarShardName(shard_) + "'", e);
+    return files::WriteError("writing '" + TarShardName(shard_) + "'", e);
   }
   length_ += bytes.size();
   return Status::Ok();
 }
 
 Status TarPart::Sync() {
-  if (::fdatasync(fd_) != 0) return WriteError("syncing '" + TarShardName(shard_) + "'", errno);
+  if (::fdatasync(fd_) != 0)
+    return files::WriteError("syncing '" + TarShardName(shard_) + "'", errno);
   return Status::Ok();
 }
 
@@ -93,8 +94,8 @@ Status TarPart::Finish() {
   fd_ = -1;
   const fs::path part = dir_ / TarPartName(shard_), done = dir_ / TarShardName(shard_);
   if (::rename(part.c_str(), done.c_str()) != 0)
-    return WriteError("publishing '" + TarShardName(shard_) + "'", errno);
-  SyncDir(dir_);
+    return files::WriteError("publishing '" + TarShardName(shard_) + "'", errno);
+  files::SyncDir(dir_);
   length_ = whole;
   return Status::Ok();
 }

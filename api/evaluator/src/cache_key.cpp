@@ -4,7 +4,7 @@
 
 #include "facespace/evaluator/evaluator.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 namespace {
 
@@ -60,18 +60,18 @@ std::string MeshCanonical(const OutputSpec& s, const ResolvedPoint& point) {
 }
 
 std::string RenderCanonical(const OutputSpec& s) {
-  const render::RenderOptions& o = s.render;
-  const render::Camera& c = o.camera;
-  return std::string(render::ImageFormatExtension(s.image_format)) + "|q" +
+  const picture::RenderOptions& o = s.render;
+  const picture::Camera& c = o.camera;
+  return std::string(picture::ImageFormatExtension(s.image_format)) + "|q" +
          std::to_string(s.quality) + "|" + std::to_string(o.width) + "x" +
-         std::to_string(o.height) + "|" + render::ViewName(o.view) + "|ss" +
+         std::to_string(o.height) + "|" + picture::ViewName(o.view) + "|ss" +
          std::to_string(o.supersample) + "|" + FloatsCanonical(o.background) + "|" +
          FloatsCanonical(std::array<float, 5>{c.yaw, c.pitch, c.distance, c.zoom, c.fov}) +
          (c.look_at ? "L" : "O") +
-         (c.frame == render::Framing::kShapes  ? "S"
-          : c.frame == render::Framing::kAll   ? "A"
-          : c.frame == render::Framing::kJoint ? "J" + c.frame_joint + "|"
-                                               : "D") +
+         (c.frame == picture::Framing::kShapes  ? "S"
+          : c.frame == picture::Framing::kAll   ? "A"
+          : c.frame == picture::Framing::kJoint ? "J" + c.frame_joint + "|"
+                                                : "D") +
          (c.look_at ? FloatsCanonical(c.eye) + FloatsCanonical(c.target) + FloatsCanonical(c.up)
                     : "") +
          "|ev" + FloatsCanonical(std::array<float, 3>{o.exposure, o.light_yaw, o.light_pitch}) +
@@ -105,4 +105,4 @@ std::string CacheKey(const StoredRig& rig, std::span<const ResolvedPoint> points
   return key;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

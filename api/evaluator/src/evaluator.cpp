@@ -6,7 +6,7 @@
 
 #include "kept.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 struct Evaluator::Kept {
   DerivedRigs derived;
@@ -41,7 +41,7 @@ Encoded Whole(std::string bytes) { return Encoded{std::move(bytes), {}, {}}; }
 // The f32 body written over the rest's bytes (F32Writer), over ws.body; false when the writer
 // does not serve this rig, point or spec.
 bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec,
-             const F32Writer& f32, Workspace& ws, std::string& out) {
+             const formats::F32Writer& f32, Workspace& ws, std::string& out) {
   if (f32.mesh_space() != spec.mesh_space || point.pose_or_null() ||
       !SparseBlend::Serves(rig, spec.blend))
     return false;
@@ -57,12 +57,12 @@ bool F32Fast(const Rig& rig, const ResolvedPoint& point, const OutputSpec& spec,
 }
 
 // The blended glb through a writer that keeps the rig's template: its two pieces.
-Result<GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& point,
-                                           const OutputSpec& spec, Workspace& ws,
-                                           GlbVariantWriter& glb) {
+Result<formats::GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& point,
+                                                    const OutputSpec& spec, Workspace& ws,
+                                                    formats::GlbVariantWriter& glb) {
   if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
   auto start = Clock::now();
-  ExportOptions options;
+  formats::ExportOptions options;
   options.keep_targets = spec.keep_targets;
   auto pieces = glb.Write(rig, ws.blended, point.weights, point.report.warnings, options);
   if (!pieces.ok()) return Prefixed(pieces.status(), "the export failed: ");
@@ -72,8 +72,8 @@ Result<GlbVariantWriter::Pieces> GlbPieces(const Rig& rig, const ResolvedPoint& 
 
 // A labelled grid of renders of `cells` (each with its own pose).
 Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells,
-                         const OutputSpec& spec, const render::RenderOptions& options,
-                         const render::Renderer& renderer, Workspace& ws) {
+                         const OutputSpec& spec, const picture::RenderOptions& options,
+                         const picture::Renderer& renderer, Workspace& ws) {
   ws.cells.resize(cells.size());
   for (size_t c = 0; c < cells.size(); ++c) {
     if (ws.stop.stop_requested()) return Cancelled();
@@ -90,9 +90,9 @@ Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells,
   Lap(start, ws.timing.encode);
   // A workspace is kept for the next request: it keeps no large sheet's images.
   size_t pixels = 0;
-  for (const render::Image& c : ws.cells)
+  for (const picture::Image& c : ws.cells)
     pixels += static_cast<size_t>(c.width) * static_cast<size_t>(c.height);
-  if (pixels > (size_t{1} << 20)) std::vector<render::Image>().swap(ws.cells);
+  if (pixels > (size_t{1} << 20)) std::vector<picture::Image>().swap(ws.cells);
   return bytes;
 }
 
@@ -100,7 +100,7 @@ Result<std::string> Grid(const Rig& rig, std::span<const ResolvedPoint> cells,
 
 // ---- the spec -----------------------------------------------------------------------------------
 
-OutputSpec OutputSpec::Mesh(const MeshRequest& r, MeshFormat format) {
+OutputSpec OutputSpec::Mesh(const MeshRequest& r, formats::MeshFormat format) {
   OutputSpec s;
   s.kind = Kind::kMesh;
   s.blend = r.options;
@@ -111,7 +111,7 @@ OutputSpec OutputSpec::Mesh(const MeshRequest& r, MeshFormat format) {
   return s;
 }
 
-OutputSpec OutputSpec::Image(const RenderRequest& r, render::ImageFormat format) {
+OutputSpec OutputSpec::Image(const RenderRequest& r, picture::ImageFormat format) {
   OutputSpec s;
   s.kind = Kind::kImage;
   s.blend = r.mesh.options;
@@ -122,7 +122,7 @@ OutputSpec OutputSpec::Image(const RenderRequest& r, render::ImageFormat format)
   return s;
 }
 
-OutputSpec OutputSpec::Sheet(const SheetRequest& r, render::ImageFormat format) {
+OutputSpec OutputSpec::Sheet(const SheetRequest& r, picture::ImageFormat format) {
   OutputSpec s = Image(r.base, format);
   s.kind = Kind::kSheet;
   s.columns = r.columns;
@@ -131,7 +131,7 @@ OutputSpec OutputSpec::Sheet(const SheetRequest& r, render::ImageFormat format) 
 }
 
 OutputSpec OutputSpec::Pixels(const RenderRequest& r) {
-  OutputSpec s = Image(r, render::ImageFormat::kPng);
+  OutputSpec s = Image(r, picture::ImageFormat::kPng);
   s.kind = Kind::kPixels;
   return s;
 }
@@ -147,7 +147,7 @@ const char* OutputSpec::content_type() const {
   switch (kind) {
     case Kind::kMesh: return MeshFormatMimeType(mesh_format);
     case Kind::kImage:
-    case Kind::kSheet: return render::ImageFormatMimeType(image_format);
+    case Kind::kSheet: return picture::ImageFormatMimeType(image_format);
     case Kind::kFrameJson: return "application/json";
     case Kind::kFrameF32:
     case Kind::kPixels: return "application/octet-stream";
@@ -158,7 +158,7 @@ const char* OutputSpec::content_type() const {
 // ---- the evaluator ------------------------------------------------------------------------------
 
 Evaluator::Evaluator() : kept_(std::make_unique<Kept>()) {}
-Evaluator::Evaluator(const render::Renderer& renderer)
+Evaluator::Evaluator(const picture::Renderer& renderer)
     : renderer_(&renderer), kept_(std::make_unique<Kept>()) {}
 Evaluator::~Evaluator() = default;
 
@@ -169,23 +169,23 @@ std::shared_ptr<const DerivedRig> Evaluator::Derived(const std::shared_ptr<const
 
 void Evaluator::WarmPictures(const std::shared_ptr<const StoredRig>& rig, int lod) const {
   if (!renderer_) return;
-  render::RenderOptions options;  // Shaded: the occlusion is baked.
+  picture::RenderOptions options;  // Shaded: the occlusion is baked.
   kept_->derived.Prepare(rig, lod, options);
 }
 
 Status Evaluator::Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig,
                             Workspace& ws, std::vector<unsigned char>& png) const {
   if (!renderer_) return Status::Ok();  // A mesh-only evaluator writes VRMs without one.
-  render::RenderOptions options;
+  picture::RenderOptions options;
   options.width = options.height = kThumbnailSize;
-  options.camera.frame = render::Framing::kShapes;  // The face the shapes move, on a whole body,
-  options.camera.zoom = 0.8f;                       // with its hair around it.
+  options.camera.frame = picture::Framing::kShapes;  // The face the shapes move, on a whole body,
+  options.camera.zoom = 0.8f;                        // with its hair around it.
   options.srgb8 = true;
   options.helper_cpu = ws.helper_cpu;
   kept_->derived.Prepare(stored, lod, options);
   if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok())
     return Prefixed(s, "the VRM's thumbnail: ");
-  auto bytes = renderer_->Encode(ws.image, render::ImageFormat::kPng, 0, ws.helper_cpu);
+  auto bytes = renderer_->Encode(ws.image, picture::ImageFormat::kPng, 0, ws.helper_cpu);
   if (!bytes.ok()) return bytes.status();
   png.assign(bytes->begin(), bytes->end());
   return Status::Ok();
@@ -209,12 +209,12 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored,
         "this evaluator was handed no renderer: it makes meshes, not pictures");
   switch (spec.kind) {
     case OutputSpec::Kind::kMesh: {
-      if (spec.mesh_format == MeshFormat::kF32) {
+      if (spec.mesh_format == formats::MeshFormat::kF32) {
         std::string bytes;
         if (F32Fast(rig, point, spec, *kept_->f32_writers.Get(at, spec.mesh_space), ws, bytes))
           return Whole(std::move(bytes));
       }
-      if (spec.mesh_format == MeshFormat::kGlb && !spec.keep_targets) {
+      if (spec.mesh_format == formats::MeshFormat::kGlb && !spec.keep_targets) {
         if (spec.pieces) {
           auto pieces = GlbPieces(rig, point, spec, ws, ws.glb);
           if (!pieces.ok()) return pieces.status();
@@ -229,10 +229,11 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored,
       }
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
       auto start = Clock::now();
-      ExportOptions options;
+      formats::ExportOptions options;
       options.keep_targets = spec.keep_targets;
       options.mesh_space = spec.mesh_space;
-      if (spec.mesh_format == MeshFormat::kVrm || spec.mesh_format == MeshFormat::kVrm0) {
+      if (spec.mesh_format == formats::MeshFormat::kVrm ||
+          spec.mesh_format == formats::MeshFormat::kVrm0) {
         if (Status s = Thumbnail(stored, spec.lod, rig, ws, options.thumbnail_png); !s.ok())
           return s;
       }
@@ -251,11 +252,11 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored,
     case OutputSpec::Kind::kPixels: {
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
       auto start = Clock::now();
-      render::RenderOptions options = spec.render;
+      picture::RenderOptions options = spec.render;
       options.helper_cpu = ws.helper_cpu;
       kept_->derived.Prepare(stored, spec.lod, options);
       options.srgb8 = spec.image_format !=
-                      render::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
+                      picture::ImageFormat::kExr;  // An 8-bit file: drawn straight into 8 bits.
       if (Status s = renderer_->Draw(rig, ws.blended, options, ws.image); !s.ok())
         return Prefixed(s, "the render failed: ");
       Lap(start, ws.timing.draw);
@@ -266,7 +267,7 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored,
       return Whole(std::move(bytes.value()));
     }
     case OutputSpec::Kind::kSheet: {
-      render::RenderOptions options = spec.render;
+      picture::RenderOptions options = spec.render;
       options.helper_cpu = ws.helper_cpu;
       kept_->derived.Prepare(stored, spec.lod, options);
       auto bytes = Grid(rig, points, spec, options, *renderer_, ws);
@@ -275,12 +276,12 @@ Result<Encoded> Evaluator::Run(const std::shared_ptr<const StoredRig>& stored,
     }
     case OutputSpec::Kind::kFrameJson: {
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
-      return Whole(PrimitivesJson(rig, ws.blended));
+      return Whole(formats::PrimitivesJson(rig, ws.blended));
     }
     case OutputSpec::Kind::kFrameF32: {
       if (Status s = Evaluate(rig, point, spec.blend, ws); !s.ok()) return s;
       std::vector<float> positions;
-      WorldPositions(ws.blended, positions);
+      formats::WorldPositions(ws.blended, positions);
       const uint32_t size = static_cast<uint32_t>(positions.size() * 4);
       std::string chunk(4 + size, '\0');
       std::memcpy(chunk.data(), &size, 4);
@@ -324,18 +325,18 @@ Result<Output> ProducePoint(const Evaluator& evaluator, const std::shared_ptr<co
 }  // namespace
 
 Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                           const MeshRequest& request, MeshFormat format, Workspace& ws) {
+                           const MeshRequest& request, formats::MeshFormat format, Workspace& ws) {
   return ProducePoint(evaluator, rig, request, OutputSpec::Mesh(request, format), ws);
 }
 
 Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                            const RenderRequest& request, render::ImageFormat format,
+                            const RenderRequest& request, picture::ImageFormat format,
                             Workspace& ws) {
   return ProducePoint(evaluator, rig, request.mesh, OutputSpec::Image(request, format), ws);
 }
 
 Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                            const SheetRequest& request, render::ImageFormat format,
+                            const SheetRequest& request, picture::ImageFormat format,
                             Workspace& ws) {
   SheetPoints points;
   if (Status s = ResolveSheet(rig->rig, request, points); !s.ok()) return s;
@@ -343,4 +344,4 @@ Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<co
   return Finish(evaluator.Run(rig, points.cells, spec, ws), spec, points.warnings, points.max_sum);
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

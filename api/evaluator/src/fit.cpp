@@ -2,12 +2,12 @@
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
   std::string out = "{\"weights\":{";
   for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    out += std::string(s ? "," : "") + JsonString(rig.shapes[s].name) + ":" +
+    out += std::string(s ? "," : "") + formats::JsonString(rig.shapes[s].name) + ":" +
            FormatNumber(fit.weights[s]);
   }
   out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) +
@@ -17,7 +17,7 @@ std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
     for (int i = 0; i < 16; ++i) out += std::string(i ? "," : "") + FormatNumber(fit.alignment[i]);
     out += "]";
   }
-  return out + ",\"warnings\":" + WarningsToJson(fit.warnings) + "}\n";
+  return out + ",\"warnings\":" + formats::WarningsToJson(fit.warnings) + "}\n";
 }
 
 Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
@@ -34,4 +34,4 @@ Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {
                 fit->warnings, 0.0};
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -3,11 +3,11 @@
 #include "facespace/engine/shape_tools.h"
 #include "facespace/formats/lod.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const StoredRig>& stored,
                                                   int lod) {
-  if (lod < 0 || lod > kMaxLod) return nullptr;
+  if (lod < 0 || lod > formats::kMaxLod) return nullptr;
   const std::shared_ptr<const Rig> own(stored, &stored->rig);
   std::shared_ptr<const DerivedRig> kept;
   {
@@ -18,7 +18,7 @@ std::shared_ptr<const DerivedRig> DerivedRigs::At(const std::shared_ptr<const St
     auto d = std::make_shared<DerivedRig>();
     std::shared_ptr<const Rig> rig = own;
     if (lod > 0) {
-      auto made = MakeLod(stored->rig, lod);
+      auto made = formats::MakeLod(stored->rig, lod);
       if (!made.ok()) return nullptr;
       rig = d->rig = std::make_shared<const Rig>(std::move(made.value()));
     }
@@ -45,7 +45,7 @@ std::shared_ptr<const Rig> DerivedRigs::RigAt(const std::shared_ptr<const Stored
 
 std::shared_ptr<const RigOcclusion> DerivedRigs::Occlusion(
     const std::shared_ptr<const StoredRig>& stored, int lod) {
-  if (lod < 0 || lod > kMaxLod) return nullptr;
+  if (lod < 0 || lod > formats::kMaxLod) return nullptr;
   const std::shared_ptr<const Rig> own(stored, &stored->rig);
   auto kept = [&]() -> std::shared_ptr<const RigOcclusion> {
     std::lock_guard<std::mutex> lock(mu_);
@@ -69,13 +69,13 @@ std::shared_ptr<const RigOcclusion> DerivedRigs::Occlusion(
 }
 
 void DerivedRigs::Prepare(const std::shared_ptr<const StoredRig>& stored, int lod,
-                          render::RenderOptions& options) {
-  const render::View view = options.view;
-  if (view == render::View::kShaded || view == render::View::kWireframe ||
-      view == render::View::kClay)
+                          picture::RenderOptions& options) {
+  const picture::View view = options.view;
+  if (view == picture::View::kShaded || view == picture::View::kWireframe ||
+      view == picture::View::kClay)
     options.occlusion = Occlusion(stored, lod);
-  render::Camera& camera = options.camera;
-  if (camera.frame == render::Framing::kAll) return;
+  picture::Camera& camera = options.camera;
+  if (camera.frame == picture::Framing::kAll) return;
   if (auto d = At(stored, lod); d && d->has_focus) {
     camera.has_focus = true;
     camera.focus_small = d->focus_small;
@@ -86,7 +86,7 @@ void DerivedRigs::Prepare(const std::shared_ptr<const StoredRig>& stored, int lo
 }
 
 GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
-  std::unique_ptr<GlbVariantWriter> writer;
+  std::unique_ptr<formats::GlbVariantWriter> writer;
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (auto* free = free_.Find(rig); free && !free->empty()) {
@@ -94,24 +94,24 @@ GlbWriters::Lease GlbWriters::Acquire(const std::shared_ptr<const Rig>& rig) {
       free->pop_back();
     }
   }
-  if (!writer) writer = std::make_unique<GlbVariantWriter>();
+  if (!writer) writer = std::make_unique<formats::GlbVariantWriter>();
   return Lease(*this, rig, std::move(writer));
 }
 
 void GlbWriters::Release(const std::shared_ptr<const Rig>& rig,
-                         std::unique_ptr<GlbVariantWriter> writer) {
+                         std::unique_ptr<formats::GlbVariantWriter> writer) {
   std::lock_guard<std::mutex> lock(mu_);
   auto& free = free_.At(rig);
   if (free.size() < kKeptPerRig) free.push_back(std::move(writer));
 }
 
-std::shared_ptr<const F32Writer> F32Writers::Get(const std::shared_ptr<const Rig>& rig,
-                                                 bool mesh_space) {
+std::shared_ptr<const formats::F32Writer> F32Writers::Get(const std::shared_ptr<const Rig>& rig,
+                                                          bool mesh_space) {
   {
     std::lock_guard<std::mutex> lock(mu_);
     if (auto* kept = writers_.Find(rig); kept && (*kept)[mesh_space]) return (*kept)[mesh_space];
   }
-  auto made = std::make_shared<const F32Writer>(
+  auto made = std::make_shared<const formats::F32Writer>(
       *rig, mesh_space);  // Outside the lock: a large rig takes a while.
   std::lock_guard<std::mutex> lock(mu_);
   auto& kept = writers_.At(rig)[mesh_space];
@@ -119,4 +119,4 @@ std::shared_ptr<const F32Writer> F32Writers::Get(const std::shared_ptr<const Rig
   return kept;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

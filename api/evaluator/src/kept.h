@@ -13,7 +13,7 @@
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/lod.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 // Values kept per rig while it lives: entries hold their rig weakly, and one whose rig died (a
 // replaced or deleted rig, an evicted level of detail) is dropped, so a new rig at the same address
@@ -59,7 +59,7 @@ class DerivedRigs {
   // shapes (the kept box instead of a per-render one) and, for the views that shade, the baked
   // occlusion.
   void Prepare(const std::shared_ptr<const StoredRig>& stored, int lod,
-               render::RenderOptions& options);
+               picture::RenderOptions& options);
 
  private:
   // The rig's occlusion at a level, baked on first use at its neutral weights and rest pose (one
@@ -68,9 +68,10 @@ class DerivedRigs {
                                                 int lod);
 
   std::mutex mu_;
-  PerRig<std::array<std::shared_ptr<const DerivedRig>, kMaxLod + 1>> derived_;
+  PerRig<std::array<std::shared_ptr<const DerivedRig>, formats::kMaxLod + 1>> derived_;
   std::mutex bake_mu_;  // Held while baking; taken before mu_.
-  PerRig<std::array<std::shared_ptr<const RigOcclusion>, kMaxLod + 1>> occlusion_;  // Under mu_.
+  PerRig<std::array<std::shared_ptr<const RigOcclusion>, formats::kMaxLod + 1>>
+      occlusion_;  // Under mu_.
 };
 
 // Glb writers kept per rig (a GlbVariantWriter holds one rig's exported template), leased one per
@@ -80,36 +81,39 @@ class GlbWriters {
   class Lease {
    public:
     Lease(GlbWriters& pool, std::shared_ptr<const Rig> rig,
-          std::unique_ptr<GlbVariantWriter> writer)
+          std::unique_ptr<formats::GlbVariantWriter> writer)
         : pool_(pool), rig_(std::move(rig)), writer_(std::move(writer)) {}
     Lease(const Lease&) = delete;
     Lease& operator=(const Lease&) = delete;
     ~Lease() { pool_.Release(rig_, std::move(writer_)); }
-    GlbVariantWriter& operator*() const { return *writer_; }
+    formats::GlbVariantWriter& operator*() const { return *writer_; }
 
    private:
     GlbWriters& pool_;
     std::shared_ptr<const Rig> rig_;
-    std::unique_ptr<GlbVariantWriter> writer_;
+    std::unique_ptr<formats::GlbVariantWriter> writer_;
   };
   Lease Acquire(const std::shared_ptr<const Rig>& rig);
 
  private:
   static constexpr size_t kKeptPerRig = 4;
-  void Release(const std::shared_ptr<const Rig>& rig, std::unique_ptr<GlbVariantWriter> writer);
+  void Release(const std::shared_ptr<const Rig>& rig,
+               std::unique_ptr<formats::GlbVariantWriter> writer);
   std::mutex mu_;
-  PerRig<std::vector<std::unique_ptr<GlbVariantWriter>>> free_;
+  PerRig<std::vector<std::unique_ptr<formats::GlbVariantWriter>>> free_;
 };
 
 // The F32Writer of each rig and space served as f32 (the rest body made once), held while the
 // rig lives (PerRig).
 class F32Writers {
  public:
-  std::shared_ptr<const F32Writer> Get(const std::shared_ptr<const Rig>& rig, bool mesh_space);
+  std::shared_ptr<const formats::F32Writer> Get(const std::shared_ptr<const Rig>& rig,
+                                                bool mesh_space);
 
  private:
   std::mutex mu_;
-  PerRig<std::array<std::shared_ptr<const F32Writer>, 2>> writers_;  // World space, mesh space.
+  PerRig<std::array<std::shared_ptr<const formats::F32Writer>, 2>>
+      writers_;  // World space, mesh space.
 };
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

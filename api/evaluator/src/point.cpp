@@ -2,7 +2,7 @@
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 namespace {
 
@@ -66,7 +66,7 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
   for (size_t k = 0; k < w.size(); ++k) {
     if (w[k] == 0.0f) continue;
     if (out.size() > 1) out += ',';
-    out += JsonString(rig.shapes[k].name) + ":" + FormatNumber(w[k]);
+    out += formats::JsonString(rig.shapes[k].name) + ":" + FormatNumber(w[k]);
   }
   return out + "}";
 }
@@ -79,7 +79,7 @@ std::string StackedJson(const Rig& rig, const WeightReport& r) {
   if (r.vertex_sum <= 0.0) return {};
   std::string out = ",\"vertex_sum\":" + FormatNumber(r.vertex_sum) + ",\"stacked\":[";
   for (size_t k = 0; k < r.stacked_shapes.size(); ++k)
-    out += (k ? "," : "") + JsonString(rig.shapes[r.stacked_shapes[k]].name);
+    out += (k ? "," : "") + formats::JsonString(rig.shapes[r.stacked_shapes[k]].name);
   return out + "]";
 }
 
@@ -89,7 +89,7 @@ std::string CheckJson(const Rig& rig, const ResolvedPoint& point) {
   const WeightReport& r = point.report;
   return "{\"sum\":" + FormatNumber(r.sum) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
          (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) +
-         StackedJson(rig, r) + ",\"warnings\":" + WarningsToJson(r.warnings) + "}";
+         StackedJson(rig, r) + ",\"warnings\":" + formats::WarningsToJson(r.warnings) + "}";
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -6,7 +6,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/physics/physics.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 bool SequencePose(const Rig& rig, const Sequence& sequence, float time, Pose& pose,
                   std::vector<float>& weights) {
@@ -142,7 +142,8 @@ std::string PoseJson(const Rig& rig, const Pose& pose, const Pose& rest) {
                         pose.from_matrix[n] != rest.from_matrix[n]);
     if (!moved) continue;
     out += std::string(first ? "" : ",") +
-           JsonString(rig.nodes[n].name.empty() ? "node" + std::to_string(n) : rig.nodes[n].name) +
+           formats::JsonString(rig.nodes[n].name.empty() ? "node" + std::to_string(n)
+                                                         : rig.nodes[n].name) +
            ":{\"translation\":" + vec(a.translation.data(), 3) +
            ",\"rotation\":" + vec(a.rotation.data(), 4) + ",\"scale\":" + vec(a.scale.data(), 3) +
            "}";
@@ -203,7 +204,7 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator,
       return WithReason(std::move(s), kResponseTooLarge);
     }
   }
-  return out + "],\"warnings\":" + WarningsToJson(warnings) + "}\n";
+  return out + "],\"warnings\":" + formats::WarningsToJson(warnings) + "}\n";
 }
 
 size_t FrameCount(const Sequence& sequence, float fps) {
@@ -226,7 +227,7 @@ Result<std::string> StreamFrame(const Evaluator& evaluator,
   if (!f32) {
     return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) +
            ",\"weights\":" + WeightsMapJson(rig, point.weights) +
-           ",\"warnings\":" + WarningsToJson(point.report.warnings) + "}\n";
+           ",\"warnings\":" + formats::WarningsToJson(point.report.warnings) + "}\n";
   }
   auto chunk = evaluator.Run(stored, point, OutputSpec::Frame(options, true), ws);
   if (!chunk.ok()) return chunk.status();
@@ -239,7 +240,8 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
     const Keyframe& k = sequence.keys[i];
     out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) +
            ",\"weights\":" + WeightsMapJson(rig, k.weights);
-    if (k.transition) out += ",\"transition\":" + JsonString(TransitionName(*k.transition));
+    if (k.transition)
+      out += ",\"transition\":" + formats::JsonString(TransitionName(*k.transition));
     out += "}";
   }
   return out + "]";
@@ -248,11 +250,11 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
 std::string ReducedSequenceJson(const Rig& rig, const Sequence& original,
                                 const ReduceResult& reduced, float tolerance) {
   return "{\"keys\":" + SequenceKeysJson(rig, reduced.sequence) +
-         ",\"transition\":" + JsonString(TransitionName(original.transition)) +
+         ",\"transition\":" + formats::JsonString(TransitionName(original.transition)) +
          ",\"kept\":" + std::to_string(reduced.sequence.keys.size()) +
          ",\"removed\":" + std::to_string(reduced.removed) +
          ",\"max_error\":" + FormatNumber(reduced.max_error) +
          ",\"tolerance\":" + FormatNumber(tolerance) + "}\n";
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

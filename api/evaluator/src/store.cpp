@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 bool IsValidRigId(const std::string& id) {
   if (id.empty() || id.size() > 64) return false;
@@ -17,12 +17,12 @@ bool IsValidRigId(const std::string& id) {
 }
 
 Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> bytes,
-                       RigFormat format, const std::string& manifest) {
+                       formats::RigFormat format, const std::string& manifest) {
   auto rig = LoadRigMemory(bytes, format, id);
   if (!rig.ok()) return rig;
   rig->name = id;
   if (manifest.empty()) return rig;
-  if (Status s = ApplyManifest(rig.value(), manifest); !s.ok()) {
+  if (Status s = formats::ApplyManifest(rig.value(), manifest); !s.ok()) {
     for (FieldError& f : s.fields) f.pointer = "/manifest" + f.pointer;
     if (s.fields.empty()) s.fields.push_back({"/manifest", s.message});
     return WithInputReason(s, "invalid-manifest");
@@ -66,4 +66,4 @@ std::string RigVersion(std::span<const unsigned char> bytes, const std::string& 
   return buf;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -8,7 +8,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 
-namespace facespace::api {
+namespace facespace::http {
 
 using nlohmann::json;
 
@@ -65,9 +65,9 @@ json DescribeRig(const Rig& r) {
          {"partner", c.partner >= 0 ? json(r.controls[c.partner].name) : json(nullptr)}});
   }
   j["controls"] = controls;
-  j["expressions"] = ExpressionsValue(r);
-  j["gaze"] = GazeValue(r);
-  j["visemes"] = VisemesValue(r);
+  j["expressions"] = formats::ExpressionsValue(r);
+  j["gaze"] = formats::GazeValue(r);
+  j["visemes"] = formats::VisemesValue(r);
   j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()},
                                                 {"bound", r.statistics.bound}}
                                          : json(nullptr);
@@ -121,8 +121,8 @@ json DescribeRig(const Rig& r) {
                      {"morph_weights", an.has_weights}});
   }
   j["animations"] = anims;
-  j["load_warnings"] = WarningsValue(r.load_warnings);
+  j["load_warnings"] = formats::WarningsValue(r.load_warnings);
   return j;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::http

@@ -2,7 +2,7 @@
 
 #include <zlib.h>
 
-namespace facespace::api {
+namespace facespace::http {
 
 namespace {
 
@@ -106,4 +106,4 @@ std::string ZipStream::Finish() {
   return out;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::http

@@ -7,7 +7,7 @@
 #include <string_view>
 #include <vector>
 
-namespace facespace::api {
+namespace facespace::http {
 
 // `data` deflated by zlib at level 6, in the wrapper `window_bits` names (-15: raw, as zip wants;
 // 15 + 16: gzip). Empty on failure: a deflated stream is never empty.
@@ -34,4 +34,4 @@ class ZipStream {
   bool failed_ = false;
 };
 
-}  // namespace facespace::api
+}  // namespace facespace::http

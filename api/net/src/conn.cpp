@@ -5,7 +5,7 @@
 #include <netinet/in.h>
 #include <sys/socket.h>
 
-namespace facespace::api {
+namespace facespace::net {
 
 void Address(int fd, bool peer, std::string& ip, int& port) {
   sockaddr_storage addr{};
@@ -35,4 +35,4 @@ void SendNow(int fd, std::string_view bytes) {
   }
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::net

@@ -9,19 +9,19 @@
 #include "facespace/net/front.h"
 #include "in_flight.h"
 
-namespace facespace::api {
+namespace facespace::net {
 
-struct Conn : http::Peer {
+struct Conn : Peer {
   enum class State { kIdle, kHead, kBody, kBusy, kLinger };
   std::string buf;
   // Busy: a worker owns the connection (the front touches nothing of it but this); the worker's
   // writes before its store of another state are seen by the front's load of it.
   std::atomic<State> state{State::kIdle};
-  http::RequestHead head;
+  RequestHead head;
   size_t head_scan = 0;
-  http::ChunkedState chunked;
+  ChunkedState chunked;
   size_t request_end = 0;
-  http::Clock::time_point deadline;
+  Clock::time_point deadline;
   size_t served = 0;
   size_t reserved = 0;  // Bytes counted in the body budget.
   bool sent_continue = false;
@@ -65,9 +65,9 @@ void ForEachField(const Conn& c, Fn fn) {
 inline std::string_view HeaderValue(const Conn& c, std::string_view name) {
   std::string_view found;
   ForEachField(c, [&](std::string_view field, std::string_view value) {
-    return http::EqualsIgnoreCase(field, name) && (found = value, true);
+    return EqualsIgnoreCase(field, name) && (found = value, true);
   });
   return found;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::net

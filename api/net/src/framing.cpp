@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cctype>
 
-namespace facespace::api::http {
+namespace facespace::net {
 
 namespace {
 
@@ -294,4 +294,4 @@ std::string Dechunked(std::string_view request, const RequestHead& head) {
   return out;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::net

@@ -29,14 +29,9 @@
 #include "turns.h"
 #include "workers.h"
 
-namespace facespace::api {
+namespace facespace::net {
 
 namespace {
-
-using http::Clock;
-using http::Framing;
-using http::RequestStream;
-using http::Watchdog;
 
 // A whole response for a request the front refuses itself, worded by the caller
 // (FrontOptions::refusal: the API's problem+json), else plain text; then the connection closes.
@@ -367,12 +362,12 @@ class FrontServer::Front {
       // one's from its first byte.
       c.state = Conn::State::kHead;
       c.head_scan = 0;
-      c.head = http::RequestHead{};
+      c.head = RequestHead{};
       if (c.served > 0) c.deadline = now + std::chrono::seconds(o_.request_timeout);
     }
-    http::FramingError error;
+    FramingError error;
     if (c.state == Conn::State::kHead) {
-      const Framing f = http::ParseHead(c.buf, c.head_scan, limits_, c.head, error);
+      const Framing f = ParseHead(c.buf, c.head_scan, limits_, c.head, error);
       if (f == Framing::kNeedMore) return;
       if (f == Framing::kError) {
         ++stats.bad_framing;
@@ -407,11 +402,11 @@ class FrontServer::Front {
         }
       }
       c.state = Conn::State::kBody;
-      c.chunked = http::ChunkedState{};
+      c.chunked = ChunkedState{};
       c.chunked.pos = c.head.end;
     }
     if (c.head.chunked) {
-      const Framing f = http::ParseChunked(c.buf, c.chunked, o_.max_body, error);
+      const Framing f = ParseChunked(c.buf, c.chunked, o_.max_body, error);
       if (f == Framing::kError) {
         ++stats.bad_framing;
         return Refuse(c, Refusal::kFraming, error.status, error.detail);
@@ -424,7 +419,7 @@ class FrontServer::Front {
       }
       if (f == Framing::kNeedMore) return;
       // Handed on with its body whole (Content-Length), followed by what came after it.
-      std::string whole = http::Dechunked(std::string_view(c.buf).substr(0, c.chunked.pos), c.head);
+      std::string whole = Dechunked(std::string_view(c.buf).substr(0, c.chunked.pos), c.head);
       c.request_end = whole.size();
       c.buf = std::move(whole.append(c.buf, c.chunked.pos, std::string::npos));
     } else {
@@ -440,9 +435,9 @@ class FrontServer::Front {
   // A request the front answers itself (a probe): the answer written now (a few KB: what the socket
   // does not take at once gets 100 ms), then the connection waits for its next request, or closes.
   void AnswerHere(Conn& c, std::string_view response) {
-    const bool close = http::EqualsIgnoreCase(HeaderValue(c, "Connection"), "close") ||
+    const bool close = EqualsIgnoreCase(HeaderValue(c, "Connection"), "close") ||
                        c.served + 1 >= o_.keep_alive_max;
-    if (!http::SendWithin(c.fd, response, std::chrono::milliseconds(100))) return Close(c);
+    if (!SendWithin(c.fd, response, std::chrono::milliseconds(100))) return Close(c);
     if (close) return Linger(c);
     ReadyForNext(c);
     c.state = Conn::State::kIdle;
@@ -614,7 +609,7 @@ class FrontServer::Front {
 
   FrontServer& server_;
   FrontOptions o_;
-  http::HeadLimits limits_;
+  HeadLimits limits_;
   int epoll_ = -1, wake_ = -1;
   std::thread loop_;
   std::vector<std::thread> workers_;
@@ -628,7 +623,7 @@ class FrontServer::Front {
   std::vector<int> adopted_;
   std::vector<Conn*> returned_;
   std::deque<Conn*> work_;
-  http::FairTurns<Conn*> turns_;  // Under mu_.
+  FairTurns<Conn*> turns_;  // Under mu_.
   Watchdog watchdog_{stats};
 };
 
@@ -653,4 +648,4 @@ bool FrontServer::Process(httplib::Stream& stream, bool close_connection, bool& 
   return process_request(stream, close_connection, connection_closed, carry);
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::net

@@ -25,7 +25,7 @@
 #include "facespace/net/framing.h"
 #include "facespace/net/front.h"
 
-namespace facespace::api::http {
+namespace facespace::net {
 
 using Clock = std::chrono::steady_clock;
 
@@ -287,4 +287,4 @@ class Watchdog {
   std::jthread thread_;
 };
 
-}  // namespace facespace::api::http
+}  // namespace facespace::net

@@ -9,7 +9,7 @@
 
 #include "workers.h"
 
-namespace facespace::api::http {
+namespace facespace::net {
 
 struct LiveHub::Session {
   uint64_t id = 0;
@@ -608,4 +608,4 @@ void LiveHub::Turn(const std::shared_ptr<Session>& s) {
   if (again) Schedule(s);
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::net

@@ -1,7 +1,7 @@
 // A request's Running, found on the request (running.h).
 #include "running.h"
 
-namespace facespace::api {
+namespace facespace::net {
 
 Running* RunningOf(const httplib::Request& req) {
   const Carrier* carrier = req.progress.target<Carrier>();
@@ -18,4 +18,4 @@ HelperCpu* HelperCpuOf(const httplib::Request& req) {
   return running ? running->helper_cpu : nullptr;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::net

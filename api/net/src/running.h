@@ -8,11 +8,11 @@
 
 #include "facespace/net/front.h"
 
-namespace facespace::api {
+namespace facespace::net {
 
 struct Carrier {
   Running* running;
   bool operator()(uint64_t, uint64_t) const { return true; }
 };
 
-}  // namespace facespace::api
+}  // namespace facespace::net

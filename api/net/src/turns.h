@@ -18,7 +18,7 @@
 #include <utility>
 #include <vector>
 
-namespace facespace::api::http {
+namespace facespace::net {
 
 template <typename Item>
 class FairTurns {
@@ -117,4 +117,4 @@ class FairTurns {
   std::unordered_map<std::string, Address> addresses_;
 };
 
-}  // namespace facespace::api::http
+}  // namespace facespace::net

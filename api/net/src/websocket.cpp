@@ -6,7 +6,7 @@
 
 #include "facespace/engine/utf8.h"
 
-namespace facespace::api::http::ws {
+namespace facespace::net::ws {
 
 namespace {
 
@@ -128,4 +128,4 @@ bool ValidUtf8(std::string_view s) {
   return true;
 }
 
-}  // namespace facespace::api::http::ws
+}  // namespace facespace::net::ws

@@ -7,7 +7,7 @@
 #include <thread>
 #include <vector>
 
-namespace facespace::api {
+namespace facespace::net {
 
 inline void StopWorkers(std::mutex& mu, bool& stop, std::condition_variable& cv,
                         std::vector<std::thread>& workers) {
@@ -20,4 +20,4 @@ inline void StopWorkers(std::mutex& mu, bool& stop, std::condition_variable& cv,
   workers.clear();
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::net

@@ -8,6 +8,7 @@
 #include "facespace/engine/bezier.h"
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -332,4 +333,5 @@ Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
   return Status::Ok();
 }
 
+}  // namespace engine
 }  // namespace facespace

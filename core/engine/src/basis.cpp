@@ -3,6 +3,7 @@
 #include <cmath>
 
 namespace facespace {
+inline namespace engine {
 
 Result<ShapeBasis> CompressShapes(const Rig& rig, double max_error, BasisReport* report) {
   const size_t n = rig.shapes.size();
@@ -121,4 +122,5 @@ QuantizeReport QuantizeDisplacements(const Rig& rig, int bits, Rig* dequantized)
   return r;
 }
 
+}  // namespace engine
 }  // namespace facespace

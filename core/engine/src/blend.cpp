@@ -9,6 +9,7 @@
 #include "facespace/engine/skeleton.h"
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -455,4 +456,5 @@ Status EvaluateRig(const Rig& rig, std::span<const float> given, const BlendOpti
   return Status::Ok();
 }
 
+}  // namespace engine
 }  // namespace facespace

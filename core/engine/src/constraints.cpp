@@ -11,6 +11,7 @@
 #include <cmath>
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -319,4 +320,5 @@ AnimationInfo ClipWithConstraintsSolved(const Rig& rig, int clip, float per_seco
   return out;
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -3,6 +3,7 @@
 #include <ctime>
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -22,4 +23,5 @@ double ThreadCpuSeconds(pid_t tid) {
   return Seconds(static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 6u));
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -8,6 +8,7 @@
 #include "facespace/engine/speech.h"
 
 namespace facespace {
+inline namespace engine {
 
 float RangeMap::Map(float degrees) const {
   if (!(input_max > 0.0f)) return 0.0f;
@@ -609,4 +610,5 @@ void ApplyFace(const Rig& rig, const FaceState& face, std::span<float> weights, 
   if (face.gaze) ApplyGaze(rig, *face.gaze, m.look_at, weights, pose, posed, warnings);
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -6,6 +6,7 @@
 #include "facespace/engine/weights.h"
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -210,4 +211,5 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
   return r;
 }
 
+}  // namespace engine
 }  // namespace facespace

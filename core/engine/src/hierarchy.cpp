@@ -6,6 +6,7 @@
 #include <cmath>
 
 namespace facespace {
+inline namespace engine {
 
 int FindNode(const Rig& rig, const std::string& name) {
   for (size_t i = 0; i < rig.nodes.size(); ++i) {
@@ -75,4 +76,5 @@ void JointMatrices(const Rig& rig, int skin, std::span<const std::array<float, 1
   }
 }
 
+}  // namespace engine
 }  // namespace facespace

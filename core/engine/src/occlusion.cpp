@@ -12,6 +12,7 @@
 #include "facespace/engine/transform.h"
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -259,4 +260,5 @@ RigOcclusion BakeRigOcclusion(const Rig& rig, const BlendedRig& rest,
   return out;
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -9,6 +9,7 @@
 #include "facespace/engine/constraints.h"
 
 namespace facespace {
+inline namespace engine {
 
 int FindClip(const Rig& rig, const ClipRequest& c) {
   if (c.name.empty())
@@ -274,4 +275,5 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
   return FiniteFace(weights);
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -11,6 +11,7 @@
 #include "facespace/engine/utf8.h"
 
 namespace facespace {
+inline namespace engine {
 
 void FinalizeTarget(SparseTarget& target) {
   target.runs.clear();
@@ -579,4 +580,5 @@ double RigDiagonal(const Rig& rig) {
                    (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }
 
+}  // namespace engine
 }  // namespace facespace

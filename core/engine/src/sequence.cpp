@@ -8,6 +8,7 @@
 #include "facespace/engine/weights.h"
 
 namespace facespace {
+inline namespace engine {
 
 float ApplyTransition(const Transition& t, float u) {
   switch (t.kind) {
@@ -404,4 +405,5 @@ Result<Sequence> SequenceOfClip(const Rig& rig, int clip) {
   return s;
 }
 
+}  // namespace engine
 }  // namespace facespace

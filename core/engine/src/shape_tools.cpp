@@ -7,6 +7,7 @@
 #include "facespace/engine/transform.h"
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -296,4 +297,5 @@ Result<DeriveReport> DeriveShape(Rig& rig, const std::string& name, const std::s
   return report;
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -8,6 +8,7 @@
 #include "facespace/engine/normal_matrix.h"
 
 namespace facespace {
+inline namespace engine {
 
 bool SkinningJob::Validate() const {
   const size_t n = in_positions.size() / 3;
@@ -142,4 +143,5 @@ bool SkinningJob::Run() const {
   return true;
 }
 
+}  // namespace engine
 }  // namespace facespace

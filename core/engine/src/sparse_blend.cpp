@@ -3,6 +3,7 @@
 #include <cmath>
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -92,4 +93,5 @@ SparseBlend::Outcome SparseBlend::Blend(const Rig& rig, std::span<const float> w
   return Outcome::kBlended;
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -9,6 +9,7 @@
 #include "facespace/engine/utf8.h"
 
 namespace facespace {
+inline namespace engine {
 
 std::optional<Viseme> VisemeByName(std::string_view name) {
   for (size_t i = 0; i < kVisemeCount; ++i) {
@@ -405,4 +406,5 @@ Sequence SpeechSequence(const Rig& rig, std::span<const TimedViseme> visemes,
   return seq;
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -1,6 +1,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 const char* StatusCodeName(StatusCode code) {
   switch (code) {
@@ -74,4 +75,5 @@ std::string JsonPointerEscape(const std::string& key) {
   return r;
 }
 
+}  // namespace engine
 }  // namespace facespace

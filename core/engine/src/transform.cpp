@@ -6,6 +6,7 @@
 #include <cmath>
 
 namespace facespace {
+inline namespace engine {
 
 using Quat = std::array<float, 4>;
 
@@ -55,4 +56,5 @@ Quat EulerToQuaternion(float x_deg, float y_deg, float z_deg) {
   return {q.x(), q.y(), q.z(), q.w()};
 }
 
+}  // namespace engine
 }  // namespace facespace

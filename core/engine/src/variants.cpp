@@ -6,6 +6,7 @@
 #include "facespace/engine/enum_table.h"
 
 namespace facespace {
+inline namespace engine {
 
 namespace {
 
@@ -240,4 +241,5 @@ void SampleVariant(const Rig& rig, const SampleSpec& spec, size_t index, std::sp
   }
 }
 
+}  // namespace engine
 }  // namespace facespace

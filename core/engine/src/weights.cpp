@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 namespace facespace {
+inline namespace engine {
 
 std::string FormatNumber(double value) {
   char buf[32];
@@ -338,4 +339,5 @@ Status ApplyControls(const Rig& rig, std::span<const WeightEntry> controls,
   return status;
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -20,7 +20,7 @@
 
 #include "collada/reader.h"
 
-namespace facespace::collada {
+namespace facespace::formats::collada {
 
 Result<Rig> Reader::Run() {
   root_ = doc_.child("COLLADA");
@@ -566,9 +566,9 @@ Status Reader::Animations() {
   rig_.animations.push_back(std::move(clip));
   return Status::Ok();
 }
-}  // namespace facespace::collada
+}  // namespace facespace::formats::collada
 
-namespace facespace {
+namespace facespace::formats {
 
 using collada::Reader;
 
@@ -586,4 +586,4 @@ Result<Rig> LoadColladaMemory(std::span<const unsigned char> bytes, const std::s
   return rig;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

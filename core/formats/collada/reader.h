@@ -16,7 +16,7 @@
 #include "facespace/engine/bezier.h"
 #include "facespace/formats/io.h"
 
-namespace facespace::collada {
+namespace facespace::formats::collada {
 
 using Mat4 = Eigen::Matrix4d;
 using Vec3 = Eigen::Vector3d;
@@ -197,4 +197,4 @@ class Reader {
   std::map<std::string, int> morph_node_;                      // Weights source id -> node.
 };
 
-}  // namespace facespace::collada
+}  // namespace facespace::formats::collada

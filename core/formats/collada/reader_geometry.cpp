@@ -8,7 +8,7 @@
 
 #include "collada/reader.h"
 
-namespace facespace::collada {
+namespace facespace::formats::collada {
 
 Status Bad(const std::string& what) { return InvalidArgument("COLLADA: " + what); }
 
@@ -439,4 +439,4 @@ Status Reader::ReadSkin(pugi::xml_node controller, pugi::xml_node skin, size_t p
   return Status::Ok();
 }
 
-}  // namespace facespace::collada
+}  // namespace facespace::formats::collada

@@ -7,11 +7,11 @@
 
 #include "facespace/engine/rig.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 // Reads `file` into `image` (bytes and mime type, the type told by the magic, TGA by its
 // extension): at most 64 MiB, PNG, JPEG, BMP or TGA. Empty on success, else why not ("no such
 // file", "empty or over 64 MiB", "not a PNG, JPEG, BMP or TGA image"); `image` is untouched then.
 std::string ReadImageFile(const std::filesystem::path& file, Image& image);
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -10,7 +10,7 @@
 
 #include "facespace/engine/status.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 // glTF's own schema nests about 8 deep; extras and extensions a few more.
 inline constexpr size_t kMaxJsonDepth = 128;
@@ -46,4 +46,4 @@ inline Status CheckJsonDepth(std::string_view text, const char* what) {
                     "too-deep");
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -14,7 +14,7 @@
 
 #include "facespace/engine/rig.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 // One joint influence: (joint index in the skin, weight).
 using Influences = std::vector<std::pair<uint32_t, float>>;
@@ -70,4 +70,4 @@ inline void SetNodeLocal(Node& node, const Eigen::Matrix4d& m) {
   }
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

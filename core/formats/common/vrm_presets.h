@@ -3,7 +3,7 @@
 // without a 0.x preset is "unknown" there, by its name).
 #pragma once
 
-namespace facespace::vrm_presets {
+namespace facespace::formats::vrm_presets {
 
 struct PresetName {
   const char* one;   // VRM 1.0's (ours).
@@ -18,4 +18,4 @@ inline constexpr PresetName kPresets[] = {
     {"lookRight", "lookright"}, {"neutral", "neutral"}};
 // clang-format on
 
-}  // namespace facespace::vrm_presets
+}  // namespace facespace::formats::vrm_presets

@@ -9,7 +9,7 @@
 #include "facespace/engine/enum_table.h"
 #include "facespace/engine/rig.h"
 
-namespace facespace::vrm_terms {
+namespace facespace::formats::vrm_terms {
 
 using Avatar = UsageTerms::Avatar;
 using Commercial = UsageTerms::Commercial;
@@ -64,4 +64,4 @@ inline nlohmann::ordered_json Meta0(const UsageTerms& t) {
           {"commercialUssageName", allow(t.commercial == Commercial::kCorporation)}};
 }
 
-}  // namespace facespace::vrm_terms
+}  // namespace facespace::formats::vrm_terms

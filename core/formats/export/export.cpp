@@ -18,7 +18,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using namespace writers;
 
@@ -127,4 +127,4 @@ bool F32Writer::Write(const Rig& rig, std::span<const float> weights, Scratch& s
   return true;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

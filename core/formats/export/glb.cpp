@@ -20,7 +20,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using namespace writers;
 
@@ -48,17 +48,6 @@ tinygltf::Value ToValue(const nlohmann::json& j) {
     }
     default: return tinygltf::Value();
   }
-}
-
-// Node i's local matrix under the evaluated pose (its world matrix relative to its parent's).
-std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blended, size_t i) {
-  Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
-  const int parent = rig.nodes[i].parent;
-  if (parent >= 0)
-    world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[parent].data()).inverse() * world;
-  std::array<double, 16> out;
-  std::copy(world.data(), world.data() + 16, out.begin());
-  return out;
 }
 
 class GlbBuilder {
@@ -171,6 +160,17 @@ class GlbBuilder {
 }  // namespace
 
 namespace writers {
+
+// Node i's local matrix under the evaluated pose (its world matrix relative to its parent's).
+std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blended, size_t i) {
+  Eigen::Matrix4f world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[i].data());
+  const int parent = rig.nodes[i].parent;
+  if (parent >= 0)
+    world = Eigen::Map<const Eigen::Matrix4f>(blended.node_world[parent].data()).inverse() * world;
+  std::array<double, 16> out;
+  std::copy(world.data(), world.data() + 16, out.begin());
+  return out;
+}
 
 // An accessor's min and max: per component, over `count` elements of `comps` floats.
 void FloatBounds(std::span<const float> values, int comps, size_t count, std::vector<double>& lo,
@@ -568,4 +568,4 @@ Result<std::string> ExportGlb(const Rig& rig, const BlendedRig& blended,
 
 }  // namespace writers
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -8,7 +8,7 @@
 #include "export/writers.h"
 #include "facespace/formats/io.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using namespace writers;
 using writers::ExportGlb;
@@ -200,4 +200,4 @@ Result<GlbVariantWriter::Pieces> GlbVariantWriter::Write(const Rig& rig, const B
   return Pieces{t.head, t.bin};
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

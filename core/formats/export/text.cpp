@@ -16,7 +16,7 @@
 #include "facespace/engine/weights.h"
 #include "facespace/formats/io.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using namespace writers;
 
@@ -266,4 +266,4 @@ std::string ExportF32(const BlendedRig& blended, bool mesh_space) {
 
 }  // namespace writers
 
-}  // namespace facespace
+}  // namespace facespace::formats

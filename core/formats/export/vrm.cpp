@@ -15,7 +15,7 @@
 #include "facespace/engine/weights.h"
 #include "gltf/gltf_common.h"
 
-namespace facespace::writers {
+namespace facespace::formats::writers {
 
 namespace {
 
@@ -358,4 +358,4 @@ Result<std::string> ExportVrm(const Rig& rig, const BlendedRig& blended,
   return PackGlb(g);
 }
 
-}  // namespace facespace::writers
+}  // namespace facespace::formats::writers

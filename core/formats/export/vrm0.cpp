@@ -13,7 +13,7 @@
 #include "facespace/engine/face.h"
 #include "facespace/engine/weights.h"
 
-namespace facespace::writers {
+namespace facespace::formats::writers {
 
 namespace {
 
@@ -195,4 +195,4 @@ Result<std::string> ExportVrm0(const Rig& source, const BlendedRig& blended,
   return PackGlb(g);
 }
 
-}  // namespace facespace::writers
+}  // namespace facespace::formats::writers

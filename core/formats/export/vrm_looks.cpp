@@ -9,7 +9,7 @@
 #include "facespace/engine/color.h"
 #include "facespace/engine/speech.h"
 
-namespace facespace::writers {
+namespace facespace::formats::writers {
 
 namespace {
 
@@ -160,4 +160,4 @@ std::vector<Expression> AppExpressions(const Rig& rig) {
   return out;
 }
 
-}  // namespace facespace::writers
+}  // namespace facespace::formats::writers

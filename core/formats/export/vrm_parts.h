@@ -16,7 +16,7 @@
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
 
-namespace facespace::writers {
+namespace facespace::formats::writers {
 
 using nlohmann::ordered_json;
 
@@ -135,4 +135,4 @@ std::vector<int> MeshNodes(const Rig& rig);
 // skins, bodies, gaze): VRM 0.x's avatars face -z where glTF's and 1.0's face +z.
 Rig TurnedHalfRound(const Rig& rig);
 
-}  // namespace facespace::writers
+}  // namespace facespace::formats::writers

@@ -11,7 +11,7 @@
 
 #include "export/vrm_parts.h"
 
-namespace facespace::writers {
+namespace facespace::formats::writers {
 
 namespace {
 
@@ -269,4 +269,4 @@ Constrained WithNodeConstraints(const Rig& rig, std::span<const int> humanoid,
   return out;
 }
 
-}  // namespace facespace::writers
+}  // namespace facespace::formats::writers

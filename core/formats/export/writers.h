@@ -10,7 +10,7 @@
 
 #include "facespace/formats/io.h"
 
-namespace facespace::writers {
+namespace facespace::formats::writers {
 
 // The whole JSON, OBJ and f32 bodies (ExportMesh's).
 std::string ExportJson(const Rig& rig, const BlendedRig& blended, std::span<const Warning> warnings,
@@ -51,4 +51,7 @@ nlohmann::json AssetExtras(const Rig& rig, std::span<const float> weights,
 // and objects as null, nulls left out. False when nothing is written.
 bool AsTinygltfWrites(const nlohmann::json& j, nlohmann::json& out);
 
-}  // namespace facespace::writers
+// Node i's local matrix under the evaluated pose (its world matrix relative to its parent's).
+std::array<double, 16> PosedLocalMatrix(const Rig& rig, const BlendedRig& blended, size_t i);
+
+}  // namespace facespace::formats::writers

@@ -26,7 +26,7 @@
 #include "facespace/formats/io.h"
 #include "fbx/fbx_scene.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -686,4 +686,4 @@ Result<Rig> LoadFbxMemory(std::span<const unsigned char> bytes, const std::strin
   return rig;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

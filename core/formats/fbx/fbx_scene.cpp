@@ -10,7 +10,7 @@
 #include "common/split_mesh.h"
 #include "facespace/engine/bezier.h"
 
-namespace facespace::fbx_scene {
+namespace facespace::formats::fbx_scene {
 
 std::vector<double> Numbers(const Prop& p) {
   if (p.kind == Prop::kNumbers) return p.numbers;
@@ -429,4 +429,4 @@ Status ClusterWeights(const Object& cluster, uint32_t joint, size_t point_count,
   return Status::Ok();
 }
 
-}  // namespace facespace::fbx_scene
+}  // namespace facespace::formats::fbx_scene

@@ -16,7 +16,7 @@
 #include "facespace/engine/status.h"
 #include "fbx/fbx_tree.h"
 
-namespace facespace::fbx_scene {
+namespace facespace::formats::fbx_scene {
 
 using fbx::Prop;
 using FNode = fbx::Node;
@@ -302,4 +302,4 @@ struct AnimatedProperty {
 // ---------------------------------------------------------------------------------------------
 
 double FrameRate(const Scene& scene);
-}  // namespace facespace::fbx_scene
+}  // namespace facespace::formats::fbx_scene

@@ -10,7 +10,7 @@
 #include <cstring>
 #include <limits>
 
-namespace facespace::fbx {
+namespace facespace::formats::fbx {
 
 namespace {
 
@@ -525,4 +525,4 @@ std::string ObjectName(std::string_view raw) {
   return std::string(raw);
 }
 
-}  // namespace facespace::fbx
+}  // namespace facespace::formats::fbx

@@ -15,7 +15,7 @@
 
 #include "facespace/engine/status.h"
 
-namespace facespace::fbx {
+namespace facespace::formats::fbx {
 
 // One property of a node: a scalar (integer, number or string) or an array. Integer and
 // number kinds convert to each other on read, so binary and ASCII files read the same.
@@ -75,4 +75,4 @@ Result<Document> Parse(std::span<const unsigned char> bytes, const Limits& limit
 // both give "pCube1".
 std::string ObjectName(std::string_view raw);
 
-}  // namespace facespace::fbx
+}  // namespace facespace::formats::fbx

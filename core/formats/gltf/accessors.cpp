@@ -4,7 +4,7 @@
 
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -207,4 +207,4 @@ Status ReadIndices(const tinygltf::Model& m, int index, std::vector<uint32_t>& o
   for (size_t i = 0; i < tmp.size(); ++i) out[i] = static_cast<uint32_t>(tmp[i]);
   return Status::Ok();
 }
-}  // namespace facespace
+}  // namespace facespace::formats

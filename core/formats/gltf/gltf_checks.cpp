@@ -2,7 +2,7 @@
 // tinygltf 2.x follows what the JSON says without checking all of it.
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using nlohmann::json;
 
@@ -63,4 +63,4 @@ Status CheckImageViews(const json& j) {
   return Status::Ok();
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -14,7 +14,7 @@
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 // A little-endian u32 (glb headers, index buffers).
 inline uint32_t ReadU32(const unsigned char* p) {
@@ -86,4 +86,4 @@ Status ReadAccessor(const tinygltf::Model& m, int index, std::vector<float>& out
 Status ReadIndices(const tinygltf::Model& m, int index, std::vector<uint32_t>& out,
                    const std::string& what);
 
-}  // namespace facespace
+}  // namespace facespace::formats

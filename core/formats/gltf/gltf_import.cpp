@@ -15,7 +15,7 @@
 #include "facespace/formats/io.h"
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -523,4 +523,4 @@ Result<Rig> LoadGltfFile(const std::string& path, const LoadOptions& options) {
   return rig;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -6,7 +6,7 @@
 #include "facespace/formats/io.h"
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -362,4 +362,4 @@ Status ConvertAnimations(const tinygltf::Model& model, Rig& rig) {
   return Status::Ok();
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -8,7 +8,7 @@
 #include "facespace/formats/io.h"
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using nlohmann::json;
 
@@ -414,4 +414,4 @@ Result<std::vector<unsigned char>> EncodeMeshoptGlb(std::span<const unsigned cha
   return MakeGlb(j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace), packed);
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -7,7 +7,7 @@
 
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -262,4 +262,4 @@ Status CheckVrmExtensions(const tinygltf::Model& model) {
   return c.bad;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

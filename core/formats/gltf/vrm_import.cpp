@@ -11,7 +11,7 @@
 #include "facespace/engine/face.h"
 #include "gltf/gltf_common.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -364,4 +364,4 @@ Status ApplyVrm(const tinygltf::Model& model, Rig& rig) {
   return ValidateRig(rig);
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

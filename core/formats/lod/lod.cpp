@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -88,4 +88,4 @@ Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report) {
   return out;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -10,7 +10,7 @@
 #include "facespace/formats/io.h"
 #include "sections.h"
 
-namespace facespace::manifest {
+namespace facespace::formats::manifest {
 
 namespace {
 
@@ -262,4 +262,4 @@ Status ApplyVisemes(Rig& rig, const json& v) {
   return Status::Ok();
 }
 
-}  // namespace facespace::manifest
+}  // namespace facespace::formats::manifest

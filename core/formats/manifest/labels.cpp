@@ -5,7 +5,7 @@
 
 #include "sections.h"
 
-namespace facespace::manifest {
+namespace facespace::formats::manifest {
 
 namespace {
 
@@ -162,4 +162,4 @@ json LandmarksValue(const Rig& rig) {
   return {{"scheme", rig.landmark_scheme}, {"points", points}};
 }
 
-}  // namespace facespace::manifest
+}  // namespace facespace::formats::manifest

@@ -17,7 +17,7 @@
 #include "facespace/formats/rig_json.h"
 #include "sections.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 using manifest::Bad;
 using nlohmann::json;
@@ -296,4 +296,4 @@ std::string ManifestJson(const Rig& rig) {
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -11,7 +11,7 @@
 #include "facespace/engine/status.h"
 #include "facespace/formats/io.h"
 
-namespace facespace::manifest {
+namespace facespace::formats::manifest {
 
 using nlohmann::json;
 
@@ -61,4 +61,4 @@ Status ApplyLandmarks(Rig& rig, const json& v);  // labels.cpp
 json RegionsValue(const Rig& rig);               // The sections as they read them.
 json LandmarksValue(const Rig& rig);
 
-}  // namespace facespace::manifest
+}  // namespace facespace::formats::manifest

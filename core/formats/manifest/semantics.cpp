@@ -7,7 +7,7 @@
 #include "facespace/formats/io.h"
 #include "sections.h"
 
-namespace facespace::manifest {
+namespace facespace::formats::manifest {
 
 namespace {
 
@@ -230,4 +230,4 @@ Status ApplyStatistics(Rig& rig, const json& st) {
   return Status::Ok();
 }
 
-}  // namespace facespace::manifest
+}  // namespace facespace::formats::manifest

@@ -7,7 +7,7 @@
 #include "facespace/formats/io.h"
 #include "sections.h"
 
-namespace facespace::manifest {
+namespace facespace::formats::manifest {
 
 namespace {
 
@@ -198,4 +198,4 @@ Status ApplyShapes(Rig& rig, const json& section) {
                        ApplyShape);
 }
 
-}  // namespace facespace::manifest
+}  // namespace facespace::formats::manifest

@@ -7,7 +7,7 @@
 #include "common/vrm_terms.h"
 #include "sections.h"
 
-namespace facespace::manifest {
+namespace facespace::formats::manifest {
 
 namespace {
 
@@ -70,4 +70,4 @@ json TermsValue(const UsageTerms& t) {
   return o;
 }
 
-}  // namespace facespace::manifest
+}  // namespace facespace::formats::manifest

@@ -18,7 +18,7 @@
 
 #include "facespace/formats/io.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -623,4 +623,4 @@ Result<Rig> LoadMd5File(const std::string& path) {
   return LoadMd5Memory(text, fs::path(path).filename().string(), anims);
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

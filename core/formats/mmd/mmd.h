@@ -17,7 +17,7 @@
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
 
-namespace facespace::mmd {
+namespace facespace::formats::mmd {
 
 constexpr float kMetresPerUnit = 0.08f;
 constexpr float kFramesPerSecond = 30.0f;
@@ -226,4 +226,4 @@ void ReadConstraints(const std::vector<Bone>& bones, const std::vector<int>& nod
                      size_t& dropped);
 void ReadPhysics(const Model& in, const std::vector<int>& node_of, Rig& rig, size_t& dropped);
 
-}  // namespace facespace::mmd
+}  // namespace facespace::formats::mmd

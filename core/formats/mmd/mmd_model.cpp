@@ -13,7 +13,7 @@
 #include "facespace/formats/io.h"
 #include "mmd/mmd.h"
 
-namespace facespace::mmd {
+namespace facespace::formats::mmd {
 
 namespace {
 
@@ -615,4 +615,4 @@ Result<Rig> BuildRig(const Model& in, const std::string& name) {
   return rig;
 }
 
-}  // namespace facespace::mmd
+}  // namespace facespace::formats::mmd

@@ -7,7 +7,7 @@
 #include "facespace/engine/transform.h"
 #include "mmd/mmd.h"
 
-namespace facespace::mmd {
+namespace facespace::formats::mmd {
 
 // The bones' grants and IK chains as the rig's constraints, in MMD's deform order (after-physics
 // bones last, then by layer, then by index). Limits turn with the axes: MMD's z is our -z, so
@@ -159,4 +159,4 @@ void ReadPhysics(const Model& in, const std::vector<int>& node_of, Rig& rig, siz
   if (ph.bodies.empty()) ph = Physics{};
 }
 
-}  // namespace facespace::mmd
+}  // namespace facespace::formats::mmd

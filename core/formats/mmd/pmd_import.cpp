@@ -13,7 +13,7 @@
 #include "facespace/formats/io.h"
 #include "mmd/mmd.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -313,4 +313,4 @@ Result<Rig> LoadPmdMemory(std::span<const unsigned char> bytes, const std::strin
   return BuildRig(p.model, name);
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -14,7 +14,7 @@
 #include "facespace/formats/io.h"
 #include "mmd/mmd.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -473,4 +473,4 @@ Result<Rig> LoadPmxMemory(std::span<const unsigned char> bytes, const std::strin
   return BuildRig(p.model, name);
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

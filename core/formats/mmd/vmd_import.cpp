@@ -22,7 +22,7 @@
 #include "facespace/formats/io.h"
 #include "mmd/mmd.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -407,4 +407,4 @@ void AddVmdMotions(Rig& rig, const std::string& model_path) {
   }
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -12,7 +12,7 @@
 #include "common/image_file.h"
 #include "facespace/formats/io.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 namespace {
 
@@ -679,4 +679,4 @@ Result<Rig> LoadMakeHuman(const std::string& obj_path, std::span<const std::stri
   return rig;
 }
 
-}  // namespace facespace
+}  // namespace facespace::formats

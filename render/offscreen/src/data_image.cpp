@@ -11,7 +11,7 @@
 #include "facespace/offscreen/render.h"
 #include "internal.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 namespace {
 
@@ -114,7 +114,7 @@ uint16_t HalfOf(float f) {
 // sample's time. OpenImageIO reads them back in the tests. Channels are stored by name,
 // alphabetically: "Y", or B, G, R.
 Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height,
-                                  int channels, DataPrecision precision) {
+                                  int channels, picture::DataPrecision precision) {
   if (width < 1 || height < 1 || (channels != 1 && channels != 3) ||
       values.size() != static_cast<size_t>(width) * static_cast<size_t>(height) *
                            static_cast<size_t>(channels)) {
@@ -124,7 +124,7 @@ Result<std::string> EncodeDataExr(std::span<const float> values, int width, int 
   }
   const size_t w = static_cast<size_t>(width), h = static_cast<size_t>(height),
                c = static_cast<size_t>(channels);
-  const bool half = precision == DataPrecision::kHalf;
+  const bool half = precision == picture::DataPrecision::kHalf;
   const char* const names[3] = {"B", "G",
                                 "R"};  // Stored in this order: value index 2, 1, 0 of a pixel.
   std::string chlist;
@@ -216,4 +216,4 @@ Result<std::string> EncodeIdPng(std::span<const uint16_t> ids, int width, int he
   return out;
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

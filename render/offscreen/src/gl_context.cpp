@@ -10,7 +10,7 @@
 
 #include "facespace/engine/cpu.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 namespace {
 
@@ -426,7 +426,7 @@ GLuint GlContext::TextureFor(const facespace::Image& image, bool srgb_data) {
   if (image.bytes.empty()) return 0;
   auto decoded = Decode(image.bytes, image.mime_type);
   if (!decoded.ok()) return 0;
-  const render::Image& im = decoded.value();
+  const picture::Image& im = decoded.value();
   std::vector<unsigned char> srgb(
       im.rgba.size());  // The file's own 8-bit values (Decode made them linear).
   for (size_t i = 0; i < im.rgba.size(); ++i) {
@@ -503,4 +503,4 @@ double RasterCpu() {
   return sum;
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

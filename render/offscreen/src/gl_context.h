@@ -22,7 +22,7 @@
 #include "facespace/engine/cpu.h"
 #include "facespace/offscreen/render.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 // The key of an encoded image: the whole file up to 64 KB, else its first and last 32 KB (a PNG's
 // ends hold the checksums of all its pixels) and every 61st 8-byte word between, mixed eight
@@ -221,4 +221,4 @@ class OsMesaRenderer::ContextPool {
   std::once_flag env_once_;
 };
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -24,7 +24,7 @@
 #include "internal.h"
 #include "text.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 namespace {
 
@@ -47,7 +47,7 @@ std::array<float, 3> Viridis(float t) {
   return out;
 }
 
-void FillRect(Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> linear) {
+void FillRect(picture::Image& im, int x0, int y0, int x1, int y1, std::array<float, 4> linear) {
   for (int y = std::max(0, y0); y < std::min(im.height, y1); ++y) {
     for (int x = std::max(0, x0); x < std::min(im.width, x1); ++x) {
       std::memcpy(&im.rgba[(static_cast<size_t>(y) * im.width + x) * 4], linear.data(), 16);
@@ -157,7 +157,7 @@ const float* LinearOf8() {
 // Row y of the image as 8-bit sRGB RGBA (`alpha`) or RGB composited over white in linear light
 // (JPEG), from the image's floats, or (RGB only: Pixels8 takes 8-bit RGBA as it is) from its 8-bit
 // pixels when it has no floats.
-void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
+void Row8(const picture::Image& image, int y, bool alpha, unsigned char* out) {
   const size_t width = static_cast<size_t>(image.width), at = static_cast<size_t>(y) * width * 4;
   const SrgbEncoder& srgb = SrgbEncoder::Get();
   if (!image.rgba.empty()) {
@@ -186,7 +186,7 @@ void Row8(const Image& image, int y, bool alpha, unsigned char* out) {
 }
 
 // The image's linear floats: its own, or made from its 8-bit pixels.
-std::vector<float> LinearPixels(const Image& image) {
+std::vector<float> LinearPixels(const picture::Image& image) {
   if (!image.rgba.empty()) return image.rgba;
   std::vector<float> out(image.srgb8.size());
   const float* linear_of = LinearOf8();
@@ -286,7 +286,7 @@ void StartDeflate(isal_zstream& z) {
 // an 8-bit draw's RGBA as it is, else converted into `room`, a large image (256K pixels or more) in
 // parts on up to one thread per core (4 at most), as the conversion costs more than igzip's deflate
 // (512x512 from floats: about 1.5 ms on one thread).
-std::span<const unsigned char> Pixels8(const Image& image, bool alpha,
+std::span<const unsigned char> Pixels8(const picture::Image& image, bool alpha,
                                        std::vector<unsigned char>& room, HelperCpu* helper_cpu) {
   if (alpha && image.rgba.empty()) return image.srgb8;
   static const int cores =
@@ -321,7 +321,7 @@ namespace {
 // 8-bit pixels (the draw's own, or a float image converted) UP-filtered in batches, each batch
 // deflated as it is made (StartDeflate) into one IDAT. The buffers come from a pool (not allocated
 // and faulted in again per image).
-Result<std::string> EncodePng(const Image& image, HelperCpu* helper_cpu) {
+Result<std::string> EncodePng(const picture::Image& image, HelperCpu* helper_cpu) {
   const DeflaterPool::Lease lease = DeflaterPool::Take();
   Deflater& d = *lease;
   const size_t width = static_cast<size_t>(image.width), stride = width * 4;
@@ -401,7 +401,7 @@ Result<std::string> EncodePng(const Image& image, HelperCpu* helper_cpu) {
 
 }  // namespace
 
-Result<std::string> Encode(const Image& image, ImageFormat format, int quality,
+Result<std::string> Encode(const picture::Image& image, picture::ImageFormat format, int quality,
                            HelperCpu* helper_cpu) {
   const size_t values =
       image.width < 1 || image.height < 1 ? 0 : static_cast<size_t>(image.width) * image.height * 4;
@@ -409,21 +409,21 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality,
       (image.rgba.size() != values && !(image.rgba.empty() && image.srgb8.size() == values))) {
     return InvalidArgument("empty image");
   }
-  if (format == ImageFormat::kPng) return EncodePng(image, helper_cpu);
+  if (format == picture::ImageFormat::kPng) return EncodePng(image, helper_cpu);
   std::vector<unsigned char> room;
-  const bool alpha = format != ImageFormat::kJpeg;
-  if (format == ImageFormat::kWebp) {
+  const bool alpha = format != picture::ImageFormat::kJpeg;
+  if (format == picture::ImageFormat::kWebp) {
     const std::span<const unsigned char> px = Pixels8(image, alpha, room, helper_cpu);
     return EncodeWebp(px, image.width, image.height, quality);
   }
   std::string error;
-  const oiio::Api* api = oiio::Load(&error);
+  const oiio::Api* api = LoadOiio(&error);
   if (!api) return Internal(error);
   oiio::EncodeArgs args;
   std::string name = std::string("image.") + ImageFormatExtension(format);
   // OIIO 2.4's TIFF writer produces a broken file through an IOProxy (its directory is not
   // written back): TIFF goes through a private temporary file instead.
-  args.to_file = format == ImageFormat::kTiff;
+  args.to_file = format == picture::ImageFormat::kTiff;
   if (args.to_file) {
     char tmpl[] = "/tmp/facespace_XXXXXX.tif";
     const int fd = mkstemps(tmpl, 4);
@@ -441,20 +441,20 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality,
   args.name = name.c_str();
   args.width = image.width;
   args.height = image.height;
-  args.zip = format == ImageFormat::kTiff || format == ImageFormat::kExr;
+  args.zip = format == picture::ImageFormat::kTiff || format == picture::ImageFormat::kExr;
   std::vector<float> linear;
-  if (format == ImageFormat::kExr) {
+  if (format == picture::ImageFormat::kExr) {
     linear = LinearPixels(image);
     args.linear = linear.data();
   } else {
     args.channels = alpha ? 4 : 3;
     args.srgb8 = Pixels8(image, alpha, room, helper_cpu)
                      .data();  // JPEG has no alpha: composited over white.
-    if (format == ImageFormat::kJpeg) args.quality = std::clamp(quality, 1, 100);
+    if (format == picture::ImageFormat::kJpeg) args.quality = std::clamp(quality, 1, 100);
   }
   std::vector<unsigned char> bytes;
   if (!api->encode(args, &bytes, &error)) {
-    return Internal(std::string(format == ImageFormat::kExr ? "EXR" : "image") +
+    return Internal(std::string(format == picture::ImageFormat::kExr ? "EXR" : "image") +
                     " encoding failed: " + error);
   }
   if (args.to_file) {
@@ -465,17 +465,17 @@ Result<std::string> Encode(const Image& image, ImageFormat format, int quality,
 }
 
 std::string ImageModuleProblem() {
-  return oiio::Locate().empty() ? "the image module libfacespace_oiio.so is neither beside the "
-                                  "executable nor in the build"
-                                : "";
+  return LocateOiio().empty() ? "the image module libfacespace_oiio.so is neither beside the "
+                                "executable nor in the build"
+                              : "";
 }
 
 std::string OpenImageModule() {
   std::string error;
-  return oiio::Load(&error) ? "" : error;
+  return LoadOiio(&error) ? "" : error;
 }
 
-Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type) {
+Result<picture::Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type) {
   const char* name = nullptr;
   if (bytes.size() > 8 && bytes[0] == 0x89 && bytes[1] == 'P')
     name = "image.png";
@@ -496,7 +496,7 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
     name = "image.tga";  // TGA has no magic.
   if (!name) return InvalidArgument("not a PNG, JPEG, EXR, TIFF, WebP, BMP or TGA image");
   std::string error;
-  const oiio::Api* api = oiio::Load(&error);
+  const oiio::Api* api = LoadOiio(&error);
   if (!api) return Internal(error);
   oiio::Decoded decoded;
   if (!api->decode(bytes.data(), bytes.size(), name, 16384, &decoded, &error)) {
@@ -504,7 +504,7 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   }
   const std::vector<float>& px = decoded.pixels;
   const bool linear = std::strcmp(name, "image.exr") == 0;
-  Image im;
+  picture::Image im;
   im.width = decoded.width;
   im.height = decoded.height;
   im.rgba.resize(static_cast<size_t>(im.width) * im.height * 4);
@@ -521,7 +521,7 @@ Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mi
   return im;
 }
 
-bool DrawText(Image& image, int x, int y, const std::string& text, int size,
+bool DrawText(picture::Image& image, int x, int y, const std::string& text, int size,
               std::array<float, 3> srgb) {
   const float color[3] = {SrgbToLinear(srgb[0]), SrgbToLinear(srgb[1]), SrgbToLinear(srgb[2])};
   return DrawGlyphs(image.rgba.data(), image.width, image.height, x, y, text, size, color);
@@ -551,7 +551,7 @@ std::string FitText(const std::string& text, int size, int width) {
 
 // Lightens the rectangle towards white (linear `amount` of white): a backdrop that keeps text
 // readable over the mesh.
-void Veil(Image& im, int x0, int y0, int x1, int y1, float amount) {
+void Veil(picture::Image& im, int x0, int y0, int x1, int y1, float amount) {
   for (int y = std::max(0, y0); y < std::min(im.height, y1); ++y) {
     for (int x = std::max(0, x0); x < std::min(im.width, x1); ++x) {
       float* px = &im.rgba[(static_cast<size_t>(y) * im.width + x) * 4];
@@ -586,7 +586,7 @@ int HeatLegendLeft(int width, int height) {
   return std::max(0, HeatLegendLayout(width, height).title_x - 3);
 }
 
-void DrawHeatLegend(Image& im, float max_value) {
+void DrawHeatLegend(picture::Image& im, float max_value) {
   const LegendLayout l = HeatLegendLayout(im.width, im.height);
   const int font = l.font;
   // The title says what the colours measure and in which units: the distance each vertex moved,
@@ -617,13 +617,14 @@ void DrawHeatLegend(Image& im, float max_value) {
   DrawText(im, l.x0 + l.bar_w + 4, l.y0 + l.bar_h, "0", font, ink);
 }
 
-Image ContactSheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
-                   std::array<float, 4> background) {
-  Image sheet;
+picture::Image ContactSheet(std::span<const picture::Image> cells,
+                            std::span<const std::string> labels, int columns,
+                            std::array<float, 4> background) {
+  picture::Image sheet;
   if (cells.empty()) return sheet;
   columns = std::clamp(columns, 1, static_cast<int>(cells.size()));
   int cw = 0, ch = 0;
-  for (const Image& c : cells) {
+  for (const picture::Image& c : cells) {
     cw = std::max(cw, c.width);
     ch = std::max(ch, c.height);
   }
@@ -636,7 +637,7 @@ Image ContactSheet(std::span<const Image> cells, std::span<const std::string> la
   sheet.rgba.resize(static_cast<size_t>(sheet.width) * sheet.height * 4);
   FillRect(sheet, 0, 0, sheet.width, sheet.height, bg);
   for (size_t i = 0; i < cells.size(); ++i) {
-    const Image& c = cells[i];
+    const picture::Image& c = cells[i];
     const int x0 = pad + static_cast<int>(i % columns) * (cw + pad),
               y0 = pad + static_cast<int>(i / columns) * (ch + label_h + pad);
     for (int y = 0; y < c.height; ++y) {
@@ -653,4 +654,4 @@ Image ContactSheet(std::span<const Image> cells, std::span<const std::string> la
   return sheet;
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -10,8 +10,9 @@
 #include <vector>
 
 #include "facespace/offscreen/render.h"
+#include "facespace/oiio/module.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 // An sRGB component (0..1) in linear light.
 inline float SrgbToLinear(float c) {
@@ -19,14 +20,14 @@ inline float SrgbToLinear(float c) {
 }
 
 // Draws the heatmap's colour bar with its 0 and max labels on the right of the image.
-void DrawHeatLegend(Image& image, float max_value);
+void DrawHeatLegend(picture::Image& image, float max_value);
 // The left edge of the legend DrawHeatLegend draws in a width x height image: a heatmap's camera
 // frames the model in the part left of it.
 int HeatLegendLeft(int width, int height);
 
 // The image as 8-bit sRGB pixels, RGBA (`alpha`) or RGB composited over white: an 8-bit draw's RGBA
 // as it is, else converted into `room`; the helper threads' CPU charged to `helper_cpu`.
-std::span<const unsigned char> Pixels8(const Image& image, bool alpha,
+std::span<const unsigned char> Pixels8(const picture::Image& image, bool alpha,
                                        std::vector<unsigned char>& room, HelperCpu* helper_cpu);
 
 // PNG's pieces: a big-endian word; a chunk (its length, type, data and CRC); the chunk begun at
@@ -39,4 +40,12 @@ void CloseChunk(std::string& out, size_t start, const char* type);
 // we write (why level 0: image.cpp); the caller gives the input, output and end of stream.
 void StartDeflate(isal_zstream& z);
 
-}  // namespace facespace::render
+// OpenImageIO's module (facespace/oiio/module.h), opened on first use (oiio_load.cpp).
+// The module, loaded once (thread-safe); nullptr with the reason in `error` when it cannot be.
+const oiio::Api* LoadOiio(std::string* error);
+
+// Where LoadOiio will find the module, without loading it (OpenImageIO's start-up cost); empty when
+// it is in neither place.
+std::string LocateOiio();
+
+}  // namespace facespace::offscreen

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "facespace/oiio/module.h"
+#include "internal.h"
 
-namespace facespace::render::oiio {
+namespace facespace::offscreen {
 
 namespace {
 
@@ -27,16 +27,16 @@ std::vector<std::string> Candidates() {
 
 }  // namespace
 
-std::string Locate() {
+std::string LocateOiio() {
   for (const std::string& path : Candidates()) {
     if (!path.empty() && access(path.c_str(), R_OK) == 0) return path;
   }
   return "";
 }
 
-const Api* Load(std::string* error) {
+const oiio::Api* LoadOiio(std::string* error) {
   static std::once_flag once;
-  static const Api* api = nullptr;
+  static const oiio::Api* api = nullptr;
   static std::string failure;
   std::call_once(once, [] {
     void* handle = nullptr;
@@ -45,7 +45,7 @@ const Api* Load(std::string* error) {
       if (const char* e = dlerror()) failure = e;
     }
     if (!handle) return;
-    using Entry = const Api* (*)();
+    using Entry = const oiio::Api* (*)();
     if (auto entry = reinterpret_cast<Entry>(dlsym(handle, "facespace_oiio_api")))
       api = entry();
     else
@@ -55,4 +55,4 @@ const Api* Load(std::string* error) {
   return api;
 }
 
-}  // namespace facespace::render::oiio
+}  // namespace facespace::offscreen

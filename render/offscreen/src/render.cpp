@@ -24,7 +24,7 @@
 #include "gl_context.h"
 #include "internal.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 OsMesaRenderer::OsMesaRenderer(int max_contexts) : pool_(std::make_unique<ContextPool>()) {
   pool_->SetLimit(max_contexts);
@@ -68,28 +68,28 @@ struct Scene {
 // Framing the shapes (auto or shapes): the rest-pose box of what they move (stable while sliders
 // move); on a skinned rig, by default, the joint carrying them, which a pose carries along.
 // frame=joint:NAME: that joint, an error naming it when the rig has no such joint.
-Status ChooseFraming(const Rig& rig, const Camera& c, Scene& scene) {
-  if (c.frame == Framing::kAuto || c.frame == Framing::kShapes) {
+Status ChooseFraming(const Rig& rig, const picture::Camera& c, Scene& scene) {
+  if (c.frame == picture::Framing::kAuto || c.frame == picture::Framing::kShapes) {
     std::array<float, 3> lo = c.focus_min, hi = c.focus_max;
     const bool found = c.has_focus || ShapeFocusBox(rig, lo, hi);
     const bool small = c.has_focus ? c.focus_small : found && FrameShapesByDefault(rig, lo, hi);
     if (found) {
-      scene.frame_shapes = c.frame == Framing::kShapes || small;
+      scene.frame_shapes = c.frame == picture::Framing::kShapes || small;
       scene.shape_box = Eigen::AlignedBox3f(Eigen::Vector3f(lo[0], lo[1], lo[2]),
                                             Eigen::Vector3f(hi[0], hi[1], hi[2]));
       // By default a face on a body is framed with a margin of 40% (its ears and hair may crop).
-      if (c.frame == Framing::kAuto && small) {
+      if (c.frame == picture::Framing::kAuto && small) {
         const Eigen::Vector3f centre = scene.shape_box.center(),
                               half = 0.7f * scene.shape_box.sizes();
         scene.shape_box = Eigen::AlignedBox3f(centre - half, centre + half);
       }
     }
-    if (c.frame == Framing::kAuto && small) {
+    if (c.frame == picture::Framing::kAuto && small) {
       scene.joint_node = c.has_focus ? c.focus_joint : ShapeFocusJoint(rig);
       scene.carry_shapes = found;
     }
   }
-  if (c.frame == Framing::kJoint) {
+  if (c.frame == picture::Framing::kJoint) {
     scene.joint_node = FindNode(rig, c.frame_joint);
     std::vector<std::string_view> names;
     for (const Skin& skin : rig.skins) {
@@ -276,8 +276,9 @@ struct Matrices {
 // The eye: the look-at camera's, or the orbit's around the framed box, far enough that its bounding
 // sphere fits both the vertical and horizontal field of view (of the part of the image left of a
 // heatmap's legend: `used`).
-void PlaceEye(const Camera& c, const Eigen::Vector3f& center, float radius, float fov, float aspect,
-              float used, Eigen::Vector3f& eye, Eigen::Vector3f& target, Eigen::Vector3f& up) {
+void PlaceEye(const picture::Camera& c, const Eigen::Vector3f& center, float radius, float fov,
+              float aspect, float used, Eigen::Vector3f& eye, Eigen::Vector3f& target,
+              Eigen::Vector3f& up) {
   if (c.look_at) {
     eye = Eigen::Vector3f(c.eye[0], c.eye[1], c.eye[2]);
     target = Eigen::Vector3f(c.target[0], c.target[1], c.target[2]);
@@ -298,8 +299,8 @@ void PlaceEye(const Camera& c, const Eigen::Vector3f& center, float radius, floa
 
 // The view and projection of the camera over the framed box: the joint's, the shapes', else the
 // whole (the rest shape's when not posed, so the camera stays still while weights change).
-Result<Matrices> CameraMatrices(const RenderOptions& o, const Scene& scene, bool posed) {
-  const Camera& c = o.camera;
+Result<Matrices> CameraMatrices(const picture::RenderOptions& o, const Scene& scene, bool posed) {
+  const picture::Camera& c = o.camera;
   const Eigen::AlignedBox3f& whole =
       !posed && !scene.rest_box.isEmpty() ? scene.rest_box : scene.box;
   const Eigen::AlignedBox3f& framed = scene.joint_node >= 0 ? scene.joint_box
@@ -313,7 +314,7 @@ Result<Matrices> CameraMatrices(const RenderOptions& o, const Scene& scene, bool
   const float aspect = static_cast<float>(o.width) / static_cast<float>(o.height);
   // A heatmap's legend takes the right of the image: the orbit frames the model left of it (the
   // same scale both ways, the image centre shifted), so no ear runs under the legend.
-  const float used = o.view == View::kHeatmap && !c.look_at
+  const float used = o.view == picture::View::kHeatmap && !c.look_at
                          ? std::clamp(static_cast<float>(HeatLegendLeft(o.width, o.height)) /
                                           static_cast<float>(o.width),
                                       0.5f, 1.0f)
@@ -397,7 +398,7 @@ struct Pass {
 };
 
 // The studio's lights turned by yaw about the camera's up, then pitch about its right (degrees).
-Eigen::Matrix3f LightTurn(const RenderOptions& o) {
+Eigen::Matrix3f LightTurn(const picture::RenderOptions& o) {
   const float rad = static_cast<float>(M_PI) / 180.0f;
   return (Eigen::AngleAxisf(o.light_yaw * rad, Eigen::Vector3f::UnitY()) *
           Eigen::AngleAxisf(-o.light_pitch * rad, Eigen::Vector3f::UnitX()))
@@ -516,16 +517,16 @@ Status DrawPass(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
 
 // Whether the label planes are drawn with the picture, by the same fragments (one sample a pixel),
 // or apart after it (a supersampled picture: DrawLabelsApart).
-bool LabelsInPicture(const RenderOptions& o) { return o.labels && o.supersample == 1; }
+bool LabelsInPicture(const picture::RenderOptions& o) { return o.labels && o.supersample == 1; }
 
 // The view's passes: one, or for the wireframe the shaded surface pushed back and its edges over
 // it.
 Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene,
-                const RenderOptions& o, const Matrices& m) {
-  const int mode = o.view == View::kHeatmap   ? 2
-                   : o.view == View::kNormals ? 3
-                   : o.view == View::kClay    ? 4
-                                              : 0;
+                const picture::RenderOptions& o, const Matrices& m) {
+  const int mode = o.view == picture::View::kHeatmap   ? 2
+                   : o.view == picture::View::kNormals ? 3
+                   : o.view == picture::View::kClay    ? 4
+                                                       : 0;
   Pass pass{mode,
             m,
             scene.heat_max,
@@ -534,13 +535,13 @@ Status DrawView(GlContext& gl, const Rig& rig, const BlendedRig& blended, const 
             LightTurn(o)};
   pass.labels = LabelsInPicture(o);
   pass.segments = &o.segment_of_primitive;
-  if (o.view == View::kWireframe) {
+  if (o.view == picture::View::kWireframe) {
     glEnable(GL_POLYGON_OFFSET_FILL);
     glPolygonOffset(1.0f, 1.0f);
   }
   Status drawn = DrawPass(gl, rig, blended, scene, pass);
   glDisable(GL_POLYGON_OFFSET_FILL);
-  if (o.view == View::kWireframe && drawn.ok()) {
+  if (o.view == picture::View::kWireframe && drawn.ok()) {
     glPolygonMode(GL_FRONT_AND_BACK, GL_LINE);
     glDepthFunc(GL_LEQUAL);
     pass.shader_mode = 1;
@@ -564,7 +565,7 @@ Status ReadTopFirst(int w, int h, GLenum format, GLenum type, void* data) {
 }
 
 // Bottom-row-first supersampled floats box-filtered (in linear light) into `out`, top row first.
-void BoxFilter(std::span<const float> pixels, int w, int h, int ss, Image& out) {
+void BoxFilter(std::span<const float> pixels, int w, int h, int ss, picture::Image& out) {
   // Zeros where the supersamples add up; rows copied over whatever was there otherwise.
   if (ss > 1)
     out.rgba.assign(static_cast<size_t>(out.width) * out.height * 4, 0.0f);
@@ -591,7 +592,8 @@ void BoxFilter(std::span<const float> pixels, int w, int h, int ss, Image& out) 
 
 // The drawn target into `out`: the sRGB bytes as they are, or floats (box-filtered when
 // supersampled), with the heatmap's legend drawn over.
-Status ReadBack(GlContext& gl, const RenderOptions& o, bool srgb8, float heat_max, Image& out) {
+Status ReadBack(GlContext& gl, const picture::RenderOptions& o, bool srgb8, float heat_max,
+                picture::Image& out) {
   const int ss = o.supersample, w = o.width * ss, h = o.height * ss;
   out.width = o.width;
   out.height = o.height;
@@ -614,12 +616,12 @@ Status ReadBack(GlContext& gl, const RenderOptions& o, bool srgb8, float heat_ma
       return Internal("GL error " + std::to_string(err));
     BoxFilter(pixels, w, h, ss, out);
   }
-  if (o.view == View::kHeatmap) DrawHeatLegend(out, heat_max);
+  if (o.view == picture::View::kHeatmap) DrawHeatLegend(out, heat_max);
   return Status::Ok();
 }
 
 // The label planes (attachments 1 and 2 of the bound target, w x h) into `out`, top row first.
-Status ReadLabels(GlContext& gl, int w, int h, LabelPlanes& out) {
+Status ReadLabels(GlContext& gl, int w, int h, picture::LabelPlanes& out) {
   const size_t n = static_cast<size_t>(w) * h;
   gl.pixels.resize(4 * n);
   glReadBuffer(GL_COLOR_ATTACHMENT1);
@@ -642,7 +644,8 @@ Status ReadLabels(GlContext& gl, int w, int h, LabelPlanes& out) {
 // The label planes of a supersampled picture: drawn again at its size (the arrays the picture
 // uploaded), one sample a pixel, colour not written.
 Status DrawLabelsApart(GlContext& gl, const Rig& rig, const BlendedRig& blended, const Scene& scene,
-                       const RenderOptions& o, const Matrices& m, LabelPlanes& out) {
+                       const picture::RenderOptions& o, const Matrices& m,
+                       picture::LabelPlanes& out) {
   ClearTarget(gl, o.width, o.height, false, {0, 0, 0, 0}, true);
   glColorMaski(0, GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
   Pass pass{1, m, 0.0f, 1.0f, false};
@@ -657,8 +660,8 @@ Status DrawLabelsApart(GlContext& gl, const Rig& rig, const BlendedRig& blended,
 
 // The draw as its stages: framing, the scene gathered in world space, the camera, the upload, the
 // view's passes, the read-back.
-Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
-                            Image& out) const {
+Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended,
+                            const picture::RenderOptions& o, picture::Image& out) const {
   if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
   Scene scene;
   if (Status s = ChooseFraming(rig, o.camera, scene); !s.ok()) return s;
@@ -676,7 +679,8 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   if (!matrices.ok()) return matrices.status();
   // Straight to 8 bits where asked and nothing after the draw needs floats (the box filter of
   // supersamples, the heatmap's legend).
-  const bool srgb8 = o.srgb8 && o.supersample == 1 && o.view != View::kHeatmap && gl.pack_invert;
+  const bool srgb8 =
+      o.srgb8 && o.supersample == 1 && o.view != picture::View::kHeatmap && gl.pack_invert;
   Upload(gl, o.width * o.supersample, o.height * o.supersample, srgb8, o.background,
          LabelsInPicture(o));
   if (Status s = DrawView(gl, rig, blended, scene, o, matrices.value()); !s.ok()) return s;
@@ -692,4 +696,4 @@ Status OsMesaRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Ren
   return DrawLabelsApart(gl, rig, blended, scene, o, matrices.value(), out.labels);
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

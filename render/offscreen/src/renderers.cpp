@@ -3,25 +3,27 @@
 #include "facespace/offscreen/render.h"
 #include "internal.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
-Result<std::string> EncodingRenderer::Encode(const Image& image, ImageFormat format, int quality,
+Result<std::string> EncodingRenderer::Encode(const picture::Image& image,
+                                             picture::ImageFormat format, int quality,
                                              HelperCpu* helper_cpu) const {
-  return render::Encode(image, format, quality, helper_cpu);
+  return offscreen::Encode(image, format, quality, helper_cpu);
 }
 
-Image EncodingRenderer::Sheet(std::span<const Image> cells, std::span<const std::string> labels,
-                              int columns, std::array<float, 4> background) const {
+picture::Image EncodingRenderer::Sheet(std::span<const picture::Image> cells,
+                                       std::span<const std::string> labels, int columns,
+                                       std::array<float, 4> background) const {
   return ContactSheet(cells, labels, columns, background);
 }
 
 bool EncodingRenderer::CanDrawText(const std::string& text) const {
-  return render::CanDrawText(text);
+  return offscreen::CanDrawText(text);
 }
 
 Result<std::string> EncodingRenderer::EncodeData(std::span<const float> values, int width,
                                                  int height, int channels,
-                                                 DataPrecision precision) const {
+                                                 picture::DataPrecision precision) const {
   return EncodeDataExr(values, width, height, channels, precision);
 }
 
@@ -30,13 +32,13 @@ Result<std::string> EncodingRenderer::EncodeIds(std::span<const uint16_t> ids, i
   return EncodeIdPng(ids, width, height);
 }
 
-Result<Image> EncodingRenderer::DecodePicture(std::span<const unsigned char> bytes,
-                                              const std::string& mime_type) const {
+Result<picture::Image> EncodingRenderer::DecodePicture(std::span<const unsigned char> bytes,
+                                                       const std::string& mime_type) const {
   return Decode(bytes, mime_type);
 }
 
-Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& o,
-                          Image& out) const {
+Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended,
+                          const picture::RenderOptions& o, picture::Image& out) const {
   if (Status s = CheckDrawInputs(rig, blended, o); !s.ok()) return s;
   out.width = o.width;
   out.height = o.height;
@@ -53,4 +55,4 @@ Status NullRenderer::Draw(const Rig& rig, const BlendedRig& blended, const Rende
   return Status::Ok();
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -13,7 +13,7 @@
 #include <filesystem>
 #include <mutex>
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 namespace {
 
@@ -141,4 +141,4 @@ bool DrawGlyphs(float* rgba, int width, int height, int x, int y, const std::str
   return advance >= 0 && inked;
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -3,7 +3,7 @@
 
 #include <string>
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 // The advance of UTF-8 `text` at `size` pixels (the pen's move), -1 without a font.
 int TextAdvance(const std::string& text, int size);
@@ -14,4 +14,4 @@ int TextAdvance(const std::string& text, int size);
 bool DrawGlyphs(float* rgba, int width, int height, int x, int y, const std::string& text, int size,
                 const float linear[3]);
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -18,7 +18,7 @@ extern "C" {
 
 #include "internal.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 namespace {
 
@@ -275,7 +275,7 @@ Result<std::unique_ptr<WebmEncoder>> WebmEncoder::Start(const VideoOptions& o,
   return std::unique_ptr<WebmEncoder>(new WebmEncoder(std::move(st)));
 }
 
-Status WebmEncoder::Add(const Image& image) {
+Status WebmEncoder::Add(const picture::Image& image) {
   State& st = *state_;
   if (image.width != st.options.width || image.height != st.options.height) {
     return Internal("a frame of " + std::to_string(image.width) + "x" +
@@ -304,4 +304,4 @@ Result<std::string> WebmEncoder::Finish() {
   return std::move(st.memory.bytes);
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -3,7 +3,7 @@
 
 #include "facespace/engine/enum_table.h"
 
-namespace facespace::render {
+namespace facespace::picture {
 
 namespace {
 
@@ -44,4 +44,4 @@ Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOp
   return Status::Ok();
 }
 
-}  // namespace facespace::render
+}  // namespace facespace::picture

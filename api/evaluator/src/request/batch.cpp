@@ -12,7 +12,7 @@
 #include "facespace/formats/lod.h"
 #include "json_body.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 using namespace body;  // The shared readers of json_body.h.
 
@@ -148,16 +148,16 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
     } else if (DatasetMember(key, v, r.dataset, errors)) {
     } else if (key == "format") {
       r.format_given = true;
-      MeshFormat mf;
-      render::ImageFormat imf;
+      formats::MeshFormat mf;
+      picture::ImageFormat imf;
       if (v.is_string() && ParseMeshFormat(v.get<std::string>(), &mf)) {
         r.mesh_format = mf;
         r.image = false;
         r.format = v.get<std::string>();
-      } else if (v.is_string() && render::ParseImageFormat(v.get<std::string>(), &imf)) {
+      } else if (v.is_string() && picture::ParseImageFormat(v.get<std::string>(), &imf)) {
         r.image_format = imf;
         r.image = true;
-        r.format = render::ImageFormatExtension(imf);
+        r.format = picture::ImageFormatExtension(imf);
       } else {
         errors.fields.push_back({"/format",
                                  "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"vrm\", "
@@ -181,7 +181,7 @@ Result<BatchRequest> ParseBatchRequest(std::string_view body) {
   }
   if (r.dataset.labelled() && !r.format_given) {  // A labelled sample's picture: PNG unless told.
     r.image = true;
-    r.image_format = render::ImageFormat::kPng;
+    r.image_format = picture::ImageFormat::kPng;
     r.format = "png";
   }
   if (r.dataset.labelled() && !r.image) {
@@ -248,4 +248,4 @@ Result<SampleSpec> ResolveSampleSpec(const Rig& rig, const BatchRequest& r) {
   return spec;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -4,7 +4,7 @@
 
 #include "json_body.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 using namespace body;  // The shared readers of json_body.h.
 
@@ -172,4 +172,4 @@ bool DatasetMember(const std::string& key, const json& v, DatasetRequest& r, Sta
   return true;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -12,7 +12,7 @@
 #include "facespace/engine/enum_table.h"
 #include "facespace/formats/lod.h"
 
-namespace facespace::api::body {
+namespace facespace::evaluator::body {
 
 Status FieldStatus(const std::string& pointer, const std::string& message) {
   return InvalidField(pointer, message);
@@ -435,15 +435,15 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
       r.options.dual_quaternion = v == "dual_quaternion";
     }
   } else if (key == "format" && mesh_format) {
-    MeshFormat f;
+    formats::MeshFormat f;
     if (!v.is_string() || !ParseMeshFormat(v.get<std::string>(), &f)) {
       errors.fields.push_back({ptr, "must be one of \"glb\", \"obj\", \"json\", \"f32\", \"vrm\""});
     } else {
       r.format = f;
     }
   } else if (key == "lod") {
-    if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > kMaxLod) {
-      errors.fields.push_back({ptr, "must be " + LodExpected()});
+    if (!v.is_number_integer() || v.get<long long>() < 0 || v.get<long long>() > formats::kMaxLod) {
+      errors.fields.push_back({ptr, "must be " + formats::LodExpected()});
     } else {
       r.lod = v.get<int>();
     }
@@ -528,22 +528,22 @@ bool Number(const json& v, double lo, double hi, double* out) {
 }
 
 // The camera's framing: all, shapes, auto or joint:NAME. False for anything else.
-bool ParseFraming(const std::string& value, render::Camera& cam) {
+bool ParseFraming(const std::string& value, picture::Camera& cam) {
   if (value == "all" || value == "shapes" || value == "auto") {
-    cam.frame = value == "shapes" ? render::Framing::kShapes
-                : value == "all"  ? render::Framing::kAll
-                                  : render::Framing::kAuto;
+    cam.frame = value == "shapes" ? picture::Framing::kShapes
+                : value == "all"  ? picture::Framing::kAll
+                                  : picture::Framing::kAuto;
     return true;
   }
   if (value.size() > 6 && value.compare(0, 6, "joint:") == 0) {
-    cam.frame = render::Framing::kJoint;
+    cam.frame = picture::Framing::kJoint;
     cam.frame_joint = value.substr(6);
     return true;
   }
   return false;
 }
 
-void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
+void CameraFromJson(const json& c, picture::Camera& cam, Status& errors) {
   if (!c.is_object()) {
     errors.fields.push_back({"/camera", "must be an object"});
     return;
@@ -581,7 +581,7 @@ void CameraFromJson(const json& c, render::Camera& cam, Status& errors) {
 }
 
 // "light": {"yaw": D, "pitch": D}: the studio's lights turned about the camera.
-void LightFromJson(const json& v, render::RenderOptions& o, Status& errors) {
+void LightFromJson(const json& v, picture::RenderOptions& o, Status& errors) {
   if (!v.is_object()) {
     errors.fields.push_back({"/light", "must be an object {\"yaw\": degrees, \"pitch\": degrees}"});
     return;
@@ -604,7 +604,7 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
     if (ReadNumber(Body::kRender, key, v, ptr, &d, errors))
       (key == "width" ? r.render.width : r.render.height) = static_cast<int>(d);
   } else if (key == "view") {
-    if (!v.is_string() || !render::ParseView(v.get<std::string>(), &r.render.view)) {
+    if (!v.is_string() || !picture::ParseView(v.get<std::string>(), &r.render.view)) {
       errors.fields.push_back(
           {ptr, "must be one of \"shaded\", \"wireframe\", \"heatmap\", \"normals\", \"clay\""});
     }
@@ -617,8 +617,8 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
     if (ReadNumber(Body::kRender, key, v, ptr, &d, errors))
       r.render.supersample = static_cast<int>(d);
   } else if (key == "format") {
-    render::ImageFormat f;
-    if (!v.is_string() || !render::ParseImageFormat(v.get<std::string>(), &f)) {
+    picture::ImageFormat f;
+    if (!v.is_string() || !picture::ParseImageFormat(v.get<std::string>(), &f)) {
       errors.fields.push_back(
           {ptr, "must be one of \"png\", \"jpeg\", \"exr\", \"tiff\", \"webp\""});
     } else {
@@ -639,4 +639,4 @@ bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Statu
   return true;
 }
 
-}  // namespace facespace::api::body
+}  // namespace facespace::evaluator::body

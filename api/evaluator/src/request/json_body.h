@@ -13,7 +13,7 @@
 #include "facespace/evaluator/members.h"
 #include "facespace/evaluator/request.h"
 
-namespace facespace::api::body {
+namespace facespace::evaluator::body {
 
 using nlohmann::json;
 
@@ -73,9 +73,9 @@ bool ParseBackground(const json& v, std::array<float, 4>& out);
 bool Number(const json& v, double lo, double hi, double* out);
 
 // The camera's framing: all, shapes, auto or joint:NAME. False for anything else.
-bool ParseFraming(const std::string& value, render::Camera& cam);
+bool ParseFraming(const std::string& value, picture::Camera& cam);
 
-void CameraFromJson(const json& c, render::Camera& cam, Status& errors);
+void CameraFromJson(const json& c, picture::Camera& cam, Status& errors);
 
 // A render member; false when the key is not one.
 bool RenderMember(const std::string& key, const json& v, RenderRequest& r, Status& errors);
@@ -95,4 +95,4 @@ Status ReadMembers(std::string_view body, BodyLimits limits, Fn member) {
   return Status::Ok();
 }
 
-}  // namespace facespace::api::body
+}  // namespace facespace::evaluator::body

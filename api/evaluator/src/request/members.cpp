@@ -10,7 +10,7 @@
 #include "facespace/engine/weights.h"
 #include "facespace/formats/lod.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 namespace {
 
@@ -76,7 +76,7 @@ constexpr Member kSkeleton[] = {
         .Default(R"("linear")"),
     Integer("lod",
             "Level of detail: 0 full, L about 1/2^L of the triangles (a subset of the vertices)", 0,
-            kMaxLod)
+            formats::kMaxLod)
         .Default("0"),
 };
 constexpr Member kMeshOnly[] = {
@@ -560,4 +560,4 @@ bool ReadNumber(Body body, std::string_view name, const nlohmann::json& v,
   return false;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -9,7 +9,7 @@
 
 #include "json_body.h"
 
-namespace facespace::api::body {
+namespace facespace::evaluator::body {
 
 // nlohmann's DOM builder under a SAX reader that tracks where it is (for JSON Pointers), refuses a
 // member given twice in any object (JSON parsers keep the last, or the first: the client's intent
@@ -149,4 +149,4 @@ Result<json> ParseObject(std::string_view body, BodyLimits limits) {
   return j;
 }
 
-}  // namespace facespace::api::body
+}  // namespace facespace::evaluator::body

@@ -13,7 +13,7 @@
 #include "facespace/picture/picture.h"
 #include "json_body.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 using namespace body;  // The shared readers of json_body.h.
 
@@ -122,7 +122,7 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body) {
   return r;
 }
 
-Status ExpandShapeCells(const Rig& rig, const render::Renderer* renderer, SheetRequest& r) {
+Status ExpandShapeCells(const Rig& rig, const picture::Renderer* renderer, SheetRequest& r) {
   if (r.shape_cells.empty()) return Status::Ok();
   const std::string group = r.shape_cells == "shapes" ? "" : r.shape_cells.substr(7);
   std::set<std::string> groups;
@@ -248,7 +248,7 @@ std::string ApplyPoseSetting(const std::string& key, const std::string& value, M
     v = digits ? json(std::stoll(value)) : json(value);
   } else if (key == "lod") {
     int lod = 0;
-    if (!ParseLod(value, &lod)) return "must be " + LodExpected();
+    if (!formats::ParseLod(value, &lod)) return "must be " + formats::LodExpected();
     v = lod;
   } else if (key == "loop") {
     if (value == "true" || value == "1")
@@ -275,4 +275,4 @@ std::string FinishPoseSettings(MeshRequest& r) {
   return errors.fields.empty() ? "" : errors.fields[0].message;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -12,7 +12,7 @@
 #include "facespace/formats/lod.h"
 #include "json_body.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 using namespace body;  // The shared readers of json_body.h.
 
@@ -393,4 +393,4 @@ Result<FitRequest> ParseFitRequest(std::string_view body) {
   return r;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

@@ -4,7 +4,7 @@
 
 #include "json_body.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 using namespace body;
 
@@ -159,4 +159,4 @@ Result<SpeechRequest> SpeechRequestOfWav(
   return r;
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

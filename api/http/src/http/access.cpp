@@ -8,7 +8,7 @@
 #include "problem.h"
 #include "route_table.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -37,7 +37,7 @@ KeyCheck CheckKey(const ApiOptions& options, std::string_view authorization) {
   if (authorization.empty()) return KeyCheck::kMissing;
   constexpr std::string_view kBearer = "Bearer";
   if (authorization.size() < kBearer.size() ||
-      !EqualsIgnoreCase(authorization.substr(0, kBearer.size()), kBearer))
+      !net::EqualsIgnoreCase(authorization.substr(0, kBearer.size()), kBearer))
     return KeyCheck::kNotBearer;
   const std::string_view rest = authorization.substr(kBearer.size());
   // "Bearer" and nothing after (a key file that was empty or not read): said as such.
@@ -202,4 +202,4 @@ bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Resp
   return false;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <cstring>
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 std::shared_ptr<const CachedResponse> ResponseCache::Get(const std::string& key) {
   Shard& s = ShardOf(key);
@@ -88,4 +88,4 @@ bool NotModified(const httplib::Request& req, httplib::Response& res, const std:
   return false;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

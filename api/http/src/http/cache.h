@@ -13,7 +13,7 @@
 
 #include "facespace/evaluator/evaluator.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 // A response body as the cache keeps it, shared with the responses sending it.
 struct CachedResponse {
@@ -64,4 +64,4 @@ class ResponseCache {
 // ETag from the key, Cache-Control and Vary; true when If-None-Match matched and a 304 was set.
 bool NotModified(const httplib::Request& req, httplib::Response& res, const std::string& key);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -10,10 +10,10 @@
 #include "negotiate.h"
 #include "problem.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
-void WorkspacePool::Return::operator()(Workspace* ws) const {
-  std::unique_ptr<Workspace> owned(ws);
+void WorkspacePool::Return::operator()(evaluator::Workspace* ws) const {
+  std::unique_ptr<evaluator::Workspace> owned(ws);
   std::lock_guard lock(pool->mu_);
   if (pool->idle_.size() < pool->keep_) pool->idle_.push_back(std::move(owned));
 }
@@ -27,13 +27,13 @@ WorkspacePool::Lease WorkspacePool::Acquire(std::stop_token stop, HelperCpu* hel
       idle_.pop_back();
     }
   }
-  if (!ws) ws = Lease(new Workspace, Return{this});
+  if (!ws) ws = Lease(new evaluator::Workspace, Return{this});
   ws->stop = std::move(stop);
   ws->helper_cpu = helper_cpu;
   return ws;
 }
 
-size_t RenderBudget::Estimate(const render::RenderOptions& o, size_t cells) {
+size_t RenderBudget::Estimate(const picture::RenderOptions& o, size_t cells) {
   const size_t ss = static_cast<size_t>(std::max(1, o.supersample));
   const size_t pixels =
       static_cast<size_t>(std::max(0, o.width)) * static_cast<size_t>(std::max(0, o.height));
@@ -66,7 +66,7 @@ size_t RenderBudget::InFlight() const {
 void ReturnMemory() { malloc_trim(0); }
 
 bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                       const render::RenderOptions& o, size_t cells) {
+                       const picture::RenderOptions& o, size_t cells) {
   const size_t bytes = RenderBudget::Estimate(o, cells);
   if (bytes <= ctx.render_budget.per_request()) return true;
   const char* p = req.method == "GET" ? "?" : "/";
@@ -85,8 +85,8 @@ bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::R
   return false;
 }
 
-ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o,
-                         std::vector<std::string> route_labels)
+ServerState::ServerState(evaluator::RigStore& s, batch::JobQueue* j, const evaluator::Evaluator& e,
+                         ApiOptions o, std::vector<std::string> route_labels)
     : store(s),
       jobs(j),
       evaluator(e),
@@ -97,15 +97,15 @@ ServerState::ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, Ap
       render_budget(options.render_budget, options.render_memory),
       openapi(OpenApiJson(options)),
       live([this] {
-        LiveLimits l;
+        net::LiveLimits l;
         l.max_sessions = options.max_live_sessions;
         l.max_per_client = options.max_client_live_sessions;
         return l;
       }()) {}
 
-std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
-                                         httplib::Response& res, const std::string& id) {
-  auto rig = IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
+std::shared_ptr<const evaluator::StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
+                                                    httplib::Response& res, const std::string& id) {
+  auto rig = evaluator::IsValidRigId(id) ? ctx.store.Get(id) : nullptr;
   if (!rig) {
     // The nearest id, for a typo ("facecpa"): the store's ids are few.
     std::vector<std::string> ids;
@@ -139,7 +139,7 @@ std::shared_ptr<CachedResponse> BodyPool::MakeCached(const std::shared_ptr<BodyP
                                          });
 }
 
-std::string ServerTiming(const Workspace::Timing& timing) {
+std::string ServerTiming(const evaluator::Workspace::Timing& timing) {
   std::string out;
   auto add = [&](const char* name, double ms) {
     if (ms <= 0) return;
@@ -167,7 +167,7 @@ void SendShared(httplib::Response& res, std::shared_ptr<const CachedResponse> en
 
 bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
                  const Status& s, double sum, std::span<const Warning> warnings) {
-  const bool refused = s.reason == kLeavesAuthoredSpace;
+  const bool refused = s.reason == evaluator::kLeavesAuthoredSpace;
   if (s.ok() || refused) {
     SetWeightHeaders(res, sum, warnings);
     ctx.metrics.CountWarnings(warnings);
@@ -177,4 +177,4 @@ bool ReportPoint(ServerState& ctx, const httplib::Request& req, httplib::Respons
   return false;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

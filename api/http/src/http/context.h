@@ -19,7 +19,7 @@
 #include "facespace/net/live_hub.h"
 #include "metrics.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 // Workspaces for the pipeline, reused across requests (no allocation per request once warm). A
 // free list rather than thread_local: with a thread per keep-alive connection, per-thread
@@ -30,18 +30,20 @@ class WorkspacePool {
   explicit WorkspacePool(size_t keep) : keep_(keep) {}
   struct Return {
     WorkspacePool* pool;
-    void operator()(Workspace* ws) const;
+    void operator()(evaluator::Workspace* ws) const;
   };
-  using Lease = std::unique_ptr<Workspace, Return>;
+  using Lease = std::unique_ptr<evaluator::Workspace, Return>;
   // A workspace for a request whose stop token is `stop` and whose helper threads' CPU is charged
   // to `helper_cpu` (StopOf(req) and HelperCpuOf(req) in a route: Acquire(req)).
   Lease Acquire(std::stop_token stop, HelperCpu* helper_cpu);
-  Lease Acquire(const httplib::Request& req) { return Acquire(StopOf(req), HelperCpuOf(req)); }
+  Lease Acquire(const httplib::Request& req) {
+    return Acquire(net::StopOf(req), net::HelperCpuOf(req));
+  }
 
  private:
   size_t keep_;
   std::mutex mu_;
-  std::vector<std::unique_ptr<Workspace>> idle_;
+  std::vector<std::unique_ptr<evaluator::Workspace>> idle_;
 };
 
 // Response bodies handed back when the last holder lets go (the response was sent, or the cache
@@ -70,7 +72,7 @@ class RenderBudget {
   // Bytes a render of `cells` images with these options may hold at once: per sample its float
   // colour, depth and read-back (36 bytes); per output pixel and cell the float image, the sheet's
   // copy and the 8-bit one (36 bytes).
-  static size_t Estimate(const render::RenderOptions& o, size_t cells);
+  static size_t Estimate(const picture::RenderOptions& o, size_t cells);
   // Room for `bytes`, or false after the wait; Release gives it back.
   bool Acquire(size_t bytes);
   void Release(size_t bytes);
@@ -83,14 +85,14 @@ class RenderBudget {
   size_t used_ = 0;
 };
 
-// The server's parts, owned by api::Api and passed to every route handler.
+// The server's parts, owned by http::Api and passed to every route handler.
 struct ServerState {
-  ServerState(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o,
-              std::vector<std::string> route_labels);
+  ServerState(evaluator::RigStore& s, batch::JobQueue* j, const evaluator::Evaluator& e,
+              ApiOptions o, std::vector<std::string> route_labels);
 
-  RigStore& store;
+  evaluator::RigStore& store;
   batch::JobQueue* jobs;  // Null: the batch and job routes answer 503.
-  const Evaluator& evaluator;
+  const evaluator::Evaluator& evaluator;
   const ApiOptions options;
   Metrics metrics;
   ResponseCache cache;
@@ -99,14 +101,15 @@ struct ServerState {
   RenderBudget render_budget;
   const std::string openapi;        // The document, with this server's limits.
   std::atomic<bool> warmed{false};  // Every rig of the store at start encoded (/readyz).
-  LiveHub live;  // The WebSocket sessions (last: its threads use what is above, and stop first).
+  net::LiveHub
+      live;  // The WebSocket sessions (last: its threads use what is above, and stop first).
 };
 
 // ---- helpers the routes share ----
 
 // The stored rig named by the path, or nullptr with a 404 sent.
-std::shared_ptr<const StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
-                                         httplib::Response& res, const std::string& id);
+std::shared_ptr<const evaluator::StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
+                                                    httplib::Response& res, const std::string& id);
 
 // A JSON body parsed by `parse`; false when an error was sent (415, 400 malformed, 422 schema).
 template <typename T, typename Parse>
@@ -125,15 +128,15 @@ void ReturnMemory();
 // The render budget's check before a render of `cells` images: false with a 413 sent when the
 // request alone is over it (naming the fields to lower).
 bool CheckRenderBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                       const render::RenderOptions& o, size_t cells);
+                       const picture::RenderOptions& o, size_t cells);
 
 // Runs `render` (which returns Result<Encoded>) within the budget: a 503 status with reason
 // "busy" when no room was made in time; memory handed back to the system after large work.
 template <typename Render>
-Result<Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render);
+Result<evaluator::Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render);
 
 // "blend;dur=0.31, draw;dur=10.2, encode;dur=4.1": the steps that ran (Server-Timing header).
-std::string ServerTiming(const Workspace::Timing& timing);
+std::string ServerTiming(const evaluator::Workspace::Timing& timing);
 
 // The shared encoded bytes as the body, without a copy: the response holds the cache's entry
 // until it is written.
@@ -159,6 +162,6 @@ bool Authorized(const ServerState& ctx, const httplib::Request& req, httplib::Re
 // The CORS headers for an allowed Origin, and the answer to OPTIONS; true when it was answered.
 bool PreRoute(const ServerState& ctx, const httplib::Request& req, httplib::Response& res);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http
 
 #include "context_inl.h"

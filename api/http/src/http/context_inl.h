@@ -4,7 +4,7 @@
 #include "negotiate.h"
 #include "problem.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 template <typename T, typename Parse>
 bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse parse, T& out) {
@@ -27,14 +27,14 @@ bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse par
 }
 
 template <typename Render>
-Result<Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render) {
+Result<evaluator::Encoded> WithinRenderBudget(ServerState& ctx, size_t bytes, Render render) {
   if (!ctx.render_budget.Acquire(bytes)) {
     return WithReason(
         ResourceExhausted(
             "the server is rendering as much as its memory budget allows; retry shortly"),
         "busy");
   }
-  Result<Encoded> out = render();
+  Result<evaluator::Encoded> out = render();
   ctx.render_budget.Release(bytes);
   if (bytes >= kLargeWork) ReturnMemory();
   return out;
@@ -46,11 +46,11 @@ void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response
   std::shared_ptr<const CachedResponse> enc = ctx.cache.Get(key);
   ctx.metrics.CountCache(enc != nullptr);
   if (!enc) {
-    Workspace::Timing timing;
-    Result<Encoded> bytes = [&] {
+    evaluator::Workspace::Timing timing;
+    Result<evaluator::Encoded> bytes = [&] {
       const WorkspacePool::Lease ws = ctx.workspaces.Acquire(req);
       ws->timing = {};
-      Result<Encoded> made = produce(*ws);
+      Result<evaluator::Encoded> made = produce(*ws);
       timing = ws->timing;
       return made;
     }();
@@ -74,4 +74,4 @@ void SendCached(ServerState& ctx, const httplib::Request& req, httplib::Response
   SendShared(res, enc);
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -6,7 +6,7 @@
 
 #include "problem.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -45,7 +45,7 @@ std::string Seconds(double s) {
   return buf;
 }
 
-double Samples(const render::RenderOptions& o) {
+double Samples(const picture::RenderOptions& o) {
   const double ss = std::max(1, o.supersample);
   return static_cast<double>(std::max(0, o.width)) * std::max(0, o.height) * ss * ss;
 }
@@ -58,7 +58,7 @@ double FrameSeconds(const RigSize& s) {
 
 double FrameSeconds(const Rig& rig) { return FrameSeconds(SizeOf(rig)); }
 
-double ImageSeconds(const render::RenderOptions& o, const Rig& rig) {
+double ImageSeconds(const picture::RenderOptions& o, const Rig& rig) {
   const RigSize s = SizeOf(rig);  // One walk over the primitives for the blend and the triangles.
   return kPerImage + FrameSeconds(s) + kPerSample * Samples(o) +
          1e-7 * static_cast<double>(s.triangles);
@@ -77,9 +77,9 @@ double BlendSeconds(const Rig& rig, size_t weighted) {
   return kPerMovedVertex * bound;
 }
 
-Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted) {
+Cost MeshCost(const Rig& rig, std::optional<formats::MeshFormat> format, size_t weighted) {
   const double blend = BlendSeconds(rig, weighted);
-  if (format != MeshFormat::kVrm && format != MeshFormat::kVrm0) {
+  if (format != formats::MeshFormat::kVrm && format != formats::MeshFormat::kVrm0) {
     return {kPerRequest + FrameSeconds(rig) + blend, "/weights",
             "one blend of " +
                 (weighted >= rig.shapes.size() ? std::string("every") : std::to_string(weighted)) +
@@ -87,8 +87,8 @@ Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted)
   }
   // A VRM: the whole rig written (every target of every vertex: 1.2e-8 s each, measured on Uka's,
   // 50k vertices x 213 shapes in 0.14 s with its thumbnail) and its thumbnail drawn.
-  render::RenderOptions thumbnail;
-  thumbnail.width = thumbnail.height = Evaluator::kThumbnailSize;
+  picture::RenderOptions thumbnail;
+  thumbnail.width = thumbnail.height = evaluator::Evaluator::kThumbnailSize;
   const double seconds =
       kPerRequest + FrameSeconds(rig) + blend +
       1.2e-8 * static_cast<double>(rig.vertex_count()) * static_cast<double>(rig.shapes.size()) +
@@ -97,46 +97,47 @@ Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted)
           "the rig's VRM (" + std::to_string(rig.shapes.size()) + " shapes) and a 512² thumbnail"};
 }
 
-double EncodeSeconds(render::ImageFormat format, double pixels) {
+double EncodeSeconds(picture::ImageFormat format, double pixels) {
   switch (format) {
-    case render::ImageFormat::kExr: return 110e-9 * pixels;
-    case render::ImageFormat::kTiff: return 100e-9 * pixels;
-    case render::ImageFormat::kWebp: return 25e-9 * pixels;
-    case render::ImageFormat::kJpeg: return 8e-9 * pixels;
-    case render::ImageFormat::kPng: break;
+    case picture::ImageFormat::kExr: return 110e-9 * pixels;
+    case picture::ImageFormat::kTiff: return 100e-9 * pixels;
+    case picture::ImageFormat::kWebp: return 25e-9 * pixels;
+    case picture::ImageFormat::kJpeg: return 8e-9 * pixels;
+    case picture::ImageFormat::kPng: break;
   }
   return 5e-9 * pixels;
 }
 
-size_t WeightedShapes(const MeshRequest& r) {
+size_t WeightedShapes(const evaluator::MeshRequest& r) {
   if (!r.controls.empty()) return SIZE_MAX;
   return static_cast<size_t>(std::count_if(r.weights.begin(), r.weights.end(),
                                            [](const WeightEntry& w) { return w.value != 0.0; }));
 }
 
-Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query,
-                render::ImageFormat format) {
+Cost RenderCost(const Rig& rig, const picture::RenderOptions& o, bool query,
+                picture::ImageFormat format) {
   const double pixels = static_cast<double>(std::max(0, o.width)) * std::max(0, o.height);
   return {kPerRequest + ImageSeconds(o, rig) + EncodeSeconds(format, pixels),
           query ? "?supersample" : "/supersample",
           Amount(Samples(o)) + " samples (width x height x supersample squared), encoded as " +
-              render::ImageFormatExtension(format)};
+              picture::ImageFormatExtension(format)};
 }
 
-Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells,
-               render::ImageFormat format) {
+Cost SheetCost(const Rig& rig, const picture::RenderOptions& o, size_t cells,
+               picture::ImageFormat format) {
   const double pixels = static_cast<double>(cells) * std::max(0, o.width) * std::max(0, o.height);
   return {kPerRequest + static_cast<double>(cells) * ImageSeconds(o, rig) +
               EncodeSeconds(format, pixels),
           "/cells",
           std::to_string(cells) + " cells x " + Amount(Samples(o)) + " samples, encoded as " +
-              render::ImageFormatExtension(format)};
+              picture::ImageFormatExtension(format)};
 }
 
 Cost FramesCost(const Rig& rig, size_t frames, double seconds, bool meshes, const char* field) {
-  seconds = std::clamp(
-      seconds, 0.0,
-      static_cast<double>(SequencePhysics::kMaxSeconds));  // Steps past it are not simulated.
+  seconds =
+      std::clamp(seconds, 0.0,
+                 static_cast<double>(
+                     evaluator::SequencePhysics::kMaxSeconds));  // Steps past it are not simulated.
   const double physics =
       rig.physics.bodies.empty()
           ? 0.0
@@ -158,7 +159,7 @@ Cost ReduceCost(const Rig& rig, size_t keys) {
       "/keys", Amount(static_cast<double>(keys)) + " keys (about " + Amount(samples) + " samples)"};
 }
 
-Cost FitCost(const Rig& rig, const FitRequest& r) {
+Cost FitCost(const Rig& rig, const evaluator::FitRequest& r) {
   size_t v = 0;
   for (const auto& p : r.target.positions) v += p.size() / 3;
   const double n = static_cast<double>(rig.shapes.size());
@@ -167,7 +168,7 @@ Cost FitCost(const Rig& rig, const FitRequest& r) {
               " shapes squared"};
 }
 
-Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate) {
+Cost SpeechCost(const Rig& rig, const evaluator::SpeechRequest& r, double seconds, int rate) {
   Cost c;
   if (r.has_audio) {
     c.seconds = kDecodePerSecond * seconds + kPerInputSample * seconds * rate;
@@ -179,7 +180,7 @@ Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate
     c.formula = "about " + Seconds(seconds) + " s of speech";
   }
   const size_t frames = static_cast<size_t>(std::ceil(seconds * std::max(1.0f, r.fps))) + 1;
-  if (r.format == FrameFormat::kWebm) {
+  if (r.format == evaluator::FrameFormat::kWebm) {
     const double pixels = static_cast<double>(std::max(0, r.render.render.width)) *
                           std::max(0, r.render.render.height);
     c.seconds += static_cast<double>(frames) *
@@ -187,8 +188,10 @@ Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate
     c.field = r.render.render.supersample > 1 ? "/supersample" : "/fps";
     c.formula += ", " + Amount(static_cast<double>(frames)) + " video frames x " +
                  Amount(Samples(r.render.render)) + " samples";
-  } else if (r.format != FrameFormat::kJson && r.format != FrameFormat::kWav) {
-    c.seconds += FramesCost(rig, frames, seconds, r.format == FrameFormat::kF32, "/fps").seconds;
+  } else if (r.format != evaluator::FrameFormat::kJson &&
+             r.format != evaluator::FrameFormat::kWav) {
+    c.seconds +=
+        FramesCost(rig, frames, seconds, r.format == evaluator::FrameFormat::kF32, "/fps").seconds;
     c.formula += ", " + Amount(static_cast<double>(frames)) + " frames";
   }
   c.seconds += kPerRequest;
@@ -222,4 +225,4 @@ bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Respon
   return false;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

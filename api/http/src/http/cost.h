@@ -16,7 +16,7 @@
 
 #include "context.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 struct Cost {
   double seconds = 0;  // Estimated CPU-seconds.
@@ -48,7 +48,7 @@ inline constexpr double kPerMovedVertex =
 // One frame of `rig`: its blend (and skinning, when skinned) and the frame's encoding.
 double FrameSeconds(const Rig& rig);
 // One image of `o` of a rig with `triangles`.
-double ImageSeconds(const render::RenderOptions& o, const Rig& rig);
+double ImageSeconds(const picture::RenderOptions& o, const Rig& rig);
 
 // The blend's additions for `weighted` shapes: each moves at most the rig's largest shape's
 // vertices, all of them together at most every shape's (a dense 1,000-shape rig was priced 200
@@ -56,25 +56,25 @@ double ImageSeconds(const render::RenderOptions& o, const Rig& rig);
 double BlendSeconds(const Rig& rig, size_t weighted);
 // One blend of `weighted` shapes (SIZE_MAX: any, as a live session may) in `format`; a VRM writes
 // the whole rig and draws its thumbnail.
-Cost MeshCost(const Rig& rig, std::optional<MeshFormat> format, size_t weighted);
+Cost MeshCost(const Rig& rig, std::optional<formats::MeshFormat> format, size_t weighted);
 // The shapes a mesh request weights, for MeshCost: its non-zero weights, every shape when controls
 // drive them.
-size_t WeightedShapes(const MeshRequest& r);
+size_t WeightedShapes(const evaluator::MeshRequest& r);
 // An image's encode, per output pixel, in `format` (measured at 2048², issue 61: EXR and TIFF 90-95
 // ns, WebP 20, JPEG 7, PNG 4).
-double EncodeSeconds(render::ImageFormat format, double pixels);
-Cost RenderCost(const Rig& rig, const render::RenderOptions& o, bool query,
-                render::ImageFormat format);
-Cost SheetCost(const Rig& rig, const render::RenderOptions& o, size_t cells,
-               render::ImageFormat format);
+double EncodeSeconds(picture::ImageFormat format, double pixels);
+Cost RenderCost(const Rig& rig, const picture::RenderOptions& o, bool query,
+                picture::ImageFormat format);
+Cost SheetCost(const Rig& rig, const picture::RenderOptions& o, size_t cells,
+               picture::ImageFormat format);
 // `frames` frames of a sequence lasting `seconds` (physics steps at 60 a second when the rig has
 // bodies).
 Cost FramesCost(const Rig& rig, size_t frames, double seconds, bool meshes, const char* field);
 Cost ReduceCost(const Rig& rig, size_t keys);
-Cost FitCost(const Rig& rig, const FitRequest& r);
+Cost FitCost(const Rig& rig, const evaluator::FitRequest& r);
 // Speech: synthesis of `seconds` of speech, or recognition of `seconds` of audio sent at `rate`;
 // then the frames (a stream), or the video's frames at the request's size.
-Cost SpeechCost(const Rig& rig, const SpeechRequest& r, double seconds, int rate);
+Cost SpeechCost(const Rig& rig, const evaluator::SpeechRequest& r, double seconds, int rate);
 Cost UploadCost(size_t bytes);
 
 // The admission step: sets Facespace-Cost; true when the cost is within what the caller may spend,
@@ -82,4 +82,4 @@ Cost UploadCost(size_t bytes);
 bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
                   const Cost& cost);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -10,7 +10,7 @@
 #include "cache.h"
 #include "zip.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -212,4 +212,4 @@ void SendEncodedOnce(ServerState& ctx, const httplib::Request& req, httplib::Res
   SendShared(res, std::move(body));
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -22,7 +22,7 @@
 
 #include "context.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 enum class ContentCoding { kIdentity, kGzip, kBrotli };
 
@@ -68,4 +68,4 @@ void SendEncodedOnce(ServerState& ctx, const httplib::Request& req, httplib::Res
                      const std::string& key, const char* content_type,
                      const std::function<std::string()>& produce);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -7,7 +7,7 @@
 
 #include "facespace/net/front.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -32,7 +32,7 @@ struct Metrics::RouteCounters {
 };
 
 RequestState& StateOf(const httplib::Request& req) {
-  Running* running = RunningOf(req);
+  net::Running* running = net::RunningOf(req);
   if (!running) {
     // A request no front serves (the fuzzer's in-process server, one request at a time).
     static RequestState unserved;
@@ -155,4 +155,4 @@ std::string Metrics::Text(size_t rigs_loaded, size_t cache_bytes) const {
   return out;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -14,7 +14,7 @@
 
 #include "facespace/engine/status.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 class Metrics {
  public:
@@ -52,4 +52,4 @@ struct RequestState {
 };
 RequestState& StateOf(const httplib::Request& req);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

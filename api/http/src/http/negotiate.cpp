@@ -8,7 +8,7 @@
 #include "facespace/engine/weights.h"
 #include "problem.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -139,23 +139,25 @@ std::string Available(const T (&values)[N], const char* (*media_type)(T)) {
 
 }  // namespace
 
-std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res,
-                                        std::optional<MeshFormat> given) {
-  static constexpr MeshFormat kFormats[] = {MeshFormat::kGlb, MeshFormat::kObj, MeshFormat::kJson,
-                                            MeshFormat::kF32};
-  static constexpr std::pair<std::string_view, MeshFormat> kRanges[] = {
-      {"*/*", MeshFormat::kJson},
-      {"model/*", MeshFormat::kJson},
-      {"application/*", MeshFormat::kJson}};
-  static const auto produced = Produced(kFormats, MeshFormatMimeType, kRanges);
-  static const std::string available = Available(kFormats, MeshFormatMimeType);
-  return Negotiate(req, res, given, produced, MeshFormat::kJson, available.c_str());
+std::optional<formats::MeshFormat> NegotiateMesh(const httplib::Request& req,
+                                                 httplib::Response& res,
+                                                 std::optional<formats::MeshFormat> given) {
+  static constexpr formats::MeshFormat kFormats[] = {
+      formats::MeshFormat::kGlb, formats::MeshFormat::kObj, formats::MeshFormat::kJson,
+      formats::MeshFormat::kF32};
+  static constexpr std::pair<std::string_view, formats::MeshFormat> kRanges[] = {
+      {"*/*", formats::MeshFormat::kJson},
+      {"model/*", formats::MeshFormat::kJson},
+      {"application/*", formats::MeshFormat::kJson}};
+  static const auto produced = Produced(kFormats, formats::MeshFormatMimeType, kRanges);
+  static const std::string available = Available(kFormats, formats::MeshFormatMimeType);
+  return Negotiate(req, res, given, produced, formats::MeshFormat::kJson, available.c_str());
 }
 
-std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req,
-                                                  httplib::Response& res,
-                                                  std::optional<render::ImageFormat> given) {
-  using render::ImageFormat;
+std::optional<picture::ImageFormat> NegotiateImage(const httplib::Request& req,
+                                                   httplib::Response& res,
+                                                   std::optional<picture::ImageFormat> given) {
+  using picture::ImageFormat;
   static constexpr ImageFormat kFormats[] = {ImageFormat::kPng, ImageFormat::kJpeg,
                                              ImageFormat::kExr, ImageFormat::kTiff,
                                              ImageFormat::kWebp};
@@ -163,8 +165,8 @@ std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req,
       {"image/*", ImageFormat::kPng},
       {"*/*", ImageFormat::kPng},
       {"image/aces", ImageFormat::kExr}};
-  static const auto produced = Produced(kFormats, render::ImageFormatMimeType, kRanges);
-  static const std::string available = Available(kFormats, render::ImageFormatMimeType);
+  static const auto produced = Produced(kFormats, picture::ImageFormatMimeType, kRanges);
+  static const std::string available = Available(kFormats, picture::ImageFormatMimeType);
   return Negotiate(req, res, given, produced, ImageFormat::kPng, available.c_str());
 }
 
@@ -207,4 +209,4 @@ void SetWeightHeaders(httplib::Response& res, double sum, std::span<const Warnin
   if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

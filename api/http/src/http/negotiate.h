@@ -13,7 +13,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/offscreen/render.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 // The media type of a Content-Type value or of one Accept item, lowercased, without parameters.
 std::string MediaType(std::string_view header);
@@ -25,11 +25,12 @@ std::vector<std::string> AcceptedTypes(std::string_view accept);
 
 // The format the request names (`given`), else the one its Accept header prefers (JSON, PNG for
 // none); nullopt, with a 406 sent, when Accept names only types we cannot produce.
-std::optional<MeshFormat> NegotiateMesh(const httplib::Request& req, httplib::Response& res,
-                                        std::optional<MeshFormat> given);
-std::optional<render::ImageFormat> NegotiateImage(const httplib::Request& req,
-                                                  httplib::Response& res,
-                                                  std::optional<render::ImageFormat> given);
+std::optional<formats::MeshFormat> NegotiateMesh(const httplib::Request& req,
+                                                 httplib::Response& res,
+                                                 std::optional<formats::MeshFormat> given);
+std::optional<picture::ImageFormat> NegotiateImage(const httplib::Request& req,
+                                                   httplib::Response& res,
+                                                   std::optional<picture::ImageFormat> given);
 
 // True when the body may be read as JSON (Content-Type application/json, or none); otherwise a 415
 // was sent.
@@ -43,4 +44,4 @@ std::string WarningsHeader(std::span<const Warning> warnings);
 // Facespace-Weight-Sum, and Facespace-Warnings when there are any.
 void SetWeightHeaders(httplib::Response& res, double sum, std::span<const Warning> warnings);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

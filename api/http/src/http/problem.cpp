@@ -4,7 +4,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/formats/rig_json.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 using nlohmann::json;
 
@@ -111,7 +111,7 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, Problem pr
     p["errors"] = errors;
     if (fields.size() + omitted > errors.size()) p["errors_total"] = fields.size() + omitted;
   }
-  if (!warnings.empty()) p["warnings"] = WarningsValue(warnings);
+  if (!warnings.empty()) p["warnings"] = formats::WarningsValue(warnings);
   res.status = t.status;
   // A refusal written before any route (the connection front's) states its cost as every answer
   // does.
@@ -132,4 +132,4 @@ void SendJson(httplib::Response& res, int status, const json& body) {
   res.set_content(Dump(body), "application/json");
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -11,7 +11,7 @@
 #include "facespace/engine/status.h"
 #include "problems.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 const char* ReasonPhrase(int status);
 // The phrase of a status line as cpp-httplib writes it ("413 Payload Too Large"), for the
@@ -46,4 +46,4 @@ void SendJson(httplib::Response& res, int status, const nlohmann::json& body);
 // JSON text that never throws: invalid UTF-8 is replaced.
 std::string Dump(const nlohmann::json& j);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

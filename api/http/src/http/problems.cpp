@@ -6,7 +6,7 @@
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/evaluator/request.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -94,14 +94,14 @@ static_assert(InEnumOrder(), "kTable lists the problems in enum order, one each"
 
 // The reasons the lower layers name by constant are the table's.
 constexpr std::string_view NameOf(P p) { return kTable[static_cast<size_t>(p)].name; }
-static_assert(NameOf(P::kMalformedJson) == kMalformedJson &&
+static_assert(NameOf(P::kMalformedJson) == evaluator::kMalformedJson &&
               NameOf(P::kJobQueueFull) == batch::kJobQueueFull);
-static_assert(NameOf(P::kInvalidWeights) == kInvalidWeights &&
-              NameOf(P::kInvalidControls) == kInvalidControls &&
-              NameOf(P::kInvalidTarget) == kInvalidTarget &&
-              NameOf(P::kInvalidSequence) == kInvalidSequence &&
-              NameOf(P::kWeightsLeaveAuthoredSpace) == kLeavesAuthoredSpace &&
-              NameOf(P::kResponseTooLarge) == kResponseTooLarge);
+static_assert(NameOf(P::kInvalidWeights) == evaluator::kInvalidWeights &&
+              NameOf(P::kInvalidControls) == evaluator::kInvalidControls &&
+              NameOf(P::kInvalidTarget) == evaluator::kInvalidTarget &&
+              NameOf(P::kInvalidSequence) == evaluator::kInvalidSequence &&
+              NameOf(P::kWeightsLeaveAuthoredSpace) == evaluator::kLeavesAuthoredSpace &&
+              NameOf(P::kResponseTooLarge) == evaluator::kResponseTooLarge);
 
 }  // namespace
 
@@ -131,4 +131,4 @@ Problem ProblemOf(const Status& s) {
   return P::kInternal;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -12,7 +12,7 @@
 
 #include "facespace/engine/status.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 enum class Problem : uint8_t {
   // The request as bytes and HTTP.
@@ -104,4 +104,4 @@ std::optional<Problem> ProblemNamed(std::string_view name);
 // The problem of a Status: the one its reason names, else the generic one of its code.
 Problem ProblemOf(const Status& s);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -6,7 +6,7 @@
 
 #include <string_view>
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 inline constexpr std::string_view kMeshQuery[] = {
     "format", "space",  "keep_targets", "mode",   "normals", "strict", "skinning", "lod", "pose",
@@ -17,4 +17,4 @@ inline constexpr std::string_view kRenderQuery[] = {
     "loop",   "width", "height",  "view",      "background", "supersample", "quality",
     "camera", "yaw",   "pitch",   "distance",  "zoom",       "fov",         "exposure"};
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -124,4 +124,4 @@ std::vector<std::string> MetricLabels() {
   return labels;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

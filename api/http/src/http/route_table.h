@@ -9,7 +9,7 @@
 
 #include "../routes/routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 struct Route {
   const char* method;  // GET, POST, PUT or DELETE.
@@ -40,4 +40,4 @@ std::string PathPattern(std::string_view path);
 // The distinct metric labels in table order.
 std::vector<std::string> MetricLabels();
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

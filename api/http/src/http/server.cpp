@@ -1,4 +1,4 @@
-// api::Api: the route table installed on a cpp-httplib server, with the hooks every request goes
+// http::Api: the route table installed on a cpp-httplib server, with the hooks every request goes
 // through (CORS, errors as problem details, metrics, the access log).
 #include <chrono>
 #include <cstdio>
@@ -12,7 +12,7 @@
 #include "route_table.h"
 #include "routes/routes.h"
 
-namespace facespace::api {
+namespace facespace::http {
 
 using http::Problem;
 using http::RequestState;
@@ -25,7 +25,7 @@ struct Api::Impl {
   // Encodes each rig's description and topology and bakes its occlusion beside the first requests
   // (routes/rigs.cpp, WarmRig); stopped and joined before `ctx` goes.
   std::jthread warm;
-  Impl(RigStore& s, batch::JobQueue* j, const Evaluator& e, ApiOptions o)
+  Impl(evaluator::RigStore& s, batch::JobQueue* j, const evaluator::Evaluator& e, ApiOptions o)
       : ctx(s, j, e, std::move(o), http::MetricLabels()) {
     warm = std::jthread([this](std::stop_token stop) {
       for (const auto& rig : ctx.store.List()) {
@@ -37,7 +37,8 @@ struct Api::Impl {
   }
 };
 
-Api::Api(RigStore& store, const Evaluator& evaluator, ApiOptions options, batch::JobQueue* jobs)
+Api::Api(evaluator::RigStore& store, const evaluator::Evaluator& evaluator, ApiOptions options,
+         batch::JobQueue* jobs)
     : impl_(std::make_unique<Impl>(store, jobs, evaluator, std::move(options))) {}
 Api::~Api() = default;
 
@@ -47,7 +48,7 @@ bool Api::Keyed(std::string_view authorization) const {
   return http::CheckKey(impl_->ctx.options, authorization) == http::KeyCheck::kRight;
 }
 
-std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
+std::optional<std::string> Api::CheckHead(const net::RequestHeadView& head) {
   http::ServerState& ctx = impl_->ctx;
   Request req;
   req.method = head.method;
@@ -62,22 +63,22 @@ std::optional<std::string> Api::CheckHead(const RequestHeadView& head) {
   return http::ClosingResponse(res);
 }
 
-std::string Api::RefusalResponse(const RefusalInfo& info) {
+std::string Api::RefusalResponse(const net::RefusalInfo& info) {
   Request req;
   req.path = std::string(info.path);
   Response res;
   if (info.retry_after) res.set_header("Retry-After", "1");
   const http::Problem problem =
-      info.why == api::Refusal::kTooManyConnections ? http::Problem::kTooManyConnections
-      : info.why == api::Refusal::kBodyTooLarge     ? http::Problem::kBodyTooLarge
-      : info.why == api::Refusal::kBusy             ? http::Problem::kBusy
-      : info.why == api::Refusal::kRequestTimeout   ? http::Problem::kRequestTimeout
+      info.why == net::Refusal::kTooManyConnections ? http::Problem::kTooManyConnections
+      : info.why == net::Refusal::kBodyTooLarge     ? http::Problem::kBodyTooLarge
+      : info.why == net::Refusal::kBusy             ? http::Problem::kBusy
+      : info.why == net::Refusal::kRequestTimeout   ? http::Problem::kRequestTimeout
                                                     : http::ProblemOfHttpStatus(info.status);
   http::SendProblem(req, res, problem, std::string(info.detail));
   return http::ClosingResponse(res);
 }
 
-std::optional<std::string> Api::Probe(const RequestHeadView& head) {
+std::optional<std::string> Api::Probe(const net::RequestHeadView& head) {
   // A probe with a query goes to a worker, which refuses the parameters it does not declare as
   // every route does.
   if ((head.method != "GET" && head.method != "HEAD") || head.target.find('?') != std::string::npos)
@@ -109,7 +110,7 @@ std::optional<std::string> Api::Probe(const RequestHeadView& head) {
   if (ctx.options.log_requests)
     std::fprintf(stderr, "%s %s %d %zu %.3fms\n", req.method.c_str(), path.c_str(), res.status,
                  res.body.size(), seconds * 1e3);
-  const bool close = http::EqualsIgnoreCase(req.get_header_value("Connection"), "close");
+  const bool close = net::EqualsIgnoreCase(req.get_header_value("Connection"), "close");
   return close ? http::ClosingResponse(res, req.method == "HEAD")
                : http::KeptAliveResponse(res, req.method == "HEAD");
 }
@@ -235,7 +236,7 @@ void Api::Register(httplib::Server& server) {
       // WithinBudget).
       h(ctx, req, res);
       http::CompressBody(req, res,
-                         StopOf(req));  // On this worker, metered and stoppable (encoded.h).
+                         net::StopOf(req));  // On this worker, metered and stoppable (encoded.h).
     };
     const std::string method = route.method;
     if (method == "GET")
@@ -263,4 +264,4 @@ void Api::Register(httplib::Server& server) {
   }
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::http

@@ -12,7 +12,7 @@
 #include "facespace/http/http.h"
 #include "openapi.h"
 
-namespace facespace::api {
+namespace facespace::http {
 
 namespace {
 
@@ -179,7 +179,8 @@ std::string OpenApiJson(const ApiOptions& limits) {
                                        {"keyed_cpu_seconds", limits.keyed_cpu}};
   for (const auto& [name, value] : limits.limits) {
     json& at = doc["info"]["x-facespace-limits"][name];
-    if (at.is_null()) at = NumberValue(value);  // Whole numbers as integers (formats' rig_json.h).
+    if (at.is_null())
+      at = formats::NumberValue(value);  // Whole numbers as integers (formats' rig_json.h).
   }
   json& schemas = doc["components"]["schemas"];
   for (const char* schema : {"RenderRequest", "SheetRequest"}) {
@@ -202,4 +203,4 @@ std::string OpenApiJson(const ApiOptions& limits) {
   return doc.dump(1);
 }
 
-}  // namespace facespace::api
+}  // namespace facespace::http

@@ -7,7 +7,7 @@
 
 #include "openapi.h"
 
-namespace facespace::api::openapi {
+namespace facespace::http::openapi {
 
 namespace {
 
@@ -176,4 +176,4 @@ const std::vector<QueryParameter>& QueryParameters(std::string_view method, std:
   return it == declared.end() ? none : it->second;
 }
 
-}  // namespace facespace::api::openapi
+}  // namespace facespace::http::openapi

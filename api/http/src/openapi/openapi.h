@@ -9,7 +9,7 @@
 
 #include "facespace/evaluator/members.h"
 
-namespace facespace::api::openapi {
+namespace facespace::http::openapi {
 
 using nlohmann::json;
 
@@ -35,9 +35,9 @@ const std::vector<QueryParameter>& QueryParameters(std::string_view method, std:
 // A member of a request body (facespace/evaluator/members.h) as a JSON Schema: its kind and range,
 // its documentation, its default in the description and x-facespace-default (not `default`:
 // generated clients would make it required), its example.
-json MemberSchema(const facespace::api::Member& m);
+json MemberSchema(const facespace::evaluator::Member& m);
 
 // A response whose body is a problem (RFC 9457) described so.
 json Problem(const std::string& description);
 
-}  // namespace facespace::api::openapi
+}  // namespace facespace::http::openapi

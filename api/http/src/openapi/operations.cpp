@@ -3,7 +3,7 @@
 #include "openapi.h"
 #include "parts.h"
 
-namespace facespace::api::openapi {
+namespace facespace::http::openapi {
 
 namespace {
 
@@ -461,4 +461,4 @@ json Operations() {
   return operations;
 }
 
-}  // namespace facespace::api::openapi
+}  // namespace facespace::http::openapi

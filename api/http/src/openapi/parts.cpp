@@ -5,7 +5,7 @@
 #include "facespace/engine/speech.h"
 #include "facespace/evaluator/members.h"
 
-namespace facespace::api::openapi {
+namespace facespace::http::openapi {
 
 json Problem(const std::string& description) {
   return {
@@ -14,11 +14,11 @@ json Problem(const std::string& description) {
        {{"application/problem+json", {{"schema", {{"$ref", "#/components/schemas/Problem"}}}}}}}};
 }
 
-using facespace::api::Body;
-using facespace::api::FindMember;
-using facespace::api::Kind;
-using facespace::api::Member;
-using facespace::api::Members;
+using facespace::evaluator::Body;
+using facespace::evaluator::FindMember;
+using facespace::evaluator::Kind;
+using facespace::evaluator::Member;
+using facespace::evaluator::Members;
 
 // The headers every answer of the mesh and image routes carries.
 json CommonHeaders() {
@@ -261,4 +261,4 @@ json JsonBody(const char* name) {
 
 json Auth() { return json::array({{{"bearer", json::array()}}}); }
 
-}  // namespace facespace::api::openapi
+}  // namespace facespace::http::openapi

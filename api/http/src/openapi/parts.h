@@ -6,7 +6,7 @@
 
 #include "openapi.h"
 
-namespace facespace::api::openapi {
+namespace facespace::http::openapi {
 
 // The headers every answer of the mesh and image routes carries.
 json CommonHeaders();
@@ -38,4 +38,4 @@ json Auth();
 // A required JSON request body whose schema is the component `name`.
 json JsonBody(const char* name);
 
-}  // namespace facespace::api::openapi
+}  // namespace facespace::http::openapi

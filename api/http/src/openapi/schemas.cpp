@@ -5,13 +5,13 @@
 #include "facespace/evaluator/members.h"
 #include "openapi.h"
 
-namespace facespace::api::openapi {
+namespace facespace::http::openapi {
 
 namespace {
 
-using facespace::api::Body;
-using facespace::api::Kind;
-using facespace::api::Member;
+using facespace::evaluator::Body;
+using facespace::evaluator::Kind;
+using facespace::evaluator::Member;
 
 // ---- plain types ----
 
@@ -412,27 +412,27 @@ json Job() {
 
 // The request bodies, from their member tables (evaluator/members.h): a member's default is in its
 // description and x-facespace-default, not `default`, so that generated clients keep it optional.
-json MemberSchema(const facespace::api::Member& m) {
+json MemberSchema(const facespace::evaluator::Member& m) {
   json s;
   switch (m.kind) {
-    case facespace::api::Kind::kNumber:
-    case facespace::api::Kind::kInteger:
-      s = {{"type", m.kind == facespace::api::Kind::kInteger ? "integer" : "number"}};
+    case facespace::evaluator::Kind::kNumber:
+    case facespace::evaluator::Kind::kInteger:
+      s = {{"type", m.kind == facespace::evaluator::Kind::kInteger ? "integer" : "number"}};
       if (std::isfinite(m.lo)) s["minimum"] = m.lo;
       if (std::isfinite(m.hi)) s["maximum"] = m.hi;
       break;
-    case facespace::api::Kind::kBoolean: s = {{"type", "boolean"}}; break;
-    case facespace::api::Kind::kString:
+    case facespace::evaluator::Kind::kBoolean: s = {{"type", "boolean"}}; break;
+    case facespace::evaluator::Kind::kString:
       s = {{"type", "string"}};
       if (!m.schema.empty()) s["pattern"] = m.schema;
       break;
-    case facespace::api::Kind::kChoice: {
+    case facespace::evaluator::Kind::kChoice: {
       json choices = json::array();
-      for (std::string_view c : facespace::api::Choices(m)) choices.push_back(std::string(c));
+      for (std::string_view c : facespace::evaluator::Choices(m)) choices.push_back(std::string(c));
       s = {{"type", "string"}, {"enum", choices}};
       break;
     }
-    case facespace::api::Kind::kSchema:
+    case facespace::evaluator::Kind::kSchema:
       s = m.schema.starts_with('#') ? Ref(std::string(m.schema.substr(1)).c_str())
                                     : json::parse(m.schema);
       break;
@@ -513,9 +513,9 @@ json Schemas() {
           {"keys", ArrayOf(Open())},
           {"warnings", ArrayOf(Ref("Warning"))}}}}}};
   schemas.update(ValueSchemas());
-  for (Body body : facespace::api::kBodies)
-    schemas[std::string(facespace::api::SchemaName(body))] = BodySchema(body);
+  for (Body body : facespace::evaluator::kBodies)
+    schemas[std::string(facespace::evaluator::SchemaName(body))] = BodySchema(body);
   return schemas;
 }
 
-}  // namespace facespace::api::openapi
+}  // namespace facespace::http::openapi

@@ -6,7 +6,7 @@
 #include "../zip.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -57,12 +57,12 @@ std::optional<batch::JobInfo> FindJob(ServerState& ctx, const httplib::Request& 
 // The media type of a job's file: the formats' own tables, and JSON lines for the manifest.
 const char* FileType(const std::string& name) {
   const std::string ext = name.substr(name.rfind('.') + 1);
-  MeshFormat mesh;
-  render::ImageFormat image;
+  formats::MeshFormat mesh;
+  picture::ImageFormat image;
   if (ext == "jsonl") return "application/x-ndjson";
   if (ext == "tar") return "application/x-tar";
   if (ParseMeshFormat(ext, &mesh)) return MeshFormatMimeType(mesh);
-  if (render::ParseImageFormat(ext, &image)) return render::ImageFormatMimeType(image);
+  if (picture::ParseImageFormat(ext, &image)) return picture::ImageFormatMimeType(image);
   return "application/octet-stream";
 }
 
@@ -88,7 +88,7 @@ void SendJobFile(ServerState& ctx, const httplib::Request& req, httplib::Respons
   auto f = std::make_shared<std::ifstream>(path, std::ios::binary);
   std::error_code ec;
   const uint64_t size = std::filesystem::file_size(path, ec);
-  if (!IsValidVariantId(name) || !*f || ec) {
+  if (!evaluator::IsValidVariantId(name) || !*f || ec) {
     SendProblem(req, res, Problem::kFileNotFound,
                 "job " + job->id + " has no file '" + name.substr(0, 80) + "'" +
                     (job->state == JobState::kDone
@@ -219,4 +219,4 @@ void GetJobResults(ServerState& ctx, const httplib::Request& req, httplib::Respo
   });
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -15,7 +15,7 @@
 #include "live_say.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -28,11 +28,11 @@ constexpr size_t kHeaderBytes = 16;
 // The members a state message may carry, merged into the point; and the others it may carry.
 constexpr std::string_view kMerged[] = {"weights", "expressions", "controls", "gaze"};
 
-class FaceSession final : public LiveHandler {
+class FaceSession final : public net::LiveHandler {
  public:
-  FaceSession(ServerState& ctx, std::shared_ptr<const StoredRig> rig, json limits)
+  FaceSession(ServerState& ctx, std::shared_ptr<const evaluator::StoredRig> rig, json limits)
       : ctx_(ctx), rig_(std::move(rig)), limits_(std::move(limits)) {
-    request_.format = MeshFormat::kF32;
+    request_.format = formats::MeshFormat::kF32;
     ResolvePoint(rig_->rig, request_, point_);  // The rest point: every weight 0.
   }
 
@@ -85,7 +85,7 @@ class FaceSession final : public LiveHandler {
         if (into.empty()) next.erase(key);
       } else {
         std::string valid;  // The message's members: its table (facespace/evaluator/members.h).
-        for (const Member& k : Members(Body::kLive))
+        for (const evaluator::Member& k : Members(evaluator::Body::kLive))
           valid += (valid.empty() ? "" : ", ") + std::string(k.name);
         out.texts.push_back(ErrorEvent(
             "unknown-member", "unknown member '" + key.substr(0, 64) + "'; valid: " + valid,
@@ -103,7 +103,7 @@ class FaceSession final : public LiveHandler {
   void OnBinary(std::string_view bytes, Out& out) override {
     if (!listener_) {
       out.close = true;
-      out.code = ws::CloseCode::kUnsupportedData;
+      out.code = net::ws::CloseCode::kUnsupportedData;
       out.reason = "binary messages are audio, and need {\"listen\": ...} first";
       return;
     }
@@ -116,7 +116,7 @@ class FaceSession final : public LiveHandler {
       // Faster than it plays: the session ends (a client that streams a microphone never gets
       // here).
       out.close = true;
-      out.code = ws::CloseCode::kPolicy;
+      out.code = net::ws::CloseCode::kPolicy;
       out.reason = s.message.substr(0, 120);
     }
   }
@@ -147,7 +147,8 @@ class FaceSession final : public LiveHandler {
     auto ws =
         ctx_.workspaces.Acquire(stop_.get_token(), nullptr);  // f32 frames: no helper threads.
     ctx_.metrics.CountBlends(1);
-    auto enc = ctx_.evaluator.Run(rig_, point_, OutputSpec::Mesh(request_, MeshFormat::kF32), *ws);
+    auto enc = ctx_.evaluator.Run(
+        rig_, point_, evaluator::OutputSpec::Mesh(request_, formats::MeshFormat::kF32), *ws);
     if (!enc.ok()) {
       out.texts.push_back(ErrorEvent(enc.status().reason.empty() ? "error" : enc.status().reason,
                                      enc.status().message));
@@ -163,7 +164,7 @@ class FaceSession final : public LiveHandler {
     return true;
   }
 
-  void Attach(LivePost post, LiveWake wake) override {
+  void Attach(net::LivePost post, net::LiveWake wake) override {
     speaker_.Attach(std::move(post));
     wake_ = std::move(wake);
   }
@@ -206,7 +207,7 @@ class FaceSession final : public LiveHandler {
     int rate = 175;
     for (auto it = say.begin(); it != say.end(); ++it) {
       const std::string where = "/say/" + it.key().substr(0, 64);
-      if (!FindMember(Body::kLiveSay, it.key())) {
+      if (!FindMember(evaluator::Body::kLiveSay, it.key())) {
         return out.texts.push_back(ErrorEvent(
             "unknown-member", "say takes text, voice (a string) and rate (words a minute)", where));
       }
@@ -249,7 +250,7 @@ class FaceSession final : public LiveHandler {
       if (it.key() == "frames" && !it->is_boolean())
         return out.texts.push_back(
             ErrorEvent("invalid-message", "frames must be true or false", where));
-      if (!FindMember(Body::kLiveListen, it.key()))
+      if (!FindMember(evaluator::Body::kLiveListen, it.key()))
         return out.texts.push_back(
             ErrorEvent("unknown-member", "listen takes rate and frames", where));
     }
@@ -301,9 +302,9 @@ class FaceSession final : public LiveHandler {
   // one the frames show; an error leaves the shown point as it was.
   Status Show(json body) {
     body["format"] = "f32";
-    auto request = ParseMeshRequest(body.dump());
+    auto request = evaluator::ParseMeshRequest(body.dump());
     if (!request.ok()) return request.status();
-    ResolvedPoint point;
+    evaluator::ResolvedPoint point;
     if (Status s = ResolvePoint(rig_->rig, request.value(), point); !s.ok()) return s;
     request_ = std::move(request.value());
     point_ = std::move(point);
@@ -331,15 +332,15 @@ class FaceSession final : public LiveHandler {
   }
 
   ServerState& ctx_;
-  std::shared_ptr<const StoredRig> rig_;
+  std::shared_ptr<const evaluator::StoredRig> rig_;
   json limits_;
   json state_ = json::object();
-  MeshRequest request_;
-  ResolvedPoint point_;
+  evaluator::MeshRequest request_;
+  evaluator::ResolvedPoint point_;
   uint32_t frame_ = 0, last_id_ = 0;
   json last_warnings_ = json::array();
   std::stop_source stop_;
-  LiveWake wake_;
+  net::LiveWake wake_;
   // While listening: a decoder and a thread of its own. Set and reset by turns under listener_mu_,
   // which Cancel takes from the hub's loop; turns read it without.
   std::mutex listener_mu_;
@@ -358,7 +359,7 @@ bool HasToken(const httplib::Request& req, const char* header, std::string_view 
     std::string_view part(value.data() + at, end - at);
     while (!part.empty() && (part.front() == ' ' || part.front() == '\t')) part.remove_prefix(1);
     while (!part.empty() && (part.back() == ' ' || part.back() == '\t')) part.remove_suffix(1);
-    if (EqualsIgnoreCase(part, token)) return true;
+    if (net::EqualsIgnoreCase(part, token)) return true;
     at = end + 1;
   }
   return false;
@@ -366,10 +367,10 @@ bool HasToken(const httplib::Request& req, const char* header, std::string_view 
 
 // The session's place, given back unless the hub took the socket.
 struct Place {
-  Place(LiveHub& h, std::string i) : hub(h), ip(std::move(i)) {}
+  Place(net::LiveHub& h, std::string i) : hub(h), ip(std::move(i)) {}
   Place(const Place&) = delete;
   Place& operator=(const Place&) = delete;
-  LiveHub& hub;
+  net::LiveHub& hub;
   std::string ip;
   bool taken = false;
   ~Place() {
@@ -393,18 +394,18 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
     return SendProblem(req, res, Problem::kUpgradeRequired, "Sec-WebSocket-Version must be 13");
   }
   const std::string key = req.get_header_value("Sec-WebSocket-Key");
-  if (!ws::ValidClientKey(key))
+  if (!net::ws::ValidClientKey(key))
     return SendProblem(req, res, Problem::kBadRequest,
                        "Sec-WebSocket-Key must be the base64 of 16 bytes");
   // The cost, stated before the session: a frame's blend and encoding, at most 60 a second; the
   // session may spend twice that over its lifetime, and lasts at most --live-seconds.
-  const Cost frame =
-      MeshCost(stored->rig, MeshFormat::kF32, SIZE_MAX);  // Any shapes a message may weight.
+  const Cost frame = MeshCost(stored->rig, formats::MeshFormat::kF32,
+                              SIZE_MAX);  // Any shapes a message may weight.
   const double per_second = 60 * frame.seconds;
   if (!WithinBudget(ctx, req, res, {per_second, "/live", "60 frames a second x " + frame.formula}))
     return;
   const bool keyed = CarriesKey(ctx, req);
-  SessionBounds bounds;
+  net::SessionBounds bounds;
   bounds.lifetime =
       std::chrono::seconds(keyed ? ctx.options.keyed_live_seconds : ctx.options.live_seconds);
   bounds.cpu_seconds = 2 * per_second * static_cast<double>(bounds.lifetime.count()) + 1;
@@ -415,21 +416,21 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
                        "address (--max-live-sessions, --max-client-live-sessions)");
   }
   auto place = std::make_shared<Place>(ctx.live, req.remote_addr);
-  const LiveLimits& l = ctx.live.limits();
+  const net::LiveLimits& l = ctx.live.limits();
   json limits = {
       {"fps", std::lround(1e6 / static_cast<double>(std::max<long>(1, l.frame_interval.count())))},
       {"max_message_bytes", l.max_message},
       {"max_messages_per_second", l.max_rate},
       {"seconds", bounds.lifetime.count()},
       {"cpu_seconds", bounds.cpu_seconds}};
-  auto session = std::make_shared<std::unique_ptr<LiveHandler>>(
+  auto session = std::make_shared<std::unique_ptr<net::LiveHandler>>(
       std::make_unique<FaceSession>(ctx, stored, limits));
   const std::string head =
       "HTTP/1.1 101 Switching Protocols\r\nUpgrade: websocket\r\nConnection: "
       "Upgrade\r\nSec-WebSocket-Accept: " +
-      ws::AcceptKey(key) + "\r\nFacespace-Cost: " + std::to_string(per_second) + "\r\n\r\n";
+      net::ws::AcceptKey(key) + "\r\nFacespace-Cost: " + std::to_string(per_second) + "\r\n\r\n";
   const std::string ip = req.remote_addr;
-  const bool upgraded = UpgradeConnection(
+  const bool upgraded = net::UpgradeConnection(
       req, head, [&ctx, place, session, ip, bounds](int fd, std::string buffered) {
         place->taken = true;
         ctx.live.Adopt(fd, ip, std::move(buffered), std::move(*session), bounds);
@@ -440,4 +441,4 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   res.status = 101;
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

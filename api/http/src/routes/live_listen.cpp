@@ -8,7 +8,7 @@
 
 #include "facespace/net/live_hub.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 Result<std::unique_ptr<LiveListener>> LiveListener::Open(std::function<void()> wake) {
   auto rec = speech::LiveRecognizer::Open();
@@ -117,4 +117,4 @@ void LiveListener::Run(std::stop_token stop) {
   }
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -22,7 +22,7 @@
 #include "facespace/engine/status.h"
 #include "facespace/speech/speech.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 class LiveListener {
  public:
@@ -73,4 +73,4 @@ class LiveListener {
   std::jthread thread_;  // Last: it runs on the members above.
 };
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

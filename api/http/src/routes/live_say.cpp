@@ -6,7 +6,7 @@
 #include "facespace/engine/weights.h"
 #include "facespace/speech/speech.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -200,7 +200,7 @@ double LiveSpeaker::Send(Utterance& u, bool all_made) {
       m.push_back(static_cast<char>(s & 0xFF));
       m.push_back(static_cast<char>(s >> 8));
     }
-    post_(ws::Opcode::kBinary, m);
+    post_(net::ws::Opcode::kBinary, m);
     u.sent_samples += n;
     taken += n;
   }
@@ -305,4 +305,4 @@ void LiveSpeaker::Speak(const Piece& piece, std::stop_token stop) {
            .dump());
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -26,7 +26,7 @@
 #include "facespace/engine/status.h"
 #include "facespace/net/live_hub.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 // The text of a piece cut where it may be spoken in parts, each taking at most about
 // LiveSpeaker::kSegmentSeconds to say at `rate` (words a minute): after the last whole sentence (.
@@ -66,7 +66,7 @@ class LiveSpeaker {
   LiveSpeaker(const LiveSpeaker&) = delete;
   LiveSpeaker& operator=(const LiveSpeaker&) = delete;
 
-  void Attach(LivePost post) { post_ = std::move(post); }
+  void Attach(net::LivePost post) { post_ = std::move(post); }
   // Queues a piece (checked: text, voice, rate); errors name the field under /say.
   Status Say(std::string text, std::string voice, int rate);
   // Ends what is being said and drops what waits; false when nothing was.
@@ -92,9 +92,9 @@ class LiveSpeaker {
   bool SpeakSegment(Utterance& u, const Piece& piece, std::string_view text,
                     const std::stop_token& halt);
   void Charge();  // The speaking thread's CPU since the last call, into cpu_ns_.
-  void Post(const std::string& text) { post_(ws::Opcode::kText, text); }
+  void Post(const std::string& text) { post_(net::ws::Opcode::kText, text); }
 
-  LivePost post_;
+  net::LivePost post_;
   std::mutex mu_;
   std::condition_variable_any cv_;
   std::deque<Piece> queue_;
@@ -110,4 +110,4 @@ class LiveSpeaker {
   std::atomic<int64_t> cpu_ns_{0};
 };
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

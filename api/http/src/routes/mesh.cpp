@@ -6,7 +6,7 @@
 #include "http/query_params.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -31,15 +31,16 @@ bool ParseBool(const std::string& s, bool* out) {
 }
 
 // The mesh request from a POST body or GET query; false when an error was sent.
-bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res, MeshRequest& r) {
-  if (req.method == "POST") return ReadJsonBody(req, res, ParseMeshRequest, r);
+bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res,
+                     evaluator::MeshRequest& r) {
+  if (req.method == "POST") return ReadJsonBody(req, res, evaluator::ParseMeshRequest, r);
   std::vector<FieldError> errors;
   for (auto it = req.params.begin(); it != req.params.end(); ++it) {
     const auto& [key, value] = *it;
     const std::string where = "?" + key;
     if (Repeated(req, it, errors)) continue;
     if (key == "format") {
-      MeshFormat f;
+      formats::MeshFormat f;
       if (ParseMeshFormat(value, &f))
         r.format = f;
       else
@@ -78,7 +79,7 @@ bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it,
   return true;
 }
 
-bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r,
+bool MeshQueryParam(const std::string& key, const std::string& value, evaluator::MeshRequest& r,
                     std::vector<FieldError>& errors) {
   const std::string where = "?" + key;
   // A shape weight, or a control value: w.NAME, or w[NAME] (OpenAPI's deepObject style, what
@@ -99,10 +100,10 @@ bool MeshQueryParam(const std::string& key, const std::string& value, MeshReques
     else
       (key[0] == 'w' ? r.weights : key[0] == 'c' ? r.controls : r.pose.expressions).push_back(e);
   } else if (key == "mode") {
-    if (!ParseBlendMode(value, &r.options.mode))
+    if (!evaluator::ParseBlendMode(value, &r.options.mode))
       errors.push_back({where, "must be relative or absolute"});
   } else if (key == "normals") {
-    if (!ParseNormalMode(value, &r.options.normals))
+    if (!evaluator::ParseNormalMode(value, &r.options.normals))
       errors.push_back({where, "must be blend or recompute"});
   } else if (key == "strict") {
     if (!ParseBool(value, &r.strict)) errors.push_back({where, "must be true or false"});
@@ -115,7 +116,7 @@ bool MeshQueryParam(const std::string& key, const std::string& value, MeshReques
   return true;
 }
 
-bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r,
+bool FinishQuery(const httplib::Request& req, httplib::Response& res, evaluator::MeshRequest& r,
                  std::vector<FieldError>& errors) {
   if (std::string e = FinishPoseSettings(r); !e.empty()) errors.push_back({"?animation", e});
   if (errors.empty()) return true;
@@ -126,22 +127,22 @@ bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshReques
 
 void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  MeshRequest r;
+  evaluator::MeshRequest r;
   if (!stored || !ReadMeshRequest(req, res, r) ||
       !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format, WeightedShapes(r))))
     return;
   const auto format = NegotiateMesh(req, res, r.format);
   if (!format) return;
-  ResolvedPoint point;
+  evaluator::ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
-  const OutputSpec spec = OutputSpec::Mesh(r, *format);
+  const evaluator::OutputSpec spec = evaluator::OutputSpec::Mesh(r, *format);
   const std::string key = CacheKey(*stored, {&point, 1}, spec);
   if (NotModified(req, res, key)) return;
   SendCached(ctx, req, res, key, spec.content_type(), Admit::kSecondRequest,
-             [&](Workspace& ws) -> Result<Encoded> {
+             [&](evaluator::Workspace& ws) -> Result<evaluator::Encoded> {
                ctx.metrics.CountBlends(1);
-               if (ws.body.capacity() == 0 && *format == MeshFormat::kF32)
+               if (ws.body.capacity() == 0 && *format == formats::MeshFormat::kF32)
                  ws.body = ctx.bodies->Take();  // Written over, not allocated.
                return ctx.evaluator.Run(stored, point, spec, ws);
              });
@@ -149,11 +150,11 @@ void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Respo
 
 void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  MeshRequest r;
+  evaluator::MeshRequest r;
   if (!stored || !ReadMeshRequest(req, res, r) ||
       !WithinBudget(ctx, req, res, MeshCost(stored->rig, std::nullopt, WeightedShapes(r))))
     return;
-  ResolvedPoint point;
+  evaluator::ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
   res.status = 200;
@@ -162,11 +163,11 @@ void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response&
 
 void PostFit(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  FitRequest r;
-  if (!stored || !ReadJsonBody(req, res, ParseFitRequest, r) ||
+  evaluator::FitRequest r;
+  if (!stored || !ReadJsonBody(req, res, evaluator::ParseFitRequest, r) ||
       !WithinBudget(ctx, req, res, FitCost(stored->rig, r)))
     return;
-  r.options.stop = StopOf(req);
+  r.options.stop = net::StopOf(req);
   auto out = ProduceFit(stored->rig, r);
   if (!out.ok()) return SendStatus(req, res, out.status());
   if (!out->warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(out->warnings));
@@ -174,4 +175,4 @@ void PostFit(ServerState& ctx, const httplib::Request& req, httplib::Response& r
   res.set_content(std::move(out->bytes), out->content_type);
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -2,13 +2,14 @@
 #include "../http/cost.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
 // The render request from a POST body or GET query; false when an error was sent.
-bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, RenderRequest& r) {
-  if (req.method == "POST") return ReadJsonBody(req, res, ParseRenderRequest, r);
+bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res,
+                       evaluator::RenderRequest& r) {
+  if (req.method == "POST") return ReadJsonBody(req, res, evaluator::ParseRenderRequest, r);
   std::vector<FieldError> errors;
   for (auto it = req.params.begin(); it != req.params.end(); ++it) {
     const auto& [key, value] = *it;
@@ -25,7 +26,7 @@ bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res, Rend
 
 // The server's size limit; false with a 422 sent.
 bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-               const render::RenderOptions& o) {
+               const picture::RenderOptions& o) {
   const int max = ctx.options.max_render_size;
   if (o.width <= max && o.height <= max) return true;
   SendProblem(req, res, Problem::kImageTooLarge,
@@ -39,7 +40,7 @@ bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Res
 
 void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  RenderRequest r;
+  evaluator::RenderRequest r;
   if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) ||
       !CheckRenderBudget(ctx, req, res, r.render, 1))
     return;
@@ -47,14 +48,14 @@ void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Res
   if (!format ||
       !WithinBudget(ctx, req, res, RenderCost(stored->rig, r.render, req.method == "GET", *format)))
     return;
-  ResolvedPoint point;
+  evaluator::ResolvedPoint point;
   const Status s = ResolvePoint(stored->rig, r.mesh, point);
   if (!ReportPoint(ctx, req, res, s, point.report.sum, point.report.warnings)) return;
-  const OutputSpec spec = OutputSpec::Image(r, *format);
+  const evaluator::OutputSpec spec = evaluator::OutputSpec::Image(r, *format);
   const std::string key = CacheKey(*stored, {&point, 1}, spec);
   if (NotModified(req, res, key)) return;
   SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest,
-             [&](Workspace& ws) -> Result<Encoded> {
+             [&](evaluator::Workspace& ws) -> Result<evaluator::Encoded> {
                ctx.metrics.CountBlends(1);
                return WithinRenderBudget(ctx, RenderBudget::Estimate(r.render, 1), [&] {
                  return ctx.evaluator.Run(stored, point, spec, ws);
@@ -64,8 +65,8 @@ void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Res
 
 void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  SheetRequest r;
-  if (!stored || !ReadJsonBody(req, res, ParseSheetRequest, r) ||
+  evaluator::SheetRequest r;
+  if (!stored || !ReadJsonBody(req, res, evaluator::ParseSheetRequest, r) ||
       !CheckSize(ctx, req, res, r.base.render))
     return;
   if (Status s = ExpandShapeCells(stored->rig, ctx.evaluator.renderer(), r); !s.ok())
@@ -84,14 +85,14 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
                     SheetCost(stored->rig, r.base.render, r.cells.size(), *format))) {
     return;
   }
-  SheetPoints points;
+  evaluator::SheetPoints points;
   const Status s = ResolveSheet(stored->rig, r, points);
   if (!ReportPoint(ctx, req, res, s, points.max_sum, points.warnings)) return;
-  const OutputSpec spec = OutputSpec::Sheet(r, *format);
+  const evaluator::OutputSpec spec = evaluator::OutputSpec::Sheet(r, *format);
   const std::string key = CacheKey(*stored, points.cells, spec);
   if (NotModified(req, res, key)) return;
   SendCached(ctx, req, res, key, spec.content_type(), Admit::kFirstRequest,
-             [&](Workspace& ws) -> Result<Encoded> {
+             [&](evaluator::Workspace& ws) -> Result<evaluator::Encoded> {
                ctx.metrics.CountBlends(points.cells.size());
                return WithinRenderBudget(
                    ctx, RenderBudget::Estimate(r.base.render, points.cells.size()),
@@ -99,4 +100,4 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
              });
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -12,13 +12,13 @@
 #include "http/encoded.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
 using nlohmann::json;
 
-json RigSummary(const StoredRig& s) {
+json RigSummary(const evaluator::StoredRig& s) {
   const Rig& r = s.rig;
   json o = {{"id", s.id},
             {"name", r.name},
@@ -32,7 +32,7 @@ json RigSummary(const StoredRig& s) {
   return o;
 }
 
-json RigDetail(const StoredRig& s) {
+json RigDetail(const evaluator::StoredRig& s) {
   json j = RigSummary(s);
   j.update(DescribeRig(s.rig));
   return j;
@@ -51,7 +51,7 @@ std::vector<std::array<float, 4>> FlatColors(const Rig& rig) {
       if (!kept) {
         kept = std::array<float, 4>{1, 1, 1, 1};
         const Image& image = rig.images[static_cast<size_t>(m.base_color_image)];
-        if (auto decoded = render::Decode(image.bytes, image.mime_type);
+        if (auto decoded = offscreen::Decode(image.bytes, image.mime_type);
             decoded.ok()) {  // Not read (no bytes): not an image.
           const std::vector<float>& px = decoded->rgba;
           std::array<double, 4> sum{0, 0, 0, 0};
@@ -73,7 +73,7 @@ std::vector<std::array<float, 4>> FlatColors(const Rig& rig) {
 
 // Triangle lists per primitive, in the order of the f32 and JSON mesh outputs, its flat colour, and
 // where the shapes act.
-std::string TopologyJson(const Rig& at, const DerivedRig& derived) {
+std::string TopologyJson(const Rig& at, const evaluator::DerivedRig& derived) {
   const std::vector<std::array<float, 4>> colors = FlatColors(at);
   std::string out = "{\"primitives\":[";
   for (size_t p = 0; p < at.primitives.size(); ++p) {
@@ -106,14 +106,14 @@ std::string TopologyJson(const Rig& at, const DerivedRig& derived) {
   return out + "}";
 }
 
-std::string TopologyKey(const StoredRig& s, int lod) {
+std::string TopologyKey(const evaluator::StoredRig& s, int lod) {
   return "topology|" + s.id + "@" + s.version + "|" + std::to_string(lod);
 }
-std::string RigKey(const StoredRig& s) { return "rig|" + s.id + "@" + s.version; }
+std::string RigKey(const evaluator::StoredRig& s) { return "rig|" + s.id + "@" + s.version; }
 
 }  // namespace
 
-void WarmRig(ServerState& ctx, const std::shared_ptr<const StoredRig>& stored) {
+void WarmRig(ServerState& ctx, const std::shared_ptr<const evaluator::StoredRig>& stored) {
   const auto derived = ctx.evaluator.Derived(stored, 0);
   for (ContentCoding coding : {ContentCoding::kBrotli, ContentCoding::kGzip}) {
     ContentCoding c = coding;
@@ -148,14 +148,14 @@ void GetRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
 // The rig format of an upload: from its media type, or for application/octet-stream (or a
 // multipart part with no type) from the file name it carries, else from the bytes' magic.
 Status UploadFormat(const std::string& media_type, std::string name, std::string_view bytes,
-                    RigFormat* format) {
+                    formats::RigFormat* format) {
   const std::string ct = MediaType(media_type);
-  static const std::pair<const char*, RigFormat> kTypes[] = {
-      {"model/gltf-binary", RigFormat::kGlb},
-      {"model/gltf+json", RigFormat::kGltf},
-      {"model/vnd.collada+xml", RigFormat::kCollada},
-      {"model/x-fbx", RigFormat::kFbx},
-      {"application/vnd.autodesk.fbx", RigFormat::kFbx}};
+  static const std::pair<const char*, formats::RigFormat> kTypes[] = {
+      {"model/gltf-binary", formats::RigFormat::kGlb},
+      {"model/gltf+json", formats::RigFormat::kGltf},
+      {"model/vnd.collada+xml", formats::RigFormat::kCollada},
+      {"model/x-fbx", formats::RigFormat::kFbx},
+      {"application/vnd.autodesk.fbx", formats::RigFormat::kFbx}};
   for (const auto& [type, f] : kTypes) {
     if (ct == type) {
       *format = f;
@@ -171,11 +171,11 @@ Status UploadFormat(const std::string& media_type, std::string name, std::string
       "(JSON)";
   if (ct != "application/octet-stream" && !ct.empty())
     return InvalidArgument(std::string(kAccepted) + ", not " + ct);
-  if (!name.empty() && RigFormatFromPath(name, format) && *format != RigFormat::kMd5)
+  if (!name.empty() && RigFormatFromPath(name, format) && *format != formats::RigFormat::kMd5)
     return Status::Ok();
   const auto* data = reinterpret_cast<const unsigned char*>(bytes.data());
   if (name.empty() && SniffRigFormat(std::span<const unsigned char>(data, bytes.size()), format) &&
-      *format != RigFormat::kMd5) {
+      *format != formats::RigFormat::kMd5) {
     return Status::Ok();
   }
   return InvalidArgument(std::string(kAccepted) +
@@ -242,7 +242,7 @@ bool ManifestIsJsonObject(const httplib::Request& req, httplib::Response& res,
                WithReason(InvalidArgument(
                               (pointer == "/" ? std::string("the manifest") : pointer.substr(1)) +
                               ": not valid JSON"),
-                          kMalformedJson));
+                          evaluator::kMalformedJson));
     return false;
   }
   if (!j.is_object()) {
@@ -274,7 +274,7 @@ void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
   if (!Authorized(ctx, req, res) || !WithinBudget(ctx, req, res, UploadCost(req.body.size())))
     return;
   const std::string id = req.matches[1];
-  if (!IsValidRigId(id)) {
+  if (!evaluator::IsValidRigId(id)) {
     SendProblem(req, res, Problem::kInvalidId,
                 "rig ids are 1 to 64 characters of [a-z0-9_-], starting with a letter or digit",
                 {{"?id", "invalid rig id"}});
@@ -297,7 +297,7 @@ void PutRig(ServerState& ctx, const httplib::Request& req, httplib::Response& re
     name = UploadName(req);
     if (MediaType(media_type).empty()) media_type = "none";  // A plain upload says what it is.
   }
-  RigFormat format;
+  formats::RigFormat format;
   if (Status s = UploadFormat(media_type, name, bytes, &format); !s.ok()) {
     SendProblem(req, res, Problem::kUnsupportedMediaType, s.message);
     return;
@@ -327,7 +327,7 @@ void GetManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
       res.status = 304;  // The client's copy is this version's.
       return;
     }
-    res.set_content(ManifestJson(r->rig), "application/json");
+    res.set_content(formats::ManifestJson(r->rig), "application/json");
   }
 }
 
@@ -341,7 +341,7 @@ void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
     return;
   }
   if (!ManifestIsJsonObject(req, res, req.body, "/")) return;
-  Status s = IsValidRigId(id) ? ctx.store.PutManifest(id, req.body) : NotFound("");
+  Status s = evaluator::IsValidRigId(id) ? ctx.store.PutManifest(id, req.body) : NotFound("");
   if (s.code == StatusCode::kNotFound) {
     SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'");
     return;
@@ -362,7 +362,7 @@ void PutManifest(ServerState& ctx, const httplib::Request& req, httplib::Respons
 void DeleteRig(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   if (!Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
-  Status s = IsValidRigId(id) ? ctx.store.Delete(id) : NotFound("");
+  Status s = evaluator::IsValidRigId(id) ? ctx.store.Delete(id) : NotFound("");
   if (s.code == StatusCode::kNotFound) {
     SendProblem(req, res, Problem::kRigNotFound, "no rig with id '" + id.substr(0, 80) + "'");
   } else if (!s.ok()) {
@@ -378,9 +378,9 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   if (!stored) return;
   int lod = 0;
-  if (req.has_param("lod") && !ParseLod(req.get_param_value("lod"), &lod)) {
-    SendProblem(req, res, Problem::kInvalidRequest, "lod: must be " + LodExpected(),
-                {{"?lod", "must be " + LodExpected()}});
+  if (req.has_param("lod") && !formats::ParseLod(req.get_param_value("lod"), &lod)) {
+    SendProblem(req, res, Problem::kInvalidRequest, "lod: must be " + formats::LodExpected(),
+                {{"?lod", "must be " + formats::LodExpected()}});
     return;
   }
   // The triangles as JSON, or the indices alone as little-endian uint32.
@@ -430,4 +430,4 @@ void GetTopology(ServerState& ctx, const httplib::Request& req, httplib::Respons
                   [&at, &derived] { return TopologyJson(at, *derived); });
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -6,7 +6,7 @@
 
 #include "../http/context.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 using Handler = void (*)(ServerState& ctx, const httplib::Request& req, httplib::Response& res);
 
@@ -28,7 +28,7 @@ void GetTopology(ServerState&, const httplib::Request&, httplib::Response&);
 // Encodes what does not change of a rig (its description, its topology) into the response cache and
 // bakes its occlusion, so that a client's first request for them, or first picture, does not wait
 // (uka's topology: 70 ms in brotli; her occlusion: about 0.25 s).
-void WarmRig(ServerState& ctx, const std::shared_ptr<const StoredRig>& stored);
+void WarmRig(ServerState& ctx, const std::shared_ptr<const evaluator::StoredRig>& stored);
 // routes/mesh.cpp
 void GetOrPostMesh(ServerState&, const httplib::Request&, httplib::Response&);
 void PostCheck(ServerState&, const httplib::Request&, httplib::Response&);
@@ -47,9 +47,9 @@ bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Re
 // A sequence's frames streamed as the client reads them (ndjson, weights or f32); 422 for another
 // format or more frames than --max-frames.
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                        std::shared_ptr<const StoredRig> stored,
-                        std::shared_ptr<const Sequence> seq, float fps, FrameFormat format,
-                        const BlendOptions& options);
+                        std::shared_ptr<const evaluator::StoredRig> stored,
+                        std::shared_ptr<const Sequence> seq, float fps,
+                        evaluator::FrameFormat format, const BlendOptions& options);
 // routes/speech.cpp
 void PostSpeech(ServerState&, const httplib::Request&, httplib::Response&);
 void GetVoices(ServerState&, const httplib::Request&, httplib::Response&);
@@ -66,7 +66,7 @@ void GetJobResults(ServerState&, const httplib::Request&, httplib::Response&);
 
 // Query parameters the mesh and render routes share (routes/mesh.cpp): w.NAME, c.NAME, mode,
 // normals, strict and the skeleton settings. False when `key` is none of them.
-bool MeshQueryParam(const std::string& key, const std::string& value, MeshRequest& r,
+bool MeshQueryParam(const std::string& key, const std::string& value, evaluator::MeshRequest& r,
                     std::vector<FieldError>& errors);
 
 // "unknown parameter" with the closest known one of the mesh (or render) query.
@@ -76,7 +76,7 @@ std::string UnknownParameter(const std::string& key, bool render);
 bool Repeated(const httplib::Request& req, httplib::Params::const_iterator it,
               std::vector<FieldError>& errors);
 // Ends query parsing: the skeleton settings' cross-checks; false with a 422 sent for any error.
-bool FinishQuery(const httplib::Request& req, httplib::Response& res, MeshRequest& r,
+bool FinishQuery(const httplib::Request& req, httplib::Response& res, evaluator::MeshRequest& r,
                  std::vector<FieldError>& errors);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -2,17 +2,17 @@
 #include "../http/cost.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
 // The sequence body resolved against the rig; false when an error was sent.
 bool ReadSequence(const httplib::Request& req, httplib::Response& res, const Rig& rig,
-                  SequenceRequest& r, Sequence& seq) {
-  if (!ReadJsonBody(req, res, ParseSequenceRequest, r)) return false;
+                  evaluator::SequenceRequest& r, Sequence& seq) {
+  if (!ReadJsonBody(req, res, evaluator::ParseSequenceRequest, r)) return false;
   auto resolved = ResolveSequence(rig, r);
   if (!resolved.ok()) {
-    SendStatus(req, res, WithInputReason(resolved.status(), kInvalidSequence));
+    SendStatus(req, res, WithInputReason(resolved.status(), evaluator::kInvalidSequence));
     return false;
   }
   seq = std::move(resolved.value());
@@ -33,12 +33,12 @@ void Required(const httplib::Request& req, httplib::Response& res, const std::st
 
 void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  SequenceRequest r;
+  evaluator::SequenceRequest r;
   Sequence seq;
   if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
   if (r.times.empty()) return Required(req, res, "times", "the times to sample");
-  const FrameFormat format = r.format.value_or(FrameFormat::kJson);
-  if (format != FrameFormat::kJson && format != FrameFormat::kWeights) {
+  const evaluator::FrameFormat format = r.format.value_or(evaluator::FrameFormat::kJson);
+  if (format != evaluator::FrameFormat::kJson && format != evaluator::FrameFormat::kWeights) {
     return SendProblem(req, res, Problem::kInvalidRequest,
                        "/format: sample as json (meshes) or weights (no meshes)",
                        {{"/format", "must be json or weights"}});
@@ -46,14 +46,15 @@ void PostSequenceSample(ServerState& ctx, const httplib::Request& req, httplib::
   // Physics is simulated from the first key to the latest time asked for.
   const double span = static_cast<double>(*std::max_element(r.times.begin(), r.times.end())) -
                       seq.keys.front().time;
-  if (!WithinBudget(
-          ctx, req, res,
-          FramesCost(stored->rig, r.times.size(), span, format != FrameFormat::kWeights, "/times")))
+  if (!WithinBudget(ctx, req, res,
+                    FramesCost(stored->rig, r.times.size(), span,
+                               format != evaluator::FrameFormat::kWeights, "/times")))
     return;
   std::vector<Warning> warnings;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire(req);
-  auto body = SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws,
-                                 ctx.options.max_response, format == FrameFormat::kWeights);
+  auto body =
+      SampleSequenceJson(ctx.evaluator, stored, seq, r.times, r.options, warnings, *ws,
+                         ctx.options.max_response, format == evaluator::FrameFormat::kWeights);
   if (!body.ok()) return SendStatus(req, res, body.status());
   ctx.metrics.CountBlends(r.times.size());
   if (!warnings.empty()) res.set_header("Facespace-Warnings", WarningsHeader(warnings));
@@ -74,29 +75,29 @@ bool WithinFrameLimit(ServerState& ctx, const httplib::Request& req, httplib::Re
 }
 
 void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                        std::shared_ptr<const StoredRig> stored,
-                        std::shared_ptr<const Sequence> seq, float fps, FrameFormat format,
-                        const BlendOptions& options) {
-  if (format != FrameFormat::kNdjson && format != FrameFormat::kF32 &&
-      format != FrameFormat::kWeights) {
+                        std::shared_ptr<const evaluator::StoredRig> stored,
+                        std::shared_ptr<const Sequence> seq, float fps,
+                        evaluator::FrameFormat format, const BlendOptions& options) {
+  if (format != evaluator::FrameFormat::kNdjson && format != evaluator::FrameFormat::kF32 &&
+      format != evaluator::FrameFormat::kWeights) {
     SendProblem(req, res, Problem::kInvalidRequest,
                 "/format: stream as ndjson (weights, as \"weights\") or f32",
                 {{"/format", "must be ndjson, weights or f32"}});
     return;
   }
-  const size_t frames = FrameCount(*seq, fps);
+  const size_t frames = evaluator::FrameCount(*seq, fps);
   if (!WithinFrameLimit(ctx, req, res, frames, "stream", "the keys'")) return;
   res.set_header("Facespace-Frames", std::to_string(frames));
   res.set_header("Cache-Control", "no-store");
-  const bool f32 = format == FrameFormat::kF32;
+  const bool f32 = format == evaluator::FrameFormat::kF32;
   // One frame per call, computed as the client reads: a client that closes stops the work.
   auto next = std::make_shared<size_t>(0);
-  auto physics =
-      std::make_shared<SequencePhysics>(stored->rig, *seq);  // Carried from frame to frame.
+  auto physics = std::make_shared<evaluator::SequencePhysics>(
+      stored->rig, *seq);  // Carried from frame to frame.
   res.set_chunked_content_provider(
       f32 ? "application/octet-stream" : "application/x-ndjson",
-      [&ctx, stored, seq, next, frames, f32, physics, fps, options, stop = StopOf(req),
-       helper_cpu = HelperCpuOf(req)](size_t, httplib::DataSink& sink) {
+      [&ctx, stored, seq, next, frames, f32, physics, fps, options, stop = net::StopOf(req),
+       helper_cpu = net::HelperCpuOf(req)](size_t, httplib::DataSink& sink) {
         if (*next >= frames) {
           sink.done();
           return true;
@@ -114,15 +115,15 @@ void SendSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
 
 void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  SequenceRequest r;
+  evaluator::SequenceRequest r;
   auto seq = std::make_shared<Sequence>();
   if (!stored || !ReadSequence(req, res, stored->rig, r, *seq)) return;
-  const FrameFormat format = r.format.value_or(FrameFormat::kNdjson);
-  const size_t frames = FrameCount(*seq, r.fps);
+  const evaluator::FrameFormat format = r.format.value_or(evaluator::FrameFormat::kNdjson);
+  const size_t frames = evaluator::FrameCount(*seq, r.fps);
   if (!WithinFrameLimit(ctx, req, res, frames, "stream", "the keys'") ||
-      !WithinBudget(
-          ctx, req, res,
-          FramesCost(stored->rig, frames, Duration(*seq), format == FrameFormat::kF32, "/fps"))) {
+      !WithinBudget(ctx, req, res,
+                    FramesCost(stored->rig, frames, Duration(*seq),
+                               format == evaluator::FrameFormat::kF32, "/fps"))) {
     return;
   }
   SendSequenceStream(ctx, req, res, stored, seq, r.fps, format, r.options);
@@ -130,18 +131,18 @@ void PostSequenceStream(ServerState& ctx, const httplib::Request& req, httplib::
 
 void PostSequenceReduce(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
-  SequenceRequest r;
+  evaluator::SequenceRequest r;
   Sequence seq;
   if (!stored || !ReadSequence(req, res, stored->rig, r, seq)) return;
   if (!r.has_tolerance)
     return Required(req, res, "tolerance", "largest vertex error allowed, mesh units");
   if (!WithinBudget(ctx, req, res, ReduceCost(stored->rig, seq.keys.size()))) return;
-  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance, StopOf(req));
+  auto reduced = ReduceSequence(stored->rig, seq, r.tolerance, net::StopOf(req));
   if (!reduced.ok())
-    return SendStatus(req, res, WithInputReason(reduced.status(), kInvalidSequence));
+    return SendStatus(req, res, WithInputReason(reduced.status(), evaluator::kInvalidSequence));
   res.status = 200;
-  res.set_content(ReducedSequenceJson(stored->rig, seq, reduced.value(), r.tolerance),
+  res.set_content(evaluator::ReducedSequenceJson(stored->rig, seq, reduced.value(), r.tolerance),
                   "application/json");
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

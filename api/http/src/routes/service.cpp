@@ -4,7 +4,7 @@
 #include "../http/encoded.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 void GetHealth(ServerState&, const httplib::Request&, httplib::Response& res) {
   res.set_content("{\"status\":\"ok\"}", "application/json");
@@ -29,7 +29,7 @@ std::string MetricsText(ServerState& ctx) {
   gauge("facespace_render_memory_in_flight_bytes", "gauge",
         "Estimated working memory of the renders in flight (--render-memory-mb).",
         ctx.render_budget.InFlight());
-  if (const FrontStats* f = ctx.options.front) {
+  if (const net::FrontStats* f = ctx.options.front) {
     const std::tuple<const char*, const char*, const char*, const std::atomic<size_t>&> front[] = {
         // Connections and what the front refused from their heads.
         {"facespace_connections_open", "gauge", "Connections open (--max-connections).", f->open},
@@ -66,7 +66,7 @@ std::string MetricsText(ServerState& ctx) {
     for (const auto& [name, type, help, value] : front) gauge(name, type, help, value.load());
   }
   // Live sessions (GET /v1/rigs/{id}/live).
-  const LiveHub::Counts& c = ctx.live.counts;
+  const net::LiveHub::Counts& c = ctx.live.counts;
   gauge("facespace_live_sessions_open", "gauge",
         "Live WebSocket sessions open (--max-live-sessions).", ctx.live.open());
   const std::tuple<const char*, const char*, const std::atomic<size_t>&> live[] = {
@@ -97,4 +97,4 @@ void GetOpenApi(ServerState& ctx, const httplib::Request& req, httplib::Response
   res.set_header("Cache-Control", "public, max-age=3600");
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

@@ -5,7 +5,7 @@
 #include "facespace/lipsync/lipsync.h"
 #include "routes.h"
 
-namespace facespace::api::http {
+namespace facespace::http {
 
 namespace {
 
@@ -13,7 +13,7 @@ namespace {
 // or the text's length in seconds at its rate (its words, or characters / 6 for a script without
 // spaces).
 bool SpeechWithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                        const Rig& rig, const SpeechRequest& r) {
+                        const Rig& rig, const evaluator::SpeechRequest& r) {
   double seconds = 0.0;
   int rate = 16000;
   if (r.has_audio) {
@@ -36,9 +36,9 @@ bool IsAudioBody(const httplib::Request& req) {
 
 // The video: within the frame limit and the render budget (for the whole encode), drawn as it goes.
 void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
-                     const std::shared_ptr<const StoredRig>& stored,
-                     const lipsync::SpeechPlan& plan, const SpeechRequest& r) {
-  const size_t frames = FrameCount(plan.sequence, r.fps);
+                     const std::shared_ptr<const evaluator::StoredRig>& stored,
+                     const lipsync::SpeechPlan& plan, const evaluator::SpeechRequest& r) {
+  const size_t frames = evaluator::FrameCount(plan.sequence, r.fps);
   // A video is drawn whole before it is sent: at most --max-video-seconds (its cost was admitted
   // already).
   const float max_seconds = ctx.options.max_video_seconds;
@@ -56,12 +56,12 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
     return;
   const WorkspacePool::Lease ws = ctx.workspaces.Acquire(req);
   std::string video;
-  auto encoded =
-      WithinRenderBudget(ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<Encoded> {
+  auto encoded = WithinRenderBudget(
+      ctx, RenderBudget::Estimate(r.render.render, 1), [&]() -> Result<evaluator::Encoded> {
         auto bytes = lipsync::SpeechVideo(ctx.evaluator, stored, plan, r, *ws);
         if (!bytes.ok()) return bytes.status();
         video = std::move(bytes.value());
-        return Encoded{};
+        return evaluator::Encoded{};
       });
   if (!encoded.ok()) return SendStatus(req, res, encoded.status());
   ctx.metrics.CountBlends(frames);
@@ -75,17 +75,17 @@ void SendSpeechVideo(ServerState& ctx, const httplib::Request& req, httplib::Res
 void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   if (!stored) return;
-  SpeechRequest r;
+  evaluator::SpeechRequest r;
   if (IsAudioBody(req)) {
     std::vector<std::pair<std::string, std::string>> settings(req.params.begin(), req.params.end());
-    auto parsed = SpeechRequestOfWav(req.body, settings);
+    auto parsed = evaluator::SpeechRequestOfWav(req.body, settings);
     if (!parsed.ok()) return SendStatus(req, res, parsed.status());
     r = std::move(parsed.value());
-  } else if (!ReadJsonBody(req, res, ParseSpeechRequest, r)) {
+  } else if (!ReadJsonBody(req, res, evaluator::ParseSpeechRequest, r)) {
     return;
   }
-  const render::RenderOptions& size = r.render.render;
-  if (r.format == FrameFormat::kWebm &&
+  const picture::RenderOptions& size = r.render.render;
+  if (r.format == evaluator::FrameFormat::kWebm &&
       static_cast<long long>(size.width) * size.height > ctx.options.max_video_pixels) {
     return SendProblem(
         req, res, Problem::kInvalidRequest,
@@ -94,7 +94,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
         {{"/width", "width x height at most " + std::to_string(ctx.options.max_video_pixels)}});
   }
   if (!SpeechWithinBudget(ctx, req, res, stored->rig, r)) return;
-  auto plan = lipsync::PlanSpeech(stored->rig, r, StopOf(req));
+  auto plan = lipsync::PlanSpeech(stored->rig, r, net::StopOf(req));
   if (!plan.ok()) return SendStatus(req, res, plan.status());
   // Text was priced by its words; now that it is spoken, by its real length (espeak-ng reads digits
   // as long numbers: 130 bytes were 64 s of speech, priced as 8), before any frame is drawn.
@@ -105,14 +105,14 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
       !warnings.empty())
     res.set_header("Facespace-Warnings", WarningsHeader(warnings));
   res.set_header("Facespace-Duration", FormatNumber(plan->audio.seconds()));
-  if (r.format == FrameFormat::kJson) {
+  if (r.format == evaluator::FrameFormat::kJson) {
     res.status = 200;
     res.set_content(lipsync::SpeechJson(stored->rig, plan.value(), r.fps, r.with_audio),
                     "application/json");
-  } else if (r.format == FrameFormat::kWav) {
+  } else if (r.format == evaluator::FrameFormat::kWav) {
     res.status = 200;
     res.set_content(speech::WriteWav(plan->audio), "audio/wav");
-  } else if (r.format == FrameFormat::kWebm) {
+  } else if (r.format == evaluator::FrameFormat::kWebm) {
     SendSpeechVideo(ctx, req, res, stored, plan.value(), r);
   } else {
     auto seq = std::make_shared<const Sequence>(std::move(plan->sequence));
@@ -128,4 +128,4 @@ void GetVoices(ServerState&, const httplib::Request&, httplib::Response& res) {
   SendJson(res, 200, {{"voices", std::move(voices)}, {"default", kDefaultVoice}});
 }
 
-}  // namespace facespace::api::http
+}  // namespace facespace::http

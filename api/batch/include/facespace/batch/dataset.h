@@ -37,7 +37,7 @@ struct SampleFile {
 
 // What sample `index` drew (BatchRequest's dataset.randomize) beyond its weights.
 struct SampleDraw {
-  render::RenderOptions
+  picture::RenderOptions
       render;  // The batch's render settings with the draw's camera, light and background.
   std::vector<WeightEntry>
       expressions;  // Randomised ones (the batch's own are in its pose request).
@@ -51,7 +51,7 @@ SampleDraw DrawSample(const BatchPlan& plan, size_t index);
 // MB; their names and sizes join batch.json, so another folder makes another batch. Errors name
 // /randomize/background/images.
 inline constexpr size_t kMaxBackgrounds = 1000;
-Status LoadBackgroundImages(BatchPlan& plan, const render::Renderer& renderer);
+Status LoadBackgroundImages(BatchPlan& plan, const picture::Renderer& renderer);
 
 // A pinhole camera in pixels, from a draw's matrices: pixel = K (x, -y, -z) / -z for a point (x, y,
 // z) in camera space (glTF's camera looks down -z with y up; the image's origin is its top left
@@ -66,7 +66,7 @@ struct PinholeCamera {
   bool Project(const std::array<double, 3>& p, std::array<double, 2>& xy,
                std::array<double, 3>& camera) const;
 };
-PinholeCamera CameraOf(const render::Image& image);
+PinholeCamera CameraOf(const picture::Image& image);
 
 // A landmark is visible when it is in the frame, before the eye, and nothing drawn at its pixel is
 // nearer than its own distance less this share of it.
@@ -74,8 +74,9 @@ inline constexpr double kLandmarkDepthSlack = 0.02;
 
 // Labelled sample `index` of `plan` made: its point (with the drawn face), the render and label
 // planes (left in ws), and its files into `files`, the picture first and KEY.json last.
-Status MakeSample(const BatchPlan& plan, size_t index, const api::Evaluator& evaluator,
-                  api::Workspace& ws, api::ResolvedPoint& point, std::vector<SampleFile>& files);
+Status MakeSample(const BatchPlan& plan, size_t index, const evaluator::Evaluator& evaluator,
+                  evaluator::Workspace& ws, evaluator::ResolvedPoint& point,
+                  std::vector<SampleFile>& files);
 
 // The segment ids of a rig's primitives (its regions, then one id per material of the primitives in
 // none) and their names by id (0: "background").

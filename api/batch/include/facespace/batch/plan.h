@@ -18,8 +18,8 @@ namespace facespace::batch {
 struct BatchPlan {
   // Held, not pointed at: a queued plan outlives the store's entry when the rig is uploaded again
   // (even with the same bytes, so the same version) or deleted while the job waits.
-  std::shared_ptr<const api::StoredRig> rig;
-  api::BatchRequest request;
+  std::shared_ptr<const evaluator::StoredRig> rig;
+  evaluator::BatchRequest request;
   SampleSpec sample;                        // When request.sampled.
   std::vector<std::vector<float>> weights;  // Explicit variants, resolved.
   size_t total = 0;
@@ -29,7 +29,7 @@ struct BatchPlan {
   std::vector<Warning> pose_warnings;
   // What the request's expressions (and a gaze through eye shapes) add to every variant's weights.
   std::vector<float> face_weights;
-  api::OutputSpec output;  // Every variant's file (a mesh in pieces, or a render).
+  evaluator::OutputSpec output;  // Every variant's file (a mesh in pieces, or a render).
   // Labelled samples (request.dataset, dataset.h).
   std::vector<float>
       bare_weights;  // The pose's weights without the face: a drawn face is added to them.
@@ -48,23 +48,23 @@ struct BatchPlan {
   bool labelled() const { return request.dataset.labelled(); }
 };
 
-// Parses and resolves a batch body (api::ParseBatchRequest's schema) against a rig (the pose must
-// resolve too). `rig->version` identifies the rig's content, so a rerun against another rig is
+// Parses and resolves a batch body (evaluator::ParseBatchRequest's schema) against a rig (the pose
+// must resolve too). `rig->version` identifies the rig's content, so a rerun against another rig is
 // refused.
-Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const api::StoredRig> rig,
+Result<BatchPlan> MakeBatchPlan(std::shared_ptr<const evaluator::StoredRig> rig,
                                 std::string_view request_json);
 
 std::string VariantId(const BatchPlan& plan, size_t index);    // The given id, else "v" + 6 digits.
 std::string VariantFile(const BatchPlan& plan, size_t index);  // id + "." + the format's extension.
 
 // Variant `index` as a point: its weights and the plan's pose, checked (the pose's warnings last).
-void VariantPoint(const BatchPlan& plan, size_t index, api::ResolvedPoint& point);
+void VariantPoint(const BatchPlan& plan, size_t index, evaluator::ResolvedPoint& point);
 // The same unchecked, for a caller that changes the point before checking it (a sample's drawn
 // face).
-void VariantWeights(const BatchPlan& plan, size_t index, api::ResolvedPoint& point);
+void VariantWeights(const BatchPlan& plan, size_t index, evaluator::ResolvedPoint& point);
 
 // The contact sheet of the variants `indices`, labelled with their ids: 256 x 256 cells, PNG.
 Result<std::string> VariantSheet(const BatchPlan& plan, std::span<const size_t> indices,
-                                 const api::Evaluator& evaluator, api::Workspace& ws);
+                                 const evaluator::Evaluator& evaluator, evaluator::Workspace& ws);
 
 }  // namespace facespace::batch

@@ -99,7 +99,7 @@ class FileJobQueue : public JobQueue {
  public:
   // `poll_seconds`: how often the folder is looked at for jobs other instances submitted or left;
   // `refresh_store`: picks up the store's changes on disk (a rig another instance just uploaded).
-  FileJobQueue(std::string dir, api::RigStore& store, const api::Evaluator& evaluator,
+  FileJobQueue(std::string dir, evaluator::RigStore& store, const evaluator::Evaluator& evaluator,
                JobLimits limits, double poll_seconds = 1.0,
                std::function<void()> refresh_store = {});
   ~FileJobQueue() override;  // Stops: the running job halts between variants; this or another
@@ -138,11 +138,11 @@ class FileJobQueue : public JobQueue {
   std::shared_ptr<Job> RunningHere(const std::string& id) const;
   // Claims and runs the oldest job nobody runs, if any. True when one ran.
   bool RunNext();
-  void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const api::StoredRig>& rig,
+  void Run(const std::shared_ptr<Job>& job, const std::shared_ptr<const evaluator::StoredRig>& rig,
            int claim);
   void Finish(Job& job, JobState state, const std::string& error);
   // The job's rig, when the store has it at the job's version (after a refresh, if asked).
-  std::shared_ptr<const api::StoredRig> RigFor(const Job& job, bool refresh) const;
+  std::shared_ptr<const evaluator::StoredRig> RigFor(const Job& job, bool refresh) const;
   // Whether `need` more bytes fit beside what the unfinished jobs (`jobs`) have still to write, the
   // margin kept.
   Status CheckRoom(double need, size_t variants, const std::vector<std::shared_ptr<Job>>& jobs,
@@ -151,8 +151,8 @@ class FileJobQueue : public JobQueue {
   void MarkLost(Job& job);
 
   std::string dir_;
-  api::RigStore& store_;
-  const api::Evaluator& evaluator_;
+  evaluator::RigStore& store_;
+  const evaluator::Evaluator& evaluator_;
   JobLimits limits_;
   double poll_seconds_;
   std::function<void()> refresh_store_;

@@ -44,8 +44,9 @@ struct Progress {
 
 struct RunOptions {
   std::string dir;
-  const api::Evaluator* evaluator = nullptr;  // Makes every file and the contact sheet; required.
-  int jobs = 0;                               // Worker threads; 0 = every core.
+  const evaluator::Evaluator* evaluator =
+      nullptr;   // Makes every file and the contact sheet; required.
+  int jobs = 0;  // Worker threads; 0 = every core.
   // Who makes the variants. kProcesses: a maker process for each worker (maker.h), forked when the
   // run starts, from a one-thread process only (the CLI; never the service, whose threads a fork
   // would lose; threads when the process already runs others). kAuto: makers for a run of 1,000
@@ -99,7 +100,7 @@ Result<ShardsFound> FindShards(const std::string& dir);
 
 struct MergeOptions {
   std::string dir;
-  const api::Evaluator* evaluator = nullptr;  // Required.
+  const evaluator::Evaluator* evaluator = nullptr;  // Required.
   size_t sheet_cells = 16;
   bool verify = true;  // Hash every variant file against its manifest line.
 };

@@ -32,13 +32,10 @@
 #include "facespace/evaluator/request.h"
 #include "facespace/evaluator/store.h"
 #include "facespace/formats/io.h"
+#include "facespace/physics/physics.h"
 #include "facespace/picture/picture.h"
 
-namespace facespace::physics {
-class Simulation;
-}
-
-namespace facespace::api {
+namespace facespace::evaluator {
 
 // Status::reason of the evaluator's errors.
 inline constexpr char kInvalidControls[] = "invalid-controls";
@@ -97,7 +94,7 @@ struct OutputSpec {
   BlendOptions blend;  // Mode, normals, skinning (the point's pose is the point's).
   int lod = 0;         // Level of detail of the rig (core/lod.h).
   // Meshes.
-  MeshFormat mesh_format = MeshFormat::kJson;
+  formats::MeshFormat mesh_format = formats::MeshFormat::kJson;
   bool mesh_space = false;    // JSON, OBJ and f32 before the node transforms.
   bool keep_targets = false;  // glb: the rig with the point's weights as defaults.
   // glb: the bytes are left in the workspace as two pieces of one file (Encoded::pieces), for
@@ -105,15 +102,15 @@ struct OutputSpec {
   // must serve one rig (a batch worker's).
   bool pieces = false;
   // Images and sheets.
-  render::RenderOptions render;
-  render::ImageFormat image_format = render::ImageFormat::kPng;
+  picture::RenderOptions render;
+  picture::ImageFormat image_format = picture::ImageFormat::kPng;
   int quality = 90;
   int columns = 4;
   std::vector<std::string> labels;  // One per cell.
 
-  static OutputSpec Mesh(const MeshRequest& request, MeshFormat format);
-  static OutputSpec Image(const RenderRequest& request, render::ImageFormat format);
-  static OutputSpec Sheet(const SheetRequest& request, render::ImageFormat format);
+  static OutputSpec Mesh(const MeshRequest& request, formats::MeshFormat format);
+  static OutputSpec Image(const RenderRequest& request, picture::ImageFormat format);
+  static OutputSpec Sheet(const SheetRequest& request, picture::ImageFormat format);
   static OutputSpec Frame(const BlendOptions& blend, bool f32);
   static OutputSpec Pixels(const RenderRequest& request);
   const char* content_type() const;
@@ -137,18 +134,18 @@ struct Encoded {
 struct Workspace {
   BlendContext context;
   BlendedRig blended;
-  F32Writer::Scratch f32;
+  formats::F32Writer::Scratch f32;
   // A response body handed back once sent, for the next f32 body to be written over.
   std::string body;
-  GlbVariantWriter glb;  // OutputSpec::pieces' writer.
+  formats::GlbVariantWriter glb;  // OutputSpec::pieces' writer.
   // The request's stop token (client gone, deadline, SIGTERM): the evaluator's loops over sheet
   // cells, sequence frames and video frames check it between steps and end Cancelled.
   std::stop_token stop;
   // Where the CPU that helper threads spend for the request (the renderer's rasteriser, encoders'
   // helpers) is charged: the server's meter of the request (facespace/net/front.h); null: nowhere.
   HelperCpu* helper_cpu = nullptr;
-  render::Image image;
-  std::vector<render::Image> cells;
+  picture::Image image;
+  std::vector<picture::Image> cells;
   // What the last call's steps took, in milliseconds (the service's Server-Timing header); the
   // caller zeroes it before a call, the steps add to it.
   struct Timing {
@@ -177,7 +174,7 @@ class Evaluator {
   Evaluator();
   // One that also draws: `renderer` draws and encodes images and sheets; it must outlive the
   // evaluator.
-  explicit Evaluator(const render::Renderer& renderer);
+  explicit Evaluator(const picture::Renderer& renderer);
   ~Evaluator();
   Evaluator(const Evaluator&) = delete;
   Evaluator& operator=(const Evaluator&) = delete;
@@ -194,7 +191,7 @@ class Evaluator {
   }
 
   // What draws its pictures; null for an evaluator of meshes.
-  const render::Renderer* renderer() const { return renderer_; }
+  const picture::Renderer* renderer() const { return renderer_; }
 
   // The rig at a level of detail and the box its shapes act in (kept); null when it cannot be made.
   std::shared_ptr<const DerivedRig> Derived(const std::shared_ptr<const StoredRig>& rig,
@@ -213,7 +210,7 @@ class Evaluator {
   Status Thumbnail(const std::shared_ptr<const StoredRig>& stored, int lod, const Rig& rig,
                    Workspace& ws, std::vector<unsigned char>& png) const;
   struct Kept;
-  const render::Renderer* renderer_ = nullptr;
+  const picture::Renderer* renderer_ = nullptr;
   std::unique_ptr<Kept> kept_;
 };
 
@@ -232,12 +229,13 @@ struct Output {
 };
 
 Result<Output> ProduceMesh(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                           const MeshRequest& request, MeshFormat format, Workspace& ws);
+                           const MeshRequest& request, formats::MeshFormat format, Workspace& ws);
 Result<Output> ProduceImage(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                            const RenderRequest& request, render::ImageFormat format,
+                            const RenderRequest& request, picture::ImageFormat format,
                             Workspace& ws);
 Result<Output> ProduceSheet(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig,
-                            const SheetRequest& request, render::ImageFormat format, Workspace& ws);
+                            const SheetRequest& request, picture::ImageFormat format,
+                            Workspace& ws);
 
 // ---- weights only -----------------------------------------------------------------------------
 
@@ -333,4 +331,4 @@ std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned);
 // FitWeights, then its JSON. Errors: reason invalid-target.
 Result<Output> ProduceFit(const Rig& rig, const FitRequest& request);
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

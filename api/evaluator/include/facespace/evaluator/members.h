@@ -13,7 +13,7 @@
 
 #include "facespace/engine/status.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 // What a member holds.
 enum class Kind : unsigned char {
@@ -135,4 +135,4 @@ std::vector<std::string_view> Choices(const Member& m);
 // What a member must be, from its declaration: "an integer in [1, 4]", "true or false", ...
 std::string Expected(const Member& m);
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

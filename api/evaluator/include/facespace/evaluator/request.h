@@ -23,7 +23,7 @@
 #include "facespace/formats/io.h"
 #include "facespace/picture/picture.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 // Parses a weight vector given as JSON text: a dense array in shape order ([0.5, 0, 1]) or a
 // map by shape name or index ({"jawOpen": 0.5, "3": 1}). `pointer` prefixes field pointers.
@@ -36,9 +36,9 @@ struct MeshRequest {
       controls;      // {"controls": {"nose/nose-trans-down|up": -0.4}}: see ApplyControls.
   PoseRequest pose;  // "pose", "animation" + "time" (+ "loop"), "blend".
   BlendOptions options;
-  std::optional<MeshFormat> format;  // Absent: decided by Accept, else JSON.
-  bool strict = false;               // Warnings become a 422.
-  bool keep_targets = false;         // glb: the rig with these weights as defaults.
+  std::optional<formats::MeshFormat> format;  // Absent: decided by Accept, else JSON.
+  bool strict = false;                        // Warnings become a 422.
+  bool keep_targets = false;                  // glb: the rig with these weights as defaults.
   int lod = 0;              // Level of detail: 0 full, L ~ 1/2^L of the triangles (core/lod.h).
   bool mesh_space = false;  // "space": "mesh": JSON, OBJ and f32 before the node transforms.
 };
@@ -66,8 +66,8 @@ inline constexpr char kMalformedJson[] = "malformed-json";
 //  "format": "png"|"jpeg"|"exr"|"tiff"|"webp", "quality": 1..100}
 struct RenderRequest {
   MeshRequest mesh;
-  render::RenderOptions render;
-  std::optional<render::ImageFormat> format;  // Absent: decided by Accept, else PNG.
+  picture::RenderOptions render;
+  std::optional<picture::ImageFormat> format;  // Absent: decided by Accept, else PNG.
   int quality = 90;
 };
 Result<RenderRequest> ParseRenderRequest(std::string_view body);
@@ -91,7 +91,7 @@ Result<SheetRequest> ParseSheetRequest(std::string_view body);
 // "cells": "shapes" (or "shapes:GROUP"): one cell per shape of the rig (of that group) at weight 1,
 // labelled with its name (or an alias where `renderer`, when given, has no glyphs for it). An
 // unknown group is an error naming /cells.
-Status ExpandShapeCells(const Rig& rig, const render::Renderer* renderer, SheetRequest& request);
+Status ExpandShapeCells(const Rig& rig, const picture::Renderer* renderer, SheetRequest& request);
 
 // A skeleton setting given as text (query parameter or CLI flag): animation, time, loop,
 // pose (JSON), blend (JSON), skinning (linear|dual_quaternion), lod (0..4). Returns "" or what is
@@ -289,8 +289,8 @@ struct BatchRequest {
   std::vector<std::vector<WeightEntry>> points;
   std::string format = "glb";  // File format of every variant.
   bool image = false;          // format is an image format (rendered).
-  MeshFormat mesh_format = MeshFormat::kGlb;
-  render::ImageFormat image_format = render::ImageFormat::kPng;
+  formats::MeshFormat mesh_format = formats::MeshFormat::kGlb;
+  picture::ImageFormat image_format = picture::ImageFormat::kPng;
   RenderRequest render;       // Render settings and the mesh options (mode, normals, skinning).
   bool format_given = false;  // "format" was in the body (labels default to png).
   DatasetRequest dataset;
@@ -311,4 +311,4 @@ bool IsValidVariantId(const std::string& id);
 bool ParseBlendMode(std::string_view s, BlendMode* mode);
 bool ParseNormalMode(std::string_view s, NormalMode* mode);
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

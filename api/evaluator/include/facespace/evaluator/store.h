@@ -10,7 +10,7 @@
 #include "facespace/engine/status.h"
 #include "facespace/formats/io.h"
 
-namespace facespace::api {
+namespace facespace::evaluator {
 
 // A loaded rig, immutable once published, shared between requests.
 struct StoredRig {
@@ -31,8 +31,8 @@ class RigStore {
   // id.manifest.json (an empty `manifest`: none, and a previous one is dropped), and publishes
   // atomically. `created` tells whether the id was new. InvalidArgument for a bad rig, manifest
   // or id.
-  virtual Status Put(const std::string& id, std::span<const unsigned char> bytes, RigFormat format,
-                     const std::string& manifest, bool* created) = 0;
+  virtual Status Put(const std::string& id, std::span<const unsigned char> bytes,
+                     formats::RigFormat format, const std::string& manifest, bool* created) = 0;
   // Replaces the manifest of a stored rig (the rig file itself unchanged), validated against it
   // first. NotFound when absent; InvalidArgument (reason "invalid-manifest") when it does not
   // apply.
@@ -45,7 +45,7 @@ class RigStore {
 // "Manifest"; empty: none) applied, which may name it otherwise. A manifest that does not apply is
 // InvalidArgument with reason "invalid-manifest" and its fields' pointers under "/manifest".
 Result<Rig> LoadUpload(const std::string& id, std::span<const unsigned char> bytes,
-                       RigFormat format, const std::string& manifest);
+                       formats::RigFormat format, const std::string& manifest);
 
 // A stored rig's version: a hash of its file's bytes and its manifest's text.
 std::string RigVersion(std::span<const unsigned char> bytes, const std::string& manifest);
@@ -53,4 +53,4 @@ std::string RigVersion(std::span<const unsigned char> bytes, const std::string& 
 // True when `id` matches [a-z0-9][a-z0-9_-]{0,63}: never a path.
 bool IsValidRigId(const std::string& id);
 
-}  // namespace facespace::api
+}  // namespace facespace::evaluator

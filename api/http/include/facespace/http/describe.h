@@ -7,8 +7,8 @@
 
 #include "facespace/engine/rig.h"
 
-namespace facespace::api {
+namespace facespace::http {
 
 nlohmann::json DescribeRig(const Rig& rig);
 
-}  // namespace facespace::api
+}  // namespace facespace::http

@@ -15,7 +15,7 @@
 #include "facespace/evaluator/store.h"
 #include "facespace/net/front.h"
 
-namespace facespace::api {
+namespace facespace::http {
 
 struct ApiOptions {
   // Every limit and budget of the server by its setting's name (facespace serve's one table), for
@@ -35,7 +35,7 @@ struct ApiOptions {
                          << 30;  // Estimated working memory of one render or sheet; above, 413.
   size_t render_memory =
       size_t{2} << 30;  // ... of the renders in flight together; past it they wait, then 503.
-  const FrontStats* front =
+  const net::FrontStats* front =
       nullptr;  // The connection front's counters, for /metrics (when there is one).
   float max_video_seconds = 60.0f;           // Speech as a WebM: longer is 422 video-too-long.
   long long max_video_pixels = 1920 * 1080;  // ... and larger frames 422.
@@ -55,7 +55,7 @@ struct ApiOptions {
 class Api {
  public:
   // `jobs` may be null: the batch and job routes then answer 503.
-  Api(RigStore& store, const Evaluator& evaluator, ApiOptions options,
+  Api(evaluator::RigStore& store, const evaluator::Evaluator& evaluator, ApiOptions options,
       batch::JobQueue* jobs = nullptr);
   ~Api();
   Api(const Api&) = delete;
@@ -66,15 +66,15 @@ class Api {
 
   // The pre-routing of a request from its line and headers alone (FrontOptions::head_check): a
   // whole response when it is refused before its body (404, 405, 411, 413, 401, 403), else nothing.
-  std::optional<std::string> CheckHead(const RequestHeadView& head);
+  std::optional<std::string> CheckHead(const net::RequestHeadView& head);
 
   // A probe (GET or HEAD /healthz, /readyz, /metrics) answered from its head alone on the front's
   // own thread (FrontOptions::probe): a whole keep-alive response, so that probes never wait for a
   // worker however many are busy; nothing for any other request.
-  std::optional<std::string> Probe(const RequestHeadView& head);
+  std::optional<std::string> Probe(const net::RequestHeadView& head);
 
   // A request the connection front refuses itself (FrontOptions::refusal), as problem+json.
-  static std::string RefusalResponse(const RefusalInfo& info);
+  static std::string RefusalResponse(const net::RefusalInfo& info);
 
   // Whether an Authorization header's value carries the API key (FrontOptions::keyed: the request's
   // deadline is then the keyed one).
@@ -91,4 +91,4 @@ class Api {
 // The OpenAPI 3.1 document of the routes (served at /openapi.json), with the server's limits.
 std::string OpenApiJson(const ApiOptions& limits);
 
-}  // namespace facespace::api
+}  // namespace facespace::http

@@ -32,7 +32,7 @@ struct SpeechPlan {
 };
 // Errors: the rig cannot speak (FailedPrecondition, reason no-mouth); the text, voice, rate or
 // audio (InvalidArgument or ResourceExhausted naming the field); the face (as ResolvePoint's).
-Result<SpeechPlan> PlanSpeech(const Rig& rig, const api::SpeechRequest& request,
+Result<SpeechPlan> PlanSpeech(const Rig& rig, const evaluator::SpeechRequest& request,
                               const std::stop_token& stop = {});
 
 // Everything the plan warns of: the face's and the recognizer's, then the sequence's (said once).
@@ -50,10 +50,10 @@ std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool w
 // saying at that time. Frames are drawn one after the other in `ws`; `on_frame` (may be empty)
 // hears each one's number, for progress. Errors: the size (422 at /width or /height), the
 // renderer's.
-Result<std::string> SpeechVideo(const api::Evaluator& evaluator,
-                                const std::shared_ptr<const api::StoredRig>& rig,
-                                const SpeechPlan& plan, const api::SpeechRequest& request,
-                                api::Workspace& ws,
+Result<std::string> SpeechVideo(const evaluator::Evaluator& evaluator,
+                                const std::shared_ptr<const evaluator::StoredRig>& rig,
+                                const SpeechPlan& plan, const evaluator::SpeechRequest& request,
+                                evaluator::Workspace& ws,
                                 const std::function<void(size_t)>& on_frame = {});
 
 }  // namespace facespace::lipsync

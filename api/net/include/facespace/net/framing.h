@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-namespace facespace::api::http {
+namespace facespace::net {
 
 enum class Framing { kNeedMore, kComplete, kError };
 
@@ -57,4 +57,4 @@ std::string Dechunked(std::string_view request, const RequestHead& head);
 // Case-insensitive ASCII comparison, for header names and tokens.
 bool EqualsIgnoreCase(std::string_view a, std::string_view b);
 
-}  // namespace facespace::api::http
+}  // namespace facespace::net

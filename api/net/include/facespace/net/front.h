@@ -26,7 +26,7 @@
 
 #include "facespace/engine/cpu.h"
 
-namespace facespace::api {
+namespace facespace::net {
 
 // A request's line and headers as the front read them, for a check before its body is read.
 struct RequestHeadView {
@@ -166,4 +166,4 @@ class FrontServer : public httplib::Server {
   std::unique_ptr<Front> front_;
 };
 
-}  // namespace facespace::api
+}  // namespace facespace::net

@@ -27,7 +27,7 @@
 #include "facespace/net/front.h"
 #include "facespace/net/websocket.h"
 
-namespace facespace::api::http {
+namespace facespace::net {
 
 struct LiveLimits {
   size_t max_sessions = 1024;             // Open at once, in all (--max-live-sessions).
@@ -155,4 +155,4 @@ class LiveHub {
   std::vector<std::thread> workers_;
 };
 
-}  // namespace facespace::api::http
+}  // namespace facespace::net

@@ -10,7 +10,7 @@
 #include <string>
 #include <string_view>
 
-namespace facespace::api::http::ws {
+namespace facespace::net::ws {
 
 enum class Opcode : uint8_t {
   kContinuation = 0,
@@ -67,4 +67,4 @@ std::string CloseFrame(CloseCode code, std::string_view reason);
 // Whether `s` is well-formed UTF-8 (a text message must be).
 bool ValidUtf8(std::string_view s);
 
-}  // namespace facespace::api::http::ws
+}  // namespace facespace::net::ws

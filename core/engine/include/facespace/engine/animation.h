@@ -8,6 +8,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 enum class ClipWrap { kClamp, kLoop };
 
@@ -53,4 +54,5 @@ float LayerWeight(const Rig& rig, const ClipLayer& layer);
 Status BlendClips(const Rig& rig, std::span<const ClipLayer> layers, Pose& pose,
                   std::vector<float>& shape_weights, std::vector<uint8_t>& shape_set);
 
+}  // namespace engine
 }  // namespace facespace

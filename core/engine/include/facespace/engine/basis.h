@@ -9,6 +9,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 // The shapes' position displacements over the vertices any shape moves, as
 // D (3 x moved vertices, by shapes) ~= components * coefficients.
@@ -47,4 +48,5 @@ struct QuantizeReport {
 // rig with the quantised deltas, to evaluate the effect.
 QuantizeReport QuantizeDisplacements(const Rig& rig, int bits, Rig* dequantized);
 
+}  // namespace engine
 }  // namespace facespace

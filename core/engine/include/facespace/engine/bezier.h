@@ -6,6 +6,7 @@
 #include <array>
 
 namespace facespace {
+inline namespace engine {
 
 // One coordinate of the cubic Bezier a, b, c, d at parameter s in [0, 1].
 inline double CubicBezier(double a, double b, double c, double d, double s) {
@@ -45,4 +46,5 @@ inline std::array<double, 4> BezierPart(const std::array<double, 4>& p, double s
   return s0 > 0.0 && s1 > 0.0 ? split(l, s0 / s1, false) : l;
 }
 
+}  // namespace engine
 }  // namespace facespace

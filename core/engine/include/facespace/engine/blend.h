@@ -11,6 +11,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 // Which attribute of a SparseTarget a BlendShapeJob reads.
 enum class TargetChannel { kPosition, kNormal, kTangent };
@@ -161,4 +162,5 @@ void RecomputeNormalsAround(const Primitive& primitive, std::span<const float> p
 void ComputeSmoothNormals(std::span<const float> positions, std::span<const uint32_t> triangles,
                           std::span<float> out);
 
+}  // namespace engine
 }  // namespace facespace

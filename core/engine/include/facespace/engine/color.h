@@ -5,6 +5,7 @@
 #include <cmath>
 
 namespace facespace {
+inline namespace engine {
 
 // sRGB's encoding of a linear value, clamped to [0, 1] first.
 inline double SrgbEncode(double linear) {
@@ -17,4 +18,5 @@ inline double SrgbDecode(double encoded) {
   return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
 }
 
+}  // namespace engine
 }  // namespace facespace

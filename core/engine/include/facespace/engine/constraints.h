@@ -8,6 +8,7 @@
 #include "facespace/engine/rig.h"
 
 namespace facespace {
+inline namespace engine {
 
 // Rewrites the local transforms of `pose` (its clips and joint overrides applied: MMD's animated
 // values) into the solved ones, for the rig's grants and IK chains, in `rig.constraints.order`:
@@ -21,4 +22,5 @@ void SolveBoneConstraints(const Rig& rig, Pose& pose);
 // A rig without constraints, or a clip that moves no joint, gets the clip as it is.
 AnimationInfo ClipWithConstraintsSolved(const Rig& rig, int clip, float per_second);
 
+}  // namespace engine
 }  // namespace facespace

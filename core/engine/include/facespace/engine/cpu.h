@@ -15,6 +15,7 @@
 #include <cstdint>
 
 namespace facespace {
+inline namespace engine {
 
 // The calling thread's CPU clock, in seconds.
 double ThreadCpuSeconds();
@@ -41,4 +42,5 @@ inline void ChargeHelperCpu(HelperCpu* meter, double seconds) {
   if (meter) meter->Charge(seconds);
 }
 
+}  // namespace engine
 }  // namespace facespace

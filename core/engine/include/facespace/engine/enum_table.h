@@ -7,6 +7,7 @@
 #include <string_view>
 
 namespace facespace {
+inline namespace engine {
 
 template <typename E>
 struct EnumName {
@@ -48,4 +49,5 @@ std::string EnumNames(const EnumName<E> (&table)[N]) {
   return names;
 }
 
+}  // namespace engine
 }  // namespace facespace

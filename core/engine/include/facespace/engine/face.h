@@ -20,6 +20,7 @@
 #include "facespace/engine/weights.h"
 
 namespace facespace {
+inline namespace engine {
 
 // VRM 1.0's preset expression names.
 inline constexpr std::string_view kExpressionPresets[] = {
@@ -139,4 +140,5 @@ bool CanBlink(const Rig& rig);
 void ApplyFace(const Rig& rig, const FaceState& face, std::span<float> weights, Pose& pose,
                bool& posed, std::vector<Warning>& warnings);
 
+}  // namespace engine
 }  // namespace facespace

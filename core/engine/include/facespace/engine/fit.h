@@ -11,6 +11,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 struct FitOptions {
   bool bounded = false;          // Keep every weight inside its shape's [min, max].
@@ -35,4 +36,5 @@ struct FitResult {
 Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>> target,
                              const FitOptions& options);
 
+}  // namespace engine
 }  // namespace facespace

@@ -10,6 +10,7 @@
 #include "facespace/engine/transform.h"
 
 namespace facespace {
+inline namespace engine {
 
 // A local transform per node. Nodes given by a matrix in the source keep it (glTF forbids
 // animating them) unless a pose replaces them.
@@ -36,4 +37,5 @@ void JointMatrices(const Rig& rig, int skin, std::span<const std::array<float, 1
 // Index of the node called `name`, or -1.
 int FindNode(const Rig& rig, const std::string& name);
 
+}  // namespace engine
 }  // namespace facespace

@@ -9,6 +9,7 @@
 #endif
 
 namespace facespace {
+inline namespace engine {
 
 #if defined(__SSE2__)
 // Four xyz triples (12 floats at `p`) as x, y and z lanes, and back: shuffles in registers.
@@ -129,4 +130,5 @@ inline void TransformNormal(const float* m, int stride, const float* n, float* o
   NormalMatrix(m, stride).Apply(n, out);
 }
 
+}  // namespace engine
 }  // namespace facespace

@@ -15,6 +15,7 @@
 #include <vector>
 
 namespace facespace {
+inline namespace engine {
 
 struct Rig;
 struct BlendedRig;
@@ -59,4 +60,5 @@ void OcclusionFrame(const float n[3], float t[3], float s[3]);
 // (render/offscreen/src/gl_context.cpp).
 float LightVisibility(float ao, const float b[3], const float n[3], const float l[3]);
 
+}  // namespace engine
 }  // namespace facespace

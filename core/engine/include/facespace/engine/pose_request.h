@@ -14,6 +14,7 @@
 #include "facespace/engine/weights.h"
 
 namespace facespace {
+inline namespace engine {
 
 struct JointOverride {
   std::string joint;    // Node name.
@@ -97,4 +98,5 @@ Status ResolvePoseAndWeights(const Rig& rig, std::span<const WeightEntry> entrie
                              const PoseRequest& request, std::vector<float>& weights, Pose& pose,
                              bool& posed, std::vector<Warning>& warnings);
 
+}  // namespace engine
 }  // namespace facespace

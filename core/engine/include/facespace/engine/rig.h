@@ -19,6 +19,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 // One shape's displacement of one primitive. Indices ascending and unique.
 struct SparseTarget {
@@ -560,4 +561,5 @@ bool RepairUtf8(std::string& s);
 // it gets a `names_repaired` load warning.
 void RepairNames(Rig& rig);
 
+}  // namespace engine
 }  // namespace facespace

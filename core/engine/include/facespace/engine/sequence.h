@@ -15,6 +15,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 enum class TransitionKind {
   kStep,
@@ -110,4 +111,5 @@ Result<Sequence> SequenceFromAnimation(const Rig& rig, int animation);
 // keys (or the rest weights when it has none) spanning the whole clip, from 0 to its duration.
 Result<Sequence> SequenceOfClip(const Rig& rig, int clip);
 
+}  // namespace engine
 }  // namespace facespace

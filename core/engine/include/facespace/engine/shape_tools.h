@@ -10,6 +10,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 struct ShapeMask {
   int side = 0;  // +1: keep where coordinate `axis` > center; -1: where < center; 0: no side limit.
@@ -63,4 +64,5 @@ int ShapeFocusJoint(const Rig& rig);
 // `center` (the closest vertex within `tolerance` mesh units of the reflected position), or -1.
 std::vector<int32_t> MirrorMap(const Primitive& primitive, int axis, float center, float tolerance);
 
+}  // namespace engine
 }  // namespace facespace

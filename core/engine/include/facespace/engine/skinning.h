@@ -7,6 +7,7 @@
 #include <vector>
 
 namespace facespace {
+inline namespace engine {
 
 // Linear blend skinning: p' = sum_k w_k M_k p, normals with the inverse-transpose of the
 // blended matrix, tangents (xyz) with the blended matrix. Owns nothing, never allocates.
@@ -33,4 +34,5 @@ struct SkinningJob {
 // The rigid part of each joint matrix as a unit dual quaternion (8 floats per joint).
 void DualQuaternions(std::span<const float> joint_matrices, std::vector<float>& out);
 
+}  // namespace engine
 }  // namespace facespace

@@ -17,6 +17,7 @@
 #include "facespace/engine/rig.h"
 
 namespace facespace {
+inline namespace engine {
 
 class SparseBlend {
  public:
@@ -54,4 +55,5 @@ class SparseBlend {
   std::vector<Targets> primitives_;
 };
 
+}  // namespace engine
 }  // namespace facespace

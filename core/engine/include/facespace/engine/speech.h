@@ -19,6 +19,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 // The voice text is spoken with when a request names none (core/speech's synthesizer takes it by
 // default; GET /v1/voices says it as "default").
@@ -120,4 +121,5 @@ inline constexpr float kLongViseme = 0.15f;
 inline constexpr float kKeyInset = 0.05f;
 std::vector<float> VisemeKeyTimes(const TimedViseme& v, const SpeechOptions& options);
 
+}  // namespace engine
 }  // namespace facespace

@@ -8,6 +8,7 @@
 #include <vector>
 
 namespace facespace {
+inline namespace engine {
 
 // Codes follow abseil's canonical set. Only api/ maps them to HTTP statuses.
 enum class StatusCode {
@@ -126,4 +127,5 @@ struct Warning {
 // value.
 Warning CountWarning(std::string code, size_t count, const std::string& what);
 
+}  // namespace engine
 }  // namespace facespace

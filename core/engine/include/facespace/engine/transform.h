@@ -5,6 +5,7 @@
 #include <span>
 
 namespace facespace {
+inline namespace engine {
 
 struct Transform {
   std::array<float, 3> translation{0, 0, 0};
@@ -30,4 +31,5 @@ inline void TransformPoint(std::span<const float, 16> m, const float* p, float* 
     out[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r] * w;
 }
 
+}  // namespace engine
 }  // namespace facespace

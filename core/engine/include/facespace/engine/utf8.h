@@ -5,6 +5,7 @@
 #include <string_view>
 
 namespace facespace {
+inline namespace engine {
 
 // The length (1-4) of the well-formed UTF-8 sequence at `s[i]`, with its code point in `cp`; 0 when
 // the bytes there are not one (a stray continuation byte, an overlong form, a surrogate, past
@@ -33,4 +34,5 @@ inline size_t DecodeUtf8(std::string_view s, size_t i, char32_t& cp) {
   return len;
 }
 
+}  // namespace engine
 }  // namespace facespace

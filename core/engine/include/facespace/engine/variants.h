@@ -14,6 +14,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 enum class SampleMethod {
   kUniform,   // Each varied shape uniform in its [min, max].
@@ -51,4 +52,5 @@ size_t SampleCount(const SampleSpec& spec, size_t shape_count);
 // Writes variant `index`'s weights (one per shape) into out. The spec must be valid.
 void SampleVariant(const Rig& rig, const SampleSpec& spec, size_t index, std::span<float> out);
 
+}  // namespace engine
 }  // namespace facespace

@@ -11,6 +11,7 @@
 #include "facespace/engine/status.h"
 
 namespace facespace {
+inline namespace engine {
 
 // One weight as a client gave it: by shape name (or alias) or by index.
 struct WeightEntry {
@@ -73,4 +74,5 @@ WeightReport CheckWeights(const Rig& rig, std::span<const float> weights, BlendM
 // "1.7" rather than "1.70000005": the shortest text that reads back as the same float.
 std::string FormatNumber(double value);
 
+}  // namespace engine
 }  // namespace facespace

@@ -9,7 +9,7 @@
 
 #include "facespace/engine/status.h"
 
-namespace facespace {
+namespace facespace::files {
 
 // Writes `data` to `dir/name` so that a crash leaves either the old file or the new one, never
 // a mixture: written under `tmp_name` in the same folder (replacing a stale one), fsynced,
@@ -69,4 +69,4 @@ void SyncDir(const std::filesystem::path& dir);
 // and locking it), so a writer sharing the folder is never cut short. True when it was removed.
 bool RemoveAbandoned(const std::filesystem::path& path);
 
-}  // namespace facespace
+}  // namespace facespace::files

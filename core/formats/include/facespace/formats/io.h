@@ -15,7 +15,7 @@
 #include "facespace/engine/status.h"
 #include "facespace/engine/weights.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 struct LoadOptions {
   // Let a .gltf read external buffers and images beside it. Off for uploaded bytes, so a
@@ -251,4 +251,4 @@ std::string WarningsToJson(std::span<const Warning> warnings);
 // would cost more than the body (per-frame JSON of sequences and meshes).
 std::string JsonString(const std::string& s);
 
-}  // namespace facespace
+}  // namespace facespace::formats

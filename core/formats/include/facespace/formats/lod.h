@@ -11,7 +11,7 @@
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 constexpr int kMaxLod = 4;
 
@@ -42,4 +42,4 @@ struct LodReport {
 // their attributes, skin influences and shape deltas.
 Result<Rig> MakeLod(const Rig& rig, int level, LodReport* report = nullptr);
 
-}  // namespace facespace
+}  // namespace facespace::formats

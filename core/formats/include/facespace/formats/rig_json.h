@@ -8,7 +8,7 @@
 
 #include "facespace/engine/rig.h"
 
-namespace facespace {
+namespace facespace::formats {
 
 // The rig's expressions: name -> {weights, binary, override_blink, override_look_at,
 // override_mouth, derived}.
@@ -25,4 +25,4 @@ nlohmann::json NumberValue(double value);
 // [{"code", "message", "shape"?, "value"?}], what WarningsToJson writes as text, as a value.
 nlohmann::json WarningsValue(std::span<const Warning> warnings);
 
-}  // namespace facespace
+}  // namespace facespace::formats

@@ -13,23 +13,23 @@
 #include "facespace/engine/status.h"
 #include "facespace/picture/picture.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 // A renderer with this module's encoders (Encode, ContactSheet below): what the renderers here
 // derive from.
-class EncodingRenderer : public Renderer {
+class EncodingRenderer : public picture::Renderer {
  public:
-  Result<std::string> Encode(const Image& image, ImageFormat format, int quality,
+  Result<std::string> Encode(const picture::Image& image, picture::ImageFormat format, int quality,
                              HelperCpu* helper_cpu) const override;
-  Image Sheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
-              std::array<float, 4> background) const override;
+  picture::Image Sheet(std::span<const picture::Image> cells, std::span<const std::string> labels,
+                       int columns, std::array<float, 4> background) const override;
   bool CanDrawText(const std::string& text) const override;
   Result<std::string> EncodeData(std::span<const float> values, int width, int height, int channels,
-                                 DataPrecision precision) const override;
+                                 picture::DataPrecision precision) const override;
   Result<std::string> EncodeIds(std::span<const uint16_t> ids, int width,
                                 int height) const override;
-  Result<Image> DecodePicture(std::span<const unsigned char> bytes,
-                              const std::string& mime_type) const override;
+  Result<picture::Image> DecodePicture(std::span<const unsigned char> bytes,
+                                       const std::string& mime_type) const override;
 };
 
 // OSMesa (llvmpipe, rasterising on one thread per core): draws with a GL context leased from a
@@ -42,8 +42,8 @@ class OsMesaRenderer final : public EncodingRenderer {
   OsMesaRenderer(const OsMesaRenderer&) = delete;
   OsMesaRenderer& operator=(const OsMesaRenderer&) = delete;
 
-  Status Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& options,
-              Image& out) const override;
+  Status Draw(const Rig& rig, const BlendedRig& blended, const picture::RenderOptions& options,
+              picture::Image& out) const override;
   std::string Info() const override;
   int Concurrency() const override;
   void SetMaxContexts(
@@ -59,30 +59,32 @@ class OsMesaRenderer final : public EncodingRenderer {
 // background. For tests of the layers above render (tests/api) without GL.
 class NullRenderer final : public EncodingRenderer {
  public:
-  Status Draw(const Rig& rig, const BlendedRig& blended, const RenderOptions& options,
-              Image& out) const override;
+  Status Draw(const Rig& rig, const BlendedRig& blended, const picture::RenderOptions& options,
+              picture::Image& out) const override;
   std::string Info() const override { return "null renderer (no GL)"; }
   int Concurrency() const override { return 1 << 20; }
 };
 
 // Encodes to file bytes: PNG/JPEG/TIFF/WebP as 8-bit sRGB (alpha kept where the format has it),
 // EXR as linear half floats. `quality` is JPEG's and WebP's 1..100 (WebP: 100 is lossless).
-Result<std::string> Encode(const Image& image, ImageFormat format, int quality = 90,
-                           HelperCpu* helper_cpu = nullptr);
+Result<std::string> Encode(const picture::Image& image, picture::ImageFormat format,
+                           int quality = 90, HelperCpu* helper_cpu = nullptr);
 
 // Data as images, written as they are (no colour space): `channels` (1 or 3) floats a pixel, top
 // row first, as a ZIP-compressed EXR of 32-bit floats or 16-bit halves (rounded to nearest, ties to
 // even), one channel "Y" or R, G, B (depth, normals); and ids as a grey PNG, 8 bits when every id
 // is below 256, else 16 (segmentation).
-Result<std::string> EncodeDataExr(std::span<const float> values, int width, int height,
-                                  int channels, DataPrecision precision = DataPrecision::kFloat);
+Result<std::string> EncodeDataExr(
+    std::span<const float> values, int width, int height, int channels,
+    picture::DataPrecision precision = picture::DataPrecision::kFloat);
 // IEEE 754 half of `f`, rounded to nearest, ties to even (as F16C's conversion), for EncodeDataExr.
 uint16_t HalfOf(float f);
 Result<std::string> EncodeIdPng(std::span<const uint16_t> ids, int width, int height);
 
 // Decodes PNG/JPEG/EXR/TIFF/BMP bytes (TGA, which has no magic, when mime_type is "image/x-tga") to
 // linear RGBA (for tests and textures).
-Result<Image> Decode(std::span<const unsigned char> bytes, const std::string& mime_type = "");
+Result<picture::Image> Decode(std::span<const unsigned char> bytes,
+                              const std::string& mime_type = "");
 
 // Empty when the image module (OpenImageIO: formats other than PNG and WebP, textures) is where
 // it is looked for, else what is missing. A server asks at start, so a missing module is said at
@@ -97,7 +99,7 @@ std::string OpenImageModule();
 
 // Draws UTF-8 text (DejaVu Sans; Noto Sans CJK for what DejaVu lacks; FreeType) in an sRGB colour
 // at pixel (x, y) = baseline start. False if no font, or nothing of it lands in the image.
-bool DrawText(Image& image, int x, int y, const std::string& text, int size,
+bool DrawText(picture::Image& image, int x, int y, const std::string& text, int size,
               std::array<float, 3> srgb);
 
 // Whether every character of UTF-8 `text` has a glyph in the fonts DrawText uses (Japanese needs
@@ -105,7 +107,8 @@ bool DrawText(Image& image, int x, int y, const std::string& text, int size,
 bool CanDrawText(const std::string& text);
 
 // A grid of cells, `columns` wide, each labelled under its picture.
-Image ContactSheet(std::span<const Image> cells, std::span<const std::string> labels, int columns,
-                   std::array<float, 4> background);
+picture::Image ContactSheet(std::span<const picture::Image> cells,
+                            std::span<const std::string> labels, int columns,
+                            std::array<float, 4> background);
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -9,7 +9,7 @@
 #include "facespace/engine/status.h"
 #include "facespace/offscreen/render.h"
 
-namespace facespace::render {
+namespace facespace::offscreen {
 
 struct VideoOptions {
   int width = 512, height = 512;  // Even (4:2:0 chroma), 16 to 4096.
@@ -33,7 +33,7 @@ class WebmEncoder {
                                                     std::span<const float> audio, int audio_rate);
 
   // The next frame, options.width x options.height (8-bit or float; alpha composited over white).
-  Status Add(const Image& frame);
+  Status Add(const picture::Image& frame);
 
   // The file: every frame encoded, the streams closed.
   Result<std::string> Finish();
@@ -44,4 +44,4 @@ class WebmEncoder {
   std::unique_ptr<State> state_;
 };
 
-}  // namespace facespace::render
+}  // namespace facespace::offscreen

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace facespace::render::oiio {
+namespace facespace::oiio {
 
 struct EncodeArgs {
   const char* name = nullptr;  // "image.<ext>": the extension picks the writer.
@@ -37,14 +37,7 @@ struct Api {
                  Decoded* out, std::string* error);
 };
 
-// The module, loaded once (thread-safe); nullptr with the reason in `error` when it cannot be.
-const Api* Load(std::string* error);
-
-// Where Load will find the module, without loading it (OpenImageIO's start-up cost); empty when it
-// is in neither place.
-std::string Locate();
-
-}  // namespace facespace::render::oiio
+}  // namespace facespace::oiio
 
 // The module's one entry point.
-extern "C" const facespace::render::oiio::Api* facespace_oiio_api();
+extern "C" const facespace::oiio::Api* facespace_oiio_api();

@@ -17,7 +17,7 @@
 #include "facespace/engine/rig.h"
 #include "facespace/engine/status.h"
 
-namespace facespace::render {
+namespace facespace::picture {
 
 enum class View {
   kShaded,     // The glTF metallic-roughness material (base colour, metallic, roughness, normal,
@@ -165,4 +165,4 @@ class Renderer {
 // a blended rig that does not match the rig.
 Status CheckDrawInputs(const Rig& rig, const BlendedRig& blended, const RenderOptions& options);
 
-}  // namespace facespace::render
+}  // namespace facespace::picture
