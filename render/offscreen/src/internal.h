@@ -40,8 +40,8 @@ void CloseChunk(std::string& out, size_t start, const char* type);
 // we write (why level 0: image.cpp); the caller gives the input, output and end of stream.
 void StartDeflate(isal_zstream& z);
 
-// OpenImageIO's module (facespace/oiio/module.h), opened on first use (oiio_load.cpp).
-// The module, loaded once (thread-safe); nullptr with the reason in `error` when it cannot be.
+// OpenImageIO's module (facespace/oiio/module.h), loaded once on first use (thread-safe,
+// oiio_load.cpp); nullptr with the reason in `error` when it cannot be.
 const oiio::Api* LoadOiio(std::string* error);
 
 // Where LoadOiio will find the module, without loading it (OpenImageIO's start-up cost); empty when
