@@ -53,6 +53,8 @@ const char kUsage[] =
     "          [--compress meshopt|none] -o OUT.glb\n"
     "      any rig (glTF, OBJ sequence, MakeHuman base.obj + .target folder) as a .glb with sparse "
     "targets + manifest\n"
+    "  derive TARGET [--from SOURCE] -o OUT.glb [--landmarks FILE] [--shapes arkit,visemes]\n"
+    "      SOURCE's shapes (default: the bundled FaceCap's ARKit 52) transferred onto TARGET's neutral\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -100,6 +102,7 @@ int main(int argc, char** argv) {
   if (command == "mirror") return facespace::cli::Mirror(args);
   if (command == "compress") return facespace::cli::Compress(args);
   if (command == "convert") return facespace::cli::Convert(args);
+  if (command == "derive") return facespace::cli::Derive(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -54,5 +54,7 @@ int Mirror(const std::vector<std::string>& args);
 int Compress(const std::vector<std::string>& args);
 // Any rig (glTF, OBJ sequence, MakeHuman folder) to a .glb with sparse targets and its manifest.
 int Convert(const std::vector<std::string>& args);
+// A source rig's shapes transferred onto a head without them (derive.cpp).
+int Derive(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

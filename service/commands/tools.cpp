@@ -18,6 +18,8 @@ namespace {
 
 int AxisOf(const std::string& a) { return a == "x" ? 0 : a == "y" ? 1 : a == "z" ? 2 : -1; }
 
+}  // namespace
+
 // The rig itself as glb (every shape a sparse morph target), its default weights as the mesh's.
 Result<std::string> RigAsGlb(const std::shared_ptr<const evaluator::StoredRig>& rig) {
   evaluator::ResolvedPoint defaults;
@@ -30,6 +32,8 @@ Result<std::string> RigAsGlb(const std::shared_ptr<const evaluator::StoredRig>& 
   if (!glb.ok()) return glb.status();
   return std::move(glb->bytes);
 }
+
+namespace {
 
 // Whether a rig file is a glb whose JSON names EXT_meshopt_compression (its JSON chunk only).
 bool UsesMeshopt(const std::string& path) {
