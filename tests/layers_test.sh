@@ -44,6 +44,7 @@ check core/formats 'engine'
 check core/physics 'engine'
 check core/speech 'engine'
 check core/files 'engine'
+check core/derive 'engine'
 # render: what a picture is, then what draws it
 check render/picture 'engine'
 check render/oiio 'oiio'
@@ -55,7 +56,7 @@ check api/batch 'engine|formats|picture|files|evaluator'
 check api/net 'engine'
 check api/http 'engine|formats|picture|offscreen|speech|evaluator|batch|lipsync|net|files'
 # Every folder with code is one of the libraries above (a new one is added here, with its layer).
-known=" core/engine core/formats core/physics core/speech core/files render/picture render/oiio render/offscreen api/evaluator api/lipsync api/batch api/net api/http "
+known=" core/engine core/derive core/formats core/physics core/speech core/files render/picture render/oiio render/offscreen api/evaluator api/lipsync api/batch api/net api/http "
 for dir in core/* render/* api/*; do
   [ -d "$dir" ] || continue
   if find "$dir" -name '*.cpp' -o -name '*.h' | grep -q . && [[ "$known" != *" $dir "* ]]; then

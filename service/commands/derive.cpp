@@ -1,10 +1,11 @@
-// facespace derive: a source rig's shapes (default: the bundled FaceCap's ARKit 52) transferred onto
-// a head that has none, written as a glb with its manifest.
+// facespace derive: a source rig's shapes (default: the bundled FaceCap's ARKit 52) transferred
+// onto a head that has none, written as a glb with its manifest.
+#include "facespace/derive/derive.h"
+
 #include <cstdio>
 
 #include "commands/cli.h"
 #include "commands/flags.h"
-#include "facespace/derive/derive.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
@@ -20,18 +21,28 @@ int Derive(const std::vector<std::string>& args) {
   std::vector<std::string> positional;
   std::string from = FACESPACE_DEFAULT_SOURCE, out, landmarks_path, sets;
   Flags flags(
-      "usage: facespace derive TARGET [--from SOURCE] -o OUT.glb [--landmarks FILE] [--shapes arkit,visemes]\n",
-      "Transfers SOURCE's shapes (default: the bundled FaceCap, ARKit 52) onto TARGET's neutral: SOURCE's\n"
-      "face registered onto TARGET's (landmarks or the heads' own shape, then non-rigid ICP) and each\n"
-      "shape's deformation carried over (deformation transfer). Writes OUT.glb with TARGET's own shapes\n"
-      "and the derived ones, named as SOURCE names them, and OUT.manifest.json marking them derived.\n"
+      "usage: facespace derive TARGET [--from SOURCE] -o OUT.glb [--landmarks FILE] [--shapes "
+      "arkit,visemes]\n",
+      "Transfers SOURCE's shapes (default: the bundled FaceCap, ARKit 52) onto TARGET's neutral: "
+      "SOURCE's\n"
+      "face registered onto TARGET's (landmarks or the heads' own shape, then non-rigid ICP) and "
+      "each\n"
+      "shape's deformation carried over (deformation transfer). Writes OUT.glb with TARGET's own "
+      "shapes\n"
+      "and the derived ones, named as SOURCE names them, and OUT.manifest.json marking them "
+      "derived.\n"
       "TARGET is any mesh we read (glb, glTF, OBJ, FBX, COLLADA, PMX), facing +z with y up unless\n"
       "landmarks say where the face is.\n");
-  flags.Text("--from", "SOURCE", "the rig whose shapes are transferred (its manifest's landmarks used)", &from);
+  flags.Text("--from", "SOURCE",
+             "the rig whose shapes are transferred (its manifest's landmarks used)", &from);
   flags.Text("--landmarks", "FILE",
-             "TARGET's landmarks: {\"scheme\", \"points\": [{\"name\", \"vertex\" | \"position\"}]}, named as SOURCE's",
+             "TARGET's landmarks: {\"scheme\", \"points\": [{\"name\", \"vertex\" | "
+             "\"position\"}]}, named as SOURCE's",
              &landmarks_path);
-  flags.Text("--shapes", "SETS", "arkit (SOURCE's ARKit-named shapes), visemes (the 15 baked as viseme_*); default all of SOURCE's", &sets);
+  flags.Text("--shapes", "SETS",
+             "arkit (SOURCE's ARKit-named shapes), visemes (the 15 baked as viseme_*); default all "
+             "of SOURCE's and the visemes",
+             &sets);
   flags.Text("-o, --output", "OUT.glb", "output", &out);
   if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
   if (positional.empty() || out.empty())
@@ -41,8 +52,10 @@ int Derive(const std::vector<std::string>& args) {
   Result<Rig> source = LoadAndReport({from});
   if (!source.ok()) return 1;
   derive::Options options;
+  options.visemes = sets.empty();
   if (!sets.empty()) {
-    if (Status s = derive::ParseShapeSets(source.value(), sets, options); !s.ok()) return PrintStatus(s), 2;
+    if (Status s = derive::ParseShapeSets(source.value(), sets, options); !s.ok())
+      return PrintStatus(s), 2;
   }
   if (!landmarks_path.empty()) {
     std::string text;
@@ -69,12 +82,18 @@ int Derive(const std::vector<std::string>& args) {
   const std::string manifest_path = out.substr(0, out.rfind('.')) + ".manifest.json";
   if (int rc = WriteResult(manifest_path, formats::ManifestJson(stored->rig))) return rc;
   std::fprintf(stderr,
-               "derive: %zu shapes from '%s' (%s alignment, %zu landmarks, scale %.4g), fit %.3f%% of the size on average "
-               "(95%%: %.3f%%), %zu triangles matched, parts: %zu eyes, %zu rigid, %zu still; %.2f s CPU -> %s, %s\n",
-               r.derived.size(), source->name.c_str(), r.alignment == derive::Alignment::kLandmarks ? "landmark" : "shape",
-               r.landmarks_used, r.scale, 100 * r.mean_residual, 100 * r.max_residual, r.matched_triangles, r.parts_eyes,
-               r.parts_rigid, r.parts_still, r.seconds, out.c_str(), manifest_path.c_str());
-  if (!r.kept.empty()) std::fprintf(stderr, "derive: %zu shapes TARGET already had are its own (kept)\n", r.kept.size());
+               "derive: %zu shapes from '%s' (%s alignment, %zu landmarks, scale %.4g), fit %.3f%% "
+               "of the size on average "
+               "(95%%: %.3f%%), %zu triangles matched, parts: %zu eyes, %zu rigid, %zu still; %.2f "
+               "s CPU -> %s, %s\n",
+               r.derived.size(), source->name.c_str(),
+               r.alignment == derive::Alignment::kLandmarks ? "landmark" : "shape",
+               r.landmarks_used, r.scale, 100 * r.mean_residual, 100 * r.max_residual,
+               r.matched_triangles, r.parts_eyes, r.parts_rigid, r.parts_still, r.seconds,
+               out.c_str(), manifest_path.c_str());
+  if (!r.kept.empty())
+    std::fprintf(stderr, "derive: %zu shapes TARGET already had are its own (kept)\n",
+                 r.kept.size());
   return 0;
 }
 

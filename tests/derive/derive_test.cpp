@@ -19,8 +19,12 @@ namespace {
 
 using V3 = Eigen::Vector3d;
 
-std::string FaceCapPath() { return std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb"; }
-std::string Ict(const std::string& f) { return test::SharedAssets() + "/more/OBJ/ICT-FaceKit_subset/" + f; }
+std::string FaceCapPath() {
+  return std::string(FACESPACE_SOURCE_DIR) + "/assets/facecap/facecap.glb";
+}
+std::string Ict(const std::string& f) {
+  return test::SharedAssets() + "/more/OBJ/ICT-FaceKit_subset/" + f;
+}
 
 const Rig& FaceCap() {
   static const Rig rig = [] {
@@ -47,7 +51,8 @@ Rig WithoutShapes(Rig rig) {
 std::vector<V3> Field(const Rig& rig, const std::string& name) {
   const Primitive& p = rig.primitives[0];
   size_t n = p.vertex_count();
-  if (!p.source_vertices.empty()) n = *std::max_element(p.source_vertices.begin(), p.source_vertices.end()) + 1;
+  if (!p.source_vertices.empty())
+    n = *std::max_element(p.source_vertices.begin(), p.source_vertices.end()) + 1;
   std::vector<V3> out(n, V3::Zero());
   const int s = FindShape(rig, name);
   EXPECT_GE(s, 0) << name;
@@ -56,8 +61,10 @@ std::vector<V3> Field(const Rig& rig, const std::string& name) {
     if (static_cast<int>(mesh.target_shapes[t]) != s) continue;
     const SparseTarget& st = p.targets[t];
     for (size_t k = 0; k < st.indices.size(); ++k) {
-      const uint32_t v = p.source_vertices.empty() ? st.indices[k] : p.source_vertices[st.indices[k]];
-      out[v] = V3(st.position_deltas[3 * k], st.position_deltas[3 * k + 1], st.position_deltas[3 * k + 2]);
+      const uint32_t v =
+          p.source_vertices.empty() ? st.indices[k] : p.source_vertices[st.indices[k]];
+      out[v] = V3(st.position_deltas[3 * k], st.position_deltas[3 * k + 1],
+                  st.position_deltas[3 * k + 2]);
     }
   }
   return out;
@@ -75,7 +82,8 @@ std::vector<V3> Points(const Rig& rig) {
 
 // The `v` numbers the faces of material `material` use in an OBJ file (ICT's "M_Face": the skin of
 // the face, without lashes, eyes, teeth and the back of the head).
-std::vector<uint8_t> ObjMaterialVertices(const std::string& path, const std::string& material, size_t n) {
+std::vector<uint8_t> ObjMaterialVertices(const std::string& path, const std::string& material,
+                                         size_t n) {
   std::vector<uint8_t> in(n, 0);
   std::ifstream f(path);
   std::string line, current;
@@ -89,7 +97,8 @@ std::vector<uint8_t> ObjMaterialVertices(const std::string& path, const std::str
   return in;
 }
 
-double Cosine(const std::vector<V3>& a, const std::vector<V3>& b, const std::vector<uint8_t>& over) {
+double Cosine(const std::vector<V3>& a, const std::vector<V3>& b,
+              const std::vector<uint8_t>& over) {
   double ab = 0, aa = 0, bb = 0;
   for (size_t i = 0; i < a.size(); ++i) {
     if (over[i]) ab += a[i].dot(b[i]), aa += a[i].squaredNorm(), bb += b[i].squaredNorm();
@@ -136,7 +145,8 @@ TEST(Derive, FaceCapOntoItselfReproducesItsShapes) {
         if (static_cast<int>(mesh.target_shapes[t]) != si) continue;
         const SparseTarget& st = rig.primitives[head].targets[t];
         for (size_t k = 0; k < st.indices.size(); ++k)
-          out[st.indices[k]] = V3(st.position_deltas[3 * k], st.position_deltas[3 * k + 1], st.position_deltas[3 * k + 2]);
+          out[st.indices[k]] = V3(st.position_deltas[3 * k], st.position_deltas[3 * k + 1],
+                                  st.position_deltas[3 * k + 2]);
       }
       return out;
     };
@@ -156,8 +166,9 @@ struct IctFigures {
 class IctDerive : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    auto own = formats::LoadObjSequence(std::vector<std::string>{Ict("generic_neutral_mesh.obj"), Ict("jawOpen.obj"),
-                                                                 Ict("eyeBlink_L.obj"), Ict("mouthSmile_L.obj")});
+    auto own = formats::LoadObjSequence(
+        std::vector<std::string>{Ict("generic_neutral_mesh.obj"), Ict("jawOpen.obj"),
+                                 Ict("eyeBlink_L.obj"), Ict("mouthSmile_L.obj")});
     ASSERT_TRUE(own.ok()) << own.status().message;
     own_ = new Rig(std::move(own.value()));
     auto neutral = formats::LoadRigFile(Ict("generic_neutral_mesh.obj"));
@@ -166,12 +177,14 @@ class IctDerive : public ::testing::Test {
     auto r = DeriveShapes(*derived_, FaceCap(), {});
     ASSERT_TRUE(r.ok()) << r.status().message;
     report_ = new Report(r.value());
-    face_ = new std::vector<uint8_t>(ObjMaterialVertices(Ict("generic_neutral_mesh.obj"), "M_Face", Points(*own_).size()));
+    face_ = new std::vector<uint8_t>(
+        ObjMaterialVertices(Ict("generic_neutral_mesh.obj"), "M_Face", Points(*own_).size()));
   }
   static IctFigures Compare(const std::string& name) {
     const auto x = Points(*own_);
     const auto a = Field(*own_, name), b = Field(*derived_, name);
-    return {Cosine(a, b, *face_), Norm(b, *face_) / Norm(a, *face_), TurnedOver(*derived_, x, b), TurnedOver(*own_, x, a)};
+    return {Cosine(a, b, *face_), Norm(b, *face_) / Norm(a, *face_), TurnedOver(*derived_, x, b),
+            TurnedOver(*own_, x, a)};
   }
   static inline Rig* own_ = nullptr;
   static inline Rig* derived_ = nullptr;
@@ -182,8 +195,8 @@ class IctDerive : public ::testing::Test {
 TEST_F(IctDerive, ShapesAgreeWithIctsOwn) {
   for (const char* name : {"jawOpen", "eyeBlink_L", "mouthSmile_L"}) {
     const IctFigures f = Compare(name);
-    std::printf("%-13s cosine %.3f  norm ratio %.2f  turned over %zu (ICT's own %zu)\n", name, f.cosine, f.ratio,
-                f.turned, f.turned_own);
+    std::printf("%-13s cosine %.3f  norm ratio %.2f  turned over %zu (ICT's own %zu)\n", name,
+                f.cosine, f.ratio, f.turned, f.turned_own);
     EXPECT_GE(f.cosine, 0.8) << name;
     EXPECT_GE(f.ratio, 0.5) << name;
     EXPECT_LE(f.ratio, 2.0) << name;
@@ -209,10 +222,14 @@ TEST_F(IctDerive, BlinkClosesTheLeftLidsAndLeavesTheRight) {
   }
   const double gap = (x[upper] - x[lower]).norm();
   const double after = (x[upper] + derived[upper] - x[lower] - derived[lower]).norm();
-  std::printf("upper lid %zu at %.2f %.2f %.2f: ICT moves it %.3f %.3f %.3f, derived %.3f %.3f %.3f; lower %zu derived %.3f\n", upper,
-              x[upper].x(), x[upper].y(), x[upper].z(), own[upper].x(), own[upper].y(), own[upper].z(), derived[upper].x(),
-              derived[upper].y(), derived[upper].z(), lower, derived[lower].norm());
-  std::printf("left lids: gap %.3f, %.3f after the derived blink (closed %.0f%%)\n", gap, after, 100 * (1 - after / gap));
+  std::printf(
+      "upper lid %zu at %.2f %.2f %.2f: ICT moves it %.3f %.3f %.3f, derived %.3f %.3f %.3f; lower "
+      "%zu derived %.3f\n",
+      upper, x[upper].x(), x[upper].y(), x[upper].z(), own[upper].x(), own[upper].y(),
+      own[upper].z(), derived[upper].x(), derived[upper].y(), derived[upper].z(), lower,
+      derived[lower].norm());
+  std::printf("left lids: gap %.3f, %.3f after the derived blink (closed %.0f%%)\n", gap, after,
+              100 * (1 - after / gap));
   // Issue 63 asks 75%; the derive closes 53% today (tuned for unturned triangles: transfer.cpp).
   EXPECT_GE(1 - after / gap, 0.5);
   size_t right = 0;
@@ -241,10 +258,134 @@ TEST_F(IctDerive, JawOpenLeavesTheForeheadStill) {
     forehead = std::max(forehead, jaw[i].norm());
     ++counted;
   }
-  std::printf("jawOpen: largest move %.3f, forehead's (%zu vertices) %.4f (%.2f%%)\n", largest, counted, forehead,
-              100 * forehead / largest);
+  std::printf("jawOpen: largest move %.3f, forehead's (%zu vertices) %.4f (%.2f%%)\n", largest,
+              counted, forehead, 100 * forehead / largest);
   EXPECT_GT(counted, 100u);
   EXPECT_LE(forehead, 0.02 * largest);
+}
+
+
+// ---- hostile targets: each refused naming its field, or derived sanely; nothing half-written ----
+
+// The first field a refusal names, or "".
+std::string FirstField(const Status& s) { return s.fields.empty() ? "" : s.fields[0].pointer; }
+
+// A unit sphere of `rings` x `segments` quads as a one-primitive OBJ rig: a head with no face.
+Rig Sphere(int rings, int segments) {
+  std::ostringstream obj;
+  for (int r = 0; r <= rings; ++r) {
+    const double t = 3.14159265358979 * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double p = 2 * 3.14159265358979 * s / segments;
+      obj << "v " << std::sin(t) * std::cos(p) << ' ' << std::cos(t) << ' '
+          << std::sin(t) * std::sin(p) << '\n';
+    }
+  }
+  for (int r = 0; r < rings; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      const int a = r * segments + s + 1, b = r * segments + (s + 1) % segments + 1;
+      obj << "f " << a << ' ' << b << ' ' << b + segments << ' ' << a + segments << '\n';
+    }
+  }
+  const std::string path = ::testing::TempDir() + "/derive_sphere.obj";
+  std::ofstream(path) << obj.str();
+  auto rig = formats::LoadRigFile(path);
+  EXPECT_TRUE(rig.ok()) << rig.status().message;
+  return std::move(rig.value());
+}
+
+TEST(DeriveHostile, AHeadWithoutAFaceIsRefusedWithItsFigure) {
+  Rig target = Sphere(48, 64);
+  const size_t before = target.shapes.size();
+  auto r = DeriveShapes(target, FaceCap(), {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().reason, "poor-fit") << r.status().message;
+  EXPECT_NE(r.status().message.find('%'), std::string::npos) << r.status().message;  // Its figure.
+  EXPECT_FALSE(FirstField(r.status()).empty());
+  EXPECT_EQ(target.shapes.size(), before);  // Nothing written.
+}
+
+TEST(DeriveHostile, TooManyVerticesIsRefusedBeforeAnyWork) {
+  Rig target = WithoutShapes(FaceCap());
+  target.primitives[0].positions.resize(3 * 1'000'000, 0.0f);
+  auto r = DeriveShapes(target, FaceCap(), {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code, StatusCode::kResourceExhausted);
+  EXPECT_EQ(FirstField(r.status()), "/target");
+}
+
+TEST(DeriveHostile, OnlyDegenerateTrianglesIsNoSurface) {
+  Rig target = WithoutShapes(FaceCap());
+  for (Primitive& p : target.primitives) {
+    for (size_t i = 0; i + 2 < p.indices.size(); i += 3)
+      p.indices[i + 1] = p.indices[i + 2] = p.indices[i];
+  }
+  auto r = DeriveShapes(target, FaceCap(), {});
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().reason, "no-face");
+  EXPECT_EQ(FirstField(r.status()), "/target");
+  EXPECT_TRUE(target.shapes.empty());
+}
+
+TEST(DeriveHostile, ALandmarkOffTheMeshNamesItsPosition) {
+  Rig target = WithoutShapes(FaceCap());
+  Options o;
+  o.landmarks = {{"nose_tip", -1, {1e6f, 0, 0}}};
+  ASSERT_FALSE(FaceCap().landmarks.empty());
+  o.landmarks[0].name = FaceCap().landmarks[30].name;
+  auto r = DeriveShapes(target, FaceCap(), o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(FirstField(r.status()), "/landmarks/points/0/position") << r.status().message;
+  o.landmarks = {{"no-such-point", 5, {}}};
+  r = DeriveShapes(target, FaceCap(), o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(FirstField(r.status()), "/landmarks/points/0/name");
+  o.landmarks = {{FaceCap().landmarks[30].name, 99'999'999, {}}};
+  r = DeriveShapes(target, FaceCap(), o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(FirstField(r.status()), "/landmarks/points/0/vertex");
+  EXPECT_TRUE(target.shapes.empty());
+}
+
+TEST(DeriveHostile, AnUnknownShapeIsNamed) {
+  Rig target = WithoutShapes(FaceCap());
+  Options o;
+  o.shapes = {"jawOpen", "jawOpn"};
+  auto r = DeriveShapes(target, FaceCap(), o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(FirstField(r.status()), "/shapes/1");
+  EXPECT_NE(r.status().message.find("jawOpen"), std::string::npos)
+      << r.status().message;  // Did you mean.
+}
+
+// A head with holes (every seventh triangle gone) and in pieces still derives: finite shapes that
+// open the jaw where the whole head's do.
+TEST(DeriveHostile, AHeadWithHolesStillDerives) {
+  Rig target = WithoutShapes(FaceCap());
+  std::vector<uint32_t>& idx = target.primitives[2].indices;
+  std::vector<uint32_t> kept;
+  for (size_t t = 0; t * 3 < idx.size(); ++t) {
+    if (t % 7 != 3) kept.insert(kept.end(), idx.begin() + 3 * t, idx.begin() + 3 * t + 3);
+  }
+  idx = kept;
+  Options o;
+  o.shapes = {"jawOpen", "eyeBlink_L"};
+  auto r = DeriveShapes(target, FaceCap(), o);
+  ASSERT_TRUE(r.ok()) << r.status().message;
+  const int s = FindShape(target, "jawOpen");
+  ASSERT_GE(s, 0);
+  double largest = 0;
+  for (const Primitive& p : target.primitives) {
+    for (const SparseTarget& t : p.targets) {
+      for (float d : t.position_deltas) {
+        ASSERT_TRUE(std::isfinite(d));
+        largest = std::max(largest, static_cast<double>(std::abs(d)));
+      }
+    }
+  }
+  EXPECT_GT(largest, 500);  // FaceCap's jaw moves its chin over 1,000 of its mesh units.
+  EXPECT_EQ(target.derivation.source, FaceCap().name);
+  EXPECT_EQ(target.derivation.shapes.size(), 2u);
 }
 
 }  // namespace

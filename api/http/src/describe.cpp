@@ -68,6 +68,7 @@ json DescribeRig(const Rig& r) {
   j["expressions"] = formats::ExpressionsValue(r);
   j["gaze"] = formats::GazeValue(r);
   j["visemes"] = formats::VisemesValue(r);
+  j["derivation"] = formats::DerivationValue(r);  // Where derived shapes came from; null: none.
   j["statistics"] = r.statistics.present ? json{{"components", r.statistics.components.size()},
                                                 {"bound", r.statistics.bound}}
                                          : json(nullptr);

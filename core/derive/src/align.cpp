@@ -15,8 +15,9 @@ bool FileVertex(const Rig& rig, long long v, uint32_t& primitive, uint32_t& inde
   for (uint32_t p = 0; p < rig.primitives.size() && v >= 0; ++p) {
     const Primitive& prim = rig.primitives[p];
     const auto& sv = prim.source_vertices;
-    const long long count = sv.empty() ? static_cast<long long>(prim.vertex_count())
-                                       : (sv.empty() ? 0 : *std::max_element(sv.begin(), sv.end()) + 1LL);
+    const long long count = sv.empty()
+                                ? static_cast<long long>(prim.vertex_count())
+                                : (sv.empty() ? 0 : *std::max_element(sv.begin(), sv.end()) + 1LL);
     if (v < count) {
       primitive = p;
       if (sv.empty()) return index = static_cast<uint32_t>(v), true;
@@ -64,7 +65,8 @@ Result<std::vector<LandmarkPair>> PairLandmarks(const Rig& source, const Surface
     Vec3 q;
     if (t.vertex >= 0) {
       uint32_t p = 0, v = 0;
-      if (!FileVertex(target, t.vertex, p, v) || surface.vertex_point[surface.vertex_start[p] + v] == UINT32_MAX)
+      if (!FileVertex(target, t.vertex, p, v) ||
+          surface.vertex_point[surface.vertex_start[p] + v] == UINT32_MAX)
         return InvalidField(Field(i, "vertex"), "is not a vertex of the target's surface");
       q = surface.points[surface.vertex_point[surface.vertex_start[p] + v]];
     } else {
@@ -84,7 +86,7 @@ Result<std::vector<LandmarkPair>> PairLandmarks(const Rig& source, const Surface
 }
 
 Similarity AlignByShape(std::span<const Vec3> source, const Surface& target,
-                        const ClosestPoint& closest) {
+                        std::span<const uint8_t> head, const ClosestPoint& closest) {
   Eigen::AlignedBox3d sbox;
   size_t snose = 0;
   for (size_t i = 0; i < source.size(); ++i) {
@@ -94,7 +96,9 @@ Similarity AlignByShape(std::span<const Vec3> source, const Surface& target,
   // The target's nose: the most forward point of its largest part.
   size_t tnose = 0;
   for (size_t i = 0; i < target.points.size(); ++i) {
-    if (target.part[i] == 0 && target.points[i].z() > target.points[tnose].z()) tnose = i;
+    if (target.part[i] == 0 && head[i] &&
+        (!head[tnose] || target.points[i].z() > target.points[tnose].z()))
+      tnose = i;
   }
   const Vec3 sn = source[snose], tn = target.points[tnose];
   const Vec3 sext = sbox.diagonal();
@@ -103,9 +107,11 @@ Similarity AlignByShape(std::span<const Vec3> source, const Surface& target,
   double scale = 1;
   for (int round = 0; round < 6; ++round) {
     double lo = 0, hi = 0;
-    for (const Vec3& p : target.points) {
-      const Vec3 d = p - tn;
-      if (-d.z() > scale * sext.z() || std::abs(d.y() - scale * (sbox.center().y() - sn.y())) > 0.5 * scale * sext.y())
+    for (size_t i = 0; i < target.points.size(); ++i) {
+      if (!head[i]) continue;
+      const Vec3 d = target.points[i] - tn;
+      if (-d.z() > scale * sext.z() ||
+          std::abs(d.y() - scale * (sbox.center().y() - sn.y())) > 0.5 * scale * sext.y())
         continue;
       lo = std::min(lo, d.x());
       hi = std::max(hi, d.x());
@@ -115,7 +121,11 @@ Similarity AlignByShape(std::span<const Vec3> source, const Surface& target,
   Similarity s;
   s.scale = scale;
   s.translation = tn - scale * sn;
-  return RefineSimilarity(s, source, closest, Diagonal(target.points), {}, 30);
+  std::vector<Vec3> head_points;
+  for (size_t i = 0; i < head.size(); ++i) {
+    if (head[i]) head_points.push_back(target.points[i]);
+  }
+  return RefineSimilarity(s, source, closest, Diagonal(head_points), {}, 30);
 }
 
 Similarity RefineSimilarity(Similarity start, std::span<const Vec3> source,
@@ -138,9 +148,12 @@ Similarity RefineSimilarity(Similarity start, std::span<const Vec3> source,
     std::vector<double> sorted = distances;
     const size_t cut = sorted.size() * 8 / 10;
     std::nth_element(sorted.begin(), sorted.begin() + cut, sorted.end());
-    for (size_t i = 0; i < weights.size(); ++i) weights[i] = distances[i] <= sorted[cut] ? 1.0 : 0.0;
-    const double lw = landmarks.empty() ? 0 : static_cast<double>(from.size()) / (4.0 * landmarks.size());
-    for (const LandmarkPair& l : landmarks) from.push_back(l.source), to.push_back(l.target), weights.push_back(lw);
+    for (size_t i = 0; i < weights.size(); ++i)
+      weights[i] = distances[i] <= sorted[cut] ? 1.0 : 0.0;
+    const double lw =
+        landmarks.empty() ? 0 : static_cast<double>(from.size()) / (4.0 * landmarks.size());
+    for (const LandmarkPair& l : landmarks)
+      from.push_back(l.source), to.push_back(l.target), weights.push_back(lw);
     s = FitSimilarity(from, to, weights, true);
   }
   return s;

@@ -2,17 +2,18 @@
 #include "facespace/derive/derive.h"
 
 #include <Eigen/LU>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <ctime>
 #include <limits>
 #include <set>
-#include <cstdio>
 
 #include "facespace/engine/face.h"
-#include "facespace/engine/speech.h"
 #include "internal.h"
+#include "parts.h"
 #include "transfer.h"
 
 namespace facespace::derive {
@@ -27,14 +28,6 @@ std::vector<Eigen::Matrix3d> LinearParts(const Rig& rig) {
   for (const auto& m : PrimitiveWorldMatrices(rig))
     out.push_back(Eigen::Map<const Eigen::Matrix4f>(m.data()).topLeftCorner<3, 3>().cast<double>());
   return out;
-}
-
-// The primitives of the region called `name`, or empty.
-std::vector<uint32_t> RegionPrimitives(const Rig& rig, const std::string& name) {
-  for (const Region& r : rig.regions) {
-    if (r.name == name) return r.primitives;
-  }
-  return {};
 }
 
 // Shape `shape`'s displacement of each point of `s` (world space; zero where it does not move).
@@ -57,118 +50,25 @@ void ShapeDisplacement(const Rig& rig, const Surface& s, std::span<const Eigen::
   }
 }
 
-
 double CpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
 
 void Progress(const Options& o, double f, const char* step) {
   if (o.progress) o.progress(f, step);
 }
 
-// ---- the target's parts ----------------------------------------------------------------------
-
-// kAttached: a thin part lying on the skin (lashes, an eye's wet line), each point following the
-// skin under it; kRigid: a part apart from it (teeth), moved as one by the skin around it.
-enum class PartKind : uint8_t { kSkin, kEye, kAttached, kRigid, kStill };
-
-struct Eye {
-  Vec3 centre = Vec3::Zero();  // Target frame.
-  double radius = 0;
-  bool left = false;  // The subject's left (+x in the source's frame).
-};
-
-// The source's eyes (its manifest's "eyes" region, one primitive each) in the target's frame.
-std::vector<Eye> SourceEyes(const Rig& source, const Similarity& sim) {
-  std::vector<Eye> eyes;
-  const auto world = PrimitiveWorldMatrices(source);
-  for (uint32_t p : RegionPrimitives(source, "eyes")) {
-    Eigen::AlignedBox3d box;
-    const Primitive& prim = source.primitives[p];
-    const Eigen::Map<const Eigen::Matrix4f> m(world[p].data());
-    for (size_t v = 0; v < prim.vertex_count(); ++v)
-      box.extend((m.cast<double>() * Vec3(prim.positions[3 * v], prim.positions[3 * v + 1],
-                                          prim.positions[3 * v + 2]).homogeneous()).head<3>());
-    if (box.isEmpty()) continue;
-    eyes.push_back({sim(box.center()), 0.5 * sim.scale * box.diagonal().maxCoeff(), box.center().x() > 0});
-  }
-  return eyes;
-}
-
-// Per part: whether it is round, its points about as far from its centre as an eyeball's are, and
-// as deep as wide (a ring of lashes, an iris's cap, a mouth's bag are not).
-std::vector<uint8_t> RoundParts(const Surface& t) {
-  const size_t parts = t.part_size.size();
-  std::vector<Eigen::AlignedBox3d> boxes(parts);
-  for (size_t i = 0; i < t.points.size(); ++i) boxes[t.part[i]].extend(t.points[i]);
-  std::vector<double> r1(parts, 0), r2(parts, 0);
-  for (size_t i = 0; i < t.points.size(); ++i) {
-    const double r = (t.points[i] - boxes[t.part[i]].center()).norm();
-    r1[t.part[i]] += r, r2[t.part[i]] += r * r;
-  }
-  std::vector<uint8_t> round(parts, 0);
-  for (size_t p = 0; p < parts; ++p) {
-    const double n = t.part_size[p], mean = r1[p] / n;
-    const Vec3 e = boxes[p].diagonal();
-    round[p] = std::sqrt(std::max(0.0, r2[p] / n - mean * mean)) < 0.2 * mean && e.minCoeff() > 0.5 * e.maxCoeff();
-  }
-  return round;
-}
-
-// The target's body: the triangles of its largest part and of parts of a size near it that are
-// not round (a head in pieces, a mouth's inside; not eyeballs and teeth), which the face registers onto.
-std::vector<Tri> BodyTriangles(const Surface& t) {
-  const auto round = RoundParts(t);
-  std::vector<Tri> body;
-  for (const Tri& tri : t.triangles) {
-    const uint32_t part = t.part[tri[0]];
-    if (part == 0 || (16 * t.part_size[part] >= t.part_size[0] && !round[part])) body.push_back(tri);
-  }
-  return body;
-}
-
-// What each part of the target is: an eye where a round part sits in a source eye, skin where the
-// face matched enough of it, else rigid (teeth, tongue: following the skin near them) or still (far away).
-std::vector<PartKind> ClassifyParts(const Surface& t, std::span<const uint8_t> matched_triangle,
-                                    std::span<const Eye> eyes, const ClosestPoint& skin, double reach) {
-  const size_t parts = t.part_size.size();
-  std::vector<size_t> tris(parts, 0), hits(parts, 0);
-  for (size_t i = 0; i < t.triangles.size(); ++i) {
-    ++tris[t.part[t.triangles[i][0]]];
-    hits[t.part[t.triangles[i][0]]] += matched_triangle[i];
-  }
-  std::vector<Eigen::AlignedBox3d> boxes(parts);
-  for (size_t i = 0; i < t.points.size(); ++i) boxes[t.part[i]].extend(t.points[i]);
-  const auto round = RoundParts(t);
-  std::vector<PartKind> kind(parts, PartKind::kStill);
-  for (size_t p = 0; p < parts; ++p) {
-    for (const Eye& e : eyes) {
-      if (p > 0 && round[p] && (boxes[p].center() - e.centre).norm() < e.radius &&
-          boxes[p].diagonal().norm() < 4 * e.radius)
-        kind[p] = PartKind::kEye;
-    }
-    if (kind[p] == PartKind::kEye) continue;
-    // The largest part, parts of a size near it the face reaches, and parts it mostly covers.
-    const bool large = 8 * t.part_size[p] >= t.part_size[0], sizeable = 20 * t.part_size[p] >= t.part_size[0];
-    if (p == 0 || (large && hits[p] > 0) || (2 * hits[p] >= tris[p] && sizeable)) {
-      kind[p] = PartKind::kSkin;
-      continue;
-    }
-    ClosestPoint::Hit hit;
-    if (skin.Find(boxes[p].center(), hit, reach * reach)) kind[p] = PartKind::kRigid;
-  }
-  return kind;
-}
-
 // ---- the correspondence ----------------------------------------------------------------------
 
 struct Correspondence {
-  std::vector<uint32_t> triangle_source;  // Per target triangle: the source triangle, or UINT32_MAX.
-  std::vector<uint32_t> point_source;     // Per target point: the source triangle, or UINT32_MAX.
+  std::vector<uint32_t>
+      triangle_source;                 // Per target triangle: the source triangle, or UINT32_MAX.
+  std::vector<uint32_t> point_source;  // Per target point: the source triangle, or UINT32_MAX.
   std::vector<Vec3> point_bary;
   std::vector<double> point_distance;
 };
 
-Correspondence Correspond(const Surface& t, std::span<const Vec3> registered, std::span<const Tri> tris,
-                          const ClosestPoint& skin, double tolerance, double reach) {
+Correspondence Correspond(const Surface& t, std::span<const Vec3> registered,
+                          std::span<const Tri> tris, const ClosestPoint& skin, double tolerance,
+                          double reach) {
   Correspondence c;
   const auto tn = PointNormals(t.points, t.triangles);
   const auto sn = PointNormals(registered, tris);
@@ -176,11 +76,15 @@ Correspondence Correspond(const Surface& t, std::span<const Vec3> registered, st
   for (size_t i = 0; i < t.triangles.size(); ++i) {
     const Tri& tri = t.triangles[i];
     const Vec3 centre = (t.points[tri[0]] + t.points[tri[1]] + t.points[tri[2]]) / 3;
-    const Vec3 n = (t.points[tri[1]] - t.points[tri[0]]).cross(t.points[tri[2]] - t.points[tri[0]]).normalized();
+    const Vec3 n = (t.points[tri[1]] - t.points[tri[0]])
+                       .cross(t.points[tri[2]] - t.points[tri[0]])
+                       .normalized();
     ClosestPoint::Hit hit;
     if (!skin.Find(centre, hit, tolerance * tolerance)) continue;
     const Tri& s = tris[hit.triangle];
-    const Vec3 m = (registered[s[1]] - registered[s[0]]).cross(registered[s[2]] - registered[s[0]]).normalized();
+    const Vec3 m = (registered[s[1]] - registered[s[0]])
+                       .cross(registered[s[2]] - registered[s[0]])
+                       .normalized();
     if (n.dot(m) > 0.3) c.triangle_source[i] = hit.triangle;
   }
   c.point_source.assign(t.points.size(), UINT32_MAX);
@@ -190,7 +94,8 @@ Correspondence Correspond(const Surface& t, std::span<const Vec3> registered, st
     ClosestPoint::Hit hit;
     if (!skin.Find(t.points[i], hit, reach * reach)) continue;
     const Tri& s = tris[hit.triangle];
-    const Vec3 m = hit.barycentric[0] * sn[s[0]] + hit.barycentric[1] * sn[s[1]] + hit.barycentric[2] * sn[s[2]];
+    const Vec3 m = hit.barycentric[0] * sn[s[0]] + hit.barycentric[1] * sn[s[1]] +
+                   hit.barycentric[2] * sn[s[2]];
     c.point_distance[i] = std::sqrt(hit.distance2);
     if (c.point_distance[i] <= tolerance && tn[i].dot(m) <= 0.3) continue;
     c.point_source[i] = hit.triangle;
@@ -199,43 +104,26 @@ Correspondence Correspond(const Surface& t, std::span<const Vec3> registered, st
   return c;
 }
 
-
-// ---- eyes ------------------------------------------------------------------------------------
-
-// How far an eye turns at weight 1 of ARKit's eyeLook shapes (the source's own eyes turn by their
-// bones, which no shape records): 30 degrees in and out, 25 up and down.
-constexpr double kLookSideways = 30.0, kLookVertical = 25.0;
-
-// The turn (source frame) an eyeLook shape gives the eye on `left`, or identity.
-Eigen::Matrix3d EyeTurn(const std::string& name, bool left) {
-  if (name.rfind("eyeLook", 0) != 0) return Eigen::Matrix3d::Identity();
-  const bool named_left = name.find("Left") != std::string::npos || name.ends_with("_L");
-  const bool named_right = name.find("Right") != std::string::npos || name.ends_with("_R");
-  if ((left && !named_left) || (!left && !named_right)) return Eigen::Matrix3d::Identity();
-  constexpr double kRad = 3.14159265358979323846 / 180.0;
-  // Looking along +z, y up: up turns +z towards +y (about -x); out, for the left eye, towards +x.
-  if (name.find("Up") != std::string::npos) return Eigen::AngleAxisd(-kLookVertical * kRad, Vec3::UnitX()).matrix();
-  if (name.find("Down") != std::string::npos) return Eigen::AngleAxisd(kLookVertical * kRad, Vec3::UnitX()).matrix();
-  const bool out = name.find("Out") != std::string::npos;
-  if (!out && name.find("In") == std::string::npos) return Eigen::Matrix3d::Identity();
-  const double sign = (out == left) ? 1.0 : -1.0;
-  return Eigen::AngleAxisd(sign * kLookSideways * kRad, Vec3::UnitY()).matrix();
-}
-
 // ---- the whole derive ------------------------------------------------------------------------
 
 struct Prepared {
   Surface skin, target;
   Similarity sim;
   std::vector<Vec3> registered;
+  // Per source triangle: how the registration stretched it (aligned to registered), which a
+  // displacement of the source's follows onto the target (a wider eye's lids travel farther).
+  std::vector<Eigen::Matrix3d> stretch;
   std::vector<LandmarkPair> pairs;
+  double diag = 0;  // The target's head's diagonal: the unit of every distance.
 };
 
 Status CheckSize(const Rig& rig, const char* field, const Options& o) {
   if (rig.vertex_count() > o.max_vertices || rig.triangle_count() > o.max_triangles)
-    return InvalidField(field, "has " + std::to_string(rig.vertex_count()) + " vertices and " +
-                                   std::to_string(rig.triangle_count()) + " triangles; a derive takes at most " +
-                                   std::to_string(o.max_vertices) + " and " + std::to_string(o.max_triangles),
+    return InvalidField(field,
+                        "has " + std::to_string(rig.vertex_count()) + " vertices and " +
+                            std::to_string(rig.triangle_count()) +
+                            " triangles; a derive takes at most " + std::to_string(o.max_vertices) +
+                            " and " + std::to_string(o.max_triangles),
                         StatusCode::kResourceExhausted);
   return Status::Ok();
 }
@@ -249,8 +137,9 @@ Result<std::vector<uint32_t>> ShapesToDerive(const Rig& target, const Rig& sourc
   for (size_t i = 0; i < (o.shapes.empty() ? source.shapes.size() : o.shapes.size()); ++i) {
     const int s = o.shapes.empty() ? static_cast<int>(i) : FindShape(source, o.shapes[i]);
     if (s < 0)
-      return InvalidField("/shapes/" + std::to_string(i),
-                          "the source has no shape '" + o.shapes[i] + "'" + DidYouMean(o.shapes[i], names));
+      return InvalidField(
+          "/shapes/" + std::to_string(i),
+          "the source has no shape '" + o.shapes[i] + "'" + DidYouMean(o.shapes[i], names));
     if (source.shapes[s].driven) continue;
     if (FindShape(target, source.shapes[s].name) >= 0) {
       report.kept.push_back(source.shapes[s].name);
@@ -261,8 +150,13 @@ Result<std::vector<uint32_t>> ShapesToDerive(const Rig& target, const Rig& sourc
   return out;
 }
 
+// A face bent onto what is not one: measured 0 onto itself, 0.04% onto ICT's head, 0.1% onto
+// MakeHuman's, 11% onto a ball.
+constexpr double kMaxDistorted = 0.02;
+
 // The registration's figures, and the refusal of a poor one.
-Status Measure(const Prepared& p, const ClosestPoint& closest, double diag, const Options& o, Report& r) {
+Status Measure(const Prepared& p, const ClosestPoint& closest, double diag, const Options& o,
+               Report& r) {
   std::vector<double> d;
   for (const Vec3& q : p.registered) {
     ClosestPoint::Hit hit;
@@ -275,23 +169,40 @@ Status Measure(const Prepared& p, const ClosestPoint& closest, double diag, cons
   std::sort(d.begin(), d.end());
   r.max_residual = d.empty() ? 0 : d[d.size() * 95 / 100];
   std::vector<RegionFit> lm;
-  for (const LandmarkPair& l : p.pairs) lm.push_back({l.name, (p.registered[l.source_point] - l.target).norm() / diag});
-  std::sort(lm.begin(), lm.end(), [](const RegionFit& a, const RegionFit& b) { return a.residual > b.residual; });
+  for (const LandmarkPair& l : p.pairs)
+    lm.push_back({l.name, (p.registered[l.source_point] - l.target).norm() / diag});
+  std::sort(lm.begin(), lm.end(),
+            [](const RegionFit& a, const RegionFit& b) { return a.residual > b.residual; });
   lm.resize(std::min<size_t>(lm.size(), 5));
   r.worst = lm;
   const bool bad_landmark = !lm.empty() && lm[0].residual > 5 * o.max_mean_residual;
+  if (r.distorted > kMaxDistorted) {
+    char figure[200];
+    std::snprintf(figure, sizeof figure,
+                  "the target has no face the source's fits: %.1f%% of the face's triangles had to "
+                  "be stretched or squeezed over twice to lie on it (at most %.1f%%)",
+                  100 * r.distorted, 100 * kMaxDistorted);
+    Status s = WithReason(FailedPrecondition(figure), "poor-fit");
+    s.AddField("/target", "has no face where the source's was laid (give landmarks to place it)");
+    return s;
+  }
   if (r.mean_residual <= o.max_mean_residual && !bad_landmark) return Status::Ok();
   char figure[160];
-  std::snprintf(figure, sizeof figure, "the source's face does not fit the target: %.2f%% of its size apart on average (at most %.2f%%)",
+  std::snprintf(figure, sizeof figure,
+                "the source's face does not fit the target: %.2f%% of its size apart on average "
+                "(at most %.2f%%)",
                 100 * r.mean_residual, 100 * o.max_mean_residual);
   Status s = WithReason(FailedPrecondition(figure), "poor-fit");
   for (const RegionFit& f : lm) {
-    const auto it = std::find_if(p.pairs.begin(), p.pairs.end(), [&](const LandmarkPair& l) { return l.name == f.name; });
+    const auto it = std::find_if(p.pairs.begin(), p.pairs.end(),
+                                 [&](const LandmarkPair& l) { return l.name == f.name; });
     if (f.residual > o.max_mean_residual)
-      s.AddField("/landmarks/points/" + std::to_string(it->index), "'" + f.name + "' lands " +
-                                                                     std::to_string(100 * f.residual) + "% of the size away from it");
+      s.AddField("/landmarks/points/" + std::to_string(it->index),
+                 "'" + f.name + "' lands " + std::to_string(100 * f.residual) +
+                     "% of the size away from it");
   }
-  if (s.fields.empty()) s.AddField("/target", "the registered face stays apart from the target's surface");
+  if (s.fields.empty())
+    s.AddField("/target", "the registered face stays apart from the target's surface");
   return s;
 }
 
@@ -320,20 +231,52 @@ void FollowBody(const Surface& s, std::span<const Tri> body, std::span<const uin
   }
 }
 
+// Each triangle's deformation gradient from `from` to `to`, its stretches held within [1/2, 2].
+std::vector<Eigen::Matrix3d> Stretches(std::span<const Vec3> from, std::span<const Vec3> to,
+                                       std::span<const Tri> tris, double& distorted) {
+  std::vector<Eigen::Matrix3d> out(tris.size());
+  size_t clamped = 0;
+  for (size_t t = 0; t < tris.size(); ++t) {
+    const Tri& s = tris[t];
+    const Eigen::Matrix3d j =
+        DeformationGradient(from[s[0]], from[s[1]], from[s[2]], to[s[0]] - from[s[0]],
+                            to[s[1]] - from[s[1]], to[s[2]] - from[s[2]]);
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(j, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Vec3 sigma = svd.singularValues().cwiseMax(0.5).cwiseMin(2.0);
+    clamped += !j.allFinite() || sigma != svd.singularValues();
+    out[t] = j.allFinite()
+                 ? Eigen::Matrix3d(svd.matrixU() * sigma.asDiagonal() * svd.matrixV().transpose())
+                 : Eigen::Matrix3d::Identity();
+  }
+  distorted = static_cast<double>(clamped) / static_cast<double>(std::max<size_t>(tris.size(), 1));
+  return out;
+}
+
 Result<Prepared> Prepare(const Rig& target, const Rig& source, const Options& o, Report& report) {
   Prepared p;
   std::vector<uint32_t> skin = RegionPrimitives(source, "skin");
   p.skin = BuildSurface(source, skin);
-  if (p.skin.triangles.empty()) return InvalidField("/from", "the source has no face (no triangles in its skin)", StatusCode::kFailedPrecondition);
+  if (p.skin.triangles.empty())
+    return InvalidField("/from", "the source has no face (no triangles in its skin)",
+                        StatusCode::kFailedPrecondition);
   p.target = BuildSurface(target);
   if (p.target.triangles.size() < 16)
-    return WithReason(InvalidField("/target", "has no surface to derive onto (" + std::to_string(p.target.triangles.size()) + " triangles)",
-                                   StatusCode::kFailedPrecondition), "no-face");
+    return WithReason(InvalidField("/target",
+                                   "has no surface to derive onto (" +
+                                       std::to_string(p.target.triangles.size()) + " triangles)",
+                                   StatusCode::kFailedPrecondition),
+                      "no-face");
   const ClosestPoint closest(p.target.points, p.target.triangles);
-  const double diag = Diagonal(p.target.points);
+  // A body's head alone: sizes are the head's, and the face lands there.
+  const std::vector<uint8_t> head = HeadPoints(p.target);
+  std::vector<Vec3> head_points;
+  for (size_t i = 0; i < head.size(); ++i) {
+    if (head[i]) head_points.push_back(p.target.points[i]);
+  }
+  const double diag = p.diag = Diagonal(head_points);
   auto pairs = PairLandmarks(source, p.skin, target, p.target, closest, o.landmarks);
   if (!pairs.ok()) return pairs.status();
-  const std::vector<Tri> body = BodyTriangles(p.target);
+  const std::vector<Tri> body = BodyTriangles(p.target, head);
   const ClosestPoint body_closest(p.target.points, body);
   p.pairs = std::move(pairs.value());
   report.landmarks_used = p.pairs.size();
@@ -342,10 +285,11 @@ Result<Prepared> Prepare(const Rig& target, const Rig& source, const Options& o,
     std::vector<Vec3> from, to;
     for (const LandmarkPair& l : p.pairs) from.push_back(l.source), to.push_back(l.target);
     const std::vector<double> w(from.size(), 1.0);
-    p.sim = RefineSimilarity(FitSimilarity(from, to, w), p.skin.points, body_closest, diag, p.pairs, 10);
+    p.sim = RefineSimilarity(FitSimilarity(from, to, w), p.skin.points, body_closest, diag, p.pairs,
+                             10);
     report.alignment = Alignment::kLandmarks;
   } else {
-    p.sim = AlignByShape(p.skin.points, p.target, body_closest);
+    p.sim = AlignByShape(p.skin.points, p.target, head, body_closest);
     report.alignment = Alignment::kShape;
   }
   report.scale = p.sim.scale;
@@ -354,20 +298,23 @@ Result<Prepared> Prepare(const Rig& target, const Rig& source, const Options& o,
   for (const Vec3& q : p.skin.points) aligned.push_back(p.sim(q));
   std::vector<Vec3> tn;
   for (const Tri& t : body)
-    tn.push_back((p.target.points[t[1]] - p.target.points[t[0]]).cross(p.target.points[t[2]] - p.target.points[t[0]]).normalized());
+    tn.push_back((p.target.points[t[1]] - p.target.points[t[0]])
+                     .cross(p.target.points[t[2]] - p.target.points[t[0]])
+                     .normalized());
   Landmarks lms;
   for (const LandmarkPair& l : p.pairs) lms.emplace_back(l.source_point, l.target);
   Progress(o, 0.1, "register");
   const std::vector<Tri> source_body = BodyTriangles(p.skin);
   std::vector<uint8_t> on_body(p.skin.points.size(), 0);
   for (const Tri& t : source_body) on_body[t[0]] = on_body[t[1]] = on_body[t[2]] = 1;
-  p.registered = RegisterNonRigid(aligned, p.skin.triangles, body_closest, tn, lms, RegisterOptions{}, diag, on_body);
+  p.registered = RegisterNonRigid(aligned, p.skin.triangles, body_closest, tn, lms,
+                                  RegisterOptions{}, diag, on_body);
   FollowBody(p.skin, source_body, on_body, aligned, p.registered);
+  p.stretch = Stretches(aligned, p.registered, p.skin.triangles, report.distorted);
   if (o.stop.stop_requested()) return Cancelled();
   if (Status s = Measure(p, body_closest, diag, o, report); !s.ok()) return s;
   return p;
 }
-
 
 // The Poisson system's part of the target: its skin parts' points and triangles, renumbered.
 struct SkinSystem {
@@ -380,8 +327,8 @@ struct SkinSystem {
   double edge = 0;             // Mean edge length.
 };
 
-SkinSystem BuildSkinSystem(const Surface& t, std::span<const PartKind> kind, const Correspondence& c,
-                           double tolerance, double diag) {
+SkinSystem BuildSkinSystem(const Surface& t, std::span<const PartKind> kind,
+                           const Correspondence& c, double tolerance, double diag) {
   SkinSystem s;
   s.local.assign(t.points.size(), UINT32_MAX);
   for (uint32_t q = 0; q < t.points.size(); ++q) {
@@ -435,15 +382,17 @@ struct Transfer {
   std::span<const PartKind> kind;
   std::span<const Eye> eyes;
   const PoissonSystem& poisson;
-  std::span<const uint32_t> local;    // Target point -> its index in the Poisson system, or UINT32_MAX.
-  std::span<const uint32_t> skin_points;  // The system's points, target numbering.
-  std::span<const Tri> skin_triangles;    // In the system's numbering.
+  std::span<const uint32_t>
+      local;  // Target point -> its index in the Poisson system, or UINT32_MAX.
+  std::span<const uint32_t> skin_points;       // The system's points, target numbering.
+  std::span<const Tri> skin_triangles;         // In the system's numbering.
   std::span<const uint32_t> skin_triangle_of;  // System triangle -> target triangle.
   std::span<const ClosestPoint::Hit> attach;   // Per target point: the nearest skin (system) point.
   std::span<const std::vector<uint32_t>> members;  // Per part: its points.
   double tolerance;
 
-  void Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, uint32_t shape, std::vector<Vec3>& out) const;
+  void Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, uint32_t shape,
+           std::vector<Vec3>& out) const;
 };
 
 void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, uint32_t shape,
@@ -456,7 +405,9 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
   for (size_t t = 0; t < sg.size(); ++t) {
     const Tri& s = p.skin.triangles[t];
     const auto& x = p.skin.points;
-    sg[t] = rot * DeformationGradient(x[s[0]], x[s[1]], x[s[2]], ds[s[0]], ds[s[1]], ds[s[2]]) * rot.transpose();
+    const Eigen::Matrix3d& j = p.stretch[t];
+    sg[t] = j * rot * DeformationGradient(x[s[0]], x[s[1]], x[s[2]], ds[s[0]], ds[s[1]], ds[s[2]]) *
+            rot.transpose() * j.inverse();
   }
   auto copied = [&](uint32_t point) {
     const Tri& s = p.skin.triangles[c.point_source[point]];
@@ -483,7 +434,8 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
   auto under = [&](uint32_t q) {
     const ClosestPoint::Hit& h = attach[q];
     const Tri& t = skin_triangles[h.triangle];
-    return Vec3(h.barycentric[0] * d[t[0]] + h.barycentric[1] * d[t[1]] + h.barycentric[2] * d[t[2]]);
+    return Vec3(h.barycentric[0] * d[t[0]] + h.barycentric[1] * d[t[1]] +
+                h.barycentric[2] * d[t[2]]);
   };
   for (size_t part = 0; part < kind.size(); ++part) {
     const std::vector<uint32_t>& m = members[part];
@@ -492,7 +444,8 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
         const Eigen::Matrix3d turn = rot * EyeTurn(name, e.left) * rot.transpose();
         if (turn.isIdentity(1e-12)) continue;
         for (uint32_t q : m) {
-          if ((pts[q] - e.centre).norm() < 1.5 * e.radius) out[q] = turn * (pts[q] - e.centre) + e.centre - pts[q];
+          if ((pts[q] - e.centre).norm() < 1.5 * e.radius)
+            out[q] = turn * (pts[q] - e.centre) + e.centre - pts[q];
         }
       }
     } else if (kind[part] == PartKind::kAttached) {
@@ -503,7 +456,8 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
       // Where the source has the part too (its teeth), its own move (point by point where it has
       // all of it); else the skin's near it.
       size_t owned = 0;
-      for (uint32_t q : m) owned += c.point_source[q] != UINT32_MAX && c.point_distance[q] <= tolerance;
+      for (uint32_t q : m)
+        owned += c.point_source[q] != UINT32_MAX && c.point_distance[q] <= tolerance;
       if (owned == m.size()) {
         for (uint32_t q : m) out[q] = copied(q);
         continue;
@@ -522,7 +476,8 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
 }
 
 // A target's displacement (world, per point) as each primitive's sparse target (mesh space).
-std::vector<SparseTarget> ToTargets(const Rig& target, const Surface& s, std::span<const Eigen::Matrix3d> inverse,
+std::vector<SparseTarget> ToTargets(const Rig& target, const Surface& s,
+                                    std::span<const Eigen::Matrix3d> inverse,
                                     std::span<const Vec3> d, double epsilon) {
   std::vector<SparseTarget> out(target.primitives.size());
   for (size_t p = 0; p < target.primitives.size(); ++p) {
@@ -538,91 +493,6 @@ std::vector<SparseTarget> ToTargets(const Rig& target, const Surface& s, std::sp
   return out;
 }
 
-// Appends shape `shape` (its targets per primitive) to the rig.
-// A shape that moves nothing here (a tongueOut on a head without a tongue) is still there, on the
-// first mesh, so a client naming it finds it.
-void AppendShape(Rig& rig, Shape shape, std::vector<SparseTarget> targets) {
-  const uint32_t index = static_cast<uint32_t>(rig.shapes.size());
-  bool anywhere = false;
-  for (const SparseTarget& t : targets) anywhere |= !t.indices.empty();
-  for (size_t m = 0; m < rig.meshes.size(); ++m) {
-    Mesh& mesh = rig.meshes[m];
-    bool moves = !anywhere && m == 0;
-    for (int p : mesh.primitives) moves |= !targets[p].indices.empty();
-    if (!moves) continue;
-    for (int p : mesh.primitives) rig.primitives[p].targets.push_back(std::move(targets[p]));
-    mesh.target_shapes.push_back(index);
-  }
-  rig.shapes.push_back(std::move(shape));
-}
-
-}  // namespace
-
-const std::vector<std::string>& ArkitNames() {
-  static const std::vector<std::string> kNames = {
-      "browDownLeft", "browDownRight", "browInnerUp", "browOuterUpLeft", "browOuterUpRight",
-      "cheekPuff", "cheekSquintLeft", "cheekSquintRight", "eyeBlinkLeft", "eyeBlinkRight",
-      "eyeLookDownLeft", "eyeLookDownRight", "eyeLookInLeft", "eyeLookInRight", "eyeLookOutLeft",
-      "eyeLookOutRight", "eyeLookUpLeft", "eyeLookUpRight", "eyeSquintLeft", "eyeSquintRight",
-      "eyeWideLeft", "eyeWideRight", "jawForward", "jawLeft", "jawOpen", "jawRight", "mouthClose",
-      "mouthDimpleLeft", "mouthDimpleRight", "mouthFrownLeft", "mouthFrownRight", "mouthFunnel",
-      "mouthLeft", "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft", "mouthPressRight",
-      "mouthPucker", "mouthRight", "mouthRollLower", "mouthRollUpper", "mouthShrugLower",
-      "mouthShrugUpper", "mouthSmileLeft", "mouthSmileRight", "mouthStretchLeft",
-      "mouthStretchRight", "mouthUpperUpLeft", "mouthUpperUpRight", "noseSneerLeft",
-      "noseSneerRight", "tongueOut"};
-  return kNames;
-}
-
-}  // namespace facespace::derive
-
-namespace facespace::derive {
-
-namespace {
-
-// The 15 visemes as shapes ("viseme_sil" .. "viseme_U", the names web avatars carry), each the sum
-// of the shapes the viseme table (core/speech.h) binds, where `rig` lacks one by that name.
-void BakeVisemes(Rig& rig, Report& report) {
-  static constexpr const char* kNames[kVisemeCount] = {"sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS",
-                                                        "nn",  "RR", "aa", "E",  "I",  "O",  "U"};
-  Rig probe;
-  probe.shapes = rig.shapes;
-  DeriveVisemes(probe);
-  for (size_t v = 0; v < kVisemeCount; ++v) {
-    const std::string name = std::string("viseme_") + kNames[v];
-    if (FindShape(rig, name) >= 0 || probe.visemes.binds[v].empty()) continue;
-    std::vector<SparseTarget> targets(rig.primitives.size());
-    for (const Mesh& mesh : rig.meshes) {
-      for (int p : mesh.primitives) {
-        std::vector<float> dense(rig.primitives[p].positions.size(), 0.0f);
-        bool any = false;
-        for (const auto& [shape, w] : probe.visemes.binds[v]) {
-          for (size_t t = 0; t < mesh.target_shapes.size(); ++t) {
-            if (mesh.target_shapes[t] != shape) continue;
-            const SparseTarget& st = rig.primitives[p].targets[t];
-            for (size_t k = 0; k < st.indices.size(); ++k) {
-              for (int c = 0; c < 3; ++c) dense[3 * st.indices[k] + c] += w * st.position_deltas[3 * k + c];
-            }
-            any |= !st.indices.empty();
-          }
-        }
-        if (!any) continue;
-        for (uint32_t i = 0; i < dense.size() / 3; ++i) {
-          if (dense[3 * i] == 0 && dense[3 * i + 1] == 0 && dense[3 * i + 2] == 0) continue;
-          targets[p].indices.push_back(i);
-          targets[p].position_deltas.insert(targets[p].position_deltas.end(), &dense[3 * i], &dense[3 * i] + 3);
-        }
-        FinalizeTarget(targets[p]);
-      }
-    }
-    Shape shape;
-    shape.name = name;
-    shape.group = "viseme";
-    AppendShape(rig, std::move(shape), std::move(targets));
-    report.derived.push_back(name);
-  }
-}
-
 }  // namespace
 
 Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
@@ -636,10 +506,11 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
   if (!prepared.ok()) return prepared.status();
   const Prepared& p = prepared.value();
   Progress(o, 0.4, "correspond");
-  const double diag = Diagonal(p.target.points);
+  const double diag = p.diag;
   const double tolerance = 0.015 * diag;
   const ClosestPoint skin(p.registered, p.skin.triangles);
-  const Correspondence c = Correspond(p.target, p.registered, p.skin.triangles, skin, tolerance, 0.2 * diag);
+  const Correspondence c =
+      Correspond(p.target, p.registered, p.skin.triangles, skin, tolerance, 0.2 * diag);
   std::vector<uint8_t> matched(c.triangle_source.size());
   for (size_t t = 0; t < matched.size(); ++t) matched[t] = c.triangle_source[t] != UINT32_MAX;
   report.matched_triangles = static_cast<size_t>(std::count(matched.begin(), matched.end(), 1));
@@ -648,12 +519,13 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
   const SkinSystem sys = BuildSkinSystem(p.target, kind, c, tolerance, diag);
 
   Progress(o, 0.45, "factorize");
-  // The data term's weight against the gradients' (per point, a mean edge squared): measured on ICT's
-  // head (tests/derive): 0.05 keeps the surface smoothest but closes the lids a fifth; 1 keeps every
-  // shape's triangles as unturned as ICT's own and closes them half; 5 closes them three quarters
-  // and turns the mouth's corner over.
+  // The data term's weight against the gradients' (per point, a mean edge squared): measured on
+  // ICT's head (tests/derive): 0.05 keeps the surface smoothest but closes the lids a fifth; 1
+  // keeps every shape's triangles as unturned as ICT's own and closes them half; 5 closes them
+  // three quarters and turns the mouth's corner over.
   constexpr double kKappa = 1.0;
-  const PoissonSystem poisson(sys.points, sys.triangles, sys.weight, kKappa / (sys.edge * sys.edge));
+  const PoissonSystem poisson(sys.points, sys.triangles, sys.weight,
+                              kKappa / (sys.edge * sys.edge));
   if (!poisson.ok()) return Internal("the target's system could not be factorized");
   std::vector<std::vector<uint32_t>> members(kind.size());
   for (uint32_t q = 0; q < p.target.points.size(); ++q) members[p.target.part[q]].push_back(q);
@@ -663,8 +535,18 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
     report.parts_rigid += k == PartKind::kRigid || k == PartKind::kAttached;
     report.parts_still += k == PartKind::kStill;
   }
-  const Transfer transfer{p,   c,           kind, eyes, poisson, sys.local, sys.skin_points, sys.triangles,
-                          sys.triangle_of, attach, members, tolerance};
+  const Transfer transfer{p,
+                          c,
+                          kind,
+                          eyes,
+                          poisson,
+                          sys.local,
+                          sys.skin_points,
+                          sys.triangles,
+                          sys.triangle_of,
+                          attach,
+                          members,
+                          tolerance};
   const auto linear = LinearParts(source);
   std::vector<Eigen::Matrix3d> inverse;
   for (const Eigen::Matrix3d& m : LinearParts(target)) inverse.push_back(m.inverse());
@@ -679,7 +561,8 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
     shape.material_morphs.clear();
     shape.bone_morphs.clear();
     made.emplace_back(std::move(shape), ToTargets(target, p.target, inverse, d, 1e-6 * diag));
-    Progress(o, 0.5 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(shapes->size()), "transfer");
+    Progress(o, 0.5 + 0.5 * static_cast<double>(i + 1) / static_cast<double>(shapes->size()),
+             "transfer");
   }
   // Nothing can fail from here: the target changes only now.
   for (auto& [shape, targets] : made) {
@@ -687,6 +570,14 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
     AppendShape(target, std::move(shape), std::move(targets));
   }
   if (o.visemes) BakeVisemes(target, report);
+  target.derivation = {source.name,
+                       source.credit,
+                       report.method,
+                       report.alignment == Alignment::kLandmarks ? "landmarks" : "shape",
+                       static_cast<uint32_t>(report.landmarks_used),
+                       report.mean_residual,
+                       report.max_residual,
+                       report.derived};
   for (Shape& sh : target.shapes) sh.partner = -1;
   DetectSymmetricPartners(target);
   CountMovedVertices(target);
@@ -695,29 +586,6 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
   DeriveFace(target);
   report.seconds = CpuSeconds() - cpu0;
   return report;
-}
-
-Status ParseShapeSets(const Rig& source, const std::string& list, Options& options) {
-  size_t start = 0;
-  while (start <= list.size()) {
-    const size_t comma = std::min(list.find(',', start), list.size());
-    const std::string word = list.substr(start, comma - start);
-    if (word == "arkit") {
-      for (const Shape& s : source.shapes) {
-        const auto& names = ArkitNames();
-        std::string n = s.name;
-        if (n.ends_with("_L")) n = n.substr(0, n.size() - 2) + "Left";
-        if (n.ends_with("_R")) n = n.substr(0, n.size() - 2) + "Right";
-        if (std::find(names.begin(), names.end(), n) != names.end()) options.shapes.push_back(s.name);
-      }
-    } else if (word == "visemes") {
-      options.visemes = true;
-    } else {
-      return InvalidField("--shapes", "'" + word + "' is not a set of shapes (arkit, visemes)");
-    }
-    start = comma + 1;
-  }
-  return Status::Ok();
 }
 
 }  // namespace facespace::derive

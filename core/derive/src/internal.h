@@ -86,12 +86,15 @@ std::vector<Vec3> PointNormals(std::span<const Vec3> points, std::span<const Tri
 // empty) seek no partner and go where their neighbours take them. Returns the deformed points.
 struct RegisterOptions {
   std::vector<double> stiffness = {50, 20, 10, 5, 2, 1};
-  int iterations = 3;             // Per stiffness.
-  double reject_distance = 0.05;  // Correspondences farther than this fraction of the diagonal drop.
-  double landmark_weight = 1;     // Relative to a data point's.
+  int iterations = 3;  // Per stiffness.
+  double reject_distance =
+      0.05;                    // Correspondences farther than this fraction of the diagonal drop.
+  double landmark_weight = 1;  // Relative to a data point's.
 };
-std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source, std::span<const Tri> source_triangles,
-                                   const ClosestPoint& target, std::span<const Vec3> target_normals_of_triangles,
+std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source,
+                                   std::span<const Tri> source_triangles,
+                                   const ClosestPoint& target,
+                                   std::span<const Vec3> target_normals_of_triangles,
                                    std::span<const std::pair<uint32_t, Vec3>> landmarks,
                                    const RegisterOptions& options, double diagonal,
                                    std::span<const uint8_t> fitted = {});
@@ -117,7 +120,7 @@ Result<std::vector<LandmarkPair>> PairLandmarks(const Rig& source, const Surface
 // A similarity putting `source` (a face, y up, looking along +z as glTF's) onto the front of
 // `target`: nose tips together, the face's width matched, then refined by ICP.
 Similarity AlignByShape(std::span<const Vec3> source, const Surface& target,
-                        const ClosestPoint& closest);
+                        std::span<const uint8_t> head, const ClosestPoint& closest);
 
 // ICP over similarities from `start`: trimmed closest points, the landmarks weighed in.
 Similarity RefineSimilarity(Similarity start, std::span<const Vec3> source,

@@ -13,14 +13,18 @@ constexpr size_t kMaxPoints = 4096;
 constexpr size_t kMaxText = 1u << 20;
 
 Status ReadPoint(const nlohmann::json& v, const std::string& at, TargetLandmark& out) {
-  if (!v.is_object()) return InvalidField(at, "must be {\"name\", \"vertex\"} or {\"name\", \"position\": [x, y, z]}");
+  if (!v.is_object())
+    return InvalidField(at,
+                        "must be {\"name\", \"vertex\"} or {\"name\", \"position\": [x, y, z]}");
   if (!v.contains("name") || !v["name"].is_string() || v["name"].get<std::string>().empty() ||
       v["name"].get<std::string>().size() > 128)
     return InvalidField(at + "/name", "must be a name (1 to 128 bytes)");
   out.name = v["name"].get<std::string>();
   if (v.contains("vertex")) {
-    if (!v["vertex"].is_number_unsigned()) return InvalidField(at + "/vertex", "must be a vertex number (0 or more)");
-    out.vertex = static_cast<long long>(std::min<uint64_t>(v["vertex"].get<uint64_t>(), 1ull << 40));
+    if (!v["vertex"].is_number_unsigned())
+      return InvalidField(at + "/vertex", "must be a vertex number (0 or more)");
+    out.vertex =
+        static_cast<long long>(std::min<uint64_t>(v["vertex"].get<uint64_t>(), 1ull << 40));
     return Status::Ok();
   }
   const auto& p = v.value("position", nlohmann::json());
@@ -49,7 +53,8 @@ Result<std::vector<TargetLandmark>> ReadLandmarks(std::string_view text) {
   for (size_t i = 0; i < points.size(); ++i) {
     const std::string at = "/points/" + std::to_string(i);
     if (Status s = ReadPoint(points[i], at, out[i]); !s.ok()) return s;
-    if (!names.insert(out[i].name).second) return InvalidField(at + "/name", "'" + out[i].name + "' is given twice");
+    if (!names.insert(out[i].name).second)
+      return InvalidField(at + "/name", "'" + out[i].name + "' is given twice");
   }
   return out;
 }

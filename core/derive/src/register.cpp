@@ -19,7 +19,8 @@ std::vector<std::pair<uint32_t, uint32_t>> Edges(std::span<const Tri> triangles)
   std::vector<std::pair<uint32_t, uint32_t>> e;
   e.reserve(3 * triangles.size());
   for (const Tri& t : triangles) {
-    for (int k = 0; k < 3; ++k) e.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
+    for (int k = 0; k < 3; ++k)
+      e.emplace_back(std::min(t[k], t[(k + 1) % 3]), std::max(t[k], t[(k + 1) % 3]));
   }
   std::sort(e.begin(), e.end());
   e.erase(std::unique(e.begin(), e.end()), e.end());
@@ -35,7 +36,8 @@ void AddPointBlock(Triplets& t, uint32_t i, const Eigen::Vector4d& v, double wei
 
 }  // namespace
 
-std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source, std::span<const Tri> source_triangles,
+std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source,
+                                   std::span<const Tri> source_triangles,
                                    const ClosestPoint& target, std::span<const Vec3> target_normals,
                                    std::span<const std::pair<uint32_t, Vec3>> landmarks,
                                    const RegisterOptions& options, double diagonal,

@@ -39,8 +39,9 @@ void LabelParts(Surface& s) {
   std::unordered_map<uint32_t, uint32_t> count;
   for (uint32_t i = 0; i < parent.size(); ++i) ++count[Find(parent, i)];
   std::vector<std::pair<uint32_t, uint32_t>> roots(count.begin(), count.end());
-  std::sort(roots.begin(), roots.end(),
-            [](auto a, auto b) { return a.second != b.second ? a.second > b.second : a.first < b.first; });
+  std::sort(roots.begin(), roots.end(), [](auto a, auto b) {
+    return a.second != b.second ? a.second > b.second : a.first < b.first;
+  });
   std::unordered_map<uint32_t, uint32_t> label;
   for (uint32_t i = 0; i < roots.size(); ++i) label[roots[i].first] = i;
   s.part.resize(s.points.size());
@@ -60,19 +61,20 @@ Surface BuildSurface(const Rig& rig, std::span<const uint32_t> primitives) {
   for (uint32_t p = 0; p < rig.primitives.size(); ++p) {
     const Primitive& prim = rig.primitives[p];
     s.vertex_start.push_back(static_cast<uint32_t>(s.vertex_point.size()));
-    const bool wanted = primitives.empty()
-                            ? prim.mode == PrimitiveMode::kTriangles
-                            : std::find(primitives.begin(), primitives.end(), p) != primitives.end();
+    const bool wanted =
+        primitives.empty() ? prim.mode == PrimitiveMode::kTriangles
+                           : std::find(primitives.begin(), primitives.end(), p) != primitives.end();
     const Eigen::Map<const Eigen::Matrix4f> m(world[p].data());
     for (size_t v = 0; v < prim.vertex_count(); ++v) {
       if (!wanted || prim.mode != PrimitiveMode::kTriangles) {
         s.vertex_point.push_back(UINT32_MAX);
         continue;
       }
-      const Eigen::Vector4f w = m * Eigen::Vector4f(prim.positions[3 * v], prim.positions[3 * v + 1],
-                                                   prim.positions[3 * v + 2], 1.0f);
-      const auto [it, added] =
-          weld.try_emplace(PositionKey{{w.x(), w.y(), w.z()}}, static_cast<uint32_t>(s.points.size()));
+      const Eigen::Vector4f w =
+          m * Eigen::Vector4f(prim.positions[3 * v], prim.positions[3 * v + 1],
+                              prim.positions[3 * v + 2], 1.0f);
+      const auto [it, added] = weld.try_emplace(PositionKey{{w.x(), w.y(), w.z()}},
+                                                static_cast<uint32_t>(s.points.size()));
       if (added) {
         s.points.emplace_back(w.x(), w.y(), w.z());
         s.point_primitive.push_back(p);
@@ -82,7 +84,8 @@ Surface BuildSurface(const Rig& rig, std::span<const uint32_t> primitives) {
     if (!wanted || prim.mode != PrimitiveMode::kTriangles) continue;
     const uint32_t base = s.vertex_start.back();
     for (size_t f = 0; f + 2 < prim.indices.size(); f += 3) {
-      const Tri t{s.vertex_point[base + prim.indices[f]], s.vertex_point[base + prim.indices[f + 1]],
+      const Tri t{s.vertex_point[base + prim.indices[f]],
+                  s.vertex_point[base + prim.indices[f + 1]],
                   s.vertex_point[base + prim.indices[f + 2]]};
       if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
       const Vec3 n = (s.points[t[1]] - s.points[t[0]]).cross(s.points[t[2]] - s.points[t[0]]);

@@ -15,7 +15,8 @@ namespace facespace::derive {
 namespace {
 
 // The gradients of the three hat functions of triangle (a, b, c), and its area.
-void HatGradients(const Vec3& a, const Vec3& b, const Vec3& c, std::array<Vec3, 3>& g, double& area) {
+void HatGradients(const Vec3& a, const Vec3& b, const Vec3& c, std::array<Vec3, 3>& g,
+                  double& area) {
   const Vec3 n = (b - a).cross(c - a);
   const double twice = n.norm();
   area = 0.5 * twice;
@@ -64,14 +65,16 @@ PoissonSystem::~PoissonSystem() = default;
 
 bool PoissonSystem::ok() const { return solver_->info() == Eigen::Success; }
 
-void PoissonSystem::Solve(std::span<const Eigen::Matrix3d> gradient, std::span<const uint8_t> has_gradient,
-                          std::span<const Vec3> data, std::vector<Vec3>& out) const {
+void PoissonSystem::Solve(std::span<const Eigen::Matrix3d> gradient,
+                          std::span<const uint8_t> has_gradient, std::span<const Vec3> data,
+                          std::vector<Vec3>& out) const {
   const auto n = static_cast<Eigen::Index>(points_.size());
   Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(n, 3);
   for (size_t t = 0; t < triangles_.size(); ++t) {
     if (!has_gradient[t]) continue;
     const Eigen::Matrix3d g = gradient[t] - Eigen::Matrix3d::Identity();
-    for (int i = 0; i < 3; ++i) rhs.row(triangles_[t][i]) += areas_[t] * (g * gradients_[t][i]).transpose();
+    for (int i = 0; i < 3; ++i)
+      rhs.row(triangles_[t][i]) += areas_[t] * (g * gradients_[t][i]).transpose();
   }
   for (Eigen::Index i = 0; i < n; ++i)
     rhs.row(i) += mu_ * mass_[i] * data_weight_[i] * data[i].transpose();

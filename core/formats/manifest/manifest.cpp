@@ -34,7 +34,8 @@ constexpr std::pair<std::string_view, Section> kSections[] = {
     {"correctives", manifest::ApplyCorrectives}, {"statistics", manifest::ApplyStatistics},
     {"expressions", manifest::ApplyExpressions}, {"gaze", manifest::ApplyGaze},
     {"visemes", manifest::ApplyVisemes},         {"terms", manifest::ApplyTerms},
-    {"regions", manifest::ApplyRegions},         {"landmarks", manifest::ApplyLandmarks}};
+    {"regions", manifest::ApplyRegions},         {"landmarks", manifest::ApplyLandmarks},
+    {"derivation", manifest::ApplyDerivation}};
 constexpr std::string_view kPlainMembers[] = {"name", "credit", "license_url", "start",
                                               "base_motion"};
 
@@ -293,6 +294,7 @@ std::string ManifestJson(const Rig& rig) {
   if (!visemes.empty()) m["visemes"] = std::move(visemes);
   if (!rig.regions.empty()) m["regions"] = manifest::RegionsValue(rig);
   if (!rig.landmarks.empty()) m["landmarks"] = manifest::LandmarksValue(rig);
+  if (!rig.derivation.source.empty()) m["derivation"] = manifest::DerivationValue(rig.derivation);
   return m.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 

@@ -60,5 +60,7 @@ Status ApplyRegions(Rig& rig, const json& v);    // labels.cpp
 Status ApplyLandmarks(Rig& rig, const json& v);  // labels.cpp
 json RegionsValue(const Rig& rig);               // The sections as they read them.
 json LandmarksValue(const Rig& rig);
+Status ApplyDerivation(Rig& rig, const json& v);  // derivation.cpp
+json DerivationValue(const Derivation& d);        // The section as ApplyDerivation reads it.
 
 }  // namespace facespace::formats::manifest

@@ -96,9 +96,9 @@ class Lexer {
 };
 
 // The parse state of one file: the lexer and the first error.
-class Reader {
+class Md5Reader {
  public:
-  Reader(std::string_view text, std::string file) : lex_(text), file_(std::move(file)) {}
+  Md5Reader(std::string_view text, std::string file) : lex_(text), file_(std::move(file)) {}
 
   bool ok() const { return error_.empty(); }
   Status status() const { return InvalidArgument(error_); }
@@ -206,7 +206,7 @@ struct Joint {
   Quat orient;
 };
 
-bool ReadHeader(Reader& r) {
+bool ReadHeader(Md5Reader& r) {
   long long version = 0;
   if (!r.Expect("MD5Version") || !r.Int(0, 1 << 20, &version, "the version")) return false;
   if (version != 10)
@@ -232,7 +232,7 @@ struct Md5Mesh {
 
 // The n-th item of a list must say it is the n-th: files list them in order, and memory then grows
 // only with what the file really holds, never with what its counts claim.
-bool InOrder(Reader& r, size_t n, size_t count, const char* what) {
+bool InOrder(Md5Reader& r, size_t n, size_t count, const char* what) {
   long long i = 0;
   if (!r.Int(0, static_cast<long long>(count) - 1, &i, what)) return false;
   if (static_cast<size_t>(i) != n)
@@ -241,7 +241,7 @@ bool InOrder(Reader& r, size_t n, size_t count, const char* what) {
   return true;
 }
 
-bool ReadMesh(Reader& r, size_t joints, Md5Mesh& m) {
+bool ReadMesh(Md5Reader& r, size_t joints, Md5Mesh& m) {
   size_t nverts = 0, ntris = 0, nweights = 0;
   if (!r.Expect("{") || !r.Expect("shader") || !r.String(&m.shader, "the shader")) return false;
   if (!r.Expect("numverts") || !r.Count(kMaxVerts, &nverts, "numverts")) return false;
@@ -309,7 +309,7 @@ void SetTrs(Node& node, const Eigen::Vector3f& t, const Quat& q) {
 // An .md5anim as a clip over the mesh's joints (nodes first_joint ...), or an error.
 Status ReadAnim(std::string_view text, const std::string& file, const std::string& name,
                 const std::vector<Joint>& joints, int first_joint, AnimationInfo& clip) {
-  Reader r(text, file);
+  Md5Reader r(text, file);
   size_t frames = 0, njoints = 0, ncomponents = 0;
   long long rate = 0;
   if (!ReadHeader(r) || !r.Expect("numFrames") || !r.Count(kMaxFrames, &frames, "numFrames") ||
@@ -424,7 +424,7 @@ Status ReadAnim(std::string_view text, const std::string& file, const std::strin
 }
 
 // The joints block: each joint's name, parent (an earlier joint), position and orientation.
-bool ReadJoints(Reader& r, size_t njoints, std::vector<Joint>& joints) {
+bool ReadJoints(Md5Reader& r, size_t njoints, std::vector<Joint>& joints) {
   joints.resize(njoints);
   for (size_t j = 0; j < njoints; ++j) {
     Joint& jt = joints[j];
@@ -565,7 +565,7 @@ Status AddMeshes(std::span<const Md5Mesh> meshes, std::span<const Joint> joints,
 
 Result<Rig> LoadMd5Memory(std::string_view mesh_text, const std::string& mesh_name,
                           std::span<const std::pair<std::string, std::string>> anims) {
-  Reader r(mesh_text, mesh_name);
+  Md5Reader r(mesh_text, mesh_name);
   size_t njoints = 0, nmeshes = 0;
   if (!ReadHeader(r) || !r.Expect("numJoints") || !r.Count(kMaxJoints, &njoints, "numJoints") ||
       !r.Expect("numMeshes") || !r.Count(kMaxMeshes, &nmeshes, "numMeshes") ||

@@ -163,6 +163,23 @@ json RigSummary() {
           {"description", "The credit the rig's license asks for: show it with the rig"}}}}}};
 }
 
+// Where a rig's derived shapes came from (the manifest's "derivation"; null in a rig without).
+json Derivation(bool nullable) {
+  return {{"type", nullable ? json({"object", "null"}) : json("object")},
+          {"description",
+           "Where the rig's derived shapes came from (facespace derive): the source rig, its "
+           "credit, the "
+           "method, the fit as fractions of the head's diagonal, the shapes made"},
+          {"properties",
+           {{"source", String()},
+            {"credit", String()},
+            {"method", String()},
+            {"alignment", {{"enum", {"landmarks", "shape"}}}},
+            {"landmarks", Integer()},
+            {"fit", {{"type", "object"}, {"properties", {{"mean", Number()}, {"p95", Number()}}}}},
+            {"shapes", ArrayOf(String())}}}};
+}
+
 json Shape() {
   return {{"type", "object"},
           {"properties",
@@ -190,6 +207,7 @@ json Rig() {
             {"has_skeleton", Boolean()},
             {"start", {{"enum", {"neutral", "defaults"}}}},
             {"shapes", ArrayOf(Shape())},
+            {"derivation", Derivation(true)},
             {"bounding_box", Box()},
             {"primitives", ArrayOf({{"type", "object"},
                                     {"properties",
@@ -291,7 +309,8 @@ json Manifest() {
         {"landmarks",
          {{"type", "object"},
           {"additionalProperties", true},
-          {"description", "A landmark scheme's points on the mesh"}}}}}};
+          {"description", "A landmark scheme's points on the mesh"}}},
+        {"derivation", Derivation(false)}}}};
 }
 
 json Check() {

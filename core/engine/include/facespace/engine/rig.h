@@ -463,12 +463,24 @@ struct Region {
   std::vector<uint32_t> primitives;
 };
 
+// Where a rig's derived shapes came from (manifest "derivation"): what `facespace derive` made.
+struct Derivation {
+  std::string source;      // The rig whose shapes were transferred (its name); "": none derived.
+  std::string credit;      // The source's attribution (FaceCap's CC-BY), kept with the shapes.
+  std::string method;      // How: "nonrigid-icp+deformation-transfer".
+  std::string alignment;   // "landmarks" or "shape".
+  uint32_t landmarks = 0;  // Landmark pairs used.
+  double mean_residual = 0, p95_residual = 0;  // The fit, as fractions of the head's diagonal.
+  std::vector<std::string> shapes;             // The shapes derived.
+};
+
 struct Rig {
   std::string name;
   std::string
       credit;  // The attribution its license asks for (manifest "credit"); shown and exported.
   std::string license_url;  // Its licence (manifest "license_url"): a VRM's meta needs one.
   UsageTerms terms;         // What its authors allow (VRM's meta).
+  Derivation derivation;    // Where its derived shapes came from, if it has any.
   // Where an editor starts and resets (manifest "start"): the neutral face (every weight 0, the
   // default) or the shapes' default weights (a glTF mesh's `weights`, FaceCap's capture frame).
   bool start_at_defaults = false;

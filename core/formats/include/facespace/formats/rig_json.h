@@ -18,6 +18,9 @@ nlohmann::json GazeValue(const Rig& rig);
 // The viseme map (core/speech.h): viseme -> {SHAPE: w} for all 15, "nolip", "jaw"; null when the
 // rig cannot speak.
 nlohmann::json VisemesValue(const Rig& rig);
+// Where its derived shapes came from: {source, credit, method, alignment, landmarks, fit: {mean,
+// p95}, shapes}; null when it has none.
+nlohmann::json DerivationValue(const Rig& rig);
 
 // A number as the text writers write it (FormatNumber, the shortest text that reads back as it): an
 // integer when it is one, else that text's double; null when not finite.
