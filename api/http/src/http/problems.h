@@ -58,6 +58,8 @@ enum class Problem : uint8_t {
   kInvalidVrm,
   kUnknownVoice,
   kNoMouth,
+  kPoorFit,
+  kNoFace,
   // Its size and cost.
   kTooLarge,
   kResponseTooLarge,
