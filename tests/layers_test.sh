@@ -54,7 +54,7 @@ check api/evaluator 'engine|formats|picture|physics'
 check api/lipsync 'engine|formats|picture|offscreen|speech|evaluator'
 check api/batch 'engine|formats|picture|files|evaluator'
 check api/net 'engine'
-check api/http 'engine|formats|picture|offscreen|speech|evaluator|batch|lipsync|net|files'
+check api/http 'engine|formats|picture|offscreen|speech|evaluator|batch|lipsync|net|files|derive'
 # Every folder with code is one of the libraries above (a new one is added here, with its layer).
 known=" core/engine core/derive core/formats core/physics core/speech core/files render/picture render/oiio render/offscreen api/evaluator api/lipsync api/batch api/net api/http "
 for dir in core/* render/* api/*; do

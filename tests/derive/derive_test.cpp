@@ -264,7 +264,6 @@ TEST_F(IctDerive, JawOpenLeavesTheForeheadStill) {
   EXPECT_LE(forehead, 0.02 * largest);
 }
 
-
 // ---- hostile targets: each refused naming its field, or derived sanely; nothing half-written ----
 
 // The first field a refusal names, or "".

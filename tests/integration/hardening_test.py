@@ -223,6 +223,7 @@ def says(srv, U):
         c.send_text({"say": {"text": line, "rate": 80}})
         clients.append(c)
     got = [0] * n
+    refused = [None] * n  # An error event's type, when the session's say was refused.
     seconds = 12  # Unbounded, the 40 sessions grew 90 MB a second.
     stop = time.time() + seconds
     peak = before
@@ -235,6 +236,8 @@ def says(srv, U):
                 op, p = c.recv()
                 if op == wsclient.BINARY and p[:4] == b"pcm1":
                     got[i] += (len(p) - 16) // 2
+                elif op == wsclient.TEXT and b'"error"' in p:
+                    refused[i] = json.loads(p).get("type")
             except (socket.timeout, OSError, wsclient.Closed):
                 pass
 
@@ -250,9 +253,14 @@ def says(srv, U):
         c.close()
     growth = peak - before
     speaking = sum(1 for g in got if g > 0)
+    # espeak-ng speaks one segment at a time: under ASan, beside another suite, a say may wait past
+    # its lock's patience and be refused as busy, a clear answer; unsanitized every one speaks.
+    busy = sum(1 for g, r in zip(got, refused) if g == 0 and r == "busy")
+    silent = [i for i in range(n) if got[i] == 0 and not (SANITIZED and refused[i] == "busy")]
     figure(f"{n} live says of an 8-minute line (rate 80), {seconds} s", "-", seconds, "-", f"{before:.0f} -> peak {peak:.0f}")
-    check(f"{n} live says of the 8-minute line: {speaking} speaking, {sum(got) / 22050 / n:.1f} s of audio each in {seconds} s; RSS {before:.0f} -> "
-          f"peak {peak:.0f} MB (growth within 300)", speaking == n and (SANITIZED or growth <= 300) and srv.alive())
+    check(f"{n} live says of the 8-minute line: {speaking} speaking, {busy} refused as busy, silent {silent}, "
+          f"{sum(got) / 22050 / n:.1f} s of audio each in {seconds} s; RSS {before:.0f} -> peak {peak:.0f} MB (growth within 300)",
+          not silent and speaking >= n // 2 and (SANITIZED or growth <= 300) and srv.alive())
     # A line of many segments: its audio continuous and ended, about the speech route's length.
     text = "999999999999 " * 3
     c = wsclient.Client(srv.port, LIVE, timeout=30)

@@ -10,6 +10,7 @@ tests/bench/bars.sh): each answer within 2 s (10 s under sanitizers), the probe'
 go to FIGURES_OUT as a Markdown table (tests/bench/README.md shows them).
 """
 import json
+import math
 import os
 import socket
 import struct
@@ -166,6 +167,84 @@ def vrm_uploads(srv, U, glb, tmp):
     check(f"PUT a VRM whose expressions carry colour and texture binds: {st}; renders {[r[0] for r in renders.values()]}, tint and slide each "
           f"drawing other pixels than the neutral face", st == 201 and all(r[0] == 200 for r in renders.values())
           and renders["tint"][2] != renders[""][2] and renders["slide"][2] != renders[""][2])
+
+
+def ball_obj(rows=24, cols=48, r=0.1):
+    """A UV sphere as OBJ text: a mesh with no face on it."""
+    v = ["v 0 %g 0" % r]
+    for i in range(1, rows):
+        t = math.pi * i / rows
+        for j in range(cols):
+            p = 2 * math.pi * j / cols
+            v.append("v %.6f %.6f %.6f" % (r * math.sin(t) * math.cos(p), r * math.cos(t), r * math.sin(t) * math.sin(p)))
+    v.append("v 0 %g 0" % -r)
+    f, last = [], len(v)
+    ring = lambda i, j: 2 + (i - 1) * cols + j % cols
+    for j in range(cols):
+        f.append("f 1 %d %d" % (ring(1, j + 1), ring(1, j)))
+        f.append("f %d %d %d" % (last, ring(rows - 1, j), ring(rows - 1, j + 1)))
+    for i in range(1, rows - 1):
+        for j in range(cols):
+            a, b, c, d = ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j)
+            f.append("f %d %d %d" % (a, b, c))
+            f.append("f %d %d %d" % (a, c, d))
+    return ("\n".join(v + f) + "\n").encode()
+
+
+def job_end(U, job, wait):
+    """The job's JSON once it is done, failed or cancelled (or as it is after `wait` seconds)."""
+    deadline, j = time.time() + wait, {}
+    while time.time() < deadline:
+        st, _, b, _ = request(U + "/v1/jobs/" + job)
+        j = json.loads(b) if st == 200 else {"state": f"HTTP {st}"}
+        if j.get("state") in ("done", "failed", "cancelled") or st != 200:
+            break
+        time.sleep(0.2)
+    return j
+
+
+def derives(srv, U, auth, tmp):
+    """POST /v1/rigs/{id}/derive: the key, bad requests named, a ball and a landmark off the mesh failing their job with the
+    problem, nothing stored; a running derive deleted; a third at once refused 429."""
+    post = lambda rig, body, h=auth: request(U + f"/v1/rigs/{rig}/derive", "POST", json.dumps(body).encode(), h)
+    st, _, _, _ = post("facecap", {}, {})
+    check(f"a derive without the key: {st}", st == 401)
+    for body, pointer in (({"from": "nope"}, "/from"), ({"shapes": ["teeth"]}, "/shapes/0"), ({"as": "../etc"}, "/as"),
+                          ({"landmarks": {"points": "x"}}, "/landmarks/points"), ({"frm": "facecap"}, "/frm")):
+        st, _, b, _ = post("facecap", body)
+        pointers = [e.get("pointer") for e in json.loads(b).get("errors", [])] if b.startswith(b"{") else []
+        check(f"a derive with {json.dumps(body)}: {st} naming {pointers}", st == 422 and pointer in pointers)
+    obj, ball = os.path.join(tmp, "ball.obj"), os.path.join(tmp, "ball.glb")
+    open(obj, "wb").write(ball_obj())
+    subprocess.run([BIN, "blend", obj, "-o", ball], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    st, _, _, _ = request(U + "/v1/rigs/ball", "PUT", open(ball, "rb").read(), {"Content-Type": "model/gltf-binary", **auth})
+    check(f"a ball uploaded: {st}", st == 201)
+    wait = 300 if SANITIZED else 60
+    fails = {}
+    for name, rig, body, pointer in (("a ball", "ball", {"as": "ball-arkit"}, "/landmarks"),
+                                     ("a landmark off the mesh", "facecap", {"as": "facecap-off", "landmarks": {"points": [
+                                         {"name": "nose_1", "vertex": 10**9}]}}, "/landmarks/points/0/vertex")):
+        s2, _, b, _ = post(rig, body)
+        j = job_end(U, json.loads(b)["id"], wait) if s2 == 202 else {}
+        problem = j.get("problem", {})
+        pointers = [e.get("pointer") for e in problem.get("errors", [])]
+        gone, _, _, _ = request(U + "/v1/rigs/" + body["as"])
+        fails[name] = (s2, j.get("state"), problem.get("status"), problem.get("type", "").rsplit(":", 1)[-1], pointers, gone)
+        check(f"a derive onto {name}: {s2}, the job {j.get('state')} with {fails[name][2:5]}; nothing stored (GET {gone}); server alive",
+              s2 == 202 and j.get("state") == "failed" and problem.get("status") == 422 and pointer in pointers and gone == 404
+              and srv.alive())
+    # Two at once are queued or running; a third is refused. The first, deleted as it runs, writes nothing.
+    answers = [post("makehuman", {"as": f"facecap-d{i}"}) for i in range(3)]
+    codes = [a[0] for a in answers]
+    ids = [json.loads(a[2])["id"] for a in answers if a[0] == 202]
+    deleted = [request(U + "/v1/jobs/" + i, "DELETE", headers=auth)[0] for i in ids]
+    after = [request(U + "/v1/jobs/" + i)[0] for i in ids]
+    time.sleep(3)
+    stored = [request(U + f"/v1/rigs/facecap-d{i}")[0] for i in range(3)]
+    check(f"three derives at once: {codes} (Retry-After {answers[2][3].get('Retry-After')}); deleted {deleted}, then GET {after}; "
+          f"stored {stored}; server alive",
+          codes == [202, 202, 429] and answers[2][3].get("Retry-After") and deleted == [204, 204] and after == [404, 404]
+          and stored == [404, 404, 404] and srv.alive())
 
 
 def main():
@@ -347,6 +426,7 @@ def main():
                *request(U + "/v1/rigs/manytargets", "PUT", big, glb)))
 
     vrm_uploads(srv, U, glb, tmp)
+    derives(srv, U, auth, tmp)
 
     st, sec, b, _ = request(U + "/v1/rigs/facecap/batch", "POST",
                             json.dumps({"sample": {"method": "uniform", "count": 65000}, "format": "exr", "width": 2048, "height": 2048}).encode(), auth)

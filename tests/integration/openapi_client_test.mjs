@@ -141,6 +141,18 @@ const cases = {
         (r) => r.status === 200 && Math.abs(json(r).weights.jawOpen - 0.5) < 1e-3],
   startBatch: [() => examples('startBatch'),
                (r) => { job.id = r.status === 202 && json(r).links.self.split('/').pop(); return r.status === 202 && /^[0-9a-f]{32}$/.test(job.id); }],
+  // FaceCap onto itself: its own 52 shapes kept, the visemes baked; the job writes facecap-derived.
+  startDerive: [() => examples('startDerive'),
+                async (r) => {
+                  if (r.status !== 202 || json(r).kind !== 'derive') return false;
+                  const self = json(r).links.self.split('/').pop();
+                  let j = {};
+                  for (let i = 0; i < 600 && !['done', 'failed', 'cancelled'].includes(j.state); ++i) {
+                    if (i) await new Promise((ok) => setTimeout(ok, 100));
+                    j = json(await call('getJob', { job: self }));
+                  }
+                  return j.state === 'done' && j.result.rig === 'facecap-derived' && j.result.kept.length === 52;
+                }],
   listJobs: [() => call('listJobs'), (r) => r.status === 200 && json(r).jobs.some((j) => j.links.self.endsWith(job.id))],
   getJob: [async () => {
              let r;

@@ -23,8 +23,6 @@ namespace facespace::batch {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-namespace {
-
 std::string NewJobId() {
   unsigned char bytes[16];
   if (RAND_bytes(bytes, sizeof bytes) != 1) {
@@ -48,6 +46,8 @@ std::string NowRfc3339() {
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
   return buf;
 }
+
+namespace {
 
 // path, durably (temporary name, fsync, rename, folder fsync).
 Status WriteJobFile(const fs::path& path, const std::string& text) {

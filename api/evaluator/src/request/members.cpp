@@ -186,6 +186,25 @@ constexpr Member kBatchOnly[] = {
 constexpr std::string_view kNotInBatch[] = {"weights", "strict", "keep_targets", "format", "space"};
 
 // ---- fitting and speech ----
+constexpr Member kDerive[] = {
+    String("from", "The source rig (its id in the store), whose shapes are transferred",
+           "^[a-z0-9][a-z0-9_-]{0,63}$")
+        .Default(R"("facecap")"),
+    String("as",
+           "The rig to write (its id): a new rig, or this one's id to add the shapes to it; "
+           "default this rig",
+           "^[a-z0-9][a-z0-9_-]{0,63}$")
+        .Example(R"("myhead-arkit")"),
+    Schema("shapes",
+           "Which of the source's shapes: arkit (its ARKit-named ones), visemes (the 15 baked as "
+           "viseme_*); default all of the source's shapes and the visemes",
+           R"({"type": "array", "items": {"enum": ["arkit", "visemes"]}, "maxItems": 2})")
+        .Example(R"(["arkit", "visemes"])"),
+    Schema("landmarks",
+           "Points on this rig's face named as the source's landmarks (its manifest's): vertex in "
+           "the file's own numbering or a position; any subset; default the heads' own shape",
+           "#Landmarks"),
+};
 constexpr Member kFit[] = {
     Schema("target", "The mesh to reproduce, as the mesh route's JSON", "#MeshJson"),
     Schema("primitives", "Instead of target: the mesh route's JSON as it is",
@@ -429,6 +448,8 @@ std::vector<Table> MakeTables() {
     Append(batch, kImage);
   }
   add(Body::kFit, "FitRequest", "A target mesh to reproduce with the rig's shapes", kFit);
+  add(Body::kDerive, "DeriveRequest",
+      "Another rig's shapes transferred onto this one's neutral, as a job", kDerive);
   {
     std::vector<Member>& speech =
         *add(Body::kSpeech, "SpeechRequest", "Text or recorded speech to lip-sync", kSpeechOnly);

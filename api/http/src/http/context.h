@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cache.h"
+#include "derive_jobs.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/http/http.h"
 #include "facespace/net/front.h"
@@ -101,6 +102,7 @@ struct ServerState {
   RenderBudget render_budget;
   const std::string openapi;        // The document, with this server's limits.
   std::atomic<bool> warmed{false};  // Every rig of the store at start encoded (/readyz).
+  DeriveJobs derives;  // Its thread uses the store and the evaluator: it stops before them.
   net::LiveHub
       live;  // The WebSocket sessions (last: its threads use what is above, and stop first).
 };

@@ -203,6 +203,16 @@ Cost UploadCost(size_t bytes) {
           Amount(static_cast<double>(bytes)) + " bytes"};
 }
 
+Cost DeriveCost(const Rig& target, const Rig& source, size_t shapes) {
+  const auto v = static_cast<double>(target.vertex_count());
+  const auto s = static_cast<double>(source.vertex_count());
+  return {kPerRequest + kDerivePerVertex * (v + s) +
+              kDerivePerShapeVertex * v * static_cast<double>(shapes),
+          "/shapes",
+          Amount(v) + " target vertices x " + std::to_string(shapes) + " shapes, and " + Amount(s) +
+              " source vertices"};
+}
+
 bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
                   const Cost& cost) {
   res.headers.erase("Facespace-Cost");  // The route table's constant, said before the handler ran.

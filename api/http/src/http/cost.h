@@ -42,6 +42,8 @@ inline constexpr double kDecodePerSecond =
     0.08;  // PocketSphinx, per second of audio at 16 kHz (0.66 s for 9 s).
 inline constexpr double kPerInputSample = 1e-7;  // Resampling and voice detection, per sample sent.
 inline constexpr double kPerUploadByte = 1e-7;   // Reading a rig file.
+inline constexpr double kDerivePerVertex = 4e-5;       // Registering, per vertex of either mesh.
+inline constexpr double kDerivePerShapeVertex = 1e-6;  // Transferring one shape, per target vertex.
 inline constexpr double kPerMovedVertex =
     3e-9;  // One weighted shape's moved vertex added into the blend.
 
@@ -76,6 +78,9 @@ Cost FitCost(const Rig& rig, const evaluator::FitRequest& r);
 // then the frames (a stream), or the video's frames at the request's size.
 Cost SpeechCost(const Rig& rig, const evaluator::SpeechRequest& r, double seconds, int rate);
 Cost UploadCost(size_t bytes);
+// A derive of `shapes` shapes from `source` onto `target` (the job's, charged when it is asked
+// for): the registration grows with both meshes, the transfer with the target's vertices a shape.
+Cost DeriveCost(const Rig& target, const Rig& source, size_t shapes);
 
 // The admission step: sets Facespace-Cost; true when the cost is within what the caller may spend,
 // else false with 422 over-budget sent (the field, the estimate, the budget, and what to do).

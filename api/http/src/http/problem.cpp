@@ -89,15 +89,14 @@ Problem ProblemOfHttpStatus(int status) {
   }
 }
 
-void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem,
-                 const std::string& detail, const std::vector<FieldError>& fields,
-                 std::span<const Warning> warnings, size_t omitted) {
+json ProblemJson(Problem problem, const std::string& detail, const std::vector<FieldError>& fields,
+                 const std::string& instance, std::span<const Warning> warnings, size_t omitted) {
   const ProblemType& t = TypeOf(problem);
   json p = {{"type", "urn:facespace:problem:" + std::string(t.name)},
             {"title", t.title},
             {"status", t.status},
             {"detail", detail},
-            {"instance", req.path}};
+            {"instance", instance}};
   if (!fields.empty()) {
     // The first kMaxFieldErrors, and how many there were in all when that is more.
     json errors = json::array();
@@ -112,7 +111,18 @@ void SendProblem(const httplib::Request& req, httplib::Response& res, Problem pr
     if (fields.size() + omitted > errors.size()) p["errors_total"] = fields.size() + omitted;
   }
   if (!warnings.empty()) p["warnings"] = formats::WarningsValue(warnings);
-  res.status = t.status;
+  return p;
+}
+
+json ProblemJson(const Status& s, const std::string& instance) {
+  return ProblemJson(ProblemOf(s), s.message, s.fields, instance, {}, s.omitted);
+}
+
+void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem,
+                 const std::string& detail, const std::vector<FieldError>& fields,
+                 std::span<const Warning> warnings, size_t omitted) {
+  const json p = ProblemJson(problem, detail, fields, req.path, warnings, omitted);
+  res.status = TypeOf(problem).status;
   // A refusal written before any route (the connection front's) states its cost as every answer
   // does.
   if (!res.has_header("Facespace-Cost")) res.set_header("Facespace-Cost", kConstantCost);

@@ -25,6 +25,13 @@ const char* StatusLinePhrase(int status);
 void SendProblem(const httplib::Request& req, httplib::Response& res, Problem problem,
                  const std::string& detail, const std::vector<FieldError>& fields = {},
                  std::span<const Warning> warnings = {}, size_t omitted = 0);
+// The same document as JSON, for an answer that carries it (a failed job's "problem"), `instance`
+// the path it is about.
+nlohmann::json ProblemJson(Problem problem, const std::string& detail,
+                           const std::vector<FieldError>& fields, const std::string& instance,
+                           std::span<const Warning> warnings = {}, size_t omitted = 0);
+// A Status's problem document (its reason's, else its code's).
+nlohmann::json ProblemJson(const Status& s, const std::string& instance);
 // The problem cpp-httplib answers an HTTP status with itself (a bad Range, Expect, headers too
 // large...).
 Problem ProblemOfHttpStatus(int status);

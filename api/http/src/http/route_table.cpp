@@ -36,6 +36,7 @@ constexpr Route kRoutes[] = {
     {"GET", "/v1/voices", "/v1/voices", GetVoices},
     {"POST", "/v1/rigs/{id}/fit", "/v1/rigs/{id}/fit", PostFit},
     {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch, true},
+    {"POST", "/v1/rigs/{id}/derive", "/v1/rigs/{id}/derive", PostDerive, true},
     {"GET", "/v1/jobs", "/v1/jobs", ListJobs},
     {"GET", "/v1/jobs/{job}", "/v1/jobs/{job}", GetJob},
     {"DELETE", "/v1/jobs/{job}", "/v1/jobs/{job}", DeleteJob, true},

@@ -96,6 +96,10 @@ constexpr Guide kGuides[] = {
     {"startBatch", "batch",
      "A job writing many variants as files; 202 with the job, which runs in the background.",
      kFacecap, R"({"sample": {"method": "uniform", "count": 3, "seed": 2}, "format": "obj"})"},
+    {"startDerive", "batch",
+     "A job deriving shapes onto the rig from another (default FaceCap's ARKit 52 and the "
+     "visemes); 202 with the job, whose result names the rig written.",
+     kFacecap, R"({"as": "facecap-derived", "shapes": ["visemes"]})"},
     {"listJobs", "batch", "Every job, newest first.", "", ""},
     {"getJob", "batch", "A job's state, progress, rate and estimated time left.", "", ""},
     {"deleteJob", "batch", "Cancels a job and deletes its files.", "", ""},
@@ -110,7 +114,7 @@ constexpr const char* kTags[][2] = {
     {"meshes", "Points of face space as meshes, checked and fitted"},
     {"images", "Points of face space drawn"},
     {"sequences", "Points over time: keys, clips, speech"},
-    {"batch", "Many variants as files, in the background"},
+    {"batch", "Work in the background: many variants as files, shapes derived onto a head"},
     {"live", "A socket at display rate"},
 };
 

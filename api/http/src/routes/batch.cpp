@@ -17,6 +17,7 @@ json JobJson(const batch::JobInfo& j) {
   const std::string self = "/v1/jobs/" + j.id;
   json o = {
       {"id", j.id},
+      {"kind", "batch"},
       {"rig", j.rig},
       {"state", Name(j.state)},
       {"format", j.format},
@@ -139,14 +140,21 @@ void PostBatch(ServerState& ctx, const httplib::Request& req, httplib::Response&
   SendJson(res, 202, JobJson(job.value()));
 }
 
-void ListJobs(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (!JobsEnabled(ctx, req, res)) return;
+// Batch jobs need a jobs folder; derive jobs (routes/derive.cpp) are listed beside them either way.
+void ListJobs(ServerState& ctx, const httplib::Request&, httplib::Response& res) {
   json list = json::array();
-  for (const batch::JobInfo& j : ctx.jobs->List()) list.push_back(JobJson(j));
+  for (const DeriveJobInfo& j : ctx.derives.List()) list.push_back(DeriveJobJson(j));
+  if (ctx.jobs) {
+    for (const batch::JobInfo& j : ctx.jobs->List()) list.push_back(JobJson(j));
+  }
   SendJson(res, 200, {{"jobs", list}});
 }
 
 void GetJob(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
+  if (auto d = ctx.derives.Get(req.matches[1])) {
+    res.set_header("Cache-Control", "no-cache");
+    return SendJson(res, 200, DeriveJobJson(*d));
+  }
   if (auto j = FindJob(ctx, req, res)) {
     res.set_header("Cache-Control", "no-cache");
     SendJson(res, 200, JobJson(*j));
@@ -154,8 +162,13 @@ void GetJob(ServerState& ctx, const httplib::Request& req, httplib::Response& re
 }
 
 void DeleteJob(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
-  if (!JobsEnabled(ctx, req, res) || !Authorized(ctx, req, res)) return;
+  if (!Authorized(ctx, req, res)) return;
   const std::string id = req.matches[1];
+  if (ctx.derives.Remove(id)) {
+    res.status = 204;
+    return;
+  }
+  if (!JobsEnabled(ctx, req, res)) return;
   Status s = batch::IsValidJobId(id) ? ctx.jobs->Remove(id) : NotFound("");
   if (!s.ok())
     SendProblem(req, res, Problem::kJobNotFound, "no job with id '" + id.substr(0, 80) + "'");

@@ -291,9 +291,11 @@ void LiveSpeaker::Speak(const Piece& piece, std::stop_token stop) {
   for (size_t i = 0; i < segments.size() && !halt.stop_requested(); ++i) {
     // The next segment is made once what is made of this one is within kRefill of playing, and
     // while the speech held across sessions is under its cap: memory holds a segment and a lead,
-    // however long the text.
+    // however long the text. A session with nothing left to play is never held by the others' (it
+    // would wait on them forever while they keep refilling): each holds at most one segment.
     SendWhile(u, false, halt, [&] {
-      return u.seconds_made() - u.played() > kRefill || HeldBytes() > kMaxHeldBytes;
+      const double ahead = u.seconds_made() - u.played();
+      return ahead > kRefill || (ahead > 0 && HeldBytes() > kMaxHeldBytes);
     });
     if (halt.stop_requested() || !SpeakSegment(u, piece, segments[i], halt)) break;
   }

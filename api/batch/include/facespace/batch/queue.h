@@ -84,6 +84,10 @@ class JobQueue {
 
 // True for a job id: 32 lowercase hex digits.
 bool IsValidJobId(const std::string& id);
+// A new job id (OpenSSL's random bytes), and the time now as a job's `created` says it (RFC 3339,
+// UTC).
+std::string NewJobId();
+std::string NowRfc3339();
 
 struct JobLimits {
   size_t max_jobs = 4;       // Queued + running; past it Submit says ResourceExhausted (429).

@@ -212,6 +212,17 @@ Result<FitRequest> ParseFitRequest(std::string_view body);
 // The target from the mesh JSON text.
 Result<TargetMesh> ParseTargetJson(std::string_view text);
 
+// Body of POST /v1/rigs/{id}/derive: {"from": SOURCE_ID, "as": RIG_ID, "shapes": ["arkit",
+// "visemes"], "landmarks": {"scheme", "points": [...]}}, every member optional. The landmarks are
+// kept as their JSON text, read by the derive itself (core/derive's ReadLandmarks).
+struct DeriveRequest {
+  std::string from = "facecap";  // The source rig, in the store.
+  std::string as;                // The rig written; empty: the target itself, its shapes added.
+  std::string shapes;            // "arkit,visemes" as the CLI's --shapes; empty: all and visemes.
+  std::string landmarks;         // JSON text; empty: none.
+};
+Result<DeriveRequest> ParseDeriveRequest(std::string_view body);
+
 // Body of POST /v1/rigs/{id}/batch, and the batch.json that `facespace batch` keeps in its
 // output folder:
 // {"variants": [{"id": "a", "weights": {...}|[...]}, ...]            an explicit list, or
