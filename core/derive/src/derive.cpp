@@ -21,6 +21,13 @@ namespace facespace::derive {
 namespace {
 
 using Landmarks = std::vector<std::pair<uint32_t, Vec3>>;  // (source skin point, target position)
+// The reach of the registration's move field (a fraction of the head's diagonal): about an eye's
+// height, so that a lid's move ends where the target's other lid is.
+constexpr double kOffsetRadius = 0.03;
+// Around an eye (within this many of its radii) the source's moves weigh this much in the
+// transfer against the gradients (elsewhere 1).
+constexpr double kLidReach = 1.8;
+constexpr double kLidWeight = 4.0;
 
 // The world matrices' linear parts of each primitive.
 std::vector<Eigen::Matrix3d> LinearParts(const Rig& rig) {
@@ -114,7 +121,7 @@ Correspondence Correspond(const Surface& t, std::span<const Vec3> registered,
 struct Prepared {
   Surface skin, target;
   Similarity sim;
-  std::vector<Vec3> registered;
+  std::vector<Vec3> aligned, registered;  // The source's skin, before and after registration.
   // Per source triangle: how the registration stretched it (aligned to registered), which a
   // displacement of the source's follows onto the target (a wider eye's lids travel farther).
   std::vector<Eigen::Matrix3d> stretch;
@@ -316,6 +323,7 @@ Result<Prepared> Prepare(const Rig& target, const Rig& source, const Options& o,
                                   RegisterOptions{}, diag, on_body);
   FollowBody(p.skin, source_body, on_body, aligned, p.registered);
   p.stretch = Stretches(aligned, p.registered, p.skin.triangles, report.distorted);
+  p.aligned = std::move(aligned);
   if (o.stop.stop_requested()) return Cancelled();
   if (Status s = Measure(p, body_closest, diag, o, report); !s.ok()) return s;
   return p;
@@ -333,7 +341,15 @@ struct SkinSystem {
 };
 
 SkinSystem BuildSkinSystem(const Surface& t, std::span<const PartKind> kind,
-                           const Correspondence& c, double tolerance, double diag) {
+                           const Correspondence& c, std::span<const Eye> eyes, double tolerance,
+                           double diag) {
+  // Lids sweep over the eyes: a sweep is mostly a move, which gradients do not carry; around an
+  // eye the source's moves (their ends mapped onto the target's face) are held harder.
+  auto by_eye = [&](const Vec3& q) {
+    for (const Eye& e : eyes)
+      if ((q - e.centre).norm() < kLidReach * e.radius) return true;
+    return false;
+  };
   SkinSystem s;
   s.local.assign(t.points.size(), UINT32_MAX);
   for (uint32_t q = 0; q < t.points.size(); ++q) {
@@ -345,7 +361,7 @@ SkinSystem BuildSkinSystem(const Surface& t, std::span<const PartKind> kind,
     // lips and lids, which follow them); held still far from it.
     const bool data = c.point_source[q] != UINT32_MAX && c.point_distance[q] <= tolerance;
     const bool far = c.point_distance[q] < 0 || c.point_distance[q] > 0.1 * diag;
-    s.weight.push_back(data ? 1.0 : far ? 20.0 : 0.0);
+    s.weight.push_back(data ? (by_eye(t.points[q]) ? kLidWeight : 1.0) : far ? 20.0 : 0.0);
   }
   for (uint32_t i = 0; i < t.triangles.size(); ++i) {
     const Tri& tri = t.triangles[i];
@@ -384,6 +400,7 @@ std::vector<ClosestPoint::Hit> AttachParts(const Surface& t, const SkinSystem& s
 struct Transfer {
   const Prepared& p;
   const Correspondence& c;
+  const PointField& offsets;  // The registration's moves, aligned source -> target.
   std::span<const PartKind> kind;
   std::span<const Eye> eyes;
   const PoissonSystem& poisson;
@@ -417,7 +434,11 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
   auto copied = [&](uint32_t point) {
     const Tri& s = p.skin.triangles[c.point_source[point]];
     const Vec3& b = c.point_bary[point];
-    return Vec3(p.sim.scale * (rot * (b[0] * ds[s[0]] + b[1] * ds[s[1]] + b[2] * ds[s[2]])));
+    const Vec3 move = p.sim.scale * (rot * (b[0] * ds[s[0]] + b[1] * ds[s[1]] + b[2] * ds[s[2]]));
+    if (move.squaredNorm() < 1e-10 * p.diag * p.diag) return move;
+    const Vec3 start = b[0] * p.aligned[s[0]] + b[1] * p.aligned[s[1]] + b[2] * p.aligned[s[2]];
+    const Vec3 here = offsets.At(start, Vec3::Zero());
+    return Vec3(move + offsets.At(start + move, here) - here);
   };
   std::vector<Eigen::Matrix3d> g(skin_triangles.size(), Eigen::Matrix3d::Identity());
   std::vector<uint8_t> has(skin_triangles.size(), 0);
@@ -521,7 +542,7 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
   report.matched_triangles = static_cast<size_t>(std::count(matched.begin(), matched.end(), 1));
   const auto eyes = SourceEyes(source, p.sim);
   auto kind = ClassifyParts(p.target, matched, eyes, skin, 0.05 * diag);
-  const SkinSystem sys = BuildSkinSystem(p.target, kind, c, tolerance, diag);
+  const SkinSystem sys = BuildSkinSystem(p.target, kind, c, eyes, tolerance, diag);
 
   Progress(o, 0.45, "factorize");
   // The data term's weight against the gradients' (per point, a mean edge squared): measured on
@@ -540,18 +561,14 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
     report.parts_rigid += k == PartKind::kRigid || k == PartKind::kAttached;
     report.parts_still += k == PartKind::kStill;
   }
-  const Transfer transfer{p,
-                          c,
-                          kind,
-                          eyes,
-                          poisson,
-                          sys.local,
-                          sys.skin_points,
-                          sys.triangles,
-                          sys.triangle_of,
-                          attach,
-                          members,
-                          tolerance};
+  // The registration's moves of the source's skin as a field: a displacement carried over ends
+  // where the target's face is at its end (a lid meets the target's lower lid, not the source's).
+  std::vector<Vec3> moves(p.aligned.size());
+  for (size_t i = 0; i < moves.size(); ++i) moves[i] = p.registered[i] - p.aligned[i];
+  const PointField offsets(p.aligned, std::move(moves), kOffsetRadius * p.diag);
+  const Transfer transfer{p,       c,         offsets,         kind,          eyes,
+                          poisson, sys.local, sys.skin_points, sys.triangles, sys.triangle_of,
+                          attach,  members,   tolerance};
   const auto linear = LinearParts(source);
   std::vector<Eigen::Matrix3d> inverse;
   for (const Eigen::Matrix3d& m : LinearParts(target)) inverse.push_back(m.inverse());

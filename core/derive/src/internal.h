@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 #include "facespace/derive/derive.h"
@@ -98,6 +99,20 @@ std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source,
                                    std::span<const std::pair<uint32_t, Vec3>> landmarks,
                                    const RegisterOptions& options, double diagonal,
                                    std::span<const uint8_t> fitted = {});
+
+// A smooth field of values given at points: at x, the mean of the values of the points within
+// `radius`, weighted by inverse distance (falling to 0 at the radius); `otherwise` where none is.
+class PointField {
+ public:
+  PointField(std::span<const Vec3> points, std::vector<Vec3> values, double radius);
+  Vec3 At(const Vec3& x, const Vec3& otherwise) const;
+
+ private:
+  std::span<const Vec3> points_;
+  std::vector<Vec3> values_;
+  double radius_;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> cells_;
+};
 
 // A landmark both heads have: the source's (a point of its skin surface) and where it is on the
 // target (on its surface).
