@@ -319,7 +319,7 @@ want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"
       "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/manifest":{"get","put"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
       "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
       "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"},
-      "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
+      "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/derive":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
       "/v1/jobs/{job}/files/{name}":{"get"},"/v1/jobs/{job}/results.zip":{"get"},
       "/v1/rigs/{id}/speech":{"post"},"/v1/voices":{"get"},"/v1/rigs/{id}/live":{"get"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
