@@ -460,7 +460,7 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
       EXPECT_TRUE(op.contains("operationId")) << method << " " << path;
     }
   }
-  EXPECT_EQ(operations, 31u);  // The route table's 31 (GET /v1/rigs/{id}/live the last added).
+  EXPECT_EQ(operations, 32u);  // The route table's 32 (POST /v1/rigs/{id}/derive the last added).
   EXPECT_TRUE(doc["paths"]["/v1/rigs/{id}"]["get"]["parameters"].is_array());
   // The GET parameters the document declares are the ones the routes read: each, given a value
   // no route takes, is refused for its value, never as an unknown parameter.
@@ -519,9 +519,14 @@ TEST_F(ApiTest, BatchAndJobsWithoutAQueueAre503AfterAuth) {
                     "application/json");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 503);
-  r = Client().Get("/v1/jobs");
+  r = Client().Get("/v1/jobs/0123456789abcdef0123456789abcdef");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 503);
+  // The list holds the derive jobs, which need no queue: none here.
+  r = Client().Get("/v1/jobs");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->body, R"({"jobs":[]})");
 }
 
 TEST_F(ApiTest, UploadsTakeFbxAndColladaByMediaTypeFileNameOrMagic) {

@@ -142,12 +142,24 @@ TEST(Face, UnknownExpressionsAreErrorsAndUnmappedPresetsWarn) {
                                   std::vector<WeightEntry>{{"aa", -1, NAN, "/expressions/aa"}},
                                   values, warnings)
                    .ok());
-  // MakeHuman's manifest maps happy, sad, angry, surprised and aa onto its face-space modifiers,
-  // but no other mouth shape of VRM's: "ou" is a preset it does not map, said, not refused.
+  // MakeHuman's expressions, derived from FaceCap's, carry VRM's presets as FaceCap's do: happy
+  // smiles with its mouthSmile shapes.
   const Rig mh = formats::LoadRigFile(test::Bundled("makehuman/makehuman.glb")).value();
-  EXPECT_GE(FindExpression(mh, "happy"), 0);
-  EXPECT_LT(FindExpression(mh, "ou"), 0);
-  EXPECT_TRUE(ResolveExpressions(mh, std::vector<WeightEntry>{{"ou", -1, 1.0, "/expressions/ou"}},
+  std::vector<float> happy, smile(mh.shapes.size(), 0.0f);
+  warnings.clear();
+  ASSERT_TRUE(ResolveExpressions(mh,
+                                 std::vector<WeightEntry>{{"happy", -1, 1.0, "/expressions/happy"}},
+                                 happy, warnings)
+                  .ok());
+  EXPECT_TRUE(warnings.empty());
+  AddExpressionWeights(mh, happy, ExpressionMultipliers{}, smile);
+  EXPECT_GT(smile[static_cast<size_t>(FindShape(mh, "mouthSmile_L"))], 0.5f);
+  EXPECT_GT(smile[static_cast<size_t>(FindShape(mh, "mouthSmile_R"))], 0.5f);
+  // A cube has none of VRM's presets: "ou" is one it does not map, said, not refused.
+  const Rig cube =
+      formats::LoadRigFile(test::RealAsset("AnimatedMorphCube/AnimatedMorphCube.gltf")).value();
+  EXPECT_LT(FindExpression(cube, "ou"), 0);
+  EXPECT_TRUE(ResolveExpressions(cube, std::vector<WeightEntry>{{"ou", -1, 1.0, "/expressions/ou"}},
                                  values, warnings)
                   .ok());
   ASSERT_FALSE(warnings.empty());

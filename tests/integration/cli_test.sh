@@ -640,6 +640,6 @@ j=json.load(open(sys.argv[1])); sys.exit(not(j["source"]=="pocketsphinx-aligned"
 check "speak -o X.webm: Uka speaking, VP9 + Opus as ffprobe reads them" sh -c "[ $rc -eq 0 ] && ffprobe -v error -show_entries stream=codec_name -of csv=p=0 '$tmp/speak.webm' | tr '\n' ' ' | grep -q 'vp9 opus'"
 err_case "speak -o x.mp4: refused, naming the formats it writes (not JSON into x.mp4)" "speak writes .json, .wav, .webm or .ndjson" speak "$src/assets/facecap/facecap.glb" --text "Hello" -o "$tmp/x.mp4"
 check "  ... and writes no x.mp4" test ! -e "$tmp/x.mp4"
-err_case "speak on a rig without a mouth: says what it lacks" "has no mouth to speak with" speak "$src/assets/makehuman/makehuman.glb" --text "Hello" -o "$tmp/x.json"
+err_case "speak on a rig without a mouth: says what it lacks" "has no mouth to speak with" speak "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --text "Hello" -o "$tmp/x.json"
 
 finish

@@ -18,6 +18,7 @@ extern "C" {
 #include <sstream>
 #include <thread>
 
+#include "facespace/engine/blend.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 #include "facespace/lipsync/lipsync.h"
@@ -189,6 +190,89 @@ TEST(Espeak, KeysFollowEspeaksOwnPhonemeTimesExactly) {
     EXPECT_NEAR(w[jaw], 0.0f, 1e-6f);
   }
   EXPECT_GE(closures, 5u);  // m, b, b, p, p, m, p
+}
+
+// The lips on a rig's midline: the upper lip's lowest point and the lower lip's highest, found by
+// the open-mouth viseme (the one hardly moves, the other drops); their gap at `weights` beyond
+// the neutral face's is the mouth's opening.
+struct Lips {
+  uint32_t upper = 0, lower = 0;
+};
+float Opening(const Primitive& skin, std::span<const float> weights, Lips lips) {
+  std::vector<float> pos(skin.positions.size());
+  EXPECT_TRUE(
+      BlendChannel(skin.positions, weights, skin.targets, TargetChannel::kPosition, 3, pos));
+  auto gap = [&](std::span<const float> p) {
+    return p[3 * lips.upper + 1] - p[3 * lips.lower + 1];
+  };
+  return gap(pos) - gap(skin.positions);
+}
+
+// MakeHuman, its expressions derived from FaceCap's (issue 63), says the issue's line: its lips
+// close on every p, b and m (at most a fifth of the widest opening) and part on the open vowels.
+TEST(Espeak, TheDerivedMakeHumanClosesItsLipsOnEveryPBM) {
+  const auto mh = Rig("makehuman/makehuman.glb");
+  const facespace::Rig& rig = mh->rig;
+  const int aa = FindShape(rig, "viseme_aa");
+  ASSERT_GE(aa, 0);
+  // The lips: of the front of the midline, where the open viseme's drop begins.
+  const Primitive& skin = rig.primitives[0];
+  const SparseTarget& open = skin.targets[static_cast<size_t>(aa)];
+  std::vector<float> drop(skin.positions.size() / 3, 0.0f);
+  float most = 0, front = -1e9f;
+  for (size_t k = 0; k < open.indices.size(); ++k) {
+    drop[open.indices[k]] = -open.position_deltas[3 * k + 1];
+    most = std::max(most, drop[open.indices[k]]);
+  }
+  for (uint32_t v = 0; v < drop.size(); ++v) {
+    if (drop[v] > 0.3f * most && std::fabs(skin.positions[3 * v]) < 0.001f)
+      front = std::max(front, skin.positions[3 * v + 2]);
+  }
+  Lips lips;
+  float top = -1e9f;
+  for (uint32_t v = 0; v < drop.size(); ++v) {  // The lower lip's top: the highest that drops.
+    const float* q = &skin.positions[3 * v];
+    if (std::fabs(q[0]) < 0.001f && q[2] > front - 0.008f && drop[v] > 0.5f * most && q[1] > top)
+      top = q[1], lips.lower = v;
+  }
+  float bottom = 1e9f;
+  for (uint32_t v = 0; v < drop.size();
+       ++v) {  // The upper lip's bottom: the lowest above it that stays.
+    const float* q = &skin.positions[3 * v];
+    if (std::fabs(q[0]) < 0.001f && q[2] > front - 0.008f && drop[v] < 0.2f * most && q[1] > top &&
+        q[1] < bottom)
+      bottom = q[1], lips.upper = v;
+  }
+  ASSERT_LT(top, bottom);
+  std::printf("lips: upper %u at y %.4f, lower %u at y %.4f\n", lips.upper, bottom, lips.lower,
+              top);
+  evaluator::SpeechRequest request;
+  request.text = "Please bring the blue map and five apples.";
+  auto plan = lipsync::PlanSpeech(rig, request);
+  ASSERT_TRUE(plan.ok()) << plan.status().message;
+  std::vector<float> w(rig.shapes.size());
+  float widest = 0;
+  std::vector<std::pair<Viseme, float>> at;
+  for (const TimedViseme& v : plan->visemes) {
+    SampleSequence(plan->sequence, 0.5f * (v.start + v.end), w);
+    at.emplace_back(v.viseme, Opening(skin, w, lips));
+    widest = std::max(widest, at.back().second);
+  }
+  size_t closures = 0, vowels = 0, parted = 0;
+  for (const auto& [viseme, opening] : at) {
+    if (viseme == Viseme::kPP) {
+      ++closures;
+      EXPECT_LE(opening, 0.2f * widest) << "a p, b or m " << opening * 1000 << " mm open";
+    } else if (viseme == Viseme::kAA || viseme == Viseme::kOH || viseme == Viseme::kE) {
+      ++vowels;
+      parted += opening > 0.25f * widest;
+    }
+  }
+  std::printf("MakeHuman: %zu closures, widest opening %.1f mm; %zu of %zu open vowels parted\n",
+              closures, widest * 1000, parted, vowels);
+  EXPECT_GE(closures, 4u);  // please, blue, map, apples.
+  EXPECT_GE(widest, 0.004f);
+  EXPECT_GE(parted, vowels * 3 / 4);
 }
 
 TEST(Espeak, BadTextAndVoicesNameTheirField) {

@@ -75,6 +75,7 @@ constexpr std::array<ProblemType, static_cast<size_t>(P::kCount)> kTable = {{
     {P::kOverBudget, "over-budget", 422, "The request's estimated cost is over its budget"},
     {P::kReadOnly, "read-only", 409, "The rig is bundled with the server"},
     {P::kJobNotDone, "job-not-done", 409, "The job has not finished"},
+    {P::kRigChanged, "rig-changed", 409, "The rig changed while the job ran"},
     {P::kJobQueueFull, "job-queue-full", 429, "The job queue is full"},
     {P::kJobsDisabled, "jobs-disabled", 503, "This server runs no batch jobs"},
     {P::kStorageFull, "storage-full", 507, "The disk is full"},

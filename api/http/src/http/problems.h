@@ -78,6 +78,7 @@ enum class Problem : uint8_t {
   // The state of things.
   kReadOnly,
   kJobNotDone,
+  kRigChanged,
   kJobQueueFull,
   kJobsDisabled,
   kStorageFull,
