@@ -1,11 +1,13 @@
 // libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling (and a
 // dataset's members), resolved against real rigs (FaceCap; a skinned CesiumMan); or (first byte
-// 0xFF) a manifest applied to FaceCap. The first byte picks the schema.
+// 0xFF) a manifest applied to FaceCap, or (0xFE) a derive's body and landmarks. The first byte
+// picks the schema.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
 
+#include "facespace/derive/derive.h"
 #include "facespace/engine/skeleton.h"
 #include "facespace/engine/weights.h"
 #include "facespace/evaluator/evaluator.h"
@@ -39,6 +41,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const std::string_view body(reinterpret_cast<const char*>(data + 1), size - 1);
   const facespace::Rig& rig = Rig(data[0] & 0x10);
+  if (data[0] == 0xFE) {  // A derive's body, and its landmarks as the derive reads them.
+    if (auto d = facespace::evaluator::ParseDeriveRequest(body); d.ok() && !d->landmarks.empty())
+      (void)facespace::derive::ReadLandmarks(d->landmarks);
+    (void)facespace::derive::ReadLandmarks(body);
+    return 0;
+  }
   if (data[0] == 0xFF) {  // A manifest (an upload's): its regions and landmarks index meshes,
                           // materials, vertices.
     facespace::Rig copy = Rig(false);

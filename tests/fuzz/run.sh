@@ -58,6 +58,8 @@ req = [
   (255, {"regions": {"skin": {"meshes": ["head"]}, "eyes": {"meshes": ["eyeLeft"]}}, "landmarks": {"scheme": "x",
          "points": [{"name": "a", "mesh": "head", "vertex": 3}, {"name": "b", "mesh": "head", "vertices": [1, 2, 3], "weights": [0.2, 0.3, 0.5]}]}}),
   (5, {"target": {"primitives": [{"positions": [0, 0, 0]}]}, "bounded": True, "rigid_align": True}),
+  (254, {"from": "facecap", "as": "head-arkit", "shapes": ["arkit", "visemes"], "landmarks": {"scheme": "ibug-300w-68",
+         "points": [{"name": "nose_1", "vertex": 3}, {"name": "eye_l_1", "position": [0.01, 0.02, 0.03]}, {"name": "x", "mesh": "m", "vertex": 0}]}}),
 ]
 for i, (k, body) in enumerate(req):
     with open(os.path.join(c, "fuzz_request", f"seed{i}"), "wb") as f:
