@@ -253,8 +253,9 @@ def says(srv, U):
         c.close()
     growth = peak - before
     speaking = sum(1 for g in got if g > 0)
-    # espeak-ng speaks one segment at a time: under ASan, beside another suite, a say may wait past
-    # its lock's patience and be refused as busy, a clear answer; unsanitized every one speaks.
+    # espeak-ng speaks one segment at a time and a session waits its turn (30 s): under ASan, beside
+    # another suite, a say may still wait past that and be refused as busy, a clear answer;
+    # unsanitized every one speaks.
     busy = sum(1 for g, r in zip(got, refused) if g == 0 and r == "busy")
     silent = [i for i in range(n) if got[i] == 0 and not (SANITIZED and refused[i] == "busy")]
     figure(f"{n} live says of an 8-minute line (rate 80), {seconds} s", "-", seconds, "-", f"{before:.0f} -> peak {peak:.0f}")

@@ -2,6 +2,7 @@
 // the named sets (arkit, visemes) a request asks for.
 #include <algorithm>
 
+#include "facespace/engine/face.h"
 #include "facespace/engine/speech.h"
 #include "parts.h"
 
@@ -28,13 +29,11 @@ void AppendShape(Rig& rig, Shape shape, std::vector<SparseTarget> targets) {
 // The 15 visemes as shapes ("viseme_sil" .. "viseme_U", the names web avatars carry), each the sum
 // of the shapes the viseme table (core/speech.h) binds, where `rig` lacks one by that name.
 void BakeVisemes(Rig& rig, Report& report) {
-  static constexpr const char* kNames[kVisemeCount] = {
-      "sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "I", "O", "U"};
   Rig probe;
   probe.shapes = rig.shapes;
   DeriveVisemes(probe);
   for (size_t v = 0; v < kVisemeCount; ++v) {
-    const std::string name = std::string("viseme_") + kNames[v];
+    const std::string name(kOvrVisemeNames[v]);
     if (FindShape(rig, name) >= 0 || probe.visemes.binds[v].empty()) continue;
     std::vector<SparseTarget> targets(rig.primitives.size());
     for (const Mesh& mesh : rig.meshes) {
@@ -71,20 +70,7 @@ void BakeVisemes(Rig& rig, Report& report) {
 }
 
 const std::vector<std::string>& ArkitNames() {
-  static const std::vector<std::string> kNames = {
-      "browDownLeft",      "browDownRight",      "browInnerUp",         "browOuterUpLeft",
-      "browOuterUpRight",  "cheekPuff",          "cheekSquintLeft",     "cheekSquintRight",
-      "eyeBlinkLeft",      "eyeBlinkRight",      "eyeLookDownLeft",     "eyeLookDownRight",
-      "eyeLookInLeft",     "eyeLookInRight",     "eyeLookOutLeft",      "eyeLookOutRight",
-      "eyeLookUpLeft",     "eyeLookUpRight",     "eyeSquintLeft",       "eyeSquintRight",
-      "eyeWideLeft",       "eyeWideRight",       "jawForward",          "jawLeft",
-      "jawOpen",           "jawRight",           "mouthClose",          "mouthDimpleLeft",
-      "mouthDimpleRight",  "mouthFrownLeft",     "mouthFrownRight",     "mouthFunnel",
-      "mouthLeft",         "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft",
-      "mouthPressRight",   "mouthPucker",        "mouthRight",          "mouthRollLower",
-      "mouthRollUpper",    "mouthShrugLower",    "mouthShrugUpper",     "mouthSmileLeft",
-      "mouthSmileRight",   "mouthStretchLeft",   "mouthStretchRight",   "mouthUpperUpLeft",
-      "mouthUpperUpRight", "noseSneerLeft",      "noseSneerRight",      "tongueOut"};
+  static const std::vector<std::string> kNames(std::begin(kArkitNames), std::end(kArkitNames));
   return kNames;
 }
 

@@ -7,6 +7,7 @@
 #include "export/vrm_parts.h"
 #include "facespace/engine/blend.h"
 #include "facespace/engine/color.h"
+#include "facespace/engine/face.h"
 #include "facespace/engine/speech.h"
 
 namespace facespace::formats::writers {
@@ -26,27 +27,6 @@ int BaseTexture(const ordered_json& gltf_material) {
   if (pbr == gltf_material.end() || !pbr->contains("baseColorTexture")) return -1;
   return (*pbr)["baseColorTexture"].value("index", -1);
 }
-
-constexpr const char* kArkit[] = {
-    "browDownLeft",      "browDownRight",      "browInnerUp",         "browOuterUpLeft",
-    "browOuterUpRight",  "cheekPuff",          "cheekSquintLeft",     "cheekSquintRight",
-    "eyeBlinkLeft",      "eyeBlinkRight",      "eyeLookDownLeft",     "eyeLookDownRight",
-    "eyeLookInLeft",     "eyeLookInRight",     "eyeLookOutLeft",      "eyeLookOutRight",
-    "eyeLookUpLeft",     "eyeLookUpRight",     "eyeSquintLeft",       "eyeSquintRight",
-    "eyeWideLeft",       "eyeWideRight",       "jawForward",          "jawLeft",
-    "jawOpen",           "jawRight",           "mouthClose",          "mouthDimpleLeft",
-    "mouthDimpleRight",  "mouthFrownLeft",     "mouthFrownRight",     "mouthFunnel",
-    "mouthLeft",         "mouthLowerDownLeft", "mouthLowerDownRight", "mouthPressLeft",
-    "mouthPressRight",   "mouthPucker",        "mouthRight",          "mouthRollLower",
-    "mouthRollUpper",    "mouthShrugLower",    "mouthShrugUpper",     "mouthSmileLeft",
-    "mouthSmileRight",   "mouthStretchLeft",   "mouthStretchRight",   "mouthUpperUpLeft",
-    "mouthUpperUpRight", "noseSneerLeft",      "noseSneerRight",      "tongueOut"};
-
-// OVR's viseme names, in our Viseme order (we call I, O and U ih, oh and ou).
-constexpr const char* kOvrVisemes[kVisemeCount] = {
-    "viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD",
-    "viseme_kk",  "viseme_CH", "viseme_SS", "viseme_nn", "viseme_RR",
-    "viseme_aa",  "viseme_E",  "viseme_I",  "viseme_O",  "viseme_U"};
 
 }  // namespace
 
@@ -142,8 +122,8 @@ ordered_json MaterialColorBinds(const Rig& rig, const Expression& e) {
 
 std::vector<Expression> AppExpressions(const Rig& rig) {
   std::vector<Expression> out;
-  for (const char* name : kArkit) {
-    const int s = FindShape(rig, name);
+  for (std::string_view name : kArkitNames) {
+    const int s = FindShape(rig, std::string(name));
     if (s < 0) continue;
     Expression e;
     e.name = name;
@@ -153,7 +133,7 @@ std::vector<Expression> AppExpressions(const Rig& rig) {
   for (size_t v = 0; v < kVisemeCount && !rig.visemes.empty();
        ++v) {  // sil (and often PP) is the closed mouth: no shape.
     Expression e;
-    e.name = kOvrVisemes[v];
+    e.name = kOvrVisemeNames[v];
     e.binds = rig.visemes.binds[v];
     out.push_back(std::move(e));
   }

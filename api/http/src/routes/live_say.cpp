@@ -262,7 +262,14 @@ bool LiveSpeaker::SpeakSegment(Utterance& u, const Piece& piece, std::string_vie
     }
     Send(u, false);
   };
+  // espeak-ng speaks for one caller at a time, each waiting kBusyWait for it: a session waits its
+  // turn while it is open (many started at once) rather than be refused; only kBusyPatience of
+  // waiting is said, as busy.
   auto spoken = speech::Synthesize(text, options);
+  const auto give_up = Clock::now() + std::chrono::duration<double>(kBusyPatience);
+  while (!spoken.ok() && spoken.status().reason == "busy" && !halt.stop_requested() &&
+         Clock::now() < give_up)
+    spoken = speech::Synthesize(text, options);
   Charge();
   if (!spoken.ok()) {
     const Status& s = spoken.status();

@@ -56,6 +56,7 @@ class LiveSpeaker {
       8.0;  // About the longest part of a piece made at once ...
   static constexpr double kMaxSegmentSeconds =
       60.0;  // ... and the most it may make (a word that long is cut).
+  static constexpr double kBusyPatience = 30.0;  // Seconds a segment waits for the synthesizer.
   static constexpr double kRefill =
       2.0;  // Seconds made ahead of playing before the next part is made.
   static constexpr size_t kMaxHeldBytes = size_t{64}

@@ -47,6 +47,11 @@ inline constexpr size_t kVisemeCount = 15;
 inline constexpr std::string_view kVisemeNames[kVisemeCount] = {
     "sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn", "RR", "aa", "E", "ih", "oh", "ou"};
 inline std::string_view VisemeName(Viseme v) { return kVisemeNames[static_cast<size_t>(v)]; }
+// The visemes as web avatars name their shapes (Oculus/OVR's, OpenXR's), in Viseme order.
+inline constexpr std::string_view kOvrVisemeNames[kVisemeCount] = {
+    "viseme_sil", "viseme_PP", "viseme_FF", "viseme_TH", "viseme_DD",
+    "viseme_kk",  "viseme_CH", "viseme_SS", "viseme_nn", "viseme_RR",
+    "viseme_aa",  "viseme_E",  "viseme_I",  "viseme_O",  "viseme_U"};
 std::optional<Viseme> VisemeByName(std::string_view name);
 inline bool IsVowel(Viseme v) { return v >= Viseme::kAA; }
 
