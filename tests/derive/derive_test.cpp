@@ -363,6 +363,26 @@ TEST(DeriveHostile, AnUnknownShapeIsNamed) {
       << r.status().message;  // Did you mean.
 }
 
+// A derive stopped as it registers (a job deleted, its client gone) ends there, cancelled, the
+// target unchanged: no step after the registration is reached.
+TEST(DeriveHostile, AStopDuringTheRegistrationEndsIt) {
+  Rig target = WithoutShapes(FaceCap());
+  const size_t before = target.shapes.size();
+  std::stop_source stop;
+  std::vector<std::string> steps;
+  Options o;
+  o.stop = stop.get_token();
+  o.progress = [&](double, const char* step) {
+    steps.push_back(step);
+    if (steps.back() == "register") stop.request_stop();
+  };
+  auto r = DeriveShapes(target, FaceCap(), o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code, StatusCode::kCancelled);
+  EXPECT_EQ(target.shapes.size(), before);
+  EXPECT_EQ(steps.back(), "register");
+}
+
 // A head with holes (every seventh triangle gone) and in pieces still derives: finite shapes that
 // open the jaw where the whole head's do.
 TEST(DeriveHostile, AHeadWithHolesStillDerives) {

@@ -319,8 +319,11 @@ Result<Prepared> Prepare(const Rig& target, const Rig& source, const Options& o,
   const std::vector<Tri> source_body = BodyTriangles(p.skin);
   std::vector<uint8_t> on_body(p.skin.points.size(), 0);
   for (const Tri& t : source_body) on_body[t[0]] = on_body[t[1]] = on_body[t[2]] = 1;
-  p.registered = RegisterNonRigid(aligned, p.skin.triangles, body_closest, tn, lms,
-                                  RegisterOptions{}, diag, on_body);
+  RegisterOptions registration;
+  registration.stop = o.stop;
+  p.registered = RegisterNonRigid(aligned, p.skin.triangles, body_closest, tn, lms, registration,
+                                  diag, on_body);
+  if (o.stop.stop_requested()) return Cancelled();
   FollowBody(p.skin, source_body, on_body, aligned, p.registered);
   p.stretch = Stretches(aligned, p.registered, p.skin.triangles, report.distorted);
   p.aligned = std::move(aligned);

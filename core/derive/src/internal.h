@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <stop_token>
 #include <unordered_map>
 #include <vector>
 
@@ -91,6 +92,7 @@ struct RegisterOptions {
   double reject_distance =
       0.05;                    // Correspondences farther than this fraction of the diagonal drop.
   double landmark_weight = 1;  // Relative to a data point's.
+  std::stop_token stop;        // Checked between solves: the points as they are then.
 };
 std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source,
                                    std::span<const Tri> source_triangles,

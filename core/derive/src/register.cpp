@@ -58,7 +58,7 @@ std::vector<Vec3> RegisterNonRigid(std::span<const Vec3> source,
   std::vector<Vec3> deformed(source.begin(), source.end());
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
   for (double alpha : options.stiffness) {
-    for (int it = 0; it < options.iterations; ++it) {
+    for (int it = 0; it < options.iterations && !options.stop.stop_requested(); ++it) {
       const auto normals = PointNormals(deformed, source_triangles);
       Triplets trip;
       trip.reserve(32 * edges.size() + 16 * n);
