@@ -476,8 +476,8 @@ check "check: Mahalanobis 4 sigma warns implausible; a weight on a driven shape 
 cp "$src/assets/makehuman/makehuman.glb" "$src/assets/makehuman/makehuman.manifest.json" "$store/"
 restart
 code=$(c "$U/v1/rigs/makehuman")
-check "GET the MakeHuman rig: 286 shapes and 146 controls with groups, ranges, shapes and partners" both "[ $code = 200 ]" jq_ "
-  len(d['shapes'])==286 and len(d['controls'])==146 and
+check "GET the MakeHuman rig: 352 shapes (286 face targets, 66 derived expressions, its derivation said) and 146 controls with groups, ranges, shapes and partners" both "[ $code = 200 ]" jq_ "
+  len(d['shapes'])==352 and len(d['controls'])==146 and d['derivation']['source']=='FaceCap head (ARKit 52)' and len(d['derivation']['shapes'])==66 and
   {'name':'nose/nose-trans-down|up','group':'nose','min':-1,'max':1,'negative':'nose-trans-down','positive':'nose-trans-up','partner':None} in d['controls'] and
   [c['partner'] for c in d['controls'] if c['name']=='eyes/l-eye-bag-decr|incr']==['eyes/r-eye-bag-decr|incr']"
 c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nose-trans-down|up":-0.4},"format":"f32"}' "$U/v1/rigs/makehuman/mesh" >/dev/null; cp "$tmp/body" "$tmp/ctl1"

@@ -1,6 +1,7 @@
 #include "facespace/engine/fit.h"
 
 #include <Eigen/Dense>
+#include <Eigen/Sparse>
 #include <cmath>
 
 #include "facespace/engine/weights.h"
@@ -58,24 +59,29 @@ Result<size_t> CheckTarget(const Rig& rig, std::span<const std::vector<float>> t
   return rows;
 }
 
-// D: every primitive's sparse deltas stacked (3V x S).
-Eigen::MatrixXd StackedDeltas(const Rig& rig, size_t rows) {
-  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows),
-                                                static_cast<Eigen::Index>(rig.shapes.size()));
+// D: every primitive's sparse deltas stacked (3V x S), kept sparse: a face's shapes move a part of
+// a body (MakeHuman's 352 over 15,593 vertices: 132 MB dense, D^T D 5.8 G multiply-adds).
+Eigen::SparseMatrix<double> StackedDeltas(const Rig& rig, size_t rows) {
+  std::vector<Eigen::Triplet<double>> entries;
   size_t row0 = 0;
   for (const Primitive& prim : rig.primitives) {
     const Mesh& mesh = rig.meshes[prim.mesh];
     for (size_t t = 0; t < prim.targets.size(); ++t) {
       const SparseTarget& st = prim.targets[t];
-      const uint32_t s = mesh.target_shapes[t];
+      const auto s = static_cast<Eigen::Index>(mesh.target_shapes[t]);
       for (size_t k = 0; k < st.indices.size(); ++k) {
-        for (int c = 0; c < 3; ++c)
-          dense(row0 + 3 * st.indices[k] + c, s) += st.position_deltas[3 * k + c];
+        for (int c = 0; c < 3; ++c) {
+          entries.emplace_back(static_cast<Eigen::Index>(row0 + 3 * st.indices[k] + c), s,
+                               st.position_deltas[3 * k + c]);
+        }
       }
     }
     row0 += prim.positions.size();
   }
-  return dense;
+  Eigen::SparseMatrix<double> d(static_cast<Eigen::Index>(rows),
+                                static_cast<Eigen::Index>(rig.shapes.size()));
+  d.setFromTriplets(entries.begin(), entries.end());  // A vertex a shape moves twice: summed.
+  return d;
 }
 
 // Per stacked vertex, the scale its primitive's world matrix gives it (the cube root of the
@@ -116,8 +122,10 @@ Result<FitResult> FitWeights(const Rig& rig, std::span<const std::vector<float>>
       }
     }
   }
-  const Eigen::MatrixXd dense = StackedDeltas(rig, rows);
-  Eigen::MatrixXd dtd = dense.transpose() * dense;
+  const Eigen::SparseMatrix<double> dense = StackedDeltas(rig, rows);
+  if (options.stop.stop_requested()) return Cancelled();
+  Eigen::MatrixXd dtd = Eigen::MatrixXd(dense.transpose() * dense);
+  if (options.stop.stop_requested()) return Cancelled();
   for (size_t s = 0; s < S; ++s) {
     if (dtd(s, s) == 0.0) dtd(s, s) = 1.0;  // Shapes that move nothing get weight 0.
   }
