@@ -22,15 +22,7 @@ int AxisOf(const std::string& a) { return a == "x" ? 0 : a == "y" ? 1 : a == "z"
 
 // The rig itself as glb (every shape a sparse morph target), its default weights as the mesh's.
 Result<std::string> RigAsGlb(const std::shared_ptr<const evaluator::StoredRig>& rig) {
-  evaluator::ResolvedPoint defaults;
-  for (const Shape& s : rig->rig.shapes) defaults.weights.push_back(s.default_weight);
-  evaluator::OutputSpec spec;
-  spec.mesh_format = formats::MeshFormat::kGlb;
-  spec.keep_targets = true;
-  evaluator::Workspace ws;
-  auto glb = evaluator::Evaluator().Run(rig, defaults, spec, ws);
-  if (!glb.ok()) return glb.status();
-  return std::move(glb->bytes);
+  return evaluator::RigGlb(evaluator::Evaluator(), rig);
 }
 
 namespace {

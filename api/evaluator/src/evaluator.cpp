@@ -300,6 +300,19 @@ std::shared_ptr<const StoredRig> Unstored(Rig rig, std::string version) {
   return stored;
 }
 
+Result<std::string> RigGlb(const Evaluator& evaluator,
+                           const std::shared_ptr<const StoredRig>& rig) {
+  ResolvedPoint defaults;
+  for (const Shape& s : rig->rig.shapes) defaults.weights.push_back(s.default_weight);
+  OutputSpec spec;
+  spec.mesh_format = formats::MeshFormat::kGlb;
+  spec.keep_targets = true;
+  Workspace ws;
+  auto glb = evaluator.Run(rig, defaults, spec, ws);
+  if (!glb.ok()) return glb.status();
+  return std::move(glb->bytes);
+}
+
 // ---- one call -----------------------------------------------------------------------------------
 
 namespace {

@@ -57,13 +57,7 @@ DeriveWork DeriveJob(ServerState& ctx, std::shared_ptr<const evaluator::StoredRi
       return s;
     }
     const auto stored = evaluator::Unstored(std::move(rig));
-    evaluator::ResolvedPoint defaults;
-    for (const Shape& s : stored->rig.shapes) defaults.weights.push_back(s.default_weight);
-    evaluator::OutputSpec spec;
-    spec.mesh_format = formats::MeshFormat::kGlb;
-    spec.keep_targets = true;
-    evaluator::Workspace ws;
-    auto glb = ctx.evaluator.Run(stored, defaults, spec, ws);
+    auto glb = evaluator::RigGlb(ctx.evaluator, stored);
     if (!glb.ok()) return glb.status();
     if (stop.stop_requested()) return Cancelled("the derive was stopped");
     if (auto now = ctx.store.Get(as); as == target->id && (!now || now->version != target->version))
@@ -72,9 +66,9 @@ DeriveWork DeriveJob(ServerState& ctx, std::shared_ptr<const evaluator::StoredRi
                                            "derive again"),
                         "rig-changed");
     bool created = false;
-    const auto* data = reinterpret_cast<const unsigned char*>(glb->bytes.data());
+    const auto* data = reinterpret_cast<const unsigned char*>(glb->data());
     Status put =
-        ctx.store.Put(as, std::span<const unsigned char>(data, glb->bytes.size()),
+        ctx.store.Put(as, std::span<const unsigned char>(data, glb->size()),
                       formats::RigFormat::kGlb, formats::ManifestJson(stored->rig), &created);
     if (!put.ok()) return put;
     const derive::Report& r = report.value();

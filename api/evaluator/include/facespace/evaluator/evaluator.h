@@ -218,6 +218,10 @@ class Evaluator {
 // rig's name, its version what the caller says identifies its content (batch.json records it).
 std::shared_ptr<const StoredRig> Unstored(Rig rig, std::string version = "");
 
+// The whole rig as a glb: every shape kept as a morph target, the mesh at the shapes' defaults
+// (what `facespace convert` and `derive` write, and a derive job stores).
+Result<std::string> RigGlb(const Evaluator& evaluator, const std::shared_ptr<const StoredRig>& rig);
+
 // ---- one call: step 1 then step 2 -------------------------------------------------------------
 
 // The bytes and what a client is told beside them.
