@@ -404,6 +404,9 @@ struct Transfer {
   const Prepared& p;
   const Correspondence& c;
   const PointField& offsets;  // The registration's moves, aligned source -> target.
+  // Per target point with a source point: where that lies (aligned), and the registration's move
+  // there; the same for every shape.
+  std::span<const Vec3> start, start_offset;
   std::span<const PartKind> kind;
   std::span<const Eye> eyes;
   const PoissonSystem& poisson;
@@ -439,9 +442,8 @@ void Transfer::Run(const Rig& source, std::span<const Eigen::Matrix3d> linear, u
     const Vec3& b = c.point_bary[point];
     const Vec3 move = p.sim.scale * (rot * (b[0] * ds[s[0]] + b[1] * ds[s[1]] + b[2] * ds[s[2]]));
     if (move.squaredNorm() < 1e-10 * p.diag * p.diag) return move;
-    const Vec3 start = b[0] * p.aligned[s[0]] + b[1] * p.aligned[s[1]] + b[2] * p.aligned[s[2]];
-    const Vec3 here = offsets.At(start, Vec3::Zero());
-    return Vec3(move + offsets.At(start + move, here) - here);
+    const Vec3& here = start_offset[point];
+    return Vec3(move + offsets.At(start[point] + move, here) - here);
   };
   std::vector<Eigen::Matrix3d> g(skin_triangles.size(), Eigen::Matrix3d::Identity());
   std::vector<uint8_t> has(skin_triangles.size(), 0);
@@ -569,9 +571,18 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
   std::vector<Vec3> moves(p.aligned.size());
   for (size_t i = 0; i < moves.size(); ++i) moves[i] = p.registered[i] - p.aligned[i];
   const PointField offsets(p.aligned, std::move(moves), kOffsetRadius * p.diag);
-  const Transfer transfer{p,       c,         offsets,         kind,          eyes,
-                          poisson, sys.local, sys.skin_points, sys.triangles, sys.triangle_of,
-                          attach,  members,   tolerance};
+  std::vector<Vec3> start(p.target.points.size(), Vec3::Zero()), start_offset(start);
+  for (size_t q = 0; q < start.size(); ++q) {
+    if (c.point_source[q] == UINT32_MAX) continue;
+    const Tri& s = p.skin.triangles[c.point_source[q]];
+    const Vec3& b = c.point_bary[q];
+    start[q] = b[0] * p.aligned[s[0]] + b[1] * p.aligned[s[1]] + b[2] * p.aligned[s[2]];
+    start_offset[q] = offsets.At(start[q], Vec3::Zero());
+  }
+  const Transfer transfer{
+      p,      c,       offsets,   start,           start_offset,  kind,
+      eyes,   poisson, sys.local, sys.skin_points, sys.triangles, sys.triangle_of,
+      attach, members, tolerance};
   const auto linear = LinearParts(source);
   std::vector<Eigen::Matrix3d> inverse;
   for (const Eigen::Matrix3d& m : LinearParts(target)) inverse.push_back(m.inverse());
