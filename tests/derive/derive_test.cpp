@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -361,6 +362,23 @@ TEST(DeriveHostile, AnUnknownShapeIsNamed) {
   EXPECT_EQ(FirstField(r.status()), "/shapes/1");
   EXPECT_NE(r.status().message.find("jawOpen"), std::string::npos)
       << r.status().message;  // Did you mean.
+}
+
+// The sets a derive takes: FaceCap's ARKit-named shapes are all 52 of its shapes (named _L/_R as
+// FaceCap names them); visemes a flag; another word refused.
+TEST(DeriveHostile, ShapeSetsAreTheSourcesArkitShapesAndTheVisemes) {
+  Options o;
+  ASSERT_TRUE(ParseShapeSets(FaceCap(), "arkit", o).ok());
+  EXPECT_EQ(o.shapes.size(), 52u);
+  EXPECT_NE(std::find(o.shapes.begin(), o.shapes.end(), "mouthSmile_L"), o.shapes.end());
+  EXPECT_FALSE(o.visemes);
+  Options both;
+  ASSERT_TRUE(ParseShapeSets(FaceCap(), "arkit,visemes", both).ok());
+  EXPECT_TRUE(both.visemes);
+  Options bad;
+  const Status s = ParseShapeSets(FaceCap(), "arkit,teeth", bad);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(FirstField(s), "--shapes");
 }
 
 // A derive stopped as it registers (a job deleted, its client gone) ends there, cancelled, the

@@ -69,11 +69,6 @@ void BakeVisemes(Rig& rig, Report& report) {
   }
 }
 
-const std::vector<std::string>& ArkitNames() {
-  static const std::vector<std::string> kNames(std::begin(kArkitNames), std::end(kArkitNames));
-  return kNames;
-}
-
 Status ParseShapeSets(const Rig& source, const std::string& list, Options& options) {
   size_t start = 0;
   while (start <= list.size()) {
@@ -81,11 +76,10 @@ Status ParseShapeSets(const Rig& source, const std::string& list, Options& optio
     const std::string word = list.substr(start, comma - start);
     if (word == "arkit") {
       for (const Shape& s : source.shapes) {
-        const auto& names = ArkitNames();
         std::string n = s.name;
         if (n.ends_with("_L")) n = n.substr(0, n.size() - 2) + "Left";
         if (n.ends_with("_R")) n = n.substr(0, n.size() - 2) + "Right";
-        if (std::find(names.begin(), names.end(), n) != names.end())
+        if (std::find(std::begin(kArkitNames), std::end(kArkitNames), n) != std::end(kArkitNames))
           options.shapes.push_back(s.name);
       }
     } else if (word == "visemes") {

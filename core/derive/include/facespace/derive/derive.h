@@ -97,7 +97,4 @@ Status ParseShapeSets(const Rig& source, const std::string& list, Options& optio
 // allowed and ignored). Errors name the member ("/points/3/vertex"). At most 4096 points.
 Result<std::vector<TargetLandmark>> ReadLandmarks(std::string_view json_text);
 
-// The ARKit 52 blend-shape names, in Apple's order.
-const std::vector<std::string>& ArkitNames();
-
 }  // namespace facespace::derive
