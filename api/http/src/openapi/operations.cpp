@@ -357,6 +357,23 @@ json SequenceOperations() {
             {"503", Problem("The speech engine is busy")}}}}}}}};
 }
 
+// A job's start (a batch, a derive): 202 with the job, Location naming it, and the refusals both
+// share; `own` adds the route's.
+json JobStarted(json own) {
+  json r = {
+      {"202",
+       {{"description", "Accepted; Location names the job"},
+        {"headers", {{"Location", {{"schema", {{"type", "string"}}}}}}},
+        {"content", {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Job"}}}}}}}}},
+      {"400", Problem("Malformed JSON")},
+      {"401", Problem("No API key")},
+      {"403", Problem("Wrong API key")},
+      {"404", Problem("Unknown rig")},
+      {"415", Problem("Not JSON")}};
+  r.update(own);
+  return r;
+}
+
 // Batch jobs and their files.
 json JobOperations() {
   return {
@@ -370,19 +387,10 @@ json JobOperations() {
           {"parameters", json::array({IdParam()})},
           {"requestBody", JsonBody("BatchRequest")},
           {"responses",
-           {{"202",
-             {{"description", "Accepted; Location names the job"},
-              {"headers", {{"Location", {{"schema", {{"type", "string"}}}}}}},
-              {"content",
-               {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Job"}}}}}}}}},
-            {"400", Problem("Malformed JSON")},
-            {"401", Problem("No API key")},
-            {"403", Problem("Wrong API key")},
-            {"404", Problem("Unknown rig")},
-            {"415", Problem("Not JSON")},
-            {"422", Problem("Invalid request, or more variants than the server allows")},
-            {"429", Problem("The job queue is full; see Retry-After")},
-            {"507", Problem("The jobs folder's disk is full: no job was created")}}}}}}},
+           JobStarted(
+               {{"422", Problem("Invalid request, or more variants than the server allows")},
+                {"429", Problem("The job queue is full; see Retry-After")},
+                {"507", Problem("The jobs folder's disk is full: no job was created")}})}}}}},
       {"/v1/rigs/{id}/derive",
        {{"post",
          {{"summary",
@@ -399,18 +407,9 @@ json JobOperations() {
           {"parameters", json::array({IdParam()})},
           {"requestBody", JsonBody("DeriveRequest")},
           {"responses",
-           {{"202",
-             {{"description", "Accepted; Location names the job"},
-              {"headers", {{"Location", {{"schema", {{"type", "string"}}}}}}},
-              {"content",
-               {{"application/json", {{"schema", {{"$ref", "#/components/schemas/Job"}}}}}}}}},
-            {"400", Problem("Malformed JSON")},
-            {"401", Problem("No API key")},
-            {"403", Problem("Wrong API key")},
-            {"404", Problem("Unknown rig")},
-            {"415", Problem("Not JSON")},
-            {"422", Problem("Unknown source rig, shape set or landmark; over the cost budget")},
-            {"429", Problem("Two derives are queued or running; see Retry-After")}}}}}}},
+           JobStarted(
+               {{"422", Problem("Unknown source rig, shape set or landmark; over the cost budget")},
+                {"429", Problem("Two derives are queued or running; see Retry-After")}})}}}}},
       {"/v1/jobs",
        {{"get",
          {{"summary", "List jobs (batches and derives), newest first"},
