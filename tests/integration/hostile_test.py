@@ -192,12 +192,13 @@ def ball_obj(rows=24, cols=48, r=0.1):
 
 
 def job_end(U, job, wait):
-    """The job's JSON once it is done, failed or cancelled (or as it is after `wait` seconds)."""
+    """The job's JSON once it has ended (done, failed, cancelled, lost), or as it is after `wait` seconds; a job that
+    cannot be read (the server gone) is {"state": "HTTP status"}."""
     deadline, j = time.time() + wait, {}
     while time.time() < deadline:
         st, _, b, _ = request(U + "/v1/jobs/" + job)
         j = json.loads(b) if st == 200 else {"state": f"HTTP {st}"}
-        if j.get("state") in ("done", "failed", "cancelled") or st != 200:
+        if j.get("state") in ("done", "failed", "cancelled", "lost") or st != 200:
             break
         time.sleep(0.2)
     return j
@@ -271,14 +272,7 @@ def main():
     queued = json.loads(b3).get("id", "") if s3 == 202 else ""
     s4, _, _, _ = request(U + "/v1/rigs/uaf", "PUT", cube_bytes, glb)
     s5, _, _, _ = request(U + "/v1/jobs/" + busy, "DELETE", headers=auth)
-    state = ""
-    deadline = time.time() + (120 if SANITIZED else 30)
-    while time.time() < deadline and srv.proc.poll() is None:
-        st, _, body, _ = request(U + "/v1/jobs/" + queued)
-        state = json.loads(body).get("state", "") if st == 200 else f"HTTP {st}"
-        if state in ("done", "failed", "lost", "cancelled"):
-            break
-        time.sleep(0.3)
+    state = job_end(U, queued, 120 if SANITIZED else 30).get("state", "")
     figures.append(("queued batch, its rig uploaded again (same bytes), the running job deleted", f"job {state}", 0, srv.idle, srv.rss()))
     check(f"a queued batch whose rig is uploaded again with the same bytes while another job runs: the server lives and the job is "
           f"{state} (PUT {s1}, batches {s2}/{s3}, PUT again {s4}, DELETE {s5})",
