@@ -249,9 +249,9 @@ TEST(Espeak, TheDerivedMakeHumanClosesItsLipsOnEveryPBM) {
   const facespace::Rig& rig = mh->rig;
   const int aa = FindShape(rig, "viseme_aa");
   ASSERT_GE(aa, 0);
-  const Lips lips = FindLips(rig.primitives[0], rig.primitives[0].targets[static_cast<size_t>(aa)]);
-  ASSERT_NE(lips.upper, lips.lower);
   const Primitive& skin = rig.primitives[0];
+  const Lips lips = FindLips(skin, skin.targets[static_cast<size_t>(aa)]);
+  ASSERT_NE(lips.upper, lips.lower);
   evaluator::SpeechRequest request;
   request.text = "Please bring the blue map and five apples.";
   auto plan = lipsync::PlanSpeech(rig, request);
