@@ -248,6 +248,27 @@ def derives(srv, U, auth, tmp):
           and stored == [404, 404, 404] and srv.alive())
 
 
+def retargets(srv, U):
+    """Weights in another vocabulary: hostile names, vocabularies that are no id, a flood of names; each named, quick,
+    and the server serving."""
+    post = lambda body: request(U + "/v1/rigs/facecap/check", "POST", json.dumps(body).encode())
+    for body, pointer in (({"vocabulary": "../../etc/passwd", "weights": {}}, "/vocabulary"),
+                          ({"vocabulary": {"a": 1}, "weights": {}}, "/vocabulary"),
+                          ({"vocabulary": "nobody-here", "weights": {"x": 1}}, "/vocabulary"),
+                          ({"vocabulary": "mmd", "weights": [1, 0.5]}, "/weights/0"),
+                          ({"vocabulary": "arkit", "weights": {"jawOpen": "x"}}, "/weights/jawOpen")):
+        st, _, b, _ = post(body)
+        pointers = [e.get("pointer") for e in json.loads(b).get("errors", [])] if b.startswith(b"{") else []
+        check(f"retarget with {json.dumps(body, ensure_ascii=False)[:60]}: {st} naming {pointers[:2]}", st == 422 and pointer in pointers)
+    flood = {"vocabulary": "arkit", "weights": {f"n{i}": 1 for i in range(60000)}}
+    st, sec, b, _ = post(flood)
+    errors = json.loads(b).get("errors", []) if b.startswith(b"{") else []
+    check(f"60,000 unknown ARKit names: {st} in {sec * 1000:.0f} ms, {len(errors)} errors listed", st == 422 and len(errors) <= 20)
+    bar(f"... within {ANSWER_S:.0f} s", sec <= ANSWER_S)
+    st, _, b, _ = post({"vocabulary": "facecap", "weights": {n: 1 for n in ("jawOpen", "eyeBlink_L", "mouthSmile_R")}})
+    check(f"... and the server serves a retarget after them: {st}", st == 200 and srv.alive())
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="facespace-hostile-")
     os.makedirs(os.path.join(tmp, "store"))
@@ -421,6 +442,7 @@ def main():
 
     vrm_uploads(srv, U, glb, tmp)
     derives(srv, U, auth, tmp)
+    retargets(srv, U)
 
     st, sec, b, _ = request(U + "/v1/rigs/facecap/batch", "POST",
                             json.dumps({"sample": {"method": "uniform", "count": 65000}, "format": "exr", "width": 2048, "height": 2048}).encode(), auth)

@@ -490,11 +490,30 @@ problem "$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/
 code=$(c -X POST -H 'Content-Type: application/json' -d '{"controls":{"nose/nose-trans-down|up":1},"width":256,"height":256,"camera":{"frame":"shapes"}}' "$U/v1/rigs/makehuman/render")
 check "render of the MakeHuman face with a control, framed on the shapes: a PNG" sh -c "[ $code = 200 ] && grep -qi '^content-type: image/png' '$tmp/hdr'"
 
+# retarget: weights in another vocabulary (issue 63)
+"$bin" blend "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --keep-targets -o "$tmp/twoshapes.glb" 2>/dev/null
+c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$tmp/twoshapes.glb" "$U/v1/rigs/cube" >/dev/null
+c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"mmd","weights":{"あ":1},"format":"f32"}' "$U/v1/rigs/facecap/mesh" >/dev/null; cp "$tmp/body" "$tmp/rt1"
+c -X POST -H 'Content-Type: application/json' -d '{"weights":{"jawOpen":0.8,"mouthLowerDown_L":0.3,"mouthLowerDown_R":0.3},"format":"f32"}' "$U/v1/rigs/facecap/mesh" >/dev/null; cp "$tmp/body" "$tmp/rt2"
+c "$U/v1/rigs/facecap/mesh?vocabulary=mmd&w.%E3%81%82=1&format=f32" >/dev/null; cp "$tmp/body" "$tmp/rt3"
+check "MMD's あ on FaceCap (body and query) is the mesh of its table: jawOpen 0.8, the lower lip down 0.3, byte for byte" sh -c "cmp -s '$tmp/rt1' '$tmp/rt2' && cmp -s '$tmp/rt1' '$tmp/rt3' && [ \$(stat -c %s '$tmp/rt1') -gt 100000 ]"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"mmd","weights":{"まばたき":1,"う":0.5}}' "$U/v1/rigs/facecap/check")
+check "MMD's まばたき closes both of FaceCap's eyes, う rounds its lips" both "[ $code = 200 ]" jq_ "abs(d['weights']['eyeBlink_L']-1)<1e-5 and abs(d['weights']['eyeBlink_R']-1)<1e-5 and abs(d['weights']['mouthPucker']-0.5)<1e-5"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"arkit","weights":{"eyeBlinkLeft":1,"jawOpen":0.4,"mouthSmileRight":0.6}}' "$U/v1/rigs/makehuman/check")
+check "ARKit's names (Apple's spelling) onto the derived MakeHuman: its own shapes, exactly" both "[ $code = 200 ]" jq_ "d['weights']=={'eyeBlink_L':1,'jawOpen':0.4,'mouthSmile_R':0.6}"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"facecap","weights":{"mouthFunnel":0.7}}' "$U/v1/rigs/makehuman/check")
+check "another rig's shapes as the vocabulary (facecap onto makehuman)" both "[ $code = 200 ]" jq_ "d['weights']=={'mouthFunnel':0.7}"
+code=$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"arkit","weights":{"jawOpen":1}}' "$U/v1/rigs/cube/check")
+check "a rig with none of the names: 200, warned vocabulary_unexpressed naming jawOpen" both "[ $code = 200 ] && grep -qi '^facespace-warnings:.*vocabulary_unexpressed' '$tmp/hdr'" jq_ "d['weights']=={} and any(w['code']=='vocabulary_unexpressed' and w['shape']=='jawOpen' for w in d['warnings'])"
+c -X DELETE -H 'Authorization: Bearer k3y-for-tests' "$U/v1/rigs/cube" >/dev/null
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"arkit","weights":{"jawOpn":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpn' and 'jawOpen' in d['errors'][0]['detail']" && ok "an unknown ARKit name: 422 at /weights/jawOpn with the closest" || no "unknown vocabulary name"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"nobody","weights":{"x":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/vocabulary'" && ok "a vocabulary naming no rig: 422 at /vocabulary" || no "vocabulary no rig"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"../etc","weights":{"x":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/vocabulary'" && ok "a vocabulary that is no id: 422 at /vocabulary" || no "vocabulary path"
+
 # hardening: upload limits, slow and broken clients, keys never logged
 restart --max-vertices 1000 --max-shapes 1 --read-timeout 2
 code=$(c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$A/Fox/Fox.glb" "$U/v1/rigs/bigfox")
 check "upload over --max-vertices: 413 naming the limit, nothing stored" sh -c "[ $code = 413 ] && grep -q 'at most 1000 (--max-vertices)' '$tmp/body' && [ \$(curl -s -o /dev/null -w '%{http_code}' '$U/v1/rigs/bigfox') = 404 ] && [ ! -e '$store/bigfox.glb' ]"
-"$bin" blend "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --keep-targets -o "$tmp/twoshapes.glb" 2>/dev/null
 code=$(c -X PUT -H 'Authorization: Bearer k3y-for-tests' -H 'Content-Type: model/gltf-binary' --data-binary @"$tmp/twoshapes.glb" "$U/v1/rigs/twoshapes")
 check "upload over --max-shapes: 413 naming the limit" sh -c "[ $code = 413 ] && grep -q 'at most 1 (--max-shapes)' '$tmp/body'"
 py '

@@ -19,12 +19,44 @@ void CheckPoint(const Rig& rig, BlendMode mode, ResolvedPoint& point) {
   point.weight_warnings = point.report.warnings.size();
 }
 
+namespace {
+
+// The request's weights in this rig's own names: as they are, or retargeted from their vocabulary
+// (core/retarget.h), whose expressions join the pose's.
+Status OwnWeights(const Rig& rig, const MeshRequest& r, std::vector<WeightEntry>& entries,
+                  PoseRequest& pose, std::vector<Warning>& warnings) {
+  if (r.vocabulary == Vocabulary::kOwn) {
+    entries = r.weights;
+    return Status::Ok();
+  }
+  const std::string label =
+      r.vocabulary == Vocabulary::kRig ? r.vocabulary_rig : VocabularyLabel(r.vocabulary);
+  if (r.vocabulary == Vocabulary::kRig && !r.vocabulary_source) {
+    Status s = InvalidArgument("vocabulary: no rig '" + r.vocabulary_rig + "' in the store");
+    s.AddField("/vocabulary", "no rig '" + r.vocabulary_rig + "' in the store");
+    return s;
+  }
+  Retargeted out;
+  if (Status s =
+          Retarget(rig, {r.vocabulary, r.vocabulary_source.get(), label}, r.weights, out, warnings);
+      !s.ok())
+    return s;
+  entries = std::move(out.weights);
+  pose.expressions.insert(pose.expressions.end(), out.expressions.begin(), out.expressions.end());
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status ResolvePoint(const Rig& rig, const MeshRequest& r, ResolvedPoint& point) {
   std::vector<Warning> pose_warnings;
-  std::vector<WeightEntry> entries = r.weights;
+  std::vector<WeightEntry> entries;
+  PoseRequest pose = r.pose;
+  if (Status s = OwnWeights(rig, r, entries, pose, pose_warnings); !s.ok())
+    return WithInputReason(std::move(s), kInvalidWeights);
   if (Status s = ApplyControls(rig, r.controls, entries, pose_warnings); !s.ok())
     return WithInputReason(std::move(s), kInvalidControls);
-  if (Status s = ResolvePoseAndWeights(rig, entries, r.pose, point.weights, point.pose, point.posed,
+  if (Status s = ResolvePoseAndWeights(rig, entries, pose, point.weights, point.pose, point.posed,
                                        pose_warnings);
       !s.ok()) {
     return WithInputReason(std::move(s), kInvalidWeights);

@@ -171,6 +171,17 @@ size_t Matches(const Rig& rig, const std::vector<Default>& table) {
   return n;
 }
 
+}  // namespace
+
+std::span<const CandidateBind> ArkitPresetBinds(std::string_view preset) {
+  for (const Default& d : ArkitDefaults()) {
+    if (d.preset == preset) return d.binds;
+  }
+  return {};
+}
+
+namespace {
+
 bool IsBlinkName(std::string_view n) {
   return n == "blink" || n == "blinkLeft" || n == "blinkRight";
 }

@@ -418,6 +418,9 @@ bool MeshMember(const std::string& key, const json& v, MeshRequest& r, bool mesh
     WeightsMember(v, ptr, r.pose.expressions, errors);
   } else if (key == "gaze") {
     if (auto g = GazeFromJson(v, ptr, errors)) r.pose.gaze = *g;
+  } else if (key == "vocabulary") {
+    if (!v.is_string() || !ParseVocabulary(v.get<std::string>(), r))
+      errors.fields.push_back({ptr, "must be \"arkit\", \"vrm\", \"mmd\" or a rig's id"});
   } else if (key == "controls") {
     if (!v.is_object()) {
       errors.fields.push_back({ptr, "must be an object of control name -> value"});

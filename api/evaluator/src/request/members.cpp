@@ -49,6 +49,14 @@ constexpr Member kPoint[] = {
            kByName)
         .Example(R"({"happy": 0.8})"),
     Schema("gaze", "Where the eyes look", "#Gaze").Example(R"({"yaw": 10, "pitch": -5})"),
+    String("vocabulary",
+           "What the weights' names are: arkit (ARKit's 52, either spelling), vrm (VRM 1.0's "
+           "presets), mmd (MMD's standard morphs: あ, まばたき, ...) or another rig's id (its "
+           "shapes). This rig's own weights that best reproduce them are solved (bounded least "
+           "squares in ARKit's 52 shapes, the space the vocabularies share); what this rig cannot "
+           "show warns vocabulary_unexpressed. Default: this rig's own names",
+           "^[a-z0-9][a-z0-9_-]{0,63}$")
+        .Example(R"("mmd")"),
     Choice("mode", "relative: base + sum w d; absolute: sum w S, the weights summing to 1",
            "relative|absolute")
         .Default(R"("relative")"),
@@ -183,7 +191,8 @@ constexpr Member kBatchOnly[] = {
 };
 // The batch takes the point's members but weights and strict (its points are the variants), and
 // the mesh's but keep_targets.
-constexpr std::string_view kNotInBatch[] = {"weights", "strict", "keep_targets", "format", "space"};
+constexpr std::string_view kNotInBatch[] = {"weights", "strict", "keep_targets",
+                                            "format",  "space",  "vocabulary"};
 
 // ---- fitting and speech ----
 constexpr Member kDerive[] = {
@@ -235,9 +244,9 @@ constexpr Member kSpeechOnly[] = {
 static_assert(std::string_view(kDefaultVoice) == "en-us",
               "the speech table's voice default is kDefaultVoice");
 // The speech body's face and picture: these of the point's and the image's members.
-constexpr std::string_view kSpeechFace[] = {"weights", "expressions", "controls",    "mode",
-                                            "normals", "width",       "height",      "camera",
-                                            "view",    "background",  "supersample", "exposure"};
+constexpr std::string_view kSpeechFace[] = {
+    "weights", "expressions", "controls", "mode",       "normals",     "vocabulary", "width",
+    "height",  "camera",      "view",     "background", "supersample", "exposure"};
 
 // ---- nested objects ----
 constexpr Member kCamera[] = {
@@ -367,6 +376,11 @@ constexpr Member kLive[] = {
     Schema("controls", "Control values merged into the face, as weights", kByName),
     Schema("gaze", "Where the eyes look", "#Gaze"),
     Schema("pose", "The pose, replacing the last one", "#Pose"),
+    String("vocabulary",
+           "What the weights' names are, as the mesh body's vocabulary (arkit, vrm, mmd or a rig's "
+           "id), kept for later messages; a change of vocabulary starts the weights over",
+           "^[a-z0-9][a-z0-9_-]{0,63}$")
+        .Example(R"("arkit")"),
     Integer("id", "Echoed in the frames and warnings that show this message", 0, 4294967295.0),
     Schema("say", "Speak a text on the face (alone in its message)", "#LiveSay"),
     Boolean("stop", "true: end the speech (alone in its message)"),

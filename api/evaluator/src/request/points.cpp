@@ -9,6 +9,7 @@
 #include <unordered_set>
 
 #include "facespace/engine/enum_table.h"
+#include "facespace/evaluator/store.h"
 #include "facespace/formats/lod.h"
 #include "facespace/picture/picture.h"
 #include "json_body.h"
@@ -22,7 +23,19 @@ constexpr EnumName<BlendMode> kBlendModes[] = {{BlendMode::kRelative, "relative"
                                                {BlendMode::kAbsolute, "absolute"}};
 constexpr EnumName<NormalMode> kNormalModes[] = {{NormalMode::kBlend, "blend"},
                                                  {NormalMode::kRecompute, "recompute"}};
+constexpr EnumName<Vocabulary> kVocabularies[] = {
+    {Vocabulary::kArkit, "arkit"}, {Vocabulary::kVrm, "vrm"}, {Vocabulary::kMmd, "mmd"}};
 }  // namespace
+
+bool ParseVocabulary(std::string_view text, MeshRequest& r) {
+  if (ParseEnum(kVocabularies, text, &r.vocabulary)) return true;
+  if (!IsValidRigId(std::string(text))) return false;
+  r.vocabulary = Vocabulary::kRig;
+  r.vocabulary_rig = std::string(text);
+  return true;
+}
+
+const char* VocabularyLabel(Vocabulary v) { return EnumEntry(kVocabularies, v).name; }
 
 bool ParseBlendMode(std::string_view s, BlendMode* mode) { return ParseEnum(kBlendModes, s, mode); }
 bool ParseNormalMode(std::string_view s, NormalMode* mode) {

@@ -84,7 +84,7 @@ bool SpeechMember(const std::string& key, const json& v, SpeechRequest& r, Statu
     r.blink = true;
     BlinkFromJson(v, ptr, r.blink_per_minute, r.blink_seed, errors);
   } else if (key == "weights" || key == "expressions" || key == "controls" || key == "mode" ||
-             key == "normals") {
+             key == "normals" || key == "vocabulary") {
     MeshMember(key, v, r.render.mesh, false, errors);
   } else if (key == "width" || key == "height" || key == "camera" || key == "view" ||
              key == "background" || key == "supersample" || key == "exposure") {

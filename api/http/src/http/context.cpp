@@ -117,6 +117,12 @@ std::shared_ptr<const evaluator::StoredRig> FindRig(ServerState& ctx, const http
   return rig;
 }
 
+void AttachVocabulary(const ServerState& ctx, evaluator::MeshRequest& r) {
+  if (r.vocabulary != Vocabulary::kRig) return;
+  if (auto source = ctx.store.Get(r.vocabulary_rig))
+    r.vocabulary_source = std::shared_ptr<const Rig>(source, &source->rig);
+}
+
 std::string BodyPool::Take() {
   std::lock_guard<std::mutex> lock(mu_);
   if (idle_.empty()) return {};

@@ -113,6 +113,10 @@ struct ServerState {
 std::shared_ptr<const evaluator::StoredRig> FindRig(ServerState& ctx, const httplib::Request& req,
                                                     httplib::Response& res, const std::string& id);
 
+// A request whose weights are another rig's shapes ("vocabulary": RIG_ID) gets that rig from the
+// store (ResolvePoint refuses the request at /vocabulary when there is none).
+void AttachVocabulary(const ServerState& ctx, evaluator::MeshRequest& r);
+
 // A JSON body parsed by `parse`; false when an error was sent (415, 400 malformed, 422 schema).
 template <typename T, typename Parse>
 bool ReadJsonBody(const httplib::Request& req, httplib::Response& res, Parse parse, T& out);

@@ -68,6 +68,9 @@ class FaceSession final : public net::LiveHandler {
         id = it->get<uint32_t>();
       } else if (key == "pose") {
         next["pose"] = *it;
+      } else if (key == "vocabulary") {
+        if (next.value("vocabulary", json()) != *it) next.erase("weights");
+        next["vocabulary"] = *it;
       } else if (std::find(std::begin(kMerged), std::end(kMerged), key) != std::end(kMerged)) {
         if (!it->is_object()) {
           out.texts.push_back(ErrorEvent(
@@ -288,24 +291,24 @@ class FaceSession final : public net::LiveHandler {
 
   // With frames: the face the sliders set with the viseme's shapes on top, as a frame.
   void Mouth(Viseme v, Out& out) {
-    json body = state_;
-    json& w = body["weights"];
-    if (!w.is_object()) w = json::object();
-    for (const auto& [shape, weight] : rig_->rig.visemes.binds[static_cast<size_t>(v)]) {
-      const std::string& name = rig_->rig.shapes[shape].name;
-      w[name] = std::min(1.0, w.value(name, 0.0) + weight);
-    }
-    if (Show(body).ok()) out.frame_wanted = true;
+    if (Show(state_, rig_->rig.visemes.binds[static_cast<size_t>(v)]).ok()) out.frame_wanted = true;
   }
 
-  // The point a state (the mesh route's members) makes, read as POST /mesh reads it, becomes the
-  // one the frames show; an error leaves the shown point as it was.
-  Status Show(json body) {
+  // The point a state (the mesh route's members) makes, read as POST /mesh reads it, with `mouth`
+  // (a viseme's shapes, in the rig's own names) on top, becomes the one the frames show; an error
+  // leaves the shown point as it was.
+  Status Show(json body, std::span<const std::pair<uint32_t, float>> mouth = {}) {
     body["format"] = "f32";
     auto request = evaluator::ParseMeshRequest(body.dump());
     if (!request.ok()) return request.status();
+    AttachVocabulary(ctx_, request.value());
     evaluator::ResolvedPoint point;
     if (Status s = ResolvePoint(rig_->rig, request.value(), point); !s.ok()) return s;
+    if (!mouth.empty()) {
+      for (const auto& [shape, weight] : mouth)
+        point.weights[shape] = std::min(1.0f, point.weights[shape] + weight);
+      evaluator::CheckPoint(rig_->rig, request->options.mode, point);
+    }
     request_ = std::move(request.value());
     point_ = std::move(point);
     return Status::Ok();

@@ -31,9 +31,13 @@ bool ParseBool(const std::string& s, bool* out) {
 }
 
 // The mesh request from a POST body or GET query; false when an error was sent.
-bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res,
+bool ReadMeshRequest(const ServerState& ctx, const httplib::Request& req, httplib::Response& res,
                      evaluator::MeshRequest& r) {
-  if (req.method == "POST") return ReadJsonBody(req, res, evaluator::ParseMeshRequest, r);
+  if (req.method == "POST") {
+    if (!ReadJsonBody(req, res, evaluator::ParseMeshRequest, r)) return false;
+    AttachVocabulary(ctx, r);
+    return true;
+  }
   std::vector<FieldError> errors;
   for (auto it = req.params.begin(); it != req.params.end(); ++it) {
     const auto& [key, value] = *it;
@@ -56,7 +60,9 @@ bool ReadMeshRequest(const httplib::Request& req, httplib::Response& res,
       errors.push_back({where, UnknownParameter(key, false)});
     }
   }
-  return FinishQuery(req, res, r, errors);
+  if (!FinishQuery(req, res, r, errors)) return false;
+  AttachVocabulary(ctx, r);
+  return true;
 }
 
 }  // namespace
@@ -107,6 +113,9 @@ bool MeshQueryParam(const std::string& key, const std::string& value, evaluator:
       errors.push_back({where, "must be blend or recompute"});
   } else if (key == "strict") {
     if (!ParseBool(value, &r.strict)) errors.push_back({where, "must be true or false"});
+  } else if (key == "vocabulary") {
+    if (!evaluator::ParseVocabulary(value, r))
+      errors.push_back({where, "must be arkit, vrm, mmd or a rig's id"});
   } else {
     bool known = false;
     const std::string e = ApplyPoseSetting(key, value, r, &known);
@@ -128,7 +137,7 @@ bool FinishQuery(const httplib::Request& req, httplib::Response& res, evaluator:
 void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   evaluator::MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) ||
+  if (!stored || !ReadMeshRequest(ctx, req, res, r) ||
       !WithinBudget(ctx, req, res, MeshCost(stored->rig, r.format, WeightedShapes(r))))
     return;
   const auto format = NegotiateMesh(req, res, r.format);
@@ -151,7 +160,7 @@ void GetOrPostMesh(ServerState& ctx, const httplib::Request& req, httplib::Respo
 void PostCheck(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   evaluator::MeshRequest r;
-  if (!stored || !ReadMeshRequest(req, res, r) ||
+  if (!stored || !ReadMeshRequest(ctx, req, res, r) ||
       !WithinBudget(ctx, req, res, MeshCost(stored->rig, std::nullopt, WeightedShapes(r))))
     return;
   evaluator::ResolvedPoint point;

@@ -7,9 +7,13 @@ namespace facespace::http {
 namespace {
 
 // The render request from a POST body or GET query; false when an error was sent.
-bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res,
+bool ReadRenderRequest(const ServerState& ctx, const httplib::Request& req, httplib::Response& res,
                        evaluator::RenderRequest& r) {
-  if (req.method == "POST") return ReadJsonBody(req, res, evaluator::ParseRenderRequest, r);
+  if (req.method == "POST") {
+    if (!ReadJsonBody(req, res, evaluator::ParseRenderRequest, r)) return false;
+    AttachVocabulary(ctx, r.mesh);
+    return true;
+  }
   std::vector<FieldError> errors;
   for (auto it = req.params.begin(); it != req.params.end(); ++it) {
     const auto& [key, value] = *it;
@@ -21,7 +25,9 @@ bool ReadRenderRequest(const httplib::Request& req, httplib::Response& res,
       errors.push_back({"?" + key, UnknownParameter(key, true)});
     }
   }
-  return FinishQuery(req, res, r.mesh, errors);
+  if (!FinishQuery(req, res, r.mesh, errors)) return false;
+  AttachVocabulary(ctx, r.mesh);
+  return true;
 }
 
 // The server's size limit; false with a 422 sent.
@@ -41,7 +47,7 @@ bool CheckSize(const ServerState& ctx, const httplib::Request& req, httplib::Res
 void GetOrPostRender(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   evaluator::RenderRequest r;
-  if (!stored || !ReadRenderRequest(req, res, r) || !CheckSize(ctx, req, res, r.render) ||
+  if (!stored || !ReadRenderRequest(ctx, req, res, r) || !CheckSize(ctx, req, res, r.render) ||
       !CheckRenderBudget(ctx, req, res, r.render, 1))
     return;
   const auto format = NegotiateImage(req, res, r.format);
@@ -69,6 +75,7 @@ void PostSheet(ServerState& ctx, const httplib::Request& req, httplib::Response&
   if (!stored || !ReadJsonBody(req, res, evaluator::ParseSheetRequest, r) ||
       !CheckSize(ctx, req, res, r.base.render))
     return;
+  AttachVocabulary(ctx, r.base.mesh);
   if (Status s = ExpandShapeCells(stored->rig, ctx.evaluator.renderer(), r); !s.ok())
     return SendStatus(req, res, s);
   const auto format = NegotiateImage(req, res, r.base.format);

@@ -84,6 +84,7 @@ void PostSpeech(ServerState& ctx, const httplib::Request& req, httplib::Response
   } else if (!ReadJsonBody(req, res, evaluator::ParseSpeechRequest, r)) {
     return;
   }
+  AttachVocabulary(ctx, r.render.mesh);
   const picture::RenderOptions& size = r.render.render;
   if (r.format == evaluator::FrameFormat::kWebm &&
       static_cast<long long>(size.width) * size.height > ctx.options.max_video_pixels) {

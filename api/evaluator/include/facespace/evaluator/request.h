@@ -14,6 +14,7 @@
 #include "facespace/engine/blend.h"
 #include "facespace/engine/enum_table.h"
 #include "facespace/engine/fit.h"
+#include "facespace/engine/retarget.h"
 #include "facespace/engine/sequence.h"
 #include "facespace/engine/skeleton.h"
 #include "facespace/engine/speech.h"
@@ -41,7 +42,17 @@ struct MeshRequest {
   bool keep_targets = false;                  // glb: the rig with these weights as defaults.
   int lod = 0;              // Level of detail: 0 full, L ~ 1/2^L of the triangles (core/lod.h).
   bool mesh_space = false;  // "space": "mesh": JSON, OBJ and f32 before the node transforms.
+  // "vocabulary": what the weights' names are (core/retarget.h): "arkit", "vrm", "mmd" or a rig's
+  // id (kRig, `vocabulary_rig`; the caller that holds the store sets `vocabulary_source`).
+  Vocabulary vocabulary = Vocabulary::kOwn;
+  std::string vocabulary_rig;
+  std::shared_ptr<const Rig> vocabulary_source;
 };
+
+// "arkit", "vrm", "mmd" or a rig's id (IsValidRigId) into r.vocabulary (and r.vocabulary_rig);
+// false for other text. VocabularyLabel: the word of kArkit, kVrm, kMmd.
+bool ParseVocabulary(std::string_view text, MeshRequest& r);
+const char* VocabularyLabel(Vocabulary v);
 
 // Body of POST /v1/rigs/{id}/mesh and /check:
 // {"weights": {...}|[...], "mode": "relative"|"absolute", "normals": "blend"|"recompute",

@@ -59,6 +59,10 @@ struct CandidateBind {
   float weight;
 };
 
+// The binds of VRM preset `preset` in ARKit's names, as the rigs' faces derive it (the table
+// DeriveFace uses for ARKit rigs); empty for a name that is no preset, or neutral.
+std::span<const CandidateBind> ArkitPresetBinds(std::string_view preset);
+
 // "none", "block", "blend": VRM's and the manifest's word for an override.
 const char* ExpressionOverrideName(ExpressionOverride o);
 
