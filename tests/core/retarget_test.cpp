@@ -102,6 +102,22 @@ TEST(Retarget, AnArkitStreamMovesARigThatHasOnlyTheFiveVowels) {
   EXPECT_NE(blink.warnings[0].message.find("arkit"), std::string::npos);
 }
 
+TEST(Retarget, AnArkitStreamClosesAndOpensUkasPmdWhichHasOnlyMmdsMorphs) {
+  // The PMD Uka: 120 MMD morphs, no ARKit name. Both blinks are one まばたき, not a share of each
+  // of her four eye-closing morphs; the jaw her あ family; her own eye_*_geo shapes sit nowhere.
+  const Rig uka =
+      formats::LoadRigFile(test::SharedAssets() + "/more/MMD/Uka_PMD/MS_Uka.pmd").value();
+  ASSERT_LT(FindShape(uka, "jawOpen"), 0);
+  Solved s = Solve(uka, Vocabulary::kArkit,
+                   {W("eyeBlinkLeft", 1), W("eyeBlinkRight", 1), W("jawOpen", 0.8),
+                    W("mouthLowerDownLeft", 0.3), W("mouthLowerDownRight", 0.3)});
+  EXPECT_NEAR(s.weights["まばたき"], 1.0, 1e-4);
+  for (const char* eye : {"とじ目", "ウィンク２", "ｳｨﾝｸ２右", "まば左", "まば右"})
+    EXPECT_EQ(s.weights.count(eye), 0u) << eye;
+  EXPECT_GT(s.weights["あ"] + s.weights["ああ"], 0.9);
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings[0].message;
+}
+
 TEST(Retarget, TheVocabularysOwnNameWinsOverATablesCombination) {
   // Uka carries both MMD's morphs and ARKit's names: each vocabulary reaches its own.
   const Rig both = Named({"あ", "まばたき", "jawOpen", "mouthLowerDownLeft", "mouthLowerDownRight",

@@ -1,5 +1,6 @@
 // Retarget (retarget.h): the asked weights as a point of the shared space, then the rig's columns
-// fitted to it by coordinate descent on the bounded, lightly damped least-squares problem.
+// fitted to it by coordinate descent on the bounded least-squares problem, with a small price per
+// unit of weight on the columns that are not the vocabulary's own words (a lasso's).
 #include "facespace/engine/retarget.h"
 
 #include <algorithm>
@@ -24,7 +25,7 @@ struct Column {
   uint32_t target;  // Shape, or expression.
   bool expression;
   float hi;
-  float cost;  // Damping: 0 for the vocabulary's own names.
+  float cost;  // A unit of its weight's price: 0 for the vocabulary's own names.
   std::span<const AxisTerm> terms;
 };
 
@@ -75,20 +76,21 @@ void Add(std::span<const AxisTerm> terms, float value, Point& p) {
   for (const AxisTerm& t : terms) p[t.axis] += value * t.amount;
 }
 
-// Coordinate descent from `w` with the residual kept: each step minimises over one column, damped
-// by its cost or not.
-void Solve(std::span<const Column> columns, bool damped, Point& residual, std::span<float> w) {
+// Coordinate descent from `w` with the residual kept: each step minimises over one column
+// |residual|^2 + cost x weight (priced), or, over the columns in use, the residual alone.
+void Solve(std::span<const Column> columns, bool priced, Point& residual, std::span<float> w) {
   for (int sweep = 0; sweep < kMaxSweeps; ++sweep) {
     float moved = 0.0f;
     for (size_t k = 0; k < columns.size(); ++k) {
       const Column& c = columns[k];
+      if (!priced && w[k] == 0.0f) continue;
       float dot = 0.0f, norm = 0.0f;
       for (const AxisTerm& t : c.terms) {
         dot += t.amount * residual[t.axis];
         norm += t.amount * t.amount;
       }
-      const float next =
-          std::clamp((dot + norm * w[k]) / (norm + (damped ? c.cost : 0.0f)), 0.0f, c.hi);
+      const float price = priced ? 0.5f * c.cost : 0.0f;
+      const float next = std::clamp(w[k] + (dot - price) / norm, 0.0f, c.hi);
       if (next == w[k]) continue;
       Add(c.terms, w[k] - next, residual);
       moved = std::max(moved, std::abs(next - w[k]));
@@ -191,18 +193,18 @@ Status Retarget(const Rig& rig, const RetargetSource& from, std::span<const Weig
   std::vector<Column> columns;
   ShapeColumns(rig, from, columns);
   ExpressionColumns(rig, from, columns);
-  // The own names first: a sweep from 0 gives them what they show, before the combinations (whose
-  // slow turn towards the damped optimum, when both would do, the order makes unneeded).
+  // The own names first, so a sweep from 0 gives them what they show. Priced, what the own names
+  // show is not asked of the tables' combinations, and of several combinations that would do alike
+  // (Uka's まばたき, とじ目 and two winks each) one takes it, not a share each; then unpriced from
+  // there over the columns in use, so what is shown is what was asked (priced, 0.995 of it).
   std::stable_sort(columns.begin(), columns.end(),
                    [](const Column& a, const Column& b) { return a.cost < b.cost; });
   Point residual = asked.point;
-  // Damped, the own names win over tables' combinations that would do as well; then undamped from
-  // there, so what is shown is what was asked (a damped solve shows 0.99 of it).
   std::vector<float> w(columns.size(), 0.0f);
   Solve(columns, true, residual, w);
   Solve(columns, false, residual, w);
   for (size_t k = 0; k < columns.size(); ++k) {
-    if (w[k] <= 1e-6f) continue;
+    if (w[k] <= 1e-4f) continue;  // Less moves nothing one could see.
     const Column& c = columns[k];
     const std::string& name =
         c.expression ? rig.expressions[c.target].name : rig.shapes[c.target].name;

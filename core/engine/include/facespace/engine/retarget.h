@@ -60,7 +60,8 @@ struct Retargeted {
 // The rig's weights (shapes in [0, max], preset expressions in [0, 1]) that come closest to
 // `entries` in the shared space. A column whose name is the vocabulary's own (FaceCap's jawOpen for
 // ARKit's jawOpen, Uka's あ for MMD's) is free; the others (a table's combination, a both-sides
-// shape, an expression) cost 0.01 a unit squared, so the own name wins where both would do. A kRig
+// shape, an expression) costs 0.01 a unit of weight (a lasso's price), so the own name wins where
+// both would do, and one combination, not a share of each, where several would. A kRig
 // source's shape that sits nowhere passes to this rig's shape of the same name, if any.
 // Errors (fields name the entry): a name the vocabulary does not know (with the closest), an index
 // outside a kRig source or one given to a named vocabulary, a value that is not finite.
