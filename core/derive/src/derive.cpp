@@ -18,17 +18,6 @@
 
 namespace facespace::derive {
 
-namespace {
-
-using Landmarks = std::vector<std::pair<uint32_t, Vec3>>;  // (source skin point, target position)
-// The reach of the registration's move field (a fraction of the head's diagonal): about an eye's
-// height, so that a lid's move ends where the target's other lid is.
-constexpr double kOffsetRadius = 0.03;
-// Around an eye (within this many of its radii) the source's moves weigh this much in the
-// transfer against the gradients (elsewhere 1).
-constexpr double kLidReach = 1.8;
-constexpr double kLidWeight = 4.0;
-
 // The world matrices' linear parts of each primitive.
 std::vector<Eigen::Matrix3d> LinearParts(const Rig& rig) {
   std::vector<Eigen::Matrix3d> out;
@@ -63,6 +52,17 @@ double CpuSeconds() {
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
   return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
 }
+
+namespace {
+
+using Landmarks = std::vector<std::pair<uint32_t, Vec3>>;  // (source skin point, target position)
+// The reach of the registration's move field (a fraction of the head's diagonal): about an eye's
+// height, so that a lid's move ends where the target's other lid is.
+constexpr double kOffsetRadius = 0.03;
+// Around an eye (within this many of its radii) the source's moves weigh this much in the
+// transfer against the gradients (elsewhere 1).
+constexpr double kLidReach = 1.8;
+constexpr double kLidWeight = 4.0;
 
 void Progress(const Options& o, double f, const char* step) {
   if (o.progress) o.progress(f, step);
@@ -622,6 +622,37 @@ Result<Report> DeriveShapes(Rig& target, const Rig& source, const Options& o) {
   DeriveFace(target);
   report.seconds = CpuSeconds() - cpu0;
   return report;
+}
+
+Result<Landed> LandOnTarget(const Rig& target, const Rig& source, const Options& o,
+                            Report& report) {
+  if (Status s = CheckSize(target, "/target", o); !s.ok()) return s;
+  if (Status s = CheckSize(source, "/from", o); !s.ok()) return s;
+  auto prepared = Prepare(target, source, o, report);
+  if (!prepared.ok()) return prepared.status();
+  Prepared& p = prepared.value();
+  Landed out;
+  // On the skin: the largest part, not the eyes or teeth a landmark near them would land on.
+  std::vector<Tri> skin;
+  for (const Tri& t : p.target.triangles) {
+    if (p.target.part[t[0]] == 0) skin.push_back(t);
+  }
+  const ClosestPoint closest(p.target.points, skin);
+  for (uint32_t prim = 0; prim < source.primitives.size(); ++prim) {
+    const auto& sv = source.primitives[prim].source_vertices;
+    for (uint32_t v = 0; v < source.primitives[prim].vertex_count(); ++v) {
+      const uint32_t file = sv.empty() ? v : sv[v];
+      const uint32_t point = p.skin.vertex_point[p.skin.vertex_start[prim] + v];
+      if (point == UINT32_MAX) continue;
+      ClosestPoint::Hit hit;
+      if (!closest.Find(p.registered[point], hit, 0.01 * p.diag * p.diag)) continue;
+      if (out.spots.size() <= file) out.spots.resize(file + 1);
+      out.spots[file] = {true, skin[hit.triangle], hit.barycentric};
+    }
+  }
+  out.surface = std::move(p.target);
+  out.diag = p.diag;
+  return out;
 }
 
 }  // namespace facespace::derive

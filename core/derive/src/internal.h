@@ -144,4 +144,31 @@ Similarity RefineSimilarity(Similarity start, std::span<const Vec3> source,
                             const ClosestPoint& closest, double diagonal,
                             std::span<const LandmarkPair> landmarks, int iterations);
 
+// This thread's CPU time, in seconds: a derive in a server runs beside other requests.
+double CpuSeconds();
+
+// Each primitive's world matrix's linear part.
+std::vector<Eigen::Matrix3d> LinearParts(const Rig& rig);
+
+// Shape `shape`'s displacement of each point of `s` (world space; zero where it does not move).
+void ShapeDisplacement(const Rig& rig, const Surface& s, std::span<const Eigen::Matrix3d> linear,
+                       uint32_t shape, std::vector<Vec3>& out);
+
+// Where the source's vertices land on the target once registered onto it as a derive registers it
+// (the same caps, landmarks, cancellation and poor-fit refusal): per source vertex in the file's
+// numbering (MediaPipe's canonical face: vertex i is its tracker's landmark i), a triangle of the
+// target's surface and the closest point's barycentric weights; `found` false for a vertex that
+// lands nowhere near it.
+struct Spot {
+  bool found = false;
+  Tri triangle{};
+  Vec3 weights = Vec3::Zero();
+};
+struct Landed {
+  Surface surface;  // The target's.
+  std::vector<Spot> spots;
+  double diag = 0;  // The target head's diagonal.
+};
+Result<Landed> LandOnTarget(const Rig& target, const Rig& source, const Options& o, Report& report);
+
 }  // namespace facespace::derive
