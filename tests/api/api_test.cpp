@@ -460,7 +460,7 @@ TEST_F(ApiTest, TheRouteTableFeedsAllowAndTheOpenApiPaths) {
       EXPECT_TRUE(op.contains("operationId")) << method << " " << path;
     }
   }
-  EXPECT_EQ(operations, 32u);  // The route table's 32 (POST /v1/rigs/{id}/derive the last added).
+  EXPECT_EQ(operations, 33u);  // The route table's 33 (POST /v1/rigs/{id}/capture the last added).
   EXPECT_TRUE(doc["paths"]["/v1/rigs/{id}"]["get"]["parameters"].is_array());
   // The GET parameters the document declares are the ones the routes read: each, given a value
   // no route takes, is refused for its value, never as an unknown parameter.

@@ -1,12 +1,13 @@
 // libFuzzer: request JSON -> weights, controls, pose, camera, sequence, batch sampling (and a
 // dataset's members), resolved against real rigs (FaceCap; a skinned CesiumMan); or (first byte
-// 0xFF) a manifest applied to FaceCap, or (0xFE) a derive's body and landmarks. The first byte
-// picks the schema.
+// 0xFF) a manifest applied to FaceCap, (0xFE) a derive's body and landmarks, or (0xFD) a capture's
+// body, its frames solved on FaceCap's landmarks. The first byte picks the schema.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
 
+#include "facespace/derive/capture.h"
 #include "facespace/derive/derive.h"
 #include "facespace/engine/skeleton.h"
 #include "facespace/engine/weights.h"
@@ -35,6 +36,16 @@ void Weigh(const facespace::Rig& rig, const facespace::evaluator::MeshRequest& m
   facespace::evaluator::ResolvePoint(rig, m, point);
 }
 
+// FaceCap's landmarks, registered once.
+const facespace::derive::LandmarkRig& FaceCapLandmarks() {
+  static const facespace::derive::LandmarkRig map = [] {
+    auto canonical = facespace::formats::LoadRigFile(
+        FACESPACE_SOURCE_DIR "/assets/trackers/mediapipe/canonical_face_model.obj");
+    return facespace::derive::MapLandmarks(Rig(false), canonical.value(), {}).value();
+  }();
+  return map;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -45,6 +56,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (auto d = facespace::evaluator::ParseDeriveRequest(body); d.ok() && !d->landmarks.empty())
       (void)facespace::derive::ReadLandmarks(d->landmarks);
     (void)facespace::derive::ReadLandmarks(body);
+    return 0;
+  }
+  if (data[0] == 0xFD) {  // A capture's body, solved.
+    if (auto c = facespace::evaluator::ParseCaptureRequest(body); c.ok()) {
+      facespace::derive::CaptureOptions o;
+      o.fps = c->fps;
+      o.neutral = c->neutral;
+      (void)facespace::derive::SolveFrames(FaceCapLandmarks(), c->frames, o);
+    }
     return 0;
   }
   if (data[0] == 0xFF) {  // A manifest (an upload's): its regions and landmarks index meshes,

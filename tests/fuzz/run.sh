@@ -60,6 +60,8 @@ req = [
   (5, {"target": {"primitives": [{"positions": [0, 0, 0]}]}, "bounded": True, "rigid_align": True}),
   (254, {"from": "facecap", "as": "head-arkit", "shapes": ["arkit", "visemes"], "landmarks": {"scheme": "ibug-300w-68",
          "points": [{"name": "nose_1", "vertex": 3}, {"name": "eye_l_1", "position": [0.01, 0.02, 0.03]}, {"name": "x", "mesh": "m", "vertex": 0}]}}),
+  (253, {"scheme": "mediapipe-468", "image": [640, 480], "fps": 30, "neutral": 0,
+         "frames": [[[i % 50, i // 50, 0] for i in range(468)]]}),
 ]
 for i, (k, body) in enumerate(req):
     with open(os.path.join(c, "fuzz_request", f"seed{i}"), "wb") as f:

@@ -18,6 +18,7 @@ against the real server on loopback.
 The figures (attack, answer, time, server CPU) go to FIGURES_OUT as Markdown (tests/bench/README.md).
 """
 import json
+import math
 import os
 import signal
 import socket
@@ -355,6 +356,10 @@ def leave(srv, name, path, body, after=0.1, method="POST", headers=None):
 # The route table as a client walks it (from /openapi.json): each route's request, and for the routes
 # whose work can last, the largest request a keyed client may make, cancelled after 100 ms. Routes whose
 # largest request is done within a second say so, and that is measured instead.
+# A frame of MediaPipe's 468 points (an oval: what the route costs, not what it makes of a face).
+OVAL = [[round(320 + 100 * math.cos(i), 2), round(240 + 130 * math.sin(i), 2), 0] for i in range(468)]
+
+
 def walk_routes(srv, doc, rest):
     U = srv.url
     spec = json.loads(request(U + "/openapi.json")[2])
@@ -379,6 +384,7 @@ def walk_routes(srv, doc, rest):
         ("GET", "/v1/jobs"): None, ("GET", "/v1/jobs/{job}"): None, ("DELETE", "/v1/jobs/{job}"): None,
         ("GET", "/v1/jobs/{job}/manifest.jsonl"): None, ("GET", "/v1/jobs/{job}/files/{name}"): None, ("GET", "/v1/jobs/{job}/results.zip"): None,
         ("GET", "/v1/rigs/{id}/live"): None,  # Without an Upgrade: 426, its cost stated (live_test.py holds its sessions).
+        ("POST", "/v1/rigs/{id}/capture"): js({"image": [640, 480], "frames": [OVAL, OVAL]}),
     }
     # The largest keyed requests of the routes whose work grows with the request; cancelled after 100 ms.
     largest = {
@@ -389,6 +395,8 @@ def walk_routes(srv, doc, rest):
         ("POST", "/v1/rigs/{id}/sequence/reduce"): js({"keys": [{"time": i * 0.1, "weights": {"jawOpen": i / 100000}} for i in range(20000 if SANITIZED else 100000)],
                                                       "tolerance": 0.00001}),
         ("POST", "/v1/rigs/{id}/speech"): js({"text": "morning " * 78, "rate": 80, "format": "webm", "fps": 30, "width": 512, "height": 512}),
+        # MakeHuman's landmarks registered (stopped between its solves), then frames (stopped between them).
+        ("POST", "/v1/rigs/{id}/capture"): js({"image": [640, 480], "frames": [OVAL] * (300 if SANITIZED else 1500)}),
     }
     # The rest do work bounded by the server's limits, done within a second at their largest.
     quick = {
@@ -431,7 +439,7 @@ def walk_routes(srv, doc, rest):
                                          for j in json.loads(request(U + "/v1/jobs")[2]).get("jobs", [])):
         time.sleep(0.2)
     for (method, path), body in largest.items():
-        rig = "uka" if path.endswith("/sample") else "makehuman" if path.endswith("/fit") else "facecap"
+        rig = "uka" if path.endswith("/sample") else "makehuman" if path.endswith(("/fit", "/capture")) else "facecap"
         url = U + path.replace("{id}", rig)
         leave(srv, f"{method} {path}, its largest keyed request, left after 100 ms", url[len(U):], body, after=0.1)
     for (method, path), body in quick.items():

@@ -269,6 +269,26 @@ def retargets(srv, U):
     check(f"... and the server serves a retarget after them: {st}", st == 200 and srv.alive())
 
 
+def captures(srv, U):
+    """A tracker's frames: too many, too short, not numbers, a face that is a ball; each named, quick, nothing kept
+    wrong, and the server serving."""
+    oval = [[320 + 100 * math.cos(i), 240 + 130 * math.sin(i), 0] for i in range(468)]
+    post = lambda rig, body: request(U + f"/v1/rigs/{rig}/capture", "POST", json.dumps(body).encode())
+    for name, body, pointer in (("3,601 frames", {"image": [640, 480], "frames": [[[0, 0, 0]]] * 3601}, "/frames"),
+                                ("a frame of strings", {"image": [640, 480], "frames": [[["a", "b", "c"]] * 468]}, "/frames/0/0"),
+                                ("an image of 0 pixels", {"image": [0, 480], "frames": [oval]}, "/image"),
+                                ("the neutral past the frames", {"image": [640, 480], "frames": [oval], "neutral": 3}, "/neutral"),
+                                ("an unknown member", {"image": [640, 480], "frames": [oval], "fsp": 30}, "/fsp")):
+        st, sec, b, _ = post("facecap", body)
+        pointers = [e.get("pointer") for e in json.loads(b).get("errors", [])] if b.startswith(b"{") else []
+        check(f"capture with {name}: {st} naming {pointers[:2]} in {sec * 1000:.0f} ms", st == 422 and pointer in pointers)
+    st, _, b, _ = post("ball", {"image": [640, 480], "frames": [oval]})
+    detail = json.loads(b).get("detail", "") if b.startswith(b"{") else ""
+    check(f"capture onto a ball: {st} ({detail[:70]}); server alive", st == 422 and "fit" in detail and srv.alive())
+    st, _, _, _ = post("facecap", {"image": [640, 480], "frames": [oval]})
+    check(f"... and a capture after them: {st}", st == 200)
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="facespace-hostile-")
     os.makedirs(os.path.join(tmp, "store"))
@@ -443,6 +463,7 @@ def main():
     vrm_uploads(srv, U, glb, tmp)
     derives(srv, U, auth, tmp)
     retargets(srv, U)
+    captures(srv, U)
 
     st, sec, b, _ = request(U + "/v1/rigs/facecap/batch", "POST",
                             json.dumps({"sample": {"method": "uniform", "count": 65000}, "format": "exr", "width": 2048, "height": 2048}).encode(), auth)

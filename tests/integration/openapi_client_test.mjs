@@ -133,6 +133,13 @@ const cases = {
   speak: [() => examples('speak'),
           (r) => r.status === 200 && json(r).source === 'espeak-ng' && json(r).visemes.some((v) => v.viseme === 'aa') && json(r).keys.length > 2],
   listVoices: [() => call('listVoices'), (r) => r.status === 200 && json(r).voices.some((v) => v.language === 'en-us')],
+  // One frame of 468 points (an oval: the contract's walk; the service suite checks what a face's
+  // frames come to): its key, and the head's turn.
+  capture: [() => call('capture', { id: 'facecap' }, body({
+              image: [640, 480],
+              frames: [Array.from({ length: 468 }, (_, i) => [320 + 100 * Math.cos(i), 240 + 130 * Math.sin(i), 0])],
+            })),
+            (r) => r.status === 200 && json(r).keys.length === 1 && json(r).head.length === 1],
   fit: [async () => {
           const target = json(await examples('getMesh'));
           const ex = example('fit');

@@ -319,7 +319,7 @@ want={"/healthz":{"get"},"/readyz":{"get"},"/metrics":{"get"},"/openapi.json":{"
       "/v1/rigs/{id}":{"get","put","delete"},"/v1/rigs/{id}/manifest":{"get","put"},"/v1/rigs/{id}/mesh":{"get","post"},"/v1/rigs/{id}/check":{"post"},
       "/v1/rigs/{id}/render":{"get","post"},"/v1/rigs/{id}/sheet":{"post"},"/v1/rigs/{id}/sequence/sample":{"post"},
       "/v1/rigs/{id}/sequence/stream":{"post"},"/v1/rigs/{id}/sequence/reduce":{"post"},"/v1/rigs/{id}/fit":{"post"},
-      "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/derive":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
+      "/v1/rigs/{id}/batch":{"post"},"/v1/rigs/{id}/derive":{"post"},"/v1/rigs/{id}/capture":{"post"},"/v1/rigs/{id}/topology":{"get"},"/v1/jobs":{"get"},"/v1/jobs/{job}":{"get","delete"},"/v1/jobs/{job}/manifest.jsonl":{"get"},
       "/v1/jobs/{job}/files/{name}":{"get"},"/v1/jobs/{job}/results.zip":{"get"},
       "/v1/rigs/{id}/speech":{"post"},"/v1/voices":{"get"},"/v1/rigs/{id}/live":{"get"}}
 got={p:{m for m in v if m in ("get","put","post","delete","patch")} for p,v in d["paths"].items()}
@@ -509,6 +509,19 @@ c -X DELETE -H 'Authorization: Bearer k3y-for-tests' "$U/v1/rigs/cube" >/dev/nul
 problem "$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"arkit","weights":{"jawOpn":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/weights/jawOpn' and 'jawOpen' in d['errors'][0]['detail']" && ok "an unknown ARKit name: 422 at /weights/jawOpn with the closest" || no "unknown vocabulary name"
 problem "$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"nobody","weights":{"x":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/vocabulary'" && ok "a vocabulary naming no rig: 422 at /vocabulary" || no "vocabulary no rig"
 problem "$(c -X POST -H 'Content-Type: application/json' -d '{"vocabulary":"../etc","weights":{"x":1}}' "$U/v1/rigs/facecap/mesh")" 422 "d['errors'][0]['pointer']=='/vocabulary'" && ok "a vocabulary that is no id: 422 at /vocabulary" || no "vocabulary path"
+
+# capture: a tracker's landmarks as the rig's weights (issue 64)
+python3 "$src/tests/integration/capture_frames.py" "$src/assets/trackers/mediapipe/canonical_face_model.obj" "$tmp/frames.json"
+code=$(c -X POST -H 'Content-Type: application/json' --data-binary @"$tmp/frames.json" "$U/v1/rigs/facecap/capture")
+check "capture: 20 frames of MediaPipe's landmarks (the jaw turned open from frame 5) on FaceCap: 20 keys, the rest frames still, jawOpen the largest weight once open" both "[ $code = 200 ] && grep -qi '^server-timing: solve;dur=.*register;dur=' '$tmp/hdr'" jq_ "
+  len(d['keys'])==20 and d['frames']==20 and d['keys'][0]=={'time':0,'weights':{}} and abs(d['keys'][10]['time']-1/3)<1e-9 and
+  max(d['keys'][19]['weights'], key=d['keys'][19]['weights'].get)=='jawOpen' and d['keys'][19]['weights']['jawOpen']>0.3 and len(d['head'])==20"
+code=$(c -X POST -H 'Content-Type: application/json' --data-binary @"$tmp/frames.json" "$U/v1/rigs/facecap/capture")
+check "capture again: the registration kept (Server-Timing register kept)" sh -c "[ $code = 200 ] && grep -qi '^server-timing:.*desc=\"kept\"' '$tmp/hdr'"
+code=$(c -X POST -H 'Content-Type: application/json' --data-binary @"$tmp/frames.json" "$U/v1/rigs/makehuman/capture")
+check "capture onto the derived MakeHuman: jawOpen the largest weight" both "[ $code = 200 ]" jq_ "max(d['keys'][19]['weights'], key=d['keys'][19]['weights'].get)=='jawOpen'"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"image":[640,480],"frames":[[[1,2,3]]]}' "$U/v1/rigs/facecap/capture")" 422 "d['errors'][0]['pointer']=='/frames/0'" && ok "capture: a frame of 1 point: 422 at /frames/0" || no "capture short frame"
+problem "$(c -X POST -H 'Content-Type: application/json' -d '{"frames":[]}' "$U/v1/rigs/facecap/capture")" 422 "[e['pointer'] for e in d['errors']]==['/frames','/image']" && ok "capture: no frames, no image: 422 naming both" || no "capture no frames"
 
 # hardening: upload limits, slow and broken clients, keys never logged
 restart --max-vertices 1000 --max-shapes 1 --read-timeout 2

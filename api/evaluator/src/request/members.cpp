@@ -194,6 +194,33 @@ constexpr Member kBatchOnly[] = {
 constexpr std::string_view kNotInBatch[] = {"weights", "strict", "keep_targets",
                                             "format",  "space",  "vocabulary"};
 
+// ---- capture: a tracker's landmarks ----
+constexpr Member kCapture[] = {
+    Choice("scheme",
+           "The landmarks' tracker: MediaPipe's face mesh, 468 points, or 478 with the irises "
+           "(whose last 10 are not used yet)",
+           "mediapipe-478|mediapipe-468")
+        .Default(R"("mediapipe-478")"),
+    Schema("image", "The image's [width, height] in pixels (the points' frame)",
+           R"({"type": "array", "items": {"type": "integer", "minimum": 1, "maximum": 16384}, )"
+           R"("minItems": 2, "maxItems": 2})")
+        .Required()
+        .Example("[640, 480]"),
+    Number("fps", "Frames a second (the keys' times, and the smoothing's)", 1, 240).Default("30"),
+    Schema("frames",
+           "Per frame the tracker's points, [x, y, z] each: x, y in the image's pixels (y down), "
+           "z in x's scale (smaller nearer), as MediaPipe's normalized values times the image size",
+           R"({"type": "array", "minItems": 1, "items": {"type": "array", "minItems": 468, )"
+           R"("maxItems": 478, "items": {"type": "array", "items": {"type": "number"}, )"
+           R"("minItems": 3, "maxItems": 3}}})")
+        .Required(),
+    Integer("neutral",
+            "The frame in which the performer's face rests: their face is not the rig's, and "
+            "what differs there is not an expression",
+            0, 100000)
+        .Default("0"),
+};
+
 // ---- fitting and speech ----
 constexpr Member kDerive[] = {
     String("from", "The source rig (its id in the store), whose shapes are transferred",
@@ -462,6 +489,9 @@ std::vector<Table> MakeTables() {
     Append(batch, kImage);
   }
   add(Body::kFit, "FitRequest", "A target mesh to reproduce with the rig's shapes", kFit);
+  add(Body::kCapture, "CaptureRequest",
+      "A tracker's landmarks over frames, as this rig's weights (the keys of a sequence)",
+      kCapture);
   add(Body::kDerive, "DeriveRequest",
       "Another rig's shapes transferred onto this one's neutral, as a job", kDerive);
   {

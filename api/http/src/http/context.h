@@ -18,6 +18,7 @@
 #include "facespace/http/http.h"
 #include "facespace/net/front.h"
 #include "facespace/net/live_hub.h"
+#include "landmark_maps.h"
 #include "metrics.h"
 
 namespace facespace::http {
@@ -102,7 +103,8 @@ struct ServerState {
   RenderBudget render_budget;
   const std::string openapi;        // The document, with this server's limits.
   std::atomic<bool> warmed{false};  // Every rig of the store at start encoded (/readyz).
-  DeriveJobs derives;  // Its thread uses the store and the evaluator: it stops before them.
+  DeriveJobs derives;          // Its thread uses the store and the evaluator: it stops before them.
+  LandmarkMaps landmark_maps;  // Captures' registrations, per rig version.
   net::LiveHub
       live;  // The WebSocket sessions (last: its threads use what is above, and stop first).
 };

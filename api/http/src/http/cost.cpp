@@ -213,6 +213,18 @@ Cost DeriveCost(const Rig& target, const Rig& source, size_t shapes) {
               " source vertices"};
 }
 
+Cost CaptureCost(const Rig& rig, size_t frames, bool registered) {
+  const auto v = static_cast<double>(rig.vertex_count());
+  const double per_frame =
+      kCapturePerFrame * std::max(1.0, static_cast<double>(rig.shapes.size()) / 52.0);
+  return {kPerRequest + (registered ? 0.0 : kCaptureRegister + kCapturePerVertex * v) +
+              per_frame * static_cast<double>(frames),
+          "/frames",
+          Amount(static_cast<double>(frames)) + " frames x " + std::to_string(rig.shapes.size()) +
+              " shapes" +
+              (registered ? "" : ", and the landmarks registered on " + Amount(v) + " vertices")};
+}
+
 bool WithinBudget(ServerState& ctx, const httplib::Request& req, httplib::Response& res,
                   const Cost& cost) {
   res.headers.erase("Facespace-Cost");  // The route table's constant, said before the handler ran.

@@ -44,6 +44,12 @@ inline constexpr double kPerInputSample = 1e-7;  // Resampling and voice detecti
 inline constexpr double kPerUploadByte = 1e-7;   // Reading a rig file.
 inline constexpr double kDerivePerVertex = 4e-5;       // Registering, per vertex of either mesh.
 inline constexpr double kDerivePerShapeVertex = 1e-6;  // Transferring one shape, per target vertex.
+inline constexpr double kCapturePerFrame =
+    5e-4;  // A frame's solve, per 52 shapes (FaceCap: 0.34 ms).
+// The landmarks' registration onto a rig: FaceCap's (4,368 vertices) 0.25 s, MakeHuman's (46,779)
+// 0.2 s, Uka's (49,955, refused as a poor fit) 0.36 s.
+inline constexpr double kCaptureRegister = 0.3;
+inline constexpr double kCapturePerVertex = 1e-5;
 inline constexpr double kPerMovedVertex =
     3e-9;  // One weighted shape's moved vertex added into the blend.
 
@@ -81,6 +87,8 @@ Cost UploadCost(size_t bytes);
 // A derive of `shapes` shapes from `source` onto `target` (the job's, charged when it is asked
 // for): the registration grows with both meshes, the transfer with the target's vertices a shape.
 Cost DeriveCost(const Rig& target, const Rig& source, size_t shapes);
+// A capture of `frames` on `rig`: its landmarks' registration unless `registered`, then the frames.
+Cost CaptureCost(const Rig& rig, size_t frames, bool registered);
 
 // The admission step: sets Facespace-Cost; true when the cost is within what the caller may spend,
 // else false with 422 over-budget sent (the field, the estimate, the budget, and what to do).

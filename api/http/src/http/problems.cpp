@@ -58,6 +58,7 @@ constexpr std::array<ProblemType, static_cast<size_t>(P::kCount)> kTable = {{
     {P::kNoMouth, "no-mouth", 422, "The rig has no mouth to speak with"},
     {P::kPoorFit, "poor-fit", 422, "The source's face does not fit this rig's"},
     {P::kNoFace, "no-face", 422, "The rig has no surface to derive a face onto"},
+    {P::kNoExpressions, "no-expressions", 422, "No shape of the rig moves the tracked face"},
     {P::kTooLarge, "too-large", 413, "Over one of the server's limits"},
     {P::kResponseTooLarge, "response-too-large", 422,
      "The answer would be over the server's limit"},

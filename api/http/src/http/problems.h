@@ -60,6 +60,7 @@ enum class Problem : uint8_t {
   kNoMouth,
   kPoorFit,
   kNoFace,
+  kNoExpressions,
   // Its size and cost.
   kTooLarge,
   kResponseTooLarge,

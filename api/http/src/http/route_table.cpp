@@ -35,6 +35,7 @@ constexpr Route kRoutes[] = {
     {"GET", "/v1/rigs/{id}/live", "/v1/rigs/{id}/live", GetLive},
     {"GET", "/v1/voices", "/v1/voices", GetVoices},
     {"POST", "/v1/rigs/{id}/fit", "/v1/rigs/{id}/fit", PostFit},
+    {"POST", "/v1/rigs/{id}/capture", "/v1/rigs/{id}/capture", PostCapture},
     {"POST", "/v1/rigs/{id}/batch", "/v1/rigs/{id}/batch", PostBatch, true},
     {"POST", "/v1/rigs/{id}/derive", "/v1/rigs/{id}/derive", PostDerive, true},
     {"GET", "/v1/jobs", "/v1/jobs", ListJobs},

@@ -74,6 +74,10 @@ constexpr Guide kGuides[] = {
      "residual. The "
      "example's target is the mesh route's JSON of the same rig.",
      kFacecap, R"({"target": {"primitives": []}, "bounded": true})"},
+    {"capture", "sequences",
+     "A face tracker's landmarks over frames (a recorded video's) as the rig's weights, the "
+     "keys of a sequence; the frames are 468 or 478 points each, so no example is written here.",
+     kFacecap, ""},
     {"getRender", "images", "A picture of a point given in the query.",
      R"({"id": "facecap", "w": {"jawOpen": 1}, "width": 64, "height": 64, "frame": "shapes", "yaw": 20})",
      ""},

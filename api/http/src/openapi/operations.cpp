@@ -234,7 +234,8 @@ json PointOperations() {
       {"/v1/rigs/{id}/render",
        {{"get",
          {{"summary",
-           "Offscreen render from query settings (w[NAME]=VALUE, width, height, view, yaw, pitch, "
+           "Offscreen render from query settings (w[NAME]=VALUE, width, height, view, yaw, "
+           "pitch, "
            "zoom, ...)"},
           {"operationId", "getRender"},
           {"parameters", QueryParams(true)},
@@ -266,7 +267,8 @@ json PointOperations() {
       {"/v1/rigs/{id}/fit",
        {{"post",
          {{"summary",
-           "Weights that best reproduce a target mesh (least squares), with residual and warnings"},
+           "Weights that best reproduce a target mesh (least squares), with residual and "
+           "warnings"},
           {"operationId", "fit"},
           {"parameters", json::array({IdParam()})},
           {"requestBody", JsonBody("FitRequest")},
@@ -274,7 +276,28 @@ json PointOperations() {
            {{"200", JsonOk("Fit")},
             {"400", Problem("Malformed JSON")},
             {"404", Problem("Unknown rig")},
-            {"422", Problem("A target that does not match the rig")}}}}}}}};
+            {"422", Problem("A target that does not match the rig")}}}}}}},
+      {"/v1/rigs/{id}/capture",
+       {{"post",
+         {{"summary",
+           "A face tracker's landmarks over frames (MediaPipe's face mesh) as this rig's "
+           "weights: "
+           "the keys of a sequence"},
+          {"description",
+           "MediaPipe's canonical face is registered onto the rig once per rig version (as a "
+           "derive registers a face); each frame's points, the head's motion taken out, less "
+           "the "
+           "performer's neutral frame, are fitted by the rig's expression shapes (bounded least "
+           "squares) and smoothed (One Euro). Server-Timing names the solve's time per frame."},
+          {"operationId", "capture"},
+          {"parameters", json::array({IdParam()})},
+          {"requestBody", JsonBody("CaptureRequest")},
+          {"responses",
+           {{"200", JsonOk("Captured")},
+            {"400", Problem("Malformed JSON")},
+            {"404", Problem("Unknown rig")},
+            {"422", Problem("Invalid frames; a rig with no face the landmarks fit, or no "
+                            "expression shapes; over the cost budget")}}}}}}}};
 }
 
 // Sequences and speech: sampled, streamed, reduced, spoken.
@@ -323,7 +346,8 @@ json SequenceOperations() {
       {"/v1/rigs/{id}/speech",
        {{"post",
          {{"summary",
-           "Lip sync: text (espeak-ng) or recorded speech (PocketSphinx) to phonemes, visemes and "
+           "Lip sync: text (espeak-ng) or recorded speech (PocketSphinx) to phonemes, visemes "
+           "and "
            "keys on the rig, as JSON, a stream of frames, "
            "the audio (WAV) or a video (WebM: VP9 + Opus)"},
           {"operationId", "speak"},
@@ -380,7 +404,8 @@ json JobOperations() {
       {"/v1/rigs/{id}/batch",
        {{"post",
          {{"summary",
-           "Start a batch job: many variants (listed, or sampled uniform/gaussian/grid/convex with "
+           "Start a batch job: many variants (listed, or sampled uniform/gaussian/grid/convex "
+           "with "
            "a seed) as files"},
           {"operationId", "startBatch"},
           {"security", Auth()},
@@ -398,7 +423,8 @@ json JobOperations() {
            "baked from them) transferred onto this rig's neutral, written as a rig"},
           {"description",
            "A job (GET /v1/jobs/{job} follows it): the source's face registered onto this one "
-           "(landmarks, or the heads' own shape, then non-rigid ICP) and each shape's deformation "
+           "(landmarks, or the heads' own shape, then non-rigid ICP) and each shape's "
+           "deformation "
            "carried over. Done, the rig `as` (default this one, its own shapes kept) is stored "
            "with the shapes and its manifest's `derivation`; a fit that does not match fails the "
            "job with a poor-fit or no-face problem, and nothing is written."},

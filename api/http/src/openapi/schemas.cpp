@@ -429,6 +429,24 @@ json Reduced() {
             {"tolerance", Number()}}}};
 }
 
+json Captured() {
+  return {{"type", "object"},
+          {"required", {"keys", "fps", "frames", "head"}},
+          {"properties",
+           {{"scheme", String()},
+            {"fps", Number()},
+            {"frames", Integer()},
+            {"shapes", Integer()},
+            {"keys", ArrayOf(Ref("Key"))},
+            {"head", ArrayOf({{"type", "array"},
+                              {"items", Number()},
+                              {"minItems", 4},
+                              {"maxItems", 4},
+                              {"description",
+                               "The head's turn from the neutral frame's, a quaternion (x, y, z, "
+                               "w) in the rig's frame"}})}}}};
+}
+
 json Health() {
   return {{"type", "object"},
           {"required", {"status"}},
@@ -525,6 +543,7 @@ json Schemas() {
       {"Manifest", Manifest()},
       {"Check", Check()},
       {"Fit", Fit()},
+      {"Captured", Captured()},
       {"Topology", Topology()},
       {"SequenceFrames", SequenceFrames()},
       {"Reduced", Reduced()},

@@ -55,6 +55,8 @@ void PostSpeech(ServerState&, const httplib::Request&, httplib::Response&);
 void GetVoices(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/live.cpp: the WebSocket of one face.
 void GetLive(ServerState&, const httplib::Request&, httplib::Response&);
+// routes/capture.cpp
+void PostCapture(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/derive.cpp
 void PostDerive(ServerState&, const httplib::Request&, httplib::Response&);
 // A derive job as GET /v1/jobs/{id} shows it.

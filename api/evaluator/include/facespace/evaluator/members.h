@@ -91,6 +91,7 @@ enum class Body : unsigned char {
   kFit,       // POST fit.
   kSpeech,    // POST speech (JSON).
   kDerive,    // POST derive.
+  kCapture,   // POST capture.
   kCamera,
   kLight,
   kGaze,
@@ -110,11 +111,12 @@ enum class Body : unsigned char {
   kLiveListen,  // Its "listen".
 };
 inline constexpr Body kBodies[] = {
-    Body::kMesh,      Body::kRender,    Body::kSheet,   Body::kSequence, Body::kBatch,
-    Body::kFit,       Body::kSpeech,    Body::kDerive,  Body::kCamera,   Body::kLight,
-    Body::kGaze,      Body::kGazeTrack, Body::kGazeKey, Body::kBlink,    Body::kJoint,
-    Body::kBlendClip, Body::kLayer,     Body::kKey,     Body::kCell,     Body::kVariant,
-    Body::kSample,    Body::kRandomize, Body::kLive,    Body::kLiveSay,  Body::kLiveListen};
+    Body::kMesh,      Body::kRender,    Body::kSheet,     Body::kSequence, Body::kBatch,
+    Body::kFit,       Body::kSpeech,    Body::kDerive,    Body::kCapture,  Body::kCamera,
+    Body::kLight,     Body::kGaze,      Body::kGazeTrack, Body::kGazeKey,  Body::kBlink,
+    Body::kJoint,     Body::kBlendClip, Body::kLayer,     Body::kKey,      Body::kCell,
+    Body::kVariant,   Body::kSample,    Body::kRandomize, Body::kLive,     Body::kLiveSay,
+    Body::kLiveListen};
 
 // The members `body` takes, in the order the document lists them.
 std::span<const Member> Members(Body body);

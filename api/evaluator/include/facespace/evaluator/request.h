@@ -234,6 +234,18 @@ struct DeriveRequest {
 };
 Result<DeriveRequest> ParseDeriveRequest(std::string_view body);
 
+// Body of POST /v1/rigs/{id}/capture (and `facespace capture`'s file): {"scheme":
+// "mediapipe-478", "image": [w, h], "fps": 30, "frames": [[[x, y, z], ...], ...], "neutral": 0}.
+// Each frame's points are flattened (3 per point); 468 or 478 points a frame.
+struct CaptureRequest {
+  std::array<int, 2> image{0, 0};
+  float fps = 30;
+  size_t neutral = 0;
+  std::vector<std::vector<float>> frames;
+};
+inline constexpr size_t kMaxCaptureFrames = 3600;  // Two minutes at 30 a second.
+Result<CaptureRequest> ParseCaptureRequest(std::string_view body);
+
 // Body of POST /v1/rigs/{id}/batch, and the batch.json that `facespace batch` keeps in its
 // output folder:
 // {"variants": [{"id": "a", "weights": {...}|[...]}, ...]            an explicit list, or
