@@ -56,6 +56,9 @@ const char kUsage[] =
     "  derive TARGET [--from SOURCE] -o OUT.glb [--landmarks FILE] [--shapes arkit,visemes]\n"
     "      SOURCE's shapes (default: the bundled FaceCap's ARKit 52) transferred onto TARGET's "
     "neutral\n"
+    "  capture RIG FRAMES.json -o KEYS.json\n"
+    "      a face tracker's landmarks over frames (MediaPipe's, the capture route's body) as RIG's "
+    "weights\n"
     "  serve [--rigs DIR] [--host 127.0.0.1] [--port 8080] [--threads N] [--api-key-file FILE]\n"
     "        [--max-body BYTES] [--cors-origin ORIGIN ...]\n"
     "      the HTTP service (serve --help for more)\n"
@@ -104,6 +107,7 @@ int main(int argc, char** argv) {
   if (command == "compress") return facespace::cli::Compress(args);
   if (command == "convert") return facespace::cli::Convert(args);
   if (command == "derive") return facespace::cli::Derive(args);
+  if (command == "capture") return facespace::cli::Capture(args);
   std::fprintf(stderr, "facespace: unknown command '%s'\n\n%s", command.c_str(), kUsage);
   return 2;
 }

@@ -56,5 +56,6 @@ int Compress(const std::vector<std::string>& args);
 int Convert(const std::vector<std::string>& args);
 // A source rig's shapes transferred onto a head without them (derive.cpp).
 int Derive(const std::vector<std::string>& args);
+int Capture(const std::vector<std::string>& args);
 
 }  // namespace facespace::cli

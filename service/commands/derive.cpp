@@ -1,16 +1,24 @@
 // facespace derive: a source rig's shapes (default: the bundled FaceCap's ARKit 52) transferred
-// onto a head that has none, written as a glb with its manifest.
+// onto a head that has none, written as a glb with its manifest; facespace capture: a tracker's
+// landmarks over frames as a rig's weights, by the same registration.
 #include "facespace/derive/derive.h"
 
+#include <cmath>
 #include <cstdio>
+#include <ctime>
+#include <nlohmann/json.hpp>
 
 #include "commands/cli.h"
 #include "commands/flags.h"
+#include "facespace/derive/capture.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
 #ifndef FACESPACE_DEFAULT_SOURCE
 #define FACESPACE_DEFAULT_SOURCE "assets/facecap/facecap.glb"
+#endif
+#ifndef FACESPACE_CANONICAL_FACE
+#define FACESPACE_CANONICAL_FACE "assets/trackers/mediapipe/canonical_face_model.obj"
 #endif
 
 namespace facespace::cli {
@@ -94,6 +102,69 @@ int Derive(const std::vector<std::string>& args) {
   if (!r.kept.empty())
     std::fprintf(stderr, "derive: %zu shapes TARGET already had are its own (kept)\n",
                  r.kept.size());
+  return 0;
+}
+
+int Capture(const std::vector<std::string>& args) {
+  std::vector<std::string> positional;
+  std::string out;
+  Flags flags(
+      "usage: facespace capture RIG FRAMES.json -o KEYS.json\n",
+      "A face tracker's landmarks over frames as RIG's weights: FRAMES.json is the capture "
+      "route's body\n"
+      "({\"scheme\": \"mediapipe-478\", \"image\": [w, h], \"fps\": 30, \"frames\": "
+      "[[[x, y, z], ...], ...],\n"
+      "\"neutral\": 0}: MediaPipe's points in the image's pixels); KEYS.json its answer, the "
+      "keys of a\n"
+      "sequence ({\"keys\": [{\"time\", \"weights\"}], \"head\": [[x, y, z, w], ...]}), "
+      "whose keys the sequence routes and `sequence --keys` take as they are.\n"
+      "MediaPipe's canonical face (assets/trackers) is registered onto RIG as a derive "
+      "registers a face.\n");
+  flags.Text("-o, --output", "KEYS.json", "output (- for stdout)", &out);
+  if (int rc = flags.Parse(args, positional); rc >= 0) return rc;
+  if (positional.size() != 2 || out.empty())
+    return flags.UsageError(out.empty() ? "no output given (-o KEYS.json)"
+                                        : "give RIG and FRAMES.json");
+  Result<Rig> rig = LoadAndReport({positional[0]});
+  if (!rig.ok()) return 1;
+  std::string text;
+  if (!ReadFile(positional[1], text)) {
+    std::fprintf(stderr, "error: cannot read '%s'\n", positional[1].c_str());
+    return 1;
+  }
+  auto request = evaluator::ParseCaptureRequest(text);
+  if (!request.ok()) return PrintStatus(Prefixed(request.status(), positional[1] + ": ")), 2;
+  Result<Rig> canonical = LoadAndReport({FACESPACE_CANONICAL_FACE});
+  if (!canonical.ok()) return 1;
+  const double cpu0 = std::clock() / double(CLOCKS_PER_SEC);
+  auto map = derive::MapLandmarks(rig.value(), canonical.value(), {});
+  if (!map.ok()) return PrintStatus(map.status()), 1;
+  const double registered = std::clock() / double(CLOCKS_PER_SEC) - cpu0;
+  derive::CaptureOptions o;
+  o.fps = request->fps;
+  o.neutral = request->neutral;
+  auto captured = derive::SolveFrames(map.value(), request->frames, o);
+  if (!captured.ok()) return PrintStatus(captured.status()), 2;
+  const derive::Captured& c = captured.value();
+  nlohmann::json keys = nlohmann::json::array(), head = nlohmann::json::array();
+  auto rounded = [](float w) { return std::round(static_cast<double>(w) * 1e4) / 1e4; };
+  for (size_t f = 0; f < c.weights.size(); ++f) {
+    nlohmann::json w = nlohmann::json::object();
+    for (size_t k = 0; k < c.weights[f].size(); ++k)
+      if (rounded(c.weights[f][k]) != 0.0) w[rig->shapes[k].name] = rounded(c.weights[f][k]);
+    keys.push_back({{"time", static_cast<double>(f) / request->fps}, {"weights", std::move(w)}});
+    head.push_back({rounded(c.head[f][0]), rounded(c.head[f][1]), rounded(c.head[f][2]),
+                    rounded(c.head[f][3])});
+  }
+  const nlohmann::json body = {{"scheme", "mediapipe-478"},  {"fps", request->fps},
+                               {"frames", c.weights.size()}, {"shapes", map->shapes.size()},
+                               {"keys", std::move(keys)},    {"head", std::move(head)}};
+  if (int rc = WriteResult(out, body.dump() + "\n")) return rc;
+  std::fprintf(stderr,
+               "capture: %zu frames on %zu of the rig's shapes; landmarks registered in %.2f s "
+               "CPU, %.3f ms a frame -> %s\n",
+               c.weights.size(), map->shapes.size(), registered,
+               1e3 * c.solve_seconds / static_cast<double>(c.weights.size()), out.c_str());
   return 0;
 }
 

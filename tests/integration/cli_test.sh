@@ -642,4 +642,12 @@ err_case "speak -o x.mp4: refused, naming the formats it writes (not JSON into x
 check "  ... and writes no x.mp4" test ! -e "$tmp/x.mp4"
 err_case "speak on a rig without a mouth: says what it lacks" "has no mouth to speak with" speak "$A/AnimatedMorphCube/AnimatedMorphCube.gltf" --text "Hello" -o "$tmp/x.json"
 
+# capture: a tracker's landmarks as the rig's weights (issue 64), as the route does
+python3 "$src/tests/integration/capture_frames.py" "$src/assets/trackers/mediapipe/canonical_face_model.obj" "$tmp/frames.json"
+"$bin" capture "$src/assets/facecap/facecap.glb" "$tmp/frames.json" -o "$tmp/captured.json" 2>"$tmp/err"; rc=$?
+check "capture: 20 keys, jawOpen the largest weight once the jaw turns, the time per frame said" py 'import json,sys
+d=json.load(open(sys.argv[1])); w=d["keys"][19]["weights"]
+sys.exit(not(len(d["keys"])==20 and d["keys"][0]["weights"]=={} and max(w, key=w.get)=="jawOpen" and "ms a frame" in open(sys.argv[2]).read()))' "$tmp/captured.json" "$tmp/err"
+err_case "capture with a frame of 3 points: names the frame" "/frames/0" capture "$src/assets/facecap/facecap.glb" <(echo '{"image":[640,480],"frames":[[[1,2,3],[1,2,3],[1,2,3]]]}') -o "$tmp/x.json"
+
 finish
