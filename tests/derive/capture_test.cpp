@@ -56,7 +56,7 @@ std::vector<float> Track(const LandmarkRig& m, std::vector<float> weights, doubl
   for (size_t i = 0; i < n; ++i) {
     Eigen::Vector3d p(m.rest[3 * i], m.rest[3 * i + 1], m.rest[3 * i + 2]);
     for (size_t k = 0; k < weights.size(); ++k)
-      p += weights[k] * Eigen::Map<const Eigen::Vector3f>(&m.moves[(k * n + i) * 3]).cast<double>();
+      p += weights[k] * Eigen::Map<const Eigen::Vector3d>(&m.moves[(k * n + i) * 3]);
     const Eigen::Vector3d q = scale * (r * p);
     out[3 * i] = static_cast<float>(320 + q.x());
     out[3 * i + 1] = static_cast<float>(240 - q.y());

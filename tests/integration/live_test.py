@@ -34,6 +34,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import capture_frames  # noqa: E402
 import wsclient  # noqa: E402
 from suite import Server, bar, check, counts, request  # noqa: E402
 
@@ -111,6 +112,37 @@ def messages(srv):
     c.send_text({"weights": {"あ": 1}, "id": 15})
     e = c.recv_json("error")
     check(f"an MMD name in the ARKit vocabulary: error at {e.get('pointer')}", e.get("pointer") == "/weights/あ")
+    c.close()
+
+
+def tracked(srv):
+    """{"landmarks": ...}: a tracker's frames (MediaPipe's canonical face, then its jaw turned open) as the face's
+    weights, each answered by a weights event and a frame equal to POST /mesh's of those weights."""
+    frames = capture_frames.frames(os.path.join(SRC, "assets/trackers/mediapipe/canonical_face_model.obj"), 1, 1)
+    c = wsclient.Client(srv.port, LIVE)
+    c.recv_json()
+    c.recv_frame()
+    c.send_text({"landmarks": {"scheme": "mediapipe-468", "image": [640, 480], "points": frames[0]}, "id": 1})
+    rest = c.recv_json("weights")
+    c.recv_frame()
+    check(f"landmarks: the first frame is the performer at rest: no weights ({rest.get('weights')})", rest.get("id") == 1 and rest.get("weights") == {})
+    weights = {}
+    for i in range(2, 17):  # Held: the smoothing reaches it.
+        c.send_text({"landmarks": {"image": [640, 480], "points": frames[1]}, "id": i})
+        e = c.recv_json("weights")
+        _, ident, payload = c.recv_frame()
+        weights = e.get("weights", {})
+    top = max(weights, key=weights.get) if weights else None
+    body = json.dumps({"weights": weights, "format": "f32"}).encode()
+    ref = request(srv.url + "/v1/rigs/facecap/mesh", "POST", body)[2]
+    check(f"landmarks with the jaw turned open: a weights event (jawOpen {weights.get('jawOpen')}, the largest: {top}), "
+          f"the frame equal to POST /mesh's of them", top == "jawOpen" and ident == 16 and payload == ref and len(e.get("head", [])) == 4)
+    c.send_text({"landmarks": {"points": [[1, 2, 3]]}})
+    err = c.recv_json("error")
+    check(f"landmarks of one point: error at {err.get('pointer')}", err.get("pointer") == "/landmarks/points")
+    c.send_text({"landmarks": {"points": frames[0]}, "weights": {"jawOpen": 1}})
+    err = c.recv_json("error")
+    check(f"landmarks with weights beside them: error at {err.get('pointer')}", err.get("pointer") == "/weights")
     c.close()
 
 
@@ -401,6 +433,7 @@ def main():
     srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
     try:
         messages(srv)
+        tracked(srv)
         speech(srv)
         listen(srv, tmp)
         hostile(srv)

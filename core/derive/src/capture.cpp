@@ -44,9 +44,8 @@ std::vector<float> RigidWeights(const LandmarkRig& m, size_t n) {
   std::vector<double> most(n, 0.0);
   for (size_t k = 0; k < m.shapes.size(); ++k) {
     for (size_t i = 0; i < n; ++i)
-      most[i] = std::max(
-          most[i],
-          Eigen::Map<const Eigen::Vector3f>(&m.moves[(k * n + i) * 3]).cast<double>().norm());
+      most[i] =
+          std::max(most[i], Eigen::Map<const Eigen::Vector3d>(&m.moves[(k * n + i) * 3]).norm());
   }
   const double top = *std::max_element(most.begin(), most.end());
   std::vector<float> w(n, 0.0f);
@@ -78,13 +77,13 @@ Result<LandmarkRig> MapLandmarks(const Rig& rig, const Rig& canonical, const Opt
   for (uint32_t k : Candidates(rig)) {
     if (options.stop.stop_requested()) return Cancelled();
     ShapeDisplacement(rig, l.surface, linear, k, d);
-    std::vector<float> move(3 * n, 0.0f);
+    std::vector<double> move(3 * n, 0.0);
     double most = 0;
     for (size_t i = 0; i < n; ++i) {
       if (!m.found[i]) continue;
       const Vec3 v = At(l.spots[i], d);
       most = std::max(most, v.norm());
-      for (int c = 0; c < 3; ++c) move[3 * i + c] = static_cast<float>(v[c]);
+      for (int c = 0; c < 3; ++c) move[3 * i + c] = v[c];
     }
     if (most <= kMovesNothing * l.diag) continue;
     m.shapes.push_back(k);
@@ -96,8 +95,8 @@ Result<LandmarkRig> MapLandmarks(const Rig& rig, const Rig& canonical, const Opt
                       "no-expressions");
   m.rigid = RigidWeights(m, n);
   const size_t k = m.shapes.size();
-  Eigen::Map<const Eigen::MatrixXf> moves(m.moves.data(), 3 * n, static_cast<Eigen::Index>(k));
-  Eigen::MatrixXd a = moves.cast<double>().transpose() * moves.cast<double>();
+  Eigen::Map<const Eigen::MatrixXd> moves(m.moves.data(), 3 * n, static_cast<Eigen::Index>(k));
+  Eigen::MatrixXd a = moves.transpose() * moves;
   for (const auto& [ia, ib] : kGaps) {
     if (!m.found[ia] || !m.found[ib]) continue;
     const Vec3 gap = Vec3(m.rest[3 * ib], m.rest[3 * ib + 1], m.rest[3 * ib + 2]) -
@@ -106,8 +105,7 @@ Result<LandmarkRig> MapLandmarks(const Rig& rig, const Rig& canonical, const Opt
     LandmarkRig::Gap g{ia, ib, gap.norm(), std::vector<double>(k)};
     Eigen::Map<Eigen::VectorXd> row(g.widen.data(), static_cast<Eigen::Index>(k));
     for (size_t j = 0; j < k; ++j)
-      row[j] = gap.normalized().dot(
-          (moves.block<3, 1>(3 * ib, j) - moves.block<3, 1>(3 * ia, j)).cast<double>());
+      row[j] = gap.normalized().dot(moves.block<3, 1>(3 * ib, j) - moves.block<3, 1>(3 * ia, j));
     a += kGapWeight * row * row.transpose();
     m.gaps.push_back(std::move(g));
   }
@@ -200,6 +198,98 @@ void SolveBounded(const LandmarkRig& m, const Eigen::VectorXd& b, double ridge,
 
 }  // namespace
 
+struct FaceTracker::State {
+  const LandmarkRig& m;
+  CaptureOptions o;
+  Eigen::Map<const Eigen::MatrixXd> moves;
+  bool has_neutral = false;
+  Similarity neutral;
+  std::vector<Vec3> points, at_rest, now, rest_gap, rig_gap;
+  std::vector<float> w;
+  std::vector<OneEuro> filters;
+  Eigen::VectorXd target;
+  size_t found = 0;
+
+  State(const LandmarkRig& map, const CaptureOptions& options)
+      : m(map),
+        o(options),
+        moves(map.moves.data(), 3 * kMediaPipeFace, static_cast<Eigen::Index>(map.shapes.size())),
+        w(map.shapes.size(), 0.0f),
+        filters(map.shapes.size()),
+        target(3 * kMediaPipeFace),
+        found(static_cast<size_t>(std::count(map.found.begin(), map.found.end(), 1))) {}
+
+  // The right-hand side of the normal equations for the frame's moves `now`: the landmarks' and
+  // the gaps' (the performer's gap's change along it, as a share of their gap, on the rig's).
+  Eigen::VectorXd Rhs() {
+    const size_t k = m.shapes.size();
+    for (size_t i = 0; i < kMediaPipeFace; ++i)
+      target.segment<3>(3 * i) = m.found[i] ? Vec3(now[i] - at_rest[i]) : Vec3::Zero();
+    Eigen::VectorXd b = moves.transpose() * target;
+    for (size_t g = 0; g < m.gaps.size(); ++g) {
+      const LandmarkRig::Gap& gap = m.gaps[g];
+      const Vec3 change = rig_gap[g] + now[gap.b] - now[gap.a] - rest_gap[g];
+      const double rest = std::max(rest_gap[g].norm(), 1e-12);
+      b += kGapWeight * (gap.length * change.dot(rest_gap[g]) / (rest * rest)) *
+           Eigen::Map<const Eigen::VectorXd>(gap.widen.data(), static_cast<Eigen::Index>(k));
+    }
+    return b;
+  }
+};
+
+FaceTracker::FaceTracker(const LandmarkRig& map, const CaptureOptions& options)
+    : state_(std::make_unique<State>(map, options)) {}
+FaceTracker::~FaceTracker() = default;
+FaceTracker::FaceTracker(FaceTracker&&) noexcept = default;
+bool FaceTracker::has_neutral() const { return state_->has_neutral; }
+
+Status FaceTracker::SetNeutral(std::span<const float> frame, size_t index) {
+  State& s = *state_;
+  if (Status st = ReadFrame(frame, index, s.points); !st.ok()) return st;
+  s.neutral =
+      Unposed(s.m, s.points, std::vector<Vec3>(kMediaPipeFace, Vec3::Zero()), false, s.at_rest);
+  // The performer's own gaps at rest, in the rig's frame (a frame's gap is its moves' difference
+  // plus the rig's gap).
+  s.rest_gap.clear();
+  s.rig_gap.clear();
+  for (const LandmarkRig::Gap& g : s.m.gaps) {
+    s.rig_gap.push_back(Vec3(s.m.rest[3 * g.b], s.m.rest[3 * g.b + 1], s.m.rest[3 * g.b + 2]) -
+                        Vec3(s.m.rest[3 * g.a], s.m.rest[3 * g.a + 1], s.m.rest[3 * g.a + 2]));
+    s.rest_gap.push_back(s.rig_gap.back() + s.at_rest[g.b] - s.at_rest[g.a]);
+  }
+  s.has_neutral = true;
+  return Status::Ok();
+}
+
+Status FaceTracker::Step(std::span<const float> frame, size_t index, Frame& out) {
+  State& s = *state_;
+  const size_t k = s.m.shapes.size();
+  if (!s.has_neutral) return FailedPrecondition("no neutral frame yet");
+  if (Status st = ReadFrame(frame, index, s.points); !st.ok()) return st;
+  // The head's motion and the face's, in turn: the first fit on the rigid landmarks, then on all
+  // of them with the face solved so far.
+  Similarity pose;
+  std::vector<Vec3> offset = s.at_rest;
+  Eigen::VectorXd x(k);
+  for (int round = 0; round < kRounds; ++round) {
+    pose = Unposed(s.m, s.points, offset, round > 0, s.now);
+    SolveBounded(s.m, s.Rhs(), kRidge, s.w);
+    for (size_t j = 0; j < k; ++j) x[j] = s.w[j];
+    const Eigen::VectorXd face = s.moves * x;
+    for (size_t i = 0; i < kMediaPipeFace; ++i) offset[i] = s.at_rest[i] + face.segment<3>(3 * i);
+  }
+  out.residual = static_cast<float>((s.moves * x - s.target).norm() /
+                                    std::sqrt(double(std::max<size_t>(s.found, 1))) / s.m.diag);
+  out.weights.assign(s.m.rig_shapes, 0.0f);
+  const float dt = 1.0f / std::max(s.o.fps, 1e-3f);
+  for (size_t j = 0; j < k; ++j)
+    out.weights[s.m.shapes[j]] =
+        std::clamp(s.filters[j].Step(s.w[j], dt, s.o.min_cutoff, s.o.beta), 0.0f, s.m.upper[j]);
+  const Eigen::Quaterniond q(Eigen::Matrix3d(s.neutral.rotation.transpose() * pose.rotation));
+  out.head = {float(q.x()), float(q.y()), float(q.z()), float(q.w())};
+  return Status::Ok();
+}
+
 Result<Captured> SolveFrames(const LandmarkRig& m, std::span<const std::vector<float>> frames,
                              const CaptureOptions& o) {
   const double cpu0 = CpuSeconds();
@@ -207,67 +297,16 @@ Result<Captured> SolveFrames(const LandmarkRig& m, std::span<const std::vector<f
   if (o.neutral >= frames.size())
     return InvalidField("/neutral", "is frame " + std::to_string(o.neutral) + " of " +
                                         std::to_string(frames.size()) + " (from 0)");
-  const size_t n = kMediaPipeFace, k = m.shapes.size();
-  const Eigen::MatrixXd moves =
-      Eigen::Map<const Eigen::MatrixXf>(m.moves.data(), 3 * n, static_cast<Eigen::Index>(k))
-          .cast<double>();
-  std::vector<Vec3> points, at_rest, now;
-  if (Status s = ReadFrame(frames[o.neutral], o.neutral, points); !s.ok()) return s;
-  const Similarity neutral =
-      Unposed(m, points, std::vector<Vec3>(kMediaPipeFace, Vec3::Zero()), false, at_rest);
-  // The performer's own gaps at rest (in the rig's frame), and the frame's relative to them: a
-  // frame's gap is its moves' difference plus the rest gap.
-  std::vector<Vec3> rest_gap, rig_gap;
-  for (const LandmarkRig::Gap& g : m.gaps) {
-    rig_gap.push_back(Vec3(m.rest[3 * g.b], m.rest[3 * g.b + 1], m.rest[3 * g.b + 2]) -
-                      Vec3(m.rest[3 * g.a], m.rest[3 * g.a + 1], m.rest[3 * g.a + 2]));
-    rest_gap.push_back(rig_gap.back() + at_rest[g.b] - at_rest[g.a]);
-  }
-  const double ridge = kRidge;
-  const size_t found = static_cast<size_t>(std::count(m.found.begin(), m.found.end(), 1));
-  const float dt = 1.0f / std::max(o.fps, 1e-3f);
+  FaceTracker tracker(m, o);
+  if (Status s = tracker.SetNeutral(frames[o.neutral], o.neutral); !s.ok()) return s;
   Captured out;
-  std::vector<float> w(k, 0.0f);
-  std::vector<OneEuro> filters(k);
-  Eigen::VectorXd target(3 * n);
+  FaceTracker::Frame frame;
   for (size_t f = 0; f < frames.size(); ++f) {
     if (o.stop.stop_requested()) return Cancelled();
-    if (Status s = ReadFrame(frames[f], f, points); !s.ok()) return s;
-    // The head's motion and the face's, in turn: the first fit on the rigid landmarks, then on
-    // all of them with the face solved so far.
-    Similarity pose;
-    std::vector<Vec3> offset = at_rest;
-    for (int round = 0; round < kRounds; ++round) {
-      pose = Unposed(m, points, offset, round > 0, now);
-      for (size_t i = 0; i < n; ++i)
-        target.segment<3>(3 * i) = m.found[i] ? Vec3(now[i] - at_rest[i]) : Vec3::Zero();
-      Eigen::VectorXd b = moves.transpose() * target;
-      for (size_t g = 0; g < m.gaps.size(); ++g) {
-        const LandmarkRig::Gap& gap = m.gaps[g];
-        // The performer's gap's change along it, as a share of their gap, on the rig's.
-        const Vec3 change = rig_gap[g] + now[gap.b] - now[gap.a] - rest_gap[g];
-        const double rest = std::max(rest_gap[g].norm(), 1e-12);
-        const double share = change.dot(rest_gap[g]) / (rest * rest);
-        b += kGapWeight * (gap.length * share) *
-             Eigen::Map<const Eigen::VectorXd>(gap.widen.data(), static_cast<Eigen::Index>(k));
-      }
-      SolveBounded(m, b, ridge, w);
-      Eigen::VectorXd x(k);
-      for (size_t j = 0; j < k; ++j) x[j] = w[j];
-      const Eigen::VectorXd face = moves * x;
-      for (size_t i = 0; i < n; ++i) offset[i] = at_rest[i] + face.segment<3>(3 * i);
-    }
-    Eigen::VectorXd x(k);
-    for (size_t j = 0; j < k; ++j) x[j] = w[j];
-    out.residual.push_back(static_cast<float>(
-        (moves * x - target).norm() / std::sqrt(double(std::max<size_t>(found, 1))) / m.diag));
-    std::vector<float> weights(m.rig_shapes, 0.0f);
-    for (size_t j = 0; j < k; ++j)
-      weights[m.shapes[j]] =
-          std::clamp(filters[j].Step(w[j], dt, o.min_cutoff, o.beta), 0.0f, m.upper[j]);
-    out.weights.push_back(std::move(weights));
-    const Eigen::Quaterniond q(Eigen::Matrix3d(neutral.rotation.transpose() * pose.rotation));
-    out.head.push_back({float(q.x()), float(q.y()), float(q.z()), float(q.w())});
+    if (Status s = tracker.Step(frames[f], f, frame); !s.ok()) return s;
+    out.weights.push_back(frame.weights);
+    out.head.push_back(frame.head);
+    out.residual.push_back(frame.residual);
   }
   out.solve_seconds = CpuSeconds() - cpu0;
   return out;

@@ -408,6 +408,17 @@ constexpr Member kLive[] = {
            "id), kept for later messages; a change of vocabulary starts the weights over",
            "^[a-z0-9][a-z0-9_-]{0,63}$")
         .Example(R"("arkit")"),
+    Schema("landmarks",
+           "A face tracker's frame (alone in its message, with an id at most): {\"scheme\": "
+           "\"mediapipe-478\", \"image\": [w, h], \"points\": [[x, y, z], ...] (468 or 478, "
+           "in the image's pixels), \"neutral\": true (this frame is the performer at rest; "
+           "the first one is)}; the solved weights replace the face's, answered by a frame and "
+           "a weights event",
+           R"({"type": "object", "required": ["points"], "properties": {"scheme": {"enum": )"
+           R"(["mediapipe-478", "mediapipe-468"]}, "image": {"type": "array", "items": )"
+           R"({"type": "integer"}, "minItems": 2, "maxItems": 2}, "points": {"type": "array", )"
+           R"("minItems": 468, "maxItems": 478, "items": {"type": "array", "items": {"type": )"
+           R"("number"}, "minItems": 3, "maxItems": 3}}, "neutral": {"type": "boolean"}}})"),
     Integer("id", "Echoed in the frames and warnings that show this message", 0, 4294967295.0),
     Schema("say", "Speak a text on the face (alone in its message)", "#LiveSay"),
     Boolean("stop", "true: end the speech (alone in its message)"),

@@ -11,10 +11,9 @@ namespace facespace::http {
 
 using nlohmann::json;
 
-namespace {
-
-// "0.8123" rather than 0.81234568357467651: four places show every visible weight.
 double Rounded(float w) { return std::round(static_cast<double>(w) * 1e4) / 1e4; }
+
+namespace {
 
 json KeysJson(const Rig& rig, const derive::Captured& c, float fps) {
   json keys = json::array();

@@ -11,6 +11,7 @@
 #include "facespace/net/framing.h"
 #include "facespace/net/live_hub.h"
 #include "facespace/speech/speech.h"
+#include "live_landmarks.h"
 #include "live_listen.h"
 #include "live_say.h"
 #include "routes.h"
@@ -54,6 +55,7 @@ class FaceSession final : public net::LiveHandler {
       return;
     }
     if (m.contains("listen")) return Listen(m, out);
+    if (m.contains("landmarks")) return Landmarks(m, out);
     if (m.contains("say") || m.contains("stop")) return Speech(m, out);
     json next = state_;
     uint32_t id = last_id_;
@@ -226,6 +228,35 @@ class FaceSession final : public net::LiveHandler {
       Refuse(s, out, "/say");
   }
 
+  // {"landmarks": {"scheme", "image", "points"}, "id": N}: a tracker's frame as the face's weights
+  // (they replace the weights, in the rig's own names), answered by a frame and a weights event.
+  void Landmarks(const json& m, Out& out) {
+    uint32_t id = last_id_;
+    for (auto it = m.begin(); it != m.end(); ++it) {
+      if (it.key() == "id" && it->is_number_unsigned() && it->get<uint64_t>() <= UINT32_MAX)
+        id = it->get<uint32_t>();
+      else if (it.key() != "landmarks")
+        return out.texts.push_back(
+            ErrorEvent("invalid-message", "landmarks go alone in their message, with an id at most",
+                       "/" + it.key().substr(0, 64)));
+    }
+    json weights, head;
+    if (Status s = landmarks_.Feed(ctx_, *rig_, m["landmarks"], stop_.get_token(), weights, head);
+        !s.ok())
+      return Refuse(s, out);
+    json next = state_;
+    next.erase("vocabulary");
+    next["weights"] = weights;
+    if (weights.empty()) next.erase("weights");
+    if (Status s = Show(next); !s.ok()) return Refuse(s, out);
+    state_ = std::move(next);
+    last_id_ = id;
+    out.frame_wanted = true;
+    out.texts.push_back(
+        json{{"event", "weights"}, {"id", id}, {"weights", weights}, {"head", head}}.dump());
+    SayWarnings(out);
+  }
+
   // {"listen": {"rate": 16000, "frames": false}} starts hearing binary audio; {"listen": false}
   // ends it.
   void Listen(const json& m, Out& out) {
@@ -350,6 +381,7 @@ class FaceSession final : public net::LiveHandler {
   std::unique_ptr<LiveListener> listener_;
   std::vector<TimedPhoneme> heard_;  // Phonemes heard and not yet given as visemes.
   bool listen_frames_ = false;
+  LiveLandmarks landmarks_;
   LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
 };
 

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <span>
 #include <stop_token>
 #include <vector>
@@ -34,7 +35,7 @@ struct LandmarkRig {
   std::vector<float> upper;      // Per used shape: its range's top.
   std::vector<uint8_t> found;    // Per landmark: it landed on the rig.
   std::vector<float> rest;       // 3 per landmark: the rig's neutral there.
-  std::vector<float> moves;      // Per used shape, 3 per landmark: its move at weight 1.
+  std::vector<double> moves;     // Per used shape, 3 per landmark: its move at weight 1.
   std::vector<float> rigid;      // Per landmark: its weight in the head's rigid fit.
   // The lids' and lips' gaps (MediaPipe's 159-145, 386-374, 13-14): a performer's gap that closes
   // by half closes the rig's by half, whatever the two faces' eyes and mouths measure. Per gap: its
@@ -68,6 +69,30 @@ struct Captured {
                                             // in the rig's frame, from the neutral's.
   std::vector<float> residual;              // Per frame: mean distance left, of the diag.
   double solve_seconds = 0;                 // CPU time of the frames' solves.
+};
+
+// A performer's frames one at a time (the live socket's, and SolveFrames'): the neutral first,
+// then each frame solved and smoothed with the ones before. Holds `map`, which must outlive it.
+class FaceTracker {
+ public:
+  FaceTracker(const LandmarkRig& map, const CaptureOptions& options);
+  ~FaceTracker();
+  FaceTracker(FaceTracker&&) noexcept;
+  // The performer's face at rest: what differs from the rig's there is their face, no expression.
+  // Errors as SolveFrames' for frame `index`.
+  Status SetNeutral(std::span<const float> frame, size_t index);
+  bool has_neutral() const;
+  struct Frame {
+    std::vector<float> weights;  // One per rig shape.
+    std::array<float, 4> head{0, 0, 0, 1};
+    float residual = 0;
+  };
+  // One frame (after SetNeutral); errors as SolveFrames' for frame `index`.
+  Status Step(std::span<const float> frame, size_t index, Frame& out);
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 // `frames`: per frame 3 x 468 (or 478) numbers, MediaPipe's landmarks in the image's pixels (x
