@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
-#include <nlohmann/json.hpp>
 
 #include "commands/cli.h"
 #include "commands/flags.h"
@@ -146,20 +145,9 @@ int Capture(const std::vector<std::string>& args) {
   auto captured = derive::SolveFrames(map.value(), request->frames, o);
   if (!captured.ok()) return PrintStatus(captured.status()), 2;
   const derive::Captured& c = captured.value();
-  nlohmann::json keys = nlohmann::json::array(), head = nlohmann::json::array();
-  auto rounded = [](float w) { return std::round(static_cast<double>(w) * 1e4) / 1e4; };
-  for (size_t f = 0; f < c.weights.size(); ++f) {
-    nlohmann::json w = nlohmann::json::object();
-    for (size_t k = 0; k < c.weights[f].size(); ++k)
-      if (rounded(c.weights[f][k]) != 0.0) w[rig->shapes[k].name] = rounded(c.weights[f][k]);
-    keys.push_back({{"time", static_cast<double>(f) / request->fps}, {"weights", std::move(w)}});
-    head.push_back({rounded(c.head[f][0]), rounded(c.head[f][1]), rounded(c.head[f][2]),
-                    rounded(c.head[f][3])});
-  }
-  const nlohmann::json body = {{"scheme", "mediapipe-478"},  {"fps", request->fps},
-                               {"frames", c.weights.size()}, {"shapes", map->shapes.size()},
-                               {"keys", std::move(keys)},    {"head", std::move(head)}};
-  if (int rc = WriteResult(out, body.dump() + "\n")) return rc;
+  const std::string answer = evaluator::CaptureAnswerJson(rig.value(), c.weights, c.head,
+                                                          request->fps, map->shapes.size());
+  if (int rc = WriteResult(out, answer + "\n")) return rc;
   std::fprintf(stderr,
                "capture: %zu frames on %zu of the rig's shapes; landmarks registered in %.2f s "
                "CPU, %.3f ms a frame -> %s\n",

@@ -100,10 +100,6 @@ void Solve(std::span<const Column> columns, bool priced, Point& residual, std::s
   }
 }
 
-}  // namespace
-
-namespace {
-
 // What the request asks, in the shared space; a kRig source's shapes that sit nowhere go to this
 // rig's shape of their name (`passed`) or are named as not shown (`unplaced`).
 struct Asked {

@@ -82,4 +82,27 @@ Result<CaptureRequest> ParseCaptureRequest(std::string_view body) {
   return r;
 }
 
+double RoundedWeight(float w) { return std::round(static_cast<double>(w) * 1e4) / 1e4; }
+
+std::string CaptureAnswerJson(const Rig& rig, std::span<const std::vector<float>> weights,
+                              std::span<const std::array<float, 4>> head, float fps,
+                              size_t shapes) {
+  json keys = json::array(), turns = json::array();
+  for (size_t f = 0; f < weights.size(); ++f) {
+    json named = json::object();
+    for (size_t k = 0; k < weights[f].size(); ++k) {
+      if (RoundedWeight(weights[f][k]) != 0.0)
+        named[rig.shapes[k].name] = RoundedWeight(weights[f][k]);
+    }
+    keys.push_back({{"time", static_cast<double>(f) / fps}, {"weights", std::move(named)}});
+  }
+  for (const auto& q : head)
+    turns.push_back(
+        {RoundedWeight(q[0]), RoundedWeight(q[1]), RoundedWeight(q[2]), RoundedWeight(q[3])});
+  return json{{"scheme", "mediapipe-478"}, {"fps", fps},
+              {"frames", weights.size()},  {"shapes", shapes},
+              {"keys", std::move(keys)},   {"head", std::move(turns)}}
+      .dump();
+}
+
 }  // namespace facespace::evaluator

@@ -9,26 +9,6 @@
 
 namespace facespace::http {
 
-using nlohmann::json;
-
-double Rounded(float w) { return std::round(static_cast<double>(w) * 1e4) / 1e4; }
-
-namespace {
-
-json KeysJson(const Rig& rig, const derive::Captured& c, float fps) {
-  json keys = json::array();
-  for (size_t f = 0; f < c.weights.size(); ++f) {
-    json weights = json::object();
-    for (size_t k = 0; k < c.weights[f].size(); ++k) {
-      if (Rounded(c.weights[f][k]) != 0.0) weights[rig.shapes[k].name] = Rounded(c.weights[f][k]);
-    }
-    keys.push_back({{"time", static_cast<double>(f) / fps}, {"weights", std::move(weights)}});
-  }
-  return keys;
-}
-
-}  // namespace
-
 void PostCapture(ServerState& ctx, const httplib::Request& req, httplib::Response& res) {
   auto stored = FindRig(ctx, req, res, req.matches[1]);
   evaluator::CaptureRequest r;
@@ -55,15 +35,6 @@ void PostCapture(ServerState& ctx, const httplib::Request& req, httplib::Respons
   auto captured = derive::SolveFrames(*map.value(), r.frames, o);
   if (!captured.ok()) return SendStatus(req, res, captured.status());
   const derive::Captured& c = captured.value();
-  json head = json::array();
-  for (const auto& q : c.head)
-    head.push_back({Rounded(q[0]), Rounded(q[1]), Rounded(q[2]), Rounded(q[3])});
-  const json body = {{"scheme", "mediapipe-478"},
-                     {"fps", r.fps},
-                     {"frames", r.frames.size()},
-                     {"shapes", map.value()->shapes.size()},
-                     {"keys", KeysJson(stored->rig, c, r.fps)},
-                     {"head", std::move(head)}};
   char timing[160];
   std::snprintf(timing, sizeof timing,
                 "solve;dur=%.3f;desc=\"per frame\", register;dur=%.1f;desc=\"%s\"",
@@ -71,7 +42,9 @@ void PostCapture(ServerState& ctx, const httplib::Request& req, httplib::Respons
                 registered ? 0.0 : register_ms, registered ? "kept" : "landmarks onto the rig");
   res.set_header("Server-Timing", timing);
   res.status = 200;
-  res.set_content(body.dump(), "application/json");
+  res.set_content(evaluator::CaptureAnswerJson(stored->rig, c.weights, c.head, r.fps,
+                                               map.value()->shapes.size()),
+                  "application/json");
 }
 
 }  // namespace facespace::http

@@ -69,10 +69,10 @@ Status LiveLandmarks::Feed(ServerState& ctx, const evaluator::StoredRig& rig, co
   if (Status f = tracker_->Step(points, frames_++, frame); !f.ok()) return f;
   weights = json::object();
   for (size_t k = 0; k < frame.weights.size(); ++k)
-    if (Rounded(frame.weights[k]) != 0.0)
-      weights[rig.rig.shapes[k].name] = Rounded(frame.weights[k]);
-  head = {Rounded(frame.head[0]), Rounded(frame.head[1]), Rounded(frame.head[2]),
-          Rounded(frame.head[3])};
+    if (evaluator::RoundedWeight(frame.weights[k]) != 0.0)
+      weights[rig.rig.shapes[k].name] = evaluator::RoundedWeight(frame.weights[k]);
+  head = {evaluator::RoundedWeight(frame.head[0]), evaluator::RoundedWeight(frame.head[1]),
+          evaluator::RoundedWeight(frame.head[2]), evaluator::RoundedWeight(frame.head[3])};
   return Status::Ok();
 }
 

@@ -57,9 +57,6 @@ void GetVoices(ServerState&, const httplib::Request&, httplib::Response&);
 void GetLive(ServerState&, const httplib::Request&, httplib::Response&);
 // routes/capture.cpp
 void PostCapture(ServerState&, const httplib::Request&, httplib::Response&);
-// A solved weight as captures answer it: "0.8123" rather than 0.81234568357467651, four places
-// show every visible weight.
-double Rounded(float w);
 // routes/derive.cpp
 void PostDerive(ServerState&, const httplib::Request&, httplib::Response&);
 // A derive job as GET /v1/jobs/{id} shows it.

@@ -246,6 +246,15 @@ struct CaptureRequest {
 inline constexpr size_t kMaxCaptureFrames = 3600;  // Two minutes at 30 a second.
 Result<CaptureRequest> ParseCaptureRequest(std::string_view body);
 
+// A solved weight as captures answer it: 0.8123 rather than 0.81234568357467651 (four places show
+// every visible weight; below them, 0).
+double RoundedWeight(float w);
+// A capture's answer (the route's and `facespace capture`'s): {"scheme", "fps", "frames",
+// "shapes", "keys": [{"time", "weights": {NAME: w, ...}}], "head": [[x, y, z, w], ...]}, per frame
+// its weights (one per rig shape, the non-zero ones by name) and the head's turn.
+std::string CaptureAnswerJson(const Rig& rig, std::span<const std::vector<float>> weights,
+                              std::span<const std::array<float, 4>> head, float fps, size_t shapes);
+
 // Body of POST /v1/rigs/{id}/batch, and the batch.json that `facespace batch` keeps in its
 // output folder:
 // {"variants": [{"id": "a", "weights": {...}|[...]}, ...]            an explicit list, or
