@@ -1,5 +1,6 @@
 // facespace serve: configuration (flags, then environment, then defaults), the rig store,
 // the HTTP server and graceful shutdown.
+#include <arpa/inet.h>
 #include <malloc.h>
 #include <pthread.h>
 #include <signal.h>
@@ -91,6 +92,15 @@ bool MakeApiOptions(const ServeConfig& c, http::ApiOptions& options) {
   options.max_live_sessions = c.max_live_sessions;
   options.max_client_live_sessions = c.max_client_live_sessions;
   options.live_seconds = c.live_seconds;
+  for (const std::string& h : c.vmc_hosts) {
+    in_addr a{};
+    if (inet_pton(AF_INET, h.c_str(), &a) != 1) {
+      std::fprintf(stderr, "facespace: --vmc-hosts takes IPv4 addresses, not '%s'\n",
+                   h.substr(0, 64).c_str());
+      return false;
+    }
+  }
+  options.vmc_hosts = c.vmc_hosts;
 
   return true;
 }

@@ -49,6 +49,19 @@ void SplitOrigins(ServeConfig& c, const std::string& s) {
   }
 }
 
+void SplitHosts(ServeConfig& c, const std::string& s) {
+  size_t start = 0;
+  while (start <= s.size()) {
+    size_t end = s.find(',', start);
+    if (end == std::string::npos) end = s.size();
+    std::string h = s.substr(start, end - start);
+    while (!h.empty() && h.front() == ' ') h.erase(0, 1);
+    while (!h.empty() && h.back() == ' ') h.pop_back();
+    if (!h.empty()) c.vmc_hosts.push_back(h);
+    start = end + 1;
+  }
+}
+
 const Setting kSettings[] = {
     {"rigs", "DIR",
      "rigs to serve (.glb/.gltf/... files and folders; default: the bundled ones, read-only)", 0, 0,
@@ -90,6 +103,10 @@ const Setting kSettings[] = {
     {"cors-origin", "ORIGIN",
      "a browser origin allowed, or * (repeatable; comma-separated in the environment)", 0, 0, false,
      nullptr, nullptr, SplitOrigins},
+    {"vmc-hosts", "ADDRESSES",
+     "IPv4 addresses beside this machine's that live sessions may send VMC to and read VMC and "
+     "iFacialMocap from (comma-separated, repeatable; default: loopback only)",
+     0, 0, false, nullptr, nullptr, SplitHosts},
     {"cache-mb", "MB", "response cache", 0, 1 << 20, false, FS_FIELD(cache_mb)},
     {"max-render", "PIXELS", "largest render width or height", 16, 8192, false,
      FS_FIELD(max_render)},

@@ -34,6 +34,7 @@ struct ServeConfig {
   size_t max_response = size_t{64} << 20;
   size_t max_frames = 100000;
   std::vector<std::string> cors_origins;
+  std::vector<std::string> vmc_hosts;  // Beside loopback, for VMC and iFacialMocap (IPv4).
   bool quiet = false;
   size_t max_vertices = 1000000;  // Per uploaded rig.
   size_t max_shapes = 1024;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 
@@ -191,6 +193,48 @@ TEST(Retarget, ErrorsNameTheirEntry) {
                             out, warnings);
   ASSERT_FALSE(unknown.ok());
   EXPECT_EQ(unknown.fields[0].pointer, "/weights/い");
+}
+
+// The other way (VMC out): a rig's weights in ARKit's 52, then as VRM's presets.
+TEST(Retarget, WeightsGoOutAsArkitAndPresets) {
+  const Rig rig = Named({"jawOpen", "あ", "whatever", "eyeBlink_L"});
+  const auto places = ShapePlaces(rig);
+  ASSERT_EQ(places.size(), 4u);
+  EXPECT_TRUE(places[2].empty());
+  std::array<float, kArkitAxes> arkit;
+  const float w[] = {0.1f, 0.5f, 1.0f, 2.0f};
+  ArkitOfWeights(places, w, arkit);
+  auto axis = [](std::string_view name) {
+    return std::find(std::begin(kArkitNames), std::end(kArkitNames), name) -
+           std::begin(kArkitNames);
+  };
+  EXPECT_NEAR(arkit[axis("jawOpen")], 0.1 + 0.5 * 0.8, 1e-6);  // jawOpen, and あ's 0.8 of it.
+  EXPECT_NEAR(arkit[axis("mouthLowerDownLeft")], 0.5 * 0.3, 1e-6);
+  EXPECT_EQ(arkit[axis("eyeBlinkLeft")], 1.0f);  // 2 full blinks clamped to 1.
+  EXPECT_EQ(arkit[axis("eyeBlinkRight")], 0.0f);
+
+  // One eye shut is blinkLeft, both are blink (one preset, not its two sides); aa's own place is
+  // aa.
+  std::array<float, std::size(kExpressionPresets)> presets;
+  auto preset = [&](std::string_view name) {
+    return presets[std::find(std::begin(kExpressionPresets), std::end(kExpressionPresets), name) -
+                   std::begin(kExpressionPresets)];
+  };
+  PresetsOfArkit(arkit, presets);
+  EXPECT_NEAR(preset("blinkLeft"), 1.0, 1e-3);
+  EXPECT_EQ(preset("blink"), 0.0f);
+  // The jaw at 0.5 and the lower lip at 0.15 are aa (jaw 0.8, lip 0.3) at (0.8 x 0.5 + 2 x 0.3 x
+  // 0.15) / (0.8^2 + 2 x 0.3^2) = 0.598 by least squares, a little less for its price.
+  EXPECT_NEAR(preset("aa"), 0.598, 0.02);
+  std::array<float, kArkitAxes> both{};
+  both[axis("eyeBlinkLeft")] = both[axis("eyeBlinkRight")] = 1.0f;
+  PresetsOfArkit(both, presets);
+  EXPECT_NEAR(preset("blink"), 1.0, 1e-3);
+  EXPECT_EQ(preset("blinkLeft"), 0.0f);
+  EXPECT_EQ(preset("neutral"), 0.0f);
+  std::array<float, kArkitAxes> none{};
+  PresetsOfArkit(none, presets);
+  EXPECT_TRUE(std::all_of(presets.begin(), presets.end(), [](float v) { return v == 0.0f; }));
 }
 
 }  // namespace retarget_test

@@ -8,7 +8,7 @@ build=$1; budget=$2
 src=$(cd "$(dirname "$0")/../.." && pwd)
 shared=${3:-$src/../shared/assets}
 corpus=$build/corpus
-targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech fuzz_live fuzz_made"
+targets="fuzz_gltf fuzz_obj fuzz_md5 fuzz_fbx fuzz_dae fuzz_pmx fuzz_vmd fuzz_request fuzz_http fuzz_speech fuzz_live fuzz_made fuzz_mocap"
 for t in $targets; do mkdir -p "$corpus/$t"; done
 set -- $targets
 seconds=$((budget / $#)); [ $seconds -ge 10 ] || seconds=10
@@ -102,6 +102,19 @@ fi
 # Live: the RFC's masked "Hello", a 16-bit length and a fragmented message with a ping between (cap byte first).
 printf '\1\x81\x85\x37\xfa\x21\x3d\x7f\x9f\x4d\x51\x58' >"$corpus/fuzz_live/hello"
 printf '\1\x01\x82\0\0\0\0{"\x89\x80\0\0\0\0\x80\x81\0\0\0\0}' >"$corpus/fuzz_live/fragments"
+# Datagrams (issue 64): a VMC bundle of a blend and its Apply as VSeeFace sends it, and an iPhone's iFacialMocap line.
+python3 - "$corpus/fuzz_mocap" <<'PY'
+import os, struct, sys
+def s(x): x = x.encode() + b"\0"; return x + b"\0" * (-len(x) % 4)
+val = s("/VMC/Ext/Blend/Val") + s(",sf") + s("Blink_L") + struct.pack(">f", 0.5)
+apply = s("/VMC/Ext/Blend/Apply") + s(",")
+bone = s("/VMC/Ext/Bone/Pos") + s(",sfffffff") + s("Head") + struct.pack(">7f", 0, 1.4, 0, 0, 0, 0, 1)
+bundle = b"#bundle\0" + struct.pack(">II", 0, 1) + b"".join(struct.pack(">I", len(m)) + m for m in (val, bone, apply))
+open(os.path.join(sys.argv[1], "vmc"), "wb").write(b"\0" + bundle)
+open(os.path.join(sys.argv[1], "blob"), "wb").write(b"\0" + s("/b") + s(",bTNhd") + struct.pack(">I", 3) + b"xyz\0" + b"\0" * 16)
+line = b"mouthSmile_R-35|eyeBlink_L-100|jawOpen&12.5|=head#-21.4,-6.0,-6.6,-0.03,-0.1,-0.65|rightEye#6.0,2.4,0.2|leftEye#6.0,-1.6,-0.1|"
+open(os.path.join(sys.argv[1], "ifacialmocap"), "wb").write(b"\1" + line)
+PY
 # A maker's messages (api/batch/src/maker.h): a tar sample, a folder variant of two files, a maker's error.
 python3 - "$corpus/fuzz_made" <<'PY'
 import os, struct, sys

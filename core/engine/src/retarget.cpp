@@ -212,5 +212,40 @@ Status Retarget(const Rig& rig, const RetargetSource& from, std::span<const Weig
   return Status::Ok();
 }
 
+std::vector<std::span<const AxisTerm>> ShapePlaces(const Rig& rig) {
+  std::vector<std::span<const AxisTerm>> places;
+  places.reserve(rig.shapes.size());
+  for (const Shape& s : rig.shapes) places.push_back(PlaceOfShape(s));
+  return places;
+}
+
+void ArkitOfWeights(std::span<const std::span<const AxisTerm>> places,
+                    std::span<const float> weights, std::span<float, kArkitAxes> out) {
+  Point p{};
+  const size_t n = std::min(places.size(), weights.size());
+  for (size_t k = 0; k < n; ++k) {
+    if (weights[k] != 0.0f) Add(places[k], weights[k], p);
+  }
+  for (int i = 0; i < kArkitAxes; ++i) out[i] = std::clamp(p[i], 0.0f, 1.0f);
+}
+
+void PresetsOfArkit(std::span<const float, kArkitAxes> arkit, std::span<float> out) {
+  constexpr size_t kPresets = std::size(kExpressionPresets);
+  std::array<Column, kPresets> columns;  // Fixed: called once a frame.
+  size_t n = 0;
+  for (uint32_t k = 0; k < kPresets && k < out.size(); ++k) {
+    const auto terms = Place(Vocabulary::kVrm, kExpressionPresets[k]);
+    if (!terms.empty()) columns[n++] = {k, true, 1.0f, kIndirectCost, terms};
+  }
+  Point residual;
+  std::copy(arkit.begin(), arkit.end(), residual.begin());
+  std::array<float, kPresets> w{};
+  const std::span<const Column> used(columns.data(), n);
+  Solve(used, true, residual, std::span<float>(w.data(), n));
+  Solve(used, false, residual, std::span<float>(w.data(), n));
+  std::fill(out.begin(), out.end(), 0.0f);
+  for (size_t k = 0; k < n; ++k) out[columns[k].target] = w[k] > 1e-4f ? w[k] : 0.0f;
+}
+
 }  // namespace engine
 }  // namespace facespace

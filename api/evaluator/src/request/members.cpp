@@ -426,6 +426,21 @@ constexpr Member kLive[] = {
            "Hear 16 kHz 16-bit mono PCM sent as binary messages, lip-synced (alone in its "
            "message); false ends it",
            R"({"oneOf": [{"$ref": "#/components/schemas/LiveListen"}, {"const": false}]})"),
+    Schema("vmc",
+           "Send each frame's face to a VMC receiver (VSeeFace, Warudo...): ARKit's 52 and VRM "
+           "0.x's presets as /VMC/Ext/Blend/Val, then Apply (alone in its message; at most 4 "
+           "receivers); false stops sending",
+           R"({"oneOf": [{"$ref": "#/components/schemas/LiveVmc"}, {"const": false}]})")
+        .Example(R"({"port": 39539})"),
+    Schema("listen_vmc",
+           "Let a VMC sender drive the face: its blends (ARKit names, else VRM presets) at each "
+           "Apply, through the vocabulary they name (alone in its message); false closes the port",
+           R"({"oneOf": [{"$ref": "#/components/schemas/LiveInlet"}, {"const": false}]})"),
+    Schema("listen_ifacialmocap",
+           "Let iFacialMocap (an iPhone's ARKit tracking, UDP text) drive the face (alone in its "
+           "message); false closes the port",
+           R"({"oneOf": [{"$ref": "#/components/schemas/LiveInlet"}, {"const": false}]})")
+        .Example(R"({"port": 49983})"),
 };
 constexpr Member kLiveSay[] = {
     String("text", "What to say").Required(),
@@ -436,6 +451,22 @@ constexpr Member kLiveListen[] = {
     Integer("rate", "Samples a second of the audio sent: 16000 only", 16000, 16000)
         .Default("16000"),
     Boolean("frames", "Send the face's frames as the audio is heard").Default("false"),
+};
+
+constexpr Member kLiveVmc[] = {
+    Integer("port", "The receiver's UDP port (VMC's own: 39539)", 1, 65535).Required(),
+    String("host",
+           "The receiver's IPv4 address: this machine, or one the operator allows (serve "
+           "--vmc-hosts)")
+        .Default(R"("127.0.0.1")"),
+};
+constexpr Member kLiveInlet[] = {
+    Integer("port",
+            "The UDP port to listen on: 1024-65535, or 0 for any free one (the start event says "
+            "which)",
+            0, 65535)
+        .Required()
+        .Example("49983"),
 };
 
 struct Table {
@@ -547,6 +578,8 @@ std::vector<Table> MakeTables() {
       kLive);
   add(Body::kLiveSay, "LiveSay", "Text the live face speaks", kLiveSay);
   add(Body::kLiveListen, "LiveListen", "Audio the live face hears and lip-syncs", kLiveListen);
+  add(Body::kLiveVmc, "LiveVmc", "A VMC receiver the live face's frames go to", kLiveVmc);
+  add(Body::kLiveInlet, "LiveInlet", "A UDP port a face tracking app streams to", kLiveInlet);
   return t;
 }
 

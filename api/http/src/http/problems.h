@@ -75,6 +75,9 @@ enum class Problem : uint8_t {
   kTranscriptTooLong,
   kAudioTooLong,
   kAudioTooFast,
+  kHostNotAllowed,
+  kTooManyTargets,
+  kPortInUse,
   kOverBudget,
   // The state of things.
   kReadOnly,

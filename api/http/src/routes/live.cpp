@@ -3,16 +3,21 @@
 // current point as the mesh route reads them); each change is answered by one binary message, a
 // 16-byte header then the same bytes as GET /mesh?format=f32 for that point, at most 60 a second
 // (the hub coalesces).
+#include <array>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "../http/cost.h"
 #include "../http/problem.h"
+#include "facespace/engine/face.h"
+#include "facespace/engine/retarget.h"
 #include "facespace/evaluator/members.h"
 #include "facespace/net/framing.h"
 #include "facespace/net/live_hub.h"
 #include "facespace/speech/speech.h"
 #include "live_landmarks.h"
 #include "live_listen.h"
+#include "live_mocap.h"
 #include "live_say.h"
 #include "routes.h"
 
@@ -55,6 +60,9 @@ class FaceSession final : public net::LiveHandler {
       return;
     }
     if (m.contains("listen")) return Listen(m, out);
+    if (m.contains("vmc")) return Vmc(m, out);
+    if (m.contains("listen_vmc")) return ListenMocap(MocapProtocol::kVmc, m, out);
+    if (m.contains("listen_ifacialmocap")) return ListenMocap(MocapProtocol::kIFacialMocap, m, out);
     if (m.contains("landmarks")) return Landmarks(m, out);
     if (m.contains("say") || m.contains("stop")) return Speech(m, out);
     json next = state_;
@@ -128,6 +136,7 @@ class FaceSession final : public net::LiveHandler {
 
   // What the listener's thread heard since the last turn: visemes (and mouth frames); its end.
   void Poll(Out& out) override {
+    PollMocap(out);
     if (!listener_) return;
     if (Status s = listener_->Take(heard_); !s.ok()) Refuse(s, out);
     if (!listener_->Ended()) return SayHeard(false, out);
@@ -145,7 +154,9 @@ class FaceSession final : public net::LiveHandler {
   }
 
   double TakeHelperCpu() override {
-    return (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu();
+    double cpu = (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu();
+    for (const auto& inlet : inlets_) cpu += inlet->TakeCpu();
+    return cpu;
   }
 
   bool MakeFrame(std::string& message, Out& out) override {
@@ -166,6 +177,7 @@ class FaceSession final : public net::LiveHandler {
     PutU32(message, last_id_);
     PutU32(message, 0);
     message.append(pieces[0]).append(pieces[1]);
+    if (vmc_) vmc_->Send(point_.weights);  // The same face to the VTubers' apps.
     return true;
   }
 
@@ -178,10 +190,12 @@ class FaceSession final : public net::LiveHandler {
     speaker_.Stop();
     std::lock_guard<std::mutex> lock(listener_mu_);
     if (listener_) listener_->Cancel();
+    for (const auto& inlet : inlets_) inlet->Cancel();
   }
   void End() override {
     speaker_.Close();
     DropListener();  // Its thread joined (stopped by Cancel).
+    CloseInlets(std::nullopt);
   }
 
  private:
@@ -255,6 +269,147 @@ class FaceSession final : public net::LiveHandler {
     out.texts.push_back(
         json{{"event", "weights"}, {"id", id}, {"weights", weights}, {"head", head}}.dump());
     SayWarnings(out);
+  }
+
+  // {"vmc": {"port": 39539, "host": "127.0.0.1"}} adds a receiver of the frames' faces; {"vmc":
+  // false} stops sending.
+  void Vmc(const json& m, Out& out) {
+    const json& v = m["vmc"];
+    if (m.size() != 1)
+      return out.texts.push_back(
+          ErrorEvent("invalid-message", "vmc goes alone in its message", "/vmc"));
+    if (v == false) {
+      vmc_.reset();
+      return out.texts.push_back(json{{"event", "vmc"}, {"state", "stopped"}}.dump());
+    }
+    if (!v.is_object() || !v.contains("port"))
+      return out.texts.push_back(ErrorEvent(
+          "invalid-message", "vmc is {\"port\": 39539, \"host\": \"127.0.0.1\"} or false", "/vmc"));
+    Status errors = Status::Ok();
+    evaluator::RefuseUnknown(v, "/vmc", evaluator::Body::kLiveVmc, errors);
+    double port = 0;
+    evaluator::ReadNumber(evaluator::Body::kLiveVmc, "port", v["port"], "/vmc/port", &port, errors);
+    const json host = v.value("host", json("127.0.0.1"));
+    if (!host.is_string()) errors.AddField("/vmc/host", "host is a string, as 127.0.0.1");
+    if (!errors.fields.empty()) return Refuse(Fielded(std::move(errors)), out);
+    const std::string h = host.get<std::string>();
+    if (Status s = CheckMocapHost(h, ctx_.options.vmc_hosts, "/vmc/host"); !s.ok())
+      return Refuse(s, out);
+    if (!vmc_) vmc_ = std::make_unique<VmcSender>(rig_->rig);
+    if (Status s = vmc_->Add(h, static_cast<int>(port)); !s.ok()) return Refuse(s, out);
+    out.texts.push_back(json{
+        {"event", "vmc"},
+        {"state", "sending"},
+        {"host", h},
+        {"port", static_cast<int>(port)},
+        {"targets",
+         vmc_->targets()}}.dump());
+    out.frame_wanted = true;  // The face as it is, to the new receiver.
+  }
+
+  // {"listen_vmc": {"port": P}} or {"listen_ifacialmocap": ...} opens a UDP port whose datagrams
+  // drive the face; false closes this protocol's ports.
+  void ListenMocap(MocapProtocol protocol, const json& m, Out& out) {
+    const std::string member(MocapMember(protocol)), where = "/" + member;
+    const json& v = m[member];
+    if (m.size() != 1)
+      return out.texts.push_back(
+          ErrorEvent("invalid-message", member + " goes alone in its message", where));
+    if (v == false) {
+      MocapInlet::Counts n;
+      for (const auto& inlet : inlets_) {
+        if (inlet->protocol() != protocol) continue;
+        const MocapInlet::Counts c = inlet->counts();
+        n.packets += c.packets;
+        n.dropped += c.dropped;
+        n.malformed += c.malformed;
+      }
+      CloseInlets(protocol);
+      return out.texts.push_back(json{
+          {"event", member},
+          {"state", "end"},
+          {"packets", n.packets},
+          {"dropped", n.dropped},
+          {"malformed", n.malformed}}.dump());
+    }
+    if (!v.is_object() || !v.contains("port"))
+      return out.texts.push_back(
+          ErrorEvent("invalid-message", member + " is {\"port\": N} or false", where));
+    Status errors = Status::Ok();
+    evaluator::RefuseUnknown(v, where, evaluator::Body::kLiveInlet, errors);
+    double port = 0;
+    if (evaluator::ReadNumber(evaluator::Body::kLiveInlet, "port", v["port"], where + "/port",
+                              &port, errors) &&
+        port > 0 && port < 1024)
+      errors.AddField(where + "/port", "a port from 1024 to 65535, or 0 for any free one");
+    if (!errors.fields.empty()) return Refuse(Fielded(std::move(errors)), out);
+    if (inlets_.size() >= kMaxInlets)
+      return out.texts.push_back(ErrorEvent(
+          "too-many-ports", "a session listens on at most 4 ports; false closes them", where));
+    auto opened = MocapInlet::Open(protocol, static_cast<int>(port), ctx_.options.vmc_hosts, wake_);
+    if (!opened.ok()) return Refuse(opened.status(), out);
+    const int bound = opened.value()->port();
+    {
+      std::lock_guard<std::mutex> lock(listener_mu_);
+      inlets_.push_back(std::move(opened.value()));
+    }
+    out.texts.push_back(json{{"event", member}, {"state", "start"}, {"port", bound}}.dump());
+  }
+
+  // The inlets of `protocol` (all without one) closed, their threads joined outside the lock.
+  void CloseInlets(std::optional<MocapProtocol> protocol) {
+    std::vector<std::unique_ptr<MocapInlet>> closing;
+    std::lock_guard<std::mutex> lock(listener_mu_);
+    for (auto& inlet : inlets_) {
+      if (!protocol || inlet->protocol() == *protocol) closing.push_back(std::move(inlet));
+    }
+    std::erase(inlets_, nullptr);
+  }
+
+  // Each inlet's newest face as the face's weights in ARKit's names: its ARKit values and its VRM
+  // presets' places (vocabulary.cpp's tables), the larger on each axis, so a sender of both
+  // (perfect sync beside the presets made from it) does not count a blink twice.
+  void PollMocap(Out& out) {
+    for (const auto& inlet : inlets_) {
+      if (!inlet->Take(mocap_)) continue;
+      const std::string where = "/" + std::string(MocapMember(inlet->protocol()));
+      if (!mocap_.error.empty())
+        out.texts.push_back(
+            ErrorEvent("malformed-datagram",
+                       "port " + std::to_string(inlet->port()) + ": " + mocap_.error, where));
+      if (!mocap_.fresh) continue;
+      std::array<float, kArkitAxes> point{};
+      json unknown = json::array();
+      for (const auto& [name, value] : mocap_.values) {
+        auto terms = Place(Vocabulary::kArkit, name);
+        if (terms.empty()) terms = Place(Vocabulary::kVrm, PresetOfVmcName(name));
+        if (terms.empty() && unknown.size() < 8 && PresetOfVmcName(name).empty())
+          unknown.push_back(name);
+        for (const AxisTerm& t : terms) point[t.axis] = std::max(point[t.axis], value * t.amount);
+      }
+      if (unknown != last_unknown_) {
+        out.texts.push_back(json{
+            {"event", "mocap"},
+            {"source", where.substr(1)},
+            {"port", inlet->port()},
+            {"unknown",
+             unknown}}.dump());
+        last_unknown_ = unknown;
+      }
+      json next = state_, weights = json::object();
+      for (int a = 0; a < kArkitAxes; ++a) {
+        if (point[a] > 0.0f) weights[std::string(kArkitNames[a])] = point[a];
+      }
+      next["vocabulary"] = "arkit";
+      next["weights"] = std::move(weights);
+      if (Status s = Show(next); !s.ok()) {
+        Refuse(s, out, where);
+        continue;
+      }
+      state_ = std::move(next);
+      out.frame_wanted = true;
+      SayWarnings(out);
+    }
   }
 
   // {"listen": {"rate": 16000, "frames": false}} starts hearing binary audio; {"listen": false}
@@ -345,6 +500,13 @@ class FaceSession final : public net::LiveHandler {
     return Status::Ok();
   }
 
+  // The fields a member table's reader listed as one status, worded by the first.
+  static Status Fielded(Status s) {
+    s.code = StatusCode::kInvalidArgument;
+    s.message = s.fields[0].message;
+    return s;
+  }
+
   // A status as an error event, at its first field's pointer, else at `where`.
   void Refuse(const Status& s, Out& out, const std::string& where = "") {
     out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message,
@@ -382,6 +544,12 @@ class FaceSession final : public net::LiveHandler {
   std::vector<TimedPhoneme> heard_;  // Phonemes heard and not yet given as visemes.
   bool listen_frames_ = false;
   LiveLandmarks landmarks_;
+  // VMC out, and the UDP ports listened on (set by turns under listener_mu_, as the listener).
+  static constexpr size_t kMaxInlets = 4;
+  std::unique_ptr<VmcSender> vmc_;
+  std::vector<std::unique_ptr<MocapInlet>> inlets_;
+  MocapFrame mocap_;
+  json last_unknown_ = json::array();
   LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
 };
 

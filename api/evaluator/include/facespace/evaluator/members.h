@@ -109,14 +109,16 @@ enum class Body : unsigned char {
   kLive,        // A text message of the live socket (GET /v1/rigs/{id}/live).
   kLiveSay,     // Its "say".
   kLiveListen,  // Its "listen".
+  kLiveVmc,     // Its "vmc": a VMC receiver.
+  kLiveInlet,   // Its "listen_vmc" and "listen_ifacialmocap": a UDP port.
 };
 inline constexpr Body kBodies[] = {
-    Body::kMesh,      Body::kRender,    Body::kSheet,     Body::kSequence, Body::kBatch,
-    Body::kFit,       Body::kSpeech,    Body::kDerive,    Body::kCapture,  Body::kCamera,
-    Body::kLight,     Body::kGaze,      Body::kGazeTrack, Body::kGazeKey,  Body::kBlink,
-    Body::kJoint,     Body::kBlendClip, Body::kLayer,     Body::kKey,      Body::kCell,
-    Body::kVariant,   Body::kSample,    Body::kRandomize, Body::kLive,     Body::kLiveSay,
-    Body::kLiveListen};
+    Body::kMesh,       Body::kRender,    Body::kSheet,     Body::kSequence, Body::kBatch,
+    Body::kFit,        Body::kSpeech,    Body::kDerive,    Body::kCapture,  Body::kCamera,
+    Body::kLight,      Body::kGaze,      Body::kGazeTrack, Body::kGazeKey,  Body::kBlink,
+    Body::kJoint,      Body::kBlendClip, Body::kLayer,     Body::kKey,      Body::kCell,
+    Body::kVariant,    Body::kSample,    Body::kRandomize, Body::kLive,     Body::kLiveSay,
+    Body::kLiveListen, Body::kLiveVmc,   Body::kLiveInlet};
 
 // The members `body` takes, in the order the document lists them.
 std::span<const Member> Members(Body body);

@@ -48,6 +48,9 @@ struct ApiOptions {
   size_t max_client_live_sessions = 128;
   int live_seconds = 3600;
   int keyed_live_seconds = 86400;
+  // IPv4 addresses beside this machine's that live sessions may send VMC to and read VMC and
+  // iFacialMocap from (serve --vmc-hosts); empty: loopback only.
+  std::vector<std::string> vmc_hosts;
 };
 
 // The routes (api/http/src/http/route_table.cpp) over a store, an evaluator and a job queue that

@@ -70,5 +70,18 @@ struct Retargeted {
 Status Retarget(const Rig& rig, const RetargetSource& from, std::span<const WeightEntry> entries,
                 Retargeted& out, std::vector<Warning>& warnings);
 
+// The other way (issue 64: a rig's face sent to the apps VTubers use, in ARKit's names and VRM's
+// presets). Each shape's place in the shared space (empty where its name sits nowhere), looked up
+// once: the names are hashed.
+std::vector<std::span<const AxisTerm>> ShapePlaces(const Rig& rig);
+// The rig's weights (one a shape) as a point of the shared space: each shape's place times its
+// weight, summed, each axis clamped to [0, 1].
+void ArkitOfWeights(std::span<const std::span<const AxisTerm>> places,
+                    std::span<const float> weights, std::span<float, kArkitAxes> out);
+// A point of the shared space as VRM's presets (kExpressionPresets' order, neutral always 0): their
+// weights in [0, 1] that come closest, each priced alike (Retarget's solve), so blink is one
+// preset, not its two sides.
+void PresetsOfArkit(std::span<const float, kArkitAxes> arkit, std::span<float> out);
+
 }  // namespace engine
 }  // namespace facespace

@@ -1,0 +1,340 @@
+#include "live_mocap.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+
+#include "facespace/engine/cpu.h"
+#include "facespace/engine/face.h"
+#include "facespace/net/mocap.h"
+
+namespace facespace::http {
+
+namespace {
+
+// VRM 0.x's preset names as VMC sends them, in kExpressionPresets' order.
+constexpr std::string_view kVmcPresets[] = {
+    "Joy",     "Angry",  "Sorrow",   "Fun",      "Surprised", "A",
+    "I",       "U",      "E",        "O",        "Blink",     "Blink_L",
+    "Blink_R", "LookUp", "LookDown", "LookLeft", "LookRight", "Neutral"};
+static_assert(std::size(kVmcPresets) == std::size(kExpressionPresets));
+
+constexpr std::string_view kBlendVal = "/VMC/Ext/Blend/Val";
+constexpr std::string_view kBlendApply = "/VMC/Ext/Blend/Apply";
+
+std::atomic<size_t> inlets_open{0};
+
+bool ParseIpv4(const std::string& host, in_addr& out) {
+  return inet_pton(AF_INET, host.c_str(), &out) == 1;
+}
+
+bool IsLoopback(uint32_t network_order) { return (ntohl(network_order) >> 24) == 127; }
+
+}  // namespace
+
+Status CheckMocapHost(const std::string& host, std::span<const std::string> allowed,
+                      const std::string& pointer) {
+  in_addr a{};
+  if (!ParseIpv4(host, a))
+    return InvalidField(pointer, "host is an IPv4 address, as 127.0.0.1 (names are not looked up)");
+  if (IsLoopback(a.s_addr) || std::find(allowed.begin(), allowed.end(), host) != allowed.end())
+    return Status::Ok();
+  return WithReason(
+      InvalidField(pointer,
+                   "this server talks VMC and iFacialMocap with this machine only; its "
+                   "operator allows other hosts with serve --vmc-hosts"),
+      "host-not-allowed");
+}
+
+// ---- out ----
+
+VmcSender::VmcSender(const Rig& rig) : places_(ShapePlaces(rig)) {}
+
+VmcSender::~VmcSender() {
+  for (int fd : fds_) close(fd);
+}
+
+Status VmcSender::Add(const std::string& host, int port) {
+  if (fds_.size() >= kMaxTargets)
+    return WithReason(InvalidField("/vmc", "at most " + std::to_string(kMaxTargets) +
+                                               " VMC receivers a session; {\"vmc\": false} "
+                                               "stops sending"),
+                      "too-many-targets");
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<uint16_t>(port));
+  if (!ParseIpv4(host, to.sin_addr)) return InvalidField("/vmc/host", "not an IPv4 address");
+  const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
+  if (fd < 0) return WithReason(ResourceExhausted("no socket for VMC"), "busy");
+  if (connect(fd, reinterpret_cast<const sockaddr*>(&to), sizeof(to)) != 0) {
+    const std::string why = std::strerror(errno);
+    close(fd);
+    return InvalidField("/vmc/host", "cannot send there: " + why);
+  }
+  fds_.push_back(fd);
+  return Status::Ok();
+}
+
+void VmcSender::Flush(bool last) {
+  if (last) {
+    message_.clear();
+    net::AppendOscMessage(message_, kBlendApply);
+    net::AppendOscElement(bundle_, message_);
+  }
+  for (int fd : fds_) {
+    if (send(fd, bundle_.data(), bundle_.size(), MSG_DONTWAIT | MSG_NOSIGNAL) ==
+        static_cast<ssize_t>(bundle_.size()))
+      ++sent_;
+    else
+      ++failed_;  // A receiver not there (ECONNREFUSED), a full buffer: the next frame follows.
+  }
+  bundle_.clear();
+  net::BeginOscBundle(bundle_);
+}
+
+void VmcSender::Send(std::span<const float> weights) {
+  if (fds_.empty()) return;
+  std::array<float, kArkitAxes> arkit;
+  std::array<float, std::size(kExpressionPresets)> presets;
+  ArkitOfWeights(places_, weights, arkit);
+  PresetsOfArkit(arkit, presets);
+  bundle_.clear();
+  net::BeginOscBundle(bundle_);
+  const size_t apply = 4 + 24;  // The Apply message as an element.
+  auto add = [&](std::string_view name, float value) {
+    message_.clear();
+    net::AppendOscMessage(message_, kBlendVal, name, value);
+    if (bundle_.size() + 4 + message_.size() + apply > kMaxDatagram) Flush(false);
+    net::AppendOscElement(bundle_, message_);
+  };
+  for (size_t k = 0; k < presets.size(); ++k) add(kVmcPresets[k], presets[k]);
+  for (int k = 0; k < kArkitAxes; ++k) add(kArkitNames[k], arkit[k]);
+  Flush(true);
+}
+
+// ---- in ----
+
+std::string_view PresetOfVmcName(std::string_view name) {
+  auto same = [](std::string_view a, std::string_view b) {
+    return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+             return std::tolower(static_cast<unsigned char>(x)) ==
+                    std::tolower(static_cast<unsigned char>(y));
+           });
+  };
+  for (size_t k = 0; k < std::size(kVmcPresets); ++k) {
+    if (same(name, kVmcPresets[k]) || same(name, kExpressionPresets[k]))
+      return kExpressionPresets[k];
+  }
+  return {};
+}
+
+std::string_view MocapMember(MocapProtocol p) {
+  return p == MocapProtocol::kVmc ? "listen_vmc" : "listen_ifacialmocap";
+}
+
+Result<std::unique_ptr<MocapInlet>> MocapInlet::Open(MocapProtocol protocol, int port,
+                                                     std::span<const std::string> allowed,
+                                                     std::function<void()> wake) {
+  const std::string where = "/" + std::string(MocapMember(protocol)) + "/port";
+  std::vector<uint32_t> hosts;
+  for (const std::string& h : allowed) {
+    in_addr a{};
+    if (ParseIpv4(h, a)) hosts.push_back(a.s_addr);
+  }
+  if (inlets_open.fetch_add(1) >= kMaxInAll) {
+    inlets_open.fetch_sub(1);
+    return WithReason(InvalidField(where, "the server listens on as many UDP ports as it takes"),
+                      "busy");
+  }
+  const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  sockaddr_in at{};
+  at.sin_family = AF_INET;
+  at.sin_port = htons(static_cast<uint16_t>(port));
+  at.sin_addr.s_addr = htonl(hosts.empty() ? INADDR_LOOPBACK : INADDR_ANY);
+  socklen_t len = sizeof(at);
+  if (fd < 0 || bind(fd, reinterpret_cast<const sockaddr*>(&at), sizeof(at)) != 0 ||
+      getsockname(fd, reinterpret_cast<sockaddr*>(&at), &len) != 0) {
+    const int e = errno;
+    if (fd >= 0) close(fd);
+    inlets_open.fetch_sub(1);
+    if (e == EADDRINUSE)
+      return WithReason(InvalidField(where, "port " + std::to_string(port) + " is in use"),
+                        "port-in-use");
+    return InvalidField(where, std::string("cannot listen there: ") + std::strerror(e));
+  }
+  return std::unique_ptr<MocapInlet>(
+      new MocapInlet(protocol, fd, ntohs(at.sin_port), std::move(hosts), std::move(wake)));
+}
+
+MocapInlet::MocapInlet(MocapProtocol protocol, int fd, int port, std::vector<uint32_t> allowed,
+                       std::function<void()> wake)
+    : protocol_(protocol),
+      fd_(fd),
+      port_(port),
+      allowed_(std::move(allowed)),
+      wake_(std::move(wake)) {
+  thread_ = std::jthread([this](std::stop_token stop) { Run(stop); });
+}
+
+MocapInlet::~MocapInlet() {
+  thread_.request_stop();
+  if (thread_.joinable()) thread_.join();
+  close(fd_);
+  inlets_open.fetch_sub(1);
+}
+
+void MocapInlet::Cancel() { thread_.request_stop(); }
+
+bool MocapInlet::Take(MocapFrame& out) {
+  std::lock_guard<std::mutex> lock(mu_);
+  const auto now = std::chrono::steady_clock::now();
+  const bool say_error = !frame_.error.empty() && now >= next_error_;
+  if (!fresh_ && !say_error) return false;
+  out.fresh = fresh_;
+  if (fresh_) out.values.swap(frame_.values);
+  out.packets = frame_.packets;
+  out.dropped = frame_.dropped;
+  out.malformed = frame_.malformed;
+  out.error.clear();
+  if (say_error) {
+    out.error.swap(frame_.error);
+    next_error_ = now + std::chrono::seconds(1);  // Garbage at any rate: an event a second.
+  }
+  fresh_ = false;
+  return true;
+}
+
+MocapInlet::Counts MocapInlet::counts() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return {frame_.packets, frame_.dropped, frame_.malformed};
+}
+
+double MocapInlet::TakeCpu() {
+  std::lock_guard<std::mutex> lock(mu_);
+  return std::exchange(cpu_, 0.0);
+}
+
+void MocapInlet::Publish() {
+  bool wake;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    frame_.values.assign(pending_.begin(), pending_.end());
+    wake = !fresh_;
+    fresh_ = true;
+  }
+  if (wake) wake_();  // Once until the session takes it: a flood asks for no more turns.
+}
+
+namespace {
+
+// A blend's value by its name into `pending`, replacing the last one of that name.
+void Set(std::vector<std::pair<std::string, float>>& pending, std::string_view name, float v,
+         size_t cap) {
+  if (name.empty() || name.size() > 64 || !std::isfinite(v)) return;
+  for (auto& [n, value] : pending) {
+    if (n == name) {
+      value = v;
+      return;
+    }
+  }
+  if (pending.size() < cap) pending.emplace_back(std::string(name), v);
+}
+
+}  // namespace
+
+// One datagram: VMC's blends wait for their Apply; an iFacialMocap line is a whole frame.
+void MocapInlet::Read(std::string_view packet) {
+  Status s = Status::Ok();
+  if (protocol_ == MocapProtocol::kVmc) {
+    bool apply = false;
+    s = net::ReadOsc(packet, [&](const net::OscMessage& m) {
+      if (m.address == kBlendVal && m.arguments.size() == 2 && m.arguments[0].tag == 's' &&
+          m.arguments[1].tag == 'f')
+        Set(pending_, m.arguments[0].s, std::clamp(m.arguments[1].f, 0.0f, 1.0f), kMaxNames);
+      else if (m.address == kBlendApply)
+        apply = true;
+    });
+    if (apply) ready_ = true;
+  } else {
+    line_.clear();
+    s = net::ReadIFacialMocap(
+        packet,
+        [&](std::string_view name, float v) {
+          Set(line_, name, std::clamp(v / 100.0f, 0.0f, 1.0f), kMaxNames);
+        },
+        [](std::string_view, std::span<const float>) {});  // The head's turn: not yet applied.
+    if (s.ok()) {
+      pending_.swap(line_);
+      ready_ = true;
+    }
+  }
+  if (!s.ok()) {
+    bool wake = false;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      ++frame_.malformed;
+      wake = frame_.error.empty() && !fresh_;
+      if (frame_.error.empty()) frame_.error = s.message.substr(0, 200);
+    }
+    if (wake) wake_();
+  }
+}
+
+// The thread: datagrams read at most kMaxPacketsPerSecond (the kernel drops what waits past its
+// buffer), each from loopback or an allowed host, the CPU they cost counted; a whole frame given
+// to the session at most kMaxFramesPerSecond (the newest, once the interval has passed).
+void MocapInlet::Run(std::stop_token stop) {
+  using Clock = std::chrono::steady_clock;
+  const auto interval = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / kMaxFramesPerSecond));
+  std::vector<char> buffer(kMaxPacket);
+  double credit = kMaxPacketsPerSecond;  // A second's burst.
+  Clock::time_point at = Clock::now(), next_frame = at;
+  while (!stop.stop_requested()) {
+    const Clock::time_point now = Clock::now();
+    credit =
+        std::min(kMaxPacketsPerSecond,
+                 credit + kMaxPacketsPerSecond * std::chrono::duration<double>(now - at).count());
+    at = now;
+    if (ready_ && now >= next_frame) {
+      ready_ = false;
+      next_frame = now + interval;
+      Publish();
+    }
+    if (credit < 1.0) {
+      std::this_thread::sleep_for(std::chrono::microseconds(250));
+      continue;
+    }
+    pollfd p{fd_, POLLIN, 0};
+    const int wait = ready_ ? 1 : 50;  // 50 ms: how soon a stop is seen.
+    if (poll(&p, 1, wait) <= 0) continue;
+    const double start = ThreadCpuSeconds();
+    sockaddr_in from{};
+    socklen_t len = sizeof(from);
+    const ssize_t n = recvfrom(fd_, buffer.data(), buffer.size(), MSG_DONTWAIT | MSG_TRUNC,
+                               reinterpret_cast<sockaddr*>(&from), &len);
+    if (n < 0) continue;
+    credit -= 1.0;
+    const bool known =
+        IsLoopback(from.sin_addr.s_addr) ||
+        std::find(allowed_.begin(), allowed_.end(), from.sin_addr.s_addr) != allowed_.end();
+    if (known && static_cast<size_t>(n) <= buffer.size())
+      Read(std::string_view(buffer.data(), static_cast<size_t>(n)));
+    std::lock_guard<std::mutex> lock(mu_);
+    ++frame_.packets;
+    if (!known || static_cast<size_t>(n) > buffer.size()) ++frame_.dropped;
+    cpu_ += ThreadCpuSeconds() - start;
+  }
+}
+
+}  // namespace facespace::http
