@@ -426,6 +426,11 @@ constexpr Member kLive[] = {
            "Hear 16 kHz 16-bit mono PCM sent as binary messages, lip-synced (alone in its "
            "message); false ends it",
            R"({"oneOf": [{"$ref": "#/components/schemas/LiveListen"}, {"const": false}]})"),
+    Schema("frames",
+           "What the binary frames carry from the next one (alone in its message): f32 (the "
+           "default), weights or delta",
+           "#LiveFrames")
+        .Example(R"({"kind": "delta"})"),
     Schema("vmc",
            "Send each frame's face to a VMC receiver (VSeeFace, Warudo...): ARKit's 52 and VRM "
            "0.x's presets as /VMC/Ext/Blend/Val, then Apply (alone in its message; at most 4 "
@@ -453,6 +458,16 @@ constexpr Member kLiveListen[] = {
     Boolean("frames", "Send the face's frames as the audio is heard").Default("false"),
 };
 
+constexpr Member kLiveFrames[] = {
+    Choice("kind",
+           "f32: the mesh route's f32 bytes; weights: the shapes' weights and a pose's node "
+           "transforms, for a client that blends the rig's glb itself; delta: 16-bit positions, "
+           "only what moved, packed by meshoptimizer's vertex codec (a keyframe first, and again "
+           "when asked)",
+           "f32|weights|delta")
+        .Required()
+        .Example(R"("delta")"),
+};
 constexpr Member kLiveVmc[] = {
     Integer("port", "The receiver's UDP port (VMC's own: 39539)", 1, 65535).Required(),
     String("host",
@@ -578,6 +593,7 @@ std::vector<Table> MakeTables() {
       kLive);
   add(Body::kLiveSay, "LiveSay", "Text the live face speaks", kLiveSay);
   add(Body::kLiveListen, "LiveListen", "Audio the live face hears and lip-syncs", kLiveListen);
+  add(Body::kLiveFrames, "LiveFrames", "What the live face's binary frames carry", kLiveFrames);
   add(Body::kLiveVmc, "LiveVmc", "A VMC receiver the live face's frames go to", kLiveVmc);
   add(Body::kLiveInlet, "LiveInlet", "A UDP port a face tracking app streams to", kLiveInlet);
   return t;

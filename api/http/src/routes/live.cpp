@@ -3,15 +3,13 @@
 // current point as the mesh route reads them); each change is answered by one binary message, a
 // 16-byte header then the same bytes as GET /mesh?format=f32 for that point, at most 60 a second
 // (the hub coalesces).
-#include <array>
+#include <cstring>
 #include <nlohmann/json.hpp>
-#include <optional>
 
 #include "../http/cost.h"
 #include "../http/problem.h"
-#include "facespace/engine/face.h"
-#include "facespace/engine/retarget.h"
 #include "facespace/evaluator/members.h"
+#include "facespace/formats/frames.h"
 #include "facespace/net/framing.h"
 #include "facespace/net/live_hub.h"
 #include "facespace/speech/speech.h"
@@ -29,6 +27,10 @@ using nlohmann::json;
 
 // The header of a binary message: tag, frame number, the newest "id" the frame reflects, reserved.
 constexpr char kMeshTag[4] = {'m', 'e', 's', 'h'};
+constexpr char kWeightsTag[4] = {'w', 'g', 't', 's'};
+constexpr char kKeyTag[4] = {'d', 'k', 'e', 'y'};
+constexpr char kDeltaTag[4] = {'d', 'l', 't', 'a'};
+constexpr float kDeltaError = 1e-4f;  // Delta frames' grid step, of the face's diagonal.
 constexpr size_t kHeaderBytes = 16;
 
 // The members a state message may carry, merged into the point; and the others it may carry.
@@ -60,9 +62,15 @@ class FaceSession final : public net::LiveHandler {
       return;
     }
     if (m.contains("listen")) return Listen(m, out);
-    if (m.contains("vmc")) return Vmc(m, out);
-    if (m.contains("listen_vmc")) return ListenMocap(MocapProtocol::kVmc, m, out);
-    if (m.contains("listen_ifacialmocap")) return ListenMocap(MocapProtocol::kIFacialMocap, m, out);
+    if (m.contains("vmc")) {
+      out.frame_wanted |= mocap_.Vmc(m, rig_->rig, ctx_.options.vmc_hosts, out.texts);
+      return;
+    }
+    if (m.contains("frames")) return SetFrames(m, out);
+    for (MocapProtocol p : {MocapProtocol::kVmc, MocapProtocol::kIFacialMocap}) {
+      if (m.contains(MocapMember(p)))
+        return mocap_.Listen(p, m, ctx_.options.vmc_hosts, wake_, out.texts);
+    }
     if (m.contains("landmarks")) return Landmarks(m, out);
     if (m.contains("say") || m.contains("stop")) return Speech(m, out);
     json next = state_;
@@ -155,11 +163,13 @@ class FaceSession final : public net::LiveHandler {
 
   double TakeHelperCpu() override {
     double cpu = (listener_ ? listener_->TakeCpu() : 0.0) + speaker_.TakeCpu();
-    for (const auto& inlet : inlets_) cpu += inlet->TakeCpu();
+    cpu += mocap_.TakeCpu();
     return cpu;
   }
 
   bool MakeFrame(std::string& message, Out& out) override {
+    mocap_.Send(point_.weights);  // The same face to the VTubers' apps.
+    if (frames_ == Frames::kWeights) return WeightsFrame(message);
     auto ws =
         ctx_.workspaces.Acquire(stop_.get_token(), nullptr);  // f32 frames: no helper threads.
     ctx_.metrics.CountBlends(1);
@@ -171,13 +181,10 @@ class FaceSession final : public net::LiveHandler {
       return false;
     }
     const auto pieces = enc->pieces();
+    if (frames_ == Frames::kDelta) return DeltaFrame(pieces, message);
     message.reserve(kHeaderBytes + pieces[0].size() + pieces[1].size());
-    message.append(kMeshTag, 4);
-    PutU32(message, ++frame_);
-    PutU32(message, last_id_);
-    PutU32(message, 0);
+    Header(kMeshTag, message);
     message.append(pieces[0]).append(pieces[1]);
-    if (vmc_) vmc_->Send(point_.weights);  // The same face to the VTubers' apps.
     return true;
   }
 
@@ -190,15 +197,92 @@ class FaceSession final : public net::LiveHandler {
     speaker_.Stop();
     std::lock_guard<std::mutex> lock(listener_mu_);
     if (listener_) listener_->Cancel();
-    for (const auto& inlet : inlets_) inlet->Cancel();
+    mocap_.Cancel();
   }
   void End() override {
     speaker_.Close();
     DropListener();  // Its thread joined (stopped by Cancel).
-    CloseInlets(std::nullopt);
+    mocap_.Close();
   }
 
  private:
+  void Header(const char (&tag)[4], std::string& message) {
+    message.append(tag, 4);
+    PutU32(message, ++frame_);
+    PutU32(message, last_id_);
+    PutU32(message, 0);
+  }
+
+  // "wgts": the shapes' weights (u32 count, float32 each, the rig's order) and, posed, every
+  // node's local transform (u32 count, 10 float32 each: translation, rotation xyzw, scale): what a
+  // client blending the rig's glb itself applies, as the server does.
+  bool WeightsFrame(std::string& message) {
+    const std::vector<float>& w = point_.weights;
+    const size_t nodes = point_.posed ? point_.pose.local.size() : 0;
+    message.reserve(kHeaderBytes + 8 + 4 * w.size() + 40 * nodes);
+    Header(kWeightsTag, message);
+    PutU32(message, static_cast<uint32_t>(w.size()));
+    PutU32(message, static_cast<uint32_t>(nodes));
+    message.append(reinterpret_cast<const char*>(w.data()), 4 * w.size());
+    for (size_t n = 0; n < nodes; ++n) {
+      const Transform& t = point_.pose.local[n];
+      message.append(reinterpret_cast<const char*>(t.translation.data()), 12);
+      message.append(reinterpret_cast<const char*>(t.rotation.data()), 16);
+      message.append(reinterpret_cast<const char*>(t.scale.data()), 12);
+    }
+    return true;
+  }
+
+  // "dkey" or "dlta": the positions of the f32 frame (its first half) as 16-bit grid coordinates,
+  // whole or what moved since the last (formats/frames.h).
+  bool DeltaFrame(std::span<const std::string_view> pieces, std::string& message) {
+    size_t total = 0;
+    for (std::string_view p : pieces) total += p.size();
+    positions_.resize(total / 8);  // Positions are half of the floats.
+    size_t at = 0;
+    for (std::string_view p : pieces) {
+      const size_t n = std::min(p.size(), positions_.size() * 4 - at);
+      std::memcpy(reinterpret_cast<char*>(positions_.data()) + at, p.data(), n);
+      at += n;
+    }
+    const size_t start = message.size();
+    Header(kDeltaTag, message);
+    if (delta_.Encode(positions_, message)) std::memcpy(message.data() + start, kKeyTag, 4);
+    return true;
+  }
+
+  // {"frames": {"kind": "f32" | "weights" | "delta"}}: what the binary frames carry from the next
+  // one; delta starts with a keyframe (asking again asks for one).
+  void SetFrames(const json& m, Out& out) {
+    const json& f = m["frames"];
+    if (m.size() != 1)
+      return out.texts.push_back(
+          ErrorEvent("invalid-message", "frames goes alone in its message", "/frames"));
+    Status errors = Status::Ok();
+    if (!f.is_object() || !f.contains("kind") || !f["kind"].is_string())
+      errors.AddField("/frames", "frames is {\"kind\": \"f32\" | \"weights\" | \"delta\"}");
+    else
+      evaluator::RefuseUnknown(f, "/frames", evaluator::Body::kLiveFrames, errors);
+    if (!errors.fields.empty()) return Refuse(FieldErrors(std::move(errors)), out);
+    const std::string kind = f["kind"].get<std::string>();
+    json event = {{"event", "frames"}, {"kind", kind}};
+    if (kind == "f32") {
+      frames_ = Frames::kF32;
+    } else if (kind == "weights") {
+      frames_ = Frames::kWeights;
+      event["shapes"] = rig_->rig.shapes.size();
+    } else if (kind == "delta") {
+      frames_ = Frames::kDelta;
+      delta_.Keyframe();
+      event["error"] = kDeltaError;
+    } else {
+      return out.texts.push_back(
+          ErrorEvent("invalid-message", "kind is f32, weights or delta", "/frames/kind"));
+    }
+    out.texts.push_back(event.dump());
+    out.frame_wanted = true;  // The face as it is, in the new kind.
+  }
+
   // {"say": {"text", "voice", "rate"}} queued for the speaker; {"stop": true} ends the speech.
   void Speech(const json& m, Out& out) {
     for (auto it = m.begin(); it != m.end(); ++it) {
@@ -271,139 +355,15 @@ class FaceSession final : public net::LiveHandler {
     SayWarnings(out);
   }
 
-  // {"vmc": {"port": 39539, "host": "127.0.0.1"}} adds a receiver of the frames' faces; {"vmc":
-  // false} stops sending.
-  void Vmc(const json& m, Out& out) {
-    const json& v = m["vmc"];
-    if (m.size() != 1)
-      return out.texts.push_back(
-          ErrorEvent("invalid-message", "vmc goes alone in its message", "/vmc"));
-    if (v == false) {
-      vmc_.reset();
-      return out.texts.push_back(json{{"event", "vmc"}, {"state", "stopped"}}.dump());
-    }
-    if (!v.is_object() || !v.contains("port"))
-      return out.texts.push_back(ErrorEvent(
-          "invalid-message", "vmc is {\"port\": 39539, \"host\": \"127.0.0.1\"} or false", "/vmc"));
-    Status errors = Status::Ok();
-    evaluator::RefuseUnknown(v, "/vmc", evaluator::Body::kLiveVmc, errors);
-    double port = 0;
-    evaluator::ReadNumber(evaluator::Body::kLiveVmc, "port", v["port"], "/vmc/port", &port, errors);
-    const json host = v.value("host", json("127.0.0.1"));
-    if (!host.is_string()) errors.AddField("/vmc/host", "host is a string, as 127.0.0.1");
-    if (!errors.fields.empty()) return Refuse(Fielded(std::move(errors)), out);
-    const std::string h = host.get<std::string>();
-    if (Status s = CheckMocapHost(h, ctx_.options.vmc_hosts, "/vmc/host"); !s.ok())
-      return Refuse(s, out);
-    if (!vmc_) vmc_ = std::make_unique<VmcSender>(rig_->rig);
-    if (Status s = vmc_->Add(h, static_cast<int>(port)); !s.ok()) return Refuse(s, out);
-    out.texts.push_back(json{
-        {"event", "vmc"},
-        {"state", "sending"},
-        {"host", h},
-        {"port", static_cast<int>(port)},
-        {"targets",
-         vmc_->targets()}}.dump());
-    out.frame_wanted = true;  // The face as it is, to the new receiver.
-  }
-
-  // {"listen_vmc": {"port": P}} or {"listen_ifacialmocap": ...} opens a UDP port whose datagrams
-  // drive the face; false closes this protocol's ports.
-  void ListenMocap(MocapProtocol protocol, const json& m, Out& out) {
-    const std::string member(MocapMember(protocol)), where = "/" + member;
-    const json& v = m[member];
-    if (m.size() != 1)
-      return out.texts.push_back(
-          ErrorEvent("invalid-message", member + " goes alone in its message", where));
-    if (v == false) {
-      MocapInlet::Counts n;
-      for (const auto& inlet : inlets_) {
-        if (inlet->protocol() != protocol) continue;
-        const MocapInlet::Counts c = inlet->counts();
-        n.packets += c.packets;
-        n.dropped += c.dropped;
-        n.malformed += c.malformed;
-      }
-      CloseInlets(protocol);
-      return out.texts.push_back(json{
-          {"event", member},
-          {"state", "end"},
-          {"packets", n.packets},
-          {"dropped", n.dropped},
-          {"malformed", n.malformed}}.dump());
-    }
-    if (!v.is_object() || !v.contains("port"))
-      return out.texts.push_back(
-          ErrorEvent("invalid-message", member + " is {\"port\": N} or false", where));
-    Status errors = Status::Ok();
-    evaluator::RefuseUnknown(v, where, evaluator::Body::kLiveInlet, errors);
-    double port = 0;
-    if (evaluator::ReadNumber(evaluator::Body::kLiveInlet, "port", v["port"], where + "/port",
-                              &port, errors) &&
-        port > 0 && port < 1024)
-      errors.AddField(where + "/port", "a port from 1024 to 65535, or 0 for any free one");
-    if (!errors.fields.empty()) return Refuse(Fielded(std::move(errors)), out);
-    if (inlets_.size() >= kMaxInlets)
-      return out.texts.push_back(ErrorEvent(
-          "too-many-ports", "a session listens on at most 4 ports; false closes them", where));
-    auto opened = MocapInlet::Open(protocol, static_cast<int>(port), ctx_.options.vmc_hosts, wake_);
-    if (!opened.ok()) return Refuse(opened.status(), out);
-    const int bound = opened.value()->port();
-    {
-      std::lock_guard<std::mutex> lock(listener_mu_);
-      inlets_.push_back(std::move(opened.value()));
-    }
-    out.texts.push_back(json{{"event", member}, {"state", "start"}, {"port", bound}}.dump());
-  }
-
-  // The inlets of `protocol` (all without one) closed, their threads joined outside the lock.
-  void CloseInlets(std::optional<MocapProtocol> protocol) {
-    std::vector<std::unique_ptr<MocapInlet>> closing;
-    std::lock_guard<std::mutex> lock(listener_mu_);
-    for (auto& inlet : inlets_) {
-      if (!protocol || inlet->protocol() == *protocol) closing.push_back(std::move(inlet));
-    }
-    std::erase(inlets_, nullptr);
-  }
-
-  // Each inlet's newest face as the face's weights in ARKit's names: its ARKit values and its VRM
-  // presets' places (vocabulary.cpp's tables), the larger on each axis, so a sender of both
-  // (perfect sync beside the presets made from it) does not count a blink twice.
+  // Each inlet's newest face (live_mocap.h) as the face's weights, in ARKit's names.
   void PollMocap(Out& out) {
-    for (const auto& inlet : inlets_) {
-      if (!inlet->Take(mocap_)) continue;
-      const std::string where = "/" + std::string(MocapMember(inlet->protocol()));
-      if (!mocap_.error.empty())
-        out.texts.push_back(
-            ErrorEvent("malformed-datagram",
-                       "port " + std::to_string(inlet->port()) + ": " + mocap_.error, where));
-      if (!mocap_.fresh) continue;
-      std::array<float, kArkitAxes> point{};
-      json unknown = json::array();
-      for (const auto& [name, value] : mocap_.values) {
-        auto terms = Place(Vocabulary::kArkit, name);
-        if (terms.empty()) terms = Place(Vocabulary::kVrm, PresetOfVmcName(name));
-        if (terms.empty() && unknown.size() < 8 && PresetOfVmcName(name).empty())
-          unknown.push_back(name);
-        for (const AxisTerm& t : terms) point[t.axis] = std::max(point[t.axis], value * t.amount);
-      }
-      if (unknown != last_unknown_) {
-        out.texts.push_back(json{
-            {"event", "mocap"},
-            {"source", where.substr(1)},
-            {"port", inlet->port()},
-            {"unknown",
-             unknown}}.dump());
-        last_unknown_ = unknown;
-      }
-      json next = state_, weights = json::object();
-      for (int a = 0; a < kArkitAxes; ++a) {
-        if (point[a] > 0.0f) weights[std::string(kArkitNames[a])] = point[a];
-      }
+    mocap_.Poll(faces_, out.texts);
+    for (json& weights : faces_) {
+      json next = state_;
       next["vocabulary"] = "arkit";
       next["weights"] = std::move(weights);
       if (Status s = Show(next); !s.ok()) {
-        Refuse(s, out, where);
+        Refuse(s, out);
         continue;
       }
       state_ = std::move(next);
@@ -500,17 +460,9 @@ class FaceSession final : public net::LiveHandler {
     return Status::Ok();
   }
 
-  // The fields a member table's reader listed as one status, worded by the first.
-  static Status Fielded(Status s) {
-    s.code = StatusCode::kInvalidArgument;
-    s.message = s.fields[0].message;
-    return s;
-  }
-
   // A status as an error event, at its first field's pointer, else at `where`.
   void Refuse(const Status& s, Out& out, const std::string& where = "") {
-    out.texts.push_back(ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message,
-                                   s.fields.empty() ? where : s.fields[0].pointer));
+    out.texts.push_back(StatusEvent(s, where));
   }
 
   // The point's warnings (extrapolation, out of range ...) when they change: never silent.
@@ -544,13 +496,14 @@ class FaceSession final : public net::LiveHandler {
   std::vector<TimedPhoneme> heard_;  // Phonemes heard and not yet given as visemes.
   bool listen_frames_ = false;
   LiveLandmarks landmarks_;
+  enum class Frames : uint8_t { kF32, kWeights, kDelta };
+  Frames frames_ = Frames::kF32;
+  formats::DeltaFrames delta_{kDeltaError};
+  std::vector<float> positions_;  // A delta frame's, kept: no allocation a frame.
   // VMC out, and the UDP ports listened on (set by turns under listener_mu_, as the listener).
-  static constexpr size_t kMaxInlets = 4;
-  std::unique_ptr<VmcSender> vmc_;
-  std::vector<std::unique_ptr<MocapInlet>> inlets_;
-  MocapFrame mocap_;
-  json last_unknown_ = json::array();
-  LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
+  LiveMocap mocap_;
+  std::vector<json> faces_;  // What the inlets received, a turn's.
+  LiveSpeaker speaker_;      // Last: its thread posts through the session until it is joined (End).
 };
 
 bool HasToken(const httplib::Request& req, const char* header, std::string_view token) {
@@ -569,14 +522,14 @@ bool HasToken(const httplib::Request& req, const char* header, std::string_view 
 }
 
 // The session's place, given back unless the hub took the socket.
-struct Place {
-  Place(net::LiveHub& h, std::string i) : hub(h), ip(std::move(i)) {}
-  Place(const Place&) = delete;
-  Place& operator=(const Place&) = delete;
+struct SessionPlace {
+  SessionPlace(net::LiveHub& h, std::string i) : hub(h), ip(std::move(i)) {}
+  SessionPlace(const SessionPlace&) = delete;
+  SessionPlace& operator=(const SessionPlace&) = delete;
   net::LiveHub& hub;
   std::string ip;
   bool taken = false;
-  ~Place() {
+  ~SessionPlace() {
     if (!taken) hub.Unreserve(ip);
   }
 };
@@ -618,7 +571,7 @@ void GetLive(ServerState& ctx, const httplib::Request& req, httplib::Response& r
                        "the server holds as many live sessions as it takes, in all or from this "
                        "address (--max-live-sessions, --max-client-live-sessions)");
   }
-  auto place = std::make_shared<Place>(ctx.live, req.remote_addr);
+  auto place = std::make_shared<SessionPlace>(ctx.live, req.remote_addr);
   const net::LiveLimits& l = ctx.live.limits();
   json limits = {
       {"fps", std::lround(1e6 / static_cast<double>(std::max<long>(1, l.frame_interval.count())))},

@@ -16,7 +16,9 @@
 
 #include "facespace/engine/cpu.h"
 #include "facespace/engine/face.h"
+#include "facespace/evaluator/members.h"
 #include "facespace/net/mocap.h"
+#include "live_say.h"
 
 namespace facespace::http {
 
@@ -335,6 +337,155 @@ void MocapInlet::Run(std::stop_token stop) {
     if (!known || static_cast<size_t>(n) > buffer.size()) ++frame_.dropped;
     cpu_ += ThreadCpuSeconds() - start;
   }
+}
+
+// ---- the session's side ----
+
+namespace {
+
+using nlohmann::json;
+
+std::string Alone(const std::string& member) {
+  return ErrorEvent("invalid-message", member + " goes alone in its message", "/" + member);
+}
+
+}  // namespace
+
+bool LiveMocap::Vmc(const json& m, const Rig& rig, std::span<const std::string> hosts,
+                    std::vector<std::string>& texts) {
+  const json& v = m["vmc"];
+  if (m.size() != 1) return texts.push_back(Alone("vmc")), false;
+  if (v == false) {
+    vmc_.reset();
+    texts.push_back(json{{"event", "vmc"}, {"state", "stopped"}}.dump());
+    return false;
+  }
+  Status errors = Status::Ok();
+  double port = 0;
+  if (!v.is_object() || !v.contains("port"))
+    errors.AddField("/vmc", "vmc is {\"port\": 39539, \"host\": \"127.0.0.1\"} or false");
+  else if (evaluator::RefuseUnknown(v, "/vmc", evaluator::Body::kLiveVmc, errors);
+           evaluator::ReadNumber(evaluator::Body::kLiveVmc, "port", v["port"], "/vmc/port", &port,
+                                 errors) &&
+           v.contains("host") && !v["host"].is_string())
+    errors.AddField("/vmc/host", "host is a string, as 127.0.0.1");
+  if (!errors.fields.empty()) return texts.push_back(StatusEvent(FieldErrors(errors))), false;
+  const std::string host = v.value("host", std::string("127.0.0.1"));
+  Status s = CheckMocapHost(host, hosts, "/vmc/host");
+  if (s.ok()) {
+    if (!vmc_) vmc_ = std::make_unique<VmcSender>(rig);
+    s = vmc_->Add(host, static_cast<int>(port));
+  }
+  if (!s.ok()) return texts.push_back(StatusEvent(s)), false;
+  texts.push_back(json{{"event", "vmc"},
+                       {"state", "sending"},
+                       {"host", host},
+                       {"port", static_cast<int>(port)},
+                       {"targets", vmc_->targets()}}
+                      .dump());
+  return true;
+}
+
+void LiveMocap::Listen(MocapProtocol protocol, const json& m, std::span<const std::string> hosts,
+                       const std::function<void()>& wake, std::vector<std::string>& texts) {
+  const std::string member(MocapMember(protocol)), where = "/" + member;
+  const json& v = m[member];
+  if (m.size() != 1) return texts.push_back(Alone(member));
+  if (v == false) {
+    MocapInlet::Counts n;
+    for (const auto& inlet : inlets_) {
+      if (inlet->protocol() != protocol) continue;
+      const MocapInlet::Counts c = inlet->counts();
+      n.packets += c.packets;
+      n.dropped += c.dropped;
+      n.malformed += c.malformed;
+    }
+    CloseInlets(protocol);
+    return texts.push_back(json{
+        {"event", member},
+        {"state", "end"},
+        {"packets", n.packets},
+        {"dropped", n.dropped},
+        {"malformed",
+         n.malformed}}.dump());
+  }
+  Status errors = Status::Ok();
+  double port = 0;
+  if (!v.is_object() || !v.contains("port"))
+    errors.AddField(where, member + " is {\"port\": N} or false");
+  else if (evaluator::RefuseUnknown(v, where, evaluator::Body::kLiveInlet, errors);
+           evaluator::ReadNumber(evaluator::Body::kLiveInlet, "port", v["port"], where + "/port",
+                                 &port, errors) &&
+           port > 0 && port < 1024)
+    errors.AddField(where + "/port", "a port from 1024 to 65535, or 0 for any free one");
+  if (!errors.fields.empty()) return texts.push_back(StatusEvent(FieldErrors(errors)));
+  if (inlets_.size() >= kMaxInlets)
+    return texts.push_back(ErrorEvent(
+        "too-many-ports", "a session listens on at most 4 ports; false closes them", where));
+  auto opened = MocapInlet::Open(protocol, static_cast<int>(port), hosts, wake);
+  if (!opened.ok()) return texts.push_back(StatusEvent(opened.status()));
+  const int bound = opened.value()->port();
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    inlets_.push_back(std::move(opened.value()));
+  }
+  texts.push_back(json{{"event", member}, {"state", "start"}, {"port", bound}}.dump());
+}
+
+void LiveMocap::Poll(std::vector<json>& faces, std::vector<std::string>& texts) {
+  faces.clear();
+  for (const auto& inlet : inlets_) {
+    if (!inlet->Take(frame_)) continue;
+    const std::string member(MocapMember(inlet->protocol()));
+    if (!frame_.error.empty())
+      texts.push_back(ErrorEvent("malformed-datagram",
+                                 "port " + std::to_string(inlet->port()) + ": " + frame_.error,
+                                 "/" + member));
+    if (!frame_.fresh) continue;
+    std::array<float, kArkitAxes> point{};
+    json unknown = json::array();
+    for (const auto& [name, value] : frame_.values) {
+      auto terms = Place(Vocabulary::kArkit, name);
+      if (terms.empty()) terms = Place(Vocabulary::kVrm, PresetOfVmcName(name));
+      if (terms.empty() && unknown.size() < 8 && PresetOfVmcName(name).empty())
+        unknown.push_back(name);
+      for (const AxisTerm& t : terms) point[t.axis] = std::max(point[t.axis], value * t.amount);
+    }
+    if (unknown != last_unknown_) {
+      texts.push_back(json{
+          {"event", "mocap"}, {"source", member}, {"port", inlet->port()}, {"unknown", unknown}}
+                          .dump());
+      last_unknown_ = unknown;
+    }
+    json weights = json::object();
+    for (int a = 0; a < kArkitAxes; ++a) {
+      if (point[a] > 0.0f) weights[std::string(kArkitNames[a])] = point[a];
+    }
+    faces.push_back(std::move(weights));
+  }
+}
+
+double LiveMocap::TakeCpu() {
+  double cpu = 0;
+  for (const auto& inlet : inlets_) cpu += inlet->TakeCpu();
+  return cpu;
+}
+
+void LiveMocap::Cancel() {
+  std::lock_guard<std::mutex> lock(mu_);
+  for (const auto& inlet : inlets_) inlet->Cancel();
+}
+
+void LiveMocap::Close() { CloseInlets(std::nullopt); }
+
+// The inlets of `protocol` (all without one) closed, their threads joined outside the lock.
+void LiveMocap::CloseInlets(std::optional<MocapProtocol> protocol) {
+  std::vector<std::unique_ptr<MocapInlet>> closing;
+  std::lock_guard<std::mutex> lock(mu_);
+  for (auto& inlet : inlets_) {
+    if (!protocol || inlet->protocol() == *protocol) closing.push_back(std::move(inlet));
+  }
+  std::erase(inlets_, nullptr);
 }
 
 }  // namespace facespace::http

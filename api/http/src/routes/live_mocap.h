@@ -16,6 +16,8 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <thread>
@@ -123,6 +125,42 @@ class MocapInlet {
   std::chrono::steady_clock::time_point next_error_{};
   double cpu_ = 0;
   std::jthread thread_;  // Last: it runs on the members above.
+};
+
+// A live session's VMC receivers and UDP ports, from its messages (each alone in its message):
+// events and errors into `texts`. Turns call it one at a time; Cancel may come from another thread.
+class LiveMocap {
+ public:
+  static constexpr size_t kMaxInlets = 4;
+
+  ~LiveMocap() { Close(); }
+  // {"vmc": {"port", "host"}} adds a receiver, {"vmc": false} stops sending; true when a frame is
+  // due (the face, to the new receiver).
+  bool Vmc(const nlohmann::json& message, const Rig& rig, std::span<const std::string> hosts,
+           std::vector<std::string>& texts);
+  // {"listen_vmc" | "listen_ifacialmocap": {"port"}} opens a port, false closes that protocol's.
+  void Listen(MocapProtocol protocol, const nlohmann::json& message,
+              std::span<const std::string> hosts, const std::function<void()>& wake,
+              std::vector<std::string>& texts);
+  // Each port's newest face as weights in ARKit's names (into `faces`, one a port that has one):
+  // its ARKit values and its VRM presets' places (vocabulary.cpp), the larger on each axis, so a
+  // sender of both (perfect sync beside the presets made from it) does not count a blink twice.
+  // Names of neither come once in a mocap event.
+  void Poll(std::vector<nlohmann::json>& faces, std::vector<std::string>& texts);
+  void Send(std::span<const float> weights) {
+    if (vmc_) vmc_->Send(weights);
+  }
+  double TakeCpu();
+  void Cancel();  // From any thread.
+  void Close();   // The ports closed, their threads joined.
+
+ private:
+  void CloseInlets(std::optional<MocapProtocol> protocol);
+  std::unique_ptr<VmcSender> vmc_;
+  std::mutex mu_;  // Guards inlets_' membership (Cancel reads it from the hub's loop).
+  std::vector<std::unique_ptr<MocapInlet>> inlets_;
+  MocapFrame frame_;
+  nlohmann::json last_unknown_ = nlohmann::json::array();
 };
 
 }  // namespace facespace::http

@@ -76,6 +76,17 @@ std::string ErrorEvent(const std::string& type, const std::string& detail,
   return e.dump();
 }
 
+std::string StatusEvent(const Status& s, const std::string& where) {
+  return ErrorEvent(s.reason.empty() ? "invalid-message" : s.reason, s.message,
+                    s.fields.empty() ? where : s.fields[0].pointer);
+}
+
+Status FieldErrors(Status s) {
+  s.code = StatusCode::kInvalidArgument;
+  if (!s.fields.empty()) s.message = s.fields[0].message;
+  return s;
+}
+
 std::string VisemeEvent(const TimedViseme& v, double clock) {
   return "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) +
          "\",\"start\":" + FormatNumber(clock + v.start) +

@@ -47,6 +47,12 @@ inline void PutU32(std::string& out, uint32_t v) {
 std::string ErrorEvent(const std::string& type, const std::string& detail,
                        const std::string& pointer = "");
 std::string VisemeEvent(const TimedViseme& v, double clock = 0);
+// A status as an error event: its reason (else invalid-message) at its first field's pointer, else
+// at `where`.
+std::string StatusEvent(const Status& s, const std::string& where = "");
+// The fields a member table's reader listed (RefuseUnknown, ReadNumber) as one status, worded by
+// the first.
+Status FieldErrors(Status s);
 
 class LiveSpeaker {
  public:

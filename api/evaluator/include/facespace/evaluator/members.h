@@ -111,6 +111,7 @@ enum class Body : unsigned char {
   kLiveListen,  // Its "listen".
   kLiveVmc,     // Its "vmc": a VMC receiver.
   kLiveInlet,   // Its "listen_vmc" and "listen_ifacialmocap": a UDP port.
+  kLiveFrames,  // Its "frames": what the binary frames carry.
 };
 inline constexpr Body kBodies[] = {
     Body::kMesh,       Body::kRender,    Body::kSheet,     Body::kSequence, Body::kBatch,
