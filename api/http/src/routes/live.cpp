@@ -30,7 +30,7 @@ constexpr char kMeshTag[4] = {'m', 'e', 's', 'h'};
 constexpr char kWeightsTag[4] = {'w', 'g', 't', 's'};
 constexpr char kKeyTag[4] = {'d', 'k', 'e', 'y'};
 constexpr char kDeltaTag[4] = {'d', 'l', 't', 'a'};
-constexpr float kDeltaError = 1e-4f;  // Delta frames' grid step, of the face's diagonal.
+constexpr double kDeltaError = 1e-4;  // Delta frames' grid step, of the face's diagonal.
 constexpr size_t kHeaderBytes = 16;
 
 // The members a state message may carry, merged into the point; and the others it may carry.
@@ -270,11 +270,11 @@ class FaceSession final : public net::LiveHandler {
       frames_ = Frames::kF32;
     } else if (kind == "weights") {
       frames_ = Frames::kWeights;
-      event["shapes"] = rig_->rig.shapes.size();
+      event.update({{"shapes", rig_->rig.shapes.size()}});
     } else if (kind == "delta") {
       frames_ = Frames::kDelta;
       delta_.Keyframe();
-      event["error"] = kDeltaError;
+      event.update({{"error", kDeltaError}});  // Of the diagonal, a vertex at most.
     } else {
       return out.texts.push_back(
           ErrorEvent("invalid-message", "kind is f32, weights or delta", "/frames/kind"));
@@ -498,7 +498,7 @@ class FaceSession final : public net::LiveHandler {
   LiveLandmarks landmarks_;
   enum class Frames : uint8_t { kF32, kWeights, kDelta };
   Frames frames_ = Frames::kF32;
-  formats::DeltaFrames delta_{kDeltaError};
+  formats::DeltaFrames delta_{static_cast<float>(kDeltaError)};
   std::vector<float> positions_;  // A delta frame's, kept: no allocation a frame.
   // VMC out, and the UDP ports listened on (set by turns under listener_mu_, as the listener).
   LiveMocap mocap_;

@@ -114,12 +114,12 @@ enum class Body : unsigned char {
   kLiveFrames,  // Its "frames": what the binary frames carry.
 };
 inline constexpr Body kBodies[] = {
-    Body::kMesh,       Body::kRender,    Body::kSheet,     Body::kSequence, Body::kBatch,
-    Body::kFit,        Body::kSpeech,    Body::kDerive,    Body::kCapture,  Body::kCamera,
-    Body::kLight,      Body::kGaze,      Body::kGazeTrack, Body::kGazeKey,  Body::kBlink,
-    Body::kJoint,      Body::kBlendClip, Body::kLayer,     Body::kKey,      Body::kCell,
-    Body::kVariant,    Body::kSample,    Body::kRandomize, Body::kLive,     Body::kLiveSay,
-    Body::kLiveListen, Body::kLiveVmc,   Body::kLiveInlet};
+    Body::kMesh,       Body::kRender,    Body::kSheet,     Body::kSequence,  Body::kBatch,
+    Body::kFit,        Body::kSpeech,    Body::kDerive,    Body::kCapture,   Body::kCamera,
+    Body::kLight,      Body::kGaze,      Body::kGazeTrack, Body::kGazeKey,   Body::kBlink,
+    Body::kJoint,      Body::kBlendClip, Body::kLayer,     Body::kKey,       Body::kCell,
+    Body::kVariant,    Body::kSample,    Body::kRandomize, Body::kLive,      Body::kLiveSay,
+    Body::kLiveListen, Body::kLiveVmc,   Body::kLiveInlet, Body::kLiveFrames};
 
 // The members `body` takes, in the order the document lists them.
 std::span<const Member> Members(Body body);
