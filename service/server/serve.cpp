@@ -155,7 +155,7 @@ void ServePage(httplib::Server& server) {
   for (size_t i = 0; i < web::kAssetCount; ++i) {
     const web::Asset& asset = web::kAssets[i];
     const std::string path = asset.path;
-    const char* type = path.ends_with(".html")  ? "text/html; charset=utf-8"
+    const char* type = path.ends_with(".html") ? "text/html; charset=utf-8"
                        : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
                        : path.ends_with(".css") ? "text/css; charset=utf-8"
                                                 : "image/svg+xml";
@@ -163,7 +163,7 @@ void ServePage(httplib::Server& server) {
       res.set_header("Cache-Control", "no-cache");
       res.set_header("Content-Security-Policy",
                      "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; "
-                     "connect-src *; style-src 'self'; script-src 'self'");
+                     "connect-src *; style-src 'self'; script-src 'self' 'wasm-unsafe-eval'");
       res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
     };
     server.Get(path, handler);

@@ -2,12 +2,19 @@
 // view's meshes come from it: a slider move is one small message (what changed), the answer one binary
 // frame (16 bytes, then the float32 mesh), at most 60 a second, the newest state winning. Say speaks over
 // it too: audio chunks played as they arrive (Web Audio) and visemes on the audio's clock, the mouth
-// following them. Closed or refused, the page falls back to HTTP. A module of the page: `page` hands it
+// following them. Closed or refused, the page falls back to HTTP. Where meshoptimizer's decoder is
+// served (/vendor, from npm) the frames are the smallest the page can draw: delta frames, 16-bit
+// positions of what moved (about a fortieth of the float32 bytes), the normals made by the view. A module of the page: `page` hands it
 // {state, gl, $, showError, refreshViews, refreshMesh, nonZero, api (the API's base URL, '' for this origin)}.
 
 export function createLive(page) {
   const { state, gl, $, showError, refreshViews, refreshMesh, nonZero, api } = page;
-  const live = { ws: null, rig: null, open: false, sent: {}, id: 0 };
+  const live = { ws: null, rig: null, open: false, sent: {}, id: 0, held: null };
+  // meshoptimizer's decoder, loaded once; null where the server does not serve it.
+  const decoder = import('./vendor/meshopt_decoder.module.js')
+    .then(async (m) => { await m.MeshoptDecoder.ready; return m.MeshoptDecoder; })
+    .catch(() => null);
+  decoder.then((d) => { live.decoderReady = d; });
 
   function connect(id) {
     close();
@@ -16,7 +23,7 @@ export function createLive(page) {
     url.protocol = url.protocol === 'https:' ? 'wss:' : 'ws:';
     const ws = new WebSocket(url);
     ws.binaryType = 'arraybuffer';
-    Object.assign(live, { ws, rig: id, open: false, sent: {} });
+    Object.assign(live, { ws, rig: id, open: false, sent: {}, held: null });
     ws.onmessage = (e) => (typeof e.data === 'string' ? onText(JSON.parse(e.data)) : onBinary(e.data));
     ws.onclose = () => {
       if (live.ws !== ws) return;
@@ -51,6 +58,8 @@ export function createLive(page) {
   function onText(m) {
     if (m.event === 'ready') {
       live.open = true;
+      const ws = live.ws;
+      decoder.then((d) => { if (d && live.ws === ws) ws.send(JSON.stringify({ frames: { kind: 'delta' } })); });
       refreshMesh();  // The face as the sliders have it, now over the socket (the render has it already).
     } else if (m.viseme && state.speech && state.speech.live) {
       state.speech.visemes.push(m);
@@ -66,14 +75,44 @@ export function createLive(page) {
 
   function onBinary(buf) {
     const tag = String.fromCharCode(...new Uint8Array(buf, 0, 4));
-    if (tag === 'mesh' && live.rig === state.ready) {
-      gl.update(new Float32Array(buf, 16));
+    if ((tag === 'mesh' || tag === 'dkey' || tag === 'dlta') && live.rig === state.ready) {
+      if (tag === 'mesh') gl.update(new Float32Array(buf, 16));
+      else if (!delta(tag, buf)) return;
       state.meshUpdates = (state.meshUpdates || 0) + 1;
       state.liveFrames = (state.liveFrames || 0) + 1;  // Counted for the browser test.
+      state.liveKinds = { ...state.liveKinds, [tag]: ((state.liveKinds || {})[tag] || 0) + 1 };
       $('views').classList.remove('loading');
     } else if (tag === 'pcm1') {
       play(buf);
     }
+  }
+
+  // A delta frame (api/README.md, "Frames a network carries"): decoded, added to the grid coordinates
+  // held, drawn; false (and a keyframe asked for) when there is none to add to.
+  function delta(tag, buf) {
+    const d = live.decoderReady;
+    const head = new DataView(buf, 16, 24);
+    const n = head.getUint32(0, true), codec = head.getUint32(4, true), step = head.getFloat32(8, true);
+    if (!d && codec === 1) return false;
+    if (tag === 'dlta' && (!live.held || live.held.length !== 4 * n)) {
+      live.ws.send(JSON.stringify({ frames: { kind: 'delta' } }));  // Asks for a keyframe.
+      return false;
+    }
+    const got = live.got && live.got.length === 4 * n ? live.got : (live.got = new Int16Array(4 * n));
+    if (codec === 1) d.decodeVertexBuffer(new Uint8Array(got.buffer), n, 8, new Uint8Array(buf, 40));
+    else got.set(new Int16Array(buf.slice(40)));
+    if (tag === 'dkey') live.held = new Int16Array(4 * n);
+    const held = live.held;
+    const pos = live.pos && live.pos.length === 3 * n ? live.pos : (live.pos = new Float32Array(3 * n));
+    const o = [head.getFloat32(12, true), head.getFloat32(16, true), head.getFloat32(20, true)];
+    for (let v = 0; v < n; ++v) {
+      for (let k = 0; k < 3; ++k) {
+        held[4 * v + k] += got[4 * v + k];
+        pos[3 * v + k] = o[k] + step * held[4 * v + k];
+      }
+    }
+    gl.updatePositions(pos);
+    return true;
   }
 
   // One audio chunk, scheduled at its place on the say's clock.

@@ -1,10 +1,11 @@
-// The WebGL2 view of the float32 mesh (GET mesh?format=f32 over GET topology): a drag turns it, the
-// wheel zooms; and `drag`, the pointer-drag helper the render preview shares. A module of the page.
+// The WebGL2 view of the float32 mesh (GET mesh?format=f32 over GET topology, or positions alone with
+// the normals made here): a drag turns it, the wheel zooms; and `drag`, the pointer-drag helper the
+// render preview shares. A module of the page.
 
 export function createMeshView(canvas) {
   const c = canvas.getContext('webgl2', { antialias: true });
   const view = { yaw: 0, pitch: 0, zoom: 1, center: [0, 0, 0], radius: 1, vertices: 0, draws: [] };
-  if (!c) return { update() {}, setTopology() {}, view, coverage: () => -1 };
+  if (!c) return { update() {}, updatePositions() {}, setTopology() {}, view, coverage: () => -1 };
   const vs = `#version 300 es
     in vec3 p; in vec3 n; uniform mat4 mvp; out vec3 vn;
     void main() { vn = n; gl_Position = mvp * vec4(p, 1.0); }`;
@@ -32,6 +33,7 @@ export function createMeshView(canvas) {
   let framed = false;
 
   let focus = null;  // The box where the shapes act (a face on a whole body), from the topology route.
+  let triangles = new Uint32Array(0);
   function setTopology(topology) {
     focus = topology.focus || null;
     const tris = [];
@@ -49,8 +51,50 @@ export function createMeshView(canvas) {
     view.vertices = base;
     c.bindVertexArray(vao);
     c.bindBuffer(c.ELEMENT_ARRAY_BUFFER, ibuf);
-    c.bufferData(c.ELEMENT_ARRAY_BUFFER, new Uint32Array(tris), c.STATIC_DRAW);
+    triangles = new Uint32Array(tris);
+    weld = null;
+    c.bufferData(c.ELEMENT_ARRAY_BUFFER, triangles, c.STATIC_DRAW);
     framed = false;
+  }
+
+  // Positions alone (the live socket's delta frames): the normals made here, each vertex's the sum of
+  // its triangles' (area-weighted) normals, shared by the vertices a texture seam split at one place
+  // (found in the first frame after a topology: `weld`, each vertex's first at its place), so seams
+  // do not show. `frame` is kept between calls: no allocation a frame.
+  let frame = new Float32Array(0), weld = null;
+  function updatePositions(pos) {
+    const n = view.vertices * 3;
+    if (pos.length !== n) return;
+    if (frame.length !== 2 * n) frame = new Float32Array(2 * n);
+    if (!weld || weld.length !== n / 3) {
+      weld = new Uint32Array(n / 3);
+      const first = new Map();
+      for (let v = 0; v < n / 3; ++v) {
+        const key = `${pos[3 * v]},${pos[3 * v + 1]},${pos[3 * v + 2]}`;
+        if (!first.has(key)) first.set(key, v);
+        weld[v] = first.get(key);
+      }
+    }
+    frame.set(pos);
+    const nor = frame.subarray(n);
+    nor.fill(0);
+    for (let t = 0; t < triangles.length; t += 3) {
+      const a = 3 * triangles[t], b = 3 * triangles[t + 1], d = 3 * triangles[t + 2];
+      const ux = pos[b] - pos[a], uy = pos[b + 1] - pos[a + 1], uz = pos[b + 2] - pos[a + 2];
+      const vx = pos[d] - pos[a], vy = pos[d + 1] - pos[a + 1], vz = pos[d + 2] - pos[a + 2];
+      const x = uy * vz - uz * vy, y = uz * vx - ux * vz, z = ux * vy - uy * vx;
+      for (const i of [a, b, d]) {
+        const w = 3 * weld[i / 3];
+        nor[w] += x; nor[w + 1] += y; nor[w + 2] += z;
+      }
+    }
+    for (let v = 0; v < n / 3; ++v) {
+      const w = 3 * weld[v], i = 3 * v;
+      const l = Math.hypot(nor[w], nor[w + 1], nor[w + 2]) || 1;
+      if (w === i) { nor[i] /= l; nor[i + 1] /= l; nor[i + 2] /= l; }
+      else { nor[i] = nor[w]; nor[i + 1] = nor[w + 1]; nor[i + 2] = nor[w + 2]; }
+    }
+    update(frame);
   }
 
   function update(f32) {
@@ -126,7 +170,7 @@ export function createMeshView(canvas) {
     for (let i = 0; i < px.length; i += 4) n += Math.abs(px[i] - 219) + Math.abs(px[i + 2] - 227) > 12 ? 1 : 0;
     return n / (canvas.width * canvas.height);
   }
-  return { update, setTopology, view, coverage };
+  return { update, updatePositions, setTopology, view, coverage };
 }
 
 export function drag(el, move, end) {

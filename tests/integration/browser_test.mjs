@@ -286,6 +286,12 @@ await run('same-origin', service + '/#rig=facecap&w=', `${outDir}/page.png`);
   check(`drag: the WebGL view follows a 1 s slider drag (${during} mesh updates for ${inputs} input events)`, during >= 1);
   bar(`drag: ... at least 10 mesh updates in the second (${during})`, during >= 10);
   check(`drag: over the live socket (${drag.frames} frames, ${meshRequests} HTTP mesh requests)`, drag.frames >= 1 && meshRequests === 0);
+  // The smallest frames the page can draw: delta frames, decoded by meshoptimizer's decoder (served from
+  // npm at /vendor), the normals made by the view; drawn as the float32 mesh is (the same pixels but a few).
+  const kinds = await page.evaluate(() => window.facespace.state.liveKinds || {});
+  const deltaPixels = await page.evaluate(() => window.facespace.gl.coverage());
+  check(`drag: the frames are delta frames (${JSON.stringify(kinds)}), the face drawn from them (${(deltaPixels * 100).toFixed(1)}% of pixels)`,
+    (kinds.dkey || 0) >= 1 && (kinds.dlta || 0) >= 1 && deltaPixels > 0.05);
   const switched = await page.evaluate(async () => {
     const views = document.getElementById('views');
     const select = document.getElementById('rig');
