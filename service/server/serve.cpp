@@ -155,7 +155,7 @@ void ServePage(httplib::Server& server) {
   for (size_t i = 0; i < web::kAssetCount; ++i) {
     const web::Asset& asset = web::kAssets[i];
     const std::string path = asset.path;
-    const char* type = path.ends_with(".html") ? "text/html; charset=utf-8"
+    const char* type = path.ends_with(".html")  ? "text/html; charset=utf-8"
                        : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
                        : path.ends_with(".css") ? "text/css; charset=utf-8"
                                                 : "image/svg+xml";

@@ -181,22 +181,88 @@ std::array<double, 3> LandmarkAt(const Landmark& l, const BlendedRig& blended) {
   return out;
 }
 
-json LandmarksJson(const Rig& rig, const BlendedRig& blended, const PinholeCamera& cam,
-                   const picture::LabelPlanes& planes) {
+// The drawn triangles in camera space, each with its box on the image, for occlusion tests.
+struct DrawnTriangle {
+  std::array<std::array<double, 3>, 3> c;  // Camera space.
+  double x0, y0, x1, y1;                   // Pixels.
+};
+
+// Whether a primitive is drawn (the renderer's rule): triangles of a material not wholly
+// transparent.
+bool Drawn(const Rig& rig, const BlendedRig& b, const Primitive& p) {
+  if (p.mode != PrimitiveMode::kTriangles) return false;
+  if (p.material < 0) return true;
+  const size_t m = static_cast<size_t>(p.material);
+  return (m < b.material_colors.size() ? b.material_colors[m][3]
+                                       : rig.materials[m].base_color_factor[3]) > 0.0f;
+}
+
+std::vector<DrawnTriangle> DrawnTriangles(const Rig& rig, const BlendedRig& blended,
+                                          const PinholeCamera& cam) {
+  std::vector<DrawnTriangle> out;
+  std::vector<std::array<double, 3>> c;
+  std::vector<std::array<double, 2>> xy;
+  std::vector<char> in_front;
+  for (size_t p = 0; p < rig.primitives.size(); ++p) {
+    const Primitive& prim = rig.primitives[p];
+    if (!Drawn(rig, blended, prim)) continue;
+    const BlendedPrimitive& b = blended.primitives[p];
+    const size_t n = b.positions.size() / 3;
+    c.resize(n);
+    xy.resize(n);
+    in_front.resize(n);
+    for (size_t v = 0; v < n; ++v) {
+      float q[3];
+      TransformPoint(b.world, &b.positions[3 * v], q);
+      in_front[v] = cam.Project({q[0], q[1], q[2]}, xy[v], c[v]) && -c[v][2] >= cam.near;
+    }
+    for (size_t i = 0; i + 2 < prim.indices.size(); i += 3) {
+      const uint32_t t[3] = {prim.indices[i], prim.indices[i + 1], prim.indices[i + 2]};
+      if (!in_front[t[0]] || !in_front[t[1]] || !in_front[t[2]]) continue;  // Clipped: GL's.
+      DrawnTriangle d{{c[t[0]], c[t[1]], c[t[2]]}, 1e300, 1e300, -1e300, -1e300};
+      for (uint32_t v : t) {
+        d.x0 = std::min(d.x0, xy[v][0]), d.x1 = std::max(d.x1, xy[v][0]);
+        d.y0 = std::min(d.y0, xy[v][1]), d.y1 = std::max(d.y1, xy[v][1]);
+      }
+      out.push_back(d);
+    }
+  }
+  return out;
+}
+
+// Whether a drawn triangle crosses the ray from the eye to camera-space point `c` (Moller-Trumbore)
+// nearer than its own distance less kLandmarkOcclusionSlack of it.
+bool Occluded(std::span<const DrawnTriangle> triangles, const std::array<double, 2>& xy,
+              const std::array<double, 3>& c) {
+  for (const DrawnTriangle& t : triangles) {
+    if (xy[0] < t.x0 || xy[0] > t.x1 || xy[1] < t.y0 || xy[1] > t.y1) continue;
+    double e1[3], e2[3], pv[3], qv[3];
+    for (int k = 0; k < 3; ++k) e1[k] = t.c[1][k] - t.c[0][k], e2[k] = t.c[2][k] - t.c[0][k];
+    pv[0] = c[1] * e2[2] - c[2] * e2[1], pv[1] = c[2] * e2[0] - c[0] * e2[2],
+    pv[2] = c[0] * e2[1] - c[1] * e2[0];
+    const double det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
+    if (std::abs(det) < 1e-300) continue;
+    const double tv[3] = {-t.c[0][0], -t.c[0][1], -t.c[0][2]};  // The eye is the origin.
+    const double u = (tv[0] * pv[0] + tv[1] * pv[1] + tv[2] * pv[2]) / det;
+    if (u < 0 || u > 1) continue;
+    qv[0] = tv[1] * e1[2] - tv[2] * e1[1], qv[1] = tv[2] * e1[0] - tv[0] * e1[2],
+    qv[2] = tv[0] * e1[1] - tv[1] * e1[0];
+    const double v = (c[0] * qv[0] + c[1] * qv[1] + c[2] * qv[2]) / det;
+    const double along = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;  // 1: at c.
+    if (v >= 0 && u + v <= 1 && along > 0 && along < 1.0 - kLandmarkOcclusionSlack) return true;
+  }
+  return false;
+}
+
+json LandmarksJson(const Rig& rig, const BlendedRig& blended, const PinholeCamera& cam) {
   json list = json::array();
+  const std::vector<DrawnTriangle> drawn = DrawnTriangles(rig, blended, cam);
   for (const Landmark& l : rig.landmarks) {
     const std::array<double, 3> p = LandmarkAt(l, blended);
     std::array<double, 2> xy{0, 0};
     std::array<double, 3> c{0, 0, 0};
-    bool visible = cam.Project(p, xy, c) && xy[0] >= 0 && xy[1] >= 0 && xy[0] < cam.width &&
-                   xy[1] < cam.height;
-    if (visible) {
-      const size_t at = static_cast<size_t>(std::floor(xy[1])) * static_cast<size_t>(cam.width) +
-                        static_cast<size_t>(std::floor(xy[0]));
-      const double seen = planes.distance[at],
-                   own = std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-      visible = seen <= 0.0 || seen >= own * (1.0 - kLandmarkDepthSlack);
-    }
+    const bool visible = cam.Project(p, xy, c) && xy[0] >= 0 && xy[1] >= 0 && xy[0] < cam.width &&
+                         xy[1] < cam.height && !Occluded(drawn, xy, c);
     list.push_back({{"name", l.name},
                     {"xy", {Short(xy[0]), Short(xy[1])}},
                     {"xyz", {Short(p[0]), Short(p[1]), Short(p[2])}},
@@ -329,7 +395,7 @@ Status MakeSample(const BatchPlan& plan, size_t index, const evaluator::Evaluato
   }
   if (d.has(evaluator::Label::kLandmarks)) {
     j["landmark_scheme"] = plan.rig->rig.landmark_scheme;
-    j["landmarks"] = LandmarksJson(plan.rig->rig, ws.blended, cam, ws.image.labels);
+    j["landmarks"] = LandmarksJson(plan.rig->rig, ws.blended, cam);
   }
   if (!plan.backgrounds.empty()) j["background_image"] = plan.backgrounds[background].name;
   PointJson(plan, draw, point, j);

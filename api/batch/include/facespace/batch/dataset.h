@@ -68,9 +68,10 @@ struct PinholeCamera {
 };
 PinholeCamera CameraOf(const picture::Image& image);
 
-// A landmark is visible when it is in the frame, before the eye, and nothing drawn at its pixel is
-// nearer than its own distance less this share of it.
-inline constexpr double kLandmarkDepthSlack = 0.02;
+// A landmark is visible when it is in the frame, before the eye, and no drawn triangle (the
+// renderer's: not wholly transparent, not clipped by the near plane) crosses the ray from the eye
+// to it nearer than its own distance less this share of it: only where its own surface is drawn.
+inline constexpr double kLandmarkOcclusionSlack = 1e-4;
 
 // Labelled sample `index` of `plan` made: its point (with the drawn face), the render and label
 // planes (left in ws), and its files into `files`, the picture first and KEY.json last.
