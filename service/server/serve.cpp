@@ -23,6 +23,7 @@
 #include "facespace/batch/queue.h"
 #include "facespace/http/http.h"
 #include "facespace/offscreen/render.h"
+#include "server/page_vendor.h"
 #include "server/settings.h"
 #include "server/web_assets.h"
 #include "store/rig_store.h"
@@ -159,11 +160,14 @@ void ServePage(httplib::Server& server) {
                        : path.ends_with(".js")  ? "text/javascript; charset=utf-8"
                        : path.ends_with(".css") ? "text/css; charset=utf-8"
                                                 : "image/svg+xml";
+    // MediaPipe's tracker (the camera, /vendor) compiles its wasm and its emscripten glue evaluates
+    // code: 'wasm-unsafe-eval' and 'unsafe-eval', scripts still from this origin alone.
     auto handler = [&asset, type](const httplib::Request&, httplib::Response& res) {
       res.set_header("Cache-Control", "no-cache");
-      res.set_header("Content-Security-Policy",
-                     "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; "
-                     "connect-src *; style-src 'self'; script-src 'self' 'wasm-unsafe-eval'");
+      res.set_header(
+          "Content-Security-Policy",
+          "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; "
+          "connect-src *; style-src 'self'; script-src 'self' 'wasm-unsafe-eval' 'unsafe-eval'");
       res.set_content(reinterpret_cast<const char*>(asset.data), asset.size, type);
     };
     server.Get(path, handler);
@@ -356,6 +360,7 @@ int Serve(const std::vector<std::string>& args) {
   server.set_write_timeout(10, 0);
   api.Register(server);
   ServePage(server);
+  ServeVendor(server);
 
   const int port = Bind(server, c);
   if (port < 0) return 1;

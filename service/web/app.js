@@ -8,6 +8,7 @@ import { characterFile, parseCharacter, recentCharacters, rememberCharacter } fr
 import { loadSheets, releaseSheets, showCell } from './thumbs.js';
 import { createSpeech } from './speech.js';
 import { createLive } from './live.js';
+import { createCamera } from './camera.js';
 import { createMotions } from './motion.js';
 import { fillSelect } from './dom.js';
 
@@ -521,6 +522,8 @@ const gl = createMeshView($('gl'));
 const motions = createMotions({ state, $, refreshViews, schedule, showMotionWeights });
 const live = createLive({ state, gl, $, showError, refreshViews, refreshMesh: () => kick(lanes.mesh), nonZero, api: API });
 const speech = createSpeech({ state, $, post, call, nonZero, refreshViews, showWarnings, showError, save, live });
+const camera = createCamera({ state, live, $ });
+$('say-cam').addEventListener('click', () => camera.toggle().catch(showError));
 
 // ---- start ---------------------------------------------------------------------------------
 
@@ -562,6 +565,7 @@ async function loadRig(id, weights) {
   if (unknown.length) notice(`Not in ${id}, left out: ${unknown.slice(0, 6).join(', ')}${unknown.length > 6 ? ', \u2026' : ''}`);
   gl.setTopology(topology);
   state.ready = id;
+  camera.stop();  // Another rig: a new socket, and a new face at rest.
   live.connect(id);
   edits.clear(snapshot());  // A rig's history starts at the face it opens with.
   showHistory();

@@ -68,6 +68,11 @@ export function createLive(page) {
     } else if (m.event === 'say' && state.speech && state.speech.live) {
       if (m.state === 'start' && state.speech.clock === null) state.speech.clock = m.clock;
       if (m.state === 'end' || m.state === 'stopped') state.speech.made = true;
+    } else if (m.event === 'weights') {
+      // The camera's face, solved: kept (the last 2,000) for the browser test and a recording.
+      const log = state.cameraLog || (state.cameraLog = []);
+      log.push({ t: performance.now(), weights: m.weights });
+      if (log.length > 2000) log.shift();
     } else if (m.event === 'error') {
       showError(new Error(m.detail));
     }
@@ -222,5 +227,11 @@ export function createLive(page) {
     $('say-state').textContent = '';
   }
 
-  return { connect, close, send, say, stopSay, weights, toggleMic, get open() { return live.open; } };
+  // A face tracker's frame (camera.js): the face's weights come back as an event, the face as a frame.
+  function landmarks(l) {
+    if (!live.open) return;
+    live.ws.send(JSON.stringify({ landmarks: l, id: ++live.id }));
+  }
+
+  return { connect, close, send, say, stopSay, weights, toggleMic, landmarks, get open() { return live.open; } };
 }

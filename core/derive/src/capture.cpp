@@ -21,6 +21,10 @@ constexpr int kRounds = 3;  // Of the head's fit and the face's, per frame.
 // The gaps' rows weigh this much (squared) against a landmark's: about a lid's landmarks' count.
 constexpr double kGapWeight = 50;
 constexpr uint32_t kGaps[][2] = {{159, 145}, {386, 374}, {13, 14}};
+// MediaPipe's lids over a shut eye keep about a third of their open gap (FaceCap's renders, eyes
+// shut, through the page's tracker: 42% and 31%; half shut, 75% and 88%): a lid's closing is read
+// as its share of the two thirds it can close.
+constexpr double kLidShutShare = 0.35;
 
 Vec3 At(const Spot& s, std::span<const Vec3> values) {
   return s.weights[0] * values[s.triangle[0]] + s.weights[1] * values[s.triangle[1]] +
@@ -230,7 +234,10 @@ struct FaceTracker::State {
       const LandmarkRig::Gap& gap = m.gaps[g];
       const Vec3 change = rig_gap[g] + now[gap.b] - now[gap.a] - rest_gap[g];
       const double rest = std::max(rest_gap[g].norm(), 1e-12);
-      b += kGapWeight * (gap.length * change.dot(rest_gap[g]) / (rest * rest)) *
+      double share = change.dot(rest_gap[g]) / (rest * rest);
+      const bool lid = gap.a == kGaps[0][0] || gap.a == kGaps[1][0];
+      if (lid && share < 0) share = std::max(-1.0, share / (1.0 - kLidShutShare));
+      b += kGapWeight * (gap.length * share) *
            Eigen::Map<const Eigen::VectorXd>(gap.widen.data(), static_cast<Eigen::Index>(k));
     }
     return b;

@@ -1,0 +1,69 @@
+// The camera: the user's face drives the rig. MediaPipe's face tracker (npm @mediapipe/face_mesh, its
+// wasm and model served by the service itself at /vendor/face_mesh, nothing from elsewhere) finds 478
+// landmarks a frame in the browser; each frame goes over the live socket ({"landmarks": ...}), which
+// answers with the face's weights (an event) and its frame (the WebGL view). The first frame is the
+// performer at rest: hold a neutral face as it starts. A module of the page: `page` hands it
+// {state, live, $, showError}.
+
+export function createCamera(page) {
+  const { state, live, $ } = page;
+  let cam = null;
+
+  function loadTracker() {
+    if (window.FaceMesh) return Promise.resolve();
+    return new Promise((resolve, reject) => {
+      const s = document.createElement('script');
+      s.src = 'vendor/face_mesh/face_mesh.js';
+      s.onload = resolve;
+      s.onerror = () => reject(new Error('the camera needs the face tracker, which this server does not serve (.ci/dev start installs it)'));
+      document.head.append(s);
+    });
+  }
+
+  async function start() {
+    if (!live.open) throw new Error('the camera drives the face over the live socket, which is not open');
+    $('say-state').textContent = 'loading the face tracker\u2026';
+    await loadTracker();
+    const mesh = new window.FaceMesh({ locateFile: (f) => `vendor/face_mesh/${f}` });
+    mesh.setOptions({ maxNumFaces: 1, refineLandmarks: true, minDetectionConfidence: 0.5, minTrackingConfidence: 0.5 });
+    await mesh.initialize();  // Before the camera: its first frames are the face at rest.
+    const stream = await navigator.mediaDevices.getUserMedia({ video: { width: 640, height: 480 } });
+    const video = document.createElement('video');
+    Object.assign(video, { muted: true, playsInline: true, srcObject: stream });
+    await video.play();
+    cam = { stream, video, mesh, neutral: true, frames: 0, found: 0 };
+    state.cameraLog = [];
+    mesh.onResults((r) => {
+      if (!cam || cam.mesh !== mesh) return;
+      ++cam.frames;
+      const face = r.multiFaceLandmarks && r.multiFaceLandmarks[0];
+      if (!face || !live.open) return;
+      const w = video.videoWidth, h = video.videoHeight;
+      const points = face.map((p) => [Math.round(p.x * w * 100) / 100, Math.round(p.y * h * 100) / 100, Math.round(p.z * w * 100) / 100]);
+      const landmarks = { scheme: points.length === 478 ? 'mediapipe-478' : 'mediapipe-468', image: [w, h], points };
+      if (cam.neutral) landmarks.neutral = true;
+      cam.neutral = false;
+      live.landmarks(landmarks);
+      state.cameraFrames = ++cam.found;  // Counted for the browser test.
+      $('say-state').textContent = `camera: ${cam.found} of ${cam.frames} frames found a face`;
+    });
+    const loop = async () => {
+      if (!cam || cam.mesh !== mesh) return;
+      if (video.readyState >= 2) await mesh.send({ image: video });
+      requestAnimationFrame(loop);
+    };
+    requestAnimationFrame(loop);
+    $('say-cam').classList.add('on');
+  }
+
+  function stop() {
+    if (!cam) return;
+    cam.stream.getTracks().forEach((t) => t.stop());
+    cam.mesh.close();
+    cam = null;
+    $('say-cam').classList.remove('on');
+    $('say-state').textContent = '';
+  }
+
+  return { toggle: () => (cam ? Promise.resolve(stop()) : start()), stop, get on() { return cam !== null; } };
+}

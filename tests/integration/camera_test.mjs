@@ -1,0 +1,39 @@
+// The page's camera in Debian's headless Chromium, its camera a video file (Chromium's fake capture
+// device plays a y4m in a loop): the camera button pressed on FaceCap, the socket's weights events
+// logged for `seconds`, written as JSON for camera_test.py.
+//   node camera_test.mjs NODE_MODULES SERVICE_URL VIDEO.y4m SECONDS OUT.json
+import { writeFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { pathToFileURL } from 'node:url';
+
+const [modules, service, video, seconds, out] = process.argv.slice(2);
+const { chromium } = await import(pathToFileURL(join(modules, 'playwright-core/index.mjs')).href);
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist',
+         '--use-fake-device-for-media-stream', '--use-fake-ui-for-media-stream', `--use-file-for-fake-video-capture=${video}`],
+});
+const page = await browser.newPage({ viewport: { width: 1400, height: 900 } });
+const errors = [];
+page.on('pageerror', (e) => errors.push(e.message));
+page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+await page.goto(service + '/#rig=facecap&w=');
+await page.waitForFunction(() => window.facespace && window.facespace.state.liveFrames > 0, null, { timeout: 30000 });
+await page.locator('#say-cam').click();
+let started = true;
+await page.waitForFunction(() => (window.facespace.state.cameraFrames || 0) > 0, null, { timeout: 60000 }).catch(() => { started = false; });
+const t0 = Date.now();
+while (started && Date.now() - t0 < 1000 * Number(seconds)) await page.waitForTimeout(500);
+const result = await page.evaluate(() => ({
+  log: window.facespace.state.cameraLog || [],
+  found: window.facespace.state.cameraFrames || 0,
+  status: document.getElementById('say-state').textContent,
+  on: document.getElementById('say-cam').classList.contains('on'),
+  kinds: window.facespace.state.liveKinds || {},
+}));
+await page.locator('#say-cam').click();
+result.off = !(await page.evaluate(() => document.getElementById('say-cam').classList.contains('on')));
+result.errors = errors.filter((e) => !/GL Driver|favicon/.test(e)).slice(0, 5);
+await page.screenshot({ path: out.replace(/\.json$/, '.png') });
+writeFileSync(out, JSON.stringify(result));
+await browser.close();

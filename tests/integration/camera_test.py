@@ -1,0 +1,111 @@
+#!/usr/bin/env python3
+"""The page's camera (issue 64): a video the service renders itself of FaceCap at known weights (held 1.5 s each:
+rest, the jaw open, both eyes shut, a smile, the jaw and a smile), as the y4m Chromium's fake camera plays in a
+loop, through the page's camera button in headless Chromium: MediaPipe's tracker (npm, served by the service)
+finds the face, the live socket answers its weights. Those weights, aligned to the video by the one lag that
+fits best, follow the truth: jawOpen, eyeBlink and mouthSmile each within a mean error of 0.15 and a correlation
+of 0.8 or more.
+
+  camera_test.py FACESPACE_BIN SOURCE_DIR NODE_MODULES
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.parse
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from suite import Server, check, counts, request  # noqa: E402
+
+BIN, SRC, MODULES = sys.argv[1:4]
+FPS, HOLD = 30, 45  # Frames a second, frames a face is held.
+FACES = [{}, {"jawOpen": 0.7}, {}, {"eyeBlink_L": 1, "eyeBlink_R": 1}, {}, {"mouthSmile_L": 0.8, "mouthSmile_R": 0.8},
+         {}, {"jawOpen": 0.4, "mouthSmile_L": 0.5, "mouthSmile_R": 0.5}]
+CHANNELS = {"jawOpen": ["jawOpen"], "eyeBlink": ["eyeBlink_L", "eyeBlink_R"], "mouthSmile": ["mouthSmile_L", "mouthSmile_R"]}
+
+
+def channel(weights, names):
+    return sum(weights.get(n, 0.0) for n in names) / len(names)
+
+
+def video(srv, tmp):
+    """The y4m: each face rendered once (640 x 480), turned to 4:2:0 by ffmpeg, held HOLD frames."""
+    planes = []
+    for i, w in enumerate(FACES):
+        q = "&".join(f"w.{k}={v}" for k, v in w.items())
+        png = request(srv.url + f"/v1/rigs/facecap/render?width=640&height=480&{q}")[2]
+        path = os.path.join(tmp, f"face{i}.png")
+        open(path, "wb").write(png)
+        planes.append(subprocess.run(["ffmpeg", "-loglevel", "error", "-i", path, "-pix_fmt", "yuv420p", "-f", "rawvideo", "-"],
+                                     capture_output=True, check=True).stdout)
+    out = os.path.join(tmp, "face.y4m")
+    with open(out, "wb") as f:
+        f.write(b"YUV4MPEG2 W640 H480 F30:1 Ip A1:1 C420jpeg\n")
+        for p in planes:
+            for _ in range(HOLD):
+                f.write(b"FRAME\n" + p)
+    return out
+
+
+def truth(t):
+    """The faces' weights at video time t (seconds, looping)."""
+    k = int(t * FPS) % (len(FACES) * HOLD) // HOLD
+    return FACES[k]
+
+
+def corr(a, b):
+    n = len(a)
+    ma, mb = sum(a) / n, sum(b) / n
+    va = sum((x - ma) ** 2 for x in a)
+    vb = sum((y - mb) ** 2 for y in b)
+    return sum((x - ma) * (y - mb) for x, y in zip(a, b)) / ((va * vb) ** 0.5 or 1)
+
+
+def main():
+    tmp = tempfile.mkdtemp(prefix="fs-camera-")
+    with open(os.path.join(tmp, "key"), "w") as f:
+        f.write("k3y-camera\n")
+    srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
+    try:
+        y4m = video(srv, tmp)
+        check(f"the video: {len(FACES)} faces held {HOLD / FPS:.1f} s each, {os.path.getsize(y4m) >> 20} MB of y4m", os.path.getsize(y4m) > 0)
+        out = os.path.join(tmp, "camera.json")
+        run = subprocess.run(["node", os.path.join(SRC, "tests/integration/camera_test.mjs"), MODULES, srv.url, y4m, "40", out],
+                             capture_output=True, text=True, timeout=300)
+        r = json.load(open(out)) if os.path.exists(out) else {}
+        log = r.get("log", [])
+        check(f"the camera button runs MediaPipe's tracker on the camera: {r.get('found')} frames found a face, "
+              f"{len(log)} weights events ({r.get('status')!r}; {run.stderr[-300:]})", len(log) >= 60 and r.get("on"))
+        check(f"no page errors ({r.get('errors')})", not r.get("errors"))
+        check("the camera button stops it", r.get("off"))
+        if len(log) < 60:
+            return
+        t0 = log[0]["t"]
+        times = [(e["t"] - t0) / 1000.0 for e in log]
+        loop = len(FACES) * HOLD / FPS
+        best = None
+        for step in range(int(loop * 20)):  # The video's start against the first event, in 50 ms steps.
+            lag = step / 20
+            err = sum(abs(channel(e["weights"], names) - channel(truth(t + lag), names))
+                      for e, t in zip(log, times) for names in CHANNELS.values())
+            if best is None or err < best[0]:
+                best = (err, lag)
+        lag = best[1]
+        for name, names in CHANNELS.items():
+            got = [channel(e["weights"], names) for e in log]
+            want = [channel(truth(t + lag), names) for t in times]
+            mean = sum(abs(a - b) for a, b in zip(got, want)) / len(got)
+            c = corr(got, want)
+            check(f"{name}: the socket's weights follow the video's (mean error {mean:.3f}, at most 0.15; correlation {c:.2f}, "
+                  f"at least 0.8; {len(got)} events, the video {lag:.2f} s ahead)", mean <= 0.15 and c >= 0.8)
+        print(f"  screenshot: {out.replace('.json', '.png')}")
+    finally:
+        srv.stop()
+    print(f"{counts['passed']} passed, {counts['failed']} failed")
+    sys.exit(1 if counts["failed"] else 0)
+
+
+if __name__ == "__main__":
+    main()
