@@ -42,10 +42,7 @@ void ServeVendor(httplib::Server& server) {
                const std::string name = req.matches[1];
                const auto bytes = Read(name);
                if (!bytes) {
-                 res.status = 404;
-                 res.set_content(
-                     "the page's tracker is not installed (.ci/dev start installs it)\n",
-                     "text/plain");
+                 res.status = 404;  // Worded by the API's error handler, as problem+json.
                  return;
                }
                res.set_header("Cache-Control", "max-age=86400");

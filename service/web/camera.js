@@ -2,8 +2,9 @@
 // wasm and model served by the service itself at /vendor/face_mesh, nothing from elsewhere) finds 478
 // landmarks a frame in the browser; each frame goes over the live socket ({"landmarks": ...}), which
 // answers with the face's weights (an event) and its frame (the WebGL view). The first frame is the
-// performer at rest: hold a neutral face as it starts. A module of the page: `page` hands it
-// {state, live, $, showError}.
+// performer at rest: hold a neutral face as it starts. Stopped, the recording can be saved as a
+// motion: the weights' keys, as the sequence routes take them. A module of the page: `page` hands it
+// {state, live, $}.
 
 export function createCamera(page) {
   const { state, live, $ } = page;
@@ -33,6 +34,7 @@ export function createCamera(page) {
     await video.play();
     cam = { stream, video, mesh, neutral: true, frames: 0, found: 0 };
     state.cameraLog = [];
+    state.cameraPoints = [];  // The landmarks sent (the last 900 frames), as POST /capture takes them.
     mesh.onResults((r) => {
       if (!cam || cam.mesh !== mesh) return;
       ++cam.frames;
@@ -44,6 +46,8 @@ export function createCamera(page) {
       if (cam.neutral) landmarks.neutral = true;
       cam.neutral = false;
       live.landmarks(landmarks);
+      state.cameraPoints.push({ t: performance.now(), image: [w, h], points });
+      if (state.cameraPoints.length > 900) state.cameraPoints.shift();
       state.cameraFrames = ++cam.found;  // Counted for the browser test.
       $('say-state').textContent = `camera: ${cam.found} of ${cam.frames} frames found a face`;
     });
@@ -63,6 +67,21 @@ export function createCamera(page) {
     cam = null;
     $('say-cam').classList.remove('on');
     $('say-state').textContent = '';
+    const log = state.cameraLog || [];
+    if (log.length < 2) return;
+    // The recording as a motion: a button to save its keys (seconds from its first frame).
+    const save = document.createElement('button');
+    save.type = 'button';
+    save.textContent = `save the recording (${((log[log.length - 1].t - log[0].t) / 1000).toFixed(1)} s)`;
+    save.addEventListener('click', () => {
+      const keys = log.map((e) => ({ time: +((e.t - log[0].t) / 1000).toFixed(3), weights: e.weights }));
+      const a = document.createElement('a');
+      a.href = URL.createObjectURL(new Blob([JSON.stringify({ keys }, null, 1)], { type: 'application/json' }));
+      a.download = `${state.ready}.camera.json`;
+      a.click();
+      setTimeout(() => URL.revokeObjectURL(a.href), 1000);
+    });
+    $('say-state').append(save);
   }
 
   return { toggle: () => (cam ? Promise.resolve(stop()) : start()), stop, get on() { return cam !== null; } };

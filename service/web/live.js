@@ -69,9 +69,11 @@ export function createLive(page) {
       if (m.state === 'start' && state.speech.clock === null) state.speech.clock = m.clock;
       if (m.state === 'end' || m.state === 'stopped') state.speech.made = true;
     } else if (m.event === 'weights') {
-      // The camera's face, solved: kept (the last 2,000) for the browser test and a recording.
+      // The camera's face, solved: kept (the last 2,000) for the browser test and a recording, at the
+      // time its frame was sent.
       const log = state.cameraLog || (state.cameraLog = []);
-      log.push({ t: performance.now(), weights: m.weights });
+      const sent = live.sentAt && live.sentAt.get(m.id);
+      log.push({ t: sent === undefined ? performance.now() : sent, weights: m.weights });
       if (log.length > 2000) log.shift();
     } else if (m.event === 'error') {
       showError(new Error(m.detail));
@@ -231,6 +233,8 @@ export function createLive(page) {
   function landmarks(l) {
     if (!live.open) return;
     live.ws.send(JSON.stringify({ landmarks: l, id: ++live.id }));
+    (live.sentAt || (live.sentAt = new Map())).set(live.id, performance.now());
+    if (live.sentAt.size > 256) live.sentAt.delete(live.sentAt.keys().next().value);
   }
 
   return { connect, close, send, say, stopSay, weights, toggleMic, landmarks, get open() { return live.open; } };

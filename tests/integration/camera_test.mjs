@@ -30,9 +30,15 @@ const result = await page.evaluate(() => ({
   status: document.getElementById('say-state').textContent,
   on: document.getElementById('say-cam').classList.contains('on'),
   kinds: window.facespace.state.liveKinds || {},
+  points: window.facespace.state.cameraPoints || [],
 }));
 await page.locator('#say-cam').click();
 result.off = !(await page.evaluate(() => document.getElementById('say-cam').classList.contains('on')));
+// Stopped: the recording saved as a motion (the weights' keys).
+const [saved] = await Promise.all([page.waitForEvent('download', { timeout: 10000 }).catch(() => null),
+  page.locator('#say-state button').click().catch(() => null)]);
+result.motion = saved ? JSON.parse((await import('node:fs')).readFileSync(await saved.path(), 'utf8')) : null;
+result.motionName = saved ? saved.suggestedFilename() : null;
 result.errors = errors.filter((e) => !/GL Driver|favicon/.test(e)).slice(0, 5);
 await page.screenshot({ path: out.replace(/\.json$/, '.png') });
 writeFileSync(out, JSON.stringify(result));

@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""The page's camera (issue 64): a video the service renders itself of FaceCap at known weights (held 1.5 s each:
+"""The page's camera (issue 64): a video the service renders itself of FaceCap at known weights (held 2 s each:
 rest, the jaw open, both eyes shut, a smile, the jaw and a smile), as the y4m Chromium's fake camera plays in a
 loop, through the page's camera button in headless Chromium: MediaPipe's tracker (npm, served by the service)
 finds the face, the live socket answers its weights. Those weights, aligned to the video by the one lag that
 fits best, follow the truth: jawOpen, eyeBlink and mouthSmile each within a mean error of 0.15 and a correlation
-of 0.8 or more.
+of 0.8 or more; and so do POST /capture's keys from the same landmarks (the page keeps what it sent). Stopped,
+the recording saves as a motion.
 
   camera_test.py FACESPACE_BIN SOURCE_DIR NODE_MODULES
 """
@@ -20,7 +21,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from suite import Server, check, counts, request  # noqa: E402
 
 BIN, SRC, MODULES = sys.argv[1:4]
-FPS, HOLD = 30, 45  # Frames a second, frames a face is held.
+FPS, HOLD = 30, 60  # Frames a second, frames a face is held.
 FACES = [{}, {"jawOpen": 0.7}, {}, {"eyeBlink_L": 1, "eyeBlink_R": 1}, {}, {"mouthSmile_L": 0.8, "mouthSmile_R": 0.8},
          {}, {"jawOpen": 0.4, "mouthSmile_L": 0.5, "mouthSmile_R": 0.5}]
 CHANNELS = {"jawOpen": ["jawOpen"], "eyeBlink": ["eyeBlink_L", "eyeBlink_R"], "mouthSmile": ["mouthSmile_L", "mouthSmile_R"]}
@@ -63,6 +64,25 @@ def corr(a, b):
     return sum((x - ma) * (y - mb) for x, y in zip(a, b)) / ((va * vb) ** 0.5 or 1)
 
 
+def follows(what, series):
+    """Checks that `series` ([(seconds, weights)]) follows the video, aligned by the one lag that fits best."""
+    loop = len(FACES) * HOLD / FPS
+    best = None
+    for step in range(int(loop * 20)):  # The video's start against the first event, in 50 ms steps.
+        lag = step / 20
+        err = sum(abs(channel(w, names) - channel(truth(t + lag), names)) for t, w in series for names in CHANNELS.values())
+        if best is None or err < best[0]:
+            best = (err, lag)
+    lag = best[1]
+    for name, names in CHANNELS.items():
+        got = [channel(w, names) for _, w in series]
+        want = [channel(truth(t + lag), names) for t, _ in series]
+        mean = sum(abs(a - b) for a, b in zip(got, want)) / len(got)
+        c = corr(got, want)
+        check(f"{name}: {what} follow the video's (mean error {mean:.3f}, at most 0.15; correlation {c:.2f}, "
+              f"at least 0.8; {len(got)} of them, the video {lag:.2f} s ahead)", mean <= 0.15 and c >= 0.8)
+
+
 def main():
     tmp = tempfile.mkdtemp(prefix="fs-camera-")
     with open(os.path.join(tmp, "key"), "w") as f:
@@ -83,23 +103,20 @@ def main():
         if len(log) < 60:
             return
         t0 = log[0]["t"]
-        times = [(e["t"] - t0) / 1000.0 for e in log]
-        loop = len(FACES) * HOLD / FPS
-        best = None
-        for step in range(int(loop * 20)):  # The video's start against the first event, in 50 ms steps.
-            lag = step / 20
-            err = sum(abs(channel(e["weights"], names) - channel(truth(t + lag), names))
-                      for e, t in zip(log, times) for names in CHANNELS.values())
-            if best is None or err < best[0]:
-                best = (err, lag)
-        lag = best[1]
-        for name, names in CHANNELS.items():
-            got = [channel(e["weights"], names) for e in log]
-            want = [channel(truth(t + lag), names) for t in times]
-            mean = sum(abs(a - b) for a, b in zip(got, want)) / len(got)
-            c = corr(got, want)
-            check(f"{name}: the socket's weights follow the video's (mean error {mean:.3f}, at most 0.15; correlation {c:.2f}, "
-                  f"at least 0.8; {len(got)} events, the video {lag:.2f} s ahead)", mean <= 0.15 and c >= 0.8)
+        follows("the socket's weights", [((e["t"] - t0) / 1000.0, e["weights"]) for e in log])
+        motion = r.get("motion") or {}
+        check(f"stopped, the recording saves as a motion ({r.get('motionName')}: {len(motion.get('keys', []))} keys)",
+              len(motion.get("keys", [])) >= len(log) and r.get("motionName") == "facecap.camera.json")
+        # The same landmarks offline: POST /capture (a key a frame), each key at its frame's time in the page.
+        pts = r.get("points", [])
+        fps = (len(pts) - 1) / ((pts[-1]["t"] - pts[0]["t"]) / 1000.0) if len(pts) > 1 else 30
+        body = {"scheme": "mediapipe-478", "image": pts[0]["image"], "fps": round(fps, 3), "frames": [p["points"] for p in pts]}
+        status, _, answer, _ = request(srv.url + "/v1/rigs/facecap/capture", "POST", json.dumps(body).encode(),
+                                    {"Content-Type": "application/json", "Authorization": "Bearer k3y-camera"})
+        keys = json.loads(answer).get("keys", []) if status == 200 else []
+        check(f"POST /capture of the same {len(pts)} frames: {status}, {len(keys)} keys", status == 200 and len(keys) == len(pts))
+        if keys:
+            follows("POST /capture's keys", [((p["t"] - t0) / 1000.0, k["weights"]) for p, k in zip(pts, keys)])
         print(f"  screenshot: {out.replace('.json', '.png')}")
     finally:
         srv.stop()
