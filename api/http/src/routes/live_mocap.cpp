@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -184,18 +185,28 @@ MocapInlet::MocapInlet(MocapProtocol protocol, int fd, int port, std::vector<uin
       fd_(fd),
       port_(port),
       allowed_(std::move(allowed)),
-      wake_(std::move(wake)) {
+      wake_(std::move(wake)),
+      stop_fd_(eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK)) {
   thread_ = std::jthread([this](std::stop_token stop) { Run(stop); });
 }
 
 MocapInlet::~MocapInlet() {
-  thread_.request_stop();
+  Cancel();
   if (thread_.joinable()) thread_.join();
   close(fd_);
+  if (stop_fd_ >= 0) close(stop_fd_);
   inlets_open.fetch_sub(1);
 }
 
-void MocapInlet::Cancel() { thread_.request_stop(); }
+// The thread's poll wakes at once (the hub's loop joins it at the session's end: no wait there).
+void MocapInlet::Cancel() {
+  thread_.request_stop();
+  const uint64_t one = 1;
+  if (stop_fd_ >= 0) {
+    const ssize_t n = write(stop_fd_, &one, sizeof(one));
+    (void)n;  // It fails only when a wake is already pending.
+  }
+}
 
 bool MocapInlet::Take(MocapFrame& out) {
   std::lock_guard<std::mutex> lock(mu_);
@@ -317,9 +328,9 @@ void MocapInlet::Run(std::stop_token stop) {
       std::this_thread::sleep_for(std::chrono::microseconds(250));
       continue;
     }
-    pollfd p{fd_, POLLIN, 0};
-    const int wait = ready_ ? 1 : 50;  // 50 ms: how soon a stop is seen.
-    if (poll(&p, 1, wait) <= 0) continue;
+    pollfd p[2] = {{fd_, POLLIN, 0}, {stop_fd_, POLLIN, 0}};
+    const int wait = ready_ ? 1 : 50;  // A stop wakes it (stop_fd_); 50 ms is a backstop.
+    if (poll(p, stop_fd_ >= 0 ? 2 : 1, wait) <= 0 || !(p[0].revents & POLLIN)) continue;
     const double start = ThreadCpuSeconds();
     sockaddr_in from{};
     socklen_t len = sizeof(from);

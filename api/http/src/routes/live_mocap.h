@@ -116,6 +116,7 @@ class MocapInlet {
   int fd_, port_;
   std::vector<uint32_t> allowed_;  // Network byte order.
   std::function<void()> wake_;
+  int stop_fd_;                                         // An eventfd Cancel writes: the poll wakes.
   std::vector<std::pair<std::string, float>> pending_;  // The thread's: blends before an Apply.
   std::vector<std::pair<std::string, float>> line_;     // The thread's: a line being read.
   bool ready_ = false;  // The thread's: pending_ is a whole frame not yet given.
