@@ -519,6 +519,9 @@ bool FileJobQueue::RunNext() {
     // shared filesystem slow to show it) waits for it rather than being lost.
     auto rig = RigFor(*candidate, true);
     if (!rig && AgeSeconds(folder / "job.json") < 30) continue;
+    // A claim that states a rate had a runner (killed: its lock is gone), though the manifest lines
+    // it made may not all be on the disk yet: this is a resumption all the same.
+    const bool ran = ClaimRate(folder) > 0;
     const int fd = TakeClaim(folder, instance_);
     if (fd < 0) continue;  // Another instance took it.
     auto job =
@@ -541,7 +544,7 @@ bool FileJobQueue::RunNext() {
     if (!rig) {
       MarkLost(*job);
     } else {
-      if (job->info.done > 0) {
+      if (job->info.done > 0 || ran) {
         std::fprintf(stderr, "jobs: resuming job %s (%zu of %zu variants were done)\n",
                      job->info.id.c_str(), job->info.done, job->info.total);
       }
