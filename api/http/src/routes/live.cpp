@@ -1,8 +1,9 @@
 // GET /v1/rigs/{id}/live, upgraded to a WebSocket (issue 53): one face per socket. Text messages
 // set the state ({"weights"}, {"expressions"}, {"gaze"}, {"pose"}, {"controls"}, merged into the
 // current point as the mesh route reads them); each change is answered by one binary message, a
-// 16-byte header then the same bytes as GET /mesh?format=f32 for that point, at most 60 a second
-// (the hub coalesces).
+// 16-byte header then the same bytes as GET /mesh?format=f32 for that point (or, after {"frames":
+// ...}, its weights or its moved positions packed), at most 60 a second (the hub coalesces). The
+// session's UDP side (VMC, iFacialMocap) is live_mocap.h's.
 #include <cstring>
 #include <nlohmann/json.hpp>
 
