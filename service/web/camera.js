@@ -45,15 +45,18 @@ export function createCamera(page) {
       const landmarks = { scheme: points.length === 478 ? 'mediapipe-478' : 'mediapipe-468', image: [w, h], points };
       if (cam.neutral) landmarks.neutral = true;
       cam.neutral = false;
-      live.landmarks(landmarks);
-      state.cameraPoints.push({ t: performance.now(), image: [w, h], points });
+      live.landmarks(landmarks, cam.frameAt);
+      state.cameraPoints.push({ t: cam.frameAt, image: [w, h], points });
       if (state.cameraPoints.length > 900) state.cameraPoints.shift();
       state.cameraFrames = ++cam.found;  // Counted for the browser test.
       $('say-state').textContent = `camera: ${cam.found} of ${cam.frames} frames found a face`;
     });
     const loop = async () => {
       if (!cam || cam.mesh !== mesh) return;
-      if (video.readyState >= 2) await mesh.send({ image: video });
+      if (video.readyState >= 2) {
+        cam.frameAt = performance.now();  // The frame's time: what its results are stamped with.
+        await mesh.send({ image: video });
+      }
       requestAnimationFrame(loop);
     };
     requestAnimationFrame(loop);

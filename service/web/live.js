@@ -70,7 +70,7 @@ export function createLive(page) {
       if (m.state === 'end' || m.state === 'stopped') state.speech.made = true;
     } else if (m.event === 'weights') {
       // The camera's face, solved: kept (the last 2,000) for the browser test and a recording, at the
-      // time its frame was sent.
+      // time its video frame was taken.
       const log = state.cameraLog || (state.cameraLog = []);
       const sent = live.sentAt && live.sentAt.get(m.id);
       log.push({ t: sent === undefined ? performance.now() : sent, weights: m.weights });
@@ -229,11 +229,12 @@ export function createLive(page) {
     $('say-state').textContent = '';
   }
 
-  // A face tracker's frame (camera.js): the face's weights come back as an event, the face as a frame.
-  function landmarks(l) {
+  // A face tracker's frame (camera.js) taken at time `t`: the face's weights come back as an event
+  // (logged at `t`), the face as a frame.
+  function landmarks(l, t = performance.now()) {
     if (!live.open) return;
     live.ws.send(JSON.stringify({ landmarks: l, id: ++live.id }));
-    (live.sentAt || (live.sentAt = new Map())).set(live.id, performance.now());
+    (live.sentAt || (live.sentAt = new Map())).set(live.id, t);
     if (live.sentAt.size > 256) live.sentAt.delete(live.sentAt.keys().next().value);
   }
 
