@@ -158,17 +158,25 @@ Status ReadFrame(std::span<const float> f, size_t index, std::vector<Vec3>& poin
 // The frame's moves from the rig's neutral in the rig's frame, the head's motion taken out: a
 // similarity from the rig's neutral plus `offset` (what the face is thought to do, per landmark)
 // onto the points, over the rigid landmarks, or over all of them when the offset models the face.
+// A frame's scratch, kept by its tracker: a frame allocates nothing once they have grown.
+struct Scratch {
+  std::vector<Vec3> from, to, offset;
+  std::vector<double> weights;
+  Eigen::VectorXd x, face, rhs;
+};
+
 Similarity Unposed(const LandmarkRig& m, std::span<const Vec3> points, std::span<const Vec3> offset,
-                   bool all, std::vector<Vec3>& out) {
-  std::vector<Vec3> from, to;
-  std::vector<double> w;
+                   bool all, Scratch& t, std::vector<Vec3>& out) {
+  t.from.clear();
+  t.to.clear();
+  t.weights.clear();
   for (size_t i = 0; i < kMediaPipeFace; ++i) {
     if (!m.found[i]) continue;
-    from.push_back(Vec3(m.rest[3 * i], m.rest[3 * i + 1], m.rest[3 * i + 2]) + offset[i]);
-    to.push_back(points[i]);
-    w.push_back(all ? 1.0 : m.rigid[i]);
+    t.from.push_back(Vec3(m.rest[3 * i], m.rest[3 * i + 1], m.rest[3 * i + 2]) + offset[i]);
+    t.to.push_back(points[i]);
+    t.weights.push_back(all ? 1.0 : m.rigid[i]);
   }
-  const Similarity s = FitSimilarity(from, to, w);
+  const Similarity s = FitSimilarity(t.from, t.to, t.weights);
   out.assign(kMediaPipeFace, Vec3::Zero());
   for (size_t i = 0; i < kMediaPipeFace; ++i) {
     if (!m.found[i]) continue;
@@ -180,11 +188,11 @@ Similarity Unposed(const LandmarkRig& m, std::span<const Vec3> points, std::span
 
 // Bounded least squares on the normal equations, by projected coordinate descent from `w`.
 void SolveBounded(const LandmarkRig& m, const Eigen::VectorXd& b, double ridge,
-                  std::vector<float>& w) {
+                  std::vector<float>& w, Eigen::VectorXd& x) {
   const size_t k = m.shapes.size();
   Eigen::Map<const Eigen::MatrixXd> a(m.normal.data(), static_cast<Eigen::Index>(k),
                                       static_cast<Eigen::Index>(k));
-  Eigen::VectorXd x(k);
+  x.resize(static_cast<Eigen::Index>(k));
   for (size_t j = 0; j < k; ++j) x[j] = w[j];
   for (int sweep = 0; sweep < kSweeps; ++sweep) {
     double moved = 0;
@@ -213,6 +221,7 @@ struct FaceTracker::State {
   std::vector<OneEuro> filters;
   Eigen::VectorXd target;
   size_t found = 0;
+  Scratch t;
 
   State(const LandmarkRig& map, const CaptureOptions& options)
       : m(map),
@@ -225,11 +234,12 @@ struct FaceTracker::State {
 
   // The right-hand side of the normal equations for the frame's moves `now`: the landmarks' and
   // the gaps' (the performer's gap's change along it, as a share of their gap, on the rig's).
-  Eigen::VectorXd Rhs() {
+  const Eigen::VectorXd& Rhs() {
     const size_t k = m.shapes.size();
     for (size_t i = 0; i < kMediaPipeFace; ++i)
       target.segment<3>(3 * i) = m.found[i] ? Vec3(now[i] - at_rest[i]) : Vec3::Zero();
-    Eigen::VectorXd b = moves.transpose() * target;
+    Eigen::VectorXd& b = t.rhs;
+    b.noalias() = moves.transpose() * target;
     for (size_t g = 0; g < m.gaps.size(); ++g) {
       const LandmarkRig::Gap& gap = m.gaps[g];
       const Vec3 change = rig_gap[g] + now[gap.b] - now[gap.a] - rest_gap[g];
@@ -253,8 +263,8 @@ bool FaceTracker::has_neutral() const { return state_->has_neutral; }
 Status FaceTracker::SetNeutral(std::span<const float> frame, size_t index) {
   State& s = *state_;
   if (Status st = ReadFrame(frame, index, s.points); !st.ok()) return st;
-  s.neutral =
-      Unposed(s.m, s.points, std::vector<Vec3>(kMediaPipeFace, Vec3::Zero()), false, s.at_rest);
+  s.neutral = Unposed(s.m, s.points, std::vector<Vec3>(kMediaPipeFace, Vec3::Zero()), false, s.t,
+                      s.at_rest);
   // The performer's own gaps at rest, in the rig's frame (a frame's gap is its moves' difference
   // plus the rig's gap).
   s.rest_gap.clear();
@@ -276,16 +286,17 @@ Status FaceTracker::Step(std::span<const float> frame, size_t index, Frame& out)
   // The head's motion and the face's, in turn: the first fit on the rigid landmarks, then on all
   // of them with the face solved so far.
   Similarity pose;
-  std::vector<Vec3> offset = s.at_rest;
-  Eigen::VectorXd x(k);
+  Scratch& t = s.t;  // Kept: a frame allocates nothing once it has grown.
+  t.offset.assign(s.at_rest.begin(), s.at_rest.end());
+  t.face.resize(3 * kMediaPipeFace);
   for (int round = 0; round < kRounds; ++round) {
-    pose = Unposed(s.m, s.points, offset, round > 0, s.now);
-    SolveBounded(s.m, s.Rhs(), kRidge, s.w);
-    for (size_t j = 0; j < k; ++j) x[j] = s.w[j];
-    const Eigen::VectorXd face = s.moves * x;
-    for (size_t i = 0; i < kMediaPipeFace; ++i) offset[i] = s.at_rest[i] + face.segment<3>(3 * i);
+    pose = Unposed(s.m, s.points, t.offset, round > 0, t, s.now);
+    SolveBounded(s.m, s.Rhs(), kRidge, s.w, t.x);
+    t.face.noalias() = s.moves * t.x;
+    for (size_t i = 0; i < kMediaPipeFace; ++i)
+      t.offset[i] = s.at_rest[i] + t.face.segment<3>(3 * i);
   }
-  out.residual = static_cast<float>((s.moves * x - s.target).norm() /
+  out.residual = static_cast<float>((t.face - s.target).norm() /
                                     std::sqrt(double(std::max<size_t>(s.found, 1))) / s.m.diag);
   out.weights.assign(s.m.rig_shapes, 0.0f);
   const float dt = 1.0f / std::max(s.o.fps, 1e-3f);
