@@ -45,8 +45,8 @@ export function createCamera(page) {
       const landmarks = { scheme: points.length === 478 ? 'mediapipe-478' : 'mediapipe-468', image: [w, h], points };
       if (cam.neutral) landmarks.neutral = true;
       cam.neutral = false;
-      live.landmarks(landmarks, cam.frameAt);
-      state.cameraPoints.push({ t: cam.frameAt, image: [w, h], points });
+      live.landmarks(landmarks, cam.frameAt, cam.frameTag);
+      state.cameraPoints.push({ t: cam.frameAt, tag: cam.frameTag, image: [w, h], points });
       if (state.cameraPoints.length > 900) state.cameraPoints.shift();
       state.cameraFrames = ++cam.found;  // Counted for the browser test.
       $('say-state').textContent = `camera: ${cam.found} of ${cam.frames} frames found a face`;
@@ -55,6 +55,9 @@ export function createCamera(page) {
       if (!cam || cam.mesh !== mesh) return;
       if (video.readyState >= 2) {
         cam.frameAt = performance.now();  // The frame's time: what its results are stamped with.
+        // A test's reader of the frame's own number (a video that carries one; camera_test.mjs).
+        const hook = window.facespace && window.facespace.cameraHook;
+        cam.frameTag = hook ? hook(video) : undefined;
         await mesh.send({ image: video });
       }
       requestAnimationFrame(loop);

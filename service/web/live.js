@@ -72,8 +72,8 @@ export function createLive(page) {
       // The camera's face, solved: kept (the last 2,000) for the browser test and a recording, at the
       // time its video frame was taken.
       const log = state.cameraLog || (state.cameraLog = []);
-      const sent = live.sentAt && live.sentAt.get(m.id);
-      log.push({ t: sent === undefined ? performance.now() : sent, weights: m.weights });
+      const sent = (live.sentAt && live.sentAt.get(m.id)) || { t: performance.now() };
+      log.push({ t: sent.t, tag: sent.tag, weights: m.weights });
       if (log.length > 2000) log.shift();
     } else if (m.event === 'error') {
       showError(new Error(m.detail));
@@ -231,10 +231,10 @@ export function createLive(page) {
 
   // A face tracker's frame (camera.js) taken at time `t`: the face's weights come back as an event
   // (logged at `t`), the face as a frame.
-  function landmarks(l, t = performance.now()) {
+  function landmarks(l, t = performance.now(), tag = undefined) {
     if (!live.open) return;
     live.ws.send(JSON.stringify({ landmarks: l, id: ++live.id }));
-    (live.sentAt || (live.sentAt = new Map())).set(live.id, t);
+    (live.sentAt || (live.sentAt = new Map())).set(live.id, { t, tag });
     if (live.sentAt.size > 256) live.sentAt.delete(live.sentAt.keys().next().value);
   }
 
