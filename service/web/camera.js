@@ -28,7 +28,14 @@ export function createCamera(page) {
     const mesh = new window.FaceMesh({ locateFile: (f) => `vendor/face_mesh/${f}` });
     mesh.setOptions({ maxNumFaces: 1, refineLandmarks: true, minDetectionConfidence: 0.5, minTrackingConfidence: 0.5 });
     await mesh.initialize();  // Before the camera: its first frames are the face at rest.
-    const stream = await navigator.mediaDevices.getUserMedia({ video: { width: 640, height: 480 } });
+    let stream;
+    try {
+      stream = await navigator.mediaDevices.getUserMedia({ video: { width: 640, height: 480 } });
+    } catch (e) {
+      mesh.close();
+      $('say-state').textContent = '';
+      throw new Error(`no camera: ${e.message}`);
+    }
     const video = document.createElement('video');
     Object.assign(video, { muted: true, playsInline: true, srcObject: stream });
     await video.play();
