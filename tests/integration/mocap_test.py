@@ -136,6 +136,14 @@ def vmc_in(srv):
     check(f"listen_vmc: VRM 0.x's Joy smiles as {{\"vocabulary\": \"vrm\", \"happy\": 1}} does (off by {off:.2e}, "
           f"{off / moved:.1%} of its largest move {moved:.2e})", moved > 0 and off <= 0.02 * moved)
     check(f"listen_vmc: a name neither ARKit's nor a preset is said once ({unknown})", unknown.get("unknown") == ["MyOwnClip"])
+    # A slider after the port's faces: the rig's own names, the port's weights (ARKit's) start over.
+    c.send_text({"weights": {"mouthSmile_L": 0.5}, "id": 9})
+    while True:
+        _, ident, payload = c.recv_frame()
+        if ident == 9:
+            break
+    check("a weights message after the port's faces starts over in the rig's own names (POST /mesh's mouthSmile_L 0.5 alone)",
+          payload == mesh(srv, {"weights": {"mouthSmile_L": 0.5}}))
     c.send_text({"listen_vmc": False})
     end = c.recv_json("listen_vmc")
     check(f"listen_vmc false: ended with its counts ({end})", end.get("state") == "end" and end.get("packets") == 6)

@@ -75,6 +75,11 @@ class FaceSession final : public net::LiveHandler {
     if (m.contains("landmarks")) return Landmarks(m, out);
     if (m.contains("say") || m.contains("stop")) return Speech(m, out);
     json next = state_;
+    if (mocap_weights_ && m.contains("weights") && !m.contains("vocabulary")) {
+      // The weights a VMC or iFacialMocap port set are ARKit's: the rig's own start over.
+      next.erase("vocabulary");
+      next.erase("weights");
+    }
     uint32_t id = last_id_;
     for (auto it = m.begin(); it != m.end(); ++it) {
       const std::string& key = it.key();
@@ -116,6 +121,7 @@ class FaceSession final : public net::LiveHandler {
       }
     }
     if (Status s = Show(next); !s.ok()) return Refuse(s, out);
+    if (m.contains("weights") || m.contains("vocabulary")) mocap_weights_ = false;
     state_ = std::move(next);
     last_id_ = id;
     out.frame_wanted = true;
@@ -368,6 +374,7 @@ class FaceSession final : public net::LiveHandler {
         continue;
       }
       state_ = std::move(next);
+      mocap_weights_ = true;
       out.frame_wanted = true;
       SayWarnings(out);
     }
@@ -503,8 +510,9 @@ class FaceSession final : public net::LiveHandler {
   std::vector<float> positions_;  // A delta frame's, kept: no allocation a frame.
   // VMC out, and the UDP ports listened on (set by turns under listener_mu_, as the listener).
   LiveMocap mocap_;
-  std::vector<json> faces_;  // What the inlets received, a turn's.
-  LiveSpeaker speaker_;      // Last: its thread posts through the session until it is joined (End).
+  std::vector<json> faces_;     // What the inlets received, a turn's.
+  bool mocap_weights_ = false;  // The state's weights are an inlet's (ARKit's names).
+  LiveSpeaker speaker_;  // Last: its thread posts through the session until it is joined (End).
 };
 
 bool HasToken(const httplib::Request& req, const char* header, std::string_view token) {
