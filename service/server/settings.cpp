@@ -36,31 +36,24 @@ struct Setting {
 
 constexpr double kBytes34 = 17179869184.0;  // 2^34.
 
-void SplitOrigins(ServeConfig& c, const std::string& s) {
+// The comma-separated items of `s`, spaces (and with `slashes`, trailing slashes) trimmed, into
+// `out`.
+void SplitList(const std::string& s, bool slashes, std::vector<std::string>& out) {
   size_t start = 0;
   while (start <= s.size()) {
     size_t end = s.find(',', start);
     if (end == std::string::npos) end = s.size();
-    std::string o = s.substr(start, end - start);
-    while (!o.empty() && o.front() == ' ') o.erase(0, 1);
-    while (!o.empty() && (o.back() == ' ' || o.back() == '/')) o.pop_back();
-    if (!o.empty()) c.cors_origins.push_back(o);
+    std::string item = s.substr(start, end - start);
+    while (!item.empty() && item.front() == ' ') item.erase(0, 1);
+    while (!item.empty() && (item.back() == ' ' || (slashes && item.back() == '/')))
+      item.pop_back();
+    if (!item.empty()) out.push_back(item);
     start = end + 1;
   }
 }
 
-void SplitHosts(ServeConfig& c, const std::string& s) {
-  size_t start = 0;
-  while (start <= s.size()) {
-    size_t end = s.find(',', start);
-    if (end == std::string::npos) end = s.size();
-    std::string h = s.substr(start, end - start);
-    while (!h.empty() && h.front() == ' ') h.erase(0, 1);
-    while (!h.empty() && h.back() == ' ') h.pop_back();
-    if (!h.empty()) c.vmc_hosts.push_back(h);
-    start = end + 1;
-  }
-}
+void SplitOrigins(ServeConfig& c, const std::string& s) { SplitList(s, true, c.cors_origins); }
+void SplitHosts(ServeConfig& c, const std::string& s) { SplitList(s, false, c.vmc_hosts); }
 
 const Setting kSettings[] = {
     {"rigs", "DIR",
