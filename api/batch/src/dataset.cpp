@@ -187,16 +187,6 @@ struct DrawnTriangle {
   double x0, y0, x1, y1;                   // Pixels.
 };
 
-// Whether a primitive is drawn (the renderer's rule): triangles of a material not wholly
-// transparent.
-bool Drawn(const Rig& rig, const BlendedRig& b, const Primitive& p) {
-  if (p.mode != PrimitiveMode::kTriangles) return false;
-  if (p.material < 0) return true;
-  const size_t m = static_cast<size_t>(p.material);
-  return (m < b.material_colors.size() ? b.material_colors[m][3]
-                                       : rig.materials[m].base_color_factor[3]) > 0.0f;
-}
-
 std::vector<DrawnTriangle> DrawnTriangles(const Rig& rig, const BlendedRig& blended,
                                           const PinholeCamera& cam) {
   std::vector<DrawnTriangle> out;
@@ -205,7 +195,9 @@ std::vector<DrawnTriangle> DrawnTriangles(const Rig& rig, const BlendedRig& blen
   std::vector<char> in_front;
   for (size_t p = 0; p < rig.primitives.size(); ++p) {
     const Primitive& prim = rig.primitives[p];
-    if (!Drawn(rig, blended, prim)) continue;
+    // Drawn as the renderer draws the labels: triangles of a material not wholly transparent.
+    if (prim.mode != PrimitiveMode::kTriangles || !(DrawnAlpha(rig, blended, prim.material) > 0.0f))
+      continue;
     const BlendedPrimitive& b = blended.primitives[p];
     const size_t n = b.positions.size() / 3;
     c.resize(n);

@@ -435,12 +435,7 @@ void SetMaterial(GLuint program, const Pass& pass, const Material& mat,
 // Whether a draw call shows in the labels: triangles of a material that is not wholly transparent
 // (MMD's hidden overlays, shown by material morphs, have alpha 0 until then).
 bool Labelled(const Rig& rig, const BlendedRig& blended, const DrawCall& d) {
-  if (d.mode != PrimitiveMode::kTriangles) return false;
-  if (d.material < 0) return true;
-  const size_t m = static_cast<size_t>(d.material);
-  const float alpha = m < blended.material_colors.size() ? blended.material_colors[m][3]
-                                                         : rig.materials[m].base_color_factor[3];
-  return alpha > 0.0f;
+  return d.mode == PrimitiveMode::kTriangles && DrawnAlpha(rig, blended, d.material) > 0.0f;
 }
 
 // Whether draws write the label planes (attachments 1 and 2): on for the draws they show, off for

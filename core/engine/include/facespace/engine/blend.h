@@ -102,6 +102,16 @@ inline std::span<const float> TexcoordsOf(const Primitive& primitive,
                                    : std::span<const float>(blended.texcoords);
 }
 
+// A material's alpha as drawn: its morphed colour's where material morphs act
+// (BlendedRig::material_colors), else its own; 1 for no material (-1). Triangles of alpha 0 are
+// not drawn into the label planes and hide nothing (MMD's overlays until a morph shows them).
+inline float DrawnAlpha(const Rig& rig, const BlendedRig& blended, int material) {
+  if (material < 0) return 1.0f;
+  const size_t m = static_cast<size_t>(material);
+  return m < blended.material_colors.size() ? blended.material_colors[m][3]
+                                            : rig.materials[m].base_color_factor[3];
+}
+
 // base + sum_t weights[t] * target[t]'s UV deltas (2 floats per vertex) into `out`; `out` is left
 // empty when no target of non-zero weight moves a UV (or `base` is empty). Indices must have been
 // checked against the vertex count (ValidateRig).
