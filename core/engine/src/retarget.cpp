@@ -231,20 +231,29 @@ void ArkitOfWeights(std::span<const std::span<const AxisTerm>> places,
 
 void PresetsOfArkit(std::span<const float, kArkitAxes> arkit, std::span<float> out) {
   constexpr size_t kPresets = std::size(kExpressionPresets);
-  std::array<Column, kPresets> columns;  // Fixed: called once a frame.
-  size_t n = 0;
-  for (uint32_t k = 0; k < kPresets && k < out.size(); ++k) {
-    const auto terms = Place(Vocabulary::kVrm, kExpressionPresets[k]);
-    if (!terms.empty()) columns[n++] = {k, true, 1.0f, kIndirectCost, terms};
-  }
+  // The presets' places, looked up (hashed) once: this runs a frame.
+  struct Columns {
+    std::array<Column, kPresets> column;
+    size_t n = 0;
+  };
+  static const Columns columns = [] {
+    Columns c;
+    for (uint32_t k = 0; k < kPresets; ++k) {
+      const auto terms = Place(Vocabulary::kVrm, kExpressionPresets[k]);
+      if (!terms.empty()) c.column[c.n++] = {k, true, 1.0f, kIndirectCost, terms};
+    }
+    return c;
+  }();
   Point residual;
   std::copy(arkit.begin(), arkit.end(), residual.begin());
   std::array<float, kPresets> w{};
-  const std::span<const Column> used(columns.data(), n);
-  Solve(used, true, residual, std::span<float>(w.data(), n));
-  Solve(used, false, residual, std::span<float>(w.data(), n));
+  const std::span<const Column> used(columns.column.data(), columns.n);
+  Solve(used, true, residual, std::span<float>(w.data(), columns.n));
+  Solve(used, false, residual, std::span<float>(w.data(), columns.n));
   std::fill(out.begin(), out.end(), 0.0f);
-  for (size_t k = 0; k < n; ++k) out[columns[k].target] = w[k] > 1e-4f ? w[k] : 0.0f;
+  for (size_t k = 0; k < columns.n; ++k) {
+    if (used[k].target < out.size()) out[used[k].target] = w[k] > 1e-4f ? w[k] : 0.0f;
+  }
 }
 
 }  // namespace engine

@@ -457,9 +457,11 @@ void LiveMocap::Poll(std::vector<json>& faces, std::vector<std::string>& texts) 
     json unknown = json::array();
     for (const auto& [name, value] : frame_.values) {
       auto terms = Place(Vocabulary::kArkit, name);
-      if (terms.empty()) terms = Place(Vocabulary::kVrm, PresetOfVmcName(name));
-      if (terms.empty() && unknown.size() < 8 && PresetOfVmcName(name).empty())
-        unknown.push_back(name);
+      if (terms.empty()) {
+        const std::string_view preset = PresetOfVmcName(name);
+        terms = Place(Vocabulary::kVrm, preset);
+        if (preset.empty() && unknown.size() < 8) unknown.push_back(name);
+      }
       for (const AxisTerm& t : terms) point[t.axis] = std::max(point[t.axis], value * t.amount);
     }
     if (unknown != last_unknown_) {
