@@ -14,12 +14,10 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
-import time
 import urllib.parse
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from suite import Server, check, counts, request  # noqa: E402
+from suite import check, finish, request, served  # noqa: E402
 
 BIN, SRC, MODULES = sys.argv[1:4]
 FPS, HOLD = 30, 60  # Frames a second, frames a face is held.
@@ -95,46 +93,44 @@ def follows(what, series):
               f"at least 0.8; {len(got)} of them, {lag:.2f} s behind the frames they saw)", mean <= 0.15 and c >= 0.8)
 
 
+def camera(srv, tmp):
+    """The video, the page's camera on it, and what came back."""
+    y4m = video(srv, tmp)
+    check(f"the video: {len(FACES)} faces held {HOLD / FPS:.1f} s each, {os.path.getsize(y4m) >> 20} MB of y4m", os.path.getsize(y4m) > 0)
+    out = os.path.join(tmp, "camera.json")
+    run = subprocess.run(["node", os.path.join(SRC, "tests/integration/camera_test.mjs"), MODULES, srv.url, y4m, "40", out],
+                         capture_output=True, text=True, timeout=300)
+    r = json.load(open(out)) if os.path.exists(out) else {}
+    log = r.get("log", [])
+    check(f"the camera button runs MediaPipe's tracker on the camera: {r.get('found')} frames found a face, "
+          f"{len(log)} weights events ({r.get('status')!r}; {run.stderr[-300:]})", len(log) >= 60 and r.get("on"))
+    check(f"no page errors ({r.get('errors')})", not r.get("errors"))
+    check("the camera button stops it", r.get("off"))
+    if len(log) < 60:
+        return
+    tags = [e.get("tag") for e in log]
+    check(f"each event knows the video frame its landmarks came from (frames {tags[0]} to {tags[-1]})", all(t is not None for t in tags))
+    follows("the socket's weights", [(e["tag"], e["weights"]) for e in log if e.get("tag") is not None])
+    motion = r.get("motion") or {}
+    check(f"stopped, the recording saves as a motion ({r.get('motionName')}: {len(motion.get('keys', []))} keys)",
+          len(motion.get("keys", [])) >= len(log) and r.get("motionName") == "facecap.camera.json")
+    # The same landmarks offline: POST /capture (a key a frame), each key at its frame's time in the page.
+    pts = r.get("points", [])
+    fps = (len(pts) - 1) / ((pts[-1]["t"] - pts[0]["t"]) / 1000.0) if len(pts) > 1 else 30
+    body = {"scheme": "mediapipe-478", "image": pts[0]["image"], "fps": round(fps, 3), "frames": [p["points"] for p in pts]}
+    status, _, answer, _ = request(srv.url + "/v1/rigs/facecap/capture", "POST", json.dumps(body).encode(),
+                                {"Content-Type": "application/json", "Authorization": "Bearer k3y-camera"})
+    keys = json.loads(answer).get("keys", []) if status == 200 else []
+    check(f"POST /capture of the same {len(pts)} frames: {status}, {len(keys)} keys", status == 200 and len(keys) == len(pts))
+    if keys:
+        follows("POST /capture's keys", [(p["tag"], k["weights"]) for p, k in zip(pts, keys) if p.get("tag") is not None])
+    print(f"  screenshot: {out.replace('.json', '.png')}")
+
+
 def main():
-    tmp = tempfile.mkdtemp(prefix="fs-camera-")
-    with open(os.path.join(tmp, "key"), "w") as f:
-        f.write("k3y-camera\n")
-    srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
-    try:
-        y4m = video(srv, tmp)
-        check(f"the video: {len(FACES)} faces held {HOLD / FPS:.1f} s each, {os.path.getsize(y4m) >> 20} MB of y4m", os.path.getsize(y4m) > 0)
-        out = os.path.join(tmp, "camera.json")
-        run = subprocess.run(["node", os.path.join(SRC, "tests/integration/camera_test.mjs"), MODULES, srv.url, y4m, "40", out],
-                             capture_output=True, text=True, timeout=300)
-        r = json.load(open(out)) if os.path.exists(out) else {}
-        log = r.get("log", [])
-        check(f"the camera button runs MediaPipe's tracker on the camera: {r.get('found')} frames found a face, "
-              f"{len(log)} weights events ({r.get('status')!r}; {run.stderr[-300:]})", len(log) >= 60 and r.get("on"))
-        check(f"no page errors ({r.get('errors')})", not r.get("errors"))
-        check("the camera button stops it", r.get("off"))
-        if len(log) < 60:
-            return
-        tags = [e.get("tag") for e in log]
-        check(f"each event knows the video frame its landmarks came from (frames {tags[0]} to {tags[-1]})", all(t is not None for t in tags))
-        follows("the socket's weights", [(e["tag"], e["weights"]) for e in log if e.get("tag") is not None])
-        motion = r.get("motion") or {}
-        check(f"stopped, the recording saves as a motion ({r.get('motionName')}: {len(motion.get('keys', []))} keys)",
-              len(motion.get("keys", [])) >= len(log) and r.get("motionName") == "facecap.camera.json")
-        # The same landmarks offline: POST /capture (a key a frame), each key at its frame's time in the page.
-        pts = r.get("points", [])
-        fps = (len(pts) - 1) / ((pts[-1]["t"] - pts[0]["t"]) / 1000.0) if len(pts) > 1 else 30
-        body = {"scheme": "mediapipe-478", "image": pts[0]["image"], "fps": round(fps, 3), "frames": [p["points"] for p in pts]}
-        status, _, answer, _ = request(srv.url + "/v1/rigs/facecap/capture", "POST", json.dumps(body).encode(),
-                                    {"Content-Type": "application/json", "Authorization": "Bearer k3y-camera"})
-        keys = json.loads(answer).get("keys", []) if status == 200 else []
-        check(f"POST /capture of the same {len(pts)} frames: {status}, {len(keys)} keys", status == 200 and len(keys) == len(pts))
-        if keys:
-            follows("POST /capture's keys", [(p["tag"], k["weights"]) for p, k in zip(pts, keys) if p.get("tag") is not None])
-        print(f"  screenshot: {out.replace('.json', '.png')}")
-    finally:
-        srv.stop()
-    print(f"{counts['passed']} passed, {counts['failed']} failed")
-    sys.exit(1 if counts["failed"] else 0)
+    with served(BIN, SRC, "k3y-camera", "fs-camera-") as (srv, tmp):
+        camera(srv, tmp)
+    finish()
 
 
 if __name__ == "__main__":

@@ -15,12 +15,11 @@ import os
 import struct
 import subprocess
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import wsclient  # noqa: E402
-from suite import Server, check, counts, request  # noqa: E402
+from suite import check, finish, request, served  # noqa: E402
 
 BIN, SRC, MODULES = sys.argv[1:4]
 
@@ -102,11 +101,7 @@ def drag(srv, rig, shape, tmp):
 
 
 def main():
-    tmp = tempfile.mkdtemp(prefix="fs-frames-")
-    with open(os.path.join(tmp, "key"), "w") as f:
-        f.write("k3y-frames\n")
-    srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
-    try:
+    with served(BIN, SRC, "k3y-frames", "fs-frames-") as (srv, tmp):
         face = drag(srv, "facecap", "jawOpen", tmp)
         check(f"FaceCap's jaw at 60 Hz: delta frames {face['delta']:.2f} Mbit/s (at most 2), weights {face['weights']:.3f} "
             f"(at most 0.2), against f32's {face['f32']:.1f}", face["delta"] <= 2 and face["weights"] <= 0.2)
@@ -122,10 +117,7 @@ def main():
             check(f"{json.dumps(msg)}: error at {e.get('pointer')}", e.get("pointer") == pointer)
         c.close()
         check("the server is up", srv.alive())
-    finally:
-        srv.stop()
-    print(f"{counts['passed']} passed, {counts['failed']} failed")
-    sys.exit(1 if counts["failed"] else 0)
+    finish()
 
 
 if __name__ == "__main__":

@@ -28,7 +28,6 @@ import os
 import struct
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 import urllib.request
@@ -36,7 +35,7 @@ import urllib.request
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import capture_frames  # noqa: E402
 import wsclient  # noqa: E402
-from suite import Server, bar, check, counts, request  # noqa: E402
+from suite import Server, bar, check, finish, request, served  # noqa: E402
 
 BIN, SRC, LOAD = sys.argv[1:4]
 SANITIZED = len(sys.argv) > 4 and sys.argv[4] in ("1", "ON", "on", "sanitized")
@@ -427,22 +426,15 @@ def load(srv):
 
 
 def main():
-    tmp = tempfile.mkdtemp(prefix="fs-live-")
-    with open(os.path.join(tmp, "key"), "w") as f:
-        f.write("k3y-live\n")
-    srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
-    try:
+    with served(BIN, SRC, "k3y-live", "fs-live-") as (srv, tmp):
         messages(srv)
         tracked(srv)
         speech(srv)
         listen(srv, tmp)
         hostile(srv)
         load(srv)
-    finally:
-        srv.stop()
     caps(BIN, tmp)
-    print(f"{counts['passed']} passed, {counts['failed']} failed")
-    sys.exit(1 if counts["failed"] else 0)
+    finish()
 
 
 if __name__ == "__main__":

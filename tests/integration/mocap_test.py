@@ -24,12 +24,11 @@ import socket
 import struct
 import subprocess
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import wsclient  # noqa: E402
-from suite import Server, check, counts, request  # noqa: E402
+from suite import check, finish, request, served  # noqa: E402
 
 BIN, SRC = sys.argv[1:3]
 SANITIZED = len(sys.argv) > 3 and sys.argv[3] == "sanitized"
@@ -241,19 +240,12 @@ def hostile(srv):
 
 
 def main():
-    tmp = tempfile.mkdtemp(prefix="fs-mocap-")
-    with open(os.path.join(tmp, "key"), "w") as f:
-        f.write("k3y-mocap\n")
-    srv = Server(BIN, tmp, "--rigs", os.path.join(SRC, "assets"))
-    try:
+    with served(BIN, SRC, "k3y-mocap", "fs-mocap-") as (srv, _):
         vmc_out(srv)
         vmc_in(srv)
         ifacialmocap_in(srv)
         hostile(srv)
-    finally:
-        srv.stop()
-    print(f"{counts['passed']} passed, {counts['failed']} failed")
-    sys.exit(1 if counts["failed"] else 0)
+    finish()
 
 
 if __name__ == "__main__":

@@ -1,9 +1,12 @@
 """What the Python suites against the real server share (hostile_test.py, bounded_test.py): checks that
 count, a free port, the server as a process, one request whose errors are answers too."""
+import contextlib
 import os
 import signal
 import socket
 import subprocess
+import sys
+import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -142,3 +145,23 @@ def probe_p99(url, n=40, paths=("/healthz",), pause=0.02):
         time.sleep(pause)
     times.sort()
     return times[min(len(times) - 1, int(0.99 * len(times)))], times[len(times) // 2]
+
+
+@contextlib.contextmanager
+def served(binary, src, key, prefix, *extra):
+    """`facespace serve` on the bundled rigs with the API key `key` (a file in a fresh folder): (server, folder),
+    the server stopped after, however the block ends."""
+    tmp = tempfile.mkdtemp(prefix=prefix)
+    with open(os.path.join(tmp, "key"), "w") as f:
+        f.write(key + "\n")
+    srv = Server(binary, tmp, "--rigs", os.path.join(src, "assets"), *extra)
+    try:
+        yield srv, tmp
+    finally:
+        srv.stop()
+
+
+def finish():
+    """The counts, and the exit: 1 when any check failed."""
+    print(f"{counts['passed']} passed, {counts['failed']} failed")
+    sys.exit(1 if counts["failed"] else 0)
