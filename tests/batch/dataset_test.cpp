@@ -173,6 +173,18 @@ bool Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::
   return *u >= 0 && *v >= 0 && *u + *v <= 1 && *t > 0;
 }
 
+// Each triangle of the primitives that show, in world space: f(primitive, its first index's place
+// in the primitive's indices, its corners).
+template <typename F>
+void ForEachShownTriangle(const Rig& rig, const BlendedRig& b, const WorldMesh& w, F&& f) {
+  for (size_t p = 0; p < rig.primitives.size(); ++p) {
+    if (!Shows(rig, b, rig.primitives[p])) continue;
+    const std::vector<uint32_t>& idx = rig.primitives[p].indices;
+    for (size_t i = 0; i + 2 < idx.size(); i += 3)
+      f(p, i, w.positions[p][idx[i]], w.positions[p][idx[i + 1]], w.positions[p][idx[i + 2]]);
+  }
+}
+
 // Every pixel's hits: each triangle tried against the pixel centres its projection's box holds.
 // With `near`: only the pixels it marks, each through nine rays moved by up to GL's subpixel step
 // (1/256 px) each way: llvmpipe snaps vertices to that grid, so at a grazing fold or a silhouette
@@ -185,57 +197,57 @@ std::vector<Hits> CastAll(const Rig& rig, const BlendedRig& b, const WorldMesh& 
   for (size_t at = 0; at < centre.size(); ++at)
     centre[at] = cam.Ray(static_cast<double>(at % cam.width) + 0.5,
                          static_cast<double>(at / cam.width) + 0.5);
-  for (size_t p = 0; p < rig.primitives.size(); ++p) {
-    if (!Shows(rig, b, rig.primitives[p])) continue;
-    const std::vector<uint32_t>& idx = rig.primitives[p].indices;
-    for (size_t i = 0; i + 2 < idx.size(); i += 3) {
-      const Eigen::Vector3d &A = w.positions[p][idx[i]], &B = w.positions[p][idx[i + 1]],
-                            &C = w.positions[p][idx[i + 2]];
-      // The pixels to try: the box of the triangle's part beyond the near plane (GL clips the
-      // rest).
-      Eigen::Vector2d lo(INFINITY, INFINITY), hi(-INFINITY, -INFINITY);
-      const Eigen::Vector3d* corners[3] = {&A, &B, &C};
-      for (int e = 0; e < 3; ++e) {
-        const Eigen::Vector3d &P = *corners[e], &Q = *corners[(e + 1) % 3];
-        const double dp = cam.Depth(P) - cam.near, dq = cam.Depth(Q) - cam.near;
-        if (dp >= 0) lo = lo.cwiseMin(cam.Project(P)), hi = hi.cwiseMax(cam.Project(P));
-        if ((dp >= 0) != (dq >= 0)) {
-          const Eigen::Vector2d x = cam.Project(P + (Q - P) * (dp / (dp - dq)));
-          lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+  ForEachShownTriangle(
+      rig, b, w,
+      [&](size_t p, size_t i, const Eigen::Vector3d& A, const Eigen::Vector3d& B,
+          const Eigen::Vector3d& C) {
+        const std::vector<uint32_t>& idx = rig.primitives[p].indices;
+        // The pixels to try: the box of the triangle's part beyond the near plane (GL clips the
+        // rest).
+        Eigen::Vector2d lo(INFINITY, INFINITY), hi(-INFINITY, -INFINITY);
+        const Eigen::Vector3d* corners[3] = {&A, &B, &C};
+        for (int e = 0; e < 3; ++e) {
+          const Eigen::Vector3d &P = *corners[e], &Q = *corners[(e + 1) % 3];
+          const double dp = cam.Depth(P) - cam.near, dq = cam.Depth(Q) - cam.near;
+          if (dp >= 0) lo = lo.cwiseMin(cam.Project(P)), hi = hi.cwiseMax(cam.Project(P));
+          if ((dp >= 0) != (dq >= 0)) {
+            const Eigen::Vector2d x = cam.Project(P + (Q - P) * (dp / (dp - dq)));
+            lo = lo.cwiseMin(x), hi = hi.cwiseMax(x);
+          }
         }
-      }
-      if (!(lo.x() <= hi.x())) continue;  // Wholly before the near plane.
-      // Front-facing as GL says: counter-clockwise with y up (pixel rows run down).
-      const Eigen::Vector2d a = cam.Project(A), bb = cam.Project(B), c = cam.Project(C);
-      const bool front = ((bb.x() - a.x()) * (a.y() - c.y()) - (a.y() - bb.y()) * (c.x() - a.x()) >
-                          0) == (cam.Depth(A) > 0 && cam.Depth(B) > 0 && cam.Depth(C) > 0);
-      const int x0 = std::max(0, static_cast<int>(std::floor(lo.x() - 0.5)) - grow);
-      const int x1 = std::min(cam.width - 1, static_cast<int>(std::ceil(hi.x() - 0.5)) + grow);
-      const int y0 = std::max(0, static_cast<int>(std::floor(lo.y() - 0.5)) - grow);
-      const int y1 = std::min(cam.height - 1, static_cast<int>(std::ceil(hi.y() - 0.5)) + grow);
-      const Eigen::Vector3d e = (B - A).cross(C - A).normalized();
-      for (int y = y0; y <= y1; ++y) {
-        for (int x = x0; x <= x1; ++x) {
-          const size_t at = static_cast<size_t>(y) * cam.width + x;
-          if (near && !(*near)[at]) continue;
-          for (int jy = -steps; jy <= steps; ++jy) {
-            for (int jx = -steps; jx <= steps; ++jx) {
-              const Eigen::Vector3d d =
-                  near ? cam.Ray(x + 0.5 + jx / 256.0, y + 0.5 + jy / 256.0) : centre[at];
-              double t, u, v;
-              if (!Intersect(cam.eye, d, A, B, C, &t, &u, &v)) continue;
-              const double z = cam.Depth(cam.eye + t * d);
-              if (z < cam.near || z > cam.far) continue;  // Clipped, as GL clips it.
-              const Eigen::Vector3d n = (1 - u - v) * w.normals[p][idx[i]] +
-                                        u * w.normals[p][idx[i + 1]] + v * w.normals[p][idx[i + 2]];
-              hits[at].Add({t * d.norm(), static_cast<int>(p), front ? n : Eigen::Vector3d(-n),
-                            std::abs(e.dot(d.normalized()))});
+        if (!(lo.x() <= hi.x())) return;  // Wholly before the near plane.
+        // Front-facing as GL says: counter-clockwise with y up (pixel rows run down).
+        const Eigen::Vector2d a = cam.Project(A), bb = cam.Project(B), c = cam.Project(C);
+        const bool front =
+            ((bb.x() - a.x()) * (a.y() - c.y()) - (a.y() - bb.y()) * (c.x() - a.x()) > 0) ==
+            (cam.Depth(A) > 0 && cam.Depth(B) > 0 && cam.Depth(C) > 0);
+        const int x0 = std::max(0, static_cast<int>(std::floor(lo.x() - 0.5)) - grow);
+        const int x1 = std::min(cam.width - 1, static_cast<int>(std::ceil(hi.x() - 0.5)) + grow);
+        const int y0 = std::max(0, static_cast<int>(std::floor(lo.y() - 0.5)) - grow);
+        const int y1 = std::min(cam.height - 1, static_cast<int>(std::ceil(hi.y() - 0.5)) + grow);
+        const Eigen::Vector3d e = (B - A).cross(C - A).normalized();
+        for (int y = y0; y <= y1; ++y) {
+          for (int x = x0; x <= x1; ++x) {
+            const size_t at = static_cast<size_t>(y) * cam.width + x;
+            if (near && !(*near)[at]) continue;
+            for (int jy = -steps; jy <= steps; ++jy) {
+              for (int jx = -steps; jx <= steps; ++jx) {
+                const Eigen::Vector3d d =
+                    near ? cam.Ray(x + 0.5 + jx / 256.0, y + 0.5 + jy / 256.0) : centre[at];
+                double t, u, v;
+                if (!Intersect(cam.eye, d, A, B, C, &t, &u, &v)) continue;
+                const double z = cam.Depth(cam.eye + t * d);
+                if (z < cam.near || z > cam.far) continue;  // Clipped, as GL clips it.
+                const Eigen::Vector3d n = (1 - u - v) * w.normals[p][idx[i]] +
+                                          u * w.normals[p][idx[i + 1]] +
+                                          v * w.normals[p][idx[i + 2]];
+                hits[at].Add({t * d.norm(), static_cast<int>(p), front ? n : Eigen::Vector3d(-n),
+                              std::abs(e.dot(d.normalized()))});
+              }
             }
           }
         }
-      }
-    }
-  }
+      });
   return hits;
 }
 
@@ -247,24 +259,21 @@ std::vector<char> Blocked(const Rig& rig, const BlendedRig& b, const WorldMesh& 
   std::vector<char> out(points.size(), 0);
   std::vector<Eigen::Vector2d> at;
   for (const Eigen::Vector3d& p : points) at.push_back(cam.Project(p));
-  for (size_t p = 0; p < rig.primitives.size(); ++p) {
-    if (!Shows(rig, b, rig.primitives[p])) continue;
-    const std::vector<uint32_t>& idx = rig.primitives[p].indices;
-    for (size_t i = 0; i + 2 < idx.size(); i += 3) {
-      const Eigen::Vector3d &A = w.positions[p][idx[i]], &B = w.positions[p][idx[i + 1]],
-                            &C = w.positions[p][idx[i + 2]];
-      if (cam.Depth(A) < cam.near || cam.Depth(B) < cam.near || cam.Depth(C) < cam.near) continue;
-      const Eigen::Vector2d a = cam.Project(A), bb = cam.Project(B), c = cam.Project(C);
-      const Eigen::Vector2d lo = a.cwiseMin(bb).cwiseMin(c), hi = a.cwiseMax(bb).cwiseMax(c);
-      for (size_t k = 0; k < points.size(); ++k) {
-        if (out[k] || (at[k].array() < lo.array()).any() || (at[k].array() > hi.array()).any())
-          continue;
-        double t, u, v;
-        out[k] = Intersect(cam.eye, points[k] - cam.eye, A, B, C, &t, &u, &v) &&
-                 t < 1.0 - batch::kLandmarkOcclusionSlack;
-      }
-    }
-  }
+  ForEachShownTriangle(
+      rig, b, w,
+      [&](size_t, size_t, const Eigen::Vector3d& A, const Eigen::Vector3d& B,
+          const Eigen::Vector3d& C) {
+        if (cam.Depth(A) < cam.near || cam.Depth(B) < cam.near || cam.Depth(C) < cam.near) return;
+        const Eigen::Vector2d a = cam.Project(A), bb = cam.Project(B), c = cam.Project(C);
+        const Eigen::Vector2d lo = a.cwiseMin(bb).cwiseMin(c), hi = a.cwiseMax(bb).cwiseMax(c);
+        for (size_t k = 0; k < points.size(); ++k) {
+          if (out[k] || (at[k].array() < lo.array()).any() || (at[k].array() > hi.array()).any())
+            continue;
+          double t, u, v;
+          out[k] = Intersect(cam.eye, points[k] - cam.eye, A, B, C, &t, &u, &v) &&
+                   t < 1.0 - batch::kLandmarkOcclusionSlack;
+        }
+      });
   return out;
 }
 
