@@ -278,7 +278,7 @@ Status FaceTracker::SetNeutral(std::span<const float> frame, size_t index) {
   return Status::Ok();
 }
 
-Status FaceTracker::Step(std::span<const float> frame, size_t index, Frame& out) {
+Status FaceTracker::Step(std::span<const float> frame, size_t index, Frame& out, float seconds) {
   State& s = *state_;
   const size_t k = s.m.shapes.size();
   if (!s.has_neutral) return FailedPrecondition("no neutral frame yet");
@@ -299,7 +299,7 @@ Status FaceTracker::Step(std::span<const float> frame, size_t index, Frame& out)
   out.residual = static_cast<float>((t.face - s.target).norm() /
                                     std::sqrt(double(std::max<size_t>(s.found, 1))) / s.m.diag);
   out.weights.assign(s.m.rig_shapes, 0.0f);
-  const float dt = 1.0f / std::max(s.o.fps, 1e-3f);
+  const float dt = seconds > 0 ? seconds : 1.0f / std::max(s.o.fps, 1e-3f);
   for (size_t j = 0; j < k; ++j)
     out.weights[s.m.shapes[j]] =
         std::clamp(s.filters[j].Step(s.w[j], dt, s.o.min_cutoff, s.o.beta), 0.0f, s.m.upper[j]);

@@ -1,5 +1,7 @@
 #include "live_landmarks.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "routes.h"
@@ -65,8 +67,15 @@ Status LiveLandmarks::Feed(ServerState& ctx, const evaluator::StoredRig& rig, co
     tracker_.emplace(*map_, derive::CaptureOptions{});
     if (Status n = tracker_->SetNeutral(points, frames_); !n.ok()) return n;
   }
+  // The smoothing's step: the time since the last message (a camera's rate varies with the
+  // browser's load), within 1/240 s and half a second.
+  const auto now = std::chrono::steady_clock::now();
+  const float seconds = frames_ == 0 ? 0.0f
+                                     : std::clamp(std::chrono::duration<float>(now - last_).count(),
+                                                  1 / 240.0f, 0.5f);
+  last_ = now;
   derive::FaceTracker::Frame frame;
-  if (Status f = tracker_->Step(points, frames_++, frame); !f.ok()) return f;
+  if (Status f = tracker_->Step(points, frames_++, frame, seconds); !f.ok()) return f;
   weights = json::object();
   for (size_t k = 0; k < frame.weights.size(); ++k)
     if (evaluator::RoundedWeight(frame.weights[k]) != 0.0)

@@ -4,6 +4,7 @@
 // ones before.
 #pragma once
 
+#include <chrono>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -27,6 +28,7 @@ class LiveLandmarks {
   std::shared_ptr<const derive::LandmarkRig> map_;
   std::optional<derive::FaceTracker> tracker_;
   size_t frames_ = 0;
+  std::chrono::steady_clock::time_point last_;  // The last message's arrival.
 };
 
 }  // namespace facespace::http

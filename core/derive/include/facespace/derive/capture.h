@@ -87,8 +87,9 @@ class FaceTracker {
     std::array<float, 4> head{0, 0, 0, 1};
     float residual = 0;
   };
-  // One frame (after SetNeutral); errors as SolveFrames' for frame `index`.
-  Status Step(std::span<const float> frame, size_t index, Frame& out);
+  // One frame (after SetNeutral); errors as SolveFrames' for frame `index`. `seconds`: since the
+  // frame before, for the smoothing (a live camera's rate varies); 0: 1 / fps.
+  Status Step(std::span<const float> frame, size_t index, Frame& out, float seconds = 0);
 
  private:
   struct State;
