@@ -2,6 +2,7 @@
 // speak them on a rig (core/speech.h), and their JSON.
 #include "facespace/lipsync/lipsync.h"
 
+#include "facespace/evaluator/answers.h"
 #include "facespace/formats/io.h"
 #include "facespace/offscreen/video.h"
 
@@ -79,29 +80,49 @@ std::vector<Warning> SpeechWarnings(const SpeechPlan& plan) {
 }
 
 std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio) {
-  std::string out = "{\"source\":" + formats::JsonString(plan.source);
-  if (!plan.voice.empty()) out += ",\"voice\":" + formats::JsonString(plan.voice);
-  out += ",\"duration\":" + FormatNumber(plan.audio.seconds()) + ",\"fps\":" + FormatNumber(fps) +
-         ",\"frames\":" + std::to_string(evaluator::FrameCount(plan.sequence, fps));
-  if (plan.source != "espeak-ng") out += ",\"voiced_seconds\":" + FormatNumber(plan.voiced_seconds);
-  out += ",\"phonemes\":[";
+  using evaluator::Answer;
+  using evaluator::AnswerWriter;
+  std::string out;
+  AnswerWriter<Answer::kSpeech> w(out);
+  w.Raw("source", formats::JsonString(plan.source));
+  if (!plan.voice.empty()) w.Raw("voice", formats::JsonString(plan.voice));
+  w.Number("duration", plan.audio.seconds())
+      .Number("fps", fps)
+      .Count("frames", evaluator::FrameCount(plan.sequence, fps));
+  if (plan.source != "espeak-ng") w.Number("voiced_seconds", plan.voiced_seconds);
+  std::string& phonemes = w.Open("phonemes");
   for (size_t i = 0; i < plan.phonemes.size(); ++i) {
     const TimedPhoneme& p = plan.phonemes[i];
-    out += std::string(i ? "," : "") + "{\"name\":" + formats::JsonString(p.name) +
-           ",\"start\":" + FormatNumber(p.start) + ",\"end\":" + FormatNumber(p.end) + "}";
+    phonemes += i ? ',' : '[';
+    AnswerWriter<Answer::kTimedPhoneme>(phonemes)
+        .Raw("name", formats::JsonString(p.name))
+        .Number("start", p.start)
+        .Number("end", p.end)
+        .End();
   }
-  out += "],\"visemes\":[";
+  if (plan.phonemes.empty()) phonemes += '[';
+  phonemes += ']';
+  std::string& visemes = w.Open("visemes");
   for (size_t i = 0; i < plan.visemes.size(); ++i) {
-    const TimedViseme& v = plan.visemes[i];
-    out += std::string(i ? "," : "") + "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) +
-           "\",\"start\":" + FormatNumber(v.start) + ",\"end\":" + FormatNumber(v.end) + "}";
+    visemes += i ? ',' : '[';
+    visemes += TimedVisemeJson(plan.visemes[i], 0.0);
   }
-  out += "],\"keys\":" + evaluator::SequenceKeysJson(rig, plan.sequence) +
-         ",\"transition\":" + formats::JsonString(TransitionName(plan.sequence.transition));
-  out += ",\"warnings\":" + formats::WarningsToJson(SpeechWarnings(plan));
-  if (with_audio) out += ",\"audio_wav\":\"" + Base64(speech::WriteWav(plan.audio)) + "\"";
-  out += "}\n";
-  return out;
+  if (plan.visemes.empty()) visemes += '[';
+  visemes += ']';
+  w.Raw("keys", evaluator::SequenceKeysJson(rig, plan.sequence))
+      .Raw("transition", formats::JsonString(TransitionName(plan.sequence.transition)))
+      .Raw("warnings", formats::WarningsToJson(SpeechWarnings(plan)));
+  if (with_audio) w.Raw("audio_wav", "\"" + Base64(speech::WriteWav(plan.audio)) + "\"");
+  return w.End() + "\n";
+}
+
+std::string TimedVisemeJson(const TimedViseme& v, double clock) {
+  std::string out;
+  return evaluator::AnswerWriter<evaluator::Answer::kTimedViseme>(out)
+      .Raw("viseme", "\"" + std::string(VisemeName(v.viseme)) + "\"")
+      .Number("start", clock + v.start)
+      .Number("end", clock + v.end)
+      .End();
 }
 
 Result<std::string> SpeechVideo(const evaluator::Evaluator& evaluator,

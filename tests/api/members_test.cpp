@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "facespace/evaluator/answers.h"
 #include "facespace/evaluator/request.h"
 #include "facespace/http/http.h"
 
@@ -168,6 +169,52 @@ TEST(Members, TheDocumentsRequestSchemasAreTheTables) {
     }
   };
   walk(doc);
+}
+
+// The answers' tables (evaluator/answers.h) are the document's answer schemas, closed, and the
+// answers a client may post back (a reduced sequence's keys, a frame's moved nodes) take only
+// members the request's own table declares.
+TEST(Answers, TheDocumentsAnswerSchemasAreTheTables) {
+  const json doc = json::parse(OpenApiJson(http::ApiOptions{}));
+  const json& schemas = doc["components"]["schemas"];
+  std::set<std::string_view> names;
+  for (const AnswerTable& answer : kAnswerTables) {
+    const std::string name(answer.name);
+    EXPECT_TRUE(names.insert(answer.name).second) << name;
+    for (Body body : kBodies) EXPECT_NE(SchemaName(body), name) << "a body and an answer";
+    ASSERT_TRUE(schemas.contains(name)) << name;
+    const json& s = schemas[name];
+    EXPECT_EQ(s.value("additionalProperties", true), false) << name;
+    std::set<std::string> declared, documented, required;
+    for (const Member& m : answer.members) {
+      EXPECT_TRUE(declared.insert(std::string(m.name)).second) << name << "." << m.name;
+      if (m.required) required.insert(std::string(m.name));
+    }
+    for (const auto& [member, schema] : s["properties"].items()) documented.insert(member);
+    EXPECT_EQ(declared, documented) << name;
+    EXPECT_EQ(required, s.value("required", std::set<std::string>{})) << name;
+  }
+  for (const auto& [answer, body] : {std::pair{Answer::kSequenceKey, Body::kKey},
+                                     std::pair{Answer::kPosedJoint, Body::kJoint}}) {
+    for (const Member& m : Members(answer))
+      EXPECT_NE(FindMember(body, m.name), nullptr) << TableOf(answer).name << "." << m.name;
+  }
+}
+
+// A writer names its members from the table, in the order it is told, as JSON that parses.
+TEST(Answers, AWriterWritesTheDeclaredNames) {
+  std::string out = "[";
+  AnswerWriter<Answer::kReduced>(out)
+      .Raw("keys", "[]")
+      .Raw("transition", "\"linear\"")
+      .Count("kept", 2)
+      .Count("removed", 1)
+      .Number("max_error", 0.25)
+      .Number("tolerance", 0.5)
+      .End() += "]";
+  EXPECT_EQ(out, R"([{"keys":[],"transition":"linear","kept":2,"removed":1,"max_error":0.25,)"
+                 R"("tolerance":0.5}])");
+  EXPECT_FALSE(json::parse(out, nullptr, false).is_discarded());
 }
 
 // No reader spells a member name outside the tables: every name a request reader compares a key

@@ -36,6 +36,11 @@ function nonConformance(op, r) {
     else if (media.schema && /[/+]json$/.test(type) && text) {
       const validate = ajv.compile(rooted(media.schema));
       if (!validate(JSON.parse(text))) out.push(`${r.status} ${type} fails its schema: ${ajv.errorsText(validate.errors, { separator: '; ' }).slice(0, 300)}`);
+    } else if (media['x-facespace-line'] && type === 'application/x-ndjson' && text) {
+      // Each line of an ndjson answer against the line's schema.
+      const validate = ajv.compile(rooted(media['x-facespace-line']));
+      const bad = text.trim().split('\n').findIndex((line) => !validate(JSON.parse(line)));
+      if (bad >= 0) out.push(`line ${bad + 1} of ${type} fails its schema: ${ajv.errorsText(validate.errors, { separator: '; ' }).slice(0, 300)}`);
     }
   } else if (text) {
     out.push(`${r.status} has a body the document does not declare`);

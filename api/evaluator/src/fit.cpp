@@ -1,23 +1,30 @@
 // Fitting: the weights that best reproduce a mesh, as JSON.
+#include "facespace/evaluator/answers.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
 namespace facespace::evaluator {
 
 std::string FitResultJson(const Rig& rig, const FitResult& fit, bool aligned) {
-  std::string out = "{\"weights\":{";
+  std::string weights = "{";
   for (size_t s = 0; s < rig.shapes.size(); ++s) {
-    out += std::string(s ? "," : "") + formats::JsonString(rig.shapes[s].name) + ":" +
-           FormatNumber(fit.weights[s]);
+    weights += std::string(s ? "," : "") + formats::JsonString(rig.shapes[s].name) + ":" +
+               FormatNumber(fit.weights[s]);
   }
-  out += "},\"residual\":{\"rms\":" + FormatNumber(fit.rms_error) +
-         ",\"max\":" + FormatNumber(fit.max_error) + "}";
+  std::string residual;
+  AnswerWriter<Answer::kResidual>(residual)
+      .Number("rms", fit.rms_error)
+      .Number("max", fit.max_error)
+      .End();
+  std::string out;
+  AnswerWriter<Answer::kFit> w(out);
+  w.Raw("weights", weights + "}").Raw("residual", residual);
   if (aligned) {
-    out += ",\"alignment\":[";
-    for (int i = 0; i < 16; ++i) out += std::string(i ? "," : "") + FormatNumber(fit.alignment[i]);
-    out += "]";
+    std::string& matrix = w.Open("alignment");
+    for (int i = 0; i < 16; ++i) matrix += (i ? "," : "[") + FormatNumber(fit.alignment[i]);
+    matrix += "]";
   }
-  return out + ",\"warnings\":" + formats::WarningsToJson(fit.warnings) + "}\n";
+  return w.Raw("warnings", formats::WarningsToJson(fit.warnings)).End() + "\n";
 }
 
 Result<Output> ProduceFit(const Rig& rig, const FitRequest& request) {

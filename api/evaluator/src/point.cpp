@@ -1,4 +1,5 @@
 // Step 1: a request's point resolved against a rig, and checked.
+#include "facespace/evaluator/answers.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 
@@ -103,25 +104,19 @@ std::string WeightsMapJson(const Rig& rig, std::span<const float> w) {
   return out + "}";
 }
 
-namespace {
-
-// Beside a sum above 1: "vertex_sum" (the most one vertex takes) and "stacked" (the shapes stacking
-// there).
-std::string StackedJson(const Rig& rig, const WeightReport& r) {
-  if (r.vertex_sum <= 0.0) return {};
-  std::string out = ",\"vertex_sum\":" + FormatNumber(r.vertex_sum) + ",\"stacked\":[";
-  for (size_t k = 0; k < r.stacked_shapes.size(); ++k)
-    out += (k ? "," : "") + formats::JsonString(rig.shapes[r.stacked_shapes[k]].name);
-  return out + "]";
-}
-
-}  // namespace
-
 std::string CheckJson(const Rig& rig, const ResolvedPoint& point) {
   const WeightReport& r = point.report;
-  return "{\"sum\":" + FormatNumber(r.sum) + ",\"weights\":" + WeightsMapJson(rig, point.weights) +
-         (r.mahalanobis >= 0 ? ",\"mahalanobis\":" + FormatNumber(r.mahalanobis) : std::string()) +
-         StackedJson(rig, r) + ",\"warnings\":" + formats::WarningsToJson(r.warnings) + "}";
+  std::string out;
+  AnswerWriter<Answer::kCheck> w(out);
+  w.Number("sum", r.sum).Raw("weights", WeightsMapJson(rig, point.weights));
+  if (r.mahalanobis >= 0) w.Number("mahalanobis", r.mahalanobis);
+  if (r.vertex_sum > 0.0) {  // Beside a sum above 1: the most one vertex takes, and which stack.
+    std::string names = "[";
+    for (size_t k = 0; k < r.stacked_shapes.size(); ++k)
+      names += (k ? "," : "") + formats::JsonString(rig.shapes[r.stacked_shapes[k]].name);
+    w.Number("vertex_sum", r.vertex_sum).Raw("stacked", names + "]");
+  }
+  return w.Raw("warnings", formats::WarningsToJson(r.warnings)).End();
 }
 
 }  // namespace facespace::evaluator

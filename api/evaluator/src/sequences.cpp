@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "facespace/engine/hierarchy.h"
+#include "facespace/evaluator/answers.h"
 #include "facespace/evaluator/evaluator.h"
 #include "facespace/formats/io.h"
 #include "facespace/physics/physics.h"
@@ -144,9 +145,12 @@ std::string PoseJson(const Rig& rig, const Pose& pose, const Pose& rest) {
     out += std::string(first ? "" : ",") +
            formats::JsonString(rig.nodes[n].name.empty() ? "node" + std::to_string(n)
                                                          : rig.nodes[n].name) +
-           ":{\"translation\":" + vec(a.translation.data(), 3) +
-           ",\"rotation\":" + vec(a.rotation.data(), 4) + ",\"scale\":" + vec(a.scale.data(), 3) +
-           "}";
+           ":";
+    AnswerWriter<Answer::kPosedJoint>(out)
+        .Raw("translation", vec(a.translation.data(), 3))
+        .Raw("rotation", vec(a.rotation.data(), 4))
+        .Raw("scale", vec(a.scale.data(), 3))
+        .End();
     first = false;
   }
   return out + "}";
@@ -166,23 +170,28 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator,
   const Pose rest = weights_only ? RestPose(rig) : Pose{};
   // Positions and normals placed by each primitive's node, as blend's JSON; or the weights and pose
   // alone.
-  std::string out =
-      weights_only ? "{\"format\":\"weights\",\"frames\":[" : "{\"space\":\"world\",\"frames\":[";
+  std::string out;
+  AnswerWriter<Answer::kSequenceFrames> answer(out);
+  if (weights_only) answer.Raw("format", "\"weights\"");
+  if (!weights_only) answer.Raw("space", "\"world\"");
+  answer.Open("frames") += '[';
   warnings.insert(warnings.end(), sequence.warnings.begin(), sequence.warnings.end());
   for (size_t i = 0; i < times.size(); ++i) {
     if (ws.stop.stop_requested()) return Cancelled();
     SequencePoint(rig, sequence, times[i], options.mode, point, &physics);
     warnings.insert(warnings.end(), point.report.warnings.begin(), point.report.warnings.end());
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(times[i]) +
-           ",\"weights\":" + WeightsMapJson(rig, point.weights);
+    if (i) out += ',';
+    AnswerWriter<Answer::kFrame> frame(out);
+    frame.Number("time", times[i]).Raw("weights", WeightsMapJson(rig, point.weights));
     if (weights_only) {
-      if (point.posed) out += ",\"pose\":" + PoseJson(rig, point.pose, rest);
-      out += ",\"sum\":" + FormatNumber(point.report.sum) + "}";
+      if (point.posed) frame.Raw("pose", PoseJson(rig, point.pose, rest));
+      frame.Number("sum", point.report.sum);
     } else {
       auto primitives = evaluator.Run(stored, point, spec, ws);
       if (!primitives.ok()) return primitives.status();
-      out += ",\"primitives\":" + primitives->bytes + "}";
+      frame.Raw("primitives", primitives->bytes);
     }
+    frame.End();
     const double expected =
         i == 0 ? static_cast<double>(out.size()) * static_cast<double>(times.size())
                : static_cast<double>(out.size());
@@ -204,7 +213,8 @@ Result<std::string> SampleSequenceJson(const Evaluator& evaluator,
       return WithReason(std::move(s), kResponseTooLarge);
     }
   }
-  return out + "],\"warnings\":" + formats::WarningsToJson(warnings) + "}\n";
+  out += ']';
+  return answer.Raw("warnings", formats::WarningsToJson(warnings)).End() + "\n";
 }
 
 size_t FrameCount(const Sequence& sequence, float fps) {
@@ -225,9 +235,14 @@ Result<std::string> StreamFrame(const Evaluator& evaluator,
     point.report.warnings.insert(point.report.warnings.begin(), sequence.warnings.begin(),
                                  sequence.warnings.end());
   if (!f32) {
-    return "{\"frame\":" + std::to_string(frame) + ",\"time\":" + FormatNumber(t) +
-           ",\"weights\":" + WeightsMapJson(rig, point.weights) +
-           ",\"warnings\":" + formats::WarningsToJson(point.report.warnings) + "}\n";
+    std::string line;
+    AnswerWriter<Answer::kStreamFrame>(line)
+        .Count("frame", frame)
+        .Number("time", t)
+        .Raw("weights", WeightsMapJson(rig, point.weights))
+        .Raw("warnings", formats::WarningsToJson(point.report.warnings))
+        .End();
+    return line + "\n";
   }
   auto chunk = evaluator.Run(stored, point, OutputSpec::Frame(options, true), ws);
   if (!chunk.ok()) return chunk.status();
@@ -238,23 +253,27 @@ std::string SequenceKeysJson(const Rig& rig, const Sequence& sequence) {
   std::string out = "[";
   for (size_t i = 0; i < sequence.keys.size(); ++i) {
     const Keyframe& k = sequence.keys[i];
-    out += std::string(i ? "," : "") + "{\"time\":" + FormatNumber(k.time) +
-           ",\"weights\":" + WeightsMapJson(rig, k.weights);
-    if (k.transition)
-      out += ",\"transition\":" + formats::JsonString(TransitionName(*k.transition));
-    out += "}";
+    if (i) out += ',';
+    AnswerWriter<Answer::kSequenceKey> key(out);
+    key.Number("time", k.time).Raw("weights", WeightsMapJson(rig, k.weights));
+    if (k.transition) key.Raw("transition", formats::JsonString(TransitionName(*k.transition)));
+    key.End();
   }
   return out + "]";
 }
 
 std::string ReducedSequenceJson(const Rig& rig, const Sequence& original,
                                 const ReduceResult& reduced, float tolerance) {
-  return "{\"keys\":" + SequenceKeysJson(rig, reduced.sequence) +
-         ",\"transition\":" + formats::JsonString(TransitionName(original.transition)) +
-         ",\"kept\":" + std::to_string(reduced.sequence.keys.size()) +
-         ",\"removed\":" + std::to_string(reduced.removed) +
-         ",\"max_error\":" + FormatNumber(reduced.max_error) +
-         ",\"tolerance\":" + FormatNumber(tolerance) + "}\n";
+  std::string out;
+  AnswerWriter<Answer::kReduced>(out)
+      .Raw("keys", SequenceKeysJson(rig, reduced.sequence))
+      .Raw("transition", formats::JsonString(TransitionName(original.transition)))
+      .Count("kept", reduced.sequence.keys.size())
+      .Count("removed", reduced.removed)
+      .Number("max_error", reduced.max_error)
+      .Number("tolerance", tolerance)
+      .End();
+  return out + "\n";
 }
 
 }  // namespace facespace::evaluator

@@ -326,7 +326,10 @@ json SequenceOperations() {
            {{"200",
              {{"description", "Chunked frames"},
               {"content",
-               {{"application/x-ndjson", {{"schema", {{"type", "string"}}}}},
+               {{"application/x-ndjson",
+                 {{"schema", {{"type", "string"}}},
+                  // Each line's JSON (OpenAPI 3.2 names this itemSchema).
+                  {"x-facespace-line", {{"$ref", "#/components/schemas/StreamFrame"}}}}},
                 {"application/octet-stream",
                  {{"schema", {{"type", "string"}, {"contentEncoding", "binary"}}}}}}}}},
             {"400", Problem("Malformed JSON")},

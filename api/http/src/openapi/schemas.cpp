@@ -2,6 +2,7 @@
 // operations (operations.cpp) refer to them by $ref.
 #include <cmath>
 
+#include "facespace/evaluator/answers.h"
 #include "facespace/evaluator/members.h"
 #include "openapi.h"
 
@@ -9,6 +10,7 @@ namespace facespace::http::openapi {
 
 namespace {
 
+using facespace::evaluator::Answer;
 using facespace::evaluator::Body;
 using facespace::evaluator::Kind;
 using facespace::evaluator::Member;
@@ -40,14 +42,16 @@ json Weights() {
                                       {"description", "By shape name, alias or index"}}})}};
 }
 
-json BodySchema(Body body) {
+// A closed object of the members of a table, request body's or answer's alike: a member the table
+// does not declare is neither read nor written.
+json TableSchema(std::span<const Member> members, std::string_view doc) {
   json properties = json::object(), required = json::array();
-  for (const Member& m : Members(body)) {
+  for (const Member& m : members) {
     properties[std::string(m.name)] = MemberSchema(m);
     if (m.required) required.push_back(std::string(m.name));
   }
   json s = {{"type", "object"},
-            {"description", std::string(Describe(body))},
+            {"description", std::string(doc)},
             {"properties", properties},
             {"additionalProperties", false}};
   if (!required.empty()) s["required"] = required;
@@ -338,97 +342,6 @@ json Manifest() {
         {"derivation", Derivation(false)}}}};
 }
 
-json Check() {
-  return {{"type", "object"},
-          {"required", {"sum", "weights", "warnings"}},
-          {"properties",
-           {{"sum", Number()},
-            {"weights", WeightsObject()},
-            {"warnings", ArrayOf(Ref("Warning"))},
-            {"vertex_sum",
-             {{"type", "number"},
-              {"description", "Beside a sum above 1: the most weight one vertex takes"}}},
-            {"stacked",
-             {{"type", "array"},
-              {"items", String()},
-              {"description", "Beside vertex_sum: the shapes stacking there"}}},
-            {"mahalanobis",
-             {{"type", "number"},
-              {"description",
-               "With manifest statistics: distance from the mean in standard deviations"}}}}}};
-}
-
-json Fit() {
-  return {
-      {"type", "object"},
-      {"required", {"weights", "residual", "warnings"}},
-      {"properties",
-       {{"weights", WeightsObject()},
-        {"residual", {{"type", "object"}, {"properties", {{"rms", Number()}, {"max", Number()}}}}},
-        {"warnings", ArrayOf(Ref("Warning"))}}}};
-}
-
-json Topology() {
-  return {{"type", "object"},
-          {"required", {"primitives"}},
-          {"properties",
-           {{"primitives", ArrayOf({{"type", "object"},
-                                    {"properties",
-                                     {{"mesh", Integer()},
-                                      {"primitive", Integer()},
-                                      {"vertices", Integer()},
-                                      {"mode", Integer()},
-                                      {"indices", ArrayOf(Integer())},
-                                      {"color",
-                                       {{"type", "array"},
-                                        {"items", Number()},
-                                        {"minItems", 4},
-                                        {"maxItems", 4},
-                                        {"description",
-                                         "Linear RGBA a client drawing no textures shows: the "
-                                         "material's base colour times its texture's mean; alpha 0 "
-                                         "is see-through (a material morph shows it)"}}}}}})},
-            {"focus", Box()}}}};
-}
-
-json SequenceFrames() {
-  return {{"type", "object"},
-          {"required", {"frames"}},
-          {"properties",
-           {{"space", {{"enum", {"world"}}}},
-            {"format",
-             {{"enum", {"weights"}}, {"description", "Present when the frames are weights alone"}}},
-            {"frames",
-             ArrayOf({{"type", "object"},
-                      {"properties",
-                       {{"time", Number()},
-                        {"weights", WeightsObject()},
-                        {"sum", Number()},
-                        {"pose",
-                         {{"type", "object"},
-                          {"description",
-                           "format weights, posed frames: the nodes moved from rest, by name"},
-                          {"additionalProperties",
-                           {{"type", "object"},
-                            {"properties",
-                             {{"translation", ArrayOf(Number())},
-                              {"rotation", ArrayOf(Number())},
-                              {"scale", ArrayOf(Number())}}}}}}},
-                        {"primitives", ArrayOf(Open())}}}})},
-            {"warnings", ArrayOf(Ref("Warning"))}}}};
-}
-
-json Reduced() {
-  return {{"type", "object"},
-          {"properties",
-           {{"keys", ArrayOf(Open())},
-            {"transition", String()},
-            {"kept", Integer()},
-            {"removed", Integer()},
-            {"max_error", Number()},
-            {"tolerance", Number()}}}};
-}
-
 json Captured() {
   return {{"type", "object"},
           {"required", {"keys", "fps", "frames", "head"}},
@@ -541,12 +454,7 @@ json Schemas() {
         {"properties", {{"rigs", ArrayOf(Ref("RigSummary"))}}}}},
       {"Rig", Rig()},
       {"Manifest", Manifest()},
-      {"Check", Check()},
-      {"Fit", Fit()},
       {"Captured", Captured()},
-      {"Topology", Topology()},
-      {"SequenceFrames", SequenceFrames()},
-      {"Reduced", Reduced()},
       {"Health", Health()},
       {"JobList",
        {{"type", "object"},
@@ -560,43 +468,14 @@ json Schemas() {
            ArrayOf(json{{"type", "object"},
                         {"properties",
                          {{"name", {{"type", "string"}}}, {"language", {{"type", "string"}}}}}})},
-          {"default", {{"type", "string"}}}}}}},
-      {"Speech",
-       {{"type", "object"},
-        {"required", {"phonemes", "visemes", "keys", "duration"}},
-        {"properties",
-         {{"source",
-           {{"type", "string"}, {"enum", {"espeak-ng", "pocketsphinx", "pocketsphinx-aligned"}}}},
-          {"voice", {{"type", "string"}}},
-          {"duration", {{"type", "number"}}},
-          {"fps", {{"type", "number"}, {"description", "Frames a second of the keys"}}},
-          {"frames", {{"type", "integer"}, {"description", "Frames the speech lasts at fps"}}},
-          {"transition",
-           {{"type", "string"}, {"description", "How the keys blend (a sequence's transition)"}}},
-          {"audio_wav",
-           {{"type", "string"},
-            {"contentEncoding", "base64"},
-            {"description", "with_audio: the speech as a WAV file"}}},
-          {"phonemes",
-           ArrayOf(
-               json{{"type", "object"},
-                    {"required", {"name", "start", "end"}},
-                    {"properties", {{"name", String()}, {"start", Number()}, {"end", Number()}}}})},
-          {"visemes", ArrayOf(json{{"type", "object"},
-                                   {"required", {"viseme", "start", "end"}},
-                                   {"properties",
-                                    {{"viseme",
-                                      {{"type", "string"},
-                                       {"enum",
-                                        {"sil", "PP", "FF", "TH", "DD", "kk", "CH", "SS", "nn",
-                                         "RR", "aa", "E", "ih", "oh", "ou"}}}},
-                                     {"start", Number()},
-                                     {"end", Number()}}}})},
-          {"keys", ArrayOf(Open())},
-          {"warnings", ArrayOf(Ref("Warning"))}}}}}};
+          {"default", {{"type", "string"}}}}}}}};
+
   schemas.update(ValueSchemas());
   for (Body body : facespace::evaluator::kBodies)
-    schemas[std::string(facespace::evaluator::SchemaName(body))] = BodySchema(body);
+    schemas[std::string(facespace::evaluator::SchemaName(body))] =
+        TableSchema(Members(body), facespace::evaluator::Describe(body));
+  for (const auto& answer : facespace::evaluator::kAnswerTables)
+    schemas[std::string(answer.name)] = TableSchema(answer.members, answer.doc);
   return schemas;
 }
 

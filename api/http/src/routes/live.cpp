@@ -11,6 +11,7 @@
 #include "../http/problem.h"
 #include "facespace/evaluator/members.h"
 #include "facespace/formats/frames.h"
+#include "facespace/lipsync/lipsync.h"
 #include "facespace/net/framing.h"
 #include "facespace/net/live_hub.h"
 #include "facespace/speech/speech.h"
@@ -433,7 +434,7 @@ class FaceSession final : public net::LiveHandler {
     std::vector<TimedViseme> v = VisemesOfPhonemes(heard_);
     const size_t n = all ? v.size() : (v.size() > 1 ? v.size() - 1 : 0);
     for (size_t i = 0; i < n; ++i) {
-      out.texts.push_back(VisemeEvent(v[i]));
+      out.texts.push_back(lipsync::TimedVisemeJson(v[i], 0));
       if (listen_frames_) Mouth(v[i].viseme, out);
     }
     if (n == 0) return;

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "facespace/engine/weights.h"
+#include "facespace/lipsync/lipsync.h"
 #include "facespace/speech/speech.h"
 
 namespace facespace::http {
@@ -85,12 +86,6 @@ Status FieldErrors(Status s) {
   s.code = StatusCode::kInvalidArgument;
   if (!s.fields.empty()) s.message = s.fields[0].message;
   return s;
-}
-
-std::string VisemeEvent(const TimedViseme& v, double clock) {
-  return "{\"viseme\":\"" + std::string(VisemeName(v.viseme)) +
-         "\",\"start\":" + FormatNumber(clock + v.start) +
-         ",\"end\":" + FormatNumber(clock + v.end) + "}";
 }
 
 struct LiveSpeaker::Utterance {
@@ -221,7 +216,7 @@ double LiveSpeaker::Send(Utterance& u, bool all_made) {
   const bool audio_out = all_made && u.sent_samples == u.made;
   while (u.sent_visemes < u.visemes.size() &&
          (audio_out || u.visemes[u.sent_visemes].start < sent_to)) {
-    Post(VisemeEvent(u.visemes[u.sent_visemes++], u.clock));
+    Post(lipsync::TimedVisemeJson(u.visemes[u.sent_visemes++], u.clock));
   }
   if (audio_out && u.sent_visemes == u.visemes.size()) return 0;
   return std::max(0.01, sent_to - kLead - played);

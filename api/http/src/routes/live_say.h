@@ -41,12 +41,10 @@ inline void PutU32(std::string& out, uint32_t v) {
   for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(v >> (8 * i)));
 }
 
-// The text events of a live session: an error (its type, what is wrong, the member's pointer if
-// any), and a viseme on the session's audio clock ({"viseme", "start", "end"}, as the speech route
-// writes them).
+// A text event of a live session: an error (its type, what is wrong, the member's pointer if any).
+// A viseme on the session's audio clock is lipsync::TimedVisemeJson, as the speech route writes it.
 std::string ErrorEvent(const std::string& type, const std::string& detail,
                        const std::string& pointer = "");
-std::string VisemeEvent(const TimedViseme& v, double clock = 0);
 // A status as an error event: its reason (else invalid-message) at its first field's pointer, else
 // at `where`.
 std::string StatusEvent(const Status& s, const std::string& where = "");

@@ -6,6 +6,7 @@
 #include "../http/cost.h"
 #include "facespace/engine/enum_table.h"
 #include "facespace/engine/transform.h"
+#include "facespace/evaluator/answers.h"
 #include "facespace/formats/lod.h"
 #include "facespace/http/describe.h"
 #include "facespace/offscreen/render.h"
@@ -74,36 +75,43 @@ std::vector<std::array<float, 4>> FlatColors(const Rig& rig) {
 // Triangle lists per primitive, in the order of the f32 and JSON mesh outputs, its flat colour, and
 // where the shapes act.
 std::string TopologyJson(const Rig& at, const evaluator::DerivedRig& derived) {
+  using evaluator::Answer;
+  using evaluator::AnswerWriter;
   const std::vector<std::array<float, 4>> colors = FlatColors(at);
-  std::string out = "{\"primitives\":[";
+  const auto numbers = [](std::span<const float> v) {
+    std::string s;
+    for (size_t k = 0; k < v.size(); ++k) s += (k ? "," : "[") + FormatNumber(v[k]);
+    return s + "]";
+  };
+  std::string out;
+  AnswerWriter<Answer::kTopology> topology(out);
+  std::string& list = topology.Open("primitives");
   for (size_t p = 0; p < at.primitives.size(); ++p) {
     const Primitive& pr = at.primitives[p];
-    if (p) out += ',';
-    out += "{\"mesh\":" + std::to_string(pr.mesh) +
-           ",\"primitive\":" + std::to_string(pr.index_in_mesh) +
-           ",\"vertices\":" + std::to_string(pr.vertex_count()) +
-           ",\"mode\":" + std::to_string(static_cast<int>(pr.mode));
-    if (pr.material >= 0 && static_cast<size_t>(pr.material) < colors.size()) {
-      const auto& c = colors[static_cast<size_t>(pr.material)];
-      out += ",\"color\":[" + FormatNumber(c[0]) + "," + FormatNumber(c[1]) + "," +
-             FormatNumber(c[2]) + "," + FormatNumber(c[3]) + "]";
-    }
-    out += ",\"indices\":[";
+    list += p ? ',' : '[';
+    AnswerWriter<Answer::kTopologyPrimitive> w(list);
+    w.Count("mesh", static_cast<size_t>(pr.mesh))
+        .Count("primitive", static_cast<size_t>(pr.index_in_mesh))
+        .Count("vertices", pr.vertex_count())
+        .Count("mode", static_cast<size_t>(pr.mode));
+    if (pr.material >= 0 && static_cast<size_t>(pr.material) < colors.size())
+      w.Raw("color", numbers(colors[static_cast<size_t>(pr.material)]));
+    std::string& indices = w.Open("indices");
+    indices += '[';
     for (size_t i = 0; i < pr.indices.size(); ++i) {
-      if (i) out += ',';
-      out += std::to_string(pr.indices[i]);
+      if (i) indices += ',';
+      indices += std::to_string(pr.indices[i]);
     }
-    out += "]}";
+    indices += ']';
+    w.End();
   }
-  out += "]";
-  if (derived.has_focus) {  // For clients that frame a view.
-    const auto& lo = derived.focus_min;
-    const auto& hi = derived.focus_max;
-    out += ",\"focus\":{\"min\":[" + FormatNumber(lo[0]) + "," + FormatNumber(lo[1]) + "," +
-           FormatNumber(lo[2]) + "],\"max\":[" + FormatNumber(hi[0]) + "," + FormatNumber(hi[1]) +
-           "," + FormatNumber(hi[2]) + "]}";
+  if (at.primitives.empty()) list += '[';
+  list += ']';
+  if (derived.has_focus) {  // For clients that frame a view: {min, max}, as the document's Box.
+    topology.Raw("focus", "{\"min\":" + numbers(derived.focus_min) +
+                              ",\"max\":" + numbers(derived.focus_max) + "}");
   }
-  return out + "}";
+  return topology.End();
 }
 
 std::string TopologyKey(const evaluator::StoredRig& s, int lod) {

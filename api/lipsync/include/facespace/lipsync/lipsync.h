@@ -38,12 +38,13 @@ Result<SpeechPlan> PlanSpeech(const Rig& rig, const evaluator::SpeechRequest& re
 // Everything the plan warns of: the face's and the recognizer's, then the sequence's (said once).
 std::vector<Warning> SpeechWarnings(const SpeechPlan& plan);
 
-// {"source", "voice", "duration", "fps", "frames", "phonemes": [{"name", "start", "end"}],
-//  "visemes": [{"viseme", "start", "end"}], "keys": [...] (as sequence requests take them),
-//  "transition", "warnings", and with `with_audio` "audio_wav": the WAV as base64}: the speech
-//  route's json
-// body and `facespace speak -o X.json`.
+// The speech route's JSON answer and `facespace speak -o X.json` (evaluator/answers.h: Speech):
+// source, voice, duration, fps, frames, phonemes, visemes, keys (as sequence requests take them),
+// transition, warnings, and with `with_audio` audio_wav, the WAV as base64.
 std::string SpeechJson(const Rig& rig, const SpeechPlan& plan, float fps, bool with_audio = false);
+// One viseme as the speech answer lists it and the live socket sends it: {viseme, start, end},
+// its times moved by `clock` seconds.
+std::string TimedVisemeJson(const TimedViseme& v, double clock);
 
 // The plan's sequence rendered at `fps` (request.render's size, camera and view) with its audio, as
 // a WebM file (VP9 + Opus, render/video.h): the frame at time i / fps shows the face the audio is
